@@ -1,0 +1,16 @@
+//! The hardware of the SJA1000-compatible CAN controller: synthesizable rust-hdl blocks only.
+//!
+//! One block per file, named after the block. Nothing here knows about files, threads, VCD or the CLI;
+//! the simulation engine, testbenches and tools live in the `sim` crate.
+#![warn(missing_docs)]
+// Kernels compare bits with `== false` on purpose: `!bit` inside some expressions generates wrong
+// Verilog (see docs/RUST_HDL.md of the project).
+#![allow(clippy::bool_comparison)]
+
+pub mod bit_timing;
+pub mod bus_sampling;
+
+/// Dominant bus level (logic 0).
+pub const DOMINANT: bool = false;
+/// Recessive bus level (logic 1).
+pub const RECESSIVE: bool = true;

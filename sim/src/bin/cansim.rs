@@ -1,0 +1,2 @@
+//! `cansim`: the command line tool of the CAN controller project.
+fn main() {}

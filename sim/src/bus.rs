@@ -1,0 +1,200 @@
+//! The wired-AND CAN bus: every device drives one line through its own propagation delay; dominant (0)
+//! wins over recessive (1), and a lower tester may force the bus recessive to model a disturbance.
+//!
+//! Each line keeps the history of its drive changes for as long as the longest delay needs it (or
+//! for the whole run when [`Bus::keep_history`] is on), so the level seen at any time is exact: a change
+//! made at time t is visible strictly after t, which makes simultaneous clock edges order-independent.
+
+use std::collections::VecDeque;
+
+use crate::frame::{DOMINANT, RECESSIVE};
+
+/// What a device puts on the bus.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Drive {
+    /// Released: the line is recessive unless someone drives it dominant.
+    Recessive,
+    /// Driven dominant.
+    Dominant,
+    /// Forced recessive whatever the others drive (a disturbance injected by the lower tester).
+    ForceRecessive,
+}
+
+impl Drive {
+    /// The drive of a transmitter output at `level` (dominant = false).
+    pub fn from_level(level: bool) -> Drive {
+        if level == DOMINANT {
+            Drive::Dominant
+        } else {
+            Drive::Recessive
+        }
+    }
+
+    /// The level this drive would put on an otherwise idle bus.
+    pub fn level(self) -> bool {
+        match self {
+            Drive::Dominant => DOMINANT,
+            Drive::Recessive | Drive::ForceRecessive => RECESSIVE,
+        }
+    }
+}
+
+struct Line {
+    delay_fs: u64,
+    /// Drive before the first retained change.
+    initial: Drive,
+    /// (time, new drive), oldest first.
+    changes: VecDeque<(u64, Drive)>,
+}
+
+impl Line {
+    fn drive_before(&self, t: u64) -> Drive {
+        self.changes
+            .iter()
+            .rev()
+            .find(|(at, _)| *at < t)
+            .map_or(self.initial, |(_, drive)| *drive)
+    }
+
+    fn current(&self) -> Drive {
+        self.changes.back().map_or(self.initial, |(_, drive)| *drive)
+    }
+}
+
+/// The bus: one line per device.
+#[derive(Default)]
+pub struct Bus {
+    lines: Vec<Line>,
+    max_delay_fs: u64,
+    keep_history: bool,
+}
+
+impl Bus {
+    /// An empty bus.
+    pub fn new() -> Bus {
+        Bus::default()
+    }
+
+    /// Adds a line whose drive reaches the bus `delay_fs` after it changes, and whose device sees the
+    /// bus `delay_fs` late. Returns the line number.
+    pub fn add_line(&mut self, delay_fs: u64) -> usize {
+        self.lines.push(Line {
+            delay_fs,
+            initial: Drive::Recessive,
+            changes: VecDeque::new(),
+        });
+        self.max_delay_fs = self.max_delay_fs.max(delay_fs);
+        self.lines.len() - 1
+    }
+
+    /// Keep every change (for queries about the past, e.g. what a node sent in a given bit).
+    pub fn keep_history(&mut self, keep: bool) {
+        self.keep_history = keep;
+    }
+
+    /// Number of lines.
+    pub fn lines(&self) -> usize {
+        self.lines.len()
+    }
+
+    /// Propagation delay of `line`.
+    pub fn delay_fs(&self, line: usize) -> u64 {
+        self.lines[line].delay_fs
+    }
+
+    /// The drive of `line` changes to `drive` at time `t` (times never decrease per line).
+    pub fn set_drive(&mut self, line: usize, t: u64, drive: Drive) {
+        let l = &mut self.lines[line];
+        if l.current() != drive {
+            l.changes.push_back((t, drive));
+        }
+    }
+
+    /// What `line` drove just before `t` (at the device, before the delay).
+    pub fn drive_before(&self, line: usize, t: u64) -> Drive {
+        self.lines[line].drive_before(t)
+    }
+
+    /// The bus level just before `t`, at the point where all delays are counted from.
+    pub fn level_before(&self, t: u64) -> bool {
+        let mut dominant = false;
+        for l in &self.lines {
+            match l.drive_before(t.saturating_sub(l.delay_fs)) {
+                Drive::ForceRecessive => return RECESSIVE,
+                Drive::Dominant => dominant = true,
+                Drive::Recessive => {}
+            }
+        }
+        if dominant {
+            DOMINANT
+        } else {
+            RECESSIVE
+        }
+    }
+
+    /// The level the device on `line` sees just before `t`.
+    pub fn level_seen_by(&self, line: usize, t: u64) -> bool {
+        self.level_before(t.saturating_sub(self.lines[line].delay_fs))
+    }
+
+    /// Forgets changes that no query at time ≥ `now` can need any more.
+    pub fn prune(&mut self, now: u64) {
+        if self.keep_history {
+            return;
+        }
+        let horizon = now.saturating_sub(2 * self.max_delay_fs + 1);
+        for l in &mut self.lines {
+            while l.changes.len() > 1 && l.changes[1].0 < horizon {
+                l.initial = l.changes.pop_front().map(|(_, d)| d).unwrap_or(l.initial);
+            }
+            if l.changes.len() == 1 && l.changes[0].0 < horizon {
+                l.initial = l.changes.pop_front().map(|(_, d)| d).unwrap_or(l.initial);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dominant_wins_and_force_recessive_overrides() {
+        let mut bus = Bus::new();
+        let a = bus.add_line(0);
+        let b = bus.add_line(0);
+        assert_eq!(bus.level_before(10), RECESSIVE);
+        bus.set_drive(a, 10, Drive::Dominant);
+        assert_eq!(bus.level_before(10), RECESSIVE, "a change is visible strictly after its time");
+        assert_eq!(bus.level_before(11), DOMINANT);
+        bus.set_drive(b, 20, Drive::ForceRecessive);
+        assert_eq!(bus.level_before(21), RECESSIVE);
+    }
+
+    #[test]
+    fn delays_apply_on_the_way_out_and_in() {
+        let mut bus = Bus::new();
+        let a = bus.add_line(100);
+        let b = bus.add_line(50);
+        bus.set_drive(a, 1000, Drive::Dominant);
+        assert_eq!(bus.level_before(1100), RECESSIVE);
+        assert_eq!(bus.level_before(1101), DOMINANT);
+        assert_eq!(bus.level_seen_by(b, 1150), RECESSIVE);
+        assert_eq!(bus.level_seen_by(b, 1151), DOMINANT);
+        assert_eq!(bus.level_seen_by(a, 1201), DOMINANT);
+    }
+
+    #[test]
+    fn pruning_keeps_what_delayed_queries_need() {
+        let mut bus = Bus::new();
+        let a = bus.add_line(100);
+        for i in 0..100u64 {
+            let drive = if i % 2 == 0 { Drive::Dominant } else { Drive::Recessive };
+            bus.set_drive(a, i * 10, drive);
+        }
+        bus.prune(990);
+        assert_eq!(bus.level_seen_by(a, 1081), DOMINANT, "the change at 880 is still known");
+        assert_eq!(bus.level_seen_by(a, 1091), RECESSIVE);
+        assert!(bus.lines[a].changes.len() < 30);
+    }
+}

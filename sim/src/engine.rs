@@ -1,0 +1,269 @@
+//! The simulation engine: single-threaded direct stepping of several devices, each on its own clock,
+//! on one wired-AND [`Bus`].
+//!
+//! The engine is a time-ordered event loop: it always takes the earliest pending rising clock edge of any
+//! device (ties go to the device added first), gives the device the bus level it sees just before that
+//! edge, and applies the drive the device returns from that edge on. With equal clocks this is lockstep;
+//! with ppm offsets every device keeps its own time. The engine is the one place that knows about time:
+//! testbenches talk in frames, bits and quanta through the devices and the lower tester.
+
+use std::any::Any;
+use std::io;
+use std::path::Path;
+
+use crate::bus::{Bus, Drive};
+use crate::time::ClockSpec;
+use crate::trace::{Probe, VcdTracer};
+
+/// A participant on the bus, stepped on the rising edges of its own clock.
+pub trait Device: Any {
+    /// Scope name in traces and reports.
+    fn name(&self) -> &str;
+    /// The device's clock.
+    fn clock(&self) -> ClockSpec;
+    /// One rising clock edge at `t_fs`; `rx` is the bus level the device sees just before the edge.
+    /// Returns what the device drives from this edge on.
+    fn rising_edge(&mut self, t_fs: u64, rx: bool) -> Drive;
+    /// Signals to trace besides `tx` and `rx`.
+    fn probes(&self) -> Vec<Probe> {
+        Vec::new()
+    }
+    /// Current values of [`Device::probes`], in the same order.
+    fn probe_values(&self, _values: &mut [u64]) {}
+    /// `self` as `Any`, for [`Engine::device`].
+    fn as_any(&self) -> &dyn Any;
+    /// `self` as mutable `Any`, for [`Engine::device_mut`].
+    fn as_any_mut(&mut self) -> &mut dyn Any;
+}
+
+/// Index of a device in an [`Engine`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct DeviceId(pub usize);
+
+struct Slot {
+    device: Box<dyn Device>,
+    clock: ClockSpec,
+    edges: u64,
+    next_edge: u64,
+    line: usize,
+    drive: Drive,
+    rx: bool,
+    probe_values: Vec<u64>,
+}
+
+struct Tracing {
+    tracer: VcdTracer,
+    /// Times at which the bus level may change (a drive changed and reaches the bus then).
+    pending: std::collections::BinaryHeap<std::cmp::Reverse<u64>>,
+}
+
+/// The event loop stepping every device on its own clock.
+pub struct Engine {
+    slots: Vec<Slot>,
+    bus: Bus,
+    now: u64,
+    edges: u64,
+    tracing: Option<Tracing>,
+}
+
+impl Default for Engine {
+    fn default() -> Self {
+        Engine::new()
+    }
+}
+
+impl Engine {
+    /// An engine with no devices, at time 0.
+    pub fn new() -> Engine {
+        Engine {
+            slots: Vec::new(),
+            bus: Bus::new(),
+            now: 0,
+            edges: 0,
+            tracing: None,
+        }
+    }
+
+    /// Adds a device connected to the bus through `delay_fs` of propagation delay (each way).
+    pub fn add<D: Device>(&mut self, device: D, delay_fs: u64) -> DeviceId {
+        assert!(self.tracing.is_none(), "add every device before tracing starts");
+        let clock = device.clock();
+        let probes = device.probes().len();
+        let line = self.bus.add_line(delay_fs);
+        self.slots.push(Slot {
+            device: Box::new(device),
+            clock,
+            edges: 0,
+            next_edge: clock.edge(0),
+            line,
+            drive: Drive::Recessive,
+            rx: true,
+            probe_values: vec![0; probes],
+        });
+        DeviceId(self.slots.len() - 1)
+    }
+
+    /// Starts writing a VCD of the bus and every device to `path`; call after adding the devices.
+    pub fn trace_vcd(&mut self, path: &Path) -> io::Result<()> {
+        let devices: Vec<(String, Vec<Probe>)> = self
+            .slots
+            .iter()
+            .map(|s| (s.device.name().to_string(), s.device.probes()))
+            .collect();
+        self.tracing = Some(Tracing {
+            tracer: VcdTracer::create(path, &devices)?,
+            pending: Default::default(),
+        });
+        Ok(())
+    }
+
+    /// Ends tracing: writes the rest of the VCD and moves it into place. Returns the path, if tracing.
+    pub fn finish_trace(&mut self) -> io::Result<Option<std::path::PathBuf>> {
+        self.flush_bus_trace(u64::MAX)?;
+        match self.tracing.take() {
+            Some(t) => t.tracer.finish(self.now).map(Some),
+            None => Ok(None),
+        }
+    }
+
+    /// Keep the whole drive history of every line for [`Engine::drive_before`] and
+    /// [`Engine::bus_level_before`] queries about the past.
+    pub fn keep_history(&mut self) {
+        self.bus.keep_history(true);
+    }
+
+    /// Time of the last processed clock edge.
+    pub fn now(&self) -> u64 {
+        self.now
+    }
+
+    /// Number of clock edges processed, all devices together.
+    pub fn edges(&self) -> u64 {
+        self.edges
+    }
+
+    /// The bus level just before `t` (needs [`Engine::keep_history`] for times well in the past).
+    pub fn bus_level_before(&self, t: u64) -> bool {
+        self.bus.level_before(t)
+    }
+
+    /// What `id` drove just before `t` (needs [`Engine::keep_history`] for times well in the past).
+    pub fn drive_before(&self, id: DeviceId, t: u64) -> Drive {
+        self.bus.drive_before(self.slots[id.0].line, t)
+    }
+
+    /// The device `id`, as its concrete type.
+    ///
+    /// Panics if `T` is not the type that was added under `id`.
+    pub fn device<T: Device>(&self, id: DeviceId) -> &T {
+        self.slots[id.0]
+            .device
+            .as_any()
+            .downcast_ref()
+            .expect("device type does not match its id")
+    }
+
+    /// The device `id`, as its concrete type, mutably.
+    pub fn device_mut<T: Device>(&mut self, id: DeviceId) -> &mut T {
+        self.slots[id.0]
+            .device
+            .as_any_mut()
+            .downcast_mut()
+            .expect("device type does not match its id")
+    }
+
+    /// Time of the next clock edge the engine will process.
+    pub fn next_edge(&self) -> Option<u64> {
+        self.slots.iter().map(|s| s.next_edge).min()
+    }
+
+    /// Processes the earliest pending clock edge.
+    pub fn step(&mut self) -> io::Result<()> {
+        let Some(i) = self.earliest() else {
+            return Ok(());
+        };
+        let t = self.slots[i].next_edge;
+        self.flush_bus_trace(t)?;
+        self.now = t;
+        self.edges += 1;
+        let line = self.slots[i].line;
+        let rx = self.bus.level_seen_by(line, t);
+        let slot = &mut self.slots[i];
+        let drive = slot.device.rising_edge(t, rx);
+        slot.rx = rx;
+        slot.edges += 1;
+        slot.next_edge = slot.clock.edge(slot.edges);
+        if drive != slot.drive {
+            slot.drive = drive;
+            self.bus.set_drive(line, t, drive);
+            if let Some(tracing) = &mut self.tracing {
+                tracing
+                    .pending
+                    .push(std::cmp::Reverse(t + self.bus.delay_fs(line)));
+            }
+        }
+        if let Some(tracing) = &mut self.tracing {
+            let slot = &mut self.slots[i];
+            slot.device.probe_values(&mut slot.probe_values);
+            let tx = slot.drive.level();
+            tracing
+                .tracer
+                .device(i, t, tx, slot.rx, &slot.probe_values)?;
+        }
+        if self.edges % 4096 == 0 {
+            self.bus.prune(t);
+        }
+        Ok(())
+    }
+
+    /// Processes every clock edge before `t_fs`.
+    pub fn run_until(&mut self, t_fs: u64) -> io::Result<()> {
+        while self.next_edge().is_some_and(|t| t < t_fs) {
+            self.step()?;
+        }
+        Ok(())
+    }
+
+    /// Steps until `done(self)` holds (checked after every edge) or `limit_fs` is reached. Returns
+    /// whether `done` held.
+    pub fn run_while<F: FnMut(&Engine) -> bool>(
+        &mut self,
+        limit_fs: u64,
+        mut done: F,
+    ) -> io::Result<bool> {
+        while self.next_edge().is_some_and(|t| t < limit_fs) {
+            self.step()?;
+            if done(self) {
+                return Ok(true);
+            }
+        }
+        Ok(false)
+    }
+
+    fn earliest(&self) -> Option<usize> {
+        let mut best: Option<(u64, usize)> = None;
+        for (i, s) in self.slots.iter().enumerate() {
+            if best.is_none_or(|(t, _)| s.next_edge < t) {
+                best = Some((s.next_edge, i));
+            }
+        }
+        best.map(|(_, i)| i)
+    }
+
+    /// Writes the bus-level changes that happen before `t` (changes at `t` itself wait, so that every
+    /// device stepping at `t` has applied its drive first).
+    fn flush_bus_trace(&mut self, t: u64) -> io::Result<()> {
+        let Some(tracing) = &mut self.tracing else {
+            return Ok(());
+        };
+        while let Some(&std::cmp::Reverse(at)) = tracing.pending.peek() {
+            if at >= t {
+                break;
+            }
+            tracing.pending.pop();
+            let level = self.bus.level_before(at + 1);
+            tracing.tracer.bus(at, level)?;
+        }
+        Ok(())
+    }
+}

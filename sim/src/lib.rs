@@ -1,0 +1,15 @@
+//! Everything that is not hardware: the simulation engine that steps several controllers on one
+//! wired-AND bus, the lower tester, the golden CAN frame codec, the VCD tracer, the bit-timing
+//! calculator and the pieces of the `cansim` command line tool.
+#![warn(missing_docs)]
+
+pub mod btl_node;
+pub mod btr;
+pub mod bus;
+pub mod crc15;
+pub mod engine;
+pub mod frame;
+pub mod lower_tester;
+pub mod time;
+pub mod trace;
+pub mod worst_case;

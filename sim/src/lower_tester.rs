@@ -1,0 +1,265 @@
+//! The lower tester (LT): the test driver that owns the bus.
+//!
+//! It plays a script of bits at time-quantum resolution on its own clock: golden bit lists from the frame
+//! codec, idle time, and modifications of any bit or quantum (flip a bit, force a range of quanta
+//! dominant or recessive, lengthen or shorten a bit). Recessive script bits *release* the bus, so nodes
+//! under test can drive it; [`Drive::ForceRecessive`] overrides them. While it plays, the LT records the
+//! bus level at the end of every quantum; [`crate::engine::Engine::keep_history`] gives what each node
+//! drove at any time, and [`LowerTester::quantum_time`] maps script positions to times.
+//!
+//! Script positions: bit `i` of the script starts at quantum [`LowerTester::bit_start_quantum`]`(i)`;
+//! quantum 0 starts when the LT starts (its first clock edge, or the edge of the first dominant bit on
+//! the bus with [`LowerTester::start_on_dominant`]).
+
+use std::any::Any;
+
+use crate::btr::Btr;
+use crate::bus::Drive;
+use crate::engine::Device;
+use crate::frame::{DOMINANT, RECESSIVE};
+use crate::time::ClockSpec;
+
+#[derive(Clone, Copy, Debug)]
+struct ScriptBit {
+    drive: Drive,
+    quanta: u32,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Force {
+    bit: usize,
+    from_tq: u32,
+    quanta: u32,
+    drive: Drive,
+}
+
+/// The lower tester device.
+pub struct LowerTester {
+    name: String,
+    clock: ClockSpec,
+    clocks_per_tq: u32,
+    quanta_per_bit: u32,
+    script: Vec<ScriptBit>,
+    forces: Vec<Force>,
+    start_on_dominant: bool,
+    program: Vec<Drive>,
+    compiled: bool,
+    started_at: Option<u64>,
+    quantum: usize,
+    clock_in_quantum: u32,
+    observed: Vec<bool>,
+}
+
+impl LowerTester {
+    /// A lower tester on `clock` whose quanta and nominal bit length follow `btr`.
+    pub fn new(name: &str, clock: ClockSpec, btr: Btr) -> LowerTester {
+        LowerTester {
+            name: name.to_string(),
+            clock,
+            clocks_per_tq: btr.clocks_per_tq(),
+            quanta_per_bit: btr.quanta_per_bit(),
+            script: Vec::new(),
+            forces: Vec::new(),
+            start_on_dominant: false,
+            program: Vec::new(),
+            compiled: false,
+            started_at: None,
+            quantum: 0,
+            clock_in_quantum: 0,
+            observed: Vec::new(),
+        }
+    }
+
+    /// Start the script at the first dominant edge on the bus (quantum 0 begins at that edge) instead of
+    /// at the LT's first clock edge: for tests where a node under test transmits.
+    pub fn start_on_dominant(&mut self) -> &mut Self {
+        self.start_on_dominant = true;
+        self
+    }
+
+    /// Appends `levels` as nominal-length bits (dominant drives, recessive releases the bus).
+    pub fn send_bits<I: IntoIterator<Item = bool>>(&mut self, levels: I) -> &mut Self {
+        for level in levels {
+            self.push_bit(Drive::from_level(level));
+        }
+        self
+    }
+
+    /// Appends `bits` nominal bits that release the bus (idle, or room for a node to transmit).
+    pub fn release(&mut self, bits: usize) -> &mut Self {
+        for _ in 0..bits {
+            self.push_bit(Drive::Recessive);
+        }
+        self
+    }
+
+    /// Appends one nominal bit with `drive`.
+    pub fn push_bit(&mut self, drive: Drive) -> &mut Self {
+        self.script.push(ScriptBit {
+            drive,
+            quanta: self.quanta_per_bit,
+        });
+        self.compiled = false;
+        self
+    }
+
+    /// Number of bits in the script.
+    pub fn script_len(&self) -> usize {
+        self.script.len()
+    }
+
+    /// Inverts script bit `bit` (dominant ↔ released).
+    pub fn flip_bit(&mut self, bit: usize) -> &mut Self {
+        let b = &mut self.script[bit];
+        b.drive = match b.drive {
+            Drive::Dominant => Drive::Recessive,
+            Drive::Recessive | Drive::ForceRecessive => Drive::Dominant,
+        };
+        self.compiled = false;
+        self
+    }
+
+    /// Replaces the drive of script bit `bit`.
+    pub fn set_bit(&mut self, bit: usize, drive: Drive) -> &mut Self {
+        self.script[bit].drive = drive;
+        self.compiled = false;
+        self
+    }
+
+    /// Lengthens (`delta_tq` > 0) or shortens (< 0) script bit `bit`; every later bit moves with it.
+    pub fn lengthen_bit(&mut self, bit: usize, delta_tq: i32) -> &mut Self {
+        let b = &mut self.script[bit];
+        let quanta = b.quanta as i64 + delta_tq as i64;
+        assert!(quanta >= 1, "bit {bit} cannot be shorter than one quantum");
+        b.quanta = quanta as u32;
+        self.compiled = false;
+        self
+    }
+
+    /// Drives `drive` during `quanta` quanta starting `from_tq` quanta after the start of script bit
+    /// `bit` (the window may run into later bits); it overrides the script there.
+    pub fn force(&mut self, bit: usize, from_tq: u32, quanta: u32, drive: Drive) -> &mut Self {
+        self.forces.push(Force {
+            bit,
+            from_tq,
+            quanta,
+            drive,
+        });
+        self.compiled = false;
+        self
+    }
+
+    /// Quantum at which script bit `bit` starts (bit = script length: the end of the script).
+    pub fn bit_start_quantum(&self, bit: usize) -> usize {
+        self.script[..bit].iter().map(|b| b.quanta as usize).sum()
+    }
+
+    /// Time at which quantum `q` of the script starts, once the LT has started.
+    pub fn quantum_time(&self, q: usize) -> Option<u64> {
+        let per_tq = self.clocks_per_tq as u64 * self.clock.period_fs();
+        self.started_at.map(|t0| t0 + q as u64 * per_tq)
+    }
+
+    /// Time at which script bit `bit` starts, once the LT has started.
+    pub fn bit_time(&self, bit: usize) -> Option<u64> {
+        self.quantum_time(self.bit_start_quantum(bit))
+    }
+
+    /// Length of one time quantum in femtoseconds.
+    pub fn tq_fs(&self) -> u64 {
+        self.clocks_per_tq as u64 * self.clock.period_fs()
+    }
+
+    /// When the script started.
+    pub fn started_at(&self) -> Option<u64> {
+        self.started_at
+    }
+
+    /// Whether the whole script has been played.
+    pub fn finished(&self) -> bool {
+        self.started_at.is_some() && self.quantum >= self.program_len()
+    }
+
+    /// The bus level seen in the last clock of every quantum played so far.
+    pub fn observed_quanta(&self) -> &[bool] {
+        &self.observed
+    }
+
+    /// The bus level seen at the end of quantum `tq` of script bit `bit` (e.g. `tq` = the sample point
+    /// in quanta minus one for what a node sampling at the nominal sample point saw).
+    pub fn observed(&self, bit: usize, tq: u32) -> Option<bool> {
+        self.observed
+            .get(self.bit_start_quantum(bit) + tq as usize)
+            .copied()
+    }
+
+    fn program_len(&self) -> usize {
+        self.bit_start_quantum(self.script.len())
+    }
+
+    fn compile(&mut self) {
+        let mut program = Vec::with_capacity(self.program_len());
+        for b in &self.script {
+            program.extend(std::iter::repeat_n(b.drive, b.quanta as usize));
+        }
+        for f in &self.forces {
+            let start = self.bit_start_quantum(f.bit) + f.from_tq as usize;
+            let end = start + f.quanta as usize;
+            if program.len() < end {
+                program.resize(end, Drive::Recessive);
+            }
+            program[start..end].fill(f.drive);
+        }
+        self.program = program;
+        self.compiled = true;
+    }
+
+    fn drive_now(&self) -> Drive {
+        self.program
+            .get(self.quantum)
+            .copied()
+            .unwrap_or(Drive::Recessive)
+    }
+}
+
+impl Device for LowerTester {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn clock(&self) -> ClockSpec {
+        self.clock
+    }
+
+    fn rising_edge(&mut self, t_fs: u64, rx: bool) -> Drive {
+        if !self.compiled {
+            self.compile();
+        }
+        match self.started_at {
+            Some(_) => {
+                self.clock_in_quantum += 1;
+                if self.clock_in_quantum == self.clocks_per_tq {
+                    self.clock_in_quantum = 0;
+                    self.quantum += 1;
+                    self.observed.push(rx);
+                }
+            }
+            None if !self.start_on_dominant => self.started_at = Some(t_fs),
+            None if rx == DOMINANT => {
+                // The bus turned dominant during the clock before this edge: that is quantum 0's start.
+                self.started_at = Some(t_fs.saturating_sub(self.clock.period_fs()));
+                self.clock_in_quantum = 1;
+            }
+            None => return Drive::from_level(RECESSIVE),
+        }
+        self.drive_now()
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
+    }
+}

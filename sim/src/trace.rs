@@ -1,0 +1,206 @@
+//! Selective VCD tracer (the `vcd` crate, not rust-hdl's whole-tree probe).
+//!
+//! Layout: a top scope with the 1-bit wire `bus`, then one scope per device with `tx`, `rx` and the
+//! device's own probes. Every variable is a 1-bit wire, so protocol decoders such as sigrok's CAN decoder
+//! (which abort on vector variables) read the file; a probe wider than one bit is written as bit-select
+//! wires `name [i]`, which the GTKWave views in `waves/` regroup into vectors. Timescale 1 ns. Output is
+//! buffered and goes to a temporary file that replaces the target only when [`VcdTracer::finish`]
+//! succeeds, so an aborted run never leaves a half-written VCD behind.
+
+use std::fs::File;
+use std::io::{self, BufWriter};
+use std::path::{Path, PathBuf};
+
+use vcd::{IdCode, ReferenceIndex, TimescaleUnit, Value, VarType};
+
+use crate::time::FS_PER_NS;
+
+/// A device signal to trace.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Probe {
+    /// Name inside the device's scope.
+    pub name: &'static str,
+    /// Width in bits (1..=64).
+    pub width: u32,
+}
+
+impl Probe {
+    /// A 1-bit probe.
+    pub const fn bit(name: &'static str) -> Probe {
+        Probe { name, width: 1 }
+    }
+}
+
+struct ProbeIds {
+    /// One id per bit, bit 0 first.
+    bits: Vec<IdCode>,
+    last: u64,
+}
+
+struct DeviceTrace {
+    tx: IdCode,
+    rx: IdCode,
+    tx_last: bool,
+    rx_last: bool,
+    probes: Vec<ProbeIds>,
+}
+
+/// Writes the bus and per-device signals of one simulation run as a VCD file.
+pub struct VcdTracer {
+    writer: vcd::Writer<BufWriter<File>>,
+    target: PathBuf,
+    temporary: PathBuf,
+    bus: IdCode,
+    bus_last: bool,
+    devices: Vec<DeviceTrace>,
+    now_ns: u64,
+}
+
+fn level(v: bool) -> Value {
+    if v {
+        Value::V1
+    } else {
+        Value::V0
+    }
+}
+
+impl VcdTracer {
+    /// Creates the tracer for `devices` (scope name and probes of each) writing to `path`.
+    pub fn create(path: &Path, devices: &[(String, Vec<Probe>)]) -> io::Result<VcdTracer> {
+        let temporary = path.with_extension("vcd.partial");
+        let file = File::create(&temporary).map_err(|e| {
+            io::Error::new(e.kind(), format!("cannot create {}: {e}", temporary.display()))
+        })?;
+        let mut writer = vcd::Writer::new(BufWriter::with_capacity(1 << 16, file));
+        writer.comment(concat!("written by cansim ", env!("CARGO_PKG_VERSION")))?;
+        writer.timescale(1, TimescaleUnit::NS)?;
+        writer.add_module("top")?;
+        let bus = writer.add_wire(1, "bus")?;
+        writer.upscope()?;
+        let mut traces = Vec::new();
+        for (name, probes) in devices {
+            writer.add_module(name)?;
+            let tx = writer.add_wire(1, "tx")?;
+            let rx = writer.add_wire(1, "rx")?;
+            let mut ids = Vec::new();
+            for p in probes {
+                assert!((1..=64).contains(&p.width), "probe {} has width {}", p.name, p.width);
+                let bits = if p.width == 1 {
+                    vec![writer.add_wire(1, p.name)?]
+                } else {
+                    (0..p.width)
+                        .map(|i| {
+                            let index = Some(ReferenceIndex::BitSelect(i as i32));
+                            writer.add_var(VarType::Wire, 1, p.name, index)
+                        })
+                        .collect::<io::Result<Vec<_>>>()?
+                };
+                ids.push(ProbeIds { bits, last: 0 });
+            }
+            writer.upscope()?;
+            traces.push(DeviceTrace {
+                tx,
+                rx,
+                tx_last: true,
+                rx_last: true,
+                probes: ids,
+            });
+        }
+        writer.enddefinitions()?;
+        writer.timestamp(0)?;
+        writer.change_scalar(bus, Value::V1)?;
+        for d in &traces {
+            writer.change_scalar(d.tx, Value::V1)?;
+            writer.change_scalar(d.rx, Value::V1)?;
+            for p in &d.probes {
+                for id in &p.bits {
+                    writer.change_scalar(*id, Value::V0)?;
+                }
+            }
+        }
+        Ok(VcdTracer {
+            writer,
+            target: path.to_path_buf(),
+            temporary,
+            bus,
+            bus_last: true,
+            devices: traces,
+            now_ns: 0,
+        })
+    }
+
+    fn at(&mut self, t_fs: u64) -> io::Result<()> {
+        let ns = (t_fs + FS_PER_NS / 2) / FS_PER_NS;
+        if ns != self.now_ns {
+            self.now_ns = ns;
+            self.writer.timestamp(ns)?;
+        }
+        Ok(())
+    }
+
+    /// The bus level changes to `level` at `t_fs` (times never decrease across calls).
+    pub fn bus(&mut self, t_fs: u64, value: bool) -> io::Result<()> {
+        if value != self.bus_last {
+            self.bus_last = value;
+            self.at(t_fs)?;
+            self.writer.change_scalar(self.bus, level(value))?;
+        }
+        Ok(())
+    }
+
+    /// Device `index` after its clock edge at `t_fs`: its drive level, the rx level it sampled, and its
+    /// probe values in the order given to [`VcdTracer::create`].
+    pub fn device(
+        &mut self,
+        index: usize,
+        t_fs: u64,
+        tx: bool,
+        rx: bool,
+        values: &[u64],
+    ) -> io::Result<()> {
+        let d = &self.devices[index];
+        let changed = d.tx_last != tx
+            || d.rx_last != rx
+            || d.probes.iter().zip(values).any(|(p, v)| p.last != *v);
+        if !changed {
+            return Ok(());
+        }
+        self.at(t_fs)?;
+        let d = &mut self.devices[index];
+        if d.tx_last != tx {
+            d.tx_last = tx;
+            self.writer.change_scalar(d.tx, level(tx))?;
+        }
+        if d.rx_last != rx {
+            d.rx_last = rx;
+            self.writer.change_scalar(d.rx, level(rx))?;
+        }
+        for (p, &v) in d.probes.iter_mut().zip(values) {
+            let diff = p.last ^ v;
+            if diff == 0 {
+                continue;
+            }
+            p.last = v;
+            for (bit, id) in p.bits.iter().enumerate() {
+                if diff >> bit & 1 == 1 {
+                    self.writer.change_scalar(*id, level(v >> bit & 1 == 1))?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes the final timestamp, flushes, and moves the file into place.
+    pub fn finish(mut self, t_end_fs: u64) -> io::Result<PathBuf> {
+        let end_ns = (t_end_fs + FS_PER_NS / 2) / FS_PER_NS;
+        if end_ns > self.now_ns {
+            self.writer.timestamp(end_ns)?;
+        }
+        self.writer.flush()?;
+        drop(self.writer);
+        std::fs::rename(&self.temporary, &self.target).map_err(|e| {
+            io::Error::new(e.kind(), format!("cannot write {}: {e}", self.target.display()))
+        })?;
+        Ok(self.target)
+    }
+}
