@@ -236,10 +236,9 @@ impl Logic for BitTiming {
             & (self.clocks.q.val() == 0))
             | self.hard_sync_now.val()
             | self.restart_early.val();
-        self.transmit_point.next = (self.transmit_now.val()
-            & !self.process_pending.q.val()
-            & !self.reset.val())
-            | self.transmit_deferred.q.val();
+        self.transmit_point.next =
+            (self.transmit_now.val() & !self.process_pending.q.val() & !self.reset.val())
+                | self.transmit_deferred.q.val();
         self.transmit_deferred.d.next = self.transmit_now.val() & self.process_pending.q.val();
 
         // Sampled bit and the one-synchronisation-per-bit rule.

@@ -167,9 +167,15 @@ impl BitTimingNode {
 
     fn clock_edge(&mut self) {
         self.uut.clock.next = false.into();
-        assert!(simulate(&mut self.uut, SETTLE_LIMIT), "bit timing logic did not settle");
+        assert!(
+            simulate(&mut self.uut, SETTLE_LIMIT),
+            "bit timing logic did not settle"
+        );
         self.uut.clock.next = true.into();
-        assert!(simulate(&mut self.uut, SETTLE_LIMIT), "bit timing logic did not settle");
+        assert!(
+            simulate(&mut self.uut, SETTLE_LIMIT),
+            "bit timing logic did not settle"
+        );
     }
 
     fn read_triggers(&self) -> Triggers {
@@ -252,7 +258,10 @@ impl BitTimingNode {
     fn apply_stand_in_outputs(&mut self) {
         self.uut.sync_mode.next = self.sync_mode;
         self.uut.tx_dominant.next = self.tx == DOMINANT;
-        assert!(simulate(&mut self.uut, SETTLE_LIMIT), "bit timing logic did not settle");
+        assert!(
+            simulate(&mut self.uut, SETTLE_LIMIT),
+            "bit timing logic did not settle"
+        );
     }
 
     fn record(&mut self, at_fs: u64, kind: BtlEventKind) {
@@ -286,7 +295,10 @@ impl Device for BitTimingNode {
         vec![
             Probe::bit("sample_point"),
             Probe::bit("transmit_point"),
-            Probe { name: "segment", width: 2 },
+            Probe {
+                name: "segment",
+                width: 2,
+            },
             Probe::bit("hard_sync"),
             Probe::bit("resync"),
             Probe::bit("rx_bit"),

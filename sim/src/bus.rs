@@ -57,7 +57,9 @@ impl Line {
     }
 
     fn current(&self) -> Drive {
-        self.changes.back().map_or(self.initial, |(_, drive)| *drive)
+        self.changes
+            .back()
+            .map_or(self.initial, |(_, drive)| *drive)
     }
 }
 
@@ -165,7 +167,11 @@ mod tests {
         let b = bus.add_line(0);
         assert_eq!(bus.level_before(10), RECESSIVE);
         bus.set_drive(a, 10, Drive::Dominant);
-        assert_eq!(bus.level_before(10), RECESSIVE, "a change is visible strictly after its time");
+        assert_eq!(
+            bus.level_before(10),
+            RECESSIVE,
+            "a change is visible strictly after its time"
+        );
         assert_eq!(bus.level_before(11), DOMINANT);
         bus.set_drive(b, 20, Drive::ForceRecessive);
         assert_eq!(bus.level_before(21), RECESSIVE);
@@ -189,11 +195,19 @@ mod tests {
         let mut bus = Bus::new();
         let a = bus.add_line(100);
         for i in 0..100u64 {
-            let drive = if i % 2 == 0 { Drive::Dominant } else { Drive::Recessive };
+            let drive = if i % 2 == 0 {
+                Drive::Dominant
+            } else {
+                Drive::Recessive
+            };
             bus.set_drive(a, i * 10, drive);
         }
         bus.prune(990);
-        assert_eq!(bus.level_seen_by(a, 1081), DOMINANT, "the change at 880 is still known");
+        assert_eq!(
+            bus.level_seen_by(a, 1081),
+            DOMINANT,
+            "the change at 880 is still known"
+        );
         assert_eq!(bus.level_seen_by(a, 1091), RECESSIVE);
         assert!(bus.lines[a].changes.len() < 30);
     }

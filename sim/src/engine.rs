@@ -86,7 +86,10 @@ impl Engine {
 
     /// Adds a device connected to the bus through `delay_fs` of propagation delay (each way).
     pub fn add<D: Device>(&mut self, device: D, delay_fs: u64) -> DeviceId {
-        assert!(self.tracing.is_none(), "add every device before tracing starts");
+        assert!(
+            self.tracing.is_none(),
+            "add every device before tracing starts"
+        );
         let clock = device.clock();
         let probes = device.probes().len();
         let line = self.bus.add_line(delay_fs);
@@ -210,7 +213,7 @@ impl Engine {
                 .tracer
                 .device(i, t, tx, slot.rx, &slot.probe_values)?;
         }
-        if self.edges % 4096 == 0 {
+        if self.edges.is_multiple_of(4096) {
             self.bus.prune(t);
         }
         Ok(())

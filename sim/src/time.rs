@@ -25,7 +25,10 @@ impl ClockSpec {
 
     /// A clock of nominal frequency `hz` that runs `ppm` parts per million fast (negative: slow).
     pub fn with_ppm(hz: f64, ppm: f64) -> ClockSpec {
-        assert!(hz > 0.0 && hz.is_finite(), "clock frequency must be positive, got {hz}");
+        assert!(
+            hz > 0.0 && hz.is_finite(),
+            "clock frequency must be positive, got {hz}"
+        );
         let actual = hz * (1.0 + ppm * 1e-6);
         assert!(actual > 0.0, "clock offset {ppm} ppm stops the clock");
         ClockSpec {

@@ -69,7 +69,10 @@ impl VcdTracer {
     pub fn create(path: &Path, devices: &[(String, Vec<Probe>)]) -> io::Result<VcdTracer> {
         let temporary = path.with_extension("vcd.partial");
         let file = File::create(&temporary).map_err(|e| {
-            io::Error::new(e.kind(), format!("cannot create {}: {e}", temporary.display()))
+            io::Error::new(
+                e.kind(),
+                format!("cannot create {}: {e}", temporary.display()),
+            )
         })?;
         let mut writer = vcd::Writer::new(BufWriter::with_capacity(1 << 16, file));
         writer.comment(concat!("written by cansim ", env!("CARGO_PKG_VERSION")))?;
@@ -84,7 +87,12 @@ impl VcdTracer {
             let rx = writer.add_wire(1, "rx")?;
             let mut ids = Vec::new();
             for p in probes {
-                assert!((1..=64).contains(&p.width), "probe {} has width {}", p.name, p.width);
+                assert!(
+                    (1..=64).contains(&p.width),
+                    "probe {} has width {}",
+                    p.name,
+                    p.width
+                );
                 let bits = if p.width == 1 {
                     vec![writer.add_wire(1, p.name)?]
                 } else {
@@ -199,7 +207,10 @@ impl VcdTracer {
         self.writer.flush()?;
         drop(self.writer);
         std::fs::rename(&self.temporary, &self.target).map_err(|e| {
-            io::Error::new(e.kind(), format!("cannot write {}: {e}", self.target.display()))
+            io::Error::new(
+                e.kind(),
+                format!("cannot write {}: {e}", self.target.display()),
+            )
         })?;
         Ok(self.target)
     }

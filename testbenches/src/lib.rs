@@ -1,1 +1,171 @@
-//! placeholder
+//! Shared helpers of the integration testbenches: the bit-timing configurations of the conformance
+//! catalog and a bench of one lower tester plus nodes under test, with queries in script positions
+//! (bits and quanta of the lower tester's script) rather than raw times.
+#![warn(missing_docs)]
+
+use rtl::bit_timing::SyncMode;
+use sim::btl_node::{BitTimingNode, SyncPolicy};
+use sim::btr::Btr;
+use sim::engine::{DeviceId, Engine};
+use sim::lower_tester::LowerTester;
+use sim::time::ClockSpec;
+
+/// Controller clock of the testbenches.
+pub const CLOCK_HZ: f64 = 16e6;
+/// Idle bits the lower tester plays before its first frame.
+pub const LEAD_IN_BITS: usize = 4;
+/// Prescaler field of the "BRP > 0" configurations (tq = 6 clocks).
+pub const BRP_ABOVE_ZERO: u8 = 2;
+
+/// One bit-timing configuration of the catalog.
+#[derive(Clone, Copy, Debug)]
+pub struct BtConfig {
+    /// Catalog name with the prescaler, e.g. "BT-A/BRP0".
+    pub name: &'static str,
+    /// The register values.
+    pub btr: Btr,
+}
+
+/// BT-A (TSEG1 11, TSEG2 4, SJW 2), BT-B (4/3/1) and BT-C (16/8/4), each with BRP 0 and BRP > 0,
+/// single sampling.
+pub fn bt_configs() -> Vec<BtConfig> {
+    let mut configs = Vec::new();
+    for (name0, name_n, tseg1, tseg2, sjw) in [
+        ("BT-A/BRP0", "BT-A/BRP2", 11, 4, 2),
+        ("BT-B/BRP0", "BT-B/BRP2", 4, 3, 1),
+        ("BT-C/BRP0", "BT-C/BRP2", 16, 8, 4),
+    ] {
+        for (name, brp) in [(name0, 0), (name_n, BRP_ABOVE_ZERO)] {
+            let btr = Btr::from_quanta(brp, tseg1, tseg2, sjw, false).expect("catalog timing");
+            configs.push(BtConfig { name, btr });
+        }
+    }
+    configs
+}
+
+/// A lower tester and one node under test (IUT) on the same 16 MHz clock, zero propagation delay.
+pub struct BtBench {
+    /// The engine; public for tests that need more than the helpers.
+    pub engine: Engine,
+    lt: DeviceId,
+    iut: DeviceId,
+    btr: Btr,
+}
+
+impl BtBench {
+    /// A bench whose IUT follows frames with its synchronisation mode (hard while idle).
+    pub fn new(btr: Btr) -> BtBench {
+        BtBench::with_lt_delay_clocks(btr, 0)
+    }
+
+    /// A bench whose lower tester starts `delay_clocks` clocks after the IUT, so its quanta fall at any
+    /// clock offset inside the IUT's quanta.
+    pub fn with_lt_delay_clocks(btr: Btr, delay_clocks: u64) -> BtBench {
+        let clock = ClockSpec::from_hz(CLOCK_HZ);
+        let mut engine = Engine::new();
+        engine.keep_history();
+        let lt_clock = clock.with_phase(delay_clocks * clock.period_fs());
+        let lt = engine.add(LowerTester::new("lt", lt_clock, btr), 0);
+        let iut = engine.add(BitTimingNode::new("iut", clock, btr), 0);
+        BtBench {
+            engine,
+            lt,
+            iut,
+            btr,
+        }
+    }
+
+    /// The bit timing under test.
+    pub fn btr(&self) -> Btr {
+        self.btr
+    }
+
+    /// Quanta per nominal bit.
+    pub fn nbt(&self) -> usize {
+        self.btr.quanta_per_bit() as usize
+    }
+
+    /// Quanta from the start of a bit to its sample point.
+    pub fn sp(&self) -> usize {
+        self.btr.sample_point_tq() as usize
+    }
+
+    /// The lower tester, to write its script.
+    pub fn lt(&mut self) -> &mut LowerTester {
+        self.engine.device_mut(self.lt)
+    }
+
+    /// The lower tester, read-only.
+    pub fn lt_ref(&self) -> &LowerTester {
+        self.engine.device(self.lt)
+    }
+
+    /// The node under test.
+    pub fn iut(&self) -> &BitTimingNode {
+        self.engine.device(self.iut)
+    }
+
+    /// The node under test, mutably.
+    pub fn iut_mut(&mut self) -> &mut BitTimingNode {
+        self.engine.device_mut(self.iut)
+    }
+
+    /// Pins the IUT's synchronisation mode.
+    pub fn pin_sync_mode(&mut self, mode: SyncMode) {
+        self.iut_mut().set_sync_policy(SyncPolicy::Fixed(mode));
+    }
+
+    /// Runs until the lower tester has played its script, then two more bits.
+    pub fn run(&mut self) {
+        let lt = self.lt;
+        let limit = 10 * sim::time::FS_PER_S;
+        let done = self
+            .engine
+            .run_while(limit, |e| e.device::<LowerTester>(lt).finished())
+            .expect("simulation");
+        assert!(done, "lower tester script did not finish");
+        let two_bits = 2 * self.btr.clocks_per_bit() as u64;
+        let end = self.engine.now() + two_bits * ClockSpec::from_hz(CLOCK_HZ).period_fs();
+        self.engine.run_until(end).expect("simulation");
+    }
+
+    /// Position of a time in the lower tester's script, in quanta from the script start, if the time
+    /// is on a quantum boundary.
+    pub fn quantum_of(&self, t_fs: u64) -> Option<usize> {
+        let lt = self.lt_ref();
+        let rel = t_fs.checked_sub(lt.started_at()?)?;
+        (rel % lt.tq_fs() == 0).then_some((rel / lt.tq_fs()) as usize)
+    }
+
+    /// The IUT's samples after the script start as (time, bit value), oldest first.
+    pub fn samples(&self) -> Vec<(u64, bool)> {
+        let t0 = self.lt_ref().started_at().expect("lower tester started");
+        self.iut().samples().filter(|(at, _)| *at > t0).collect()
+    }
+
+    /// The IUT's sample taken inside script bit `bit` (after its start, up to and including the start
+    /// of the next bit), as (quanta after the bit start, value). Panics if that sample is not on a
+    /// quantum boundary of the lower tester.
+    pub fn sample_in_bit(&self, bit: usize) -> Option<(usize, bool)> {
+        let lt = self.lt_ref();
+        let start = lt.quantum_time(lt.bit_start_quantum(bit))?;
+        let end = lt.quantum_time(lt.bit_start_quantum(bit + 1))?;
+        let (at, value) = self
+            .samples()
+            .into_iter()
+            .find(|(at, _)| *at > start && *at <= end)?;
+        let q = self
+            .quantum_of(at)
+            .unwrap_or_else(|| panic!("sample in bit {bit} at {at} fs is between quanta"));
+        Some((q - lt.bit_start_quantum(bit), value))
+    }
+
+    /// The IUT's sample at exactly script quantum `q` (the level of the last clock of quantum q − 1).
+    pub fn sample_at_quantum(&self, q: usize) -> Option<bool> {
+        let at = self.lt_ref().quantum_time(q)?;
+        self.samples()
+            .into_iter()
+            .find(|(t, _)| *t == at)
+            .map(|(_, bit)| bit)
+    }
+}
