@@ -4,7 +4,9 @@
 //! The stand-in follows frames only as far as synchronisation needs: hard synchronisation while the bus
 //! is idle, resynchronisation from a dominant sampled bit (start of frame) until 10 recessive bits were
 //! sampled in a row (ACK delimiter, EOF and intermission of an acknowledged frame), and, when it has a bit
-//! list to send, it starts at a transmit point while idle and sends one bit per transmit point. A test
+//! list to send, it starts while idle. Like the real protocol engine it *prepares* the next bit at the
+//! process point and only *loads* it at a transmit point, so the extra transmit point of a hard
+//! synchronisation (the transmitter's own SOF edge restarts the bit) sends the same bit again. A test
 //! may instead pin the synchronisation mode.
 //!
 //! Stepping (see the project's RUST_HDL notes): inputs are applied with the clock low and settled, then
@@ -82,6 +84,7 @@ pub struct BitTimingNode {
     recessive_run: u32,
     to_send: VecDeque<bool>,
     sending: bool,
+    prepared: bool,
     tx: bool,
     sync_mode: SyncMode,
     last: Triggers,
@@ -111,6 +114,7 @@ impl BitTimingNode {
             recessive_run: 0,
             to_send: VecDeque::new(),
             sending: false,
+            prepared: RECESSIVE,
             tx: RECESSIVE,
             sync_mode: SyncMode::Hard,
             last: Triggers::default(),
@@ -209,9 +213,10 @@ impl BitTimingNode {
             let at = cycle_start.saturating_sub(2 * period);
             self.record(at, BtlEventKind::Sample(t.rx_bit));
             self.follow_frame(t.rx_bit);
+            self.prepare_next_bit();
         }
         if t.transmit_point {
-            self.next_tx_bit();
+            self.tx = self.prepared;
             self.record(edge, BtlEventKind::Transmit);
         }
         self.update_sync_mode();
@@ -231,17 +236,15 @@ impl BitTimingNode {
         }
     }
 
-    fn next_tx_bit(&mut self) {
+    fn prepare_next_bit(&mut self) {
         if !self.sending && !self.in_frame && !self.to_send.is_empty() {
             self.sending = true;
         }
+        self.prepared = RECESSIVE;
         if self.sending {
             match self.to_send.pop_front() {
-                Some(bit) => self.tx = bit,
-                None => {
-                    self.sending = false;
-                    self.tx = RECESSIVE;
-                }
+                Some(bit) => self.prepared = bit,
+                None => self.sending = false,
             }
         }
     }

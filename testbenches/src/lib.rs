@@ -169,3 +169,67 @@ impl BtBench {
             .map(|(_, bit)| bit)
     }
 }
+
+/// Bits between frames in multi-frame exchanges: ACK delimiter, EOF and intermission length of idle.
+pub const INTERFRAME_BITS: usize = 11;
+
+/// Sends `frames` from a stand-in transmitter to a stand-in receiver whose clocks run `+ppm` and
+/// `−ppm` off the nominal 16 MHz, and counts, per frame, the bits the receiver sampled wrongly (a
+/// frame not found at all counts all its bits).
+pub fn exchange_with_clock_offset(
+    btr: Btr,
+    ppm: f64,
+    frames: &[sim::frame::EncodedFrame],
+) -> Vec<usize> {
+    let mut engine = Engine::new();
+    let mut tx = BitTimingNode::new("tx", ClockSpec::with_ppm(CLOCK_HZ, ppm), btr);
+    for f in frames {
+        tx.transmit(f.bits.iter().by_vals());
+        tx.transmit(std::iter::repeat_n(sim::frame::RECESSIVE, INTERFRAME_BITS));
+    }
+    let tx = engine.add(tx, 0);
+    let rx = engine.add(
+        BitTimingNode::new("rx", ClockSpec::with_ppm(CLOCK_HZ, -ppm), btr),
+        0,
+    );
+    engine
+        .run_while(10 * sim::time::FS_PER_S, |e| {
+            !e.device::<BitTimingNode>(tx).transmitting()
+        })
+        .expect("simulation");
+    let samples: Vec<bool> = engine
+        .device::<BitTimingNode>(rx)
+        .samples()
+        .map(|(_, b)| b)
+        .collect();
+    let mut errors = Vec::new();
+    let mut pos = 0;
+    for f in frames {
+        let Some(sof) = samples[pos..]
+            .iter()
+            .position(|&b| b == sim::frame::DOMINANT)
+            .map(|p| p + pos)
+        else {
+            errors.push(f.len());
+            continue;
+        };
+        let got = &samples[sof..(sof + f.len()).min(samples.len())];
+        let wrong = f
+            .bits
+            .iter()
+            .by_vals()
+            .zip(
+                got.iter()
+                    .copied()
+                    .chain(std::iter::repeat(!sim::frame::DOMINANT)),
+            )
+            .filter(|(a, b)| a != b)
+            .count();
+        errors.push(wrong);
+        pos = sof + f.len();
+        while pos < samples.len() && samples[pos] == sim::frame::DOMINANT {
+            pos += 1;
+        }
+    }
+    errors
+}

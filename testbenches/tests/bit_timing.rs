@@ -335,3 +335,39 @@ fn bt_17_triple_sampling_outvotes_one_quantum_spikes() {
         }
     }
 }
+
+/// Two nodes at +df and −df (so their clocks differ by 2·df), df being the ISO 11898-1 tolerance
+/// `min(SJW/(20·NBT), min(Phase1, Phase2)/(2·(13·NBT − Phase2)))` of the configuration, exchange the
+/// longest possible frames (most stuff bits: resynchronising edges 10 bits apart) and a 0x0F data
+/// pattern. Measured: no wrong bit up to 1.1·df in every configuration; from 1.25·df (BT-A, BT-C) or
+/// 1.5·df (BT-B) on, bits are sampled in the wrong bit time.
+#[test]
+fn bt_18_oscillator_tolerance_at_and_beyond_the_limit() {
+    use sim::worst_case::longest_frame;
+    let frames: Vec<_> = [
+        longest_frame(false, 8),
+        longest_frame(true, 8),
+        longest_frame(false, 0),
+        Frame::data(Id::standard(0x7FF).unwrap(), &[0x0F; 8]).unwrap(),
+    ]
+    .iter()
+    .map(encode)
+    .collect();
+    for cfg in bt_configs() {
+        let df_ppm = cfg.btr.oscillator_tolerance() * 1e6;
+        let at_limit = testbenches::exchange_with_clock_offset(cfg.btr, df_ppm, &frames);
+        assert_eq!(
+            at_limit,
+            vec![0; frames.len()],
+            "{}: ±{df_ppm:.0} ppm",
+            cfg.name
+        );
+        let beyond = testbenches::exchange_with_clock_offset(cfg.btr, 2.0 * df_ppm, &frames);
+        assert!(
+            beyond.iter().sum::<usize>() > 0,
+            "{}: ±{:.0} ppm should break sampling",
+            cfg.name,
+            2.0 * df_ppm
+        );
+    }
+}
