@@ -7,6 +7,7 @@ pub mod btl_node;
 pub mod btr;
 pub mod bus;
 pub mod crc15;
+pub mod demo;
 pub mod engine;
 pub mod frame;
 pub mod lower_tester;

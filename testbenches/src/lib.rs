@@ -233,3 +233,5 @@ pub fn exchange_with_clock_offset(
     }
     errors
 }
+
+pub mod sigrok;

@@ -1,0 +1,36 @@
+# Entry points of the project. `make test` is what CI runs.
+CARGO ?= cargo
+
+.PHONY: test check tools demo waves lint verilog synth bench clean
+
+## Install the external tools (sigrok-cli), then run every test.
+test: tools
+	$(CARGO) test --workspace
+
+## Formatting and clippy, warnings are errors.
+check:
+	$(CARGO) fmt --all -- --check
+	$(CARGO) clippy --workspace --all-targets -- -D warnings
+
+## External tools the tests need (Debian packages, installed when missing).
+tools:
+	./scripts/install-tools.sh
+
+## The main job: the demo simulation, writes waves/demo.vcd and prints what happened.
+demo:
+	$(CARGO) run --release -- demo
+
+## Run the demo and show how to open its waves.
+waves: demo
+	@echo "open: gtkwave waves/demo.vcd waves/demo.gtkw"
+
+## Speed figures of the simulation engine.
+bench:
+	$(CARGO) bench -p sim --bench engine
+
+lint verilog synth:
+	@echo "make $@: not yet (Verilog generation and lint come with the Verilog issue)"; exit 1
+
+clean:
+	$(CARGO) clean
+	rm -rf build waves/*.vcd waves/*.log
