@@ -116,6 +116,17 @@ fn demo(vcd: PathBuf, no_vcd: bool, quiet: bool) -> Result<(), String> {
     }
 }
 
+/// `--sample-point` accepts percent (87.5) or a fraction (0.875).
+fn sample_point_fraction(value: f64) -> Result<f64, String> {
+    match value {
+        v if v > 0.0 && v < 1.0 => Ok(v),
+        v if v > 1.0 && v < 100.0 => Ok(v / 100.0),
+        v => Err(format!(
+            "--sample-point {v} is out of range: give a percentage between 0 and 100 (87.5) or a fraction between 0 and 1 (0.875)"
+        )),
+    }
+}
+
 fn bittiming(
     clock: u32,
     bitrate: Option<u32>,
@@ -128,7 +139,7 @@ fn bittiming(
         return Ok(());
     }
     let bitrate = bitrate.ok_or("--bitrate is required without --all")?;
-    let sample_point = sample_point.map(|sp| if sp > 1.0 { sp / 100.0 } else { sp });
+    let sample_point = sample_point.map(sample_point_fraction).transpose()?;
     let calc = calc_bittiming(clock, bitrate, sample_point, sjw).map_err(|e| e.to_string())?;
     print!("{}", format_calculation(clock, &calc));
     Ok(())
