@@ -146,11 +146,13 @@ impl Bus {
         }
         let horizon = now.saturating_sub(2 * self.max_delay_fs + 1);
         for l in &mut self.lines {
-            while l.changes.len() > 1 && l.changes[1].0 < horizon {
-                l.initial = l.changes.pop_front().map(|(_, d)| d).unwrap_or(l.initial);
-            }
-            if l.changes.len() == 1 && l.changes[0].0 < horizon {
-                l.initial = l.changes.pop_front().map(|(_, d)| d).unwrap_or(l.initial);
+            // Queries at or after the horizon need only the last change before it.
+            while let Some(&(at, drive)) = l.changes.front() {
+                if at >= horizon {
+                    break;
+                }
+                l.initial = drive;
+                l.changes.pop_front();
             }
         }
     }

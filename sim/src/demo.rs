@@ -186,10 +186,6 @@ struct PlacedFrame {
     disturbance: Option<Disturbance>,
 }
 
-fn lt_quanta_per_bit(lt: &LowerTester) -> u32 {
-    (lt.bit_start_quantum(1) - lt.bit_start_quantum(0)) as u32
-}
-
 struct Script {
     frames: Vec<PlacedFrame>,
 }
@@ -210,7 +206,7 @@ fn write_script(lt: &mut LowerTester, frames: &[DemoFrame]) -> Script {
                 lt.lengthen_bit(sof + bit - 1, tq);
             }
             Some(Disturbance::Glitch { bit }) => {
-                let last_quantum = lt_quanta_per_bit(lt) - 1;
+                let last_quantum = lt.quanta_per_bit() - 1;
                 lt.force(sof + bit, last_quantum, 1, Drive::Recessive);
             }
             None => {}

@@ -103,6 +103,11 @@ impl LowerTester {
         self
     }
 
+    /// Quanta in a nominal bit.
+    pub fn quanta_per_bit(&self) -> u32 {
+        self.quanta_per_bit
+    }
+
     /// Number of bits in the script.
     pub fn script_len(&self) -> usize {
         self.script.len()

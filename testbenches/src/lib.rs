@@ -181,6 +181,13 @@ pub fn exchange_with_clock_offset(
     ppm: f64,
     frames: &[sim::frame::EncodedFrame],
 ) -> Vec<usize> {
+    let received = receive_with_clock_offset(btr, ppm, frames);
+    wrong_bits_per_frame(&received, frames)
+}
+
+/// The bits a receiver at `−ppm` sampled while a transmitter at `+ppm` sent `frames` with
+/// [`INTERFRAME_BITS`] of idle after each.
+fn receive_with_clock_offset(btr: Btr, ppm: f64, frames: &[sim::frame::EncodedFrame]) -> Vec<bool> {
     let mut engine = Engine::new();
     let mut tx = BitTimingNode::new("tx", ClockSpec::with_ppm(CLOCK_HZ, ppm), btr);
     for f in frames {
@@ -197,41 +204,31 @@ pub fn exchange_with_clock_offset(
             !e.device::<BitTimingNode>(tx).transmitting()
         })
         .expect("simulation");
-    let samples: Vec<bool> = engine
-        .device::<BitTimingNode>(rx)
-        .samples()
-        .map(|(_, b)| b)
-        .collect();
-    let mut errors = Vec::new();
+    let samples = engine.device::<BitTimingNode>(rx).samples();
+    samples.map(|(_, bit)| bit).collect()
+}
+
+/// Finds each frame in `received` (from the next dominant bit, its SOF) and counts its wrong bits.
+fn wrong_bits_per_frame(received: &[bool], frames: &[sim::frame::EncodedFrame]) -> Vec<usize> {
+    use sim::frame::DOMINANT;
     let mut pos = 0;
-    for f in frames {
-        let Some(sof) = samples[pos..]
-            .iter()
-            .position(|&b| b == sim::frame::DOMINANT)
-            .map(|p| p + pos)
-        else {
-            errors.push(f.len());
-            continue;
-        };
-        let got = &samples[sof..(sof + f.len()).min(samples.len())];
-        let wrong = f
-            .bits
-            .iter()
-            .by_vals()
-            .zip(
-                got.iter()
-                    .copied()
-                    .chain(std::iter::repeat(!sim::frame::DOMINANT)),
-            )
-            .filter(|(a, b)| a != b)
-            .count();
-        errors.push(wrong);
-        pos = sof + f.len();
-        while pos < samples.len() && samples[pos] == sim::frame::DOMINANT {
-            pos += 1;
-        }
-    }
-    errors
+    frames
+        .iter()
+        .map(|f| {
+            let Some(sof) = received[pos..].iter().position(|&b| b == DOMINANT) else {
+                return f.len();
+            };
+            let got = &received[pos + sof..];
+            let wrong = (0..f.len())
+                .filter(|&i| got.get(i) != Some(&f.bits[i]))
+                .count();
+            pos += sof + f.len().min(got.len());
+            while received.get(pos) == Some(&DOMINANT) {
+                pos += 1;
+            }
+            wrong
+        })
+        .collect()
 }
 
 pub mod sigrok;
