@@ -6,9 +6,13 @@
 // Kernels compare bits with `== false` on purpose: `!bit` inside some expressions generates wrong
 // Verilog (see docs/RUST_HDL.md of the project).
 #![allow(clippy::bool_comparison)]
+// `#[hdl_gen]` kernels cannot express match guards: per-state arms keep their own `if`.
+#![allow(clippy::collapsible_match)]
 
 pub mod bit_timing;
+pub mod bsp;
 pub mod bus_sampling;
+pub mod can_core;
 
 /// Dominant bus level (logic 0).
 pub const DOMINANT: bool = false;

@@ -20,3 +20,15 @@ fn bit_timing_generates_checked_verilog() {
         );
     }
 }
+
+#[test]
+fn can_core_generates_checked_verilog() {
+    let mut uut = rtl::can_core::CanCore::default();
+    uut.connect_all();
+    check_all(&uut).expect("rust-hdl connectivity checks");
+    let verilog = generate_verilog(&uut);
+    assert!(verilog.contains("output reg  tx;"));
+    if let Ok(dir) = std::env::var("CANSIM_VERILOG_DIR") {
+        std::fs::write(std::path::Path::new(&dir).join("can_core.v"), verilog).unwrap();
+    }
+}

@@ -6,6 +6,7 @@
 pub mod btl_node;
 pub mod btr;
 pub mod bus;
+pub mod can_node;
 pub mod crc15;
 pub mod demo;
 pub mod engine;

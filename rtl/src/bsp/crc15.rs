@@ -1,0 +1,64 @@
+//! CRC-15 of CAN (x^15+x^14+x^10+x^8+x^7+x^4+x^3+1) over the bus bits of a frame.
+//!
+//! Ports: `clear` and `feed` strobes with the `level` to feed in; `value` (the register, the only
+//! output, so the parent has no combinational path through this block) out. Acts on the rising edge of
+//! `clock`: `clear` empties the register, otherwise `feed` shifts `level` in. The protocol engine feeds
+//! every non-stuff bit from SOF to the last CRC bit, the received CRC bits included: the register then
+//! ends at 0 exactly when the CRC was right. Feeding the right CRC bit only shifts the register, so a
+//! transmitter's next CRC bit after feeding bit b is `value[13] ^ value[14] ^ b`.
+
+use rust_hdl::prelude::*;
+
+/// The CRC-15 shift register.
+#[derive(LogicBlock)]
+pub struct Crc15 {
+    /// Controller clock.
+    pub clock: Signal<In, Clock>,
+    /// Empties the register (start of frame).
+    pub clear: Signal<In, Bit>,
+    /// Shifts `level` in.
+    pub feed: Signal<In, Bit>,
+    /// The bus bit to feed.
+    pub level: Signal<In, Bit>,
+    /// The register.
+    pub value: Signal<Out, Bits<15>>,
+    register: DFF<Bits<15>>,
+    polynomial: Constant<Bits<15>>,
+    shifted: Signal<Local, Bits<15>>,
+    fed: Signal<Local, Bits<15>>,
+}
+
+impl Default for Crc15 {
+    fn default() -> Self {
+        Crc15 {
+            clock: Default::default(),
+            clear: Default::default(),
+            feed: Default::default(),
+            level: Default::default(),
+            value: Default::default(),
+            register: Default::default(),
+            polynomial: Constant::new(0x4599.into()),
+            shifted: Default::default(),
+            fed: Default::default(),
+        }
+    }
+}
+
+impl Logic for Crc15 {
+    #[hdl_gen]
+    fn update(&mut self) {
+        dff_setup!(self, clock, register);
+        self.value.next = self.register.q.val();
+        self.shifted.next = self.register.q.val() + self.register.q.val();
+        self.fed.next = self.shifted.val();
+        if self.level.val() ^ self.register.q.val().get_bit(14) {
+            self.fed.next = self.shifted.val() ^ self.polynomial.val();
+        }
+        if self.feed.val() {
+            self.register.d.next = self.fed.val();
+        }
+        if self.clear.val() {
+            self.register.d.next = 0.into();
+        }
+    }
+}

@@ -1,0 +1,125 @@
+//! Fault confinement: the transmit and receive error counters, error-active / error-passive / bus-off,
+//! the error warning limit and bus-off recovery.
+//!
+//! Ports in: counter events from the protocol engine (one-clock strobes at the process point:
+//! `rec_plus_1`, `rec_plus_8`, `tec_plus_8`, `tec_minus_1`, `rec_success`), `recovery_tick` (11
+//! consecutive recessive bits seen while bus-off and recovery allowed), `warning_limit` (EWLR). Out:
+//! `tec`, `rec`, `error_passive`, `bus_off`, `error_warning`. Acts on the rising edge of `clock`.
+//!
+//! Rules (catalog group EC): REC saturates at 255 and never causes bus-off; a successful reception
+//! takes REC from above 127 to 127, otherwise down by one; TEC above 255 is bus-off, entered with
+//! TEC = 127 and REC = 0 as on the SJA1000; while bus-off the counters are frozen but for recovery,
+//! where each `recovery_tick` counts TEC down and the 128th ends bus-off with both counters 0.
+
+use rust_hdl::prelude::*;
+
+/// TEC/REC and the fault confinement state.
+#[derive(LogicBlock, Default)]
+pub struct FaultConfinement {
+    /// Controller clock.
+    pub clock: Signal<In, Clock>,
+    /// Synchronous reset, active high.
+    pub reset: Signal<In, Bit>,
+    /// Receiver error (rule 1).
+    pub rec_plus_1: Signal<In, Bit>,
+    /// Receiver error worth 8 (rules 2, 5, 6).
+    pub rec_plus_8: Signal<In, Bit>,
+    /// Transmitter error (rules 3, 4, 6).
+    pub tec_plus_8: Signal<In, Bit>,
+    /// Successful transmission (rule 7).
+    pub tec_minus_1: Signal<In, Bit>,
+    /// Successful reception (rule 8).
+    pub rec_success: Signal<In, Bit>,
+    /// One more sequence of 11 recessive bits during bus-off recovery.
+    pub recovery_tick: Signal<In, Bit>,
+    /// Load `load_value` into TEC (host write, SJA1000 TXERR in reset mode).
+    pub load_tec: Signal<In, Bit>,
+    /// Load `load_value` into REC (host write, SJA1000 RXERR in reset mode).
+    pub load_rec: Signal<In, Bit>,
+    /// Value for `load_tec` / `load_rec`.
+    pub load_value: Signal<In, Bits<8>>,
+    /// Error warning limit (SJA1000 EWLR).
+    pub warning_limit: Signal<In, Bits<8>>,
+    /// Transmit error counter.
+    pub tec: Signal<Out, Bits<8>>,
+    /// Receive error counter.
+    pub rec: Signal<Out, Bits<8>>,
+    /// Error passive: a counter at 128 or more, not bus-off.
+    pub error_passive: Signal<Out, Bit>,
+    /// Bus-off.
+    pub bus_off: Signal<Out, Bit>,
+    /// A counter at or above the warning limit.
+    pub error_warning: Signal<Out, Bit>,
+    tec_count: DFF<Bits<8>>,
+    rec_count: DFF<Bits<8>>,
+    bus_off_state: DFF<Bit>,
+    tec_wide: Signal<Local, Bits<9>>,
+    rec_wide: Signal<Local, Bits<9>>,
+}
+
+impl Logic for FaultConfinement {
+    #[hdl_gen]
+    fn update(&mut self) {
+        dff_setup!(self, clock, tec_count, rec_count, bus_off_state);
+        self.tec.next = self.tec_count.q.val();
+        self.rec.next = self.rec_count.q.val();
+        self.bus_off.next = self.bus_off_state.q.val();
+        self.error_passive.next = !self.bus_off_state.q.val()
+            & (self.tec_count.q.val().get_bit(7) | self.rec_count.q.val().get_bit(7));
+        self.error_warning.next = (self.tec_count.q.val() >= self.warning_limit.val())
+            | (self.rec_count.q.val() >= self.warning_limit.val());
+        self.tec_wide.next = bit_cast::<9, 8>(self.tec_count.q.val()) + 8;
+        self.rec_wide.next = bit_cast::<9, 8>(self.rec_count.q.val()) + 8;
+
+        if self.bus_off_state.q.val() {
+            if self.recovery_tick.val() {
+                if self.tec_count.q.val() == 0 {
+                    self.bus_off_state.d.next = false;
+                    self.rec_count.d.next = 0.into();
+                } else {
+                    self.tec_count.d.next = self.tec_count.q.val() - 1;
+                }
+            }
+        } else {
+            if self.tec_plus_8.val() {
+                if self.tec_wide.val().get_bit(8) {
+                    self.bus_off_state.d.next = true;
+                    self.tec_count.d.next = 127.into();
+                    self.rec_count.d.next = 0.into();
+                } else {
+                    self.tec_count.d.next = self.tec_count.q.val() + 8;
+                }
+            }
+            if self.tec_minus_1.val() & (self.tec_count.q.val() != 0) {
+                self.tec_count.d.next = self.tec_count.q.val() - 1;
+            }
+            if self.rec_plus_1.val() & (self.rec_count.q.val() != 255) {
+                self.rec_count.d.next = self.rec_count.q.val() + 1;
+            }
+            if self.rec_plus_8.val() {
+                self.rec_count.d.next = self.rec_count.q.val() + 8;
+                if self.rec_wide.val().get_bit(8) {
+                    self.rec_count.d.next = 255.into();
+                }
+            }
+            if self.rec_success.val() {
+                if self.rec_count.q.val().get_bit(7) {
+                    self.rec_count.d.next = 127.into();
+                } else if self.rec_count.q.val() != 0 {
+                    self.rec_count.d.next = self.rec_count.q.val() - 1;
+                }
+            }
+        }
+        if self.load_tec.val() {
+            self.tec_count.d.next = self.load_value.val();
+        }
+        if self.load_rec.val() {
+            self.rec_count.d.next = self.load_value.val();
+        }
+        if self.reset.val() {
+            self.tec_count.d.next = 0.into();
+            self.rec_count.d.next = 0.into();
+            self.bus_off_state.d.next = false;
+        }
+    }
+}

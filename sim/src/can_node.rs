@@ -1,0 +1,315 @@
+//! A bus node made of the RTL [`rtl::can_core::CanCore`] (bit timing logic + protocol engine), driven
+//! through the core's internal interface the way the SJA1000 register block will drive it: a transmit
+//! buffer in the SJA1000 frame-buffer layout with a request line, and the received-frame header, data
+//! byte stream and validity strobe collected into frames.
+//!
+//! Stepping: inputs (including the transmit-buffer byte the core addresses) are applied with the clock
+//! low and settled, then the rising edge is settled; the strobes seen after the edge are collected.
+
+use std::any::Any;
+
+use rtl::bsp::protocol::ProtocolState;
+use rtl::can_core::CanCore;
+use rust_hdl::prelude::*;
+
+use crate::btr::Btr;
+use crate::bus::Drive;
+use crate::engine::Device;
+use crate::frame::{Frame, Id};
+use crate::time::ClockSpec;
+use crate::trace::Probe;
+
+/// Settle passes allowed per `simulate` call.
+const SETTLE_LIMIT: usize = 200;
+/// Error warning limit after reset (SJA1000 EWLR default).
+pub const DEFAULT_WARNING_LIMIT: u8 = 96;
+/// Bytes of the SJA1000 transmit buffer: frame information, up to 4 identifier bytes, 8 data bytes.
+pub const TX_BUFFER_BYTES: usize = 13;
+
+/// Something the node reported, with the time of the clock edge after which it was seen.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum NodeEvent {
+    /// A frame was received (validity point reached).
+    Received(Frame),
+    /// The transmit request ended; `true` if the frame was sent.
+    TransmitDone(bool),
+    /// A bus error with its SJA1000 ECC value.
+    BusError(u8),
+    /// Arbitration lost at this SJA1000 ALC position.
+    ArbitrationLost(u8),
+}
+
+/// The SJA1000 frame-buffer bytes of `frame`: frame information, identifier bytes, data.
+pub fn frame_buffer(frame: &Frame) -> [u8; TX_BUFFER_BYTES] {
+    let mut buf = [0u8; TX_BUFFER_BYTES];
+    let (ff, id) = match frame.id() {
+        Id::Standard(id) => (0u8, id as u32),
+        Id::Extended(id) => (0x80, id),
+    };
+    buf[0] = ff | ((frame.is_remote() as u8) << 6) | frame.dlc();
+    let data_at = if ff == 0 {
+        buf[1] = (id >> 3) as u8;
+        buf[2] = ((id & 7) << 5) as u8;
+        3
+    } else {
+        buf[1] = (id >> 21) as u8;
+        buf[2] = (id >> 13) as u8;
+        buf[3] = (id >> 5) as u8;
+        buf[4] = ((id & 0x1F) << 3) as u8;
+        5
+    };
+    buf[data_at..data_at + frame.data_bytes().len()].copy_from_slice(frame.data_bytes());
+    buf
+}
+
+/// The RTL CAN core as a bus [`Device`].
+pub struct CanNode {
+    name: String,
+    clock: ClockSpec,
+    uut: CanCore,
+    tx_buffer: [u8; TX_BUFFER_BYTES],
+    rx_data: [u8; 8],
+    events: Vec<(u64, NodeEvent)>,
+    pending_load: Option<(bool, u8)>,
+}
+
+impl CanNode {
+    /// A node on `clock` with bit timing `btr`, reset, operating, error warning limit 96.
+    pub fn new(name: &str, clock: ClockSpec, btr: Btr) -> CanNode {
+        let mut uut = CanCore::default();
+        uut.connect_all();
+        uut.brp.next = (btr.brp as u64).to_bits();
+        uut.tseg1.next = (btr.tseg1 as u64).to_bits();
+        uut.tseg2.next = (btr.tseg2 as u64).to_bits();
+        uut.sjw.next = (btr.sjw as u64).to_bits();
+        uut.sam.next = btr.sam;
+        uut.rx.next = true;
+        uut.enable.next = true;
+        uut.warning_limit.next = (DEFAULT_WARNING_LIMIT as u64).to_bits();
+        uut.reset.next = true;
+        let mut node = CanNode {
+            name: name.to_string(),
+            clock,
+            uut,
+            tx_buffer: [0; TX_BUFFER_BYTES],
+            rx_data: [0; 8],
+            events: Vec::new(),
+            pending_load: None,
+        };
+        node.clock_edge();
+        node.uut.reset.next = false;
+        node
+    }
+
+    /// Puts `frame` into the transmit buffer and requests its transmission (with automatic
+    /// retransmission, or one attempt only with `single_shot`).
+    pub fn send(&mut self, frame: &Frame, single_shot: bool) {
+        assert!(
+            !self.uut.tx_request.val(),
+            "{}: a transmission is already pending",
+            self.name
+        );
+        self.tx_buffer = frame_buffer(frame);
+        self.uut.tx_info.next = (self.tx_buffer[0] as u64).to_bits();
+        self.uut.tx_single_shot.next = single_shot;
+        self.uut.tx_request.next = true;
+    }
+
+    /// Whether a transmission request is pending.
+    pub fn transmit_pending(&self) -> bool {
+        self.uut.tx_request.val()
+    }
+
+    /// Operating mode (`true`) or SJA1000 reset mode (`false`).
+    pub fn set_enable(&mut self, enable: bool) {
+        self.uut.enable.next = enable;
+    }
+
+    /// Loads TEC (`tec` = true) or REC at the next clock edge, like a host write in reset mode.
+    pub fn load_counter(&mut self, tec: bool, value: u8) {
+        self.pending_load = Some((tec, value));
+    }
+
+    /// Everything the node reported, oldest first.
+    pub fn events(&self) -> &[(u64, NodeEvent)] {
+        &self.events
+    }
+
+    /// The frames received, in order.
+    pub fn received(&self) -> Vec<Frame> {
+        self.events
+            .iter()
+            .filter_map(|(_, e)| match e {
+                NodeEvent::Received(f) => Some(*f),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The ECC values of the bus errors seen, in order.
+    pub fn bus_errors(&self) -> Vec<u8> {
+        self.events
+            .iter()
+            .filter_map(|(_, e)| match e {
+                NodeEvent::BusError(ecc) => Some(*ecc),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// Forgets the recorded events.
+    pub fn clear_events(&mut self) {
+        self.events.clear();
+    }
+
+    /// Transmit error counter.
+    pub fn tec(&self) -> u8 {
+        self.uut.tec.val().to_u8()
+    }
+
+    /// Receive error counter.
+    pub fn rec(&self) -> u8 {
+        self.uut.rec.val().to_u8()
+    }
+
+    /// Error passive.
+    pub fn error_passive(&self) -> bool {
+        self.uut.error_passive.val()
+    }
+
+    /// Bus-off.
+    pub fn bus_off(&self) -> bool {
+        self.uut.bus_off.val()
+    }
+
+    /// Protocol state.
+    pub fn state(&self) -> ProtocolState {
+        self.uut.state.val()
+    }
+
+    fn clock_edge(&mut self) {
+        self.uut.clock.next = false.into();
+        assert!(
+            simulate(&mut self.uut, SETTLE_LIMIT),
+            "CAN core did not settle"
+        );
+        self.uut.clock.next = true.into();
+        assert!(
+            simulate(&mut self.uut, SETTLE_LIMIT),
+            "CAN core did not settle"
+        );
+    }
+
+    fn collect(&mut self, t_fs: u64) {
+        let u = &self.uut;
+        if u.rx_byte_strobe.val() {
+            self.rx_data[u.rx_byte_index.val().index()] = u.rx_byte.val().to_u8();
+        }
+        if u.rx_valid.val() {
+            let frame = self.received_frame();
+            self.events.push((t_fs, NodeEvent::Received(frame)));
+        }
+        if u.tx_done.val() {
+            self.events
+                .push((t_fs, NodeEvent::TransmitDone(u.tx_success.val())));
+            self.uut.tx_request.next = false;
+        }
+        let u = &self.uut;
+        if u.bus_error.val() {
+            let ecc = u.ecc.val().to_u8();
+            self.events.push((t_fs, NodeEvent::BusError(ecc)));
+        }
+        if u.arbitration_lost.val() {
+            let alc = u.alc.val().to_u8();
+            self.events.push((t_fs, NodeEvent::ArbitrationLost(alc)));
+        }
+    }
+
+    fn received_frame(&self) -> Frame {
+        let u = &self.uut;
+        let raw = u.rx_id.val().to_u32();
+        let id = if u.rx_ide.val() {
+            Id::extended(raw)
+        } else {
+            Id::standard(raw as u16)
+        }
+        .expect("the core delivers identifiers in range");
+        let dlc = u.rx_dlc.val().to_u8();
+        let frame = if u.rx_rtr.val() {
+            Frame::remote(id, dlc)
+        } else {
+            Frame::data_with_dlc(id, dlc, &self.rx_data[..dlc.min(8) as usize])
+        };
+        frame.expect("the core delivers DLC 0..15")
+    }
+}
+
+impl Device for CanNode {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn clock(&self) -> ClockSpec {
+        self.clock
+    }
+
+    fn rising_edge(&mut self, t_fs: u64, rx: bool) -> Drive {
+        self.uut.rx.next = rx;
+        let addr = self.uut.tx_addr.val().index();
+        self.uut.tx_data.next = (self.tx_buffer.get(addr).copied().unwrap_or(0) as u64).to_bits();
+        let load = self.pending_load.take();
+        self.uut.load_tec.next = matches!(load, Some((true, _)));
+        self.uut.load_rec.next = matches!(load, Some((false, _)));
+        self.uut.counter_value.next = (load.map_or(0, |(_, v)| v) as u64).to_bits();
+        self.clock_edge();
+        self.uut.load_tec.next = false;
+        self.uut.load_rec.next = false;
+        self.collect(t_fs);
+        Drive::from_level(self.uut.tx.val())
+    }
+
+    fn probes(&self) -> Vec<Probe> {
+        vec![
+            Probe::bit("sample_point"),
+            Probe {
+                name: "segment",
+                width: 2,
+            },
+            Probe {
+                name: "state",
+                width: 5,
+            },
+            Probe {
+                name: "tec",
+                width: 8,
+            },
+            Probe {
+                name: "rec",
+                width: 8,
+            },
+            Probe::bit("error_passive"),
+            Probe::bit("bus_off"),
+        ]
+    }
+
+    fn probe_values(&self, values: &mut [u64]) {
+        let u = &self.uut;
+        values.copy_from_slice(&[
+            u.sample_point.val() as u64,
+            u.segment.val() as u64,
+            u.state.val() as u64,
+            u.tec.val().to_u64(),
+            u.rec.val().to_u64(),
+            u.error_passive.val() as u64,
+            u.bus_off.val() as u64,
+        ]);
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
+    }
+}
