@@ -231,4 +231,5 @@ fn wrong_bits_per_frame(received: &[bool], frames: &[sim::frame::EncodedFrame]) 
         .collect()
 }
 
+pub mod protocol_bench;
 pub mod sigrok;

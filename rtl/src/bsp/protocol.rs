@@ -896,9 +896,13 @@ impl Logic for Protocol {
             }
             ProtocolState::Crc => {
                 if self.next_transmitter.val() {
-                    self.next_bit.next = self.crc.value.val().get_bit(13)
-                        ^ self.crc.value.val().get_bit(14)
-                        ^ self.rx_bit.val();
+                    // The MSB of the register after this bit (fed unless it was a stuff bit).
+                    self.next_bit.next = self.crc.value.val().get_bit(14);
+                    if self.crc.feed.val() {
+                        self.next_bit.next = self.crc.value.val().get_bit(13)
+                            ^ self.crc.value.val().get_bit(14)
+                            ^ self.rx_bit.val();
+                    }
                 }
             }
             ProtocolState::AckSlot => {

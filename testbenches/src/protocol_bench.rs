@@ -1,0 +1,144 @@
+//! Bench for the protocol scenarios: a lower tester (LT) and one node under test (IUT, the RTL CAN core)
+//! on a 16 MHz clock in configuration BT-A (TSEG1 11, TSEG2 4, SJW 2, BRP 0: 500 kbit/s), the catalog's
+//! default setup (error active, counters 0, integrated). Queries are in LT script bits: "what did the
+//! IUT drive in bit i" reads the IUT's drive at the LT's sample point of script bit i.
+
+use sim::btr::Btr;
+use sim::bus::Drive;
+use sim::can_node::{CanNode, NodeEvent};
+use sim::engine::{DeviceId, Engine};
+use sim::frame::{encode, EncodedFrame, Field, Frame, DOMINANT};
+use sim::lower_tester::LowerTester;
+use sim::time::ClockSpec;
+
+use crate::CLOCK_HZ;
+
+/// Idle bits before the first frame: the IUT needs 11 recessive bits to integrate.
+pub const INTEGRATION_BITS: usize = 14;
+
+/// The catalog's default configuration BT-A with BRP 0.
+pub fn bt_a() -> Btr {
+    Btr::from_quanta(0, 11, 4, 2, false).expect("BT-A")
+}
+
+/// LT + IUT.
+pub struct ProtocolBench {
+    /// The engine (public for scenario-specific queries).
+    pub engine: Engine,
+    lt: DeviceId,
+    iut: DeviceId,
+    btr: Btr,
+}
+
+impl ProtocolBench {
+    /// A bench whose LT starts playing at once (the IUT receives).
+    pub fn new() -> ProtocolBench {
+        let btr = bt_a();
+        let clock = ClockSpec::from_hz(CLOCK_HZ);
+        let mut engine = Engine::new();
+        engine.keep_history();
+        let lt = engine.add(LowerTester::new("lt", clock, btr), 0);
+        let iut = engine.add(CanNode::new("iut", clock, btr), 0);
+        ProtocolBench {
+            engine,
+            lt,
+            iut,
+            btr,
+        }
+    }
+
+    /// A bench where the IUT transmits `frame` once integrated; the LT's script starts at the IUT's
+    /// SOF edge (script bit 0 is the SOF).
+    pub fn iut_transmits(frame: &Frame) -> ProtocolBench {
+        let mut bench = ProtocolBench::new();
+        bench.lt().start_on_dominant();
+        bench.integrate();
+        bench.iut_mut().send(frame, false);
+        bench
+    }
+
+    /// Lets the IUT integrate (runs the bus idle for [`INTEGRATION_BITS`]) before the LT's script.
+    pub fn integrate(&mut self) {
+        let bits = INTEGRATION_BITS as u64 * self.btr.clocks_per_bit() as u64;
+        let end = self.engine.now() + bits * ClockSpec::from_hz(CLOCK_HZ).period_fs();
+        self.engine.run_until(end).expect("simulation");
+    }
+
+    /// Quanta from a bit's start to its sample point.
+    pub fn sample_point_tq(&self) -> u32 {
+        self.btr.sample_point_tq()
+    }
+
+    /// The lower tester, to write its script.
+    pub fn lt(&mut self) -> &mut LowerTester {
+        self.engine.device_mut(self.lt)
+    }
+
+    /// The lower tester.
+    pub fn lt_ref(&self) -> &LowerTester {
+        self.engine.device(self.lt)
+    }
+
+    /// The node under test.
+    pub fn iut(&self) -> &CanNode {
+        self.engine.device(self.iut)
+    }
+
+    /// The node under test, mutably.
+    pub fn iut_mut(&mut self) -> &mut CanNode {
+        self.engine.device_mut(self.iut)
+    }
+
+    /// Runs until the LT has played its script, then `extra_bits` more bits.
+    pub fn run(&mut self, extra_bits: usize) {
+        let lt = self.lt;
+        let limit = self.engine.now() + sim::time::FS_PER_S;
+        let done = self
+            .engine
+            .run_while(limit, |e| e.device::<LowerTester>(lt).finished())
+            .expect("simulation");
+        assert!(
+            done,
+            "the lower tester never started or never finished its script"
+        );
+        let bits = extra_bits as u64 * self.btr.clocks_per_bit() as u64;
+        let end = self.engine.now() + bits * ClockSpec::from_hz(CLOCK_HZ).period_fs();
+        self.engine.run_until(end).expect("simulation");
+    }
+
+    /// Whether the IUT drove dominant at the LT's sample point of script bit `bit`.
+    pub fn iut_dominant_in(&self, bit: usize) -> bool {
+        let lt = self.lt_ref();
+        let at = lt.bit_time(bit).expect("LT started") + self.sample_point_tq() as u64 * lt.tq_fs();
+        self.engine.drive_before(self.iut, at) == Drive::Dominant
+    }
+
+    /// The script bits in `from..to` where the IUT drove dominant.
+    pub fn iut_dominant_bits(&self, from: usize, to: usize) -> Vec<usize> {
+        (from..to).filter(|&b| self.iut_dominant_in(b)).collect()
+    }
+
+    /// The IUT's events, without times.
+    pub fn iut_events(&self) -> Vec<NodeEvent> {
+        self.iut().events().iter().map(|(_, e)| e.clone()).collect()
+    }
+}
+
+impl Default for ProtocolBench {
+    fn default() -> Self {
+        ProtocolBench::new()
+    }
+}
+
+/// `frame` as a receiver expects it on the bus: SOF to EOF with the ACK slot left recessive for the IUT.
+pub fn lt_frame(frame: &Frame) -> EncodedFrame {
+    encode(frame)
+}
+
+/// The encoded bits of `frame` with the ACK slot dominant (a receiver acknowledged it).
+pub fn acknowledged_bits(frame: &EncodedFrame) -> Vec<bool> {
+    let ack = frame.position(Field::AckSlot, 0).expect("ack slot");
+    let mut bits: Vec<bool> = frame.bits.iter().by_vals().collect();
+    bits[ack] = DOMINANT;
+    bits
+}

@@ -1,0 +1,201 @@
+//! Conformance groups FR (receiving frame formats), FT (transmitting frame formats) and ST-01/ST-02
+//! (stuffing profiles) against the RTL protocol engine, bit-exact on the wire.
+
+use sim::bus::Drive;
+use sim::can_node::NodeEvent;
+use sim::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT};
+use sim::worst_case::longest_frame;
+use testbenches::protocol_bench::{ProtocolBench, INTEGRATION_BITS};
+
+const SOF: usize = INTEGRATION_BITS;
+
+fn data(seed: usize, len: usize) -> Vec<u8> {
+    (0..len).map(|i| (seed * 37 + i * 101 + 5) as u8).collect()
+}
+
+fn standard(id: u16) -> Id {
+    Id::standard(id).unwrap()
+}
+
+fn extended(id: u32) -> Id {
+    Id::extended(id).unwrap()
+}
+
+/// The LT sends `frame` (ACK slot left to the IUT) after the integration time.
+fn receive(frame: &Frame) -> (ProtocolBench, EncodedFrame) {
+    let encoded = encode(frame);
+    let mut bench = ProtocolBench::new();
+    bench
+        .lt()
+        .release(INTEGRATION_BITS)
+        .send_bits(encoded.bits.iter().by_vals())
+        .release(4);
+    bench.run(1);
+    (bench, encoded)
+}
+
+/// FR-01 expectations: exactly the ACK slot driven dominant, the frame stored, no error.
+fn assert_received(frame: &Frame) {
+    let (bench, encoded) = receive(frame);
+    let ack = SOF + encoded.position(Field::AckSlot, 0).unwrap();
+    let end = SOF + encoded.len() + 4;
+    assert_eq!(
+        bench.iut_dominant_bits(0, end),
+        vec![ack],
+        "{frame}: IUT drives only the ACK slot"
+    );
+    assert_eq!(
+        bench.iut_events(),
+        vec![NodeEvent::Received(*frame)],
+        "{frame}"
+    );
+    assert_eq!((bench.iut().rec(), bench.iut().tec()), (0, 0), "{frame}");
+}
+
+/// The IUT sends `frame`; the LT acknowledges it.
+fn transmit(frame: &Frame) -> (ProtocolBench, EncodedFrame) {
+    let encoded = encode(frame);
+    let mut bench = ProtocolBench::iut_transmits(frame);
+    let ack = encoded.position(Field::AckSlot, 0).unwrap();
+    bench
+        .lt()
+        .release(encoded.len() + 4)
+        .set_bit(ack, Drive::Dominant);
+    bench.run(1);
+    (bench, encoded)
+}
+
+/// FT-01 expectations: every bit on the wire is the golden bit (ACK slot, delimiters, EOF recessive
+/// from the IUT), success, TEC unchanged.
+fn assert_transmitted(frame: &Frame) {
+    let (bench, encoded) = transmit(frame);
+    let golden: Vec<usize> = (0..encoded.len())
+        .filter(|&i| encoded.bits[i] == DOMINANT)
+        .collect();
+    assert_eq!(
+        bench.iut_dominant_bits(0, encoded.len() + 4),
+        golden,
+        "{frame}: dominant bits on the wire"
+    );
+    assert_eq!(
+        bench.iut_events(),
+        vec![NodeEvent::TransmitDone(true)],
+        "{frame}"
+    );
+    assert_eq!((bench.iut().tec(), bench.iut().rec()), (0, 0), "{frame}");
+}
+
+#[test]
+fn fr_01_standard_data_frames() {
+    for (i, id) in [0x000, 0x7FF, 0x555, 0x2AA, 0x3C5].into_iter().enumerate() {
+        for dlc in 0..=8 {
+            assert_received(&Frame::data(standard(id), &data(i + dlc, dlc)).unwrap());
+        }
+    }
+}
+
+#[test]
+fn fr_02_extended_data_frames() {
+    for (i, id) in [0, 0x1FFF_FFFF, 0x1555_5555, 0x0AAA_AAAA, 0x12C4_F00D]
+        .into_iter()
+        .enumerate()
+    {
+        for dlc in 0..=8 {
+            assert_received(&Frame::data(extended(id), &data(i + dlc, dlc)).unwrap());
+        }
+    }
+}
+
+#[test]
+fn fr_03_remote_frames() {
+    for dlc in 0..=15 {
+        assert_received(&Frame::remote(standard(0x6A5), dlc).unwrap());
+        assert_received(&Frame::remote(extended(0x0ABC_1234), dlc).unwrap());
+    }
+}
+
+#[test]
+fn fr_04_dlc_above_8_carries_8_bytes() {
+    for dlc in 9..=15 {
+        let bytes = data(dlc as usize, 8);
+        assert_received(&Frame::data_with_dlc(standard(0x123), dlc, &bytes).unwrap());
+        assert_received(&Frame::data_with_dlc(extended(0x1234_5678), dlc, &bytes).unwrap());
+    }
+}
+
+#[test]
+fn ft_01_standard_data_frames_are_bit_exact() {
+    for (i, id) in [0x000, 0x7FF, 0x555, 0x2AA, 0x3C5].into_iter().enumerate() {
+        for dlc in 0..=8 {
+            assert_transmitted(&Frame::data(standard(id), &data(i + dlc, dlc)).unwrap());
+        }
+    }
+}
+
+#[test]
+fn ft_02_extended_data_frames_are_bit_exact() {
+    for (i, id) in [0, 0x1FFF_FFFF, 0x1555_5555, 0x0AAA_AAAA, 0x12C4_F00D]
+        .into_iter()
+        .enumerate()
+    {
+        for dlc in 0..=8 {
+            assert_transmitted(&Frame::data(extended(id), &data(i + dlc, dlc)).unwrap());
+        }
+    }
+}
+
+#[test]
+fn ft_03_remote_frames_are_bit_exact() {
+    for dlc in 0..=15 {
+        assert_transmitted(&Frame::remote(standard(0x6A5), dlc).unwrap());
+        assert_transmitted(&Frame::remote(extended(0x0ABC_1234), dlc).unwrap());
+    }
+}
+
+#[test]
+fn ft_04_dlc_above_8_sends_8_bytes() {
+    for dlc in 9..=15 {
+        let bytes = data(dlc as usize, 8);
+        assert_transmitted(&Frame::data_with_dlc(standard(0x123), dlc, &bytes).unwrap());
+        assert_transmitted(&Frame::data_with_dlc(extended(0x1234_5678), dlc, &bytes).unwrap());
+    }
+}
+
+/// Frames whose stuffing exercises every place of the catalog's ST-01 list.
+fn stuffing_profiles() -> Vec<Frame> {
+    let mut frames = vec![
+        Frame::data(standard(0x000), &[]).unwrap(),
+        Frame::remote(standard(0x7FF), 0).unwrap(),
+        Frame::data(standard(0x07F), &[0x00, 0xFF, 0x0F, 0xF0, 0x1F, 0xE0]).unwrap(),
+        Frame::data(extended(0x0000_001F), &[0xFF, 0x00]).unwrap(),
+        Frame::data(standard(0x010), &[0x07, 0xC1]).unwrap(),
+    ];
+    for n in [0, 4, 8] {
+        frames.push(longest_frame(false, n));
+        frames.push(longest_frame(true, n));
+    }
+    frames
+}
+
+#[test]
+fn st_01_received_stuffing_profiles() {
+    let frames = stuffing_profiles();
+    assert!(
+        frames.iter().any(|f| {
+            let e = encode(f);
+            let crc_end = e.position(Field::CrcDelim, 0).unwrap();
+            e.tags[crc_end - 1].stuff
+        }),
+        "one profile has a stuff bit after the last CRC bit"
+    );
+    for frame in &frames {
+        assert_received(frame);
+    }
+}
+
+#[test]
+fn st_02_transmitted_stuffing_profiles() {
+    for frame in &stuffing_profiles() {
+        assert_transmitted(frame);
+    }
+}
