@@ -19,7 +19,8 @@
 //! Conventions (see the conformance catalog): an error detected at bit e gives a flag from e+1; the
 //! error flag is active if the node was error active before the error's counter change; a receiver
 //! takes a frame at EOF bit 6 and decrements REC when its ACK went out; a transmitter succeeds at EOF
-//! bit 7. Identifiers, data and the TX buffer use the SJA1000 frame-buffer layout: byte 1.. of
+//! bit 7. The ECC segment of an error on a stuff bit is that of the field bit after it (the engine has
+//! moved on). Identifiers, data and the TX buffer use the SJA1000 frame-buffer layout: byte 1.. of
 //! `tx_data` are the ID bytes, data starts at byte 3 (standard) or 5 (extended).
 
 use rust_hdl::prelude::*;

@@ -1,0 +1,361 @@
+//! Conformance scenarios on errors, arbitration and counters against the RTL protocol engine: where the
+//! error flag goes on the wire, the counter deltas, the SJA1000 ECC/ALC capture values, what is stored
+//! and when a frame is retransmitted. Bit numbers are lower-tester script bits; an error detected at
+//! bit e gives a flag e+1..e+6.
+
+use sim::bus::Drive;
+use sim::can_node::NodeEvent;
+use sim::frame::{decode, encode, DecodeErrorKind, EncodedFrame, Field, Frame, Id, DOMINANT};
+use testbenches::protocol_bench::{ProtocolBench, INTEGRATION_BITS};
+
+const SOF: usize = INTEGRATION_BITS;
+
+/// SJA1000 ECC value: type (00 bit, 01 form, 10 stuff, 11 other), direction (receiving), segment.
+fn ecc(kind: u8, receiving: bool, segment: u8) -> u8 {
+    kind << 6 | (receiving as u8) << 5 | segment
+}
+
+const BIT: u8 = 0;
+const FORM: u8 = 1;
+const STUFF: u8 = 2;
+const OTHER: u8 = 3;
+
+fn frame() -> Frame {
+    Frame::data(Id::standard(0x2C5).unwrap(), &[0x81, 0x3C]).unwrap()
+}
+
+/// The six bits of an error flag after an error at `e`.
+fn flag_after(e: usize) -> Vec<usize> {
+    (e + 1..=e + 6).collect()
+}
+
+/// LT sends `bits` after integration; the IUT may have its REC preset.
+fn receive_bits(bits: &[bool], rec: Option<u8>, extra_bits: usize) -> ProtocolBench {
+    let mut bench = ProtocolBench::new();
+    if let Some(rec) = rec {
+        bench.iut_mut().load_counter(false, rec);
+    }
+    bench
+        .lt()
+        .release(INTEGRATION_BITS)
+        .send_bits(bits.iter().copied())
+        .release(extra_bits);
+    bench.run(1);
+    bench
+}
+
+fn bits_of(encoded: &EncodedFrame) -> Vec<bool> {
+    encoded.bits.iter().by_vals().collect()
+}
+
+fn field(encoded: &EncodedFrame, f: Field, index: u16) -> usize {
+    encoded.position(f, index).unwrap()
+}
+
+#[test]
+fn cr_01_crc_error_is_signalled_after_the_ack_delimiter() {
+    let encoded = encode(&frame());
+    let crc0 = field(&encoded, Field::Crc, 0);
+    // A CRC bit whose flip keeps the stuffing: the golden decoder then reports a CRC error.
+    let flipped = (crc0..crc0 + 15)
+        .filter(|&i| !encoded.tags[i].stuff)
+        .find(|&i| {
+            let mut bits = encoded.bits.clone();
+            let v = !bits[i];
+            bits.set(i, v);
+            matches!(decode(&bits), Err(e) if e.kind == DecodeErrorKind::Crc)
+        })
+        .expect("a CRC bit that keeps the stuffing");
+    let mut bits = bits_of(&encoded);
+    bits[flipped] = !bits[flipped];
+    let bench = receive_bits(&bits, None, 20);
+    let ack_delimiter = SOF + field(&encoded, Field::AckDelim, 0);
+    assert_eq!(
+        bench.iut_dominant_bits(0, SOF + bits.len() + 20),
+        flag_after(ack_delimiter),
+        "no ACK, active flag from the bit after the ACK delimiter"
+    );
+    assert_eq!(bench.iut().rec(), 1);
+    assert_eq!(
+        bench.iut_events(),
+        vec![NodeEvent::BusError(ecc(OTHER, true, 0x1B))]
+    );
+}
+
+#[test]
+fn fe_01_dominant_crc_delimiter_is_a_form_error() {
+    let encoded = encode(&frame());
+    let mut bits = bits_of(&encoded);
+    let delimiter = field(&encoded, Field::CrcDelim, 0);
+    bits[delimiter] = DOMINANT;
+    let bench = receive_bits(&bits, None, 20);
+    assert_eq!(
+        bench.iut_dominant_bits(0, SOF + bits.len() + 20),
+        flag_after(SOF + delimiter),
+        "no ACK, flag from the next bit"
+    );
+    assert_eq!(bench.iut().rec(), 1);
+    assert_eq!(
+        bench.iut_events(),
+        vec![NodeEvent::BusError(ecc(FORM, true, 0x18))]
+    );
+}
+
+#[test]
+fn st_03_received_stuff_errors_in_every_field_and_polarity() {
+    let frames = [
+        Frame::data(Id::standard(0x000).unwrap(), &[0xFF, 0x00]).unwrap(),
+        sim::worst_case::longest_frame(false, 8),
+        sim::worst_case::longest_frame(true, 3),
+    ];
+    let mut seen = std::collections::BTreeSet::new();
+    for frame in &frames {
+        let (encoded, extended) = (encode(frame), frame.id().is_extended());
+        for s in (0..encoded.len()).filter(|&i| encoded.tags[i].stuff) {
+            // The LT stops after the faulty bit (the bus is left to the IUT's error frame).
+            let mut bits = bits_of(&encoded)[..=s].to_vec();
+            bits[s] = !bits[s];
+            let bench = receive_bits(&bits, None, 20);
+            // A stuff bit belongs to the segment of the field bit after it (the engine has moved on).
+            let next = encoded.tags[s + 1];
+            let segment = match next.field {
+                Field::BaseId if next.index < 8 => 0x02,
+                Field::BaseId => 0x06,
+                Field::Srr => 0x04,
+                Field::Rtr if !extended => 0x04,
+                Field::Ide => 0x05,
+                Field::ExtId if next.index < 5 => 0x07,
+                Field::ExtId if next.index < 13 => 0x0F,
+                Field::ExtId => 0x0E,
+                Field::Rtr => 0x0C,
+                Field::R1 => 0x0D,
+                Field::R0 => 0x09,
+                Field::Dlc => 0x0B,
+                Field::Data => 0x0A,
+                Field::Crc => 0x08,
+                Field::CrcDelim => 0x18,
+                other => panic!("stuff bit before {other:?}"),
+            };
+            seen.insert((format!("{:?}", encoded.tags[s].field), encoded.bits[s]));
+            let what = format!("stuff bit {s} ({:?}) inverted", encoded.tags[s].field);
+            assert_eq!(
+                bench.iut_dominant_bits(SOF + s, SOF + s + 20),
+                flag_after(SOF + s),
+                "{what}: flag"
+            );
+            assert_eq!(bench.iut().rec(), 1, "{what}");
+            assert_eq!(
+                bench.iut_events(),
+                vec![NodeEvent::BusError(ecc(STUFF, true, segment))],
+                "{what}: not stored, one error"
+            );
+        }
+    }
+    for field in ["BaseId", "Data", "Crc"] {
+        for level in [false, true] {
+            assert!(
+                seen.contains(&(field.to_string(), level)),
+                "{field} stuff bit {level}: {seen:?}"
+            );
+        }
+    }
+    assert!(
+        seen.iter().any(|(f, _)| f == "Dlc" || f == "R0"),
+        "control field: {seen:?}"
+    );
+}
+
+#[test]
+fn ak_01_no_acknowledge_is_an_ack_error_and_the_frame_is_retransmitted() {
+    let f = frame();
+    let encoded = encode(&f);
+    let ack = field(&encoded, Field::AckSlot, 0);
+    let mut bench = ProtocolBench::iut_transmits(&f);
+    bench.lt().release(ack + 20);
+    bench.run(0);
+    let mut expected = flag_after(ack);
+    expected.push(ack + 18);
+    assert_eq!(
+        bench.iut_dominant_bits(ack, ack + 19),
+        expected,
+        "flag from the ACK delimiter, retransmission SOF at ACK slot + 18"
+    );
+    assert_eq!(bench.iut().tec(), 8);
+    assert_eq!(
+        bench.iut_events(),
+        vec![NodeEvent::BusError(ecc(OTHER, false, 0x19))]
+    );
+}
+
+#[test]
+fn be_01_dominant_identifier_bit_read_recessive_is_a_bit_error() {
+    let f = Frame::data(Id::standard(0x0F3).unwrap(), &[0x55]).unwrap();
+    let encoded = encode(&f);
+    let bit = (1..12)
+        .map(|i| field(&encoded, Field::BaseId, i))
+        .find(|&p| encoded.bits[p] == DOMINANT)
+        .unwrap();
+    let ack = field(&encoded, Field::AckSlot, 0);
+    let mut bench = ProtocolBench::iut_transmits(&f);
+    // First attempt: the bit is forced recessive. Second attempt (SOF at e + 18): acknowledged.
+    let retry = bit + 18;
+    bench
+        .lt()
+        .release(retry + encoded.len() + 4)
+        .force(bit, 0, 16, Drive::ForceRecessive)
+        .set_bit(retry + ack, Drive::Dominant);
+    bench.run(1);
+    assert_eq!(
+        bench.iut_dominant_bits(bit + 1, bit + 10),
+        flag_after(bit),
+        "flag after the bit error"
+    );
+    assert!(bench.iut_dominant_in(retry), "retransmission SOF at e + 18");
+    assert_eq!(
+        bench.iut_events(),
+        vec![
+            NodeEvent::BusError(ecc(BIT, false, 0x02)),
+            NodeEvent::TransmitDone(true)
+        ]
+    );
+    assert_eq!(
+        bench.iut().tec(),
+        7,
+        "RT-01: +8 for the error, -1 for the success"
+    );
+}
+
+#[test]
+fn ar_01_arbitration_lost_at_every_base_identifier_bit() {
+    for k in 0..11u16 {
+        let mine = Frame::data(Id::standard(0x7FF).unwrap(), &[]).unwrap();
+        let theirs = Frame::data(Id::standard(0x7FF & !(1 << (10 - k))).unwrap(), &[0xA5]).unwrap();
+        let encoded = encode(&theirs);
+        let mut bench = ProtocolBench::iut_transmits(&mine);
+        bench
+            .lt()
+            .send_bits(encoded.bits.iter().by_vals())
+            .release(6);
+        bench.run(1);
+        let from = field(&encoded, Field::BaseId, k);
+        let ack = field(&encoded, Field::AckSlot, 0);
+        let next_sof = encoded.len() + 3;
+        assert_eq!(
+            bench.iut_dominant_bits(from, next_sof + 1),
+            vec![ack, next_sof],
+            "loss at bit {k}: recessive from there, ACK of the LT frame, retry after intermission"
+        );
+        assert_eq!(
+            bench.iut_events(),
+            vec![
+                NodeEvent::ArbitrationLost(k as u8),
+                NodeEvent::Received(theirs)
+            ],
+            "loss at bit {k}"
+        );
+        assert_eq!((bench.iut().tec(), bench.iut().rec()), (0, 0));
+    }
+}
+
+#[test]
+fn fr_06_dominant_last_eof_bit_is_an_overload_for_a_receiver() {
+    let encoded = encode(&frame());
+    let mut bits = bits_of(&encoded);
+    let eof7 = field(&encoded, Field::Eof, 6);
+    bits[eof7] = DOMINANT;
+    let bench = receive_bits(&bits, Some(9), 20);
+    assert_eq!(
+        bench.iut_dominant_bits(SOF + eof7, SOF + eof7 + 20),
+        flag_after(SOF + eof7),
+        "overload flag from the next bit"
+    );
+    assert_eq!(
+        bench.iut_events(),
+        vec![NodeEvent::Received(frame())],
+        "valid, no bus error"
+    );
+    assert_eq!(bench.iut().rec(), 8);
+}
+
+#[test]
+fn fr_07_fe_03_dominant_eof_bits_1_to_6_are_form_errors() {
+    let encoded = encode(&frame());
+    for k in 0..6 {
+        let mut bits = bits_of(&encoded);
+        let eof = field(&encoded, Field::Eof, k);
+        bits[eof] = DOMINANT;
+        let bench = receive_bits(&bits, Some(9), 20);
+        assert_eq!(
+            bench.iut_dominant_bits(SOF + eof, SOF + eof + 20),
+            flag_after(SOF + eof),
+            "EOF bit {}",
+            k + 1
+        );
+        assert_eq!(
+            bench.iut_events(),
+            vec![NodeEvent::BusError(ecc(FORM, true, 0x1A))],
+            "EOF bit {}: not stored",
+            k + 1
+        );
+        assert_eq!(bench.iut().rec(), 9, "EOF bit {}: -1 at the ACK, +1", k + 1);
+    }
+}
+
+#[test]
+fn fe_02_dominant_ack_delimiter() {
+    let encoded = encode(&frame());
+    let mut bits = bits_of(&encoded);
+    let delimiter = field(&encoded, Field::AckDelim, 0);
+    bits[delimiter] = DOMINANT;
+    for (preset, after) in [(9, 9), (0, 1)] {
+        let bench = receive_bits(&bits, Some(preset), 20);
+        assert_eq!(
+            bench.iut_dominant_bits(SOF + delimiter, SOF + delimiter + 20),
+            flag_after(SOF + delimiter),
+            "flag from EOF bit 1"
+        );
+        assert_eq!(
+            bench.iut_events(),
+            vec![NodeEvent::BusError(ecc(FORM, true, 0x1B))]
+        );
+        assert_eq!(bench.iut().rec(), after, "REC {preset}");
+    }
+}
+
+/// The IUT transmits with TEC preset; the LT acknowledges.
+fn transmit_with_tec(tec: u8) -> ProtocolBench {
+    let f = frame();
+    let encoded = encode(&f);
+    let mut bench = ProtocolBench::new();
+    bench.lt().start_on_dominant();
+    bench.iut_mut().load_counter(true, tec);
+    bench.integrate();
+    bench.iut_mut().send(&f, false);
+    let ack = field(&encoded, Field::AckSlot, 0);
+    bench
+        .lt()
+        .release(encoded.len() + 4)
+        .set_bit(ack, Drive::Dominant);
+    bench.run(1);
+    bench
+}
+
+#[test]
+fn ec_12_successful_transmission_decrements_tec() {
+    for (before, after) in [(9, 8), (130, 129), (0, 0)] {
+        let bench = transmit_with_tec(before);
+        assert_eq!(bench.iut().tec(), after, "TEC {before}");
+        assert_eq!(bench.iut_events(), vec![NodeEvent::TransmitDone(true)]);
+    }
+}
+
+#[test]
+fn ec_13_successful_reception_decrements_rec_and_clamps_passive_values_to_127() {
+    let encoded = encode(&frame());
+    for (before, after) in [(9, 8), (130, 127), (0, 0)] {
+        let bench = receive_bits(&bits_of(&encoded), Some(before), 4);
+        assert_eq!(bench.iut().rec(), after, "REC {before}");
+        assert_eq!(bench.iut_events(), vec![NodeEvent::Received(frame())]);
+        assert!(!bench.iut().error_passive());
+    }
+}
