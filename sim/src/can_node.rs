@@ -200,8 +200,18 @@ impl CanNode {
         );
     }
 
+    /// Collects the strobes of the clock cycle that started at `t_fs`: errors first, then the
+    /// frame and transmission results they may have caused.
     fn collect(&mut self, t_fs: u64) {
         let u = &self.uut;
+        if u.bus_error.val() {
+            self.events
+                .push((t_fs, NodeEvent::BusError(u.ecc.val().to_u8())));
+        }
+        if u.arbitration_lost.val() {
+            self.events
+                .push((t_fs, NodeEvent::ArbitrationLost(u.alc.val().to_u8())));
+        }
         if u.rx_byte_strobe.val() {
             self.rx_data[u.rx_byte_index.val().index()] = u.rx_byte.val().to_u8();
         }
@@ -209,19 +219,10 @@ impl CanNode {
             let frame = self.received_frame();
             self.events.push((t_fs, NodeEvent::Received(frame)));
         }
-        if u.tx_done.val() {
-            self.events
-                .push((t_fs, NodeEvent::TransmitDone(u.tx_success.val())));
+        if self.uut.tx_done.val() {
+            let success = self.uut.tx_success.val();
+            self.events.push((t_fs, NodeEvent::TransmitDone(success)));
             self.uut.tx_request.next = false;
-        }
-        let u = &self.uut;
-        if u.bus_error.val() {
-            let ecc = u.ecc.val().to_u8();
-            self.events.push((t_fs, NodeEvent::BusError(ecc)));
-        }
-        if u.arbitration_lost.val() {
-            let alc = u.alc.val().to_u8();
-            self.events.push((t_fs, NodeEvent::ArbitrationLost(alc)));
         }
     }
 

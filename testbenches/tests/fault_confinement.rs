@@ -1,0 +1,378 @@
+//! Conformance groups AK, BE, EC, EP, OV, BO and RT (error flags, counter rules, error passive,
+//! overload, bus-off and recovery, retransmission) against the RTL protocol engine. Bit numbers are
+//! lower-tester script bits; an error detected at bit e gives a flag e+1..e+6.
+
+use sim::bus::Drive;
+use sim::can_node::NodeEvent;
+use sim::frame::{encode, Field, Frame, Id, DOMINANT};
+use testbenches::protocol_bench::{ProtocolBench, INTEGRATION_BITS};
+
+const SOF: usize = INTEGRATION_BITS;
+/// A receiver's stuff error on the sixth dominant bit: SOF and five dominant ID bits, then a sixth.
+const STUFF_ERROR_AT: usize = SOF + 5;
+
+fn frame() -> Frame {
+    Frame::data(Id::standard(0x2C5).unwrap(), &[0x81, 0x3C]).unwrap()
+}
+
+fn flag_after(e: usize) -> Vec<usize> {
+    (e + 1..=e + 6).collect()
+}
+
+fn bus_errors(bench: &ProtocolBench) -> usize {
+    bench.iut().bus_errors().len()
+}
+
+/// The IUT receives six dominant bits (stuff error at [`STUFF_ERROR_AT`]); after its error flag the
+/// LT drives `after_flag` dominant bits, then releases the bus.
+fn receiver_error_then_dominant(after_flag: usize) -> ProtocolBench {
+    let mut bench = ProtocolBench::new();
+    bench
+        .lt()
+        .release(INTEGRATION_BITS)
+        .send_bits([DOMINANT; 6])
+        .release(6)
+        .send_bits(std::iter::repeat_n(DOMINANT, after_flag))
+        .release(20);
+    bench.run(1);
+    bench
+}
+
+/// The IUT transmits `frame()`; the LT forces its first dominant identifier bit recessive (bit error),
+/// drives `after_flag` dominant bits after the error flag, then releases the bus for `tail` bits.
+fn transmitter_error_then_dominant(
+    tec: u8,
+    after_flag: usize,
+    tail: usize,
+) -> (ProtocolBench, usize) {
+    let f = frame();
+    let encoded = encode(&f);
+    let bit = (1..12)
+        .map(|i| encoded.position(Field::BaseId, i).unwrap())
+        .find(|&p| encoded.bits[p] == DOMINANT)
+        .unwrap();
+    let mut bench = ProtocolBench::new();
+    bench.lt().start_on_dominant();
+    bench.iut_mut().load_counter(true, tec);
+    bench.integrate();
+    bench.iut_mut().send(&f, false);
+    bench
+        .lt()
+        .release(bit + 7)
+        .force(bit, 0, 16, Drive::ForceRecessive)
+        .send_bits(std::iter::repeat_n(DOMINANT, after_flag))
+        .release(tail);
+    bench.run(0);
+    (bench, bit)
+}
+
+#[test]
+fn ak_02_dominant_ack_slot_while_sending_recessive_is_success() {
+    let f = frame();
+    let encoded = encode(&f);
+    let ack = encoded.position(Field::AckSlot, 0).unwrap();
+    let mut bench = ProtocolBench::iut_transmits(&f);
+    bench
+        .lt()
+        .release(encoded.len() + 4)
+        .set_bit(ack, Drive::Dominant);
+    bench.run(1);
+    assert!(
+        !bench.iut_dominant_in(ack),
+        "the IUT itself sends a recessive ACK slot"
+    );
+    assert_eq!(bench.iut_events(), vec![NodeEvent::TransmitDone(true)]);
+}
+
+#[test]
+fn ak_03_receiver_ack_overridden_is_a_bit_error() {
+    let encoded = encode(&frame());
+    let ack = SOF + encoded.position(Field::AckSlot, 0).unwrap();
+    let mut bench = ProtocolBench::new();
+    bench
+        .lt()
+        .release(INTEGRATION_BITS)
+        .send_bits(encoded.bits.iter().by_vals())
+        .release(10)
+        .force(ack, 0, 16, Drive::ForceRecessive);
+    bench.run(1);
+    assert_eq!(bench.iut_dominant_bits(ack + 1, ack + 20), flag_after(ack));
+    assert_eq!(bench.iut().rec(), 1);
+    assert_eq!(
+        bench.iut_events(),
+        vec![NodeEvent::BusError(0x39)],
+        "bit/RX/ACK slot, not stored"
+    );
+}
+
+#[test]
+fn ak_04_passive_transmitter_without_ack() {
+    let f = frame();
+    let encoded = encode(&f);
+    let ack = encoded.position(Field::AckSlot, 0).unwrap();
+    for dominant_in_flag in [false, true] {
+        let mut bench = ProtocolBench::new();
+        bench.lt().start_on_dominant();
+        bench.iut_mut().load_counter(true, 128);
+        bench.integrate();
+        bench.iut_mut().send(&f, false);
+        bench.lt().release(ack + 28);
+        if dominant_in_flag {
+            bench.lt().set_bit(ack + 3, Drive::Dominant);
+        }
+        bench.run(0);
+        if dominant_in_flag {
+            assert_eq!(
+                bench.iut().tec(),
+                136,
+                "(b) a dominant bit inside the passive flag: +8"
+            );
+        } else {
+            assert_eq!(bench.iut().tec(), 128, "(a) rule 3 exception a: unchanged");
+            assert_eq!(
+                bench.iut_dominant_bits(ack, ack + 27),
+                vec![ack + 26],
+                "passive flag, delimiter, intermission, 8 suspend bits, SOF at ACK slot + 26"
+            );
+        }
+    }
+}
+
+#[test]
+fn ak_05_alone_on_the_bus_tec_stops_at_128() {
+    let f = frame();
+    let mut bench = ProtocolBench::iut_transmits(&f);
+    bench.lt().release(40 * 90);
+    bench.run(0);
+    assert!(bus_errors(&bench) >= 40, "{} attempts", bus_errors(&bench));
+    assert_eq!(bench.iut().tec(), 128);
+    assert!(bench.iut().error_passive() && !bench.iut().bus_off());
+}
+
+#[test]
+fn be_03_bit_error_in_the_own_active_flag_restarts_it() {
+    for k in [0usize, 2, 5] {
+        let mut bench = ProtocolBench::new();
+        bench
+            .lt()
+            .release(INTEGRATION_BITS)
+            .send_bits([DOMINANT; 6])
+            .release(30)
+            .force(STUFF_ERROR_AT + 1 + k, 0, 16, Drive::ForceRecessive);
+        bench.run(1);
+        let restart = STUFF_ERROR_AT + 1 + k;
+        let mut expected: Vec<usize> = (STUFF_ERROR_AT + 1..=restart).collect();
+        expected.extend(flag_after(restart));
+        assert_eq!(
+            bench.iut_dominant_bits(STUFF_ERROR_AT + 1, STUFF_ERROR_AT + 30),
+            expected,
+            "flag bit {} forced recessive: the flag restarts after it",
+            k + 1
+        );
+        assert_eq!(bench.iut().rec(), 9, "flag bit {}: +1, then +8", k + 1);
+    }
+}
+
+#[test]
+fn ec_01_03_04_09_receiver_counts_dominant_bits_after_its_flag() {
+    for (after_flag, rec) in [(0, 1), (1, 9), (7, 9), (8, 17), (16, 25)] {
+        let bench = receiver_error_then_dominant(after_flag);
+        assert_eq!(
+            bench.iut().rec(),
+            rec,
+            "{after_flag} dominant bits after the flag"
+        );
+        assert_eq!(bus_errors(&bench), 1, "{after_flag}: no new error");
+    }
+}
+
+#[test]
+fn ec_05_10_transmitter_counts_dominant_bits_after_its_flag() {
+    for (after_flag, tec) in [(0, 8), (7, 8), (8, 16), (16, 24)] {
+        let (bench, _) = transmitter_error_then_dominant(0, after_flag, 10);
+        assert_eq!(
+            bench.iut().tec(),
+            tec,
+            "{after_flag} dominant bits after the flag"
+        );
+    }
+}
+
+#[test]
+fn ec_14_the_error_reaching_128_is_still_signalled_active() {
+    let (bench, bit) = transmitter_error_then_dominant(120, 0, 30);
+    assert_eq!(bench.iut().tec(), 128);
+    assert!(bench.iut().error_passive());
+    assert_eq!(
+        bench.iut_dominant_bits(bit + 1, bit + 7),
+        flag_after(bit),
+        "active flag although the counter reaches 128"
+    );
+}
+
+#[test]
+fn ov_01_dominant_intermission_bit_1_or_2_gives_an_overload_frame() {
+    let encoded = encode(&frame());
+    for k in 0..2 {
+        let mut bench = ProtocolBench::new();
+        bench
+            .lt()
+            .release(INTEGRATION_BITS)
+            .send_bits(encoded.bits.iter().by_vals())
+            .release(30);
+        let intermission = SOF + encoded.len() + k;
+        bench.lt().set_bit(intermission, Drive::Dominant);
+        bench.run(1);
+        let ack = SOF + encoded.position(Field::AckSlot, 0).unwrap();
+        let mut expected = vec![ack];
+        expected.extend(flag_after(intermission));
+        assert_eq!(
+            bench.iut_dominant_bits(0, intermission + 25),
+            expected,
+            "intermission bit {}",
+            k + 1
+        );
+        assert_eq!(bench.iut_events(), vec![NodeEvent::Received(frame())]);
+        assert_eq!(bench.iut().rec(), 0);
+    }
+}
+
+#[test]
+fn ov_06_if_02_sof_in_intermission_bit_3_starts_a_frame() {
+    let first = encode(&frame());
+    let second_frame = Frame::data(Id::standard(0x111).unwrap(), &[7]).unwrap();
+    let second = encode(&second_frame);
+    let mut bench = ProtocolBench::new();
+    bench
+        .lt()
+        .release(INTEGRATION_BITS)
+        .send_bits(first.bits.iter().by_vals())
+        .release(2)
+        .send_bits(second.bits.iter().by_vals())
+        .release(4);
+    bench.run(1);
+    assert_eq!(
+        bench.iut_events(),
+        vec![
+            NodeEvent::Received(frame()),
+            NodeEvent::Received(second_frame)
+        ]
+    );
+}
+
+#[test]
+fn bo_01_bo_03_bus_off_and_recovery_after_128_times_11_recessive_bits() {
+    // The error at bit e takes TEC from 250 above 255. The IUT has processed 7 recessive bits after e
+    // when the script ends (flag time + 1).
+    let (mut bench, bit) = transmitter_error_then_dominant(250, 0, 1);
+    assert!(bench.iut().bus_off(), "TEC above 255");
+    assert_eq!(
+        (bench.iut().tec(), bench.iut().rec()),
+        (127, 0),
+        "SJA1000: TXERR 127, RXERR 0"
+    );
+    assert!(
+        bench.iut_dominant_bits(bit + 1, bit + 8).is_empty(),
+        "no flag: tx recessive at once"
+    );
+    // 1407 recessive bits: 127 runs of 11, TEC counted down to 0, still bus-off.
+    bench.lt().release(1400);
+    bench.run(0);
+    assert!(bench.iut().bus_off());
+    assert_eq!(bench.iut().tec(), 0, "TXERR counts down during recovery");
+    assert!(
+        bench.iut_dominant_bits(bit + 1, bit + 1400).is_empty(),
+        "bus-off: never dominant"
+    );
+    // The 128th run of 11 recessive bits ends bus-off.
+    bench.lt().release(2);
+    bench.run(0);
+    assert!(
+        !bench.iut().bus_off(),
+        "recovered after 128 × 11 recessive bits"
+    );
+    assert_eq!((bench.iut().tec(), bench.iut().rec()), (0, 0));
+}
+
+#[test]
+fn bo_06_no_recovery_in_reset_mode() {
+    let (mut bench, _) = transmitter_error_then_dominant(250, 0, 5);
+    assert!(bench.iut().bus_off());
+    bench.iut_mut().set_enable(false);
+    bench.lt().release(1600);
+    bench.run(0);
+    assert!(
+        bench.iut().bus_off(),
+        "reset mode: no recovery however long the bus is idle"
+    );
+}
+
+#[test]
+fn rt_04_single_shot_makes_one_attempt() {
+    let f = frame();
+    let encoded = encode(&f);
+    let ack = encoded.position(Field::AckSlot, 0).unwrap();
+    let mut bench = ProtocolBench::new();
+    bench.lt().start_on_dominant();
+    bench.integrate();
+    bench.iut_mut().send(&f, true);
+    bench.lt().release(ack + 40);
+    bench.run(0);
+    assert_eq!(
+        bench.iut_events(),
+        vec![NodeEvent::BusError(0xD9), NodeEvent::TransmitDone(false)]
+    );
+    assert_eq!(
+        bench.iut_dominant_bits(ack + 7, ack + 40),
+        Vec::<usize>::new(),
+        "no retry"
+    );
+    assert_eq!(bench.iut().tec(), 8);
+}
+
+#[test]
+fn rt_03_no_retry_limit() {
+    let f = frame();
+    let encoded = encode(&f);
+    let ack = encoded.position(Field::AckSlot, 0).unwrap();
+    let bit = (0..12)
+        .map(|i| encoded.position(Field::BaseId, i).unwrap())
+        .find(|&p| encoded.bits[p] == DOMINANT)
+        .unwrap();
+    let mut bench = ProtocolBench::new();
+    bench.lt().start_on_dominant();
+    bench.integrate();
+    bench.iut_mut().send(&f, false);
+    // 20 attempts each with a bit error at `bit`. The next SOF comes at e + 18, or e + 26 once the
+    // IUT is error passive (TEC ≥ 128 after the 16th error: 8 suspend bits).
+    let mut sof = 0;
+    let mut forced = Vec::new();
+    for attempt in 1..=20 {
+        forced.push(sof + bit);
+        sof += bit + if attempt >= 16 { 26 } else { 18 };
+    }
+    bench
+        .lt()
+        .release(sof + encoded.len() + 4)
+        .set_bit(sof + ack, Drive::Dominant);
+    for &b in &forced {
+        bench.lt().force(b, 0, 16, Drive::ForceRecessive);
+    }
+    bench.run(1);
+    let events = bench.iut_events();
+    let errors = events
+        .iter()
+        .filter(|e| matches!(e, NodeEvent::BusError(_)))
+        .count();
+    assert_eq!(errors, 20);
+    assert_eq!(
+        events.last(),
+        Some(&NodeEvent::TransmitDone(true)),
+        "one TI, after the 21st attempt"
+    );
+    assert_eq!(bench.iut().tec(), 159, "20 × 8, then −1");
+    assert!(
+        bench.iut_dominant_in(sof),
+        "21st attempt at the expected bit"
+    );
+}
