@@ -71,6 +71,7 @@ pub struct CanNode {
     rx_data: [u8; 8],
     events: Vec<(u64, NodeEvent)>,
     pending_load: Option<(bool, u8)>,
+    request_pending: bool,
 }
 
 impl CanNode {
@@ -95,6 +96,7 @@ impl CanNode {
             rx_data: [0; 8],
             events: Vec::new(),
             pending_load: None,
+            request_pending: false,
         };
         node.clock_edge();
         node.uut.reset.next = false;
@@ -105,10 +107,11 @@ impl CanNode {
     /// retransmission, or one attempt only with `single_shot`).
     pub fn send(&mut self, frame: &Frame, single_shot: bool) {
         assert!(
-            !self.uut.tx_request.val(),
+            !self.request_pending,
             "{}: a transmission is already pending",
             self.name
         );
+        self.request_pending = true;
         self.tx_buffer = frame_buffer(frame);
         self.uut.tx_info.next = (self.tx_buffer[0] as u64).to_bits();
         self.uut.tx_single_shot.next = single_shot;
@@ -117,7 +120,7 @@ impl CanNode {
 
     /// Whether a transmission request is pending.
     pub fn transmit_pending(&self) -> bool {
-        self.uut.tx_request.val()
+        self.request_pending
     }
 
     /// Operating mode (`true`) or SJA1000 reset mode (`false`).
@@ -223,6 +226,7 @@ impl CanNode {
             let success = self.uut.tx_success.val();
             self.events.push((t_fs, NodeEvent::TransmitDone(success)));
             self.uut.tx_request.next = false;
+            self.request_pending = false;
         }
     }
 

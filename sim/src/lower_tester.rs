@@ -154,9 +154,15 @@ impl LowerTester {
         self
     }
 
-    /// Quantum at which script bit `bit` starts (bit = script length: the end of the script).
+    /// Quantum at which script bit `bit` starts. Bits past the end of the script are nominal
+    /// released bits (the LT keeps counting bits after it has played its script).
     pub fn bit_start_quantum(&self, bit: usize) -> usize {
-        self.script[..bit].iter().map(|b| b.quanta as usize).sum()
+        let played = bit.min(self.script.len());
+        let script: usize = self.script[..played]
+            .iter()
+            .map(|b| b.quanta as usize)
+            .sum();
+        script + (bit - played) * self.quanta_per_bit as usize
     }
 
     /// Time at which quantum `q` of the script starts, once the LT has started.

@@ -106,6 +106,16 @@ impl ProtocolBench {
         self.engine.run_until(end).expect("simulation");
     }
 
+    /// Runs until `done(iut)` holds or `max_bits` bit times pass; returns whether it held.
+    pub fn run_until<F: Fn(&CanNode) -> bool>(&mut self, max_bits: u64, done: F) -> bool {
+        let iut = self.iut;
+        let bits = max_bits * self.btr.clocks_per_bit() as u64;
+        let limit = self.engine.now() + bits * ClockSpec::from_hz(CLOCK_HZ).period_fs();
+        self.engine
+            .run_while(limit, |e| done(e.device::<CanNode>(iut)))
+            .expect("simulation")
+    }
+
     /// Whether the IUT drove dominant at the LT's sample point of script bit `bit`.
     pub fn iut_dominant_in(&self, bit: usize) -> bool {
         let lt = self.lt_ref();

@@ -1,0 +1,284 @@
+//! Conformance groups IF (interframe space and bus integration), EP (error passive) and the overload
+//! scenarios OV-03/OV-04 against the RTL protocol engine. Bit numbers are lower-tester script bits.
+
+use sim::bus::Drive;
+use sim::can_node::NodeEvent;
+use sim::frame::{encode, Field, Frame, Id, DOMINANT};
+use testbenches::protocol_bench::{ProtocolBench, INTEGRATION_BITS};
+
+const SOF: usize = INTEGRATION_BITS;
+
+fn frame() -> Frame {
+    Frame::data(Id::standard(0x2C5).unwrap(), &[0x81, 0x3C]).unwrap()
+}
+
+fn other_frame() -> Frame {
+    Frame::data(Id::standard(0x0A1).unwrap(), &[0x42]).unwrap()
+}
+
+fn sent_once(node: &sim::can_node::CanNode) -> bool {
+    node.events()
+        .iter()
+        .any(|(_, e)| *e == NodeEvent::TransmitDone(true))
+}
+
+fn flag_after(e: usize) -> Vec<usize> {
+    (e + 1..=e + 6).collect()
+}
+
+/// An error-passive receiver (REC preset 130) gets six dominant bits (stuff error at SOF + 5), then
+/// `after` from the LT.
+fn passive_receiver_error(after: &[bool]) -> ProtocolBench {
+    let mut bench = ProtocolBench::new();
+    bench.iut_mut().load_counter(false, 130);
+    bench
+        .lt()
+        .release(INTEGRATION_BITS)
+        .send_bits([DOMINANT; 6])
+        .send_bits(after.iter().copied())
+        .release(30);
+    bench.run(1);
+    bench
+}
+
+#[test]
+fn if_01_reset_mode_left_mid_frame_ignores_that_frame() {
+    let first = encode(&frame());
+    let second = encode(&other_frame());
+    let mut bench = ProtocolBench::new();
+    bench.iut_mut().set_enable(false);
+    bench
+        .lt()
+        .release(INTEGRATION_BITS)
+        .send_bits(first.bits.iter().by_vals())
+        .release(12)
+        .send_bits(second.bits.iter().by_vals())
+        .release(4);
+    // Leave reset mode in the middle of the first frame.
+    assert!(!bench.run_until(SOF as u64 + 20, |_| false));
+    bench.iut_mut().set_enable(true);
+    bench.run(1);
+    let second_sof = SOF + first.len() + 12;
+    let ack = second_sof + second.position(Field::AckSlot, 0).unwrap();
+    assert_eq!(
+        bench.iut_dominant_bits(0, second_sof + second.len()),
+        vec![ack],
+        "no ACK or flag during the first frame; the second is acknowledged"
+    );
+    assert_eq!(bench.iut_events(), vec![NodeEvent::Received(other_frame())]);
+}
+
+#[test]
+fn if_03_bt_13_pending_transmitter_takes_a_sof_in_intermission_bit_3_as_its_own() {
+    let theirs = encode(&other_frame());
+    let mine = frame();
+    let mine_bits = encode(&mine);
+    let mut bench = ProtocolBench::new();
+    bench
+        .lt()
+        .release(INTEGRATION_BITS)
+        .send_bits(theirs.bits.iter().by_vals())
+        .release(2)
+        .send_bits([DOMINANT])
+        .release(mine_bits.len() + 4);
+    // The IUT's request comes while the LT's frame is on the bus.
+    assert!(!bench.run_until(SOF as u64 + 10, |_| false));
+    bench.iut_mut().send(&mine, false);
+    let sof = SOF + theirs.len() + 2;
+    let ack = sof + mine_bits.position(Field::AckSlot, 0).unwrap();
+    bench.lt().set_bit(ack, Drive::Dominant);
+    bench.run(1);
+    assert!(
+        !bench.iut_dominant_in(sof),
+        "the IUT sends no SOF of its own"
+    );
+    let golden: Vec<usize> = (1..mine_bits.len())
+        .filter(|&i| mine_bits.bits[i] == DOMINANT)
+        .map(|i| sof + i)
+        .collect();
+    assert_eq!(
+        bench.iut_dominant_bits(sof + 1, sof + mine_bits.len()),
+        golden,
+        "its first identifier bit follows the LT's SOF; the frame is sent as usual"
+    );
+    assert_eq!(
+        bench.iut_events(),
+        vec![
+            NodeEvent::Received(other_frame()),
+            NodeEvent::TransmitDone(true)
+        ]
+    );
+}
+
+#[test]
+fn if_04_request_on_an_idle_bus_starts_within_one_bit_time() {
+    let mut bench = ProtocolBench::new();
+    bench.integrate();
+    let requested = bench.engine.now();
+    bench.iut_mut().send(&frame(), false);
+    let started = bench.run_until(2, |n| n.state() != rtl::bsp::protocol::ProtocolState::Idle);
+    assert!(started, "SOF within two bit times");
+    let bit_fs = 16 * 2 * 62_500_000u64;
+    assert!(
+        bench.engine.now() - requested <= 2 * bit_fs,
+        "the SOF bit is sampled at most one bit time after its start"
+    );
+}
+
+#[test]
+fn ep_01_03_passive_flag_ends_after_6_equal_bits() {
+    // Passive flag from SOF + 6; the LT adds an active flag on top (6 dominant), then 1, 4 or 7 more
+    // dominant bits (EP-03): no new error, no dominant bit from the IUT.
+    for extra in [0usize, 1, 4, 7] {
+        let after = vec![DOMINANT; 6 + extra];
+        let bench = passive_receiver_error(&after);
+        assert!(
+            bench.iut_dominant_bits(SOF, SOF + 60).is_empty(),
+            "{extra}: a passive node never sends a dominant flag"
+        );
+        assert_eq!(bench.iut().bus_errors().len(), 1, "{extra}: one error");
+        assert_eq!(
+            bench.iut().rec(),
+            131 + if extra > 0 { 8 } else { 0 },
+            "{extra}"
+        );
+    }
+}
+
+#[test]
+fn ep_04_passive_node_still_acknowledges() {
+    let encoded = encode(&frame());
+    let mut bench = ProtocolBench::new();
+    bench.iut_mut().load_counter(false, 130);
+    bench
+        .lt()
+        .release(INTEGRATION_BITS)
+        .send_bits(encoded.bits.iter().by_vals())
+        .release(4);
+    bench.run(1);
+    let ack = SOF + encoded.position(Field::AckSlot, 0).unwrap();
+    assert_eq!(
+        bench.iut_dominant_bits(0, SOF + encoded.len() + 4),
+        vec![ack]
+    );
+    assert_eq!(
+        bench.iut().rec(),
+        127,
+        "a successful reception takes REC to 127"
+    );
+}
+
+#[test]
+fn ep_05_passive_transmitter_suspends_between_its_frames() {
+    let first = frame();
+    let encoded = encode(&first);
+    let ack = encoded.position(Field::AckSlot, 0).unwrap();
+    let mut bench = ProtocolBench::new();
+    bench.lt().start_on_dominant();
+    bench.iut_mut().load_counter(true, 200);
+    bench.integrate();
+    bench.iut_mut().send(&first, false);
+    let second_sof = encoded.len() + 3 + 8;
+    let second = encode(&other_frame());
+    bench
+        .lt()
+        .release(second_sof + second.len() + 4)
+        .set_bit(ack, Drive::Dominant)
+        .set_bit(
+            second_sof + second.position(Field::AckSlot, 0).unwrap(),
+            Drive::Dominant,
+        );
+    let done = bench.run_until(200, sent_once);
+    assert!(done);
+    bench.iut_mut().send(&other_frame(), false);
+    bench.run(1);
+    assert_eq!(
+        bench.iut_dominant_bits(encoded.len(), second_sof + 1),
+        vec![second_sof],
+        "second SOF after 3 intermission and 8 suspend bits"
+    );
+    assert_eq!(bench.iut().tec(), 198);
+}
+
+#[test]
+fn ep_07_a_frame_started_during_suspend_is_received_and_then_no_suspend() {
+    let mine = frame();
+    let encoded = encode(&mine);
+    let ack = encoded.position(Field::AckSlot, 0).unwrap();
+    let theirs = encode(&other_frame());
+    // Own frame acknowledged (TEC 200 → 199, passive): suspend; the LT's SOF in suspend bit 2.
+    let their_sof = encoded.len() + 3 + 1;
+    let mut bench = ProtocolBench::new();
+    bench.lt().start_on_dominant();
+    bench.iut_mut().load_counter(true, 200);
+    bench.integrate();
+    bench.iut_mut().send(&mine, false);
+    bench
+        .lt()
+        .release(their_sof)
+        .set_bit(ack, Drive::Dominant)
+        .send_bits(theirs.bits.iter().by_vals())
+        .release(60);
+    let done = bench.run_until(200, sent_once);
+    assert!(done);
+    bench.iut_mut().send(&mine, false);
+    bench.run(1);
+    let their_ack = their_sof + theirs.position(Field::AckSlot, 0).unwrap();
+    let next = their_sof + theirs.len() + 3;
+    assert!(
+        bench.iut_dominant_in(their_ack),
+        "the IUT acknowledges the other frame"
+    );
+    assert!(
+        bench.iut_dominant_in(next),
+        "as a receiver it transmits right after the intermission"
+    );
+    assert!(bench
+        .iut_events()
+        .contains(&NodeEvent::Received(other_frame())));
+}
+
+#[test]
+fn ov_03_extended_overload_flag_is_tolerated() {
+    let encoded = encode(&frame());
+    for extra in 1..=7 {
+        let mut bench = ProtocolBench::new();
+        let intermission = SOF + encoded.len();
+        bench
+            .lt()
+            .release(INTEGRATION_BITS)
+            .send_bits(encoded.bits.iter().by_vals())
+            .send_bits([DOMINANT])
+            .send_bits(std::iter::repeat_n(DOMINANT, 6 + extra))
+            .release(30);
+        bench.run(1);
+        assert_eq!(bench.iut().rec(), 0, "{extra} extra dominant bits");
+        assert_eq!(bench.iut().bus_errors().len(), 0, "{extra}");
+        assert_eq!(
+            bench.iut_dominant_bits(intermission + 1, intermission + 30),
+            flag_after(intermission),
+            "{extra}"
+        );
+    }
+}
+
+#[test]
+fn ov_04_dominant_bits_after_an_overload_flag_count_8_each() {
+    let encoded = encode(&frame());
+    for (dominant_after, rec) in [(7, 0), (8, 8), (16, 16)] {
+        let mut bench = ProtocolBench::new();
+        bench
+            .lt()
+            .release(INTEGRATION_BITS)
+            .send_bits(encoded.bits.iter().by_vals())
+            .send_bits([DOMINANT])
+            .send_bits(std::iter::repeat_n(DOMINANT, 6 + dominant_after))
+            .release(30);
+        bench.run(1);
+        assert_eq!(
+            bench.iut().rec(),
+            rec,
+            "{dominant_after} dominant bits after the overload flag"
+        );
+    }
+}
