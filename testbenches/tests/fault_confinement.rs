@@ -106,7 +106,7 @@ fn ak_03_receiver_ack_overridden_is_a_bit_error() {
 }
 
 #[test]
-fn ak_04_passive_transmitter_without_ack() {
+fn ak_04_ec_06_passive_transmitter_without_ack() {
     let f = frame();
     let encoded = encode(&f);
     let ack = encoded.position(Field::AckSlot, 0).unwrap();
@@ -150,7 +150,7 @@ fn ak_05_alone_on_the_bus_tec_stops_at_128() {
 }
 
 #[test]
-fn be_03_bit_error_in_the_own_active_flag_restarts_it() {
+fn be_03_ec_02_bit_error_in_the_own_active_flag_restarts_it() {
     for k in [0usize, 2, 5] {
         let mut bench = ProtocolBench::new();
         bench
@@ -374,5 +374,165 @@ fn rt_03_no_retry_limit() {
     assert!(
         bench.iut_dominant_in(sof),
         "21st attempt at the expected bit"
+    );
+}
+
+#[test]
+fn ec_08_transmitter_bit_error_in_its_own_active_flag() {
+    let f = frame();
+    let encoded = encode(&f);
+    let bit = (1..12)
+        .map(|i| encoded.position(Field::BaseId, i).unwrap())
+        .find(|&p| encoded.bits[p] == DOMINANT)
+        .unwrap();
+    let mut bench = ProtocolBench::iut_transmits(&f);
+    bench
+        .lt()
+        .release(bit + 30)
+        .force(bit, 0, 16, Drive::ForceRecessive)
+        .force(bit + 3, 0, 16, Drive::ForceRecessive);
+    bench.run(0);
+    assert_eq!(
+        bench.iut().tec(),
+        16,
+        "+8 for the error, +8 for the bit error in its flag"
+    );
+}
+
+#[test]
+fn ec_11_dominant_bits_after_a_passive_flag() {
+    // Passive transmitter (TEC 128): bit error, passive flag, then n dominant bits.
+    for (after_flag, tec) in [(1, 136), (6, 136), (8, 144), (9, 144), (16, 152)] {
+        let (bench, _) = transmitter_error_then_dominant(128, after_flag, 20);
+        assert_eq!(
+            bench.iut().tec(),
+            tec,
+            "{after_flag} dominant bits after the passive flag"
+        );
+    }
+}
+
+#[test]
+fn ec_15_rec_saturates_at_255_and_never_causes_bus_off() {
+    // REC 127 + 1: passive at 128 (a receiver counter alone makes the node passive).
+    let mut bench = ProtocolBench::new();
+    bench.iut_mut().load_counter(false, 127);
+    bench
+        .lt()
+        .release(INTEGRATION_BITS)
+        .send_bits([DOMINANT; 6])
+        .release(20);
+    bench.run(1);
+    assert_eq!(bench.iut().rec(), 128);
+    assert!(bench.iut().error_passive());
+    // REC 250 + 1 + 8 (first bit after the flag) + 8 (8th) + 8 (16th): saturated at 255, never bus-off.
+    let mut bench = ProtocolBench::new();
+    bench.iut_mut().load_counter(false, 250);
+    bench
+        .lt()
+        .release(INTEGRATION_BITS)
+        .send_bits([DOMINANT; 6])
+        .release(6)
+        .send_bits([DOMINANT; 24])
+        .release(20);
+    bench.run(1);
+    assert_eq!(bench.iut().rec(), 255);
+    assert!(bench.iut().error_passive() && !bench.iut().bus_off());
+}
+
+/// Takes the IUT to bus-off (TEC 250 + a bit error) with the LT's script ending `tail` bits after
+/// the flag time; returns the bench and the error's bit.
+fn bus_off_bench(tail: usize) -> (ProtocolBench, usize) {
+    transmitter_error_then_dominant(250, 0, tail)
+}
+
+#[test]
+fn bo_02_bus_off_node_neither_acknowledges_nor_stores() {
+    let (mut bench, bit) = bus_off_bench(1);
+    let encoded = encode(&frame());
+    let start = bit + 8;
+    bench
+        .lt()
+        .send_bits(encoded.bits.iter().by_vals())
+        .release(10);
+    bench.run(0);
+    assert!(bench.iut().bus_off());
+    assert!(bench
+        .iut_dominant_bits(start, start + encoded.len() + 10)
+        .is_empty());
+    assert!(bench.iut().received().is_empty());
+}
+
+#[test]
+fn bo_04_only_complete_runs_of_11_recessive_bits_count() {
+    // After bus-off: runs of 10 recessive bits broken by a dominant bit never count.
+    let (mut bench, _) = bus_off_bench(1);
+    for _ in 0..150 {
+        bench.lt().send_bits([DOMINANT]).release(10);
+    }
+    bench.run(0);
+    assert!(bench.iut().bus_off());
+    assert_eq!(bench.iut().tec(), 127, "no run of 11 completed");
+}
+
+#[test]
+fn bo_05_recovery_counts_the_idle_runs_between_frames() {
+    // Frames with ACK delimiter + EOF + intermission = 11 recessive bits (the LT acknowledges its own
+    // frame), then 3 idle bits: each frame and gap counts one run (no run is 22 bits long).
+    let (mut bench, _) = bus_off_bench(1);
+    let encoded = encode(&Frame::data(Id::standard(0x000).unwrap(), &[0, 0]).unwrap());
+    let ack = encoded.position(Field::AckSlot, 0).unwrap();
+    for _ in 0..20 {
+        let start = bench.lt_ref().script_len();
+        bench
+            .lt()
+            .send_bits(encoded.bits.iter().by_vals())
+            .set_bit(start + ack, Drive::Dominant)
+            .release(3);
+    }
+    bench.run(0);
+    assert!(bench.iut().bus_off());
+    let tec = bench.iut().tec();
+    assert!(
+        (127 - 21..=127 - 19).contains(&tec),
+        "about one run per frame: TEC {tec}"
+    );
+}
+
+#[test]
+fn ep_10_error_passive_and_warning_follow_the_counters() {
+    let (bench, _) = transmitter_error_then_dominant(120, 0, 5);
+    assert!(bench.iut().error_passive(), "TEC 128");
+    let (bench, _) = transmitter_error_then_dominant(88, 0, 5);
+    assert!(!bench.iut().error_passive(), "TEC 96");
+    let bench = transmit_and_ack(128);
+    assert!(!bench.iut().error_passive(), "TEC 128 → 127: active again");
+}
+
+/// The IUT transmits `frame()` with TEC preset; the LT acknowledges.
+fn transmit_and_ack(tec: u8) -> ProtocolBench {
+    let f = frame();
+    let encoded = encode(&f);
+    let mut bench = ProtocolBench::new();
+    bench.lt().start_on_dominant();
+    bench.iut_mut().load_counter(true, tec);
+    bench.integrate();
+    bench.iut_mut().send(&f, false);
+    let ack = encoded.position(Field::AckSlot, 0).unwrap();
+    bench
+        .lt()
+        .release(encoded.len() + 4)
+        .set_bit(ack, Drive::Dominant);
+    bench.run(1);
+    bench
+}
+
+#[test]
+fn ep_06_passive_transmitter_retransmits_after_suspend() {
+    let (bench, bit) = transmitter_error_then_dominant(128, 0, 30);
+    assert_eq!(
+        bench.iut_dominant_bits(bit + 1, bit + 27),
+        vec![bit + 26],
+        "passive flag, delimiter, intermission, suspend: SOF at e + 26"
     );
 }
