@@ -199,3 +199,88 @@ fn st_02_transmitted_stuffing_profiles() {
         assert_transmitted(frame);
     }
 }
+
+/// The bus bits of `frame` (SOF to EOF, ACK slot recessive) with SRR, r1 and r0 at the given levels:
+/// the golden encoder only sends the nominal levels, so this one rebuilds the frame and its CRC.
+fn encode_with_reserved_bits(frame: &Frame, srr: bool, r1: bool, r0: bool) -> Vec<bool> {
+    fn push(bits: &mut Vec<bool>, value: u32, width: u32) {
+        bits.extend((0..width).rev().map(|i| value >> i & 1 == 1));
+    }
+    let mut bits = vec![DOMINANT];
+    match frame.id() {
+        Id::Standard(id) => {
+            push(&mut bits, id as u32, 11);
+            bits.extend([frame.is_remote(), DOMINANT, r0]);
+        }
+        Id::Extended(id) => {
+            push(&mut bits, id >> 18, 11);
+            bits.extend([srr, !DOMINANT]);
+            push(&mut bits, id & 0x3_FFFF, 18);
+            bits.extend([frame.is_remote(), r1, r0]);
+        }
+    }
+    push(&mut bits, frame.dlc() as u32, 4);
+    for byte in frame.data_bytes() {
+        push(&mut bits, *byte as u32, 8);
+    }
+    let crc = sim::crc15::crc15(bits.iter().copied());
+    push(&mut bits, crc as u32, 15);
+    let mut stuffed = Vec::new();
+    let mut run = (0, !DOMINANT);
+    for bit in bits {
+        stuffed.push(bit);
+        run = if bit == run.1 {
+            (run.0 + 1, bit)
+        } else {
+            (1, bit)
+        };
+        if run.0 == 5 {
+            stuffed.push(!bit);
+            run = (1, !bit);
+        }
+    }
+    stuffed.extend([!DOMINANT; 10]);
+    stuffed
+}
+
+#[test]
+fn fr_05_non_nominal_reserved_and_srr_bits_are_accepted() {
+    let std_frame = Frame::data(standard(0x3A7), &[0x11, 0x22]).unwrap();
+    let ext_frame = Frame::data(extended(0x0765_4321), &[0x33]).unwrap();
+    let mut cases = vec![(std_frame, true, false, true)];
+    for combo in 0..8u8 {
+        let (srr, r1, r0) = (combo & 4 != 0, combo & 2 != 0, combo & 1 != 0);
+        if (srr, r1, r0) != (true, false, false) {
+            cases.push((ext_frame, srr, r1, r0));
+        }
+    }
+    for (frame, srr, r1, r0) in cases {
+        let bits = encode_with_reserved_bits(&frame, srr, r1, r0);
+        let as_bitvec: bitvec::vec::BitVec<u8, bitvec::order::Msb0> =
+            bits.iter().copied().collect();
+        assert_eq!(
+            sim::frame::decode(&as_bitvec).unwrap().frame,
+            frame,
+            "golden decoder agrees"
+        );
+        let mut bench = ProtocolBench::new();
+        bench
+            .lt()
+            .release(INTEGRATION_BITS)
+            .send_bits(bits.iter().copied())
+            .release(4);
+        bench.run(1);
+        let ack = SOF + bits.len() - 9;
+        let what = format!("{frame} SRR {srr} r1 {r1} r0 {r0}");
+        assert_eq!(
+            bench.iut_dominant_bits(0, SOF + bits.len()),
+            vec![ack],
+            "{what}: ACK"
+        );
+        assert_eq!(
+            bench.iut_events(),
+            vec![NodeEvent::Received(frame)],
+            "{what}"
+        );
+    }
+}

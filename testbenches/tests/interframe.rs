@@ -282,3 +282,108 @@ fn ov_04_dominant_bits_after_an_overload_flag_count_8_each() {
         );
     }
 }
+
+#[test]
+fn ep_02_passive_flag_restarts_on_level_changes() {
+    // Passive receiver error at e = SOF + 5. A dominant bit at e + 3 restarts the count of 6 equal bits,
+    // so the flag ends at e + 9 and a dominant e + 10 is the first bit after the flag (rule 2: +8).
+    // Without the restart, e + 10 would be inside the delimiter: a form error.
+    let e = SOF + 5;
+    let mut after = vec![true; 12];
+    after[2] = DOMINANT;
+    after[9] = DOMINANT;
+    let bench = passive_receiver_error(&after);
+    assert_eq!(
+        bench.iut().rec(),
+        139,
+        "+1, then +8 for the dominant bit after the restarted flag"
+    );
+    assert_eq!(bench.iut().bus_errors().len(), 1, "no form error");
+    assert!(bench.iut_dominant_bits(e, e + 30).is_empty());
+}
+
+#[test]
+fn ep_08_passive_former_transmitter_receives_a_frame_started_in_intermission_bit_3() {
+    let mine = frame();
+    let encoded = encode(&mine);
+    let ack = encoded.position(Field::AckSlot, 0).unwrap();
+    let theirs = encode(&other_frame());
+    let their_sof = encoded.len() + 2;
+    let mut bench = ProtocolBench::new();
+    bench.lt().start_on_dominant();
+    bench.iut_mut().load_counter(true, 200);
+    bench.integrate();
+    bench.iut_mut().send(&mine, false);
+    bench
+        .lt()
+        .release(their_sof)
+        .set_bit(ack, Drive::Dominant)
+        .send_bits(theirs.bits.iter().by_vals())
+        .release(4);
+    assert!(bench.run_until(200, sent_once));
+    bench.iut_mut().send(&mine, false);
+    bench.run(0);
+    let their_ack = their_sof + theirs.position(Field::AckSlot, 0).unwrap();
+    assert_eq!(
+        bench.iut_dominant_bits(their_sof, their_sof + theirs.len()),
+        vec![their_ack],
+        "it does not take the other SOF as its own: it receives and acknowledges"
+    );
+    assert!(bench
+        .iut_events()
+        .contains(&NodeEvent::Received(other_frame())));
+}
+
+#[test]
+fn ep_09_passive_node_that_lost_arbitration_does_not_suspend() {
+    let mine = Frame::data(Id::standard(0x7F0).unwrap(), &[1]).unwrap();
+    let theirs_frame = Frame::data(Id::standard(0x100).unwrap(), &[2]).unwrap();
+    let theirs = encode(&theirs_frame);
+    let mut bench = ProtocolBench::new();
+    bench.lt().start_on_dominant();
+    bench.iut_mut().load_counter(true, 200);
+    bench.integrate();
+    bench.iut_mut().send(&mine, false);
+    bench
+        .lt()
+        .send_bits(theirs.bits.iter().by_vals())
+        .release(6);
+    bench.run(0);
+    let retry = theirs.len() + 3;
+    assert!(
+        bench.iut_dominant_in(retry),
+        "retry right after the intermission"
+    );
+    assert!(
+        bench.iut_events().contains(&NodeEvent::ArbitrationLost(0)),
+        "0x7F0 vs 0x100: ID.28"
+    );
+}
+
+#[test]
+fn ov_02_05_overload_frames_after_error_and_overload_frames_are_not_limited() {
+    // Receiver error at e = SOF + 5: flag e+1..e+6, delimiter e+7..e+14, intermission from e+15.
+    let e = SOF + 5;
+    let mut bench = ProtocolBench::new();
+    bench
+        .lt()
+        .release(INTEGRATION_BITS)
+        .send_bits([DOMINANT; 6])
+        .release(80);
+    // Intermission bit 1 dominant three times: after the error frame and after each overload frame
+    // (an overload frame is flag 6 + delimiter 8, so the next intermission starts 14 bits later).
+    let mut expected = flag_after(e);
+    for k in 0..3 {
+        let intermission = e + 15 + 15 * k;
+        bench.lt().set_bit(intermission, Drive::Dominant);
+        expected.extend(flag_after(intermission));
+    }
+    bench.run(1);
+    assert_eq!(
+        bench.iut_dominant_bits(e, e + 80),
+        expected,
+        "three overload frames"
+    );
+    assert_eq!(bench.iut().rec(), 1, "overload frames do not count");
+    assert_eq!(bench.iut().bus_errors().len(), 1);
+}
