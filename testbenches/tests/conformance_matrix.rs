@@ -51,7 +51,10 @@ fn matrix() -> BTreeMap<String, (Vec<String>, String)> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/CONFORMANCE.md");
     let text = std::fs::read_to_string(path).unwrap();
     let mut rows = BTreeMap::new();
-    for line in text.lines().filter(|l| l.starts_with("| ") && l.as_bytes()[4] == b'-') {
+    for line in text
+        .lines()
+        .filter(|l| l.starts_with("| ") && l.as_bytes()[4] == b'-')
+    {
         let cells: Vec<&str> = line.split(" | ").collect();
         let id = cells[0].trim_start_matches("| ")[..5].to_string();
         let tests = cells[1]
@@ -69,18 +72,33 @@ fn matrix() -> BTreeMap<String, (Vec<String>, String)> {
 fn every_listed_test_exists_and_every_catalog_test_is_listed() {
     let tests = catalog_tests();
     let rows = matrix();
-    assert!(rows.len() >= 100, "the matrix lists the whole catalog ({} rows)", rows.len());
+    assert!(
+        rows.len() >= 100,
+        "the matrix lists the whole catalog ({} rows)",
+        rows.len()
+    );
     for (id, (listed, status)) in &rows {
         for t in listed {
-            assert!(tests.contains(t), "{id}: `{t}` is listed but no such test exists");
+            assert!(
+                tests.contains(t),
+                "{id}: `{t}` is listed but no such test exists"
+            );
         }
         let passing = status.starts_with("pass") || status.starts_with("partial");
-        assert!(!passing || !listed.is_empty(), "{id} is marked {status:?} without a test");
-        assert!(passing || listed.is_empty(), "{id} has tests but is marked {status:?}");
+        assert!(
+            !passing || !listed.is_empty(),
+            "{id} is marked {status:?} without a test"
+        );
+        assert!(
+            passing || listed.is_empty(),
+            "{id} has tests but is marked {status:?}"
+        );
     }
     for t in &tests {
         for id in ids_of(t) {
-            let row = rows.get(&id).unwrap_or_else(|| panic!("`{t}` names {id}, not in the matrix"));
+            let row = rows
+                .get(&id)
+                .unwrap_or_else(|| panic!("`{t}` names {id}, not in the matrix"));
             assert!(row.0.contains(t), "`{t}` is not listed in the row of {id}");
         }
     }
@@ -88,7 +106,10 @@ fn every_listed_test_exists_and_every_catalog_test_is_listed() {
 
 #[test]
 fn test_names_map_to_catalog_ids() {
-    assert_eq!(ids_of("ec_01_03_04_09_receiver"), ["EC-01", "EC-03", "EC-04", "EC-09"]);
+    assert_eq!(
+        ids_of("ec_01_03_04_09_receiver"),
+        ["EC-01", "EC-03", "EC-04", "EC-09"]
+    );
     assert_eq!(ids_of("if_03_bt_13_pending"), ["IF-03", "BT-13"]);
     assert!(ids_of("every_listed_test_exists").is_empty());
 }
