@@ -3,17 +3,21 @@
 //! 2–4 RTL CAN nodes ([`CanNode`]) share one bus (same 16 MHz clock, no propagation delay,
 //! 500 kbit/s). Each node gets 1–4 frames (standard and extended, data and remote, DLC 0–8) with
 //! request times 0–2000 µs after the nodes have integrated; a node is handed its next frame once that
-//! frame's time has come and its previous one has left the transmit buffer. The identifiers come from a
-//! small pool built so that frames of different nodes collide in arbitration: the same base identifier
-//! in standard and extended format (decided at SRR/IDE), extended identifiers that differ only in the
-//! last bit, standard identifiers that differ only in the last bit. Every pool entry belongs to one node:
-//! two nodes sending the very same identifier is not legal CAN (both win arbitration, then bit errors).
+//! frame's time has come and its previous one has left the transmit buffer (half of the request times
+//! lie on a coarse grid, so requests often coincide). The identifiers come from a small pool built so
+//! that frames of different nodes collide deep in arbitration: the same base identifier in standard and
+//! extended format (decided at SRR/IDE), identifiers that differ only in the last base bit, in the first
+//! or the last extension bit, and data vs remote frames of the same identifier (decided at RTR). Two
+//! nodes never send the same identifier in the same frame type: that is not legal CAN (both win
+//! arbitration, then bit errors follow).
 //!
 //! Checked for every scenario:
 //! 1. every node received exactly the frames the other nodes sent, in the order in which they completed
 //!    on the bus (ordered by the transmitters' `TransmitDone(true)` times);
 //! 2. no node reported a bus error, and every TEC and REC is 0 at the end;
-//! 3. every `TransmitDone` is a success, and every frame is sent within the time limit.
+//! 3. every `TransmitDone` is a success, and every frame is sent within the time limit;
+//! 4. every `ArbitrationLost` carries the ALC of the first arbitration bit in which the loser's frame
+//!    differs from the frame that won (the next frame another node completed).
 //!
 //! A fixed scenario checks arbitration itself: three simultaneous requests, the bus order they imply,
 //! and the SJA1000 arbitration-lost positions (ALC) the losers report.
@@ -39,15 +43,22 @@ const REQUEST_WINDOW_US: u64 = 2000;
 const STEP_US: u64 = 10;
 /// Bus time after the last successful transmission in which nothing more may go wrong (20 bits).
 const TAIL_US: u64 = 40;
-/// Generous limit: the whole request window plus 500 µs (≈ 3 longest frames) per frame.
+/// Generous limit: the whole request window plus 500 µs (≈ 3 longest frames) for each of up to 16
+/// frames.
 const LIMIT_US: u64 = START_US + REQUEST_WINDOW_US + 16 * 500;
 
-/// The identifier pool, in groups of four around one base identifier `b`: standard `b`, extended
-/// `b << 18` (same base, loses to standard `b` at SRR), extended `b << 18 | 1` (differs from the
-/// previous one in the last identifier bit only) and standard `b ^ 1` (differs from `b` in the last
-/// base bit only). 24 entries, divisible by 2, 3 and 4 nodes.
+/// The identifier pool: 4 base identifiers `b` (0x100 and 0x0FF differ from the third bit on, 0x7F0
+/// and 0x000 are stuffed heavily) with 6 identifiers each that collide deep in arbitration:
+/// * standard `b` and standard `b ^ 1`: differ in the last base bit (ALC 10);
+/// * extended `b << 18`: same base as standard `b`, loses at SRR (ALC 11) to a standard data frame
+///   and at IDE (ALC 12) to a standard remote frame;
+/// * extended `b << 18 | 0x20000`: differs from `b << 18` in the first extension bit (ALC 13);
+/// * extended `b << 18 | 1`: differs from `b << 18` in the last identifier bit (ALC 30);
+/// * extended `b << 18 | 0x3FFFF`: all extension bits recessive.
+///
+/// 24 entries, divisible by 2, 3 and 4 nodes.
 fn id_pool() -> Vec<Id> {
-    let bases: [u16; 6] = [0x100, 0x0FF, 0x123, 0x7F0, 0x000, 0x7FF];
+    let bases: [u16; 4] = [0x100, 0x0FF, 0x7F0, 0x000];
     bases
         .iter()
         .flat_map(|&b| {
@@ -55,19 +66,25 @@ fn id_pool() -> Vec<Id> {
             [
                 Id::standard(b),
                 Id::extended(ext),
-                Id::extended(ext | 1),
+                Id::extended(ext | 0x2_0000),
                 Id::standard(b ^ 1),
+                Id::extended(ext | 1),
+                Id::extended(ext | 0x3_FFFF),
             ]
         })
         .map(|id| id.expect("pool identifiers are in range"))
         .collect()
 }
 
-/// The pool entry that frame choice `index` of node `node` (of `nodes`) uses: entry `j` belongs to node
-/// `j % nodes`, so no two nodes ever send the same identifier, while neighbouring entries (which
-/// collide) go to different nodes.
-fn owned_pool_index(index: usize, node: usize, nodes: usize) -> usize {
-    index - index % nodes + node
+/// The pool entry that frame choice `index` of node `node` (of `nodes`) uses. Entry `j` belongs to node
+/// `j % nodes` for data frames and to node `(j + 1) % nodes` for remote frames, so two nodes never
+/// send the same identifier in the same frame type (not legal CAN: both win arbitration, then a bit
+/// error follows unless the frames are identical), a data and a remote frame of the same identifier
+/// do meet (the data frame wins at RTR: ALC 11 standard, 31 extended), and neighbouring entries go to
+/// different nodes.
+fn owned_pool_index(index: usize, node: usize, nodes: usize, remote: bool) -> usize {
+    let owner_offset = if remote { 1 } else { 0 };
+    index - index % nodes + (node + nodes - owner_offset) % nodes
 }
 
 /// One frame request of one node.
@@ -109,14 +126,23 @@ fn raw_request() -> impl Strategy<Value = RawRequest> {
         any::<bool>(),
         0..=8u8,
         any::<[u8; 8]>(),
-        0..REQUEST_WINDOW_US,
+        request_time(),
     )
+}
+
+/// A request time after `START_US` in µs: half of them on a 250 µs grid, so that requests of
+/// different nodes often coincide (and then arbitrate from the same SOF).
+fn request_time() -> impl Strategy<Value = u64> {
+    prop_oneof![
+        (0..REQUEST_WINDOW_US / 250).prop_map(|slot| slot * 250),
+        0..REQUEST_WINDOW_US,
+    ]
 }
 
 /// The request `raw` becomes for node `node` of `nodes`.
 fn request(raw: RawRequest, node: usize, nodes: usize, pool: &[Id]) -> Request {
     let (index, remote, dlc, data, at_us) = raw;
-    let id = pool[owned_pool_index(index, node, nodes)];
+    let id = pool[owned_pool_index(index, node, nodes, remote)];
     let frame = if remote {
         Frame::remote(id, dlc)
     } else {
@@ -206,14 +232,9 @@ fn run(scenario: &Scenario) -> Result<(Engine, Vec<DeviceId>), String> {
 /// Every node's events, one per line, for failure messages.
 fn report(engine: &Engine, ids: &[DeviceId]) -> String {
     let mut text = String::new();
-    for &id in ids {
+    for (k, &id) in ids.iter().enumerate() {
         let node = engine.device::<CanNode>(id);
-        text += &format!(
-            "{} (TEC {}, REC {}):\n",
-            node_name(id),
-            node.tec(),
-            node.rec()
-        );
+        text += &format!("n{k} (TEC {}, REC {}):\n", node.tec(), node.rec());
         for (t, event) in node.events() {
             let event = match event {
                 NodeEvent::Received(f) => format!("Received({f})"),
@@ -225,14 +246,19 @@ fn report(engine: &Engine, ids: &[DeviceId]) -> String {
     text
 }
 
-fn node_name(id: DeviceId) -> String {
-    format!("n{}", id.0)
+/// A frame that completed on the bus: the transmitter's `TransmitDone(true)` time, its node index and
+/// the frame.
+#[derive(Clone, Copy, Debug)]
+struct Completed {
+    at: u64,
+    node: usize,
+    frame: Frame,
 }
 
-/// The frames in the order they completed on the bus, as (transmitting node index, frame). The frames of
-/// one node complete in the order it handed them out.
-fn bus_order(engine: &Engine, ids: &[DeviceId], scenario: &Scenario) -> Vec<(usize, Frame)> {
-    let mut done: Vec<(u64, usize, Frame)> = Vec::new();
+/// The frames in the order they completed on the bus. The frames of one node complete in the order it
+/// handed them out.
+fn bus_order(engine: &Engine, ids: &[DeviceId], scenario: &Scenario) -> Vec<Completed> {
+    let mut done = Vec::new();
     for (k, &id) in ids.iter().enumerate() {
         let node = engine.device::<CanNode>(id);
         let times = node
@@ -240,15 +266,75 @@ fn bus_order(engine: &Engine, ids: &[DeviceId], scenario: &Scenario) -> Vec<(usi
             .iter()
             .filter(|(_, e)| *e == NodeEvent::TransmitDone(true))
             .map(|(t, _)| *t);
-        for (t, req) in times.zip(&scenario.nodes[k]) {
-            done.push((t, k, req.frame));
+        for (at, req) in times.zip(&scenario.nodes[k]) {
+            done.push(Completed {
+                at,
+                node: k,
+                frame: req.frame,
+            });
         }
     }
-    done.sort_by_key(|&(t, k, _)| (t, k));
-    done.into_iter().map(|(_, k, f)| (k, f)).collect()
+    done.sort_by_key(|c| (c.at, c.node));
+    done
 }
 
-/// Checks invariants 1–3 of the module documentation after [`run`].
+/// The bits of the arbitration field of `frame` (recessive = `true`), indexed like the SJA1000 ALC:
+/// base identifier (0..=10), RTR or SRR (11), IDE (12), then for extended frames the identifier
+/// extension (13..=30) and RTR (31).
+fn arbitration_bits(frame: &Frame) -> Vec<bool> {
+    let bits = |value: u32, width: u32| (0..width).rev().map(move |i| value >> i & 1 == 1);
+    match frame.id() {
+        Id::Standard(id) => bits(u32::from(id), 11)
+            .chain([frame.is_remote(), false])
+            .collect(),
+        Id::Extended(id) => bits(id >> 18, 11)
+            .chain([true, true])
+            .chain(bits(id, 18))
+            .chain([frame.is_remote()])
+            .collect(),
+    }
+}
+
+/// The ALC at which `loser` loses arbitration to `winner`: the first arbitration bit in which they
+/// differ, if `loser` sends it recessive there.
+fn expected_alc(loser: &Frame, winner: &Frame) -> Option<u8> {
+    let (l, w) = (arbitration_bits(loser), arbitration_bits(winner));
+    let at = l.iter().zip(&w).position(|(a, b)| a != b)?;
+    l[at].then_some(at as u8)
+}
+
+/// Invariant 4: every `ArbitrationLost` of node `k` is reported at the position where its pending frame
+/// first differs from the frame that then won the bus (the next frame another node completed).
+fn check_arbitration(
+    k: usize,
+    node: &CanNode,
+    order: &[Completed],
+    own: &[Request],
+) -> Result<(), String> {
+    let mut sent = 0;
+    for &(t, ref event) in node.events() {
+        match *event {
+            NodeEvent::TransmitDone(true) => sent += 1,
+            NodeEvent::ArbitrationLost(alc) => {
+                let loser = own[sent].frame;
+                let Some(winner) = order.iter().find(|c| c.at > t && c.node != k) else {
+                    return Err(format!("n{k} lost arbitration but no other frame followed"));
+                };
+                let expected = expected_alc(&loser, &winner.frame);
+                if expected != Some(alc) {
+                    return Err(format!(
+                        "n{k} lost with {loser} against {} at ALC {alc}, expected {expected:?}",
+                        winner.frame
+                    ));
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// Checks invariants 1–4 of the module documentation after [`run`].
 fn check(engine: &Engine, ids: &[DeviceId], scenario: &Scenario) -> Result<(), String> {
     let fail = |what: String| Err(format!("{what}\n{}", report(engine, ids)));
     let order = bus_order(engine, ids, scenario);
@@ -256,8 +342,8 @@ fn check(engine: &Engine, ids: &[DeviceId], scenario: &Scenario) -> Result<(), S
         let node = engine.device::<CanNode>(id);
         let expected: Vec<Frame> = order
             .iter()
-            .filter(|(from, _)| *from != k)
-            .map(|&(_, f)| f)
+            .filter(|c| c.node != k)
+            .map(|c| c.frame)
             .collect();
         let received = node.received();
         if received != expected {
@@ -287,6 +373,7 @@ fn check(engine: &Engine, ids: &[DeviceId], scenario: &Scenario) -> Result<(), S
         {
             return fail(format!("n{k} reported a failed transmission"));
         }
+        check_arbitration(k, node, &order, &scenario.nodes[k]).or_else(fail)?;
     }
     Ok(())
 }
@@ -304,7 +391,11 @@ fn run_and_check(scenario: &Scenario) -> Result<(), String> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 12, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig {
+        cases: 48,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
 
     #[test]
     fn random_traffic_is_received_by_every_other_node_in_bus_order(scenario in scenario()) {
@@ -312,23 +403,52 @@ proptest! {
     }
 }
 
+/// Every pool identifier is distinct, and every frame choice of every node maps to a pool entry that
+/// node owns for that frame type.
 #[test]
-fn pool_identifiers_are_distinct() {
+fn pool_identifiers_are_distinct_and_owned_once() {
     let pool = id_pool();
+    assert_eq!(pool.len(), 24);
     for (i, a) in pool.iter().enumerate() {
         assert!(!pool[i + 1..].contains(a), "{a} twice in the pool");
     }
-    assert_eq!(pool.len(), 24);
     for nodes in 2..=4 {
         for index in 0..24 {
             for node in 0..nodes {
-                let j = owned_pool_index(index, node, nodes);
+                let data = owned_pool_index(index, node, nodes, false);
+                let remote = owned_pool_index(index, node, nodes, true);
                 assert!(
-                    j < 24 && j % nodes == node,
-                    "entry {j} for n{node} of {nodes}"
+                    data < 24 && data % nodes == node,
+                    "data {data}, n{node} of {nodes}"
+                );
+                assert!(
+                    remote < 24 && (remote + 1) % nodes == node,
+                    "remote {remote}, n{node}"
                 );
             }
         }
+    }
+}
+
+/// The ALC model of invariant 4 on hand-checked pairs.
+#[test]
+fn expected_alc_positions() {
+    let std = |id| Frame::data(Id::standard(id).unwrap(), &[]).unwrap();
+    let ext = |id| Frame::data(Id::extended(id).unwrap(), &[]).unwrap();
+    let remote = |f: Frame| Frame::remote(f.id(), 0).unwrap();
+    let cases = [
+        (std(0x100), std(0x0FF), Some(2)),  // 001… vs 000…: third base bit
+        (std(0x0FF), std(0x100), None),     // the winner loses nothing
+        (std(0x101), std(0x100), Some(10)), // last base bit
+        (ext(0x100 << 18), std(0x100), Some(11)), // SRR vs dominant RTR
+        (ext(0x100 << 18), remote(std(0x100)), Some(12)), // IDE
+        (remote(std(0x100)), std(0x100), Some(11)), // RTR
+        (ext(0x100 << 18 | 0x2_0000), ext(0x100 << 18), Some(13)), // first extension bit
+        (ext(0x100 << 18 | 1), ext(0x100 << 18), Some(30)), // last extension bit
+        (remote(ext(0x100 << 18)), ext(0x100 << 18), Some(31)), // extended RTR
+    ];
+    for (loser, winner, alc) in cases {
+        assert_eq!(expected_alc(&loser, &winner), alc, "{loser} vs {winner}");
     }
 }
 
@@ -356,7 +476,7 @@ fn simultaneous_requests_arbitrate_by_identifier() {
     check(&engine, &ids, &scenario).unwrap_or_else(|e| panic!("{e}"));
     let order: Vec<Frame> = bus_order(&engine, &ids, &scenario)
         .into_iter()
-        .map(|(_, f)| f)
+        .map(|c| c.frame)
         .collect();
     assert_eq!(order, [f2, f0, f1], "bus order");
     let alc = |k: usize| -> Vec<u8> {
