@@ -188,7 +188,7 @@ fn ak_01_no_acknowledge_is_an_ack_error_and_the_frame_is_retransmitted() {
 }
 
 #[test]
-fn be_01_dominant_identifier_bit_read_recessive_is_a_bit_error() {
+fn be_01_rt_01_dominant_identifier_bit_read_recessive_is_a_bit_error() {
     let f = Frame::data(Id::standard(0x0F3).unwrap(), &[0x55]).unwrap();
     let encoded = encode(&f);
     let bit = (1..12)

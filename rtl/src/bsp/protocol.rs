@@ -360,7 +360,7 @@ impl Logic for Protocol {
         self.send_ack.next = false;
 
         self.dlc_position.next = 0.into();
-        self.receiver_error.next = self.next_transmitter.val() == false;
+        self.receiver_error.next = false;
 
         // SJA1000 ECC segment of the bit being processed.
         match self.field.q.val() {
@@ -782,7 +782,9 @@ impl Logic for Protocol {
                 self.dlc_reg.d.next = 0.into();
             }
 
-            // Error: the flag starts with the next bit.
+            // Error: the flag starts with the next bit. The role is decided above (our own SOF read
+            // recessive makes us the transmitter), so it is read only after every assignment.
+            self.receiver_error.next = self.next_transmitter.val() == false;
             if self.error_now.val() {
                 self.next_field.next = ProtocolState::ErrorFlag;
                 self.next_count.next = 0.into();
