@@ -57,6 +57,24 @@ impl ProtocolBench {
         bench
     }
 
+    /// A bench where the IUT, with its TEC preset to `tec`, transmits `frame` once integrated and the
+    /// LT acknowledges it; the script is played to its end plus one bit.
+    pub fn iut_transmits_acknowledged(frame: &Frame, tec: u8) -> ProtocolBench {
+        let encoded = encode(frame);
+        let ack = encoded.position(Field::AckSlot, 0).expect("ack slot");
+        let mut bench = ProtocolBench::new();
+        bench.lt().start_on_dominant();
+        bench.iut_mut().load_counter(true, tec);
+        bench.integrate();
+        bench.iut_mut().send(frame, false);
+        bench
+            .lt()
+            .release(encoded.len() + 4)
+            .set_bit(ack, Drive::Dominant);
+        bench.run(1);
+        bench
+    }
+
     /// Lets the IUT integrate (runs the bus idle for [`INTEGRATION_BITS`]) before the LT's script.
     pub fn integrate(&mut self) {
         let bits = INTEGRATION_BITS as u64 * self.btr.clocks_per_bit() as u64;

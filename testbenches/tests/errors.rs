@@ -322,28 +322,10 @@ fn fe_02_dominant_ack_delimiter() {
     }
 }
 
-/// The IUT transmits with TEC preset; the LT acknowledges.
-fn transmit_with_tec(tec: u8) -> ProtocolBench {
-    let f = frame();
-    let encoded = encode(&f);
-    let mut bench = ProtocolBench::new();
-    bench.lt().start_on_dominant();
-    bench.iut_mut().load_counter(true, tec);
-    bench.integrate();
-    bench.iut_mut().send(&f, false);
-    let ack = field(&encoded, Field::AckSlot, 0);
-    bench
-        .lt()
-        .release(encoded.len() + 4)
-        .set_bit(ack, Drive::Dominant);
-    bench.run(1);
-    bench
-}
-
 #[test]
 fn ec_12_successful_transmission_decrements_tec() {
     for (before, after) in [(9, 8), (130, 129), (0, 0)] {
-        let bench = transmit_with_tec(before);
+        let bench = ProtocolBench::iut_transmits_acknowledged(&frame(), before);
         assert_eq!(bench.iut().tec(), after, "TEC {before}");
         assert_eq!(bench.iut_events(), vec![NodeEvent::TransmitDone(true)]);
     }

@@ -505,26 +505,8 @@ fn ep_10_error_passive_and_warning_follow_the_counters() {
     assert!(bench.iut().error_passive(), "TEC 128");
     let (bench, _) = transmitter_error_then_dominant(88, 0, 5);
     assert!(!bench.iut().error_passive(), "TEC 96");
-    let bench = transmit_and_ack(128);
+    let bench = ProtocolBench::iut_transmits_acknowledged(&frame(), 128);
     assert!(!bench.iut().error_passive(), "TEC 128 → 127: active again");
-}
-
-/// The IUT transmits `frame()` with TEC preset; the LT acknowledges.
-fn transmit_and_ack(tec: u8) -> ProtocolBench {
-    let f = frame();
-    let encoded = encode(&f);
-    let mut bench = ProtocolBench::new();
-    bench.lt().start_on_dominant();
-    bench.iut_mut().load_counter(true, tec);
-    bench.integrate();
-    bench.iut_mut().send(&f, false);
-    let ack = encoded.position(Field::AckSlot, 0).unwrap();
-    bench
-        .lt()
-        .release(encoded.len() + 4)
-        .set_bit(ack, Drive::Dominant);
-    bench.run(1);
-    bench
 }
 
 #[test]
