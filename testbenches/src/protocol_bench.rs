@@ -50,10 +50,17 @@ impl ProtocolBench {
     /// A bench where the IUT transmits `frame` once integrated; the LT's script starts at the IUT's
     /// SOF edge (script bit 0 is the SOF).
     pub fn iut_transmits(frame: &Frame) -> ProtocolBench {
+        ProtocolBench::iut_transmits_with(frame, 0, false)
+    }
+
+    /// As [`ProtocolBench::iut_transmits`], with the IUT's TEC preset to `tec` before integration and
+    /// a single-shot request if `single_shot`.
+    pub fn iut_transmits_with(frame: &Frame, tec: u8, single_shot: bool) -> ProtocolBench {
         let mut bench = ProtocolBench::new();
         bench.lt().start_on_dominant();
+        bench.iut_mut().load_counter(true, tec);
         bench.integrate();
-        bench.iut_mut().send(frame, false);
+        bench.iut_mut().send(frame, single_shot);
         bench
     }
 
@@ -62,11 +69,7 @@ impl ProtocolBench {
     pub fn iut_transmits_acknowledged(frame: &Frame, tec: u8) -> ProtocolBench {
         let encoded = encode(frame);
         let ack = encoded.position(Field::AckSlot, 0).expect("ack slot");
-        let mut bench = ProtocolBench::new();
-        bench.lt().start_on_dominant();
-        bench.iut_mut().load_counter(true, tec);
-        bench.integrate();
-        bench.iut_mut().send(frame, false);
+        let mut bench = ProtocolBench::iut_transmits_with(frame, tec, false);
         bench
             .lt()
             .release(encoded.len() + 4)

@@ -132,11 +132,7 @@ fn transmit_with(
     len: usize,
     edit: impl FnOnce(&mut LowerTester),
 ) -> ProtocolBench {
-    let mut bench = ProtocolBench::new();
-    bench.lt().start_on_dominant();
-    bench.iut_mut().load_counter(true, tec);
-    bench.integrate();
-    bench.iut_mut().send(f, false);
+    let mut bench = ProtocolBench::iut_transmits_with(f, tec, false);
     bench.lt().release(len);
     edit(bench.lt());
     bench.run(1);

@@ -51,11 +51,7 @@ fn transmitter_error_then_dominant(
         .map(|i| encoded.position(Field::BaseId, i).unwrap())
         .find(|&p| encoded.bits[p] == DOMINANT)
         .unwrap();
-    let mut bench = ProtocolBench::new();
-    bench.lt().start_on_dominant();
-    bench.iut_mut().load_counter(true, tec);
-    bench.integrate();
-    bench.iut_mut().send(&f, false);
+    let mut bench = ProtocolBench::iut_transmits_with(&f, tec, false);
     bench
         .lt()
         .release(bit + 7)
@@ -111,11 +107,7 @@ fn ak_04_ec_06_passive_transmitter_without_ack() {
     let encoded = encode(&f);
     let ack = encoded.position(Field::AckSlot, 0).unwrap();
     for dominant_in_flag in [false, true] {
-        let mut bench = ProtocolBench::new();
-        bench.lt().start_on_dominant();
-        bench.iut_mut().load_counter(true, 128);
-        bench.integrate();
-        bench.iut_mut().send(&f, false);
+        let mut bench = ProtocolBench::iut_transmits_with(&f, 128, false);
         bench.lt().release(ack + 28);
         if dominant_in_flag {
             bench.lt().set_bit(ack + 3, Drive::Dominant);
@@ -312,10 +304,7 @@ fn rt_04_single_shot_makes_one_attempt() {
     let f = frame();
     let encoded = encode(&f);
     let ack = encoded.position(Field::AckSlot, 0).unwrap();
-    let mut bench = ProtocolBench::new();
-    bench.lt().start_on_dominant();
-    bench.integrate();
-    bench.iut_mut().send(&f, true);
+    let mut bench = ProtocolBench::iut_transmits_with(&f, 0, true);
     bench.lt().release(ack + 40);
     bench.run(0);
     assert_eq!(
@@ -339,10 +328,7 @@ fn rt_03_no_retry_limit() {
         .map(|i| encoded.position(Field::BaseId, i).unwrap())
         .find(|&p| encoded.bits[p] == DOMINANT)
         .unwrap();
-    let mut bench = ProtocolBench::new();
-    bench.lt().start_on_dominant();
-    bench.integrate();
-    bench.iut_mut().send(&f, false);
+    let mut bench = ProtocolBench::iut_transmits_with(&f, 0, false);
     // 20 attempts each with a bit error at `bit`. The next SOF comes at e + 18, or e + 26 once the
     // IUT is error passive (TEC ≥ 128 after the 16th error: 8 suspend bits).
     let mut sof = 0;

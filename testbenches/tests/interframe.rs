@@ -173,11 +173,7 @@ fn ep_05_passive_transmitter_suspends_between_its_frames() {
     let first = frame();
     let encoded = encode(&first);
     let ack = encoded.position(Field::AckSlot, 0).unwrap();
-    let mut bench = ProtocolBench::new();
-    bench.lt().start_on_dominant();
-    bench.iut_mut().load_counter(true, 200);
-    bench.integrate();
-    bench.iut_mut().send(&first, false);
+    let mut bench = ProtocolBench::iut_transmits_with(&first, 200, false);
     let second_sof = encoded.len() + 3 + 8;
     let second = encode(&other_frame());
     bench
@@ -208,11 +204,7 @@ fn ep_07_a_frame_started_during_suspend_is_received_and_then_no_suspend() {
     let theirs = encode(&other_frame());
     // Own frame acknowledged (TEC 200 → 199, passive): suspend; the LT's SOF in suspend bit 2.
     let their_sof = encoded.len() + 3 + 1;
-    let mut bench = ProtocolBench::new();
-    bench.lt().start_on_dominant();
-    bench.iut_mut().load_counter(true, 200);
-    bench.integrate();
-    bench.iut_mut().send(&mine, false);
+    let mut bench = ProtocolBench::iut_transmits_with(&mine, 200, false);
     bench
         .lt()
         .release(their_sof)
@@ -309,11 +301,7 @@ fn ep_08_passive_former_transmitter_receives_a_frame_started_in_intermission_bit
     let ack = encoded.position(Field::AckSlot, 0).unwrap();
     let theirs = encode(&other_frame());
     let their_sof = encoded.len() + 2;
-    let mut bench = ProtocolBench::new();
-    bench.lt().start_on_dominant();
-    bench.iut_mut().load_counter(true, 200);
-    bench.integrate();
-    bench.iut_mut().send(&mine, false);
+    let mut bench = ProtocolBench::iut_transmits_with(&mine, 200, false);
     bench
         .lt()
         .release(their_sof)
@@ -339,11 +327,7 @@ fn ep_09_passive_node_that_lost_arbitration_does_not_suspend() {
     let mine = Frame::data(Id::standard(0x7F0).unwrap(), &[1]).unwrap();
     let theirs_frame = Frame::data(Id::standard(0x100).unwrap(), &[2]).unwrap();
     let theirs = encode(&theirs_frame);
-    let mut bench = ProtocolBench::new();
-    bench.lt().start_on_dominant();
-    bench.iut_mut().load_counter(true, 200);
-    bench.integrate();
-    bench.iut_mut().send(&mine, false);
+    let mut bench = ProtocolBench::iut_transmits_with(&mine, 200, false);
     bench
         .lt()
         .send_bits(theirs.bits.iter().by_vals())
