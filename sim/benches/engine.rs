@@ -1,11 +1,13 @@
 //! Speed of the simulation engine with bit-timing nodes: a lower tester sends 8-byte frames at
 //! 500 kbit/s (16 MHz clocks) to 1 or 4 nodes, with and without VCD tracing. Prints node clock cycles
-//! per second (every node's cycles counted; the lower tester's are not) as the median of 5 runs.
+//! per second (every node's cycles counted; the lower tester's are not) as the median of 5 runs; then
+//! two RTL CAN cores exchanging 8-byte frames: node-pair cycles and frames per second.
 
 use std::time::Instant;
 
 use sim::btl_node::BitTimingNode;
 use sim::btr::Btr;
+use sim::can_node::CanNode;
 use sim::engine::Engine;
 use sim::frame::{encode, Frame, Id};
 use sim::lower_tester::LowerTester;
@@ -45,6 +47,37 @@ fn run(nodes: usize, trace: bool) -> f64 {
     (engine.edges() - lt_edges) as f64 / seconds
 }
 
+/// Two RTL CAN cores at 16 MHz / 500 kbit/s: node A sends `FRAMES` 8-byte data frames back to back,
+/// node B receives them. Returns node-pair clock cycles per second and frames per second.
+fn run_cores(trace: bool) -> (f64, f64) {
+    let btr = Btr::from_registers(0x40, 0x1C);
+    let mut engine = Engine::new();
+    let a = engine.add(CanNode::new("a", ClockSpec::from_hz(16e6), btr), 0);
+    let b = engine.add(CanNode::new("b", ClockSpec::with_ppm(16e6, 300.0), btr), 0);
+    let vcd = std::env::temp_dir().join(format!("cansim-bench-core-{}.vcd", std::process::id()));
+    if trace {
+        engine.trace_vcd(&vcd).unwrap();
+    }
+    let start = Instant::now();
+    for i in 0..FRAMES {
+        let frame = Frame::data(Id::standard(i as u16).unwrap(), &[i as u8; 8]).unwrap();
+        engine.device_mut::<CanNode>(a).send(&frame, false);
+        engine
+            .run_while(u64::MAX, |e| !e.device::<CanNode>(a).transmit_pending())
+            .unwrap();
+    }
+    engine.finish_trace().unwrap();
+    let seconds = start.elapsed().as_secs_f64();
+    std::fs::remove_file(&vcd).ok();
+    assert_eq!(
+        engine.device::<CanNode>(b).received().len(),
+        FRAMES,
+        "every frame received"
+    );
+    let pair_cycles = engine.edges() as f64 / 2.0;
+    (pair_cycles / seconds, FRAMES as f64 / seconds)
+}
+
 fn main() {
     for nodes in [1, 4] {
         for trace in [false, true] {
@@ -58,5 +91,16 @@ fn main() {
                 rates[RUNS - 1]
             );
         }
+    }
+    for trace in [false, true] {
+        let mut runs: Vec<(f64, f64)> = (0..RUNS).map(|_| run_cores(trace)).collect();
+        runs.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let (cycles, frames) = runs[RUNS / 2];
+        println!(
+            "BENCH engine=rust-hdl device=can-core nodes=2 trace={} pair_cycles_per_s={cycles:.0} frames_per_s={frames:.1} (min {:.0}, max {:.0})",
+            if trace { "on" } else { "off" },
+            runs[0].0,
+            runs[RUNS - 1].0
+        );
     }
 }

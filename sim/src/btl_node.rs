@@ -23,11 +23,10 @@ use crate::btr::Btr;
 use crate::bus::Drive;
 use crate::engine::Device;
 use crate::frame::{DOMINANT, RECESSIVE};
+use crate::rtl_step::{clock_cycle, settle};
 use crate::time::ClockSpec;
 use crate::trace::Probe;
 
-/// Settle passes allowed per `simulate` call before the design is declared non-converging.
-const SETTLE_LIMIT: usize = 100;
 /// Recessive bits in a row after which the stand-in takes the bus as idle again.
 const IDLE_AFTER_RECESSIVE_BITS: u32 = 10;
 
@@ -170,16 +169,7 @@ impl BitTimingNode {
     }
 
     fn clock_edge(&mut self) {
-        self.uut.clock.next = false.into();
-        assert!(
-            simulate(&mut self.uut, SETTLE_LIMIT),
-            "bit timing logic did not settle"
-        );
-        self.uut.clock.next = true.into();
-        assert!(
-            simulate(&mut self.uut, SETTLE_LIMIT),
-            "bit timing logic did not settle"
-        );
+        clock_cycle(&mut self.uut, |u| &mut u.clock, "bit timing logic");
     }
 
     fn read_triggers(&self) -> Triggers {
@@ -261,10 +251,7 @@ impl BitTimingNode {
     fn apply_stand_in_outputs(&mut self) {
         self.uut.sync_mode.next = self.sync_mode;
         self.uut.tx_dominant.next = self.tx == DOMINANT;
-        assert!(
-            simulate(&mut self.uut, SETTLE_LIMIT),
-            "bit timing logic did not settle"
-        );
+        settle(&mut self.uut, "bit timing logic");
     }
 
     fn record(&mut self, at_fs: u64, kind: BtlEventKind) {

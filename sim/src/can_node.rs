@@ -16,11 +16,10 @@ use crate::btr::Btr;
 use crate::bus::Drive;
 use crate::engine::Device;
 use crate::frame::{Frame, Id};
+use crate::rtl_step::clock_cycle;
 use crate::time::ClockSpec;
 use crate::trace::Probe;
 
-/// Settle passes allowed per `simulate` call.
-const SETTLE_LIMIT: usize = 200;
 /// Error warning limit after reset (SJA1000 EWLR default).
 pub const DEFAULT_WARNING_LIMIT: u8 = 96;
 /// Bytes of the SJA1000 transmit buffer: frame information, up to 4 identifier bytes, 8 data bytes.
@@ -191,16 +190,7 @@ impl CanNode {
     }
 
     fn clock_edge(&mut self) {
-        self.uut.clock.next = false.into();
-        assert!(
-            simulate(&mut self.uut, SETTLE_LIMIT),
-            "CAN core did not settle"
-        );
-        self.uut.clock.next = true.into();
-        assert!(
-            simulate(&mut self.uut, SETTLE_LIMIT),
-            "CAN core did not settle"
-        );
+        clock_cycle(&mut self.uut, |u| &mut u.clock, "CAN core");
     }
 
     /// Collects the strobes of the clock cycle that started at `t_fs`: errors first, then the

@@ -12,6 +12,7 @@ pub mod demo;
 pub mod engine;
 pub mod frame;
 pub mod lower_tester;
+pub mod rtl_step;
 pub mod time;
 pub mod trace;
 pub mod worst_case;

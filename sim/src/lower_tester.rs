@@ -44,6 +44,7 @@ pub struct LowerTester {
     start_on_dominant: bool,
     program: Vec<Drive>,
     compiled: bool,
+    script_quanta: usize,
     started_at: Option<u64>,
     quantum: usize,
     clock_in_quantum: u32,
@@ -63,6 +64,7 @@ impl LowerTester {
             start_on_dominant: false,
             program: Vec::new(),
             compiled: false,
+            script_quanta: 0,
             started_at: None,
             quantum: 0,
             clock_in_quantum: 0,
@@ -188,7 +190,8 @@ impl LowerTester {
 
     /// Whether the whole script has been played.
     pub fn finished(&self) -> bool {
-        self.started_at.is_some() && self.quantum >= self.program_len()
+        // A script changed since the last edge is compiled (and so not finished) at the next edge.
+        self.started_at.is_some() && self.compiled && self.quantum >= self.script_quanta
     }
 
     /// The bus level seen in the last clock of every quantum played so far.
@@ -204,12 +207,9 @@ impl LowerTester {
             .copied()
     }
 
-    fn program_len(&self) -> usize {
-        self.bit_start_quantum(self.script.len())
-    }
-
     fn compile(&mut self) {
-        let mut program = Vec::with_capacity(self.program_len());
+        self.script_quanta = self.bit_start_quantum(self.script.len());
+        let mut program = Vec::with_capacity(self.script_quanta);
         for b in &self.script {
             program.extend(std::iter::repeat_n(b.drive, b.quanta as usize));
         }
