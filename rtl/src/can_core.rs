@@ -36,6 +36,8 @@ pub struct CanCore {
     pub tx_request: Signal<In, Bit>,
     /// One transmission attempt only.
     pub tx_single_shot: Signal<In, Bit>,
+    /// Abort the transmission request (one clock, see `Protocol`).
+    pub tx_abort: Signal<In, Bit>,
     /// Frame information byte of the frame to send.
     pub tx_info: Signal<In, Bits<8>>,
     /// The transmit-buffer byte at `tx_addr`.
@@ -126,6 +128,7 @@ impl Logic for CanCore {
         self.protocol.enable.next = self.enable.val();
         self.protocol.tx_request.next = self.tx_request.val();
         self.protocol.tx_single_shot.next = self.tx_single_shot.val();
+        self.protocol.tx_abort.next = self.tx_abort.val();
         self.protocol.tx_info.next = self.tx_info.val();
         self.protocol.tx_data.next = self.tx_data.val();
         self.protocol.warning_limit.next = self.warning_limit.val();

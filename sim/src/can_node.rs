@@ -70,6 +70,7 @@ pub struct CanNode {
     rx_data: [u8; 8],
     events: Vec<(u64, NodeEvent)>,
     pending_load: Option<(bool, u8)>,
+    pending_abort: bool,
     request_pending: bool,
 }
 
@@ -95,6 +96,7 @@ impl CanNode {
             rx_data: [0; 8],
             events: Vec::new(),
             pending_load: None,
+            pending_abort: false,
             request_pending: false,
         };
         node.clock_edge();
@@ -115,6 +117,13 @@ impl CanNode {
         self.uut.tx_info.next = (self.tx_buffer[0] as u64).to_bits();
         self.uut.tx_single_shot.next = single_shot;
         self.uut.tx_request.next = true;
+    }
+
+    /// Aborts the pending request at the next clock edge (SJA1000 CMR.AT): a frame not under
+    /// transmission is not sent (`TransmitDone(false)` follows); an attempt under way finishes and is
+    /// not retried.
+    pub fn abort(&mut self) {
+        self.pending_abort = true;
     }
 
     /// Whether a transmission request is pending.
@@ -256,9 +265,11 @@ impl Device for CanNode {
         self.uut.load_tec.next = matches!(load, Some((true, _)));
         self.uut.load_rec.next = matches!(load, Some((false, _)));
         self.uut.counter_value.next = (load.map_or(0, |(_, v)| v) as u64).to_bits();
+        self.uut.tx_abort.next = std::mem::take(&mut self.pending_abort);
         self.clock_edge();
         self.uut.load_tec.next = false;
         self.uut.load_rec.next = false;
+        self.uut.tx_abort.next = false;
         self.collect(t_fs);
         Drive::from_level(self.uut.tx.val())
     }

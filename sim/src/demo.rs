@@ -1,26 +1,40 @@
-//! The demo run of `cansim demo` (and of a bare `cargo run --release`): a lower tester sends golden
-//! frames, some with edges moved by whole time quanta (phase errors) and a glitch, to three nodes whose
-//! bit timing logic synchronises on them. The nodes run on clocks a few thousand ppm apart and sit at
-//! different propagation delays. The run writes a VCD and reports, per node and frame, whether every
-//! bit was sampled right and where in the lower tester's bits the node sampled.
+//! The demo run of `cansim demo` (and of a bare `cargo run --release`): three RTL CAN controllers on
+//! one bus, at 500 kbit/s on clocks a few thousand ppm apart and at different propagation delays.
+//!
+//! 1. Arbitration: all three request a frame at the same moment; the lowest identifier wins, the
+//!    others lose at the bit where their identifiers differ and retry in turn.
+//! 2. An injected error: node `b` sees the CRC delimiter of node `a`'s frame dominant (a local
+//!    disturbance): a form error; its error flag makes `a` and `c` detect a form error in the ACK
+//!    delimiter, and `a` retransmits.
+//! 3. Error passive and back: `b` and `c` go to reset mode, so nobody acknowledges `a`'s frame; every
+//!    attempt is an ACK error (TEC + 8) until `a` is error passive; `b` and `c` come back, the attempt
+//!    is acknowledged, and `a` sends frames until its TEC is below 128: error active again.
+//!
+//! The run writes a VCD (bus; per node tx, rx, sample point, segment, protocol state, TEC, REC) and
+//! returns the timeline of what every controller reported.
 
+use std::fmt;
 use std::io;
 use std::path::{Path, PathBuf};
 
-use crate::btl_node::{BitTimingNode, BtlEventKind};
+use rtl::bsp::protocol::ProtocolState;
+
 use crate::btr::Btr;
-use crate::bus::Drive;
+use crate::can_node::{CanNode, NodeEvent};
 use crate::engine::{DeviceId, Engine};
-use crate::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT};
-use crate::lower_tester::LowerTester;
+use crate::frame::{encode, Field, Frame, Id, DOMINANT};
 use crate::time::{ClockSpec, FS_PER_NS};
 
 /// Controller clock of the demo nodes.
 pub const DEMO_CLOCK_HZ: f64 = 16e6;
 /// 500 kbit/s at 16 MHz: BRP 0, SJW 2, TSEG1 13, TSEG2 2 (16 tq, sample point 87.5 %).
 pub const DEMO_BTR: (u8, u8) = (0x40, 0x1C);
-/// Idle bits before the first frame and between frames.
-const GAP_BITS: usize = 12;
+/// Sample point of the demo bit timing, in percent (for decoders).
+pub const DEMO_SAMPLE_POINT_PCT: f64 = 87.5;
+/// Idle bits between the phases.
+const GAP_BITS: u64 = 20;
+/// Longest phase, in bits (the error-passive phase needs about 17 attempts).
+const PHASE_LIMIT_BITS: u64 = 3000;
 
 /// A node of the demo: name, clock offset and propagation delay.
 struct NodeSpec {
@@ -31,344 +45,395 @@ struct NodeSpec {
 
 const NODES: [NodeSpec; 3] = [
     NodeSpec {
-        name: "n1",
+        name: "a",
         ppm: 0.0,
         delay_ns: 0,
     },
     NodeSpec {
-        name: "n2",
+        name: "b",
         ppm: 1500.0,
         delay_ns: 60,
     },
     NodeSpec {
-        name: "n3",
+        name: "c",
         ppm: -2500.0,
         delay_ns: 140,
     },
 ];
 
-/// A disturbance the lower tester puts into a frame.
-#[derive(Clone, Copy, Debug)]
-enum Disturbance {
-    /// The recessive → dominant edge at the start of frame bit `bit` comes `tq` quanta late (> 0)
-    /// or early (< 0).
-    MoveEdge { bit: usize, tq: i32 },
-    /// A one-quantum recessive glitch in the last quantum of dominant frame bit `bit`, which is followed
-    /// by another dominant bit: its falling edge must not synchronise (the sampled bit was dominant).
-    Glitch { bit: usize },
+/// Index of node `a`, `b`, `c` in the report.
+const A: usize = 0;
+const B: usize = 1;
+const C: usize = 2;
+
+/// One thing a controller reported.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DemoEvent {
+    /// Simulated time.
+    pub at_fs: u64,
+    /// Node name.
+    pub node: &'static str,
+    /// What it reported.
+    pub event: NodeEvent,
 }
 
-struct DemoFrame {
-    frame: Frame,
-    disturbance: Option<Disturbance>,
-}
-
-/// How one node received one frame.
-#[derive(Clone, Debug, PartialEq)]
-pub struct FrameReception {
-    /// Frame bits sampled at the value the lower tester sent.
-    pub bits_right: usize,
-    /// Frame bits (SOF to the last EOF bit).
-    pub bits: usize,
-    /// Earliest and latest sample position, in % of the nominal bit time from the start of the
-    /// lower tester's bit as it reaches the node.
-    pub sample_range_pct: (f64, f64),
-    /// Hard synchronisations during the frame.
-    pub hard_syncs: usize,
-    /// Resynchronisations during the frame.
-    pub resyncs: usize,
-    /// For a frame with a moved edge: where the node sampled the bit after that edge, in quanta from
-    /// the (moved) start of that bit.
-    pub sample_after_edge_tq: Option<f64>,
-}
-
-/// One node's results.
-#[derive(Clone, Debug, PartialEq)]
-pub struct NodeReport {
+/// A node's state at the end of the run.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct NodeSummary {
     /// Node name (its VCD scope).
-    pub name: String,
-    /// Clock offset from 16 MHz.
-    pub ppm: f64,
-    /// Propagation delay to and from the bus.
-    pub delay_ns: u64,
-    /// One entry per demo frame.
-    pub frames: Vec<FrameReception>,
+    pub name: &'static str,
+    /// Frames it sent successfully.
+    pub sent: usize,
+    /// Frames it received.
+    pub received: Vec<Frame>,
+    /// Bus errors it detected.
+    pub errors: usize,
+    /// Final TEC.
+    pub tec: u8,
+    /// Final REC.
+    pub rec: u8,
+    /// Final protocol state.
+    pub state: ProtocolState,
+    /// Final fault confinement state.
+    pub error_passive: bool,
 }
 
-/// Everything the demo run measured.
-#[derive(Clone, Debug, PartialEq)]
+/// One change of node `a`'s TEC.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TecStep {
+    /// Simulated time (resolution: one bit).
+    pub at_fs: u64,
+    /// The new TEC.
+    pub tec: u8,
+    /// Error passive from then on.
+    pub error_passive: bool,
+}
+
+/// Everything the demo run saw.
+#[derive(Clone, Debug)]
 pub struct DemoReport {
-    /// The frames (candump notation) and what was done to them.
-    pub frames: Vec<(String, String)>,
-    /// Per node.
-    pub nodes: Vec<NodeReport>,
+    /// Every controller report, in time order.
+    pub events: Vec<DemoEvent>,
+    /// Per node, at the end.
+    pub nodes: Vec<NodeSummary>,
+    /// Node `a`'s TEC after each change, with the time and whether it was error passive.
+    pub tec_trace: Vec<TecStep>,
     /// The VCD written, if any.
     pub vcd: Option<PathBuf>,
     /// Simulated time.
     pub simulated_fs: u64,
 }
 
-impl DemoReport {
-    /// Whether every node sampled every bit of every frame right.
-    pub fn all_bits_right(&self) -> bool {
-        self.nodes
+struct Demo {
+    engine: Engine,
+    nodes: Vec<DeviceId>,
+    bit_fs: u64,
+    tec_trace: Vec<TecStep>,
+}
+
+impl Demo {
+    fn new() -> Demo {
+        let btr = Btr::from_registers(DEMO_BTR.0, DEMO_BTR.1);
+        let mut engine = Engine::new();
+        let nodes = NODES
             .iter()
-            .flat_map(|n| &n.frames)
-            .all(|f| f.bits_right == f.bits)
+            .map(|n| {
+                let clock = ClockSpec::with_ppm(DEMO_CLOCK_HZ, n.ppm);
+                engine.add(CanNode::new(n.name, clock, btr), n.delay_ns * FS_PER_NS)
+            })
+            .collect();
+        let bit_fs = btr.clocks_per_bit() as u64 * ClockSpec::from_hz(DEMO_CLOCK_HZ).period_fs();
+        Demo {
+            engine,
+            nodes,
+            bit_fs,
+            tec_trace: Vec::new(),
+        }
+    }
+
+    fn node(&self, n: usize) -> &CanNode {
+        self.engine.device::<CanNode>(self.nodes[n])
+    }
+
+    fn node_mut(&mut self, n: usize) -> &mut CanNode {
+        self.engine.device_mut::<CanNode>(self.nodes[n])
+    }
+
+    fn idle_bits(&mut self, bits: u64) -> io::Result<()> {
+        self.engine
+            .run_until(self.engine.now() + bits * self.bit_fs)
+    }
+
+    /// Runs until `done` holds, at most [`PHASE_LIMIT_BITS`].
+    fn run_until<F: Fn(&Demo) -> bool>(&mut self, what: &str, done: F) -> io::Result<()> {
+        let limit = self.engine.now() + PHASE_LIMIT_BITS * self.bit_fs;
+        while !done(self) {
+            if self.engine.now() >= limit {
+                return Err(io::Error::other(format!("demo: {what} did not happen")));
+            }
+            self.engine.run_until(self.engine.now() + self.bit_fs)?;
+            self.watch_tec();
+        }
+        Ok(())
+    }
+
+    fn watch_tec(&mut self) {
+        let (tec, error_passive) = (self.node(A).tec(), self.node(A).error_passive());
+        if self.tec_trace.last().map(|s| s.tec) != Some(tec) {
+            let at_fs = self.engine.now();
+            self.tec_trace.push(TecStep {
+                at_fs,
+                tec,
+                error_passive,
+            });
+        }
+    }
+
+    fn all_sent(&self) -> bool {
+        (0..NODES.len()).all(|n| !self.node(n).transmit_pending())
+    }
+
+    /// Phase 1: three simultaneous requests.
+    fn arbitration(&mut self, frames: &[Frame; 3]) -> io::Result<()> {
+        for (n, frame) in frames.iter().enumerate() {
+            self.node_mut(n).send(frame, false);
+        }
+        self.run_until("the arbitration phase", Demo::all_sent)
+    }
+
+    /// Phase 2: `a` sends `frame`; `b` sees its CRC delimiter dominant.
+    fn injected_error(&mut self, frame: &Frame) -> io::Result<()> {
+        self.node_mut(A).send(frame, false);
+        let limit = self.engine.now() + 4 * self.bit_fs;
+        self.engine
+            .run_while(limit, |e| !e.bus_level_before(e.now() + 1))?;
+        let sof = self.engine.now();
+        let bit = encode(frame)
+            .position(Field::CrcDelim, 0)
+            .expect("every frame has a CRC delimiter") as u64;
+        // The whole bit as it reaches b, from just after its start to just after its end.
+        let shift = NODES[B].delay_ns * FS_PER_NS + self.bit_fs / 8;
+        let from = sof + bit * self.bit_fs + shift;
+        self.engine
+            .disturb_rx(self.nodes[B], from, from + self.bit_fs, DOMINANT);
+        self.run_until("the retransmission", Demo::all_sent)
+    }
+
+    /// Phase 3: nobody acknowledges `a` until it is error passive; then `b` and `c` return and `a`
+    /// sends until it is error active again.
+    fn error_passive_and_back(&mut self, frame: &Frame) -> io::Result<()> {
+        self.node_mut(B).set_enable(false);
+        self.node_mut(C).set_enable(false);
+        self.node_mut(A).send(frame, false);
+        self.run_until("error passive", |d| d.node(A).error_passive())?;
+        self.node_mut(B).set_enable(true);
+        self.node_mut(C).set_enable(true);
+        self.run_until("the acknowledged attempt", Demo::all_sent)?;
+        for follow_up in follow_up_frames() {
+            if !self.node(A).error_passive() {
+                break;
+            }
+            self.node_mut(A).send(&follow_up, false);
+            self.run_until("a follow-up frame", Demo::all_sent)?;
+        }
+        Ok(())
+    }
+
+    fn report(self, vcd: Option<PathBuf>) -> DemoReport {
+        let mut events: Vec<DemoEvent> = Vec::new();
+        for (n, spec) in NODES.iter().enumerate() {
+            let node = self.node(n);
+            events.extend(node.events().iter().map(|(at, e)| DemoEvent {
+                at_fs: *at,
+                node: spec.name,
+                event: e.clone(),
+            }));
+        }
+        events.sort_by_key(|e| e.at_fs);
+        let nodes = NODES
+            .iter()
+            .enumerate()
+            .map(|(n, spec)| summary(spec.name, self.node(n)))
+            .collect();
+        DemoReport {
+            events,
+            nodes,
+            tec_trace: self.tec_trace,
+            vcd,
+            simulated_fs: self.engine.now(),
+        }
     }
 }
 
-fn demo_frames() -> Vec<DemoFrame> {
+fn summary(name: &'static str, node: &CanNode) -> NodeSummary {
+    NodeSummary {
+        name,
+        sent: node
+            .events()
+            .iter()
+            .filter(|(_, e)| *e == NodeEvent::TransmitDone(true))
+            .count(),
+        received: node.received(),
+        errors: node.bus_errors().len(),
+        tec: node.tec(),
+        rec: node.rec(),
+        state: node.state(),
+        error_passive: node.error_passive(),
+    }
+}
+
+/// The frames of the demo: phase 1 (a, b, c), phase 2 (a), phase 3 (a).
+pub fn demo_frames() -> ([Frame; 3], Frame, Frame) {
     let std_id = |id| Id::standard(id).expect("demo id");
     let ext_id = |id| Id::extended(id).expect("demo id");
-    vec![
-        DemoFrame {
-            frame: Frame::data(std_id(0x123), &[0xDE, 0xAD, 0xBE, 0xEF]).expect("demo frame"),
-            disturbance: None,
-        },
-        DemoFrame {
-            frame: Frame::data(ext_id(0x1ABC_DEF0), &[0x00, 0x11, 0x22]).expect("demo frame"),
-            disturbance: Some(Disturbance::MoveEdge { bit: 0, tq: 3 }),
-        },
-        DemoFrame {
-            frame: Frame::data(std_id(0x555), &[0x0F; 8]).expect("demo frame"),
-            disturbance: Some(Disturbance::MoveEdge { bit: 0, tq: -1 }),
-        },
-        DemoFrame {
-            frame: Frame::remote(std_id(0x3F0), 0).expect("demo frame"),
-            disturbance: Some(Disturbance::Glitch { bit: 0 }),
-        },
-    ]
+    let frame = |id, data: &[u8]| Frame::data(id, data).expect("demo frame");
+    (
+        [
+            frame(
+                std_id(0x123),
+                &[0x11, 0x22, 0x33, 0x44, 0x55, 0x66, 0x77, 0x88],
+            ),
+            frame(ext_id(0x1234_5678), &[0xCA, 0xFE]),
+            frame(std_id(0x121), &[0x01]),
+        ],
+        frame(std_id(0x200), &[0xDE, 0xAD, 0xBE, 0xEF]),
+        frame(std_id(0x300), &[0x42]),
+    )
 }
 
-/// The frame bit (index > 8) where a disturbance goes: the first recessive → dominant edge for moved
-/// edges, the first dominant bit followed by a dominant bit for glitches.
-fn disturbance_bit(encoded: &EncodedFrame, d: Disturbance) -> Disturbance {
-    let after = 9;
-    match d {
-        Disturbance::MoveEdge { tq, .. } => {
-            let bit = (after..encoded.len())
-                .find(|&i| encoded.bits[i] == DOMINANT && encoded.bits[i - 1] != DOMINANT)
-                .expect("a frame has edges");
-            Disturbance::MoveEdge { bit, tq }
-        }
-        Disturbance::Glitch { .. } => {
-            let bit = (after..encoded.len())
-                .find(|&i| encoded.bits[i] == DOMINANT && encoded.bits[i + 1] == DOMINANT)
-                .expect("a frame has two dominant bits in a row");
-            Disturbance::Glitch { bit }
-        }
-    }
-}
-
-fn describe(d: Option<Disturbance>) -> String {
-    match d {
-        None => "-".into(),
-        Some(Disturbance::MoveEdge { bit, tq }) if tq > 0 => {
-            format!("edge before bit {bit} {tq} tq late")
-        }
-        Some(Disturbance::MoveEdge { bit, tq }) => {
-            format!("edge before bit {bit} {} tq early", -tq)
-        }
-        Some(Disturbance::Glitch { bit }) => {
-            format!("1-tq recessive glitch at the end of bit {bit}")
-        }
-    }
-}
-
-/// A frame as placed in the lower tester's script.
-struct PlacedFrame {
-    /// Script bit of the SOF.
-    sof: usize,
-    /// The bits on the bus: the transmitter's bits with the ACK slot dominant.
-    bus_bits: Vec<bool>,
-    /// The disturbance, with its frame bit.
-    disturbance: Option<Disturbance>,
-}
-
-struct Script {
-    frames: Vec<PlacedFrame>,
-}
-
-fn write_script(lt: &mut LowerTester, frames: &[DemoFrame]) -> Script {
-    let mut placed = Vec::new();
-    lt.release(GAP_BITS);
-    for f in frames {
-        let encoded = encode(&f.frame);
-        let sof = lt.script_len();
-        lt.send_bits(encoded.bits.iter().by_vals());
-        // A receiver acknowledges: the bus carries the frame as a working network would.
-        let ack = encoded.position(Field::AckSlot, 0).expect("ack slot");
-        lt.set_bit(sof + ack, Drive::Dominant);
-        let d = f.disturbance.map(|d| disturbance_bit(&encoded, d));
-        match d {
-            Some(Disturbance::MoveEdge { bit, tq }) => {
-                lt.lengthen_bit(sof + bit - 1, tq);
-            }
-            Some(Disturbance::Glitch { bit }) => {
-                let last_quantum = lt.quanta_per_bit() - 1;
-                lt.force(sof + bit, last_quantum, 1, Drive::Recessive);
-            }
-            None => {}
-        }
-        lt.release(GAP_BITS);
-        let mut bus_bits: Vec<bool> = encoded.bits.iter().by_vals().collect();
-        bus_bits[ack] = DOMINANT;
-        placed.push(PlacedFrame {
-            sof,
-            bus_bits,
-            disturbance: d,
-        });
-    }
-    Script { frames: placed }
+/// What `a` sends after phase 3 until it is error active again (8 successes at most are needed).
+fn follow_up_frames() -> impl Iterator<Item = Frame> {
+    (1..=8u8).map(|k| {
+        let id = Id::standard(0x300 + k as u16).expect("demo id");
+        Frame::data(id, &[k]).expect("demo frame")
+    })
 }
 
 /// Runs the demo; writes the VCD to `vcd` if given.
 pub fn run_demo(vcd: Option<&Path>) -> io::Result<DemoReport> {
-    let btr = Btr::from_registers(DEMO_BTR.0, DEMO_BTR.1);
-    let nominal = ClockSpec::from_hz(DEMO_CLOCK_HZ);
-    let mut engine = Engine::new();
-    engine.keep_history();
-    let mut lt = LowerTester::new("lt", nominal, btr);
-    let frames = demo_frames();
-    let script = write_script(&mut lt, &frames);
-    let lt = engine.add(lt, 0);
-    let nodes: Vec<DeviceId> = NODES
-        .iter()
-        .map(|n| {
-            let clock = ClockSpec::with_ppm(DEMO_CLOCK_HZ, n.ppm);
-            engine.add(
-                BitTimingNode::new(n.name, clock, btr),
-                n.delay_ns * FS_PER_NS,
-            )
-        })
-        .collect();
+    let mut demo = Demo::new();
     if let Some(path) = vcd {
-        engine.trace_vcd(path)?;
+        demo.engine.trace_vcd(path)?;
     }
-    engine.run_while(u64::MAX, |e| e.device::<LowerTester>(lt).finished())?;
-    let written = engine.finish_trace()?;
-    let lt_ref = engine.device::<LowerTester>(lt);
-    let reports = NODES
-        .iter()
-        .zip(&nodes)
-        .map(|(spec, id)| NodeReport {
-            name: spec.name.to_string(),
-            ppm: spec.ppm,
-            delay_ns: spec.delay_ns,
-            frames: script
-                .frames
-                .iter()
-                .map(|f| {
-                    reception(
-                        lt_ref,
-                        engine.device(*id),
-                        spec.delay_ns * FS_PER_NS,
-                        f,
-                        btr,
-                    )
-                })
-                .collect(),
-        })
-        .collect();
-    Ok(DemoReport {
-        frames: script
-            .frames
-            .iter()
-            .zip(&frames)
-            .map(|(placed, f)| (f.frame.to_string(), describe(placed.disturbance)))
-            .collect(),
-        nodes: reports,
-        vcd: written,
-        simulated_fs: engine.now(),
-    })
+    let (arbitrating, disturbed, unacknowledged) = demo_frames();
+    demo.idle_bits(GAP_BITS)?;
+    demo.arbitration(&arbitrating)?;
+    demo.idle_bits(GAP_BITS)?;
+    demo.injected_error(&disturbed)?;
+    demo.idle_bits(GAP_BITS)?;
+    demo.error_passive_and_back(&unacknowledged)?;
+    demo.idle_bits(GAP_BITS)?;
+    let written = demo.engine.finish_trace()?;
+    Ok(demo.report(written))
 }
 
-fn reception(
-    lt: &LowerTester,
-    node: &BitTimingNode,
-    delay_fs: u64,
-    placed: &PlacedFrame,
-    btr: Btr,
-) -> FrameReception {
-    let (sof, bits) = (placed.sof, &placed.bus_bits);
-    let bit_fs = btr.quanta_per_bit() as f64 * lt.tq_fs() as f64;
-    let start = |bit: usize| lt.bit_time(bit).expect("lower tester started") + delay_fs;
-    let samples: Vec<(u64, bool)> = node.samples().collect();
-    let mut right = 0;
-    let (mut lo, mut hi) = (f64::MAX, f64::MIN);
-    let mut after_edge = None;
-    for (i, &sent) in bits.iter().enumerate() {
-        let (from, to) = (start(sof + i), start(sof + i + 1));
-        let Some(&(at, bit)) = samples.iter().find(|(at, _)| *at > from && *at <= to) else {
-            continue;
-        };
-        right += usize::from(bit == sent);
-        let pct = 100.0 * (at - from) as f64 / bit_fs;
-        lo = lo.min(pct);
-        hi = hi.max(pct);
-        if matches!(placed.disturbance, Some(Disturbance::MoveEdge { bit, .. }) if bit == i) {
-            after_edge = Some((at - from) as f64 / lt.tq_fs() as f64);
+impl fmt::Display for DemoEvent {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let ms = self.at_fs as f64 / 1e12;
+        write!(f, "{ms:9.3} ms  {}  ", self.node)?;
+        match &self.event {
+            NodeEvent::Received(frame) => write!(f, "received {frame}"),
+            NodeEvent::TransmitDone(true) => write!(f, "sent its frame"),
+            NodeEvent::TransmitDone(false) => write!(f, "gave up its frame"),
+            NodeEvent::BusError(ecc) => {
+                write!(f, "bus error, ECC 0x{ecc:02X} ({})", ecc_text(*ecc))
+            }
+            NodeEvent::ArbitrationLost(alc) => write!(f, "lost arbitration at bit {alc} (ALC)"),
         }
     }
-    let (from, to) = (start(sof), start(sof + bits.len()));
-    let count = |kind: BtlEventKind| {
-        node.events()
-            .iter()
-            .filter(|e| {
-                e.kind == kind && e.at_fs >= from.saturating_sub(bit_fs as u64) && e.at_fs < to
-            })
-            .count()
+}
+
+/// The SJA1000 ECC value in words: error type, direction, segment.
+pub fn ecc_text(ecc: u8) -> String {
+    let kind = ["bit error", "form error", "stuff error", "other error"][(ecc >> 6) as usize];
+    let direction = if ecc & 0x20 != 0 {
+        "receiving"
+    } else {
+        "transmitting"
     };
-    FrameReception {
-        bits_right: right,
-        bits: bits.len(),
-        sample_range_pct: (lo, hi),
-        hard_syncs: count(BtlEventKind::HardSync),
-        resyncs: count(BtlEventKind::Resync),
-        sample_after_edge_tq: after_edge,
-    }
+    let segment = match ecc & 0x1F {
+        0x03 => "start of frame",
+        0x02 | 0x06 | 0x07 | 0x0F | 0x0E => "identifier",
+        0x04 => "SRTR/RTR",
+        0x05 => "IDE",
+        0x0C => "RTR",
+        0x0D | 0x09 => "reserved bit",
+        0x0B => "DLC",
+        0x0A => "data field",
+        0x08 => "CRC sequence",
+        0x18 => "CRC delimiter",
+        0x19 => "ACK slot",
+        0x1B => "ACK delimiter",
+        0x1A => "end of frame",
+        0x12 => "intermission",
+        0x11 => "active error flag",
+        0x16 => "passive error flag",
+        0x13 => "tolerated dominant bits",
+        0x17 => "error delimiter",
+        0x1C => "overload flag",
+        _ => "unknown segment",
+    };
+    format!("{kind}, {direction}, {segment}")
 }
 
 /// The report as text for the terminal.
 pub fn format_report(report: &DemoReport) -> String {
     let btr = Btr::from_registers(DEMO_BTR.0, DEMO_BTR.1);
     let mut out = format!(
-        "cansim demo: a lower tester sends {} golden frames at {:.0} kbit/s ({btr}) to {} nodes\n\n",
-        report.frames.len(),
-        btr.bitrate(DEMO_CLOCK_HZ) / 1000.0,
-        report.nodes.len()
+        "cansim demo: {} CAN controllers (RTL) at {:.0} kbit/s ({btr})\n",
+        NODES.len(),
+        btr.bitrate(DEMO_CLOCK_HZ) / 1000.0
     );
-    out += "frame  content                       disturbance\n";
-    for (i, (content, what)) in report.frames.iter().enumerate() {
-        out += &format!("{:>5}  {content:<28}  {what}\n", i + 1);
-    }
-    for node in &report.nodes {
+    for spec in &NODES {
         out += &format!(
-            "\n{} (16 MHz {:+} ppm, {} ns from the bus): sample point of each bit, from the start of the bit as it reaches the node\n",
-            node.name, node.ppm, node.delay_ns
+            "  {}: 16 MHz {:+} ppm, {} ns from the bus\n",
+            spec.name, spec.ppm, spec.delay_ns
         );
-        for (i, f) in node.frames.iter().enumerate() {
-            out += &format!(
-                "  frame {}: {:>3}/{} bits right, sampled at {:.1}..{:.1} % of the bit, {} hard sync, {} resyncs",
-                i + 1,
-                f.bits_right,
-                f.bits,
-                f.sample_range_pct.0,
-                f.sample_range_pct.1,
-                f.hard_syncs,
-                f.resyncs
-            );
-            if let Some(tq) = f.sample_after_edge_tq {
-                out += &format!("; after the moved edge at {tq:.2} tq");
-            }
-            out += "\n";
+    }
+    let (arbitrating, disturbed, unacknowledged) = demo_frames();
+    out += &format!(
+        "\n1. a, b, c request {}, {}, {} at once: arbitration\n",
+        arbitrating[A], arbitrating[B], arbitrating[C]
+    );
+    out += &format!(
+        "2. a sends {disturbed}; b sees its CRC delimiter dominant: an error frame, a retransmits\n"
+    );
+    out += &format!(
+        "3. b and c in reset mode, a sends {unacknowledged}: ACK errors until a is error passive;\n   b and c return, a sends until it is error active again\n\n"
+    );
+    for event in &report.events {
+        out += &format!("{event}\n");
+    }
+    out += "\na's TEC:";
+    let mut passive = false;
+    for step in &report.tec_trace {
+        out += &format!(" {}", step.tec);
+        if step.error_passive != passive {
+            passive = step.error_passive;
+            out += if passive {
+                " (error passive)"
+            } else {
+                " (error active)"
+            };
         }
     }
-    out += &format!(
-        "\nsimulated {:.3} ms; every bit sampled right: {}\n",
-        report.simulated_fs as f64 / 1e12,
-        if report.all_bits_right() { "yes" } else { "NO" }
-    );
+    out += "\n\nnode  sent  received  errors  TEC  REC  state\n";
+    for n in &report.nodes {
+        out += &format!(
+            "{:<4}  {:>4}  {:>8}  {:>6}  {:>3}  {:>3}  {}\n",
+            n.name,
+            n.sent,
+            n.received.len(),
+            n.errors,
+            n.tec,
+            n.rec,
+            if n.error_passive {
+                "error passive"
+            } else {
+                "error active"
+            }
+        );
+    }
+    out += &format!("\nsimulated {:.3} ms\n", report.simulated_fs as f64 / 1e12);
     out
 }

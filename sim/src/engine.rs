@@ -48,7 +48,18 @@ struct Slot {
     line: usize,
     drive: Drive,
     rx: bool,
+    disturbances: Vec<Disturbance>,
     probe_values: Vec<u64>,
+}
+
+/// A time window in which one device sees a fixed level instead of the bus (a local fault: a
+/// transceiver or wiring disturbance only that node sees).
+#[derive(Clone, Copy, Debug)]
+struct Disturbance {
+    from_fs: u64,
+    to_fs: u64,
+    /// The level seen, or `None`: the bus level inverted.
+    level: Option<bool>,
 }
 
 struct Tracing {
@@ -101,9 +112,29 @@ impl Engine {
             line,
             drive: Drive::Recessive,
             rx: true,
+            disturbances: Vec::new(),
             probe_values: vec![0; probes],
         });
         DeviceId(self.slots.len() - 1)
+    }
+
+    /// Makes device `id` see `level` instead of the bus at its clock edges in `from_fs..to_fs` (the
+    /// other devices and the bus are unaffected).
+    pub fn disturb_rx(&mut self, id: DeviceId, from_fs: u64, to_fs: u64, level: bool) {
+        self.slots[id.0].disturbances.push(Disturbance {
+            from_fs,
+            to_fs,
+            level: Some(level),
+        });
+    }
+
+    /// Makes device `id` see the inverted bus level at its clock edges in `from_fs..to_fs`.
+    pub fn invert_rx(&mut self, id: DeviceId, from_fs: u64, to_fs: u64) {
+        self.slots[id.0].disturbances.push(Disturbance {
+            from_fs,
+            to_fs,
+            level: None,
+        });
     }
 
     /// Starts writing a VCD of the bus and every device to `path`; call after adding the devices.
@@ -190,8 +221,16 @@ impl Engine {
         self.now = t;
         self.edges += 1;
         let line = self.slots[i].line;
-        let rx = self.bus.level_seen_by(line, t);
         let slot = &mut self.slots[i];
+        let bus = self.bus.level_seen_by(line, t);
+        let rx = match slot
+            .disturbances
+            .iter()
+            .find(|d| (d.from_fs..d.to_fs).contains(&t))
+        {
+            Some(d) => d.level.unwrap_or(!bus),
+            None => bus,
+        };
         let drive = slot.device.rising_edge(t, rx);
         slot.rx = rx;
         slot.edges += 1;
@@ -268,5 +307,60 @@ impl Engine {
             tracing.tracer.bus(at, level)?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Drives a fixed level and records what it sees at each edge.
+    struct Probe {
+        drive: Drive,
+        seen: Vec<bool>,
+    }
+
+    impl Device for Probe {
+        fn name(&self) -> &str {
+            "probe"
+        }
+        fn clock(&self) -> ClockSpec {
+            ClockSpec::from_hz(1e6)
+        }
+        fn rising_edge(&mut self, _t_fs: u64, rx: bool) -> Drive {
+            self.seen.push(rx);
+            self.drive
+        }
+        fn as_any(&self) -> &dyn Any {
+            self
+        }
+        fn as_any_mut(&mut self) -> &mut dyn Any {
+            self
+        }
+    }
+
+    fn probe(drive: Drive) -> Probe {
+        Probe {
+            drive,
+            seen: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_disturbance_changes_what_one_device_sees_only_in_its_window() {
+        let mut engine = Engine::new();
+        let driver = engine.add(probe(Drive::Dominant), 0);
+        let victim = engine.add(probe(Drive::Recessive), 0);
+        let us = ClockSpec::from_hz(1e6).period_fs();
+        engine.disturb_rx(victim, 3 * us, 5 * us, true);
+        engine.invert_rx(victim, 7 * us, 8 * us);
+        engine.run_until(10 * us).unwrap();
+        let seen = |id| engine.device::<Probe>(id).seen.clone();
+        // Edge 0 sees the idle bus; from edge 1 on the driver's dominant level.
+        let expected: Vec<bool> = (0..10)
+            .map(|k| k == 0 || (3..5).contains(&k) || k == 7)
+            .collect();
+        assert_eq!(seen(victim), expected);
+        assert_eq!(seen(driver), (0..10).map(|k| k == 0).collect::<Vec<_>>());
     }
 }

@@ -13,6 +13,7 @@ pub mod engine;
 pub mod frame;
 pub mod lower_tester;
 pub mod rtl_step;
+pub mod sync_demo;
 pub mod time;
 pub mod trace;
 pub mod worst_case;

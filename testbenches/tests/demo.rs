@@ -1,39 +1,133 @@
-//! The demo run: every node samples every bit right, and its VCD is a bus trace that sigrok's CAN
-//! decoder reads frame by frame without a warning.
+//! The demo run (`cansim demo`): three controllers arbitrate, recover from an injected error, and one
+//! goes error passive and back; sigrok's CAN decoder reads every frame of its VCD and flags the error
+//! frames.
 
-use sim::demo::run_demo;
+use sim::can_node::NodeEvent;
+use sim::demo::{demo_frames, run_demo, DemoReport, DEMO_SAMPLE_POINT_PCT};
 use testbenches::sigrok;
 
+/// ECC of b's form error in the CRC delimiter (receiving), and of the form errors it causes in the
+/// ACK delimiter at a (transmitting) and c (receiving); a's ACK errors (transmitting, ACK slot).
+const B_CRC_DELIMITER_FORM: u8 = 0x78;
+const A_ACK_DELIMITER_FORM: u8 = 0x5B;
+const C_ACK_DELIMITER_FORM: u8 = 0x7B;
+const A_ACK_ERROR: u8 = 0xD9;
+
+fn events_of(report: &DemoReport, node: &str) -> Vec<NodeEvent> {
+    report
+        .events
+        .iter()
+        .filter(|e| e.node == node)
+        .map(|e| e.event.clone())
+        .collect()
+}
+
+fn errors_of(report: &DemoReport, node: &str) -> Vec<u8> {
+    events_of(report, node)
+        .into_iter()
+        .filter_map(|e| match e {
+            NodeEvent::BusError(ecc) => Some(ecc),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Nodes in the order of their successful transmissions.
+fn senders(report: &DemoReport) -> Vec<&str> {
+    report
+        .events
+        .iter()
+        .filter(|e| e.event == NodeEvent::TransmitDone(true))
+        .map(|e| e.node)
+        .collect()
+}
+
 #[test]
-fn demo_nodes_sample_every_bit_and_sigrok_decodes_every_frame() {
+fn demo_arbitrates_recovers_goes_error_passive_and_back_and_sigrok_decodes_it() {
     let dir = std::env::temp_dir().join(format!("cansim-demo-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let vcd = dir.join("demo.vcd");
     let report = run_demo(Some(&vcd)).expect("demo runs");
-    assert!(report.all_bits_right(), "{report:#?}");
-    assert_eq!(report.nodes.len(), 3);
-    for node in &report.nodes {
-        for f in &node.frames {
-            assert_eq!(
-                f.hard_syncs, 1,
-                "{}: one hard sync per frame (SOF)",
-                node.name
-            );
-        }
-    }
-    let moved = &report.nodes[0].frames[1];
+    let ([frame_a, frame_b, frame_c], disturbed, _) = demo_frames();
+
+    // Arbitration: 0x121 (c) beats 0x123 (a) at identifier bit 9; b's extended 0x12345678 (base
+    // 0x48D) loses at bit 0 to both.
+    assert_eq!(&senders(&report)[..4], ["c", "a", "b", "a"]);
+    let losses = |node| {
+        events_of(&report, node)
+            .into_iter()
+            .filter(|e| matches!(e, NodeEvent::ArbitrationLost(_)))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(losses("a"), [NodeEvent::ArbitrationLost(9)]);
     assert_eq!(
-        moved.sample_after_edge_tq,
-        Some(13.0),
-        "3 tq late, SJW 2: sample 1 tq early"
+        losses("b"),
+        [NodeEvent::ArbitrationLost(0), NodeEvent::ArbitrationLost(0)]
     );
+
+    // The injected error: detected once by each node, with the ECC of where each saw it.
+    let a_errors = errors_of(&report, "a");
+    assert_eq!(errors_of(&report, "b"), [B_CRC_DELIMITER_FORM]);
+    assert_eq!(errors_of(&report, "c"), [C_ACK_DELIMITER_FORM]);
+    assert_eq!(a_errors[0], A_ACK_DELIMITER_FORM);
+
+    // Error passive and back: ACK errors only, TEC above 127, then active again at 127.
+    let ack_errors = a_errors.len() - 1;
+    assert!(a_errors[1..].iter().all(|&ecc| ecc == A_ACK_ERROR));
+    let trace = &report.tec_trace;
+    let passive_at = trace
+        .iter()
+        .position(|s| s.error_passive)
+        .expect("a was error passive");
+    assert!(trace[passive_at].tec >= 128, "{trace:?}");
+    let last = trace.last().unwrap();
+    assert_eq!((last.tec, last.error_passive), (127, false), "{trace:?}");
+    // TEC 7 after phase 2 (+8 - 1), + 8 per ACK error, - 1 per success.
+    let successes_after = report.nodes[0].sent - 2;
+    assert_eq!(7 + 8 * ack_errors - successes_after, 127);
+
+    // Every receiver got every frame once, in bus order.
+    for (n, node) in report.nodes.iter().enumerate() {
+        let others_sent: usize = report
+            .nodes
+            .iter()
+            .enumerate()
+            .filter(|(m, _)| *m != n)
+            .map(|(_, o)| o.sent)
+            .sum();
+        assert_eq!(node.received.len(), others_sent, "{}", node.name);
+        assert_eq!(node.rec, 0, "{}", node.name);
+    }
+    assert_eq!(report.nodes[1].received[..3], [frame_c, frame_a, disturbed]);
     assert!(vcd.exists() && !dir.join("demo.vcd.partial").exists());
     if sigrok::skipped() {
         return;
     }
-    let decoded = sigrok::decode(&vcd, "bus", 500_000, 87.5);
-    let sent: Vec<&str> = report.frames.iter().map(|(f, _)| f.as_str()).collect();
-    assert_eq!(decoded.frames, sent);
-    assert!(decoded.warnings.is_empty(), "{:?}", decoded.warnings);
+
+    // sigrok sees every frame that reached its ACK slot: the disturbed one and its retransmission,
+    // every unacknowledged attempt, and flags each error frame's dominant ACK delimiter and EOF.
+    let decoded = sigrok::decode(&vcd, "bus", 500_000, DEMO_SAMPLE_POINT_PCT);
+    let mut expected: Vec<String> = [frame_c, frame_a, frame_b, disturbed, disturbed]
+        .iter()
+        .map(|f| f.to_string())
+        .collect();
+    let received_by_b = &report.nodes[1].received;
+    let unacknowledged = received_by_b[3].to_string();
+    expected.extend(std::iter::repeat_n(unacknowledged, ack_errors));
+    expected.extend(received_by_b[3..].iter().map(|f| f.to_string()));
+    assert_eq!(decoded.frames, expected);
+    let error_frames = 1 + ack_errors;
+    let count = |text: &str| decoded.warnings.iter().filter(|w| w.contains(text)).count();
+    assert_eq!(count("ACK delimiter must be a recessive bit"), error_frames);
+    assert_eq!(
+        count("End of frame (EOF) must be 7 recessive bits"),
+        error_frames
+    );
+    assert_eq!(
+        decoded.warnings.len(),
+        2 * error_frames,
+        "{:?}",
+        decoded.warnings
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -3,13 +3,16 @@
 //!
 //! Ports in: counter events from the protocol engine (one-clock strobes at the process point:
 //! `rec_plus_1`, `rec_plus_8`, `tec_plus_8`, `tec_minus_1`, `rec_success`), `recovery_tick` (11
-//! consecutive recessive bits seen while bus-off and recovery allowed), `warning_limit` (EWLR). Out:
+//! consecutive recessive bits seen while bus-off and recovery allowed), host writes (`load_tec`/`load_rec` with
+//! `load_value`), `warning_limit` (EWLR). Out:
 //! `tec`, `rec`, `error_passive`, `bus_off`, `error_warning`. Acts on the rising edge of `clock`.
 //!
 //! Rules (catalog group EC): REC saturates at 255 and never causes bus-off; a successful reception
 //! takes REC from above 127 to 127, otherwise down by one; TEC above 255 is bus-off, entered with
 //! TEC = 127 and REC = 0 as on the SJA1000; while bus-off the counters are frozen but for recovery,
-//! where each `recovery_tick` counts TEC down and the 128th ends bus-off with both counters 0.
+//! where each `recovery_tick` counts TEC down and the 128th ends bus-off with both counters 0. A host
+//! write of 255 into TEC enters bus-off the same way; a write of 0..254 while bus-off ends it at once
+//! (TEC = the value written, REC = 0); REC writes are ignored while bus-off.
 
 use rust_hdl::prelude::*;
 
@@ -110,10 +113,20 @@ impl Logic for FaultConfinement {
                 }
             }
         }
+        // Host writes (SJA1000 TXERR/RXERR): 255 into TEC forces bus-off; any other TEC value ends
+        // bus-off at once; REC cannot be written while bus-off.
         if self.load_tec.val() {
             self.tec_count.d.next = self.load_value.val();
+            if self.load_value.val() == 255 {
+                self.bus_off_state.d.next = true;
+                self.tec_count.d.next = 127.into();
+                self.rec_count.d.next = 0.into();
+            } else if self.bus_off_state.q.val() {
+                self.bus_off_state.d.next = false;
+                self.rec_count.d.next = 0.into();
+            }
         }
-        if self.load_rec.val() {
+        if self.load_rec.val() & (self.bus_off_state.q.val() == false) {
             self.rec_count.d.next = self.load_value.val();
         }
         if self.reset.val() {

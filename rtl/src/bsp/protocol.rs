@@ -4,7 +4,7 @@
 //!
 //! Ports in: the bit timing triggers (`process_point`, `transmit_point`) and `rx_bit`; `enable` (low =
 //! SJA1000 reset mode: tx recessive at once, the node waits for bus integration afterwards); the
-//! transmit request (`tx_request`, `tx_single_shot`), the frame to send as the SJA1000 TX buffer
+//! transmit request (`tx_request`, `tx_single_shot`, `tx_abort`), the frame to send as the SJA1000 TX buffer
 //! (`tx_info` = frame information byte, and `tx_data` = the byte at `tx_addr`), `warning_limit`.
 //! Out: `tx`, `sync_mode`/`tx_dominant` for the bit timing logic, the received frame (`rx_id`,
 //! `rx_ide`, `rx_rtr`, `rx_dlc` valid at `rx_header`, then every data byte with `rx_byte_strobe`, and
@@ -86,6 +86,9 @@ pub struct Protocol {
     pub tx_request: Signal<In, Bit>,
     /// One attempt only (no retransmission after an error or lost arbitration).
     pub tx_single_shot: Signal<In, Bit>,
+    /// Abort the request (one clock): a request not under transmission ends at the next process
+    /// point (`tx_done` without success); an attempt under way finishes as a single shot.
+    pub tx_abort: Signal<In, Bit>,
     /// Frame information byte of the frame to send: FF (7), RTR (6), DLC (3..0).
     pub tx_info: Signal<In, Bits<8>>,
     /// The transmit-buffer byte at `tx_addr`.
@@ -175,6 +178,7 @@ pub struct Protocol {
     valid_pulse: DFF<Bit>,
     done_pulse: DFF<Bit>,
     done_success: DFF<Bit>,
+    abort_pending: DFF<Bit>,
     error_pulse: DFF<Bit>,
     ecc_reg: DFF<Bits<8>>,
     lost_pulse: DFF<Bit>,
@@ -198,6 +202,7 @@ pub struct Protocol {
     error_counts: Signal<Local, Bit>,
     start_frame: Signal<Local, Bit>,
     may_start: Signal<Local, Bit>,
+    single_shot: Signal<Local, Bit>,
     consume_stream: Signal<Local, Bit>,
     stream_bit: Signal<Local, Bit>,
     stream_next_bit: Signal<Local, Bit>,
@@ -236,6 +241,7 @@ impl Logic for Protocol {
             valid_pulse,
             done_pulse,
             done_success,
+            abort_pending,
             error_pulse,
             ecc_reg,
             lost_pulse,
@@ -317,7 +323,9 @@ impl Logic for Protocol {
         }
         // A new frame of our own may start: a request, and no suspend owed (error-passive former
         // transmitter) unless the suspend is over.
+        self.single_shot.next = self.tx_single_shot.val() | self.abort_pending.q.val();
         self.may_start.next = self.tx_request.val()
+            & !self.abort_pending.q.val()
             & self.enable.val()
             & !self.faults.bus_off.val()
             & !self.done_pulse.q.val();
@@ -527,7 +535,7 @@ impl Logic for Protocol {
                                 self.consume_stream.next = false;
                                 self.lost_pulse.d.next = true;
                                 self.alc_reg.d.next = self.count.q.val().get_bits::<5>(0);
-                                if self.tx_single_shot.val() {
+                                if self.single_shot.val() {
                                     self.done_pulse.d.next = true;
                                     self.done_success.d.next = false;
                                 }
@@ -807,11 +815,25 @@ impl Logic for Protocol {
                         self.faults.rec_plus_8.next = true;
                     }
                 }
-                if self.next_transmitter.val() & self.tx_single_shot.val() & self.in_frame.val() {
+                if self.next_transmitter.val() & self.single_shot.val() & self.in_frame.val() {
                     self.done_pulse.d.next = true;
                     self.done_success.d.next = false;
                 }
             }
+
+            // An aborted request with no attempt under way ends here.
+            if self.abort_pending.q.val() & (self.next_transmitter.val() == false) {
+                self.done_pulse.d.next = true;
+                self.done_success.d.next = false;
+            }
+        }
+
+        // An abort lasts until the request ends.
+        if self.tx_abort.val() {
+            self.abort_pending.d.next = true;
+        }
+        if self.done_pulse.q.val() | (self.tx_request.val() == false) {
+            self.abort_pending.d.next = false;
         }
 
         // ---- The transmit-buffer stream.
@@ -982,6 +1004,7 @@ impl Logic for Protocol {
             self.crc_error.d.next = false;
             self.ack_penalty.d.next = false;
             self.done_pulse.d.next = false;
+            self.abort_pending.d.next = false;
             self.error_pulse.d.next = false;
             self.lost_pulse.d.next = false;
         }

@@ -5,7 +5,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use sim::btr::{calc_bittiming, format_calculation, format_table};
-use sim::demo::{format_report, run_demo};
+use sim::demo::{format_report, run_demo, DEMO_SAMPLE_POINT_PCT};
+use sim::sync_demo;
 
 #[derive(Parser)]
 #[command(
@@ -20,11 +21,24 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Lower tester sends frames with phase errors to three nodes; writes a VCD and reports where each
-    /// node sampled (the default command).
+    /// Three CAN controllers arbitrate, recover from an injected error, and one goes error passive
+    /// and back; writes a VCD and prints what every controller reported (the default command).
     Demo {
         /// Where to write the waveform.
         #[arg(long, default_value = "waves/demo.vcd")]
+        vcd: PathBuf,
+        /// Do not write a waveform.
+        #[arg(long)]
+        no_vcd: bool,
+        /// Print only the summary line.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Bit timing only: a lower tester sends frames with phase errors to three bit timing logics;
+    /// writes a VCD and reports where each node sampled.
+    SyncDemo {
+        /// Where to write the waveform.
+        #[arg(long, default_value = "waves/sync_demo.vcd")]
         vcd: PathBuf,
         /// Do not write a waveform.
         #[arg(long)]
@@ -62,6 +76,7 @@ fn main() -> ExitCode {
         quiet: false,
     }) {
         Command::Demo { vcd, no_vcd, quiet } => demo(vcd, no_vcd, quiet),
+        Command::SyncDemo { vcd, no_vcd, quiet } => sync_demo(vcd, no_vcd, quiet),
         Command::Bittiming {
             clock,
             bitrate,
@@ -79,36 +94,59 @@ fn main() -> ExitCode {
     }
 }
 
-fn demo(vcd: PathBuf, no_vcd: bool, quiet: bool) -> Result<(), String> {
-    let path = (!no_vcd).then_some(vcd);
-    if let Some(dir) = path
-        .as_ref()
-        .and_then(|p| p.parent())
-        .filter(|d| !d.as_os_str().is_empty())
-    {
+/// The VCD path to write (its directory created), or `None` with `--no-vcd`.
+fn vcd_path(vcd: PathBuf, no_vcd: bool) -> Result<Option<PathBuf>, String> {
+    if no_vcd {
+        return Ok(None);
+    }
+    if let Some(dir) = vcd.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     }
+    Ok(Some(vcd))
+}
+
+fn print_waves_hint(vcd: Option<&PathBuf>, view: &str, quiet: bool) {
+    let Some(vcd) = vcd else { return };
+    println!("wrote {}", vcd.display());
+    if !quiet {
+        println!(
+            "decode: sigrok-cli -I vcd -i {0} -P can:can_rx=bus:nominal_bitrate=500000:sample_point={DEMO_SAMPLE_POINT_PCT} -A can=fields\nview:   gtkwave {0} {view}",
+            vcd.display()
+        );
+    }
+}
+
+fn demo(vcd: PathBuf, no_vcd: bool, quiet: bool) -> Result<(), String> {
+    let path = vcd_path(vcd, no_vcd)?;
     let report = run_demo(path.as_deref()).map_err(|e| e.to_string())?;
+    if quiet {
+        let frames: usize = report.nodes.iter().map(|n| n.sent).sum();
+        let errors: usize = report.nodes.iter().map(|n| n.errors).sum();
+        println!(
+            "cansim demo: {frames} frames sent, {errors} bus errors detected, every phase done"
+        );
+    } else {
+        print!("{}", format_report(&report));
+    }
+    print_waves_hint(report.vcd.as_ref(), "waves/demo.gtkw", quiet);
+    Ok(())
+}
+
+fn sync_demo(vcd: PathBuf, no_vcd: bool, quiet: bool) -> Result<(), String> {
+    let path = vcd_path(vcd, no_vcd)?;
+    let report = sync_demo::run_demo(path.as_deref()).map_err(|e| e.to_string())?;
     if quiet {
         let verdict = if report.all_bits_right() {
             "every bit sampled right"
         } else {
             "BITS SAMPLED WRONG"
         };
-        println!("cansim demo: {verdict}");
+        println!("cansim sync-demo: {verdict}");
     } else {
-        print!("{}", format_report(&report));
+        print!("{}", sync_demo::format_report(&report));
     }
-    if let Some(vcd) = &report.vcd {
-        println!("wrote {}", vcd.display());
-        if !quiet {
-            println!(
-                "decode: sigrok-cli -I vcd -i {0} -P can:can_rx=bus:nominal_bitrate=500000:sample_point=87.5 -A can=fields\nview:   gtkwave {0} waves/demo.gtkw",
-                vcd.display()
-            );
-        }
-    }
+    print_waves_hint(report.vcd.as_ref(), "waves/sync_demo.gtkw", quiet);
     if report.all_bits_right() {
         Ok(())
     } else {
