@@ -1,7 +1,7 @@
 # Entry points of the project. `make test` is what CI runs.
 CARGO ?= cargo
 
-.PHONY: test check tools demo waves lint verilog synth bench clean
+.PHONY: test check tools demo waves lint verilog synth bench campaign clean
 
 ## Install the external tools (sigrok-cli), then run every test.
 test: tools
@@ -27,6 +27,12 @@ waves: demo
 ## Speed figures of the simulation engine.
 bench:
 	$(CARGO) bench -p sim --bench engine
+
+## Fault-injection campaign on every core (FAULTS=100000 by default, SEED=1).
+FAULTS ?= 100000
+SEED ?= 1
+campaign:
+	$(CARGO) run --release -- campaign --faults $(FAULTS) --seed $(SEED)
 
 lint verilog synth:
 	@echo "make $@: not yet (Verilog generation and lint come with the Verilog issue)"; exit 1

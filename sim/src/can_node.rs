@@ -16,7 +16,7 @@ use crate::btr::Btr;
 use crate::bus::Drive;
 use crate::engine::Device;
 use crate::frame::{Frame, Id};
-use crate::rtl_step::clock_cycle;
+use crate::rtl_step::clock_cycle_with;
 use crate::time::ClockSpec;
 use crate::trace::Probe;
 
@@ -72,6 +72,8 @@ pub struct CanNode {
     pending_load: Option<(bool, u8)>,
     pending_abort: bool,
     request_pending: bool,
+    /// An input was changed since the last clock edge (the design needs an input settle).
+    inputs_changed: bool,
 }
 
 impl CanNode {
@@ -98,9 +100,11 @@ impl CanNode {
             pending_load: None,
             pending_abort: false,
             request_pending: false,
+            inputs_changed: true,
         };
         node.clock_edge();
         node.uut.reset.next = false;
+        node.inputs_changed = true;
         node
     }
 
@@ -117,6 +121,7 @@ impl CanNode {
         self.uut.tx_info.next = (self.tx_buffer[0] as u64).to_bits();
         self.uut.tx_single_shot.next = single_shot;
         self.uut.tx_request.next = true;
+        self.inputs_changed = true;
     }
 
     /// Aborts the pending request at the next clock edge (SJA1000 CMR.AT): a frame not under
@@ -134,6 +139,7 @@ impl CanNode {
     /// Operating mode (`true`) or SJA1000 reset mode (`false`).
     pub fn set_enable(&mut self, enable: bool) {
         self.uut.enable.next = enable;
+        self.inputs_changed = true;
     }
 
     /// Loads TEC (`tec` = true) or REC at the next clock edge, like a host write in reset mode.
@@ -199,7 +205,8 @@ impl CanNode {
     }
 
     fn clock_edge(&mut self) {
-        clock_cycle(&mut self.uut, |u| &mut u.clock, "CAN core");
+        let changed = std::mem::take(&mut self.inputs_changed);
+        clock_cycle_with(&mut self.uut, |u| &mut u.clock, "CAN core", changed);
     }
 
     /// Collects the strobes of the clock cycle that started at `t_fs`: errors first, then the
@@ -225,6 +232,7 @@ impl CanNode {
             let success = self.uut.tx_success.val();
             self.events.push((t_fs, NodeEvent::TransmitDone(success)));
             self.uut.tx_request.next = false;
+            self.inputs_changed = true;
             self.request_pending = false;
         }
     }
@@ -258,18 +266,28 @@ impl Device for CanNode {
     }
 
     fn rising_edge(&mut self, t_fs: u64, rx: bool) -> Drive {
-        self.uut.rx.next = rx;
         let addr = self.uut.tx_addr.val().index();
-        self.uut.tx_data.next = (self.tx_buffer.get(addr).copied().unwrap_or(0) as u64).to_bits();
+        let tx_data = (self.tx_buffer.get(addr).copied().unwrap_or(0) as u64).to_bits();
+        self.inputs_changed |= rx != self.uut.rx.val() || tx_data != self.uut.tx_data.val();
+        self.uut.rx.next = rx;
+        self.uut.tx_data.next = tx_data;
         let load = self.pending_load.take();
-        self.uut.load_tec.next = matches!(load, Some((true, _)));
-        self.uut.load_rec.next = matches!(load, Some((false, _)));
-        self.uut.counter_value.next = (load.map_or(0, |(_, v)| v) as u64).to_bits();
-        self.uut.tx_abort.next = std::mem::take(&mut self.pending_abort);
+        let abort = std::mem::take(&mut self.pending_abort);
+        let strobes = load.is_some() || abort;
+        if strobes {
+            self.uut.load_tec.next = matches!(load, Some((true, _)));
+            self.uut.load_rec.next = matches!(load, Some((false, _)));
+            self.uut.counter_value.next = (load.map_or(0, |(_, v)| v) as u64).to_bits();
+            self.uut.tx_abort.next = abort;
+            self.inputs_changed = true;
+        }
         self.clock_edge();
-        self.uut.load_tec.next = false;
-        self.uut.load_rec.next = false;
-        self.uut.tx_abort.next = false;
+        if strobes {
+            self.uut.load_tec.next = false;
+            self.uut.load_rec.next = false;
+            self.uut.tx_abort.next = false;
+            self.inputs_changed = true;
+        }
         self.collect(t_fs);
         Drive::from_level(self.uut.tx.val())
     }

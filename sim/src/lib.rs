@@ -6,12 +6,14 @@
 pub mod btl_node;
 pub mod btr;
 pub mod bus;
+pub mod campaign;
 pub mod can_node;
 pub mod crc15;
 pub mod demo;
 pub mod engine;
 pub mod frame;
 pub mod lower_tester;
+pub mod reference;
 pub mod rtl_step;
 pub mod sync_demo;
 pub mod time;

@@ -28,13 +28,23 @@ pub struct ProtocolBench {
     lt: DeviceId,
     iut: DeviceId,
     btr: Btr,
+    clock: ClockSpec,
 }
 
 impl ProtocolBench {
     /// A bench whose LT starts playing at once (the IUT receives).
     pub fn new() -> ProtocolBench {
-        let btr = bt_a();
-        let clock = ClockSpec::from_hz(CLOCK_HZ);
+        ProtocolBench::with_btr(bt_a())
+    }
+
+    /// As [`ProtocolBench::new`], with the bit timing `btr` for both the LT and the IUT.
+    pub fn with_btr(btr: Btr) -> ProtocolBench {
+        ProtocolBench::with_clock(btr, ClockSpec::from_hz(CLOCK_HZ))
+    }
+
+    /// As [`ProtocolBench::with_btr`], with the LT and the IUT both on `clock` (e.g. a clock some
+    /// ppm off the nominal 16 MHz), so the LT's script bits stay the IUT's bits.
+    pub fn with_clock(btr: Btr, clock: ClockSpec) -> ProtocolBench {
         let mut engine = Engine::new();
         engine.keep_history();
         let lt = engine.add(LowerTester::new("lt", clock, btr), 0);
@@ -44,6 +54,7 @@ impl ProtocolBench {
             lt,
             iut,
             btr,
+            clock,
         }
     }
 
@@ -56,7 +67,26 @@ impl ProtocolBench {
     /// As [`ProtocolBench::iut_transmits`], with the IUT's TEC preset to `tec` before integration and
     /// a single-shot request if `single_shot`.
     pub fn iut_transmits_with(frame: &Frame, tec: u8, single_shot: bool) -> ProtocolBench {
-        let mut bench = ProtocolBench::new();
+        ProtocolBench::transmitting(ProtocolBench::new(), frame, tec, single_shot)
+    }
+
+    /// As [`ProtocolBench::iut_transmits`], with the bit timing `btr` for both the LT and the IUT.
+    pub fn iut_transmits_in(btr: Btr, frame: &Frame) -> ProtocolBench {
+        ProtocolBench::transmitting(ProtocolBench::with_btr(btr), frame, 0, false)
+    }
+
+    /// As [`ProtocolBench::iut_transmits_in`], with the LT and the IUT on `clock`
+    /// (see [`ProtocolBench::with_clock`]).
+    pub fn iut_transmits_on(btr: Btr, clock: ClockSpec, frame: &Frame) -> ProtocolBench {
+        ProtocolBench::transmitting(ProtocolBench::with_clock(btr, clock), frame, 0, false)
+    }
+
+    fn transmitting(
+        mut bench: ProtocolBench,
+        frame: &Frame,
+        tec: u8,
+        single_shot: bool,
+    ) -> ProtocolBench {
         bench.lt().start_on_dominant();
         bench.iut_mut().load_counter(true, tec);
         bench.integrate();
@@ -81,8 +111,13 @@ impl ProtocolBench {
     /// Lets the IUT integrate (runs the bus idle for [`INTEGRATION_BITS`]) before the LT's script.
     pub fn integrate(&mut self) {
         let bits = INTEGRATION_BITS as u64 * self.btr.clocks_per_bit() as u64;
-        let end = self.engine.now() + bits * ClockSpec::from_hz(CLOCK_HZ).period_fs();
+        let end = self.engine.now() + bits * self.clock.period_fs();
         self.engine.run_until(end).expect("simulation");
+    }
+
+    /// The bit timing of the LT and the IUT.
+    pub fn btr(&self) -> Btr {
+        self.btr
     }
 
     /// Quanta from a bit's start to its sample point.
@@ -123,7 +158,7 @@ impl ProtocolBench {
             "the lower tester never started or never finished its script"
         );
         let bits = extra_bits as u64 * self.btr.clocks_per_bit() as u64;
-        let end = self.engine.now() + bits * ClockSpec::from_hz(CLOCK_HZ).period_fs();
+        let end = self.engine.now() + bits * self.clock.period_fs();
         self.engine.run_until(end).expect("simulation");
     }
 
@@ -131,10 +166,62 @@ impl ProtocolBench {
     pub fn run_until<F: Fn(&CanNode) -> bool>(&mut self, max_bits: u64, done: F) -> bool {
         let iut = self.iut;
         let bits = max_bits * self.btr.clocks_per_bit() as u64;
-        let limit = self.engine.now() + bits * ClockSpec::from_hz(CLOCK_HZ).period_fs();
+        let limit = self.engine.now() + bits * self.clock.period_fs();
         self.engine
             .run_while(limit, |e| done(e.device::<CanNode>(iut)))
             .expect("simulation")
+    }
+
+    /// Runs until script bit `bit` of the LT starts (first until the LT starts, if it has not).
+    pub fn run_to_bit(&mut self, bit: usize) {
+        if self.lt_ref().started_at().is_none() {
+            let lt = self.lt;
+            let limit = self.engine.now() + sim::time::FS_PER_S;
+            let started = self
+                .engine
+                .run_while(limit, |e| {
+                    e.device::<LowerTester>(lt).started_at().is_some()
+                })
+                .expect("simulation");
+            assert!(started, "the LT never started");
+        }
+        let at = self.lt_ref().bit_time(bit).expect("LT started");
+        assert!(
+            at >= self.engine.now(),
+            "script bit {bit} has already started"
+        );
+        self.engine.run_until(at).expect("simulation");
+    }
+
+    /// Clocks from the start of the LT's script to the start of script bit `bit`.
+    pub fn bit_start_clock(&self, bit: usize) -> u64 {
+        let lt = self.lt_ref();
+        lt.bit_start_quantum(bit) as u64 * self.btr.clocks_per_tq() as u64
+    }
+
+    /// Every change of the IUT's drive while the LT played script bits `from_bit..to_bit`, as
+    /// (clocks from the start of the LT's script, new level). The IUT's drive changes at its clock
+    /// edges, which are the LT's (same clock).
+    pub fn iut_edges(&self, from_bit: usize, to_bit: usize) -> Vec<(u64, bool)> {
+        let lt = self.lt_ref();
+        let period = self.clock.period_fs();
+        let start = lt.started_at().expect("LT started");
+        let from = lt.bit_time(from_bit).expect("LT started");
+        let to = lt.bit_time(to_bit).expect("LT started");
+        let mut level = self.engine.drive_before(self.iut, from).level();
+        let mut edges = Vec::new();
+        let mut t = self
+            .clock
+            .edge(from.saturating_sub(self.clock.edge(0)).div_ceil(period));
+        while t < to {
+            let after = self.engine.drive_before(self.iut, t + 1).level();
+            if after != level {
+                edges.push(((t - start) / period, after));
+                level = after;
+            }
+            t += period;
+        }
+        edges
     }
 
     /// Whether the IUT drove dominant at the LT's sample point of script bit `bit`.

@@ -1,10 +1,16 @@
 //! Conformance group BT (bit timing and synchronisation) at the level of the bit timing logic's sample
 //! and transmit points, in every catalog configuration (BT-A, BT-B, BT-C, each with BRP 0 and BRP > 0),
 //! sweeping every phase error. Positions are lower-tester script quanta: a sample "at quantum q of a bit"
-//! took the bus level of the last clock of quantum q − 1 of that bit.
+//! took the bus level of the last clock of quantum q − 1 of that bit. The error-flag case of BT-18 needs
+//! the protocol engine: two RTL cores (`CanNode`) with the LT injecting the error.
 
+use sim::btr::Btr;
 use sim::bus::Drive;
+use sim::can_node::{CanNode, NodeEvent};
+use sim::engine::DeviceId;
 use sim::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE};
+use sim::time::ClockSpec;
+use testbenches::protocol_bench::ProtocolBench;
 use testbenches::{bt_configs, BtBench, LEAD_IN_BITS};
 
 const D: bool = DOMINANT;
@@ -369,5 +375,165 @@ fn bt_18_oscillator_tolerance_at_and_beyond_the_limit() {
             cfg.name,
             2.0 * df_ppm
         );
+    }
+}
+
+/// One exchange of [`error_flag_exchange`].
+struct FlagExchange {
+    /// The transmitter is the bench's IUT; the LT's script bits are its bits (same clock).
+    bench: ProtocolBench,
+    /// The receiver.
+    rx: DeviceId,
+    /// The transmitter's recessive stuff bit forced dominant.
+    error_at: usize,
+}
+
+impl FlagExchange {
+    fn receiver(&self) -> &CanNode {
+        self.bench.engine.device(self.rx)
+    }
+}
+
+/// A data frame whose data field has a recessive stuff bit after five dominant bits.
+fn flag_case_frame() -> Frame {
+    Frame::data(Id::standard(0x2C5).unwrap(), &[0x00, 0x00]).unwrap()
+}
+
+/// A transmitter on a clock `tx_ppm` off nominal sends [`flag_case_frame`] to a receiver at
+/// `rx_ppm` whose line delay fills the propagation segment (see [`receiver_delay_fs`]). With
+/// `inject`, the LT (on the transmitter's clock, so its script bits are the transmitter's bits)
+/// forces the first recessive stuff bit of the data field dominant, from 2 tq before that bit to
+/// 4 tq into the next one (no edge of its own): the transmitter sees a bit error, the receiver a
+/// stuff error, both send an error flag, and the bus has been dominant for 12 bits since the last
+/// recessive → dominant edge (the start of the five dominant bits) when the error delimiter starts.
+fn error_flag_exchange(btr: Btr, tx_ppm: f64, rx_ppm: f64, inject: bool) -> FlagExchange {
+    let encoded = encode(&flag_case_frame());
+    let error_at = (0..encoded.len())
+        .find(|&i| {
+            let tag = &encoded.tags[i];
+            tag.stuff && tag.field == Field::Data && encoded.bits[i] == R
+        })
+        .expect("a recessive stuff bit in the data field");
+    assert!(
+        (error_at - 5..error_at).all(|i| encoded.bits[i] == D) && encoded.bits[error_at - 6] == R
+    );
+    let tx_clock = ClockSpec::with_ppm(testbenches::CLOCK_HZ, tx_ppm);
+    let rx_clock = ClockSpec::with_ppm(testbenches::CLOCK_HZ, rx_ppm);
+    let mut bench = ProtocolBench::iut_transmits_on(btr, tx_clock, &flag_case_frame());
+    let rx = bench
+        .engine
+        .add(CanNode::new("rx", rx_clock, btr), receiver_delay_fs(btr));
+    let nbt = btr.quanta_per_bit();
+    bench.lt().release(error_at + 18 + encoded.len() + 10);
+    if inject {
+        bench
+            .lt()
+            .force(error_at - 1, nbt - 2, nbt + 6, Drive::Dominant);
+    }
+    bench.run(0);
+    FlagExchange {
+        bench,
+        rx,
+        error_at,
+    }
+}
+
+/// The receiver's line delay (each way) for which the loop transmitter → receiver → transmitter
+/// (2 · delay plus 7 clocks of the two nodes' synchronisers and tx registers) fills the propagation
+/// segment of [`Btr::prop_seg_tq`], as ISO 11898-1's tolerance formula assumes; 0 when those 7
+/// clocks alone are longer (BT-B with BRP 0). The transmitter then has Sync + Phase_Seg1 left for the
+/// drift when it reads the end of the receiver's error flag.
+fn receiver_delay_fs(btr: Btr) -> u64 {
+    let period = ClockSpec::from_hz(testbenches::CLOCK_HZ).period_fs();
+    let prop_clocks = u64::from(btr.prop_seg_tq() * btr.clocks_per_tq());
+    prop_clocks.saturating_sub(7) * period / 2
+}
+
+/// BT-A timing with SJW 4: the oscillator tolerance is set by the error-flag condition
+/// (4/(2·(13·16 − 4)) ≈ 0.98 %) rather than by the SJW condition (4/320 = 1.25 %).
+fn bt_a_sjw_4(brp: u8) -> Btr {
+    Btr::from_quanta(brp, 11, 4, 4, false).expect("BT-A with SJW 4")
+}
+
+/// BT-18, the 13-bit case of the tolerance condition `min(Phase_Seg1, Phase_Seg2) / (2·(13·NBT −
+/// Phase_Seg2))`: an error flag after five dominant bits and a stuff error leaves the bus without a
+/// resynchronising edge for 12 bits, and both nodes must still read the 13th (the first delimiter
+/// bit) correctly. Transmitter and receiver at +df and −df (and the other way round), df the
+/// configuration's tolerance, with the propagation segment filled by the line delay: one error frame
+/// (bit error for the transmitter, stuff error for the receiver), the retransmission exactly 18 bits
+/// after the error, received; TEC 8 − 1, REC 1 − 1. Run in the catalog configurations and in BT-A with
+/// SJW 4, where df comes from this condition. Measured there: from about 1.6·df (BRP 0) or 1.4·df
+/// (BRP 2) on, the fast transmitter reads the end of the slow receiver's flag as the first bit after
+/// its own, so its delimiter and retransmission come one bit late, while a frame without error is
+/// still exchanged correctly at those clocks; checked at 1.75·df.
+#[test]
+fn bt_18_error_flag_case_the_13th_bit_after_the_last_edge_is_read_correctly() {
+    let mut configs: Vec<(String, Btr)> = bt_configs()
+        .into_iter()
+        .map(|c| (c.name.to_string(), c.btr))
+        .collect();
+    for brp in [0, testbenches::BRP_ABOVE_ZERO] {
+        configs.push((format!("BT-A SJW 4/BRP{brp}"), bt_a_sjw_4(brp)));
+    }
+    for (name, btr) in configs {
+        let df_ppm = btr.oscillator_tolerance() * 1e6;
+        for tx_sign in [1.0, -1.0] {
+            let what = format!(
+                "{name}: transmitter {:+.0} ppm, receiver {:+.0} ppm",
+                tx_sign * df_ppm,
+                -tx_sign * df_ppm
+            );
+            let x = error_flag_exchange(btr, tx_sign * df_ppm, -tx_sign * df_ppm, true);
+            let e = x.error_at;
+            let mut expected: Vec<usize> = (e + 1..=e + 6).collect();
+            expected.push(e + 18);
+            assert_eq!(
+                x.bench.iut_dominant_bits(e + 1, e + 19),
+                expected,
+                "{what}: the transmitter's flag, then its retransmission at e + 18"
+            );
+            assert_eq!(
+                x.bench.iut_events(),
+                vec![NodeEvent::BusError(0x0A), NodeEvent::TransmitDone(true)],
+                "{what}: bit error (TX, data field), then sent"
+            );
+            assert_eq!(
+                x.receiver()
+                    .events()
+                    .iter()
+                    .map(|(_, ev)| ev.clone())
+                    .collect::<Vec<_>>(),
+                vec![
+                    NodeEvent::BusError(0xAA),
+                    NodeEvent::Received(flag_case_frame())
+                ],
+                "{what}: stuff error (RX, data field), then received"
+            );
+            assert_eq!(
+                (x.bench.iut().tec(), x.receiver().rec()),
+                (7, 0),
+                "{what}: TEC +8 −1, REC +1 −1"
+            );
+        }
+    }
+    for brp in [0, testbenches::BRP_ABOVE_ZERO] {
+        let btr = bt_a_sjw_4(brp);
+        let ppm = 1.75 * btr.oscillator_tolerance() * 1e6;
+        let x = error_flag_exchange(btr, ppm, -ppm, true);
+        let e = x.error_at;
+        let mut late: Vec<usize> = (e + 1..=e + 6).collect();
+        late.push(e + 19);
+        assert_eq!(
+            x.bench.iut_dominant_bits(e + 1, e + 20),
+            late,
+            "BT-A SJW 4/BRP{brp} at ±{ppm:.0} ppm: the 13th bit is misread, the retransmission is late"
+        );
+        let clean = error_flag_exchange(btr, ppm, -ppm, false);
+        assert_eq!(
+            clean.bench.iut_events(),
+            vec![NodeEvent::TransmitDone(true)],
+            "BT-A SJW 4/BRP{brp} at ±{ppm:.0} ppm: without the error the frame still gets through"
+        );
+        assert_eq!(clean.receiver().received(), vec![flag_case_frame()]);
     }
 }

@@ -504,3 +504,297 @@ fn ep_06_passive_transmitter_retransmits_after_suspend() {
         "passive flag, delimiter, intermission, suspend: SOF at e + 26"
     );
 }
+
+/// A frame that loses arbitration against `frame()` at its last base identifier bit (ID.18, ALC 10).
+fn winner_frame() -> Frame {
+    Frame::data(Id::standard(0x2C4).unwrap(), &[0x42]).unwrap()
+}
+
+/// Time of the IUT's first `TransmitDone` event.
+fn transmit_done_at(bench: &ProtocolBench) -> u64 {
+    bench
+        .iut()
+        .events()
+        .iter()
+        .find(|(_, e)| matches!(e, NodeEvent::TransmitDone(_)))
+        .expect("the request ended")
+        .0
+}
+
+#[test]
+fn rt_05_abort_of_a_pending_frame_ends_the_request_unsent() {
+    // The request comes while the LT's frame is on the bus and is aborted before that frame ends.
+    let theirs = encode(&winner_frame());
+    let mut bench = ProtocolBench::new();
+    bench
+        .lt()
+        .release(INTEGRATION_BITS)
+        .send_bits(theirs.bits.iter().by_vals())
+        .release(40);
+    bench.run_to_bit(SOF + 5);
+    bench.iut_mut().send(&frame(), false);
+    bench.run_to_bit(SOF + 20);
+    assert!(bench.iut().transmit_pending());
+    let aborted_at = bench.engine.now();
+    bench.iut_mut().abort();
+    bench.run(1);
+    let bit_fs = bench.lt_ref().bit_time(1).unwrap() - bench.lt_ref().bit_time(0).unwrap();
+    let done = transmit_done_at(&bench);
+    assert!(
+        done > aborted_at && done - aborted_at <= bit_fs,
+        "the request ends at the next process point ({} fs after the abort)",
+        done - aborted_at
+    );
+    assert_eq!(
+        bench.iut_events(),
+        vec![
+            NodeEvent::TransmitDone(false),
+            NodeEvent::Received(winner_frame())
+        ],
+        "not sent (TCS = 0); the LT's frame is received as usual"
+    );
+    assert_eq!(
+        bench.iut_dominant_bits(0, SOF + theirs.len() + 40),
+        vec![SOF + theirs.position(Field::AckSlot, 0).unwrap()],
+        "only the ACK of the LT's frame: no frame of its own after the LT's"
+    );
+    assert!(!bench.iut().transmit_pending());
+    assert_eq!(bench.iut().tec(), 0);
+}
+
+#[test]
+fn rt_05_abort_during_the_own_transmission_makes_it_the_last_attempt() {
+    let f = frame();
+    let encoded = encode(&f);
+    let ack = encoded.position(Field::AckSlot, 0).unwrap();
+    let golden: Vec<usize> = (0..encoded.len())
+        .filter(|&i| encoded.bits[i] == DOMINANT)
+        .collect();
+    let aborted_in = 3;
+
+    // The attempt succeeds: it is completed (TCS = 1).
+    let mut bench = ProtocolBench::iut_transmits_with(&f, 10, false);
+    bench
+        .lt()
+        .release(encoded.len() + 30)
+        .set_bit(ack, Drive::Dominant);
+    bench.run_to_bit(aborted_in);
+    bench.iut_mut().abort();
+    bench.run(0);
+    assert_eq!(
+        bench.iut_dominant_bits(0, encoded.len() + 30),
+        golden,
+        "success: the whole frame is sent"
+    );
+    assert_eq!(bench.iut_events(), vec![NodeEvent::TransmitDone(true)]);
+    assert_eq!(bench.iut().tec(), 9);
+
+    // A bit error in the data field: no retransmission.
+    let data = (0..8)
+        .map(|i| encoded.position(Field::Data, i).unwrap())
+        .find(|&p| encoded.bits[p] == DOMINANT)
+        .unwrap();
+    let mut bench = ProtocolBench::iut_transmits(&f);
+    bench
+        .lt()
+        .release(data + 60)
+        .force(data, 0, 16, Drive::ForceRecessive);
+    bench.run_to_bit(aborted_in);
+    bench.iut_mut().abort();
+    bench.run(0);
+    let mut expected: Vec<usize> = golden.iter().copied().filter(|&i| i <= data).collect();
+    expected.extend(flag_after(data));
+    assert_eq!(
+        bench.iut_dominant_bits(0, data + 60),
+        expected,
+        "error: the flag, then no retransmission (it would start at e + 18)"
+    );
+    assert_eq!(
+        bench.iut_events(),
+        vec![NodeEvent::BusError(0x0A), NodeEvent::TransmitDone(false)],
+        "bit error TX in the data field, then the request ends unsent"
+    );
+    assert_eq!(bench.iut().tec(), 8);
+
+    // Arbitration lost at ID.18: no retry after the winner's frame.
+    let theirs = encode(&winner_frame());
+    let mut bench = ProtocolBench::iut_transmits(&f);
+    bench
+        .lt()
+        .send_bits(theirs.bits.iter().by_vals())
+        .release(40);
+    bench.run_to_bit(aborted_in);
+    bench.iut_mut().abort();
+    bench.run(0);
+    let loss = encoded.position(Field::BaseId, 10).unwrap();
+    let mut expected: Vec<usize> = golden.iter().copied().filter(|&i| i < loss).collect();
+    expected.push(theirs.position(Field::AckSlot, 0).unwrap());
+    assert_eq!(
+        bench.iut_dominant_bits(0, theirs.len() + 40),
+        expected,
+        "identifier up to the loss, ACK of the winner, then no retry"
+    );
+    assert_eq!(
+        bench.iut_events(),
+        vec![
+            NodeEvent::ArbitrationLost(10),
+            NodeEvent::TransmitDone(false),
+            NodeEvent::Received(winner_frame()),
+        ]
+    );
+
+    // Aborted during the error flag of a failed attempt: the retransmission is cancelled.
+    let e = encoded.position(Field::BaseId, 0).unwrap();
+    let mut bench = ProtocolBench::iut_transmits(&f);
+    bench
+        .lt()
+        .release(e + 60)
+        .force(e, 0, 16, Drive::ForceRecessive);
+    bench.run_to_bit(e + 3);
+    bench.iut_mut().abort();
+    bench.run(0);
+    assert_eq!(
+        bench.iut_dominant_bits(0, e + 60),
+        [vec![0, e], flag_after(e)].concat(),
+        "no retransmission at e + 18"
+    );
+    assert_eq!(
+        bench.iut_events(),
+        vec![NodeEvent::BusError(0x02), NodeEvent::TransmitDone(false)]
+    );
+    // The flag, delimiter and intermission still belong to the failed attempt: the request ends in
+    // intermission bit 3 (e + 17), where the retransmission would have been decided.
+    let done = transmit_done_at(&bench);
+    let lt = bench.lt_ref();
+    assert!(
+        lt.bit_time(e + 17).unwrap() < done && done < lt.bit_time(e + 18).unwrap(),
+        "the request ends in intermission bit 3, before the retransmission would have started"
+    );
+    assert_eq!(bench.iut().tec(), 8);
+}
+
+#[test]
+fn bo_07_host_writes_of_txerr_force_and_end_bus_off_and_rxerr_writes_are_ignored() {
+    use sim::can_node::CanNode;
+    use sim::time::ClockSpec;
+    let theirs = encode(&winner_frame());
+    let mine = encode(&frame());
+    for written in [0u8, 100] {
+        let what = format!("TXERR {written} written in bus-off");
+        let mut bench = ProtocolBench::new();
+        // A second node acknowledges and receives the frames (the LT only plays its script).
+        let peer = bench.engine.add(
+            CanNode::new(
+                "peer",
+                ClockSpec::from_hz(testbenches::CLOCK_HZ),
+                bench.btr(),
+            ),
+            0,
+        );
+        let their_sof = SOF + 4;
+        let enabled_at = their_sof + theirs.len() + 8;
+        bench
+            .lt()
+            .release(their_sof)
+            .send_bits(theirs.bits.iter().by_vals())
+            .release(enabled_at - their_sof - theirs.len() + 11 + mine.len() + 10);
+        bench.iut_mut().load_counter(false, 9);
+
+        // TXERR = 255 in reset mode: bus-off with TXERR 127 and RXERR 0.
+        bench.run_to_bit(SOF);
+        assert_eq!((bench.iut().tec(), bench.iut().rec()), (0, 9));
+        bench.iut_mut().set_enable(false);
+        bench.run_to_bit(SOF + 1);
+        bench.iut_mut().load_counter(true, 255);
+        bench.run_to_bit(SOF + 2);
+        assert!(bench.iut().bus_off(), "TXERR = 255 forces bus-off");
+        assert_eq!((bench.iut().tec(), bench.iut().rec()), (127, 0));
+        // Back in operating mode with a request: bus-off sends nothing, not even an ACK.
+        bench.iut_mut().set_enable(true);
+        bench.iut_mut().send(&frame(), false);
+        bench.run_to_bit(their_sof + theirs.len() + 2);
+        assert!(
+            bench
+                .iut_dominant_bits(SOF, their_sof + theirs.len())
+                .is_empty(),
+            "bus-off: tx recessive throughout the LT's frame"
+        );
+        assert!(bench.iut().received().is_empty());
+        assert_eq!(
+            bench.engine.device::<CanNode>(peer).received(),
+            vec![winner_frame()],
+            "the frame was valid (the peer acknowledged it)"
+        );
+        assert!(bench.iut().bus_off());
+
+        // RXERR writes are ignored while bus-off.
+        bench.iut_mut().load_counter(false, 50);
+        bench.run_to_bit(their_sof + theirs.len() + 3);
+        assert_eq!(bench.iut().rec(), 0, "RXERR write ignored in bus-off");
+        assert!(bench.iut().bus_off());
+
+        // Reset mode, TXERR = written: bus-off ends at once.
+        bench.iut_mut().set_enable(false);
+        bench.run_to_bit(their_sof + theirs.len() + 4);
+        bench.iut_mut().load_counter(true, written);
+        let period = ClockSpec::from_hz(testbenches::CLOCK_HZ).period_fs();
+        let now = bench.engine.now();
+        bench.engine.run_until(now + 2 * period).unwrap();
+        assert!(!bench.iut().bus_off(), "{what}: bus-off ends at once");
+        assert_eq!(
+            (bench.iut().tec(), bench.iut().rec()),
+            (written, 0),
+            "{what}"
+        );
+        // Outside bus-off RXERR can be written again.
+        bench.iut_mut().load_counter(false, 5);
+        bench.run_to_bit(their_sof + theirs.len() + 5);
+        assert_eq!(bench.iut().rec(), 5, "{what}: RXERR writable again");
+
+        // Operating mode: 11 recessive bits of integration, then the pending frame goes out.
+        bench.run_to_bit(enabled_at);
+        bench.iut_mut().set_enable(true);
+        bench.run(0);
+        let sof = enabled_at + 11;
+        assert!(
+            bench.iut_dominant_bits(enabled_at, sof).is_empty(),
+            "{what}: integration"
+        );
+        assert_eq!(
+            bench.iut_dominant_bits(sof, sof + mine.len()),
+            (0..mine.len())
+                .filter(|&i| mine.bits[i] == DOMINANT)
+                .map(|i| sof + i)
+                .collect::<Vec<_>>(),
+            "{what}: SOF right after 11 recessive bits, then the frame"
+        );
+        assert_eq!(
+            bench.iut_events(),
+            vec![NodeEvent::TransmitDone(true)],
+            "{what}"
+        );
+        assert_eq!(
+            bench.engine.device::<CanNode>(peer).received(),
+            vec![winner_frame(), frame()],
+            "{what}: the peer receives the IUT's frame"
+        );
+        assert_eq!(
+            (bench.iut().tec(), bench.iut().rec()),
+            (written.saturating_sub(1), 5),
+            "{what}: a successful transmission (TEC −1); REC unchanged by it"
+        );
+    }
+
+    // Bus-off reached by errors (BO-01) ends the same way; 254 is the largest value that ends it.
+    let (mut bench, _) = bus_off_bench(1);
+    assert!(bench.iut().bus_off());
+    bench.iut_mut().set_enable(false);
+    bench.lt().release(1);
+    bench.run(0);
+    bench.iut_mut().load_counter(true, 254);
+    bench.lt().release(1);
+    bench.run(0);
+    assert!(!bench.iut().bus_off(), "TXERR 254 ends bus-off");
+    assert_eq!((bench.iut().tec(), bench.iut().rec()), (254, 0));
+    assert!(bench.iut().error_passive());
+}

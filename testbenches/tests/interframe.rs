@@ -371,3 +371,70 @@ fn ov_02_05_overload_frames_after_error_and_overload_frames_are_not_limited() {
     assert_eq!(bench.iut().rec(), 1, "overload frames do not count");
     assert_eq!(bench.iut().bus_errors().len(), 1);
 }
+
+#[test]
+fn ov_07_pending_retransmission_after_error_and_overload_frames_takes_a_sof_in_intermission_bit_3()
+{
+    let mine = encode(&frame());
+    // The LT's frame differs from the IUT's in the last base identifier bit only (0x2C4 < 0x2C5).
+    let theirs_frame = Frame::data(Id::standard(0x2C4).unwrap(), &[0x42]).unwrap();
+    let theirs = encode(&theirs_frame);
+    let loss = (1..mine.len())
+        .find(|&i| mine.bits[i] != theirs.bits[i])
+        .unwrap();
+    assert_eq!(loss, mine.position(Field::BaseId, 10).unwrap());
+    // Bit error on ID.28 at e; error flag e+1..e+6, delimiter e+7..e+14; intermission bit 1 (e+15)
+    // dominant: overload flag, delimiter, intermission; the LT's SOF in its bit 3.
+    let e = mine.position(Field::BaseId, 0).unwrap();
+    assert_eq!(mine.bits[e], DOMINANT);
+    let overload = e + 15;
+    let sof = overload + 6 + 8 + 3;
+    let retry = sof + theirs.len() + 3;
+    let mut bench = ProtocolBench::iut_transmits(&frame());
+    bench
+        .lt()
+        .release(sof)
+        .force(e, 0, 16, Drive::ForceRecessive)
+        .set_bit(overload, Drive::Dominant)
+        .send_bits(theirs.bits.iter().by_vals())
+        .release(3 + mine.len() + 4)
+        .set_bit(
+            retry + mine.position(Field::AckSlot, 0).unwrap(),
+            Drive::Dominant,
+        );
+    bench.run(1);
+    // SOF and ID.28 (driven dominant, read recessive), the flags.
+    let mut expected = vec![0, e];
+    expected.extend(flag_after(e));
+    expected.extend(flag_after(overload));
+    // No SOF of its own: its identifier from sof + 1, up to the lost bit.
+    expected.extend(
+        (1..loss)
+            .filter(|&i| mine.bits[i] == DOMINANT)
+            .map(|i| sof + i),
+    );
+    expected.push(sof + theirs.position(Field::AckSlot, 0).unwrap());
+    expected.extend(
+        (0..mine.len())
+            .filter(|&i| mine.bits[i] == DOMINANT)
+            .map(|i| retry + i),
+    );
+    assert!(!bench.iut_dominant_in(sof), "no SOF of its own");
+    assert_eq!(
+        bench.iut_dominant_bits(0, retry + mine.len() + 4),
+        expected,
+        "error flag, overload flag, identifier from the bit after the LT's SOF until the loss, ACK of \
+         the LT's frame, retransmission after its intermission"
+    );
+    assert_eq!(
+        bench.iut_events(),
+        vec![
+            NodeEvent::BusError(0x02),
+            NodeEvent::ArbitrationLost(10),
+            NodeEvent::Received(theirs_frame),
+            NodeEvent::TransmitDone(true),
+        ],
+        "bit error (TX, ID.28..21), loss at ID.18, the LT's frame received, then sent"
+    );
+    assert_eq!(bench.iut().tec(), 7, "+8, then −1");
+}

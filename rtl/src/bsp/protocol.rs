@@ -463,8 +463,10 @@ impl Logic for Protocol {
                 if self.transmitter.q.val() & (self.tx_reg.q.val() != self.rx_bit.val()) {
                     self.error_now.next = true;
                     self.error_type.next = 0.into();
-                    // Rule 3 exception b: a recessive stuff bit of the arbitration field read dominant.
+                    // Rule 3 exception b: a recessive stuff bit of the arbitration field read dominant
+                    // is a stuff error (ISO 11898-1) that does not count.
                     if (self.field.q.val() == ProtocolState::Arbitration) & self.tx_reg.q.val() {
+                        self.error_type.next = 2.into();
                         self.error_counts.next = false;
                     }
                 } else if self.rx_bit.val() == self.stuffing.run_level.val() {

@@ -3,8 +3,15 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use std::io::IsTerminal;
+use std::sync::Mutex;
+use std::time::Instant;
+
 use clap::{Parser, Subcommand};
 use sim::btr::{calc_bittiming, format_calculation, format_table};
+use sim::campaign::{
+    check, describe, format_summary, random_case, run_campaign, run_rtl_traced, Rng,
+};
 use sim::demo::{format_report, run_demo, DEMO_SAMPLE_POINT_PCT};
 use sim::sync_demo;
 
@@ -47,6 +54,26 @@ enum Command {
         #[arg(long, short)]
         quiet: bool,
     },
+    /// Fault-injection campaign: random frames from one RTL node to two others, one random fault each
+    /// (a bit flipped or forced, or a glitch, seen by one node or all); prints counts per outcome and
+    /// every case that broke a CAN guarantee or disagreed with the golden model.
+    Campaign {
+        /// Number of cases (one fault each).
+        #[arg(long, default_value_t = 100_000)]
+        faults: u64,
+        /// Seed of the random cases.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Worker threads (default: every core).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Run only case number CASE and print it in full.
+        #[arg(long)]
+        case: Option<u64>,
+        /// With --case: write a VCD of that case.
+        #[arg(long, requires = "case")]
+        vcd: Option<PathBuf>,
+    },
     /// Compute SJA1000 BTR0/BTR1 for a bit rate (the Linux can_calc_bittiming method).
     Bittiming {
         /// Controller clock (the SJA1000 fosc) in Hz.
@@ -77,6 +104,16 @@ fn main() -> ExitCode {
     }) {
         Command::Demo { vcd, no_vcd, quiet } => demo(vcd, no_vcd, quiet),
         Command::SyncDemo { vcd, no_vcd, quiet } => sync_demo(vcd, no_vcd, quiet),
+        Command::Campaign {
+            faults,
+            seed,
+            threads,
+            case,
+            vcd,
+        } => match case {
+            Some(index) => campaign_case(seed, index, vcd),
+            None => campaign(faults, seed, threads),
+        },
         Command::Bittiming {
             clock,
             bitrate,
@@ -151,6 +188,64 @@ fn sync_demo(vcd: PathBuf, no_vcd: bool, quiet: bool) -> Result<(), String> {
         Ok(())
     } else {
         Err("a node sampled a bit wrong".into())
+    }
+}
+
+fn campaign(faults: u64, seed: u64, threads: Option<usize>) -> Result<(), String> {
+    if faults == 0 {
+        return Err("--faults must be at least 1".into());
+    }
+    let threads = threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .max(1);
+    println!("cansim campaign: {faults} faults, seed {seed}, {threads} threads");
+    let start = Instant::now();
+    let last_shown = Mutex::new(Instant::now());
+    let show = std::io::stderr().is_terminal();
+    let progress = |done: u64| {
+        let mut last = last_shown.lock().expect("progress lock");
+        if show && (last.elapsed().as_millis() >= 500 || done == faults) {
+            *last = Instant::now();
+            let rate = done as f64 / start.elapsed().as_secs_f64();
+            let eta = (faults - done) as f64 / rate.max(1e-9);
+            eprint!("\r{done}/{faults} cases, {rate:.0} cases/s, {eta:.0} s to go   ");
+        }
+    };
+    let summary = run_campaign(seed, faults, threads, &progress);
+    if show {
+        eprintln!();
+    }
+    let seconds = start.elapsed().as_secs_f64();
+    print!("{}", format_summary(&summary));
+    println!(
+        "{:.1} s, {:.0} cases/s on {threads} threads",
+        seconds,
+        summary.cases as f64 / seconds
+    );
+    if summary.failures.is_empty() {
+        Ok(())
+    } else {
+        Err(format!(
+            "{} cases broke a rule; rerun one with --seed {seed} --case N",
+            summary.failures.len()
+        ))
+    }
+}
+
+fn campaign_case(seed: u64, index: u64, vcd: Option<PathBuf>) -> Result<(), String> {
+    let case = random_case(&mut Rng::for_case(seed, index));
+    let path = vcd.map(|v| vcd_path(v, false)).transpose()?.flatten();
+    let run = run_rtl_traced(&case, path.as_deref()).map_err(|e| e.to_string())?;
+    let verdict = check(&case, &run);
+    println!(
+        "case {index} of seed {seed}:\n{}outcome {:?}",
+        describe(&case, &run),
+        verdict.outcome
+    );
+    if verdict.violations.is_empty() {
+        Ok(())
+    } else {
+        Err(verdict.violations.join("; "))
     }
 }
 

@@ -1,0 +1,204 @@
+//! One injected fault against the CAN guarantees and the golden rules (property b of the protocol
+//! issue), the known CAN inconsistency cases, and a short run of the fault campaign (`make campaign`
+//! runs the long one).
+//!
+//! Three RTL cores: node 0 sends one frame, nodes 1 and 2 receive. A fault is a whole bit seen
+//! flipped or forced, by one node or by all, or a glitch of a few time quanta. Afterwards no node may
+//! have delivered a frame that was not sent, the receivers may disagree only for faults in the last
+//! EOF bits, and for whole-bit faults the bus levels, deliveries, error kinds and TEC/REC of every
+//! node equal those of the bit-level golden model.
+
+use proptest::prelude::*;
+use sim::campaign::{check, run_campaign, run_rtl, Case, Injection, Outcome, Run, NODES};
+use sim::frame::{encode, Field, Frame, Id};
+use sim::reference::{Fault, FaultKind};
+
+fn frame_strategy() -> impl Strategy<Value = Frame> {
+    (
+        any::<bool>(),
+        any::<u32>(),
+        0u8..=15,
+        prop::array::uniform8(any::<u8>()),
+        prop::bool::weighted(0.1),
+    )
+        .prop_map(|(extended, raw, dlc, data, remote)| {
+            let id = if extended {
+                Id::extended(raw & 0x1FFF_FFFF)
+            } else {
+                Id::standard((raw & 0x7FF) as u16)
+            }
+            .expect("masked identifier");
+            if remote {
+                Frame::remote(id, dlc).expect("DLC 0..15")
+            } else {
+                Frame::data_with_dlc(id, dlc, &data[..dlc.min(8) as usize]).expect("DLC 0..15")
+            }
+        })
+}
+
+fn kind_strategy() -> impl Strategy<Value = FaultKind> {
+    prop_oneof![
+        3 => Just(FaultKind::Flip),
+        1 => Just(FaultKind::Dominant),
+        1 => Just(FaultKind::Recessive),
+    ]
+}
+
+fn node_strategy() -> impl Strategy<Value = Option<usize>> {
+    prop_oneof![Just(None), (0..NODES).prop_map(Some)]
+}
+
+/// A frame, counters (mostly 0, sometimes error passive or near bus-off) and one whole-bit fault
+/// anywhere from SOF to the last intermission bit.
+fn bit_fault_case() -> impl Strategy<Value = Case> {
+    (
+        frame_strategy(),
+        prop_oneof![3 => Just(0u8), 1 => 0u8..=250],
+        prop_oneof![3 => Just(0u8), 1 => 0u8..=200],
+        0.0f64..1.0,
+        node_strategy(),
+        kind_strategy(),
+    )
+        .prop_map(|(frame, tec, rec, at, node, kind)| {
+            let bits = encode(&frame).len() + 3;
+            let bit = ((bits as f64 * at) as usize).min(bits - 1);
+            Case {
+                frame,
+                tec: [tec, 0, 0],
+                rec: [0, rec, rec / 2],
+                injection: Some(Injection::Bit(Fault { bit, node, kind })),
+            }
+        })
+}
+
+/// A glitch of 1..4 quanta somewhere in the frame.
+fn glitch_case() -> impl Strategy<Value = Case> {
+    (
+        frame_strategy(),
+        0.0f64..1.0,
+        0u32..8,
+        1u32..=4,
+        node_strategy(),
+        any::<bool>(),
+    )
+        .prop_map(|(frame, at, from_tq, quanta, node, level)| {
+            let bits = encode(&frame).len() + 3;
+            let bit = ((bits as f64 * at) as usize).min(bits - 1);
+            Case {
+                frame,
+                tec: [0; NODES],
+                rec: [0; NODES],
+                injection: Some(Injection::Glitch {
+                    bit,
+                    from_tq,
+                    quanta,
+                    node,
+                    level,
+                }),
+            }
+        })
+}
+
+fn assert_no_violation(case: &Case, run: &Run) -> Outcome {
+    let verdict = check(case, run);
+    assert!(
+        verdict.violations.is_empty(),
+        "{case:?}\n{run:?}\n{:#?}",
+        verdict.violations
+    );
+    verdict.outcome
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+    #[test]
+    fn one_bit_fault_keeps_the_can_guarantees_and_follows_the_golden_rules(case in bit_fault_case()) {
+        let run = run_rtl(&case);
+        let verdict = check(&case, &run);
+        prop_assert!(verdict.violations.is_empty(), "{:#?}\n{:#?}", verdict.violations, run);
+    }
+
+    #[test]
+    fn one_glitch_keeps_the_can_guarantees(case in glitch_case()) {
+        let run = run_rtl(&case);
+        let verdict = check(&case, &run);
+        prop_assert!(verdict.violations.is_empty(), "{:#?}\n{:#?}", verdict.violations, run);
+    }
+}
+
+fn standard_frame() -> Frame {
+    Frame::data(Id::standard(0x2A5).unwrap(), &[0x12, 0x34, 0x56]).unwrap()
+}
+
+fn eof_case(eof_index: u16, node: usize) -> Case {
+    let frame = standard_frame();
+    let bit = encode(&frame).position(Field::Eof, eof_index).unwrap();
+    Case {
+        frame,
+        tec: [0; NODES],
+        rec: [0; NODES],
+        injection: Some(Injection::Bit(Fault {
+            bit,
+            node: Some(node),
+            kind: FaultKind::Dominant,
+        })),
+    }
+}
+
+#[test]
+fn eof_bit_6_dominant_at_one_receiver_makes_the_other_receive_twice() {
+    // Receiver 1 sees EOF bit 6 dominant: a form error, its flag starts at EOF bit 7. Receiver 2
+    // took the frame at EOF bit 6 and sees the flag as an overload condition; the transmitter sees
+    // a form error in its last EOF bit and retransmits: receiver 2 has the frame twice.
+    let case = eof_case(5, 1);
+    let run = run_rtl(&case);
+    assert_eq!(assert_no_violation(&case, &run), Outcome::Duplicate);
+    assert_eq!(run.nodes[1].received, [case.frame]);
+    assert_eq!(run.nodes[2].received, [case.frame, case.frame]);
+    assert!(run.transmitted);
+}
+
+#[test]
+fn eof_bit_7_dominant_at_one_receiver_is_an_overload_frame_only() {
+    // The last EOF bit seen dominant by a receiver is an overload condition: no error, no
+    // retransmission, every receiver has the frame once.
+    let case = eof_case(6, 1);
+    let run = run_rtl(&case);
+    assert_eq!(assert_no_violation(&case, &run), Outcome::NoEffect);
+    for node in &run.nodes[1..] {
+        assert_eq!(node.received, [case.frame]);
+        assert_eq!((node.tec, node.rec), (0, 0));
+    }
+    assert_eq!(run.nodes[0].errors, Vec::<u8>::new());
+}
+
+#[test]
+fn a_fault_free_frame_reaches_every_receiver_once() {
+    let case = Case {
+        frame: standard_frame(),
+        tec: [0; NODES],
+        rec: [0; NODES],
+        injection: None,
+    };
+    let run = run_rtl(&case);
+    assert_eq!(assert_no_violation(&case, &run), Outcome::NoEffect);
+}
+
+#[test]
+fn short_campaign_breaks_no_rule() {
+    let summary = run_campaign(7, 200, 2, &|_| {});
+    assert_eq!(summary.cases, 200);
+    assert!(
+        summary.failures.is_empty(),
+        "{}",
+        sim::campaign::format_summary(&summary)
+    );
+    // Most faults are detected and repaired by retransmission.
+    let recovered = summary
+        .outcomes
+        .get(&Outcome::Recovered)
+        .copied()
+        .unwrap_or(0);
+    assert!(recovered > 100, "{summary:?}");
+}
