@@ -36,14 +36,15 @@ const GAP_BITS: u64 = 20;
 /// Longest phase, in bits (the error-passive phase needs about 17 attempts).
 const PHASE_LIMIT_BITS: u64 = 3000;
 
-/// A node of the demo: name, clock offset and propagation delay.
-struct NodeSpec {
-    name: &'static str,
-    ppm: f64,
-    delay_ns: u64,
+/// A node of the demos: name, clock offset and propagation delay.
+pub(crate) struct NodeSpec {
+    pub(crate) name: &'static str,
+    pub(crate) ppm: f64,
+    pub(crate) delay_ns: u64,
 }
 
-const NODES: [NodeSpec; 3] = [
+/// The three nodes of both demos (the bit timing demo too).
+pub(crate) const NODES: [NodeSpec; 3] = [
     NodeSpec {
         name: "a",
         ppm: 0.0,

@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use crate::btl_node::{BitTimingNode, BtlEventKind};
 use crate::btr::Btr;
 use crate::bus::Drive;
+use crate::demo::NODES;
 use crate::engine::{DeviceId, Engine};
 use crate::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT};
 use crate::lower_tester::LowerTester;
@@ -21,31 +22,6 @@ pub const DEMO_CLOCK_HZ: f64 = 16e6;
 pub const DEMO_BTR: (u8, u8) = (0x40, 0x1C);
 /// Idle bits before the first frame and between frames.
 const GAP_BITS: usize = 12;
-
-/// A node of the demo: name, clock offset and propagation delay.
-struct NodeSpec {
-    name: &'static str,
-    ppm: f64,
-    delay_ns: u64,
-}
-
-const NODES: [NodeSpec; 3] = [
-    NodeSpec {
-        name: "n1",
-        ppm: 0.0,
-        delay_ns: 0,
-    },
-    NodeSpec {
-        name: "n2",
-        ppm: 1500.0,
-        delay_ns: 60,
-    },
-    NodeSpec {
-        name: "n3",
-        ppm: -2500.0,
-        delay_ns: 140,
-    },
-];
 
 /// A disturbance the lower tester puts into a frame.
 #[derive(Clone, Copy, Debug)]

@@ -119,9 +119,9 @@ fn sync_demo_reports_every_node_sampling_right() {
     assert!(o.status.success(), "{}", stderr(&o));
     let out = stdout(&o);
     for node in [
-        "n1 (16 MHz +0 ppm",
-        "n2 (16 MHz +1500 ppm",
-        "n3 (16 MHz -2500 ppm",
+        "a (16 MHz +0 ppm",
+        "b (16 MHz +1500 ppm",
+        "c (16 MHz -2500 ppm",
     ] {
         assert!(out.contains(node), "missing {node:?}");
     }
