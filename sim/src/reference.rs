@@ -23,7 +23,10 @@
 //! * a transmitter's bit error on its own stuff bit is a bit error; the exception is a recessive
 //!   stuff bit read dominant in the arbitration field, a stuff error that leaves TEC unchanged
 //!   (rule 3 exception b). A stuff bit belongs to the field of the bit after it (the project's
-//!   ECC convention), so the stuff bit after RTR is not in the arbitration field.
+//!   ECC convention), and the arbitration field includes IDE in both formats (SJA1000 ALC
+//!   position 12: a standard remote frame beats an extended frame there), so the stuff bit between
+//!   RTR and IDE of a standard frame is in the arbitration field, the one after an extended RTR is
+//!   not.
 //! * the node that transmitted the last frame stays "transmitter" for the fault confinement
 //!   rules until the next start of frame (error and overload frames after its own frame); a
 //!   transmitter that loses arbitration is a receiver from that bit on (no suspend after it).
@@ -315,7 +318,6 @@ enum State {
 #[derive(Clone, Debug, PartialEq, Eq)]
 struct Request {
     encoded: EncodedFrame,
-    extended: bool,
 }
 
 /// What a transmitter makes of one bit it sent.
@@ -333,7 +335,6 @@ impl Request {
     fn new(frame: &Frame) -> Request {
         Request {
             encoded: encode(frame),
-            extended: frame.id().is_extended(),
         }
     }
 
@@ -364,8 +365,8 @@ impl Request {
         }
     }
 
-    /// `true` when wire bit `position` is in the arbitration field; a stuff bit belongs to the
-    /// field of the bit after it.
+    /// `true` when wire bit `position` is in the arbitration field (ID, SRR, IDE, RTR: the SJA1000
+    /// ALC positions); a stuff bit belongs to the field of the bit after it.
     fn in_arbitration(&self, position: usize) -> bool {
         let tags = &self.encoded.tags;
         let field = if tags[position].stuff {
@@ -374,8 +375,7 @@ impl Request {
             tags[position].field
         };
         match field {
-            Field::BaseId | Field::Srr | Field::ExtId | Field::Rtr => true,
-            Field::Ide => self.extended,
+            Field::BaseId | Field::Srr | Field::Ide | Field::ExtId | Field::Rtr => true,
             _ => false,
         }
     }
@@ -1341,10 +1341,11 @@ mod tests {
         assert_eq!(received_at(&outcome, 1), vec![stuff + 18 + validity]);
     }
 
-    /// The stuff bit after RTR belongs to the control field (field of the next bit): read
-    /// dominant it is a bit error for the transmitter, with TEC +8.
+    /// The stuff bit between RTR and IDE of a standard frame belongs to IDE (field of the next
+    /// bit), an arbitration position: read dominant it is rule 3 exception b (stuff error, TEC
+    /// unchanged, then -1 for the successful retry from 0 stays 0).
     #[test]
-    fn stuff_bit_after_rtr_is_not_in_arbitration() {
+    fn stuff_bit_before_ide_is_in_arbitration() {
         let frame = Frame::data(Id::Standard(0x0F0), &[0x5A, 0xFF]).unwrap();
         let encoded = encode(&frame);
         let stuff = 13;
@@ -1355,9 +1356,12 @@ mod tests {
         );
         assert_eq!(
             errors(&outcome),
-            vec![vec![(stuff, Detected::Bit)], vec![(stuff, Detected::Stuff)]]
+            vec![
+                vec![(stuff, Detected::Stuff)],
+                vec![(stuff, Detected::Stuff)]
+            ]
         );
-        assert_eq!(counters(&outcome), vec![(7, 0), (0, 0)]);
+        assert_eq!(counters(&outcome), vec![(0, 0), (0, 0)]);
     }
 
     /// A recessive identifier bit read dominant by every node: the transmitter loses
