@@ -374,10 +374,10 @@ impl Request {
         } else {
             tags[position].field
         };
-        match field {
-            Field::BaseId | Field::Srr | Field::Ide | Field::ExtId | Field::Rtr => true,
-            _ => false,
-        }
+        matches!(
+            field,
+            Field::BaseId | Field::Srr | Field::Ide | Field::ExtId | Field::Rtr
+        )
     }
 }
 
