@@ -49,9 +49,6 @@ const SETTLED_IDLE_BITS: usize = 4;
 /// Longest run in bits (a transmitter at TEC 250 may need a few error frames to reach bus-off).
 const MAX_BITS: usize = 4000;
 
-/// How an injected fault changes the level seen.
-pub type Level = FaultKind;
-
 /// One injected fault.
 #[derive(Clone, Debug)]
 pub enum Injection {

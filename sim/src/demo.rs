@@ -17,6 +17,7 @@ use std::fmt;
 use std::io;
 use std::path::{Path, PathBuf};
 
+use rtl::bsp::ecc_segment as seg;
 use rtl::bsp::protocol::ProtocolState;
 
 use crate::btr::Btr;
@@ -352,26 +353,26 @@ pub fn ecc_text(ecc: u8) -> String {
     } else {
         "transmitting"
     };
-    let segment = match ecc & 0x1F {
-        0x03 => "start of frame",
-        0x02 | 0x06 | 0x07 | 0x0F | 0x0E => "identifier",
-        0x04 => "SRTR/RTR",
-        0x05 => "IDE",
-        0x0C => "RTR",
-        0x0D | 0x09 => "reserved bit",
-        0x0B => "DLC",
-        0x0A => "data field",
-        0x08 => "CRC sequence",
-        0x18 => "CRC delimiter",
-        0x19 => "ACK slot",
-        0x1B => "ACK delimiter",
-        0x1A => "end of frame",
-        0x12 => "intermission",
-        0x11 => "active error flag",
-        0x16 => "passive error flag",
-        0x13 => "tolerated dominant bits",
-        0x17 => "error delimiter",
-        0x1C => "overload flag",
+    let segment = match u64::from(ecc & 0x1F) {
+        seg::SOF => "start of frame",
+        seg::ID_28_21 | seg::ID_20_18 | seg::ID_17_13 | seg::ID_12_5 | seg::ID_4_0 => "identifier",
+        seg::SRTR => "SRTR/RTR",
+        seg::IDE => "IDE",
+        seg::RTR => "RTR",
+        seg::R1 | seg::R0 => "reserved bit",
+        seg::DLC => "DLC",
+        seg::DATA => "data field",
+        seg::CRC => "CRC sequence",
+        seg::CRC_DELIMITER => "CRC delimiter",
+        seg::ACK_SLOT => "ACK slot",
+        seg::ACK_DELIMITER => "ACK delimiter",
+        seg::EOF => "end of frame",
+        seg::INTERMISSION => "intermission",
+        seg::ACTIVE_ERROR_FLAG => "active error flag",
+        seg::PASSIVE_ERROR_FLAG => "passive error flag",
+        seg::TOLERATE_DOMINANT => "tolerated dominant bits",
+        seg::ERROR_DELIMITER => "error delimiter",
+        seg::OVERLOAD_FLAG => "overload flag",
         _ => "unknown segment",
     };
     format!("{kind}, {direction}, {segment}")

@@ -231,5 +231,6 @@ fn wrong_bits_per_frame(received: &[bool], frames: &[sim::frame::EncodedFrame]) 
         .collect()
 }
 
+pub mod ecc;
 pub mod protocol_bench;
 pub mod sigrok;

@@ -11,19 +11,11 @@
 use sim::bus::Drive;
 use sim::can_node::NodeEvent;
 use sim::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT, RECESSIVE};
+use testbenches::ecc::{ecc, SEG_DATA, STUFF};
 use testbenches::protocol_bench::{acknowledged_bits, ProtocolBench};
 
 /// Bits after a frame's last EOF bit until the next SOF: the 3 intermission bits.
 const INTERMISSION: usize = 3;
-
-/// SJA1000 ECC value: type (00 bit, 01 form, 10 stuff, 11 other), direction (receiving), segment.
-fn ecc(kind: u8, receiving: bool, segment: u8) -> u8 {
-    kind << 6 | (receiving as u8) << 5 | segment
-}
-
-const STUFF: u8 = 2;
-/// ECC segment code of the data field.
-const SEG_DATA: u8 = 0x0A;
 
 fn std_id(id: u16) -> Id {
     Id::standard(id).unwrap()

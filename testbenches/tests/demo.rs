@@ -4,6 +4,7 @@
 
 use sim::can_node::NodeEvent;
 use sim::demo::{demo_frames, run_demo, DemoReport, DEMO_SAMPLE_POINT_PCT};
+use testbenches::ecc::{ecc, FORM, OTHER, SEG_ACK_DELIM, SEG_ACK_SLOT, SEG_CRC_DELIM};
 use testbenches::sigrok;
 
 /// ECC of b's form error in the CRC delimiter (receiving), and of the form errors it causes in the
@@ -12,6 +13,14 @@ const B_CRC_DELIMITER_FORM: u8 = 0x78;
 const A_ACK_DELIMITER_FORM: u8 = 0x5B;
 const C_ACK_DELIMITER_FORM: u8 = 0x7B;
 const A_ACK_ERROR: u8 = 0xD9;
+
+#[test]
+fn demo_ecc_values_decode_as_named() {
+    assert_eq!(B_CRC_DELIMITER_FORM, ecc(FORM, true, SEG_CRC_DELIM));
+    assert_eq!(A_ACK_DELIMITER_FORM, ecc(FORM, false, SEG_ACK_DELIM));
+    assert_eq!(C_ACK_DELIMITER_FORM, ecc(FORM, true, SEG_ACK_DELIM));
+    assert_eq!(A_ACK_ERROR, ecc(OTHER, false, SEG_ACK_SLOT));
+}
 
 fn events_of(report: &DemoReport, node: &str) -> Vec<NodeEvent> {
     report

@@ -15,33 +15,10 @@ use sim::frame::{
     decode, encode, DecodeErrorKind, EncodedFrame, Field, Frame, Id, DOMINANT, RECESSIVE,
 };
 use sim::lower_tester::LowerTester;
+use testbenches::ecc::*;
 use testbenches::protocol_bench::{ProtocolBench, INTEGRATION_BITS};
 
 const SOF: usize = INTEGRATION_BITS;
-
-const BIT: u8 = 0;
-const FORM: u8 = 1;
-const STUFF: u8 = 2;
-const OTHER: u8 = 3;
-
-/// ECC segment codes (SJA1000.md).
-const SEG_SOF: u8 = 0x03;
-const SEG_IDE: u8 = 0x05;
-const SEG_R0: u8 = 0x09;
-const SEG_R1: u8 = 0x0D;
-const SEG_DLC: u8 = 0x0B;
-const SEG_DATA: u8 = 0x0A;
-const SEG_CRC: u8 = 0x08;
-const SEG_CRC_DELIM: u8 = 0x18;
-const SEG_ACK_DELIM: u8 = 0x1B;
-const SEG_EOF: u8 = 0x1A;
-const SEG_ERROR_DELIM: u8 = 0x17;
-const SEG_OVERLOAD_FLAG: u8 = 0x1C;
-
-/// SJA1000 ECC value: type (00 bit, 01 form, 10 stuff, 11 other), direction (1 = receiving), segment.
-fn ecc(kind: u8, receiving: bool, segment: u8) -> u8 {
-    kind << 6 | (receiving as u8) << 5 | segment
-}
 
 fn frame() -> Frame {
     Frame::data(Id::standard(0x2C5).unwrap(), &[0x81, 0x3C]).unwrap()
@@ -77,22 +54,22 @@ fn segment_of(encoded: &EncodedFrame, i: usize) -> u8 {
     let extended = encoded.position(Field::Srr, 0).is_some();
     match tag.field {
         Field::Sof => SEG_SOF,
-        Field::BaseId if tag.index < 8 => 0x02,
-        Field::BaseId => 0x06,
-        Field::Srr => 0x04,
-        Field::Rtr if !extended => 0x04,
+        Field::BaseId if tag.index < 8 => SEG_ID_28_21,
+        Field::BaseId => SEG_ID_20_18,
+        Field::Srr => SEG_SRTR,
+        Field::Rtr if !extended => SEG_SRTR,
         Field::Ide => SEG_IDE,
-        Field::ExtId if tag.index < 5 => 0x07,
-        Field::ExtId if tag.index < 13 => 0x0F,
-        Field::ExtId => 0x0E,
-        Field::Rtr => 0x0C,
+        Field::ExtId if tag.index < 5 => SEG_ID_17_13,
+        Field::ExtId if tag.index < 13 => SEG_ID_12_5,
+        Field::ExtId => SEG_ID_4_0,
+        Field::Rtr => SEG_RTR,
         Field::R1 => SEG_R1,
         Field::R0 => SEG_R0,
         Field::Dlc => SEG_DLC,
         Field::Data => SEG_DATA,
         Field::Crc => SEG_CRC,
         Field::CrcDelim => SEG_CRC_DELIM,
-        Field::AckSlot => 0x19,
+        Field::AckSlot => SEG_ACK_SLOT,
         Field::AckDelim => SEG_ACK_DELIM,
         Field::Eof => SEG_EOF,
     }
@@ -608,7 +585,7 @@ fn receiver_error_with_dominant(rec: Option<u8>, dominant: &[usize]) -> Protocol
 
 #[test]
 fn fe_05_dominant_error_delimiter_bits() {
-    assert_eq!(STUFF_ERROR_ECC, ecc(STUFF, true, 0x02));
+    assert_eq!(STUFF_ERROR_ECC, ecc(STUFF, true, SEG_ID_28_21));
     for k in [2, 4, 7] {
         let d = error_delimiter_bit(k);
         let bench = receiver_error_with_dominant(None, &[d]);

@@ -6,19 +6,10 @@
 use sim::bus::Drive;
 use sim::can_node::NodeEvent;
 use sim::frame::{decode, encode, DecodeErrorKind, EncodedFrame, Field, Frame, Id, DOMINANT};
+use testbenches::ecc::*;
 use testbenches::protocol_bench::{ProtocolBench, INTEGRATION_BITS};
 
 const SOF: usize = INTEGRATION_BITS;
-
-/// SJA1000 ECC value: type (00 bit, 01 form, 10 stuff, 11 other), direction (receiving), segment.
-fn ecc(kind: u8, receiving: bool, segment: u8) -> u8 {
-    kind << 6 | (receiving as u8) << 5 | segment
-}
-
-const BIT: u8 = 0;
-const FORM: u8 = 1;
-const STUFF: u8 = 2;
-const OTHER: u8 = 3;
 
 fn frame() -> Frame {
     Frame::data(Id::standard(0x2C5).unwrap(), &[0x81, 0x3C]).unwrap()
@@ -78,7 +69,7 @@ fn cr_01_crc_error_is_signalled_after_the_ack_delimiter() {
     assert_eq!(bench.iut().rec(), 1);
     assert_eq!(
         bench.iut_events(),
-        vec![NodeEvent::BusError(ecc(OTHER, true, 0x1B))]
+        vec![NodeEvent::BusError(ecc(OTHER, true, SEG_ACK_DELIM))]
     );
 }
 
@@ -97,7 +88,7 @@ fn fe_01_dominant_crc_delimiter_is_a_form_error() {
     assert_eq!(bench.iut().rec(), 1);
     assert_eq!(
         bench.iut_events(),
-        vec![NodeEvent::BusError(ecc(FORM, true, 0x18))]
+        vec![NodeEvent::BusError(ecc(FORM, true, SEG_CRC_DELIM))]
     );
 }
 
@@ -183,7 +174,7 @@ fn ak_01_no_acknowledge_is_an_ack_error_and_the_frame_is_retransmitted() {
     assert_eq!(bench.iut().tec(), 8);
     assert_eq!(
         bench.iut_events(),
-        vec![NodeEvent::BusError(ecc(OTHER, false, 0x19))]
+        vec![NodeEvent::BusError(ecc(OTHER, false, SEG_ACK_SLOT))]
     );
 }
 
@@ -214,7 +205,7 @@ fn be_01_rt_01_dominant_identifier_bit_read_recessive_is_a_bit_error() {
     assert_eq!(
         bench.iut_events(),
         vec![
-            NodeEvent::BusError(ecc(BIT, false, 0x02)),
+            NodeEvent::BusError(ecc(BIT, false, SEG_ID_28_21)),
             NodeEvent::TransmitDone(true)
         ]
     );
@@ -293,7 +284,7 @@ fn fr_07_fe_03_dominant_eof_bits_1_to_6_are_form_errors() {
         );
         assert_eq!(
             bench.iut_events(),
-            vec![NodeEvent::BusError(ecc(FORM, true, 0x1A))],
+            vec![NodeEvent::BusError(ecc(FORM, true, SEG_EOF))],
             "EOF bit {}: not stored",
             k + 1
         );
@@ -316,7 +307,7 @@ fn fe_02_dominant_ack_delimiter() {
         );
         assert_eq!(
             bench.iut_events(),
-            vec![NodeEvent::BusError(ecc(FORM, true, 0x1B))]
+            vec![NodeEvent::BusError(ecc(FORM, true, SEG_ACK_DELIM))]
         );
         assert_eq!(bench.iut().rec(), after, "REC {preset}");
     }

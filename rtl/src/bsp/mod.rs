@@ -10,6 +10,12 @@ pub mod fault_confinement;
 pub mod protocol;
 pub mod stuffing;
 
+// The constants below are the one definition of the field lengths and SJA1000 codes for host-side
+// code (the demo's ECC decoding, the testbenches' expectations). They are plain Rust constants, so
+// they must not be used inside `#[hdl_gen]` kernels (they would become undeclared Verilog
+// identifiers); the protocol kernel still writes these values as literals until they move into
+// `Constant` fields (with the Verilog review).
+
 /// Bits of the base identifier.
 pub const BASE_ID_BITS: u64 = 11;
 /// Arbitration bit position of SRR (extended) / RTR (standard).
