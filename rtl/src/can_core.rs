@@ -32,6 +32,10 @@ pub struct CanCore {
     pub sjw: Signal<In, Bits<2>>,
     /// Triple sampling (BTR1.7).
     pub sam: Signal<In, Bit>,
+    /// Listen-only mode (SJA1000 MOD.LOM).
+    pub listen_only: Signal<In, Bit>,
+    /// Self-test mode (SJA1000 MOD.STM).
+    pub self_test: Signal<In, Bit>,
     /// A frame waits in the transmit buffer.
     pub tx_request: Signal<In, Bit>,
     /// One transmission attempt only.
@@ -126,6 +130,8 @@ impl Logic for CanCore {
         self.protocol.transmit_point.next = self.bit_timing.transmit_point.val();
         self.protocol.rx_bit.next = self.bit_timing.rx_bit.val();
         self.protocol.enable.next = self.enable.val();
+        self.protocol.listen_only.next = self.listen_only.val();
+        self.protocol.self_test.next = self.self_test.val();
         self.protocol.tx_request.next = self.tx_request.val();
         self.protocol.tx_single_shot.next = self.tx_single_shot.val();
         self.protocol.tx_abort.next = self.tx_abort.val();

@@ -9,10 +9,17 @@
 // `#[hdl_gen]` kernels cannot express match guards: per-state arms keep their own `if`.
 #![allow(clippy::collapsible_match)]
 
+pub mod acceptance_filter;
 pub mod bit_timing;
 pub mod bsp;
 pub mod bus_sampling;
+pub mod can_controller;
 pub mod can_core;
+pub mod clock_divider;
+pub mod clock_output;
+pub mod registers;
+pub mod rx_fifo;
+pub mod tx_buffer;
 
 /// Dominant bus level (logic 0).
 pub const DOMINANT: bool = false;

@@ -16,14 +16,10 @@ use crate::btr::Btr;
 use crate::bus::Drive;
 use crate::engine::Device;
 use crate::frame::{Frame, Id};
+use crate::frame_buffer::{encode_buffer, FRAME_BUFFER_BYTES};
 use crate::rtl_step::clock_cycle_with;
 use crate::time::ClockSpec;
 use crate::trace::Probe;
-
-/// Error warning limit after reset (SJA1000 EWLR default).
-pub const DEFAULT_WARNING_LIMIT: u8 = 96;
-/// Bytes of the SJA1000 transmit buffer: frame information, up to 4 identifier bytes, 8 data bytes.
-pub const TX_BUFFER_BYTES: usize = 13;
 
 /// Something the node reported, with the time of the clock edge after which it was seen.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -38,35 +34,12 @@ pub enum NodeEvent {
     ArbitrationLost(u8),
 }
 
-/// The SJA1000 frame-buffer bytes of `frame`: frame information, identifier bytes, data.
-pub fn frame_buffer(frame: &Frame) -> [u8; TX_BUFFER_BYTES] {
-    let mut buf = [0u8; TX_BUFFER_BYTES];
-    let (ff, id) = match frame.id() {
-        Id::Standard(id) => (0u8, id as u32),
-        Id::Extended(id) => (0x80, id),
-    };
-    buf[0] = ff | ((frame.is_remote() as u8) << 6) | frame.dlc();
-    let data_at = if ff == 0 {
-        buf[1] = (id >> 3) as u8;
-        buf[2] = ((id & 7) << 5) as u8;
-        3
-    } else {
-        buf[1] = (id >> 21) as u8;
-        buf[2] = (id >> 13) as u8;
-        buf[3] = (id >> 5) as u8;
-        buf[4] = ((id & 0x1F) << 3) as u8;
-        5
-    };
-    buf[data_at..data_at + frame.data_bytes().len()].copy_from_slice(frame.data_bytes());
-    buf
-}
-
 /// The RTL CAN core as a bus [`Device`].
 pub struct CanNode {
     name: String,
     clock: ClockSpec,
     uut: CanCore,
-    tx_buffer: [u8; TX_BUFFER_BYTES],
+    tx_buffer: [u8; FRAME_BUFFER_BYTES],
     rx_data: [u8; 8],
     events: Vec<(u64, NodeEvent)>,
     pending_load: Option<(bool, u8)>,
@@ -88,13 +61,13 @@ impl CanNode {
         uut.sam.next = btr.sam;
         uut.rx.next = true;
         uut.enable.next = true;
-        uut.warning_limit.next = (DEFAULT_WARNING_LIMIT as u64).to_bits();
+        uut.warning_limit.next = (rtl::registers::DEFAULT_EWLR as u64).to_bits();
         uut.reset.next = true;
         let mut node = CanNode {
             name: name.to_string(),
             clock,
             uut,
-            tx_buffer: [0; TX_BUFFER_BYTES],
+            tx_buffer: [0; FRAME_BUFFER_BYTES],
             rx_data: [0; 8],
             events: Vec::new(),
             pending_load: None,
@@ -117,7 +90,7 @@ impl CanNode {
             self.name
         );
         self.request_pending = true;
-        self.tx_buffer = frame_buffer(frame);
+        self.tx_buffer = encode_buffer(frame);
         self.uut.tx_info.next = (self.tx_buffer[0] as u64).to_bits();
         self.uut.tx_single_shot.next = single_shot;
         self.uut.tx_request.next = true;

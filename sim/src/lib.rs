@@ -3,15 +3,19 @@
 //! calculator and the pieces of the `cansim` command line tool.
 #![warn(missing_docs)]
 
+pub mod acceptance;
 pub mod btl_node;
 pub mod btr;
 pub mod bus;
 pub mod campaign;
 pub mod can_node;
+pub mod controller_node;
 pub mod crc15;
 pub mod demo;
 pub mod engine;
 pub mod frame;
+pub mod frame_buffer;
+pub mod host;
 pub mod lower_tester;
 pub mod reference;
 pub mod rtl_step;

@@ -231,6 +231,7 @@ fn wrong_bits_per_frame(received: &[bool], frames: &[sim::frame::EncodedFrame]) 
         .collect()
 }
 
+pub mod controller_bench;
 pub mod ecc;
 pub mod protocol_bench;
 pub mod sigrok;

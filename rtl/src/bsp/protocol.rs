@@ -82,6 +82,11 @@ pub struct Protocol {
     pub transmit_point: Signal<In, Bit>,
     /// The sampled bit, valid at `process_point`.
     pub rx_bit: Signal<In, Bit>,
+    /// Listen-only mode: never a dominant bit (no ACK, passive error flags, no transmission), error
+    /// counters frozen.
+    pub listen_only: Signal<In, Bit>,
+    /// Self-test mode: a transmission succeeds without an ACK.
+    pub self_test: Signal<In, Bit>,
     /// A frame waits in the transmit buffer.
     pub tx_request: Signal<In, Bit>,
     /// One attempt only (no retransmission after an error or lost arbitration).
@@ -214,6 +219,7 @@ pub struct Protocol {
     receiver_error: Signal<Local, Bit>,
     send_ack: Signal<Local, Bit>,
     in_frame: Signal<Local, Bit>,
+    flag_is_passive: Signal<Local, Bit>,
 }
 
 impl Logic for Protocol {
@@ -325,6 +331,7 @@ impl Logic for Protocol {
         // transmitter) unless the suspend is over.
         self.single_shot.next = self.tx_single_shot.val() | self.abort_pending.q.val();
         self.may_start.next = self.tx_request.val()
+            & !self.listen_only.val()
             & !self.abort_pending.q.val()
             & self.enable.val()
             & !self.faults.bus_off.val()
@@ -339,6 +346,9 @@ impl Logic for Protocol {
         if self.tx_left.q.val() == 1 {
             self.stream_next_bit.next = self.tx_data.val().get_bit(7);
         }
+
+        // A listening node's error flags are passive: it never drives a dominant bit.
+        self.flag_is_passive.next = self.faults.error_passive.val() | self.listen_only.val();
 
         // ---- Sub-block defaults.
         self.stuffing.consume.next = false;
@@ -608,7 +618,8 @@ impl Logic for Protocol {
                             self.error_type.next = 1.into();
                         } else if self.transmitter.q.val() == false {
                             if self.crc.value.val() == 0 {
-                                self.send_ack.next = self.enable.val();
+                                self.send_ack.next =
+                                    self.enable.val() & (self.listen_only.val() == false);
                             } else {
                                 self.crc_error.d.next = true;
                             }
@@ -617,7 +628,7 @@ impl Logic for Protocol {
                     ProtocolState::AckSlot => {
                         self.next_field.next = ProtocolState::AckDelimiter;
                         if self.transmitter.q.val() {
-                            if self.rx_bit.val() {
+                            if self.rx_bit.val() & (self.self_test.val() == false) {
                                 self.error_now.next = true;
                                 self.error_type.next = 3.into();
                                 // Rule 3 exception a is decided during the passive flag.
@@ -723,7 +734,7 @@ impl Logic for Protocol {
                         }
                     }
                     ProtocolState::OverloadFlag => {
-                        if self.rx_bit.val() {
+                        if self.rx_bit.val() & (self.listen_only.val() == false) {
                             // Bit error in our overload flag: an active error flag follows (+8).
                             self.error_now.next = true;
                             self.error_type.next = 0.into();
@@ -800,7 +811,7 @@ impl Logic for Protocol {
                 self.next_count.next = 0.into();
                 self.stuffing.stop.next = true;
                 self.consume_stream.next = false;
-                self.flag_passive.d.next = self.faults.error_passive.val();
+                self.flag_passive.d.next = self.flag_is_passive.val();
                 self.after_error_flag.d.next = true;
                 self.error_pulse.d.next = true;
                 self.ecc_reg.d.next = bit_cast::<8, 5>(self.segment.val())
@@ -936,13 +947,13 @@ impl Logic for Protocol {
                 self.next_bit.next = self.send_ack.val() == false;
             }
             ProtocolState::ErrorFlag => {
-                self.next_bit.next = self.faults.error_passive.val();
+                self.next_bit.next = self.flag_is_passive.val();
                 if self.field.q.val() == ProtocolState::ErrorFlag {
                     self.next_bit.next = self.flag_passive.q.val();
                 }
             }
             ProtocolState::OverloadFlag => {
-                self.next_bit.next = false;
+                self.next_bit.next = self.listen_only.val();
             }
             _ => {}
         }
@@ -966,6 +977,16 @@ impl Logic for Protocol {
         }
         if self.transmit_point.val() {
             self.tx_reg.d.next = self.tx_next.q.val();
+        }
+
+        // ---- Listen-only mode: counters frozen, the output held recessive.
+        if self.listen_only.val() {
+            self.faults.rec_plus_1.next = false;
+            self.faults.rec_plus_8.next = false;
+            self.faults.tec_plus_8.next = false;
+            self.faults.tec_minus_1.next = false;
+            self.faults.rec_success.next = false;
+            self.tx_reg.d.next = true;
         }
 
         // ---- Bus-off, reset mode and reset override everything.

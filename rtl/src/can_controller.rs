@@ -1,0 +1,1025 @@
+//! The SJA1000-compatible CAN controller: the top block with the host port contract of the project's
+//! `docs/SJA1000.md`, and the register map (PeliCAN and BasicCAN, selected by CDR.7) that ties the
+//! protocol core, the transmit buffer, the acceptance filter, the receive FIFO and the CLKOUT divider
+//! together.
+//!
+//! Ports: `clock`; `reset` (synchronous, active high: afterwards as after a hardware reset); the host
+//! bus `addr`, `wdata`, `we`, `re` (one-cycle strobes, never together) and `rdata` (registered: valid
+//! from the edge after the `re` cycle until the next read); the bus pins `rx`, `tx` (registered);
+//! `irq_n` (low while IR & IER != 0) and `clkout`. Everything acts on the rising edge of `clock`:
+//! writes and read side effects (IR clear, ALC/ECC re-arm) take effect at the edge that ends the
+//! strobe cycle.
+//!
+//! Register behaviour follows the data sheet as summarised in `docs/SJA1000.md`: writes per mode
+//! (old MOD.RM decides), commands (TR, AT, RRB, CDO, SRR, single shot), status bits, interrupt set
+//! and clear conditions, capture-until-read of ALC and ECC, counter writes, reset mode, listen-only,
+//! self-test, sleep and wake-up.
+
+use rust_hdl::prelude::*;
+
+use crate::acceptance_filter::AcceptanceFilter;
+use crate::bsp::protocol::ProtocolState;
+use crate::can_core::CanCore;
+use crate::clock_divider::ClockDivider;
+use crate::registers::{basic, pelican, DEFAULT_EWLR};
+use crate::rx_fifo::RxFifo;
+use crate::tx_buffer::TxBuffer;
+
+/// The complete controller.
+#[derive(LogicBlock)]
+pub struct CanController {
+    /// Controller clock (the SJA1000 fosc).
+    pub clock: Signal<In, Clock>,
+    /// Synchronous reset, active high.
+    pub reset: Signal<In, Bit>,
+    /// Register address.
+    pub addr: Signal<In, Bits<8>>,
+    /// Write data.
+    pub wdata: Signal<In, Bits<8>>,
+    /// Write strobe.
+    pub we: Signal<In, Bit>,
+    /// Read strobe.
+    pub re: Signal<In, Bit>,
+    /// Read data.
+    pub rdata: Signal<Out, Bits<8>>,
+    /// Bus input (from the transceiver).
+    pub rx: Signal<In, Bit>,
+    /// Bus output (to the transceiver), registered.
+    pub tx: Signal<Out, Bit>,
+    /// Interrupt, active low.
+    pub irq_n: Signal<Out, Bit>,
+    /// Clock output.
+    pub clkout: Signal<Out, Bit>,
+    /// The protocol core (bit timing logic and bit stream processor).
+    pub core: CanCore,
+    /// The receive FIFO.
+    pub fifo: RxFifo,
+    tx_buffer: TxBuffer,
+    filter: AcceptanceFilter,
+    divider: ClockDivider,
+    // ---- Registers.
+    mode_rm: DFF<Bit>,
+    mode_lom: DFF<Bit>,
+    mode_stm: DFF<Bit>,
+    mode_afm: DFF<Bit>,
+    mode_sm: DFF<Bit>,
+    ier: DFF<Bits<8>>,
+    ir: DFF<Bits<8>>,
+    btr0: DFF<Bits<8>>,
+    btr1: DFF<Bits<8>>,
+    ocr: DFF<Bits<8>>,
+    ewlr: DFF<Bits<8>>,
+    cdr: DFF<Bits<8>>,
+    acr0: DFF<Bits<8>>,
+    acr1: DFF<Bits<8>>,
+    acr2: DFF<Bits<8>>,
+    acr3: DFF<Bits<8>>,
+    amr0: DFF<Bits<8>>,
+    amr1: DFF<Bits<8>>,
+    amr2: DFF<Bits<8>>,
+    amr3: DFF<Bits<8>>,
+    alc: DFF<Bits<5>>,
+    alc_armed: DFF<Bit>,
+    ecc: DFF<Bits<8>>,
+    ecc_armed: DFF<Bit>,
+    // ---- Transmission and status state.
+    tx_pending: DFF<Bit>,
+    tx_single_shot: DFF<Bit>,
+    self_reception: DFF<Bit>,
+    tcs: DFF<Bit>,
+    tbs: DFF<Bit>,
+    es: DFF<Bit>,
+    bus_off_before: DFF<Bit>,
+    passive_before: DFF<Bit>,
+    overrun_before: DFF<Bit>,
+    rbs_before: DFF<Bit>,
+    basic_ri: DFF<Bit>,
+    basic_cr6: DFF<Bit>,
+    sleep_bits: DFF<Bits<4>>,
+    // ---- Read data path.
+    rdata_reg: DFF<Bits<8>>,
+    rdata_from_ram: DFF<Bit>,
+    rdata_ram_or: DFF<Bits<8>>,
+    // ---- Addresses (from `crate::registers`).
+    pc_mod: Constant<Bits<8>>,
+    pc_cmr: Constant<Bits<8>>,
+    pc_sr: Constant<Bits<8>>,
+    pc_ir: Constant<Bits<8>>,
+    pc_ier: Constant<Bits<8>>,
+    pc_btr0: Constant<Bits<8>>,
+    pc_btr1: Constant<Bits<8>>,
+    pc_ocr: Constant<Bits<8>>,
+    pc_alc: Constant<Bits<8>>,
+    pc_ecc: Constant<Bits<8>>,
+    pc_ewlr: Constant<Bits<8>>,
+    pc_rxerr: Constant<Bits<8>>,
+    pc_txerr: Constant<Bits<8>>,
+    pc_frame: Constant<Bits<8>>,
+    pc_frame_last: Constant<Bits<8>>,
+    pc_acr0: Constant<Bits<8>>,
+    pc_amr0: Constant<Bits<8>>,
+    pc_amr3: Constant<Bits<8>>,
+    pc_rmc: Constant<Bits<8>>,
+    pc_rbsa: Constant<Bits<8>>,
+    pc_cdr: Constant<Bits<8>>,
+    pc_rx_ram: Constant<Bits<8>>,
+    pc_rx_ram_last: Constant<Bits<8>>,
+    pc_tx_ram: Constant<Bits<8>>,
+    pc_tx_ram_last: Constant<Bits<8>>,
+    bc_cr: Constant<Bits<8>>,
+    bc_acr: Constant<Bits<8>>,
+    bc_amr: Constant<Bits<8>>,
+    bc_tx: Constant<Bits<8>>,
+    bc_tx_last: Constant<Bits<8>>,
+    bc_rx: Constant<Bits<8>>,
+    bc_rx_id_dlc: Constant<Bits<8>>,
+    bc_rx_last: Constant<Bits<8>>,
+    bc_tx_base: Constant<Bits<8>>,
+    bc_rx_base: Constant<Bits<8>>,
+    default_ewlr: Constant<Bits<8>>,
+    zero_byte: Constant<Bits<8>>,
+    // ---- Decoded access of this cycle.
+    pelican_mode: Signal<Local, Bit>,
+    reset_mode: Signal<Local, Bit>,
+    offset: Signal<Local, Bits<8>>,
+    offset6: Signal<Local, Bits<6>>,
+    tx_ram_offset: Signal<Local, Bits<8>>,
+    basic_tx_offset: Signal<Local, Bits<8>>,
+    rx_ram_offset: Signal<Local, Bits<8>>,
+    basic_rx_offset: Signal<Local, Bits<8>>,
+    basic_rx_offset6: Signal<Local, Bits<6>>,
+    in_frame_window: Signal<Local, Bit>,
+    in_acceptance: Signal<Local, Bit>,
+    in_rx_ram: Signal<Local, Bit>,
+    in_tx_ram: Signal<Local, Bit>,
+    in_basic_tx: Signal<Local, Bit>,
+    in_basic_rx: Signal<Local, Bit>,
+    command: Signal<Local, Bit>,
+    cmd_transmit: Signal<Local, Bit>,
+    cmd_abort: Signal<Local, Bit>,
+    cmd_release: Signal<Local, Bit>,
+    cmd_clear_overrun: Signal<Local, Bit>,
+    cmd_self_reception: Signal<Local, Bit>,
+    cmd_sleep: Signal<Local, Bit>,
+    sleep_request: Signal<Local, Bit>,
+    wake_request: Signal<Local, Bit>,
+    entering_reset: Signal<Local, Bit>,
+    read_value: Signal<Local, Bits<8>>,
+    read_from_ram: Signal<Local, Bit>,
+    ram_or: Signal<Local, Bits<8>>,
+    // ---- Status and interrupts of this cycle.
+    enables: Signal<Local, Bits<8>>,
+    rbs: Signal<Local, Bit>,
+    ir_value: Signal<Local, Bits<8>>,
+    ir_active: Signal<Local, Bits<8>>,
+    irq_pending: Signal<Local, Bit>,
+    status: Signal<Local, Bits<8>>,
+    waiting_for_bus: Signal<Local, Bit>,
+    es_next: Signal<Local, Bit>,
+    events: Signal<Local, Bits<8>>,
+    ir_kept: Signal<Local, Bits<8>>,
+    ev_transmit: Signal<Local, Bit>,
+    ev_error: Signal<Local, Bit>,
+    ev_overrun: Signal<Local, Bit>,
+    ev_wake_up: Signal<Local, Bit>,
+    ev_passive: Signal<Local, Bit>,
+    ev_arbitration: Signal<Local, Bit>,
+    ev_bus_error: Signal<Local, Bit>,
+    own_frame_received: Signal<Local, Bit>,
+    basic_receive: Signal<Local, Bit>,
+}
+
+fn address(value: u8) -> Constant<Bits<8>> {
+    Constant::new((value as u64).into())
+}
+
+impl Default for CanController {
+    fn default() -> Self {
+        CanController {
+            clock: Default::default(),
+            reset: Default::default(),
+            addr: Default::default(),
+            wdata: Default::default(),
+            we: Default::default(),
+            re: Default::default(),
+            rdata: Default::default(),
+            rx: Default::default(),
+            tx: Default::default(),
+            irq_n: Default::default(),
+            clkout: Default::default(),
+            core: Default::default(),
+            fifo: Default::default(),
+            tx_buffer: Default::default(),
+            filter: Default::default(),
+            divider: Default::default(),
+            mode_rm: Default::default(),
+            mode_lom: Default::default(),
+            mode_stm: Default::default(),
+            mode_afm: Default::default(),
+            mode_sm: Default::default(),
+            ier: Default::default(),
+            ir: Default::default(),
+            btr0: Default::default(),
+            btr1: Default::default(),
+            ocr: Default::default(),
+            ewlr: Default::default(),
+            cdr: Default::default(),
+            acr0: Default::default(),
+            acr1: Default::default(),
+            acr2: Default::default(),
+            acr3: Default::default(),
+            amr0: Default::default(),
+            amr1: Default::default(),
+            amr2: Default::default(),
+            amr3: Default::default(),
+            alc: Default::default(),
+            alc_armed: Default::default(),
+            ecc: Default::default(),
+            ecc_armed: Default::default(),
+            tx_pending: Default::default(),
+            tx_single_shot: Default::default(),
+            self_reception: Default::default(),
+            tcs: Default::default(),
+            tbs: Default::default(),
+            es: Default::default(),
+            bus_off_before: Default::default(),
+            passive_before: Default::default(),
+            overrun_before: Default::default(),
+            rbs_before: Default::default(),
+            basic_ri: Default::default(),
+            basic_cr6: Default::default(),
+            sleep_bits: Default::default(),
+            rdata_reg: Default::default(),
+            rdata_from_ram: Default::default(),
+            rdata_ram_or: Default::default(),
+            pc_mod: address(pelican::MOD),
+            pc_cmr: address(pelican::CMR),
+            pc_sr: address(pelican::SR),
+            pc_ir: address(pelican::IR),
+            pc_ier: address(pelican::IER),
+            pc_btr0: address(pelican::BTR0),
+            pc_btr1: address(pelican::BTR1),
+            pc_ocr: address(pelican::OCR),
+            pc_alc: address(pelican::ALC),
+            pc_ecc: address(pelican::ECC),
+            pc_ewlr: address(pelican::EWLR),
+            pc_rxerr: address(pelican::RXERR),
+            pc_txerr: address(pelican::TXERR),
+            pc_frame: address(pelican::FRAME),
+            pc_frame_last: address(pelican::FRAME_LAST),
+            pc_acr0: address(pelican::ACR0),
+            pc_amr0: address(pelican::AMR0),
+            pc_amr3: address(pelican::AMR3),
+            pc_rmc: address(pelican::RMC),
+            pc_rbsa: address(pelican::RBSA),
+            pc_cdr: address(pelican::CDR),
+            pc_rx_ram: address(pelican::RX_RAM),
+            pc_rx_ram_last: address(pelican::RX_RAM_LAST),
+            pc_tx_ram: address(pelican::TX_RAM),
+            pc_tx_ram_last: address(pelican::TX_RAM_LAST),
+            bc_cr: address(basic::CR),
+            bc_acr: address(basic::ACR),
+            bc_amr: address(basic::AMR),
+            bc_tx: address(basic::TX),
+            bc_tx_last: address(basic::TX_LAST),
+            bc_rx: address(basic::RX),
+            bc_rx_id_dlc: address(basic::RX_ID_DLC),
+            bc_rx_last: address(basic::RX_LAST),
+            // The byte before each BasicCAN buffer: buffer byte 1 is the first identifier byte.
+            bc_tx_base: address(basic::TX - 1),
+            bc_rx_base: address(basic::RX - 1),
+            default_ewlr: address(DEFAULT_EWLR),
+            zero_byte: address(0),
+            pelican_mode: Default::default(),
+            reset_mode: Default::default(),
+            offset: Default::default(),
+            offset6: Default::default(),
+            tx_ram_offset: Default::default(),
+            basic_tx_offset: Default::default(),
+            rx_ram_offset: Default::default(),
+            basic_rx_offset: Default::default(),
+            basic_rx_offset6: Default::default(),
+            in_frame_window: Default::default(),
+            in_acceptance: Default::default(),
+            in_rx_ram: Default::default(),
+            in_tx_ram: Default::default(),
+            in_basic_tx: Default::default(),
+            in_basic_rx: Default::default(),
+            command: Default::default(),
+            cmd_transmit: Default::default(),
+            cmd_abort: Default::default(),
+            cmd_release: Default::default(),
+            cmd_clear_overrun: Default::default(),
+            cmd_self_reception: Default::default(),
+            cmd_sleep: Default::default(),
+            sleep_request: Default::default(),
+            wake_request: Default::default(),
+            entering_reset: Default::default(),
+            read_value: Default::default(),
+            read_from_ram: Default::default(),
+            ram_or: Default::default(),
+            enables: Default::default(),
+            rbs: Default::default(),
+            ir_value: Default::default(),
+            ir_active: Default::default(),
+            irq_pending: Default::default(),
+            status: Default::default(),
+            waiting_for_bus: Default::default(),
+            es_next: Default::default(),
+            events: Default::default(),
+            ir_kept: Default::default(),
+            ev_transmit: Default::default(),
+            ev_error: Default::default(),
+            ev_overrun: Default::default(),
+            ev_wake_up: Default::default(),
+            ev_passive: Default::default(),
+            ev_arbitration: Default::default(),
+            ev_bus_error: Default::default(),
+            own_frame_received: Default::default(),
+            basic_receive: Default::default(),
+        }
+    }
+}
+
+impl Logic for CanController {
+    #[hdl_gen]
+    fn update(&mut self) {
+        dff_setup!(
+            self,
+            clock,
+            mode_rm,
+            mode_lom,
+            mode_stm,
+            mode_afm,
+            mode_sm,
+            ier,
+            ir,
+            btr0,
+            btr1,
+            ocr,
+            ewlr,
+            cdr,
+            acr0,
+            acr1,
+            acr2,
+            acr3,
+            amr0,
+            amr1,
+            amr2,
+            amr3,
+            alc,
+            alc_armed,
+            ecc,
+            ecc_armed,
+            tx_pending,
+            tx_single_shot,
+            self_reception,
+            tcs,
+            tbs,
+            es,
+            bus_off_before,
+            passive_before,
+            overrun_before,
+            rbs_before,
+            basic_ri,
+            basic_cr6,
+            sleep_bits,
+            rdata_reg,
+            rdata_from_ram,
+            rdata_ram_or
+        );
+        clock!(self, clock, core, fifo, tx_buffer, filter, divider);
+        self.pelican_mode.next = self.cdr.q.val().get_bit(7);
+        self.reset_mode.next = self.mode_rm.q.val();
+
+        // ---- Address decoding.
+        self.offset.next = self.addr.val() - self.pc_frame.val();
+        self.in_frame_window.next = (self.addr.val() >= self.pc_frame.val())
+            & (self.addr.val() <= self.pc_frame_last.val());
+        self.in_acceptance.next =
+            (self.addr.val() >= self.pc_acr0.val()) & (self.addr.val() <= self.pc_amr3.val());
+        self.in_rx_ram.next = (self.addr.val() >= self.pc_rx_ram.val())
+            & (self.addr.val() <= self.pc_rx_ram_last.val());
+        self.in_tx_ram.next = (self.addr.val() >= self.pc_tx_ram.val())
+            & (self.addr.val() <= self.pc_tx_ram_last.val());
+        self.in_basic_tx.next =
+            (self.addr.val() >= self.bc_tx.val()) & (self.addr.val() <= self.bc_tx_last.val());
+        self.in_basic_rx.next =
+            (self.addr.val() >= self.bc_rx.val()) & (self.addr.val() <= self.bc_rx_last.val());
+        if self.pelican_mode.val() == false {
+            self.in_frame_window.next = false;
+            self.in_acceptance.next = false;
+            self.in_rx_ram.next = false;
+            self.in_tx_ram.next = false;
+        } else {
+            self.in_basic_tx.next = false;
+            self.in_basic_rx.next = false;
+        }
+
+        // ---- Commands (CMR, the same address in both maps; ignored in reset mode).
+        self.command.next = self.we.val()
+            & (self.addr.val() == self.pc_cmr.val())
+            & (self.reset_mode.val() == false);
+        self.cmd_transmit.next = self.command.val() & self.wdata.val().get_bit(0);
+        self.cmd_abort.next = self.command.val() & self.wdata.val().get_bit(1);
+        self.cmd_release.next = self.command.val() & self.wdata.val().get_bit(2);
+        self.cmd_clear_overrun.next = self.command.val() & self.wdata.val().get_bit(3);
+        // TR together with SRR is a plain TR (data sheet).
+        self.cmd_self_reception.next = self.command.val()
+            & self.wdata.val().get_bit(4)
+            & self.pelican_mode.val()
+            & (self.cmd_transmit.val() == false);
+        self.cmd_sleep.next = self.wdata.val().get_bit(4) & (self.pelican_mode.val() == false);
+
+        // ---- Status.
+        self.rbs.next = self.fifo.message_count.val() != 0;
+        self.waiting_for_bus.next = (self.core.state.val() == ProtocolState::Integrating)
+            | (self.core.state.val() == ProtocolState::BusOff);
+        self.status.next = self
+            .zero_byte
+            .val()
+            .replace_bit(0, self.rbs.val())
+            .replace_bit(1, self.fifo.overrun.val())
+            .replace_bit(2, self.tbs.q.val())
+            .replace_bit(3, self.tcs.q.val())
+            .replace_bit(4, self.core.receiving.val() | self.waiting_for_bus.val())
+            .replace_bit(5, self.core.transmitting.val() | self.waiting_for_bus.val())
+            .replace_bit(6, self.es.q.val())
+            .replace_bit(7, self.core.bus_off.val());
+
+        // ---- Interrupt enables: IER in PeliCAN; CR.4..1 (RIE, TIE, EIE, OIE) and WUI in BasicCAN.
+        self.enables.next = self.ier.q.val();
+        if self.pelican_mode.val() == false {
+            self.enables.next =
+                bit_cast::<8, 4>(self.ier.q.val().get_bits::<4>(0)).replace_bit(4, true);
+        }
+        // RI: in PeliCAN the level RBS & RIE; in BasicCAN a latch set when a message becomes
+        // available (RBS rises, or RRB leaves another one) and cleared by reading IR.
+        self.ir_value.next = self
+            .ir
+            .q
+            .val()
+            .replace_bit(0, self.rbs.val() & self.enables.val().get_bit(0));
+        if self.pelican_mode.val() == false {
+            self.ir_value.next = self.ir.q.val().replace_bit(
+                0,
+                self.basic_ri.q.val() & self.rbs.val() & self.enables.val().get_bit(0),
+            );
+        }
+        self.ir_active.next = self.ir_value.val() & self.enables.val();
+        self.irq_pending.next = self.ir_active.val().any();
+        self.irq_n.next = self.irq_pending.val() == false;
+
+        // ---- Mode register / control register and sleep.
+        self.sleep_request.next = false;
+        self.wake_request.next = false;
+        self.entering_reset.next = false;
+        if self.we.val() & (self.addr.val() == self.pc_mod.val()) {
+            self.mode_rm.d.next = self.wdata.val().get_bit(0);
+            self.entering_reset.next =
+                self.wdata.val().get_bit(0) & (self.reset_mode.val() == false);
+            if self.pelican_mode.val() {
+                // The old RM decides: LOM, STM and AFM change only in reset mode, SM only outside it.
+                if self.reset_mode.val() {
+                    self.mode_lom.d.next = self.wdata.val().get_bit(1);
+                    self.mode_stm.d.next = self.wdata.val().get_bit(2);
+                    self.mode_afm.d.next = self.wdata.val().get_bit(3);
+                } else {
+                    self.sleep_request.next =
+                        self.wdata.val().get_bit(4) & (self.wdata.val().get_bit(0) == false);
+                    self.wake_request.next = self.wdata.val().get_bit(4) == false;
+                }
+            } else {
+                // BasicCAN control register: RIE, TIE, EIE, OIE in bits 1..4; bit 6 is plain storage.
+                self.basic_cr6.d.next = self.wdata.val().get_bit(6);
+                self.ier.d.next = bit_cast::<8, 4>(self.wdata.val().get_bits::<4>(1))
+                    .replace_bit(4, self.ier.q.val().get_bit(4))
+                    .replace_bit(5, self.ier.q.val().get_bit(5))
+                    .replace_bit(6, self.ier.q.val().get_bit(6))
+                    .replace_bit(7, self.ier.q.val().get_bit(7));
+            }
+        }
+        if self.command.val() & (self.pelican_mode.val() == false) {
+            self.sleep_request.next = self.cmd_sleep.val();
+            self.wake_request.next = self.cmd_sleep.val() == false;
+        }
+        self.ev_wake_up.next = false;
+        if self.sleep_request.val() & (self.mode_sm.q.val() == false) {
+            // Sleep needs an idle bus and no pending interrupt; otherwise the attempt wakes at once.
+            if (self.core.state.val() == ProtocolState::Idle) & (self.irq_pending.val() == false) {
+                self.mode_sm.d.next = true;
+            } else {
+                self.ev_wake_up.next = true;
+            }
+        }
+        if self.mode_sm.q.val() & (self.wake_request.val() | (self.rx.val() == false)) {
+            self.mode_sm.d.next = false;
+            self.ev_wake_up.next = true;
+        }
+
+        // ---- Configuration registers (reset mode only, but IER and CDR.2..0).
+        if self.we.val() {
+            if self.pelican_mode.val() & (self.addr.val() == self.pc_ier.val()) {
+                self.ier.d.next = self.wdata.val();
+            }
+            if self.addr.val() == self.pc_cdr.val() {
+                self.cdr.d.next = bit_cast::<8, 3>(self.wdata.val().get_bits::<3>(0))
+                    .replace_bit(3, self.cdr.q.val().get_bit(3))
+                    .replace_bit(5, self.cdr.q.val().get_bit(5))
+                    .replace_bit(6, self.cdr.q.val().get_bit(6))
+                    .replace_bit(7, self.cdr.q.val().get_bit(7));
+                if self.reset_mode.val() {
+                    self.cdr.d.next = self.wdata.val().replace_bit(4, false);
+                }
+            }
+            if self.reset_mode.val() {
+                if self.addr.val() == self.pc_btr0.val() {
+                    self.btr0.d.next = self.wdata.val();
+                }
+                if self.addr.val() == self.pc_btr1.val() {
+                    self.btr1.d.next = self.wdata.val();
+                }
+                if self.addr.val() == self.pc_ocr.val() {
+                    self.ocr.d.next = self.wdata.val();
+                }
+                if self.pelican_mode.val() {
+                    if self.addr.val() == self.pc_ewlr.val() {
+                        self.ewlr.d.next = self.wdata.val();
+                    }
+                    if self.in_acceptance.val() {
+                        if self.offset.val() == 0 {
+                            self.acr0.d.next = self.wdata.val();
+                        }
+                        if self.offset.val() == 1 {
+                            self.acr1.d.next = self.wdata.val();
+                        }
+                        if self.offset.val() == 2 {
+                            self.acr2.d.next = self.wdata.val();
+                        }
+                        if self.offset.val() == 3 {
+                            self.acr3.d.next = self.wdata.val();
+                        }
+                        if self.offset.val() == 4 {
+                            self.amr0.d.next = self.wdata.val();
+                        }
+                        if self.offset.val() == 5 {
+                            self.amr1.d.next = self.wdata.val();
+                        }
+                        if self.offset.val() == 6 {
+                            self.amr2.d.next = self.wdata.val();
+                        }
+                        if self.offset.val() == 7 {
+                            self.amr3.d.next = self.wdata.val();
+                        }
+                    }
+                } else {
+                    if self.addr.val() == self.bc_acr.val() {
+                        self.acr0.d.next = self.wdata.val();
+                    }
+                    if self.addr.val() == self.bc_amr.val() {
+                        self.amr0.d.next = self.wdata.val();
+                    }
+                }
+            }
+        }
+        // Counter writes (reset mode): the core applies the TXERR/RXERR rules.
+        self.core.counter_value.next = self.wdata.val();
+        self.core.load_tec.next = self.we.val()
+            & self.reset_mode.val()
+            & self.pelican_mode.val()
+            & (self.addr.val() == self.pc_txerr.val());
+        self.core.load_rec.next = self.we.val()
+            & self.reset_mode.val()
+            & self.pelican_mode.val()
+            & (self.addr.val() == self.pc_rxerr.val());
+        // RBSA write (reset mode): the FIFO is empty then.
+        self.fifo.load_start.next = self.we.val()
+            & self.reset_mode.val()
+            & self.pelican_mode.val()
+            & (self.addr.val() == self.pc_rbsa.val());
+        self.fifo.start_address.next = self.wdata.val().get_bits::<6>(0);
+
+        // ---- Transmit buffer: written in operating mode while it is free (TBS).
+        self.tx_buffer.basic_layout.next = self.pelican_mode.val() == false;
+        self.tx_buffer.write.next = self.we.val()
+            & (self.reset_mode.val() == false)
+            & self.tbs.q.val()
+            & (self.in_frame_window.val() | self.in_basic_tx.val());
+        self.tx_ram_offset.next = self.addr.val() - self.pc_tx_ram.val();
+        self.basic_tx_offset.next = self.addr.val() - self.bc_tx_base.val();
+        self.tx_buffer.write_index.next = self.offset.val().get_bits::<4>(0);
+        // The TX RAM window is writable in reset mode.
+        if self.we.val() & self.reset_mode.val() & self.in_tx_ram.val() {
+            self.tx_buffer.write.next = true;
+            self.tx_buffer.write_index.next = self.tx_ram_offset.val().get_bits::<4>(0);
+        }
+        self.tx_buffer.host_index.next = self.tx_ram_offset.val().get_bits::<4>(0);
+        if self.pelican_mode.val() == false {
+            // BasicCAN byte 10 is buffer byte 1 (identifier bits 10..3).
+            self.tx_buffer.write_index.next = self.basic_tx_offset.val().get_bits::<4>(0);
+            self.tx_buffer.host_index.next = self.basic_tx_offset.val().get_bits::<4>(0);
+        }
+        self.tx_buffer.write_data.next = self.wdata.val();
+        self.tx_buffer.core_index.next = self.core.tx_addr.val();
+
+        // ---- Transmission requests and their end.
+        self.ev_transmit.next = false;
+        self.core.tx_abort.next = self.cmd_abort.val()
+            & (self.cmd_transmit.val() == false)
+            & (self.cmd_self_reception.val() == false)
+            & self.tx_pending.q.val();
+        if self.core.tx_done.val() {
+            self.tx_pending.d.next = false;
+            self.tbs.d.next = true;
+            self.tcs.d.next = self.core.tx_success.val();
+            self.ev_transmit.next = true;
+        }
+        if (self.cmd_transmit.val() | self.cmd_self_reception.val())
+            & self.tbs.q.val()
+            & (self.tx_pending.q.val() == false)
+        {
+            self.tx_pending.d.next = true;
+            self.tbs.d.next = false;
+            self.tcs.d.next = false;
+            self.tx_single_shot.d.next = self.cmd_abort.val();
+            self.self_reception.d.next = self.cmd_self_reception.val();
+        }
+
+        // ---- Receive FIFO: store valid accepted frames (own ones with self-reception).
+        self.own_frame_received.next =
+            self.core.tx_done.val() & self.core.tx_success.val() & self.self_reception.q.val();
+        self.fifo.store.next = (self.core.rx_valid.val() | self.own_frame_received.val())
+            & self.filter.accept.val()
+            & (self.pelican_mode.val() | (self.core.rx_ide.val() == false));
+        self.fifo.release_head.next = self.cmd_release.val();
+        self.fifo.clear_overrun.next = self.cmd_clear_overrun.val();
+        self.fifo.clear.next = self.reset_mode.val();
+        self.fifo.header.next = self.core.rx_header.val();
+        self.fifo.id.next = self.core.rx_id.val();
+        self.fifo.ide.next = self.core.rx_ide.val();
+        self.fifo.rtr.next = self.core.rx_rtr.val();
+        self.fifo.dlc.next = self.core.rx_dlc.val();
+        self.fifo.byte_strobe.next = self.core.rx_byte_strobe.val();
+        self.fifo.data_byte.next = self.core.rx_byte.val();
+        self.fifo.byte_index.next = self.core.rx_byte_index.val();
+        self.fifo.reset.next = self.reset.val();
+
+        // ---- Acceptance filter.
+        self.filter.reset.next = self.reset.val();
+        self.filter.pelican.next = self.pelican_mode.val();
+        self.filter.single_filter.next = self.mode_afm.q.val();
+        self.filter.acr0.next = self.acr0.q.val();
+        self.filter.acr1.next = self.acr1.q.val();
+        self.filter.acr2.next = self.acr2.q.val();
+        self.filter.acr3.next = self.acr3.q.val();
+        self.filter.amr0.next = self.amr0.q.val();
+        self.filter.amr1.next = self.amr1.q.val();
+        self.filter.amr2.next = self.amr2.q.val();
+        self.filter.amr3.next = self.amr3.q.val();
+        self.filter.rx_header.next = self.core.rx_header.val();
+        self.filter.rx_id.next = self.core.rx_id.val();
+        self.filter.rx_ide.next = self.core.rx_ide.val();
+        self.filter.rx_rtr.next = self.core.rx_rtr.val();
+        self.filter.rx_byte_strobe.next = self.core.rx_byte_strobe.val();
+        self.filter.rx_byte.next = self.core.rx_byte.val();
+        self.filter.rx_byte_index.next = self.core.rx_byte_index.val();
+
+        // ---- Captures: ALC and ECC hold their value until read.
+        self.ev_arbitration.next = false;
+        self.ev_bus_error.next = false;
+        if self.core.arbitration_lost.val() & self.alc_armed.q.val() {
+            self.alc.d.next = self.core.alc.val();
+            self.alc_armed.d.next = false;
+            self.ev_arbitration.next = true;
+        }
+        if self.core.bus_error.val() & self.ecc_armed.q.val() {
+            self.ecc.d.next = self.core.ecc.val();
+            self.ecc_armed.d.next = false;
+            self.ev_bus_error.next = true;
+        }
+
+        // ---- Error status, bus-off and error passive changes. A counter written in reset mode
+        // changes ES and EPI only when reset mode is left (data sheet); bus-off entry and end are
+        // reported by EI alone.
+        self.es_next.next = self.es.q.val();
+        if self.reset_mode.val() == false {
+            self.es_next.next = self.core.error_warning.val() | self.core.bus_off.val();
+        }
+        self.es.d.next = self.es_next.val();
+        self.bus_off_before.d.next = self.core.bus_off.val();
+        self.ev_error.next = (self.es_next.val() != self.es.q.val())
+            | (self.core.bus_off.val() != self.bus_off_before.q.val());
+        self.ev_passive.next = false;
+        if self.core.bus_off.val() {
+            self.passive_before.d.next = false;
+        } else if self.reset_mode.val() == false {
+            self.passive_before.d.next = self.core.error_passive.val();
+            self.ev_passive.next = self.core.error_passive.val() != self.passive_before.q.val();
+        }
+        if self.core.bus_off.val() & (self.bus_off_before.q.val() == false) {
+            self.mode_rm.d.next = true;
+            self.entering_reset.next = self.reset_mode.val() == false;
+        }
+        self.overrun_before.d.next = self.fifo.overrun.val();
+        self.rbs_before.d.next = self.rbs.val();
+        self.basic_receive.next = (self.rbs.val() & (self.rbs_before.q.val() == false))
+            | (self.cmd_release.val() & (self.fifo.message_count.val() > 1));
+        if self.re.val() & (self.addr.val() == self.pc_ir.val()) {
+            self.basic_ri.d.next = false;
+        }
+        if self.basic_receive.val() {
+            self.basic_ri.d.next = true;
+        }
+        self.ev_overrun.next = self.fifo.overrun.val() & (self.overrun_before.q.val() == false);
+
+        // ---- Reads: registered data; IR is cleared (but RI) and ALC/ECC re-armed at the read edge.
+        self.read_value.next = 0.into();
+        self.read_from_ram.next = false;
+        self.ram_or.next = 0.into();
+        self.offset6.next = self.offset.val().get_bits::<6>(0);
+        self.rx_ram_offset.next = self.addr.val() - self.pc_rx_ram.val();
+        self.basic_rx_offset.next = self.addr.val() - self.bc_rx_base.val();
+        self.basic_rx_offset6.next = 0.into();
+        self.fifo.host_address.next = self.fifo.start.val() + self.offset6.val();
+        if self.addr.val() == self.pc_sr.val() {
+            self.read_value.next = self.status.val();
+        }
+        if self.addr.val() == self.pc_ir.val() {
+            self.read_value.next = self.ir_value.val();
+        }
+        if self.addr.val() == self.pc_btr0.val() {
+            self.read_value.next = self.btr0.q.val();
+        }
+        if self.addr.val() == self.pc_btr1.val() {
+            self.read_value.next = self.btr1.q.val();
+        }
+        if self.addr.val() == self.pc_ocr.val() {
+            self.read_value.next = self.ocr.q.val();
+        }
+        if self.addr.val() == self.pc_cdr.val() {
+            self.read_value.next = self.cdr.q.val();
+        }
+        if self.pelican_mode.val() {
+            if self.addr.val() == self.pc_mod.val() {
+                self.read_value.next = self
+                    .zero_byte
+                    .val()
+                    .replace_bit(0, self.mode_rm.q.val())
+                    .replace_bit(1, self.mode_lom.q.val())
+                    .replace_bit(2, self.mode_stm.q.val())
+                    .replace_bit(3, self.mode_afm.q.val())
+                    .replace_bit(4, self.mode_sm.q.val());
+            }
+            if self.addr.val() == self.pc_ier.val() {
+                self.read_value.next = self.ier.q.val();
+            }
+            if self.addr.val() == self.pc_alc.val() {
+                self.read_value.next = bit_cast::<8, 5>(self.alc.q.val());
+            }
+            if self.addr.val() == self.pc_ecc.val() {
+                self.read_value.next = self.ecc.q.val();
+            }
+            if self.addr.val() == self.pc_ewlr.val() {
+                self.read_value.next = self.ewlr.q.val();
+            }
+            if self.addr.val() == self.pc_rxerr.val() {
+                self.read_value.next = self.core.rec.val();
+            }
+            if self.addr.val() == self.pc_txerr.val() {
+                self.read_value.next = self.core.tec.val();
+            }
+            if self.addr.val() == self.pc_rmc.val() {
+                self.read_value.next = bit_cast::<8, 5>(self.fifo.message_count.val());
+            }
+            if self.addr.val() == self.pc_rbsa.val() {
+                self.read_value.next = bit_cast::<8, 6>(self.fifo.start.val());
+            }
+            if self.in_frame_window.val() {
+                if self.reset_mode.val() {
+                    if self.offset.val() == 0 {
+                        self.read_value.next = self.acr0.q.val();
+                    }
+                    if self.offset.val() == 1 {
+                        self.read_value.next = self.acr1.q.val();
+                    }
+                    if self.offset.val() == 2 {
+                        self.read_value.next = self.acr2.q.val();
+                    }
+                    if self.offset.val() == 3 {
+                        self.read_value.next = self.acr3.q.val();
+                    }
+                    if self.offset.val() == 4 {
+                        self.read_value.next = self.amr0.q.val();
+                    }
+                    if self.offset.val() == 5 {
+                        self.read_value.next = self.amr1.q.val();
+                    }
+                    if self.offset.val() == 6 {
+                        self.read_value.next = self.amr2.q.val();
+                    }
+                    if self.offset.val() == 7 {
+                        self.read_value.next = self.amr3.q.val();
+                    }
+                } else {
+                    // The head message of the RX FIFO.
+                    self.read_from_ram.next = true;
+                }
+            }
+            if self.in_rx_ram.val() {
+                self.read_from_ram.next = true;
+            }
+            if self.in_tx_ram.val() {
+                self.read_value.next = self.tx_buffer.host_data.val();
+            }
+        } else {
+            if self.addr.val() == self.bc_cr.val() {
+                self.read_value.next = self
+                    .zero_byte
+                    .val()
+                    .replace_bit(0, self.mode_rm.q.val())
+                    .replace_bit(1, self.ier.q.val().get_bit(0))
+                    .replace_bit(2, self.ier.q.val().get_bit(1))
+                    .replace_bit(3, self.ier.q.val().get_bit(2))
+                    .replace_bit(4, self.ier.q.val().get_bit(3))
+                    .replace_bit(5, true)
+                    .replace_bit(6, self.basic_cr6.q.val());
+            }
+            if self.addr.val() == self.pc_cmr.val() {
+                self.read_value.next = 0xFF.into();
+            }
+            if self.addr.val() == self.pc_ir.val() {
+                // Bits 7..5 read 1.
+                self.read_value.next = self
+                    .ir_value
+                    .val()
+                    .replace_bit(5, true)
+                    .replace_bit(6, true)
+                    .replace_bit(7, true);
+            }
+            if self.addr.val() == self.bc_acr.val() {
+                self.read_value.next = self.acr0.q.val();
+            }
+            if self.addr.val() == self.bc_amr.val() {
+                self.read_value.next = self.amr0.q.val();
+            }
+            // ACR, AMR, BTR0, BTR1, OCR read 0xFF in operating mode.
+            if (self.reset_mode.val() == false)
+                & (self.addr.val() >= self.bc_acr.val())
+                & (self.addr.val() <= self.pc_ocr.val())
+            {
+                self.read_value.next = 0xFF.into();
+            }
+            if self.in_basic_tx.val() {
+                self.read_value.next = self.tx_buffer.host_data.val();
+            }
+            if self.in_basic_rx.val() {
+                // BasicCAN byte 20 is FIFO message byte 1; byte 21 adds the DLC to ID.2..0 and RTR.
+                self.read_from_ram.next = true;
+                self.basic_rx_offset6.next = self.basic_rx_offset.val().get_bits::<6>(0);
+                self.fifo.host_address.next = self.fifo.start.val() + self.basic_rx_offset6.val();
+                if self.addr.val() == self.bc_rx_id_dlc.val() {
+                    self.ram_or.next = bit_cast::<8, 4>(self.fifo.head_info.val().get_bits::<4>(0));
+                }
+            }
+        }
+        self.fifo.host_read.next = self.re.val() & self.read_from_ram.val();
+        // The RAM windows are writable in reset mode.
+        self.fifo.host_write.next = self.we.val() & self.reset_mode.val() & self.in_rx_ram.val();
+        self.fifo.host_data.next = self.wdata.val();
+        if self.in_rx_ram.val() {
+            self.fifo.host_address.next = self.rx_ram_offset.val().get_bits::<6>(0);
+        }
+        // RAM reads come out of the RAM register the cycle after; they are copied into `rdata_reg`
+        // then, so the RAM read port is free again and `rdata` holds until the next read.
+        if self.rdata_from_ram.q.val() {
+            self.rdata_reg.d.next = self.fifo.read_data.val() | self.rdata_ram_or.q.val();
+            self.rdata_from_ram.d.next = false;
+        }
+        if self.re.val() {
+            self.rdata_reg.d.next = self.read_value.val();
+            self.rdata_from_ram.d.next = self.read_from_ram.val();
+            self.rdata_ram_or.d.next = self.ram_or.val();
+            if self.pelican_mode.val() & (self.addr.val() == self.pc_alc.val()) {
+                self.alc_armed.d.next = true;
+            }
+            if self.pelican_mode.val() & (self.addr.val() == self.pc_ecc.val()) {
+                self.ecc_armed.d.next = true;
+            }
+        }
+        self.rdata.next = self.rdata_reg.q.val();
+        if self.rdata_from_ram.q.val() {
+            self.rdata.next = self.fifo.read_data.val() | self.rdata_ram_or.q.val();
+        }
+
+        // ---- Interrupt register: events set enabled bits; a read clears all but RI (a level).
+        self.events.next = self
+            .zero_byte
+            .val()
+            .replace_bit(1, self.ev_transmit.val())
+            .replace_bit(2, self.ev_error.val())
+            .replace_bit(3, self.ev_overrun.val())
+            .replace_bit(4, self.ev_wake_up.val())
+            .replace_bit(5, self.ev_passive.val())
+            .replace_bit(6, self.ev_arbitration.val())
+            .replace_bit(7, self.ev_bus_error.val());
+        self.ir_kept.next = self.ir.q.val();
+        if self.re.val() & (self.addr.val() == self.pc_ir.val()) {
+            self.ir_kept.next = 0.into();
+        }
+
+        // ---- Reset mode: entered by RM or bus-off. The request is cancelled (TBS without TI),
+        // interrupts but EI are cleared, sleep ends; the FIFO stays empty while in reset mode.
+        if self.entering_reset.val() {
+            self.tx_pending.d.next = false;
+            self.tbs.d.next = true;
+            self.mode_sm.d.next = false;
+            self.ir_kept.next = self
+                .zero_byte
+                .val()
+                .replace_bit(2, self.ir_kept.val().get_bit(2));
+        }
+        self.ir.d.next = self.ir_kept.val() | (self.events.val() & self.enables.val());
+
+        // ---- The core.
+        self.core.reset.next = self.reset.val();
+        self.core.rx.next = self.rx.val();
+        self.core.enable.next = (self.reset_mode.val() == false) & (self.mode_sm.q.val() == false);
+        self.core.listen_only.next = self.mode_lom.q.val() & self.pelican_mode.val();
+        self.core.self_test.next = self.mode_stm.q.val() & self.pelican_mode.val();
+        self.core.brp.next = self.btr0.q.val().get_bits::<6>(0);
+        self.core.sjw.next = self.btr0.q.val().get_bits::<2>(6);
+        self.core.tseg1.next = self.btr1.q.val().get_bits::<4>(0);
+        self.core.tseg2.next = self.btr1.q.val().get_bits::<3>(4);
+        self.core.sam.next = self.btr1.q.val().get_bit(7);
+        self.core.tx_request.next = self.tx_pending.q.val();
+        self.core.tx_single_shot.next = self.tx_single_shot.q.val();
+        self.core.tx_info.next = self.tx_buffer.info.val();
+        self.core.tx_data.next = self.tx_buffer.core_data.val();
+        self.core.warning_limit.next = self.ewlr.q.val();
+        if self.pelican_mode.val() == false {
+            self.core.warning_limit.next = self.default_ewlr.val();
+        }
+        self.tx.next = self.core.tx.val();
+
+        // ---- CLKOUT.
+        self.divider.reset.next = self.reset.val();
+        self.divider.divider.next = self.cdr.q.val().get_bits::<3>(0);
+        self.divider.clock_off.next = self.cdr.q.val().get_bit(3);
+        self.clkout.next = self.divider.clkout.val();
+        // In sleep, CLKOUT runs on for 15 bit times (for a host clocked by it), then stays low.
+        self.sleep_bits.d.next = 0.into();
+        if self.mode_sm.q.val() {
+            self.sleep_bits.d.next = self.sleep_bits.q.val();
+            if self.core.sample_point.val() & (self.sleep_bits.q.val() != 15) {
+                self.sleep_bits.d.next = self.sleep_bits.q.val() + 1;
+            }
+            if self.sleep_bits.q.val() == 15 {
+                self.clkout.next = false;
+            }
+        }
+
+        // ---- Hardware reset.
+        if self.reset.val() {
+            self.mode_rm.d.next = true;
+            self.mode_lom.d.next = false;
+            self.mode_stm.d.next = false;
+            self.mode_afm.d.next = false;
+            self.mode_sm.d.next = false;
+            self.ier.d.next = 0.into();
+            self.ir.d.next = 0.into();
+            self.btr0.d.next = 0.into();
+            self.btr1.d.next = 0.into();
+            self.ocr.d.next = 0.into();
+            self.ewlr.d.next = self.default_ewlr.val();
+            self.cdr.d.next = 0.into();
+            self.acr0.d.next = 0.into();
+            self.acr1.d.next = 0.into();
+            self.acr2.d.next = 0.into();
+            self.acr3.d.next = 0.into();
+            self.amr0.d.next = 0.into();
+            self.amr1.d.next = 0.into();
+            self.amr2.d.next = 0.into();
+            self.amr3.d.next = 0.into();
+            self.alc.d.next = 0.into();
+            self.alc_armed.d.next = true;
+            self.ecc.d.next = 0.into();
+            self.ecc_armed.d.next = true;
+            self.tx_pending.d.next = false;
+            self.tx_single_shot.d.next = false;
+            self.self_reception.d.next = false;
+            self.tcs.d.next = true;
+            self.tbs.d.next = true;
+            self.es.d.next = false;
+            self.bus_off_before.d.next = false;
+            self.passive_before.d.next = false;
+            self.overrun_before.d.next = false;
+            self.rbs_before.d.next = false;
+            self.basic_ri.d.next = false;
+            self.basic_cr6.d.next = false;
+            self.sleep_bits.d.next = 0.into();
+            self.rdata_reg.d.next = 0.into();
+            self.rdata_from_ram.d.next = false;
+            self.rdata_ram_or.d.next = 0.into();
+        }
+    }
+}

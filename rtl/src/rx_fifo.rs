@@ -1,0 +1,379 @@
+//! The receive FIFO: 64 bytes in one RAM block holding received messages circularly, each in the
+//! SJA1000 frame-buffer layout (frame information, 2 or 4 identifier bytes, the data bytes).
+//!
+//! Ports in: the received-frame stream of the protocol engine (`header` strobe with `id`, `ide`,
+//! `rtr`, `dlc` held from then on; `byte_strobe` with `data_byte` and `byte_index`), `store` (the frame is
+//! valid and accepted: keep it), the host commands `release_head` (RRB) and `clear_overrun` (CDO), `clear`
+//! (reset mode: empty), `load_start` + `start_address` (RBSA write), and the host port
+//! `host_read` / `host_write` at `host_address` (writes only in reset mode, when no frame is written). Out: `read_data` (the RAM byte, registered: valid the cycle after
+//! `host_read`), `message_count` (RMC), `start` (RBSA), `overrun` (DOS), `head_info` (frame
+//! information of the head message). Acts on the rising edge of `clock`.
+//!
+//! A message is written while it arrives, into the free space after the stored messages; bytes that
+//! find no room are dropped and mark the message incomplete. At `store` a complete message is counted
+//! (RMC + 1), an incomplete one is dropped entirely and sets `overrun`. `release_head` frees the head
+//! message; the frame information of the next one is fetched through the RAM read port in that same
+//! cycle (a host write cycle, so the port is free) and is valid from the cycle after.
+
+use rust_hdl::prelude::*;
+
+/// Bytes of the receive FIFO.
+pub const RX_FIFO_BYTES: usize = 64;
+
+/// The receive FIFO.
+#[derive(LogicBlock)]
+pub struct RxFifo {
+    /// Controller clock.
+    pub clock: Signal<In, Clock>,
+    /// Synchronous reset, active high.
+    pub reset: Signal<In, Bit>,
+    /// Empty the FIFO (reset mode).
+    pub clear: Signal<In, Bit>,
+    /// Set the start address (RBSA write; only with the FIFO empty).
+    pub load_start: Signal<In, Bit>,
+    /// Value for `load_start`.
+    pub start_address: Signal<In, Bits<6>>,
+    /// A received frame's header is complete (one clock).
+    pub header: Signal<In, Bit>,
+    /// Received identifier (11 or 29 bits, right-aligned).
+    pub id: Signal<In, Bits<29>>,
+    /// Received IDE.
+    pub ide: Signal<In, Bit>,
+    /// Received RTR.
+    pub rtr: Signal<In, Bit>,
+    /// Received DLC.
+    pub dlc: Signal<In, Bits<4>>,
+    /// A received data byte (one clock).
+    pub byte_strobe: Signal<In, Bit>,
+    /// The data byte.
+    pub data_byte: Signal<In, Bits<8>>,
+    /// Its index (0 = data byte 1).
+    pub byte_index: Signal<In, Bits<3>>,
+    /// Keep the frame received (one clock at its validity point, if accepted).
+    pub store: Signal<In, Bit>,
+    /// Free the head message (CMR.RRB).
+    pub release_head: Signal<In, Bit>,
+    /// Clear the overrun status (CMR.CDO).
+    pub clear_overrun: Signal<In, Bit>,
+    /// The host reads the RAM this cycle.
+    pub host_read: Signal<In, Bit>,
+    /// RAM address the host reads or writes.
+    pub host_address: Signal<In, Bits<6>>,
+    /// The host writes `host_data` at `host_address` (reset mode only: the FIFO is idle then).
+    pub host_write: Signal<In, Bit>,
+    /// Value the host writes.
+    pub host_data: Signal<In, Bits<8>>,
+    /// RAM byte read (valid the cycle after `host_read`).
+    pub read_data: Signal<Out, Bits<8>>,
+    /// Messages stored (RMC).
+    pub message_count: Signal<Out, Bits<5>>,
+    /// RAM address of the head message (RBSA).
+    pub start: Signal<Out, Bits<6>>,
+    /// A message was lost for want of room (SR.DOS).
+    pub overrun: Signal<Out, Bit>,
+    /// Frame information byte of the head message (meaningful while `message_count` > 0).
+    pub head_info: Signal<Out, Bits<8>>,
+    ram: RAM<Bits<8>, 6>,
+    head: DFF<Bits<6>>,
+    tail: DFF<Bits<6>>,
+    used: DFF<Bits<7>>,
+    count: DFF<Bits<5>>,
+    overrun_state: DFF<Bit>,
+    head_info_reg: DFF<Bits<8>>,
+    fetching: DFF<Bit>,
+    info: DFF<Bits<8>>,
+    length: DFF<Bits<4>>,
+    header_step: DFF<Bits<3>>,
+    writing_header: DFF<Bit>,
+    incomplete: DFF<Bit>,
+    // Combinational helpers.
+    new_info: Signal<Local, Bits<8>>,
+    new_length: Signal<Local, Bits<4>>,
+    header_bytes: Signal<Local, Bits<4>>,
+    head_info_now: Signal<Local, Bits<8>>,
+    head_length: Signal<Local, Bits<4>>,
+    head_header_bytes: Signal<Local, Bits<4>>,
+    offset: Signal<Local, Bits<4>>,
+    write_now: Signal<Local, Bit>,
+    write_byte: Signal<Local, Bits<8>>,
+    room_needed: Signal<Local, Bits<7>>,
+    releasing: Signal<Local, Bit>,
+    storing: Signal<Local, Bit>,
+    next_head: Signal<Local, Bits<6>>,
+    used_after_release: Signal<Local, Bits<7>>,
+    count_after_release: Signal<Local, Bits<5>>,
+    header_last: Signal<Local, Bits<3>>,
+    zero_byte: Constant<Bits<8>>,
+}
+
+impl Default for RxFifo {
+    fn default() -> Self {
+        RxFifo {
+            clock: Default::default(),
+            reset: Default::default(),
+            clear: Default::default(),
+            load_start: Default::default(),
+            start_address: Default::default(),
+            header: Default::default(),
+            id: Default::default(),
+            ide: Default::default(),
+            rtr: Default::default(),
+            dlc: Default::default(),
+            byte_strobe: Default::default(),
+            data_byte: Default::default(),
+            byte_index: Default::default(),
+            store: Default::default(),
+            release_head: Default::default(),
+            clear_overrun: Default::default(),
+            host_read: Default::default(),
+            host_address: Default::default(),
+            host_write: Default::default(),
+            host_data: Default::default(),
+            read_data: Default::default(),
+            message_count: Default::default(),
+            start: Default::default(),
+            overrun: Default::default(),
+            head_info: Default::default(),
+            // Every word initialised: unwritten RAM reads X in Verilog (RUST_HDL.md rule 6).
+            ram: RAM::from((0..RX_FIFO_BYTES).map(|_| Bits::<8>::from(0u64))),
+            head: Default::default(),
+            tail: Default::default(),
+            used: Default::default(),
+            count: Default::default(),
+            overrun_state: Default::default(),
+            head_info_reg: Default::default(),
+            fetching: Default::default(),
+            info: Default::default(),
+            length: Default::default(),
+            header_step: Default::default(),
+            writing_header: Default::default(),
+            incomplete: Default::default(),
+            new_info: Default::default(),
+            new_length: Default::default(),
+            header_bytes: Default::default(),
+            head_info_now: Default::default(),
+            head_length: Default::default(),
+            head_header_bytes: Default::default(),
+            offset: Default::default(),
+            write_now: Default::default(),
+            write_byte: Default::default(),
+            room_needed: Default::default(),
+            releasing: Default::default(),
+            storing: Default::default(),
+            next_head: Default::default(),
+            used_after_release: Default::default(),
+            count_after_release: Default::default(),
+            header_last: Default::default(),
+            zero_byte: Constant::new(0.into()),
+        }
+    }
+}
+
+impl Logic for RxFifo {
+    #[hdl_gen]
+    fn update(&mut self) {
+        dff_setup!(
+            self,
+            clock,
+            head,
+            tail,
+            used,
+            count,
+            overrun_state,
+            head_info_reg,
+            fetching,
+            info,
+            length,
+            header_step,
+            writing_header,
+            incomplete
+        );
+        self.ram.read_clock.next = self.clock.val();
+        self.ram.write_clock.next = self.clock.val();
+        self.read_data.next = self.ram.read_data.val();
+        self.message_count.next = self.count.q.val();
+        self.start.next = self.head.q.val();
+        self.overrun.next = self.overrun_state.q.val();
+
+        // The frame information of the head message: fetched from the RAM after a release.
+        self.head_info_now.next = self.head_info_reg.q.val();
+        if self.fetching.q.val() {
+            self.head_info_now.next = self.ram.read_data.val();
+        }
+        self.head_info.next = self.head_info_now.val();
+        self.head_info_reg.d.next = self.head_info_now.val();
+        self.fetching.d.next = false;
+
+        // Message lengths: frame information + 2 or 4 identifier bytes + data (none for RTR, at most 8).
+        self.head_header_bytes.next = 3.into();
+        if self.head_info_now.val().get_bit(7) {
+            self.head_header_bytes.next = 5.into();
+        }
+        self.head_length.next =
+            self.head_header_bytes.val() + self.head_info_now.val().get_bits::<4>(0);
+        if self.head_info_now.val().get_bit(3) {
+            self.head_length.next = self.head_header_bytes.val() + 8;
+        }
+        if self.head_info_now.val().get_bit(6) {
+            self.head_length.next = self.head_header_bytes.val();
+        }
+        self.new_info.next = bit_cast::<8, 4>(self.dlc.val())
+            .replace_bit(6, self.rtr.val())
+            .replace_bit(7, self.ide.val());
+        self.header_bytes.next = 3.into();
+        if self.ide.val() {
+            self.header_bytes.next = 5.into();
+        }
+        self.new_length.next = self.header_bytes.val() + self.dlc.val();
+        if self.dlc.val().get_bit(3) {
+            self.new_length.next = self.header_bytes.val() + 8;
+        }
+        if self.rtr.val() {
+            self.new_length.next = self.header_bytes.val();
+        }
+
+        // ---- Writing the message being received.
+        self.write_now.next = false;
+        self.offset.next = bit_cast::<4, 3>(self.header_step.q.val());
+        self.write_byte.next = self.info.q.val();
+        self.header_last.next = 2.into();
+        if self.ide.val() {
+            self.header_last.next = 4.into();
+        }
+        if self.header.val() {
+            self.info.d.next = self.new_info.val();
+            self.length.d.next = self.new_length.val();
+            self.header_step.d.next = 0.into();
+            self.writing_header.d.next = true;
+            self.incomplete.d.next = false;
+        }
+        if self.writing_header.q.val() {
+            self.write_now.next = true;
+            self.header_step.d.next = self.header_step.q.val() + 1;
+            if self.header_step.q.val() == self.header_last.val() {
+                self.writing_header.d.next = false;
+            }
+            if self.ide.val() {
+                if self.header_step.q.val() == 1 {
+                    self.write_byte.next = self.id.val().get_bits::<8>(21);
+                }
+                if self.header_step.q.val() == 2 {
+                    self.write_byte.next = self.id.val().get_bits::<8>(13);
+                }
+                if self.header_step.q.val() == 3 {
+                    self.write_byte.next = self.id.val().get_bits::<8>(5);
+                }
+                if self.header_step.q.val() == 4 {
+                    // ID.4..0 in bits 7..3, the RTR copy in bit 2.
+                    self.write_byte.next = self
+                        .zero_byte
+                        .val()
+                        .replace_bit(7, self.id.val().get_bit(4))
+                        .replace_bit(6, self.id.val().get_bit(3))
+                        .replace_bit(5, self.id.val().get_bit(2))
+                        .replace_bit(4, self.id.val().get_bit(1))
+                        .replace_bit(3, self.id.val().get_bit(0))
+                        .replace_bit(2, self.rtr.val());
+                }
+            } else {
+                if self.header_step.q.val() == 1 {
+                    self.write_byte.next = self.id.val().get_bits::<8>(3);
+                }
+                if self.header_step.q.val() == 2 {
+                    // ID.2..0 in bits 7..5, the RTR copy in bit 4.
+                    self.write_byte.next = self
+                        .zero_byte
+                        .val()
+                        .replace_bit(7, self.id.val().get_bit(2))
+                        .replace_bit(6, self.id.val().get_bit(1))
+                        .replace_bit(5, self.id.val().get_bit(0))
+                        .replace_bit(4, self.rtr.val());
+                }
+            }
+        }
+        if self.byte_strobe.val() {
+            self.write_now.next = true;
+            self.offset.next = self.header_bytes.val() + bit_cast::<4, 3>(self.byte_index.val());
+            self.write_byte.next = self.data_byte.val();
+        }
+        // A byte fits if it lands before the stored messages: used + offset < 64.
+        self.room_needed.next = self.used.q.val() + bit_cast::<7, 4>(self.offset.val());
+        self.ram.write_enable.next = false;
+        self.ram.write_address.next = self.tail.q.val() + bit_cast::<6, 4>(self.offset.val());
+        self.ram.write_data.next = self.write_byte.val();
+        if self.write_now.val() {
+            if self.room_needed.val().get_bit(6) {
+                self.incomplete.d.next = true;
+            } else {
+                self.ram.write_enable.next = true;
+            }
+        }
+
+        // ---- Release of the head message and storing of the new one (possibly in the same cycle).
+        self.releasing.next = self.release_head.val() & (self.count.q.val() != 0);
+        self.storing.next = self.store.val() & (self.incomplete.q.val() == false);
+        self.next_head.next = self.head.q.val() + bit_cast::<6, 4>(self.head_length.val());
+        self.used_after_release.next = self.used.q.val();
+        self.count_after_release.next = self.count.q.val();
+        if self.releasing.val() {
+            self.head.d.next = self.next_head.val();
+            self.used_after_release.next =
+                self.used.q.val() - bit_cast::<7, 4>(self.head_length.val());
+            self.count_after_release.next = self.count.q.val() - 1;
+            self.fetching.d.next = true;
+        }
+        self.used.d.next = self.used_after_release.val();
+        self.count.d.next = self.count_after_release.val();
+        if self.storing.val() {
+            self.tail.d.next = self.tail.q.val() + bit_cast::<6, 4>(self.length.q.val());
+            self.used.d.next =
+                self.used_after_release.val() + bit_cast::<7, 4>(self.length.q.val());
+            self.count.d.next = self.count_after_release.val() + 1;
+            if self.count_after_release.val() == 0 {
+                self.head_info_reg.d.next = self.info.q.val();
+                self.fetching.d.next = false;
+            }
+        }
+        if self.store.val() & self.incomplete.q.val() {
+            self.overrun_state.d.next = true;
+        }
+        if self.clear_overrun.val() {
+            self.overrun_state.d.next = false;
+        }
+
+        // The RAM read port: the host's reads, otherwise the next head's frame information.
+        self.ram.read_address.next = self.next_head.val();
+        if self.host_read.val() {
+            self.ram.read_address.next = self.host_address.val();
+        }
+
+        // ---- Reset mode empties the FIFO; the start address stays (RBSA); the host may write the RAM.
+        if self.clear.val() {
+            if self.host_write.val() {
+                self.ram.write_enable.next = true;
+                self.ram.write_address.next = self.host_address.val();
+                self.ram.write_data.next = self.host_data.val();
+            }
+            self.tail.d.next = self.head.q.val();
+            self.used.d.next = 0.into();
+            self.count.d.next = 0.into();
+            self.overrun_state.d.next = false;
+            self.writing_header.d.next = false;
+            self.incomplete.d.next = false;
+            if self.load_start.val() {
+                self.head.d.next = self.start_address.val();
+                self.tail.d.next = self.start_address.val();
+            }
+        }
+        if self.reset.val() {
+            self.head.d.next = 0.into();
+            self.tail.d.next = 0.into();
+            self.used.d.next = 0.into();
+            self.count.d.next = 0.into();
+            self.overrun_state.d.next = false;
+            self.writing_header.d.next = false;
+            self.incomplete.d.next = false;
+            self.fetching.d.next = false;
+        }
+    }
+}

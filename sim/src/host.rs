@@ -1,0 +1,73 @@
+//! The host model: a CPU that talks to one [`ControllerNode`] only through its registers.
+//!
+//! Every access takes one clock cycle of the node, like a real bus cycle; the engine keeps running
+//! (all other devices too) while the host waits for its access. A read returns the registered read
+//! data of the port contract.
+
+use crate::controller_node::{ControllerNode, HostAccess};
+use crate::engine::{DeviceId, Engine};
+
+/// Longest time an access may wait for its clock edge before the host gives up (a stopped clock).
+const ACCESS_TIMEOUT_FS: u64 = 1_000_000_000_000;
+
+/// Register access to one controller of an engine.
+pub struct Host<'e> {
+    engine: &'e mut Engine,
+    node: DeviceId,
+}
+
+impl<'e> Host<'e> {
+    /// The host of the [`ControllerNode`] `node`.
+    pub fn new(engine: &'e mut Engine, node: DeviceId) -> Host<'e> {
+        Host { engine, node }
+    }
+
+    /// Writes `value` to register `addr` (one clock cycle).
+    pub fn write(&mut self, addr: u8, value: u8) {
+        self.access(HostAccess::Write { addr, value });
+    }
+
+    /// Reads register `addr` (one clock cycle; the side effects of the read happen).
+    pub fn read(&mut self, addr: u8) -> u8 {
+        self.access(HostAccess::Read { addr });
+        self.node_mut()
+            .take_read()
+            .expect("a read access returns its data")
+    }
+
+    /// Lets `cycles` clock cycles of the node pass without an access.
+    pub fn idle(&mut self, cycles: u64) {
+        let node = self.node;
+        let end = self.node().edges() + cycles;
+        self.engine
+            .run_while(u64::MAX, |e| {
+                e.device::<ControllerNode>(node).edges() >= end
+            })
+            .expect("simulation");
+    }
+
+    /// The engine (to run the bus between accesses).
+    pub fn engine(&mut self) -> &mut Engine {
+        self.engine
+    }
+
+    /// The node.
+    pub fn node(&self) -> &ControllerNode {
+        self.engine.device(self.node)
+    }
+
+    fn node_mut(&mut self) -> &mut ControllerNode {
+        self.engine.device_mut(self.node)
+    }
+
+    fn access(&mut self, access: HostAccess) {
+        let node = self.node;
+        self.node_mut().queue(access);
+        let limit = self.engine.now() + ACCESS_TIMEOUT_FS;
+        let done = self
+            .engine
+            .run_while(limit, |e| e.device::<ControllerNode>(node).host_idle())
+            .expect("simulation");
+        assert!(done, "host access {access:?} never completed");
+    }
+}

@@ -1,0 +1,157 @@
+//! Bench for register-level tests: complete RTL controllers ([`ControllerNode`]) on one bus, each
+//! reached only through its host port ([`Host`]), optionally with a lower tester. 16 MHz clock,
+//! 500 kbit/s (BTR0 = 0x00, BTR1 = 0x1C: 16 tq, sample point 87.5 %), PeliCAN mode and an open
+//! filter unless a test says otherwise.
+
+use rtl::registers::{command, mode, pelican, status};
+use sim::btr::Btr;
+use sim::controller_node::ControllerNode;
+use sim::engine::{DeviceId, Engine};
+use sim::frame::Frame;
+use sim::frame_buffer::{buffer_len, decode_buffer, encode_buffer, FRAME_BUFFER_BYTES};
+use sim::host::Host;
+use sim::lower_tester::LowerTester;
+use sim::time::ClockSpec;
+
+use crate::CLOCK_HZ;
+
+/// BTR0 of the bench (500 kbit/s at 16 MHz).
+pub const BTR0: u8 = 0x00;
+/// BTR1 of the bench.
+pub const BTR1: u8 = 0x1C;
+/// Bits after which a node that left reset mode has integrated (11 recessive bits and margin).
+pub const INTEGRATION_BITS: u64 = 13;
+
+/// The bit timing of the bench.
+pub fn bench_btr() -> Btr {
+    Btr::from_registers(BTR0, BTR1)
+}
+
+/// Controllers (and at most one lower tester) on one bus.
+pub struct ControllerBench {
+    /// The engine.
+    pub engine: Engine,
+    nodes: Vec<DeviceId>,
+    lt: Option<DeviceId>,
+}
+
+impl ControllerBench {
+    /// `count` controllers, each after a hardware reset (reset mode, BasicCAN).
+    pub fn new(count: usize) -> ControllerBench {
+        let mut engine = Engine::new();
+        engine.keep_history();
+        let clock = ClockSpec::from_hz(CLOCK_HZ);
+        let nodes = (0..count)
+            .map(|i| engine.add(ControllerNode::new(&format!("n{i}"), clock), 0))
+            .collect();
+        ControllerBench {
+            engine,
+            nodes,
+            lt: None,
+        }
+    }
+
+    /// One controller and a lower tester in the bench's bit timing.
+    pub fn with_lower_tester() -> ControllerBench {
+        let mut bench = ControllerBench::new(1);
+        let lt = LowerTester::new("lt", ClockSpec::from_hz(CLOCK_HZ), bench_btr());
+        bench.lt = Some(bench.engine.add(lt, 0));
+        bench
+    }
+
+    /// `count` controllers set up by [`configure_pelican`] and integrated.
+    pub fn operating(count: usize) -> ControllerBench {
+        let mut bench = ControllerBench::new(count);
+        for n in 0..count {
+            configure_pelican(&mut bench.host(n));
+            bench.host(n).write(pelican::MOD, 0);
+        }
+        bench.run_bits(INTEGRATION_BITS);
+        bench
+    }
+
+    /// The host of controller `n`.
+    pub fn host(&mut self, n: usize) -> Host<'_> {
+        Host::new(&mut self.engine, self.nodes[n])
+    }
+
+    /// Controller `n`.
+    pub fn node(&self, n: usize) -> &ControllerNode {
+        self.engine.device(self.nodes[n])
+    }
+
+    /// Controller `n`'s device id.
+    pub fn id(&self, n: usize) -> DeviceId {
+        self.nodes[n]
+    }
+
+    /// The lower tester.
+    pub fn lt(&mut self) -> &mut LowerTester {
+        let lt = self.lt.expect("a bench with a lower tester");
+        self.engine.device_mut(lt)
+    }
+
+    /// Runs the bus for `bits` bit times.
+    pub fn run_bits(&mut self, bits: u64) {
+        let end = self.engine.now() + bits * bench_bit_fs();
+        self.engine.run_until(end).expect("simulation");
+    }
+
+    /// Runs until controller `n`'s interrupt output is asserted or `max_bits` have passed; returns
+    /// whether it was.
+    pub fn run_until_irq(&mut self, n: usize, max_bits: u64) -> bool {
+        let id = self.nodes[n];
+        let limit = self.engine.now() + max_bits * bench_bit_fs();
+        self.engine
+            .run_while(limit, |e| e.device::<ControllerNode>(id).irq())
+            .expect("simulation")
+    }
+}
+
+/// One bit time of the bench in femtoseconds.
+pub fn bench_bit_fs() -> u64 {
+    bench_btr().clocks_per_bit() as u64 * ClockSpec::from_hz(CLOCK_HZ).period_fs()
+}
+
+/// The catalog's default setup, in reset mode: PeliCAN, the bench's bit timing, filter open
+/// (ACR 0, AMR 0xFF), every interrupt enabled, EWLR 96. The caller leaves reset mode.
+pub fn configure_pelican(host: &mut Host) {
+    host.write(pelican::MOD, mode::RM);
+    host.write(pelican::CDR, rtl::registers::clock_divider::PELICAN);
+    host.write(pelican::BTR0, BTR0);
+    host.write(pelican::BTR1, BTR1);
+    for i in 0..4 {
+        host.write(pelican::ACR0 + i, 0x00);
+        host.write(pelican::AMR0 + i, 0xFF);
+    }
+    host.write(pelican::IER, 0xFF);
+}
+
+/// Writes `frame` into the transmit buffer and the command `cmd` (e.g. TR) into CMR.
+pub fn transmit(host: &mut Host, frame: &Frame, cmd: u8) {
+    let buf = encode_buffer(frame);
+    for (i, b) in buf.iter().take(buffer_len(buf[0])).enumerate() {
+        host.write(pelican::FRAME + i as u8, *b);
+    }
+    host.write(pelican::CMR, cmd);
+}
+
+/// Reads the head message of the RX FIFO through the frame window (without releasing it).
+pub fn read_rx_buffer(host: &mut Host) -> Frame {
+    let mut bytes = [0u8; FRAME_BUFFER_BYTES];
+    bytes[0] = host.read(pelican::FRAME);
+    for i in 1..buffer_len(bytes[0]) {
+        bytes[i] = host.read(pelican::FRAME + i as u8);
+    }
+    decode_buffer(&bytes)
+}
+
+/// Reads every stored message (head first) and releases each.
+pub fn drain_rx(host: &mut Host) -> Vec<Frame> {
+    let mut frames = Vec::new();
+    while host.read(pelican::SR) & status::RBS != 0 {
+        frames.push(read_rx_buffer(host));
+        host.write(pelican::CMR, command::RRB);
+    }
+    frames
+}
