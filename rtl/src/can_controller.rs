@@ -67,6 +67,8 @@ pub struct CanController {
     ir: DFF<Bits<8>>,
     btr0: DFF<Bits<8>>,
     btr1: DFF<Bits<8>>,
+    sjw: DFF<Bits<2>>,
+    tseg2: DFF<Bits<3>>,
     ocr: DFF<Bits<8>>,
     ewlr: DFF<Bits<8>>,
     cdr: DFF<Bits<8>>,
@@ -221,6 +223,8 @@ impl Default for CanController {
             ir: Default::default(),
             btr0: Default::default(),
             btr1: Default::default(),
+            sjw: Default::default(),
+            tseg2: Default::default(),
             ocr: Default::default(),
             ewlr: Default::default(),
             cdr: Default::default(),
@@ -356,6 +360,8 @@ impl Logic for CanController {
             ir,
             btr0,
             btr1,
+            sjw,
+            tseg2,
             ocr,
             ewlr,
             cdr,
@@ -451,7 +457,7 @@ impl Logic for CanController {
         self.enables.next = self.ier.q.val();
         if self.pelican_mode.val() == false {
             self.enables.next =
-                bit_cast::<8, 4>(self.ier.q.val().get_bits::<4>(0)).replace_bit(4, true);
+                bit_cast::<8, 4>(bit_cast::<4, 8>(self.ier.q.val())).replace_bit(4, true);
         }
         // RI: in PeliCAN the level RBS & RIE; in BasicCAN a latch set when a message becomes
         // available (RBS rises, or RRB leaves another one) and cleared by reading IR.
@@ -523,7 +529,7 @@ impl Logic for CanController {
                 self.ier.d.next = self.wdata.val();
             }
             if self.addr.val() == self.pc_cdr.val() {
-                self.cdr.d.next = bit_cast::<8, 3>(self.wdata.val().get_bits::<3>(0))
+                self.cdr.d.next = bit_cast::<8, 3>(bit_cast::<3, 8>(self.wdata.val()))
                     .replace_bit(3, self.cdr.q.val().get_bit(3))
                     .replace_bit(5, self.cdr.q.val().get_bit(5))
                     .replace_bit(6, self.cdr.q.val().get_bit(6))
@@ -533,11 +539,15 @@ impl Logic for CanController {
                 }
             }
             if self.reset_mode.val() {
+                // SJW and TSEG2 are kept apart too: slicing them out of BTR0/BTR1 on every
+                // simulated cycle is costly in rust-hdl.
                 if self.addr.val() == self.pc_btr0.val() {
                     self.btr0.d.next = self.wdata.val();
+                    self.sjw.d.next = self.wdata.val().get_bits::<2>(6);
                 }
                 if self.addr.val() == self.pc_btr1.val() {
                     self.btr1.d.next = self.wdata.val();
+                    self.tseg2.d.next = self.wdata.val().get_bits::<3>(4);
                 }
                 if self.addr.val() == self.pc_ocr.val() {
                     self.ocr.d.next = self.wdata.val();
@@ -597,7 +607,7 @@ impl Logic for CanController {
             & self.reset_mode.val()
             & self.pelican_mode.val()
             & (self.addr.val() == self.pc_rbsa.val());
-        self.fifo.start_address.next = self.wdata.val().get_bits::<6>(0);
+        self.fifo.start_address.next = bit_cast::<6, 8>(self.wdata.val());
 
         // ---- Transmit buffer: written in operating mode while it is free (TBS).
         self.tx_buffer.basic_layout.next = self.pelican_mode.val() == false;
@@ -607,17 +617,17 @@ impl Logic for CanController {
             & (self.in_frame_window.val() | self.in_basic_tx.val());
         self.tx_ram_offset.next = self.addr.val() - self.pc_tx_ram.val();
         self.basic_tx_offset.next = self.addr.val() - self.bc_tx_base.val();
-        self.tx_buffer.write_index.next = self.offset.val().get_bits::<4>(0);
+        self.tx_buffer.write_index.next = bit_cast::<4, 8>(self.offset.val());
         // The TX RAM window is writable in reset mode.
         if self.we.val() & self.reset_mode.val() & self.in_tx_ram.val() {
             self.tx_buffer.write.next = true;
-            self.tx_buffer.write_index.next = self.tx_ram_offset.val().get_bits::<4>(0);
+            self.tx_buffer.write_index.next = bit_cast::<4, 8>(self.tx_ram_offset.val());
         }
-        self.tx_buffer.host_index.next = self.tx_ram_offset.val().get_bits::<4>(0);
+        self.tx_buffer.host_index.next = bit_cast::<4, 8>(self.tx_ram_offset.val());
         if self.pelican_mode.val() == false {
             // BasicCAN byte 10 is buffer byte 1 (identifier bits 10..3).
-            self.tx_buffer.write_index.next = self.basic_tx_offset.val().get_bits::<4>(0);
-            self.tx_buffer.host_index.next = self.basic_tx_offset.val().get_bits::<4>(0);
+            self.tx_buffer.write_index.next = bit_cast::<4, 8>(self.basic_tx_offset.val());
+            self.tx_buffer.host_index.next = bit_cast::<4, 8>(self.basic_tx_offset.val());
         }
         self.tx_buffer.write_data.next = self.wdata.val();
         self.tx_buffer.core_index.next = self.core.tx_addr.val();
@@ -736,7 +746,7 @@ impl Logic for CanController {
         self.read_value.next = 0.into();
         self.read_from_ram.next = false;
         self.ram_or.next = 0.into();
-        self.offset6.next = self.offset.val().get_bits::<6>(0);
+        self.offset6.next = bit_cast::<6, 8>(self.offset.val());
         self.rx_ram_offset.next = self.addr.val() - self.pc_rx_ram.val();
         self.basic_rx_offset.next = self.addr.val() - self.bc_rx_base.val();
         self.basic_rx_offset6.next = 0.into();
@@ -875,10 +885,11 @@ impl Logic for CanController {
             if self.in_basic_rx.val() {
                 // BasicCAN byte 20 is FIFO message byte 1; byte 21 adds the DLC to ID.2..0 and RTR.
                 self.read_from_ram.next = true;
-                self.basic_rx_offset6.next = self.basic_rx_offset.val().get_bits::<6>(0);
+                self.basic_rx_offset6.next = bit_cast::<6, 8>(self.basic_rx_offset.val());
                 self.fifo.host_address.next = self.fifo.start.val() + self.basic_rx_offset6.val();
                 if self.addr.val() == self.bc_rx_id_dlc.val() {
-                    self.ram_or.next = bit_cast::<8, 4>(self.fifo.head_info.val().get_bits::<4>(0));
+                    self.ram_or.next =
+                        bit_cast::<8, 4>(bit_cast::<4, 8>(self.fifo.head_info.val()));
                 }
             }
         }
@@ -887,7 +898,7 @@ impl Logic for CanController {
         self.fifo.host_write.next = self.we.val() & self.reset_mode.val() & self.in_rx_ram.val();
         self.fifo.host_data.next = self.wdata.val();
         if self.in_rx_ram.val() {
-            self.fifo.host_address.next = self.rx_ram_offset.val().get_bits::<6>(0);
+            self.fifo.host_address.next = bit_cast::<6, 8>(self.rx_ram_offset.val());
         }
         // RAM reads come out of the RAM register the cycle after; they are copied into `rdata_reg`
         // then, so the RAM read port is free again and `rdata` holds until the next read.
@@ -946,10 +957,10 @@ impl Logic for CanController {
         self.core.enable.next = (self.reset_mode.val() == false) & (self.mode_sm.q.val() == false);
         self.core.listen_only.next = self.mode_lom.q.val() & self.pelican_mode.val();
         self.core.self_test.next = self.mode_stm.q.val() & self.pelican_mode.val();
-        self.core.brp.next = self.btr0.q.val().get_bits::<6>(0);
-        self.core.sjw.next = self.btr0.q.val().get_bits::<2>(6);
-        self.core.tseg1.next = self.btr1.q.val().get_bits::<4>(0);
-        self.core.tseg2.next = self.btr1.q.val().get_bits::<3>(4);
+        self.core.brp.next = bit_cast::<6, 8>(self.btr0.q.val());
+        self.core.sjw.next = self.sjw.q.val();
+        self.core.tseg1.next = bit_cast::<4, 8>(self.btr1.q.val());
+        self.core.tseg2.next = self.tseg2.q.val();
         self.core.sam.next = self.btr1.q.val().get_bit(7);
         self.core.tx_request.next = self.tx_pending.q.val();
         self.core.tx_single_shot.next = self.tx_single_shot.q.val();
@@ -963,7 +974,7 @@ impl Logic for CanController {
 
         // ---- CLKOUT.
         self.divider.reset.next = self.reset.val();
-        self.divider.divider.next = self.cdr.q.val().get_bits::<3>(0);
+        self.divider.divider.next = bit_cast::<3, 8>(self.cdr.q.val());
         self.divider.clock_off.next = self.cdr.q.val().get_bit(3);
         self.clkout.next = self.divider.clkout.val();
         // In sleep, CLKOUT runs on for 15 bit times (for a host clocked by it), then stays low.
@@ -989,6 +1000,8 @@ impl Logic for CanController {
             self.ir.d.next = 0.into();
             self.btr0.d.next = 0.into();
             self.btr1.d.next = 0.into();
+            self.sjw.d.next = 0.into();
+            self.tseg2.d.next = 0.into();
             self.ocr.d.next = 0.into();
             self.ewlr.d.next = self.default_ewlr.val();
             self.cdr.d.next = 0.into();

@@ -210,7 +210,7 @@ impl Logic for RxFifo {
             self.head_header_bytes.next = 5.into();
         }
         self.head_length.next =
-            self.head_header_bytes.val() + self.head_info_now.val().get_bits::<4>(0);
+            self.head_header_bytes.val() + bit_cast::<4, 8>(self.head_info_now.val());
         if self.head_info_now.val().get_bit(3) {
             self.head_length.next = self.head_header_bytes.val() + 8;
         }

@@ -53,7 +53,7 @@ impl Logic for TxBuffer {
         self.core_data.next = 0.into();
         self.info.next = self.bytes[0].q.val();
         if self.basic_layout.val() {
-            self.info.next = bit_cast::<8, 4>(self.bytes[2].q.val().get_bits::<4>(0))
+            self.info.next = bit_cast::<8, 4>(bit_cast::<4, 8>(self.bytes[2].q.val()))
                 .replace_bit(6, self.bytes[2].q.val().get_bit(4));
         }
         for i in 0..TX_BUFFER_BYTES {
