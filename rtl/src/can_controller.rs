@@ -97,7 +97,7 @@ pub struct CanController {
     rbs_before: DFF<Bit>,
     basic_ri: DFF<Bit>,
     basic_cr6: DFF<Bit>,
-    sleep_bits: DFF<Bits<4>>,
+    sleep_bits: DFF<Bits<5>>,
     // ---- Read data path.
     rdata_reg: DFF<Bits<8>>,
     rdata_from_ram: DFF<Bit>,
@@ -977,14 +977,15 @@ impl Logic for CanController {
         self.divider.divider.next = bit_cast::<3, 8>(self.cdr.q.val());
         self.divider.clock_off.next = self.cdr.q.val().get_bit(3);
         self.clkout.next = self.divider.clkout.val();
-        // In sleep, CLKOUT runs on for 15 bit times (for a host clocked by it), then stays low.
+        // In sleep, CLKOUT runs on for at least 15 bit times (for a host clocked by it), then stays
+        // low: 16 sample points, the first of which may end a partial bit.
         self.sleep_bits.d.next = 0.into();
         if self.mode_sm.q.val() {
             self.sleep_bits.d.next = self.sleep_bits.q.val();
-            if self.core.sample_point.val() & (self.sleep_bits.q.val() != 15) {
+            if self.core.sample_point.val() & (self.sleep_bits.q.val() != 16) {
                 self.sleep_bits.d.next = self.sleep_bits.q.val() + 1;
             }
-            if self.sleep_bits.q.val() == 15 {
+            if self.sleep_bits.q.val() == 16 {
                 self.clkout.next = false;
             }
         }

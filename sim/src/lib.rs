@@ -12,6 +12,7 @@ pub mod can_node;
 pub mod controller_node;
 pub mod crc15;
 pub mod demo;
+pub mod driver;
 pub mod engine;
 pub mod frame;
 pub mod frame_buffer;

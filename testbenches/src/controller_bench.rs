@@ -155,3 +155,96 @@ pub fn drain_rx(host: &mut Host) -> Vec<Frame> {
     }
     frames
 }
+
+/// The bytes a host reads for `frame` from the RX buffer (and finds in the FIFO RAM): the TX layout
+/// of [`encode_buffer`] plus the RTR copy (standard: byte 2 bit 4; extended: byte 4 bit 2),
+/// [`buffer_len`] bytes.
+pub fn rx_buffer_bytes(frame: &Frame) -> Vec<u8> {
+    let mut buf = encode_buffer(frame);
+    if frame.is_remote() {
+        if frame.id().is_extended() {
+            buf[4] |= 0x04;
+        } else {
+            buf[2] |= 0x10;
+        }
+    }
+    buf[..buffer_len(buf[0])].to_vec()
+}
+
+impl ControllerBench {
+    /// Polls controller `n`'s SR once per bit time until TBS is 1 (the request ended: sent,
+    /// aborted or failed single shot), at most `max_bits` bit times; returns whether it was.
+    pub fn run_until_tx_buffer_free(&mut self, n: usize, max_bits: u64) -> bool {
+        for _ in 0..max_bits {
+            if self.host(n).read(pelican::SR) & status::TBS != 0 {
+                return true;
+            }
+            self.run_bits(1);
+        }
+        self.host(n).read(pelican::SR) & status::TBS != 0
+    }
+
+    /// Runs `bits` bit times and returns how many clock edges of the engine (any device) found
+    /// controller `n`'s `tx` pin dominant right after them.
+    pub fn run_bits_counting_dominant_tx(&mut self, n: usize, bits: u64) -> u64 {
+        let id = self.nodes[n];
+        let end = self.engine.now() + bits * bench_bit_fs();
+        let mut dominant = 0;
+        self.engine
+            .run_while(end, |e| {
+                if !e.device::<ControllerNode>(id).tx() {
+                    dominant += 1;
+                }
+                false
+            })
+            .expect("simulation");
+        dominant
+    }
+}
+
+impl ControllerBench {
+    /// Pulses controller `n`'s hardware `reset` input for two clocks (afterwards: as after a
+    /// hardware reset, in reset mode and BasicCAN).
+    pub fn pulse_hardware_reset(&mut self, n: usize) {
+        let id = self.nodes[n];
+        self.engine.device_mut::<ControllerNode>(id).set_reset(true);
+        self.host(n).idle(2);
+        self.engine
+            .device_mut::<ControllerNode>(id)
+            .set_reset(false);
+        self.host(n).idle(1);
+    }
+
+    /// Runs until controller `n` drives a dominant bit (the SOF of its frame when it transmits
+    /// from idle) and returns the time of that clock edge: the start of wire bit 0 of its frame
+    /// on the bench's bit grid. Panics after `max_bits` bit times.
+    pub fn run_until_sof(&mut self, n: usize, max_bits: u64) -> u64 {
+        let id = self.nodes[n];
+        let limit = self.engine.now() + max_bits * bench_bit_fs();
+        let found = self
+            .engine
+            .run_while(limit, |e| !e.device::<ControllerNode>(id).tx())
+            .expect("simulation");
+        assert!(
+            found,
+            "controller {n} did not start a frame within {max_bits} bits"
+        );
+        self.engine.now()
+    }
+
+    /// Makes controller `n` see `level` (instead of the bus) for one bit time centred on the
+    /// nominal sample point of wire bit `bit` of a frame whose SOF began at `sof` (from
+    /// [`ControllerBench::run_until_sof`]), so exactly one of its samples falls inside. A window
+    /// on the nominal bit itself is not enough: late in a frame a receiver's (and after the ACK
+    /// also the transmitter's) sample instants lag the nominal grid by a few clocks (input
+    /// synchroniser, resynchronisation), up to the very end of the nominal bit.
+    pub fn force_seen_bit(&mut self, n: usize, sof: u64, bit: usize, level: bool) {
+        let btr = bench_btr();
+        let tq = bench_bit_fs() / btr.quanta_per_bit() as u64;
+        let sample = sof + bit as u64 * bench_bit_fs() + btr.sample_point_tq() as u64 * tq;
+        let half = btr.quanta_per_bit() as u64 / 2 * tq;
+        let id = self.nodes[n];
+        self.engine
+            .disturb_rx(id, sample - half, sample + half, level);
+    }
+}

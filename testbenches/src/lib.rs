@@ -233,5 +233,6 @@ fn wrong_bits_per_frame(received: &[bool], frames: &[sim::frame::EncodedFrame]) 
 
 pub mod controller_bench;
 pub mod ecc;
+pub mod equivalence;
 pub mod protocol_bench;
 pub mod sigrok;

@@ -1007,6 +1007,17 @@ impl Logic for Protocol {
             self.tx_reg.d.next = true;
             self.tx_next.d.next = true;
             self.transmitter.d.next = false;
+            // A node in reset mode takes no part in traffic: nothing it sees counts, even in the
+            // rest of a frame it was in when it was disabled.
+            self.stuffing.stop.next = true;
+            self.error_pulse.d.next = false;
+            self.lost_pulse.d.next = false;
+            self.valid_pulse.d.next = false;
+            self.faults.rec_plus_1.next = false;
+            self.faults.rec_plus_8.next = false;
+            self.faults.tec_plus_8.next = false;
+            self.faults.tec_minus_1.next = false;
+            self.faults.rec_success.next = false;
         }
         // Hard synchronisation where a SOF may come: idle, suspend, intermission bit 3, integration.
         self.sync_mode.next = SyncMode::Resync;

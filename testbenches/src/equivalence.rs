@@ -1,0 +1,1063 @@
+//! Equivalence harness: the same per-cycle stimulus applied to N rust-hdl [`CanController`] models
+//! and to N instances of the generated Verilog (`can_controller`, run by Icarus), with the outputs
+//! of every node recorded after every rising edge and compared.
+//!
+//! Model of the bench (identical on both sides, deterministic):
+//! - all nodes run on the same clock; cycle `k` ends with rising edge `k`;
+//! - the inputs of cycle `k` (`reset`, `addr`, `wdata`, `we`, `re`, and `rx`) are applied while the
+//!   clock is low, before edge `k`;
+//! - the bus of cycle `k` is the wired-AND of every node's registered `tx` after edge `k − 1`
+//!   (recessive in cycle 0); node `n` sees `rx = bus & !force_dominant`, so an injected dominant
+//!   level reaches only the nodes whose `force_dominant` is set in that cycle;
+//! - the outputs `tx`, `rdata`, `irq_n` and `clkout` are sampled after edge `k` with the clock low
+//!   again and before the inputs of cycle `k + 1` change (rust-hdl: after
+//!   [`clock_cycle_with`]; Verilog: clock high for 1 time unit, low, then sampled), so `clkout` with
+//!   CDR divider code 7 (the clock itself) reads 0 on both sides.
+//!
+//! [`StimulusBuilder`] writes stimuli as host programs: register accesses at a cursor, idle gaps,
+//! configuration, transmission, RX buffer reads and forced-dominant bursts. [`run_rust`] and
+//! [`run_icarus`] (or an [`IcarusBench`] compiled once and run many times) produce [`Trace`]s, and
+//! [`first_mismatch`] names the first differing cycle, node and signals.
+
+use std::fmt::{self, Write as _};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use rtl::can_controller::CanController;
+use rtl::registers::{clock_divider, command, mode, pelican};
+use rust_hdl::prelude::*;
+use sim::frame::Frame;
+use sim::frame_buffer::{buffer_len, encode_buffer};
+use sim::rtl_step::clock_cycle_with;
+
+/// Name of the top module of the emitted Verilog.
+pub const TOP_MODULE: &str = "can_controller";
+/// BTR0 of "500 kbit/s at 16 MHz" (BRP 0: tq = 2 clocks).
+pub const BTR0_500K: u8 = 0x00;
+/// BTR1 of "500 kbit/s at 16 MHz" (TSEG1 13 tq, TSEG2 2 tq: 16 tq per bit, sample point 87.5 %).
+pub const BTR1_500K: u8 = 0x1C;
+/// Clock cycles per bit with [`BTR0_500K`] and [`BTR1_500K`].
+pub const CLOCKS_PER_BIT: usize = 32;
+
+// ---- Verilog ----------------------------------------------------------------------------------
+
+/// The generated Verilog of [`CanController`] with its top module renamed from `top` to
+/// [`TOP_MODULE`] (sub-modules keep their `top$…` names, which are legal identifiers).
+pub fn controller_verilog() -> String {
+    let mut uut = CanController::default();
+    uut.connect_all();
+    check_all(&uut).expect("rust-hdl connectivity checks of the controller");
+    rename_top(&generate_verilog(&uut), TOP_MODULE)
+}
+
+/// Renames module `top` (its declaration and its closing comment) to `name`; panics if the
+/// declaration is not found exactly once.
+fn rename_top(verilog: &str, name: &str) -> String {
+    let mut declarations = 0;
+    let mut out = String::with_capacity(verilog.len() + 64);
+    for line in verilog.split_inclusive('\n') {
+        let body = line.trim_end_matches(['\n', '\r']);
+        let ending = &line[body.len()..];
+        if let Some(rest) = body.strip_prefix("module top(") {
+            declarations += 1;
+            write!(out, "module {name}({rest}{ending}").unwrap();
+        } else if body.trim_end() == "endmodule // top" {
+            write!(out, "endmodule // {name}{ending}").unwrap();
+        } else {
+            out.push_str(line);
+        }
+    }
+    assert_eq!(
+        declarations, 1,
+        "expected exactly one `module top(` in the generated Verilog"
+    );
+    out
+}
+
+// ---- stimulus ---------------------------------------------------------------------------------
+
+/// The inputs of one node in one cycle.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct NodeInputs {
+    /// Synchronous reset.
+    pub reset: bool,
+    /// Register address.
+    pub addr: u8,
+    /// Write data.
+    pub wdata: u8,
+    /// Write strobe.
+    pub we: bool,
+    /// Read strobe.
+    pub re: bool,
+    /// This node's `rx` is forced dominant in this cycle (whatever the bus is).
+    pub force_dominant: bool,
+}
+
+impl NodeInputs {
+    /// The 20-bit word of the Verilog stimulus file: `{reset, we, re, force, addr, wdata}`.
+    fn word(&self) -> u32 {
+        u32::from(self.reset) << 19
+            | u32::from(self.we) << 18
+            | u32::from(self.re) << 17
+            | u32::from(self.force_dominant) << 16
+            | u32::from(self.addr) << 8
+            | u32::from(self.wdata)
+    }
+}
+
+/// The inputs of every node in one cycle.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct CycleInputs {
+    /// One entry per node.
+    pub nodes: Vec<NodeInputs>,
+}
+
+/// A complete stimulus: `nodes` controllers on one bus, one [`CycleInputs`] per clock cycle.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Stimulus {
+    /// Number of controllers.
+    pub nodes: usize,
+    /// The inputs, cycle by cycle.
+    pub cycles: Vec<CycleInputs>,
+}
+
+impl Stimulus {
+    /// Number of cycles.
+    pub fn len(&self) -> usize {
+        self.cycles.len()
+    }
+
+    /// No cycles at all.
+    pub fn is_empty(&self) -> bool {
+        self.cycles.is_empty()
+    }
+
+    /// Checks the shape (every cycle has `nodes` entries) and the port contract (`we` and `re`
+    /// never together).
+    pub fn validate(&self) -> Result<(), String> {
+        if self.nodes == 0 {
+            return Err("a stimulus needs at least one node".into());
+        }
+        for (k, cycle) in self.cycles.iter().enumerate() {
+            if cycle.nodes.len() != self.nodes {
+                return Err(format!(
+                    "cycle {k}: {} node entries, expected {}",
+                    cycle.nodes.len(),
+                    self.nodes
+                ));
+            }
+            if let Some(n) = cycle.nodes.iter().position(|i| i.we && i.re) {
+                return Err(format!("cycle {k} node {n}: we and re together"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The host accesses, resets and forced bits of `cycles` (clamped to the stimulus), one line
+    /// per cycle that has any, for failure messages.
+    pub fn describe(&self, cycles: std::ops::Range<usize>) -> String {
+        let mut out = String::new();
+        let end = cycles.end.min(self.len());
+        for k in cycles.start.min(end)..end {
+            let mut line = String::new();
+            for (n, i) in self.cycles[k].nodes.iter().enumerate() {
+                if i.reset {
+                    write!(line, " n{n}:reset").unwrap();
+                }
+                if i.we {
+                    write!(line, " n{n}:W[{}]={:#04x}", i.addr, i.wdata).unwrap();
+                }
+                if i.re {
+                    write!(line, " n{n}:R[{}]", i.addr).unwrap();
+                }
+                if i.force_dominant {
+                    write!(line, " n{n}:rx=0").unwrap();
+                }
+            }
+            if !line.is_empty() {
+                writeln!(out, "  cycle {k}:{line}").unwrap();
+            }
+        }
+        out
+    }
+}
+
+/// One host access.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Access {
+    /// Write `value` to `addr`.
+    Write {
+        /// Register address.
+        addr: u8,
+        /// Value.
+        value: u8,
+    },
+    /// Read `addr`.
+    Read {
+        /// Register address.
+        addr: u8,
+    },
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct Slot {
+    access: Option<Access>,
+    reset: bool,
+    force_dominant: bool,
+}
+
+/// Builds a [`Stimulus`] from host programs.
+///
+/// The builder has a cursor (a cycle number). Every helper places its cycles from the cursor on
+/// and moves the cursor past them; [`StimulusBuilder::seek`] moves it back to overlay another
+/// node's program in the same cycles (a node can have one access per cycle: placing a second one
+/// panics). Cycles without an access keep the node's previous `addr` and `wdata` with `we` and
+/// `re` low. [`StimulusBuilder::build`] ends the stimulus at the furthest cycle used or the cursor.
+#[derive(Clone, Debug)]
+pub struct StimulusBuilder {
+    nodes: usize,
+    slots: Vec<Vec<Slot>>,
+    cursor: usize,
+}
+
+impl StimulusBuilder {
+    /// An empty stimulus for `nodes` controllers.
+    pub fn new(nodes: usize) -> StimulusBuilder {
+        assert!(nodes > 0, "at least one node");
+        StimulusBuilder {
+            nodes,
+            slots: Vec::new(),
+            cursor: 0,
+        }
+    }
+
+    /// Number of nodes.
+    pub fn nodes(&self) -> usize {
+        self.nodes
+    }
+
+    /// The cursor.
+    pub fn now(&self) -> usize {
+        self.cursor
+    }
+
+    /// Cycles used so far (the furthest cycle written, plus one).
+    pub fn len(&self) -> usize {
+        self.slots.len()
+    }
+
+    /// Nothing placed yet.
+    pub fn is_empty(&self) -> bool {
+        self.slots.is_empty()
+    }
+
+    /// Moves the cursor to `cycle`.
+    pub fn seek(&mut self, cycle: usize) -> &mut Self {
+        self.cursor = cycle;
+        self
+    }
+
+    /// Runs each branch from the current cursor (e.g. one host program per node, side by side) and
+    /// leaves the cursor after the longest one.
+    pub fn concurrently(&mut self, branches: &mut [&mut dyn FnMut(&mut StimulusBuilder)]) -> &mut Self {
+        let start = self.cursor;
+        let mut end = start;
+        for branch in branches.iter_mut() {
+            self.cursor = start;
+            branch(self);
+            end = end.max(self.cursor);
+        }
+        self.cursor = end;
+        self
+    }
+
+    fn slot(&mut self, cycle: usize, node: usize) -> &mut Slot {
+        assert!(node < self.nodes, "node {node} of {}", self.nodes);
+        if self.slots.len() <= cycle {
+            self.slots
+                .resize(cycle + 1, vec![Slot::default(); self.nodes]);
+        }
+        &mut self.slots[cycle][node]
+    }
+
+    /// Places `access` of `node` at `cycle` (the cursor does not move); panics if that node already
+    /// has an access there.
+    pub fn access_at(&mut self, cycle: usize, node: usize, access: Access) -> &mut Self {
+        let slot = self.slot(cycle, node);
+        if let Some(old) = slot.access {
+            panic!("cycle {cycle} node {node}: {access:?} placed over {old:?}");
+        }
+        slot.access = Some(access);
+        self
+    }
+
+    /// One access of `node` at the cursor; the cursor moves on by one cycle.
+    pub fn access(&mut self, node: usize, access: Access) -> &mut Self {
+        self.access_at(self.cursor, node, access);
+        self.cursor += 1;
+        self
+    }
+
+    /// Writes `value` to `addr` of `node` (one cycle).
+    pub fn write(&mut self, node: usize, addr: u8, value: u8) -> &mut Self {
+        self.access(node, Access::Write { addr, value })
+    }
+
+    /// Reads `addr` of `node` (one cycle).
+    pub fn read(&mut self, node: usize, addr: u8) -> &mut Self {
+        self.access(node, Access::Read { addr })
+    }
+
+    /// Reads each address of `addrs` from `node`, one per cycle.
+    pub fn reads(&mut self, node: usize, addrs: impl IntoIterator<Item = u8>) -> &mut Self {
+        for addr in addrs {
+            self.read(node, addr);
+        }
+        self
+    }
+
+    /// Writes `value` to `addr` of every node in the same cycle.
+    pub fn write_all(&mut self, addr: u8, value: u8) -> &mut Self {
+        for node in 0..self.nodes {
+            self.access_at(self.cursor, node, Access::Write { addr, value });
+        }
+        self.cursor += 1;
+        self
+    }
+
+    /// `cycles` cycles without new accesses.
+    pub fn idle(&mut self, cycles: usize) -> &mut Self {
+        if cycles > 0 {
+            self.slot(self.cursor + cycles - 1, 0);
+        }
+        self.cursor += cycles;
+        self
+    }
+
+    /// `bits` bit times of [`CLOCKS_PER_BIT`] cycles without new accesses.
+    pub fn idle_bits(&mut self, bits: usize) -> &mut Self {
+        self.idle(bits * CLOCKS_PER_BIT)
+    }
+
+    /// Hardware reset of every node for `cycles` cycles.
+    pub fn reset(&mut self, cycles: usize) -> &mut Self {
+        for k in self.cursor..self.cursor + cycles {
+            for node in 0..self.nodes {
+                self.slot(k, node).reset = true;
+            }
+        }
+        self.cursor += cycles;
+        self
+    }
+
+    /// Hardware reset of `node` alone for `cycles` cycles.
+    pub fn reset_node(&mut self, node: usize, cycles: usize) -> &mut Self {
+        for k in self.cursor..self.cursor + cycles {
+            self.slot(k, node).reset = true;
+        }
+        self.cursor += cycles;
+        self
+    }
+
+    /// Forces `node`'s `rx` dominant for `cycles` cycles (an error burst seen by that node only).
+    pub fn force_dominant(&mut self, node: usize, cycles: usize) -> &mut Self {
+        for k in self.cursor..self.cursor + cycles {
+            self.slot(k, node).force_dominant = true;
+        }
+        self.cursor += cycles;
+        self
+    }
+
+    /// Puts `node` in reset mode and configures PeliCAN, 500 kbit/s at 16 MHz ([`BTR0_500K`],
+    /// [`BTR1_500K`]), an open dual filter, OCR normal mode and every interrupt enabled; the node
+    /// stays in reset mode ([`StimulusBuilder::leave_reset_mode`]).
+    pub fn configure_pelican(&mut self, node: usize) -> &mut Self {
+        self.configure_pelican_with(node, BTR0_500K, BTR1_500K)
+    }
+
+    /// [`StimulusBuilder::configure_pelican`] with other bit timing registers.
+    pub fn configure_pelican_with(&mut self, node: usize, btr0: u8, btr1: u8) -> &mut Self {
+        self.write(node, pelican::MOD, mode::RM);
+        self.write(node, pelican::CDR, clock_divider::PELICAN);
+        self.write(node, pelican::BTR0, btr0);
+        self.write(node, pelican::BTR1, btr1);
+        self.write(node, pelican::OCR, 0x02);
+        for i in 0..4 {
+            self.write(node, pelican::ACR0 + i, 0x00);
+            self.write(node, pelican::AMR0 + i, 0xFF);
+        }
+        self.write(node, pelican::IER, 0xFF)
+    }
+
+    /// Writes MOD = `mode_bits` without RM (operating mode; LOM/STM/AFM take effect when written
+    /// from reset mode).
+    pub fn leave_reset_mode(&mut self, node: usize, mode_bits: u8) -> &mut Self {
+        self.write(node, pelican::MOD, mode_bits & !mode::RM)
+    }
+
+    /// Writes the TX buffer bytes `bytes` (frame information first) at 16, 17, …
+    pub fn write_tx_buffer(&mut self, node: usize, bytes: &[u8]) -> &mut Self {
+        for (i, &b) in bytes.iter().enumerate() {
+            self.write(node, pelican::FRAME + i as u8, b);
+        }
+        self
+    }
+
+    /// Writes `frame` into `node`'s TX buffer and `cmd` (e.g. TR) into CMR.
+    pub fn transmit(&mut self, node: usize, frame: &Frame, cmd: u8) -> &mut Self {
+        let buf = encode_buffer(frame);
+        self.write_tx_buffer(node, &buf[..buffer_len(buf[0])]);
+        self.write(node, pelican::CMR, cmd)
+    }
+
+    /// Reads the whole RX window (16..28) of `node`.
+    pub fn read_rx_buffer(&mut self, node: usize) -> &mut Self {
+        self.reads(node, pelican::FRAME..=pelican::FRAME_LAST)
+    }
+
+    /// Releases `node`'s head message (CMR = RRB).
+    pub fn release_rx_buffer(&mut self, node: usize) -> &mut Self {
+        self.write(node, pelican::CMR, command::RRB)
+    }
+
+    /// Reads the RX window of `node` and releases the message.
+    pub fn read_and_release(&mut self, node: usize) -> &mut Self {
+        self.read_rx_buffer(node).release_rx_buffer(node)
+    }
+
+    /// Reads the whole RX FIFO RAM window (32..95) of `node`.
+    pub fn read_rx_ram(&mut self, node: usize) -> &mut Self {
+        self.reads(node, pelican::RX_RAM..=pelican::RX_RAM_LAST)
+    }
+
+    /// Reads the status and capture registers of `node`: SR, IR, ALC, ECC, RXERR, TXERR, RMC, RBSA.
+    pub fn read_status(&mut self, node: usize) -> &mut Self {
+        self.reads(
+            node,
+            [
+                pelican::SR,
+                pelican::IR,
+                pelican::ALC,
+                pelican::ECC,
+                pelican::RXERR,
+                pelican::TXERR,
+                pelican::RMC,
+                pelican::RBSA,
+            ],
+        )
+    }
+
+    /// The stimulus: every placed cycle, and idle cycles up to the cursor.
+    pub fn build(&self) -> Stimulus {
+        let len = self.slots.len().max(self.cursor);
+        let mut held = vec![NodeInputs::default(); self.nodes];
+        let mut cycles = Vec::with_capacity(len);
+        let idle = vec![Slot::default(); self.nodes];
+        for k in 0..len {
+            let slots = self.slots.get(k).unwrap_or(&idle);
+            let nodes = slots
+                .iter()
+                .zip(held.iter_mut())
+                .map(|(slot, held)| {
+                    let mut i = NodeInputs {
+                        reset: slot.reset,
+                        addr: held.addr,
+                        wdata: held.wdata,
+                        we: false,
+                        re: false,
+                        force_dominant: slot.force_dominant,
+                    };
+                    match slot.access {
+                        Some(Access::Write { addr, value }) => {
+                            i.we = true;
+                            i.addr = addr;
+                            i.wdata = value;
+                        }
+                        Some(Access::Read { addr }) => {
+                            i.re = true;
+                            i.addr = addr;
+                        }
+                        None => {}
+                    }
+                    *held = i;
+                    i
+                })
+                .collect();
+            cycles.push(CycleInputs { nodes });
+        }
+        Stimulus {
+            nodes: self.nodes,
+            cycles,
+        }
+    }
+}
+
+// ---- traces -----------------------------------------------------------------------------------
+
+/// `unknown` bits of [`NodeOutputs`]: `rdata` bits 7..0.
+pub const UNKNOWN_RDATA: u16 = 0x00FF;
+/// `unknown` bit of `tx`.
+pub const UNKNOWN_TX: u16 = 0x0100;
+/// `unknown` bit of `irq_n`.
+pub const UNKNOWN_IRQ_N: u16 = 0x0200;
+/// `unknown` bit of `clkout`.
+pub const UNKNOWN_CLKOUT: u16 = 0x0400;
+
+/// The outputs of one node after one rising edge.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct NodeOutputs {
+    /// Bus output.
+    pub tx: bool,
+    /// Read data.
+    pub rdata: u8,
+    /// Interrupt, active low.
+    pub irq_n: bool,
+    /// Clock output.
+    pub clkout: bool,
+    /// Bits that were X or Z in Verilog ([`UNKNOWN_RDATA`], [`UNKNOWN_TX`], …); their value bits
+    /// are 0. Always 0 in the rust-hdl model.
+    pub unknown: u16,
+}
+
+impl NodeOutputs {
+    fn bit(value: bool, unknown: bool) -> char {
+        match (unknown, value) {
+            (true, _) => 'x',
+            (false, true) => '1',
+            (false, false) => '0',
+        }
+    }
+
+    fn tx_str(&self) -> String {
+        Self::bit(self.tx, self.unknown & UNKNOWN_TX != 0).into()
+    }
+
+    fn irq_n_str(&self) -> String {
+        Self::bit(self.irq_n, self.unknown & UNKNOWN_IRQ_N != 0).into()
+    }
+
+    fn clkout_str(&self) -> String {
+        Self::bit(self.clkout, self.unknown & UNKNOWN_CLKOUT != 0).into()
+    }
+
+    fn rdata_str(&self) -> String {
+        if self.unknown & UNKNOWN_RDATA == 0 {
+            format!("{:#04x}", self.rdata)
+        } else {
+            let bits: String = (0..8)
+                .rev()
+                .map(|b| Self::bit(self.rdata >> b & 1 != 0, self.unknown >> b & 1 != 0))
+                .collect();
+            format!("0b{bits}")
+        }
+    }
+}
+
+impl fmt::Display for NodeOutputs {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "tx={} rdata={} irq_n={} clkout={}",
+            self.tx_str(),
+            self.rdata_str(),
+            self.irq_n_str(),
+            self.clkout_str()
+        )
+    }
+}
+
+/// The outputs of every node after every rising edge.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Trace {
+    /// Where the trace comes from ("rust-hdl", "Icarus"), for messages.
+    pub source: String,
+    /// Number of nodes.
+    pub nodes: usize,
+    /// Cycle-major: the outputs of node `n` after edge `k` are at `k * nodes + n`.
+    pub outputs: Vec<NodeOutputs>,
+}
+
+impl Trace {
+    /// Number of cycles.
+    pub fn cycles(&self) -> usize {
+        self.outputs.len().checked_div(self.nodes).unwrap_or(0)
+    }
+
+    /// The outputs of `node` after edge `cycle`.
+    pub fn at(&self, cycle: usize, node: usize) -> NodeOutputs {
+        self.outputs[cycle * self.nodes + node]
+    }
+
+    /// Cycles in which the bus (wired-AND of every `tx`) was dominant.
+    pub fn dominant_cycles(&self) -> usize {
+        self.outputs
+            .chunks(self.nodes.max(1))
+            .filter(|c| c.iter().any(|o| !o.tx))
+            .count()
+    }
+
+    /// Cycles in which `node`'s `irq_n` was low.
+    pub fn irq_cycles(&self, node: usize) -> usize {
+        (0..self.cycles())
+            .filter(|&k| !self.at(k, node).irq_n)
+            .count()
+    }
+}
+
+/// One register read of a stimulus with the value its trace shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReadResult {
+    /// The cycle of the `re` strobe (the value is `rdata` after its edge).
+    pub cycle: usize,
+    /// The node.
+    pub node: usize,
+    /// The register address.
+    pub addr: u8,
+    /// `rdata` after the edge.
+    pub value: NodeOutputs,
+}
+
+/// Every read of `stim` with its result in `trace`, in cycle order.
+pub fn read_results(stim: &Stimulus, trace: &Trace) -> Vec<ReadResult> {
+    let mut reads = Vec::new();
+    for (cycle, inputs) in stim.cycles.iter().enumerate().take(trace.cycles()) {
+        for (node, i) in inputs.nodes.iter().enumerate() {
+            if i.re {
+                reads.push(ReadResult {
+                    cycle,
+                    node,
+                    addr: i.addr,
+                    value: trace.at(cycle, node),
+                });
+            }
+        }
+    }
+    reads
+}
+
+/// The first difference between two traces: cycle, node, and each differing signal with both
+/// values; or a difference in node count or length (after the common cycles agree).
+pub fn first_mismatch(a: &Trace, b: &Trace) -> Option<String> {
+    if a.nodes != b.nodes {
+        return Some(format!(
+            "{} has {} nodes, {} has {}",
+            a.source, a.nodes, b.source, b.nodes
+        ));
+    }
+    let common = a.cycles().min(b.cycles());
+    for k in 0..common {
+        for n in 0..a.nodes {
+            let (x, y) = (a.at(k, n), b.at(k, n));
+            if x == y {
+                continue;
+            }
+            let mut diffs = Vec::new();
+            let mut compare = |name: &str, f: fn(&NodeOutputs) -> String| {
+                let (u, v) = (f(&x), f(&y));
+                if u != v {
+                    diffs.push(format!("{name}: {} {u}, {} {v}", a.source, b.source));
+                }
+            };
+            compare("tx", NodeOutputs::tx_str);
+            compare("rdata", NodeOutputs::rdata_str);
+            compare("irq_n", NodeOutputs::irq_n_str);
+            compare("clkout", NodeOutputs::clkout_str);
+            return Some(format!(
+                "first mismatch at cycle {k} (after rising edge {k}), node {n}: {}",
+                diffs.join("; ")
+            ));
+        }
+    }
+    if a.cycles() != b.cycles() {
+        return Some(format!(
+            "{} has {} cycles, {} has {} (the first {common} agree)",
+            a.source,
+            a.cycles(),
+            b.source,
+            b.cycles()
+        ));
+    }
+    None
+}
+
+// ---- rust-hdl ---------------------------------------------------------------------------------
+
+/// Runs `stim` on `stim.nodes` rust-hdl controllers stepped directly.
+pub fn run_rust(stim: &Stimulus) -> Trace {
+    stim.validate().expect("stimulus");
+    let n = stim.nodes;
+    let mut uuts: Vec<CanController> = (0..n)
+        .map(|_| {
+            let mut uut = CanController::default();
+            uut.connect_all();
+            uut
+        })
+        .collect();
+    // The inputs and rx last applied to each node (None: nothing applied yet, settle anyway).
+    let mut applied: Vec<Option<(NodeInputs, bool)>> = vec![None; n];
+    let mut bus = true;
+    let mut outputs = Vec::with_capacity(stim.len() * n);
+    for cycle in &stim.cycles {
+        let mut next_bus = true;
+        for ((uut, inputs), applied) in uuts.iter_mut().zip(&cycle.nodes).zip(&mut applied) {
+            let rx = bus && !inputs.force_dominant;
+            let mut key = *inputs;
+            key.force_dominant = false;
+            let changed = *applied != Some((key, rx));
+            if changed {
+                uut.reset.next = inputs.reset;
+                uut.addr.next = u64::from(inputs.addr).to_bits();
+                uut.wdata.next = u64::from(inputs.wdata).to_bits();
+                uut.we.next = inputs.we;
+                uut.re.next = inputs.re;
+                uut.rx.next = rx;
+                *applied = Some((key, rx));
+            }
+            clock_cycle_with(uut, |u| &mut u.clock, "CAN controller", changed);
+            let out = NodeOutputs {
+                tx: uut.tx.val(),
+                rdata: uut.rdata.val().to_u8(),
+                irq_n: uut.irq_n.val(),
+                clkout: uut.clkout.val(),
+                unknown: 0,
+            };
+            next_bus &= out.tx;
+            outputs.push(out);
+        }
+        bus = next_bus;
+    }
+    Trace {
+        source: "rust-hdl".into(),
+        nodes: n,
+        outputs,
+    }
+}
+
+// ---- Icarus -----------------------------------------------------------------------------------
+
+/// Whether `iverilog` and `vvp` can be started.
+pub fn icarus_available() -> bool {
+    let works = |tool: &str, arg: &str| {
+        Command::new(tool)
+            .arg(arg)
+            .output()
+            .map(|o| o.status.success())
+            .unwrap_or(false)
+    };
+    works("iverilog", "-V") && works("vvp", "-V")
+}
+
+/// The Verilog testbench: `nodes` instances of [`TOP_MODULE`] on one bus, stimulus from `stim.hex`
+/// (`+cycles=N` words per node), outputs written to `trace.txt`, one line per cycle; `+vcd` dumps
+/// `equivalence.vcd`.
+fn testbench(nodes: usize, max_cycles: usize) -> String {
+    let words = (max_cycles * nodes).max(1);
+    let mut tb = String::new();
+    writeln!(tb, "// Generated by testbenches::equivalence.").unwrap();
+    writeln!(tb, "module equivalence_tb;").unwrap();
+    writeln!(tb, "    localparam NODES = {nodes};").unwrap();
+    writeln!(tb, "    localparam WORDS = {words};").unwrap();
+    writeln!(tb, "    reg clock = 1'b0;").unwrap();
+    writeln!(tb, "    reg [19:0] stim [0:WORDS-1];").unwrap();
+    writeln!(tb, "    reg bus;").unwrap();
+    writeln!(tb, "    integer cycles, k, fd;").unwrap();
+    for n in 0..nodes {
+        writeln!(
+            tb,
+            "    reg reset_{n} = 1'b0, we_{n} = 1'b0, re_{n} = 1'b0, force_{n} = 1'b0, rx_{n} = 1'b1;\n\
+             \x20   reg [7:0] addr_{n} = 8'h00, wdata_{n} = 8'h00;\n\
+             \x20   wire tx_{n}, irq_n_{n}, clkout_{n};\n\
+             \x20   wire [7:0] rdata_{n};\n\
+             \x20   {TOP_MODULE} node_{n}(.clock(clock), .reset(reset_{n}), .addr(addr_{n}), \
+             .wdata(wdata_{n}), .we(we_{n}), .re(re_{n}), .rdata(rdata_{n}), .rx(rx_{n}), \
+             .tx(tx_{n}), .irq_n(irq_n_{n}), .clkout(clkout_{n}));"
+        )
+        .unwrap();
+    }
+    let all_tx: Vec<String> = (0..nodes).map(|n| format!("tx_{n}")).collect();
+    let format: Vec<&str> = (0..nodes).map(|_| "%b%b%b%b").collect();
+    let values: Vec<String> = (0..nodes)
+        .map(|n| format!("tx_{n}, irq_n_{n}, clkout_{n}, rdata_{n}"))
+        .collect();
+    writeln!(
+        tb,
+        "    initial begin\n\
+         \x20       if (!$value$plusargs(\"cycles=%d\", cycles)) cycles = 0;\n\
+         \x20       if (cycles * NODES > WORDS) begin\n\
+         \x20           $display(\"equivalence_tb: %0d cycles do not fit\", cycles);\n\
+         \x20           $finish;\n\
+         \x20       end\n\
+         \x20       if (cycles > 0) $readmemh(\"stim.hex\", stim, 0, cycles * NODES - 1);\n\
+         \x20       if ($test$plusargs(\"vcd\")) begin\n\
+         \x20           $dumpfile(\"equivalence.vcd\");\n\
+         \x20           $dumpvars(0, equivalence_tb);\n\
+         \x20       end\n\
+         \x20       fd = $fopen(\"trace.txt\", \"w\");\n\
+         \x20       bus = 1'b1;\n\
+         \x20       for (k = 0; k < cycles; k = k + 1) begin"
+    )
+    .unwrap();
+    for n in 0..nodes {
+        writeln!(
+            tb,
+            "            {{reset_{n}, we_{n}, re_{n}, force_{n}, addr_{n}, wdata_{n}}} = \
+             stim[k * NODES + {n}];\n\
+             \x20           rx_{n} = bus & ~force_{n};"
+        )
+        .unwrap();
+    }
+    writeln!(
+        tb,
+        "            #5 clock = 1'b1;\n\
+         \x20           #1 clock = 1'b0;\n\
+         \x20           #1 $fdisplay(fd, \"{}\", {});\n\
+         \x20           bus = {};\n\
+         \x20           #3;\n\
+         \x20       end\n\
+         \x20       $fclose(fd);\n\
+         \x20       $finish;\n\
+         \x20   end\n\
+         endmodule",
+        format.join(" "),
+        values.join(", "),
+        all_tx.join(" & ")
+    )
+    .unwrap();
+    tb
+}
+
+/// The stimulus file of the testbench: one 20-bit word per node and cycle, in hex.
+fn stimulus_hex(stim: &Stimulus) -> String {
+    let mut hex = String::with_capacity(stim.len() * stim.nodes * 6);
+    for cycle in &stim.cycles {
+        for inputs in &cycle.nodes {
+            writeln!(hex, "{:05x}", inputs.word()).unwrap();
+        }
+    }
+    hex
+}
+
+/// Parses one output line of the testbench (per node: tx, irq_n, clkout, rdata bits 7..0).
+fn parse_line(line: &str, nodes: usize) -> Result<Vec<NodeOutputs>, String> {
+    let fields: Vec<&str> = line.split_whitespace().collect();
+    if fields.len() != nodes {
+        return Err(format!("{} fields, expected {nodes}", fields.len()));
+    }
+    fields
+        .iter()
+        .map(|field| {
+            let bits: Vec<char> = field.chars().collect();
+            if bits.len() != 11 {
+                return Err(format!("field `{field}`: expected 11 bits"));
+            }
+            let mut out = NodeOutputs::default();
+            let mut level = |c: char, unknown: u16| -> bool {
+                match c {
+                    '0' => false,
+                    '1' => true,
+                    _ => {
+                        out.unknown |= unknown;
+                        false
+                    }
+                }
+            };
+            let tx = level(bits[0], UNKNOWN_TX);
+            let irq_n = level(bits[1], UNKNOWN_IRQ_N);
+            let clkout = level(bits[2], UNKNOWN_CLKOUT);
+            let mut rdata = 0u8;
+            for (i, &c) in bits[3..].iter().enumerate() {
+                let b = 7 - i;
+                rdata |= u8::from(level(c, 1 << b)) << b;
+            }
+            out.tx = tx;
+            out.irq_n = irq_n;
+            out.clkout = clkout;
+            out.rdata = rdata;
+            Ok(out)
+        })
+        .collect()
+}
+
+fn run_tool(cmd: &mut Command, what: &str) -> Result<String, String> {
+    let out = cmd
+        .output()
+        .map_err(|e| format!("cannot start {what}: {e}"))?;
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    if !out.status.success() {
+        return Err(format!(
+            "{what} failed ({}):\n{stdout}\n{}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        ));
+    }
+    Ok(stdout)
+}
+
+/// The generated Verilog and testbench compiled once by Icarus for `nodes` controllers and up to
+/// `max_cycles` cycles, to run several stimuli.
+#[derive(Debug)]
+pub struct IcarusBench {
+    dir: PathBuf,
+    nodes: usize,
+    max_cycles: usize,
+}
+
+impl IcarusBench {
+    /// Writes `can_controller.v` and `equivalence_tb.v` into `workdir` (created if needed) and
+    /// compiles them with `iverilog -g2005`.
+    pub fn new(nodes: usize, max_cycles: usize, workdir: &Path) -> Result<IcarusBench, String> {
+        if nodes == 0 {
+            return Err("at least one node".into());
+        }
+        std::fs::create_dir_all(workdir)
+            .map_err(|e| format!("cannot create {}: {e}", workdir.display()))?;
+        let write = |name: &str, text: &str| {
+            std::fs::write(workdir.join(name), text)
+                .map_err(|e| format!("cannot write {name}: {e}"))
+        };
+        write("can_controller.v", &controller_verilog())?;
+        write("equivalence_tb.v", &testbench(nodes, max_cycles))?;
+        run_tool(
+            Command::new("iverilog").current_dir(workdir).args([
+                "-g2005",
+                "-o",
+                "equivalence_tb.vvp",
+                "-s",
+                "equivalence_tb",
+                "equivalence_tb.v",
+                "can_controller.v",
+            ]),
+            "iverilog",
+        )?;
+        Ok(IcarusBench {
+            dir: workdir.to_path_buf(),
+            nodes,
+            max_cycles,
+        })
+    }
+
+    /// The working directory (Verilog, testbench, stimulus, trace and optional VCD).
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Runs `stim` with `vvp` and parses the trace.
+    pub fn run(&self, stim: &Stimulus) -> Result<Trace, String> {
+        self.run_inner(stim, false)
+    }
+
+    /// Like [`IcarusBench::run`], also dumping every signal to `equivalence.vcd` in
+    /// [`IcarusBench::dir`] (slow: for investigating a short reproducer).
+    pub fn run_with_vcd(&self, stim: &Stimulus) -> Result<Trace, String> {
+        self.run_inner(stim, true)
+    }
+
+    fn run_inner(&self, stim: &Stimulus, vcd: bool) -> Result<Trace, String> {
+        stim.validate()?;
+        if stim.nodes != self.nodes {
+            return Err(format!(
+                "stimulus for {} nodes, bench for {}",
+                stim.nodes, self.nodes
+            ));
+        }
+        if stim.len() > self.max_cycles {
+            return Err(format!(
+                "stimulus of {} cycles, bench for at most {}",
+                stim.len(),
+                self.max_cycles
+            ));
+        }
+        std::fs::write(self.dir.join("stim.hex"), stimulus_hex(stim))
+            .map_err(|e| format!("cannot write stim.hex: {e}"))?;
+        let trace_file = self.dir.join("trace.txt");
+        let _ = std::fs::remove_file(&trace_file);
+        let mut cmd = Command::new("vvp");
+        cmd.current_dir(&self.dir)
+            .args(["-n", "equivalence_tb.vvp"])
+            .arg(format!("+cycles={}", stim.len()));
+        if vcd {
+            cmd.arg("+vcd");
+        }
+        run_tool(&mut cmd, "vvp")?;
+        let text = std::fs::read_to_string(&trace_file)
+            .map_err(|e| format!("cannot read {}: {e}", trace_file.display()))?;
+        let mut outputs = Vec::with_capacity(stim.len() * self.nodes);
+        for (k, line) in text.lines().enumerate() {
+            outputs.extend(parse_line(line, self.nodes).map_err(|e| format!("trace line {k}: {e}"))?);
+        }
+        let trace = Trace {
+            source: "Icarus".into(),
+            nodes: self.nodes,
+            outputs,
+        };
+        if trace.cycles() != stim.len() {
+            return Err(format!(
+                "Icarus printed {} cycles of {}",
+                trace.cycles(),
+                stim.len()
+            ));
+        }
+        Ok(trace)
+    }
+}
+
+/// Compiles the Verilog and a testbench for `stim` in `workdir` and runs it with Icarus.
+pub fn run_icarus(stim: &Stimulus, workdir: &Path) -> Result<Trace, String> {
+    IcarusBench::new(stim.nodes, stim.len(), workdir)?.run(stim)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn renames_only_the_top_module() {
+        let v = "module top(a,b);\nendmodule // top\n\nmodule top$x(a);\n  top$x x(a);\nendmodule // top$x\n";
+        let r = rename_top(v, "can_controller");
+        assert_eq!(
+            r,
+            "module can_controller(a,b);\nendmodule // can_controller\n\nmodule top$x(a);\n  top$x x(a);\nendmodule // top$x\n"
+        );
+    }
+
+    #[test]
+    fn builder_holds_address_and_overlays_nodes() {
+        let mut b = StimulusBuilder::new(2);
+        b.reset(1).write(0, 4, 0xAA).idle(2);
+        let t = b.now();
+        b.read(0, 2);
+        b.seek(t).write(1, 7, 0x1C);
+        let s = b.build();
+        assert_eq!(s.len(), 5);
+        assert!(s.cycles[0].nodes.iter().all(|i| i.reset));
+        assert_eq!(s.cycles[2].nodes[0], NodeInputs { addr: 4, wdata: 0xAA, ..Default::default() });
+        assert!(s.cycles[4].nodes[0].re && s.cycles[4].nodes[1].we);
+        assert_eq!(s.cycles[4].nodes[0].wdata, 0xAA);
+    }
+
+    #[test]
+    fn parses_unknown_bits() {
+        let out = parse_line("10x0000x001 11110100101", 2).unwrap();
+        assert!(out[0].tx && !out[0].irq_n);
+        assert_eq!(out[0].unknown, UNKNOWN_CLKOUT | 0x08);
+        assert_eq!(out[0].rdata, 0x01);
+        assert_eq!(out[1].rdata, 0b1010_0101);
+        assert!(out[1].clkout && out[1].unknown == 0);
+    }
+
+    #[test]
+    fn mismatch_names_cycle_node_and_signal() {
+        let a = Trace {
+            source: "A".into(),
+            nodes: 2,
+            outputs: vec![NodeOutputs::default(); 6],
+        };
+        let mut b = a.clone();
+        b.source = "B".into();
+        assert_eq!(first_mismatch(&a, &b), None);
+        b.outputs[5].rdata = 0x3C;
+        let m = first_mismatch(&a, &b).unwrap();
+        assert!(m.contains("cycle 2") && m.contains("node 1"), "{m}");
+        assert!(m.contains("rdata: A 0x00, B 0x3c"), "{m}");
+    }
+}
