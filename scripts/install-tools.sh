@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # Installs the external tools the tests need, from Debian's packages, when they are missing.
 # sigrok-cli: independent CAN decoder that checks our VCD files.
+# iverilog (with vvp): runs the generated Verilog in the equivalence tests.
 set -euo pipefail
 
 packages=()
 command -v sigrok-cli >/dev/null 2>&1 || packages+=(sigrok-cli)
+command -v iverilog >/dev/null 2>&1 || packages+=(iverilog)
 
 if [ ${#packages[@]} -eq 0 ]; then
   exit 0

@@ -259,7 +259,10 @@ impl StimulusBuilder {
 
     /// Runs each branch from the current cursor (e.g. one host program per node, side by side) and
     /// leaves the cursor after the longest one.
-    pub fn concurrently(&mut self, branches: &mut [&mut dyn FnMut(&mut StimulusBuilder)]) -> &mut Self {
+    pub fn concurrently(
+        &mut self,
+        branches: &mut [&mut dyn FnMut(&mut StimulusBuilder)],
+    ) -> &mut Self {
         let start = self.cursor;
         let mut end = start;
         for branch in branches.iter_mut() {
@@ -337,6 +340,13 @@ impl StimulusBuilder {
     /// `bits` bit times of [`CLOCKS_PER_BIT`] cycles without new accesses.
     pub fn idle_bits(&mut self, bits: usize) -> &mut Self {
         self.idle(bits * CLOCKS_PER_BIT)
+    }
+
+    /// Idles for the wire length of `frame` (stuff bits counted, SOF to EOF) plus the
+    /// intermission and two bits of margin, at [`CLOCKS_PER_BIT`]: long enough for one
+    /// transmission of `frame` requested just before on an idle bus.
+    pub fn idle_frame(&mut self, frame: &Frame) -> &mut Self {
+        self.idle_bits(sim::frame::encode(frame).len() + 3 + 2)
     }
 
     /// Hardware reset of every node for `cycles` cycles.
@@ -644,40 +654,47 @@ pub fn first_mismatch(a: &Trace, b: &Trace) -> Option<String> {
             a.source, a.nodes, b.source, b.nodes
         ));
     }
-    let common = a.cycles().min(b.cycles());
-    for k in 0..common {
-        for n in 0..a.nodes {
-            let (x, y) = (a.at(k, n), b.at(k, n));
-            if x == y {
-                continue;
+    if let Some((k, n)) = first_difference(a, b) {
+        let (x, y) = (a.at(k, n), b.at(k, n));
+        let mut diffs = Vec::new();
+        let mut compare = |name: &str, f: fn(&NodeOutputs) -> String| {
+            let (u, v) = (f(&x), f(&y));
+            if u != v {
+                diffs.push(format!("{name}: {} {u}, {} {v}", a.source, b.source));
             }
-            let mut diffs = Vec::new();
-            let mut compare = |name: &str, f: fn(&NodeOutputs) -> String| {
-                let (u, v) = (f(&x), f(&y));
-                if u != v {
-                    diffs.push(format!("{name}: {} {u}, {} {v}", a.source, b.source));
-                }
-            };
-            compare("tx", NodeOutputs::tx_str);
-            compare("rdata", NodeOutputs::rdata_str);
-            compare("irq_n", NodeOutputs::irq_n_str);
-            compare("clkout", NodeOutputs::clkout_str);
-            return Some(format!(
-                "first mismatch at cycle {k} (after rising edge {k}), node {n}: {}",
-                diffs.join("; ")
-            ));
-        }
+        };
+        compare("tx", NodeOutputs::tx_str);
+        compare("rdata", NodeOutputs::rdata_str);
+        compare("irq_n", NodeOutputs::irq_n_str);
+        compare("clkout", NodeOutputs::clkout_str);
+        return Some(format!(
+            "first mismatch at cycle {k} (after rising edge {k}), node {n}: {}",
+            diffs.join("; ")
+        ));
     }
     if a.cycles() != b.cycles() {
         return Some(format!(
-            "{} has {} cycles, {} has {} (the first {common} agree)",
+            "{} has {} cycles, {} has {} (the first {} agree)",
             a.source,
             a.cycles(),
             b.source,
-            b.cycles()
+            b.cycles(),
+            a.cycles().min(b.cycles())
         ));
     }
     None
+}
+
+/// The first (cycle, node) whose outputs differ, over the cycles both traces have (`None` also
+/// when the node counts differ).
+pub fn first_difference(a: &Trace, b: &Trace) -> Option<(usize, usize)> {
+    if a.nodes != b.nodes {
+        return None;
+    }
+    let common = a.cycles().min(b.cycles()) * a.nodes;
+    (0..common)
+        .find(|&i| a.outputs[i] != b.outputs[i])
+        .map(|i| (i / a.nodes, i % a.nodes))
 }
 
 // ---- rust-hdl ---------------------------------------------------------------------------------
@@ -734,6 +751,26 @@ pub fn run_rust(stim: &Stimulus) -> Trace {
 }
 
 // ---- Icarus -----------------------------------------------------------------------------------
+
+/// Environment variable that lets a developer without Icarus Verilog skip the Verilog checks (CI never
+/// sets it; `make tools` installs Icarus).
+pub const SKIP_ICARUS_ENV: &str = "CANSIM_SKIP_ICARUS";
+
+/// Whether the Icarus checks are skipped: `false` when `iverilog` and `vvp` run; `true` when they are
+/// missing and [`SKIP_ICARUS_ENV`] is set (with a note naming `test`). Panics when they are missing
+/// and the developer did not opt out, so a CI machine without Icarus fails instead of passing.
+pub fn icarus_skipped(test: &str) -> bool {
+    if icarus_available() {
+        return false;
+    }
+    if std::env::var_os(SKIP_ICARUS_ENV).is_some() {
+        eprintln!("{test}: skipped, iverilog/vvp not on PATH and {SKIP_ICARUS_ENV} set");
+        return true;
+    }
+    panic!(
+        "{test}: iverilog/vvp not on PATH: run `make tools`, or set {SKIP_ICARUS_ENV}=1 to skip"
+    );
+}
 
 /// Whether `iverilog` and `vvp` can be started.
 pub fn icarus_available() -> bool {
@@ -906,6 +943,17 @@ impl IcarusBench {
     /// Writes `can_controller.v` and `equivalence_tb.v` into `workdir` (created if needed) and
     /// compiles them with `iverilog -g2005`.
     pub fn new(nodes: usize, max_cycles: usize, workdir: &Path) -> Result<IcarusBench, String> {
+        IcarusBench::with_verilog(nodes, max_cycles, workdir, &controller_verilog())
+    }
+
+    /// Like [`IcarusBench::new`] with other Verilog for module [`TOP_MODULE`] (a hand-reduced or
+    /// patched copy of [`controller_verilog`], to check a fix or a reproducer).
+    pub fn with_verilog(
+        nodes: usize,
+        max_cycles: usize,
+        workdir: &Path,
+        verilog: &str,
+    ) -> Result<IcarusBench, String> {
         if nodes == 0 {
             return Err("at least one node".into());
         }
@@ -915,7 +963,7 @@ impl IcarusBench {
             std::fs::write(workdir.join(name), text)
                 .map_err(|e| format!("cannot write {name}: {e}"))
         };
-        write("can_controller.v", &controller_verilog())?;
+        write("can_controller.v", verilog)?;
         write("equivalence_tb.v", &testbench(nodes, max_cycles))?;
         run_tool(
             Command::new("iverilog").current_dir(workdir).args([
@@ -983,7 +1031,8 @@ impl IcarusBench {
             .map_err(|e| format!("cannot read {}: {e}", trace_file.display()))?;
         let mut outputs = Vec::with_capacity(stim.len() * self.nodes);
         for (k, line) in text.lines().enumerate() {
-            outputs.extend(parse_line(line, self.nodes).map_err(|e| format!("trace line {k}: {e}"))?);
+            outputs
+                .extend(parse_line(line, self.nodes).map_err(|e| format!("trace line {k}: {e}"))?);
         }
         let trace = Trace {
             source: "Icarus".into(),
@@ -1030,7 +1079,14 @@ mod tests {
         let s = b.build();
         assert_eq!(s.len(), 5);
         assert!(s.cycles[0].nodes.iter().all(|i| i.reset));
-        assert_eq!(s.cycles[2].nodes[0], NodeInputs { addr: 4, wdata: 0xAA, ..Default::default() });
+        assert_eq!(
+            s.cycles[2].nodes[0],
+            NodeInputs {
+                addr: 4,
+                wdata: 0xAA,
+                ..Default::default()
+            }
+        );
         assert!(s.cycles[4].nodes[0].re && s.cycles[4].nodes[1].we);
         assert_eq!(s.cycles[4].nodes[0].wdata, 0xAA);
     }
