@@ -33,6 +33,26 @@ pub struct FilterConfig {
     pub amr: [u8; 4],
 }
 
+impl FilterConfig {
+    /// PeliCAN single filter (MOD.AFM = 1).
+    pub fn single(acr: [u8; 4], amr: [u8; 4]) -> FilterConfig {
+        FilterConfig {
+            pelican: true,
+            single_filter: true,
+            acr,
+            amr,
+        }
+    }
+
+    /// PeliCAN dual filter (MOD.AFM = 0).
+    pub fn dual(acr: [u8; 4], amr: [u8; 4]) -> FilterConfig {
+        FilterConfig {
+            single_filter: false,
+            ..FilterConfig::single(acr, amr)
+        }
+    }
+}
+
 /// Whether `frame` passes the acceptance filter configured by `config`.
 pub fn accepts(config: &FilterConfig, frame: &Frame) -> bool {
     let id = identifier_bits(frame.id());
@@ -107,20 +127,14 @@ mod tests {
         Frame::data(Id::extended(id).unwrap(), data).unwrap()
     }
 
+    use FilterConfig as C;
+
     fn single(acr: [u8; 4], amr: [u8; 4]) -> FilterConfig {
-        FilterConfig {
-            pelican: true,
-            single_filter: true,
-            acr,
-            amr,
-        }
+        C::single(acr, amr)
     }
 
     fn dual(acr: [u8; 4], amr: [u8; 4]) -> FilterConfig {
-        FilterConfig {
-            single_filter: false,
-            ..single(acr, amr)
-        }
+        C::dual(acr, amr)
     }
 
     #[test]

@@ -191,21 +191,11 @@ fn extended_remote(id: u32, dlc: u8) -> Frame {
 }
 
 fn single(acr: [u8; 4], amr: [u8; 4]) -> FilterConfig {
-    FilterConfig {
-        pelican: true,
-        single_filter: true,
-        acr,
-        amr,
-    }
+    FilterConfig::single(acr, amr)
 }
 
 fn dual(acr: [u8; 4], amr: [u8; 4]) -> FilterConfig {
-    FilterConfig {
-        pelican: true,
-        single_filter: false,
-        acr,
-        amr,
-    }
+    FilterConfig::dual(acr, amr)
 }
 
 /// BasicCAN with ACR/AMR; registers 1..3 hold values that would reject everything if used.
