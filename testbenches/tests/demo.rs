@@ -1,9 +1,12 @@
-//! The demo run (`cansim demo`): three controllers arbitrate, recover from an injected error, and one
-//! goes error passive and back; sigrok's CAN decoder reads every frame of its VCD and flags the error
-//! frames.
+//! The demo run (`cansim demo`): three complete controllers, each driven only through its registers
+//! by the Linux SJA1000 driver model, arbitrate, recover from an injected error, and one goes error
+//! passive and back; everything is checked through what the drivers reported (and TXERR/RXERR read
+//! through the host); sigrok's CAN decoder reads every frame of its VCD and flags the error frames.
 
-use sim::can_node::NodeEvent;
+use rtl::registers::interrupt;
 use sim::demo::{demo_frames, run_demo, DemoReport, DEMO_SAMPLE_POINT_PCT};
+use sim::driver::{CanState, DriverEvent};
+use sim::frame::Frame;
 use testbenches::ecc::{ecc, FORM, OTHER, SEG_ACK_DELIM, SEG_ACK_SLOT, SEG_CRC_DELIM};
 use testbenches::sigrok;
 
@@ -22,32 +25,46 @@ fn demo_ecc_values_decode_as_named() {
     assert_eq!(A_ACK_ERROR, ecc(OTHER, false, SEG_ACK_SLOT));
 }
 
-fn events_of(report: &DemoReport, node: &str) -> Vec<NodeEvent> {
+fn events_of(report: &DemoReport, node: &str) -> Vec<DriverEvent> {
     report
         .events
         .iter()
         .filter(|e| e.node == node)
-        .map(|e| e.event.clone())
+        .map(|e| e.event)
         .collect()
 }
 
+/// The ECC values node `node`'s driver read (BEI).
 fn errors_of(report: &DemoReport, node: &str) -> Vec<u8> {
     events_of(report, node)
         .into_iter()
         .filter_map(|e| match e {
-            NodeEvent::BusError(ecc) => Some(ecc),
+            DriverEvent::BusError { ecc, .. } => Some(ecc),
             _ => None,
         })
         .collect()
 }
 
-/// Nodes in the order of their successful transmissions.
-fn senders(report: &DemoReport) -> Vec<&str> {
+/// The ALC values node `node`'s driver read (ALI).
+fn losses_of(report: &DemoReport, node: &str) -> Vec<u8> {
+    events_of(report, node)
+        .into_iter()
+        .filter_map(|e| match e {
+            DriverEvent::ArbitrationLost { alc, .. } => Some(alc),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The frames sent successfully (TI), in bus order, with their sender.
+fn sent(report: &DemoReport) -> Vec<(&str, Frame)> {
     report
         .events
         .iter()
-        .filter(|e| e.event == NodeEvent::TransmitDone(true))
-        .map(|e| e.node)
+        .filter_map(|e| match e.event {
+            DriverEvent::TxDone(frame) => Some((e.node, frame)),
+            _ => None,
+        })
         .collect()
 }
 
@@ -57,57 +74,84 @@ fn demo_arbitrates_recovers_goes_error_passive_and_back_and_sigrok_decodes_it() 
     std::fs::create_dir_all(&dir).unwrap();
     let vcd = dir.join("demo.vcd");
     let report = run_demo(Some(&vcd)).expect("demo runs");
-    let ([frame_a, frame_b, frame_c], disturbed, _) = demo_frames();
+    let ([frame_a, frame_b, frame_c], disturbed, unacknowledged) = demo_frames();
 
     // Arbitration: 0x121 (c) beats 0x123 (a) at identifier bit 9; b's extended 0x12345678 (base
-    // 0x48D) loses at bit 0 to both.
-    assert_eq!(&senders(&report)[..4], ["c", "a", "b", "a"]);
-    let losses = |node| {
-        events_of(&report, node)
-            .into_iter()
-            .filter(|e| matches!(e, NodeEvent::ArbitrationLost(_)))
-            .collect::<Vec<_>>()
-    };
-    assert_eq!(losses("a"), [NodeEvent::ArbitrationLost(9)]);
+    // 0x48D) loses at bit 0 to both. The drivers read these positions from ALC.
+    let sent = sent(&report);
+    let senders: Vec<&str> = sent.iter().map(|(node, _)| *node).collect();
+    assert_eq!(senders[..4], ["c", "a", "b", "a"]);
     assert_eq!(
-        losses("b"),
-        [NodeEvent::ArbitrationLost(0), NodeEvent::ArbitrationLost(0)]
+        sent[..4].iter().map(|(_, f)| *f).collect::<Vec<_>>(),
+        [frame_c, frame_a, frame_b, disturbed]
     );
+    assert_eq!(losses_of(&report, "a"), [9]);
+    assert_eq!(losses_of(&report, "b"), [0, 0]);
+    assert_eq!(losses_of(&report, "c"), []);
 
-    // The injected error: detected once by each node, with the ECC of where each saw it.
+    // The injected error: reported once by each driver, with the ECC of where each node saw it.
     let a_errors = errors_of(&report, "a");
     assert_eq!(errors_of(&report, "b"), [B_CRC_DELIMITER_FORM]);
     assert_eq!(errors_of(&report, "c"), [C_ACK_DELIMITER_FORM]);
     assert_eq!(a_errors[0], A_ACK_DELIMITER_FORM);
 
-    // Error passive and back: ACK errors only, TEC above 127, then active again at 127.
+    // Error passive and back: ACK errors only, TXERR above 127 (EPI), then active again at 127
+    // (EPI once more; the driver shows error-warning, TXERR being above the warning limit).
     let ack_errors = a_errors.len() - 1;
     assert!(a_errors[1..].iter().all(|&ecc| ecc == A_ACK_ERROR));
     let trace = &report.tec_trace;
     let passive_at = trace
         .iter()
-        .position(|s| s.error_passive)
-        .expect("a was error passive");
+        .position(|s| s.state == CanState::ErrorPassive)
+        .expect("a's driver saw it error passive");
     assert!(trace[passive_at].tec >= 128, "{trace:?}");
+    assert!(trace[..passive_at].iter().all(|s| s.tec < 128), "{trace:?}");
     let last = trace.last().unwrap();
-    assert_eq!((last.tec, last.error_passive), (127, false), "{trace:?}");
-    // TEC 7 after phase 2 (+8 - 1), + 8 per ACK error, - 1 per success.
+    assert_eq!(
+        (last.tec, last.state),
+        (127, CanState::ErrorWarning),
+        "{trace:?}"
+    );
+    let changes: Vec<(CanState, u8)> = events_of(&report, "a")
+        .into_iter()
+        .filter_map(|e| match e {
+            DriverEvent::StateChanged { state, ir, .. } => {
+                Some((state, ir & (interrupt::EI | interrupt::EPI)))
+            }
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        changes,
+        [
+            (CanState::ErrorWarning, interrupt::EI),
+            (CanState::ErrorPassive, interrupt::EPI),
+            (CanState::ErrorWarning, interrupt::EPI),
+        ]
+    );
+    // TXERR 7 after phase 2 (+8 - 1), + 8 per ACK error, - 1 per success.
     let successes_after = report.nodes[0].sent - 2;
     assert_eq!(7 + 8 * ack_errors - successes_after, 127);
+    let a = &report.nodes[0];
+    assert_eq!((a.tec, a.rec, a.state), (127, 0, CanState::ErrorWarning));
 
-    // Every receiver got every frame once, in bus order.
-    for (n, node) in report.nodes.iter().enumerate() {
-        let others_sent: usize = report
-            .nodes
+    // Every receiver got every frame of the others once, in bus order.
+    for node in &report.nodes {
+        let expected: Vec<Frame> = sent
             .iter()
-            .enumerate()
-            .filter(|(m, _)| *m != n)
-            .map(|(_, o)| o.sent)
-            .sum();
-        assert_eq!(node.received.len(), others_sent, "{}", node.name);
+            .filter(|(sender, _)| *sender != node.name)
+            .map(|(_, f)| *f)
+            .collect();
+        assert_eq!(node.received, expected, "{}", node.name);
         assert_eq!(node.rec, 0, "{}", node.name);
     }
-    assert_eq!(report.nodes[1].received[..3], [frame_c, frame_a, disturbed]);
+    for node in &report.nodes[1..] {
+        assert_eq!((node.tec, node.state), (0, CanState::ErrorActive));
+    }
+    assert_eq!(
+        report.nodes[1].received[..4],
+        [frame_c, frame_a, disturbed, unacknowledged]
+    );
     assert!(vcd.exists() && !dir.join("demo.vcd.partial").exists());
     if sigrok::skipped() {
         return;
