@@ -1,11 +1,16 @@
 # Entry points of the project. `make test` is what CI runs.
 CARGO ?= cargo
 
-.PHONY: test check tools demo waves lint verilog synth bench campaign clean
+.PHONY: test test-long check tools demo waves lint verilog synth bench campaign clean
 
-## Install the external tools (sigrok-cli), then run every test.
+## Install the external tools (sigrok-cli, iverilog), then run every test.
 test: tools
 	$(CARGO) test --workspace
+
+## The long runs kept out of `make test`: the 200 000-cycle Icarus equivalence run and the driver
+## replay of more than 1 000 frames (a few minutes).
+test-long: tools
+	$(CARGO) test -p testbenches --test verilog_equivalence --test linux_driver -- --ignored
 
 ## Formatting and clippy, warnings are errors.
 check:

@@ -266,40 +266,16 @@ impl Device for CanNode {
     }
 
     fn probes(&self) -> Vec<Probe> {
-        vec![
-            Probe::bit("sample_point"),
-            Probe {
-                name: "segment",
-                width: 2,
-            },
-            Probe {
-                name: "state",
-                width: 5,
-            },
-            Probe {
-                name: "tec",
-                width: 8,
-            },
-            Probe {
-                name: "rec",
-                width: 8,
-            },
-            Probe::bit("error_passive"),
-            Probe::bit("bus_off"),
-        ]
+        let mut probes = core_probes();
+        probes.extend([Probe::bit("error_passive"), Probe::bit("bus_off")]);
+        probes
     }
 
     fn probe_values(&self, values: &mut [u64]) {
         let u = &self.uut;
-        values.copy_from_slice(&[
-            u.sample_point.val() as u64,
-            u.segment.val() as u64,
-            u.state.val() as u64,
-            u.tec.val().to_u64(),
-            u.rec.val().to_u64(),
-            u.error_passive.val() as u64,
-            u.bus_off.val() as u64,
-        ]);
+        let (core, own) = values.split_at_mut(CORE_PROBES);
+        core_probe_values(u, core);
+        own.copy_from_slice(&[u.error_passive.val() as u64, u.bus_off.val() as u64]);
     }
 
     fn as_any(&self) -> &dyn Any {
@@ -309,4 +285,42 @@ impl Device for CanNode {
     fn as_any_mut(&mut self) -> &mut dyn Any {
         self
     }
+}
+
+/// How many probes [`core_probes`] lists.
+pub(crate) const CORE_PROBES: usize = 5;
+
+/// The probes every device built on the RTL core traces: sample point, bit timing segment, protocol
+/// state, TEC, REC.
+pub(crate) fn core_probes() -> Vec<Probe> {
+    vec![
+        Probe::bit("sample_point"),
+        Probe {
+            name: "segment",
+            width: 2,
+        },
+        Probe {
+            name: "state",
+            width: 5,
+        },
+        Probe {
+            name: "tec",
+            width: 8,
+        },
+        Probe {
+            name: "rec",
+            width: 8,
+        },
+    ]
+}
+
+/// The values of [`core_probes`] for `core`.
+pub(crate) fn core_probe_values(core: &CanCore, values: &mut [u64]) {
+    values.copy_from_slice(&[
+        core.sample_point.val() as u64,
+        core.segment.val() as u64,
+        core.state.val() as u64,
+        core.tec.val().to_u64(),
+        core.rec.val().to_u64(),
+    ]);
 }

@@ -14,6 +14,7 @@ use rtl::can_controller::CanController;
 use rust_hdl::prelude::*;
 
 use crate::bus::Drive;
+use crate::can_node::{core_probe_values, core_probes, CORE_PROBES};
 use crate::engine::Device;
 use crate::rtl_step::clock_cycle_with;
 use crate::time::ClockSpec;
@@ -173,40 +174,16 @@ impl Device for ControllerNode {
     }
 
     fn probes(&self) -> Vec<Probe> {
-        vec![
-            Probe::bit("sample_point"),
-            Probe {
-                name: "segment",
-                width: 2,
-            },
-            Probe {
-                name: "state",
-                width: 5,
-            },
-            Probe {
-                name: "tec",
-                width: 8,
-            },
-            Probe {
-                name: "rec",
-                width: 8,
-            },
-            Probe::bit("irq_n"),
-            Probe::bit("clkout"),
-        ]
+        let mut probes = core_probes();
+        probes.extend([Probe::bit("irq_n"), Probe::bit("clkout")]);
+        probes
     }
 
     fn probe_values(&self, values: &mut [u64]) {
         let u = &self.uut;
-        values.copy_from_slice(&[
-            u.core.sample_point.val() as u64,
-            u.core.segment.val() as u64,
-            u.core.state.val() as u64,
-            u.core.tec.val().to_u64(),
-            u.core.rec.val().to_u64(),
-            u.irq_n.val() as u64,
-            u.clkout.val() as u64,
-        ]);
+        let (core, own) = values.split_at_mut(CORE_PROBES);
+        core_probe_values(&u.core, core);
+        own.copy_from_slice(&[u.irq_n.val() as u64, u.clkout.val() as u64]);
     }
 
     fn as_any(&self) -> &dyn Any {

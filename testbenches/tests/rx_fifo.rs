@@ -355,16 +355,7 @@ fn an_overrunning_frame_destroyed_by_an_error_sets_dos_only_when_its_retransmiss
     // stuff error), so the first attempt is destroyed and retransmitted.
     let frame = std_data(0x6B5, &[0xF0, 0x0F, 0x55, 0xAA]);
     transmit(&mut bench.host(SENDER), &frame, command::TR);
-    let sender = bench.id(SENDER);
-    let found = bench
-        .engine
-        .run_while(bench.engine.now() + 50 * bench_bit_fs(), |e| {
-            !e.device::<sim::controller_node::ControllerNode>(sender)
-                .tx()
-        })
-        .unwrap();
-    assert!(found, "the SOF of the first attempt");
-    let sof = bench.engine.now();
+    let sof = bench.run_until_sof(SENDER, 50);
     let receiver = bench.id(RECEIVER);
     bench.engine.disturb_rx(
         receiver,
@@ -404,15 +395,7 @@ fn a_frame_destroyed_by_an_error_leaves_no_trace_and_its_retransmission_is_store
     send(&mut bench, &first);
     let frame = ext_data(0x0ABC_DEF1, &[9, 8, 7, 6, 5, 4, 3, 2]);
     transmit(&mut bench.host(SENDER), &frame, command::TR);
-    let sender = bench.id(SENDER);
-    bench
-        .engine
-        .run_while(bench.engine.now() + 50 * bench_bit_fs(), |e| {
-            !e.device::<sim::controller_node::ControllerNode>(sender)
-                .tx()
-        })
-        .unwrap();
-    let sof = bench.engine.now();
+    let sof = bench.run_until_sof(SENDER, 50);
     let receiver = bench.id(RECEIVER);
     bench.engine.disturb_rx(
         receiver,
@@ -451,15 +434,7 @@ fn release_during_reception(release_after: u64) -> (ControllerBench, Vec<Frame>,
     }
     let arriving = std_data(0x0C3, &[0x31, 0x32, 0x33, 0x34, 0x35, 0x36, 0x37, 0x38]);
     transmit(&mut bench.host(SENDER), &arriving, command::TR);
-    let sender = bench.id(SENDER);
-    let found = bench
-        .engine
-        .run_while(bench.engine.now() + 50 * bench_bit_fs(), |e| {
-            !e.device::<sim::controller_node::ControllerNode>(sender)
-                .tx()
-        })
-        .unwrap();
-    assert!(found, "SOF");
+    bench.run_until_sof(SENDER, 50);
     bench.run_bits(release_after);
     release(&mut bench);
     stored.remove(0);
