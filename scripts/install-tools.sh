@@ -1,12 +1,20 @@
 #!/usr/bin/env bash
-# Installs the external tools the tests need, from Debian's packages, when they are missing.
-# sigrok-cli: independent CAN decoder that checks our VCD files.
-# iverilog (with vvp): runs the generated Verilog in the equivalence tests.
+# Installs the external tools, from Debian's packages, when they are missing.
+# For the tests (`make tools`):
+#   sigrok-cli: independent CAN decoder that checks our VCD files;
+#   iverilog (with vvp): runs the generated Verilog in the equivalence tests;
+#   verilator: lints the generated Verilog (`make lint`) and runs it in the equivalence tests too.
+# With --synth also the FPGA tools of `make synth`: yosys, nextpnr-ice40 (with fpga-icestorm).
 set -euo pipefail
 
 packages=()
 command -v sigrok-cli >/dev/null 2>&1 || packages+=(sigrok-cli)
 command -v iverilog >/dev/null 2>&1 || packages+=(iverilog)
+command -v verilator >/dev/null 2>&1 || packages+=(verilator)
+if [ "${1:-}" = "--synth" ]; then
+  command -v yosys >/dev/null 2>&1 || packages+=(yosys)
+  command -v nextpnr-ice40 >/dev/null 2>&1 || packages+=(nextpnr-ice40 fpga-icestorm)
+fi
 
 if [ ${#packages[@]} -eq 0 ]; then
   exit 0

@@ -101,6 +101,7 @@ pub struct CanController {
     // ---- Read data path.
     rdata_reg: DFF<Bits<8>>,
     rdata_from_ram: DFF<Bit>,
+    rdata_from_tx: DFF<Bit>,
     rdata_ram_or: DFF<Bits<8>>,
     // ---- Addresses (from `crate::registers`).
     pc_mod: Constant<Bits<8>>,
@@ -168,6 +169,7 @@ pub struct CanController {
     entering_reset: Signal<Local, Bit>,
     read_value: Signal<Local, Bits<8>>,
     read_from_ram: Signal<Local, Bit>,
+    read_from_tx: Signal<Local, Bit>,
     ram_or: Signal<Local, Bits<8>>,
     // ---- Status and interrupts of this cycle.
     enables: Signal<Local, Bits<8>>,
@@ -177,6 +179,10 @@ pub struct CanController {
     irq_pending: Signal<Local, Bit>,
     status: Signal<Local, Bits<8>>,
     waiting_for_bus: Signal<Local, Bit>,
+    /// The error warning limit in force: EWLR in PeliCAN mode, its reset value in BasicCAN mode.
+    warning_limit: Signal<Local, Bits<8>>,
+    /// A counter at or above `warning_limit` (SR.ES before the reset-mode freeze).
+    error_warning: Signal<Local, Bit>,
     es_next: Signal<Local, Bit>,
     events: Signal<Local, Bits<8>>,
     ir_kept: Signal<Local, Bits<8>>,
@@ -255,6 +261,7 @@ impl Default for CanController {
             sleep_bits: Default::default(),
             rdata_reg: Default::default(),
             rdata_from_ram: Default::default(),
+            rdata_from_tx: Default::default(),
             rdata_ram_or: Default::default(),
             pc_mod: address(pelican::MOD),
             pc_cmr: address(pelican::CMR),
@@ -321,6 +328,7 @@ impl Default for CanController {
             entering_reset: Default::default(),
             read_value: Default::default(),
             read_from_ram: Default::default(),
+            read_from_tx: Default::default(),
             ram_or: Default::default(),
             enables: Default::default(),
             rbs: Default::default(),
@@ -329,6 +337,8 @@ impl Default for CanController {
             irq_pending: Default::default(),
             status: Default::default(),
             waiting_for_bus: Default::default(),
+            warning_limit: Default::default(),
+            error_warning: Default::default(),
             es_next: Default::default(),
             events: Default::default(),
             ir_kept: Default::default(),
@@ -392,6 +402,7 @@ impl Logic for CanController {
             sleep_bits,
             rdata_reg,
             rdata_from_ram,
+            rdata_from_tx,
             rdata_ram_or
         );
         clock!(self, clock, core, fifo, tx_buffer, filter, divider);
@@ -610,7 +621,9 @@ impl Logic for CanController {
         self.fifo.start_address.next = bit_cast::<6, 8>(self.wdata.val());
 
         // ---- Transmit buffer: written in operating mode while it is free (TBS).
-        self.tx_buffer.basic_layout.next = self.pelican_mode.val() == false;
+        // Child inputs that feed combinational outputs read back here come straight from
+        // flip-flops, not from locals such as `pelican_mode`: see docs/RUST_HDL.md (Verilator loops).
+        self.tx_buffer.basic_layout.next = self.cdr.q.val().get_bit(7) == false;
         self.tx_buffer.write.next = self.we.val()
             & (self.reset_mode.val() == false)
             & self.tbs.q.val()
@@ -673,10 +686,11 @@ impl Logic for CanController {
         self.fifo.data_byte.next = self.core.rx_byte.val();
         self.fifo.byte_index.next = self.core.rx_byte_index.val();
         self.fifo.reset.next = self.reset.val();
+        self.tx_buffer.reset.next = self.reset.val();
 
         // ---- Acceptance filter.
         self.filter.reset.next = self.reset.val();
-        self.filter.pelican.next = self.pelican_mode.val();
+        self.filter.pelican.next = self.cdr.q.val().get_bit(7);
         self.filter.single_filter.next = self.mode_afm.q.val();
         self.filter.acr0.next = self.acr0.q.val();
         self.filter.acr1.next = self.acr1.q.val();
@@ -711,9 +725,15 @@ impl Logic for CanController {
         // ---- Error status, bus-off and error passive changes. A counter written in reset mode
         // changes ES and EPI only when reset mode is left (data sheet); bus-off entry and end are
         // reported by EI alone.
+        self.warning_limit.next = self.ewlr.q.val();
+        if self.pelican_mode.val() == false {
+            self.warning_limit.next = self.default_ewlr.val();
+        }
+        self.error_warning.next = (self.core.tec.val() >= self.warning_limit.val())
+            | (self.core.rec.val() >= self.warning_limit.val());
         self.es_next.next = self.es.q.val();
         if self.reset_mode.val() == false {
-            self.es_next.next = self.core.error_warning.val() | self.core.bus_off.val();
+            self.es_next.next = self.error_warning.val() | self.core.bus_off.val();
         }
         self.es.d.next = self.es_next.val();
         self.bus_off_before.d.next = self.core.bus_off.val();
@@ -745,6 +765,7 @@ impl Logic for CanController {
         // ---- Reads: registered data; IR is cleared (but RI) and ALC/ECC re-armed at the read edge.
         self.read_value.next = 0.into();
         self.read_from_ram.next = false;
+        self.read_from_tx.next = false;
         self.ram_or.next = 0.into();
         self.offset6.next = bit_cast::<6, 8>(self.offset.val());
         self.rx_ram_offset.next = self.addr.val() - self.pc_rx_ram.val();
@@ -839,7 +860,7 @@ impl Logic for CanController {
                 self.read_from_ram.next = true;
             }
             if self.in_tx_ram.val() {
-                self.read_value.next = self.tx_buffer.host_data.val();
+                self.read_from_tx.next = true;
             }
         } else {
             if self.addr.val() == self.bc_cr.val() {
@@ -880,7 +901,7 @@ impl Logic for CanController {
                 self.read_value.next = 0xFF.into();
             }
             if self.in_basic_tx.val() {
-                self.read_value.next = self.tx_buffer.host_data.val();
+                self.read_from_tx.next = true;
             }
             if self.in_basic_rx.val() {
                 // BasicCAN byte 20 is FIFO message byte 1; byte 21 adds the DLC to ID.2..0 and RTR.
@@ -900,15 +921,21 @@ impl Logic for CanController {
         if self.in_rx_ram.val() {
             self.fifo.host_address.next = bit_cast::<6, 8>(self.rx_ram_offset.val());
         }
-        // RAM reads come out of the RAM register the cycle after; they are copied into `rdata_reg`
-        // then, so the RAM read port is free again and `rdata` holds until the next read.
+        // RAM and TX buffer reads come out of their read registers the cycle after; they are
+        // copied into `rdata_reg` then, so the read ports are free again and `rdata` holds until
+        // the next read.
         if self.rdata_from_ram.q.val() {
             self.rdata_reg.d.next = self.fifo.read_data.val() | self.rdata_ram_or.q.val();
             self.rdata_from_ram.d.next = false;
         }
+        if self.rdata_from_tx.q.val() {
+            self.rdata_reg.d.next = self.tx_buffer.host_data.val();
+            self.rdata_from_tx.d.next = false;
+        }
         if self.re.val() {
             self.rdata_reg.d.next = self.read_value.val();
             self.rdata_from_ram.d.next = self.read_from_ram.val();
+            self.rdata_from_tx.d.next = self.read_from_tx.val();
             self.rdata_ram_or.d.next = self.ram_or.val();
             if self.pelican_mode.val() & (self.addr.val() == self.pc_alc.val()) {
                 self.alc_armed.d.next = true;
@@ -920,6 +947,9 @@ impl Logic for CanController {
         self.rdata.next = self.rdata_reg.q.val();
         if self.rdata_from_ram.q.val() {
             self.rdata.next = self.fifo.read_data.val() | self.rdata_ram_or.q.val();
+        }
+        if self.rdata_from_tx.q.val() {
+            self.rdata.next = self.tx_buffer.host_data.val();
         }
 
         // ---- Interrupt register: events set enabled bits; a read clears all but RI (a level).
@@ -966,15 +996,11 @@ impl Logic for CanController {
         self.core.tx_single_shot.next = self.tx_single_shot.q.val();
         self.core.tx_info.next = self.tx_buffer.info.val();
         self.core.tx_data.next = self.tx_buffer.core_data.val();
-        self.core.warning_limit.next = self.ewlr.q.val();
-        if self.pelican_mode.val() == false {
-            self.core.warning_limit.next = self.default_ewlr.val();
-        }
         self.tx.next = self.core.tx.val();
 
         // ---- CLKOUT.
         self.divider.reset.next = self.reset.val();
-        self.divider.divider.next = bit_cast::<3, 8>(self.cdr.q.val());
+        self.divider.code.next = bit_cast::<3, 8>(self.cdr.q.val());
         self.divider.clock_off.next = self.cdr.q.val().get_bit(3);
         self.clkout.next = self.divider.clkout.val();
         // In sleep, CLKOUT runs on for at least 15 bit times (for a host clocked by it), then stays
@@ -1033,6 +1059,7 @@ impl Logic for CanController {
             self.sleep_bits.d.next = 0.into();
             self.rdata_reg.d.next = 0.into();
             self.rdata_from_ram.d.next = false;
+            self.rdata_from_tx.d.next = false;
             self.rdata_ram_or.d.next = 0.into();
         }
     }

@@ -46,8 +46,6 @@ pub struct CanCore {
     pub tx_info: Signal<In, Bits<8>>,
     /// The transmit-buffer byte at `tx_addr`.
     pub tx_data: Signal<In, Bits<8>>,
-    /// Error warning limit (EWLR).
-    pub warning_limit: Signal<In, Bits<8>>,
     /// Load `counter_value` into TEC.
     pub load_tec: Signal<In, Bit>,
     /// Load `counter_value` into REC.
@@ -96,8 +94,6 @@ pub struct CanCore {
     pub error_passive: Signal<Out, Bit>,
     /// Bus-off.
     pub bus_off: Signal<Out, Bit>,
-    /// A counter at or above the warning limit.
-    pub error_warning: Signal<Out, Bit>,
     /// Transmitting a frame of its own.
     pub transmitting: Signal<Out, Bit>,
     /// Receiving a frame.
@@ -137,7 +133,6 @@ impl Logic for CanCore {
         self.protocol.tx_abort.next = self.tx_abort.val();
         self.protocol.tx_info.next = self.tx_info.val();
         self.protocol.tx_data.next = self.tx_data.val();
-        self.protocol.warning_limit.next = self.warning_limit.val();
         self.protocol.load_tec.next = self.load_tec.val();
         self.protocol.load_rec.next = self.load_rec.val();
         self.protocol.counter_value.next = self.counter_value.val();
@@ -162,7 +157,6 @@ impl Logic for CanCore {
         self.rec.next = self.protocol.rec.val();
         self.error_passive.next = self.protocol.error_passive.val();
         self.bus_off.next = self.protocol.bus_off.val();
-        self.error_warning.next = self.protocol.error_warning.val();
         self.transmitting.next = self.protocol.transmitting.val();
         self.receiving.next = self.protocol.receiving.val();
         self.state.next = self.protocol.state.val();

@@ -200,7 +200,12 @@ impl Logic for RxFifo {
         if self.fetching.q.val() {
             self.head_info_now.next = self.ram.read_data.val();
         }
-        self.head_info.next = self.head_info_now.val();
+        // The output again from flip-flops only, not from `head_info_now`, which input-dependent
+        // logic shares: that keeps the Verilog free of loops through the parent (docs/RUST_HDL.md).
+        self.head_info.next = self.head_info_reg.q.val();
+        if self.fetching.q.val() {
+            self.head_info.next = self.ram.read_data.val();
+        }
         self.head_info_reg.d.next = self.head_info_now.val();
         self.fetching.d.next = false;
 
@@ -374,6 +379,10 @@ impl Logic for RxFifo {
             self.writing_header.d.next = false;
             self.incomplete.d.next = false;
             self.fetching.d.next = false;
+            self.head_info_reg.d.next = 0.into();
+            self.info.d.next = 0.into();
+            self.length.d.next = 0.into();
+            self.header_step.d.next = 0.into();
         }
     }
 }

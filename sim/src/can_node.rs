@@ -61,7 +61,6 @@ impl CanNode {
         uut.sam.next = btr.sam;
         uut.rx.next = true;
         uut.enable.next = true;
-        uut.warning_limit.next = (rtl::registers::DEFAULT_EWLR as u64).to_bits();
         uut.reset.next = true;
         let mut node = CanNode {
             name: name.to_string(),

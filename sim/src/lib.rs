@@ -23,4 +23,5 @@ pub mod rtl_step;
 pub mod sync_demo;
 pub mod time;
 pub mod trace;
+pub mod verilog;
 pub mod worst_case;

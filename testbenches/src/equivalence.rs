@@ -16,7 +16,7 @@
 //!
 //! [`StimulusBuilder`] writes stimuli as host programs: register accesses at a cursor, idle gaps,
 //! configuration, transmission, RX buffer reads and forced-dominant bursts. [`run_rust`] and
-//! [`run_icarus`] (or an [`IcarusBench`] compiled once and run many times) produce [`Trace`]s, and
+//! [`run_icarus`] (or a [`VerilogBench`] compiled once and run many times, in Icarus or Verilator) produce [`Trace`]s, and
 //! [`first_mismatch`] names the first differing cycle, node and signals.
 
 use std::fmt::{self, Write as _};
@@ -29,50 +29,14 @@ use rust_hdl::prelude::*;
 use sim::frame::Frame;
 use sim::frame_buffer::{buffer_len, encode_buffer};
 use sim::rtl_step::clock_cycle_with;
+pub use sim::verilog::{controller_verilog, TOP_MODULE};
 
-/// Name of the top module of the emitted Verilog.
-pub const TOP_MODULE: &str = "can_controller";
 /// BTR0 of "500 kbit/s at 16 MHz" (BRP 0: tq = 2 clocks).
 pub const BTR0_500K: u8 = 0x00;
 /// BTR1 of "500 kbit/s at 16 MHz" (TSEG1 13 tq, TSEG2 2 tq: 16 tq per bit, sample point 87.5 %).
 pub const BTR1_500K: u8 = 0x1C;
 /// Clock cycles per bit with [`BTR0_500K`] and [`BTR1_500K`].
 pub const CLOCKS_PER_BIT: usize = 32;
-
-// ---- Verilog ----------------------------------------------------------------------------------
-
-/// The generated Verilog of [`CanController`] with its top module renamed from `top` to
-/// [`TOP_MODULE`] (sub-modules keep their `top$…` names, which are legal identifiers).
-pub fn controller_verilog() -> String {
-    let mut uut = CanController::default();
-    uut.connect_all();
-    check_all(&uut).expect("rust-hdl connectivity checks of the controller");
-    rename_top(&generate_verilog(&uut), TOP_MODULE)
-}
-
-/// Renames module `top` (its declaration and its closing comment) to `name`; panics if the
-/// declaration is not found exactly once.
-fn rename_top(verilog: &str, name: &str) -> String {
-    let mut declarations = 0;
-    let mut out = String::with_capacity(verilog.len() + 64);
-    for line in verilog.split_inclusive('\n') {
-        let body = line.trim_end_matches(['\n', '\r']);
-        let ending = &line[body.len()..];
-        if let Some(rest) = body.strip_prefix("module top(") {
-            declarations += 1;
-            write!(out, "module {name}({rest}{ending}").unwrap();
-        } else if body.trim_end() == "endmodule // top" {
-            write!(out, "endmodule // {name}{ending}").unwrap();
-        } else {
-            out.push_str(line);
-        }
-    }
-    assert_eq!(
-        declarations, 1,
-        "expected exactly one `module top(` in the generated Verilog"
-    );
-    out
-}
 
 // ---- stimulus ---------------------------------------------------------------------------------
 
@@ -588,6 +552,15 @@ pub struct Trace {
 }
 
 impl Trace {
+    /// The trace from cycle `first` on (cycle `first` becomes cycle 0).
+    pub fn from_cycle(&self, first: usize) -> Trace {
+        Trace {
+            source: self.source.clone(),
+            nodes: self.nodes,
+            outputs: self.outputs[(first * self.nodes).min(self.outputs.len())..].to_vec(),
+        }
+    }
+
     /// Number of cycles.
     pub fn cycles(&self) -> usize {
         self.outputs.len().checked_div(self.nodes).unwrap_or(0)
@@ -760,7 +733,7 @@ pub const SKIP_ICARUS_ENV: &str = "CANSIM_SKIP_ICARUS";
 /// missing and [`SKIP_ICARUS_ENV`] is set (with a note naming `test`). Panics when they are missing
 /// and the developer did not opt out, so a CI machine without Icarus fails instead of passing.
 pub fn icarus_skipped(test: &str) -> bool {
-    if icarus_available() {
+    if Simulator::Icarus.available() {
         return false;
     }
     if std::env::var_os(SKIP_ICARUS_ENV).is_some() {
@@ -770,18 +743,6 @@ pub fn icarus_skipped(test: &str) -> bool {
     panic!(
         "{test}: iverilog/vvp not on PATH: run `make tools`, or set {SKIP_ICARUS_ENV}=1 to skip"
     );
-}
-
-/// Whether `iverilog` and `vvp` can be started.
-pub fn icarus_available() -> bool {
-    let works = |tool: &str, arg: &str| {
-        Command::new(tool)
-            .arg(arg)
-            .output()
-            .map(|o| o.status.success())
-            .unwrap_or(false)
-    };
-    works("iverilog", "-V") && works("vvp", "-V")
 }
 
 /// The Verilog testbench: `nodes` instances of [`TOP_MODULE`] on one bus, stimulus from `stim.hex`
@@ -930,30 +891,113 @@ fn run_tool(cmd: &mut Command, what: &str) -> Result<String, String> {
     Ok(stdout)
 }
 
-/// The generated Verilog and testbench compiled once by Icarus for `nodes` controllers and up to
-/// `max_cycles` cycles, to run several stimuli.
+/// A Verilog simulator that runs the generated Verilog against the testbench.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Simulator {
+    /// Icarus Verilog (`iverilog -g2005`, `vvp`): the reference, required in CI.
+    Icarus,
+    /// Verilator (`verilator --binary --timing`): compiled C++, much faster; used when installed.
+    Verilator,
+}
+
+impl Simulator {
+    /// The name in traces and messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Simulator::Icarus => "Icarus",
+            Simulator::Verilator => "Verilator",
+        }
+    }
+
+    /// Compiles `equivalence_tb.v` and `can_controller.v` in `dir`.
+    fn compile(self, dir: &Path) -> Result<(), String> {
+        let mut cmd = match self {
+            Simulator::Icarus => {
+                let mut c = Command::new("iverilog");
+                c.args(["-g2005", "-o", "equivalence_tb.vvp", "-s", "equivalence_tb"]);
+                c
+            }
+            Simulator::Verilator => {
+                let mut c = Command::new("verilator");
+                c.args([
+                    "--binary",
+                    "--timing",
+                    "-O3",
+                    "-Wno-fatal",
+                    "-Wno-lint",
+                    "-Wno-style",
+                ])
+                .args(["--top-module", "equivalence_tb", "-o", "equivalence_tb"])
+                .args(["-j", "2", "--Mdir", "obj_dir"]);
+                c
+            }
+        };
+        cmd.current_dir(dir)
+            .args(["equivalence_tb.v", "can_controller.v"]);
+        run_tool(&mut cmd, self.name()).map(|_| ())
+    }
+
+    /// The command that runs the compiled testbench in `dir`.
+    fn run_command(self, dir: &Path) -> Command {
+        let mut cmd = match self {
+            Simulator::Icarus => {
+                let mut c = Command::new("vvp");
+                c.args(["-n", "equivalence_tb.vvp"]);
+                c
+            }
+            Simulator::Verilator => Command::new(dir.join("obj_dir").join("equivalence_tb")),
+        };
+        cmd.current_dir(dir);
+        cmd
+    }
+
+    /// Whether the simulator's tools can be started.
+    pub fn available(self) -> bool {
+        let works = |tool: &str, arg: &str| {
+            Command::new(tool)
+                .arg(arg)
+                .output()
+                .map(|o| o.status.success())
+                .unwrap_or(false)
+        };
+        match self {
+            Simulator::Icarus => works("iverilog", "-V") && works("vvp", "-V"),
+            Simulator::Verilator => works("verilator", "--version"),
+        }
+    }
+}
+
+/// The generated Verilog and testbench compiled once by a [`Simulator`] for `nodes` controllers and
+/// up to `max_cycles` cycles, to run several stimuli.
 #[derive(Debug)]
-pub struct IcarusBench {
+pub struct VerilogBench {
+    simulator: Simulator,
     dir: PathBuf,
     nodes: usize,
     max_cycles: usize,
 }
 
-impl IcarusBench {
+impl VerilogBench {
     /// Writes `can_controller.v` and `equivalence_tb.v` into `workdir` (created if needed) and
-    /// compiles them with `iverilog -g2005`.
-    pub fn new(nodes: usize, max_cycles: usize, workdir: &Path) -> Result<IcarusBench, String> {
-        IcarusBench::with_verilog(nodes, max_cycles, workdir, &controller_verilog())
+    /// compiles them with `simulator`.
+    pub fn new(
+        simulator: Simulator,
+        nodes: usize,
+        max_cycles: usize,
+        workdir: &Path,
+    ) -> Result<VerilogBench, String> {
+        VerilogBench::with_verilog(simulator, nodes, max_cycles, workdir, &controller_verilog())
     }
 
-    /// Like [`IcarusBench::new`] with other Verilog for module [`TOP_MODULE`] (a hand-reduced or
+    /// Like [`VerilogBench::new`] with other Verilog for module [`TOP_MODULE`] (a hand-reduced or
     /// patched copy of [`controller_verilog`], to check a fix or a reproducer).
     pub fn with_verilog(
+        simulator: Simulator,
         nodes: usize,
         max_cycles: usize,
         workdir: &Path,
         verilog: &str,
-    ) -> Result<IcarusBench, String> {
+    ) -> Result<VerilogBench, String> {
         if nodes == 0 {
             return Err("at least one node".into());
         }
@@ -965,19 +1009,9 @@ impl IcarusBench {
         };
         write("can_controller.v", verilog)?;
         write("equivalence_tb.v", &testbench(nodes, max_cycles))?;
-        run_tool(
-            Command::new("iverilog").current_dir(workdir).args([
-                "-g2005",
-                "-o",
-                "equivalence_tb.vvp",
-                "-s",
-                "equivalence_tb",
-                "equivalence_tb.v",
-                "can_controller.v",
-            ]),
-            "iverilog",
-        )?;
-        Ok(IcarusBench {
+        simulator.compile(workdir)?;
+        Ok(VerilogBench {
+            simulator,
             dir: workdir.to_path_buf(),
             nodes,
             max_cycles,
@@ -989,13 +1023,13 @@ impl IcarusBench {
         &self.dir
     }
 
-    /// Runs `stim` with `vvp` and parses the trace.
+    /// Runs `stim` and parses the trace.
     pub fn run(&self, stim: &Stimulus) -> Result<Trace, String> {
         self.run_inner(stim, false)
     }
 
-    /// Like [`IcarusBench::run`], also dumping every signal to `equivalence.vcd` in
-    /// [`IcarusBench::dir`] (slow: for investigating a short reproducer).
+    /// Like [`VerilogBench::run`], also dumping every signal to `equivalence.vcd` in
+    /// [`VerilogBench::dir`] (slow: for investigating a short reproducer).
     pub fn run_with_vcd(&self, stim: &Stimulus) -> Result<Trace, String> {
         self.run_inner(stim, true)
     }
@@ -1019,14 +1053,13 @@ impl IcarusBench {
             .map_err(|e| format!("cannot write stim.hex: {e}"))?;
         let trace_file = self.dir.join("trace.txt");
         let _ = std::fs::remove_file(&trace_file);
-        let mut cmd = Command::new("vvp");
-        cmd.current_dir(&self.dir)
-            .args(["-n", "equivalence_tb.vvp"])
-            .arg(format!("+cycles={}", stim.len()));
+        let mut cmd = self.simulator.run_command(&self.dir);
+        cmd.arg(format!("+cycles={}", stim.len()));
         if vcd {
             cmd.arg("+vcd");
         }
-        run_tool(&mut cmd, "vvp")?;
+        let name = self.simulator.name();
+        run_tool(&mut cmd, name)?;
         let text = std::fs::read_to_string(&trace_file)
             .map_err(|e| format!("cannot read {}: {e}", trace_file.display()))?;
         let mut outputs = Vec::with_capacity(stim.len() * self.nodes);
@@ -1035,13 +1068,13 @@ impl IcarusBench {
                 .extend(parse_line(line, self.nodes).map_err(|e| format!("trace line {k}: {e}"))?);
         }
         let trace = Trace {
-            source: "Icarus".into(),
+            source: name.into(),
             nodes: self.nodes,
             outputs,
         };
         if trace.cycles() != stim.len() {
             return Err(format!(
-                "Icarus printed {} cycles of {}",
+                "{name} printed {} cycles of {}",
                 trace.cycles(),
                 stim.len()
             ));
@@ -1050,24 +1083,30 @@ impl IcarusBench {
     }
 }
 
+/// `verilog` without its `initial` blocks (the power-up values rust-hdl gives flip-flops and RAM
+/// words), so every register starts unknown in a four-state simulator.
+pub fn without_initial_blocks(verilog: &str) -> String {
+    let mut out = String::with_capacity(verilog.len());
+    let mut in_initial = false;
+    for line in verilog.split_inclusive('\n') {
+        match line.trim() {
+            "initial begin" => in_initial = true,
+            "end" if in_initial => in_initial = false,
+            _ if in_initial => {}
+            _ => out.push_str(line),
+        }
+    }
+    out
+}
+
 /// Compiles the Verilog and a testbench for `stim` in `workdir` and runs it with Icarus.
 pub fn run_icarus(stim: &Stimulus, workdir: &Path) -> Result<Trace, String> {
-    IcarusBench::new(stim.nodes, stim.len(), workdir)?.run(stim)
+    VerilogBench::new(Simulator::Icarus, stim.nodes, stim.len(), workdir)?.run(stim)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn renames_only_the_top_module() {
-        let v = "module top(a,b);\nendmodule // top\n\nmodule top$x(a);\n  top$x x(a);\nendmodule // top$x\n";
-        let r = rename_top(v, "can_controller");
-        assert_eq!(
-            r,
-            "module can_controller(a,b);\nendmodule // can_controller\n\nmodule top$x(a);\n  top$x x(a);\nendmodule // top$x\n"
-        );
-    }
 
     #[test]
     fn builder_holds_address_and_overlays_nodes() {

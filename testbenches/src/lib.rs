@@ -234,5 +234,6 @@ fn wrong_bits_per_frame(received: &[bool], frames: &[sim::frame::EncodedFrame]) 
 pub mod controller_bench;
 pub mod ecc;
 pub mod equivalence;
+pub mod lint;
 pub mod protocol_bench;
 pub mod sigrok;

@@ -10,11 +10,14 @@ use std::time::Instant;
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestCaseError, TestRunner};
-use rtl::registers::{clock_divider, command, interrupt, mode, pelican, status};
+use rtl::registers::{basic, clock_divider, command, interrupt, mode, pelican, status};
 use sim::frame::{Frame, Id};
+use sim::frame_buffer::{buffer_len, encode_buffer};
+use testbenches::equivalence::controller_verilog;
 use testbenches::equivalence::{
-    first_difference, first_mismatch, icarus_skipped, read_results, run_rust, IcarusBench,
-    Stimulus, StimulusBuilder, Trace, CLOCKS_PER_BIT,
+    first_difference, first_mismatch, icarus_skipped, read_results, run_rust,
+    without_initial_blocks, Simulator, Stimulus, StimulusBuilder, Trace, VerilogBench,
+    CLOCKS_PER_BIT,
 };
 
 // ---- helpers ----------------------------------------------------------------------------------
@@ -57,32 +60,50 @@ fn compare(name: &str, stim: &Stimulus) -> Trace {
             );
         }
     }
-    let dir = scratch_dir(name);
-    let t = Instant::now();
-    let bench = IcarusBench::new(stim.nodes, stim.len(), &dir).expect("Icarus compile");
-    let compile_s = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let icarus = bench.run(stim).expect("Icarus run");
-    let icarus_s = t.elapsed().as_secs_f64();
-    let cycles = stim.len() as f64;
     eprintln!(
-        "{name}: {} cycles × {} nodes; rust-hdl {rust_s:.2} s ({:.0} cycles/s), Icarus compile \
-         {compile_s:.2} s, run {icarus_s:.2} s ({:.0} cycles/s)",
+        "{name}: {} cycles × {} nodes; rust-hdl {rust_s:.2} s ({:.0} cycles/s)",
         stim.len(),
         stim.nodes,
-        cycles / rust_s,
-        cycles / icarus_s
+        stim.len() as f64 / rust_s
     );
-    if let Some(m) = first_mismatch(&rust, &icarus) {
-        let (k, _) = first_difference(&rust, &icarus).unwrap_or_default();
-        panic!(
-            "{name}: {m}\naccesses before it:\n{}(Verilog, testbench and stimulus kept in {})",
-            stim.describe(k.saturating_sub(40)..k + 1),
-            dir.display()
+    for simulator in simulators() {
+        let dir = scratch_dir(&format!("{name}_{}", simulator.name()));
+        let t = Instant::now();
+        let bench = VerilogBench::new(simulator, stim.nodes, stim.len(), &dir)
+            .unwrap_or_else(|e| panic!("{} compile: {e}", simulator.name()));
+        let compile_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let verilog = bench
+            .run(stim)
+            .unwrap_or_else(|e| panic!("{} run: {e}", simulator.name()));
+        let run_s = t.elapsed().as_secs_f64();
+        eprintln!(
+            "{name}: {} compile {compile_s:.2} s, run {run_s:.2} s ({:.0} cycles/s)",
+            simulator.name(),
+            stim.len() as f64 / run_s
         );
+        if let Some(m) = first_mismatch(&rust, &verilog) {
+            let (k, _) = first_difference(&rust, &verilog).unwrap_or_default();
+            panic!(
+                "{name}: {m}\naccesses before it:\n{}(Verilog, testbench and stimulus kept in {})",
+                stim.describe(k.saturating_sub(40)..k + 1),
+                dir.display()
+            );
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
-    let _ = std::fs::remove_dir_all(&dir);
     rust
+}
+
+/// Icarus always, Verilator too when it is installed.
+fn simulators() -> Vec<Simulator> {
+    let mut list = vec![Simulator::Icarus];
+    if Simulator::Verilator.available() {
+        list.push(Simulator::Verilator);
+    } else {
+        eprintln!("verilator not on PATH: comparing with Icarus only");
+    }
+    list
 }
 
 // ---- the harness itself -------------------------------------------------------------------------
@@ -111,11 +132,11 @@ fn harness_reports_a_deliberately_broken_verilog() {
     let stim = short_stimulus();
     let rust = run_rust(&stim);
     let dir = scratch_dir("broken");
-    let good_trace = IcarusBench::new(2, stim.len(), &dir)
+    let good_trace = VerilogBench::new(Simulator::Icarus, 2, stim.len(), &dir)
         .and_then(|b| b.run(&stim))
         .expect("Icarus");
     assert_eq!(first_mismatch(&rust, &good_trace), None);
-    let broken_trace = IcarusBench::with_verilog(2, stim.len(), &dir, &broken)
+    let broken_trace = VerilogBench::with_verilog(Simulator::Icarus, 2, stim.len(), &dir, &broken)
         .and_then(|b| b.run(&stim))
         .expect("Icarus");
     let ier_read = stim.cycles.iter().position(|c| c.nodes[0].re).unwrap();
@@ -125,6 +146,87 @@ fn harness_reports_a_deliberately_broken_verilog() {
         "{m}"
     );
     assert!(m.contains("rust-hdl 0xff, Icarus 0x00"), "{m}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+// ---- reset without initial blocks -----------------------------------------------------------
+
+/// Cycles before the hardware reset and of the reset in [`after_reset_stimulus`].
+const POWER_UP_CYCLES: usize = 3;
+const RESET_CYCLES: usize = 4;
+
+/// Power-up, a hardware reset, then configuration, an arbitration, reads of every register but the
+/// RX FIFO RAM windows, the received frames read only as far as they were written (the rest of the
+/// RAM is undefined after power-up, as on the SJA1000), an error burst and reset mode.
+fn after_reset_stimulus() -> Stimulus {
+    let f0 = std_frame(0x120, &[0x11, 0x22]);
+    let f1 = ext_frame(0x121 << 18, &[0x33]);
+    let mut b = StimulusBuilder::new(2);
+    b.idle(POWER_UP_CYCLES).reset(RESET_CYCLES);
+    // BasicCAN after reset: every register but the RX window (RAM).
+    for n in 0..2 {
+        b.reads(
+            n,
+            (0..=31).filter(|a| !(basic::RX..=basic::RX_LAST).contains(a)),
+        );
+    }
+    b.configure_pelican(0).configure_pelican(1);
+    b.reads(
+        0,
+        (0..=31).filter(|a| !(pelican::FRAME..=pelican::FRAME_LAST).contains(a)),
+    );
+    b.write_all(pelican::MOD, 0).idle_bits(14);
+    let t = b.now();
+    b.transmit(0, &f0, command::TR);
+    b.seek(t).transmit(1, &f1, command::TR);
+    b.idle_bits(260);
+    b.read_status(0).read_status(1);
+    b.reads(
+        1,
+        pelican::FRAME..pelican::FRAME + buffer_len(encode_buffer(&f0)[0]) as u8,
+    );
+    b.reads(
+        0,
+        pelican::FRAME..pelican::FRAME + buffer_len(encode_buffer(&f1)[0]) as u8,
+    );
+    b.release_rx_buffer(0).release_rx_buffer(1);
+    b.transmit(0, &f0, command::TR).idle_bits(3);
+    b.force_dominant(0, 20 * CLOCKS_PER_BIT).idle_bits(60);
+    b.read_status(0).read_status(1);
+    b.write_all(pelican::MOD, mode::RM).idle(4);
+    b.read_status(0).read_status(1);
+    b.build()
+}
+
+/// The generated Verilog does not rely on its `initial` blocks: without them every register starts
+/// unknown in Icarus, and after the hardware reset the outputs are defined and equal to the rust-hdl
+/// model's in every cycle.
+#[test]
+fn behaviour_after_reset_does_not_depend_on_initial_blocks() {
+    if skip_without_icarus("behaviour_after_reset_does_not_depend_on_initial_blocks") {
+        return;
+    }
+    let verilog = without_initial_blocks(&controller_verilog());
+    assert!(!verilog.contains("initial"), "an initial block is left");
+    let stim = after_reset_stimulus();
+    let rust = run_rust(&stim);
+    let dir = scratch_dir("no_initial");
+    let icarus = VerilogBench::with_verilog(Simulator::Icarus, 2, stim.len(), &dir, &verilog)
+        .and_then(|b| b.run(&stim))
+        .expect("Icarus");
+    assert_ne!(
+        icarus.at(0, 0).unknown,
+        0,
+        "outputs before the reset should be unknown without initial blocks"
+    );
+    let after_reset = POWER_UP_CYCLES + RESET_CYCLES;
+    if let Some(m) = first_mismatch(
+        &rust.from_cycle(after_reset),
+        &icarus.from_cycle(after_reset),
+    ) {
+        panic!("{m} (cycles counted from the end of the reset)");
+    }
+    assert!(rust.dominant_cycles() > 100, "traffic on the bus");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -148,10 +250,10 @@ struct Checkpoints {
 
 /// Reset, configuration, an arbitration between both nodes, RX window and RAM reads with release,
 /// status and capture reads, an injected error burst, counter writes in reset mode, every CLKOUT
-/// divider code and clock-off, sleep with wake-up by the bus and by the host; `long` adds more
+/// divider code and clock-off, sleep with wake-up by the bus and by the host; then more
 /// traffic (extended, remote, self-reception, single shot, abort), a FIFO overrun, listen-only and
 /// self-test, and a bus-off recovery by 128 × 11 recessive bits.
-fn scripted(long: bool) -> (Stimulus, Checkpoints) {
+fn scripted() -> (Stimulus, Checkpoints) {
     let mut cp = Checkpoints::default();
     let mut b = StimulusBuilder::new(2);
     // Power-up: a few idle cycles (DFF initial values), then a hardware reset.
@@ -306,9 +408,7 @@ fn scripted(long: bool) -> (Stimulus, Checkpoints) {
     b.idle_bits(14);
 
     more_traffic(&mut b);
-    if long {
-        long_tail(&mut b);
-    }
+    bus_off_and_traffic(&mut b);
     b.idle_bits(2);
     (b.build(), cp)
 }
@@ -391,9 +491,9 @@ fn more_traffic(b: &mut StimulusBuilder) {
     b.idle_bits(14);
 }
 
-/// The extra traffic of the long scenario: a FIFO overrun, bus-off by error bursts and recovery by
+/// The traffic after the first part: a FIFO overrun, bus-off by error bursts and recovery by
 /// 128 × 11 recessive bits, then alternating traffic up to 200 000 cycles.
-fn long_tail(b: &mut StimulusBuilder) {
+fn bus_off_and_traffic(b: &mut StimulusBuilder) {
     // FIFO overrun on node 1: six 8-byte frames (13 bytes each) into 64 bytes, then CDO.
     for i in 0..6u8 {
         b.transmit(0, &std_frame(0x300 + u16::from(i), &[i; 8]), command::TR);
@@ -480,34 +580,16 @@ fn check_scenario(trace: &Trace, cp: &Checkpoints) {
     );
 }
 
+/// At least 200 000 cycles: both nodes, register writes and reads (FIFO window included), traffic
+/// with arbitration, injected errors, error passive, bus-off and recovery, sleep and wake-up.
 #[test]
-fn scripted_scenario_rust_hdl_equals_icarus() {
-    if skip_without_icarus("scripted_scenario_rust_hdl_equals_icarus") {
+fn scripted_scenario_rust_hdl_equals_verilog() {
+    if skip_without_icarus("scripted_scenario_rust_hdl_equals_verilog") {
         return;
     }
-    let (stim, cp) = scripted(false);
-    if std::env::var("EQUIVALENCE_DEBUG").is_ok() {
-        let trace = run_rust(&stim);
-        for r in testbenches::equivalence::read_results(&stim, &trace) {
-            eprintln!(
-                "{:6} n{} [{:3}] -> {:#04x}",
-                r.cycle, r.node, r.addr, r.value.rdata
-            );
-        }
-    }
-    let trace = compare("scripted", &stim);
-    check_scenario(&trace, &cp);
-}
-
-#[test]
-#[ignore = "long: about 200 000 cycles of Icarus (minutes); run with --ignored"]
-fn long_scripted_scenario_rust_hdl_equals_icarus() {
-    if skip_without_icarus("long_scripted_scenario_rust_hdl_equals_icarus") {
-        return;
-    }
-    let (stim, cp) = scripted(true);
+    let (stim, cp) = scripted();
     assert!(stim.len() >= 200_000, "{} cycles", stim.len());
-    let trace = compare("scripted_long", &stim);
+    let trace = compare("scripted", &stim);
     check_scenario(&trace, &cp);
 }
 
@@ -675,7 +757,8 @@ fn random_register_traffic_rust_hdl_equals_icarus() {
     }
     let dir = scratch_dir("random");
     let t = Instant::now();
-    let bench = IcarusBench::new(2, RANDOM_CYCLES, &dir).expect("Icarus compile");
+    let bench =
+        VerilogBench::new(Simulator::Icarus, 2, RANDOM_CYCLES, &dir).expect("Icarus compile");
     eprintln!("random: Icarus compile {:.2} s", t.elapsed().as_secs_f64());
     let mut runner = TestRunner::new(Config {
         // PROPTEST_CASES overrides the few cases of a normal run (each takes ~2 s of Icarus).

@@ -1,11 +1,12 @@
-//! Fault confinement: the transmit and receive error counters, error-active / error-passive / bus-off,
-//! the error warning limit and bus-off recovery.
+//! Fault confinement: the transmit and receive error counters, error-active / error-passive / bus-off
+//! and bus-off recovery. (The error warning limit is a register of the controller, which compares the
+//! counters with it.)
 //!
 //! Ports in: counter events from the protocol engine (one-clock strobes at the process point:
 //! `rec_plus_1`, `rec_plus_8`, `tec_plus_8`, `tec_minus_1`, `rec_success`), `recovery_tick` (11
 //! consecutive recessive bits seen while bus-off and recovery allowed), host writes (`load_tec`/`load_rec` with
-//! `load_value`), `warning_limit` (EWLR). Out:
-//! `tec`, `rec`, `error_passive`, `bus_off`, `error_warning`. Acts on the rising edge of `clock`.
+//! `load_value`). Out:
+//! `tec`, `rec`, `error_passive`, `bus_off`. Acts on the rising edge of `clock`.
 //!
 //! Rules (catalog group EC): REC saturates at 255 and never causes bus-off; a successful reception
 //! takes REC from above 127 to 127, otherwise down by one; TEC above 255 is bus-off, entered with
@@ -41,8 +42,6 @@ pub struct FaultConfinement {
     pub load_rec: Signal<In, Bit>,
     /// Value for `load_tec` / `load_rec`.
     pub load_value: Signal<In, Bits<8>>,
-    /// Error warning limit (SJA1000 EWLR).
-    pub warning_limit: Signal<In, Bits<8>>,
     /// Transmit error counter.
     pub tec: Signal<Out, Bits<8>>,
     /// Receive error counter.
@@ -51,8 +50,6 @@ pub struct FaultConfinement {
     pub error_passive: Signal<Out, Bit>,
     /// Bus-off.
     pub bus_off: Signal<Out, Bit>,
-    /// A counter at or above the warning limit.
-    pub error_warning: Signal<Out, Bit>,
     tec_count: DFF<Bits<8>>,
     rec_count: DFF<Bits<8>>,
     bus_off_state: DFF<Bit>,
@@ -69,8 +66,6 @@ impl Logic for FaultConfinement {
         self.bus_off.next = self.bus_off_state.q.val();
         self.error_passive.next = !self.bus_off_state.q.val()
             & (self.tec_count.q.val().get_bit(7) | self.rec_count.q.val().get_bit(7));
-        self.error_warning.next = (self.tec_count.q.val() >= self.warning_limit.val())
-            | (self.rec_count.q.val() >= self.warning_limit.val());
         self.tec_wide.next = bit_cast::<9, 8>(self.tec_count.q.val()) + 8;
         self.rec_wide.next = bit_cast::<9, 8>(self.rec_count.q.val()) + 8;
 

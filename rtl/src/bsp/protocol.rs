@@ -5,7 +5,7 @@
 //! Ports in: the bit timing triggers (`process_point`, `transmit_point`) and `rx_bit`; `enable` (low =
 //! SJA1000 reset mode: tx recessive at once, the node waits for bus integration afterwards); the
 //! transmit request (`tx_request`, `tx_single_shot`, `tx_abort`), the frame to send as the SJA1000 TX buffer
-//! (`tx_info` = frame information byte, and `tx_data` = the byte at `tx_addr`), `warning_limit`.
+//! (`tx_info` = frame information byte, and `tx_data` = the byte at `tx_addr`).
 //! Out: `tx`, `sync_mode`/`tx_dominant` for the bit timing logic, the received frame (`rx_id`,
 //! `rx_ide`, `rx_rtr`, `rx_dlc` valid at `rx_header`, then every data byte with `rx_byte_strobe`, and
 //! `rx_valid` at the receiver's validity point, EOF bit 6), `tx_done`/`tx_success`, captures
@@ -98,8 +98,6 @@ pub struct Protocol {
     pub tx_info: Signal<In, Bits<8>>,
     /// The transmit-buffer byte at `tx_addr`.
     pub tx_data: Signal<In, Bits<8>>,
-    /// Error warning limit.
-    pub warning_limit: Signal<In, Bits<8>>,
     /// Load `counter_value` into TEC.
     pub load_tec: Signal<In, Bit>,
     /// Load `counter_value` into REC.
@@ -153,8 +151,6 @@ pub struct Protocol {
     pub error_passive: Signal<Out, Bit>,
     /// Bus-off.
     pub bus_off: Signal<Out, Bit>,
-    /// A counter at or above the warning limit.
-    pub error_warning: Signal<Out, Bit>,
     /// Transmitting a frame of its own (SJA1000 SR.TS).
     pub transmitting: Signal<Out, Bit>,
     /// Receiving a frame (SJA1000 SR.RS).
@@ -218,7 +214,8 @@ pub struct Protocol {
     dlc_position: Signal<Local, Bits<3>>,
     receiver_error: Signal<Local, Bit>,
     send_ack: Signal<Local, Bit>,
-    in_frame: Signal<Local, Bit>,
+    /// In a data or remote frame (arbitration to end of frame), registered.
+    in_frame: DFF<Bit>,
     flag_is_passive: Signal<Local, Bit>,
 }
 
@@ -229,6 +226,7 @@ impl Logic for Protocol {
             self,
             clock,
             field,
+            in_frame,
             count,
             tx_reg,
             tx_next,
@@ -286,9 +284,7 @@ impl Logic for Protocol {
         self.rec.next = self.faults.rec.val();
         self.error_passive.next = self.faults.error_passive.val();
         self.bus_off.next = self.faults.bus_off.val();
-        self.error_warning.next = self.faults.error_warning.val();
         self.state.next = self.field.q.val();
-        self.faults.warning_limit.next = self.warning_limit.val();
         self.faults.load_tec.next = self.load_tec.val();
         self.faults.load_rec.next = self.load_rec.val();
         self.faults.load_value.next = self.counter_value.val();
@@ -304,16 +300,8 @@ impl Logic for Protocol {
         self.lost_pulse.d.next = false;
 
         // ---- Frame-level helpers.
-        self.in_frame.next = (self.field.q.val() == ProtocolState::Arbitration)
-            | (self.field.q.val() == ProtocolState::Control)
-            | (self.field.q.val() == ProtocolState::Data)
-            | (self.field.q.val() == ProtocolState::Crc)
-            | (self.field.q.val() == ProtocolState::CrcDelimiter)
-            | (self.field.q.val() == ProtocolState::AckSlot)
-            | (self.field.q.val() == ProtocolState::AckDelimiter)
-            | (self.field.q.val() == ProtocolState::EndOfFrame);
-        self.transmitting.next = self.transmitter.q.val() & self.in_frame.val();
-        self.receiving.next = !self.transmitter.q.val() & self.in_frame.val();
+        self.transmitting.next = self.transmitter.q.val() & self.in_frame.q.val();
+        self.receiving.next = !self.transmitter.q.val() & self.in_frame.q.val();
         self.count_plus_1.next = self.count.q.val() + 1;
         self.data_bytes.next = self.dlc_reg.q.val();
         if self.dlc_reg.q.val().get_bit(3) {
@@ -828,7 +816,7 @@ impl Logic for Protocol {
                         self.faults.rec_plus_8.next = true;
                     }
                 }
-                if self.next_transmitter.val() & self.single_shot.val() & self.in_frame.val() {
+                if self.next_transmitter.val() & self.single_shot.val() & self.in_frame.q.val() {
                     self.done_pulse.d.next = true;
                     self.done_success.d.next = false;
                 }
@@ -871,7 +859,7 @@ impl Logic for Protocol {
             }
         }
         // Between frames the stream waits at the first identifier byte.
-        if !self.in_frame.val() & (self.next_field.val() != ProtocolState::Arbitration) {
+        if !self.in_frame.q.val() & (self.next_field.val() != ProtocolState::Arbitration) {
             self.tx_ptr.d.next = 1.into();
             self.tx_left.d.next = 0.into();
         }
@@ -1041,6 +1029,40 @@ impl Logic for Protocol {
             self.abort_pending.d.next = false;
             self.error_pulse.d.next = false;
             self.lost_pulse.d.next = false;
+            // The rest only for a defined start without power-up values (FPGA flows that drop
+            // `initial` blocks, X in four-state simulators); none of it is read before being loaded.
+            self.tx_ptr.d.next = 1.into();
+            self.tx_shift.d.next = 0.into();
+            self.tx_left.d.next = 0.into();
+            self.id_reg.d.next = 0.into();
+            self.ide_reg.d.next = false;
+            self.rtr_reg.d.next = false;
+            self.dlc_reg.d.next = 0.into();
+            self.byte_reg.d.next = 0.into();
+            self.header_pulse.d.next = false;
+            self.byte_pulse.d.next = false;
+            self.byte_index.d.next = 0.into();
+            self.valid_pulse.d.next = false;
+            self.done_success.d.next = false;
+            self.ecc_reg.d.next = 0.into();
+            self.alc_reg.d.next = 0.into();
+            self.flag_passive.d.next = false;
+            self.flag_level.d.next = false;
+            self.after_error_flag.d.next = false;
+            self.first_after_flag.d.next = false;
+            self.dominant_after_flag.d.next = 0.into();
+            self.recessive_run.d.next = 0.into();
         }
+        // Registered, from the state this edge loads, so `in_frame.q` always describes `field.q`:
+        // outputs made of flip-flop outputs only keep the Verilog free of combinational loops
+        // through the parent (see docs/RUST_HDL.md).
+        self.in_frame.d.next = (self.field.d.val() == ProtocolState::Arbitration)
+            | (self.field.d.val() == ProtocolState::Control)
+            | (self.field.d.val() == ProtocolState::Data)
+            | (self.field.d.val() == ProtocolState::Crc)
+            | (self.field.d.val() == ProtocolState::CrcDelimiter)
+            | (self.field.d.val() == ProtocolState::AckSlot)
+            | (self.field.d.val() == ProtocolState::AckDelimiter)
+            | (self.field.d.val() == ProtocolState::EndOfFrame);
     }
 }

@@ -1,6 +1,6 @@
 //! `cansim`: the command line tool of the CAN controller project. Without a subcommand it runs the demo.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use std::io::IsTerminal;
@@ -93,6 +93,13 @@ enum Command {
         #[arg(long)]
         all: bool,
     },
+    /// Write the controller as Verilog: DIR/can_controller.v, top module `can_controller` with the
+    /// SJA1000 host port (see docs/FPGA.md).
+    Verilog {
+        /// Output directory (created if missing).
+        #[arg(long, default_value = "build/verilog")]
+        out: PathBuf,
+    },
 }
 
 fn main() -> ExitCode {
@@ -121,6 +128,7 @@ fn main() -> ExitCode {
             sjw,
             all,
         } => bittiming(clock, bitrate, sample_point, sjw, all),
+        Command::Verilog { out } => verilog(&out),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -275,5 +283,11 @@ fn bittiming(
     let sample_point = sample_point.map(sample_point_fraction).transpose()?;
     let calc = calc_bittiming(clock, bitrate, sample_point, sjw).map_err(|e| e.to_string())?;
     print!("{}", format_calculation(clock, &calc));
+    Ok(())
+}
+
+fn verilog(out: &Path) -> Result<(), String> {
+    let path = sim::verilog::write_controller_verilog(out).map_err(|e| e.to_string())?;
+    println!("wrote {}", path.display());
     Ok(())
 }

@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# make synth: synthesis figures of the generated Verilog (build/verilog/can_controller.v).
+#   iCE40:  Yosys synth_ice40 (LUT4, flip-flops, block RAM, carries), per block without flattening,
+#           nextpnr-ice40 --hx8k --package ct256 max clock frequency (median of SEEDS seeds);
+#   Xilinx: Yosys synth_xilinx -flatten (LUTs, flip-flops).
+# Writes build/synth/report.txt and prints it. Needs yosys and nextpnr-ice40 (scripts/install-tools.sh
+# --synth installs them). SEEDS=1 for a quick run.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+SEEDS=${SEEDS:-3}
+DIR=build/synth
+VERILOG=build/verilog/can_controller.v
+mkdir -p "$DIR"
+
+for tool in yosys nextpnr-ice40; do
+    command -v "$tool" >/dev/null || { echo "synth: $tool not found; run scripts/install-tools.sh --synth" >&2; exit 1; }
+done
+cargo run -q --release -p sim --bin cansim -- verilog --out build/verilog >/dev/null
+
+# Sum of the cells in a Yosys `stat` output whose type matches the regex $2.
+cells() { awk -v re="$2" '$1 ~ re && $2 ~ /^[0-9]+$/ { n += $2 } END { print n + 0 }' "$1"; }
+
+echo "synth: Yosys synth_ice40" >&2
+yosys -q -p "read_verilog $VERILOG; synth_ice40 -top can_controller -json $DIR/ice40.json; tee -q -o $DIR/ice40_stat.txt stat" >"$DIR/yosys_ice40.log" 2>&1
+echo "synth: Yosys synth_ice40 per block" >&2
+yosys -q -p "read_verilog $VERILOG; synth_ice40 -noflatten -top can_controller; tee -q -o $DIR/ice40_blocks.txt stat" >"$DIR/yosys_ice40_blocks.log" 2>&1
+echo "synth: Yosys synth_xilinx" >&2
+yosys -q -p "read_verilog $VERILOG; synth_xilinx -flatten -top can_controller; tee -q -o $DIR/xilinx_stat.txt stat" >"$DIR/yosys_xilinx.log" 2>&1
+
+freqs=()
+for seed in $(seq 1 "$SEEDS"); do
+    echo "synth: nextpnr-ice40 seed $seed of $SEEDS (minutes)" >&2
+    nextpnr-ice40 --hx8k --package ct256 --json "$DIR/ice40.json" --freq 70 --seed "$seed" \
+        >"$DIR/nextpnr_seed$seed.log" 2>&1 || { echo "synth: nextpnr failed, see $DIR/nextpnr_seed$seed.log" >&2; exit 1; }
+    freqs+=("$(grep -o "Max frequency for clock '[^']*': [0-9.]* MHz" "$DIR/nextpnr_seed$seed.log" | tail -1 | grep -o '[0-9.]* MHz$' | cut -d' ' -f1)")
+done
+median=$(printf '%s\n' "${freqs[@]}" | sort -n | awk '{ v[NR] = $1 } END { print v[int((NR + 1) / 2)] }')
+
+{
+    echo "can_controller synthesis ($(date -u +%Y-%m-%d), cansim $(cargo run -q --release -p sim --bin cansim -- --version | cut -d' ' -f2))"
+    echo
+    echo "iCE40 (Yosys synth_ice40, nextpnr-ice40 --hx8k --package ct256)"
+    echo "  SB_LUT4      $(cells "$DIR/ice40_stat.txt" '^SB_LUT4$')   (target <= 1600)"
+    echo "  flip-flops   $(cells "$DIR/ice40_stat.txt" '^SB_DFF')   (target <= 700)"
+    echo "  block RAM    $(cells "$DIR/ice40_stat.txt" '^SB_RAM40_4K')   (target: the RX FIFO in exactly 1)"
+    echo "  SB_CARRY     $(cells "$DIR/ice40_stat.txt" '^SB_CARRY$')"
+    echo "  max clock    ${median} MHz median of seeds 1..$SEEDS: ${freqs[*]} MHz   (target >= 70)"
+    echo
+    echo "Xilinx 7-series (Yosys synth_xilinx -flatten)"
+    echo "  LUT          $(cells "$DIR/xilinx_stat.txt" '^LUT[1-6]$')   (target <= 900)"
+    echo "  flip-flops   $(cells "$DIR/xilinx_stat.txt" '^FD')"
+    echo "  MUXF7/F8     $(cells "$DIR/xilinx_stat.txt" '^MUXF[78]$')"
+    echo "  distributed RAM cells $(cells "$DIR/xilinx_stat.txt" '^RAM')"
+    echo
+    echo "iCE40 SB_LUT4 per block (synth_ice40 -noflatten: no optimisation across blocks, so the sum"
+    echo "is above the flattened total)"
+    awk '/^=== /{ block = $2 } $1 == "SB_LUT4" { printf "  %-40s %5d\n", block, $2 }' "$DIR/ice40_blocks.txt" | sort -k2 -nr
+} | tee "$DIR/report.txt"
