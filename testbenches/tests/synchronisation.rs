@@ -7,17 +7,16 @@ use sim::bus::Drive;
 use sim::can_node::NodeEvent;
 use sim::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT, RECESSIVE};
 use testbenches::bt_configs;
-use testbenches::protocol_bench::{ProtocolBench, INTEGRATION_BITS};
+use testbenches::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
 
-#[test]
-fn bt_12_negative_resync_at_the_crc_delimiter_before_the_ack() {
+fn bt_12_negative_resync_at_the_crc_delimiter_before_the_ack(iut: Iut) {
     let frame = Frame::data(Id::standard(0x456).unwrap(), &[0xC3, 0x3C]).unwrap();
     let encoded = encode(&frame);
     let delimiter = encoded.position(Field::CrcDelim, 0).unwrap();
     let ack = encoded.position(Field::AckSlot, 0).unwrap();
     // The acknowledging node's ACK edge comes early: the CRC delimiter is shortened by 1 .. TSEG2 tq.
     for early_tq in 1..=4 {
-        let mut bench = ProtocolBench::iut_transmits(&frame);
+        let mut bench = ProtocolBench::iut_transmits(iut, &frame);
         bench
             .lt()
             .release(encoded.len() + 4)
@@ -29,7 +28,7 @@ fn bt_12_negative_resync_at_the_crc_delimiter_before_the_ack() {
             vec![NodeEvent::TransmitDone(true)],
             "ACK {early_tq} tq early is read correctly"
         );
-        assert_eq!(bench.iut().tec(), 0);
+        assert_eq!(bench.tec(), 0);
     }
 }
 
@@ -53,13 +52,14 @@ fn recessive_before_dominant(encoded: &EncodedFrame) -> usize {
 /// The IUT transmits `frame()` in `btr`; the LT acknowledges it after `edit` changed its script.
 /// Returns the bench played to the end, with the frame's bit `k` of [`recessive_before_dominant`].
 fn transmit_edited(
+    iut: Iut,
     btr: sim::btr::Btr,
     edit: impl FnOnce(&mut sim::lower_tester::LowerTester, usize),
 ) -> ProtocolBench {
     let encoded = encode(&frame());
     let k = recessive_before_dominant(&encoded);
     let ack = encoded.position(Field::AckSlot, 0).unwrap();
-    let mut bench = ProtocolBench::iut_transmits_in(btr, &frame());
+    let mut bench = ProtocolBench::iut_transmits_in(iut, btr, &frame());
     bench
         .lt()
         .release(encoded.len() + 4)
@@ -71,9 +71,9 @@ fn transmit_edited(
 
 /// The IUT's transmit edges in the unperturbed frame: each at the start of its LT script bit plus
 /// the transmitter delay (the LT's script starts at the IUT's SOF edge).
-fn reference_edges(btr: sim::btr::Btr) -> Vec<(u64, bool)> {
+fn reference_edges(iut: Iut, btr: sim::btr::Btr) -> Vec<(u64, bool)> {
     let encoded = encode(&frame());
-    let bench = transmit_edited(btr, |_, _| {});
+    let mut bench = transmit_edited(iut, btr, |_, _| {});
     let edges = bench.iut_edges(0, encoded.len() + 4);
     let golden: Vec<(u64, bool)> = (1..encoded.len())
         .filter(|&i| encoded.bits[i] != encoded.bits[i - 1])
@@ -89,8 +89,7 @@ fn reference_edges(btr: sim::btr::Btr) -> Vec<(u64, bool)> {
     edges
 }
 
-#[test]
-fn bt_14_dominant_after_the_sample_point_of_intermission_bit_3_starts_the_own_sof() {
+fn bt_14_dominant_after_the_sample_point_of_intermission_bit_3_starts_the_own_sof(iut: Iut) {
     let theirs_frame = Frame::data(Id::standard(0x0A1).unwrap(), &[0x42]).unwrap();
     let theirs = encode(&theirs_frame);
     let mine = encode(&frame());
@@ -104,7 +103,7 @@ fn bt_14_dominant_after_the_sample_point_of_intermission_bit_3_starts_the_own_so
         // (another node's SOF) and then leaves the bus to the IUT. `sp - 1` is BT-13's case.
         for at in sp - 1..=nbt {
             let what = format!("{}: dominant from tq {at} of intermission bit 3", cfg.name);
-            let mut bench = ProtocolBench::with_btr(cfg.btr);
+            let mut bench = ProtocolBench::with_btr(iut, cfg.btr);
             bench
                 .lt()
                 .release(INTEGRATION_BITS)
@@ -118,7 +117,7 @@ fn bt_14_dominant_after_the_sample_point_of_intermission_bit_3_starts_the_own_so
                     Drive::Dominant,
                 );
             bench.run_to_bit(first_sof + 10);
-            bench.iut_mut().send(&frame(), false);
+            bench.send(&frame(), false);
             bench.run(1);
             let after_sample_point = at >= sp;
             assert_eq!(
@@ -162,10 +161,9 @@ fn bt_14_dominant_after_the_sample_point_of_intermission_bit_3_starts_the_own_so
     }
 }
 
-#[test]
-fn bt_15_transmitter_negative_phase_error_moves_its_next_edges_by_the_absorbed_amount() {
+fn bt_15_transmitter_negative_phase_error_moves_its_next_edges_by_the_absorbed_amount(iut: Iut) {
     for cfg in bt_configs() {
-        let reference = reference_edges(cfg.btr);
+        let reference = reference_edges(iut, cfg.btr);
         let (sjw, tseg2) = (cfg.btr.sjw_tq(), cfg.btr.tseg2_tq());
         let cpt = cfg.btr.clocks_per_tq() as u64;
         let encoded = encode(&frame());
@@ -174,7 +172,7 @@ fn bt_15_transmitter_negative_phase_error_moves_its_next_edges_by_the_absorbed_a
         for e in 1..=tseg2 {
             let what = format!("{}: edge {e} tq early (SJW {sjw})", cfg.name);
             let mut k = 0;
-            let bench = transmit_edited(cfg.btr, |lt, bit| {
+            let mut bench = transmit_edited(iut, cfg.btr, |lt, bit| {
                 k = bit;
                 lt.lengthen_bit(bit, -(e as i32))
                     .set_bit(bit + 1, Drive::Dominant);
@@ -206,17 +204,16 @@ fn bt_15_transmitter_negative_phase_error_moves_its_next_edges_by_the_absorbed_a
     }
 }
 
-#[test]
-fn bt_16_transmitter_sending_dominant_does_not_resynchronise_on_a_late_edge() {
+fn bt_16_transmitter_sending_dominant_does_not_resynchronise_on_a_late_edge(iut: Iut) {
     for cfg in bt_configs() {
-        let reference = reference_edges(cfg.btr);
+        let reference = reference_edges(iut, cfg.btr);
         let (sjw, tseg1) = (cfg.btr.sjw_tq(), cfg.btr.tseg1_tq());
         let encoded = encode(&frame());
         // The LT holds the bus recessive for the first e quanta of the IUT's dominant bit k + 1 (up
         // to the quantum before the sample point): a positive phase error of e quanta.
         for e in 1..=tseg1 {
             let what = format!("{}: edge {e} tq late (SJW {sjw})", cfg.name);
-            let bench = transmit_edited(cfg.btr, |lt, k| {
+            let mut bench = transmit_edited(iut, cfg.btr, |lt, k| {
                 lt.force(k + 1, 0, e, Drive::ForceRecessive);
             });
             assert_eq!(
@@ -231,4 +228,11 @@ fn bt_16_transmitter_sending_dominant_does_not_resynchronise_on_a_late_edge() {
             );
         }
     }
+}
+
+testbenches::on_both_iuts! {
+    bt_12_negative_resync_at_the_crc_delimiter_before_the_ack,
+    bt_14_dominant_after_the_sample_point_of_intermission_bit_3_starts_the_own_sof,
+    bt_15_transmitter_negative_phase_error_moves_its_next_edges_by_the_absorbed_amount,
+    bt_16_transmitter_sending_dominant_does_not_resynchronise_on_a_late_edge,
 }
