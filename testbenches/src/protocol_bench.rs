@@ -9,7 +9,7 @@
 //! ([`crate::register_iut`]). Stimuli and queries are methods of the bench that do the same thing
 //! on both; [`ProtocolBench::core`] and [`ProtocolBench::registers`] give what only one of them has.
 
-use rtl::registers::{command, mode, pelican, status};
+use rtl::registers::{command, interrupt, mode, pelican, status};
 use sim::btr::Btr;
 use sim::bus::Drive;
 use sim::can_node::{CanNode, NodeEvent};
@@ -468,6 +468,26 @@ impl ProtocolBench {
             .map(|host| host.iut().interrupt_passes().to_vec())
     }
 
+    /// The error-status interrupts (EI, EPI) the controller's handler serviced, oldest first, if the
+    /// IUT is the complete controller.
+    pub fn error_interrupts(&mut self) -> Option<Vec<ErrorInterrupt>> {
+        let passes = self.interrupt_passes()?;
+        let error_bits = interrupt::EI | interrupt::EPI;
+        let interrupts = passes
+            .iter()
+            .filter(|pass| pass.ir & error_bits != 0)
+            .map(|pass| ErrorInterrupt {
+                bits: pass.ir & error_bits,
+                warning: pass.sr & status::ES != 0,
+                bus_off: pass.sr & status::BS != 0,
+                counters: pass
+                    .counters
+                    .expect("the handler reads the counters on EI/EPI"),
+            })
+            .collect();
+        Some(interrupts)
+    }
+
     /// Lets the controller's interrupt handler service what is pending (nothing to do on the core,
     /// whose events are known at their clock edge).
     fn settle(&mut self) {
@@ -490,6 +510,32 @@ impl ProtocolBench {
         change(self.engine.device_mut(self.iut));
         let end = self.engine.now() + self.clock.period_fs();
         self.engine.run_until(end).expect("simulation");
+    }
+}
+
+/// An EI or EPI interrupt as the controller's interrupt handler saw it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ErrorInterrupt {
+    /// The EI and EPI bits of IR.
+    pub bits: u8,
+    /// SR.ES (a counter at or above EWLR).
+    pub warning: bool,
+    /// SR.BS.
+    pub bus_off: bool,
+    /// (TXERR, RXERR).
+    pub counters: (u8, u8),
+}
+
+impl ErrorInterrupt {
+    /// An interrupt with the IR bits `bits`, SR.ES `warning`, SR.BS = 0 and the counters
+    /// (TXERR, RXERR).
+    pub fn new(bits: u8, warning: bool, counters: (u8, u8)) -> ErrorInterrupt {
+        ErrorInterrupt {
+            bits,
+            warning,
+            bus_off: false,
+            counters,
+        }
     }
 }
 

@@ -130,6 +130,8 @@ pub struct RegisterIut {
     pass: Option<InterruptPass>,
     /// The handler is running (from `irq_n` asserted until it reads IR = 0).
     handling: bool,
+    /// The host services `irq_n` at all.
+    servicing: bool,
     in_flight: Option<Origin>,
     requests: VecDeque<HostAccess>,
     request_reads: VecDeque<u8>,
@@ -146,6 +148,7 @@ impl RegisterIut {
             steps: VecDeque::new(),
             pass: None,
             handling: false,
+            servicing: true,
             in_flight: None,
             requests: VecDeque::new(),
             request_reads: VecDeque::new(),
@@ -168,6 +171,12 @@ impl RegisterIut {
     /// Every pass of the interrupt handler so far, oldest first.
     pub fn interrupt_passes(&self) -> &[InterruptPass] {
         &self.passes
+    }
+
+    /// From now on the host leaves `irq_n` alone (a comparison run: what the controller drives
+    /// without the handler's accesses). Events and interrupt passes stay as they are.
+    pub fn ignore_interrupts(&mut self) {
+        self.servicing = false;
     }
 
     /// The interrupt handler has nothing to do: not running and `irq_n` released.
@@ -301,7 +310,7 @@ impl Device for RegisterIut {
         self.start_access();
         let drive = self.node.rising_edge(t_fs, rx);
         self.finish_access(t_fs);
-        if !self.handling && self.node.irq() {
+        if self.servicing && !self.handling && self.node.irq() {
             self.handling = true;
             self.steps.push_back(Step::ReadIr);
         }

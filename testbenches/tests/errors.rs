@@ -3,11 +3,12 @@
 //! and when a frame is retransmitted. Bit numbers are lower-tester script bits; an error detected at
 //! bit e gives a flag e+1..e+6.
 
+use rtl::registers::interrupt;
 use sim::bus::Drive;
 use sim::can_node::NodeEvent;
 use sim::frame::{decode, encode, DecodeErrorKind, EncodedFrame, Field, Frame, Id, DOMINANT};
 use testbenches::ecc::*;
-use testbenches::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
+use testbenches::protocol_bench::{ErrorInterrupt, Iut, ProtocolBench, INTEGRATION_BITS};
 
 const SOF: usize = INTEGRATION_BITS;
 
@@ -319,6 +320,17 @@ fn ec_13_successful_reception_decrements_rec_and_clamps_passive_values_to_127(iu
         assert_eq!(bench.rec(), after, "REC {before}");
         assert_eq!(bench.iut_events(), vec![NodeEvent::Received(frame())]);
         assert!(!bench.error_passive());
+        if let Some(interrupts) = bench.error_interrupts() {
+            // The preset takes effect when reset mode is left: above EWLR and passive from 130.
+            let expected = match before {
+                130 => vec![
+                    ErrorInterrupt::new(interrupt::EI | interrupt::EPI, true, (0, 130)),
+                    ErrorInterrupt::new(interrupt::EPI, true, (0, 127)),
+                ],
+                _ => vec![],
+            };
+            assert_eq!(interrupts, expected, "REC {before}: EPI on leaving passive");
+        }
     }
 }
 

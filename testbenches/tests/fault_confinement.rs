@@ -6,7 +6,7 @@ use rtl::registers::{interrupt, mode, pelican, status};
 use sim::bus::Drive;
 use sim::can_node::NodeEvent;
 use sim::frame::{encode, Field, Frame, Id, DOMINANT};
-use testbenches::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
+use testbenches::protocol_bench::{ErrorInterrupt, Iut, ProtocolBench, INTEGRATION_BITS};
 
 const SOF: usize = INTEGRATION_BITS;
 /// A receiver's stuff error on the sixth dominant bit: SOF and five dominant ID bits, then a sixth.
@@ -152,6 +152,16 @@ fn ak_05_alone_on_the_bus_tec_stops_at_128(iut: Iut) {
     );
     assert_eq!(bench.tec(), 128);
     assert!(bench.error_passive() && !bench.bus_off());
+    if let Some(interrupts) = bench.error_interrupts() {
+        assert_eq!(
+            interrupts,
+            [
+                ErrorInterrupt::new(interrupt::EI, true, (96, 0)),
+                ErrorInterrupt::new(interrupt::EPI, true, (128, 0)),
+            ],
+            "ES and EI at 96, EPI at 128"
+        );
+    }
 }
 
 fn be_03_ec_02_bit_error_in_the_own_active_flag_restarts_it(iut: Iut) {
@@ -209,6 +219,16 @@ fn ec_14_the_error_reaching_128_is_still_signalled_active(iut: Iut) {
         flag_after(bit),
         "active flag although the counter reaches 128"
     );
+    if let Some(interrupts) = bench.error_interrupts() {
+        assert_eq!(
+            interrupts,
+            [
+                ErrorInterrupt::new(interrupt::EI, true, (120, 0)),
+                ErrorInterrupt::new(interrupt::EPI, true, (128, 0)),
+            ],
+            "EI when the preset 120 takes effect, EPI at 128"
+        );
+    }
 }
 
 fn ov_01_dominant_intermission_bit_1_or_2_gives_an_overload_frame(iut: Iut) {
@@ -339,6 +359,17 @@ fn rt_04_single_shot_makes_one_attempt(iut: Iut) {
         "no retry"
     );
     assert_eq!(bench.tec(), 8);
+    if let Some(passes) = bench.interrupt_passes() {
+        let ti = passes
+            .iter()
+            .find(|p| p.ir & interrupt::TI != 0)
+            .expect("TI");
+        assert_eq!(
+            ti.sr & (status::TCS | status::TBS),
+            status::TBS,
+            "TCS = 0, TBS = 1"
+        );
+    }
 }
 
 fn rt_03_no_retry_limit(iut: Iut) {
@@ -528,12 +559,40 @@ fn bo_05_recovery_counts_the_idle_runs_between_frames(iut: Iut) {
 }
 
 fn ep_10_error_passive_and_warning_follow_the_counters(iut: Iut) {
+    let (ei, epi) = (interrupt::EI, interrupt::EPI);
     let (mut bench, _) = transmitter_error_then_dominant(iut, 120, 0, 5);
     assert!(bench.error_passive(), "TEC 128");
+    if let Some(interrupts) = bench.error_interrupts() {
+        assert_eq!(
+            interrupts,
+            [
+                ErrorInterrupt::new(ei, true, (120, 0)),
+                ErrorInterrupt::new(epi, true, (128, 0))
+            ],
+            "TEC 120 (ES), then 128: EPI"
+        );
+    }
     let (mut bench, _) = transmitter_error_then_dominant(iut, 88, 0, 5);
     assert!(!bench.error_passive(), "TEC 96");
+    if let Some(interrupts) = bench.error_interrupts() {
+        assert_eq!(
+            interrupts,
+            [ErrorInterrupt::new(ei, true, (96, 0))],
+            "TEC 88, then 96 = EWLR: ES and EI, no EPI"
+        );
+    }
     let mut bench = ProtocolBench::iut_transmits_acknowledged(iut, &frame(), 128);
     assert!(!bench.error_passive(), "TEC 128 → 127: active again");
+    if let Some(interrupts) = bench.error_interrupts() {
+        assert_eq!(
+            interrupts,
+            [
+                ErrorInterrupt::new(ei | epi, true, (128, 0)),
+                ErrorInterrupt::new(epi, true, (127, 0))
+            ],
+            "TEC 128 when reset mode is left: ES and passive; 127: EPI (active again)"
+        );
+    }
 }
 
 fn ep_06_passive_transmitter_retransmits_after_suspend(iut: Iut) {
