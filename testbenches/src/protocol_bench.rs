@@ -8,6 +8,8 @@
 //! observed only through its SJA1000 registers by an interrupt-driven host
 //! ([`crate::register_iut`]). Stimuli and queries are methods of the bench that do the same thing
 //! on both; [`ProtocolBench::core`] and [`ProtocolBench::registers`] give what only one of them has.
+//! A stimulus returns once it has taken effect (the core has seen it at a clock edge; the register
+//! write is done), and a query first lets the controller's interrupt handler finish.
 
 use rtl::registers::{command, interrupt, mode, pelican, status};
 use sim::btr::Btr;

@@ -1,5 +1,6 @@
-//! Conformance group AR (arbitration) and RT-02 against the RTL protocol engine: where the IUT stops
-//! driving, the ALC position it reports, what it receives, its counters and when it retransmits.
+//! Conformance group AR (arbitration) and RT-02 on both IUTs (the RTL core, and the controller
+//! through its registers): where the IUT stops driving, the ALC position it reports, what it
+//! receives, its counters and when it retransmits.
 //!
 //! The IUT transmits with [`ProtocolBench::iut_transmits`]; the LT's script starts at the IUT's SOF
 //! (script bit 0 = SOF), so script bit positions are wire positions of both frames (stuff bits
@@ -295,10 +296,10 @@ fn ar_08_stuff_error_after_lost_arbitration_makes_the_receiver_flag(iut: Iut) {
 }
 
 /// AR-09 proper (ALC keeps the first position until ALC is read; one ALI) is a rule of the SJA1000
-/// register block, which does not exist yet. At the core level the rule to check is the input the
-/// register block will capture from: every loss is reported, each with its own position. Two
-/// losses in a row (the second frame of the LT starts together with the IUT's retry), then the IUT's
-/// third attempt succeeds.
+/// register block (`registers.rs`). Here every loss is reported, each with its own position: the
+/// core's strobes, and through the registers an ALI per loss because the interrupt handler reads ALC
+/// after each. Two losses in a row (the second frame of the LT starts together with the IUT's retry),
+/// then the IUT's third attempt succeeds.
 fn ar_09_core_reports_every_loss(iut: Iut) {
     let mine = Frame::data(ext_id(0x1FFF_FFFF), &[0x11]).unwrap();
     // First loss at ID.12 (extended bit 5): ALC 13 + 5 = 18.

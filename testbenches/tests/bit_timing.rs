@@ -2,7 +2,8 @@
 //! and transmit points, in every catalog configuration (BT-A, BT-B, BT-C, each with BRP 0 and BRP > 0),
 //! sweeping every phase error. Positions are lower-tester script quanta: a sample "at quantum q of a bit"
 //! took the bus level of the last clock of quantum q − 1 of that bit. The error-flag case of BT-18 needs
-//! the protocol engine: two RTL cores (`CanNode`) with the LT injecting the error.
+//! the protocol engine: a transmitter (the IUT: an RTL core, or the controller through its registers)
+//! and a receiving RTL core (`CanNode`), with the LT injecting the error.
 
 use sim::btr::Btr;
 use sim::bus::Drive;

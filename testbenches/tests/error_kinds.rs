@@ -1,7 +1,8 @@
-//! Conformance scenarios on the kinds of errors (groups ST, CR, FE, BE and FT-05/06) against the RTL
-//! protocol engine: stuff errors around the CRC and in the IUT's own stuff bits, CRC errors, form errors
-//! of the fixed-form fields, the error and overload delimiters, bit errors of a transmitter in every
-//! field and in flags, and overload frames after the IUT's own frame.
+//! Conformance scenarios on the kinds of errors (groups ST, CR, FE, BE and FT-05/06) on both IUTs
+//! (the RTL core, and the controller through its registers): stuff errors around the CRC and in the
+//! IUT's own stuff bits, CRC errors, form errors of the fixed-form fields, the error and overload
+//! delimiters, bit errors of a transmitter in every field and in flags, and overload frames after
+//! the IUT's own frame.
 //!
 //! Bit numbers are lower-tester script bits. On the receive side the LT plays [`INTEGRATION_BITS`] idle
 //! bits first, so the frame's wire bit i is script bit `SOF + i`; on the transmit side the LT script

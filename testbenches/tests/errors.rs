@@ -1,7 +1,7 @@
-//! Conformance scenarios on errors, arbitration and counters against the RTL protocol engine: where the
-//! error flag goes on the wire, the counter deltas, the SJA1000 ECC/ALC capture values, what is stored
-//! and when a frame is retransmitted. Bit numbers are lower-tester script bits; an error detected at
-//! bit e gives a flag e+1..e+6.
+//! Conformance scenarios on errors, arbitration and counters on both IUTs (the RTL core, and the
+//! controller through its registers): where the error flag goes on the wire, the counter deltas,
+//! the SJA1000 ECC/ALC capture values, what is stored and when a frame is retransmitted. Bit
+//! numbers are lower-tester script bits; an error detected at bit e gives a flag e+1..e+6.
 
 use rtl::registers::interrupt;
 use sim::bus::Drive;

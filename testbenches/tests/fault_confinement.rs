@@ -1,6 +1,7 @@
 //! Conformance groups AK, BE, EC, EP, OV, BO and RT (error flags, counter rules, error passive,
-//! overload, bus-off and recovery, retransmission) against the RTL protocol engine. Bit numbers are
-//! lower-tester script bits; an error detected at bit e gives a flag e+1..e+6.
+//! overload, bus-off and recovery, retransmission) on both IUTs (the RTL core, and the controller
+//! through its registers). Bit numbers are lower-tester script bits; an error detected at bit e
+//! gives a flag e+1..e+6.
 
 use rtl::registers::{interrupt, mode, pelican, status};
 use sim::bus::Drive;

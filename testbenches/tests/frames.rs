@@ -1,5 +1,6 @@
 //! Conformance groups FR (receiving frame formats), FT (transmitting frame formats) and ST-01/ST-02
-//! (stuffing profiles) against the RTL protocol engine, bit-exact on the wire.
+//! (stuffing profiles) on both IUTs (the RTL core, and the controller through its registers),
+//! bit-exact on the wire.
 
 use rtl::registers::{interrupt, status};
 use sim::bus::Drive;

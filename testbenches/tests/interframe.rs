@@ -1,5 +1,6 @@
-//! Conformance groups IF (interframe space and bus integration), EP (error passive) and the overload
-//! scenarios OV-03/OV-04 against the RTL protocol engine. Bit numbers are lower-tester script bits.
+//! Conformance groups IF (interframe space and bus integration), EP (error passive) and the
+//! overload scenarios OV-03/OV-04 on both IUTs (the RTL core, and the controller through its
+//! registers). Bit numbers are lower-tester script bits.
 
 use sim::bus::Drive;
 use sim::can_node::NodeEvent;

@@ -1,7 +1,8 @@
-//! Conformance BT scenarios that need the protocol engine (BT-12 …): synchronisation of a transmitter
-//! around the ACK, at the start of a frame and on its own edges. Bit numbers are lower-tester script
-//! bits; edge times are clocks from the start of the LT's script (its quantum q starts at q · clocks
-//! per tq). BT-14..16 run in every catalog configuration.
+//! Conformance BT scenarios that need the protocol engine (BT-12 …): synchronisation of a
+//! transmitter around the ACK, at the start of a frame and on its own edges. Bit numbers are
+//! lower-tester script bits; edge times are clocks from the start of the LT's script (its quantum q
+//! starts at q · clocks per tq). BT-14..16 run in every catalog configuration. Every scenario runs
+//! on both IUTs (the RTL core, and the controller through its registers).
 
 use sim::bus::Drive;
 use sim::can_node::NodeEvent;
