@@ -7,7 +7,8 @@
 //! internal interface and observed through its strobes, or the complete controller, driven and
 //! observed only through its SJA1000 registers by an interrupt-driven host
 //! ([`crate::register_iut`]). Stimuli and queries are methods of the bench that do the same thing
-//! on both; [`ProtocolBench::core`] and [`ProtocolBench::registers`] give what only one of them has.
+//! on both; [`ProtocolBench::registers`], [`ProtocolBench::interrupt_passes`] and
+//! [`ProtocolBench::error_interrupts`] give what only the controller has.
 //! A stimulus returns once it has taken effect (the core has seen it at a clock edge; the register
 //! write is done), and a query first lets the controller's interrupt handler finish.
 
@@ -26,6 +27,9 @@ use crate::CLOCK_HZ;
 
 /// Idle bits before the first frame: the IUT needs 11 recessive bits to integrate.
 pub const INTEGRATION_BITS: usize = 14;
+
+/// The counter value from which a node is error passive.
+pub const ERROR_PASSIVE_LIMIT: u8 = 128;
 
 /// The catalog's default configuration BT-A with BRP 0.
 pub fn bt_a() -> Btr {
@@ -354,11 +358,6 @@ impl ProtocolBench {
         }
     }
 
-    /// (TEC, REC).
-    pub fn counters(&mut self) -> (u8, u8) {
-        (self.tec(), self.rec())
-    }
-
     /// Bus-off (SR.BS through the registers).
     pub fn bus_off(&mut self) -> bool {
         match self.host() {
@@ -374,7 +373,7 @@ impl ProtocolBench {
         if self.kind == Iut::Core {
             return self.core_node().error_passive();
         }
-        let (tec, rec) = self.counters();
+        let (tec, rec) = (self.tec(), self.rec());
         !self.bus_off() && tec.max(rec) >= ERROR_PASSIVE_LIMIT
     }
 
@@ -442,19 +441,9 @@ impl ProtocolBench {
         }
     }
 
-    /// Which IUT the bench runs.
-    pub fn iut_kind(&self) -> Iut {
-        self.kind
-    }
-
     /// The IUT's device id.
     pub fn iut_id(&self) -> DeviceId {
         self.iut
-    }
-
-    /// The core, if the IUT is the bare core.
-    pub fn core(&self) -> Option<&CanNode> {
-        (self.kind == Iut::Core).then(|| self.core_node())
     }
 
     /// Register access to the controller (after its interrupt handler has serviced what is
@@ -540,9 +529,6 @@ impl ErrorInterrupt {
         }
     }
 }
-
-/// The counter value from which a node is error passive.
-pub const ERROR_PASSIVE_LIMIT: u8 = 128;
 
 /// The events the IUT `iut` of kind `kind` has reported so far.
 fn event_list(engine: &Engine, iut: DeviceId, kind: Iut) -> &[(u64, NodeEvent)] {

@@ -25,6 +25,9 @@ use sim::host::{RegisterPort, ACCESS_TIMEOUT_FS};
 use sim::time::ClockSpec;
 use sim::trace::Probe;
 
+/// The bits of ALC that hold the arbitration position (bits 7..5 are reserved).
+const ALC_POSITION: u8 = 0x1F;
+
 /// One register access of the interrupt handler.
 #[derive(Clone, Copy, Debug)]
 enum Step {
@@ -222,6 +225,8 @@ impl RegisterIut {
         }
     }
 
+    /// Records what the handler's access `step` read (`value`, none for a write) and plans the
+    /// accesses that follow from it.
     fn handler_step_done(&mut self, step: Step, value: Option<u8>, t_fs: u64) {
         let value = value.unwrap_or_default();
         if let Step::ReadIr = step {
@@ -235,7 +240,6 @@ impl RegisterIut {
         }
         let pass = self.pass.as_mut().expect("a pass is under way");
         match step {
-            Step::ReadIr => unreachable!("handled above"),
             Step::ReadSr => {
                 pass.sr = value;
                 let ir = pass.ir;
@@ -256,7 +260,7 @@ impl RegisterIut {
                 }
             }
             Step::ReadEcc => pass.ecc = Some(value),
-            Step::ReadAlc => pass.alc = Some(value & 0x1F),
+            Step::ReadAlc => pass.alc = Some(value & ALC_POSITION),
             Step::ReadRmc => pass.rmc = Some(value),
             Step::ReadFrame(0) => {
                 let len = buffer_len(value);
@@ -274,12 +278,11 @@ impl RegisterIut {
                 .as_mut()
                 .expect("frame information read first")
                 .push(value),
+            // RXERR is read right after TXERR.
             Step::ReadTxerr => pass.counters = Some((value, 0)),
-            Step::ReadRxerr => {
-                let (txerr, _) = pass.counters.expect("TXERR read first");
-                pass.counters = Some((txerr, value));
-            }
-            Step::ReleaseRx | Step::ClearOverrun => {}
+            Step::ReadRxerr => pass.counters.as_mut().expect("TXERR read first").1 = value,
+            // IR was read above; the writes read nothing.
+            Step::ReadIr | Step::ReleaseRx | Step::ClearOverrun => {}
         }
     }
 
