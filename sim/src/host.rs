@@ -8,7 +8,16 @@ use crate::controller_node::{ControllerNode, HostAccess};
 use crate::engine::{DeviceId, Engine};
 
 /// Longest time an access may wait for its clock edge before the host gives up (a stopped clock).
-const ACCESS_TIMEOUT_FS: u64 = 1_000_000_000_000;
+pub const ACCESS_TIMEOUT_FS: u64 = 1_000_000_000_000;
+
+/// Register access to a controller, one host bus cycle per access: what configuration and transmit
+/// helpers need, whichever host model performs the cycles.
+pub trait RegisterPort {
+    /// Writes `value` to register `addr`.
+    fn write(&mut self, addr: u8, value: u8);
+    /// Reads register `addr` (with the read's side effects).
+    fn read(&mut self, addr: u8) -> u8;
+}
 
 /// Register access to one controller of an engine.
 pub struct Host<'e> {
@@ -69,5 +78,15 @@ impl<'e> Host<'e> {
             .run_while(limit, |e| e.device::<ControllerNode>(node).host_idle())
             .expect("simulation");
         assert!(done, "host access {access:?} never completed");
+    }
+}
+
+impl RegisterPort for Host<'_> {
+    fn write(&mut self, addr: u8, value: u8) {
+        Host::write(self, addr, value);
+    }
+
+    fn read(&mut self, addr: u8) -> u8 {
+        Host::read(self, addr)
     }
 }

@@ -9,7 +9,7 @@ use sim::controller_node::ControllerNode;
 use sim::engine::{DeviceId, Engine};
 use sim::frame::Frame;
 use sim::frame_buffer::{buffer_len, decode_buffer, encode_buffer, FRAME_BUFFER_BYTES};
-use sim::host::Host;
+use sim::host::{Host, RegisterPort};
 use sim::lower_tester::LowerTester;
 use sim::time::ClockSpec;
 
@@ -115,11 +115,16 @@ pub fn bench_bit_fs() -> u64 {
 
 /// The catalog's default setup, in reset mode: PeliCAN, the bench's bit timing, filter open
 /// (ACR 0, AMR 0xFF), every interrupt enabled, EWLR 96. The caller leaves reset mode.
-pub fn configure_pelican(host: &mut Host) {
+pub fn configure_pelican(host: &mut impl RegisterPort) {
+    configure_pelican_for(host, bench_btr());
+}
+
+/// As [`configure_pelican`], with the bit timing `btr` (written to BTR0/BTR1).
+pub fn configure_pelican_for(host: &mut impl RegisterPort, btr: Btr) {
     host.write(pelican::MOD, mode::RM);
     host.write(pelican::CDR, rtl::registers::clock_divider::PELICAN);
-    host.write(pelican::BTR0, BTR0);
-    host.write(pelican::BTR1, BTR1);
+    host.write(pelican::BTR0, btr.btr0());
+    host.write(pelican::BTR1, btr.btr1());
     for i in 0..4 {
         host.write(pelican::ACR0 + i, 0x00);
         host.write(pelican::AMR0 + i, 0xFF);
@@ -128,7 +133,7 @@ pub fn configure_pelican(host: &mut Host) {
 }
 
 /// Writes `frame` into the transmit buffer and the command `cmd` (e.g. TR) into CMR.
-pub fn transmit(host: &mut Host, frame: &Frame, cmd: u8) {
+pub fn transmit(host: &mut impl RegisterPort, frame: &Frame, cmd: u8) {
     let buf = encode_buffer(frame);
     for (i, b) in buf.iter().take(buffer_len(buf[0])).enumerate() {
         host.write(pelican::FRAME + i as u8, *b);

@@ -236,4 +236,33 @@ pub mod ecc;
 pub mod equivalence;
 pub mod lint;
 pub mod protocol_bench;
+pub mod register_iut;
 pub mod sigrok;
+
+/// Defines the tests of protocol scenarios written once for both IUTs: for every function
+/// `name(iut: Iut)` listed, `on_core::name` runs it on the bare RTL core and `on_registers::name` on
+/// the complete controller through its registers ([`protocol_bench::Iut`]). Attributes written
+/// before a name (e.g. `#[ignore = "long: …"]`) apply to both tests.
+#[macro_export]
+macro_rules! on_both_iuts {
+    ($($(#[$attr:meta])* $name:ident),* $(,)?) => {
+        mod on_core {
+            $(
+                #[test]
+                $(#[$attr])*
+                fn $name() {
+                    super::$name($crate::protocol_bench::Iut::Core)
+                }
+            )*
+        }
+        mod on_registers {
+            $(
+                #[test]
+                $(#[$attr])*
+                fn $name() {
+                    super::$name($crate::protocol_bench::Iut::Registers)
+                }
+            )*
+        }
+    };
+}

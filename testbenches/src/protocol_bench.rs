@@ -1,8 +1,18 @@
-//! Bench for the protocol scenarios: a lower tester (LT) and one node under test (IUT, the RTL CAN core)
-//! on a 16 MHz clock in configuration BT-A (TSEG1 11, TSEG2 4, SJW 2, BRP 0: 500 kbit/s), the catalog's
-//! default setup (error active, counters 0, integrated). Queries are in LT script bits: "what did the
-//! IUT drive in bit i" reads the IUT's drive at the LT's sample point of script bit i.
+//! Bench for the protocol scenarios: a lower tester (LT) and one node under test (IUT) on a 16 MHz
+//! clock in configuration BT-A (TSEG1 11, TSEG2 4, SJW 2, BRP 0: 500 kbit/s), the catalog's default
+//! setup (error active, counters 0, integrated). Queries are in LT script bits: "what did the IUT
+//! drive in bit i" reads the IUT's drive at the LT's sample point of script bit i.
+//!
+//! A scenario is written once and runs on either IUT ([`Iut`]): the bare RTL core, driven through its
+//! internal interface and observed through its strobes, or the complete controller, driven and
+//! observed only through its SJA1000 registers by an interrupt-driven host
+//! ([`crate::register_iut`]). Stimuli and queries are methods of the bench that do the same thing
+//! on both; [`ProtocolBench::registers`], [`ProtocolBench::interrupt_passes`] and
+//! [`ProtocolBench::error_interrupts`] give what only the controller has.
+//! A stimulus returns once it has taken effect (the core has seen it at a clock edge; the register
+//! write is done), and a query first lets the controller's interrupt handler finish.
 
+use rtl::registers::{command, interrupt, mode, pelican, status};
 use sim::btr::Btr;
 use sim::bus::Drive;
 use sim::can_node::{CanNode, NodeEvent};
@@ -11,14 +21,39 @@ use sim::frame::{encode, EncodedFrame, Field, Frame, DOMINANT};
 use sim::lower_tester::LowerTester;
 use sim::time::ClockSpec;
 
+use crate::controller_bench::{configure_pelican_for, transmit};
+use crate::register_iut::{InterruptPass, IutHost, RegisterIut};
 use crate::CLOCK_HZ;
 
 /// Idle bits before the first frame: the IUT needs 11 recessive bits to integrate.
 pub const INTEGRATION_BITS: usize = 14;
 
+/// The counter value from which a node is error passive.
+pub const ERROR_PASSIVE_LIMIT: u8 = 128;
+
 /// The catalog's default configuration BT-A with BRP 0.
 pub fn bt_a() -> Btr {
     Btr::from_quanta(0, 11, 4, 2, false).expect("BT-A")
+}
+
+/// The implementation under test of a scenario.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Iut {
+    /// The RTL CAN core ([`CanNode`]): requests, counter loads and aborts through the core's
+    /// interface; observed through its strobes (events at their clock edge) and counter outputs.
+    Core,
+    /// The complete controller ([`RegisterIut`]) in the catalog's default setup (PeliCAN, filter
+    /// open, every interrupt enabled, EWLR 96), reached only through its registers: TX buffer and
+    /// CMR, TXERR/RXERR written in reset mode, MOD; observed by its interrupt handler (IR, SR, ECC,
+    /// ALC, RMC, the RX buffer) and by reads of SR, TXERR and RXERR.
+    Registers,
+}
+
+/// The LT's start: at its first clock edge, or at the first dominant edge on the bus.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum LtStart {
+    AtOnce,
+    OnDominant,
 }
 
 /// LT + IUT.
@@ -27,79 +62,100 @@ pub struct ProtocolBench {
     pub engine: Engine,
     lt: DeviceId,
     iut: DeviceId,
+    kind: Iut,
     btr: Btr,
     clock: ClockSpec,
 }
 
 impl ProtocolBench {
     /// A bench whose LT starts playing at once (the IUT receives).
-    pub fn new() -> ProtocolBench {
-        ProtocolBench::with_btr(bt_a())
+    pub fn new(iut: Iut) -> ProtocolBench {
+        ProtocolBench::with_btr(iut, bt_a())
     }
 
     /// As [`ProtocolBench::new`], with the bit timing `btr` for both the LT and the IUT.
-    pub fn with_btr(btr: Btr) -> ProtocolBench {
-        ProtocolBench::with_clock(btr, ClockSpec::from_hz(CLOCK_HZ))
+    pub fn with_btr(iut: Iut, btr: Btr) -> ProtocolBench {
+        ProtocolBench::with_clock(iut, btr, ClockSpec::from_hz(CLOCK_HZ))
     }
 
     /// As [`ProtocolBench::with_btr`], with the LT and the IUT both on `clock` (e.g. a clock some
     /// ppm off the nominal 16 MHz), so the LT's script bits stay the IUT's bits.
-    pub fn with_clock(btr: Btr, clock: ClockSpec) -> ProtocolBench {
+    pub fn with_clock(iut: Iut, btr: Btr, clock: ClockSpec) -> ProtocolBench {
+        ProtocolBench::build(iut, btr, clock, LtStart::AtOnce)
+    }
+
+    /// The bench, with the controller configured (the LT plays meanwhile) and operating.
+    fn build(kind: Iut, btr: Btr, clock: ClockSpec, start: LtStart) -> ProtocolBench {
         let mut engine = Engine::new();
         engine.keep_history();
-        let lt = engine.add(LowerTester::new("lt", clock, btr), 0);
-        let iut = engine.add(CanNode::new("iut", clock, btr), 0);
-        ProtocolBench {
+        let mut lt = LowerTester::new("lt", clock, btr);
+        if start == LtStart::OnDominant {
+            lt.start_on_dominant();
+        }
+        let lt = engine.add(lt, 0);
+        let iut = match kind {
+            Iut::Core => engine.add(CanNode::new("iut", clock, btr), 0),
+            Iut::Registers => engine.add(RegisterIut::new("iut", clock), 0),
+        };
+        let mut bench = ProtocolBench {
             engine,
             lt,
             iut,
+            kind,
             btr,
             clock,
+        };
+        if let Some(mut host) = bench.host() {
+            configure_pelican_for(&mut host, btr);
+            host.write(pelican::MOD, 0);
         }
+        bench
     }
 
     /// A bench where the IUT transmits `frame` once integrated; the LT's script starts at the IUT's
     /// SOF edge (script bit 0 is the SOF).
-    pub fn iut_transmits(frame: &Frame) -> ProtocolBench {
-        ProtocolBench::iut_transmits_with(frame, 0, false)
+    pub fn iut_transmits(iut: Iut, frame: &Frame) -> ProtocolBench {
+        ProtocolBench::iut_transmits_with(iut, frame, 0, false)
     }
 
     /// As [`ProtocolBench::iut_transmits`], with the IUT's TEC preset to `tec` before integration and
     /// a single-shot request if `single_shot`.
-    pub fn iut_transmits_with(frame: &Frame, tec: u8, single_shot: bool) -> ProtocolBench {
-        ProtocolBench::transmitting(ProtocolBench::new(), frame, tec, single_shot)
-    }
-
-    /// As [`ProtocolBench::iut_transmits`], with the bit timing `btr` for both the LT and the IUT.
-    pub fn iut_transmits_in(btr: Btr, frame: &Frame) -> ProtocolBench {
-        ProtocolBench::transmitting(ProtocolBench::with_btr(btr), frame, 0, false)
-    }
-
-    /// As [`ProtocolBench::iut_transmits_in`], with the LT and the IUT on `clock`
-    /// (see [`ProtocolBench::with_clock`]).
-    pub fn iut_transmits_on(btr: Btr, clock: ClockSpec, frame: &Frame) -> ProtocolBench {
-        ProtocolBench::transmitting(ProtocolBench::with_clock(btr, clock), frame, 0, false)
-    }
-
-    fn transmitting(
-        mut bench: ProtocolBench,
+    pub fn iut_transmits_with(
+        iut: Iut,
         frame: &Frame,
         tec: u8,
         single_shot: bool,
     ) -> ProtocolBench {
-        bench.lt().start_on_dominant();
-        bench.iut_mut().load_counter(true, tec);
-        bench.integrate();
-        bench.iut_mut().send(frame, single_shot);
-        bench
+        let clock = ClockSpec::from_hz(CLOCK_HZ);
+        let bench = ProtocolBench::build(iut, bt_a(), clock, LtStart::OnDominant);
+        bench.transmitting(frame, tec, single_shot)
+    }
+
+    /// As [`ProtocolBench::iut_transmits`], with the bit timing `btr` for both the LT and the IUT.
+    pub fn iut_transmits_in(iut: Iut, btr: Btr, frame: &Frame) -> ProtocolBench {
+        ProtocolBench::iut_transmits_on(iut, btr, ClockSpec::from_hz(CLOCK_HZ), frame)
+    }
+
+    /// As [`ProtocolBench::iut_transmits_in`], with the LT and the IUT on `clock`
+    /// (see [`ProtocolBench::with_clock`]).
+    pub fn iut_transmits_on(iut: Iut, btr: Btr, clock: ClockSpec, frame: &Frame) -> ProtocolBench {
+        let bench = ProtocolBench::build(iut, btr, clock, LtStart::OnDominant);
+        bench.transmitting(frame, 0, false)
+    }
+
+    fn transmitting(mut self, frame: &Frame, tec: u8, single_shot: bool) -> ProtocolBench {
+        self.load_counter(true, tec);
+        self.integrate();
+        self.send(frame, single_shot);
+        self
     }
 
     /// A bench where the IUT, with its TEC preset to `tec`, transmits `frame` once integrated and the
     /// LT acknowledges it; the script is played to its end plus one bit.
-    pub fn iut_transmits_acknowledged(frame: &Frame, tec: u8) -> ProtocolBench {
+    pub fn iut_transmits_acknowledged(iut: Iut, frame: &Frame, tec: u8) -> ProtocolBench {
         let encoded = encode(frame);
         let ack = encoded.position(Field::AckSlot, 0).expect("ack slot");
-        let mut bench = ProtocolBench::iut_transmits_with(frame, tec, false);
+        let mut bench = ProtocolBench::iut_transmits_with(iut, frame, tec, false);
         bench
             .lt()
             .release(encoded.len() + 4)
@@ -110,9 +166,7 @@ impl ProtocolBench {
 
     /// Lets the IUT integrate (runs the bus idle for [`INTEGRATION_BITS`]) before the LT's script.
     pub fn integrate(&mut self) {
-        let bits = INTEGRATION_BITS as u64 * self.btr.clocks_per_bit() as u64;
-        let end = self.engine.now() + bits * self.clock.period_fs();
-        self.engine.run_until(end).expect("simulation");
+        self.run_bits(INTEGRATION_BITS as u64);
     }
 
     /// The bit timing of the LT and the IUT.
@@ -135,16 +189,6 @@ impl ProtocolBench {
         self.engine.device(self.lt)
     }
 
-    /// The node under test.
-    pub fn iut(&self) -> &CanNode {
-        self.engine.device(self.iut)
-    }
-
-    /// The node under test, mutably.
-    pub fn iut_mut(&mut self) -> &mut CanNode {
-        self.engine.device_mut(self.iut)
-    }
-
     /// Runs until the LT has played its script, then `extra_bits` more bits.
     pub fn run(&mut self, extra_bits: usize) {
         let lt = self.lt;
@@ -157,19 +201,44 @@ impl ProtocolBench {
             done,
             "the lower tester never started or never finished its script"
         );
-        let bits = extra_bits as u64 * self.btr.clocks_per_bit() as u64;
-        let end = self.engine.now() + bits * self.clock.period_fs();
+        self.run_bits(extra_bits as u64);
+    }
+
+    /// Runs `bits` bit times.
+    pub fn run_bits(&mut self, bits: u64) {
+        let end = self.engine.now() + bits * self.bit_fs();
         self.engine.run_until(end).expect("simulation");
     }
 
-    /// Runs until `done(iut)` holds or `max_bits` bit times pass; returns whether it held.
-    pub fn run_until<F: Fn(&CanNode) -> bool>(&mut self, max_bits: u64, done: F) -> bool {
-        let iut = self.iut;
-        let bits = max_bits * self.btr.clocks_per_bit() as u64;
-        let limit = self.engine.now() + bits * self.clock.period_fs();
+    /// Runs until the IUT has reported `event` or `max_bits` bit times pass; returns whether it has.
+    /// (Through the registers an event is known once the interrupt handler has read it.)
+    pub fn run_until_event(&mut self, max_bits: u64, event: &NodeEvent) -> bool {
+        let (iut, kind) = (self.iut, self.kind);
+        let limit = self.engine.now() + max_bits * self.bit_fs();
         self.engine
-            .run_while(limit, |e| done(e.device::<CanNode>(iut)))
+            .run_while(limit, |e| {
+                event_list(e, iut, kind)
+                    .iter()
+                    .any(|(_, seen)| seen == event)
+            })
             .expect("simulation")
+    }
+
+    /// Runs until the IUT drives the bus dominant or `max_bits` bit times pass; returns whether it
+    /// did.
+    pub fn run_until_iut_dominant(&mut self, max_bits: u64) -> bool {
+        let iut = self.iut;
+        let limit = self.engine.now() + max_bits * self.bit_fs();
+        self.engine
+            .run_while(limit, |e| {
+                e.drive_before(iut, e.now() + 1) == Drive::Dominant
+            })
+            .expect("simulation")
+    }
+
+    /// One nominal bit time in femtoseconds.
+    pub fn bit_fs(&self) -> u64 {
+        self.btr.clocks_per_bit() as u64 * self.clock.period_fs()
     }
 
     /// Runs until script bit `bit` of the LT starts (first until the LT starts, if it has not).
@@ -237,14 +306,235 @@ impl ProtocolBench {
     }
 
     /// The IUT's events, without times.
-    pub fn iut_events(&self) -> Vec<NodeEvent> {
-        self.iut().events().iter().map(|(_, e)| e.clone()).collect()
+    pub fn iut_events(&mut self) -> Vec<NodeEvent> {
+        self.iut_timed_events()
+            .into_iter()
+            .map(|(_, e)| e)
+            .collect()
+    }
+
+    /// The IUT's events with their times: the clock edge of the core's strobe, or through the
+    /// registers the edge of the IR read that found them.
+    pub fn iut_timed_events(&mut self) -> Vec<(u64, NodeEvent)> {
+        self.settle();
+        event_list(&self.engine, self.iut, self.kind).to_vec()
+    }
+
+    /// The frames the IUT received, in order.
+    pub fn received(&mut self) -> Vec<Frame> {
+        self.iut_events()
+            .into_iter()
+            .filter_map(|e| match e {
+                NodeEvent::Received(f) => Some(f),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The ECC values of the IUT's bus errors, in order.
+    pub fn bus_errors(&mut self) -> Vec<u8> {
+        self.iut_events()
+            .into_iter()
+            .filter_map(|e| match e {
+                NodeEvent::BusError(ecc) => Some(ecc),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The transmit error counter (TXERR through the registers).
+    pub fn tec(&mut self) -> u8 {
+        match self.host() {
+            Some(mut host) => host.read(pelican::TXERR),
+            None => self.core_node().tec(),
+        }
+    }
+
+    /// The receive error counter (RXERR through the registers).
+    pub fn rec(&mut self) -> u8 {
+        match self.host() {
+            Some(mut host) => host.read(pelican::RXERR),
+            None => self.core_node().rec(),
+        }
+    }
+
+    /// Bus-off (SR.BS through the registers).
+    pub fn bus_off(&mut self) -> bool {
+        match self.host() {
+            Some(mut host) => host.read(pelican::SR) & status::BS != 0,
+            None => self.core_node().bus_off(),
+        }
+    }
+
+    /// Error passive: through the registers, what a host concludes from them (not bus-off, and
+    /// TXERR or RXERR at least [`ERROR_PASSIVE_LIMIT`]); EPI is checked where the scenarios expect
+    /// it.
+    pub fn error_passive(&mut self) -> bool {
+        if self.kind == Iut::Core {
+            return self.core_node().error_passive();
+        }
+        let (tec, rec) = (self.tec(), self.rec());
+        !self.bus_off() && tec.max(rec) >= ERROR_PASSIVE_LIMIT
+    }
+
+    /// A transmission request is pending (SR.TBS = 0 through the registers).
+    pub fn transmit_pending(&mut self) -> bool {
+        match self.host() {
+            Some(mut host) => host.read(pelican::SR) & status::TBS == 0,
+            None => self.core_node().transmit_pending(),
+        }
+    }
+
+    /// Requests the transmission of `frame` (automatic retransmission, or one attempt only with
+    /// `single_shot`): through the registers the TX buffer and CMR = TR (TR + AT for single shot),
+    /// after SR shows the buffer free.
+    pub fn send(&mut self, frame: &Frame, single_shot: bool) {
+        match self.host() {
+            Some(mut host) => {
+                assert!(
+                    host.read(pelican::SR) & status::TBS != 0,
+                    "a transmission is already pending"
+                );
+                let cmd = if single_shot {
+                    command::TR | command::AT
+                } else {
+                    command::TR
+                };
+                transmit(&mut host, frame, cmd);
+            }
+            None => self.apply_to_core(|core| core.send(frame, single_shot)),
+        }
+    }
+
+    /// Aborts the pending request (CMR = AT): a frame not under transmission is not sent; an
+    /// attempt under way finishes and is not retried.
+    pub fn abort(&mut self) {
+        match self.host() {
+            Some(mut host) => host.write(pelican::CMR, command::AT),
+            None => self.apply_to_core(CanNode::abort),
+        }
+    }
+
+    /// Operating mode (`true`) or reset mode (`false`): MOD.RM through the registers.
+    pub fn set_enable(&mut self, enable: bool) {
+        match self.host() {
+            Some(mut host) => host.write(pelican::MOD, if enable { 0 } else { mode::RM }),
+            None => self.apply_to_core(|core| core.set_enable(enable)),
+        }
+    }
+
+    /// Loads TEC (`tec` = true) or REC with `value`, like a host write of TXERR/RXERR in reset
+    /// mode. Through the registers it is that write; an IUT in operating mode enters reset mode for
+    /// it and leaves it again (and integrates anew).
+    pub fn load_counter(&mut self, tec: bool, value: u8) {
+        let Some(mut host) = self.host() else {
+            self.apply_to_core(|core| core.load_counter(tec, value));
+            return;
+        };
+        let operating = host.read(pelican::MOD) & mode::RM == 0;
+        if operating {
+            host.write(pelican::MOD, mode::RM);
+        }
+        host.write(if tec { pelican::TXERR } else { pelican::RXERR }, value);
+        if operating {
+            host.write(pelican::MOD, 0);
+        }
+    }
+
+    /// The IUT's device id.
+    pub fn iut_id(&self) -> DeviceId {
+        self.iut
+    }
+
+    /// Register access to the controller (after its interrupt handler has serviced what is
+    /// pending), if the IUT is the complete controller.
+    pub fn registers(&mut self) -> Option<IutHost<'_>> {
+        self.settle();
+        self.host()
+    }
+
+    /// Every pass of the controller's interrupt handler, if the IUT is the complete controller.
+    pub fn interrupt_passes(&mut self) -> Option<Vec<InterruptPass>> {
+        self.registers()
+            .map(|host| host.iut().interrupt_passes().to_vec())
+    }
+
+    /// The error-status interrupts (EI, EPI) the controller's handler serviced, oldest first, if the
+    /// IUT is the complete controller.
+    pub fn error_interrupts(&mut self) -> Option<Vec<ErrorInterrupt>> {
+        let passes = self.interrupt_passes()?;
+        let error_bits = interrupt::EI | interrupt::EPI;
+        let interrupts = passes
+            .iter()
+            .filter(|pass| pass.ir & error_bits != 0)
+            .map(|pass| ErrorInterrupt {
+                bits: pass.ir & error_bits,
+                warning: pass.sr & status::ES != 0,
+                bus_off: pass.sr & status::BS != 0,
+                counters: pass
+                    .counters
+                    .expect("the handler reads the counters on EI/EPI"),
+            })
+            .collect();
+        Some(interrupts)
+    }
+
+    /// Lets the controller's interrupt handler service what is pending (nothing to do on the core,
+    /// whose events are known at their clock edge).
+    fn settle(&mut self) {
+        if let Some(mut host) = self.host() {
+            host.settle();
+        }
+    }
+
+    fn host(&mut self) -> Option<IutHost<'_>> {
+        (self.kind == Iut::Registers).then(|| IutHost::new(&mut self.engine, self.iut))
+    }
+
+    fn core_node(&self) -> &CanNode {
+        self.engine.device(self.iut)
+    }
+
+    /// Changes the core's inputs with `change` and runs one clock cycle, so that the core has taken
+    /// them when the bench goes on (as a register write has when the host's access returns).
+    fn apply_to_core(&mut self, change: impl FnOnce(&mut CanNode)) {
+        change(self.engine.device_mut(self.iut));
+        let end = self.engine.now() + self.clock.period_fs();
+        self.engine.run_until(end).expect("simulation");
     }
 }
 
-impl Default for ProtocolBench {
-    fn default() -> Self {
-        ProtocolBench::new()
+/// An EI or EPI interrupt as the controller's interrupt handler saw it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ErrorInterrupt {
+    /// The EI and EPI bits of IR.
+    pub bits: u8,
+    /// SR.ES (a counter at or above EWLR).
+    pub warning: bool,
+    /// SR.BS.
+    pub bus_off: bool,
+    /// (TXERR, RXERR).
+    pub counters: (u8, u8),
+}
+
+impl ErrorInterrupt {
+    /// An interrupt with the IR bits `bits`, SR.ES `warning`, SR.BS = 0 and the counters
+    /// (TXERR, RXERR).
+    pub fn new(bits: u8, warning: bool, counters: (u8, u8)) -> ErrorInterrupt {
+        ErrorInterrupt {
+            bits,
+            warning,
+            bus_off: false,
+            counters,
+        }
+    }
+}
+
+/// The events the IUT `iut` of kind `kind` has reported so far.
+fn event_list(engine: &Engine, iut: DeviceId, kind: Iut) -> &[(u64, NodeEvent)] {
+    match kind {
+        Iut::Core => engine.device::<CanNode>(iut).events(),
+        Iut::Registers => engine.device::<RegisterIut>(iut).events(),
     }
 }
 

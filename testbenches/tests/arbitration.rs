@@ -1,5 +1,6 @@
-//! Conformance group AR (arbitration) and RT-02 against the RTL protocol engine: where the IUT stops
-//! driving, the ALC position it reports, what it receives, its counters and when it retransmits.
+//! Conformance group AR (arbitration) and RT-02 on both IUTs (the RTL core, and the controller
+//! through its registers): where the IUT stops driving, the ALC position it reports, what it
+//! receives, its counters and when it retransmits.
 //!
 //! The IUT transmits with [`ProtocolBench::iut_transmits`]; the LT's script starts at the IUT's SOF
 //! (script bit 0 = SOF), so script bit positions are wire positions of both frames (stuff bits
@@ -12,7 +13,7 @@ use sim::bus::Drive;
 use sim::can_node::NodeEvent;
 use sim::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT, RECESSIVE};
 use testbenches::ecc::{ecc, SEG_DATA, STUFF};
-use testbenches::protocol_bench::{acknowledged_bits, ProtocolBench};
+use testbenches::protocol_bench::{acknowledged_bits, Iut, ProtocolBench};
 
 /// Bits after a frame's last EOF bit until the next SOF: the 3 intermission bits.
 const INTERMISSION: usize = 3;
@@ -76,12 +77,19 @@ fn check_loss_position(mine: &EncodedFrame, theirs: &EncodedFrame, loss: usize, 
 /// is recessive from there except its ACK of the LT frame, reports `ArbitrationLost(alc)`, receives
 /// the LT frame, keeps its counters and starts its retransmission right after the LT frame's
 /// intermission.
-fn lose_arbitration(mine: &Frame, theirs: &Frame, loss_field: Field, loss_index: u16, alc: u8) {
+fn lose_arbitration(
+    iut: Iut,
+    mine: &Frame,
+    theirs: &Frame,
+    loss_field: Field,
+    loss_index: u16,
+    alc: u8,
+) {
     let what = format!("{mine} vs {theirs} (ALC {alc})");
     let (enc_mine, enc_theirs) = (encode(mine), encode(theirs));
     let loss = field(&enc_theirs, loss_field, loss_index);
     check_loss_position(&enc_mine, &enc_theirs, loss, &what);
-    let mut bench = ProtocolBench::iut_transmits(mine);
+    let mut bench = ProtocolBench::iut_transmits(iut, mine);
     // 6 released bits after the LT frame: intermission (3) and the IUT's retransmission SOF.
     bench
         .lt()
@@ -110,14 +118,13 @@ fn lose_arbitration(mine: &Frame, theirs: &Frame, loss_field: Field, loss_index:
         "{what}: no error, LT frame received"
     );
     assert_eq!(
-        (bench.iut().tec(), bench.iut().rec()),
+        (bench.tec(), bench.rec()),
         (0, 0),
         "{what}: counters unchanged"
     );
 }
 
-#[test]
-fn ar_02_extended_loss_at_every_extended_identifier_bit() {
+fn ar_02_extended_loss_at_every_extended_identifier_bit(iut: Iut) {
     // Two IUT identifiers (all recessive; alternating bits, i.e. other stuffing), with extended bit j
     // forced recessive in the IUT's frame and dominant in the LT's.
     for base in [0x1FFF_FFFFu32, 0x0AAA_AAAA] {
@@ -126,13 +133,12 @@ fn ar_02_extended_loss_at_every_extended_identifier_bit() {
             let mine = Frame::data(ext_id(base | bit), &[]).unwrap();
             let theirs = Frame::data(ext_id(base & !bit), &[0xA5]).unwrap();
             // ALC: 0..10 base ID, 11 SRR, 12 IDE, 13.. ID.17..ID.0.
-            lose_arbitration(&mine, &theirs, Field::ExtId, j, 13 + j as u8);
+            lose_arbitration(iut, &mine, &theirs, Field::ExtId, j, 13 + j as u8);
         }
     }
 }
 
-#[test]
-fn ar_03_extended_loses_to_standard_at_srr() {
+fn ar_03_extended_loses_to_standard_at_srr(iut: Iut) {
     // The IUT's recessive SRR meets the LT's dominant RTR (standard data frame), same base ID.
     let mine = Frame::data(ext_id(0x2C5 << 18 | 0x1_2345), &[0x11]).unwrap();
     let theirs = Frame::data(std_id(0x2C5), &[0x81, 0x3C]).unwrap();
@@ -140,35 +146,31 @@ fn ar_03_extended_loses_to_standard_at_srr() {
         field(&encode(&mine), Field::Srr, 0),
         field(&encode(&theirs), Field::Rtr, 0)
     );
-    lose_arbitration(&mine, &theirs, Field::Rtr, 0, 11);
+    lose_arbitration(iut, &mine, &theirs, Field::Rtr, 0, 11);
 }
 
-#[test]
-fn ar_04_standard_remote_loses_to_data_at_rtr() {
+fn ar_04_standard_remote_loses_to_data_at_rtr(iut: Iut) {
     let mine = Frame::remote(std_id(0x2C5), 2).unwrap();
     let theirs = Frame::data(std_id(0x2C5), &[0x81, 0x3C]).unwrap();
-    lose_arbitration(&mine, &theirs, Field::Rtr, 0, 11);
+    lose_arbitration(iut, &mine, &theirs, Field::Rtr, 0, 11);
 }
 
-#[test]
-fn ar_05_extended_loses_to_standard_remote_at_ide() {
+fn ar_05_extended_loses_to_standard_remote_at_ide(iut: Iut) {
     // SRR (IUT) and RTR (LT remote frame) are both recessive; the IUT's recessive IDE meets the
     // LT's dominant one.
     let mine = Frame::data(ext_id(0x2C5 << 18 | 0x1_2345), &[0x11]).unwrap();
     let theirs = Frame::remote(std_id(0x2C5), 3).unwrap();
-    lose_arbitration(&mine, &theirs, Field::Ide, 0, 12);
+    lose_arbitration(iut, &mine, &theirs, Field::Ide, 0, 12);
 }
 
-#[test]
-fn ar_06_extended_remote_loses_to_extended_data_at_rtr() {
+fn ar_06_extended_remote_loses_to_extended_data_at_rtr(iut: Iut) {
     let id = ext_id(0x0ABC_DEF1);
     let mine = Frame::remote(id, 4).unwrap();
     let theirs = Frame::data(id, &[0x01, 0x02, 0x03, 0x04]).unwrap();
-    lose_arbitration(&mine, &theirs, Field::Rtr, 0, 31);
+    lose_arbitration(iut, &mine, &theirs, Field::Rtr, 0, 31);
 }
 
-#[test]
-fn ar_07_iut_wins_against_a_larger_identifier() {
+fn ar_07_iut_wins_against_a_larger_identifier(iut: Iut) {
     // (IUT frame, LT frame): the LT's identifier is numerically larger (or it loses at SRR/RTR/IDE),
     // so the first bit where they differ is dominant for the IUT and recessive for the LT.
     let cases = [
@@ -201,7 +203,7 @@ fn ar_07_iut_wins_against_a_larger_identifier() {
         assert_eq!(enc_theirs.bits[lt_loses], RECESSIVE, "{what}");
         let ack = field(&enc_mine, Field::AckSlot, 0);
         let tail = 4; // released bits after the IUT's frame: no retransmission may start there
-        let mut bench = ProtocolBench::iut_transmits(&mine);
+        let mut bench = ProtocolBench::iut_transmits(iut, &mine);
         // The LT plays its frame up to (not including) the bit it loses, then stops driving (a
         // transmitter that lost), and acknowledges the IUT's frame.
         bench
@@ -220,7 +222,7 @@ fn ar_07_iut_wins_against_a_larger_identifier() {
             vec![NodeEvent::TransmitDone(true)],
             "{what}: no arbitration loss, success"
         );
-        assert_eq!((bench.iut().tec(), bench.iut().rec()), (0, 0), "{what}");
+        assert_eq!((bench.tec(), bench.rec()), (0, 0), "{what}");
         // "The LT receives it": the bus at the LT's sample points is the IUT's frame, acknowledged.
         let sp = bench.sample_point_tq() - 1;
         let bus: Vec<bool> = (0..enc_mine.len())
@@ -230,8 +232,7 @@ fn ar_07_iut_wins_against_a_larger_identifier() {
     }
 }
 
-#[test]
-fn ar_08_stuff_error_after_lost_arbitration_makes_the_receiver_flag() {
+fn ar_08_stuff_error_after_lost_arbitration_makes_the_receiver_flag(iut: Iut) {
     let mine = Frame::data(std_id(0x7FF), &[0x5A]).unwrap();
     // 0x7FF with ID bit 4 (ID.24) dominant: the IUT loses there, ALC 4. Data 0x00 0xFF gives
     // recessive and dominant stuff bits in the data field.
@@ -261,7 +262,7 @@ fn ar_08_stuff_error_after_lost_arbitration_makes_the_receiver_flag() {
         let retry = s + 18;
         let mut bits: Vec<bool> = enc_theirs.bits[..=s].iter().by_vals().collect();
         bits[s] = !bits[s];
-        let mut bench = ProtocolBench::iut_transmits(&mine);
+        let mut bench = ProtocolBench::iut_transmits(iut, &mine);
         bench
             .lt()
             .send_bits(bits)
@@ -289,18 +290,17 @@ fn ar_08_stuff_error_after_lost_arbitration_makes_the_receiver_flag() {
             ],
             "{what}: stuff error as receiver, not stored, retransmitted"
         );
-        assert_eq!(bench.iut().rec(), 1, "{what}: REC+1");
-        assert_eq!(bench.iut().tec(), 0, "{what}: TEC unchanged");
+        assert_eq!(bench.rec(), 1, "{what}: REC+1");
+        assert_eq!(bench.tec(), 0, "{what}: TEC unchanged");
     }
 }
 
 /// AR-09 proper (ALC keeps the first position until ALC is read; one ALI) is a rule of the SJA1000
-/// register block, which does not exist yet. At the core level the rule to check is the input the
-/// register block will capture from: every loss is reported, each with its own position. Two
-/// losses in a row (the second frame of the LT starts together with the IUT's retry), then the IUT's
-/// third attempt succeeds.
-#[test]
-fn ar_09_core_reports_every_loss() {
+/// register block (`registers.rs`). Here every loss is reported, each with its own position: the
+/// core's strobes, and through the registers an ALI per loss because the interrupt handler reads ALC
+/// after each. Two losses in a row (the second frame of the LT starts together with the IUT's retry),
+/// then the IUT's third attempt succeeds.
+fn ar_09_core_reports_every_loss(iut: Iut) {
     let mine = Frame::data(ext_id(0x1FFF_FFFF), &[0x11]).unwrap();
     // First loss at ID.12 (extended bit 5): ALC 13 + 5 = 18.
     let first = Frame::data(ext_id(0x1FFF_FFFF & !(1 << (17 - 5))), &[0x22]).unwrap();
@@ -315,7 +315,7 @@ fn ar_09_core_reports_every_loss() {
     // attempt (acknowledged).
     let sof_2 = enc_1.len() + INTERMISSION;
     let sof_3 = sof_2 + enc_2.len() + INTERMISSION;
-    let mut bench = ProtocolBench::iut_transmits(&mine);
+    let mut bench = ProtocolBench::iut_transmits(iut, &mine);
     bench
         .lt()
         .send_bits(enc_1.bits.iter().by_vals())
@@ -347,11 +347,10 @@ fn ar_09_core_reports_every_loss() {
         expected,
         "attempt 1 up to ID.12, ACK, attempt 2 up to SRR, ACK, attempt 3 complete"
     );
-    assert_eq!((bench.iut().tec(), bench.iut().rec()), (0, 0));
+    assert_eq!((bench.tec(), bench.rec()), (0, 0));
 }
 
-#[test]
-fn rt_02_retransmission_after_lost_arbitration_right_after_the_intermission() {
+fn rt_02_retransmission_after_lost_arbitration_right_after_the_intermission(iut: Iut) {
     let cases = [
         // Loss in the base identifier (ID.28, ALC 0).
         (
@@ -375,7 +374,7 @@ fn rt_02_retransmission_after_lost_arbitration_right_after_the_intermission() {
         let eof_last = field(&enc_theirs, Field::Eof, 6);
         // Intermission eof_last+1..eof_last+3; SOF exactly 3 bits after the EOF.
         let retry = eof_last + 1 + INTERMISSION;
-        let mut bench = ProtocolBench::iut_transmits(&mine);
+        let mut bench = ProtocolBench::iut_transmits(iut, &mine);
         bench
             .lt()
             .send_bits(enc_theirs.bits.iter().by_vals())
@@ -401,6 +400,18 @@ fn rt_02_retransmission_after_lost_arbitration_right_after_the_intermission() {
             ],
             "{what}"
         );
-        assert_eq!((bench.iut().tec(), bench.iut().rec()), (0, 0), "{what}");
+        assert_eq!((bench.tec(), bench.rec()), (0, 0), "{what}");
     }
+}
+
+testbenches::on_both_iuts! {
+    ar_02_extended_loss_at_every_extended_identifier_bit,
+    ar_03_extended_loses_to_standard_at_srr,
+    ar_04_standard_remote_loses_to_data_at_rtr,
+    ar_05_extended_loses_to_standard_remote_at_ide,
+    ar_06_extended_remote_loses_to_extended_data_at_rtr,
+    ar_07_iut_wins_against_a_larger_identifier,
+    ar_08_stuff_error_after_lost_arbitration_makes_the_receiver_flag,
+    ar_09_core_reports_every_loss,
+    rt_02_retransmission_after_lost_arbitration_right_after_the_intermission,
 }

@@ -2,7 +2,8 @@
 //! and transmit points, in every catalog configuration (BT-A, BT-B, BT-C, each with BRP 0 and BRP > 0),
 //! sweeping every phase error. Positions are lower-tester script quanta: a sample "at quantum q of a bit"
 //! took the bus level of the last clock of quantum q − 1 of that bit. The error-flag case of BT-18 needs
-//! the protocol engine: two RTL cores (`CanNode`) with the LT injecting the error.
+//! the protocol engine: a transmitter (the IUT: an RTL core, or the controller through its registers)
+//! and a receiving RTL core (`CanNode`), with the LT injecting the error.
 
 use sim::btr::Btr;
 use sim::bus::Drive;
@@ -10,7 +11,7 @@ use sim::can_node::{CanNode, NodeEvent};
 use sim::engine::DeviceId;
 use sim::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE};
 use sim::time::ClockSpec;
-use testbenches::protocol_bench::ProtocolBench;
+use testbenches::protocol_bench::{Iut, ProtocolBench};
 use testbenches::{bt_configs, BtBench, LEAD_IN_BITS};
 
 const D: bool = DOMINANT;
@@ -406,7 +407,7 @@ fn flag_case_frame() -> Frame {
 /// 4 tq into the next one (no edge of its own): the transmitter sees a bit error, the receiver a
 /// stuff error, both send an error flag, and the bus has been dominant for 12 bits since the last
 /// recessive → dominant edge (the start of the five dominant bits) when the error delimiter starts.
-fn error_flag_exchange(btr: Btr, tx_ppm: f64, rx_ppm: f64, inject: bool) -> FlagExchange {
+fn error_flag_exchange(iut: Iut, btr: Btr, tx_ppm: f64, rx_ppm: f64, inject: bool) -> FlagExchange {
     let encoded = encode(&flag_case_frame());
     let error_at = (0..encoded.len())
         .find(|&i| {
@@ -419,7 +420,7 @@ fn error_flag_exchange(btr: Btr, tx_ppm: f64, rx_ppm: f64, inject: bool) -> Flag
     );
     let tx_clock = ClockSpec::with_ppm(testbenches::CLOCK_HZ, tx_ppm);
     let rx_clock = ClockSpec::with_ppm(testbenches::CLOCK_HZ, rx_ppm);
-    let mut bench = ProtocolBench::iut_transmits_on(btr, tx_clock, &flag_case_frame());
+    let mut bench = ProtocolBench::iut_transmits_on(iut, btr, tx_clock, &flag_case_frame());
     let rx = bench
         .engine
         .add(CanNode::new("rx", rx_clock, btr), receiver_delay_fs(btr));
@@ -466,8 +467,7 @@ fn bt_a_sjw_4(brp: u8) -> Btr {
 /// (BRP 2) on, the fast transmitter reads the end of the slow receiver's flag as the first bit after
 /// its own, so its delimiter and retransmission come one bit late, while a frame without error is
 /// still exchanged correctly at those clocks; checked at 1.75·df.
-#[test]
-fn bt_18_error_flag_case_the_13th_bit_after_the_last_edge_is_read_correctly() {
+fn bt_18_error_flag_case_the_13th_bit_after_the_last_edge_is_read_correctly(iut: Iut) {
     let mut configs: Vec<(String, Btr)> = bt_configs()
         .into_iter()
         .map(|c| (c.name.to_string(), c.btr))
@@ -483,7 +483,7 @@ fn bt_18_error_flag_case_the_13th_bit_after_the_last_edge_is_read_correctly() {
                 tx_sign * df_ppm,
                 -tx_sign * df_ppm
             );
-            let x = error_flag_exchange(btr, tx_sign * df_ppm, -tx_sign * df_ppm, true);
+            let mut x = error_flag_exchange(iut, btr, tx_sign * df_ppm, -tx_sign * df_ppm, true);
             let e = x.error_at;
             let mut expected: Vec<usize> = (e + 1..=e + 6).collect();
             expected.push(e + 18);
@@ -510,7 +510,7 @@ fn bt_18_error_flag_case_the_13th_bit_after_the_last_edge_is_read_correctly() {
                 "{what}: stuff error (RX, data field), then received"
             );
             assert_eq!(
-                (x.bench.iut().tec(), x.receiver().rec()),
+                (x.bench.tec(), x.receiver().rec()),
                 (7, 0),
                 "{what}: TEC +8 −1, REC +1 −1"
             );
@@ -519,7 +519,7 @@ fn bt_18_error_flag_case_the_13th_bit_after_the_last_edge_is_read_correctly() {
     for brp in [0, testbenches::BRP_ABOVE_ZERO] {
         let btr = bt_a_sjw_4(brp);
         let ppm = 1.75 * btr.oscillator_tolerance() * 1e6;
-        let x = error_flag_exchange(btr, ppm, -ppm, true);
+        let x = error_flag_exchange(iut, btr, ppm, -ppm, true);
         let e = x.error_at;
         let mut late: Vec<usize> = (e + 1..=e + 6).collect();
         late.push(e + 19);
@@ -528,7 +528,7 @@ fn bt_18_error_flag_case_the_13th_bit_after_the_last_edge_is_read_correctly() {
             late,
             "BT-A SJW 4/BRP{brp} at ±{ppm:.0} ppm: the 13th bit is misread, the retransmission is late"
         );
-        let clean = error_flag_exchange(btr, ppm, -ppm, false);
+        let mut clean = error_flag_exchange(iut, btr, ppm, -ppm, false);
         assert_eq!(
             clean.bench.iut_events(),
             vec![NodeEvent::TransmitDone(true)],
@@ -536,4 +536,8 @@ fn bt_18_error_flag_case_the_13th_bit_after_the_last_edge_is_read_correctly() {
         );
         assert_eq!(clean.receiver().received(), vec![flag_case_frame()]);
     }
+}
+
+testbenches::on_both_iuts! {
+    bt_18_error_flag_case_the_13th_bit_after_the_last_edge_is_read_correctly,
 }

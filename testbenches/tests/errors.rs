@@ -1,13 +1,14 @@
-//! Conformance scenarios on errors, arbitration and counters against the RTL protocol engine: where the
-//! error flag goes on the wire, the counter deltas, the SJA1000 ECC/ALC capture values, what is stored
-//! and when a frame is retransmitted. Bit numbers are lower-tester script bits; an error detected at
-//! bit e gives a flag e+1..e+6.
+//! Conformance scenarios on errors, arbitration and counters on both IUTs (the RTL core, and the
+//! controller through its registers): where the error flag goes on the wire, the counter deltas,
+//! the SJA1000 ECC/ALC capture values, what is stored and when a frame is retransmitted. Bit
+//! numbers are lower-tester script bits; an error detected at bit e gives a flag e+1..e+6.
 
+use rtl::registers::interrupt;
 use sim::bus::Drive;
 use sim::can_node::NodeEvent;
 use sim::frame::{decode, encode, DecodeErrorKind, EncodedFrame, Field, Frame, Id, DOMINANT};
 use testbenches::ecc::*;
-use testbenches::protocol_bench::{ProtocolBench, INTEGRATION_BITS};
+use testbenches::protocol_bench::{ErrorInterrupt, Iut, ProtocolBench, INTEGRATION_BITS};
 
 const SOF: usize = INTEGRATION_BITS;
 
@@ -21,10 +22,10 @@ fn flag_after(e: usize) -> Vec<usize> {
 }
 
 /// LT sends `bits` after integration; the IUT may have its REC preset.
-fn receive_bits(bits: &[bool], rec: Option<u8>, extra_bits: usize) -> ProtocolBench {
-    let mut bench = ProtocolBench::new();
+fn receive_bits(iut: Iut, bits: &[bool], rec: Option<u8>, extra_bits: usize) -> ProtocolBench {
+    let mut bench = ProtocolBench::new(iut);
     if let Some(rec) = rec {
-        bench.iut_mut().load_counter(false, rec);
+        bench.load_counter(false, rec);
     }
     bench
         .lt()
@@ -43,8 +44,7 @@ fn field(encoded: &EncodedFrame, f: Field, index: u16) -> usize {
     encoded.position(f, index).unwrap()
 }
 
-#[test]
-fn cr_01_crc_error_is_signalled_after_the_ack_delimiter() {
+fn cr_01_crc_error_is_signalled_after_the_ack_delimiter(iut: Iut) {
     let encoded = encode(&frame());
     let crc0 = field(&encoded, Field::Crc, 0);
     // A CRC bit whose flip keeps the stuffing: the golden decoder then reports a CRC error.
@@ -59,41 +59,39 @@ fn cr_01_crc_error_is_signalled_after_the_ack_delimiter() {
         .expect("a CRC bit that keeps the stuffing");
     let mut bits = bits_of(&encoded);
     bits[flipped] = !bits[flipped];
-    let bench = receive_bits(&bits, None, 20);
+    let mut bench = receive_bits(iut, &bits, None, 20);
     let ack_delimiter = SOF + field(&encoded, Field::AckDelim, 0);
     assert_eq!(
         bench.iut_dominant_bits(0, SOF + bits.len() + 20),
         flag_after(ack_delimiter),
         "no ACK, active flag from the bit after the ACK delimiter"
     );
-    assert_eq!(bench.iut().rec(), 1);
+    assert_eq!(bench.rec(), 1);
     assert_eq!(
         bench.iut_events(),
         vec![NodeEvent::BusError(ecc(OTHER, true, SEG_ACK_DELIM))]
     );
 }
 
-#[test]
-fn fe_01_dominant_crc_delimiter_is_a_form_error() {
+fn fe_01_dominant_crc_delimiter_is_a_form_error(iut: Iut) {
     let encoded = encode(&frame());
     let mut bits = bits_of(&encoded);
     let delimiter = field(&encoded, Field::CrcDelim, 0);
     bits[delimiter] = DOMINANT;
-    let bench = receive_bits(&bits, None, 20);
+    let mut bench = receive_bits(iut, &bits, None, 20);
     assert_eq!(
         bench.iut_dominant_bits(0, SOF + bits.len() + 20),
         flag_after(SOF + delimiter),
         "no ACK, flag from the next bit"
     );
-    assert_eq!(bench.iut().rec(), 1);
+    assert_eq!(bench.rec(), 1);
     assert_eq!(
         bench.iut_events(),
         vec![NodeEvent::BusError(ecc(FORM, true, SEG_CRC_DELIM))]
     );
 }
 
-#[test]
-fn st_03_received_stuff_errors_in_every_field_and_polarity() {
+fn st_03_received_stuff_errors_in_every_field_and_polarity(iut: Iut) {
     let frames = [
         Frame::data(Id::standard(0x000).unwrap(), &[0xFF, 0x00]).unwrap(),
         sim::worst_case::longest_frame(false, 8),
@@ -106,7 +104,7 @@ fn st_03_received_stuff_errors_in_every_field_and_polarity() {
             // The LT stops after the faulty bit (the bus is left to the IUT's error frame).
             let mut bits = bits_of(&encoded)[..=s].to_vec();
             bits[s] = !bits[s];
-            let bench = receive_bits(&bits, None, 20);
+            let mut bench = receive_bits(iut, &bits, None, 20);
             // A stuff bit belongs to the segment of the field bit after it (the engine has moved on).
             let next = encoded.tags[s + 1];
             let segment = match next.field {
@@ -134,7 +132,7 @@ fn st_03_received_stuff_errors_in_every_field_and_polarity() {
                 flag_after(SOF + s),
                 "{what}: flag"
             );
-            assert_eq!(bench.iut().rec(), 1, "{what}");
+            assert_eq!(bench.rec(), 1, "{what}");
             assert_eq!(
                 bench.iut_events(),
                 vec![NodeEvent::BusError(ecc(STUFF, true, segment))],
@@ -156,12 +154,11 @@ fn st_03_received_stuff_errors_in_every_field_and_polarity() {
     );
 }
 
-#[test]
-fn ak_01_no_acknowledge_is_an_ack_error_and_the_frame_is_retransmitted() {
+fn ak_01_no_acknowledge_is_an_ack_error_and_the_frame_is_retransmitted(iut: Iut) {
     let f = frame();
     let encoded = encode(&f);
     let ack = field(&encoded, Field::AckSlot, 0);
-    let mut bench = ProtocolBench::iut_transmits(&f);
+    let mut bench = ProtocolBench::iut_transmits(iut, &f);
     bench.lt().release(ack + 20);
     bench.run(0);
     let mut expected = flag_after(ack);
@@ -171,15 +168,14 @@ fn ak_01_no_acknowledge_is_an_ack_error_and_the_frame_is_retransmitted() {
         expected,
         "flag from the ACK delimiter, retransmission SOF at ACK slot + 18"
     );
-    assert_eq!(bench.iut().tec(), 8);
+    assert_eq!(bench.tec(), 8);
     assert_eq!(
         bench.iut_events(),
         vec![NodeEvent::BusError(ecc(OTHER, false, SEG_ACK_SLOT))]
     );
 }
 
-#[test]
-fn be_01_rt_01_dominant_identifier_bit_read_recessive_is_a_bit_error() {
+fn be_01_rt_01_dominant_identifier_bit_read_recessive_is_a_bit_error(iut: Iut) {
     let f = Frame::data(Id::standard(0x0F3).unwrap(), &[0x55]).unwrap();
     let encoded = encode(&f);
     let bit = (1..12)
@@ -187,7 +183,7 @@ fn be_01_rt_01_dominant_identifier_bit_read_recessive_is_a_bit_error() {
         .find(|&p| encoded.bits[p] == DOMINANT)
         .unwrap();
     let ack = field(&encoded, Field::AckSlot, 0);
-    let mut bench = ProtocolBench::iut_transmits(&f);
+    let mut bench = ProtocolBench::iut_transmits(iut, &f);
     // First attempt: the bit is forced recessive. Second attempt (SOF at e + 18): acknowledged.
     let retry = bit + 18;
     bench
@@ -210,19 +206,18 @@ fn be_01_rt_01_dominant_identifier_bit_read_recessive_is_a_bit_error() {
         ]
     );
     assert_eq!(
-        bench.iut().tec(),
+        bench.tec(),
         7,
         "RT-01: +8 for the error, -1 for the success"
     );
 }
 
-#[test]
-fn ar_01_arbitration_lost_at_every_base_identifier_bit() {
+fn ar_01_arbitration_lost_at_every_base_identifier_bit(iut: Iut) {
     for k in 0..11u16 {
         let mine = Frame::data(Id::standard(0x7FF).unwrap(), &[]).unwrap();
         let theirs = Frame::data(Id::standard(0x7FF & !(1 << (10 - k))).unwrap(), &[0xA5]).unwrap();
         let encoded = encode(&theirs);
-        let mut bench = ProtocolBench::iut_transmits(&mine);
+        let mut bench = ProtocolBench::iut_transmits(iut, &mine);
         bench
             .lt()
             .send_bits(encoded.bits.iter().by_vals())
@@ -244,17 +239,16 @@ fn ar_01_arbitration_lost_at_every_base_identifier_bit() {
             ],
             "loss at bit {k}"
         );
-        assert_eq!((bench.iut().tec(), bench.iut().rec()), (0, 0));
+        assert_eq!((bench.tec(), bench.rec()), (0, 0));
     }
 }
 
-#[test]
-fn fr_06_dominant_last_eof_bit_is_an_overload_for_a_receiver() {
+fn fr_06_dominant_last_eof_bit_is_an_overload_for_a_receiver(iut: Iut) {
     let encoded = encode(&frame());
     let mut bits = bits_of(&encoded);
     let eof7 = field(&encoded, Field::Eof, 6);
     bits[eof7] = DOMINANT;
-    let bench = receive_bits(&bits, Some(9), 20);
+    let mut bench = receive_bits(iut, &bits, Some(9), 20);
     assert_eq!(
         bench.iut_dominant_bits(SOF + eof7, SOF + eof7 + 20),
         flag_after(SOF + eof7),
@@ -265,17 +259,16 @@ fn fr_06_dominant_last_eof_bit_is_an_overload_for_a_receiver() {
         vec![NodeEvent::Received(frame())],
         "valid, no bus error"
     );
-    assert_eq!(bench.iut().rec(), 8);
+    assert_eq!(bench.rec(), 8);
 }
 
-#[test]
-fn fr_07_fe_03_dominant_eof_bits_1_to_6_are_form_errors() {
+fn fr_07_fe_03_dominant_eof_bits_1_to_6_are_form_errors(iut: Iut) {
     let encoded = encode(&frame());
     for k in 0..6 {
         let mut bits = bits_of(&encoded);
         let eof = field(&encoded, Field::Eof, k);
         bits[eof] = DOMINANT;
-        let bench = receive_bits(&bits, Some(9), 20);
+        let mut bench = receive_bits(iut, &bits, Some(9), 20);
         assert_eq!(
             bench.iut_dominant_bits(SOF + eof, SOF + eof + 20),
             flag_after(SOF + eof),
@@ -288,18 +281,17 @@ fn fr_07_fe_03_dominant_eof_bits_1_to_6_are_form_errors() {
             "EOF bit {}: not stored",
             k + 1
         );
-        assert_eq!(bench.iut().rec(), 9, "EOF bit {}: -1 at the ACK, +1", k + 1);
+        assert_eq!(bench.rec(), 9, "EOF bit {}: -1 at the ACK, +1", k + 1);
     }
 }
 
-#[test]
-fn fe_02_dominant_ack_delimiter() {
+fn fe_02_dominant_ack_delimiter(iut: Iut) {
     let encoded = encode(&frame());
     let mut bits = bits_of(&encoded);
     let delimiter = field(&encoded, Field::AckDelim, 0);
     bits[delimiter] = DOMINANT;
     for (preset, after) in [(9, 9), (0, 1)] {
-        let bench = receive_bits(&bits, Some(preset), 20);
+        let mut bench = receive_bits(iut, &bits, Some(preset), 20);
         assert_eq!(
             bench.iut_dominant_bits(SOF + delimiter, SOF + delimiter + 20),
             flag_after(SOF + delimiter),
@@ -309,26 +301,49 @@ fn fe_02_dominant_ack_delimiter() {
             bench.iut_events(),
             vec![NodeEvent::BusError(ecc(FORM, true, SEG_ACK_DELIM))]
         );
-        assert_eq!(bench.iut().rec(), after, "REC {preset}");
+        assert_eq!(bench.rec(), after, "REC {preset}");
     }
 }
 
-#[test]
-fn ec_12_successful_transmission_decrements_tec() {
+fn ec_12_successful_transmission_decrements_tec(iut: Iut) {
     for (before, after) in [(9, 8), (130, 129), (0, 0)] {
-        let bench = ProtocolBench::iut_transmits_acknowledged(&frame(), before);
-        assert_eq!(bench.iut().tec(), after, "TEC {before}");
+        let mut bench = ProtocolBench::iut_transmits_acknowledged(iut, &frame(), before);
+        assert_eq!(bench.tec(), after, "TEC {before}");
         assert_eq!(bench.iut_events(), vec![NodeEvent::TransmitDone(true)]);
     }
 }
 
-#[test]
-fn ec_13_successful_reception_decrements_rec_and_clamps_passive_values_to_127() {
+fn ec_13_successful_reception_decrements_rec_and_clamps_passive_values_to_127(iut: Iut) {
     let encoded = encode(&frame());
     for (before, after) in [(9, 8), (130, 127), (0, 0)] {
-        let bench = receive_bits(&bits_of(&encoded), Some(before), 4);
-        assert_eq!(bench.iut().rec(), after, "REC {before}");
+        let mut bench = receive_bits(iut, &bits_of(&encoded), Some(before), 4);
+        assert_eq!(bench.rec(), after, "REC {before}");
         assert_eq!(bench.iut_events(), vec![NodeEvent::Received(frame())]);
-        assert!(!bench.iut().error_passive());
+        assert!(!bench.error_passive());
+        if let Some(interrupts) = bench.error_interrupts() {
+            // The preset takes effect when reset mode is left: above EWLR and passive from 130.
+            let expected = match before {
+                130 => vec![
+                    ErrorInterrupt::new(interrupt::EI | interrupt::EPI, true, (0, 130)),
+                    ErrorInterrupt::new(interrupt::EPI, true, (0, 127)),
+                ],
+                _ => vec![],
+            };
+            assert_eq!(interrupts, expected, "REC {before}: EPI on leaving passive");
+        }
     }
+}
+
+testbenches::on_both_iuts! {
+    cr_01_crc_error_is_signalled_after_the_ack_delimiter,
+    fe_01_dominant_crc_delimiter_is_a_form_error,
+    st_03_received_stuff_errors_in_every_field_and_polarity,
+    ak_01_no_acknowledge_is_an_ack_error_and_the_frame_is_retransmitted,
+    be_01_rt_01_dominant_identifier_bit_read_recessive_is_a_bit_error,
+    ar_01_arbitration_lost_at_every_base_identifier_bit,
+    fr_06_dominant_last_eof_bit_is_an_overload_for_a_receiver,
+    fr_07_fe_03_dominant_eof_bits_1_to_6_are_form_errors,
+    fe_02_dominant_ack_delimiter,
+    ec_12_successful_transmission_decrements_tec,
+    ec_13_successful_reception_decrements_rec_and_clamps_passive_values_to_127,
 }

@@ -1,11 +1,14 @@
 //! Conformance groups FR (receiving frame formats), FT (transmitting frame formats) and ST-01/ST-02
-//! (stuffing profiles) against the RTL protocol engine, bit-exact on the wire.
+//! (stuffing profiles) on both IUTs (the RTL core, and the controller through its registers),
+//! bit-exact on the wire.
 
+use rtl::registers::{interrupt, status};
 use sim::bus::Drive;
 use sim::can_node::NodeEvent;
 use sim::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT};
 use sim::worst_case::longest_frame;
-use testbenches::protocol_bench::{ProtocolBench, INTEGRATION_BITS};
+use testbenches::controller_bench::rx_buffer_bytes;
+use testbenches::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
 
 const SOF: usize = INTEGRATION_BITS;
 
@@ -22,9 +25,9 @@ fn extended(id: u32) -> Id {
 }
 
 /// The LT sends `frame` (ACK slot left to the IUT) after the integration time.
-fn receive(frame: &Frame) -> (ProtocolBench, EncodedFrame) {
+fn receive(iut: Iut, frame: &Frame) -> (ProtocolBench, EncodedFrame) {
     let encoded = encode(frame);
-    let mut bench = ProtocolBench::new();
+    let mut bench = ProtocolBench::new(iut);
     bench
         .lt()
         .release(INTEGRATION_BITS)
@@ -34,9 +37,10 @@ fn receive(frame: &Frame) -> (ProtocolBench, EncodedFrame) {
     (bench, encoded)
 }
 
-/// FR-01 expectations: exactly the ACK slot driven dominant, the frame stored, no error.
-fn assert_received(frame: &Frame) {
-    let (bench, encoded) = receive(frame);
+/// FR-01 expectations: exactly the ACK slot driven dominant, the frame stored, no error; through the
+/// registers one RI, RMC 1 and the frame's bytes in the RX buffer.
+fn assert_received(iut: Iut, frame: &Frame) {
+    let (mut bench, encoded) = receive(iut, frame);
     let ack = SOF + encoded.position(Field::AckSlot, 0).unwrap();
     let end = SOF + encoded.len() + 4;
     assert_eq!(
@@ -49,13 +53,31 @@ fn assert_received(frame: &Frame) {
         vec![NodeEvent::Received(*frame)],
         "{frame}"
     );
-    assert_eq!((bench.iut().rec(), bench.iut().tec()), (0, 0), "{frame}");
+    assert_eq!((bench.rec(), bench.tec()), (0, 0), "{frame}");
+    assert_stored_through_registers(&mut bench, frame, &frame.to_string());
+}
+
+/// Through the registers: one interrupt, RI, with RMC 1 and exactly `frame`'s bytes in the RX buffer
+/// (nothing to check on the core, whose `Received` event is all there is).
+fn assert_stored_through_registers(bench: &mut ProtocolBench, frame: &Frame, what: &str) {
+    if let Some(passes) = bench.interrupt_passes() {
+        let [pass] = &passes[..] else {
+            panic!("{what}: one interrupt: {passes:?}");
+        };
+        assert_eq!(pass.ir, interrupt::RI, "{what}: RI");
+        assert_eq!(pass.rmc, Some(1), "{what}: RMC");
+        assert_eq!(
+            pass.rx_bytes.as_deref(),
+            Some(&rx_buffer_bytes(frame)[..]),
+            "{what}: RX buffer"
+        );
+    }
 }
 
 /// The IUT sends `frame`; the LT acknowledges it.
-fn transmit(frame: &Frame) -> (ProtocolBench, EncodedFrame) {
+fn transmit(iut: Iut, frame: &Frame) -> (ProtocolBench, EncodedFrame) {
     let encoded = encode(frame);
-    let mut bench = ProtocolBench::iut_transmits(frame);
+    let mut bench = ProtocolBench::iut_transmits(iut, frame);
     let ack = encoded.position(Field::AckSlot, 0).unwrap();
     bench
         .lt()
@@ -66,9 +88,9 @@ fn transmit(frame: &Frame) -> (ProtocolBench, EncodedFrame) {
 }
 
 /// FT-01 expectations: every bit on the wire is the golden bit (ACK slot, delimiters, EOF recessive
-/// from the IUT), success, TEC unchanged.
-fn assert_transmitted(frame: &Frame) {
-    let (bench, encoded) = transmit(frame);
+/// from the IUT), success, TEC unchanged; through the registers one TI with TCS = 1 and TBS = 1.
+fn assert_transmitted(iut: Iut, frame: &Frame) {
+    let (mut bench, encoded) = transmit(iut, frame);
     let golden: Vec<usize> = (0..encoded.len())
         .filter(|&i| encoded.bits[i] == DOMINANT)
         .collect();
@@ -82,82 +104,109 @@ fn assert_transmitted(frame: &Frame) {
         vec![NodeEvent::TransmitDone(true)],
         "{frame}"
     );
-    assert_eq!((bench.iut().tec(), bench.iut().rec()), (0, 0), "{frame}");
+    assert_eq!((bench.tec(), bench.rec()), (0, 0), "{frame}");
+    if let Some(passes) = bench.interrupt_passes() {
+        let [pass] = &passes[..] else {
+            panic!("{frame}: one interrupt: {passes:?}");
+        };
+        assert_eq!(pass.ir, interrupt::TI, "{frame}: TI");
+        assert_eq!(
+            pass.sr & (status::TCS | status::TBS),
+            status::TCS | status::TBS,
+            "{frame}: TCS and TBS"
+        );
+    }
 }
 
-#[test]
-fn fr_01_standard_data_frames() {
+fn fr_01_standard_data_frames(iut: Iut) {
     for (i, id) in [0x000, 0x7FF, 0x555, 0x2AA, 0x3C5].into_iter().enumerate() {
         for dlc in 0..=8 {
-            assert_received(&Frame::data(standard(id), &data(i + dlc, dlc)).unwrap());
+            assert_received(
+                iut,
+                &Frame::data(standard(id), &data(i + dlc, dlc)).unwrap(),
+            );
         }
     }
 }
 
-#[test]
-fn fr_02_extended_data_frames() {
+fn fr_02_extended_data_frames(iut: Iut) {
     for (i, id) in [0, 0x1FFF_FFFF, 0x1555_5555, 0x0AAA_AAAA, 0x12C4_F00D]
         .into_iter()
         .enumerate()
     {
         for dlc in 0..=8 {
-            assert_received(&Frame::data(extended(id), &data(i + dlc, dlc)).unwrap());
+            assert_received(
+                iut,
+                &Frame::data(extended(id), &data(i + dlc, dlc)).unwrap(),
+            );
         }
     }
 }
 
-#[test]
-fn fr_03_remote_frames() {
+fn fr_03_remote_frames(iut: Iut) {
     for dlc in 0..=15 {
-        assert_received(&Frame::remote(standard(0x6A5), dlc).unwrap());
-        assert_received(&Frame::remote(extended(0x0ABC_1234), dlc).unwrap());
+        assert_received(iut, &Frame::remote(standard(0x6A5), dlc).unwrap());
+        assert_received(iut, &Frame::remote(extended(0x0ABC_1234), dlc).unwrap());
     }
 }
 
-#[test]
-fn fr_04_dlc_above_8_carries_8_bytes() {
+fn fr_04_dlc_above_8_carries_8_bytes(iut: Iut) {
     for dlc in 9..=15 {
         let bytes = data(dlc as usize, 8);
-        assert_received(&Frame::data_with_dlc(standard(0x123), dlc, &bytes).unwrap());
-        assert_received(&Frame::data_with_dlc(extended(0x1234_5678), dlc, &bytes).unwrap());
+        assert_received(
+            iut,
+            &Frame::data_with_dlc(standard(0x123), dlc, &bytes).unwrap(),
+        );
+        assert_received(
+            iut,
+            &Frame::data_with_dlc(extended(0x1234_5678), dlc, &bytes).unwrap(),
+        );
     }
 }
 
-#[test]
-fn ft_01_standard_data_frames_are_bit_exact() {
+fn ft_01_standard_data_frames_are_bit_exact(iut: Iut) {
     for (i, id) in [0x000, 0x7FF, 0x555, 0x2AA, 0x3C5].into_iter().enumerate() {
         for dlc in 0..=8 {
-            assert_transmitted(&Frame::data(standard(id), &data(i + dlc, dlc)).unwrap());
+            assert_transmitted(
+                iut,
+                &Frame::data(standard(id), &data(i + dlc, dlc)).unwrap(),
+            );
         }
     }
 }
 
-#[test]
-fn ft_02_extended_data_frames_are_bit_exact() {
+fn ft_02_extended_data_frames_are_bit_exact(iut: Iut) {
     for (i, id) in [0, 0x1FFF_FFFF, 0x1555_5555, 0x0AAA_AAAA, 0x12C4_F00D]
         .into_iter()
         .enumerate()
     {
         for dlc in 0..=8 {
-            assert_transmitted(&Frame::data(extended(id), &data(i + dlc, dlc)).unwrap());
+            assert_transmitted(
+                iut,
+                &Frame::data(extended(id), &data(i + dlc, dlc)).unwrap(),
+            );
         }
     }
 }
 
-#[test]
-fn ft_03_remote_frames_are_bit_exact() {
+fn ft_03_remote_frames_are_bit_exact(iut: Iut) {
     for dlc in 0..=15 {
-        assert_transmitted(&Frame::remote(standard(0x6A5), dlc).unwrap());
-        assert_transmitted(&Frame::remote(extended(0x0ABC_1234), dlc).unwrap());
+        assert_transmitted(iut, &Frame::remote(standard(0x6A5), dlc).unwrap());
+        assert_transmitted(iut, &Frame::remote(extended(0x0ABC_1234), dlc).unwrap());
     }
 }
 
-#[test]
-fn ft_04_dlc_above_8_sends_8_bytes() {
+fn ft_04_dlc_above_8_sends_8_bytes(iut: Iut) {
     for dlc in 9..=15 {
         let bytes = data(dlc as usize, 8);
-        assert_transmitted(&Frame::data_with_dlc(standard(0x123), dlc, &bytes).unwrap());
-        assert_transmitted(&Frame::data_with_dlc(extended(0x1234_5678), dlc, &bytes).unwrap());
+        assert_transmitted(
+            iut,
+            &Frame::data_with_dlc(standard(0x123), dlc, &bytes).unwrap(),
+        );
+        assert_transmitted(
+            iut,
+            &Frame::data_with_dlc(extended(0x1234_5678), dlc, &bytes).unwrap(),
+        );
     }
 }
 
@@ -177,8 +226,7 @@ fn stuffing_profiles() -> Vec<Frame> {
     frames
 }
 
-#[test]
-fn st_01_received_stuffing_profiles() {
+fn st_01_received_stuffing_profiles(iut: Iut) {
     let frames = stuffing_profiles();
     assert!(
         frames.iter().any(|f| {
@@ -189,14 +237,13 @@ fn st_01_received_stuffing_profiles() {
         "one profile has a stuff bit after the last CRC bit"
     );
     for frame in &frames {
-        assert_received(frame);
+        assert_received(iut, frame);
     }
 }
 
-#[test]
-fn st_02_transmitted_stuffing_profiles() {
+fn st_02_transmitted_stuffing_profiles(iut: Iut) {
     for frame in &stuffing_profiles() {
-        assert_transmitted(frame);
+        assert_transmitted(iut, frame);
     }
 }
 
@@ -243,8 +290,7 @@ fn encode_with_reserved_bits(frame: &Frame, srr: bool, r1: bool, r0: bool) -> Ve
     stuffed
 }
 
-#[test]
-fn fr_05_non_nominal_reserved_and_srr_bits_are_accepted() {
+fn fr_05_non_nominal_reserved_and_srr_bits_are_accepted(iut: Iut) {
     let std_frame = Frame::data(standard(0x3A7), &[0x11, 0x22]).unwrap();
     let ext_frame = Frame::data(extended(0x0765_4321), &[0x33]).unwrap();
     let mut cases = vec![(std_frame, true, false, true)];
@@ -263,7 +309,7 @@ fn fr_05_non_nominal_reserved_and_srr_bits_are_accepted() {
             frame,
             "golden decoder agrees"
         );
-        let mut bench = ProtocolBench::new();
+        let mut bench = ProtocolBench::new(iut);
         bench
             .lt()
             .release(INTEGRATION_BITS)
@@ -282,5 +328,20 @@ fn fr_05_non_nominal_reserved_and_srr_bits_are_accepted() {
             vec![NodeEvent::Received(frame)],
             "{what}"
         );
+        assert_stored_through_registers(&mut bench, &frame, &what);
     }
+}
+
+testbenches::on_both_iuts! {
+    fr_01_standard_data_frames,
+    fr_02_extended_data_frames,
+    fr_03_remote_frames,
+    fr_04_dlc_above_8_carries_8_bytes,
+    ft_01_standard_data_frames_are_bit_exact,
+    ft_02_extended_data_frames_are_bit_exact,
+    ft_03_remote_frames_are_bit_exact,
+    ft_04_dlc_above_8_sends_8_bytes,
+    st_01_received_stuffing_profiles,
+    st_02_transmitted_stuffing_profiles,
+    fr_05_non_nominal_reserved_and_srr_bits_are_accepted,
 }

@@ -1,10 +1,12 @@
-//! Conformance groups IF (interframe space and bus integration), EP (error passive) and the overload
-//! scenarios OV-03/OV-04 against the RTL protocol engine. Bit numbers are lower-tester script bits.
+//! Conformance groups IF (interframe space and bus integration), EP (error passive) and the
+//! overload scenarios OV-03/OV-04 on both IUTs (the RTL core, and the controller through its
+//! registers). Bit numbers are lower-tester script bits.
 
 use sim::bus::Drive;
 use sim::can_node::NodeEvent;
 use sim::frame::{encode, Field, Frame, Id, DOMINANT};
-use testbenches::protocol_bench::{ProtocolBench, INTEGRATION_BITS};
+use sim::time::ClockSpec;
+use testbenches::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
 
 const SOF: usize = INTEGRATION_BITS;
 
@@ -16,21 +18,15 @@ fn other_frame() -> Frame {
     Frame::data(Id::standard(0x0A1).unwrap(), &[0x42]).unwrap()
 }
 
-fn sent_once(node: &sim::can_node::CanNode) -> bool {
-    node.events()
-        .iter()
-        .any(|(_, e)| *e == NodeEvent::TransmitDone(true))
-}
-
 fn flag_after(e: usize) -> Vec<usize> {
     (e + 1..=e + 6).collect()
 }
 
 /// An error-passive receiver (REC preset 130) gets six dominant bits (stuff error at SOF + 5), then
 /// `after` from the LT.
-fn passive_receiver_error(after: &[bool]) -> ProtocolBench {
-    let mut bench = ProtocolBench::new();
-    bench.iut_mut().load_counter(false, 130);
+fn passive_receiver_error(iut: Iut, after: &[bool]) -> ProtocolBench {
+    let mut bench = ProtocolBench::new(iut);
+    bench.load_counter(false, 130);
     bench
         .lt()
         .release(INTEGRATION_BITS)
@@ -41,12 +37,11 @@ fn passive_receiver_error(after: &[bool]) -> ProtocolBench {
     bench
 }
 
-#[test]
-fn if_01_reset_mode_left_mid_frame_ignores_that_frame() {
+fn if_01_reset_mode_left_mid_frame_ignores_that_frame(iut: Iut) {
     let first = encode(&frame());
     let second = encode(&other_frame());
-    let mut bench = ProtocolBench::new();
-    bench.iut_mut().set_enable(false);
+    let mut bench = ProtocolBench::new(iut);
+    bench.set_enable(false);
     bench
         .lt()
         .release(INTEGRATION_BITS)
@@ -55,8 +50,8 @@ fn if_01_reset_mode_left_mid_frame_ignores_that_frame() {
         .send_bits(second.bits.iter().by_vals())
         .release(4);
     // Leave reset mode in the middle of the first frame.
-    assert!(!bench.run_until(SOF as u64 + 20, |_| false));
-    bench.iut_mut().set_enable(true);
+    bench.run_bits(SOF as u64 + 20);
+    bench.set_enable(true);
     bench.run(1);
     let second_sof = SOF + first.len() + 12;
     let ack = second_sof + second.position(Field::AckSlot, 0).unwrap();
@@ -68,12 +63,11 @@ fn if_01_reset_mode_left_mid_frame_ignores_that_frame() {
     assert_eq!(bench.iut_events(), vec![NodeEvent::Received(other_frame())]);
 }
 
-#[test]
-fn if_03_bt_13_pending_transmitter_takes_a_sof_in_intermission_bit_3_as_its_own() {
+fn if_03_bt_13_pending_transmitter_takes_a_sof_in_intermission_bit_3_as_its_own(iut: Iut) {
     let theirs = encode(&other_frame());
     let mine = frame();
     let mine_bits = encode(&mine);
-    let mut bench = ProtocolBench::new();
+    let mut bench = ProtocolBench::new(iut);
     bench
         .lt()
         .release(INTEGRATION_BITS)
@@ -82,8 +76,8 @@ fn if_03_bt_13_pending_transmitter_takes_a_sof_in_intermission_bit_3_as_its_own(
         .send_bits([DOMINANT])
         .release(mine_bits.len() + 4);
     // The IUT's request comes while the LT's frame is on the bus.
-    assert!(!bench.run_until(SOF as u64 + 10, |_| false));
-    bench.iut_mut().send(&mine, false);
+    bench.run_bits(SOF as u64 + 10);
+    bench.send(&mine, false);
     let sof = SOF + theirs.len() + 2;
     let ack = sof + mine_bits.position(Field::AckSlot, 0).unwrap();
     bench.lt().set_bit(ack, Drive::Dominant);
@@ -110,46 +104,42 @@ fn if_03_bt_13_pending_transmitter_takes_a_sof_in_intermission_bit_3_as_its_own(
     );
 }
 
-#[test]
-fn if_04_request_on_an_idle_bus_starts_within_one_bit_time() {
-    let mut bench = ProtocolBench::new();
+fn if_04_request_on_an_idle_bus_starts_within_one_bit_time(iut: Iut) {
+    let mut bench = ProtocolBench::new(iut);
     bench.integrate();
+    bench.send(&frame(), false);
+    // The request is made: through the registers the CMR write has happened; the core takes it at
+    // its next clock edge.
     let requested = bench.engine.now();
-    bench.iut_mut().send(&frame(), false);
-    let started = bench.run_until(2, |n| n.state() != rtl::bsp::protocol::ProtocolState::Idle);
-    assert!(started, "SOF within two bit times");
-    let bit_fs = 16 * 2 * 62_500_000u64;
+    assert!(bench.run_until_iut_dominant(2), "SOF within two bit times");
+    // The SOF starts at the next bit boundary; the tx output register adds one clock.
+    let delay = bench.engine.now() - requested;
+    let period = ClockSpec::from_hz(testbenches::CLOCK_HZ).period_fs();
     assert!(
-        bench.engine.now() - requested <= 2 * bit_fs,
-        "the SOF bit is sampled at most one bit time after its start"
+        delay <= bench.bit_fs() + period,
+        "the SOF is on tx at most one bit time after the request ({delay} fs)"
     );
 }
 
-#[test]
-fn ep_01_03_passive_flag_ends_after_6_equal_bits() {
+fn ep_01_03_passive_flag_ends_after_6_equal_bits(iut: Iut) {
     // Passive flag from SOF + 6; the LT adds an active flag on top (6 dominant), then 1, 4 or 7 more
     // dominant bits (EP-03): no new error, no dominant bit from the IUT.
     for extra in [0usize, 1, 4, 7] {
         let after = vec![DOMINANT; 6 + extra];
-        let bench = passive_receiver_error(&after);
+        let mut bench = passive_receiver_error(iut, &after);
         assert!(
             bench.iut_dominant_bits(SOF, SOF + 60).is_empty(),
             "{extra}: a passive node never sends a dominant flag"
         );
-        assert_eq!(bench.iut().bus_errors().len(), 1, "{extra}: one error");
-        assert_eq!(
-            bench.iut().rec(),
-            131 + if extra > 0 { 8 } else { 0 },
-            "{extra}"
-        );
+        assert_eq!(bench.bus_errors().len(), 1, "{extra}: one error");
+        assert_eq!(bench.rec(), 131 + if extra > 0 { 8 } else { 0 }, "{extra}");
     }
 }
 
-#[test]
-fn ep_04_passive_node_still_acknowledges() {
+fn ep_04_passive_node_still_acknowledges(iut: Iut) {
     let encoded = encode(&frame());
-    let mut bench = ProtocolBench::new();
-    bench.iut_mut().load_counter(false, 130);
+    let mut bench = ProtocolBench::new(iut);
+    bench.load_counter(false, 130);
     bench
         .lt()
         .release(INTEGRATION_BITS)
@@ -161,19 +151,14 @@ fn ep_04_passive_node_still_acknowledges() {
         bench.iut_dominant_bits(0, SOF + encoded.len() + 4),
         vec![ack]
     );
-    assert_eq!(
-        bench.iut().rec(),
-        127,
-        "a successful reception takes REC to 127"
-    );
+    assert_eq!(bench.rec(), 127, "a successful reception takes REC to 127");
 }
 
-#[test]
-fn ep_05_passive_transmitter_suspends_between_its_frames() {
+fn ep_05_passive_transmitter_suspends_between_its_frames(iut: Iut) {
     let first = frame();
     let encoded = encode(&first);
     let ack = encoded.position(Field::AckSlot, 0).unwrap();
-    let mut bench = ProtocolBench::iut_transmits_with(&first, 200, false);
+    let mut bench = ProtocolBench::iut_transmits_with(iut, &first, 200, false);
     let second_sof = encoded.len() + 3 + 8;
     let second = encode(&other_frame());
     bench
@@ -184,36 +169,35 @@ fn ep_05_passive_transmitter_suspends_between_its_frames() {
             second_sof + second.position(Field::AckSlot, 0).unwrap(),
             Drive::Dominant,
         );
-    let done = bench.run_until(200, sent_once);
+    let done = bench.run_until_event(200, &NodeEvent::TransmitDone(true));
     assert!(done);
-    bench.iut_mut().send(&other_frame(), false);
+    bench.send(&other_frame(), false);
     bench.run(1);
     assert_eq!(
         bench.iut_dominant_bits(encoded.len(), second_sof + 1),
         vec![second_sof],
         "second SOF after 3 intermission and 8 suspend bits"
     );
-    assert_eq!(bench.iut().tec(), 198);
+    assert_eq!(bench.tec(), 198);
 }
 
-#[test]
-fn ep_07_a_frame_started_during_suspend_is_received_and_then_no_suspend() {
+fn ep_07_a_frame_started_during_suspend_is_received_and_then_no_suspend(iut: Iut) {
     let mine = frame();
     let encoded = encode(&mine);
     let ack = encoded.position(Field::AckSlot, 0).unwrap();
     let theirs = encode(&other_frame());
     // Own frame acknowledged (TEC 200 → 199, passive): suspend; the LT's SOF in suspend bit 2.
     let their_sof = encoded.len() + 3 + 1;
-    let mut bench = ProtocolBench::iut_transmits_with(&mine, 200, false);
+    let mut bench = ProtocolBench::iut_transmits_with(iut, &mine, 200, false);
     bench
         .lt()
         .release(their_sof)
         .set_bit(ack, Drive::Dominant)
         .send_bits(theirs.bits.iter().by_vals())
         .release(60);
-    let done = bench.run_until(200, sent_once);
+    let done = bench.run_until_event(200, &NodeEvent::TransmitDone(true));
     assert!(done);
-    bench.iut_mut().send(&mine, false);
+    bench.send(&mine, false);
     bench.run(1);
     let their_ack = their_sof + theirs.position(Field::AckSlot, 0).unwrap();
     let next = their_sof + theirs.len() + 3;
@@ -230,11 +214,10 @@ fn ep_07_a_frame_started_during_suspend_is_received_and_then_no_suspend() {
         .contains(&NodeEvent::Received(other_frame())));
 }
 
-#[test]
-fn ov_03_extended_overload_flag_is_tolerated() {
+fn ov_03_extended_overload_flag_is_tolerated(iut: Iut) {
     let encoded = encode(&frame());
     for extra in 1..=7 {
-        let mut bench = ProtocolBench::new();
+        let mut bench = ProtocolBench::new(iut);
         let intermission = SOF + encoded.len();
         bench
             .lt()
@@ -244,8 +227,8 @@ fn ov_03_extended_overload_flag_is_tolerated() {
             .send_bits(std::iter::repeat_n(DOMINANT, 6 + extra))
             .release(30);
         bench.run(1);
-        assert_eq!(bench.iut().rec(), 0, "{extra} extra dominant bits");
-        assert_eq!(bench.iut().bus_errors().len(), 0, "{extra}");
+        assert_eq!(bench.rec(), 0, "{extra} extra dominant bits");
+        assert_eq!(bench.bus_errors().len(), 0, "{extra}");
         assert_eq!(
             bench.iut_dominant_bits(intermission + 1, intermission + 30),
             flag_after(intermission),
@@ -254,11 +237,10 @@ fn ov_03_extended_overload_flag_is_tolerated() {
     }
 }
 
-#[test]
-fn ov_04_dominant_bits_after_an_overload_flag_count_8_each() {
+fn ov_04_dominant_bits_after_an_overload_flag_count_8_each(iut: Iut) {
     let encoded = encode(&frame());
     for (dominant_after, rec) in [(7, 0), (8, 8), (16, 16)] {
-        let mut bench = ProtocolBench::new();
+        let mut bench = ProtocolBench::new(iut);
         bench
             .lt()
             .release(INTEGRATION_BITS)
@@ -268,15 +250,14 @@ fn ov_04_dominant_bits_after_an_overload_flag_count_8_each() {
             .release(30);
         bench.run(1);
         assert_eq!(
-            bench.iut().rec(),
+            bench.rec(),
             rec,
             "{dominant_after} dominant bits after the overload flag"
         );
     }
 }
 
-#[test]
-fn ep_02_passive_flag_restarts_on_level_changes() {
+fn ep_02_passive_flag_restarts_on_level_changes(iut: Iut) {
     // Passive receiver error at e = SOF + 5. A dominant bit at e + 3 restarts the count of 6 equal bits,
     // so the flag ends at e + 9 and a dominant e + 10 is the first bit after the flag (rule 2: +8).
     // Without the restart, e + 10 would be inside the delimiter: a form error.
@@ -284,32 +265,31 @@ fn ep_02_passive_flag_restarts_on_level_changes() {
     let mut after = vec![true; 12];
     after[2] = DOMINANT;
     after[9] = DOMINANT;
-    let bench = passive_receiver_error(&after);
+    let mut bench = passive_receiver_error(iut, &after);
     assert_eq!(
-        bench.iut().rec(),
+        bench.rec(),
         139,
         "+1, then +8 for the dominant bit after the restarted flag"
     );
-    assert_eq!(bench.iut().bus_errors().len(), 1, "no form error");
+    assert_eq!(bench.bus_errors().len(), 1, "no form error");
     assert!(bench.iut_dominant_bits(e, e + 30).is_empty());
 }
 
-#[test]
-fn ep_08_passive_former_transmitter_receives_a_frame_started_in_intermission_bit_3() {
+fn ep_08_passive_former_transmitter_receives_a_frame_started_in_intermission_bit_3(iut: Iut) {
     let mine = frame();
     let encoded = encode(&mine);
     let ack = encoded.position(Field::AckSlot, 0).unwrap();
     let theirs = encode(&other_frame());
     let their_sof = encoded.len() + 2;
-    let mut bench = ProtocolBench::iut_transmits_with(&mine, 200, false);
+    let mut bench = ProtocolBench::iut_transmits_with(iut, &mine, 200, false);
     bench
         .lt()
         .release(their_sof)
         .set_bit(ack, Drive::Dominant)
         .send_bits(theirs.bits.iter().by_vals())
         .release(4);
-    assert!(bench.run_until(200, sent_once));
-    bench.iut_mut().send(&mine, false);
+    assert!(bench.run_until_event(200, &NodeEvent::TransmitDone(true)));
+    bench.send(&mine, false);
     bench.run(0);
     let their_ack = their_sof + theirs.position(Field::AckSlot, 0).unwrap();
     assert_eq!(
@@ -322,12 +302,11 @@ fn ep_08_passive_former_transmitter_receives_a_frame_started_in_intermission_bit
         .contains(&NodeEvent::Received(other_frame())));
 }
 
-#[test]
-fn ep_09_passive_node_that_lost_arbitration_does_not_suspend() {
+fn ep_09_passive_node_that_lost_arbitration_does_not_suspend(iut: Iut) {
     let mine = Frame::data(Id::standard(0x7F0).unwrap(), &[1]).unwrap();
     let theirs_frame = Frame::data(Id::standard(0x100).unwrap(), &[2]).unwrap();
     let theirs = encode(&theirs_frame);
-    let mut bench = ProtocolBench::iut_transmits_with(&mine, 200, false);
+    let mut bench = ProtocolBench::iut_transmits_with(iut, &mine, 200, false);
     bench
         .lt()
         .send_bits(theirs.bits.iter().by_vals())
@@ -344,11 +323,10 @@ fn ep_09_passive_node_that_lost_arbitration_does_not_suspend() {
     );
 }
 
-#[test]
-fn ov_02_05_overload_frames_after_error_and_overload_frames_are_not_limited() {
+fn ov_02_05_overload_frames_after_error_and_overload_frames_are_not_limited(iut: Iut) {
     // Receiver error at e = SOF + 5: flag e+1..e+6, delimiter e+7..e+14, intermission from e+15.
     let e = SOF + 5;
-    let mut bench = ProtocolBench::new();
+    let mut bench = ProtocolBench::new(iut);
     bench
         .lt()
         .release(INTEGRATION_BITS)
@@ -368,13 +346,13 @@ fn ov_02_05_overload_frames_after_error_and_overload_frames_are_not_limited() {
         expected,
         "three overload frames"
     );
-    assert_eq!(bench.iut().rec(), 1, "overload frames do not count");
-    assert_eq!(bench.iut().bus_errors().len(), 1);
+    assert_eq!(bench.rec(), 1, "overload frames do not count");
+    assert_eq!(bench.bus_errors().len(), 1);
 }
 
-#[test]
-fn ov_07_pending_retransmission_after_error_and_overload_frames_takes_a_sof_in_intermission_bit_3()
-{
+fn ov_07_pending_retransmission_after_error_and_overload_frames_takes_a_sof_in_intermission_bit_3(
+    iut: Iut,
+) {
     let mine = encode(&frame());
     // The LT's frame differs from the IUT's in the last base identifier bit only (0x2C4 < 0x2C5).
     let theirs_frame = Frame::data(Id::standard(0x2C4).unwrap(), &[0x42]).unwrap();
@@ -390,7 +368,7 @@ fn ov_07_pending_retransmission_after_error_and_overload_frames_takes_a_sof_in_i
     let overload = e + 15;
     let sof = overload + 6 + 8 + 3;
     let retry = sof + theirs.len() + 3;
-    let mut bench = ProtocolBench::iut_transmits(&frame());
+    let mut bench = ProtocolBench::iut_transmits(iut, &frame());
     bench
         .lt()
         .release(sof)
@@ -436,5 +414,22 @@ fn ov_07_pending_retransmission_after_error_and_overload_frames_takes_a_sof_in_i
         ],
         "bit error (TX, ID.28..21), loss at ID.18, the LT's frame received, then sent"
     );
-    assert_eq!(bench.iut().tec(), 7, "+8, then −1");
+    assert_eq!(bench.tec(), 7, "+8, then −1");
+}
+
+testbenches::on_both_iuts! {
+    if_01_reset_mode_left_mid_frame_ignores_that_frame,
+    if_03_bt_13_pending_transmitter_takes_a_sof_in_intermission_bit_3_as_its_own,
+    if_04_request_on_an_idle_bus_starts_within_one_bit_time,
+    ep_01_03_passive_flag_ends_after_6_equal_bits,
+    ep_04_passive_node_still_acknowledges,
+    ep_05_passive_transmitter_suspends_between_its_frames,
+    ep_07_a_frame_started_during_suspend_is_received_and_then_no_suspend,
+    ov_03_extended_overload_flag_is_tolerated,
+    ov_04_dominant_bits_after_an_overload_flag_count_8_each,
+    ep_02_passive_flag_restarts_on_level_changes,
+    ep_08_passive_former_transmitter_receives_a_frame_started_in_intermission_bit_3,
+    ep_09_passive_node_that_lost_arbitration_does_not_suspend,
+    ov_02_05_overload_frames_after_error_and_overload_frames_are_not_limited,
+    ov_07_pending_retransmission_after_error_and_overload_frames_takes_a_sof_in_intermission_bit_3,
 }
