@@ -204,6 +204,7 @@ node = "b"
 "#;
     let path = message_file("overload", text);
     let o = cansim(&["rta", path.to_str().unwrap()]);
+    let simulated = cansim(&["rta", "--simulate", path.to_str().unwrap()]);
     std::fs::remove_file(&path).ok();
     assert!(o.status.success(), "{}", stderr(&o));
     let out = stdout(&o);
@@ -221,6 +222,15 @@ node = "b"
             "slow: no bound: the messages of its priority and above load the bus to 126.0 %"
         ),
         "{out}"
+    );
+    // Simulated, slow's own scenario is skipped; it is seen only as fast's blocking frame.
+    assert!(simulated.status.success(), "{}", stderr(&simulated));
+    let sim_out = stdout(&simulated);
+    let sim = &sim_out[sim_out.find("\nsimulation:").expect("a simulation table")..];
+    assert_eq!(row(sim, "slow")[8..], ["fast", "no", "corrected", "bound"]);
+    assert!(
+        sim.contains("\ncritical instants simulated: 1 of 2;"),
+        "{sim}"
     );
 }
 

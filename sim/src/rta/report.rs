@@ -181,6 +181,7 @@ pub fn observed_verdict(
     corrected: Option<Ticks>,
 ) -> &'static str {
     match (classic, corrected) {
+        (_, None) => "no corrected bound",
         (_, Some(c)) if observed.exceeds(c) => "EXCEEDS CORRECTED BOUND",
         (Some(c), _) if observed.exceeds(c) => "exceeds classic bound",
         _ => "within both",
@@ -238,8 +239,9 @@ pub fn format_simulation(set: &MessageSet, analysis: &Analysis, sim: &Simulation
     );
     out.push_str(&table.render());
     out.push_str(&format!(
-        "\n{} scenarios, {} frames, {} ms of bus time simulated\n",
+        "\ncritical instants simulated: {} of {}; {} frames, {} ms of bus time\n",
         set.messages.len() - sim.skipped.len(),
+        set.messages.len(),
         sim.frames_sent,
         sim.simulated_fs / crate::time::FS_PER_MS
     ));

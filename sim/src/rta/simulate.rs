@@ -13,10 +13,10 @@
 //!
 //! A response is measured from the initiating event to the transmitter's transmit-complete
 //! indication (the core's `tx_done`, a few clocks after the sample point of the last EOF bit; with
-//! the bit timing used here one clock after the end of that bit). Every
-//! instance of every message in every scenario is a legal behaviour, so the observed worst case of
-//! a message is the maximum over all of them. Frames carry the payload with the most stuff bits
-//! for their identifier and DLC ([`search_for_id`]).
+//! the bit timing used here one clock after the end of that bit). Every instance of every message
+//! in every scenario is a legal behaviour, so the observed worst case of a message is the maximum
+//! over all of them. Frames carry the payload with the most stuff bits for their identifier and
+//! DLC ([`search_for_id`]).
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -73,9 +73,8 @@ pub struct Observation {
 }
 
 impl Observation {
-    /// The response in the set's ticks (nanoseconds), rounded to the nearest: for display (the
-    /// simulated clock period is a whole number of femtoseconds, so a bit can be a few fs longer
-    /// than the nominal τbit).
+    /// The response in the set's ticks (nanoseconds), rounded to the nearest, for display: a clock
+    /// period need not be a whole number of nanoseconds (78.125 ns at 800 kbit/s).
     pub fn response_ticks(&self) -> Ticks {
         (self.response_fs + FS_PER_NS / 2) / FS_PER_NS
     }
@@ -119,7 +118,12 @@ pub fn simulate(
     let frames: Vec<Frame> = set
         .messages
         .iter()
-        .map(|m| search_for_id(m.id, usize::from(m.dlc.unwrap_or(0))).frame)
+        .map(|m| {
+            let dlc = m
+                .dlc
+                .expect("a set with a bit rate gives every message a DLC");
+            search_for_id(m.id, usize::from(dlc)).frame
+        })
         .collect();
     let bench = Bench {
         set,
@@ -148,7 +152,7 @@ pub fn simulate(
         }
     });
     let mut simulation = Simulation {
-        frames: frames.clone(),
+        frames,
         observed: vec![None; count],
         skipped: Vec::new(),
         frames_sent: 0,
