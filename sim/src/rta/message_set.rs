@@ -339,19 +339,24 @@ fn identifier(raw: i64, extended: bool) -> Result<Id, String> {
     })
 }
 
-fn bit_timing(raw: &RawMessage, base: TimeBase) -> Result<Timing, String> {
-    for (key, given) in [
-        ("transmission", raw.transmission.is_some()),
-        ("period", raw.period.is_some()),
-        ("jitter", raw.jitter.is_some()),
-        ("deadline", raw.deadline.is_some()),
-    ] {
-        if given {
-            return Err(format!(
-                "`{key}` is for abstract sets; with a bitrate use `dlc` and times in ms (`period_ms`, `jitter_ms`, `deadline_ms`)"
-            ));
-        }
+/// Refuses the first of `keys` (name, given) that is given: it belongs to the other kind of set.
+fn refuse_keys(keys: [(&str, bool); 4], why: &str) -> Result<(), String> {
+    match keys.iter().find(|(_, given)| *given) {
+        Some((key, _)) => Err(format!("`{key}` {why}")),
+        None => Ok(()),
     }
+}
+
+fn bit_timing(raw: &RawMessage, base: TimeBase) -> Result<Timing, String> {
+    refuse_keys(
+        [
+            ("transmission", raw.transmission.is_some()),
+            ("period", raw.period.is_some()),
+            ("jitter", raw.jitter.is_some()),
+            ("deadline", raw.deadline.is_some()),
+        ],
+        "is for abstract sets; with a bitrate use `dlc` and times in ms (`period_ms`, `jitter_ms`, `deadline_ms`)",
+    )?;
     let dlc = raw.dlc.ok_or("missing `dlc`")?;
     let dlc = u8::try_from(dlc)
         .ok()
@@ -379,18 +384,15 @@ fn bit_timing(raw: &RawMessage, base: TimeBase) -> Result<Timing, String> {
 }
 
 fn abstract_timing(raw: &RawMessage) -> Result<Timing, String> {
-    for (key, given) in [
-        ("dlc", raw.dlc.is_some()),
-        ("period_ms", raw.period_ms.is_some()),
-        ("jitter_ms", raw.jitter_ms.is_some()),
-        ("deadline_ms", raw.deadline_ms.is_some()),
-    ] {
-        if given {
-            return Err(format!(
-                "`{key}` needs a bitrate; abstract sets give `transmission`, `period`, `jitter`, `deadline`"
-            ));
-        }
-    }
+    refuse_keys(
+        [
+            ("dlc", raw.dlc.is_some()),
+            ("period_ms", raw.period_ms.is_some()),
+            ("jitter_ms", raw.jitter_ms.is_some()),
+            ("deadline_ms", raw.deadline_ms.is_some()),
+        ],
+        "needs a bitrate; abstract sets give `transmission`, `period`, `jitter`, `deadline`",
+    )?;
     let units = |key: &str, value: i64| match u64::try_from(value) {
         Err(_) => Err(format!("{key} {value} is negative")),
         Ok(v) if v > MAX_TIME => Err(format!("{key} {value} is above {MAX_TIME}")),
