@@ -127,7 +127,7 @@ its priority level ≥ 100 %) is reported as unbounded.
 
 The file (TOML):
   bitrate = 500000                 # or: abstract = true (τbit = 1, times in units)
-  title = \"Powertrain\"            # optional
+  title = \"Powertrain\"             # optional
   [[message]]
   name = \"EngineSpeed\"
   id = 0x0C0                       # lower identifier = higher priority
@@ -136,15 +136,15 @@ The file (TOML):
   period_ms = 10                   # abstract sets: period, jitter, deadline
   jitter_ms = 0.5                  # optional, default 0
   deadline_ms = 10                 # optional, default the period
-  node = \"ECM\"                    # sending ECU (optional in abstract sets)
+  node = \"ECM\"                     # sending ECU (optional in abstract sets)
 
 --simulate runs, for every message, its critical instant on the cycle-accurate bus (one RTL CAN
 core per message, the longest lower-priority frame started one bit before, periodic releases for
 the busy period) and prints the longest observed response of every message beside both bounds.
 
 Exit status: 0 when the report is printed (whatever it says about deadlines); 1 for a file that
-cannot be read or is invalid (the message names file and line), or when a simulated response
-exceeds the corrected bound.";
+cannot be read or is invalid (the message names file and line), for --simulate on an abstract
+set, or when a simulated response exceeds the corrected bound.";
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -318,48 +318,55 @@ fn response_times(
 ) -> Result<(), String> {
     let set = rta::message_set::MessageSet::load(file).map_err(|e| e.to_string())?;
     let analysis = rta::analysis::Analysis::of(&set);
-    let simulation = if simulate {
-        let start = Instant::now();
-        let show = std::io::stderr().is_terminal();
-        let progress = |done: usize, total: usize| {
-            if show {
-                eprint!("\rsimulating critical instants: {done}/{total}   ");
-            }
-        };
-        let sim = rta::simulate::simulate(&set, &analysis, default_threads(threads), &progress)?;
-        if show {
-            eprintln!(
-                "\rsimulated {} scenarios in {:.1} s          ",
-                set.messages.len(),
-                start.elapsed().as_secs_f64()
-            );
-        }
-        Some(sim)
-    } else {
-        None
-    };
+    let simulation = simulate
+        .then(|| simulate_with_progress(&set, &analysis, default_threads(threads)))
+        .transpose()?;
     if csv {
-        print!(
-            "{}",
-            rta::report::format_csv(&set, &analysis, simulation.as_ref())
-        );
+        let sim = simulation.as_ref();
+        print!("{}", rta::report::format_csv(&set, &analysis, sim));
     } else {
         print!("{}", rta::report::format_table(&set, &analysis));
         if let Some(sim) = &simulation {
             print!("{}", rta::report::format_simulation(&set, &analysis, sim));
         }
     }
-    match simulation.map(|sim| rta::simulate::violations(&analysis, &sim)) {
-        Some(violations) if !violations.is_empty() => Err(format!(
-            "observed responses exceed the corrected bound: {}",
-            violations
-                .iter()
-                .map(|&i| set.messages[i].name.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        )),
-        _ => Ok(()),
+    let violations =
+        simulation.map_or(Vec::new(), |sim| rta::simulate::violations(&analysis, &sim));
+    if violations.is_empty() {
+        return Ok(());
     }
+    let names: Vec<&str> = violations
+        .iter()
+        .map(|&i| set.messages[i].name.as_str())
+        .collect();
+    Err(format!(
+        "observed responses exceed the corrected bound: {}",
+        names.join(", ")
+    ))
+}
+
+/// `rta::simulate::simulate`, with progress on stderr when that is a terminal.
+fn simulate_with_progress(
+    set: &rta::message_set::MessageSet,
+    analysis: &rta::analysis::Analysis,
+    threads: usize,
+) -> Result<rta::simulate::Simulation, String> {
+    let start = Instant::now();
+    let show = std::io::stderr().is_terminal();
+    let progress = |done: usize, total: usize| {
+        if show {
+            eprint!("\rsimulating critical instants: {done}/{total}   ");
+        }
+    };
+    let sim = rta::simulate::simulate(set, analysis, threads, &progress)?;
+    if show {
+        let seconds = start.elapsed().as_secs_f64();
+        eprintln!(
+            "\rsimulated {} critical instants in {seconds:.1} s",
+            set.messages.len()
+        );
+    }
+    Ok(sim)
 }
 
 /// `--sample-point` accepts percent (87.5) or a fraction (0.875).
