@@ -16,10 +16,12 @@ use sim::worst_case::{length_bound, search};
 /// Scenarios run one after the other: the test harness already runs tests in parallel.
 const THREADS: usize = 1;
 
+fn examples_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../examples/rta")
+}
+
 fn example(name: &str) -> MessageSet {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../examples/rta")
-        .join(format!("{name}.toml"));
+    let path = examples_dir().join(format!("{name}.toml"));
     MessageSet::load(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -71,6 +73,26 @@ fn assert_within_corrected_bounds(set: &MessageSet, analysis: &Analysis, sim: &S
     for (m, o) in set.messages.iter().zip(&sim.observed) {
         assert!(o.is_some(), "{} was never sent", m.name);
     }
+}
+
+#[test]
+fn every_example_set_loads_and_every_bound_converges() {
+    let mut count = 0;
+    for entry in std::fs::read_dir(examples_dir()).expect("examples/rta") {
+        let path = entry.expect("directory entry").path();
+        let set = MessageSet::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        let analysis = Analysis::of(&set);
+        for (m, b) in set.messages.iter().zip(&analysis.messages) {
+            assert!(
+                b.classic.is_ok() && b.corrected.is_ok(),
+                "{}: {}",
+                set.source,
+                m.name
+            );
+        }
+        count += 1;
+    }
+    assert_eq!(count, 7, "the example sets");
 }
 
 #[test]
