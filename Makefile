@@ -7,9 +7,10 @@ CARGO ?= cargo
 test: tools
 	$(CARGO) test --workspace
 
-## The long runs kept out of `make test`: the driver replay of more than 1 000 frames (a few minutes).
+## The long runs kept out of `make test`: the driver replay of more than 1 000 frames and the
+## powertrain and body message sets on the bus (a few minutes).
 test-long: tools
-	$(CARGO) test -p testbenches --test linux_driver -- --ignored
+	$(CARGO) test -p testbenches --test linux_driver --test rta -- --ignored
 
 ## Formatting and clippy, warnings are errors.
 check:

@@ -19,6 +19,7 @@ pub mod frame_buffer;
 pub mod host;
 pub mod lower_tester;
 pub mod reference;
+pub mod rta;
 pub mod rtl_step;
 pub mod sync_demo;
 pub mod time;

@@ -79,16 +79,26 @@ pub fn longest_frame(extended: bool, n: usize) -> Frame {
 
 /// Exact maximum-stuffing search for data frames with `n` data bytes. Panics if `n > 8`.
 pub fn search(extended: bool, n: usize) -> WorstCase {
+    search_layout(&Layout::new(IdBits::Free { extended }, n))
+}
+
+/// The longest data frame with identifier `id` and `n` data bytes: the same exact search with
+/// only the data bits free (the payload that stuffs most). Panics if `n > 8`.
+pub fn search_for_id(id: Id, n: usize) -> WorstCase {
+    search_layout(&Layout::new(IdBits::Fixed(id), n))
+}
+
+fn search_layout(layout: &Layout) -> WorstCase {
+    let (extended, n) = (layout.extended(), layout.n);
     assert!(
         n <= MAX_DATA_LEN,
         "at most {MAX_DATA_LEN} data bytes, got {n}"
     );
-    let layout = Layout::new(extended, n);
     let reach = layout.reach_table();
     let mut nodes = 0;
     let first = usize::from(reach[0][state_index(Run::new())]);
     for target in (0..=stuff_bound(extended, n).min(first)).rev() {
-        let mut dfs = Dfs::new(&layout, &reach, target);
+        let mut dfs = Dfs::new(layout, &reach, target);
         let found = dfs.run(0, Run::new(), Crc15::new(), 0);
         nodes += dfs.nodes;
         if found {
@@ -116,29 +126,62 @@ enum Slot {
     Free,
 }
 
+/// The identifier bits of the frames searched: chosen by the search, or given.
+#[derive(Clone, Copy, Debug)]
+enum IdBits {
+    /// Any identifier of this format.
+    Free { extended: bool },
+    /// This identifier.
+    Fixed(Id),
+}
+
+impl IdBits {
+    fn extended(self) -> bool {
+        match self {
+            IdBits::Free { extended } => extended,
+            IdBits::Fixed(id) => id.is_extended(),
+        }
+    }
+}
+
 /// Fixed/free layout of the header and data of the frames searched.
 struct Layout {
-    extended: bool,
+    id: IdBits,
     n: usize,
     /// SOF through the last data bit.
     slots: Vec<Slot>,
 }
 
 impl Layout {
-    fn new(extended: bool, n: usize) -> Self {
+    fn new(id: IdBits, n: usize) -> Self {
         use Slot::{Fixed, Free};
+        // `width` identifier bits ending `shift` bits above the least significant one.
+        let id_slots = |width: u32, shift: u32| -> Vec<Slot> {
+            (0..width)
+                .rev()
+                .map(|i| match id {
+                    IdBits::Free { .. } => Free,
+                    IdBits::Fixed(id) => Fixed(id.raw() >> (i + shift) & 1 == 1),
+                })
+                .collect()
+        };
         let mut slots = vec![Fixed(DOMINANT)]; // SOF
-        slots.extend([Free; 11]); // base identifier
-        if extended {
+        if id.extended() {
+            slots.extend(id_slots(11, 18)); // base identifier
             slots.extend([Fixed(RECESSIVE), Fixed(RECESSIVE)]); // SRR, IDE
-            slots.extend([Free; 18]); // identifier extension
+            slots.extend(id_slots(18, 0)); // identifier extension
             slots.extend([Fixed(DOMINANT); 3]); // RTR, r1, r0
         } else {
+            slots.extend(id_slots(11, 0)); // identifier
             slots.extend([Fixed(DOMINANT); 3]); // RTR, IDE, r0
         }
         slots.extend((0..4).rev().map(|i| Fixed(n >> i & 1 == 1))); // DLC = n
         slots.extend(std::iter::repeat_n(Free, 8 * n)); // data
-        Layout { extended, n, slots }
+        Layout { id, n, slots }
+    }
+
+    fn extended(&self) -> bool {
+        self.id.extended()
     }
 
     /// Levels allowed at unstuffed position `pos`; the CRC positions count as free.
@@ -179,10 +222,10 @@ impl Layout {
                 .fold(0u32, |acc, b| acc << 1 | u32::from(b))
         };
         let mut free = free;
-        let id = if self.extended {
-            Id::Extended(value(&mut free, 29))
-        } else {
-            Id::Standard(value(&mut free, 11) as u16)
+        let id = match self.id {
+            IdBits::Fixed(id) => id,
+            IdBits::Free { extended: true } => Id::Extended(value(&mut free, 29)),
+            IdBits::Free { extended: false } => Id::Standard(value(&mut free, 11) as u16),
         };
         let data: Vec<u8> = (0..self.n).map(|_| value(&mut free, 8) as u8).collect();
         Frame::data(id, &data).expect("search frames are valid")
@@ -303,7 +346,7 @@ mod tests {
         // With every bit free the pruning bound is exactly 1 + (r - (5 - c)) / 4.
         for header in 1..120 {
             let layout = Layout {
-                extended: false,
+                id: IdBits::Free { extended: false },
                 n: 0,
                 slots: vec![Slot::Free; header],
             };
@@ -336,9 +379,9 @@ mod tests {
     /// Independent exact maximum of the stuff bits: forward dynamic programming over every
     /// reachable (run state, CRC register) pair, keeping the most stuff bits per pair. No
     /// pruning, no search order.
-    fn max_stuff_by_dp(extended: bool, n: usize) -> usize {
+    fn max_stuff_by_dp(id: IdBits, n: usize) -> usize {
         const CRCS: usize = 1 << 15;
-        let layout = Layout::new(extended, n);
+        let layout = Layout::new(id, n);
         let mut best = vec![-1i16; STATES * CRCS];
         let start = state_index(Run::new()) * CRCS;
         best[start] = 0;
@@ -370,7 +413,40 @@ mod tests {
     fn check_against_dp(extended: bool) {
         for n in 0..=8 {
             let found = search(extended, n);
-            assert_eq!(found.stuff_bits, max_stuff_by_dp(extended, n), "n={n}");
+            let dp = max_stuff_by_dp(IdBits::Free { extended }, n);
+            assert_eq!(found.stuff_bits, dp, "n={n}");
+        }
+    }
+
+    #[test]
+    fn search_for_id_agrees_with_exhaustive_dp() {
+        let ids = [
+            Id::Standard(0x000),
+            Id::Standard(0x123),
+            Id::Standard(0x7FF),
+            Id::Extended(0x18FE_F100),
+            Id::Extended(0x0000_0000),
+        ];
+        for id in ids {
+            for n in [0, 1, 4, 8] {
+                let found = search_for_id(id, n);
+                assert_eq!(found.frame.id(), id);
+                assert_eq!(found.frame.data_bytes().len(), n);
+                assert_eq!(encode(&found.frame).len(), found.len, "{id} n={n}");
+                let dp = max_stuff_by_dp(IdBits::Fixed(id), n);
+                assert_eq!(found.stuff_bits, dp, "{id} n={n}");
+            }
+        }
+    }
+
+    #[test]
+    fn search_for_id_agrees_with_brute_force_over_one_byte() {
+        for id in [Id::Standard(0x0A5), Id::Extended(0x1234_5678)] {
+            let longest = (0..=255u8)
+                .map(|b| encode(&Frame::data(id, &[b]).unwrap()).len())
+                .max()
+                .unwrap();
+            assert_eq!(search_for_id(id, 1).len, longest, "{id}");
         }
     }
 

@@ -1,5 +1,6 @@
 //! The `cansim` command line: outputs and exit codes a user sees.
 
+use std::path::PathBuf;
 use std::process::{Command, Output};
 
 fn cansim(args: &[&str]) -> Output {
@@ -133,4 +134,252 @@ fn demo_into_an_unwritable_place_fails_cleanly() {
     let o = cansim(&["demo", "--vcd", "/proc/cansim/demo.vcd"]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("/proc/cansim"), "{}", stderr(&o));
+}
+
+// ---- cansim rta: the tables, the CSV, the refusals and the exit codes.
+
+fn example(name: &str) -> String {
+    format!("{}/../examples/rta/{name}.toml", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Writes `text` to a file of its own for one test and returns its path.
+fn message_file(test: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("cansim-rta-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join(format!("{test}.toml"));
+    std::fs::write(&path, text).expect("write message set");
+    path
+}
+
+/// The part of `cansim rta --simulate` output from the simulation table on.
+fn simulation_table(out: &str) -> &str {
+    &out[out.find("\nsimulation:").expect("a simulation table")..]
+}
+
+/// The whitespace-separated cells of the table row starting with `name`.
+fn row(out: &str, name: &str) -> Vec<String> {
+    out.lines()
+        .find(|l| l.split_whitespace().next() == Some(name))
+        .unwrap_or_else(|| panic!("no row {name} in\n{out}"))
+        .split_whitespace()
+        .map(String::from)
+        .collect()
+}
+
+const VALID: &str = r#"bitrate = 500000
+[[message]]
+name = "a"
+id = 0x100
+dlc = 8
+period_ms = 10
+node = "ecu"
+"#;
+
+#[test]
+fn worked_example_table_shows_both_analyses() {
+    let o = cansim(&["rta", &example("classic_example_1")]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    // message id C T J D | classic B w R ok | corrected B w R q/Q ok
+    assert_eq!(
+        row(&out, "m1"),
+        ["m1", "001", "1", "3", "0", "3", "2", "2", "3", "yes", "3", "3", "4", "0/2", "no"]
+    );
+    assert_eq!(row(&out, "m2")[6..10], ["2", "4", "5", "yes"]);
+    assert_eq!(row(&out, "m3")[6..10], ["0", "2", "5", "yes"]);
+    assert!(
+        out.contains("classic: every message meets its deadline"),
+        "{out}"
+    );
+    assert!(out.contains("bus utilisation 80.0 %"), "{out}");
+}
+
+#[test]
+fn csv_has_a_header_and_one_line_per_message() {
+    let o = cansim(&["rta", "--csv", &example("classic_example_2")]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    let mut lines = out.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 3);
+    let cells = |name: &str| rows.iter().map(|r| r[column(name)]).collect::<Vec<_>>();
+    assert_eq!(cells("message"), ["m1", "m2", "m3"]);
+    assert_eq!(cells("classic_queuing"), ["3", "5", "2"]);
+    assert_eq!(cells("classic_response"), ["4", "6", "6"]);
+    assert_eq!(cells("classic_schedulable"), ["no", "yes", "yes"]);
+    assert_eq!(cells("corrected_response"), ["5", "8", "6"]);
+    assert!(rows.iter().all(|r| r.len() == header.len()));
+}
+
+#[test]
+fn bit_rate_sets_print_times_in_milliseconds() {
+    let o = cansim(&["rta", "--csv", &example("davis2007")]);
+    let out = stdout(&o);
+    assert!(
+        out.starts_with("message,id,extended,node,dlc,frame_bits,transmission_ms,"),
+        "{out}"
+    );
+    assert!(
+        out.contains("\nC,0x030,false,n3,7,125,1,3.5,0,3.25,0,2,3,yes,0,2.5,3.5,7,2,1,no\n"),
+        "{out}"
+    );
+}
+
+#[test]
+fn simulation_prints_the_counterexample_beside_both_bounds() {
+    let o = cansim(&[
+        "rta",
+        "--simulate",
+        "--threads",
+        "1",
+        &example("davis2007_on_bus"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    let sim = simulation_table(&out);
+    let c = row(sim, "C");
+    // message frame bits sent classic corrected observed instance scenario verdict
+    assert_eq!(c[4..6], ["3", "3.5"]);
+    let observed: f64 = c[6].parse().unwrap();
+    assert!(observed > 3.25 && observed <= 3.5, "{out}");
+    assert_eq!(c[9..], ["exceeds", "classic", "bound"]);
+    assert_eq!(row(sim, "A")[9..], ["within", "both"]);
+}
+
+#[test]
+fn invalid_sets_are_refused_naming_file_and_line() {
+    let duplicate = format!(
+        "{VALID}[[message]]\nname = \"b\"\nid = 256\ndlc = 1\nperiod_ms = 5\nnode = \"x\"\n"
+    );
+    let cases = [
+        (
+            "duplicate",
+            duplicate,
+            ":8: duplicate identifier 0x100: messages 'a' (line 2) and 'b'",
+        ),
+        (
+            "dlc",
+            VALID.replace("dlc = 8", "dlc = 9"),
+            ":2: message 'a': DLC 9 is out of range 0..=8",
+        ),
+        (
+            "zero_period",
+            VALID.replace("period_ms = 10", "period_ms = 0"),
+            ":2: message 'a': zero period",
+        ),
+        (
+            "unknown_key",
+            VALID.replace("dlc = 8", "dlc = 8\npriority = 1"),
+            ":6: unknown field `priority`",
+        ),
+        (
+            "malformed",
+            VALID.replace("period_ms = 10", "period_ms = = 10"),
+            ":6:",
+        ),
+        (
+            "no_rate",
+            VALID.replace("bitrate = 500000", ""),
+            ": missing `bitrate = ...`",
+        ),
+    ];
+    for (test, text, expected) in cases {
+        let path = message_file(test, &text);
+        let o = cansim(&["rta", path.to_str().unwrap()]);
+        std::fs::remove_file(&path).ok();
+        assert_eq!(o.status.code(), Some(1), "{test}");
+        let err = stderr(&o);
+        let expected = format!("cansim: {}{expected}", path.display());
+        assert!(
+            err.starts_with(&expected),
+            "{test}: {err:?} does not start with {expected:?}"
+        );
+        assert!(stdout(&o).is_empty(), "{test}: no report for a bad file");
+    }
+}
+
+#[test]
+fn a_missing_file_is_an_error() {
+    let o = cansim(&["rta", "no/such/set.toml"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).starts_with("cansim: no/such/set.toml: cannot read:"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn utilisation_above_one_is_reported_not_looped_on() {
+    let text = r#"bitrate = 125000
+[[message]]
+name = "fast"
+id = 0x100
+dlc = 8
+period_ms = 1.5
+node = "a"
+[[message]]
+name = "slow"
+id = 0x200
+dlc = 8
+period_ms = 2
+node = "b"
+"#;
+    let path = message_file("overload", text);
+    let o = cansim(&["rta", path.to_str().unwrap()]);
+    let simulated = cansim(&["rta", "--simulate", path.to_str().unwrap()]);
+    std::fs::remove_file(&path).ok();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(out.contains("bus utilisation 126.0 %"), "{out}");
+    // message id node dlc bits C T J D | classic B w R ok | corrected B w R q/Q ok
+    assert_eq!(row(&out, "fast")[15], "2.16");
+    assert_eq!(
+        row(&out, "slow")[13..],
+        ["-", "-", "unbounded", "-", "unbounded"]
+    );
+    // The classic recurrence sums only the higher priorities (72 %) and still converges.
+    assert_eq!(row(&out, "slow")[9..13], ["0", "1.08", "2.16", "no"]);
+    assert!(
+        out.contains(
+            "slow: no bound: the messages of its priority and above load the bus to 126.0 %"
+        ),
+        "{out}"
+    );
+    // Simulated, slow's own scenario is skipped; it is seen only as fast's blocking frame.
+    assert!(simulated.status.success(), "{}", stderr(&simulated));
+    let sim_out = stdout(&simulated);
+    let sim = simulation_table(&sim_out);
+    assert_eq!(row(sim, "slow")[8..], ["fast", "no", "corrected", "bound"]);
+    assert!(
+        sim.contains("\ncritical instants simulated: 1 of 2;"),
+        "{sim}"
+    );
+}
+
+#[test]
+fn abstract_sets_cannot_be_simulated() {
+    let o = cansim(&["rta", "--simulate", &example("classic_example_1")]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("abstract message sets cannot be simulated"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn help_explains_the_analyses_and_the_file() {
+    let out = stdout(&cansim(&["rta", "--help"]));
+    for expected in [
+        "Davis, Burns, Bril, Lukkien (2007)",
+        "abstract = true",
+        "period_ms",
+        "--simulate",
+        "Exit status",
+    ] {
+        assert!(out.contains(expected), "{expected:?} missing in\n{out}");
+    }
 }
