@@ -49,7 +49,7 @@ pub const MAX_DATA_LEN: usize = 8;
 /// Number of equal consecutive wire bits after which a stuff bit is inserted.
 pub const STUFF_RUN: u8 = 5;
 /// Number of end of frame bits.
-const EOF_BITS: u16 = 7;
+pub(crate) const EOF_BITS: u16 = 7;
 
 /// A CAN identifier: 11-bit standard (CAN 2.0A) or 29-bit extended (CAN 2.0B).
 ///
@@ -156,7 +156,7 @@ impl fmt::Display for FrameError {
 impl std::error::Error for FrameError {}
 
 /// Number of data bytes carried by a data frame with this DLC: `min(dlc, 8)`.
-fn data_len_for_dlc(dlc: u8) -> usize {
+pub(crate) fn data_len_for_dlc(dlc: u8) -> usize {
     usize::from(dlc).min(MAX_DATA_LEN)
 }
 

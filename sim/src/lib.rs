@@ -7,6 +7,7 @@ pub mod acceptance;
 pub mod btl_node;
 pub mod btr;
 pub mod bus;
+pub mod bus_decoder;
 pub mod campaign;
 pub mod can_node;
 pub mod controller_node;
