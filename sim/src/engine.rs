@@ -9,9 +9,10 @@
 
 use std::any::Any;
 use std::io;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::bus::{Bus, Drive};
+use crate::bus_decoder::BusTiming;
 use crate::time::ClockSpec;
 use crate::trace::{Probe, VcdTracer};
 
@@ -69,12 +70,17 @@ struct Tracing {
 }
 
 /// The event loop stepping every device on its own clock.
+///
+/// An engine that is still tracing when it is dropped finishes its VCD then (errors are printed), so
+/// a test that panics still leaves the waves of its run.
 pub struct Engine {
     slots: Vec<Slot>,
     bus: Bus,
     now: u64,
     edges: u64,
     tracing: Option<Tracing>,
+    /// A trace to start at the first step, once every device is added.
+    deferred_trace: Option<(PathBuf, BusTiming)>,
 }
 
 impl Default for Engine {
@@ -92,6 +98,7 @@ impl Engine {
             now: 0,
             edges: 0,
             tracing: None,
+            deferred_trace: None,
         }
     }
 
@@ -139,13 +146,28 @@ impl Engine {
 
     /// Starts writing a VCD of the bus and every device to `path`; call after adding the devices.
     pub fn trace_vcd(&mut self, path: &Path) -> io::Result<()> {
+        self.start_trace(path, None)
+    }
+
+    /// As [`Engine::trace_vcd`], recording the bus's bit timing in the VCD header for decoders.
+    pub fn trace_vcd_timed(&mut self, path: &Path, timing: BusTiming) -> io::Result<()> {
+        self.start_trace(path, Some(&timing))
+    }
+
+    /// Traces as [`Engine::trace_vcd_timed`] from the first step on, so devices can still be added
+    /// until then (an error creating the file is returned by that step).
+    pub fn trace_vcd_from_first_step(&mut self, path: &Path, timing: BusTiming) {
+        self.deferred_trace = Some((path.to_path_buf(), timing));
+    }
+
+    fn start_trace(&mut self, path: &Path, timing: Option<&BusTiming>) -> io::Result<()> {
         let devices: Vec<(String, Vec<Probe>)> = self
             .slots
             .iter()
             .map(|s| (s.device.name().to_string(), s.device.probes()))
             .collect();
         self.tracing = Some(Tracing {
-            tracer: VcdTracer::create(path, &devices)?,
+            tracer: VcdTracer::create(path, &devices, timing)?,
             pending: Default::default(),
         });
         Ok(())
@@ -213,6 +235,9 @@ impl Engine {
 
     /// Processes the earliest pending clock edge.
     pub fn step(&mut self) -> io::Result<()> {
+        if let Some((path, timing)) = self.deferred_trace.take() {
+            self.start_trace(&path, Some(&timing))?;
+        }
         let Some(i) = self.earliest() else {
             return Ok(());
         };
@@ -307,6 +332,16 @@ impl Engine {
             tracing.tracer.bus(at, level)?;
         }
         Ok(())
+    }
+}
+
+impl Drop for Engine {
+    fn drop(&mut self) {
+        if self.tracing.is_some() {
+            if let Err(e) = self.finish_trace() {
+                eprintln!("cannot finish the VCD trace: {e}");
+            }
+        }
     }
 }
 

@@ -24,4 +24,5 @@ pub mod rtl_step;
 pub mod sync_demo;
 pub mod time;
 pub mod trace;
+pub mod vcd_reader;
 pub mod worst_case;
