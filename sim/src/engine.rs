@@ -65,6 +65,8 @@ struct Disturbance {
 
 struct Tracing {
     tracer: VcdTracer,
+    /// The devices with a scope in the trace: those added before it started.
+    devices: usize,
     /// Times at which the bus level may change (a drive changed and reaches the bus then).
     pending: std::collections::BinaryHeap<std::cmp::Reverse<u64>>,
 }
@@ -102,12 +104,10 @@ impl Engine {
         }
     }
 
-    /// Adds a device connected to the bus through `delay_fs` of propagation delay (each way).
+    /// Adds a device connected to the bus through `delay_fs` of propagation delay (each way). A
+    /// device added after tracing started has no scope of its own in the VCD (the bus it drives is
+    /// still traced).
     pub fn add<D: Device>(&mut self, device: D, delay_fs: u64) -> DeviceId {
-        assert!(
-            self.tracing.is_none(),
-            "add every device before tracing starts"
-        );
         let clock = device.clock();
         let probes = device.probes().len();
         let line = self.bus.add_line(delay_fs);
@@ -168,6 +168,7 @@ impl Engine {
             .collect();
         self.tracing = Some(Tracing {
             tracer: VcdTracer::create(path, &devices, timing)?,
+            devices: devices.len(),
             pending: Default::default(),
         });
         Ok(())
@@ -269,7 +270,7 @@ impl Engine {
                     .push(std::cmp::Reverse(t + self.bus.delay_fs(line)));
             }
         }
-        if let Some(tracing) = &mut self.tracing {
+        if let Some(tracing) = self.tracing.as_mut().filter(|t| i < t.devices) {
             let slot = &mut self.slots[i];
             slot.device.probe_values(&mut slot.probe_values);
             let tx = slot.drive.level();
