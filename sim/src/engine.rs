@@ -160,7 +160,9 @@ impl Engine {
         self.deferred_trace = Some((path.to_path_buf(), timing));
     }
 
+    /// Starts tracing now; an explicit trace replaces a deferred one.
     fn start_trace(&mut self, path: &Path, timing: Option<&BusTiming>) -> io::Result<()> {
+        self.deferred_trace = None;
         let devices: Vec<(String, Vec<Probe>)> = self
             .slots
             .iter()
@@ -398,5 +400,37 @@ mod tests {
             .collect();
         assert_eq!(seen(victim), expected);
         assert_eq!(seen(driver), (0..10).map(|k| k == 0).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn a_trace_from_the_first_step_records_the_timing_and_is_finished_when_dropped() {
+        let path = std::env::temp_dir().join(format!("cansim-engine-{}.vcd", std::process::id()));
+        let us = ClockSpec::from_hz(1e6).period_fs();
+        let timing = BusTiming::new(4 * us, 0.75).unwrap();
+        {
+            let mut engine = Engine::new();
+            engine.add(probe(Drive::Recessive), 0);
+            engine.trace_vcd_from_first_step(&path, timing);
+            engine.add(probe(Drive::Dominant), 0);
+            engine.run_until(3 * us).unwrap();
+            engine.add(probe(Drive::Recessive), 0);
+            engine.run_until(6 * us).unwrap();
+            assert!(!path.exists(), "written only when finished");
+        }
+        let text = std::fs::read_to_string(&path).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        assert!(
+            text.contains(&crate::vcd_reader::timing_comment(&timing)),
+            "{text}"
+        );
+        assert_eq!(
+            text.matches("$scope module probe $end").count(),
+            2,
+            "the devices added before the first step: {text}"
+        );
+        assert!(
+            text.ends_with("#5000\n"),
+            "traced up to the last edge: {text}"
+        );
     }
 }
