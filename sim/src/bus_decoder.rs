@@ -13,8 +13,13 @@
 //! other nodes' error flags make it visible: a stuff error on the sixth equal bit, a form error on a
 //! dominant fixed recessive bit, a CRC error after the ACK delimiter. A frame counts as received, as for
 //! a receiver, when its first six EOF bits are recessive; a dominant last EOF bit is an overload flag.
+//!
+//! Beside the events the decoder notes [`Remark`]s: what other decoders may read differently although
+//! it is no error (edges it did not follow fully, idle-bus glitches, recessive reserved bits).
 
 use std::fmt;
+
+use rtl::bsp::{DELIMITER_BITS, INTERMISSION_BITS};
 
 use crate::btr::Btr;
 use crate::crc15::Crc15;
@@ -27,12 +32,9 @@ use crate::time::{ClockSpec, FS_PER_NS, FS_PER_S, FS_PER_US};
 pub const INTERFACE: &str = "can0";
 /// Resynchronisation jump width as a fraction of the bit time.
 pub const SJW_FRACTION: f64 = 0.25;
-/// Recessive bits of an error or overload delimiter.
-const DELIMITER_BITS: u8 = 8;
-/// Bits of the intermission.
-const INTERMISSION_BITS: u8 = 3;
-/// Intermission bits after which a dominant bit is a start of frame rather than an overload flag.
-const SOF_AFTER_INTERMISSION_BITS: u8 = 2;
+/// Intermission bits after which a dominant bit is a start of frame (in the last intermission bit)
+/// rather than an overload flag.
+const SOF_AFTER_INTERMISSION_BITS: u64 = INTERMISSION_BITS - 1;
 /// Bits in a data byte.
 const BYTE_BITS: u16 = 8;
 
@@ -168,14 +170,19 @@ pub struct BusEvent {
     pub kind: BusEventKind,
 }
 
+/// The start of a log line: `(seconds.micros) can0 `.
+fn log_prefix(f: &mut fmt::Formatter<'_>, t_fs: u64) -> fmt::Result {
+    let seconds = t_fs / FS_PER_S;
+    let micros = t_fs % FS_PER_S / FS_PER_US;
+    write!(f, "({seconds}.{micros:06}) {INTERFACE} ")
+}
+
 impl fmt::Display for BusEvent {
     /// candump log style with the start time: `(0.000120) can0 123#DEADBEEF`, with annotations:
     /// `… 123#DEADBEEF (no ACK)`, `… ERROR FRAME after data bit 5 of 555 (stuff error)`,
     /// `… OVERLOAD FRAME in intermission bit 0`, `… INCOMPLETE FRAME, input ends in CRC bit 3 of 123`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let seconds = self.start_fs / FS_PER_S;
-        let micros = self.start_fs % FS_PER_S / FS_PER_US;
-        write!(f, "({seconds}.{micros:06}) {INTERFACE} ")?;
+        log_prefix(f, self.start_fs)?;
         match &self.kind {
             BusEventKind::Frame { frame, acked } => {
                 write!(f, "{frame}")?;
@@ -304,9 +311,8 @@ pub enum RemarkKind {
 impl fmt::Display for Remark {
     /// `(0.000037) can0 remark: edge 0.47 bit late, beyond the SJW`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let seconds = self.t_fs / FS_PER_S;
-        let micros = self.t_fs % FS_PER_S / FS_PER_US;
-        write!(f, "({seconds}.{micros:06}) {INTERFACE} remark: ")?;
+        log_prefix(f, self.t_fs)?;
+        f.write_str("remark: ")?;
         match self.kind {
             RemarkKind::IgnoredEdge => f.write_str("edge not used for synchronisation"),
             RemarkKind::PhaseErrorBeyondSjw { phase_error_fs } => {
@@ -668,11 +674,9 @@ impl BusDecoder {
     ///
     /// Panics if the bit time is zero or the sample point is not strictly between 0 and 1.
     pub fn new(bit_time_fs: u64, sample_point: f64) -> BusDecoder {
-        assert!(bit_time_fs > 0, "the bit time must be positive");
-        assert!(
-            sample_point > 0.0 && sample_point < 1.0,
-            "the sample point must be strictly inside the bit, got {sample_point}"
-        );
+        if let Err(e) = BusTiming::new(bit_time_fs, sample_point) {
+            panic!("{e}");
+        }
         BusDecoder {
             bit_fs: bit_time_fs,
             sample_fs: (bit_time_fs as f64 * sample_point).round() as u64,
@@ -758,13 +762,13 @@ impl BusDecoder {
     }
 
     fn hard_sync_allowed(&self) -> bool {
-        matches!(
-            self.state,
-            State::Idle
-                | State::Intermission {
-                    recessive: SOF_AFTER_INTERMISSION_BITS
-                }
-        )
+        match self.state {
+            State::Idle => true,
+            State::Intermission { recessive } => {
+                u64::from(recessive) == SOF_AFTER_INTERMISSION_BITS
+            }
+            _ => false,
+        }
     }
 
     /// A recessive-to-dominant edge at `t_fs`.
@@ -855,7 +859,7 @@ impl BusDecoder {
             State::Delimiter { flag, recessive } => {
                 if bit == RECESSIVE {
                     *recessive += 1;
-                    if *recessive == DELIMITER_BITS {
+                    if u64::from(*recessive) == DELIMITER_BITS {
                         self.close_pending(end);
                         self.state = State::Intermission { recessive: 0 };
                     }
@@ -865,7 +869,7 @@ impl BusDecoder {
                     Flag::Error => BitPlace::ErrorDelimiter(*recessive),
                     Flag::Overload => BitPlace::OverloadDelimiter(*recessive),
                 };
-                let last_bit = *recessive == DELIMITER_BITS - 1;
+                let last_bit = u64::from(*recessive) == DELIMITER_BITS - 1;
                 self.close_pending(start);
                 if last_bit {
                     self.begin(start, BusEventKind::OverloadFrame { at }, Flag::Overload);
@@ -883,10 +887,10 @@ impl BusDecoder {
             State::Intermission { recessive } => {
                 if bit == RECESSIVE {
                     *recessive += 1;
-                    if *recessive == INTERMISSION_BITS {
+                    if u64::from(*recessive) == INTERMISSION_BITS {
                         self.state = State::Idle;
                     }
-                } else if *recessive < SOF_AFTER_INTERMISSION_BITS {
+                } else if u64::from(*recessive) < SOF_AFTER_INTERMISSION_BITS {
                     let at = BitPlace::Intermission(*recessive);
                     self.begin(start, BusEventKind::OverloadFrame { at }, Flag::Overload);
                 } else {
@@ -977,14 +981,14 @@ mod tests {
             let start = self.t;
             self.frame(frame, acked);
             let end = self.t;
-            self.repeat(RECESSIVE, INTERMISSION_BITS.into());
+            self.repeat(RECESSIVE, INTERMISSION_BITS as usize);
             (start, end)
         }
 
         /// A flag of `flag_bits` dominant bits, its delimiter and the intermission.
         fn flag(&mut self, flag_bits: usize) {
             self.repeat(DOMINANT, flag_bits);
-            self.repeat(RECESSIVE, usize::from(DELIMITER_BITS + INTERMISSION_BITS));
+            self.repeat(RECESSIVE, (DELIMITER_BITS + INTERMISSION_BITS) as usize);
         }
 
         fn events(mut self) -> Vec<BusEvent> {

@@ -144,7 +144,8 @@ impl Engine {
         });
     }
 
-    /// Starts writing a VCD of the bus and every device to `path`; call after adding the devices.
+    /// Starts writing a VCD of the bus and every device to `path`; call after adding the devices. A
+    /// trace already running is finished first.
     pub fn trace_vcd(&mut self, path: &Path) -> io::Result<()> {
         self.start_trace(path, None)
     }
@@ -160,9 +161,11 @@ impl Engine {
         self.deferred_trace = Some((path.to_path_buf(), timing));
     }
 
-    /// Starts tracing now; an explicit trace replaces a deferred one.
+    /// Starts tracing now; an explicit trace replaces a deferred one and ends a running one (whose
+    /// file is finished).
     fn start_trace(&mut self, path: &Path, timing: Option<&BusTiming>) -> io::Result<()> {
         self.deferred_trace = None;
+        self.finish_trace()?;
         let devices: Vec<(String, Vec<Probe>)> = self
             .slots
             .iter()
@@ -403,7 +406,7 @@ mod tests {
     }
 
     #[test]
-    fn a_trace_from_the_first_step_records_the_timing_and_is_finished_when_dropped() {
+    fn a_trace_from_the_first_step_records_the_timing_and_is_finished_when_replaced_or_dropped() {
         let path = std::env::temp_dir().join(format!("cansim-engine-{}.vcd", std::process::id()));
         let us = ClockSpec::from_hz(1e6).period_fs();
         let timing = BusTiming::new(4 * us, 0.75).unwrap();
@@ -416,6 +419,12 @@ mod tests {
             engine.add(probe(Drive::Recessive), 0);
             engine.run_until(6 * us).unwrap();
             assert!(!path.exists(), "written only when finished");
+            let second = path.with_extension("2.vcd");
+            engine.trace_vcd(&second).unwrap();
+            assert!(path.exists(), "a new trace finishes the running one");
+            drop(engine);
+            assert!(second.exists());
+            std::fs::remove_file(&second).unwrap();
         }
         let text = std::fs::read_to_string(&path).unwrap();
         std::fs::remove_file(&path).unwrap();

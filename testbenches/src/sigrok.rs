@@ -1,11 +1,14 @@
 //! Runs sigrok's CAN protocol decoder (`sigrok-cli`, an independent implementation) on a VCD and
-//! collects the frames it decodes and the warnings it prints.
+//! collects the frames it decodes (with their sample ranges, [`decode_frames`]) and the warnings it
+//! prints.
 //!
 //! Known limits of libsigrokdecode 0.5.3's `can` decoder, which the tests work around rather than
 //! hide: it reads DLC data bytes after a *remote* frame's control field and maps DLC 9..15 to CAN FD
-//! lengths, so remote frames with DLC > 0 and classic frames with DLC > 8 decode wrongly; and it
-//! resynchronises on every falling edge, even after a dominant bit, so a recessive glitch early in a
-//! dominant bit shifts its sample points.
+//! lengths, so remote frames with DLC > 0 and classic frames with DLC > 8 decode wrongly; it reads a
+//! recessive r0 (r1 in extended frames) as CAN FD's FDF bit; it resynchronises fully on every falling
+//! edge, even after a dominant bit, so a recessive glitch early in a dominant bit or a phase error
+//! beyond the SJW shifts its sample points; it starts a decode at any dominant level on the idle bus
+//! (a glitch too) and detects no error, so it reads error and overload flags as frame bits.
 
 use std::path::Path;
 use std::process::Command;

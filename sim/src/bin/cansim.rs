@@ -176,7 +176,7 @@ fn print_waves_hint(vcd: Option<&PathBuf>, view: &str, quiet: bool) {
     println!("wrote {}", vcd.display());
     if !quiet {
         println!(
-            "decode: sigrok-cli -I vcd -i {0} -P can:can_rx=bus:nominal_bitrate=500000:sample_point={DEMO_SAMPLE_POINT_PCT} -A can=fields\nview:   gtkwave {0} {view}",
+            "decode: cansim decode {0}\n        sigrok-cli -I vcd -i {0} -P can:can_rx=bus:nominal_bitrate=500000:sample_point={DEMO_SAMPLE_POINT_PCT} -A can=fields\nview:   gtkwave {0} {view}",
             vcd.display()
         );
     }
