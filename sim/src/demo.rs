@@ -30,6 +30,7 @@ use rtl::bsp::ecc_segment as seg;
 use rtl::registers::{interrupt, pelican};
 
 use crate::btr::Btr;
+use crate::bus_decoder::BusTiming;
 use crate::controller_node::ControllerNode;
 use crate::driver::{CanState, CtrlMode, DriverConfig, DriverEvent, Sja1000Driver};
 use crate::engine::{DeviceId, Engine};
@@ -491,7 +492,9 @@ fn follow_up_frames() -> impl Iterator<Item = Frame> {
 pub fn run_demo(vcd: Option<&Path>) -> io::Result<DemoReport> {
     let mut demo = Demo::new();
     if let Some(path) = vcd {
-        demo.engine.trace_vcd(path)?;
+        let btr = Btr::from_registers(DEMO_BTR.0, DEMO_BTR.1);
+        let timing = BusTiming::from_btr(&btr, ClockSpec::from_hz(DEMO_CLOCK_HZ));
+        demo.engine.trace_vcd_timed(path, timing)?;
     }
     let (arbitrating, disturbed, unacknowledged) = demo_frames();
     demo.bring_up()?;

@@ -9,9 +9,10 @@
 
 use std::any::Any;
 use std::io;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::bus::{Bus, Drive};
+use crate::bus_decoder::BusTiming;
 use crate::time::ClockSpec;
 use crate::trace::{Probe, VcdTracer};
 
@@ -64,17 +65,24 @@ struct Disturbance {
 
 struct Tracing {
     tracer: VcdTracer,
+    /// The devices with a scope in the trace: those added before it started.
+    devices: usize,
     /// Times at which the bus level may change (a drive changed and reaches the bus then).
     pending: std::collections::BinaryHeap<std::cmp::Reverse<u64>>,
 }
 
 /// The event loop stepping every device on its own clock.
+///
+/// An engine that is still tracing when it is dropped finishes its VCD then (errors are printed), so
+/// a test that panics still leaves the waves of its run.
 pub struct Engine {
     slots: Vec<Slot>,
     bus: Bus,
     now: u64,
     edges: u64,
     tracing: Option<Tracing>,
+    /// A trace to start at the first step, once every device is added.
+    deferred_trace: Option<(PathBuf, BusTiming)>,
 }
 
 impl Default for Engine {
@@ -92,15 +100,14 @@ impl Engine {
             now: 0,
             edges: 0,
             tracing: None,
+            deferred_trace: None,
         }
     }
 
-    /// Adds a device connected to the bus through `delay_fs` of propagation delay (each way).
+    /// Adds a device connected to the bus through `delay_fs` of propagation delay (each way). A
+    /// device added after tracing started has no scope of its own in the VCD (the bus it drives is
+    /// still traced).
     pub fn add<D: Device>(&mut self, device: D, delay_fs: u64) -> DeviceId {
-        assert!(
-            self.tracing.is_none(),
-            "add every device before tracing starts"
-        );
         let clock = device.clock();
         let probes = device.probes().len();
         let line = self.bus.add_line(delay_fs);
@@ -137,15 +144,36 @@ impl Engine {
         });
     }
 
-    /// Starts writing a VCD of the bus and every device to `path`; call after adding the devices.
+    /// Starts writing a VCD of the bus and every device to `path`; call after adding the devices. A
+    /// trace already running is finished first.
     pub fn trace_vcd(&mut self, path: &Path) -> io::Result<()> {
+        self.start_trace(path, None)
+    }
+
+    /// As [`Engine::trace_vcd`], recording the bus's bit timing in the VCD header for decoders.
+    pub fn trace_vcd_timed(&mut self, path: &Path, timing: BusTiming) -> io::Result<()> {
+        self.start_trace(path, Some(&timing))
+    }
+
+    /// Traces as [`Engine::trace_vcd_timed`] from the first step on, so devices can still be added
+    /// until then (an error creating the file is returned by that step).
+    pub fn trace_vcd_from_first_step(&mut self, path: &Path, timing: BusTiming) {
+        self.deferred_trace = Some((path.to_path_buf(), timing));
+    }
+
+    /// Starts tracing now; an explicit trace replaces a deferred one and ends a running one (whose
+    /// file is finished).
+    fn start_trace(&mut self, path: &Path, timing: Option<&BusTiming>) -> io::Result<()> {
+        self.deferred_trace = None;
+        self.finish_trace()?;
         let devices: Vec<(String, Vec<Probe>)> = self
             .slots
             .iter()
             .map(|s| (s.device.name().to_string(), s.device.probes()))
             .collect();
         self.tracing = Some(Tracing {
-            tracer: VcdTracer::create(path, &devices)?,
+            tracer: VcdTracer::create(path, &devices, timing)?,
+            devices: devices.len(),
             pending: Default::default(),
         });
         Ok(())
@@ -213,6 +241,9 @@ impl Engine {
 
     /// Processes the earliest pending clock edge.
     pub fn step(&mut self) -> io::Result<()> {
+        if let Some((path, timing)) = self.deferred_trace.take() {
+            self.start_trace(&path, Some(&timing))?;
+        }
         let Some(i) = self.earliest() else {
             return Ok(());
         };
@@ -244,7 +275,7 @@ impl Engine {
                     .push(std::cmp::Reverse(t + self.bus.delay_fs(line)));
             }
         }
-        if let Some(tracing) = &mut self.tracing {
+        if let Some(tracing) = self.tracing.as_mut().filter(|t| i < t.devices) {
             let slot = &mut self.slots[i];
             slot.device.probe_values(&mut slot.probe_values);
             let tx = slot.drive.level();
@@ -310,6 +341,16 @@ impl Engine {
     }
 }
 
+impl Drop for Engine {
+    fn drop(&mut self) {
+        if self.tracing.is_some() {
+            if let Err(e) = self.finish_trace() {
+                eprintln!("cannot finish the VCD trace: {e}");
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -362,5 +403,43 @@ mod tests {
             .collect();
         assert_eq!(seen(victim), expected);
         assert_eq!(seen(driver), (0..10).map(|k| k == 0).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn a_trace_from_the_first_step_records_the_timing_and_is_finished_when_replaced_or_dropped() {
+        let path = std::env::temp_dir().join(format!("cansim-engine-{}.vcd", std::process::id()));
+        let us = ClockSpec::from_hz(1e6).period_fs();
+        let timing = BusTiming::new(4 * us, 0.75).unwrap();
+        {
+            let mut engine = Engine::new();
+            engine.add(probe(Drive::Recessive), 0);
+            engine.trace_vcd_from_first_step(&path, timing);
+            engine.add(probe(Drive::Dominant), 0);
+            engine.run_until(3 * us).unwrap();
+            engine.add(probe(Drive::Recessive), 0);
+            engine.run_until(6 * us).unwrap();
+            assert!(!path.exists(), "written only when finished");
+            let second = path.with_extension("2.vcd");
+            engine.trace_vcd(&second).unwrap();
+            assert!(path.exists(), "a new trace finishes the running one");
+            drop(engine);
+            assert!(second.exists());
+            std::fs::remove_file(&second).unwrap();
+        }
+        let text = std::fs::read_to_string(&path).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        assert!(
+            text.contains(&crate::vcd_reader::timing_comment(&timing)),
+            "{text}"
+        );
+        assert_eq!(
+            text.matches("$scope module probe $end").count(),
+            2,
+            "the devices added before the first step: {text}"
+        );
+        assert!(
+            text.ends_with("#5000\n"),
+            "traced up to the last edge: {text}"
+        );
     }
 }

@@ -49,7 +49,7 @@ pub const MAX_DATA_LEN: usize = 8;
 /// Number of equal consecutive wire bits after which a stuff bit is inserted.
 pub const STUFF_RUN: u8 = 5;
 /// Number of end of frame bits.
-const EOF_BITS: u16 = 7;
+pub(crate) const EOF_BITS: u16 = 7;
 
 /// A CAN identifier: 11-bit standard (CAN 2.0A) or 29-bit extended (CAN 2.0B).
 ///
@@ -156,7 +156,7 @@ impl fmt::Display for FrameError {
 impl std::error::Error for FrameError {}
 
 /// Number of data bytes carried by a data frame with this DLC: `min(dlc, 8)`.
-fn data_len_for_dlc(dlc: u8) -> usize {
+pub(crate) fn data_len_for_dlc(dlc: u8) -> usize {
     usize::from(dlc).min(MAX_DATA_LEN)
 }
 
@@ -684,7 +684,7 @@ pub fn decode(bits: &BitSlice<u8, Msb0>) -> Result<DecodedFrame, DecodeError> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::crc15::crc15;
     use crate::worst_case::length_bound;
@@ -927,7 +927,7 @@ mod tests {
 
     /// Builds a wire image from unstuffed SOF..data bits: CRC, stuffing and a recessive
     /// tail, written independently of the encoder (with an explicit run counter).
-    fn wire_from_unstuffed(header: &[bool]) -> BitVec<u8, Msb0> {
+    pub(crate) fn wire_from_unstuffed(header: &[bool]) -> BitVec<u8, Msb0> {
         let crc = crc15(header.iter().copied());
         let crc_bits = (0..15).rev().map(|i| crc >> i & 1 == 1);
         let mut wire = BitVec::new();
@@ -949,7 +949,8 @@ mod tests {
         wire
     }
 
-    fn levels(text: &str) -> Vec<bool> {
+    /// Wire levels from `0`/`1` text; whitespace is ignored.
+    pub(crate) fn levels(text: &str) -> Vec<bool> {
         text.chars()
             .filter(|c| !c.is_whitespace())
             .map(|c| c == '1')

@@ -23,7 +23,7 @@ use sim::time::ClockSpec;
 
 use crate::controller_bench::{configure_pelican_for, transmit};
 use crate::register_iut::{InterruptPass, IutHost, RegisterIut};
-use crate::CLOCK_HZ;
+use crate::{bench_engine, CLOCK_HZ};
 
 /// Idle bits before the first frame: the IUT needs 11 recessive bits to integrate.
 pub const INTEGRATION_BITS: usize = 14;
@@ -86,7 +86,7 @@ impl ProtocolBench {
 
     /// The bench, with the controller configured (the LT plays meanwhile) and operating.
     fn build(kind: Iut, btr: Btr, clock: ClockSpec, start: LtStart) -> ProtocolBench {
-        let mut engine = Engine::new();
+        let mut engine = bench_engine(&btr, clock);
         engine.keep_history();
         let mut lt = LowerTester::new("lt", clock, btr);
         if start == LtStart::OnDominant {

@@ -9,12 +9,14 @@ use std::time::Instant;
 
 use clap::{Parser, Subcommand};
 use sim::btr::{calc_bittiming, format_calculation, format_table};
+use sim::bus_decoder::{EventCounts, Remark};
 use sim::campaign::{
     check, describe, format_summary, random_case, run_campaign, run_rtl_traced, Rng,
 };
 use sim::demo::{format_report, run_demo, DEMO_SAMPLE_POINT_PCT};
 use sim::rta;
 use sim::sync_demo;
+use sim::vcd_reader::{self, decode_vcd, DecodeOptions};
 
 #[derive(Parser)]
 #[command(
@@ -74,6 +76,25 @@ enum Command {
         /// With --case: write a VCD of that case.
         #[arg(long, requires = "case")]
         vcd: Option<PathBuf>,
+    },
+    /// Decode the CAN bus signal of any VCD file: one candump-style line per frame, error frame and
+    /// overload frame, then the count of each.
+    Decode {
+        /// The VCD file.
+        file: PathBuf,
+        /// The bus signal: its full hierarchical name (top.bus) or a trailing part of it (bus).
+        #[arg(long, default_value = vcd_reader::DEFAULT_SIGNAL)]
+        signal: String,
+        /// Bit rate in bit/s [default: the rate the file records, else 500000].
+        #[arg(long)]
+        bitrate: Option<f64>,
+        /// Sample point, in percent (87.5) or as a fraction (0.875) [default: the file's, else 87.5].
+        #[arg(long)]
+        sample_point: Option<f64>,
+        /// Also print the decoder's remarks (edges it could not follow fully, glitches, recessive
+        /// reserved bits) among the events.
+        #[arg(long)]
+        remarks: bool,
     },
     /// Compute SJA1000 BTR0/BTR1 for a bit rate (the Linux can_calc_bittiming method).
     Bittiming {
@@ -172,6 +193,13 @@ fn main() -> ExitCode {
             Some(index) => campaign_case(seed, index, vcd),
             None => campaign(faults, seed, threads),
         },
+        Command::Decode {
+            file,
+            signal,
+            bitrate,
+            sample_point,
+            remarks,
+        } => decode(&file, signal, bitrate, sample_point, remarks),
         Command::Bittiming {
             clock,
             bitrate,
@@ -213,7 +241,7 @@ fn print_waves_hint(vcd: Option<&PathBuf>, view: &str, quiet: bool) {
     println!("wrote {}", vcd.display());
     if !quiet {
         println!(
-            "decode: sigrok-cli -I vcd -i {0} -P can:can_rx=bus:nominal_bitrate=500000:sample_point={DEMO_SAMPLE_POINT_PCT} -A can=fields\nview:   gtkwave {0} {view}",
+            "decode: cansim decode {0}\n        sigrok-cli -I vcd -i {0} -P can:can_rx=bus:nominal_bitrate=500000:sample_point={DEMO_SAMPLE_POINT_PCT} -A can=fields\nview:   gtkwave {0} {view}",
             vcd.display()
         );
     }
@@ -386,6 +414,53 @@ fn sample_point_fraction(value: f64) -> Result<f64, String> {
             "--sample-point {v} is out of range: give a percentage between 0 and 100 (87.5) or a fraction between 0 and 1 (0.875)"
         )),
     }
+}
+
+fn decode(
+    file: &Path,
+    signal: String,
+    bitrate: Option<f64>,
+    sample_point: Option<f64>,
+    show_remarks: bool,
+) -> Result<(), String> {
+    let options = DecodeOptions {
+        signal: Some(signal),
+        bitrate,
+        sample_point: sample_point.map(sample_point_fraction).transpose()?,
+    };
+    let decoded = decode_vcd(file, &options).map_err(|e| e.to_string())?;
+    let source = match decoded.file_timing {
+        Some(recorded) if recorded == decoded.timing => " (recorded in the file)",
+        _ => "",
+    };
+    println!(
+        "{} {} at {}{source}",
+        file.display(),
+        decoded.signal,
+        decoded.timing
+    );
+    let remarks: &[Remark] = if show_remarks { &decoded.remarks } else { &[] };
+    let mut remarks = remarks.iter().peekable();
+    for event in &decoded.events {
+        while let Some(remark) = remarks.next_if(|r| r.t_fs < event.start_fs) {
+            println!("{remark}");
+        }
+        println!("{event}");
+    }
+    remarks.for_each(|remark| println!("{remark}"));
+    if !show_remarks && !decoded.remarks.is_empty() {
+        let n = decoded.remarks.len();
+        let plural = if n == 1 { "" } else { "s" };
+        println!("{n} remark{plural} (--remarks shows them)");
+    }
+    if decoded.undefined_values > 0 {
+        println!(
+            "{} x/z values of {} read as recessive",
+            decoded.undefined_values, decoded.signal
+        );
+    }
+    println!("{}", EventCounts::of(&decoded.events));
+    Ok(())
 }
 
 fn bittiming(
