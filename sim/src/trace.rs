@@ -5,7 +5,8 @@
 //! (which abort on vector variables) read the file; a probe wider than one bit is written as bit-select
 //! wires `name [i]`, which the GTKWave views in `waves/` regroup into vectors. Timescale 1 ns. Output is
 //! buffered and goes to a temporary file that replaces the target only when [`VcdTracer::finish`]
-//! succeeds, so an aborted run never leaves a half-written VCD behind.
+//! succeeds, so an aborted run never leaves a half-written VCD behind (a tracer dropped without
+//! finishing removes its temporary file).
 
 use std::fs::File;
 use std::io::{self, BufWriter};
@@ -54,6 +55,7 @@ pub struct VcdTracer {
     bus_last: bool,
     devices: Vec<DeviceTrace>,
     now_ns: u64,
+    finished: bool,
 }
 
 fn level(v: bool) -> Value {
@@ -134,6 +136,7 @@ impl VcdTracer {
             bus_last: true,
             devices: traces,
             now_ns: 0,
+            finished: false,
         })
     }
 
@@ -205,13 +208,22 @@ impl VcdTracer {
             self.writer.timestamp(end_ns)?;
         }
         self.writer.flush()?;
-        drop(self.writer);
         std::fs::rename(&self.temporary, &self.target).map_err(|e| {
             io::Error::new(
                 e.kind(),
                 format!("cannot write {}: {e}", self.target.display()),
             )
         })?;
-        Ok(self.target)
+        self.finished = true;
+        Ok(self.target.clone())
+    }
+}
+
+impl Drop for VcdTracer {
+    fn drop(&mut self) {
+        if !self.finished {
+            // An unfinished trace is useless; nobody can report a failure to remove it.
+            let _ = std::fs::remove_file(&self.temporary);
+        }
     }
 }
