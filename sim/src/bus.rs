@@ -242,8 +242,8 @@ mod tests {
         assert_eq!(
             levels,
             [
-                DOMINANT, DOMINANT, RECESSIVE, RECESSIVE, DOMINANT, RECESSIVE, RECESSIVE,
-                DOMINANT, DOMINANT, RECESSIVE
+                DOMINANT, DOMINANT, RECESSIVE, RECESSIVE, DOMINANT, RECESSIVE, RECESSIVE, DOMINANT,
+                DOMINANT, RECESSIVE
             ]
         );
     }

@@ -329,8 +329,7 @@ impl Engine {
         if drive != slot.drive {
             slot.drive = drive;
             self.bus.set_drive(line, t, drive);
-            self.observers
-                .expect_change_at(t + self.bus.delay_fs(line));
+            self.observers.expect_change_at(t + self.bus.delay_fs(line));
         }
         if let Some(tracer) = &mut self.observers.tracer {
             let slot = &mut self.slots[i];

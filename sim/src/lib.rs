@@ -21,6 +21,7 @@ pub mod host;
 pub mod lower_tester;
 pub mod reference;
 pub mod rtl_step;
+pub mod scenario;
 pub mod sync_demo;
 pub mod time;
 pub mod trace;

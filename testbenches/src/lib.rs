@@ -235,4 +235,5 @@ pub mod controller_bench;
 pub mod ecc;
 pub mod equivalence;
 pub mod protocol_bench;
+pub mod scenario_report;
 pub mod sigrok;

@@ -5,7 +5,9 @@
 //! hide: it reads DLC data bytes after a *remote* frame's control field and maps DLC 9..15 to CAN FD
 //! lengths, so remote frames with DLC > 0 and classic frames with DLC > 8 decode wrongly; and it
 //! resynchronises on every falling edge, even after a dominant bit, so a recessive glitch early in a
-//! dominant bit shifts its sample points.
+//! dominant bit shifts its sample points; and after an error flag that begins in the end of frame
+//! it takes the flag's last dominant bits for a new start of frame, so the frame after such an
+//! error frame decodes as garbage.
 
 use std::path::Path;
 use std::process::Command;
