@@ -274,6 +274,7 @@ impl Source<'_> {
         }
     }
 
+    /// The line where `span` begins (a table's: its header line).
     fn line(&self, span: &Range<usize>) -> usize {
         self.text[..span.start.min(self.text.len())]
             .matches('\n')
@@ -281,8 +282,14 @@ impl Source<'_> {
             + 1
     }
 
+    /// An error about a whole table, at its header line.
+    fn table_error(&self, span: Range<usize>, message: impl Into<String>) -> ScenarioError {
+        ScenarioError::at_line(self.path, self.line(&span), message)
+    }
+
     fn toml_error(&self, e: &toml::de::Error) -> ScenarioError {
-        let message = e.message().trim_end().to_string();
+        // One line: the TOML parser puts what it expected on a second one.
+        let message = e.message().trim_end().replace('\n', "; ");
         match e.span() {
             Some(span) => self.error(span, message),
             None => ScenarioError::in_file(self.path, message),
@@ -354,7 +361,7 @@ impl<'a> Builder<'a> {
             btr1: b.btr1.clone(),
         };
         let btr = timing_btr(source, &timing, clock_hz)?.ok_or_else(|| {
-            source.error(
+            source.table_error(
                 bus.span(),
                 "[bus] needs a bit timing: bitrate (and sample_point, sjw) or btr0 and btr1",
             )
@@ -545,7 +552,7 @@ impl<'a> Builder<'a> {
         calc_bittiming(clock_hz, bitrate, sample_point, None)
             .map(|c| c.btr)
             .map_err(|e| {
-                self.error(
+                self.source.table_error(
                     node.span(),
                     format!("the bus bit rate at this node's {clock_hz} Hz clock: {e}"),
                 )
@@ -743,7 +750,7 @@ impl<'a> Builder<'a> {
                 let level = f
                     .level
                     .as_ref()
-                    .ok_or_else(|| self.error(whole(), "a force needs level"))?;
+                    .ok_or_else(|| self.source.table_error(whole(), "a force needs level"))?;
                 FaultKind::Force((*level.get_ref()).into())
             }
             KindToml::Glitch => {
@@ -756,7 +763,8 @@ impl<'a> Builder<'a> {
             }
             KindToml::Disconnect | KindToml::StuckDominant => {
                 let node = f.node.as_ref().ok_or_else(|| {
-                    self.error(whole(), "this fault needs node (the node it happens to)")
+                    self.source
+                        .table_error(whole(), "this fault needs node (the node it happens to)")
                 })?;
                 let node = self.node_index(node)?;
                 unused(
@@ -772,16 +780,17 @@ impl<'a> Builder<'a> {
             }
         };
         if node_fault {
-            unused(
-                f.nodes.as_ref().map(|_| whole()),
-                "nodes",
-                "it is about one node",
-            )?;
+            let first_node = f.nodes.as_ref().and_then(|n| n.first()).map(Spanned::span);
+            unused(first_node, "nodes", "it is about one node")?;
             if matches!(place, Place::Bit { .. }) {
-                return Err(self.error(whole(), "a node fault begins at a time (at), not a bit"));
+                return Err(self
+                    .source
+                    .table_error(whole(), "a node fault begins at a time (at), not a bit"));
             }
             if duration.is_none() {
-                return Err(self.error(whole(), "a node fault needs duration"));
+                return Err(self
+                    .source
+                    .table_error(whole(), "a node fault needs duration"));
             }
         } else {
             unused(
@@ -792,7 +801,9 @@ impl<'a> Builder<'a> {
         }
         let duration_fs = match (f.kind, &f.quanta) {
             (KindToml::Glitch, None) => {
-                return Err(self.error(whole(), "a glitch needs quanta (its length)"))
+                return Err(self
+                    .source
+                    .table_error(whole(), "a glitch needs quanta (its length)"))
             }
             (KindToml::Glitch, Some(quanta)) if *quanta.get_ref() == 0 => {
                 return Err(self.error(quanta.span(), "a glitch lasts at least 1 quantum"))
@@ -828,7 +839,7 @@ impl<'a> Builder<'a> {
                 frame.span(),
                 "a fault begins at a time (at) or at a frame bit (frame, field, bit), not both",
             )),
-            (None, None) => Err(self.error(
+            (None, None) => Err(self.source.table_error(
                 whole,
                 "a fault needs at (a time) or frame and field (a bit of a frame on the bus)",
             )),
@@ -850,7 +861,7 @@ impl<'a> Builder<'a> {
                 let field = f
                     .field
                     .as_ref()
-                    .ok_or_else(|| self.error(whole, "frame needs field"))?;
+                    .ok_or_else(|| self.source.table_error(whole, "frame needs field"))?;
                 let field_value: Field = (*field.get_ref()).into();
                 if field_value == Field::Sof {
                     return Err(self.error(
