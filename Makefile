@@ -44,4 +44,4 @@ lint verilog synth:
 
 clean:
 	$(CARGO) clean
-	rm -rf build waves/*.vcd waves/*.log
+	rm -rf build waves/*.vcd waves/*.log waves/*.frames.filter

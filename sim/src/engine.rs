@@ -86,9 +86,15 @@ struct Disturbance {
     level: Option<bool>,
 }
 
+/// Derives a traced value from the bus level changes (time, new level): the new value when it
+/// changes.
+pub type BusAnnotator = Box<dyn FnMut(u64, bool) -> Option<u64>>;
+
 /// Who wants to know the bus level changes, and the times at which the level may change next.
 struct BusObservers {
     tracer: Option<VcdTracer>,
+    /// A signal traced beside `bus`, derived from its changes.
+    annotation: Option<(Probe, BusAnnotator)>,
     /// Changes recorded for [`Engine::take_bus_changes`], if watching.
     changes: Option<Vec<(u64, bool)>>,
     /// The last level reported.
@@ -102,6 +108,7 @@ impl Default for BusObservers {
     fn default() -> Self {
         BusObservers {
             tracer: None,
+            annotation: None,
             changes: None,
             last: RECESSIVE,
             pending: Default::default(),
@@ -211,6 +218,16 @@ impl Engine {
         self.observers.expect_change_at(to_fs);
     }
 
+    /// Traces `probe` beside `bus`, with the values `annotator` derives from the bus level
+    /// changes; call before [`Engine::trace_vcd`].
+    pub fn annotate_bus(&mut self, probe: Probe, annotator: BusAnnotator) {
+        assert!(
+            self.observers.tracer.is_none(),
+            "annotate the bus before tracing starts"
+        );
+        self.observers.annotation = Some((probe, annotator));
+    }
+
     /// Starts writing a VCD of the bus and every device to `path`; call after adding the devices.
     pub fn trace_vcd(&mut self, path: &Path) -> io::Result<()> {
         let devices: Vec<(String, Vec<Probe>)> = self
@@ -218,7 +235,8 @@ impl Engine {
             .iter()
             .map(|s| (s.device.name().to_string(), s.device.probes()))
             .collect();
-        self.observers.tracer = Some(VcdTracer::create(path, &devices)?);
+        let bus_probes: Vec<Probe> = self.observers.annotation.iter().map(|(p, _)| *p).collect();
+        self.observers.tracer = Some(VcdTracer::create(path, &bus_probes, &devices)?);
         Ok(())
     }
 
@@ -393,6 +411,11 @@ impl Engine {
             observers.last = level;
             if let Some(tracer) = &mut observers.tracer {
                 tracer.bus(at, level)?;
+                if let Some((_, annotator)) = &mut observers.annotation {
+                    if let Some(value) = annotator(at, level) {
+                        tracer.bus_probe(0, at, value)?;
+                    }
+                }
             }
             if let Some(changes) = &mut observers.changes {
                 changes.push((at, level));

@@ -300,6 +300,21 @@ fn a_scenario_runs_and_writes_its_log_and_waves_without_a_progress_bar_when_pipe
     assert_eq!(log_text.lines().count(), 6);
     assert!(log_text.contains(") can0 18DAF110#R8\n"));
     assert!(std::fs::metadata(&vcd).unwrap().len() > 1000);
+    // The GTKWave view and its filters are beside the VCD.
+    let waves = dir.join("w");
+    assert!(out.contains(&format!(
+        "gtkwave {} {}",
+        vcd.display(),
+        waves.join("replay.gtkw").display()
+    )));
+    let view = std::fs::read_to_string(waves.join("replay.gtkw")).unwrap();
+    assert!(view.contains(&format!("^2 {}\n", waves.join("state.filter").display())));
+    assert!(view.contains("-logger\n"));
+    let frames = std::fs::read_to_string(waves.join("replay.frames.filter")).unwrap();
+    assert!(frames.contains("\n0001 1: 123#DEADBEEF\n"), "{frames}");
+    assert!(std::fs::read_to_string(waves.join("state.filter"))
+        .unwrap()
+        .contains("0C ErrorFlag"));
     // Without --log the log goes to stdout; --until cuts the run short.
     let o = cansim(&["run", &example("replay.toml"), "--until", "0.5ms"]);
     let out = text(&o.stdout);

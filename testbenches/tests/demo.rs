@@ -5,10 +5,13 @@
 //! taken to bus-off and restarted by its driver; sigrok's CAN decoder reads the same frames from
 //! the VCD as the bus log lists.
 
+use std::path::Path;
+
 use rtl::registers::interrupt;
-use sim::demo::demo_scenario;
+use sim::demo::{demo_scenario, DEMO_VCD};
 use sim::driver::{CanState, DriverEvent};
 use sim::frame::Frame;
+use sim::scenario::view::view_text;
 use sim::scenario::{run, RunOptions, RunReport};
 use sim::time::{FS_PER_MS, FS_PER_US};
 use testbenches::ecc::{
@@ -197,6 +200,21 @@ fn demo_arbitrates_filters_recovers_goes_passive_and_bus_off_and_sigrok_agrees()
     check_injected_error(&report);
     check_error_passive_and_back(&report);
     check_bus_off_and_restart(&report);
+
+    // The committed GTKWave view is the one the demo writes beside waves/demo.vcd; the frame
+    // number traced beside the bus reads as the bus log's lines in it.
+    let committed =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../waves/demo.gtkw"))
+            .unwrap();
+    assert_eq!(
+        view_text(&scenario, &report, Path::new(DEMO_VCD)),
+        committed,
+        "waves/demo.gtkw is stale: run `cansim demo` and commit it"
+    );
+    let frames_filter = std::fs::read_to_string(dir.join("demo.frames.filter")).unwrap();
+    assert!(frames_filter.contains("\n0005 5: ERROR FRAME in ACK delimiter of 200#DEADBEEF"));
+    assert!(frames_filter.contains("\n0006 6: 200#DEADBEEF\n"));
+    assert_eq!(report.view, Some(dir.join("demo.gtkw")));
 
     // The bus log lists every frame a driver reported sent, in bus order, once.
     let sent: Vec<Frame> = sent_frames(&report).iter().map(|(_, f)| *f).collect();

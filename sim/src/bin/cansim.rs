@@ -193,11 +193,11 @@ fn output_path(path: PathBuf) -> Result<PathBuf, String> {
 
 /// How to decode and view a VCD written with a bus of `bitrate` bit/s sampled at
 /// `sample_point_pct` percent.
-fn print_waves_hint(vcd: Option<&PathBuf>, view: &str, bitrate: f64, sample_point_pct: f64) {
-    let Some(vcd) = vcd else { return };
+fn print_waves_hint(vcd: &Path, view: &Path, bitrate: f64, sample_point_pct: f64) {
     println!(
-        "decode: sigrok-cli -I vcd -i {0} -P can:can_rx=bus:nominal_bitrate={bitrate:.0}:sample_point={sample_point_pct} -A can=fields\nview:   gtkwave {0} {view}",
-        vcd.display()
+        "decode: sigrok-cli -I vcd -i {0} -P can:can_rx=bus:nominal_bitrate={bitrate:.0}:sample_point={sample_point_pct} -A can=fields\nview:   gtkwave {0} {1}",
+        vcd.display(),
+        view.display()
     );
 }
 
@@ -254,15 +254,15 @@ fn speed_line(report: &RunReport, seconds: f64) -> String {
     )
 }
 
-fn print_outputs(report: &RunReport, scenario: &Scenario, view: &str) {
+fn print_outputs(report: &RunReport, scenario: &Scenario) {
     if let Some(log) = &report.log_file {
         println!("wrote {}", log.display());
     }
-    if let Some(vcd) = &report.vcd {
-        println!("wrote {}", vcd.display());
+    if let (Some(vcd), Some(view)) = (&report.vcd, &report.view) {
+        println!("wrote {} and {}", vcd.display(), view.display());
         let bus = &scenario.bus;
         print_waves_hint(
-            report.vcd.as_ref(),
+            vcd,
             view,
             bus.btr.bitrate(f64::from(bus.clock_hz)),
             bus.btr.sample_point() * 100.0,
@@ -284,7 +284,7 @@ fn demo(vcd: PathBuf, log: PathBuf, no_vcd: bool, quiet: bool) -> Result<(), Str
     };
     print!("{}", format_report(&scenario, &report, parts));
     println!("{}", speed_line(&report, seconds));
-    print_outputs(&report, &scenario, "waves/demo.gtkw");
+    print_outputs(&report, &scenario);
     Ok(())
 }
 
@@ -314,7 +314,7 @@ fn run_scenario(
     };
     print!("{}", format_report(&scenario, &report, parts));
     println!("{}", speed_line(&report, seconds));
-    print_outputs(&report, &scenario, "waves/scenario.gtkw");
+    print_outputs(&report, &scenario);
     Ok(())
 }
 
@@ -336,12 +336,8 @@ fn sync_demo(vcd: PathBuf, no_vcd: bool, quiet: bool) -> Result<(), String> {
         if !quiet {
             let btr = Btr::from_registers(sync_demo::DEMO_BTR.0, sync_demo::DEMO_BTR.1);
             let bitrate = btr.bitrate(sync_demo::DEMO_CLOCK_HZ);
-            print_waves_hint(
-                Some(vcd),
-                "waves/sync_demo.gtkw",
-                bitrate,
-                btr.sample_point() * 100.0,
-            );
+            let view = Path::new("waves/sync_demo.gtkw");
+            print_waves_hint(vcd, view, bitrate, btr.sample_point() * 100.0);
         }
     }
     if report.all_bits_right() {

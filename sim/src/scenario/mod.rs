@@ -13,15 +13,18 @@
 //! * [`candump`] the candump frame notation and log files,
 //! * [`traffic`] when which node hands which frame to its driver,
 //! * [`faults`] where a fault lands and what it does to the bus,
-//! * [`run`] runs a scenario, [`summary`] prints its results, [`progress`] shows a run going.
+//! * [`run`] runs a scenario, [`summary`] prints its results, [`progress`] shows a run going,
+//!   [`view`] writes a GTKWave view beside its VCD.
 
 pub mod candump;
 pub mod faults;
+mod output;
 pub mod parse;
 pub mod progress;
 pub mod run;
 pub mod summary;
 pub mod traffic;
+pub mod view;
 
 use std::fmt;
 use std::path::{Path, PathBuf};

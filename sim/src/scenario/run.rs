@@ -12,9 +12,8 @@
 //! waits for that frame.
 
 use std::collections::VecDeque;
-use std::fs::File;
-use std::io::{self, Write};
-use std::path::{Path, PathBuf};
+use std::io;
+use std::path::PathBuf;
 
 use rtl::registers::pelican;
 
@@ -27,8 +26,10 @@ use crate::host::Host;
 use crate::time::ClockSpec;
 
 use super::faults::{install, locate, Fault, FaultKind, Place, Target};
+use super::output::PendingFile;
 use super::summary::{AppliedFault, Happening, NodeEvent, NodeReport};
 use super::traffic::Schedule;
+use super::view::{write_view, FRAME_PROBE};
 use super::{NodeMode, Scenario, ScenarioError};
 
 /// Recessive time, in half bits, after which a dominant edge on the bus is a start of frame: an
@@ -68,14 +69,16 @@ pub struct RunReport {
     pub faults: Vec<AppliedFault>,
     /// Faults that never landed, with the reason (e.g. the bus saw fewer frames).
     pub missed_faults: Vec<String>,
-    /// Starts of frame seen on the bus.
-    pub frames_started: u64,
+    /// When each frame started on the bus (frame 1 first).
+    pub frame_starts: Vec<u64>,
     /// Simulated time.
     pub simulated_fs: u64,
     /// The VCD written, if any.
     pub vcd: Option<PathBuf>,
     /// The log file written, if any.
     pub log_file: Option<PathBuf>,
+    /// The GTKWave view written beside the VCD, if any.
+    pub view: Option<PathBuf>,
 }
 
 impl RunReport {
@@ -97,6 +100,11 @@ pub fn run(scenario: &Scenario, options: RunOptions) -> Result<RunReport, Scenar
     let end = until_fs.unwrap_or(scenario.duration_fs);
     let mut runner = Runner::new(scenario);
     if let Some(path) = &vcd {
+        let mut frames = runner.sof;
+        runner.engine.annotate_bus(
+            FRAME_PROBE,
+            Box::new(move |t, level| frames.level(t, level)),
+        );
         runner.engine.trace_vcd(path).map_err(io_error)?;
     }
     runner.install_timed_faults();
@@ -108,6 +116,9 @@ pub fn run(scenario: &Scenario, options: RunOptions) -> Result<RunReport, Scenar
         }
     }
     let mut report = runner.finish()?;
+    if let Some(path) = &report.vcd {
+        report.view = Some(write_view(scenario, &report, path)?);
+    }
     if let Some(file) = log_file {
         report.log_file = Some(file.commit(report.log_text().as_bytes())?);
     }
@@ -116,50 +127,6 @@ pub fn run(scenario: &Scenario, options: RunOptions) -> Result<RunReport, Scenar
 
 fn io_error(e: io::Error) -> ScenarioError {
     ScenarioError::new(e.to_string())
-}
-
-/// An output file written under a temporary name and moved into place only when complete; one
-/// dropped before that removes the temporary file.
-struct PendingFile {
-    target: PathBuf,
-    temporary: PathBuf,
-    file: Option<File>,
-}
-
-impl PendingFile {
-    fn create(target: &Path) -> Result<PendingFile, ScenarioError> {
-        let mut name = target.as_os_str().to_owned();
-        name.push(".partial");
-        let temporary = PathBuf::from(name);
-        let file = File::create(&temporary).map_err(|e| {
-            ScenarioError::new(format!("cannot create {}: {e}", temporary.display()))
-        })?;
-        Ok(PendingFile {
-            target: target.to_path_buf(),
-            temporary,
-            file: Some(file),
-        })
-    }
-
-    fn commit(mut self, contents: &[u8]) -> Result<PathBuf, ScenarioError> {
-        let fail = |e: io::Error| {
-            ScenarioError::new(format!("cannot write {}: {e}", self.target.display()))
-        };
-        let mut file = self.file.take().expect("a pending file is committed once");
-        file.write_all(contents).map_err(fail)?;
-        file.sync_data().map_err(fail)?;
-        std::fs::rename(&self.temporary, &self.target).map_err(fail)?;
-        Ok(self.target.clone())
-    }
-}
-
-impl Drop for PendingFile {
-    fn drop(&mut self) {
-        if self.file.is_some() {
-            // A half-written output is useless; nobody can report a failure to remove it.
-            let _ = std::fs::remove_file(&self.temporary);
-        }
-    }
 }
 
 /// Counts starts of frame in the bus level changes.
@@ -216,6 +183,7 @@ struct Runner<'s> {
     /// Faults located by frame, in frame order.
     frame_faults: VecDeque<&'s Fault>,
     sof: SofWatch,
+    frame_starts: Vec<u64>,
     decoder: BusDecoder,
     log: Vec<BusEvent>,
     applied: Vec<AppliedFault>,
@@ -266,6 +234,7 @@ impl<'s> Runner<'s> {
             schedule: Schedule::new(&scenario.traffic, scenario.seed),
             frame_faults: frame_faults.into(),
             sof: SofWatch::new(bit_fs),
+            frame_starts: Vec::new(),
             decoder: BusDecoder::new(bit_fs, scenario.bus.btr.sample_point()),
             log: Vec::new(),
             applied: Vec::new(),
@@ -480,6 +449,7 @@ impl<'s> Runner<'s> {
             self.decoder.level(t, level);
             if let Some(frame) = self.sof.level(t, level) {
                 starts.push((frame, t));
+                self.frame_starts.push(t);
             }
         }
         self.log.extend(self.decoder.drain());
@@ -591,10 +561,11 @@ impl<'s> Runner<'s> {
             log: self.log,
             faults: self.applied,
             missed_faults,
-            frames_started: self.sof.count,
+            frame_starts: self.frame_starts,
             simulated_fs,
             vcd,
             log_file: None,
+            view: None,
         })
     }
 }
@@ -648,22 +619,5 @@ mod tests {
         assert_eq!(watch.level(19_000, DOMINANT), None);
         assert_eq!(watch.level(25_000, RECESSIVE), None);
         assert_eq!(watch.level(35_000, DOMINANT), Some(2));
-    }
-
-    #[test]
-    fn a_pending_file_appears_only_when_committed() {
-        let dir = std::env::temp_dir().join(format!("cansim-pending-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let target = dir.join("out.log");
-        let partial = dir.join("out.log.partial");
-        drop(PendingFile::create(&target).unwrap());
-        assert!(!partial.exists() && !target.exists());
-        let written = PendingFile::create(&target)
-            .unwrap()
-            .commit(b"x\n")
-            .unwrap();
-        assert_eq!(std::fs::read_to_string(&written).unwrap(), "x\n");
-        assert!(!partial.exists());
-        std::fs::remove_dir_all(&dir).ok();
     }
 }
