@@ -16,11 +16,12 @@
 
 use std::fmt;
 
+use crate::btr::Btr;
 use crate::crc15::Crc15;
 use crate::frame::{
     data_len_for_dlc, Field, Frame, Id, Run, DOMINANT, EOF_BITS, MAX_DATA_LEN, RECESSIVE,
 };
-use crate::time::{FS_PER_S, FS_PER_US};
+use crate::time::{ClockSpec, FS_PER_S, FS_PER_US};
 
 /// Interface name printed in the candump-style lines.
 pub const INTERFACE: &str = "can0";
@@ -94,8 +95,8 @@ pub enum ErrorCause {
     /// A dominant bit where the format requires recessive (CRC delimiter, ACK delimiter, EOF, error or
     /// overload delimiter); the place is that bit.
     Form,
-    /// An error flag on the first EOF bit of a frame whose ACK slot stayed recessive: the transmitter's
-    /// ACK error.
+    /// A dominant ACK delimiter after a recessive ACK slot: the error flag of a transmitter that saw
+    /// no acknowledgement; the place is the ACK delimiter.
     Ack,
 }
 
@@ -138,6 +139,8 @@ pub enum BusEventKind {
         /// The interrupted frame, when every bit through the CRC was received and the CRC was right
         /// (the error came in the CRC delimiter, ACK field or EOF).
         frame: Option<Frame>,
+        /// Start of the interrupted frame's SOF bit (none for an error in a delimiter).
+        sof_fs: Option<u64>,
     },
     /// An overload flag and its delimiter.
     OverloadFrame {
@@ -186,6 +189,7 @@ impl fmt::Display for BusEvent {
                 at,
                 id,
                 frame,
+                ..
             } => {
                 let preposition = if cause.place_precedes_error() {
                     "after"
@@ -209,6 +213,62 @@ impl fmt::Display for BusEvent {
                 }
             }
         }
+    }
+}
+
+/// How many events of each kind a decode found.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct EventCounts {
+    /// Valid frames.
+    pub frames: usize,
+    /// Error frames.
+    pub error_frames: usize,
+    /// Overload frames.
+    pub overload_frames: usize,
+    /// Frames cut off by the end of the input.
+    pub incomplete: usize,
+}
+
+impl EventCounts {
+    /// Counts `events` by kind.
+    pub fn of(events: &[BusEvent]) -> EventCounts {
+        let mut counts = EventCounts::default();
+        for event in events {
+            let count = match event.kind {
+                BusEventKind::Frame { .. } => &mut counts.frames,
+                BusEventKind::ErrorFrame { .. } => &mut counts.error_frames,
+                BusEventKind::OverloadFrame { .. } => &mut counts.overload_frames,
+                BusEventKind::Incomplete { .. } => &mut counts.incomplete,
+            };
+            *count += 1;
+        }
+        counts
+    }
+}
+
+impl fmt::Display for EventCounts {
+    /// `12 frames, 3 error frames, 1 overload frame`, and `, 1 incomplete frame` when there is one.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let plural = |n: usize| if n == 1 { "" } else { "s" };
+        write!(
+            f,
+            "{} frame{}, {} error frame{}, {} overload frame{}",
+            self.frames,
+            plural(self.frames),
+            self.error_frames,
+            plural(self.error_frames),
+            self.overload_frames,
+            plural(self.overload_frames)
+        )?;
+        if self.incomplete > 0 {
+            write!(
+                f,
+                ", {} incomplete frame{}",
+                self.incomplete,
+                plural(self.incomplete)
+            )?;
+        }
+        Ok(())
     }
 }
 
@@ -330,6 +390,9 @@ impl Receiver {
         }
         let at = self.place();
         match self.field {
+            Field::AckDelim if bit == DOMINANT && !self.acked => {
+                return self.error(ErrorCause::Ack, at);
+            }
             Field::CrcDelim | Field::AckDelim if bit == DOMINANT => {
                 return self.error(ErrorCause::Form, at);
             }
@@ -362,12 +425,7 @@ impl Receiver {
     fn end_of_frame_bit(&mut self, bit: bool) -> RxOutcome {
         let last = self.index == EOF_BITS - 1;
         if bit == DOMINANT && !last {
-            let cause = if self.index == 0 && !self.acked {
-                ErrorCause::Ack
-            } else {
-                ErrorCause::Form
-            };
-            return self.error(cause, self.place());
+            return self.error(ErrorCause::Form, self.place());
         }
         self.index += 1;
         if !last {
@@ -453,6 +511,73 @@ enum State {
     Intermission { recessive: u8 },
 }
 
+/// The nominal bit timing a decoder samples with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BusTiming {
+    /// Nominal bit time in femtoseconds.
+    pub bit_time_fs: u64,
+    /// Sample point as a fraction of the bit, strictly between 0 and 1.
+    pub sample_point: f64,
+}
+
+impl BusTiming {
+    /// A checked timing: a positive bit time and a sample point strictly inside the bit.
+    pub fn new(bit_time_fs: u64, sample_point: f64) -> Result<BusTiming, String> {
+        if bit_time_fs == 0 {
+            return Err("the bit time must be positive".into());
+        }
+        if !(sample_point > 0.0 && sample_point < 1.0) {
+            return Err(format!(
+                "sample point {sample_point} is not strictly between 0 and 1"
+            ));
+        }
+        Ok(BusTiming {
+            bit_time_fs,
+            sample_point,
+        })
+    }
+
+    /// The timing of `bitrate` bit/s (the bit time rounded to the femtosecond).
+    pub fn from_bitrate(bitrate: f64, sample_point: f64) -> Result<BusTiming, String> {
+        if !(bitrate.is_finite() && bitrate >= 1.0) {
+            return Err(format!(
+                "bit rate {bitrate} is not a rate of at least 1 bit/s"
+            ));
+        }
+        BusTiming::new((FS_PER_S as f64 / bitrate).round() as u64, sample_point)
+    }
+
+    /// The timing of a controller with bit timing `btr` on `clock`.
+    pub fn from_btr(btr: &Btr, clock: ClockSpec) -> BusTiming {
+        BusTiming {
+            bit_time_fs: u64::from(btr.clocks_per_bit()) * clock.period_fs(),
+            sample_point: btr.sample_point(),
+        }
+    }
+
+    /// The bit rate in bit/s.
+    pub fn bitrate(&self) -> f64 {
+        FS_PER_S as f64 / self.bit_time_fs as f64
+    }
+}
+
+impl fmt::Display for BusTiming {
+    /// `500000 bit/s, sample point 87.5 %`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} bit/s, sample point {} %",
+            round_to_thousandths(self.bitrate()),
+            round_to_thousandths(self.sample_point * 100.0)
+        )
+    }
+}
+
+/// `x` rounded to three decimals, printed without trailing zeros (166666.667, 500000, 87.5).
+fn round_to_thousandths(x: f64) -> f64 {
+    (x * 1000.0).round() / 1000.0
+}
+
 /// The streaming decoder; see the module documentation.
 pub struct BusDecoder {
     bit_fs: u64,
@@ -493,6 +618,11 @@ impl BusDecoder {
             pending: None,
             events: Vec::new(),
         }
+    }
+
+    /// A decoder sampling with `timing`.
+    pub fn with_timing(timing: BusTiming) -> BusDecoder {
+        BusDecoder::new(timing.bit_time_fs, timing.sample_point)
     }
 
     /// The bus level is `recessive` from `t_fs` on (calls in time order; repeats of the same level allowed).
@@ -608,7 +738,7 @@ impl BusDecoder {
                     }
                 }
                 RxOutcome::Error { cause, at, frame } => {
-                    let id = rx.id;
+                    let (id, sof_fs) = (rx.id, Some(rx.start_fs));
                     // A CRC error shows after the ACK delimiter: the flag starts with the next bit.
                     let flag_start = if cause == ErrorCause::Crc { end } else { start };
                     let kind = BusEventKind::ErrorFrame {
@@ -616,6 +746,7 @@ impl BusDecoder {
                         at,
                         id,
                         frame,
+                        sof_fs,
                     };
                     self.begin(flag_start, kind, Flag::Error);
                 }
@@ -651,6 +782,7 @@ impl BusDecoder {
                         at,
                         id: None,
                         frame: None,
+                        sof_fs: None,
                     };
                     self.begin(start, kind, Flag::Error);
                 }
@@ -882,6 +1014,7 @@ mod tests {
                     at: BitPlace::frame(Field::Data, 5),
                     id: Some(Id::Standard(0x555)),
                     frame: None,
+                    sof_fs: Some(sof),
                 },
             }
         );
@@ -944,6 +1077,7 @@ mod tests {
                     at: BitPlace::frame(Field::AckDelim, 0),
                     id: Some(Id::Standard(0x555)),
                     frame: None,
+                    sof_fs: Some(sof),
                 },
             }]
         );
@@ -954,8 +1088,9 @@ mod tests {
         let frame = Frame::data(Id::Extended(0x0123_4567), &[1, 2, 3]).unwrap();
         let encoded = wire(&frame, false);
         let mut wire = Wire::new();
+        let sof = wire.t;
         wire.play(
-            encoded.bits[..encoded.position(Field::Eof, 0).unwrap()]
+            encoded.bits[..encoded.position(Field::AckDelim, 0).unwrap()]
                 .iter()
                 .by_vals(),
         );
@@ -964,9 +1099,10 @@ mod tests {
             wire.kinds(),
             [BusEventKind::ErrorFrame {
                 cause: ErrorCause::Ack,
-                at: BitPlace::frame(Field::Eof, 0),
+                at: BitPlace::frame(Field::AckDelim, 0),
                 id: Some(frame.id()),
                 frame: Some(frame),
+                sof_fs: Some(sof),
             }]
         );
     }
@@ -982,6 +1118,7 @@ mod tests {
             (Field::Eof, 5),
         ] {
             let mut wire = Wire::new();
+            let sof = wire.t;
             let position = encoded.position(field, index).unwrap();
             wire.play(encoded.bits[..position].iter().by_vals());
             wire.flag(6);
@@ -990,6 +1127,7 @@ mod tests {
                 at: BitPlace::frame(field, index),
                 id: Some(frame.id()),
                 frame: Some(frame),
+                sof_fs: Some(sof),
             };
             assert_eq!(wire.kinds(), [expected], "{field} bit {index}");
         }
@@ -1046,7 +1184,8 @@ mod tests {
                     cause: ErrorCause::Form,
                     at: BitPlace::OverloadDelimiter(3),
                     id: None,
-                    frame: None
+                    frame: None,
+                    sof_fs: None,
                 },
                 BusEventKind::OverloadFrame {
                     at: BitPlace::ErrorDelimiter(7)
@@ -1113,6 +1252,7 @@ mod tests {
             at,
             id,
             frame,
+            sof_fs: None,
         };
         let cases = [
             (received(frame, true), "(3600.000020) can0 123#DEAD"),
@@ -1132,11 +1272,11 @@ mod tests {
             (
                 error(
                     ErrorCause::Ack,
-                    BitPlace::frame(Field::Eof, 0),
+                    BitPlace::frame(Field::AckDelim, 0),
                     Some(frame.id()),
                     Some(frame),
                 ),
-                "(3600.000020) can0 ERROR FRAME in EOF bit 0 of 123#DEAD (ACK error)",
+                "(3600.000020) can0 ERROR FRAME in ACK delimiter of 123#DEAD (ACK error)",
             ),
             (
                 error(ErrorCause::Form, BitPlace::ErrorDelimiter(2), None, None),
@@ -1168,6 +1308,45 @@ mod tests {
         for (kind, text) in cases {
             assert_eq!(line(kind), text);
         }
+    }
+
+    #[test]
+    fn counts_by_kind() {
+        let frame = std_frame(0x7E0, &[]);
+        let mut wire = Wire::new();
+        wire.frame(&frame, true);
+        wire.flag(6);
+        wire.frame(&frame, false);
+        wire.repeat(RECESSIVE, 3);
+        wire.play(wire_bits(&frame, true, 10));
+        let counts = EventCounts::of(&wire.events());
+        assert_eq!(
+            counts,
+            EventCounts {
+                frames: 2,
+                error_frames: 0,
+                overload_frames: 1,
+                incomplete: 1
+            }
+        );
+        assert_eq!(
+            counts.to_string(),
+            "2 frames, 0 error frames, 1 overload frame, 1 incomplete frame"
+        );
+        let one_error = EventCounts {
+            frames: 1,
+            error_frames: 1,
+            ..EventCounts::default()
+        };
+        assert_eq!(
+            one_error.to_string(),
+            "1 frame, 1 error frame, 0 overload frames"
+        );
+    }
+
+    /// The first `n` wire bits of `frame`.
+    fn wire_bits(frame: &Frame, acked: bool, n: usize) -> Vec<bool> {
+        wire(frame, acked).bits[..n].iter().by_vals().collect()
     }
 
     #[test]

@@ -25,6 +25,7 @@ use rtl::bsp::protocol::ProtocolState;
 
 use crate::btr::Btr;
 use crate::bus::Drive;
+use crate::bus_decoder::BusTiming;
 use crate::can_node::{CanNode, NodeEvent};
 use crate::engine::{Device, DeviceId, Engine};
 use crate::frame::{decode, encode, Field, Frame, Id, DOMINANT};
@@ -176,7 +177,7 @@ pub fn run_rtl_traced(case: &Case, vcd: Option<&Path>) -> io::Result<Run> {
         .collect();
     let monitor = engine.add(BusMonitor::new(clock, &btr), 0);
     if let Some(path) = vcd {
-        engine.trace_vcd(path)?;
+        engine.trace_vcd_timed(path, BusTiming::from_btr(&btr, clock))?;
     }
     load_counters(&mut engine, &ids, case, period)?;
     engine.run_until(engine.now() + INTEGRATION_BITS * bit_fs)?;

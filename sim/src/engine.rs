@@ -9,9 +9,10 @@
 
 use std::any::Any;
 use std::io;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::bus::{Bus, BusFault, Drive};
+use crate::bus_decoder::BusTiming;
 use crate::frame::RECESSIVE;
 use crate::time::ClockSpec;
 use crate::trace::{Probe, VcdTracer};
@@ -129,12 +130,17 @@ impl BusObservers {
 }
 
 /// The event loop stepping every device on its own clock.
+///
+/// An engine that is still tracing when it is dropped finishes its VCD then (errors are printed), so
+/// a test that panics still leaves the waves of its run.
 pub struct Engine {
     slots: Vec<Slot>,
     bus: Bus,
     now: u64,
     edges: u64,
     observers: BusObservers,
+    /// A trace to start at the first step, once every device is added.
+    deferred_trace: Option<(PathBuf, BusTiming)>,
 }
 
 impl Default for Engine {
@@ -152,6 +158,7 @@ impl Engine {
             now: 0,
             edges: 0,
             observers: BusObservers::default(),
+            deferred_trace: None,
         }
     }
 
@@ -230,13 +237,28 @@ impl Engine {
 
     /// Starts writing a VCD of the bus and every device to `path`; call after adding the devices.
     pub fn trace_vcd(&mut self, path: &Path) -> io::Result<()> {
+        self.start_trace(path, None)
+    }
+
+    /// As [`Engine::trace_vcd`], recording the bus's bit timing in the VCD header for decoders.
+    pub fn trace_vcd_timed(&mut self, path: &Path, timing: BusTiming) -> io::Result<()> {
+        self.start_trace(path, Some(&timing))
+    }
+
+    /// Traces as [`Engine::trace_vcd_timed`] from the first step on, so devices can still be added
+    /// until then (an error creating the file is returned by that step).
+    pub fn trace_vcd_from_first_step(&mut self, path: &Path, timing: BusTiming) {
+        self.deferred_trace = Some((path.to_path_buf(), timing));
+    }
+
+    fn start_trace(&mut self, path: &Path, timing: Option<&BusTiming>) -> io::Result<()> {
         let devices: Vec<(String, Vec<Probe>)> = self
             .slots
             .iter()
             .map(|s| (s.device.name().to_string(), s.device.probes()))
             .collect();
         let bus_probes: Vec<Probe> = self.observers.annotation.iter().map(|(p, _)| *p).collect();
-        self.observers.tracer = Some(VcdTracer::create(path, &bus_probes, &devices)?);
+        self.observers.tracer = Some(VcdTracer::create(path, &bus_probes, &devices, timing)?);
         Ok(())
     }
 
@@ -247,6 +269,11 @@ impl Engine {
             Some(tracer) => tracer.finish(self.now).map(Some),
             None => Ok(None),
         }
+    }
+
+    /// Ends tracing without writing the VCD (a failed run): its temporary file is removed.
+    pub fn discard_trace(&mut self) {
+        self.observers.tracer = None;
     }
 
     /// Starts recording the changes of the bus level for [`Engine::take_bus_changes`]; call before
@@ -320,6 +347,9 @@ impl Engine {
 
     /// Processes the earliest pending clock edge.
     pub fn step(&mut self) -> io::Result<()> {
+        if let Some((path, timing)) = self.deferred_trace.take() {
+            self.start_trace(&path, Some(&timing))?;
+        }
         let Some(i) = self.earliest() else {
             return Ok(());
         };
@@ -422,6 +452,16 @@ impl Engine {
             }
         }
         Ok(())
+    }
+}
+
+impl Drop for Engine {
+    fn drop(&mut self) {
+        if self.observers.tracer.is_some() {
+            if let Err(e) = self.finish_trace() {
+                eprintln!("cannot finish the VCD trace: {e}");
+            }
+        }
     }
 }
 

@@ -25,4 +25,5 @@ pub mod scenario;
 pub mod sync_demo;
 pub mod time;
 pub mod trace;
+pub mod vcd_reader;
 pub mod worst_case;

@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use crate::btl_node::{BitTimingNode, BtlEventKind};
 use crate::btr::Btr;
 use crate::bus::Drive;
+use crate::bus_decoder::BusTiming;
 use crate::engine::{DeviceId, Engine};
 use crate::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT};
 use crate::lower_tester::LowerTester;
@@ -245,7 +246,7 @@ pub fn run_demo(vcd: Option<&Path>) -> io::Result<DemoReport> {
         })
         .collect();
     if let Some(path) = vcd {
-        engine.trace_vcd(path)?;
+        engine.trace_vcd_timed(path, BusTiming::from_btr(&btr, nominal))?;
     }
     engine.run_while(u64::MAX, |e| e.device::<LowerTester>(lt).finished())?;
     let written = engine.finish_trace()?;

@@ -4,10 +4,12 @@
 //! frame on the bus), then one scope per device with `tx`, `rx` and the
 //! device's own probes. Every variable is a 1-bit wire, so protocol decoders such as sigrok's CAN decoder
 //! (which abort on vector variables) read the file; a probe wider than one bit is written as bit-select
-//! wires `name [i]`, which the GTKWave views in `waves/` regroup into vectors. Timescale 1 ns. Output is
-//! buffered and goes to a temporary file that replaces the target only when [`VcdTracer::finish`]
-//! succeeds, so an aborted run never leaves a half-written VCD behind (a tracer dropped without
-//! finishing removes its temporary file).
+//! wires `name [i]`, which the GTKWave views in `waves/` regroup into vectors. Timescale 1 ns. A
+//! header comment records the bus's bit timing when the caller knows it, so that `cansim decode` and
+//! the agreement checks decode the file without being told. Output is buffered and goes to a
+//! temporary file that replaces the target only when [`VcdTracer::finish`] succeeds, so an aborted run
+//! never leaves a half-written VCD behind (a tracer dropped without finishing removes its temporary
+//! file).
 
 use std::fs::File;
 use std::io::{self, BufWriter};
@@ -15,7 +17,9 @@ use std::path::{Path, PathBuf};
 
 use vcd::{IdCode, ReferenceIndex, TimescaleUnit, Value, VarType};
 
+use crate::bus_decoder::BusTiming;
 use crate::time::FS_PER_NS;
+use crate::vcd_reader::timing_comment;
 
 /// A device signal to trace.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -70,11 +74,13 @@ fn level(v: bool) -> Value {
 
 impl VcdTracer {
     /// Creates the tracer for `bus_probes` (signals beside `bus` in the top scope) and `devices`
-    /// (scope name and probes of each), writing to `path`.
+    /// (scope name and probes of each), writing to `path`; `timing`, the bus's bit timing if known,
+    /// is recorded in a header comment ([`timing_comment`]) for decoders.
     pub fn create(
         path: &Path,
         bus_probes: &[Probe],
         devices: &[(String, Vec<Probe>)],
+        timing: Option<&BusTiming>,
     ) -> io::Result<VcdTracer> {
         let temporary = path.with_extension("vcd.partial");
         let file = File::create(&temporary).map_err(|e| {
@@ -85,6 +91,9 @@ impl VcdTracer {
         })?;
         let mut writer = vcd::Writer::new(BufWriter::with_capacity(1 << 16, file));
         writer.comment(concat!("written by cansim ", env!("CARGO_PKG_VERSION")))?;
+        if let Some(timing) = timing {
+            writer.comment(&timing_comment(timing))?;
+        }
         writer.timescale(1, TimescaleUnit::NS)?;
         writer.add_module("top")?;
         let bus = writer.add_wire(1, "bus")?;

@@ -2,6 +2,10 @@
 
 use std::process::{Command, Output};
 
+use sim::bus_decoder::BusTiming;
+use sim::frame::{encode, Field, Frame, Id};
+use sim::trace::VcdTracer;
+
 fn cansim(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_cansim"))
         .args(args)
@@ -151,4 +155,128 @@ fn demo_into_an_unwritable_place_fails_cleanly() {
     let o = cansim(&["demo", "--vcd", "/proc/cansim/demo.vcd"]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("/proc/cansim"), "{}", stderr(&o));
+}
+
+/// A VCD written by the project's tracer: `frames` (acknowledged) at 250 kbit/s, sample point 75 %
+/// recorded in the header, each followed by 11 idle bits; an error flag cuts the second frame after
+/// its DLC.
+fn traced_bus(path: &std::path::Path, frames: &[Frame]) {
+    let timing = BusTiming::from_bitrate(250_000.0, 0.75).unwrap();
+    let mut tracer = VcdTracer::create(path, &[], &[], Some(&timing)).unwrap();
+    let mut t = 10 * timing.bit_time_fs;
+    let mut play = |tracer: &mut VcdTracer, bits: &[bool]| {
+        for &bit in bits {
+            tracer.bus(t, bit).unwrap();
+            t += timing.bit_time_fs;
+        }
+    };
+    for (i, frame) in frames.iter().enumerate() {
+        let encoded = encode(frame);
+        let mut bits: Vec<bool> = encoded.bits.iter().by_vals().collect();
+        bits[encoded.position(Field::AckSlot, 0).unwrap()] = false;
+        if i == 1 {
+            bits.truncate(encoded.position(Field::Dlc, 3).unwrap() + 1);
+            bits.extend([false; 6]);
+        }
+        play(&mut tracer, &bits);
+        play(&mut tracer, &[true; 11]);
+    }
+    tracer.finish(t).unwrap();
+}
+
+#[test]
+fn decode_prints_frames_errors_and_the_count_with_the_recorded_timing() {
+    let dir = std::env::temp_dir().join(format!("cansim-cli-decode-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let vcd = dir.join("bus.vcd");
+    let frames = [
+        Frame::data(Id::Standard(0x123), &[0xDE, 0xAD, 0xBE, 0xEF]).unwrap(),
+        Frame::data(Id::Standard(0x555), &[0xAA]).unwrap(),
+        Frame::remote(Id::Extended(0x1ABC_DEF0), 0).unwrap(),
+    ];
+    traced_bus(&vcd, &frames);
+    let o = cansim(&["decode", vcd.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // 250 kbit/s: 4 µs a bit; the first SOF after 10 idle bits, each frame then 11 idle bits. The
+    // flag after the recessive last DLC bit of 0x555 makes data bits 0..=4 dominant, and its sixth bit
+    // breaks the stuff rule.
+    let second = 10 + encode(&frames[0]).len() + 11;
+    let dlc3 = encode(&frames[1]).position(Field::Dlc, 3).unwrap();
+    let third = second + dlc3 + 1 + 6 + 11;
+    let expected = format!(
+        "{} top.bus at 250000 bit/s, sample point 75 % (recorded in the file)\n\
+         (0.000040) can0 123#DEADBEEF\n\
+         (0.{:06}) can0 ERROR FRAME after data bit 4 of 555 (stuff error)\n\
+         (0.{:06}) can0 1ABCDEF0#R\n\
+         2 frames, 1 error frame, 0 overload frames\n",
+        vcd.display(),
+        (second + dlc3 + 6) * 4,
+        third * 4
+    );
+    assert_eq!(stdout(&o), expected);
+    let o = cansim(&["decode", vcd.to_str().unwrap(), "--bitrate", "125000"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("at 125000 bit/s, sample point 75 %\n"),
+        "{}",
+        stdout(&o)
+    );
+    assert!(!stdout(&o).contains("123#DEADBEEF"), "{}", stdout(&o));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn decode_bad_input_fails_with_the_file_and_line() {
+    let dir = std::env::temp_dir().join(format!("cansim-cli-decode-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let vcd = dir.join("bus.vcd");
+    traced_bus(&vcd, &[Frame::data(Id::Standard(1), &[]).unwrap()]);
+    let malformed = dir.join("malformed.vcd");
+    let text = std::fs::read_to_string(&vcd).unwrap();
+    std::fs::write(&malformed, text.replacen("#", "%", 1)).unwrap();
+    let line = text.lines().position(|l| l.starts_with('#')).unwrap() + 1;
+    let path = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let missing = dir.join("missing.vcd");
+    for (args, message) in [
+        (
+            vec!["decode".into(), path(&missing)],
+            format!("{}: cannot open", missing.display()),
+        ),
+        (
+            vec!["decode".into(), path(&malformed)],
+            format!("{}:{line}: malformed VCD", malformed.display()),
+        ),
+        (
+            vec![
+                "decode".into(),
+                path(&vcd),
+                "--signal".into(),
+                "can_rx".into(),
+            ],
+            format!(
+                "{}: no signal `can_rx`; the signals are: top.bus",
+                vcd.display()
+            ),
+        ),
+        (
+            vec![
+                "decode".into(),
+                path(&vcd),
+                "--sample-point".into(),
+                "100".into(),
+            ],
+            "--sample-point 100 is out of range".into(),
+        ),
+        (
+            vec!["decode".into(), path(&vcd), "--bitrate".into(), "0".into()],
+            "bit rate 0 is not a rate of at least 1 bit/s".into(),
+        ),
+    ] {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = cansim(&args);
+        assert!(!o.status.success(), "{args:?} should fail");
+        assert!(stderr(&o).contains(&message), "{args:?}: {}", stderr(&o));
+        assert!(stdout(&o).is_empty(), "{args:?} printed a result");
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -14,6 +14,7 @@ use sim::frame::Frame;
 use sim::scenario::view::view_text;
 use sim::scenario::{run, RunOptions, RunReport};
 use sim::time::{FS_PER_MS, FS_PER_US};
+use sim::vcd_reader::{decode_vcd, DecodeOptions};
 use testbenches::ecc::{
     ecc, BIT, FORM, OTHER, SEG_ACK_DELIM, SEG_ACK_SLOT, SEG_CRC_DELIM, SEG_SOF,
 };
@@ -221,6 +222,11 @@ fn demo_arbitrates_filters_recovers_goes_passive_and_bus_off_and_sigrok_agrees()
     assert_eq!(log_frames(&report), sent);
     assert_eq!(std::fs::read_to_string(&log).unwrap(), report.log_text());
     assert!(!dir.join("demo.vcd.partial").exists() && !dir.join("demo.log.partial").exists());
+    // The VCD carries the bus timing: `cansim decode` reads the same log back from it (to the
+    // microsecond; the VCD has nanoseconds).
+    let decoded = decode_vcd(&vcd, &DecodeOptions::default()).unwrap();
+    let lines: Vec<String> = decoded.events.iter().map(|e| e.to_string()).collect();
+    assert_eq!(lines, report.log_text().lines().collect::<Vec<_>>());
     if sigrok::skipped() {
         return;
     }

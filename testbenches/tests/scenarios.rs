@@ -328,7 +328,7 @@ fn the_report_shows_nodes_log_events_faults_counts_and_the_table() {
         "test.toml: 2 nodes, 500 kbit/s at 16 MHz",
         "  b: 16 MHz +1000 ppm, 50 ns from the bus\n",
         ") can0 100#01\n",
-        "can0 ERROR FRAME in ACK delimiter of 200#02 (form error)\n",
+        "can0 ERROR FRAME in ACK delimiter of 200#02 (ACK error)\n",
         "  a  bus error, ECC 0xD9 (other error, transmitting, ACK slot); TXERR 8, RXERR 0\n",
         "  a  sent 200#02\n",
         "line 19: flip on the bus: ACK slot bit 0 of frame 2 (200#02 from a)\n",

@@ -8,6 +8,7 @@ use std::time::Instant;
 
 use clap::{Parser, Subcommand};
 use sim::btr::{calc_bittiming, format_calculation, format_table, sample_point_fraction, Btr};
+use sim::bus_decoder::EventCounts;
 use sim::campaign::{
     check, describe, format_summary, random_case, run_campaign, run_rtl_traced, Rng,
 };
@@ -17,6 +18,7 @@ use sim::scenario::progress::Progress;
 use sim::scenario::summary::{format_report, ReportParts};
 use sim::scenario::{load, run, RunOptions, RunReport, Scenario};
 use sim::sync_demo;
+use sim::vcd_reader::{self, decode_vcd, DecodeOptions};
 
 #[derive(Parser)]
 #[command(
@@ -103,6 +105,21 @@ enum Command {
         #[arg(long, requires = "case")]
         vcd: Option<PathBuf>,
     },
+    /// Decode the CAN bus signal of any VCD file: one candump-style line per frame, error frame and
+    /// overload frame, then the count of each.
+    Decode {
+        /// The VCD file.
+        file: PathBuf,
+        /// The bus signal: its full hierarchical name (top.bus) or a trailing part of it (bus).
+        #[arg(long, default_value = vcd_reader::DEFAULT_SIGNAL)]
+        signal: String,
+        /// Bit rate in bit/s [default: the rate the file records, else 500000].
+        #[arg(long)]
+        bitrate: Option<f64>,
+        /// Sample point, in percent (87.5) or as a fraction (0.875) [default: the file's, else 87.5].
+        #[arg(long)]
+        sample_point: Option<f64>,
+    },
     /// Compute SJA1000 BTR0/BTR1 for a bit rate (the Linux can_calc_bittiming method).
     Bittiming {
         /// Controller clock (the SJA1000 fosc) in Hz.
@@ -157,6 +174,12 @@ fn main() -> ExitCode {
             Some(index) => campaign_case(seed, index, vcd),
             None => campaign(faults, seed, threads),
         },
+        Command::Decode {
+            file,
+            signal,
+            bitrate,
+            sample_point,
+        } => decode(&file, signal, bitrate, sample_point),
         Command::Bittiming {
             clock,
             bitrate,
@@ -412,6 +435,41 @@ fn sample_point_arg(value: f64) -> Result<f64, String> {
             "--sample-point {value} is out of range: give a percentage between 0 and 100 (87.5) or a fraction between 0 and 1 (0.875)"
         )
     })
+}
+
+fn decode(
+    file: &Path,
+    signal: String,
+    bitrate: Option<f64>,
+    sample_point: Option<f64>,
+) -> Result<(), String> {
+    let options = DecodeOptions {
+        signal: Some(signal),
+        bitrate,
+        sample_point: sample_point.map(sample_point_arg).transpose()?,
+    };
+    let decoded = decode_vcd(file, &options).map_err(|e| e.to_string())?;
+    let source = match decoded.file_timing {
+        Some(recorded) if recorded == decoded.timing => " (recorded in the file)",
+        _ => "",
+    };
+    println!(
+        "{} {} at {}{source}",
+        file.display(),
+        decoded.signal,
+        decoded.timing
+    );
+    for event in &decoded.events {
+        println!("{event}");
+    }
+    if decoded.undefined_values > 0 {
+        println!(
+            "{} x/z values of {} read as recessive",
+            decoded.undefined_values, decoded.signal
+        );
+    }
+    println!("{}", EventCounts::of(&decoded.events));
+    Ok(())
 }
 
 fn bittiming(

@@ -17,7 +17,7 @@ use std::path::PathBuf;
 
 use rtl::registers::pelican;
 
-use crate::bus_decoder::{BusDecoder, BusEvent};
+use crate::bus_decoder::{BusDecoder, BusEvent, BusTiming};
 use crate::controller_node::ControllerNode;
 use crate::driver::{CanState, CtrlMode, DriverConfig, DriverError, DriverEvent, Sja1000Driver};
 use crate::engine::{DeviceId, Engine};
@@ -105,17 +105,21 @@ pub fn run(scenario: &Scenario, options: RunOptions) -> Result<RunReport, Scenar
             FRAME_PROBE,
             Box::new(move |t, level| frames.level(t, level)),
         );
-        runner.engine.trace_vcd(path).map_err(io_error)?;
+        let bus = &scenario.bus;
+        let timing = BusTiming::from_btr(&bus.btr, ClockSpec::from_hz(f64::from(bus.clock_hz)));
+        runner
+            .engine
+            .trace_vcd_timed(path, timing)
+            .map_err(io_error)?;
     }
-    runner.install_timed_faults();
-    runner.bring_up()?;
-    while runner.clock < end {
-        runner.step(end)?;
-        if let Some(progress) = progress.as_mut() {
-            progress(runner.clock.min(end), end);
+    let mut report = match runner.simulate(end, &mut progress) {
+        Ok(report) => report,
+        Err(e) => {
+            // The engine would finish the VCD when dropped; a failed run leaves none.
+            runner.engine.discard_trace();
+            return Err(e);
         }
-    }
-    let mut report = runner.finish()?;
+    };
     if let Some(path) = &report.vcd {
         report.view = Some(write_view(scenario, &report, path)?);
     }
@@ -516,7 +520,24 @@ impl<'s> Runner<'s> {
         Ok(())
     }
 
-    fn finish(mut self) -> Result<RunReport, ScenarioError> {
+    /// Brings the nodes up, runs until `end` and gathers the report.
+    fn simulate(
+        &mut self,
+        end: u64,
+        progress: &mut Option<&mut dyn FnMut(u64, u64)>,
+    ) -> Result<RunReport, ScenarioError> {
+        self.install_timed_faults();
+        self.bring_up()?;
+        while self.clock < end {
+            self.step(end)?;
+            if let Some(progress) = progress.as_mut() {
+                progress(self.clock.min(end), end);
+            }
+        }
+        self.finish()
+    }
+
+    fn finish(&mut self) -> Result<RunReport, ScenarioError> {
         let registers: Vec<(u8, u8)> = (0..self.nodes.len())
             .map(|n| {
                 let mut host = Host::new(&mut self.engine, self.nodes[n].id);
@@ -558,10 +579,10 @@ impl<'s> Runner<'s> {
         Ok(RunReport {
             nodes,
             events,
-            log: self.log,
-            faults: self.applied,
+            log: std::mem::take(&mut self.log),
+            faults: std::mem::take(&mut self.applied),
             missed_faults,
-            frame_starts: self.frame_starts,
+            frame_starts: std::mem::take(&mut self.frame_starts),
             simulated_fs,
             vcd,
             log_file: None,
