@@ -343,3 +343,22 @@ fn the_report_shows_nodes_log_events_faults_counts_and_the_table() {
         "receptions left out:\n{out}"
     );
 }
+
+#[test]
+fn the_example_of_the_scenario_documentation_runs_as_it_says() {
+    let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/SCENARIOS.md"))
+        .unwrap();
+    let example = doc
+        .split("## Example")
+        .nth(1)
+        .and_then(|rest| rest.split("```toml\n").nth(1))
+        .and_then(|block| block.split("```").next())
+        .expect("docs/SCENARIOS.md ends with an example");
+    let report = run_text(example);
+    assert_eq!(
+        log_frames(&report),
+        frames(&["123#0011", "123#0111", "123#0211"])
+    );
+    assert_eq!(bus_errors(&report, "b"), [ecc(FORM, true, SEG_CRC_DELIM)]);
+    assert_eq!(error_frames(&report), 1);
+}
