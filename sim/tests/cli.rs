@@ -131,7 +131,8 @@ fn demo_reports_every_node_and_writes_the_vcd_and_log_where_asked() {
     );
     assert!(std::fs::metadata(&vcd).unwrap().len() > 10_000);
     let log_text = std::fs::read_to_string(&log).unwrap();
-    assert!(log_text.starts_with("(0.000101) can0 080#\n"), "{log_text}");
+    let first = log_text.lines().next().unwrap_or_default();
+    assert!(first.ends_with(") can0 080#"), "{log_text}");
     std::fs::remove_dir_all(&dir).ok();
 }
 
