@@ -21,7 +21,7 @@ use crate::crc15::Crc15;
 use crate::frame::{
     data_len_for_dlc, Field, Frame, Id, Run, DOMINANT, EOF_BITS, MAX_DATA_LEN, RECESSIVE,
 };
-use crate::time::{ClockSpec, FS_PER_S, FS_PER_US};
+use crate::time::{ClockSpec, FS_PER_NS, FS_PER_S, FS_PER_US};
 
 /// Interface name printed in the candump-style lines.
 pub const INTERFACE: &str = "can0";
@@ -272,6 +272,57 @@ impl fmt::Display for EventCounts {
     }
 }
 
+/// Something on the bus that decoders may read differently although it is no error: the decoder
+/// notes it beside its events.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Remark {
+    /// When: the edge, or the start of the bit.
+    pub t_fs: u64,
+    /// What.
+    pub kind: RemarkKind,
+}
+
+/// The kinds of [`Remark`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RemarkKind {
+    /// A recessive-to-dominant edge inside a frame that the decoder did not synchronise on: the last
+    /// sample was dominant (the edge ends a recessive glitch), or it already synchronised in this bit.
+    IgnoredEdge,
+    /// A synchronisation edge further from the bit start than the SJW: the decoder moved its bit
+    /// timing by the SJW only.
+    PhaseErrorBeyondSjw {
+        /// The edge's distance from the bit start (negative: before it).
+        phase_error_fs: i64,
+    },
+    /// A dominant level on the idle bus that was recessive again at the sample point: no SOF.
+    SofGlitch,
+    /// A reserved bit (r0, or r1 of an extended frame) received recessive; receivers accept it, but
+    /// CAN FD decoders read that bit as FDF.
+    ReservedBitRecessive(Field),
+}
+
+impl fmt::Display for Remark {
+    /// `(0.000037) can0 remark: edge 0.47 bit late, beyond the SJW`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let seconds = self.t_fs / FS_PER_S;
+        let micros = self.t_fs % FS_PER_S / FS_PER_US;
+        write!(f, "({seconds}.{micros:06}) {INTERFACE} remark: ")?;
+        match self.kind {
+            RemarkKind::IgnoredEdge => f.write_str("edge not used for synchronisation"),
+            RemarkKind::PhaseErrorBeyondSjw { phase_error_fs } => {
+                let side = if phase_error_fs < 0 { "early" } else { "late" };
+                write!(
+                    f,
+                    "edge {:.0} ns {side}, beyond the SJW",
+                    phase_error_fs.unsigned_abs() as f64 / FS_PER_NS as f64
+                )
+            }
+            RemarkKind::SofGlitch => f.write_str("glitch on the idle bus, no start of frame"),
+            RemarkKind::ReservedBitRecessive(field) => write!(f, "{field} received recessive"),
+        }
+    }
+}
+
 /// How a received bit ended (or did not end) the frame.
 enum RxOutcome {
     Continue,
@@ -312,6 +363,8 @@ struct Receiver {
     data: [u8; MAX_DATA_LEN],
     crc_ok: bool,
     acked: bool,
+    /// A remark about the last bit, for the decoder to take.
+    remark: Option<RemarkKind>,
 }
 
 impl Receiver {
@@ -334,6 +387,7 @@ impl Receiver {
             data: [0; MAX_DATA_LEN],
             crc_ok: false,
             acked: false,
+            remark: None,
         }
     }
 
@@ -438,6 +492,12 @@ impl Receiver {
         }
     }
 
+    fn note_reserved(&mut self, field: Field, recessive: bool) {
+        if recessive {
+            self.remark = Some(RemarkKind::ReservedBitRecessive(field));
+        }
+    }
+
     /// Takes in the completed current field and returns the next one (an empty data field is complete
     /// at once, hence the caller's loop).
     fn field_done(&mut self) -> Field {
@@ -471,8 +531,14 @@ impl Receiver {
                 self.remote = set;
                 Field::R1
             }
-            Field::R1 => Field::R0,
-            Field::R0 => Field::Dlc,
+            Field::R1 => {
+                self.note_reserved(Field::R1, set);
+                Field::R0
+            }
+            Field::R0 => {
+                self.note_reserved(Field::R0, set);
+                Field::Dlc
+            }
             Field::Dlc => {
                 // 4-bit value.
                 self.dlc = self.value as u8;
@@ -594,6 +660,7 @@ pub struct BusDecoder {
     /// The error or overload frame whose delimiter is still running.
     pending: Option<BusEvent>,
     events: Vec<BusEvent>,
+    remarks: Vec<Remark>,
 }
 
 impl BusDecoder {
@@ -617,6 +684,7 @@ impl BusDecoder {
             state: State::Idle,
             pending: None,
             events: Vec::new(),
+            remarks: Vec::new(),
         }
     }
 
@@ -661,12 +729,21 @@ impl BusDecoder {
         std::mem::take(&mut self.events)
     }
 
+    /// The remarks noted so far, removed from the decoder, in time order.
+    pub fn drain_remarks(&mut self) -> Vec<Remark> {
+        std::mem::take(&mut self.remarks)
+    }
+
+    fn remark(&mut self, t_fs: u64, kind: RemarkKind) {
+        self.remarks.push(Remark { t_fs, kind });
+    }
+
     /// Takes every sample point before `t_fs` (`inclusive`: up to and including it).
     fn sample_before(&mut self, t_fs: u64, inclusive: bool) {
         loop {
-            // An idle recessive bus has nothing to sample: the next edge hard-synchronises. This also
-            // keeps long idle stretches cheap.
-            if matches!(self.state, State::Idle) && self.level == RECESSIVE {
+            // An idle recessive bus has nothing to sample, unless a hard synchronisation awaits its
+            // sample point: the next edge hard-synchronises. This keeps long idle stretches cheap.
+            if matches!(self.state, State::Idle) && self.level == RECESSIVE && !self.synced {
                 return;
             }
             let at = self.bit_start + self.sample_fs;
@@ -698,13 +775,22 @@ impl BusDecoder {
             return;
         }
         if self.synced || self.last_sample == DOMINANT {
+            if matches!(self.state, State::Frame(_)) {
+                self.remark(t_fs, RemarkKind::IgnoredEdge);
+            }
             return;
         }
         self.synced = true;
+        let phase_error = t_fs.abs_diff(self.bit_start);
+        if phase_error > self.sjw_fs && matches!(self.state, State::Frame(_)) {
+            let sign = if t_fs < self.bit_start { -1 } else { 1 };
+            let phase_error_fs = sign * i64::try_from(phase_error).unwrap_or(i64::MAX);
+            self.remark(t_fs, RemarkKind::PhaseErrorBeyondSjw { phase_error_fs });
+        }
         if t_fs < self.bit_start {
-            self.bit_start -= (self.bit_start - t_fs).min(self.sjw_fs);
+            self.bit_start -= phase_error.min(self.sjw_fs);
         } else {
-            self.bit_start += (t_fs - self.bit_start).min(self.sjw_fs);
+            self.bit_start += phase_error.min(self.sjw_fs);
         }
     }
 
@@ -715,9 +801,16 @@ impl BusDecoder {
             State::Idle => {
                 if bit == DOMINANT {
                     self.start_frame(bit);
+                } else {
+                    self.remark(start, RemarkKind::SofGlitch);
                 }
             }
             State::Frame(rx) => match rx.push(bit) {
+                RxOutcome::Continue if rx.remark.is_some() => {
+                    if let Some(kind) = rx.remark.take() {
+                        self.remark(start, kind);
+                    }
+                }
                 RxOutcome::Continue => {}
                 RxOutcome::Done {
                     frame,
@@ -833,6 +926,7 @@ impl BusDecoder {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::frame::tests::{levels, wire_from_unstuffed};
     use crate::frame::{encode, EncodedFrame, MAX_DLC};
     use proptest::prelude::*;
 
@@ -986,7 +1080,84 @@ mod tests {
         wire.t += 20 * BIT_FS;
         let frame = std_frame(0x100, &[]);
         wire.frame(&frame, true);
+        wire.decoder.finish(wire.t);
+        assert_eq!(
+            wire.decoder.drain_remarks(),
+            [Remark {
+                t_fs: t,
+                kind: RemarkKind::SofGlitch
+            }]
+        );
         assert_eq!(wire.kinds(), [received(frame, true)]);
+    }
+
+    #[test]
+    fn a_recessive_reserved_bit_is_a_remark() {
+        // Standard 0x555, r0 recessive, DLC 1, data 0xAA; no stuff bit before r0 (wire bit 14).
+        let header = levels("0 10101010101 0 0 1 0001 10101010");
+        let mut wire = Wire::new();
+        let sof = wire.t;
+        wire.play(wire_from_unstuffed(&header).iter().by_vals());
+        wire.decoder.finish(wire.t);
+        assert_eq!(
+            wire.decoder.drain_remarks(),
+            [Remark {
+                t_fs: sof + 14 * BIT_FS,
+                kind: RemarkKind::ReservedBitRecessive(Field::R0)
+            }]
+        );
+        assert_eq!(wire.kinds(), [received(std_frame(0x555, &[0xAA]), false)]);
+    }
+
+    #[test]
+    fn edges_the_decoder_cannot_follow_fully_are_remarks() {
+        let frame = std_frame(0x555, &[0xAA]);
+        let encoded = wire(&frame, true);
+        let (rtr, data1) = (
+            encoded.position(Field::Rtr, 0).unwrap(),
+            encoded.position(Field::Data, 1).unwrap(),
+        );
+        let mut wire = Wire::new();
+        // A recessive glitch late in the dominant RTR bit, after its sample point: RTR and IDE are
+        // dominant, so the edge back to dominant follows a dominant sample.
+        wire.play(encoded.bits[..=rtr].iter().by_vals());
+        let rtr_start = wire.t - BIT_FS;
+        let glitch_end = rtr_start + 19 * BIT_FS / 20;
+        wire.decoder.level(rtr_start + 9 * BIT_FS / 10, RECESSIVE);
+        wire.decoder.level(glitch_end, DOMINANT);
+        wire.play(encoded.bits[rtr + 1..data1].iter().by_vals());
+        // Data bit 0 (recessive) lasts 0.4 bit longer: every later edge comes 0.4 bit late.
+        let late = 2 * BIT_FS / 5;
+        wire.t += late;
+        let edge = wire.t;
+        wire.play(encoded.bits[data1..].iter().by_vals());
+        wire.decoder.finish(wire.t);
+        assert_eq!(
+            wire.decoder.drain_remarks(),
+            [
+                Remark {
+                    t_fs: glitch_end,
+                    kind: RemarkKind::IgnoredEdge
+                },
+                Remark {
+                    t_fs: edge,
+                    kind: RemarkKind::PhaseErrorBeyondSjw {
+                        phase_error_fs: late as i64
+                    }
+                },
+            ]
+        );
+        assert_eq!(wire.kinds(), [received(frame, true)]);
+        let remark = Remark {
+            t_fs: 3 * FS_PER_US,
+            kind: RemarkKind::PhaseErrorBeyondSjw {
+                phase_error_fs: -800 * FS_PER_NS as i64,
+            },
+        };
+        assert_eq!(
+            remark.to_string(),
+            "(0.000003) can0 remark: edge 800 ns early, beyond the SJW"
+        );
     }
 
     /// Standard 0x555, one byte 0xAA: `0 10101010101 0 0 0 0[1]0 1 10101010`. An error flag from data

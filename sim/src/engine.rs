@@ -96,6 +96,8 @@ struct BusObservers {
     tracer: Option<VcdTracer>,
     /// A signal traced beside `bus`, derived from its changes.
     annotation: Option<(Probe, BusAnnotator)>,
+    /// The devices with a scope in the trace: those added before it started.
+    traced_devices: usize,
     /// Changes recorded for [`Engine::take_bus_changes`], if watching.
     changes: Option<Vec<(u64, bool)>>,
     /// The last level reported.
@@ -109,6 +111,7 @@ impl Default for BusObservers {
     fn default() -> Self {
         BusObservers {
             tracer: None,
+            traced_devices: 0,
             annotation: None,
             changes: None,
             last: RECESSIVE,
@@ -162,12 +165,10 @@ impl Engine {
         }
     }
 
-    /// Adds a device connected to the bus through `delay_fs` of propagation delay (each way).
+    /// Adds a device connected to the bus through `delay_fs` of propagation delay (each way). A
+    /// device added after tracing started has no scope of its own in the VCD (the bus it drives is
+    /// still traced).
     pub fn add<D: Device>(&mut self, device: D, delay_fs: u64) -> DeviceId {
-        assert!(
-            self.observers.tracer.is_none(),
-            "add every device before tracing starts"
-        );
         let clock = device.clock();
         let probes = device.probes().len();
         let line = self.bus.add_line(delay_fs);
@@ -259,6 +260,7 @@ impl Engine {
             .collect();
         let bus_probes: Vec<Probe> = self.observers.annotation.iter().map(|(p, _)| *p).collect();
         self.observers.tracer = Some(VcdTracer::create(path, &bus_probes, &devices, timing)?);
+        self.observers.traced_devices = devices.len();
         Ok(())
     }
 
@@ -379,7 +381,8 @@ impl Engine {
             self.bus.set_drive(line, t, drive);
             self.observers.expect_change_at(t + self.bus.delay_fs(line));
         }
-        if let Some(tracer) = &mut self.observers.tracer {
+        let traced = i < self.observers.traced_devices;
+        if let Some(tracer) = self.observers.tracer.as_mut().filter(|_| traced) {
             let slot = &mut self.slots[i];
             slot.device.probe_values(&mut slot.probe_values);
             let tx = slot.pin.level();

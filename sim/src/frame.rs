@@ -684,7 +684,7 @@ pub fn decode(bits: &BitSlice<u8, Msb0>) -> Result<DecodedFrame, DecodeError> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::crc15::crc15;
     use crate::worst_case::length_bound;
@@ -927,7 +927,7 @@ mod tests {
 
     /// Builds a wire image from unstuffed SOF..data bits: CRC, stuffing and a recessive
     /// tail, written independently of the encoder (with an explicit run counter).
-    fn wire_from_unstuffed(header: &[bool]) -> BitVec<u8, Msb0> {
+    pub(crate) fn wire_from_unstuffed(header: &[bool]) -> BitVec<u8, Msb0> {
         let crc = crc15(header.iter().copied());
         let crc_bits = (0..15).rev().map(|i| crc >> i & 1 == 1);
         let mut wire = BitVec::new();
@@ -949,7 +949,8 @@ mod tests {
         wire
     }
 
-    fn levels(text: &str) -> Vec<bool> {
+    /// Wire levels from `0`/`1` text; whitespace is ignored.
+    pub(crate) fn levels(text: &str) -> Vec<bool> {
         text.chars()
             .filter(|c| !c.is_whitespace())
             .map(|c| c == '1')

@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 
 use vcd::{Command, IdCode, ParseError, ScopeItem, Value, Var, VarType};
 
-use crate::bus_decoder::{BusDecoder, BusEvent, BusTiming};
+use crate::bus_decoder::{BusDecoder, BusEvent, BusTiming, Remark};
 use crate::frame::{DOMINANT, RECESSIVE};
 use crate::time::FS_PER_S;
 
@@ -89,10 +89,14 @@ pub struct VcdDecode {
     pub file_timing: Option<BusTiming>,
     /// Number of `x` or `z` values of the signal (read as recessive).
     pub undefined_values: u64,
+    /// Femtoseconds per time unit of the file (`$timescale`).
+    pub timescale_fs: u64,
     /// Time of the file's last timestamp, where decoding ended.
     pub end_fs: u64,
     /// The decoded events in bus order.
     pub events: Vec<BusEvent>,
+    /// The decoder's remarks in time order.
+    pub remarks: Vec<Remark>,
 }
 
 /// Why a VCD could not be decoded: the file, the line if known, and what is wrong.
@@ -299,8 +303,10 @@ pub fn decode_vcd(path: &Path, options: &DecodeOptions) -> Result<VcdDecode, Vcd
         timing,
         file_timing,
         undefined_values: reader.undefined_values,
+        timescale_fs: scale_fs,
         end_fs: reader.now_fs,
         events: reader.decoder.drain(),
+        remarks: reader.decoder.drain_remarks(),
     })
 }
 

@@ -13,7 +13,7 @@ use sim::host::Host;
 use sim::lower_tester::LowerTester;
 use sim::time::ClockSpec;
 
-use crate::CLOCK_HZ;
+use crate::{bench_engine, CLOCK_HZ};
 
 /// BTR0 of the bench (500 kbit/s at 16 MHz).
 pub const BTR0: u8 = 0x00;
@@ -38,9 +38,9 @@ pub struct ControllerBench {
 impl ControllerBench {
     /// `count` controllers, each after a hardware reset (reset mode, BasicCAN).
     pub fn new(count: usize) -> ControllerBench {
-        let mut engine = Engine::new();
-        engine.keep_history();
         let clock = ClockSpec::from_hz(CLOCK_HZ);
+        let mut engine = bench_engine(&bench_btr(), clock);
+        engine.keep_history();
         let nodes = (0..count)
             .map(|i| engine.add(ControllerNode::new(&format!("n{i}"), clock), 0))
             .collect();

@@ -3,9 +3,13 @@
 //! (bits and quanta of the lower tester's script) rather than raw times.
 #![warn(missing_docs)]
 
+use std::cell::RefCell;
+use std::path::PathBuf;
+
 use rtl::bit_timing::SyncMode;
 use sim::btl_node::{BitTimingNode, SyncPolicy};
 use sim::btr::Btr;
+use sim::bus_decoder::BusTiming;
 use sim::engine::{DeviceId, Engine};
 use sim::lower_tester::LowerTester;
 use sim::time::ClockSpec;
@@ -16,6 +20,69 @@ pub const CLOCK_HZ: f64 = 16e6;
 pub const LEAD_IN_BITS: usize = 4;
 /// Prescaler field of the "BRP > 0" configurations (tq = 6 clocks).
 pub const BRP_ABOVE_ZERO: u8 = 2;
+
+/// Environment variable that makes every bench write the VCD of its run: `1` into the workspace's
+/// `waves/`, any other value but `0` into the directory it names.
+pub const WAVES_ENV: &str = "CANSIM_WAVES";
+
+/// The engine of a bench whose bus runs with bit timing `btr` on `clock`. With [`WAVES_ENV`] set it
+/// writes its VCD, the bus timing recorded in the header, to `<waves>/<test binary>.<test name>.vcd`
+/// (the test name being the test's path in its binary; the second and later engines of one test add
+/// `.2`, `.3`, …). Tracing starts at the first step, so devices can be added until then, and the file
+/// is finished when the engine is dropped, also when the test fails.
+pub fn bench_engine(btr: &Btr, clock: ClockSpec) -> Engine {
+    let mut engine = Engine::new();
+    if let Some(path) = waves_path() {
+        engine.trace_vcd_from_first_step(&path, BusTiming::from_btr(btr, clock));
+    }
+    engine
+}
+
+/// Where the next engine of this test writes its VCD, or `None` without [`WAVES_ENV`].
+fn waves_path() -> Option<PathBuf> {
+    let setting = std::env::var(WAVES_ENV)
+        .ok()
+        .filter(|v| !v.is_empty() && v != "0")?;
+    let dir = if setting == "1" {
+        PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../waves"))
+    } else {
+        PathBuf::from(setting)
+    };
+    std::fs::create_dir_all(&dir)
+        .unwrap_or_else(|e| panic!("{WAVES_ENV}: cannot create {}: {e}", dir.display()));
+    Some(dir.join(format!("{}.vcd", next_trace_name())))
+}
+
+thread_local! {
+    /// The test running on this thread and how many engines it traced so far.
+    static TRACED: RefCell<(String, usize)> = const { RefCell::new((String::new(), 0)) };
+}
+
+/// `<test binary>.<test path>` for this thread's test, `.N` appended from its second engine on.
+fn next_trace_name() -> String {
+    let binary = std::env::current_exe()
+        .ok()
+        .and_then(|exe| exe.file_stem().map(|s| s.to_string_lossy().into_owned()))
+        .unwrap_or_default();
+    // Cargo names test binaries `<target>-<hash>`.
+    let binary = binary
+        .rsplit_once('-')
+        .map_or(binary.as_str(), |(name, _)| name);
+    let thread = std::thread::current();
+    let test = thread.name().unwrap_or("main").replace("::", ".");
+    let name = format!("{binary}.{test}");
+    TRACED.with(|traced| {
+        let mut traced = traced.borrow_mut();
+        if traced.0 != name {
+            *traced = (name.clone(), 0);
+        }
+        traced.1 += 1;
+        match traced.1 {
+            1 => name,
+            n => format!("{name}.{n}"),
+        }
+    })
+}
 
 /// One bit-timing configuration of the catalog.
 #[derive(Clone, Copy, Debug)]
@@ -62,7 +129,7 @@ impl BtBench {
     /// clock offset inside the IUT's quanta.
     pub fn with_lt_delay_clocks(btr: Btr, delay_clocks: u64) -> BtBench {
         let clock = ClockSpec::from_hz(CLOCK_HZ);
-        let mut engine = Engine::new();
+        let mut engine = bench_engine(&btr, clock);
         engine.keep_history();
         let lt_clock = clock.with_phase(delay_clocks * clock.period_fs());
         let lt = engine.add(LowerTester::new("lt", lt_clock, btr), 0);
@@ -188,7 +255,7 @@ pub fn exchange_with_clock_offset(
 /// The bits a receiver at `−ppm` sampled while a transmitter at `+ppm` sent `frames` with
 /// [`INTERFRAME_BITS`] of idle after each.
 fn receive_with_clock_offset(btr: Btr, ppm: f64, frames: &[sim::frame::EncodedFrame]) -> Vec<bool> {
-    let mut engine = Engine::new();
+    let mut engine = bench_engine(&btr, ClockSpec::from_hz(CLOCK_HZ));
     let mut tx = BitTimingNode::new("tx", ClockSpec::with_ppm(CLOCK_HZ, ppm), btr);
     for f in frames {
         tx.transmit(f.bits.iter().by_vals());
@@ -231,6 +298,7 @@ fn wrong_bits_per_frame(received: &[bool], frames: &[sim::frame::EncodedFrame]) 
         .collect()
 }
 
+pub mod agreement;
 pub mod controller_bench;
 pub mod ecc;
 pub mod equivalence;

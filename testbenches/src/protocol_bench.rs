@@ -11,7 +11,7 @@ use sim::frame::{encode, EncodedFrame, Field, Frame, DOMINANT};
 use sim::lower_tester::LowerTester;
 use sim::time::ClockSpec;
 
-use crate::CLOCK_HZ;
+use crate::{bench_engine, CLOCK_HZ};
 
 /// Idle bits before the first frame: the IUT needs 11 recessive bits to integrate.
 pub const INTEGRATION_BITS: usize = 14;
@@ -45,7 +45,7 @@ impl ProtocolBench {
     /// As [`ProtocolBench::with_btr`], with the LT and the IUT both on `clock` (e.g. a clock some
     /// ppm off the nominal 16 MHz), so the LT's script bits stay the IUT's bits.
     pub fn with_clock(btr: Btr, clock: ClockSpec) -> ProtocolBench {
-        let mut engine = Engine::new();
+        let mut engine = bench_engine(&btr, clock);
         engine.keep_history();
         let lt = engine.add(LowerTester::new("lt", clock, btr), 0);
         let iut = engine.add(CanNode::new("iut", clock, btr), 0);

@@ -1,9 +1,9 @@
 //! Queries on the report of a scenario run (`sim::scenario::run`): what one node's driver reported,
 //! and what the bus log shows, in forms tests compare easily.
 
-use sim::bus_decoder::{BitPlace, BusEventKind};
+use sim::bus_decoder::BusEventKind;
 use sim::driver::{CanState, DriverEvent};
-use sim::frame::{Field, Frame};
+use sim::frame::Frame;
 use sim::scenario::summary::{Happening, NodeReport};
 use sim::scenario::RunReport;
 
@@ -94,39 +94,6 @@ pub fn log_frames(report: &RunReport) -> Vec<Frame> {
             _ => None,
         })
         .collect()
-}
-
-/// What sigrok's decoder lists for the bus log of `report`: every frame that got as far as its ACK
-/// slot with a right CRC (the valid ones and those an error frame cut off after the CRC), as
-/// candump text, with `None` for the frame after an error frame that begins in the end of frame, which sigrok decodes
-/// as garbage (a limit of its decoder, see [`crate::sigrok`]).
-pub fn frames_sigrok_decodes(report: &RunReport) -> Vec<Option<String>> {
-    let mut frames = Vec::new();
-    let mut garbled = false;
-    for event in &report.log {
-        let text = match &event.kind {
-            BusEventKind::Frame { frame, .. } => frame.to_string(),
-            BusEventKind::ErrorFrame { frame, at, .. } => {
-                let in_eof = matches!(
-                    at,
-                    BitPlace::Frame {
-                        field: Field::Eof,
-                        ..
-                    }
-                );
-                let Some(frame) = frame else {
-                    continue;
-                };
-                frames.push((!garbled).then(|| frame.to_string()));
-                garbled = in_eof;
-                continue;
-            }
-            _ => continue,
-        };
-        frames.push((!garbled).then_some(text));
-        garbled = false;
-    }
-    frames
 }
 
 /// How many error frames the bus log has.

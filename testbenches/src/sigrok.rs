@@ -25,43 +25,85 @@ pub struct SigrokDecode {
     pub warnings: Vec<String>,
 }
 
+/// One frame decode sigrok started. Its decoder starts at a dominant level while idle and reads a
+/// whole frame's worth of bits without detecting any error, so error and overload flags also start
+/// decodes, and a decode that reads through a flag lasts as long as its (garbage) header says.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SigrokFrame {
+    /// Sample number of the start of its SOF bit (the VCD time in the file's time unit).
+    pub start: u64,
+    /// Sample number of the end of its EOF, if it got there.
+    pub end: Option<u64>,
+    /// The frame in candump notation, if the decode reached the ACK slot.
+    pub frame: Option<String>,
+}
+
 /// Whether sigrok checks should be skipped (sigrok-cli missing and the developer opted out).
 pub fn skipped() -> bool {
     std::env::var_os(SKIP_ENV).is_some()
 }
 
-fn run(vcd: &Path, signal: &str, bitrate: u32, sample_point: f64, class: &str) -> String {
+fn run(
+    vcd: &Path,
+    signal: &str,
+    bitrate: u32,
+    sample_point: f64,
+    class: &str,
+    samples: bool,
+) -> String {
     let decoder =
         format!("can:can_rx={signal}:nominal_bitrate={bitrate}:sample_point={sample_point}");
-    let output = Command::new("sigrok-cli")
-        .args(["-I", "vcd", "-i"])
-        .arg(vcd)
-        .args(["-P", &decoder, "-A", &format!("can={class}")])
-        .output()
-        .unwrap_or_else(|e| {
-            panic!("cannot run sigrok-cli ({e}): install it with `make tools`, or set {SKIP_ENV}=1 to skip")
-        });
+    let mut command = Command::new("sigrok-cli");
+    command.args(["-I", "vcd", "-i"]).arg(vcd).args([
+        "-P",
+        &decoder,
+        "-A",
+        &format!("can={class}"),
+    ]);
+    if samples {
+        command.arg("--protocol-decoder-samplenum");
+    }
+    let output = command.output().unwrap_or_else(|e| {
+        panic!("cannot run sigrok-cli ({e}): install it with `make tools`, or set {SKIP_ENV}=1 to skip")
+    });
     assert!(
         output.status.success(),
-        "sigrok-cli failed: {}",
+        "sigrok-cli failed on {}: {}",
+        vcd.display(),
         String::from_utf8_lossy(&output.stderr)
     );
     let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(stderr.trim().is_empty(), "sigrok-cli complained: {stderr}");
+    assert!(
+        stderr.trim().is_empty(),
+        "sigrok-cli complained about {}: {stderr}",
+        vcd.display()
+    );
     String::from_utf8_lossy(&output.stdout).into_owned()
 }
 
 /// Decodes the CAN signal `signal` of `vcd`.
 pub fn decode(vcd: &Path, signal: &str, bitrate: u32, sample_point_pct: f64) -> SigrokDecode {
-    let warnings = run(vcd, signal, bitrate, sample_point_pct, "warnings")
+    let warnings = run(vcd, signal, bitrate, sample_point_pct, "warnings", false)
         .lines()
         .map(str::to_string)
         .collect();
-    let annotations = run(vcd, signal, bitrate, sample_point_pct, "fields");
     SigrokDecode {
-        frames: frames_from_annotations(&annotations),
+        frames: decode_frames(vcd, signal, bitrate, sample_point_pct)
+            .into_iter()
+            .filter_map(|d| d.frame)
+            .collect(),
         warnings,
     }
+}
+
+/// Every decode sigrok starts on the CAN signal `signal` of `vcd`, with its sample range.
+pub fn decode_frames(
+    vcd: &Path,
+    signal: &str,
+    bitrate: u32,
+    sample_point_pct: f64,
+) -> Vec<SigrokFrame> {
+    decodes_from_annotations(&run(vcd, signal, bitrate, sample_point_pct, "fields", true))
 }
 
 fn hex_value(line: &str) -> Option<u32> {
@@ -69,34 +111,62 @@ fn hex_value(line: &str) -> Option<u32> {
     u32::from_str_radix(line[start..].trim_end_matches(')'), 16).ok()
 }
 
-/// Rebuilds candump-style frames from sigrok's field annotations.
-fn frames_from_annotations(text: &str) -> Vec<String> {
-    let mut frames = Vec::new();
-    let (mut id, mut extended, mut remote, mut data) = (0u32, false, false, String::new());
+/// A decode being read from the annotations.
+#[derive(Default)]
+struct Partial {
+    id: u32,
+    extended: bool,
+    remote: bool,
+    data: String,
+}
+
+impl Partial {
+    /// The frame in candump notation.
+    fn frame(&self) -> String {
+        let id = if self.extended {
+            format!("{:08X}", self.id)
+        } else {
+            format!("{:03X}", self.id)
+        };
+        let body = if self.remote {
+            "R".to_string()
+        } else {
+            self.data.to_uppercase()
+        };
+        format!("{id}#{body}")
+    }
+}
+
+/// Rebuilds the decodes from sigrok's field annotations (`start-end can-1: text` lines).
+fn decodes_from_annotations(text: &str) -> Vec<SigrokFrame> {
+    let mut decodes: Vec<SigrokFrame> = Vec::new();
+    let mut partial = Partial::default();
     for line in text.lines() {
-        let line = line.trim_start_matches("can-1: ");
-        if line.starts_with("Identifier:") {
-            (id, extended, remote, data) =
-                (hex_value(line).unwrap_or(0), false, false, String::new());
-        } else if line.starts_with("Full Identifier:") {
-            (id, extended) = (hex_value(line).unwrap_or(0), true);
-        } else if let Some(kind) = line.strip_prefix("Remote transmission request: ") {
-            remote = kind.starts_with("remote");
-        } else if let Some(rest) = line.strip_prefix("Data byte ") {
-            data += rest.split("0x").nth(1).unwrap_or("??");
-        } else if line.starts_with("ACK slot") {
-            let id_text = if extended {
-                format!("{id:08X}")
-            } else {
-                format!("{id:03X}")
-            };
-            let body = if remote {
-                "R".to_string()
-            } else {
-                data.to_uppercase()
-            };
-            frames.push(format!("{id_text}#{body}"));
+        let (range, annotation) = line.split_once(" can-1: ").unwrap_or(("", line));
+        let (start, end) = range.split_once('-').unwrap_or(("", ""));
+        let (start, end) = (start.parse().ok(), end.parse().ok());
+        if annotation.starts_with("Start of frame") {
+            partial = Partial::default();
+            decodes.push(SigrokFrame {
+                start: start.unwrap_or(0),
+                end: None,
+                frame: None,
+            });
+        } else if annotation.starts_with("Identifier:") {
+            partial.id = hex_value(annotation).unwrap_or(0);
+        } else if annotation.starts_with("Full Identifier:") {
+            (partial.id, partial.extended) = (hex_value(annotation).unwrap_or(0), true);
+        } else if let Some(kind) = annotation.strip_prefix("Remote transmission request: ") {
+            partial.remote = kind.starts_with("remote");
+        } else if let Some(rest) = annotation.strip_prefix("Data byte ") {
+            partial.data += rest.split("0x").nth(1).unwrap_or("??");
+        } else if let Some(decode) = decodes.last_mut() {
+            if annotation.starts_with("ACK slot") {
+                decode.frame = Some(partial.frame());
+            } else if annotation.starts_with("End of frame") {
+                decode.end = end;
+            }
         }
     }
-    frames
+    decodes
 }

@@ -7,7 +7,7 @@ use sim::engine::Engine;
 use sim::frame::{DOMINANT as D, RECESSIVE as R};
 use sim::lower_tester::LowerTester;
 use sim::time::{ClockSpec, FS_PER_NS};
-use testbenches::CLOCK_HZ;
+use testbenches::{bench_engine, CLOCK_HZ};
 
 fn btr() -> Btr {
     Btr::from_quanta(1, 5, 2, 1, false).unwrap() // 8 tq of 4 clocks
@@ -30,7 +30,7 @@ fn quanta_of_bit(lt: &LowerTester, bit: usize) -> Vec<bool> {
 #[test]
 fn flipped_forced_and_resized_bits_appear_on_the_bus_where_asked() {
     let clock = ClockSpec::from_hz(CLOCK_HZ);
-    let mut engine = Engine::new();
+    let mut engine = bench_engine(&btr(), clock);
     let mut lt = LowerTester::new("lt", clock, btr());
     lt.send_bits([R, D, R, D, R, R])
         .flip_bit(2)
@@ -59,7 +59,7 @@ fn flipped_forced_and_resized_bits_appear_on_the_bus_where_asked() {
 #[test]
 fn forcing_recessive_overrides_a_dominant_node_and_the_record_tells_both() {
     let clock = ClockSpec::from_hz(CLOCK_HZ);
-    let mut engine = Engine::new();
+    let mut engine = bench_engine(&btr(), clock);
     engine.keep_history();
     let mut tester = LowerTester::new("lt", clock, btr());
     tester.release(4).force(1, 0, 8, Drive::ForceRecessive);
@@ -84,7 +84,7 @@ fn forcing_recessive_overrides_a_dominant_node_and_the_record_tells_both() {
 #[test]
 fn start_on_dominant_aligns_quantum_zero_with_the_edge_and_delays_shift_what_each_sees() {
     let clock = ClockSpec::from_hz(CLOCK_HZ);
-    let mut engine = Engine::new();
+    let mut engine = bench_engine(&btr(), clock);
     engine.keep_history();
     let mut node = LowerTester::new("node", clock, btr());
     node.release(3).send_bits([D, R, D]);
@@ -109,7 +109,7 @@ fn start_on_dominant_aligns_quantum_zero_with_the_edge_and_delays_shift_what_eac
 #[test]
 fn clocks_with_ppm_offsets_keep_their_own_time() {
     let btr = btr();
-    let mut engine = Engine::new();
+    let mut engine = bench_engine(&btr, ClockSpec::from_hz(CLOCK_HZ));
     let fast = ClockSpec::with_ppm(CLOCK_HZ, 10_000.0);
     let slow = ClockSpec::with_ppm(CLOCK_HZ, -10_000.0);
     let mut a = LowerTester::new("fast", fast, btr);

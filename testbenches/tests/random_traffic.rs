@@ -30,6 +30,7 @@ use sim::can_node::{CanNode, NodeEvent};
 use sim::engine::{DeviceId, Engine};
 use sim::frame::{Frame, Id};
 use sim::time::{ClockSpec, FS_PER_US};
+use testbenches::bench_engine;
 
 /// Controller clock.
 const CLOCK_HZ: f64 = 16e6;
@@ -178,7 +179,7 @@ fn scenario() -> impl Strategy<Value = Scenario> {
 fn bus(nodes: usize) -> (Engine, Vec<DeviceId>) {
     let clock = ClockSpec::from_hz(CLOCK_HZ);
     let btr = Btr::from_registers(BTR.0, BTR.1);
-    let mut engine = Engine::new();
+    let mut engine = bench_engine(&btr, clock);
     let ids = (0..nodes)
         .map(|k| engine.add(CanNode::new(&format!("n{k}"), clock, btr), 0))
         .collect();

@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use clap::{Parser, Subcommand};
 use sim::btr::{calc_bittiming, format_calculation, format_table, sample_point_fraction, Btr};
-use sim::bus_decoder::EventCounts;
+use sim::bus_decoder::{EventCounts, Remark};
 use sim::campaign::{
     check, describe, format_summary, random_case, run_campaign, run_rtl_traced, Rng,
 };
@@ -119,6 +119,10 @@ enum Command {
         /// Sample point, in percent (87.5) or as a fraction (0.875) [default: the file's, else 87.5].
         #[arg(long)]
         sample_point: Option<f64>,
+        /// Also print the decoder's remarks (edges it could not follow fully, glitches, recessive
+        /// reserved bits) among the events.
+        #[arg(long)]
+        remarks: bool,
     },
     /// Compute SJA1000 BTR0/BTR1 for a bit rate (the Linux can_calc_bittiming method).
     Bittiming {
@@ -179,7 +183,8 @@ fn main() -> ExitCode {
             signal,
             bitrate,
             sample_point,
-        } => decode(&file, signal, bitrate, sample_point),
+            remarks,
+        } => decode(&file, signal, bitrate, sample_point, remarks),
         Command::Bittiming {
             clock,
             bitrate,
@@ -442,6 +447,7 @@ fn decode(
     signal: String,
     bitrate: Option<f64>,
     sample_point: Option<f64>,
+    show_remarks: bool,
 ) -> Result<(), String> {
     let options = DecodeOptions {
         signal: Some(signal),
@@ -459,8 +465,19 @@ fn decode(
         decoded.signal,
         decoded.timing
     );
+    let remarks: &[Remark] = if show_remarks { &decoded.remarks } else { &[] };
+    let mut remarks = remarks.iter().peekable();
     for event in &decoded.events {
+        while let Some(remark) = remarks.next_if(|r| r.t_fs < event.start_fs) {
+            println!("{remark}");
+        }
         println!("{event}");
+    }
+    remarks.for_each(|remark| println!("{remark}"));
+    if !show_remarks && !decoded.remarks.is_empty() {
+        let n = decoded.remarks.len();
+        let plural = if n == 1 { "" } else { "s" };
+        println!("{n} remark{plural} (--remarks shows them)");
     }
     if decoded.undefined_values > 0 {
         println!(
