@@ -262,8 +262,7 @@ fn run_with_progress(
     }
     let started = Instant::now();
     let result = run(scenario, options);
-    if show {
-        // Clears the progress line whether or not one was drawn.
+    if progress.drawn() {
         eprint!("\r{:width$}\r", "", width = PROGRESS_CLEAR_WIDTH);
     }
     let report = result.map_err(|e| e.to_string())?;

@@ -188,10 +188,3 @@ pub struct Scenario {
     /// What goes wrong.
     pub faults: Vec<faults::Fault>,
 }
-
-impl Scenario {
-    /// The index of the node called `name`.
-    pub fn node_index(&self, name: &str) -> Option<usize> {
-        self.nodes.iter().position(|n| n.name == name)
-    }
-}

@@ -401,8 +401,10 @@ impl<'s> Runner<'s> {
                     if ids.iter().any(|&id| e.device::<ControllerNode>(id).irq()) {
                         return true;
                     }
-                    let level = e.bus_level_before(e.now() + 1);
-                    sof = stop_at_sof && watch.level(e.now(), level).is_some();
+                    if stop_at_sof {
+                        let level = e.bus_level_before(e.now() + 1);
+                        sof = watch.level(e.now(), level).is_some();
+                    }
                     sof
                 })
                 .map_err(io_error)?;
