@@ -66,4 +66,4 @@ synth:
 
 clean:
 	$(CARGO) clean
-	rm -rf build waves/*.vcd waves/*.log
+	rm -rf build waves/*.vcd waves/*.log waves/*.frames.filter

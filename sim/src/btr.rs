@@ -702,6 +702,16 @@ pub fn calc_bittiming(
     })
 }
 
+/// A sample point given in percent (87.5) or as a fraction (0.875), as a fraction; `None` when it
+/// is neither (not strictly between 0 and 100, or exactly 1).
+pub fn sample_point_fraction(value: f64) -> Option<f64> {
+    match value {
+        v if v > 0.0 && v < 1.0 => Some(v),
+        v if v > 1.0 && v < 100.0 => Some(v / 100.0),
+        _ => None,
+    }
+}
+
 /// Multi-line, human-readable description of a calculation for a controller clock of `clock_hz`.
 pub fn format_calculation(clock_hz: u32, c: &Calculation) -> String {
     let b = &c.btr;

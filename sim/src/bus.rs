@@ -1,6 +1,9 @@
 //! The wired-AND CAN bus: every device drives one line through its own propagation delay; dominant (0)
 //! wins over recessive (1), and a lower tester may force the bus recessive to model a disturbance.
 //!
+//! A fault on the bus itself ([`BusFault`]: forced to a level, or inverted, for a time window) changes
+//! the level every device sees, wherever it sits, as a disturbance on the wires would.
+//!
 //! Each line keeps the history of its drive changes for as long as the longest delay needs it (or
 //! for the whole run when [`Bus::keep_history`] is on), so the level seen at any time is exact: a change
 //! made at time t is visible strictly after t, which makes simultaneous clock edges order-independent.
@@ -39,6 +42,24 @@ impl Drive {
     }
 }
 
+/// A disturbance of the bus itself, seen by every device through its own delay.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BusFault {
+    /// The bus is at this level whatever the devices drive (`false` = dominant).
+    Force(bool),
+    /// The bus is at the inverse of the wired-AND of the drives.
+    Invert,
+}
+
+/// A [`BusFault`] that holds for levels just before `t` with `from_fs < t <= to_fs`: it begins to be
+/// seen strictly after `from_fs`, like a drive change.
+#[derive(Clone, Copy, Debug)]
+struct FaultWindow {
+    from_fs: u64,
+    to_fs: u64,
+    fault: BusFault,
+}
+
 struct Line {
     delay_fs: u64,
     /// Drive before the first retained change.
@@ -69,6 +90,7 @@ pub struct Bus {
     lines: Vec<Line>,
     max_delay_fs: u64,
     keep_history: bool,
+    faults: Vec<FaultWindow>,
 }
 
 impl Bus {
@@ -117,8 +139,32 @@ impl Bus {
         self.lines[line].drive_before(t)
     }
 
+    /// Adds a fault of the bus from `from_fs` to `to_fs` (the first window that covers a time wins).
+    pub fn add_fault(&mut self, from_fs: u64, to_fs: u64, fault: BusFault) {
+        self.faults.push(FaultWindow {
+            from_fs,
+            to_fs,
+            fault,
+        });
+    }
+
     /// The bus level just before `t`, at the point where all delays are counted from.
     pub fn level_before(&self, t: u64) -> bool {
+        let natural = self.driven_level_before(t);
+        match self
+            .faults
+            .iter()
+            .find(|w| w.from_fs < t && t <= w.to_fs)
+            .map(|w| w.fault)
+        {
+            Some(BusFault::Force(level)) => level,
+            Some(BusFault::Invert) => !natural,
+            None => natural,
+        }
+    }
+
+    /// The wired-AND of the drives just before `t`, without bus faults.
+    fn driven_level_before(&self, t: u64) -> bool {
         let mut dominant = false;
         for l in &self.lines {
             match l.drive_before(t.saturating_sub(l.delay_fs)) {
@@ -145,6 +191,7 @@ impl Bus {
             return;
         }
         let horizon = now.saturating_sub(2 * self.max_delay_fs + 1);
+        self.faults.retain(|w| w.to_fs >= horizon);
         for l in &mut self.lines {
             // Queries at or after the horizon need only the last change before it.
             while let Some(&(at, drive)) = l.changes.front() {
@@ -177,6 +224,28 @@ mod tests {
         assert_eq!(bus.level_before(11), DOMINANT);
         bus.set_drive(b, 20, Drive::ForceRecessive);
         assert_eq!(bus.level_before(21), RECESSIVE);
+    }
+
+    #[test]
+    fn a_bus_fault_forces_or_inverts_the_level_in_its_window_only() {
+        let mut bus = Bus::new();
+        let a = bus.add_line(0);
+        bus.set_drive(a, 100, Drive::Dominant);
+        bus.add_fault(200, 300, BusFault::Force(RECESSIVE));
+        bus.add_fault(400, 500, BusFault::Invert);
+        bus.add_fault(600, 700, BusFault::Force(DOMINANT));
+        bus.set_drive(a, 550, Drive::Recessive);
+        let levels: Vec<bool> = [150, 200, 201, 300, 301, 401, 500, 501, 601, 701]
+            .iter()
+            .map(|&t| bus.level_before(t))
+            .collect();
+        assert_eq!(
+            levels,
+            [
+                DOMINANT, DOMINANT, RECESSIVE, RECESSIVE, DOMINANT, RECESSIVE, RECESSIVE, DOMINANT,
+                DOMINANT, RECESSIVE
+            ]
+        );
     }
 
     #[test]

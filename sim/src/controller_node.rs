@@ -113,6 +113,12 @@ impl ControllerNode {
         self.uut.core.state.val()
     }
 
+    /// The core is transmitting a frame (it has not lost arbitration), for locating faults in the
+    /// frame on the bus.
+    pub fn transmitting(&self) -> bool {
+        self.uut.core.transmitting.val()
+    }
+
     /// Drives or releases the hardware `reset` input from the next edge on.
     pub fn set_reset(&mut self, active: bool) {
         self.uut.reset.next = active;

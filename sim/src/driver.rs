@@ -11,7 +11,8 @@
 //!
 //! What the model does, per driver entry point:
 //! * probe ([`Sja1000Driver::probe`]): MOD must not read 0xFF; reset mode; CDR (PeliCAN and the
-//!   board's comparator-bypass / CLKOUT settings), an open acceptance filter, OCR in normal mode;
+//!   board's comparator-bypass / CLKOUT settings), an open acceptance filter (or the board's
+//!   [`DriverConfig::filter`]), OCR in normal mode;
 //! * open: [`Sja1000Driver::set_bittiming`] (or [`Sja1000Driver::set_bitrate`]), then
 //!   [`Sja1000Driver::start`] with the control modes;
 //! * `ndo_start_xmit` ([`Sja1000Driver::transmit`]): one frame in flight at a time (the queue is
@@ -23,6 +24,7 @@ use std::fmt;
 
 use rtl::registers::{clock_divider, command, interrupt, mode, pelican, status};
 
+use crate::acceptance::FilterConfig;
 use crate::btr::{calc_bittiming, BitTimingError, Btr};
 use crate::engine::{DeviceId, Engine};
 use crate::frame::Frame;
@@ -57,6 +59,16 @@ pub struct DriverConfig {
     /// Delay between a MOD write and its read-back while polling the reset bit (the driver's
     /// `udelay(10)`), in microseconds of controller clock.
     pub mode_poll_delay_us: u32,
+    /// The acceptance filter written at chip initialisation (ACR0..3, AMR0..3) and MOD.AFM set
+    /// with every mode change. The mainline driver always opens the filter ([`open_filter`]); a
+    /// board that filters in hardware sets its own.
+    pub filter: FilterConfig,
+}
+
+/// The filter the mainline driver writes: ACR = 0x00, AMR = 0xFF (every frame passes), dual
+/// filter mode (MOD.AFM = 0).
+pub fn open_filter() -> FilterConfig {
+    FilterConfig::dual([0x00; 4], [0xFF; 4])
 }
 
 impl Default for DriverConfig {
@@ -69,6 +81,7 @@ impl Default for DriverConfig {
             clock_out: None,
             ocr: 0x18,
             mode_poll_delay_us: 10,
+            filter: open_filter(),
         }
     }
 }
@@ -85,6 +98,15 @@ impl DriverConfig {
             None => cdr |= clock_divider::CLOCK_OFF,
         }
         cdr
+    }
+
+    /// MOD.AFM as the filter needs it.
+    fn filter_mode(&self) -> u8 {
+        if self.filter.single_filter {
+            mode::AFM
+        } else {
+            0
+        }
     }
 
     /// The MOD polling delay in controller clock cycles.
@@ -247,6 +269,8 @@ pub struct DriverStats {
     pub wakeups: u64,
     /// TI without a frame in flight.
     pub spurious_tx: u64,
+    /// Interrupts handled, per IR bit (index = bit number: RI, TI, EI, DOI, WUI, EPI, ALI, BEI).
+    pub interrupts: [u64; 8],
 }
 
 /// Why a driver operation failed.
@@ -397,7 +421,8 @@ impl Sja1000Driver {
     }
 
     /// Probe: checks that a chip answers (MOD ≠ 0xFF), puts it into reset mode and initialises it:
-    /// CDR (PeliCAN | comparator bypass | CLKOUT), ACR0..3 = 0x00, AMR0..3 = 0xFF (accept all),
+    /// CDR (PeliCAN | comparator bypass | CLKOUT), ACR0..3 and AMR0..3 from the board's filter
+    /// (mainline: ACR = 0x00, AMR = 0xFF, accept all),
     /// OCR = board OCR | [`OCR_MODE_NORMAL`]. The device is stopped afterwards.
     pub fn probe(&mut self, eng: &mut Engine) -> Result<(), DriverError> {
         let mut host = Host::new(eng, self.node);
@@ -545,6 +570,7 @@ impl Sja1000Driver {
                 break;
             }
             let mut sr = host.read(pelican::SR);
+            self.count_interrupts(ir);
             if ir & interrupt::WUI != 0 {
                 self.stats.wakeups += 1;
                 events.push(DriverEvent::WakeUp);
@@ -567,6 +593,12 @@ impl Sja1000Driver {
             loops += 1;
         }
         events
+    }
+
+    fn count_interrupts(&mut self, ir: u8) {
+        for (bit, count) in self.stats.interrupts.iter_mut().enumerate() {
+            *count += u64::from(ir >> bit & 1);
+        }
     }
 
     fn transmit_interrupt(&mut self, sr: u8, events: &mut Vec<DriverEvent>) {
@@ -671,10 +703,10 @@ impl Sja1000Driver {
         Err(DriverError::ResetModeFailed { mod_value })
     }
 
-    /// `set_normal_mode`: read MOD, then write MOD = LOM/STM and read it back until RM is 0; then
-    /// enable the interrupts.
+    /// `set_normal_mode`: read MOD, then write MOD = LOM/STM (and the board's AFM) and read it back
+    /// until RM is 0; then enable the interrupts.
     fn set_normal_mode(&mut self, host: &mut Host) -> Result<(), DriverError> {
-        let written = self.ctrl_mode.mod_value();
+        let written = self.ctrl_mode.mod_value() | self.config.filter_mode();
         let mut mod_value = host.read(pelican::MOD);
         for _ in 0..MODE_POLL_ATTEMPTS {
             if mod_value & mode::RM == 0 {
@@ -689,14 +721,14 @@ impl Sja1000Driver {
         Err(DriverError::NormalModeFailed { written, mod_value })
     }
 
-    /// `chipset_init`: CDR, the open acceptance filter, OCR.
+    /// `chipset_init`: CDR, the acceptance filter, OCR.
     fn chipset_init(&mut self, host: &mut Host) {
         host.write(pelican::CDR, self.config.cdr());
-        for i in 0..4 {
-            host.write(pelican::ACR0 + i, 0x00);
+        for (i, acr) in (0..).zip(self.config.filter.acr) {
+            host.write(pelican::ACR0 + i, acr);
         }
-        for i in 0..4 {
-            host.write(pelican::AMR0 + i, 0xFF);
+        for (i, amr) in (0..).zip(self.config.filter.amr) {
+            host.write(pelican::AMR0 + i, amr);
         }
         host.write(pelican::OCR, self.config.ocr | OCR_MODE_NORMAL);
     }

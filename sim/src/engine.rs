@@ -11,8 +11,9 @@ use std::any::Any;
 use std::io;
 use std::path::{Path, PathBuf};
 
-use crate::bus::{Bus, Drive};
+use crate::bus::{Bus, BusFault, Drive};
 use crate::bus_decoder::BusTiming;
+use crate::frame::RECESSIVE;
 use crate::time::ClockSpec;
 use crate::trace::{Probe, VcdTracer};
 
@@ -47,10 +48,33 @@ struct Slot {
     edges: u64,
     next_edge: u64,
     line: usize,
+    /// What the device drives (its `tx` pin).
+    pin: Drive,
+    /// What reaches the bus: the pin, or a [`DriveOverride`].
     drive: Drive,
     rx: bool,
     disturbances: Vec<Disturbance>,
+    overrides: Vec<DriveOverride>,
     probe_values: Vec<u64>,
+}
+
+impl Slot {
+    /// What reaches the bus from this device at its edge at `t` when its pin drives `pin`.
+    fn effective_drive(&self, t: u64, pin: Drive) -> Drive {
+        self.overrides
+            .iter()
+            .find(|o| (o.from_fs..o.to_fs).contains(&t))
+            .map_or(pin, |o| o.drive)
+    }
+}
+
+/// A time window in which what one device drives is replaced (a disconnected or stuck
+/// transmitter); the device's own pin is unaffected.
+#[derive(Clone, Copy, Debug)]
+struct DriveOverride {
+    from_fs: u64,
+    to_fs: u64,
+    drive: Drive,
 }
 
 /// A time window in which one device sees a fixed level instead of the bus (a local fault: a
@@ -63,12 +87,49 @@ struct Disturbance {
     level: Option<bool>,
 }
 
-struct Tracing {
-    tracer: VcdTracer,
+/// Derives a traced value from the bus level changes (time, new level): the new value when it
+/// changes.
+pub type BusAnnotator = Box<dyn FnMut(u64, bool) -> Option<u64>>;
+
+/// Who wants to know the bus level changes, and the times at which the level may change next.
+struct BusObservers {
+    tracer: Option<VcdTracer>,
+    /// A signal traced beside `bus`, derived from its changes.
+    annotation: Option<(Probe, BusAnnotator)>,
     /// The devices with a scope in the trace: those added before it started.
-    devices: usize,
-    /// Times at which the bus level may change (a drive changed and reaches the bus then).
+    traced_devices: usize,
+    /// Changes recorded for [`Engine::take_bus_changes`], if watching.
+    changes: Option<Vec<(u64, bool)>>,
+    /// The last level reported.
+    last: bool,
+    /// Times at which the bus level may change (a drive changed and reaches the bus then, or a
+    /// bus fault begins or ends).
     pending: std::collections::BinaryHeap<std::cmp::Reverse<u64>>,
+}
+
+impl Default for BusObservers {
+    fn default() -> Self {
+        BusObservers {
+            tracer: None,
+            traced_devices: 0,
+            annotation: None,
+            changes: None,
+            last: RECESSIVE,
+            pending: Default::default(),
+        }
+    }
+}
+
+impl BusObservers {
+    fn active(&self) -> bool {
+        self.tracer.is_some() || self.changes.is_some()
+    }
+
+    fn expect_change_at(&mut self, t: u64) {
+        if self.active() {
+            self.pending.push(std::cmp::Reverse(t));
+        }
+    }
 }
 
 /// The event loop stepping every device on its own clock.
@@ -80,7 +141,7 @@ pub struct Engine {
     bus: Bus,
     now: u64,
     edges: u64,
-    tracing: Option<Tracing>,
+    observers: BusObservers,
     /// A trace to start at the first step, once every device is added.
     deferred_trace: Option<(PathBuf, BusTiming)>,
 }
@@ -99,7 +160,7 @@ impl Engine {
             bus: Bus::new(),
             now: 0,
             edges: 0,
-            tracing: None,
+            observers: BusObservers::default(),
             deferred_trace: None,
         }
     }
@@ -117,9 +178,11 @@ impl Engine {
             edges: 0,
             next_edge: clock.edge(0),
             line,
+            pin: Drive::Recessive,
             drive: Drive::Recessive,
             rx: true,
             disturbances: Vec::new(),
+            overrides: Vec::new(),
             probe_values: vec![0; probes],
         });
         DeviceId(self.slots.len() - 1)
@@ -142,6 +205,35 @@ impl Engine {
             to_fs,
             level: None,
         });
+    }
+
+    /// Replaces what device `id` puts on the bus by `drive` at its clock edges in `from_fs..to_fs`
+    /// (a disconnected transmitter: [`Drive::Recessive`]; a stuck one: [`Drive::Dominant`]). The
+    /// device's `tx` pin, as traced, is unaffected.
+    pub fn override_drive(&mut self, id: DeviceId, from_fs: u64, to_fs: u64, drive: Drive) {
+        self.slots[id.0].overrides.push(DriveOverride {
+            from_fs,
+            to_fs,
+            drive,
+        });
+    }
+
+    /// Puts `fault` on the bus itself from `from_fs` to `to_fs` (every device sees it through its
+    /// delay, and the traced `bus` shows it). The window must not begin in the past.
+    pub fn fault_bus(&mut self, from_fs: u64, to_fs: u64, fault: BusFault) {
+        self.bus.add_fault(from_fs, to_fs, fault);
+        self.observers.expect_change_at(from_fs);
+        self.observers.expect_change_at(to_fs);
+    }
+
+    /// Traces `probe` beside `bus`, with the values `annotator` derives from the bus level
+    /// changes; call before [`Engine::trace_vcd`].
+    pub fn annotate_bus(&mut self, probe: Probe, annotator: BusAnnotator) {
+        assert!(
+            self.observers.tracer.is_none(),
+            "annotate the bus before tracing starts"
+        );
+        self.observers.annotation = Some((probe, annotator));
     }
 
     /// Starts writing a VCD of the bus and every device to `path`; call after adding the devices. A
@@ -171,21 +263,42 @@ impl Engine {
             .iter()
             .map(|s| (s.device.name().to_string(), s.device.probes()))
             .collect();
-        self.tracing = Some(Tracing {
-            tracer: VcdTracer::create(path, &devices, timing)?,
-            devices: devices.len(),
-            pending: Default::default(),
-        });
+        let bus_probes: Vec<Probe> = self.observers.annotation.iter().map(|(p, _)| *p).collect();
+        self.observers.tracer = Some(VcdTracer::create(path, &bus_probes, &devices, timing)?);
+        self.observers.traced_devices = devices.len();
         Ok(())
     }
 
     /// Ends tracing: writes the rest of the VCD and moves it into place. Returns the path, if tracing.
     pub fn finish_trace(&mut self) -> io::Result<Option<std::path::PathBuf>> {
-        self.flush_bus_trace(u64::MAX)?;
-        match self.tracing.take() {
-            Some(t) => t.tracer.finish(self.now).map(Some),
+        self.flush_bus_changes(u64::MAX)?;
+        match self.observers.tracer.take() {
+            Some(tracer) => tracer.finish(self.now).map(Some),
             None => Ok(None),
         }
+    }
+
+    /// Ends tracing without writing the VCD (a failed run): its temporary file is removed.
+    pub fn discard_trace(&mut self) {
+        self.observers.tracer = None;
+    }
+
+    /// Starts recording the changes of the bus level for [`Engine::take_bus_changes`]; call before
+    /// the first step.
+    pub fn watch_bus(&mut self) {
+        self.observers.changes = Some(Vec::new());
+    }
+
+    /// The bus level changes (time, new level) recorded since the last call, oldest first: every
+    /// change before the last processed clock edge (needs [`Engine::watch_bus`]).
+    pub fn take_bus_changes(&mut self) -> io::Result<Vec<(u64, bool)>> {
+        self.flush_bus_changes(self.now)?;
+        Ok(self
+            .observers
+            .changes
+            .as_mut()
+            .map(std::mem::take)
+            .unwrap_or_default())
     }
 
     /// Keep the whole drive history of every line for [`Engine::drive_before`] and
@@ -248,7 +361,7 @@ impl Engine {
             return Ok(());
         };
         let t = self.slots[i].next_edge;
-        self.flush_bus_trace(t)?;
+        self.flush_bus_changes(t)?;
         self.now = t;
         self.edges += 1;
         let line = self.slots[i].line;
@@ -262,26 +375,23 @@ impl Engine {
             Some(d) => d.level.unwrap_or(!bus),
             None => bus,
         };
-        let drive = slot.device.rising_edge(t, rx);
+        let pin = slot.device.rising_edge(t, rx);
+        let drive = slot.effective_drive(t, pin);
+        slot.pin = pin;
         slot.rx = rx;
         slot.edges += 1;
         slot.next_edge = slot.clock.edge(slot.edges);
         if drive != slot.drive {
             slot.drive = drive;
             self.bus.set_drive(line, t, drive);
-            if let Some(tracing) = &mut self.tracing {
-                tracing
-                    .pending
-                    .push(std::cmp::Reverse(t + self.bus.delay_fs(line)));
-            }
+            self.observers.expect_change_at(t + self.bus.delay_fs(line));
         }
-        if let Some(tracing) = self.tracing.as_mut().filter(|t| i < t.devices) {
+        let traced = i < self.observers.traced_devices;
+        if let Some(tracer) = self.observers.tracer.as_mut().filter(|_| traced) {
             let slot = &mut self.slots[i];
             slot.device.probe_values(&mut slot.probe_values);
-            let tx = slot.drive.level();
-            tracing
-                .tracer
-                .device(i, t, tx, slot.rx, &slot.probe_values)?;
+            let tx = slot.pin.level();
+            tracer.device(i, t, tx, slot.rx, &slot.probe_values)?;
         }
         if self.edges.is_multiple_of(4096) {
             self.bus.prune(t);
@@ -323,19 +433,31 @@ impl Engine {
         best.map(|(_, i)| i)
     }
 
-    /// Writes the bus-level changes that happen before `t` (changes at `t` itself wait, so that every
-    /// device stepping at `t` has applied its drive first).
-    fn flush_bus_trace(&mut self, t: u64) -> io::Result<()> {
-        let Some(tracing) = &mut self.tracing else {
-            return Ok(());
-        };
-        while let Some(&std::cmp::Reverse(at)) = tracing.pending.peek() {
+    /// Reports the bus-level changes that happen before `t` to the tracer and the watch (changes at
+    /// `t` itself wait, so that every device stepping at `t` has applied its drive first).
+    fn flush_bus_changes(&mut self, t: u64) -> io::Result<()> {
+        let observers = &mut self.observers;
+        while let Some(&std::cmp::Reverse(at)) = observers.pending.peek() {
             if at >= t {
                 break;
             }
-            tracing.pending.pop();
+            observers.pending.pop();
             let level = self.bus.level_before(at + 1);
-            tracing.tracer.bus(at, level)?;
+            if observers.last == level {
+                continue;
+            }
+            observers.last = level;
+            if let Some(tracer) = &mut observers.tracer {
+                tracer.bus(at, level)?;
+                if let Some((_, annotator)) = &mut observers.annotation {
+                    if let Some(value) = annotator(at, level) {
+                        tracer.bus_probe(0, at, value)?;
+                    }
+                }
+            }
+            if let Some(changes) = &mut observers.changes {
+                changes.push((at, level));
+            }
         }
         Ok(())
     }
@@ -343,7 +465,7 @@ impl Engine {
 
 impl Drop for Engine {
     fn drop(&mut self) {
-        if self.tracing.is_some() {
+        if self.observers.tracer.is_some() {
             if let Err(e) = self.finish_trace() {
                 eprintln!("cannot finish the VCD trace: {e}");
             }
@@ -441,5 +563,31 @@ mod tests {
             text.ends_with("#5000\n"),
             "traced up to the last edge: {text}"
         );
+    }
+
+    #[test]
+    fn drive_overrides_and_bus_faults_reach_everyone_and_the_watch() {
+        let mut engine = Engine::new();
+        let stuck = engine.add(probe(Drive::Recessive), 0);
+        let listener = engine.add(probe(Drive::Recessive), 0);
+        let us = ClockSpec::from_hz(1e6).period_fs();
+        engine.watch_bus();
+        // The first device's transmitter is stuck dominant at its edges 2 and 3; the bus is
+        // forced dominant for edges 6 and 7 (strictly after 5 µs, up to 7 µs).
+        engine.override_drive(stuck, 2 * us, 4 * us, Drive::Dominant);
+        engine.fault_bus(5 * us, 7 * us, BusFault::Force(crate::frame::DOMINANT));
+        engine.run_until(10 * us).unwrap();
+        let expected: Vec<bool> = (0..10).map(|k| !matches!(k, 3 | 4 | 6 | 7)).collect();
+        assert_eq!(engine.device::<Probe>(listener).seen, expected);
+        assert_eq!(
+            engine.take_bus_changes().unwrap(),
+            [
+                (2 * us, false),
+                (4 * us, true),
+                (5 * us, false),
+                (7 * us, true)
+            ]
+        );
+        assert!(engine.take_bus_changes().unwrap().is_empty());
     }
 }

@@ -22,6 +22,7 @@ pub mod lower_tester;
 pub mod reference;
 pub mod rta;
 pub mod rtl_step;
+pub mod scenario;
 pub mod sync_demo;
 pub mod time;
 pub mod trace;

@@ -11,7 +11,6 @@ use crate::btl_node::{BitTimingNode, BtlEventKind};
 use crate::btr::Btr;
 use crate::bus::Drive;
 use crate::bus_decoder::BusTiming;
-use crate::demo::NODES;
 use crate::engine::{DeviceId, Engine};
 use crate::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT};
 use crate::lower_tester::LowerTester;
@@ -23,6 +22,32 @@ pub const DEMO_CLOCK_HZ: f64 = 16e6;
 pub const DEMO_BTR: (u8, u8) = (0x40, 0x1C);
 /// Idle bits before the first frame and between frames.
 const GAP_BITS: usize = 12;
+
+/// A node of the demo: name, clock offset and propagation delay.
+struct NodeSpec {
+    name: &'static str,
+    ppm: f64,
+    delay_ns: u64,
+}
+
+/// The three nodes.
+const NODES: [NodeSpec; 3] = [
+    NodeSpec {
+        name: "a",
+        ppm: 0.0,
+        delay_ns: 0,
+    },
+    NodeSpec {
+        name: "b",
+        ppm: 1500.0,
+        delay_ns: 60,
+    },
+    NodeSpec {
+        name: "c",
+        ppm: -2500.0,
+        delay_ns: 140,
+    },
+];
 
 /// A disturbance the lower tester puts into a frame.
 #[derive(Clone, Copy, Debug)]

@@ -1,13 +1,15 @@
 //! Selective VCD tracer (the `vcd` crate, not rust-hdl's whole-tree probe).
 //!
-//! Layout: a top scope with the 1-bit wire `bus`, then one scope per device with `tx`, `rx` and the
+//! Layout: a top scope with the 1-bit wire `bus` and any signals derived from it (the number of the
+//! frame on the bus), then one scope per device with `tx`, `rx` and the
 //! device's own probes. Every variable is a 1-bit wire, so protocol decoders such as sigrok's CAN decoder
 //! (which abort on vector variables) read the file; a probe wider than one bit is written as bit-select
 //! wires `name [i]`, which the GTKWave views in `waves/` regroup into vectors. Timescale 1 ns. A
 //! header comment records the bus's bit timing when the caller knows it, so that `cansim decode` and
 //! the agreement checks decode the file without being told. Output is buffered and goes to a
 //! temporary file that replaces the target only when [`VcdTracer::finish`] succeeds, so an aborted run
-//! never leaves a half-written VCD behind.
+//! never leaves a half-written VCD behind (a tracer dropped without finishing removes its temporary
+//! file).
 
 use std::fs::File;
 use std::io::{self, BufWriter};
@@ -56,8 +58,10 @@ pub struct VcdTracer {
     temporary: PathBuf,
     bus: IdCode,
     bus_last: bool,
+    bus_probes: Vec<ProbeIds>,
     devices: Vec<DeviceTrace>,
     now_ns: u64,
+    finished: bool,
 }
 
 fn level(v: bool) -> Value {
@@ -69,10 +73,12 @@ fn level(v: bool) -> Value {
 }
 
 impl VcdTracer {
-    /// Creates the tracer for `devices` (scope name and probes of each) writing to `path`; `timing`, the
-    /// bus's bit timing if known, is recorded in a header comment ([`timing_comment`]) for decoders.
+    /// Creates the tracer for `bus_probes` (signals beside `bus` in the top scope) and `devices`
+    /// (scope name and probes of each), writing to `path`; `timing`, the bus's bit timing if known,
+    /// is recorded in a header comment ([`timing_comment`]) for decoders.
     pub fn create(
         path: &Path,
+        bus_probes: &[Probe],
         devices: &[(String, Vec<Probe>)],
         timing: Option<&BusTiming>,
     ) -> io::Result<VcdTracer> {
@@ -91,32 +97,20 @@ impl VcdTracer {
         writer.timescale(1, TimescaleUnit::NS)?;
         writer.add_module("top")?;
         let bus = writer.add_wire(1, "bus")?;
+        let bus_probes = bus_probes
+            .iter()
+            .map(|p| add_probe(&mut writer, p))
+            .collect::<io::Result<Vec<_>>>()?;
         writer.upscope()?;
         let mut traces = Vec::new();
         for (name, probes) in devices {
             writer.add_module(name)?;
             let tx = writer.add_wire(1, "tx")?;
             let rx = writer.add_wire(1, "rx")?;
-            let mut ids = Vec::new();
-            for p in probes {
-                assert!(
-                    (1..=64).contains(&p.width),
-                    "probe {} has width {}",
-                    p.name,
-                    p.width
-                );
-                let bits = if p.width == 1 {
-                    vec![writer.add_wire(1, p.name)?]
-                } else {
-                    (0..p.width)
-                        .map(|i| {
-                            let index = Some(ReferenceIndex::BitSelect(i as i32));
-                            writer.add_var(VarType::Wire, 1, p.name, index)
-                        })
-                        .collect::<io::Result<Vec<_>>>()?
-                };
-                ids.push(ProbeIds { bits, last: 0 });
-            }
+            let ids = probes
+                .iter()
+                .map(|p| add_probe(&mut writer, p))
+                .collect::<io::Result<Vec<_>>>()?;
             writer.upscope()?;
             traces.push(DeviceTrace {
                 tx,
@@ -129,6 +123,11 @@ impl VcdTracer {
         writer.enddefinitions()?;
         writer.timestamp(0)?;
         writer.change_scalar(bus, Value::V1)?;
+        for p in &bus_probes {
+            for id in &p.bits {
+                writer.change_scalar(*id, Value::V0)?;
+            }
+        }
         for d in &traces {
             writer.change_scalar(d.tx, Value::V1)?;
             writer.change_scalar(d.rx, Value::V1)?;
@@ -144,8 +143,10 @@ impl VcdTracer {
             temporary,
             bus,
             bus_last: true,
+            bus_probes,
             devices: traces,
             now_ns: 0,
+            finished: false,
         })
     }
 
@@ -196,18 +197,19 @@ impl VcdTracer {
             self.writer.change_scalar(d.rx, level(rx))?;
         }
         for (p, &v) in d.probes.iter_mut().zip(values) {
-            let diff = p.last ^ v;
-            if diff == 0 {
-                continue;
-            }
-            p.last = v;
-            for (bit, id) in p.bits.iter().enumerate() {
-                if diff >> bit & 1 == 1 {
-                    self.writer.change_scalar(*id, level(v >> bit & 1 == 1))?;
-                }
-            }
+            write_probe(&mut self.writer, p, v)?;
         }
         Ok(())
+    }
+
+    /// Bus probe `index` (in the order given to [`VcdTracer::create`]) changes to `value` at
+    /// `t_fs` (times never decrease across calls).
+    pub fn bus_probe(&mut self, index: usize, t_fs: u64, value: u64) -> io::Result<()> {
+        if self.bus_probes[index].last == value {
+            return Ok(());
+        }
+        self.at(t_fs)?;
+        write_probe(&mut self.writer, &mut self.bus_probes[index], value)
     }
 
     /// Writes the final timestamp, flushes, and moves the file into place.
@@ -217,13 +219,59 @@ impl VcdTracer {
             self.writer.timestamp(end_ns)?;
         }
         self.writer.flush()?;
-        drop(self.writer);
         std::fs::rename(&self.temporary, &self.target).map_err(|e| {
             io::Error::new(
                 e.kind(),
                 format!("cannot write {}: {e}", self.target.display()),
             )
         })?;
-        Ok(self.target)
+        self.finished = true;
+        Ok(self.target.clone())
+    }
+}
+
+/// Declares `probe`'s wires: one, or one bit-select wire per bit.
+fn add_probe(writer: &mut vcd::Writer<BufWriter<File>>, probe: &Probe) -> io::Result<ProbeIds> {
+    assert!(
+        (1..=64).contains(&probe.width),
+        "probe {} has width {}",
+        probe.name,
+        probe.width
+    );
+    let bits = if probe.width == 1 {
+        vec![writer.add_wire(1, probe.name)?]
+    } else {
+        (0..probe.width)
+            .map(|i| {
+                let index = Some(ReferenceIndex::BitSelect(i as i32));
+                writer.add_var(VarType::Wire, 1, probe.name, index)
+            })
+            .collect::<io::Result<Vec<_>>>()?
+    };
+    Ok(ProbeIds { bits, last: 0 })
+}
+
+/// Writes the wires of `probe` whose bit differs in `value`.
+fn write_probe(
+    writer: &mut vcd::Writer<BufWriter<File>>,
+    probe: &mut ProbeIds,
+    value: u64,
+) -> io::Result<()> {
+    let diff = probe.last ^ value;
+    probe.last = value;
+    for (bit, id) in probe.bits.iter().enumerate() {
+        if diff >> bit & 1 == 1 {
+            writer.change_scalar(*id, level(value >> bit & 1 == 1))?;
+        }
+    }
+    Ok(())
+}
+
+impl Drop for VcdTracer {
+    fn drop(&mut self) {
+        if !self.finished {
+            // An unfinished trace is useless; nobody can report a failure to remove it.
+            let _ = std::fs::remove_file(&self.temporary);
+        }
     }
 }

@@ -97,24 +97,43 @@ fn impossible_or_bad_requests_fail_with_a_message() {
 }
 
 #[test]
-fn demo_reports_every_node_and_writes_the_vcd_where_asked() {
+fn demo_reports_every_node_and_writes_the_vcd_and_log_where_asked() {
     let dir = std::env::temp_dir().join(format!("cansim-cli-{}", std::process::id()));
-    let vcd = dir.join("sub").join("demo.vcd");
-    let o = cansim(&["demo", "--vcd", vcd.to_str().unwrap()]);
+    let (vcd, log) = (
+        dir.join("sub").join("demo.vcd"),
+        dir.join("logs").join("demo.log"),
+    );
+    let o = cansim(&[
+        "demo",
+        "--vcd",
+        vcd.to_str().unwrap(),
+        "--log",
+        log.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = stdout(&o);
     for expected in [
-        "a: 16 MHz +0 ppm",
-        "b: 16 MHz +1500 ppm",
-        "c: 16 MHz -2500 ppm",
+        "a: 16 MHz +0 ppm, 0 ns from the bus",
+        "b: 16 MHz +1500 ppm, 60 ns from the bus",
+        "d: 16 MHz +800 ppm, 100 ns from the bus, single filter ACR 20000000 AMR 1FFFFFFF",
         "a  lost arbitration at bit 9 (ALC)",
         "b  bus error, ECC 0x78 (form error, receiving, CRC delimiter)",
-        "(error passive)",
-        "127 (error active)",
+        "a  error-passive (EPI)",
+        "d  bus-off (EI)",
+        "d  restarted by its driver after bus-off",
+        "node  sent  received  dropped  unsent  TXERR  RXERR  state",
+        "gtkwave",
     ] {
         assert!(out.contains(expected), "missing {expected:?} in\n{out}");
     }
+    assert!(
+        !out.contains("received 080#"),
+        "the demo leaves out receptions"
+    );
     assert!(std::fs::metadata(&vcd).unwrap().len() > 10_000);
+    let log_text = std::fs::read_to_string(&log).unwrap();
+    let first = log_text.lines().next().unwrap_or_default();
+    assert!(first.ends_with(") can0 080#"), "{log_text}");
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -393,7 +412,7 @@ fn help_explains_the_analyses_and_the_file() {
 /// its DLC.
 fn traced_bus(path: &std::path::Path, frames: &[Frame]) {
     let timing = BusTiming::from_bitrate(250_000.0, 0.75).unwrap();
-    let mut tracer = VcdTracer::create(path, &[], Some(&timing)).unwrap();
+    let mut tracer = VcdTracer::create(path, &[], &[], Some(&timing)).unwrap();
     let mut t = 10 * timing.bit_time_fs;
     let mut play = |tracer: &mut VcdTracer, bits: &[bool]| {
         for &bit in bits {

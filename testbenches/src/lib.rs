@@ -305,6 +305,7 @@ pub mod equivalence;
 pub mod lint;
 pub mod protocol_bench;
 pub mod register_iut;
+pub mod scenario_report;
 pub mod sigrok;
 
 /// Defines the tests of protocol scenarios written once for both IUTs: for every function

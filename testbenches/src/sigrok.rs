@@ -8,7 +8,9 @@
 //! recessive r0 (r1 in extended frames) as CAN FD's FDF bit; it resynchronises fully on every falling
 //! edge, even after a dominant bit, so a recessive glitch early in a dominant bit or a phase error
 //! beyond the SJW shifts its sample points; it starts a decode at any dominant level on the idle bus
-//! (a glitch too) and detects no error, so it reads error and overload flags as frame bits.
+//! (a glitch too) and detects no error, so it reads error and overload flags as frame bits; after an
+//! error flag that begins in the end of frame it takes the flag's last dominant bits for a new start of
+//! frame, so the frame after such an error frame decodes as garbage.
 
 use std::path::Path;
 use std::process::Command;

@@ -14,7 +14,11 @@ fn benches_write_their_waves_named_after_the_test() {
     let dir = std::env::temp_dir().join(format!("cansim-waves-{}", std::process::id()));
     let frame = Frame::data(Id::Standard(0x1A5), &[0x42]).unwrap();
     std::env::set_var(WAVES_ENV, &dir);
-    drop(ProtocolBench::iut_transmits_acknowledged(Iut::Core, &frame, 0));
+    drop(ProtocolBench::iut_transmits_acknowledged(
+        Iut::Core,
+        &frame,
+        0,
+    ));
     ControllerBench::new(1).run_bits(2);
     std::env::remove_var(WAVES_ENV);
     let name = "waves_on_request.benches_write_their_waves_named_after_the_test";

@@ -1,20 +1,23 @@
 //! `cansim`: the command line tool of the CAN controller project. Without a subcommand it runs the demo.
 
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-
-use std::io::IsTerminal;
 use std::sync::Mutex;
 use std::time::Instant;
 
 use clap::{Parser, Subcommand};
-use sim::btr::{calc_bittiming, format_calculation, format_table};
+use sim::btr::{calc_bittiming, format_calculation, format_table, sample_point_fraction, Btr};
 use sim::bus_decoder::{EventCounts, Remark};
 use sim::campaign::{
     check, describe, format_summary, random_case, run_campaign, run_rtl_traced, Rng,
 };
-use sim::demo::{format_report, run_demo, DEMO_SAMPLE_POINT_PCT};
+use sim::demo::{demo_scenario, DEMO_LOG, DEMO_VCD};
 use sim::rta;
+use sim::scenario::parse::parse_time;
+use sim::scenario::progress::Progress;
+use sim::scenario::summary::{format_report, ReportParts};
+use sim::scenario::{load, run, RunOptions, RunReport, Scenario};
 use sim::sync_demo;
 use sim::vcd_reader::{self, decode_vcd, DecodeOptions};
 
@@ -31,16 +34,42 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Three CAN controllers arbitrate, recover from an injected error, and one goes error passive
-    /// and back; writes a VCD and prints what every controller reported (the default command).
+    /// The demo scenario (examples/demo.toml, built in): four CAN controllers arbitrate, one
+    /// filters, an injected error, one goes error passive and back, one goes bus-off and its
+    /// driver restarts it; writes a VCD and the bus log, prints what the drivers reported and a
+    /// summary table (the default command).
     Demo {
         /// Where to write the waveform.
-        #[arg(long, default_value = "waves/demo.vcd")]
+        #[arg(long, default_value = DEMO_VCD)]
         vcd: PathBuf,
+        /// Where to write the bus log.
+        #[arg(long, default_value = DEMO_LOG)]
+        log: PathBuf,
         /// Do not write a waveform.
         #[arg(long)]
         no_vcd: bool,
-        /// Print only the summary line.
+        /// Print only the summary; no progress bar.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Run a scenario file: prints the bus log (candump -l lines with error and overload frames)
+    /// and a summary per node; writes a VCD and the log on request.
+    Run {
+        /// The scenario (TOML; see docs/SCENARIOS.md).
+        scenario: PathBuf,
+        /// Write a waveform here.
+        #[arg(long)]
+        vcd: Option<PathBuf>,
+        /// Write the bus log here instead of printing it.
+        #[arg(long)]
+        log: Option<PathBuf>,
+        /// Run this long instead of the scenario's duration (e.g. 2ms, 500bits).
+        #[arg(long)]
+        until: Option<String>,
+        /// Print what every driver reported (frames sent and received, errors, state changes).
+        #[arg(long)]
+        events: bool,
+        /// Print only the summary; no progress bar.
         #[arg(long, short)]
         quiet: bool,
     },
@@ -177,11 +206,25 @@ set, or when a simulated response exceeds the corrected bound.";
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command.unwrap_or(Command::Demo {
-        vcd: PathBuf::from("waves/demo.vcd"),
+        vcd: PathBuf::from(DEMO_VCD),
+        log: PathBuf::from(DEMO_LOG),
         no_vcd: false,
         quiet: false,
     }) {
-        Command::Demo { vcd, no_vcd, quiet } => demo(vcd, no_vcd, quiet),
+        Command::Demo {
+            vcd,
+            log,
+            no_vcd,
+            quiet,
+        } => demo(vcd, log, no_vcd, quiet),
+        Command::Run {
+            scenario,
+            vcd,
+            log,
+            until,
+            events,
+            quiet,
+        } => run_scenario(&scenario, vcd, log, until, events, quiet),
         Command::SyncDemo { vcd, no_vcd, quiet } => sync_demo(vcd, no_vcd, quiet),
         Command::Campaign {
             faults,
@@ -229,37 +272,141 @@ fn vcd_path(vcd: PathBuf, no_vcd: bool) -> Result<Option<PathBuf>, String> {
     if no_vcd {
         return Ok(None);
     }
-    if let Some(dir) = vcd.parent().filter(|d| !d.as_os_str().is_empty()) {
+    output_path(vcd).map(Some)
+}
+
+/// An output path with its directory created.
+fn output_path(path: PathBuf) -> Result<PathBuf, String> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     }
-    Ok(Some(vcd))
+    Ok(path)
 }
 
-fn print_waves_hint(vcd: Option<&PathBuf>, view: &str, quiet: bool) {
-    let Some(vcd) = vcd else { return };
-    println!("wrote {}", vcd.display());
-    if !quiet {
-        println!(
-            "decode: cansim decode {0}\n        sigrok-cli -I vcd -i {0} -P can:can_rx=bus:nominal_bitrate=500000:sample_point={DEMO_SAMPLE_POINT_PCT} -A can=fields\nview:   gtkwave {0} {view}",
-            vcd.display()
+/// How to decode and view a VCD written with a bus of `bitrate` bit/s sampled at
+/// `sample_point_pct` percent.
+fn print_waves_hint(vcd: &Path, view: &Path, bitrate: f64, sample_point_pct: f64) {
+    println!(
+        "decode: cansim decode {0}\n        sigrok-cli -I vcd -i {0} -P can:can_rx=bus:nominal_bitrate={bitrate:.0}:sample_point={sample_point_pct} -A can=fields\nview:   gtkwave {0} {1}",
+        vcd.display(),
+        view.display()
+    );
+}
+
+/// Where a run writes, and how long it runs.
+struct Outputs {
+    vcd: Option<PathBuf>,
+    log: Option<PathBuf>,
+    until_fs: Option<u64>,
+}
+
+/// Runs `scenario` with a progress bar on a terminal (unless `quiet`); the report and the real
+/// time the run took.
+fn run_with_progress(
+    scenario: &Scenario,
+    outputs: Outputs,
+    quiet: bool,
+) -> Result<(RunReport, f64), String> {
+    let mut options = RunOptions {
+        vcd: outputs.vcd,
+        log: outputs.log,
+        until_fs: outputs.until_fs,
+        progress: None,
+    };
+    let show = !quiet && std::io::stderr().is_terminal();
+    let mut progress = Progress::new();
+    let mut draw = |simulated: u64, total: u64| {
+        if let Some(line) = progress.update(simulated, total) {
+            eprint!("\r{line}");
+            let _ = std::io::stderr().flush();
+        }
+    };
+    if show {
+        options.progress = Some(&mut draw);
+    }
+    let started = Instant::now();
+    let result = run(scenario, options);
+    if progress.drawn() {
+        eprint!("\r{:width$}\r", "", width = PROGRESS_CLEAR_WIDTH);
+    }
+    let report = result.map_err(|e| e.to_string())?;
+    Ok((report, started.elapsed().as_secs_f64()))
+}
+
+/// Characters cleared after the progress line.
+const PROGRESS_CLEAR_WIDTH: usize = 100;
+
+/// `simulated 7.400 ms in 4.2 s (1.8 ms/s)`.
+fn speed_line(report: &RunReport, seconds: f64) -> String {
+    let ms = report.simulated_fs as f64 / 1e12;
+    format!(
+        "real time {seconds:.1} s ({:.2} ms simulated per second)",
+        ms / seconds.max(1e-9)
+    )
+}
+
+fn print_outputs(report: &RunReport, scenario: &Scenario) {
+    if let Some(log) = &report.log_file {
+        println!("wrote {}", log.display());
+    }
+    if let (Some(vcd), Some(view)) = (&report.vcd, &report.view) {
+        println!("wrote {} and {}", vcd.display(), view.display());
+        let bus = &scenario.bus;
+        print_waves_hint(
+            vcd,
+            view,
+            bus.btr.bitrate(f64::from(bus.clock_hz)),
+            bus.btr.sample_point() * 100.0,
         );
     }
 }
 
-fn demo(vcd: PathBuf, no_vcd: bool, quiet: bool) -> Result<(), String> {
-    let path = vcd_path(vcd, no_vcd)?;
-    let report = run_demo(path.as_deref()).map_err(|e| e.to_string())?;
-    if quiet {
-        let frames: usize = report.nodes.iter().map(|n| n.sent).sum();
-        let errors: usize = report.nodes.iter().map(|n| n.errors).sum();
-        println!(
-            "cansim demo: {frames} frames sent, {errors} bus errors detected, every phase done"
-        );
-    } else {
-        print!("{}", format_report(&report));
-    }
-    print_waves_hint(report.vcd.as_ref(), "waves/demo.gtkw", quiet);
+fn demo(vcd: PathBuf, log: PathBuf, no_vcd: bool, quiet: bool) -> Result<(), String> {
+    let scenario = demo_scenario().map_err(|e| e.to_string())?;
+    let outputs = Outputs {
+        vcd: vcd_path(vcd, no_vcd)?,
+        log: Some(output_path(log)?),
+        until_fs: None,
+    };
+    let (report, seconds) = run_with_progress(&scenario, outputs, quiet)?;
+    let parts = ReportParts {
+        events: !quiet,
+        ..ReportParts::default()
+    };
+    print!("{}", format_report(&scenario, &report, parts));
+    println!("{}", speed_line(&report, seconds));
+    print_outputs(&report, &scenario);
+    Ok(())
+}
+
+fn run_scenario(
+    path: &Path,
+    vcd: Option<PathBuf>,
+    log: Option<PathBuf>,
+    until: Option<String>,
+    events: bool,
+    quiet: bool,
+) -> Result<(), String> {
+    let scenario = load(path).map_err(|e| e.to_string())?;
+    let until_fs = until
+        .map(|text| parse_time(&scenario, &text).map_err(|e| format!("--until: {e}")))
+        .transpose()?;
+    let outputs = Outputs {
+        vcd: vcd.map(output_path).transpose()?,
+        log: log.map(output_path).transpose()?,
+        until_fs,
+    };
+    let log_to_stdout = outputs.log.is_none() && !quiet;
+    let (report, seconds) = run_with_progress(&scenario, outputs, quiet)?;
+    let parts = ReportParts {
+        log: log_to_stdout,
+        events,
+        receptions: true,
+    };
+    print!("{}", format_report(&scenario, &report, parts));
+    println!("{}", speed_line(&report, seconds));
+    print_outputs(&report, &scenario);
     Ok(())
 }
 
@@ -276,7 +423,15 @@ fn sync_demo(vcd: PathBuf, no_vcd: bool, quiet: bool) -> Result<(), String> {
     } else {
         print!("{}", sync_demo::format_report(&report));
     }
-    print_waves_hint(report.vcd.as_ref(), "waves/sync_demo.gtkw", quiet);
+    if let Some(vcd) = &report.vcd {
+        println!("wrote {}", vcd.display());
+        if !quiet {
+            let btr = Btr::from_registers(sync_demo::DEMO_BTR.0, sync_demo::DEMO_BTR.1);
+            let bitrate = btr.bitrate(sync_demo::DEMO_CLOCK_HZ);
+            let view = Path::new("waves/sync_demo.gtkw");
+            print_waves_hint(vcd, view, bitrate, btr.sample_point() * 100.0);
+        }
+    }
     if report.all_bits_right() {
         Ok(())
     } else {
@@ -406,14 +561,12 @@ fn simulate_with_progress(
 }
 
 /// `--sample-point` accepts percent (87.5) or a fraction (0.875).
-fn sample_point_fraction(value: f64) -> Result<f64, String> {
-    match value {
-        v if v > 0.0 && v < 1.0 => Ok(v),
-        v if v > 1.0 && v < 100.0 => Ok(v / 100.0),
-        v => Err(format!(
-            "--sample-point {v} is out of range: give a percentage between 0 and 100 (87.5) or a fraction between 0 and 1 (0.875)"
-        )),
-    }
+fn sample_point_arg(value: f64) -> Result<f64, String> {
+    sample_point_fraction(value).ok_or_else(|| {
+        format!(
+            "--sample-point {value} is out of range: give a percentage between 0 and 100 (87.5) or a fraction between 0 and 1 (0.875)"
+        )
+    })
 }
 
 fn decode(
@@ -426,7 +579,7 @@ fn decode(
     let options = DecodeOptions {
         signal: Some(signal),
         bitrate,
-        sample_point: sample_point.map(sample_point_fraction).transpose()?,
+        sample_point: sample_point.map(sample_point_arg).transpose()?,
     };
     let decoded = decode_vcd(file, &options).map_err(|e| e.to_string())?;
     let source = match decoded.file_timing {
@@ -475,7 +628,7 @@ fn bittiming(
         return Ok(());
     }
     let bitrate = bitrate.ok_or("--bitrate is required without --all")?;
-    let sample_point = sample_point.map(sample_point_fraction).transpose()?;
+    let sample_point = sample_point.map(sample_point_arg).transpose()?;
     let calc = calc_bittiming(clock, bitrate, sample_point, sjw).map_err(|e| e.to_string())?;
     print!("{}", format_calculation(clock, &calc));
     Ok(())
