@@ -5,9 +5,15 @@
 //! Stepping: a queued access drives `addr`/`wdata`/`we`/`re` for exactly one clock cycle; a read's
 //! data is taken from `rdata` right after that edge (the port contract's registered read data). The
 //! node also records `irq_n` and, for traces, a few internal signals of the core.
+//!
+//! Two engines step the controller ([`ModelEngine`]): the rust-hdl model itself, or its generated
+//! Verilog compiled by Verilator ([`crate::verilated`]). Both give the same outputs after every edge;
+//! `CAN_ENGINE` chooses for every node made with [`ControllerNode::new`].
 
 use std::any::Any;
 use std::collections::VecDeque;
+use std::fmt;
+use std::str::FromStr;
 
 use rtl::bsp::protocol::ProtocolState;
 use rtl::can_controller::CanController;
@@ -19,6 +25,76 @@ use crate::engine::Device;
 use crate::rtl_step::clock_cycle_with;
 use crate::time::ClockSpec;
 use crate::trace::Probe;
+use crate::verilated::sources::{STATE, TRANSMITTING};
+pub use crate::verilated::EngineError;
+use crate::verilated::{PortInputs, VerilatedController};
+
+/// The environment variable that chooses the engine of [`ControllerNode::new`].
+pub const ENGINE_ENV: &str = "CAN_ENGINE";
+
+/// Which model of the controller a [`ControllerNode`] steps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum ModelEngine {
+    /// The rust-hdl model of `rtl/` (the default).
+    #[default]
+    RustHdl,
+    /// The generated Verilog, compiled by Verilator and loaded as a library.
+    Verilator,
+}
+
+impl ModelEngine {
+    /// Every engine.
+    pub const ALL: [ModelEngine; 2] = [ModelEngine::RustHdl, ModelEngine::Verilator];
+
+    /// The name `CAN_ENGINE` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            ModelEngine::RustHdl => "rust-hdl",
+            ModelEngine::Verilator => "verilator",
+        }
+    }
+
+    /// The engine `CAN_ENGINE` chooses: unset or empty is [`ModelEngine::RustHdl`]; any value
+    /// other than an engine's name is an error naming the allowed values.
+    pub fn from_env() -> Result<ModelEngine, String> {
+        match std::env::var(ENGINE_ENV) {
+            Ok(value) if !value.is_empty() => value.parse(),
+            Ok(_) | Err(std::env::VarError::NotPresent) => Ok(ModelEngine::default()),
+            Err(std::env::VarError::NotUnicode(value)) => {
+                Err(unknown_engine(&value.to_string_lossy()))
+            }
+        }
+    }
+}
+
+fn unknown_engine(value: &str) -> String {
+    let names: Vec<String> = ModelEngine::ALL
+        .iter()
+        .map(|e| format!("`{}`", e.name()))
+        .collect();
+    format!(
+        "{ENGINE_ENV}=`{value}` is not an engine: use {} (the default is `{}`)",
+        names.join(" or "),
+        ModelEngine::default().name()
+    )
+}
+
+impl FromStr for ModelEngine {
+    type Err = String;
+
+    fn from_str(value: &str) -> Result<ModelEngine, String> {
+        ModelEngine::ALL
+            .into_iter()
+            .find(|e| e.name() == value)
+            .ok_or_else(|| unknown_engine(value))
+    }
+}
+
+impl fmt::Display for ModelEngine {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
 
 /// One host bus cycle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -37,40 +113,159 @@ pub enum HostAccess {
     },
 }
 
+/// The model a node steps.
+enum Model {
+    RustHdl {
+        uut: Box<CanController>,
+        /// The inputs the model holds (`None` before the first cycle).
+        applied: Option<PortInputs>,
+    },
+    Verilator(VerilatedController),
+}
+
+impl Model {
+    fn new(engine: ModelEngine) -> Result<Model, EngineError> {
+        Ok(match engine {
+            ModelEngine::RustHdl => {
+                let mut uut = Box::<CanController>::default();
+                uut.connect_all();
+                Model::RustHdl { uut, applied: None }
+            }
+            ModelEngine::Verilator => Model::Verilator(VerilatedController::new()?),
+        })
+    }
+
+    /// One clock cycle with `inputs`.
+    fn cycle(&mut self, inputs: PortInputs) {
+        match self {
+            Model::RustHdl { uut, applied } => {
+                let changed = *applied != Some(inputs);
+                if changed {
+                    uut.reset.next = inputs.reset;
+                    uut.addr.next = u64::from(inputs.addr).to_bits();
+                    uut.wdata.next = u64::from(inputs.wdata).to_bits();
+                    uut.we.next = inputs.we;
+                    uut.re.next = inputs.re;
+                    uut.rx.next = inputs.rx;
+                    *applied = Some(inputs);
+                }
+                clock_cycle_with(&mut **uut, |u| &mut u.clock, "CAN controller", changed);
+            }
+            Model::Verilator(model) => {
+                model.cycle(inputs);
+            }
+        }
+    }
+
+    fn tx(&self) -> bool {
+        match self {
+            Model::RustHdl { uut, .. } => uut.tx.val(),
+            Model::Verilator(model) => model.outputs().tx(),
+        }
+    }
+
+    fn irq_n(&self) -> bool {
+        match self {
+            Model::RustHdl { uut, .. } => uut.irq_n.val(),
+            Model::Verilator(model) => model.outputs().irq_n(),
+        }
+    }
+
+    fn clkout(&self) -> bool {
+        match self {
+            Model::RustHdl { uut, .. } => uut.clkout.val(),
+            Model::Verilator(model) => model.outputs().clkout(),
+        }
+    }
+
+    fn rdata(&self) -> u8 {
+        match self {
+            Model::RustHdl { uut, .. } => uut.rdata.val().to_u8(),
+            Model::Verilator(model) => model.outputs().rdata(),
+        }
+    }
+}
+
+/// Every protocol state, in declaration order (the encoding rust-hdl gives them in the Verilog).
+const PROTOCOL_STATES: [ProtocolState; 16] = [
+    ProtocolState::Integrating,
+    ProtocolState::Idle,
+    ProtocolState::Arbitration,
+    ProtocolState::Control,
+    ProtocolState::Data,
+    ProtocolState::Crc,
+    ProtocolState::CrcDelimiter,
+    ProtocolState::AckSlot,
+    ProtocolState::AckDelimiter,
+    ProtocolState::EndOfFrame,
+    ProtocolState::Intermission,
+    ProtocolState::Suspend,
+    ProtocolState::ErrorFlag,
+    ProtocolState::OverloadFlag,
+    ProtocolState::Delimiter,
+    ProtocolState::BusOff,
+];
+
+/// The protocol state encoded as `value` in the Verilog.
+fn protocol_state(value: u64) -> ProtocolState {
+    *PROTOCOL_STATES
+        .get(value as usize)
+        .unwrap_or_else(|| panic!("protocol state {value} of the Verilated model has no name"))
+}
+
 /// The RTL controller as a bus [`Device`] with a host access queue.
 pub struct ControllerNode {
     name: String,
     clock: ClockSpec,
-    uut: CanController,
+    engine: ModelEngine,
+    model: Model,
+    /// The inputs of the next cycle (`addr` and `wdata` stay as the last access left them).
+    inputs: PortInputs,
     queue: VecDeque<HostAccess>,
     reads: VecDeque<u8>,
-    access_active: bool,
-    inputs_changed: bool,
     edges: u64,
 }
 
 impl ControllerNode {
     /// A controller on `clock` after a hardware reset (reset mode, BasicCAN, as the data sheet
-    /// leaves it); configure it through a host.
+    /// leaves it); configure it through a host. The engine is the one `CAN_ENGINE` chooses
+    /// ([`ModelEngine::from_env`]).
+    ///
+    /// Panics with the reason if `CAN_ENGINE` names no engine or the engine cannot be had
+    /// (Verilator missing or failing); [`ControllerNode::with_engine`] returns the error instead.
     pub fn new(name: &str, clock: ClockSpec) -> ControllerNode {
-        let mut uut = CanController::default();
-        uut.connect_all();
-        uut.rx.next = true;
-        uut.reset.next = true;
+        let engine = ModelEngine::from_env().unwrap_or_else(|e| panic!("{e}"));
+        ControllerNode::with_engine(name, clock, engine).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// A controller on `clock` stepped by `engine`, after a hardware reset.
+    pub fn with_engine(
+        name: &str,
+        clock: ClockSpec,
+        engine: ModelEngine,
+    ) -> Result<ControllerNode, EngineError> {
         let mut node = ControllerNode {
             name: name.to_string(),
             clock,
-            uut,
+            engine,
+            model: Model::new(engine)?,
+            inputs: PortInputs {
+                reset: true,
+                ..PortInputs::default()
+            },
             queue: VecDeque::new(),
             reads: VecDeque::new(),
-            access_active: false,
-            inputs_changed: true,
             edges: 0,
         };
-        node.clock_edge();
-        node.uut.reset.next = false;
-        node.inputs_changed = true;
-        node
+        node.model.cycle(node.inputs);
+        node.edges += 1;
+        node.inputs.reset = false;
+        Ok(node)
+    }
+
+    /// The engine stepping this node.
+    pub fn engine(&self) -> ModelEngine {
+        self.engine
     }
 
     /// Queues a host access; it happens on one of the next clock edges, in order.
@@ -80,7 +275,7 @@ impl ControllerNode {
 
     /// No access is queued or under way.
     pub fn host_idle(&self) -> bool {
-        self.queue.is_empty() && !self.access_active
+        self.queue.is_empty()
     }
 
     /// The oldest read result not yet taken.
@@ -90,17 +285,17 @@ impl ControllerNode {
 
     /// The interrupt output is asserted (`irq_n` low).
     pub fn irq(&self) -> bool {
-        !self.uut.irq_n.val()
+        !self.model.irq_n()
     }
 
     /// The `clkout` pin.
     pub fn clkout(&self) -> bool {
-        self.uut.clkout.val()
+        self.model.clkout()
     }
 
     /// The `tx` pin.
     pub fn tx(&self) -> bool {
-        self.uut.tx.val()
+        self.model.tx()
     }
 
     /// Rising clock edges so far.
@@ -110,44 +305,39 @@ impl ControllerNode {
 
     /// Protocol state of the core (for waves and diagnostics; tests observe registers).
     pub fn state(&self) -> ProtocolState {
-        self.uut.core.state.val()
+        match &self.model {
+            Model::RustHdl { uut, .. } => uut.core.state.val(),
+            Model::Verilator(model) => protocol_state(model.outputs().internal(STATE)),
+        }
     }
 
     /// The core is transmitting a frame (it has not lost arbitration), for locating faults in the
     /// frame on the bus.
     pub fn transmitting(&self) -> bool {
-        self.uut.core.transmitting.val()
+        match &self.model {
+            Model::RustHdl { uut, .. } => uut.core.transmitting.val(),
+            Model::Verilator(model) => model.outputs().internal(TRANSMITTING) != 0,
+        }
     }
 
     /// Drives or releases the hardware `reset` input from the next edge on.
     pub fn set_reset(&mut self, active: bool) {
-        self.uut.reset.next = active;
-        self.inputs_changed = true;
+        self.inputs.reset = active;
     }
 
-    fn clock_edge(&mut self) {
-        let changed = std::mem::take(&mut self.inputs_changed);
-        clock_cycle_with(&mut self.uut, |u| &mut u.clock, "CAN controller", changed);
-        self.edges += 1;
-    }
-
+    /// Sets the host port inputs of the next edge for `access` (`None`: no access; the address
+    /// and write data keep their values).
     fn apply(&mut self, access: Option<HostAccess>) {
-        let u = &mut self.uut;
-        let (we, re, addr, value) = match access {
-            Some(HostAccess::Write { addr, value }) => (true, false, addr, value),
-            Some(HostAccess::Read { addr }) => (false, true, addr, 0),
-            None => (false, false, u.addr.val().to_u8(), u.wdata.val().to_u8()),
-        };
-        if we != u.we.val() || re != u.re.val() || addr != u.addr.val().to_u8() {
-            self.inputs_changed = true;
+        let i = &mut self.inputs;
+        match access {
+            Some(HostAccess::Write { addr, value }) => {
+                (i.we, i.re, i.addr, i.wdata) = (true, false, addr, value);
+            }
+            Some(HostAccess::Read { addr }) => {
+                (i.we, i.re, i.addr, i.wdata) = (false, true, addr, 0)
+            }
+            None => (i.we, i.re) = (false, false),
         }
-        if value != u.wdata.val().to_u8() {
-            self.inputs_changed = true;
-        }
-        u.we.next = we;
-        u.re.next = re;
-        u.addr.next = (addr as u64).to_bits();
-        u.wdata.next = (value as u64).to_bits();
     }
 }
 
@@ -162,21 +352,14 @@ impl Device for ControllerNode {
 
     fn rising_edge(&mut self, _t_fs: u64, rx: bool) -> Drive {
         let access = self.queue.pop_front();
-        self.access_active = access.is_some();
         self.apply(access);
-        if rx != self.uut.rx.val() {
-            self.uut.rx.next = rx;
-            self.inputs_changed = true;
-        }
-        self.clock_edge();
+        self.inputs.rx = rx;
+        self.model.cycle(self.inputs);
+        self.edges += 1;
         if let Some(HostAccess::Read { .. }) = access {
-            self.reads.push_back(self.uut.rdata.val().to_u8());
+            self.reads.push_back(self.model.rdata());
         }
-        self.access_active = false;
-        if access.is_some() && self.queue.is_empty() {
-            self.apply(None);
-        }
-        Drive::from_level(self.uut.tx.val())
+        Drive::from_level(self.model.tx())
     }
 
     fn probes(&self) -> Vec<Probe> {
@@ -186,10 +369,20 @@ impl Device for ControllerNode {
     }
 
     fn probe_values(&self, values: &mut [u64]) {
-        let u = &self.uut;
         let (core, own) = values.split_at_mut(CORE_PROBES);
-        core_probe_values(&u.core, core);
-        own.copy_from_slice(&[u.irq_n.val() as u64, u.clkout.val() as u64]);
+        match &self.model {
+            Model::RustHdl { uut, .. } => core_probe_values(&uut.core, core),
+            Model::Verilator(model) => {
+                let outputs = model.outputs();
+                for (i, value) in core.iter_mut().enumerate() {
+                    *value = outputs.internal(i);
+                }
+            }
+        }
+        own.copy_from_slice(&[
+            u64::from(self.model.irq_n()),
+            u64::from(self.model.clkout()),
+        ]);
     }
 
     fn as_any(&self) -> &dyn Any {
@@ -198,5 +391,40 @@ impl Device for ControllerNode {
 
     fn as_any_mut(&mut self) -> &mut dyn Any {
         self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_state_table_lists_every_protocol_state_at_its_encoding() {
+        let TypeKind::Enum(names) = ProtocolState::descriptor().kind else {
+            panic!("ProtocolState is an enum");
+        };
+        assert_eq!(
+            names.len(),
+            PROTOCOL_STATES.len(),
+            "a protocol state was added or removed: update PROTOCOL_STATES"
+        );
+        for (k, state) in PROTOCOL_STATES.iter().enumerate() {
+            assert_eq!(*state as usize, k, "{state:?}");
+            assert_eq!(protocol_state(k as u64), *state);
+        }
+    }
+
+    #[test]
+    fn engine_names_parse_and_anything_else_is_refused_with_the_allowed_values() {
+        for engine in ModelEngine::ALL {
+            assert_eq!(engine.name().parse::<ModelEngine>(), Ok(engine));
+            assert_eq!(engine.to_string(), engine.name());
+        }
+        let err = "verilog".parse::<ModelEngine>().unwrap_err();
+        assert_eq!(
+            err,
+            "CAN_ENGINE=`verilog` is not an engine: use `rust-hdl` or `verilator` (the default \
+             is `rust-hdl`)"
+        );
     }
 }

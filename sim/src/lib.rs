@@ -4,6 +4,7 @@
 #![warn(missing_docs)]
 
 pub mod acceptance;
+pub mod bench;
 pub mod btl_node;
 pub mod btr;
 pub mod bus;
@@ -27,5 +28,6 @@ pub mod sync_demo;
 pub mod time;
 pub mod trace;
 pub mod vcd_reader;
+pub mod verilated;
 pub mod verilog;
 pub mod worst_case;

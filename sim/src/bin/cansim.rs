@@ -7,11 +7,13 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use clap::{Parser, Subcommand};
+use sim::bench::{reference_workload, Spread};
 use sim::btr::{calc_bittiming, format_calculation, format_table, sample_point_fraction, Btr};
 use sim::bus_decoder::{EventCounts, Remark};
 use sim::campaign::{
     check, describe, format_summary, random_case, run_campaign, run_rtl_traced, Rng,
 };
+use sim::controller_node::ModelEngine;
 use sim::demo::{demo_scenario, DEMO_LOG, DEMO_VCD};
 use sim::rta;
 use sim::scenario::parse::parse_time;
@@ -20,6 +22,7 @@ use sim::scenario::summary::{format_report, ReportParts};
 use sim::scenario::{load, run, RunOptions, RunReport, Scenario};
 use sim::sync_demo;
 use sim::vcd_reader::{self, decode_vcd, DecodeOptions};
+use sim::verilated;
 
 #[derive(Parser)]
 #[command(
@@ -151,6 +154,31 @@ enum Command {
         #[arg(long, default_value = "build/verilog")]
         out: PathBuf,
     },
+    /// Speed of the simulation on the reference workload: complete controllers at 16 MHz and
+    /// 500 kbit/s reached through their registers, node A sending 8-byte frames back to back, every
+    /// other node receiving each; prints node-pair clock cycles per second (wall-clock and
+    /// processor time) and frames per second, median of the runs with min and max.
+    Bench {
+        /// The engine stepping the controllers: rust-hdl or verilator [default: CAN_ENGINE, else
+        /// rust-hdl].
+        #[arg(long)]
+        engine: Option<ModelEngine>,
+        /// Controllers on the bus (2 or more).
+        #[arg(long, default_value_t = 2)]
+        nodes: usize,
+        /// Frames per run.
+        #[arg(long, default_value_t = 40)]
+        frames: usize,
+        /// Also write a VCD of every node (to a temporary file).
+        #[arg(long)]
+        trace: bool,
+        /// Runs to take the median of.
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
+    },
+    /// Build the Verilator model of the controller (CAN_ENGINE=verilator) if it is not built yet;
+    /// prints the path of the library. Tests and runs build it on first use as well.
+    VerilatorModel,
     /// Worst-case response-time analysis of a CAN message set: per message the worst-case frame
     /// length, blocking, queuing delay, response time and deadline verdict by the classic analysis
     /// and by the corrected analysis of Davis, Burns, Bril and Lukkien (2007), and the bus
@@ -251,6 +279,16 @@ fn main() -> ExitCode {
             all,
         } => bittiming(clock, bitrate, sample_point, sjw, all),
         Command::Verilog { out } => verilog(&out),
+        Command::Bench {
+            engine,
+            nodes,
+            frames,
+            trace,
+            runs,
+        } => bench(engine, nodes, frames, trace, runs),
+        Command::VerilatorModel => verilated::build_model()
+            .map(|path| println!("{}", path.display()))
+            .map_err(|e| e.to_string()),
         Command::Rta {
             file,
             csv,
@@ -265,6 +303,35 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// `cansim bench`: the reference workload `runs` times, the median, min and max of its figures.
+fn bench(
+    engine: Option<ModelEngine>,
+    nodes: usize,
+    frames: usize,
+    trace: bool,
+    runs: usize,
+) -> Result<(), String> {
+    let engine = match engine {
+        Some(engine) => engine,
+        None => ModelEngine::from_env()?,
+    };
+    let results = (0..runs)
+        .map(|_| reference_workload(engine, nodes, trace, frames))
+        .collect::<Result<Vec<_>, _>>()?;
+    let spread = |f: fn(&sim::bench::BenchResult) -> f64| {
+        Spread::of(results.iter().map(f)).ok_or("--runs must be at least 1")
+    };
+    println!(
+        "BENCH engine={engine} nodes={nodes} trace={} frames={frames} runs={runs}\n  \
+         pair_cycles_per_s     {}\n  pair_cycles_per_cpu_s {}\n  frames_per_s          {}",
+        if trace { "on" } else { "off" },
+        spread(|r| r.pair_cycles_per_s)?,
+        spread(|r| r.pair_cycles_per_cpu_s)?,
+        spread(|r| r.frames_per_s)?,
+    );
+    Ok(())
 }
 
 /// The VCD path to write (its directory created), or `None` with `--no-vcd`.
@@ -313,6 +380,7 @@ fn run_with_progress(
         log: outputs.log,
         until_fs: outputs.until_fs,
         progress: None,
+        engine: None,
     };
     let show = !quiet && std::io::stderr().is_terminal();
     let mut progress = Progress::new();

@@ -18,7 +18,7 @@ use std::path::PathBuf;
 use rtl::registers::pelican;
 
 use crate::bus_decoder::{BusDecoder, BusEvent, BusTiming};
-use crate::controller_node::ControllerNode;
+use crate::controller_node::{ControllerNode, ModelEngine};
 use crate::driver::{CanState, CtrlMode, DriverConfig, DriverError, DriverEvent, Sja1000Driver};
 use crate::engine::{DeviceId, Engine};
 use crate::frame::{Frame, DOMINANT, RECESSIVE};
@@ -54,6 +54,8 @@ pub struct RunOptions<'p> {
     pub until_fs: Option<u64>,
     /// Called after every step with the simulated time and the time the run ends.
     pub progress: Option<&'p mut dyn FnMut(u64, u64)>,
+    /// The engine stepping the controllers (`None`: the one `CAN_ENGINE` chooses).
+    pub engine: Option<ModelEngine>,
 }
 
 /// Everything a run saw.
@@ -95,10 +97,15 @@ pub fn run(scenario: &Scenario, options: RunOptions) -> Result<RunReport, Scenar
         log,
         until_fs,
         mut progress,
+        engine,
     } = options;
+    let engine = match engine {
+        Some(engine) => engine,
+        None => ModelEngine::from_env().map_err(ScenarioError::new)?,
+    };
     let log_file = log.map(|path| PendingFile::create(&path)).transpose()?;
     let end = until_fs.unwrap_or(scenario.duration_fs);
-    let mut runner = Runner::new(scenario);
+    let mut runner = Runner::new(scenario, engine)?;
     if let Some(path) = &vcd {
         let mut frames = runner.sof;
         runner.engine.annotate_bus(
@@ -197,13 +204,15 @@ struct Runner<'s> {
 }
 
 impl<'s> Runner<'s> {
-    fn new(scenario: &'s Scenario) -> Runner<'s> {
+    fn new(scenario: &'s Scenario, model: ModelEngine) -> Result<Runner<'s>, ScenarioError> {
         let mut engine = Engine::new();
         let mut nodes = Vec::new();
         let mut targets = Vec::new();
         for n in &scenario.nodes {
             let clock = ClockSpec::with_ppm(f64::from(n.clock_hz), n.ppm);
-            let id = engine.add(ControllerNode::new(&n.name, clock), n.delay_fs);
+            let node = ControllerNode::with_engine(&n.name, clock, model)
+                .map_err(|e| ScenarioError::new(e.to_string()))?;
+            let id = engine.add(node, n.delay_fs);
             let config = DriverConfig {
                 clock_hz: n.clock_hz,
                 filter: n.filter,
@@ -230,7 +239,7 @@ impl<'s> Runner<'s> {
             .collect();
         frame_faults.sort_by_key(|f| frame_number(f));
         let bit_fs = scenario.bus.bit_fs();
-        Runner {
+        Ok(Runner {
             scenario,
             engine,
             nodes,
@@ -244,7 +253,7 @@ impl<'s> Runner<'s> {
             applied: Vec::new(),
             bit_fs,
             clock: 0,
-        }
+        })
     }
 
     fn name(&self, node: usize) -> &str {

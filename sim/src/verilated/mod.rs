@@ -1,0 +1,286 @@
+//! The Verilator engine: the generated Verilog of the controller ([`crate::verilog`]) compiled by
+//! Verilator into a shared library, loaded into this process and stepped one clock cycle per call.
+//!
+//! The library is built on first use and cached under `target/verilator/` (see `cache`); every
+//! model of the process shares it. A [`VerilatedController`] is one controller: [`PortInputs`] in,
+//! [`PortOutputs`] out, with the semantics of [`crate::controller_node::ControllerNode`]'s rust-hdl
+//! model: the inputs are applied before the rising edge and the outputs read after it with the
+//! clock low again.
+
+mod cache;
+mod dl;
+pub(crate) mod sources;
+
+use std::ffi::c_void;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::ptr::NonNull;
+use std::sync::OnceLock;
+
+use dl::Library;
+use sources::{
+    ABI_VERSION, INTERNAL_SHIFTS, INTERNAL_SIGNALS, IN_ADDR, IN_RE, IN_RESET, IN_RX, IN_WDATA,
+    IN_WE, OUT_CLKOUT, OUT_IRQ_N, OUT_RDATA, OUT_TX,
+};
+
+/// Why the Verilator engine is not available.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum EngineError {
+    /// `verilator` cannot be run (with the reason).
+    VerilatorMissing(String),
+    /// Verilator or the C++ compiler failed (with the end of their output).
+    Build(String),
+    /// The built library cannot be loaded or lacks the expected interface.
+    Load(String),
+    /// A file of the build cannot be written.
+    Io(String),
+}
+
+impl EngineError {
+    fn io(path: &Path, error: std::io::Error) -> EngineError {
+        EngineError::Io(format!("{}: {error}", path.display()))
+    }
+}
+
+impl fmt::Display for EngineError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            EngineError::VerilatorMissing(why) => write!(
+                f,
+                "the Verilator engine needs Verilator, which cannot be run ({why}): install it \
+                 with ./scripts/install-tools.sh (or `make tools`), or use CAN_ENGINE=rust-hdl"
+            ),
+            EngineError::Build(output) => {
+                write!(f, "building the Verilator model failed: {output}")
+            }
+            EngineError::Load(why) => write!(f, "loading the Verilator model failed: {why}"),
+            EngineError::Io(why) => write!(f, "building the Verilator model failed: {why}"),
+        }
+    }
+}
+
+impl std::error::Error for EngineError {}
+
+type CreateFn = unsafe extern "C" fn() -> *mut c_void;
+type DestroyFn = unsafe extern "C" fn(*mut c_void);
+type CycleFn = unsafe extern "C" fn(*mut c_void, u32) -> u64;
+type AbiFn = unsafe extern "C" fn() -> u32;
+
+/// The loaded library and its functions.
+struct ModelLibrary {
+    path: PathBuf,
+    create: CreateFn,
+    destroy: DestroyFn,
+    cycle: CycleFn,
+    _library: Library,
+}
+
+impl ModelLibrary {
+    fn open(path: PathBuf) -> Result<ModelLibrary, EngineError> {
+        let fail = |why: String| {
+            EngineError::Load(format!(
+                "{}: {why} (delete the file to rebuild it)",
+                path.display()
+            ))
+        };
+        let library = Library::open(&path).map_err(fail)?;
+        // SAFETY: the types are those of the shim (`sources::shim_cpp`), whose version is checked
+        // before any other function is called.
+        unsafe {
+            let abi: AbiFn = library.function("cc_abi_version").map_err(fail)?;
+            let version = abi();
+            if version != ABI_VERSION {
+                return Err(fail(format!(
+                    "interface version {version}, expected {ABI_VERSION}"
+                )));
+            }
+            Ok(ModelLibrary {
+                create: library.function("cc_create").map_err(fail)?,
+                destroy: library.function("cc_destroy").map_err(fail)?,
+                cycle: library.function("cc_cycle").map_err(fail)?,
+                path,
+                _library: library,
+            })
+        }
+    }
+}
+
+/// The library of this process: built or found in the cache, loaded once.
+fn model_library() -> Result<&'static ModelLibrary, EngineError> {
+    static LIBRARY: OnceLock<Result<ModelLibrary, EngineError>> = OnceLock::new();
+    LIBRARY
+        .get_or_init(|| cache::library().and_then(ModelLibrary::open))
+        .as_ref()
+        .map_err(Clone::clone)
+}
+
+/// Builds the Verilator model if the cache does not hold it yet and loads it; returns the path of
+/// the library (for `cansim verilator-model`, `make verilator-model`).
+pub fn build_model() -> Result<PathBuf, EngineError> {
+    model_library().map(|library| library.path.clone())
+}
+
+/// The inputs of one clock cycle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PortInputs {
+    /// Synchronous reset.
+    pub reset: bool,
+    /// Register address.
+    pub addr: u8,
+    /// Write data.
+    pub wdata: u8,
+    /// Write strobe.
+    pub we: bool,
+    /// Read strobe.
+    pub re: bool,
+    /// Bus level seen (`true` = recessive).
+    pub rx: bool,
+}
+
+impl Default for PortInputs {
+    /// No reset, no access, a recessive bus.
+    fn default() -> PortInputs {
+        PortInputs {
+            reset: false,
+            addr: 0,
+            wdata: 0,
+            we: false,
+            re: false,
+            rx: true,
+        }
+    }
+}
+
+impl PortInputs {
+    /// The input word of the shim.
+    fn word(&self) -> u32 {
+        u32::from(self.wdata) << IN_WDATA
+            | u32::from(self.addr) << IN_ADDR
+            | u32::from(self.we) << IN_WE
+            | u32::from(self.re) << IN_RE
+            | u32::from(self.rx) << IN_RX
+            | u32::from(self.reset) << IN_RESET
+    }
+}
+
+/// The outputs after one clock cycle, and the internal signals the wrapper brings out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PortOutputs(u64);
+
+impl PortOutputs {
+    fn bit(self, at: u32) -> bool {
+        self.0 >> at & 1 != 0
+    }
+
+    /// Registered read data.
+    pub fn rdata(self) -> u8 {
+        (self.0 >> OUT_RDATA) as u8
+    }
+
+    /// Bus output (`true` = recessive).
+    pub fn tx(self) -> bool {
+        self.bit(OUT_TX)
+    }
+
+    /// Interrupt output, active low.
+    pub fn irq_n(self) -> bool {
+        self.bit(OUT_IRQ_N)
+    }
+
+    /// Clock output.
+    pub fn clkout(self) -> bool {
+        self.bit(OUT_CLKOUT)
+    }
+
+    /// Internal signal `index` of [`sources::INTERNAL_SIGNALS`].
+    pub(crate) fn internal(self, index: usize) -> u64 {
+        let width = INTERNAL_SIGNALS[index].width;
+        self.0 >> INTERNAL_SHIFTS[index] & ((1u64 << width) - 1)
+    }
+}
+
+/// One controller in the Verilated model.
+pub struct VerilatedController {
+    model: NonNull<c_void>,
+    library: &'static ModelLibrary,
+    outputs: PortOutputs,
+}
+
+// SAFETY: the model is owned by this value alone and used through `&mut self`; a Verilated model
+// with its own context may be stepped from any one thread at a time.
+unsafe impl Send for VerilatedController {}
+
+impl VerilatedController {
+    /// A new controller at power-up (the values of the Verilog's `initial` blocks; apply a reset
+    /// before use, as with the hardware). Builds and loads the library on first use.
+    pub fn new() -> Result<VerilatedController, EngineError> {
+        let library = model_library()?;
+        // SAFETY: `create` takes no arguments and returns an owned model or null.
+        let model = NonNull::new(unsafe { (library.create)() })
+            .ok_or_else(|| EngineError::Load("out of memory creating a model".into()))?;
+        Ok(VerilatedController {
+            model,
+            library,
+            outputs: PortOutputs(0),
+        })
+    }
+
+    /// One clock cycle: `inputs` applied, the rising edge, the clock low again.
+    pub fn cycle(&mut self, inputs: PortInputs) -> PortOutputs {
+        // SAFETY: the model is live and exclusively borrowed.
+        self.outputs =
+            PortOutputs(unsafe { (self.library.cycle)(self.model.as_ptr(), inputs.word()) });
+        self.outputs
+    }
+
+    /// The outputs after the last cycle (all zero before the first).
+    pub fn outputs(&self) -> PortOutputs {
+        self.outputs
+    }
+}
+
+impl Drop for VerilatedController {
+    fn drop(&mut self) {
+        // SAFETY: created by this library's `create`, destroyed once.
+        unsafe { (self.library.destroy)(self.model.as_ptr()) }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn input_fields_land_on_their_bits() {
+        let word = PortInputs {
+            reset: true,
+            addr: 0x12,
+            wdata: 0xA5,
+            we: true,
+            re: false,
+            rx: false,
+        }
+        .word();
+        assert_eq!(
+            word,
+            1 << IN_RESET | 0x12 << IN_ADDR | 0xA5 << IN_WDATA | 1 << IN_WE
+        );
+        assert_eq!(PortInputs::default().word(), 1 << IN_RX);
+    }
+
+    #[test]
+    fn output_fields_are_read_from_their_bits() {
+        let state = 0b1_0110u64;
+        let out = PortOutputs(
+            0x3C << OUT_RDATA
+                | 1 << OUT_IRQ_N
+                | state << INTERNAL_SHIFTS[sources::STATE]
+                | 1 << INTERNAL_SHIFTS[sources::TRANSMITTING],
+        );
+        assert_eq!(out.rdata(), 0x3C);
+        assert!(!out.tx() && out.irq_n() && !out.clkout());
+        assert_eq!(out.internal(sources::STATE), state);
+        assert_eq!(out.internal(sources::TRANSMITTING), 1);
+        assert_eq!(out.internal(0), 0);
+    }
+}
