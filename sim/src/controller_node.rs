@@ -57,13 +57,14 @@ impl ModelEngine {
     /// The engine `CAN_ENGINE` chooses: unset or empty is [`ModelEngine::RustHdl`]; any value
     /// other than an engine's name is an error naming the allowed values.
     pub fn from_env() -> Result<ModelEngine, String> {
-        match std::env::var(ENGINE_ENV) {
+        let parsed = match std::env::var(ENGINE_ENV) {
             Ok(value) if !value.is_empty() => value.parse(),
             Ok(_) | Err(std::env::VarError::NotPresent) => Ok(ModelEngine::default()),
             Err(std::env::VarError::NotUnicode(value)) => {
                 Err(unknown_engine(&value.to_string_lossy()))
             }
-        }
+        };
+        parsed.map_err(|e| format!("{ENGINE_ENV}={e}"))
     }
 }
 
@@ -73,7 +74,7 @@ fn unknown_engine(value: &str) -> String {
         .map(|e| format!("`{}`", e.name()))
         .collect();
     format!(
-        "{ENGINE_ENV}=`{value}` is not an engine: use {} (the default is `{}`)",
+        "`{value}` is not an engine: use {} (the default is `{}`)",
         names.join(" or "),
         ModelEngine::default().name()
     )
@@ -423,8 +424,7 @@ mod tests {
         let err = "verilog".parse::<ModelEngine>().unwrap_err();
         assert_eq!(
             err,
-            "CAN_ENGINE=`verilog` is not an engine: use `rust-hdl` or `verilator` (the default \
-             is `rust-hdl`)"
+            "`verilog` is not an engine: use `rust-hdl` or `verilator` (the default is `rust-hdl`)"
         );
     }
 }

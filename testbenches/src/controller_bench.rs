@@ -5,7 +5,7 @@
 
 use rtl::registers::{command, mode, pelican, status};
 use sim::btr::Btr;
-use sim::controller_node::ControllerNode;
+use sim::controller_node::{ControllerNode, ModelEngine};
 use sim::engine::{DeviceId, Engine};
 use sim::frame::Frame;
 use sim::frame_buffer::{buffer_len, decode_buffer, encode_buffer, FRAME_BUFFER_BYTES};
@@ -36,13 +36,28 @@ pub struct ControllerBench {
 }
 
 impl ControllerBench {
-    /// `count` controllers, each after a hardware reset (reset mode, BasicCAN).
+    /// `count` controllers, each after a hardware reset (reset mode, BasicCAN), stepped by the
+    /// engine `CAN_ENGINE` chooses.
     pub fn new(count: usize) -> ControllerBench {
+        ControllerBench::with_nodes(count, ControllerNode::new)
+    }
+
+    /// As [`ControllerBench::new`], stepped by `engine` whatever `CAN_ENGINE` says.
+    pub fn with_engine(count: usize, engine: ModelEngine) -> ControllerBench {
+        ControllerBench::with_nodes(count, |name, clock| {
+            ControllerNode::with_engine(name, clock, engine).unwrap_or_else(|e| panic!("{e}"))
+        })
+    }
+
+    fn with_nodes(
+        count: usize,
+        node: impl Fn(&str, ClockSpec) -> ControllerNode,
+    ) -> ControllerBench {
         let clock = ClockSpec::from_hz(CLOCK_HZ);
         let mut engine = bench_engine(&bench_btr(), clock);
         engine.keep_history();
         let nodes = (0..count)
-            .map(|i| engine.add(ControllerNode::new(&format!("n{i}"), clock), 0))
+            .map(|i| engine.add(node(&format!("n{i}"), clock), 0))
             .collect();
         ControllerBench {
             engine,

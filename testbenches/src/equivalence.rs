@@ -15,8 +15,9 @@
 //!   CDR divider code 7 (the clock itself) reads 0 on both sides.
 //!
 //! [`StimulusBuilder`] writes stimuli as host programs: register accesses at a cursor, idle gaps,
-//! configuration, transmission, RX buffer reads and forced-dominant bursts. [`run_rust`] and
-//! [`run_icarus`] (or a [`VerilogBench`] compiled once and run many times, in Icarus or Verilator) produce [`Trace`]s, and
+//! configuration, transmission, RX buffer reads and forced-dominant bursts. [`run_rust`],
+//! [`run_verilated`] (the simulator's Verilator engine) and [`run_icarus`] (or a [`VerilogBench`]
+//! compiled once and run many times, in Icarus or Verilator) produce [`Trace`]s, and
 //! [`first_mismatch`] names the first differing cycle, node and signals.
 
 use std::fmt::{self, Write as _};
@@ -29,6 +30,7 @@ use rust_hdl::prelude::*;
 use sim::frame::Frame;
 use sim::frame_buffer::{buffer_len, encode_buffer};
 use sim::rtl_step::clock_cycle_with;
+use sim::verilated::{EngineError, PortInputs, VerilatedController};
 pub use sim::verilog::{controller_verilog, TOP_MODULE};
 
 /// BTR0 of "500 kbit/s at 16 MHz" (BRP 0: tq = 2 clocks).
@@ -721,6 +723,44 @@ pub fn run_rust(stim: &Stimulus) -> Trace {
         nodes: n,
         outputs,
     }
+}
+
+/// Runs `stim` on the Verilator engine of the simulator ([`VerilatedController`]: the generated
+/// Verilog compiled into a library, one call per cycle), with the same bench model as [`run_rust`].
+pub fn run_verilated(stim: &Stimulus) -> Result<Trace, EngineError> {
+    stim.validate().expect("stimulus");
+    let mut models = (0..stim.nodes)
+        .map(|_| VerilatedController::new())
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut bus = true;
+    let mut outputs = Vec::with_capacity(stim.len() * stim.nodes);
+    for cycle in &stim.cycles {
+        let mut next_bus = true;
+        for (model, inputs) in models.iter_mut().zip(&cycle.nodes) {
+            let out = model.cycle(PortInputs {
+                reset: inputs.reset,
+                addr: inputs.addr,
+                wdata: inputs.wdata,
+                we: inputs.we,
+                re: inputs.re,
+                rx: bus && !inputs.force_dominant,
+            });
+            next_bus &= out.tx();
+            outputs.push(NodeOutputs {
+                tx: out.tx(),
+                rdata: out.rdata(),
+                irq_n: out.irq_n(),
+                clkout: out.clkout(),
+                unknown: 0,
+            });
+        }
+        bus = next_bus;
+    }
+    Ok(Trace {
+        source: "verilated".into(),
+        nodes: stim.nodes,
+        outputs,
+    })
 }
 
 // ---- Icarus -----------------------------------------------------------------------------------

@@ -1,9 +1,10 @@
 //! The generated Verilog of the complete controller against the rust-hdl model: the same per-cycle
-//! stimulus on two controllers on one bus, run by rust-hdl and by Icarus, and the outputs of both
-//! (`tx`, `rdata`, `irq_n`, `clkout` after every rising edge) compared cycle by cycle.
+//! stimulus on two controllers on one bus, run by rust-hdl, by Icarus and by the simulator's
+//! Verilator engine, and the outputs of all (`tx`, `rdata`, `irq_n`, `clkout` after every rising
+//! edge) compared cycle by cycle.
 //!
-//! Needs `iverilog`/`vvp` (`make tools` installs them); a developer without them may skip these tests
-//! with `CANSIM_SKIP_ICARUS=1`.
+//! Needs `iverilog`/`vvp` and `verilator` (`make tools` installs them); a developer without Icarus
+//! may skip these tests with `CANSIM_SKIP_ICARUS=1`.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -15,7 +16,7 @@ use sim::frame::{Frame, Id};
 use sim::frame_buffer::{buffer_len, encode_buffer};
 use testbenches::equivalence::controller_verilog;
 use testbenches::equivalence::{
-    first_difference, first_mismatch, icarus_skipped, read_results, run_rust,
+    first_difference, first_mismatch, icarus_skipped, read_results, run_rust, run_verilated,
     without_initial_blocks, Simulator, Stimulus, StimulusBuilder, Trace, VerilogBench,
     CLOCKS_PER_BIT,
 };
@@ -43,8 +44,9 @@ fn skip_without_icarus(test: &str) -> bool {
     icarus_skipped(test)
 }
 
-/// Runs `stim` on both sides, prints the timings, and panics on the first difference with the
-/// accesses before it.
+/// Runs `stim` on the rust-hdl model, on the simulator's Verilator engine (the library) and in the
+/// Verilog simulators, prints the timings, and panics on the first difference with the accesses
+/// before it.
 ///
 /// With `EQUIVALENCE_READS` set in the environment, every read and its rust-hdl value is printed
 /// (to see what a scenario does).
@@ -66,6 +68,20 @@ fn compare(name: &str, stim: &Stimulus) -> Trace {
         stim.nodes,
         stim.len() as f64 / rust_s
     );
+    let t = Instant::now();
+    let library = run_verilated(stim).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let library_s = t.elapsed().as_secs_f64();
+    eprintln!(
+        "{name}: Verilator engine {library_s:.2} s ({:.0} cycles/s, model build or load included)",
+        stim.len() as f64 / library_s
+    );
+    if let Some(m) = first_mismatch(&rust, &library) {
+        let (k, _) = first_difference(&rust, &library).unwrap_or_default();
+        panic!(
+            "{name}: {m}\naccesses before it:\n{}",
+            stim.describe(k.saturating_sub(40)..k + 1)
+        );
+    }
     for simulator in simulators() {
         let dir = scratch_dir(&format!("{name}_{}", simulator.name()));
         let t = Instant::now();
@@ -788,12 +804,15 @@ fn random_register_traffic_rust_hdl_equals_icarus() {
             rust.dominant_cycles()
         );
         dominant.set(dominant.get() + rust.dominant_cycles());
-        if let Some(m) = first_mismatch(&rust, &icarus) {
-            let (k, _) = first_difference(&rust, &icarus).unwrap_or_default();
-            return Err(TestCaseError::fail(format!(
-                "{m}\naccesses before it:\n{}",
-                stim.describe(k.saturating_sub(40)..k + 1)
-            )));
+        let library = run_verilated(&stim).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        for other in [&icarus, &library] {
+            if let Some(m) = first_mismatch(&rust, other) {
+                let (k, _) = first_difference(&rust, other).unwrap_or_default();
+                return Err(TestCaseError::fail(format!(
+                    "{m}\naccesses before it:\n{}",
+                    stim.describe(k.saturating_sub(40)..k + 1)
+                )));
+            }
         }
         Ok(())
     });

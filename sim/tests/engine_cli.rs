@@ -1,0 +1,101 @@
+//! The engine choice from the command line: `CAN_ENGINE`, `cansim verilator-model` and
+//! `cansim bench`; bad values and a missing Verilator fail with a message saying what to do and a
+//! non-zero exit.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn cansim(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_cansim"));
+    command.args(args);
+    for (name, value) in env {
+        command.env(name, value);
+    }
+    command.output().expect("cansim runs")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+fn example(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../examples")
+        .join(name)
+        .to_string_lossy()
+        .into_owned()
+}
+
+#[test]
+fn a_bad_can_engine_stops_a_run_naming_the_allowed_values() {
+    let out = cansim(
+        &["run", "-q", &example("replay.toml")],
+        &[("CAN_ENGINE", "verilog")],
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(text(&out.stdout), "");
+    assert_eq!(
+        text(&out.stderr),
+        "cansim: CAN_ENGINE=`verilog` is not an engine: use `rust-hdl` or `verilator` (the \
+         default is `rust-hdl`)\n"
+    );
+}
+
+#[test]
+fn without_verilator_the_engine_says_how_to_install_it() {
+    let out = cansim(&["verilator-model"], &[("PATH", "")]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = text(&out.stderr);
+    assert!(
+        err.contains("needs Verilator") && err.contains("./scripts/install-tools.sh"),
+        "{err}"
+    );
+}
+
+#[test]
+fn verilator_model_prints_the_cached_library() {
+    let out = cansim(&["verilator-model"], &[]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let path = PathBuf::from(text(&out.stdout).trim_end());
+    assert!(path.is_file(), "{}", path.display());
+    assert_eq!(path.extension().unwrap(), "so");
+    assert_eq!(path.parent().unwrap().file_name().unwrap(), "verilator");
+}
+
+#[test]
+fn bench_prints_the_figures_of_the_chosen_engine() {
+    let out = cansim(
+        &["bench", "--frames", "2", "--runs", "1", "--nodes", "3"],
+        &[("CAN_ENGINE", "verilator")],
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(
+        stdout.starts_with("BENCH engine=verilator nodes=3 trace=off frames=2 runs=1\n"),
+        "{stdout}"
+    );
+    for figure in [
+        "pair_cycles_per_s ",
+        "pair_cycles_per_cpu_s ",
+        "frames_per_s ",
+    ] {
+        assert!(stdout.contains(figure), "{figure} in {stdout}");
+    }
+}
+
+#[test]
+fn bench_refuses_a_single_node_and_an_unknown_engine() {
+    let out = cansim(&["bench", "--nodes", "1", "--engine", "rust-hdl"], &[]);
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(
+        text(&out.stderr),
+        "cansim: the workload needs 2 nodes or more, not 1\n"
+    );
+    let out = cansim(&["bench", "--engine", "icarus"], &[]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("`icarus` is not an engine"),
+        "{}",
+        text(&out.stderr)
+    );
+}
