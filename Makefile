@@ -1,7 +1,7 @@
 # Entry points of the project. `make test` is what CI runs.
 CARGO ?= cargo
 
-.PHONY: test test-long check tools demo waves waves-check waves-compare lint verilog synth bench campaign clean
+.PHONY: test test-long test-verilator check tools demo waves waves-check waves-compare lint verilog verilator-model synth bench campaign clean
 
 ## Install the external tools (sigrok-cli, iverilog, verilator), then run every test.
 test: tools
@@ -11,6 +11,16 @@ test: tools
 ## powertrain and body message sets on the bus (a few minutes).
 test-long: tools
 	$(CARGO) test -p testbenches --test linux_driver --test rta -- --ignored
+
+## The register-level testbenches and the protocol scenarios on the complete controller
+## (on_registers::), with the controller stepped by the Verilator engine (docs/ENGINES.md).
+REGISTER_SUITES = registers rx_fifo modes controller_conformance register_iut linux_driver \
+	scenarios examples demo waves_on_request conformance_matrix
+PROTOCOL_SUITES = arbitration bit_timing error_kinds errors fault_confinement frames interframe \
+	synchronisation
+test-verilator: tools
+	CAN_ENGINE=verilator $(CARGO) test -p testbenches $(addprefix --test ,$(REGISTER_SUITES))
+	CAN_ENGINE=verilator $(CARGO) test -p testbenches $(addprefix --test ,$(PROTOCOL_SUITES)) -- on_registers::
 
 ## Formatting and clippy, warnings are errors.
 check:
@@ -41,7 +51,7 @@ waves-check: tools
 waves-compare:
 	$(CARGO) run -p testbenches --bin waves_check -- $(WAVES_CHECK_FLAGS) waves
 
-## Speed figures of the simulation engine.
+## Speed figures of the simulation engine; the reference workload on both engines.
 bench:
 	$(CARGO) bench -p sim --bench engine
 
@@ -54,6 +64,11 @@ campaign:
 ## The controller as Verilog: build/verilog/can_controller.v.
 verilog:
 	$(CARGO) run -q -p sim --bin cansim -- verilog --out build/verilog
+
+## The Verilator engine's model (CAN_ENGINE=verilator), built into target/verilator/ if it is not
+## there yet (tests and runs build it on first use too); prints the library's path.
+verilator-model: tools
+	$(CARGO) run -q -p sim --bin cansim -- verilator-model
 
 ## Lint of the generated Verilog: warning counts per category (Verilator -Wall, Icarus -Wall).
 lint: tools

@@ -125,10 +125,12 @@ impl Spread {
 }
 
 impl std::fmt::Display for Spread {
+    /// `median (min …, max …)`, with the formatter's precision (none by default).
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let p = f.precision().unwrap_or(0);
         write!(
             f,
-            "{:.0} (min {:.0}, max {:.0})",
+            "{:.p$} (min {:.p$}, max {:.p$})",
             self.median, self.min, self.max
         )
     }
@@ -268,6 +270,7 @@ mod tests {
         let s = Spread::of([3.0, 1.0, 5.0, 2.0, 4.0]).unwrap();
         assert_eq!((s.median, s.min, s.max), (3.0, 1.0, 5.0));
         assert_eq!(s.to_string(), "3 (min 1, max 5)");
+        assert_eq!(format!("{s:.1}"), "3.0 (min 1.0, max 5.0)");
         assert_eq!(Spread::of([]), None);
     }
 

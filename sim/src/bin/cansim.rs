@@ -325,7 +325,7 @@ fn bench(
     };
     println!(
         "BENCH engine={engine} nodes={nodes} trace={} frames={frames} runs={runs}\n  \
-         pair_cycles_per_s     {}\n  pair_cycles_per_cpu_s {}\n  frames_per_s          {}",
+         pair_cycles_per_s     {}\n  pair_cycles_per_cpu_s {}\n  frames_per_s          {:.1}",
         if trace { "on" } else { "off" },
         spread(|r| r.pair_cycles_per_s)?,
         spread(|r| r.pair_cycles_per_cpu_s)?,
