@@ -4,6 +4,7 @@
 #![warn(missing_docs)]
 
 pub mod acceptance;
+pub mod bench;
 pub mod btl_node;
 pub mod btr;
 pub mod bus;

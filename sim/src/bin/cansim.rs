@@ -170,6 +170,25 @@ enum Command {
         #[arg(long, requires = "simulate")]
         threads: Option<usize>,
     },
+    /// Simulation speed on the reference workload: 16 MHz controllers at 500 kbit/s, node A sends
+    /// 8-byte frames back to back through its registers, every other node reads each from its RX
+    /// buffer and releases it. Prints node-pair cycles/s, frames/s and the real-time factor (median,
+    /// min, max of several runs) for each node count, without and with VCD tracing, and one
+    /// `BENCH ...` line per result.
+    Bench {
+        /// Node counts to measure (comma-separated, each at least 2).
+        #[arg(long, value_delimiter = ',', default_values_t = [2, 4, 8])]
+        nodes: Vec<usize>,
+        /// Frames per run.
+        #[arg(long, default_value_t = 100)]
+        frames: usize,
+        /// Runs per result (the median is reported).
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
+        /// Measure without VCD tracing only.
+        #[arg(long)]
+        no_trace: bool,
+    },
 }
 
 const RTA_HELP: &str = "\
@@ -257,6 +276,12 @@ fn main() -> ExitCode {
             simulate,
             threads,
         } => response_times(&file, csv, simulate, threads),
+        Command::Bench {
+            nodes,
+            frames,
+            runs,
+            no_trace,
+        } => bench(&nodes, frames, runs, no_trace),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -638,4 +663,63 @@ fn verilog(out: &Path) -> Result<(), String> {
     let path = sim::verilog::write_controller_verilog(out).map_err(|e| e.to_string())?;
     println!("wrote {}", path.display());
     Ok(())
+}
+
+fn bench(nodes: &[usize], frames: usize, runs: usize, no_trace: bool) -> Result<(), String> {
+    if runs == 0 || frames == 0 {
+        return Err("--runs and --frames must be at least 1".into());
+    }
+    if let Some(n) = nodes.iter().find(|&&n| !(2..=26).contains(&n)) {
+        return Err(format!("--nodes {n}: the workload needs 2 to 26 nodes"));
+    }
+    let trace_file = std::env::temp_dir().join(format!("cansim-bench-{}.vcd", std::process::id()));
+    let traces: &[bool] = if no_trace { &[false] } else { &[false, true] };
+    let engine = "rust-hdl";
+    println!(
+        "reference workload: {frames} frames of 8 bytes, 16 MHz, 500 kbit/s; median of {runs} runs (min..max)"
+    );
+    println!(
+        "{:<10} {:>5} {:>5} {:>28} {:>10} {:>10}",
+        "engine", "nodes", "trace", "node-pair cycles/s", "frames/s", "real time"
+    );
+    let progress = std::io::stderr().is_terminal();
+    let mut lines = Vec::new();
+    for &n in nodes {
+        for &trace in traces {
+            let mut results = Vec::with_capacity(runs);
+            for run in 0..runs {
+                if progress {
+                    eprint!("\r{engine}, {n} nodes, trace {}: run {}/{runs} ", on_off(trace), run + 1);
+                }
+                let path = trace.then_some(&trace_file);
+                results.push(sim::bench::run_workload(n, frames, path).map_err(|e| e.to_string())?);
+            }
+            if progress {
+                eprint!("\r{:60}\r", "");
+            }
+            let s = sim::bench::summarise(results);
+            println!(
+                "{engine:<10} {n:>5} {:>5} {:>10.0} ({:.0}..{:.0}) {:>10.1} {:>9.4}x",
+                on_off(trace),
+                s.median.pair_cycles_per_s,
+                s.min.pair_cycles_per_s,
+                s.max.pair_cycles_per_s,
+                s.median.frames_per_s,
+                s.median.real_time_factor()
+            );
+            lines.push(sim::bench::bench_line(engine, n, trace, &s));
+        }
+    }
+    for line in lines {
+        println!("{line}");
+    }
+    Ok(())
+}
+
+fn on_off(flag: bool) -> &'static str {
+    if flag {
+        "on"
+    } else {
+        "off"
+    }
 }

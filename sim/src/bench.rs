@@ -1,0 +1,241 @@
+//! The reference workload of `cansim bench`: complete controllers at 16 MHz on a 500 kbit/s bus
+//! (BTR0 0x40, BTR1 0x1C). Node A sends 8-byte standard data frames back to back through its
+//! registers (TX buffer, CMR TR, wait for TI); every other node takes each frame from its RX buffer
+//! on RI, checks it and releases the buffer. Speed is counted in node-pair clock cycles (all nodes'
+//! rising edges / 2) and frames per second of real time.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use rtl::registers::{clock_divider, command, interrupt, mode, pelican};
+
+use crate::controller_node::ControllerNode;
+use crate::engine::{DeviceId, Engine};
+use crate::frame::{Frame, Id};
+use crate::frame_buffer::{buffer_len, decode_buffer, encode_buffer, FRAME_BUFFER_BYTES};
+use crate::host::Host;
+use crate::time::ClockSpec;
+
+/// Controller clock of the workload.
+pub const CLOCK_HZ: f64 = 16e6;
+/// BTR0 of 500 kbit/s at 16 MHz (BRP 1, SJW 2).
+pub const BTR0: u8 = 0x40;
+/// BTR1 of 500 kbit/s at 16 MHz (TSEG1 13, TSEG2 2, one sample).
+pub const BTR1: u8 = 0x1C;
+/// Clock offset between neighbouring nodes, so receivers resynchronise as on a real bus.
+const PPM_STEP: f64 = 100.0;
+
+/// One run of the workload.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BenchRun {
+    /// Node-pair clock cycles simulated per second of real time.
+    pub pair_cycles_per_s: f64,
+    /// Frames sent and received per second of real time.
+    pub frames_per_s: f64,
+}
+
+impl BenchRun {
+    /// Simulated time per real time (real time is `CLOCK_HZ` cycles per second of each node).
+    pub fn real_time_factor(&self) -> f64 {
+        self.pair_cycles_per_s / CLOCK_HZ
+    }
+}
+
+/// What went wrong in a run: a frame that did not arrive intact (a design or engine bug), or the
+/// trace file.
+#[derive(Debug)]
+pub struct BenchError(pub String);
+
+impl std::fmt::Display for BenchError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for BenchError {}
+
+/// Runs the workload once: `nodes` controllers (at least 2), `frames` frames, a VCD written to
+/// `trace` when given (and deleted afterwards).
+pub fn run_workload(
+    nodes: usize,
+    frames: usize,
+    trace: Option<&PathBuf>,
+) -> Result<BenchRun, BenchError> {
+    if nodes < 2 {
+        return Err(BenchError(format!(
+            "the workload needs a sender and at least one receiver, not {nodes} node(s)"
+        )));
+    }
+    let mut engine = Engine::new();
+    let ids: Vec<DeviceId> = (0..nodes)
+        .map(|n| {
+            let clock = ClockSpec::with_ppm(CLOCK_HZ, PPM_STEP * n as f64);
+            engine.add(ControllerNode::new(&node_name(n), clock), 0)
+        })
+        .collect();
+    for &id in &ids {
+        configure(&mut engine, id);
+    }
+    if let Some(path) = trace {
+        engine
+            .trace_vcd(path)
+            .map_err(|e| BenchError(format!("{}: {e}", path.display())))?;
+    }
+    let start = Instant::now();
+    let edges_before = engine.edges();
+    for i in 0..frames {
+        transfer(&mut engine, &ids, &workload_frame(i))?;
+    }
+    let trace_result = engine.finish_trace();
+    let seconds = start.elapsed().as_secs_f64();
+    if let Some(path) = trace {
+        trace_result.map_err(|e| BenchError(format!("{}: {e}", path.display())))?;
+        std::fs::remove_file(path).ok();
+    }
+    let pair_cycles = (engine.edges() - edges_before) as f64 / 2.0;
+    Ok(BenchRun {
+        pair_cycles_per_s: pair_cycles / seconds,
+        frames_per_s: frames as f64 / seconds,
+    })
+}
+
+fn node_name(n: usize) -> String {
+    char::from(b'a' + n as u8).to_string()
+}
+
+/// Frame `i` of the workload: 8 data bytes, a different identifier and payload each time.
+pub fn workload_frame(i: usize) -> Frame {
+    let id = Id::standard((i % 0x800) as u16).expect("11-bit identifier");
+    let data: Vec<u8> = (0..8).map(|k| (i * 8 + k) as u8).collect();
+    Frame::data(id, &data).expect("8 data bytes")
+}
+
+/// PeliCAN, 500 kbit/s, filter open, TI and RI enabled, operating mode.
+fn configure(engine: &mut Engine, id: DeviceId) {
+    let mut host = Host::new(engine, id);
+    host.write(pelican::CDR, clock_divider::PELICAN);
+    host.write(pelican::BTR0, BTR0);
+    host.write(pelican::BTR1, BTR1);
+    for k in 0..4 {
+        host.write(pelican::AMR0 + k, 0xFF);
+    }
+    host.write(pelican::IER, interrupt::RI | interrupt::TI);
+    host.write(pelican::MOD, 0);
+    assert_eq!(host.read(pelican::MOD) & mode::RM, 0, "operating mode");
+}
+
+/// Node `ids[0]` sends `frame`; returns when it reported TI and every receiver has taken the frame.
+fn transfer(engine: &mut Engine, ids: &[DeviceId], frame: &Frame) -> Result<(), BenchError> {
+    let (sender, receivers) = ids.split_first().expect("a sender");
+    let buffer = encode_buffer(frame);
+    let mut host = Host::new(engine, *sender);
+    for (k, byte) in buffer.iter().take(buffer_len(buffer[0])).enumerate() {
+        host.write(pelican::FRAME + k as u8, *byte);
+    }
+    host.write(pelican::CMR, command::TR);
+    let mut sent = false;
+    let mut received = vec![false; receivers.len()];
+    while !sent || received.contains(&false) {
+        engine
+            .run_while(u64::MAX, |e| {
+                ids.iter().any(|&id| e.device::<ControllerNode>(id).irq())
+            })
+            .map_err(|e| BenchError(format!("simulation: {e}")))?;
+        for (r, &id) in receivers.iter().enumerate() {
+            if engine.device::<ControllerNode>(id).irq() {
+                if let Some(got) = take_frame(engine, id) {
+                    if got != *frame {
+                        return Err(BenchError(format!(
+                            "node {} received {got:?} instead of {frame:?}",
+                            node_name(r + 1)
+                        )));
+                    }
+                    received[r] = true;
+                }
+            }
+        }
+        if engine.device::<ControllerNode>(*sender).irq() {
+            sent |= Host::new(engine, *sender).read(pelican::IR) & interrupt::TI != 0;
+        }
+    }
+    Ok(())
+}
+
+/// Services node `id`'s interrupt: the received frame if RI was set (the buffer released).
+fn take_frame(engine: &mut Engine, id: DeviceId) -> Option<Frame> {
+    let mut host = Host::new(engine, id);
+    if host.read(pelican::IR) & interrupt::RI == 0 {
+        return None;
+    }
+    let mut bytes = [0u8; FRAME_BUFFER_BYTES];
+    bytes[0] = host.read(pelican::FRAME);
+    let len = buffer_len(bytes[0]);
+    for (k, byte) in bytes.iter_mut().enumerate().take(len).skip(1) {
+        *byte = host.read(pelican::FRAME + k as u8);
+    }
+    host.write(pelican::CMR, command::RRB);
+    Some(decode_buffer(&bytes))
+}
+
+/// Median, minimum and maximum of several runs (by node-pair cycles per second).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BenchSummary {
+    /// The median run.
+    pub median: BenchRun,
+    /// The slowest run.
+    pub min: BenchRun,
+    /// The fastest run.
+    pub max: BenchRun,
+}
+
+/// Summarises `runs` (at least one).
+pub fn summarise(mut runs: Vec<BenchRun>) -> BenchSummary {
+    assert!(!runs.is_empty(), "at least one run");
+    runs.sort_by(|x, y| x.pair_cycles_per_s.total_cmp(&y.pair_cycles_per_s));
+    BenchSummary {
+        median: runs[runs.len() / 2],
+        min: runs[0],
+        max: runs[runs.len() - 1],
+    }
+}
+
+/// The machine-readable result line.
+pub fn bench_line(engine: &str, nodes: usize, trace: bool, summary: &BenchSummary) -> String {
+    format!(
+        "BENCH engine={engine} nodes={nodes} trace={} pair_cycles_per_s={:.0} frames_per_s={:.1}",
+        if trace { "on" } else { "off" },
+        summary.median.pair_cycles_per_s,
+        summary.median.frames_per_s
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_receiver_gets_every_frame_and_the_speed_is_counted() {
+        let run = run_workload(3, 2, None).expect("frames arrive intact");
+        assert!(run.pair_cycles_per_s > 0.0 && run.frames_per_s > 0.0);
+    }
+
+    #[test]
+    fn one_node_is_refused() {
+        let err = run_workload(1, 1, None).unwrap_err();
+        assert!(err.0.contains("at least one receiver"), "{err}");
+    }
+
+    #[test]
+    fn the_summary_is_the_median_of_the_runs() {
+        let run = |c: f64| BenchRun {
+            pair_cycles_per_s: c,
+            frames_per_s: c / 100.0,
+        };
+        let s = summarise(vec![run(3.0), run(1.0), run(2.0)]);
+        assert_eq!((s.min, s.median, s.max), (run(1.0), run(2.0), run(3.0)));
+        assert_eq!(
+            bench_line("rust-hdl", 2, false, &s),
+            "BENCH engine=rust-hdl nodes=2 trace=off pair_cycles_per_s=2 frames_per_s=0.0"
+        );
+    }
+}
