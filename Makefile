@@ -41,8 +41,9 @@ waves-check: tools
 waves-compare:
 	$(CARGO) run -p testbenches --bin waves_check -- $(WAVES_CHECK_FLAGS) waves
 
-## Speed figures of the simulation engine.
+## Speed figures: the reference workload (cansim bench), then the bit-timing and core-only devices.
 bench:
+	$(CARGO) run --release -p sim --bin cansim -- bench
 	$(CARGO) bench -p sim --bench engine
 
 ## Fault-injection campaign on every core (FAULTS=100000 by default, SEED=1).

@@ -689,7 +689,11 @@ fn bench(nodes: &[usize], frames: usize, runs: usize, no_trace: bool) -> Result<
             let mut results = Vec::with_capacity(runs);
             for run in 0..runs {
                 if progress {
-                    eprint!("\r{engine}, {n} nodes, trace {}: run {}/{runs} ", on_off(trace), run + 1);
+                    eprint!(
+                        "\r{engine}, {n} nodes, trace {}: run {}/{runs} ",
+                        on_off(trace),
+                        run + 1
+                    );
                 }
                 let path = trace.then_some(&trace_file);
                 results.push(sim::bench::run_workload(n, frames, path).map_err(|e| e.to_string())?);
