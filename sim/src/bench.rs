@@ -177,6 +177,21 @@ fn take_frame(engine: &mut Engine, id: DeviceId) -> Option<Frame> {
     Some(decode_buffer(&bytes))
 }
 
+/// Fault-injection cases per second of real time when `threads` workers share `faults` cases of the
+/// campaign with `seed` (`cansim campaign`); fails if a case broke a CAN rule.
+pub fn campaign_rate(seed: u64, faults: u64, threads: usize) -> Result<f64, BenchError> {
+    let start = Instant::now();
+    let summary = crate::campaign::run_campaign(seed, faults, threads, &|_| {});
+    let seconds = start.elapsed().as_secs_f64();
+    if let Some((index, violations)) = summary.failures.first() {
+        return Err(BenchError(format!(
+            "campaign case {index} broke a rule: {}",
+            violations.join("; ")
+        )));
+    }
+    Ok(summary.cases as f64 / seconds)
+}
+
 /// Median, minimum and maximum of several runs (by node-pair cycles per second).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BenchSummary {
@@ -217,6 +232,11 @@ mod tests {
     fn every_receiver_gets_every_frame_and_the_speed_is_counted() {
         let run = run_workload(3, 2, None).expect("frames arrive intact");
         assert!(run.pair_cycles_per_s > 0.0 && run.frames_per_s > 0.0);
+    }
+
+    #[test]
+    fn the_campaign_rate_counts_cases() {
+        assert!(campaign_rate(1, 4, 2).expect("no case breaks a rule") > 0.0);
     }
 
     #[test]

@@ -188,6 +188,9 @@ enum Command {
         /// Measure without VCD tracing only.
         #[arg(long)]
         no_trace: bool,
+        /// Fault-injection cases per thread count of the campaign scaling measurement (0: skip it).
+        #[arg(long, default_value_t = 400)]
+        campaign_faults: u64,
     },
 }
 
@@ -281,7 +284,8 @@ fn main() -> ExitCode {
             frames,
             runs,
             no_trace,
-        } => bench(&nodes, frames, runs, no_trace),
+            campaign_faults,
+        } => bench(&nodes, frames, runs, no_trace).and_then(|()| campaign_scaling(campaign_faults)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -726,4 +730,22 @@ fn on_off(flag: bool) -> &'static str {
     } else {
         "off"
     }
+}
+
+/// Campaign throughput on 1, 2, ... threads up to the number of cores.
+fn campaign_scaling(faults: u64) -> Result<(), String> {
+    if faults == 0 {
+        return Ok(());
+    }
+    let cores = default_threads(None);
+    println!("fault-injection campaign, {faults} cases per thread count, {cores} cores");
+    println!("{:>7} {:>10} {:>8}", "threads", "cases/s", "speedup");
+    let mut single = None;
+    for threads in 1..=cores {
+        let rate = sim::bench::campaign_rate(1, faults, threads).map_err(|e| e.to_string())?;
+        let speedup = rate / *single.get_or_insert(rate);
+        println!("{threads:>7} {rate:>10.1} {speedup:>7.2}x");
+        println!("BENCH campaign threads={threads} cases_per_s={rate:.1} speedup={speedup:.2}");
+    }
+    Ok(())
 }
