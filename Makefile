@@ -51,8 +51,10 @@ waves-check: tools
 waves-compare:
 	$(CARGO) run -p testbenches --bin waves_check -- $(WAVES_CHECK_FLAGS) waves
 
-## Speed figures of the simulation engine; the reference workload on both engines.
+## Speed figures: the reference workload (cansim bench) on both engines of the complete controller,
+## then the bit-timing and core-only devices.
 bench:
+	$(CARGO) run --release -p sim --bin cansim -- bench --engine rust-hdl,verilator
 	$(CARGO) bench -p sim --bench engine
 
 ## Fault-injection campaign on every core (FAULTS=100000 by default, SEED=1).

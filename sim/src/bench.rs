@@ -1,8 +1,9 @@
-//! The reference workload of the simulation speed figures: complete controllers at 16 MHz on one
-//! bus at 500 kbit/s (BTR0 0x40, BTR1 0x1C), reached only through their registers. Node A sends
-//! 8-byte standard data frames back to back (it writes each into its TX buffer, requests it and
-//! waits for TI); every other node takes each frame from its RX buffer when RI interrupts and
-//! releases the buffer. The clocks differ by 300 ppm from node to node, so no two edges coincide.
+//! The reference workload of `cansim bench`: complete controllers at 16 MHz on a 500 kbit/s bus
+//! (BTR0 0x40, BTR1 0x1C). Node A sends 8-byte standard data frames back to back through its
+//! registers (TX buffer, CMR TR, wait for TI); every other node takes each frame from its RX buffer
+//! on RI, checks it and releases the buffer. Speed is counted in node-pair clock cycles (all nodes'
+//! rising edges / 2) and frames per second of real time. Either engine of the controller
+//! ([`ModelEngine`]) runs it.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -17,133 +18,115 @@ use crate::host::Host;
 use crate::time::{ClockSpec, FS_PER_MS};
 
 /// Controller clock of the workload.
-const CLOCK_HZ: f64 = 16e6;
-/// Clock offset of each further node from the one before.
-const PPM_STEP: f64 = 300.0;
-/// Bit timing: BRP 0 with the 16 MHz clock, 16 tq per bit: 500 kbit/s.
-const BTR0: u8 = 0x40;
-/// TSEG1 13 tq, TSEG2 2 tq: sample point at 87.5 %.
-const BTR1: u8 = 0x1C;
-/// Data bytes of every frame.
-const DATA_BYTES: usize = 8;
-/// Longest wait for an interrupt or for the bus to be idle (a frame takes about 0.25 ms).
-const IRQ_TIMEOUT_FS: u64 = FS_PER_MS;
+pub const CLOCK_HZ: f64 = 16e6;
+/// BTR0 of 500 kbit/s at 16 MHz (BRP 1, SJW 2).
+pub const BTR0: u8 = 0x40;
+/// BTR1 of 500 kbit/s at 16 MHz (TSEG1 13, TSEG2 2, one sample).
+pub const BTR1: u8 = 0x1C;
+/// Clock offset between neighbouring nodes, so receivers resynchronise as on a real bus.
+const PPM_STEP: f64 = 100.0;
+/// Longest wait for an interrupt or for a node to see the bus idle (a frame takes about 0.25 ms).
+const WAIT_LIMIT_FS: u64 = FS_PER_MS;
 
-/// Speed of one run of [`reference_workload`].
+/// One run of the workload.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BenchResult {
-    /// Clock edges of all nodes, halved (one node pair steps two edges per clock period), per
-    /// second of wall-clock time.
+pub struct BenchRun {
+    /// Node-pair clock cycles simulated per second of real time.
     pub pair_cycles_per_s: f64,
-    /// The same per second of processor time of the running thread: the figure that does not
-    /// depend on what else the machine runs.
+    /// The same per second of the running thread's processor time: what the run costs whatever
+    /// else the machine runs.
     pub pair_cycles_per_cpu_s: f64,
-    /// Frames sent per second of wall-clock time.
+    /// Frames sent and received per second of real time.
     pub frames_per_s: f64,
-    /// Wall-clock time of the measured part (configuration excluded).
-    pub seconds: f64,
 }
 
-/// Runs the reference workload with `nodes` controllers (at least 2) stepped by `engine`, sending
-/// `frames` frames, with a VCD of every node written (to a temporary file, removed afterwards)
-/// when `trace` is set. Checks that every receiver got every frame intact.
-pub fn reference_workload(
-    engine: ModelEngine,
-    nodes: usize,
-    trace: bool,
-    frames: usize,
-) -> Result<BenchResult, String> {
-    if nodes < 2 {
-        return Err(format!("the workload needs 2 nodes or more, not {nodes}"));
+impl BenchRun {
+    /// Simulated time per real time (real time is `CLOCK_HZ` cycles per second of each node).
+    pub fn real_time_factor(&self) -> f64 {
+        self.pair_cycles_per_s / CLOCK_HZ
     }
-    let mut bus = Engine::new();
+}
+
+/// What went wrong in a run: a frame that did not arrive intact (a design or engine bug), or the
+/// trace file.
+#[derive(Debug)]
+pub struct BenchError(pub String);
+
+impl std::fmt::Display for BenchError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for BenchError {}
+
+/// Runs the workload once: `nodes` controllers (at least 2) stepped by `model`, `frames` frames, a
+/// VCD written to `trace` when given (and deleted afterwards).
+pub fn run_workload(
+    model: ModelEngine,
+    nodes: usize,
+    frames: usize,
+    trace: Option<&PathBuf>,
+) -> Result<BenchRun, BenchError> {
+    if nodes < 2 {
+        return Err(BenchError(format!(
+            "the workload needs a sender and at least one receiver, not {nodes} node(s)"
+        )));
+    }
+    let mut engine = Engine::new();
     let mut ids = Vec::with_capacity(nodes);
     for n in 0..nodes {
         let clock = ClockSpec::with_ppm(CLOCK_HZ, PPM_STEP * n as f64);
-        let node = ControllerNode::with_engine(&format!("n{n}"), clock, engine)
-            .map_err(|e| e.to_string())?;
-        ids.push(bus.add(node, 0));
+        let node = ControllerNode::with_engine(&node_name(n), clock, model)
+            .map_err(|e| BenchError(e.to_string()))?;
+        ids.push(engine.add(node, 0));
     }
     for &id in &ids {
-        configure(&mut Host::new(&mut bus, id));
+        configure(&mut engine, id);
     }
     for &id in &ids {
-        wait_for_bus_idle(&mut Host::new(&mut bus, id))?;
+        wait_for_bus_idle(&mut engine, id)?;
     }
-    let vcd = trace.then(|| {
-        std::env::temp_dir().join(format!(
-            "cansim-bench-{}-{}.vcd",
-            engine.name(),
-            std::process::id()
-        ))
-    });
-    if let Some(path) = &vcd {
-        bus.trace_vcd(path)
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    if let Some(path) = trace {
+        engine
+            .trace_vcd(path)
+            .map_err(|e| BenchError(format!("{}: {e}", path.display())))?;
     }
-    let edges_before = bus.edges();
     let cpu_start = thread_cpu_seconds();
     let start = Instant::now();
-    let result = send_frames(&mut bus, &ids, frames);
-    let finished = bus.finish_trace();
+    let edges_before = engine.edges();
+    for i in 0..frames {
+        transfer(&mut engine, &ids, &workload_frame(i))?;
+    }
+    let trace_result = engine.finish_trace();
     let seconds = start.elapsed().as_secs_f64();
     let cpu_seconds = thread_cpu_seconds() - cpu_start;
-    remove(vcd);
-    result?;
-    finished.map_err(|e| format!("cannot finish the VCD: {e}"))?;
-    let pair_cycles = (bus.edges() - edges_before) as f64 / 2.0;
-    Ok(BenchResult {
+    if let Some(path) = trace {
+        trace_result.map_err(|e| BenchError(format!("{}: {e}", path.display())))?;
+        std::fs::remove_file(path).ok();
+    }
+    let pair_cycles = (engine.edges() - edges_before) as f64 / 2.0;
+    Ok(BenchRun {
         pair_cycles_per_s: pair_cycles / seconds,
         pair_cycles_per_cpu_s: pair_cycles / cpu_seconds,
         frames_per_s: frames as f64 / seconds,
-        seconds,
     })
 }
 
-/// Median, minimum and maximum of a few measurements.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Spread {
-    /// The middle value (the upper one of the middle two for an even count).
-    pub median: f64,
-    /// The smallest value.
-    pub min: f64,
-    /// The largest value.
-    pub max: f64,
+fn node_name(n: usize) -> String {
+    char::from(b'a' + n as u8).to_string()
 }
 
-impl Spread {
-    /// The spread of `values`; `None` if there are none.
-    pub fn of(values: impl IntoIterator<Item = f64>) -> Option<Spread> {
-        let mut sorted: Vec<f64> = values.into_iter().collect();
-        sorted.sort_by(f64::total_cmp);
-        Some(Spread {
-            median: *sorted.get(sorted.len() / 2)?,
-            min: sorted[0],
-            max: sorted[sorted.len() - 1],
-        })
-    }
+/// Frame `i` of the workload: 8 data bytes, a different identifier and payload each time.
+pub fn workload_frame(i: usize) -> Frame {
+    let id = Id::standard((i % 0x800) as u16).expect("11-bit identifier");
+    let data: Vec<u8> = (0..8).map(|k| (i * 8 + k) as u8).collect();
+    Frame::data(id, &data).expect("8 data bytes")
 }
 
-impl std::fmt::Display for Spread {
-    /// `median (min …, max …)`, with the formatter's precision (none by default).
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let p = f.precision().unwrap_or(0);
-        write!(
-            f,
-            "{:.p$} (min {:.p$}, max {:.p$})",
-            self.median, self.min, self.max
-        )
-    }
-}
-
-fn remove(path: Option<PathBuf>) {
-    if let Some(path) = path {
-        let _ = std::fs::remove_file(path);
-    }
-}
-
-/// PeliCAN operation at 500 kbit/s, every frame accepted, RI and TI enabled.
-fn configure(host: &mut Host) {
+/// PeliCAN, 500 kbit/s, filter open, TI and RI enabled, operating mode.
+fn configure(engine: &mut Engine, id: DeviceId) {
+    let mut host = Host::new(engine, id);
     host.write(pelican::CDR, clock_divider::PELICAN);
     host.write(pelican::BTR0, BTR0);
     host.write(pelican::BTR1, BTR1);
@@ -155,82 +138,82 @@ fn configure(host: &mut Host) {
     assert_eq!(host.read(pelican::MOD) & mode::RM, 0, "operating mode");
 }
 
-/// Polls the status register until the node has seen the bus idle (neither receiving nor
+/// Polls node `id`'s status register until it has seen the bus idle (neither receiving nor
 /// transmitting: integration done), so that it takes part in the first frame.
-fn wait_for_bus_idle(host: &mut Host) -> Result<(), String> {
-    let limit = host.engine().now() + IRQ_TIMEOUT_FS;
+fn wait_for_bus_idle(engine: &mut Engine, id: DeviceId) -> Result<(), BenchError> {
+    let mut host = Host::new(engine, id);
+    let limit = host.engine().now() + WAIT_LIMIT_FS;
     while host.read(pelican::SR) & (status::RS | status::TS) != 0 {
         if host.engine().now() > limit {
-            return Err(format!("{}: never saw the bus idle", host.node().name()));
+            return Err(BenchError(format!(
+                "node {} never saw the bus idle",
+                host.node().name()
+            )));
         }
     }
     Ok(())
 }
 
-/// The frame number `k` of the workload.
-fn frame(k: usize) -> Frame {
-    let id = Id::standard((k % 0x800) as u16).expect("11-bit identifier");
-    Frame::data(id, &[k as u8; DATA_BYTES]).expect("8 data bytes")
-}
-
-/// Node `ids[0]` sends `frames` frames; the others receive each one.
-fn send_frames(bus: &mut Engine, ids: &[DeviceId], frames: usize) -> Result<(), String> {
-    let (sender, receivers) = ids.split_first().expect("two nodes or more");
-    for k in 0..frames {
-        let expected = frame(k);
-        let buffer = encode_buffer(&expected);
-        let mut host = Host::new(bus, *sender);
-        for (i, byte) in buffer.iter().take(buffer_len(buffer[0])).enumerate() {
-            host.write(pelican::FRAME + i as u8, *byte);
+/// Node `ids[0]` sends `frame`; returns when it reported TI and every receiver has taken the frame.
+fn transfer(engine: &mut Engine, ids: &[DeviceId], frame: &Frame) -> Result<(), BenchError> {
+    let (sender, receivers) = ids.split_first().expect("a sender");
+    let buffer = encode_buffer(frame);
+    let mut host = Host::new(engine, *sender);
+    for (k, byte) in buffer.iter().take(buffer_len(buffer[0])).enumerate() {
+        host.write(pelican::FRAME + k as u8, *byte);
+    }
+    host.write(pelican::CMR, command::TR);
+    let mut sent = false;
+    let mut received = vec![false; receivers.len()];
+    while !sent || received.contains(&false) {
+        let limit = engine.now() + WAIT_LIMIT_FS;
+        let interrupted = engine
+            .run_while(limit, |e| {
+                ids.iter().any(|&id| e.device::<ControllerNode>(id).irq())
+            })
+            .map_err(|e| BenchError(format!("simulation: {e}")))?;
+        if !interrupted {
+            return Err(BenchError(format!(
+                "no interrupt within 1 ms while sending {frame:?}"
+            )));
         }
-        host.write(pelican::CMR, command::TR);
-        let mut pending = receivers.len();
-        let mut sent = false;
-        while !sent || pending > 0 {
-            let limit = bus.now() + IRQ_TIMEOUT_FS;
-            let irq = bus
-                .run_while(limit, |e| {
-                    ids.iter().any(|&id| e.device::<ControllerNode>(id).irq())
-                })
-                .map_err(|e| format!("simulation: {e}"))?;
-            if !irq {
-                return Err(format!("frame {k}: no interrupt within 1 ms"));
-            }
-            for &id in receivers {
-                if bus.device::<ControllerNode>(id).irq() {
-                    let received = take_frame(&mut Host::new(bus, id));
-                    if let Some(frame) = received {
-                        if frame != expected {
-                            return Err(format!("frame {k} received as {frame:?}"));
-                        }
-                        pending -= 1;
+        for (r, &id) in receivers.iter().enumerate() {
+            if engine.device::<ControllerNode>(id).irq() {
+                if let Some(got) = take_frame(engine, id) {
+                    if got != *frame {
+                        return Err(BenchError(format!(
+                            "node {} received {got:?} instead of {frame:?}",
+                            node_name(r + 1)
+                        )));
                     }
+                    received[r] = true;
                 }
             }
-            if bus.device::<ControllerNode>(*sender).irq() {
-                sent |= Host::new(bus, *sender).read(pelican::IR) & interrupt::TI != 0;
-            }
+        }
+        if engine.device::<ControllerNode>(*sender).irq() {
+            sent |= Host::new(engine, *sender).read(pelican::IR) & interrupt::TI != 0;
         }
     }
     Ok(())
 }
 
-/// Services a receiver's interrupt: the frame in its RX buffer, released, if RI was pending.
-fn take_frame(host: &mut Host) -> Option<Frame> {
+/// Services node `id`'s interrupt: the received frame if RI was set (the buffer released).
+fn take_frame(engine: &mut Engine, id: DeviceId) -> Option<Frame> {
+    let mut host = Host::new(engine, id);
     if host.read(pelican::IR) & interrupt::RI == 0 {
         return None;
     }
     let mut bytes = [0u8; FRAME_BUFFER_BYTES];
     bytes[0] = host.read(pelican::FRAME);
     let len = buffer_len(bytes[0]);
-    for (i, byte) in bytes.iter_mut().enumerate().take(len).skip(1) {
-        *byte = host.read(pelican::FRAME + i as u8);
+    for (k, byte) in bytes.iter_mut().enumerate().take(len).skip(1) {
+        *byte = host.read(pelican::FRAME + k as u8);
     }
     host.write(pelican::CMR, command::RRB);
     Some(decode_buffer(&bytes))
 }
 
-/// Processor time of the calling thread, in seconds.
+/// Processor time of the calling thread, in seconds (64-bit Linux `clock_gettime`).
 fn thread_cpu_seconds() -> f64 {
     #[repr(C)]
     struct Timespec {
@@ -245,10 +228,59 @@ fn thread_cpu_seconds() -> f64 {
         tv_sec: 0,
         tv_nsec: 0,
     };
-    // SAFETY: `time` is a valid out-parameter of the layout of 64-bit Linux's `struct timespec`.
+    // SAFETY: `time` is a valid out-parameter with the layout of 64-bit Linux's `struct timespec`.
     let status = unsafe { clock_gettime(CLOCK_THREAD_CPUTIME_ID, &mut time) };
     assert_eq!(status, 0, "clock_gettime of the thread's CPU clock");
     time.tv_sec as f64 + time.tv_nsec as f64 * 1e-9
+}
+
+/// Fault-injection cases per second of real time when `threads` workers share `faults` cases of the
+/// campaign with `seed` (`cansim campaign`); fails if a case broke a CAN rule.
+pub fn campaign_rate(seed: u64, faults: u64, threads: usize) -> Result<f64, BenchError> {
+    let start = Instant::now();
+    let summary = crate::campaign::run_campaign(seed, faults, threads, &|_| {});
+    let seconds = start.elapsed().as_secs_f64();
+    if let Some((index, violations)) = summary.failures.first() {
+        return Err(BenchError(format!(
+            "campaign case {index} broke a rule: {}",
+            violations.join("; ")
+        )));
+    }
+    Ok(summary.cases as f64 / seconds)
+}
+
+/// Median, minimum and maximum of several runs (by node-pair cycles per second).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BenchSummary {
+    /// The median run.
+    pub median: BenchRun,
+    /// The slowest run.
+    pub min: BenchRun,
+    /// The fastest run.
+    pub max: BenchRun,
+}
+
+/// Summarises `runs` (at least one).
+pub fn summarise(mut runs: Vec<BenchRun>) -> BenchSummary {
+    assert!(!runs.is_empty(), "at least one run");
+    runs.sort_by(|x, y| x.pair_cycles_per_s.total_cmp(&y.pair_cycles_per_s));
+    BenchSummary {
+        median: runs[runs.len() / 2],
+        min: runs[0],
+        max: runs[runs.len() - 1],
+    }
+}
+
+/// The machine-readable result line.
+pub fn bench_line(engine: &str, nodes: usize, trace: bool, summary: &BenchSummary) -> String {
+    format!(
+        "BENCH engine={engine} nodes={nodes} trace={} pair_cycles_per_s={:.0} \
+         pair_cycles_per_cpu_s={:.0} frames_per_s={:.1}",
+        if trace { "on" } else { "off" },
+        summary.median.pair_cycles_per_s,
+        summary.median.pair_cycles_per_cpu_s,
+        summary.median.frames_per_s
+    )
 }
 
 #[cfg(test)]
@@ -256,27 +288,39 @@ mod tests {
     use super::*;
 
     #[test]
-    fn both_engines_run_the_workload_and_deliver_every_frame() {
-        for engine in ModelEngine::ALL {
-            let result =
-                reference_workload(engine, 3, false, 2).unwrap_or_else(|e| panic!("{engine}: {e}"));
-            assert!(result.pair_cycles_per_s > 0.0, "{engine}: {result:?}");
-            assert!(result.frames_per_s > 0.0, "{engine}: {result:?}");
+    fn every_receiver_gets_every_frame_and_the_speed_is_counted_on_both_engines() {
+        for model in ModelEngine::ALL {
+            let run = run_workload(model, 3, 2, None)
+                .unwrap_or_else(|e| panic!("{model}: frames arrive intact: {e}"));
+            assert!(run.pair_cycles_per_s > 0.0 && run.frames_per_s > 0.0);
+            assert!(run.pair_cycles_per_cpu_s > 0.0);
         }
     }
 
     #[test]
-    fn the_spread_names_median_min_and_max() {
-        let s = Spread::of([3.0, 1.0, 5.0, 2.0, 4.0]).unwrap();
-        assert_eq!((s.median, s.min, s.max), (3.0, 1.0, 5.0));
-        assert_eq!(s.to_string(), "3 (min 1, max 5)");
-        assert_eq!(format!("{s:.1}"), "3.0 (min 1.0, max 5.0)");
-        assert_eq!(Spread::of([]), None);
+    fn the_campaign_rate_counts_cases() {
+        assert!(campaign_rate(1, 4, 2).expect("no case breaks a rule") > 0.0);
     }
 
     #[test]
     fn one_node_is_refused() {
-        let err = reference_workload(ModelEngine::RustHdl, 1, false, 1).unwrap_err();
-        assert!(err.contains("2 nodes or more"), "{err}");
+        let err = run_workload(ModelEngine::RustHdl, 1, 1, None).unwrap_err();
+        assert!(err.0.contains("at least one receiver"), "{err}");
+    }
+
+    #[test]
+    fn the_summary_is_the_median_of_the_runs() {
+        let run = |c: f64| BenchRun {
+            pair_cycles_per_s: c,
+            pair_cycles_per_cpu_s: 2.0 * c,
+            frames_per_s: c / 100.0,
+        };
+        let s = summarise(vec![run(3.0), run(1.0), run(2.0)]);
+        assert_eq!((s.min, s.median, s.max), (run(1.0), run(2.0), run(3.0)));
+        assert_eq!(
+            bench_line("rust-hdl", 2, false, &s),
+            "BENCH engine=rust-hdl nodes=2 trace=off pair_cycles_per_s=2 pair_cycles_per_cpu_s=4 \
+             frames_per_s=0.0"
+        );
     }
 }

@@ -7,7 +7,6 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use clap::{Parser, Subcommand};
-use sim::bench::{reference_workload, Spread};
 use sim::btr::{calc_bittiming, format_calculation, format_table, sample_point_fraction, Btr};
 use sim::bus_decoder::{EventCounts, Remark};
 use sim::campaign::{
@@ -154,28 +153,6 @@ enum Command {
         #[arg(long, default_value = "build/verilog")]
         out: PathBuf,
     },
-    /// Speed of the simulation on the reference workload: complete controllers at 16 MHz and
-    /// 500 kbit/s reached through their registers, node A sending 8-byte frames back to back, every
-    /// other node receiving each; prints node-pair clock cycles per second (wall-clock and
-    /// processor time) and frames per second, median of the runs with min and max.
-    Bench {
-        /// The engine stepping the controllers: rust-hdl or verilator [default: CAN_ENGINE, else
-        /// rust-hdl].
-        #[arg(long)]
-        engine: Option<ModelEngine>,
-        /// Controllers on the bus (2 or more).
-        #[arg(long, default_value_t = 2)]
-        nodes: usize,
-        /// Frames per run.
-        #[arg(long, default_value_t = 40)]
-        frames: usize,
-        /// Also write a VCD of every node (to a temporary file).
-        #[arg(long)]
-        trace: bool,
-        /// Runs to take the median of.
-        #[arg(long, default_value_t = 5)]
-        runs: usize,
-    },
     /// Build the Verilator model of the controller (CAN_ENGINE=verilator) if it is not built yet;
     /// prints the path of the library. Tests and runs build it on first use as well.
     VerilatorModel,
@@ -197,6 +174,32 @@ enum Command {
         /// Worker threads for --simulate (default: every core).
         #[arg(long, requires = "simulate")]
         threads: Option<usize>,
+    },
+    /// Simulation speed on the reference workload: 16 MHz controllers at 500 kbit/s, node A sends
+    /// 8-byte frames back to back through its registers, every other node reads each from its RX
+    /// buffer and releases it. Prints node-pair cycles/s, frames/s and the real-time factor (median,
+    /// min, max of several runs) for each node count, without and with VCD tracing, and one
+    /// `BENCH ...` line per result.
+    Bench {
+        /// Engines of the controllers to measure (comma-separated: rust-hdl, verilator)
+        /// [default: the one CAN_ENGINE chooses, else rust-hdl].
+        #[arg(long, value_delimiter = ',')]
+        engine: Vec<ModelEngine>,
+        /// Node counts to measure (comma-separated, each at least 2).
+        #[arg(long, value_delimiter = ',', default_values_t = [2, 4, 8])]
+        nodes: Vec<usize>,
+        /// Frames per run.
+        #[arg(long, default_value_t = 100)]
+        frames: usize,
+        /// Runs per result (the median is reported).
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
+        /// Measure without VCD tracing only.
+        #[arg(long)]
+        no_trace: bool,
+        /// Fault-injection cases per thread count of the campaign scaling measurement (0: skip it).
+        #[arg(long, default_value_t = 400)]
+        campaign_faults: u64,
     },
 }
 
@@ -279,13 +282,6 @@ fn main() -> ExitCode {
             all,
         } => bittiming(clock, bitrate, sample_point, sjw, all),
         Command::Verilog { out } => verilog(&out),
-        Command::Bench {
-            engine,
-            nodes,
-            frames,
-            trace,
-            runs,
-        } => bench(engine, nodes, frames, trace, runs),
         Command::VerilatorModel => verilated::build_model()
             .map(|path| println!("{}", path.display()))
             .map_err(|e| e.to_string()),
@@ -295,6 +291,15 @@ fn main() -> ExitCode {
             simulate,
             threads,
         } => response_times(&file, csv, simulate, threads),
+        Command::Bench {
+            engine,
+            nodes,
+            frames,
+            runs,
+            no_trace,
+            campaign_faults,
+        } => bench(engine, &nodes, frames, runs, no_trace)
+            .and_then(|()| campaign_scaling(campaign_faults)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -303,35 +308,6 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-/// `cansim bench`: the reference workload `runs` times, the median, min and max of its figures.
-fn bench(
-    engine: Option<ModelEngine>,
-    nodes: usize,
-    frames: usize,
-    trace: bool,
-    runs: usize,
-) -> Result<(), String> {
-    let engine = match engine {
-        Some(engine) => engine,
-        None => ModelEngine::from_env()?,
-    };
-    let results = (0..runs)
-        .map(|_| reference_workload(engine, nodes, trace, frames))
-        .collect::<Result<Vec<_>, _>>()?;
-    let spread = |f: fn(&sim::bench::BenchResult) -> f64| {
-        Spread::of(results.iter().map(f)).ok_or("--runs must be at least 1")
-    };
-    println!(
-        "BENCH engine={engine} nodes={nodes} trace={} frames={frames} runs={runs}\n  \
-         pair_cycles_per_s     {}\n  pair_cycles_per_cpu_s {}\n  frames_per_s          {:.1}",
-        if trace { "on" } else { "off" },
-        spread(|r| r.pair_cycles_per_s)?,
-        spread(|r| r.pair_cycles_per_cpu_s)?,
-        spread(|r| r.frames_per_s)?,
-    );
-    Ok(())
 }
 
 /// The VCD path to write (its directory created), or `None` with `--no-vcd`.
@@ -705,5 +681,102 @@ fn bittiming(
 fn verilog(out: &Path) -> Result<(), String> {
     let path = sim::verilog::write_controller_verilog(out).map_err(|e| e.to_string())?;
     println!("wrote {}", path.display());
+    Ok(())
+}
+
+/// `cansim bench`: the reference workload on each engine, node count and trace setting.
+fn bench(
+    engines: Vec<ModelEngine>,
+    nodes: &[usize],
+    frames: usize,
+    runs: usize,
+    no_trace: bool,
+) -> Result<(), String> {
+    if runs == 0 || frames == 0 {
+        return Err("--runs and --frames must be at least 1".into());
+    }
+    if let Some(n) = nodes.iter().find(|&&n| !(2..=26).contains(&n)) {
+        return Err(format!("--nodes {n}: the workload needs 2 to 26 nodes"));
+    }
+    let engines = if engines.is_empty() {
+        vec![ModelEngine::from_env()?]
+    } else {
+        engines
+    };
+    let trace_file = std::env::temp_dir().join(format!("cansim-bench-{}.vcd", std::process::id()));
+    let traces: &[bool] = if no_trace { &[false] } else { &[false, true] };
+    println!(
+        "reference workload: {frames} frames of 8 bytes, 16 MHz, 500 kbit/s; median of {runs} runs (min..max)"
+    );
+    println!(
+        "{:<10} {:>5} {:>5} {:>28} {:>12} {:>10} {:>10}",
+        "engine", "nodes", "trace", "node-pair cycles/s", "per CPU s", "frames/s", "real time"
+    );
+    let progress = std::io::stderr().is_terminal();
+    let mut lines = Vec::new();
+    for &engine in &engines {
+        for &n in nodes {
+            for &trace in traces {
+                let mut results = Vec::with_capacity(runs);
+                for run in 0..runs {
+                    if progress {
+                        eprint!(
+                            "\r{engine}, {n} nodes, trace {}: run {}/{runs} ",
+                            on_off(trace),
+                            run + 1
+                        );
+                    }
+                    let path = trace.then_some(&trace_file);
+                    let result = sim::bench::run_workload(engine, n, frames, path);
+                    results.push(result.map_err(|e| e.to_string())?);
+                }
+                if progress {
+                    eprint!("\r{:60}\r", "");
+                }
+                let s = sim::bench::summarise(results);
+                println!(
+                    "{:<10} {n:>5} {:>5} {:>10.0} ({:.0}..{:.0}) {:>12.0} {:>10.1} {:>9.4}x",
+                    engine.name(),
+                    on_off(trace),
+                    s.median.pair_cycles_per_s,
+                    s.min.pair_cycles_per_s,
+                    s.max.pair_cycles_per_s,
+                    s.median.pair_cycles_per_cpu_s,
+                    s.median.frames_per_s,
+                    s.median.real_time_factor()
+                );
+                lines.push(sim::bench::bench_line(engine.name(), n, trace, &s));
+            }
+        }
+    }
+    for line in lines {
+        println!("{line}");
+    }
+    Ok(())
+}
+
+fn on_off(flag: bool) -> &'static str {
+    if flag {
+        "on"
+    } else {
+        "off"
+    }
+}
+
+/// Campaign throughput on 1, 2, ... threads up to the number of cores.
+fn campaign_scaling(faults: u64) -> Result<(), String> {
+    if faults == 0 {
+        return Ok(());
+    }
+    let cores = default_threads(None);
+    println!("fault-injection campaign, {faults} cases per thread count, {cores} cores");
+    println!("{:>7} {:>10} {:>8}", "threads", "cases/s", "speedup");
+    let mut single = None;
+    for threads in 1..=cores {
+        let rate = sim::bench::campaign_rate(1, faults, threads).map_err(|e| e.to_string())?;
+        let speedup = rate / *single.get_or_insert(rate);
+        println!("{threads:>7} {rate:>10.1} {speedup:>7.2}x");
+        println!("BENCH campaign threads={threads} cases_per_s={rate:.1} speedup={speedup:.2}");
+    }
     Ok(())
 }
