@@ -311,10 +311,15 @@ impl Logic for Protocol {
             self.data_bytes.next = 0.into();
         }
         self.last_data_byte.next = self.data_bytes.val() - 1;
-        self.dlc_after.next = self.dlc_reg.q.val() + self.dlc_reg.q.val();
-        if self.rx_bit.val() {
-            self.dlc_after.next = self.dlc_reg.q.val() + self.dlc_reg.q.val() + 1;
-        }
+        // DLC shifted left with the bus bit in: wiring, where `x + x` would be an adder.
+        self.dlc_after.next = self
+            .dlc_reg
+            .q
+            .val()
+            .replace_bit(3, self.dlc_reg.q.val().get_bit(2))
+            .replace_bit(2, self.dlc_reg.q.val().get_bit(1))
+            .replace_bit(1, self.dlc_reg.q.val().get_bit(0))
+            .replace_bit(0, self.rx_bit.val());
         // A new frame of our own may start: a request, and no suspend owed (error-passive former
         // transmitter) unless the suspend is over.
         self.single_shot.next = self.tx_single_shot.val() | self.abort_pending.q.val();
@@ -508,10 +513,8 @@ impl Logic for Protocol {
                         if (self.count.q.val() < 11)
                             | ((self.count.q.val() > 12) & (self.count.q.val() < 31))
                         {
-                            self.id_reg.d.next = self.id_reg.q.val() + self.id_reg.q.val();
-                            if self.rx_bit.val() {
-                                self.id_reg.d.next = self.id_reg.q.val() + self.id_reg.q.val() + 1;
-                            }
+                            self.id_reg.d.next =
+                                (self.id_reg.q.val() << 1).replace_bit(0, self.rx_bit.val());
                             self.consume_stream.next = self.transmitter.q.val();
                         }
                         if self.count.q.val() == 11 {
@@ -570,11 +573,8 @@ impl Logic for Protocol {
                     ProtocolState::Data => {
                         self.crc.feed.next = true;
                         self.consume_stream.next = self.transmitter.q.val();
-                        self.byte_reg.d.next = self.byte_reg.q.val() + self.byte_reg.q.val();
-                        if self.rx_bit.val() {
-                            self.byte_reg.d.next =
-                                self.byte_reg.q.val() + self.byte_reg.q.val() + 1;
-                        }
+                        self.byte_reg.d.next =
+                            (self.byte_reg.q.val() << 1).replace_bit(0, self.rx_bit.val());
                         if self.count.q.val().get_bits::<3>(0) == 7 {
                             self.byte_pulse.d.next = true;
                             self.byte_index.d.next = self.count.q.val().get_bits::<3>(3);
@@ -840,11 +840,11 @@ impl Logic for Protocol {
         // ---- The transmit-buffer stream.
         if self.consume_stream.val() {
             if self.tx_left.q.val() == 0 {
-                self.tx_shift.d.next = self.tx_data.val() + self.tx_data.val();
+                self.tx_shift.d.next = self.tx_data.val() << 1;
                 self.tx_left.d.next = 7.into();
                 self.tx_ptr.d.next = self.tx_ptr.q.val() + 1;
             } else {
-                self.tx_shift.d.next = self.tx_shift.q.val() + self.tx_shift.q.val();
+                self.tx_shift.d.next = self.tx_shift.q.val() << 1;
                 self.tx_left.d.next = self.tx_left.q.val() - 1;
             }
         }
