@@ -102,6 +102,7 @@ pub struct BitTiming {
     sjw_field: Signal<Local, Bits<5>>,
     sjw_quanta: Signal<Local, Bits<5>>,
     quantum_plus_sjw: Signal<Local, Bits<5>>,
+    quantum_plus_sjw_quanta: Signal<Local, Bits<5>>,
     quantum_end: Signal<Local, Bit>,
     segment_end: Signal<Local, Bit>,
     last_quantum_now: Signal<Local, Bits<5>>,
@@ -188,8 +189,19 @@ impl Logic for BitTiming {
         if self.shorten.val() {
             self.last_quantum_now.next = self.last_quantum.q.val() - self.sjw_quanta.val();
         }
-        self.segment_end.next =
-            self.quantum_end.val() & (self.quantum.q.val() >= self.last_quantum_now.val());
+        // The end of the segment as `quantum >= last_quantum_now`, but compared on registers only,
+        // beside the edge decision instead of after the adjusted length (the longest path of the
+        // design otherwise): quantum <= last_quantum always holds, so a lengthened TSEG1 does not
+        // end now, and a shortened TSEG2 ends now exactly when quantum + SJW quanta is its last
+        // quantum.
+        self.quantum_plus_sjw_quanta.next = self.quantum.q.val() + self.sjw_quanta.val();
+        self.segment_end.next = self.quantum_end.val()
+            & (self.quantum.q.val() >= self.last_quantum.q.val())
+            & !self.lengthen.val();
+        if self.shorten.val() {
+            self.segment_end.next = self.quantum_end.val()
+                & (self.quantum_plus_sjw_quanta.val() == self.last_quantum.q.val());
+        }
 
         // Prescaler and segment sequencing.
         self.clocks.d.next = self.clocks.q.val() + 1;
