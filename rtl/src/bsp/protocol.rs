@@ -96,7 +96,9 @@ pub struct Protocol {
     pub tx_abort: Signal<In, Bit>,
     /// Frame information byte of the frame to send: FF (7), RTR (6), DLC (3..0).
     pub tx_info: Signal<In, Bits<8>>,
-    /// The transmit-buffer byte at `tx_addr`.
+    /// The transmit-buffer byte at `tx_addr`, at the latest from the clock after `tx_addr`
+    /// changed (a registered RAM read): it is used at process points only, and `tx_addr` changes
+    /// at a process point or between frames.
     pub tx_data: Signal<In, Bits<8>>,
     /// Load `counter_value` into TEC.
     pub load_tec: Signal<In, Bit>,
