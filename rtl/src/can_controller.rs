@@ -98,6 +98,11 @@ pub struct CanController {
     basic_ri: DFF<Bit>,
     basic_cr6: DFF<Bit>,
     sleep_bits: DFF<Bits<5>>,
+    // ---- The core's mode inputs, registered from the values the mode flip-flops load (so equal to
+    // what they were computed from in every cycle): they start the engine's longest paths.
+    core_enable: DFF<Bit>,
+    core_listen_only: DFF<Bit>,
+    core_self_test: DFF<Bit>,
     // ---- Read data path.
     rdata_reg: DFF<Bits<8>>,
     rdata_from_ram: DFF<Bit>,
@@ -278,6 +283,9 @@ impl Default for CanController {
             basic_ri: Default::default(),
             basic_cr6: Default::default(),
             sleep_bits: Default::default(),
+            core_enable: Default::default(),
+            core_listen_only: Default::default(),
+            core_self_test: Default::default(),
             rdata_reg: Default::default(),
             rdata_from_ram: Default::default(),
             rdata_from_tx: Default::default(),
@@ -419,6 +427,9 @@ impl Logic for CanController {
             basic_ri,
             basic_cr6,
             sleep_bits,
+            core_enable,
+            core_listen_only,
+            core_self_test,
             rdata_reg,
             rdata_from_ram,
             rdata_from_tx,
@@ -1004,9 +1015,9 @@ impl Logic for CanController {
         // ---- The core.
         self.core.reset.next = self.reset.val();
         self.core.rx.next = self.rx.val();
-        self.core.enable.next = (self.reset_mode.val() == false) & (self.mode_sm.q.val() == false);
-        self.core.listen_only.next = self.mode_lom.q.val() & self.pelican_mode.val();
-        self.core.self_test.next = self.mode_stm.q.val() & self.pelican_mode.val();
+        self.core.enable.next = self.core_enable.q.val();
+        self.core.listen_only.next = self.core_listen_only.q.val();
+        self.core.self_test.next = self.core_self_test.q.val();
         self.core.brp.next = bit_cast::<6, 8>(self.btr0.q.val());
         self.core.sjw.next = self.sjw.q.val();
         self.core.tseg1.next = bit_cast::<4, 8>(self.btr1.q.val());
@@ -1082,5 +1093,9 @@ impl Logic for CanController {
             self.rdata_from_tx.d.next = false;
             self.rdata_ram_or.d.next = 0.into();
         }
+        // After every assignment to the mode flip-flops, the reset included.
+        self.core_enable.d.next = (self.mode_rm.d.val() == false) & (self.mode_sm.d.val() == false);
+        self.core_listen_only.d.next = self.mode_lom.d.val() & self.cdr.d.val().get_bit(7);
+        self.core_self_test.d.next = self.mode_stm.d.val() & self.cdr.d.val().get_bit(7);
     }
 }

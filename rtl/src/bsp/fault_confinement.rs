@@ -53,6 +53,9 @@ pub struct FaultConfinement {
     tec_count: DFF<Bits<8>>,
     rec_count: DFF<Bits<8>>,
     bus_off_state: DFF<Bit>,
+    /// `error_passive`, registered from the values the counters load (it starts long paths of the
+    /// protocol engine).
+    passive_state: DFF<Bit>,
     tec_wide: Signal<Local, Bits<9>>,
     rec_wide: Signal<Local, Bits<9>>,
 }
@@ -60,12 +63,18 @@ pub struct FaultConfinement {
 impl Logic for FaultConfinement {
     #[hdl_gen]
     fn update(&mut self) {
-        dff_setup!(self, clock, tec_count, rec_count, bus_off_state);
+        dff_setup!(
+            self,
+            clock,
+            tec_count,
+            rec_count,
+            bus_off_state,
+            passive_state
+        );
         self.tec.next = self.tec_count.q.val();
         self.rec.next = self.rec_count.q.val();
         self.bus_off.next = self.bus_off_state.q.val();
-        self.error_passive.next = !self.bus_off_state.q.val()
-            & (self.tec_count.q.val().get_bit(7) | self.rec_count.q.val().get_bit(7));
+        self.error_passive.next = self.passive_state.q.val();
         self.tec_wide.next = bit_cast::<9, 8>(self.tec_count.q.val()) + 8;
         self.rec_wide.next = bit_cast::<9, 8>(self.rec_count.q.val()) + 8;
 
@@ -129,5 +138,7 @@ impl Logic for FaultConfinement {
             self.rec_count.d.next = 0.into();
             self.bus_off_state.d.next = false;
         }
+        self.passive_state.d.next = !self.bus_off_state.d.val()
+            & (self.tec_count.d.val().get_bit(7) | self.rec_count.d.val().get_bit(7));
     }
 }
