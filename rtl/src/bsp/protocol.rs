@@ -210,10 +210,15 @@ pub struct Protocol {
     stream_bit: Signal<Local, Bit>,
     stream_next_bit: Signal<Local, Bit>,
     data_bytes: Signal<Local, Bits<4>>,
-    last_data_byte: Signal<Local, Bits<4>>,
+    /// Index of the last data byte, registered: DLC and RTR are settled a bit before the data field.
+    last_data_byte: DFF<Bits<4>>,
     dlc_after: Signal<Local, Bits<4>>,
     next_bit: Signal<Local, Bit>,
     dlc_position: Signal<Local, Bits<3>>,
+    next_is_11: Signal<Local, Bit>,
+    next_is_12: Signal<Local, Bit>,
+    next_is_31: Signal<Local, Bit>,
+    next_count_low: Signal<Local, Bits<3>>,
     receiver_error: Signal<Local, Bit>,
     send_ack: Signal<Local, Bit>,
     /// In a data or remote frame (arbitration to end of frame), registered.
@@ -259,7 +264,8 @@ impl Logic for Protocol {
             first_after_flag,
             dominant_after_flag,
             ack_penalty,
-            recessive_run
+            recessive_run,
+            last_data_byte
         );
         clock!(self, clock, stuffing, crc, faults);
 
@@ -312,7 +318,7 @@ impl Logic for Protocol {
         if self.rtr_reg.q.val() {
             self.data_bytes.next = 0.into();
         }
-        self.last_data_byte.next = self.data_bytes.val() - 1;
+        self.last_data_byte.d.next = self.data_bytes.val() - 1;
         // DLC shifted left with the bus bit in: wiring, where `x + x` would be an adder.
         self.dlc_after.next = self
             .dlc_reg
@@ -580,7 +586,7 @@ impl Logic for Protocol {
                         if self.count.q.val().get_bits::<3>(0) == 7 {
                             self.byte_pulse.d.next = true;
                             self.byte_index.d.next = self.count.q.val().get_bits::<3>(3);
-                            if self.count.q.val().get_bits::<4>(3) == self.last_data_byte.val() {
+                            if self.count.q.val().get_bits::<4>(3) == self.last_data_byte.q.val() {
                                 self.next_field.next = ProtocolState::Crc;
                                 self.next_count.next = 0.into();
                             }
@@ -867,6 +873,26 @@ impl Logic for Protocol {
         }
 
         // ---- The next bit to send, from the next state.
+        // Where the next field is the arbitration or control field, its count comes from registers
+        // rather than from `next_count`, the end of the longest path: a stuff bit holds the count, a
+        // field bit advances it, a SOF starts the arbitration field at 0 (no special position) and
+        // the control field starts at 0 from arbitration count 12 or 31 (positions 5 or 0: neither
+        // a DLC bit).
+        self.next_is_11.next = self.count.q.val() == 10;
+        self.next_is_12.next = self.count.q.val() == 11;
+        self.next_is_31.next = self.count.q.val() == 30;
+        self.next_count_low.next = bit_cast::<3, 7>(self.count_plus_1.val());
+        if self.stuffing.stuff_bit.val() {
+            self.next_is_11.next = self.count.q.val() == 11;
+            self.next_is_12.next = self.count.q.val() == 12;
+            self.next_is_31.next = self.count.q.val() == 31;
+            self.next_count_low.next = bit_cast::<3, 7>(self.count.q.val());
+        }
+        if self.start_frame.val() {
+            self.next_is_11.next = false;
+            self.next_is_12.next = false;
+            self.next_is_31.next = false;
+        }
         self.next_bit.next = true;
         match self.next_field.val() {
             ProtocolState::Idle => {
@@ -878,16 +904,16 @@ impl Logic for Protocol {
                     if self.consume_stream.val() {
                         self.next_bit.next = self.stream_next_bit.val();
                     }
-                    if self.next_count.val() == 11 {
+                    if self.next_is_11.val() {
                         self.next_bit.next = self.tx_info.val().get_bit(6);
                         if self.tx_info.val().get_bit(7) {
                             self.next_bit.next = true;
                         }
                     }
-                    if self.next_count.val() == 12 {
+                    if self.next_is_12.val() {
                         self.next_bit.next = self.tx_info.val().get_bit(7);
                     }
-                    if self.next_count.val() == 31 {
+                    if self.next_is_31.val() {
                         self.next_bit.next = self.tx_info.val().get_bit(6);
                     }
                 }
@@ -896,9 +922,9 @@ impl Logic for Protocol {
                 if self.next_transmitter.val() {
                     // r1 (extended), r0: dominant; then DLC bits 3..0.
                     self.next_bit.next = false;
-                    self.dlc_position.next = self.next_count.val().get_bits::<3>(0);
+                    self.dlc_position.next = self.next_count_low.val();
                     if self.tx_info.val().get_bit(7) {
-                        self.dlc_position.next = self.next_count.val().get_bits::<3>(0) - 1;
+                        self.dlc_position.next = self.next_count_low.val() - 1;
                     }
                     if self.dlc_position.val() == 1 {
                         self.next_bit.next = self.tx_info.val().get_bit(3);
@@ -1054,6 +1080,7 @@ impl Logic for Protocol {
             self.first_after_flag.d.next = false;
             self.dominant_after_flag.d.next = 0.into();
             self.recessive_run.d.next = 0.into();
+            self.last_data_byte.d.next = 0.into();
         }
         // Registered, from the state this edge loads, so `in_frame.q` always describes `field.q`:
         // outputs made of flip-flop outputs only keep the Verilog free of combinational loops
