@@ -165,6 +165,7 @@ pub struct CanController {
     in_basic_tx: Signal<Local, Bit>,
     in_basic_rx: Signal<Local, Bit>,
     in_basic_config: Signal<Local, Bit>,
+    ram_read_index: Signal<Local, Bits<4>>,
     command: Signal<Local, Bit>,
     cmd_transmit: Signal<Local, Bit>,
     cmd_abort: Signal<Local, Bit>,
@@ -343,6 +344,7 @@ impl Default for CanController {
             in_basic_tx: Default::default(),
             in_basic_rx: Default::default(),
             in_basic_config: Default::default(),
+            ram_read_index: Default::default(),
             command: Default::default(),
             cmd_transmit: Default::default(),
             cmd_abort: Default::default(),
@@ -788,7 +790,9 @@ impl Logic for CanController {
         self.overrun_before.d.next = self.fifo.overrun.val();
         self.rbs_before.d.next = self.rbs.val();
         self.basic_receive.next = (self.rbs.val() & (self.rbs_before.q.val() == false))
-            | (self.cmd_release.val() & (self.fifo.message_count.val() > 1));
+            | (self.cmd_release.val()
+                & (self.fifo.message_count.val() != 0)
+                & (self.fifo.message_count.val() != 1));
         if self.re.val() & (self.addr.val() == self.pc_ir.val()) {
             self.basic_ri.d.next = false;
         }
@@ -803,9 +807,14 @@ impl Logic for CanController {
         self.read_from_tx.next = false;
         self.ram_or.next = 0.into();
         // The FIFO address matters only for the windows that read or write the RAM, where the
-        // 4-bit indices are the whole offsets (the windows are shorter than 16 bytes).
+        // 4-bit indices are the whole offsets (the windows are shorter than 16 bytes). One adder:
+        // BasicCAN byte 20 is FIFO message byte 1.
+        self.ram_read_index.next = self.frame_index.val();
+        if self.in_basic_rx.val() {
+            self.ram_read_index.next = self.basic_rx_index.val();
+        }
         self.fifo.host_address.next =
-            self.fifo.start.val() + bit_cast::<6, 4>(self.frame_index.val());
+            self.fifo.start.val() + bit_cast::<6, 4>(self.ram_read_index.val());
         if self.addr.val() == self.pc_sr.val() {
             self.read_value.next = self.status.val();
         }
@@ -935,10 +944,8 @@ impl Logic for CanController {
                 self.read_from_tx.next = true;
             }
             if self.in_basic_rx.val() {
-                // BasicCAN byte 20 is FIFO message byte 1; byte 21 adds the DLC to ID.2..0 and RTR.
+                // BasicCAN byte 21 adds the DLC to ID.2..0 and RTR.
                 self.read_from_ram.next = true;
-                self.fifo.host_address.next =
-                    self.fifo.start.val() + bit_cast::<6, 4>(self.basic_rx_index.val());
                 if self.addr.val() == self.bc_rx_id_dlc.val() {
                     self.ram_or.next =
                         bit_cast::<8, 4>(bit_cast::<4, 8>(self.fifo.head_info.val()));

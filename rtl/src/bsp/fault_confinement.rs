@@ -56,8 +56,6 @@ pub struct FaultConfinement {
     /// `error_passive`, registered from the values the counters load (it starts long paths of the
     /// protocol engine).
     passive_state: DFF<Bit>,
-    tec_wide: Signal<Local, Bits<9>>,
-    rec_wide: Signal<Local, Bits<9>>,
 }
 
 impl Logic for FaultConfinement {
@@ -75,8 +73,6 @@ impl Logic for FaultConfinement {
         self.rec.next = self.rec_count.q.val();
         self.bus_off.next = self.bus_off_state.q.val();
         self.error_passive.next = self.passive_state.q.val();
-        self.tec_wide.next = bit_cast::<9, 8>(self.tec_count.q.val()) + 8;
-        self.rec_wide.next = bit_cast::<9, 8>(self.rec_count.q.val()) + 8;
 
         if self.bus_off_state.q.val() {
             if self.recovery_tick.val() {
@@ -88,8 +84,9 @@ impl Logic for FaultConfinement {
                 }
             }
         } else {
+            // +8 passes 255 exactly from 248 on (bits 7..3 all set): no 9-bit sum needed.
             if self.tec_plus_8.val() {
-                if self.tec_wide.val().get_bit(8) {
+                if self.tec_count.q.val().get_bits::<5>(3) == 31 {
                     self.bus_off_state.d.next = true;
                     self.tec_count.d.next = 127.into();
                     self.rec_count.d.next = 0.into();
@@ -105,7 +102,7 @@ impl Logic for FaultConfinement {
             }
             if self.rec_plus_8.val() {
                 self.rec_count.d.next = self.rec_count.q.val() + 8;
-                if self.rec_wide.val().get_bit(8) {
+                if self.rec_count.q.val().get_bits::<5>(3) == 31 {
                     self.rec_count.d.next = 255.into();
                 }
             }

@@ -518,8 +518,11 @@ impl Logic for Protocol {
                     }
                     ProtocolState::Arbitration => {
                         self.crc.feed.next = true;
-                        if (self.count.q.val() < 11)
-                            | ((self.count.q.val() > 12) & (self.count.q.val() < 31))
+                        // Identifier bits: positions 0..10 and 13..30 (the count stays below 32
+                        // here; equalities, not comparisons, which are carry chains on FPGAs).
+                        if (self.count.q.val() != 11)
+                            & (self.count.q.val() != 12)
+                            & (self.count.q.val() != 31)
                         {
                             self.id_reg.d.next =
                                 (self.id_reg.q.val() << 1).replace_bit(0, self.rx_bit.val());
@@ -558,8 +561,9 @@ impl Logic for Protocol {
                     }
                     ProtocolState::Control => {
                         self.crc.feed.next = true;
-                        if (self.count.q.val() > 1)
-                            | ((self.count.q.val() == 1) & (self.ide_reg.q.val() == false))
+                        // From count 2 on, or from 1 in a standard frame (r0 is bit 0).
+                        if (self.count.q.val() != 0)
+                            & !((self.count.q.val() == 1) & self.ide_reg.q.val())
                         {
                             self.dlc_reg.d.next = self.dlc_after.val();
                         }
