@@ -101,7 +101,8 @@ pub struct BitTiming {
     last_clock: Signal<Local, Bits<7>>,
     sjw_field: Signal<Local, Bits<5>>,
     sjw_quanta: Signal<Local, Bits<5>>,
-    quantum_plus_sjw: Signal<Local, Bits<5>>,
+    quantum_plus_sjw_quanta: Signal<Local, Bits<5>>,
+    sjw_adjust: Signal<Local, Bits<5>>,
     quantum_end: Signal<Local, Bit>,
     segment_end: Signal<Local, Bit>,
     last_quantum_now: Signal<Local, Bits<5>>,
@@ -136,11 +137,19 @@ impl Logic for BitTiming {
         self.sampling.sam.next = self.sam.val();
 
         // Register fields as clock and quantum counts.
-        self.last_clock.next =
-            bit_cast::<7, 6>(self.brp.val()) + bit_cast::<7, 6>(self.brp.val()) + 1;
+        // 2·BRP + 1: BRP shifted left with a 1 in (wiring; `brp + brp + 1` would be an adder).
+        self.last_clock.next = bit_cast::<7, 6>(self.brp.val())
+            .replace_bit(6, self.brp.val().get_bit(5))
+            .replace_bit(5, self.brp.val().get_bit(4))
+            .replace_bit(4, self.brp.val().get_bit(3))
+            .replace_bit(3, self.brp.val().get_bit(2))
+            .replace_bit(2, self.brp.val().get_bit(1))
+            .replace_bit(1, self.brp.val().get_bit(0))
+            .replace_bit(0, true);
         self.sjw_field.next = bit_cast::<5, 2>(self.sjw.val());
         self.sjw_quanta.next = bit_cast::<5, 2>(self.sjw.val()) + 1;
-        self.quantum_plus_sjw.next = self.quantum.q.val() + self.sjw_field.val();
+        // Quanta values stay below 32: no wrap-around in these sums.
+        self.quantum_plus_sjw_quanta.next = self.quantum.q.val() + self.sjw_quanta.val();
         self.quantum_end.next = self.clocks.q.val() >= self.last_clock.val();
 
         // Edge qualification and the kind of synchronisation.
@@ -170,7 +179,8 @@ impl Logic for BitTiming {
                         }
                     }
                     Segment::Tseg2 => {
-                        if self.last_quantum.q.val() <= self.quantum_plus_sjw.val() {
+                        // last_quantum <= quantum + the SJW field, with the sum already made.
+                        if self.last_quantum.q.val() < self.quantum_plus_sjw_quanta.val() {
                             self.restart_early.next = true;
                         } else {
                             self.shorten.next = true;
@@ -181,15 +191,28 @@ impl Logic for BitTiming {
         }
         self.restart.next =
             self.hard_sync_now.val() | self.restart_late.val() | self.restart_early.val();
-        self.last_quantum_now.next = self.last_quantum.q.val();
-        if self.lengthen.val() {
-            self.last_quantum_now.next = self.last_quantum.q.val() + self.sjw_quanta.val();
-        }
+        // One adder for both adjustments: + SJW quanta, or - SJW quanta = the SJW field inverted.
+        self.sjw_adjust.next = self.sjw_quanta.val();
         if self.shorten.val() {
-            self.last_quantum_now.next = self.last_quantum.q.val() - self.sjw_quanta.val();
+            self.sjw_adjust.next = !self.sjw_field.val();
         }
-        self.segment_end.next =
-            self.quantum_end.val() & (self.quantum.q.val() >= self.last_quantum_now.val());
+        self.last_quantum_now.next = self.last_quantum.q.val();
+        if self.lengthen.val() | self.shorten.val() {
+            self.last_quantum_now.next = self.last_quantum.q.val() + self.sjw_adjust.val();
+        }
+        // The end of the segment as `quantum >= last_quantum_now`, but compared on registers only,
+        // beside the edge decision instead of after the adjusted length (the longest path of the
+        // design otherwise): quantum <= last_quantum always holds (quantum counts up to it, and
+        // both restart at 0), so the segment ends when they are equal, a lengthened TSEG1 does not
+        // end now, and a shortened TSEG2 ends now exactly when quantum + SJW quanta is its last
+        // quantum.
+        self.segment_end.next = self.quantum_end.val()
+            & (self.quantum.q.val() == self.last_quantum.q.val())
+            & !self.lengthen.val();
+        if self.shorten.val() {
+            self.segment_end.next = self.quantum_end.val()
+                & (self.quantum_plus_sjw_quanta.val() == self.last_quantum.q.val());
+        }
 
         // Prescaler and segment sequencing.
         self.clocks.d.next = self.clocks.q.val() + 1;

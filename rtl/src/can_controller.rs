@@ -98,6 +98,11 @@ pub struct CanController {
     basic_ri: DFF<Bit>,
     basic_cr6: DFF<Bit>,
     sleep_bits: DFF<Bits<5>>,
+    // ---- The core's mode inputs, registered from the values the mode flip-flops load (so equal to
+    // what they were computed from in every cycle): they start the engine's longest paths.
+    core_enable: DFF<Bit>,
+    core_listen_only: DFF<Bit>,
+    core_self_test: DFF<Bit>,
     // ---- Read data path.
     rdata_reg: DFF<Bits<8>>,
     rdata_from_ram: DFF<Bit>,
@@ -117,46 +122,50 @@ pub struct CanController {
     pc_ewlr: Constant<Bits<8>>,
     pc_rxerr: Constant<Bits<8>>,
     pc_txerr: Constant<Bits<8>>,
-    pc_frame: Constant<Bits<8>>,
-    pc_frame_last: Constant<Bits<8>>,
-    pc_acr0: Constant<Bits<8>>,
     pc_amr0: Constant<Bits<8>>,
-    pc_amr3: Constant<Bits<8>>,
     pc_rmc: Constant<Bits<8>>,
     pc_rbsa: Constant<Bits<8>>,
     pc_cdr: Constant<Bits<8>>,
-    pc_rx_ram: Constant<Bits<8>>,
-    pc_rx_ram_last: Constant<Bits<8>>,
-    pc_tx_ram: Constant<Bits<8>>,
-    pc_tx_ram_last: Constant<Bits<8>>,
     bc_cr: Constant<Bits<8>>,
     bc_acr: Constant<Bits<8>>,
     bc_amr: Constant<Bits<8>>,
-    bc_tx: Constant<Bits<8>>,
-    bc_tx_last: Constant<Bits<8>>,
-    bc_rx: Constant<Bits<8>>,
     bc_rx_id_dlc: Constant<Bits<8>>,
-    bc_rx_last: Constant<Bits<8>>,
-    bc_tx_base: Constant<Bits<8>>,
-    bc_rx_base: Constant<Bits<8>>,
+    // ---- Address windows, as bit maps indexed by the address (`>=`/`<=` pairs would become
+    // carry chains on FPGAs), and the low address bits of their first bytes.
+    frame_window: Constant<Bits<ADDRESSES>>,
+    acceptance_window: Constant<Bits<ADDRESSES>>,
+    rx_ram_window: Constant<Bits<ADDRESSES>>,
+    tx_ram_window: Constant<Bits<ADDRESSES>>,
+    basic_tx_window: Constant<Bits<ADDRESSES>>,
+    basic_rx_window: Constant<Bits<ADDRESSES>>,
+    basic_config_window: Constant<Bits<ADDRESSES>>,
+    frame_base: Constant<Bits<4>>,
+    tx_ram_base: Constant<Bits<4>>,
+    basic_tx_base: Constant<Bits<4>>,
+    basic_rx_base: Constant<Bits<4>>,
+    rx_ram_base: Constant<Bits<6>>,
     default_ewlr: Constant<Bits<8>>,
     zero_byte: Constant<Bits<8>>,
     // ---- Decoded access of this cycle.
     pelican_mode: Signal<Local, Bit>,
     reset_mode: Signal<Local, Bit>,
-    offset: Signal<Local, Bits<8>>,
-    offset6: Signal<Local, Bits<6>>,
-    tx_ram_offset: Signal<Local, Bits<8>>,
-    basic_tx_offset: Signal<Local, Bits<8>>,
-    rx_ram_offset: Signal<Local, Bits<8>>,
-    basic_rx_offset: Signal<Local, Bits<8>>,
-    basic_rx_offset6: Signal<Local, Bits<6>>,
+    // Byte indices inside the windows, computed at the width they need: the low bits of a
+    // difference depend only on the low bits of its operands.
+    addr_low4: Signal<Local, Bits<4>>,
+    addr_low6: Signal<Local, Bits<6>>,
+    frame_index: Signal<Local, Bits<4>>,
+    tx_ram_index: Signal<Local, Bits<4>>,
+    basic_tx_index: Signal<Local, Bits<4>>,
+    basic_rx_index: Signal<Local, Bits<4>>,
+    rx_ram_index: Signal<Local, Bits<6>>,
     in_frame_window: Signal<Local, Bit>,
     in_acceptance: Signal<Local, Bit>,
     in_rx_ram: Signal<Local, Bit>,
     in_tx_ram: Signal<Local, Bit>,
     in_basic_tx: Signal<Local, Bit>,
     in_basic_rx: Signal<Local, Bit>,
+    in_basic_config: Signal<Local, Bit>,
+    ram_read_index: Signal<Local, Bits<4>>,
     command: Signal<Local, Bit>,
     cmd_transmit: Signal<Local, Bit>,
     cmd_abort: Signal<Local, Bit>,
@@ -197,8 +206,24 @@ pub struct CanController {
     basic_receive: Signal<Local, Bit>,
 }
 
+/// Host addresses: the `addr` port is 8 bits wide.
+const ADDRESSES: usize = 256;
+
 fn address(value: u8) -> Constant<Bits<8>> {
     Constant::new((value as u64).into())
+}
+
+/// The addresses `first..=last` as a bit map indexed by the address.
+fn window(first: u8, last: u8) -> Constant<Bits<ADDRESSES>> {
+    let map = (first..=last).fold(Bits::<ADDRESSES>::default(), |map, a| {
+        map.replace_bit(a as usize, true)
+    });
+    Constant::new(map)
+}
+
+/// The low `N` bits of an address.
+fn low_bits<const N: usize>(value: u8) -> Constant<Bits<N>> {
+    Constant::new(((value as u64) & ((1 << N) - 1)).into())
 }
 
 impl Default for CanController {
@@ -259,6 +284,9 @@ impl Default for CanController {
             basic_ri: Default::default(),
             basic_cr6: Default::default(),
             sleep_bits: Default::default(),
+            core_enable: Default::default(),
+            core_listen_only: Default::default(),
+            core_self_test: Default::default(),
             rdata_reg: Default::default(),
             rdata_from_ram: Default::default(),
             rdata_from_tx: Default::default(),
@@ -276,46 +304,47 @@ impl Default for CanController {
             pc_ewlr: address(pelican::EWLR),
             pc_rxerr: address(pelican::RXERR),
             pc_txerr: address(pelican::TXERR),
-            pc_frame: address(pelican::FRAME),
-            pc_frame_last: address(pelican::FRAME_LAST),
-            pc_acr0: address(pelican::ACR0),
             pc_amr0: address(pelican::AMR0),
-            pc_amr3: address(pelican::AMR3),
             pc_rmc: address(pelican::RMC),
             pc_rbsa: address(pelican::RBSA),
             pc_cdr: address(pelican::CDR),
-            pc_rx_ram: address(pelican::RX_RAM),
-            pc_rx_ram_last: address(pelican::RX_RAM_LAST),
-            pc_tx_ram: address(pelican::TX_RAM),
-            pc_tx_ram_last: address(pelican::TX_RAM_LAST),
             bc_cr: address(basic::CR),
             bc_acr: address(basic::ACR),
             bc_amr: address(basic::AMR),
-            bc_tx: address(basic::TX),
-            bc_tx_last: address(basic::TX_LAST),
-            bc_rx: address(basic::RX),
             bc_rx_id_dlc: address(basic::RX_ID_DLC),
-            bc_rx_last: address(basic::RX_LAST),
+            frame_window: window(pelican::FRAME, pelican::FRAME_LAST),
+            acceptance_window: window(pelican::ACR0, pelican::AMR3),
+            rx_ram_window: window(pelican::RX_RAM, pelican::RX_RAM_LAST),
+            tx_ram_window: window(pelican::TX_RAM, pelican::TX_RAM_LAST),
+            basic_tx_window: window(basic::TX, basic::TX_LAST),
+            basic_rx_window: window(basic::RX, basic::RX_LAST),
+            // ACR, AMR, BTR0, BTR1, OCR: read 0xFF in operating mode.
+            basic_config_window: window(basic::ACR, basic::OCR),
+            frame_base: low_bits(pelican::FRAME),
+            tx_ram_base: low_bits(pelican::TX_RAM),
             // The byte before each BasicCAN buffer: buffer byte 1 is the first identifier byte.
-            bc_tx_base: address(basic::TX - 1),
-            bc_rx_base: address(basic::RX - 1),
+            basic_tx_base: low_bits(basic::TX - 1),
+            basic_rx_base: low_bits(basic::RX - 1),
+            rx_ram_base: low_bits(pelican::RX_RAM),
             default_ewlr: address(DEFAULT_EWLR),
             zero_byte: address(0),
             pelican_mode: Default::default(),
             reset_mode: Default::default(),
-            offset: Default::default(),
-            offset6: Default::default(),
-            tx_ram_offset: Default::default(),
-            basic_tx_offset: Default::default(),
-            rx_ram_offset: Default::default(),
-            basic_rx_offset: Default::default(),
-            basic_rx_offset6: Default::default(),
+            addr_low4: Default::default(),
+            addr_low6: Default::default(),
+            frame_index: Default::default(),
+            tx_ram_index: Default::default(),
+            basic_tx_index: Default::default(),
+            basic_rx_index: Default::default(),
+            rx_ram_index: Default::default(),
             in_frame_window: Default::default(),
             in_acceptance: Default::default(),
             in_rx_ram: Default::default(),
             in_tx_ram: Default::default(),
             in_basic_tx: Default::default(),
             in_basic_rx: Default::default(),
+            in_basic_config: Default::default(),
+            ram_read_index: Default::default(),
             command: Default::default(),
             cmd_transmit: Default::default(),
             cmd_abort: Default::default(),
@@ -400,6 +429,9 @@ impl Logic for CanController {
             basic_ri,
             basic_cr6,
             sleep_bits,
+            core_enable,
+            core_listen_only,
+            core_self_test,
             rdata_reg,
             rdata_from_ram,
             rdata_from_tx,
@@ -410,19 +442,26 @@ impl Logic for CanController {
         self.reset_mode.next = self.mode_rm.q.val();
 
         // ---- Address decoding.
-        self.offset.next = self.addr.val() - self.pc_frame.val();
-        self.in_frame_window.next = (self.addr.val() >= self.pc_frame.val())
-            & (self.addr.val() <= self.pc_frame_last.val());
-        self.in_acceptance.next =
-            (self.addr.val() >= self.pc_acr0.val()) & (self.addr.val() <= self.pc_amr3.val());
-        self.in_rx_ram.next = (self.addr.val() >= self.pc_rx_ram.val())
-            & (self.addr.val() <= self.pc_rx_ram_last.val());
-        self.in_tx_ram.next = (self.addr.val() >= self.pc_tx_ram.val())
-            & (self.addr.val() <= self.pc_tx_ram_last.val());
-        self.in_basic_tx.next =
-            (self.addr.val() >= self.bc_tx.val()) & (self.addr.val() <= self.bc_tx_last.val());
-        self.in_basic_rx.next =
-            (self.addr.val() >= self.bc_rx.val()) & (self.addr.val() <= self.bc_rx_last.val());
+        self.addr_low4.next = bit_cast::<4, 8>(self.addr.val());
+        self.addr_low6.next = bit_cast::<6, 8>(self.addr.val());
+        self.frame_index.next = self.addr_low4.val() - self.frame_base.val();
+        self.tx_ram_index.next = self.addr_low4.val() - self.tx_ram_base.val();
+        self.basic_tx_index.next = self.addr_low4.val() - self.basic_tx_base.val();
+        self.basic_rx_index.next = self.addr_low4.val() - self.basic_rx_base.val();
+        self.rx_ram_index.next = self.addr_low6.val() - self.rx_ram_base.val();
+        self.in_frame_window.next = self.frame_window.val().get_bit(self.addr.val().index());
+        self.in_acceptance.next = self
+            .acceptance_window
+            .val()
+            .get_bit(self.addr.val().index());
+        self.in_rx_ram.next = self.rx_ram_window.val().get_bit(self.addr.val().index());
+        self.in_tx_ram.next = self.tx_ram_window.val().get_bit(self.addr.val().index());
+        self.in_basic_tx.next = self.basic_tx_window.val().get_bit(self.addr.val().index());
+        self.in_basic_rx.next = self.basic_rx_window.val().get_bit(self.addr.val().index());
+        self.in_basic_config.next = self
+            .basic_config_window
+            .val()
+            .get_bit(self.addr.val().index());
         if self.pelican_mode.val() == false {
             self.in_frame_window.next = false;
             self.in_acceptance.next = false;
@@ -568,28 +607,28 @@ impl Logic for CanController {
                         self.ewlr.d.next = self.wdata.val();
                     }
                     if self.in_acceptance.val() {
-                        if self.offset.val() == 0 {
+                        if self.frame_index.val() == 0 {
                             self.acr0.d.next = self.wdata.val();
                         }
-                        if self.offset.val() == 1 {
+                        if self.frame_index.val() == 1 {
                             self.acr1.d.next = self.wdata.val();
                         }
-                        if self.offset.val() == 2 {
+                        if self.frame_index.val() == 2 {
                             self.acr2.d.next = self.wdata.val();
                         }
-                        if self.offset.val() == 3 {
+                        if self.frame_index.val() == 3 {
                             self.acr3.d.next = self.wdata.val();
                         }
-                        if self.offset.val() == 4 {
+                        if self.frame_index.val() == 4 {
                             self.amr0.d.next = self.wdata.val();
                         }
-                        if self.offset.val() == 5 {
+                        if self.frame_index.val() == 5 {
                             self.amr1.d.next = self.wdata.val();
                         }
-                        if self.offset.val() == 6 {
+                        if self.frame_index.val() == 6 {
                             self.amr2.d.next = self.wdata.val();
                         }
-                        if self.offset.val() == 7 {
+                        if self.frame_index.val() == 7 {
                             self.amr3.d.next = self.wdata.val();
                         }
                     }
@@ -628,19 +667,17 @@ impl Logic for CanController {
             & (self.reset_mode.val() == false)
             & self.tbs.q.val()
             & (self.in_frame_window.val() | self.in_basic_tx.val());
-        self.tx_ram_offset.next = self.addr.val() - self.pc_tx_ram.val();
-        self.basic_tx_offset.next = self.addr.val() - self.bc_tx_base.val();
-        self.tx_buffer.write_index.next = bit_cast::<4, 8>(self.offset.val());
+        self.tx_buffer.write_index.next = self.frame_index.val();
         // The TX RAM window is writable in reset mode.
         if self.we.val() & self.reset_mode.val() & self.in_tx_ram.val() {
             self.tx_buffer.write.next = true;
-            self.tx_buffer.write_index.next = bit_cast::<4, 8>(self.tx_ram_offset.val());
+            self.tx_buffer.write_index.next = self.tx_ram_index.val();
         }
-        self.tx_buffer.host_index.next = bit_cast::<4, 8>(self.tx_ram_offset.val());
+        self.tx_buffer.host_index.next = self.tx_ram_index.val();
         if self.pelican_mode.val() == false {
             // BasicCAN byte 10 is buffer byte 1 (identifier bits 10..3).
-            self.tx_buffer.write_index.next = bit_cast::<4, 8>(self.basic_tx_offset.val());
-            self.tx_buffer.host_index.next = bit_cast::<4, 8>(self.basic_tx_offset.val());
+            self.tx_buffer.write_index.next = self.basic_tx_index.val();
+            self.tx_buffer.host_index.next = self.basic_tx_index.val();
         }
         self.tx_buffer.write_data.next = self.wdata.val();
         self.tx_buffer.core_index.next = self.core.tx_addr.val();
@@ -753,7 +790,9 @@ impl Logic for CanController {
         self.overrun_before.d.next = self.fifo.overrun.val();
         self.rbs_before.d.next = self.rbs.val();
         self.basic_receive.next = (self.rbs.val() & (self.rbs_before.q.val() == false))
-            | (self.cmd_release.val() & (self.fifo.message_count.val() > 1));
+            | (self.cmd_release.val()
+                & (self.fifo.message_count.val() != 0)
+                & (self.fifo.message_count.val() != 1));
         if self.re.val() & (self.addr.val() == self.pc_ir.val()) {
             self.basic_ri.d.next = false;
         }
@@ -767,11 +806,15 @@ impl Logic for CanController {
         self.read_from_ram.next = false;
         self.read_from_tx.next = false;
         self.ram_or.next = 0.into();
-        self.offset6.next = bit_cast::<6, 8>(self.offset.val());
-        self.rx_ram_offset.next = self.addr.val() - self.pc_rx_ram.val();
-        self.basic_rx_offset.next = self.addr.val() - self.bc_rx_base.val();
-        self.basic_rx_offset6.next = 0.into();
-        self.fifo.host_address.next = self.fifo.start.val() + self.offset6.val();
+        // The FIFO address matters only for the windows that read or write the RAM, where the
+        // 4-bit indices are the whole offsets (the windows are shorter than 16 bytes). One adder:
+        // BasicCAN byte 20 is FIFO message byte 1.
+        self.ram_read_index.next = self.frame_index.val();
+        if self.in_basic_rx.val() {
+            self.ram_read_index.next = self.basic_rx_index.val();
+        }
+        self.fifo.host_address.next =
+            self.fifo.start.val() + bit_cast::<6, 4>(self.ram_read_index.val());
         if self.addr.val() == self.pc_sr.val() {
             self.read_value.next = self.status.val();
         }
@@ -827,28 +870,28 @@ impl Logic for CanController {
             }
             if self.in_frame_window.val() {
                 if self.reset_mode.val() {
-                    if self.offset.val() == 0 {
+                    if self.frame_index.val() == 0 {
                         self.read_value.next = self.acr0.q.val();
                     }
-                    if self.offset.val() == 1 {
+                    if self.frame_index.val() == 1 {
                         self.read_value.next = self.acr1.q.val();
                     }
-                    if self.offset.val() == 2 {
+                    if self.frame_index.val() == 2 {
                         self.read_value.next = self.acr2.q.val();
                     }
-                    if self.offset.val() == 3 {
+                    if self.frame_index.val() == 3 {
                         self.read_value.next = self.acr3.q.val();
                     }
-                    if self.offset.val() == 4 {
+                    if self.frame_index.val() == 4 {
                         self.read_value.next = self.amr0.q.val();
                     }
-                    if self.offset.val() == 5 {
+                    if self.frame_index.val() == 5 {
                         self.read_value.next = self.amr1.q.val();
                     }
-                    if self.offset.val() == 6 {
+                    if self.frame_index.val() == 6 {
                         self.read_value.next = self.amr2.q.val();
                     }
-                    if self.offset.val() == 7 {
+                    if self.frame_index.val() == 7 {
                         self.read_value.next = self.amr3.q.val();
                     }
                 } else {
@@ -894,20 +937,15 @@ impl Logic for CanController {
                 self.read_value.next = self.amr0.q.val();
             }
             // ACR, AMR, BTR0, BTR1, OCR read 0xFF in operating mode.
-            if (self.reset_mode.val() == false)
-                & (self.addr.val() >= self.bc_acr.val())
-                & (self.addr.val() <= self.pc_ocr.val())
-            {
+            if (self.reset_mode.val() == false) & self.in_basic_config.val() {
                 self.read_value.next = 0xFF.into();
             }
             if self.in_basic_tx.val() {
                 self.read_from_tx.next = true;
             }
             if self.in_basic_rx.val() {
-                // BasicCAN byte 20 is FIFO message byte 1; byte 21 adds the DLC to ID.2..0 and RTR.
+                // BasicCAN byte 21 adds the DLC to ID.2..0 and RTR.
                 self.read_from_ram.next = true;
-                self.basic_rx_offset6.next = bit_cast::<6, 8>(self.basic_rx_offset.val());
-                self.fifo.host_address.next = self.fifo.start.val() + self.basic_rx_offset6.val();
                 if self.addr.val() == self.bc_rx_id_dlc.val() {
                     self.ram_or.next =
                         bit_cast::<8, 4>(bit_cast::<4, 8>(self.fifo.head_info.val()));
@@ -919,7 +957,7 @@ impl Logic for CanController {
         self.fifo.host_write.next = self.we.val() & self.reset_mode.val() & self.in_rx_ram.val();
         self.fifo.host_data.next = self.wdata.val();
         if self.in_rx_ram.val() {
-            self.fifo.host_address.next = bit_cast::<6, 8>(self.rx_ram_offset.val());
+            self.fifo.host_address.next = self.rx_ram_index.val();
         }
         // RAM and TX buffer reads come out of their read registers the cycle after; they are
         // copied into `rdata_reg` then, so the read ports are free again and `rdata` holds until
@@ -984,9 +1022,9 @@ impl Logic for CanController {
         // ---- The core.
         self.core.reset.next = self.reset.val();
         self.core.rx.next = self.rx.val();
-        self.core.enable.next = (self.reset_mode.val() == false) & (self.mode_sm.q.val() == false);
-        self.core.listen_only.next = self.mode_lom.q.val() & self.pelican_mode.val();
-        self.core.self_test.next = self.mode_stm.q.val() & self.pelican_mode.val();
+        self.core.enable.next = self.core_enable.q.val();
+        self.core.listen_only.next = self.core_listen_only.q.val();
+        self.core.self_test.next = self.core_self_test.q.val();
         self.core.brp.next = bit_cast::<6, 8>(self.btr0.q.val());
         self.core.sjw.next = self.sjw.q.val();
         self.core.tseg1.next = bit_cast::<4, 8>(self.btr1.q.val());
@@ -1062,5 +1100,9 @@ impl Logic for CanController {
             self.rdata_from_tx.d.next = false;
             self.rdata_ram_or.d.next = 0.into();
         }
+        // After every assignment to the mode flip-flops, the reset included.
+        self.core_enable.d.next = (self.mode_rm.d.val() == false) & (self.mode_sm.d.val() == false);
+        self.core_listen_only.d.next = self.mode_lom.d.val() & self.cdr.d.val().get_bit(7);
+        self.core_self_test.d.next = self.mode_stm.d.val() & self.cdr.d.val().get_bit(7);
     }
 }

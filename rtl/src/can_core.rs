@@ -44,7 +44,8 @@ pub struct CanCore {
     pub tx_abort: Signal<In, Bit>,
     /// Frame information byte of the frame to send.
     pub tx_info: Signal<In, Bits<8>>,
-    /// The transmit-buffer byte at `tx_addr`.
+    /// The transmit-buffer byte at `tx_addr`; it may come one clock after `tx_addr` (see
+    /// `Protocol`).
     pub tx_data: Signal<In, Bits<8>>,
     /// Load `counter_value` into TEC.
     pub load_tec: Signal<In, Bit>,

@@ -1,26 +1,34 @@
 //! The transmit buffer: the 13 bytes of the frame to send, in the SJA1000 PeliCAN frame-buffer
 //! layout (frame information, 2 or 4 identifier bytes, up to 8 data bytes).
 //!
-//! Ports: one write port (`write`, `write_index`, `write_data`) for the host; a registered read port
-//! for the register window (`host_index` → `host_data` the cycle after, like a read from the RX
-//! FIFO's RAM), a combinational one for the protocol engine (`core_index` → `core_data`), and `info`
-//! (byte 0, the frame information the engine reads all the time).
+//! Ports: one write port (`write`, `write_index`, `write_data`) for the host; two registered read
+//! ports, `host_index` → `host_data` for the register window and `core_index` → `core_data` for the
+//! protocol engine (each the byte that was at its index before the last rising edge of `clock`),
+//! and `info` (byte 0, the frame information the engine reads all the time).
 //! Writes act on the rising edge of `clock`; indices 13..15 are ignored and read 0. The synchronous
 //! `reset` clears every byte (undefined on the SJA1000; cleared here so nothing after a reset
-//! depends on power-up values). With
-//! `basic_layout` (BasicCAN) the frame information comes from byte 2 instead (RTR in bit 4, DLC in
-//! bits 3..0, standard frames only), where the BasicCAN map writes it.
+//! depends on power-up values). With `basic_layout` (BasicCAN) the frame information comes from
+//! byte 2 instead (RTR in bit 4, DLC in bits 3..0, standard frames only), where the BasicCAN map
+//! writes it.
 //!
-//! Flip-flops rather than a RAM block: the engine and the host read at the same time, and 13 bytes
-//! are too few to be worth a second memory.
+//! The bytes live in two 16-word RAMs written together, one per read port, so synthesis maps them
+//! to RAM (distributed RAM on Xilinx, block RAM on iCE40) instead of two 13-way multiplexers of
+//! flip-flops. A RAM cannot be cleared at once: a flag per byte, cleared by `reset` and set by a
+//! write, makes a byte not written since the reset read 0, and flip-flop copies give the two
+//! bytes `info` is made of without a third read port.
 
 use rust_hdl::prelude::*;
 
 /// Bytes of the transmit buffer.
 pub const TX_BUFFER_BYTES: usize = 13;
 
+/// Address bits of the RAMs.
+const INDEX_BITS: usize = 4;
+/// Words of the RAMs (the last three are never written).
+const WORDS: usize = 1 << INDEX_BITS;
+
 /// The transmit buffer.
-#[derive(LogicBlock, Default)]
+#[derive(LogicBlock)]
 pub struct TxBuffer {
     /// Controller clock.
     pub clock: Signal<In, Clock>,
@@ -29,54 +37,137 @@ pub struct TxBuffer {
     /// Write `write_data` at `write_index`.
     pub write: Signal<In, Bit>,
     /// Byte written.
-    pub write_index: Signal<In, Bits<4>>,
+    pub write_index: Signal<In, Bits<INDEX_BITS>>,
     /// Value written.
     pub write_data: Signal<In, Bits<8>>,
     /// Byte the host reads.
-    pub host_index: Signal<In, Bits<4>>,
+    pub host_index: Signal<In, Bits<INDEX_BITS>>,
     /// The byte that was at `host_index` before the last rising edge of `clock`.
     pub host_data: Signal<Out, Bits<8>>,
     /// Byte the protocol engine reads.
-    pub core_index: Signal<In, Bits<4>>,
-    /// The byte at `core_index`.
+    pub core_index: Signal<In, Bits<INDEX_BITS>>,
+    /// The byte that was at `core_index` before the last rising edge of `clock`.
     pub core_data: Signal<Out, Bits<8>>,
     /// BasicCAN buffer layout.
     pub basic_layout: Signal<In, Bit>,
     /// Frame information: byte 0, or derived from byte 2 in the BasicCAN layout.
     pub info: Signal<Out, Bits<8>>,
-    bytes: [DFF<Bits<8>>; TX_BUFFER_BYTES],
-    host_read: DFF<Bits<8>>,
+    host_ram: RAM<Bits<8>, INDEX_BITS>,
+    core_ram: RAM<Bits<8>, INDEX_BITS>,
+    /// Bit i: byte i was written since the reset.
+    written: DFF<Bits<WORDS>>,
+    host_written: DFF<Bit>,
+    core_written: DFF<Bit>,
+    /// Byte 0.
+    frame_info: DFF<Bits<8>>,
+    /// The frame information of the BasicCAN layout, from byte 2.
+    basic_info: DFF<Bits<8>>,
+    byte_count: Constant<Bits<INDEX_BITS>>,
+    frame_info_index: Constant<Bits<INDEX_BITS>>,
+    basic_info_index: Constant<Bits<INDEX_BITS>>,
+    in_range: Signal<Local, Bit>,
+}
+
+/// A RAM whose every word is initialised (unwritten RAM reads X in Verilog, RUST_HDL.md).
+fn cleared_ram() -> RAM<Bits<8>, INDEX_BITS> {
+    RAM::from((0..WORDS).map(|_| Bits::<8>::from(0u64)))
+}
+
+fn index(value: usize) -> Constant<Bits<INDEX_BITS>> {
+    Constant::new((value as u64).into())
+}
+
+impl Default for TxBuffer {
+    fn default() -> Self {
+        TxBuffer {
+            clock: Default::default(),
+            reset: Default::default(),
+            write: Default::default(),
+            write_index: Default::default(),
+            write_data: Default::default(),
+            host_index: Default::default(),
+            host_data: Default::default(),
+            core_index: Default::default(),
+            core_data: Default::default(),
+            basic_layout: Default::default(),
+            info: Default::default(),
+            host_ram: cleared_ram(),
+            core_ram: cleared_ram(),
+            written: Default::default(),
+            host_written: Default::default(),
+            core_written: Default::default(),
+            frame_info: Default::default(),
+            basic_info: Default::default(),
+            byte_count: index(TX_BUFFER_BYTES),
+            frame_info_index: index(0),
+            basic_info_index: index(2),
+            in_range: Default::default(),
+        }
+    }
 }
 
 impl Logic for TxBuffer {
     #[hdl_gen]
     fn update(&mut self) {
-        for i in 0..TX_BUFFER_BYTES {
-            self.bytes[i].clock.next = self.clock.val();
-            self.bytes[i].d.next = self.bytes[i].q.val();
+        dff_setup!(
+            self,
+            clock,
+            written,
+            host_written,
+            core_written,
+            frame_info,
+            basic_info
+        );
+        self.host_ram.write_clock.next = self.clock.val();
+        self.host_ram.read_clock.next = self.clock.val();
+        self.core_ram.write_clock.next = self.clock.val();
+        self.core_ram.read_clock.next = self.clock.val();
+        self.in_range.next = self.write_index.val() < self.byte_count.val();
+        self.host_ram.write_enable.next = self.write.val() & self.in_range.val();
+        self.host_ram.write_address.next = self.write_index.val();
+        self.host_ram.write_data.next = self.write_data.val();
+        self.core_ram.write_enable.next = self.write.val() & self.in_range.val();
+        self.core_ram.write_address.next = self.write_index.val();
+        self.core_ram.write_data.next = self.write_data.val();
+        self.host_ram.read_address.next = self.host_index.val();
+        self.core_ram.read_address.next = self.core_index.val();
+        self.host_written.d.next = self.written.q.val().get_bit(self.host_index.val().index());
+        self.core_written.d.next = self.written.q.val().get_bit(self.core_index.val().index());
+
+        // Outputs from flip-flops and RAM read registers only (Verilator loops, RUST_HDL.md).
+        self.host_data.next = 0.into();
+        if self.host_written.q.val() {
+            self.host_data.next = self.host_ram.read_data.val();
         }
-        dff_setup!(self, clock, host_read);
-        self.host_data.next = self.host_read.q.val();
-        self.host_read.d.next = 0.into();
         self.core_data.next = 0.into();
-        self.info.next = self.bytes[0].q.val();
-        if self.basic_layout.val() {
-            self.info.next = bit_cast::<8, 4>(bit_cast::<4, 8>(self.bytes[2].q.val()))
-                .replace_bit(6, self.bytes[2].q.val().get_bit(4));
+        if self.core_written.q.val() {
+            self.core_data.next = self.core_ram.read_data.val();
         }
-        for i in 0..TX_BUFFER_BYTES {
-            if self.write.val() & (self.write_index.val().index() == i) {
-                self.bytes[i].d.next = self.write_data.val();
+        self.info.next = self.frame_info.q.val();
+        if self.basic_layout.val() {
+            self.info.next = self.basic_info.q.val();
+        }
+
+        if self.write.val() & self.in_range.val() {
+            self.written.d.next = self
+                .written
+                .q
+                .val()
+                .replace_bit(self.write_index.val().index(), true);
+            if self.write_index.val() == self.frame_info_index.val() {
+                self.frame_info.d.next = self.write_data.val();
             }
-            if self.host_index.val().index() == i {
-                self.host_read.d.next = self.bytes[i].q.val();
+            if self.write_index.val() == self.basic_info_index.val() {
+                self.basic_info.d.next = bit_cast::<8, 4>(bit_cast::<4, 8>(self.write_data.val()))
+                    .replace_bit(6, self.write_data.val().get_bit(4));
             }
-            if self.core_index.val().index() == i {
-                self.core_data.next = self.bytes[i].q.val();
-            }
-            if self.reset.val() {
-                self.bytes[i].d.next = 0.into();
-            }
+        }
+        if self.reset.val() {
+            self.written.d.next = 0.into();
+            self.host_written.d.next = false;
+            self.core_written.d.next = false;
+            self.frame_info.d.next = 0.into();
+            self.basic_info.d.next = 0.into();
         }
     }
 }

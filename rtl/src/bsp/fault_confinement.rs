@@ -53,21 +53,26 @@ pub struct FaultConfinement {
     tec_count: DFF<Bits<8>>,
     rec_count: DFF<Bits<8>>,
     bus_off_state: DFF<Bit>,
-    tec_wide: Signal<Local, Bits<9>>,
-    rec_wide: Signal<Local, Bits<9>>,
+    /// `error_passive`, registered from the values the counters load (it starts long paths of the
+    /// protocol engine).
+    passive_state: DFF<Bit>,
 }
 
 impl Logic for FaultConfinement {
     #[hdl_gen]
     fn update(&mut self) {
-        dff_setup!(self, clock, tec_count, rec_count, bus_off_state);
+        dff_setup!(
+            self,
+            clock,
+            tec_count,
+            rec_count,
+            bus_off_state,
+            passive_state
+        );
         self.tec.next = self.tec_count.q.val();
         self.rec.next = self.rec_count.q.val();
         self.bus_off.next = self.bus_off_state.q.val();
-        self.error_passive.next = !self.bus_off_state.q.val()
-            & (self.tec_count.q.val().get_bit(7) | self.rec_count.q.val().get_bit(7));
-        self.tec_wide.next = bit_cast::<9, 8>(self.tec_count.q.val()) + 8;
-        self.rec_wide.next = bit_cast::<9, 8>(self.rec_count.q.val()) + 8;
+        self.error_passive.next = self.passive_state.q.val();
 
         if self.bus_off_state.q.val() {
             if self.recovery_tick.val() {
@@ -79,8 +84,9 @@ impl Logic for FaultConfinement {
                 }
             }
         } else {
+            // +8 passes 255 exactly from 248 on (bits 7..3 all set): no 9-bit sum needed.
             if self.tec_plus_8.val() {
-                if self.tec_wide.val().get_bit(8) {
+                if self.tec_count.q.val().get_bits::<5>(3) == 31 {
                     self.bus_off_state.d.next = true;
                     self.tec_count.d.next = 127.into();
                     self.rec_count.d.next = 0.into();
@@ -96,7 +102,7 @@ impl Logic for FaultConfinement {
             }
             if self.rec_plus_8.val() {
                 self.rec_count.d.next = self.rec_count.q.val() + 8;
-                if self.rec_wide.val().get_bit(8) {
+                if self.rec_count.q.val().get_bits::<5>(3) == 31 {
                     self.rec_count.d.next = 255.into();
                 }
             }
@@ -129,5 +135,7 @@ impl Logic for FaultConfinement {
             self.rec_count.d.next = 0.into();
             self.bus_off_state.d.next = false;
         }
+        self.passive_state.d.next = !self.bus_off_state.d.val()
+            & (self.tec_count.d.val().get_bit(7) | self.rec_count.d.val().get_bit(7));
     }
 }

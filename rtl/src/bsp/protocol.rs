@@ -96,7 +96,9 @@ pub struct Protocol {
     pub tx_abort: Signal<In, Bit>,
     /// Frame information byte of the frame to send: FF (7), RTR (6), DLC (3..0).
     pub tx_info: Signal<In, Bits<8>>,
-    /// The transmit-buffer byte at `tx_addr`.
+    /// The transmit-buffer byte at `tx_addr`, at the latest from the clock after `tx_addr`
+    /// changed (a registered RAM read): it is used at process points only, and `tx_addr` changes
+    /// at a process point or between frames.
     pub tx_data: Signal<In, Bits<8>>,
     /// Load `counter_value` into TEC.
     pub load_tec: Signal<In, Bit>,
@@ -208,10 +210,15 @@ pub struct Protocol {
     stream_bit: Signal<Local, Bit>,
     stream_next_bit: Signal<Local, Bit>,
     data_bytes: Signal<Local, Bits<4>>,
-    last_data_byte: Signal<Local, Bits<4>>,
+    /// Index of the last data byte, registered: DLC and RTR are settled a bit before the data field.
+    last_data_byte: DFF<Bits<4>>,
     dlc_after: Signal<Local, Bits<4>>,
     next_bit: Signal<Local, Bit>,
     dlc_position: Signal<Local, Bits<3>>,
+    next_is_11: Signal<Local, Bit>,
+    next_is_12: Signal<Local, Bit>,
+    next_is_31: Signal<Local, Bit>,
+    next_count_low: Signal<Local, Bits<3>>,
     receiver_error: Signal<Local, Bit>,
     send_ack: Signal<Local, Bit>,
     /// In a data or remote frame (arbitration to end of frame), registered.
@@ -257,7 +264,8 @@ impl Logic for Protocol {
             first_after_flag,
             dominant_after_flag,
             ack_penalty,
-            recessive_run
+            recessive_run,
+            last_data_byte
         );
         clock!(self, clock, stuffing, crc, faults);
 
@@ -310,11 +318,16 @@ impl Logic for Protocol {
         if self.rtr_reg.q.val() {
             self.data_bytes.next = 0.into();
         }
-        self.last_data_byte.next = self.data_bytes.val() - 1;
-        self.dlc_after.next = self.dlc_reg.q.val() + self.dlc_reg.q.val();
-        if self.rx_bit.val() {
-            self.dlc_after.next = self.dlc_reg.q.val() + self.dlc_reg.q.val() + 1;
-        }
+        self.last_data_byte.d.next = self.data_bytes.val() - 1;
+        // DLC shifted left with the bus bit in: wiring, where `x + x` would be an adder.
+        self.dlc_after.next = self
+            .dlc_reg
+            .q
+            .val()
+            .replace_bit(3, self.dlc_reg.q.val().get_bit(2))
+            .replace_bit(2, self.dlc_reg.q.val().get_bit(1))
+            .replace_bit(1, self.dlc_reg.q.val().get_bit(0))
+            .replace_bit(0, self.rx_bit.val());
         // A new frame of our own may start: a request, and no suspend owed (error-passive former
         // transmitter) unless the suspend is over.
         self.single_shot.next = self.tx_single_shot.val() | self.abort_pending.q.val();
@@ -505,13 +518,14 @@ impl Logic for Protocol {
                     }
                     ProtocolState::Arbitration => {
                         self.crc.feed.next = true;
-                        if (self.count.q.val() < 11)
-                            | ((self.count.q.val() > 12) & (self.count.q.val() < 31))
+                        // Identifier bits: positions 0..10 and 13..30 (the count stays below 32
+                        // here; equalities, not comparisons, which are carry chains on FPGAs).
+                        if (self.count.q.val() != 11)
+                            & (self.count.q.val() != 12)
+                            & (self.count.q.val() != 31)
                         {
-                            self.id_reg.d.next = self.id_reg.q.val() + self.id_reg.q.val();
-                            if self.rx_bit.val() {
-                                self.id_reg.d.next = self.id_reg.q.val() + self.id_reg.q.val() + 1;
-                            }
+                            self.id_reg.d.next =
+                                (self.id_reg.q.val() << 1).replace_bit(0, self.rx_bit.val());
                             self.consume_stream.next = self.transmitter.q.val();
                         }
                         if self.count.q.val() == 11 {
@@ -547,8 +561,9 @@ impl Logic for Protocol {
                     }
                     ProtocolState::Control => {
                         self.crc.feed.next = true;
-                        if (self.count.q.val() > 1)
-                            | ((self.count.q.val() == 1) & (self.ide_reg.q.val() == false))
+                        // From count 2 on, or from 1 in a standard frame (r0 is bit 0).
+                        if (self.count.q.val() != 0)
+                            & !((self.count.q.val() == 1) & self.ide_reg.q.val())
                         {
                             self.dlc_reg.d.next = self.dlc_after.val();
                         }
@@ -570,15 +585,12 @@ impl Logic for Protocol {
                     ProtocolState::Data => {
                         self.crc.feed.next = true;
                         self.consume_stream.next = self.transmitter.q.val();
-                        self.byte_reg.d.next = self.byte_reg.q.val() + self.byte_reg.q.val();
-                        if self.rx_bit.val() {
-                            self.byte_reg.d.next =
-                                self.byte_reg.q.val() + self.byte_reg.q.val() + 1;
-                        }
+                        self.byte_reg.d.next =
+                            (self.byte_reg.q.val() << 1).replace_bit(0, self.rx_bit.val());
                         if self.count.q.val().get_bits::<3>(0) == 7 {
                             self.byte_pulse.d.next = true;
                             self.byte_index.d.next = self.count.q.val().get_bits::<3>(3);
-                            if self.count.q.val().get_bits::<4>(3) == self.last_data_byte.val() {
+                            if self.count.q.val().get_bits::<4>(3) == self.last_data_byte.q.val() {
                                 self.next_field.next = ProtocolState::Crc;
                                 self.next_count.next = 0.into();
                             }
@@ -840,11 +852,11 @@ impl Logic for Protocol {
         // ---- The transmit-buffer stream.
         if self.consume_stream.val() {
             if self.tx_left.q.val() == 0 {
-                self.tx_shift.d.next = self.tx_data.val() + self.tx_data.val();
+                self.tx_shift.d.next = self.tx_data.val() << 1;
                 self.tx_left.d.next = 7.into();
                 self.tx_ptr.d.next = self.tx_ptr.q.val() + 1;
             } else {
-                self.tx_shift.d.next = self.tx_shift.q.val() + self.tx_shift.q.val();
+                self.tx_shift.d.next = self.tx_shift.q.val() << 1;
                 self.tx_left.d.next = self.tx_left.q.val() - 1;
             }
         }
@@ -865,6 +877,26 @@ impl Logic for Protocol {
         }
 
         // ---- The next bit to send, from the next state.
+        // Where the next field is the arbitration or control field, its count comes from registers
+        // rather than from `next_count`, the end of the longest path: a stuff bit holds the count, a
+        // field bit advances it, a SOF starts the arbitration field at 0 (no special position) and
+        // the control field starts at 0 from arbitration count 12 or 31 (positions 5 or 0: neither
+        // a DLC bit).
+        self.next_is_11.next = self.count.q.val() == 10;
+        self.next_is_12.next = self.count.q.val() == 11;
+        self.next_is_31.next = self.count.q.val() == 30;
+        self.next_count_low.next = bit_cast::<3, 7>(self.count_plus_1.val());
+        if self.stuffing.stuff_bit.val() {
+            self.next_is_11.next = self.count.q.val() == 11;
+            self.next_is_12.next = self.count.q.val() == 12;
+            self.next_is_31.next = self.count.q.val() == 31;
+            self.next_count_low.next = bit_cast::<3, 7>(self.count.q.val());
+        }
+        if self.start_frame.val() {
+            self.next_is_11.next = false;
+            self.next_is_12.next = false;
+            self.next_is_31.next = false;
+        }
         self.next_bit.next = true;
         match self.next_field.val() {
             ProtocolState::Idle => {
@@ -876,16 +908,16 @@ impl Logic for Protocol {
                     if self.consume_stream.val() {
                         self.next_bit.next = self.stream_next_bit.val();
                     }
-                    if self.next_count.val() == 11 {
+                    if self.next_is_11.val() {
                         self.next_bit.next = self.tx_info.val().get_bit(6);
                         if self.tx_info.val().get_bit(7) {
                             self.next_bit.next = true;
                         }
                     }
-                    if self.next_count.val() == 12 {
+                    if self.next_is_12.val() {
                         self.next_bit.next = self.tx_info.val().get_bit(7);
                     }
-                    if self.next_count.val() == 31 {
+                    if self.next_is_31.val() {
                         self.next_bit.next = self.tx_info.val().get_bit(6);
                     }
                 }
@@ -894,9 +926,9 @@ impl Logic for Protocol {
                 if self.next_transmitter.val() {
                     // r1 (extended), r0: dominant; then DLC bits 3..0.
                     self.next_bit.next = false;
-                    self.dlc_position.next = self.next_count.val().get_bits::<3>(0);
+                    self.dlc_position.next = self.next_count_low.val();
                     if self.tx_info.val().get_bit(7) {
-                        self.dlc_position.next = self.next_count.val().get_bits::<3>(0) - 1;
+                        self.dlc_position.next = self.next_count_low.val() - 1;
                     }
                     if self.dlc_position.val() == 1 {
                         self.next_bit.next = self.tx_info.val().get_bit(3);
@@ -1052,6 +1084,7 @@ impl Logic for Protocol {
             self.first_after_flag.d.next = false;
             self.dominant_after_flag.d.next = 0.into();
             self.recessive_run.d.next = 0.into();
+            self.last_data_byte.d.next = 0.into();
         }
         // Registered, from the state this edge loads, so `in_frame.q` always describes `field.q`:
         // outputs made of flip-flop outputs only keep the Verilog free of combinational loops
