@@ -213,10 +213,11 @@ fn address(value: u8) -> Constant<Bits<8>> {
     Constant::new((value as u64).into())
 }
 
-/// The addresses `first..=last` as a bit map indexed by the address.
+/// The addresses from `first` to `last`, both included, as a bit map indexed by the address.
 fn window(first: u8, last: u8) -> Constant<Bits<ADDRESSES>> {
-    let map = (first..=last).fold(Bits::<ADDRESSES>::default(), |map, a| {
-        map.replace_bit(a as usize, true)
+    let addresses = usize::from(first)..usize::from(last) + 1;
+    let map = addresses.fold(Bits::<ADDRESSES>::default(), |map, a| {
+        map.replace_bit(a, true)
     });
     Constant::new(map)
 }

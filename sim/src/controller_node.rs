@@ -139,19 +139,7 @@ impl Model {
     /// One clock cycle with `inputs`.
     fn cycle(&mut self, inputs: PortInputs) {
         match self {
-            Model::RustHdl { uut, applied } => {
-                let changed = *applied != Some(inputs);
-                if changed {
-                    uut.reset.next = inputs.reset;
-                    uut.addr.next = u64::from(inputs.addr).to_bits();
-                    uut.wdata.next = u64::from(inputs.wdata).to_bits();
-                    uut.we.next = inputs.we;
-                    uut.re.next = inputs.re;
-                    uut.rx.next = inputs.rx;
-                    *applied = Some(inputs);
-                }
-                clock_cycle_with(&mut **uut, |u| &mut u.clock, "CAN controller", changed);
-            }
+            Model::RustHdl { uut, applied } => rust_hdl_cycle(uut, applied, inputs),
             Model::Verilator(model) => {
                 model.cycle(inputs);
             }
@@ -206,6 +194,27 @@ const PROTOCOL_STATES: [ProtocolState; 16] = [
     ProtocolState::Delimiter,
     ProtocolState::BusOff,
 ];
+
+/// One clock cycle of the rust-hdl controller with `inputs` on its ports. `applied` holds the
+/// inputs of the last cycle (`None` before the first): the design is settled again only when they
+/// change.
+pub fn rust_hdl_cycle(
+    uut: &mut CanController,
+    applied: &mut Option<PortInputs>,
+    inputs: PortInputs,
+) {
+    let changed = *applied != Some(inputs);
+    if changed {
+        uut.reset.next = inputs.reset;
+        uut.addr.next = u64::from(inputs.addr).to_bits();
+        uut.wdata.next = u64::from(inputs.wdata).to_bits();
+        uut.we.next = inputs.we;
+        uut.re.next = inputs.re;
+        uut.rx.next = inputs.rx;
+        *applied = Some(inputs);
+    }
+    clock_cycle_with(uut, |u| &mut u.clock, "CAN controller", changed);
+}
 
 /// The protocol state encoded as `value` in the Verilog.
 fn protocol_state(value: u64) -> ProtocolState {

@@ -1,25 +1,22 @@
 //! The `cansim` command line: outputs and exit codes a user sees.
 
+mod common;
+
 use std::path::PathBuf;
-use std::process::{Command, Output};
+use std::process::Output;
+
+use common::{cansim, text};
 
 use sim::bus_decoder::BusTiming;
 use sim::frame::{encode, Field, Frame, Id};
 use sim::trace::VcdTracer;
 
-fn cansim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_cansim"))
-        .args(args)
-        .output()
-        .expect("cansim runs")
-}
-
 fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
+    text(&o.stdout)
 }
 
 fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
+    text(&o.stderr)
 }
 
 #[test]
@@ -162,7 +159,7 @@ fn demo_into_an_unwritable_place_fails_cleanly() {
 // ---- cansim rta: the tables, the CSV, the refusals and the exit codes.
 
 fn example(name: &str) -> String {
-    format!("{}/../examples/rta/{name}.toml", env!("CARGO_MANIFEST_DIR"))
+    common::example(&format!("rta/{name}.toml"))
 }
 
 /// Writes `text` to a file of its own for one test and returns its path.

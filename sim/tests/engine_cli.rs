@@ -2,29 +2,11 @@
 //! `cansim bench`; bad values and a missing Verilator fail with a message saying what to do and a
 //! non-zero exit.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn cansim(args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_cansim"));
-    command.args(args);
-    for (name, value) in env {
-        command.env(name, value);
-    }
-    command.output().expect("cansim runs")
-}
+use std::path::PathBuf;
 
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
-
-fn example(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../examples")
-        .join(name)
-        .to_string_lossy()
-        .into_owned()
-}
+use common::{cansim_with_env as cansim, example, text};
 
 #[test]
 fn a_bad_can_engine_stops_a_run_naming_the_allowed_values() {

@@ -2,19 +2,11 @@
 //! kind fails with a message naming the file and line, a non-zero exit, nothing on stdout and no
 //! output file left behind.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn cansim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_cansim"))
-        .args(args)
-        .output()
-        .expect("cansim runs")
-}
+use std::path::PathBuf;
 
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
+use common::{cansim, example, text};
 
 /// A fresh directory for one test.
 fn scratch(test: &str) -> PathBuf {
@@ -22,14 +14,6 @@ fn scratch(test: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
-}
-
-fn example(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../examples")
-        .join(name)
-        .to_string_lossy()
-        .into_owned()
 }
 
 const HEADER: &str = "duration = \"1ms\"\n[bus]\nbitrate = 500000\n[[node]]\nname = \"a\"\n";

@@ -27,9 +27,9 @@ use std::process::Command;
 use rtl::can_controller::CanController;
 use rtl::registers::{clock_divider, command, mode, pelican};
 use rust_hdl::prelude::*;
+use sim::controller_node::rust_hdl_cycle;
 use sim::frame::Frame;
 use sim::frame_buffer::{buffer_len, encode_buffer};
-use sim::rtl_step::clock_cycle_with;
 use sim::verilated::{EngineError, PortInputs, VerilatedController};
 pub use sim::verilog::{controller_verilog, TOP_MODULE};
 
@@ -60,6 +60,18 @@ pub struct NodeInputs {
 }
 
 impl NodeInputs {
+    /// The controller's port inputs with the bus at `bus` (`rx` dominant when forced).
+    fn ports(&self, bus: bool) -> PortInputs {
+        PortInputs {
+            reset: self.reset,
+            addr: self.addr,
+            wdata: self.wdata,
+            we: self.we,
+            re: self.re,
+            rx: bus && !self.force_dominant,
+        }
+    }
+
     /// The 20-bit word of the Verilog stimulus file: `{reset, we, re, force, addr, wdata}`.
     fn word(&self) -> u32 {
         u32::from(self.reset) << 19
@@ -686,26 +698,13 @@ pub fn run_rust(stim: &Stimulus) -> Trace {
         })
         .collect();
     // The inputs and rx last applied to each node (None: nothing applied yet, settle anyway).
-    let mut applied: Vec<Option<(NodeInputs, bool)>> = vec![None; n];
+    let mut applied: Vec<Option<PortInputs>> = vec![None; n];
     let mut bus = true;
     let mut outputs = Vec::with_capacity(stim.len() * n);
     for cycle in &stim.cycles {
         let mut next_bus = true;
         for ((uut, inputs), applied) in uuts.iter_mut().zip(&cycle.nodes).zip(&mut applied) {
-            let rx = bus && !inputs.force_dominant;
-            let mut key = *inputs;
-            key.force_dominant = false;
-            let changed = *applied != Some((key, rx));
-            if changed {
-                uut.reset.next = inputs.reset;
-                uut.addr.next = u64::from(inputs.addr).to_bits();
-                uut.wdata.next = u64::from(inputs.wdata).to_bits();
-                uut.we.next = inputs.we;
-                uut.re.next = inputs.re;
-                uut.rx.next = rx;
-                *applied = Some((key, rx));
-            }
-            clock_cycle_with(uut, |u| &mut u.clock, "CAN controller", changed);
+            rust_hdl_cycle(uut, applied, inputs.ports(bus));
             let out = NodeOutputs {
                 tx: uut.tx.val(),
                 rdata: uut.rdata.val().to_u8(),
@@ -737,14 +736,7 @@ pub fn run_verilated(stim: &Stimulus) -> Result<Trace, EngineError> {
     for cycle in &stim.cycles {
         let mut next_bus = true;
         for (model, inputs) in models.iter_mut().zip(&cycle.nodes) {
-            let out = model.cycle(PortInputs {
-                reset: inputs.reset,
-                addr: inputs.addr,
-                wdata: inputs.wdata,
-                we: inputs.we,
-                re: inputs.re,
-                rx: bus && !inputs.force_dominant,
-            });
+            let out = model.cycle(inputs.ports(bus));
             next_bus &= out.tx();
             outputs.push(NodeOutputs {
                 tx: out.tx(),

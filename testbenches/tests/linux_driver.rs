@@ -829,7 +829,7 @@ fn linux_driver_replay() {
 }
 
 #[test]
-#[ignore = "full run (well over 1000 frames); see the timings it prints"]
+#[ignore = "long: full run (well over 1000 frames, in make test-long); see the timings it prints"]
 fn linux_driver_replay_full() {
     let sent = replay(FULL);
     assert!(sent >= 1000, "{sent} frames sent successfully");
