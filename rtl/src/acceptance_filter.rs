@@ -34,9 +34,13 @@
 
 use rust_hdl::prelude::*;
 
+use crate::activity::{Activity, ActivityBlock};
+
 /// The SJA1000 acceptance filter (BasicCAN, PeliCAN single and dual filter).
-#[derive(LogicBlock)]
+#[derive(ActivityBlock)]
 pub struct AcceptanceFilter {
+    /// Simulation bookkeeping (see `crate::activity`); not hardware.
+    activity: Activity,
     /// Controller clock.
     pub clock: Signal<In, Clock>,
     /// Synchronous reset, active high.
@@ -134,6 +138,7 @@ pub struct AcceptanceFilter {
 impl Default for AcceptanceFilter {
     fn default() -> Self {
         AcceptanceFilter {
+            activity: Activity::default(),
             clock: Default::default(),
             reset: Default::default(),
             pelican: Default::default(),

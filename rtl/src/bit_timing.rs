@@ -28,6 +28,8 @@
 
 use rust_hdl::prelude::*;
 
+use crate::activity::{Activity, ActivityBlock};
+
 use crate::bus_sampling::BusSampling;
 
 /// The segment of the bit time the bit timing logic is in.
@@ -53,8 +55,10 @@ pub enum SyncMode {
 }
 
 /// The bit timing logic of one CAN node (SJA1000 BTL).
-#[derive(LogicBlock, Default)]
+#[derive(ActivityBlock, Default)]
 pub struct BitTiming {
+    /// Simulation bookkeeping (see `crate::activity`); not hardware.
+    activity: Activity,
     /// Controller clock.
     pub clock: Signal<In, Clock>,
     /// Synchronous reset, active high.

@@ -11,9 +11,13 @@
 
 use rust_hdl::prelude::*;
 
+use crate::activity::{Activity, ActivityBlock};
+
 /// 2-flop synchroniser, edge detector and single/triple sampler of the bus input.
-#[derive(LogicBlock, Default)]
+#[derive(ActivityBlock, Default)]
 pub struct BusSampling {
+    /// Simulation bookkeeping (see `crate::activity`); not hardware.
+    activity: Activity,
     /// Controller clock.
     pub clock: Signal<In, Clock>,
     /// Synchronous reset, active high.

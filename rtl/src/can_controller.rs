@@ -17,6 +17,8 @@
 
 use rust_hdl::prelude::*;
 
+use crate::activity::{Activity, ActivityBlock};
+
 use crate::acceptance_filter::AcceptanceFilter;
 use crate::bsp::protocol::ProtocolState;
 use crate::can_core::CanCore;
@@ -26,8 +28,10 @@ use crate::rx_fifo::RxFifo;
 use crate::tx_buffer::TxBuffer;
 
 /// The complete controller.
-#[derive(LogicBlock)]
+#[derive(ActivityBlock)]
 pub struct CanController {
+    /// Simulation bookkeeping (see `crate::activity`); not hardware.
+    activity: Activity,
     /// Controller clock (the SJA1000 fosc).
     pub clock: Signal<In, Clock>,
     /// Synchronous reset, active high.
@@ -230,6 +234,7 @@ fn low_bits<const N: usize>(value: u8) -> Constant<Bits<N>> {
 impl Default for CanController {
     fn default() -> Self {
         CanController {
+            activity: Activity::default(),
             clock: Default::default(),
             reset: Default::default(),
             addr: Default::default(),

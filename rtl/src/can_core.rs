@@ -8,12 +8,16 @@
 
 use rust_hdl::prelude::*;
 
+use crate::activity::{Activity, ActivityBlock};
+
 use crate::bit_timing::{BitTiming, Segment};
 use crate::bsp::protocol::{Protocol, ProtocolState};
 
 /// Bit timing logic + bit stream processor.
-#[derive(LogicBlock, Default)]
+#[derive(ActivityBlock, Default)]
 pub struct CanCore {
+    /// Simulation bookkeeping (see `crate::activity`); not hardware.
+    activity: Activity,
     /// Controller clock.
     pub clock: Signal<In, Clock>,
     /// Synchronous reset, active high.

@@ -7,11 +7,15 @@
 
 use rust_hdl::prelude::*;
 
+use crate::activity::{Activity, ActivityBlock};
+
 use crate::clock_output::ClockOutput;
 
 /// The CLKOUT divider.
-#[derive(LogicBlock, Default)]
+#[derive(ActivityBlock, Default)]
 pub struct ClockDivider {
+    /// Simulation bookkeeping (see `crate::activity`); not hardware.
+    activity: Activity,
     /// Controller clock (fosc).
     pub clock: Signal<In, Clock>,
     /// Synchronous reset, active high.

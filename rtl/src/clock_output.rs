@@ -27,3 +27,21 @@ impl Logic for ClockOutput {
         Verilog::Custom("always @(*) level = clock;".into())
     }
 }
+
+/// The clock is data here: rust-hdl's derive re-runs the kernel, and the parent visits the block,
+/// whenever the clock moves.
+impl crate::activity::Child for ClockOutput {
+    fn drive_clock(&mut self, level: Clock) {
+        self.clock.next = level;
+    }
+
+    fn settled(&self) -> bool {
+        !self.has_changed()
+    }
+
+    fn outputs_changed(&self) -> bool {
+        self.level.changed
+    }
+
+    fn set_exhaustive(&mut self, _exhaustive: bool) {}
+}

@@ -10,6 +10,7 @@
 #![allow(clippy::collapsible_match)]
 
 pub mod acceptance_filter;
+pub mod activity;
 pub mod bit_timing;
 pub mod bsp;
 pub mod bus_sampling;

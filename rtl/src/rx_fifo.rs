@@ -17,12 +17,16 @@
 
 use rust_hdl::prelude::*;
 
+use crate::activity::{Activity, ActivityBlock};
+
 /// Bytes of the receive FIFO.
 pub const RX_FIFO_BYTES: usize = 64;
 
 /// The receive FIFO.
-#[derive(LogicBlock)]
+#[derive(ActivityBlock)]
 pub struct RxFifo {
+    /// Simulation bookkeeping (see `crate::activity`); not hardware.
+    activity: Activity,
     /// Controller clock.
     pub clock: Signal<In, Clock>,
     /// Synchronous reset, active high.
@@ -109,6 +113,7 @@ pub struct RxFifo {
 impl Default for RxFifo {
     fn default() -> Self {
         RxFifo {
+            activity: Activity::default(),
             clock: Default::default(),
             reset: Default::default(),
             clear: Default::default(),

@@ -19,6 +19,8 @@
 
 use rust_hdl::prelude::*;
 
+use crate::activity::{Activity, ActivityBlock};
+
 /// Bytes of the transmit buffer.
 pub const TX_BUFFER_BYTES: usize = 13;
 
@@ -28,8 +30,10 @@ const INDEX_BITS: usize = 4;
 const WORDS: usize = 1 << INDEX_BITS;
 
 /// The transmit buffer.
-#[derive(LogicBlock)]
+#[derive(ActivityBlock)]
 pub struct TxBuffer {
+    /// Simulation bookkeeping (see `crate::activity`); not hardware.
+    activity: Activity,
     /// Controller clock.
     pub clock: Signal<In, Clock>,
     /// Synchronous reset, active high: clears the buffer.
@@ -80,6 +84,7 @@ fn index(value: usize) -> Constant<Bits<INDEX_BITS>> {
 impl Default for TxBuffer {
     fn default() -> Self {
         TxBuffer {
+            activity: Activity::default(),
             clock: Default::default(),
             reset: Default::default(),
             write: Default::default(),

@@ -15,6 +15,7 @@ use std::collections::VecDeque;
 use std::fmt;
 use std::str::FromStr;
 
+use rtl::activity::Child;
 use rtl::bsp::protocol::ProtocolState;
 use rtl::can_controller::CanController;
 use rust_hdl::prelude::*;
@@ -35,21 +36,29 @@ pub const ENGINE_ENV: &str = "CAN_ENGINE";
 /// Which model of the controller a [`ControllerNode`] steps.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum ModelEngine {
-    /// The rust-hdl model of `rtl/` (the default).
+    /// The rust-hdl model of `rtl/` (the default), settled activity-driven (`rtl::activity`).
     #[default]
     RustHdl,
+    /// The same model with every kernel run on every settle pass, as rust-hdl's own derive does:
+    /// about 4 times slower, for cross-checking the activity-driven settle.
+    RustHdlExhaustive,
     /// The generated Verilog, compiled by Verilator and loaded as a library.
     Verilator,
 }
 
 impl ModelEngine {
     /// Every engine.
-    pub const ALL: [ModelEngine; 2] = [ModelEngine::RustHdl, ModelEngine::Verilator];
+    pub const ALL: [ModelEngine; 3] = [
+        ModelEngine::RustHdl,
+        ModelEngine::RustHdlExhaustive,
+        ModelEngine::Verilator,
+    ];
 
     /// The name `CAN_ENGINE` takes.
     pub fn name(self) -> &'static str {
         match self {
             ModelEngine::RustHdl => "rust-hdl",
+            ModelEngine::RustHdlExhaustive => "rust-hdl-exhaustive",
             ModelEngine::Verilator => "verilator",
         }
     }
@@ -73,9 +82,10 @@ fn unknown_engine(value: &str) -> String {
         .iter()
         .map(|e| format!("`{}`", e.name()))
         .collect();
+    let (last, first) = names.split_last().expect("engines");
     format!(
-        "`{value}` is not an engine: use {} (the default is `{}`)",
-        names.join(" or "),
+        "`{value}` is not an engine: use {} or {last} (the default is `{}`)",
+        first.join(", "),
         ModelEngine::default().name()
     )
 }
@@ -127,9 +137,10 @@ enum Model {
 impl Model {
     fn new(engine: ModelEngine) -> Result<Model, EngineError> {
         Ok(match engine {
-            ModelEngine::RustHdl => {
+            ModelEngine::RustHdl | ModelEngine::RustHdlExhaustive => {
                 let mut uut = Box::<CanController>::default();
                 uut.connect_all();
+                uut.set_exhaustive(engine == ModelEngine::RustHdlExhaustive);
                 Model::RustHdl { uut, applied: None }
             }
             ModelEngine::Verilator => Model::Verilator(VerilatedController::new()?),
@@ -433,7 +444,8 @@ mod tests {
         let err = "verilog".parse::<ModelEngine>().unwrap_err();
         assert_eq!(
             err,
-            "`verilog` is not an engine: use `rust-hdl` or `verilator` (the default is `rust-hdl`)"
+            "`verilog` is not an engine: use `rust-hdl`, `rust-hdl-exhaustive` or `verilator` (the \
+             default is `rust-hdl`)"
         );
     }
 }

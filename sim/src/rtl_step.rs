@@ -35,11 +35,11 @@ pub fn clock_cycle_with<B: Block>(
     if inputs_changed {
         settle(uut, what);
     }
-    // Latch the top clock high without a pass over the whole tree (a pass would only latch it:
-    // the top kernel runs before its own signals latch); the first settle pass sees it high.
-    let top_clock = clock(uut);
-    top_clock.next = true.into();
-    top_clock.update_all();
-    top_clock.next = false.into();
+    // The clock is high for exactly one pass: the blocks pass it down within the pass and load
+    // their registers at once (see `rtl::activity`); the rest of the settle, with the clock low,
+    // carries the new register values to the outputs.
+    clock(uut).next = true.into();
+    uut.update_all();
+    clock(uut).next = false.into();
     settle(uut, what);
 }

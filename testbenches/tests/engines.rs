@@ -1,5 +1,6 @@
-//! The two engines of the complete controller, rust-hdl and Verilator (`CAN_ENGINE`), give identical
-//! results:
+//! The engines of the complete controller (`CAN_ENGINE`) give identical results: rust-hdl with
+//! its activity-driven settle (the reference here), the same model with every kernel run on every
+//! pass (`rust-hdl-exhaustive`, rust-hdl's own evaluation), and Verilator:
 //! - every scenario of `examples/` writes the same VCD (the bus and, per node, `tx`, `rx`, sample
 //!   point, segment, protocol state, TEC, REC, `irq_n`, `clkout` at every change), the same bus log
 //!   and the same report (driver events, frames, states, counters) with either;
@@ -10,6 +11,7 @@
 //! The cycle-by-cycle comparison of the outputs is in `verilog_equivalence.rs`.
 
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rtl::registers::{command, interrupt, mode, pelican};
 use sim::controller_node::ModelEngine;
@@ -19,16 +21,21 @@ use testbenches::controller_bench::{
     configure_pelican, drain_rx, transmit, ControllerBench, INTEGRATION_BITS,
 };
 
-/// A fresh scratch directory.
+/// A fresh scratch directory, unique within the process (tests run in parallel).
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("cansim-engines-{name}-{}", std::process::id()));
+    static RUNS: AtomicUsize = AtomicUsize::new(0);
+    let run = RUNS.fetch_add(1, Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!(
+        "cansim-engines-{name}-{}-{run}",
+        std::process::id()
+    ));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
 
-/// Panics at the first line where `a` and `b` differ, showing both.
-fn assert_same_text(what: &str, a: &str, b: &str) {
+/// Panics at the first line where `a` (from rust-hdl) and `b` (from `other`) differ, showing both.
+fn assert_same_text(what: &str, other: ModelEngine, a: &str, b: &str) {
     if let Some((k, (x, y))) = a
         .lines()
         .zip(b.lines())
@@ -36,7 +43,7 @@ fn assert_same_text(what: &str, a: &str, b: &str) {
         .find(|(_, (x, y))| x != y)
     {
         panic!(
-            "{what}: line {} differs:\n  rust-hdl:  {x}\n  verilator: {y}",
+            "{what}: line {} differs:\n  rust-hdl:  {x}\n  {other}: {y}",
             k + 1
         );
     }
@@ -47,11 +54,16 @@ fn assert_same_text(what: &str, a: &str, b: &str) {
     );
 }
 
-/// Panics at the first element where `a` and `b` differ.
-fn assert_same_items<T: PartialEq + std::fmt::Debug>(what: &str, a: &[T], b: &[T]) {
+/// Panics at the first element where `a` (from rust-hdl) and `b` (from `other`) differ.
+fn assert_same_items<T: PartialEq + std::fmt::Debug>(
+    what: &str,
+    other: ModelEngine,
+    a: &[T],
+    b: &[T],
+) {
     if let Some(k) = (0..a.len().min(b.len())).find(|&k| a[k] != b[k]) {
         panic!(
-            "{what}: item {k} differs: rust-hdl {:?}, verilator {:?}",
+            "{what}: item {k} differs: rust-hdl {:?}, {other} {:?}",
             a[k], b[k]
         );
     }
@@ -88,62 +100,52 @@ fn run_example(name: &str, engine: ModelEngine) -> Outcome {
     outcome
 }
 
-/// Runs example `name` on both engines and compares everything it wrote and reported.
-fn example_is_the_same_on_both_engines(name: &str) {
+/// Runs example `name` on rust-hdl and on `other` and compares everything they wrote and reported.
+fn example_is_the_same_on(name: &str, other: ModelEngine) {
     let a = run_example(name, ModelEngine::RustHdl);
-    let b = run_example(name, ModelEngine::Verilator);
+    let b = run_example(name, other);
     assert!(!a.report.log.is_empty(), "{name}: nothing on the bus");
-    assert_same_text(&format!("{name}: VCD"), &a.vcd, &b.vcd);
-    assert_same_text(&format!("{name}: bus log"), &a.log, &b.log);
+    assert_same_text(&format!("{name}: VCD"), other, &a.vcd, &b.vcd);
+    assert_same_text(&format!("{name}: bus log"), other, &a.log, &b.log);
+    let r = (&a.report, &b.report);
     assert_same_items(
         &format!("{name}: node reports"),
-        &a.report.nodes,
-        &b.report.nodes,
+        other,
+        &r.0.nodes,
+        &r.1.nodes,
     );
-    assert_same_items(
-        &format!("{name}: events"),
-        &a.report.events,
-        &b.report.events,
-    );
-    assert_same_items(
-        &format!("{name}: faults"),
-        &a.report.faults,
-        &b.report.faults,
-    );
-    assert_eq!(a.report.missed_faults, b.report.missed_faults, "{name}");
-    assert_eq!(a.report.frame_starts, b.report.frame_starts, "{name}");
-    assert_eq!(a.report.simulated_fs, b.report.simulated_fs, "{name}");
+    assert_same_items(&format!("{name}: events"), other, &r.0.events, &r.1.events);
+    assert_same_items(&format!("{name}: faults"), other, &r.0.faults, &r.1.faults);
+    assert_eq!(r.0.missed_faults, r.1.missed_faults, "{name}");
+    assert_eq!(r.0.frame_starts, r.1.frame_starts, "{name}");
+    assert_eq!(r.0.simulated_fs, r.1.simulated_fs, "{name}");
 }
 
-#[test]
-fn example_arbitration_is_the_same_on_both_engines() {
-    example_is_the_same_on_both_engines("arbitration.toml");
+/// One test per engine compared with rust-hdl for the example `$file`.
+macro_rules! example_tests {
+    ($module:ident, $file:literal) => {
+        mod $module {
+            use super::*;
+
+            #[test]
+            fn is_the_same_on_verilator() {
+                example_is_the_same_on($file, ModelEngine::Verilator);
+            }
+
+            #[test]
+            fn is_the_same_with_every_kernel_on_every_pass() {
+                example_is_the_same_on($file, ModelEngine::RustHdlExhaustive);
+            }
+        }
+    };
 }
 
-#[test]
-fn example_bus_off_is_the_same_on_both_engines() {
-    example_is_the_same_on_both_engines("bus_off.toml");
-}
-
-#[test]
-fn example_canopen_is_the_same_on_both_engines() {
-    example_is_the_same_on_both_engines("canopen.toml");
-}
-
-#[test]
-fn example_demo_is_the_same_on_both_engines() {
-    example_is_the_same_on_both_engines("demo.toml");
-}
-
-#[test]
-fn example_oscillator_is_the_same_on_both_engines() {
-    example_is_the_same_on_both_engines("oscillator.toml");
-}
-
-#[test]
-fn example_replay_is_the_same_on_both_engines() {
-    example_is_the_same_on_both_engines("replay.toml");
-}
+example_tests!(example_arbitration, "arbitration.toml");
+example_tests!(example_bus_off, "bus_off.toml");
+example_tests!(example_canopen, "canopen.toml");
+example_tests!(example_demo, "demo.toml");
+example_tests!(example_oscillator, "oscillator.toml");
+example_tests!(example_replay, "replay.toml");
 
 #[test]
 fn every_example_is_compared() {
@@ -251,10 +253,10 @@ fn register_session(engine: ModelEngine) -> Session {
     }
 }
 
-#[test]
-fn a_register_session_reads_and_sends_the_same_on_both_engines() {
+/// The register session on rust-hdl and on `other`: the same reads, frames and bus changes.
+fn register_session_is_the_same_on(other: ModelEngine) {
     let a = register_session(ModelEngine::RustHdl);
-    let b = register_session(ModelEngine::Verilator);
+    let b = register_session(other);
     // The session does what it says (on the reference engine).
     assert_eq!(
         a.drained[2],
@@ -266,7 +268,17 @@ fn a_register_session_reads_and_sends_the_same_on_both_engines() {
     );
     let ir_after_error = a.reads[(2 * NODES + 2) * SNAPSHOT.len() + usize::from(pelican::IR)];
     assert_ne!(ir_after_error & interrupt::BEI, 0, "node 2 saw a bus error");
-    assert_same_items("register reads", &a.reads, &b.reads);
-    assert_same_items("drained frames", &a.drained, &b.drained);
-    assert_same_items("bus level changes", &a.bus, &b.bus);
+    assert_same_items("register reads", other, &a.reads, &b.reads);
+    assert_same_items("drained frames", other, &a.drained, &b.drained);
+    assert_same_items("bus level changes", other, &a.bus, &b.bus);
+}
+
+#[test]
+fn a_register_session_reads_and_sends_the_same_on_verilator() {
+    register_session_is_the_same_on(ModelEngine::Verilator);
+}
+
+#[test]
+fn a_register_session_reads_and_sends_the_same_with_every_kernel_on_every_pass() {
+    register_session_is_the_same_on(ModelEngine::RustHdlExhaustive);
 }

@@ -9,9 +9,13 @@
 
 use rust_hdl::prelude::*;
 
+use crate::activity::{Activity, ActivityBlock};
+
 /// The CRC-15 shift register.
-#[derive(LogicBlock)]
+#[derive(ActivityBlock)]
 pub struct Crc15 {
+    /// Simulation bookkeeping (see `crate::activity`); not hardware.
+    activity: Activity,
     /// Controller clock.
     pub clock: Signal<In, Clock>,
     /// Empties the register (start of frame).
@@ -29,6 +33,7 @@ pub struct Crc15 {
 impl Default for Crc15 {
     fn default() -> Self {
         Crc15 {
+            activity: Activity::default(),
             clock: Default::default(),
             clear: Default::default(),
             feed: Default::default(),

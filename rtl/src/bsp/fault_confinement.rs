@@ -17,9 +17,13 @@
 
 use rust_hdl::prelude::*;
 
+use crate::activity::{Activity, ActivityBlock};
+
 /// TEC/REC and the fault confinement state.
-#[derive(LogicBlock, Default)]
+#[derive(ActivityBlock, Default)]
 pub struct FaultConfinement {
+    /// Simulation bookkeeping (see `crate::activity`); not hardware.
+    activity: Activity,
     /// Controller clock.
     pub clock: Signal<In, Clock>,
     /// Synchronous reset, active high.

@@ -25,6 +25,8 @@
 
 use rust_hdl::prelude::*;
 
+use crate::activity::{Activity, ActivityBlock};
+
 use crate::bit_timing::SyncMode;
 use crate::bsp::crc15::Crc15;
 use crate::bsp::fault_confinement::FaultConfinement;
@@ -68,8 +70,10 @@ pub enum ProtocolState {
 }
 
 /// The protocol engine.
-#[derive(LogicBlock, Default)]
+#[derive(ActivityBlock, Default)]
 pub struct Protocol {
+    /// Simulation bookkeeping (see `crate::activity`); not hardware.
+    activity: Activity,
     /// Controller clock.
     pub clock: Signal<In, Clock>,
     /// Synchronous reset, active high.
@@ -200,6 +204,12 @@ pub struct Protocol {
     next_transmitter: Signal<Local, Bit>,
     count_plus_1: Signal<Local, Bits<7>>,
     error_now: Signal<Local, Bit>,
+    /// The received bit goes into the CRC register this cycle (the kernel reads its own copy:
+    /// see `crate::activity` on reading a child's input).
+    feed_crc: Signal<Local, Bit>,
+    /// Stuffing stops after this bit (an error or the end of the stuffed fields); reset mode
+    /// also stops it, below, where it no longer matters for the next bit.
+    stop_stuffing: Signal<Local, Bit>,
     error_type: Signal<Local, Bits<2>>,
     segment: Signal<Local, Bits<5>>,
     error_counts: Signal<Local, Bit>,
@@ -355,9 +365,9 @@ impl Logic for Protocol {
         self.stuffing.consume.next = false;
         self.stuffing.level.next = self.rx_bit.val();
         self.stuffing.start.next = false;
-        self.stuffing.stop.next = false;
+        self.stop_stuffing.next = false;
         self.crc.clear.next = false;
-        self.crc.feed.next = false;
+        self.feed_crc.next = false;
         self.crc.level.next = self.rx_bit.val();
         self.faults.rec_plus_1.next = false;
         self.faults.rec_plus_8.next = false;
@@ -517,7 +527,7 @@ impl Logic for Protocol {
                         }
                     }
                     ProtocolState::Arbitration => {
-                        self.crc.feed.next = true;
+                        self.feed_crc.next = true;
                         // Identifier bits: positions 0..10 and 13..30 (the count stays below 32
                         // here; equalities, not comparisons, which are carry chains on FPGAs).
                         if (self.count.q.val() != 11)
@@ -560,7 +570,7 @@ impl Logic for Protocol {
                         }
                     }
                     ProtocolState::Control => {
-                        self.crc.feed.next = true;
+                        self.feed_crc.next = true;
                         // From count 2 on, or from 1 in a standard frame (r0 is bit 0).
                         if (self.count.q.val() != 0)
                             & !((self.count.q.val() == 1) & self.ide_reg.q.val())
@@ -583,7 +593,7 @@ impl Logic for Protocol {
                         }
                     }
                     ProtocolState::Data => {
-                        self.crc.feed.next = true;
+                        self.feed_crc.next = true;
                         self.consume_stream.next = self.transmitter.q.val();
                         self.byte_reg.d.next =
                             (self.byte_reg.q.val() << 1).replace_bit(0, self.rx_bit.val());
@@ -601,7 +611,7 @@ impl Logic for Protocol {
                         }
                     }
                     ProtocolState::Crc => {
-                        self.crc.feed.next = true;
+                        self.feed_crc.next = true;
                         if self.count.q.val() == 14 {
                             self.next_field.next = ProtocolState::CrcDelimiter;
                         }
@@ -611,7 +621,7 @@ impl Logic for Protocol {
                         }
                     }
                     ProtocolState::CrcDelimiter => {
-                        self.stuffing.stop.next = true;
+                        self.stop_stuffing.next = true;
                         self.next_field.next = ProtocolState::AckSlot;
                         if self.rx_bit.val() == false {
                             self.error_now.next = true;
@@ -809,7 +819,7 @@ impl Logic for Protocol {
             if self.error_now.val() {
                 self.next_field.next = ProtocolState::ErrorFlag;
                 self.next_count.next = 0.into();
-                self.stuffing.stop.next = true;
+                self.stop_stuffing.next = true;
                 self.consume_stream.next = false;
                 self.flag_passive.d.next = self.flag_is_passive.val();
                 self.after_error_flag.d.next = true;
@@ -875,6 +885,8 @@ impl Logic for Protocol {
             self.tx_ptr.d.next = 1.into();
             self.tx_left.d.next = 0.into();
         }
+
+        self.crc.feed.next = self.feed_crc.val();
 
         // ---- The next bit to send, from the next state.
         // Where the next field is the arbitration or control field, its count comes from registers
@@ -956,7 +968,7 @@ impl Logic for Protocol {
                 if self.next_transmitter.val() {
                     // The MSB of the register after this bit (fed unless it was a stuff bit).
                     self.next_bit.next = self.crc.value.val().get_bit(14);
-                    if self.crc.feed.val() {
+                    if self.feed_crc.val() {
                         self.next_bit.next = self.crc.value.val().get_bit(13)
                             ^ self.crc.value.val().get_bit(14)
                             ^ self.rx_bit.val();
@@ -977,13 +989,14 @@ impl Logic for Protocol {
             }
             _ => {}
         }
+        self.stuffing.stop.next = self.stop_stuffing.val();
         // Five equal bits with this one: the next bit is a stuff bit (complement of this level).
         if self.stuffing.four_equal.val()
             & !self.stuffing.stuff_bit.val()
             & (self.rx_bit.val() == self.stuffing.run_level.val())
             & self.next_transmitter.val()
             & !self.error_now.val()
-            & !self.stuffing.stop.val()
+            & !self.stop_stuffing.val()
         {
             self.next_bit.next = self.rx_bit.val() == false;
         }

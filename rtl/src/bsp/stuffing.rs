@@ -13,9 +13,13 @@
 
 use rust_hdl::prelude::*;
 
+use crate::activity::{Activity, ActivityBlock};
+
 /// Stuff-run tracker of the bit stream processor.
-#[derive(LogicBlock, Default)]
+#[derive(ActivityBlock, Default)]
 pub struct BitStuffing {
+    /// Simulation bookkeeping (see `crate::activity`); not hardware.
+    activity: Activity,
     /// Controller clock.
     pub clock: Signal<In, Clock>,
     /// Synchronous reset, active high.
