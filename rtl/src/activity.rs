@@ -14,7 +14,8 @@
 //!    whole design loads in the one pass in which the clock is high, from values settled before
 //!    the edge, as the Verilog's `always @(posedge clock)` does;
 //! 4. visits a child only when the kernel ran (it may have written the child's inputs), the clock
-//!    moved, or the child changed at its last visit.
+//!    moved, or the child changed at its last visit, and latches the child's inputs only in the
+//!    first case.
 //!
 //! What the kernels read: in rust-hdl 0.46 `val()` of an `Out` or `Local` signal returns `next`
 //! (what was just written), while `val()` of an `In` returns the value latched at the owner's
@@ -57,6 +58,9 @@ pub struct Activity {
 
 /// A block as its parent's activity-driven `update_all` sees it.
 pub trait Child: Block {
+    /// One `update_all` pass over the block; `inputs_written` is false when the parent's kernel did
+    /// not run since the last visit, so no input can have changed.
+    fn visit(&mut self, inputs_written: bool);
     /// Drives the block's clock input(s) with the parent's clock level.
     fn drive_clock(&mut self, level: Clock);
     /// Nothing in the block changed at its last visit: visiting it again changes nothing unless
@@ -72,6 +76,10 @@ pub trait Child: Block {
 /// it sees a rising edge one pass after its clock input latched it (from the inputs latched then,
 /// which are from before the edge).
 impl<D: Synth, const N: usize> Child for RAM<D, N> {
+    fn visit(&mut self, _inputs_written: bool) {
+        self.update_all();
+    }
+
     fn drive_clock(&mut self, level: Clock) {
         self.read_clock.next = level;
         self.write_clock.next = level;

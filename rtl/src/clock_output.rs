@@ -31,6 +31,10 @@ impl Logic for ClockOutput {
 /// The clock is data here: rust-hdl's derive re-runs the kernel, and the parent visits the block,
 /// whenever the clock moves.
 impl crate::activity::Child for ClockOutput {
+    fn visit(&mut self, _inputs_written: bool) {
+        self.update_all();
+    }
+
     fn drive_clock(&mut self, level: Clock) {
         self.clock.next = level;
     }

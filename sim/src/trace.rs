@@ -9,13 +9,15 @@
 //! the agreement checks decode the file without being told. Output is buffered and goes to a
 //! temporary file that replaces the target only when [`VcdTracer::finish`] succeeds, so an aborted run
 //! never leaves a half-written VCD behind (a tracer dropped without finishing removes its temporary
-//! file).
+//! file). The `vcd` crate writes the header; value changes, one or more per simulated clock edge,
+//! are written as bytes with the identifiers formatted once (`fmt` per change cost a sixth of a
+//! traced run).
 
 use std::fs::File;
-use std::io::{self, BufWriter};
+use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use vcd::{IdCode, ReferenceIndex, TimescaleUnit, Value, VarType};
+use vcd::{IdCode, ReferenceIndex, TimescaleUnit, VarType};
 
 use crate::bus_decoder::BusTiming;
 use crate::time::FS_PER_NS;
@@ -37,15 +39,50 @@ impl Probe {
     }
 }
 
+/// A variable's identifier code as written after its value in a change line.
+struct Wire(Box<[u8]>);
+
+impl Wire {
+    fn new(id: IdCode) -> Wire {
+        Wire(id.to_string().into_bytes().into_boxed_slice())
+    }
+}
+
+/// Writes the change line of `wire` to `value`: `0<id>` or `1<id>`.
+fn change(out: &mut impl Write, wire: &Wire, value: bool) -> io::Result<()> {
+    out.write_all(if value { b"1" } else { b"0" })?;
+    out.write_all(&wire.0)?;
+    out.write_all(b"\n")
+}
+
+/// Writes the timestamp line `#<ns>`.
+fn timestamp(out: &mut impl Write, ns: u64) -> io::Result<()> {
+    let mut text = [0u8; 21];
+    let mut at = text.len();
+    let mut rest = ns;
+    loop {
+        at -= 1;
+        text[at] = b'0' + (rest % 10) as u8;
+        rest /= 10;
+        if rest == 0 {
+            break;
+        }
+    }
+    at -= 1;
+    text[at] = b'#';
+    out.write_all(&text[at..])?;
+    out.write_all(b"\n")
+}
+
 struct ProbeIds {
-    /// One id per bit, bit 0 first.
-    bits: Vec<IdCode>,
+    /// One wire per bit, bit 0 first.
+    bits: Vec<Wire>,
     last: u64,
 }
 
 struct DeviceTrace {
-    tx: IdCode,
-    rx: IdCode,
+    tx: Wire,
+    rx: Wire,
     tx_last: bool,
     rx_last: bool,
     probes: Vec<ProbeIds>,
@@ -53,23 +90,16 @@ struct DeviceTrace {
 
 /// Writes the bus and per-device signals of one simulation run as a VCD file.
 pub struct VcdTracer {
-    writer: vcd::Writer<BufWriter<File>>,
+    /// The file after the header.
+    out: BufWriter<File>,
     target: PathBuf,
     temporary: PathBuf,
-    bus: IdCode,
+    bus: Wire,
     bus_last: bool,
     bus_probes: Vec<ProbeIds>,
     devices: Vec<DeviceTrace>,
     now_ns: u64,
     finished: bool,
-}
-
-fn level(v: bool) -> Value {
-    if v {
-        Value::V1
-    } else {
-        Value::V0
-    }
 }
 
 impl VcdTracer {
@@ -89,14 +119,15 @@ impl VcdTracer {
                 format!("cannot create {}: {e}", temporary.display()),
             )
         })?;
-        let mut writer = vcd::Writer::new(BufWriter::with_capacity(1 << 16, file));
+        let mut out = BufWriter::with_capacity(1 << 16, file);
+        let mut writer = vcd::Writer::new(&mut out);
         writer.comment(concat!("written by cansim ", env!("CARGO_PKG_VERSION")))?;
         if let Some(timing) = timing {
             writer.comment(&timing_comment(timing))?;
         }
         writer.timescale(1, TimescaleUnit::NS)?;
         writer.add_module("top")?;
-        let bus = writer.add_wire(1, "bus")?;
+        let bus = Wire::new(writer.add_wire(1, "bus")?);
         let bus_probes = bus_probes
             .iter()
             .map(|p| add_probe(&mut writer, p))
@@ -105,8 +136,8 @@ impl VcdTracer {
         let mut traces = Vec::new();
         for (name, probes) in devices {
             writer.add_module(name)?;
-            let tx = writer.add_wire(1, "tx")?;
-            let rx = writer.add_wire(1, "rx")?;
+            let tx = Wire::new(writer.add_wire(1, "tx")?);
+            let rx = Wire::new(writer.add_wire(1, "rx")?);
             let ids = probes
                 .iter()
                 .map(|p| add_probe(&mut writer, p))
@@ -121,24 +152,24 @@ impl VcdTracer {
             });
         }
         writer.enddefinitions()?;
-        writer.timestamp(0)?;
-        writer.change_scalar(bus, Value::V1)?;
+        timestamp(&mut out, 0)?;
+        change(&mut out, &bus, true)?;
         for p in &bus_probes {
-            for id in &p.bits {
-                writer.change_scalar(*id, Value::V0)?;
+            for wire in &p.bits {
+                change(&mut out, wire, false)?;
             }
         }
         for d in &traces {
-            writer.change_scalar(d.tx, Value::V1)?;
-            writer.change_scalar(d.rx, Value::V1)?;
+            change(&mut out, &d.tx, true)?;
+            change(&mut out, &d.rx, true)?;
             for p in &d.probes {
-                for id in &p.bits {
-                    writer.change_scalar(*id, Value::V0)?;
+                for wire in &p.bits {
+                    change(&mut out, wire, false)?;
                 }
             }
         }
         Ok(VcdTracer {
-            writer,
+            out,
             target: path.to_path_buf(),
             temporary,
             bus,
@@ -154,7 +185,7 @@ impl VcdTracer {
         let ns = (t_fs + FS_PER_NS / 2) / FS_PER_NS;
         if ns != self.now_ns {
             self.now_ns = ns;
-            self.writer.timestamp(ns)?;
+            timestamp(&mut self.out, ns)?;
         }
         Ok(())
     }
@@ -164,7 +195,7 @@ impl VcdTracer {
         if value != self.bus_last {
             self.bus_last = value;
             self.at(t_fs)?;
-            self.writer.change_scalar(self.bus, level(value))?;
+            change(&mut self.out, &self.bus, value)?;
         }
         Ok(())
     }
@@ -190,14 +221,14 @@ impl VcdTracer {
         let d = &mut self.devices[index];
         if d.tx_last != tx {
             d.tx_last = tx;
-            self.writer.change_scalar(d.tx, level(tx))?;
+            change(&mut self.out, &d.tx, tx)?;
         }
         if d.rx_last != rx {
             d.rx_last = rx;
-            self.writer.change_scalar(d.rx, level(rx))?;
+            change(&mut self.out, &d.rx, rx)?;
         }
         for (p, &v) in d.probes.iter_mut().zip(values) {
-            write_probe(&mut self.writer, p, v)?;
+            write_probe(&mut self.out, p, v)?;
         }
         Ok(())
     }
@@ -209,16 +240,16 @@ impl VcdTracer {
             return Ok(());
         }
         self.at(t_fs)?;
-        write_probe(&mut self.writer, &mut self.bus_probes[index], value)
+        write_probe(&mut self.out, &mut self.bus_probes[index], value)
     }
 
     /// Writes the final timestamp, flushes, and moves the file into place.
     pub fn finish(mut self, t_end_fs: u64) -> io::Result<PathBuf> {
         let end_ns = (t_end_fs + FS_PER_NS / 2) / FS_PER_NS;
         if end_ns > self.now_ns {
-            self.writer.timestamp(end_ns)?;
+            timestamp(&mut self.out, end_ns)?;
         }
-        self.writer.flush()?;
+        self.out.flush()?;
         std::fs::rename(&self.temporary, &self.target).map_err(|e| {
             io::Error::new(
                 e.kind(),
@@ -231,7 +262,7 @@ impl VcdTracer {
 }
 
 /// Declares `probe`'s wires: one, or one bit-select wire per bit.
-fn add_probe(writer: &mut vcd::Writer<BufWriter<File>>, probe: &Probe) -> io::Result<ProbeIds> {
+fn add_probe(writer: &mut vcd::Writer<impl Write>, probe: &Probe) -> io::Result<ProbeIds> {
     assert!(
         (1..=64).contains(&probe.width),
         "probe {} has width {}",
@@ -239,12 +270,14 @@ fn add_probe(writer: &mut vcd::Writer<BufWriter<File>>, probe: &Probe) -> io::Re
         probe.width
     );
     let bits = if probe.width == 1 {
-        vec![writer.add_wire(1, probe.name)?]
+        vec![Wire::new(writer.add_wire(1, probe.name)?)]
     } else {
         (0..probe.width)
             .map(|i| {
                 let index = Some(ReferenceIndex::BitSelect(i as i32));
-                writer.add_var(VarType::Wire, 1, probe.name, index)
+                writer
+                    .add_var(VarType::Wire, 1, probe.name, index)
+                    .map(Wire::new)
             })
             .collect::<io::Result<Vec<_>>>()?
     };
@@ -252,16 +285,12 @@ fn add_probe(writer: &mut vcd::Writer<BufWriter<File>>, probe: &Probe) -> io::Re
 }
 
 /// Writes the wires of `probe` whose bit differs in `value`.
-fn write_probe(
-    writer: &mut vcd::Writer<BufWriter<File>>,
-    probe: &mut ProbeIds,
-    value: u64,
-) -> io::Result<()> {
+fn write_probe(out: &mut impl Write, probe: &mut ProbeIds, value: u64) -> io::Result<()> {
     let diff = probe.last ^ value;
     probe.last = value;
-    for (bit, id) in probe.bits.iter().enumerate() {
+    for (bit, wire) in probe.bits.iter().enumerate() {
         if diff >> bit & 1 == 1 {
-            writer.change_scalar(*id, level(value >> bit & 1 == 1))?;
+            change(out, wire, value >> bit & 1 == 1)?;
         }
     }
     Ok(())

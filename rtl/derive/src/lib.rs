@@ -159,12 +159,31 @@ fn activity_block(input: &DeriveInput) -> syn::Result<TokenStream2> {
             }
 
             fn update_all(&mut self) {
-                // Inputs: written by the parent's kernel (or the testbench) before this visit.
+                crate::activity::Child::visit(self, true);
+            }
+
+            fn has_changed(&self) -> bool {
+                self.#activity.changed
+            }
+
+            fn accept(&self, name: &str, probe: &mut dyn ::rust_hdl::core::probe::Probe) {
+                probe.visit_start_scope(name, self);
+                #(::rust_hdl::core::block::Block::accept(&self.#visited, #visited_names, probe);)*
+                probe.visit_end_scope(name, self);
+            }
+        }
+
+        impl #impl_generics crate::activity::Child for #name #type_generics #where_clause {
+            fn visit(&mut self, inputs_written: bool) {
+                // Inputs: only the parent's kernel (or the testbench) writes them, so they can
+                // have changed only if it ran since the last visit.
                 let mut inputs_changed = false;
-                #(
-                    ::rust_hdl::core::block::Block::update_all(&mut self.#inputs);
-                    inputs_changed |= self.#inputs.changed;
-                )*
+                if inputs_written {
+                    #(
+                        ::rust_hdl::core::block::Block::update_all(&mut self.#inputs);
+                        inputs_changed |= self.#inputs.changed;
+                    )*
+                }
                 ::rust_hdl::core::block::Block::update_all(&mut self.#clock);
                 let clock_changed = self.#clock.changed;
                 let exhaustive = self.#activity.exhaustive;
@@ -208,7 +227,7 @@ fn activity_block(input: &DeriveInput) -> syn::Result<TokenStream2> {
                         || !crate::activity::Child::settled(&self.#children)
                     {
                         crate::activity::Child::drive_clock(&mut self.#children, clock_level);
-                        ::rust_hdl::core::block::Block::update_all(&mut self.#children);
+                        crate::activity::Child::visit(&mut self.#children, run);
                         children_changed |= !crate::activity::Child::settled(&self.#children);
                     }
                 )*
@@ -223,18 +242,6 @@ fn activity_block(input: &DeriveInput) -> syn::Result<TokenStream2> {
                     || children_changed;
             }
 
-            fn has_changed(&self) -> bool {
-                self.#activity.changed
-            }
-
-            fn accept(&self, name: &str, probe: &mut dyn ::rust_hdl::core::probe::Probe) {
-                probe.visit_start_scope(name, self);
-                #(::rust_hdl::core::block::Block::accept(&self.#visited, #visited_names, probe);)*
-                probe.visit_end_scope(name, self);
-            }
-        }
-
-        impl #impl_generics crate::activity::Child for #name #type_generics #where_clause {
             fn drive_clock(&mut self, level: ::rust_hdl::core::clock::Clock) {
                 self.#clock.next = level;
             }

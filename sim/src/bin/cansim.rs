@@ -181,7 +181,8 @@ enum Command {
     /// min, max of several runs) for each node count, without and with VCD tracing, and one
     /// `BENCH ...` line per result.
     Bench {
-        /// Engines of the controllers to measure (comma-separated: rust-hdl, verilator)
+        /// Engines of the controllers to measure (comma-separated: rust-hdl, rust-hdl-exhaustive,
+        /// verilator)
         /// [default: the one CAN_ENGINE chooses, else rust-hdl].
         #[arg(long, value_delimiter = ',')]
         engine: Vec<ModelEngine>,
