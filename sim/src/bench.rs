@@ -283,9 +283,41 @@ pub fn bench_line(engine: &str, nodes: usize, trace: bool, summary: &BenchSummar
     )
 }
 
+/// The cost of tracing as a machine-readable line: the median over the run pairs (run k without
+/// and run k with tracing, taken one after the other) of the processor time tracing added.
+pub fn trace_cost_line(engine: &str, nodes: usize, off: &[BenchRun], on: &[BenchRun]) -> String {
+    let mut costs: Vec<f64> = off
+        .iter()
+        .zip(on)
+        .map(|(off, on)| 100.0 * (1.0 - on.pair_cycles_per_cpu_s / off.pair_cycles_per_cpu_s))
+        .collect();
+    assert!(!costs.is_empty(), "at least one pair of runs");
+    costs.sort_by(f64::total_cmp);
+    format!(
+        "BENCH engine={engine} nodes={nodes} trace_cost_percent={:.1}",
+        costs[costs.len() / 2]
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_trace_cost_is_the_median_over_run_pairs() {
+        let run = |c: f64| BenchRun {
+            pair_cycles_per_s: c,
+            pair_cycles_per_cpu_s: c,
+            frames_per_s: 1.0,
+        };
+        // Pairs cost 10 %, 50 % and 20 %: the median is 20 %, whatever the run-to-run spread.
+        let off = [run(100.0), run(200.0), run(50.0)];
+        let on = [run(90.0), run(100.0), run(40.0)];
+        assert_eq!(
+            trace_cost_line("verilator", 4, &off, &on),
+            "BENCH engine=verilator nodes=4 trace_cost_percent=20.0"
+        );
+    }
 
     #[test]
     fn every_receiver_gets_every_frame_and_the_speed_is_counted_on_both_engines() {

@@ -717,9 +717,11 @@ fn bench(
     let mut lines = Vec::new();
     for &engine in &engines {
         for &n in nodes {
-            for &trace in traces {
-                let mut results = Vec::with_capacity(runs);
-                for run in 0..runs {
+            // Runs with and without tracing alternate, so that a change in the machine's speed
+            // during the measurement does not show up as a cost of tracing.
+            let mut results: Vec<Vec<sim::bench::BenchRun>> = vec![Vec::new(); traces.len()];
+            for run in 0..runs {
+                for (k, &trace) in traces.iter().enumerate() {
                     if progress {
                         eprint!(
                             "\r{engine}, {n} nodes, trace {}: run {}/{runs} ",
@@ -729,12 +731,17 @@ fn bench(
                     }
                     let path = trace.then_some(&trace_file);
                     let result = sim::bench::run_workload(engine, n, frames, path);
-                    results.push(result.map_err(|e| e.to_string())?);
+                    results[k].push(result.map_err(|e| e.to_string())?);
                 }
-                if progress {
-                    eprint!("\r{:60}\r", "");
-                }
-                let s = sim::bench::summarise(results);
+            }
+            if progress {
+                eprint!("\r{:60}\r", "");
+            }
+            if let [off, on] = results.as_slice() {
+                lines.push(sim::bench::trace_cost_line(engine.name(), n, off, on));
+            }
+            for (&trace, runs) in traces.iter().zip(results) {
+                let s = sim::bench::summarise(runs);
                 println!(
                     "{:<10} {n:>5} {:>5} {:>10.0} ({:.0}..{:.0}) {:>12.0} {:>10.1} {:>9.4}x",
                     engine.name(),
