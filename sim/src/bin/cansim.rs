@@ -198,8 +198,9 @@ enum Command {
         /// Measure without VCD tracing only.
         #[arg(long)]
         no_trace: bool,
-        /// Fault-injection cases per thread count of the campaign scaling measurement (0: skip it).
-        #[arg(long, default_value_t = 400)]
+        /// Fault-injection cases per thread count of the campaign scaling measurement (0: skip it;
+        /// a few seconds per thread count, so that starting and ending the threads do not count).
+        #[arg(long, default_value_t = 2000)]
         campaign_faults: u64,
     },
 }
