@@ -72,26 +72,34 @@ pub trait Child: Block {
     fn set_exhaustive(&mut self, exhaustive: bool);
 }
 
-/// rust-hdl's RAM keeps its own derive: it is visited whenever the clock moves or it changed, and
-/// it sees a rising edge one pass after its clock input latched it (from the inputs latched then,
-/// which are from before the edge).
-impl<D: Synth, const N: usize> Child for RAM<D, N> {
-    fn visit(&mut self, _inputs_written: bool) {
-        self.update_all();
-    }
+/// `Child` for a block that keeps rust-hdl's own derive: it is visited whenever the clock moves or
+/// it changed (its own `update_all` latches everything), and it sees a rising edge one pass after
+/// its clock inputs latched it.
+macro_rules! derived_child {
+    (impl [$($generics:tt)*] $block:ty, clocks: [$($clock:ident),+], output: $output:ident) => {
+        impl<$($generics)*> $crate::activity::Child for $block {
+            fn visit(&mut self, _inputs_written: bool) {
+                ::rust_hdl::core::block::Block::update_all(self);
+            }
 
-    fn drive_clock(&mut self, level: Clock) {
-        self.read_clock.next = level;
-        self.write_clock.next = level;
-    }
+            fn drive_clock(&mut self, level: ::rust_hdl::core::clock::Clock) {
+                $(self.$clock.next = level;)+
+            }
 
-    fn settled(&self) -> bool {
-        !self.has_changed()
-    }
+            fn settled(&self) -> bool {
+                !::rust_hdl::core::block::Block::has_changed(self)
+            }
 
-    fn outputs_changed(&self) -> bool {
-        self.read_data.changed
-    }
+            fn outputs_changed(&self) -> bool {
+                self.$output.changed
+            }
 
-    fn set_exhaustive(&mut self, _exhaustive: bool) {}
+            fn set_exhaustive(&mut self, _exhaustive: bool) {}
+        }
+    };
 }
+pub(crate) use derived_child;
+
+// rust-hdl's RAM reads the inputs latched at the pass of its clock edge, which are from before the
+// edge.
+derived_child!(impl [D: Synth, const N: usize] RAM<D, N>, clocks: [read_clock, write_clock], output: read_data);

@@ -28,24 +28,6 @@ impl Logic for ClockOutput {
     }
 }
 
-/// The clock is data here: rust-hdl's derive re-runs the kernel, and the parent visits the block,
-/// whenever the clock moves.
-impl crate::activity::Child for ClockOutput {
-    fn visit(&mut self, _inputs_written: bool) {
-        self.update_all();
-    }
-
-    fn drive_clock(&mut self, level: Clock) {
-        self.clock.next = level;
-    }
-
-    fn settled(&self) -> bool {
-        !self.has_changed()
-    }
-
-    fn outputs_changed(&self) -> bool {
-        self.level.changed
-    }
-
-    fn set_exhaustive(&mut self, _exhaustive: bool) {}
-}
+// The clock is data here: rust-hdl's derive re-runs the kernel, and the parent visits the block,
+// whenever the clock moves.
+crate::activity::derived_child!(impl [] ClockOutput, clocks: [clock], output: level);
