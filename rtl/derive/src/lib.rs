@@ -4,10 +4,10 @@
 //!
 //! `connect_all` and `accept` are what rust-hdl's `LogicBlock` derive writes (every field but the
 //! `Activity` one, in declaration order), so the generated Verilog and the connectivity checks see
-//! the same design. Only the simulation differs: `update_all` latches the block's inputs first,
-//! captures its `DFF`s on a rising edge of `clock`, runs the kernel only when something it reads
-//! changed, and visits a child only when the kernel ran, the clock moved or the child is still
-//! active.
+//! the same design. Only the simulation differs: `update_all` latches the block's inputs first (when
+//! the parent's kernel wrote them), runs the kernel only when something it reads changed, then loads
+//! its `DFF`s on a rising edge of `clock`, and visits a child only when the kernel ran, the clock
+//! moved or the child is still active.
 //!
 //! Fields are told apart by their type: `Signal<In, Clock>` (the clock, named `clock`), other
 //! `Signal<In, _>` (inputs), `Signal<Out, _>` (outputs), `Signal<Local, _>` (the kernel's temporaries),
