@@ -260,11 +260,13 @@ fn a_disconnected_node_neither_acknowledges_nor_sends_until_it_is_back() {
 
 #[test]
 fn without_a_restart_delay_a_node_stays_bus_off() {
+    // Cut off, `a` reaches bus-off 407 bits (814 us) after its first SOF (ISO 16845-1 8.5.15: 17
+    // bit errors to error passive, then one per 26-bit attempt), well inside the 1 ms cut.
     let report = run_text(&format!(
-        "duration = \"0.6ms\"\n{TWO_NODES}\
+        "duration = \"1.3ms\"\n{TWO_NODES}\
          [[frame]]\nnode = \"a\"\nat = \"100us\"\nframe = \"123#01\"\n\
-         [[frame]]\nnode = \"a\"\nat = \"400us\"\nframe = \"123#02\"\n\
-         [[fault]]\nkind = \"disconnect\"\nnode = \"a\"\nat = \"0us\"\nduration = \"300us\"\n"
+         [[frame]]\nnode = \"a\"\nat = \"1100us\"\nframe = \"123#02\"\n\
+         [[fault]]\nkind = \"disconnect\"\nnode = \"a\"\nat = \"0us\"\nduration = \"1000us\"\n"
     ));
     assert_eq!(states(&report, "a").last(), Some(&CanState::BusOff));
     let a = node(&report, "a");

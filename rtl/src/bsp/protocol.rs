@@ -234,6 +234,8 @@ pub struct Protocol {
     /// In a data or remote frame (arbitration to end of frame), registered.
     in_frame: DFF<Bit>,
     flag_is_passive: Signal<Local, Bit>,
+    /// A bit error in our active error flag restarts it.
+    flag_restarts: Signal<Local, Bit>,
 }
 
 impl Logic for Protocol {
@@ -360,6 +362,7 @@ impl Logic for Protocol {
 
         // A listening node's error flags are passive: it never drives a dominant bit.
         self.flag_is_passive.next = self.faults.error_passive.val() | self.listen_only.val();
+        self.flag_restarts.next = false;
 
         // ---- Sub-block defaults.
         self.stuffing.consume.next = false;
@@ -725,7 +728,11 @@ impl Logic for Protocol {
                                 self.ack_penalty.d.next = false;
                             }
                         } else if self.rx_bit.val() {
-                            // Bit error in our active flag (rules 4 and 5): +8, the flag restarts.
+                            // Bit error in our active flag (rules 4 and 5): +8, the flag restarts,
+                            // active or passive by the state at this detection (ISO 16845-1 7.5.7,
+                            // 8.5.15).
+                            self.flag_passive.d.next = self.flag_is_passive.val();
+                            self.flag_restarts.next = true;
                             self.error_pulse.d.next = true;
                             self.ecc_reg.d.next = 0x11.into();
                             if self.transmitter.q.val() == false {
@@ -979,8 +986,10 @@ impl Logic for Protocol {
                 self.next_bit.next = self.send_ack.val() == false;
             }
             ProtocolState::ErrorFlag => {
+                // A flag (a new one, or ours restarted by a bit error) starts with the state at this
+                // detection; its later bits keep its kind.
                 self.next_bit.next = self.flag_is_passive.val();
-                if self.field.q.val() == ProtocolState::ErrorFlag {
+                if (self.field.q.val() == ProtocolState::ErrorFlag) & !self.flag_restarts.val() {
                     self.next_bit.next = self.flag_passive.q.val();
                 }
             }
