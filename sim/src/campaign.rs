@@ -49,6 +49,8 @@ const INTEGRATION_BITS: u64 = 14;
 const SETTLED_IDLE_BITS: usize = 4;
 /// Longest run in bits (a transmitter at TEC 250 may need a few error frames to reach bus-off).
 const MAX_BITS: usize = 4000;
+/// Longest cut of a node from the bus, in bits.
+const MAX_CUT_BITS: u64 = 48;
 
 /// One injected fault.
 #[derive(Clone, Debug)]
@@ -354,14 +356,22 @@ fn disturb(
     let bit_fs = btr.clocks_per_bit() as u64 * period;
     let tq_fs = btr.clocks_per_tq() as u64 * period;
     let (from, to, node, level) = match *injection {
-        Injection::Bit(Fault { node, kind, .. }) => {
+        Injection::Bit(Fault {
+            node, kind, bits, ..
+        }) => {
+            let from = start + WINDOW_SHIFT_CLOCKS * period;
+            let to = from + bits as u64 * bit_fs;
             let level = match kind {
                 FaultKind::Dominant => Some(DOMINANT),
                 FaultKind::Recessive => Some(!DOMINANT),
                 FaultKind::Flip => None,
+                FaultKind::Disconnected => {
+                    let cut = ids[node.expect("a disconnection is of one node")];
+                    engine.override_drive(cut, from, to, Drive::Recessive);
+                    return;
+                }
             };
-            let from = start + WINDOW_SHIFT_CLOCKS * period;
-            (from, from + bit_fs, node, level)
+            (from, to, node, level)
         }
         Injection::Glitch {
             from_tq,
@@ -457,8 +467,10 @@ pub fn check(case: &Case, run: &Run) -> Verdict {
     if outcome != Outcome::TransmitterBusOff && !run.transmitted {
         violations.push("node 0's request did not end with success".into());
     }
-    if let Some(Injection::Bit(fault)) = &case.injection {
-        compare_with_reference(case, fault, run, &mut violations);
+    match &case.injection {
+        Some(Injection::Bit(fault)) => compare_with_reference(case, Some(fault), run, &mut violations),
+        None => compare_with_reference(case, None, run, &mut violations),
+        Some(Injection::Glitch { .. }) => {}
     }
     if case.injection.is_none() && outcome != Outcome::NoEffect {
         violations.push(format!("a fault-free frame gave {outcome:?}"));
@@ -492,12 +504,17 @@ fn golden_decoder_accepts_corruption(case: &Case) -> bool {
     if fault.bit >= bits.len() {
         return false;
     }
-    let level = match fault.kind {
-        FaultKind::Flip => !bits[fault.bit],
-        FaultKind::Dominant => DOMINANT,
-        FaultKind::Recessive => !DOMINANT,
-    };
-    bits.set(fault.bit, level);
+    for bit in fault.bit..(fault.bit + fault.bits).min(bits.len()) {
+        let level = match fault.kind {
+            FaultKind::Flip => !bits[bit],
+            FaultKind::Dominant => DOMINANT,
+            FaultKind::Recessive => !DOMINANT,
+            // Only the transmitter's missing drive changes the frame's bits.
+            FaultKind::Disconnected if fault.node == Some(0) => !DOMINANT,
+            FaultKind::Disconnected => bits[bit],
+        };
+        bits.set(bit, level);
+    }
     decode(&bits).is_ok_and(|d| d.frame != case.frame)
 }
 
@@ -528,8 +545,15 @@ fn in_last_eof_bits(case: &Case) -> bool {
     bit == eof6 || bit == eof6 + 1
 }
 
-fn compare_with_reference(case: &Case, fault: &Fault, run: &Run, violations: &mut Vec<String>) {
-    let golden = reference::simulate(&reference_scenario(case), Some(fault), MAX_BITS);
+/// Compares the bus, the deliveries, the error kinds and every node's TEC, REC and error state
+/// (active / passive / bus-off) at the end of `run` with the golden model's for the same case.
+fn compare_with_reference(
+    case: &Case,
+    fault: Option<&Fault>,
+    run: &Run,
+    violations: &mut Vec<String>,
+) {
+    let golden = reference::simulate(&reference_scenario(case), fault, MAX_BITS);
     let common = golden.bus.len().min(run.bus.len());
     if let Some(k) = (0..common).find(|&k| golden.bus[k] != run.bus[k]) {
         violations.push(format!(
@@ -666,13 +690,27 @@ pub fn random_case(rng: &mut Rng) -> Case {
     } else {
         Some(rng.below(NODES as u64) as usize)
     };
-    let injection = if rng.chance(80) {
+    let injection = if rng.chance(10) {
+        // A node cut from the bus for a while: its receiver reads recessive, or its drive does not
+        // reach the bus; long enough to take an active transmitter to error passive (17 bits).
+        let kind = if rng.chance(50) {
+            FaultKind::Recessive
+        } else {
+            FaultKind::Disconnected
+        };
+        Injection::Bit(Fault {
+            bit,
+            bits: 2 + rng.below(MAX_CUT_BITS - 1) as usize,
+            node: Some(rng.below(NODES as u64) as usize),
+            kind,
+        })
+    } else if rng.chance(80) {
         let kind = match rng.below(5) {
             0 => FaultKind::Dominant,
             1 => FaultKind::Recessive,
             _ => FaultKind::Flip,
         };
-        Injection::Bit(Fault { bit, node, kind })
+        Injection::Bit(Fault::single(bit, node, kind))
     } else {
         let quanta_per_bit = campaign_btr().quanta_per_bit() as u64;
         Injection::Glitch {

@@ -3,7 +3,8 @@
 //! project's conformance catalog (`CONFORMANCE.md`), independently of the RTL.
 //!
 //! It is the oracle of the fault-injection property tests: one node sends one frame, at most one
-//! [`Fault`] changes the level that one node (or every node) sees in one bit, and [`simulate`]
+//! [`Fault`] changes the level that one node (or every node) sees in one or more consecutive bits,
+//! or keeps one node's drive off the bus for a while (a node cut from the bus), and [`simulate`]
 //! computes bit by bit what every node drives, what the bus carries, and for every node the
 //! frames it delivers, the errors it detects and its final error counters.
 //!
@@ -30,7 +31,8 @@
 //! * the node that transmitted the last frame stays "transmitter" for the fault confinement
 //!   rules until the next start of frame (error and overload frames after its own frame); a
 //!   transmitter that loses arbitration is a receiver from that bit on (no suspend after it).
-//! * [`Outcome::bus`] is the AND of the drives: a fault changes what nodes see, not the bus.
+//! * [`Outcome::bus`] is the AND of the drives that reach the bus: a fault changes what nodes see,
+//!   not the bus, except [`FaultKind::Disconnected`], whose node's drive is left out.
 //!   [`NodeResult::drive`] (an addition to the requested API) gives what each node drove.
 //! * the run ends [`IDLE_BITS_AT_END`] bus-idle bits after the last node's intermission.
 
@@ -100,8 +102,12 @@ pub enum FaultKind {
     Flip,
     /// The level seen is dominant whatever the bus carries.
     Dominant,
-    /// The level seen is recessive whatever the bus carries.
+    /// The level seen is recessive whatever the bus carries (with a node and several bits: a node
+    /// whose receiver is cut from the bus).
     Recessive,
+    /// The node's drive does not reach the bus (its transmitter is cut off); it sees the bus the
+    /// other nodes make. Needs a node.
+    Disconnected,
 }
 
 impl FaultKind {
@@ -111,19 +117,23 @@ impl FaultKind {
             FaultKind::Flip => !level,
             FaultKind::Dominant => DOMINANT,
             FaultKind::Recessive => RECESSIVE,
+            FaultKind::Disconnected => level,
         }
     }
 }
 
-/// One fault: at bus bit `bit` (bit 0 = SOF of the first transmission attempt), seen by node
-/// `node` only (a local disturbance) or by all nodes (`None`: the bus itself).
+/// One fault: from bus bit `bit` (bit 0 = SOF of the first transmission attempt) for `bits` bits,
+/// seen by node `node` only (a local disturbance) or by all nodes (`None`: the bus itself).
 ///
 /// The fault changes only what the nodes see, never what they drive; the bus level recorded in
-/// [`Outcome::bus`] is the AND of the drives.
+/// [`Outcome::bus`] is the AND of the drives that reach the bus (all but a
+/// [`FaultKind::Disconnected`] node's).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Fault {
-    /// Bus bit index of the fault.
+    /// Bus bit index of the fault's first bit.
     pub bit: usize,
+    /// Consecutive bits the fault lasts (at least 1).
+    pub bits: usize,
     /// The node that sees the fault, or `None` for every node.
     pub node: Option<usize>,
     /// How the level seen is changed.
@@ -131,14 +141,34 @@ pub struct Fault {
 }
 
 impl Fault {
+    /// A fault of the one bus bit `bit`.
+    pub fn single(bit: usize, node: Option<usize>, kind: FaultKind) -> Fault {
+        Fault {
+            bit,
+            bits: 1,
+            node,
+            kind,
+        }
+    }
+
+    /// Whether the fault lasts through bus bit `bit`.
+    fn covers(&self, bit: usize) -> bool {
+        (self.bit..self.bit + self.bits).contains(&bit)
+    }
+
     /// The level node `node` sees in bus bit `bit` when the bus carries `level`.
     fn seen(&self, bit: usize, node: usize, level: bool) -> bool {
         let hits_node = self.node.is_none_or(|faulty| faulty == node);
-        if bit == self.bit && hits_node {
+        if self.covers(bit) && hits_node {
             self.kind.apply(level)
         } else {
             level
         }
+    }
+
+    /// Whether what node `node` drives in bus bit `bit` reaches the bus.
+    fn reaches_bus(&self, bit: usize, node: usize) -> bool {
+        !(self.kind == FaultKind::Disconnected && self.node == Some(node) && self.covers(bit))
     }
 }
 
@@ -213,16 +243,18 @@ pub struct Outcome {
 ///
 /// # Panics
 /// If the scenario is inconsistent: no node, `transmitter >= nodes`, or counter vectors whose
-/// length is not `nodes`.
+/// length is not `nodes`; or if the fault lasts no bit or disconnects no particular node.
 pub fn simulate(scenario: &Scenario, fault: Option<&Fault>, max_bits: usize) -> Outcome {
-    check_scenario(scenario);
+    check_scenario(scenario, fault);
     let mut nodes: Vec<Node> = (0..scenario.nodes)
         .map(|index| Node::new(scenario, index))
         .collect();
     let mut bus = Vec::new();
     while bus.len() < max_bits {
         let bit = bus.len();
-        let level = nodes.iter().all(Node::drive);
+        let level = nodes.iter().enumerate().all(|(index, node)| {
+            node.drive() || fault.is_some_and(|fault| !fault.reaches_bus(bit, index))
+        });
         bus.push(level);
         for (index, node) in nodes.iter_mut().enumerate() {
             let seen = fault.map_or(level, |fault| fault.seen(bit, index, level));
@@ -241,8 +273,15 @@ pub fn simulate(scenario: &Scenario, fault: Option<&Fault>, max_bits: usize) -> 
     }
 }
 
-/// Panics on an inconsistent scenario.
-fn check_scenario(scenario: &Scenario) {
+/// Panics on an inconsistent scenario or fault.
+fn check_scenario(scenario: &Scenario, fault: Option<&Fault>) {
+    if let Some(fault) = fault {
+        assert!(fault.bits > 0, "a fault lasts at least one bit");
+        assert!(
+            fault.kind != FaultKind::Disconnected || fault.node.is_some(),
+            "a disconnection is of one node"
+        );
+    }
     assert!(scenario.nodes > 0, "a scenario needs at least one node");
     assert!(
         scenario.transmitter < scenario.nodes,
@@ -1072,7 +1111,7 @@ mod tests {
     }
 
     fn fault(bit: usize, node: Option<usize>, kind: FaultKind) -> Fault {
-        Fault { bit, node, kind }
+        Fault::single(bit, node, kind)
     }
 
     fn run(scenario: &Scenario, fault: Option<Fault>) -> Outcome {

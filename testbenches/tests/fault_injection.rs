@@ -66,7 +66,7 @@ fn bit_fault_case() -> impl Strategy<Value = Case> {
                 frame,
                 tec: [tec, 0, 0],
                 rec: [0, rec, rec / 2],
-                injection: Some(Injection::Bit(Fault { bit, node, kind })),
+                injection: Some(Injection::Bit(Fault::single(bit, node, kind))),
             }
         })
 }
@@ -127,6 +127,70 @@ proptest! {
     }
 }
 
+/// A node cut from the bus for 2..48 bits somewhere in the frame: its receiver reads recessive, or
+/// its drive does not reach the bus (the class of fault behind ISO 16845-1 8.5.15).
+fn cut_case() -> impl Strategy<Value = Case> {
+    (
+        frame_strategy(),
+        prop_oneof![3 => Just(0u8), 1 => 0u8..=250],
+        0.0f64..1.0,
+        2usize..=48,
+        0..NODES,
+        prop_oneof![Just(FaultKind::Recessive), Just(FaultKind::Disconnected)],
+    )
+        .prop_map(|(frame, tec, at, bits, node, kind)| {
+            let len = encode(&frame).len() + 3;
+            let bit = ((len as f64 * at) as usize).min(len - 1);
+            Case {
+                frame,
+                tec: [tec, 0, 0],
+                rec: [0; NODES],
+                injection: Some(Injection::Bit(Fault {
+                    bit,
+                    bits,
+                    node: Some(node),
+                    kind,
+                })),
+            }
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+    #[test]
+    fn a_node_cut_from_the_bus_for_a_while_agrees_with_the_golden_model(case in cut_case()) {
+        let run = run_rtl(&case);
+        let verdict = check(&case, &run);
+        prop_assert!(verdict.violations.is_empty(), "{:#?}\n{:#?}", verdict.violations, run);
+    }
+}
+
+/// The transmitter's receiver cut from the bus for its SOF and 16 more bits (ISO 16845-1 8.5.15):
+/// the SOF and 16 bits of restarted active error flags are bit errors (TEC 8 × 17 = 136, error
+/// passive), then with the bus back its passive flag, suspend transmission and a successful
+/// retransmission (TEC 135). The RTL and the golden model agree bit by bit.
+#[test]
+fn transmitter_cut_for_17_bits_is_error_passive_after_17_bit_errors() {
+    let case = Case {
+        frame: standard_frame(),
+        tec: [0; NODES],
+        rec: [0; NODES],
+        injection: Some(Injection::Bit(Fault {
+            bit: 0,
+            bits: 17,
+            node: Some(0),
+            kind: FaultKind::Recessive,
+        })),
+    };
+    let run = run_rtl(&case);
+    assert_no_violation(&case, &run);
+    let transmitter = &run.nodes[0];
+    assert_eq!(transmitter.errors.len(), 17, "{:02X?}", transmitter.errors);
+    assert!(transmitter.errors.iter().all(|ecc| ecc >> 6 == 0), "bit errors");
+    assert_eq!(transmitter.tec, 135, "17 × 8, then −1 for the retransmission");
+    assert!(transmitter.error_passive && run.transmitted);
+}
+
 fn standard_frame() -> Frame {
     Frame::data(Id::standard(0x2A5).unwrap(), &[0x12, 0x34, 0x56]).unwrap()
 }
@@ -138,11 +202,11 @@ fn eof_case(eof_index: u16, node: usize) -> Case {
         frame,
         tec: [0; NODES],
         rec: [0; NODES],
-        injection: Some(Injection::Bit(Fault {
+        injection: Some(Injection::Bit(Fault::single(
             bit,
-            node: Some(node),
-            kind: FaultKind::Dominant,
-        })),
+            Some(node),
+            FaultKind::Dominant,
+        ))),
     }
 }
 
