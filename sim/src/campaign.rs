@@ -468,7 +468,9 @@ pub fn check(case: &Case, run: &Run) -> Verdict {
         violations.push("node 0's request did not end with success".into());
     }
     match &case.injection {
-        Some(Injection::Bit(fault)) => compare_with_reference(case, Some(fault), run, &mut violations),
+        Some(Injection::Bit(fault)) => {
+            compare_with_reference(case, Some(fault), run, &mut violations)
+        }
         None => compare_with_reference(case, None, run, &mut violations),
         Some(Injection::Glitch { .. }) => {}
     }

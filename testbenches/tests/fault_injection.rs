@@ -186,8 +186,14 @@ fn transmitter_cut_for_17_bits_is_error_passive_after_17_bit_errors() {
     assert_no_violation(&case, &run);
     let transmitter = &run.nodes[0];
     assert_eq!(transmitter.errors.len(), 17, "{:02X?}", transmitter.errors);
-    assert!(transmitter.errors.iter().all(|ecc| ecc >> 6 == 0), "bit errors");
-    assert_eq!(transmitter.tec, 135, "17 × 8, then −1 for the retransmission");
+    assert!(
+        transmitter.errors.iter().all(|ecc| ecc >> 6 == 0),
+        "bit errors"
+    );
+    assert_eq!(
+        transmitter.tec, 135,
+        "17 × 8, then −1 for the retransmission"
+    );
     assert!(transmitter.error_passive && run.transmitted);
 }
 
