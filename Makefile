@@ -16,8 +16,10 @@ test-long: tools
 ## (on_registers::), with the controller stepped by the Verilator engine (docs/ENGINES.md).
 REGISTER_SUITES = registers rx_fifo modes controller_conformance register_iut linux_driver \
 	scenarios examples demo waves_on_request conformance_matrix
+## The ISO 16845-1 suites (testbenches/tests/iso_*.rs) run there too.
+ISO_SUITES = $(basename $(notdir $(wildcard testbenches/tests/iso_*.rs)))
 PROTOCOL_SUITES = arbitration bit_timing error_kinds errors fault_confinement frames interframe \
-	synchronisation
+	synchronisation $(ISO_SUITES)
 test-verilator: tools
 	CAN_ENGINE=verilator $(CARGO) test -p testbenches $(addprefix --test ,$(REGISTER_SUITES))
 	CAN_ENGINE=verilator $(CARGO) test -p testbenches $(addprefix --test ,$(PROTOCOL_SUITES)) -- on_registers::
