@@ -417,6 +417,68 @@ fn ov_07_pending_retransmission_after_error_and_overload_frames_takes_a_sof_in_i
     assert_eq!(bench.tec(), 7, "+8, then −1");
 }
 
+/// A dominant disturbance of one bit time in the intermission after a correct frame, starting
+/// `from_sp_tq` quanta after the sample point of intermission bit 2 (LT script positions; the IUT
+/// acknowledged the frame). Returns the bench run to its end and the script bit of intermission bit 2.
+fn intermission_disturbance(iut: Iut, from_sp_tq: i32) -> (ProtocolBench, usize) {
+    let first = encode(&frame());
+    let mut bench = ProtocolBench::new(iut);
+    let bit_2 = SOF + first.len() + 1;
+    let quanta = bench.lt().quanta_per_bit();
+    let start = bench.sample_point_tq() as i32 + from_sp_tq;
+    bench
+        .lt()
+        .release(INTEGRATION_BITS)
+        .send_bits(first.bits.iter().by_vals())
+        .release(40)
+        .force(bit_2, start as u32, quanta, Drive::Dominant);
+    bench.run(1);
+    (bench, bit_2)
+}
+
+/// The disagreement settled by the standard (issue 16, item 6): a dominant disturbance starting
+/// 1 tq after the sample point of intermission bit 2 and lasting one bit time. Intermission bit 2
+/// was sampled recessive, so it is no overload condition; the edge lies in Phase_Seg2 and is used
+/// for synchronisation (in intermission bit 3 a node hard-synchronises on a SOF: ISO 16845-1 7.7.2,
+/// 8.7.2/8.7.3; with |e| ≤ SJW a resynchronisation ends the bit at the same edge); bit 3 is then
+/// sampled dominant, and a dominant third intermission bit is a SOF (ISO 11898-1, interframe
+/// space). The IUT receives: no flag in bit 3. The bus stays recessive after it, so the sixth
+/// recessive bit after that SOF is a stuff error: one active flag, REC 1, ECC stuff error in
+/// ID.28..21.
+fn intermission_disturbance_after_the_sample_point_of_bit_2_is_a_sof(iut: Iut) {
+    let (mut bench, bit_2) = intermission_disturbance(iut, 1);
+    let ack = SOF + encode(&frame()).position(Field::AckSlot, 0).unwrap();
+    // The IUT's bits start up to 3 tq before the LT's (it synchronised on the early edge): its SOF
+    // is LT bit 3 of intermission, its stuff error is its bit 6 after the SOF, the flag its bits 7..12,
+    // seen at the LT's sample points of bits 8..13 after intermission bit 2.
+    let mut expected = vec![ack];
+    expected.extend(bit_2 + 8..=bit_2 + 13);
+    assert_eq!(bench.iut_dominant_bits(0, bit_2 + 30), expected);
+    assert_eq!(
+        bench.rec(),
+        1,
+        "the stuff error: +1; no dominant bit after the flag"
+    );
+    assert_eq!(
+        bench.iut_events(),
+        vec![NodeEvent::Received(frame()), NodeEvent::BusError(0xA2)],
+        "the frame, then a stuff error (receiving, ID.28..21)"
+    );
+}
+
+/// The same disturbance starting 1 tq before the sample point of intermission bit 2: bit 2 is
+/// sampled dominant, an overload condition (ISO 11898-1; ISO 16845-1 7.4.1): a 6-bit overload flag
+/// from the next bit, REC unchanged.
+fn intermission_disturbance_before_the_sample_point_of_bit_2_is_an_overload_condition(iut: Iut) {
+    let (mut bench, bit_2) = intermission_disturbance(iut, -1);
+    let ack = SOF + encode(&frame()).position(Field::AckSlot, 0).unwrap();
+    let mut expected = vec![ack];
+    expected.extend(flag_after(bit_2));
+    assert_eq!(bench.iut_dominant_bits(0, bit_2 + 30), expected);
+    assert_eq!(bench.rec(), 0);
+    assert_eq!(bench.iut_events(), vec![NodeEvent::Received(frame())]);
+}
+
 testbenches::on_both_iuts! {
     if_01_reset_mode_left_mid_frame_ignores_that_frame,
     if_03_bt_13_pending_transmitter_takes_a_sof_in_intermission_bit_3_as_its_own,
@@ -432,4 +494,6 @@ testbenches::on_both_iuts! {
     ep_09_passive_node_that_lost_arbitration_does_not_suspend,
     ov_02_05_overload_frames_after_error_and_overload_frames_are_not_limited,
     ov_07_pending_retransmission_after_error_and_overload_frames_takes_a_sof_in_intermission_bit_3,
+    intermission_disturbance_after_the_sample_point_of_bit_2_is_a_sof,
+    intermission_disturbance_before_the_sample_point_of_bit_2_is_an_overload_condition,
 }
