@@ -140,6 +140,9 @@ pub enum Outcome {
     /// An error-passive receiver detected an error nobody else saw: its passive error flag cannot
     /// destroy the frame, so it misses it (CAN's rule for error-passive nodes).
     PassiveReceiverMissed,
+    /// A receiver cut from the bus (reading recessive) from before the SOF never saw the frame
+    /// start, so it neither received it nor flagged an error.
+    CutReceiverMissed,
     /// A node delivered a frame that was not sent: allowed only for the known weakness of CAN (a
     /// fault that moves the stuffing can escape the CRC).
     Corrupted,
@@ -440,6 +443,8 @@ pub fn check(case: &Case, run: &Run) -> Verdict {
         Outcome::Duplicate
     } else if copies.contains(&0) && missing_only_at_passive_receivers(case, run, &copies) {
         Outcome::PassiveReceiverMissed
+    } else if copies.contains(&0) && missing_only_where_cut_through_the_sof(case, &copies) {
+        Outcome::CutReceiverMissed
     } else if copies.contains(&0) {
         Outcome::Omission
     } else if any_error {
@@ -494,6 +499,24 @@ fn missing_only_at_passive_receivers(case: &Case, run: &Run, copies: &[usize]) -
         .iter()
         .enumerate()
         .all(|(i, &c)| c > 0 || error_passive(case, run, i + 1))
+}
+
+/// Whether every receiver without the frame is the one whose receiver was cut from the bus (reading
+/// recessive) from the SOF on: it never saw the frame start.
+fn missing_only_where_cut_through_the_sof(case: &Case, copies: &[usize]) -> bool {
+    let Some(Injection::Bit(Fault {
+        bit: 0,
+        node: Some(cut),
+        kind: FaultKind::Recessive,
+        ..
+    })) = case.injection
+    else {
+        return false;
+    };
+    copies
+        .iter()
+        .enumerate()
+        .all(|(i, &c)| c > 0 || i + 1 == cut)
 }
 
 /// Whether CAN itself cannot detect the fault: the golden decoder accepts the frame's bits with the
