@@ -423,6 +423,16 @@ impl ProtocolBench {
         }
     }
 
+    /// The host clears MOD.RM at the start of script bit `bit`, after a bus-off (the SJA1000 sets RM
+    /// at bus-off, and bus-off recovery counts recessive bits from the host's write). The core has no
+    /// RM: the bench holds it in reset mode until `bit`, which keeps its count of recessive bits at 0
+    /// as RM does on the controller.
+    pub fn clear_reset_mode_at(&mut self, bit: usize) {
+        self.set_enable(false);
+        self.run_to_bit(bit);
+        self.set_enable(true);
+    }
+
     /// Loads TEC (`tec` = true) or REC with `value`, like a host write of TXERR/RXERR in reset
     /// mode. Through the registers it is that write; an IUT in operating mode enters reset mode for
     /// it and leaves it again (and integrates anew).

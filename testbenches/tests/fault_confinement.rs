@@ -495,9 +495,7 @@ const RM_CLEARED_AFTER: usize = 3;
 /// the controller. Returns the script bit of the write.
 fn clear_reset_mode(bench: &mut ProtocolBench, bit: usize) -> usize {
     let cleared = bit + RM_CLEARED_AFTER;
-    bench.set_enable(false);
-    bench.run_to_bit(cleared);
-    bench.set_enable(true);
+    bench.clear_reset_mode_at(cleared);
     bench.run(0);
     cleared
 }
