@@ -302,6 +302,7 @@ pub mod agreement;
 pub mod controller_bench;
 pub mod ecc;
 pub mod equivalence;
+pub mod iso;
 pub mod lint;
 pub mod protocol_bench;
 pub mod register_iut;

@@ -6,17 +6,11 @@ use sim::bus::Drive;
 use sim::can_node::NodeEvent;
 use sim::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE};
 use testbenches::ecc::{ecc, BIT, FORM, SEG_DATA, SEG_ERROR_DELIM};
+use testbenches::iso::{
+    ack_offset, dominant_bits_of, dominant_data_bit, lt_acknowledges_at, lt_sends_at,
+    transmitter_bit_corrupted, DELIMITER, FLAG, INTERMISSION, PENALTY, SUSPEND,
+};
 use testbenches::protocol_bench::{Iut, ProtocolBench};
-
-/// ISO 11898-1: an error flag is 6 bits, its delimiter 8, the intermission 3 and an error-passive
-/// transmitter's suspend transmission 8.
-const FLAG: usize = 6;
-const DELIMITER: usize = 8;
-const INTERMISSION: usize = 3;
-const SUSPEND: usize = 8;
-/// ISO 11898-1 fault confinement: a transmitter error is +8 on TEC; error passive from 128; bus-off
-/// above 255.
-const TX_PENALTY: u8 = 8;
 
 /// "The TEC passive state" of the clauses' set-up: error passive, and still error passive after one
 /// successful transmission (−1), so that suspend transmission follows the IUT's own frames too.
@@ -37,68 +31,12 @@ fn second_frame() -> Frame {
     Frame::data(Id::standard(0x002).unwrap(), &[0x11]).unwrap()
 }
 
-/// Offset of the ACK slot in `frame`'s bits.
-fn ack_offset(frame: &Frame) -> usize {
-    encode(frame).position(Field::AckSlot, 0).expect("ACK slot")
-}
-
-/// The script bits where `frame` starting at `sof` has a dominant bit, SOF to CRC delimiter.
-fn dominant_bits_of(frame: &Frame, sof: usize) -> Vec<usize> {
-    let encoded = encode(frame);
-    (0..ack_offset(frame))
-        .filter(|&i| encoded.bits[i] == DOMINANT)
-        .map(|i| sof + i)
-        .collect()
-}
-
 /// The IUT, error passive with TEC `tec`, transmits [`frame`]; the LT corrupts its first dominant
 /// data bit (a bit error, +8, a passive error flag from the next bit). The LT's script holds the bits
 /// up to the error; returns the bench and the error's bit.
 fn passive_data_error(iut: Iut, tec: u8) -> (ProtocolBench, usize) {
-    let f = frame();
-    let error = dominant_data_bit(&f);
-    let mut bench = ProtocolBench::iut_transmits_with(iut, &f, tec, false);
-    bench
-        .lt()
-        .release(error + 1)
-        .set_bit(error, Drive::ForceRecessive);
-    (bench, error)
-}
-
-/// The LT releases the bus up to `sof`, then sends `frame` with its ACK slot left to the IUT;
-/// returns the script bit of that ACK slot.
-fn lt_sends_at(bench: &mut ProtocolBench, sof: usize, frame: &Frame) -> usize {
-    let played = bench.lt_ref().script_len();
-    assert!(
-        sof >= played,
-        "the LT's frame at {sof} starts before {played}"
-    );
-    bench
-        .lt()
-        .release(sof - played)
-        .send_bits(encode(frame).bits.iter().by_vals());
-    sof + ack_offset(frame)
-}
-
-/// The LT releases the bus for the IUT's `frame` starting at `sof` and acknowledges it, then 4 idle
-/// bits.
-fn lt_acknowledges_at(bench: &mut ProtocolBench, sof: usize, frame: &Frame) {
-    let played = bench.lt_ref().script_len();
-    let len = encode(frame).len();
-    assert!(sof + len + 4 >= played);
-    bench
-        .lt()
-        .release(sof + len + 4 - played)
-        .set_bit(sof + ack_offset(frame), Drive::Dominant);
-}
-
-/// Script position of the first dominant bit of the data field of `frame` (the bit the LT corrupts).
-fn dominant_data_bit(frame: &Frame) -> usize {
-    let encoded = encode(frame);
-    (0..64)
-        .map_while(|i| encoded.position(Field::Data, i))
-        .find(|&p| encoded.bits[p] == DOMINANT)
-        .expect("a dominant data bit")
+    let error = dominant_data_bit(&frame());
+    (transmitter_bit_corrupted(iut, &frame(), tec, error), error)
 }
 
 /// 8.5.15: an error-active transmitter becomes error passive within 17 bit times of errors.
@@ -134,7 +72,7 @@ fn iso_8_5_15_active_transmitter_becomes_passive_within_17_bit_times(iut: Iut) {
     bench.run_to_bit(retransmission);
     assert_eq!(
         bench.tec(),
-        TX_PENALTY * (1 + CORRUPTED_FLAG_BITS as u8),
+        PENALTY * (1 + CORRUPTED_FLAG_BITS as u8),
         "+8 for the data bit error and for each of the 16 flag bit errors"
     );
     assert!(bench.error_passive());
@@ -181,7 +119,7 @@ fn iso_8_5_15_cut_transmitter_reaches_bus_off_at_the_standard_bit(iut: Iut) {
         let sof = FIRST_PASSIVE_ATTEMPT + attempt * ATTEMPT;
         bench.run_to_bit(sof + 1);
         if attempt < 14 {
-            tec += TX_PENALTY;
+            tec += PENALTY;
             assert_eq!(bench.tec(), tec, "attempt at bit {sof}: SOF bit error +8");
             assert!(!bench.bus_off(), "attempt at bit {sof}");
         }
@@ -236,7 +174,7 @@ fn iso_8_5_1_passive_transmitter_ignores_an_active_flag_in_its_passive_flag(iut:
             ],
             "#{case}: one bit error, then the LT's frame"
         );
-        assert_eq!(bench.tec(), PASSIVE_TEC + TX_PENALTY, "#{case}");
+        assert_eq!(bench.tec(), PASSIVE_TEC + PENALTY, "#{case}");
     }
 }
 
@@ -283,7 +221,7 @@ fn iso_8_5_3_passive_transmitter_tolerates_7_dominant_bits_after_its_flag(iut: I
         let sof = dominant_end + DELIMITER + INTERMISSION;
         let ack = lt_sends_at(&mut bench, sof, &lt_frame());
         let retransmission = ack + 1 + 7 + INTERMISSION + 1;
-        lt_acknowledges_at(&mut bench, retransmission, &frame());
+        lt_acknowledges_at(&mut bench, retransmission, &frame(), 4);
         bench.run(0);
         let mut expected = vec![ack];
         expected.extend(dominant_bits_of(&frame(), retransmission));
@@ -301,7 +239,7 @@ fn iso_8_5_3_passive_transmitter_tolerates_7_dominant_bits_after_its_flag(iut: I
             ],
             "#{case}"
         );
-        assert_eq!(bench.tec(), PASSIVE_TEC + TX_PENALTY - 1, "#{case}: +8, −1");
+        assert_eq!(bench.tec(), PASSIVE_TEC + PENALTY - 1, "#{case}: +8, −1");
     }
 }
 
@@ -342,13 +280,13 @@ fn iso_8_5_4_passive_transmitter_receives_a_frame_started_during_suspend(iut: Iu
 fn iso_8_5_5_passive_transmitter_suspends_after_an_error_frame(iut: Iut) {
     let (mut bench, error) = passive_data_error(iut, PASSIVE_TEC);
     let sof = error + 1 + FLAG + DELIMITER + INTERMISSION + SUSPEND;
-    lt_acknowledges_at(&mut bench, sof, &frame());
+    lt_acknowledges_at(&mut bench, sof, &frame(), 4);
     bench.run(0);
     assert_eq!(
         bench.iut_dominant_bits(error + 1, sof + ack_offset(&frame())),
         dominant_bits_of(&frame(), sof)
     );
-    assert_eq!(bench.tec(), PASSIVE_TEC + TX_PENALTY - 1);
+    assert_eq!(bench.tec(), PASSIVE_TEC + PENALTY - 1);
 }
 
 /// 8.5.6: after an overload frame a passive transmitter waits for suspend transmission.
@@ -361,10 +299,10 @@ fn iso_8_5_5_passive_transmitter_suspends_after_an_error_frame(iut: Iut) {
 fn iso_8_5_6_passive_transmitter_suspends_after_an_overload_frame(iut: Iut) {
     let len = encode(&frame()).len();
     let mut bench = ProtocolBench::iut_transmits_with(iut, &frame(), PASSIVE_TEC, false);
-    lt_acknowledges_at(&mut bench, 0, &frame());
+    lt_acknowledges_at(&mut bench, 0, &frame(), 4);
     bench.lt().set_bit(len, Drive::Dominant);
     let sof = len + 1 + FLAG + DELIMITER + INTERMISSION + SUSPEND;
-    lt_acknowledges_at(&mut bench, sof, &second_frame());
+    lt_acknowledges_at(&mut bench, sof, &second_frame(), 4);
     bench.run_to_bit(len);
     bench.send(&second_frame(), false);
     bench.run(0);
@@ -388,9 +326,9 @@ fn iso_8_5_6_passive_transmitter_suspends_after_an_overload_frame(iut: Iut) {
 fn iso_8_5_7_passive_transmitter_suspends_after_its_own_frame(iut: Iut) {
     let len = encode(&frame()).len();
     let mut bench = ProtocolBench::iut_transmits_with(iut, &frame(), PASSIVE_TEC, false);
-    lt_acknowledges_at(&mut bench, 0, &frame());
+    lt_acknowledges_at(&mut bench, 0, &frame(), 4);
     let sof = len + INTERMISSION + SUSPEND;
-    lt_acknowledges_at(&mut bench, sof, &second_frame());
+    lt_acknowledges_at(&mut bench, sof, &second_frame(), 4);
     bench.run_to_bit(len);
     bench.send(&second_frame(), false);
     bench.run(0);
@@ -412,7 +350,7 @@ fn iso_8_5_8_passive_transmitter_that_lost_arbitration_does_not_suspend(iut: Iut
     let mut bench = ProtocolBench::iut_transmits_with(iut, &mine, PASSIVE_TEC, false);
     let ack = lt_sends_at(&mut bench, 0, &winner);
     let sof = ack + 1 + 7 + INTERMISSION + 1;
-    lt_acknowledges_at(&mut bench, sof, &mine);
+    lt_acknowledges_at(&mut bench, sof, &mine, 4);
     bench.run(0);
     let lost_at = encode(&winner)
         .bits
@@ -457,7 +395,7 @@ fn iso_8_5_9_passive_transmitter_does_not_join_a_frame_in_intermission_or_suspen
         let sof = error + 1 + offset;
         let ack = lt_sends_at(&mut bench, sof, &lt_frame());
         let retransmission = sof + encode(&lt_frame()).len() + INTERMISSION;
-        lt_acknowledges_at(&mut bench, retransmission, &frame());
+        lt_acknowledges_at(&mut bench, retransmission, &frame(), 4);
         bench.run(0);
         let mut expected = vec![ack];
         expected.extend(dominant_bits_of(&frame(), retransmission));
@@ -517,7 +455,7 @@ fn iso_8_5_10_passive_transmitter_reaches_bus_off_through_overload_flags(iut: Iu
     let retransmission =
         error + 1 + FLAG + DOMINANT_AFTER_FLAG + DELIMITER + INTERMISSION + SUSPEND;
     let len = encode(&frame()).len();
-    lt_acknowledges_at(&mut bench, retransmission, &frame());
+    lt_acknowledges_at(&mut bench, retransmission, &frame(), 4);
     let overload_bit_1 = retransmission + len + 1;
     bench.lt().set_bit(overload_bit_1 - 1, Drive::Dominant);
     bench.lt().set_bit(overload_bit_1, Drive::ForceRecessive);
@@ -531,11 +469,7 @@ fn iso_8_5_10_passive_transmitter_reaches_bus_off_through_overload_flags(iut: Iu
     let lt_sof = second_overload + 1 + FLAG + DELIMITER + INTERMISSION + SUSPEND;
     let lt_ack = lt_sends_at(&mut bench, lt_sof, &lt_frame());
     bench.run_to_bit(retransmission);
-    assert_eq!(
-        bench.tec(),
-        TEC + TX_PENALTY + 14 * TX_PENALTY,
-        "+8, then 14 × 8"
-    );
+    assert_eq!(bench.tec(), TEC + PENALTY + 14 * PENALTY, "+8, then 14 × 8");
     bench.run_to_bit(second_overload + 1);
     assert!(
         bench.bus_off(),
@@ -605,7 +539,7 @@ fn iso_8_5_11_bus_off_recovery_needs_128_sequences_of_11_recessive_bits(iut: Iut
             .first()
             .copied()
             .unwrap_or_else(|| panic!("#{case}: no SOF within 11 bits after the profile"));
-        lt_acknowledges_at(&mut bench, sof, &f);
+        lt_acknowledges_at(&mut bench, sof, &f, 4);
         bench.run(0);
         assert_eq!(
             bench.iut_dominant_bits(sof, sof + ack_offset(&f)),
@@ -643,7 +577,7 @@ fn iso_8_5_12_passive_flag_waits_for_6_equal_bits(iut: Iut) {
         (last_dominant + 1..=last_dominant + FLAG).collect::<Vec<_>>(),
         "an overload flag right after the LT's dominant bit"
     );
-    assert_eq!(bench.tec(), PASSIVE_TEC + TX_PENALTY);
+    assert_eq!(bench.tec(), PASSIVE_TEC + PENALTY);
 }
 
 /// 8.5.13: a passive transmitter detects a form error in its error delimiter.
@@ -675,7 +609,7 @@ fn iso_8_5_13_passive_transmitter_detects_a_form_error_in_its_error_delimiter(iu
             ],
             "#{case}"
         );
-        assert_eq!(bench.tec(), PASSIVE_TEC + 2 * TX_PENALTY, "#{case}");
+        assert_eq!(bench.tec(), PASSIVE_TEC + 2 * PENALTY, "#{case}");
     }
 }
 
@@ -694,13 +628,13 @@ fn iso_8_5_14_passive_transmitter_repeats_31_bit_times_after_the_error(iut: Iut)
         32,
         "the SOF bit starts 31 bit times after the error's bit ends"
     );
-    lt_acknowledges_at(&mut bench, sof, &frame());
+    lt_acknowledges_at(&mut bench, sof, &frame(), 4);
     bench.run(0);
     assert_eq!(
         bench.iut_dominant_bits(error + 1, sof + ack_offset(&frame())),
         dominant_bits_of(&frame(), sof)
     );
-    assert_eq!(bench.tec(), PASSIVE_TEC + TX_PENALTY - 1);
+    assert_eq!(bench.tec(), PASSIVE_TEC + PENALTY - 1);
 }
 
 testbenches::on_both_iuts! {
