@@ -94,3 +94,29 @@ pub fn transmitter_bit_corrupted(iut: Iut, frame: &Frame, tec: u8, bit: usize) -
         .set_bit(bit, Drive::ForceRecessive);
     bench
 }
+
+/// Where an error-active transmitter starts its frame again after an error detected at `error`: its
+/// flag, the error delimiter and the intermission (ISO 11898-1).
+pub fn active_retransmission(error: usize) -> usize {
+    error + 1 + FLAG + DELIMITER + INTERMISSION
+}
+
+/// The SJA1000 ALC value of a transmitter of `mine` losing to `theirs`: the arbitration position of
+/// the first bit where they differ (identifier bits from 0, SRR/RTR 11, IDE 12, extended bits 13..,
+/// extended RTR 31), which is the bit's index among the frame's bits without stuff bits, less the SOF.
+pub fn arbitration_position(mine: &Frame, theirs: &Frame) -> u8 {
+    let (a, b) = (encode(mine), encode(theirs));
+    let differ = (0..a.len().min(b.len()))
+        .find(|&i| a.bits[i] != b.bits[i])
+        .expect("the frames differ");
+    let field_bits = (0..differ).filter(|&i| !a.tags[i].stuff).count();
+    (field_bits - 1) as u8
+}
+
+/// The script bit where `mine`, sent from SOF 0 against `theirs`, loses arbitration.
+pub fn arbitration_loss_bit(mine: &Frame, theirs: &Frame) -> usize {
+    let (a, b) = (encode(mine), encode(theirs));
+    (0..a.len().min(b.len()))
+        .find(|&i| a.bits[i] != b.bits[i])
+        .expect("the frames differ")
+}
