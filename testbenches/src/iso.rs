@@ -2,10 +2,13 @@
 //! 11898-1, where a frame has its bits, and the lower tester's usual moves in script bits (the LT's
 //! frame at a given bit, the IUT's frame acknowledged, a transmitted bit corrupted).
 
+use rtl::registers::interrupt;
 use sim::bus::Drive;
-use sim::frame::{encode, Field, Frame, DOMINANT};
+use sim::can_node::NodeEvent;
+use sim::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE, STUFF_RUN};
 
-use crate::protocol_bench::{Iut, ProtocolBench};
+use crate::controller_bench::rx_buffer_bytes;
+use crate::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
 
 /// Bits of an error or overload flag (ISO 11898-1).
 pub const FLAG: usize = 6;
@@ -119,4 +122,165 @@ pub fn arbitration_loss_bit(mine: &Frame, theirs: &Frame) -> usize {
     (0..a.len().min(b.len()))
         .find(|&i| a.bits[i] != b.bits[i])
         .expect("the frames differ")
+}
+
+/// Script bit of a receiving IUT's first frame: the LT idles for [`INTEGRATION_BITS`] first.
+pub const RX_SOF: usize = INTEGRATION_BITS;
+
+/// The bus bits of `frame` (SOF to EOF, ACK slot recessive) with SRR, r1 and r0 at the given levels
+/// (the golden encoder sends only the nominal ones), rebuilt with its CRC and stuffing, and the
+/// positions of its stuff bits.
+pub fn encode_with_reserved_bits(
+    frame: &Frame,
+    srr: bool,
+    r1: bool,
+    r0: bool,
+) -> (Vec<bool>, Vec<usize>) {
+    fn push(bits: &mut Vec<bool>, value: u32, width: u32) {
+        bits.extend((0..width).rev().map(|i| value >> i & 1 == 1));
+    }
+    let mut bits = vec![DOMINANT];
+    match frame.id() {
+        Id::Standard(id) => {
+            push(&mut bits, id as u32, 11);
+            bits.extend([frame.is_remote(), DOMINANT, r0]);
+        }
+        Id::Extended(id) => {
+            push(&mut bits, id >> 18, 11);
+            bits.extend([srr, RECESSIVE]);
+            push(&mut bits, id & 0x3_FFFF, 18);
+            bits.extend([frame.is_remote(), r1, r0]);
+        }
+    }
+    push(&mut bits, frame.dlc() as u32, 4);
+    for byte in frame.data_bytes() {
+        push(&mut bits, *byte as u32, 8);
+    }
+    let crc = sim::crc15::crc15(bits.iter().copied());
+    push(&mut bits, crc as u32, 15);
+    let (mut stuffed, mut stuff) = (Vec::new(), Vec::new());
+    let mut run = (0, RECESSIVE);
+    for bit in bits {
+        stuffed.push(bit);
+        run = if bit == run.1 {
+            (run.0 + 1, bit)
+        } else {
+            (1, bit)
+        };
+        if run.0 == STUFF_RUN {
+            stuff.push(stuffed.len());
+            stuffed.push(!bit);
+            run = (1, !bit);
+        }
+    }
+    // CRC delimiter, ACK slot (left to the receivers), ACK delimiter, EOF.
+    stuffed.extend([RECESSIVE; 3 + EOF]);
+    (stuffed, stuff)
+}
+
+/// A receiving IUT: the LT idles until [`RX_SOF`], then sends `bits` (ACK slot recessive) and
+/// idles `tail` bits; nothing is run yet.
+pub fn lt_sends_to_iut(iut: Iut, bits: &[bool], tail: usize) -> ProtocolBench {
+    let mut bench = ProtocolBench::new(iut);
+    bench
+        .lt()
+        .release(RX_SOF)
+        .send_bits(bits.iter().copied())
+        .release(tail);
+    bench
+}
+
+/// The IUT received `frame` sent as `bits` at [`RX_SOF`]: it drove only the ACK slot, reported the
+/// frame and nothing else, and on the controller its interrupt handler read it from the RX buffer
+/// (RI, RMC 1, the SJA1000 buffer bytes).
+pub fn assert_received(bench: &mut ProtocolBench, bits: &[bool], frame: &Frame, what: &str) {
+    let ack = RX_SOF + bits.len() - 2 - EOF;
+    assert_eq!(
+        bench.iut_dominant_bits(0, RX_SOF + bits.len()),
+        vec![ack],
+        "{what}: the IUT acknowledges, nothing else"
+    );
+    assert_eq!(
+        bench.iut_events(),
+        vec![NodeEvent::Received(*frame)],
+        "{what}: received, no error"
+    );
+    if let Some(passes) = bench.interrupt_passes() {
+        let [pass] = &passes[..] else {
+            panic!("{what}: one interrupt: {passes:?}");
+        };
+        assert_eq!(pass.ir, interrupt::RI, "{what}: RI");
+        assert_eq!(pass.rmc, Some(1), "{what}: RMC");
+        assert_eq!(
+            pass.rx_bytes.as_deref(),
+            Some(&rx_buffer_bytes(frame)[..]),
+            "{what}: RX buffer"
+        );
+    }
+}
+
+/// The LT sends `frame` (nominal bits) to a receiving IUT, which shall acknowledge and receive it.
+pub fn receives(iut: Iut, frame: &Frame, what: &str) {
+    let bits: Vec<bool> = encode(frame).bits.iter().by_vals().collect();
+    receives_bits(iut, &bits, frame, what);
+}
+
+/// As [`receives`], for `frame` sent as `bits`.
+pub fn receives_bits(iut: Iut, bits: &[bool], frame: &Frame, what: &str) {
+    let mut bench = lt_sends_to_iut(iut, bits, 4);
+    bench.run(1);
+    assert_received(&mut bench, bits, frame, what);
+}
+
+/// The LT sends `theirs` against the IUT's `mine` from the same SOF: the IUT shall stop driving at
+/// the bit where it loses, receive and acknowledge `theirs`, and send `mine` again as soon as the bus
+/// is idle (after the intermission), with no error flag (ISO 16845-1 7.1.3, 8.1.3, 8.1.4).
+pub fn loses_arbitration_then_retransmits(iut: Iut, mine: &Frame, theirs: &Frame, what: &str) {
+    let mut bench = ProtocolBench::iut_transmits(iut, mine);
+    let ack = lt_sends_at(&mut bench, 0, theirs);
+    let again = encode(theirs).len() + INTERMISSION;
+    lt_acknowledges_at(&mut bench, again, mine, 4);
+    bench.run(0);
+    let lost = arbitration_loss_bit(mine, theirs);
+    let mut expected: Vec<usize> = dominant_bits_of(mine, 0)
+        .into_iter()
+        .filter(|&b| b < lost)
+        .collect();
+    expected.push(ack);
+    expected.extend(dominant_bits_of(mine, again));
+    assert_eq!(
+        bench.iut_dominant_bits(0, again + ack_offset(mine)),
+        expected,
+        "{what}: receiver from the lost bit on, ACK, then its frame again"
+    );
+    assert_eq!(
+        bench.iut_events(),
+        [
+            NodeEvent::ArbitrationLost(arbitration_position(mine, theirs)),
+            NodeEvent::Received(*theirs),
+            NodeEvent::TransmitDone(true)
+        ],
+        "{what}"
+    );
+}
+
+/// A receiving IUT gets `frame` up to its data field, then 6 dominant bits (the bit before the data
+/// field is recessive): a stuff error at the sixth, an error flag from the next bit. The LT idles
+/// after; returns the bench (not run) and the script bit of the error.
+pub fn receiver_stuff_error_in_data(iut: Iut, frame: &Frame) -> (ProtocolBench, usize) {
+    let encoded = encode(frame);
+    let data = encoded.position(Field::Data, 0).expect("a data field");
+    assert_eq!(
+        encoded.bits[data - 1],
+        RECESSIVE,
+        "{frame}: recessive before the data"
+    );
+    let bits: Vec<bool> = encoded.bits.iter().by_vals().take(data).collect();
+    let mut bench = ProtocolBench::new(iut);
+    bench
+        .lt()
+        .release(RX_SOF)
+        .send_bits(bits)
+        .send_bits([DOMINANT; STUFF_RUN as usize + 1]);
+    (bench, RX_SOF + data + STUFF_RUN as usize)
 }

@@ -8,6 +8,7 @@ use sim::can_node::NodeEvent;
 use sim::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT};
 use sim::worst_case::longest_frame;
 use testbenches::controller_bench::rx_buffer_bytes;
+use testbenches::iso::encode_with_reserved_bits;
 use testbenches::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
 
 const SOF: usize = INTEGRATION_BITS;
@@ -247,49 +248,6 @@ fn st_02_transmitted_stuffing_profiles(iut: Iut) {
     }
 }
 
-/// The bus bits of `frame` (SOF to EOF, ACK slot recessive) with SRR, r1 and r0 at the given levels:
-/// the golden encoder only sends the nominal levels, so this one rebuilds the frame and its CRC.
-fn encode_with_reserved_bits(frame: &Frame, srr: bool, r1: bool, r0: bool) -> Vec<bool> {
-    fn push(bits: &mut Vec<bool>, value: u32, width: u32) {
-        bits.extend((0..width).rev().map(|i| value >> i & 1 == 1));
-    }
-    let mut bits = vec![DOMINANT];
-    match frame.id() {
-        Id::Standard(id) => {
-            push(&mut bits, id as u32, 11);
-            bits.extend([frame.is_remote(), DOMINANT, r0]);
-        }
-        Id::Extended(id) => {
-            push(&mut bits, id >> 18, 11);
-            bits.extend([srr, !DOMINANT]);
-            push(&mut bits, id & 0x3_FFFF, 18);
-            bits.extend([frame.is_remote(), r1, r0]);
-        }
-    }
-    push(&mut bits, frame.dlc() as u32, 4);
-    for byte in frame.data_bytes() {
-        push(&mut bits, *byte as u32, 8);
-    }
-    let crc = sim::crc15::crc15(bits.iter().copied());
-    push(&mut bits, crc as u32, 15);
-    let mut stuffed = Vec::new();
-    let mut run = (0, !DOMINANT);
-    for bit in bits {
-        stuffed.push(bit);
-        run = if bit == run.1 {
-            (run.0 + 1, bit)
-        } else {
-            (1, bit)
-        };
-        if run.0 == 5 {
-            stuffed.push(!bit);
-            run = (1, !bit);
-        }
-    }
-    stuffed.extend([!DOMINANT; 10]);
-    stuffed
-}
-
 fn fr_05_non_nominal_reserved_and_srr_bits_are_accepted(iut: Iut) {
     let std_frame = Frame::data(standard(0x3A7), &[0x11, 0x22]).unwrap();
     let ext_frame = Frame::data(extended(0x0765_4321), &[0x33]).unwrap();
@@ -301,7 +259,7 @@ fn fr_05_non_nominal_reserved_and_srr_bits_are_accepted(iut: Iut) {
         }
     }
     for (frame, srr, r1, r0) in cases {
-        let bits = encode_with_reserved_bits(&frame, srr, r1, r0);
+        let (bits, _) = encode_with_reserved_bits(&frame, srr, r1, r0);
         let as_bitvec: bitvec::vec::BitVec<u8, bitvec::order::Msb0> =
             bits.iter().copied().collect();
         assert_eq!(

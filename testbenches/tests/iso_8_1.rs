@@ -7,8 +7,8 @@ use sim::bus::Drive;
 use sim::can_node::NodeEvent;
 use sim::frame::{encode, Frame, Id, DOMINANT, RECESSIVE};
 use testbenches::iso::{
-    ack_offset, arbitration_loss_bit, arbitration_position, bits_from, dominant_bits_of,
-    lt_acknowledges_at, lt_sends_at, FLAG, INTERMISSION,
+    ack_offset, bits_from, dominant_bits_of, loses_arbitration_then_retransmits,
+    lt_acknowledges_at, lt_sends_at, FLAG,
 };
 use testbenches::protocol_bench::{Iut, ProtocolBench};
 
@@ -64,38 +64,6 @@ fn iso_8_1_2_extended_format_data_frames(iut: Iut) {
             transmits_exactly(iut, &frame, &format!("#{case}, DLC {dlc}"));
         }
     }
-}
-
-/// The LT sends `theirs` against the IUT's `mine` from the same SOF: the IUT shall stop driving at
-/// the bit where it loses, receive and acknowledge `theirs`, and send `mine` again as soon as the bus
-/// is idle (after the intermission), with no error flag.
-fn loses_arbitration_then_retransmits(iut: Iut, mine: &Frame, theirs: &Frame, what: &str) {
-    let mut bench = ProtocolBench::iut_transmits(iut, mine);
-    let ack = lt_sends_at(&mut bench, 0, theirs);
-    let again = encode(theirs).len() + INTERMISSION;
-    lt_acknowledges_at(&mut bench, again, mine, 4);
-    bench.run(0);
-    let lost = arbitration_loss_bit(mine, theirs);
-    let mut expected: Vec<usize> = dominant_bits_of(mine, 0)
-        .into_iter()
-        .filter(|&b| b < lost)
-        .collect();
-    expected.push(ack);
-    expected.extend(dominant_bits_of(mine, again));
-    assert_eq!(
-        bench.iut_dominant_bits(0, again + ack_offset(mine)),
-        expected,
-        "{what}: receiver from the lost bit on, ACK, then its frame again"
-    );
-    assert_eq!(
-        bench.iut_events(),
-        [
-            NodeEvent::ArbitrationLost(arbitration_position(mine, theirs)),
-            NodeEvent::Received(*theirs),
-            NodeEvent::TransmitDone(true)
-        ],
-        "{what}"
-    );
 }
 
 /// The recessive identifier bits of a `width`-bit identifier `id`, as bit masks.
