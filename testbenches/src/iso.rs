@@ -284,3 +284,20 @@ pub fn receiver_stuff_error_in_data(iut: Iut, frame: &Frame) -> (ProtocolBench, 
         .send_bits([DOMINANT; STUFF_RUN as usize + 1]);
     (bench, RX_SOF + data + STUFF_RUN as usize)
 }
+
+/// A bit of `bits` that can be inverted without changing the stuffing: its neighbours differ from
+/// it, and the bits on either side of it do not form a run of 5 with it inverted.
+pub fn flippable_bit(bits: &[bool], range: std::ops::Range<usize>, level: bool) -> usize {
+    range
+        .filter(|&i| bits[i] == level)
+        .find(|&i| {
+            let mut changed = bits.to_vec();
+            changed[i] = !changed[i];
+            let from = i.saturating_sub(5);
+            let to = (i + 6).min(bits.len());
+            (from..to - 5).all(|s| !changed[s..s + 6].iter().all(|&b| b == changed[s]))
+                && (from..to.saturating_sub(4))
+                    .all(|s| !changed[s..s + 5].iter().all(|&b| b == changed[s]))
+        })
+        .expect("a bit whose inversion keeps the stuffing")
+}

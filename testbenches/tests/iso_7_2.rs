@@ -10,7 +10,8 @@ use testbenches::ecc::{
     ecc, BIT, FORM, OTHER, SEG_ACK_DELIM, SEG_ACK_SLOT, SEG_CRC_DELIM, SEG_EOF, STUFF,
 };
 use testbenches::iso::{
-    bits_from, encode_with_reserved_bits, lt_sends_to_iut, FLAG, PASSIVE_LIMIT, RX_SOF,
+    bits_from, encode_with_reserved_bits, flippable_bit, lt_sends_to_iut, FLAG, PASSIVE_LIMIT,
+    RX_SOF,
 };
 use testbenches::protocol_bench::{Iut, ProtocolBench};
 
@@ -261,23 +262,6 @@ fn iso_7_2_4_stuff_error_at_every_stuff_bit_of_the_data_field(iut: Iut) {
 /// 7.2.4 a: the same with the IUT error passive: a passive error frame.
 fn iso_7_2_4_a_stuff_errors_of_the_data_field_when_passive(iut: Iut) {
     every_stuff_bit_inverted(iut, State::Passive, data_field_frames());
-}
-
-/// A bit of `bits` that can be inverted without changing the stuffing: its neighbours differ from
-/// it, and the bits on either side of it do not form a run of 5 with it inverted.
-fn flippable_bit(bits: &[bool], range: std::ops::Range<usize>, level: bool) -> usize {
-    range
-        .filter(|&i| bits[i] == level)
-        .find(|&i| {
-            let mut changed = bits.to_vec();
-            changed[i] = !changed[i];
-            let from = i.saturating_sub(5);
-            let to = (i + 6).min(bits.len());
-            (from..to - 5).all(|s| !changed[s..s + 6].iter().all(|&b| b == changed[s]))
-                && (from..to.saturating_sub(4))
-                    .all(|s| !changed[s..s + 5].iter().all(|&b| b == changed[s]))
-        })
-        .expect("a bit whose inversion keeps the stuffing")
 }
 
 /// 7.2.5: CRC errors are detected and flagged after the ACK delimiter.
