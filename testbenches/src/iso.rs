@@ -3,6 +3,7 @@
 //! frame at a given bit, the IUT's frame acknowledged, a transmitted bit corrupted).
 
 use rtl::registers::interrupt;
+use sim::btr::Btr;
 use sim::bus::Drive;
 use sim::can_node::NodeEvent;
 use sim::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE, STUFF_RUN};
@@ -300,4 +301,34 @@ pub fn flippable_bit(bits: &[bool], range: std::ops::Range<usize>, level: bool) 
                     .all(|s| !changed[s..s + 5].iter().all(|&b| b == changed[s]))
         })
         .expect("a bit whose inversion keeps the stuffing")
+}
+
+/// Clocks from an edge on the bus to the IUT's own edge at the start of a bit it synchronised on
+/// that edge: the two-clock input synchroniser before its Sync, the transmit point at the first
+/// clock of Sync and the output register (what ISO 16845-1 counts in the IUT's processing time).
+pub const IUT_DELAY_CLOCKS: u64 = 3;
+
+/// The bit timings of the bit-timing clauses (7.7, 8.7): BT-A (TSEG1 11, TSEG2 4, SJW 2: 16 tq),
+/// BT-C (16/8/4: 25 tq, the SJA1000's longest bit and largest SJW) and BT-D (6/2/2: the shortest
+/// Phase_Seg2 ISO 11898-1 allows with an SJW as large as it), each with BRP 0 (tq = 2 clocks) and
+/// BRP 2 (6 clocks).
+pub fn iso_bit_timings() -> Vec<(String, Btr)> {
+    let mut timings = Vec::new();
+    for (name, tseg1, tseg2, sjw) in [("BT-A", 11, 4, 2), ("BT-C", 16, 8, 4), ("BT-D", 6, 2, 2)] {
+        for brp in [0, crate::BRP_ABOVE_ZERO] {
+            let btr = Btr::from_quanta(brp, tseg1, tseg2, sjw, false).expect("a valid bit timing");
+            timings.push((format!("{name}/BRP{brp}"), btr));
+        }
+    }
+    timings
+}
+
+/// The clock (from the start of the LT's script) of the IUT's first dominant edge in script bits
+/// `from..from + 40`.
+pub fn first_dominant_edge(bench: &ProtocolBench, from: usize) -> Option<u64> {
+    bench
+        .iut_edges(from, from + 40)
+        .into_iter()
+        .find(|&(_, level)| level == DOMINANT)
+        .map(|(clock, _)| clock)
 }
