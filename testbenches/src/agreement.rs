@@ -7,7 +7,8 @@
 //!
 //! * Every frame our decoder accepts, and every frame that an error interrupts only after its CRC (an
 //!   ACK error, a form error in a delimiter or the EOF), sigrok decodes at the same SOF with the same
-//!   identifier, kind and data. Exceptions ([`Exclusion`]): the frames sigrok cannot read (remote
+//!   identifier, kind and data (or, for the interrupted ones, decodes as no frame at all: with a
+//!   dominant CRC delimiter it sometimes does). Exceptions ([`Exclusion`]): the frames sigrok cannot read (remote
 //!   frames with DLC > 0, DLC above 8, a recessive reserved bit, which it reads as CAN FD's FDF), the
 //!   frames in which our decoder noted an edge it did not synchronise on fully (sigrok does), and the
 //!   frames sigrok misses because it is still reading a decode that is out of step.
@@ -54,6 +55,10 @@ pub enum Exclusion {
     /// A frame our decoder rejected before its CRC was complete (stuff, CRC or form error); sigrok
     /// reads on through the error flag.
     Rejected,
+    /// A frame whose CRC our decoder received complete and right, interrupted at its CRC delimiter
+    /// or later, of which sigrok decodes no frame (seen when the CRC delimiter is dominant: forced
+    /// so, or an error flag starting there); neither decoder delivers it.
+    UndecodedAfterCrc,
     /// The input ends inside the frame.
     Incomplete,
     /// A sigrok decode that starts on a glitch our decoder saw end before the sample point.
@@ -78,6 +83,9 @@ impl fmt::Display for Exclusion {
                 "frames with an edge we follow partly or not (sigrok resynchronises fully)"
             }
             Exclusion::Rejected => "frames we rejected before their CRC ended (sigrok reads on)",
+            Exclusion::UndecodedAfterCrc => {
+                "frames interrupted after their CRC that sigrok decodes as no frame"
+            }
             Exclusion::Incomplete => "frames cut by the end of the file",
             Exclusion::GlitchReadAsFrame => "sigrok decodes starting on an idle-bus glitch",
             Exclusion::FlagReadAsFrame => "sigrok decodes starting on an error or overload flag",
@@ -416,6 +424,10 @@ impl<'a> Comparison<'a> {
             self.exclude(why, ours.sof_fs, expected);
             return false;
         }
+        if error.is_some() && decode.frame.is_none() {
+            self.exclude(Exclusion::UndecodedAfterCrc, ours.sof_fs, expected);
+            return false;
+        }
         let then = error
             .map(|cause| format!(" (then a {cause})"))
             .unwrap_or_default();
@@ -669,6 +681,20 @@ mod tests {
                 at(idle * FS_PER_NS)
             )]
         );
+    }
+
+    #[test]
+    fn a_frame_interrupted_after_its_crc_may_be_no_frame_for_sigrok_but_not_another_frame() {
+        let frame = std(0x2A5, &[0x96]);
+        let mut bus = Bus::new();
+        let delimiter = encode(&frame).position(Field::CrcDelim, 0).unwrap();
+        bus.flagged(&frame, delimiter);
+        let s0 = bus.sofs[0];
+        let none = check(&bus, &[decode(s0, 40, None)]);
+        assert!(none.agrees(), "{none}");
+        assert_eq!(none.excluded(Exclusion::UndecodedAfterCrc), 1);
+        let other = check(&bus, &[decode(s0, 40, Some("2A5#97"))]);
+        assert!(!other.agrees(), "another frame is a disagreement");
     }
 
     #[test]
