@@ -332,3 +332,105 @@ pub fn first_dominant_edge(bench: &ProtocolBench, from: usize) -> Option<u64> {
         .find(|&(_, level)| level == DOMINANT)
         .map(|(clock, _)| clock)
 }
+
+/// The base format frames of the classical-CAN tables of 7.1.10 and 7.2.2 (identifier; control
+/// field with RTR in bit 6, r0 in bit 4 and the DLC; data), chosen for their stuffing, as (frame,
+/// r0).
+pub fn critical_stuffing_base_frames() -> Vec<(Frame, bool)> {
+    let id = |v| Id::standard(v).expect("base identifier");
+    let mut first = vec![0xE1; 8];
+    first[0] = 0x01;
+    vec![
+        (Frame::data(id(0x78), &first).unwrap(), false),
+        (Frame::data(id(0x41F), &[0x00]).unwrap(), false),
+        (
+            Frame::data_with_dlc(id(0x707), 0xF, &[0x0F; 8]).unwrap(),
+            true,
+        ),
+        (Frame::data(id(0x360), &[]).unwrap(), true),
+        (Frame::data(id(0x730), &[]).unwrap(), true),
+        (Frame::data(id(0x47F), &[0x1F]).unwrap(), false),
+        (Frame::data(id(0x758), &[]).unwrap(), false),
+        (Frame::data(id(0x777), &[0x1F]).unwrap(), false),
+        (Frame::remote(id(0x7EF), 2).unwrap(), false),
+        (Frame::remote(id(0x3EA), 0xF).unwrap(), true),
+    ]
+}
+
+/// The extended format frames of the classical-CAN tables of 7.1.11 and 7.2.3 (identifier; control
+/// field with SRR in bit 8, IDE in bit 7, RTR in bit 6, r1 in bit 5, r0 in bit 4 and the DLC; data)
+/// as (frame, r1, r0).
+pub fn critical_stuffing_extended_frames() -> Vec<(Frame, bool, bool)> {
+    let id = |v| Id::extended(v).expect("extended identifier");
+    vec![
+        (
+            Frame::data(id(0x07C3_0F0F), &[0x3C; 8]).unwrap(),
+            false,
+            false,
+        ),
+        (Frame::data(id(0x07C0_F0F0), &[0x00]).unwrap(), false, false),
+        (
+            Frame::data_with_dlc(id(0x01E3_1717), 0xF, &[0x0F; 8]).unwrap(),
+            false,
+            true,
+        ),
+        (
+            Frame::data_with_dlc(
+                id(0x01E0_0FF0),
+                0xC,
+                &[0x1F, 0x0F, 0xE0, 0xF0, 0x7F, 0xE0, 0xFF, 0x20],
+            )
+            .unwrap(),
+            true,
+            true,
+        ),
+        (Frame::data(id(0x1FB8_0000), &[0xA0]).unwrap(), false, false),
+        (Frame::remote(id(0x00BC_540F), 0).unwrap(), true, false),
+        (Frame::remote(id(0x155D_5557), 0xF).unwrap(), true, true),
+    ]
+}
+
+/// The payload patterns (data byte 0, the other bytes) of the data-field stuffing clauses 7.2.4 and
+/// 8.2.8; they define 64-byte payloads, a classical frame carries 8 bytes: byte 0, then 7 of the
+/// other value.
+pub fn data_field_stuffing_payloads() -> Vec<[u8; 8]> {
+    [
+        (0x10u8, 0x78u8),
+        (0x78, 0x3C),
+        (0x34, 0x1E),
+        (0x12, 0x0F),
+        (0x0F, 0x87),
+        (0x17, 0xC3),
+        (0x43, 0xE1),
+        (0x21, 0xF0),
+    ]
+    .into_iter()
+    .map(|(first, rest)| {
+        let mut bytes = [rest; 8];
+        bytes[0] = first;
+        bytes
+    })
+    .collect()
+}
+
+/// The IUT, with TEC `tec`, transmits `frame`; the LT corrupts its first dominant data bit (a bit
+/// error, an error flag from the next bit). Returns the bench (not run) and the error's bit.
+pub fn transmitter_data_bit_error(iut: Iut, frame: &Frame, tec: u8) -> (ProtocolBench, usize) {
+    let error = dominant_data_bit(frame);
+    (transmitter_bit_corrupted(iut, frame, tec, error), error)
+}
+
+/// The IUT, with TEC `tec`, transmits `frame`, acknowledged, and the LT makes the first intermission
+/// bit dominant (an overload condition). Returns the bench (not run) and the first bit of the IUT's
+/// overload flag.
+pub fn transmitter_overload_after_frame(
+    iut: Iut,
+    frame: &Frame,
+    tec: u8,
+) -> (ProtocolBench, usize) {
+    let len = encode(frame).len();
+    let mut bench = ProtocolBench::iut_transmits_with(iut, frame, tec, false);
+    lt_acknowledges_at(&mut bench, 0, frame, 1);
+    bench.lt().set_bit(len, Drive::Dominant);
+    (bench, len + 1)
+}

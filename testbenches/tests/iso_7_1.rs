@@ -7,8 +7,9 @@ use sim::bus::Drive;
 use sim::can_node::NodeEvent;
 use sim::frame::{encode, Field, Frame, Id};
 use testbenches::iso::{
-    bits_from, encode_with_reserved_bits, loses_arbitration_then_retransmits, lt_sends_to_iut,
-    receives, receives_bits, FLAG, INTERMISSION, RX_SOF,
+    bits_from, critical_stuffing_base_frames, critical_stuffing_extended_frames,
+    encode_with_reserved_bits, loses_arbitration_then_retransmits, lt_sends_to_iut, receives,
+    receives_bits, FLAG, INTERMISSION, RX_SOF,
 };
 use testbenches::protocol_bench::Iut;
 
@@ -164,68 +165,12 @@ fn iso_7_1_9_two_frames_without_bus_idle(iut: Iut) {
     }
 }
 
-/// The frames of 7.1.10 (ISO 16845-1, classical CAN table: identifier; control field with RTR in
-/// bit 6, r0 in bit 4 and the DLC; data) as (frame, r0).
-fn stuffing_frames_base() -> Vec<(Frame, bool)> {
-    let id = |v| Id::standard(v).unwrap();
-    let mut first = vec![0xE1; 8];
-    first[0] = 0x01;
-    vec![
-        (Frame::data(id(0x78), &first).unwrap(), false),
-        (Frame::data(id(0x41F), &[0x00]).unwrap(), false),
-        (
-            Frame::data_with_dlc(id(0x707), 0xF, &[0x0F; 8]).unwrap(),
-            true,
-        ),
-        (Frame::data(id(0x360), &[]).unwrap(), true),
-        (Frame::data(id(0x730), &[]).unwrap(), true),
-        (Frame::data(id(0x47F), &[0x1F]).unwrap(), false),
-        (Frame::data(id(0x758), &[]).unwrap(), false),
-        (Frame::data(id(0x777), &[0x1F]).unwrap(), false),
-        (Frame::remote(id(0x7EF), 2).unwrap(), false),
-        (Frame::remote(id(0x3EA), 0xF).unwrap(), true),
-    ]
-}
-
-/// The frames of 7.1.11 (ISO 16845-1, classical CAN table: identifier; control field with SRR in
-/// bit 8, IDE in bit 7, RTR in bit 6, r1 in bit 5, r0 in bit 4 and the DLC; data) as (frame, r1,
-/// r0).
-fn stuffing_frames_extended() -> Vec<(Frame, bool, bool)> {
-    let id = |v| Id::extended(v).unwrap();
-    vec![
-        (
-            Frame::data(id(0x07C3_0F0F), &[0x3C; 8]).unwrap(),
-            false,
-            false,
-        ),
-        (Frame::data(id(0x07C0_F0F0), &[0x00]).unwrap(), false, false),
-        (
-            Frame::data_with_dlc(id(0x01E3_1717), 0xF, &[0x0F; 8]).unwrap(),
-            false,
-            true,
-        ),
-        (
-            Frame::data_with_dlc(
-                id(0x01E0_0FF0),
-                0xC,
-                &[0x1F, 0x0F, 0xE0, 0xF0, 0x7F, 0xE0, 0xFF, 0x20],
-            )
-            .unwrap(),
-            true,
-            true,
-        ),
-        (Frame::data(id(0x1FB8_0000), &[0xA0]).unwrap(), false, false),
-        (Frame::remote(id(0x00BC_540F), 0).unwrap(), true, false),
-        (Frame::remote(id(0x155D_5557), 0xF).unwrap(), true, true),
-    ]
-}
-
 /// 7.1.10: base format frames with critical stuffing profiles are received.
 ///
 /// ISO 16845-1 7.1.10: the ten frames of the clause's classical-CAN table (#1..#10, some with r0
 /// recessive and DLC above 8): no error flag, acknowledged, received as sent.
 fn iso_7_1_10_base_frames_with_critical_stuffing(iut: Iut) {
-    for (case, (frame, r0)) in (1..).zip(stuffing_frames_base()) {
+    for (case, (frame, r0)) in (1..).zip(critical_stuffing_base_frames()) {
         let (bits, stuff) = encode_with_reserved_bits(&frame, true, false, r0);
         assert!(!stuff.is_empty(), "#{case}: stuff bits");
         receives_bits(iut, &bits, &frame, &format!("#{case} {frame}"));
@@ -236,7 +181,7 @@ fn iso_7_1_10_base_frames_with_critical_stuffing(iut: Iut) {
 ///
 /// ISO 16845-1 7.1.11: the seven frames of the clause's classical-CAN table (#1..#7).
 fn iso_7_1_11_extended_frames_with_critical_stuffing(iut: Iut) {
-    for (case, (frame, r1, r0)) in (1..).zip(stuffing_frames_extended()) {
+    for (case, (frame, r1, r0)) in (1..).zip(critical_stuffing_extended_frames()) {
         let (bits, stuff) = encode_with_reserved_bits(&frame, true, r1, r0);
         assert!(!stuff.is_empty(), "#{case}: stuff bits");
         receives_bits(iut, &bits, &frame, &format!("#{case} {frame}"));

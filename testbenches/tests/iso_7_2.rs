@@ -10,8 +10,9 @@ use testbenches::ecc::{
     ecc, BIT, FORM, OTHER, SEG_ACK_DELIM, SEG_ACK_SLOT, SEG_CRC_DELIM, SEG_EOF, STUFF,
 };
 use testbenches::iso::{
-    bits_from, encode_with_reserved_bits, flippable_bit, lt_sends_to_iut, FLAG, PASSIVE_LIMIT,
-    RX_SOF,
+    bits_from, critical_stuffing_base_frames, critical_stuffing_extended_frames,
+    data_field_stuffing_payloads, encode_with_reserved_bits, flippable_bit, lt_sends_to_iut, FLAG,
+    PASSIVE_LIMIT, RX_SOF,
 };
 use testbenches::protocol_bench::{Iut, ProtocolBench};
 
@@ -92,60 +93,6 @@ fn iso_7_2_1_ack_read_recessive_is_a_bit_error(iut: Iut) {
     );
 }
 
-/// The frames of 7.2.2 (the classical-CAN table of 7.1.10) as (frame, r0).
-fn stuffing_frames_base() -> Vec<(Frame, bool)> {
-    let id = |v| Id::standard(v).unwrap();
-    let mut first = vec![0xE1; 8];
-    first[0] = 0x01;
-    vec![
-        (Frame::data(id(0x78), &first).unwrap(), false),
-        (Frame::data(id(0x41F), &[0x00]).unwrap(), false),
-        (
-            Frame::data_with_dlc(id(0x707), 0xF, &[0x0F; 8]).unwrap(),
-            true,
-        ),
-        (Frame::data(id(0x360), &[]).unwrap(), true),
-        (Frame::data(id(0x730), &[]).unwrap(), true),
-        (Frame::data(id(0x47F), &[0x1F]).unwrap(), false),
-        (Frame::data(id(0x758), &[]).unwrap(), false),
-        (Frame::data(id(0x777), &[0x1F]).unwrap(), false),
-        (Frame::remote(id(0x7EF), 2).unwrap(), false),
-        (Frame::remote(id(0x3EA), 0xF).unwrap(), true),
-    ]
-}
-
-/// The frames of 7.2.3 (its classical-CAN table) as (frame, r1, r0).
-fn stuffing_frames_extended() -> Vec<(Frame, bool, bool)> {
-    let id = |v| Id::extended(v).unwrap();
-    vec![
-        (
-            Frame::data(id(0x07C3_0F0F), &[0x3C; 8]).unwrap(),
-            false,
-            false,
-        ),
-        (Frame::data(id(0x07C0_F0F0), &[0x00]).unwrap(), false, false),
-        (
-            Frame::data_with_dlc(id(0x01E3_1717), 0xF, &[0x0F; 8]).unwrap(),
-            false,
-            true,
-        ),
-        (
-            Frame::data_with_dlc(
-                id(0x01E0_0FF0),
-                0xC,
-                &[0x1F, 0x0F, 0xE0, 0xF0, 0x7F, 0xE0, 0xFF, 0x20],
-            )
-            .unwrap(),
-            true,
-            true,
-        ),
-        (Frame::data(id(0x1FB8_0000), &[0xA0]).unwrap(), false, false),
-        (Frame::remote(id(0x00BC_540F), 0).unwrap(), true, false),
-        (Frame::remote(id(0x155D_5557), 0xF).unwrap(), true, true),
-        (Frame::data(id(0), &[0x00]).unwrap(), false, false),
-    ]
-}
-
 /// Every stuff bit of every frame inverted in turn: the receiver reads a sixth equal bit, a stuff
 /// error there (ISO 11898-1), and flags it from the next bit.
 fn every_stuff_bit_inverted(iut: Iut, state: State, frames: Vec<(Frame, Vec<bool>, Vec<usize>)>) {
@@ -176,7 +123,7 @@ fn every_stuff_bit_inverted(iut: Iut, state: State, frames: Vec<(Frame, Vec<bool
 }
 
 fn base_frames() -> Vec<(Frame, Vec<bool>, Vec<usize>)> {
-    stuffing_frames_base()
+    critical_stuffing_base_frames()
         .into_iter()
         .map(|(frame, r0)| {
             let (bits, stuff) = encode_with_reserved_bits(&frame, true, false, r0);
@@ -186,7 +133,13 @@ fn base_frames() -> Vec<(Frame, Vec<bool>, Vec<usize>)> {
 }
 
 fn extended_frames() -> Vec<(Frame, Vec<bool>, Vec<usize>)> {
-    stuffing_frames_extended()
+    let mut frames = critical_stuffing_extended_frames();
+    frames.push((
+        Frame::data(Id::extended(0).unwrap(), &[0x00]).unwrap(),
+        false,
+        false,
+    ));
+    frames
         .into_iter()
         .map(|(frame, r1, r0)| {
             let (bits, stuff) = encode_with_reserved_bits(&frame, true, r1, r0);
@@ -226,21 +179,9 @@ fn iso_7_2_3_a_stuff_errors_of_extended_frames_when_passive(iut: Iut) {
 /// classical frame (ID 555h, DLC 15) carries 8 bytes: byte 0, then 7 bytes of the second value.
 /// Only the stuff bits of the data field are inverted.
 fn data_field_frames() -> Vec<(Frame, Vec<bool>, Vec<usize>)> {
-    let patterns = [
-        (0x10u8, 0x78u8),
-        (0x78, 0x3C),
-        (0x34, 0x1E),
-        (0x12, 0x0F),
-        (0x0F, 0x87),
-        (0x17, 0xC3),
-        (0x43, 0xE1),
-        (0x21, 0xF0),
-    ];
-    patterns
+    data_field_stuffing_payloads()
         .into_iter()
-        .map(|(first, rest)| {
-            let mut bytes = [rest; 8];
-            bytes[0] = first;
+        .map(|bytes| {
             let frame = Frame::data_with_dlc(Id::standard(0x555).unwrap(), 15, &bytes).unwrap();
             let encoded = encode(&frame);
             let stuff = (0..encoded.len())

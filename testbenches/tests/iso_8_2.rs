@@ -9,7 +9,8 @@ use testbenches::ecc::{
     ecc, BIT, FORM, OTHER, SEG_ACK_DELIM, SEG_ACK_SLOT, SEG_CRC_DELIM, SEG_EOF, STUFF,
 };
 use testbenches::iso::{
-    ack_offset, active_retransmission, bits_from, dominant_bits_of, lt_acknowledges_at, EOF, FLAG,
+    ack_offset, active_retransmission, bits_from, data_field_stuffing_payloads, dominant_bits_of,
+    lt_acknowledges_at, EOF, FLAG,
 };
 use testbenches::protocol_bench::{Iut, ProtocolBench};
 
@@ -287,35 +288,20 @@ fn iso_8_2_6_ack_error(iut: Iut) {
 /// as byte 0 followed by 7 bytes of the second value, and every stuff bit in its data field is
 /// inverted in turn: an active error flag from the next bit.
 fn iso_8_2_8_every_stuff_bit_of_the_data_field(iut: Iut) {
-    let patterns = [
-        (0x10u8, 0x78u8),
-        (0x78, 0x3C),
-        (0x34, 0x1E),
-        (0x12, 0x0F),
-        (0x0F, 0x87),
-        (0x17, 0xC3),
-        (0x43, 0xE1),
-        (0x21, 0xF0),
-    ];
-    for (first, rest) in patterns {
-        let mut bytes = [rest; 8];
-        bytes[0] = first;
+    for bytes in data_field_stuffing_payloads() {
         let frame = Frame::data(Id::standard(0x555).unwrap(), &bytes).unwrap();
         let encoded = encode(&frame);
         let data_stuff: Vec<usize> = (0..encoded.len())
             .filter(|&i| encoded.tags[i].stuff && encoded.tags[i].field == Field::Data)
             .collect();
-        assert!(
-            !data_stuff.is_empty(),
-            "{first:02X}/{rest:02X}: stuff bits in the data"
-        );
+        assert!(!data_stuff.is_empty(), "{frame}: stuff bits in the data");
         for bit in data_stuff {
             corrupted_bit_gives_a_flag_and_a_retransmission(
                 iut,
                 &frame,
                 bit,
                 Some(BIT),
-                &format!("{first:02X}/{rest:02X} data stuff bit"),
+                &format!("{frame} data stuff bit"),
             );
         }
     }

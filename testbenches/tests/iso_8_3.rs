@@ -6,8 +6,8 @@ use sim::bus::Drive;
 use sim::can_node::NodeEvent;
 use sim::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE};
 use testbenches::iso::{
-    ack_offset, active_retransmission, bits_from, dominant_bits_of, dominant_data_bit,
-    lt_acknowledges_at, transmitter_bit_corrupted, DELIMITER, FLAG, PASSIVE_LIMIT,
+    ack_offset, active_retransmission, bits_from, dominant_bits_of, lt_acknowledges_at,
+    transmitter_data_bit_error, transmitter_overload_after_frame, DELIMITER, FLAG, PASSIVE_LIMIT,
 };
 use testbenches::protocol_bench::{Iut, ProtocolBench};
 
@@ -32,21 +32,14 @@ fn identifier_cases() -> [(u32, Frame); 2] {
     ]
 }
 
-/// The IUT transmits `frame` (TEC `tec`); the LT corrupts its first dominant data bit. Returns the
-/// bench and the error's bit.
+/// The IUT transmits `frame` (TEC `tec`); the LT corrupts its first dominant data bit.
 fn data_bit_error(iut: Iut, frame: &Frame, tec: u8) -> (ProtocolBench, usize) {
-    let error = dominant_data_bit(frame);
-    (transmitter_bit_corrupted(iut, frame, tec, error), error)
+    transmitter_data_bit_error(iut, frame, tec)
 }
 
-/// The IUT transmits [`frame`] (TEC `tec`), acknowledged, and the LT makes the first intermission bit
-/// dominant. Returns the bench and the first bit of the IUT's overload flag.
+/// The IUT transmits [`frame`] (TEC `tec`), acknowledged; the first intermission bit is dominant.
 fn overload_after_frame(iut: Iut, tec: u8) -> (ProtocolBench, usize) {
-    let len = encode(&frame()).len();
-    let mut bench = ProtocolBench::iut_transmits_with(iut, &frame(), tec, false);
-    lt_acknowledges_at(&mut bench, 0, &frame(), 1);
-    bench.lt().set_bit(len, Drive::Dominant);
-    (bench, len + 1)
+    transmitter_overload_after_frame(iut, &frame(), tec)
 }
 
 /// The IUT's bits of `frame` sent from the identifier on after a SOF at `sof` that another node

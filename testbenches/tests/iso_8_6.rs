@@ -9,8 +9,9 @@ use sim::can_node::NodeEvent;
 use sim::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE};
 use testbenches::ecc::{ecc, BIT, FORM, SEG_ACK_DELIM, SEG_CRC_DELIM, SEG_EOF, STUFF};
 use testbenches::iso::{
-    ack_offset, bits_from, dominant_data_bit, first_bit_at, lt_acknowledges_at, lt_sends_at,
-    transmitter_bit_corrupted, DELIMITER, EOF, FLAG, INTERMISSION, PASSIVE_LIMIT, PENALTY,
+    ack_offset, bits_from, first_bit_at, lt_acknowledges_at, lt_sends_at,
+    transmitter_data_bit_error, transmitter_overload_after_frame, DELIMITER, EOF, FLAG,
+    INTERMISSION, PASSIVE_LIMIT, PENALTY,
 };
 use testbenches::protocol_bench::{Iut, ProtocolBench};
 
@@ -33,22 +34,14 @@ fn tec_before(bench: &mut ProtocolBench, bit: usize) -> u8 {
     bench.tec()
 }
 
-/// The IUT transmits [`frame`] with TEC `tec`; the LT corrupts its first dominant data bit (bit
-/// error, an error flag from the next bit). Returns the bench and the error's bit.
+/// The IUT transmits [`frame`] with TEC `tec`; the LT corrupts its first dominant data bit.
 fn data_bit_error(iut: Iut, tec: u8) -> (ProtocolBench, usize) {
-    let error = dominant_data_bit(&frame());
-    (transmitter_bit_corrupted(iut, &frame(), tec, error), error)
+    transmitter_data_bit_error(iut, &frame(), tec)
 }
 
-/// The IUT transmits [`frame`] with TEC `tec`, the LT acknowledges it and makes the first
-/// intermission bit dominant (an overload condition). Returns the bench and the first bit of the
-/// IUT's overload flag.
+/// The IUT transmits [`frame`] with TEC `tec`, acknowledged; the first intermission bit is dominant.
 fn overload_after_frame(iut: Iut, tec: u8) -> (ProtocolBench, usize) {
-    let len = encode(&frame()).len();
-    let mut bench = ProtocolBench::iut_transmits_with(iut, &frame(), tec, false);
-    lt_acknowledges_at(&mut bench, 0, &frame(), 1);
-    bench.lt().set_bit(len, Drive::Dominant);
-    (bench, len + 1)
+    transmitter_overload_after_frame(iut, &frame(), tec)
 }
 
 /// 8.6.1: a bit error in the transmitter's active error flag: TEC +8.
