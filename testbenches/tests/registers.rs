@@ -1,6 +1,6 @@
 //! SJA1000 register behaviour of the complete controller, observed only through its host port.
 //!
-//! The contract is `docs/SJA1000.md` (shared copy); the design decisions stated in the module doc of
+//! The contract is `docs/SJA1000.md`; the design decisions stated in the module doc of
 //! `rtl::can_controller` are tested as stated. One group of tests per rule: reset values, access
 //! permissions, commands, interrupts, ALC/ECC capture, counter writes and fault confinement as seen
 //! through registers, and the BasicCAN map. Every address and bit comes from `rtl::registers`.
