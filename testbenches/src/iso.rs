@@ -311,7 +311,8 @@ pub const IUT_DELAY_CLOCKS: u64 = 3;
 /// The bit timings of the bit-timing clauses (7.7, 8.7): BT-A (TSEG1 11, TSEG2 4, SJW 2: 16 tq),
 /// BT-C (16/8/4: 25 tq, the SJA1000's longest bit and largest SJW) and BT-D (6/2/2: the shortest
 /// Phase_Seg2 ISO 11898-1 allows with an SJW as large as it), each with BRP 0 (tq = 2 clocks) and
-/// BRP 2 (6 clocks).
+/// BRP 2 (6 clocks); then, for the clauses' "each programmable sample point", every sample point
+/// of a 16-tq bit at BRP 2 (Phase_Seg2 2..8, SJW min(4, Phase_Seg2)).
 pub fn iso_bit_timings() -> Vec<(String, Btr)> {
     let mut timings = Vec::new();
     for (name, tseg1, tseg2, sjw) in [("BT-A", 11, 4, 2), ("BT-C", 16, 8, 4), ("BT-D", 6, 2, 2)] {
@@ -319,6 +320,12 @@ pub fn iso_bit_timings() -> Vec<(String, Btr)> {
             let btr = Btr::from_quanta(brp, tseg1, tseg2, sjw, false).expect("a valid bit timing");
             timings.push((format!("{name}/BRP{brp}"), btr));
         }
+    }
+    for tseg2 in 2..=8 {
+        let (tseg1, sjw) = (15 - tseg2, tseg2.min(4));
+        let btr = Btr::from_quanta(crate::BRP_ABOVE_ZERO, tseg1, tseg2, sjw, false)
+            .expect("a valid bit timing");
+        timings.push((format!("16 tq, TSEG2 {tseg2}/BRP{}", crate::BRP_ABOVE_ZERO), btr));
     }
     timings
 }
