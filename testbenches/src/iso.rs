@@ -325,7 +325,10 @@ pub fn iso_bit_timings() -> Vec<(String, Btr)> {
         let (tseg1, sjw) = (15 - tseg2, tseg2.min(4));
         let btr = Btr::from_quanta(crate::BRP_ABOVE_ZERO, tseg1, tseg2, sjw, false)
             .expect("a valid bit timing");
-        timings.push((format!("16 tq, TSEG2 {tseg2}/BRP{}", crate::BRP_ABOVE_ZERO), btr));
+        timings.push((
+            format!("16 tq, TSEG2 {tseg2}/BRP{}", crate::BRP_ABOVE_ZERO),
+            btr,
+        ));
     }
     timings
 }
