@@ -6,13 +6,13 @@
 
 use std::time::Instant;
 
-use sim::btl_node::BitTimingNode;
-use sim::btr::Btr;
-use sim::can_node::CanNode;
+use golden::btr::Btr;
+use golden::frame::{encode, Frame, Id};
+use sim::engine::time::ClockSpec;
 use sim::engine::Engine;
-use sim::frame::{encode, Frame, Id};
-use sim::lower_tester::LowerTester;
-use sim::time::ClockSpec;
+use sim::nodes::btl_node::BitTimingNode;
+use sim::nodes::can_node::CanNode;
+use sim::nodes::lower_tester::LowerTester;
 
 const FRAMES: usize = 40;
 const RUNS: usize = 5;

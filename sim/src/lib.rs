@@ -1,33 +1,21 @@
-//! Everything that is not hardware: the simulation engine that steps several controllers on one
-//! wired-AND bus, the lower tester, the golden CAN frame codec, the VCD tracer, the bit-timing
-//! calculator and the pieces of the `cansim` command line tool.
+//! Everything that is not hardware and not the golden model (that is the `golden` crate): the
+//! simulation engine that steps several controllers on one wired-AND bus, the nodes and the lower
+//! tester, the host and Linux driver models, the bus decoder and VCD reader, scenario files,
+//! response-time analysis, the Verilator engine and the runs of the `cansim` command line tool.
+//!
+//! * [`engine`]: the event loop, the bus, time, VCD tracing, RTL stepping;
+//! * [`nodes`]: devices on the bus (RTL nodes at three levels, the lower tester);
+//! * [`host`]: the CPU side (host model, Linux SJA1000 driver, frame buffer, acceptance model);
+//! * [`decode`]: the bus decoder and the VCD reader;
+//! * [`scenario`], [`rta`], [`verilated`], [`workloads`]: scenario files, response-time analysis,
+//!   the Verilator engine, the built-in runs.
 #![warn(missing_docs)]
 
-pub mod acceptance;
-pub mod bench;
-pub mod btl_node;
-pub mod btr;
-pub mod bus;
-pub mod bus_decoder;
-pub mod campaign;
-pub mod can_node;
-pub mod controller_node;
-pub mod crc15;
-pub mod demo;
-pub mod driver;
+pub mod decode;
 pub mod engine;
-pub mod frame;
-pub mod frame_buffer;
 pub mod host;
-pub mod lower_tester;
-pub mod reference;
+pub mod nodes;
 pub mod rta;
-pub mod rtl_step;
 pub mod scenario;
-pub mod sync_demo;
-pub mod time;
-pub mod trace;
-pub mod vcd_reader;
 pub mod verilated;
-pub mod verilog;
-pub mod worst_case;
+pub mod workloads;

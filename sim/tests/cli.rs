@@ -7,9 +7,9 @@ use std::process::Output;
 
 use common::{cansim, text};
 
-use sim::bus_decoder::BusTiming;
-use sim::frame::{encode, Field, Frame, Id};
-use sim::trace::VcdTracer;
+use golden::frame::{encode, Field, Frame, Id};
+use sim::engine::bus_timing::BusTiming;
+use sim::engine::trace::VcdTracer;
 
 fn stdout(o: &Output) -> String {
     text(&o.stdout)

@@ -1,4 +1,4 @@
-//! Does our bus decoder ([`sim::bus_decoder`]) agree with sigrok's CAN decoder on a VCD? Both decode
+//! Does our bus decoder ([`sim::decode::bus_decoder`]) agree with sigrok's CAN decoder on a VCD? Both decode
 //! the file; their frames are matched by the time of their SOF.
 //!
 //! sigrok's decoder (libsigrokdecode 0.5.3) checks nothing: no CRC, no stuff or form errors, no error
@@ -25,10 +25,11 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use sim::bus_decoder::{BusEvent, BusEventKind, BusTiming, ErrorCause, RemarkKind};
-use sim::frame::{Frame, MAX_DATA_LEN};
-use sim::time::{FS_PER_S, FS_PER_US};
-use sim::vcd_reader::{decode_vcd, DecodeOptions, VcdDecode};
+use golden::frame::{Frame, MAX_DATA_LEN};
+use sim::decode::bus_decoder::{BusEvent, BusEventKind, ErrorCause, RemarkKind};
+use sim::decode::vcd_reader::{decode_vcd, DecodeOptions, VcdDecode};
+use sim::engine::bus_timing::BusTiming;
+use sim::engine::time::{FS_PER_S, FS_PER_US};
 
 use crate::sigrok::{self, SigrokFrame};
 
@@ -495,9 +496,9 @@ impl<'a> Comparison<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sim::bus_decoder::BusDecoder;
-    use sim::frame::{encode, Field, Id, DOMINANT, RECESSIVE};
-    use sim::time::FS_PER_NS;
+    use golden::frame::{encode, Field, Id, DOMINANT, RECESSIVE};
+    use sim::decode::bus_decoder::BusDecoder;
+    use sim::engine::time::FS_PER_NS;
 
     /// 500 kbit/s, 2000 ns a bit.
     const BIT_NS: u64 = 2000;

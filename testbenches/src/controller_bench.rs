@@ -3,15 +3,15 @@
 //! 500 kbit/s (BTR0 = 0x00, BTR1 = 0x1C: 16 tq, sample point 87.5 %), PeliCAN mode and an open
 //! filter unless a test says otherwise.
 
+use golden::btr::Btr;
+use golden::frame::Frame;
 use rtl::registers::{command, mode, pelican, status};
-use sim::btr::Btr;
-use sim::controller_node::{ControllerNode, ModelEngine};
+use sim::engine::time::ClockSpec;
 use sim::engine::{DeviceId, Engine};
-use sim::frame::Frame;
-use sim::frame_buffer::{buffer_len, decode_buffer, encode_buffer, FRAME_BUFFER_BYTES};
+use sim::host::frame_buffer::{buffer_len, decode_buffer, encode_buffer, FRAME_BUFFER_BYTES};
 use sim::host::{Host, RegisterPort};
-use sim::lower_tester::LowerTester;
-use sim::time::ClockSpec;
+use sim::nodes::controller_node::{ControllerNode, ModelEngine};
+use sim::nodes::lower_tester::LowerTester;
 
 use crate::{bench_engine, CLOCK_HZ};
 

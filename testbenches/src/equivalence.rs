@@ -24,14 +24,14 @@ use std::fmt::{self, Write as _};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use golden::frame::Frame;
 use rtl::can_controller::CanController;
 use rtl::registers::{clock_divider, command, mode, pelican};
 use rust_hdl::prelude::*;
-use sim::controller_node::rust_hdl_cycle;
-use sim::frame::Frame;
-use sim::frame_buffer::{buffer_len, encode_buffer};
+use sim::host::frame_buffer::{buffer_len, encode_buffer};
+use sim::nodes::controller_node::rust_hdl_cycle;
+pub use sim::verilated::verilog::{controller_verilog, TOP_MODULE};
 use sim::verilated::{EngineError, PortInputs, VerilatedController};
-pub use sim::verilog::{controller_verilog, TOP_MODULE};
 
 /// BTR0 of "500 kbit/s at 16 MHz" (BRP 0: tq = 2 clocks).
 pub const BTR0_500K: u8 = 0x00;
@@ -324,7 +324,7 @@ impl StimulusBuilder {
     /// intermission and two bits of margin, at [`CLOCKS_PER_BIT`]: long enough for one
     /// transmission of `frame` requested just before on an idle bus.
     pub fn idle_frame(&mut self, frame: &Frame) -> &mut Self {
-        self.idle_bits(sim::frame::encode(frame).len() + 3 + 2)
+        self.idle_bits(golden::frame::encode(frame).len() + 3 + 2)
     }
 
     /// Hardware reset of every node for `cycles` cycles.

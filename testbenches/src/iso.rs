@@ -2,11 +2,11 @@
 //! 11898-1, where a frame has its bits, and the lower tester's usual moves in script bits (the LT's
 //! frame at a given bit, the IUT's frame acknowledged, a transmitted bit corrupted).
 
+use golden::btr::Btr;
+use golden::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE, STUFF_RUN};
 use rtl::registers::interrupt;
-use sim::btr::Btr;
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE, STUFF_RUN};
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 
 use crate::controller_bench::rx_buffer_bytes;
 use crate::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
@@ -157,7 +157,7 @@ pub fn encode_with_reserved_bits(
     for byte in frame.data_bytes() {
         push(&mut bits, *byte as u32, 8);
     }
-    let crc = sim::crc15::crc15(bits.iter().copied());
+    let crc = golden::crc15::crc15(bits.iter().copied());
     push(&mut bits, crc as u32, 15);
     let (mut stuffed, mut stuff) = (Vec::new(), Vec::new());
     let mut run = (0, RECESSIVE);

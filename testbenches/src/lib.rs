@@ -6,13 +6,13 @@
 use std::cell::RefCell;
 use std::path::PathBuf;
 
+use golden::btr::Btr;
 use rtl::bit_timing::SyncMode;
-use sim::btl_node::{BitTimingNode, SyncPolicy};
-use sim::btr::Btr;
-use sim::bus_decoder::BusTiming;
+use sim::engine::bus_timing::BusTiming;
+use sim::engine::time::ClockSpec;
 use sim::engine::{DeviceId, Engine};
-use sim::lower_tester::LowerTester;
-use sim::time::ClockSpec;
+use sim::nodes::btl_node::{BitTimingNode, SyncPolicy};
+use sim::nodes::lower_tester::LowerTester;
 
 /// Controller clock of the testbenches.
 pub const CLOCK_HZ: f64 = 16e6;
@@ -185,7 +185,7 @@ impl BtBench {
     /// Runs until the lower tester has played its script, then two more bits.
     pub fn run(&mut self) {
         let lt = self.lt;
-        let limit = 10 * sim::time::FS_PER_S;
+        let limit = 10 * sim::engine::time::FS_PER_S;
         let done = self
             .engine
             .run_while(limit, |e| e.device::<LowerTester>(lt).finished())
@@ -246,7 +246,7 @@ pub const INTERFRAME_BITS: usize = 11;
 pub fn exchange_with_clock_offset(
     btr: Btr,
     ppm: f64,
-    frames: &[sim::frame::EncodedFrame],
+    frames: &[golden::frame::EncodedFrame],
 ) -> Vec<usize> {
     let received = receive_with_clock_offset(btr, ppm, frames);
     wrong_bits_per_frame(&received, frames)
@@ -254,12 +254,19 @@ pub fn exchange_with_clock_offset(
 
 /// The bits a receiver at `−ppm` sampled while a transmitter at `+ppm` sent `frames` with
 /// [`INTERFRAME_BITS`] of idle after each.
-fn receive_with_clock_offset(btr: Btr, ppm: f64, frames: &[sim::frame::EncodedFrame]) -> Vec<bool> {
+fn receive_with_clock_offset(
+    btr: Btr,
+    ppm: f64,
+    frames: &[golden::frame::EncodedFrame],
+) -> Vec<bool> {
     let mut engine = bench_engine(&btr, ClockSpec::from_hz(CLOCK_HZ));
     let mut tx = BitTimingNode::new("tx", ClockSpec::with_ppm(CLOCK_HZ, ppm), btr);
     for f in frames {
         tx.transmit(f.bits.iter().by_vals());
-        tx.transmit(std::iter::repeat_n(sim::frame::RECESSIVE, INTERFRAME_BITS));
+        tx.transmit(std::iter::repeat_n(
+            golden::frame::RECESSIVE,
+            INTERFRAME_BITS,
+        ));
     }
     let tx = engine.add(tx, 0);
     let rx = engine.add(
@@ -267,7 +274,7 @@ fn receive_with_clock_offset(btr: Btr, ppm: f64, frames: &[sim::frame::EncodedFr
         0,
     );
     engine
-        .run_while(10 * sim::time::FS_PER_S, |e| {
+        .run_while(10 * sim::engine::time::FS_PER_S, |e| {
             !e.device::<BitTimingNode>(tx).transmitting()
         })
         .expect("simulation");
@@ -276,8 +283,8 @@ fn receive_with_clock_offset(btr: Btr, ppm: f64, frames: &[sim::frame::EncodedFr
 }
 
 /// Finds each frame in `received` (from the next dominant bit, its SOF) and counts its wrong bits.
-fn wrong_bits_per_frame(received: &[bool], frames: &[sim::frame::EncodedFrame]) -> Vec<usize> {
-    use sim::frame::DOMINANT;
+fn wrong_bits_per_frame(received: &[bool], frames: &[golden::frame::EncodedFrame]) -> Vec<usize> {
+    use golden::frame::DOMINANT;
     let mut pos = 0;
     frames
         .iter()

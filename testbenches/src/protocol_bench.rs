@@ -12,14 +12,14 @@
 //! A stimulus returns once it has taken effect (the core has seen it at a clock edge; the register
 //! write is done), and a query first lets the controller's interrupt handler finish.
 
+use golden::btr::Btr;
+use golden::frame::{encode, EncodedFrame, Field, Frame, DOMINANT};
 use rtl::registers::{command, interrupt, mode, pelican, status};
-use sim::btr::Btr;
-use sim::bus::Drive;
-use sim::can_node::{CanNode, NodeEvent};
+use sim::engine::bus::Drive;
+use sim::engine::time::ClockSpec;
 use sim::engine::{DeviceId, Engine};
-use sim::frame::{encode, EncodedFrame, Field, Frame, DOMINANT};
-use sim::lower_tester::LowerTester;
-use sim::time::ClockSpec;
+use sim::nodes::can_node::{CanNode, NodeEvent};
+use sim::nodes::lower_tester::LowerTester;
 
 use crate::controller_bench::{configure_pelican_for, transmit};
 use crate::register_iut::{InterruptPass, IutHost, RegisterIut};
@@ -192,7 +192,7 @@ impl ProtocolBench {
     /// Runs until the LT has played its script, then `extra_bits` more bits.
     pub fn run(&mut self, extra_bits: usize) {
         let lt = self.lt;
-        let limit = self.engine.now() + sim::time::FS_PER_S;
+        let limit = self.engine.now() + sim::engine::time::FS_PER_S;
         let done = self
             .engine
             .run_while(limit, |e| e.device::<LowerTester>(lt).finished())
@@ -245,7 +245,7 @@ impl ProtocolBench {
     pub fn run_to_bit(&mut self, bit: usize) {
         if self.lt_ref().started_at().is_none() {
             let lt = self.lt;
-            let limit = self.engine.now() + sim::time::FS_PER_S;
+            let limit = self.engine.now() + sim::engine::time::FS_PER_S;
             let started = self
                 .engine
                 .run_while(limit, |e| {

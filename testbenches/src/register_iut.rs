@@ -16,14 +16,14 @@ use std::any::Any;
 use std::collections::VecDeque;
 
 use rtl::registers::{command, interrupt, pelican, status};
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::controller_node::{ControllerNode, HostAccess};
+use sim::engine::bus::Drive;
+use sim::engine::time::ClockSpec;
+use sim::engine::trace::Probe;
 use sim::engine::{Device, DeviceId, Engine};
-use sim::frame_buffer::{buffer_len, decode_buffer, FRAME_BUFFER_BYTES};
+use sim::host::frame_buffer::{buffer_len, decode_buffer, FRAME_BUFFER_BYTES};
 use sim::host::{RegisterPort, ACCESS_TIMEOUT_FS};
-use sim::time::ClockSpec;
-use sim::trace::Probe;
+use sim::nodes::can_node::NodeEvent;
+use sim::nodes::controller_node::{ControllerNode, HostAccess};
 
 /// The bits of ALC that hold the arbitration position (bits 7..5 are reserved).
 const ALC_POSITION: u8 = 0x1F;

@@ -1,10 +1,10 @@
 //! Queries on the report of a scenario run (`sim::scenario::run`): what one node's driver reported,
 //! and what the bus log shows, in forms tests compare easily.
 
-use sim::bus_decoder::BusEventKind;
-use sim::driver::{CanState, DriverEvent};
-use sim::frame::Frame;
-use sim::scenario::summary::{Happening, NodeReport};
+use golden::frame::Frame;
+use sim::decode::bus_decoder::BusEventKind;
+use sim::host::driver::{CanState, DriverEvent};
+use sim::scenario::report::{Happening, NodeReport};
 use sim::scenario::RunReport;
 
 /// What node `node`'s driver reported, in order, with the times.

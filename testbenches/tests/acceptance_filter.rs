@@ -1,16 +1,16 @@
 //! The RTL acceptance filter (`rtl::acceptance_filter::AcceptanceFilter`) driven directly with the
 //! received-frame stream of the protocol engine: one table test per mapping of the data sheet, a
-//! property test against the software model `sim::acceptance::accepts`, and its generated Verilog,
+//! property test against the software model `sim::host::acceptance::accepts`, and its generated Verilog,
 //! compiled by Icarus and run against the rust-hdl trace of the same stimulus.
 
+use golden::frame::{Frame, Id};
 use proptest::prelude::*;
 use proptest::strategy::ValueTree;
 use proptest::test_runner::TestRunner;
 use rtl::acceptance_filter::AcceptanceFilter;
 use rust_hdl::prelude::*;
-use sim::acceptance::{accepts, FilterConfig};
-use sim::frame::{Frame, Id};
-use sim::rtl_step::clock_cycle;
+use sim::engine::rtl_step::clock_cycle;
+use sim::host::acceptance::{accepts, FilterConfig};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::Command;

@@ -4,14 +4,14 @@
 //!
 //! The IUT transmits with [`ProtocolBench::iut_transmits`]; the LT's script starts at the IUT's SOF
 //! (script bit 0 = SOF), so script bit positions are wire positions of both frames (stuff bits
-//! counted). Every expected position comes from the golden encoding (`sim::frame::encode`). Two frames
+//! counted). Every expected position comes from the golden encoding (`golden::frame::encode`). Two frames
 //! that are equal up to some bit are stuffed identically up to there (stuffing only depends on the
 //! earlier bits), so the first wire bit where they differ is a real (non-stuff) bit of both frames.
 //! An error detected at bit e gives the IUT's flag at e+1..e+6 (catalog conventions).
 
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT, RECESSIVE};
+use golden::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT, RECESSIVE};
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::ecc::{ecc, SEG_DATA, STUFF};
 use testbenches::protocol_bench::{acknowledged_bits, Iut, ProtocolBench};
 

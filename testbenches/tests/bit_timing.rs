@@ -5,12 +5,12 @@
 //! the protocol engine: a transmitter (the IUT: an RTL core, or the controller through its registers)
 //! and a receiving RTL core (`CanNode`), with the LT injecting the error.
 
-use sim::btr::Btr;
-use sim::bus::Drive;
-use sim::can_node::{CanNode, NodeEvent};
+use golden::btr::Btr;
+use golden::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE};
+use sim::engine::bus::Drive;
+use sim::engine::time::ClockSpec;
 use sim::engine::DeviceId;
-use sim::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE};
-use sim::time::ClockSpec;
+use sim::nodes::can_node::{CanNode, NodeEvent};
 use testbenches::protocol_bench::{Iut, ProtocolBench};
 use testbenches::{bt_configs, BtBench, LEAD_IN_BITS};
 
@@ -31,7 +31,7 @@ fn frame_script(bench: &mut BtBench, bits: &[bool]) {
 
 /// Receive scenario with an edge moved by `phase_error` quanta: SOF, R, D(edge), R, D; the recessive
 /// bit before the edge is lengthened (late edge, e > 0) or shortened (early edge, e < 0).
-fn phase_error_bench(btr: sim::btr::Btr, phase_error: i32) -> BtBench {
+fn phase_error_bench(btr: golden::btr::Btr, phase_error: i32) -> BtBench {
     let mut bench = BtBench::new(btr);
     frame_script(&mut bench, &[R, D, R, D]);
     bench.lt().lengthen_bit(SOF + 1, phase_error);
@@ -129,7 +129,7 @@ fn bt_03_hard_sync_at_every_offset() {
                     .iut()
                     .events()
                     .iter()
-                    .filter(|e| e.kind == sim::btl_node::BtlEventKind::HardSync)
+                    .filter(|e| e.kind == sim::nodes::btl_node::BtlEventKind::HardSync)
                     .count();
                 assert_eq!(hard_syncs, 1, "{}: one hard synchronisation", cfg.name);
                 for bit in SOF..SOF + 6 {
@@ -203,7 +203,7 @@ fn resyncs_between(bench: &BtBench, from_bit: usize, to_bit: usize) -> usize {
         .events()
         .iter()
         .filter(|e| {
-            e.kind == sim::btl_node::BtlEventKind::Resync && e.at_fs >= from && e.at_fs < to
+            e.kind == sim::nodes::btl_node::BtlEventKind::Resync && e.at_fs >= from && e.at_fs < to
         })
         .count()
 }
@@ -314,7 +314,7 @@ fn bt_11_glitches_after_a_hard_sync_do_not_resynchronise() {
 fn bt_17_triple_sampling_outvotes_one_quantum_spikes() {
     for cfg in bt_configs() {
         for sam in [false, true] {
-            let btr = sim::btr::Btr { sam, ..cfg.btr };
+            let btr = golden::btr::Btr { sam, ..cfg.btr };
             let sp = btr.sample_point_tq();
             // (first quantum of the spike relative to the sample point, length) → sampled level.
             let spikes = [(1, 1), (2, 1), (3, 1), (2, 2), (3, 2)];
@@ -350,7 +350,7 @@ fn bt_17_triple_sampling_outvotes_one_quantum_spikes() {
 /// 1.5·df (BT-B) on, bits are sampled in the wrong bit time.
 #[test]
 fn bt_18_oscillator_tolerance_at_and_beyond_the_limit() {
-    use sim::worst_case::longest_frame;
+    use golden::worst_case::longest_frame;
     let frames: Vec<_> = [
         longest_frame(false, 8),
         longest_frame(true, 8),

@@ -4,9 +4,9 @@
 //! Script bits are the lower tester's; "the IUT drove dominant in bit b" is its drive at the
 //! nominal sample point of script bit b.
 
+use golden::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT, RECESSIVE};
 use rtl::registers::{command, interrupt, mode, pelican, status};
-use sim::bus::Drive;
-use sim::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT, RECESSIVE};
+use sim::engine::bus::Drive;
 use sim::host::Host;
 use testbenches::controller_bench::{
     bench_btr, configure_pelican, drain_rx, read_rx_buffer, transmit, ControllerBench,
@@ -37,7 +37,7 @@ fn run_to_bit(bench: &mut ControllerBench, bit: usize) {
 
 /// Runs until the lower tester has played its script (it must have started within a second).
 fn run_script(bench: &mut ControllerBench) {
-    let limit = bench.engine.now() + sim::time::FS_PER_S;
+    let limit = bench.engine.now() + sim::engine::time::FS_PER_S;
     let mut finished = false;
     while !finished && bench.engine.now() < limit {
         bench.run_bits(1);

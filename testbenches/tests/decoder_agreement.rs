@@ -6,14 +6,15 @@
 
 use std::path::{Path, PathBuf};
 
-use sim::btr::Btr;
-use sim::bus::Drive;
-use sim::bus_decoder::{BusEventKind, BusTiming, ErrorCause};
-use sim::can_node::CanNode;
+use golden::btr::Btr;
+use golden::frame::{encode, Frame, Id, MAX_DLC};
+use sim::decode::bus_decoder::{BusEventKind, ErrorCause};
+use sim::decode::vcd_reader::{decode_vcd, DecodeOptions, VcdDecode};
+use sim::engine::bus::Drive;
+use sim::engine::bus_timing::BusTiming;
+use sim::engine::time::{ClockSpec, FS_PER_S};
 use sim::engine::Engine;
-use sim::frame::{encode, Frame, Id, MAX_DLC};
-use sim::time::{ClockSpec, FS_PER_S};
-use sim::vcd_reader::{decode_vcd, DecodeOptions, VcdDecode};
+use sim::nodes::can_node::CanNode;
 use testbenches::agreement::{check_vcd, Agreement, Exclusion};
 use testbenches::protocol_bench::{bt_a, Iut, ProtocolBench, INTEGRATION_BITS};
 use testbenches::{bt_configs, sigrok, CLOCK_HZ};
@@ -191,9 +192,9 @@ fn error_frame_cutting_a_frame_and_the_retransmission() {
     let frame = Frame::data(Id::Standard(0x0F3), &[0x81, 0x7E]).unwrap();
     let encoded = encode(&frame);
     let error = (0..encoded.len())
-        .find(|&i| encoded.tags[i].field == sim::frame::Field::Data && encoded.bits[i])
+        .find(|&i| encoded.tags[i].field == golden::frame::Field::Data && encoded.bits[i])
         .unwrap();
-    let ack = encoded.position(sim::frame::Field::AckSlot, 0).unwrap();
+    let ack = encoded.position(golden::frame::Field::AckSlot, 0).unwrap();
     let mut bench = ProtocolBench::iut_transmits(Iut::Core, &frame);
     let path = vcd_path("cut-frame");
     let clock = ClockSpec::from_hz(CLOCK_HZ);
@@ -211,7 +212,7 @@ fn error_frame_cutting_a_frame_and_the_retransmission() {
     bench.engine.finish_trace().unwrap();
     assert_eq!(
         bench.iut_events().last(),
-        Some(&sim::can_node::NodeEvent::TransmitDone(true))
+        Some(&sim::nodes::can_node::NodeEvent::TransmitDone(true))
     );
     let decoded = ours(&path);
     assert_eq!(frames(&decoded), [frame]);
@@ -279,7 +280,7 @@ fn overload_frames() {
 #[test]
 fn bit_timing_demo() {
     let path = vcd_path("sync-demo");
-    let report = sim::sync_demo::run_demo(Some(&path)).unwrap();
+    let report = sim::workloads::sync_demo::run_demo(Some(&path)).unwrap();
     let decoded = ours(&path);
     let sent: Vec<String> = report.frames.iter().map(|(f, _)| f.clone()).collect();
     let got: Vec<String> = frames(&decoded).iter().map(|f| f.to_string()).collect();

@@ -7,14 +7,14 @@
 
 use std::path::Path;
 
+use golden::frame::Frame;
 use rtl::registers::interrupt;
-use sim::demo::{demo_scenario, DEMO_VCD};
-use sim::driver::{CanState, DriverEvent};
-use sim::frame::Frame;
+use sim::decode::vcd_reader::{decode_vcd, DecodeOptions};
+use sim::engine::time::{FS_PER_MS, FS_PER_US};
+use sim::host::driver::{CanState, DriverEvent};
 use sim::scenario::view::view_text;
 use sim::scenario::{run, RunOptions, RunReport};
-use sim::time::{FS_PER_MS, FS_PER_US};
-use sim::vcd_reader::{decode_vcd, DecodeOptions};
+use sim::workloads::demo::{demo_scenario, DEMO_VCD};
 use testbenches::agreement::check_vcd;
 use testbenches::ecc::{
     ecc, BIT, FORM, OTHER, SEG_ACK_DELIM, SEG_ACK_SLOT, SEG_CRC_DELIM, SEG_SOF,

@@ -13,9 +13,9 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+use golden::frame::{Frame, Id};
 use rtl::registers::{command, interrupt, mode, pelican};
-use sim::controller_node::ModelEngine;
-use sim::frame::{Frame, Id};
+use sim::nodes::controller_node::ModelEngine;
 use sim::scenario::{load, run, RunOptions, RunReport};
 use testbenches::controller_bench::{
     configure_pelican, drain_rx, transmit, ControllerBench, INTEGRATION_BITS,

@@ -8,14 +8,14 @@
 //! bits first, so the frame's wire bit i is script bit `SOF + i`; on the transmit side the LT script
 //! starts at the IUT's SOF, so wire bit i is script bit i. An error detected at bit e gives a flag
 //! e+1..e+6, delimiter e+7..e+14, intermission e+15..e+17 and (error-active transmitter) the
-//! retransmission SOF at e+18. Every position is computed from the golden encoding (`sim::frame`).
+//! retransmission SOF at e+18. Every position is computed from the golden encoding (`golden::frame`).
 
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{
+use golden::frame::{
     decode, encode, DecodeErrorKind, EncodedFrame, Field, Frame, Id, DOMINANT, RECESSIVE,
 };
-use sim::lower_tester::LowerTester;
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
+use sim::nodes::lower_tester::LowerTester;
 use testbenches::ecc::*;
 use testbenches::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
 
@@ -39,7 +39,7 @@ fn field(encoded: &EncodedFrame, f: Field, index: u16) -> usize {
 }
 
 /// The golden decoder's verdict on a wire bit list (followed by an idle bus).
-fn golden(bits: &[bool]) -> Result<sim::frame::DecodedFrame, sim::frame::DecodeError> {
+fn golden(bits: &[bool]) -> Result<golden::frame::DecodedFrame, golden::frame::DecodeError> {
     // bitvec is no dependency of the testbenches: reuse (and empty) an encoded frame's bit vector.
     let mut wire = encode(&frame()).bits;
     wire.clear();
@@ -245,8 +245,8 @@ fn st_05_inverted_stuff_bit_of_the_iut_is_a_bit_error(iut: Iut) {
         // ends "100", so ID bits 9..10, RTR, IDE and r0 are five dominant bits, the recessive stuff bit
         // after r0 and DLC 15 = 1111 are five recessive bits, a dominant stuff bit follows DLC bit 3.
         Frame::data_with_dlc(Id::standard(0x0A4).unwrap(), 15, &[0x5A; 8]).unwrap(),
-        sim::worst_case::longest_frame(false, 8),
-        sim::worst_case::longest_frame(true, 3),
+        golden::worst_case::longest_frame(false, 8),
+        golden::worst_case::longest_frame(true, 3),
     ];
     let mut seen = std::collections::BTreeSet::new();
     for f in &frames {
@@ -423,7 +423,7 @@ fn cr_03_crc_error_and_dominant_crc_delimiter_give_one_flag(iut: Iut) {
 
 /// The bits the IUT takes for a frame when the LT sends `f` with a recessive SOF: from the first
 /// dominant bit (shift k) on.
-fn recessive_sof(f: &Frame) -> (Vec<bool>, usize, sim::frame::DecodeError) {
+fn recessive_sof(f: &Frame) -> (Vec<bool>, usize, golden::frame::DecodeError) {
     let mut bits = bits_of(&encode(f));
     bits[0] = RECESSIVE;
     let k = bits.iter().position(|&b| b == DOMINANT).unwrap();

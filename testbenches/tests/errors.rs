@@ -3,10 +3,10 @@
 //! the SJA1000 ECC/ALC capture values, what is stored and when a frame is retransmitted. Bit
 //! numbers are lower-tester script bits; an error detected at bit e gives a flag e+1..e+6.
 
+use golden::frame::{decode, encode, DecodeErrorKind, EncodedFrame, Field, Frame, Id, DOMINANT};
 use rtl::registers::interrupt;
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{decode, encode, DecodeErrorKind, EncodedFrame, Field, Frame, Id, DOMINANT};
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::ecc::*;
 use testbenches::protocol_bench::{ErrorInterrupt, Iut, ProtocolBench, INTEGRATION_BITS};
 
@@ -94,8 +94,8 @@ fn fe_01_dominant_crc_delimiter_is_a_form_error(iut: Iut) {
 fn st_03_received_stuff_errors_in_every_field_and_polarity(iut: Iut) {
     let frames = [
         Frame::data(Id::standard(0x000).unwrap(), &[0xFF, 0x00]).unwrap(),
-        sim::worst_case::longest_frame(false, 8),
-        sim::worst_case::longest_frame(true, 3),
+        golden::worst_case::longest_frame(false, 8),
+        golden::worst_case::longest_frame(true, 3),
     ];
     let mut seen = std::collections::BTreeSet::new();
     for frame in &frames {

@@ -3,11 +3,11 @@
 
 use std::path::PathBuf;
 
-use sim::driver::CanState;
-use sim::frame::Frame;
+use golden::frame::Frame;
+use sim::engine::time::{FS_PER_MS, FS_PER_US};
+use sim::host::driver::CanState;
 use sim::scenario::candump::{parse_frame, parse_log};
 use sim::scenario::{load, run, RunOptions, RunReport, Scenario};
-use sim::time::{FS_PER_MS, FS_PER_US};
 use testbenches::scenario_report::{
     driver_events, error_frames, log_frames, losses, node, restarts, sent_frames, states,
 };
@@ -73,7 +73,7 @@ fn a_stuck_transmitter_takes_the_sender_to_bus_off_and_its_driver_restarts_it() 
         .find(|(_, e)| {
             matches!(
                 e,
-                sim::driver::DriverEvent::StateChanged {
+                sim::host::driver::DriverEvent::StateChanged {
                     state: CanState::BusOff,
                     ..
                 }
@@ -123,7 +123,7 @@ fn oscillators_at_the_limit_agree_and_one_far_beyond_it_breaks_the_bus() {
     let (valid_before, errors_before): (Vec<_>, Vec<_>) = before.partition(|e| {
         matches!(
             e.kind,
-            sim::bus_decoder::BusEventKind::Frame { acked: true, .. }
+            sim::decode::bus_decoder::BusEventKind::Frame { acked: true, .. }
         )
     });
     assert_eq!(valid_before.len(), 3);
@@ -132,7 +132,7 @@ fn oscillators_at_the_limit_agree_and_one_far_beyond_it_breaks_the_bus() {
         assert!(
             driver_events(&report, name)
                 .iter()
-                .filter(|(_, e)| matches!(e, sim::driver::DriverEvent::BusError { .. }))
+                .filter(|(_, e)| matches!(e, sim::host::driver::DriverEvent::BusError { .. }))
                 .all(|(t, _)| *t > joins),
             "{name} saw a bus error before far joined"
         );
@@ -141,7 +141,7 @@ fn oscillators_at_the_limit_agree_and_one_far_beyond_it_breaks_the_bus() {
     assert!(after.len() >= 4);
     assert!(after
         .iter()
-        .all(|e| !matches!(e.kind, sim::bus_decoder::BusEventKind::Frame { .. })));
+        .all(|e| !matches!(e.kind, sim::decode::bus_decoder::BusEventKind::Frame { .. })));
     assert_eq!(node(&report, "far").sent, 0);
 }
 

@@ -3,10 +3,10 @@
 //! through its registers). Bit numbers are lower-tester script bits; an error detected at bit e
 //! gives a flag e+1..e+6.
 
+use golden::frame::{encode, Field, Frame, Id, DOMINANT};
 use rtl::registers::{interrupt, mode, pelican, status};
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, Field, Frame, Id, DOMINANT};
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::protocol_bench::{ErrorInterrupt, Iut, ProtocolBench, INTEGRATION_BITS};
 
 const SOF: usize = INTEGRATION_BITS;
@@ -769,8 +769,8 @@ fn rt_05_abort_during_the_own_transmission_makes_it_the_last_attempt(iut: Iut) {
 }
 
 fn bo_07_host_writes_of_txerr_force_and_end_bus_off_and_rxerr_writes_are_ignored(iut: Iut) {
-    use sim::can_node::CanNode;
-    use sim::time::ClockSpec;
+    use sim::engine::time::ClockSpec;
+    use sim::nodes::can_node::CanNode;
     let theirs = encode(&winner_frame());
     let mine = encode(&frame());
     for written in [0u8, 100] {

@@ -8,10 +8,12 @@
 //! EOF bits, and for whole-bit faults the bus levels, deliveries, error kinds and TEC/REC of every
 //! node equal those of the bit-level golden model.
 
+use golden::frame::{encode, Field, Frame, Id};
+use golden::reference::{Fault, FaultKind};
 use proptest::prelude::*;
-use sim::campaign::{check, run_campaign, run_rtl, Case, Injection, Outcome, Run, NODES};
-use sim::frame::{encode, Field, Frame, Id};
-use sim::reference::{Fault, FaultKind};
+use sim::workloads::campaign::{
+    check, run_campaign, run_rtl, Case, Injection, Outcome, Run, NODES,
+};
 
 fn frame_strategy() -> impl Strategy<Value = Frame> {
     (
@@ -262,7 +264,7 @@ fn short_campaign_breaks_no_rule() {
     assert!(
         summary.failures.is_empty(),
         "{}",
-        sim::campaign::format_summary(&summary)
+        sim::workloads::campaign::format_summary(&summary)
     );
     // Most faults are detected and repaired by retransmission.
     let recovered = summary

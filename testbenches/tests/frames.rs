@@ -2,11 +2,11 @@
 //! (stuffing profiles) on both IUTs (the RTL core, and the controller through its registers),
 //! bit-exact on the wire.
 
+use golden::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT};
+use golden::worst_case::longest_frame;
 use rtl::registers::{interrupt, status};
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT};
-use sim::worst_case::longest_frame;
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::controller_bench::rx_buffer_bytes;
 use testbenches::iso::encode_with_reserved_bits;
 use testbenches::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
@@ -263,7 +263,7 @@ fn fr_05_non_nominal_reserved_and_srr_bits_are_accepted(iut: Iut) {
         let as_bitvec: bitvec::vec::BitVec<u8, bitvec::order::Msb0> =
             bits.iter().copied().collect();
         assert_eq!(
-            sim::frame::decode(&as_bitvec).unwrap().frame,
+            golden::frame::decode(&as_bitvec).unwrap().frame,
             frame,
             "golden decoder agrees"
         );

@@ -2,10 +2,10 @@
 //! overload scenarios OV-03/OV-04 on both IUTs (the RTL core, and the controller through its
 //! registers). Bit numbers are lower-tester script bits.
 
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, Field, Frame, Id, DOMINANT};
-use sim::time::ClockSpec;
+use golden::frame::{encode, Field, Frame, Id, DOMINANT};
+use sim::engine::bus::Drive;
+use sim::engine::time::ClockSpec;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
 
 const SOF: usize = INTEGRATION_BITS;

@@ -3,9 +3,9 @@
 //! stuffing profiles, the validity point). Each test is named after its clause and runs every
 //! elementary test case of it on both IUTs. Bit numbers are lower-tester script bits.
 
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, Field, Frame, Id};
+use golden::frame::{encode, Field, Frame, Id};
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::iso::{
     bits_from, critical_stuffing_base_frames, critical_stuffing_extended_frames,
     encode_with_reserved_bits, loses_arbitration_then_retransmits, lt_sends_to_iut, receives,

@@ -3,9 +3,9 @@
 //! its clause and runs every elementary test case of it on both IUTs; "a" variants repeat a clause
 //! with the IUT error passive. Bit numbers are lower-tester script bits.
 
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, Field, Frame, Id};
+use golden::frame::{encode, Field, Frame, Id};
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::ecc::{
     ecc, BIT, FORM, OTHER, SEG_ACK_DELIM, SEG_ACK_SLOT, SEG_CRC_DELIM, SEG_EOF, STUFF,
 };

@@ -2,9 +2,9 @@
 //! frame. Each test is named after its clause and runs every elementary test case of it on both
 //! IUTs. Bit numbers are lower-tester script bits.
 
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, Field, Frame, Id, DOMINANT};
+use golden::frame::{encode, Field, Frame, Id, DOMINANT};
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::iso::{
     bits_from, lt_sends_to_iut, receiver_stuff_error_in_data, DELIMITER, FLAG, RX_SOF,
 };

@@ -2,9 +2,9 @@
 //! its clause and runs every elementary test case of it on both IUTs. "The IUT is set in passive
 //! state" is REC 128 (the RXERR write). Bit numbers are lower-tester script bits.
 
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, Field, Frame, Id, DOMINANT};
+use golden::frame::{encode, Field, Frame, Id, DOMINANT};
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::ecc::STUFF;
 use testbenches::iso::{
     bits_from, receiver_stuff_error_in_data, DELIMITER, FLAG, INTERMISSION, PASSIVE_LIMIT, PENALTY,

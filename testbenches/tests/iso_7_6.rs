@@ -3,9 +3,9 @@
 //! raises REC "by an error scenario" (to 9: a stuff error and a bit error in the flag), the bench
 //! writes RXERR in reset mode instead. Bit numbers are lower-tester script bits.
 
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE};
+use golden::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE};
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::iso::{
     encode_with_reserved_bits, flippable_bit, lt_acknowledges_at, lt_sends_to_iut,
     receiver_stuff_error_in_data, DELIMITER, FLAG, INTERMISSION, PASSIVE_LIMIT, PENALTY, RX_SOF,

@@ -6,10 +6,10 @@
 //! on both IUTs. Times are in clocks from the start of the LT's script; the IUT's own edges follow
 //! the bus edge it synchronised on by [`IUT_DELAY_CLOCKS`].
 
-use sim::btr::Btr;
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT};
+use golden::btr::Btr;
+use golden::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT};
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::ecc::STUFF;
 use testbenches::iso::{
     first_dominant_edge, iso_bit_timings, DELIMITER, FLAG, IUT_DELAY_CLOCKS, RX_SOF,
@@ -59,7 +59,7 @@ fn receive(
     btr: Btr,
     last: usize,
     after: &[bool],
-    edit: impl FnOnce(&mut sim::lower_tester::LowerTester),
+    edit: impl FnOnce(&mut sim::nodes::lower_tester::LowerTester),
 ) -> ProtocolBench {
     let encoded = all_ones();
     let mut bench = ProtocolBench::with_btr(iut, btr);
@@ -299,7 +299,7 @@ fn stays_idle_after(
     iut: Iut,
     btr: Btr,
     name: &str,
-    edit: impl FnOnce(&mut sim::lower_tester::LowerTester),
+    edit: impl FnOnce(&mut sim::nodes::lower_tester::LowerTester),
 ) {
     let frame = Frame::data(Id::standard(0x2C5).unwrap(), &[0x81]).unwrap();
     let encoded = encode(&frame);

@@ -3,9 +3,9 @@
 //! intermission bit). Each test is named after its clause and runs every elementary test case of it
 //! on both IUTs. Bit numbers are lower-tester script bits; script bit 0 is the IUT's SOF.
 
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, Frame, Id, DOMINANT, RECESSIVE};
+use golden::frame::{encode, Frame, Id, DOMINANT, RECESSIVE};
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::iso::{
     ack_offset, bits_from, dominant_bits_of, loses_arbitration_then_retransmits,
     lt_acknowledges_at, lt_sends_at, FLAG,

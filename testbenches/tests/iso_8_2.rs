@@ -2,9 +2,9 @@
 //! errors). Each test is named after its clause and runs every elementary test case of it on both
 //! IUTs. Bit numbers are lower-tester script bits; script bit 0 is the IUT's SOF.
 
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT, RECESSIVE};
+use golden::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT, RECESSIVE};
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::ecc::{
     ecc, BIT, FORM, OTHER, SEG_ACK_DELIM, SEG_ACK_SLOT, SEG_CRC_DELIM, SEG_EOF, STUFF,
 };

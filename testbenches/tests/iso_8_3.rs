@@ -2,9 +2,9 @@
 //! frame. Each test is named after its clause and runs every elementary test case of it on both
 //! IUTs. Bit numbers are lower-tester script bits; script bit 0 is the IUT's SOF.
 
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE};
+use golden::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE};
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::iso::{
     ack_offset, active_retransmission, bits_from, dominant_bits_of, lt_acknowledges_at,
     transmitter_data_bit_error, transmitter_overload_after_frame, DELIMITER, FLAG, PASSIVE_LIMIT,

@@ -2,9 +2,9 @@
 //! is named after its clause and runs every elementary test case of it on both IUTs. Bit numbers are
 //! lower-tester script bits; script bit 0 is the IUT's SOF.
 
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE};
+use golden::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE};
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::ecc::{ecc, BIT, FORM, SEG_DATA, SEG_ERROR_DELIM};
 use testbenches::iso::{
     ack_offset, dominant_bits_of, dominant_data_bit, lt_acknowledges_at, lt_sends_at,

@@ -4,9 +4,9 @@
 //! an error scenario" first, the bench writes TXERR in reset mode instead (the SJA1000's way to set
 //! it; on the core its counter load).
 
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE};
+use golden::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE};
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::ecc::{ecc, BIT, FORM, SEG_ACK_DELIM, SEG_CRC_DELIM, SEG_EOF, STUFF};
 use testbenches::iso::{
     ack_offset, bits_from, first_bit_at, lt_acknowledges_at, lt_sends_at,

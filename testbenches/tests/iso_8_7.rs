@@ -6,10 +6,10 @@
 //! both IUTs. Times are clocks from the start of the LT's script (the IUT's SOF edge); the IUT's
 //! edges follow the bit starts of the grid it synchronised on by [`IUT_DELAY_CLOCKS`].
 
-use sim::btr::Btr;
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE};
+use golden::btr::Btr;
+use golden::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE};
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::ecc::BIT;
 use testbenches::iso::{
     ack_offset, bits_from, dominant_data_bit, iso_bit_timings, lt_acknowledges_at, DELIMITER, FLAG,
@@ -50,7 +50,7 @@ fn transmit(
     iut: Iut,
     btr: Btr,
     frame: &Frame,
-    edit: impl FnOnce(&mut sim::lower_tester::LowerTester),
+    edit: impl FnOnce(&mut sim::nodes::lower_tester::LowerTester),
 ) -> ProtocolBench {
     let mut bench = ProtocolBench::iut_transmits_in(iut, btr, frame);
     lt_acknowledges_at(&mut bench, 0, frame, 4);

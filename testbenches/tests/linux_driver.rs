@@ -23,11 +23,11 @@
 use std::collections::VecDeque;
 use std::time::Instant;
 
+use golden::frame::{Frame, Id};
 use rtl::registers::{interrupt, status};
-use sim::controller_node::ControllerNode;
-use sim::driver::{CanState, CtrlMode, DriverConfig, DriverEvent, Sja1000Driver};
 use sim::engine::DeviceId;
-use sim::frame::{Frame, Id};
+use sim::host::driver::{CanState, CtrlMode, DriverConfig, DriverEvent, Sja1000Driver};
+use sim::nodes::controller_node::ControllerNode;
 use testbenches::controller_bench::{bench_bit_fs, ControllerBench, BTR0, BTR1, INTEGRATION_BITS};
 use testbenches::ecc;
 
@@ -653,7 +653,7 @@ fn replay(plan: Plan) -> usize {
     let to = from + 170 * bit;
     r.bench
         .engine
-        .disturb_rx(r.nodes[victim].id, from, to, sim::frame::DOMINANT);
+        .disturb_rx(r.nodes[victim].id, from, to, golden::frame::DOMINANT);
     r.run_bits(175 + SETTLE_BITS);
     let changes = r.state_changes(victim, PASSIVE_FAULT);
     let states: Vec<CanState> = changes.iter().map(|c| c.state).collect();
@@ -715,7 +715,7 @@ fn replay(plan: Plan) -> usize {
     let to = from + 1000 * bit;
     r.bench
         .engine
-        .disturb_rx(r.nodes[victim].id, from, to, sim::frame::RECESSIVE);
+        .disturb_rx(r.nodes[victim].id, from, to, golden::frame::RECESSIVE);
     let doomed = r.random_tx(victim, 0);
     r.queue(victim, doomed);
     r.kick(victim);

@@ -1,12 +1,12 @@
 //! The lower tester and the bus: scripts play at quantum resolution, every modification lands where it
 //! is asked, forcing overrides other drivers, and the record tells what each device put on the bus.
 
-use sim::btr::Btr;
-use sim::bus::Drive;
+use golden::btr::Btr;
+use golden::frame::{DOMINANT as D, RECESSIVE as R};
+use sim::engine::bus::Drive;
+use sim::engine::time::{ClockSpec, FS_PER_NS};
 use sim::engine::Engine;
-use sim::frame::{DOMINANT as D, RECESSIVE as R};
-use sim::lower_tester::LowerTester;
-use sim::time::{ClockSpec, FS_PER_NS};
+use sim::nodes::lower_tester::LowerTester;
 use testbenches::{bench_engine, CLOCK_HZ};
 
 fn btr() -> Btr {
@@ -15,7 +15,7 @@ fn btr() -> Btr {
 
 fn run_to_end(engine: &mut Engine, lt: sim::engine::DeviceId) {
     engine
-        .run_while(sim::time::FS_PER_S, |e| {
+        .run_while(sim::engine::time::FS_PER_S, |e| {
             e.device::<LowerTester>(lt).finished()
         })
         .unwrap();

@@ -2,9 +2,9 @@
 //! self test, self reception, reset mode entered mid-frame, bus integration after reset mode,
 //! sleep and wake-up, and the CLKOUT divider (every CDR code, clock off, CLKOUT in sleep).
 
+use golden::frame::{encode, Frame, Id};
 use rtl::registers::{clock_divider, command, interrupt, mode, pelican, status};
-use sim::controller_node::ControllerNode;
-use sim::frame::{encode, Frame, Id};
+use sim::nodes::controller_node::ControllerNode;
 use testbenches::controller_bench::{
     bench_bit_fs, bench_btr, configure_pelican, drain_rx, read_rx_buffer, transmit,
     ControllerBench, INTEGRATION_BITS,

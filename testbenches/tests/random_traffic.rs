@@ -24,12 +24,12 @@
 
 use std::fmt;
 
+use golden::btr::Btr;
+use golden::frame::{Frame, Id};
 use proptest::prelude::*;
-use sim::btr::Btr;
-use sim::can_node::{CanNode, NodeEvent};
+use sim::engine::time::{ClockSpec, FS_PER_US};
 use sim::engine::{DeviceId, Engine};
-use sim::frame::{Frame, Id};
-use sim::time::{ClockSpec, FS_PER_US};
+use sim::nodes::can_node::{CanNode, NodeEvent};
 use testbenches::bench_engine;
 
 /// Controller clock.

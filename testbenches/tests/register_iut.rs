@@ -2,9 +2,9 @@
 //! do not change what the controller drives on the bus, and every kind of interrupt the protocol
 //! scenarios rely on (RI, BEI, ALI, TI) becomes the event the core would report.
 
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{encode, Field, Frame, Id, DOMINANT};
+use golden::frame::{encode, Field, Frame, Id, DOMINANT};
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
 use testbenches::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
 use testbenches::register_iut::RegisterIut;
 

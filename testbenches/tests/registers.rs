@@ -5,14 +5,14 @@
 //! permissions, commands, interrupts, ALC/ECC capture, counter writes and fault confinement as seen
 //! through registers, and the BasicCAN map. Every address and bit comes from `rtl::registers`.
 
+use golden::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT, RECESSIVE};
 use rtl::registers::{
     basic, clock_divider, command, control, interrupt, mode, pelican, status, DEFAULT_EWLR,
 };
-use sim::bus::Drive;
-use sim::controller_node::ControllerNode;
-use sim::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT, RECESSIVE};
-use sim::frame_buffer::{buffer_len, encode_buffer};
+use sim::engine::bus::Drive;
+use sim::host::frame_buffer::{buffer_len, encode_buffer};
 use sim::host::Host;
+use sim::nodes::controller_node::ControllerNode;
 use testbenches::controller_bench::{
     bench_bit_fs, configure_pelican, drain_rx, read_rx_buffer, transmit, ControllerBench, BTR0,
     BTR1, INTEGRATION_BITS,

@@ -4,14 +4,18 @@
 
 use std::path::PathBuf;
 
-use sim::frame::encode;
-use sim::rta::analysis::{frame_bits, Analysis, MessageBounds, INTERMISSION_BITS};
+use golden::frame::encode;
+use golden::worst_case::{length_bound, search};
+use sim::engine::time::FS_PER_NS;
+use sim::rta::analysis::{Analysis, MessageBounds};
+use sim::rta::frame_bits;
 use sim::rta::message_set::MessageSet;
 use sim::rta::report::sent_bits;
 use sim::rta::simulate::{sim_btr, sim_clock, simulate, violations, Observation, Simulation};
 use sim::rta::Ticks;
-use sim::time::FS_PER_NS;
-use sim::worst_case::{length_bound, search};
+
+/// Bits of the intermission (ISO 11898-1), as the bus time of a frame counts it.
+const INTERMISSION_BITS: u64 = golden::frame::INTERMISSION_BITS as u64;
 
 /// Scenarios run one after the other: the test harness already runs tests in parallel.
 const THREADS: usize = 1;

@@ -8,9 +8,9 @@
 
 use std::collections::VecDeque;
 
+use golden::frame::{Frame, Id};
 use rtl::registers::{command, interrupt, mode, pelican, status};
-use sim::frame::{Frame, Id};
-use sim::frame_buffer::buffer_len;
+use sim::host::frame_buffer::buffer_len;
 use testbenches::controller_bench::{
     bench_bit_fs, drain_rx, read_rx_buffer, rx_buffer_bytes, transmit, ControllerBench,
     INTEGRATION_BITS,
@@ -615,7 +615,7 @@ fn tx_ram_window_is_the_transmit_buffer() {
     let mut bench = ControllerBench::operating(2);
     // Operating mode: the frame window 16..28 writes the TX buffer, visible at 96..108.
     let frame = ext_data(0x1F0F_0F0F, &[1, 2, 3, 4, 5, 6, 7, 8]);
-    let bytes = sim::frame_buffer::encode_buffer(&frame);
+    let bytes = sim::host::frame_buffer::encode_buffer(&frame);
     {
         let mut host = bench.host(SENDER);
         for (i, &b) in bytes.iter().enumerate() {
@@ -627,7 +627,7 @@ fn tx_ram_window_is_the_transmit_buffer() {
     }
     // Reset mode: a frame written through 96..108 is what TR sends.
     let written = std_data(0x2A5, &[0x0F, 0xF0, 0x3C]);
-    let buf = sim::frame_buffer::encode_buffer(&written);
+    let buf = sim::host::frame_buffer::encode_buffer(&written);
     bench.host(SENDER).write(pelican::MOD, mode::RM);
     for (i, &b) in buf.iter().take(buffer_len(buf[0])).enumerate() {
         bench.host(SENDER).write(pelican::TX_RAM + i as u8, b);

@@ -4,12 +4,12 @@
 
 use std::path::Path;
 
-use sim::driver::{CanState, DriverEvent};
-use sim::frame::Frame;
+use golden::frame::Frame;
+use sim::engine::time::FS_PER_US;
+use sim::host::driver::{CanState, DriverEvent};
 use sim::scenario::candump::parse_frame;
 use sim::scenario::summary::{format_report, ReportParts};
 use sim::scenario::{parse, run, RunOptions, RunReport, Scenario};
-use sim::time::FS_PER_US;
 use testbenches::ecc::{ecc, BIT, FORM, OTHER, SEG_ACK_SLOT, SEG_CRC_DELIM, SEG_DATA};
 use testbenches::scenario_report::{
     bus_errors, driver_events, error_frames, log_frames, log_lines_with, node, states,

@@ -1,7 +1,7 @@
 //! The demo run: every node samples every bit right, and its VCD is a bus trace that sigrok's CAN
 //! decoder reads frame by frame without a warning.
 
-use sim::sync_demo::run_demo;
+use sim::workloads::sync_demo::run_demo;
 use testbenches::sigrok;
 
 #[test]

@@ -8,13 +8,13 @@
 //! in every configuration: a bit read one way or the other is a frame received or a stuff, bit or
 //! CRC error with its flag on the wire (`bit_timing.rs` checks the sampled levels themselves).
 
-use sim::btr::Btr;
-use sim::bus::Drive;
-use sim::can_node::NodeEvent;
-use sim::frame::{
+use golden::btr::Btr;
+use golden::frame::{
     decode, encode, DecodeErrorKind, EncodedFrame, Field, Frame, Id, DOMINANT, RECESSIVE,
 };
-use sim::lower_tester::LowerTester;
+use sim::engine::bus::Drive;
+use sim::nodes::can_node::NodeEvent;
+use sim::nodes::lower_tester::LowerTester;
 use testbenches::bt_configs;
 use testbenches::ecc::{ecc, BIT, OTHER, SEG_ACK_DELIM, SEG_ID_28_21, STUFF};
 use testbenches::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
@@ -63,8 +63,8 @@ fn recessive_before_dominant(encoded: &EncodedFrame) -> usize {
 /// Returns the bench played to the end, with the frame's bit `k` of [`recessive_before_dominant`].
 fn transmit_edited(
     iut: Iut,
-    btr: sim::btr::Btr,
-    edit: impl FnOnce(&mut sim::lower_tester::LowerTester, usize),
+    btr: golden::btr::Btr,
+    edit: impl FnOnce(&mut sim::nodes::lower_tester::LowerTester, usize),
 ) -> ProtocolBench {
     let encoded = encode(&frame());
     let k = recessive_before_dominant(&encoded);
@@ -81,7 +81,7 @@ fn transmit_edited(
 
 /// The IUT's transmit edges in the unperturbed frame: each at the start of its LT script bit plus
 /// the transmitter delay (the LT's script starts at the IUT's SOF edge).
-fn reference_edges(iut: Iut, btr: sim::btr::Btr) -> Vec<(u64, bool)> {
+fn reference_edges(iut: Iut, btr: golden::btr::Btr) -> Vec<(u64, bool)> {
     let encoded = encode(&frame());
     let mut bench = transmit_edited(iut, btr, |_, _| {});
     let edges = bench.iut_edges(0, encoded.len() + 4);

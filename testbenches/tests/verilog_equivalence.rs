@@ -9,11 +9,11 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use golden::frame::{Frame, Id};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestCaseError, TestRunner};
 use rtl::registers::{basic, clock_divider, command, interrupt, mode, pelican, status};
-use sim::frame::{Frame, Id};
-use sim::frame_buffer::{buffer_len, encode_buffer};
+use sim::host::frame_buffer::{buffer_len, encode_buffer};
 use testbenches::equivalence::controller_verilog;
 use testbenches::equivalence::{
     first_difference, first_mismatch, icarus_skipped, read_results, run_rust, run_verilated,

@@ -8,7 +8,7 @@
 use std::path::PathBuf;
 use std::process::Command;
 
-use sim::verilog::{write_controller_verilog, TOP_MODULE};
+use sim::verilated::verilog::{write_controller_verilog, TOP_MODULE};
 use testbenches::equivalence::{icarus_skipped, Simulator};
 use testbenches::lint::{negation_patterns, verilator_lint, EXPLAINED_CATEGORIES};
 
@@ -60,7 +60,7 @@ fn verilator_wall_shows_only_explained_categories_and_no_suspicious_width() {
 
 #[test]
 fn no_negation_is_widened_before_it_applies() {
-    let verilog = sim::verilog::controller_verilog();
+    let verilog = sim::verilated::verilog::controller_verilog();
     let found = negation_patterns(&verilog);
     assert!(
         found.is_empty(),

@@ -1,10 +1,11 @@
 //! `CANSIM_WAVES`: every bench writes the VCD of its run, named after the test, with its bus timing
 //! recorded. Alone in its test binary, since it sets the variable for the whole process.
 
-use sim::bus_decoder::{BusEventKind, BusTiming};
-use sim::frame::{Frame, Id};
-use sim::time::ClockSpec;
-use sim::vcd_reader::{decode_vcd, DecodeOptions};
+use golden::frame::{Frame, Id};
+use sim::decode::bus_decoder::BusEventKind;
+use sim::decode::vcd_reader::{decode_vcd, DecodeOptions};
+use sim::engine::bus_timing::BusTiming;
+use sim::engine::time::ClockSpec;
 use testbenches::controller_bench::{bench_btr, ControllerBench};
 use testbenches::protocol_bench::{bt_a, Iut, ProtocolBench};
 use testbenches::{CLOCK_HZ, WAVES_ENV};

@@ -7,21 +7,22 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use clap::{Parser, Subcommand};
-use sim::btr::{calc_bittiming, format_calculation, format_table, sample_point_fraction, Btr};
-use sim::bus_decoder::{EventCounts, Remark};
-use sim::campaign::{
-    check, describe, format_summary, random_case, run_campaign, run_rtl_traced, Rng,
-};
-use sim::controller_node::ModelEngine;
-use sim::demo::{demo_scenario, DEMO_LOG, DEMO_VCD};
+use golden::btr::{calc_bittiming, format_calculation, format_table, sample_point_fraction, Btr};
+use sim::decode::bus_decoder::{EventCounts, Remark};
+use sim::decode::vcd_reader::{self, decode_vcd, DecodeOptions};
+use sim::engine::rng::Rng;
+use sim::nodes::controller_node::ModelEngine;
 use sim::rta;
 use sim::scenario::parse::parse_time;
 use sim::scenario::progress::Progress;
 use sim::scenario::summary::{format_report, ReportParts};
 use sim::scenario::{load, run, RunOptions, RunReport, Scenario};
-use sim::sync_demo;
-use sim::vcd_reader::{self, decode_vcd, DecodeOptions};
 use sim::verilated;
+use sim::workloads::campaign::{
+    check, describe, format_summary, random_case, run_campaign, run_rtl_traced,
+};
+use sim::workloads::demo::{demo_scenario, DEMO_LOG, DEMO_VCD};
+use sim::workloads::sync_demo;
 
 #[derive(Parser)]
 #[command(
@@ -681,7 +682,7 @@ fn bittiming(
 }
 
 fn verilog(out: &Path) -> Result<(), String> {
-    let path = sim::verilog::write_controller_verilog(out).map_err(|e| e.to_string())?;
+    let path = sim::verilated::verilog::write_controller_verilog(out).map_err(|e| e.to_string())?;
     println!("wrote {}", path.display());
     Ok(())
 }
@@ -720,7 +721,8 @@ fn bench(
         for &n in nodes {
             // Runs with and without tracing alternate, so that a change in the machine's speed
             // during the measurement does not show up as a cost of tracing.
-            let mut results: Vec<Vec<sim::bench::BenchRun>> = vec![Vec::new(); traces.len()];
+            let mut results: Vec<Vec<sim::workloads::bench::BenchRun>> =
+                vec![Vec::new(); traces.len()];
             for run in 0..runs {
                 for (k, &trace) in traces.iter().enumerate() {
                     if progress {
@@ -731,7 +733,7 @@ fn bench(
                         );
                     }
                     let path = trace.then_some(&trace_file);
-                    let result = sim::bench::run_workload(engine, n, frames, path);
+                    let result = sim::workloads::bench::run_workload(engine, n, frames, path);
                     results[k].push(result.map_err(|e| e.to_string())?);
                 }
             }
@@ -739,10 +741,15 @@ fn bench(
                 eprint!("\r{:60}\r", "");
             }
             if let [off, on] = results.as_slice() {
-                lines.push(sim::bench::trace_cost_line(engine.name(), n, off, on));
+                lines.push(sim::workloads::bench::trace_cost_line(
+                    engine.name(),
+                    n,
+                    off,
+                    on,
+                ));
             }
             for (&trace, runs) in traces.iter().zip(results) {
-                let s = sim::bench::summarise(runs);
+                let s = sim::workloads::bench::summarise(runs);
                 println!(
                     "{:<10} {n:>5} {:>5} {:>10.0} ({:.0}..{:.0}) {:>12.0} {:>10.1} {:>9.4}x",
                     engine.name(),
@@ -754,7 +761,12 @@ fn bench(
                     s.median.frames_per_s,
                     s.median.real_time_factor()
                 );
-                lines.push(sim::bench::bench_line(engine.name(), n, trace, &s));
+                lines.push(sim::workloads::bench::bench_line(
+                    engine.name(),
+                    n,
+                    trace,
+                    &s,
+                ));
             }
         }
     }
@@ -782,7 +794,8 @@ fn campaign_scaling(faults: u64) -> Result<(), String> {
     println!("{:>7} {:>10} {:>8}", "threads", "cases/s", "speedup");
     let mut single = None;
     for threads in 1..=cores {
-        let rate = sim::bench::campaign_rate(1, faults, threads).map_err(|e| e.to_string())?;
+        let rate =
+            sim::workloads::bench::campaign_rate(1, faults, threads).map_err(|e| e.to_string())?;
         let speedup = rate / *single.get_or_insert(rate);
         println!("{threads:>7} {rate:>10.1} {speedup:>7.2}x");
         println!("BENCH campaign threads={threads} cases_per_s={rate:.1} speedup={speedup:.2}");

@@ -17,10 +17,6 @@
 
 use super::message_set::{utilisation, Message, MessageSet};
 use super::Ticks;
-use crate::worst_case::length_bound;
-
-/// Bits of intermission after every frame, part of each frame's bus time C.
-pub const INTERMISSION_BITS: u64 = 3;
 
 /// Fixed-point iterations after which a recurrence is declared divergent even though the
 /// utilisation is below 1 (it is then so close to 1 that the busy period is astronomically long).
@@ -30,12 +26,6 @@ pub const MAX_ITERATIONS: u64 = 10_000_000;
 /// Far above any message set's times (these are at most [`super::message_set::MAX_TIME`]), far
 /// below the `u64` overflow of the ceiling terms.
 pub const LONGEST_BUSY_PERIOD: Ticks = 1 << 60;
-
-/// Worst-case bus time of a data frame in bits: the stuffing bound `44 + 8n + ⌊(34+8n)/4⌋`
-/// (standard) or `64 + 8n + ⌊(54+8n)/4⌋` (extended) plus the 3-bit intermission.
-pub fn frame_bits(extended: bool, dlc: u8) -> u64 {
-    length_bound(extended, usize::from(dlc)) as u64 + INTERMISSION_BITS
-}
 
 /// A bounded worst case of one message.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -200,8 +190,8 @@ fn fixed_point(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::frame::Id;
     use crate::rta::message_set::TimeBase;
+    use golden::frame::Id;
 
     /// Abstract-unit messages (τ = 1) from (C, T) pairs in priority order.
     fn set(messages: &[(Ticks, Ticks)]) -> MessageSet {
@@ -237,15 +227,6 @@ mod tests {
             .iter()
             .map(|b| b.classic.unwrap().queuing)
             .collect()
-    }
-
-    #[test]
-    fn frame_bits_are_the_stuffing_bound_plus_intermission() {
-        assert_eq!(frame_bits(false, 0), 55);
-        assert_eq!(frame_bits(false, 7), 125);
-        assert_eq!(frame_bits(false, 8), 135);
-        assert_eq!(frame_bits(true, 0), 80);
-        assert_eq!(frame_bits(true, 8), 160);
     }
 
     #[test]

@@ -28,9 +28,8 @@ use std::path::Path;
 use serde::Deserialize;
 use toml::Spanned;
 
-use super::analysis::frame_bits;
-use super::Ticks;
-use crate::frame::{Id, MAX_DATA_LEN, MAX_EXTENDED_ID, MAX_STANDARD_ID};
+use super::{frame_bits, Ticks};
+use golden::frame::{Id, MAX_DATA_LEN, MAX_EXTENDED_ID, MAX_STANDARD_ID};
 
 /// Nanoseconds per second: ticks are nanoseconds in a set with a bit rate.
 const NS_PER_S: u64 = 1_000_000_000;

@@ -4,7 +4,7 @@ use super::analysis::{Analysis, Corrected, Divergence, Response};
 use super::message_set::{Message, MessageSet, TimeBase};
 use super::simulate::{Observation, Simulation};
 use super::Ticks;
-use crate::frame::encode;
+use golden::frame::encode;
 
 /// A verdict cell: meets its deadline, misses it, or has no finite bound.
 fn verdict(response: Option<Ticks>, deadline: Ticks) -> &'static str {
@@ -243,14 +243,14 @@ pub fn format_simulation(set: &MessageSet, analysis: &Analysis, sim: &Simulation
         set.messages.len() - sim.skipped.len(),
         set.messages.len(),
         sim.frames_sent,
-        sim.simulated_fs / crate::time::FS_PER_MS
+        sim.simulated_fs / crate::engine::time::FS_PER_MS
     ));
     out
 }
 
 /// Wire bits of `frame` plus the intermission, comparable with the bound C in bits.
-pub fn sent_bits(frame: &crate::frame::Frame) -> u64 {
-    encode(frame).len() as u64 + super::analysis::INTERMISSION_BITS
+pub fn sent_bits(frame: &golden::frame::Frame) -> u64 {
+    encode(frame).len() as u64 + u64::from(golden::frame::INTERMISSION_BITS)
 }
 
 /// The CSV report: one header line and one line per message; times in the file's unit; the

@@ -25,12 +25,12 @@ use std::sync::Mutex;
 use super::analysis::Analysis;
 use super::message_set::{MessageSet, TimeBase};
 use super::Ticks;
-use crate::btr::Btr;
-use crate::can_node::{CanNode, NodeEvent};
+use crate::engine::time::{ClockSpec, FS_PER_NS};
 use crate::engine::{DeviceId, Engine};
-use crate::frame::{Frame, DOMINANT};
-use crate::time::{ClockSpec, FS_PER_NS};
-use crate::worst_case::search_for_id;
+use crate::nodes::can_node::{CanNode, NodeEvent};
+use golden::btr::Btr;
+use golden::frame::{Frame, DOMINANT};
+use golden::worst_case::search_for_id;
 
 /// TSEG1 of the simulated nodes in tq. With sync 1 and TSEG2 2 a bit has 8 tq (the fewest CAN
 /// 2.0 asks controllers to support), 16 controller clocks at BRP 0, sample point 75 %: cheap to
@@ -266,7 +266,7 @@ impl Bench<'_> {
         let releases = self.releases(&scenario.senders[..=focus], t0, t0 + busy_fs);
         let limit = t0 + RUN_LIMIT_BUSY_PERIODS * busy_fs + RUN_LIMIT_EXTRA_BITS * self.bit_fs();
         scenario.play(&releases, limit).map_err(|e| {
-            let ms = scenario.engine.now().saturating_sub(t0) / crate::time::FS_PER_MS;
+            let ms = scenario.engine.now().saturating_sub(t0) / crate::engine::time::FS_PER_MS;
             format!(
                 "scenario of {} ({ms} ms after the critical instant): {e}",
                 self.name(focus)

@@ -11,8 +11,8 @@
 
 use std::path::Path;
 
-use crate::frame::{Frame, Id, MAX_DATA_LEN};
-use crate::time::FS_PER_S;
+use crate::engine::time::FS_PER_S;
+use golden::frame::{Frame, Id, MAX_DATA_LEN};
 
 use super::ScenarioError;
 

@@ -8,9 +8,9 @@
 //! bus is seen by every node (and in the traced `bus`); a fault limited to some nodes is seen only
 //! by their receivers, each through its own propagation delay.
 
-use crate::bus::{BusFault, Drive};
+use crate::engine::bus::{BusFault, Drive};
 use crate::engine::{DeviceId, Engine};
-use crate::frame::{encode, Field, Frame, RECESSIVE};
+use golden::frame::{encode, Field, Frame, RECESSIVE};
 
 /// What a fault does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -136,7 +136,7 @@ impl FaultKind {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::frame::Id;
+    use golden::frame::Id;
 
     fn frame(id: u16, data: &[u8]) -> Frame {
         Frame::data(Id::standard(id).unwrap(), data).unwrap()

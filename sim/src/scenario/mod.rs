@@ -9,11 +9,11 @@
 //! overload frames, a per-node summary and, if asked, a VCD. `docs/SCENARIOS.md` describes the
 //! file format.
 //!
-//! * [`parse`] reads a file (TOML with every key checked; errors name the file, line and column),
+//! * [`mod@parse`] reads a file (TOML with every key checked; errors name the file, line and column),
 //! * [`candump`] the candump frame notation and log files,
 //! * [`traffic`] when which node hands which frame to its driver,
 //! * [`faults`] where a fault lands and what it does to the bus,
-//! * [`run`] runs a scenario, [`summary`] prints its results, [`progress`] shows a run going,
+//! * [`mod@run`] runs a scenario, [`summary`] prints its results, [`progress`] shows a run going,
 //!   [`view`] writes a GTKWave view beside its VCD.
 
 pub mod candump;
@@ -21,6 +21,7 @@ pub mod faults;
 mod output;
 pub mod parse;
 pub mod progress;
+pub mod report;
 pub mod run;
 pub mod summary;
 pub mod traffic;
@@ -29,12 +30,13 @@ pub mod view;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use crate::acceptance::FilterConfig;
-use crate::btr::Btr;
-use crate::time::ClockSpec;
+use crate::engine::time::ClockSpec;
+use crate::host::acceptance::FilterConfig;
+use golden::btr::Btr;
 
 pub use parse::{load, parse};
-pub use run::{run, RunOptions, RunReport};
+pub use report::RunReport;
+pub use run::{run, RunOptions};
 
 /// What went wrong with a scenario: a message, with the file and line (and column) it is about
 /// when there is one.

@@ -8,11 +8,11 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::acceptance::FilterConfig;
-use crate::btr::{calc_bittiming, sample_point_fraction, Btr};
-use crate::driver::open_filter;
-use crate::frame::{Field, Frame, DOMINANT, RECESSIVE};
-use crate::time::{FS_PER_MS, FS_PER_NS, FS_PER_S, FS_PER_US};
+use crate::engine::time::{FS_PER_MS, FS_PER_NS, FS_PER_S, FS_PER_US};
+use crate::host::acceptance::FilterConfig;
+use crate::host::driver::open_filter;
+use golden::btr::{calc_bittiming, sample_point_fraction, Btr};
+use golden::frame::{Field, Frame, DOMINANT, RECESSIVE};
 
 use super::candump::{parse_frame, parse_log};
 use super::faults::{Fault, FaultKind, Place};
@@ -594,9 +594,9 @@ impl<'a> Builder<'a> {
         };
         let extended = f.extended.unwrap_or(false);
         let (bits, max) = if extended {
-            (29, crate::frame::MAX_EXTENDED_ID)
+            (29, golden::frame::MAX_EXTENDED_ID)
         } else {
-            (11, u32::from(crate::frame::MAX_STANDARD_ID))
+            (11, u32::from(golden::frame::MAX_STANDARD_ID))
         };
         let mask = f.mask.as_ref().map_or(0, |m| *m.get_ref());
         for value in [id].into_iter().chain(&f.mask) {
@@ -997,8 +997,8 @@ mod tests {
         let text = format!("{MINIMAL}filter = {{ id = 0x100, mask = 0x0FF }}\n");
         let filter = parse_text(&text).unwrap().nodes[0].filter;
         let passes = |id| {
-            let frame = Frame::data(crate::frame::Id::standard(id).unwrap(), &[1, 2]).unwrap();
-            crate::acceptance::accepts(&filter, &frame)
+            let frame = Frame::data(golden::frame::Id::standard(id).unwrap(), &[1, 2]).unwrap();
+            crate::host::acceptance::accepts(&filter, &frame)
         };
         assert!(passes(0x100) && passes(0x1FF) && passes(0x155));
         assert!(!passes(0x200) && !passes(0x0FF) && !passes(0x300));

@@ -4,7 +4,7 @@
 
 use std::time::{Duration, Instant};
 
-use crate::time::FS_PER_MS;
+use crate::engine::time::FS_PER_MS;
 
 /// Width of the bar, in characters.
 const BAR_WIDTH: usize = 24;

@@ -17,17 +17,20 @@ use std::path::PathBuf;
 
 use rtl::registers::pelican;
 
-use crate::bus_decoder::{BusDecoder, BusEvent, BusTiming};
-use crate::controller_node::{ControllerNode, ModelEngine};
-use crate::driver::{CanState, CtrlMode, DriverConfig, DriverError, DriverEvent, Sja1000Driver};
+use crate::decode::bus_decoder::{BusDecoder, BusEvent};
+use crate::engine::bus_timing::BusTiming;
+use crate::engine::time::ClockSpec;
 use crate::engine::{DeviceId, Engine};
-use crate::frame::{Frame, DOMINANT, RECESSIVE};
+use crate::host::driver::{
+    CanState, CtrlMode, DriverConfig, DriverError, DriverEvent, Sja1000Driver,
+};
 use crate::host::Host;
-use crate::time::ClockSpec;
+use crate::nodes::controller_node::{ControllerNode, ModelEngine};
+use golden::frame::{Frame, DOMINANT, RECESSIVE};
 
 use super::faults::{install, locate, Fault, FaultKind, Place, Target};
 use super::output::PendingFile;
-use super::summary::{AppliedFault, Happening, NodeEvent, NodeReport};
+use super::report::{AppliedFault, Happening, NodeEvent, NodeReport, RunReport};
 use super::traffic::Schedule;
 use super::view::{write_view, FRAME_PROBE};
 use super::{NodeMode, Scenario, ScenarioError};
@@ -56,38 +59,6 @@ pub struct RunOptions<'p> {
     pub progress: Option<&'p mut dyn FnMut(u64, u64)>,
     /// The engine stepping the controllers (`None`: the one `CAN_ENGINE` chooses).
     pub engine: Option<ModelEngine>,
-}
-
-/// Everything a run saw.
-#[derive(Clone, Debug)]
-pub struct RunReport {
-    /// Per node, at the end, in scenario order.
-    pub nodes: Vec<NodeReport>,
-    /// What the drivers reported and the restarts, in time order.
-    pub events: Vec<NodeEvent>,
-    /// The bus log: every frame, error frame and overload frame on the bus.
-    pub log: Vec<BusEvent>,
-    /// The faults as they landed, in time order.
-    pub faults: Vec<AppliedFault>,
-    /// Faults that never landed, with the reason (e.g. the bus saw fewer frames).
-    pub missed_faults: Vec<String>,
-    /// When each frame started on the bus (frame 1 first).
-    pub frame_starts: Vec<u64>,
-    /// Simulated time.
-    pub simulated_fs: u64,
-    /// The VCD written, if any.
-    pub vcd: Option<PathBuf>,
-    /// The log file written, if any.
-    pub log_file: Option<PathBuf>,
-    /// The GTKWave view written beside the VCD, if any.
-    pub view: Option<PathBuf>,
-}
-
-impl RunReport {
-    /// The bus log as text: one `candump -l` style line per event.
-    pub fn log_text(&self) -> String {
-        self.log.iter().map(|e| format!("{e}\n")).collect()
-    }
 }
 
 /// Runs `scenario`.

@@ -7,91 +7,12 @@ use std::fmt;
 use rtl::bsp::ecc_segment as seg;
 use rtl::registers::interrupt;
 
-use crate::bus_decoder::{BusEvent, BusEventKind};
-use crate::driver::{CanState, DriverEvent, DriverStats};
-use crate::frame::Frame;
-use crate::time::{FS_PER_MS, FS_PER_NS};
+use crate::decode::bus_decoder::{BusEvent, BusEventKind};
+use crate::engine::time::{FS_PER_MS, FS_PER_NS};
+use crate::host::driver::DriverEvent;
 
-use super::run::RunReport;
+use super::report::{AppliedFault, Happening, NodeEvent, NodeReport, RunReport};
 use super::{NodeConfig, NodeMode, Scenario};
-
-/// The interrupt names, by IR bit number.
-pub const INTERRUPT_NAMES: [&str; 8] = ["RI", "TI", "EI", "DOI", "WUI", "EPI", "ALI", "BEI"];
-
-/// A node at the end of a run.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct NodeReport {
-    /// Node name.
-    pub name: String,
-    /// Frames sent (TI for the frame in flight).
-    pub sent: usize,
-    /// Frames the driver read from the RX FIFO, in order.
-    pub received: Vec<Frame>,
-    /// Frames given up: dropped at bus-off, or one-shot attempts that failed.
-    pub dropped: usize,
-    /// Frames still waiting in the node's queue (or in flight) when the run ended.
-    pub unsent: usize,
-    /// TXERR at the end, read through the host.
-    pub tec: u8,
-    /// RXERR at the end, read through the host.
-    pub rec: u8,
-    /// The device state as the driver tracks it.
-    pub state: CanState,
-    /// Bus-off restarts by the driver.
-    pub restarts: usize,
-    /// The driver's statistics, interrupt counts included.
-    pub stats: DriverStats,
-}
-
-impl NodeReport {
-    /// `RI 11, TI 9, EPI 2` (interrupts that happened, in IR bit order).
-    pub fn interrupts_text(&self) -> String {
-        let seen: Vec<String> = INTERRUPT_NAMES
-            .iter()
-            .zip(self.stats.interrupts)
-            .filter(|(_, n)| *n > 0)
-            .map(|(name, n)| format!("{name} {n}"))
-            .collect();
-        if seen.is_empty() {
-            "-".to_string()
-        } else {
-            seen.join(", ")
-        }
-    }
-}
-
-/// What happened to a node, besides what its driver reported.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Happening {
-    /// The driver reported this.
-    Driver(DriverEvent),
-    /// The driver began to restart the controller after bus-off (`restart-ms`).
-    Restarted,
-}
-
-/// One event of a node, with its time.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct NodeEvent {
-    /// Simulated time (when the interrupt handler that reported it returned).
-    pub at_fs: u64,
-    /// Node name.
-    pub node: String,
-    /// What happened.
-    pub what: Happening,
-}
-
-/// A fault as it landed.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct AppliedFault {
-    /// Its line in the scenario file.
-    pub line: usize,
-    /// When it began on the bus (or at the node).
-    pub start_fs: u64,
-    /// When it ended.
-    pub end_fs: u64,
-    /// What and where, in words.
-    pub text: String,
-}
 
 /// Counts of the bus log's lines by kind.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -325,7 +246,7 @@ fn describe_node(node: &NodeConfig, scenario: &Scenario) -> String {
         NodeMode::ListenOnly => out += ", listen-only",
         NodeMode::SelfTest => out += ", self-test",
     }
-    if node.filter != crate::driver::open_filter() {
+    if node.filter != crate::host::driver::open_filter() {
         let word = |bytes: [u8; 4]| u32::from_be_bytes(bytes);
         out += &format!(
             ", {} filter ACR {:08X} AMR {:08X}",
@@ -393,6 +314,7 @@ pub fn ecc_text(ecc: u8) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::host::driver::{CanState, DriverStats};
 
     #[test]
     fn ecc_values_read_as_words() {

@@ -6,8 +6,8 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
-use crate::campaign::Rng;
-use crate::frame::Frame;
+use crate::engine::rng::Rng;
+use golden::frame::Frame;
 
 /// How a periodic message's payload changes from one message to the next.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -152,7 +152,7 @@ impl<'t> Schedule<'t> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::frame::Id;
+    use golden::frame::Id;
 
     fn frame(id: u16, data: &[u8]) -> Frame {
         Frame::data(Id::standard(id).unwrap(), data).unwrap()

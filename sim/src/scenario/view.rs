@@ -13,12 +13,12 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::bus_decoder::INTERFACE;
-use crate::time::FS_PER_NS;
-use crate::trace::Probe;
+use crate::decode::bus_decoder::INTERFACE;
+use crate::engine::time::FS_PER_NS;
+use crate::engine::trace::Probe;
 
 use super::output::write_file;
-use super::run::RunReport;
+use super::report::RunReport;
 use super::{Scenario, ScenarioError};
 
 /// The names of the protocol states (`ProtocolState` values), as a GTKWave translate filter.

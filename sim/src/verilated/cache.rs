@@ -14,7 +14,7 @@ use super::sources::{
     shim_cpp, wrapper_verilog, CONTROLLER_FILE, SHIM_FILE, WRAPPER_FILE, WRAPPER_MODULE,
 };
 use super::EngineError;
-use crate::verilog::controller_verilog;
+use crate::verilated::verilog::controller_verilog;
 
 /// The Verilator executable.
 const VERILATOR: &str = "verilator";

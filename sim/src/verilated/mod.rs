@@ -1,15 +1,16 @@
-//! The Verilator engine: the generated Verilog of the controller ([`crate::verilog`]) compiled by
+//! The Verilator engine: the generated Verilog of the controller ([`crate::verilated::verilog`]) compiled by
 //! Verilator into a shared library, loaded into this process and stepped one clock cycle per call.
 //!
 //! The library is built on first use and cached under `target/verilator/` (see `cache`); every
 //! model of the process shares it. A [`VerilatedController`] is one controller: [`PortInputs`] in,
-//! [`PortOutputs`] out, with the semantics of [`crate::controller_node::ControllerNode`]'s rust-hdl
+//! [`PortOutputs`] out, with the semantics of [`crate::nodes::controller_node::ControllerNode`]'s rust-hdl
 //! model: the inputs are applied before the rising edge and the outputs read after it with the
 //! clock low again.
 
 mod cache;
 mod dl;
 pub(crate) mod sources;
+pub mod verilog;
 
 use std::ffi::c_void;
 use std::fmt;

@@ -15,7 +15,7 @@
 
 use std::fmt::Write as _;
 
-use crate::verilog::TOP_MODULE;
+use crate::verilated::verilog::TOP_MODULE;
 
 /// Top module of the wrapper (and the prefix of Verilator's generated classes).
 pub(crate) const WRAPPER_MODULE: &str = "can_controller_sim";
@@ -39,7 +39,7 @@ pub(crate) struct InternalSignal {
     pub width: u32,
 }
 
-/// The internal signals, in the order of the core probes of the trace ([`crate::can_node`]), then
+/// The internal signals, in the order of the core probes of the trace ([`crate::nodes::can_node`]), then
 /// the ones only diagnostics read.
 pub(crate) const INTERNAL_SIGNALS: [InternalSignal; 6] = [
     InternalSignal {
@@ -256,8 +256,8 @@ CC_EXPORT uint64_t cc_cycle(void* model, uint32_t inputs) {{
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::can_node::{core_probes, CORE_PROBES};
-    use crate::verilog::controller_verilog;
+    use crate::nodes::can_node::{core_probes, CORE_PROBES};
+    use crate::verilated::verilog::controller_verilog;
 
     #[test]
     fn internal_signals_start_with_the_core_probes_in_their_order_and_width() {

@@ -19,9 +19,9 @@ use std::path::{Path, PathBuf};
 
 use vcd::{IdCode, ReferenceIndex, TimescaleUnit, VarType};
 
-use crate::bus_decoder::BusTiming;
-use crate::time::FS_PER_NS;
-use crate::vcd_reader::timing_comment;
+use crate::engine::bus_timing::timing_comment;
+use crate::engine::bus_timing::BusTiming;
+use crate::engine::time::FS_PER_NS;
 
 /// A device signal to trace.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

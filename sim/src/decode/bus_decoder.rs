@@ -19,14 +19,13 @@
 
 use std::fmt;
 
-use rtl::bsp::{DELIMITER_BITS, INTERMISSION_BITS};
-
-use crate::btr::Btr;
-use crate::crc15::Crc15;
-use crate::frame::{
-    data_len_for_dlc, Field, Frame, Id, Run, DOMINANT, EOF_BITS, MAX_DATA_LEN, RECESSIVE,
+use crate::engine::bus_timing::BusTiming;
+use crate::engine::time::{FS_PER_NS, FS_PER_S, FS_PER_US};
+use golden::crc15::Crc15;
+use golden::frame::{
+    data_len_for_dlc, Field, Frame, Id, Run, DELIMITER_BITS, DOMINANT, EOF_BITS, INTERMISSION_BITS,
+    MAX_DATA_LEN, RECESSIVE,
 };
-use crate::time::{ClockSpec, FS_PER_NS, FS_PER_S, FS_PER_US};
 
 /// Interface name printed in the candump-style lines.
 pub const INTERFACE: &str = "can0";
@@ -34,7 +33,7 @@ pub const INTERFACE: &str = "can0";
 pub const SJW_FRACTION: f64 = 0.25;
 /// Intermission bits after which a dominant bit is a start of frame (in the last intermission bit)
 /// rather than an overload flag.
-const SOF_AFTER_INTERMISSION_BITS: u64 = INTERMISSION_BITS - 1;
+const SOF_AFTER_INTERMISSION_BITS: u64 = INTERMISSION_BITS as u64 - 1;
 /// Bits in a data byte.
 const BYTE_BITS: u16 = 8;
 
@@ -583,73 +582,6 @@ enum State {
     Intermission { recessive: u8 },
 }
 
-/// The nominal bit timing a decoder samples with.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BusTiming {
-    /// Nominal bit time in femtoseconds.
-    pub bit_time_fs: u64,
-    /// Sample point as a fraction of the bit, strictly between 0 and 1.
-    pub sample_point: f64,
-}
-
-impl BusTiming {
-    /// A checked timing: a positive bit time and a sample point strictly inside the bit.
-    pub fn new(bit_time_fs: u64, sample_point: f64) -> Result<BusTiming, String> {
-        if bit_time_fs == 0 {
-            return Err("the bit time must be positive".into());
-        }
-        if !(sample_point > 0.0 && sample_point < 1.0) {
-            return Err(format!(
-                "sample point {sample_point} is not strictly between 0 and 1"
-            ));
-        }
-        Ok(BusTiming {
-            bit_time_fs,
-            sample_point,
-        })
-    }
-
-    /// The timing of `bitrate` bit/s (the bit time rounded to the femtosecond).
-    pub fn from_bitrate(bitrate: f64, sample_point: f64) -> Result<BusTiming, String> {
-        if !(bitrate.is_finite() && bitrate >= 1.0) {
-            return Err(format!(
-                "bit rate {bitrate} is not a rate of at least 1 bit/s"
-            ));
-        }
-        BusTiming::new((FS_PER_S as f64 / bitrate).round() as u64, sample_point)
-    }
-
-    /// The timing of a controller with bit timing `btr` on `clock`.
-    pub fn from_btr(btr: &Btr, clock: ClockSpec) -> BusTiming {
-        BusTiming {
-            bit_time_fs: u64::from(btr.clocks_per_bit()) * clock.period_fs(),
-            sample_point: btr.sample_point(),
-        }
-    }
-
-    /// The bit rate in bit/s.
-    pub fn bitrate(&self) -> f64 {
-        FS_PER_S as f64 / self.bit_time_fs as f64
-    }
-}
-
-impl fmt::Display for BusTiming {
-    /// `500000 bit/s, sample point 87.5 %`.
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{} bit/s, sample point {} %",
-            round_to_thousandths(self.bitrate()),
-            round_to_thousandths(self.sample_point * 100.0)
-        )
-    }
-}
-
-/// `x` rounded to three decimals, printed without trailing zeros (166666.667, 500000, 87.5).
-fn round_to_thousandths(x: f64) -> f64 {
-    (x * 1000.0).round() / 1000.0
-}
-
 /// The streaming decoder; see the module documentation.
 pub struct BusDecoder {
     bit_fs: u64,
@@ -859,7 +791,7 @@ impl BusDecoder {
             State::Delimiter { flag, recessive } => {
                 if bit == RECESSIVE {
                     *recessive += 1;
-                    if u64::from(*recessive) == DELIMITER_BITS {
+                    if *recessive == DELIMITER_BITS {
                         self.close_pending(end);
                         self.state = State::Intermission { recessive: 0 };
                     }
@@ -869,7 +801,7 @@ impl BusDecoder {
                     Flag::Error => BitPlace::ErrorDelimiter(*recessive),
                     Flag::Overload => BitPlace::OverloadDelimiter(*recessive),
                 };
-                let last_bit = u64::from(*recessive) == DELIMITER_BITS - 1;
+                let last_bit = *recessive == DELIMITER_BITS - 1;
                 self.close_pending(start);
                 if last_bit {
                     self.begin(start, BusEventKind::OverloadFrame { at }, Flag::Overload);
@@ -887,7 +819,7 @@ impl BusDecoder {
             State::Intermission { recessive } => {
                 if bit == RECESSIVE {
                     *recessive += 1;
-                    if u64::from(*recessive) == INTERMISSION_BITS {
+                    if *recessive == INTERMISSION_BITS {
                         self.state = State::Idle;
                     }
                 } else if u64::from(*recessive) < SOF_AFTER_INTERMISSION_BITS {
@@ -930,8 +862,8 @@ impl BusDecoder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::frame::tests::{levels, wire_from_unstuffed};
-    use crate::frame::{encode, EncodedFrame, MAX_DLC};
+    use golden::frame::hand_built::{levels, wire_from_unstuffed};
+    use golden::frame::{encode, EncodedFrame, MAX_DLC};
     use proptest::prelude::*;
 
     /// 500 kbit/s.

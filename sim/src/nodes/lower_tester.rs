@@ -13,11 +13,11 @@
 
 use std::any::Any;
 
-use crate::btr::Btr;
-use crate::bus::Drive;
+use crate::engine::bus::Drive;
+use crate::engine::time::ClockSpec;
 use crate::engine::Device;
-use crate::frame::{DOMINANT, RECESSIVE};
-use crate::time::ClockSpec;
+use golden::btr::Btr;
+use golden::frame::{DOMINANT, RECESSIVE};
 
 #[derive(Clone, Copy, Debug)]
 struct ScriptBit {

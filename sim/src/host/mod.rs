@@ -4,8 +4,12 @@
 //! (all other devices too) while the host waits for its access. A read returns the registered read
 //! data of the port contract.
 
-use crate::controller_node::{ControllerNode, HostAccess};
+pub mod acceptance;
+pub mod driver;
+pub mod frame_buffer;
+
 use crate::engine::{DeviceId, Engine};
+use crate::nodes::controller_node::{ControllerNode, HostAccess};
 
 /// Longest time an access may wait for its clock edge before the host gives up (a stopped clock).
 pub const ACCESS_TIMEOUT_FS: u64 = 1_000_000_000_000;

@@ -19,13 +19,13 @@ use std::collections::VecDeque;
 use rtl::bit_timing::{BitTiming, Segment, SyncMode};
 use rust_hdl::prelude::*;
 
-use crate::btr::Btr;
-use crate::bus::Drive;
+use crate::engine::bus::Drive;
+use crate::engine::rtl_step::{clock_cycle, settle};
+use crate::engine::time::ClockSpec;
+use crate::engine::trace::Probe;
 use crate::engine::Device;
-use crate::frame::{DOMINANT, RECESSIVE};
-use crate::rtl_step::{clock_cycle, settle};
-use crate::time::ClockSpec;
-use crate::trace::Probe;
+use golden::btr::Btr;
+use golden::frame::{DOMINANT, RECESSIVE};
 
 /// Recessive bits in a row after which the stand-in takes the bus as idle again.
 const IDLE_AFTER_RECESSIVE_BITS: u32 = 10;

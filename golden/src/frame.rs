@@ -49,7 +49,15 @@ pub const MAX_DATA_LEN: usize = 8;
 /// Number of equal consecutive wire bits after which a stuff bit is inserted.
 pub const STUFF_RUN: u8 = 5;
 /// Number of end of frame bits.
-pub(crate) const EOF_BITS: u16 = 7;
+pub const EOF_BITS: u16 = 7;
+/// Bits of an active or passive error flag and of an overload flag.
+pub const FLAG_BITS: u8 = 6;
+/// Bits of an error or overload delimiter.
+pub const DELIMITER_BITS: u8 = 8;
+/// Bits of the intermission.
+pub const INTERMISSION_BITS: u8 = 3;
+/// Bits of the suspend transmission field of an error-passive transmitter.
+pub const SUSPEND_BITS: u8 = 8;
 
 /// A CAN identifier: 11-bit standard (CAN 2.0A) or 29-bit extended (CAN 2.0B).
 ///
@@ -156,7 +164,7 @@ impl fmt::Display for FrameError {
 impl std::error::Error for FrameError {}
 
 /// Number of data bytes carried by a data frame with this DLC: `min(dlc, 8)`.
-pub(crate) fn data_len_for_dlc(dlc: u8) -> usize {
+pub fn data_len_for_dlc(dlc: u8) -> usize {
     usize::from(dlc).min(MAX_DATA_LEN)
 }
 
@@ -383,16 +391,22 @@ impl EncodedFrame {
 /// Run-length tracker of the bit stuffing rule, shared by encoder, decoder and the
 /// worst-case search.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub(crate) struct Run {
+pub struct Run {
     /// Level of the current run.
-    pub(crate) value: bool,
+    pub value: bool,
     /// Length of the current run, 0 before SOF, otherwise 1..=5.
-    pub(crate) len: u8,
+    pub len: u8,
+}
+
+impl Default for Run {
+    fn default() -> Self {
+        Run::new()
+    }
 }
 
 impl Run {
     /// State before the SOF bit: stuffing starts at SOF, the idle bits do not count.
-    pub(crate) const fn new() -> Self {
+    pub const fn new() -> Self {
         Run {
             value: RECESSIVE,
             len: 0,
@@ -400,7 +414,7 @@ impl Run {
     }
 
     /// Records a wire bit (data or stuff); returns `true` when a stuff bit must follow.
-    pub(crate) fn push(&mut self, bit: bool) -> bool {
+    pub fn push(&mut self, bit: bool) -> bool {
         if self.len > 0 && bit == self.value {
             self.len += 1;
         } else {
@@ -683,8 +697,51 @@ pub fn decode(bits: &BitSlice<u8, Msb0>) -> Result<DecodedFrame, DecodeError> {
     })
 }
 
+/// Wire images built by hand, for tests of code that reads the bus (this crate's decoder, the
+/// simulator's bus decoder): written independently of [`encode`], with an explicit run counter.
+pub mod hand_built {
+    use bitvec::order::Msb0;
+    use bitvec::vec::BitVec;
+
+    use super::RECESSIVE;
+    use crate::crc15::crc15;
+
+    /// Builds a wire image from unstuffed SOF..data bits: CRC, stuffing and a recessive
+    /// tail, written independently of the encoder (with an explicit run counter).
+    pub fn wire_from_unstuffed(header: &[bool]) -> BitVec<u8, Msb0> {
+        let crc = crc15(header.iter().copied());
+        let crc_bits = (0..15).rev().map(|i| crc >> i & 1 == 1);
+        let mut wire = BitVec::new();
+        let (mut last, mut same) = (RECESSIVE, 0);
+        for bit in header.iter().copied().chain(crc_bits) {
+            same = if wire.is_empty() || bit != last {
+                1
+            } else {
+                same + 1
+            };
+            last = bit;
+            wire.push(bit);
+            if same == 5 {
+                wire.push(!bit);
+                (last, same) = (!bit, 1);
+            }
+        }
+        wire.extend([RECESSIVE; 10]);
+        wire
+    }
+
+    /// Wire levels from `0`/`1` text; whitespace is ignored.
+    pub fn levels(text: &str) -> Vec<bool> {
+        text.chars()
+            .filter(|c| !c.is_whitespace())
+            .map(|c| c == '1')
+            .collect()
+    }
+}
+
 #[cfg(test)]
-pub(crate) mod tests {
+mod tests {
+    use super::hand_built::{levels, wire_from_unstuffed};
     use super::*;
     use crate::crc15::crc15;
     use crate::worst_case::length_bound;
@@ -923,38 +980,6 @@ pub(crate) mod tests {
 
     fn error_of(bits: &BitSlice<u8, Msb0>) -> DecodeError {
         decode(bits).expect_err("decode must fail")
-    }
-
-    /// Builds a wire image from unstuffed SOF..data bits: CRC, stuffing and a recessive
-    /// tail, written independently of the encoder (with an explicit run counter).
-    pub(crate) fn wire_from_unstuffed(header: &[bool]) -> BitVec<u8, Msb0> {
-        let crc = crc15(header.iter().copied());
-        let crc_bits = (0..15).rev().map(|i| crc >> i & 1 == 1);
-        let mut wire = BitVec::new();
-        let (mut last, mut same) = (RECESSIVE, 0);
-        for bit in header.iter().copied().chain(crc_bits) {
-            same = if wire.is_empty() || bit != last {
-                1
-            } else {
-                same + 1
-            };
-            last = bit;
-            wire.push(bit);
-            if same == 5 {
-                wire.push(!bit);
-                (last, same) = (!bit, 1);
-            }
-        }
-        wire.extend([RECESSIVE; 10]);
-        wire
-    }
-
-    /// Wire levels from `0`/`1` text; whitespace is ignored.
-    pub(crate) fn levels(text: &str) -> Vec<bool> {
-        text.chars()
-            .filter(|c| !c.is_whitespace())
-            .map(|c| c == '1')
-            .collect()
     }
 
     #[test]

@@ -7,15 +7,22 @@
 //! with ppm offsets every device keeps its own time. The engine is the one place that knows about time:
 //! testbenches talk in frames, bits and quanta through the devices and the lower tester.
 
+pub mod bus;
+pub mod bus_timing;
+pub mod rng;
+pub mod rtl_step;
+pub mod time;
+pub mod trace;
+
 use std::any::Any;
 use std::io;
 use std::path::{Path, PathBuf};
 
-use crate::bus::{Bus, BusFault, Drive};
-use crate::bus_decoder::BusTiming;
-use crate::frame::RECESSIVE;
-use crate::time::ClockSpec;
-use crate::trace::{Probe, VcdTracer};
+use crate::engine::bus::{Bus, BusFault, Drive};
+use crate::engine::bus_timing::BusTiming;
+use crate::engine::time::ClockSpec;
+use crate::engine::trace::{Probe, VcdTracer};
+use golden::frame::RECESSIVE;
 
 /// A participant on the bus, stepped on the rising edges of its own clock.
 pub trait Device: Any {
@@ -551,7 +558,7 @@ mod tests {
         let text = std::fs::read_to_string(&path).unwrap();
         std::fs::remove_file(&path).unwrap();
         assert!(
-            text.contains(&crate::vcd_reader::timing_comment(&timing)),
+            text.contains(&crate::engine::bus_timing::timing_comment(&timing)),
             "{text}"
         );
         assert_eq!(
@@ -575,7 +582,7 @@ mod tests {
         // The first device's transmitter is stuck dominant at its edges 2 and 3; the bus is
         // forced dominant for edges 6 and 7 (strictly after 5 µs, up to 7 µs).
         engine.override_drive(stuck, 2 * us, 4 * us, Drive::Dominant);
-        engine.fault_bus(5 * us, 7 * us, BusFault::Force(crate::frame::DOMINANT));
+        engine.fault_bus(5 * us, 7 * us, BusFault::Force(golden::frame::DOMINANT));
         engine.run_until(10 * us).unwrap();
         let expected: Vec<bool> = (0..10).map(|k| !matches!(k, 3 | 4 | 6 | 7)).collect();
         assert_eq!(engine.device::<Probe>(listener).seen, expected);

@@ -5,7 +5,7 @@
 //! ID.10..3, then ID.2..0 in bits 7..5 (RX: RTR copy in bit 4). Extended: ID.28..5 in three bytes,
 //! then ID.4..0 in bits 7..3 (RX: RTR copy in bit 2).
 
-use crate::frame::{Frame, Id};
+use golden::frame::{Frame, Id};
 
 /// Bytes of the frame buffer.
 pub const FRAME_BUFFER_BYTES: usize = 13;

@@ -4,7 +4,7 @@
 //! would. Written from the description in `docs/SJA1000.md` ("What the Linux driver needs") and the
 //! driver's documented behaviour, not from its code.
 //!
-//! Every method talks to one [`ControllerNode`](crate::controller_node::ControllerNode) through a
+//! Every method talks to one [`ControllerNode`](crate::nodes::controller_node::ControllerNode) through a
 //! [`Host`]: each access is one controller clock cycle while the whole engine keeps running. The
 //! kernel side (socket buffers, the echo skb, netif queue, error frames) is reduced to what a test
 //! observes: typed [`DriverEvent`]s, the device [`CanState`] and [`DriverStats`].
@@ -24,12 +24,12 @@ use std::fmt;
 
 use rtl::registers::{clock_divider, command, interrupt, mode, pelican, status};
 
-use crate::acceptance::FilterConfig;
-use crate::btr::{calc_bittiming, BitTimingError, Btr};
 use crate::engine::{DeviceId, Engine};
-use crate::frame::Frame;
-use crate::frame_buffer::{buffer_len, decode_buffer, encode_buffer, FRAME_BUFFER_BYTES};
+use crate::host::acceptance::FilterConfig;
+use crate::host::frame_buffer::{buffer_len, decode_buffer, encode_buffer, FRAME_BUFFER_BYTES};
 use crate::host::Host;
+use golden::btr::{calc_bittiming, BitTimingError, Btr};
+use golden::frame::Frame;
 
 /// Most iterations of the interrupt handler's loop per call (the driver's `SJA1000_MAX_IRQ`).
 pub const MAX_IRQ_LOOPS: usize = 20;

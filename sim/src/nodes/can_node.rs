@@ -12,14 +12,14 @@ use rtl::bsp::protocol::ProtocolState;
 use rtl::can_core::CanCore;
 use rust_hdl::prelude::*;
 
-use crate::btr::Btr;
-use crate::bus::Drive;
+use crate::engine::bus::Drive;
+use crate::engine::rtl_step::clock_cycle_with;
+use crate::engine::time::ClockSpec;
+use crate::engine::trace::Probe;
 use crate::engine::Device;
-use crate::frame::{Frame, Id};
-use crate::frame_buffer::{encode_buffer, FRAME_BUFFER_BYTES};
-use crate::rtl_step::clock_cycle_with;
-use crate::time::ClockSpec;
-use crate::trace::Probe;
+use crate::host::frame_buffer::{encode_buffer, FRAME_BUFFER_BYTES};
+use golden::btr::Btr;
+use golden::frame::{Frame, Id};
 
 /// Something the node reported, with the time of the clock edge after which it was seen.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -8,7 +8,7 @@
 //!   counted.
 //! * Times come from the file's `$timescale`, which is required.
 //! * The bit timing: what the caller gives, else what the file records in a header comment written
-//!   by [`timing_comment`] (the project's tracer writes one for every bench that knows its timing),
+//!   by [`timing_comment`](crate::engine::bus_timing::timing_comment) (the project's tracer writes one for every bench that knows its timing),
 //!   else [`DEFAULT_BITRATE`] and [`DEFAULT_SAMPLE_POINT`].
 //!
 //! Every error names the file, and the line where there is one.
@@ -20,9 +20,11 @@ use std::path::{Path, PathBuf};
 
 use vcd::{Command, IdCode, ParseError, ScopeItem, Value, Var, VarType};
 
-use crate::bus_decoder::{BusDecoder, BusEvent, BusTiming, Remark};
-use crate::frame::{DOMINANT, RECESSIVE};
-use crate::time::FS_PER_S;
+use crate::decode::bus_decoder::{BusDecoder, BusEvent, Remark};
+use crate::engine::bus_timing::parse_timing_comment;
+use crate::engine::bus_timing::BusTiming;
+use crate::engine::time::FS_PER_S;
+use golden::frame::{DOMINANT, RECESSIVE};
 
 /// The signal decoded when none is named.
 pub const DEFAULT_SIGNAL: &str = "bus";
@@ -30,42 +32,8 @@ pub const DEFAULT_SIGNAL: &str = "bus";
 pub const DEFAULT_BITRATE: f64 = 500_000.0;
 /// The sample point used when neither the caller nor the file gives one (fraction of the bit).
 pub const DEFAULT_SAMPLE_POINT: f64 = 0.875;
-/// Start of the header comment that records a VCD's bus timing.
-pub const TIMING_COMMENT_PREFIX: &str = "cansim bus timing:";
 /// Signal names listed at most in an "unknown signal" error.
 const LISTED_SIGNALS: usize = 20;
-
-/// The header comment recording `timing`:
-/// `cansim bus timing: bit_time_fs=2000000000 sample_point=0.875 (500000 bit/s, sample point 87.5 %)`.
-pub fn timing_comment(timing: &BusTiming) -> String {
-    format!(
-        "{TIMING_COMMENT_PREFIX} bit_time_fs={} sample_point={} ({timing})",
-        timing.bit_time_fs, timing.sample_point
-    )
-}
-
-/// The timing recorded by a [`timing_comment`], `None` for any other comment.
-fn parse_timing_comment(text: &str) -> Option<Result<BusTiming, String>> {
-    let fields = text.trim().strip_prefix(TIMING_COMMENT_PREFIX)?;
-    let value = |key: &str| {
-        fields
-            .split_whitespace()
-            .find_map(|word| word.strip_prefix(key)?.strip_prefix('='))
-            .ok_or_else(|| format!("the bus timing comment has no {key}"))
-    };
-    let parsed = || -> Result<BusTiming, String> {
-        let bit_time = value("bit_time_fs")?;
-        let bit_time_fs = bit_time
-            .parse()
-            .map_err(|_| format!("bit_time_fs={bit_time} is not a whole number"))?;
-        let sample_point = value("sample_point")?;
-        let sample_point = sample_point
-            .parse()
-            .map_err(|_| format!("sample_point={sample_point} is not a number"))?;
-        BusTiming::new(bit_time_fs, sample_point)
-    };
-    Some(parsed().map_err(|e| format!("bad bus timing comment: {e}")))
-}
 
 /// What to decode and how; `None` fields take the file's recorded timing or the defaults.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -374,8 +342,9 @@ impl BusReader {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bus_decoder::BusEventKind;
-    use crate::frame::{encode, Field, Frame, Id};
+    use crate::decode::bus_decoder::BusEventKind;
+    use crate::engine::bus_timing::{timing_comment, TIMING_COMMENT_PREFIX};
+    use golden::frame::{encode, Field, Frame, Id};
 
     /// A file in the temporary directory, removed on drop.
     struct TempVcd(PathBuf);
@@ -608,24 +577,6 @@ $enddefinitions $end
         assert_eq!(
             error_of("empty", "", None),
             "FILE: malformed VCD: unexpected end of VCD file before $enddefinitions"
-        );
-    }
-
-    #[test]
-    fn timing_comment_round_trips() {
-        let timing = BusTiming::from_bitrate(166_666.667, 0.8).unwrap();
-        let text = timing_comment(&timing);
-        assert_eq!(
-            text,
-            "cansim bus timing: bit_time_fs=5999999988 sample_point=0.8 (166666.667 bit/s, sample point 80 %)"
-        );
-        assert_eq!(parse_timing_comment(&text), Some(Ok(timing)));
-        assert_eq!(parse_timing_comment("written by cansim"), None);
-        assert_eq!(
-            parse_timing_comment(&format!("{TIMING_COMMENT_PREFIX} bit_time_fs=12")),
-            Some(Err(
-                "bad bus timing comment: the bus timing comment has no sample_point".into()
-            ))
         );
     }
 }

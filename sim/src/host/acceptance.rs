@@ -18,7 +18,7 @@
 //!
 //! A data byte the frame does not have (remote frame, DLC 0 or 1) matches.
 
-use crate::frame::{Frame, Id};
+use golden::frame::{Frame, Id};
 
 /// The acceptance filter configuration of the controller.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]

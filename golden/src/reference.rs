@@ -37,16 +37,11 @@
 //! * the run ends [`IDLE_BITS_AT_END`] bus-idle bits after the last node's intermission.
 
 use crate::crc15::crc15;
-use crate::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT, RECESSIVE, STUFF_RUN};
+use crate::frame::{
+    encode, EncodedFrame, Field, Frame, Id, DELIMITER_BITS, DOMINANT, FLAG_BITS, INTERMISSION_BITS,
+    RECESSIVE, STUFF_RUN, SUSPEND_BITS,
+};
 
-/// Bits of an active or passive error flag and of an overload flag.
-const FLAG_BITS: u8 = 6;
-/// Bits of an error or overload delimiter.
-const DELIMITER_BITS: u8 = 8;
-/// Bits of the intermission.
-const INTERMISSION_BITS: u8 = 3;
-/// Bits of the suspend transmission field of an error-passive transmitter.
-const SUSPEND_BITS: u8 = 8;
 /// Index (from 0) of the last EOF bit.
 const LAST_EOF_INDEX: u8 = 6;
 /// Index (from 0) of the EOF bit that is the receiver's validity point (EOF bit 6).

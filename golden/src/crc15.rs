@@ -18,7 +18,7 @@ const MASK: u16 = 0x7FFF;
 /// Incremental bit-serial CRC-15/CAN register.
 ///
 /// ```
-/// use sim::crc15::{crc15, Crc15};
+/// use golden::crc15::{crc15, Crc15};
 /// let mut crc = Crc15::new();
 /// for bit in [false, true, true, false] {
 ///     crc.push(bit);

@@ -10,7 +10,7 @@ use std::path::Path;
 use crate::scenario::{parse, Scenario, ScenarioError};
 
 /// The demo scenario as shipped.
-pub const DEMO_TOML: &str = include_str!("../../examples/demo.toml");
+pub const DEMO_TOML: &str = include_str!("../../../examples/demo.toml");
 /// Where the demo scenario lives in the repository (named in messages).
 pub const DEMO_PATH: &str = "examples/demo.toml";
 /// Where `cansim demo` writes the VCD.

@@ -5,7 +5,7 @@
 //! bit seen flipped or forced (by one node, a local disturbance, or by all nodes), or a glitch of a few
 //! time quanta. [`run_rtl`] plays it on the cycle-accurate cores, [`check`] classifies the result
 //! into an [`Outcome`] and, for whole-bit faults, compares it with the bit-level golden model of
-//! [`crate::reference`] (bus levels bit by bit, deliveries, error kinds, TEC/REC). [`run_campaign`]
+//! [`golden::reference`] (bus levels bit by bit, deliveries, error kinds, TEC/REC). [`run_campaign`]
 //! draws random cases and spreads them over threads.
 //!
 //! Faults are placed by bus bit: bit 0 is the SOF of the first attempt. A bus monitor reads the bus
@@ -14,6 +14,7 @@
 //! that bit lies inside and those of its neighbours outside, whatever the small phase differences
 //! between the nodes.
 
+use crate::engine::rng::Rng;
 use std::any::Any;
 use std::collections::BTreeMap;
 use std::io;
@@ -23,14 +24,14 @@ use std::sync::Mutex;
 
 use rtl::bsp::protocol::ProtocolState;
 
-use crate::btr::Btr;
-use crate::bus::Drive;
-use crate::bus_decoder::BusTiming;
-use crate::can_node::{CanNode, NodeEvent};
+use crate::engine::bus::Drive;
+use crate::engine::bus_timing::BusTiming;
+use crate::engine::time::ClockSpec;
 use crate::engine::{Device, DeviceId, Engine};
-use crate::frame::{decode, encode, Field, Frame, Id, DOMINANT};
-use crate::reference::{self, Detected, Fault, FaultKind, Scenario};
-use crate::time::ClockSpec;
+use crate::nodes::can_node::{CanNode, NodeEvent};
+use golden::btr::Btr;
+use golden::frame::{decode, encode, Field, Frame, Id, DOMINANT};
+use golden::reference::{self, Detected, Fault, FaultKind, Scenario};
 
 /// Nodes on the bus: node 0 transmits, the others receive.
 pub const NODES: usize = 3;
@@ -642,37 +643,6 @@ fn ecc_type(detected: Detected) -> u8 {
         Detected::Form => 1,
         Detected::Stuff => 2,
         Detected::Crc | Detected::Ack => 3,
-    }
-}
-
-/// A small deterministic random generator (SplitMix64), so that a campaign case is reproducible
-/// from its seed and index alone.
-#[derive(Clone, Debug)]
-pub struct Rng(u64);
-
-impl Rng {
-    /// The generator for case `index` of the campaign with `seed`.
-    pub fn for_case(seed: u64, index: u64) -> Rng {
-        Rng(seed ^ index.wrapping_mul(0xA076_1D64_78BD_642F))
-    }
-
-    /// The next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `0..n`.
-    pub fn below(&mut self, n: u64) -> u64 {
-        self.next_u64() % n
-    }
-
-    /// True with probability `percent` / 100.
-    pub fn chance(&mut self, percent: u64) -> bool {
-        self.below(100) < percent
     }
 }
 

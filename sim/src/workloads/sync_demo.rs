@@ -7,14 +7,14 @@
 use std::io;
 use std::path::{Path, PathBuf};
 
-use crate::btl_node::{BitTimingNode, BtlEventKind};
-use crate::btr::Btr;
-use crate::bus::Drive;
-use crate::bus_decoder::BusTiming;
+use crate::engine::bus::Drive;
+use crate::engine::bus_timing::BusTiming;
+use crate::engine::time::{ClockSpec, FS_PER_NS};
 use crate::engine::{DeviceId, Engine};
-use crate::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT};
-use crate::lower_tester::LowerTester;
-use crate::time::{ClockSpec, FS_PER_NS};
+use crate::nodes::btl_node::{BitTimingNode, BtlEventKind};
+use crate::nodes::lower_tester::LowerTester;
+use golden::btr::Btr;
+use golden::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT};
 
 /// Controller clock of the demo nodes.
 pub const DEMO_CLOCK_HZ: f64 = 16e6;

@@ -20,12 +20,12 @@ use rtl::bsp::protocol::ProtocolState;
 use rtl::can_controller::CanController;
 use rust_hdl::prelude::*;
 
-use crate::bus::Drive;
-use crate::can_node::{core_probe_values, core_probes, CORE_PROBES};
+use crate::engine::bus::Drive;
+use crate::engine::rtl_step::clock_cycle_with;
+use crate::engine::time::ClockSpec;
+use crate::engine::trace::Probe;
 use crate::engine::Device;
-use crate::rtl_step::clock_cycle_with;
-use crate::time::ClockSpec;
-use crate::trace::Probe;
+use crate::nodes::can_node::{core_probe_values, core_probes, CORE_PROBES};
 use crate::verilated::sources::{STATE, TRANSMITTING};
 pub use crate::verilated::EngineError;
 use crate::verilated::{PortInputs, VerilatedController};

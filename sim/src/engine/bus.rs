@@ -10,7 +10,7 @@
 
 use std::collections::VecDeque;
 
-use crate::frame::{DOMINANT, RECESSIVE};
+use golden::frame::{DOMINANT, RECESSIVE};
 
 /// What a device puts on the bus.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

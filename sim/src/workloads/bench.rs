@@ -10,12 +10,12 @@ use std::time::Instant;
 
 use rtl::registers::{clock_divider, command, interrupt, mode, pelican, status};
 
-use crate::controller_node::{ControllerNode, ModelEngine};
+use crate::engine::time::{ClockSpec, FS_PER_MS};
 use crate::engine::{Device, DeviceId, Engine};
-use crate::frame::{Frame, Id};
-use crate::frame_buffer::{buffer_len, decode_buffer, encode_buffer, FRAME_BUFFER_BYTES};
+use crate::host::frame_buffer::{buffer_len, decode_buffer, encode_buffer, FRAME_BUFFER_BYTES};
 use crate::host::Host;
-use crate::time::{ClockSpec, FS_PER_MS};
+use crate::nodes::controller_node::{ControllerNode, ModelEngine};
+use golden::frame::{Frame, Id};
 
 /// Controller clock of the workload.
 pub const CLOCK_HZ: f64 = 16e6;
@@ -238,7 +238,7 @@ fn thread_cpu_seconds() -> f64 {
 /// campaign with `seed` (`cansim campaign`); fails if a case broke a CAN rule.
 pub fn campaign_rate(seed: u64, faults: u64, threads: usize) -> Result<f64, BenchError> {
     let start = Instant::now();
-    let summary = crate::campaign::run_campaign(seed, faults, threads, &|_| {});
+    let summary = crate::workloads::campaign::run_campaign(seed, faults, threads, &|_| {});
     let seconds = start.elapsed().as_secs_f64();
     if let Some((index, violations)) = summary.failures.first() {
         return Err(BenchError(format!(

@@ -1,0 +1,120 @@
+//! What a run saw, as data: per node at the end, the node events, the bus log, the faults as they
+//! landed and the files written. `run` fills it; `summary` and `view` turn it into text and a
+//! GTKWave view.
+
+use std::path::PathBuf;
+
+use golden::frame::Frame;
+
+use crate::decode::bus_decoder::BusEvent;
+use crate::host::driver::{CanState, DriverEvent, DriverStats};
+
+/// The interrupt names, by IR bit number.
+pub const INTERRUPT_NAMES: [&str; 8] = ["RI", "TI", "EI", "DOI", "WUI", "EPI", "ALI", "BEI"];
+
+/// Everything a run saw.
+#[derive(Clone, Debug)]
+pub struct RunReport {
+    /// Per node, at the end, in scenario order.
+    pub nodes: Vec<NodeReport>,
+    /// What the drivers reported and the restarts, in time order.
+    pub events: Vec<NodeEvent>,
+    /// The bus log: every frame, error frame and overload frame on the bus.
+    pub log: Vec<BusEvent>,
+    /// The faults as they landed, in time order.
+    pub faults: Vec<AppliedFault>,
+    /// Faults that never landed, with the reason (e.g. the bus saw fewer frames).
+    pub missed_faults: Vec<String>,
+    /// When each frame started on the bus (frame 1 first).
+    pub frame_starts: Vec<u64>,
+    /// Simulated time.
+    pub simulated_fs: u64,
+    /// The VCD written, if any.
+    pub vcd: Option<PathBuf>,
+    /// The log file written, if any.
+    pub log_file: Option<PathBuf>,
+    /// The GTKWave view written beside the VCD, if any.
+    pub view: Option<PathBuf>,
+}
+
+impl RunReport {
+    /// The bus log as text: one `candump -l` style line per event.
+    pub fn log_text(&self) -> String {
+        self.log.iter().map(|e| format!("{e}\n")).collect()
+    }
+}
+
+/// A node at the end of a run.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct NodeReport {
+    /// Node name.
+    pub name: String,
+    /// Frames sent (TI for the frame in flight).
+    pub sent: usize,
+    /// Frames the driver read from the RX FIFO, in order.
+    pub received: Vec<Frame>,
+    /// Frames given up: dropped at bus-off, or one-shot attempts that failed.
+    pub dropped: usize,
+    /// Frames still waiting in the node's queue (or in flight) when the run ended.
+    pub unsent: usize,
+    /// TXERR at the end, read through the host.
+    pub tec: u8,
+    /// RXERR at the end, read through the host.
+    pub rec: u8,
+    /// The device state as the driver tracks it.
+    pub state: CanState,
+    /// Bus-off restarts by the driver.
+    pub restarts: usize,
+    /// The driver's statistics, interrupt counts included.
+    pub stats: DriverStats,
+}
+
+impl NodeReport {
+    /// `RI 11, TI 9, EPI 2` (interrupts that happened, in IR bit order).
+    pub fn interrupts_text(&self) -> String {
+        let seen: Vec<String> = INTERRUPT_NAMES
+            .iter()
+            .zip(self.stats.interrupts)
+            .filter(|(_, n)| *n > 0)
+            .map(|(name, n)| format!("{name} {n}"))
+            .collect();
+        if seen.is_empty() {
+            "-".to_string()
+        } else {
+            seen.join(", ")
+        }
+    }
+}
+
+/// What happened to a node, besides what its driver reported.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Happening {
+    /// The driver reported this.
+    Driver(DriverEvent),
+    /// The driver began to restart the controller after bus-off (`restart-ms`).
+    Restarted,
+}
+
+/// One event of a node, with its time.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct NodeEvent {
+    /// Simulated time (when the interrupt handler that reported it returned).
+    pub at_fs: u64,
+    /// Node name.
+    pub node: String,
+    /// What happened.
+    pub what: Happening,
+}
+
+/// A fault as it landed.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct AppliedFault {
+    /// Its line in the scenario file.
+    pub line: usize,
+    /// When it began on the bus (or at the node).
+    pub start_fs: u64,
+    /// When it ended.
+    pub end_fs: u64,
+    /// What and where, in words.
+    pub text: String,
+}
