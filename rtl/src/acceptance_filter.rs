@@ -1,8 +1,13 @@
 //! The acceptance filter of the SJA1000: decides whether a received frame is stored in the RX FIFO.
 //!
-//! Ports in: the filter configuration (`pelican`: PeliCAN mode, 0 = BasicCAN; `single_filter`: MOD.AFM;
-//! `acr0`..`acr3`, `amr0`..`amr3`: the acceptance code and mask registers; in BasicCAN mode ACR/AMR are
-//! `acr0`/`amr0`) and the received-frame stream of the protocol engine: `rx_header` (one-clock strobe
+//! The block owns the acceptance code and mask registers and their host access: PeliCAN ACR0..3 and
+//! AMR0..3 at addresses 16..23, written and read in reset mode (in operating mode those addresses are
+//! the frame buffers); BasicCAN ACR and AMR at 4 and 5 (ACR0 and AMR0 here), written in reset mode
+//! (the controller makes them read 0xFF in operating mode). `host_selected`/`host_data` are
+//! combinational from `addr` and the registers; the controller registers them into its read data.
+//!
+//! Ports in: the host bus (`addr`, `we`, `wdata`, and `reset_mode`), the filter configuration
+//! (`pelican`: PeliCAN mode, 0 = BasicCAN; `single_filter`: MOD.AFM) and the received-frame stream of the protocol engine: `rx_header` (one-clock strobe
 //! when the header is complete) with `rx_id` (11-bit standard or 29-bit extended identifier,
 //! right-aligned), `rx_ide` and `rx_rtr`, then one `rx_byte_strobe` per data byte with `rx_byte` and
 //! `rx_byte_index` (0 = data byte 1). Out: `accept`, valid from the clock after the last strobe of a
@@ -34,10 +39,16 @@
 
 use rust_hdl::prelude::*;
 
-use crate::activity::{Activity, ActivityBlock};
+use crate::activity::{Activity, ActivityBlock, BlockDefault};
+use crate::registers::{basic, pelican};
+
+// The PeliCAN ACR0..AMR3 block is eight aligned addresses: `addr >> 3` selects it, `addr & 7` is
+// the register.
+const _: () = assert!(pelican::ACR0.is_multiple_of(8) && pelican::AMR0 == pelican::ACR0 + 4);
+const _: () = assert!(pelican::AMR3 == pelican::ACR0 + 7);
 
 /// The SJA1000 acceptance filter (BasicCAN, PeliCAN single and dual filter).
-#[derive(ActivityBlock)]
+#[derive(ActivityBlock, BlockDefault)]
 pub struct AcceptanceFilter {
     /// Simulation bookkeeping (see `crate::activity`); not hardware.
     activity: Activity,
@@ -49,22 +60,14 @@ pub struct AcceptanceFilter {
     pub pelican: Signal<In, Bit>,
     /// Single acceptance filter (MOD.AFM); 0 = dual filter. Ignored in BasicCAN mode.
     pub single_filter: Signal<In, Bit>,
-    /// Acceptance code register 0 (the BasicCAN ACR).
-    pub acr0: Signal<In, Bits<8>>,
-    /// Acceptance code register 1.
-    pub acr1: Signal<In, Bits<8>>,
-    /// Acceptance code register 2.
-    pub acr2: Signal<In, Bits<8>>,
-    /// Acceptance code register 3.
-    pub acr3: Signal<In, Bits<8>>,
-    /// Acceptance mask register 0 (the BasicCAN AMR); a 1 bit is "don't care".
-    pub amr0: Signal<In, Bits<8>>,
-    /// Acceptance mask register 1.
-    pub amr1: Signal<In, Bits<8>>,
-    /// Acceptance mask register 2.
-    pub amr2: Signal<In, Bits<8>>,
-    /// Acceptance mask register 3.
-    pub amr3: Signal<In, Bits<8>>,
+    /// Reset mode (MOD.RM / CR.RR): ACR and AMR are written only then.
+    pub reset_mode: Signal<In, Bit>,
+    /// Host register address.
+    pub addr: Signal<In, Bits<8>>,
+    /// Host write strobe, with `wdata`.
+    pub we: Signal<In, Bit>,
+    /// Host write data.
+    pub wdata: Signal<In, Bits<8>>,
     /// One-clock strobe: the header of a received frame is complete (`rx_id`, `rx_ide`, `rx_rtr` valid).
     pub rx_header: Signal<In, Bit>,
     /// Received identifier, right-aligned: 11 bits (standard) or 29 bits (extended).
@@ -81,6 +84,31 @@ pub struct AcceptanceFilter {
     pub rx_byte_index: Signal<In, Bits<3>>,
     /// The frame passes the filter of the current mode.
     pub accept: Signal<Out, Bit>,
+    /// `addr` is one of this block's registers in the current mode (PeliCAN ACR0..AMR3 in reset
+    /// mode, BasicCAN ACR and AMR).
+    pub host_selected: Signal<Out, Bit>,
+    /// The register at `addr`, with `host_selected`.
+    pub host_data: Signal<Out, Bits<8>>,
+    /// Acceptance code registers (ACR0 is the BasicCAN ACR).
+    acr0: DFF<Bits<8>>,
+    acr1: DFF<Bits<8>>,
+    acr2: DFF<Bits<8>>,
+    acr3: DFF<Bits<8>>,
+    /// Acceptance mask registers (AMR0 is the BasicCAN AMR); a 1 bit is "don't care".
+    amr0: DFF<Bits<8>>,
+    amr1: DFF<Bits<8>>,
+    amr2: DFF<Bits<8>>,
+    amr3: DFF<Bits<8>>,
+    /// `addr` in the PeliCAN block ACR0..AMR3, and the register's index there (0..3 ACR, 4..7 AMR).
+    in_pelican_block: Signal<Local, Bit>,
+    index: Signal<Local, Bits<3>>,
+    /// The eight addresses of the PeliCAN block, as `addr >> 3`.
+    #[constant(u64::from(pelican::ACR0 >> 3))]
+    pelican_block: Constant<Bits<5>>,
+    #[constant(u64::from(basic::ACR))]
+    basic_acr: Constant<Bits<8>>,
+    #[constant(u64::from(basic::AMR))]
+    basic_amr: Constant<Bits<8>>,
     /// Single filter: identifier and RTR match.
     single_id_match: DFF<Bit>,
     /// Single filter: data byte 1 matches ACR2 (or is missing).
@@ -98,10 +126,13 @@ pub struct AcceptanceFilter {
     /// The current frame is extended (data bytes are not filtered).
     extended_frame: DFF<Bit>,
     /// 0xFF: `amr ^ ones` is the "care" mask of a register.
+    #[constant(0xFFu64)]
     ones: Constant<Bits<8>>,
     /// 0xF0: the compared bits of ACR1/ACR3 for a standard identifier (ID.20..18, RTR).
+    #[constant(0xF0u64)]
     standard_id_care: Constant<Bits<8>>,
     /// 0xFC: the compared bits of ACR3 in single filter mode for an extended identifier.
+    #[constant(0xFCu64)]
     extended_rtr_care: Constant<Bits<8>>,
     /// The frame's bits compared with ACR0 (ID.28..21).
     frame_byte0: Signal<Local, Bits<8>>,
@@ -135,60 +166,6 @@ pub struct AcceptanceFilter {
     data_mismatch_dual: Signal<Local, Bits<8>>,
 }
 
-impl Default for AcceptanceFilter {
-    fn default() -> Self {
-        AcceptanceFilter {
-            activity: Activity::default(),
-            clock: Default::default(),
-            reset: Default::default(),
-            pelican: Default::default(),
-            single_filter: Default::default(),
-            acr0: Default::default(),
-            acr1: Default::default(),
-            acr2: Default::default(),
-            acr3: Default::default(),
-            amr0: Default::default(),
-            amr1: Default::default(),
-            amr2: Default::default(),
-            amr3: Default::default(),
-            rx_header: Default::default(),
-            rx_id: Default::default(),
-            rx_ide: Default::default(),
-            rx_rtr: Default::default(),
-            rx_byte_strobe: Default::default(),
-            rx_byte: Default::default(),
-            rx_byte_index: Default::default(),
-            accept: Default::default(),
-            single_id_match: Default::default(),
-            single_data1_match: Default::default(),
-            single_data2_match: Default::default(),
-            dual1_id_match: Default::default(),
-            dual1_data_match: Default::default(),
-            dual2_id_match: Default::default(),
-            basic_id_match: Default::default(),
-            extended_frame: Default::default(),
-            ones: Constant::new(0xFF.into()),
-            standard_id_care: Constant::new(0xF0.into()),
-            extended_rtr_care: Constant::new(0xFC.into()),
-            frame_byte0: Default::default(),
-            frame_byte1: Default::default(),
-            frame_byte2: Default::default(),
-            frame_byte3: Default::default(),
-            byte1_care: Default::default(),
-            mismatch0: Default::default(),
-            mismatch1: Default::default(),
-            mismatch2: Default::default(),
-            mismatch3: Default::default(),
-            mismatch0_filter2: Default::default(),
-            mismatch1_filter2: Default::default(),
-            dual_data_code: Default::default(),
-            dual_data_mask: Default::default(),
-            data_mismatch_single: Default::default(),
-            data_mismatch_dual: Default::default(),
-        }
-    }
-}
-
 impl Logic for AcceptanceFilter {
     #[hdl_gen]
     fn update(&mut self) {
@@ -202,8 +179,79 @@ impl Logic for AcceptanceFilter {
             dual1_data_match,
             dual2_id_match,
             basic_id_match,
-            extended_frame
+            extended_frame,
+            acr0,
+            acr1,
+            acr2,
+            acr3,
+            amr0,
+            amr1,
+            amr2,
+            amr3
         );
+
+        // ---- Host access: the register at `addr`, and writes in reset mode.
+        self.index.next = bit_cast::<3, 8>(self.addr.val());
+        self.in_pelican_block.next = self.addr.val().get_bits::<5>(3) == self.pelican_block.val();
+        self.host_selected.next =
+            self.pelican.val() & self.reset_mode.val() & self.in_pelican_block.val();
+        if self.pelican.val() == false {
+            // BasicCAN ACR and AMR are ACR0 and AMR0.
+            self.index.next = 0.into();
+            if self.addr.val() == self.basic_amr.val() {
+                self.index.next = 4.into();
+            }
+            self.host_selected.next = (self.addr.val() == self.basic_acr.val())
+                | (self.addr.val() == self.basic_amr.val());
+        }
+        self.host_data.next = self.acr0.q.val();
+        if self.index.val() == 1 {
+            self.host_data.next = self.acr1.q.val();
+        }
+        if self.index.val() == 2 {
+            self.host_data.next = self.acr2.q.val();
+        }
+        if self.index.val() == 3 {
+            self.host_data.next = self.acr3.q.val();
+        }
+        if self.index.val() == 4 {
+            self.host_data.next = self.amr0.q.val();
+        }
+        if self.index.val() == 5 {
+            self.host_data.next = self.amr1.q.val();
+        }
+        if self.index.val() == 6 {
+            self.host_data.next = self.amr2.q.val();
+        }
+        if self.index.val() == 7 {
+            self.host_data.next = self.amr3.q.val();
+        }
+        if self.we.val() & self.reset_mode.val() & self.host_selected.val() {
+            if self.index.val() == 0 {
+                self.acr0.d.next = self.wdata.val();
+            }
+            if self.index.val() == 1 {
+                self.acr1.d.next = self.wdata.val();
+            }
+            if self.index.val() == 2 {
+                self.acr2.d.next = self.wdata.val();
+            }
+            if self.index.val() == 3 {
+                self.acr3.d.next = self.wdata.val();
+            }
+            if self.index.val() == 4 {
+                self.amr0.d.next = self.wdata.val();
+            }
+            if self.index.val() == 5 {
+                self.amr1.d.next = self.wdata.val();
+            }
+            if self.index.val() == 6 {
+                self.amr2.d.next = self.wdata.val();
+            }
+            if self.index.val() == 7 {
+                self.amr3.d.next = self.wdata.val();
+            }
+        }
         self.frame_byte0.next = 0.into();
         self.frame_byte1.next = 0.into();
         self.frame_byte2.next = 0.into();
@@ -247,20 +295,20 @@ impl Logic for AcceptanceFilter {
             self.frame_byte2.next = self.rx_id.val().get_bits::<8>(5);
             self.frame_byte3.next = (bit_cast::<8, 5>(self.rx_id.val().get_bits::<5>(0)) << 3)
                 | (bit_cast::<8, 1>(self.rx_rtr.val().into()) << 2);
-            self.mismatch0.next =
-                (self.frame_byte0.val() ^ self.acr0.val()) & (self.amr0.val() ^ self.ones.val());
-            self.mismatch1.next = (self.frame_byte1.val() ^ self.acr1.val())
-                & (self.amr1.val() ^ self.ones.val())
+            self.mismatch0.next = (self.frame_byte0.val() ^ self.acr0.q.val())
+                & (self.amr0.q.val() ^ self.ones.val());
+            self.mismatch1.next = (self.frame_byte1.val() ^ self.acr1.q.val())
+                & (self.amr1.q.val() ^ self.ones.val())
                 & self.byte1_care.val();
-            self.mismatch2.next =
-                (self.frame_byte2.val() ^ self.acr2.val()) & (self.amr2.val() ^ self.ones.val());
-            self.mismatch3.next = (self.frame_byte3.val() ^ self.acr3.val())
-                & (self.amr3.val() ^ self.ones.val())
+            self.mismatch2.next = (self.frame_byte2.val() ^ self.acr2.q.val())
+                & (self.amr2.q.val() ^ self.ones.val());
+            self.mismatch3.next = (self.frame_byte3.val() ^ self.acr3.q.val())
+                & (self.amr3.q.val() ^ self.ones.val())
                 & self.extended_rtr_care.val();
-            self.mismatch0_filter2.next =
-                (self.frame_byte0.val() ^ self.acr2.val()) & (self.amr2.val() ^ self.ones.val());
-            self.mismatch1_filter2.next = (self.frame_byte1.val() ^ self.acr3.val())
-                & (self.amr3.val() ^ self.ones.val())
+            self.mismatch0_filter2.next = (self.frame_byte0.val() ^ self.acr2.q.val())
+                & (self.amr2.q.val() ^ self.ones.val());
+            self.mismatch1_filter2.next = (self.frame_byte1.val() ^ self.acr3.q.val())
+                & (self.amr3.q.val() ^ self.ones.val())
                 & self.byte1_care.val();
 
             self.basic_id_match.d.next = self.mismatch0.val() == 0;
@@ -280,22 +328,22 @@ impl Logic for AcceptanceFilter {
         // Data bytes 1 and 2 of a standard frame.
         if self.rx_byte_strobe.val() & (self.extended_frame.q.val() == false) {
             if self.rx_byte_index.val() == 0 {
-                self.data_mismatch_single.next =
-                    (self.rx_byte.val() ^ self.acr2.val()) & (self.amr2.val() ^ self.ones.val());
-                self.dual_data_code.next = (bit_cast::<8, 4>(self.acr1.val().get_bits::<4>(0))
+                self.data_mismatch_single.next = (self.rx_byte.val() ^ self.acr2.q.val())
+                    & (self.amr2.q.val() ^ self.ones.val());
+                self.dual_data_code.next = (bit_cast::<8, 4>(self.acr1.q.val().get_bits::<4>(0))
                     << 4)
-                    | bit_cast::<8, 4>(self.acr3.val().get_bits::<4>(0));
-                self.dual_data_mask.next = (bit_cast::<8, 4>(self.amr1.val().get_bits::<4>(0))
+                    | bit_cast::<8, 4>(self.acr3.q.val().get_bits::<4>(0));
+                self.dual_data_mask.next = (bit_cast::<8, 4>(self.amr1.q.val().get_bits::<4>(0))
                     << 4)
-                    | bit_cast::<8, 4>(self.amr3.val().get_bits::<4>(0));
+                    | bit_cast::<8, 4>(self.amr3.q.val().get_bits::<4>(0));
                 self.data_mismatch_dual.next = (self.rx_byte.val() ^ self.dual_data_code.val())
                     & (self.dual_data_mask.val() ^ self.ones.val());
                 self.single_data1_match.d.next = self.data_mismatch_single.val() == 0;
                 self.dual1_data_match.d.next = self.data_mismatch_dual.val() == 0;
             }
             if self.rx_byte_index.val() == 1 {
-                self.data_mismatch_single.next =
-                    (self.rx_byte.val() ^ self.acr3.val()) & (self.amr3.val() ^ self.ones.val());
+                self.data_mismatch_single.next = (self.rx_byte.val() ^ self.acr3.q.val())
+                    & (self.amr3.q.val() ^ self.ones.val());
                 self.single_data2_match.d.next = self.data_mismatch_single.val() == 0;
             }
         }
@@ -309,6 +357,14 @@ impl Logic for AcceptanceFilter {
             self.dual2_id_match.d.next = false;
             self.basic_id_match.d.next = false;
             self.extended_frame.d.next = false;
+            self.acr0.d.next = 0.into();
+            self.acr1.d.next = 0.into();
+            self.acr2.d.next = 0.into();
+            self.acr3.d.next = 0.into();
+            self.amr0.d.next = 0.into();
+            self.amr1.d.next = 0.into();
+            self.amr2.d.next = 0.into();
+            self.amr3.d.next = 0.into();
         }
     }
 }

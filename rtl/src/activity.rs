@@ -38,7 +38,7 @@
 
 use rust_hdl::prelude::*;
 
-pub use rtl_derive::ActivityBlock;
+pub use rtl_derive::{ActivityBlock, BlockDefault};
 
 /// The bookkeeping of an [`ActivityBlock`]: what happened at its last visit.
 #[derive(Clone, Debug, Default)]

@@ -17,7 +17,7 @@
 
 use rust_hdl::prelude::*;
 
-use crate::activity::{Activity, ActivityBlock};
+use crate::activity::{Activity, ActivityBlock, BlockDefault};
 
 use crate::acceptance_filter::AcceptanceFilter;
 use crate::bsp::protocol::ProtocolState;
@@ -28,7 +28,7 @@ use crate::rx_fifo::RxFifo;
 use crate::tx_buffer::TxBuffer;
 
 /// The complete controller.
-#[derive(ActivityBlock)]
+#[derive(ActivityBlock, BlockDefault)]
 pub struct CanController {
     /// Simulation bookkeeping (see `crate::activity`); not hardware.
     activity: Activity,
@@ -76,14 +76,6 @@ pub struct CanController {
     ocr: DFF<Bits<8>>,
     ewlr: DFF<Bits<8>>,
     cdr: DFF<Bits<8>>,
-    acr0: DFF<Bits<8>>,
-    acr1: DFF<Bits<8>>,
-    acr2: DFF<Bits<8>>,
-    acr3: DFF<Bits<8>>,
-    amr0: DFF<Bits<8>>,
-    amr1: DFF<Bits<8>>,
-    amr2: DFF<Bits<8>>,
-    amr3: DFF<Bits<8>>,
     alc: DFF<Bits<5>>,
     alc_armed: DFF<Bit>,
     ecc: DFF<Bits<8>>,
@@ -113,42 +105,71 @@ pub struct CanController {
     rdata_from_tx: DFF<Bit>,
     rdata_ram_or: DFF<Bits<8>>,
     // ---- Addresses (from `crate::registers`).
+    #[constant(u64::from(pelican::MOD))]
     pc_mod: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::CMR))]
     pc_cmr: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::SR))]
     pc_sr: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::IR))]
     pc_ir: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::IER))]
     pc_ier: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::BTR0))]
     pc_btr0: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::BTR1))]
     pc_btr1: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::OCR))]
     pc_ocr: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::ALC))]
     pc_alc: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::ECC))]
     pc_ecc: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::EWLR))]
     pc_ewlr: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::RXERR))]
     pc_rxerr: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::TXERR))]
     pc_txerr: Constant<Bits<8>>,
-    pc_amr0: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::RMC))]
     pc_rmc: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::RBSA))]
     pc_rbsa: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::CDR))]
     pc_cdr: Constant<Bits<8>>,
+    #[constant(u64::from(basic::CR))]
     bc_cr: Constant<Bits<8>>,
-    bc_acr: Constant<Bits<8>>,
-    bc_amr: Constant<Bits<8>>,
+    #[constant(u64::from(basic::RX_ID_DLC))]
     bc_rx_id_dlc: Constant<Bits<8>>,
     // ---- Address windows, as bit maps indexed by the address (`>=`/`<=` pairs would become
     // carry chains on FPGAs), and the low address bits of their first bytes.
+    #[constant(window(pelican::FRAME, pelican::FRAME_LAST))]
     frame_window: Constant<Bits<ADDRESSES>>,
-    acceptance_window: Constant<Bits<ADDRESSES>>,
+    #[constant(window(pelican::RX_RAM, pelican::RX_RAM_LAST))]
     rx_ram_window: Constant<Bits<ADDRESSES>>,
+    #[constant(window(pelican::TX_RAM, pelican::TX_RAM_LAST))]
     tx_ram_window: Constant<Bits<ADDRESSES>>,
+    #[constant(window(basic::TX, basic::TX_LAST))]
     basic_tx_window: Constant<Bits<ADDRESSES>>,
+    #[constant(window(basic::RX, basic::RX_LAST))]
     basic_rx_window: Constant<Bits<ADDRESSES>>,
+    /// ACR, AMR, BTR0, BTR1, OCR: read 0xFF in operating mode.
+    #[constant(window(basic::ACR, basic::OCR))]
     basic_config_window: Constant<Bits<ADDRESSES>>,
+    #[constant(low_bits(pelican::FRAME))]
     frame_base: Constant<Bits<4>>,
+    #[constant(low_bits(pelican::TX_RAM))]
     tx_ram_base: Constant<Bits<4>>,
+    // The byte before each BasicCAN buffer: buffer byte 1 is the first identifier byte.
+    #[constant(low_bits(basic::TX - 1))]
     basic_tx_base: Constant<Bits<4>>,
+    #[constant(low_bits(basic::RX - 1))]
     basic_rx_base: Constant<Bits<4>>,
+    #[constant(low_bits(pelican::RX_RAM))]
     rx_ram_base: Constant<Bits<6>>,
+    #[constant(u64::from(DEFAULT_EWLR))]
     default_ewlr: Constant<Bits<8>>,
+    #[constant(0u64)]
     zero_byte: Constant<Bits<8>>,
     // ---- Decoded access of this cycle.
     pelican_mode: Signal<Local, Bit>,
@@ -163,7 +184,6 @@ pub struct CanController {
     basic_rx_index: Signal<Local, Bits<4>>,
     rx_ram_index: Signal<Local, Bits<6>>,
     in_frame_window: Signal<Local, Bit>,
-    in_acceptance: Signal<Local, Bit>,
     in_rx_ram: Signal<Local, Bit>,
     in_tx_ram: Signal<Local, Bit>,
     in_basic_tx: Signal<Local, Bit>,
@@ -213,181 +233,17 @@ pub struct CanController {
 /// Host addresses: the `addr` port is 8 bits wide.
 const ADDRESSES: usize = 256;
 
-fn address(value: u8) -> Constant<Bits<8>> {
-    Constant::new((value as u64).into())
-}
-
 /// The addresses from `first` to `last`, both included, as a bit map indexed by the address.
-fn window(first: u8, last: u8) -> Constant<Bits<ADDRESSES>> {
+fn window(first: u8, last: u8) -> Bits<ADDRESSES> {
     let addresses = usize::from(first)..usize::from(last) + 1;
-    let map = addresses.fold(Bits::<ADDRESSES>::default(), |map, a| {
+    addresses.fold(Bits::<ADDRESSES>::default(), |map, a| {
         map.replace_bit(a, true)
-    });
-    Constant::new(map)
+    })
 }
 
 /// The low `N` bits of an address.
-fn low_bits<const N: usize>(value: u8) -> Constant<Bits<N>> {
-    Constant::new(((value as u64) & ((1 << N) - 1)).into())
-}
-
-impl Default for CanController {
-    fn default() -> Self {
-        CanController {
-            activity: Activity::default(),
-            clock: Default::default(),
-            reset: Default::default(),
-            addr: Default::default(),
-            wdata: Default::default(),
-            we: Default::default(),
-            re: Default::default(),
-            rdata: Default::default(),
-            rx: Default::default(),
-            tx: Default::default(),
-            irq_n: Default::default(),
-            clkout: Default::default(),
-            core: Default::default(),
-            fifo: Default::default(),
-            tx_buffer: Default::default(),
-            filter: Default::default(),
-            divider: Default::default(),
-            mode_rm: Default::default(),
-            mode_lom: Default::default(),
-            mode_stm: Default::default(),
-            mode_afm: Default::default(),
-            mode_sm: Default::default(),
-            ier: Default::default(),
-            ir: Default::default(),
-            btr0: Default::default(),
-            btr1: Default::default(),
-            sjw: Default::default(),
-            tseg2: Default::default(),
-            ocr: Default::default(),
-            ewlr: Default::default(),
-            cdr: Default::default(),
-            acr0: Default::default(),
-            acr1: Default::default(),
-            acr2: Default::default(),
-            acr3: Default::default(),
-            amr0: Default::default(),
-            amr1: Default::default(),
-            amr2: Default::default(),
-            amr3: Default::default(),
-            alc: Default::default(),
-            alc_armed: Default::default(),
-            ecc: Default::default(),
-            ecc_armed: Default::default(),
-            tx_pending: Default::default(),
-            tx_single_shot: Default::default(),
-            self_reception: Default::default(),
-            tcs: Default::default(),
-            tbs: Default::default(),
-            es: Default::default(),
-            bus_off_before: Default::default(),
-            passive_before: Default::default(),
-            overrun_before: Default::default(),
-            rbs_before: Default::default(),
-            basic_ri: Default::default(),
-            basic_cr6: Default::default(),
-            sleep_bits: Default::default(),
-            core_enable: Default::default(),
-            core_listen_only: Default::default(),
-            core_self_test: Default::default(),
-            rdata_reg: Default::default(),
-            rdata_from_ram: Default::default(),
-            rdata_from_tx: Default::default(),
-            rdata_ram_or: Default::default(),
-            pc_mod: address(pelican::MOD),
-            pc_cmr: address(pelican::CMR),
-            pc_sr: address(pelican::SR),
-            pc_ir: address(pelican::IR),
-            pc_ier: address(pelican::IER),
-            pc_btr0: address(pelican::BTR0),
-            pc_btr1: address(pelican::BTR1),
-            pc_ocr: address(pelican::OCR),
-            pc_alc: address(pelican::ALC),
-            pc_ecc: address(pelican::ECC),
-            pc_ewlr: address(pelican::EWLR),
-            pc_rxerr: address(pelican::RXERR),
-            pc_txerr: address(pelican::TXERR),
-            pc_amr0: address(pelican::AMR0),
-            pc_rmc: address(pelican::RMC),
-            pc_rbsa: address(pelican::RBSA),
-            pc_cdr: address(pelican::CDR),
-            bc_cr: address(basic::CR),
-            bc_acr: address(basic::ACR),
-            bc_amr: address(basic::AMR),
-            bc_rx_id_dlc: address(basic::RX_ID_DLC),
-            frame_window: window(pelican::FRAME, pelican::FRAME_LAST),
-            acceptance_window: window(pelican::ACR0, pelican::AMR3),
-            rx_ram_window: window(pelican::RX_RAM, pelican::RX_RAM_LAST),
-            tx_ram_window: window(pelican::TX_RAM, pelican::TX_RAM_LAST),
-            basic_tx_window: window(basic::TX, basic::TX_LAST),
-            basic_rx_window: window(basic::RX, basic::RX_LAST),
-            // ACR, AMR, BTR0, BTR1, OCR: read 0xFF in operating mode.
-            basic_config_window: window(basic::ACR, basic::OCR),
-            frame_base: low_bits(pelican::FRAME),
-            tx_ram_base: low_bits(pelican::TX_RAM),
-            // The byte before each BasicCAN buffer: buffer byte 1 is the first identifier byte.
-            basic_tx_base: low_bits(basic::TX - 1),
-            basic_rx_base: low_bits(basic::RX - 1),
-            rx_ram_base: low_bits(pelican::RX_RAM),
-            default_ewlr: address(DEFAULT_EWLR),
-            zero_byte: address(0),
-            pelican_mode: Default::default(),
-            reset_mode: Default::default(),
-            addr_low4: Default::default(),
-            addr_low6: Default::default(),
-            frame_index: Default::default(),
-            tx_ram_index: Default::default(),
-            basic_tx_index: Default::default(),
-            basic_rx_index: Default::default(),
-            rx_ram_index: Default::default(),
-            in_frame_window: Default::default(),
-            in_acceptance: Default::default(),
-            in_rx_ram: Default::default(),
-            in_tx_ram: Default::default(),
-            in_basic_tx: Default::default(),
-            in_basic_rx: Default::default(),
-            in_basic_config: Default::default(),
-            ram_read_index: Default::default(),
-            command: Default::default(),
-            cmd_transmit: Default::default(),
-            cmd_abort: Default::default(),
-            cmd_release: Default::default(),
-            cmd_clear_overrun: Default::default(),
-            cmd_self_reception: Default::default(),
-            cmd_sleep: Default::default(),
-            sleep_request: Default::default(),
-            wake_request: Default::default(),
-            entering_reset: Default::default(),
-            read_value: Default::default(),
-            read_from_ram: Default::default(),
-            read_from_tx: Default::default(),
-            ram_or: Default::default(),
-            enables: Default::default(),
-            rbs: Default::default(),
-            ir_value: Default::default(),
-            ir_active: Default::default(),
-            irq_pending: Default::default(),
-            status: Default::default(),
-            waiting_for_bus: Default::default(),
-            warning_limit: Default::default(),
-            error_warning: Default::default(),
-            es_next: Default::default(),
-            events: Default::default(),
-            ir_kept: Default::default(),
-            ev_transmit: Default::default(),
-            ev_error: Default::default(),
-            ev_overrun: Default::default(),
-            ev_wake_up: Default::default(),
-            ev_passive: Default::default(),
-            ev_arbitration: Default::default(),
-            ev_bus_error: Default::default(),
-            own_frame_received: Default::default(),
-            basic_receive: Default::default(),
-        }
-    }
+fn low_bits<const N: usize>(value: u8) -> Bits<N> {
+    ((value as u64) & ((1 << N) - 1)).into()
 }
 
 impl Logic for CanController {
@@ -410,14 +266,6 @@ impl Logic for CanController {
             ocr,
             ewlr,
             cdr,
-            acr0,
-            acr1,
-            acr2,
-            acr3,
-            amr0,
-            amr1,
-            amr2,
-            amr3,
             alc,
             alc_armed,
             ecc,
@@ -456,10 +304,6 @@ impl Logic for CanController {
         self.basic_rx_index.next = self.addr_low4.val() - self.basic_rx_base.val();
         self.rx_ram_index.next = self.addr_low6.val() - self.rx_ram_base.val();
         self.in_frame_window.next = self.frame_window.val().get_bit(self.addr.val().index());
-        self.in_acceptance.next = self
-            .acceptance_window
-            .val()
-            .get_bit(self.addr.val().index());
         self.in_rx_ram.next = self.rx_ram_window.val().get_bit(self.addr.val().index());
         self.in_tx_ram.next = self.tx_ram_window.val().get_bit(self.addr.val().index());
         self.in_basic_tx.next = self.basic_tx_window.val().get_bit(self.addr.val().index());
@@ -470,7 +314,6 @@ impl Logic for CanController {
             .get_bit(self.addr.val().index());
         if self.pelican_mode.val() == false {
             self.in_frame_window.next = false;
-            self.in_acceptance.next = false;
             self.in_rx_ram.next = false;
             self.in_tx_ram.next = false;
         } else {
@@ -608,43 +451,8 @@ impl Logic for CanController {
                 if self.addr.val() == self.pc_ocr.val() {
                     self.ocr.d.next = self.wdata.val();
                 }
-                if self.pelican_mode.val() {
-                    if self.addr.val() == self.pc_ewlr.val() {
-                        self.ewlr.d.next = self.wdata.val();
-                    }
-                    if self.in_acceptance.val() {
-                        if self.frame_index.val() == 0 {
-                            self.acr0.d.next = self.wdata.val();
-                        }
-                        if self.frame_index.val() == 1 {
-                            self.acr1.d.next = self.wdata.val();
-                        }
-                        if self.frame_index.val() == 2 {
-                            self.acr2.d.next = self.wdata.val();
-                        }
-                        if self.frame_index.val() == 3 {
-                            self.acr3.d.next = self.wdata.val();
-                        }
-                        if self.frame_index.val() == 4 {
-                            self.amr0.d.next = self.wdata.val();
-                        }
-                        if self.frame_index.val() == 5 {
-                            self.amr1.d.next = self.wdata.val();
-                        }
-                        if self.frame_index.val() == 6 {
-                            self.amr2.d.next = self.wdata.val();
-                        }
-                        if self.frame_index.val() == 7 {
-                            self.amr3.d.next = self.wdata.val();
-                        }
-                    }
-                } else {
-                    if self.addr.val() == self.bc_acr.val() {
-                        self.acr0.d.next = self.wdata.val();
-                    }
-                    if self.addr.val() == self.bc_amr.val() {
-                        self.amr0.d.next = self.wdata.val();
-                    }
+                if self.pelican_mode.val() & (self.addr.val() == self.pc_ewlr.val()) {
+                    self.ewlr.d.next = self.wdata.val();
                 }
             }
         }
@@ -735,14 +543,10 @@ impl Logic for CanController {
         self.filter.reset.next = self.reset.val();
         self.filter.pelican.next = self.cdr.q.val().get_bit(7);
         self.filter.single_filter.next = self.mode_afm.q.val();
-        self.filter.acr0.next = self.acr0.q.val();
-        self.filter.acr1.next = self.acr1.q.val();
-        self.filter.acr2.next = self.acr2.q.val();
-        self.filter.acr3.next = self.acr3.q.val();
-        self.filter.amr0.next = self.amr0.q.val();
-        self.filter.amr1.next = self.amr1.q.val();
-        self.filter.amr2.next = self.amr2.q.val();
-        self.filter.amr3.next = self.amr3.q.val();
+        self.filter.reset_mode.next = self.mode_rm.q.val();
+        self.filter.addr.next = self.addr.val();
+        self.filter.we.next = self.we.val();
+        self.filter.wdata.next = self.wdata.val();
         self.filter.rx_header.next = self.core.rx_header.val();
         self.filter.rx_id.next = self.core.rx_id.val();
         self.filter.rx_ide.next = self.core.rx_ide.val();
@@ -839,6 +643,9 @@ impl Logic for CanController {
         if self.addr.val() == self.pc_cdr.val() {
             self.read_value.next = self.cdr.q.val();
         }
+        if self.filter.host_selected.val() {
+            self.read_value.next = self.filter.host_data.val();
+        }
         if self.pelican_mode.val() {
             if self.addr.val() == self.pc_mod.val() {
                 self.read_value.next = self
@@ -874,36 +681,9 @@ impl Logic for CanController {
             if self.addr.val() == self.pc_rbsa.val() {
                 self.read_value.next = bit_cast::<8, 6>(self.fifo.start.val());
             }
-            if self.in_frame_window.val() {
-                if self.reset_mode.val() {
-                    if self.frame_index.val() == 0 {
-                        self.read_value.next = self.acr0.q.val();
-                    }
-                    if self.frame_index.val() == 1 {
-                        self.read_value.next = self.acr1.q.val();
-                    }
-                    if self.frame_index.val() == 2 {
-                        self.read_value.next = self.acr2.q.val();
-                    }
-                    if self.frame_index.val() == 3 {
-                        self.read_value.next = self.acr3.q.val();
-                    }
-                    if self.frame_index.val() == 4 {
-                        self.read_value.next = self.amr0.q.val();
-                    }
-                    if self.frame_index.val() == 5 {
-                        self.read_value.next = self.amr1.q.val();
-                    }
-                    if self.frame_index.val() == 6 {
-                        self.read_value.next = self.amr2.q.val();
-                    }
-                    if self.frame_index.val() == 7 {
-                        self.read_value.next = self.amr3.q.val();
-                    }
-                } else {
-                    // The head message of the RX FIFO.
-                    self.read_from_ram.next = true;
-                }
+            if self.in_frame_window.val() & (self.reset_mode.val() == false) {
+                // The head message of the RX FIFO.
+                self.read_from_ram.next = true;
             }
             if self.in_rx_ram.val() {
                 self.read_from_ram.next = true;
@@ -935,12 +715,6 @@ impl Logic for CanController {
                     .replace_bit(5, true)
                     .replace_bit(6, true)
                     .replace_bit(7, true);
-            }
-            if self.addr.val() == self.bc_acr.val() {
-                self.read_value.next = self.acr0.q.val();
-            }
-            if self.addr.val() == self.bc_amr.val() {
-                self.read_value.next = self.amr0.q.val();
             }
             // ACR, AMR, BTR0, BTR1, OCR read 0xFF in operating mode.
             if (self.reset_mode.val() == false) & self.in_basic_config.val() {
@@ -1076,14 +850,6 @@ impl Logic for CanController {
             self.ocr.d.next = 0.into();
             self.ewlr.d.next = self.default_ewlr.val();
             self.cdr.d.next = 0.into();
-            self.acr0.d.next = 0.into();
-            self.acr1.d.next = 0.into();
-            self.acr2.d.next = 0.into();
-            self.acr3.d.next = 0.into();
-            self.amr0.d.next = 0.into();
-            self.amr1.d.next = 0.into();
-            self.amr2.d.next = 0.into();
-            self.amr3.d.next = 0.into();
             self.alc.d.next = 0.into();
             self.alc_armed.d.next = true;
             self.ecc.d.next = 0.into();

@@ -193,5 +193,17 @@ pub mod clock_divider {
     pub const PELICAN: u8 = 0x80;
 }
 
+/// The frame-buffer layout (TX buffer and RX buffer, PeliCAN): byte indices inside a frame.
+pub mod frame_buffer {
+    /// Frame information: FF (7), RTR (6), DLC (3..0).
+    pub const FRAME_INFO: u64 = 0;
+    /// The first identifier byte (ID.28..21).
+    pub const FIRST_ID_BYTE: u64 = 1;
+    /// The first data byte of a standard frame (after 2 identifier bytes).
+    pub const STANDARD_DATA_BYTE: u64 = 3;
+    /// The first data byte of an extended frame (after 4 identifier bytes).
+    pub const EXTENDED_DATA_BYTE: u64 = 5;
+}
+
 /// Error warning limit after a hardware reset.
 pub const DEFAULT_EWLR: u8 = 96;

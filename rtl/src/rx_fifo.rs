@@ -17,13 +17,13 @@
 
 use rust_hdl::prelude::*;
 
-use crate::activity::{Activity, ActivityBlock};
+use crate::activity::{Activity, ActivityBlock, BlockDefault};
 
 /// Bytes of the receive FIFO.
 pub const RX_FIFO_BYTES: usize = 64;
 
 /// The receive FIFO.
-#[derive(ActivityBlock)]
+#[derive(ActivityBlock, BlockDefault)]
 pub struct RxFifo {
     /// Simulation bookkeeping (see `crate::activity`); not hardware.
     activity: Activity,
@@ -77,6 +77,8 @@ pub struct RxFifo {
     pub overrun: Signal<Out, Bit>,
     /// Frame information byte of the head message (meaningful while `message_count` > 0).
     pub head_info: Signal<Out, Bits<8>>,
+    // Every word initialised: unwritten RAM reads X in Verilog (RUST_HDL.md rule 6).
+    #[init(cleared_ram())]
     ram: RAM<Bits<8>, 6>,
     head: DFF<Bits<6>>,
     tail: DFF<Bits<6>>,
@@ -107,71 +109,13 @@ pub struct RxFifo {
     used_after_release: Signal<Local, Bits<7>>,
     count_after_release: Signal<Local, Bits<5>>,
     header_last: Signal<Local, Bits<3>>,
+    #[constant(0u64)]
     zero_byte: Constant<Bits<8>>,
 }
 
-impl Default for RxFifo {
-    fn default() -> Self {
-        RxFifo {
-            activity: Activity::default(),
-            clock: Default::default(),
-            reset: Default::default(),
-            clear: Default::default(),
-            load_start: Default::default(),
-            start_address: Default::default(),
-            header: Default::default(),
-            id: Default::default(),
-            ide: Default::default(),
-            rtr: Default::default(),
-            dlc: Default::default(),
-            byte_strobe: Default::default(),
-            data_byte: Default::default(),
-            byte_index: Default::default(),
-            store: Default::default(),
-            release_head: Default::default(),
-            clear_overrun: Default::default(),
-            host_read: Default::default(),
-            host_address: Default::default(),
-            host_write: Default::default(),
-            host_data: Default::default(),
-            read_data: Default::default(),
-            message_count: Default::default(),
-            start: Default::default(),
-            overrun: Default::default(),
-            head_info: Default::default(),
-            // Every word initialised: unwritten RAM reads X in Verilog (RUST_HDL.md rule 6).
-            ram: RAM::from((0..RX_FIFO_BYTES).map(|_| Bits::<8>::from(0u64))),
-            head: Default::default(),
-            tail: Default::default(),
-            used: Default::default(),
-            count: Default::default(),
-            overrun_state: Default::default(),
-            head_info_reg: Default::default(),
-            fetching: Default::default(),
-            info: Default::default(),
-            length: Default::default(),
-            header_step: Default::default(),
-            writing_header: Default::default(),
-            incomplete: Default::default(),
-            new_info: Default::default(),
-            new_length: Default::default(),
-            header_bytes: Default::default(),
-            head_info_now: Default::default(),
-            head_length: Default::default(),
-            head_header_bytes: Default::default(),
-            offset: Default::default(),
-            write_now: Default::default(),
-            write_byte: Default::default(),
-            room_needed: Default::default(),
-            releasing: Default::default(),
-            storing: Default::default(),
-            next_head: Default::default(),
-            used_after_release: Default::default(),
-            count_after_release: Default::default(),
-            header_last: Default::default(),
-            zero_byte: Constant::new(0.into()),
-        }
-    }
+/// The RAM with every word 0: unwritten RAM reads X in Verilog (RUST_HDL.md rule 6).
+fn cleared_ram() -> RAM<Bits<8>, 6> {
+    RAM::from((0..RX_FIFO_BYTES).map(|_| Bits::<8>::from(0u64)))
 }
 
 impl Logic for RxFifo {

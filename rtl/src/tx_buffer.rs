@@ -19,7 +19,7 @@
 
 use rust_hdl::prelude::*;
 
-use crate::activity::{Activity, ActivityBlock};
+use crate::activity::{Activity, ActivityBlock, BlockDefault};
 
 /// Bytes of the transmit buffer.
 pub const TX_BUFFER_BYTES: usize = 13;
@@ -30,7 +30,7 @@ const INDEX_BITS: usize = 4;
 const WORDS: usize = 1 << INDEX_BITS;
 
 /// The transmit buffer.
-#[derive(ActivityBlock)]
+#[derive(ActivityBlock, BlockDefault)]
 pub struct TxBuffer {
     /// Simulation bookkeeping (see `crate::activity`); not hardware.
     activity: Activity,
@@ -56,7 +56,9 @@ pub struct TxBuffer {
     pub basic_layout: Signal<In, Bit>,
     /// Frame information: byte 0, or derived from byte 2 in the BasicCAN layout.
     pub info: Signal<Out, Bits<8>>,
+    #[init(cleared_ram())]
     host_ram: RAM<Bits<8>, INDEX_BITS>,
+    #[init(cleared_ram())]
     core_ram: RAM<Bits<8>, INDEX_BITS>,
     /// Bit i: byte i was written since the reset.
     written: DFF<Bits<WORDS>>,
@@ -66,8 +68,11 @@ pub struct TxBuffer {
     frame_info: DFF<Bits<8>>,
     /// The frame information of the BasicCAN layout, from byte 2.
     basic_info: DFF<Bits<8>>,
+    #[constant(index(TX_BUFFER_BYTES))]
     byte_count: Constant<Bits<INDEX_BITS>>,
+    #[constant(index(0))]
     frame_info_index: Constant<Bits<INDEX_BITS>>,
+    #[constant(index(2))]
     basic_info_index: Constant<Bits<INDEX_BITS>>,
     in_range: Signal<Local, Bit>,
 }
@@ -77,38 +82,8 @@ fn cleared_ram() -> RAM<Bits<8>, INDEX_BITS> {
     RAM::from((0..WORDS).map(|_| Bits::<8>::from(0u64)))
 }
 
-fn index(value: usize) -> Constant<Bits<INDEX_BITS>> {
-    Constant::new((value as u64).into())
-}
-
-impl Default for TxBuffer {
-    fn default() -> Self {
-        TxBuffer {
-            activity: Activity::default(),
-            clock: Default::default(),
-            reset: Default::default(),
-            write: Default::default(),
-            write_index: Default::default(),
-            write_data: Default::default(),
-            host_index: Default::default(),
-            host_data: Default::default(),
-            core_index: Default::default(),
-            core_data: Default::default(),
-            basic_layout: Default::default(),
-            info: Default::default(),
-            host_ram: cleared_ram(),
-            core_ram: cleared_ram(),
-            written: Default::default(),
-            host_written: Default::default(),
-            core_written: Default::default(),
-            frame_info: Default::default(),
-            basic_info: Default::default(),
-            byte_count: index(TX_BUFFER_BYTES),
-            frame_info_index: index(0),
-            basic_info_index: index(2),
-            in_range: Default::default(),
-        }
-    }
+fn index(value: usize) -> Bits<INDEX_BITS> {
+    (value as u64).into()
 }
 
 impl Logic for TxBuffer {

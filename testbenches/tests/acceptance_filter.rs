@@ -8,6 +8,7 @@ use proptest::prelude::*;
 use proptest::strategy::ValueTree;
 use proptest::test_runner::TestRunner;
 use rtl::acceptance_filter::AcceptanceFilter;
+use rtl::registers::{basic, pelican};
 use rust_hdl::prelude::*;
 use sim::engine::rtl_step::clock_cycle;
 use sim::host::acceptance::{accepts, FilterConfig};
@@ -24,8 +25,10 @@ struct Inputs {
     reset: bool,
     pelican: bool,
     single_filter: bool,
-    acr: [u8; 4],
-    amr: [u8; 4],
+    reset_mode: bool,
+    addr: u8,
+    we: bool,
+    wdata: u8,
     rx_header: bool,
     rx_id: u32,
     rx_ide: bool,
@@ -35,11 +38,12 @@ struct Inputs {
     rx_byte_index: u8,
 }
 
-/// One filter, its inputs, and optionally the per-cycle trace (inputs, `accept` after the edge).
+/// One filter, its inputs, and optionally the per-cycle trace (inputs, and after the edge `accept`,
+/// `host_selected` and `host_data` as the Verilog testbench prints them: `1 0 3f`).
 struct Bench {
     filter: AcceptanceFilter,
     inputs: Inputs,
-    trace: Option<Vec<(Inputs, bool)>>,
+    trace: Option<Vec<(Inputs, String)>>,
 }
 
 impl Bench {
@@ -76,11 +80,42 @@ impl Bench {
         self.inputs.reset = false;
     }
 
+    /// Writes ACR and AMR in reset mode through the block's host port (data sheet: PeliCAN ACR0..3
+    /// at 16..19, AMR0..3 at 20..23; BasicCAN ACR at 4, AMR at 5), reads each back, and returns to
+    /// operating mode.
     fn configure(&mut self, config: &FilterConfig) {
         self.inputs.pelican = config.pelican;
         self.inputs.single_filter = config.single_filter;
-        self.inputs.acr = config.acr;
-        self.inputs.amr = config.amr;
+        self.inputs.reset_mode = true;
+        let registers: Vec<(u8, u8)> = if config.pelican {
+            (0..4)
+                .map(|k| (pelican::ACR0 + k as u8, config.acr[k]))
+                .chain((0..4).map(|k| (pelican::AMR0 + k as u8, config.amr[k])))
+                .collect()
+        } else {
+            vec![(basic::ACR, config.acr[0]), (basic::AMR, config.amr[0])]
+        };
+        for &(addr, value) in &registers {
+            self.inputs.we = true;
+            self.inputs.addr = addr;
+            self.inputs.wdata = value;
+            self.cycle();
+        }
+        self.inputs.we = false;
+        for &(addr, value) in &registers {
+            self.inputs.addr = addr;
+            self.cycle();
+            assert!(
+                self.filter.host_selected.val(),
+                "address {addr} not selected"
+            );
+            assert_eq!(
+                self.filter.host_data.val(),
+                Bits::<8>::from(u64::from(value)),
+                "read back of address {addr}"
+            );
+        }
+        self.inputs.reset_mode = false;
     }
 
     fn accept(&self) -> bool {
@@ -94,14 +129,10 @@ impl Bench {
         f.reset.next = i.reset;
         f.pelican.next = i.pelican;
         f.single_filter.next = i.single_filter;
-        f.acr0.next = u64::from(i.acr[0]).into();
-        f.acr1.next = u64::from(i.acr[1]).into();
-        f.acr2.next = u64::from(i.acr[2]).into();
-        f.acr3.next = u64::from(i.acr[3]).into();
-        f.amr0.next = u64::from(i.amr[0]).into();
-        f.amr1.next = u64::from(i.amr[1]).into();
-        f.amr2.next = u64::from(i.amr[2]).into();
-        f.amr3.next = u64::from(i.amr[3]).into();
+        f.reset_mode.next = i.reset_mode;
+        f.addr.next = u64::from(i.addr).into();
+        f.we.next = i.we;
+        f.wdata.next = u64::from(i.wdata).into();
         f.rx_header.next = i.rx_header;
         f.rx_id.next = u64::from(i.rx_id).into();
         f.rx_ide.next = i.rx_ide;
@@ -112,7 +143,14 @@ impl Bench {
         clock_cycle(&mut self.filter, |f| &mut f.clock, "acceptance filter");
         let accept = self.accept();
         if let Some(trace) = &mut self.trace {
-            trace.push((i, accept));
+            let f = &self.filter;
+            let data = f.host_data.val().index();
+            let seen = format!(
+                "{} {} {data:02x}",
+                u8::from(accept),
+                u8::from(f.host_selected.val())
+            );
+            trace.push((i, seen));
         }
         accept
     }
@@ -827,23 +865,24 @@ fn generated_verilog_compiles() {
     }
 }
 
-/// A Verilog testbench that applies `trace`'s inputs cycle by cycle to `top` and prints `accept`
-/// after every rising edge.
-fn verilog_testbench(trace: &[(Inputs, bool)]) -> String {
+/// A Verilog testbench that applies `trace`'s inputs cycle by cycle to `top` and prints `accept`,
+/// `host_selected` and `host_data` after every rising edge.
+fn verilog_testbench(trace: &[(Inputs, String)]) -> String {
     let mut tb = String::from(
         "module tb;\n\
          reg clock = 0, reset = 0, pelican = 0, single_filter = 0;\n\
-         reg [7:0] acr0 = 0, acr1 = 0, acr2 = 0, acr3 = 0, amr0 = 0, amr1 = 0, amr2 = 0, amr3 = 0;\n\
+         reg reset_mode = 0, we = 0;\n\
+         reg [7:0] addr = 0, wdata = 0;\n\
          reg rx_header = 0, rx_ide = 0, rx_rtr = 0, rx_byte_strobe = 0;\n\
          reg [28:0] rx_id = 0;\n\
          reg [7:0] rx_byte = 0;\n\
          reg [2:0] rx_byte_index = 0;\n\
-         wire accept;\n\
+         wire accept, host_selected;\n\
+         wire [7:0] host_data;\n\
          top dut(.clock(clock), .reset(reset), .pelican(pelican), .single_filter(single_filter),\n\
-         .acr0(acr0), .acr1(acr1), .acr2(acr2), .acr3(acr3), .amr0(amr0), .amr1(amr1), .amr2(amr2),\n\
-         .amr3(amr3), .rx_header(rx_header), .rx_id(rx_id), .rx_ide(rx_ide), .rx_rtr(rx_rtr),\n\
+         .reset_mode(reset_mode), .addr(addr), .we(we), .wdata(wdata), .rx_header(rx_header), .rx_id(rx_id), .rx_ide(rx_ide), .rx_rtr(rx_rtr),\n\
          .rx_byte_strobe(rx_byte_strobe), .rx_byte(rx_byte), .rx_byte_index(rx_byte_index),\n\
-         .accept(accept));\n\
+         .accept(accept), .host_selected(host_selected), .host_data(host_data));\n\
          initial begin\n",
     );
     for (i, _) in trace {
@@ -851,22 +890,17 @@ fn verilog_testbench(trace: &[(Inputs, bool)]) -> String {
         writeln!(
             tb,
             "reset = {}; pelican = {}; single_filter = {}; \
-             acr0 = 8'h{:02x}; acr1 = 8'h{:02x}; acr2 = 8'h{:02x}; acr3 = 8'h{:02x}; \
-             amr0 = 8'h{:02x}; amr1 = 8'h{:02x}; amr2 = 8'h{:02x}; amr3 = 8'h{:02x}; \
+             reset_mode = {}; addr = 8'h{:02x}; we = {}; wdata = 8'h{:02x}; \
              rx_header = {}; rx_id = 29'h{:x}; rx_ide = {}; rx_rtr = {}; \
              rx_byte_strobe = {}; rx_byte = 8'h{:02x}; rx_byte_index = 3'd{}; \
-             #5 clock = 1; #1 $display(\"%b\", accept); #4 clock = 0;",
+             #5 clock = 1; #1 $display(\"%b %b %h\", accept, host_selected, host_data); #4 clock = 0;",
             b(i.reset),
             b(i.pelican),
             b(i.single_filter),
-            i.acr[0],
-            i.acr[1],
-            i.acr[2],
-            i.acr[3],
-            i.amr[0],
-            i.amr[1],
-            i.amr[2],
-            i.amr[3],
+            b(i.reset_mode),
+            i.addr,
+            b(i.we),
+            i.wdata,
             b(i.rx_header),
             i.rx_id,
             b(i.rx_ide),
@@ -911,18 +945,22 @@ fn generated_verilog_gives_the_rust_hdl_trace_in_icarus() {
         .unwrap();
     assert!(run.status.success(), "vvp failed");
     let stdout = String::from_utf8(run.stdout).unwrap();
-    let verilog_accept: Vec<bool> = stdout
+    let verilog_seen: Vec<&str> = stdout
         .lines()
-        .filter(|l| *l == "0" || *l == "1")
-        .map(|l| l == "1")
+        .filter(|l| l.starts_with('0') || l.starts_with('1'))
         .collect();
-    assert_eq!(verilog_accept.len(), trace.len(), "one line per cycle");
-    for (cycle, ((inputs, rust), verilog)) in trace.iter().zip(&verilog_accept).enumerate() {
+    assert_eq!(verilog_seen.len(), trace.len(), "one line per cycle");
+    for (cycle, ((inputs, rust), verilog)) in trace.iter().zip(&verilog_seen).enumerate() {
         assert_eq!(
             rust, verilog,
             "cycle {cycle}: rust-hdl {rust}, Verilog {verilog}, inputs {inputs:02X?}"
         );
     }
-    assert!(trace.iter().any(|(_, a)| *a) && trace.iter().any(|(_, a)| !*a));
+    let accepted = |seen: &String| seen.starts_with('1');
+    assert!(trace.iter().any(|(_, s)| accepted(s)) && trace.iter().any(|(_, s)| !accepted(s)));
+    assert!(
+        trace.iter().any(|(_, s)| s.as_bytes()[2] == b'1'),
+        "host reads in the trace"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -261,3 +261,74 @@ fn activity_block(input: &DeriveInput) -> syn::Result<TokenStream2> {
         }
     })
 }
+
+/// Derives `Default` for a block whose constants carry their values: a `Constant<T>` field needs
+/// `#[constant(value)]` (any expression `T` converts from, such as a `u64`); any other field may
+/// name its initial value with `#[init(expression)]` (a RAM's contents); every other field is
+/// `Default::default()`. One declaration per value instead of a hand-written `Default` that lists
+/// every field of the block.
+#[proc_macro_derive(BlockDefault, attributes(constant, init))]
+pub fn derive_block_default(input: TokenStream) -> TokenStream {
+    let input = parse_macro_input!(input as DeriveInput);
+    match block_default(&input) {
+        Ok(tokens) => tokens.into(),
+        Err(error) => error.to_compile_error().into(),
+    }
+}
+
+fn block_default(input: &DeriveInput) -> syn::Result<TokenStream2> {
+    let name = &input.ident;
+    let Data::Struct(data) = &input.data else {
+        return Err(Error::new_spanned(input, "BlockDefault needs a struct"));
+    };
+    let Fields::Named(fields) = &data.fields else {
+        return Err(Error::new_spanned(input, "BlockDefault needs named fields"));
+    };
+    let mut values = Vec::new();
+    for field in &fields.named {
+        let ident = field.ident.as_ref().expect("named field");
+        let value = field
+            .attrs
+            .iter()
+            .find(|a| a.path().is_ident("constant"))
+            .map(|a| a.parse_args::<syn::Expr>())
+            .transpose()?;
+        let init = field
+            .attrs
+            .iter()
+            .find(|a| a.path().is_ident("init"))
+            .map(|a| a.parse_args::<syn::Expr>())
+            .transpose()?;
+        if let Some(init) = init {
+            values.push(quote! { #ident: #init });
+            continue;
+        }
+        let is_constant = type_name(&field.ty).as_deref() == Some("Constant");
+        values.push(match (value, is_constant) {
+            (Some(value), true) => quote! {
+                #ident: ::rust_hdl::core::constant::Constant::new(::core::convert::Into::into(#value))
+            },
+            (None, false) => quote! { #ident: ::core::default::Default::default() },
+            (None, true) => {
+                return Err(Error::new_spanned(
+                    ident,
+                    "a Constant field needs its value: #[constant(value)]",
+                ))
+            }
+            (Some(_), false) => {
+                return Err(Error::new_spanned(
+                    ident,
+                    "#[constant(value)] belongs on a Constant field",
+                ))
+            }
+        });
+    }
+    let (impl_generics, type_generics, where_clause) = input.generics.split_for_impl();
+    Ok(quote! {
+        impl #impl_generics ::core::default::Default for #name #type_generics #where_clause {
+            fn default() -> Self {
+                #name { #(#values,)* }
+            }
+        }
+    })
+}

@@ -9,10 +9,11 @@
 
 use rust_hdl::prelude::*;
 
-use crate::activity::{Activity, ActivityBlock};
+use crate::activity::{Activity, ActivityBlock, BlockDefault};
+use crate::bsp::CRC15_POLYNOMIAL;
 
 /// The CRC-15 shift register.
-#[derive(ActivityBlock)]
+#[derive(ActivityBlock, BlockDefault)]
 pub struct Crc15 {
     /// Simulation bookkeeping (see `crate::activity`); not hardware.
     activity: Activity,
@@ -27,22 +28,8 @@ pub struct Crc15 {
     /// The register.
     pub value: Signal<Out, Bits<15>>,
     register: DFF<Bits<15>>,
+    #[constant(CRC15_POLYNOMIAL)]
     polynomial: Constant<Bits<15>>,
-}
-
-impl Default for Crc15 {
-    fn default() -> Self {
-        Crc15 {
-            activity: Activity::default(),
-            clock: Default::default(),
-            clear: Default::default(),
-            feed: Default::default(),
-            level: Default::default(),
-            value: Default::default(),
-            register: Default::default(),
-            polynomial: Constant::new(0x4599.into()),
-        }
-    }
 }
 
 impl Logic for Crc15 {

@@ -1,20 +1,23 @@
 //! The bit stream processor (BSP): the CAN 2.0A/2.0B protocol engine.
 //!
 //! `protocol.rs` holds the frame sequencer, the top block of the BSP; it contains the stuff-run tracker
-//! (`stuffing.rs`), the CRC register (`crc15.rs`) and fault confinement (`fault_confinement.rs`).
+//! (`stuffing.rs`), the CRC register (`crc15.rs`), fault confinement (`fault_confinement.rs`), the
+//! receive assembler (`rx_assembler.rs`), the bit transmitter with the transmit stream
+//! (`bit_transmitter.rs`) and the ECC/ALC capture (`error_capture.rs`).
 //! Every block acts at the process point of the bit timing logic (the clock after the sample point);
 //! the transmit point only loads the bit prepared there.
 
+pub mod bit_transmitter;
 pub mod crc15;
+pub mod error_capture;
 pub mod fault_confinement;
 pub mod protocol;
+pub mod rx_assembler;
 pub mod stuffing;
 
-// The constants below are the one definition of the field lengths and SJA1000 codes for host-side
-// code (the demo's ECC decoding, the testbenches' expectations). They are plain Rust constants, so
-// they must not be used inside `#[hdl_gen]` kernels (they would become undeclared Verilog
-// identifiers); the protocol kernel still writes these values as literals until they move into
-// `Constant` fields (with the Verilog review).
+// The constants below are the one definition of the field lengths and SJA1000 codes. They are plain
+// Rust constants, so kernels read them through `Constant` fields (`#[constant(...)]`), never
+// directly (a Rust constant inside a kernel becomes an undeclared Verilog identifier).
 
 /// Bits of the base identifier.
 pub const BASE_ID_BITS: u64 = 11;
@@ -24,6 +27,11 @@ pub const SRR_RTR_POSITION: u64 = 11;
 pub const IDE_POSITION: u64 = 12;
 /// Arbitration bit position of the RTR bit of an extended frame.
 pub const EXT_RTR_POSITION: u64 = 31;
+/// Bits of the DLC.
+pub const DLC_BITS: u64 = 4;
+/// The CRC-15/CAN generator polynomial x^15 + x^14 + x^10 + x^8 + x^7 + x^4 + x^3 + 1, without its
+/// x^15 term.
+pub const CRC15_POLYNOMIAL: u64 = 0x4599;
 /// Bits of the CRC sequence.
 pub const CRC_BITS: u64 = 15;
 /// Bits of the end of frame.
@@ -38,6 +46,9 @@ pub const FLAG_BITS: u64 = 6;
 pub const DELIMITER_BITS: u64 = 8;
 /// Recessive bits of bus integration and of each bus-off recovery step.
 pub const IDLE_RUN_BITS: u64 = 11;
+/// Consecutive dominant bits after an error or overload flag that cost a node 8 again (fault
+/// confinement rule 6).
+pub const PENALTY_DOMINANT_BITS: u64 = 8;
 
 /// SJA1000 ECC error types (bits 7..6).
 pub mod ecc_type {

@@ -1,6 +1,9 @@
 //! The frame sequencer: one state per field with a field bit counter, bit monitoring, arbitration,
 //! ACK, the five error kinds, error and overload frames, intermission, suspend, bus integration and
-//! bus-off recovery. The top block of the bit stream processor.
+//! bus-off recovery. The top block of the bit stream processor: its children track stuffing
+//! (`stuffing`), the CRC (`crc15`), the error counters (`fault_confinement`), assemble the received
+//! frame (`rx_assembler`), stream the frame to send from the transmit buffer and choose and drive
+//! the bit to send (`bit_transmitter`), and capture ECC and ALC (`error_capture`).
 //!
 //! Ports in: the bit timing triggers (`process_point`, `transmit_point`) and `rx_bit`; `enable` (low =
 //! SJA1000 reset mode: tx recessive at once, the node waits for bus integration afterwards); the
@@ -25,12 +28,20 @@
 
 use rust_hdl::prelude::*;
 
-use crate::activity::{Activity, ActivityBlock};
+use crate::activity::{Activity, ActivityBlock, BlockDefault};
 
 use crate::bit_timing::SyncMode;
+use crate::bsp::bit_transmitter::BitTransmitter;
 use crate::bsp::crc15::Crc15;
+use crate::bsp::error_capture::ErrorCapture;
 use crate::bsp::fault_confinement::FaultConfinement;
+use crate::bsp::rx_assembler::RxAssembler;
 use crate::bsp::stuffing::BitStuffing;
+use crate::bsp::{
+    ecc_type, CRC_BITS, DELIMITER_BITS, DLC_BITS, EOF_BITS, EXT_RTR_POSITION, FLAG_BITS,
+    IDE_POSITION, IDLE_RUN_BITS, INTERMISSION_BITS, PENALTY_DOMINANT_BITS, SRR_RTR_POSITION,
+    SUSPEND_BITS,
+};
 
 /// States of the frame sequencer, one per field.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, LogicState)]
@@ -70,7 +81,7 @@ pub enum ProtocolState {
 }
 
 /// The protocol engine.
-#[derive(ActivityBlock, Default)]
+#[derive(ActivityBlock, BlockDefault)]
 pub struct Protocol {
     /// Simulation bookkeeping (see `crate::activity`); not hardware.
     activity: Activity,
@@ -166,76 +177,114 @@ pub struct Protocol {
     stuffing: BitStuffing,
     crc: Crc15,
     faults: FaultConfinement,
+    assembler: RxAssembler,
+    sender: BitTransmitter,
+    capture: ErrorCapture,
     field: DFF<ProtocolState>,
     count: DFF<Bits<7>>,
-    tx_reg: DFF<Bit>,
-    tx_next: DFF<Bit>,
+    /// The node transmits the frame on the bus (or its error/overload frame after it).
     transmitter: DFF<Bit>,
-    tx_ptr: DFF<Bits<4>>,
-    tx_shift: DFF<Bits<8>>,
-    tx_left: DFF<Bits<4>>,
-    id_reg: DFF<Bits<29>>,
-    ide_reg: DFF<Bit>,
-    rtr_reg: DFF<Bit>,
-    dlc_reg: DFF<Bits<4>>,
-    byte_reg: DFF<Bits<8>>,
-    header_pulse: DFF<Bit>,
-    byte_pulse: DFF<Bit>,
-    byte_index: DFF<Bits<3>>,
     valid_pulse: DFF<Bit>,
     done_pulse: DFF<Bit>,
     done_success: DFF<Bit>,
     abort_pending: DFF<Bit>,
-    error_pulse: DFF<Bit>,
-    ecc_reg: DFF<Bits<8>>,
-    lost_pulse: DFF<Bit>,
-    alc_reg: DFF<Bits<5>>,
     crc_error: DFF<Bit>,
+    /// The error flag being sent is passive, and the level of its run of equal bits.
     flag_passive: DFF<Bit>,
     flag_level: DFF<Bit>,
+    /// The flag before the delimiter was an error flag (not an overload flag).
     after_error_flag: DFF<Bit>,
+    /// The first bit after the flag (fault confinement rule 2).
     first_after_flag: DFF<Bit>,
+    /// Dominant bits after the flag, modulo 8 (rule 6).
     dominant_after_flag: DFF<Bits<3>>,
+    /// An error-passive transmitter's ACK error, counted only if a dominant bit follows in its
+    /// passive flag (rule 3 exception a).
     ack_penalty: DFF<Bit>,
-    recessive_run: DFF<Bits<4>>,
+    /// In a data or remote frame (arbitration to end of frame), registered.
+    in_frame: DFF<Bit>,
     // Decisions of this process point.
     next_field: Signal<Local, ProtocolState>,
     next_count: Signal<Local, Bits<7>>,
     next_transmitter: Signal<Local, Bit>,
     count_plus_1: Signal<Local, Bits<7>>,
+    /// A transmitter reads back another level than it sends (the bit monitoring of every field).
+    bit_error: Signal<Local, Bit>,
     error_now: Signal<Local, Bit>,
+    error_type: Signal<Local, Bits<2>>,
+    error_counts: Signal<Local, Bit>,
+    lost: Signal<Local, Bit>,
     /// The received bit goes into the CRC register this cycle (the kernel reads its own copy:
     /// see `crate::activity` on reading a child's input).
     feed_crc: Signal<Local, Bit>,
     /// Stuffing stops after this bit (an error or the end of the stuffed fields); reset mode
     /// also stops it, below, where it no longer matters for the next bit.
     stop_stuffing: Signal<Local, Bit>,
-    error_type: Signal<Local, Bits<2>>,
-    segment: Signal<Local, Bits<5>>,
-    error_counts: Signal<Local, Bit>,
     start_frame: Signal<Local, Bit>,
+    /// In the arbitration field: an identifier bit (not SRR/RTR, IDE or the extended RTR).
+    id_bit: Signal<Local, Bit>,
+    /// In the control field: the last DLC bit; and with it, no data field follows (remote frame
+    /// or DLC 0: the DLC so far with this bit shifted in is 0).
+    control_last: Signal<Local, Bit>,
+    no_data: Signal<Local, Bit>,
+    /// In the data field: the last bit of the last data byte.
+    data_last: Signal<Local, Bit>,
     may_start: Signal<Local, Bit>,
     single_shot: Signal<Local, Bit>,
     consume_stream: Signal<Local, Bit>,
-    stream_bit: Signal<Local, Bit>,
-    stream_next_bit: Signal<Local, Bit>,
-    data_bytes: Signal<Local, Bits<4>>,
-    /// Index of the last data byte, registered: DLC and RTR are settled a bit before the data field.
-    last_data_byte: DFF<Bits<4>>,
-    dlc_after: Signal<Local, Bits<4>>,
-    next_bit: Signal<Local, Bit>,
-    dlc_position: Signal<Local, Bits<3>>,
-    next_is_11: Signal<Local, Bit>,
-    next_is_12: Signal<Local, Bit>,
-    next_is_31: Signal<Local, Bit>,
-    next_count_low: Signal<Local, Bits<3>>,
     receiver_error: Signal<Local, Bit>,
     send_ack: Signal<Local, Bit>,
-    /// In a data or remote frame (arbitration to end of frame), registered.
-    in_frame: DFF<Bit>,
+    /// Reset mode (and not bus-off): the node takes no part in traffic.
+    disabled: Signal<Local, Bit>,
     flag_is_passive: Signal<Local, Bit>,
     /// A bit error in our active error flag restarts it.
     flag_restarts: Signal<Local, Bit>,
+    #[constant(ecc_type::BIT)]
+    bit_error_type: Constant<Bits<2>>,
+    #[constant(ecc_type::FORM)]
+    form_error_type: Constant<Bits<2>>,
+    #[constant(ecc_type::STUFF)]
+    stuff_error_type: Constant<Bits<2>>,
+    #[constant(ecc_type::OTHER)]
+    other_error_type: Constant<Bits<2>>,
+    // Last positions of the fields (count = position in the field, from 0).
+    #[constant(IDLE_RUN_BITS - 1)]
+    last_idle_run_bit: Constant<Bits<7>>,
+    #[constant(SRR_RTR_POSITION)]
+    srr_rtr_position: Constant<Bits<7>>,
+    #[constant(IDE_POSITION)]
+    ide_position: Constant<Bits<7>>,
+    /// The last DLC bit of a standard and of an extended frame.
+    #[constant(DLC_BITS)]
+    last_standard_dlc_bit: Constant<Bits<7>>,
+    #[constant(DLC_BITS + 1)]
+    last_extended_dlc_bit: Constant<Bits<7>>,
+    /// The last bit of a data byte.
+    #[constant(7)]
+    last_byte_bit: Constant<Bits<3>>,
+    #[constant(EXT_RTR_POSITION)]
+    ext_rtr_position: Constant<Bits<7>>,
+    #[constant(CRC_BITS - 1)]
+    last_crc_bit: Constant<Bits<7>>,
+    /// EOF bit 6 (the last but one): a receiver takes the frame here.
+    #[constant(EOF_BITS - 2)]
+    validity_eof_bit: Constant<Bits<7>>,
+    #[constant(EOF_BITS - 1)]
+    last_eof_bit: Constant<Bits<7>>,
+    #[constant(INTERMISSION_BITS - 1)]
+    last_intermission_bit: Constant<Bits<7>>,
+    #[constant(SUSPEND_BITS - 1)]
+    last_suspend_bit: Constant<Bits<7>>,
+    #[constant(FLAG_BITS - 1)]
+    last_flag_bit: Constant<Bits<7>>,
+    /// A passive flag is complete after this many equal bits.
+    #[constant(FLAG_BITS)]
+    flag_bits: Constant<Bits<7>>,
+    #[constant(DELIMITER_BITS - 1)]
+    last_delimiter_bit: Constant<Bits<7>>,
+    /// The eighth dominant bit after a flag (rule 6), counted modulo 8.
+    #[constant(PENALTY_DOMINANT_BITS - 1)]
+    eighth_dominant_bit: Constant<Bits<3>>,
 }
 
 impl Logic for Protocol {
@@ -247,99 +296,64 @@ impl Logic for Protocol {
             field,
             in_frame,
             count,
-            tx_reg,
-            tx_next,
             transmitter,
-            tx_ptr,
-            tx_shift,
-            tx_left,
-            id_reg,
-            ide_reg,
-            rtr_reg,
-            dlc_reg,
-            byte_reg,
-            header_pulse,
-            byte_pulse,
-            byte_index,
             valid_pulse,
             done_pulse,
             done_success,
             abort_pending,
-            error_pulse,
-            ecc_reg,
-            lost_pulse,
-            alc_reg,
             crc_error,
             flag_passive,
             flag_level,
             after_error_flag,
             first_after_flag,
             dominant_after_flag,
-            ack_penalty,
-            recessive_run,
-            last_data_byte
+            ack_penalty
         );
-        clock!(self, clock, stuffing, crc, faults);
+        clock!(self, clock, stuffing, crc, faults, assembler, sender, capture);
 
-        // ---- Outputs from registers.
-        self.tx.next = self.tx_reg.q.val();
-        self.tx_dominant.next = self.tx_reg.q.val() == false;
-        self.tx_addr.next = self.tx_ptr.q.val();
-        self.rx_id.next = self.id_reg.q.val();
-        self.rx_ide.next = self.ide_reg.q.val();
-        self.rx_rtr.next = self.rtr_reg.q.val();
-        self.rx_dlc.next = self.dlc_reg.q.val();
-        self.rx_header.next = self.header_pulse.q.val();
-        self.rx_byte.next = self.byte_reg.q.val();
-        self.rx_byte_index.next = self.byte_index.q.val();
-        self.rx_byte_strobe.next = self.byte_pulse.q.val();
+        // ---- Outputs, from registers and children.
+        self.tx.next = self.sender.tx.val();
+        self.tx_dominant.next = self.sender.tx.val() == false;
+        self.tx_addr.next = self.sender.tx_addr.val();
+        self.rx_id.next = self.assembler.rx_id.val();
+        self.rx_ide.next = self.assembler.rx_ide.val();
+        self.rx_rtr.next = self.assembler.rx_rtr.val();
+        self.rx_dlc.next = self.assembler.rx_dlc.val();
+        self.rx_header.next = self.assembler.rx_header.val();
+        self.rx_byte.next = self.assembler.rx_byte.val();
+        self.rx_byte_index.next = self.assembler.rx_byte_index.val();
+        self.rx_byte_strobe.next = self.assembler.rx_byte_strobe.val();
         self.rx_valid.next = self.valid_pulse.q.val();
         self.tx_done.next = self.done_pulse.q.val();
         self.tx_success.next = self.done_success.q.val();
-        self.bus_error.next = self.error_pulse.q.val();
-        self.ecc.next = self.ecc_reg.q.val();
-        self.arbitration_lost.next = self.lost_pulse.q.val();
-        self.alc.next = self.alc_reg.q.val();
+        self.bus_error.next = self.capture.bus_error.val();
+        self.ecc.next = self.capture.ecc.val();
+        self.arbitration_lost.next = self.capture.arbitration_lost.val();
+        self.alc.next = self.capture.alc.val();
         self.tec.next = self.faults.tec.val();
         self.rec.next = self.faults.rec.val();
         self.error_passive.next = self.faults.error_passive.val();
         self.bus_off.next = self.faults.bus_off.val();
         self.state.next = self.field.q.val();
+        self.transmitting.next = self.transmitter.q.val() & self.in_frame.q.val();
+        self.receiving.next = !self.transmitter.q.val() & self.in_frame.q.val();
         self.faults.load_tec.next = self.load_tec.val();
         self.faults.load_rec.next = self.load_rec.val();
         self.faults.load_value.next = self.counter_value.val();
         self.faults.reset.next = self.reset.val();
         self.stuffing.reset.next = self.reset.val();
+        self.assembler.reset.next = self.reset.val();
+        self.sender.reset.next = self.reset.val();
+        self.capture.reset.next = self.reset.val();
 
         // Pulses last one clock.
-        self.header_pulse.d.next = false;
-        self.byte_pulse.d.next = false;
         self.valid_pulse.d.next = false;
         self.done_pulse.d.next = false;
-        self.error_pulse.d.next = false;
-        self.lost_pulse.d.next = false;
 
         // ---- Frame-level helpers.
-        self.transmitting.next = self.transmitter.q.val() & self.in_frame.q.val();
-        self.receiving.next = !self.transmitter.q.val() & self.in_frame.q.val();
         self.count_plus_1.next = self.count.q.val() + 1;
-        self.data_bytes.next = self.dlc_reg.q.val();
-        if self.dlc_reg.q.val().get_bit(3) {
-            self.data_bytes.next = 8.into();
-        }
-        if self.rtr_reg.q.val() {
-            self.data_bytes.next = 0.into();
-        }
-        self.last_data_byte.d.next = self.data_bytes.val() - 1;
-        // DLC shifted left with the bus bit in: wiring, where `x + x` would be an adder.
-        self.dlc_after.next = self
-            .dlc_reg
-            .q
-            .val()
-            .replace_bit(3, self.dlc_reg.q.val().get_bit(2))
-            .replace_bit(2, self.dlc_reg.q.val().get_bit(1))
-            .replace_bit(1, self.dlc_reg.q.val().get_bit(0))
-            .replace_bit(0, self.rx_bit.val());
+        self.bit_error.next =
+            self.transmitter.q.val() & (self.sender.tx.val() != self.rx_bit.val());
         // A new frame of our own may start: a request, and no suspend owed (error-passive former
         // transmitter) unless the suspend is over.
         self.single_shot.next = self.tx_single_shot.val() | self.abort_pending.q.val();
@@ -349,17 +363,29 @@ impl Logic for Protocol {
             & self.enable.val()
             & !self.faults.bus_off.val()
             & !self.done_pulse.q.val();
-        // The transmit-buffer stream: the bit now at its head, and after consuming it.
-        self.stream_bit.next = self.tx_shift.q.val().get_bit(7);
-        self.stream_next_bit.next = self.tx_shift.q.val().get_bit(6);
-        if self.tx_left.q.val() == 0 {
-            self.stream_bit.next = self.tx_data.val().get_bit(7);
-            self.stream_next_bit.next = self.tx_data.val().get_bit(6);
-        }
-        if self.tx_left.q.val() == 1 {
-            self.stream_next_bit.next = self.tx_data.val().get_bit(7);
-        }
-
+        // A SOF: a dominant bit where a frame may start (idle, suspend, intermission bit 3). One
+        // statement of registers and inputs only: the receive assembler's combinational outputs
+        // read back below do not depend on it, and Verilator sees no loop (docs/VERILOG.md).
+        self.start_frame.next = self.process_point.val()
+            & !self.stuffing.stuff_bit.val()
+            & (self.rx_bit.val() == false)
+            & ((self.field.q.val() == ProtocolState::Idle)
+                | (self.field.q.val() == ProtocolState::Suspend)
+                | ((self.field.q.val() == ProtocolState::Intermission)
+                    & (self.count.q.val() == self.last_intermission_bit.val())));
+        // Where the fields of a frame end, from registers (the count stays below 32 in the
+        // arbitration field: equalities, not comparisons, which are carry chains on FPGAs).
+        self.id_bit.next = (self.count.q.val() != self.srr_rtr_position.val())
+            & (self.count.q.val() != self.ide_position.val())
+            & (self.count.q.val() != self.ext_rtr_position.val());
+        self.control_last.next = (self.count.q.val() == self.last_extended_dlc_bit.val())
+            | ((self.count.q.val() == self.last_standard_dlc_bit.val())
+                & (self.assembler.rx_ide.val() == false));
+        self.no_data.next = self.assembler.rx_rtr.val()
+            | ((bit_cast::<3, 4>(self.assembler.rx_dlc.val()) == 0) & (self.rx_bit.val() == false));
+        self.data_last.next = (self.count.q.val().get_bits::<3>(0) == self.last_byte_bit.val())
+            & (self.count.q.val().get_bits::<4>(3) == self.assembler.last_data_byte.val());
+        self.disabled.next = (self.enable.val() == false) & (self.faults.bus_off.val() == false);
         // A listening node's error flags are passive: it never drives a dominant bit.
         self.flag_is_passive.next = self.faults.error_passive.val() | self.listen_only.val();
         self.flag_restarts.next = false;
@@ -384,118 +410,29 @@ impl Logic for Protocol {
         self.next_count.next = self.count_plus_1.val();
         self.next_transmitter.next = self.transmitter.q.val();
         self.error_now.next = false;
-        self.error_type.next = 0.into();
-        self.segment.next = 0.into();
+        self.error_type.next = self.bit_error_type.val();
         self.error_counts.next = true;
-        self.start_frame.next = false;
+        self.lost.next = false;
         self.consume_stream.next = false;
         self.send_ack.next = false;
-
-        self.dlc_position.next = 0.into();
         self.receiver_error.next = false;
-
-        // SJA1000 ECC segment of the bit being processed.
-        match self.field.q.val() {
-            ProtocolState::Integrating => {}
-            ProtocolState::BusOff => {}
-            ProtocolState::Idle => {
-                self.segment.next = 0x03.into();
-            }
-            ProtocolState::Suspend => {
-                self.segment.next = 0x03.into();
-            }
-            ProtocolState::Arbitration => {
-                self.segment.next = 0x0C.into();
-                if self.count.q.val() < 31 {
-                    self.segment.next = 0x0E.into();
-                }
-                if self.count.q.val() < 26 {
-                    self.segment.next = 0x0F.into();
-                }
-                if self.count.q.val() < 18 {
-                    self.segment.next = 0x07.into();
-                }
-                if self.count.q.val() < 13 {
-                    self.segment.next = 0x05.into();
-                }
-                if self.count.q.val() < 12 {
-                    self.segment.next = 0x04.into();
-                }
-                if self.count.q.val() < 11 {
-                    self.segment.next = 0x06.into();
-                }
-                if self.count.q.val() < 8 {
-                    self.segment.next = 0x02.into();
-                }
-            }
-            ProtocolState::Control => {
-                self.segment.next = 0x0B.into();
-                if self.ide_reg.q.val() {
-                    if self.count.q.val() == 0 {
-                        self.segment.next = 0x0D.into();
-                    }
-                    if self.count.q.val() == 1 {
-                        self.segment.next = 0x09.into();
-                    }
-                } else if self.count.q.val() == 0 {
-                    self.segment.next = 0x09.into();
-                }
-            }
-            ProtocolState::Data => {
-                self.segment.next = 0x0A.into();
-            }
-            ProtocolState::Crc => {
-                self.segment.next = 0x08.into();
-            }
-            ProtocolState::CrcDelimiter => {
-                self.segment.next = 0x18.into();
-            }
-            ProtocolState::AckSlot => {
-                self.segment.next = 0x19.into();
-            }
-            ProtocolState::AckDelimiter => {
-                self.segment.next = 0x1B.into();
-            }
-            ProtocolState::EndOfFrame => {
-                self.segment.next = 0x1A.into();
-            }
-            ProtocolState::Intermission => {
-                self.segment.next = 0x12.into();
-            }
-            ProtocolState::ErrorFlag => {
-                self.segment.next = 0x11.into();
-                if self.flag_passive.q.val() {
-                    self.segment.next = 0x16.into();
-                }
-            }
-            ProtocolState::OverloadFlag => {
-                self.segment.next = 0x1C.into();
-            }
-            ProtocolState::Delimiter => {
-                self.segment.next = 0x17.into();
-                if self.count.q.val() == 0 {
-                    self.segment.next = 0x13.into();
-                }
-            }
-        }
 
         if self.process_point.val() {
             self.stuffing.consume.next = true;
             if self.stuffing.stuff_bit.val() {
                 // A stuff bit: no field advance.
                 self.next_count.next = self.count.q.val();
-                if self.transmitter.q.val() & (self.tx_reg.q.val() != self.rx_bit.val()) {
+                if self.bit_error.val() {
                     self.error_now.next = true;
-                    self.error_type.next = 0.into();
                     // Rule 3 exception b: a recessive stuff bit of the arbitration field read dominant
                     // is a stuff error (ISO 11898-1) that does not count.
-                    if (self.field.q.val() == ProtocolState::Arbitration) & self.tx_reg.q.val() {
-                        self.error_type.next = 2.into();
+                    if (self.field.q.val() == ProtocolState::Arbitration) & self.sender.tx.val() {
+                        self.error_type.next = self.stuff_error_type.val();
                         self.error_counts.next = false;
                     }
                 } else if self.rx_bit.val() == self.stuffing.run_level.val() {
                     self.error_now.next = true;
-                    self.error_type.next = 2.into();
+                    self.error_type.next = self.stuff_error_type.val();
                 }
             } else {
                 match self.field.q.val() {
@@ -503,124 +440,96 @@ impl Logic for Protocol {
                         self.next_count.next = 0.into();
                         if self.rx_bit.val() {
                             self.next_count.next = self.count_plus_1.val();
-                            if self.count.q.val() == 10 {
+                            if self.count.q.val() == self.last_idle_run_bit.val() {
                                 self.next_field.next = ProtocolState::Idle;
                             }
                         }
                     }
                     ProtocolState::Idle => {
                         if self.rx_bit.val() == false {
-                            self.start_frame.next = true;
-                            self.next_transmitter.next = self.tx_reg.q.val() == false;
-                        } else if self.tx_reg.q.val() == false {
+                            self.next_transmitter.next = self.sender.tx.val() == false;
+                        } else if self.sender.tx.val() == false {
                             // Our SOF read recessive.
                             self.error_now.next = true;
-                            self.error_type.next = 0.into();
+                            self.error_type.next = self.bit_error_type.val();
                             self.next_transmitter.next = true;
                         }
                     }
                     ProtocolState::Suspend => {
                         // We send nothing while suspended: a dominant bit is another node's SOF.
                         if self.rx_bit.val() == false {
-                            self.start_frame.next = true;
                             self.next_transmitter.next = false;
-                        } else if self.count.q.val() == 7 {
+                        } else if self.count.q.val() == self.last_suspend_bit.val() {
                             self.next_field.next = ProtocolState::Idle;
                             self.next_transmitter.next = false;
                         }
                     }
                     ProtocolState::Arbitration => {
                         self.feed_crc.next = true;
-                        // Identifier bits: positions 0..10 and 13..30 (the count stays below 32
-                        // here; equalities, not comparisons, which are carry chains on FPGAs).
-                        if (self.count.q.val() != 11)
-                            & (self.count.q.val() != 12)
-                            & (self.count.q.val() != 31)
-                        {
-                            self.id_reg.d.next =
-                                (self.id_reg.q.val() << 1).replace_bit(0, self.rx_bit.val());
+                        if self.id_bit.val() {
                             self.consume_stream.next = self.transmitter.q.val();
                         }
-                        if self.count.q.val() == 11 {
-                            self.rtr_reg.d.next = self.rx_bit.val();
-                        }
-                        if self.count.q.val() == 12 {
-                            self.ide_reg.d.next = self.rx_bit.val();
-                            if self.rx_bit.val() == false {
-                                self.next_field.next = ProtocolState::Control;
-                                self.next_count.next = 0.into();
-                            }
-                        }
-                        if self.count.q.val() == 31 {
-                            self.rtr_reg.d.next = self.rx_bit.val();
+                        // A dominant IDE ends a standard arbitration field.
+                        if (self.count.q.val() == self.ide_position.val())
+                            & (self.rx_bit.val() == false)
+                        {
                             self.next_field.next = ProtocolState::Control;
                             self.next_count.next = 0.into();
                         }
-                        if self.transmitter.q.val() & (self.tx_reg.q.val() != self.rx_bit.val()) {
-                            if self.tx_reg.q.val() {
+                        if self.count.q.val() == self.ext_rtr_position.val() {
+                            self.next_field.next = ProtocolState::Control;
+                            self.next_count.next = 0.into();
+                        }
+                        if self.bit_error.val() {
+                            if self.sender.tx.val() {
+                                // Sent recessive, read dominant: arbitration lost.
                                 self.next_transmitter.next = false;
                                 self.consume_stream.next = false;
-                                self.lost_pulse.d.next = true;
-                                self.alc_reg.d.next = self.count.q.val().get_bits::<5>(0);
+                                self.lost.next = true;
                                 if self.single_shot.val() {
                                     self.done_pulse.d.next = true;
                                     self.done_success.d.next = false;
                                 }
                             } else {
                                 self.error_now.next = true;
-                                self.error_type.next = 0.into();
+                                self.error_type.next = self.bit_error_type.val();
                             }
                         }
                     }
                     ProtocolState::Control => {
                         self.feed_crc.next = true;
-                        // From count 2 on, or from 1 in a standard frame (r0 is bit 0).
-                        if (self.count.q.val() != 0)
-                            & !((self.count.q.val() == 1) & self.ide_reg.q.val())
-                        {
-                            self.dlc_reg.d.next = self.dlc_after.val();
-                        }
-                        if (self.count.q.val() == 5)
-                            | ((self.count.q.val() == 4) & (self.ide_reg.q.val() == false))
-                        {
-                            self.header_pulse.d.next = true;
+                        if self.control_last.val() {
                             self.next_count.next = 0.into();
                             self.next_field.next = ProtocolState::Data;
-                            if self.rtr_reg.q.val() | (self.dlc_after.val() == 0) {
+                            if self.no_data.val() {
                                 self.next_field.next = ProtocolState::Crc;
                             }
                         }
-                        if self.transmitter.q.val() & (self.tx_reg.q.val() != self.rx_bit.val()) {
+                        if self.bit_error.val() {
                             self.error_now.next = true;
-                            self.error_type.next = 0.into();
+                            self.error_type.next = self.bit_error_type.val();
                         }
                     }
                     ProtocolState::Data => {
                         self.feed_crc.next = true;
                         self.consume_stream.next = self.transmitter.q.val();
-                        self.byte_reg.d.next =
-                            (self.byte_reg.q.val() << 1).replace_bit(0, self.rx_bit.val());
-                        if self.count.q.val().get_bits::<3>(0) == 7 {
-                            self.byte_pulse.d.next = true;
-                            self.byte_index.d.next = self.count.q.val().get_bits::<3>(3);
-                            if self.count.q.val().get_bits::<4>(3) == self.last_data_byte.q.val() {
-                                self.next_field.next = ProtocolState::Crc;
-                                self.next_count.next = 0.into();
-                            }
+                        if self.data_last.val() {
+                            self.next_field.next = ProtocolState::Crc;
+                            self.next_count.next = 0.into();
                         }
-                        if self.transmitter.q.val() & (self.tx_reg.q.val() != self.rx_bit.val()) {
+                        if self.bit_error.val() {
                             self.error_now.next = true;
-                            self.error_type.next = 0.into();
+                            self.error_type.next = self.bit_error_type.val();
                         }
                     }
                     ProtocolState::Crc => {
                         self.feed_crc.next = true;
-                        if self.count.q.val() == 14 {
+                        if self.count.q.val() == self.last_crc_bit.val() {
                             self.next_field.next = ProtocolState::CrcDelimiter;
                         }
-                        if self.transmitter.q.val() & (self.tx_reg.q.val() != self.rx_bit.val()) {
+                        if self.bit_error.val() {
                             self.error_now.next = true;
-                            self.error_type.next = 0.into();
+                            self.error_type.next = self.bit_error_type.val();
                         }
                     }
                     ProtocolState::CrcDelimiter => {
@@ -628,7 +537,7 @@ impl Logic for Protocol {
                         self.next_field.next = ProtocolState::AckSlot;
                         if self.rx_bit.val() == false {
                             self.error_now.next = true;
-                            self.error_type.next = 1.into();
+                            self.error_type.next = self.form_error_type.val();
                         } else if self.transmitter.q.val() == false {
                             if self.crc.value.val() == 0 {
                                 self.send_ack.next =
@@ -643,17 +552,17 @@ impl Logic for Protocol {
                         if self.transmitter.q.val() {
                             if self.rx_bit.val() & (self.self_test.val() == false) {
                                 self.error_now.next = true;
-                                self.error_type.next = 3.into();
+                                self.error_type.next = self.other_error_type.val();
                                 // Rule 3 exception a is decided during the passive flag.
                                 if self.faults.error_passive.val() {
                                     self.error_counts.next = false;
                                     self.ack_penalty.d.next = true;
                                 }
                             }
-                        } else if self.tx_reg.q.val() == false {
+                        } else if self.sender.tx.val() == false {
                             if self.rx_bit.val() {
                                 self.error_now.next = true;
-                                self.error_type.next = 0.into();
+                                self.error_type.next = self.bit_error_type.val();
                             } else {
                                 self.faults.rec_success.next = true;
                             }
@@ -664,29 +573,35 @@ impl Logic for Protocol {
                         self.next_count.next = 0.into();
                         if self.rx_bit.val() == false {
                             self.error_now.next = true;
-                            self.error_type.next = 1.into();
+                            self.error_type.next = self.form_error_type.val();
                         } else if self.crc_error.q.val() {
                             self.error_now.next = true;
-                            self.error_type.next = 3.into();
+                            self.error_type.next = self.other_error_type.val();
                         }
                     }
                     ProtocolState::EndOfFrame => {
-                        if self.count.q.val() == 6 {
+                        if self.count.q.val() == self.last_eof_bit.val() {
                             self.next_field.next = ProtocolState::Intermission;
                             self.next_count.next = 0.into();
                         }
                         if self.rx_bit.val() == false {
-                            if (self.count.q.val() == 6) & (self.transmitter.q.val() == false) {
+                            if (self.count.q.val() == self.last_eof_bit.val())
+                                & (self.transmitter.q.val() == false)
+                            {
                                 self.next_field.next = ProtocolState::OverloadFlag;
                             } else {
                                 self.error_now.next = true;
-                                self.error_type.next = 1.into();
+                                self.error_type.next = self.form_error_type.val();
                             }
                         } else {
-                            if (self.count.q.val() == 5) & (self.transmitter.q.val() == false) {
+                            if (self.count.q.val() == self.validity_eof_bit.val())
+                                & (self.transmitter.q.val() == false)
+                            {
                                 self.valid_pulse.d.next = true;
                             }
-                            if (self.count.q.val() == 6) & self.transmitter.q.val() {
+                            if (self.count.q.val() == self.last_eof_bit.val())
+                                & self.transmitter.q.val()
+                            {
                                 self.done_pulse.d.next = true;
                                 self.done_success.d.next = true;
                                 self.faults.tec_minus_1.next = true;
@@ -695,15 +610,14 @@ impl Logic for Protocol {
                     }
                     ProtocolState::Intermission => {
                         if self.rx_bit.val() == false {
-                            if self.count.q.val() == 2 {
-                                self.start_frame.next = true;
+                            if self.count.q.val() == self.last_intermission_bit.val() {
                                 self.next_transmitter.next = self.may_start.val()
                                     & !(self.transmitter.q.val() & self.faults.error_passive.val());
                             } else {
                                 self.next_field.next = ProtocolState::OverloadFlag;
                                 self.next_count.next = 0.into();
                             }
-                        } else if self.count.q.val() == 2 {
+                        } else if self.count.q.val() == self.last_intermission_bit.val() {
                             self.next_field.next = ProtocolState::Idle;
                             self.next_transmitter.next = false;
                             if self.transmitter.q.val() & self.faults.error_passive.val() {
@@ -733,16 +647,11 @@ impl Logic for Protocol {
                             // 8.5.15).
                             self.flag_passive.d.next = self.flag_is_passive.val();
                             self.flag_restarts.next = true;
-                            self.error_pulse.d.next = true;
-                            self.ecc_reg.d.next = 0x11.into();
-                            if self.transmitter.q.val() == false {
-                                self.ecc_reg.d.next = 0x31.into();
-                            }
                             self.faults.tec_plus_8.next = self.transmitter.q.val();
                             self.faults.rec_plus_8.next = self.transmitter.q.val() == false;
                             self.next_count.next = 0.into();
                         }
-                        if self.next_count.val() == 6 {
+                        if self.next_count.val() == self.flag_bits.val() {
                             self.next_field.next = ProtocolState::Delimiter;
                             self.next_count.next = 0.into();
                             self.first_after_flag.d.next = true;
@@ -754,8 +663,8 @@ impl Logic for Protocol {
                         if self.rx_bit.val() & (self.listen_only.val() == false) {
                             // Bit error in our overload flag: an active error flag follows (+8).
                             self.error_now.next = true;
-                            self.error_type.next = 0.into();
-                        } else if self.count.q.val() == 5 {
+                            self.error_type.next = self.bit_error_type.val();
+                        } else if self.count.q.val() == self.last_flag_bit.val() {
                             self.next_field.next = ProtocolState::Delimiter;
                             self.next_count.next = 0.into();
                             self.after_error_flag.d.next = false;
@@ -778,20 +687,22 @@ impl Logic for Protocol {
                                     self.faults.rec_plus_8.next = true;
                                 }
                                 // Rule 6: every 8 dominant bits after the flag.
-                                if self.dominant_after_flag.q.val() == 7 {
+                                if self.dominant_after_flag.q.val()
+                                    == self.eighth_dominant_bit.val()
+                                {
                                     self.faults.tec_plus_8.next = self.transmitter.q.val();
                                     self.faults.rec_plus_8.next = self.transmitter.q.val() == false;
                                 }
                             }
                         } else if self.rx_bit.val() == false {
-                            if self.count.q.val() == 7 {
+                            if self.count.q.val() == self.last_delimiter_bit.val() {
                                 self.next_field.next = ProtocolState::OverloadFlag;
                                 self.next_count.next = 0.into();
                             } else {
                                 self.error_now.next = true;
-                                self.error_type.next = 1.into();
+                                self.error_type.next = self.form_error_type.val();
                             }
-                        } else if self.count.q.val() == 7 {
+                        } else if self.count.q.val() == self.last_delimiter_bit.val() {
                             self.next_field.next = ProtocolState::Intermission;
                             self.next_count.next = 0.into();
                         }
@@ -800,7 +711,7 @@ impl Logic for Protocol {
                         self.next_count.next = 0.into();
                         if self.rx_bit.val() & self.enable.val() {
                             self.next_count.next = self.count_plus_1.val();
-                            if self.count.q.val() == 10 {
+                            if self.count.q.val() == self.last_idle_run_bit.val() {
                                 self.faults.recovery_tick.next = true;
                                 self.next_count.next = 0.into();
                             }
@@ -816,8 +727,6 @@ impl Logic for Protocol {
                 self.stuffing.start.next = true;
                 self.crc.clear.next = true;
                 self.crc_error.d.next = false;
-                self.id_reg.d.next = 0.into();
-                self.dlc_reg.d.next = 0.into();
             }
 
             // Error: the flag starts with the next bit. The role is decided above (our own SOF read
@@ -830,11 +739,6 @@ impl Logic for Protocol {
                 self.consume_stream.next = false;
                 self.flag_passive.d.next = self.flag_is_passive.val();
                 self.after_error_flag.d.next = true;
-                self.error_pulse.d.next = true;
-                self.ecc_reg.d.next = bit_cast::<8, 5>(self.segment.val())
-                    .replace_bit(5, self.receiver_error.val())
-                    .replace_bit(6, self.error_type.val().get_bit(0))
-                    .replace_bit(7, self.error_type.val().get_bit(1));
                 if self.error_counts.val() {
                     self.faults.tec_plus_8.next = self.next_transmitter.val();
                     self.faults.rec_plus_1.next = self.receiver_error.val();
@@ -866,176 +770,79 @@ impl Logic for Protocol {
             self.abort_pending.d.next = false;
         }
 
-        // ---- The transmit-buffer stream.
-        if self.consume_stream.val() {
-            if self.tx_left.q.val() == 0 {
-                self.tx_shift.d.next = self.tx_data.val() << 1;
-                self.tx_left.d.next = 7.into();
-                self.tx_ptr.d.next = self.tx_ptr.q.val() + 1;
-            } else {
-                self.tx_shift.d.next = self.tx_shift.q.val() << 1;
-                self.tx_left.d.next = self.tx_left.q.val() - 1;
-            }
-        }
-        if self.process_point.val()
-            & (self.field.q.val() == ProtocolState::Arbitration)
-            & (self.next_field.val() == ProtocolState::Control)
-        {
-            self.tx_left.d.next = 0.into();
-            self.tx_ptr.d.next = 3.into();
-            if self.count.q.val() == 31 {
-                self.tx_ptr.d.next = 5.into();
-            }
-        }
-        // Between frames the stream waits at the first identifier byte.
-        if !self.in_frame.q.val() & (self.next_field.val() != ProtocolState::Arbitration) {
-            self.tx_ptr.d.next = 1.into();
-            self.tx_left.d.next = 0.into();
-        }
-
+        // ---- The children's inputs from this bit's decisions.
         self.crc.feed.next = self.feed_crc.val();
-
-        // ---- The next bit to send, from the next state.
-        // Where the next field is the arbitration or control field, its count comes from registers
-        // rather than from `next_count`, the end of the longest path: a stuff bit holds the count, a
-        // field bit advances it, a SOF starts the arbitration field at 0 (no special position) and
-        // the control field starts at 0 from arbitration count 12 or 31 (positions 5 or 0: neither
-        // a DLC bit).
-        self.next_is_11.next = self.count.q.val() == 10;
-        self.next_is_12.next = self.count.q.val() == 11;
-        self.next_is_31.next = self.count.q.val() == 30;
-        self.next_count_low.next = bit_cast::<3, 7>(self.count_plus_1.val());
-        if self.stuffing.stuff_bit.val() {
-            self.next_is_11.next = self.count.q.val() == 11;
-            self.next_is_12.next = self.count.q.val() == 12;
-            self.next_is_31.next = self.count.q.val() == 31;
-            self.next_count_low.next = bit_cast::<3, 7>(self.count.q.val());
-        }
-        if self.start_frame.val() {
-            self.next_is_11.next = false;
-            self.next_is_12.next = false;
-            self.next_is_31.next = false;
-        }
-        self.next_bit.next = true;
-        match self.next_field.val() {
-            ProtocolState::Idle => {
-                self.next_bit.next = self.may_start.val() == false;
-            }
-            ProtocolState::Arbitration => {
-                if self.next_transmitter.val() {
-                    self.next_bit.next = self.stream_bit.val();
-                    if self.consume_stream.val() {
-                        self.next_bit.next = self.stream_next_bit.val();
-                    }
-                    if self.next_is_11.val() {
-                        self.next_bit.next = self.tx_info.val().get_bit(6);
-                        if self.tx_info.val().get_bit(7) {
-                            self.next_bit.next = true;
-                        }
-                    }
-                    if self.next_is_12.val() {
-                        self.next_bit.next = self.tx_info.val().get_bit(7);
-                    }
-                    if self.next_is_31.val() {
-                        self.next_bit.next = self.tx_info.val().get_bit(6);
-                    }
-                }
-            }
-            ProtocolState::Control => {
-                if self.next_transmitter.val() {
-                    // r1 (extended), r0: dominant; then DLC bits 3..0.
-                    self.next_bit.next = false;
-                    self.dlc_position.next = self.next_count_low.val();
-                    if self.tx_info.val().get_bit(7) {
-                        self.dlc_position.next = self.next_count_low.val() - 1;
-                    }
-                    if self.dlc_position.val() == 1 {
-                        self.next_bit.next = self.tx_info.val().get_bit(3);
-                    }
-                    if self.dlc_position.val() == 2 {
-                        self.next_bit.next = self.tx_info.val().get_bit(2);
-                    }
-                    if self.dlc_position.val() == 3 {
-                        self.next_bit.next = self.tx_info.val().get_bit(1);
-                    }
-                    if self.dlc_position.val() == 4 {
-                        self.next_bit.next = self.tx_info.val().get_bit(0);
-                    }
-                }
-            }
-            ProtocolState::Data => {
-                if self.next_transmitter.val() {
-                    self.next_bit.next = self.stream_bit.val();
-                    if self.consume_stream.val() {
-                        self.next_bit.next = self.stream_next_bit.val();
-                    }
-                }
-            }
-            ProtocolState::Crc => {
-                if self.next_transmitter.val() {
-                    // The MSB of the register after this bit (fed unless it was a stuff bit).
-                    self.next_bit.next = self.crc.value.val().get_bit(14);
-                    if self.feed_crc.val() {
-                        self.next_bit.next = self.crc.value.val().get_bit(13)
-                            ^ self.crc.value.val().get_bit(14)
-                            ^ self.rx_bit.val();
-                    }
-                }
-            }
-            ProtocolState::AckSlot => {
-                self.next_bit.next = self.send_ack.val() == false;
-            }
-            ProtocolState::ErrorFlag => {
-                // A flag (a new one, or ours restarted by a bit error) starts with the state at this
-                // detection; its later bits keep its kind.
-                self.next_bit.next = self.flag_is_passive.val();
-                if (self.field.q.val() == ProtocolState::ErrorFlag) & !self.flag_restarts.val() {
-                    self.next_bit.next = self.flag_passive.q.val();
-                }
-            }
-            ProtocolState::OverloadFlag => {
-                self.next_bit.next = self.listen_only.val();
-            }
-            _ => {}
-        }
-        self.stuffing.stop.next = self.stop_stuffing.val();
-        // Five equal bits with this one: the next bit is a stuff bit (complement of this level).
-        if self.stuffing.four_equal.val()
-            & !self.stuffing.stuff_bit.val()
-            & (self.rx_bit.val() == self.stuffing.run_level.val())
-            & self.next_transmitter.val()
-            & !self.error_now.val()
-            & !self.stop_stuffing.val()
-        {
-            self.next_bit.next = self.rx_bit.val() == false;
-        }
+        self.stuffing.stop.next = self.stop_stuffing.val() | self.disabled.val();
+        self.assembler.field_bit.next = self.process_point.val() & !self.stuffing.stuff_bit.val();
+        self.assembler.rx_bit.next = self.rx_bit.val();
+        self.assembler.field.next = self.field.q.val();
+        self.assembler.count.next = self.count.q.val();
+        self.assembler.start_frame.next = self.start_frame.val();
+        self.assembler.id_bit.next = self.id_bit.val();
+        self.assembler.header_done.next =
+            (self.field.q.val() == ProtocolState::Control) & self.control_last.val();
+        self.sender.tx_data.next = self.tx_data.val();
+        self.sender.consume.next = self.consume_stream.val();
+        self.sender.to_data.next = self.process_point.val()
+            & (self.field.q.val() == ProtocolState::Arbitration)
+            & (self.next_field.val() == ProtocolState::Control);
+        self.sender.extended.next = self.count.q.val() == self.ext_rtr_position.val();
+        // Between frames the stream waits at the first identifier byte.
+        self.sender.rewind.next =
+            !self.in_frame.q.val() & (self.next_field.val() != ProtocolState::Arbitration);
+        self.capture.field.next = self.field.q.val();
+        self.capture.count.next = self.count.q.val();
+        self.capture.ide.next = self.assembler.rx_ide.val();
+        self.capture.flag_passive.next = self.flag_passive.q.val();
+        self.capture.error.next = self.error_now.val() | self.flag_restarts.val();
+        self.capture.error_type.next = self.error_type.val();
+        self.capture.receiving.next = self.receiver_error.val();
+        self.capture.lost.next = self.lost.val();
+        self.capture.discard.next = self.disabled.val();
+        self.sender.process_point.next = self.process_point.val();
+        self.sender.transmit_point.next = self.transmit_point.val();
+        self.sender.rx_bit.next = self.rx_bit.val();
+        self.sender.field.next = self.field.q.val();
+        self.sender.count.next = self.count.q.val();
+        self.sender.stuff_bit.next = self.stuffing.stuff_bit.val();
+        self.sender.start_frame.next = self.start_frame.val();
+        self.sender.next_field.next = self.next_field.val();
+        self.sender.next_transmitter.next = self.next_transmitter.val();
+        self.sender.may_start.next = self.may_start.val();
+        self.sender.tx_info.next = self.tx_info.val();
+        self.sender.crc_msb.next = self.crc.value.val().get_bit(14);
+        self.sender.crc_next_msb.next = self.crc.value.val().get_bit(13);
+        self.sender.feed_crc.next = self.feed_crc.val();
+        self.sender.send_ack.next = self.send_ack.val();
+        self.sender.flag_is_passive.next = self.flag_is_passive.val();
+        self.sender.flag_passive.next = self.flag_passive.q.val();
+        self.sender.flag_restarts.next = self.flag_restarts.val();
+        self.sender.listen_only.next = self.listen_only.val();
+        self.sender.four_equal.next = self.stuffing.four_equal.val();
+        self.sender.run_level.next = self.stuffing.run_level.val();
+        self.sender.stop_stuffing.next = self.stop_stuffing.val();
+        self.sender.error.next = self.error_now.val();
+        self.sender.silent.next = self.faults.bus_off.val() | (self.enable.val() == false);
 
         // ---- Commit at the process point.
         if self.process_point.val() {
             self.field.d.next = self.next_field.val();
             self.count.d.next = self.next_count.val();
             self.transmitter.d.next = self.next_transmitter.val();
-            self.tx_next.d.next = self.next_bit.val();
-        }
-        if self.transmit_point.val() {
-            self.tx_reg.d.next = self.tx_next.q.val();
         }
 
-        // ---- Listen-only mode: counters frozen, the output held recessive.
+        // ---- Listen-only mode: counters frozen.
         if self.listen_only.val() {
             self.faults.rec_plus_1.next = false;
             self.faults.rec_plus_8.next = false;
             self.faults.tec_plus_8.next = false;
             self.faults.tec_minus_1.next = false;
             self.faults.rec_success.next = false;
-            self.tx_reg.d.next = true;
         }
 
         // ---- Bus-off, reset mode and reset override everything.
         if self.faults.bus_off.val() {
             self.field.d.next = ProtocolState::BusOff;
-            self.tx_reg.d.next = true;
-            self.tx_next.d.next = true;
             self.transmitter.d.next = false;
         }
         // Recovery complete: error active with both counters 0.
@@ -1043,17 +850,12 @@ impl Logic for Protocol {
             self.field.d.next = ProtocolState::Idle;
             self.count.d.next = 0.into();
         }
-        if (self.enable.val() == false) & (self.faults.bus_off.val() == false) {
+        if self.disabled.val() {
             self.field.d.next = ProtocolState::Integrating;
             self.count.d.next = 0.into();
-            self.tx_reg.d.next = true;
-            self.tx_next.d.next = true;
             self.transmitter.d.next = false;
             // A node in reset mode takes no part in traffic: nothing it sees counts, even in the
             // rest of a frame it was in when it was disabled.
-            self.stuffing.stop.next = true;
-            self.error_pulse.d.next = false;
-            self.lost_pulse.d.next = false;
             self.valid_pulse.d.next = false;
             self.faults.rec_plus_1.next = false;
             self.faults.rec_plus_8.next = false;
@@ -1067,46 +869,28 @@ impl Logic for Protocol {
             | (self.field.q.val() == ProtocolState::Suspend)
             | (self.field.q.val() == ProtocolState::Integrating)
             | (self.field.q.val() == ProtocolState::BusOff)
-            | ((self.field.q.val() == ProtocolState::Intermission) & (self.count.q.val() == 2))
+            | ((self.field.q.val() == ProtocolState::Intermission)
+                & (self.count.q.val() == self.last_intermission_bit.val()))
         {
             self.sync_mode.next = SyncMode::Hard;
         }
         if self.reset.val() {
             self.field.d.next = ProtocolState::Integrating;
             self.count.d.next = 0.into();
-            self.tx_reg.d.next = true;
-            self.tx_next.d.next = true;
             self.transmitter.d.next = false;
             self.crc_error.d.next = false;
             self.ack_penalty.d.next = false;
             self.done_pulse.d.next = false;
             self.abort_pending.d.next = false;
-            self.error_pulse.d.next = false;
-            self.lost_pulse.d.next = false;
             // The rest only for a defined start without power-up values (FPGA flows that drop
             // `initial` blocks, X in four-state simulators); none of it is read before being loaded.
-            self.tx_ptr.d.next = 1.into();
-            self.tx_shift.d.next = 0.into();
-            self.tx_left.d.next = 0.into();
-            self.id_reg.d.next = 0.into();
-            self.ide_reg.d.next = false;
-            self.rtr_reg.d.next = false;
-            self.dlc_reg.d.next = 0.into();
-            self.byte_reg.d.next = 0.into();
-            self.header_pulse.d.next = false;
-            self.byte_pulse.d.next = false;
-            self.byte_index.d.next = 0.into();
             self.valid_pulse.d.next = false;
             self.done_success.d.next = false;
-            self.ecc_reg.d.next = 0.into();
-            self.alc_reg.d.next = 0.into();
             self.flag_passive.d.next = false;
             self.flag_level.d.next = false;
             self.after_error_flag.d.next = false;
             self.first_after_flag.d.next = false;
             self.dominant_after_flag.d.next = 0.into();
-            self.recessive_run.d.next = 0.into();
-            self.last_data_byte.d.next = 0.into();
         }
         // Registered, from the state this edge loads, so `in_frame.q` always describes `field.q`:
         // outputs made of flip-flop outputs only keep the Verilog free of combinational loops

@@ -1,0 +1,182 @@
+//! The receive assembler: collects the frame on the bus (identifier, IDE, RTR, DLC and data bytes)
+//! as the sequencer walks its fields.
+//!
+//! Ports in: `field_bit` (a process point whose bit is not a stuff bit) with `rx_bit`, the
+//! sequencer's `field` and `count`, its decisions `id_bit` (an identifier bit of the arbitration
+//! field) and `header_done` (the last DLC bit), and `start_frame` (the bit is a SOF: identifier and
+//! DLC start empty). Out, from registers only (the sequencer reads them back, and Verilator must see
+//! no loop through this block): `rx_id` (11 or 29 bits, right-aligned), `rx_ide`, `rx_rtr`, `rx_dlc`,
+//! valid from `rx_header` (one clock after the last DLC bit); each data byte as `rx_byte` with
+//! `rx_byte_index` and the one-clock `rx_byte_strobe`; `last_data_byte`, the index of the last data
+//! byte the DLC announces. Acts on the rising edge of `clock`.
+
+use rust_hdl::prelude::*;
+
+use crate::activity::{Activity, ActivityBlock, BlockDefault};
+use crate::bsp::protocol::ProtocolState;
+use crate::bsp::{EXT_RTR_POSITION, IDE_POSITION, SRR_RTR_POSITION};
+
+/// Received-frame assembler of the bit stream processor.
+#[derive(ActivityBlock, BlockDefault)]
+pub struct RxAssembler {
+    /// Simulation bookkeeping (see `crate::activity`); not hardware.
+    activity: Activity,
+    /// Controller clock.
+    pub clock: Signal<In, Clock>,
+    /// Synchronous reset, active high.
+    pub reset: Signal<In, Bit>,
+    /// A process point whose bit is a field bit (not a stuff bit).
+    pub field_bit: Signal<In, Bit>,
+    /// The sampled bit.
+    pub rx_bit: Signal<In, Bit>,
+    /// The field of the bit being processed.
+    pub field: Signal<In, ProtocolState>,
+    /// The bit's position in its field.
+    pub count: Signal<In, Bits<7>>,
+    /// The bit is a SOF.
+    pub start_frame: Signal<In, Bit>,
+    /// In the arbitration field: the bit is an identifier bit.
+    pub id_bit: Signal<In, Bit>,
+    /// The bit is the last DLC bit: the header is complete.
+    pub header_done: Signal<In, Bit>,
+    /// Received identifier (11 or 29 bits, right-aligned).
+    pub rx_id: Signal<Out, Bits<29>>,
+    /// Received IDE.
+    pub rx_ide: Signal<Out, Bit>,
+    /// Received RTR.
+    pub rx_rtr: Signal<Out, Bit>,
+    /// Received DLC.
+    pub rx_dlc: Signal<Out, Bits<4>>,
+    /// One clock when the header (`rx_id`, `rx_ide`, `rx_rtr`, `rx_dlc`) is complete.
+    pub rx_header: Signal<Out, Bit>,
+    /// Received data byte, valid with `rx_byte_strobe`.
+    pub rx_byte: Signal<Out, Bits<8>>,
+    /// Index (0..7) of `rx_byte`.
+    pub rx_byte_index: Signal<Out, Bits<3>>,
+    /// One clock per received data byte.
+    pub rx_byte_strobe: Signal<Out, Bit>,
+    /// Index of the last data byte (DLC 9..15 count as 8; meaningless without data).
+    pub last_data_byte: Signal<Out, Bits<4>>,
+    id_reg: DFF<Bits<29>>,
+    ide_reg: DFF<Bit>,
+    rtr_reg: DFF<Bit>,
+    dlc_reg: DFF<Bits<4>>,
+    byte_reg: DFF<Bits<8>>,
+    header_pulse: DFF<Bit>,
+    byte_pulse: DFF<Bit>,
+    byte_index: DFF<Bits<3>>,
+    /// Registered: DLC and RTR are settled a bit before the data field.
+    last_data_byte_reg: DFF<Bits<4>>,
+    data_bytes: Signal<Local, Bits<4>>,
+    /// The DLC with this bit shifted in.
+    dlc_after: Signal<Local, Bits<4>>,
+
+    /// The bit is a DLC bit (after r0, and r1 in an extended frame).
+    dlc_bit: Signal<Local, Bit>,
+    #[constant(SRR_RTR_POSITION)]
+    srr_rtr_position: Constant<Bits<7>>,
+    #[constant(IDE_POSITION)]
+    ide_position: Constant<Bits<7>>,
+    #[constant(EXT_RTR_POSITION)]
+    ext_rtr_position: Constant<Bits<7>>,
+}
+
+impl Logic for RxAssembler {
+    #[hdl_gen]
+    fn update(&mut self) {
+        dff_setup!(
+            self,
+            clock,
+            id_reg,
+            ide_reg,
+            rtr_reg,
+            dlc_reg,
+            byte_reg,
+            header_pulse,
+            byte_pulse,
+            byte_index,
+            last_data_byte_reg
+        );
+        self.rx_id.next = self.id_reg.q.val();
+        self.rx_ide.next = self.ide_reg.q.val();
+        self.rx_rtr.next = self.rtr_reg.q.val();
+        self.rx_dlc.next = self.dlc_reg.q.val();
+        self.rx_header.next = self.header_pulse.q.val();
+        self.rx_byte.next = self.byte_reg.q.val();
+        self.rx_byte_index.next = self.byte_index.q.val();
+        self.rx_byte_strobe.next = self.byte_pulse.q.val();
+        self.last_data_byte.next = self.last_data_byte_reg.q.val();
+        self.header_pulse.d.next = false;
+        self.byte_pulse.d.next = false;
+
+        // Data length: DLC 9..15 mean 8 bytes, a remote frame has none.
+        self.data_bytes.next = self.dlc_reg.q.val();
+        if self.dlc_reg.q.val().get_bit(3) {
+            self.data_bytes.next = 8.into();
+        }
+        if self.rtr_reg.q.val() {
+            self.data_bytes.next = 0.into();
+        }
+        self.last_data_byte_reg.d.next = self.data_bytes.val() - 1;
+        // DLC shifted left with the bus bit in: wiring, where `x + x` would be an adder.
+        self.dlc_after.next = self
+            .dlc_reg
+            .q
+            .val()
+            .replace_bit(3, self.dlc_reg.q.val().get_bit(2))
+            .replace_bit(2, self.dlc_reg.q.val().get_bit(1))
+            .replace_bit(1, self.dlc_reg.q.val().get_bit(0))
+            .replace_bit(0, self.rx_bit.val());
+
+        // DLC bits: after r0, and r1 in an extended frame.
+        self.dlc_bit.next =
+            (self.count.val() != 0) & !((self.count.val() == 1) & self.ide_reg.q.val());
+
+        if self.field_bit.val() {
+            if self.field.val() == ProtocolState::Arbitration {
+                if self.id_bit.val() {
+                    self.id_reg.d.next =
+                        (self.id_reg.q.val() << 1).replace_bit(0, self.rx_bit.val());
+                }
+                if self.count.val() == self.srr_rtr_position.val() {
+                    self.rtr_reg.d.next = self.rx_bit.val();
+                }
+                if self.count.val() == self.ide_position.val() {
+                    self.ide_reg.d.next = self.rx_bit.val();
+                }
+                if self.count.val() == self.ext_rtr_position.val() {
+                    self.rtr_reg.d.next = self.rx_bit.val();
+                }
+            }
+            if self.field.val() == ProtocolState::Control {
+                if self.dlc_bit.val() {
+                    self.dlc_reg.d.next = self.dlc_after.val();
+                }
+                self.header_pulse.d.next = self.header_done.val();
+            }
+            if self.field.val() == ProtocolState::Data {
+                self.byte_reg.d.next =
+                    (self.byte_reg.q.val() << 1).replace_bit(0, self.rx_bit.val());
+                if self.count.val().get_bits::<3>(0) == 7 {
+                    self.byte_pulse.d.next = true;
+                    self.byte_index.d.next = self.count.val().get_bits::<3>(3);
+                }
+            }
+        }
+        if self.start_frame.val() {
+            self.id_reg.d.next = 0.into();
+            self.dlc_reg.d.next = 0.into();
+        }
+        if self.reset.val() {
+            self.id_reg.d.next = 0.into();
+            self.ide_reg.d.next = false;
+            self.rtr_reg.d.next = false;
+            self.dlc_reg.d.next = 0.into();
+            self.byte_reg.d.next = 0.into();
+            self.header_pulse.d.next = false;
+            self.byte_pulse.d.next = false;
+            self.byte_index.d.next = 0.into();
+            self.last_data_byte_reg.d.next = 0.into();
+        }
+    }
+}
