@@ -46,8 +46,6 @@ pub enum Segment {
 /// Which synchronisation the protocol engine allows for the current bit.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, LogicState)]
 pub enum SyncMode {
-    /// No synchronisation (e.g. bus-off, reset mode).
-    Disabled,
     /// Hard synchronisation: bus idle, intermission, start of frame.
     Hard,
     /// Resynchronisation: inside a frame.
@@ -104,7 +102,10 @@ pub struct BitTiming {
     transmit_deferred: DFF<Bit>,
     last_clock: Signal<Local, Bits<7>>,
     sjw_field: Signal<Local, Bits<5>>,
-    sjw_quanta: Signal<Local, Bits<5>>,
+    /// SJW in quanta (the field + 1), registered: the adder stays off the resynchronisation path,
+    /// the longest of the design. SJW changes only in reset mode, where the protocol engine asks for
+    /// hard synchronisation only, so the clock of delay is never seen.
+    sjw_quanta: DFF<Bits<5>>,
     quantum_plus_sjw_quanta: Signal<Local, Bits<5>>,
     sjw_adjust: Signal<Local, Bits<5>>,
     quantum_end: Signal<Local, Bit>,
@@ -133,7 +134,8 @@ impl Logic for BitTiming {
             synced,
             sampled,
             process_pending,
-            transmit_deferred
+            transmit_deferred,
+            sjw_quanta
         );
         clock!(self, clock, sampling);
         self.sampling.reset.next = self.reset.val();
@@ -151,9 +153,9 @@ impl Logic for BitTiming {
             .replace_bit(1, self.brp.val().get_bit(0))
             .replace_bit(0, true);
         self.sjw_field.next = bit_cast::<5, 2>(self.sjw.val());
-        self.sjw_quanta.next = bit_cast::<5, 2>(self.sjw.val()) + 1;
+        self.sjw_quanta.d.next = bit_cast::<5, 2>(self.sjw.val()) + 1;
         // Quanta values stay below 32: no wrap-around in these sums.
-        self.quantum_plus_sjw_quanta.next = self.quantum.q.val() + self.sjw_quanta.val();
+        self.quantum_plus_sjw_quanta.next = self.quantum.q.val() + self.sjw_quanta.q.val();
         self.quantum_end.next = self.clocks.q.val() >= self.last_clock.val();
 
         // Edge qualification and the kind of synchronisation.
@@ -165,7 +167,6 @@ impl Logic for BitTiming {
         self.zero_phase.next = false;
         if self.sampling.falling_edge.val() & self.sampled.q.val() & !self.synced.q.val() {
             match self.sync_mode.val() {
-                SyncMode::Disabled => {}
                 SyncMode::Hard => {
                     self.hard_sync_now.next = true;
                 }
@@ -196,7 +197,7 @@ impl Logic for BitTiming {
         self.restart.next =
             self.hard_sync_now.val() | self.restart_late.val() | self.restart_early.val();
         // One adder for both adjustments: + SJW quanta, or - SJW quanta = the SJW field inverted.
-        self.sjw_adjust.next = self.sjw_quanta.val();
+        self.sjw_adjust.next = self.sjw_quanta.q.val();
         if self.shorten.val() {
             self.sjw_adjust.next = !self.sjw_field.val();
         }
@@ -298,6 +299,7 @@ impl Logic for BitTiming {
             self.sampled.d.next = true;
             self.process_pending.d.next = false;
             self.transmit_deferred.d.next = false;
+            self.sjw_quanta.d.next = 1.into();
         }
     }
 }

@@ -5,26 +5,23 @@
 
 use golden::btr::Btr;
 use golden::frame::Frame;
-use rtl::registers::{command, mode, pelican, status};
+use rtl::registers::{pelican, status};
 use sim::engine::time::ClockSpec;
 use sim::engine::{DeviceId, Engine};
-use sim::host::frame_buffer::{buffer_len, decode_buffer, encode_buffer, FRAME_BUFFER_BYTES};
+use sim::host::frame_buffer::{buffer_len, encode_buffer};
+use sim::host::sja1000::{set_up_pelican, PelicanSetup, BTR0_500K_AT_16MHZ, BTR1_500K_AT_16MHZ};
 use sim::host::{Host, RegisterPort};
 use sim::nodes::controller_node::{ControllerNode, ModelEngine};
 use sim::nodes::lower_tester::LowerTester;
 
 use crate::{bench_engine, CLOCK_HZ};
 
-/// BTR0 of the bench (500 kbit/s at 16 MHz).
-pub const BTR0: u8 = 0x00;
-/// BTR1 of the bench.
-pub const BTR1: u8 = 0x1C;
 /// Bits after which a node that left reset mode has integrated (11 recessive bits and margin).
 pub const INTEGRATION_BITS: u64 = 13;
 
 /// The bit timing of the bench.
 pub fn bench_btr() -> Btr {
-    Btr::from_registers(BTR0, BTR1)
+    Btr::from_registers(BTR0_500K_AT_16MHZ, BTR1_500K_AT_16MHZ)
 }
 
 /// Controllers (and at most one lower tester) on one bus.
@@ -136,44 +133,7 @@ pub fn configure_pelican(host: &mut impl RegisterPort) {
 
 /// As [`configure_pelican`], with the bit timing `btr` (written to BTR0/BTR1).
 pub fn configure_pelican_for(host: &mut impl RegisterPort, btr: Btr) {
-    host.write(pelican::MOD, mode::RM);
-    host.write(pelican::CDR, rtl::registers::clock_divider::PELICAN);
-    host.write(pelican::BTR0, btr.btr0());
-    host.write(pelican::BTR1, btr.btr1());
-    for i in 0..4 {
-        host.write(pelican::ACR0 + i, 0x00);
-        host.write(pelican::AMR0 + i, 0xFF);
-    }
-    host.write(pelican::IER, 0xFF);
-}
-
-/// Writes `frame` into the transmit buffer and the command `cmd` (e.g. TR) into CMR.
-pub fn transmit(host: &mut impl RegisterPort, frame: &Frame, cmd: u8) {
-    let buf = encode_buffer(frame);
-    for (i, b) in buf.iter().take(buffer_len(buf[0])).enumerate() {
-        host.write(pelican::FRAME + i as u8, *b);
-    }
-    host.write(pelican::CMR, cmd);
-}
-
-/// Reads the head message of the RX FIFO through the frame window (without releasing it).
-pub fn read_rx_buffer(host: &mut Host) -> Frame {
-    let mut bytes = [0u8; FRAME_BUFFER_BYTES];
-    bytes[0] = host.read(pelican::FRAME);
-    for i in 1..buffer_len(bytes[0]) {
-        bytes[i] = host.read(pelican::FRAME + i as u8);
-    }
-    decode_buffer(&bytes)
-}
-
-/// Reads every stored message (head first) and releases each.
-pub fn drain_rx(host: &mut Host) -> Vec<Frame> {
-    let mut frames = Vec::new();
-    while host.read(pelican::SR) & status::RBS != 0 {
-        frames.push(read_rx_buffer(host));
-        host.write(pelican::CMR, command::RRB);
-    }
-    frames
+    set_up_pelican(host, &PelicanSetup::open(btr.btr0(), btr.btr1()));
 }
 
 /// The bytes a host reads for `frame` from the RX buffer (and finds in the FIFO RAM): the TX layout

@@ -29,15 +29,12 @@ use rtl::can_controller::CanController;
 use rtl::registers::{clock_divider, command, mode, pelican};
 use rust_hdl::prelude::*;
 use sim::host::frame_buffer::{buffer_len, encode_buffer};
+use sim::host::sja1000::{BTR0_500K_AT_16MHZ, BTR1_500K_AT_16MHZ};
 use sim::nodes::controller_node::rust_hdl_cycle;
 pub use sim::verilated::verilog::{controller_verilog, TOP_MODULE};
 use sim::verilated::{EngineError, PortInputs, VerilatedController};
 
-/// BTR0 of "500 kbit/s at 16 MHz" (BRP 0: tq = 2 clocks).
-pub const BTR0_500K: u8 = 0x00;
-/// BTR1 of "500 kbit/s at 16 MHz" (TSEG1 13 tq, TSEG2 2 tq: 16 tq per bit, sample point 87.5 %).
-pub const BTR1_500K: u8 = 0x1C;
-/// Clock cycles per bit with [`BTR0_500K`] and [`BTR1_500K`].
+/// Clock cycles per bit with [`BTR0_500K_AT_16MHZ`] and [`BTR1_500K_AT_16MHZ`].
 pub const CLOCKS_PER_BIT: usize = 32;
 
 // ---- stimulus ---------------------------------------------------------------------------------
@@ -356,11 +353,11 @@ impl StimulusBuilder {
         self
     }
 
-    /// Puts `node` in reset mode and configures PeliCAN, 500 kbit/s at 16 MHz ([`BTR0_500K`],
-    /// [`BTR1_500K`]), an open dual filter, OCR normal mode and every interrupt enabled; the node
+    /// Puts `node` in reset mode and configures PeliCAN, 500 kbit/s at 16 MHz ([`BTR0_500K_AT_16MHZ`],
+    /// [`BTR1_500K_AT_16MHZ`]), an open dual filter, OCR normal mode and every interrupt enabled; the node
     /// stays in reset mode ([`StimulusBuilder::leave_reset_mode`]).
     pub fn configure_pelican(&mut self, node: usize) -> &mut Self {
-        self.configure_pelican_with(node, BTR0_500K, BTR1_500K)
+        self.configure_pelican_with(node, BTR0_500K_AT_16MHZ, BTR1_500K_AT_16MHZ)
     }
 
     /// [`StimulusBuilder::configure_pelican`] with other bit timing registers.

@@ -21,9 +21,10 @@ use sim::engine::{DeviceId, Engine};
 use sim::nodes::can_node::{CanNode, NodeEvent};
 use sim::nodes::lower_tester::LowerTester;
 
-use crate::controller_bench::{configure_pelican_for, transmit};
+use crate::controller_bench::configure_pelican_for;
 use crate::register_iut::{InterruptPass, IutHost, RegisterIut};
 use crate::{bench_engine, CLOCK_HZ};
+use sim::host::sja1000::transmit;
 
 /// Idle bits before the first frame: the IUT needs 11 recessive bits to integrate.
 pub const INTEGRATION_BITS: usize = 14;

@@ -7,10 +7,10 @@
 use golden::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT, RECESSIVE};
 use rtl::registers::{command, interrupt, mode, pelican, status};
 use sim::engine::bus::Drive;
+use sim::host::sja1000::{drain_rx, read_rx_message, transmit};
 use sim::host::Host;
 use testbenches::controller_bench::{
-    bench_btr, configure_pelican, drain_rx, read_rx_buffer, transmit, ControllerBench,
-    INTEGRATION_BITS,
+    bench_btr, configure_pelican, ControllerBench, INTEGRATION_BITS,
 };
 
 /// The IUT is controller 0 of the bench.
@@ -239,7 +239,7 @@ fn rt_05_self_reception_stores_the_own_frame() {
         interrupt::TI | interrupt::RI
     );
     assert_eq!(bench.host(IUT).read(pelican::RMC), 1);
-    assert_eq!(read_rx_buffer(&mut bench.host(IUT)), frame);
+    assert_eq!(read_rx_message(&mut bench.host(IUT)), frame);
     assert_eq!(bench.host(IUT).read(pelican::TXERR), 0);
 
     // The acceptance filter applies to the own frame: rejected, it is sent but not stored.

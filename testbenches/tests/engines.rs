@@ -15,11 +15,10 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use golden::frame::{Frame, Id};
 use rtl::registers::{command, interrupt, mode, pelican};
+use sim::host::sja1000::{drain_rx, transmit};
 use sim::nodes::controller_node::ModelEngine;
 use sim::scenario::{load, run, RunOptions, RunReport};
-use testbenches::controller_bench::{
-    configure_pelican, drain_rx, transmit, ControllerBench, INTEGRATION_BITS,
-};
+use testbenches::controller_bench::{configure_pelican, ControllerBench, INTEGRATION_BITS};
 
 /// A fresh scratch directory, unique within the process (tests run in parallel).
 fn scratch(name: &str) -> PathBuf {

@@ -27,8 +27,9 @@ use golden::frame::{Frame, Id};
 use rtl::registers::{interrupt, status};
 use sim::engine::DeviceId;
 use sim::host::driver::{CanState, CtrlMode, DriverConfig, DriverEvent, Sja1000Driver};
+use sim::host::sja1000::{BTR0_500K_AT_16MHZ, BTR1_500K_AT_16MHZ};
 use sim::nodes::controller_node::ControllerNode;
-use testbenches::controller_bench::{bench_bit_fs, ControllerBench, BTR0, BTR1, INTEGRATION_BITS};
+use testbenches::controller_bench::{bench_bit_fs, ControllerBench, INTEGRATION_BITS};
 use testbenches::ecc;
 
 const NODES: usize = 3;
@@ -205,12 +206,12 @@ impl Replay {
                     .expect("bit timing");
                 assert_eq!(
                     (btr.btr0(), btr.btr1()),
-                    (BTR0, BTR1),
+                    (BTR0_500K_AT_16MHZ, BTR1_500K_AT_16MHZ),
                     "the Linux calculator at 16 MHz, 500 kbit/s"
                 );
             } else {
                 driver
-                    .set_bittiming(&mut bench.engine, BTR0, BTR1)
+                    .set_bittiming(&mut bench.engine, BTR0_500K_AT_16MHZ, BTR1_500K_AT_16MHZ)
                     .expect("bit timing");
             }
             nodes.push(Node {

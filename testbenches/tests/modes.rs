@@ -4,10 +4,10 @@
 
 use golden::frame::{encode, Frame, Id};
 use rtl::registers::{clock_divider, command, interrupt, mode, pelican, status};
+use sim::host::sja1000::{drain_rx, read_rx_message, transmit};
 use sim::nodes::controller_node::ControllerNode;
 use testbenches::controller_bench::{
-    bench_bit_fs, bench_btr, configure_pelican, drain_rx, read_rx_buffer, transmit,
-    ControllerBench, INTEGRATION_BITS,
+    bench_bit_fs, bench_btr, configure_pelican, ControllerBench, INTEGRATION_BITS,
 };
 use testbenches::ecc::{self, ecc};
 
@@ -155,7 +155,7 @@ fn listen_only_node_stores_frames_but_never_drives_the_bus() {
         dominant, 0,
         "the listen-only node drove dominant (ACK or error flag)"
     );
-    assert_eq!(read_rx_buffer(&mut bench.host(LOM)), lonely);
+    assert_eq!(read_rx_message(&mut bench.host(LOM)), lonely);
     assert_eq!(bench.host(LOM).read(pelican::RXERR), 0, "counters frozen");
     assert_eq!(bench.host(LOM).read(pelican::TXERR), 0, "counters frozen");
     assert_eq!(bench.host(LOM).read(pelican::SR) & status::ES, 0);

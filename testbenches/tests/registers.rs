@@ -11,11 +11,13 @@ use rtl::registers::{
 };
 use sim::engine::bus::Drive;
 use sim::host::frame_buffer::{buffer_len, encode_buffer};
+use sim::host::sja1000::{
+    drain_rx, read_rx_message, transmit, BTR0_500K_AT_16MHZ, BTR1_500K_AT_16MHZ,
+};
 use sim::host::Host;
 use sim::nodes::controller_node::ControllerNode;
 use testbenches::controller_bench::{
-    bench_bit_fs, configure_pelican, drain_rx, read_rx_buffer, transmit, ControllerBench, BTR0,
-    BTR1, INTEGRATION_BITS,
+    bench_bit_fs, configure_pelican, ControllerBench, INTEGRATION_BITS,
 };
 use testbenches::ecc::{self, ecc};
 
@@ -129,8 +131,8 @@ fn transmit_with_seen_bit(
 fn configure_basic(bench: &mut ControllerBench, n: usize, acr: u8, amr: u8, cr: u8) {
     let mut host = bench.host(n);
     host.write(basic::CR, control::RR);
-    host.write(basic::BTR0, BTR0);
-    host.write(basic::BTR1, BTR1);
+    host.write(basic::BTR0, BTR0_500K_AT_16MHZ);
+    host.write(basic::BTR1, BTR1_500K_AT_16MHZ);
     host.write(basic::ACR, acr);
     host.write(basic::AMR, amr);
     host.write(basic::CR, cr & !control::RR);
@@ -309,7 +311,7 @@ fn hardware_reset_pulse_mid_operation_restores_every_reset_value() {
             pelican::CDR,
             clock_divider::PELICAN | clock_divider::CBP | clock_divider::CLOCK_OFF | 3,
         );
-        h.write(pelican::BTR1, BTR1);
+        h.write(pelican::BTR1, BTR1_500K_AT_16MHZ);
         h.write(pelican::MOD, mode::AFM);
     }
     leave_reset_mode(&mut bench, 1, 0);
@@ -411,8 +413,8 @@ fn software_reset_pelican_cancels_tx_empties_fifo_clears_ir_but_ei_and_keeps_the
             ),
             ("IR", pelican::IR, interrupt::EI),
             ("IER", pelican::IER, 0xFF),
-            ("BTR0", pelican::BTR0, BTR0),
-            ("BTR1", pelican::BTR1, BTR1),
+            ("BTR0", pelican::BTR0, BTR0_500K_AT_16MHZ),
+            ("BTR1", pelican::BTR1, BTR1_500K_AT_16MHZ),
             ("OCR", pelican::OCR, 0x1A),
             ("EWLR", pelican::EWLR, 90),
             ("RXERR", pelican::RXERR, rxerr),
@@ -482,8 +484,8 @@ fn software_reset_basic_can_keeps_cr_enables_and_configuration() {
             ("IR", basic::IR, 0xE0),
             ("ACR", basic::ACR, 0x24),
             ("AMR", basic::AMR, 0x0F),
-            ("BTR0", basic::BTR0, BTR0),
-            ("BTR1", basic::BTR1, BTR1),
+            ("BTR0", basic::BTR0, BTR0_500K_AT_16MHZ),
+            ("BTR1", basic::BTR1, BTR1_500K_AT_16MHZ),
             ("OCR", basic::OCR, 0),
             ("CDR", basic::CDR, 0),
         ],
@@ -765,7 +767,7 @@ fn rbsa_written_in_reset_mode_places_the_next_message() {
         buf[..5].to_vec(),
         "message stored from FIFO byte 40"
     );
-    assert_eq!(read_rx_buffer(&mut bench.host(0)), frame);
+    assert_eq!(read_rx_message(&mut bench.host(0)), frame);
 }
 
 #[test]
@@ -1165,7 +1167,7 @@ fn rrb_releases_the_head_moves_rbsa_by_its_length_and_re_evaluates_rbs_and_ri() 
     assert_eq!(bench.host(0).read(pelican::RBSA), 0);
     let mut rbsa = 0;
     for (k, f) in frames.iter().enumerate() {
-        assert_eq!(read_rx_buffer(&mut bench.host(0)), *f, "head message {k}");
+        assert_eq!(read_rx_message(&mut bench.host(0)), *f, "head message {k}");
         assert!(bench.node(0).irq(), "RI while a message is stored");
         bench.host(0).write(pelican::CMR, command::RRB);
         rbsa += fifo_len(f);
@@ -2228,8 +2230,8 @@ fn basic_can_acr_amr_btr_ocr_read_ff_and_ignore_writes_in_operating_mode() {
     let regs = [
         ("ACR", basic::ACR, 0x12),
         ("AMR", basic::AMR, 0x34),
-        ("BTR0", basic::BTR0, BTR0),
-        ("BTR1", basic::BTR1, BTR1),
+        ("BTR0", basic::BTR0, BTR0_500K_AT_16MHZ),
+        ("BTR1", basic::BTR1, BTR1_500K_AT_16MHZ),
         ("OCR", basic::OCR, 0x56),
     ];
     for &(_, addr, value) in &regs {

@@ -11,9 +11,9 @@ use std::collections::VecDeque;
 use golden::frame::{Frame, Id};
 use rtl::registers::{command, interrupt, mode, pelican, status};
 use sim::host::frame_buffer::buffer_len;
+use sim::host::sja1000::{drain_rx, read_rx_message, transmit};
 use testbenches::controller_bench::{
-    bench_bit_fs, drain_rx, read_rx_buffer, rx_buffer_bytes, transmit, ControllerBench,
-    INTEGRATION_BITS,
+    bench_bit_fs, rx_buffer_bytes, ControllerBench, INTEGRATION_BITS,
 };
 
 const SENDER: usize = 0;
@@ -195,7 +195,7 @@ fn messages_of_mixed_lengths_wrap_around_the_fifo_and_read_back_in_order() {
                 "round {round}: RBSA of {frame}"
             );
             assert_eq!(
-                read_rx_buffer(&mut bench.host(RECEIVER)),
+                read_rx_message(&mut bench.host(RECEIVER)),
                 frame,
                 "round {round}"
             );
@@ -481,7 +481,7 @@ fn rbsa_moves_by_each_released_message_and_survives_reset_mode() {
     let mut expected = 0;
     for frame in &frames {
         assert_eq!(rbsa(&mut bench), expected, "RBSA of {frame}");
-        assert_eq!(read_rx_buffer(&mut bench.host(RECEIVER)), *frame);
+        assert_eq!(read_rx_message(&mut bench.host(RECEIVER)), *frame);
         release(&mut bench);
         expected += fifo_len(frame);
     }
@@ -511,7 +511,7 @@ fn rbsa_moves_by_each_released_message_and_survives_reset_mode() {
         rx_buffer_bytes(&after_reset),
         "the next message is stored at RBSA"
     );
-    assert_eq!(read_rx_buffer(&mut bench.host(RECEIVER)), after_reset);
+    assert_eq!(read_rx_message(&mut bench.host(RECEIVER)), after_reset);
 
     // RBSA written in reset mode: the next message is stored there, straddling 63 → 0.
     in_reset_mode(&mut bench, |bench| {
@@ -522,7 +522,7 @@ fn rbsa_moves_by_each_released_message_and_survives_reset_mode() {
     send(&mut bench, &straddling);
     assert_eq!(rbsa(&mut bench), 60);
     assert_eq!(ram_bytes(&mut bench, 60, 9), rx_buffer_bytes(&straddling));
-    assert_eq!(read_rx_buffer(&mut bench.host(RECEIVER)), straddling);
+    assert_eq!(read_rx_message(&mut bench.host(RECEIVER)), straddling);
     release(&mut bench);
     assert_eq!(rbsa(&mut bench), 5, "60 + 9 wraps to 5");
     // RBSA is read-only in operating mode.

@@ -26,7 +26,7 @@ use rtl::registers::{clock_divider, command, interrupt, mode, pelican, status};
 
 use crate::engine::{DeviceId, Engine};
 use crate::host::acceptance::FilterConfig;
-use crate::host::frame_buffer::{buffer_len, decode_buffer, encode_buffer, FRAME_BUFFER_BYTES};
+use crate::host::sja1000::{load_tx_buffer, read_rx_message};
 use crate::host::Host;
 use golden::btr::{calc_bittiming, BitTimingError, Btr};
 use golden::frame::Frame;
@@ -528,10 +528,7 @@ impl Sja1000Driver {
             return Err(DriverError::TxBusy { in_flight: f.frame });
         }
         let mut host = Host::new(eng, self.node);
-        let buf = encode_buffer(frame);
-        for (i, byte) in buf.iter().take(buffer_len(buf[0])).enumerate() {
-            host.write(pelican::FRAME + i as u8, *byte);
-        }
+        load_tx_buffer(&mut host, frame);
         self.in_flight = Some(InFlight {
             frame: *frame,
             loopback,
@@ -580,7 +577,8 @@ impl Sja1000Driver {
             }
             if ir & interrupt::RI != 0 {
                 while sr & status::RBS != 0 {
-                    let frame = read_rx_frame(&mut host);
+                    // `sja1000_rx` without the release: FI, identifier and data bytes.
+                    let frame = read_rx_message(&mut host);
                     write_command(&mut host, command::RRB);
                     self.stats.rx_frames += 1;
                     events.push(DriverEvent::Received(frame));
@@ -747,16 +745,4 @@ impl Sja1000Driver {
 fn write_command(host: &mut Host, cmd: u8) {
     host.write(pelican::CMR, cmd);
     host.read(pelican::SR);
-}
-
-/// `sja1000_rx` without the release: FI, the identifier bytes and (data frames) `min(DLC, 8)` data
-/// bytes from the RX window.
-fn read_rx_frame(host: &mut Host) -> Frame {
-    let mut bytes = [0u8; FRAME_BUFFER_BYTES];
-    bytes[0] = host.read(pelican::FRAME);
-    let len = buffer_len(bytes[0]);
-    for (i, byte) in bytes.iter_mut().enumerate().take(len).skip(1) {
-        *byte = host.read(pelican::FRAME + i as u8);
-    }
-    decode_buffer(&bytes)
 }

@@ -7,6 +7,7 @@
 pub mod acceptance;
 pub mod driver;
 pub mod frame_buffer;
+pub mod sja1000;
 
 use crate::engine::{DeviceId, Engine};
 use crate::nodes::controller_node::{ControllerNode, HostAccess};

@@ -8,21 +8,20 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use rtl::registers::{clock_divider, command, interrupt, mode, pelican, status};
+use rtl::registers::{command, interrupt, mode, pelican, status};
 
 use crate::engine::time::{ClockSpec, FS_PER_MS};
 use crate::engine::{Device, DeviceId, Engine};
-use crate::host::frame_buffer::{buffer_len, decode_buffer, encode_buffer, FRAME_BUFFER_BYTES};
+use crate::host::sja1000::{
+    enter_operating_mode, read_rx_message, release_rx, set_up_pelican, transmit, PelicanSetup,
+    BTR0_500K_SJW2_AT_16MHZ, BTR1_500K_AT_16MHZ,
+};
 use crate::host::Host;
 use crate::nodes::controller_node::{ControllerNode, ModelEngine};
 use golden::frame::{Frame, Id};
 
 /// Controller clock of the workload.
 pub const CLOCK_HZ: f64 = 16e6;
-/// BTR0 of 500 kbit/s at 16 MHz (BRP 1, SJW 2).
-pub const BTR0: u8 = 0x40;
-/// BTR1 of 500 kbit/s at 16 MHz (TSEG1 13, TSEG2 2, one sample).
-pub const BTR1: u8 = 0x1C;
 /// Clock offset between neighbouring nodes, so receivers resynchronise as on a real bus.
 const PPM_STEP: f64 = 100.0;
 /// Longest wait for an interrupt or for a node to see the bus idle (a frame takes about 0.25 ms).
@@ -127,15 +126,14 @@ pub fn workload_frame(i: usize) -> Frame {
 /// PeliCAN, 500 kbit/s, filter open, TI and RI enabled, operating mode.
 fn configure(engine: &mut Engine, id: DeviceId) {
     let mut host = Host::new(engine, id);
-    host.write(pelican::CDR, clock_divider::PELICAN);
-    host.write(pelican::BTR0, BTR0);
-    host.write(pelican::BTR1, BTR1);
-    for k in 0..4 {
-        host.write(pelican::AMR0 + k, 0xFF);
-    }
-    host.write(pelican::IER, interrupt::RI | interrupt::TI);
-    host.write(pelican::MOD, 0);
-    assert_eq!(host.read(pelican::MOD) & mode::RM, 0, "operating mode");
+    let setup = PelicanSetup::open(BTR0_500K_SJW2_AT_16MHZ, BTR1_500K_AT_16MHZ)
+        .with_ier(interrupt::RI | interrupt::TI);
+    set_up_pelican(&mut host, &setup);
+    assert_eq!(
+        enter_operating_mode(&mut host, 0) & mode::RM,
+        0,
+        "operating mode"
+    );
 }
 
 /// Polls node `id`'s status register until it has seen the bus idle (neither receiving nor
@@ -157,12 +155,8 @@ fn wait_for_bus_idle(engine: &mut Engine, id: DeviceId) -> Result<(), BenchError
 /// Node `ids[0]` sends `frame`; returns when it reported TI and every receiver has taken the frame.
 fn transfer(engine: &mut Engine, ids: &[DeviceId], frame: &Frame) -> Result<(), BenchError> {
     let (sender, receivers) = ids.split_first().expect("a sender");
-    let buffer = encode_buffer(frame);
     let mut host = Host::new(engine, *sender);
-    for (k, byte) in buffer.iter().take(buffer_len(buffer[0])).enumerate() {
-        host.write(pelican::FRAME + k as u8, *byte);
-    }
-    host.write(pelican::CMR, command::TR);
+    transmit(&mut host, frame, command::TR);
     let mut sent = false;
     let mut received = vec![false; receivers.len()];
     while !sent || received.contains(&false) {
@@ -203,14 +197,9 @@ fn take_frame(engine: &mut Engine, id: DeviceId) -> Option<Frame> {
     if host.read(pelican::IR) & interrupt::RI == 0 {
         return None;
     }
-    let mut bytes = [0u8; FRAME_BUFFER_BYTES];
-    bytes[0] = host.read(pelican::FRAME);
-    let len = buffer_len(bytes[0]);
-    for (k, byte) in bytes.iter_mut().enumerate().take(len).skip(1) {
-        *byte = host.read(pelican::FRAME + k as u8);
-    }
-    host.write(pelican::CMR, command::RRB);
-    Some(decode_buffer(&bytes))
+    let frame = read_rx_message(&mut host);
+    release_rx(&mut host);
+    Some(frame)
 }
 
 /// Processor time of the calling thread, in seconds (64-bit Linux `clock_gettime`).

@@ -15,6 +15,7 @@
 //! between the nodes.
 
 use crate::engine::rng::Rng;
+use crate::host::sja1000::{BTR0_1M_AT_16MHZ, BTR1_1M_AT_16MHZ};
 use std::any::Any;
 use std::collections::BTreeMap;
 use std::io;
@@ -37,10 +38,6 @@ use golden::reference::{self, Detected, Fault, FaultKind, Scenario};
 pub const NODES: usize = 3;
 /// Controller clock of every node.
 pub const CLOCK_HZ: f64 = 16e6;
-/// BTR0 of the campaign: BRP 1 (tq = 2 clocks), SJW 1 tq.
-pub const BTR0: u8 = 0x00;
-/// BTR1 of the campaign: TSEG1 5 tq, TSEG2 2 tq: 8 tq per bit, 1 Mbit/s, sample point 75 %.
-pub const BTR1: u8 = 0x14;
 /// Clocks by which a whole-bit fault window follows the start of the bit on the bus (the receivers'
 /// bits start 2 to 3 clocks after the edge they synchronised on).
 const WINDOW_SHIFT_CLOCKS: u64 = 2;
@@ -163,7 +160,7 @@ pub struct Verdict {
 
 /// The campaign bit timing.
 pub fn campaign_btr() -> Btr {
-    Btr::from_registers(BTR0, BTR1)
+    Btr::from_registers(BTR0_1M_AT_16MHZ, BTR1_1M_AT_16MHZ)
 }
 
 /// Plays `case` on [`NODES`] RTL cores (same clock, no propagation delay).
