@@ -23,7 +23,6 @@ use crate::acceptance_filter::AcceptanceFilter;
 use crate::bsp::protocol::ProtocolState;
 use crate::can_core::CanCore;
 use crate::clock_divider::ClockDivider;
-use crate::host_decode::HostDecode;
 use crate::registers::{basic, pelican, DEFAULT_EWLR};
 use crate::rx_fifo::RxFifo;
 use crate::tx_buffer::TxBuffer;
@@ -61,7 +60,6 @@ pub struct CanController {
     pub fifo: RxFifo,
     tx_buffer: TxBuffer,
     filter: AcceptanceFilter,
-    decode: HostDecode,
     divider: ClockDivider,
     // ---- Registers.
     mode_rm: DFF<Bit>,
@@ -143,6 +141,32 @@ pub struct CanController {
     bc_cr: Constant<Bits<8>>,
     #[constant(u64::from(basic::RX_ID_DLC))]
     bc_rx_id_dlc: Constant<Bits<8>>,
+    // ---- Address windows, as bit maps indexed by the address (`>=`/`<=` pairs would become
+    // carry chains on FPGAs), and the low address bits of their first bytes.
+    #[constant(window(pelican::FRAME, pelican::FRAME_LAST))]
+    frame_window: Constant<Bits<ADDRESSES>>,
+    #[constant(window(pelican::RX_RAM, pelican::RX_RAM_LAST))]
+    rx_ram_window: Constant<Bits<ADDRESSES>>,
+    #[constant(window(pelican::TX_RAM, pelican::TX_RAM_LAST))]
+    tx_ram_window: Constant<Bits<ADDRESSES>>,
+    #[constant(window(basic::TX, basic::TX_LAST))]
+    basic_tx_window: Constant<Bits<ADDRESSES>>,
+    #[constant(window(basic::RX, basic::RX_LAST))]
+    basic_rx_window: Constant<Bits<ADDRESSES>>,
+    /// ACR, AMR, BTR0, BTR1, OCR: read 0xFF in operating mode.
+    #[constant(window(basic::ACR, basic::OCR))]
+    basic_config_window: Constant<Bits<ADDRESSES>>,
+    #[constant(low_bits(pelican::FRAME))]
+    frame_base: Constant<Bits<4>>,
+    #[constant(low_bits(pelican::TX_RAM))]
+    tx_ram_base: Constant<Bits<4>>,
+    // The byte before each BasicCAN buffer: buffer byte 1 is the first identifier byte.
+    #[constant(low_bits(basic::TX - 1))]
+    basic_tx_base: Constant<Bits<4>>,
+    #[constant(low_bits(basic::RX - 1))]
+    basic_rx_base: Constant<Bits<4>>,
+    #[constant(low_bits(pelican::RX_RAM))]
+    rx_ram_base: Constant<Bits<6>>,
     #[constant(u64::from(DEFAULT_EWLR))]
     default_ewlr: Constant<Bits<8>>,
     #[constant(0u64)]
@@ -150,7 +174,29 @@ pub struct CanController {
     // ---- Decoded access of this cycle.
     pelican_mode: Signal<Local, Bit>,
     reset_mode: Signal<Local, Bit>,
+    // Byte indices inside the windows, computed at the width they need: the low bits of a
+    // difference depend only on the low bits of its operands.
+    addr_low4: Signal<Local, Bits<4>>,
+    addr_low6: Signal<Local, Bits<6>>,
+    frame_index: Signal<Local, Bits<4>>,
+    tx_ram_index: Signal<Local, Bits<4>>,
+    basic_tx_index: Signal<Local, Bits<4>>,
+    basic_rx_index: Signal<Local, Bits<4>>,
+    rx_ram_index: Signal<Local, Bits<6>>,
+    in_frame_window: Signal<Local, Bit>,
+    in_rx_ram: Signal<Local, Bit>,
+    in_tx_ram: Signal<Local, Bit>,
+    in_basic_tx: Signal<Local, Bit>,
+    in_basic_rx: Signal<Local, Bit>,
+    in_basic_config: Signal<Local, Bit>,
     ram_read_index: Signal<Local, Bits<4>>,
+    command: Signal<Local, Bit>,
+    cmd_transmit: Signal<Local, Bit>,
+    cmd_abort: Signal<Local, Bit>,
+    cmd_release: Signal<Local, Bit>,
+    cmd_clear_overrun: Signal<Local, Bit>,
+    cmd_self_reception: Signal<Local, Bit>,
+    cmd_sleep: Signal<Local, Bit>,
     sleep_request: Signal<Local, Bit>,
     wake_request: Signal<Local, Bit>,
     entering_reset: Signal<Local, Bit>,
@@ -182,6 +228,22 @@ pub struct CanController {
     ev_bus_error: Signal<Local, Bit>,
     own_frame_received: Signal<Local, Bit>,
     basic_receive: Signal<Local, Bit>,
+}
+
+/// Host addresses: the `addr` port is 8 bits wide.
+const ADDRESSES: usize = 256;
+
+/// The addresses from `first` to `last`, both included, as a bit map indexed by the address.
+fn window(first: u8, last: u8) -> Bits<ADDRESSES> {
+    let addresses = usize::from(first)..usize::from(last) + 1;
+    addresses.fold(Bits::<ADDRESSES>::default(), |map, a| {
+        map.replace_bit(a, true)
+    })
+}
+
+/// The low `N` bits of an address.
+fn low_bits<const N: usize>(value: u8) -> Bits<N> {
+    ((value as u64) & ((1 << N) - 1)).into()
 }
 
 impl Logic for CanController {
@@ -233,12 +295,46 @@ impl Logic for CanController {
         self.pelican_mode.next = self.cdr.q.val().get_bit(7);
         self.reset_mode.next = self.mode_rm.q.val();
 
-        // ---- Address and command decoding.
-        self.decode.addr.next = self.addr.val();
-        self.decode.we.next = self.we.val();
-        self.decode.wdata.next = self.wdata.val();
-        self.decode.pelican.next = self.cdr.q.val().get_bit(7);
-        self.decode.reset_mode.next = self.mode_rm.q.val();
+        // ---- Address decoding.
+        self.addr_low4.next = bit_cast::<4, 8>(self.addr.val());
+        self.addr_low6.next = bit_cast::<6, 8>(self.addr.val());
+        self.frame_index.next = self.addr_low4.val() - self.frame_base.val();
+        self.tx_ram_index.next = self.addr_low4.val() - self.tx_ram_base.val();
+        self.basic_tx_index.next = self.addr_low4.val() - self.basic_tx_base.val();
+        self.basic_rx_index.next = self.addr_low4.val() - self.basic_rx_base.val();
+        self.rx_ram_index.next = self.addr_low6.val() - self.rx_ram_base.val();
+        self.in_frame_window.next = self.frame_window.val().get_bit(self.addr.val().index());
+        self.in_rx_ram.next = self.rx_ram_window.val().get_bit(self.addr.val().index());
+        self.in_tx_ram.next = self.tx_ram_window.val().get_bit(self.addr.val().index());
+        self.in_basic_tx.next = self.basic_tx_window.val().get_bit(self.addr.val().index());
+        self.in_basic_rx.next = self.basic_rx_window.val().get_bit(self.addr.val().index());
+        self.in_basic_config.next = self
+            .basic_config_window
+            .val()
+            .get_bit(self.addr.val().index());
+        if self.pelican_mode.val() == false {
+            self.in_frame_window.next = false;
+            self.in_rx_ram.next = false;
+            self.in_tx_ram.next = false;
+        } else {
+            self.in_basic_tx.next = false;
+            self.in_basic_rx.next = false;
+        }
+
+        // ---- Commands (CMR, the same address in both maps; ignored in reset mode).
+        self.command.next = self.we.val()
+            & (self.addr.val() == self.pc_cmr.val())
+            & (self.reset_mode.val() == false);
+        self.cmd_transmit.next = self.command.val() & self.wdata.val().get_bit(0);
+        self.cmd_abort.next = self.command.val() & self.wdata.val().get_bit(1);
+        self.cmd_release.next = self.command.val() & self.wdata.val().get_bit(2);
+        self.cmd_clear_overrun.next = self.command.val() & self.wdata.val().get_bit(3);
+        // TR together with SRR is a plain TR (data sheet).
+        self.cmd_self_reception.next = self.command.val()
+            & self.wdata.val().get_bit(4)
+            & self.pelican_mode.val()
+            & (self.cmd_transmit.val() == false);
+        self.cmd_sleep.next = self.wdata.val().get_bit(4) & (self.pelican_mode.val() == false);
 
         // ---- Status.
         self.rbs.next = self.fifo.message_count.val() != 0;
@@ -308,9 +404,9 @@ impl Logic for CanController {
                     .replace_bit(7, self.ier.q.val().get_bit(7));
             }
         }
-        if self.decode.command.val() & (self.pelican_mode.val() == false) {
-            self.sleep_request.next = self.decode.cmd_sleep.val();
-            self.wake_request.next = self.decode.cmd_sleep.val() == false;
+        if self.command.val() & (self.pelican_mode.val() == false) {
+            self.sleep_request.next = self.cmd_sleep.val();
+            self.wake_request.next = self.cmd_sleep.val() == false;
         }
         self.ev_wake_up.next = false;
         if self.sleep_request.val() & (self.mode_sm.q.val() == false) {
@@ -384,27 +480,27 @@ impl Logic for CanController {
         self.tx_buffer.write.next = self.we.val()
             & (self.reset_mode.val() == false)
             & self.tbs.q.val()
-            & (self.decode.in_frame_window.val() | self.decode.in_basic_tx.val());
-        self.tx_buffer.write_index.next = self.decode.frame_index.val();
+            & (self.in_frame_window.val() | self.in_basic_tx.val());
+        self.tx_buffer.write_index.next = self.frame_index.val();
         // The TX RAM window is writable in reset mode.
-        if self.we.val() & self.reset_mode.val() & self.decode.in_tx_ram.val() {
+        if self.we.val() & self.reset_mode.val() & self.in_tx_ram.val() {
             self.tx_buffer.write.next = true;
-            self.tx_buffer.write_index.next = self.decode.tx_ram_index.val();
+            self.tx_buffer.write_index.next = self.tx_ram_index.val();
         }
-        self.tx_buffer.host_index.next = self.decode.tx_ram_index.val();
+        self.tx_buffer.host_index.next = self.tx_ram_index.val();
         if self.pelican_mode.val() == false {
             // BasicCAN byte 10 is buffer byte 1 (identifier bits 10..3).
-            self.tx_buffer.write_index.next = self.decode.basic_tx_index.val();
-            self.tx_buffer.host_index.next = self.decode.basic_tx_index.val();
+            self.tx_buffer.write_index.next = self.basic_tx_index.val();
+            self.tx_buffer.host_index.next = self.basic_tx_index.val();
         }
         self.tx_buffer.write_data.next = self.wdata.val();
         self.tx_buffer.core_index.next = self.core.tx_addr.val();
 
         // ---- Transmission requests and their end.
         self.ev_transmit.next = false;
-        self.core.tx_abort.next = self.decode.cmd_abort.val()
-            & (self.decode.cmd_transmit.val() == false)
-            & (self.decode.cmd_self_reception.val() == false)
+        self.core.tx_abort.next = self.cmd_abort.val()
+            & (self.cmd_transmit.val() == false)
+            & (self.cmd_self_reception.val() == false)
             & self.tx_pending.q.val();
         if self.core.tx_done.val() {
             self.tx_pending.d.next = false;
@@ -412,15 +508,15 @@ impl Logic for CanController {
             self.tcs.d.next = self.core.tx_success.val();
             self.ev_transmit.next = true;
         }
-        if (self.decode.cmd_transmit.val() | self.decode.cmd_self_reception.val())
+        if (self.cmd_transmit.val() | self.cmd_self_reception.val())
             & self.tbs.q.val()
             & (self.tx_pending.q.val() == false)
         {
             self.tx_pending.d.next = true;
             self.tbs.d.next = false;
             self.tcs.d.next = false;
-            self.tx_single_shot.d.next = self.decode.cmd_abort.val();
-            self.self_reception.d.next = self.decode.cmd_self_reception.val();
+            self.tx_single_shot.d.next = self.cmd_abort.val();
+            self.self_reception.d.next = self.cmd_self_reception.val();
         }
 
         // ---- Receive FIFO: store valid accepted frames (own ones with self-reception).
@@ -429,8 +525,8 @@ impl Logic for CanController {
         self.fifo.store.next = (self.core.rx_valid.val() | self.own_frame_received.val())
             & self.filter.accept.val()
             & (self.pelican_mode.val() | (self.core.rx_ide.val() == false));
-        self.fifo.release_head.next = self.decode.cmd_release.val();
-        self.fifo.clear_overrun.next = self.decode.cmd_clear_overrun.val();
+        self.fifo.release_head.next = self.cmd_release.val();
+        self.fifo.clear_overrun.next = self.cmd_clear_overrun.val();
         self.fifo.clear.next = self.reset_mode.val();
         self.fifo.header.next = self.core.rx_header.val();
         self.fifo.id.next = self.core.rx_id.val();
@@ -504,7 +600,7 @@ impl Logic for CanController {
         self.overrun_before.d.next = self.fifo.overrun.val();
         self.rbs_before.d.next = self.rbs.val();
         self.basic_receive.next = (self.rbs.val() & (self.rbs_before.q.val() == false))
-            | (self.decode.cmd_release.val()
+            | (self.cmd_release.val()
                 & (self.fifo.message_count.val() != 0)
                 & (self.fifo.message_count.val() != 1));
         if self.re.val() & (self.addr.val() == self.pc_ir.val()) {
@@ -523,9 +619,9 @@ impl Logic for CanController {
         // The FIFO address matters only for the windows that read or write the RAM, where the
         // 4-bit indices are the whole offsets (the windows are shorter than 16 bytes). One adder:
         // BasicCAN byte 20 is FIFO message byte 1.
-        self.ram_read_index.next = self.decode.frame_index.val();
-        if self.decode.in_basic_rx.val() {
-            self.ram_read_index.next = self.decode.basic_rx_index.val();
+        self.ram_read_index.next = self.frame_index.val();
+        if self.in_basic_rx.val() {
+            self.ram_read_index.next = self.basic_rx_index.val();
         }
         self.fifo.host_address.next =
             self.fifo.start.val() + bit_cast::<6, 4>(self.ram_read_index.val());
@@ -585,14 +681,14 @@ impl Logic for CanController {
             if self.addr.val() == self.pc_rbsa.val() {
                 self.read_value.next = bit_cast::<8, 6>(self.fifo.start.val());
             }
-            if self.decode.in_frame_window.val() & (self.reset_mode.val() == false) {
+            if self.in_frame_window.val() & (self.reset_mode.val() == false) {
                 // The head message of the RX FIFO.
                 self.read_from_ram.next = true;
             }
-            if self.decode.in_rx_ram.val() {
+            if self.in_rx_ram.val() {
                 self.read_from_ram.next = true;
             }
-            if self.decode.in_tx_ram.val() {
+            if self.in_tx_ram.val() {
                 self.read_from_tx.next = true;
             }
         } else {
@@ -621,13 +717,13 @@ impl Logic for CanController {
                     .replace_bit(7, true);
             }
             // ACR, AMR, BTR0, BTR1, OCR read 0xFF in operating mode.
-            if (self.reset_mode.val() == false) & self.decode.in_basic_config.val() {
+            if (self.reset_mode.val() == false) & self.in_basic_config.val() {
                 self.read_value.next = 0xFF.into();
             }
-            if self.decode.in_basic_tx.val() {
+            if self.in_basic_tx.val() {
                 self.read_from_tx.next = true;
             }
-            if self.decode.in_basic_rx.val() {
+            if self.in_basic_rx.val() {
                 // BasicCAN byte 21 adds the DLC to ID.2..0 and RTR.
                 self.read_from_ram.next = true;
                 if self.addr.val() == self.bc_rx_id_dlc.val() {
@@ -638,11 +734,10 @@ impl Logic for CanController {
         }
         self.fifo.host_read.next = self.re.val() & self.read_from_ram.val();
         // The RAM windows are writable in reset mode.
-        self.fifo.host_write.next =
-            self.we.val() & self.reset_mode.val() & self.decode.in_rx_ram.val();
+        self.fifo.host_write.next = self.we.val() & self.reset_mode.val() & self.in_rx_ram.val();
         self.fifo.host_data.next = self.wdata.val();
-        if self.decode.in_rx_ram.val() {
-            self.fifo.host_address.next = self.decode.rx_ram_index.val();
+        if self.in_rx_ram.val() {
+            self.fifo.host_address.next = self.rx_ram_index.val();
         }
         // RAM and TX buffer reads come out of their read registers the cycle after; they are
         // copied into `rdata_reg` then, so the read ports are free again and `rdata` holds until

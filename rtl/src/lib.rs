@@ -18,7 +18,6 @@ pub mod can_controller;
 pub mod can_core;
 pub mod clock_divider;
 pub mod clock_output;
-pub mod host_decode;
 pub mod registers;
 pub mod rx_fifo;
 pub mod tx_buffer;
