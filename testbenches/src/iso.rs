@@ -4,11 +4,9 @@
 
 use golden::btr::Btr;
 use golden::frame::{encode, Field, Frame, Id, DOMINANT, RECESSIVE, STUFF_RUN};
-use rtl::registers::interrupt;
 use sim::engine::bus::Drive;
 use sim::nodes::can_node::NodeEvent;
 
-use crate::controller_bench::rx_buffer_bytes;
 use crate::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
 
 /// Bits of an error or overload flag (ISO 11898-1).
@@ -206,18 +204,7 @@ pub fn assert_received(bench: &mut ProtocolBench, bits: &[bool], frame: &Frame, 
         vec![NodeEvent::Received(*frame)],
         "{what}: received, no error"
     );
-    if let Some(passes) = bench.interrupt_passes() {
-        let [pass] = &passes[..] else {
-            panic!("{what}: one interrupt: {passes:?}");
-        };
-        assert_eq!(pass.ir, interrupt::RI, "{what}: RI");
-        assert_eq!(pass.rmc, Some(1), "{what}: RMC");
-        assert_eq!(
-            pass.rx_bytes.as_deref(),
-            Some(&rx_buffer_bytes(frame)[..]),
-            "{what}: RX buffer"
-        );
-    }
+    bench.assert_stored_through_registers(frame, what);
 }
 
 /// The LT sends `frame` (nominal bits) to a receiving IUT, which shall acknowledge and receive it.

@@ -21,7 +21,7 @@ use sim::engine::{DeviceId, Engine};
 use sim::nodes::can_node::{CanNode, NodeEvent};
 use sim::nodes::lower_tester::LowerTester;
 
-use crate::controller_bench::configure_pelican_for;
+use crate::controller_bench::{configure_pelican_for, rx_buffer_bytes};
 use crate::register_iut::{InterruptPass, IutHost, RegisterIut};
 use crate::{bench_engine, CLOCK_HZ};
 use sim::host::sja1000::transmit;
@@ -468,6 +468,23 @@ impl ProtocolBench {
     pub fn interrupt_passes(&mut self) -> Option<Vec<InterruptPass>> {
         self.registers()
             .map(|host| host.iut().interrupt_passes().to_vec())
+    }
+
+    /// Through the registers: one interrupt, RI, with RMC 1 and exactly `frame`'s bytes in the RX
+    /// buffer (nothing to check on the core, whose `Received` event is all there is).
+    pub fn assert_stored_through_registers(&mut self, frame: &Frame, what: &str) {
+        if let Some(passes) = self.interrupt_passes() {
+            let [pass] = &passes[..] else {
+                panic!("{what}: one interrupt: {passes:?}");
+            };
+            assert_eq!(pass.ir, interrupt::RI, "{what}: RI");
+            assert_eq!(pass.rmc, Some(1), "{what}: RMC");
+            assert_eq!(
+                pass.rx_bytes.as_deref(),
+                Some(&rx_buffer_bytes(frame)[..]),
+                "{what}: RX buffer"
+            );
+        }
     }
 
     /// The error-status interrupts (EI, EPI) the controller's handler serviced, oldest first, if the

@@ -214,19 +214,26 @@ fn ep_07_a_frame_started_during_suspend_is_received_and_then_no_suspend(iut: Iut
         .contains(&NodeEvent::Received(other_frame())));
 }
 
-fn ov_03_extended_overload_flag_is_tolerated(iut: Iut) {
+/// The LT sends the frame, a dominant first intermission bit (an overload condition: the IUT sends
+/// its overload flag) and holds the bus dominant for the 6 flag bits and `dominant_after` more.
+fn overload_flag_then_dominant(iut: Iut, dominant_after: usize) -> ProtocolBench {
     let encoded = encode(&frame());
+    let mut bench = ProtocolBench::new(iut);
+    bench
+        .lt()
+        .release(INTEGRATION_BITS)
+        .send_bits(encoded.bits.iter().by_vals())
+        .send_bits([DOMINANT])
+        .send_bits(std::iter::repeat_n(DOMINANT, 6 + dominant_after))
+        .release(30);
+    bench.run(1);
+    bench
+}
+
+fn ov_03_extended_overload_flag_is_tolerated(iut: Iut) {
+    let intermission = SOF + encode(&frame()).len();
     for extra in 1..=7 {
-        let mut bench = ProtocolBench::new(iut);
-        let intermission = SOF + encoded.len();
-        bench
-            .lt()
-            .release(INTEGRATION_BITS)
-            .send_bits(encoded.bits.iter().by_vals())
-            .send_bits([DOMINANT])
-            .send_bits(std::iter::repeat_n(DOMINANT, 6 + extra))
-            .release(30);
-        bench.run(1);
+        let mut bench = overload_flag_then_dominant(iut, extra);
         assert_eq!(bench.rec(), 0, "{extra} extra dominant bits");
         assert_eq!(bench.bus_errors().len(), 0, "{extra}");
         assert_eq!(
@@ -238,17 +245,8 @@ fn ov_03_extended_overload_flag_is_tolerated(iut: Iut) {
 }
 
 fn ov_04_dominant_bits_after_an_overload_flag_count_8_each(iut: Iut) {
-    let encoded = encode(&frame());
     for (dominant_after, rec) in [(7, 0), (8, 8), (16, 16)] {
-        let mut bench = ProtocolBench::new(iut);
-        bench
-            .lt()
-            .release(INTEGRATION_BITS)
-            .send_bits(encoded.bits.iter().by_vals())
-            .send_bits([DOMINANT])
-            .send_bits(std::iter::repeat_n(DOMINANT, 6 + dominant_after))
-            .release(30);
-        bench.run(1);
+        let mut bench = overload_flag_then_dominant(iut, dominant_after);
         assert_eq!(
             bench.rec(),
             rec,

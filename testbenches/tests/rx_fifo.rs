@@ -12,6 +12,7 @@ use golden::frame::{Frame, Id};
 use rtl::registers::{command, interrupt, mode, pelican, status};
 use sim::host::frame_buffer::buffer_len;
 use sim::host::sja1000::{drain_rx, read_rx_message, transmit};
+use sim::host::Host;
 use testbenches::controller_bench::{
     bench_bit_fs, rx_buffer_bytes, ControllerBench, INTEGRATION_BITS,
 };
@@ -558,28 +559,37 @@ fn ram_window_shows_the_raw_fifo_bytes_at_their_addresses() {
     });
 }
 
+/// The byte the RAM-window test writes at FIFO address `i`.
+fn ram_pattern(i: usize) -> u8 {
+    (i as u8).wrapping_mul(37) ^ 0x5A
+}
+
+/// Reads both RAM windows back: the RX RAM holds [`ram_pattern`], the TX RAM `0xE0 | index`.
+fn assert_ram_windows_hold_the_pattern(host: &mut Host) {
+    for i in 0..FIFO_BYTES {
+        assert_eq!(
+            host.read(pelican::RX_RAM + i as u8),
+            ram_pattern(i),
+            "RX RAM {i}"
+        );
+    }
+    for i in 0..13 {
+        assert_eq!(host.read(pelican::TX_RAM + i), 0xE0 | i, "TX RAM {i}");
+    }
+}
+
 #[test]
 fn ram_windows_are_writable_in_reset_mode_only() {
     let mut bench = ControllerBench::operating(2);
-    let pattern = |i: usize| (i as u8).wrapping_mul(37) ^ 0x5A;
     in_reset_mode(&mut bench, |bench| {
         let mut host = bench.host(RECEIVER);
         for i in 0..FIFO_BYTES {
-            host.write(pelican::RX_RAM + i as u8, pattern(i));
+            host.write(pelican::RX_RAM + i as u8, ram_pattern(i));
         }
         for i in 0..13 {
             host.write(pelican::TX_RAM + i, 0xE0 | i);
         }
-        for i in 0..FIFO_BYTES {
-            assert_eq!(
-                host.read(pelican::RX_RAM + i as u8),
-                pattern(i),
-                "RX RAM {i}"
-            );
-        }
-        for i in 0..13 {
-            assert_eq!(host.read(pelican::TX_RAM + i), 0xE0 | i, "TX RAM {i}");
-        }
+        assert_ram_windows_hold_the_pattern(&mut host);
     });
     // Operating mode: writes to both RAM windows are ignored.
     {
@@ -590,22 +600,13 @@ fn ram_windows_are_writable_in_reset_mode_only() {
         for i in 0..13 {
             host.write(pelican::TX_RAM + i, 0);
         }
-        for i in 0..FIFO_BYTES {
-            assert_eq!(
-                host.read(pelican::RX_RAM + i as u8),
-                pattern(i),
-                "RX RAM {i}"
-            );
-        }
-        for i in 0..13 {
-            assert_eq!(host.read(pelican::TX_RAM + i), 0xE0 | i, "TX RAM {i}");
-        }
+        assert_ram_windows_hold_the_pattern(&mut host);
         assert_eq!(host.read(pelican::RMC), 0, "RAM writes store no message");
     }
     // A received message overwrites only its own bytes, at RBSA (0).
     let frame = std_data(0x321, &[1, 2, 3]);
     send(&mut bench, &frame);
-    let mut want: Vec<u8> = (0..FIFO_BYTES).map(pattern).collect();
+    let mut want: Vec<u8> = (0..FIFO_BYTES).map(ram_pattern).collect();
     want[..6].copy_from_slice(&rx_buffer_bytes(&frame));
     assert_eq!(ram_bytes(&mut bench, 0, FIFO_BYTES), want);
 }

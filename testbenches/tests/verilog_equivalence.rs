@@ -169,6 +169,14 @@ fn harness_reports_a_deliberately_broken_verilog() {
 
 /// Cycles before the hardware reset and of the reset in [`after_reset_stimulus`].
 const POWER_UP_CYCLES: usize = 3;
+/// The registers that show a node's error state after counter writes: SR, IR, TXERR, RXERR, MOD.
+const ERROR_STATE_REGISTERS: [u8; 5] = [
+    pelican::SR,
+    pelican::IR,
+    pelican::TXERR,
+    pelican::RXERR,
+    pelican::MOD,
+];
 const RESET_CYCLES: usize = 4;
 
 /// Power-up, a hardware reset, then configuration, an arbitration, reads of every register but the
@@ -346,29 +354,11 @@ fn scripted() -> (Stimulus, Checkpoints) {
     b.write(1, pelican::TXERR, 255);
     b.idle(3);
     cp.sr_bus_off = b.now();
-    b.reads(
-        1,
-        [
-            pelican::SR,
-            pelican::IR,
-            pelican::TXERR,
-            pelican::RXERR,
-            pelican::MOD,
-        ],
-    );
+    b.reads(1, ERROR_STATE_REGISTERS);
     b.write(1, pelican::RXERR, 10);
     b.write(1, pelican::TXERR, 0);
     b.idle(3);
-    b.reads(
-        1,
-        [
-            pelican::SR,
-            pelican::IR,
-            pelican::TXERR,
-            pelican::RXERR,
-            pelican::MOD,
-        ],
-    );
+    b.reads(1, ERROR_STATE_REGISTERS);
     b.write(1, pelican::RXERR, 130)
         .write(1, pelican::TXERR, 100);
     b.write(1, pelican::EWLR, 90);
