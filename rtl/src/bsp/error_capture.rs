@@ -14,7 +14,7 @@ use rust_hdl::prelude::*;
 use crate::activity::{Activity, ActivityBlock, BlockDefault};
 use crate::bsp::ecc_segment;
 use crate::bsp::protocol::ProtocolState;
-use crate::bsp::{EXT_RTR_POSITION, IDE_POSITION, SRR_RTR_POSITION};
+use crate::bsp::{BASE_ID_BITS, EXT_RTR_POSITION, IDE_POSITION, SRR_RTR_POSITION};
 
 /// ECC and ALC capture of the bit stream processor.
 #[derive(ActivityBlock, BlockDefault)]
@@ -57,8 +57,9 @@ pub struct ErrorCapture {
     alc_reg: DFF<Bits<5>>,
     /// ECC segment of the bit being processed.
     segment: Signal<Local, Bits<5>>,
-    // First arbitration positions of the identifier parts (SJA1000 ALC coding).
-    #[constant(8)]
+    // First arbitration positions of the identifier parts (SJA1000 ALC coding): ID.28..21 are the
+    // first 8 of the 11 base identifier bits.
+    #[constant(BASE_ID_BITS - 3)]
     id_20_18_start: Constant<Bits<7>>,
     #[constant(SRR_RTR_POSITION)]
     srr_rtr_position: Constant<Bits<7>>,

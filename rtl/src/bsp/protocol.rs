@@ -16,8 +16,8 @@
 //!
 //! Timing: everything acts at `process_point` (the clock after the sample point) on `rx_bit`: the bit
 //! is classified (stuff bit or field bit), checked (bit, stuff, CRC, form, ACK errors), the state
-//! advances, and the next bit to send is prepared in `tx_next`; `transmit_point` only copies `tx_next`
-//! to `tx`, so the extra transmit point of a hard synchronisation sends the same bit again.
+//! advances, and the bit transmitter prepares the next bit to send; at `transmit_point` it only sends
+//! that bit, so the extra transmit point of a hard synchronisation sends the same bit again.
 //!
 //! Conventions (see the conformance catalog): an error detected at bit e gives a flag from e+1; the
 //! error flag is active if the node was error active before the error's counter change; a receiver
