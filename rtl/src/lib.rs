@@ -18,6 +18,7 @@ pub mod can_controller;
 pub mod can_core;
 pub mod clock_divider;
 pub mod clock_output;
+pub mod register_map;
 pub mod registers;
 pub mod rx_fifo;
 pub mod tx_buffer;

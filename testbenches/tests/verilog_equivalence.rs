@@ -140,11 +140,20 @@ fn harness_reports_a_deliberately_broken_verilog() {
     if skip_without_icarus("harness_reports_a_deliberately_broken_verilog") {
         return;
     }
-    // IER moved from address 4 to 5 in the Verilog only: the IER read-back must differ.
+    // IER moved from address 4 to 5 on the read side of the Verilog only (the write still lands
+    // in IER): the IER read-back must differ.
     let good = testbenches::equivalence::controller_verilog();
-    let target = "localparam  pc_ier = 8'h4;";
-    assert!(good.contains(target), "patch target `{target}` not found");
-    let broken = good.replace(target, "localparam  pc_ier = 8'h5;");
+    let read_side = good.find("module top$read(").expect("the read-side module");
+    let target = "localparam  ier_address = 8'h4;";
+    let at = read_side
+        + good[read_side..]
+            .find(target)
+            .expect("patch target in top$read");
+    let broken = format!(
+        "{}localparam  ier_address = 8'h5;{}",
+        &good[..at],
+        &good[at + target.len()..]
+    );
     let stim = short_stimulus();
     let rust = run_rust(&stim);
     let dir = scratch_dir("broken");

@@ -12,7 +12,8 @@
 //! Fields are told apart by their type: `Signal<In, Clock>` (the clock, named `clock`), other
 //! `Signal<In, _>` (inputs), `Signal<Out, _>` (outputs), `Signal<Local, _>` (the kernel's temporaries),
 //! `Constant<_>`, `DFF<_>` (registers), `Activity` (the bookkeeping, exactly one) and anything
-//! else (a child block implementing `rtl::activity::Child`).
+//! else (a child block implementing `rtl::activity::Child`). A block without a clock input is
+//! purely combinational (no registers, no children): its kernel runs when an input changed.
 
 use proc_macro::TokenStream;
 use proc_macro2::{Ident, TokenStream as TokenStream2};
@@ -142,11 +143,53 @@ fn activity_block(input: &DeriveInput) -> syn::Result<TokenStream2> {
             "an ActivityBlock needs a field of type `Activity` (rtl::activity::Activity)",
         ));
     };
-    let Some(clock) = clock else {
+    // A block without a clock is purely combinational: no registers, no children to clock.
+    if clock.is_none() && (!registers.is_empty() || !children.is_empty()) {
         return Err(Error::new_spanned(
             name,
-            "an ActivityBlock needs a clock input `clock: Signal<In, Clock>`",
+            "an ActivityBlock with registers or children needs a clock input `clock: Signal<In, Clock>`",
         ));
+    }
+    let latch_clock = match clock {
+        Some(clock) => quote! {
+            ::rust_hdl::core::block::Block::update_all(&mut self.#clock);
+            let clock_changed = self.#clock.changed;
+        },
+        None => quote! { let clock_changed = false; },
+    };
+    let load_registers = match clock {
+        Some(clock) => quote! {
+            if self.#clock.pos_edge() {
+                #(
+                    if self.#registers.d.val() != self.#registers.q.val() {
+                        self.#registers.q.next = self.#registers.d.val();
+                        registers_changed = true;
+                    }
+                )*
+            }
+        },
+        None => quote! {},
+    };
+    let visit_children = match clock {
+        Some(clock) => quote! {
+            let clock_level = self.#clock.val();
+            #(
+                if exhaustive
+                    || run
+                    || clock_changed
+                    || !crate::activity::Child::settled(&self.#children)
+                {
+                    crate::activity::Child::drive_clock(&mut self.#children, clock_level);
+                    crate::activity::Child::visit(&mut self.#children, run);
+                    children_changed |= !crate::activity::Child::settled(&self.#children);
+                }
+            )*
+        },
+        None => quote! {},
+    };
+    let drive_clock = match clock {
+        Some(clock) => quote! { self.#clock.next = level; },
+        None => quote! { let _ = level; },
     };
     let visited_names: Vec<String> = visited.iter().map(|i| i.to_string()).collect();
     let (impl_generics, type_generics, where_clause) = input.generics.split_for_impl();
@@ -184,8 +227,7 @@ fn activity_block(input: &DeriveInput) -> syn::Result<TokenStream2> {
                         inputs_changed |= self.#inputs.changed;
                     )*
                 }
-                ::rust_hdl::core::block::Block::update_all(&mut self.#clock);
-                let clock_changed = self.#clock.changed;
+                #latch_clock
                 let exhaustive = self.#activity.exhaustive;
                 let run = exhaustive
                     || !self.#activity.started
@@ -209,28 +251,12 @@ fn activity_block(input: &DeriveInput) -> syn::Result<TokenStream2> {
                 }
                 // Registers load on the rising edge, after the kernel: it has seen their old
                 // values, and the inputs it wrote for the children are from before the edge too.
+                #[allow(unused_mut)]
                 let mut registers_changed = false;
-                if self.#clock.pos_edge() {
-                    #(
-                        if self.#registers.d.val() != self.#registers.q.val() {
-                            self.#registers.q.next = self.#registers.d.val();
-                            registers_changed = true;
-                        }
-                    )*
-                }
-                let clock_level = self.#clock.val();
+                #load_registers
+                #[allow(unused_mut)]
                 let mut children_changed = false;
-                #(
-                    if exhaustive
-                        || run
-                        || clock_changed
-                        || !crate::activity::Child::settled(&self.#children)
-                    {
-                        crate::activity::Child::drive_clock(&mut self.#children, clock_level);
-                        crate::activity::Child::visit(&mut self.#children, run);
-                        children_changed |= !crate::activity::Child::settled(&self.#children);
-                    }
-                )*
+                #visit_children
                 self.#activity.started = true;
                 self.#activity.rerun = d_changed || registers_changed;
                 self.#activity.outputs_changed = outputs_changed;
@@ -243,7 +269,7 @@ fn activity_block(input: &DeriveInput) -> syn::Result<TokenStream2> {
             }
 
             fn drive_clock(&mut self, level: ::rust_hdl::core::clock::Clock) {
-                self.#clock.next = level;
+                #drive_clock
             }
 
             fn settled(&self) -> bool {

@@ -239,6 +239,8 @@ pub struct Protocol {
     flag_is_passive: Signal<Local, Bit>,
     /// A bit error in our active error flag restarts it.
     flag_restarts: Signal<Local, Bit>,
+    /// The error flag's sixth bit (passive: sixth equal bit) is on the bus.
+    flag_complete: Signal<Local, Bit>,
     #[constant(ecc_type::BIT)]
     bit_error_type: Constant<Bits<2>>,
     #[constant(ecc_type::FORM)]
@@ -277,9 +279,6 @@ pub struct Protocol {
     last_suspend_bit: Constant<Bits<7>>,
     #[constant(FLAG_BITS - 1)]
     last_flag_bit: Constant<Bits<7>>,
-    /// A passive flag is complete after this many equal bits.
-    #[constant(FLAG_BITS)]
-    flag_bits: Constant<Bits<7>>,
     #[constant(DELIMITER_BITS - 1)]
     last_delimiter_bit: Constant<Bits<7>>,
     /// The eighth dominant bit after a flag (rule 6), counted modulo 8.
@@ -389,6 +388,7 @@ impl Logic for Protocol {
         // A listening node's error flags are passive: it never drives a dominant bit.
         self.flag_is_passive.next = self.faults.error_passive.val() | self.listen_only.val();
         self.flag_restarts.next = false;
+        self.flag_complete.next = false;
 
         // ---- Sub-block defaults.
         self.stuffing.consume.next = false;
@@ -628,6 +628,9 @@ impl Logic for Protocol {
                         }
                     }
                     ProtocolState::ErrorFlag => {
+                        // Complete at its sixth bit unless it restarts below (from the count
+                        // itself, not from `next_count`: no adder on the way to the next field).
+                        self.flag_complete.next = self.count.q.val() == self.last_flag_bit.val();
                         if self.flag_passive.q.val() {
                             // Complete after 6 equal bits in a row.
                             self.flag_level.d.next = self.rx_bit.val();
@@ -635,6 +638,7 @@ impl Logic for Protocol {
                                 & (self.rx_bit.val() != self.flag_level.q.val())
                             {
                                 self.next_count.next = 1.into();
+                                self.flag_complete.next = false;
                             }
                             // Rule 3 exception a ends: a dominant bit during the passive flag.
                             if (self.rx_bit.val() == false) & self.ack_penalty.q.val() {
@@ -650,8 +654,9 @@ impl Logic for Protocol {
                             self.faults.tec_plus_8.next = self.transmitter.q.val();
                             self.faults.rec_plus_8.next = self.transmitter.q.val() == false;
                             self.next_count.next = 0.into();
+                            self.flag_complete.next = false;
                         }
-                        if self.next_count.val() == self.flag_bits.val() {
+                        if self.flag_complete.val() {
                             self.next_field.next = ProtocolState::Delimiter;
                             self.next_count.next = 0.into();
                             self.first_after_flag.d.next = true;

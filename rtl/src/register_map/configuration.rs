@@ -1,0 +1,128 @@
+//! Configuration registers: the bus timing registers BTR0 and BTR1, the output control register OCR
+//! and the error warning limit EWLR (PeliCAN), with their host access.
+//!
+//! Ports in: the host bus `addr`, `we`, `wdata` and the map state `pelican`, `reset_mode`, straight
+//! from the controller's ports and the mode flip-flops. Out: the bit timing fields the core runs on
+//! (`brp`, `sjw`, `tseg1`, `tseg2`, `sam`), `ewlr`, and `host_selected`/`host_data` (the register
+//! at `addr`, combinational from `addr` and the registers; the read side registers it). Acts on the
+//! rising edge of `clock`; `reset` is synchronous, active high (all 0, EWLR 96).
+//!
+//! Rules (SJA1000 data sheet): all four are written in reset mode only; EWLR exists in PeliCAN only.
+//! BTR0 = SJW (7..6) and BRP (5..0); BTR1 = SAM (7), TSEG2 (6..4), TSEG1 (3..0).
+
+use rust_hdl::prelude::*;
+
+use crate::activity::{Activity, ActivityBlock, BlockDefault};
+use crate::registers::{pelican, DEFAULT_EWLR};
+
+/// BTR0, BTR1, OCR and EWLR.
+#[derive(ActivityBlock, BlockDefault)]
+pub struct Configuration {
+    /// Simulation bookkeeping (see `crate::activity`); not hardware.
+    activity: Activity,
+    /// Controller clock.
+    pub clock: Signal<In, Clock>,
+    /// Synchronous reset, active high.
+    pub reset: Signal<In, Bit>,
+    /// Register address.
+    pub addr: Signal<In, Bits<8>>,
+    /// Write strobe.
+    pub we: Signal<In, Bit>,
+    /// Write data.
+    pub wdata: Signal<In, Bits<8>>,
+    /// The PeliCAN map (CDR.7).
+    pub pelican: Signal<In, Bit>,
+    /// Reset mode.
+    pub reset_mode: Signal<In, Bit>,
+    /// BTR0.5..0: baud rate prescaler.
+    pub brp: Signal<Out, Bits<6>>,
+    /// BTR0.7..6: synchronisation jump width.
+    pub sjw: Signal<Out, Bits<2>>,
+    /// BTR1.3..0: time segment 1.
+    pub tseg1: Signal<Out, Bits<4>>,
+    /// BTR1.6..4: time segment 2.
+    pub tseg2: Signal<Out, Bits<3>>,
+    /// BTR1.7: triple sampling.
+    pub sam: Signal<Out, Bit>,
+    /// EWLR.
+    pub ewlr: Signal<Out, Bits<8>>,
+    /// `addr` is one of these registers.
+    pub host_selected: Signal<Out, Bit>,
+    /// The register at `addr`, with `host_selected`.
+    pub host_data: Signal<Out, Bits<8>>,
+    btr0: DFF<Bits<8>>,
+    btr1: DFF<Bits<8>>,
+    // SJW and TSEG2 are kept apart too: slicing them out of BTR0/BTR1 on every simulated cycle is
+    // costly in rust-hdl, and a registered SJW keeps the resynchronisation path short.
+    sjw_reg: DFF<Bits<2>>,
+    tseg2_reg: DFF<Bits<3>>,
+    ocr: DFF<Bits<8>>,
+    ewlr_reg: DFF<Bits<8>>,
+    #[constant(u64::from(pelican::BTR0))]
+    btr0_address: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::BTR1))]
+    btr1_address: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::OCR))]
+    ocr_address: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::EWLR))]
+    ewlr_address: Constant<Bits<8>>,
+    #[constant(u64::from(DEFAULT_EWLR))]
+    default_ewlr: Constant<Bits<8>>,
+}
+
+impl Logic for Configuration {
+    #[hdl_gen]
+    fn update(&mut self) {
+        dff_setup!(self, clock, btr0, btr1, sjw_reg, tseg2_reg, ocr, ewlr_reg);
+        self.brp.next = bit_cast::<6, 8>(self.btr0.q.val());
+        self.sjw.next = self.sjw_reg.q.val();
+        self.tseg1.next = bit_cast::<4, 8>(self.btr1.q.val());
+        self.tseg2.next = self.tseg2_reg.q.val();
+        self.sam.next = self.btr1.q.val().get_bit(7);
+        self.ewlr.next = self.ewlr_reg.q.val();
+
+        if self.we.val() & self.reset_mode.val() {
+            if self.addr.val() == self.btr0_address.val() {
+                self.btr0.d.next = self.wdata.val();
+                self.sjw_reg.d.next = self.wdata.val().get_bits::<2>(6);
+            }
+            if self.addr.val() == self.btr1_address.val() {
+                self.btr1.d.next = self.wdata.val();
+                self.tseg2_reg.d.next = self.wdata.val().get_bits::<3>(4);
+            }
+            if self.addr.val() == self.ocr_address.val() {
+                self.ocr.d.next = self.wdata.val();
+            }
+            if self.pelican.val() & (self.addr.val() == self.ewlr_address.val()) {
+                self.ewlr_reg.d.next = self.wdata.val();
+            }
+        }
+
+        self.host_selected.next = false;
+        self.host_data.next = self.btr0.q.val();
+        if self.addr.val() == self.btr0_address.val() {
+            self.host_selected.next = true;
+        }
+        if self.addr.val() == self.btr1_address.val() {
+            self.host_selected.next = true;
+            self.host_data.next = self.btr1.q.val();
+        }
+        if self.addr.val() == self.ocr_address.val() {
+            self.host_selected.next = true;
+            self.host_data.next = self.ocr.q.val();
+        }
+        if self.pelican.val() & (self.addr.val() == self.ewlr_address.val()) {
+            self.host_selected.next = true;
+            self.host_data.next = self.ewlr_reg.q.val();
+        }
+
+        if self.reset.val() {
+            self.btr0.d.next = 0.into();
+            self.btr1.d.next = 0.into();
+            self.sjw_reg.d.next = 0.into();
+            self.tseg2_reg.d.next = 0.into();
+            self.ocr.d.next = 0.into();
+            self.ewlr_reg.d.next = self.default_ewlr.val();
+        }
+    }
+}
