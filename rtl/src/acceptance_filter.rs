@@ -7,15 +7,15 @@
 //! combinational from `addr` and the registers; the controller registers them into its read data.
 //!
 //! Ports in: the host bus (`addr`, `we`, `wdata`, and `reset_mode`), the filter configuration
-//! (`pelican`: PeliCAN mode, 0 = BasicCAN; `single_filter`: MOD.AFM) and the received-frame stream of the protocol engine: `rx_header` (one-clock strobe
-//! when the header is complete) with `rx_id` (11-bit standard or 29-bit extended identifier,
-//! right-aligned), `rx_ide` and `rx_rtr`, then one `rx_byte_strobe` per data byte with `rx_byte` and
-//! `rx_byte_index` (0 = data byte 1). Out: `accept`, valid from the clock after the last strobe of a
-//! frame (its header or its last data byte) until the next `rx_header`; it is combinational from the
+//! (`pelican`: PeliCAN mode, 0 = BasicCAN; `single_filter`: MOD.AFM) and the received-frame stream of the protocol engine `rx_frame`: `header` (one-clock strobe
+//! when the header is complete) with `id` (11-bit standard or 29-bit extended identifier,
+//! right-aligned), `ide` and `rtr`, then one `strobe` per data byte with `data` and `index` (0 = data
+//! byte 1). Out: `accept`, valid from the clock after the last strobe of a frame (its header or its
+//! last data byte) until the next `header`; it is combinational from the
 //! registers and the two mode inputs. Acts on the rising edge of `clock`; `reset` is synchronous,
 //! active high, and leaves `accept` low in every mode (no frame seen).
 //!
-//! The filter is evaluated incrementally, so no byte of the frame is stored: at `rx_header` the
+//! The filter is evaluated incrementally, so no byte of the frame is stored: at `header` the
 //! identifier/RTR part of every filter (single, dual filter 1, dual filter 2, BasicCAN) is compared
 //! and the data flags are set to "match" (a missing data byte, e.g. of a remote frame or DLC < 2,
 //! matches); data bytes 1 and 2 of a standard frame then update the data flags. A bit matches when it
@@ -40,6 +40,7 @@
 use rust_hdl::prelude::*;
 
 use crate::activity::{Activity, ActivityBlock, BlockDefault};
+use crate::bsp::received_frame::ReceivedFrameIn;
 use crate::registers::{basic, pelican};
 
 // The PeliCAN ACR0..AMR3 block is eight aligned addresses: `addr >> 3` selects it, `addr & 7` is
@@ -68,20 +69,9 @@ pub struct AcceptanceFilter {
     pub we: Signal<In, Bit>,
     /// Host write data.
     pub wdata: Signal<In, Bits<8>>,
-    /// One-clock strobe: the header of a received frame is complete (`rx_id`, `rx_ide`, `rx_rtr` valid).
-    pub rx_header: Signal<In, Bit>,
-    /// Received identifier, right-aligned: 11 bits (standard) or 29 bits (extended).
-    pub rx_id: Signal<In, Bits<29>>,
-    /// Received frame is extended (IDE recessive).
-    pub rx_ide: Signal<In, Bit>,
-    /// Received frame is a remote frame.
-    pub rx_rtr: Signal<In, Bit>,
-    /// One-clock strobe: a data byte was received (`rx_byte`, `rx_byte_index` valid).
-    pub rx_byte_strobe: Signal<In, Bit>,
-    /// The received data byte.
-    pub rx_byte: Signal<In, Bits<8>>,
-    /// Index of the received data byte (0 = data byte 1).
-    pub rx_byte_index: Signal<In, Bits<3>>,
+    /// The received-frame stream (`crate::bsp::received_frame`; the DLC is not filtered).
+    #[interface]
+    pub rx_frame: ReceivedFrameIn,
     /// The frame passes the filter of the current mode.
     pub accept: Signal<Out, Bit>,
     /// `addr` is one of this block's registers in the current mode (PeliCAN ACR0..AMR3 in reset
@@ -282,19 +272,21 @@ impl Logic for AcceptanceFilter {
         }
 
         // Header: compare identifier and RTR with every filter; missing data bytes match.
-        if self.rx_header.val() {
-            self.frame_byte0.next = self.rx_id.val().get_bits::<8>(3);
-            self.frame_byte1.next = (bit_cast::<8, 3>(self.rx_id.val().get_bits::<3>(0)) << 5)
-                | (bit_cast::<8, 1>(self.rx_rtr.val().into()) << 4);
+        if self.rx_frame.header.val() {
+            self.frame_byte0.next = self.rx_frame.id.val().get_bits::<8>(3);
+            self.frame_byte1.next = (bit_cast::<8, 3>(self.rx_frame.id.val().get_bits::<3>(0))
+                << 5)
+                | (bit_cast::<8, 1>(self.rx_frame.rtr.val().into()) << 4);
             self.byte1_care.next = self.standard_id_care.val();
-            if self.rx_ide.val() {
-                self.frame_byte0.next = self.rx_id.val().get_bits::<8>(21);
-                self.frame_byte1.next = self.rx_id.val().get_bits::<8>(13);
+            if self.rx_frame.ide.val() {
+                self.frame_byte0.next = self.rx_frame.id.val().get_bits::<8>(21);
+                self.frame_byte1.next = self.rx_frame.id.val().get_bits::<8>(13);
                 self.byte1_care.next = self.ones.val();
             }
-            self.frame_byte2.next = self.rx_id.val().get_bits::<8>(5);
-            self.frame_byte3.next = (bit_cast::<8, 5>(self.rx_id.val().get_bits::<5>(0)) << 3)
-                | (bit_cast::<8, 1>(self.rx_rtr.val().into()) << 2);
+            self.frame_byte2.next = self.rx_frame.id.val().get_bits::<8>(5);
+            self.frame_byte3.next = (bit_cast::<8, 5>(self.rx_frame.id.val().get_bits::<5>(0))
+                << 3)
+                | (bit_cast::<8, 1>(self.rx_frame.rtr.val().into()) << 2);
             self.mismatch0.next = (self.frame_byte0.val() ^ self.acr0.q.val())
                 & (self.amr0.q.val() ^ self.ones.val());
             self.mismatch1.next = (self.frame_byte1.val() ^ self.acr1.q.val())
@@ -317,18 +309,18 @@ impl Logic for AcceptanceFilter {
                 (self.mismatch0_filter2.val() == 0) & (self.mismatch1_filter2.val() == 0);
             self.single_id_match.d.next = (self.mismatch0.val() == 0)
                 & (self.mismatch1.val() == 0)
-                & ((self.rx_ide.val() == false)
+                & ((self.rx_frame.ide.val() == false)
                     | ((self.mismatch2.val() == 0) & (self.mismatch3.val() == 0)));
             self.single_data1_match.d.next = true;
             self.single_data2_match.d.next = true;
             self.dual1_data_match.d.next = true;
-            self.extended_frame.d.next = self.rx_ide.val();
+            self.extended_frame.d.next = self.rx_frame.ide.val();
         }
 
         // Data bytes 1 and 2 of a standard frame.
-        if self.rx_byte_strobe.val() & (self.extended_frame.q.val() == false) {
-            if self.rx_byte_index.val() == 0 {
-                self.data_mismatch_single.next = (self.rx_byte.val() ^ self.acr2.q.val())
+        if self.rx_frame.strobe.val() & (self.extended_frame.q.val() == false) {
+            if self.rx_frame.index.val() == 0 {
+                self.data_mismatch_single.next = (self.rx_frame.data.val() ^ self.acr2.q.val())
                     & (self.amr2.q.val() ^ self.ones.val());
                 self.dual_data_code.next = (bit_cast::<8, 4>(self.acr1.q.val().get_bits::<4>(0))
                     << 4)
@@ -336,13 +328,14 @@ impl Logic for AcceptanceFilter {
                 self.dual_data_mask.next = (bit_cast::<8, 4>(self.amr1.q.val().get_bits::<4>(0))
                     << 4)
                     | bit_cast::<8, 4>(self.amr3.q.val().get_bits::<4>(0));
-                self.data_mismatch_dual.next = (self.rx_byte.val() ^ self.dual_data_code.val())
+                self.data_mismatch_dual.next = (self.rx_frame.data.val()
+                    ^ self.dual_data_code.val())
                     & (self.dual_data_mask.val() ^ self.ones.val());
                 self.single_data1_match.d.next = self.data_mismatch_single.val() == 0;
                 self.dual1_data_match.d.next = self.data_mismatch_dual.val() == 0;
             }
-            if self.rx_byte_index.val() == 1 {
-                self.data_mismatch_single.next = (self.rx_byte.val() ^ self.acr3.q.val())
+            if self.rx_frame.index.val() == 1 {
+                self.data_mismatch_single.next = (self.rx_frame.data.val() ^ self.acr3.q.val())
                     & (self.amr3.q.val() ^ self.ones.val());
                 self.single_data2_match.d.next = self.data_mismatch_single.val() == 0;
             }

@@ -23,6 +23,7 @@ use rust_hdl::prelude::*;
 use crate::activity::{Activity, ActivityBlock, BlockDefault};
 
 use crate::acceptance_filter::AcceptanceFilter;
+use crate::bsp::received_frame::ReceivedFrame;
 use crate::can_core::CanCore;
 use crate::register_map::configuration::Configuration;
 use crate::register_map::host_decode::HostDecode;
@@ -287,18 +288,11 @@ impl Logic for CanController {
         self.fifo.reset.next = self.reset.val();
         self.fifo.store.next = (self.core.rx_valid.val() | self.own_frame_received.val())
             & self.filter.accept.val()
-            & (self.pelican_mode.val() | (self.core.rx_ide.val() == false));
+            & (self.pelican_mode.val() | (self.core.rx_frame.ide.val() == false));
         self.fifo.release_head.next = self.decode.cmd_release.val();
         self.fifo.clear_overrun.next = self.decode.cmd_clear_overrun.val();
         self.fifo.clear.next = self.reset_mode.val();
-        self.fifo.header.next = self.core.rx_header.val();
-        self.fifo.id.next = self.core.rx_id.val();
-        self.fifo.ide.next = self.core.rx_ide.val();
-        self.fifo.rtr.next = self.core.rx_rtr.val();
-        self.fifo.dlc.next = self.core.rx_dlc.val();
-        self.fifo.byte_strobe.next = self.core.rx_byte_strobe.val();
-        self.fifo.data_byte.next = self.core.rx_byte.val();
-        self.fifo.byte_index.next = self.core.rx_byte_index.val();
+        ReceivedFrame::join(&mut self.core.rx_frame, &mut self.fifo.rx_frame);
         self.fifo.host_read.next = self.re.val() & self.read.fifo_read.val();
         self.fifo.host_write.next =
             self.we.val() & self.reset_mode.val() & self.decode.in_rx_ram.val();
@@ -313,13 +307,7 @@ impl Logic for CanController {
         self.filter.addr.next = self.addr.val();
         self.filter.we.next = self.we.val();
         self.filter.wdata.next = self.wdata.val();
-        self.filter.rx_header.next = self.core.rx_header.val();
-        self.filter.rx_id.next = self.core.rx_id.val();
-        self.filter.rx_ide.next = self.core.rx_ide.val();
-        self.filter.rx_rtr.next = self.core.rx_rtr.val();
-        self.filter.rx_byte_strobe.next = self.core.rx_byte_strobe.val();
-        self.filter.rx_byte.next = self.core.rx_byte.val();
-        self.filter.rx_byte_index.next = self.core.rx_byte_index.val();
+        ReceivedFrame::join(&mut self.core.rx_frame, &mut self.filter.rx_frame);
 
         // ---- The core.
         self.core.reset.next = self.reset.val();

@@ -12,6 +12,7 @@ use crate::activity::{Activity, ActivityBlock};
 
 use crate::bit_timing::{BitTiming, Segment};
 use crate::bsp::protocol::{Protocol, ProtocolState};
+use crate::bsp::received_frame::ReceivedFrame;
 
 /// Bit timing logic + bit stream processor.
 #[derive(ActivityBlock, Default)]
@@ -65,22 +66,9 @@ pub struct CanCore {
     pub tx_done: Signal<Out, Bit>,
     /// With `tx_done`: the frame was sent.
     pub tx_success: Signal<Out, Bit>,
-    /// Received identifier.
-    pub rx_id: Signal<Out, Bits<29>>,
-    /// Received IDE.
-    pub rx_ide: Signal<Out, Bit>,
-    /// Received RTR.
-    pub rx_rtr: Signal<Out, Bit>,
-    /// Received DLC.
-    pub rx_dlc: Signal<Out, Bits<4>>,
-    /// Received header complete (one clock).
-    pub rx_header: Signal<Out, Bit>,
-    /// Received data byte.
-    pub rx_byte: Signal<Out, Bits<8>>,
-    /// Index of `rx_byte`.
-    pub rx_byte_index: Signal<Out, Bits<3>>,
-    /// One clock per received data byte.
-    pub rx_byte_strobe: Signal<Out, Bit>,
+    /// The received frame: header, then data bytes (`crate::bsp::received_frame`).
+    #[interface]
+    pub rx_frame: ReceivedFrame,
     /// The frame is valid for receivers (one clock).
     pub rx_valid: Signal<Out, Bit>,
     /// A bus error was detected (one clock).
@@ -145,14 +133,7 @@ impl Logic for CanCore {
         self.tx_addr.next = self.protocol.tx_addr.val();
         self.tx_done.next = self.protocol.tx_done.val();
         self.tx_success.next = self.protocol.tx_success.val();
-        self.rx_id.next = self.protocol.rx_id.val();
-        self.rx_ide.next = self.protocol.rx_ide.val();
-        self.rx_rtr.next = self.protocol.rx_rtr.val();
-        self.rx_dlc.next = self.protocol.rx_dlc.val();
-        self.rx_header.next = self.protocol.rx_header.val();
-        self.rx_byte.next = self.protocol.rx_byte.val();
-        self.rx_byte_index.next = self.protocol.rx_byte_index.val();
-        self.rx_byte_strobe.next = self.protocol.rx_byte_strobe.val();
+        ReceivedFrame::link(&mut self.rx_frame, &mut self.protocol.rx_frame);
         self.rx_valid.next = self.protocol.rx_valid.val();
         self.bus_error.next = self.protocol.bus_error.val();
         self.ecc.next = self.protocol.ecc.val();

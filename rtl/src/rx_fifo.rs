@@ -1,8 +1,8 @@
 //! The receive FIFO: 64 bytes in one RAM block holding received messages circularly, each in the
 //! SJA1000 frame-buffer layout (frame information, 2 or 4 identifier bytes, the data bytes).
 //!
-//! Ports in: the received-frame stream of the protocol engine (`header` strobe with `id`, `ide`,
-//! `rtr`, `dlc` held from then on; `byte_strobe` with `data_byte` and `byte_index`), `store` (the frame is
+//! Ports in: the received-frame stream of the protocol engine (`rx_frame`: the `header` strobe with
+//! `id`, `ide`, `rtr`, `dlc` held from then on; `strobe` with `data` and `index`), `store` (the frame is
 //! valid and accepted: keep it), the host commands `release_head` (RRB) and `clear_overrun` (CDO), `clear`
 //! (reset mode: empty), `load_start` + `start_address` (RBSA write), and the host port
 //! `host_read` / `host_write` at `host_address` (writes only in reset mode, when no frame is written). Out: `read_data` (the RAM byte, registered: valid the cycle after
@@ -16,6 +16,8 @@
 //! cycle (a host write cycle, so the port is free) and is valid from the cycle after.
 
 use rust_hdl::prelude::*;
+
+use crate::bsp::received_frame::ReceivedFrameIn;
 
 use crate::activity::{Activity, ActivityBlock, BlockDefault};
 
@@ -37,22 +39,9 @@ pub struct RxFifo {
     pub load_start: Signal<In, Bit>,
     /// Value for `load_start`.
     pub start_address: Signal<In, Bits<6>>,
-    /// A received frame's header is complete (one clock).
-    pub header: Signal<In, Bit>,
-    /// Received identifier (11 or 29 bits, right-aligned).
-    pub id: Signal<In, Bits<29>>,
-    /// Received IDE.
-    pub ide: Signal<In, Bit>,
-    /// Received RTR.
-    pub rtr: Signal<In, Bit>,
-    /// Received DLC.
-    pub dlc: Signal<In, Bits<4>>,
-    /// A received data byte (one clock).
-    pub byte_strobe: Signal<In, Bit>,
-    /// The data byte.
-    pub data_byte: Signal<In, Bits<8>>,
-    /// Its index (0 = data byte 1).
-    pub byte_index: Signal<In, Bits<3>>,
+    /// The received-frame stream (`crate::bsp::received_frame`).
+    #[interface]
+    pub rx_frame: ReceivedFrameIn,
     /// Keep the frame received (one clock at its validity point, if accepted).
     pub store: Signal<In, Bit>,
     /// Free the head message (CMR.RRB).
@@ -171,18 +160,18 @@ impl Logic for RxFifo {
         if self.head_info_now.val().get_bit(6) {
             self.head_length.next = self.head_header_bytes.val();
         }
-        self.new_info.next = bit_cast::<8, 4>(self.dlc.val())
-            .replace_bit(6, self.rtr.val())
-            .replace_bit(7, self.ide.val());
+        self.new_info.next = bit_cast::<8, 4>(self.rx_frame.dlc.val())
+            .replace_bit(6, self.rx_frame.rtr.val())
+            .replace_bit(7, self.rx_frame.ide.val());
         self.header_bytes.next = 3.into();
-        if self.ide.val() {
+        if self.rx_frame.ide.val() {
             self.header_bytes.next = 5.into();
         }
-        self.new_length.next = self.header_bytes.val() + self.dlc.val();
-        if self.dlc.val().get_bit(3) {
+        self.new_length.next = self.header_bytes.val() + self.rx_frame.dlc.val();
+        if self.rx_frame.dlc.val().get_bit(3) {
             self.new_length.next = self.header_bytes.val() + 8;
         }
-        if self.rtr.val() {
+        if self.rx_frame.rtr.val() {
             self.new_length.next = self.header_bytes.val();
         }
 
@@ -191,10 +180,10 @@ impl Logic for RxFifo {
         self.offset.next = bit_cast::<4, 3>(self.header_step.q.val());
         self.write_byte.next = self.info.q.val();
         self.header_last.next = 2.into();
-        if self.ide.val() {
+        if self.rx_frame.ide.val() {
             self.header_last.next = 4.into();
         }
-        if self.header.val() {
+        if self.rx_frame.header.val() {
             self.info.d.next = self.new_info.val();
             self.length.d.next = self.new_length.val();
             self.header_step.d.next = 0.into();
@@ -207,48 +196,49 @@ impl Logic for RxFifo {
             if self.header_step.q.val() == self.header_last.val() {
                 self.writing_header.d.next = false;
             }
-            if self.ide.val() {
+            if self.rx_frame.ide.val() {
                 if self.header_step.q.val() == 1 {
-                    self.write_byte.next = self.id.val().get_bits::<8>(21);
+                    self.write_byte.next = self.rx_frame.id.val().get_bits::<8>(21);
                 }
                 if self.header_step.q.val() == 2 {
-                    self.write_byte.next = self.id.val().get_bits::<8>(13);
+                    self.write_byte.next = self.rx_frame.id.val().get_bits::<8>(13);
                 }
                 if self.header_step.q.val() == 3 {
-                    self.write_byte.next = self.id.val().get_bits::<8>(5);
+                    self.write_byte.next = self.rx_frame.id.val().get_bits::<8>(5);
                 }
                 if self.header_step.q.val() == 4 {
                     // ID.4..0 in bits 7..3, the RTR copy in bit 2.
                     self.write_byte.next = self
                         .zero_byte
                         .val()
-                        .replace_bit(7, self.id.val().get_bit(4))
-                        .replace_bit(6, self.id.val().get_bit(3))
-                        .replace_bit(5, self.id.val().get_bit(2))
-                        .replace_bit(4, self.id.val().get_bit(1))
-                        .replace_bit(3, self.id.val().get_bit(0))
-                        .replace_bit(2, self.rtr.val());
+                        .replace_bit(7, self.rx_frame.id.val().get_bit(4))
+                        .replace_bit(6, self.rx_frame.id.val().get_bit(3))
+                        .replace_bit(5, self.rx_frame.id.val().get_bit(2))
+                        .replace_bit(4, self.rx_frame.id.val().get_bit(1))
+                        .replace_bit(3, self.rx_frame.id.val().get_bit(0))
+                        .replace_bit(2, self.rx_frame.rtr.val());
                 }
             } else {
                 if self.header_step.q.val() == 1 {
-                    self.write_byte.next = self.id.val().get_bits::<8>(3);
+                    self.write_byte.next = self.rx_frame.id.val().get_bits::<8>(3);
                 }
                 if self.header_step.q.val() == 2 {
                     // ID.2..0 in bits 7..5, the RTR copy in bit 4.
                     self.write_byte.next = self
                         .zero_byte
                         .val()
-                        .replace_bit(7, self.id.val().get_bit(2))
-                        .replace_bit(6, self.id.val().get_bit(1))
-                        .replace_bit(5, self.id.val().get_bit(0))
-                        .replace_bit(4, self.rtr.val());
+                        .replace_bit(7, self.rx_frame.id.val().get_bit(2))
+                        .replace_bit(6, self.rx_frame.id.val().get_bit(1))
+                        .replace_bit(5, self.rx_frame.id.val().get_bit(0))
+                        .replace_bit(4, self.rx_frame.rtr.val());
                 }
             }
         }
-        if self.byte_strobe.val() {
+        if self.rx_frame.strobe.val() {
             self.write_now.next = true;
-            self.offset.next = self.header_bytes.val() + bit_cast::<4, 3>(self.byte_index.val());
-            self.write_byte.next = self.data_byte.val();
+            self.offset.next =
+                self.header_bytes.val() + bit_cast::<4, 3>(self.rx_frame.index.val());
+            self.write_byte.next = self.rx_frame.data.val();
         }
         // A byte fits if it lands before the stored messages: used + offset < 64.
         self.room_needed.next = self.used.q.val() + bit_cast::<7, 4>(self.offset.val());

@@ -133,13 +133,13 @@ impl Bench {
         f.addr.next = u64::from(i.addr).into();
         f.we.next = i.we;
         f.wdata.next = u64::from(i.wdata).into();
-        f.rx_header.next = i.rx_header;
-        f.rx_id.next = u64::from(i.rx_id).into();
-        f.rx_ide.next = i.rx_ide;
-        f.rx_rtr.next = i.rx_rtr;
-        f.rx_byte_strobe.next = i.rx_byte_strobe;
-        f.rx_byte.next = u64::from(i.rx_byte).into();
-        f.rx_byte_index.next = u64::from(i.rx_byte_index).into();
+        f.rx_frame.header.next = i.rx_header;
+        f.rx_frame.id.next = u64::from(i.rx_id).into();
+        f.rx_frame.ide.next = i.rx_ide;
+        f.rx_frame.rtr.next = i.rx_rtr;
+        f.rx_frame.strobe.next = i.rx_byte_strobe;
+        f.rx_frame.data.next = u64::from(i.rx_byte).into();
+        f.rx_frame.index.next = u64::from(i.rx_byte_index).into();
         clock_cycle(&mut self.filter, |f| &mut f.clock, "acceptance filter");
         let accept = self.accept();
         if let Some(trace) = &mut self.trace {
@@ -836,8 +836,8 @@ fn scratch_dir(name: &str) -> PathBuf {
 fn generated_verilog_compiles() {
     let vlog = verilog();
     for port in [
-        "input wire  [28:0] rx_id;",
-        "input wire  [2:0] rx_byte_index;",
+        "input wire  [28:0] rx_frame$id;",
+        "input wire  [2:0] rx_frame$index;",
         "output reg  accept;",
     ] {
         assert!(vlog.contains(port), "missing `{port}`");
@@ -880,8 +880,9 @@ fn verilog_testbench(trace: &[(Inputs, String)]) -> String {
          wire accept, host_selected;\n\
          wire [7:0] host_data;\n\
          top dut(.clock(clock), .reset(reset), .pelican(pelican), .single_filter(single_filter),\n\
-         .reset_mode(reset_mode), .addr(addr), .we(we), .wdata(wdata), .rx_header(rx_header), .rx_id(rx_id), .rx_ide(rx_ide), .rx_rtr(rx_rtr),\n\
-         .rx_byte_strobe(rx_byte_strobe), .rx_byte(rx_byte), .rx_byte_index(rx_byte_index),\n\
+         .reset_mode(reset_mode), .addr(addr), .we(we), .wdata(wdata), .rx_frame$header(rx_header),\n\
+         .rx_frame$id(rx_id), .rx_frame$ide(rx_ide), .rx_frame$rtr(rx_rtr), .rx_frame$dlc(4'd0),\n\
+         .rx_frame$strobe(rx_byte_strobe), .rx_frame$data(rx_byte), .rx_frame$index(rx_byte_index),\n\
          .accept(accept), .host_selected(host_selected), .host_data(host_data));\n\
          initial begin\n",
     );

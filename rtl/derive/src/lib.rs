@@ -14,6 +14,10 @@
 //! `Constant<_>`, `DFF<_>` (registers), `Activity` (the bookkeeping, exactly one) and anything
 //! else (a child block implementing `rtl::activity::Child`). A block without a clock input is
 //! purely combinational (no registers, no children): its kernel runs when an input changed.
+//!
+//! A field marked `#[interface]` is a port group (a rust-hdl `LogicInterface`: a struct of `In`
+//! and `Out` signals, declared once and connected with one `link`/`join` in a kernel): its signals
+//! are latched before the kernel like inputs and after it like outputs.
 
 use proc_macro::TokenStream;
 use proc_macro2::{Ident, TokenStream as TokenStream2};
@@ -31,6 +35,7 @@ enum Role {
     Register,
     Activity,
     Child,
+    Interface,
 }
 
 /// The last path segment of a type and its generic type arguments.
@@ -79,7 +84,7 @@ fn role(ty: &Type) -> Result<Role, String> {
 }
 
 /// Derives rust-hdl's `Block` with an activity-driven `update_all`, and `rtl::activity::Child`.
-#[proc_macro_derive(ActivityBlock)]
+#[proc_macro_derive(ActivityBlock, attributes(interface))]
 pub fn derive_activity_block(input: TokenStream) -> TokenStream {
     let input = parse_macro_input!(input as DeriveInput);
     match activity_block(&input) {
@@ -106,10 +111,15 @@ fn activity_block(input: &DeriveInput) -> syn::Result<TokenStream2> {
     let mut outputs = Vec::new();
     let mut registers = Vec::new();
     let mut children = Vec::new();
+    let mut interfaces = Vec::new();
     let mut activity: Option<&Ident> = None;
     for field in &fields.named {
         let ident = field.ident.as_ref().expect("named field");
-        let role = role(&field.ty).map_err(|m| Error::new_spanned(&field.ty, m))?;
+        let role = if field.attrs.iter().any(|a| a.path().is_ident("interface")) {
+            Role::Interface
+        } else {
+            role(&field.ty).map_err(|m| Error::new_spanned(&field.ty, m))?
+        };
         if !matches!(role, Role::Activity) {
             visited.push(ident);
         }
@@ -135,6 +145,7 @@ fn activity_block(input: &DeriveInput) -> syn::Result<TokenStream2> {
                 activity = Some(ident);
             }
             Role::Child => children.push(ident),
+            Role::Interface => interfaces.push(ident),
         }
     }
     let Some(activity) = activity else {
@@ -226,6 +237,11 @@ fn activity_block(input: &DeriveInput) -> syn::Result<TokenStream2> {
                         ::rust_hdl::core::block::Block::update_all(&mut self.#inputs);
                         inputs_changed |= self.#inputs.changed;
                     )*
+                    #(
+                        ::rust_hdl::core::block::Block::update_all(&mut self.#interfaces);
+                        inputs_changed |=
+                            ::rust_hdl::core::block::Block::has_changed(&self.#interfaces);
+                    )*
                 }
                 #latch_clock
                 let exhaustive = self.#activity.exhaustive;
@@ -243,6 +259,11 @@ fn activity_block(input: &DeriveInput) -> syn::Result<TokenStream2> {
                     #(
                         ::rust_hdl::core::block::Block::update_all(&mut self.#outputs);
                         outputs_changed |= self.#outputs.changed;
+                    )*
+                    #(
+                        ::rust_hdl::core::block::Block::update_all(&mut self.#interfaces);
+                        outputs_changed |=
+                            ::rust_hdl::core::block::Block::has_changed(&self.#interfaces);
                     )*
                     #(
                         ::rust_hdl::core::block::Block::update_all(&mut self.#registers.d);

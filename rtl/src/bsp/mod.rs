@@ -12,6 +12,7 @@ pub mod crc15;
 pub mod error_capture;
 pub mod fault_confinement;
 pub mod protocol;
+pub mod received_frame;
 pub mod rx_assembler;
 pub mod stuffing;
 

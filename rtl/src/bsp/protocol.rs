@@ -9,9 +9,8 @@
 //! SJA1000 reset mode: tx recessive at once, the node waits for bus integration afterwards); the
 //! transmit request (`tx_request`, `tx_single_shot`, `tx_abort`), the frame to send as the SJA1000 TX buffer
 //! (`tx_info` = frame information byte, and `tx_data` = the byte at `tx_addr`).
-//! Out: `tx`, `sync_mode`/`tx_dominant` for the bit timing logic, the received frame (`rx_id`,
-//! `rx_ide`, `rx_rtr`, `rx_dlc` valid at `rx_header`, then every data byte with `rx_byte_strobe`, and
-//! `rx_valid` at the receiver's validity point, EOF bit 6), `tx_done`/`tx_success`, captures
+//! Out: `tx`, `sync_mode`/`tx_dominant` for the bit timing logic, the received frame (`rx_frame`:
+//! the header, then every data byte; `rx_valid` at the receiver's validity point, EOF bit 6), `tx_done`/`tx_success`, captures
 //! (`bus_error` + `ecc`, `arbitration_lost` + `alc`), counters and states.
 //!
 //! Timing: everything acts at `process_point` (the clock after the sample point) on `rx_bit`: the bit
@@ -35,6 +34,7 @@ use crate::bsp::bit_transmitter::BitTransmitter;
 use crate::bsp::crc15::Crc15;
 use crate::bsp::error_capture::ErrorCapture;
 use crate::bsp::fault_confinement::FaultConfinement;
+use crate::bsp::received_frame::ReceivedFrame;
 use crate::bsp::rx_assembler::RxAssembler;
 use crate::bsp::stuffing::BitStuffing;
 use crate::bsp::{
@@ -134,22 +134,9 @@ pub struct Protocol {
     pub tx_done: Signal<Out, Bit>,
     /// With `tx_done`: the frame was sent.
     pub tx_success: Signal<Out, Bit>,
-    /// Received identifier (11 or 29 bits, right-aligned).
-    pub rx_id: Signal<Out, Bits<29>>,
-    /// Received IDE.
-    pub rx_ide: Signal<Out, Bit>,
-    /// Received RTR.
-    pub rx_rtr: Signal<Out, Bit>,
-    /// Received DLC.
-    pub rx_dlc: Signal<Out, Bits<4>>,
-    /// One clock when the header (`rx_id`, `rx_ide`, `rx_rtr`, `rx_dlc`) of a frame is complete.
-    pub rx_header: Signal<Out, Bit>,
-    /// Received data byte, valid with `rx_byte_strobe`.
-    pub rx_byte: Signal<Out, Bits<8>>,
-    /// Index (0..7) of `rx_byte`.
-    pub rx_byte_index: Signal<Out, Bits<3>>,
-    /// One clock per received data byte.
-    pub rx_byte_strobe: Signal<Out, Bit>,
+    /// The received frame: the header, then every data byte (`crate::bsp::received_frame`).
+    #[interface]
+    pub rx_frame: ReceivedFrame,
     /// One clock when the frame on the bus is valid for receivers (EOF bit 6).
     pub rx_valid: Signal<Out, Bit>,
     /// One clock per detected bus error, with `ecc`.
@@ -314,14 +301,7 @@ impl Logic for Protocol {
         self.tx.next = self.sender.tx.val();
         self.tx_dominant.next = self.sender.tx.val() == false;
         self.tx_addr.next = self.sender.tx_addr.val();
-        self.rx_id.next = self.assembler.rx_id.val();
-        self.rx_ide.next = self.assembler.rx_ide.val();
-        self.rx_rtr.next = self.assembler.rx_rtr.val();
-        self.rx_dlc.next = self.assembler.rx_dlc.val();
-        self.rx_header.next = self.assembler.rx_header.val();
-        self.rx_byte.next = self.assembler.rx_byte.val();
-        self.rx_byte_index.next = self.assembler.rx_byte_index.val();
-        self.rx_byte_strobe.next = self.assembler.rx_byte_strobe.val();
+        ReceivedFrame::link(&mut self.rx_frame, &mut self.assembler.frame);
         self.rx_valid.next = self.valid_pulse.q.val();
         self.tx_done.next = self.done_pulse.q.val();
         self.tx_success.next = self.done_success.q.val();
@@ -379,9 +359,9 @@ impl Logic for Protocol {
             & (self.count.q.val() != self.ext_rtr_position.val());
         self.control_last.next = (self.count.q.val() == self.last_extended_dlc_bit.val())
             | ((self.count.q.val() == self.last_standard_dlc_bit.val())
-                & (self.assembler.rx_ide.val() == false));
-        self.no_data.next = self.assembler.rx_rtr.val()
-            | ((bit_cast::<3, 4>(self.assembler.rx_dlc.val()) == 0) & (self.rx_bit.val() == false));
+                & (self.rx_frame.ide.val() == false));
+        self.no_data.next = self.rx_frame.rtr.val()
+            | ((bit_cast::<3, 4>(self.rx_frame.dlc.val()) == 0) & (self.rx_bit.val() == false));
         self.data_last.next = (self.count.q.val().get_bits::<3>(0) == self.last_byte_bit.val())
             & (self.count.q.val().get_bits::<4>(3) == self.assembler.last_data_byte.val());
         self.disabled.next = (self.enable.val() == false) & (self.faults.bus_off.val() == false);
@@ -797,7 +777,7 @@ impl Logic for Protocol {
             !self.in_frame.q.val() & (self.next_field.val() != ProtocolState::Arbitration);
         self.capture.field.next = self.field.q.val();
         self.capture.count.next = self.count.q.val();
-        self.capture.ide.next = self.assembler.rx_ide.val();
+        self.capture.ide.next = self.rx_frame.ide.val();
         self.capture.flag_passive.next = self.flag_passive.q.val();
         self.capture.error.next = self.error_now.val() | self.flag_restarts.val();
         self.capture.error_type.next = self.error_type.val();

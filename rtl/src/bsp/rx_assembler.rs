@@ -5,15 +5,15 @@
 //! sequencer's `field` and `count`, its decisions `id_bit` (an identifier bit of the arbitration
 //! field) and `header_done` (the last DLC bit), and `start_frame` (the bit is a SOF: identifier and
 //! DLC start empty). Out, from registers only (the sequencer reads them back, and Verilator must see
-//! no loop through this block): `rx_id` (11 or 29 bits, right-aligned), `rx_ide`, `rx_rtr`, `rx_dlc`,
-//! valid from `rx_header` (one clock after the last DLC bit); each data byte as `rx_byte` with
-//! `rx_byte_index` and the one-clock `rx_byte_strobe`; `last_data_byte`, the index of the last data
-//! byte the DLC announces. Acts on the rising edge of `clock`.
+//! no loop through this block): the received-frame stream `frame` (`crate::bsp::received_frame`:
+//! the header one clock after the last DLC bit, then each data byte); `last_data_byte`, the index
+//! of the last data byte the DLC announces. Acts on the rising edge of `clock`.
 
 use rust_hdl::prelude::*;
 
 use crate::activity::{Activity, ActivityBlock, BlockDefault};
 use crate::bsp::protocol::ProtocolState;
+use crate::bsp::received_frame::ReceivedFrame;
 use crate::bsp::{EXT_RTR_POSITION, IDE_POSITION, SRR_RTR_POSITION};
 
 /// Received-frame assembler of the bit stream processor.
@@ -39,22 +39,9 @@ pub struct RxAssembler {
     pub id_bit: Signal<In, Bit>,
     /// The bit is the last DLC bit: the header is complete.
     pub header_done: Signal<In, Bit>,
-    /// Received identifier (11 or 29 bits, right-aligned).
-    pub rx_id: Signal<Out, Bits<29>>,
-    /// Received IDE.
-    pub rx_ide: Signal<Out, Bit>,
-    /// Received RTR.
-    pub rx_rtr: Signal<Out, Bit>,
-    /// Received DLC.
-    pub rx_dlc: Signal<Out, Bits<4>>,
-    /// One clock when the header (`rx_id`, `rx_ide`, `rx_rtr`, `rx_dlc`) is complete.
-    pub rx_header: Signal<Out, Bit>,
-    /// Received data byte, valid with `rx_byte_strobe`.
-    pub rx_byte: Signal<Out, Bits<8>>,
-    /// Index (0..7) of `rx_byte`.
-    pub rx_byte_index: Signal<Out, Bits<3>>,
-    /// One clock per received data byte.
-    pub rx_byte_strobe: Signal<Out, Bit>,
+    /// The received frame (header, then data bytes), from registers.
+    #[interface]
+    pub frame: ReceivedFrame,
     /// Index of the last data byte (DLC 9..15 count as 8; meaningless without data).
     pub last_data_byte: Signal<Out, Bits<4>>,
     id_reg: DFF<Bits<29>>,
@@ -97,14 +84,14 @@ impl Logic for RxAssembler {
             byte_index,
             last_data_byte_reg
         );
-        self.rx_id.next = self.id_reg.q.val();
-        self.rx_ide.next = self.ide_reg.q.val();
-        self.rx_rtr.next = self.rtr_reg.q.val();
-        self.rx_dlc.next = self.dlc_reg.q.val();
-        self.rx_header.next = self.header_pulse.q.val();
-        self.rx_byte.next = self.byte_reg.q.val();
-        self.rx_byte_index.next = self.byte_index.q.val();
-        self.rx_byte_strobe.next = self.byte_pulse.q.val();
+        self.frame.id.next = self.id_reg.q.val();
+        self.frame.ide.next = self.ide_reg.q.val();
+        self.frame.rtr.next = self.rtr_reg.q.val();
+        self.frame.dlc.next = self.dlc_reg.q.val();
+        self.frame.header.next = self.header_pulse.q.val();
+        self.frame.data.next = self.byte_reg.q.val();
+        self.frame.index.next = self.byte_index.q.val();
+        self.frame.strobe.next = self.byte_pulse.q.val();
         self.last_data_byte.next = self.last_data_byte_reg.q.val();
         self.header_pulse.d.next = false;
         self.byte_pulse.d.next = false;

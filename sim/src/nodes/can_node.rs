@@ -193,8 +193,8 @@ impl CanNode {
             self.events
                 .push((t_fs, NodeEvent::ArbitrationLost(u.alc.val().to_u8())));
         }
-        if u.rx_byte_strobe.val() {
-            self.rx_data[u.rx_byte_index.val().index()] = u.rx_byte.val().to_u8();
+        if u.rx_frame.strobe.val() {
+            self.rx_data[u.rx_frame.index.val().index()] = u.rx_frame.data.val().to_u8();
         }
         if u.rx_valid.val() {
             let frame = self.received_frame();
@@ -211,15 +211,15 @@ impl CanNode {
 
     fn received_frame(&self) -> Frame {
         let u = &self.uut;
-        let raw = u.rx_id.val().to_u32();
-        let id = if u.rx_ide.val() {
+        let raw = u.rx_frame.id.val().to_u32();
+        let id = if u.rx_frame.ide.val() {
             Id::extended(raw)
         } else {
             Id::standard(raw as u16)
         }
         .expect("the core delivers identifiers in range");
-        let dlc = u.rx_dlc.val().to_u8();
-        let frame = if u.rx_rtr.val() {
+        let dlc = u.rx_frame.dlc.val().to_u8();
+        let frame = if u.rx_frame.rtr.val() {
             Frame::remote(id, dlc)
         } else {
             Frame::data_with_dlc(id, dlc, &self.rx_data[..dlc.min(8) as usize])
