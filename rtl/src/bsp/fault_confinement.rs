@@ -4,7 +4,8 @@
 //!
 //! Ports in: counter events from the protocol engine (one-clock strobes at the process point:
 //! `rec_plus_1`, `rec_plus_8`, `tec_plus_8`, `tec_minus_1`, `rec_success`), `recovery_tick` (11
-//! consecutive recessive bits seen while bus-off and recovery allowed), host writes (`load_tec`/`load_rec` with
+//! consecutive recessive bits seen while bus-off and recovery allowed), `frozen` (listen-only or
+//! reset mode: the events but recovery are ignored), host writes (`load_tec`/`load_rec` with
 //! `load_value`). Out:
 //! `tec`, `rec`, `error_passive`, `bus_off`. Acts on the rising edge of `clock`.
 //!
@@ -40,6 +41,9 @@ pub struct FaultConfinement {
     pub rec_success: Signal<In, Bit>,
     /// One more sequence of 11 recessive bits during bus-off recovery.
     pub recovery_tick: Signal<In, Bit>,
+    /// Counters frozen (listen-only mode, reset mode): the events above but `recovery_tick` are
+    /// ignored.
+    pub frozen: Signal<In, Bit>,
     /// Load `load_value` into TEC (host write, SJA1000 TXERR in reset mode).
     pub load_tec: Signal<In, Bit>,
     /// Load `load_value` into REC (host write, SJA1000 RXERR in reset mode).
@@ -87,7 +91,7 @@ impl Logic for FaultConfinement {
                     self.tec_count.d.next = self.tec_count.q.val() - 1;
                 }
             }
-        } else {
+        } else if self.frozen.val() == false {
             // +8 passes 255 exactly from 248 on (bits 7..3 all set): no 9-bit sum needed.
             if self.tec_plus_8.val() {
                 if self.tec_count.q.val().get_bits::<5>(3) == 31 {

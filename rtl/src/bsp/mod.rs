@@ -1,9 +1,12 @@
 //! The bit stream processor (BSP): the CAN 2.0A/2.0B protocol engine.
 //!
-//! `protocol.rs` holds the frame sequencer, the top block of the BSP; it contains the stuff-run tracker
-//! (`stuffing.rs`), the CRC register (`crc15.rs`), fault confinement (`fault_confinement.rs`), the
-//! receive assembler (`rx_assembler.rs`), the bit transmitter with the transmit stream
-//! (`bit_transmitter.rs`) and the ECC/ALC capture (`error_capture.rs`).
+//! `protocol.rs` holds the frame sequencer, the top block of the BSP (the field, its bit count and
+//! the node's role); it contains the decisions of a bit (`frame_fields.rs` for the fields of a data
+//! or remote frame, `interframe.rs` for the rest, the error and overload flags and the outcome), the
+//! stuff-run tracker (`stuffing.rs`), the CRC register (`crc15.rs`), fault confinement
+//! (`fault_confinement.rs`), the receive assembler (`rx_assembler.rs`, with its port group
+//! `received_frame.rs`), the bit transmitter with the transmit stream (`bit_transmitter.rs`) and the
+//! ECC/ALC capture (`error_capture.rs`).
 //! Every block acts at the process point of the bit timing logic (the clock after the sample point);
 //! the transmit point only loads the bit prepared there.
 
@@ -11,6 +14,8 @@ pub mod bit_transmitter;
 pub mod crc15;
 pub mod error_capture;
 pub mod fault_confinement;
+pub mod frame_fields;
+pub mod interframe;
 pub mod protocol;
 pub mod received_frame;
 pub mod rx_assembler;
