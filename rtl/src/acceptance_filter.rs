@@ -6,7 +6,7 @@
 //! (the controller makes them read 0xFF in operating mode). `host_selected`/`host_data` are
 //! combinational from `addr` and the registers; the controller registers them into its read data.
 //!
-//! Ports in: the host bus (`addr`, `we`, `wdata`, and `reset_mode`), the filter configuration
+//! Ports in: the host bus (`host`: `addr`, `we`, `wdata`; and `reset_mode`), the filter configuration
 //! (`pelican`: PeliCAN mode, 0 = BasicCAN; `single_filter`: MOD.AFM) and the received-frame stream of the protocol engine `rx_frame`: `header` (one-clock strobe
 //! when the header is complete) with `id` (11-bit standard or 29-bit extended identifier,
 //! right-aligned), `ide` and `rtr`, then one `strobe` per data byte with `data` and `index` (0 = data
@@ -41,6 +41,7 @@ use rust_hdl::prelude::*;
 
 use crate::activity::{Activity, ActivityBlock, BlockDefault};
 use crate::bsp::received_frame::ReceivedFrameIn;
+use crate::register_map::HostWrite;
 use crate::registers::{basic, pelican};
 
 // The PeliCAN ACR0..AMR3 block is eight aligned addresses: `addr >> 3` selects it, `addr & 7` is
@@ -63,12 +64,9 @@ pub struct AcceptanceFilter {
     pub single_filter: Signal<In, Bit>,
     /// Reset mode (MOD.RM / CR.RR): ACR and AMR are written only then.
     pub reset_mode: Signal<In, Bit>,
-    /// Host register address.
-    pub addr: Signal<In, Bits<8>>,
-    /// Host write strobe, with `wdata`.
-    pub we: Signal<In, Bit>,
-    /// Host write data.
-    pub wdata: Signal<In, Bits<8>>,
+    /// The host bus: address, write strobe, write data.
+    #[interface]
+    pub host: HostWrite,
     /// The received-frame stream (`crate::bsp::received_frame`; the DLC is not filtered).
     #[interface]
     pub rx_frame: ReceivedFrameIn,
@@ -181,18 +179,19 @@ impl Logic for AcceptanceFilter {
         );
 
         // ---- Host access: the register at `addr`, and writes in reset mode.
-        self.index.next = bit_cast::<3, 8>(self.addr.val());
-        self.in_pelican_block.next = self.addr.val().get_bits::<5>(3) == self.pelican_block.val();
+        self.index.next = bit_cast::<3, 8>(self.host.addr.val());
+        self.in_pelican_block.next =
+            self.host.addr.val().get_bits::<5>(3) == self.pelican_block.val();
         self.host_selected.next =
             self.pelican.val() & self.reset_mode.val() & self.in_pelican_block.val();
         if self.pelican.val() == false {
             // BasicCAN ACR and AMR are ACR0 and AMR0.
             self.index.next = 0.into();
-            if self.addr.val() == self.basic_amr.val() {
+            if self.host.addr.val() == self.basic_amr.val() {
                 self.index.next = 4.into();
             }
-            self.host_selected.next = (self.addr.val() == self.basic_acr.val())
-                | (self.addr.val() == self.basic_amr.val());
+            self.host_selected.next = (self.host.addr.val() == self.basic_acr.val())
+                | (self.host.addr.val() == self.basic_amr.val());
         }
         self.host_data.next = self.acr0.q.val();
         if self.index.val() == 1 {
@@ -216,30 +215,30 @@ impl Logic for AcceptanceFilter {
         if self.index.val() == 7 {
             self.host_data.next = self.amr3.q.val();
         }
-        if self.we.val() & self.reset_mode.val() & self.host_selected.val() {
+        if self.host.we.val() & self.reset_mode.val() & self.host_selected.val() {
             if self.index.val() == 0 {
-                self.acr0.d.next = self.wdata.val();
+                self.acr0.d.next = self.host.wdata.val();
             }
             if self.index.val() == 1 {
-                self.acr1.d.next = self.wdata.val();
+                self.acr1.d.next = self.host.wdata.val();
             }
             if self.index.val() == 2 {
-                self.acr2.d.next = self.wdata.val();
+                self.acr2.d.next = self.host.wdata.val();
             }
             if self.index.val() == 3 {
-                self.acr3.d.next = self.wdata.val();
+                self.acr3.d.next = self.host.wdata.val();
             }
             if self.index.val() == 4 {
-                self.amr0.d.next = self.wdata.val();
+                self.amr0.d.next = self.host.wdata.val();
             }
             if self.index.val() == 5 {
-                self.amr1.d.next = self.wdata.val();
+                self.amr1.d.next = self.host.wdata.val();
             }
             if self.index.val() == 6 {
-                self.amr2.d.next = self.wdata.val();
+                self.amr2.d.next = self.host.wdata.val();
             }
             if self.index.val() == 7 {
-                self.amr3.d.next = self.wdata.val();
+                self.amr3.d.next = self.host.wdata.val();
             }
         }
         self.frame_byte0.next = 0.into();

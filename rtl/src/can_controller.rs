@@ -30,6 +30,7 @@ use crate::register_map::host_decode::HostDecode;
 use crate::register_map::interrupts::Interrupts;
 use crate::register_map::modes::Modes;
 use crate::register_map::register_read::RegisterRead;
+use crate::register_map::InterruptRegisters;
 use crate::registers::pelican;
 use crate::rx_fifo::RxFifo;
 use crate::tx_buffer::TxBuffer;
@@ -122,53 +123,53 @@ impl Logic for CanController {
         // ---- Host port: each block decodes the registers it owns. Inputs of blocks whose
         // combinational outputs are read here come straight from ports and other blocks' outputs
         // (docs/VERILOG.md).
-        self.decode.addr.next = self.addr.val();
-        self.decode.we.next = self.we.val();
-        self.decode.wdata.next = self.wdata.val();
+        self.decode.host.addr.next = self.addr.val();
+        self.decode.host.we.next = self.we.val();
+        self.decode.host.wdata.next = self.wdata.val();
         self.decode.pelican.next = self.modes.pelican.val();
         self.decode.reset_mode.next = self.modes.reset_mode.val();
 
         self.modes.reset.next = self.reset.val();
-        self.modes.addr.next = self.addr.val();
-        self.modes.we.next = self.we.val();
-        self.modes.wdata.next = self.wdata.val();
+        self.modes.host.addr.next = self.addr.val();
+        self.modes.host.we.next = self.we.val();
+        self.modes.host.wdata.next = self.wdata.val();
         self.modes.command.next = self.decode.command.val();
         self.modes.cmd_sleep.next = self.decode.cmd_sleep.val();
         self.modes.irq_pending.next = self.read.irq_pending.val();
-        self.modes.bus_off.next = self.core.bus_off.val();
+        self.modes.bus_off.next = self.core.status.bus_off.val();
         self.modes.bus_off_before.next = self.interrupts.bus_off_before.val();
-        self.modes.state.next = self.core.state.val();
+        self.modes.state.next = self.core.status.state.val();
         self.modes.sample_point.next = self.core.sample_point.val();
         self.modes.rx.next = self.rx.val();
         self.clkout.next = self.modes.clkout.val();
 
         self.configuration.reset.next = self.reset.val();
-        self.configuration.addr.next = self.addr.val();
-        self.configuration.we.next = self.we.val();
-        self.configuration.wdata.next = self.wdata.val();
+        self.configuration.host.addr.next = self.addr.val();
+        self.configuration.host.we.next = self.we.val();
+        self.configuration.host.wdata.next = self.wdata.val();
         self.configuration.pelican.next = self.modes.pelican.val();
         self.configuration.reset_mode.next = self.modes.reset_mode.val();
 
         self.interrupts.reset.next = self.reset.val();
-        self.interrupts.addr.next = self.addr.val();
-        self.interrupts.we.next = self.we.val();
+        self.interrupts.host.addr.next = self.addr.val();
+        self.interrupts.host.we.next = self.we.val();
         self.interrupts.re.next = self.re.val();
-        self.interrupts.wdata.next = self.wdata.val();
+        self.interrupts.host.wdata.next = self.wdata.val();
         self.interrupts.pelican.next = self.modes.pelican.val();
         self.interrupts.reset_mode.next = self.modes.reset_mode.val();
         self.interrupts.enables.next = self.read.enables.val();
         self.interrupts.entering_reset.next = self.modes.entering_reset.val();
         self.interrupts.wake_up.next = self.modes.wake_up.val();
         self.interrupts.cmd_release.next = self.decode.cmd_release.val();
-        self.interrupts.tx_done.next = self.core.tx_done.val();
-        self.interrupts.arbitration_lost.next = self.core.arbitration_lost.val();
-        self.interrupts.alc_in.next = self.core.alc.val();
-        self.interrupts.bus_error.next = self.core.bus_error.val();
-        self.interrupts.ecc_in.next = self.core.ecc.val();
-        self.interrupts.tec.next = self.core.tec.val();
-        self.interrupts.rec.next = self.core.rec.val();
-        self.interrupts.error_passive.next = self.core.error_passive.val();
-        self.interrupts.bus_off.next = self.core.bus_off.val();
+        self.interrupts.tx_done.next = self.core.transmit.done.val();
+        self.interrupts.arbitration_lost.next = self.core.status.arbitration_lost.val();
+        self.interrupts.alc_in.next = self.core.status.alc.val();
+        self.interrupts.bus_error.next = self.core.status.bus_error.val();
+        self.interrupts.ecc_in.next = self.core.status.ecc.val();
+        self.interrupts.tec.next = self.core.status.tec.val();
+        self.interrupts.rec.next = self.core.status.rec.val();
+        self.interrupts.error_passive.next = self.core.status.error_passive.val();
+        self.interrupts.bus_off.next = self.core.status.bus_off.val();
         self.interrupts.message_count.next = self.fifo.message_count.val();
         self.interrupts.overrun.next = self.fifo.overrun.val();
         self.interrupts.ewlr.next = self.configuration.ewlr.val();
@@ -193,20 +194,15 @@ impl Logic for CanController {
         self.read.sleep.next = self.modes.sleep.val();
         self.read.cr6.next = self.modes.cr6.val();
         self.read.cdr.next = self.modes.cdr.val();
-        self.read.ier.next = self.interrupts.ier.val();
-        self.read.ir.next = self.interrupts.ir.val();
-        self.read.alc.next = self.interrupts.alc.val();
-        self.read.ecc.next = self.interrupts.ecc.val();
-        self.read.es.next = self.interrupts.es.val();
-        self.read.basic_ri.next = self.interrupts.basic_ri.val();
+        InterruptRegisters::join(&mut self.interrupts.registers, &mut self.read.interrupts);
         self.read.tbs.next = self.tbs.q.val();
         self.read.tcs.next = self.tcs.q.val();
-        self.read.tec.next = self.core.tec.val();
-        self.read.rec.next = self.core.rec.val();
-        self.read.bus_off.next = self.core.bus_off.val();
-        self.read.receiving.next = self.core.receiving.val();
-        self.read.transmitting.next = self.core.transmitting.val();
-        self.read.state.next = self.core.state.val();
+        self.read.tec.next = self.core.status.tec.val();
+        self.read.rec.next = self.core.status.rec.val();
+        self.read.bus_off.next = self.core.status.bus_off.val();
+        self.read.receiving.next = self.core.status.receiving.val();
+        self.read.transmitting.next = self.core.status.transmitting.val();
+        self.read.state.next = self.core.status.state.val();
         self.read.message_count.next = self.fifo.message_count.val();
         self.read.overrun.next = self.fifo.overrun.val();
         self.read.start.next = self.fifo.start.val();
@@ -224,10 +220,10 @@ impl Logic for CanController {
         // empty in reset mode): PeliCAN, reset mode.
         self.reset_mode_write.next =
             self.we.val() & self.reset_mode.val() & self.pelican_mode.val();
-        self.core.counter_value.next = self.wdata.val();
-        self.core.load_tec.next =
+        self.core.counters.value.next = self.wdata.val();
+        self.core.counters.load_tec.next =
             self.reset_mode_write.val() & (self.addr.val() == self.txerr_address.val());
-        self.core.load_rec.next =
+        self.core.counters.load_rec.next =
             self.reset_mode_write.val() & (self.addr.val() == self.rxerr_address.val());
         self.fifo.load_start.next =
             self.reset_mode_write.val() & (self.addr.val() == self.rbsa_address.val());
@@ -254,18 +250,18 @@ impl Logic for CanController {
             self.tx_buffer.host_index.next = self.decode.basic_tx_index.val();
         }
         self.tx_buffer.write_data.next = self.wdata.val();
-        self.tx_buffer.core_index.next = self.core.tx_addr.val();
+        self.tx_buffer.core_index.next = self.core.transmit.addr.val();
 
         // ---- Transmission requests and their end. TR together with SRR is a plain TR, AT with
         // either a single shot (data sheet).
-        self.core.tx_abort.next = self.decode.cmd_abort.val()
+        self.core.transmit.abort.next = self.decode.cmd_abort.val()
             & (self.decode.cmd_transmit.val() == false)
             & (self.decode.cmd_self_reception.val() == false)
             & self.tx_pending.q.val();
-        if self.core.tx_done.val() {
+        if self.core.transmit.done.val() {
             self.tx_pending.d.next = false;
             self.tbs.d.next = true;
-            self.tcs.d.next = self.core.tx_success.val();
+            self.tcs.d.next = self.core.transmit.success.val();
         }
         self.request.next = self.decode.cmd_transmit.val() | self.decode.cmd_self_reception.val();
         if self.request.val() & self.tbs.q.val() & (self.tx_pending.q.val() == false) {
@@ -283,8 +279,9 @@ impl Logic for CanController {
 
         // ---- Receive FIFO: store valid accepted frames (own ones with self-reception); BasicCAN
         // stores standard frames only. The FIFO stays empty in reset mode.
-        self.own_frame_received.next =
-            self.core.tx_done.val() & self.core.tx_success.val() & self.self_reception.q.val();
+        self.own_frame_received.next = self.core.transmit.done.val()
+            & self.core.transmit.success.val()
+            & self.self_reception.q.val();
         self.fifo.reset.next = self.reset.val();
         self.fifo.store.next = (self.core.rx_valid.val() | self.own_frame_received.val())
             & self.filter.accept.val()
@@ -304,9 +301,9 @@ impl Logic for CanController {
         self.filter.pelican.next = self.modes.pelican.val();
         self.filter.single_filter.next = self.modes.single_filter.val();
         self.filter.reset_mode.next = self.modes.reset_mode.val();
-        self.filter.addr.next = self.addr.val();
-        self.filter.we.next = self.we.val();
-        self.filter.wdata.next = self.wdata.val();
+        self.filter.host.addr.next = self.addr.val();
+        self.filter.host.we.next = self.we.val();
+        self.filter.host.wdata.next = self.wdata.val();
         ReceivedFrame::join(&mut self.core.rx_frame, &mut self.filter.rx_frame);
 
         // ---- The core.
@@ -320,10 +317,10 @@ impl Logic for CanController {
         self.core.tseg1.next = self.configuration.tseg1.val();
         self.core.tseg2.next = self.configuration.tseg2.val();
         self.core.sam.next = self.configuration.sam.val();
-        self.core.tx_request.next = self.tx_pending.q.val();
-        self.core.tx_single_shot.next = self.tx_single_shot.q.val();
-        self.core.tx_info.next = self.tx_buffer.info.val();
-        self.core.tx_data.next = self.tx_buffer.core_data.val();
+        self.core.transmit.request.next = self.tx_pending.q.val();
+        self.core.transmit.single_shot.next = self.tx_single_shot.q.val();
+        self.core.transmit.info.next = self.tx_buffer.info.val();
+        self.core.transmit.data.next = self.tx_buffer.core_data.val();
         self.tx.next = self.core.tx.val();
 
         if self.reset.val() {

@@ -11,7 +11,8 @@ use rust_hdl::prelude::*;
 use crate::activity::{Activity, ActivityBlock};
 
 use crate::bit_timing::{BitTiming, Segment};
-use crate::bsp::protocol::{Protocol, ProtocolState};
+use crate::bsp::core_ports::{CounterLoad, NodeStatus, TransmitRequest};
+use crate::bsp::protocol::Protocol;
 use crate::bsp::received_frame::ReceivedFrame;
 
 /// Bit timing logic + bit stream processor.
@@ -41,58 +42,24 @@ pub struct CanCore {
     pub listen_only: Signal<In, Bit>,
     /// Self-test mode (SJA1000 MOD.STM).
     pub self_test: Signal<In, Bit>,
-    /// A frame waits in the transmit buffer.
-    pub tx_request: Signal<In, Bit>,
-    /// One transmission attempt only.
-    pub tx_single_shot: Signal<In, Bit>,
-    /// Abort the transmission request (one clock, see `Protocol`).
-    pub tx_abort: Signal<In, Bit>,
-    /// Frame information byte of the frame to send.
-    pub tx_info: Signal<In, Bits<8>>,
-    /// The transmit-buffer byte at `tx_addr`; it may come one clock after `tx_addr` (see
-    /// `Protocol`).
-    pub tx_data: Signal<In, Bits<8>>,
-    /// Load `counter_value` into TEC.
-    pub load_tec: Signal<In, Bit>,
-    /// Load `counter_value` into REC.
-    pub load_rec: Signal<In, Bit>,
-    /// Value for `load_tec` / `load_rec`.
-    pub counter_value: Signal<In, Bits<8>>,
     /// Bus output (to the transceiver), registered.
     pub tx: Signal<Out, Bit>,
-    /// Transmit-buffer byte wanted.
-    pub tx_addr: Signal<Out, Bits<4>>,
-    /// End of a transmission request (see `Protocol`).
-    pub tx_done: Signal<Out, Bit>,
-    /// With `tx_done`: the frame was sent.
-    pub tx_success: Signal<Out, Bit>,
-    /// The received frame: header, then data bytes (`crate::bsp::received_frame`).
-    #[interface]
-    pub rx_frame: ReceivedFrame,
     /// The frame is valid for receivers (one clock).
     pub rx_valid: Signal<Out, Bit>,
-    /// A bus error was detected (one clock).
-    pub bus_error: Signal<Out, Bit>,
-    /// SJA1000 error code capture value of that error.
-    pub ecc: Signal<Out, Bits<8>>,
-    /// Arbitration lost (one clock).
-    pub arbitration_lost: Signal<Out, Bit>,
-    /// SJA1000 arbitration lost capture value.
-    pub alc: Signal<Out, Bits<5>>,
-    /// Transmit error counter.
-    pub tec: Signal<Out, Bits<8>>,
-    /// Receive error counter.
-    pub rec: Signal<Out, Bits<8>>,
-    /// Error passive.
-    pub error_passive: Signal<Out, Bit>,
-    /// Bus-off.
-    pub bus_off: Signal<Out, Bit>,
-    /// Transmitting a frame of its own.
-    pub transmitting: Signal<Out, Bit>,
-    /// Receiving a frame.
-    pub receiving: Signal<Out, Bit>,
-    /// Protocol state.
-    pub state: Signal<Out, ProtocolState>,
+    // The protocol engine's port groups, linked through unchanged (`crate::bsp::core_ports`,
+    // `crate::bsp::received_frame`).
+    /// Transmit request in, its end out.
+    #[interface]
+    pub transmit: TransmitRequest,
+    /// TXERR/RXERR writes.
+    #[interface]
+    pub counters: CounterLoad,
+    /// Header, then data bytes.
+    #[interface]
+    pub rx_frame: ReceivedFrame,
+    /// Captures, counters, states.
+    #[interface]
+    pub status: NodeStatus,
     /// Sample point trigger (for waves).
     pub sample_point: Signal<Out, Bit>,
     /// Bit timing segment (for waves).
@@ -121,31 +88,12 @@ impl Logic for CanCore {
         self.protocol.enable.next = self.enable.val();
         self.protocol.listen_only.next = self.listen_only.val();
         self.protocol.self_test.next = self.self_test.val();
-        self.protocol.tx_request.next = self.tx_request.val();
-        self.protocol.tx_single_shot.next = self.tx_single_shot.val();
-        self.protocol.tx_abort.next = self.tx_abort.val();
-        self.protocol.tx_info.next = self.tx_info.val();
-        self.protocol.tx_data.next = self.tx_data.val();
-        self.protocol.load_tec.next = self.load_tec.val();
-        self.protocol.load_rec.next = self.load_rec.val();
-        self.protocol.counter_value.next = self.counter_value.val();
+        TransmitRequest::link(&mut self.transmit, &mut self.protocol.transmit);
+        CounterLoad::link(&mut self.counters, &mut self.protocol.counters);
         self.tx.next = self.protocol.tx.val();
-        self.tx_addr.next = self.protocol.tx_addr.val();
-        self.tx_done.next = self.protocol.tx_done.val();
-        self.tx_success.next = self.protocol.tx_success.val();
         ReceivedFrame::link(&mut self.rx_frame, &mut self.protocol.rx_frame);
         self.rx_valid.next = self.protocol.rx_valid.val();
-        self.bus_error.next = self.protocol.bus_error.val();
-        self.ecc.next = self.protocol.ecc.val();
-        self.arbitration_lost.next = self.protocol.arbitration_lost.val();
-        self.alc.next = self.protocol.alc.val();
-        self.tec.next = self.protocol.tec.val();
-        self.rec.next = self.protocol.rec.val();
-        self.error_passive.next = self.protocol.error_passive.val();
-        self.bus_off.next = self.protocol.bus_off.val();
-        self.transmitting.next = self.protocol.transmitting.val();
-        self.receiving.next = self.protocol.receiving.val();
-        self.state.next = self.protocol.state.val();
+        NodeStatus::link(&mut self.status, &mut self.protocol.status);
         self.sample_point.next = self.bit_timing.sample_point.val();
         self.segment.next = self.bit_timing.segment.val();
     }

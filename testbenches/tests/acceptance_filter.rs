@@ -130,9 +130,9 @@ impl Bench {
         f.pelican.next = i.pelican;
         f.single_filter.next = i.single_filter;
         f.reset_mode.next = i.reset_mode;
-        f.addr.next = u64::from(i.addr).into();
-        f.we.next = i.we;
-        f.wdata.next = u64::from(i.wdata).into();
+        f.host.addr.next = u64::from(i.addr).into();
+        f.host.we.next = i.we;
+        f.host.wdata.next = u64::from(i.wdata).into();
         f.rx_frame.header.next = i.rx_header;
         f.rx_frame.id.next = u64::from(i.rx_id).into();
         f.rx_frame.ide.next = i.rx_ide;
@@ -880,7 +880,7 @@ fn verilog_testbench(trace: &[(Inputs, String)]) -> String {
          wire accept, host_selected;\n\
          wire [7:0] host_data;\n\
          top dut(.clock(clock), .reset(reset), .pelican(pelican), .single_filter(single_filter),\n\
-         .reset_mode(reset_mode), .addr(addr), .we(we), .wdata(wdata), .rx_frame$header(rx_header),\n\
+         .reset_mode(reset_mode), .host$addr(addr), .host$we(we), .host$wdata(wdata), .rx_frame$header(rx_header),\n\
          .rx_frame$id(rx_id), .rx_frame$ide(rx_ide), .rx_frame$rtr(rx_rtr), .rx_frame$dlc(4'd0),\n\
          .rx_frame$strobe(rx_byte_strobe), .rx_frame$data(rx_byte), .rx_frame$index(rx_byte_index),\n\
          .accept(accept), .host_selected(host_selected), .host_data(host_data));\n\

@@ -12,7 +12,8 @@
 //! `arbitration_end` (for the transmit stream), the register updates `set_crc_error` and
 //! `set_ack_penalty`, the counter events `rec_success`
 //! and `tec_minus_1`, the results `valid` (receiver, EOF bit 6) and `done`/`done_success`, and
-//! the field positions `id_bit` and `control_last` the receive assembler needs. No clock: every
+//! the arbitration field's bit kinds (`srr_rtr_bit`, `ide_bit`, `ext_rtr_bit`, `id_bit`) and
+//! `control_last` the receive assembler needs. No clock: every
 //! input comes straight from a port, a flip-flop or another block's output, so the sequencer may
 //! use these outputs anywhere (docs/VERILOG.md).
 
@@ -105,6 +106,12 @@ pub struct FrameFields {
     pub done_success: Signal<Out, Bit>,
     /// The arbitration field ends with this bit (errors aside): the control field follows.
     pub arbitration_end: Signal<Out, Bit>,
+    /// In the arbitration field: the SRR (extended) or RTR (standard) bit.
+    pub srr_rtr_bit: Signal<Out, Bit>,
+    /// In the arbitration field: the IDE bit.
+    pub ide_bit: Signal<Out, Bit>,
+    /// In the arbitration field: the RTR bit of an extended frame.
+    pub ext_rtr_bit: Signal<Out, Bit>,
     /// In the arbitration field: an identifier bit (not SRR/RTR, IDE or the extended RTR).
     pub id_bit: Signal<Out, Bit>,
     /// In the control field: the last DLC bit.
@@ -156,9 +163,11 @@ impl Logic for FrameFields {
         self.single_shot.next = self.tx_single_shot.val() | self.abort_pending.val();
         // Where the fields end, from the count (it stays below 32 in the arbitration field:
         // equalities, not comparisons, which are carry chains on FPGAs).
-        self.id_bit.next = (self.count.val() != self.srr_rtr_position.val())
-            & (self.count.val() != self.ide_position.val())
-            & (self.count.val() != self.ext_rtr_position.val());
+        self.srr_rtr_bit.next = self.count.val() == self.srr_rtr_position.val();
+        self.ide_bit.next = self.count.val() == self.ide_position.val();
+        self.ext_rtr_bit.next = self.count.val() == self.ext_rtr_position.val();
+        self.id_bit.next =
+            (self.srr_rtr_bit.val() | self.ide_bit.val() | self.ext_rtr_bit.val()) == false;
         self.control_last.next = (self.count.val() == self.last_extended_dlc_bit.val())
             | ((self.count.val() == self.last_standard_dlc_bit.val()) & (self.ide.val() == false));
         self.no_data.next = self.rtr.val()
@@ -206,9 +215,7 @@ impl Logic for FrameFields {
                     self.feed_crc.next = true;
                     self.consume.next = self.transmitter.val() & self.id_bit.val();
                     // A dominant IDE ends a standard arbitration field.
-                    if ((self.count.val() == self.ide_position.val())
-                        & (self.rx_bit.val() == false))
-                        | (self.count.val() == self.ext_rtr_position.val())
+                    if (self.ide_bit.val() & (self.rx_bit.val() == false)) | self.ext_rtr_bit.val()
                     {
                         self.next_field.next = ProtocolState::Control;
                         self.next_count.next = 0.into();

@@ -11,6 +11,7 @@
 //! the transmit point only loads the bit prepared there.
 
 pub mod bit_transmitter;
+pub mod core_ports;
 pub mod crc15;
 pub mod error_capture;
 pub mod fault_confinement;

@@ -35,6 +35,7 @@ use crate::activity::{Activity, ActivityBlock, BlockDefault};
 
 use crate::bit_timing::SyncMode;
 use crate::bsp::bit_transmitter::BitTransmitter;
+use crate::bsp::core_ports::{CounterLoad, NodeStatus, TransmitRequest};
 use crate::bsp::crc15::Crc15;
 use crate::bsp::error_capture::ErrorCapture;
 use crate::bsp::fault_confinement::FaultConfinement;
@@ -43,7 +44,7 @@ use crate::bsp::interframe::Interframe;
 use crate::bsp::received_frame::ReceivedFrame;
 use crate::bsp::rx_assembler::RxAssembler;
 use crate::bsp::stuffing::BitStuffing;
-use crate::bsp::{EXT_RTR_POSITION, INTERMISSION_BITS};
+use crate::bsp::INTERMISSION_BITS;
 
 /// States of the frame sequencer, one per field.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, LogicState)]
@@ -104,65 +105,26 @@ pub struct Protocol {
     pub listen_only: Signal<In, Bit>,
     /// Self-test mode: a transmission succeeds without an ACK.
     pub self_test: Signal<In, Bit>,
-    /// A frame waits in the transmit buffer.
-    pub tx_request: Signal<In, Bit>,
-    /// One attempt only (no retransmission after an error or lost arbitration).
-    pub tx_single_shot: Signal<In, Bit>,
-    /// Abort the request (one clock): a request not under transmission ends at the next process
-    /// point (`tx_done` without success); an attempt under way finishes as a single shot.
-    pub tx_abort: Signal<In, Bit>,
-    /// Frame information byte of the frame to send: FF (7), RTR (6), DLC (3..0).
-    pub tx_info: Signal<In, Bits<8>>,
-    /// The transmit-buffer byte at `tx_addr`, at the latest from the clock after `tx_addr`
-    /// changed (a registered RAM read): it is used at process points only, and `tx_addr` changes
-    /// at a process point or between frames.
-    pub tx_data: Signal<In, Bits<8>>,
-    /// Load `counter_value` into TEC.
-    pub load_tec: Signal<In, Bit>,
-    /// Load `counter_value` into REC.
-    pub load_rec: Signal<In, Bit>,
-    /// Value for `load_tec` / `load_rec`.
-    pub counter_value: Signal<In, Bits<8>>,
+    /// The transmit request, its frame and its end (`crate::bsp::core_ports`).
+    #[interface]
+    pub transmit: TransmitRequest,
+    /// Host writes of the error counters.
+    #[interface]
+    pub counters: CounterLoad,
     /// Bus output, registered.
     pub tx: Signal<Out, Bit>,
     /// Synchronisation allowed for the current bit.
     pub sync_mode: Signal<Out, SyncMode>,
     /// The node sends a dominant bit.
     pub tx_dominant: Signal<Out, Bit>,
-    /// Transmit-buffer byte wanted (1..12).
-    pub tx_addr: Signal<Out, Bits<4>>,
-    /// One clock at the end of a transmission attempt that ends the request (success, or a failed
-    /// single shot).
-    pub tx_done: Signal<Out, Bit>,
-    /// With `tx_done`: the frame was sent.
-    pub tx_success: Signal<Out, Bit>,
     /// The received frame: the header, then every data byte (`crate::bsp::received_frame`).
     #[interface]
     pub rx_frame: ReceivedFrame,
     /// One clock when the frame on the bus is valid for receivers (EOF bit 6).
     pub rx_valid: Signal<Out, Bit>,
-    /// One clock per detected bus error, with `ecc`.
-    pub bus_error: Signal<Out, Bit>,
-    /// SJA1000 error code capture: type (7..6), direction (5, 1 = receiving), segment (4..0).
-    pub ecc: Signal<Out, Bits<8>>,
-    /// One clock when arbitration is lost, with `alc`.
-    pub arbitration_lost: Signal<Out, Bit>,
-    /// Arbitration bit position of the loss (SJA1000 ALC coding).
-    pub alc: Signal<Out, Bits<5>>,
-    /// Transmit error counter.
-    pub tec: Signal<Out, Bits<8>>,
-    /// Receive error counter.
-    pub rec: Signal<Out, Bits<8>>,
-    /// Error passive.
-    pub error_passive: Signal<Out, Bit>,
-    /// Bus-off.
-    pub bus_off: Signal<Out, Bit>,
-    /// Transmitting a frame of its own (SJA1000 SR.TS).
-    pub transmitting: Signal<Out, Bit>,
-    /// Receiving a frame (SJA1000 SR.RS).
-    pub receiving: Signal<Out, Bit>,
-    /// Current state (for waves and tests).
-    pub state: Signal<Out, ProtocolState>,
+    /// Captures, counters and states (`crate::bsp::core_ports`).
+    #[interface]
+    pub status: NodeStatus,
     stuffing: BitStuffing,
     crc: Crc15,
     faults: FaultConfinement,
@@ -184,8 +146,6 @@ pub struct Protocol {
     in_frame: DFF<Bit>,
     /// Reset mode (and not bus-off): the node takes no part in traffic.
     disabled: Signal<Local, Bit>,
-    #[constant(EXT_RTR_POSITION)]
-    ext_rtr_position: Constant<Bits<7>>,
     #[constant(INTERMISSION_BITS - 1)]
     last_intermission_bit: Constant<Bits<7>>,
 }
@@ -211,22 +171,22 @@ impl Logic for Protocol {
         // ---- Outputs, from registers and children.
         self.tx.next = self.sender.tx.val();
         self.tx_dominant.next = self.sender.tx.val() == false;
-        self.tx_addr.next = self.sender.tx_addr.val();
+        self.transmit.addr.next = self.sender.tx_addr.val();
         ReceivedFrame::link(&mut self.rx_frame, &mut self.assembler.frame);
         self.rx_valid.next = self.valid_pulse.q.val();
-        self.tx_done.next = self.done_pulse.q.val();
-        self.tx_success.next = self.done_success.q.val();
-        self.bus_error.next = self.capture.bus_error.val();
-        self.ecc.next = self.capture.ecc.val();
-        self.arbitration_lost.next = self.capture.arbitration_lost.val();
-        self.alc.next = self.capture.alc.val();
-        self.tec.next = self.faults.tec.val();
-        self.rec.next = self.faults.rec.val();
-        self.error_passive.next = self.faults.error_passive.val();
-        self.bus_off.next = self.faults.bus_off.val();
-        self.state.next = self.field.q.val();
-        self.transmitting.next = self.transmitter.q.val() & self.in_frame.q.val();
-        self.receiving.next = !self.transmitter.q.val() & self.in_frame.q.val();
+        self.transmit.done.next = self.done_pulse.q.val();
+        self.transmit.success.next = self.done_success.q.val();
+        self.status.bus_error.next = self.capture.bus_error.val();
+        self.status.ecc.next = self.capture.ecc.val();
+        self.status.arbitration_lost.next = self.capture.arbitration_lost.val();
+        self.status.alc.next = self.capture.alc.val();
+        self.status.tec.next = self.faults.tec.val();
+        self.status.rec.next = self.faults.rec.val();
+        self.status.error_passive.next = self.faults.error_passive.val();
+        self.status.bus_off.next = self.faults.bus_off.val();
+        self.status.state.next = self.field.q.val();
+        self.status.transmitting.next = self.transmitter.q.val() & self.in_frame.q.val();
+        self.status.receiving.next = !self.transmitter.q.val() & self.in_frame.q.val();
         self.disabled.next = (self.enable.val() == false) & (self.faults.bus_off.val() == false);
 
         // ---- The decisions of a bit: frame fields, then the rest and the outcome. Their inputs
@@ -249,7 +209,7 @@ impl Logic for Protocol {
         self.frame.listen_only.next = self.listen_only.val();
         self.frame.self_test.next = self.self_test.val();
         self.frame.error_passive.next = self.faults.error_passive.val();
-        self.frame.tx_single_shot.next = self.tx_single_shot.val();
+        self.frame.tx_single_shot.next = self.transmit.single_shot.val();
         self.frame.abort_pending.next = self.abort_pending.q.val();
 
         self.interframe.reset.next = self.reset.val();
@@ -261,8 +221,8 @@ impl Logic for Protocol {
         self.interframe.in_frame.next = self.in_frame.q.val();
         self.interframe.stuff_bit.next = self.stuffing.stuff_bit.val();
         self.interframe.sender_tx.next = self.sender.tx.val();
-        self.interframe.tx_request.next = self.tx_request.val();
-        self.interframe.tx_single_shot.next = self.tx_single_shot.val();
+        self.interframe.tx_request.next = self.transmit.request.val();
+        self.interframe.tx_single_shot.next = self.transmit.single_shot.val();
         self.interframe.abort_pending.next = self.abort_pending.q.val();
         self.interframe.done_pending.next = self.done_pulse.q.val();
         self.interframe.enable.next = self.enable.val();
@@ -296,10 +256,10 @@ impl Logic for Protocol {
             self.crc_error.d.next = false;
         }
         // An abort lasts until the request ends.
-        if self.tx_abort.val() {
+        if self.transmit.abort.val() {
             self.abort_pending.d.next = true;
         }
-        if self.done_pulse.q.val() | (self.tx_request.val() == false) {
+        if self.done_pulse.q.val() | (self.transmit.request.val() == false) {
             self.abort_pending.d.next = false;
         }
 
@@ -320,9 +280,9 @@ impl Logic for Protocol {
         // Listen-only mode freezes the counters; so does reset mode, even in the rest of a frame
         // the node was in when it was disabled.
         self.faults.frozen.next = self.listen_only.val() | self.disabled.val();
-        self.faults.load_tec.next = self.load_tec.val();
-        self.faults.load_rec.next = self.load_rec.val();
-        self.faults.load_value.next = self.counter_value.val();
+        self.faults.load_tec.next = self.counters.load_tec.val();
+        self.faults.load_rec.next = self.counters.load_rec.val();
+        self.faults.load_value.next = self.counters.value.val();
         self.faults.reset.next = self.reset.val();
         self.stuffing.reset.next = self.reset.val();
         self.assembler.reset.next = self.reset.val();
@@ -332,16 +292,19 @@ impl Logic for Protocol {
         self.assembler.count.next = self.count.q.val();
         self.assembler.start_frame.next = self.interframe.start_frame.val();
         self.assembler.id_bit.next = self.frame.id_bit.val();
+        self.assembler.srr_rtr_bit.next = self.frame.srr_rtr_bit.val();
+        self.assembler.ide_bit.next = self.frame.ide_bit.val();
+        self.assembler.ext_rtr_bit.next = self.frame.ext_rtr_bit.val();
         self.assembler.header_done.next =
             (self.field.q.val() == ProtocolState::Control) & self.frame.control_last.val();
         self.sender.reset.next = self.reset.val();
-        self.sender.tx_data.next = self.tx_data.val();
+        self.sender.tx_data.next = self.transmit.data.val();
         self.sender.consume.next = self.frame.consume.val() & !self.interframe.error.val();
         // From the arbitration field's end and the SOF themselves, not from the next field: the
         // same condition (no error comes with either) without the sequencer's whole decision on
         // the way to the stream's enables.
         self.sender.to_data.next = self.frame.arbitration_end.val() & !self.frame.error.val();
-        self.sender.extended.next = self.count.q.val() == self.ext_rtr_position.val();
+        self.sender.extended.next = self.frame.ext_rtr_bit.val();
         // Between frames the stream waits at the first identifier byte.
         self.sender.rewind.next = !self.in_frame.q.val() & !self.interframe.start_frame.val();
         self.sender.process_point.next = self.process_point.val();
@@ -354,7 +317,7 @@ impl Logic for Protocol {
         self.sender.next_field.next = self.interframe.next_field.val();
         self.sender.next_transmitter.next = self.interframe.next_transmitter.val();
         self.sender.may_start.next = self.interframe.may_start.val();
-        self.sender.tx_info.next = self.tx_info.val();
+        self.sender.tx_info.next = self.transmit.info.val();
         self.sender.crc_msb.next = self.crc.value.val().get_bit(14);
         self.sender.crc_next_msb.next = self.crc.value.val().get_bit(13);
         self.sender.feed_crc.next = self.frame.feed_crc.val();

@@ -2,8 +2,8 @@
 //! as the sequencer walks its fields.
 //!
 //! Ports in: `field_bit` (a process point whose bit is not a stuff bit) with `rx_bit`, the
-//! sequencer's `field` and `count`, its decisions `id_bit` (an identifier bit of the arbitration
-//! field) and `header_done` (the last DLC bit), and `start_frame` (the bit is a SOF: identifier and
+//! sequencer's `field` and `count`, the kind of an arbitration-field bit (`id_bit`, `srr_rtr_bit`,
+//! `ide_bit`, `ext_rtr_bit`) and `header_done` (the last DLC bit), and `start_frame` (the bit is a SOF: identifier and
 //! DLC start empty). Out, from registers only (the sequencer reads them back, and Verilator must see
 //! no loop through this block): the received-frame stream `frame` (`crate::bsp::received_frame`:
 //! the header one clock after the last DLC bit, then each data byte); `last_data_byte`, the index
@@ -14,7 +14,6 @@ use rust_hdl::prelude::*;
 use crate::activity::{Activity, ActivityBlock, BlockDefault};
 use crate::bsp::protocol::ProtocolState;
 use crate::bsp::received_frame::ReceivedFrame;
-use crate::bsp::{EXT_RTR_POSITION, IDE_POSITION, SRR_RTR_POSITION};
 
 /// Received-frame assembler of the bit stream processor.
 #[derive(ActivityBlock, BlockDefault)]
@@ -37,6 +36,12 @@ pub struct RxAssembler {
     pub start_frame: Signal<In, Bit>,
     /// In the arbitration field: the bit is an identifier bit.
     pub id_bit: Signal<In, Bit>,
+    /// In the arbitration field: the SRR (extended) or RTR (standard) bit.
+    pub srr_rtr_bit: Signal<In, Bit>,
+    /// In the arbitration field: the IDE bit.
+    pub ide_bit: Signal<In, Bit>,
+    /// In the arbitration field: the RTR bit of an extended frame.
+    pub ext_rtr_bit: Signal<In, Bit>,
     /// The bit is the last DLC bit: the header is complete.
     pub header_done: Signal<In, Bit>,
     /// The received frame (header, then data bytes), from registers.
@@ -60,12 +65,6 @@ pub struct RxAssembler {
 
     /// The bit is a DLC bit (after r0, and r1 in an extended frame).
     dlc_bit: Signal<Local, Bit>,
-    #[constant(SRR_RTR_POSITION)]
-    srr_rtr_position: Constant<Bits<7>>,
-    #[constant(IDE_POSITION)]
-    ide_position: Constant<Bits<7>>,
-    #[constant(EXT_RTR_POSITION)]
-    ext_rtr_position: Constant<Bits<7>>,
 }
 
 impl Logic for RxAssembler {
@@ -125,13 +124,13 @@ impl Logic for RxAssembler {
                     self.id_reg.d.next =
                         (self.id_reg.q.val() << 1).replace_bit(0, self.rx_bit.val());
                 }
-                if self.count.val() == self.srr_rtr_position.val() {
+                if self.srr_rtr_bit.val() {
                     self.rtr_reg.d.next = self.rx_bit.val();
                 }
-                if self.count.val() == self.ide_position.val() {
+                if self.ide_bit.val() {
                     self.ide_reg.d.next = self.rx_bit.val();
                 }
-                if self.count.val() == self.ext_rtr_position.val() {
+                if self.ext_rtr_bit.val() {
                     self.rtr_reg.d.next = self.rx_bit.val();
                 }
             }

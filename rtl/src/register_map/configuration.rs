@@ -1,7 +1,7 @@
 //! Configuration registers: the bus timing registers BTR0 and BTR1, the output control register OCR
 //! and the error warning limit EWLR (PeliCAN), with their host access.
 //!
-//! Ports in: the host bus `addr`, `we`, `wdata` and the map state `pelican`, `reset_mode`, straight
+//! Ports in: the host bus `host` (`addr`, `we`, `wdata`: `crate::register_map::HostWrite`) and the map state `pelican`, `reset_mode`, straight
 //! from the controller's ports and the mode flip-flops. Out: the bit timing fields the core runs on
 //! (`brp`, `sjw`, `tseg1`, `tseg2`, `sam`), `ewlr`, and `host_selected`/`host_data` (the register
 //! at `addr`, combinational from `addr` and the registers; the read side registers it). Acts on the
@@ -13,6 +13,7 @@
 use rust_hdl::prelude::*;
 
 use crate::activity::{Activity, ActivityBlock, BlockDefault};
+use crate::register_map::HostWrite;
 use crate::registers::{pelican, DEFAULT_EWLR};
 
 /// BTR0, BTR1, OCR and EWLR.
@@ -24,12 +25,9 @@ pub struct Configuration {
     pub clock: Signal<In, Clock>,
     /// Synchronous reset, active high.
     pub reset: Signal<In, Bit>,
-    /// Register address.
-    pub addr: Signal<In, Bits<8>>,
-    /// Write strobe.
-    pub we: Signal<In, Bit>,
-    /// Write data.
-    pub wdata: Signal<In, Bits<8>>,
+    /// The host bus: address, write strobe, write data.
+    #[interface]
+    pub host: HostWrite,
     /// The PeliCAN map (CDR.7).
     pub pelican: Signal<In, Bit>,
     /// Reset mode.
@@ -81,37 +79,37 @@ impl Logic for Configuration {
         self.sam.next = self.btr1.q.val().get_bit(7);
         self.ewlr.next = self.ewlr_reg.q.val();
 
-        if self.we.val() & self.reset_mode.val() {
-            if self.addr.val() == self.btr0_address.val() {
-                self.btr0.d.next = self.wdata.val();
-                self.sjw_reg.d.next = self.wdata.val().get_bits::<2>(6);
+        if self.host.we.val() & self.reset_mode.val() {
+            if self.host.addr.val() == self.btr0_address.val() {
+                self.btr0.d.next = self.host.wdata.val();
+                self.sjw_reg.d.next = self.host.wdata.val().get_bits::<2>(6);
             }
-            if self.addr.val() == self.btr1_address.val() {
-                self.btr1.d.next = self.wdata.val();
-                self.tseg2_reg.d.next = self.wdata.val().get_bits::<3>(4);
+            if self.host.addr.val() == self.btr1_address.val() {
+                self.btr1.d.next = self.host.wdata.val();
+                self.tseg2_reg.d.next = self.host.wdata.val().get_bits::<3>(4);
             }
-            if self.addr.val() == self.ocr_address.val() {
-                self.ocr.d.next = self.wdata.val();
+            if self.host.addr.val() == self.ocr_address.val() {
+                self.ocr.d.next = self.host.wdata.val();
             }
-            if self.pelican.val() & (self.addr.val() == self.ewlr_address.val()) {
-                self.ewlr_reg.d.next = self.wdata.val();
+            if self.pelican.val() & (self.host.addr.val() == self.ewlr_address.val()) {
+                self.ewlr_reg.d.next = self.host.wdata.val();
             }
         }
 
         self.host_selected.next = false;
         self.host_data.next = self.btr0.q.val();
-        if self.addr.val() == self.btr0_address.val() {
+        if self.host.addr.val() == self.btr0_address.val() {
             self.host_selected.next = true;
         }
-        if self.addr.val() == self.btr1_address.val() {
+        if self.host.addr.val() == self.btr1_address.val() {
             self.host_selected.next = true;
             self.host_data.next = self.btr1.q.val();
         }
-        if self.addr.val() == self.ocr_address.val() {
+        if self.host.addr.val() == self.ocr_address.val() {
             self.host_selected.next = true;
             self.host_data.next = self.ocr.q.val();
         }
-        if self.pelican.val() & (self.addr.val() == self.ewlr_address.val()) {
+        if self.pelican.val() & (self.host.addr.val() == self.ewlr_address.val()) {
             self.host_selected.next = true;
             self.host_data.next = self.ewlr_reg.q.val();
         }

@@ -2,7 +2,7 @@
 //! BasicCAN, SJA1000 data sheet register tables), the byte index inside it, and the command strobes
 //! of a CMR write.
 //!
-//! Ports in: the host bus `addr`, `we`, `wdata`, and the map state `pelican` (CDR.7) and
+//! Ports in: the host bus `host` (`addr`, `we`, `wdata`), and the map state `pelican` (CDR.7) and
 //! `reset_mode` (MOD.RM), all straight from the controller's inputs and flip-flops. Out, purely
 //! combinational: the window flags and indices, `command` (a CMR write outside reset mode) and its
 //! bits. No clock (no flip-flops): the controller's blocks act on these in the same cycle. Because every input comes
@@ -12,6 +12,7 @@
 use rust_hdl::prelude::*;
 
 use crate::activity::{Activity, ActivityBlock, BlockDefault};
+use crate::register_map::HostWrite;
 use crate::registers::{basic, pelican};
 
 /// Host addresses: the `addr` port is 8 bits wide.
@@ -35,12 +36,9 @@ fn low_bits<const N: usize>(value: u8) -> Bits<N> {
 pub struct HostDecode {
     /// Simulation bookkeeping (see `crate::activity`); not hardware.
     activity: Activity,
-    /// Register address.
-    pub addr: Signal<In, Bits<8>>,
-    /// Write strobe.
-    pub we: Signal<In, Bit>,
-    /// Write data.
-    pub wdata: Signal<In, Bits<8>>,
+    /// The host bus: address, write strobe, write data.
+    #[interface]
+    pub host: HostWrite,
     /// PeliCAN map (CDR.7); 0 = BasicCAN.
     pub pelican: Signal<In, Bit>,
     /// Reset mode (MOD.RM / CR.RR).
@@ -117,22 +115,37 @@ pub struct HostDecode {
 impl Logic for HostDecode {
     #[hdl_gen]
     fn update(&mut self) {
-        self.addr_low4.next = bit_cast::<4, 8>(self.addr.val());
-        self.addr_low6.next = bit_cast::<6, 8>(self.addr.val());
+        self.addr_low4.next = bit_cast::<4, 8>(self.host.addr.val());
+        self.addr_low6.next = bit_cast::<6, 8>(self.host.addr.val());
         self.frame_index.next = self.addr_low4.val() - self.frame_base.val();
         self.tx_ram_index.next = self.addr_low4.val() - self.tx_ram_base.val();
         self.basic_tx_index.next = self.addr_low4.val() - self.basic_tx_base.val();
         self.basic_rx_index.next = self.addr_low4.val() - self.basic_rx_base.val();
         self.rx_ram_index.next = self.addr_low6.val() - self.rx_ram_base.val();
-        self.in_frame_window.next = self.frame_window.val().get_bit(self.addr.val().index());
-        self.in_rx_ram.next = self.rx_ram_window.val().get_bit(self.addr.val().index());
-        self.in_tx_ram.next = self.tx_ram_window.val().get_bit(self.addr.val().index());
-        self.in_basic_tx.next = self.basic_tx_window.val().get_bit(self.addr.val().index());
-        self.in_basic_rx.next = self.basic_rx_window.val().get_bit(self.addr.val().index());
+        self.in_frame_window.next = self
+            .frame_window
+            .val()
+            .get_bit(self.host.addr.val().index());
+        self.in_rx_ram.next = self
+            .rx_ram_window
+            .val()
+            .get_bit(self.host.addr.val().index());
+        self.in_tx_ram.next = self
+            .tx_ram_window
+            .val()
+            .get_bit(self.host.addr.val().index());
+        self.in_basic_tx.next = self
+            .basic_tx_window
+            .val()
+            .get_bit(self.host.addr.val().index());
+        self.in_basic_rx.next = self
+            .basic_rx_window
+            .val()
+            .get_bit(self.host.addr.val().index());
         self.in_basic_config.next = self
             .basic_config_window
             .val()
-            .get_bit(self.addr.val().index());
+            .get_bit(self.host.addr.val().index());
         if self.pelican.val() == false {
             self.in_frame_window.next = false;
             self.in_rx_ram.next = false;
@@ -142,16 +155,17 @@ impl Logic for HostDecode {
             self.in_basic_rx.next = false;
         }
 
-        self.command.next =
-            self.we.val() & (self.addr.val() == self.cmr.val()) & (self.reset_mode.val() == false);
-        self.cmd_transmit.next = self.command.val() & self.wdata.val().get_bit(0);
-        self.cmd_abort.next = self.command.val() & self.wdata.val().get_bit(1);
-        self.cmd_release.next = self.command.val() & self.wdata.val().get_bit(2);
-        self.cmd_clear_overrun.next = self.command.val() & self.wdata.val().get_bit(3);
+        self.command.next = self.host.we.val()
+            & (self.host.addr.val() == self.cmr.val())
+            & (self.reset_mode.val() == false);
+        self.cmd_transmit.next = self.command.val() & self.host.wdata.val().get_bit(0);
+        self.cmd_abort.next = self.command.val() & self.host.wdata.val().get_bit(1);
+        self.cmd_release.next = self.command.val() & self.host.wdata.val().get_bit(2);
+        self.cmd_clear_overrun.next = self.command.val() & self.host.wdata.val().get_bit(3);
         self.cmd_self_reception.next = self.command.val()
-            & self.wdata.val().get_bit(4)
+            & self.host.wdata.val().get_bit(4)
             & self.pelican.val()
             & (self.cmd_transmit.val() == false);
-        self.cmd_sleep.next = self.wdata.val().get_bit(4) & (self.pelican.val() == false);
+        self.cmd_sleep.next = self.host.wdata.val().get_bit(4) & (self.pelican.val() == false);
     }
 }

@@ -1,14 +1,14 @@
 //! Interrupts: the interrupt enable register (PeliCAN IER, BasicCAN CR.4..1), the interrupt register
 //! IR, the captures ALC and ECC, the error status SR.ES and the BasicCAN receive interrupt latch.
 //!
-//! Ports in: the host bus `addr`, `we`, `re`, `wdata` (IER/CR writes; IR, ALC and ECC reads, whose
+//! Ports in: the host bus `host` (`addr`, `we`, `wdata`) and `re` (IER/CR writes; IR, ALC and ECC reads, whose
 //! side effects act at the edge that ends the read cycle), the map state `pelican` and `reset_mode`,
 //! `enables` (the interrupt enables in force, from the read side), `entering_reset`, `wake_up`,
 //! `cmd_release` (RRB), the core's events and counters (`tx_done`, `arbitration_lost` with `alc_in`,
 //! `bus_error` with `ecc_in`, `tec`, `rec`, `error_passive`, `bus_off`), the FIFO's
 //! `message_count` and `overrun`, and `ewlr`. Out, from flip-flops only (so any input may come from
-//! the controller's logic: docs/VERILOG.md): `ier`, `ir` (without RI, which the read side adds),
-//! `alc`, `ecc`, `es`, `basic_ri`, `bus_off_before`. Acts on the rising edge of `clock`; `reset`
+//! the controller's logic: docs/VERILOG.md): `registers` (IER, IR without RI, which the read side
+//! adds, ALC, ECC, ES, the RI latch) and `bus_off_before`. Acts on the rising edge of `clock`; `reset`
 //! is synchronous, active high.
 //!
 //! Rules (SJA1000 data sheet, IR and SR): an event sets its IR bit when enabled; reading IR clears
@@ -22,6 +22,7 @@
 use rust_hdl::prelude::*;
 
 use crate::activity::{Activity, ActivityBlock, BlockDefault};
+use crate::register_map::{HostWrite, InterruptRegisters};
 use crate::registers::{pelican, DEFAULT_EWLR};
 
 /// IER, IR, the ALC/ECC captures, ES and the BasicCAN RI latch.
@@ -33,14 +34,11 @@ pub struct Interrupts {
     pub clock: Signal<In, Clock>,
     /// Synchronous reset, active high.
     pub reset: Signal<In, Bit>,
-    /// Register address.
-    pub addr: Signal<In, Bits<8>>,
-    /// Write strobe.
-    pub we: Signal<In, Bit>,
+    /// The host bus: address, write strobe, write data.
+    #[interface]
+    pub host: HostWrite,
     /// Read strobe.
     pub re: Signal<In, Bit>,
-    /// Write data.
-    pub wdata: Signal<In, Bits<8>>,
     /// The PeliCAN map (CDR.7).
     pub pelican: Signal<In, Bit>,
     /// Reset mode.
@@ -77,18 +75,9 @@ pub struct Interrupts {
     pub overrun: Signal<In, Bit>,
     /// The error warning limit register.
     pub ewlr: Signal<In, Bits<8>>,
-    /// IER (BasicCAN: CR.4..1 in bits 3..0).
-    pub ier: Signal<Out, Bits<8>>,
-    /// IR, RI excluded.
-    pub ir: Signal<Out, Bits<8>>,
-    /// ALC.
-    pub alc: Signal<Out, Bits<5>>,
-    /// ECC.
-    pub ecc: Signal<Out, Bits<8>>,
-    /// SR.ES.
-    pub es: Signal<Out, Bit>,
-    /// The BasicCAN RI latch.
-    pub basic_ri: Signal<Out, Bit>,
+    /// IER, IR, ALC, ECC, ES and the RI latch, from flip-flops.
+    #[interface]
+    pub registers: InterruptRegisters,
     /// `bus_off` one clock earlier.
     pub bus_off_before: Signal<Out, Bit>,
     ier_reg: DFF<Bits<8>>,
@@ -151,23 +140,23 @@ impl Logic for Interrupts {
             rbs_before,
             basic_ri_reg
         );
-        self.ier.next = self.ier_reg.q.val();
-        self.ir.next = self.ir_reg.q.val();
-        self.alc.next = self.alc_reg.q.val();
-        self.ecc.next = self.ecc_reg.q.val();
-        self.es.next = self.es_reg.q.val();
-        self.basic_ri.next = self.basic_ri_reg.q.val();
+        self.registers.ier.next = self.ier_reg.q.val();
+        self.registers.ir.next = self.ir_reg.q.val();
+        self.registers.alc.next = self.alc_reg.q.val();
+        self.registers.ecc.next = self.ecc_reg.q.val();
+        self.registers.es.next = self.es_reg.q.val();
+        self.registers.basic_ri.next = self.basic_ri_reg.q.val();
         self.bus_off_before.next = self.bus_off_reg.q.val();
-        self.read_ir.next = self.re.val() & (self.addr.val() == self.ir_address.val());
+        self.read_ir.next = self.re.val() & (self.host.addr.val() == self.ir_address.val());
         self.rbs.next = self.message_count.val() != 0;
 
         // ---- Enables: IER in PeliCAN; CR.4..1 (RIE, TIE, EIE, OIE) in BasicCAN.
-        if self.we.val() {
-            if self.pelican.val() & (self.addr.val() == self.ier_address.val()) {
-                self.ier_reg.d.next = self.wdata.val();
+        if self.host.we.val() {
+            if self.pelican.val() & (self.host.addr.val() == self.ier_address.val()) {
+                self.ier_reg.d.next = self.host.wdata.val();
             }
-            if (self.pelican.val() == false) & (self.addr.val() == self.cr_address.val()) {
-                self.ier_reg.d.next = bit_cast::<8, 4>(self.wdata.val().get_bits::<4>(1))
+            if (self.pelican.val() == false) & (self.host.addr.val() == self.cr_address.val()) {
+                self.ier_reg.d.next = bit_cast::<8, 4>(self.host.wdata.val().get_bits::<4>(1))
                     .replace_bit(4, self.ier_reg.q.val().get_bit(4))
                     .replace_bit(5, self.ier_reg.q.val().get_bit(5))
                     .replace_bit(6, self.ier_reg.q.val().get_bit(6))
@@ -189,10 +178,10 @@ impl Logic for Interrupts {
             self.ev_bus_error.next = true;
         }
         if self.re.val() & self.pelican.val() {
-            if self.addr.val() == self.alc_address.val() {
+            if self.host.addr.val() == self.alc_address.val() {
                 self.alc_armed.d.next = true;
             }
-            if self.addr.val() == self.ecc_address.val() {
+            if self.host.addr.val() == self.ecc_address.val() {
                 self.ecc_armed.d.next = true;
             }
         }

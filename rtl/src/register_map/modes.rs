@@ -1,7 +1,7 @@
 //! Modes: the mode register (PeliCAN MOD, BasicCAN CR.RR and CR.6), the clock divider register
 //! (CDR: the map selection CDR.7 and CLKOUT), sleep and wake-up, and the core's mode inputs.
 //!
-//! Ports in: the host bus `addr`, `we`, `wdata` (MOD/CR and CDR writes, decoded here), the command
+//! Ports in: the host bus `host` (`addr`, `we`, `wdata`: MOD/CR and CDR writes, decoded here), the command
 //! strobes `command` and `cmd_sleep` of the host decoder (BasicCAN GTS), `irq_pending` (sleep needs
 //! no pending interrupt), and from the core `bus_off`, `state`, `sample_point`, with `bus_off_before`
 //! (bus-off one clock earlier, from the interrupt block) and the bus pin `rx` (a dominant bit
@@ -24,6 +24,7 @@ use rust_hdl::prelude::*;
 use crate::activity::{Activity, ActivityBlock, BlockDefault};
 use crate::bsp::protocol::ProtocolState;
 use crate::clock_divider::ClockDivider;
+use crate::register_map::HostWrite;
 use crate::registers::pelican;
 
 /// Sample points CLKOUT runs on in sleep: 16, the first of which may end a partial bit.
@@ -38,12 +39,9 @@ pub struct Modes {
     pub clock: Signal<In, Clock>,
     /// Synchronous reset, active high.
     pub reset: Signal<In, Bit>,
-    /// Register address.
-    pub addr: Signal<In, Bits<8>>,
-    /// Write strobe.
-    pub we: Signal<In, Bit>,
-    /// Write data.
-    pub wdata: Signal<In, Bits<8>>,
+    /// The host bus: address, write strobe, write data.
+    #[interface]
+    pub host: HostWrite,
     /// A CMR write outside reset mode (host decoder).
     pub command: Signal<In, Bit>,
     /// CMR.GTS of a BasicCAN command (host decoder).
@@ -145,25 +143,26 @@ impl Logic for Modes {
         self.core_self_test.next = self.self_test_reg.q.val();
 
         // ---- MOD (PeliCAN) / CR (BasicCAN): the same address.
-        self.write_mod.next = self.we.val() & (self.addr.val() == self.mod_address.val());
+        self.write_mod.next = self.host.we.val() & (self.host.addr.val() == self.mod_address.val());
         self.sleep_request.next = false;
         self.wake_request.next = false;
         self.entering_reset.next = false;
         if self.write_mod.val() {
-            self.rm.d.next = self.wdata.val().get_bit(0);
-            self.entering_reset.next = self.wdata.val().get_bit(0) & (self.rm.q.val() == false);
+            self.rm.d.next = self.host.wdata.val().get_bit(0);
+            self.entering_reset.next =
+                self.host.wdata.val().get_bit(0) & (self.rm.q.val() == false);
             if self.cdr_reg.q.val().get_bit(7) {
                 if self.rm.q.val() {
-                    self.lom.d.next = self.wdata.val().get_bit(1);
-                    self.stm.d.next = self.wdata.val().get_bit(2);
-                    self.afm.d.next = self.wdata.val().get_bit(3);
+                    self.lom.d.next = self.host.wdata.val().get_bit(1);
+                    self.stm.d.next = self.host.wdata.val().get_bit(2);
+                    self.afm.d.next = self.host.wdata.val().get_bit(3);
                 } else {
-                    self.sleep_request.next =
-                        self.wdata.val().get_bit(4) & (self.wdata.val().get_bit(0) == false);
-                    self.wake_request.next = self.wdata.val().get_bit(4) == false;
+                    self.sleep_request.next = self.host.wdata.val().get_bit(4)
+                        & (self.host.wdata.val().get_bit(0) == false);
+                    self.wake_request.next = self.host.wdata.val().get_bit(4) == false;
                 }
             } else {
-                self.cr6_reg.d.next = self.wdata.val().get_bit(6);
+                self.cr6_reg.d.next = self.host.wdata.val().get_bit(6);
             }
         }
         if self.command.val() & (self.cdr_reg.q.val().get_bit(7) == false) {
@@ -195,14 +194,14 @@ impl Logic for Modes {
         }
 
         // ---- CDR: whole in reset mode (bit 4 reads 0), only the divider outside it.
-        if self.we.val() & (self.addr.val() == self.cdr_address.val()) {
-            self.cdr_reg.d.next = bit_cast::<8, 3>(bit_cast::<3, 8>(self.wdata.val()))
+        if self.host.we.val() & (self.host.addr.val() == self.cdr_address.val()) {
+            self.cdr_reg.d.next = bit_cast::<8, 3>(bit_cast::<3, 8>(self.host.wdata.val()))
                 .replace_bit(3, self.cdr_reg.q.val().get_bit(3))
                 .replace_bit(5, self.cdr_reg.q.val().get_bit(5))
                 .replace_bit(6, self.cdr_reg.q.val().get_bit(6))
                 .replace_bit(7, self.cdr_reg.q.val().get_bit(7));
             if self.rm.q.val() {
-                self.cdr_reg.d.next = self.wdata.val().replace_bit(4, false);
+                self.cdr_reg.d.next = self.host.wdata.val().replace_bit(4, false);
             }
         }
 

@@ -22,6 +22,7 @@ use rust_hdl::prelude::*;
 
 use crate::activity::{Activity, ActivityBlock, BlockDefault};
 use crate::bsp::protocol::ProtocolState;
+use crate::register_map::InterruptRegistersIn;
 use crate::registers::{basic, pelican};
 
 /// The read multiplexer, SR, IR and the interrupt line.
@@ -71,18 +72,9 @@ pub struct RegisterRead {
     pub cr6: Signal<In, Bit>,
     /// CDR.
     pub cdr: Signal<In, Bits<8>>,
-    /// IER.
-    pub ier: Signal<In, Bits<8>>,
-    /// IR without RI.
-    pub ir: Signal<In, Bits<8>>,
-    /// ALC.
-    pub alc: Signal<In, Bits<5>>,
-    /// ECC.
-    pub ecc: Signal<In, Bits<8>>,
-    /// SR.ES.
-    pub es: Signal<In, Bit>,
-    /// The BasicCAN RI latch.
-    pub basic_ri: Signal<In, Bit>,
+    /// The interrupt block's registers.
+    #[interface]
+    pub interrupts: InterruptRegistersIn,
     /// SR.TBS.
     pub tbs: Signal<In, Bit>,
     /// SR.TCS.
@@ -199,21 +191,24 @@ impl Logic for RegisterRead {
             .replace_bit(3, self.tcs.val())
             .replace_bit(4, self.receiving.val() | self.waiting_for_bus.val())
             .replace_bit(5, self.transmitting.val() | self.waiting_for_bus.val())
-            .replace_bit(6, self.es.val())
+            .replace_bit(6, self.interrupts.es.val())
             .replace_bit(7, self.bus_off.val());
 
         // ---- Interrupts in force: RI is a level of RBS (and of the RI latch in BasicCAN).
-        self.enables.next = self.ier.val();
+        self.enables.next = self.interrupts.ier.val();
         self.ir_value.next = self
+            .interrupts
             .ir
             .val()
-            .replace_bit(0, self.rbs.val() & self.ier.val().get_bit(0));
+            .replace_bit(0, self.rbs.val() & self.interrupts.ier.val().get_bit(0));
         if self.pelican.val() == false {
             self.enables.next =
-                bit_cast::<8, 4>(bit_cast::<4, 8>(self.ier.val())).replace_bit(4, true);
-            self.ir_value.next = self.ir.val().replace_bit(
+                bit_cast::<8, 4>(bit_cast::<4, 8>(self.interrupts.ier.val())).replace_bit(4, true);
+            self.ir_value.next = self.interrupts.ir.val().replace_bit(
                 0,
-                self.basic_ri.val() & self.rbs.val() & self.ier.val().get_bit(0),
+                self.interrupts.basic_ri.val()
+                    & self.rbs.val()
+                    & self.interrupts.ier.val().get_bit(0),
             );
         }
         self.irq_pending.next = (self.ir_value.val() & self.enables.val()).any();
@@ -250,13 +245,13 @@ impl Logic for RegisterRead {
                     .replace_bit(4, self.sleep.val());
             }
             if self.addr.val() == self.ier_address.val() {
-                self.read_value.next = self.ier.val();
+                self.read_value.next = self.interrupts.ier.val();
             }
             if self.addr.val() == self.alc_address.val() {
-                self.read_value.next = bit_cast::<8, 5>(self.alc.val());
+                self.read_value.next = bit_cast::<8, 5>(self.interrupts.alc.val());
             }
             if self.addr.val() == self.ecc_address.val() {
-                self.read_value.next = self.ecc.val();
+                self.read_value.next = self.interrupts.ecc.val();
             }
             if self.addr.val() == self.rxerr_address.val() {
                 self.read_value.next = self.rec.val();
@@ -280,10 +275,10 @@ impl Logic for RegisterRead {
                     .zero_byte
                     .val()
                     .replace_bit(0, self.reset_mode.val())
-                    .replace_bit(1, self.ier.val().get_bit(0))
-                    .replace_bit(2, self.ier.val().get_bit(1))
-                    .replace_bit(3, self.ier.val().get_bit(2))
-                    .replace_bit(4, self.ier.val().get_bit(3))
+                    .replace_bit(1, self.interrupts.ier.val().get_bit(0))
+                    .replace_bit(2, self.interrupts.ier.val().get_bit(1))
+                    .replace_bit(3, self.interrupts.ier.val().get_bit(2))
+                    .replace_bit(4, self.interrupts.ier.val().get_bit(3))
                     .replace_bit(5, true)
                     .replace_bit(6, self.cr6.val());
             }

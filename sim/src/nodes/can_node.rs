@@ -90,9 +90,9 @@ impl CanNode {
         );
         self.request_pending = true;
         self.tx_buffer = encode_buffer(frame);
-        self.uut.tx_info.next = (self.tx_buffer[0] as u64).to_bits();
-        self.uut.tx_single_shot.next = single_shot;
-        self.uut.tx_request.next = true;
+        self.uut.transmit.info.next = (self.tx_buffer[0] as u64).to_bits();
+        self.uut.transmit.single_shot.next = single_shot;
+        self.uut.transmit.request.next = true;
         self.inputs_changed = true;
     }
 
@@ -153,27 +153,27 @@ impl CanNode {
 
     /// Transmit error counter.
     pub fn tec(&self) -> u8 {
-        self.uut.tec.val().to_u8()
+        self.uut.status.tec.val().to_u8()
     }
 
     /// Receive error counter.
     pub fn rec(&self) -> u8 {
-        self.uut.rec.val().to_u8()
+        self.uut.status.rec.val().to_u8()
     }
 
     /// Error passive.
     pub fn error_passive(&self) -> bool {
-        self.uut.error_passive.val()
+        self.uut.status.error_passive.val()
     }
 
     /// Bus-off.
     pub fn bus_off(&self) -> bool {
-        self.uut.bus_off.val()
+        self.uut.status.bus_off.val()
     }
 
     /// Protocol state.
     pub fn state(&self) -> ProtocolState {
-        self.uut.state.val()
+        self.uut.status.state.val()
     }
 
     fn clock_edge(&mut self) {
@@ -185,13 +185,13 @@ impl CanNode {
     /// frame and transmission results they may have caused.
     fn collect(&mut self, t_fs: u64) {
         let u = &self.uut;
-        if u.bus_error.val() {
+        if u.status.bus_error.val() {
             self.events
-                .push((t_fs, NodeEvent::BusError(u.ecc.val().to_u8())));
+                .push((t_fs, NodeEvent::BusError(u.status.ecc.val().to_u8())));
         }
-        if u.arbitration_lost.val() {
+        if u.status.arbitration_lost.val() {
             self.events
-                .push((t_fs, NodeEvent::ArbitrationLost(u.alc.val().to_u8())));
+                .push((t_fs, NodeEvent::ArbitrationLost(u.status.alc.val().to_u8())));
         }
         if u.rx_frame.strobe.val() {
             self.rx_data[u.rx_frame.index.val().index()] = u.rx_frame.data.val().to_u8();
@@ -200,10 +200,10 @@ impl CanNode {
             let frame = self.received_frame();
             self.events.push((t_fs, NodeEvent::Received(frame)));
         }
-        if self.uut.tx_done.val() {
-            let success = self.uut.tx_success.val();
+        if self.uut.transmit.done.val() {
+            let success = self.uut.transmit.success.val();
             self.events.push((t_fs, NodeEvent::TransmitDone(success)));
-            self.uut.tx_request.next = false;
+            self.uut.transmit.request.next = false;
             self.inputs_changed = true;
             self.request_pending = false;
         }
@@ -238,26 +238,26 @@ impl Device for CanNode {
     }
 
     fn rising_edge(&mut self, t_fs: u64, rx: bool) -> Drive {
-        let addr = self.uut.tx_addr.val().index();
+        let addr = self.uut.transmit.addr.val().index();
         let tx_data = (self.tx_buffer.get(addr).copied().unwrap_or(0) as u64).to_bits();
-        self.inputs_changed |= rx != self.uut.rx.val() || tx_data != self.uut.tx_data.val();
+        self.inputs_changed |= rx != self.uut.rx.val() || tx_data != self.uut.transmit.data.val();
         self.uut.rx.next = rx;
-        self.uut.tx_data.next = tx_data;
+        self.uut.transmit.data.next = tx_data;
         let load = self.pending_load.take();
         let abort = std::mem::take(&mut self.pending_abort);
         let strobes = load.is_some() || abort;
         if strobes {
-            self.uut.load_tec.next = matches!(load, Some((true, _)));
-            self.uut.load_rec.next = matches!(load, Some((false, _)));
-            self.uut.counter_value.next = (load.map_or(0, |(_, v)| v) as u64).to_bits();
-            self.uut.tx_abort.next = abort;
+            self.uut.counters.load_tec.next = matches!(load, Some((true, _)));
+            self.uut.counters.load_rec.next = matches!(load, Some((false, _)));
+            self.uut.counters.value.next = (load.map_or(0, |(_, v)| v) as u64).to_bits();
+            self.uut.transmit.abort.next = abort;
             self.inputs_changed = true;
         }
         self.clock_edge();
         if strobes {
-            self.uut.load_tec.next = false;
-            self.uut.load_rec.next = false;
-            self.uut.tx_abort.next = false;
+            self.uut.counters.load_tec.next = false;
+            self.uut.counters.load_rec.next = false;
+            self.uut.transmit.abort.next = false;
             self.inputs_changed = true;
         }
         self.collect(t_fs);
@@ -274,7 +274,10 @@ impl Device for CanNode {
         let u = &self.uut;
         let (core, own) = values.split_at_mut(CORE_PROBES);
         core_probe_values(u, core);
-        own.copy_from_slice(&[u.error_passive.val() as u64, u.bus_off.val() as u64]);
+        own.copy_from_slice(&[
+            u.status.error_passive.val() as u64,
+            u.status.bus_off.val() as u64,
+        ]);
     }
 
     fn as_any(&self) -> &dyn Any {
@@ -318,8 +321,8 @@ pub(crate) fn core_probe_values(core: &CanCore, values: &mut [u64]) {
     values.copy_from_slice(&[
         core.sample_point.val() as u64,
         core.segment.val() as u64,
-        core.state.val() as u64,
-        core.tec.val().to_u64(),
-        core.rec.val().to_u64(),
+        core.status.state.val() as u64,
+        core.status.tec.val().to_u64(),
+        core.status.rec.val().to_u64(),
     ]);
 }

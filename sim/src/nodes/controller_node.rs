@@ -327,7 +327,7 @@ impl ControllerNode {
     /// Protocol state of the core (for waves and diagnostics; tests observe registers).
     pub fn state(&self) -> ProtocolState {
         match &self.model {
-            Model::RustHdl { uut, .. } => uut.core.state.val(),
+            Model::RustHdl { uut, .. } => uut.core.status.state.val(),
             Model::Verilator(model) => protocol_state(model.outputs().internal(STATE)),
         }
     }
@@ -336,7 +336,7 @@ impl ControllerNode {
     /// frame on the bus.
     pub fn transmitting(&self) -> bool {
         match &self.model {
-            Model::RustHdl { uut, .. } => uut.core.transmitting.val(),
+            Model::RustHdl { uut, .. } => uut.core.status.transmitting.val(),
             Model::Verilator(model) => model.outputs().internal(TRANSMITTING) != 0,
         }
     }

@@ -54,22 +54,22 @@ pub(crate) const INTERNAL_SIGNALS: [InternalSignal; 6] = [
     },
     InternalSignal {
         name: "state",
-        wire: "core$state",
+        wire: "core$status$state",
         width: 5,
     },
     InternalSignal {
         name: "tec",
-        wire: "core$tec",
+        wire: "core$status$tec",
         width: 8,
     },
     InternalSignal {
         name: "rec",
-        wire: "core$rec",
+        wire: "core$status$rec",
         width: 8,
     },
     InternalSignal {
         name: "transmitting",
-        wire: "core$transmitting",
+        wire: "core$status$transmitting",
         width: 1,
     },
 ];
