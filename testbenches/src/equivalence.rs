@@ -26,13 +26,35 @@ use std::process::Command;
 
 use golden::frame::Frame;
 use rtl::can_controller::CanController;
-use rtl::registers::{clock_divider, command, mode, pelican};
+use rtl::registers::{mode, pelican};
 use rust_hdl::prelude::*;
-use sim::host::frame_buffer::{buffer_len, encode_buffer};
-use sim::host::sja1000::{BTR0_500K_AT_16MHZ, BTR1_500K_AT_16MHZ};
+use sim::host::sja1000::{self, PelicanSetup, BTR0_500K_AT_16MHZ, BTR1_500K_AT_16MHZ};
+use sim::host::RegisterPort;
 use sim::nodes::controller_node::rust_hdl_cycle;
 pub use sim::verilated::verilog::{controller_verilog, TOP_MODULE};
 use sim::verilated::{EngineError, PortInputs, VerilatedController};
+
+/// OCR normal output mode (SJA1000 data sheet, OCR.1..0 = 10), as the Linux driver writes it.
+const OCR_NORMAL_MODE: u8 = 0x02;
+
+/// A node's host port inside a [`StimulusBuilder`] ([`StimulusBuilder::port`]). Only sequences that
+/// do not act on what they read fit here: a read is one cycle of the stimulus and returns 0, its
+/// value is known only when the stimulus runs (the harness compares it between the models).
+pub struct ScriptPort<'b> {
+    builder: &'b mut StimulusBuilder,
+    node: usize,
+}
+
+impl RegisterPort for ScriptPort<'_> {
+    fn write(&mut self, addr: u8, value: u8) {
+        self.builder.write(self.node, addr, value);
+    }
+
+    fn read(&mut self, addr: u8) -> u8 {
+        self.builder.read(self.node, addr);
+        0
+    }
+}
 
 /// Clock cycles per bit with [`BTR0_500K_AT_16MHZ`] and [`BTR1_500K_AT_16MHZ`].
 pub const CLOCKS_PER_BIT: usize = 32;
@@ -362,16 +384,17 @@ impl StimulusBuilder {
 
     /// [`StimulusBuilder::configure_pelican`] with other bit timing registers.
     pub fn configure_pelican_with(&mut self, node: usize, btr0: u8, btr1: u8) -> &mut Self {
-        self.write(node, pelican::MOD, mode::RM);
-        self.write(node, pelican::CDR, clock_divider::PELICAN);
-        self.write(node, pelican::BTR0, btr0);
-        self.write(node, pelican::BTR1, btr1);
-        self.write(node, pelican::OCR, 0x02);
-        for i in 0..4 {
-            self.write(node, pelican::ACR0 + i, 0x00);
-            self.write(node, pelican::AMR0 + i, 0xFF);
+        sja1000::set_up_pelican(&mut self.port(node), &PelicanSetup::open(btr0, btr1));
+        self.write(node, pelican::OCR, OCR_NORMAL_MODE)
+    }
+
+    /// `node`'s host port as a [`RegisterPort`] that writes the accesses of the SJA1000 host
+    /// sequences (`sim::host::sja1000`) into this stimulus, one cycle each from the current one.
+    pub fn port(&mut self, node: usize) -> ScriptPort<'_> {
+        ScriptPort {
+            builder: self,
+            node,
         }
-        self.write(node, pelican::IER, 0xFF)
     }
 
     /// Writes MOD = `mode_bits` without RM (operating mode; LOM/STM/AFM take effect when written
@@ -381,18 +404,10 @@ impl StimulusBuilder {
     }
 
     /// Writes the TX buffer bytes `bytes` (frame information first) at 16, 17, …
-    pub fn write_tx_buffer(&mut self, node: usize, bytes: &[u8]) -> &mut Self {
-        for (i, &b) in bytes.iter().enumerate() {
-            self.write(node, pelican::FRAME + i as u8, b);
-        }
-        self
-    }
-
     /// Writes `frame` into `node`'s TX buffer and `cmd` (e.g. TR) into CMR.
     pub fn transmit(&mut self, node: usize, frame: &Frame, cmd: u8) -> &mut Self {
-        let buf = encode_buffer(frame);
-        self.write_tx_buffer(node, &buf[..buffer_len(buf[0])]);
-        self.write(node, pelican::CMR, cmd)
+        sja1000::transmit(&mut self.port(node), frame, cmd);
+        self
     }
 
     /// Reads the whole RX window (16..28) of `node`.
@@ -402,7 +417,8 @@ impl StimulusBuilder {
 
     /// Releases `node`'s head message (CMR = RRB).
     pub fn release_rx_buffer(&mut self, node: usize) -> &mut Self {
-        self.write(node, pelican::CMR, command::RRB)
+        sja1000::release_rx(&mut self.port(node));
+        self
     }
 
     /// Reads the RX window of `node` and releases the message.

@@ -29,6 +29,24 @@ use sim::host::sja1000::transmit;
 /// Idle bits before the first frame: the IUT needs 11 recessive bits to integrate.
 pub const INTEGRATION_BITS: usize = 14;
 
+/// Script steps of the lower tester that the protocol tests share.
+pub trait LtScript {
+    /// Lets the IUT integrate: [`INTEGRATION_BITS`] recessive bits.
+    fn after_integration(&mut self) -> &mut Self;
+    /// Sends `frame` as encoded (stuff bits included), every bit nominal.
+    fn send_frame(&mut self, frame: &EncodedFrame) -> &mut Self;
+}
+
+impl LtScript for LowerTester {
+    fn after_integration(&mut self) -> &mut Self {
+        self.release(INTEGRATION_BITS)
+    }
+
+    fn send_frame(&mut self, frame: &EncodedFrame) -> &mut Self {
+        self.send_bits(frame.bits.iter().by_vals())
+    }
+}
+
 /// The counter value from which a node is error passive.
 pub const ERROR_PASSIVE_LIMIT: u8 = 128;
 

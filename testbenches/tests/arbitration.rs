@@ -13,7 +13,7 @@ use golden::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT, RECESSIVE}
 use sim::engine::bus::Drive;
 use sim::nodes::can_node::NodeEvent;
 use testbenches::ecc::{ecc, SEG_DATA, STUFF};
-use testbenches::protocol_bench::{acknowledged_bits, Iut, ProtocolBench};
+use testbenches::protocol_bench::{acknowledged_bits, Iut, LtScript, ProtocolBench};
 
 /// Bits after a frame's last EOF bit until the next SOF: the 3 intermission bits.
 const INTERMISSION: usize = 3;
@@ -91,10 +91,7 @@ fn lose_arbitration(
     check_loss_position(&enc_mine, &enc_theirs, loss, &what);
     let mut bench = ProtocolBench::iut_transmits(iut, mine);
     // 6 released bits after the LT frame: intermission (3) and the IUT's retransmission SOF.
-    bench
-        .lt()
-        .send_bits(enc_theirs.bits.iter().by_vals())
-        .release(6);
+    bench.lt().send_frame(&enc_theirs).release(6);
     bench.run(1);
     let ack = field(&enc_theirs, Field::AckSlot, 0);
     // The LT frame ends at len - 1 (EOF bit 7); intermission len..len+2; SOF at len + 3.
@@ -318,9 +315,9 @@ fn ar_09_core_reports_every_loss(iut: Iut) {
     let mut bench = ProtocolBench::iut_transmits(iut, &mine);
     bench
         .lt()
-        .send_bits(enc_1.bits.iter().by_vals())
+        .send_frame(&enc_1)
         .release(INTERMISSION)
-        .send_bits(enc_2.bits.iter().by_vals())
+        .send_frame(&enc_2)
         .release(INTERMISSION + enc_mine.len() + 2)
         .set_bit(sof_3 + field(&enc_mine, Field::AckSlot, 0), Drive::Dominant);
     bench.run(1);
@@ -377,7 +374,7 @@ fn rt_02_retransmission_after_lost_arbitration_right_after_the_intermission(iut:
         let mut bench = ProtocolBench::iut_transmits(iut, &mine);
         bench
             .lt()
-            .send_bits(enc_theirs.bits.iter().by_vals())
+            .send_frame(&enc_theirs)
             .release(INTERMISSION + enc_mine.len() + 2)
             .set_bit(retry + field(&enc_mine, Field::AckSlot, 0), Drive::Dominant);
         bench.run(1);

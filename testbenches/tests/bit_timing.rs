@@ -11,7 +11,7 @@ use sim::engine::bus::Drive;
 use sim::engine::time::ClockSpec;
 use sim::engine::DeviceId;
 use sim::nodes::can_node::{CanNode, NodeEvent};
-use testbenches::protocol_bench::{Iut, ProtocolBench};
+use testbenches::protocol_bench::{Iut, LtScript, ProtocolBench};
 use testbenches::{bt_configs, BtBench, LEAD_IN_BITS};
 
 const D: bool = DOMINANT;
@@ -69,7 +69,7 @@ fn bt_01_dominant_bit_ending_at_the_sample_point_is_read_dominant() {
             bench
                 .lt()
                 .release(LEAD_IN_BITS)
-                .send_bits(frame.bits.iter().by_vals())
+                .send_frame(&frame)
                 .release(3)
                 .lengthen_bit(LEAD_IN_BITS + stuff, sp + length_tq - nbt);
             bench.run();

@@ -16,7 +16,7 @@ use sim::engine::time::{ClockSpec, FS_PER_S};
 use sim::engine::Engine;
 use sim::nodes::can_node::CanNode;
 use testbenches::agreement::{check_vcd, Agreement, Exclusion};
-use testbenches::protocol_bench::{bt_a, Iut, ProtocolBench, INTEGRATION_BITS};
+use testbenches::protocol_bench::{bt_a, Iut, LtScript, ProtocolBench, INTEGRATION_BITS};
 use testbenches::{bt_configs, sigrok, CLOCK_HZ};
 
 /// Idle bits before the first frame (the nodes integrate on 11) and after each frame.
@@ -247,8 +247,8 @@ fn overload_frames() {
     let second = first + 6 + 8 + 1;
     bench
         .lt()
-        .release(INTEGRATION_BITS)
-        .send_bits(encoded.bits.iter().by_vals())
+        .after_integration()
+        .send_frame(&encoded)
         .release(40)
         .set_bit(first, Drive::Dominant)
         .set_bit(second, Drive::Dominant);

@@ -17,7 +17,7 @@ use sim::engine::bus::Drive;
 use sim::nodes::can_node::NodeEvent;
 use sim::nodes::lower_tester::LowerTester;
 use testbenches::ecc::*;
-use testbenches::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
+use testbenches::protocol_bench::{Iut, LtScript, ProtocolBench, INTEGRATION_BITS};
 
 const SOF: usize = INTEGRATION_BITS;
 
@@ -95,7 +95,7 @@ fn receive_with(
     }
     bench
         .lt()
-        .release(INTEGRATION_BITS)
+        .after_integration()
         .send_bits(bits.iter().copied())
         .release(extra_bits);
     edit(bench.lt());
@@ -570,7 +570,7 @@ fn receiver_error_with_dominant(iut: Iut, rec: Option<u8>, dominant: &[usize]) -
     }
     bench
         .lt()
-        .release(INTEGRATION_BITS)
+        .after_integration()
         .send_bits([DOMINANT; 6])
         .release(60);
     for &b in dominant {
@@ -838,10 +838,10 @@ fn be_05_dominant_bits_during_a_passive_flag_are_no_bit_error(iut: Iut) {
         bench.load_counter(false, 130);
         bench
             .lt()
-            .release(INTEGRATION_BITS)
+            .after_integration()
             .send_bits([DOMINANT; 6])
             .release(sof - STUFF_ERROR_AT - 1)
-            .send_bits(encoded.bits.iter().by_vals())
+            .send_frame(&encoded)
             .release(4);
         for &b in &inside {
             bench.lt().set_bit(b, Drive::Dominant);

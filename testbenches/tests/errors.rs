@@ -8,7 +8,7 @@ use rtl::registers::interrupt;
 use sim::engine::bus::Drive;
 use sim::nodes::can_node::NodeEvent;
 use testbenches::ecc::*;
-use testbenches::protocol_bench::{ErrorInterrupt, Iut, ProtocolBench, INTEGRATION_BITS};
+use testbenches::protocol_bench::{ErrorInterrupt, Iut, LtScript, ProtocolBench, INTEGRATION_BITS};
 
 const SOF: usize = INTEGRATION_BITS;
 
@@ -29,7 +29,7 @@ fn receive_bits(iut: Iut, bits: &[bool], rec: Option<u8>, extra_bits: usize) -> 
     }
     bench
         .lt()
-        .release(INTEGRATION_BITS)
+        .after_integration()
         .send_bits(bits.iter().copied())
         .release(extra_bits);
     bench.run(1);
@@ -218,10 +218,7 @@ fn ar_01_arbitration_lost_at_every_base_identifier_bit(iut: Iut) {
         let theirs = Frame::data(Id::standard(0x7FF & !(1 << (10 - k))).unwrap(), &[0xA5]).unwrap();
         let encoded = encode(&theirs);
         let mut bench = ProtocolBench::iut_transmits(iut, &mine);
-        bench
-            .lt()
-            .send_bits(encoded.bits.iter().by_vals())
-            .release(6);
+        bench.lt().send_frame(&encoded).release(6);
         bench.run(1);
         let from = field(&encoded, Field::BaseId, k);
         let ack = field(&encoded, Field::AckSlot, 0);

@@ -7,7 +7,7 @@ use golden::frame::{encode, Field, Frame, Id, DOMINANT};
 use rtl::registers::{interrupt, mode, pelican, status};
 use sim::engine::bus::Drive;
 use sim::nodes::can_node::NodeEvent;
-use testbenches::protocol_bench::{ErrorInterrupt, Iut, ProtocolBench, INTEGRATION_BITS};
+use testbenches::protocol_bench::{ErrorInterrupt, Iut, LtScript, ProtocolBench, INTEGRATION_BITS};
 
 const SOF: usize = INTEGRATION_BITS;
 /// A receiver's stuff error on the sixth dominant bit: SOF and five dominant ID bits, then a sixth.
@@ -31,7 +31,7 @@ fn receiver_error_then_dominant(iut: Iut, after_flag: usize) -> ProtocolBench {
     let mut bench = ProtocolBench::new(iut);
     bench
         .lt()
-        .release(INTEGRATION_BITS)
+        .after_integration()
         .send_bits([DOMINANT; 6])
         .release(6)
         .send_bits(std::iter::repeat_n(DOMINANT, after_flag))
@@ -99,8 +99,8 @@ fn ak_03_receiver_ack_overridden_is_a_bit_error(iut: Iut) {
     let mut bench = ProtocolBench::new(iut);
     bench
         .lt()
-        .release(INTEGRATION_BITS)
-        .send_bits(encoded.bits.iter().by_vals())
+        .after_integration()
+        .send_frame(&encoded)
         .release(10)
         .force(ack, 0, 16, Drive::ForceRecessive);
     bench.run(1);
@@ -170,7 +170,7 @@ fn be_03_ec_02_bit_error_in_the_own_active_flag_restarts_it(iut: Iut) {
         let mut bench = ProtocolBench::new(iut);
         bench
             .lt()
-            .release(INTEGRATION_BITS)
+            .after_integration()
             .send_bits([DOMINANT; 6])
             .release(30)
             .force(STUFF_ERROR_AT + 1 + k, 0, 16, Drive::ForceRecessive);
@@ -238,8 +238,8 @@ fn ov_01_dominant_intermission_bit_1_or_2_gives_an_overload_frame(iut: Iut) {
         let mut bench = ProtocolBench::new(iut);
         bench
             .lt()
-            .release(INTEGRATION_BITS)
-            .send_bits(encoded.bits.iter().by_vals())
+            .after_integration()
+            .send_frame(&encoded)
             .release(30);
         let intermission = SOF + encoded.len() + k;
         bench.lt().set_bit(intermission, Drive::Dominant);
@@ -265,10 +265,10 @@ fn ov_06_if_02_sof_in_intermission_bit_3_starts_a_frame(iut: Iut) {
     let mut bench = ProtocolBench::new(iut);
     bench
         .lt()
-        .release(INTEGRATION_BITS)
-        .send_bits(first.bits.iter().by_vals())
+        .after_integration()
+        .send_frame(&first)
         .release(2)
-        .send_bits(second.bits.iter().by_vals())
+        .send_frame(&second)
         .release(4);
     bench.run(1);
     assert_eq!(
@@ -455,7 +455,7 @@ fn ec_15_rec_saturates_at_255_and_never_causes_bus_off(iut: Iut) {
     bench.load_counter(false, 127);
     bench
         .lt()
-        .release(INTEGRATION_BITS)
+        .after_integration()
         .send_bits([DOMINANT; 6])
         .release(20);
     bench.run(1);
@@ -466,7 +466,7 @@ fn ec_15_rec_saturates_at_255_and_never_causes_bus_off(iut: Iut) {
     bench.load_counter(false, 250);
     bench
         .lt()
-        .release(INTEGRATION_BITS)
+        .after_integration()
         .send_bits([DOMINANT; 6])
         .release(6)
         .send_bits([DOMINANT; 24])
@@ -511,10 +511,7 @@ fn bo_02_bus_off_node_neither_acknowledges_nor_stores(iut: Iut) {
     let (mut bench, bit) = bus_off_bench(iut, 1);
     let encoded = encode(&frame());
     let start = bit + 8;
-    bench
-        .lt()
-        .send_bits(encoded.bits.iter().by_vals())
-        .release(10);
+    bench.lt().send_frame(&encoded).release(10);
     bench.run(0);
     assert!(bench.bus_off());
     assert!(bench
@@ -544,7 +541,7 @@ fn bo_05_recovery_counts_the_idle_runs_between_frames(iut: Iut) {
         let start = bench.lt_ref().script_len();
         bench
             .lt()
-            .send_bits(encoded.bits.iter().by_vals())
+            .send_frame(&encoded)
             .set_bit(start + ack, Drive::Dominant)
             .release(3);
     }
@@ -624,8 +621,8 @@ fn rt_05_abort_of_a_pending_frame_ends_the_request_unsent(iut: Iut) {
     let mut bench = ProtocolBench::new(iut);
     bench
         .lt()
-        .release(INTEGRATION_BITS)
-        .send_bits(theirs.bits.iter().by_vals())
+        .after_integration()
+        .send_frame(&theirs)
         .release(40);
     bench.run_to_bit(SOF + 5);
     bench.send(&frame(), false);
@@ -714,10 +711,7 @@ fn rt_05_abort_during_the_own_transmission_makes_it_the_last_attempt(iut: Iut) {
     // Arbitration lost at ID.18: no retry after the winner's frame.
     let theirs = encode(&winner_frame());
     let mut bench = ProtocolBench::iut_transmits(iut, &f);
-    bench
-        .lt()
-        .send_bits(theirs.bits.iter().by_vals())
-        .release(40);
+    bench.lt().send_frame(&theirs).release(40);
     bench.run_to_bit(aborted_in);
     bench.abort();
     bench.run(0);
@@ -790,7 +784,7 @@ fn bo_07_host_writes_of_txerr_force_and_end_bus_off_and_rxerr_writes_are_ignored
         bench
             .lt()
             .release(their_sof)
-            .send_bits(theirs.bits.iter().by_vals())
+            .send_frame(&theirs)
             .release(enabled_at - their_sof - theirs.len() + 11 + mine.len() + 10);
         bench.load_counter(false, 9);
 

@@ -8,7 +8,7 @@ use rtl::registers::{interrupt, status};
 use sim::engine::bus::Drive;
 use sim::nodes::can_node::NodeEvent;
 use testbenches::iso::encode_with_reserved_bits;
-use testbenches::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
+use testbenches::protocol_bench::{Iut, LtScript, ProtocolBench, INTEGRATION_BITS};
 
 const SOF: usize = INTEGRATION_BITS;
 
@@ -30,8 +30,8 @@ fn receive(iut: Iut, frame: &Frame) -> (ProtocolBench, EncodedFrame) {
     let mut bench = ProtocolBench::new(iut);
     bench
         .lt()
-        .release(INTEGRATION_BITS)
-        .send_bits(encoded.bits.iter().by_vals())
+        .after_integration()
+        .send_frame(&encoded)
         .release(4);
     bench.run(1);
     (bench, encoded)
@@ -252,7 +252,7 @@ fn fr_05_non_nominal_reserved_and_srr_bits_are_accepted(iut: Iut) {
         let mut bench = ProtocolBench::new(iut);
         bench
             .lt()
-            .release(INTEGRATION_BITS)
+            .after_integration()
             .send_bits(bits.iter().copied())
             .release(4);
         bench.run(1);

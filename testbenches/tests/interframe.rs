@@ -6,7 +6,7 @@ use golden::frame::{encode, Field, Frame, Id, DOMINANT};
 use sim::engine::bus::Drive;
 use sim::engine::time::ClockSpec;
 use sim::nodes::can_node::NodeEvent;
-use testbenches::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
+use testbenches::protocol_bench::{Iut, LtScript, ProtocolBench, INTEGRATION_BITS};
 
 const SOF: usize = INTEGRATION_BITS;
 
@@ -29,7 +29,7 @@ fn passive_receiver_error(iut: Iut, after: &[bool]) -> ProtocolBench {
     bench.load_counter(false, 130);
     bench
         .lt()
-        .release(INTEGRATION_BITS)
+        .after_integration()
         .send_bits([DOMINANT; 6])
         .send_bits(after.iter().copied())
         .release(30);
@@ -44,10 +44,10 @@ fn if_01_reset_mode_left_mid_frame_ignores_that_frame(iut: Iut) {
     bench.set_enable(false);
     bench
         .lt()
-        .release(INTEGRATION_BITS)
-        .send_bits(first.bits.iter().by_vals())
+        .after_integration()
+        .send_frame(&first)
         .release(12)
-        .send_bits(second.bits.iter().by_vals())
+        .send_frame(&second)
         .release(4);
     // Leave reset mode in the middle of the first frame.
     bench.run_bits(SOF as u64 + 20);
@@ -70,8 +70,8 @@ fn if_03_bt_13_pending_transmitter_takes_a_sof_in_intermission_bit_3_as_its_own(
     let mut bench = ProtocolBench::new(iut);
     bench
         .lt()
-        .release(INTEGRATION_BITS)
-        .send_bits(theirs.bits.iter().by_vals())
+        .after_integration()
+        .send_frame(&theirs)
         .release(2)
         .send_bits([DOMINANT])
         .release(mine_bits.len() + 4);
@@ -142,8 +142,8 @@ fn ep_04_passive_node_still_acknowledges(iut: Iut) {
     bench.load_counter(false, 130);
     bench
         .lt()
-        .release(INTEGRATION_BITS)
-        .send_bits(encoded.bits.iter().by_vals())
+        .after_integration()
+        .send_frame(&encoded)
         .release(4);
     bench.run(1);
     let ack = SOF + encoded.position(Field::AckSlot, 0).unwrap();
@@ -193,7 +193,7 @@ fn ep_07_a_frame_started_during_suspend_is_received_and_then_no_suspend(iut: Iut
         .lt()
         .release(their_sof)
         .set_bit(ack, Drive::Dominant)
-        .send_bits(theirs.bits.iter().by_vals())
+        .send_frame(&theirs)
         .release(60);
     let done = bench.run_until_event(200, &NodeEvent::TransmitDone(true));
     assert!(done);
@@ -221,8 +221,8 @@ fn overload_flag_then_dominant(iut: Iut, dominant_after: usize) -> ProtocolBench
     let mut bench = ProtocolBench::new(iut);
     bench
         .lt()
-        .release(INTEGRATION_BITS)
-        .send_bits(encoded.bits.iter().by_vals())
+        .after_integration()
+        .send_frame(&encoded)
         .send_bits([DOMINANT])
         .send_bits(std::iter::repeat_n(DOMINANT, 6 + dominant_after))
         .release(30);
@@ -284,7 +284,7 @@ fn ep_08_passive_former_transmitter_receives_a_frame_started_in_intermission_bit
         .lt()
         .release(their_sof)
         .set_bit(ack, Drive::Dominant)
-        .send_bits(theirs.bits.iter().by_vals())
+        .send_frame(&theirs)
         .release(4);
     assert!(bench.run_until_event(200, &NodeEvent::TransmitDone(true)));
     bench.send(&mine, false);
@@ -305,10 +305,7 @@ fn ep_09_passive_node_that_lost_arbitration_does_not_suspend(iut: Iut) {
     let theirs_frame = Frame::data(Id::standard(0x100).unwrap(), &[2]).unwrap();
     let theirs = encode(&theirs_frame);
     let mut bench = ProtocolBench::iut_transmits_with(iut, &mine, 200, false);
-    bench
-        .lt()
-        .send_bits(theirs.bits.iter().by_vals())
-        .release(6);
+    bench.lt().send_frame(&theirs).release(6);
     bench.run(0);
     let retry = theirs.len() + 3;
     assert!(
@@ -327,7 +324,7 @@ fn ov_02_05_overload_frames_after_error_and_overload_frames_are_not_limited(iut:
     let mut bench = ProtocolBench::new(iut);
     bench
         .lt()
-        .release(INTEGRATION_BITS)
+        .after_integration()
         .send_bits([DOMINANT; 6])
         .release(80);
     // Intermission bit 1 dominant three times: after the error frame and after each overload frame
@@ -372,7 +369,7 @@ fn ov_07_pending_retransmission_after_error_and_overload_frames_takes_a_sof_in_i
         .release(sof)
         .force(e, 0, 16, Drive::ForceRecessive)
         .set_bit(overload, Drive::Dominant)
-        .send_bits(theirs.bits.iter().by_vals())
+        .send_frame(&theirs)
         .release(3 + mine.len() + 4)
         .set_bit(
             retry + mine.position(Field::AckSlot, 0).unwrap(),
@@ -426,8 +423,8 @@ fn intermission_disturbance(iut: Iut, from_sp_tq: i32) -> (ProtocolBench, usize)
     let start = bench.sample_point_tq() as i32 + from_sp_tq;
     bench
         .lt()
-        .release(INTEGRATION_BITS)
-        .send_bits(first.bits.iter().by_vals())
+        .after_integration()
+        .send_frame(&first)
         .release(40)
         .force(bit_2, start as u32, quanta, Drive::Dominant);
     bench.run(1);

@@ -14,7 +14,7 @@ use testbenches::ecc::STUFF;
 use testbenches::iso::{
     first_dominant_edge, iso_bit_timings, DELIMITER, FLAG, IUT_DELAY_CLOCKS, RX_SOF,
 };
-use testbenches::protocol_bench::{Iut, ProtocolBench};
+use testbenches::protocol_bench::{Iut, LtScript, ProtocolBench};
 
 /// Frame 7FFh: its identifier has two dominant stuff bits, each after 5 recessive bits.
 fn all_ones() -> EncodedFrame {
@@ -305,11 +305,7 @@ fn stays_idle_after(
     let encoded = encode(&frame);
     let mut bench = ProtocolBench::with_btr(iut, btr);
     let sof = RX_SOF + 1 + 8;
-    bench
-        .lt()
-        .release(sof)
-        .send_bits(encoded.bits.iter().by_vals())
-        .release(4);
+    bench.lt().release(sof).send_frame(&encoded).release(4);
     edit(bench.lt());
     bench.run(1);
     let ack = sof + encoded.position(Field::AckSlot, 0).unwrap();
@@ -402,7 +398,7 @@ fn iso_7_7_11_negative_phase_error_at_the_ack(iut: Iut) {
             bench
                 .lt()
                 .release(RX_SOF)
-                .send_bits(encoded.bits.iter().by_vals())
+                .send_frame(&encoded)
                 .release(4)
                 .force(delimiter, t.ntq - e, e, Drive::Dominant)
                 .force(ack, t.ntq - t.ps2 - e, t.ps2 + e, Drive::ForceRecessive);

@@ -5,7 +5,7 @@
 use golden::frame::{encode, Field, Frame, Id, DOMINANT};
 use sim::engine::bus::Drive;
 use sim::nodes::can_node::NodeEvent;
-use testbenches::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
+use testbenches::protocol_bench::{Iut, LtScript, ProtocolBench, INTEGRATION_BITS};
 use testbenches::register_iut::RegisterIut;
 
 fn std_frame(id: u16, data: &[u8]) -> Frame {
@@ -50,14 +50,14 @@ fn traffic(serviced: bool) -> (ProtocolBench, usize) {
     let retry = sof_d + enc_d.len() + INTERMISSION_BITS;
     bench
         .lt()
-        .release(INTEGRATION_BITS)
-        .send_bits(enc_a.bits.iter().by_vals())
+        .after_integration()
+        .send_frame(&enc_a)
         .release(GAP_BITS)
         .send_bits([DOMINANT; 6])
         .release(GAP_BITS)
-        .send_bits(enc_c.bits.iter().by_vals())
+        .send_frame(&enc_c)
         .release(INTERMISSION_BITS)
-        .send_bits(enc_d.bits.iter().by_vals())
+        .send_frame(&enc_d)
         .release(INTERMISSION_BITS + enc_mine.len() + 4)
         .set_bit(
             retry + enc_mine.position(Field::AckSlot, 0).unwrap(),

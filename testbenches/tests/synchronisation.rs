@@ -17,7 +17,7 @@ use sim::nodes::can_node::NodeEvent;
 use sim::nodes::lower_tester::LowerTester;
 use testbenches::bt_configs;
 use testbenches::ecc::{ecc, BIT, OTHER, SEG_ACK_DELIM, SEG_ID_28_21, STUFF};
-use testbenches::protocol_bench::{Iut, ProtocolBench, INTEGRATION_BITS};
+use testbenches::protocol_bench::{Iut, LtScript, ProtocolBench, INTEGRATION_BITS};
 
 fn bt_12_negative_resync_at_the_crc_delimiter_before_the_ack(iut: Iut) {
     let frame = Frame::data(Id::standard(0x456).unwrap(), &[0xC3, 0x3C]).unwrap();
@@ -116,8 +116,8 @@ fn bt_14_dominant_after_the_sample_point_of_intermission_bit_3_starts_the_own_so
             let mut bench = ProtocolBench::with_btr(iut, cfg.btr);
             bench
                 .lt()
-                .release(INTEGRATION_BITS)
-                .send_bits(theirs.bits.iter().by_vals())
+                .after_integration()
+                .send_frame(&theirs)
                 .release(3)
                 .lengthen_bit(intermission_3, at as i32 - nbt as i32)
                 .push_bit(Drive::Dominant)
