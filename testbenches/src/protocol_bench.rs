@@ -29,6 +29,30 @@ use sim::host::sja1000::transmit;
 /// Idle bits before the first frame: the IUT needs 11 recessive bits to integrate.
 pub const INTEGRATION_BITS: usize = 14;
 
+/// The six bits of an error (or overload) flag after an error detected at bit `e`.
+pub fn flag_after(e: usize) -> Vec<usize> {
+    (e + 1..=e + 6).collect()
+}
+
+/// The bits of `encoded` (stuff bits included).
+pub fn bits_of(encoded: &EncodedFrame) -> Vec<bool> {
+    encoded.bits.iter().by_vals().collect()
+}
+
+/// The position of bit `index` of field `f` in `encoded` (the frame has that field).
+pub fn field(encoded: &EncodedFrame, f: Field, index: u16) -> usize {
+    encoded.position(f, index).unwrap()
+}
+
+/// The position of the first dominant bit among bits `indices` of field `f` of `encoded` (a bit
+/// the transmitter sends dominant, for a bit error the LT can force).
+pub fn first_dominant(encoded: &EncodedFrame, f: Field, indices: std::ops::Range<u16>) -> usize {
+    indices
+        .map(|i| field(encoded, f, i))
+        .find(|&p| encoded.bits[p] == DOMINANT)
+        .unwrap()
+}
+
 /// Script steps of the lower tester that the protocol tests share.
 pub trait LtScript {
     /// Lets the IUT integrate: [`INTEGRATION_BITS`] recessive bits.
@@ -90,6 +114,40 @@ impl ProtocolBench {
     /// A bench whose LT starts playing at once (the IUT receives).
     pub fn new(iut: Iut) -> ProtocolBench {
         ProtocolBench::with_btr(iut, bt_a())
+    }
+
+    /// The IUT receives: its REC preset to `rec` (if any), the LT sends `bits` after the
+    /// integration time and releases the bus for `extra_bits`; the bench has run one bit.
+    pub fn receive_bits(
+        iut: Iut,
+        bits: impl IntoIterator<Item = bool>,
+        rec: Option<u8>,
+        extra_bits: usize,
+    ) -> ProtocolBench {
+        ProtocolBench::receive_with(iut, bits, rec, extra_bits, |_| {})
+    }
+
+    /// As [`ProtocolBench::receive_bits`], with the LT script edited by `edit` before it plays
+    /// (positions in script bits).
+    pub fn receive_with(
+        iut: Iut,
+        bits: impl IntoIterator<Item = bool>,
+        rec: Option<u8>,
+        extra_bits: usize,
+        edit: impl FnOnce(&mut LowerTester),
+    ) -> ProtocolBench {
+        let mut bench = ProtocolBench::new(iut);
+        if let Some(rec) = rec {
+            bench.load_counter(false, rec);
+        }
+        bench
+            .lt()
+            .after_integration()
+            .send_bits(bits)
+            .release(extra_bits);
+        edit(bench.lt());
+        bench.run(1);
+        bench
     }
 
     /// As [`ProtocolBench::new`], with the bit timing `btr` for both the LT and the IUT.
@@ -502,6 +560,15 @@ impl ProtocolBench {
                 Some(&rx_buffer_bytes(frame)[..]),
                 "{what}: RX buffer"
             );
+        }
+    }
+
+    /// On the IUT observed through its registers, its error interrupts (EI, EPI with ES and
+    /// the counters at each) are `expected`, else panics with `why`; the bare core has no interrupt
+    /// register, so there is nothing to check on it.
+    pub fn assert_error_interrupts(&mut self, expected: &[ErrorInterrupt], why: &str) {
+        if let Some(interrupts) = self.error_interrupts() {
+            assert_eq!(interrupts, expected, "{why}");
         }
     }
 

@@ -47,6 +47,16 @@ impl RunsOn {
     }
 }
 
+/// The "runs on" cell of a matrix row for tests that run on `runs_on` ("–" for none).
+fn runs_on_cell(runs_on: &BTreeSet<RunsOn>) -> String {
+    let names: Vec<&str> = runs_on.iter().map(|r| r.name()).collect();
+    if names.is_empty() {
+        "–".to_string()
+    } else {
+        names.join(" + ")
+    }
+}
+
 /// Where the `#[test]` functions of a test file run: on the complete controller if the file uses the
 /// controller bench, on the bit timing logic if it uses the bit-timing bench, on the core otherwise.
 fn runs_of_plain_tests(text: &str) -> RunsOn {
@@ -85,22 +95,39 @@ fn listed_for_both_iuts(text: &str) -> Vec<String> {
     names
 }
 
+/// The texts of the integration test files.
+fn test_file_texts() -> Vec<String> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|entry| std::fs::read_to_string(entry.unwrap().path()).unwrap())
+        .collect()
+}
+
+/// The `#[test]` functions of a test file: each name with the attribute lines between `#[test]`
+/// and its `fn`.
+fn test_functions(text: &str) -> Vec<(String, &str)> {
+    let mut functions = Vec::new();
+    for after_attribute in text.split("#[test]").skip(1) {
+        let Some(start) = after_attribute.find("fn ") else {
+            continue;
+        };
+        let name: String = after_attribute[start + 3..]
+            .chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+            .collect();
+        functions.push((name, &after_attribute[..start]));
+    }
+    functions
+}
+
 /// Every test named after a catalog ID in the integration tests, with where it runs: `#[test]`
 /// functions, and the scenarios of `on_both_iuts!` (core and registers).
 fn catalog_tests() -> BTreeMap<String, BTreeSet<RunsOn>> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
     let mut tests: BTreeMap<String, BTreeSet<RunsOn>> = BTreeMap::new();
-    for entry in std::fs::read_dir(dir).unwrap() {
-        let text = std::fs::read_to_string(entry.unwrap().path()).unwrap();
+    for text in test_file_texts() {
         let plain = runs_of_plain_tests(&text);
-        for after_attribute in text.split("#[test]").skip(1) {
-            let Some(start) = after_attribute.find("fn ") else {
-                continue;
-            };
-            let name: String = after_attribute[start + 3..]
-                .chars()
-                .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
-                .collect();
+        for (name, _) in test_functions(&text) {
             tests.entry(name).or_default().insert(plain);
         }
         for name in listed_for_both_iuts(&text) {
@@ -180,13 +207,11 @@ fn every_listed_test_exists_and_every_catalog_test_is_listed() {
             "{id} has tests but is marked {:?}",
             row.status
         );
-        let names: Vec<&str> = runs_on.iter().map(|r| r.name()).collect();
-        let expected = if names.is_empty() {
-            "–".to_string()
-        } else {
-            names.join(" + ")
-        };
-        assert_eq!(row.runs_on, expected, "{id}: where its tests run");
+        assert_eq!(
+            row.runs_on,
+            runs_on_cell(&runs_on),
+            "{id}: where its tests run"
+        );
     }
     for t in tests.keys() {
         for id in ids_of(t) {
@@ -304,22 +329,13 @@ fn ignored_for_both_iuts(text: &str) -> Vec<(String, bool)> {
 
 /// Every test named after an ISO clause, with where it runs and whether it is ignored.
 fn iso_tests() -> BTreeMap<String, IsoTest> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
     let mut tests: BTreeMap<String, IsoTest> = BTreeMap::new();
-    for entry in std::fs::read_dir(dir).unwrap() {
-        let text = std::fs::read_to_string(entry.unwrap().path()).unwrap();
+    for text in test_file_texts() {
         let plain = runs_of_plain_tests(&text);
-        for after_attribute in text.split("#[test]").skip(1) {
-            let Some(start) = after_attribute.find("fn ") else {
-                continue;
-            };
-            let name: String = after_attribute[start + 3..]
-                .chars()
-                .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
-                .collect();
+        for (name, attributes) in test_functions(&text) {
             let test = tests.entry(name).or_default();
             test.runs_on.insert(plain);
-            test.ignored |= after_attribute[..start].contains("#[ignore");
+            test.ignored |= attributes.contains("#[ignore");
         }
         for (name, ignored) in ignored_for_both_iuts(&text) {
             let test = tests.entry(name).or_default();
@@ -430,13 +446,11 @@ fn every_iso_clause_has_a_row_and_every_iso_test_is_listed_in_it() {
                 row.status
             ),
         }
-        let names: Vec<&str> = runs_on.iter().map(|r| r.name()).collect();
-        let expected = if names.is_empty() {
-            "–".to_string()
-        } else {
-            names.join(" + ")
-        };
-        assert_eq!(row.runs_on, expected, "{clause}: where its tests run");
+        assert_eq!(
+            row.runs_on,
+            runs_on_cell(&runs_on),
+            "{clause}: where its tests run"
+        );
         for id in &row.catalog {
             assert!(
                 catalog.contains_key(id),

@@ -17,25 +17,14 @@ use sim::engine::bus::Drive;
 use sim::nodes::can_node::NodeEvent;
 use sim::nodes::lower_tester::LowerTester;
 use testbenches::ecc::*;
-use testbenches::protocol_bench::{Iut, LtScript, ProtocolBench, INTEGRATION_BITS};
+use testbenches::protocol_bench::{
+    bits_of, field, flag_after, Iut, LtScript, ProtocolBench, INTEGRATION_BITS,
+};
 
 const SOF: usize = INTEGRATION_BITS;
 
 fn frame() -> Frame {
     Frame::data(Id::standard(0x2C5).unwrap(), &[0x81, 0x3C]).unwrap()
-}
-
-/// The six bits of an error (or overload) flag after an error detected at `e`.
-fn flag_after(e: usize) -> Vec<usize> {
-    (e + 1..=e + 6).collect()
-}
-
-fn bits_of(encoded: &EncodedFrame) -> Vec<bool> {
-    encoded.bits.iter().by_vals().collect()
-}
-
-fn field(encoded: &EncodedFrame, f: Field, index: u16) -> usize {
-    encoded.position(f, index).unwrap()
 }
 
 /// The golden decoder's verdict on a wire bit list (followed by an idle bus).
@@ -74,33 +63,6 @@ fn segment_of(encoded: &EncodedFrame, i: usize) -> u8 {
         Field::AckDelim => SEG_ACK_DELIM,
         Field::Eof => SEG_EOF,
     }
-}
-
-/// LT sends `bits` after integration, then releases the bus for `extra_bits`; REC may be preset.
-fn receive_bits(iut: Iut, bits: &[bool], rec: Option<u8>, extra_bits: usize) -> ProtocolBench {
-    receive_with(iut, bits, rec, extra_bits, |_| {})
-}
-
-/// As [`receive_bits`], with the LT script edited by `edit` (positions in script bits).
-fn receive_with(
-    iut: Iut,
-    bits: &[bool],
-    rec: Option<u8>,
-    extra_bits: usize,
-    edit: impl FnOnce(&mut LowerTester),
-) -> ProtocolBench {
-    let mut bench = ProtocolBench::new(iut);
-    if let Some(rec) = rec {
-        bench.load_counter(false, rec);
-    }
-    bench
-        .lt()
-        .after_integration()
-        .send_bits(bits.iter().copied())
-        .release(extra_bits);
-    edit(bench.lt());
-    bench.run(1);
-    bench
 }
 
 /// The IUT transmits `f` with TEC preset to `tec`; the LT script (from the IUT's SOF) is `len`
@@ -195,7 +157,7 @@ fn st_04_missing_stuff_bit_after_the_crc(iut: Iut) {
         (DecodeErrorKind::Stuff, s),
         "golden: stuff error at the missing stuff bit"
     );
-    let mut bench = receive_bits(iut, &bits, None, 30);
+    let mut bench = ProtocolBench::receive_bits(iut, bits.iter().copied(), None, 30);
     assert_eq!(
         bench.iut_dominant_bits(0, SOF + s + 30),
         flag_after(SOF + s),
@@ -379,7 +341,7 @@ fn cr_02_flipped_data_bit_and_flipped_recessive_crc_bit(iut: Iut) {
             (DecodeErrorKind::Crc, ack_delim + 1),
             "golden, flips {flips:?}"
         );
-        let mut bench = receive_bits(iut, &bits, None, 20);
+        let mut bench = ProtocolBench::receive_bits(iut, bits.iter().copied(), None, 20);
         assert_eq!(
             bench.iut_dominant_bits(0, SOF + bits.len() + 20),
             flag_after(SOF + ack_delim),
@@ -408,7 +370,7 @@ fn cr_03_crc_error_and_dominant_crc_delimiter_give_one_flag(iut: Iut) {
         "golden: the form error comes first"
     );
     // The LT stops after the delimiter.
-    let mut bench = receive_bits(iut, &bits[..=delimiter], None, 30);
+    let mut bench = ProtocolBench::receive_bits(iut, bits[..=delimiter].iter().copied(), None, 30);
     assert_eq!(
         bench.iut_dominant_bits(0, SOF + delimiter + 30),
         flag_after(SOF + delimiter),
@@ -465,7 +427,7 @@ fn cr_04_recessive_sof_moves_the_frame(iut: Iut) {
         let e = SOF + k + verdict.position - usize::from(verdict.kind == DecodeErrorKind::Crc);
         // The LT stops after the bit at which the IUT detects the error (it sends wire bits ..=e).
         let sent = (e - SOF + 1).min(bits.len());
-        let mut bench = receive_bits(iut, &bits[..sent], None, 30);
+        let mut bench = ProtocolBench::receive_bits(iut, bits[..sent].iter().copied(), None, 30);
         let what = format!(
             "{f} with a recessive SOF: the IUT's frame starts at wire bit {k}; golden: {verdict}"
         );
@@ -564,20 +526,22 @@ fn error_delimiter_bit(k: usize) -> usize {
 
 /// The IUT detects the stuff error; the LT then drives `dominant` bits dominant.
 fn receiver_error_with_dominant(iut: Iut, rec: Option<u8>, dominant: &[usize]) -> ProtocolBench {
-    let mut bench = ProtocolBench::new(iut);
-    if let Some(rec) = rec {
-        bench.load_counter(false, rec);
-    }
-    bench
-        .lt()
-        .after_integration()
-        .send_bits([DOMINANT; 6])
-        .release(60);
-    for &b in dominant {
-        bench.lt().set_bit(b, Drive::Dominant);
-    }
-    bench.run(1);
-    bench
+    ProtocolBench::receive_with(iut, [DOMINANT; 6], rec, 60, |lt| {
+        for &b in dominant {
+            lt.set_bit(b, Drive::Dominant);
+        }
+    })
+}
+
+/// The IUT sends two flags: after the stuff error, and after bit `d`.
+fn assert_flags_after_stuff_error_and(bench: &mut ProtocolBench, d: usize, why: &str) {
+    let mut expected = flag_after(STUFF_ERROR_AT);
+    expected.extend(flag_after(d));
+    assert_eq!(
+        bench.iut_dominant_bits(STUFF_ERROR_AT, d + 30),
+        expected,
+        "{why}"
+    );
 }
 
 fn fe_05_dominant_error_delimiter_bits(iut: Iut) {
@@ -585,12 +549,10 @@ fn fe_05_dominant_error_delimiter_bits(iut: Iut) {
     for k in [2, 4, 7] {
         let d = error_delimiter_bit(k);
         let mut bench = receiver_error_with_dominant(iut, None, &[d]);
-        let mut expected = flag_after(STUFF_ERROR_AT);
-        expected.extend(flag_after(d));
-        assert_eq!(
-            bench.iut_dominant_bits(STUFF_ERROR_AT, d + 30),
-            expected,
-            "error delimiter bit {k} dominant: a new active flag from the next bit"
+        assert_flags_after_stuff_error_and(
+            &mut bench,
+            d,
+            &format!("error delimiter bit {k} dominant: a new active flag from the next bit"),
         );
         assert_eq!(
             bench.iut_events(),
@@ -607,12 +569,10 @@ fn fe_05_dominant_error_delimiter_bits(iut: Iut) {
 fn fe_06_dominant_last_error_delimiter_bit_is_an_overload(iut: Iut) {
     let d = error_delimiter_bit(8);
     let mut bench = receiver_error_with_dominant(iut, None, &[d]);
-    let mut expected = flag_after(STUFF_ERROR_AT);
-    expected.extend(flag_after(d));
-    assert_eq!(
-        bench.iut_dominant_bits(STUFF_ERROR_AT, d + 30),
-        expected,
-        "error delimiter bit 8 dominant: overload flag from the next bit"
+    assert_flags_after_stuff_error_and(
+        &mut bench,
+        d,
+        "error delimiter bit 8 dominant: overload flag from the next bit",
     );
     assert_eq!(
         bench.iut_events(),
@@ -631,7 +591,7 @@ fn overload_after_reception(
 ) -> (ProtocolBench, usize) {
     let encoded = encode(&frame());
     let i = SOF + encoded.len();
-    let bench = receive_with(iut, &bits_of(&encoded), None, 60, |lt| {
+    let bench = ProtocolBench::receive_with(iut, bits_of(&encoded), None, 60, |lt| {
         lt.set_bit(i, Drive::Dominant);
         edit(lt, i);
     });
@@ -650,12 +610,9 @@ fn fe_07_dominant_overload_delimiter_bits(iut: Iut) {
             lt.set_bit(overload_delimiter_bit(i, k), Drive::Dominant);
         });
         let d = overload_delimiter_bit(i, k);
-        let mut expected = vec![ack];
-        expected.extend(flag_after(i));
-        expected.extend(flag_after(d));
         assert_eq!(
             bench.iut_dominant_bits(0, d + 30),
-            expected,
+            ack_and_flags(ack, i, d),
             "overload delimiter bit {k} dominant: active error flag from the next bit"
         );
         let events = bench.iut_events();
@@ -670,18 +627,23 @@ fn fe_07_dominant_overload_delimiter_bits(iut: Iut) {
     }
 }
 
+/// The IUT's dominant bits: its ACK, a flag after bit `i` and a flag after bit `d`.
+fn ack_and_flags(ack: usize, i: usize, d: usize) -> Vec<usize> {
+    let mut bits = vec![ack];
+    bits.extend(flag_after(i));
+    bits.extend(flag_after(d));
+    bits
+}
+
 fn fe_08_dominant_last_overload_delimiter_bit_is_a_new_overload(iut: Iut) {
     let ack = SOF + field(&encode(&frame()), Field::AckSlot, 0);
     let (mut bench, i) = overload_after_reception(iut, |lt, i| {
         lt.set_bit(overload_delimiter_bit(i, 8), Drive::Dominant);
     });
     let d = overload_delimiter_bit(i, 8);
-    let mut expected = vec![ack];
-    expected.extend(flag_after(i));
-    expected.extend(flag_after(d));
     assert_eq!(
         bench.iut_dominant_bits(0, d + 30),
-        expected,
+        ack_and_flags(ack, i, d),
         "overload delimiter bit 8 dominant: a new overload flag from the next bit"
     );
     assert_eq!(bench.iut_events(), vec![NodeEvent::Received(frame())]);

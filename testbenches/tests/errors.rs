@@ -3,45 +3,20 @@
 //! the SJA1000 ECC/ALC capture values, what is stored and when a frame is retransmitted. Bit
 //! numbers are lower-tester script bits; an error detected at bit e gives a flag e+1..e+6.
 
-use golden::frame::{decode, encode, DecodeErrorKind, EncodedFrame, Field, Frame, Id, DOMINANT};
+use golden::frame::{decode, encode, DecodeErrorKind, Field, Frame, Id, DOMINANT};
 use rtl::registers::interrupt;
 use sim::engine::bus::Drive;
 use sim::nodes::can_node::NodeEvent;
 use testbenches::ecc::*;
-use testbenches::protocol_bench::{ErrorInterrupt, Iut, LtScript, ProtocolBench, INTEGRATION_BITS};
+use testbenches::protocol_bench::{
+    bits_of, field, first_dominant, flag_after, ErrorInterrupt, Iut, LtScript, ProtocolBench,
+    INTEGRATION_BITS,
+};
 
 const SOF: usize = INTEGRATION_BITS;
 
 fn frame() -> Frame {
     Frame::data(Id::standard(0x2C5).unwrap(), &[0x81, 0x3C]).unwrap()
-}
-
-/// The six bits of an error flag after an error at `e`.
-fn flag_after(e: usize) -> Vec<usize> {
-    (e + 1..=e + 6).collect()
-}
-
-/// LT sends `bits` after integration; the IUT may have its REC preset.
-fn receive_bits(iut: Iut, bits: &[bool], rec: Option<u8>, extra_bits: usize) -> ProtocolBench {
-    let mut bench = ProtocolBench::new(iut);
-    if let Some(rec) = rec {
-        bench.load_counter(false, rec);
-    }
-    bench
-        .lt()
-        .after_integration()
-        .send_bits(bits.iter().copied())
-        .release(extra_bits);
-    bench.run(1);
-    bench
-}
-
-fn bits_of(encoded: &EncodedFrame) -> Vec<bool> {
-    encoded.bits.iter().by_vals().collect()
-}
-
-fn field(encoded: &EncodedFrame, f: Field, index: u16) -> usize {
-    encoded.position(f, index).unwrap()
 }
 
 fn cr_01_crc_error_is_signalled_after_the_ack_delimiter(iut: Iut) {
@@ -59,7 +34,7 @@ fn cr_01_crc_error_is_signalled_after_the_ack_delimiter(iut: Iut) {
         .expect("a CRC bit that keeps the stuffing");
     let mut bits = bits_of(&encoded);
     bits[flipped] = !bits[flipped];
-    let mut bench = receive_bits(iut, &bits, None, 20);
+    let mut bench = ProtocolBench::receive_bits(iut, bits.iter().copied(), None, 20);
     let ack_delimiter = SOF + field(&encoded, Field::AckDelim, 0);
     assert_eq!(
         bench.iut_dominant_bits(0, SOF + bits.len() + 20),
@@ -78,7 +53,7 @@ fn fe_01_dominant_crc_delimiter_is_a_form_error(iut: Iut) {
     let mut bits = bits_of(&encoded);
     let delimiter = field(&encoded, Field::CrcDelim, 0);
     bits[delimiter] = DOMINANT;
-    let mut bench = receive_bits(iut, &bits, None, 20);
+    let mut bench = ProtocolBench::receive_bits(iut, bits.iter().copied(), None, 20);
     assert_eq!(
         bench.iut_dominant_bits(0, SOF + bits.len() + 20),
         flag_after(SOF + delimiter),
@@ -104,7 +79,7 @@ fn st_03_received_stuff_errors_in_every_field_and_polarity(iut: Iut) {
             // The LT stops after the faulty bit (the bus is left to the IUT's error frame).
             let mut bits = bits_of(&encoded)[..=s].to_vec();
             bits[s] = !bits[s];
-            let mut bench = receive_bits(iut, &bits, None, 20);
+            let mut bench = ProtocolBench::receive_bits(iut, bits.iter().copied(), None, 20);
             // A stuff bit belongs to the segment of the field bit after it (the engine has moved on).
             let next = encoded.tags[s + 1];
             let segment = match next.field {
@@ -178,10 +153,7 @@ fn ak_01_no_acknowledge_is_an_ack_error_and_the_frame_is_retransmitted(iut: Iut)
 fn be_01_rt_01_dominant_identifier_bit_read_recessive_is_a_bit_error(iut: Iut) {
     let f = Frame::data(Id::standard(0x0F3).unwrap(), &[0x55]).unwrap();
     let encoded = encode(&f);
-    let bit = (1..12)
-        .map(|i| field(&encoded, Field::BaseId, i))
-        .find(|&p| encoded.bits[p] == DOMINANT)
-        .unwrap();
+    let bit = first_dominant(&encoded, Field::BaseId, 1..12);
     let ack = field(&encoded, Field::AckSlot, 0);
     let mut bench = ProtocolBench::iut_transmits(iut, &f);
     // First attempt: the bit is forced recessive. Second attempt (SOF at e + 18): acknowledged.
@@ -245,7 +217,7 @@ fn fr_06_dominant_last_eof_bit_is_an_overload_for_a_receiver(iut: Iut) {
     let mut bits = bits_of(&encoded);
     let eof7 = field(&encoded, Field::Eof, 6);
     bits[eof7] = DOMINANT;
-    let mut bench = receive_bits(iut, &bits, Some(9), 20);
+    let mut bench = ProtocolBench::receive_bits(iut, bits.iter().copied(), Some(9), 20);
     assert_eq!(
         bench.iut_dominant_bits(SOF + eof7, SOF + eof7 + 20),
         flag_after(SOF + eof7),
@@ -265,7 +237,7 @@ fn fr_07_fe_03_dominant_eof_bits_1_to_6_are_form_errors(iut: Iut) {
         let mut bits = bits_of(&encoded);
         let eof = field(&encoded, Field::Eof, k);
         bits[eof] = DOMINANT;
-        let mut bench = receive_bits(iut, &bits, Some(9), 20);
+        let mut bench = ProtocolBench::receive_bits(iut, bits.iter().copied(), Some(9), 20);
         assert_eq!(
             bench.iut_dominant_bits(SOF + eof, SOF + eof + 20),
             flag_after(SOF + eof),
@@ -288,7 +260,7 @@ fn fe_02_dominant_ack_delimiter(iut: Iut) {
     let delimiter = field(&encoded, Field::AckDelim, 0);
     bits[delimiter] = DOMINANT;
     for (preset, after) in [(9, 9), (0, 1)] {
-        let mut bench = receive_bits(iut, &bits, Some(preset), 20);
+        let mut bench = ProtocolBench::receive_bits(iut, bits.iter().copied(), Some(preset), 20);
         assert_eq!(
             bench.iut_dominant_bits(SOF + delimiter, SOF + delimiter + 20),
             flag_after(SOF + delimiter),
@@ -313,7 +285,7 @@ fn ec_12_successful_transmission_decrements_tec(iut: Iut) {
 fn ec_13_successful_reception_decrements_rec_and_clamps_passive_values_to_127(iut: Iut) {
     let encoded = encode(&frame());
     for (before, after) in [(9, 8), (130, 127), (0, 0)] {
-        let mut bench = receive_bits(iut, &bits_of(&encoded), Some(before), 4);
+        let mut bench = ProtocolBench::receive_bits(iut, bits_of(&encoded), Some(before), 4);
         assert_eq!(bench.rec(), after, "REC {before}");
         assert_eq!(bench.iut_events(), vec![NodeEvent::Received(frame())]);
         assert!(!bench.error_passive());

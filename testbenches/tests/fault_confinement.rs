@@ -7,7 +7,9 @@ use golden::frame::{encode, Field, Frame, Id, DOMINANT};
 use rtl::registers::{interrupt, mode, pelican, status};
 use sim::engine::bus::Drive;
 use sim::nodes::can_node::NodeEvent;
-use testbenches::protocol_bench::{ErrorInterrupt, Iut, LtScript, ProtocolBench, INTEGRATION_BITS};
+use testbenches::protocol_bench::{
+    first_dominant, ErrorInterrupt, Iut, LtScript, ProtocolBench, INTEGRATION_BITS,
+};
 
 const SOF: usize = INTEGRATION_BITS;
 /// A receiver's stuff error on the sixth dominant bit: SOF and five dominant ID bits, then a sixth.
@@ -62,10 +64,7 @@ fn transmitter_error_script(
 ) -> (ProtocolBench, usize) {
     let f = frame();
     let encoded = encode(&f);
-    let bit = (1..12)
-        .map(|i| encoded.position(Field::BaseId, i).unwrap())
-        .find(|&p| encoded.bits[p] == DOMINANT)
-        .unwrap();
+    let bit = first_dominant(&encoded, Field::BaseId, 1..12);
     let mut bench = ProtocolBench::iut_transmits_with(iut, &f, tec, false);
     bench
         .lt()
@@ -153,16 +152,13 @@ fn ak_05_alone_on_the_bus_tec_stops_at_128(iut: Iut) {
     );
     assert_eq!(bench.tec(), 128);
     assert!(bench.error_passive() && !bench.bus_off());
-    if let Some(interrupts) = bench.error_interrupts() {
-        assert_eq!(
-            interrupts,
-            [
-                ErrorInterrupt::new(interrupt::EI, true, (96, 0)),
-                ErrorInterrupt::new(interrupt::EPI, true, (128, 0)),
-            ],
-            "ES and EI at 96, EPI at 128"
-        );
-    }
+    bench.assert_error_interrupts(
+        &[
+            ErrorInterrupt::new(interrupt::EI, true, (96, 0)),
+            ErrorInterrupt::new(interrupt::EPI, true, (128, 0)),
+        ],
+        "ES and EI at 96, EPI at 128",
+    );
 }
 
 fn be_03_ec_02_bit_error_in_the_own_active_flag_restarts_it(iut: Iut) {
@@ -201,13 +197,22 @@ fn ec_01_03_04_09_receiver_counts_dominant_bits_after_its_flag(iut: Iut) {
 }
 
 fn ec_05_10_transmitter_counts_dominant_bits_after_its_flag(iut: Iut) {
-    for (after_flag, tec) in [(0, 8), (7, 8), (8, 16), (16, 24)] {
-        let (mut bench, _) = transmitter_error_then_dominant(iut, 0, after_flag, 10);
-        assert_eq!(
-            bench.tec(),
-            tec,
-            "{after_flag} dominant bits after the flag"
-        );
+    let cases = [(0, 8), (7, 8), (8, 16), (16, 24)];
+    assert_tec_after_dominant_bits(iut, 0, 10, &cases, "the flag");
+}
+
+/// For each `(after_flag, tec)` case: a transmitter with TEC `preset` makes a bit error, sends its
+/// flag, then reads `after_flag` dominant bits (and `extra_bits` more after them): TEC is `tec`.
+fn assert_tec_after_dominant_bits(
+    iut: Iut,
+    preset: u8,
+    extra_bits: usize,
+    cases: &[(usize, u8)],
+    flag: &str,
+) {
+    for &(after_flag, tec) in cases {
+        let (mut bench, _) = transmitter_error_then_dominant(iut, preset, after_flag, extra_bits);
+        assert_eq!(bench.tec(), tec, "{after_flag} dominant bits after {flag}");
     }
 }
 
@@ -220,16 +225,13 @@ fn ec_14_the_error_reaching_128_is_still_signalled_active(iut: Iut) {
         flag_after(bit),
         "active flag although the counter reaches 128"
     );
-    if let Some(interrupts) = bench.error_interrupts() {
-        assert_eq!(
-            interrupts,
-            [
-                ErrorInterrupt::new(interrupt::EI, true, (120, 0)),
-                ErrorInterrupt::new(interrupt::EPI, true, (128, 0)),
-            ],
-            "EI when the preset 120 takes effect, EPI at 128"
-        );
-    }
+    bench.assert_error_interrupts(
+        &[
+            ErrorInterrupt::new(interrupt::EI, true, (120, 0)),
+            ErrorInterrupt::new(interrupt::EPI, true, (128, 0)),
+        ],
+        "EI when the preset 120 takes effect, EPI at 128",
+    );
 }
 
 fn ov_01_dominant_intermission_bit_1_or_2_gives_an_overload_frame(iut: Iut) {
@@ -377,10 +379,7 @@ fn rt_03_no_retry_limit(iut: Iut) {
     let f = frame();
     let encoded = encode(&f);
     let ack = encoded.position(Field::AckSlot, 0).unwrap();
-    let bit = (0..12)
-        .map(|i| encoded.position(Field::BaseId, i).unwrap())
-        .find(|&p| encoded.bits[p] == DOMINANT)
-        .unwrap();
+    let bit = first_dominant(&encoded, Field::BaseId, 0..12);
     let mut bench = ProtocolBench::iut_transmits_with(iut, &f, 0, false);
     // 20 attempts each with a bit error at `bit`. The next SOF comes at e + 18, or e + 26 once the
     // IUT is error passive (TEC ≥ 128 after the 16th error: 8 suspend bits).
@@ -419,10 +418,7 @@ fn rt_03_no_retry_limit(iut: Iut) {
 fn ec_08_transmitter_bit_error_in_its_own_active_flag(iut: Iut) {
     let f = frame();
     let encoded = encode(&f);
-    let bit = (1..12)
-        .map(|i| encoded.position(Field::BaseId, i).unwrap())
-        .find(|&p| encoded.bits[p] == DOMINANT)
-        .unwrap();
+    let bit = first_dominant(&encoded, Field::BaseId, 1..12);
     let mut bench = ProtocolBench::iut_transmits(iut, &f);
     bench
         .lt()
@@ -439,14 +435,8 @@ fn ec_08_transmitter_bit_error_in_its_own_active_flag(iut: Iut) {
 
 fn ec_11_dominant_bits_after_a_passive_flag(iut: Iut) {
     // Passive transmitter (TEC 128): bit error, passive flag, then n dominant bits.
-    for (after_flag, tec) in [(1, 136), (6, 136), (8, 144), (9, 144), (16, 152)] {
-        let (mut bench, _) = transmitter_error_then_dominant(iut, 128, after_flag, 20);
-        assert_eq!(
-            bench.tec(),
-            tec,
-            "{after_flag} dominant bits after the passive flag"
-        );
-    }
+    let cases = [(1, 136), (6, 136), (8, 144), (9, 144), (16, 152)];
+    assert_tec_after_dominant_bits(iut, 128, 20, &cases, "the passive flag");
 }
 
 fn ec_15_rec_saturates_at_255_and_never_causes_bus_off(iut: Iut) {
@@ -558,37 +548,28 @@ fn ep_10_error_passive_and_warning_follow_the_counters(iut: Iut) {
     let (ei, epi) = (interrupt::EI, interrupt::EPI);
     let (mut bench, _) = transmitter_error_then_dominant(iut, 120, 0, 5);
     assert!(bench.error_passive(), "TEC 128");
-    if let Some(interrupts) = bench.error_interrupts() {
-        assert_eq!(
-            interrupts,
-            [
-                ErrorInterrupt::new(ei, true, (120, 0)),
-                ErrorInterrupt::new(epi, true, (128, 0))
-            ],
-            "TEC 120 (ES), then 128: EPI"
-        );
-    }
+    bench.assert_error_interrupts(
+        &[
+            ErrorInterrupt::new(ei, true, (120, 0)),
+            ErrorInterrupt::new(epi, true, (128, 0)),
+        ],
+        "TEC 120 (ES), then 128: EPI",
+    );
     let (mut bench, _) = transmitter_error_then_dominant(iut, 88, 0, 5);
     assert!(!bench.error_passive(), "TEC 96");
-    if let Some(interrupts) = bench.error_interrupts() {
-        assert_eq!(
-            interrupts,
-            [ErrorInterrupt::new(ei, true, (96, 0))],
-            "TEC 88, then 96 = EWLR: ES and EI, no EPI"
-        );
-    }
+    bench.assert_error_interrupts(
+        &[ErrorInterrupt::new(ei, true, (96, 0))],
+        "TEC 88, then 96 = EWLR: ES and EI, no EPI",
+    );
     let mut bench = ProtocolBench::iut_transmits_acknowledged(iut, &frame(), 128);
     assert!(!bench.error_passive(), "TEC 128 → 127: active again");
-    if let Some(interrupts) = bench.error_interrupts() {
-        assert_eq!(
-            interrupts,
-            [
-                ErrorInterrupt::new(ei | epi, true, (128, 0)),
-                ErrorInterrupt::new(epi, true, (127, 0))
-            ],
-            "TEC 128 when reset mode is left: ES and passive; 127: EPI (active again)"
-        );
-    }
+    bench.assert_error_interrupts(
+        &[
+            ErrorInterrupt::new(ei | epi, true, (128, 0)),
+            ErrorInterrupt::new(epi, true, (127, 0)),
+        ],
+        "TEC 128 when reset mode is left: ES and passive; 127: EPI (active again)",
+    );
 }
 
 fn ep_06_passive_transmitter_retransmits_after_suspend(iut: Iut) {
@@ -682,10 +663,7 @@ fn rt_05_abort_during_the_own_transmission_makes_it_the_last_attempt(iut: Iut) {
     assert_eq!(bench.tec(), 9);
 
     // A bit error in the data field: no retransmission.
-    let data = (0..8)
-        .map(|i| encoded.position(Field::Data, i).unwrap())
-        .find(|&p| encoded.bits[p] == DOMINANT)
-        .unwrap();
+    let data = first_dominant(&encoded, Field::Data, 0..8);
     let mut bench = ProtocolBench::iut_transmits(iut, &f);
     bench
         .lt()

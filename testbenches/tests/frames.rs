@@ -27,13 +27,7 @@ fn extended(id: u32) -> Id {
 /// The LT sends `frame` (ACK slot left to the IUT) after the integration time.
 fn receive(iut: Iut, frame: &Frame) -> (ProtocolBench, EncodedFrame) {
     let encoded = encode(frame);
-    let mut bench = ProtocolBench::new(iut);
-    bench
-        .lt()
-        .after_integration()
-        .send_frame(&encoded)
-        .release(4);
-    bench.run(1);
+    let bench = ProtocolBench::receive_bits(iut, encoded.bits.iter().by_vals(), None, 4);
     (bench, encoded)
 }
 

@@ -2,7 +2,7 @@
 //! overload scenarios OV-03/OV-04 on both IUTs (the RTL core, and the controller through its
 //! registers). Bit numbers are lower-tester script bits.
 
-use golden::frame::{encode, Field, Frame, Id, DOMINANT};
+use golden::frame::{encode, EncodedFrame, Field, Frame, Id, DOMINANT};
 use sim::engine::bus::Drive;
 use sim::engine::time::ClockSpec;
 use sim::nodes::can_node::NodeEvent;
@@ -25,16 +25,8 @@ fn flag_after(e: usize) -> Vec<usize> {
 /// An error-passive receiver (REC preset 130) gets six dominant bits (stuff error at SOF + 5), then
 /// `after` from the LT.
 fn passive_receiver_error(iut: Iut, after: &[bool]) -> ProtocolBench {
-    let mut bench = ProtocolBench::new(iut);
-    bench.load_counter(false, 130);
-    bench
-        .lt()
-        .after_integration()
-        .send_bits([DOMINANT; 6])
-        .send_bits(after.iter().copied())
-        .release(30);
-    bench.run(1);
-    bench
+    let bits = [DOMINANT; 6].into_iter().chain(after.iter().copied());
+    ProtocolBench::receive_bits(iut, bits, Some(130), 30)
 }
 
 fn if_01_reset_mode_left_mid_frame_ignores_that_frame(iut: Iut) {
@@ -138,14 +130,7 @@ fn ep_01_03_passive_flag_ends_after_6_equal_bits(iut: Iut) {
 
 fn ep_04_passive_node_still_acknowledges(iut: Iut) {
     let encoded = encode(&frame());
-    let mut bench = ProtocolBench::new(iut);
-    bench.load_counter(false, 130);
-    bench
-        .lt()
-        .after_integration()
-        .send_frame(&encoded)
-        .release(4);
-    bench.run(1);
+    let mut bench = ProtocolBench::receive_bits(iut, encoded.bits.iter().by_vals(), Some(130), 4);
     let ack = SOF + encoded.position(Field::AckSlot, 0).unwrap();
     assert_eq!(
         bench.iut_dominant_bits(0, SOF + encoded.len() + 4),
@@ -181,23 +166,35 @@ fn ep_05_passive_transmitter_suspends_between_its_frames(iut: Iut) {
     assert_eq!(bench.tec(), 198);
 }
 
-fn ep_07_a_frame_started_during_suspend_is_received_and_then_no_suspend(iut: Iut) {
+/// The error-passive IUT (TEC 200) sends `frame()`, which the LT acknowledges; the LT starts
+/// `other_frame()` `after_own_frame` bits after the end of the IUT's frame and then releases the
+/// bus for `extra_bits`. The IUT's own frame is done and queued again. Returns the bench, the LT's
+/// SOF position and the other frame.
+fn passive_transmitter_then_theirs(
+    iut: Iut,
+    after_own_frame: usize,
+    extra_bits: usize,
+) -> (ProtocolBench, usize, EncodedFrame) {
     let mine = frame();
     let encoded = encode(&mine);
     let ack = encoded.position(Field::AckSlot, 0).unwrap();
     let theirs = encode(&other_frame());
-    // Own frame acknowledged (TEC 200 → 199, passive): suspend; the LT's SOF in suspend bit 2.
-    let their_sof = encoded.len() + 3 + 1;
+    let their_sof = encoded.len() + after_own_frame;
     let mut bench = ProtocolBench::iut_transmits_with(iut, &mine, 200, false);
     bench
         .lt()
         .release(their_sof)
         .set_bit(ack, Drive::Dominant)
         .send_frame(&theirs)
-        .release(60);
-    let done = bench.run_until_event(200, &NodeEvent::TransmitDone(true));
-    assert!(done);
+        .release(extra_bits);
+    assert!(bench.run_until_event(200, &NodeEvent::TransmitDone(true)));
     bench.send(&mine, false);
+    (bench, their_sof, theirs)
+}
+
+fn ep_07_a_frame_started_during_suspend_is_received_and_then_no_suspend(iut: Iut) {
+    // Own frame acknowledged (TEC 200 → 199, passive): suspend; the LT's SOF in suspend bit 2.
+    let (mut bench, their_sof, theirs) = passive_transmitter_then_theirs(iut, 3 + 1, 60);
     bench.run(1);
     let their_ack = their_sof + theirs.position(Field::AckSlot, 0).unwrap();
     let next = their_sof + theirs.len() + 3;
@@ -274,20 +271,8 @@ fn ep_02_passive_flag_restarts_on_level_changes(iut: Iut) {
 }
 
 fn ep_08_passive_former_transmitter_receives_a_frame_started_in_intermission_bit_3(iut: Iut) {
-    let mine = frame();
-    let encoded = encode(&mine);
-    let ack = encoded.position(Field::AckSlot, 0).unwrap();
-    let theirs = encode(&other_frame());
-    let their_sof = encoded.len() + 2;
-    let mut bench = ProtocolBench::iut_transmits_with(iut, &mine, 200, false);
-    bench
-        .lt()
-        .release(their_sof)
-        .set_bit(ack, Drive::Dominant)
-        .send_frame(&theirs)
-        .release(4);
-    assert!(bench.run_until_event(200, &NodeEvent::TransmitDone(true)));
-    bench.send(&mine, false);
+    // The LT's SOF in intermission bit 3.
+    let (mut bench, their_sof, theirs) = passive_transmitter_then_theirs(iut, 2, 4);
     bench.run(0);
     let their_ack = their_sof + theirs.position(Field::AckSlot, 0).unwrap();
     assert_eq!(
