@@ -36,7 +36,6 @@ pub struct HostWrite {
 /// The interrupt block's registers as the read side shows them: IER, IR (RI excluded), ALC, ECC,
 /// SR.ES and the BasicCAN RI latch, all flip-flop outputs.
 #[derive(LogicInterface, Default)]
-#[join = "InterruptRegistersIn"]
 pub struct InterruptRegisters {
     /// IER (BasicCAN: CR.4..1 in bits 3..0).
     pub ier: Signal<Out, Bits<8>>,
