@@ -131,8 +131,6 @@ pub struct Interframe {
     counts: Signal<Local, Bit>,
     /// The error flag's sixth bit (passive: sixth equal bit) is on the bus.
     flag_complete: Signal<Local, Bit>,
-    #[constant(ecc_type::BIT)]
-    bit_error_type: Constant<Bits<2>>,
     #[constant(ecc_type::FORM)]
     form_error_type: Constant<Bits<2>>,
     #[constant(IDLE_RUN_BITS - 1)]
