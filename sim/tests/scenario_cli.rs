@@ -307,3 +307,78 @@ fn a_scenario_runs_and_writes_its_log_and_waves_without_a_progress_bar_when_pipe
     assert!(!out.contains("0C4#"), "{out}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn traffic_the_bus_cannot_carry_is_refused_up_front() {
+    // 123#1122334455667788 without stuff bits is 108 bits (ISO 11898-1 10.4.2: SOF, 11 identifier
+    // bits, RTR, IDE, r0, 4 DLC bits, 64 data bits, 15 CRC bits, CRC and ACK delimiters, ACK slot,
+    // 7 EOF bits) plus the 3-bit intermission: 111 bits, 222 us at 500 kbit/s.
+    fails(
+        "period-shorter-than-the-frame",
+        &format!(
+            "{HEADER}[[periodic]]\nnode = \"a\"\nframe = \"123#1122334455667788\"\nperiod = \"1ns\"\n"
+        ),
+        &[],
+        &[],
+        "FILE/bad.toml:9:10: period \"1ns\" is shorter than 123#1122334455667788 takes on the bus \
+         (111 bits with the intermission, 222.0 us at node a's bit rate)",
+    );
+    fails(
+        "empty-transmit-queue",
+        &format!("{HEADER}txqueuelen = 0\n"),
+        &[],
+        &[],
+        "FILE/bad.toml:6:14: txqueuelen 0 is out of range 1..=100000",
+    );
+}
+
+/// The summary row of node `name`: its columns after the name.
+fn summary_row<'a>(out: &'a str, name: &str) -> Vec<&'a str> {
+    let row = out
+        .lines()
+        .find(|l| l.split_whitespace().next() == Some(name) && l.contains("error"))
+        .unwrap_or_else(|| panic!("no summary row for {name} in\n{out}"));
+    row.split_whitespace().skip(1).collect()
+}
+
+#[test]
+fn a_hundred_million_frame_scenario_keeps_a_bounded_queue_and_little_memory() {
+    // Node a releases a frame every 111 us (two messages of 222 us each, 100 million of each), twice
+    // what the bus can carry: its queue holds 4 frames (txqueuelen) and the rest are dropped, as
+    // Linux's write() fails with ENOBUFS when the interface queue is full.
+    let dir = scratch("hundred-million");
+    let file = dir.join("flood.toml");
+    std::fs::write(
+        &file,
+        "duration = \"20ms\"\n[bus]\nbitrate = 500000\n\
+         [[node]]\nname = \"a\"\ntxqueuelen = 4\n[[node]]\nname = \"b\"\n\
+         [[periodic]]\nnode = \"a\"\nframe = \"123#1122334455667788\"\nperiod = \"222us\"\ncount = 100000000\n\
+         [[periodic]]\nnode = \"a\"\nframe = \"124#1122334455667788\"\nperiod = \"222us\"\nstart = \"111us\"\ncount = 100000000\n",
+    )
+    .unwrap();
+    let o = cansim(&["run", file.to_str().unwrap(), "--quiet"]);
+    let out = text(&o.stdout);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let a = summary_row(&out, "a");
+    let (sent, dropped, unsent): (usize, usize, usize) = (
+        a[0].parse().unwrap(),
+        a[2].parse().unwrap(),
+        a[3].parse().unwrap(),
+    );
+    // Releases at 0, 222, ..., 19 980 us (91) and at 111, ..., 19 869 us (90); about 87 frames fit
+    // on the bus in 20 ms (each about 230 us with its stuff bits and intermission).
+    assert!((80..=90).contains(&sent), "sent {sent}\n{out}");
+    assert_eq!(sent + dropped + unsent, 181, "{out}");
+    assert!(
+        unsent <= 5,
+        "4 queued and one in flight at most: {unsent}\n{out}"
+    );
+    let peak: u64 = out
+        .split("peak memory ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|mb| mb.parse().ok())
+        .unwrap_or_else(|| panic!("no peak memory in\n{out}"));
+    assert!(peak < 100, "peak memory {peak} MB\n{out}");
+    std::fs::remove_dir_all(&dir).ok();
+}

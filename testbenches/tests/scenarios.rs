@@ -78,7 +78,7 @@ fn random_payloads_follow_the_seed() {
         format!(
             "duration = \"1ms\"\nseed = {seed}\n{TWO_NODES}\
              [[periodic]]\nnode = \"b\"\nframe = \"7FF#0000000000000000\"\nstart = \"100us\"\n\
-             period = \"150us\"\ncount = 3\npattern = \"random\"\n"
+             period = \"250us\"\ncount = 3\npattern = \"random\"\n"
         )
     };
     let first = log_frames(&run_text(&text(1)));

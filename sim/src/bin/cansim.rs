@@ -14,7 +14,7 @@ use sim::engine::rng::Rng;
 use sim::nodes::controller_node::ModelEngine;
 use sim::rta;
 use sim::scenario::parse::parse_time;
-use sim::scenario::progress::Progress;
+use sim::scenario::progress::{peak_resident_bytes, Progress};
 use sim::scenario::summary::{format_report, ReportParts};
 use sim::scenario::{load, run, RunOptions, RunReport, Scenario};
 use sim::verilated;
@@ -384,13 +384,17 @@ fn run_with_progress(
 /// Characters cleared after the progress line.
 const PROGRESS_CLEAR_WIDTH: usize = 100;
 
-/// `simulated 7.400 ms in 4.2 s (1.8 ms/s)`.
+/// `real time 4.2 s (1.76 ms simulated per second), peak memory 21 MB`.
 fn speed_line(report: &RunReport, seconds: f64) -> String {
     let ms = report.simulated_fs as f64 / 1e12;
-    format!(
+    let mut line = format!(
         "real time {seconds:.1} s ({:.2} ms simulated per second)",
         ms / seconds.max(1e-9)
-    )
+    );
+    if let Some(bytes) = peak_resident_bytes() {
+        line += &format!(", peak memory {} MB", bytes.div_ceil(1 << 20));
+    }
+    line
 }
 
 fn print_outputs(report: &RunReport, scenario: &Scenario) {

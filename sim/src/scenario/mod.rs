@@ -127,6 +127,9 @@ pub fn node_bit_fs(clock_hz: u32, ppm: f64, btr: &Btr) -> u64 {
     period * u64::from(btr.clocks_per_bit())
 }
 
+/// Linux's default `txqueuelen` of a CAN interface.
+pub const DEFAULT_TXQUEUELEN: usize = 10;
+
 /// How a node's driver starts its controller.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NodeMode {
@@ -163,6 +166,9 @@ pub struct NodeConfig {
     pub berr_reporting: bool,
     /// One-shot mode: every frame gets one attempt (CMR.AT).
     pub one_shot: bool,
+    /// Frames the driver's transmit queue holds besides the one in flight (Linux `txqueuelen`);
+    /// a frame released while it is full is dropped, as `write()` fails with ENOBUFS.
+    pub txqueuelen: usize,
 }
 
 impl NodeConfig {

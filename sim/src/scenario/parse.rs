@@ -13,11 +13,12 @@ use crate::host::acceptance::FilterConfig;
 use crate::host::driver::open_filter;
 use golden::btr::{calc_bittiming, sample_point_fraction, Btr};
 use golden::frame::{Field, Frame, DOMINANT, RECESSIVE};
+use golden::worst_case::unstuffed_len;
 
 use super::candump::{parse_frame, parse_log};
 use super::faults::{Fault, FaultKind, Place};
 use super::traffic::{Once, Pattern, Periodic, Traffic};
-use super::{BusConfig, NodeConfig, NodeMode, Scenario, ScenarioError};
+use super::{BusConfig, NodeConfig, NodeMode, Scenario, ScenarioError, DEFAULT_TXQUEUELEN};
 
 /// Controller clock of the bus and of every node that names none.
 pub const DEFAULT_CLOCK_HZ: u32 = 16_000_000;
@@ -27,6 +28,11 @@ pub const MAX_PPM: f64 = 50_000.0;
 pub const MAX_TIME_FS: u64 = 3600 * FS_PER_S;
 /// The name of the VCD scope that holds the bus: no node may take it.
 const BUS_SCOPE: &str = "top";
+/// The largest transmit queue a node may have (it bounds the memory a node's waiting frames take).
+pub const MAX_TXQUEUELEN: usize = 100_000;
+/// Recessive bits after a frame before the next one can start: the intermission (ISO 11898-1
+/// 10.4.6.2).
+const INTERMISSION_BITS: u64 = 3;
 
 /// Reads and checks the scenario in `path`.
 pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
@@ -111,6 +117,7 @@ struct NodeToml {
     restart: Option<Spanned<String>>,
     berr_reporting: Option<bool>,
     one_shot: Option<bool>,
+    txqueuelen: Option<Spanned<usize>>,
 }
 
 #[derive(Deserialize, Clone, Copy)]
@@ -538,7 +545,22 @@ impl<'a> Builder<'a> {
             restart_fs: n.restart.as_ref().map(|r| self.time(r)).transpose()?,
             berr_reporting: n.berr_reporting.unwrap_or(true),
             one_shot: n.one_shot.unwrap_or(false),
+            txqueuelen: self.txqueuelen(n)?,
         })
+    }
+
+    fn txqueuelen(&self, n: &NodeToml) -> Result<usize, ScenarioError> {
+        let Some(spanned) = &n.txqueuelen else {
+            return Ok(DEFAULT_TXQUEUELEN);
+        };
+        let length = *spanned.get_ref();
+        if !(1..=MAX_TXQUEUELEN).contains(&length) {
+            return Err(self.error(
+                spanned.span(),
+                format!("txqueuelen {length} is out of range 1..={MAX_TXQUEUELEN}"),
+            ));
+        }
+        Ok(length)
     }
 
     /// The bus bit rate at another controller clock.
@@ -647,8 +669,10 @@ impl<'a> Builder<'a> {
                 ));
             }
         }
+        let node = self.sender(&p.node)?;
+        self.check_period(&p.period, period_fs, &template, &self.nodes[node])?;
         Ok(Periodic {
-            node: self.sender(&p.node)?,
+            node,
             template,
             first_fs: p
                 .start
@@ -660,6 +684,37 @@ impl<'a> Builder<'a> {
             count: p.count,
             pattern,
         })
+    }
+
+    /// Refuses a period in which the node could not even send the message once: shorter than the
+    /// frame without stuff bits and its intermission.
+    fn check_period(
+        &self,
+        spanned: &Spanned<String>,
+        period_fs: u64,
+        frame: &Frame,
+        node: &NodeConfig,
+    ) -> Result<(), ScenarioError> {
+        let data_bytes = if frame.is_remote() {
+            0
+        } else {
+            frame.data_bytes().len()
+        };
+        let bits = unstuffed_len(frame.id().is_extended(), data_bytes) as u64 + INTERMISSION_BITS;
+        let shortest_fs = bits * node.bit_fs();
+        if period_fs >= shortest_fs {
+            return Ok(());
+        }
+        Err(self.error(
+            spanned.span(),
+            format!(
+                "period {:?} is shorter than {frame} takes on the bus ({bits} bits with the \
+                 intermission, {:.1} us at node {}'s bit rate): the node could never keep up",
+                spanned.get_ref(),
+                shortest_fs as f64 / FS_PER_US as f64,
+                node.name
+            ),
+        ))
     }
 
     fn replay(&self, r: &ReplayToml) -> Result<Vec<Once>, ScenarioError> {

@@ -75,6 +75,15 @@ pub fn line(simulated_fs: u64, total_fs: u64, real: Duration) -> String {
     )
 }
 
+/// The most memory this process has had resident so far (Linux's `VmHWM`), in bytes; `None` where
+/// the system does not tell.
+pub fn peak_resident_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -53,7 +53,8 @@ pub struct NodeReport {
     pub sent: usize,
     /// Frames the driver read from the RX FIFO, in order.
     pub received: Vec<Frame>,
-    /// Frames given up: dropped at bus-off, or one-shot attempts that failed.
+    /// Frames given up: dropped at bus-off, one-shot attempts that failed, and frames released
+    /// while the node's transmit queue was full (`txqueuelen`).
     pub dropped: usize,
     /// Frames still waiting in the node's queue (or in flight) when the run ended.
     pub unsent: usize,

@@ -150,7 +150,10 @@ impl SofWatch {
 struct RunNode {
     id: DeviceId,
     driver: Sja1000Driver,
+    /// Frames waiting for the driver, at most the node's `txqueuelen`.
     queue: VecDeque<Frame>,
+    /// Frames released while the queue was full (dropped, as Linux's `write()` fails with ENOBUFS).
+    queue_full: usize,
     events: Vec<(u64, Happening)>,
     bus_off_at: Option<u64>,
     restarts: usize,
@@ -193,6 +196,7 @@ impl<'s> Runner<'s> {
                 id,
                 driver: Sja1000Driver::new(id, config),
                 queue: VecDeque::new(),
+                queue_full: 0,
                 events: Vec::new(),
                 bus_off_at: None,
                 restarts: 0,
@@ -302,7 +306,13 @@ impl<'s> Runner<'s> {
     /// Hands out what is due, then runs for at most a bit time.
     fn step(&mut self, end: u64) -> Result<(), ScenarioError> {
         for (node, frame) in self.schedule.release(self.clock) {
-            self.nodes[node].queue.push_back(frame);
+            let limit = self.scenario.nodes[node].txqueuelen;
+            let node = &mut self.nodes[node];
+            if node.queue.len() < limit {
+                node.queue.push_back(frame);
+            } else {
+                node.queue_full += 1;
+            }
         }
         self.restart_due()?;
         self.start_transmissions()?;
@@ -598,7 +608,8 @@ fn node_report(node: &RunNode, name: &str, tec: u8, rec: u8) -> NodeReport {
                 _ => None,
             })
             .collect(),
-        dropped: count(|e| matches!(e, DriverEvent::TxDropped(_) | DriverEvent::TxFailed(_))),
+        dropped: count(|e| matches!(e, DriverEvent::TxDropped(_) | DriverEvent::TxFailed(_)))
+            + node.queue_full,
         unsent: node.queue.len() + usize::from(node.driver.in_flight().is_some()),
         tec,
         rec,
