@@ -1,10 +1,11 @@
 # Entry points of the project. `make test` is what CI runs.
 CARGO ?= cargo
 
-.PHONY: test test-long test-verilator check tools demo waves waves-check waves-compare lint verilog verilator-model synth bench campaign clean
+.PHONY: pyenv test test-long test-verilator check tools demo waves waves-check waves-compare lint verilog verilator-model synth bench campaign clean
 
-## Install the external tools (sigrok-cli, iverilog, verilator), then run every test.
-test: tools
+## Install the external tools (sigrok-cli, iverilog, verilator) and the Python ones (python-can,
+## cantools, pinned, in build/pyenv), then run every test.
+test: tools pyenv
 	$(CARGO) test --workspace
 
 ## The long runs kept out of `make test`: the driver replay of more than 1 000 frames and the
@@ -23,6 +24,11 @@ PROTOCOL_SUITES = arbitration bit_timing error_kinds errors fault_confinement fr
 test-verilator: tools
 	CAN_ENGINE=verilator $(CARGO) test -p testbenches $(addprefix --test ,$(REGISTER_SUITES))
 	CAN_ENGINE=verilator $(CARGO) test -p testbenches $(addprefix --test ,$(PROTOCOL_SUITES)) -- on_registers::
+
+## The Python virtual environment of the tests: python-can and cantools, pinned
+## (scripts/python-requirements.txt), judge what `cansim serve` puts on the wire.
+pyenv:
+	./scripts/pyenv.sh
 
 ## Formatting and clippy, warnings are errors.
 check:

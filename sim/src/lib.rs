@@ -8,7 +8,8 @@
 //! * [`host`]: the CPU side (host model, Linux SJA1000 driver, frame buffer, acceptance model);
 //! * [`decode`]: the bus decoder and the VCD reader;
 //! * [`scenario`], [`rta`], [`verilated`], [`workloads`]: scenario files, response-time analysis,
-//!   the Verilator engine, the built-in runs.
+//!   the Verilator engine, the built-in runs;
+//! * [`serve`]: a scenario's bus without end as a socketcand server (`cansim serve`).
 #![warn(missing_docs)]
 
 pub mod decode;
@@ -17,5 +18,6 @@ pub mod host;
 pub mod nodes;
 pub mod rta;
 pub mod scenario;
+pub mod serve;
 pub mod verilated;
 pub mod workloads;

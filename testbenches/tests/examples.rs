@@ -205,3 +205,27 @@ fn the_canopen_network_boots_synchronises_and_answers_its_sdos() {
         assert_eq!((n.tec, n.rec, n.unsent), (0, 0, 0), "{name}");
     }
 }
+
+#[test]
+fn the_served_bus_sends_engine_status_every_10_ms_and_the_gateway_frame_every_50_ms() {
+    let (_, report) = run_example("serve.toml");
+    let engine = |k: u8| format!("0C0#{k:02X}401F5A00000000");
+    let expected: Vec<String> = [
+        engine(0),
+        "18FEF100#FF00".into(),
+        engine(1),
+        engine(2),
+        engine(3),
+        engine(4),
+        engine(5),
+        "18FEF100#FF00".into(),
+    ]
+    .into();
+    let texts: Vec<&str> = expected.iter().map(String::as_str).collect();
+    assert_eq!(log_frames(&report), frames(&texts));
+    assert_eq!(error_frames(&report), 0);
+    for (event, at_ms) in report.log.iter().zip([1, 5, 11, 21, 31, 41, 51, 55]) {
+        let late = event.start_fs - at_ms * FS_PER_MS;
+        assert!(late < 5 * FS_PER_US, "{event}: {late} fs after its time");
+    }
+}

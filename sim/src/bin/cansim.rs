@@ -3,6 +3,7 @@
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
@@ -15,8 +16,9 @@ use sim::nodes::controller_node::ModelEngine;
 use sim::rta;
 use sim::scenario::parse::parse_time;
 use sim::scenario::progress::{peak_resident_bytes, Progress};
-use sim::scenario::summary::{format_report, ReportParts};
+use sim::scenario::summary::{format_counts, format_counts_table, format_report, ms, ReportParts};
 use sim::scenario::{load, run, RunOptions, RunReport, Scenario};
+use sim::serve::ServeOptions;
 use sim::verilated;
 use sim::workloads::campaign::{
     check, describe, format_summary, random_case, run_campaign, run_rtl_traced,
@@ -54,6 +56,36 @@ enum Command {
         /// Print only the summary; no progress bar.
         #[arg(long, short)]
         quiet: bool,
+    },
+    /// Serve a scenario's bus to socketcand clients (python-can's `interface="socketcand"`, raw
+    /// mode) until Ctrl-C or SIGTERM: every client that opens the bus is a node of its own (a
+    /// complete controller driven through its registers); what it sends goes on the bus, what its
+    /// controller receives reaches it with the simulated time as timestamp.
+    Serve {
+        /// The scenario (TOML; its nodes, traffic and faults run as with `cansim run`, without
+        /// end).
+        scenario: PathBuf,
+        /// Where to listen (HOST:PORT; port 0 picks a free one and prints it).
+        #[arg(long, default_value = "127.0.0.1:29536")]
+        listen: String,
+        /// The bus name clients open.
+        #[arg(long, default_value = "can0")]
+        channel: String,
+        /// Pace the bus to the wall clock (says so once if it cannot keep up).
+        #[arg(long)]
+        realtime: bool,
+        /// Without --realtime: how far the bus may run past the last thing a client did.
+        #[arg(long, default_value = "10ms")]
+        slice: String,
+        /// Stop at this simulated time (e.g. 2s, 500ms).
+        #[arg(long)]
+        until: Option<String>,
+        /// Write a waveform of the bus and the scenario's nodes here.
+        #[arg(long)]
+        vcd: Option<PathBuf>,
+        /// Write the bus log here as it happens (candump -l lines with error and overload frames).
+        #[arg(long)]
+        log: Option<PathBuf>,
     },
     /// Run a scenario file: prints the bus log (candump -l lines with error and overload frames)
     /// and a summary per node; writes a VCD and the log on request.
@@ -259,6 +291,27 @@ fn main() -> ExitCode {
             events,
             quiet,
         } => run_scenario(&scenario, vcd, log, until, events, quiet),
+        Command::Serve {
+            scenario,
+            listen,
+            channel,
+            realtime,
+            slice,
+            until,
+            vcd,
+            log,
+        } => serve(
+            &scenario,
+            ServeArgs {
+                listen,
+                channel,
+                realtime,
+                slice,
+                until,
+                vcd,
+                log,
+            },
+        ),
         Command::SyncDemo { vcd, no_vcd, quiet } => sync_demo(vcd, no_vcd, quiet),
         Command::Campaign {
             faults,
@@ -458,6 +511,80 @@ fn run_scenario(
     print!("{}", format_report(&scenario, &report, parts));
     println!("{}", speed_line(&report, seconds));
     print_outputs(&report, &scenario);
+    Ok(())
+}
+
+/// The options of `cansim serve` besides the scenario.
+struct ServeArgs {
+    listen: String,
+    channel: String,
+    realtime: bool,
+    slice: String,
+    until: Option<String>,
+    vcd: Option<PathBuf>,
+    log: Option<PathBuf>,
+}
+
+/// Set by Ctrl-C or SIGTERM: `cansim serve` stops, finishing its files.
+static STOP: AtomicBool = AtomicBool::new(false);
+
+fn serve(path: &Path, args: ServeArgs) -> Result<(), String> {
+    let scenario = load(path).map_err(|e| e.to_string())?;
+    let time = |option: &str, text: &str| {
+        parse_time(&scenario, text).map_err(|e| format!("--{option}: {e}"))
+    };
+    let slice_fs = time("slice", &args.slice)?;
+    let until_fs = args
+        .until
+        .as_deref()
+        .map(|t| time("until", t))
+        .transpose()?;
+    let listener = sim::serve::listen(&args.listen)?;
+    let address = listener.local_addr().map_err(|e| e.to_string())?;
+    ctrlc::set_handler(|| {
+        if STOP.swap(true, Ordering::Relaxed) {
+            std::process::exit(130);
+        }
+    })
+    .map_err(|e| format!("cannot catch Ctrl-C: {e}"))?;
+    // A closed stdout (`cansim serve | head`) must not stop the server.
+    let say = |line: &str| {
+        let mut out = std::io::stdout();
+        let _ = writeln!(out, "{line}").and_then(|_| out.flush());
+    };
+    say(&format!(
+        "serving {} on {address} (socketcand, raw mode, bus {}); Ctrl-C stops\n  python: \
+         can.Bus(interface=\"socketcand\", host=\"{}\", port={}, channel=\"{}\")",
+        path.display(),
+        args.channel,
+        address.ip(),
+        address.port(),
+        args.channel
+    ));
+    let options = ServeOptions {
+        channel: args.channel,
+        realtime: args.realtime,
+        slice_fs,
+        until_fs,
+        vcd: args.vcd.map(output_path).transpose()?,
+        log: args.log.map(output_path).transpose()?,
+        engine: None,
+        stop: &STOP,
+    };
+    let summary = sim::serve::serve(&scenario, &listener, options, &mut |line| say(line))
+        .map_err(|e| e.to_string())?;
+    say(&format_counts(&summary.bus));
+    say(format_counts_table(&summary.nodes).trim_end());
+    say(&format!(
+        "simulated {} with {} clients ({:.3}x real time), peak memory {} MB",
+        ms(summary.simulated_fs),
+        summary.clients,
+        summary.factor,
+        peak_resident_bytes().unwrap_or(0).div_ceil(1 << 20)
+    ));
+    if let Some(vcd) = summary.vcd {
+        say(&format!("wrote {}", vcd.display()));
+    }
     Ok(())
 }
 

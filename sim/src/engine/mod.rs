@@ -63,6 +63,8 @@ struct Slot {
     disturbances: Vec<Disturbance>,
     overrides: Vec<DriveOverride>,
     probe_values: Vec<u64>,
+    /// The device has left the bus ([`Engine::leave`]): never stepped, its place free for another.
+    departed: bool,
 }
 
 impl Slot {
@@ -191,8 +193,54 @@ impl Engine {
             disturbances: Vec::new(),
             overrides: Vec::new(),
             probe_values: vec![0; probes],
+            departed: false,
         });
         DeviceId(self.slots.len() - 1)
+    }
+
+    /// Adds a device while the engine runs: its clock's first rising edge comes one period after
+    /// the last processed edge. It takes the place of a device that left at the same delay (and
+    /// has no scope in a running trace), so devices coming and going do not grow the engine.
+    pub fn join<D: Device>(&mut self, device: D, delay_fs: u64) -> DeviceId {
+        let period = device.clock().period_fs();
+        let clock = device.clock().with_phase(self.now + period);
+        let free = (self.observers.traced_devices..self.slots.len())
+            .find(|&i| self.slots[i].departed && self.bus.delay_fs(self.slots[i].line) == delay_fs);
+        let Some(i) = free else {
+            let id = self.add(device, delay_fs);
+            let slot = &mut self.slots[id.0];
+            slot.clock = clock;
+            slot.next_edge = clock.edge(0);
+            return id;
+        };
+        let slot = &mut self.slots[i];
+        slot.probe_values = vec![0; device.probes().len()];
+        slot.device = Box::new(device);
+        slot.clock = clock;
+        slot.edges = 0;
+        slot.next_edge = clock.edge(0);
+        slot.rx = true;
+        slot.departed = false;
+        DeviceId(i)
+    }
+
+    /// Takes device `id` off the bus now: from here on it drives nothing and is not stepped. Its
+    /// state stays readable through [`Engine::device`] until another device joins in its place.
+    pub fn leave(&mut self, id: DeviceId) {
+        let now = self.now;
+        let slot = &mut self.slots[id.0];
+        slot.departed = true;
+        slot.next_edge = u64::MAX;
+        slot.disturbances.clear();
+        slot.overrides.clear();
+        slot.pin = Drive::Recessive;
+        if slot.drive != Drive::Recessive {
+            slot.drive = Drive::Recessive;
+            let line = slot.line;
+            self.bus.set_drive(line, now, Drive::Recessive);
+            self.observers
+                .expect_change_at(now + self.bus.delay_fs(line));
+        }
     }
 
     /// Makes device `id` see `level` instead of the bus at its clock edges in `from_fs..to_fs` (the
@@ -356,7 +404,11 @@ impl Engine {
 
     /// Time of the next clock edge the engine will process.
     pub fn next_edge(&self) -> Option<u64> {
-        self.slots.iter().map(|s| s.next_edge).min()
+        self.slots
+            .iter()
+            .map(|s| s.next_edge)
+            .min()
+            .filter(|&t| t != u64::MAX)
     }
 
     /// Processes the earliest pending clock edge.
@@ -437,7 +489,7 @@ impl Engine {
                 best = Some((s.next_edge, i));
             }
         }
-        best.map(|(_, i)| i)
+        best.filter(|&(t, _)| t != u64::MAX).map(|(_, i)| i)
     }
 
     /// Reports the bus-level changes that happen before `t` to the tracer and the watch (changes at
@@ -532,6 +584,44 @@ mod tests {
             .collect();
         assert_eq!(seen(victim), expected);
         assert_eq!(seen(driver), (0..10).map(|k| k == 0).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn a_device_joins_on_its_next_period_and_leaving_frees_the_bus_and_its_place() {
+        let mut engine = Engine::new();
+        let watcher = engine.add(probe(Drive::Recessive), 0);
+        let us = ClockSpec::from_hz(1e6).period_fs();
+        engine.run_until(3 * us + 1).unwrap();
+        let dominant = engine.join(probe(Drive::Dominant), 0);
+        assert_eq!(
+            engine.next_edge(),
+            Some(4 * us),
+            "the watcher's edge 4 comes first"
+        );
+        engine.run_until(6 * us + 1).unwrap();
+        // The newcomer's first edge is at 4 us (one period after the last edge, at 3 us); its
+        // dominant level is on the bus from then on.
+        assert_eq!(engine.device::<Probe>(dominant).seen, [true, false, false]);
+        engine.leave(dominant);
+        engine.run_until(9 * us + 1).unwrap();
+        let seen = &engine.device::<Probe>(watcher).seen;
+        assert_eq!(
+            seen,
+            &[true, true, true, true, true, false, false, true, true, true]
+        );
+        assert_eq!(
+            engine.device::<Probe>(dominant).seen.len(),
+            3,
+            "no longer stepped"
+        );
+        let again = engine.join(probe(Drive::Recessive), 0);
+        assert_eq!(
+            again, dominant,
+            "the place of the device that left is taken again"
+        );
+        engine.leave(watcher);
+        engine.leave(again);
+        assert_eq!(engine.next_edge(), None);
     }
 
     #[test]

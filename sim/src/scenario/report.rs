@@ -87,6 +87,25 @@ impl NodeReport {
     }
 }
 
+/// A node's counts while a bus runs without end (`cansim serve`), where no frame list is kept.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct NodeCounts {
+    /// Node name.
+    pub name: String,
+    /// Frames sent.
+    pub sent: u64,
+    /// Frames the driver read from the RX FIFO.
+    pub received: u64,
+    /// Frames given up: at bus-off, failed one-shot attempts, or refused by a full queue.
+    pub dropped: u64,
+    /// TXERR, read through the host.
+    pub tec: u8,
+    /// RXERR, read through the host.
+    pub rec: u8,
+    /// The device state as the driver tracks it.
+    pub state: CanState,
+}
+
 /// What happened to a node, besides what its driver reported.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Happening {

@@ -13,8 +13,9 @@
 
 use std::collections::VecDeque;
 use std::io;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
+use rtl::bsp::protocol::ProtocolState;
 use rtl::registers::pelican;
 
 use crate::decode::bus_decoder::{BusDecoder, BusEvent};
@@ -30,10 +31,10 @@ use golden::frame::{Frame, DOMINANT, RECESSIVE};
 
 use super::faults::{install, locate, Fault, FaultKind, Place, Target};
 use super::output::PendingFile;
-use super::report::{AppliedFault, Happening, NodeEvent, NodeReport, RunReport};
+use super::report::{AppliedFault, Happening, NodeCounts, NodeEvent, NodeReport, RunReport};
 use super::traffic::Schedule;
 use super::view::{write_view, FRAME_PROBE};
-use super::{NodeMode, Scenario, ScenarioError};
+use super::{NodeConfig, NodeMode, Scenario, ScenarioError};
 
 /// Recessive time, in half bits, after which a dominant edge on the bus is a start of frame: an
 /// ACK delimiter, 7 EOF bits and 2 intermission bits (or an error delimiter and 2 intermission
@@ -78,17 +79,7 @@ pub fn run(scenario: &Scenario, options: RunOptions) -> Result<RunReport, Scenar
     let end = until_fs.unwrap_or(scenario.duration_fs);
     let mut runner = Runner::new(scenario, engine)?;
     if let Some(path) = &vcd {
-        let mut frames = runner.sof;
-        runner.engine.annotate_bus(
-            FRAME_PROBE,
-            Box::new(move |t, level| frames.level(t, level)),
-        );
-        let bus = &scenario.bus;
-        let timing = BusTiming::from_btr(&bus.btr, ClockSpec::from_hz(f64::from(bus.clock_hz)));
-        runner
-            .engine
-            .trace_vcd_timed(path, timing)
-            .map_err(io_error)?;
+        runner.trace(path)?;
     }
     let mut report = match runner.simulate(end, &mut progress) {
         Ok(report) => report,
@@ -147,7 +138,10 @@ impl SofWatch {
 }
 
 /// A controller, its driver and what waits for it.
-struct RunNode {
+pub(crate) struct RunNode {
+    config: NodeConfig,
+    /// On the bus (a node that joined while running may have left).
+    present: bool,
     id: DeviceId,
     driver: Sja1000Driver,
     /// Frames waiting for the driver, at most the node's `txqueuelen`.
@@ -159,9 +153,10 @@ struct RunNode {
     restarts: usize,
 }
 
-struct Runner<'s> {
+pub(crate) struct Runner<'s> {
     scenario: &'s Scenario,
-    engine: Engine,
+    model: ModelEngine,
+    pub(crate) engine: Engine,
     nodes: Vec<RunNode>,
     targets: Vec<Target>,
     schedule: Schedule<'s>,
@@ -178,29 +173,18 @@ struct Runner<'s> {
 }
 
 impl<'s> Runner<'s> {
-    fn new(scenario: &'s Scenario, model: ModelEngine) -> Result<Runner<'s>, ScenarioError> {
+    /// The scenario's nodes on a new engine stepped by `model` (not brought up yet).
+    pub(crate) fn new(
+        scenario: &'s Scenario,
+        model: ModelEngine,
+    ) -> Result<Runner<'s>, ScenarioError> {
         let mut engine = Engine::new();
         let mut nodes = Vec::new();
         let mut targets = Vec::new();
         for n in &scenario.nodes {
-            let clock = ClockSpec::with_ppm(f64::from(n.clock_hz), n.ppm);
-            let node = ControllerNode::with_engine(&n.name, clock, model)
-                .map_err(|e| ScenarioError::new(e.to_string()))?;
+            let node = controller(n, model)?;
             let id = engine.add(node, n.delay_fs);
-            let config = DriverConfig {
-                clock_hz: n.clock_hz,
-                filter: n.filter,
-                ..DriverConfig::default()
-            };
-            nodes.push(RunNode {
-                id,
-                driver: Sja1000Driver::new(id, config),
-                queue: VecDeque::new(),
-                queue_full: 0,
-                events: Vec::new(),
-                bus_off_at: None,
-                restarts: 0,
-            });
+            nodes.push(RunNode::new(n, id));
             targets.push(Target {
                 id,
                 delay_fs: n.delay_fs,
@@ -216,6 +200,7 @@ impl<'s> Runner<'s> {
         let bit_fs = scenario.bus.bit_fs();
         Ok(Runner {
             scenario,
+            model,
             engine,
             nodes,
             targets,
@@ -231,8 +216,21 @@ impl<'s> Runner<'s> {
         })
     }
 
-    fn name(&self, node: usize) -> &str {
-        &self.scenario.nodes[node].name
+    /// Writes a VCD of the bus (with the frame numbers) and of the scenario's nodes to `path`.
+    pub(crate) fn trace(&mut self, path: &Path) -> Result<(), ScenarioError> {
+        let mut frames = self.sof;
+        self.engine.annotate_bus(
+            FRAME_PROBE,
+            Box::new(move |t, level| frames.level(t, level)),
+        );
+        let bus = &self.scenario.bus;
+        let timing = BusTiming::from_btr(&bus.btr, ClockSpec::from_hz(f64::from(bus.clock_hz)));
+        self.engine.trace_vcd_timed(path, timing).map_err(io_error)
+    }
+
+    /// The name of node `node`.
+    pub(crate) fn name(&self, node: usize) -> &str {
+        &self.nodes[node].config.name
     }
 
     fn driver_error(&self, node: usize, what: &str, e: DriverError) -> ScenarioError {
@@ -277,42 +275,159 @@ impl<'s> Runner<'s> {
     /// gets its bit timing, then each is started with its modes.
     fn bring_up(&mut self) -> Result<(), ScenarioError> {
         for n in 0..self.nodes.len() {
-            let result = self.nodes[n].driver.probe(&mut self.engine);
-            result.map_err(|e| self.driver_error(n, "probe", e))?;
+            self.probe(n)?;
         }
         for n in 0..self.nodes.len() {
-            let btr = self.scenario.nodes[n].btr;
-            let node = &mut self.nodes[n];
-            let result = node
-                .driver
-                .set_bittiming(&mut self.engine, btr.btr0(), btr.btr1());
-            result.map_err(|e| self.driver_error(n, "bit timing", e))?;
+            self.set_bittiming(n)?;
         }
         for n in 0..self.nodes.len() {
-            let config = &self.scenario.nodes[n];
-            let mode = CtrlMode {
-                listen_only: config.mode == NodeMode::ListenOnly,
-                presume_ack: config.mode == NodeMode::SelfTest,
-                one_shot: config.one_shot,
-                berr_reporting: config.berr_reporting,
-            };
-            let result = self.nodes[n].driver.start(&mut self.engine, mode);
-            result.map_err(|e| self.driver_error(n, "start", e))?;
+            self.start(n)?;
         }
         self.clock = self.engine.now();
         Ok(())
     }
 
-    /// Hands out what is due, then runs for at most a bit time.
-    fn step(&mut self, end: u64) -> Result<(), ScenarioError> {
-        for (node, frame) in self.schedule.release(self.clock) {
-            let limit = self.scenario.nodes[node].txqueuelen;
-            let node = &mut self.nodes[node];
-            if node.queue.len() < limit {
-                node.queue.push_back(frame);
-            } else {
-                node.queue_full += 1;
+    fn probe(&mut self, n: usize) -> Result<(), ScenarioError> {
+        let result = self.nodes[n].driver.probe(&mut self.engine);
+        result.map_err(|e| self.driver_error(n, "probe", e))
+    }
+
+    fn set_bittiming(&mut self, n: usize) -> Result<(), ScenarioError> {
+        let node = &mut self.nodes[n];
+        let btr = node.config.btr;
+        let result = node
+            .driver
+            .set_bittiming(&mut self.engine, btr.btr0(), btr.btr1());
+        result.map_err(|e| self.driver_error(n, "bit timing", e))
+    }
+
+    fn start(&mut self, n: usize) -> Result<(), ScenarioError> {
+        let config = &self.nodes[n].config;
+        let mode = CtrlMode {
+            listen_only: config.mode == NodeMode::ListenOnly,
+            presume_ack: config.mode == NodeMode::SelfTest,
+            one_shot: config.one_shot,
+            berr_reporting: config.berr_reporting,
+        };
+        let result = self.nodes[n].driver.start(&mut self.engine, mode);
+        result
+            .map(|_| ())
+            .map_err(|e| self.driver_error(n, "start", e))
+    }
+
+    /// Installs the faults placed by time and brings the scenario's nodes up.
+    pub(crate) fn begin(&mut self) -> Result<(), ScenarioError> {
+        self.install_timed_faults();
+        self.bring_up()
+    }
+
+    /// Every clock edge before this time has been processed.
+    pub(crate) fn clock(&self) -> u64 {
+        self.clock
+    }
+
+    /// A node joins the running bus: its controller is added (taking the place of one that left,
+    /// if any) and its driver brings it up as Linux would. Returns its index.
+    pub(crate) fn join(&mut self, config: &NodeConfig) -> Result<usize, ScenarioError> {
+        let id = self
+            .engine
+            .join(controller(config, self.model)?, config.delay_fs);
+        let node = RunNode::new(config, id);
+        let n = match self.nodes.iter().position(|node| !node.present) {
+            Some(n) => {
+                self.nodes[n] = node;
+                n
             }
+            None => {
+                self.nodes.push(node);
+                self.nodes.len() - 1
+            }
+        };
+        self.probe(n)?;
+        self.set_bittiming(n)?;
+        self.start(n)?;
+        self.clock = self.clock.max(self.engine.now());
+        Ok(n)
+    }
+
+    /// Whether node `n`'s controller takes part in the traffic: out of reset mode and done with
+    /// its integration (11 recessive bits, ISO 11898-1 10.8).
+    pub(crate) fn integrated(&self, n: usize) -> bool {
+        let controller = self.engine.device::<ControllerNode>(self.nodes[n].id);
+        controller.state() != ProtocolState::Integrating
+    }
+
+    /// Whether node `n` can leave without disturbing the bus: nothing of its own to send and its
+    /// controller not taking part in a frame.
+    pub(crate) fn can_leave(&self, n: usize) -> bool {
+        let node = &self.nodes[n];
+        let controller = self.engine.device::<ControllerNode>(node.id);
+        node.queue.is_empty()
+            && node.driver.in_flight().is_none()
+            && matches!(
+                controller.state(),
+                ProtocolState::Idle | ProtocolState::Integrating | ProtocolState::BusOff
+            )
+    }
+
+    /// Node `n` leaves the bus now (its frames waiting are forgotten).
+    pub(crate) fn leave(&mut self, n: usize) {
+        let node = &mut self.nodes[n];
+        node.queue.clear();
+        node.present = false;
+        self.engine.leave(node.id);
+    }
+
+    /// The nodes so far, those that left included.
+    pub(crate) fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Whether node `n` is on the bus.
+    pub(crate) fn present(&self, n: usize) -> bool {
+        self.nodes[n].present
+    }
+
+    /// Queues `frame` for node `n`'s driver; whether its queue had room (`txqueuelen`).
+    pub(crate) fn offer(&mut self, n: usize, frame: Frame) -> bool {
+        self.nodes[n].offer(frame)
+    }
+
+    /// What node `n`'s driver reported since the last call, oldest first.
+    pub(crate) fn take_events(&mut self, n: usize) -> Vec<(u64, Happening)> {
+        std::mem::take(&mut self.nodes[n].events)
+    }
+
+    /// The bus log since the last call (the frame starts are forgotten: a run without end keeps
+    /// nothing).
+    pub(crate) fn take_log(&mut self) -> Vec<BusEvent> {
+        self.frame_starts.clear();
+        std::mem::take(&mut self.log)
+    }
+
+    /// Node `n`'s counts so far: frames sent, received, dropped, TXERR and RXERR (read through
+    /// the host), and its state.
+    pub(crate) fn counts(&mut self, n: usize) -> NodeCounts {
+        let node = &self.nodes[n];
+        let stats = *node.driver.stats();
+        let mut host = Host::new(&mut self.engine, node.id);
+        let (tec, rec) = (host.read(pelican::TXERR), host.read(pelican::RXERR));
+        let node = &self.nodes[n];
+        NodeCounts {
+            name: node.config.name.clone(),
+            sent: stats.tx_frames,
+            received: stats.rx_frames,
+            dropped: stats.tx_dropped + stats.tx_failed + node.queue_full as u64,
+            tec,
+            rec,
+            state: node.driver.state(),
+        }
+    }
+
+    /// Hands out what is due, then runs for at most a bit time.
+    pub(crate) fn step(&mut self, end: u64) -> Result<(), ScenarioError> {
+        for (node, frame) in self.schedule.release(self.clock) {
+            self.nodes[node].offer(frame);
         }
         self.restart_due()?;
         self.start_transmissions()?;
@@ -337,17 +452,17 @@ impl<'s> Runner<'s> {
     fn next_restart(&self) -> Option<u64> {
         self.nodes
             .iter()
-            .zip(&self.scenario.nodes)
-            .filter_map(|(node, config)| Some(node.bus_off_at? + config.restart_fs?))
+            .filter(|node| node.present)
+            .filter_map(|node| Some(node.bus_off_at? + node.config.restart_fs?))
             .min()
     }
 
     fn restart_due(&mut self) -> Result<(), ScenarioError> {
         for n in 0..self.nodes.len() {
-            let Some(delay) = self.scenario.nodes[n].restart_fs else {
+            let node = &mut self.nodes[n];
+            let Some(delay) = node.config.restart_fs.filter(|_| node.present) else {
                 continue;
             };
-            let node = &mut self.nodes[n];
             if node.bus_off_at.is_none_or(|at| at + delay > self.clock) {
                 continue;
             }
@@ -362,9 +477,9 @@ impl<'s> Runner<'s> {
 
     fn start_transmissions(&mut self) -> Result<(), ScenarioError> {
         for n in 0..self.nodes.len() {
-            let self_test = self.scenario.nodes[n].mode == NodeMode::SelfTest;
             let node = &mut self.nodes[n];
-            if !node.driver.can_transmit() {
+            let self_test = node.config.mode == NodeMode::SelfTest;
+            if !node.present || !node.driver.can_transmit() {
                 continue;
             }
             let Some(frame) = node.queue.pop_front() else {
@@ -380,7 +495,10 @@ impl<'s> Runner<'s> {
     /// low (as the kernel would). With `stop_at_sof`, returns early (`true`) right after a start
     /// of frame on the bus.
     fn run_chunk(&mut self, limit: u64, stop_at_sof: bool) -> Result<bool, ScenarioError> {
-        let ids: Vec<DeviceId> = self.nodes.iter().map(|n| n.id).collect();
+        let ids: Vec<(usize, DeviceId)> = (self.nodes.iter().enumerate())
+            .filter(|(_, node)| node.present)
+            .map(|(n, node)| (n, node.id))
+            .collect();
         let mut watch = self.sof;
         let mut quiet = 0;
         loop {
@@ -388,7 +506,10 @@ impl<'s> Runner<'s> {
             let stopped = self
                 .engine
                 .run_while(limit, |e| {
-                    if ids.iter().any(|&id| e.device::<ControllerNode>(id).irq()) {
+                    if ids
+                        .iter()
+                        .any(|&(_, id)| e.device::<ControllerNode>(id).irq())
+                    {
                         return true;
                     }
                     if stop_at_sof {
@@ -401,7 +522,7 @@ impl<'s> Runner<'s> {
             if !stopped {
                 return Ok(false);
             }
-            for (n, &id) in ids.iter().enumerate() {
+            for &(n, id) in &ids {
                 if self.engine.device::<ControllerNode>(id).irq() && !self.service(n) {
                     quiet += 1;
                     if quiet >= QUIET_SERVICE_LIMIT {
@@ -481,7 +602,7 @@ impl<'s> Runner<'s> {
         let senders: Vec<(usize, Frame)> = (0..self.nodes.len())
             .filter(|&n| {
                 let node = &self.nodes[n];
-                self.engine.device::<ControllerNode>(node.id).transmitting()
+                node.present && self.engine.device::<ControllerNode>(node.id).transmitting()
             })
             .filter_map(|n| Some((n, self.nodes[n].driver.in_flight()?)))
             .collect();
@@ -498,7 +619,7 @@ impl<'s> Runner<'s> {
             .find(|(_, f)| *f == winner)
             .map(|(n, _)| *n)
             .expect("the winner is one of the senders' frames");
-        let bit_fs = self.scenario.nodes[sender].bit_fs();
+        let bit_fs = self.nodes[sender].config.bit_fs();
         let start =
             (sof_fs + position as u64 * bit_fs + fault.offset_fs).max(self.engine.now() + 1);
         install(&mut self.engine, fault, start, &self.targets);
@@ -518,8 +639,7 @@ impl<'s> Runner<'s> {
         end: u64,
         progress: &mut Option<&mut dyn FnMut(u64, u64)>,
     ) -> Result<RunReport, ScenarioError> {
-        self.install_timed_faults();
-        self.bring_up()?;
+        self.begin()?;
         while self.clock < end {
             self.step(end)?;
             if let Some(progress) = progress.as_mut() {
@@ -527,6 +647,11 @@ impl<'s> Runner<'s> {
             }
         }
         self.finish()
+    }
+
+    /// Finishes the VCD, if tracing; its path.
+    pub(crate) fn finish_trace(&mut self) -> Result<Option<PathBuf>, ScenarioError> {
+        self.engine.finish_trace().map_err(io_error)
     }
 
     fn finish(&mut self) -> Result<RunReport, ScenarioError> {
@@ -555,7 +680,7 @@ impl<'s> Runner<'s> {
         for (n, node) in self.nodes.iter().enumerate() {
             events.extend(node.events.iter().map(|(at, what)| NodeEvent {
                 at_fs: *at,
-                node: self.scenario.nodes[n].name.clone(),
+                node: self.nodes[n].config.name.clone(),
                 what: *what,
             }));
         }
@@ -563,9 +688,8 @@ impl<'s> Runner<'s> {
         let nodes = self
             .nodes
             .iter()
-            .zip(&self.scenario.nodes)
             .zip(registers)
-            .map(|((node, config), (tec, rec))| node_report(node, &config.name, tec, rec))
+            .map(|(node, (tec, rec))| node_report(node, tec, rec))
             .collect();
         self.applied.sort_by_key(|f| f.start_fs);
         Ok(RunReport {
@@ -583,6 +707,45 @@ impl<'s> Runner<'s> {
     }
 }
 
+/// The complete controller of node `config`, stepped by `model`.
+fn controller(config: &NodeConfig, model: ModelEngine) -> Result<ControllerNode, ScenarioError> {
+    let clock = ClockSpec::with_ppm(f64::from(config.clock_hz), config.ppm);
+    ControllerNode::with_engine(&config.name, clock, model)
+        .map_err(|e| ScenarioError::new(e.to_string()))
+}
+
+impl RunNode {
+    fn new(config: &NodeConfig, id: DeviceId) -> RunNode {
+        let driver_config = DriverConfig {
+            clock_hz: config.clock_hz,
+            filter: config.filter,
+            ..DriverConfig::default()
+        };
+        RunNode {
+            config: config.clone(),
+            present: true,
+            id,
+            driver: Sja1000Driver::new(id, driver_config),
+            queue: VecDeque::new(),
+            queue_full: 0,
+            events: Vec::new(),
+            bus_off_at: None,
+            restarts: 0,
+        }
+    }
+
+    /// Queues `frame` for the driver if the queue has room (`txqueuelen`); whether it had.
+    fn offer(&mut self, frame: Frame) -> bool {
+        if self.queue.len() < self.config.txqueuelen {
+            self.queue.push_back(frame);
+            true
+        } else {
+            self.queue_full += 1;
+            false
+        }
+    }
+}
+
 /// The frame a fault located by frame waits for.
 fn frame_number(fault: &Fault) -> u64 {
     match fault.place {
@@ -591,7 +754,7 @@ fn frame_number(fault: &Fault) -> u64 {
     }
 }
 
-fn node_report(node: &RunNode, name: &str, tec: u8, rec: u8) -> NodeReport {
+fn node_report(node: &RunNode, tec: u8, rec: u8) -> NodeReport {
     let driver_events = || {
         node.events.iter().filter_map(|(_, what)| match what {
             Happening::Driver(event) => Some(event),
@@ -600,7 +763,7 @@ fn node_report(node: &RunNode, name: &str, tec: u8, rec: u8) -> NodeReport {
     };
     let count = |kind: fn(&DriverEvent) -> bool| driver_events().filter(|e| kind(e)).count();
     NodeReport {
-        name: name.to_string(),
+        name: node.config.name.clone(),
         sent: count(|e| matches!(e, DriverEvent::TxDone(_))),
         received: driver_events()
             .filter_map(|e| match e {

@@ -11,7 +11,7 @@ use crate::decode::bus_decoder::{BusEvent, BusEventKind};
 use crate::engine::time::{FS_PER_MS, FS_PER_NS};
 use crate::host::driver::DriverEvent;
 
-use super::report::{AppliedFault, Happening, NodeEvent, NodeReport, RunReport};
+use super::report::{AppliedFault, Happening, NodeCounts, NodeEvent, NodeReport, RunReport};
 use super::{NodeConfig, NodeMode, Scenario};
 
 /// Counts of the bus log's lines by kind.
@@ -27,18 +27,39 @@ pub struct LogCounts {
     pub incomplete: usize,
 }
 
+impl LogCounts {
+    /// Counts `event`.
+    pub fn add(&mut self, event: &BusEvent) {
+        match event.kind {
+            BusEventKind::Frame { .. } => self.frames += 1,
+            BusEventKind::ErrorFrame { .. } => self.error_frames += 1,
+            BusEventKind::OverloadFrame { .. } => self.overload_frames += 1,
+            BusEventKind::Incomplete { .. } => self.incomplete += 1,
+        }
+    }
+}
+
 /// The counts of `log`.
 pub fn count_log(log: &[BusEvent]) -> LogCounts {
     let mut counts = LogCounts::default();
-    for event in log {
-        match event.kind {
-            BusEventKind::Frame { .. } => counts.frames += 1,
-            BusEventKind::ErrorFrame { .. } => counts.error_frames += 1,
-            BusEventKind::OverloadFrame { .. } => counts.overload_frames += 1,
-            BusEventKind::Incomplete { .. } => counts.incomplete += 1,
-        }
-    }
+    log.iter().for_each(|event| counts.add(event));
     counts
+}
+
+/// The counts table of a bus that runs without end (`cansim serve`), one line per node.
+pub fn format_counts_table(nodes: &[NodeCounts]) -> String {
+    let width = nodes.iter().map(|n| n.name.len()).max().unwrap_or(0).max(4);
+    let mut out = format!(
+        "{:<width$}  sent  received  dropped  TXERR  RXERR  state\n",
+        "node"
+    );
+    for n in nodes {
+        out += &format!(
+            "{:<width$}  {:>4}  {:>8}  {:>7}  {:>5}  {:>5}  {}\n",
+            n.name, n.sent, n.received, n.dropped, n.tec, n.rec, n.state
+        );
+    }
+    out
 }
 
 /// `1.234 ms`.
