@@ -24,6 +24,7 @@ use sim::workloads::campaign::{
     check, describe, format_summary, random_case, run_campaign, run_rtl_traced,
 };
 use sim::workloads::demo::{demo_scenario, DEMO_LOG, DEMO_VCD};
+use sim::workloads::replay::ReplayOptions;
 use sim::workloads::sync_demo;
 
 #[derive(Parser)]
@@ -86,6 +87,42 @@ enum Command {
         /// Write the bus log here as it happens (candump -l lines with error and overload frames).
         #[arg(long)]
         log: Option<PathBuf>,
+    },
+    /// Replay a logic-analyzer capture (VCD, or a sigrok session .sr through sigrok-cli): it
+    /// drives the bus, and one complete controller (listen-only, set up by the Linux driver model)
+    /// receives it; prints what its driver read (candump lines, capture time), RXERR/TXERR and every
+    /// bus error with its ECC in words. Long idle stretches are shortened.
+    Replay {
+        /// The capture.
+        capture: PathBuf,
+        /// The bus signal: its full name (top.bus) or a trailing part of it (bus, CAN_RX).
+        #[arg(long, default_value = vcd_reader::DEFAULT_SIGNAL)]
+        signal: String,
+        /// Bit rate in bit/s (the controller's bit timing is calculated as Linux does).
+        #[arg(long, required_unless_present_all = ["btr0", "btr1"])]
+        bitrate: Option<u32>,
+        /// Sample point, in percent (87.5) or as a fraction (0.875).
+        #[arg(long, conflicts_with_all = ["btr0", "btr1"])]
+        sample_point: Option<f64>,
+        /// The controller's clock in Hz.
+        #[arg(long, default_value_t = 16_000_000)]
+        clock: u32,
+        /// BTR0 (hex 0x.. or decimal), with --btr1, instead of --bitrate.
+        #[arg(long, value_parser = register_arg, requires = "btr1", conflicts_with = "bitrate")]
+        btr0: Option<u8>,
+        /// BTR1, with --btr0.
+        #[arg(long, value_parser = register_arg, requires = "btr0")]
+        btr1: Option<u8>,
+        /// The controller's clock offset in ppm.
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        offset_ppm: f64,
+        /// Also decode the capture with the software decoder; exit status 1 if its frames differ
+        /// from what the controller received.
+        #[arg(long)]
+        compare: bool,
+        /// Write the waves of the replay here (simulated time: long idle stretches shortened).
+        #[arg(long)]
+        vcd: Option<PathBuf>,
     },
     /// Run a scenario file: prints the bus log (candump -l lines with error and overload frames)
     /// and a summary per node; writes a VCD and the log on request.
@@ -155,6 +192,10 @@ enum Command {
         /// Sample point, in percent (87.5) or as a fraction (0.875) [default: the file's, else 87.5].
         #[arg(long)]
         sample_point: Option<f64>,
+        /// Synchronisation jump width, in percent of the bit (6.25) or as a fraction (0.0625: a
+        /// controller's 1 of 16 time quanta) [default: 25 %].
+        #[arg(long)]
+        sjw: Option<f64>,
         /// Also print the decoder's remarks (edges it could not follow fully, glitches, recessive
         /// reserved bits) among the events.
         #[arg(long)]
@@ -312,6 +353,44 @@ fn main() -> ExitCode {
                 log,
             },
         ),
+        Command::Replay {
+            capture,
+            signal,
+            bitrate,
+            sample_point,
+            clock,
+            btr0,
+            btr1,
+            offset_ppm,
+            compare,
+            vcd,
+        } => {
+            let btr =
+                match (btr0, btr1, bitrate) {
+                    (Some(btr0), Some(btr1), _) => Ok(Btr::from_registers(btr0, btr1)),
+                    (_, _, Some(bitrate)) => sample_point
+                        .map(sample_point_arg)
+                        .transpose()
+                        .and_then(|sample_point| {
+                            calc_bittiming(clock, bitrate, sample_point, None)
+                                .map(|c| c.btr)
+                                .map_err(|e| format!("impossible bit timing: {e}"))
+                        }),
+                    _ => Err("give --bitrate, or --btr0 and --btr1".to_string()),
+                };
+            btr.and_then(|btr| {
+                replay(&ReplayOptions {
+                    capture,
+                    signal,
+                    clock_hz: clock,
+                    btr,
+                    ppm: offset_ppm,
+                    compare,
+                    engine: None,
+                    vcd: vcd.clone(),
+                })
+            })
+        }
         Command::SyncDemo { vcd, no_vcd, quiet } => sync_demo(vcd, no_vcd, quiet),
         Command::Campaign {
             faults,
@@ -328,8 +407,20 @@ fn main() -> ExitCode {
             signal,
             bitrate,
             sample_point,
+            sjw,
             remarks,
-        } => decode(&file, signal, bitrate, sample_point, remarks),
+        } => sample_point
+            .map(sample_point_arg)
+            .transpose()
+            .and_then(|sample_point| {
+                let options = DecodeOptions {
+                    signal: Some(signal),
+                    bitrate,
+                    sample_point,
+                    sjw: sjw.map(sjw_arg).transpose()?,
+                };
+                decode(&file, options, remarks)
+            }),
         Command::Bittiming {
             clock,
             bitrate,
@@ -739,6 +830,25 @@ fn simulate_with_progress(
 }
 
 /// `--sample-point` accepts percent (87.5) or a fraction (0.875).
+/// A register value: `0x1C`, `1c` with 0x, or decimal.
+fn register_arg(text: &str) -> Result<u8, String> {
+    let parsed = match text.strip_prefix("0x").or_else(|| text.strip_prefix("0X")) {
+        Some(hex) => u8::from_str_radix(hex, 16),
+        None => text.parse(),
+    };
+    parsed.map_err(|_| format!("`{text}` is not a register value (0x00..0xFF or 0..255)"))
+}
+
+/// Replays a capture: prints the report; an error when `--compare` finds a difference.
+fn replay(options: &ReplayOptions) -> Result<(), String> {
+    let outcome = sim::workloads::replay::replay(options).map_err(|e| e.to_string())?;
+    print!("{}", outcome.text);
+    match outcome.agrees {
+        Some(false) => Err("the controller and the software decoder disagree".to_string()),
+        _ => Ok(()),
+    }
+}
+
 fn sample_point_arg(value: f64) -> Result<f64, String> {
     sample_point_fraction(value).ok_or_else(|| {
         format!(
@@ -747,18 +857,16 @@ fn sample_point_arg(value: f64) -> Result<f64, String> {
     })
 }
 
-fn decode(
-    file: &Path,
-    signal: String,
-    bitrate: Option<f64>,
-    sample_point: Option<f64>,
-    show_remarks: bool,
-) -> Result<(), String> {
-    let options = DecodeOptions {
-        signal: Some(signal),
-        bitrate,
-        sample_point: sample_point.map(sample_point_arg).transpose()?,
-    };
+/// An SJW in percent of the bit or as a fraction of it.
+fn sjw_arg(value: f64) -> Result<f64, String> {
+    sample_point_fraction(value).ok_or_else(|| {
+        format!(
+            "--sjw {value} is out of range: a percentage of the bit (6.25) or a fraction (0.0625)"
+        )
+    })
+}
+
+fn decode(file: &Path, options: DecodeOptions, show_remarks: bool) -> Result<(), String> {
     let decoded = decode_vcd(file, &options).map_err(|e| e.to_string())?;
     let source = match decoded.file_timing {
         Some(recorded) if recorded == decoded.timing => " (recorded in the file)",

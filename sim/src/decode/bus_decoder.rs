@@ -20,7 +20,7 @@
 use std::fmt;
 
 use crate::engine::bus_timing::BusTiming;
-use crate::engine::time::{FS_PER_NS, FS_PER_S, FS_PER_US};
+use crate::engine::time::{seconds_micros, FS_PER_NS};
 use golden::crc15::Crc15;
 use golden::frame::{
     data_len_for_dlc, Field, Frame, Id, Run, DELIMITER_BITS, DOMINANT, EOF_BITS, INTERMISSION_BITS,
@@ -171,9 +171,7 @@ pub struct BusEvent {
 
 /// The start of a log line: `(seconds.micros) can0 `.
 fn log_prefix(f: &mut fmt::Formatter<'_>, t_fs: u64) -> fmt::Result {
-    let seconds = t_fs / FS_PER_S;
-    let micros = t_fs % FS_PER_S / FS_PER_US;
-    write!(f, "({seconds}.{micros:06}) {INTERFACE} ")
+    write!(f, "({}) {INTERFACE} ", seconds_micros(t_fs))
 }
 
 impl fmt::Display for BusEvent {
@@ -624,6 +622,13 @@ impl BusDecoder {
         }
     }
 
+    /// The same decoder with a synchronisation jump width of `sjw` (a fraction of the bit, as a
+    /// controller's SJW in time quanta over its quanta per bit) instead of [`SJW_FRACTION`].
+    pub fn with_sjw(mut self, sjw: f64) -> BusDecoder {
+        self.sjw_fs = (self.bit_fs as f64 * sjw).round() as u64;
+        self
+    }
+
     /// A decoder sampling with `timing`.
     pub fn with_timing(timing: BusTiming) -> BusDecoder {
         BusDecoder::new(timing.bit_time_fs, timing.sample_point)
@@ -862,6 +867,7 @@ impl BusDecoder {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::engine::time::{FS_PER_S, FS_PER_US};
     use golden::frame::hand_built::{levels, wire_from_unstuffed};
     use golden::frame::{encode, EncodedFrame, MAX_DLC};
     use proptest::prelude::*;

@@ -44,6 +44,9 @@ pub struct DecodeOptions {
     pub bitrate: Option<f64>,
     /// Sample point as a fraction of the bit.
     pub sample_point: Option<f64>,
+    /// Synchronisation jump width as a fraction of the bit (a controller's SJW over its quanta per
+    /// bit) [default: the decoder's `SJW_FRACTION`].
+    pub sjw: Option<f64>,
 }
 
 /// The result of decoding one VCD.
@@ -229,56 +232,137 @@ fn read_error(error: &io::Error, current: u64) -> (Option<u64>, String) {
 
 /// Decodes the CAN bus signal of the VCD file at `path`.
 pub fn decode_vcd(path: &Path, options: &DecodeOptions) -> Result<VcdDecode, VcdError> {
-    let fail = |line: Option<u64>, message: String| VcdError {
-        path: path.to_path_buf(),
-        line,
-        message,
-    };
-    let file = File::open(path).map_err(|e| fail(None, format!("cannot open: {e}")))?;
-    let mut parser = vcd::Parser::new(BufReader::with_capacity(1 << 16, file));
-    let header = parser.parse_header().map_err(|e| {
-        let (line, message) = read_error(&e, parser.line());
-        fail(line, message)
-    })?;
-    let scale_fs = timescale_fs(&header).map_err(|e| fail(None, e))?;
-    let file_timing = recorded_timing(&header.items).map_err(|e| fail(None, e))?;
-    let mut vars = Vec::new();
-    collect_vars(&header.items, "", &mut vars);
     let wanted = options.signal.as_deref().unwrap_or(DEFAULT_SIGNAL);
-    let bus = find_var(&vars, wanted).map_err(|e| fail(None, e))?;
-    check_bus_var(bus).map_err(|e| fail(None, e))?;
-    let timing = resolve_timing(options, file_timing).map_err(|e| fail(None, e))?;
-
-    let mut reader = BusReader {
-        code: bus.var.code,
-        scale_fs,
-        now_fs: 0,
-        decoder: BusDecoder::with_timing(timing),
-        undefined_values: 0,
-    };
-    while let Some(command) = parser.next() {
-        let command = command.map_err(|e| {
-            let (line, message) = read_error(&e, parser.line());
-            fail(line, message)
-        })?;
-        reader
-            .command(command)
-            .map_err(|e| fail(Some(parser.line()), e))?;
+    let mut reader = SignalReader::open(path, wanted)?;
+    let timing = resolve_timing(options, reader.file_timing).map_err(|e| reader.error(None, e))?;
+    let mut decoder = BusDecoder::with_timing(timing);
+    if let Some(sjw) = options.sjw {
+        decoder = decoder.with_sjw(sjw);
     }
-    reader.decoder.finish(reader.now_fs);
+    while let Some((t_fs, level)) = reader.next_value()? {
+        decoder.level(t_fs, level);
+    }
+    decoder.finish(reader.now_fs);
     Ok(VcdDecode {
-        signal: bus.name.clone(),
+        signal: reader.name.clone(),
         timing,
-        file_timing,
+        file_timing: reader.file_timing,
         undefined_values: reader.undefined_values,
-        timescale_fs: scale_fs,
+        timescale_fs: reader.scale_fs,
         end_fs: reader.now_fs,
-        events: reader.decoder.drain(),
-        remarks: reader.decoder.drain_remarks(),
+        events: decoder.drain(),
+        remarks: decoder.drain_remarks(),
     })
 }
 
-/// The timing to decode with: the options', else the file's, else the defaults, field by field.
+/// One 1-bit signal of a VCD file, read value by value as it is needed (a file of any length
+/// takes no more memory than its header).
+pub struct SignalReader {
+    path: PathBuf,
+    parser: vcd::Parser<BufReader<File>>,
+    code: IdCode,
+    /// The signal's full name.
+    pub name: String,
+    /// The bus timing the file records, if it does.
+    pub file_timing: Option<BusTiming>,
+    /// The file's time unit in femtoseconds.
+    pub scale_fs: u64,
+    /// The last timestamp read.
+    pub now_fs: u64,
+    /// `x` and `z` values read (taken as recessive).
+    pub undefined_values: u64,
+}
+
+impl SignalReader {
+    /// Opens `path` and finds `signal` (full name or trailing part).
+    pub fn open(path: &Path, signal: &str) -> Result<SignalReader, VcdError> {
+        let fail = |line: Option<u64>, message: String| VcdError {
+            path: path.to_path_buf(),
+            line,
+            message,
+        };
+        let file = File::open(path).map_err(|e| fail(None, format!("cannot open: {e}")))?;
+        let mut parser = vcd::Parser::new(BufReader::with_capacity(1 << 16, file));
+        let header = parser.parse_header().map_err(|e| {
+            let (line, message) = read_error(&e, parser.line());
+            fail(line, message)
+        })?;
+        let scale_fs = timescale_fs(&header).map_err(|e| fail(None, e))?;
+        let file_timing = recorded_timing(&header.items).map_err(|e| fail(None, e))?;
+        let mut vars = Vec::new();
+        collect_vars(&header.items, "", &mut vars);
+        let bus = find_var(&vars, signal).map_err(|e| fail(None, e))?;
+        check_bus_var(bus).map_err(|e| fail(None, e))?;
+        Ok(SignalReader {
+            path: path.to_path_buf(),
+            parser,
+            code: bus.var.code,
+            name: bus.name.clone(),
+            file_timing,
+            scale_fs,
+            now_fs: 0,
+            undefined_values: 0,
+        })
+    }
+
+    /// An error about this file.
+    pub fn error(&self, line: Option<u64>, message: String) -> VcdError {
+        VcdError {
+            path: self.path.clone(),
+            line,
+            message,
+        }
+    }
+
+    /// The signal's next value (time, level; it may repeat the level), or `None` at the end.
+    pub fn next_value(&mut self) -> Result<Option<(u64, bool)>, VcdError> {
+        while let Some(command) = self.parser.next() {
+            let command = command.map_err(|e| {
+                let (line, message) = read_error(&e, self.parser.line());
+                self.error(line, message)
+            })?;
+            let value = self
+                .command(command)
+                .map_err(|e| self.error(Some(self.parser.line()), e))?;
+            if let Some(value) = value {
+                let level = level_of(value).unwrap_or_else(|| {
+                    self.undefined_values += 1;
+                    RECESSIVE
+                });
+                return Ok(Some((self.now_fs, level)));
+            }
+        }
+        Ok(None)
+    }
+
+    /// Follows the time of `command`; the signal's value if it sets it.
+    fn command(&mut self, command: Command) -> Result<Option<Value>, String> {
+        match command {
+            Command::Timestamp(t) => {
+                let t_fs = t
+                    .checked_mul(self.scale_fs)
+                    .ok_or_else(|| format!("timestamp #{t} is too large"))?;
+                if t_fs < self.now_fs {
+                    return Err(format!("timestamp #{t} goes back in time"));
+                }
+                self.now_fs = t_fs;
+                Ok(None)
+            }
+            Command::ChangeScalar(code, value) if code == self.code => Ok(Some(value)),
+            Command::ChangeVector(code, vector) if code == self.code => {
+                let [value] = vector.iter().collect::<Vec<_>>()[..] else {
+                    return Err(format!(
+                        "a {}-bit value for the 1-bit bus signal",
+                        vector.len()
+                    ));
+                };
+                Ok(Some(value))
+            }
+            _ => Ok(None),
+        }
+    }
+}
+
 fn resolve_timing(
     options: &DecodeOptions,
     file_timing: Option<BusTiming>,
@@ -295,50 +379,6 @@ fn resolve_timing(
 }
 
 /// Feeds the bus variable's changes into the decoder.
-struct BusReader {
-    code: IdCode,
-    scale_fs: u64,
-    now_fs: u64,
-    decoder: BusDecoder,
-    undefined_values: u64,
-}
-
-impl BusReader {
-    fn command(&mut self, command: Command) -> Result<(), String> {
-        match command {
-            Command::Timestamp(t) => {
-                let t_fs = t
-                    .checked_mul(self.scale_fs)
-                    .ok_or_else(|| format!("timestamp #{t} is too large"))?;
-                if t_fs < self.now_fs {
-                    return Err(format!("timestamp #{t} goes back in time"));
-                }
-                self.now_fs = t_fs;
-            }
-            Command::ChangeScalar(code, value) if code == self.code => self.value(value),
-            Command::ChangeVector(code, vector) if code == self.code => {
-                let [value] = vector.iter().collect::<Vec<_>>()[..] else {
-                    return Err(format!(
-                        "a {}-bit value for the 1-bit bus signal",
-                        vector.len()
-                    ));
-                };
-                self.value(value);
-            }
-            _ => {}
-        }
-        Ok(())
-    }
-
-    fn value(&mut self, value: Value) {
-        let level = level_of(value).unwrap_or_else(|| {
-            self.undefined_values += 1;
-            RECESSIVE
-        });
-        self.decoder.level(self.now_fs, level);
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -243,6 +243,21 @@ impl Engine {
         }
     }
 
+    /// Adds a bus line driven by a recording instead of a device (a replayed capture): what
+    /// [`Engine::record_drive`] gives reaches the bus `delay_fs` later. Returns its line number.
+    pub fn add_recorded_line(&mut self, delay_fs: u64) -> usize {
+        self.bus.add_line(delay_fs)
+    }
+
+    /// Recorded line `line` drives `drive` from `t_fs` on; times never decrease per line and are
+    /// not before the last processed edge.
+    pub fn record_drive(&mut self, line: usize, t_fs: u64, drive: Drive) {
+        debug_assert!(t_fs >= self.now, "a recording cannot change the past");
+        self.bus.set_drive(line, t_fs, drive);
+        self.observers
+            .expect_change_at(t_fs + self.bus.delay_fs(line));
+    }
+
     /// Makes device `id` see `level` instead of the bus at its clock edges in `from_fs..to_fs` (the
     /// other devices and the bus are unaffected).
     pub fn disturb_rx(&mut self, id: DeviceId, from_fs: u64, to_fs: u64, level: bool) {

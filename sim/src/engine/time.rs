@@ -10,6 +10,11 @@ pub const FS_PER_MS: u64 = 1_000_000_000_000;
 /// Femtoseconds per second.
 pub const FS_PER_S: u64 = 1_000_000_000_000_000;
 
+/// A time as candump and socketcand write it: `SECONDS.MICROS` (`12.000345`).
+pub fn seconds_micros(t_fs: u64) -> String {
+    format!("{}.{:06}", t_fs / FS_PER_S, t_fs % FS_PER_S / FS_PER_US)
+}
+
 /// A free-running clock: rising edges at `phase + n·period` for n = 0, 1, 2, …
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ClockSpec {

@@ -13,6 +13,7 @@
 //! * [`candump`] the candump frame notation and log files,
 //! * [`traffic`] when which node hands which frame to its driver,
 //! * [`faults`] where a fault lands and what it does to the bus,
+//! * [`recording`] a captured bus that drives the simulated one,
 //! * [`mod@run`] runs a scenario, [`summary`] prints its results, [`progress`] shows a run going,
 //!   [`view`] writes a GTKWave view beside its VCD.
 
@@ -21,6 +22,7 @@ pub mod faults;
 mod output;
 pub mod parse;
 pub mod progress;
+pub mod recording;
 pub mod report;
 pub mod run;
 pub mod summary;
@@ -195,4 +197,6 @@ pub struct Scenario {
     pub traffic: traffic::Traffic,
     /// What goes wrong.
     pub faults: Vec<faults::Fault>,
+    /// A capture that drives the bus, if any.
+    pub recording: Option<recording::Recording>,
 }

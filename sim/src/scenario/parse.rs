@@ -17,8 +17,10 @@ use golden::worst_case::unstuffed_len;
 
 use super::candump::{parse_frame, parse_log};
 use super::faults::{Fault, FaultKind, Place};
+use super::recording::{open_capture, Recording};
 use super::traffic::{Once, Pattern, Periodic, Traffic};
 use super::{BusConfig, NodeConfig, NodeMode, Scenario, ScenarioError, DEFAULT_TXQUEUELEN};
+use crate::decode::vcd_reader::DEFAULT_SIGNAL;
 
 /// Controller clock of the bus and of every node that names none.
 pub const DEFAULT_CLOCK_HZ: u32 = 16_000_000;
@@ -98,6 +100,10 @@ struct BusToml {
     sjw: Option<Spanned<u32>>,
     btr0: Option<Spanned<u8>>,
     btr1: Option<Spanned<u8>>,
+    /// A capture that drives the bus (VCD or sigrok session), relative to the scenario.
+    recording: Option<Spanned<String>>,
+    /// The bus signal in it.
+    signal: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
@@ -464,6 +470,7 @@ impl<'a> Builder<'a> {
             .iter()
             .map(|f| self.fault(f))
             .collect::<Result<Vec<_>, _>>()?;
+        let recording = self.recording(file.bus.get_ref())?;
         Ok(Scenario {
             path: self.source.path.to_path_buf(),
             duration_fs,
@@ -472,6 +479,7 @@ impl<'a> Builder<'a> {
             nodes: self.nodes,
             traffic,
             faults,
+            recording,
         })
     }
 
@@ -766,6 +774,29 @@ impl<'a> Builder<'a> {
     }
 
     /// A replayed log's path: as given if absolute, else relative to the scenario's directory.
+    /// `[bus] recording` and `signal`: the capture must open and have the signal.
+    fn recording(&self, bus: &BusToml) -> Result<Option<Recording>, ScenarioError> {
+        let Some(file) = &bus.recording else {
+            return match &bus.signal {
+                Some(signal) => Err(self.error(signal.span(), "signal needs a recording")),
+                None => Ok(None),
+            };
+        };
+        let path = self.replay_path(file.get_ref());
+        let signal = bus
+            .signal
+            .as_ref()
+            .map_or(DEFAULT_SIGNAL.to_string(), |s| s.get_ref().clone());
+        open_capture(&path, &signal)
+            .map_err(|e| self.error(file.span(), format!("recording: {e}")))?;
+        Ok(Some(Recording {
+            path,
+            signal,
+            idle_keep_fs: None,
+            end_after_fs: None,
+        }))
+    }
+
     fn replay_path(&self, file: &str) -> PathBuf {
         let base = self.source.path.parent().unwrap_or(Path::new(""));
         base.join(file)

@@ -35,9 +35,21 @@ pub struct RunReport {
     pub log_file: Option<PathBuf>,
     /// The GTKWave view written beside the VCD, if any.
     pub view: Option<PathBuf>,
+    /// With a recording: simulated minus capture time, from each simulated time on (the capture
+    /// starts once the controllers are up; long idle stretches are shortened); empty without one.
+    pub recording_shifts: Vec<(u64, i64)>,
 }
 
 impl RunReport {
+    /// The capture's time of simulated time `t_fs` (the same time without a recording).
+    pub fn recorded_time(&self, t_fs: u64) -> u64 {
+        let k = self
+            .recording_shifts
+            .partition_point(|&(from, _)| from <= t_fs);
+        let shift = k.checked_sub(1).map_or(0, |k| self.recording_shifts[k].1);
+        t_fs.saturating_add_signed(-shift)
+    }
+
     /// The bus log as text: one `candump -l` style line per event.
     pub fn log_text(&self) -> String {
         self.log.iter().map(|e| format!("{e}\n")).collect()

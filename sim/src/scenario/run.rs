@@ -31,6 +31,7 @@ use golden::frame::{Frame, DOMINANT, RECESSIVE};
 
 use super::faults::{install, locate, Fault, FaultKind, Place, Target};
 use super::output::PendingFile;
+use super::recording::RecordingFeed;
 use super::report::{AppliedFault, Happening, NodeCounts, NodeEvent, NodeReport, RunReport};
 use super::traffic::Schedule;
 use super::view::{write_view, FRAME_PROBE};
@@ -165,6 +166,8 @@ pub(crate) struct Runner<'s> {
     sof: SofWatch,
     frame_starts: Vec<u64>,
     decoder: BusDecoder,
+    /// The capture driving the bus, if any.
+    recording: Option<RecordingFeed>,
     log: Vec<BusEvent>,
     applied: Vec<AppliedFault>,
     bit_fs: u64,
@@ -190,6 +193,11 @@ impl<'s> Runner<'s> {
                 delay_fs: n.delay_fs,
             });
         }
+        let recording = scenario
+            .recording
+            .as_ref()
+            .map(|r| RecordingFeed::new(r, &mut engine))
+            .transpose()?;
         engine.watch_bus();
         let mut frame_faults: Vec<&Fault> = scenario
             .faults
@@ -209,6 +217,7 @@ impl<'s> Runner<'s> {
             sof: SofWatch::new(bit_fs),
             frame_starts: Vec::new(),
             decoder: BusDecoder::new(bit_fs, scenario.bus.btr.sample_point()),
+            recording,
             log: Vec::new(),
             applied: Vec::new(),
             bit_fs,
@@ -443,6 +452,9 @@ impl<'s> Runner<'s> {
             .min()
             .expect("the bit time is always there")
             .max(self.clock + 1);
+        if let Some(recording) = &mut self.recording {
+            recording.feed(&mut self.engine, target + self.bit_fs)?;
+        }
         let armed = self.frame_faults.front().map(|f| frame_number(f)) == Some(self.sof.count + 1);
         self.run_chunk(target, armed)?;
         self.clock = target.max(self.engine.now());
@@ -640,7 +652,7 @@ impl<'s> Runner<'s> {
         progress: &mut Option<&mut dyn FnMut(u64, u64)>,
     ) -> Result<RunReport, ScenarioError> {
         self.begin()?;
-        while self.clock < end {
+        while self.clock < end.min(self.recording_end()) {
             self.step(end)?;
             if let Some(progress) = progress.as_mut() {
                 progress(self.clock.min(end), end);
@@ -652,6 +664,17 @@ impl<'s> Runner<'s> {
     /// Finishes the VCD, if tracing; its path.
     pub(crate) fn finish_trace(&mut self) -> Result<Option<PathBuf>, ScenarioError> {
         self.engine.finish_trace().map_err(io_error)
+    }
+
+    /// When a run on a capture that ends it is over: that long after the capture's last change.
+    fn recording_end(&self) -> u64 {
+        let recording = self.scenario.recording.as_ref();
+        let after = recording.and_then(|r| r.end_after_fs);
+        let ended = self.recording.as_ref().and_then(RecordingFeed::ended_at);
+        match (after, ended) {
+            (Some(after), Some(ended)) => ended.saturating_add(after),
+            _ => u64::MAX,
+        }
     }
 
     fn finish(&mut self) -> Result<RunReport, ScenarioError> {
@@ -703,6 +726,11 @@ impl<'s> Runner<'s> {
             vcd,
             log_file: None,
             view: None,
+            recording_shifts: self
+                .recording
+                .as_ref()
+                .map(|r| r.shifts().to_vec())
+                .unwrap_or_default(),
         })
     }
 }

@@ -13,7 +13,7 @@
 
 use golden::frame::{Frame, Id, MAX_DATA_LEN};
 
-use crate::engine::time::{FS_PER_S, FS_PER_US};
+use crate::engine::time::seconds_micros;
 
 /// The server's greeting.
 pub const GREETING: &str = "< hi >";
@@ -167,7 +167,7 @@ pub fn frame_message(frame: &Frame, at_fs: u64) -> String {
     } else {
         format!("{:03X}", frame.id().raw())
     };
-    let time = timestamp(at_fs);
+    let time = seconds_micros(at_fs);
     if frame.is_remote() {
         return format!("< rtr {id} {time} {} >", frame.dlc());
     }
@@ -177,13 +177,6 @@ pub fn frame_message(frame: &Frame, at_fs: u64) -> String {
         .map(|b| format!("{b:02X}"))
         .collect();
     format!("< frame {id} {time} {data} >")
-}
-
-/// `SECONDS.MICROS` of a simulated time.
-pub fn timestamp(at_fs: u64) -> String {
-    let seconds = at_fs / FS_PER_S;
-    let micros = at_fs % FS_PER_S / FS_PER_US;
-    format!("{seconds}.{micros:06}")
 }
 
 /// An error message for the client.
@@ -254,6 +247,7 @@ impl Splitter {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::engine::time::{FS_PER_S, FS_PER_US};
 
     fn frame(text: &str) -> Frame {
         crate::scenario::candump::parse_frame(text).unwrap()

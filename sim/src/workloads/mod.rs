@@ -1,7 +1,8 @@
 //! The built-in runs behind `cansim`'s commands: the demo, the bit timing demo, the speed
-//! benchmark's reference workload and the fault-injection campaign.
+//! benchmark's reference workload, the fault-injection campaign and the replay of a capture.
 
 pub mod bench;
 pub mod campaign;
 pub mod demo;
+pub mod replay;
 pub mod sync_demo;
