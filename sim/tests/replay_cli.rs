@@ -375,3 +375,33 @@ fn scenario_nodes_receive_and_answer_a_recorded_bus() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_minute_of_idle_bus_is_shortened_but_the_times_stay_the_capture_s() {
+    // The last three frames come a minute later. Stepping a 16 MHz controller through a minute
+    // of idle bus would take about 20 minutes here; shortened, the replay takes a moment, and the
+    // candump times are still the capture's.
+    let dir = scratch("idle");
+    let (edges, starts) = record(&dir, 500_000);
+    let minute = 60 * 1_000_000 * FS_PER_US;
+    let gap_from = starts[3] - 100 * FS_PER_US;
+    let moved: Vec<(u64, bool)> = resample(&edges, 250 * FS_PER_NS)
+        .into_iter()
+        .map(|(t, level)| (if t > gap_from { t + minute } else { t }, level))
+        .collect();
+    let capture = dir.join("idle.vcd");
+    write_capture(&capture, &moved);
+    let out = replay(&capture, 500_000, 87.5);
+    assert_eq!(received(&out), frames(&FRAMES), "{out}");
+    let times: Vec<f64> = out
+        .lines()
+        .filter_map(|l| l.strip_prefix('(')?.split_once(')'))
+        .map(|(t, _)| t.parse().unwrap())
+        .collect();
+    assert!(times[..3].iter().all(|&t| t < 0.01), "{times:?}");
+    assert!(
+        times[3..].iter().all(|&t| (60.0..60.01).contains(&t)),
+        "{times:?}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
