@@ -145,6 +145,7 @@ example_tests!(example_canopen, "canopen.toml");
 example_tests!(example_demo, "demo.toml");
 example_tests!(example_oscillator, "oscillator.toml");
 example_tests!(example_replay, "replay.toml");
+example_tests!(example_serve, "serve.toml");
 
 #[test]
 fn every_example_is_compared() {
@@ -163,7 +164,8 @@ fn every_example_is_compared() {
             "canopen.toml",
             "demo.toml",
             "oscillator.toml",
-            "replay.toml"
+            "replay.toml",
+            "serve.toml",
         ],
         "a new example needs its comparison test here"
     );
