@@ -5,87 +5,13 @@
 
 mod common;
 
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::sync::mpsc::{channel, Receiver};
+use std::process::Command;
 use std::time::Duration;
 
-use common::{cansim, example, text};
-
-/// How long a test waits for the server.
-const WAIT: Duration = Duration::from_secs(120);
-
-/// The Python of the test environment.
-fn python() -> PathBuf {
-    let python = Path::new(env!("CARGO_MANIFEST_DIR")).join("../build/pyenv/bin/python");
-    assert!(
-        python.exists(),
-        "python-can and cantools are not installed: run `make pyenv` (`make test` does)"
-    );
-    python
-}
-
-/// A running `cansim serve` and the lines it prints.
-struct Server {
-    child: Child,
-    lines: Receiver<String>,
-    port: u16,
-}
-
-impl Server {
-    /// Starts `cansim serve SCENARIO --listen 127.0.0.1:0 ARGS` and reads its port.
-    fn start(scenario: &str, args: &[&str]) -> Server {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_cansim"))
-            .args(["serve", scenario, "--listen", "127.0.0.1:0"])
-            .args(args)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("cansim runs");
-        let stdout = child.stdout.take().unwrap();
-        let (send, lines) = channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                if send.send(line).is_err() {
-                    break;
-                }
-            }
-        });
-        let first = lines
-            .recv_timeout(WAIT)
-            .expect("cansim serve says where it listens");
-        let port = first
-            .split("127.0.0.1:")
-            .nth(1)
-            .and_then(|rest| rest.split(' ').next())
-            .and_then(|port| port.parse().ok())
-            .unwrap_or_else(|| panic!("no port in {first:?}"));
-        Server { child, lines, port }
-    }
-
-    /// Stops it with SIGTERM, as a service manager would; everything it printed after the port.
-    fn stop(&mut self) -> String {
-        let status = Command::new("kill")
-            .args(["-TERM", &self.child.id().to_string()])
-            .status()
-            .unwrap();
-        assert!(status.success());
-        let exit = self.child.wait().unwrap();
-        let out: Vec<String> = self.lines.iter().collect();
-        let out = out.join("\n");
-        assert!(exit.success(), "exit {exit:?}\n{out}");
-        out
-    }
-}
-
-impl Drop for Server {
-    /// A test that fails leaves no server behind.
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-    }
-}
+use common::{cansim, example, python, text, ServeProcess, WAIT};
 
 /// A raw socketcand connection, read line by line as the answers come.
 struct Raw(TcpStream);
@@ -157,7 +83,7 @@ fn scratch(test: &str) -> PathBuf {
 fn python_can_clients_exchange_frames_with_the_scenario_and_each_other() {
     let dir = scratch("python-can");
     let log = dir.join("bus.log");
-    let mut server = Server::start(&example("serve.toml"), &["--log", log.to_str().unwrap()]);
+    let mut server = ServeProcess::start(&example("serve.toml"), &["--log", log.to_str().unwrap()]);
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/socketcand_clients.py");
     let o = Command::new(python())
         .arg(&script)
@@ -201,7 +127,7 @@ fn python_can_clients_exchange_frames_with_the_scenario_and_each_other() {
 fn malformed_input_gets_an_error_the_connection_stays_and_the_bus_is_untouched() {
     let dir = scratch("malformed");
     let log = dir.join("bus.log");
-    let mut server = Server::start(&example("serve.toml"), &["--log", log.to_str().unwrap()]);
+    let mut server = ServeProcess::start(&example("serve.toml"), &["--log", log.to_str().unwrap()]);
     let mut client = Raw::connect(server.port);
     for (message, expected) in [
         (

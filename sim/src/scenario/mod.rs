@@ -13,11 +13,13 @@
 //! * [`candump`] the candump frame notation and log files,
 //! * [`traffic`] when which node hands which frame to its driver,
 //! * [`faults`] where a fault lands and what it does to the bus,
+//! * [`canopen_node`] nodes whose firmware is the CANopen device stack,
 //! * [`recording`] a captured bus that drives the simulated one,
 //! * [`mod@run`] runs a scenario, [`summary`] prints its results, [`progress`] shows a run going,
 //!   [`view`] writes a GTKWave view beside its VCD.
 
 pub mod candump;
+pub mod canopen_node;
 pub mod faults;
 mod output;
 pub mod parse;
@@ -171,6 +173,8 @@ pub struct NodeConfig {
     /// Frames the driver's transmit queue holds besides the one in flight (Linux `txqueuelen`);
     /// a frame released while it is full is dropped, as `write()` fails with ENOBUFS.
     pub txqueuelen: usize,
+    /// The CANopen device its firmware runs, if any.
+    pub canopen: Option<canopen_node::CanopenConfig>,
 }
 
 impl NodeConfig {

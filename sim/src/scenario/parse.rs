@@ -16,6 +16,7 @@ use golden::frame::{Field, Frame, DOMINANT, RECESSIVE};
 use golden::worst_case::unstuffed_len;
 
 use super::candump::{parse_frame, parse_log};
+use super::canopen_node::CanopenConfig;
 use super::faults::{Fault, FaultKind, Place};
 use super::recording::{open_capture, Recording};
 use super::traffic::{Once, Pattern, Periodic, Traffic};
@@ -124,6 +125,15 @@ struct NodeToml {
     berr_reporting: Option<bool>,
     one_shot: Option<bool>,
     txqueuelen: Option<Spanned<usize>>,
+    canopen: Option<Spanned<CanopenToml>>,
+}
+
+/// `canopen = { node_id = 2, eds = "io.eds" }`: the node's firmware is a CANopen device.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CanopenToml {
+    node_id: Spanned<i64>,
+    eds: Spanned<String>,
 }
 
 #[derive(Deserialize, Clone, Copy)]
@@ -554,7 +564,53 @@ impl<'a> Builder<'a> {
             berr_reporting: n.berr_reporting.unwrap_or(true),
             one_shot: n.one_shot.unwrap_or(false),
             txqueuelen: self.txqueuelen(n)?,
+            canopen: n
+                .canopen
+                .as_ref()
+                .map(|c| self.canopen(c, mode))
+                .transpose()?,
         })
+    }
+
+    /// A CANopen device: a node-ID of 1 to 127 no other node has, an EDS that reads, a node that
+    /// sends.
+    fn canopen(
+        &self,
+        spanned: &Spanned<CanopenToml>,
+        mode: NodeMode,
+    ) -> Result<CanopenConfig, ScenarioError> {
+        let c = spanned.get_ref();
+        if mode == NodeMode::ListenOnly {
+            return Err(self.error(
+                spanned.span(),
+                "a CANopen device sends (boot-up, SDO answers): it cannot be listen-only",
+            ));
+        }
+        let id = *c.node_id.get_ref();
+        let node_id = u8::try_from(id)
+            .ok()
+            .filter(|id| (1..=127).contains(id))
+            .ok_or_else(|| {
+                self.error(
+                    c.node_id.span(),
+                    format!("node-ID {id} is out of range 1..=127 (CiA 301)"),
+                )
+            })?;
+        let taken = self.nodes.iter().find(|n| {
+            n.canopen
+                .as_ref()
+                .is_some_and(|other| other.node_id == node_id)
+        });
+        if let Some(other) = taken {
+            return Err(self.error(
+                c.node_id.span(),
+                format!("node-ID {id} is node \"{}\"'s already", other.name),
+            ));
+        }
+        let eds = self.replay_path(c.eds.get_ref());
+        let od = canopen::eds::load(&eds, node_id)
+            .map_err(|e| self.error(c.eds.span(), format!("EDS: {e}")))?;
+        Ok(CanopenConfig { node_id, eds, od })
     }
 
     fn txqueuelen(&self, n: &NodeToml) -> Result<usize, ScenarioError> {

@@ -29,6 +29,7 @@ use crate::host::Host;
 use crate::nodes::controller_node::{ControllerNode, ModelEngine};
 use golden::frame::{Frame, DOMINANT, RECESSIVE};
 
+use super::canopen_node::Firmware;
 use super::faults::{install, locate, Fault, FaultKind, Place, Target};
 use super::output::PendingFile;
 use super::recording::RecordingFeed;
@@ -149,6 +150,8 @@ pub(crate) struct RunNode {
     queue: VecDeque<Frame>,
     /// Frames released while the queue was full (dropped, as Linux's `write()` fails with ENOBUFS).
     queue_full: usize,
+    /// The CANopen device its firmware runs, if any.
+    firmware: Option<Firmware>,
     events: Vec<(u64, Happening)>,
     bus_off_at: Option<u64>,
     restarts: usize,
@@ -168,6 +171,8 @@ pub(crate) struct Runner<'s> {
     decoder: BusDecoder,
     /// The capture driving the bus, if any.
     recording: Option<RecordingFeed>,
+    /// The CANopen devices have been powered on.
+    firmware_started: bool,
     log: Vec<BusEvent>,
     applied: Vec<AppliedFault>,
     bit_fs: u64,
@@ -187,7 +192,7 @@ impl<'s> Runner<'s> {
         for n in &scenario.nodes {
             let node = controller(n, model)?;
             let id = engine.add(node, n.delay_fs);
-            nodes.push(RunNode::new(n, id));
+            nodes.push(RunNode::new(n, id)?);
             targets.push(Target {
                 id,
                 delay_fs: n.delay_fs,
@@ -218,6 +223,7 @@ impl<'s> Runner<'s> {
             frame_starts: Vec::new(),
             decoder: BusDecoder::new(bit_fs, scenario.bus.btr.sample_point()),
             recording,
+            firmware_started: false,
             log: Vec::new(),
             applied: Vec::new(),
             bit_fs,
@@ -296,6 +302,44 @@ impl<'s> Runner<'s> {
         Ok(())
     }
 
+    /// Powers the CANopen devices on (their boot-up messages) once every controller of the
+    /// scenario takes part in the traffic: the network comes up together, and a boot-up message
+    /// sent while the others still integrate would go unacknowledged.
+    fn start_firmware(&mut self) {
+        if self.firmware_started || !(0..self.nodes.len()).all(|n| self.integrated(n)) {
+            return;
+        }
+        self.firmware_started = true;
+        let now = self.engine.now();
+        for node in &mut self.nodes {
+            let Some(firmware) = &mut node.firmware else {
+                continue;
+            };
+            for frame in firmware.start(now) {
+                node.offer(frame);
+            }
+        }
+    }
+
+    /// Hands the CANopen devices what their drivers read and the time; queues what they send.
+    fn run_firmware(&mut self) {
+        let now = self.clock;
+        for node in &mut self.nodes {
+            let Some(firmware) = &mut node.firmware else {
+                continue;
+            };
+            for frame in firmware.run(&node.events, now) {
+                node.offer(frame);
+            }
+        }
+    }
+
+    /// When a CANopen device next has something due.
+    fn firmware_deadline(&self) -> Option<u64> {
+        let firmware = self.nodes.iter().filter_map(|n| n.firmware.as_ref());
+        firmware.filter_map(Firmware::deadline_fs).min()
+    }
+
     fn probe(&mut self, n: usize) -> Result<(), ScenarioError> {
         let result = self.nodes[n].driver.probe(&mut self.engine);
         result.map_err(|e| self.driver_error(n, "probe", e))
@@ -341,7 +385,7 @@ impl<'s> Runner<'s> {
         let id = self
             .engine
             .join(controller(config, self.model)?, config.delay_fs);
-        let node = RunNode::new(config, id);
+        let node = RunNode::new(config, id)?;
         let n = match self.nodes.iter().position(|node| !node.present) {
             Some(n) => {
                 self.nodes[n] = node;
@@ -404,6 +448,9 @@ impl<'s> Runner<'s> {
 
     /// What node `n`'s driver reported since the last call, oldest first.
     pub(crate) fn take_events(&mut self, n: usize) -> Vec<(u64, Happening)> {
+        if let Some(firmware) = &mut self.nodes[n].firmware {
+            firmware.events_taken();
+        }
         std::mem::take(&mut self.nodes[n].events)
     }
 
@@ -445,6 +492,7 @@ impl<'s> Runner<'s> {
             Some(end),
             self.schedule.next_time(),
             self.next_restart(),
+            self.firmware_deadline(),
         ];
         let target = next
             .into_iter()
@@ -458,7 +506,10 @@ impl<'s> Runner<'s> {
         let armed = self.frame_faults.front().map(|f| frame_number(f)) == Some(self.sof.count + 1);
         self.run_chunk(target, armed)?;
         self.clock = target.max(self.engine.now());
-        self.observe_bus()
+        self.observe_bus()?;
+        self.start_firmware();
+        self.run_firmware();
+        Ok(())
     }
 
     fn next_restart(&self) -> Option<u64> {
@@ -743,13 +794,13 @@ fn controller(config: &NodeConfig, model: ModelEngine) -> Result<ControllerNode,
 }
 
 impl RunNode {
-    fn new(config: &NodeConfig, id: DeviceId) -> RunNode {
+    fn new(config: &NodeConfig, id: DeviceId) -> Result<RunNode, ScenarioError> {
         let driver_config = DriverConfig {
             clock_hz: config.clock_hz,
             filter: config.filter,
             ..DriverConfig::default()
         };
-        RunNode {
+        Ok(RunNode {
             config: config.clone(),
             present: true,
             id,
@@ -759,7 +810,8 @@ impl RunNode {
             events: Vec::new(),
             bus_off_at: None,
             restarts: 0,
-        }
+            firmware: config.canopen.as_ref().map(Firmware::new).transpose()?,
+        })
     }
 
     /// Queues `frame` for the driver if the queue has room (`txqueuelen`); whether it had.

@@ -286,6 +286,14 @@ fn describe_node(node: &NodeConfig, scenario: &Scenario) -> String {
     if node.one_shot {
         out += ", one-shot";
     }
+    if let Some(canopen) = &node.canopen {
+        let eds = canopen
+            .eds
+            .file_name()
+            .unwrap_or_default()
+            .to_string_lossy();
+        out += &format!(", CANopen device {} ({eds})", canopen.node_id);
+    }
     out
 }
 

@@ -303,6 +303,7 @@ impl Server<'_> {
             berr_reporting: true,
             one_shot: false,
             txqueuelen: DEFAULT_TXQUEUELEN,
+            canopen: None,
         }
     }
 

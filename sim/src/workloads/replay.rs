@@ -84,6 +84,7 @@ pub fn replay_scenario(options: &ReplayOptions) -> Scenario {
         berr_reporting: true,
         one_shot: false,
         txqueuelen: DEFAULT_TXQUEUELEN,
+        canopen: None,
     };
     Scenario {
         path: options.capture.clone(),

@@ -1,8 +1,11 @@
 //! Helpers shared by the command-line tests (each test binary uses a subset of them).
 #![allow(dead_code)]
 
-use std::path::Path;
-use std::process::{Command, Output};
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::mpsc::{channel, Receiver};
+use std::time::Duration;
 
 /// Runs the `cansim` binary with `args`.
 pub fn cansim(args: &[&str]) -> Output {
@@ -31,4 +34,78 @@ pub fn example(name: &str) -> String {
         .join(name)
         .to_string_lossy()
         .into_owned()
+}
+
+/// How long a test waits for the server.
+pub const WAIT: Duration = Duration::from_secs(120);
+
+/// The Python of the test environment.
+pub fn python() -> PathBuf {
+    let python = Path::new(env!("CARGO_MANIFEST_DIR")).join("../build/pyenv/bin/python");
+    assert!(
+        python.exists(),
+        "python-can and cantools are not installed: run `make pyenv` (`make test` does)"
+    );
+    python
+}
+
+/// A running `cansim serve` and the lines it prints.
+pub struct ServeProcess {
+    child: Child,
+    lines: Receiver<String>,
+    /// The port it listens on.
+    pub port: u16,
+}
+
+impl ServeProcess {
+    /// Starts `cansim serve SCENARIO --listen 127.0.0.1:0 ARGS` and reads its port.
+    pub fn start(scenario: &str, args: &[&str]) -> ServeProcess {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_cansim"))
+            .args(["serve", scenario, "--listen", "127.0.0.1:0"])
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("cansim runs");
+        let stdout = child.stdout.take().unwrap();
+        let (send, lines) = channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                if send.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        let first = lines
+            .recv_timeout(WAIT)
+            .expect("cansim serve says where it listens");
+        let port = first
+            .split("127.0.0.1:")
+            .nth(1)
+            .and_then(|rest| rest.split(' ').next())
+            .and_then(|port| port.parse().ok())
+            .unwrap_or_else(|| panic!("no port in {first:?}"));
+        ServeProcess { child, lines, port }
+    }
+
+    /// Stops it with SIGTERM, as a service manager would; everything it printed after the port.
+    pub fn stop(&mut self) -> String {
+        let status = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(status.success());
+        let exit = self.child.wait().unwrap();
+        let out: Vec<String> = self.lines.iter().collect();
+        let out = out.join("\n");
+        assert!(exit.success(), "exit {exit:?}\n{out}");
+        out
+    }
+}
+
+impl Drop for ServeProcess {
+    /// A test that fails leaves no server behind.
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+    }
 }

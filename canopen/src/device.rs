@@ -1,0 +1,257 @@
+//! A CANopen device: its node-ID, object dictionary, NMT state, SDO server and heartbeat
+//! producer, driven by the frames it receives and the time that passes.
+//!
+//! COB-IDs of the predefined connection set (CiA 301 7.3.5, Table 79): NMT 000h, SDO requests
+//! 600h + node-ID and responses 580h + node-ID, boot-up and heartbeat 700h + node-ID. At start
+//! and after a reset the device sends its boot-up message (one byte 00h) and enters
+//! pre-operational (7.3.2.2.1); it then sends a heartbeat with its state every 1017h
+//! milliseconds when 1017h is not 0 (7.2.8.3.2.1).
+
+use crate::nmt::{NmtCommand, NmtState};
+use crate::od::ObjectDictionary;
+use crate::sdo::SdoServer;
+use crate::CanFrame;
+
+/// COB-ID of NMT commands.
+pub const NMT_COB_ID: u16 = 0x000;
+/// Function codes of the predefined connection set, added to the node-ID.
+pub const SDO_RESPONSE: u16 = 0x580;
+/// SDO requests to the device.
+pub const SDO_REQUEST: u16 = 0x600;
+/// Boot-up, heartbeat and guarding.
+pub const ERROR_CONTROL: u16 = 0x700;
+/// Producer heartbeat time (ms, UNSIGNED16).
+pub const PRODUCER_HEARTBEAT_TIME: u16 = 0x1017;
+/// The communication profile area, reset by reset communication.
+const COMMUNICATION_AREA: std::ops::RangeInclusive<u16> = 0x1000..=0x1FFF;
+/// Microseconds per millisecond.
+const US_PER_MS: u64 = 1000;
+
+/// A device on the bus.
+pub struct Device {
+    node_id: u8,
+    defaults: ObjectDictionary,
+    od: ObjectDictionary,
+    state: NmtState,
+    sdo: SdoServer,
+    next_heartbeat_us: Option<u64>,
+}
+
+impl Device {
+    /// A device with `node_id` (1 to 127, CiA 301 7.3.1) and object dictionary `od` (its values are
+    /// the defaults resets go back to), in initialisation until [`Device::start`].
+    pub fn new(node_id: u8, od: ObjectDictionary) -> Result<Device, String> {
+        if !(1..=127).contains(&node_id) {
+            return Err(format!("node-ID {node_id} is out of range 1..=127"));
+        }
+        Ok(Device {
+            node_id,
+            defaults: od.clone(),
+            od,
+            state: NmtState::Initialisation,
+            sdo: SdoServer::default(),
+            next_heartbeat_us: None,
+        })
+    }
+
+    /// Its node-ID.
+    pub fn node_id(&self) -> u8 {
+        self.node_id
+    }
+
+    /// Its NMT state.
+    pub fn state(&self) -> NmtState {
+        self.state
+    }
+
+    /// Its object dictionary.
+    pub fn od(&self) -> &ObjectDictionary {
+        &self.od
+    }
+
+    /// Power-on at `now_us`: the boot-up message; then pre-operational.
+    pub fn start(&mut self, now_us: u64) -> Vec<CanFrame> {
+        self.boot(now_us)
+    }
+
+    fn boot(&mut self, now_us: u64) -> Vec<CanFrame> {
+        self.sdo = SdoServer::default();
+        self.state = NmtState::PreOperational;
+        self.schedule_heartbeat(now_us);
+        vec![CanFrame::new(
+            ERROR_CONTROL + u16::from(self.node_id),
+            &[NmtState::Initialisation.code()],
+        )]
+    }
+
+    fn schedule_heartbeat(&mut self, now_us: u64) {
+        let period_ms = self.od.unsigned(PRODUCER_HEARTBEAT_TIME, 0);
+        self.next_heartbeat_us = (period_ms > 0).then(|| now_us + period_ms * US_PER_MS);
+    }
+
+    /// The frame `frame` arrives at `now_us`; what the device sends in answer.
+    pub fn receive(&mut self, frame: &CanFrame, now_us: u64) -> Vec<CanFrame> {
+        if frame.remote || self.state == NmtState::Initialisation {
+            return Vec::new();
+        }
+        if frame.id == NMT_COB_ID {
+            return self.nmt(&frame.data, now_us);
+        }
+        if frame.id == SDO_REQUEST + u16::from(self.node_id) && self.state.serves_sdo() {
+            let heartbeat_before = self.od.unsigned(PRODUCER_HEARTBEAT_TIME, 0);
+            let answer = self.sdo.request(&mut self.od, &frame.data, now_us);
+            if self.od.unsigned(PRODUCER_HEARTBEAT_TIME, 0) != heartbeat_before {
+                self.schedule_heartbeat(now_us);
+            }
+            return answer
+                .map(|data| CanFrame::new(SDO_RESPONSE + u16::from(self.node_id), &data))
+                .into_iter()
+                .collect();
+        }
+        Vec::new()
+    }
+
+    fn nmt(&mut self, data: &[u8], now_us: u64) -> Vec<CanFrame> {
+        // 7.2.8.3.1: two bytes, the command specifier and the node-ID (0: all nodes).
+        let [cs, node] = data else {
+            return Vec::new();
+        };
+        if *node != 0 && *node != self.node_id {
+            return Vec::new();
+        }
+        let Some(command) = NmtCommand::from_specifier(*cs) else {
+            return Vec::new();
+        };
+        match command {
+            NmtCommand::ResetNode => {
+                self.od = self.defaults.clone();
+                self.boot(now_us)
+            }
+            NmtCommand::ResetCommunication => {
+                for (index, object) in &self.defaults.objects {
+                    if COMMUNICATION_AREA.contains(index) {
+                        self.od.objects.insert(*index, object.clone());
+                    }
+                }
+                self.boot(now_us)
+            }
+            _ => {
+                self.state = command.next_state();
+                Vec::new()
+            }
+        }
+    }
+
+    /// The time is `now_us`: what falls due (heartbeats, SDO timeouts).
+    pub fn tick(&mut self, now_us: u64) -> Vec<CanFrame> {
+        let mut out = Vec::new();
+        if let Some(abort) = self.sdo.check_timeout(now_us) {
+            out.push(CanFrame::new(
+                SDO_RESPONSE + u16::from(self.node_id),
+                &abort,
+            ));
+        }
+        if self.next_heartbeat_us.is_some_and(|due| now_us >= due) {
+            out.push(CanFrame::new(
+                ERROR_CONTROL + u16::from(self.node_id),
+                &[self.state.code()],
+            ));
+            let period_us = self.od.unsigned(PRODUCER_HEARTBEAT_TIME, 0) * US_PER_MS;
+            self.next_heartbeat_us = self.next_heartbeat_us.map(|due| due + period_us);
+        }
+        out
+    }
+
+    /// When something falls due next, if anything will.
+    pub fn next_deadline(&self) -> Option<u64> {
+        [self.next_heartbeat_us, self.sdo.deadline()]
+            .into_iter()
+            .flatten()
+            .min()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eds;
+    use std::path::Path;
+
+    const EDS: &str = "\
+[MandatoryObjects]
+SupportedObjects=2
+1=0x1000
+2=0x1017
+[1000]
+ParameterName=Device type
+DataType=0x0007
+AccessType=ro
+DefaultValue=0x00000191
+[1017]
+ParameterName=Producer heartbeat time
+DataType=0x0006
+AccessType=rw
+DefaultValue=100
+";
+
+    fn device() -> Device {
+        Device::new(3, eds::parse(EDS, Path::new("t.eds"), 3).unwrap()).unwrap()
+    }
+
+    fn frame(id: u16, data: &[u8]) -> CanFrame {
+        CanFrame::new(id, data)
+    }
+
+    #[test]
+    fn boot_up_then_heartbeats_with_the_state_every_1017h_ms() {
+        let mut d = device();
+        assert_eq!(d.start(0), [frame(0x703, &[0x00])]);
+        assert_eq!(d.state(), NmtState::PreOperational);
+        assert_eq!(d.next_deadline(), Some(100_000));
+        assert!(d.tick(99_999).is_empty());
+        assert_eq!(d.tick(100_000), [frame(0x703, &[0x7F])]);
+        d.receive(&frame(0x000, &[0x01, 3]), 150_000);
+        assert_eq!(d.tick(200_000), [frame(0x703, &[0x05])]);
+        d.receive(&frame(0x000, &[0x02, 0]), 250_000);
+        assert_eq!(d.tick(300_000), [frame(0x703, &[0x04])]);
+    }
+
+    #[test]
+    fn nmt_commands_for_other_nodes_are_ignored_and_resets_boot_again() {
+        let mut d = device();
+        d.start(0);
+        d.receive(&frame(0x000, &[0x01, 4]), 10);
+        assert_eq!(d.state(), NmtState::PreOperational, "for node 4");
+        d.receive(&frame(0x000, &[0x01, 3]), 10);
+        assert_eq!(d.state(), NmtState::Operational);
+        // SDO writes 1017h = 500 ms, then reset communication brings back 100 ms.
+        d.receive(&frame(0x603, &[0x2B, 0x17, 0x10, 0, 0xF4, 0x01, 0, 0]), 20);
+        assert_eq!(d.od().unsigned(0x1017, 0), 500);
+        assert_eq!(
+            d.receive(&frame(0x000, &[0x82, 0]), 30),
+            [frame(0x703, &[0x00])]
+        );
+        assert_eq!(d.state(), NmtState::PreOperational);
+        assert_eq!(d.od().unsigned(0x1017, 0), 100);
+    }
+
+    #[test]
+    fn a_stopped_device_answers_no_sdo() {
+        let mut d = device();
+        d.start(0);
+        let read = frame(0x603, &[0x40, 0x00, 0x10, 0, 0, 0, 0, 0]);
+        assert_eq!(
+            d.receive(&read, 1),
+            [frame(0x583, &[0x43, 0x00, 0x10, 0, 0x91, 0x01, 0, 0])]
+        );
+        d.receive(&frame(0x000, &[0x02, 3]), 2);
+        assert!(d.receive(&read, 3).is_empty());
+    }
+
+    #[test]
+    fn node_ids_outside_1_to_127_are_refused() {
+        let od = eds::parse(EDS, Path::new("t.eds"), 1).unwrap();
+        assert!(Device::new(0, od.clone()).is_err());
+        assert!(Device::new(128, od).is_err());
+    }
+}

@@ -1,0 +1,42 @@
+//! A CANopen (CiA 301) device stack, independent of the hardware: it takes the CAN frames its node
+//! receives and the passing of time, and returns the frames the node sends. In the simulator it is
+//! the firmware of a node, reaching the bus only through the SJA1000 driver model and the RTL
+//! controller (`sim::scenario`'s CANopen nodes), but nothing here knows about that.
+//!
+//! * [`eds`]: electronic data sheets (CiA 306), with file:line errors;
+//! * [`od`]: the object dictionary (index, sub-index, data type, access, limits, value);
+//! * [`sdo`]: the SDO server (expedited and segmented transfers, the abort codes);
+//! * [`nmt`]: the NMT slave state machine and the heartbeat producer;
+//! * [`device`]: all of it as one device with a node-ID.
+//!
+//! Every protocol value comes from CiA 301 (v4.2.0), cited where it is used.
+#![warn(missing_docs)]
+
+pub mod device;
+pub mod eds;
+pub mod nmt;
+pub mod od;
+pub mod sdo;
+
+/// A CAN frame with an 11-bit identifier, as CANopen's predefined connection set uses them.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CanFrame {
+    /// The COB-ID (11 bits).
+    pub id: u16,
+    /// A remote frame (no data; `data.len()` is its DLC).
+    pub remote: bool,
+    /// Up to 8 data bytes.
+    pub data: Vec<u8>,
+}
+
+impl CanFrame {
+    /// A data frame.
+    pub fn new(id: u16, data: &[u8]) -> CanFrame {
+        debug_assert!(id <= 0x7FF && data.len() <= 8);
+        CanFrame {
+            id,
+            remote: false,
+            data: data.to_vec(),
+        }
+    }
+}

@@ -1,0 +1,101 @@
+//! Scenario nodes whose firmware is the CANopen device stack (`canopen = { node_id, eds }`): the
+//! stack of the `canopen` crate gets every frame the node's driver read from the RX FIFO, with its
+//! time, and the time as it passes; what it sends goes to the node's driver like any frame of the
+//! traffic, through the SJA1000 registers and the cycle-accurate bus.
+
+use std::path::PathBuf;
+
+use canopen::device::Device;
+use canopen::od::ObjectDictionary;
+use canopen::CanFrame;
+use golden::frame::{Frame, Id};
+
+use crate::engine::time::FS_PER_US;
+use crate::host::driver::DriverEvent;
+
+use super::report::Happening;
+use super::ScenarioError;
+
+/// A node's CANopen device: its node-ID and object dictionary.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CanopenConfig {
+    /// Node-ID, 1 to 127.
+    pub node_id: u8,
+    /// The EDS it was read from.
+    pub eds: PathBuf,
+    /// The object dictionary the EDS describes, at its defaults.
+    pub od: ObjectDictionary,
+}
+
+/// The CANopen firmware of a running node.
+pub(crate) struct Firmware {
+    device: Device,
+    /// Events of the node already handed to the device.
+    seen: usize,
+}
+
+impl Firmware {
+    /// The firmware of `config`, not started yet.
+    pub(crate) fn new(config: &CanopenConfig) -> Result<Firmware, ScenarioError> {
+        let device = Device::new(config.node_id, config.od.clone()).map_err(ScenarioError::new)?;
+        Ok(Firmware { device, seen: 0 })
+    }
+
+    /// Power-on at `now_fs`: what the device sends (its boot-up message).
+    pub(crate) fn start(&mut self, now_fs: u64) -> Vec<Frame> {
+        let frames = self.device.start(now_fs / FS_PER_US);
+        frames.iter().map(to_frame).collect()
+    }
+
+    /// Hands the device the frames among `events` it has not seen (what the driver read), then the
+    /// time `now_fs`; what it sends.
+    pub(crate) fn run(&mut self, events: &[(u64, Happening)], now_fs: u64) -> Vec<Frame> {
+        let mut out = Vec::new();
+        for (at_fs, what) in &events[self.seen.min(events.len())..] {
+            if let Happening::Driver(DriverEvent::Received(frame)) = what {
+                if let Some(frame) = from_frame(frame) {
+                    out.extend(self.device.receive(&frame, at_fs / FS_PER_US));
+                }
+            }
+        }
+        self.seen = events.len();
+        out.extend(self.device.tick(now_fs / FS_PER_US));
+        out.iter().map(to_frame).collect()
+    }
+
+    /// The node's events were taken away: count from the start again.
+    pub(crate) fn events_taken(&mut self) {
+        self.seen = 0;
+    }
+
+    /// When the device next has something due.
+    pub(crate) fn deadline_fs(&self) -> Option<u64> {
+        self.device.next_deadline().map(|us| us * FS_PER_US)
+    }
+}
+
+/// A received frame as CANopen sees it: standard identifiers only (CANopen uses CAN 2.0A).
+fn from_frame(frame: &Frame) -> Option<CanFrame> {
+    let Id::Standard(id) = frame.id() else {
+        return None;
+    };
+    Some(CanFrame {
+        id,
+        remote: frame.is_remote(),
+        data: if frame.is_remote() {
+            vec![0; usize::from(frame.dlc())]
+        } else {
+            frame.data_bytes().to_vec()
+        },
+    })
+}
+
+/// A frame the device sends.
+fn to_frame(frame: &CanFrame) -> Frame {
+    let id = Id::standard(frame.id).expect("CANopen COB-IDs have 11 bits");
+    if frame.remote {
+        Frame::remote(id, frame.data.len() as u8).expect("a DLC of at most 8")
+    } else {
+        Frame::data(id, &frame.data).expect("at most 8 data bytes")
+    }
+}

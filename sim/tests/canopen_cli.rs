@@ -1,0 +1,71 @@
+//! CANopen devices of our stack on the simulated bus, mastered by an independent implementation:
+//! python canopen 2.4.1 (from build/pyenv, made by `make pyenv`) over python-can's socketcand
+//! interface and `cansim serve examples/canopen_io.toml` (tests/python/canopen_master.py): NMT,
+//! boot-up, heartbeat states, SDO expedited and segmented in both directions, the abort codes, the
+//! resets. Both read the same EDS (examples/eds/io.eds). And bad CANopen configuration in a
+//! scenario is refused with its line.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+use common::{cansim, example, python, text, ServeProcess};
+
+#[test]
+fn python_canopen_masters_our_device_through_the_registers() {
+    let mut server = ServeProcess::start(&example("canopen_io.toml"), &[]);
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/canopen_master.py");
+    let o = Command::new(python())
+        .arg(&script)
+        .arg(server.port.to_string())
+        .arg(example("eds/io.eds"))
+        .output()
+        .unwrap();
+    let out = server.stop();
+    assert!(
+        o.status.success() && text(&o.stdout).ends_with("PASS\n"),
+        "python canopen:\n{}{}\nserver:\n{out}",
+        text(&o.stdout),
+        text(&o.stderr)
+    );
+    assert!(out.contains(" 0 error frames"), "{out}");
+}
+
+#[test]
+fn the_example_boots_and_its_log_shows_the_boot_up_message() {
+    let o = cansim(&["run", &example("canopen_io.toml")]);
+    let out = text(&o.stdout);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        out.contains("io: 16 MHz +0 ppm, 0 ns from the bus, CANopen device 2 (io.eds)"),
+        "{out}"
+    );
+    // CiA 301 7.3.2.2.1: boot-up on 700h + node-ID with one byte 00h.
+    assert!(out.contains(") can0 702#00\n"), "{out}");
+}
+
+#[test]
+fn bad_canopen_nodes_are_refused_with_their_line() {
+    let dir = std::env::temp_dir().join(format!("cansim-canopen-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let eds = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/eds/io.eds");
+    std::fs::copy(&eds, dir.join("io.eds")).unwrap();
+    std::fs::write(dir.join("bad.eds"), "[MandatoryObjects]\nSupportedObjects=1\n1=0x1000\n[1000]\nParameterName=x\nDataType=0x0007\nAccessType=rx\n").unwrap();
+    let header = "duration = \"1ms\"\n[bus]\nbitrate = 500000\n[[node]]\nname = \"a\"\n";
+    for (node, expected) in [
+        ("canopen = { node_id = 0, eds = \"io.eds\" }", "bad.toml:6:23: node-ID 0 is out of range 1..=127"),
+        ("canopen = { node_id = 128, eds = \"io.eds\" }", "bad.toml:6:23: node-ID 128 is out of range 1..=127"),
+        ("canopen = { node_id = 2, eds = \"missing.eds\" }", "bad.toml:6:32: EDS: "),
+        ("canopen = { node_id = 2, eds = \"bad.eds\" }", "bad.eds:7: AccessType 'rx' is not"),
+        ("mode = \"listen-only\"\ncanopen = { node_id = 2, eds = \"io.eds\" }", "it cannot be listen-only"),
+        ("canopen = { node_id = 2, eds = \"io.eds\" }\n[[node]]\nname = \"b\"\ncanopen = { node_id = 2, eds = \"io.eds\" }", "node-ID 2 is node \"a\"'s already"),
+    ] {
+        let file = dir.join("bad.toml");
+        std::fs::write(&file, format!("{header}{node}\n")).unwrap();
+        let o = cansim(&["run", file.to_str().unwrap()]);
+        assert!(!o.status.success(), "{node}");
+        assert!(text(&o.stderr).contains(expected), "{node}: {}", text(&o.stderr));
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
