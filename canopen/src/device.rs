@@ -1,5 +1,5 @@
-//! A CANopen device: its node-ID, object dictionary, NMT state, SDO server and heartbeat
-//! producer, driven by the frames it receives and the time that passes.
+//! A CANopen device: its node-ID, object dictionary, NMT state, SDO server, heartbeat producer
+//! and PDOs, driven by the frames it receives and the time that passes.
 //!
 //! COB-IDs of the predefined connection set (CiA 301 7.3.5, Table 79): NMT 000h, SDO requests
 //! 600h + node-ID and responses 580h + node-ID, boot-up and heartbeat 700h + node-ID. At start
@@ -9,6 +9,7 @@
 
 use crate::nmt::{NmtCommand, NmtState};
 use crate::od::ObjectDictionary;
+use crate::pdo::{receive_rpdo, Tpdos};
 use crate::sdo::SdoServer;
 use crate::CanFrame;
 
@@ -22,6 +23,9 @@ pub const SDO_REQUEST: u16 = 0x600;
 pub const ERROR_CONTROL: u16 = 0x700;
 /// Producer heartbeat time (ms, UNSIGNED16).
 pub const PRODUCER_HEARTBEAT_TIME: u16 = 0x1017;
+/// COB-ID SYNC (bits 10..0), and the SYNC COB-ID without it (7.5.2.5).
+pub const COB_ID_SYNC: u16 = 0x1005;
+const DEFAULT_SYNC_COB_ID: u16 = 0x080;
 /// The communication profile area, reset by reset communication.
 const COMMUNICATION_AREA: std::ops::RangeInclusive<u16> = 0x1000..=0x1FFF;
 /// Microseconds per millisecond.
@@ -35,6 +39,7 @@ pub struct Device {
     state: NmtState,
     sdo: SdoServer,
     next_heartbeat_us: Option<u64>,
+    tpdos: Tpdos,
 }
 
 impl Device {
@@ -51,6 +56,7 @@ impl Device {
             state: NmtState::Initialisation,
             sdo: SdoServer::default(),
             next_heartbeat_us: None,
+            tpdos: Tpdos::default(),
         })
     }
 
@@ -97,6 +103,14 @@ impl Device {
         if frame.id == NMT_COB_ID {
             return self.nmt(&frame.data, now_us);
         }
+        if self.state == NmtState::Operational {
+            if frame.id == self.sync_cob_id() {
+                return self.tpdos.sync(&self.od);
+            }
+            if receive_rpdo(&mut self.od, frame) {
+                return Vec::new();
+            }
+        }
         if frame.id == SDO_REQUEST + u16::from(self.node_id) && self.state.serves_sdo() {
             let heartbeat_before = self.od.unsigned(PRODUCER_HEARTBEAT_TIME, 0);
             let answer = self.sdo.request(&mut self.od, &frame.data, now_us);
@@ -136,15 +150,30 @@ impl Device {
                 self.boot(now_us)
             }
             _ => {
-                self.state = command.next_state();
+                let next = command.next_state();
+                if next == NmtState::Operational && self.state != NmtState::Operational {
+                    self.tpdos.start(&self.od, now_us);
+                }
+                self.state = next;
                 Vec::new()
             }
         }
     }
 
-    /// The time is `now_us`: what falls due (heartbeats, SDO timeouts).
+    /// The COB-ID SYNC messages come on.
+    fn sync_cob_id(&self) -> u16 {
+        match self.od.entry(COB_ID_SYNC, 0) {
+            Ok(_) => (self.od.unsigned(COB_ID_SYNC, 0) & 0x7FF) as u16,
+            Err(_) => DEFAULT_SYNC_COB_ID,
+        }
+    }
+
+    /// The time is `now_us`: what falls due (heartbeats, SDO timeouts, event-driven TPDOs).
     pub fn tick(&mut self, now_us: u64) -> Vec<CanFrame> {
         let mut out = Vec::new();
+        if self.state == NmtState::Operational {
+            out.extend(self.tpdos.tick(&self.od, now_us));
+        }
         if let Some(abort) = self.sdo.check_timeout(now_us) {
             out.push(CanFrame::new(
                 SDO_RESPONSE + u16::from(self.node_id),
@@ -164,7 +193,11 @@ impl Device {
 
     /// When something falls due next, if anything will.
     pub fn next_deadline(&self) -> Option<u64> {
-        [self.next_heartbeat_us, self.sdo.deadline()]
+        let tpdo = self
+            .tpdos
+            .deadline()
+            .filter(|_| self.state == NmtState::Operational);
+        [self.next_heartbeat_us, self.sdo.deadline(), tpdo]
             .into_iter()
             .flatten()
             .min()

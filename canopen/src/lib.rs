@@ -7,6 +7,7 @@
 //! * [`od`]: the object dictionary (index, sub-index, data type, access, limits, value);
 //! * [`sdo`]: the SDO server (expedited and segmented transfers, the abort codes);
 //! * [`nmt`]: the NMT slave state machine and the heartbeat producer;
+//! * [`pdo`]: PDO mapping checks, SYNC-driven and event-driven TPDOs, RPDOs;
 //! * [`device`]: all of it as one device with a node-ID.
 //!
 //! Every protocol value comes from CiA 301 (v4.2.0), cited where it is used.
@@ -16,6 +17,7 @@ pub mod device;
 pub mod eds;
 pub mod nmt;
 pub mod od;
+pub mod pdo;
 pub mod sdo;
 
 /// A CAN frame with an 11-bit identifier, as CANopen's predefined connection set uses them.

@@ -214,7 +214,11 @@ impl ObjectDictionary {
                 return Err(Abort::VALUE_TOO_LOW);
             }
         }
-        entry.value = bytes.to_vec();
+        if sub == 0 && crate::pdo::is_mapping(index) {
+            let count = data_type.number(bytes).unwrap_or(0) as u64;
+            crate::pdo::check_mapping(self, index, count)?;
+        }
+        self.set(index, sub, bytes);
         Ok(())
     }
 

@@ -98,6 +98,45 @@ check(abort_code(lambda: node.sdo.download(0x2000, 0, b"\x01\x00\x00")) == 0x060
       "3 bytes for an UNSIGNED16: abort 0607 0012")
 check(node.sdo["Input debounce time"].raw == 250, "the refused writes changed nothing")
 
+# PDOs (CiA 301 7.2.2): TPDO1 maps the inputs (6000h:1) and 2000h, sent on every SYNC; RPDO1 maps
+# the outputs (6200h:1). python canopen configures them by SDO as 7.5.2.38 prescribes (COB-ID not
+# valid, count 0, entries, count, COB-ID valid).
+node.nmt.state = "PRE-OPERATIONAL"
+node.tpdo.read()
+node.rpdo.read()
+tpdo = node.tpdo[1]
+tpdo.clear()
+tpdo.add_variable(0x6000, 1)
+tpdo.add_variable("Input debounce time")
+tpdo.trans_type = 1
+tpdo.enabled = True
+tpdo.save()
+rpdo = node.rpdo[1]
+rpdo.clear()
+rpdo.add_variable(0x6200, 1)
+rpdo.enabled = True
+rpdo.save()
+check(node.sdo[0x1A00][1].raw == 0x60000108 and node.sdo[0x1A00][2].raw == 0x20000010,
+      "TPDO1 mapping: 6000h:1 (8 bits), 2000h:0 (16 bits)")
+check(node.sdo[0x1800][1].raw & 0x7FF == 0x182, "TPDO1 COB-ID 180h + 2, valid")
+node.nmt.state = "OPERATIONAL"
+network.sync.transmit()
+tpdo.wait_for_reception(WAIT_S)
+check(tpdo.map[0].raw == 0x5A and tpdo.map[1].raw == 250,
+      f"SYNC: TPDO1 (182h) carries 6000h:1 = 5Ah and 2000h = 250")
+rpdo.map[0].raw = 0x33
+rpdo.transmit()
+check(node.sdo[0x6200][1].raw == 0x33, "RPDO1 (202h) wrote 6200h:1 = 33h")
+node.nmt.state = "PRE-OPERATIONAL"
+not_mappable = (0x1008 << 16) | 8
+check(abort_code(lambda: (node.sdo.download(0x1A01, 1, not_mappable.to_bytes(4, "little")),
+                          node.sdo.download(0x1A01, 0, b"\x01"))) == 0x06040041,
+      "mapping 1008h (not mappable): abort 0604 0041")
+for sub in range(1, 6):
+    node.sdo.download(0x1A01, sub, ((0x2000 << 16) | 16).to_bytes(4, "little"))
+check(abort_code(lambda: node.sdo.download(0x1A01, 0, b"\x05")) == 0x06040042,
+      "five 16-bit objects (80 bits): abort 0604 0042")
+
 # Reset node: every object back to its EDS default, boot-up again.
 node.nmt.state = "RESET"
 node.nmt.wait_for_bootup(WAIT_S)
