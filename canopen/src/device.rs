@@ -7,6 +7,7 @@
 //! pre-operational (7.3.2.2.1); it then sends a heartbeat with its state every 1017h
 //! milliseconds when 1017h is not 0 (7.2.8.3.2.1).
 
+use crate::error_control::{is_heartbeat, Emergencies, SyncProducer};
 use crate::nmt::{NmtCommand, NmtState};
 use crate::od::ObjectDictionary;
 use crate::pdo::{receive_rpdo, Tpdos};
@@ -25,6 +26,10 @@ pub const ERROR_CONTROL: u16 = 0x700;
 pub const PRODUCER_HEARTBEAT_TIME: u16 = 0x1017;
 /// COB-ID SYNC (bits 10..0), and the SYNC COB-ID without it (7.5.2.5).
 pub const COB_ID_SYNC: u16 = 0x1005;
+/// Communication cycle period (µs).
+pub const COMMUNICATION_CYCLE_PERIOD: u16 = 0x1006;
+/// Consumer heartbeat time.
+pub const CONSUMER_HEARTBEAT_TIME: u16 = 0x1016;
 const DEFAULT_SYNC_COB_ID: u16 = 0x080;
 /// The communication profile area, reset by reset communication.
 const COMMUNICATION_AREA: std::ops::RangeInclusive<u16> = 0x1000..=0x1FFF;
@@ -40,6 +45,8 @@ pub struct Device {
     sdo: SdoServer,
     next_heartbeat_us: Option<u64>,
     tpdos: Tpdos,
+    sync: SyncProducer,
+    emergencies: Emergencies,
 }
 
 impl Device {
@@ -57,6 +64,8 @@ impl Device {
             sdo: SdoServer::default(),
             next_heartbeat_us: None,
             tpdos: Tpdos::default(),
+            sync: SyncProducer::default(),
+            emergencies: Emergencies::default(),
         })
     }
 
@@ -83,11 +92,34 @@ impl Device {
     fn boot(&mut self, now_us: u64) -> Vec<CanFrame> {
         self.sdo = SdoServer::default();
         self.state = NmtState::PreOperational;
-        self.schedule_heartbeat(now_us);
+        self.configure(now_us);
         vec![CanFrame::new(
             ERROR_CONTROL + u16::from(self.node_id),
             &[NmtState::Initialisation.code()],
         )]
+    }
+
+    /// Starts the heartbeat producer, the SYNC producer and the heartbeat consumer as the
+    /// dictionary says.
+    fn configure(&mut self, now_us: u64) {
+        self.schedule_heartbeat(now_us);
+        self.sync.configure(&self.od, now_us);
+        self.emergencies.configure(&self.od, self.node_id);
+    }
+
+    /// What the timers depend on: 1017h, 1005h, 1006h and 1016h.
+    fn timer_settings(&self) -> Vec<u64> {
+        let consumer = (0..=self.od.unsigned(CONSUMER_HEARTBEAT_TIME, 0) as u8)
+            .map(|sub| self.od.unsigned(CONSUMER_HEARTBEAT_TIME, sub));
+        [
+            PRODUCER_HEARTBEAT_TIME,
+            COB_ID_SYNC,
+            COMMUNICATION_CYCLE_PERIOD,
+        ]
+        .iter()
+        .map(|&index| self.od.unsigned(index, 0))
+        .chain(consumer)
+        .collect()
     }
 
     fn schedule_heartbeat(&mut self, now_us: u64) {
@@ -111,11 +143,14 @@ impl Device {
                 return Vec::new();
             }
         }
+        if is_heartbeat(frame.id, self.node_id) {
+            return self.emergencies.heartbeat(&mut self.od, frame.id, now_us);
+        }
         if frame.id == SDO_REQUEST + u16::from(self.node_id) && self.state.serves_sdo() {
-            let heartbeat_before = self.od.unsigned(PRODUCER_HEARTBEAT_TIME, 0);
+            let settings = self.timer_settings();
             let answer = self.sdo.request(&mut self.od, &frame.data, now_us);
-            if self.od.unsigned(PRODUCER_HEARTBEAT_TIME, 0) != heartbeat_before {
-                self.schedule_heartbeat(now_us);
+            if self.timer_settings() != settings {
+                self.configure(now_us);
             }
             return answer
                 .map(|data| CanFrame::new(SDO_RESPONSE + u16::from(self.node_id), &data))
@@ -174,6 +209,17 @@ impl Device {
         if self.state == NmtState::Operational {
             out.extend(self.tpdos.tick(&self.od, now_us));
         }
+        // SYNC and EMCY are pre-operational and operational services (Table 82); the producer's
+        // own synchronous TPDOs follow its SYNC, as it receives no frame of its own.
+        if self.state.serves_sdo() {
+            if let Some(sync) = self.sync.tick(&self.od, now_us) {
+                out.push(sync);
+                if self.state == NmtState::Operational {
+                    out.extend(self.tpdos.sync(&self.od));
+                }
+            }
+            out.extend(self.emergencies.tick(&mut self.od, now_us));
+        }
         if let Some(abort) = self.sdo.check_timeout(now_us) {
             out.push(CanFrame::new(
                 SDO_RESPONSE + u16::from(self.node_id),
@@ -197,8 +243,12 @@ impl Device {
             .tpdos
             .deadline()
             .filter(|_| self.state == NmtState::Operational);
+        let producers = [self.sync.deadline(), self.emergencies.deadline()]
+            .into_iter()
+            .filter(|_| self.state.serves_sdo());
         [self.next_heartbeat_us, self.sdo.deadline(), tpdo]
             .into_iter()
+            .chain(producers)
             .flatten()
             .min()
     }

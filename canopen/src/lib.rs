@@ -8,6 +8,7 @@
 //! * [`sdo`]: the SDO server (expedited and segmented transfers, the abort codes);
 //! * [`nmt`]: the NMT slave state machine and the heartbeat producer;
 //! * [`pdo`]: PDO mapping checks, SYNC-driven and event-driven TPDOs, RPDOs;
+//! * [`error_control`]: the SYNC producer, the EMCY producer and the heartbeat consumer;
 //! * [`device`]: all of it as one device with a node-ID.
 //!
 //! Every protocol value comes from CiA 301 (v4.2.0), cited where it is used.
@@ -15,6 +16,7 @@
 
 pub mod device;
 pub mod eds;
+pub mod error_control;
 pub mod nmt;
 pub mod od;
 pub mod pdo;

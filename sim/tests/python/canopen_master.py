@@ -8,6 +8,7 @@ the first failure.
 """
 
 import sys
+import time
 
 import canopen
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
@@ -97,6 +98,38 @@ check(abort_code(lambda: node.sdo.download(0x2000, 0, (0).to_bytes(2, "little"))
 check(abort_code(lambda: node.sdo.download(0x2000, 0, b"\x01\x00\x00")) == 0x06070012,
       "3 bytes for an UNSIGNED16: abort 0607 0012")
 check(node.sdo["Input debounce time"].raw == 250, "the refused writes changed nothing")
+
+# SYNC producer (CiA 301 7.2.5): 1006h = 2000 us and 1005h bit 30 make the device send 080h every 2 ms
+# of simulated time, with a counter 1..3 when 1019h = 3.
+syncs = []
+network.subscribe(0x080, lambda can_id, data, timestamp: syncs.append((timestamp, bytes(data))))
+node.sdo[0x1019].raw = 3
+node.sdo[0x1006].raw = 2000
+node.sdo[0x1005].raw = 0x40000080
+deadline = time.time() + WAIT_S
+while len(syncs) < 4 and time.time() < deadline:
+    time.sleep(0.05)
+node.sdo[0x1005].raw = 0x00000080
+check(len(syncs) >= 4, f"SYNC producer: {len(syncs)} SYNCs")
+gaps = [later[0] - earlier[0] for earlier, later in zip(syncs, syncs[1:4])]
+check(all(abs(gap - 0.002) < 0.0001 for gap in gaps), f"SYNC every 2 ms: {gaps}")
+counters = [data[0] for _, data in syncs[:4]]
+check(counters in ([1, 2, 3, 1], [2, 3, 1, 2], [3, 1, 2, 3]), f"SYNC counter 1..3: {counters}")
+
+# Heartbeat consumer (7.2.8.3.2.2) and EMCY (7.2.7): 1016h:1 watches node 5 with 50 ms; after one
+# heartbeat of node 5 and then none, the device reports EMCY 8130h (heartbeat error, Table 21) with
+# the error register's communication and generic bits (11h), keeps it in 1003h, and sends an error
+# reset (0000h) when node 5 is back.
+node.sdo[0x1016][1].raw = (5 << 16) | 50
+network.send_message(0x705, [0x05])
+emcy = node.emcy.wait(0x8130, WAIT_S)
+check(emcy is not None and emcy.register == 0x11, f"EMCY 8130h with register 11h: {emcy}")
+check(node.sdo[0x1001].raw == 0x11, "1001h error register = 11h")
+check(node.sdo[0x1003][0].raw == 1 and node.sdo[0x1003][1].raw == 0x8130, "1003h:1 = 8130h")
+network.send_message(0x705, [0x05])
+reset = node.emcy.wait(0x0000, WAIT_S)
+check(reset is not None and reset.register == 0, "node 5 back: EMCY 0000h, register 0")
+node.sdo[0x1016][1].raw = 0
 
 # PDOs (CiA 301 7.2.2): TPDO1 maps the inputs (6000h:1) and 2000h, sent on every SYNC; RPDO1 maps
 # the outputs (6200h:1). python canopen configures them by SDO as 7.5.2.38 prescribes (COB-ID not
