@@ -153,8 +153,8 @@ impl Device {
                 self.configure(now_us);
             }
             return answer
-                .map(|data| CanFrame::new(SDO_RESPONSE + u16::from(self.node_id), &data))
-                .into_iter()
+                .iter()
+                .map(|data| CanFrame::new(SDO_RESPONSE + u16::from(self.node_id), data))
                 .collect();
         }
         Vec::new()

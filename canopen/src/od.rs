@@ -65,6 +65,13 @@ impl DataType {
 
     /// `bytes` (little endian) as a number, for the integer types.
     pub fn number(self, bytes: &[u8]) -> Option<i128> {
+        let integer = matches!(
+            self,
+            DataType::Boolean | DataType::Integer(_) | DataType::Unsigned(_)
+        );
+        if !integer || bytes.len() > 16 {
+            return None;
+        }
         let mut raw = [0u8; 16];
         raw[..bytes.len()].copy_from_slice(bytes);
         let unsigned = u128::from_le_bytes(raw);
@@ -278,6 +285,11 @@ mod tests {
         let u24 = DataType::Unsigned(3);
         assert_eq!(u24.encode(0x123456), Some(vec![0x56, 0x34, 0x12]));
         assert_eq!(DataType::Unsigned(8).encode(-1), None);
+        assert_eq!(
+            DataType::VisibleString.number(&[b'x'; 40]),
+            None,
+            "no number, no panic"
+        );
     }
 
     #[test]

@@ -7,9 +7,10 @@
 //! `s` with `n`, the bytes of the 4 that hold no data); a segmented one then moves 7 bytes per
 //! segment with a toggle bit `t` that alternates from 0, `n` the unused bytes and `c` set on the
 //! last. Either side may end a transfer with an abort (80h, index, sub-index, 32-bit code). Block
-//! transfers are not offered yet: their requests are answered with abort 0504 0001.
+//! transfers (client commands 5 and 6) are in [`crate::sdo_block`].
 
 use crate::od::ObjectDictionary;
+use crate::sdo_block::{self, Block};
 
 /// An SDO abort code (CiA 301 Table 22).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -49,7 +50,10 @@ const CCS_DOWNLOAD_SEGMENT: u8 = 0;
 const CCS_INITIATE_DOWNLOAD: u8 = 1;
 const CCS_INITIATE_UPLOAD: u8 = 2;
 const CCS_UPLOAD_SEGMENT: u8 = 3;
-const CCS_ABORT: u8 = 4;
+const CCS_BLOCK_UPLOAD: u8 = 5;
+const CCS_BLOCK_DOWNLOAD: u8 = 6;
+/// Byte 0 of an abort.
+const ABORT_COMMAND: u8 = 0x80;
 /// Server command specifiers, in place (bits 7..5).
 const SCS_UPLOAD_SEGMENT: u8 = 0x00;
 const SCS_DOWNLOAD_SEGMENT: u8 = 0x20;
@@ -85,6 +89,7 @@ enum Transfer {
         sent: usize,
         toggle: bool,
     },
+    Block(Block),
 }
 
 /// The SDO server of one device.
@@ -115,18 +120,40 @@ impl SdoServer {
         self.transfer.is_some()
     }
 
-    /// Handles request `data` at `now_us`; the response, if there is one.
+    /// Handles request `data` at `now_us`; the responses (none, one, or a sub-block of a block
+    /// upload).
     pub fn request(
         &mut self,
         od: &mut ObjectDictionary,
         data: &[u8],
         now_us: u64,
-    ) -> Option<SdoFrame> {
+    ) -> Vec<SdoFrame> {
         self.last_request_us = now_us;
         let Ok(frame) = <SdoFrame>::try_from(data) else {
             // CiA 301 7.2.4.3: SDO frames always have 8 bytes.
-            return Some(abort_frame(0, 0, Abort::COMMAND));
+            return vec![abort_frame(0, 0, Abort::COMMAND)];
         };
+        if frame[0] == ABORT_COMMAND {
+            self.transfer = None;
+            return Vec::new();
+        }
+        if let Some(Transfer::Block(block)) = &mut self.transfer {
+            let block_request = matches!(frame[0] >> 5, CCS_BLOCK_UPLOAD | CCS_BLOCK_DOWNLOAD);
+            if block.takes_segments() || block_request {
+                return match block.request(od, &frame) {
+                    Ok((answers, done)) => {
+                        if done {
+                            self.transfer = None;
+                        }
+                        answers
+                    }
+                    Err((index, sub, abort)) => {
+                        self.transfer = None;
+                        vec![abort_frame(index, sub, abort)]
+                    }
+                };
+            }
+        }
         let index = u16::from_le_bytes([frame[1], frame[2]]);
         let sub = frame[3];
         let result = match frame[0] >> 5 {
@@ -134,19 +161,38 @@ impl SdoServer {
             CCS_DOWNLOAD_SEGMENT => self.download_segment(od, &frame),
             CCS_INITIATE_UPLOAD => self.initiate_upload(od, index, sub),
             CCS_UPLOAD_SEGMENT => self.upload_segment(&frame),
-            CCS_ABORT => {
-                self.transfer = None;
-                return None;
-            }
+            CCS_BLOCK_UPLOAD | CCS_BLOCK_DOWNLOAD => self.initiate_block(od, &frame, index, sub),
             _ => Err((index, sub, Abort::COMMAND)),
         };
         match result {
-            Ok(response) => Some(response),
+            Ok(response) => vec![response],
             Err((index, sub, abort)) => {
                 self.transfer = None;
-                Some(abort_frame(index, sub, abort))
+                vec![abort_frame(index, sub, abort)]
             }
         }
+    }
+
+    fn initiate_block(
+        &mut self,
+        od: &ObjectDictionary,
+        frame: &SdoFrame,
+        index: u16,
+        sub: u8,
+    ) -> Result<SdoFrame, (u16, u8, Abort)> {
+        // The sub-command: bits 1..0 of an upload request, bit 0 of a download request.
+        let upload = frame[0] >> 5 == CCS_BLOCK_UPLOAD;
+        let sub_command = frame[0] & if upload { 0x03 } else { 0x01 };
+        if sub_command != sdo_block::CS_INITIATE {
+            return Err((index, sub, Abort::COMMAND));
+        }
+        let (block, answer) = if upload {
+            sdo_block::initiate_upload(od, frame, index, sub)?
+        } else {
+            sdo_block::initiate_download(od, frame, index, sub)?
+        };
+        self.transfer = Some(Transfer::Block(block));
+        Ok(answer)
     }
 
     /// At `now_us`: the abort of a transfer the client left open for [`SDO_TIMEOUT_US`].
@@ -155,8 +201,12 @@ impl SdoServer {
         if now_us < self.last_request_us + SDO_TIMEOUT_US {
             return None;
         }
-        let (Transfer::Download { index, sub, .. } | Transfer::Upload { index, sub, .. }) =
-            *transfer;
+        let (index, sub) = match transfer {
+            Transfer::Download { index, sub, .. }
+            | Transfer::Upload { index, sub, .. }
+            | Transfer::Block(Block::Download { index, sub, .. })
+            | Transfer::Block(Block::Upload { index, sub, .. }) => (*index, *sub),
+        };
         self.transfer = None;
         Some(abort_frame(index, sub, Abort::TIMEOUT))
     }
@@ -352,7 +402,13 @@ DefaultValue=
     }
 
     fn ask(server: &mut SdoServer, od: &mut ObjectDictionary, request: [u8; 8]) -> SdoFrame {
-        server.request(od, &request, 0).expect("an answer")
+        let answers = server.request(od, &request, 0);
+        assert_eq!(
+            answers.len(),
+            1,
+            "one answer to {request:02X?}: {answers:02X?}"
+        );
+        answers[0]
     }
 
     #[test]
@@ -419,6 +475,7 @@ DefaultValue=
             ([0x2B, 0x00, 0x20, 0x00, 9, 0, 0, 0], 0x0609_0032),
             ([0x2F, 0x00, 0x20, 0x00, 9, 0, 0, 0], 0x0607_0013),
             ([0xE0, 0x00, 0x20, 0x00, 0, 0, 0, 0], 0x0504_0001),
+            ([0xA0, 0x08, 0x10, 0x00, 0, 0, 0, 0], 0x0504_0002),
             ([0x60, 0, 0, 0, 0, 0, 0, 0], 0x0504_0001),
         ] {
             let answer = ask(&mut server, &mut od, request);

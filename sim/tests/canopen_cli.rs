@@ -1,7 +1,7 @@
 //! CANopen devices of our stack on the simulated bus, mastered by an independent implementation:
 //! python canopen 2.4.1 (from build/pyenv, made by `make pyenv`) over python-can's socketcand
 //! interface and `cansim serve examples/canopen_io.toml` (tests/python/canopen_master.py): NMT,
-//! boot-up, heartbeat states, SDO expedited and segmented in both directions, the abort codes, PDO
+//! boot-up, heartbeat states, SDO expedited, segmented and block (with CRC) in both directions, the abort codes, PDO
 //! mapping by SDO with its aborts, a TPDO on SYNC and an RPDO, the SYNC producer with its counter, a
 //! heartbeat loss reported by EMCY 8130h and its error reset, the resets. Both read the same EDS (examples/eds/io.eds). And bad CANopen configuration in a
 //! scenario is refused with its line.

@@ -3,6 +3,7 @@
 //! time, and the time as it passes; what it sends goes to the node's driver like any frame of the
 //! traffic, through the SJA1000 registers and the cycle-accurate bus.
 
+use std::collections::VecDeque;
 use std::path::PathBuf;
 
 use canopen::device::Device;
@@ -32,24 +33,36 @@ pub(crate) struct Firmware {
     device: Device,
     /// Events of the node already handed to the device.
     seen: usize,
+    /// What the device sent that the driver's queue had no room for yet (a block upload sends up
+    /// to 127 segments at once): the stack's own transmit buffer, which waits instead of dropping.
+    outbox: VecDeque<Frame>,
 }
 
 impl Firmware {
     /// The firmware of `config`, not started yet.
     pub(crate) fn new(config: &CanopenConfig) -> Result<Firmware, ScenarioError> {
         let device = Device::new(config.node_id, config.od.clone()).map_err(ScenarioError::new)?;
-        Ok(Firmware { device, seen: 0 })
+        Ok(Firmware {
+            device,
+            seen: 0,
+            outbox: VecDeque::new(),
+        })
     }
 
-    /// Power-on at `now_fs`: what the device sends (its boot-up message).
-    pub(crate) fn start(&mut self, now_fs: u64) -> Vec<Frame> {
+    /// Power-on at `now_fs`: the device's boot-up message goes to its outbox.
+    pub(crate) fn start(&mut self, now_fs: u64) {
         let frames = self.device.start(now_fs / FS_PER_US);
-        frames.iter().map(to_frame).collect()
+        self.outbox.extend(frames.iter().map(to_frame));
+    }
+
+    /// The next frame of the outbox, for the driver's queue.
+    pub(crate) fn next_frame(&mut self) -> Option<Frame> {
+        self.outbox.pop_front()
     }
 
     /// Hands the device the frames among `events` it has not seen (what the driver read), then the
-    /// time `now_fs`; what it sends.
-    pub(crate) fn run(&mut self, events: &[(u64, Happening)], now_fs: u64) -> Vec<Frame> {
+    /// time `now_fs`; what it sends goes to the outbox.
+    pub(crate) fn run(&mut self, events: &[(u64, Happening)], now_fs: u64) {
         let mut out = Vec::new();
         for (at_fs, what) in &events[self.seen.min(events.len())..] {
             if let Happening::Driver(DriverEvent::Received(frame)) = what {
@@ -60,7 +73,7 @@ impl Firmware {
         }
         self.seen = events.len();
         out.extend(self.device.tick(now_fs / FS_PER_US));
-        out.iter().map(to_frame).collect()
+        self.outbox.extend(out.iter().map(to_frame));
     }
 
     /// The node's events were taken away: count from the start again.

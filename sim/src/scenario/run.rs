@@ -312,24 +312,26 @@ impl<'s> Runner<'s> {
         self.firmware_started = true;
         let now = self.engine.now();
         for node in &mut self.nodes {
-            let Some(firmware) = &mut node.firmware else {
-                continue;
-            };
-            for frame in firmware.start(now) {
-                node.offer(frame);
+            if let Some(firmware) = &mut node.firmware {
+                firmware.start(now);
             }
         }
     }
 
-    /// Hands the CANopen devices what their drivers read and the time; queues what they send.
+    /// Hands the CANopen devices what their drivers read and the time; moves what they send into
+    /// their drivers' queues as far as there is room.
     fn run_firmware(&mut self) {
         let now = self.clock;
         for node in &mut self.nodes {
             let Some(firmware) = &mut node.firmware else {
                 continue;
             };
-            for frame in firmware.run(&node.events, now) {
-                node.offer(frame);
+            firmware.run(&node.events, now);
+            while node.queue.len() < node.config.txqueuelen {
+                let Some(frame) = firmware.next_frame() else {
+                    break;
+                };
+                node.queue.push_back(frame);
             }
         }
     }
@@ -444,6 +446,18 @@ impl<'s> Runner<'s> {
     /// Queues `frame` for node `n`'s driver; whether its queue had room (`txqueuelen`).
     pub(crate) fn offer(&mut self, n: usize, frame: Frame) -> bool {
         self.nodes[n].offer(frame)
+    }
+
+    /// Whether node `n`'s queue has room for a frame.
+    pub(crate) fn has_room(&self, n: usize) -> bool {
+        let node = &self.nodes[n];
+        node.queue.len() < node.config.txqueuelen
+    }
+
+    /// Queues `frame` for node `n`'s driver even beyond `txqueuelen` (the last frames of a client
+    /// that went away, bounded by what it had sent).
+    pub(crate) fn push_unbounded(&mut self, n: usize, frame: Frame) {
+        self.nodes[n].queue.push_back(frame);
     }
 
     /// What node `n`'s driver reported since the last call, oldest first.

@@ -10,6 +10,8 @@ use std::io::{ErrorKind, Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::time::{Duration, Instant};
 
+use golden::frame::Frame;
+
 use super::socketcand::{Splitter, GREETING};
 
 /// How long frames wait after the `rawmode` answer when the client sends nothing.
@@ -49,6 +51,9 @@ pub struct Client {
     outbox: VecDeque<u8>,
     /// Frames lost because it did not read.
     pub lost: u64,
+    /// Frames it sent that wait for room in its controller's queue (while any wait, it is not
+    /// read: TCP flow control holds it back).
+    pub waiting: VecDeque<Frame>,
     /// The connection ended (closed by the client or broken).
     pub gone: bool,
 }
@@ -67,6 +72,7 @@ impl Client {
             hold_until: None,
             outbox: VecDeque::new(),
             lost: 0,
+            waiting: VecDeque::new(),
             gone: false,
         };
         client.answer(GREETING);

@@ -140,6 +140,7 @@ pub fn serve(
     while !options.stop.load(Ordering::Relaxed) && server.runner.clock() < end {
         server.accept(listener, say);
         server.read_clients(say)?;
+        server.queue_client_frames();
         server.complete_opens(say);
         server.depart(say);
         let allowed = server.pace.allowed().min(end);
@@ -203,7 +204,9 @@ impl Server<'_> {
     /// on their way out.
     fn read_clients(&mut self, say: &mut dyn FnMut(&str)) -> Result<(), ScenarioError> {
         for c in 0..self.clients.len() {
-            if self.clients[c].phase == Phase::Opening {
+            // Flow control: a client whose frames wait for room in its controller's queue is not
+            // read, so TCP slows it down instead of its frames being dropped.
+            if self.clients[c].phase == Phase::Opening || !self.clients[c].waiting.is_empty() {
                 continue;
             }
             for message in self.clients[c].read() {
@@ -214,6 +217,10 @@ impl Server<'_> {
         let now = self.runner.clock();
         for client in self.clients.iter().filter(|c| c.gone) {
             if let Some(n) = client.node {
+                // What it sent before it went still goes out (the waiting frames too).
+                for frame in client.waiting.iter() {
+                    self.runner.push_unbounded(n, *frame);
+                }
                 self.leaving.push((n, now));
             }
             say(&format!(
@@ -259,12 +266,24 @@ impl Server<'_> {
                 client.phase = Phase::Opened;
                 client.answer(OK);
             }
-            (Ok(Request::Send(frame)), _, Some(n)) => {
-                // A full queue drops the frame, as write() fails with ENOBUFS; it is counted.
+            (Ok(Request::Send(frame)), _, Some(_)) => client.waiting.push_back(frame),
+        }
+        Ok(())
+    }
+
+    /// Moves the frames clients sent into their controllers' queues, as far as there is room.
+    fn queue_client_frames(&mut self) {
+        for client in &mut self.clients {
+            let Some(n) = client.node else {
+                continue;
+            };
+            while self.runner.has_room(n) {
+                let Some(frame) = client.waiting.pop_front() else {
+                    break;
+                };
                 self.runner.offer(n, frame);
             }
         }
-        Ok(())
     }
 
     /// Answers the clients whose controllers are now on the bus.

@@ -84,6 +84,17 @@ check(node.sdo["Label"].raw == "left door sensor", "segmented download: 2001h re
 node.sdo["Input debounce time"].raw = 250
 check(node.sdo["Input debounce time"].raw == 250, "2000h = 250 within 1..1000")
 
+# SDO block transfers (CiA 301 7.2.4.3.9-16) with CRC: 200 bytes down in one sub-block of 29
+# segments, and up again in sub-blocks of the client's size (127).
+payload = bytes((k * 7 + 3) % 95 + 32 for k in range(200))
+with node.sdo[0x2001].open("wb", size=len(payload), block_transfer=True) as stream:
+    stream.write(payload)
+with node.sdo[0x2001].open("rb", block_transfer=True) as stream:
+    back = stream.read()
+check(back == payload, "block download of 200 bytes, block upload of the same")
+check(node.sdo["Label"].raw == payload.decode("ascii"), "segmented upload agrees")
+node.sdo["Label"].raw = "left door sensor"
+
 # Aborts (CiA 301 Table 22).
 check(abort_code(lambda: setattr(node.sdo["Device type"], "raw", 5)) == 0x06010002,
       "write to read-only 1000h: abort 0601 0002")
