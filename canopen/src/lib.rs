@@ -10,7 +10,8 @@
 //! * [`nmt`]: the NMT slave state machine and the heartbeat producer;
 //! * [`pdo`]: PDO mapping checks, SYNC-driven and event-driven TPDOs, RPDOs;
 //! * [`error_control`]: the SYNC producer, the EMCY producer and the heartbeat consumer;
-//! * [`device`]: all of it as one device with a node-ID.
+//! * [`device`]: all of it as one device with a node-ID;
+//! * [`trace`]: CANopen frames in words, for bus logs.
 //!
 //! Every protocol value comes from CiA 301 (v4.2.0), cited where it is used.
 #![warn(missing_docs)]
@@ -23,6 +24,7 @@ pub mod od;
 pub mod pdo;
 pub mod sdo;
 pub mod sdo_block;
+pub mod trace;
 
 /// A CAN frame with an 11-bit identifier, as CANopen's predefined connection set uses them.
 #[derive(Clone, Debug, PartialEq, Eq)]

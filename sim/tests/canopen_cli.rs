@@ -42,8 +42,46 @@ fn the_example_boots_and_its_log_shows_the_boot_up_message() {
         out.contains("io: 16 MHz +0 ppm, 0 ns from the bus, CANopen device 2 (io.eds)"),
         "{out}"
     );
-    // CiA 301 7.3.2.2.1: boot-up on 700h + node-ID with one byte 00h.
-    assert!(out.contains(") can0 702#00\n"), "{out}");
+    // CiA 301 7.3.2.2.1: boot-up on 700h + node-ID with one byte 00h; the log says what it is.
+    assert!(out.contains(") can0 702#00"), "{out}");
+    assert!(out.contains("; boot-up of node 2\n"), "{out}");
+}
+
+#[test]
+fn cansim_decode_reads_canopen_traffic_with_the_eds() {
+    let dir = std::env::temp_dir().join(format!("cansim-canopen-decode-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let vcd = dir.join("io.vcd");
+    let o = cansim(&[
+        "run",
+        &example("canopen_io.toml"),
+        "--vcd",
+        vcd.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let eds = format!("2={}", example("eds/io.eds"));
+    let o = cansim(&["decode", vcd.to_str().unwrap(), "--canopen", &eds]);
+    let out = text(&o.stdout);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        out.contains(") can0 702#00") && out.contains("; boot-up of node 2\n"),
+        "{out}"
+    );
+    for (bad, expected) in [
+        ("io.eds", "expected NODE=EDS"),
+        ("200=io.eds", "node-ID 200 is out of range 1..=127"),
+        ("2=missing.eds", "missing.eds: cannot read the EDS"),
+    ] {
+        let o = cansim(&["decode", vcd.to_str().unwrap(), "--canopen", bad]);
+        assert!(!o.status.success(), "{bad}");
+        assert!(
+            text(&o.stderr).contains(expected),
+            "{bad}: {}",
+            text(&o.stderr)
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]

@@ -14,6 +14,7 @@ use sim::decode::vcd_reader::{self, decode_vcd, DecodeOptions};
 use sim::engine::rng::Rng;
 use sim::nodes::controller_node::ModelEngine;
 use sim::rta;
+use sim::scenario::canopen_node::CanopenLog;
 use sim::scenario::parse::parse_time;
 use sim::scenario::progress::{peak_resident_bytes, Progress};
 use sim::scenario::summary::{format_counts, format_counts_table, format_report, ms, ReportParts};
@@ -196,6 +197,10 @@ enum Command {
         /// controller's 1 of 16 time quanta) [default: 25 %].
         #[arg(long)]
         sjw: Option<f64>,
+        /// Say what each frame means in CANopen (NMT, SYNC, EMCY, TIME, SDO, PDO, heartbeat);
+        /// NODE=EDS (e.g. 2=io.eds) names objects and decodes PDOs of that node.
+        #[arg(long, num_args = 0.., value_name = "NODE=EDS")]
+        canopen: Option<Vec<String>>,
         /// Also print the decoder's remarks (edges it could not follow fully, glitches, recessive
         /// reserved bits) among the events.
         #[arg(long)]
@@ -408,6 +413,7 @@ fn main() -> ExitCode {
             bitrate,
             sample_point,
             sjw,
+            canopen,
             remarks,
         } => sample_point
             .map(sample_point_arg)
@@ -419,7 +425,8 @@ fn main() -> ExitCode {
                     sample_point,
                     sjw: sjw.map(sjw_arg).transpose()?,
                 };
-                decode(&file, options, remarks)
+                let canopen = canopen.map(|nodes| canopen_log(&nodes)).transpose()?;
+                decode(&file, options, canopen, remarks)
             }),
         Command::Bittiming {
             clock,
@@ -866,7 +873,35 @@ fn sjw_arg(value: f64) -> Result<f64, String> {
     })
 }
 
-fn decode(file: &Path, options: DecodeOptions, show_remarks: bool) -> Result<(), String> {
+/// The CANopen log of `--canopen NODE=EDS …`.
+fn canopen_log(nodes: &[String]) -> Result<CanopenLog, String> {
+    let devices = nodes
+        .iter()
+        .map(|text| {
+            let (node, eds) = text
+                .split_once('=')
+                .ok_or_else(|| format!("--canopen {text}: expected NODE=EDS, e.g. 2=io.eds"))?;
+            let node_id = node
+                .trim()
+                .parse::<u8>()
+                .ok()
+                .filter(|id| (1..=127).contains(id))
+                .ok_or_else(|| {
+                    format!("--canopen {text}: node-ID {node} is out of range 1..=127")
+                })?;
+            let od = canopen::eds::load(Path::new(eds), node_id).map_err(|e| e.to_string())?;
+            Ok((node_id, od))
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    Ok(CanopenLog::new(devices))
+}
+
+fn decode(
+    file: &Path,
+    options: DecodeOptions,
+    mut canopen: Option<CanopenLog>,
+    show_remarks: bool,
+) -> Result<(), String> {
     let decoded = decode_vcd(file, &options).map_err(|e| e.to_string())?;
     let source = match decoded.file_timing {
         Some(recorded) if recorded == decoded.timing => " (recorded in the file)",
@@ -884,7 +919,10 @@ fn decode(file: &Path, options: DecodeOptions, show_remarks: bool) -> Result<(),
         while let Some(remark) = remarks.next_if(|r| r.t_fs < event.start_fs) {
             println!("{remark}");
         }
-        println!("{event}");
+        match &mut canopen {
+            Some(canopen) => println!("{}", canopen.line(event)),
+            None => println!("{event}"),
+        }
     }
     remarks.for_each(|remark| println!("{remark}"));
     if !show_remarks && !decoded.remarks.is_empty() {

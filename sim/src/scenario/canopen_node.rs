@@ -8,9 +8,11 @@ use std::path::PathBuf;
 
 use canopen::device::Device;
 use canopen::od::ObjectDictionary;
+use canopen::trace::Tracer;
 use canopen::CanFrame;
 use golden::frame::{Frame, Id};
 
+use crate::decode::bus_decoder::{BusEvent, BusEventKind};
 use crate::engine::time::FS_PER_US;
 use crate::host::driver::DriverEvent;
 
@@ -84,6 +86,47 @@ impl Firmware {
     /// When the device next has something due.
     pub(crate) fn deadline_fs(&self) -> Option<u64> {
         self.device.next_deadline().map(|us| us * FS_PER_US)
+    }
+}
+
+/// Column at which a log line's CANopen meaning starts.
+const MEANING_COLUMN: usize = 44;
+
+/// Bus-log lines with their CANopen meaning:
+/// `(0.000036) can0 702#00                      ; boot-up of node 2`.
+pub struct CanopenLog {
+    tracer: Tracer,
+}
+
+impl CanopenLog {
+    /// A log that knows the dictionaries of `nodes` (node-ID, dictionary at its defaults).
+    pub fn new(nodes: impl IntoIterator<Item = (u8, ObjectDictionary)>) -> CanopenLog {
+        CanopenLog {
+            tracer: Tracer::new(nodes.into_iter().collect()),
+        }
+    }
+
+    /// The log of the CANopen devices among `nodes`, if there is one.
+    pub fn of_nodes(nodes: &[super::NodeConfig]) -> Option<CanopenLog> {
+        let devices: Vec<(u8, ObjectDictionary)> = nodes
+            .iter()
+            .filter_map(|n| n.canopen.as_ref())
+            .map(|c| (c.node_id, c.od.clone()))
+            .collect();
+        (!devices.is_empty()).then(|| CanopenLog::new(devices))
+    }
+
+    /// `event`'s log line, with what a frame with a standard identifier means in CANopen.
+    pub fn line(&mut self, event: &BusEvent) -> String {
+        let line = event.to_string();
+        let BusEventKind::Frame { frame, .. } = &event.kind else {
+            return line;
+        };
+        let meaning = from_frame(frame).map(|f| self.tracer.describe(&f));
+        match meaning.filter(|m| !m.is_empty()) {
+            Some(meaning) => format!("{line:<MEANING_COLUMN$}; {meaning}"),
+            None => line,
+        }
     }
 }
 

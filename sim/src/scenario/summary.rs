@@ -11,6 +11,7 @@ use crate::decode::bus_decoder::{BusEvent, BusEventKind};
 use crate::engine::time::{FS_PER_MS, FS_PER_NS};
 use crate::host::driver::DriverEvent;
 
+use super::canopen_node::CanopenLog;
 use super::report::{AppliedFault, Happening, NodeCounts, NodeEvent, NodeReport, RunReport};
 use super::{NodeConfig, NodeMode, Scenario};
 
@@ -189,7 +190,15 @@ pub fn format_report(scenario: &Scenario, report: &RunReport, parts: ReportParts
     }
     if parts.log {
         out += "\n";
-        out += &report.log_text();
+        match CanopenLog::of_nodes(&scenario.nodes) {
+            Some(mut canopen) => {
+                for event in &report.log {
+                    out += &canopen.line(event);
+                    out += "\n";
+                }
+            }
+            None => out += &report.log_text(),
+        }
     }
     if parts.events {
         out += "\n";
