@@ -212,31 +212,20 @@ fn an_address_that_cannot_be_served_is_a_clear_error() {
 
 #[test]
 fn until_ends_the_run_with_its_summary_and_real_time_says_when_it_cannot_keep_up() {
-    let o = cansim(&[
-        "serve",
-        &example("serve.toml"),
-        "--listen",
-        "127.0.0.1:0",
-        "--until",
-        "3ms",
-    ]);
-    let out = text(&o.stdout);
-    assert!(o.status.success(), "{}", text(&o.stderr));
+    let serve_3ms = |extra: &[&str]| {
+        let serve = example("serve.toml");
+        let mut args = vec!["serve", &serve, "--listen", "127.0.0.1:0", "--until", "3ms"];
+        args.extend(extra);
+        let o = cansim(&args);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        text(&o.stdout)
+    };
+    let out = serve_3ms(&[]);
     assert!(out.contains("simulated 3.000 ms with 0 clients"), "{out}");
     // The ecu's first EngineStatus is due at 1 ms.
     assert_eq!(row(&out, "ecu")[0], 1, "{out}");
     // The rust-hdl model runs far below real time (docs/ENGINES.md): it says so once.
-    let o = cansim(&[
-        "serve",
-        &example("serve.toml"),
-        "--listen",
-        "127.0.0.1:0",
-        "--until",
-        "3ms",
-        "--realtime",
-    ]);
-    let out = text(&o.stdout);
-    assert!(o.status.success(), "{}", text(&o.stderr));
+    let out = serve_3ms(&["--realtime"]);
     assert_eq!(
         out.matches("cannot keep up with real time").count(),
         1,

@@ -67,27 +67,8 @@ enum Command {
         /// The scenario (TOML; its nodes, traffic and faults run as with `cansim run`, without
         /// end).
         scenario: PathBuf,
-        /// Where to listen (HOST:PORT; port 0 picks a free one and prints it).
-        #[arg(long, default_value = "127.0.0.1:29536")]
-        listen: String,
-        /// The bus name clients open.
-        #[arg(long, default_value = "can0")]
-        channel: String,
-        /// Pace the bus to the wall clock (says so once if it cannot keep up).
-        #[arg(long)]
-        realtime: bool,
-        /// Without --realtime: how far the bus may run past the last thing a client did.
-        #[arg(long, default_value = "10ms")]
-        slice: String,
-        /// Stop at this simulated time (e.g. 2s, 500ms).
-        #[arg(long)]
-        until: Option<String>,
-        /// Write a waveform of the bus and the scenario's nodes here.
-        #[arg(long)]
-        vcd: Option<PathBuf>,
-        /// Write the bus log here as it happens (candump -l lines with error and overload frames).
-        #[arg(long)]
-        log: Option<PathBuf>,
+        #[command(flatten)]
+        args: ServeArgs,
     },
     /// Replay a logic-analyzer capture (VCD, or a sigrok session .sr through sigrok-cli): it
     /// drives the bus, and one complete controller (listen-only, set up by the Linux driver model)
@@ -337,27 +318,7 @@ fn main() -> ExitCode {
             events,
             quiet,
         } => run_scenario(&scenario, vcd, log, until, events, quiet),
-        Command::Serve {
-            scenario,
-            listen,
-            channel,
-            realtime,
-            slice,
-            until,
-            vcd,
-            log,
-        } => serve(
-            &scenario,
-            ServeArgs {
-                listen,
-                channel,
-                realtime,
-                slice,
-                until,
-                vcd,
-                log,
-            },
-        ),
+        Command::Serve { scenario, args } => serve(&scenario, args),
         Command::Replay {
             capture,
             signal,
@@ -613,13 +574,28 @@ fn run_scenario(
 }
 
 /// The options of `cansim serve` besides the scenario.
+#[derive(clap::Args)]
 struct ServeArgs {
+    /// Where to listen (HOST:PORT; port 0 picks a free one and prints it).
+    #[arg(long, default_value = "127.0.0.1:29536")]
     listen: String,
+    /// The bus name clients open.
+    #[arg(long, default_value = "can0")]
     channel: String,
+    /// Pace the bus to the wall clock (says so once if it cannot keep up).
+    #[arg(long)]
     realtime: bool,
+    /// Without --realtime: how far the bus may run past the last thing a client did.
+    #[arg(long, default_value = "10ms")]
     slice: String,
+    /// Stop at this simulated time (e.g. 2s, 500ms).
+    #[arg(long)]
     until: Option<String>,
+    /// Write a waveform of the bus and the scenario's nodes here.
+    #[arg(long)]
     vcd: Option<PathBuf>,
+    /// Write the bus log here as it happens (candump -l lines with error and overload frames).
+    #[arg(long)]
     log: Option<PathBuf>,
 }
 
