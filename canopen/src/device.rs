@@ -8,6 +8,7 @@
 //! milliseconds when 1017h is not 0 (7.2.8.3.2.1).
 
 use crate::error_control::{is_heartbeat, Emergencies, SyncProducer};
+use crate::guarding::{GuardEvent, Guarding};
 use crate::nmt::{NmtCommand, NmtState};
 use crate::od::ObjectDictionary;
 use crate::pdo::{receive_rpdo, Tpdos};
@@ -47,6 +48,7 @@ pub struct Device {
     tpdos: Tpdos,
     sync: SyncProducer,
     emergencies: Emergencies,
+    guarding: Guarding,
 }
 
 impl Device {
@@ -66,6 +68,7 @@ impl Device {
             tpdos: Tpdos::default(),
             sync: SyncProducer::default(),
             emergencies: Emergencies::default(),
+            guarding: Guarding::default(),
         })
     }
 
@@ -91,6 +94,7 @@ impl Device {
 
     fn boot(&mut self, now_us: u64) -> Vec<CanFrame> {
         self.sdo = SdoServer::default();
+        self.guarding.reset();
         self.state = NmtState::PreOperational;
         self.configure(now_us);
         vec![CanFrame::new(
@@ -129,8 +133,11 @@ impl Device {
 
     /// The frame `frame` arrives at `now_us`; what the device sends in answer.
     pub fn receive(&mut self, frame: &CanFrame, now_us: u64) -> Vec<CanFrame> {
-        if frame.remote || self.state == NmtState::Initialisation {
+        if self.state == NmtState::Initialisation {
             return Vec::new();
+        }
+        if frame.remote {
+            return self.guarding_request(frame, now_us);
         }
         if frame.id == NMT_COB_ID {
             return self.nmt(&frame.data, now_us);
@@ -158,6 +165,24 @@ impl Device {
                 .collect();
         }
         Vec::new()
+    }
+
+    /// A remote frame: a node guarding request, if it is on our 700h + node-ID and the heartbeat
+    /// is off.
+    fn guarding_request(&mut self, frame: &CanFrame, now_us: u64) -> Vec<CanFrame> {
+        let ours = ERROR_CONTROL + u16::from(self.node_id);
+        if frame.id != ours || self.od.unsigned(PRODUCER_HEARTBEAT_TIME, 0) != 0 {
+            return Vec::new();
+        }
+        let (answer, event) = self.guarding.request(&self.od, self.state.code(), now_us);
+        let mut out = vec![CanFrame::new(ours, &[answer])];
+        if event == GuardEvent::Resumed {
+            out.extend(
+                self.emergencies
+                    .communication_recovered(&mut self.od, now_us),
+            );
+        }
+        out
     }
 
     fn nmt(&mut self, data: &[u8], now_us: u64) -> Vec<CanFrame> {
@@ -206,6 +231,9 @@ impl Device {
     /// The time is `now_us`: what falls due (heartbeats, SDO timeouts, event-driven TPDOs).
     pub fn tick(&mut self, now_us: u64) -> Vec<CanFrame> {
         let mut out = Vec::new();
+        if self.guarding.tick(now_us) == GuardEvent::LifeGuardingLost {
+            out.extend(self.emergencies.communication_error(&mut self.od, now_us));
+        }
         if self.state == NmtState::Operational {
             out.extend(self.tpdos.tick(&self.od, now_us));
         }
@@ -246,11 +274,16 @@ impl Device {
         let producers = [self.sync.deadline(), self.emergencies.deadline()]
             .into_iter()
             .filter(|_| self.state.serves_sdo());
-        [self.next_heartbeat_us, self.sdo.deadline(), tpdo]
-            .into_iter()
-            .chain(producers)
-            .flatten()
-            .min()
+        [
+            self.next_heartbeat_us,
+            self.sdo.deadline(),
+            tpdo,
+            self.guarding.deadline(),
+        ]
+        .into_iter()
+        .chain(producers)
+        .flatten()
+        .min()
     }
 }
 

@@ -132,6 +132,23 @@ impl Emergencies {
         if !back || self.watched.iter().any(|w| w.lost) {
             return Vec::new();
         }
+        self.communication_recovered(od, now_us)
+    }
+
+    /// A communication error (a lost heartbeat, life guarding): the error register's
+    /// communication and generic bits, EMCY 8130h.
+    pub fn communication_error(&mut self, od: &mut ObjectDictionary, now_us: u64) -> Vec<CanFrame> {
+        let register = od.unsigned(ERROR_REGISTER, 0) as u8 | COMMUNICATION_ERROR | GENERIC_ERROR;
+        od.set(ERROR_REGISTER, 0, &[register]);
+        self.emcy(od, HEARTBEAT_ERROR, now_us)
+    }
+
+    /// The communication error is over: the bits cleared, EMCY 0000h (error reset).
+    pub fn communication_recovered(
+        &mut self,
+        od: &mut ObjectDictionary,
+        now_us: u64,
+    ) -> Vec<CanFrame> {
         let register =
             od.unsigned(ERROR_REGISTER, 0) as u8 & !(COMMUNICATION_ERROR | GENERIC_ERROR);
         od.set(ERROR_REGISTER, 0, &[register]);
@@ -148,10 +165,7 @@ impl Emergencies {
             }
             watch.due_us = None;
             watch.lost = true;
-            let register =
-                od.unsigned(ERROR_REGISTER, 0) as u8 | COMMUNICATION_ERROR | GENERIC_ERROR;
-            od.set(ERROR_REGISTER, 0, &[register]);
-            out.extend(self.emcy(od, HEARTBEAT_ERROR, now_us));
+            out.extend(self.communication_error(od, now_us));
         }
         if now_us >= self.inhibited_until_us && !self.waiting.is_empty() {
             let (code, register) = self.waiting.remove(0);

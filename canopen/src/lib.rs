@@ -10,6 +10,7 @@
 //! * [`nmt`]: the NMT slave state machine and the heartbeat producer;
 //! * [`pdo`]: PDO mapping checks, SYNC-driven and event-driven TPDOs, RPDOs;
 //! * [`error_control`]: the SYNC producer, the EMCY producer and the heartbeat consumer;
+//! * [`guarding`]: node guarding and life guarding;
 //! * [`device`]: all of it as one device with a node-ID;
 //! * [`trace`]: CANopen frames in words, for bus logs.
 //!
@@ -19,6 +20,7 @@
 pub mod device;
 pub mod eds;
 pub mod error_control;
+pub mod guarding;
 pub mod nmt;
 pub mod od;
 pub mod pdo;

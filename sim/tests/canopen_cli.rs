@@ -108,3 +108,64 @@ fn bad_canopen_nodes_are_refused_with_their_line() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn node_guarding_answers_with_a_toggle_and_a_silent_master_is_a_life_guarding_event() {
+    // CiA 301 7.2.8.3.1 with our own nodes (socketcand carries no remote frames from python-can):
+    // the master's remote frames on 702h are answered with the state (7Fh pre-operational) and a
+    // toggle bit that starts at 0; with guard time 10 ms x life time factor 3, no request for
+    // 30 ms after the last one is EMCY 8130h (error register 11h), and the next request ends it
+    // (EMCY 0000h).
+    let dir = std::env::temp_dir().join(format!("cansim-canopen-guard-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let eds = std::fs::read_to_string(example("eds/io.eds")).unwrap();
+    let guarded = eds
+        .replace("ParameterName=Guard time\nObjectType=0x7\nDataType=0x0006\nAccessType=rw\nDefaultValue=0", "ParameterName=Guard time\nObjectType=0x7\nDataType=0x0006\nAccessType=rw\nDefaultValue=10")
+        .replace("ParameterName=Life time factor\nObjectType=0x7\nDataType=0x0005\nAccessType=rw\nDefaultValue=0", "ParameterName=Life time factor\nObjectType=0x7\nDataType=0x0005\nAccessType=rw\nDefaultValue=3");
+    assert_ne!(guarded, eds);
+    std::fs::write(dir.join("io.eds"), guarded).unwrap();
+    let scenario = dir.join("guard.toml");
+    std::fs::write(
+        &scenario,
+        "duration = \"60ms\"\n[bus]\nbitrate = 500000\n\
+         [[node]]\nname = \"io\"\ncanopen = { node_id = 2, eds = \"io.eds\" }\n\
+         [[node]]\nname = \"master\"\n\
+         [[frame]]\nnode = \"master\"\nat = \"1ms\"\nframe = \"702#R1\"\n\
+         [[frame]]\nnode = \"master\"\nat = \"2ms\"\nframe = \"702#R1\"\n\
+         [[frame]]\nnode = \"master\"\nat = \"50ms\"\nframe = \"702#R1\"\n",
+    )
+    .unwrap();
+    let o = cansim(&["run", scenario.to_str().unwrap()]);
+    let out = text(&o.stdout);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let frames: Vec<&str> = out
+        .lines()
+        .filter_map(|l| l.split_once(") can0 "))
+        .map(|(_, rest)| rest.split_whitespace().next().unwrap())
+        .collect();
+    assert_eq!(
+        frames,
+        [
+            "702#00",
+            "702#R1",
+            "702#7F",
+            "702#R1",
+            "702#FF",
+            "082#3081110000000000",
+            "702#R1",
+            "702#7F",
+            "082#0000000000000000"
+        ],
+        "{out}"
+    );
+    let at = |frame: &str| -> f64 {
+        let line = out.lines().find(|l| l.contains(frame)).unwrap();
+        line[1..line.find(')').unwrap()].parse().unwrap()
+    };
+    let lost = at("082#3081");
+    assert!(
+        (0.032..0.0325).contains(&lost),
+        "30 ms after the request at 2 ms: {lost}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
