@@ -137,6 +137,11 @@ impl Device {
             return Vec::new();
         }
         if frame.remote {
+            if self.state == NmtState::Operational {
+                if let Some(tpdo) = self.tpdos.rtr(&self.od, frame.id, now_us) {
+                    return vec![tpdo];
+                }
+            }
             return self.guarding_request(frame, now_us);
         }
         if frame.id == NMT_COB_ID {
@@ -144,7 +149,9 @@ impl Device {
         }
         if self.state == NmtState::Operational {
             if frame.id == self.sync_cob_id() {
-                return self.tpdos.sync(&self.od);
+                return self
+                    .tpdos
+                    .sync(&self.od, frame.data.first().copied(), now_us);
             }
             if receive_rpdo(&mut self.od, frame) {
                 return Vec::new();
@@ -241,9 +248,12 @@ impl Device {
         // own synchronous TPDOs follow its SYNC, as it receives no frame of its own.
         if self.state.serves_sdo() {
             if let Some(sync) = self.sync.tick(&self.od, now_us) {
-                out.push(sync);
                 if self.state == NmtState::Operational {
-                    out.extend(self.tpdos.sync(&self.od));
+                    let counter = sync.data.first().copied();
+                    out.push(sync);
+                    out.extend(self.tpdos.sync(&self.od, counter, now_us));
+                } else {
+                    out.push(sync);
                 }
             }
             out.extend(self.emergencies.tick(&mut self.od, now_us));

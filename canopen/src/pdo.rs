@@ -3,11 +3,14 @@
 //!
 //! Objects (7.5.2.35–7.5.2.38): RPDO n communication 1400h + n − 1 and mapping 1600h + n − 1,
 //! TPDO n communication 1800h + n − 1 and mapping 1A00h + n − 1. Communication sub-index 1 is the
-//! COB-ID (bit 31 set: the PDO is not valid), 2 the transmission type (0 synchronous acyclic, 1–240
-//! every n-th SYNC, 254/255 event-driven), 5 the event timer in ms. A mapping entry is index
-//! (bits 31..16), sub-index (15..8) and length in bits (7..0); sub-index 0 counts them. Writing a
-//! count checks every entry (7.5.2.38): an object that does not exist or may not be mapped aborts
-//! with 0604 0041, more than 64 bits with 0604 0042.
+//! COB-ID (bit 31 set: the PDO is not valid; bit 30 set: no RTR allowed), 2 the transmission type
+//! (0 synchronous acyclic, 1–240 every n-th SYNC, 252/253 on RTR, 254/255 event-driven), 3 the
+//! inhibit time in 100 µs (the least time between two transmissions), 5 the event timer in ms, 6
+//! the SYNC start value (a cyclic TPDO first goes out at the SYNC whose counter equals it). A
+//! mapping entry is index (bits 31..16), sub-index (15..8) and length in bits (7..0); sub-index 0
+//! counts them. Writing a count checks every entry (7.5.2.38): an object that does not exist or
+//! may not be mapped aborts with 0604 0041, more than 64 bits with 0604 0042. An RPDO may map a
+//! data type index (0001h–0007h, dummy mapping) to skip that many bits of the PDO.
 
 use crate::od::ObjectDictionary;
 use crate::sdo::Abort;
@@ -23,19 +26,25 @@ pub const TPDO_COMMUNICATION: u16 = 0x1800;
 pub const TPDO_MAPPING: u16 = 0x1A00;
 /// PDOs of each direction a device may have (CiA 301: 512).
 const PDO_LIMIT: u16 = 0x200;
-/// COB-ID bit 31: the PDO is not valid.
+/// COB-ID bit 31: the PDO is not valid; bit 30: no RTR allowed.
 const NOT_VALID: u64 = 1 << 31;
+const NO_RTR: u64 = 1 << 30;
+/// Data type indices an RPDO may map as dummies (BOOLEAN to UNSIGNED32).
+const DUMMIES: std::ops::RangeInclusive<u16> = 0x0001..=0x0007;
 /// COB-ID bits of an 11-bit identifier.
 const COB_ID_MASK: u64 = 0x7FF;
 /// Sub-indices of a communication parameter object.
 const SUB_COB_ID: u8 = 1;
 const SUB_TRANSMISSION_TYPE: u8 = 2;
+const SUB_INHIBIT_TIME: u8 = 3;
 const SUB_EVENT_TIMER: u8 = 5;
+const SUB_SYNC_START: u8 = 6;
 /// The most bits a PDO carries.
 const MAX_BITS: u64 = 64;
 /// Transmission types: synchronous every 1 to 240 SYNCs; event-driven.
 const SYNC_CYCLIC: std::ops::RangeInclusive<u64> = 1..=240;
 const EVENT_DRIVEN: std::ops::RangeInclusive<u64> = 254..=255;
+const ON_RTR: std::ops::RangeInclusive<u64> = 252..=253;
 /// Abort 0604 0041: object cannot be mapped to the PDO.
 pub const NOT_MAPPABLE: Abort = Abort(0x0604_0041);
 /// Abort 0604 0042: the number and length of the objects would exceed the PDO length.
@@ -55,8 +64,17 @@ fn entry(value: u64) -> (u16, u8, u64) {
 /// Checks that the first `count` entries of mapping object `index` may be mapped.
 pub fn check_mapping(od: &ObjectDictionary, index: u16, count: u64) -> Result<(), Abort> {
     let mut bits = 0;
+    let receive = (RPDO_MAPPING..RPDO_MAPPING + PDO_LIMIT).contains(&index);
     for sub in 1..=count {
         let (object, object_sub, length) = entry(od.unsigned(index, sub as u8));
+        if receive && DUMMIES.contains(&object) {
+            let size = crate::od::DataType::from_index(object).and_then(|t| t.size());
+            if size.map(|s| 8 * s as u64) != Some(length) {
+                return Err(NOT_MAPPABLE);
+            }
+            bits += length;
+            continue;
+        }
         let target = od.entry(object, object_sub).map_err(|_| NOT_MAPPABLE)?;
         let size_bits = target.data_type.size().map(|s| 8 * s as u64);
         if !target.pdo_mappable || size_bits != Some(length) {
@@ -73,10 +91,13 @@ pub fn check_mapping(od: &ObjectDictionary, index: u16, count: u64) -> Result<()
 /// A PDO as its objects configure it.
 struct Pdo {
     cob_id: u16,
+    rtr_allowed: bool,
     transmission_type: u64,
+    inhibit_us: u64,
     event_timer_ms: u64,
-    /// (index, sub-index) of each mapped object, in order.
-    mapped: Vec<(u16, u8)>,
+    sync_start: u64,
+    /// (index, sub-index, bits) of each mapped object, in order.
+    mapped: Vec<(u16, u8, u64)>,
 }
 
 /// PDO number `k` (0-based) of the direction whose first objects are `communication` and
@@ -89,15 +110,16 @@ fn pdo(od: &ObjectDictionary, communication: u16, mapping: u16, k: u16) -> Optio
     }
     let count = od.unsigned(mapping + k, 0);
     let mapped = (1..=count)
-        .map(|sub| {
-            let (index, object_sub, _) = entry(od.unsigned(mapping + k, sub as u8));
-            (index, object_sub)
-        })
+        .map(|sub| entry(od.unsigned(mapping + k, sub as u8)))
         .collect();
+    let parameter = |sub| od.unsigned(communication + k, sub);
     Some(Pdo {
         cob_id: (cob_id & COB_ID_MASK) as u16,
-        transmission_type: od.unsigned(communication + k, SUB_TRANSMISSION_TYPE),
-        event_timer_ms: od.unsigned(communication + k, SUB_EVENT_TIMER),
+        rtr_allowed: cob_id & NO_RTR == 0,
+        transmission_type: parameter(SUB_TRANSMISSION_TYPE),
+        inhibit_us: parameter(SUB_INHIBIT_TIME) * 100,
+        event_timer_ms: parameter(SUB_EVENT_TIMER),
+        sync_start: parameter(SUB_SYNC_START),
         mapped,
     })
 }
@@ -109,6 +131,10 @@ pub struct Tpdos {
     sync_counts: Vec<u64>,
     /// When each event-driven TPDO with an event timer goes out next.
     due_us: Vec<Option<u64>>,
+    /// When each TPDO last went out (for its inhibit time).
+    sent_us: Vec<Option<u64>>,
+    /// Whether each cyclic TPDO with a SYNC start value has met it.
+    started: Vec<bool>,
 }
 
 /// The TPDOs a dictionary has (their communication objects exist).
@@ -119,7 +145,7 @@ fn tpdo_numbers(od: &ObjectDictionary) -> impl Iterator<Item = u16> + '_ {
 /// TPDO `k`'s frame: its mapped values, in order.
 fn tpdo_frame(od: &ObjectDictionary, pdo: &Pdo) -> CanFrame {
     let mut data = Vec::new();
-    for &(index, sub) in &pdo.mapped {
+    for &(index, sub, _) in &pdo.mapped {
         if let Ok(entry) = od.entry(index, sub) {
             data.extend_from_slice(&entry.value);
         }
@@ -133,6 +159,8 @@ impl Tpdos {
     pub fn start(&mut self, od: &ObjectDictionary, now_us: u64) {
         let count = usize::from(tpdo_numbers(od).last().map_or(0, |k| k + 1));
         self.sync_counts = vec![0; count];
+        self.sent_us = vec![None; count];
+        self.started = vec![false; count];
         self.due_us = (0..count as u16)
             .map(|k| {
                 let pdo = pdo(od, TPDO_COMMUNICATION, TPDO_MAPPING, k)?;
@@ -142,27 +170,67 @@ impl Tpdos {
             .collect();
     }
 
-    /// A SYNC: the synchronous TPDOs whose turn it is.
-    pub fn sync(&mut self, od: &ObjectDictionary) -> Vec<CanFrame> {
+    /// A SYNC (with its counter, if it has one) at `now_us`: the synchronous TPDOs whose turn it
+    /// is.
+    pub fn sync(
+        &mut self,
+        od: &ObjectDictionary,
+        counter: Option<u8>,
+        now_us: u64,
+    ) -> Vec<CanFrame> {
         let mut out = Vec::new();
-        for k in tpdo_numbers(od) {
-            let Some(pdo) = pdo(od, TPDO_COMMUNICATION, TPDO_MAPPING, k) else {
+        for n in tpdo_numbers(od) {
+            let k = usize::from(n);
+            let Some(pdo) = pdo(od, TPDO_COMMUNICATION, TPDO_MAPPING, n) else {
                 continue;
             };
-            let Some(count) = self.sync_counts.get_mut(usize::from(k)) else {
+            if k >= self.sync_counts.len() || !self.sync_turn(k, &pdo, counter) {
                 continue;
-            };
-            if pdo.transmission_type == 0 {
-                out.push(tpdo_frame(od, &pdo));
-            } else if SYNC_CYCLIC.contains(&pdo.transmission_type) {
-                *count += 1;
-                if *count >= pdo.transmission_type {
-                    *count = 0;
-                    out.push(tpdo_frame(od, &pdo));
-                }
             }
+            out.push(tpdo_frame(od, &pdo));
+            self.sent_us[k] = Some(now_us);
         }
         out
+    }
+
+    /// Whether TPDO `k` goes out at this SYNC: every SYNC for type 0, every n-th for 1 to 240
+    /// (from the SYNC whose counter is its start value, if it has one).
+    fn sync_turn(&mut self, k: usize, pdo: &Pdo, counter: Option<u8>) -> bool {
+        if pdo.transmission_type == 0 {
+            return true;
+        }
+        if !SYNC_CYCLIC.contains(&pdo.transmission_type) {
+            return false;
+        }
+        if pdo.sync_start > 0 && !self.started[k] {
+            // 7.5.2.36: the first transmission is at the SYNC whose counter is the start value.
+            if counter.map(u64::from) != Some(pdo.sync_start) {
+                return false;
+            }
+            self.started[k] = true;
+            self.sync_counts[k] = pdo.transmission_type - 1;
+        }
+        self.sync_counts[k] += 1;
+        if self.sync_counts[k] < pdo.transmission_type {
+            return false;
+        }
+        self.sync_counts[k] = 0;
+        true
+    }
+
+    /// A remote frame on `id`: the TPDO of that COB-ID with transmission type 252 or 253 that
+    /// allows RTR, with its values now.
+    pub fn rtr(&mut self, od: &ObjectDictionary, id: u16, now_us: u64) -> Option<CanFrame> {
+        let k = tpdo_numbers(od).find(|&k| {
+            pdo(od, TPDO_COMMUNICATION, TPDO_MAPPING, k).is_some_and(|p| {
+                p.cob_id == id && p.rtr_allowed && ON_RTR.contains(&p.transmission_type)
+            })
+        })?;
+        let pdo = pdo(od, TPDO_COMMUNICATION, TPDO_MAPPING, k)?;
+        if let Some(sent) = self.sent_us.get_mut(usize::from(k)) {
+            *sent = Some(now_us);
+        }
+        Some(tpdo_frame(od, &pdo))
     }
 
     /// At `now_us`: the event-driven TPDOs whose event timer ran out.
@@ -176,8 +244,15 @@ impl Tpdos {
                 self.due_us[k] = None;
                 continue;
             };
+            // The inhibit time keeps it back until that long after it last went out.
+            let free_at = self.sent_us[k].map_or(0, |sent| sent + pdo.inhibit_us);
+            if now_us < free_at {
+                self.due_us[k] = Some(free_at);
+                continue;
+            }
             out.push(tpdo_frame(od, &pdo));
-            self.due_us[k] = Some(due + pdo.event_timer_ms.max(1) * 1000);
+            self.sent_us[k] = Some(now_us);
+            self.due_us[k] = Some(due.max(now_us) + pdo.event_timer_ms.max(1) * 1000);
         }
         out
     }
@@ -199,7 +274,11 @@ pub fn receive_rpdo(od: &mut ObjectDictionary, frame: &CanFrame) -> bool {
         return false;
     };
     let mut offset = 0;
-    for (index, sub) in rpdo.mapped {
+    for (index, sub, bits) in rpdo.mapped {
+        if DUMMIES.contains(&index) {
+            offset += (bits / 8) as usize;
+            continue;
+        }
         let Some(size) = od.entry(index, sub).ok().and_then(|e| e.data_type.size()) else {
             continue;
         };
@@ -266,6 +345,11 @@ ParameterName=1
 DataType=0x0007
 AccessType=rw
 DefaultValue=0x62000108
+[1600sub2]
+ParameterName=2
+DataType=0x0007
+AccessType=rw
+DefaultValue=0
 [1800]
 ParameterName=TPDO1
 ObjectType=0x9
@@ -284,9 +368,19 @@ ParameterName=type
 DataType=0x0005
 AccessType=rw
 DefaultValue=2
+[1800sub3]
+ParameterName=inhibit time
+DataType=0x0006
+AccessType=rw
+DefaultValue=0
 [1800sub5]
 ParameterName=event timer
 DataType=0x0006
+AccessType=rw
+DefaultValue=0
+[1800sub6]
+ParameterName=SYNC start value
+DataType=0x0005
 AccessType=rw
 DefaultValue=0
 [1A00]
@@ -357,9 +451,12 @@ PDOMapping=1
         let od = od();
         let mut tpdos = Tpdos::default();
         tpdos.start(&od, 0);
-        assert!(tpdos.sync(&od).is_empty(), "first SYNC");
-        assert_eq!(tpdos.sync(&od), [CanFrame::new(0x181, &[0x5A, 0x34, 0x12])]);
-        assert!(tpdos.sync(&od).is_empty());
+        assert!(tpdos.sync(&od, None, 0).is_empty(), "first SYNC");
+        assert_eq!(
+            tpdos.sync(&od, None, 0),
+            [CanFrame::new(0x181, &[0x5A, 0x34, 0x12])]
+        );
+        assert!(tpdos.sync(&od, None, 0).is_empty());
     }
 
     #[test]
@@ -384,8 +481,70 @@ PDOMapping=1
         od.write(0x1800, 1, &0x8000_0181u32.to_le_bytes()).unwrap();
         let mut tpdos = Tpdos::default();
         tpdos.start(&od, 0);
-        tpdos.sync(&od);
-        assert!(tpdos.sync(&od).is_empty(), "bit 31: not valid");
+        tpdos.sync(&od, None, 0);
+        assert!(tpdos.sync(&od, None, 0).is_empty(), "bit 31: not valid");
+    }
+
+    #[test]
+    fn a_tpdo_of_type_253_answers_a_remote_frame_unless_rtr_is_not_allowed() {
+        let mut od = od();
+        od.write(0x1800, 2, &[253]).unwrap();
+        let mut tpdos = Tpdos::default();
+        tpdos.start(&od, 0);
+        assert!(tpdos.sync(&od, None, 0).is_empty(), "not on SYNC");
+        assert_eq!(
+            tpdos.rtr(&od, 0x181, 0),
+            Some(CanFrame::new(0x181, &[0x5A, 0x34, 0x12]))
+        );
+        assert_eq!(tpdos.rtr(&od, 0x182, 0), None, "another COB-ID");
+        od.write(0x1800, 1, &0x4000_0181u32.to_le_bytes()).unwrap();
+        assert_eq!(tpdos.rtr(&od, 0x181, 0), None, "bit 30: no RTR allowed");
+    }
+
+    #[test]
+    fn the_inhibit_time_holds_an_event_driven_tpdo_back() {
+        let mut od = od();
+        od.write(0x1800, 2, &[254]).unwrap();
+        od.write(0x1800, 5, &[1, 0]).unwrap();
+        // 50 x 100 us = 5 ms between transmissions; the event timer asks every 1 ms.
+        od.write(0x1800, 3, &[50, 0]).unwrap();
+        let mut tpdos = Tpdos::default();
+        tpdos.start(&od, 0);
+        assert_eq!(tpdos.tick(&od, 1_000).len(), 1);
+        assert!(tpdos.tick(&od, 2_000).is_empty());
+        assert_eq!(tpdos.deadline(), Some(6_000));
+        assert_eq!(tpdos.tick(&od, 6_000).len(), 1);
+    }
+
+    #[test]
+    fn a_sync_start_value_delays_the_first_cyclic_tpdo_to_that_counter() {
+        let mut od = od();
+        od.write(0x1800, 6, &[3]).unwrap();
+        let mut tpdos = Tpdos::default();
+        tpdos.start(&od, 0);
+        let sent: Vec<bool> = [1, 2, 3, 4, 5, 1]
+            .iter()
+            .map(|&c| !tpdos.sync(&od, Some(c), 0).is_empty())
+            .collect();
+        // Type 2: first at counter 3, then every second SYNC.
+        assert_eq!(sent, [false, false, true, false, true, false]);
+    }
+
+    #[test]
+    fn a_dummy_entry_of_an_rpdo_skips_its_bytes() {
+        let mut od = od();
+        // RPDO1: UNSIGNED16 dummy (0006h, 16 bits), then 6200h:1.
+        od.write(0x1600, 1, &0x0006_0010u32.to_le_bytes()).unwrap();
+        od.write(0x1600, 2, &0x6200_0108u32.to_le_bytes()).unwrap();
+        assert_eq!(od.write(0x1600, 0, &[2]), Ok(()));
+        assert!(receive_rpdo(
+            &mut od,
+            &CanFrame::new(0x201, &[0xAA, 0xBB, 0x44])
+        ));
+        assert_eq!(od.unsigned(0x6200, 1), 0x44);
+        // A TPDO may not map a dummy.
+        od.write(0x1A00, 3, &0x0006_0010u32.to_le_bytes()).unwrap();
+        assert_eq!(od.write(0x1A00, 0, &[3]), Err(NOT_MAPPABLE));
     }
 
     #[test]
