@@ -6,7 +6,7 @@
 //! * [`eds`]: electronic data sheets (CiA 306), with file:line errors;
 //! * [`od`]: the object dictionary (index, sub-index, data type, access, limits, value);
 //! * [`sdo`]: the SDO server (expedited and segmented transfers, the abort codes), [`sdo_block`]
-//!   its block transfers;
+//!   its block transfers, [`sdo_client`] the client (the master's side);
 //! * [`nmt`]: the NMT slave state machine and the heartbeat producer;
 //! * [`pdo`]: PDO mapping checks, SYNC-driven and event-driven TPDOs, RPDOs;
 //! * [`error_control`]: the SYNC producer, the EMCY producer and the heartbeat consumer;
@@ -26,6 +26,7 @@ pub mod od;
 pub mod pdo;
 pub mod sdo;
 pub mod sdo_block;
+pub mod sdo_client;
 pub mod trace;
 
 /// A CAN frame with an 11-bit identifier, as CANopen's predefined connection set uses them.

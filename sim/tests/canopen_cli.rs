@@ -1,17 +1,22 @@
 //! CANopen devices of our stack on the simulated bus, mastered by an independent implementation:
 //! python canopen 2.4.1 (from build/pyenv, made by `make pyenv`) over python-can's socketcand
 //! interface and `cansim serve examples/canopen_io.toml` (tests/python/canopen_master.py): NMT,
-//! boot-up, heartbeat states, SDO expedited, segmented and block (with CRC) in both directions, the abort codes, PDO
-//! mapping by SDO with its aborts, a TPDO on SYNC and an RPDO, the SYNC producer with its counter, a
-//! heartbeat loss reported by EMCY 8130h and its error reset, the resets. Both read the same EDS (examples/eds/io.eds). And bad CANopen configuration in a
-//! scenario is refused with its line.
+//! boot-up, heartbeat states, SDO expedited, segmented and block (with CRC) in both directions,
+//! the abort codes, PDO mapping by SDO with its aborts, a TPDO on SYNC and an RPDO, the SYNC
+//! producer with its counter, a heartbeat loss reported by EMCY 8130h and its error reset, the
+//! resets; both read the same EDS (examples/eds/io.eds). Our SDO client against python canopen's
+//! LocalNode as the server. Node guarding with our own nodes, the CANopen trace of `cansim
+//! decode`, and bad CANopen configuration in a scenario refused with its line.
 
 mod common;
 
+use std::io::{BufRead, BufReader};
 use std::path::Path;
-use std::process::Command;
+use std::process::{Command, Stdio};
 
-use common::{cansim, example, python, text, ServeProcess};
+use canopen::sdo::Abort;
+use canopen::sdo_client::{SdoClient, SdoOutcome};
+use common::{cansim, example, python, text, Raw, ServeProcess};
 
 #[test]
 fn python_canopen_masters_our_device_through_the_registers() {
@@ -168,4 +173,77 @@ fn node_guarding_answers_with_a_toggle_and_a_silent_master_is_a_life_guarding_ev
         "30 ms after the request at 2 ms: {lost}"
     );
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Runs one transfer of `client` with the server of node 1 through `bus`: the outcome.
+fn sdo_transfer(bus: &mut Raw, client: &mut SdoClient, first: [u8; 8]) -> SdoOutcome {
+    let mut request = first;
+    loop {
+        bus.send_frame(0x601, &request);
+        let answer = bus.frame_on(0x581);
+        match client.response(&answer, 0) {
+            Ok(next) => request = next,
+            Err(outcome) => return outcome,
+        }
+    }
+}
+
+#[test]
+fn our_sdo_client_works_against_python_canopens_local_node() {
+    // The independent server: python canopen's LocalNode (node 1, the same EDS). Our client
+    // (canopen::sdo_client) speaks to it over the simulated bus from a raw socketcand connection.
+    let mut server = ServeProcess::start(&example("canopen_io.toml"), &[]);
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/canopen_local_node.py");
+    let mut local = Command::new(python())
+        .arg(&script)
+        .arg(server.port.to_string())
+        .arg(example("eds/io.eds"))
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut ready = String::new();
+    BufReader::new(local.stdout.take().unwrap())
+        .read_line(&mut ready)
+        .unwrap();
+    assert_eq!(ready, "READY\n");
+    let mut bus = Raw::raw_mode(server.port);
+    let mut client = SdoClient::default();
+    // Segmented upload of the device name, expedited download and upload of 1017h.
+    let first = client.upload(0x1008, 0, 0);
+    assert_eq!(
+        sdo_transfer(&mut bus, &mut client, first),
+        SdoOutcome::Uploaded(b"cansim IO 8x8".to_vec())
+    );
+    let first = client.download(0x1017, 0, &500u16.to_le_bytes(), 0);
+    assert_eq!(
+        sdo_transfer(&mut bus, &mut client, first),
+        SdoOutcome::Downloaded
+    );
+    let first = client.upload(0x1017, 0, 0);
+    assert_eq!(
+        sdo_transfer(&mut bus, &mut client, first),
+        SdoOutcome::Uploaded(vec![0xF4, 0x01])
+    );
+    // Segmented download of 26 bytes, read back segmented.
+    let label = b"written by our SDO client!";
+    let first = client.download(0x2001, 0, label, 0);
+    assert_eq!(
+        sdo_transfer(&mut bus, &mut client, first),
+        SdoOutcome::Downloaded
+    );
+    let first = client.upload(0x2001, 0, 0);
+    assert_eq!(
+        sdo_transfer(&mut bus, &mut client, first),
+        SdoOutcome::Uploaded(label.to_vec())
+    );
+    // The server's aborts reach the client: an object that does not exist (0602 0000).
+    let first = client.upload(0x3000, 0, 0);
+    assert_eq!(
+        sdo_transfer(&mut bus, &mut client, first),
+        SdoOutcome::Aborted(Abort(0x0602_0000))
+    );
+    drop(local.stdin.take());
+    local.wait().unwrap();
+    server.stop();
 }

@@ -5,46 +5,12 @@
 
 mod common;
 
-use std::io::{Read, Write};
-use std::net::{TcpListener, TcpStream};
+use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
 
-use common::{cansim, example, python, text, ServeProcess, WAIT};
-
-/// A raw socketcand connection, read line by line as the answers come.
-struct Raw(TcpStream);
-
-impl Raw {
-    fn connect(port: u16) -> Raw {
-        let stream = TcpStream::connect(("127.0.0.1", port)).unwrap();
-        stream.set_read_timeout(Some(WAIT)).unwrap();
-        let mut raw = Raw(stream);
-        assert_eq!(raw.answer(), "< hi >");
-        raw
-    }
-
-    /// The next message from the server.
-    fn answer(&mut self) -> String {
-        let mut message = Vec::new();
-        let mut byte = [0u8];
-        while message.last() != Some(&b'>') {
-            self.0.read_exact(&mut byte).expect("an answer");
-            message.push(byte[0]);
-        }
-        String::from_utf8(message).unwrap()
-    }
-
-    fn ask(&mut self, message: &str) -> String {
-        self.0.write_all(message.as_bytes()).unwrap();
-        self.answer()
-    }
-
-    fn say(&mut self, message: &str) {
-        self.0.write_all(message.as_bytes()).unwrap();
-    }
-}
+use common::{cansim, example, python, text, Raw, ServeProcess, WAIT};
 
 /// The counts row of node `name` in the server's summary: sent, received, dropped, TXERR, RXERR.
 fn row(out: &str, name: &str) -> Vec<u64> {

@@ -1,7 +1,8 @@
 //! Helpers shared by the command-line tests (each test binary uses a subset of them).
 #![allow(dead_code)]
 
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::sync::mpsc::{channel, Receiver};
@@ -107,5 +108,77 @@ impl Drop for ServeProcess {
     /// A test that fails leaves no server behind.
     fn drop(&mut self) {
         let _ = self.child.kill();
+    }
+}
+
+/// A raw socketcand connection, read line by line as the answers come.
+pub struct Raw(TcpStream);
+
+impl Raw {
+    pub fn connect(port: u16) -> Raw {
+        let stream = TcpStream::connect(("127.0.0.1", port)).unwrap();
+        stream.set_read_timeout(Some(WAIT)).unwrap();
+        let mut raw = Raw(stream);
+        assert_eq!(raw.answer(), "< hi >");
+        raw
+    }
+
+    /// The next message from the server.
+    pub fn answer(&mut self) -> String {
+        let mut message = Vec::new();
+        let mut byte = [0u8];
+        while message.last() != Some(&b'>') {
+            self.0.read_exact(&mut byte).expect("an answer");
+            message.push(byte[0]);
+        }
+        String::from_utf8(message).unwrap()
+    }
+
+    pub fn ask(&mut self, message: &str) -> String {
+        self.0.write_all(message.as_bytes()).unwrap();
+        self.answer()
+    }
+
+    pub fn say(&mut self, message: &str) {
+        self.0.write_all(message.as_bytes()).unwrap();
+    }
+}
+
+impl Raw {
+    /// Opens bus `can0` in raw mode.
+    pub fn raw_mode(port: u16) -> Raw {
+        let mut raw = Raw::connect(port);
+        assert_eq!(raw.ask("< open can0 >"), "< ok >");
+        assert_eq!(raw.ask("< rawmode >"), "< ok >");
+        raw
+    }
+
+    /// Sends a data frame with a standard identifier.
+    pub fn send_frame(&mut self, id: u16, data: &[u8]) {
+        let bytes: Vec<String> = data.iter().map(|b| format!("{b:X}")).collect();
+        self.say(&format!(
+            "< send {id:03X} {} {} >",
+            data.len(),
+            bytes.join(" ")
+        ));
+    }
+
+    /// The data of the next frame on `id` (other frames are skipped).
+    pub fn frame_on(&mut self, id: u16) -> Vec<u8> {
+        let wanted = format!("< frame {id:03X} ");
+        loop {
+            let message = self.answer();
+            let Some(rest) = message.strip_prefix(&wanted) else {
+                continue;
+            };
+            let hex = rest
+                .trim_end_matches('>')
+                .split_whitespace()
+                .nth(1)
+                .unwrap_or("");
+            return (0..hex.len() / 2)
+                .map(|k| u8::from_str_radix(&hex[2 * k..2 * k + 2], 16).unwrap())
+                .collect();
+        }
     }
 }
