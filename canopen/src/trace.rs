@@ -108,7 +108,7 @@ impl Tracer {
                 };
                 let bytes = &data[4..4 + len];
                 self.follow_download(node, index, sub, bytes);
-                format!("download {place} = {}", hex(bytes))
+                format!("download {place} = {}", self.value(node, index, sub, bytes))
             }
             (true, 1) => format!("download {place}, segmented"),
             (true, 0) => format!("download segment{}", last(command)),
@@ -117,7 +117,8 @@ impl Tracer {
             (true, 2) => format!("upload {place}"),
             (false, 2) if command & 0x02 != 0 => {
                 let len = 4 - usize::from((command >> 2) & 3);
-                format!("upload {place} = {}", hex(&data[4..4 + len]))
+                let value = self.value(node, index, sub, &data[4..4 + len]);
+                format!("upload {place} = {value}")
             }
             (false, 2) => format!("upload {place}, segmented"),
             (true, 3) => "upload segment request".to_string(),
@@ -127,6 +128,22 @@ impl Tracer {
             _ => "unknown command".to_string(),
         };
         format!("{who} node {node}: {what}")
+    }
+
+    /// `bytes` of `index`:`sub` of `node`: a number when the EDS says it is an integer (in hex
+    /// for the 32-bit communication objects: COB-IDs and mapping entries), else the bytes.
+    fn value(&self, node: u8, index: u16, sub: u8, bytes: &[u8]) -> String {
+        let number = self
+            .nodes
+            .get(&node)
+            .and_then(|od| od.entry(index, sub).ok())
+            .filter(|entry| entry.data_type.size() == Some(bytes.len()))
+            .and_then(|entry| entry.data_type.number(bytes));
+        match number {
+            Some(n) if (0x1000..0x2000).contains(&index) && bytes.len() == 4 => format!("{n:X}h"),
+            Some(n) => n.to_string(),
+            None => hex(bytes),
+        }
     }
 
     /// An expedited download the tracer saw: keeps PDO parameters current.

@@ -39,7 +39,7 @@ fn python_canopen_masters_our_device_through_the_registers() {
 }
 
 #[test]
-fn the_example_boots_and_its_log_shows_the_boot_up_message() {
+fn the_example_log_reads_like_a_canopen_trace_of_the_device_answering() {
     let o = cansim(&["run", &example("canopen_io.toml")]);
     let out = text(&o.stdout);
     assert!(o.status.success(), "{}", text(&o.stderr));
@@ -47,9 +47,39 @@ fn the_example_boots_and_its_log_shows_the_boot_up_message() {
         out.contains("io: 16 MHz +0 ppm, 0 ns from the bus, CANopen device 2 (io.eds)"),
         "{out}"
     );
-    // CiA 301 7.3.2.2.1: boot-up on 700h + node-ID with one byte 00h; the log says what it is.
-    assert!(out.contains(") can0 702#00"), "{out}");
-    assert!(out.contains("; boot-up of node 2\n"), "{out}");
+    // The device's answers, as CiA 301 encodes them: boot-up (7.3.2.2.1); the download
+    // confirmation 60h; the segmented upload of 13 bytes (41h, size 0Dh), its segments 00h and
+    // 13h (toggle 1, 1 byte unused, last); the abort of 3000h with 0602 0000; the heartbeat with
+    // the operational state after the NMT start; TPDO1 on every SYNC with 6000h:1 = 5Ah and
+    // 2000h = 10 (little endian).
+    for (line, meaning) in [
+        ("702#00 ", "boot-up of node 2"),
+        (
+            "582#6017100000000000",
+            "download 1017h:00 (Producer heartbeat time) confirmed",
+        ),
+        (
+            "582#410810000D000000",
+            "upload 1008h:00 (Manufacturer device name), segmented",
+        ),
+        ("582#0063616E73696D20", "upload segment"),
+        ("582#13494F2038783800", "upload segment, last"),
+        (
+            "582#8000300000000206",
+            "abort 3000h:00 (not in the EDS): 0602 0000",
+        ),
+        ("702#05 ", "heartbeat of node 2: operational"),
+    ] {
+        let found = out
+            .lines()
+            .any(|l| l.contains(line) && l.ends_with(meaning));
+        assert!(found, "no {line} ; {meaning} in\n{out}");
+    }
+    let tpdos = out
+        .lines()
+        .filter(|l| l.contains(") can0 182#5A0A00 "))
+        .count();
+    assert_eq!(tpdos, 5, "one TPDO1 per SYNC\n{out}");
 }
 
 #[test]
