@@ -1,6 +1,6 @@
 //! CANopen devices of our stack on the simulated bus, mastered by an independent implementation:
 //! python canopen 2.4.1 (from build/pyenv, made by `make pyenv`) over python-can's socketcand
-//! interface and `cansim serve examples/canopen_io.toml` (tests/python/canopen_master.py): NMT,
+//! interface and `cansim serve examples/canopen_device.toml` (tests/python/canopen_master.py): NMT,
 //! boot-up, heartbeat states, SDO expedited, segmented and block (with CRC) in both directions,
 //! the abort codes, PDO mapping by SDO with its aborts, a TPDO on SYNC and an RPDO, the SYNC
 //! producer with its counter, a heartbeat loss reported by EMCY 8130h and its error reset, the
@@ -20,7 +20,7 @@ use common::{cansim, example, python, text, Raw, ServeProcess};
 
 #[test]
 fn python_canopen_masters_our_device_through_the_registers() {
-    let mut server = ServeProcess::start(&example("canopen_io.toml"), &[]);
+    let mut server = ServeProcess::start(&example("canopen_device.toml"), &[]);
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/canopen_master.py");
     let o = Command::new(python())
         .arg(&script)
@@ -222,7 +222,7 @@ fn sdo_transfer(bus: &mut Raw, client: &mut SdoClient, first: [u8; 8]) -> SdoOut
 fn our_sdo_client_works_against_python_canopens_local_node() {
     // The independent server: python canopen's LocalNode (node 1, the same EDS). Our client
     // (canopen::sdo_client) speaks to it over the simulated bus from a raw socketcand connection.
-    let mut server = ServeProcess::start(&example("canopen_io.toml"), &[]);
+    let mut server = ServeProcess::start(&example("canopen_device.toml"), &[]);
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/canopen_local_node.py");
     let mut local = Command::new(python())
         .arg(&script)

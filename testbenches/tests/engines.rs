@@ -142,6 +142,7 @@ macro_rules! example_tests {
 example_tests!(example_arbitration, "arbitration.toml");
 example_tests!(example_bus_off, "bus_off.toml");
 example_tests!(example_canopen, "canopen.toml");
+example_tests!(example_canopen_device, "canopen_device.toml");
 example_tests!(example_canopen_io, "canopen_io.toml");
 example_tests!(example_demo, "demo.toml");
 example_tests!(example_oscillator, "oscillator.toml");
@@ -163,6 +164,7 @@ fn every_example_is_compared() {
             "arbitration.toml",
             "bus_off.toml",
             "canopen.toml",
+            "canopen_device.toml",
             "canopen_io.toml",
             "demo.toml",
             "oscillator.toml",

@@ -1,5 +1,5 @@
 """python canopen 2.4.1 as the master of our CANopen device (node 2, examples/eds/io.eds) on the bus of
-`cansim serve examples/canopen_io.toml` (run by sim/tests/canopen_cli.rs).
+`cansim serve examples/canopen_device.toml` (run by sim/tests/canopen_cli.rs).
 
 The device is our stack running as the firmware of a simulated node, reaching the bus through the
 SJA1000 registers; python canopen (over python-can's socketcand interface) is the independent judge.
