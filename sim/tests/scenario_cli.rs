@@ -343,9 +343,9 @@ fn summary_row<'a>(out: &'a str, name: &str) -> Vec<&'a str> {
 
 #[test]
 fn a_hundred_million_frame_scenario_keeps_a_bounded_queue_and_little_memory() {
-    // Node a releases a frame every 111 us (two messages of 222 us each, 100 million of each), twice
-    // what the bus can carry: its queue holds 4 frames (txqueuelen) and the rest are dropped, as
-    // Linux's write() fails with ENOBUFS when the interface queue is full.
+    // Node a has a frame due every 111 us (two messages of 222 us each, 100 million of each), twice
+    // what the bus can carry: its queue holds 4 frames (txqueuelen), the later messages wait, and
+    // those still waiting at the end are counted as dropped. Nothing is made before it is due.
     let dir = scratch("hundred-million");
     let file = dir.join("flood.toml");
     std::fs::write(

@@ -171,7 +171,7 @@ pub struct NodeConfig {
     /// One-shot mode: every frame gets one attempt (CMR.AT).
     pub one_shot: bool,
     /// Frames the driver's transmit queue holds besides the one in flight (Linux `txqueuelen`);
-    /// a frame released while it is full is dropped, as `write()` fails with ENOBUFS.
+    /// while it is full, the node's further messages wait (as a sender retrying a full queue).
     pub txqueuelen: usize,
     /// The CANopen device its firmware runs, if any.
     pub canopen: Option<canopen_node::CanopenConfig>,

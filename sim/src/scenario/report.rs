@@ -65,8 +65,9 @@ pub struct NodeReport {
     pub sent: usize,
     /// Frames the driver read from the RX FIFO, in order.
     pub received: Vec<Frame>,
-    /// Frames given up: dropped at bus-off, one-shot attempts that failed, and frames released
-    /// while the node's transmit queue was full (`txqueuelen`).
+    /// Frames given up: dropped at bus-off, one-shot attempts that failed, and messages that were
+    /// due but never got into the node's transmit queue by the end (their sender waited while
+    /// the queue held `txqueuelen` frames).
     pub dropped: usize,
     /// Frames still waiting in the node's queue (or in flight) when the run ended.
     pub unsent: usize,

@@ -148,8 +148,6 @@ pub(crate) struct RunNode {
     driver: Sja1000Driver,
     /// Frames waiting for the driver, at most the node's `txqueuelen`.
     queue: VecDeque<Frame>,
-    /// Frames released while the queue was full (dropped, as Linux's `write()` fails with ENOBUFS).
-    queue_full: usize,
     /// The CANopen device its firmware runs, if any.
     firmware: Option<Firmware>,
     events: Vec<(u64, Happening)>,
@@ -487,7 +485,7 @@ impl<'s> Runner<'s> {
             name: node.config.name.clone(),
             sent: stats.tx_frames,
             received: stats.rx_frames,
-            dropped: stats.tx_dropped + stats.tx_failed + node.queue_full as u64,
+            dropped: stats.tx_dropped + stats.tx_failed,
             tec,
             rec,
             state: node.driver.state(),
@@ -496,15 +494,25 @@ impl<'s> Runner<'s> {
 
     /// Hands out what is due, then runs for at most a bit time.
     pub(crate) fn step(&mut self, end: u64) -> Result<(), ScenarioError> {
-        for (node, frame) in self.schedule.release(self.clock) {
-            self.nodes[node].offer(frame);
+        let mut room: Vec<usize> = self
+            .nodes
+            .iter()
+            .map(|n| n.config.txqueuelen.saturating_sub(n.queue.len()))
+            .collect();
+        let released = self.schedule.release(self.clock, |n| {
+            let free = room[n] > 0;
+            room[n] = room[n].saturating_sub(1);
+            free
+        });
+        for (node, frame) in released {
+            self.nodes[node].queue.push_back(frame);
         }
         self.restart_due()?;
         self.start_transmissions()?;
         let next = [
             Some(self.clock + self.bit_fs),
             Some(end),
-            self.schedule.next_time(),
+            self.schedule.next_time_after(self.clock),
             self.next_restart(),
             self.firmware_deadline(),
         ];
@@ -777,7 +785,8 @@ impl<'s> Runner<'s> {
             .nodes
             .iter()
             .zip(registers)
-            .map(|(node, (tec, rec))| node_report(node, tec, rec))
+            .zip(self.schedule.overdue(self.clock, self.nodes.len()))
+            .map(|((node, (tec, rec)), overdue)| node_report(node, tec, rec, overdue))
             .collect();
         self.applied.sort_by_key(|f| f.start_fs);
         Ok(RunReport {
@@ -820,7 +829,6 @@ impl RunNode {
             id,
             driver: Sja1000Driver::new(id, driver_config),
             queue: VecDeque::new(),
-            queue_full: 0,
             events: Vec::new(),
             bus_off_at: None,
             restarts: 0,
@@ -830,13 +838,11 @@ impl RunNode {
 
     /// Queues `frame` for the driver if the queue has room (`txqueuelen`); whether it had.
     fn offer(&mut self, frame: Frame) -> bool {
-        if self.queue.len() < self.config.txqueuelen {
+        let room = self.queue.len() < self.config.txqueuelen;
+        if room {
             self.queue.push_back(frame);
-            true
-        } else {
-            self.queue_full += 1;
-            false
         }
+        room
     }
 }
 
@@ -848,7 +854,8 @@ fn frame_number(fault: &Fault) -> u64 {
     }
 }
 
-fn node_report(node: &RunNode, tec: u8, rec: u8) -> NodeReport {
+/// The report of `node`; `overdue`: its messages that were due and never got into its queue.
+fn node_report(node: &RunNode, tec: u8, rec: u8, overdue: u64) -> NodeReport {
     let driver_events = || {
         node.events.iter().filter_map(|(_, what)| match what {
             Happening::Driver(event) => Some(event),
@@ -866,7 +873,7 @@ fn node_report(node: &RunNode, tec: u8, rec: u8) -> NodeReport {
             })
             .collect(),
         dropped: count(|e| matches!(e, DriverEvent::TxDropped(_) | DriverEvent::TxFailed(_)))
-            + node.queue_full,
+            + overdue as usize,
         unsent: node.queue.len() + usize::from(node.driver.in_flight().is_some()),
         tec,
         rec,

@@ -122,14 +122,25 @@ impl<'t> Schedule<'t> {
         self.pending.peek().map(|Reverse((t, _))| *t)
     }
 
-    /// Every release due at or before `now`, in order: (node, frame).
-    pub fn release(&mut self, now: u64) -> Vec<(usize, Frame)> {
+    /// Every release due at or before `now` whose node `has_room` (asked once per frame), in
+    /// order: (node, frame). A release whose node has no room waits, and its periodic message's
+    /// later releases behind it, as a sender blocked on a full transmit queue.
+    pub fn release(
+        &mut self,
+        now: u64,
+        mut has_room: impl FnMut(usize) -> bool,
+    ) -> Vec<(usize, Frame)> {
         let mut released = Vec::new();
+        let mut waiting = Vec::new();
         while let Some(&Reverse((t, source))) = self.pending.peek() {
             if t > now {
                 break;
             }
             self.pending.pop();
+            if !has_room(self.node_of(source)) {
+                waiting.push(Reverse((t, source)));
+                continue;
+            }
             match source {
                 Source::Once(i) => {
                     let once = &self.traffic.once[i];
@@ -145,7 +156,44 @@ impl<'t> Schedule<'t> {
                 }
             }
         }
+        self.pending.extend(waiting);
         released
+    }
+
+    fn node_of(&self, source: Source) -> usize {
+        match source {
+            Source::Once(i) => self.traffic.once[i].node,
+            Source::Periodic { index, .. } => self.traffic.periodic[index].node,
+        }
+    }
+
+    /// When the next release is due after `now` (releases already due wait for room).
+    pub fn next_time_after(&self, now: u64) -> Option<u64> {
+        self.pending
+            .iter()
+            .map(|Reverse((t, _))| *t)
+            .filter(|&t| t > now)
+            .min()
+    }
+
+    /// Per node (of `nodes`), the releases due at or before `end` that were never handed out.
+    pub fn overdue(&self, end: u64, nodes: usize) -> Vec<u64> {
+        let mut counts = vec![0; nodes];
+        for &Reverse((t, source)) in &self.pending {
+            if t > end {
+                continue;
+            }
+            match source {
+                Source::Once(i) => counts[self.traffic.once[i].node] += 1,
+                Source::Periodic { index, k } => {
+                    let periodic = &self.traffic.periodic[index];
+                    let due = (end - periodic.first_fs) / periodic.period_fs + 1;
+                    let due = periodic.count.map_or(due, |n| due.min(n));
+                    counts[periodic.node] += due.saturating_sub(k);
+                }
+            }
+        }
+        counts
     }
 }
 
@@ -184,13 +232,14 @@ mod tests {
         };
         let mut schedule = Schedule::new(&traffic, 1);
         assert_eq!(schedule.next_time(), Some(100));
+        let all = |_| true;
         let text = |r: Vec<(usize, Frame)>| -> Vec<String> {
             r.iter().map(|(n, f)| format!("{n}:{f}")).collect()
         };
-        assert_eq!(text(schedule.release(99)), Vec::<String>::new());
-        assert_eq!(text(schedule.release(100)), ["0:011#", "2:020#00BB"]);
+        assert_eq!(text(schedule.release(99, all)), Vec::<String>::new());
+        assert_eq!(text(schedule.release(100, all)), ["0:011#", "2:020#00BB"]);
         assert_eq!(
-            text(schedule.release(300)),
+            text(schedule.release(300, all)),
             ["2:020#01BB", "1:010#01", "2:020#02BB"]
         );
         assert_eq!(schedule.next_time(), None);
@@ -211,5 +260,45 @@ mod tests {
         assert_ne!(a, b);
         assert_eq!(a, periodic.frame(0, 0, 7), "the seed decides");
         assert_ne!(a, periodic.frame(0, 0, 8));
+    }
+
+    #[test]
+    fn a_release_without_room_waits_and_what_never_went_out_is_overdue() {
+        let traffic = Traffic {
+            once: vec![Once {
+                node: 0,
+                at_fs: 50,
+                frame: frame(0x11, &[]),
+            }],
+            periodic: vec![Periodic {
+                node: 1,
+                template: frame(0x20, &[0]),
+                first_fs: 0,
+                period_fs: 100,
+                count: Some(10),
+                pattern: Pattern::Counter,
+            }],
+        };
+        let mut schedule = Schedule::new(&traffic, 1);
+        let text = |r: Vec<(usize, Frame)>| -> Vec<String> {
+            r.iter().map(|(n, f)| format!("{n}:{f}")).collect()
+        };
+        // Node 1 has room for one frame: message 0 goes, message 1 (due at 100) waits.
+        let mut room = 1;
+        let released = schedule.release(150, |n| n == 0 || std::mem::replace(&mut room, 0) > 0);
+        assert_eq!(text(released), ["1:020#00", "0:011#"]);
+        assert_eq!(
+            schedule.next_time_after(150),
+            None,
+            "message 1 waits: nothing later is due"
+        );
+        // By 450, messages 1 to 4 were due and never handed out.
+        assert_eq!(schedule.overdue(450, 2), [0, 4]);
+        // With room again, the waiting message goes first, in order.
+        assert_eq!(
+            text(schedule.release(250, |_| true)),
+            ["1:020#01", "1:020#02"]
+        );
+        assert_eq!(schedule.next_time_after(250), Some(300));
     }
 }
