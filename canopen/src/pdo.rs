@@ -57,7 +57,7 @@ pub fn is_mapping(index: u16) -> bool {
 }
 
 /// A mapping entry: (index, sub-index, bits).
-fn entry(value: u64) -> (u16, u8, u64) {
+pub fn mapping_entry(value: u64) -> (u16, u8, u64) {
     ((value >> 16) as u16, (value >> 8) as u8, value & 0xFF)
 }
 
@@ -66,7 +66,7 @@ pub fn check_mapping(od: &ObjectDictionary, index: u16, count: u64) -> Result<()
     let mut bits = 0;
     let receive = (RPDO_MAPPING..RPDO_MAPPING + PDO_LIMIT).contains(&index);
     for sub in 1..=count {
-        let (object, object_sub, length) = entry(od.unsigned(index, sub as u8));
+        let (object, object_sub, length) = mapping_entry(od.unsigned(index, sub as u8));
         if receive && DUMMIES.contains(&object) {
             let size = crate::od::DataType::from_index(object).and_then(|t| t.size());
             if size.map(|s| 8 * s as u64) != Some(length) {
@@ -110,7 +110,7 @@ fn pdo(od: &ObjectDictionary, communication: u16, mapping: u16, k: u16) -> Optio
     }
     let count = od.unsigned(mapping + k, 0);
     let mapped = (1..=count)
-        .map(|sub| entry(od.unsigned(mapping + k, sub as u8)))
+        .map(|sub| mapping_entry(od.unsigned(mapping + k, sub as u8)))
         .collect();
     let parameter = |sub| od.unsigned(communication + k, sub);
     Some(Pdo {

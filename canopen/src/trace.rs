@@ -10,6 +10,7 @@
 use std::collections::BTreeMap;
 
 use crate::od::ObjectDictionary;
+use crate::pdo::mapping_entry;
 use crate::CanFrame;
 
 /// Function codes (bits 10..7 of the COB-ID) of the predefined connection set.
@@ -171,8 +172,7 @@ impl Tracer {
         let mut offset = 0;
         for sub in 1..=od.unsigned(mapping, 0) {
             let value = od.unsigned(mapping, sub as u8);
-            let (index, object_sub, bits) =
-                ((value >> 16) as u16, (value >> 8) as u8, value & 0xFF);
+            let (index, object_sub, bits) = mapping_entry(value);
             let bytes = (bits / 8) as usize;
             let Some(field) = frame.data.get(offset..offset + bytes) else {
                 break;

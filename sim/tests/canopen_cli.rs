@@ -16,7 +16,7 @@ use std::process::{Command, Stdio};
 
 use canopen::sdo::Abort;
 use canopen::sdo_client::{SdoClient, SdoOutcome};
-use common::{cansim, example, python, text, Raw, ServeProcess};
+use common::{cansim, example, python, scratch, text, Raw, ServeProcess};
 
 #[test]
 fn python_canopen_masters_our_device_through_the_registers() {
@@ -84,8 +84,7 @@ fn the_example_log_reads_like_a_canopen_trace_of_the_device_answering() {
 
 #[test]
 fn cansim_decode_reads_canopen_traffic_with_the_eds() {
-    let dir = std::env::temp_dir().join(format!("cansim-canopen-decode-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("canopen", "decode");
     let vcd = dir.join("io.vcd");
     let o = cansim(&[
         "run",
@@ -121,8 +120,7 @@ fn cansim_decode_reads_canopen_traffic_with_the_eds() {
 
 #[test]
 fn bad_canopen_nodes_are_refused_with_their_line() {
-    let dir = std::env::temp_dir().join(format!("cansim-canopen-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("canopen", "bad");
     let eds = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/eds/io.eds");
     std::fs::copy(&eds, dir.join("io.eds")).unwrap();
     std::fs::write(dir.join("bad.eds"), "[MandatoryObjects]\nSupportedObjects=1\n1=0x1000\n[1000]\nParameterName=x\nDataType=0x0007\nAccessType=rx\n").unwrap();
@@ -151,8 +149,7 @@ fn node_guarding_answers_with_a_toggle_and_a_silent_master_is_a_life_guarding_ev
     // toggle bit that starts at 0; with guard time 10 ms x life time factor 3, no request for
     // 30 ms after the last one is EMCY 8130h (error register 11h), and the next request ends it
     // (EMCY 0000h).
-    let dir = std::env::temp_dir().join(format!("cansim-canopen-guard-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("canopen", "guard");
     let eds = std::fs::read_to_string(example("eds/io.eds")).unwrap();
     let guarded = eds
         .replace("ParameterName=Guard time\nObjectType=0x7\nDataType=0x0006\nAccessType=rw\nDefaultValue=0", "ParameterName=Guard time\nObjectType=0x7\nDataType=0x0006\nAccessType=rw\nDefaultValue=10")

@@ -9,9 +9,9 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use common::{cansim, text};
+use common::{cansim, scratch, text};
 use golden::frame::{encode, Field, Frame};
 use sim::decode::vcd_reader::SignalReader;
 use sim::engine::time::{FS_PER_NS, FS_PER_US};
@@ -29,13 +29,6 @@ const FRAMES: [&str; 6] = [
 ];
 /// Time between two frames.
 const GAP_US: u64 = 400;
-
-fn scratch(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("cansim-replay-{test}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// Runs two nodes at `bitrate`, `a` sending [`FRAMES`] (`b` acknowledges, its clock 300 ppm off),
 /// with a VCD; the bus level changes and each frame's start of frame.
@@ -182,7 +175,7 @@ const SAMPLED_SAMPLE_POINT: f64 = 75.0;
 
 #[test]
 fn every_frame_of_a_4_mhz_and_a_1_mhz_recording_is_received_with_rxerr_0() {
-    let dir = scratch("sampled");
+    let dir = scratch("replay", "sampled");
     for (bitrate, sample_ns) in [(500_000, 250), (125_000, 1000)] {
         let (edges, _) = record(&dir, bitrate);
         let capture = dir.join(format!("la-{bitrate}.vcd"));
@@ -206,7 +199,7 @@ fn edges_jittered_by_one_sample_still_give_every_frame() {
     // 250 kbit/s at 16 MHz: 16 quanta of 250 ns, one sample of a 4 MHz analyzer each. Two edges
     // moved apart by one sample each make a bit 2 samples (1/8 bit) shorter or longer; the sample
     // point at 75 % leaves 4 samples of margin.
-    let dir = scratch("jitter");
+    let dir = scratch("replay", "jitter");
     let (edges, _) = record(&dir, 250_000);
     let period = 250 * FS_PER_NS;
     let capture = dir.join("jitter.vcd");
@@ -219,7 +212,7 @@ fn edges_jittered_by_one_sample_still_give_every_frame() {
 
 #[test]
 fn a_glitch_on_the_crc_delimiter_is_a_form_error_and_one_on_the_idle_bus_is_nothing() {
-    let dir = scratch("glitch");
+    let dir = scratch("replay", "glitch");
     let (edges, starts) = record(&dir, 500_000);
     let bit = 2 * FS_PER_US;
     let sample_point = bit * 7 / 8; // 87.5 %
@@ -265,7 +258,7 @@ fn a_glitch_on_the_crc_delimiter_is_a_form_error_and_one_on_the_idle_bus_is_noth
 
 #[test]
 fn a_sigrok_session_is_read_through_sigrok_cli() {
-    let dir = scratch("sigrok");
+    let dir = scratch("replay", "sigrok");
     let (edges, _) = record(&dir, 500_000);
     let vcd = dir.join("la.vcd");
     write_capture(&vcd, &resample(&edges, 250 * FS_PER_NS));
@@ -287,7 +280,7 @@ fn a_sigrok_session_is_read_through_sigrok_cli() {
 
 #[test]
 fn bad_captures_and_options_are_clear_errors() {
-    let dir = scratch("bad");
+    let dir = scratch("replay", "bad");
     let missing = dir.join("missing.vcd");
     let vcd = dir.join("la.vcd");
     write_capture(&vcd, &[(0, true)]);
@@ -338,7 +331,7 @@ fn bad_captures_and_options_are_clear_errors() {
 fn scenario_nodes_receive_and_answer_a_recorded_bus() {
     // `[bus] recording`: the capture drives the bus; r receives (and acknowledges, on top of the
     // recorded ACK); t sends its own frame in a gap between two recorded ones.
-    let dir = scratch("scenario");
+    let dir = scratch("replay", "scenario");
     let (edges, _) = record(&dir, 500_000);
     write_capture(&dir.join("la.vcd"), &resample(&edges, 250 * FS_PER_NS));
     let text = "duration = \"3.2ms\"\n[bus]\nbitrate = 500000\nrecording = \"la.vcd\"\n\
@@ -381,7 +374,7 @@ fn a_minute_of_idle_bus_is_shortened_but_the_times_stay_the_capture_s() {
     // The last three frames come a minute later. Stepping a 16 MHz controller through a minute
     // of idle bus would take about 20 minutes here; shortened, the replay takes a moment, and the
     // candump times are still the capture's.
-    let dir = scratch("idle");
+    let dir = scratch("replay", "idle");
     let (edges, starts) = record(&dir, 500_000);
     let minute = 60 * 1_000_000 * FS_PER_US;
     let gap_from = starts[3] - 100 * FS_PER_US;

@@ -4,17 +4,7 @@
 
 mod common;
 
-use std::path::PathBuf;
-
-use common::{cansim, example, text};
-
-/// A fresh directory for one test.
-fn scratch(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("cansim-run-{test}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+use common::{cansim, example, scratch, text};
 
 const HEADER: &str = "duration = \"1ms\"\n[bus]\nbitrate = 500000\n[[node]]\nname = \"a\"\n";
 
@@ -22,7 +12,7 @@ const HEADER: &str = "duration = \"1ms\"\n[bus]\nbitrate = 500000\n[[node]]\nnam
 /// a VCD and a log in an output directory; checks that it fails with `message` on stderr and
 /// leaves the output directory empty.
 fn fails(test: &str, scenario: &str, extra: &[(&str, &str)], args: &[&str], message: &str) {
-    let dir = scratch(test);
+    let dir = scratch("run", test);
     let file = dir.join("bad.toml");
     std::fs::write(&file, scenario).unwrap();
     for (name, contents) in extra {
@@ -255,7 +245,7 @@ fn an_error_while_running_leaves_no_half_written_output() {
 
 #[test]
 fn a_scenario_runs_and_writes_its_log_and_waves_without_a_progress_bar_when_piped() {
-    let dir = scratch("replay");
+    let dir = scratch("run", "replay");
     let (vcd, log) = (dir.join("w").join("replay.vcd"), dir.join("replay.log"));
     let o = cansim(&[
         "run",
@@ -346,7 +336,7 @@ fn a_hundred_million_frame_scenario_keeps_a_bounded_queue_and_little_memory() {
     // Node a has a frame due every 111 us (two messages of 222 us each, 100 million of each), twice
     // what the bus can carry: its queue holds 4 frames (txqueuelen), the later messages wait, and
     // those still waiting at the end are counted as dropped. Nothing is made before it is due.
-    let dir = scratch("hundred-million");
+    let dir = scratch("run", "hundred-million");
     let file = dir.join("flood.toml");
     std::fs::write(
         &file,

@@ -6,11 +6,11 @@
 mod common;
 
 use std::net::TcpListener;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::time::Duration;
 
-use common::{cansim, example, python, text, Raw, ServeProcess, WAIT};
+use common::{cansim, example, python, scratch, text, Raw, ServeProcess, WAIT};
 
 /// The counts row of node `name` in the server's summary: sent, received, dropped, TXERR, RXERR.
 fn row(out: &str, name: &str) -> Vec<u64> {
@@ -38,16 +38,9 @@ fn wait_for_log(path: &Path, needle: &str) -> String {
     }
 }
 
-fn scratch(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("cansim-serve-{test}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 #[test]
 fn python_can_clients_exchange_frames_with_the_scenario_and_each_other() {
-    let dir = scratch("python-can");
+    let dir = scratch("serve", "python-can");
     let log = dir.join("bus.log");
     let mut server = ServeProcess::start(&example("serve.toml"), &["--log", log.to_str().unwrap()]);
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/socketcand_clients.py");
@@ -91,7 +84,7 @@ fn python_can_clients_exchange_frames_with_the_scenario_and_each_other() {
 
 #[test]
 fn malformed_input_gets_an_error_the_connection_stays_and_the_bus_is_untouched() {
-    let dir = scratch("malformed");
+    let dir = scratch("serve", "malformed");
     let log = dir.join("bus.log");
     let mut server = ServeProcess::start(&example("serve.toml"), &["--log", log.to_str().unwrap()]);
     let mut client = Raw::connect(server.port);

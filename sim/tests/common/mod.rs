@@ -23,6 +23,14 @@ pub fn cansim_with_env(args: &[&str], env: &[(&str, &str)]) -> Output {
     command.output().expect("cansim runs")
 }
 
+/// A fresh, empty directory for test `test` of suite `suite`.
+pub fn scratch(suite: &str, test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("cansim-{suite}-{test}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
 /// Output bytes as text.
 pub fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
