@@ -13,6 +13,7 @@ use crate::nmt::{NmtCommand, NmtState};
 use crate::od::ObjectDictionary;
 use crate::pdo::{receive_rpdo, Tpdos};
 use crate::sdo::SdoServer;
+use crate::time_stamp::{TimeOfDay, COB_ID_TIME, TIME_CONSUMER};
 use crate::CanFrame;
 
 /// COB-ID of NMT commands.
@@ -49,6 +50,8 @@ pub struct Device {
     sync: SyncProducer,
     emergencies: Emergencies,
     guarding: Guarding,
+    /// The last TIME consumed and when it came.
+    time: Option<(TimeOfDay, u64)>,
 }
 
 impl Device {
@@ -69,6 +72,7 @@ impl Device {
             sync: SyncProducer::default(),
             emergencies: Emergencies::default(),
             guarding: Guarding::default(),
+            time: None,
         })
     }
 
@@ -85,6 +89,13 @@ impl Device {
     /// Its object dictionary.
     pub fn od(&self) -> &ObjectDictionary {
         &self.od
+    }
+
+    /// Its time of day at `now_us`: the last TIME message it consumed plus the time since, if one
+    /// came.
+    pub fn time_of_day(&self, now_us: u64) -> Option<TimeOfDay> {
+        self.time
+            .map(|(time, at_us)| time.plus_us(now_us.saturating_sub(at_us)))
     }
 
     /// Power-on at `now_us`: the boot-up message; then pre-operational.
@@ -157,6 +168,12 @@ impl Device {
                 return Vec::new();
             }
         }
+        if self.consumes_time(frame.id) {
+            if let Some(time) = TimeOfDay::decode(&frame.data) {
+                self.time = Some((time, now_us));
+            }
+            return Vec::new();
+        }
         if is_heartbeat(frame.id, self.node_id) {
             return self.emergencies.heartbeat(&mut self.od, frame.id, now_us);
         }
@@ -225,6 +242,16 @@ impl Device {
                 Vec::new()
             }
         }
+    }
+
+    /// Whether `id` carries TIME messages this device consumes: 1012h has the consumer bit and
+    /// this COB-ID, and TIME is a pre-operational and operational service (Table 82).
+    fn consumes_time(&self, id: u16) -> bool {
+        let Ok(_) = self.od.entry(COB_ID_TIME, 0) else {
+            return false;
+        };
+        let cob_id = self.od.unsigned(COB_ID_TIME, 0);
+        self.state.serves_sdo() && cob_id & TIME_CONSUMER != 0 && (cob_id & 0x7FF) as u16 == id
     }
 
     /// The COB-ID SYNC messages come on.
@@ -372,6 +399,37 @@ DefaultValue=100
         );
         d.receive(&frame(0x000, &[0x02, 3]), 2);
         assert!(d.receive(&read, 3).is_empty());
+    }
+
+    #[test]
+    fn time_is_consumed_when_1012h_says_so_and_runs_on_with_the_local_clock() {
+        let with_time = EDS.replace("SupportedObjects=2\n1=0x1000\n2=0x1017", "SupportedObjects=3\n1=0x1000\n2=0x1017\n3=0x1012")
+            + "[1012]\nParameterName=COB-ID TIME\nDataType=0x0007\nAccessType=rw\nDefaultValue=0x80000100\n";
+        let od = eds::parse(&with_time, Path::new("t.eds"), 3).unwrap();
+        let mut d = Device::new(3, od).unwrap();
+        d.start(0);
+        let noon = TimeOfDay {
+            days: 5844,
+            ms: 43_200_000,
+        };
+        d.receive(&frame(0x100, &noon.encode()), 1_000);
+        assert_eq!(d.time_of_day(1_000), Some(noon));
+        assert_eq!(
+            d.time_of_day(251_000).map(|t| t.to_string()),
+            Some("2000-01-01 12:00:00.250".to_string())
+        );
+        // Bit 31 cleared: TIME messages are no longer consumed.
+        d.receive(
+            &frame(0x603, &[0x23, 0x12, 0x10, 0, 0x00, 0x01, 0, 0]),
+            2_000,
+        );
+        d.receive(&frame(0x100, &TimeOfDay::Y2000.encode()), 3_000);
+        assert_eq!(d.time_of_day(3_000), Some(noon.plus_us(2_000)));
+        // A device without 1012h consumes none.
+        let mut plain = device();
+        plain.start(0);
+        plain.receive(&frame(0x100, &noon.encode()), 1_000);
+        assert_eq!(plain.time_of_day(1_000), None);
     }
 
     #[test]

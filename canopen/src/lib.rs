@@ -21,12 +21,16 @@ pub mod device;
 pub mod eds;
 pub mod error_control;
 pub mod guarding;
+pub mod master;
 pub mod nmt;
+pub mod node_table;
 pub mod od;
 pub mod pdo;
 pub mod sdo;
 pub mod sdo_block;
+pub mod sdo_block_client;
 pub mod sdo_client;
+pub mod time_stamp;
 pub mod trace;
 
 /// A CAN frame with an 11-bit identifier, as CANopen's predefined connection set uses them.

@@ -61,6 +61,17 @@ impl NmtCommand {
         })
     }
 
+    /// Its command specifier.
+    pub fn specifier(self) -> u8 {
+        match self {
+            NmtCommand::Start => 0x01,
+            NmtCommand::Stop => 0x02,
+            NmtCommand::EnterPreOperational => 0x80,
+            NmtCommand::ResetNode => 0x81,
+            NmtCommand::ResetCommunication => 0x82,
+        }
+    }
+
     /// The state a device is in after the command (the resets pass through initialisation and
     /// its boot-up message to pre-operational).
     pub fn next_state(self) -> NmtState {

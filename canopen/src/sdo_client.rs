@@ -234,6 +234,11 @@ impl SdoClient {
         abort_frame(self.index, self.sub, abort)
     }
 
+    /// When the server last answered (or the transfer began).
+    pub fn last_us(&self) -> u64 {
+        self.last_us
+    }
+
     /// At `now_us`, with `timeout_us` allowed per answer: the abort of a transfer left unanswered.
     pub fn check_timeout(&mut self, now_us: u64, timeout_us: u64) -> Option<SdoOutcome> {
         if !self.busy() || now_us < self.last_us + timeout_us {

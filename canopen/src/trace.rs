@@ -11,6 +11,7 @@ use std::collections::BTreeMap;
 
 use crate::od::ObjectDictionary;
 use crate::pdo::mapping_entry;
+use crate::time_stamp::TimeOfDay;
 use crate::CanFrame;
 
 /// Function codes (bits 10..7 of the COB-ID) of the predefined connection set.
@@ -31,8 +32,6 @@ const PDOS: [(u16, &str, u16, u16); 8] = [
     (0x480, "TPDO4", 0x1803, 0x1A03),
     (0x500, "RPDO4", 0x1403, 0x1603),
 ];
-/// Days from 1970-01-01 to 1984-01-01, the epoch of TIME_OF_DAY (CiA 301 7.1.6.5).
-const DAYS_1970_TO_1984: i64 = 5113;
 
 /// Reads CANopen frames, knowing the dictionaries of some nodes.
 #[derive(Clone, Debug, Default)]
@@ -241,30 +240,12 @@ fn error_control(node: u8, data: &[u8]) -> String {
     format!("heartbeat of node {node}: {what}")
 }
 
-/// TIME_OF_DAY: milliseconds after midnight (28 bits), days since 1984-01-01 (16 bits).
+/// A TIME message: its date and time of day.
 fn time_stamp(data: &[u8]) -> String {
-    if data.len() != 6 {
-        return "TIME: not 6 bytes".to_string();
+    match TimeOfDay::decode(data) {
+        Some(time) => format!("TIME {time}"),
+        None => "TIME: not 6 bytes".to_string(),
     }
-    let ms = u32::from_le_bytes([data[0], data[1], data[2], data[3]]) & 0x0FFF_FFFF;
-    let days = i64::from(u16::from_le_bytes([data[4], data[5]]));
-    let (year, month, day) = civil_from_days(days + DAYS_1970_TO_1984);
-    let (h, m, s, milli) = (ms / 3_600_000, ms / 60_000 % 60, ms / 1000 % 60, ms % 1000);
-    format!("TIME {year:04}-{month:02}-{day:02} {h:02}:{m:02}:{s:02}.{milli:03}")
-}
-
-/// The date of `days` since 1970-01-01 (proleptic Gregorian calendar).
-fn civil_from_days(days: i64) -> (i64, u32, u32) {
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z.rem_euclid(146_097);
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = (doy - (153 * mp + 2) / 5 + 1) as u32;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
-    let year = yoe + era * 400 + i64::from(month <= 2);
-    (year, month, day)
 }
 
 /// `, last` for a segment with the c bit (bit 0).
