@@ -73,6 +73,8 @@ pub enum Action {
         /// By block download.
         block: bool,
     },
+    /// Sends one frame (a PDO for a device's RPDO, say).
+    Send(CanFrame),
     /// The SYNC producer sends every `period_us` from now (0: stops it).
     Sync {
         /// Communication cycle period.
@@ -137,7 +139,7 @@ pub struct Step {
 /// How a step ended.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Outcome {
-    /// Done (NMT command sent, producer set, wait over).
+    /// Done (NMT command or frame sent, producer set, wait over).
     Done,
     /// An upload's data.
     Uploaded(Vec<u8>),
@@ -443,6 +445,7 @@ impl Master {
                 let frame = CanFrame::new(SDO_REQUEST + u16::from(node), &request);
                 (Some(frame), Running::Sdo { node, transfer })
             }
+            Action::Send(frame) => (Some(frame), Running::Idle),
             Action::Sync { period_us } => {
                 self.sync.set(period_us, now_us);
                 (None, Running::Idle)

@@ -52,6 +52,28 @@ impl DataType {
         })
     }
 
+    /// Its index in CiA 301 Table 44 (the EDS DataType).
+    pub fn index(self) -> u16 {
+        match self {
+            DataType::Boolean => 0x0001,
+            DataType::Integer(1) => 0x0002,
+            DataType::Integer(2) => 0x0003,
+            DataType::Integer(3) => 0x0010,
+            DataType::Integer(4) => 0x0004,
+            DataType::Integer(_) => 0x0015,
+            DataType::Unsigned(1) => 0x0005,
+            DataType::Unsigned(2) => 0x0006,
+            DataType::Unsigned(3) => 0x0016,
+            DataType::Unsigned(4) => 0x0007,
+            DataType::Unsigned(_) => 0x001B,
+            DataType::Real32 => 0x0008,
+            DataType::Real64 => 0x0011,
+            DataType::VisibleString => 0x0009,
+            DataType::OctetString => 0x000A,
+            DataType::Domain => 0x000F,
+        }
+    }
+
     /// Its length in bytes, for the types of fixed length.
     pub fn size(self) -> Option<usize> {
         match self {

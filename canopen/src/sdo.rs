@@ -45,6 +45,54 @@ impl Abort {
     pub const VALUE_TOO_LOW: Abort = Abort(0x0609_0032);
 }
 
+impl Abort {
+    /// What the code means, in the words of CiA 301 Table 22.
+    pub fn meaning(self) -> &'static str {
+        match self.0 {
+            0x0503_0000 => "toggle bit not alternated",
+            0x0504_0000 => "SDO protocol timed out",
+            0x0504_0001 => "client/server command specifier not valid or unknown",
+            0x0504_0002 => "invalid block size",
+            0x0504_0003 => "invalid sequence number",
+            0x0504_0004 => "CRC error",
+            0x0504_0005 => "out of memory",
+            0x0601_0000 => "unsupported access to an object",
+            0x0601_0001 => "attempt to read a write only object",
+            0x0601_0002 => "attempt to write a read only object",
+            0x0602_0000 => "object does not exist in the object dictionary",
+            0x0604_0041 => "object cannot be mapped to the PDO",
+            0x0604_0042 => "the objects to be mapped would exceed the PDO length",
+            0x0604_0043 => "general parameter incompatibility",
+            0x0604_0047 => "general internal incompatibility in the device",
+            0x0606_0000 => "access failed due to a hardware error",
+            0x0607_0010 => "data type does not match, length of service parameter does not match",
+            0x0607_0012 => "data type does not match, length of service parameter too high",
+            0x0607_0013 => "data type does not match, length of service parameter too low",
+            0x0609_0011 => "sub-index does not exist",
+            0x0609_0030 => "invalid value for parameter",
+            0x0609_0031 => "value of parameter written too high",
+            0x0609_0032 => "value of parameter written too low",
+            0x0609_0036 => "maximum value is less than minimum value",
+            0x060A_0023 => "resource not available: SDO connection",
+            0x0800_0000 => "general error",
+            0x0800_0020 => "data cannot be transferred or stored to the application",
+            0x0800_0021 => "data cannot be transferred or stored because of local control",
+            0x0800_0022 => "data cannot be transferred or stored because of the device state",
+            0x0800_0023 => "no object dictionary is present",
+            0x0800_0024 => "no data available",
+            _ => "not a CiA 301 abort code",
+        }
+    }
+}
+
+impl std::fmt::Display for Abort {
+    /// `0602 0000 (object does not exist in the object dictionary)`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (high, low) = (self.0 >> 16, self.0 & 0xFFFF);
+        write!(f, "{high:04X} {low:04X} ({})", self.meaning())
+    }
+}
+
 /// Client command specifiers (bits 7..5 of byte 0).
 const CCS_DOWNLOAD_SEGMENT: u8 = 0;
 const CCS_INITIATE_DOWNLOAD: u8 = 1;

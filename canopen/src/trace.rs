@@ -37,12 +37,28 @@ const PDOS: [(u16, &str, u16, u16); 8] = [
 #[derive(Clone, Debug, Default)]
 pub struct Tracer {
     nodes: BTreeMap<u8, ObjectDictionary>,
+    /// Per node: its block transfer, if one is open.
+    blocks: BTreeMap<u8, BlockTrace>,
+}
+
+/// What the tracer follows of a block transfer: its segments carry no command specifier.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct BlockTrace {
+    /// The segments come from the client (download) or the server (upload).
+    from_client: bool,
+    /// Segments are on the way now.
+    segments: bool,
+    /// The last segment came.
+    last: bool,
 }
 
 impl Tracer {
     /// A tracer that knows `nodes` (node-ID → dictionary at its defaults).
     pub fn new(nodes: BTreeMap<u8, ObjectDictionary>) -> Tracer {
-        Tracer { nodes }
+        Tracer {
+            nodes,
+            blocks: BTreeMap::new(),
+        }
     }
 
     /// `frame` in words (and what it changes of the known dictionaries).
@@ -91,6 +107,10 @@ impl Tracer {
         let Some(&command) = data.first().filter(|_| data.len() == 8) else {
             return format!("{who} node {node}: not 8 bytes");
         };
+        let block = self.blocks.get(&node);
+        if block.is_some_and(|b| b.segments && b.from_client == request) {
+            return format!("{who} node {node}: {}", self.block_segment(node, command));
+        }
         let index = u16::from_le_bytes([data[1], data[2]]);
         let sub = data[3];
         let place = format!("{index:04X}h:{sub:02X}{}", self.name(node, index, sub));
@@ -123,11 +143,90 @@ impl Tracer {
             (false, 2) => format!("upload {place}, segmented"),
             (true, 3) => "upload segment request".to_string(),
             (false, 0) => format!("upload segment{}", last(command)),
-            (true, 6) | (false, 5) => "block download".to_string(),
-            (true, 5) | (false, 6) => "block upload".to_string(),
+            (true, 6) | (false, 5) | (true, 5) | (false, 6) => {
+                self.block(node, request, data, &place)
+            }
             _ => "unknown command".to_string(),
         };
         format!("{who} node {node}: {what}")
+    }
+
+    /// A block transfer's segment (its sequence number, bit 7 on the last).
+    fn block_segment(&mut self, node: u8, command: u8) -> String {
+        let last = command & 0x80 != 0;
+        if let (Some(block), true) = (self.blocks.get_mut(&node), last) {
+            (block.segments, block.last) = (false, true);
+        }
+        format!(
+            "block segment {}{}",
+            command & 0x7F,
+            if last { ", last" } else { "" }
+        )
+    }
+
+    /// A command of a block transfer (CiA 301 7.2.4.3.9–7.2.4.3.16), following when segments
+    /// come.
+    fn block(&mut self, node: u8, request: bool, data: &[u8], place: &str) -> String {
+        let command = data[0];
+        let download = (command >> 5 == 6) == request;
+        let size = u32::from_le_bytes([data[4], data[5], data[6], data[7]]);
+        let crc = u16::from_le_bytes([data[1], data[2]]);
+        // The sub-command: bits 1..0 for the side that receives the segments, bit 0 for the side
+        // that sends them.
+        let sub_command = command & if download == request { 0x01 } else { 0x03 };
+        let unused = (command >> 2) & 0x07;
+        let confirmed = |what: &str| {
+            format!(
+                "block {what}: {} segments confirmed, {} per block",
+                data[1], data[2]
+            )
+        };
+        let (text, segments_follow) = match (download, request, sub_command) {
+            (_, true, 0) => {
+                self.blocks.insert(
+                    node,
+                    BlockTrace {
+                        from_client: download,
+                        segments: false,
+                        last: false,
+                    },
+                );
+                if download {
+                    (format!("block download {place}, {size} bytes"), false)
+                } else {
+                    let per_block = data[4];
+                    (
+                        format!("block upload {place}: {per_block} segments per block"),
+                        false,
+                    )
+                }
+            }
+            (true, false, 0) => (
+                format!("block download {place}: {} segments per block", data[4]),
+                true,
+            ),
+            (false, false, 0) => (format!("block upload {place}, {size} bytes"), false),
+            (false, true, 3) => ("block upload start".to_string(), true),
+            (true, false, 2) => (confirmed("download"), true),
+            (false, true, 2) => (confirmed("upload"), true),
+            (_, _, 1) if download == request => (
+                format!(
+                    "block {} end: {unused} bytes unused, CRC {crc:04X}h",
+                    if download { "download" } else { "upload" }
+                ),
+                false,
+            ),
+            (_, _, 1) => {
+                self.blocks.remove(&node);
+                let what = if download { "download" } else { "upload" };
+                (format!("block {what} ended"), false)
+            }
+            _ => ("block transfer: unknown command".to_string(), false),
+        };
+        if let Some(block) = self.blocks.get_mut(&node) {
+            block.segments = segments_follow && !block.last;
+        }
+        text
     }
 
     /// `bytes` of `index`:`sub` of `node`: a number when the EDS says it is an integer (in hex

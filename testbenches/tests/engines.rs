@@ -116,6 +116,7 @@ fn example_is_the_same_on(name: &str, other: ModelEngine) {
     assert_same_items(&format!("{name}: events"), other, &r.0.events, &r.1.events);
     assert_same_items(&format!("{name}: faults"), other, &r.0.faults, &r.1.faults);
     assert_eq!(r.0.missed_faults, r.1.missed_faults, "{name}");
+    assert_eq!(r.0.master, r.1.master, "{name}: CANopen master");
     assert_eq!(r.0.frame_starts, r.1.frame_starts, "{name}");
     assert_eq!(r.0.simulated_fs, r.1.simulated_fs, "{name}");
 }

@@ -570,7 +570,13 @@ fn run_scenario(
     print!("{}", format_report(&scenario, &report, parts));
     println!("{}", speed_line(&report, seconds));
     print_outputs(&report, &scenario);
-    Ok(())
+    match report.failed_steps() {
+        0 => Ok(()),
+        failed => Err(format!(
+            "{}: {failed} CANopen master step(s) failed (marked FAILED above)",
+            path.display()
+        )),
+    }
 }
 
 /// The options of `cansim serve` besides the scenario.
@@ -659,7 +665,12 @@ fn serve(path: &Path, args: ServeArgs) -> Result<(), String> {
     if let Some(vcd) = summary.vcd {
         say(&format!("wrote {}", vcd.display()));
     }
-    Ok(())
+    match summary.failed_steps {
+        0 => Ok(()),
+        failed => Err(format!(
+            "{failed} CANopen master step(s) failed or did not end (marked FAILED above)"
+        )),
+    }
 }
 
 fn sync_demo(vcd: PathBuf, no_vcd: bool, quiet: bool) -> Result<(), String> {

@@ -1,12 +1,13 @@
-//! Scenario nodes whose firmware is the CANopen device stack (`canopen = { node_id, eds }`): the
-//! stack of the `canopen` crate gets every frame the node's driver read from the RX FIFO, with its
-//! time, and the time as it passes; what it sends goes to the node's driver like any frame of the
+//! Scenario nodes whose firmware is a CANopen stack of the `canopen` crate, a device
+//! (`canopen = { node_id, eds }`) or the master (`canopen_master = { … }`): the stack gets every
+//! frame the node's driver read from the RX FIFO, with its time, and the time as it passes; what it sends goes to the node's driver like any frame of the
 //! traffic, through the SJA1000 registers and the cycle-accurate bus.
 
 use std::collections::VecDeque;
 use std::path::PathBuf;
 
 use canopen::device::Device;
+use canopen::master::{Master, MasterEvent};
 use canopen::od::ObjectDictionary;
 use canopen::trace::Tracer;
 use canopen::CanFrame;
@@ -17,7 +18,7 @@ use crate::engine::time::FS_PER_US;
 use crate::host::driver::DriverEvent;
 
 use super::report::Happening;
-use super::ScenarioError;
+use super::{NodeConfig, ScenarioError};
 
 /// A node's CANopen device: its node-ID and object dictionary.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,9 +31,15 @@ pub struct CanopenConfig {
     pub od: ObjectDictionary,
 }
 
+/// The CANopen stack a node runs.
+enum Stack {
+    Device(Box<Device>),
+    Master(Box<Master>),
+}
+
 /// The CANopen firmware of a running node.
 pub(crate) struct Firmware {
-    device: Device,
+    stack: Stack,
     /// Events of the node already handed to the device.
     seen: usize,
     /// What the device sent that the driver's queue had no room for yet (a block upload sends up
@@ -41,20 +48,43 @@ pub(crate) struct Firmware {
 }
 
 impl Firmware {
-    /// The firmware of `config`, not started yet.
-    pub(crate) fn new(config: &CanopenConfig) -> Result<Firmware, ScenarioError> {
-        let device = Device::new(config.node_id, config.od.clone()).map_err(ScenarioError::new)?;
-        Ok(Firmware {
-            device,
+    /// The firmware of node `config`, if it runs CANopen; not started yet.
+    pub(crate) fn of_node(config: &NodeConfig) -> Result<Option<Firmware>, ScenarioError> {
+        let stack = match (&config.canopen, &config.canopen_master) {
+            (Some(device), _) => {
+                let device = Device::new(device.node_id, device.od.clone());
+                Stack::Device(Box::new(device.map_err(ScenarioError::new)?))
+            }
+            (None, Some(script)) => {
+                let steps = script.steps.iter().map(|s| s.step.clone()).collect();
+                let master = Master::new(script.config, steps).map_err(ScenarioError::new)?;
+                Stack::Master(Box::new(master))
+            }
+            (None, None) => return Ok(None),
+        };
+        Ok(Some(Firmware {
+            stack,
             seen: 0,
             outbox: VecDeque::new(),
-        })
+        }))
     }
 
-    /// Power-on at `now_fs`: the device's boot-up message goes to its outbox.
+    /// Power-on at `now_fs`: the boot-up message goes to the outbox.
     pub(crate) fn start(&mut self, now_fs: u64) {
-        let frames = self.device.start(now_fs / FS_PER_US);
+        let now_us = now_fs / FS_PER_US;
+        let frames = match &mut self.stack {
+            Stack::Device(device) => device.start(now_us),
+            Stack::Master(master) => master.start(now_us),
+        };
         self.outbox.extend(frames.iter().map(to_frame));
+    }
+
+    /// What the master reported since the last call (nothing for a device).
+    pub(crate) fn take_master_events(&mut self) -> Vec<(u64, MasterEvent)> {
+        match &mut self.stack {
+            Stack::Master(master) => master.take_events(),
+            Stack::Device(_) => Vec::new(),
+        }
     }
 
     /// The next frame of the outbox, for the driver's queue.
@@ -69,12 +99,20 @@ impl Firmware {
         for (at_fs, what) in &events[self.seen.min(events.len())..] {
             if let Happening::Driver(DriverEvent::Received(frame)) = what {
                 if let Some(frame) = from_frame(frame) {
-                    out.extend(self.device.receive(&frame, at_fs / FS_PER_US));
+                    let at_us = at_fs / FS_PER_US;
+                    out.extend(match &mut self.stack {
+                        Stack::Device(device) => device.receive(&frame, at_us),
+                        Stack::Master(master) => master.receive(&frame, at_us),
+                    });
                 }
             }
         }
         self.seen = events.len();
-        out.extend(self.device.tick(now_fs / FS_PER_US));
+        let now_us = now_fs / FS_PER_US;
+        out.extend(match &mut self.stack {
+            Stack::Device(device) => device.tick(now_us),
+            Stack::Master(master) => master.tick(now_us),
+        });
         self.outbox.extend(out.iter().map(to_frame));
     }
 
@@ -85,7 +123,11 @@ impl Firmware {
 
     /// When the device next has something due.
     pub(crate) fn deadline_fs(&self) -> Option<u64> {
-        self.device.next_deadline().map(|us| us * FS_PER_US)
+        let deadline = match &self.stack {
+            Stack::Device(device) => device.next_deadline(),
+            Stack::Master(master) => master.next_deadline(),
+        };
+        deadline.map(|us| us.saturating_mul(FS_PER_US))
     }
 }
 
@@ -106,14 +148,21 @@ impl CanopenLog {
         }
     }
 
-    /// The log of the CANopen devices among `nodes`, if there is one.
-    pub fn of_nodes(nodes: &[super::NodeConfig]) -> Option<CanopenLog> {
-        let devices: Vec<(u8, ObjectDictionary)> = nodes
+    /// The log of a scenario with CANopen `nodes` (devices or a master), if it has any.
+    pub fn of_nodes(nodes: &[NodeConfig]) -> Option<CanopenLog> {
+        let devices = nodes
             .iter()
             .filter_map(|n| n.canopen.as_ref())
-            .map(|c| (c.node_id, c.od.clone()))
-            .collect();
-        (!devices.is_empty()).then(|| CanopenLog::new(devices))
+            .map(|c| (c.node_id, c.od.clone()));
+        let remote = nodes
+            .iter()
+            .filter_map(|n| n.canopen_master.as_ref())
+            .flat_map(|m| m.remote.iter().map(|r| (r.node_id, r.od.clone())));
+        let known: Vec<(u8, ObjectDictionary)> = devices.chain(remote).collect();
+        let canopen = nodes
+            .iter()
+            .any(|n| n.canopen.is_some() || n.canopen_master.is_some());
+        canopen.then(|| CanopenLog::new(known))
     }
 
     /// `event`'s log line, with what a frame with a standard identifier means in CANopen.

@@ -13,12 +13,14 @@
 //! * [`candump`] the candump frame notation and log files,
 //! * [`traffic`] when which node hands which frame to its driver,
 //! * [`faults`] where a fault lands and what it does to the bus,
-//! * [`canopen_node`] nodes whose firmware is the CANopen device stack,
+//! * [`canopen_node`] nodes whose firmware is the CANopen device stack, [`canopen_master`] the
+//!   CANopen master with its script,
 //! * [`recording`] a captured bus that drives the simulated one,
 //! * [`mod@run`] runs a scenario, [`summary`] prints its results, [`progress`] shows a run going,
 //!   [`view`] writes a GTKWave view beside its VCD.
 
 pub mod candump;
+pub mod canopen_master;
 pub mod canopen_node;
 pub mod faults;
 mod output;
@@ -175,6 +177,8 @@ pub struct NodeConfig {
     pub txqueuelen: usize,
     /// The CANopen device its firmware runs, if any.
     pub canopen: Option<canopen_node::CanopenConfig>,
+    /// The CANopen master its firmware runs, with its script, if any.
+    pub canopen_master: Option<canopen_master::MasterScript>,
 }
 
 impl NodeConfig {

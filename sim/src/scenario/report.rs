@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use golden::frame::Frame;
 
+use super::canopen_master::MasterLine;
 use crate::decode::bus_decoder::BusEvent;
 use crate::host::driver::{CanState, DriverEvent, DriverStats};
 
@@ -25,6 +26,9 @@ pub struct RunReport {
     pub faults: Vec<AppliedFault>,
     /// Faults that never landed, with the reason (e.g. the bus saw fewer frames).
     pub missed_faults: Vec<String>,
+    /// The CANopen master's log: its steps as they ended (failed ones marked, steps that never
+    /// ended last) and what its node table saw.
+    pub master: Vec<MasterLine>,
     /// When each frame started on the bus (frame 1 first).
     pub frame_starts: Vec<u64>,
     /// Simulated time.
@@ -48,6 +52,11 @@ impl RunReport {
             .partition_point(|&(from, _)| from <= t_fs);
         let shift = k.checked_sub(1).map_or(0, |k| self.recording_shifts[k].1);
         t_fs.saturating_add_signed(-shift)
+    }
+
+    /// The master's steps that did not give what they expected.
+    pub fn failed_steps(&self) -> usize {
+        self.master.iter().filter(|line| line.failed).count()
     }
 
     /// The bus log as text: one `candump -l` style line per event.

@@ -28,6 +28,7 @@ use crate::host::Host;
 use crate::nodes::controller_node::{ControllerNode, ModelEngine};
 use golden::frame::{Frame, DOMINANT, RECESSIVE};
 
+use super::canopen_master::MasterLine;
 use super::canopen_node::Firmware;
 use super::faults::{install, locate, Fault, FaultKind, Place, Target};
 use super::output::PendingFile;
@@ -172,6 +173,9 @@ pub(crate) struct Runner<'s> {
     recording: Option<RecordingFeed>,
     /// The CANopen devices have been powered on.
     firmware_started: bool,
+    /// The CANopen master's log so far, and how many of its steps ended.
+    master_lines: Vec<MasterLine>,
+    master_finished: usize,
     log: Vec<BusEvent>,
     applied: Vec<AppliedFault>,
     bit_fs: u64,
@@ -223,6 +227,8 @@ impl<'s> Runner<'s> {
             decoder: BusDecoder::new(bit_fs, scenario.bus.btr.sample_point()),
             recording,
             firmware_started: false,
+            master_lines: Vec::new(),
+            master_finished: 0,
             log: Vec::new(),
             applied: Vec::new(),
             bit_fs,
@@ -320,12 +326,20 @@ impl<'s> Runner<'s> {
     /// Hands the CANopen devices what their drivers read and the time; moves what they send into
     /// their drivers' queues as far as there is room.
     fn run_firmware(&mut self) {
+        if !self.firmware_started {
+            return;
+        }
         let now = self.clock;
         for node in &mut self.nodes {
             let Some(firmware) = &mut node.firmware else {
                 continue;
             };
             firmware.run(&node.events, now);
+            if let Some(script) = &node.config.canopen_master {
+                let events = firmware.take_master_events();
+                let lines = script.lines(&events, &mut self.master_finished);
+                self.master_lines.extend(lines);
+            }
             while node.queue.len() < node.config.txqueuelen {
                 let Some(frame) = firmware.next_frame() else {
                     break;
@@ -337,6 +351,9 @@ impl<'s> Runner<'s> {
 
     /// When a CANopen device next has something due.
     fn firmware_deadline(&self) -> Option<u64> {
+        if !self.firmware_started {
+            return None;
+        }
         let firmware = self.nodes.iter().filter_map(|n| n.firmware.as_ref());
         firmware.filter_map(Firmware::deadline_fs).min()
     }
@@ -669,6 +686,8 @@ impl<'s> Runner<'s> {
             }));
         }
         events.sort_by_key(|e| e.at_fs);
+        let unfinished = self.unfinished_master_steps();
+        self.master_lines.extend(unfinished);
         let nodes = self
             .nodes
             .iter()
@@ -683,6 +702,7 @@ impl<'s> Runner<'s> {
             log: std::mem::take(&mut self.log),
             faults: std::mem::take(&mut self.applied),
             missed_faults,
+            master: std::mem::take(&mut self.master_lines),
             frame_starts: std::mem::take(&mut self.frame_starts),
             simulated_fs,
             vcd,
@@ -720,7 +740,7 @@ impl RunNode {
             events: Vec::new(),
             bus_off_at: None,
             restarts: 0,
-            firmware: config.canopen.as_ref().map(Firmware::new).transpose()?,
+            firmware: Firmware::of_node(config)?,
         })
     }
 

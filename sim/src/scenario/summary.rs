@@ -211,6 +211,12 @@ pub fn format_report(scenario: &Scenario, report: &RunReport, parts: ReportParts
             .collect();
         out += &format_events(&shown);
     }
+    if !report.master.is_empty() {
+        out += "\nCANopen master:\n";
+        for line in &report.master {
+            out += &format!("{line}\n");
+        }
+    }
     if !report.faults.is_empty() || !report.missed_faults.is_empty() {
         out += "\nfaults:\n";
         for fault in &report.faults {
@@ -302,6 +308,10 @@ fn describe_node(node: &NodeConfig, scenario: &Scenario) -> String {
             .unwrap_or_default()
             .to_string_lossy();
         out += &format!(", CANopen device {} ({eds})", canopen.node_id);
+    }
+    if let Some(master) = &node.canopen_master {
+        let steps = master.steps.len();
+        out += &format!(", CANopen master {} ({steps} steps)", master.config.node_id);
     }
     out
 }

@@ -87,6 +87,8 @@ pub struct ServeSummary {
     pub nodes: Vec<NodeCounts>,
     /// The VCD written, if any.
     pub vcd: Option<PathBuf>,
+    /// Steps of the CANopen master that failed or had not ended.
+    pub failed_steps: usize,
 }
 
 /// Listens on `address` (`HOST:PORT`; port 0 picks a free one), or says why it cannot.
@@ -132,6 +134,7 @@ pub fn serve(
         connected: 0,
         log,
         counts: LogCounts::default(),
+        failed_steps: 0,
     };
     let end = options
         .until_fs
@@ -154,10 +157,16 @@ pub fn serve(
         }
         server.route();
         server.write_log()?;
+        server.report_master(say);
         server.clients.iter_mut().for_each(Client::flush);
     }
     if server.runner.clock() >= END_OF_TIME_FS {
         say("simulated time ends here (5.1 hours of femtoseconds)");
+    }
+    server.report_master(say);
+    for line in server.runner.unfinished_master_steps() {
+        server.failed_steps += 1;
+        say(&format!("master: {line}"));
     }
     server.finish()
 }
@@ -175,6 +184,8 @@ struct Server<'s> {
     connected: usize,
     log: Option<BufWriter<File>>,
     counts: LogCounts,
+    /// Steps of the CANopen master that did not give what they expected.
+    failed_steps: usize,
 }
 
 impl Server<'_> {
@@ -323,6 +334,7 @@ impl Server<'_> {
             one_shot: false,
             txqueuelen: DEFAULT_TXQUEUELEN,
             canopen: None,
+            canopen_master: None,
         }
     }
 
@@ -362,6 +374,14 @@ impl Server<'_> {
         }
     }
 
+    /// Says what the CANopen master did since the last call.
+    fn report_master(&mut self, say: &mut dyn FnMut(&str)) {
+        for line in self.runner.take_master_lines() {
+            self.failed_steps += usize::from(line.failed);
+            say(&format!("master: {line}"));
+        }
+    }
+
     /// Counts the bus log since the last call and writes it to the log file.
     fn write_log(&mut self) -> Result<(), ScenarioError> {
         let events = self.runner.take_log();
@@ -392,6 +412,7 @@ impl Server<'_> {
             bus: self.counts,
             nodes,
             vcd: self.runner.finish_trace()?,
+            failed_steps: self.failed_steps,
         })
     }
 }

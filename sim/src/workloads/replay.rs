@@ -85,6 +85,7 @@ pub fn replay_scenario(options: &ReplayOptions) -> Scenario {
         one_shot: false,
         txqueuelen: DEFAULT_TXQUEUELEN,
         canopen: None,
+        canopen_master: None,
     };
     Scenario {
         path: options.capture.clone(),

@@ -62,6 +62,8 @@ pub fn python() -> PathBuf {
 pub struct ServeProcess {
     child: Child,
     lines: Receiver<String>,
+    /// Lines read by [`ServeProcess::wait_for`].
+    seen: Vec<String>,
     /// The port it listens on.
     pub port: u16,
 }
@@ -94,7 +96,28 @@ impl ServeProcess {
             .and_then(|rest| rest.split(' ').next())
             .and_then(|port| port.parse().ok())
             .unwrap_or_else(|| panic!("no port in {first:?}"));
-        ServeProcess { child, lines, port }
+        ServeProcess {
+            child,
+            lines,
+            seen: Vec::new(),
+            port,
+        }
+    }
+
+    /// Reads its lines until one contains `needle` (within `timeout`); whether one did.
+    pub fn wait_for(&mut self, needle: &str, timeout: Duration) -> bool {
+        let end = std::time::Instant::now() + timeout;
+        while let Some(left) = end.checked_duration_since(std::time::Instant::now()) {
+            let Ok(line) = self.lines.recv_timeout(left) else {
+                return false;
+            };
+            let found = line.contains(needle);
+            self.seen.push(line);
+            if found {
+                return true;
+            }
+        }
+        false
     }
 
     /// Stops it with SIGTERM, as a service manager would; everything it printed after the port.
@@ -105,7 +128,8 @@ impl ServeProcess {
             .unwrap();
         assert!(status.success());
         let exit = self.child.wait().unwrap();
-        let out: Vec<String> = self.lines.iter().collect();
+        let mut out = std::mem::take(&mut self.seen);
+        out.extend(self.lines.iter());
         let out = out.join("\n");
         assert!(exit.success(), "exit {exit:?}\n{out}");
         out

@@ -9,6 +9,7 @@ use rtl::registers::pelican;
 use crate::decode::bus_decoder::BusEvent;
 use crate::host::Host;
 use crate::nodes::controller_node::ControllerNode;
+use crate::scenario::canopen_master::MasterLine;
 use crate::scenario::report::{Happening, NodeCounts};
 use crate::scenario::{NodeConfig, ScenarioError};
 
@@ -100,6 +101,22 @@ impl Runner<'_> {
             firmware.events_taken();
         }
         std::mem::take(&mut self.nodes[n].events)
+    }
+
+    /// The CANopen master's log lines since the last call.
+    pub(crate) fn take_master_lines(&mut self) -> Vec<MasterLine> {
+        std::mem::take(&mut self.master_lines)
+    }
+
+    /// Failed lines for the master's steps that have not ended by now.
+    pub(crate) fn unfinished_master_steps(&self) -> Vec<MasterLine> {
+        let scripts = self
+            .nodes
+            .iter()
+            .filter_map(|n| n.config.canopen_master.as_ref());
+        scripts
+            .flat_map(|s| s.unfinished(self.master_finished, self.clock))
+            .collect()
     }
 
     /// The bus log since the last call (the frame starts are forgotten: a run without end keeps

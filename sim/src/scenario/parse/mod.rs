@@ -2,6 +2,9 @@
 //! and every error names the file, line and column it is about (a replayed log's errors name the
 //! log file and its line). `docs/SCENARIOS.md` describes every key.
 
+mod canopen;
+mod sdo_step;
+
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
@@ -15,8 +18,8 @@ use golden::btr::{calc_bittiming, sample_point_fraction, Btr};
 use golden::frame::{Field, Frame, DOMINANT, RECESSIVE};
 use golden::worst_case::unstuffed_len;
 
+use self::canopen::{CanopenToml, MasterToml, StepToml};
 use super::candump::{parse_frame, parse_log};
-use super::canopen_node::CanopenConfig;
 use super::faults::{Fault, FaultKind, Place};
 use super::recording::{open_capture, Recording};
 use super::traffic::{Once, Pattern, Periodic, Traffic};
@@ -80,6 +83,8 @@ struct FileToml {
     replay: Vec<Spanned<ReplayToml>>,
     #[serde(default)]
     fault: Vec<Spanned<FaultToml>>,
+    #[serde(default)]
+    master: Vec<Spanned<StepToml>>,
 }
 
 /// Bit timing keys, in `[bus]` and in a `[[node]]`.
@@ -126,14 +131,7 @@ struct NodeToml {
     one_shot: Option<bool>,
     txqueuelen: Option<Spanned<usize>>,
     canopen: Option<Spanned<CanopenToml>>,
-}
-
-/// `canopen = { node_id = 2, eds = "io.eds" }`: the node's firmware is a CANopen device.
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct CanopenToml {
-    node_id: Spanned<i64>,
-    eds: Spanned<String>,
+    canopen_master: Option<Spanned<MasterToml>>,
 }
 
 #[derive(Deserialize, Clone, Copy)]
@@ -460,6 +458,7 @@ impl<'a> Builder<'a> {
             let config = self.node(node)?;
             self.nodes.push(config);
         }
+        self.master_script(&file.master)?;
         let mut traffic = Traffic::default();
         for frame in &file.frame {
             let f = frame.get_ref();
@@ -569,48 +568,12 @@ impl<'a> Builder<'a> {
                 .as_ref()
                 .map(|c| self.canopen(c, mode))
                 .transpose()?,
-        })
-    }
-
-    /// A CANopen device: a node-ID of 1 to 127 no other node has, an EDS that reads, a node that
-    /// sends.
-    fn canopen(
-        &self,
-        spanned: &Spanned<CanopenToml>,
-        mode: NodeMode,
-    ) -> Result<CanopenConfig, ScenarioError> {
-        let c = spanned.get_ref();
-        if mode == NodeMode::ListenOnly {
-            return Err(self.error(
-                spanned.span(),
-                "a CANopen device sends (boot-up, SDO answers): it cannot be listen-only",
-            ));
-        }
-        let id = *c.node_id.get_ref();
-        let node_id = u8::try_from(id)
-            .ok()
-            .filter(|id| (1..=127).contains(id))
-            .ok_or_else(|| {
-                self.error(
-                    c.node_id.span(),
-                    format!("node-ID {id} is out of range 1..=127 (CiA 301)"),
-                )
-            })?;
-        let taken = self.nodes.iter().find(|n| {
-            n.canopen
+            canopen_master: n
+                .canopen_master
                 .as_ref()
-                .is_some_and(|other| other.node_id == node_id)
-        });
-        if let Some(other) = taken {
-            return Err(self.error(
-                c.node_id.span(),
-                format!("node-ID {id} is node \"{}\"'s already", other.name),
-            ));
-        }
-        let eds = self.replay_path(c.eds.get_ref());
-        let od = canopen::eds::load(&eds, node_id)
-            .map_err(|e| self.error(c.eds.span(), format!("EDS: {e}")))?;
-        Ok(CanopenConfig { node_id, eds, od })
+                .map(|m| self.canopen_master(m, mode))
+                .transpose()?,
+        })
     }
 
     fn txqueuelen(&self, n: &NodeToml) -> Result<usize, ScenarioError> {
