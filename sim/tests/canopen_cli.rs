@@ -541,6 +541,10 @@ fn bad_master_scripts_are_refused_with_their_line() {
                 .to_string(),
             "node-ID 2 is known already",
         ),
+        (
+            "canopen_master = { node_id = 1, sdo_timeout = \"0ms\" }\n".to_string(),
+            "bad.toml:9:47: a timeout of at least 1 us",
+        ),
     ] {
         let file = dir.join("bad.toml");
         std::fs::write(&file, format!("{header}{text_}")).unwrap();

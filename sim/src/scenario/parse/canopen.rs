@@ -121,8 +121,13 @@ impl Builder<'_> {
             None => 0,
         };
         let us = |t: &Option<Spanned<String>>, default| -> Result<u64, ScenarioError> {
-            t.as_ref()
-                .map_or(Ok(default), |t| Ok(self.time(t)? / FS_PER_US))
+            let Some(t) = t else {
+                return Ok(default);
+            };
+            match self.time(t)? / FS_PER_US {
+                0 => Err(self.error(t.span(), "a timeout of at least 1 us")),
+                us => Ok(us),
+            }
         };
         let mut remote: Vec<RemoteNode> = Vec::new();
         for r in &m.remote {
