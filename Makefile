@@ -71,9 +71,13 @@ SEED ?= 1
 campaign:
 	$(CARGO) run --release -- campaign --faults $(FAULTS) --seed $(SEED)
 
-## The controller as Verilog: build/verilog/can_controller.v.
+## The controller as Verilog: build/verilog/can_controller.v and the bus wrappers
+## (can_controller_wb.v, can_controller_axil.v, can_controller_apb.v).
 verilog:
 	$(CARGO) run -q -p sim --bin cansim -- verilog --out build/verilog
+	for bus in wishbone axi4-lite apb; do \
+		$(CARGO) run -q -p sim --bin cansim -- verilog --bus $$bus --out build/verilog || exit 1; \
+	done
 
 ## The Verilator engine's model (CAN_ENGINE=verilator), built into target/verilator/ if it is not
 ## there yet (tests and runs build it on first use too); prints the library's path.

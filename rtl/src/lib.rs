@@ -13,6 +13,7 @@ pub mod acceptance_filter;
 pub mod activity;
 pub mod bit_timing;
 pub mod bsp;
+pub mod bus;
 pub mod bus_sampling;
 pub mod can_controller;
 pub mod can_core;

@@ -527,3 +527,26 @@ fn decode_bad_input_fails_with_the_file_and_line() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn verilog_writes_the_controller_and_the_bus_wrapper_asked_for() {
+    let dir = std::env::temp_dir().join(format!("cansim-verilog-cli-{}", std::process::id()));
+    let out = dir.to_str().unwrap();
+    let o = cansim(&["verilog", "--bus", "axi4-lite", "--out", out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("can_controller_axil.v"), "{}", stdout(&o));
+    let wrapper = std::fs::read_to_string(dir.join("can_controller_axil.v")).unwrap();
+    assert!(wrapper.contains("module can_controller_axil(clock,reset,s_axil_awvalid,"));
+    assert!(wrapper.contains("    parameter  word_stride = 1'b0;"));
+    assert!(wrapper.contains("    can_controller can("));
+    assert!(!wrapper.contains("module can_controller("), "the controller is its own file");
+    assert!(dir.join("can_controller.v").exists());
+    let o = cansim(&["verilog", "--bus", "pci", "--out", out]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("--bus: unknown bus \"pci\": native, wishbone, axi4-lite, apb"),
+        "{}",
+        stderr(&o)
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -956,10 +956,19 @@ impl Simulator {
 
     /// Compiles `equivalence_tb.v` and `can_controller.v` in `dir`.
     fn compile(self, dir: &Path) -> Result<(), String> {
+        self.compile_files(
+            dir,
+            "equivalence_tb",
+            &["equivalence_tb.v", "can_controller.v"],
+        )
+    }
+
+    /// Compiles `files` in `dir` with `top` as the top module (its executable named after it).
+    pub fn compile_files(self, dir: &Path, top: &str, files: &[&str]) -> Result<(), String> {
         let mut cmd = match self {
             Simulator::Icarus => {
                 let mut c = Command::new("iverilog");
-                c.args(["-g2005", "-o", "equivalence_tb.vvp", "-s", "equivalence_tb"]);
+                c.args(["-g2005", "-o", &format!("{top}.vvp"), "-s", top]);
                 c
             }
             Simulator::Verilator => {
@@ -972,25 +981,29 @@ impl Simulator {
                     "-Wno-lint",
                     "-Wno-style",
                 ])
-                .args(["--top-module", "equivalence_tb", "-o", "equivalence_tb"])
+                .args(["--top-module", top, "-o", top])
                 .args(["-j", "2", "--Mdir", "obj_dir"]);
                 c
             }
         };
-        cmd.current_dir(dir)
-            .args(["equivalence_tb.v", "can_controller.v"]);
+        cmd.current_dir(dir).args(files);
         run_tool(&mut cmd, self.name()).map(|_| ())
     }
 
     /// The command that runs the compiled testbench in `dir`.
     fn run_command(self, dir: &Path) -> Command {
+        self.run_command_for(dir, "equivalence_tb")
+    }
+
+    /// The command that runs the testbench compiled by [`Simulator::compile_files`] for `top`.
+    pub fn run_command_for(self, dir: &Path, top: &str) -> Command {
         let mut cmd = match self {
             Simulator::Icarus => {
                 let mut c = Command::new("vvp");
-                c.args(["-n", "equivalence_tb.vvp"]);
+                c.args(["-n", &format!("{top}.vvp")]);
                 c
             }
-            Simulator::Verilator => Command::new(dir.join("obj_dir").join("equivalence_tb")),
+            Simulator::Verilator => Command::new(dir.join("obj_dir").join(top)),
         };
         cmd.current_dir(dir);
         cmd

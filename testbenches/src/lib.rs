@@ -306,6 +306,7 @@ fn wrong_bits_per_frame(received: &[bool], frames: &[golden::frame::EncodedFrame
 }
 
 pub mod agreement;
+pub mod bus_masters;
 pub mod controller_bench;
 pub mod ecc;
 pub mod equivalence;
@@ -315,6 +316,7 @@ pub mod protocol_bench;
 pub mod register_iut;
 pub mod scenario_report;
 pub mod sigrok;
+pub mod wrapper_equivalence;
 
 /// Defines the tests of protocol scenarios written once for both IUTs: for every function
 /// `name(iut: Iut)` listed, `on_core::name` runs it on the bare RTL core and `on_registers::name` on

@@ -45,9 +45,14 @@ impl LintReport {
 
 /// Runs `verilator --lint-only -Wall` on `file` (top module `top`) and sorts what it prints.
 pub fn verilator_lint(file: &Path, top: &str) -> Result<LintReport, String> {
+    verilator_lint_files(&[file], top)
+}
+
+/// Like [`verilator_lint`] on several files (a wrapper and the controller it instantiates).
+pub fn verilator_lint_files(files: &[&Path], top: &str) -> Result<LintReport, String> {
     let out = Command::new("verilator")
         .args(["--lint-only", "-Wall", "--top-module", top])
-        .arg(file)
+        .args(files)
         .output()
         .map_err(|e| format!("cannot run verilator: {e}"))?;
     Ok(parse(&String::from_utf8_lossy(&out.stderr)))

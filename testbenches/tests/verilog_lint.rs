@@ -8,9 +8,13 @@
 use std::path::PathBuf;
 use std::process::Command;
 
-use sim::verilated::verilog::{write_controller_verilog, TOP_MODULE};
+use sim::verilated::verilog::{
+    wrapper_verilog, write_bus_verilog, write_controller_verilog, Bus, TOP_MODULE,
+};
 use testbenches::equivalence::{icarus_skipped, Simulator};
-use testbenches::lint::{negation_patterns, verilator_lint, EXPLAINED_CATEGORIES};
+use testbenches::lint::{
+    negation_patterns, verilator_lint, verilator_lint_files, EXPLAINED_CATEGORIES,
+};
 
 /// Environment variable that lets a developer without Verilator skip the Verilator lint.
 const SKIP_VERILATOR_ENV: &str = "CANSIM_SKIP_VERILATOR";
@@ -90,4 +94,52 @@ fn icarus_wall_is_silent() {
         "iverilog -Wall: {printed}"
     );
     let _ = std::fs::remove_dir_all(file.parent().unwrap());
+}
+
+/// The bus wrappers, each with the controller: Verilator `-Wall` shows only the explained
+/// categories (no UNOPTFLAT, LATCH, UNDRIVEN...), no suspicious WIDTH, no widened negation, and
+/// Icarus `-Wall` prints nothing.
+#[test]
+fn the_bus_wrappers_lint_like_the_controller() {
+    let skip_verilator = verilator_skipped("the_bus_wrappers_lint_like_the_controller");
+    let skip_icarus = icarus_skipped("the_bus_wrappers_lint_like_the_controller");
+    let dir = std::env::temp_dir().join(format!("verilog_lint_wrappers_{}", std::process::id()));
+    for bus in [Bus::Wishbone, Bus::AxiLite, Bus::Apb] {
+        let files = write_bus_verilog(&dir, bus).expect("write the Verilog");
+        let paths: Vec<&std::path::Path> = files.iter().map(PathBuf::as_path).collect();
+        let top = bus.top_module();
+        let found = negation_patterns(&wrapper_verilog(bus));
+        assert!(found.is_empty(), "{top}: {}", found.join("\n"));
+        if !skip_verilator {
+            let report = verilator_lint_files(&paths, top).expect("verilator");
+            assert!(report.errors.is_empty(), "{top}: {:#?}", report.errors);
+            assert!(
+                report.unexplained().is_empty(),
+                "{top}: {:?}",
+                report.unexplained()
+            );
+            assert!(
+                report.suspicious.is_empty(),
+                "{top}: {:?}",
+                report.suspicious
+            );
+        }
+        if !skip_icarus {
+            let out = Command::new("iverilog")
+                .args(["-g2005", "-Wall", "-o", "/dev/null", "-s", top])
+                .args(&paths)
+                .output()
+                .expect("iverilog");
+            let printed = format!(
+                "{}{}",
+                String::from_utf8_lossy(&out.stdout),
+                String::from_utf8_lossy(&out.stderr)
+            );
+            assert!(
+                out.status.success() && printed.trim().is_empty(),
+                "{top}: iverilog -Wall: {printed}"
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -207,11 +207,15 @@ enum Command {
         all: bool,
     },
     /// Write the controller as Verilog: DIR/can_controller.v, top module `can_controller` with the
-    /// SJA1000 host port (see docs/FPGA.md).
+    /// SJA1000 host port, and with --bus a wrapper top for a SoC bus (see docs/FPGA.md).
     Verilog {
         /// Output directory (created if missing).
         #[arg(long, default_value = "build/verilog")]
         out: PathBuf,
+        /// The bus: native (the SJA1000 host port only), wishbone (can_controller_wb.v),
+        /// axi4-lite (can_controller_axil.v) or apb (can_controller_apb.v).
+        #[arg(long, default_value = "native")]
+        bus: String,
     },
     /// Build the Verilator model of the controller (CAN_ENGINE=verilator) if it is not built yet;
     /// prints the path of the library. Tests and runs build it on first use as well.
@@ -396,7 +400,7 @@ fn main() -> ExitCode {
             sjw,
             all,
         } => bittiming(clock, bitrate, sample_point, sjw, all),
-        Command::Verilog { out } => verilog(&out),
+        Command::Verilog { out, bus } => verilog(&out, &bus),
         Command::VerilatorModel => verilated::build_model()
             .map(|path| println!("{}", path.display()))
             .map_err(|e| e.to_string()),
@@ -945,9 +949,12 @@ fn bittiming(
     Ok(())
 }
 
-fn verilog(out: &Path) -> Result<(), String> {
-    let path = sim::verilated::verilog::write_controller_verilog(out).map_err(|e| e.to_string())?;
-    println!("wrote {}", path.display());
+fn verilog(out: &Path, bus: &str) -> Result<(), String> {
+    use sim::verilated::verilog::{write_bus_verilog, Bus};
+    let bus = Bus::from_name(bus).map_err(|e| format!("--bus: {e}"))?;
+    for path in write_bus_verilog(out, bus).map_err(|e| e.to_string())? {
+        println!("wrote {}", path.display());
+    }
     Ok(())
 }
 
