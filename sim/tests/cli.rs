@@ -534,12 +534,19 @@ fn verilog_writes_the_controller_and_the_bus_wrapper_asked_for() {
     let out = dir.to_str().unwrap();
     let o = cansim(&["verilog", "--bus", "axi4-lite", "--out", out]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stdout(&o).contains("can_controller_axil.v"), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains("can_controller_axil.v"),
+        "{}",
+        stdout(&o)
+    );
     let wrapper = std::fs::read_to_string(dir.join("can_controller_axil.v")).unwrap();
     assert!(wrapper.contains("module can_controller_axil(clock,reset,s_axil_awvalid,"));
     assert!(wrapper.contains("    parameter  word_stride = 1'b0;"));
     assert!(wrapper.contains("    can_controller can("));
-    assert!(!wrapper.contains("module can_controller("), "the controller is its own file");
+    assert!(
+        !wrapper.contains("module can_controller("),
+        "the controller is its own file"
+    );
     assert!(dir.join("can_controller.v").exists());
     let o = cansim(&["verilog", "--bus", "pci", "--out", out]);
     assert!(!o.status.success());
