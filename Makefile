@@ -1,7 +1,7 @@
 # Entry points of the project. `make test` is what CI runs.
 CARGO ?= cargo
 
-.PHONY: pyenv test test-long test-verilator check tools demo waves waves-check waves-compare lint verilog verilator-model synth bench campaign clean
+.PHONY: fpga-rtl pyenv test test-long test-verilator check tools demo waves waves-check waves-compare lint verilog verilator-model synth bench campaign clean
 
 ## Install the external tools (sigrok-cli, iverilog, verilator) and the Python ones (python-can,
 ## cantools, pinned, in build/pyenv), then run every test.
@@ -77,6 +77,13 @@ verilog:
 	$(CARGO) run -q -p sim --bin cansim -- verilog --out build/verilog
 	for bus in wishbone axi4-lite apb; do \
 		$(CARGO) run -q -p sim --bin cansim -- verilog --bus $$bus --out build/verilog || exit 1; \
+	done
+
+## The Verilog shipped in fpga/rtl/ for FuseSoC, LiteX and users without Rust (a test checks that it
+## equals what cansim writes; run this after changing rtl/).
+fpga-rtl:
+	for bus in wishbone axi4-lite apb; do \
+		$(CARGO) run -q -p sim --bin cansim -- verilog --bus $$bus --out fpga/rtl || exit 1; \
 	done
 
 ## The Verilator engine's model (CAN_ENGINE=verilator), built into target/verilator/ if it is not

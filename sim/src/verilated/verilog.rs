@@ -75,10 +75,14 @@ pub fn write_controller_verilog(dir: &Path) -> io::Result<PathBuf> {
 pub fn write_bus_verilog(dir: &Path, bus: Bus) -> io::Result<Vec<PathBuf>> {
     let mut written = vec![write_controller_verilog(dir)?];
     if bus != Bus::Native {
-        let text = format!("{}\n{}", wrapper_header(bus), wrapper_verilog(bus));
-        written.push(write_file(dir, &bus.file_name(), &text)?);
+        written.push(write_file(dir, &bus.file_name(), &wrapper_file(bus))?);
     }
     Ok(written)
+}
+
+/// The wrapper file users get for `bus`: its header, then [`wrapper_verilog`].
+pub fn wrapper_file(bus: Bus) -> String {
+    format!("{}\n{}", wrapper_header(bus), wrapper_verilog(bus))
 }
 
 /// `text` into `dir/name` through a temporary file.
