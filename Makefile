@@ -1,7 +1,7 @@
 # Entry points of the project. `make test` is what CI runs.
 CARGO ?= cargo
 
-.PHONY: fpga-rtl pyenv test test-long test-verilator check tools demo waves waves-check waves-compare lint verilog verilator-model synth bench campaign clean
+.PHONY: bitstream fpga-rtl pyenv test test-long test-verilator check tools demo waves waves-check waves-compare lint verilog verilator-model synth bench campaign clean
 
 ## Install the external tools (sigrok-cli, iverilog, verilator) and the Python ones (python-can,
 ## cantools, pinned, in build/pyenv), then run every test.
@@ -78,6 +78,11 @@ verilog:
 	for bus in wishbone axi4-lite apb; do \
 		$(CARGO) run -q -p sim --bin cansim -- verilog --bus $$bus --out build/verilog || exit 1; \
 	done
+
+## The iCEBreaker design (fpga/boards/icebreaker/) as a bitstream: build/bitstream/icebreaker_can.bin,
+## with its resources and maximum clock (fails below the board's 12 MHz).
+bitstream:
+	./scripts/bitstream.sh
 
 ## The Verilog shipped in fpga/rtl/ for FuseSoC, LiteX and users without Rust (a test checks that it
 ## equals what cansim writes; run this after changing rtl/).

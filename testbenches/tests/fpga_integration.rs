@@ -3,7 +3,8 @@
 //! `-Wall` reports nothing on the controller and every wrapper), the FuseSoC core
 //! (can_controller.core: its `lint` and `sim` targets, fusesoc 2.4.3 from build/pyenv) and the
 //! LiteX peripheral (fpga/litex/: a minimal LiteX 2024.12 SoC with the controller on its Wishbone bus
-//! elaborates, and its Verilog lints with no warning from our files).
+//! elaborates, and its Verilog lints with no warning from our files); the iCEBreaker design
+//! (fpga/boards/icebreaker/: its serial register bridge and two controllers, in Icarus).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -149,4 +150,57 @@ fn a_litex_soc_with_the_controller_elaborates_and_lints() {
         .collect();
     assert!(ours.is_empty(), "{ours:#?}");
     std::fs::remove_dir_all(&out_dir).ok();
+}
+
+#[test]
+fn the_icebreaker_design_bridges_the_serial_port_to_both_controllers() {
+    // tb_icebreaker_can.v: the host configures both controllers over the serial line, node 0 sends
+    // a frame over the PMOD pins joined as one bus, the host reads it back from node 1 (SJA1000
+    // register values: CR 21h after reset, IR 01h, the RX buffer) and checks the LEDs.
+    let board = workspace().join("fpga/boards/icebreaker");
+    let dir = std::env::temp_dir().join(format!("cansim-icebreaker-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let vvp = dir.join("tb.vvp");
+    let compile = Command::new("iverilog")
+        .args(["-g2005", "-Wall", "-s", "tb_icebreaker_can", "-o"])
+        .arg(&vvp)
+        .args(
+            [
+                "tb_icebreaker_can.v",
+                "icebreaker_can.v",
+                "uart_rx.v",
+                "uart_tx.v",
+            ]
+            .iter()
+            .map(|f| board.join(f)),
+        )
+        .arg(workspace().join("fpga/rtl/can_controller.v"))
+        .output()
+        .expect("iverilog");
+    let said = format!("{}{}", text(&compile.stdout), text(&compile.stderr));
+    assert!(compile.status.success() && said.trim().is_empty(), "{said}");
+    let run = Command::new("vvp")
+        .arg("-n")
+        .arg(&vvp)
+        .output()
+        .expect("vvp");
+    let out = text(&run.stdout);
+    assert!(run.status.success() && out.contains("PASS"), "{out}");
+    let lint = Command::new("verilator")
+        .args(["--lint-only", "-Wall", "--top-module", "icebreaker_can"])
+        .arg(workspace().join("fpga/can_controller.vlt"))
+        .args(
+            ["icebreaker_can.v", "uart_rx.v", "uart_tx.v"]
+                .iter()
+                .map(|f| board.join(f)),
+        )
+        .arg(workspace().join("fpga/rtl/can_controller.v"))
+        .output()
+        .expect("verilator");
+    assert!(
+        lint.status.success() && text(&lint.stderr).trim().is_empty(),
+        "{}",
+        text(&lint.stderr)
+    );
+    std::fs::remove_dir_all(&dir).ok();
 }
