@@ -37,17 +37,6 @@ module can_controller_wb(clock,reset,wb_cyc,wb_stb,wb_we,wb_adr,wb_sel,wb_dat_w,
     localparam WishboneState$Ack = 2;
     
     // Stub signals
-    reg  can$clock;
-    reg  can$reset;
-    reg  [7:0] can$addr;
-    reg  [7:0] can$wdata;
-    reg  can$we;
-    reg  can$re;
-    wire  [7:0] can$rdata;
-    reg  can$rx;
-    wire  can$tx;
-    wire  can$irq_n;
-    wire  can$clkout;
     reg  port$clock;
     reg  port$reset;
     reg  port$start;
@@ -58,29 +47,15 @@ module can_controller_wb(clock,reset,wb_cyc,wb_stb,wb_we,wb_adr,wb_sel,wb_dat_w,
     reg  [31:0] port$wdata;
     wire  port$done;
     wire  [31:0] port$rdata;
-    wire  [7:0] port$host_addr;
-    wire  [7:0] port$host_wdata;
-    wire  port$host_we;
-    wire  port$host_re;
-    reg  [7:0] port$host_rdata;
+    reg  port$rx;
+    wire  port$tx;
+    wire  port$irq;
+    wire  port$clkout;
     reg  [1:0] state$d;
     wire  [1:0] state$q;
     reg  state$clock;
     
     // Sub module instances
-    can_controller can(
-        .clock(can$clock),
-        .reset(can$reset),
-        .addr(can$addr),
-        .wdata(can$wdata),
-        .we(can$we),
-        .re(can$re),
-        .rdata(can$rdata),
-        .rx(can$rx),
-        .tx(can$tx),
-        .irq_n(can$irq_n),
-        .clkout(can$clkout)
-    );
     can_controller_wb$port port(
         .clock(port$clock),
         .reset(port$reset),
@@ -92,11 +67,10 @@ module can_controller_wb(clock,reset,wb_cyc,wb_stb,wb_we,wb_adr,wb_sel,wb_dat_w,
         .wdata(port$wdata),
         .done(port$done),
         .rdata(port$rdata),
-        .host_addr(port$host_addr),
-        .host_wdata(port$host_wdata),
-        .host_we(port$host_we),
-        .host_re(port$host_re),
-        .host_rdata(port$host_rdata)
+        .rx(port$rx),
+        .tx(port$tx),
+        .irq(port$irq),
+        .clkout(port$clkout)
     );
     can_controller_wb$state state(
         .d(state$d),
@@ -108,7 +82,6 @@ module can_controller_wb(clock,reset,wb_cyc,wb_stb,wb_we,wb_adr,wb_sel,wb_dat_w,
     always @(*) begin
         state$clock = clock;
         state$d = state$q;
-        can$clock = clock;
         port$clock = clock;
         port$reset = reset;
         port$word_stride = word_stride;
@@ -123,16 +96,10 @@ module can_controller_wb(clock,reset,wb_cyc,wb_stb,wb_we,wb_adr,wb_sel,wb_dat_w,
                 port$byte_enable = 32'h1;
             end
         end
-        can$reset = reset;
-        can$addr = port$host_addr;
-        can$wdata = port$host_wdata;
-        can$we = port$host_we;
-        can$re = port$host_re;
-        can$rx = rx;
-        port$host_rdata = can$rdata;
-        tx = can$tx;
-        irq = can$irq_n == 1'b0;
-        clkout = can$clkout;
+        port$rx = rx;
+        tx = port$tx;
+        irq = port$irq;
+        clkout = port$clkout;
         wb_dat_r = port$rdata;
         wb_ack = state$q == WishboneState$Ack;
         wb_stall = state$q != WishboneState$Idle;
@@ -162,7 +129,7 @@ module can_controller_wb(clock,reset,wb_cyc,wb_stb,wb_we,wb_adr,wb_sel,wb_dat_w,
 endmodule // can_controller_wb
 
 
-module can_controller_wb$port(clock,reset,start,write,word_stride,word,byte_enable,wdata,done,rdata,host_addr,host_wdata,host_we,host_re,host_rdata);
+module can_controller_wb$port(clock,reset,start,write,word_stride,word,byte_enable,wdata,done,rdata,rx,tx,irq,clkout);
     
     // Module arguments
     input wire  clock;
@@ -175,11 +142,10 @@ module can_controller_wb$port(clock,reset,start,write,word_stride,word,byte_enab
     input wire  [31:0] wdata;
     output reg  done;
     output reg  [31:0] rdata;
-    output reg  [7:0] host_addr;
-    output reg  [7:0] host_wdata;
-    output reg  host_we;
-    output reg  host_re;
-    input wire  [7:0] host_rdata;
+    input wire  rx;
+    output reg  tx;
+    output reg  irq;
+    output reg  clkout;
     
     // Enums
     localparam PortState$Idle = 0;
@@ -187,6 +153,17 @@ module can_controller_wb$port(clock,reset,start,write,word_stride,word,byte_enab
     localparam PortState$Capture = 2;
     
     // Stub signals
+    reg  can$clock;
+    reg  can$reset;
+    reg  [7:0] can$addr;
+    reg  [7:0] can$wdata;
+    reg  can$we;
+    reg  can$re;
+    wire  [7:0] can$rdata;
+    reg  can$rx;
+    wire  can$tx;
+    wire  can$irq_n;
+    wire  can$clkout;
     reg  [1:0] state$d;
     wire  [1:0] state$q;
     reg  state$clock;
@@ -219,6 +196,19 @@ module can_controller_wb$port(clock,reset,start,write,word_stride,word,byte_enab
     reg  [31:0] byte_read;
     
     // Sub module instances
+    can_controller can(
+        .clock(can$clock),
+        .reset(can$reset),
+        .addr(can$addr),
+        .wdata(can$wdata),
+        .we(can$we),
+        .re(can$re),
+        .rdata(can$rdata),
+        .rx(can$rx),
+        .tx(can$tx),
+        .irq_n(can$irq_n),
+        .clkout(can$clkout)
+    );
     can_controller_wb$port$state state(
         .d(state$d),
         .q(state$q),
@@ -285,12 +275,18 @@ module can_controller_wb$port(clock,reset,start,write,word_stride,word,byte_enab
         write_q$d = write_q$q;
         stride_q$d = stride_q$q;
         done_q$d = done_q$q;
+        can$clock = clock;
         done = done_q$q;
         rdata = data_in$q;
-        host_addr = addr_q$q;
-        host_wdata = data_out$q[(32'h0)+:(8)];
-        host_we = (state$q == PortState$Strobe) & lanes_left$q[32'h0] & write_q$q;
-        host_re = (state$q == PortState$Strobe) & lanes_left$q[32'h0] & (write_q$q == 1'b0);
+        can$reset = reset;
+        can$addr = addr_q$q;
+        can$wdata = data_out$q[(32'h0)+:(8)];
+        can$we = (state$q == PortState$Strobe) & lanes_left$q[32'h0] & write_q$q;
+        can$re = (state$q == PortState$Strobe) & lanes_left$q[32'h0] & (write_q$q == 1'b0);
+        can$rx = rx;
+        tx = can$tx;
+        irq = can$irq_n == 1'b0;
+        clkout = can$clkout;
         byte_read = 32'h0;
         done_q$d = 1'b0;
         case (state$q)
@@ -317,7 +313,7 @@ module can_controller_wb$port(clock,reset,start,write,word_stride,word,byte_enab
             PortState$Capture:
                 begin
                     if (lanes_left$q[32'h0] & (write_q$q == 1'b0)) begin
-                        byte_read = ((host_rdata) & 32'hffffffff) << 32'h18;
+                        byte_read = ((can$rdata) & 32'hffffffff) << 32'h18;
                     end
                     data_in$d = (data_in$q >> 32'h8) | byte_read;
                     data_out$d = data_out$q >> 32'h8;

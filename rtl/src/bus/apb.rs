@@ -15,7 +15,6 @@ use rust_hdl::prelude::*;
 
 use crate::activity::{Activity, ActivityBlock, BlockDefault};
 use crate::bus::register_port::RegisterPort;
-use crate::can_controller::CanController;
 
 /// Where an APB transfer is.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, LogicState)]
@@ -63,8 +62,7 @@ pub struct CanControllerApb {
     pub irq: Signal<Out, Bit>,
     /// The controller's clock output (CDR).
     pub clkout: Signal<Out, Bit>,
-    /// The controller.
-    pub can: CanController,
+    /// The controller and its register port.
     port: RegisterPort,
     state: DFF<ApbState>,
     /// The lane a byte-stride read names.
@@ -88,7 +86,7 @@ impl Logic for CanControllerApb {
     #[hdl_gen]
     fn update(&mut self) {
         dff_setup!(self, clock, state);
-        clock!(self, clock, can, port);
+        clock!(self, clock, port);
         self.read_lane.next = 1.into();
         if self.paddr.val().get_bits::<2>(0) == 1 {
             self.read_lane.next = 2.into();
@@ -134,16 +132,10 @@ impl Logic for CanControllerApb {
                 self.state.d.next = ApbState::Idle;
             }
         }
-        self.can.reset.next = self.reset.val();
-        self.can.addr.next = self.port.host_addr.val();
-        self.can.wdata.next = self.port.host_wdata.val();
-        self.can.we.next = self.port.host_we.val();
-        self.can.re.next = self.port.host_re.val();
-        self.can.rx.next = self.rx.val();
-        self.port.host_rdata.next = self.can.rdata.val();
-        self.tx.next = self.can.tx.val();
-        self.irq.next = self.can.irq_n.val() == false;
-        self.clkout.next = self.can.clkout.val();
+        self.port.rx.next = self.rx.val();
+        self.tx.next = self.port.tx.val();
+        self.irq.next = self.port.irq.val();
+        self.clkout.next = self.port.clkout.val();
         if self.reset.val() {
             self.state.d.next = ApbState::Idle;
         }

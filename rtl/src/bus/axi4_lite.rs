@@ -18,7 +18,6 @@ use rust_hdl::prelude::*;
 
 use crate::activity::{Activity, ActivityBlock, BlockDefault};
 use crate::bus::register_port::RegisterPort;
-use crate::can_controller::CanController;
 
 /// What the AXI4-Lite slave is doing.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, LogicState)]
@@ -86,8 +85,7 @@ pub struct CanControllerAxiLite {
     pub irq: Signal<Out, Bit>,
     /// The controller's clock output (CDR).
     pub clkout: Signal<Out, Bit>,
-    /// The controller.
-    pub can: CanController,
+    /// The controller and its register port.
     port: RegisterPort,
     state: DFF<AxiState>,
     /// The write address, the write data and strobes, the read address, each with its flag.
@@ -128,7 +126,7 @@ impl Logic for CanControllerAxiLite {
             self, clock, state, aw_full, aw_addr, w_full, w_data, w_strb, ar_full, ar_addr,
             last_write
         );
-        clock!(self, clock, can, port);
+        clock!(self, clock, port);
         // Channels: each takes a request while it holds none.
         self.s_axil_awready.next = self.aw_full.q.val() == false;
         self.s_axil_wready.next = self.w_full.q.val() == false;
@@ -230,16 +228,10 @@ impl Logic for CanControllerAxiLite {
                 }
             }
         }
-        self.can.reset.next = self.reset.val();
-        self.can.addr.next = self.port.host_addr.val();
-        self.can.wdata.next = self.port.host_wdata.val();
-        self.can.we.next = self.port.host_we.val();
-        self.can.re.next = self.port.host_re.val();
-        self.can.rx.next = self.rx.val();
-        self.port.host_rdata.next = self.can.rdata.val();
-        self.tx.next = self.can.tx.val();
-        self.irq.next = self.can.irq_n.val() == false;
-        self.clkout.next = self.can.clkout.val();
+        self.port.rx.next = self.rx.val();
+        self.tx.next = self.port.tx.val();
+        self.irq.next = self.port.irq.val();
+        self.clkout.next = self.port.clkout.val();
         if self.reset.val() {
             self.state.d.next = AxiState::Idle;
             self.aw_full.d.next = false;

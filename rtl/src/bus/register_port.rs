@@ -1,20 +1,22 @@
-//! The bridge from a 32-bit SoC bus access to the controller's byte-wide host port: one access of a
-//! bus wrapper (a word address, byte enables, 32 bits of write data) becomes one host strobe per
-//! enabled byte lane, in lane order, and the bytes read are gathered into a 32-bit word.
+//! The controller behind a 32-bit register port, what every bus wrapper shares: one access of a
+//! wrapper (a word address, byte enables, 32 bits of write data) becomes one strobe of the
+//! controller's byte-wide host port per enabled byte lane, in lane order, and the bytes read are
+//! gathered into a 32-bit word.
 //!
 //! Ports: `start` (one cycle: take `write`, `word`, `byte_enable`, `wdata`; ignored during an access),
 //! `word_stride` (0: byte registers at byte addresses, register = `word` × 4 + lane, as Linux's
 //! `reg-io-width = 1`; 1: one register per 32-bit word in its byte lane 0, register = `word`, as
 //! `reg-io-width = 4`) in; `done` (one cycle, with `rdata`: the bytes read in their lanes,
-//! 0 in lanes not read) out, from registers only; the host side `host_addr`, `host_wdata`,
-//! `host_we`, `host_re` out and `host_rdata` in (the controller's port: a read's data arrives the
-//! cycle after its strobe). Every access takes 8 cycles (a strobe and a capture cycle per lane),
+//! 0 in lanes not read) out, from registers only; the controller's pins `rx` in, `tx`, `clkout` and
+//! `irq` (active high) out. The controller's read data arrives the cycle after its strobe: every
+//! access takes 8 cycles (a strobe and a capture cycle per lane),
 //! then `done`; a lane that is not enabled gets no strobe, so reading one register never touches
 //! its neighbours (a read of IR clears it). Acts on the rising edge of `clock`.
 
 use rust_hdl::prelude::*;
 
-use crate::activity::{Activity, ActivityBlock};
+use crate::activity::{Activity, ActivityBlock, BlockDefault};
+use crate::can_controller::CanController;
 
 /// Where the port is in an access.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, LogicState)]
@@ -27,8 +29,8 @@ pub enum PortState {
     Capture,
 }
 
-/// The byte-lane sequencer between a bus wrapper and the controller's host port.
-#[derive(ActivityBlock, Default)]
+/// The controller and the byte-lane sequencer in front of its host port.
+#[derive(ActivityBlock, BlockDefault)]
 pub struct RegisterPort {
     /// Simulation bookkeeping (see `crate::activity`); not hardware.
     activity: Activity,
@@ -52,16 +54,16 @@ pub struct RegisterPort {
     pub done: Signal<Out, Bit>,
     /// The bytes read, in their lanes (valid with `done`, held until the next access ends).
     pub rdata: Signal<Out, Bits<32>>,
-    /// To the controller: register address.
-    pub host_addr: Signal<Out, Bits<8>>,
-    /// To the controller: write data.
-    pub host_wdata: Signal<Out, Bits<8>>,
-    /// To the controller: write strobe.
-    pub host_we: Signal<Out, Bit>,
-    /// To the controller: read strobe.
-    pub host_re: Signal<Out, Bit>,
-    /// From the controller: read data.
-    pub host_rdata: Signal<In, Bits<8>>,
+    /// From the transceiver (RXD).
+    pub rx: Signal<In, Bit>,
+    /// To the transceiver (TXD).
+    pub tx: Signal<Out, Bit>,
+    /// Interrupt, active high.
+    pub irq: Signal<Out, Bit>,
+    /// The controller's clock output (CDR).
+    pub clkout: Signal<Out, Bit>,
+    /// The controller.
+    can: CanController,
     state: DFF<PortState>,
     lane: DFF<Bits<2>>,
     /// Lanes still to do, the current one in bit 0.
@@ -86,19 +88,25 @@ impl Logic for RegisterPort {
             self, clock, state, lane, lanes_left, data_out, data_in, addr_q, write_q, stride_q,
             done_q
         );
-        // The outputs come from flip-flops only, each written once: the controller's read data (an
-        // input here) depends on the strobes in Verilator's view of the design, and a value written
-        // twice in one pass would wake the controller's logic again in an event simulator.
+        clock!(self, clock, can);
+        // The controller's host inputs come from flip-flops only, each written once: its read data
+        // depends on the strobes in Verilator's view of the design, and a value written twice in
+        // one pass would wake the controller's logic again in an event simulator.
         self.done.next = self.done_q.q.val();
         self.rdata.next = self.data_in.q.val();
-        self.host_addr.next = self.addr_q.q.val();
-        self.host_wdata.next = self.data_out.q.val().get_bits::<8>(0);
-        self.host_we.next = (self.state.q.val() == PortState::Strobe)
+        self.can.reset.next = self.reset.val();
+        self.can.addr.next = self.addr_q.q.val();
+        self.can.wdata.next = self.data_out.q.val().get_bits::<8>(0);
+        self.can.we.next = (self.state.q.val() == PortState::Strobe)
             & self.lanes_left.q.val().get_bit(0)
             & self.write_q.q.val();
-        self.host_re.next = (self.state.q.val() == PortState::Strobe)
+        self.can.re.next = (self.state.q.val() == PortState::Strobe)
             & self.lanes_left.q.val().get_bit(0)
             & (self.write_q.q.val() == false);
+        self.can.rx.next = self.rx.val();
+        self.tx.next = self.can.tx.val();
+        self.irq.next = self.can.irq_n.val() == false;
+        self.clkout.next = self.can.clkout.val();
         self.byte_read.next = 0.into();
         self.done_q.d.next = false;
         match self.state.q.val() {
@@ -122,7 +130,7 @@ impl Logic for RegisterPort {
             }
             PortState::Capture => {
                 if self.lanes_left.q.val().get_bit(0) & (self.write_q.q.val() == false) {
-                    self.byte_read.next = bit_cast::<32, 8>(self.host_rdata.val()) << 24;
+                    self.byte_read.next = bit_cast::<32, 8>(self.can.rdata.val()) << 24;
                 }
                 self.data_in.d.next = (self.data_in.q.val() >> 8) | self.byte_read.val();
                 self.data_out.d.next = self.data_out.q.val() >> 8;

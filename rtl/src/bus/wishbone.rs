@@ -16,7 +16,6 @@ use rust_hdl::prelude::*;
 
 use crate::activity::{Activity, ActivityBlock, BlockDefault};
 use crate::bus::register_port::RegisterPort;
-use crate::can_controller::CanController;
 
 /// Where a Wishbone access is.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, LogicState)]
@@ -64,8 +63,7 @@ pub struct CanControllerWishbone {
     pub irq: Signal<Out, Bit>,
     /// The controller's clock output (CDR).
     pub clkout: Signal<Out, Bit>,
-    /// The controller.
-    pub can: CanController,
+    /// The controller and its register port.
     port: RegisterPort,
     state: DFF<WishboneState>,
     /// Register layout (see [`RegisterPort`]); a Verilog parameter of the emitted top module.
@@ -87,7 +85,7 @@ impl Logic for CanControllerWishbone {
     #[hdl_gen]
     fn update(&mut self) {
         dff_setup!(self, clock, state);
-        clock!(self, clock, can, port);
+        clock!(self, clock, port);
         self.port.reset.next = self.reset.val();
         self.port.word_stride.next = self.word_stride.val();
         self.port.start.next =
@@ -103,16 +101,10 @@ impl Logic for CanControllerWishbone {
                 self.port.byte_enable.next = 1.into();
             }
         }
-        self.can.reset.next = self.reset.val();
-        self.can.addr.next = self.port.host_addr.val();
-        self.can.wdata.next = self.port.host_wdata.val();
-        self.can.we.next = self.port.host_we.val();
-        self.can.re.next = self.port.host_re.val();
-        self.can.rx.next = self.rx.val();
-        self.port.host_rdata.next = self.can.rdata.val();
-        self.tx.next = self.can.tx.val();
-        self.irq.next = self.can.irq_n.val() == false;
-        self.clkout.next = self.can.clkout.val();
+        self.port.rx.next = self.rx.val();
+        self.tx.next = self.port.tx.val();
+        self.irq.next = self.port.irq.val();
+        self.clkout.next = self.port.clkout.val();
         self.wb_dat_r.next = self.port.rdata.val();
         self.wb_ack.next = self.state.q.val() == WishboneState::Ack;
         self.wb_stall.next = self.state.q.val() != WishboneState::Idle;

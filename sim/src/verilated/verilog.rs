@@ -180,11 +180,14 @@ impl Bus {
     }
 }
 
+/// The controller's module in rust-hdl's Verilog of a wrapper (inside its register port).
+const CONTROLLER_INSTANCE: &str = "top$port$can";
+
 /// The name of the wrappers' register-layout parameter.
 pub const WORD_STRIDE_PARAMETER: &str = "word_stride";
 
 /// The generated Verilog of `bus`'s wrapper without the controller: its top module renamed to
-/// [`Bus::top_module`], the controller's modules (`top$can…`) left out and its instance made an
+/// [`Bus::top_module`], the controller's modules (`top$port$can…`) left out and its instance made an
 /// instance of [`TOP_MODULE`] (from [`FILE_NAME`]), the `word_stride` constant a parameter.
 pub fn wrapper_verilog(bus: Bus) -> String {
     let verilog = match bus {
@@ -196,7 +199,7 @@ pub fn wrapper_verilog(bus: Bus) -> String {
     let mut out = String::new();
     for module in split_modules(&verilog) {
         let name = module_name(module);
-        if name == "top$can" || name.starts_with("top$can$") {
+        if name == CONTROLLER_INSTANCE || name.starts_with(&format!("{CONTROLLER_INSTANCE}$")) {
             continue;
         }
         out.push_str(module);
@@ -204,7 +207,10 @@ pub fn wrapper_verilog(bus: Bus) -> String {
     // The controller is its own module; the wrapper's other sub-modules are named after its top,
     // so two wrappers compile together.
     let out = out
-        .replace("    top$can can(", &format!("    {TOP_MODULE} can("))
+        .replace(
+            &format!("    {CONTROLLER_INSTANCE} can("),
+            &format!("    {TOP_MODULE} can("),
+        )
         .replace("top$", &format!("{}$", bus.top_module()));
     let parameter = format!("    localparam  {WORD_STRIDE_PARAMETER} = ");
     assert!(
