@@ -54,8 +54,6 @@ pub struct BlockClient {
     state: State,
     data: Vec<u8>,
     crc: bool,
-    /// Upload: the bytes of the segments of the current sub-block.
-    pending: Vec<u8>,
     last_us: u64,
 }
 
@@ -95,7 +93,6 @@ impl BlockClient {
             state: State::Initiating,
             data,
             crc: false,
-            pending: Vec::new(),
             last_us: now_us,
         }
     }
@@ -213,7 +210,7 @@ impl BlockClient {
         // the server sends again from there.
         let in_order = sequence == next;
         if in_order {
-            self.pending.extend_from_slice(&frame[1..]);
+            self.data.extend_from_slice(&frame[1..]);
         }
         let good = if in_order { next } else { next - 1 };
         if !last && sequence < BLOCK_SIZE {
@@ -222,7 +219,6 @@ impl BlockClient {
             }
             return Ok(Vec::new());
         }
-        self.data.append(&mut self.pending);
         self.state = if last && in_order {
             State::Ended
         } else {

@@ -188,11 +188,8 @@ impl Master for WishboneMaster {
             self.ending = true;
         }
         let stb = !(self.pipelined && self.taken);
-        if self.script.cycle > 0 && self.pipelined && out[2] == 0 {
-            self.taken = true;
-        }
-        if self.script.cycle == 0 && self.pipelined {
-            // Idle before: no stall, the request is taken at this edge.
+        // Pipelined: the request is taken at the edge that sees it without a stall.
+        if self.pipelined && stb && out[2] == 0 {
             self.taken = true;
         }
         self.script.cycle += 1;
@@ -270,8 +267,7 @@ impl Master for AxiLiteMaster {
         }
         let c = self.script.cycle;
         let (aw, w, b, ar, r) = (0, 1, 2, 3, 4);
-        // What was offered in the last cycle and taken at its edge shows as the ready now: the
-        // handshake of the cycle before is judged on the inputs it had, kept in `offered`.
+        // The readies come from flip-flops: what the wrapper shows now holds for the coming edge.
         let awvalid = !self.done[aw] && c >= self.delays[aw];
         let wvalid = !self.done[w] && c >= self.delays[w];
         let bready = !self.done[b] && self.done[aw] && self.done[w] && c >= self.delays[b];

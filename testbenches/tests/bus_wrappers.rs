@@ -31,6 +31,10 @@ const CDR: u8 = 31;
 const BASIC_CR_AFTER_RESET: u8 = 0x21;
 /// BTR1 0x14: TSEG1 5 tq, TSEG2 2 tq, with BTR0 0 (tq = 2 clocks): 16 clocks per bit.
 const FAST_BTR1: u8 = 0x14;
+/// Names of the reads of the RX buffer's bytes.
+const RX_NAMES: [&str; 8] = [
+    "rx 0", "rx 1", "rx 2", "rx 3", "rx 4", "rx 5", "rx 6", "rx 7",
+];
 /// Clocks for a frame of up to 160 bits and its interrupt.
 const FRAME_CYCLES: usize = 160 * 16 + 200;
 
@@ -110,11 +114,8 @@ impl Script {
 
     /// The received frame's `count` bytes and the release.
     fn receive(&mut self, count: u8) -> &mut Self {
-        const NAMES: [&str; 8] = [
-            "rx 0", "rx 1", "rx 2", "rx 3", "rx 4", "rx 5", "rx 6", "rx 7",
-        ];
         for k in 0..count {
-            self.read(NAMES[usize::from(k)], RX_FRAME + k);
+            self.read(RX_NAMES[usize::from(k)], RX_FRAME + k);
         }
         self.read("RMC before release", RMC)
             .write(CMR, 0x04)
@@ -201,14 +202,14 @@ fn bench<W: Wrapped>(
     );
     assert_eq!(receiver.value(r, "IR after receiving"), 0x01, "{what}: RI");
     for (k, b) in STANDARD.iter().enumerate() {
-        let name = ["rx 0", "rx 1", "rx 2", "rx 3", "rx 4"][k];
+        let name = RX_NAMES[k];
         assert_eq!(receiver.value(r, name), *b, "{what}: {name}");
     }
     assert_eq!(receiver.value(r, "RMC before release"), 1, "{what}");
     assert_eq!(receiver.value(r, "RMC after release"), 0, "{what}");
     assert_eq!(sender.value(s, "IR after receiving"), 0x01, "{what}: RI");
     for (k, b) in EXTENDED.iter().enumerate() {
-        let name = ["rx 0", "rx 1", "rx 2", "rx 3", "rx 4", "rx 5"][k];
+        let name = RX_NAMES[k];
         assert_eq!(sender.value(s, name), *b, "{what}: {name}");
     }
     assert_eq!(
