@@ -1,7 +1,7 @@
 # Entry points of the project. `make test` is what CI runs.
 CARGO ?= cargo
 
-.PHONY: bitstream fpga-rtl pyenv test test-long test-verilator check tools demo waves waves-check waves-compare lint verilog verilator-model synth bench campaign clean
+.PHONY: bitstream formal formal-long fpga-rtl pyenv test test-long test-verilator check tools demo waves waves-check waves-compare lint verilog verilator-model synth bench campaign clean
 
 ## Install the external tools (sigrok-cli, iverilog, verilator) and the Python ones (python-can,
 ## cantools, pinned, in build/pyenv), then run every test.
@@ -95,6 +95,16 @@ fpga-rtl:
 ## there yet (tests and runs build it on first use too); prints the library's path.
 verilator-model: tools
 	$(CARGO) run -q -p sim --bin cansim -- verilator-model
+
+## Formal proofs of the generated Verilog (formal/*.sv, docs/FORMAL.md): each property proved with
+## Yosys and ABC (pdr for every depth, or bmc to its stated bound), then each deliberate break of a
+## rule (a mutation of the Verilog) shown to fail its proof. `make test` runs the same
+## (testbenches/tests/formal.rs); formal-long adds the properties marked long.
+formal: tools
+	./scripts/formal.sh --mutations
+
+formal-long: tools
+	./scripts/formal.sh --long --mutations
 
 ## Lint of the generated Verilog: warning counts per category (Verilator -Wall, Icarus -Wall).
 lint: tools

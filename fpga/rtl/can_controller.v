@@ -2634,6 +2634,9 @@ module top$core$protocol(clock,reset,enable,process_point,transmit_point,rx_bit,
         if (faults$bus_off) begin
             field$d = ProtocolState$BusOff;
             transmitter$d = 1'b0;
+            if (field$q != ProtocolState$BusOff) begin
+                count$d = 32'h0;
+            end
         end
         if ((field$q == ProtocolState$BusOff) & (faults$bus_off == 1'b0)) begin
             field$d = ProtocolState$Idle;

@@ -351,6 +351,12 @@ impl Logic for Protocol {
         if self.faults.bus_off.val() {
             self.field.d.next = ProtocolState::BusOff;
             self.transmitter.d.next = false;
+            // Recovery counts recessive bits from here: a flag bit counted before bus-off (a
+            // passive flag's dominant bit ends rule 3's exception a) must not shorten the first
+            // of the 128 occurrences (formal/bus_off_recovery.sv found it).
+            if self.field.q.val() != ProtocolState::BusOff {
+                self.count.d.next = 0.into();
+            }
         }
         // Recovery complete: error active with both counters 0.
         if (self.field.q.val() == ProtocolState::BusOff) & (self.faults.bus_off.val() == false) {

@@ -1,0 +1,123 @@
+// Configuration registers at the host port: BTR0, BTR1 and the acceptance code and mask registers
+// are written only in reset mode and read back what was written; SR.0 (RBS) reads RMC > 0.
+//
+// Rules (SJA1000 data sheet 6.5.1 BTR0, 6.5.2 BTR1, 6.4.15 acceptance filter (PeliCAN ACR0..3 at 16..19,
+// AMR0..3 at 20..23), 6.3.x BasicCAN (ACR 4, AMR 5; BTR0 6, BTR1 7 in both maps)): these registers
+// "can only be accessed (written) in reset mode"; in operating mode a write to them is ignored. A
+// write in reset mode to the register's address loads it; a read of that address in reset mode returns
+// it. 6.4.5 SR bit 0 (RBS): 1 when the RXFIFO holds a message (RMC, 6.4.16, above 0).
+// Split into (a) out of reset mode the register never changes, (b) a reset-mode write to its address
+// loads `wdata`, (c) a reset-mode read of its address returns the register in `rdata` the cycle after
+// the `re` cycle, (d) a read of SR returns RMC != 0 in bit 0.
+//
+// The whole controller, every input free (rx too) but for the port contract at the top of
+// fpga/rtl/can_controller.v: `reset` in the first cycle, `we` and `re` never together. Both register
+// maps are covered: the map (CDR.7) and the mode (MOD.RM) are the controller's own, read from inside;
+// the host may switch either at any time the controller allows it.
+//
+//! read: can_controller.v
+//! connect: reset_mode = ctl.modes.rm$q
+//! connect: cdr = ctl.modes.cdr_reg$q
+//! connect: btr0 = ctl.configuration.btr0$q
+//! connect: btr1 = ctl.configuration.btr1$q
+//! connect: acr0 = ctl.filter.acr0$q
+//! connect: acr1 = ctl.filter.acr1$q
+//! connect: acr2 = ctl.filter.acr2$q
+//! connect: acr3 = ctl.filter.acr3$q
+//! connect: amr0 = ctl.filter.amr0$q
+//! connect: amr1 = ctl.filter.amr1$q
+//! connect: amr2 = ctl.filter.amr2$q
+//! connect: amr3 = ctl.filter.amr3$q
+//! connect: message_count = ctl.fifo$message_count
+//! bmc: 12
+//! prove: pdr
+//! mutation: btr-write-in-operating | if (host$we & reset_mode) begin => if (host$we) begin
+//! mutation: filter-write-in-operating | if (host$we & reset_mode & host_selected) begin => if (host$we & host_selected) begin
+//! mutation: btr1-readback | btr1$d = host$wdata; => btr1$d = host$wdata ^ 8'h01;
+//! mutation: amr3-read | host_data = amr3$q; => host_data = amr2$q;
+//! mutation: rbs-or-tbs | ((rbs) << (32'h0)) => ((rbs | tbs) << (32'h0))
+module register_port (
+    input clock,
+    input reset,
+    input [7:0] addr,
+    input [7:0] wdata,
+    input we,
+    input re,
+    input rx
+);
+  wire [7:0] rdata;
+  wire tx, irq_n, clkout;
+  can_controller ctl (
+      .clock(clock),
+      .reset(reset),
+      .addr(addr),
+      .wdata(wdata),
+      .we(we),
+      .re(re),
+      .rdata(rdata),
+      .rx(rx),
+      .tx(tx),
+      .irq_n(irq_n),
+      .clkout(clkout)
+  );
+
+  // Inside the controller (see the `connect` lines).
+  wire reset_mode;
+  wire [7:0] cdr, btr0, btr1, acr0, acr1, acr2, acr3, amr0, amr1, amr2, amr3;
+  wire [4:0] message_count;
+
+  // The port contract.
+  reg started = 1'b0;
+  always @(posedge clock) started <= 1'b1;
+  always @(*) begin
+    if (!started) assume (reset);
+    assume (!(we && re));
+  end
+
+  // The registers, indexed 0 BTR0, 1 BTR1, 2..5 ACR0..3, 6..9 AMR0..3, and their addresses in the map
+  // in force (8'hff: none; BasicCAN has ACR0 and AMR0 only, at 4 and 5).
+  // (Connected wires are only read, never renamed: `connect` would leave an alias free.)
+`define REGISTERS {amr3, amr2, amr1, amr0, acr3, acr2, acr1, acr0, btr1, btr0}
+`define REGISTER(r) (r == 0 ? btr0 : r == 1 ? btr1 : r == 2 ? acr0 : r == 3 ? acr1 : r == 4 ? acr2 : \
+                     r == 5 ? acr3 : r == 6 ? amr0 : r == 7 ? amr1 : r == 8 ? amr2 : amr3)
+  function automatic [7:0] address(input integer r, input pel);
+    if (r < 2) address = 8'd6 + r;
+    else if (pel) address = 8'd16 + (r - 2);
+    else if (r == 2) address = 8'd4;
+    else if (r == 6) address = 8'd5;
+    else address = 8'hff;
+  endfunction
+
+  reg past_valid = 1'b0;
+  reg past_reset, past_reset_mode, past_pelican, past_we, past_re;
+  reg [7:0] past_addr, past_wdata;
+  reg [8*10-1:0] past_value;
+  reg [4:0] past_count;
+  always @(posedge clock) begin
+    past_valid <= started;
+    {past_reset, past_reset_mode, past_pelican, past_we, past_re} <= {reset, reset_mode, cdr[7], we, re};
+    {past_addr, past_wdata, past_value, past_count} <= {addr, wdata, `REGISTERS, message_count};
+  end
+
+  genvar r;
+  generate
+    for (r = 0; r < 10; r = r + 1) begin : register
+      wire [7:0] at = address(r, past_pelican);
+      wire hit = at != 8'hff && past_addr == at;
+      always @(*)
+        if (past_valid && !past_reset) begin
+          // (a) Operating mode: no change.
+          if (!past_reset_mode) assert (`REGISTER(r) == past_value[8*r+:8]);
+          // (b) Reset mode: a write to the address loads wdata.
+          if (past_reset_mode && past_we && hit) assert (`REGISTER(r) == past_wdata);
+          // (c) Reset mode: a read of the address returns the register.
+          if (past_reset_mode && past_re && hit) assert (rdata == past_value[8*r+:8]);
+        end
+    end
+  endgenerate
+
+  // (d) SR.0 = RBS = RMC != 0, in both maps and modes.
+  always @(*) if (past_valid && !past_reset && past_re && past_addr == 8'd2) assert (rdata[0] == (past_count != 5'd0));
+endmodule
+`undef REGISTERS
+`undef REGISTER

@@ -1,0 +1,228 @@
+// Receive FIFO: RMC counts exactly the stored messages, a message is kept only if it fits in the 64
+// bytes, and a message that does not fit is dropped with DOS set, without touching the stored ones.
+//
+// Rules (SJA1000 data sheet 6.4.14 "receive buffer" and 6.4.16 "RX message counter"; 6.4.5 SR bit 1
+// DOS; 6.3.x for BasicCAN):
+//   - RMC is the number of messages in the RXFIFO: +1 for each received message that is stored, -1 for
+//     each release (CMR.RRB) of the head message; reset mode empties the FIFO.
+//   - The RXFIFO holds 64 bytes; a message takes its frame information, 2 or 4 identifier bytes and its
+//     data bytes (none for RTR, at most 8), written as they arrive after the stored messages.
+//   - A message with a byte that finds no room is lost: the store sets DOS and leaves RMC unchanged, and
+//     no byte of the stored messages, [RBSA, RBSA + used) circularly, is ever written outside reset
+//     mode (where the FIFO is emptied anyway).
+// (RBS = RMC > 0, SR bit 0, is proven on the whole controller in formal/register_port.sv.)
+//
+// The block: `top$fifo` (rtl/src/rx_fifo.rs). Its inputs are free but for this contract, which the
+// protocol engine and the host port guarantee (rtl/src/bsp/received_frame.rs, can_controller.rs):
+//   - `header` starts a frame; id/ide/rtr/dlc then stay put until its `store` (or a new `header`); the
+//     header bytes are written in the 3 or 5 cycles after `header`, and data bytes come later (a data
+//     bit takes many clocks), in order: `strobe` with `index` 0, 1, ... below the data length;
+//   - `store` comes at most once per frame, after all of its bytes (the validity point, end of frame);
+//     reset mode (`clear`) stops the engine: no `header` then, and a frame in progress is not stored;
+//   - `release_head` (CMR.RRB) only in operating mode (`clear` low: the decoder ignores CMR in reset
+//     mode) and never with `host_read` (a write and a read of the host port never come together).
+// Without the store-after-all-bytes part a store could count a message whose last bytes were never
+// checked for room.
+//
+// Bounded: the rules hold for the first 40 clocks from reset. That is too short to fill the 64 bytes
+// (about 75 clocks of back-to-back frames), so the overrun path itself is exercised only by the
+// assertions that hold at every step (the room check of each byte written, below). The assertions
+// are written as induction lemmas (the harness's view of the frame being received against the block's
+// registers, `tail` = RBSA + `used`, the no-overwrite and room rules taking `used` <= 64 as premise):
+// they need not depend on the RAM, but neither ABC `pdr` (170 s) nor ABC `ind` closed them; the
+// release of the head message subtracts the length read from the RAM, and a proof that `used` stays
+// <= 64 needs the stored frame informations to be chained through the RAM.
+//
+// Harness state: `stored` counts the stores of messages that fit minus the releases (mod 32, as RMC's
+// five bits); `lost` marks a frame with a byte that found no room.
+//
+//! read: can_controller.v
+//! connect: used = dut.used$q
+//! connect: tail = dut.tail$q
+//! connect: incomplete = dut.incomplete$q
+//! connect: info = dut.info$q
+//! connect: length = dut.length$q
+//! connect: writing_header = dut.writing_header$q
+//! connect: header_step = dut.header_step$q
+//! connect: ram_write_enable = dut.ram$write_enable
+//! connect: ram_write_address = dut.ram$write_address
+//! bmc: 30
+//! bmc-long: 80
+//! mutation: release-length | used_after_release = used$q - ((head_length) & 7'h7f); => used_after_release = used$q - 7'h3;
+//! mutation: release-not-counted | count_after_release = count$q - 32'h1; => count_after_release = count$q;
+//! mutation-long: room-check | if (room_needed[32'h6]) begin => if (room_needed[32'h6] & 1'b0) begin
+//! mutation-long: no-dos | overrun_state$d = 1'b1; => overrun_state$d = overrun_state$q;
+//! mutation: rtr-length | new_length = header_bytes; => new_length = header_bytes + 32'h1;
+module rx_fifo (
+    input clock,
+    input reset,
+    input clear,
+    input load_start,
+    input [5:0] start_address,
+    input header,
+    input [28:0] id,
+    input ide,
+    input rtr,
+    input [3:0] dlc,
+    input strobe,
+    input [7:0] data,
+    input [2:0] index,
+    input store,
+    input release_head,
+    input clear_overrun,
+    input host_read,
+    input [5:0] host_address,
+    input host_write,
+    input [7:0] host_data
+);
+  wire [7:0] read_data, head_info;
+  wire [4:0] message_count;
+  wire [5:0] start;
+  wire overrun;
+  \top$fifo dut (
+      .clock(clock),
+      .reset(reset),
+      .clear(clear),
+      .load_start(load_start),
+      .start_address(start_address),
+      .\rx_frame$header (header),
+      .\rx_frame$id (id),
+      .\rx_frame$ide (ide),
+      .\rx_frame$rtr (rtr),
+      .\rx_frame$dlc (dlc),
+      .\rx_frame$strobe (strobe),
+      .\rx_frame$data (data),
+      .\rx_frame$index (index),
+      .store(store),
+      .release_head(release_head),
+      .clear_overrun(clear_overrun),
+      .host_read(host_read),
+      .host_address(host_address),
+      .host_write(host_write),
+      .host_data(host_data),
+      .read_data(read_data),
+      .message_count(message_count),
+      .start(start),
+      .overrun(overrun),
+      .head_info(head_info)
+  );
+
+  // Inside the block (see the `connect` lines).
+  wire [6:0] used;
+  wire [5:0] tail;
+  wire incomplete, writing_header;
+  wire [7:0] info;
+  wire [3:0] length;
+  wire [2:0] header_step;
+  wire ram_write_enable;
+  wire [5:0] ram_write_address;
+
+  wire [6:0] used;
+  wire [5:0] tail;
+  wire incomplete, writing_header;
+  wire [7:0] info;
+  wire [3:0] length;
+  wire [2:0] header_step;
+  wire ram_write_enable;
+  wire [5:0] ram_write_address;
+
+  // ---- The frame being received, as the engine sends it.
+  reg started = 1'b0;
+  reg receiving;  // from `header` to `store`
+  reg header_writing;  // the 3 or 5 cycles after `header`
+  reg [2:0] header_done;  // header bytes written
+  reg [3:0] next_index;  // data bytes sent
+  reg held_ide, held_rtr;
+  reg [3:0] held_dlc;
+  reg [28:0] held_id;
+  reg lost;  // a byte of this frame found no room
+  wire [7:0] frame_info = {ide, rtr, 2'b00, dlc};
+  wire [3:0] frame_header_bytes = ide ? 4'd5 : 4'd3;
+  wire [3:0] frame_data_bytes = rtr ? 4'd0 : (dlc[3] ? 4'd8 : dlc);
+  wire [3:0] frame_bytes = frame_header_bytes + frame_data_bytes;
+  // Bytes written so far (in order): the header bytes, then the data bytes.
+  wire [3:0] reach = next_index != 0 ? frame_header_bytes + next_index : {1'b0, header_done};
+  // The byte written this cycle, at this offset in the message.
+  wire attempt = header_writing | strobe;
+  wire [3:0] attempt_offset = strobe ? frame_header_bytes + {1'b0, index} : {1'b0, header_done};
+  wire no_room = used + attempt_offset >= 7'd64;
+
+  always @(posedge clock) begin
+    started <= 1'b1;
+    if (header_writing) begin
+      header_done <= header_done + 3'd1;
+      if ({1'b0, header_done} == frame_header_bytes - 4'd1) header_writing <= 1'b0;
+    end
+    if (strobe) next_index <= next_index + 4'd1;
+    if (attempt && no_room) lost <= 1'b1;
+    if (header) begin
+      receiving <= 1'b1;
+      header_writing <= 1'b1;
+      header_done <= 3'd0;
+      next_index <= 4'd0;
+      lost <= 1'b0;
+      {held_id, held_ide, held_rtr, held_dlc} <= {id, ide, rtr, dlc};
+    end
+    if (store) receiving <= 1'b0;
+    if (reset || clear) begin
+      receiving <= 1'b0;
+      header_writing <= 1'b0;
+    end
+  end
+
+  // ---- The contract.
+  always @(*) begin
+    if (!started) assume (reset);
+    if (receiving && !header) assume ({id, ide, rtr, dlc} == {held_id, held_ide, held_rtr, held_dlc});
+    if (header) assume (!clear && !header_writing && !strobe && !store);
+    if (strobe) assume (receiving && !header_writing && index == next_index[2:0] && next_index < frame_data_bytes);
+    if (store) assume (receiving && !header_writing && next_index == frame_data_bytes);
+    if (release_head) assume (!clear && !host_read);
+  end
+
+  // ---- The reference count: messages stored whole, minus releases of a stored one.
+  reg [4:0] stored;
+  wire accepted = store && !lost;
+  wire released = release_head && stored != 0;
+  always @(posedge clock)
+    if (reset || clear) stored <= 5'd0;
+    else stored <= stored - released + accepted;
+
+  // A RAM write lands in the stored messages' bytes, [RBSA, RBSA + used) circularly.
+  wire [5:0] write_distance = ram_write_address - start;
+  wire write_in_stored = ram_write_enable && {1'b0, write_distance} < used;
+
+  reg past_valid = 1'b0;
+  reg past_store, past_lost, past_clear, past_reset, past_clear_overrun, past_release;
+  reg [4:0] past_count;
+  always @(posedge clock) begin
+    past_valid <= started;
+    {past_store, past_lost, past_clear, past_reset, past_clear_overrun} <= {store, lost, clear, reset, clear_overrun};
+    past_release <= release_head && message_count != 0;
+    past_count <= message_count;
+  end
+
+  always @(*)
+    if (started) begin
+      // The rules.
+      assert (message_count == stored);
+      if (!clear && used <= 7'd64) assert (!write_in_stored);
+      if (receiving && !lost && used <= 7'd64) assert (used + reach <= 7'd64);
+      if (past_valid && past_store && past_lost && !past_clear && !past_reset && !past_clear_overrun) begin
+        assert (overrun);
+        assert (message_count == past_count - past_release);
+      end
+
+      // Lemmas: the bookkeeping, and the frame being received as the block sees it.
+      assert (tail == start + used[5:0]);
+      assert (writing_header == header_writing);
+      if (header_writing) assert (header_step == header_done && receiving);
+      if (receiving && !header) begin
+        assert (info == frame_info && length == frame_bytes);
+        assert (incomplete == lost);
+        assert (reach <= frame_bytes);
+        if (!header_writing) assert (header_done == frame_header_bytes[2:0]);
+        if (next_index != 0) assert (!header_writing);
+      end
+    end
+endmodule

@@ -1,0 +1,114 @@
+// Bit stuffing: while the node transmits a frame, the bits it sends from SOF to the end of the CRC
+// sequence never hold six equal values in a row.
+//
+// Rule (Bosch CAN 2.0 part B section 6 "Coding"; ISO 11898-1 "bit stuffing"): the frame
+// segments SOF, arbitration field, control field, data field and CRC sequence are coded by bit
+// stuffing: whenever a transmitter detects five consecutive bits of identical value in the bit stream
+// to be transmitted, it inserts a complementary bit in the actual transmitted bit stream. Error and
+// overload flags, delimiters, ACK and EOF are of fixed form and not stuffed.
+//
+// Checked on the bit stream processor (top$core$protocol) with every input free (bus level, host
+// requests, transmit-buffer bytes, enable) except two contracts of the controller around it: the order
+// of the bit-timing triggers, which formal/bit_timing.sv proves (a process point and a transmit point
+// never share a clock; between two process points there is a transmit point), and the modes
+// listen-only and self-test changing only while the engine is disabled (reset mode: the SJA1000
+// takes MOD.LOM and MOD.STM only in reset mode, data sheet 6.4.3). The harness reads `tx` at each process point (the
+// bit the node sends in that bit time) and counts the run of equal bits while the node is the
+// transmitter in SOF .. CRC sequence.
+//
+//! read: can_controller.v
+//! connect: field = bsp.field$q
+//! connect: field_next = bsp.field$d
+//! connect: transmitter = bsp.transmitter$q
+//! bmc: 40
+//! prove: pdr
+//! mutation: sixth-bit-unstuffed | four_equal = active$q & (run_length$q == 32'h4); => four_equal = active$q & (run_length$q == 32'h5);
+module stuffing (
+    input clock,
+    input reset,
+    input enable,
+    input process_point,
+    input transmit_point,
+    input rx_bit,
+    input listen_only,
+    input self_test,
+    input request,
+    input single_shot,
+    input abort,
+    input [7:0] info,
+    input [7:0] data,
+    input load_tec,
+    input load_rec,
+    input [7:0] load_value
+);
+  localparam [3:0] IDLE = 4'd1, ARBITRATION = 4'd2, CONTROL = 4'd3, DATA = 4'd4, CRC = 4'd5;
+  localparam [3:0] INTERMISSION = 4'd10, SUSPEND = 4'd11;
+
+  wire tx;
+  wire [3:0] field, field_next;
+  wire transmitter;
+
+  \top$core$protocol bsp (
+      .clock(clock),
+      .reset(reset),
+      .enable(enable),
+      .process_point(process_point),
+      .transmit_point(transmit_point),
+      .rx_bit(rx_bit),
+      .listen_only(listen_only),
+      .self_test(self_test),
+      .\transmit$request (request),
+      .\transmit$single_shot (single_shot),
+      .\transmit$abort (abort),
+      .\transmit$info (info),
+      .\transmit$data (data),
+      .\counters$load_tec (load_tec),
+      .\counters$load_rec (load_rec),
+      .\counters$value (load_value),
+      .tx(tx)
+  );
+
+  reg started = 1'b0;
+  always @(posedge clock) started <= 1'b1;
+  always @(*) if (!started) assume (reset);
+
+  // The bit-timing contract (proved in formal/bit_timing.sv).
+  reg transmitted_since_process = 1'b1;
+  always @(posedge clock)
+    if (process_point) transmitted_since_process <= 1'b0;
+    else if (transmit_point) transmitted_since_process <= 1'b1;
+  always @(*) assume (!(process_point && transmit_point));
+  always @(*) if (process_point) assume (transmitted_since_process);
+
+  // Modes change only in reset mode (enable low).
+  reg listen_only_was, self_test_was, enable_was = 1'b0;
+  always @(posedge clock) {listen_only_was, self_test_was, enable_was} <= {listen_only, self_test, enable};
+  always @(*) if (started && enable && enable_was) assume ({listen_only, self_test} == {listen_only_was, self_test_was});
+
+  // SOF: the bit that takes the engine from idle, suspend or intermission into arbitration.
+  wire sof = (field == IDLE || field == SUSPEND || field == INTERMISSION) && field_next == ARBITRATION;
+  wire stuffed_field = field == ARBITRATION || field == CONTROL || field == DATA || field == CRC;
+  wire sending = enable && transmitter && (sof || stuffed_field);
+
+  // The run of equal bits the node has sent so far in this frame's stuffed region.
+  reg [2:0] run = 3'd0;
+  reg run_level = 1'b1;
+  always @(posedge clock) begin
+    if (reset) run <= 3'd0;
+    else if (process_point) begin
+      if (!sending || sof) begin
+        // SOF is dominant on the bus even when another node sent it (a node with a frame pending
+        // takes a dominant third intermission bit as SOF and sends its identifier from the next bit).
+        run <= sending ? 3'd1 : 3'd0;
+        run_level <= 1'b0;
+      end else if (tx == run_level && run != 3'd0) run <= run + 3'd1;
+      else begin
+        run <= 3'd1;
+        run_level <= tx;
+      end
+    end
+  end
+
+  always @(*) if (started && !reset && process_point && sending && !sof && run != 3'd0) assert (!(run == 3'd5 && tx == run_level));
+  always @(*) assert (run <= 3'd5);
+endmodule
