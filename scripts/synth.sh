@@ -5,6 +5,10 @@
 #   Xilinx: Yosys synth_xilinx -flatten (LUTs, flip-flops).
 # Writes build/synth/report.txt and prints it. Needs yosys and nextpnr-ice40 (scripts/install-tools.sh
 # --synth installs them). SEEDS=1 for a quick run.
+# Fails when a figure is worse than the one recorded in docs/FPGA.md ("Resources and speed"): more
+# SB_LUT4, flip-flops, block RAMs or Xilinx LUTs, or a max clock more than FMAX_TOLERANCE percent
+# (default 5: placement moves the same logic by a few percent between designs) below the recorded one. After an improvement, record
+# the new figures there.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -62,3 +66,29 @@ median=$(printf '%s\n' "${freqs[@]}" | sort -n | awk '{ v[NR] = $1 } END { print
     echo "is above the flattened total)"
     awk '/^=== /{ block = $2 } $1 == "SB_LUT4" { printf "  %-40s %5d\n", block, $2 }' "$DIR/ice40_blocks.txt" | sort -k2 -nr
 } | tee "$DIR/report.txt"
+
+# recorded ROW: the measured figure of a row of docs/FPGA.md's resources table (spaces removed).
+recorded() {
+    awk -F'|' -v row="$1" '$2 ~ "^ *" row " *$" { gsub(/ /, "", $3); match($3, /^[0-9.]+/); print substr($3, RSTART, RLENGTH); exit }' docs/FPGA.md
+}
+
+regressions=()
+check_at_most() { # NAME MEASURED RECORDED
+    [ -n "$3" ] || { regressions+=("$1: no recorded figure in docs/FPGA.md"); return; }
+    [ "$2" -le "$3" ] || regressions+=("$1: $2, recorded $3")
+}
+check_at_most "iCE40 SB_LUT4" "$(cells "$DIR/ice40_stat.txt" '^SB_LUT4$')" "$(recorded 'iCE40 SB_LUT4')"
+check_at_most "iCE40 flip-flops" "$(cells "$DIR/ice40_stat.txt" '^SB_DFF')" "$(recorded 'iCE40 flip-flops')"
+check_at_most "iCE40 block RAM" "$(cells "$DIR/ice40_stat.txt" '^SB_RAM40_4K')" "$(recorded 'iCE40 block RAM')"
+check_at_most "Xilinx LUT" "$(cells "$DIR/xilinx_stat.txt" '^LUT[1-6]$')" "$(recorded 'Xilinx LUT1..6')"
+fmax_recorded=$(recorded 'iCE40 max clock \\(HX8K\\)')
+if [ -z "$fmax_recorded" ]; then
+    regressions+=("max clock: no recorded figure in docs/FPGA.md")
+elif ! awk -v m="$median" -v r="$fmax_recorded" -v t="${FMAX_TOLERANCE:-5}" 'BEGIN { exit !(m >= r * (1 - t / 100)) }'; then
+    regressions+=("max clock: $median MHz, recorded $fmax_recorded MHz (tolerance ${FMAX_TOLERANCE:-5} %)")
+fi
+if [ ${#regressions[@]} -gt 0 ]; then
+    printf 'synth: worse than docs/FPGA.md: %s\n' "${regressions[@]}" >&2
+    exit 1
+fi
+echo "synth: no figure worse than docs/FPGA.md"
