@@ -1,6 +1,7 @@
 //! One injected fault against the CAN guarantees and the golden rules (property b of the protocol
 //! issue), the known CAN inconsistency cases, and a short run of the fault campaign (`make campaign`
-//! runs the long one).
+//! runs the long one), and its slices: run apart (`--shard K/N`) and merged they give the report of one
+//! run.
 //!
 //! Three RTL cores: node 0 sends one frame, nodes 1 and 2 receive. A fault is a whole bit seen
 //! flipped or forced, by one node or by all, or a glitch of a few time quanta. Afterwards no node may
@@ -12,8 +13,9 @@ use golden::frame::{encode, Field, Frame, Id};
 use golden::reference::{Fault, FaultKind};
 use proptest::prelude::*;
 use sim::workloads::campaign::{
-    check, run_campaign, run_rtl, Case, Injection, Outcome, Run, NODES,
+    check, run_campaign, run_campaign_shard, run_rtl, Case, Injection, Outcome, Run, NODES,
 };
+use sim::workloads::campaign_slice::{merge, read_slice, write_slice, Shard, Slice};
 
 fn frame_strategy() -> impl Strategy<Value = Frame> {
     (
@@ -273,4 +275,55 @@ fn short_campaign_breaks_no_rule() {
         .copied()
         .unwrap_or(0);
     assert!(recovered > 100, "{summary:?}");
+}
+
+/// Shard `index` of `count` of the 90-case campaign with seed 11, through its slice file.
+fn slice_file(dir: &std::path::Path, index: u64, count: u64) -> Slice {
+    let shard = Shard { index, count };
+    let summary = run_campaign_shard(11, 90, shard, 1, &|_| {});
+    let path = dir.join(format!("slice-{index}-of-{count}.jsonl"));
+    let slice = Slice {
+        seed: 11,
+        faults: 90,
+        shard,
+        summary,
+    };
+    write_slice(&path, &slice).unwrap();
+    read_slice(&path).unwrap()
+}
+
+#[test]
+fn campaign_slices_merge_into_the_report_of_one_run() {
+    let dir = std::env::temp_dir().join(format!("cansim-slices-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let whole = run_campaign(11, 90, 2, &|_| {});
+    for count in [2, 3] {
+        let slices: Vec<Slice> = (1..=count).map(|k| slice_file(&dir, k, count)).collect();
+        assert_eq!(
+            slices.iter().map(|s| s.summary.cases).sum::<usize>(),
+            90,
+            "{count} shards take every case once"
+        );
+        let merged = merge(&slices).unwrap();
+        assert_eq!(merged.summary, whole, "{count} shards merged = one run");
+    }
+
+    let first = slice_file(&dir, 1, 2);
+    let second = slice_file(&dir, 2, 2);
+    let twice = merge(&[first.clone(), first.clone()]).unwrap_err();
+    assert!(twice.contains("shard 1/2 given twice"), "{twice}");
+    let missing = merge(std::slice::from_ref(&second)).unwrap_err();
+    assert!(missing.contains("missing shards: 1/2"), "{missing}");
+    let other_seed = Slice { seed: 12, ..second };
+    let mixed = merge(&[first, other_seed]).unwrap_err();
+    assert!(mixed.contains("different campaigns"), "{mixed}");
+
+    // A slice file cut short (its last outcome line lost) is refused.
+    let path = dir.join("slice-1-of-2.jsonl");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let cut: Vec<&str> = text.lines().collect();
+    std::fs::write(&path, cut[..cut.len() - 1].join("\n")).unwrap();
+    let short = read_slice(&path).unwrap_err();
+    assert!(short.contains("file cut short"), "{short}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -22,8 +22,9 @@ use sim::scenario::{load, run, RunOptions, RunReport, Scenario};
 use sim::serve::ServeOptions;
 use sim::verilated;
 use sim::workloads::campaign::{
-    check, describe, format_summary, random_case, run_campaign, run_rtl_traced,
+    check, describe, format_summary, random_case, run_campaign_shard, run_rtl_traced,
 };
+use sim::workloads::campaign_slice::{merge, read_slice, write_slice, Shard, Slice};
 use sim::workloads::demo::{demo_scenario, DEMO_LOG, DEMO_VCD};
 use sim::workloads::replay::ReplayOptions;
 use sim::workloads::sync_demo;
@@ -159,6 +160,20 @@ enum Command {
         /// With --case: write a VCD of that case.
         #[arg(long, requires = "case")]
         vcd: Option<PathBuf>,
+        /// Run only the slice K/N of the cases (case i when i mod N = K - 1), e.g. one per machine
+        /// of a cluster; merge the slices with `campaign-merge`.
+        #[arg(long, default_value = "1/1", value_parser = Shard::parse, conflicts_with = "case")]
+        shard: Shard,
+        /// Write the counts and failures as JSON lines (the input of `campaign-merge`).
+        #[arg(long, conflicts_with = "case")]
+        out: Option<PathBuf>,
+    },
+    /// Add up campaign slices (`campaign --shard K/N --out FILE`) into the report of one run of the
+    /// whole campaign; refuses slices of different campaigns, a shard given twice or missing.
+    CampaignMerge {
+        /// The slice files, one per shard.
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
     },
     /// Decode the CAN bus signal of any VCD file: one candump-style line per frame, error frame and
     /// overload frame, then the count of each.
@@ -368,10 +383,13 @@ fn main() -> ExitCode {
             threads,
             case,
             vcd,
+            shard,
+            out,
         } => match case {
             Some(index) => campaign_case(seed, index, vcd),
-            None => campaign(faults, seed, threads),
+            None => campaign(faults, seed, threads, shard, out),
         },
+        Command::CampaignMerge { files } => campaign_merge(&files),
         Command::Decode {
             file,
             signal,
@@ -706,27 +724,51 @@ fn sync_demo(vcd: PathBuf, no_vcd: bool, quiet: bool) -> Result<(), String> {
     }
 }
 
-fn campaign(faults: u64, seed: u64, threads: Option<usize>) -> Result<(), String> {
+fn campaign(
+    faults: u64,
+    seed: u64,
+    threads: Option<usize>,
+    shard: Shard,
+    out: Option<PathBuf>,
+) -> Result<(), String> {
     if faults == 0 {
         return Err("--faults must be at least 1".into());
     }
     let threads = default_threads(threads);
-    println!("cansim campaign: {faults} faults, seed {seed}, {threads} threads");
+    let cases = shard.len(faults);
+    if shard == Shard::WHOLE {
+        println!("cansim campaign: {faults} faults, seed {seed}, {threads} threads");
+    } else {
+        println!(
+            "cansim campaign: shard {}/{} of {faults} faults ({cases} cases), seed {seed}, {threads} threads",
+            shard.index, shard.count
+        );
+    }
     let start = Instant::now();
     let last_shown = Mutex::new(Instant::now());
     let show = std::io::stderr().is_terminal();
     let progress = |done: u64| {
         let mut last = last_shown.lock().expect("progress lock");
-        if show && (last.elapsed().as_millis() >= 500 || done == faults) {
+        if show && (last.elapsed().as_millis() >= 500 || done == cases) {
             *last = Instant::now();
             let rate = done as f64 / start.elapsed().as_secs_f64();
-            let eta = (faults - done) as f64 / rate.max(1e-9);
-            eprint!("\r{done}/{faults} cases, {rate:.0} cases/s, {eta:.0} s to go   ");
+            let eta = cases.saturating_sub(done) as f64 / rate.max(1e-9);
+            eprint!("\r{done}/{cases} cases, {rate:.0} cases/s, {eta:.0} s to go   ");
         }
     };
-    let summary = run_campaign(seed, faults, threads, &progress);
+    let summary = run_campaign_shard(seed, faults, shard, threads, &progress);
     if show {
         eprintln!();
+    }
+    if let Some(path) = &out {
+        let slice = Slice {
+            seed,
+            faults,
+            shard,
+            summary: summary.clone(),
+        };
+        write_slice(path, &slice).map_err(|e| format!("{}: {e}", path.display()))?;
+        println!("slice written to {}", path.display());
     }
     let seconds = start.elapsed().as_secs_f64();
     print!("{}", format_summary(&summary));
@@ -741,6 +783,30 @@ fn campaign(faults: u64, seed: u64, threads: Option<usize>) -> Result<(), String
         Err(format!(
             "{} cases broke a rule; rerun one with --seed {seed} --case N",
             summary.failures.len()
+        ))
+    }
+}
+
+fn campaign_merge(files: &[PathBuf]) -> Result<(), String> {
+    let slices = files
+        .iter()
+        .map(|path| read_slice(path))
+        .collect::<Result<Vec<_>, _>>()?;
+    let merged = merge(&slices)?;
+    println!(
+        "cansim campaign-merge: {} slices of {} faults, seed {}",
+        slices.len(),
+        merged.faults,
+        merged.seed
+    );
+    print!("{}", format_summary(&merged.summary));
+    if merged.summary.failures.is_empty() {
+        Ok(())
+    } else {
+        Err(format!(
+            "{} cases broke a rule; rerun one with --seed {} --case N",
+            merged.summary.failures.len(),
+            merged.seed
         ))
     }
 }

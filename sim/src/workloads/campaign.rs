@@ -16,6 +16,7 @@
 
 use crate::engine::rng::Rng;
 use crate::host::sja1000::{BTR0_1M_AT_16MHZ, BTR1_1M_AT_16MHZ};
+use crate::workloads::campaign_slice::Shard;
 use std::any::Any;
 use std::collections::BTreeMap;
 use std::io;
@@ -122,7 +123,9 @@ pub struct Run {
 }
 
 /// The classes of case results.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
 pub enum Outcome {
     /// No node detected an error and every receiver has the frame once.
     NoEffect,
@@ -722,7 +725,7 @@ pub fn random_case(rng: &mut Rng) -> Case {
 }
 
 /// Counts per outcome and the cases that broke a rule.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Summary {
     /// Cases run.
     pub cases: usize,
@@ -740,12 +743,24 @@ pub fn run_campaign(
     threads: usize,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Summary {
+    run_campaign_shard(seed, count, Shard::WHOLE, threads, progress)
+}
+
+/// Runs the cases of `0..count` that fall to `shard` (case i is the same case whatever the
+/// sharding: it is drawn from `seed` and i alone).
+pub fn run_campaign_shard(
+    seed: u64,
+    count: u64,
+    shard: Shard,
+    threads: usize,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Summary {
     let next = AtomicUsize::new(0);
     let summary = Mutex::new(Summary::default());
     std::thread::scope(|scope| {
         for _ in 0..threads.max(1) {
             scope.spawn(|| loop {
-                let index = next.fetch_add(1, Ordering::Relaxed) as u64;
+                let index = shard.case(next.fetch_add(1, Ordering::Relaxed) as u64);
                 if index >= count {
                     break;
                 }
