@@ -40,6 +40,8 @@
 //! mutation: start-in-setup | if (psel & penable) begin => if (psel) begin
 //! mutation: pready-before-access | if (port$done) begin => if (1'b1) begin
 //! mutation: pslverr-on-write | pslverr = 1'b0; => pslverr = (state$q == ApbState$Ready) & pwrite;
+`include "encodings.vh"
+
 module apb (
     input        clock,
     input        reset,
@@ -95,8 +97,8 @@ module apb_slave #(
   wire [1:0] port_state, port_lane;  // the register port's state and byte lane
   wire port_done;  // the register port's access ends
 
-  localparam IDLE = 2'd0, BUSY = 2'd1, READY = 2'd2;
-  localparam PORT_IDLE = 2'd0, PORT_CAPTURE = 2'd2;
+  localparam IDLE = `ApbState_Idle, BUSY = `ApbState_Busy, READY = `ApbState_Ready;
+  localparam PORT_IDLE = `PortState_Idle, PORT_CAPTURE = `PortState_Capture;
 
   reg started = 1'b0;
   always @(posedge clock) started <= 1'b1;

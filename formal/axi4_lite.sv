@@ -63,6 +63,8 @@
 //! mutation: rdata-not-held | rdata = data_in$q; => rdata = {24'h0, can$rdata};
 //! mutation: bresp-slverr | s_axil_bresp = 32'h0; => s_axil_bresp = 32'h2;
 //! mutation: read-starves-write | if (ar_full$q & (last_write$q | (begin_write == 1'b0))) begin => if (ar_full$q) begin
+`include "encodings.vh"
+
 module axi4_lite (
     input        clock,
     input        reset,
@@ -135,8 +137,9 @@ module axi4_lite_slave #(
   wire [1:0] port_state, port_lane;  // the register port's state and byte lane
   wire port_done;  // the register port's access ends
 
-  localparam IDLE = 3'd0, WRITE = 3'd1, READ = 3'd2, WRITE_RESPONSE = 3'd3, READ_RESPONSE = 3'd4;
-  localparam PORT_IDLE = 2'd0, PORT_CAPTURE = 2'd2;
+  localparam IDLE = `AxiState_Idle, WRITE = `AxiState_Write, READ = `AxiState_Read;
+  localparam WRITE_RESPONSE = `AxiState_WriteResponse, READ_RESPONSE = `AxiState_ReadResponse;
+  localparam PORT_IDLE = `PortState_Idle, PORT_CAPTURE = `PortState_Capture;
   localparam LIMIT = 5'd21;  // bound on the owed cycles before a response (header)
 
   reg started = 1'b0;

@@ -38,6 +38,8 @@
 //! mutation-long: recovery-127 | if (tec_count$q == 32'h0) begin => if (tec_count$q == 32'h1) begin
 //! mutation-long: count-kept-on-entry | if (field$q != ProtocolState$BusOff) begin => if (1'b0) begin
 //! mutation: enable-ignored | if ((rx_bit & enable) == 1'b0) begin => if (rx_bit == 1'b0) begin
+`include "encodings.vh"
+
 module bus_off_recovery (
     input clock,
     input reset,
@@ -56,7 +58,7 @@ module bus_off_recovery (
     input load_rec,
     input [7:0] load_value
 );
-  localparam [3:0] BUS_OFF = 4'd15;  // ProtocolState::BusOff
+  localparam [3:0] BUS_OFF = `ProtocolState_BusOff;
 
   wire bus_off;
   wire [7:0] tec;

@@ -26,6 +26,8 @@
 //! mutation: flag-ignores-passive | flag_is_passive = error_passive | listen_only; => flag_is_passive = listen_only;
 //! mutation: flag-kind-dropped | next_bit = flag_passive; => next_bit = 1'b0;
 //! mutation: listen-only-drives | if (listen_only) begin => if (1'b0) begin
+`include "encodings.vh"
+
 module error_passive_flag (
     input clock,
     input reset,
@@ -44,7 +46,7 @@ module error_passive_flag (
     input load_rec,
     input [7:0] load_value
 );
-  localparam [3:0] ERROR_FLAG = 4'd12;  // ProtocolState::ErrorFlag
+  localparam [3:0] ERROR_FLAG = `ProtocolState_ErrorFlag;
 
   wire tx, error_passive;
   \top$core$protocol protocol (

@@ -23,6 +23,8 @@
 //! bmc: 40
 //! prove: pdr
 //! mutation: sixth-bit-unstuffed | four_equal = active$q & (run_length$q == 32'h4); => four_equal = active$q & (run_length$q == 32'h5);
+`include "encodings.vh"
+
 module stuffing (
     input clock,
     input reset,
@@ -41,8 +43,9 @@ module stuffing (
     input load_rec,
     input [7:0] load_value
 );
-  localparam [3:0] IDLE = 4'd1, ARBITRATION = 4'd2, CONTROL = 4'd3, DATA = 4'd4, CRC = 4'd5;
-  localparam [3:0] INTERMISSION = 4'd10, SUSPEND = 4'd11;
+  localparam [3:0] IDLE = `ProtocolState_Idle, ARBITRATION = `ProtocolState_Arbitration;
+  localparam [3:0] CONTROL = `ProtocolState_Control, DATA = `ProtocolState_Data, CRC = `ProtocolState_Crc;
+  localparam [3:0] INTERMISSION = `ProtocolState_Intermission, SUSPEND = `ProtocolState_Suspend;
 
   wire tx;
   wire [3:0] field, field_next;

@@ -56,6 +56,8 @@
 //! mutation: no-stall | wb_stall = state$q != WishboneState$Idle; => wb_stall = 1'b0;
 //! mutation: ack-before-access | if (port$done) begin => if (1'b1) begin
 //! mutation: request-without-cyc | if (wb_cyc & wb_stb) begin => if (wb_stb | wb_we) begin
+`include "encodings.vh"
+
 module wishbone (
     input        clock,
     input        reset,
@@ -114,8 +116,8 @@ module wishbone_slave #(
   wire [1:0] port_state, port_lane;  // the register port's state and byte lane
   wire port_done;  // the register port's access ends
 
-  localparam IDLE = 2'd0, BUSY = 2'd1, ACK = 2'd2;
-  localparam PORT_IDLE = 2'd0, PORT_CAPTURE = 2'd2;
+  localparam IDLE = `WishboneState_Idle, BUSY = `WishboneState_Busy, ACK = `WishboneState_Ack;
+  localparam PORT_IDLE = `PortState_Idle, PORT_CAPTURE = `PortState_Capture;
 
   reg started = 1'b0;
   always @(posedge clock) started <= 1'b1;

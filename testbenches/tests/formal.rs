@@ -121,3 +121,31 @@ fn every_property_holds_and_every_mutation_breaks_its_proof() {
         "docs/FORMAL.md lists exactly the property files"
     );
 }
+
+#[test]
+fn harness_state_encodings_match_the_verilog() {
+    let verilog: String = [
+        "can_controller.v",
+        "can_controller_wb.v",
+        "can_controller_axil.v",
+        "can_controller_apb.v",
+    ]
+    .iter()
+    .map(|file| std::fs::read_to_string(workspace().join("fpga/rtl").join(file)).unwrap())
+    .collect();
+    let encodings = std::fs::read_to_string(workspace().join("formal/encodings.vh")).unwrap();
+    let mut checked = 0;
+    for line in encodings.lines().filter(|l| l.starts_with("`define")) {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let (name, value) = (words[1], words[2]);
+        let (enumeration, variant) = name.split_once('_').expect("Enum_Variant");
+        let number = value.split_once("'d").map_or(value, |(_, n)| n);
+        let declaration = format!("localparam {enumeration}${variant} = {number};");
+        assert!(
+            verilog.contains(&declaration),
+            "formal/encodings.vh: {name} = {value}, but fpga/rtl has no `{declaration}`"
+        );
+        checked += 1;
+    }
+    assert!(checked >= 20, "{checked} encodings checked");
+}
