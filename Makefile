@@ -99,7 +99,8 @@ verilator-model: tools
 ## Formal proofs of the generated Verilog (formal/*.sv, docs/FORMAL.md): each property proved with
 ## Yosys and ABC (pdr for every depth, or bmc to its stated bound), then each deliberate break of a
 ## rule (a mutation of the Verilog) shown to fail its proof. `make test` runs the same
-## (testbenches/tests/formal.rs); formal-long adds the properties marked long.
+## (testbenches/tests/formal.rs); formal-long adds the mutations whose counterexamples are
+## thousands of clocks deep (minutes each).
 formal: tools
 	./scripts/formal.sh --mutations
 

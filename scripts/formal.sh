@@ -10,10 +10,8 @@
 #   //! read: FILE...          Verilog files of fpga/rtl/ the harness needs (can_controller.v, ...)
 #   //! connect: WIRE = PATH   a harness wire driven by a wire inside the flattened design
 #   //! bmc: N                 bounded model check of N steps from reset (always run first)
-#   //! bmc-long: N            the depth with --long instead
 #   //! prove: pdr             then a proof for every depth (optional; without it the result is
 #                              the bound)
-#   //! long: yes              only with --long (make formal-long)
 #   //! mutation: NAME | TEXT => REPLACEMENT
 #                              a deliberate break of the rule in the Verilog: with --mutations the
 #                              TEXT (exactly once in the files read) is replaced and the proof must fail
@@ -95,7 +93,6 @@ counterexample() {
 prove() {
   local name=$1 sv=$2 out=$3 depth complete log
   depth=$(header bmc "$sv")
-  if [ $long -eq 1 ] && [ -n "$(header bmc-long "$sv")" ]; then depth=$(header bmc-long "$sv"); fi
   complete=$(header prove "$sv")
   log=$out/bmc.log
   yosys-abc -c "read_aiger $out/model.aig; fold; strash; bmc3 -F $depth -T $BMC_SECONDS; write_cex -a $out/model.aiw" >"$log" 2>&1 || true
@@ -182,9 +179,6 @@ tasks=()
 for name in "${names[@]}"; do
   sv=formal/$name.sv
   [ -f "$sv" ] || { echo "formal.sh: no property $sv" >&2; exit 2; }
-  if [ "$(header long "$sv")" = yes ] && [ $long -eq 0 ]; then
-    continue
-  fi
   rm -rf "build/formal/$name" && mkdir -p "build/formal/$name"
   tasks+=("$name")
   if [ $mutations -eq 1 ]; then
