@@ -27,8 +27,9 @@
 // Bounded: the rules hold for the first 30 clocks from reset. That is too short to fill the 64 bytes
 // (about 70 clocks of back-to-back frames), so the overrun rules are not reached: they are asserted
 // at every step, but no trace within the bound makes a store find no room (ABC bmc3 got to 52 clocks
-// in 25 minutes). Overrun is covered by simulation instead (testbenches/tests/rx_fifo.rs: the 22nd
-// smallest message overruns, a dropped message entirely absent, DOS/DOI until CDO). The assertions
+// in 25 minutes). formal/rx_fifo_overrun.sv runs this harness with the largest frames back to back,
+// where the fifth overruns, and proves the overrun rules there; simulation covers other mixes
+// (testbenches/tests/rx_fifo.rs: the 22nd smallest message overruns). The assertions
 // are written as induction lemmas (the harness's view of the frame being received against the
 // block's registers, `tail` = RBSA + `used`, the no-overwrite and room rules taking `used` <= 64 as
 // premise): they need not depend on the RAM, but neither ABC `pdr` (170 s) nor ABC `ind` closed
@@ -52,7 +53,10 @@
 //! mutation: release-length | used_after_release = used$q - ((head_length) & 7'h7f); => used_after_release = used$q - 7'h3;
 //! mutation: release-not-counted | count_after_release = count$q - 32'h1; => count_after_release = count$q;
 //! mutation: rtr-length | new_length = header_bytes; => new_length = header_bytes + 32'h1;
-module rx_fifo (
+module rx_fifo #(
+    // 1: the received frames fixed to the largest message, back to back (formal/rx_fifo_overrun.sv).
+    parameter LARGEST_BACK_TO_BACK = 0
+) (
     input clock,
     input reset,
     input clear,
@@ -168,6 +172,17 @@ module rx_fifo (
     if (strobe) assume (receiving && !header_writing && index == next_index[2:0] && next_index < frame_data_bytes);
     if (store) assume (receiving && !header_writing && next_index == frame_data_bytes);
     if (release_head) assume (!clear && !host_read);
+    if (LARGEST_BACK_TO_BACK) begin
+      // Extended, 8 data bytes (13 bytes), every byte at once, the next frame the clock after the
+      // store; no reset mode, host RAM access or CDO after reset. Only the releases stay free.
+      if (started) assume (!reset && !clear && !load_start && !host_read && !host_write && !clear_overrun);
+      assume ({id, ide, rtr, dlc} == {29'd0, 1'b1, 1'b0, 4'd8} && data == 8'd0);
+      if (started) begin
+        assume (header == !receiving);
+        assume (strobe == (receiving && !header_writing && !header && next_index < 4'd8));
+        assume (store == (receiving && !header_writing && !header && next_index == 4'd8));
+      end
+    end
   end
 
   // ---- The reference count: messages stored whole, minus releases of a stored one.

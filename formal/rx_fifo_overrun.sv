@@ -1,0 +1,81 @@
+// Receive FIFO overrun: a message that finds no room is dropped with DOS set and RMC unchanged, and no
+// byte of the stored messages is written.
+//
+// Rules (SJA1000 data sheet 6.4.14 "receive buffer", 6.4.16 "RX message counter", 6.4.5 SR bit 1
+// DOS): as in formal/rx_fifo.sv, whose harness this one reuses with the received frames fixed to
+// the largest message (extended, 8 data bytes: 13 bytes), sent back to back at the fastest rate the
+// engine's contract allows (header bytes in the 5 cycles after `header`, a data byte every cycle,
+// `store` at once, the next `header` the cycle after). The host's release of the head message
+// (CMR.RRB) stays free in every cycle; reset mode, RAM access by the host and CDO stay off. The
+// fifth message needs bytes 53..65 of 64: it overruns unless releases made room, so every
+// interleaving of releases with a FIFO that fills, overruns and drains is covered, for every depth
+// (pdr; the first overrun comes about 75 clocks after reset). The general harness cannot get that
+// deep (formal/rx_fifo.sv: free frames, bmc3 reached 52 clocks).
+//
+//! read: can_controller.v
+//! connect: harness.used = harness.dut.used$q
+//! connect: harness.tail = harness.dut.tail$q
+//! connect: harness.incomplete = harness.dut.incomplete$q
+//! connect: harness.info = harness.dut.info$q
+//! connect: harness.length = harness.dut.length$q
+//! connect: harness.writing_header = harness.dut.writing_header$q
+//! connect: harness.header_step = harness.dut.header_step$q
+//! connect: harness.ram_write_enable = harness.dut.ram$write_enable
+//! connect: harness.ram_write_address = harness.dut.ram$write_address
+//! bmc: 90
+//! prove: pdr
+//! mutation: room-check | if (room_needed[32'h6]) begin => if (room_needed[32'h6] & 1'b0) begin
+//! mutation: no-dos | overrun_state$d = 1'b1; => overrun_state$d = overrun_state$q;
+//! mutation: release-length | used_after_release = used$q - ((head_length) & 7'h7f); => used_after_release = used$q - 7'h3;
+//! mutation: release-not-counted | count_after_release = count$q - 32'h1; => count_after_release = count$q;
+
+// The harness of formal/rx_fifo.sv, with its frames fixed.
+`include "rx_fifo.sv"
+
+module rx_fifo_overrun (
+    input clock,
+    input reset,
+    input clear,
+    input load_start,
+    input [5:0] start_address,
+    input header,
+    input [28:0] id,
+    input ide,
+    input rtr,
+    input [3:0] dlc,
+    input strobe,
+    input [7:0] data,
+    input [2:0] index,
+    input store,
+    input release_head,
+    input clear_overrun,
+    input host_read,
+    input [5:0] host_address,
+    input host_write,
+    input [7:0] host_data
+);
+  rx_fifo #(
+      .LARGEST_BACK_TO_BACK(1)
+  ) harness (
+      .clock(clock),
+      .reset(reset),
+      .clear(clear),
+      .load_start(load_start),
+      .start_address(start_address),
+      .header(header),
+      .id(id),
+      .ide(ide),
+      .rtr(rtr),
+      .dlc(dlc),
+      .strobe(strobe),
+      .data(data),
+      .index(index),
+      .store(store),
+      .release_head(release_head),
+      .clear_overrun(clear_overrun),
+      .host_read(host_read),
+      .host_address(host_address),
+      .host_write(host_write),
+      .host_data(host_data)
+  );
+endmodule
