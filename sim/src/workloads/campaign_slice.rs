@@ -51,11 +51,6 @@ impl Shard {
         (faults + self.count - self.index) / self.count
     }
 
-    /// True when this shard takes no case of `0..faults`.
-    pub fn is_empty(&self, faults: u64) -> bool {
-        self.len(faults) == 0
-    }
-
     /// Whether case `case` falls to this shard.
     pub fn holds(&self, case: u64) -> bool {
         case % self.count == self.index - 1
