@@ -29,46 +29,11 @@
 `include "encodings.vh"
 
 module error_passive_flag (
-    input clock,
-    input reset,
-    input enable,
-    input process_point,
-    input transmit_point,
-    input rx_bit,
-    input listen_only,
-    input self_test,
-    input tx_request,
-    input tx_single_shot,
-    input tx_abort,
-    input [7:0] tx_info,
-    input [7:0] tx_data,
-    input load_tec,
-    input load_rec,
-    input [7:0] load_value
+`include "protocol_ports.vh"
 );
   localparam [3:0] ERROR_FLAG = `ProtocolState_ErrorFlag;
 
-  wire tx, error_passive;
-  \top$core$protocol protocol (
-      .clock(clock),
-      .reset(reset),
-      .enable(enable),
-      .process_point(process_point),
-      .transmit_point(transmit_point),
-      .rx_bit(rx_bit),
-      .listen_only(listen_only),
-      .self_test(self_test),
-      .\transmit$request (tx_request),
-      .\transmit$single_shot (tx_single_shot),
-      .\transmit$abort (tx_abort),
-      .\transmit$info (tx_info),
-      .\transmit$data (tx_data),
-      .\counters$load_tec (load_tec),
-      .\counters$load_rec (load_rec),
-      .\counters$value (load_value),
-      .tx(tx),
-      .\status$error_passive (error_passive)
-  );
+`include "protocol_engine.vh"
 
   // The sequencer's field and count: this clock's, and what the edge loads.
   wire [3:0] field, field_next;

@@ -44,48 +44,9 @@
 //! mutation: listen-only-counts | faults$frozen = listen_only | disabled; => faults$frozen = disabled;
 //! mutation: tick-off-bit-boundary | faults$recovery_tick = interframe$recovery_tick; => faults$recovery_tick = interframe$recovery_tick | (rx_bit & ~process_point);
 module fault_confinement (
-    input clock,
-    input reset,
-    input enable,
-    input process_point,
-    input transmit_point,
-    input rx_bit,
-    input listen_only,
-    input self_test,
-    input tx_request,
-    input tx_single_shot,
-    input tx_abort,
-    input [7:0] tx_info,
-    input [7:0] tx_data,
-    input load_tec,
-    input load_rec,
-    input [7:0] load_value
+`include "protocol_ports.vh"
 );
-  wire tx, bus_off, error_passive;
-  wire [7:0] tec, rec;
-  \top$core$protocol protocol (
-      .clock(clock),
-      .reset(reset),
-      .enable(enable),
-      .process_point(process_point),
-      .transmit_point(transmit_point),
-      .rx_bit(rx_bit),
-      .listen_only(listen_only),
-      .self_test(self_test),
-      .\transmit$request (tx_request),
-      .\transmit$single_shot (tx_single_shot),
-      .\transmit$abort (tx_abort),
-      .\transmit$info (tx_info),
-      .\transmit$data (tx_data),
-      .\counters$load_tec (load_tec),
-      .\counters$load_rec (load_rec),
-      .\counters$value (load_value),
-      .tx(tx),
-      .\status$tec (tec),
-      .\status$rec (rec),
-      .\status$error_passive (error_passive),
-      .\status$bus_off (bus_off)
-  );
+`include "protocol_engine.vh"
 
   reg started = 1'b0;
   always @(posedge clock) started <= 1'b1;

@@ -37,29 +37,9 @@
 //! mutation: amr3-read | host_data = amr3$q; => host_data = amr2$q;
 //! mutation: rbs-or-tbs | ((rbs) << (32'h0)) => ((rbs | tbs) << (32'h0))
 module register_port (
-    input clock,
-    input reset,
-    input [7:0] addr,
-    input [7:0] wdata,
-    input we,
-    input re,
-    input rx
+`include "controller_ports.vh"
 );
-  wire [7:0] rdata;
-  wire tx, irq_n, clkout;
-  can_controller ctl (
-      .clock(clock),
-      .reset(reset),
-      .addr(addr),
-      .wdata(wdata),
-      .we(we),
-      .re(re),
-      .rdata(rdata),
-      .rx(rx),
-      .tx(tx),
-      .irq_n(irq_n),
-      .clkout(clkout)
-  );
+`include "controller.vh"
 
   // Inside the controller (see the `connect` lines).
   wire reset_mode;

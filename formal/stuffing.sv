@@ -12,64 +12,30 @@
 // of the bit-timing triggers, which formal/bit_timing.sv proves (a process point and a transmit point
 // never share a clock; between two process points there is a transmit point), and the modes
 // listen-only and self-test changing only while the engine is disabled (reset mode: the SJA1000
-// takes MOD.LOM and MOD.STM only in reset mode, data sheet 6.4.3). The harness reads `tx` at each process point (the
-// bit the node sends in that bit time) and counts the run of equal bits while the node is the
-// transmitter in SOF .. CRC sequence.
+// takes MOD.LOM and MOD.STM only in reset mode, data sheet 6.4.3). The harness reads `tx` at each
+// process point (the bit the node sends in that bit time) and counts the run of equal bits while
+// the node is the transmitter in SOF .. CRC sequence.
 //
 //! read: can_controller.v
-//! connect: field = bsp.field$q
-//! connect: field_next = bsp.field$d
-//! connect: transmitter = bsp.transmitter$q
+//! connect: field = protocol.field$q
+//! connect: field_next = protocol.field$d
+//! connect: transmitter = protocol.transmitter$q
 //! bmc: 40
 //! prove: pdr
 //! mutation: sixth-bit-unstuffed | four_equal = active$q & (run_length$q == 32'h4); => four_equal = active$q & (run_length$q == 32'h5);
 `include "encodings.vh"
 
 module stuffing (
-    input clock,
-    input reset,
-    input enable,
-    input process_point,
-    input transmit_point,
-    input rx_bit,
-    input listen_only,
-    input self_test,
-    input request,
-    input single_shot,
-    input abort,
-    input [7:0] info,
-    input [7:0] data,
-    input load_tec,
-    input load_rec,
-    input [7:0] load_value
+`include "protocol_ports.vh"
 );
   localparam [3:0] IDLE = `ProtocolState_Idle, ARBITRATION = `ProtocolState_Arbitration;
   localparam [3:0] CONTROL = `ProtocolState_Control, DATA = `ProtocolState_Data, CRC = `ProtocolState_Crc;
   localparam [3:0] INTERMISSION = `ProtocolState_Intermission, SUSPEND = `ProtocolState_Suspend;
 
-  wire tx;
   wire [3:0] field, field_next;
   wire transmitter;
 
-  \top$core$protocol bsp (
-      .clock(clock),
-      .reset(reset),
-      .enable(enable),
-      .process_point(process_point),
-      .transmit_point(transmit_point),
-      .rx_bit(rx_bit),
-      .listen_only(listen_only),
-      .self_test(self_test),
-      .\transmit$request (request),
-      .\transmit$single_shot (single_shot),
-      .\transmit$abort (abort),
-      .\transmit$info (info),
-      .\transmit$data (data),
-      .\counters$load_tec (load_tec),
-      .\counters$load_rec (load_rec),
-      .\counters$value (load_value),
-      .tx(tx)
-  );
+`include "protocol_engine.vh"
 
   reg started = 1'b0;
   always @(posedge clock) started <= 1'b1;

@@ -21,29 +21,9 @@
 //! mutation: listen-only-wrong-bit | listen_only_reg$d = lom$d & cdr_reg$d[32'h7]; => listen_only_reg$d = lom$d & cdr_reg$d[32'h6];
 //! mutation: reset-mode-enables | enable_reg$d = (rm$d == 1'b0) & (sm$d == 1'b0); => enable_reg$d = (sm$d == 1'b0);
 module tx_recessive (
-    input clock,
-    input reset,
-    input [7:0] addr,
-    input [7:0] wdata,
-    input we,
-    input re,
-    input rx
+`include "controller_ports.vh"
 );
-  wire [7:0] rdata;
-  wire tx, irq_n, clkout;
-  can_controller ctl (
-      .clock(clock),
-      .reset(reset),
-      .addr(addr),
-      .wdata(wdata),
-      .we(we),
-      .re(re),
-      .rdata(rdata),
-      .rx(rx),
-      .tx(tx),
-      .irq_n(irq_n),
-      .clkout(clkout)
-  );
+`include "controller.vh"
 
   // Inside the controller (see the `connect` lines): MOD.RM, MOD.LOM, CDR.
   wire reset_mode, lom;
