@@ -47,17 +47,18 @@ demo:
 waves: demo
 	@echo "open: gtkwave waves/demo.vcd waves/demo.gtkw"
 
-## Every testbench writes its VCD into waves/ (CANSIM_WAVES=1), then waves-compare. About 7 minutes
-## on two cores: the testbench suite (about 5.5) and the comparison of its 1850 files (about 1.5).
+## Every testbench writes its VCD into waves/ (CANSIM_WAVES=1), then waves-compare. The comparison
+## of the suite's ~7 000 files takes about 3 minutes on two cores.
 waves-check: tools
 	rm -f waves/*.vcd
 	CANSIM_WAVES=1 $(CARGO) test -p testbenches
 	$(MAKE) waves-compare
 
 ## Our bus decoder and sigrok's CAN decoder compared frame by frame on every VCD in waves/, with the
-## sigrok-limit exclusions per file (WAVES_CHECK_FLAGS=-v lists each one).
+## sigrok-limit exclusions per file (testbenches/tests/waves_agreement.rs, built as `cargo test` builds;
+## `cargo run -p testbenches --bin waves_check -- -v waves` lists each exclusion).
 waves-compare:
-	$(CARGO) run -p testbenches --bin waves_check -- $(WAVES_CHECK_FLAGS) waves
+	$(CARGO) test -p testbenches --test waves_agreement -- --ignored --nocapture
 
 ## Speed figures: the reference workload (cansim bench) on both engines of the complete controller,
 ## then the bit-timing and core-only devices.
@@ -98,11 +99,12 @@ verilator-model: tools
 
 ## Formal proofs of the generated Verilog (formal/*.sv, docs/FORMAL.md): each property proved with
 ## Yosys and ABC (pdr for every depth, or bmc to its stated bound), then each deliberate break of a
-## rule (a mutation of the Verilog) shown to fail its proof. `make test` runs the same
-## (testbenches/tests/formal.rs); formal-long adds the mutations whose counterexamples are
-## thousands of clocks deep (minutes each).
+## rule (a mutation of the Verilog) shown to fail its proof (testbenches/tests/formal.rs, about 4
+## minutes; `make test` runs the proofs and only checks that each mutation still applies). Run it
+## after changing rtl/. formal-long adds the mutations whose counterexamples are thousands of clocks
+## deep (minutes each).
 formal: tools
-	./scripts/formal.sh --mutations
+	$(CARGO) test -p testbenches --test formal -- --ignored --nocapture
 
 formal-long: tools
 	./scripts/formal.sh --long --mutations

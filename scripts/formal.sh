@@ -3,7 +3,7 @@
 # ABC (bounded model checking with bmc3, complete proofs with pdr, property-directed reachability):
 # one property file per guarantee in formal/, docs/FORMAL.md lists them.
 #
-#   scripts/formal.sh [--long] [--mutations] [NAME...]
+#   scripts/formal.sh [--long] [--mutations | --mutation-texts] [NAME...]
 #
 # Each formal/NAME.sv is a harness module NAME that instantiates a block of the controller, leaves the
 # block's inputs free but for the assumptions it states, and asserts the rule. Its `//!` header lines:
@@ -16,6 +16,9 @@
 #                              a deliberate break of the rule in the Verilog: with --mutations the
 #                              TEXT (exactly once in the files read) is replaced and the proof must fail
 #   //! mutation-long: ...     the same, only with --long (a counterexample thousands of steps deep)
+# --mutation-texts only checks that each mutation's TEXT still occurs exactly once (seconds, for
+# `make test`: a change of the Verilog that moves a mutation's text shows at once; proving that
+# every mutation is caught takes minutes and is `make formal`).
 # The `initial` values of the controller are removed before proving: the proofs start from the
 # `reset` the harness applies, as on an FPGA flow that drops them.
 # Logs, models and counterexample traces (trace.vcd, open it in GTKWave) go to build/formal/NAME/.
@@ -30,6 +33,7 @@ while [ $# -gt 0 ]; do
   case "$1" in
     --long) long=1 ;;
     --mutations) mutations=1 ;;
+    --mutation-texts) mutations=2 ;;
     -*) echo "formal.sh: unknown option $1" >&2; exit 2 ;;
     *) names+=("$1") ;;
   esac
@@ -164,6 +168,10 @@ check_mutation() {
     printf 'MUTATION %-20s %-26s not applied: the text occurs %d times (must be once)\n' "$name" "$mname" "$hits"
     return
   fi
+  if [ "$mutations" -eq 2 ]; then
+    printf 'MUTATION %-20s %-26s applies (not proved: make formal)\n' "$name" "$mname"
+    return
+  fi
   build_model "$name" "$sv" "$mout" "$mout/rtl"
   result=$(prove "$name" "$sv" "$mout") || true
   if [[ "$result" == "FAIL at step"* ]]; then
@@ -181,7 +189,7 @@ for name in "${names[@]}"; do
   [ -f "$sv" ] || { echo "formal.sh: no property $sv" >&2; exit 2; }
   rm -rf "build/formal/$name" && mkdir -p "build/formal/$name"
   tasks+=("$name")
-  if [ $mutations -eq 1 ]; then
+  if [ $mutations -ge 1 ]; then
     while IFS= read -r line; do tasks+=("$name|$line"); done < <(header mutation "$sv")
     if [ $long -eq 1 ]; then
       while IFS= read -r line; do tasks+=("$name|$line"); done < <(header mutation-long "$sv")

@@ -316,6 +316,7 @@ pub mod protocol_bench;
 pub mod register_iut;
 pub mod scenario_report;
 pub mod sigrok;
+pub mod waves_check;
 pub mod wrapper_equivalence;
 
 /// Defines the tests of protocol scenarios written once for both IUTs: for every function
