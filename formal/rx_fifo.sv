@@ -43,8 +43,8 @@
 //! connect: used = dut.used$q
 //! connect: tail = dut.tail$q
 //! connect: incomplete = dut.incomplete$q
-//! connect: info = dut.info$q
-//! connect: length = dut.length$q
+//! connect: info = dut.new_info
+//! connect: length = dut.new_length
 //! connect: writing_header = dut.writing_header$q
 //! connect: header_step = dut.header_step$q
 //! connect: ram_write_enable = dut.ram$write_enable

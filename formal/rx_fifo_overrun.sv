@@ -16,8 +16,8 @@
 //! connect: harness.used = harness.dut.used$q
 //! connect: harness.tail = harness.dut.tail$q
 //! connect: harness.incomplete = harness.dut.incomplete$q
-//! connect: harness.info = harness.dut.info$q
-//! connect: harness.length = harness.dut.length$q
+//! connect: harness.info = harness.dut.new_info
+//! connect: harness.length = harness.dut.new_length
 //! connect: harness.writing_header = harness.dut.writing_header$q
 //! connect: harness.header_step = harness.dut.header_step$q
 //! connect: harness.ram_write_enable = harness.dut.ram$write_enable

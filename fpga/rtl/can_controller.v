@@ -5241,12 +5241,6 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
     reg  fetching$d;
     wire  fetching$q;
     reg  fetching$clock;
-    reg  [7:0] info$d;
-    wire  [7:0] info$q;
-    reg  info$clock;
-    reg  [3:0] length$d;
-    wire  [3:0] length$q;
-    reg  length$clock;
     reg  [2:0] header_step$d;
     wire  [2:0] header_step$q;
     reg  header_step$clock;
@@ -5320,16 +5314,6 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
         .q(fetching$q),
         .clock(fetching$clock)
     );
-    top$fifo$info info(
-        .d(info$d),
-        .q(info$q),
-        .clock(info$clock)
-    );
-    top$fifo$length length(
-        .d(length$d),
-        .q(length$q),
-        .clock(length$clock)
-    );
     top$fifo$header_step header_step(
         .d(header_step$d),
         .q(header_step$q),
@@ -5355,8 +5339,6 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
         overrun_state$clock = clock;
         head_info_reg$clock = clock;
         fetching$clock = clock;
-        info$clock = clock;
-        length$clock = clock;
         header_step$clock = clock;
         writing_header$clock = clock;
         incomplete$clock = clock;
@@ -5367,8 +5349,6 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
         overrun_state$d = overrun_state$q;
         head_info_reg$d = head_info_reg$q;
         fetching$d = fetching$q;
-        info$d = info$q;
-        length$d = length$q;
         header_step$d = header_step$q;
         writing_header$d = writing_header$q;
         incomplete$d = incomplete$q;
@@ -5413,14 +5393,12 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
         end
         write_now = 1'b0;
         offset = ((header_step$q) & 4'hf);
-        write_byte = info$q;
+        write_byte = new_info;
         header_last = 32'h2;
         if (rx_frame$ide) begin
             header_last = 32'h4;
         end
         if (rx_frame$header) begin
-            info$d = new_info;
-            length$d = new_length;
             header_step$d = 32'h0;
             writing_header$d = 1'b1;
             incomplete$d = 1'b0;
@@ -5485,11 +5463,11 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
         used$d = used_after_release;
         count$d = count_after_release;
         if (storing) begin
-            tail$d = tail$q + ((length$q) & 6'h3f);
-            used$d = used_after_release + ((length$q) & 7'h7f);
+            tail$d = tail$q + ((new_length) & 6'h3f);
+            used$d = used_after_release + ((new_length) & 7'h7f);
             count$d = count_after_release + 32'h1;
             if (count_after_release == 32'h0) begin
-                head_info_reg$d = info$q;
+                head_info_reg$d = new_info;
                 fetching$d = 1'b0;
             end
         end
@@ -5530,8 +5508,6 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
             incomplete$d = 1'b0;
             fetching$d = 1'b0;
             head_info_reg$d = 32'h0;
-            info$d = 32'h0;
-            length$d = 32'h0;
             header_step$d = 32'h0;
         end
     end
@@ -5651,44 +5627,6 @@ module top$fifo$incomplete(d,q,clock);
     end
           
 endmodule // top$fifo$incomplete
-
-
-module top$fifo$info(d,q,clock);
-    
-    // Module arguments
-    input wire  [7:0] d;
-    output reg  [7:0] q;
-    input wire  clock;
-    
-    // Update code (custom)
-    initial begin
-       q = 8'h0;
-    end
-    
-    always @(posedge clock) begin
-       q <= d;
-    end
-          
-endmodule // top$fifo$info
-
-
-module top$fifo$length(d,q,clock);
-    
-    // Module arguments
-    input wire  [3:0] d;
-    output reg  [3:0] q;
-    input wire  clock;
-    
-    // Update code (custom)
-    initial begin
-       q = 4'h0;
-    end
-    
-    always @(posedge clock) begin
-       q <= d;
-    end
-          
-endmodule // top$fifo$length
 
 
 module top$fifo$overrun_state(d,q,clock);

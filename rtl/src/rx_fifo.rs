@@ -2,10 +2,12 @@
 //! SJA1000 frame-buffer layout (frame information, 2 or 4 identifier bytes, the data bytes).
 //!
 //! Ports in: the received-frame stream of the protocol engine (`rx_frame`: the `header` strobe with
-//! `id`, `ide`, `rtr`, `dlc` held from then on; `strobe` with `data` and `index`), `store` (the frame is
-//! valid and accepted: keep it), the host commands `release_head` (RRB) and `clear_overrun` (CDO), `clear`
-//! (reset mode: empty), `load_start` + `start_address` (RBSA write), and the host port
-//! `host_read` / `host_write` at `host_address` (writes only in reset mode, when no frame is written). Out: `read_data` (the RAM byte, registered: valid the cycle after
+//! `id`, `ide`, `rtr`, `dlc` held from then on, so the frame information and length of the message
+//! being written are computed from them, not copied; `strobe` with `data` and `index`), `store`
+//! (the frame is valid and accepted: keep it), the host commands `release_head` (RRB) and
+//! `clear_overrun` (CDO), `clear` (reset mode: empty), `load_start` + `start_address` (RBSA write),
+//! and the host port `host_read` / `host_write` at `host_address` (writes only in reset mode, when
+//! no frame is written). Out: `read_data` (the RAM byte, registered: valid the cycle after
 //! `host_read`), `message_count` (RMC), `start` (RBSA), `overrun` (DOS), `head_info` (frame
 //! information of the head message). Acts on the rising edge of `clock`.
 //!
@@ -76,8 +78,6 @@ pub struct RxFifo {
     overrun_state: DFF<Bit>,
     head_info_reg: DFF<Bits<8>>,
     fetching: DFF<Bit>,
-    info: DFF<Bits<8>>,
-    length: DFF<Bits<4>>,
     header_step: DFF<Bits<3>>,
     writing_header: DFF<Bit>,
     incomplete: DFF<Bit>,
@@ -120,8 +120,6 @@ impl Logic for RxFifo {
             overrun_state,
             head_info_reg,
             fetching,
-            info,
-            length,
             header_step,
             writing_header,
             incomplete
@@ -178,14 +176,12 @@ impl Logic for RxFifo {
         // ---- Writing the message being received.
         self.write_now.next = false;
         self.offset.next = bit_cast::<4, 3>(self.header_step.q.val());
-        self.write_byte.next = self.info.q.val();
+        self.write_byte.next = self.new_info.val();
         self.header_last.next = 2.into();
         if self.rx_frame.ide.val() {
             self.header_last.next = 4.into();
         }
         if self.rx_frame.header.val() {
-            self.info.d.next = self.new_info.val();
-            self.length.d.next = self.new_length.val();
             self.header_step.d.next = 0.into();
             self.writing_header.d.next = true;
             self.incomplete.d.next = false;
@@ -269,12 +265,12 @@ impl Logic for RxFifo {
         self.used.d.next = self.used_after_release.val();
         self.count.d.next = self.count_after_release.val();
         if self.storing.val() {
-            self.tail.d.next = self.tail.q.val() + bit_cast::<6, 4>(self.length.q.val());
+            self.tail.d.next = self.tail.q.val() + bit_cast::<6, 4>(self.new_length.val());
             self.used.d.next =
-                self.used_after_release.val() + bit_cast::<7, 4>(self.length.q.val());
+                self.used_after_release.val() + bit_cast::<7, 4>(self.new_length.val());
             self.count.d.next = self.count_after_release.val() + 1;
             if self.count_after_release.val() == 0 {
-                self.head_info_reg.d.next = self.info.q.val();
+                self.head_info_reg.d.next = self.new_info.val();
                 self.fetching.d.next = false;
             }
         }
@@ -319,8 +315,6 @@ impl Logic for RxFifo {
             self.incomplete.d.next = false;
             self.fetching.d.next = false;
             self.head_info_reg.d.next = 0.into();
-            self.info.d.next = 0.into();
-            self.length.d.next = 0.into();
             self.header_step.d.next = 0.into();
         }
     }
