@@ -57,26 +57,7 @@ module rx_fifo #(
     // 1: the received frames fixed to the largest message, back to back (formal/rx_fifo_overrun.sv).
     parameter LARGEST_BACK_TO_BACK = 0
 ) (
-    input clock,
-    input reset,
-    input clear,
-    input load_start,
-    input [5:0] start_address,
-    input header,
-    input [28:0] id,
-    input ide,
-    input rtr,
-    input [3:0] dlc,
-    input strobe,
-    input [7:0] data,
-    input [2:0] index,
-    input store,
-    input release_head,
-    input clear_overrun,
-    input host_read,
-    input [5:0] host_address,
-    input host_write,
-    input [7:0] host_data
+`include "rx_fifo_ports.vh"
 );
   wire [7:0] read_data, head_info;
   wire [4:0] message_count;

@@ -33,49 +33,9 @@
 `include "rx_fifo.sv"
 
 module rx_fifo_overrun (
-    input clock,
-    input reset,
-    input clear,
-    input load_start,
-    input [5:0] start_address,
-    input header,
-    input [28:0] id,
-    input ide,
-    input rtr,
-    input [3:0] dlc,
-    input strobe,
-    input [7:0] data,
-    input [2:0] index,
-    input store,
-    input release_head,
-    input clear_overrun,
-    input host_read,
-    input [5:0] host_address,
-    input host_write,
-    input [7:0] host_data
+`include "rx_fifo_ports.vh"
 );
   rx_fifo #(
       .LARGEST_BACK_TO_BACK(1)
-  ) harness (
-      .clock(clock),
-      .reset(reset),
-      .clear(clear),
-      .load_start(load_start),
-      .start_address(start_address),
-      .header(header),
-      .id(id),
-      .ide(ide),
-      .rtr(rtr),
-      .dlc(dlc),
-      .strobe(strobe),
-      .data(data),
-      .index(index),
-      .store(store),
-      .release_head(release_head),
-      .clear_overrun(clear_overrun),
-      .host_read(host_read),
-      .host_address(host_address),
-      .host_write(host_write),
-      .host_data(host_data)
-  );
+  ) harness (.*);
 endmodule

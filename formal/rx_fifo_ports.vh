@@ -1,0 +1,22 @@
+// The inputs of the receive FIFO (top$fifo), free in every cycle but for what the harness assumes;
+// the port list of formal/rx_fifo.sv and of formal/rx_fifo_overrun.sv, which instantiates it.
+    input clock,
+    input reset,
+    input clear,
+    input load_start,
+    input [5:0] start_address,
+    input header,
+    input [28:0] id,
+    input ide,
+    input rtr,
+    input [3:0] dlc,
+    input strobe,
+    input [7:0] data,
+    input [2:0] index,
+    input store,
+    input release_head,
+    input clear_overrun,
+    input host_read,
+    input [5:0] host_address,
+    input host_write,
+    input [7:0] host_data
