@@ -1,7 +1,7 @@
 # Entry points of the project. `make test` is what CI runs.
 CARGO ?= cargo
 
-.PHONY: bitstream formal formal-long fpga-rtl pyenv test test-long test-verilator check tools demo waves waves-check waves-compare lint verilog verilator-model synth bench campaign clean
+.PHONY: bitstream formal formal-long fpga-rtl pyenv test test-long test-verilator check tools demo waves waves-check waves-compare lint verilog verilator-model compiled-model synth bench campaign clean
 
 ## Install the external tools (sigrok-cli, iverilog, verilator) and the Python ones (python-can,
 ## cantools, pinned, in build/pyenv), then run every test.
@@ -63,7 +63,7 @@ waves-compare:
 ## Speed figures: the reference workload (cansim bench) on both engines of the complete controller,
 ## then the bit-timing and core-only devices.
 bench:
-	$(CARGO) run --release -p sim --bin cansim -- bench --engine rust-hdl,verilator
+	$(CARGO) run --release -p sim --bin cansim -- bench --engine compiled,rust-hdl,verilator
 	$(CARGO) bench -p sim --bench engine
 
 ## Fault-injection campaign on every core (FAULTS=100000 by default, SEED=1).
@@ -96,6 +96,12 @@ fpga-rtl:
 ## there yet (tests and runs build it on first use too); prints the library's path.
 verilator-model: tools
 	$(CARGO) run -q -p sim --bin cansim -- verilator-model
+
+## The compiled engine's model (the default CAN_ENGINE): the Verilog of rtl/ through Yosys into
+## straight-line Rust, sim/src/compiled/model.rs. Run it after changing rtl/ and commit the file (the
+## test compiled_model fails, and the engine refuses to start, while it is older than rtl/).
+compiled-model: tools
+	$(CARGO) run -q --release -p sim --bin cansim -- compiled-model
 
 ## Formal proofs of the generated Verilog (formal/*.sv, docs/FORMAL.md): each property proved with
 ## Yosys and ABC (pdr for every depth, or bmc to its stated bound), then each deliberate break of a

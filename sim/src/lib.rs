@@ -12,6 +12,7 @@
 //! * [`serve`]: a scenario's bus without end as a socketcand server (`cansim serve`).
 #![warn(missing_docs)]
 
+pub mod compiled;
 pub mod decode;
 pub mod engine;
 pub mod host;

@@ -18,8 +18,8 @@ fn a_bad_can_engine_stops_a_run_naming_the_allowed_values() {
     assert_eq!(text(&out.stdout), "");
     assert_eq!(
         text(&out.stderr),
-        "cansim: CAN_ENGINE=`verilog` is not an engine: use `rust-hdl`, `rust-hdl-exhaustive` or \
-         `verilator` (the default is `rust-hdl`)\n"
+        "cansim: CAN_ENGINE=`verilog` is not an engine: use `rust-hdl`, `rust-hdl-exhaustive`, \
+         `verilator`, `compiled` or `compiled-exhaustive` (the default is `compiled`)\n"
     );
 }
 

@@ -28,11 +28,12 @@ use golden::frame::Frame;
 use rtl::can_controller::CanController;
 use rtl::registers::{mode, pelican};
 use rust_hdl::prelude::*;
+use sim::compiled::CompiledController;
 use sim::host::sja1000::{self, PelicanSetup, BTR0_500K_AT_16MHZ, BTR1_500K_AT_16MHZ};
 use sim::host::RegisterPort;
 use sim::nodes::controller_node::rust_hdl_cycle;
 pub use sim::verilated::verilog::{controller_verilog, TOP_MODULE};
-use sim::verilated::{EngineError, PortInputs, VerilatedController};
+use sim::verilated::{EngineError, PortInputs, PortOutputs, VerilatedController};
 
 /// OCR normal output mode (SJA1000 data sheet, OCR.1..0 = 10), as the Linux driver writes it.
 const OCR_NORMAL_MODE: u8 = 0x02;
@@ -740,16 +741,37 @@ pub fn run_rust(stim: &Stimulus) -> Trace {
 /// Runs `stim` on the Verilator engine of the simulator ([`VerilatedController`]: the generated
 /// Verilog compiled into a library, one call per cycle), with the same bench model as [`run_rust`].
 pub fn run_verilated(stim: &Stimulus) -> Result<Trace, EngineError> {
-    stim.validate().expect("stimulus");
-    let mut models = (0..stim.nodes)
+    let models = (0..stim.nodes)
         .map(|_| VerilatedController::new())
         .collect::<Result<Vec<_>, _>>()?;
+    Ok(run_word_models(stim, models, "verilated", |m, i| {
+        m.cycle(i)
+    }))
+}
+
+/// Runs `stim` on the compiled engine ([`sim::compiled`]): the Yosys netlist of the Verilog as
+/// straight-line Rust.
+pub fn run_compiled(stim: &Stimulus) -> Result<Trace, EngineError> {
+    let models = (0..stim.nodes)
+        .map(|_| CompiledController::new())
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(run_word_models(stim, models, "compiled", |m, i| m.cycle(i)))
+}
+
+/// Runs `stim` on models stepped by `cycle`, one per node, on a wired-AND bus.
+fn run_word_models<M>(
+    stim: &Stimulus,
+    mut models: Vec<M>,
+    source: &str,
+    cycle: impl Fn(&mut M, PortInputs) -> PortOutputs,
+) -> Trace {
+    stim.validate().expect("stimulus");
     let mut bus = true;
     let mut outputs = Vec::with_capacity(stim.len() * stim.nodes);
-    for cycle in &stim.cycles {
+    for step in &stim.cycles {
         let mut next_bus = true;
-        for (model, inputs) in models.iter_mut().zip(&cycle.nodes) {
-            let out = model.cycle(inputs.ports(bus));
+        for (model, inputs) in models.iter_mut().zip(&step.nodes) {
+            let out = cycle(model, inputs.ports(bus));
             next_bus &= out.tx();
             outputs.push(NodeOutputs {
                 tx: out.tx(),
@@ -761,11 +783,11 @@ pub fn run_verilated(stim: &Stimulus) -> Result<Trace, EngineError> {
         }
         bus = next_bus;
     }
-    Ok(Trace {
-        source: "verilated".into(),
+    Trace {
+        source: source.into(),
         nodes: stim.nodes,
         outputs,
-    })
+    }
 }
 
 // ---- Icarus -----------------------------------------------------------------------------------

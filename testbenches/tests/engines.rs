@@ -1,6 +1,8 @@
 //! The engines of the complete controller (`CAN_ENGINE`) give identical results: rust-hdl with
 //! its activity-driven settle (the reference here), the same model with every kernel run on every
-//! pass (`rust-hdl-exhaustive`, rust-hdl's own evaluation), and Verilator:
+//! pass (`rust-hdl-exhaustive`, rust-hdl's own evaluation), Verilator, and the compiled engine
+//! (the Yosys netlist as straight-line Rust) with its skipping of unchanged groups of cells and
+//! without (`compiled-exhaustive`):
 //! - every scenario of `examples/` writes the same VCD (the bus and, per node, `tx`, `rx`, sample
 //!   point, segment, protocol state, TEC, REC, `irq_n`, `clkout` at every change), the same bus log
 //!   and the same report (driver events, frames, states, counters) with either;
@@ -130,6 +132,16 @@ macro_rules! example_tests {
             #[test]
             fn is_the_same_on_verilator() {
                 example_is_the_same_on($file, ModelEngine::Verilator);
+            }
+
+            #[test]
+            fn is_the_same_on_compiled() {
+                example_is_the_same_on($file, ModelEngine::Compiled);
+            }
+
+            #[test]
+            fn is_the_same_on_compiled_with_every_group_every_cycle() {
+                example_is_the_same_on($file, ModelEngine::CompiledExhaustive);
             }
 
             #[test]
@@ -282,6 +294,16 @@ fn register_session_is_the_same_on(other: ModelEngine) {
 #[test]
 fn a_register_session_reads_and_sends_the_same_on_verilator() {
     register_session_is_the_same_on(ModelEngine::Verilator);
+}
+
+#[test]
+fn a_register_session_reads_and_sends_the_same_on_compiled() {
+    register_session_is_the_same_on(ModelEngine::Compiled);
+}
+
+#[test]
+fn a_register_session_reads_and_sends_the_same_on_compiled_with_every_group_every_cycle() {
+    register_session_is_the_same_on(ModelEngine::CompiledExhaustive);
 }
 
 #[test]

@@ -16,9 +16,9 @@ use rtl::registers::{basic, clock_divider, command, interrupt, mode, pelican, st
 use sim::host::frame_buffer::{buffer_len, encode_buffer};
 use testbenches::equivalence::controller_verilog;
 use testbenches::equivalence::{
-    first_difference, first_mismatch, icarus_skipped, read_results, run_rust, run_verilated,
-    without_initial_blocks, Simulator, Stimulus, StimulusBuilder, Trace, VerilogBench,
-    CLOCKS_PER_BIT,
+    first_difference, first_mismatch, icarus_skipped, read_results, run_compiled, run_rust,
+    run_verilated, without_initial_blocks, Simulator, Stimulus, StimulusBuilder, Trace,
+    VerilogBench, CLOCKS_PER_BIT,
 };
 
 // ---- helpers ----------------------------------------------------------------------------------
@@ -77,6 +77,16 @@ fn compare(name: &str, stim: &Stimulus) -> Trace {
     );
     if let Some(m) = first_mismatch(&rust, &library) {
         let (k, _) = first_difference(&rust, &library).unwrap_or_default();
+        panic!(
+            "{name}: {m}\naccesses before it:\n{}",
+            stim.describe(k.saturating_sub(40)..k + 1)
+        );
+    }
+    let t = Instant::now();
+    let compiled = run_compiled(stim).unwrap_or_else(|e| panic!("{name}: {e}"));
+    eprintln!("{name}: compiled engine {:.2} s", t.elapsed().as_secs_f64());
+    if let Some(m) = first_mismatch(&rust, &compiled) {
+        let (k, _) = first_difference(&rust, &compiled).unwrap_or_default();
         panic!(
             "{name}: {m}\naccesses before it:\n{}",
             stim.describe(k.saturating_sub(40)..k + 1)

@@ -235,6 +235,13 @@ enum Command {
     /// Build the Verilator model of the controller (CAN_ENGINE=verilator) if it is not built yet;
     /// prints the path of the library. Tests and runs build it on first use as well.
     VerilatorModel,
+    /// Regenerate the compiled engine's model (CAN_ENGINE=compiled) from the Verilog of rtl/
+    /// through Yosys, which must be installed; run it after every change of rtl/.
+    CompiledModel {
+        /// The file to write.
+        #[arg(long, default_value = sim::compiled::MODEL_PATH)]
+        out: PathBuf,
+    },
     /// Worst-case response-time analysis of a CAN message set: per message the worst-case frame
     /// length, blocking, queuing delay, response time and deadline verdict by the classic analysis
     /// and by the corrected analysis of Davis, Burns, Bril and Lukkien (2007), and the bus
@@ -260,9 +267,9 @@ enum Command {
     /// min, max of several runs) for each node count, without and with VCD tracing, and one
     /// `BENCH ...` line per result.
     Bench {
-        /// Engines of the controllers to measure (comma-separated: rust-hdl, rust-hdl-exhaustive,
-        /// verilator)
-        /// [default: the one CAN_ENGINE chooses, else rust-hdl].
+        /// Engines of the controllers to measure (comma-separated: compiled, compiled-exhaustive,
+        /// rust-hdl, rust-hdl-exhaustive, verilator)
+        /// [default: the one CAN_ENGINE chooses, else compiled].
         #[arg(long, value_delimiter = ',')]
         engine: Vec<ModelEngine>,
         /// Node counts to measure (comma-separated, each at least 2).
@@ -422,6 +429,9 @@ fn main() -> ExitCode {
         Command::VerilatorModel => verilated::build_model()
             .map(|path| println!("{}", path.display()))
             .map_err(|e| e.to_string()),
+        Command::CompiledModel { out } => sim::compiled::generate_model_source().and_then(|text| {
+            std::fs::write(&out, text).map_err(|e| format!("{}: {e}", out.display()))
+        }),
         Command::Rta {
             file,
             csv,

@@ -6,9 +6,10 @@
 //! data is taken from `rdata` right after that edge (the port contract's registered read data). The
 //! node also records `irq_n` and, for traces, a few internal signals of the core.
 //!
-//! Two engines step the controller ([`ModelEngine`]): the rust-hdl model itself, or its generated
-//! Verilog compiled by Verilator ([`crate::verilated`]). Both give the same outputs after every edge;
-//! `CAN_ENGINE` chooses for every node made with [`ControllerNode::new`].
+//! Three engines step the controller ([`ModelEngine`]): the rust-hdl model itself, its generated
+//! Verilog compiled by Verilator ([`crate::verilated`]), or that Verilog's Yosys netlist as
+//! straight-line Rust ([`crate::compiled`], the default). All give the same outputs after every
+//! edge; `CAN_ENGINE` chooses for every node made with [`ControllerNode::new`].
 
 use std::any::Any;
 use std::collections::VecDeque;
@@ -20,6 +21,7 @@ use rtl::bsp::protocol::ProtocolState;
 use rtl::can_controller::CanController;
 use rust_hdl::prelude::*;
 
+use crate::compiled::CompiledController;
 use crate::engine::bus::Drive;
 use crate::engine::rtl_step::clock_cycle_with;
 use crate::engine::time::ClockSpec;
@@ -28,7 +30,7 @@ use crate::engine::Device;
 use crate::nodes::can_node::{core_probe_values, core_probes, CORE_PROBES};
 use crate::verilated::sources::{STATE, TRANSMITTING};
 pub use crate::verilated::EngineError;
-use crate::verilated::{PortInputs, VerilatedController};
+use crate::verilated::{PortInputs, PortOutputs, VerilatedController};
 
 /// The environment variable that chooses the engine of [`ControllerNode::new`].
 pub const ENGINE_ENV: &str = "CAN_ENGINE";
@@ -36,22 +38,30 @@ pub const ENGINE_ENV: &str = "CAN_ENGINE";
 /// Which model of the controller a [`ControllerNode`] steps.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum ModelEngine {
-    /// The rust-hdl model of `rtl/` (the default), settled activity-driven (`rtl::activity`).
-    #[default]
+    /// The rust-hdl model of `rtl/`, settled activity-driven (`rtl::activity`).
     RustHdl,
     /// The same model with every kernel run on every settle pass, as rust-hdl's own derive does:
     /// about 4 times slower, for cross-checking the activity-driven settle.
     RustHdlExhaustive,
     /// The generated Verilog, compiled by Verilator and loaded as a library.
     Verilator,
+    /// The generated Verilog turned into straight-line Rust through Yosys ([`crate::compiled`]),
+    /// compiled with the crate: no tool needed at run time; a group of cells runs only when
+    /// something it reads changed. The default: the fastest engine.
+    #[default]
+    Compiled,
+    /// The same with every group run at every evaluation: for checking the skipping.
+    CompiledExhaustive,
 }
 
 impl ModelEngine {
     /// Every engine.
-    pub const ALL: [ModelEngine; 3] = [
+    pub const ALL: [ModelEngine; 5] = [
         ModelEngine::RustHdl,
         ModelEngine::RustHdlExhaustive,
         ModelEngine::Verilator,
+        ModelEngine::Compiled,
+        ModelEngine::CompiledExhaustive,
     ];
 
     /// The name `CAN_ENGINE` takes.
@@ -60,10 +70,12 @@ impl ModelEngine {
             ModelEngine::RustHdl => "rust-hdl",
             ModelEngine::RustHdlExhaustive => "rust-hdl-exhaustive",
             ModelEngine::Verilator => "verilator",
+            ModelEngine::Compiled => "compiled",
+            ModelEngine::CompiledExhaustive => "compiled-exhaustive",
         }
     }
 
-    /// The engine `CAN_ENGINE` chooses: unset or empty is [`ModelEngine::RustHdl`]; any value
+    /// The engine `CAN_ENGINE` chooses: unset or empty is [`ModelEngine::Compiled`]; any value
     /// other than an engine's name is an error naming the allowed values.
     pub fn from_env() -> Result<ModelEngine, String> {
         let parsed = match std::env::var(ENGINE_ENV) {
@@ -132,6 +144,7 @@ enum Model {
         applied: Option<PortInputs>,
     },
     Verilator(VerilatedController),
+    Compiled(CompiledController),
 }
 
 impl Model {
@@ -144,6 +157,11 @@ impl Model {
                 Model::RustHdl { uut, applied: None }
             }
             ModelEngine::Verilator => Model::Verilator(VerilatedController::new()?),
+            ModelEngine::Compiled | ModelEngine::CompiledExhaustive => {
+                let mut model = CompiledController::new()?;
+                model.set_every_group(engine == ModelEngine::CompiledExhaustive);
+                Model::Compiled(model)
+            }
         })
     }
 
@@ -154,34 +172,46 @@ impl Model {
             Model::Verilator(model) => {
                 model.cycle(inputs);
             }
+            Model::Compiled(model) => {
+                model.cycle(inputs);
+            }
+        }
+    }
+
+    /// The output word of a word-level engine (not the rust-hdl model).
+    fn words(&self) -> PortOutputs {
+        match self {
+            Model::RustHdl { .. } => unreachable!("the rust-hdl model has no output word"),
+            Model::Verilator(model) => model.outputs(),
+            Model::Compiled(model) => model.outputs(),
         }
     }
 
     fn tx(&self) -> bool {
         match self {
             Model::RustHdl { uut, .. } => uut.tx.val(),
-            Model::Verilator(model) => model.outputs().tx(),
+            _ => self.words().tx(),
         }
     }
 
     fn irq_n(&self) -> bool {
         match self {
             Model::RustHdl { uut, .. } => uut.irq_n.val(),
-            Model::Verilator(model) => model.outputs().irq_n(),
+            _ => self.words().irq_n(),
         }
     }
 
     fn clkout(&self) -> bool {
         match self {
             Model::RustHdl { uut, .. } => uut.clkout.val(),
-            Model::Verilator(model) => model.outputs().clkout(),
+            _ => self.words().clkout(),
         }
     }
 
     fn rdata(&self) -> u8 {
         match self {
             Model::RustHdl { uut, .. } => uut.rdata.val().to_u8(),
-            Model::Verilator(model) => model.outputs().rdata(),
+            _ => self.words().rdata(),
         }
     }
 }
@@ -328,7 +358,7 @@ impl ControllerNode {
     pub fn state(&self) -> ProtocolState {
         match &self.model {
             Model::RustHdl { uut, .. } => uut.core.status.state.val(),
-            Model::Verilator(model) => protocol_state(model.outputs().internal(STATE)),
+            model => protocol_state(model.words().internal(STATE)),
         }
     }
 
@@ -337,7 +367,7 @@ impl ControllerNode {
     pub fn transmitting(&self) -> bool {
         match &self.model {
             Model::RustHdl { uut, .. } => uut.core.status.transmitting.val(),
-            Model::Verilator(model) => model.outputs().internal(TRANSMITTING) != 0,
+            model => model.words().internal(TRANSMITTING) != 0,
         }
     }
 
@@ -393,8 +423,8 @@ impl Device for ControllerNode {
         let (core, own) = values.split_at_mut(CORE_PROBES);
         match &self.model {
             Model::RustHdl { uut, .. } => core_probe_values(&uut.core, core),
-            Model::Verilator(model) => {
-                let outputs = model.outputs();
+            model => {
+                let outputs = model.words();
                 for (i, value) in core.iter_mut().enumerate() {
                     *value = outputs.internal(i);
                 }
@@ -444,8 +474,8 @@ mod tests {
         let err = "verilog".parse::<ModelEngine>().unwrap_err();
         assert_eq!(
             err,
-            "`verilog` is not an engine: use `rust-hdl`, `rust-hdl-exhaustive` or `verilator` (the \
-             default is `rust-hdl`)"
+            "`verilog` is not an engine: use `rust-hdl`, `rust-hdl-exhaustive`, `verilator`, \
+             `compiled` or `compiled-exhaustive` (the default is `compiled`)"
         );
     }
 }

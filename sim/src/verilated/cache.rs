@@ -87,7 +87,7 @@ fn verilator_version() -> Result<String, EngineError> {
 
 /// 64-bit FNV-1a of `parts`, each followed by a separator byte (stable across Rust versions, unlike
 /// the standard hasher).
-fn fnv1a(parts: &[&str]) -> u64 {
+pub(crate) fn fnv1a(parts: &[&str]) -> u64 {
     const OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
     const PRIME: u64 = 0x0000_0100_0000_01b3;
     let mut hash = OFFSET;

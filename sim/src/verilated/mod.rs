@@ -8,6 +8,7 @@
 //! clock low again.
 
 mod cache;
+pub(crate) use cache::fnv1a;
 mod dl;
 pub(crate) mod sources;
 pub mod verilog;
@@ -154,7 +155,7 @@ impl Default for PortInputs {
 
 impl PortInputs {
     /// The input word of the shim.
-    fn word(&self) -> u32 {
+    pub(crate) fn word(&self) -> u32 {
         u32::from(self.wdata) << IN_WDATA
             | u32::from(self.addr) << IN_ADDR
             | u32::from(self.we) << IN_WE
@@ -169,6 +170,11 @@ impl PortInputs {
 pub struct PortOutputs(u64);
 
 impl PortOutputs {
+    /// The outputs carried by an output word.
+    pub(crate) fn from_word(word: u64) -> PortOutputs {
+        PortOutputs(word)
+    }
+
     fn bit(self, at: u32) -> bool {
         self.0 >> at & 1 != 0
     }

@@ -1,0 +1,630 @@
+//! Turns a word-level Yosys [`Netlist`] into straight-line Rust: a struct holding the inputs, every
+//! flip-flop (`q`, and `n`, its value after the next edge), every memory, and three methods:
+//! `set_inputs` takes the input word, `eval` computes the combinational logic, the flip-flops' next
+//! values and the output word, `edge` loads the flip-flops and memories.
+//!
+//! The cells are grouped by the rust-hdl block (Verilog module) they come from; groups that depend
+//! on each other in a loop are merged, and the groups run in dependency order. `eval` runs a group
+//! only when something it reads changed since it last ran: an input, a flip-flop or memory output
+//! loaded at the edge, or a value of an earlier group. Values read outside their group live in
+//! fields, compared when written. Every group computes a pure function of what it reads, so the
+//! skipped groups' values are the ones a full evaluation would compute.
+//!
+//! Values are `u64`s holding a signal's bits from bit 0, always masked to the signal's width. A cell
+//! the generator does not know, a signed operation, a signal wider than 64 bits (other than a
+//! constant table indexed by `$shiftx`) or a second clock are refused with the cell's name: the
+//! generated model must mean exactly what the Verilog means.
+
+use std::collections::{BTreeSet, HashMap};
+use std::fmt::Write as _;
+
+use super::cells::{cell_value, Operands};
+use super::groups::{group_cells, Groups, Item};
+use super::netlist::{Bit, Cell, Netlist};
+
+/// Where the model's ports sit in the input and output words.
+pub(crate) struct Interface<'a> {
+    /// The clock input (seen as data it reads 0: outputs are read with the clock low).
+    pub clock: &'a str,
+    /// Input port and its bit position in the input word.
+    pub inputs: &'a [(&'a str, u32)],
+    /// Output port or named net, and its bit position in the output word.
+    pub outputs: &'a [(&'a str, u32)],
+    /// The Verilog the netlist was made from (its module boundaries group the cells).
+    pub verilog: &'a str,
+}
+
+/// The generated source of the model for `netlist`.
+pub(crate) fn emit(netlist: &Netlist, io: &Interface, header: &str) -> Result<String, String> {
+    Emitter::new(netlist, io)?.source(header)
+}
+
+pub(crate) fn mask(width: usize) -> u64 {
+    if width >= 64 {
+        u64::MAX
+    } else {
+        (1u64 << width) - 1
+    }
+}
+
+pub(crate) fn hex(value: u64) -> String {
+    format!("{value:#x}")
+}
+
+/// What a variable of the generated code is.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Source {
+    /// The clock as data: always 0.
+    Zero,
+    Input,
+    Reg,
+    MemRead,
+    /// The output of combinational cell `k` (`c<k>`, in field `v<k>` when read outside its group).
+    Comb(usize),
+}
+
+#[derive(Clone)]
+struct Var {
+    /// The field (inputs, flip-flops, memory read data) or the local (`c<k>`).
+    expr: String,
+    width: usize,
+    source: Source,
+}
+
+const FLIP_FLOPS: [&str; 5] = ["dff", "dffe", "sdff", "sdffe", "sdffce"];
+
+pub(crate) struct Emitter<'a> {
+    netlist: &'a Netlist,
+    io: &'a Interface<'a>,
+    /// Which variable and bit drives each net.
+    drivers: HashMap<u64, (usize, usize)>,
+    vars: Vec<Var>,
+    comb: Vec<&'a Cell>,
+    regs: Vec<&'a Cell>,
+    mems: Vec<&'a Cell>,
+    groups: Groups,
+    /// The group whose code is being written (its own values are locals).
+    current: usize,
+    /// Comb cells read outside their group (they get a field).
+    exported: BTreeSet<usize>,
+    pub(crate) tables: String,
+}
+
+impl<'a> Emitter<'a> {
+    fn new(netlist: &'a Netlist, io: &'a Interface<'a>) -> Result<Emitter<'a>, String> {
+        let mut e = Emitter {
+            netlist,
+            io,
+            drivers: HashMap::new(),
+            vars: Vec::new(),
+            comb: Vec::new(),
+            regs: Vec::new(),
+            mems: Vec::new(),
+            groups: Groups::default(),
+            current: 0,
+            exported: BTreeSet::new(),
+            tables: String::new(),
+        };
+        for (name, bits) in &netlist.inputs {
+            if name == io.clock {
+                e.drive(bits, "0".into(), Source::Zero);
+            } else {
+                e.drive(bits, format!("self.i_{name}"), Source::Input);
+            }
+        }
+        for cell in &netlist.cells {
+            if FLIP_FLOPS.contains(&cell.kind.as_str()) {
+                e.check_clock(cell, "CLK")?;
+                let expr = format!("self.q{}", e.regs.len());
+                e.drive(cell.port("Q")?, expr, Source::Reg);
+                e.regs.push(cell);
+            } else if cell.kind == "mem_v2" {
+                e.check_memory(cell)?;
+                let expr = format!("self.m{}_rd", e.mems.len());
+                e.drive(cell.port("RD_DATA")?, expr, Source::MemRead);
+                e.mems.push(cell);
+            } else {
+                let k = e.comb.len();
+                e.drive(cell.port("Y")?, format!("c{k}"), Source::Comb(k));
+                e.comb.push(cell);
+            }
+        }
+        let groups = group_cells(&e.comb, &e.regs, &e.mems, |bits| e.comb_reads(bits), io)?;
+        e.groups = groups;
+        e.exported = e.find_exported()?;
+        Ok(e)
+    }
+
+    fn drive(&mut self, bits: &[Bit], expr: String, source: Source) {
+        let var = self.vars.len();
+        for (at, bit) in bits.iter().enumerate() {
+            if let Bit::Net(n) = bit {
+                self.drivers.insert(*n, (var, at));
+            }
+        }
+        self.vars.push(Var {
+            expr,
+            width: bits.len(),
+            source,
+        });
+    }
+
+    /// The variables (by index) that `bits` read.
+    fn reads(&self, bits: &[Bit]) -> BTreeSet<usize> {
+        bits.iter()
+            .filter_map(|b| match b {
+                Bit::Net(n) => self.drivers.get(n).map(|(v, _)| *v),
+                Bit::Const(_) => None,
+            })
+            .collect()
+    }
+
+    /// The combinational cells (by number) that `bits` read.
+    fn comb_reads(&self, bits: &[Bit]) -> Vec<usize> {
+        self.reads(bits)
+            .into_iter()
+            .filter_map(|v| match self.vars[v].source {
+                Source::Comb(k) => Some(k),
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn check_clock(&self, cell: &Cell, port: &str) -> Result<(), String> {
+        let clock = self
+            .netlist
+            .inputs
+            .iter()
+            .find(|(name, _)| name == self.io.clock)
+            .map(|(_, bits)| bits.as_slice());
+        if Some(cell.port(port)?) != clock || !cell.flag(&format!("{port}_POLARITY"), true)? {
+            return Err(format!(
+                "cell {} is not clocked by the rising edge of `{}`",
+                cell.name, self.io.clock
+            ));
+        }
+        Ok(())
+    }
+
+    fn check_memory(&self, cell: &Cell) -> Result<(), String> {
+        let one_port = cell.param("RD_PORTS")? == 1 && cell.param("WR_PORTS")? == 1;
+        let plain_read = cell.param("RD_CLK_ENABLE")? == 1
+            && cell.param("RD_TRANSPARENCY_MASK")? == 0
+            && cell.param("OFFSET")? == 0
+            && cell.port("RD_SRST")? == [Bit::Const(false)]
+            && cell.port("RD_ARST")? == [Bit::Const(false)];
+        if !one_port || !plain_read || cell.param("WR_CLK_ENABLE")? != 1 {
+            return Err(format!(
+                "memory {}: only one clocked, non-transparent read port without resets and one \
+                 clocked write port are supported",
+                cell.name
+            ));
+        }
+        self.check_clock(cell, "RD_CLK")?;
+        self.check_clock(cell, "WR_CLK")
+    }
+
+    /// Comb cells read by another group, by a flip-flop or memory of another group, or by the
+    /// outputs.
+    fn find_exported(&self) -> Result<BTreeSet<usize>, String> {
+        let mut exported = BTreeSet::new();
+        let mut read_from = |group: Option<usize>, bits: &[Bit]| {
+            for k in self.comb_reads(bits) {
+                if group != Some(self.groups.of_comb[k]) {
+                    exported.insert(k);
+                }
+            }
+        };
+        for (k, cell) in self.comb.iter().enumerate() {
+            for (port, bits) in &cell.connections {
+                if port != "Y" {
+                    read_from(Some(self.groups.of_comb[k]), bits);
+                }
+            }
+        }
+        for (k, cell) in self.regs.iter().enumerate() {
+            for bits in cell.connections.values() {
+                read_from(Some(self.groups.of_reg[k]), bits);
+            }
+        }
+        for (k, cell) in self.mems.iter().enumerate() {
+            for bits in cell.connections.values() {
+                read_from(Some(self.groups.of_mem[k]), bits);
+            }
+        }
+        for (name, _) in self.io.outputs {
+            read_from(None, self.output_bits(name)?);
+        }
+        Ok(exported)
+    }
+
+    fn output_bits(&self, name: &str) -> Result<&'a [Bit], String> {
+        let netlist: &'a Netlist = self.netlist;
+        netlist
+            .outputs
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, b)| b.as_slice())
+            .or_else(|| netlist.names.get(name).map(Vec::as_slice))
+            .ok_or_else(|| format!("the netlist has no output or net `{name}`"))
+    }
+
+    /// The mask of the groups that read any of `vars` (other than the writer's own group).
+    fn readers_mask(&self, vars: &BTreeSet<usize>, own: Option<usize>) -> u128 {
+        let mut mask = 0u128;
+        for (g, reads) in self.groups.reads.iter().enumerate() {
+            if Some(g) != own && !reads.is_disjoint(vars) {
+                mask |= 1 << g;
+            }
+        }
+        mask
+    }
+
+    fn var_set(&self, bits: &[Bit]) -> BTreeSet<usize> {
+        self.reads(bits)
+    }
+
+    fn source(mut self, header: &str) -> Result<String, String> {
+        // Which variables each group reads (for the dirty masks).
+        let mut reads: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); self.groups.count];
+        for (k, cell) in self.comb.iter().enumerate() {
+            for (port, bits) in &cell.connections {
+                if port != "Y" {
+                    reads[self.groups.of_comb[k]].extend(self.reads(bits));
+                }
+            }
+        }
+        for (k, cell) in self.regs.iter().enumerate() {
+            for (port, bits) in &cell.connections {
+                if port != "Q" {
+                    reads[self.groups.of_reg[k]].extend(self.reads(bits));
+                }
+            }
+            // A hold reads the flip-flop itself.
+            reads[self.groups.of_reg[k]].extend(self.reads(cell.port("Q")?));
+        }
+        for (k, cell) in self.mems.iter().enumerate() {
+            for (port, bits) in &cell.connections {
+                if port != "RD_DATA" {
+                    reads[self.groups.of_mem[k]].extend(self.reads(bits));
+                }
+            }
+        }
+        self.groups.reads = reads;
+        let body = self.eval_body()?;
+        let (fields, init, edge) = self.state()?;
+        let mut outputs = String::new();
+        self.current = usize::MAX;
+        for (name, at) in self.io.outputs {
+            let bits = self.output_bits(name)?;
+            write!(outputs, " | ({}) << {at}", self.operand(bits)?).unwrap();
+        }
+        let (inputs, input_fields, input_init) = self.inputs()?;
+        let all = if self.groups.count == 128 {
+            u128::MAX
+        } else {
+            (1u128 << self.groups.count) - 1
+        };
+        Ok(format!(
+            "{header}
+{tables}
+/// The controller's state: inputs, flip-flops (`q` now, `n` after the next edge), memories, the
+/// values read across groups, and the groups to run at the next `eval`.
+#[derive(Clone)]
+pub(super) struct Model {{
+{input_fields}{fields}    dirty: u128,
+    out: u64,
+}}
+
+impl Model {{
+    /// The power-up state (the `init` values of the Verilog); every group runs at the first `eval`.
+    pub(super) fn new() -> Model {{
+        Model {{
+{input_init}{init}            dirty: {all:#x},
+            out: 0,
+        }}
+    }}
+
+    /// Takes the input word.
+    pub(super) fn set_inputs(&mut self, word: u32) {{
+{inputs}    }}
+
+    /// The output word computed by the last `eval`.
+    pub(super) fn outputs(&self) -> u64 {{
+        self.out
+    }}
+
+    /// The groups whose inputs changed (all with `every_group`), in dependency order; then the
+    /// outputs.
+    pub(super) fn eval(&mut self, every_group: bool) {{
+        let mut dirty = if every_group {{ {all:#x} }} else {{ self.dirty }};
+{body}        self.dirty = 0;
+        let _ = dirty;
+        self.out = 0{outputs};
+    }}
+
+    /// The rising clock edge: memories read, then written; flip-flops loaded.
+    pub(super) fn edge(&mut self) {{
+        let mut dirty = 0u128;
+{edge}        self.dirty |= dirty;
+    }}
+}}
+",
+            tables = self.tables
+        ))
+    }
+
+    fn inputs(&self) -> Result<(String, String, String), String> {
+        let (mut code, mut fields, mut init) = (String::new(), String::new(), String::new());
+        for (name, at) in self.io.inputs {
+            let (_, bits) = self
+                .netlist
+                .inputs
+                .iter()
+                .find(|(n, _)| n == name)
+                .ok_or_else(|| format!("the netlist has no input `{name}`"))?;
+            let readers = self.readers_mask(&self.var_set(bits), None);
+            let m = hex(mask(bits.len()));
+            writeln!(
+                code,
+                "        let v = u64::from(word) >> {at} & {m};\n        if v != self.i_{name} {{ \
+                 self.i_{name} = v; self.dirty |= {readers:#x}; }}"
+            )
+            .unwrap();
+            writeln!(fields, "    i_{name}: u64,").unwrap();
+            writeln!(init, "            i_{name}: 0,").unwrap();
+        }
+        Ok((code, fields, init))
+    }
+
+    /// The groups, each behind its dirty bit.
+    fn eval_body(&mut self) -> Result<String, String> {
+        let mut body = String::new();
+        for g in 0..self.groups.count {
+            self.current = g;
+            writeln!(
+                body,
+                "        if dirty >> {g} & 1 != 0 {{ // {}",
+                self.groups.names[g]
+            )
+            .unwrap();
+            for item in self.groups.items[g].clone() {
+                match item {
+                    Item::Comb(k) => self.comb_item(&mut body, k, g)?,
+                    Item::Reg(k) => {
+                        let value = self.next_state(k)?;
+                        writeln!(body, "            self.n{k} = {value};").unwrap();
+                    }
+                    Item::Mem(k) => self.memory_item(&mut body, k)?,
+                }
+            }
+            writeln!(body, "        }}").unwrap();
+        }
+        Ok(body)
+    }
+
+    fn comb_item(&mut self, body: &mut String, k: usize, g: usize) -> Result<(), String> {
+        let cell = self.comb[k];
+        let value = cell_value(self, cell)?;
+        writeln!(body, "            let c{k}: u64 = {value};").unwrap();
+        if self.exported.contains(&k) {
+            let var = self.drivers[&first_net(cell.port("Y")?)?].0;
+            let readers = self.readers_mask(&BTreeSet::from([var]), Some(g));
+            writeln!(
+                body,
+                "            if self.v{k} != c{k} {{ self.v{k} = c{k}; dirty |= {readers:#x}; }}"
+            )
+            .unwrap();
+        }
+        Ok(())
+    }
+
+    fn memory_item(&self, body: &mut String, k: usize) -> Result<(), String> {
+        let cell = self.mems[k];
+        writeln!(
+            body,
+            "            self.m{k}_re = {} != 0;\n            self.m{k}_ra = {} as usize;\n            \
+             self.m{k}_wa = {} as usize;\n            self.m{k}_wd = {};\n            self.m{k}_we = {};",
+            self.input(cell, "RD_EN")?,
+            self.input(cell, "RD_ADDR")?,
+            self.input(cell, "WR_ADDR")?,
+            self.input(cell, "WR_DATA")?,
+            self.input(cell, "WR_EN")?,
+        )
+        .unwrap();
+        Ok(())
+    }
+
+    fn next_state(&self, k: usize) -> Result<String, String> {
+        let cell = self.regs[k];
+        let d = self.input(cell, "D")?;
+        let hold = format!("self.q{k}");
+        let when = |port: &str| -> Result<String, String> {
+            let active = if cell.flag(&format!("{port}_POLARITY"), true)? {
+                "!="
+            } else {
+                "=="
+            };
+            Ok(format!("{} {active} 0", self.input(cell, port)?))
+        };
+        let reset_value = || -> Result<String, String> { Ok(hex(cell.param("SRST_VALUE")?)) };
+        Ok(match cell.kind.as_str() {
+            "dff" => d,
+            "dffe" => format!("if {} {{ {d} }} else {{ {hold} }}", when("EN")?),
+            "sdff" => format!(
+                "if {} {{ {} }} else {{ {d} }}",
+                when("SRST")?,
+                reset_value()?
+            ),
+            "sdffe" => format!(
+                "if {} {{ {} }} else if {} {{ {d} }} else {{ {hold} }}",
+                when("SRST")?,
+                reset_value()?,
+                when("EN")?
+            ),
+            _ => format!(
+                "if {} {{ if {} {{ {} }} else {{ {d} }} }} else {{ {hold} }}",
+                when("EN")?,
+                when("SRST")?,
+                reset_value()?
+            ),
+        })
+    }
+
+    /// Fields, initial values and edge code of flip-flops, memories and exported values.
+    fn state(&self) -> Result<(String, String, String), String> {
+        let (mut fields, mut init, mut edge) = (String::new(), String::new(), String::new());
+        for (k, cell) in self.mems.iter().enumerate() {
+            let size = cell.param("SIZE")? as usize;
+            let width = cell.param("WIDTH")? as usize;
+            let contents: Vec<String> = cell
+                .param_bits("INIT")?
+                .chunks(width)
+                .chain(std::iter::repeat(&[][..]))
+                .take(size)
+                .map(|w| {
+                    hex(w
+                        .iter()
+                        .enumerate()
+                        .fold(0, |v, (i, b)| v | u64::from(*b) << i))
+                })
+                .collect();
+            writeln!(
+                fields,
+                "    m{k}: [u64; {size}],\n    m{k}_rd: u64,\n    m{k}_re: bool,\n    m{k}_ra: usize,\n    \
+                 m{k}_wa: usize,\n    m{k}_wd: u64,\n    m{k}_we: u64,"
+            )
+            .unwrap();
+            writeln!(
+                init,
+                "            m{k}: [{}],\n            m{k}_rd: 0,\n            m{k}_re: false,\n            \
+                 m{k}_ra: 0,\n            m{k}_wa: 0,\n            m{k}_wd: 0,\n            m{k}_we: 0,",
+                contents.join(", ")
+            )
+            .unwrap();
+            let readers = self.readers_mask(&self.var_set(cell.port("RD_DATA")?), None);
+            writeln!(
+                edge,
+                "        if self.m{k}_re {{ let v = self.m{k}.get(self.m{k}_ra).copied().unwrap_or(0); \
+                 if v != self.m{k}_rd {{ self.m{k}_rd = v; dirty |= {readers:#x}; }} }} // {}",
+                cell.name
+            )
+            .unwrap();
+        }
+        for k in 0..self.mems.len() {
+            writeln!(
+                edge,
+                "        if let Some(word) = self.m{k}.get_mut(self.m{k}_wa) {{ \
+                 *word = *word & !self.m{k}_we | self.m{k}_wd & self.m{k}_we; }}"
+            )
+            .unwrap();
+        }
+        for (k, cell) in self.regs.iter().enumerate() {
+            let q = cell.port("Q")?;
+            let start = q.iter().enumerate().fold(0u64, |v, (i, bit)| match bit {
+                Bit::Net(n) => v | u64::from(self.netlist.init.get(n) == Some(&true)) << i,
+                Bit::Const(_) => v,
+            });
+            writeln!(fields, "    q{k}: u64,\n    n{k}: u64,").unwrap();
+            writeln!(
+                init,
+                "            q{k}: {0},\n            n{k}: {0},",
+                hex(start)
+            )
+            .unwrap();
+            let readers = self.readers_mask(&self.var_set(q), None);
+            writeln!(
+                edge,
+                "        if self.q{k} != self.n{k} {{ self.q{k} = self.n{k}; dirty |= {readers:#x}; }} // {}",
+                cell.name
+            )
+            .unwrap();
+        }
+        for k in &self.exported {
+            writeln!(fields, "    v{k}: u64,").unwrap();
+            writeln!(init, "            v{k}: 0,").unwrap();
+        }
+        Ok((fields, init, edge))
+    }
+}
+
+fn first_net(bits: &[Bit]) -> Result<u64, String> {
+    bits.iter()
+        .find_map(|b| match b {
+            Bit::Net(n) => Some(*n),
+            Bit::Const(_) => None,
+        })
+        .ok_or_else(|| "a cell output without nets".to_string())
+}
+
+impl Operands for Emitter<'_> {
+    /// The expression of a list of bits (least significant first), at most 64 of them, as seen
+    /// from the group being written.
+    fn operand(&self, bits: &[Bit]) -> Result<String, String> {
+        if bits.len() > 64 {
+            return Err(format!("a {}-bit operand (at most 64 bits)", bits.len()));
+        }
+        let mut constant = 0u64;
+        // (var, first bit of var, position, length)
+        let mut runs: Vec<(usize, usize, usize, usize)> = Vec::new();
+        for (at, bit) in bits.iter().enumerate() {
+            let Bit::Net(n) = bit else {
+                constant |= u64::from(*bit == Bit::Const(true)) << at;
+                continue;
+            };
+            let Some(&(var, from)) = self.drivers.get(n) else {
+                continue; // undriven: Yosys's x, read as 0
+            };
+            if self.vars[var].source == Source::Zero {
+                continue;
+            }
+            match runs.last_mut() {
+                Some(run) if run.0 == var && run.1 + run.3 == from && run.2 + run.3 == at => {
+                    run.3 += 1
+                }
+                _ => runs.push((var, from, at, 1)),
+            }
+        }
+        let mut terms: Vec<String> = runs
+            .iter()
+            .map(|&(var, from, at, len)| {
+                let v = &self.vars[var];
+                let name = match v.source {
+                    Source::Comb(k) if self.groups.of_comb[k] != self.current => {
+                        format!("self.v{k}")
+                    }
+                    _ => v.expr.clone(),
+                };
+                let mut t = if from == 0 {
+                    name
+                } else {
+                    format!("({name} >> {from})")
+                };
+                if from + len < v.width {
+                    t = format!("({t} & {})", hex(mask(len)));
+                }
+                if at > 0 {
+                    t = format!("({t} << {at})");
+                }
+                t
+            })
+            .collect();
+        if constant != 0 || terms.is_empty() {
+            terms.push(hex(constant));
+        }
+        Ok(terms.join(" | "))
+    }
+
+    fn table(&mut self, words: &[u64]) -> String {
+        let name = format!("TABLE_{}", self.tables.lines().count());
+        let list: Vec<String> = words.iter().map(|w| hex(*w)).collect();
+        writeln!(
+            self.tables,
+            "const {name}: [u64; {}] = [{}];",
+            words.len(),
+            list.join(", ")
+        )
+        .unwrap();
+        name
+    }
+}

@@ -1,0 +1,226 @@
+//! The compiled engine: the controller's generated Verilog, read by Yosys into a word-level netlist
+//! and turned into straight-line Rust (`model.rs`, checked in), stepped one clock cycle per call
+//! with the semantics of the other engines: inputs applied before the rising edge, outputs read
+//! after it with the clock low.
+//!
+//! No tool is needed to run it: `model.rs` is generated ahead (`cansim compiled-model`, `make
+//! compiled-model`, which need Yosys) and compiled with the rest of the crate. A model older than
+//! `rtl/` is refused at start with the command that regenerates it: the file records a hash of the
+//! Verilog it was made from, checked against the Verilog of the running build once per process.
+//!
+//! Why it is fast: every cell is one or two machine operations on a `u64` in a fixed order, with no
+//! per-signal bookkeeping; the cells are grouped by rust-hdl block and a group runs only when
+//! something it reads changed (`groups`, `emit`); a cycle whose inputs did not change evaluates
+//! once (after the edge), as the Verilator wrapper does.
+
+mod cells;
+mod emit;
+mod groups;
+#[rustfmt::skip]
+#[allow(clippy::all, clippy::pedantic, unused_parens)]
+mod model;
+mod netlist;
+
+use std::io::Write as _;
+use std::path::Path;
+use std::process::Command;
+use std::sync::OnceLock;
+
+use crate::verilated::sources::{
+    INTERNAL_SHIFTS, INTERNAL_SIGNALS, IN_ADDR, IN_RE, IN_RESET, IN_RX, IN_WDATA, IN_WE,
+    OUT_CLKOUT, OUT_IRQ_N, OUT_RDATA, OUT_TX,
+};
+use crate::verilated::verilog::{controller_verilog, TOP_MODULE};
+use crate::verilated::{fnv1a, EngineError, PortInputs, PortOutputs};
+
+/// Where the generated model lives in the source tree (relative to the workspace root).
+pub const MODEL_PATH: &str = "sim/src/compiled/model.rs";
+
+/// The Yosys commands that make the netlist: the internal signals the traces read are kept, then
+/// processes become cells, the hierarchy is flattened, the logic optimised and memories kept whole.
+fn yosys_script(verilog: &str, json: &str) -> String {
+    let keep: String = INTERNAL_SIGNALS
+        .iter()
+        .map(|s| format!("setattr -set keep 1 w:{}\n", s.wire))
+        .collect();
+    format!(
+        "read_verilog {verilog}\nhierarchy -top {TOP_MODULE}\n{keep}proc\nflatten\nopt -full\n\
+         wreduce\nopt_clean\nmemory -nomap\nopt -full\nwrite_json {json}\n"
+    )
+}
+
+/// The hash of the Verilog a model is made from.
+fn verilog_hash(verilog: &str) -> u64 {
+    fnv1a(&[verilog])
+}
+
+/// The source of `model.rs` for the current `rtl/`: runs Yosys (which must be installed) in a
+/// temporary directory.
+pub fn generate_model_source() -> Result<String, String> {
+    let verilog = controller_verilog();
+    static RUNS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let run = RUNS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("cansim-compiled-{}-{run}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let result = run_yosys(&dir, &verilog).and_then(|json| {
+        let netlist = netlist::Netlist::parse(&json, TOP_MODULE)?;
+        emit::emit(
+            &netlist,
+            &interface(&verilog),
+            &header(verilog_hash(&verilog)),
+        )
+    });
+    let _ = std::fs::remove_dir_all(&dir);
+    result
+}
+
+/// Runs Yosys in `dir` on `verilog`; the file names are relative, so that the names Yosys gives
+/// cells (which carry the source file) do not depend on the directory.
+fn run_yosys(dir: &Path, verilog: &str) -> Result<String, String> {
+    let (v, json, script) = ("can_controller.v", "can_controller.json", "netlist.ys");
+    std::fs::write(dir.join(v), verilog).map_err(|e| format!("{}: {e}", dir.display()))?;
+    std::fs::File::create(dir.join(script))
+        .and_then(|mut f| f.write_all(yosys_script(v, json).as_bytes()))
+        .map_err(|e| format!("{}: {e}", dir.display()))?;
+    let output = Command::new("yosys")
+        .current_dir(dir)
+        .arg("-q")
+        .arg("-s")
+        .arg(script)
+        .output()
+        .map_err(|e| {
+            format!("yosys cannot be run ({e}): install it with ./scripts/install-tools.sh")
+        })?;
+    if !output.status.success() {
+        return Err(format!(
+            "yosys failed: {}",
+            String::from_utf8_lossy(&output.stderr)
+        ));
+    }
+    std::fs::read_to_string(dir.join(json)).map_err(|e| format!("{}: {e}", dir.display()))
+}
+
+fn interface(verilog: &str) -> emit::Interface<'_> {
+    static OUTPUTS: OnceLock<Vec<(&'static str, u32)>> = OnceLock::new();
+    let outputs = OUTPUTS.get_or_init(|| {
+        let mut list = vec![
+            ("rdata", OUT_RDATA),
+            ("tx", OUT_TX),
+            ("irq_n", OUT_IRQ_N),
+            ("clkout", OUT_CLKOUT),
+        ];
+        list.extend(INTERNAL_SIGNALS.iter().map(|s| s.wire).zip(INTERNAL_SHIFTS));
+        list
+    });
+    emit::Interface {
+        clock: "clock",
+        inputs: &[
+            ("wdata", IN_WDATA),
+            ("addr", IN_ADDR),
+            ("we", IN_WE),
+            ("re", IN_RE),
+            ("rx", IN_RX),
+            ("reset", IN_RESET),
+        ],
+        outputs,
+        verilog,
+    }
+}
+
+fn header(hash: u64) -> String {
+    format!(
+        "//! The controller as straight-line Rust, generated by `cansim compiled-model` (`make \
+         compiled-model`)\n//! from the Verilog of `rtl/` through Yosys; do not edit.\n\n\
+         /// Hash of the Verilog this model was made from.\npub(super) const VERILOG_HASH: u64 = \
+         {hash:#018x};\n"
+    )
+}
+
+/// The checked-in model is made from the Verilog of this build (computed once per process).
+fn check_model_is_current() -> Result<(), EngineError> {
+    static CURRENT: OnceLock<u64> = OnceLock::new();
+    let current = *CURRENT.get_or_init(|| verilog_hash(&controller_verilog()));
+    check_made_from(model::VERILOG_HASH, current)
+}
+
+/// A model made from Verilog of hash `made_from` may run when `rtl/` now gives `current`.
+fn check_made_from(made_from: u64, current: u64) -> Result<(), EngineError> {
+    if made_from == current {
+        Ok(())
+    } else {
+        Err(EngineError::Load(format!(
+            "the compiled model ({MODEL_PATH}) was made from other Verilog than rtl/ gives now: \
+             regenerate it with `make compiled-model` (needs Yosys), or use CAN_ENGINE=rust-hdl"
+        )))
+    }
+}
+
+/// One controller of the compiled engine.
+#[derive(Clone)]
+pub struct CompiledController {
+    model: Box<model::Model>,
+    applied: Option<PortInputs>,
+    every_group: bool,
+}
+
+impl CompiledController {
+    /// A new controller at power-up (apply a reset before use, as with the hardware); an error if
+    /// the checked-in model does not match `rtl/`.
+    pub fn new() -> Result<CompiledController, EngineError> {
+        check_model_is_current()?;
+        Ok(CompiledController {
+            model: Box::new(model::Model::new()),
+            applied: None,
+            every_group: false,
+        })
+    }
+
+    /// Runs every group of cells at every evaluation instead of only those whose inputs changed
+    /// (slower; for checking that skipping the others changes nothing).
+    pub fn set_every_group(&mut self, every_group: bool) {
+        self.every_group = every_group;
+    }
+
+    /// One clock cycle: `inputs` applied, the rising edge, the clock low again.
+    pub fn cycle(&mut self, inputs: PortInputs) -> PortOutputs {
+        if self.applied != Some(inputs) {
+            self.model.set_inputs(inputs.word());
+            self.model.eval(self.every_group);
+            self.applied = Some(inputs);
+        }
+        self.model.edge();
+        self.model.eval(self.every_group);
+        self.outputs()
+    }
+
+    /// The outputs after the last cycle.
+    pub fn outputs(&self) -> PortOutputs {
+        PortOutputs::from_word(self.model.outputs())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_model_of_other_verilog_is_refused_with_the_command_that_regenerates_it() {
+        assert_eq!(check_made_from(7, 7), Ok(()));
+        let refused = check_made_from(7, 8).unwrap_err().to_string();
+        assert!(refused.contains("make compiled-model"), "{refused}");
+        assert!(refused.contains(MODEL_PATH), "{refused}");
+    }
+
+    #[test]
+    fn the_checked_in_model_runs_and_leaves_reset_recessive() {
+        let mut node = CompiledController::new().expect("model made from this rtl/");
+        let reset = PortInputs {
+            reset: true,
+            ..PortInputs::default()
+        };
+        node.cycle(reset);
+        let out = node.cycle(PortInputs::default());
+        assert!(out.tx(), "tx recessive after reset");
+        assert!(out.irq_n(), "no interrupt after reset");
+    }
+}
