@@ -10,11 +10,13 @@
 //! temporary file that replaces the target only when [`VcdTracer::finish`] succeeds, so an aborted run
 //! never leaves a half-written VCD behind (a tracer dropped without finishing removes its temporary
 //! file). The `vcd` crate writes the header; value changes, one or more per simulated clock edge,
-//! are written as bytes with the identifiers formatted once (`fmt` per change cost a sixth of a
-//! traced run).
+//! are written as bytes with each variable's change lines formatted once and copied into the
+//! buffer as fixed 8-byte words, timestamps two digits per division, and only the probes that
+//! changed are looked at bit by bit (`fmt` per change cost a sixth of a traced run; these steps
+//! took tracing the compiled engine from about 30 % to about 18 % of a run).
 
 use std::fs::File;
-use std::io::{self, BufWriter, Write};
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 use vcd::{IdCode, ReferenceIndex, TimescaleUnit, VarType};
@@ -39,39 +41,136 @@ impl Probe {
     }
 }
 
-/// A variable's identifier code as written after its value in a change line.
-struct Wire(Box<[u8]>);
+/// The longest identifier a change line holds in its fixed 8 bytes (with the value and newline).
+const MAX_ID: usize = 6;
+
+/// A variable's change lines, `0<id>\n` and `1<id>\n`, formatted once in 8 bytes each so that they
+/// enter the output by a fixed-size copy.
+struct Wire {
+    lines: [[u8; 8]; 2],
+    len: usize,
+}
 
 impl Wire {
     fn new(id: IdCode) -> Wire {
-        Wire(id.to_string().into_bytes().into_boxed_slice())
-    }
-}
-
-/// Writes the change line of `wire` to `value`: `0<id>` or `1<id>`.
-fn change(out: &mut impl Write, wire: &Wire, value: bool) -> io::Result<()> {
-    out.write_all(if value { b"1" } else { b"0" })?;
-    out.write_all(&wire.0)?;
-    out.write_all(b"\n")
-}
-
-/// Writes the timestamp line `#<ns>`.
-fn timestamp(out: &mut impl Write, ns: u64) -> io::Result<()> {
-    let mut text = [0u8; 21];
-    let mut at = text.len();
-    let mut rest = ns;
-    loop {
-        at -= 1;
-        text[at] = b'0' + (rest % 10) as u8;
-        rest /= 10;
-        if rest == 0 {
-            break;
+        let id = id.to_string();
+        assert!(
+            id.len() <= MAX_ID,
+            "VCD identifier {id} longer than {MAX_ID}"
+        );
+        let mut lines = [[0u8; 8]; 2];
+        for (value, line) in lines.iter_mut().enumerate() {
+            line[0] = b'0' + value as u8;
+            line[1..=id.len()].copy_from_slice(id.as_bytes());
+            line[id.len() + 1] = b'\n';
+        }
+        Wire {
+            lines,
+            len: id.len() + 2,
         }
     }
-    at -= 1;
-    text[at] = b'#';
-    out.write_all(&text[at..])?;
-    out.write_all(b"\n")
+
+    /// The change line to `value`.
+    #[cfg(test)]
+    fn line(&self, value: bool) -> &[u8] {
+        &self.lines[usize::from(value)][..self.len]
+    }
+}
+
+/// The buffer is written to the file when it holds this many bytes.
+const FLUSH_AT: usize = 1 << 16;
+/// Room after `FLUSH_AT` for the fixed-size copies of one line.
+const SLACK: usize = 32;
+
+/// The file after the header, through a buffer that change lines and timestamps enter without a
+/// call per line (they are written at every traced clock edge).
+struct Output {
+    file: File,
+    buf: Box<[u8]>,
+    len: usize,
+}
+
+impl Output {
+    fn new(file: File) -> Output {
+        Output {
+            file,
+            buf: vec![0; FLUSH_AT + SLACK].into_boxed_slice(),
+            len: 0,
+        }
+    }
+
+    fn after_put(&mut self) -> io::Result<()> {
+        if self.len >= FLUSH_AT {
+            self.write_buffer()?;
+        }
+        Ok(())
+    }
+
+    fn write_buffer(&mut self) -> io::Result<()> {
+        self.file.write_all(&self.buf[..self.len])?;
+        self.len = 0;
+        Ok(())
+    }
+
+    /// Writes the change line of `wire` to `value`: `0<id>` or `1<id>`.
+    fn change(&mut self, wire: &Wire, value: bool) -> io::Result<()> {
+        self.buf[self.len..self.len + 8].copy_from_slice(&wire.lines[usize::from(value)]);
+        self.len += wire.len;
+        self.after_put()
+    }
+
+    /// Writes the timestamp line `#<ns>`.
+    fn timestamp(&mut self, ns: u64) -> io::Result<()> {
+        self.len += format_timestamp(&mut self.buf[self.len..self.len + SLACK], ns);
+        self.after_put()
+    }
+}
+
+impl Write for Output {
+    fn write(&mut self, data: &[u8]) -> io::Result<usize> {
+        if self.len + data.len() > FLUSH_AT {
+            self.write_buffer()?;
+        }
+        if data.len() > FLUSH_AT {
+            return self.file.write(data);
+        }
+        self.buf[self.len..self.len + data.len()].copy_from_slice(data);
+        self.len += data.len();
+        Ok(data.len())
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.write_buffer()?;
+        self.file.flush()
+    }
+}
+
+/// The decimal digits of 0..100, two per number.
+const DIGIT_PAIRS: &[u8; 200] = b"\
+    0001020304050607080910111213141516171819202122232425262728293031323334353637383940414243444546474849\
+    5051525354555657585960616263646566676869707172737475767778798081828384858687888990919293949596979899";
+
+/// Writes `#<ns>\n` at the start of `out` (at least 22 bytes) and returns its length; two digits
+/// per division.
+fn format_timestamp(out: &mut [u8], ns: u64) -> usize {
+    let digits = ns.checked_ilog10().unwrap_or(0) as usize + 1;
+    out[0] = b'#';
+    let mut at = digits + 1;
+    out[at] = b'\n';
+    let mut rest = ns;
+    while rest >= 100 {
+        let pair = (rest % 100) as usize * 2;
+        rest /= 100;
+        at -= 2;
+        out[at..at + 2].copy_from_slice(&DIGIT_PAIRS[pair..pair + 2]);
+    }
+    if rest >= 10 {
+        let pair = rest as usize * 2;
+        out[at - 2..at].copy_from_slice(&DIGIT_PAIRS[pair..pair + 2]);
+    } else {
+        out[at - 1] = b'0' + rest as u8;
+    }
+    digits + 2
 }
 
 struct ProbeIds {
@@ -90,8 +189,7 @@ struct DeviceTrace {
 
 /// Writes the bus and per-device signals of one simulation run as a VCD file.
 pub struct VcdTracer {
-    /// The file after the header.
-    out: BufWriter<File>,
+    out: Output,
     target: PathBuf,
     temporary: PathBuf,
     bus: Wire,
@@ -119,7 +217,7 @@ impl VcdTracer {
                 format!("cannot create {}: {e}", temporary.display()),
             )
         })?;
-        let mut out = BufWriter::with_capacity(1 << 16, file);
+        let mut out = Output::new(file);
         let mut writer = vcd::Writer::new(&mut out);
         writer.comment(concat!("written by cansim ", env!("CARGO_PKG_VERSION")))?;
         if let Some(timing) = timing {
@@ -152,19 +250,19 @@ impl VcdTracer {
             });
         }
         writer.enddefinitions()?;
-        timestamp(&mut out, 0)?;
-        change(&mut out, &bus, true)?;
+        out.timestamp(0)?;
+        out.change(&bus, true)?;
         for p in &bus_probes {
             for wire in &p.bits {
-                change(&mut out, wire, false)?;
+                out.change(wire, false)?;
             }
         }
         for d in &traces {
-            change(&mut out, &d.tx, true)?;
-            change(&mut out, &d.rx, true)?;
+            out.change(&d.tx, true)?;
+            out.change(&d.rx, true)?;
             for p in &d.probes {
                 for wire in &p.bits {
-                    change(&mut out, wire, false)?;
+                    out.change(wire, false)?;
                 }
             }
         }
@@ -185,7 +283,7 @@ impl VcdTracer {
         let ns = (t_fs + FS_PER_NS / 2) / FS_PER_NS;
         if ns != self.now_ns {
             self.now_ns = ns;
-            timestamp(&mut self.out, ns)?;
+            self.out.timestamp(ns)?;
         }
         Ok(())
     }
@@ -195,7 +293,7 @@ impl VcdTracer {
         if value != self.bus_last {
             self.bus_last = value;
             self.at(t_fs)?;
-            change(&mut self.out, &self.bus, value)?;
+            self.out.change(&self.bus, value)?;
         }
         Ok(())
     }
@@ -221,14 +319,16 @@ impl VcdTracer {
         let d = &mut self.devices[index];
         if d.tx_last != tx {
             d.tx_last = tx;
-            change(&mut self.out, &d.tx, tx)?;
+            self.out.change(&d.tx, tx)?;
         }
         if d.rx_last != rx {
             d.rx_last = rx;
-            change(&mut self.out, &d.rx, rx)?;
+            self.out.change(&d.rx, rx)?;
         }
         for (p, &v) in d.probes.iter_mut().zip(values) {
-            write_probe(&mut self.out, p, v)?;
+            if p.last != v {
+                write_probe(&mut self.out, p, v)?;
+            }
         }
         Ok(())
     }
@@ -247,7 +347,7 @@ impl VcdTracer {
     pub fn finish(mut self, t_end_fs: u64) -> io::Result<PathBuf> {
         let end_ns = (t_end_fs + FS_PER_NS / 2) / FS_PER_NS;
         if end_ns > self.now_ns {
-            timestamp(&mut self.out, end_ns)?;
+            self.out.timestamp(end_ns)?;
         }
         self.out.flush()?;
         std::fs::rename(&self.temporary, &self.target).map_err(|e| {
@@ -285,13 +385,13 @@ fn add_probe(writer: &mut vcd::Writer<impl Write>, probe: &Probe) -> io::Result<
 }
 
 /// Writes the wires of `probe` whose bit differs in `value`.
-fn write_probe(out: &mut impl Write, probe: &mut ProbeIds, value: u64) -> io::Result<()> {
-    let diff = probe.last ^ value;
+fn write_probe(out: &mut Output, probe: &mut ProbeIds, value: u64) -> io::Result<()> {
+    let mut diff = probe.last ^ value;
     probe.last = value;
-    for (bit, wire) in probe.bits.iter().enumerate() {
-        if diff >> bit & 1 == 1 {
-            change(out, wire, value >> bit & 1 == 1)?;
-        }
+    while diff != 0 {
+        let bit = diff.trailing_zeros() as usize;
+        diff &= diff - 1;
+        out.change(&probe.bits[bit], value >> bit & 1 == 1)?;
     }
     Ok(())
 }
@@ -301,6 +401,33 @@ impl Drop for VcdTracer {
         if !self.finished {
             // An unfinished trace is useless; nobody can report a failure to remove it.
             let _ = std::fs::remove_file(&self.temporary);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn timestamps_are_written_in_decimal_whatever_their_number_of_digits() {
+        for ns in [0, 7, 10, 99, 100, 101, 12_345, 1_000_000, u64::MAX] {
+            let mut out = [0u8; SLACK];
+            let len = format_timestamp(&mut out, ns);
+            assert_eq!(
+                std::str::from_utf8(&out[..len]).unwrap(),
+                format!("#{ns}\n")
+            );
+        }
+    }
+
+    #[test]
+    fn a_change_line_is_the_value_then_the_identifier() {
+        for number in [0u32, 93, 94, 10_000] {
+            let wire = Wire::new(IdCode::from(number));
+            let id = IdCode::from(number).to_string();
+            assert_eq!(wire.line(false), format!("0{id}\n").as_bytes());
+            assert_eq!(wire.line(true), format!("1{id}\n").as_bytes());
         }
     }
 }
