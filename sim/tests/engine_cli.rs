@@ -86,7 +86,7 @@ fn bench_refuses_a_single_node_and_an_unknown_engine() {
     assert_eq!(out.status.code(), Some(1));
     assert_eq!(
         text(&out.stderr),
-        "cansim: --nodes 1: the workload needs 2 to 26 nodes\n"
+        "cansim: --nodes 1: the workload needs 2 to 128 nodes\n"
     );
     let out = cansim(&["bench", "--engine", "icarus"], &[]);
     assert!(!out.status.success());

@@ -750,12 +750,23 @@ pub fn run_verilated(stim: &Stimulus) -> Result<Trace, EngineError> {
 }
 
 /// Runs `stim` on the compiled engine ([`sim::compiled`]): the Yosys netlist of the Verilog as
-/// straight-line Rust.
-pub fn run_compiled(stim: &Stimulus) -> Result<Trace, EngineError> {
+/// straight-line Rust; with `every_group`, every group of cells runs at every evaluation instead
+/// of only those whose inputs changed.
+pub fn run_compiled(stim: &Stimulus, every_group: bool) -> Result<Trace, EngineError> {
     let models = (0..stim.nodes)
-        .map(|_| CompiledController::new())
+        .map(|_| {
+            CompiledController::new().map(|mut m| {
+                m.set_every_group(every_group);
+                m
+            })
+        })
         .collect::<Result<Vec<_>, _>>()?;
-    Ok(run_word_models(stim, models, "compiled", |m, i| m.cycle(i)))
+    let source = if every_group {
+        "compiled, every group"
+    } else {
+        "compiled"
+    };
+    Ok(run_word_models(stim, models, source, |m, i| m.cycle(i)))
 }
 
 /// Runs `stim` on models stepped by `cycle`, one per node, on a wired-AND bus.

@@ -1045,8 +1045,9 @@ fn bench(
     if runs == 0 || frames == 0 {
         return Err("--runs and --frames must be at least 1".into());
     }
-    if let Some(n) = nodes.iter().find(|&&n| !(2..=26).contains(&n)) {
-        return Err(format!("--nodes {n}: the workload needs 2 to 26 nodes"));
+    let most = sim::workloads::bench::MAX_NODES;
+    if let Some(n) = nodes.iter().find(|&&n| !(2..=most).contains(&n)) {
+        return Err(format!("--nodes {n}: the workload needs 2 to {most} nodes"));
     }
     let engines = if engines.is_empty() {
         vec![ModelEngine::from_env()?]

@@ -24,6 +24,11 @@ use golden::frame::{Frame, Id};
 pub const CLOCK_HZ: f64 = 16e6;
 /// Clock offset between neighbouring nodes, so receivers resynchronise as on a real bus.
 const PPM_STEP: f64 = 100.0;
+/// Clock offsets repeat after this many nodes (0 to 700 ppm), inside the oscillator tolerance of
+/// the workload's bit timing whatever the node count.
+const PPM_STEPS: usize = 8;
+/// The most nodes the workload runs.
+pub const MAX_NODES: usize = 128;
 /// Longest wait for an interrupt or for a node to see the bus idle (a frame takes about 0.25 ms).
 const WAIT_LIMIT_FS: u64 = FS_PER_MS;
 
@@ -75,7 +80,7 @@ pub fn run_workload(
     let mut engine = Engine::new();
     let mut ids = Vec::with_capacity(nodes);
     for n in 0..nodes {
-        let clock = ClockSpec::with_ppm(CLOCK_HZ, PPM_STEP * n as f64);
+        let clock = ClockSpec::with_ppm(CLOCK_HZ, PPM_STEP * (n % PPM_STEPS) as f64);
         let node = ControllerNode::with_engine(&node_name(n), clock, model)
             .map_err(|e| BenchError(e.to_string()))?;
         ids.push(engine.add(node, 0));
@@ -112,8 +117,12 @@ pub fn run_workload(
     })
 }
 
+/// `a` … `z`, then `n26`, `n27`, …
 fn node_name(n: usize) -> String {
-    char::from(b'a' + n as u8).to_string()
+    match u8::try_from(n) {
+        Ok(letter @ 0..=25) => char::from(b'a' + letter).to_string(),
+        _ => format!("n{n}"),
+    }
 }
 
 /// Frame `i` of the workload: 8 data bytes, a different identifier and payload each time.
