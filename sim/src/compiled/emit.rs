@@ -309,10 +309,11 @@ impl<'a> Emitter<'a> {
             "{header}
 {tables}
 /// The controller's state: inputs, flip-flops (`q` now, `n` after the next edge), memories, the
-/// values read across groups, and the groups to run at the next `eval`.
+/// values read across groups, the groups to run at the next `eval` and those run since the last edge.
 #[derive(Clone)]
 pub(super) struct Model {{
 {input_fields}{fields}    dirty: u128,
+    ran: u128,
     out: u64,
 }}
 
@@ -321,6 +322,7 @@ impl Model {{
     pub(super) fn new() -> Model {{
         Model {{
 {input_init}{init}            dirty: {all:#x},
+            ran: {all:#x},
             out: 0,
         }}
     }}
@@ -339,11 +341,12 @@ impl Model {{
     pub(super) fn eval(&mut self, every_group: bool) {{
         let mut dirty = if every_group {{ {all:#x} }} else {{ self.dirty }};
 {body}        self.dirty = 0;
-        let _ = dirty;
+        self.ran |= dirty;
         self.out = 0{outputs};
     }}
 
-    /// The rising clock edge: memories read, then written; flip-flops loaded.
+    /// The rising clock edge: memories read, then written; the flip-flops of the groups run since
+    /// the last edge loaded (the others' `n` still equals `q`).
     pub(super) fn edge(&mut self) {{
         let mut dirty = 0u128;
 {edge}        self.dirty |= dirty;
@@ -514,11 +517,13 @@ impl Model {{
         for k in 0..self.mems.len() {
             writeln!(
                 edge,
-                "        if let Some(word) = self.m{k}.get_mut(self.m{k}_wa) {{ \
-                 *word = *word & !self.m{k}_we | self.m{k}_wd & self.m{k}_we; }}"
+                "        if self.m{k}_we != 0 {{ if let Some(word) = self.m{k}.get_mut(self.m{k}_wa) {{ \
+                 *word = *word & !self.m{k}_we | self.m{k}_wd & self.m{k}_we; }} }}"
             )
             .unwrap();
         }
+        // A flip-flop's `n` changes only when its group runs: the others are not compared.
+        let mut loads: Vec<String> = vec![String::new(); self.groups.count];
         for (k, cell) in self.regs.iter().enumerate() {
             let q = cell.port("Q")?;
             let start = q.iter().enumerate().fold(0u64, |v, (i, bit)| match bit {
@@ -534,11 +539,15 @@ impl Model {{
             .unwrap();
             let readers = self.readers_mask(&self.var_set(q), None);
             writeln!(
-                edge,
-                "        if self.q{k} != self.n{k} {{ self.q{k} = self.n{k}; dirty |= {readers:#x}; }} // {}",
+                loads[self.groups.of_reg[k]],
+                "            if self.q{k} != self.n{k} {{ self.q{k} = self.n{k}; dirty |= {readers:#x}; }} // {}",
                 cell.name
             )
             .unwrap();
+        }
+        writeln!(edge, "        let ran = self.ran;\n        self.ran = 0;").unwrap();
+        for (g, code) in loads.iter().enumerate().filter(|(_, c)| !c.is_empty()) {
+            writeln!(edge, "        if ran >> {g} & 1 != 0 {{\n{code}        }}").unwrap();
         }
         for k in &self.exported {
             writeln!(fields, "    v{k}: u64,").unwrap();

@@ -12,7 +12,7 @@ const TABLE_4: [u64; 4] = [0x3ff00000, 0x0, 0x0, 0x0];
 const TABLE_5: [u64; 4] = [0x1f0, 0x0, 0x0, 0x0];
 
 /// The controller's state: inputs, flip-flops (`q` now, `n` after the next edge), memories, the
-/// values read across groups, and the groups to run at the next `eval`.
+/// values read across groups, the groups to run at the next `eval` and those run since the last edge.
 #[derive(Clone)]
 pub(super) struct Model {
     i_wdata: u64,
@@ -786,6 +786,7 @@ pub(super) struct Model {
     v1103: u64,
     v1104: u64,
     dirty: u128,
+    ran: u128,
     out: u64,
 }
 
@@ -1564,6 +1565,7 @@ impl Model {
             v1103: 0,
             v1104: 0,
             dirty: 0xffffffffffffffffffffffffffffffff,
+            ran: 0xffffffffffffffffffffffffffffffff,
             out: 0,
         }
     }
@@ -3580,152 +3582,317 @@ impl Model {
             self.n0 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v749) } else { self.q0 };
         }
         self.dirty = 0;
-        let _ = dirty;
+        self.ran |= dirty;
         self.out = 0 | (self.v1051) << 0 | (self.q118) << 8 | (self.v983) << 9 | (self.v998) << 10 | (self.v148) << 11 | (self.v178) << 12 | (self.q115) << 14 | (self.q66 | (self.q67 << 3) | (self.q65 << 7)) << 19 | (self.q68 | (self.q69 << 7)) << 27 | (self.v223) << 35;
     }
 
-    /// The rising clock edge: memories read, then written; flip-flops loaded.
+    /// The rising clock edge: memories read, then written; the flip-flops of the groups run since
+    /// the last edge loaded (the others' `n` still equals `q`).
     pub(super) fn edge(&mut self) {
         let mut dirty = 0u128;
         if self.m0_re { let v = self.m0.get(self.m0_ra).copied().unwrap_or(0); if v != self.m0_rd { self.m0_rd = v; dirty |= 0x50; } } // fifo.ram.mem
         if self.m1_re { let v = self.m1.get(self.m1_ra).copied().unwrap_or(0); if v != self.m1_rd { self.m1_rd = v; dirty |= 0x40000; } } // tx_buffer.core_ram.mem
         if self.m2_re { let v = self.m2.get(self.m2_ra).copied().unwrap_or(0); if v != self.m2_rd { self.m2_rd = v; dirty |= 0x40000; } } // tx_buffer.host_ram.mem
-        if let Some(word) = self.m0.get_mut(self.m0_wa) { *word = *word & !self.m0_we | self.m0_wd & self.m0_we; }
-        if let Some(word) = self.m1.get_mut(self.m1_wa) { *word = *word & !self.m1_we | self.m1_wd & self.m1_we; }
-        if let Some(word) = self.m2.get_mut(self.m2_wa) { *word = *word & !self.m2_we | self.m2_wd & self.m2_we; }
-        if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x80000000000000000000000000000001; } // $auto$ff.cc:266:slice$9474
-        if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x40000000000000000000000000005021; } // $auto$ff.cc:266:slice$9475
-        if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x20000000000000000000000000044020; } // $auto$ff.cc:266:slice$9479
-        if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x10000000000000000000000000040000; } // $auto$ff.cc:266:slice$9480
-        if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x4000000000000000000000000040000; } // $auto$ff.cc:266:slice$9482
-        if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x2000000000000000000000000040000; } // $auto$ff.cc:266:slice$9485
-        if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x100000000000000000000000000020; } // $auto$ff.cc:266:slice$9491
-        if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x80000000000000000000000000010; } // $auto$ff.cc:266:slice$9492
-        if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x20000000000000002000000000000; } // $auto$ff.cc:266:slice$9495
-        if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x10000000000000000000000000010; } // $auto$ff.cc:266:slice$9496
-        if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x2000000000000000000000000200; } // $auto$ff.cc:266:slice$9502
-        if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x80000000000000000040000000; } // $auto$ff.cc:266:slice$9504
-        if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x40000000000000000040000000; } // $auto$ff.cc:266:slice$9505
-        if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x20000000000002000000000000; } // $auto$ff.cc:266:slice$9509
-        if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x2000200264b34; } // $auto$ff.cc:266:slice$9515
-        if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x240020200; } // $auto$ff.cc:266:slice$9516
-        if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x20000000000002000000000004; } // $auto$ff.cc:266:slice$9521
-        if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x8000000000000000000000100; } // $auto$ff.cc:266:slice$9524
-        if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x4000000000000000000000100; } // $auto$ff.cc:266:slice$9528
-        if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x2000000000000000000000100; } // $auto$ff.cc:266:slice$9529
-        if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x2000000000002000000020100; } // $auto$ff.cc:266:slice$9530
-        if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x3000000000010; } // $auto$ff.cc:266:slice$9536
-        if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0x3000010020000; } // $auto$ff.cc:266:slice$9541
-        if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x1000000000000000000020100; } // $auto$ff.cc:266:slice$9546
-        if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x1000000000002000000000000; } // $auto$ff.cc:266:slice$9548
-        if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x800000000000000000000300; } // $auto$ff.cc:266:slice$9549
-        if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x400000000000000000000100; } // $auto$ff.cc:266:slice$9550
-        if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x400000000002000000000000; } // $auto$ff.cc:266:slice$9552
-        if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x200000000000000000000004; } // $auto$ff.cc:266:slice$9554
-        if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x80000000000000000000004; } // $auto$ff.cc:266:slice$9556
-        if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x80000000000000000000004; } // $auto$ff.cc:266:slice$9558
-        if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x40000000000000000000004; } // $auto$ff.cc:266:slice$9560
-        if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x20000000000000000000004; } // $auto$ff.cc:266:slice$9562
-        if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x20000000000000000000004; } // $auto$ff.cc:266:slice$9564
-        if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9568
-        if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9572
-        if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9576
-        if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9580
-        if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9584
-        if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9588
-        if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9592
-        if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x900000000000000000040; } // $auto$ff.cc:266:slice$9595
-        if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x2000000000000020000040; } // $auto$ff.cc:266:slice$9598
-        if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x400000000000000000040; } // $auto$ff.cc:266:slice$9602
-        if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x2000200000000000000020140; } // $auto$ff.cc:266:slice$9605
-        if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x1000000000000000000040; } // $auto$ff.cc:266:slice$9608
-        if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x100000000000000000040; } // $auto$ff.cc:266:slice$9612
-        if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x80000000000000000040; } // $auto$ff.cc:266:slice$9615
-        if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x80000002000020020040; } // $auto$ff.cc:266:slice$9616
-        if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x40000000000000000040; } // $auto$ff.cc:266:slice$9617
-        if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x1000000002000020000140; } // $auto$ff.cc:266:slice$9618
-        if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x20000000000000000020; } // $auto$ff.cc:266:slice$9621
-        if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x20000000002000001003; } // $auto$ff.cc:266:slice$9627
-        if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x10000000000001000002; } // $auto$ff.cc:266:slice$9628
-        if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x10000000000001000000; } // $auto$ff.cc:266:slice$9634
-        if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x8000000800001000000; } // $auto$ff.cc:266:slice$9636
-        if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x1000000000000000000400000002020; } // $auto$ff.cc:266:slice$9645
-        if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x1000000000000000000600000002020; } // $auto$ff.cc:266:slice$9652
-        if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x2000000000000002000; } // $auto$ff.cc:266:slice$9658
-        if self.q59 != self.n59 { self.q59 = self.n59; dirty |= 0x2000000002007000401; } // $auto$ff.cc:266:slice$9660
-        if self.q60 != self.n60 { self.q60 = self.n60; dirty |= 0x1000000000000000001; } // $auto$ff.cc:266:slice$9668
-        if self.q61 != self.n61 { self.q61 = self.n61; dirty |= 0x1000000000000000001; } // $auto$ff.cc:266:slice$9674
-        if self.q62 != self.n62 { self.q62 = self.n62; dirty |= 0x800000000000000001; } // $auto$ff.cc:266:slice$9686
-        if self.q63 != self.n63 { self.q63 = self.n63; dirty |= 0x800000000002000001; } // $auto$ff.cc:266:slice$9704
-        if self.q64 != self.n64 { self.q64 = self.n64; dirty |= 0x400000002002000000; } // $auto$ff.cc:266:slice$9705
-        if self.q65 != self.n65 { self.q65 = self.n65; dirty |= 0x2050100000180; } // $auto$ff.cc:266:slice$9707
-        if self.q66 != self.n66 { self.q66 = self.n66; dirty |= 0x2040000000180; } // $auto$ff.cc:266:slice$9708
-        if self.q67 != self.n67 { self.q67 = self.n67; dirty |= 0x2040000000180; } // $auto$ff.cc:266:slice$9721
-        if self.q68 != self.n68 { self.q68 = self.n68; dirty |= 0x2110100000180; } // $auto$ff.cc:266:slice$9732
-        if self.q69 != self.n69 { self.q69 = self.n69; dirty |= 0x2110100000180; } // $auto$ff.cc:266:slice$9733
-        if self.q70 != self.n70 { self.q70 = self.n70; dirty |= 0x100000000000000020; } // $auto$ff.cc:266:slice$9737
-        if self.q71 != self.n71 { self.q71 = self.n71; dirty |= 0x80000000010001021; } // $auto$ff.cc:266:slice$9738
-        if self.q72 != self.n72 { self.q72 = self.n72; dirty |= 0x80000008000000002; } // $auto$ff.cc:266:slice$9739
-        if self.q73 != self.n73 { self.q73 = self.n73; dirty |= 0x40000004000012002; } // $auto$ff.cc:266:slice$9743
-        if self.q74 != self.n74 { self.q74 = self.n74; dirty |= 0x50800009004002403; } // $auto$ff.cc:266:slice$9744
-        if self.q75 != self.n75 { self.q75 = self.n75; dirty |= 0x20000000000000100; } // $auto$ff.cc:266:slice$9747
-        if self.q76 != self.n76 { self.q76 = self.n76; dirty |= 0x20000000000000100; } // $auto$ff.cc:266:slice$9750
-        if self.q77 != self.n77 { self.q77 = self.n77; dirty |= 0x1000000010000000000000000; } // $auto$ff.cc:266:slice$9754
-        if self.q78 != self.n78 { self.q78 = self.n78; dirty |= 0x400000010000000000000000; } // $auto$ff.cc:266:slice$9756
-        if self.q79 != self.n79 { self.q79 = self.n79; dirty |= 0x8000000020400046; } // $auto$ff.cc:266:slice$9758
-        if self.q80 != self.n80 { self.q80 = self.n80; dirty |= 0x8000000000000002; } // $auto$ff.cc:266:slice$9763
-        if self.q81 != self.n81 { self.q81 = self.n81; dirty |= 0x80000004000000020400446; } // $auto$ff.cc:266:slice$9765
-        if self.q82 != self.n82 { self.q82 = self.n82; dirty |= 0x4000000000000044; } // $auto$ff.cc:266:slice$9771
-        if self.q83 != self.n83 { self.q83 = self.n83; dirty |= 0x2e0100002000000000000044; } // $auto$ff.cc:266:slice$9776
-        if self.q84 != self.n84 { self.q84 = self.n84; dirty |= 0x2000000020400042; } // $auto$ff.cc:266:slice$9780
-        if self.q85 != self.n85 { self.q85 = self.n85; dirty |= 0x1000000000000044; } // $auto$ff.cc:266:slice$9784
-        if self.q86 != self.n86 { self.q86 = self.n86; dirty |= 0x1000000000000044; } // $auto$ff.cc:266:slice$9787
-        if self.q87 != self.n87 { self.q87 = self.n87; dirty |= 0x800000000000044; } // $auto$ff.cc:266:slice$9789
-        if self.q88 != self.n88 { self.q88 = self.n88; dirty |= 0x800002800000001; } // $auto$ff.cc:266:slice$9792
-        if self.q89 != self.n89 { self.q89 = self.n89; dirty |= 0x400000000080000; } // $auto$ff.cc:266:slice$9795
-        if self.q90 != self.n90 { self.q90 = self.n90; dirty |= 0x400000000080008; } // $auto$ff.cc:266:slice$9796
-        if self.q91 != self.n91 { self.q91 = self.n91; dirty |= 0x200000000080008; } // $auto$ff.cc:266:slice$9801
-        if self.q92 != self.n92 { self.q92 = self.n92; dirty |= 0x100000000008000; } // $auto$ff.cc:266:slice$9807
-        if self.q93 != self.n93 { self.q93 = self.n93; dirty |= 0x40000000000008; } // $auto$ff.cc:266:slice$9811
-        if self.q94 != self.n94 { self.q94 = self.n94; dirty |= 0x3880002020b80308000a; } // $auto$ff.cc:266:slice$9812
-        if self.q95 != self.n95 { self.q95 = self.n95; dirty |= 0x20000000080008; } // $auto$ff.cc:266:slice$9813
-        if self.q96 != self.n96 { self.q96 = self.n96; dirty |= 0x400000008; } // $auto$ff.cc:266:slice$9816
-        if self.q97 != self.n97 { self.q97 = self.n97; dirty |= 0x400000008; } // $auto$ff.cc:266:slice$9817
-        if self.q98 != self.n98 { self.q98 = self.n98; dirty |= 0x10000000080000; } // $auto$ff.cc:266:slice$9821
-        if self.q99 != self.n99 { self.q99 = self.n99; dirty |= 0x10000000000008; } // $auto$ff.cc:266:slice$9825
-        if self.q100 != self.n100 { self.q100 = self.n100; dirty |= 0x8000000200000; } // $auto$ff.cc:266:slice$9829
-        if self.q101 != self.n101 { self.q101 = self.n101; dirty |= 0x8000000200100; } // $auto$ff.cc:266:slice$9833
-        if self.q102 != self.n102 { self.q102 = self.n102; dirty |= 0x4000000288000; } // $auto$ff.cc:266:slice$9837
-        if self.q103 != self.n103 { self.q103 = self.n103; dirty |= 0x4000000200008; } // $auto$ff.cc:266:slice$9841
-        if self.q104 != self.n104 { self.q104 = self.n104; dirty |= 0x8000000000000100000; } // $auto$ff.cc:266:slice$9844
-        if self.q105 != self.n105 { self.q105 = self.n105; dirty |= 0x240020200; } // $auto$ff.cc:266:slice$9845
-        if self.q106 != self.n106 { self.q106 = self.n106; dirty |= 0x40000000000000000000000000010; } // $auto$ff.cc:266:slice$9846
-        if self.q107 != self.n107 { self.q107 = self.n107; dirty |= 0x800000000000000000000000040000; } // $auto$ff.cc:266:slice$9847
-        if self.q108 != self.n108 { self.q108 = self.n108; dirty |= 0x200000000080008; } // $auto$ff.cc:266:slice$9922
-        if self.q109 != self.n109 { self.q109 = self.n109; dirty |= 0x1100f040002001092003; } // $flatten\core.\bit_timing.\sampled.$procdff$8798
-        if self.q110 != self.n110 { self.q110 = self.n110; dirty |= 0x80000000008000; } // $flatten\core.\bit_timing.\sampling.\metastable.$procdff$8797
-        if self.q111 != self.n111 { self.q111 = self.n111; dirty |= 0x80000000008000; } // $flatten\core.\bit_timing.\sampling.\previous.$procdff$8796
-        if self.q112 != self.n112 { self.q112 = self.n112; dirty |= 0x100000000008000; } // $flatten\core.\bit_timing.\sampling.\stable.$procdff$8794
-        if self.q113 != self.n113 { self.q113 = self.n113; dirty |= 0x4800000100000038080025381; } // $flatten\core.\protocol.\faults.\bus_off_state.$procdff$8770
-        if self.q114 != self.n114 { self.q114 = self.n114; dirty |= 0x4000000200000000000000103; } // $flatten\core.\protocol.\faults.\passive_state.$procdff$8769
-        if self.q115 != self.n115 { self.q115 = self.n115; dirty |= 0x200000009000001003; } // $flatten\core.\protocol.\field.$procdff$8766
-        if self.q116 != self.n116 { self.q116 = self.n116; dirty |= 0x400000002000001000; } // $flatten\core.\protocol.\in_frame.$procdff$8765
-        if self.q117 != self.n117 { self.q117 = self.n117; dirty |= 0x4000000200000100000; } // $flatten\core.\protocol.\sender.\tx_next.$procdff$8757
-        if self.q118 != self.n118 { self.q118 = self.n118; dirty |= 0x400000000200010000b; } // $flatten\core.\protocol.\sender.\tx_reg.$procdff$8755
-        if self.q119 != self.n119 { self.q119 = self.n119; dirty |= 0x40000000000000000000004; } // $flatten\filter.\dual1_data_match.$procdff$8725
-        if self.q120 != self.n120 { self.q120 = self.n120; dirty |= 0x100000000000000000000004; } // $flatten\filter.\single_data1_match.$procdff$8721
-        if self.q121 != self.n121 { self.q121 = self.n121; dirty |= 0x100000000000000000000004; } // $flatten\filter.\single_data2_match.$procdff$8720
-        if self.q122 != self.n122 { self.q122 = self.n122; dirty |= 0x200000000000000000000100; } // $flatten\interrupts.\alc_armed.$procdff$8718
-        if self.q123 != self.n123 { self.q123 = self.n123; dirty |= 0x800000000000000000000100; } // $flatten\interrupts.\ecc_armed.$procdff$8714
-        if self.q124 != self.n124 { self.q124 = self.n124; dirty |= 0x100000000000000000000001003; } // $flatten\modes.\enable_reg.$procdff$8701
-        if self.q125 != self.n125 { self.q125 = self.n125; dirty |= 0x200000000000000200000101001; } // $flatten\modes.\listen_only_reg.$procdff$8700
-        if self.q126 != self.n126 { self.q126 = self.n126; dirty |= 0x400000000000002000000000200; } // $flatten\modes.\lom.$procdff$8699
-        if self.q127 != self.n127 { self.q127 = self.n127; dirty |= 0x804000800000002000020000b44; } // $flatten\modes.\rm.$procdff$8698
-        if self.q128 != self.n128 { self.q128 = self.n128; dirty |= 0x1000000000000000000000000002; } // $flatten\modes.\self_test_reg.$procdff$8697
-        if self.q129 != self.n129 { self.q129 = self.n129; dirty |= 0x4010000000000002000008000200; } // $flatten\modes.\sm.$procdff$8695
-        if self.q130 != self.n130 { self.q130 = self.n130; dirty |= 0x8000000000000002000000000200; } // $flatten\modes.\stm.$procdff$8694
-        if self.q131 != self.n131 { self.q131 = self.n131; dirty |= 0x200000000000000000000000024020; } // $flatten\tbs.$procdff$8688
-        if self.q132 != self.n132 { self.q132 = self.n132; dirty |= 0x400000000000000000000000020020; } // $flatten\tcs.$procdff$8687
+        if self.m0_we != 0 { if let Some(word) = self.m0.get_mut(self.m0_wa) { *word = *word & !self.m0_we | self.m0_wd & self.m0_we; } }
+        if self.m1_we != 0 { if let Some(word) = self.m1.get_mut(self.m1_wa) { *word = *word & !self.m1_we | self.m1_wd & self.m1_we; } }
+        if self.m2_we != 0 { if let Some(word) = self.m2.get_mut(self.m2_wa) { *word = *word & !self.m2_we | self.m2_wd & self.m2_we; } }
+        let ran = self.ran;
+        self.ran = 0;
+        if ran >> 33 & 1 != 0 {
+            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x2000200264b34; } // $auto$ff.cc:266:slice$9515
+            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x240020200; } // $auto$ff.cc:266:slice$9516
+            if self.q105 != self.n105 { self.q105 = self.n105; dirty |= 0x240020200; } // $auto$ff.cc:266:slice$9845
+        }
+        if ran >> 34 & 1 != 0 {
+            if self.q96 != self.n96 { self.q96 = self.n96; dirty |= 0x400000008; } // $auto$ff.cc:266:slice$9816
+            if self.q97 != self.n97 { self.q97 = self.n97; dirty |= 0x400000008; } // $auto$ff.cc:266:slice$9817
+        }
+        if ran >> 42 & 1 != 0 {
+            if self.q65 != self.n65 { self.q65 = self.n65; dirty |= 0x2050100000180; } // $auto$ff.cc:266:slice$9707
+            if self.q66 != self.n66 { self.q66 = self.n66; dirty |= 0x2040000000180; } // $auto$ff.cc:266:slice$9708
+            if self.q67 != self.n67 { self.q67 = self.n67; dirty |= 0x2040000000180; } // $auto$ff.cc:266:slice$9721
+        }
+        if ran >> 44 & 1 != 0 {
+            if self.q68 != self.n68 { self.q68 = self.n68; dirty |= 0x2110100000180; } // $auto$ff.cc:266:slice$9732
+            if self.q69 != self.n69 { self.q69 = self.n69; dirty |= 0x2110100000180; } // $auto$ff.cc:266:slice$9733
+        }
+        if ran >> 46 & 1 != 0 {
+            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x1000000000000000000400000002020; } // $auto$ff.cc:266:slice$9645
+            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x1000000000000000000600000002020; } // $auto$ff.cc:266:slice$9652
+        }
+        if ran >> 48 & 1 != 0 {
+            if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x3000000000010; } // $auto$ff.cc:266:slice$9536
+            if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0x3000010020000; } // $auto$ff.cc:266:slice$9541
+        }
+        if ran >> 50 & 1 != 0 {
+            if self.q102 != self.n102 { self.q102 = self.n102; dirty |= 0x4000000288000; } // $auto$ff.cc:266:slice$9837
+            if self.q103 != self.n103 { self.q103 = self.n103; dirty |= 0x4000000200008; } // $auto$ff.cc:266:slice$9841
+        }
+        if ran >> 51 & 1 != 0 {
+            if self.q100 != self.n100 { self.q100 = self.n100; dirty |= 0x8000000200000; } // $auto$ff.cc:266:slice$9829
+            if self.q101 != self.n101 { self.q101 = self.n101; dirty |= 0x8000000200100; } // $auto$ff.cc:266:slice$9833
+        }
+        if ran >> 52 & 1 != 0 {
+            if self.q98 != self.n98 { self.q98 = self.n98; dirty |= 0x10000000080000; } // $auto$ff.cc:266:slice$9821
+            if self.q99 != self.n99 { self.q99 = self.n99; dirty |= 0x10000000000008; } // $auto$ff.cc:266:slice$9825
+        }
+        if ran >> 53 & 1 != 0 {
+            if self.q94 != self.n94 { self.q94 = self.n94; dirty |= 0x3880002020b80308000a; } // $auto$ff.cc:266:slice$9812
+            if self.q95 != self.n95 { self.q95 = self.n95; dirty |= 0x20000000080008; } // $auto$ff.cc:266:slice$9813
+        }
+        if ran >> 54 & 1 != 0 {
+            if self.q93 != self.n93 { self.q93 = self.n93; dirty |= 0x40000000000008; } // $auto$ff.cc:266:slice$9811
+            if self.q109 != self.n109 { self.q109 = self.n109; dirty |= 0x1100f040002001092003; } // $flatten\core.\bit_timing.\sampled.$procdff$8798
+        }
+        if ran >> 55 & 1 != 0 {
+            if self.q110 != self.n110 { self.q110 = self.n110; dirty |= 0x80000000008000; } // $flatten\core.\bit_timing.\sampling.\metastable.$procdff$8797
+            if self.q111 != self.n111 { self.q111 = self.n111; dirty |= 0x80000000008000; } // $flatten\core.\bit_timing.\sampling.\previous.$procdff$8796
+        }
+        if ran >> 56 & 1 != 0 {
+            if self.q92 != self.n92 { self.q92 = self.n92; dirty |= 0x100000000008000; } // $auto$ff.cc:266:slice$9807
+            if self.q112 != self.n112 { self.q112 = self.n112; dirty |= 0x100000000008000; } // $flatten\core.\bit_timing.\sampling.\stable.$procdff$8794
+        }
+        if ran >> 57 & 1 != 0 {
+            if self.q91 != self.n91 { self.q91 = self.n91; dirty |= 0x200000000080008; } // $auto$ff.cc:266:slice$9801
+            if self.q108 != self.n108 { self.q108 = self.n108; dirty |= 0x200000000080008; } // $auto$ff.cc:266:slice$9922
+        }
+        if ran >> 58 & 1 != 0 {
+            if self.q89 != self.n89 { self.q89 = self.n89; dirty |= 0x400000000080000; } // $auto$ff.cc:266:slice$9795
+            if self.q90 != self.n90 { self.q90 = self.n90; dirty |= 0x400000000080008; } // $auto$ff.cc:266:slice$9796
+        }
+        if ran >> 59 & 1 != 0 {
+            if self.q87 != self.n87 { self.q87 = self.n87; dirty |= 0x800000000000044; } // $auto$ff.cc:266:slice$9789
+            if self.q88 != self.n88 { self.q88 = self.n88; dirty |= 0x800002800000001; } // $auto$ff.cc:266:slice$9792
+        }
+        if ran >> 60 & 1 != 0 {
+            if self.q85 != self.n85 { self.q85 = self.n85; dirty |= 0x1000000000000044; } // $auto$ff.cc:266:slice$9784
+            if self.q86 != self.n86 { self.q86 = self.n86; dirty |= 0x1000000000000044; } // $auto$ff.cc:266:slice$9787
+        }
+        if ran >> 61 & 1 != 0 {
+            if self.q83 != self.n83 { self.q83 = self.n83; dirty |= 0x2e0100002000000000000044; } // $auto$ff.cc:266:slice$9776
+            if self.q84 != self.n84 { self.q84 = self.n84; dirty |= 0x2000000020400042; } // $auto$ff.cc:266:slice$9780
+        }
+        if ran >> 62 & 1 != 0 {
+            if self.q81 != self.n81 { self.q81 = self.n81; dirty |= 0x80000004000000020400446; } // $auto$ff.cc:266:slice$9765
+            if self.q82 != self.n82 { self.q82 = self.n82; dirty |= 0x4000000000000044; } // $auto$ff.cc:266:slice$9771
+        }
+        if ran >> 63 & 1 != 0 {
+            if self.q79 != self.n79 { self.q79 = self.n79; dirty |= 0x8000000020400046; } // $auto$ff.cc:266:slice$9758
+            if self.q80 != self.n80 { self.q80 = self.n80; dirty |= 0x8000000000000002; } // $auto$ff.cc:266:slice$9763
+        }
+        if ran >> 64 & 1 != 0 {
+            if self.q77 != self.n77 { self.q77 = self.n77; dirty |= 0x1000000010000000000000000; } // $auto$ff.cc:266:slice$9754
+            if self.q78 != self.n78 { self.q78 = self.n78; dirty |= 0x400000010000000000000000; } // $auto$ff.cc:266:slice$9756
+        }
+        if ran >> 65 & 1 != 0 {
+            if self.q75 != self.n75 { self.q75 = self.n75; dirty |= 0x20000000000000100; } // $auto$ff.cc:266:slice$9747
+            if self.q76 != self.n76 { self.q76 = self.n76; dirty |= 0x20000000000000100; } // $auto$ff.cc:266:slice$9750
+        }
+        if ran >> 66 & 1 != 0 {
+            if self.q73 != self.n73 { self.q73 = self.n73; dirty |= 0x40000004000012002; } // $auto$ff.cc:266:slice$9743
+            if self.q74 != self.n74 { self.q74 = self.n74; dirty |= 0x50800009004002403; } // $auto$ff.cc:266:slice$9744
+        }
+        if ran >> 67 & 1 != 0 {
+            if self.q71 != self.n71 { self.q71 = self.n71; dirty |= 0x80000000010001021; } // $auto$ff.cc:266:slice$9738
+            if self.q72 != self.n72 { self.q72 = self.n72; dirty |= 0x80000008000000002; } // $auto$ff.cc:266:slice$9739
+        }
+        if ran >> 68 & 1 != 0 {
+            if self.q70 != self.n70 { self.q70 = self.n70; dirty |= 0x100000000000000020; } // $auto$ff.cc:266:slice$9737
+            if self.q113 != self.n113 { self.q113 = self.n113; dirty |= 0x4800000100000038080025381; } // $flatten\core.\protocol.\faults.\bus_off_state.$procdff$8770
+        }
+        if ran >> 69 & 1 != 0 {
+            if self.q114 != self.n114 { self.q114 = self.n114; dirty |= 0x4000000200000000000000103; } // $flatten\core.\protocol.\faults.\passive_state.$procdff$8769
+            if self.q115 != self.n115 { self.q115 = self.n115; dirty |= 0x200000009000001003; } // $flatten\core.\protocol.\field.$procdff$8766
+        }
+        if ran >> 70 & 1 != 0 {
+            if self.q64 != self.n64 { self.q64 = self.n64; dirty |= 0x400000002002000000; } // $auto$ff.cc:266:slice$9705
+            if self.q116 != self.n116 { self.q116 = self.n116; dirty |= 0x400000002000001000; } // $flatten\core.\protocol.\in_frame.$procdff$8765
+        }
+        if ran >> 71 & 1 != 0 {
+            if self.q62 != self.n62 { self.q62 = self.n62; dirty |= 0x800000000000000001; } // $auto$ff.cc:266:slice$9686
+            if self.q63 != self.n63 { self.q63 = self.n63; dirty |= 0x800000000002000001; } // $auto$ff.cc:266:slice$9704
+        }
+        if ran >> 72 & 1 != 0 {
+            if self.q60 != self.n60 { self.q60 = self.n60; dirty |= 0x1000000000000000001; } // $auto$ff.cc:266:slice$9668
+            if self.q61 != self.n61 { self.q61 = self.n61; dirty |= 0x1000000000000000001; } // $auto$ff.cc:266:slice$9674
+        }
+        if ran >> 73 & 1 != 0 {
+            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x2000000000000002000; } // $auto$ff.cc:266:slice$9658
+            if self.q59 != self.n59 { self.q59 = self.n59; dirty |= 0x2000000002007000401; } // $auto$ff.cc:266:slice$9660
+        }
+        if ran >> 74 & 1 != 0 {
+            if self.q117 != self.n117 { self.q117 = self.n117; dirty |= 0x4000000200000100000; } // $flatten\core.\protocol.\sender.\tx_next.$procdff$8757
+            if self.q118 != self.n118 { self.q118 = self.n118; dirty |= 0x400000000200010000b; } // $flatten\core.\protocol.\sender.\tx_reg.$procdff$8755
+        }
+        if ran >> 75 & 1 != 0 {
+            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x8000000800001000000; } // $auto$ff.cc:266:slice$9636
+            if self.q104 != self.n104 { self.q104 = self.n104; dirty |= 0x8000000000000100000; } // $auto$ff.cc:266:slice$9844
+        }
+        if ran >> 76 & 1 != 0 {
+            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x10000000000001000002; } // $auto$ff.cc:266:slice$9628
+            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x10000000000001000000; } // $auto$ff.cc:266:slice$9634
+        }
+        if ran >> 77 & 1 != 0 {
+            if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x20000000000000000020; } // $auto$ff.cc:266:slice$9621
+            if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x20000000002000001003; } // $auto$ff.cc:266:slice$9627
+        }
+        if ran >> 78 & 1 != 0 {
+            if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x40000000000000000040; } // $auto$ff.cc:266:slice$9617
+        }
+        if ran >> 79 & 1 != 0 {
+            if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x80000000000000000040; } // $auto$ff.cc:266:slice$9615
+            if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x80000002000020020040; } // $auto$ff.cc:266:slice$9616
+        }
+        if ran >> 80 & 1 != 0 {
+            if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x100000000000000000040; } // $auto$ff.cc:266:slice$9612
+        }
+        if ran >> 81 & 1 != 0 {
+            if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x2000200000000000000020140; } // $auto$ff.cc:266:slice$9605
+        }
+        if ran >> 82 & 1 != 0 {
+            if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x400000000000000000040; } // $auto$ff.cc:266:slice$9602
+        }
+        if ran >> 83 & 1 != 0 {
+            if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x900000000000000000040; } // $auto$ff.cc:266:slice$9595
+        }
+        if ran >> 84 & 1 != 0 {
+            if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x1000000000000000000040; } // $auto$ff.cc:266:slice$9608
+            if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x1000000002000020000140; } // $auto$ff.cc:266:slice$9618
+        }
+        if ran >> 85 & 1 != 0 {
+            if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9592
+            if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x2000000000000020000040; } // $auto$ff.cc:266:slice$9598
+        }
+        if ran >> 86 & 1 != 0 {
+            if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9584
+            if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9588
+        }
+        if ran >> 87 & 1 != 0 {
+            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9576
+            if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9580
+        }
+        if ran >> 88 & 1 != 0 {
+            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9568
+            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9572
+        }
+        if ran >> 89 & 1 != 0 {
+            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x20000000000000000000004; } // $auto$ff.cc:266:slice$9562
+            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x20000000000000000000004; } // $auto$ff.cc:266:slice$9564
+        }
+        if ran >> 90 & 1 != 0 {
+            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x40000000000000000000004; } // $auto$ff.cc:266:slice$9560
+            if self.q119 != self.n119 { self.q119 = self.n119; dirty |= 0x40000000000000000000004; } // $flatten\filter.\dual1_data_match.$procdff$8725
+        }
+        if ran >> 91 & 1 != 0 {
+            if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x80000000000000000000004; } // $auto$ff.cc:266:slice$9556
+            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x80000000000000000000004; } // $auto$ff.cc:266:slice$9558
+        }
+        if ran >> 92 & 1 != 0 {
+            if self.q120 != self.n120 { self.q120 = self.n120; dirty |= 0x100000000000000000000004; } // $flatten\filter.\single_data1_match.$procdff$8721
+            if self.q121 != self.n121 { self.q121 = self.n121; dirty |= 0x100000000000000000000004; } // $flatten\filter.\single_data2_match.$procdff$8720
+        }
+        if ran >> 93 & 1 != 0 {
+            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x200000000000000000000004; } // $auto$ff.cc:266:slice$9554
+            if self.q122 != self.n122 { self.q122 = self.n122; dirty |= 0x200000000000000000000100; } // $flatten\interrupts.\alc_armed.$procdff$8718
+        }
+        if ran >> 94 & 1 != 0 {
+            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x400000000000000000000100; } // $auto$ff.cc:266:slice$9550
+            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x400000000002000000000000; } // $auto$ff.cc:266:slice$9552
+        }
+        if ran >> 95 & 1 != 0 {
+            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x800000000000000000000300; } // $auto$ff.cc:266:slice$9549
+            if self.q123 != self.n123 { self.q123 = self.n123; dirty |= 0x800000000000000000000100; } // $flatten\interrupts.\ecc_armed.$procdff$8714
+        }
+        if ran >> 96 & 1 != 0 {
+            if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x1000000000000000000020100; } // $auto$ff.cc:266:slice$9546
+            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x1000000000002000000000000; } // $auto$ff.cc:266:slice$9548
+        }
+        if ran >> 97 & 1 != 0 {
+            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x2000000000000000000000100; } // $auto$ff.cc:266:slice$9529
+            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x2000000000002000000020100; } // $auto$ff.cc:266:slice$9530
+        }
+        if ran >> 98 & 1 != 0 {
+            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x4000000000000000000000100; } // $auto$ff.cc:266:slice$9528
+        }
+        if ran >> 99 & 1 != 0 {
+            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x8000000000000000000000100; } // $auto$ff.cc:266:slice$9524
+        }
+        if ran >> 101 & 1 != 0 {
+            if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x20000000000002000000000000; } // $auto$ff.cc:266:slice$9509
+            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x20000000000002000000000004; } // $auto$ff.cc:266:slice$9521
+        }
+        if ran >> 102 & 1 != 0 {
+            if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x40000000000000000040000000; } // $auto$ff.cc:266:slice$9505
+        }
+        if ran >> 103 & 1 != 0 {
+            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x80000000000000000040000000; } // $auto$ff.cc:266:slice$9504
+        }
+        if ran >> 104 & 1 != 0 {
+            if self.q124 != self.n124 { self.q124 = self.n124; dirty |= 0x100000000000000000000001003; } // $flatten\modes.\enable_reg.$procdff$8701
+        }
+        if ran >> 105 & 1 != 0 {
+            if self.q125 != self.n125 { self.q125 = self.n125; dirty |= 0x200000000000000200000101001; } // $flatten\modes.\listen_only_reg.$procdff$8700
+        }
+        if ran >> 106 & 1 != 0 {
+            if self.q126 != self.n126 { self.q126 = self.n126; dirty |= 0x400000000000002000000000200; } // $flatten\modes.\lom.$procdff$8699
+        }
+        if ran >> 107 & 1 != 0 {
+            if self.q127 != self.n127 { self.q127 = self.n127; dirty |= 0x804000800000002000020000b44; } // $flatten\modes.\rm.$procdff$8698
+        }
+        if ran >> 108 & 1 != 0 {
+            if self.q128 != self.n128 { self.q128 = self.n128; dirty |= 0x1000000000000000000000000002; } // $flatten\modes.\self_test_reg.$procdff$8697
+        }
+        if ran >> 109 & 1 != 0 {
+            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x2000000000000000000000000200; } // $auto$ff.cc:266:slice$9502
+        }
+        if ran >> 110 & 1 != 0 {
+            if self.q129 != self.n129 { self.q129 = self.n129; dirty |= 0x4010000000000002000008000200; } // $flatten\modes.\sm.$procdff$8695
+        }
+        if ran >> 111 & 1 != 0 {
+            if self.q130 != self.n130 { self.q130 = self.n130; dirty |= 0x8000000000000002000000000200; } // $flatten\modes.\stm.$procdff$8694
+        }
+        if ran >> 112 & 1 != 0 {
+            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x10000000000000000000000000010; } // $auto$ff.cc:266:slice$9496
+        }
+        if ran >> 113 & 1 != 0 {
+            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x20000000000000002000000000000; } // $auto$ff.cc:266:slice$9495
+        }
+        if ran >> 114 & 1 != 0 {
+            if self.q106 != self.n106 { self.q106 = self.n106; dirty |= 0x40000000000000000000000000010; } // $auto$ff.cc:266:slice$9846
+        }
+        if ran >> 115 & 1 != 0 {
+            if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x80000000000000000000000000010; } // $auto$ff.cc:266:slice$9492
+        }
+        if ran >> 116 & 1 != 0 {
+            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x100000000000000000000000000020; } // $auto$ff.cc:266:slice$9491
+        }
+        if ran >> 117 & 1 != 0 {
+            if self.q131 != self.n131 { self.q131 = self.n131; dirty |= 0x200000000000000000000000024020; } // $flatten\tbs.$procdff$8688
+        }
+        if ran >> 118 & 1 != 0 {
+            if self.q132 != self.n132 { self.q132 = self.n132; dirty |= 0x400000000000000000000000020020; } // $flatten\tcs.$procdff$8687
+        }
+        if ran >> 119 & 1 != 0 {
+            if self.q107 != self.n107 { self.q107 = self.n107; dirty |= 0x800000000000000000000000040000; } // $auto$ff.cc:266:slice$9847
+        }
+        if ran >> 121 & 1 != 0 {
+            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x2000000000000000000000000040000; } // $auto$ff.cc:266:slice$9485
+        }
+        if ran >> 122 & 1 != 0 {
+            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x4000000000000000000000000040000; } // $auto$ff.cc:266:slice$9482
+        }
+        if ran >> 124 & 1 != 0 {
+            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x10000000000000000000000000040000; } // $auto$ff.cc:266:slice$9480
+        }
+        if ran >> 125 & 1 != 0 {
+            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x20000000000000000000000000044020; } // $auto$ff.cc:266:slice$9479
+        }
+        if ran >> 126 & 1 != 0 {
+            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x40000000000000000000000000005021; } // $auto$ff.cc:266:slice$9475
+        }
+        if ran >> 127 & 1 != 0 {
+            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x80000000000000000000000000000001; } // $auto$ff.cc:266:slice$9474
+        }
         self.dirty |= dirty;
     }
 }
