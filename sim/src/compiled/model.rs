@@ -1595,1992 +1595,134 @@ impl Model {
     /// outputs.
     pub(super) fn eval(&mut self, every_group: bool) {
         let mut dirty = if every_group { 0xffffffffffffffffffffffffffffffff } else { self.dirty };
-        if dirty >> 0 & 1 != 0 { // top$core$protocol$interframe
-            let c489: u64 = (self.q62).wrapping_add((0x1)) & 0x7;
-            let c499: u64 = (self.q52) & (self.q114) & 0x1;
-            if self.v499 != c499 { self.v499 = c499; dirty |= 0x2000000000; }
-            let c504: u64 = (self.q61) & (self.q63) & 0x1;
-            let c506: u64 = (self.q109) & (self.q124) & 0x1;
-            if self.v506 != c506 { self.v506 = c506; dirty |= 0x2000000000; }
-            let c511: u64 = u64::from((self.q115) == (0x1));
-            if self.v511 != c511 { self.v511 = c511; dirty |= 0x2008000000; }
-            let c512: u64 = u64::from((self.q115) == (0xb));
-            if self.v512 != c512 { self.v512 = c512; dirty |= 0x2000000000; }
-            let c120: u64 = u64::from((c511 | (c512 << 1)) != 0);
-            if self.v120 != c120 { self.v120 = c120; dirty |= 0x400; }
-            let c513: u64 = u64::from((self.q115) == (0xa));
-            if self.v513 != c513 { self.v513 = c513; dirty |= 0x2000000400; }
-            let c514: u64 = u64::from((self.q74) == (0x2));
-            if self.v514 != c514 { self.v514 = c514; dirty |= 0x2000000000; }
-            let c496: u64 = (c513) & (c514) & 0x1;
-            if self.v496 != c496 { self.v496 = c496; dirty |= 0x1000; }
-            let c516: u64 = u64::from((self.q74) == (0xa));
-            if self.v516 != c516 { self.v516 = c516; dirty |= 0x2004000000; }
-            let c517: u64 = !(self.q118) & 0x1;
-            if self.v517 != c517 { self.v517 = c517; dirty |= 0x2000000002; }
-            let c518: u64 = u64::from((self.q74) == (0x7));
-            if self.v518 != c518 { self.v518 = c518; dirty |= 0x2000000000; }
-            let c519: u64 = u64::from((self.q74) == (0x5));
-            if self.v519 != c519 { self.v519 = c519; dirty |= 0x2000000002; }
-            let c520: u64 = !(self.q52) & 0x1;
-            if self.v520 != c520 { self.v520 = c520; dirty |= 0x1002; }
-            let c505: u64 = (c504) & (c520) & 0x1;
-            let c521: u64 = u64::from((self.q74) == 0);
-            if self.v521 != c521 { self.v521 = c521; dirty |= 0x2000000400; }
-            let c522: u64 = u64::from((self.q62) == (0x7));
-            let c524: u64 = u64::from((self.q115) == (0xd));
-            if self.v524 != c524 { self.v524 = c524; dirty |= 0x2000000400; }
-            let c525: u64 = u64::from((self.q74) != 0);
-            if self.v525 != c525 { self.v525 = c525; dirty |= 0x400000; }
-            let c526: u64 = u64::from((self.q109) != (self.q60));
-            let c501: u64 = (c525) & (c526) & 0x1;
-            if self.v501 != c501 { self.v501 = c501; dirty |= 0x2000000000; }
-            let c527: u64 = !(self.q125) & 0x1;
-            if self.v527 != c527 { self.v527 = c527; dirty |= 0x2; }
-            let c490: u64 = (self.q1) & (c527) & 0x1;
-            let c503: u64 = (self.q109) & (c527) & 0x1;
-            if self.v503 != c503 { self.v503 = c503; dirty |= 0x2000000000; }
-            let c28: u64 = u64::from((c524 | (c503 << 1)) != (0x3));
-            if self.v28 != c28 { self.v28 = c28; dirty |= 0x2000000; }
-            let c30: u64 = u64::from((c524 | (c519 << 1) | (c503 << 2)) != (0x1));
-            if self.v30 != c30 { self.v30 = c30; dirty |= 0x2000000; }
-            let c528: u64 = !(self.q88) & 0x1;
-            let c491: u64 = (c490) & (c528) & 0x1;
-            let c492: u64 = (c491) & (self.q124) & 0x1;
-            let c529: u64 = !(self.q113) & 0x1;
-            if self.v529 != c529 { self.v529 = c529; dirty |= 0x1080; }
-            let c493: u64 = (c492) & (c529) & 0x1;
-            let c530: u64 = !(self.q71) & 0x1;
-            let c494: u64 = (c493) & (c530) & 0x1;
-            if self.v494 != c494 { self.v494 = c494; dirty |= 0x2000; }
-            let c531: u64 = !(c499) & 0x1;
-            let c500: u64 = (c494) & (c531) & 0x1;
-            if self.v500 != c500 { self.v500 = c500; dirty |= 0x2000000000; }
-            let c532: u64 = ((self.q114) | (self.q125)) & 0x1;
-            if self.v532 != c532 { self.v532 = c532; dirty |= 0x2004000000; }
-            let c533: u64 = ((c511) | (c512)) & 0x1;
-            if self.v533 != c533 { self.v533 = c533; dirty |= 0x1000; }
-            let c534: u64 = ((c533) | (c496)) & 0x1;
-            if self.v534 != c534 { self.v534 = c534; dirty |= 0x2000000000; }
-            let c535: u64 = ((self.q0) | (self.q88)) & 0x1;
-            if self.v535 != c535 { self.v535 = c535; dirty |= 0x2000000002; }
-            let c554: u64 = u64::from((self.q115) == (0xf));
-            if self.v554 != c554 { self.v554 = c554; dirty |= 0x2000001010; }
-            let c556: u64 = (c506) & (c516) & 0x1;
-            let c558: u64 = u64::from((self.q115) == (0xe));
-            if self.v558 != c558 { self.v558 = c558; dirty |= 0x2002000400; }
-            let c29: u64 = u64::from((c558 | (c521 << 1)) != (0x1));
-            if self.v29 != c29 { self.v29 = c29; dirty |= 0x2000000; }
-            let c32: u64 = u64::from((c558 | (c521 << 1) | (self.q109 << 2)) != (0x7));
-            if self.v32 != c32 { self.v32 = c32; dirty |= 0x2000000; }
-            let c566: u64 = if (c522) != 0 { (c520) } else { (c505) };
-            let c567: u64 = (c522) & (self.q52) & 0x1;
-            let c568: u64 = if (self.q109) != 0 { (0x0) } else { (c567) };
-            let c569: u64 = if (self.q109) != 0 { (0x0) } else { (c566) };
-            let c571: u64 = (c521) & (c568) & 0x1;
-            if self.v571 != c571 { self.v571 = c571; dirty |= 0x2000000; }
-            let c572: u64 = (c521) & (c569) & 0x1;
-            let c577: u64 = if (c519) != 0 { (0x0) } else { (self.q63) };
-            let c581: u64 = if (c503) != 0 { (self.q63) } else { (c577) };
-            let c585: u64 = u64::from((self.q115) == (0xc));
-            if self.v585 != c585 { self.v585 = c585; dirty |= 0x2007000400; }
-            let c27: u64 = u64::from((c524 | (c585 << 1) | (c558 << 2)) != 0);
-            if self.v27 != c27 { self.v27 = c27; dirty |= 0x2000000; }
-            let c588: u64 = if (self.q109) != 0 { (0x0) } else { (c519) };
-            let c590: u64 = (self.q109) & (c520) & 0x1;
-            let c591: u64 = (self.q109) & (self.q52) & 0x1;
-            if self.v591 != c591 { self.v591 = c591; dirty |= 0x2000000; }
-            let c592: u64 = (self.q109) & (c532) & 0x1;
-            let c594: u64 = if (c501) != 0 { (0x0) } else { (c519) };
-            let c598: u64 = if (self.q59) != 0 { (c594) } else { (c588) };
-            if self.v598 != c598 { self.v598 = c598; dirty |= 0x2000000000; }
-            let c31: u64 = u64::from((c585 | (c598 << 1)) != (0x1));
-            if self.v31 != c31 { self.v31 = c31; dirty |= 0x2000000; }
-            let c122: u64 = if (c524) != 0 { (c519) } else { (c598) };
-            let c576: u64 = ((self.q61) | (c122)) & 0x1;
-            let c600: u64 = ((c592) | (self.q59)) & 0x1;
-            if self.v600 != c600 { self.v600 = c600; dirty |= 0x2000000000; }
-            let c601: u64 = if (self.q59) != 0 { (0x0) } else { (self.q109) };
-            let c602: u64 = if (self.q59) != 0 { (0x0) } else { (c590) };
-            let c622: u64 = u64::from((self.q115) == 0);
-            if self.v622 != c622 { self.v622 = c622; dirty |= 0x2000001010; }
-            let c628: u64 = if (c558) != 0 { (c489) } else { (0x0) };
-            if self.v628 != c628 { self.v628 = c628; dirty |= 0x800000000000000000; }
-            let c629: u64 = if (c558) != 0 { (0x0) } else { (c576) };
-            if self.v629 != c629 { self.v629 = c629; dirty |= 0x1000000000000000000; }
-            let c630: u64 = if (c524) != 0 { (c581) } else { (self.q63) };
-            if self.v630 != c630 { self.v630 = c630; dirty |= 0x2000000; }
-            let c633: u64 = (c585) & (c601) & 0x1;
-            if self.v633 != c633 { self.v633 = c633; dirty |= 0x2000000; }
-            let c635: u64 = (c554) & (c556) & 0x1;
-            if self.v635 != c635 { self.v635 = c635; dirty |= 0x2000000; }
-            let c637: u64 = { let s = (c558 | (c585 << 1)); if s >> 0 & 1 != 0 { c572 } else if s >> 1 & 1 != 0 { c602 } else { (0x0) } };
-            if self.v637 != c637 { self.v637 = c637; dirty |= 0x2000000; }
-        }
-        if dirty >> 1 & 1 != 0 { // top$core$protocol$frame
-            let c366: u64 = (self.q124) & (self.v527) & 0x1;
-            let c369: u64 = (self.v519) & (self.v520) & 0x1;
-            let c371: u64 = u64::from((self.q74) == (0xb));
-            if self.v371 != c371 { self.v371 = c371; dirty |= 0x4000000; }
-            let c372: u64 = u64::from((self.q74) == (0xc));
-            if self.v372 != c372 { self.v372 = c372; dirty |= 0x804000000; }
-            let c373: u64 = u64::from((self.q74) == (0x1f));
-            if self.v373 != c373 { self.v373 = c373; dirty |= 0x4002000; }
-            let c38: u64 = u64::from((c371 | (c373 << 1)) != 0);
-            if self.v38 != c38 { self.v38 = c38; dirty |= 0x1000000000; }
-            let c374: u64 = u64::from((self.q74) == (0x4));
-            let c375: u64 = !(self.q81) & 0x1;
-            if self.v375 != c375 { self.v375 = c375; dirty |= 0x24; }
-            let c359: u64 = (c374) & (c375) & 0x1;
-            let c376: u64 = u64::from(((self.q84 & 0x7)) == 0);
-            let c377: u64 = u64::from(((self.q74 & 0x7)) == (0x7));
-            if self.v377 != c377 { self.v377 = c377; dirty |= 0x800400000; }
-            let c378: u64 = u64::from(((self.q74 >> 3)) == (self.q80));
-            let c361: u64 = (c377) & (c378) & 0x1;
-            if self.v361 != c361 { self.v361 = c361; dirty |= 0x800000; }
-            let c379: u64 = u64::from((self.q115) == (0x2));
-            if self.v379 != c379 { self.v379 = c379; dirty |= 0x1800800400; }
-            let c363: u64 = (c379) & (self.q118) & 0x1;
-            let c380: u64 = u64::from((self.q109) == (self.q53));
-            if self.v380 != c380 { self.v380 = c380; dirty |= 0x4000000; }
-            let c381: u64 = u64::from((self.q74) == (0xe));
-            let c382: u64 = u64::from((self.q73) == 0);
-            let c383: u64 = !(self.q128) & 0x1;
-            let c367: u64 = (self.q109) & (c383) & 0x1;
-            let c384: u64 = u64::from((self.q74) == (0x6));
-            if self.v384 != c384 { self.v384 = c384; dirty |= 0x800000; }
-            let c368: u64 = (c384) & (self.v520) & 0x1;
-            let c370: u64 = (c384) & (self.q52) & 0x1;
-            let c385: u64 = u64::from((self.q118) != (self.q109));
-            let c358: u64 = (self.q52) & (c385) & 0x1;
-            let c386: u64 = ((c371) | (c372)) & 0x1;
-            let c387: u64 = ((c386) | (c373)) & 0x1;
-            let c43: u64 = !(c387) & 0x1;
-            if self.v43 != c43 { self.v43 = c43; dirty |= 0x1000000000; }
-            let c364: u64 = (self.q52) & (c43) & 0x1;
-            let c388: u64 = ((self.v519) | (c359)) & 0x1;
-            if self.v388 != c388 { self.v388 = c388; dirty |= 0x801000; }
-            let c391: u64 = u64::from((self.q115) == (0x9));
-            if self.v391 != c391 { self.v391 = c391; dirty |= 0x800400; }
-            let c393: u64 = !(c368) & 0x1;
-            let c394: u64 = if (self.q109) != 0 { (0x0) } else { (c393) };
-            let c396: u64 = (self.q109) & (c370) & 0x1;
-            let c397: u64 = (self.q109) & (c369) & 0x1;
-            let c399: u64 = if (c384) != 0 { (0xa) } else { (self.q115) };
-            let c392: u64 = if (c368) != 0 { (0xd) } else { (c399) };
-            let c395: u64 = if (self.q109) != 0 { (c399) } else { (c392) };
-            let c400: u64 = u64::from((self.q115) == (0x8));
-            if self.v400 != c400 { self.v400 = c400; dirty |= 0x800400; }
-            let c401: u64 = if (self.q109) != 0 { (self.q72 | (self.q72 << 1)) } else { (0x1) };
-            let c402: u64 = if (self.q109) != 0 { (self.q72) } else { (0x1) };
-            let c403: u64 = u64::from((self.q115) == (0x7));
-            if self.v403 != c403 { self.v403 = c403; dirty |= 0x400; }
-            let c404: u64 = if (self.q118) != 0 { (0x0) } else { (self.q109) };
-            let c406: u64 = !(self.q114) & 0x1;
-            let c407: u64 = (c367) & (self.q114) & 0x1;
-            let c408: u64 = if (c367) != 0 { (c406) } else { (0x1) };
-            let c409: u64 = (self.q52) & (c407) & 0x1;
-            let c410: u64 = if (self.q52) != 0 { (c408) } else { (0x1) };
-            let c411: u64 = (self.q52) & (c367) & 0x1;
-            let c412: u64 = if (self.q52) != 0 { (c367) } else { (c404) };
-            let c414: u64 = (c382) & (c366) & 0x1;
-            let c415: u64 = u64::from((self.q115) == (0x6));
-            if self.v415 != c415 { self.v415 = c415; dirty |= 0x400; }
-            let c416: u64 = !(c382) & 0x1;
-            let c417: u64 = if (self.q52) != 0 { (0x0) } else { (c416) };
-            let c418: u64 = if (self.q52) != 0 { (0x0) } else { (c414) };
-            let c419: u64 = !(self.q109) & 0x1;
-            if self.v419 != c419 { self.v419 = c419; dirty |= 0x202002000000; }
-            let c360: u64 = (c376) & (c419) & 0x1;
-            let c365: u64 = (c372) & (c419) & 0x1;
-            let c389: u64 = ((self.q79) | (c360)) & 0x1;
-            let c390: u64 = ((c365) | (c373)) & 0x1;
-            if self.v390 != c390 { self.v390 = c390; dirty |= 0x800000; }
-            let c405: u64 = if (self.q118) != 0 { (0x0) } else { (c419) };
-            let c413: u64 = if (self.q52) != 0 { (0x0) } else { (c405) };
-            let c420: u64 = (self.q109) & (c417) & 0x1;
-            let c421: u64 = (self.q109) & (c418) & 0x1;
-            let c422: u64 = if (c381) != 0 { (0x6) } else { (self.q115) };
-            let c423: u64 = u64::from((self.q115) == (0x5));
-            if self.v423 != c423 { self.v423 = c423; dirty |= 0x400; }
-            let c425: u64 = u64::from((self.q115) == (0x4));
-            if self.v425 != c425 { self.v425 = c425; dirty |= 0x800c00400; }
-            let c426: u64 = if (c361) != 0 { (0x5) } else { (self.q115) };
-            let c427: u64 = u64::from((self.q115) == (0x3));
-            if self.v427 != c427 { self.v427 = c427; dirty |= 0x800c01400; }
-            let c118: u64 = u64::from((c427 | (c425 << 1) | (c423 << 2)) != 0);
-            let c119: u64 = u64::from((c427 | (c425 << 1) | (c379 << 2) | (c423 << 3)) != 0);
-            let c428: u64 = if (c388) != 0 { (c389 | 0x4) } else { (self.q115) };
-            let c430: u64 = (self.q118) & (self.v535) & 0x1;
-            let c431: u64 = if (self.q118) != 0 { (0x0) } else { (c364) };
-            let c432: u64 = (c358) & (c430) & 0x1;
-            let c433: u64 = (c358) & (self.q118) & 0x1;
-            let c434: u64 = (c358) & (self.v517) & 0x1;
-            let c435: u64 = if (c358) != 0 { (c431) } else { (c364) };
-            let c437: u64 = if (c390) != 0 { (0x3) } else { (self.q115) };
-            let c438: u64 = { let s = (c391 | (c379 << 1)); if s >> 0 & 1 != 0 { c396 } else if s >> 1 & 1 != 0 { c432 } else { (0x0) } };
-            let c439: u64 = (c379) & (c433) & 0x1;
-            let c440: u64 = { let s = (c391 | (c400 << 1) | (c403 << 2) | (c415 << 3) | (c118 << 4) | (c379 << 5)); if s >> 0 & 1 != 0 { c394 } else if s >> 1 & 1 != 0 { c402 } else if s >> 2 & 1 != 0 { c412 } else if s >> 3 & 1 != 0 { c419 } else if s >> 4 & 1 != 0 { c358 } else if s >> 5 & 1 != 0 { c434 } else { (0x0) } };
-            let c441: u64 = { let s = (c425 | (c379 << 1)); if s >> 0 & 1 != 0 { self.q52 } else if s >> 1 & 1 != 0 { c435 } else { (0x0) } };
-            let c442: u64 = (c379) & (c390) & 0x1;
-            let c444: u64 = { let s = (c391 | (c400 << 1) | (c403 << 2) | (c415 << 3) | (c423 << 4) | (c425 << 5) | (c427 << 6) | (c379 << 7)); if s >> 0 & 1 != 0 { c395 } else if s >> 1 & 1 != 0 { 0x9 } else if s >> 2 & 1 != 0 { 0x8 } else if s >> 3 & 1 != 0 { 0x7 } else if s >> 4 & 1 != 0 { c422 } else if s >> 5 & 1 != 0 { c426 } else if s >> 6 & 1 != 0 { c428 } else if s >> 7 & 1 != 0 { c437 } else { (self.q115) } };
-            let c445: u64 = (c391) & (c396) & 0x1;
-            let c446: u64 = (c391) & (c397) & 0x1;
-            let c447: u64 = (c403) & (c409) & 0x1;
-            let c448: u64 = (c415) & (c420) & 0x1;
-            let c449: u64 = if (c403) != 0 { (c410) } else { (0x1) };
-            let c450: u64 = { let s = (c391 | (c400 << 1) | (c403 << 2) | (c415 << 3)); if s >> 0 & 1 != 0 { c394 } else if s >> 1 & 1 != 0 { c401 } else if s >> 2 & 1 != 0 { c411 | (c411 << 1) } else if s >> 3 & 1 != 0 { c419 } else { (0x0) } };
-            let c451: u64 = (c415) & (c421) & 0x1;
-            let c452: u64 = (c403) & (c413) & 0x1;
-            let c453: u64 = (self.q94) & (c442) & 0x1;
-            if self.v453 != c453 { self.v453 = c453; dirty |= 0x1000000000; }
-            let c454: u64 = (self.q94) & (c445) & 0x1;
-            if self.v454 != c454 { self.v454 = c454; dirty |= 0x1000000000; }
-            let c455: u64 = (self.q94) & (c438) & 0x1;
-            if self.v455 != c455 { self.v455 = c455; dirty |= 0x1000000000; }
-            let c456: u64 = (self.q94) & (c446) & 0x1;
-            if self.v456 != c456 { self.v456 = c456; dirty |= 0x20000000000000000000; }
-            let c457: u64 = (self.q94) & (c447) & 0x1;
-            if self.v457 != c457 { self.v457 = c457; dirty |= 0x1000000000; }
-            let c458: u64 = (self.q94) & (c448) & 0x1;
-            if self.v458 != c458 { self.v458 = c458; dirty |= 0x1000000000; }
-            let c459: u64 = if (self.q94) != 0 { (c449) } else { (0x1) };
-            if self.v459 != c459 { self.v459 = c459; dirty |= 0x1000000000; }
-            let c460: u64 = (self.q94) & (c439) & 0x1;
-            if self.v460 != c460 { self.v460 = c460; dirty |= 0x1000000000; }
-            let c461: u64 = if (self.q94) != 0 { (c450) } else { (0x0) };
-            if self.v461 != c461 { self.v461 = c461; dirty |= 0x1000000000; }
-            let c462: u64 = (self.q94) & (c440) & 0x1;
-            if self.v462 != c462 { self.v462 = c462; dirty |= 0x1000000000; }
-            let c463: u64 = (self.q94) & (c415) & 0x1;
-            if self.v463 != c463 { self.v463 = c463; dirty |= 0x1000000000; }
-            let c464: u64 = (self.q94) & (c451) & 0x1;
-            if self.v464 != c464 { self.v464 = c464; dirty |= 0x1000000000; }
-            let c465: u64 = (self.q94) & (c119) & 0x1;
-            if self.v465 != c465 { self.v465 = c465; dirty |= 0x1000000000; }
-            let c466: u64 = if (self.q94) != 0 { (c444) } else { (self.q115) };
-            if self.v466 != c466 { self.v466 = c466; dirty |= 0x1000000000; }
-            let c467: u64 = (self.q94) & (c452) & 0x1;
-            if self.v467 != c467 { self.v467 = c467; dirty |= 0x1000000000; }
-            let c468: u64 = (self.q94) & (c441) & 0x1;
-            if self.v468 != c468 { self.v468 = c468; dirty |= 0x1000000000; }
-            let c469: u64 = !(c363) & 0x1;
-            let c470: u64 = if (c358) != 0 { (c469) } else { (0x1) };
-            if self.v470 != c470 { self.v470 = c470; dirty |= 0x1000000000; }
-            let c471: u64 = if (c358) != 0 { (c363) } else { (c380) };
-            if self.v471 != c471 { self.v471 = c471; dirty |= 0x1000000000; }
-            let c472: u64 = ((c380) | (c358)) & 0x1;
-            if self.v472 != c472 { self.v472 = c472; dirty |= 0x1000000000; }
-        }
-        if dirty >> 2 & 1 != 0 { // top$filter
-            let c112: u64 = ((self.q79 | ((self.q82 & 0x1f) << 1)) ^ ((self.q37 >> 2))) & 0x3f;
-            let c840: u64 = (self.q14) & (self.q127) & 0x1;
-            let c842: u64 = (self.i_we) & (self.q127) & 0x1;
-            if self.v842 != c842 { self.v842 = c842; dirty |= 0x204020; }
-            let c844: u64 = (self.q28) & (self.q120) & 0x1;
-            let c845: u64 = (c844) & (self.q121) & 0x1;
-            let c846: u64 = (self.q31) & (self.q119) & 0x1;
-            let c861: u64 = u64::from(((self.i_addr >> 3)) == (0x2));
-            let c841: u64 = (c840) & (c861) & 0x1;
-            let c862: u64 = u64::from((self.i_addr) == (0x5));
-            let c863: u64 = u64::from((self.i_addr) == (0x4));
-            if self.v863 != c863 { self.v863 = c863; dirty |= 0x2000000000100; }
-            let c878: u64 = !(self.q29) & 0x1;
-            let c857: u64 = (self.q86) & (c878) & 0x1;
-            let c879: u64 = u64::from((self.q87) == 0);
-            let c882: u64 = u64::from((self.q87) == (0x1));
-            let c884: u64 = ((c863) | (c862)) & 0x1;
-            let c885: u64 = ((c846) | (self.q30)) & 0x1;
-            let c896: u64 = if (self.q81) != 0 { (((self.q82 >> 13) & 0xff)) } else { ((self.q79 << 4) | ((self.q82 & 0x7) << 5)) };
-            let c897: u64 = if (self.q81) != 0 { ((self.q82 >> 21)) } else { (((self.q82 >> 3) & 0xff)) };
-            let c898: u64 = ((self.q119) | (self.q83)) & 0x1;
-            let c899: u64 = ((self.q121) | (self.q83)) & 0x1;
-            let c900: u64 = ((self.q120) | (self.q83)) & 0x1;
-            let c901: u64 = if (self.q16) != 0 { (c845) } else { (c885) };
-            let c902: u64 = if (self.q14) != 0 { (c901) } else { (self.q32) };
-            if self.v902 != c902 { self.v902 = c902; dirty |= 0x20; }
-            let c910: u64 = if (self.q14) != 0 { (c841) } else { (c884) };
-            if self.v910 != c910 { self.v910 = c910; dirty |= 0x2000000000000; }
-            let c843: u64 = (c842) & (c910) & 0x1;
-            let c911: u64 = if (self.q14) != 0 { ((self.i_addr & 0x7)) } else { ((c862 << 2)) };
-            let c864: u64 = u64::from((c911) == (0x1));
-            let c57: u64 = u64::from((c843 | (c864 << 1)) == 0x3);
-            if self.v57 != c57 { self.v57 = c57; dirty |= 0x4000000000000000000000; }
-            let c865: u64 = u64::from((c911) == (0x2));
-            let c56: u64 = u64::from((c843 | (c865 << 1)) == 0x3);
-            if self.v56 != c56 { self.v56 = c56; dirty |= 0x4000000000000000000000; }
-            let c866: u64 = u64::from((c911) == 0);
-            let c58: u64 = u64::from((c866 | (c843 << 1)) == 0x3);
-            if self.v58 != c58 { self.v58 = c58; dirty |= 0x2000000000000000000000; }
-            let c867: u64 = u64::from((c911) == (0x3));
-            let c55: u64 = u64::from((c843 | (c867 << 1)) == 0x3);
-            if self.v55 != c55 { self.v55 = c55; dirty |= 0x8000000000000000000000; }
-            let c868: u64 = u64::from((c911) == (0x4));
-            let c54: u64 = u64::from((c843 | (c868 << 1)) == 0x3);
-            if self.v54 != c54 { self.v54 = c54; dirty |= 0x8000000000000000000000; }
-            let c869: u64 = u64::from((c911) == (0x5));
-            let c53: u64 = u64::from((c843 | (c869 << 1)) == 0x3);
-            if self.v53 != c53 { self.v53 = c53; dirty |= 0x10000000000000000000000; }
-            let c870: u64 = u64::from((c911) == (0x6));
-            let c52: u64 = u64::from((c843 | (c870 << 1)) == 0x3);
-            if self.v52 != c52 { self.v52 = c52; dirty |= 0x10000000000000000000000; }
-            let c871: u64 = u64::from((c911) == (0x7));
-            let c51: u64 = u64::from((c843 | (c871 << 1)) == 0x3);
-            if self.v51 != c51 { self.v51 = c51; dirty |= 0x20000000000000000000000; }
-            let c909: u64 = if (c864) != 0 { (self.q39) } else { (self.q40) };
-            let c908: u64 = if (c865) != 0 { (self.q38) } else { (c909) };
-            let c907: u64 = if (c867) != 0 { (self.q37) } else { (c908) };
-            let c906: u64 = if (c868) != 0 { (self.q36) } else { (c907) };
-            let c905: u64 = if (c869) != 0 { (self.q35) } else { (c906) };
-            let c904: u64 = if (c870) != 0 { (self.q34) } else { (c905) };
-            let c903: u64 = if (c871) != 0 { (self.q33) } else { (c904) };
-            if self.v903 != c903 { self.v903 = c903; dirty |= 0x2000000000000; }
-            let c912: u64 = ((c897) ^ (self.q40)) & 0xff;
-            let c913: u64 = ((self.q36) ^ (0xff)) & 0xff;
-            let c847: u64 = (c912) & (c913) & 0xff;
-            let c872: u64 = u64::from((c847) == 0);
-            if self.v872 != c872 { self.v872 = c872; dirty |= 0x20000000000000000000000; }
-            let c914: u64 = ((c896) ^ (self.q39)) & 0xff;
-            let c915: u64 = ((self.q35) ^ (0xff)) & 0xff;
-            let c848: u64 = (c914) & (c915) & 0xff;
-            let c115: u64 = ((c848 & 0xf)) & (self.q81 | (self.q81 << 1) | (self.q81 << 2) | (self.q81 << 3)) & 0xf;
-            let c873: u64 = u64::from((c115 | ((c848 >> 4) << 4)) == 0);
-            let c853: u64 = (c872) & (c873) & 0x1;
-            if self.v853 != c853 { self.v853 = c853; dirty |= 0x40000000000000000000000; }
-            let c916: u64 = ((((self.q82 >> 5) & 0xff)) ^ (self.q38)) & 0xff;
-            let c917: u64 = ((c897) ^ (self.q38)) & 0xff;
-            let c918: u64 = ((self.q34) ^ (0xff)) & 0xff;
-            let c849: u64 = (c916) & (c918) & 0xff;
-            let c851: u64 = (c917) & (c918) & 0xff;
-            let c874: u64 = u64::from((c851) == 0);
-            let c876: u64 = u64::from((c849) == 0);
-            let c919: u64 = ((c896) ^ (self.q37)) & 0xff;
-            let c920: u64 = ((self.q33) ^ (0xff)) & 0xff;
-            let c850: u64 = ((self.q37 & 0x3) | (c112 << 2)) & (c920) & 0xff;
-            let c852: u64 = (c919) & (c920) & 0xff;
-            let c116: u64 = ((c852 & 0xf)) & (self.q81 | (self.q81 << 1) | (self.q81 << 2) | (self.q81 << 3)) & 0xf;
-            let c875: u64 = u64::from((c116 | ((c852 >> 4) << 4)) == 0);
-            let c854: u64 = (c874) & (c875) & 0x1;
-            if self.v854 != c854 { self.v854 = c854; dirty |= 0x80000000000000000000000; }
-            let c877: u64 = u64::from(((c850 >> 2)) == 0);
-            let c855: u64 = (c876) & (c877) & 0x1;
-            let c886: u64 = ((self.v375) | (c855)) & 0x1;
-            let c856: u64 = (c853) & (c886) & 0x1;
-            if self.v856 != c856 { self.v856 = c856; dirty |= 0x200000000000000000000000; }
-            let c921: u64 = ((self.q85) ^ (self.q38)) & 0xff;
-            let c858: u64 = (c921) & (c918) & 0xff;
-            let c880: u64 = u64::from((c858) == 0);
-            let c892: u64 = if (c879) != 0 { (c880) } else { (c900) };
-            let c895: u64 = if (c857) != 0 { (c892) } else { (c900) };
-            let c889: u64 = ((c895) | (self.i_reset)) & 0x1;
-            if self.v889 != c889 { self.v889 = c889; dirty |= 0x100000000000000000000000; }
-            let c922: u64 = ((self.q85) ^ ((self.q37 & 0xf) | ((self.q39 & 0xf) << 4))) & 0xff;
-            let c923: u64 = (((self.q33 & 0xf) | ((self.q35 & 0xf) << 4)) ^ (0xff)) & 0xff;
-            let c859: u64 = (c922) & (c923) & 0xff;
-            let c881: u64 = u64::from((c859) == 0);
-            let c891: u64 = if (c879) != 0 { (c881) } else { (c898) };
-            let c894: u64 = if (c857) != 0 { (c891) } else { (c898) };
-            let c887: u64 = ((c894) | (self.i_reset)) & 0x1;
-            if self.v887 != c887 { self.v887 = c887; dirty |= 0x40000000000000000000000; }
-            let c924: u64 = ((self.q85) ^ (self.q37)) & 0xff;
-            let c860: u64 = (c924) & (c920) & 0xff;
-            let c883: u64 = u64::from((c860) == 0);
-            let c890: u64 = if (c882) != 0 { (c883) } else { (c899) };
-            let c893: u64 = if (c857) != 0 { (c890) } else { (c899) };
-            let c888: u64 = ((c893) | (self.i_reset)) & 0x1;
-            if self.v888 != c888 { self.v888 = c888; dirty |= 0x100000000000000000000000; }
-        }
-        if dirty >> 3 & 1 != 0 { // top$core$bit_timing
-            let c110: u64 = !(self.q99) & 0x3;
-            if self.v110 != c110 { self.v110 = c110; dirty |= 0x80000; }
-            let c135: u64 = (self.q99).wrapping_add((0x1)) & 0x7;
-            if self.v135 != c135 { self.v135 = c135; dirty |= 0x200000000000000; }
-            let c136: u64 = (self.q93).wrapping_add((self.q108)) & 0x1f;
-            let c138: u64 = (self.q96 | (self.q97 << 1)).wrapping_add((0x1)) & 0x7f;
-            if self.v138 != c138 { self.v138 = c138; dirty |= 0x400000000; }
-            let c139: u64 = (self.q93).wrapping_add((0x1)) & 0x1f;
-            if self.v139 != c139 { self.v139 = c139; dirty |= 0x40000000000000; }
-            let c154: u64 = u64::from((self.q93) == (self.q95));
-            let c155: u64 = u64::from((c136) == (self.q95));
-            let c156: u64 = u64::from((self.q93) == 0);
-            let c157: u64 = u64::from((self.q96 | (self.q97 << 1)) == 0);
-            let c158: u64 = u64::from((self.q96 | (self.q97 << 1)) >= (((self.q103 & 0x3f) << 1) | 0x1));
-            if self.v158 != c158 { self.v158 = c158; dirty |= 0x40000000080000; }
-            let c142: u64 = (c158) & (c154) & 0x1;
-            if self.v142 != c142 { self.v142 = c142; dirty |= 0x80000; }
-            let c144: u64 = (c158) & (c155) & 0x1;
-            if self.v144 != c144 { self.v144 = c144; dirty |= 0x80000; }
-            let c159: u64 = u64::from((self.q93) <= (self.q99));
-            let c160: u64 = u64::from((self.q95) < (c136));
-            let c161: u64 = !(self.q90) & 0x1;
-            if self.v161 != c161 { self.v161 = c161; dirty |= 0x80000; }
-            let c164: u64 = !(self.i_reset) & 0x1;
-            if self.v164 != c164 { self.v164 = c164; dirty |= 0x80000; }
-            let c165: u64 = !(self.q94) & 0x1;
-            if self.v165 != c165 { self.v165 = c165; dirty |= 0x80000; }
-            let c186: u64 = if (c158) != 0 { (0x0) } else { ((c138 & 0x1)) };
-            if self.v186 != c186 { self.v186 = c186; dirty |= 0x80000; }
-            let c190: u64 = !(c160) & 0x1;
-            let c191: u64 = u64::from((self.q91) == (0x2));
-            if self.v191 != c191 { self.v191 = c191; dirty |= 0x80000; }
-            let c192: u64 = !(c159) & 0x1;
-            let c193: u64 = (self.q118) & (c192) & 0x1;
-            let c194: u64 = (self.q118) & (c159) & 0x1;
-            let c195: u64 = u64::from((self.q91) == (0x1));
-            if self.v195 != c195 { self.v195 = c195; dirty |= 0x80000; }
-            let c184: u64 = { let s = (c191 | (c195 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
-            if self.v184 != c184 { self.v184 = c184; dirty |= 0x200000000000000; }
-            let c196: u64 = u64::from((self.q91) == 0);
-            if self.v196 != c196 { self.v196 = c196; dirty |= 0x80000; }
-            let c39: u64 = u64::from((c196 | (c195 << 1) | (c191 << 2)) != 0);
-            if self.v39 != c39 { self.v39 = c39; dirty |= 0x80000; }
-            let c149: u64 = (c196) & (c156) & 0x1;
-            let c150: u64 = (c149) & (c157) & 0x1;
-            if self.v150 != c150 { self.v150 = c150; dirty |= 0x80000; }
-            let c197: u64 = (c191) & (c190) & 0x1;
-            if self.v197 != c197 { self.v197 = c197; dirty |= 0x80000; }
-            let c198: u64 = (c195) & (c193) & 0x1;
-            if self.v198 != c198 { self.v198 = c198; dirty |= 0x80000; }
-            let c199: u64 = (c191) & (c160) & 0x1;
-            if self.v199 != c199 { self.v199 = c199; dirty |= 0x80000; }
-            let c200: u64 = (c195) & (c194) & 0x1;
-            if self.v200 != c200 { self.v200 = c200; dirty |= 0x80000; }
-        }
-        if dirty >> 4 & 1 != 0 { // top$read
-            let c117: u64 = (((self.m0_rd & 0xf)) | (self.q106)) & 0xf;
-            let c1036: u64 = u64::from((self.i_addr) == (0x2));
-            if self.v1036 != c1036 { self.v1036 = c1036; dirty |= 0x20000; }
-            let c1037: u64 = u64::from((self.i_addr) == (0xb));
-            if self.v1037 != c1037 { self.v1037 = c1037; dirty |= 0x2000000000100; }
-            let c1038: u64 = u64::from((self.i_addr) == (0xc));
-            if self.v1038 != c1038 { self.v1038 = c1038; dirty |= 0x2000000000100; }
-            let c1039: u64 = u64::from((self.i_addr) == (0xe));
-            if self.v1039 != c1039 { self.v1039 = c1039; dirty |= 0x2000000000020; }
-            let c1040: u64 = u64::from((self.i_addr) == (0xf));
-            if self.v1040 != c1040 { self.v1040 = c1040; dirty |= 0x2000000000020; }
-            let c1041: u64 = u64::from((self.i_addr) == (0x1d));
-            if self.v1041 != c1041 { self.v1041 = c1041; dirty |= 0x2000000000000; }
-            let c1042: u64 = u64::from((self.i_addr) == (0x1e));
-            if self.v1042 != c1042 { self.v1042 = c1042; dirty |= 0x2000000000020; }
-            let c1043: u64 = u64::from((self.i_addr) == 0);
-            if self.v1043 != c1043 { self.v1043 = c1043; dirty |= 0x2000010000200; }
-            let c1044: u64 = u64::from((self.i_addr) == (0x1));
-            if self.v1044 != c1044 { self.v1044 = c1044; dirty |= 0x2000000000800; }
-            let c1045: u64 = u64::from((self.i_addr) == (0x3));
-            if self.v1045 != c1045 { self.v1045 = c1045; dirty |= 0x2000000020100; }
-            let c1046: u64 = u64::from((self.i_addr) == (0x15));
-            if self.v1046 != c1046 { self.v1046 = c1046; dirty |= 0x20000; }
-            let c1047: u64 = ((self.v622) | (self.v554)) & 0x1;
-            if self.v1047 != c1047 { self.v1047 = c1047; dirty |= 0x1000; }
-            let c1052: u64 = if (self.q9) != 0 { (c117 | ((self.m0_rd >> 4) << 4)) } else { (self.q7) };
-            if self.v1052 != c1052 { self.v1052 = c1052; dirty |= 0x2000000000000; }
-            let c1077: u64 = if (self.q14) != 0 { (self.q21) } else { (0x1) };
-            if self.v1077 != c1077 { self.v1077 = c1077; dirty |= 0x10020000; }
-        }
-        if dirty >> 5 & 1 != 0 { // can_controller
-            let c0: u64 = (self.v842) & (self.q14) & 0x1;
-            let c1: u64 = (c0) & (self.v1040) & 0x1;
-            if self.v1 != c1 { self.v1 = c1; dirty |= 0x30080004000; }
-            let c2: u64 = (c0) & (self.v1039) & 0x1;
-            if self.v2 != c2 { self.v2 = c2; dirty |= 0x80; }
-            let c3: u64 = (c0) & (self.v1042) & 0x1;
-            if self.v3 != c3 { self.v3 = c3; dirty |= 0x20000040; }
-            let c13: u64 = (self.q71) & (self.q70) & 0x1;
-            let c14: u64 = (c13) & (self.q6) & 0x1;
-            let c762: u64 = { let s = (self.i_addr); if s < 256 { TABLE_0[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-            if self.v762 != c762 { self.v762 = c762; dirty |= 0x800; }
-            let c763: u64 = { let s = (self.i_addr); if s < 256 { TABLE_1[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-            if self.v763 != c763 { self.v763 = c763; dirty |= 0x800; }
-            let c764: u64 = { let s = (self.i_addr); if s < 256 { TABLE_2[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-            if self.v764 != c764 { self.v764 = c764; dirty |= 0x800; }
-            let c765: u64 = { let s = (self.i_addr); if s < 256 { TABLE_3[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-            if self.v765 != c765 { self.v765 = c765; dirty |= 0x800; }
-            let c766: u64 = { let s = (self.i_addr); if s < 256 { TABLE_4[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-            if self.v766 != c766 { self.v766 = c766; dirty |= 0x800; }
-            let c767: u64 = { let s = (self.i_addr); if s < 256 { TABLE_5[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-            if self.v767 != c767 { self.v767 = c767; dirty |= 0x20000; }
-            let c1088: u64 = if ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) < 16 { (self.q2) >> ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) & 0x1 } else { 0 };
-            if self.v1088 != c1088 { self.v1088 = c1088; dirty |= 0x2000000000000000000000000000000; }
-            let c1092: u64 = ((self.q51) | (c14)) & 0x1;
-            let c15: u64 = (c1092) & (self.v902) & 0x1;
-            let c1093: u64 = ((self.q14) | (self.v375)) & 0x1;
-            let c16: u64 = (c15) & (c1093) & 0x1;
-            if self.v16 != c16 { self.v16 = c16; dirty |= 0x40; }
-            let c1100: u64 = if (self.q71) != 0 { (self.q70) } else { (self.q132) };
-            if self.v1100 != c1100 { self.v1100 = c1100; dirty |= 0x4000; }
-            let c1101: u64 = ((self.q131) | (self.q71)) & 0x1;
-            if self.v1101 != c1101 { self.v1101 = c1101; dirty |= 0x4000; }
-            let c1102: u64 = if (self.q71) != 0 { (0x0) } else { (self.q1) };
-            if self.v1102 != c1102 { self.v1102 = c1102; dirty |= 0x4000; }
-        }
-        if dirty >> 6 & 1 != 0 { // top$fifo
-            let c773: u64 = (self.q46).wrapping_add((0x1)) & 0x7;
-            let c782: u64 = (self.v16) & (self.q45) & 0x1;
-            let c784: u64 = u64::from((self.q46) == (0x3));
-            let c785: u64 = u64::from((self.q46) == (0x4));
-            let c786: u64 = u64::from((self.q46) == (0x1));
-            let c787: u64 = u64::from((self.q46) == (0x2));
-            let c788: u64 = !(self.q45) & 0x1;
-            let c781: u64 = (self.v16) & (c788) & 0x1;
-            if self.v781 != c781 { self.v781 = c781; dirty |= 0x20000000; }
-            let c20: u64 = u64::from((c781 | (self.q127 << 1)) != 0);
-            if self.v20 != c20 { self.v20 = c20; dirty |= 0x400000000000000000000; }
-            let c790: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (self.q48) };
-            let c801: u64 = ((self.q44) | (c782)) & 0x1;
-            if self.v801 != c801 { self.v801 = c801; dirty |= 0x200000000000000000000; }
-            let c817: u64 = ((self.q41) | (self.q86)) & 0x1;
-            let c819: u64 = if (c786) != 0 { (((self.q82 >> 3) & 0xff)) } else { (self.q84 | (self.q79 << 6)) };
-            let c818: u64 = if (c787) != 0 { ((self.q79 << 4) | ((self.q82 & 0x7) << 5)) } else { (c819) };
-            let c823: u64 = if (c786) != 0 { ((self.q82 >> 21)) } else { (self.q84 | (self.q79 << 6) | 0x80) };
-            let c822: u64 = if (c787) != 0 { (((self.q82 >> 13) & 0xff)) } else { (c823) };
-            let c821: u64 = if (c784) != 0 { (((self.q82 >> 5) & 0xff)) } else { (c822) };
-            let c820: u64 = if (c785) != 0 { ((self.q79 << 2) | ((self.q82 & 0x1f) << 3)) } else { (c821) };
-            let c824: u64 = if (self.q81) != 0 { (c820) } else { (c818) };
-            let c826: u64 = if (self.q41) != 0 { (c824) } else { (self.q84 | (self.q79 << 6) | (self.q81 << 7)) };
-            let c815: u64 = if (self.q86) != 0 { (self.q85) } else { (c826) };
-            if self.v815 != c815 { self.v815 = c815; dirty |= 0x20000000; }
-            let c828: u64 = if (self.q41) != 0 { (c773) } else { (0x0) };
-            if self.v828 != c828 { self.v828 = c828; dirty |= 0x100000000000000000000; }
-            let c829: u64 = if (self.q83) != 0 { (0x0) } else { (self.q45) };
-            let c830: u64 = ((self.q41) | (self.q83)) & 0x1;
-            let c831: u64 = if (self.q81) != 0 { (0x2) } else { (0x1) };
-            let c772: u64 = ((c831 << 1) | 0x1).wrapping_add((self.q84)) & 0xf;
-            let c774: u64 = ((c831 << 1) | 0x1).wrapping_add((self.q87)) & 0xf;
-            let c783: u64 = u64::from((self.q46) == ((c831 << 1)));
-            let c816: u64 = if (self.q86) != 0 { (c774) } else { (self.q46) };
-            let c775: u64 = (self.q42).wrapping_add((c816)) & 0x7f;
-            let c776: u64 = (self.q43).wrapping_add((c816)) & 0x3f;
-            if self.v776 != c776 { self.v776 = c776; dirty |= 0x20000000; }
-            let c811: u64 = ((c829) | ((c775 >> 6))) & 0x1;
-            let c812: u64 = !((c775 >> 6)) & 0x1;
-            let c813: u64 = if (c817) != 0 { (c811) } else { (c829) };
-            if self.v813 != c813 { self.v813 = c813; dirty |= 0x1000000000000000000000; }
-            let c814: u64 = (c817) & (c812) & 0x1;
-            if self.v814 != c814 { self.v814 = c814; dirty |= 0x20000000; }
-            let c825: u64 = if (c783) != 0 { (0x0) } else { (c830) };
-            let c827: u64 = if (self.q41) != 0 { (c825) } else { (c830) };
-            if self.v827 != c827 { self.v827 = c827; dirty |= 0x800000000000000000000; }
-            let c833: u64 = if ((self.q84 >> 3)) != 0 { ((c831 << 1) | 0x9) } else { (c772) };
-            let c832: u64 = if (self.q79) != 0 { ((c831 << 1) | 0x1) } else { (c833) };
-            if self.v832 != c832 { self.v832 = c832; dirty |= 0x20000000; }
-            let c778: u64 = (self.q43).wrapping_add((c832)) & 0x3f;
-            let c795: u64 = if (self.q127) != 0 { (c790) } else { (c778) };
-            if self.v795 != c795 { self.v795 = c795; dirty |= 0x400000000000000000000; }
-            let c837: u64 = if (self.q49) != 0 { (self.m0_rd) } else { (self.q47) };
-            if self.v837 != c837 { self.v837 = c837; dirty |= 0x20020000; }
-            let c836: u64 = if ((c837 >> 7)) != 0 { (0x2) } else { (0x1) };
-            let c771: u64 = ((c836 << 1) | 0x1).wrapping_add(((c837 & 0xf))) & 0xf;
-            let c835: u64 = if (((c837 >> 3) & 0x1)) != 0 { ((c836 << 1) | 0x9) } else { (c771) };
-            let c834: u64 = if (((c837 >> 6) & 0x1)) != 0 { ((c836 << 1) | 0x1) } else { (c835) };
-            let c777: u64 = (self.q48).wrapping_add((c834)) & 0x3f;
-            if self.v777 != c777 { self.v777 = c777; dirty |= 0x40000000000020000000; }
-            let c838: u64 = (self.q42).wrapping_sub((c834)) & 0x7f;
-            if self.v838 != c838 { self.v838 = c838; dirty |= 0x20000000; }
-            let c839: u64 = (self.q50).wrapping_sub((0x1)) & 0x1f;
-            if self.v839 != c839 { self.v839 = c839; dirty |= 0x20000000; }
-        }
-        if dirty >> 7 & 1 != 0 { // top$core$protocol$faults
-            let c303: u64 = (self.q67 | (self.q65 << 4)).wrapping_add((0x1)) & 0x1f;
-            let c304: u64 = (self.q68 | (self.q69 << 7)).wrapping_add((0x1)) & 0xff;
-            if self.v304 != c304 { self.v304 = c304; dirty |= 0x10000000000; }
-            let c305: u64 = ((self.q68 >> 3) | (self.q69 << 4)).wrapping_add((0x1)) & 0x1f;
-            let c308: u64 = (self.v2) & (self.v529) & 0x1;
-            if self.v308 != c308 { self.v308 = c308; dirty |= 0x10000000000; }
-            let c310: u64 = u64::from((self.q66 | (self.q67 << 3) | (self.q65 << 7)) == 0);
-            if self.v310 != c310 { self.v310 = c310; dirty |= 0x80000000; }
-            let c311: u64 = u64::from((self.q67 | (self.q65 << 4)) == (0x1f));
-            if self.v311 != c311 { self.v311 = c311; dirty |= 0x20000000000; }
-            let c312: u64 = u64::from(((self.q68 >> 3) | (self.q69 << 4)) == (0x1f));
-            let c313: u64 = u64::from((self.i_wdata) == (0xff));
-            if self.v313 != c313 { self.v313 = c313; dirty |= 0x10000000000; }
-            let c314: u64 = u64::from((self.q66 | (self.q67 << 3) | (self.q65 << 7)) != 0);
-            if self.v314 != c314 { self.v314 = c314; dirty |= 0x10000000000; }
-            let c315: u64 = u64::from((self.q68 | (self.q69 << 7)) != (0xff));
-            if self.v315 != c315 { self.v315 = c315; dirty |= 0x10000000000; }
-            let c316: u64 = u64::from((self.q68 | (self.q69 << 7)) != 0);
-            if self.v316 != c316 { self.v316 = c316; dirty |= 0x10000000000; }
-            let c326: u64 = if (c313) != 0 { (0x7f) } else { (self.i_wdata) };
-            if self.v326 != c326 { self.v326 = c326; dirty |= 0x10000000000; }
-            let c334: u64 = if (c312) != 0 { (0xff) } else { ((self.q68 & 0x7) | (c305 << 3)) };
-            if self.v334 != c334 { self.v334 = c334; dirty |= 0x10000000000; }
-            let c338: u64 = if (c311) != 0 { (0x0) } else { (self.q68 | (self.q69 << 7)) };
-            if self.v338 != c338 { self.v338 = c338; dirty |= 0x10000000000; }
-            let c339: u64 = if (c311) != 0 { (0x1f) } else { ((c303 << 1)) };
-            if self.v339 != c339 { self.v339 = c339; dirty |= 0x10000000000; }
-            let c340: u64 = ((self.q113) | (c311)) & 0x1;
-            if self.v340 != c340 { self.v340 = c340; dirty |= 0x10000000000; }
-            let c347: u64 = if (c310) != 0 { (0x0) } else { (self.q68 | (self.q69 << 7)) };
-            if self.v347 != c347 { self.v347 = c347; dirty |= 0x100000000; }
-            let c348: u64 = !(c310) & 0x1;
-            if self.v348 != c348 { self.v348 = c348; dirty |= 0x100000000; }
-            let c356: u64 = (self.q66 | (self.q67 << 3) | (self.q65 << 7)).wrapping_sub((0x1)) & 0xff;
-            if self.v356 != c356 { self.v356 = c356; dirty |= 0x10000000000; }
-            let c349: u64 = if (c310) != 0 { ((self.q65 << 7)) } else { (c356) };
-            if self.v349 != c349 { self.v349 = c349; dirty |= 0x100000000; }
-            let c357: u64 = (self.q68 | (self.q69 << 7)).wrapping_sub((0x1)) & 0xff;
-            if self.v357 != c357 { self.v357 = c357; dirty |= 0x10000000000; }
-        }
-        if dirty >> 8 & 1 != 0 { // top$interrupts
-            let c925: u64 = (self.i_re) & (self.v1045) & 0x1;
-            let c926: u64 = (self.q14) & (self.v863) & 0x1;
-            if self.v926 != c926 { self.v926 = c926; dirty |= 0x10000000; }
-            let c928: u64 = (self.q75) & (self.q122) & 0x1;
-            if self.v928 != c928 { self.v928 = c928; dirty |= 0x400000000000000010000000; }
-            let c929: u64 = (self.q76) & (self.q123) & 0x1;
-            if self.v929 != c929 { self.v929 = c929; dirty |= 0x1000000000000000010000000; }
-            let c930: u64 = (self.i_re) & (self.q14) & 0x1;
-            let c935: u64 = !(self.q127) & 0x1;
-            if self.v935 != c935 { self.v935 = c935; dirty |= 0x24a00; }
-            let c936: u64 = !(self.q19) & 0x1;
-            let c931: u64 = (self.q44) & (c936) & 0x1;
-            if self.v931 != c931 { self.v931 = c931; dirty |= 0x10000000; }
-            let c937: u64 = !(self.q17) & 0x1;
-            let c941: u64 = u64::from((self.q113) != (self.q25));
-            let c942: u64 = u64::from((self.q114) != (self.q18));
-            let c943: u64 = u64::from((self.q50) != 0);
-            if self.v943 != c943 { self.v943 = c943; dirty |= 0x8000000000000000010020000; }
-            let c105: u64 = (self.q26) & (c943) & 0x1;
-            let c121: u64 = if (self.q14) != 0 { (c943) } else { (c105) };
-            if self.v121 != c121 { self.v121 = c121; dirty |= 0x20000; }
-            let c932: u64 = (c943) & (c937) & 0x1;
-            if self.v932 != c932 { self.v932 = c932; dirty |= 0x10000000; }
-            let c944: u64 = u64::from((self.q50) != (0x1));
-            if self.v944 != c944 { self.v944 = c944; dirty |= 0x10000000; }
-            let c952: u64 = if (c925) != 0 { (0x0) } else { (self.q20) };
-            if self.v952 != c952 { self.v952 = c952; dirty |= 0x10000000; }
-            let c954: u64 = if (c925) != 0 { (0x0) } else { (self.q26) };
-            if self.v954 != c954 { self.v954 = c954; dirty |= 0x10000000; }
-            let c955: u64 = if (self.q127) != 0 { (0x0) } else { (c942) };
-            let c956: u64 = if (self.q113) != 0 { (0x0) } else { (c955) };
-            if self.v956 != c956 { self.v956 = c956; dirty |= 0x10000000; }
-            let c958: u64 = if (self.q14) != 0 { (self.q101) } else { (0x60) };
-            let c938: u64 = u64::from((self.q66 | (self.q67 << 3) | (self.q65 << 7)) >= (c958));
-            let c939: u64 = u64::from((self.q68 | (self.q69 << 7)) >= (c958));
-            let c945: u64 = ((c938) | (c939)) & 0x1;
-            let c946: u64 = ((c945) | (self.q113)) & 0x1;
-            let c957: u64 = if (self.q127) != 0 { (self.q23) } else { (c946) };
-            if self.v957 != c957 { self.v957 = c957; dirty |= 0x1000000000000000000000000; }
-            let c940: u64 = u64::from((c957) != (self.q23));
-            let c947: u64 = ((c940) | (c941)) & 0x1;
-            if self.v947 != c947 { self.v947 = c947; dirty |= 0x10000000; }
-            let c963: u64 = if (c929) != 0 { (0x0) } else { (self.q123) };
-            let c959: u64 = ((c963) | (self.v1038)) & 0x1;
-            let c961: u64 = if (c930) != 0 { (c959) } else { (c963) };
-            let c949: u64 = ((c961) | (self.i_reset)) & 0x1;
-            if self.v949 != c949 { self.v949 = c949; dirty |= 0x800000000000000000000000; }
-            let c964: u64 = if (c928) != 0 { (0x0) } else { (self.q122) };
-            let c960: u64 = ((c964) | (self.v1037)) & 0x1;
-            let c962: u64 = if (c930) != 0 { (c960) } else { (c964) };
-            let c950: u64 = ((c962) | (self.i_reset)) & 0x1;
-            if self.v950 != c950 { self.v950 = c950; dirty |= 0x200000000000000000000000; }
-        }
-        if dirty >> 9 & 1 != 0 { // top$modes
-            let c79: u64 = !(self.q129) & 0x1;
-            if self.v79 != c79 { self.v79 = c79; dirty |= 0x8000000; }
-            let c81: u64 = u64::from((self.i_reset | (c79 << 1)) != 0);
-            if self.v81 != c81 { self.v81 = c81; dirty |= 0x2000000000000000000000000000; }
-            let c966: u64 = (self.q10).wrapping_add((0x1)) & 0x1f;
-            if self.v966 != c966 { self.v966 = c966; dirty |= 0x2000000000000000000000000000; }
-            let c967: u64 = (self.i_we) & (self.v1043) & 0x1;
-            if self.v967 != c967 { self.v967 = c967; dirty |= 0x800; }
-            let c48: u64 = u64::from((self.q14 | (self.q127 << 1) | (c967 << 2)) == 0x7);
-            if self.v48 != c48 { self.v48 = c48; dirty |= 0x20000000000000000000000000; }
-            let c968: u64 = ((self.i_wdata & 0x1)) & (self.v935) & 0x1;
-            let c980: u64 = !((self.i_wdata & 0x1)) & 0x1;
-            let c969: u64 = (((self.i_wdata >> 4) & 0x1)) & (c980) & 0x1;
-            let c981: u64 = !(((self.i_wdata >> 4) & 0x1)) & 0x1;
-            let c984: u64 = !(self.i_rx) & 0x1;
-            if self.v984 != c984 { self.v984 = c984; dirty |= 0x8000000; }
-            let c985: u64 = !(self.q25) & 0x1;
-            let c974: u64 = (self.q113) & (c985) & 0x1;
-            let c986: u64 = u64::from((self.i_addr) == (0x1f));
-            if self.v986 != c986 { self.v986 = c986; dirty |= 0x20000; }
-            let c975: u64 = (self.i_we) & (c986) & 0x1;
-            if self.v975 != c975 { self.v975 = c975; dirty |= 0x200000000; }
-            let c47: u64 = u64::from((self.q127 | (c975 << 1)) == 0x3);
-            if self.v47 != c47 { self.v47 = c47; dirty |= 0x200000000; }
-            let c987: u64 = u64::from((self.q10) == (0x10));
-            if self.v987 != c987 { self.v987 = c987; dirty |= 0x10000000000000000000000000; }
-            let c990: u64 = u64::from((self.q10) != (0x10));
-            if self.v990 != c990 { self.v990 = c990; dirty |= 0x8000000; }
-            let c999: u64 = if (self.q127) != 0 { (((self.i_wdata >> 3) & 0x1) | ((self.i_wdata >> 5) << 1)) } else { (self.q15 | (self.q14 << 3)) };
-            let c1000: u64 = if (c975) != 0 { ((self.i_wdata & 0x7) | (c999 << 3)) } else { (self.q105 | (self.q15 << 3) | (self.q14 << 6)) };
-            let c992: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1000) };
-            if self.v992 != c992 { self.v992 = c992; dirty |= 0x200000000; }
-            let c1012: u64 = if (self.q127) != 0 { (((self.i_wdata >> 2) & 0x1)) } else { (self.q130) };
-            let c1013: u64 = if (self.q127) != 0 { (((self.i_wdata >> 1) & 0x1)) } else { (self.q126) };
-            let c1014: u64 = if (self.q127) != 0 { (0x0) } else { (c981) };
-            let c1015: u64 = if (self.q127) != 0 { (0x0) } else { (c969) };
-            let c1016: u64 = (self.q14) & (c1014) & 0x1;
-            let c1017: u64 = (self.q14) & (c1015) & 0x1;
-            let c1018: u64 = if (self.q14) != 0 { (c1012) } else { (self.q130) };
-            let c1019: u64 = if (self.q14) != 0 { (c1013) } else { (self.q126) };
-            let c1020: u64 = (c967) & (c1016) & 0x1;
-            if self.v1020 != c1020 { self.v1020 = c1020; dirty |= 0x8000000; }
-            let c1021: u64 = (c967) & (c1017) & 0x1;
-            if self.v1021 != c1021 { self.v1021 = c1021; dirty |= 0x8000000; }
-            let c1022: u64 = if (c967) != 0 { (c1018) } else { (self.q130) };
-            let c994: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1022) };
-            if self.v994 != c994 { self.v994 = c994; dirty |= 0x8000000000000000000000000000; }
-            let c979: u64 = (c994) & ((c992 >> 6)) & 0x1;
-            if self.v979 != c979 { self.v979 = c979; dirty |= 0x1000000000000000000000000000; }
-            let c1023: u64 = if (c967) != 0 { (c1019) } else { (self.q126) };
-            let c995: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1023) };
-            if self.v995 != c995 { self.v995 = c995; dirty |= 0x400000000000000000000000000; }
-            let c978: u64 = (c995) & ((c992 >> 6)) & 0x1;
-            if self.v978 != c978 { self.v978 = c978; dirty |= 0x200000000000000000000000000; }
-            let c1024: u64 = (c967) & (c968) & 0x1;
-            let c1002: u64 = if (c974) != 0 { (self.v935) } else { (c1024) };
-            if self.v1002 != c1002 { self.v1002 = c1002; dirty |= 0x18004000; }
-            let c80: u64 = u64::from((self.i_reset | (c1002 << 1)) != 0);
-            if self.v80 != c80 { self.v80 = c80; dirty |= 0x40000000000000000000000000000000; }
-            let c1025: u64 = if (c967) != 0 { ((self.i_wdata & 0x1)) } else { (self.q127) };
-            let c1003: u64 = ((c1025) | (c974)) & 0x1;
-            let c996: u64 = ((c1003) | (self.i_reset)) & 0x1;
-            if self.v996 != c996 { self.v996 = c996; dirty |= 0x800000000000000000000000000; }
-            let c988: u64 = !(c996) & 0x1;
-            if self.v988 != c988 { self.v988 = c988; dirty |= 0x8000000; }
-        }
-        if dirty >> 10 & 1 != 0 { // top$core$protocol$capture
-            let c98: u64 = u64::from(((self.q74 >> 3)) == 0);
-            let c282: u64 = u64::from((self.q74) == (0x1));
-            if self.v282 != c282 { self.v282 = c282; dirty |= 0x400000; }
-            let c283: u64 = u64::from((self.q74) < (0x1f));
-            let c284: u64 = u64::from((self.q74) < (0x1a));
-            let c285: u64 = u64::from((self.q74) < (0x12));
-            let c286: u64 = u64::from((self.q74) < (0xd));
-            let c287: u64 = u64::from((self.q74) < (0xc));
-            let c288: u64 = u64::from((self.q74) < (0xb));
-            let c289: u64 = !(self.v521) & 0x1;
-            let c290: u64 = if (self.q59) != 0 { (0x2) } else { (0x1) };
-            let c292: u64 = if (self.v521) != 0 { (0x2) } else { (0x1) };
-            let c291: u64 = if (c282) != 0 { (0x0) } else { (c292) };
-            let c293: u64 = if (self.q81) != 0 { (c291) } else { (c289) };
-            let c299: u64 = if (c284) != 0 { (0x3) } else { ((c283 << 1)) };
-            let c298: u64 = if (c285) != 0 { (0x3) } else { (c299 | 0x4) };
-            let c297: u64 = if (c286) != 0 { (0x1) } else { (c298) };
-            let c296: u64 = if (c287) != 0 { (0x0) } else { (c297) };
-            let c295: u64 = if (c288) != 0 { (0x2) } else { (c296) };
-            let c294: u64 = if (c98) != 0 { (0x2) } else { ((c295 & 0x3) | ((c295 >> 2) << 3) | 0x4) };
-            let c300: u64 = { let s = (self.v558 | (self.v524 << 1) | (self.v585 << 2) | (self.v513 << 3) | (self.v391 << 4) | (self.v400 << 5) | (self.v403 << 6) | (self.v415 << 7) | (self.v423 << 8) | (self.v425 << 9) | (self.v427 << 10) | (self.v379 << 11) | (self.v120 << 12)); if s >> 0 & 1 != 0 { (c289 << 2) | 0x13 } else if s >> 1 & 1 != 0 { 0x1c } else if s >> 2 & 1 != 0 { c290 | ((c290 >> 1) << 2) | 0x10 } else if s >> 3 & 1 != 0 { 0x12 } else if s >> 4 & 1 != 0 { 0x1a } else if s >> 5 & 1 != 0 { 0x1b } else if s >> 6 & 1 != 0 { 0x19 } else if s >> 7 & 1 != 0 { 0x18 } else if s >> 8 & 1 != 0 { 0x8 } else if s >> 9 & 1 != 0 { 0xa } else if s >> 10 & 1 != 0 { (c293 << 1) | 0x9 } else if s >> 11 & 1 != 0 { c294 } else if s >> 12 & 1 != 0 { 0x3 } else { (0x0) } };
-            if self.v300 != c300 { self.v300 = c300; dirty |= 0x10000000000000000; }
-        }
-        if dirty >> 11 & 1 != 0 { // top$decode
-            let c40: u64 = !(self.q14) & 0x1;
-            if self.v40 != c40 { self.v40 = c40; dirty |= 0x18000000; }
-            let c46: u64 = u64::from((c40 | (self.v967 << 1)) == 0x3);
-            if self.v46 != c46 { self.v46 = c46; dirty |= 0x20000000000000000000000000; }
-            let c746: u64 = (self.i_we) & (self.v1044) & 0x1;
-            let c747: u64 = (c746) & (self.v935) & 0x1;
-            if self.v747 != c747 { self.v747 = c747; dirty |= 0x8000000; }
-            let c748: u64 = (c747) & ((self.i_wdata & 0x1)) & 0x1;
-            if self.v748 != c748 { self.v748 = c748; dirty |= 0x4000; }
-            let c749: u64 = (c747) & (((self.i_wdata >> 1) & 0x1)) & 0x1;
-            if self.v749 != c749 { self.v749 = c749; dirty |= 0x80000000000000000000000000004000; }
-            let c750: u64 = (c747) & (((self.i_wdata >> 2) & 0x1)) & 0x1;
-            if self.v750 != c750 { self.v750 = c750; dirty |= 0x10000000; }
-            let c751: u64 = (c747) & (((self.i_wdata >> 3) & 0x1)) & 0x1;
-            let c85: u64 = u64::from((self.i_reset | (c751 << 1) | (self.q127 << 2)) != 0);
-            if self.v85 != c85 { self.v85 = c85; dirty |= 0x200000000000000000000; }
-            let c752: u64 = (c747) & (((self.i_wdata >> 4) & 0x1)) & 0x1;
-            let c753: u64 = (c752) & (self.q14) & 0x1;
-            let c755: u64 = (((self.i_wdata >> 4) & 0x1)) & (c40) & 0x1;
-            if self.v755 != c755 { self.v755 = c755; dirty |= 0x8000000; }
-            let c756: u64 = !(c748) & 0x1;
-            if self.v756 != c756 { self.v756 = c756; dirty |= 0x4000; }
-            let c754: u64 = (c753) & (c756) & 0x1;
-            if self.v754 != c754 { self.v754 = c754; dirty |= 0x100000000000000000000000004000; }
-            let c757: u64 = (self.q14) & (self.v764) & 0x1;
-            if self.v757 != c757 { self.v757 = c757; dirty |= 0x24000; }
-            let c758: u64 = (self.q14) & (self.v763) & 0x1;
-            if self.v758 != c758 { self.v758 = c758; dirty |= 0x24000; }
-            let c759: u64 = (self.q14) & (self.v762) & 0x1;
-            if self.v759 != c759 { self.v759 = c759; dirty |= 0x24000; }
-            let c760: u64 = if (self.q14) != 0 { (0x0) } else { (self.v766) };
-            if self.v760 != c760 { self.v760 = c760; dirty |= 0x20000; }
-            let c761: u64 = if (self.q14) != 0 { (0x0) } else { (self.v765) };
-            if self.v761 != c761 { self.v761 = c761; dirty |= 0x24000; }
-            let c768: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x9)) & 0xf;
-            if self.v768 != c768 { self.v768 = c768; dirty |= 0x4000; }
-            let c769: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x3)) & 0xf;
-            if self.v769 != c769 { self.v769 = c769; dirty |= 0x20000; }
-            let c770: u64 = (((self.i_addr >> 5) & 0x1)).wrapping_sub((0x1)) & 0x1;
-            if self.v770 != c770 { self.v770 = c770; dirty |= 0x20000; }
-        }
-        if dirty >> 12 & 1 != 0 { // top$core$protocol
-            let c223: u64 = (self.q52) & (self.q116) & 0x1;
-            if self.v223 != c223 { self.v223 = c223; dirty |= 0x0; }
-            let c108: u64 = ((c223) | (self.v1047)) & 0x1;
-            if self.v108 != c108 { self.v108 = c108; dirty |= 0x20000; }
-            let c224: u64 = (self.v520) & (self.q116) & 0x1;
-            let c109: u64 = ((c224) | (self.v1047)) & 0x1;
-            if self.v109 != c109 { self.v109 = c109; dirty |= 0x20000; }
-            let c227: u64 = (self.v427) & (self.v388) & 0x1;
-            if self.v227 != c227 { self.v227 = c227; dirty |= 0x400000; }
-            let c231: u64 = (self.v554) & (self.v529) & 0x1;
-            if self.v231 != c231 { self.v231 = c231; dirty |= 0x8000000000; }
-            let c232: u64 = !(self.q1) & 0x1;
-            if self.v232 != c232 { self.v232 = c232; dirty |= 0x4000; }
-            let c233: u64 = !(self.q124) & 0x1;
-            let c225: u64 = (c233) & (self.v529) & 0x1;
-            if self.v225 != c225 { self.v225 = c225; dirty |= 0x8000000000; }
-            let c87: u64 = u64::from((self.i_reset | (c225 << 1) | (self.q113 << 2)) != 0);
-            if self.v87 != c87 { self.v87 = c87; dirty |= 0x20000000000000000000; }
-            let c92: u64 = u64::from((self.i_reset | (c225 << 1) | (c231 << 2)) != 0);
-            if self.v92 != c92 { self.v92 = c92; dirty |= 0x40000000000000000; }
-            let c93: u64 = u64::from((self.i_reset | (c225 << 1)) != 0);
-            if self.v93 != c93 { self.v93 = c93; dirty |= 0x20000000000000000; }
-            let c242: u64 = u64::from((self.q115) != (0xf));
-            if self.v242 != c242 { self.v242 = c242; dirty |= 0x8000000000; }
-            let c244: u64 = !(self.q116) & 0x1;
-            if self.v244 != c244 { self.v244 = c244; dirty |= 0x8000000000; }
-            let c246: u64 = ((self.q71) | (c232)) & 0x1;
-            let c94: u64 = u64::from((self.i_reset | (c246 << 1)) != 0);
-            if self.v94 != c94 { self.v94 = c94; dirty |= 0x800000000000000; }
-            let c248: u64 = ((self.q125) | (c225)) & 0x1;
-            if self.v248 != c248 { self.v248 = c248; dirty |= 0x30000004000; }
-            let c249: u64 = ((self.q113) | (c233)) & 0x1;
-            if self.v249 != c249 { self.v249 = c249; dirty |= 0x2000; }
-            let c251: u64 = ((self.v533) | (self.v622)) & 0x1;
-            let c252: u64 = ((c251) | (self.v554)) & 0x1;
-            let c253: u64 = ((c252) | (self.v496)) & 0x1;
-            if self.v253 != c253 { self.v253 = c253; dirty |= 0x80000; }
-        }
-        if dirty >> 13 & 1 != 0 { // top$core$protocol$sender
-            let c663: u64 = ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
-            if self.v663 != c663 { self.v663 = c663; dirty |= 0x400000000000; }
-            let c664: u64 = (self.q74).wrapping_add((0x1)) & 0x7f;
-            if self.v664 != c664 { self.v664 = c664; dirty |= 0x4800000; }
-            let c671: u64 = u64::from((self.q58) == 0);
-            if self.v671 != c671 { self.v671 = c671; dirty |= 0x8000100000; }
-            let c672: u64 = u64::from((self.q58) == (0x1));
-            if self.v672 != c672 { self.v672 = c672; dirty |= 0x100000; }
-            let c673: u64 = u64::from((self.q74) == (0x1e));
-            if self.v673 != c673 { self.v673 = c673; dirty |= 0x4000000; }
-            let c674: u64 = !(self.v494) & 0x1;
-            if self.v674 != c674 { self.v674 = c674; dirty |= 0x200000000000; }
-            let c683: u64 = ((self.v249) | (self.i_reset)) & 0x1;
-            if self.v683 != c683 { self.v683 = c683; dirty |= 0x200000100000; }
-            let c722: u64 = if (self.v373) != 0 { (0x2) } else { (0x1) };
-            if self.v722 != c722 { self.v722 = c722; dirty |= 0x200000000000; }
-            let c724: u64 = if (c671) != 0 { ((c663 & 0x7)) } else { ((self.q57 & 0x1)) };
-            if self.v724 != c724 { self.v724 = c724; dirty |= 0x200000000000; }
-            let c731: u64 = (self.q58).wrapping_sub((0x1)) & 0xf;
-            let c725: u64 = if (c671) != 0 { (0x7) } else { (c731) };
-            if self.v725 != c725 { self.v725 = c725; dirty |= 0x2000000000000000000; }
-            let c733: u64 = ((((self.q73 >> 13) & 0x1)) ^ ((self.q73 >> 14))) & 0x1;
-            let c734: u64 = ((c733) ^ (self.q109)) & 0x1;
-            if self.v734 != c734 { self.v734 = c734; dirty |= 0x4000000000; }
-        }
-        if dirty >> 14 & 1 != 0 { // can_controller
-            let c4: u64 = (self.i_we) & (self.v935) & 0x1;
-            let c5: u64 = (c4) & (self.q131) & 0x1;
-            let c7: u64 = (self.v842) & (self.v757) & 0x1;
-            let c8: u64 = (self.v749) & (self.v756) & 0x1;
-            let c18: u64 = (self.v842) & (self.v758) & 0x1;
-            if self.v18 != c18 { self.v18 = c18; dirty |= 0x20000000; }
-            let c37: u64 = u64::from((self.q113 | (self.v248 << 1) | (self.v1 << 2)) != (0x2));
-            if self.v37 != c37 { self.v37 = c37; dirty |= 0x20000000000; }
-            let c123: u64 = !(self.v754) & 0x1;
-            let c9: u64 = (c8) & (c123) & 0x1;
-            let c10: u64 = (c9) & (self.q1) & 0x1;
-            if self.v10 != c10 { self.v10 = c10; dirty |= 0x800000000; }
-            let c1090: u64 = ((self.v759) | (self.v761)) & 0x1;
-            let c6: u64 = (c5) & (c1090) & 0x1;
-            let c1091: u64 = ((self.v748) | (self.v754)) & 0x1;
-            let c11: u64 = (c1091) & (self.q131) & 0x1;
-            let c12: u64 = (c11) & (self.v232) & 0x1;
-            if self.v12 != c12 { self.v12 = c12; dirty |= 0x80100000000000000000000000000000; }
-            let c1097: u64 = if (c12) != 0 { (0x0) } else { (self.v1100) };
-            let c1095: u64 = ((c1097) | (self.i_reset)) & 0x1;
-            if self.v1095 != c1095 { self.v1095 = c1095; dirty |= 0x400000000000000000000000000000; }
-            let c1098: u64 = if (c12) != 0 { (0x0) } else { (self.v1101) };
-            let c1096: u64 = ((c1098) | (self.v1002)) & 0x1;
-            let c1094: u64 = ((c1096) | (self.i_reset)) & 0x1;
-            if self.v1094 != c1094 { self.v1094 = c1094; dirty |= 0x200000000000000000000000000000; }
-            let c1099: u64 = ((self.v1102) | (c12)) & 0x1;
-            if self.v1099 != c1099 { self.v1099 = c1099; dirty |= 0x40000000000000000000000000000000; }
-            let c1103: u64 = if (self.q14) != 0 { ((self.i_addr & 0xf)) } else { (self.v768) };
-            if self.v1103 != c1103 { self.v1103 = c1103; dirty |= 0x9000000000000000000000000040000; }
-            let c1087: u64 = if (c1103) < 16 { (self.q2) >> (c1103) & 0x1 } else { 0 };
-            if self.v1087 != c1087 { self.v1087 = c1087; dirty |= 0x10000000000000000000000000000000; }
-            let c1104: u64 = ((c6) | (c7)) & 0x1;
-            if self.v1104 != c1104 { self.v1104 = c1104; dirty |= 0x40000; }
-        }
-        if dirty >> 15 & 1 != 0 { // top$core$bit_timing$sampling
-            let c213: u64 = ((self.q92 >> 1)) & ((self.q92 & 0x1)) & 0x1;
-            let c214: u64 = ((self.q92 >> 1)) & (self.q112) & 0x1;
-            let c215: u64 = ((self.q92 & 0x1)) & (self.q112) & 0x1;
-            let c216: u64 = !(self.q112) & 0x1;
-            let c212: u64 = (self.q111) & (c216) & 0x1;
-            if self.v212 != c212 { self.v212 = c212; dirty |= 0x80000; }
-            let c217: u64 = ((c213) | (c214)) & 0x1;
-            let c218: u64 = ((c217) | (c215)) & 0x1;
-            let c219: u64 = ((self.q112) | (self.i_reset)) & 0x1;
-            if self.v219 != c219 { self.v219 = c219; dirty |= 0x80000000000000; }
-            let c220: u64 = ((self.q110) | (self.i_reset)) & 0x1;
-            if self.v220 != c220 { self.v220 = c220; dirty |= 0x100000000000000; }
-            let c221: u64 = ((self.i_rx) | (self.i_reset)) & 0x1;
-            if self.v221 != c221 { self.v221 = c221; dirty |= 0x80000000000000; }
-            let c222: u64 = if ((self.q102 >> 7)) != 0 { (c218) } else { (self.q112) };
-            if self.v222 != c222 { self.v222 = c222; dirty |= 0x80000; }
-        }
-        if dirty >> 16 & 1 != 0 { // top$core$protocol$crc
-            let c99: u64 = !(((self.q73 >> 2) & 0x1)) & 0x1;
-            let c100: u64 = !(((self.q73 >> 3) & 0x1)) & 0x1;
-            let c101: u64 = !(((self.q73 >> 6) & 0x1)) & 0x1;
-            let c102: u64 = !(((self.q73 >> 7) & 0x1)) & 0x1;
-            let c103: u64 = !(((self.q73 >> 9) & 0x1)) & 0x1;
-            let c104: u64 = !(((self.q73 >> 13) & 0x1)) & 0x1;
-            let c302: u64 = ((self.q109) ^ ((self.q73 >> 14))) & 0x1;
-            let c301: u64 = if (c302) != 0 { ((c99 << 1) | (c100 << 2) | (c101 << 3) | (c102 << 4) | (c103 << 5) | (c104 << 6) | 0x1) } else { ((((self.q73 >> 2) & 0x3) << 1) | (((self.q73 >> 6) & 0x3) << 3) | (((self.q73 >> 9) & 0x1) << 5) | (((self.q73 >> 13) & 0x1) << 6)) };
-            if self.v301 != c301 { self.v301 = c301; dirty |= 0x40000000000000000; }
-        }
-        if dirty >> 17 & 1 != 0 { // top$read
-            let c106: u64 = (self.v121) & ((self.q22 & 0x1)) & 0x1;
-            if self.v106 != c106 { self.v106 = c106; dirty |= 0x2000000000000; }
-            let c1033: u64 = (c106 | (self.q20 << 1)) & (self.q22 | (self.v1077 << 4)) & 0xff;
-            let c1034: u64 = (self.v759) & (self.v935) & 0x1;
-            let c1035: u64 = (self.v935) & (self.v767) & 0x1;
-            if self.v1035 != c1035 { self.v1035 = c1035; dirty |= 0x2000000000000; }
-            let c1048: u64 = ((c1034) | (self.v758)) & 0x1;
-            let c1054: u64 = if (self.v760) != 0 { (self.v769) } else { ((self.i_addr & 0xf)) };
-            let c1032: u64 = (self.q48).wrapping_add((c1054)) & 0x3f;
-            let c1053: u64 = if (self.v758) != 0 { ((self.i_addr & 0x1f) | (self.v770 << 5)) } else { (c1032) };
-            if self.v1053 != c1053 { self.v1053 = c1053; dirty |= 0x40000000000020000000; }
-            let c1055: u64 = if (self.v1046) != 0 { ((self.v837 & 0xf)) } else { (0x0) };
-            let c1068: u64 = if (self.q14) != 0 { (self.v757) } else { (self.v761) };
-            let c1049: u64 = (self.i_re) & (c1068) & 0x1;
-            if self.v1049 != c1049 { self.v1049 = c1049; dirty |= 0x20000000000000000000000000000; }
-            let c1069: u64 = if (self.q14) != 0 { (c1048) } else { (self.v760) };
-            if self.v1069 != c1069 { self.v1069 = c1069; dirty |= 0x80000000; }
-            let c1071: u64 = if (self.q14) != 0 { (0x0) } else { (c1055) };
-            if self.v1071 != c1071 { self.v1071 = c1071; dirty |= 0x40000000000000000000000000000; }
-            let c1076: u64 = if (self.v1036) != 0 { (self.v943 | (self.q44 << 1) | (self.q131 << 2) | (self.q132 << 3) | (self.v109 << 4) | (self.v108 << 5) | (self.q23 << 6) | (self.q113 << 7)) } else { (0x0) };
-            let c1075: u64 = if (self.v1045) != 0 { (c106 | (self.q20 << 1)) } else { (c1076) };
-            let c1074: u64 = if (self.v986) != 0 { (self.q105 | ((self.q15 & 0x1) << 3) | ((self.q15 >> 1) << 5) | (self.q14 << 7)) } else { (c1075) };
-            if self.v1074 != c1074 { self.v1074 = c1074; dirty |= 0x2000000000000; }
-            let c1078: u64 = u64::from((c1033) != 0);
-            if self.v1078 != c1078 { self.v1078 = c1078; dirty |= 0x8000000; }
-        }
-        if dirty >> 18 & 1 != 0 { // top$tx_buffer
-            let c1080: u64 = u64::from((self.v1103) == 0);
-            let c1081: u64 = u64::from((self.v1103) == (0x2));
-            let c1082: u64 = u64::from((self.v1103) < (0xd));
-            let c1079: u64 = (self.v1104) & (c1082) & 0x1;
-            if self.v1079 != c1079 { self.v1079 = c1079; dirty |= 0x29000000000000000000000000000000; }
-            let c44: u64 = u64::from((c1080 | (c1079 << 1)) == 0x3);
-            if self.v44 != c44 { self.v44 = c44; dirty |= 0x4000000000000000000000000000000; }
-            let c45: u64 = u64::from((c1081 | (c1079 << 1)) == 0x3);
-            if self.v45 != c45 { self.v45 = c45; dirty |= 0x800000000000000000000000000000; }
-            let c1084: u64 = if (self.q14) != 0 { (self.q4) } else { ((self.q107 & 0xf) | ((self.q107 >> 4) << 6)) };
-            if self.v1084 != c1084 { self.v1084 = c1084; dirty |= 0x200004100000; }
-            let c1085: u64 = if (self.q5) != 0 { (self.m1_rd) } else { (0x0) };
-            if self.v1085 != c1085 { self.v1085 = c1085; dirty |= 0x100000; }
-            let c1086: u64 = if (self.q3) != 0 { (self.m2_rd) } else { (0x0) };
-            if self.v1086 != c1086 { self.v1086 = c1086; dirty |= 0x2000000000000; }
-            let c1089: u64 = (if (self.v1103) < 64 { (0x1) << (self.v1103) } else { 0 }) & 0xffff;
-            let c1083: u64 = !(c1089) & 0xffff;
-            let c107: u64 = (self.q2) & (c1083) & 0xffff;
-            let c111: u64 = ((c107) | (c1089)) & 0xffff;
-            if self.v111 != c111 { self.v111 = c111; dirty |= 0x20000000000000000000000000000000; }
-        }
-        if dirty >> 19 & 1 != 0 { // top$core$bit_timing
-            let c140: u64 = (self.v212) & (self.q109) & 0x1;
-            let c141: u64 = (c140) & (self.v161) & 0x1;
-            let c201: u64 = if (self.v253) != 0 { (0x0) } else { (self.v196) };
-            let c202: u64 = if (self.v253) != 0 { (0x0) } else { (self.v197) };
-            let c203: u64 = if (self.v253) != 0 { (0x0) } else { (self.v198) };
-            let c204: u64 = if (self.v253) != 0 { (0x0) } else { (self.v199) };
-            let c205: u64 = if (self.v253) != 0 { (0x0) } else { (self.v200) };
-            let c206: u64 = (c141) & (c201) & 0x1;
-            let c207: u64 = (c141) & (c202) & 0x1;
-            let c189: u64 = if (c207) != 0 { (self.v110 | 0xc) } else { (self.q108) };
-            let c137: u64 = (self.q95).wrapping_add((c189 | ((c189 >> 3) << 4))) & 0x1f;
-            let c208: u64 = (c141) & (c203) & 0x1;
-            let c162: u64 = !(c208) & 0x1;
-            let c143: u64 = (self.v142) & (c162) & 0x1;
-            let c168: u64 = ((c208) | (c207)) & 0x1;
-            let c187: u64 = if (c207) != 0 { (self.v144) } else { (c143) };
-            let c74: u64 = u64::from((c187 | (self.v39 << 1)) == 0x3);
-            if self.v74 != c74 { self.v74 = c74; dirty |= 0x200000000000000; }
-            let c146: u64 = (self.v195) & (c187) & 0x1;
-            let c188: u64 = if (c168) != 0 { (c137) } else { (self.q95) };
-            let c183: u64 = { let s = (self.v191 | (self.v195 << 1) | (self.v196 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.q98 } else if s >> 2 & 1 != 0 { (self.q102 & 0xf) } else { (c188) } };
-            let c185: u64 = if (c187) != 0 { (c183) } else { (c188) };
-            if self.v185 != c185 { self.v185 = c185; dirty |= 0x20000000000000; }
-            let c209: u64 = (c141) & (c204) & 0x1;
-            let c210: u64 = (c141) & (c205) & 0x1;
-            let c172: u64 = ((c210) | (c209)) & 0x1;
-            let c173: u64 = ((c172) | (c208)) & 0x1;
-            let c174: u64 = ((c173) | (c207)) & 0x1;
-            let c175: u64 = ((c174) | (c206)) & 0x1;
-            let c211: u64 = (c141) & (self.v253) & 0x1;
-            let c166: u64 = ((c211) | (c210)) & 0x1;
-            let c167: u64 = ((c166) | (c209)) & 0x1;
-            let c95: u64 = u64::from((self.i_reset | (c167 << 1)) != 0);
-            if self.v95 != c95 { self.v95 = c95; dirty |= 0x220000000000000; }
-            let c96: u64 = u64::from((self.i_reset | (c187 << 1) | (c167 << 2)) != 0);
-            if self.v96 != c96 { self.v96 = c96; dirty |= 0x40000000000000; }
-            let c97: u64 = u64::from((self.i_reset | (self.v158 << 1) | (c167 << 2)) != 0);
-            if self.v97 != c97 { self.v97 = c97; dirty |= 0x400000000; }
-            let c163: u64 = !(c167) & 0x1;
-            let c145: u64 = (self.v158) & (c163) & 0x1;
-            if self.v145 != c145 { self.v145 = c145; dirty |= 0x100000000000000; }
-            let c147: u64 = (c146) & (c163) & 0x1;
-            let c148: u64 = (c147) & (self.v164) & 0x1;
-            if self.v148 != c148 { self.v148 = c148; dirty |= 0x20000008000000; }
-            let c169: u64 = ((self.v150) | (c211)) & 0x1;
-            let c170: u64 = ((c169) | (c209)) & 0x1;
-            let c151: u64 = (c170) & (self.v165) & 0x1;
-            let c152: u64 = (c151) & (self.v164) & 0x1;
-            let c153: u64 = (c170) & (self.q94) & 0x1;
-            if self.v153 != c153 { self.v153 = c153; dirty |= 0x400000000000000; }
-            let c171: u64 = ((c152) | (self.q89)) & 0x1;
-            if self.v171 != c171 { self.v171 = c171; dirty |= 0x100000; }
-            let c176: u64 = ((c211) | (c175)) & 0x1;
-            let c178: u64 = if (c167) != 0 { (0x0) } else { (self.q91) };
-            if self.v178 != c178 { self.v178 = c178; dirty |= 0x0; }
-            let c180: u64 = if (c148) != 0 { (0x0) } else { (self.q90) };
-            let c179: u64 = ((c180) | (c176)) & 0x1;
-            if self.v179 != c179 { self.v179 = c179; dirty |= 0x400000000000000; }
-            let c181: u64 = if (c148) != 0 { (self.v222) } else { (self.q109) };
-            let c177: u64 = ((c181) | (self.i_reset)) & 0x1;
-            if self.v177 != c177 { self.v177 = c177; dirty |= 0x40000000000000; }
-            let c182: u64 = ((self.v186) | (c167)) & 0x1;
-            if self.v182 != c182 { self.v182 = c182; dirty |= 0x400000000; }
-        }
-        if dirty >> 20 & 1 != 0 { // top$core$protocol$sender
-            let c687: u64 = if (self.v171) != 0 { (self.q117) } else { (self.q118) };
-            let c686: u64 = ((c687) | (self.q125)) & 0x1;
-            let c685: u64 = ((c686) | (self.v683)) & 0x1;
-            if self.v685 != c685 { self.v685 = c685; dirty |= 0x4000000000000000000; }
-            let c708: u64 = ((((self.v1084 >> 6) & 0x1)) | ((self.v1084 >> 7))) & 0x1;
-            if self.v708 != c708 { self.v708 = c708; dirty |= 0x200000000000; }
-            let c726: u64 = if (self.v671) != 0 { ((self.v1085 & 0x7f)) } else { (((self.q104 & 0x3f) << 1)) };
-            if self.v726 != c726 { self.v726 = c726; dirty |= 0x8000000000000000000; }
-            let c729: u64 = if (self.v671) != 0 { (((self.v1085 >> 6) & 0x1)) } else { (((self.q104 >> 5) & 0x1)) };
-            let c728: u64 = if (self.v672) != 0 { ((self.v1085 >> 7)) } else { (c729) };
-            if self.v728 != c728 { self.v728 = c728; dirty |= 0x200000000000; }
-            let c730: u64 = if (self.v671) != 0 { ((self.v1085 >> 7)) } else { ((self.q104 >> 6)) };
-            if self.v730 != c730 { self.v730 = c730; dirty |= 0x200000000000; }
-        }
-        if dirty >> 21 & 1 != 0 { // top$configuration
-            let c125: u64 = u64::from((self.i_addr) == (0xd));
-            let c124: u64 = (self.q14) & (c125) & 0x1;
-            let c78: u64 = u64::from((self.v842 | (c124 << 1)) == 0x3);
-            if self.v78 != c78 { self.v78 = c78; dirty |= 0x8000000000000; }
-            let c126: u64 = u64::from((self.i_addr) == (0x6));
-            let c76: u64 = u64::from((self.v842 | (c126 << 1)) == 0x3);
-            if self.v76 != c76 { self.v76 = c76; dirty |= 0x14000000000000; }
-            let c127: u64 = u64::from((self.i_addr) == (0x7));
-            let c75: u64 = u64::from((self.v842 | (c127 << 1)) == 0x3);
-            if self.v75 != c75 { self.v75 = c75; dirty |= 0x14000000000000; }
-            let c128: u64 = u64::from((self.i_addr) == (0x8));
-            let c77: u64 = u64::from((self.v842 | (c128 << 1)) == 0x3);
-            if self.v77 != c77 { self.v77 = c77; dirty |= 0x8000000000000; }
-            let c133: u64 = if (c127) != 0 { (self.q102) } else { (self.q103) };
-            let c131: u64 = if (c128) != 0 { (self.q100) } else { (c133) };
-            let c129: u64 = if (c124) != 0 { (self.q101) } else { (c131) };
-            if self.v129 != c129 { self.v129 = c129; dirty |= 0x2000000000000; }
-            let c134: u64 = ((c126) | (c127)) & 0x1;
-            let c132: u64 = ((c134) | (c128)) & 0x1;
-            let c130: u64 = ((c132) | (c124)) & 0x1;
-            if self.v130 != c130 { self.v130 = c130; dirty |= 0x2000000000000; }
-        }
-        if dirty >> 22 & 1 != 0 { // top$core$protocol$assembler
-            let c272: u64 = (self.v282) & (self.q81) & 0x1;
-            let c274: u64 = !(c272) & 0x1;
-            let c273: u64 = (self.v525) & (c274) & 0x1;
-            if self.v273 != c273 { self.v273 = c273; dirty |= 0x800000000; }
-            let c275: u64 = (self.v425) & (self.v377) & 0x1;
-            if self.v275 != c275 { self.v275 = c275; dirty |= 0x80000000000; }
-            let c276: u64 = (self.v427) & (self.v227) & 0x1;
-            if self.v276 != c276 { self.v276 = c276; dirty |= 0x80000000000; }
-            let c280: u64 = if ((self.q84 >> 3)) != 0 { (0x8) } else { ((self.q84 & 0x7)) };
-            let c279: u64 = if (self.q79) != 0 { (0x0) } else { (c280) };
-            let c281: u64 = (c279).wrapping_sub((0x1)) & 0xf;
-            if self.v281 != c281 { self.v281 = c281; dirty |= 0x8000000000000000; }
-        }
-        if dirty >> 23 & 1 != 0 { // top$core$protocol$frame
-            let c398: u64 = if (self.v384) != 0 { (0x0) } else { (self.v664) };
-            let c424: u64 = if (self.v361) != 0 { (0x0) } else { (self.v664) };
-            let c429: u64 = if (self.v388) != 0 { (0x0) } else { (self.v664) };
-            let c436: u64 = if (self.v390) != 0 { (0x0) } else { (self.v664) };
-            let c443: u64 = { let s = (self.v391 | (self.v400 << 1) | (self.v425 << 2) | (self.v427 << 3) | (self.v379 << 4)); if s >> 0 & 1 != 0 { c398 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c424 } else if s >> 3 & 1 != 0 { c429 } else if s >> 4 & 1 != 0 { c436 } else { (self.v664) } };
-            if self.v443 != c443 { self.v443 = c443; dirty |= 0x1000000000; }
-        }
-        if dirty >> 24 & 1 != 0 { // top$core$protocol$stuffing
-            let c735: u64 = (self.q54).wrapping_add((0x1)) & 0x7;
-            let c738: u64 = u64::from((self.q54) == (0x5));
-            let c736: u64 = (self.q55) & (c738) & 0x1;
-            if self.v736 != c736 { self.v736 = c736; dirty |= 0x3006000000; }
-            let c42: u64 = !(c736) & 0x1;
-            if self.v42 != c42 { self.v42 = c42; dirty |= 0x806000000; }
-            let c63: u64 = u64::from((self.v585 | (self.q59 << 1) | (self.q94 << 2) | (c42 << 3)) == 0xf);
-            if self.v63 != c63 { self.v63 = c63; dirty |= 0x1000000000000000000; }
-            let c739: u64 = u64::from((self.q54) == (0x4));
-            let c737: u64 = (self.q55) & (c739) & 0x1;
-            if self.v737 != c737 { self.v737 = c737; dirty |= 0x4000000; }
-            let c740: u64 = u64::from((self.q109) != (self.q53));
-            let c741: u64 = ((c738) | (c740)) & 0x1;
-            if self.v741 != c741 { self.v741 = c741; dirty |= 0x2000000000; }
-            let c745: u64 = if (c741) != 0 { (0x1) } else { (c735) };
-            if self.v745 != c745 { self.v745 = c745; dirty |= 0x800000000000; }
-        }
-        if dirty >> 25 & 1 != 0 { // top$core$protocol$interframe
-            let c64: u64 = u64::from((self.q94 | (self.v29 << 1) | (self.v27 << 2) | (self.v28 << 3) | (self.v42 << 4)) == 0x1f);
-            if self.v64 != c64 { self.v64 = c64; dirty |= 0x1000000000000000000; }
-            let c65: u64 = u64::from((self.q94 | (self.v29 << 1) | (self.v30 << 2) | (self.v31 << 3) | (self.v32 << 4) | (self.v27 << 5) | (self.v28 << 6) | (self.v42 << 7)) == 0xff);
-            if self.v65 != c65 { self.v65 = c65; dirty |= 0x800000000000000000; }
-            let c502: u64 = (self.v419) & (self.q64) & 0x1;
-            if self.v502 != c502 { self.v502 = c502; dirty |= 0x2000000000; }
-            let c597: u64 = if (self.q59) != 0 { (c502) } else { (self.v591) };
-            let c636: u64 = { let s = (self.v558 | (self.v585 << 1)); if s >> 0 & 1 != 0 { self.v571 } else if s >> 1 & 1 != 0 { c597 } else { (0x0) } };
-            let c639: u64 = if (self.v736) != 0 { (self.q63) } else { (self.v630) };
-            if self.v639 != c639 { self.v639 = c639; dirty |= 0x2000000000; }
-            let c643: u64 = if (self.v736) != 0 { (0x0) } else { (self.v633) };
-            let c646: u64 = if (self.v736) != 0 { (0x0) } else { (self.v635) };
-            let c647: u64 = if (self.v736) != 0 { (0x0) } else { (c636) };
-            if self.v647 != c647 { self.v647 = c647; dirty |= 0x2000000000; }
-            let c648: u64 = if (self.v736) != 0 { (0x0) } else { (self.v637) };
-            if self.v648 != c648 { self.v648 = c648; dirty |= 0x2000000000; }
-            let c659: u64 = (self.q94) & (c643) & 0x1;
-            if self.v659 != c659 { self.v659 = c659; dirty |= 0x8004000000; }
-            let c661: u64 = (self.q94) & (c646) & 0x1;
-            if self.v661 != c661 { self.v661 = c661; dirty |= 0x180000000; }
-        }
-        if dirty >> 26 & 1 != 0 { // top$core$protocol$sender
-            let c666: u64 = (self.v737) & (self.v42) & 0x1;
-            let c667: u64 = (c666) & (self.v380) & 0x1;
-            if self.v667 != c667 { self.v667 = c667; dirty |= 0x4000000000; }
-            let c680: u64 = !(self.v659) & 0x1;
-            let c665: u64 = (self.v585) & (c680) & 0x1;
-            let c690: u64 = if (c665) != 0 { (self.q59) } else { (self.v532) };
-            if self.v690 != c690 { self.v690 = c690; dirty |= 0x200000000000; }
-            let c718: u64 = if (self.v736) != 0 { ((self.q74 & 0x7)) } else { ((self.v664 & 0x7)) };
-            let c719: u64 = if (self.v736) != 0 { (self.v373) } else { (self.v673) };
-            if self.v719 != c719 { self.v719 = c719; dirty |= 0x4000000000; }
-            let c720: u64 = if (self.v736) != 0 { (self.v372) } else { (self.v371) };
-            if self.v720 != c720 { self.v720 = c720; dirty |= 0x4000000000; }
-            let c721: u64 = if (self.v736) != 0 { (self.v371) } else { (self.v516) };
-            if self.v721 != c721 { self.v721 = c721; dirty |= 0x4000000000; }
-            let c732: u64 = (c718).wrapping_sub((0x1)) & 0x7;
-            let c703: u64 = if ((self.v1084 >> 7)) != 0 { (c732) } else { (c718) };
-            let c675: u64 = u64::from((c703) == (0x1));
-            let c676: u64 = u64::from((c703) == (0x2));
-            let c677: u64 = u64::from((c703) == (0x3));
-            let c678: u64 = u64::from((c703) == (0x4));
-            let c702: u64 = (c675) & (((self.v1084 >> 3) & 0x1)) & 0x1;
-            let c701: u64 = if (c676) != 0 { (((self.v1084 >> 2) & 0x1)) } else { (c702) };
-            let c700: u64 = if (c677) != 0 { (((self.v1084 >> 1) & 0x1)) } else { (c701) };
-            let c698: u64 = if (c678) != 0 { ((self.v1084 & 0x1)) } else { (c700) };
-            if self.v698 != c698 { self.v698 = c698; dirty |= 0x4000000000; }
-        }
-        if dirty >> 27 & 1 != 0 { // top$modes
-            let c970: u64 = (self.v747) & (self.v40) & 0x1;
-            let c976: u64 = (self.v148) & (self.v990) & 0x1;
-            if self.v976 != c976 { self.v976 = c976; dirty |= 0x2000000000000000000000000000; }
-            let c982: u64 = !(self.v755) & 0x1;
-            let c983: u64 = !(self.v1078) & 0x1;
-            if self.v983 != c983 { self.v983 = c983; dirty |= 0x0; }
-            let c972: u64 = (self.v511) & (c983) & 0x1;
-            let c1006: u64 = ((self.q129) | (c972)) & 0x1;
-            let c1007: u64 = !(c972) & 0x1;
-            let c1010: u64 = if (c970) != 0 { (c982) } else { (self.v1020) };
-            let c991: u64 = ((c1010) | (self.v984)) & 0x1;
-            let c973: u64 = (self.q129) & (c991) & 0x1;
-            let c1011: u64 = if (c970) != 0 { (self.v755) } else { (self.v1021) };
-            let c971: u64 = (c1011) & (self.v79) & 0x1;
-            let c1008: u64 = if (c971) != 0 { (c1006) } else { (self.q129) };
-            let c1005: u64 = if (c973) != 0 { (0x0) } else { (c1008) };
-            let c1001: u64 = if (self.v1002) != 0 { (0x0) } else { (c1005) };
-            let c993: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1001) };
-            if self.v993 != c993 { self.v993 = c993; dirty |= 0x4000000000000000000000000000; }
-            let c989: u64 = !(c993) & 0x1;
-            let c977: u64 = (self.v988) & (c989) & 0x1;
-            if self.v977 != c977 { self.v977 = c977; dirty |= 0x100000000000000000000000000; }
-            let c1009: u64 = (c971) & (c1007) & 0x1;
-            let c1004: u64 = ((c1009) | (c973)) & 0x1;
-            if self.v1004 != c1004 { self.v1004 = c1004; dirty |= 0x10000000; }
-        }
-        if dirty >> 28 & 1 != 0 { // top$interrupts
-            let c113: u64 = (self.q71 | (self.v1004 << 1) | (self.v956 << 2) | (self.v931 << 3) | (self.v947 << 4) | (self.v929 << 5) | (self.v928 << 6)) & (((self.q22 >> 1) & 0x1) | ((self.v1077 & 0x3) << 1) | ((self.q22 >> 3) << 3) | (((self.q22 >> 2) & 0x1) << 4) | ((self.v1077 >> 3) << 5) | (((self.v1077 >> 2) & 0x1) << 6)) & 0x7f;
-            let c927: u64 = (self.v40) & (self.v1043) & 0x1;
-            let c19: u64 = u64::from((c927 | (self.v926 << 1)) != 0);
-            let c41: u64 = !(c927) & 0x1;
-            let c49: u64 = u64::from((self.i_we | (c41 << 1) | (self.v926 << 2)) == 0x7);
-            if self.v49 != c49 { self.v49 = c49; dirty |= 0x1000000000000; }
-            let c50: u64 = u64::from((self.i_we | (c19 << 1)) == 0x3);
-            if self.v50 != c50 { self.v50 = c50; dirty |= 0x1000000000000; }
-            let c933: u64 = (self.v750) & (self.v943) & 0x1;
-            if self.v933 != c933 { self.v933 = c933; dirty |= 0x20000000; }
-            let c934: u64 = (c933) & (self.v944) & 0x1;
-            let c948: u64 = ((self.v932) | (c934)) & 0x1;
-            let c951: u64 = if (self.v1002) != 0 { (0x0) } else { ((self.v952 & 0x1) | ((self.v952 >> 2) << 1)) };
-            let c114: u64 = (((c951 & 0x1) | (((self.v952 >> 1) & 0x1) << 1) | ((c951 >> 1) << 2)) | ((c113 & 0x1) | (((c113 >> 4) & 0x1) << 1) | (((c113 >> 3) & 0x1) << 2) | (((c113 >> 1) & 0x3) << 3) | ((c113 >> 6) << 5) | (((c113 >> 5) & 0x1) << 6))) & 0x7f;
-            if self.v114 != c114 { self.v114 = c114; dirty |= 0x2000000000000000000000000; }
-            let c953: u64 = ((self.v954) | (c948)) & 0x1;
-            if self.v953 != c953 { self.v953 = c953; dirty |= 0x400000000000000000000000; }
-            let c965: u64 = if (c927) != 0 { (((self.i_wdata >> 1) & 0xf)) } else { ((self.i_wdata & 0xf)) };
-            if self.v965 != c965 { self.v965 = c965; dirty |= 0x1000000000000; }
-        }
-        if dirty >> 29 & 1 != 0 { // top$fifo
-            let c792: u64 = if (self.v18) != 0 { (self.i_wdata) } else { (self.v815) };
-            let c793: u64 = if (self.v18) != 0 { (self.v1053) } else { (self.v776) };
-            let c794: u64 = ((self.v814) | (self.v18)) & 0x1;
-            let c797: u64 = if (self.q127) != 0 { (c794) } else { (self.v814) };
-            if self.v797 != c797 { self.v797 = c797; dirty |= 0x200000000000000000000; }
-            let c798: u64 = if (self.q127) != 0 { (c792) } else { (self.v815) };
-            if self.v798 != c798 { self.v798 = c798; dirty |= 0x200000000000000000000; }
-            let c799: u64 = if (self.q127) != 0 { (c793) } else { (self.v776) };
-            if self.v799 != c799 { self.v799 = c799; dirty |= 0x200000000000000000000; }
-            let c808: u64 = if (self.v933) != 0 { (self.v839) } else { (self.q50) };
-            let c780: u64 = (c808).wrapping_add((0x1)) & 0x1f;
-            let c789: u64 = u64::from((c808) == 0);
-            let c802: u64 = if (c789) != 0 { (0x0) } else { (self.v933) };
-            let c803: u64 = if (c789) != 0 { (self.q84 | (self.q79 << 6) | (self.q81 << 7)) } else { (self.v837) };
-            let c804: u64 = if (self.v781) != 0 { (c802) } else { (self.v933) };
-            if self.v804 != c804 { self.v804 = c804; dirty |= 0x40000000000000000000; }
-            let c805: u64 = if (self.v781) != 0 { (c803) } else { (self.v837) };
-            if self.v805 != c805 { self.v805 = c805; dirty |= 0x80000000000000000000; }
-            let c806: u64 = if (self.v781) != 0 { (c780) } else { (c808) };
-            if self.v806 != c806 { self.v806 = c806; dirty |= 0x1000000000000000000000; }
-            let c809: u64 = if (self.v933) != 0 { (self.v838) } else { (self.q42) };
-            let c779: u64 = (c809).wrapping_add((self.v832)) & 0x7f;
-            let c807: u64 = if (self.v781) != 0 { (c779) } else { (c809) };
-            if self.v807 != c807 { self.v807 = c807; dirty |= 0x2000000000000000000000; }
-            let c810: u64 = if (self.v933) != 0 { (self.v777) } else { (self.q48) };
-            let c791: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (c810) };
-            let c796: u64 = if (self.q127) != 0 { (c791) } else { (c810) };
-            if self.v796 != c796 { self.v796 = c796; dirty |= 0x80000000000000000000; }
-        }
-        if dirty >> 30 & 1 != 0 { // top$modes$divider
-            let c1026: u64 = (self.q12).wrapping_add((0x1)) & 0x7;
-            if self.v1026 != c1026 { self.v1026 = c1026; dirty |= 0x40000000000000000000000000; }
-            let c1027: u64 = !(self.q11) & 0x1;
-            if self.v1027 != c1027 { self.v1027 = c1027; dirty |= 0x80000000000000000000000000; }
-            let c1028: u64 = u64::from((self.q105) == (0x7));
-            let c1029: u64 = u64::from((self.q12) >= (self.q105));
-            if self.v1029 != c1029 { self.v1029 = c1029; dirty |= 0x80000000000000000000000000; }
-            let c82: u64 = u64::from((self.i_reset | (c1029 << 1)) != 0);
-            if self.v82 != c82 { self.v82 = c82; dirty |= 0x40000000000000000000000000; }
-            let c1031: u64 = if (c1028) != 0 { (0x0) } else { (self.q11) };
-            let c1030: u64 = ((c1031) | ((self.q15 & 0x1))) & 0x1;
-            if self.v1030 != c1030 { self.v1030 = c1030; dirty |= 0x10000000000000000000000000; }
-        }
-        if dirty >> 31 & 1 != 0 { // can_controller
-            let c17: u64 = (self.i_re) & (self.v1069) & 0x1;
-            if self.v17 != c17 { self.v17 = c17; dirty |= 0x10000000040000000000000000000; }
-            let c35: u64 = u64::from((self.v661 | (self.q113 << 1) | (self.v1 << 2)) != (0x2));
-            if self.v35 != c35 { self.v35 = c35; dirty |= 0x20000000000; }
-            let c36: u64 = u64::from((self.v661 | (self.q113 << 1) | (self.v310 << 2) | (self.v1 << 3)) != (0x7));
-            if self.v36 != c36 { self.v36 = c36; dirty |= 0x20000000000; }
-        }
-        if dirty >> 32 & 1 != 0 { // top$core$protocol$faults
-            let c350: u64 = if (self.v661) != 0 { (self.v348) } else { (0x1) };
-            if self.v350 != c350 { self.v350 = c350; dirty |= 0x10000000000; }
-            let c351: u64 = if (self.v661) != 0 { (self.v347) } else { (self.q68 | (self.q69 << 7)) };
-            if self.v351 != c351 { self.v351 = c351; dirty |= 0x10000000000; }
-            let c352: u64 = if (self.v661) != 0 { (self.v349) } else { ((self.q65 << 7)) };
-            if self.v352 != c352 { self.v352 = c352; dirty |= 0x10000000000; }
-        }
-        if dirty >> 33 & 1 != 0 { // top$modes$cdr_reg
-            self.n14 = ((self.v992 >> 6));
-            self.n15 = if (self.i_reset) != 0 { 0x0 } else if (self.v47) != 0 { (((self.i_wdata >> 3) & 0x1) | (((self.i_wdata >> 5) & 0x3) << 1)) } else { self.q15 };
-            self.n105 = if (self.i_reset) != 0 { 0x0 } else if (self.v975) != 0 { ((self.i_wdata & 0x7)) } else { self.q105 };
-        }
-        if dirty >> 34 & 1 != 0 { // top$core$bit_timing$clocks
-            self.n96 = if (self.i_reset) != 0 { 0x0 } else { (self.v182) };
-            self.n97 = if (self.v97) != 0 { 0x0 } else { ((self.v138 >> 1)) };
-        }
-        if dirty >> 35 & 1 != 0 { // top$core$protocol
-            let c226: u64 = (self.q94) & (self.v42) & 0x1;
-            if self.v226 != c226 { self.v226 = c226; dirty |= 0x83000000000; }
-            let c69: u64 = u64::from((c226 | (self.v372 << 1) | (self.v379 << 2)) == 0x7);
-            if self.v69 != c69 { self.v69 = c69; dirty |= 0x4000000000000000; }
-            let c71: u64 = u64::from((c226 | (self.v427 << 1) | (self.v273 << 2)) == 0x7);
-            if self.v71 != c71 { self.v71 = c71; dirty |= 0x2000000000000000; }
-            let c72: u64 = u64::from((c226 | (self.v425 << 1)) == 0x3);
-            if self.v72 != c72 { self.v72 = c72; dirty |= 0x1000000000000000; }
-            let c73: u64 = u64::from((c226 | (self.v377 << 1) | (self.v425 << 2)) == 0x7);
-            if self.v73 != c73 { self.v73 = c73; dirty |= 0x800000000000000; }
-            let c269: u64 = ((self.q88) | (self.v10)) & 0x1;
-            if self.v269 != c269 { self.v269 = c269; dirty |= 0x800000000000000; }
-        }
-        if dirty >> 36 & 1 != 0 { // top$core$protocol$frame
-            let c68: u64 = u64::from((self.v226 | (self.v379 << 1) | (self.v38 << 2)) == 0x7);
-            if self.v68 != c68 { self.v68 = c68; dirty |= 0x8000000000000000; }
-            let c70: u64 = u64::from((self.v226 | (self.v43 << 1) | (self.v379 << 2)) == 0x7);
-            if self.v70 != c70 { self.v70 = c70; dirty |= 0x4000000000000000; }
-            let c362: u64 = (self.q94) & (self.v736) & 0x1;
-            if self.v362 != c362 { self.v362 = c362; dirty |= 0x8000000000; }
-            let c473: u64 = if (c362) != 0 { (self.v470) } else { (self.v459) };
-            if self.v473 != c473 { self.v473 = c473; dirty |= 0x2000000000; }
-            let c474: u64 = if (c362) != 0 { ((self.v471 << 1)) } else { (self.v461) };
-            if self.v474 != c474 { self.v474 = c474; dirty |= 0x2000000000; }
-            let c475: u64 = if (c362) != 0 { (self.v472) } else { (self.v462) };
-            if self.v475 != c475 { self.v475 = c475; dirty |= 0xa000000000; }
-            let c476: u64 = if (c362) != 0 { (self.q74) } else { (self.v443) };
-            if self.v476 != c476 { self.v476 = c476; dirty |= 0x2000000000; }
-            let c477: u64 = if (c362) != 0 { (0x0) } else { (self.v453) };
-            if self.v477 != c477 { self.v477 = c477; dirty |= 0x8000000000; }
-            let c478: u64 = if (c362) != 0 { (0x0) } else { (self.v454) };
-            if self.v478 != c478 { self.v478 = c478; dirty |= 0x100000010000000000; }
-            let c479: u64 = if (c362) != 0 { (0x0) } else { (self.v455) };
-            if self.v479 != c479 { self.v479 = c479; dirty |= 0x100000008000000000; }
-            let c480: u64 = if (c362) != 0 { (0x0) } else { (self.v457) };
-            if self.v480 != c480 { self.v480 = c480; dirty |= 0x2000000000; }
-            let c481: u64 = if (c362) != 0 { (0x0) } else { (self.v458) };
-            if self.v481 != c481 { self.v481 = c481; dirty |= 0x8000000000; }
-            let c482: u64 = if (c362) != 0 { (0x0) } else { (self.v460) };
-            if self.v482 != c482 { self.v482 = c482; dirty |= 0x30000002000000000; }
-            let c483: u64 = if (c362) != 0 { (0x0) } else { (self.v463) };
-            if self.v483 != c483 { self.v483 = c483; dirty |= 0x2000000000; }
-            let c484: u64 = if (c362) != 0 { (0x0) } else { (self.v464) };
-            if self.v484 != c484 { self.v484 = c484; dirty |= 0x4000000000; }
-            let c485: u64 = if (c362) != 0 { (0x0) } else { (self.v465) };
-            if self.v485 != c485 { self.v485 = c485; dirty |= 0x40000004000000000; }
-            let c486: u64 = if (c362) != 0 { (self.q115) } else { (self.v466) };
-            if self.v486 != c486 { self.v486 = c486; dirty |= 0x2000000000; }
-            let c487: u64 = if (c362) != 0 { (0x0) } else { (self.v467) };
-            if self.v487 != c487 { self.v487 = c487; dirty |= 0x10000000000; }
-            let c488: u64 = if (c362) != 0 { (0x0) } else { (self.v468) };
-            if self.v488 != c488 { self.v488 = c488; dirty |= 0x8000000000; }
-        }
-        if dirty >> 37 & 1 != 0 { // top$core$protocol$interframe
-            let c495: u64 = (self.v226) & (self.v419) & 0x1;
-            let c497: u64 = (c495) & (self.v534) & 0x1;
-            if self.v497 != c497 { self.v497 = c497; dirty |= 0x4000080c000000000; }
-            let c22: u64 = u64::from((c497 | (self.v741 << 1)) != 0);
-            let c59: u64 = u64::from((self.q94 | (c22 << 1)) == 0x3);
-            if self.v59 != c59 { self.v59 = c59; dirty |= 0x10000000000000000000; }
-            let c91: u64 = u64::from((self.i_reset | (c497 << 1)) != 0);
-            if self.v91 != c91 { self.v91 = c91; dirty |= 0x86000000000000000; }
-            let c515: u64 = !(self.v482) & 0x1;
-            let c498: u64 = (self.q52) & (c515) & 0x1;
-            let c553: u64 = if (self.v516) != 0 { (0x0) } else { (self.v476) };
-            let c555: u64 = if (self.v506) != 0 { (c553) } else { (0x0) };
-            let c557: u64 = if (self.v518) != 0 { (0x0) } else { (self.v476) };
-            let c559: u64 = if (self.v518) != 0 { (0xa) } else { (self.v486) };
-            let c560: u64 = if (self.v518) != 0 { (0xd) } else { (self.v486) };
-            let c561: u64 = if (self.v518) != 0 { (self.v474) } else { (0x1) };
-            let c562: u64 = if (self.v518) != 0 { (self.v475) } else { (0x1) };
-            let c563: u64 = if (self.q109) != 0 { (self.v474) } else { (c561) };
-            let c564: u64 = if (self.q109) != 0 { (self.v475) } else { (c562) };
-            let c565: u64 = if (self.q109) != 0 { (c559) } else { (c560) };
-            let c573: u64 = if (self.v521) != 0 { (self.v474) } else { (c563) };
-            let c574: u64 = if (self.v521) != 0 { (self.v475) } else { (c564) };
-            let c575: u64 = if (self.v521) != 0 { (self.v486) } else { (c565) };
-            let c578: u64 = if (self.v519) != 0 { (0x0) } else { (self.v476) };
-            let c579: u64 = if (self.v519) != 0 { (0xe) } else { (self.v486) };
-            let c580: u64 = ((self.v475) | (self.v503)) & 0x1;
-            let c582: u64 = if (self.v503) != 0 { (self.v476) } else { (c578) };
-            let c583: u64 = if (self.v503) != 0 { (self.v486) } else { (c579) };
-            let c587: u64 = if (self.v598) != 0 { (0xe) } else { (self.v486) };
-            let c589: u64 = if (self.q109) != 0 { (0x0) } else { (self.v476) };
-            let c595: u64 = if (self.v501) != 0 { (0x1) } else { (self.v476) };
-            let c599: u64 = if (self.q59) != 0 { (c595) } else { (c589) };
-            let c586: u64 = if (self.v598) != 0 { (0x0) } else { (c599) };
-            let c603: u64 = if (self.v499) != 0 { (0x0) } else { (self.v476) };
-            let c604: u64 = if (self.v514) != 0 { (c603) } else { (self.v476) };
-            let c605: u64 = if (self.v514) != 0 { (self.v499) } else { (c498) };
-            let c606: u64 = if (self.v514) != 0 { ((self.v499 << 1) | (self.v499 << 3) | 0x1) } else { (self.v486) };
-            let c607: u64 = if (self.v514) != 0 { (self.v500) } else { (c498) };
-            let c608: u64 = if (self.v514) != 0 { (self.v476) } else { (0x0) };
-            let c609: u64 = if (self.v514) != 0 { (self.v486) } else { (0xd) };
-            let c610: u64 = if (self.q109) != 0 { (c604) } else { (c608) };
-            let c611: u64 = if (self.q109) != 0 { (c605) } else { (c607) };
-            let c612: u64 = if (self.q109) != 0 { (c606) } else { (c609) };
-            let c613: u64 = if (self.v518) != 0 { (0x0) } else { (c498) };
-            let c614: u64 = if (self.v518) != 0 { (0x1) } else { (self.v486) };
-            let c615: u64 = (self.q109) & (c613) & 0x1;
-            let c616: u64 = if (self.q109) != 0 { (c614) } else { (self.v486) };
-            let c617: u64 = if (self.q118) != 0 { (c498) } else { (0x1) };
-            let c618: u64 = if (self.q118) != 0 { (self.v475) } else { (0x1) };
-            let c619: u64 = if (self.q109) != 0 { (c617) } else { (self.v517) };
-            let c620: u64 = if (self.q109) != 0 { (c618) } else { (self.v475) };
-            let c621: u64 = if (self.v516) != 0 { (0x1) } else { (self.v486) };
-            let c623: u64 = if (self.q109) != 0 { (self.v476) } else { (0x0) };
-            let c570: u64 = if (self.v521) != 0 { (c623) } else { (c557) };
-            let c624: u64 = if (self.q109) != 0 { (c621) } else { (self.v486) };
-            let c625: u64 = { let s = (self.v554 | (self.v558 << 1) | (self.v524 << 2) | (self.v585 << 3) | (self.v513 << 4) | (self.v622 << 5)); if s >> 0 & 1 != 0 { c555 } else if s >> 1 & 1 != 0 { c570 } else if s >> 2 & 1 != 0 { c582 } else if s >> 3 & 1 != 0 { c586 } else if s >> 4 & 1 != 0 { c610 } else if s >> 5 & 1 != 0 { c623 } else { (self.v476) } };
-            let c626: u64 = { let s = (self.v558 | (self.v524 << 1) | (self.v585 << 2) | (self.v513 << 3) | (self.v512 << 4) | (self.v622 << 5)); if s >> 0 & 1 != 0 { c575 } else if s >> 1 & 1 != 0 { c583 } else if s >> 2 & 1 != 0 { c587 } else if s >> 3 & 1 != 0 { c612 } else if s >> 4 & 1 != 0 { c616 } else if s >> 5 & 1 != 0 { c624 } else { (self.v486) } };
-            let c631: u64 = if (self.v558) != 0 { (c573) } else { (self.v474) };
-            let c632: u64 = { let s = (self.v558 | (self.v524 << 1) | (self.v511 << 2)); if s >> 0 & 1 != 0 { c574 } else if s >> 1 & 1 != 0 { c580 } else if s >> 2 & 1 != 0 { c620 } else { (self.v475) } };
-            let c634: u64 = { let s = (self.v513 | (self.v512 << 1) | (self.v511 << 2)); if s >> 0 & 1 != 0 { c611 } else if s >> 1 & 1 != 0 { c615 } else if s >> 2 & 1 != 0 { c619 } else { (c498) } };
-            let c640: u64 = if (self.v736) != 0 { (self.v476) } else { (c625) };
-            let c551: u64 = if (c497) != 0 { (0x0) } else { (c640) };
-            let c641: u64 = if (self.v736) != 0 { (self.v474) } else { (c631) };
-            let c642: u64 = if (self.v736) != 0 { (self.v475) } else { (c632) };
-            let c25: u64 = u64::from((self.v585 | (self.v736 << 1) | (c642 << 2)) != 0);
-            let c26: u64 = u64::from((self.v736 | (c642 << 1)) != (0x1));
-            let c62: u64 = u64::from((self.q94 | (c26 << 1) | (c25 << 2)) == 0x7);
-            if self.v62 != c62 { self.v62 = c62; dirty |= 0x2000000000000000000; }
-            let c546: u64 = ((self.v639) | (c642)) & 0x1;
-            if self.v546 != c546 { self.v546 = c546; dirty |= 0x800000000000000000; }
-            let c547: u64 = if (c642) != 0 { (self.v532) } else { (self.v600) };
-            if self.v547 != c547 { self.v547 = c547; dirty |= 0x2000000000000000000; }
-            let c548: u64 = ((self.v483) | (c642)) & 0x1;
-            let c549: u64 = if (c642) != 0 { (0x0) } else { (c551) };
-            if self.v549 != c549 { self.v549 = c549; dirty |= 0x8000000000; }
-            let c644: u64 = if (self.v736) != 0 { (c498) } else { (c634) };
-            let c508: u64 = (c644) & (self.v535) & 0x1;
-            let c509: u64 = (c508) & (self.q116) & 0x1;
-            let c523: u64 = !(c644) & 0x1;
-            let c507: u64 = (self.v524) & (c523) & 0x1;
-            let c510: u64 = (self.q88) & (c523) & 0x1;
-            let c537: u64 = ((self.v648) | (c507)) & 0x1;
-            let c538: u64 = if (c507) != 0 { (0x0) } else { (c523) };
-            let c539: u64 = if (self.v473) != 0 { (c537) } else { (self.v648) };
-            let c540: u64 = (self.v473) & (c538) & 0x1;
-            let c541: u64 = if (self.v473) != 0 { (c644) } else { (self.v647) };
-            let c542: u64 = (c642) & (c509) & 0x1;
-            let c536: u64 = ((c542) | (c510)) & 0x1;
-            let c543: u64 = if (c642) != 0 { (c541) } else { (self.v647) };
-            let c544: u64 = if (c642) != 0 { (c539) } else { (self.v648) };
-            let c545: u64 = (c642) & (c540) & 0x1;
-            let c645: u64 = if (self.v736) != 0 { (self.v486) } else { (c626) };
-            let c552: u64 = if (c497) != 0 { (0x2) } else { (c645) };
-            let c550: u64 = if (c642) != 0 { (0xc) } else { (c552) };
-            let c649: u64 = (self.q94) & (c536) & 0x1;
-            if self.v649 != c649 { self.v649 = c649; dirty |= 0x8000000000; }
-            let c90: u64 = u64::from((self.i_reset | (c649 << 1)) != 0);
-            if self.v90 != c90 { self.v90 = c90; dirty |= 0x100000000000000000; }
-            let c650: u64 = if (self.q94) != 0 { (c548) } else { (self.v483) };
-            if self.v650 != c650 { self.v650 = c650; dirty |= 0xc000000000; }
-            let c651: u64 = if (self.q94) != 0 { (c550) } else { (self.v486) };
-            if self.v651 != c651 { self.v651 = c651; dirty |= 0xc000000000; }
-            let c652: u64 = (self.q94) & (c543) & 0x1;
-            if self.v652 != c652 { self.v652 = c652; dirty |= 0x30000000000; }
-            let c653: u64 = (self.q94) & (c544) & 0x1;
-            if self.v653 != c653 { self.v653 = c653; dirty |= 0x10000000000; }
-            let c654: u64 = (self.q94) & (c545) & 0x1;
-            if self.v654 != c654 { self.v654 = c654; dirty |= 0x10000000000; }
-            let c655: u64 = (self.q94) & (c523) & 0x1;
-            if self.v655 != c655 { self.v655 = c655; dirty |= 0x10000000000000000; }
-            let c657: u64 = if (self.q94) != 0 { (c641) } else { (self.v474) };
-            if self.v657 != c657 { self.v657 = c657; dirty |= 0x10000000000000000; }
-            let c658: u64 = if (self.q94) != 0 { (c642) } else { (self.v475) };
-            if self.v658 != c658 { self.v658 = c658; dirty |= 0xc000000000; }
-            let c660: u64 = if (self.q94) != 0 { (c644) } else { (c498) };
-            if self.v660 != c660 { self.v660 = c660; dirty |= 0x20000000204000000000; }
-            let c662: u64 = ((self.q64) | (self.v480)) & 0x1;
-            let c593: u64 = if (self.v502) != 0 { (0x0) } else { (c662) };
-            let c596: u64 = if (self.q59) != 0 { (c593) } else { (c662) };
-            let c584: u64 = if (self.v598) != 0 { (0x0) } else { (c596) };
-            let c627: u64 = if (self.v585) != 0 { (c584) } else { (c662) };
-            let c638: u64 = if (self.v736) != 0 { (c662) } else { (c627) };
-            let c656: u64 = if (self.q94) != 0 { (c638) } else { (c662) };
-            if self.v656 != c656 { self.v656 = c656; dirty |= 0x400000000000000000; }
-        }
-        if dirty >> 38 & 1 != 0 { // top$core$protocol$sender
-            let c668: u64 = (self.v667) & (self.v660) & 0x1;
-            let c679: u64 = !(self.v484) & 0x1;
-            if self.v679 != c679 { self.v679 = c679; dirty |= 0x200000000000; }
-            let c681: u64 = !(self.v658) & 0x1;
-            if self.v681 != c681 { self.v681 = c681; dirty |= 0x8000000000; }
-            let c669: u64 = (c668) & (c681) & 0x1;
-            let c682: u64 = !(self.v650) & 0x1;
-            let c670: u64 = (c669) & (c682) & 0x1;
-            if self.v670 != c670 { self.v670 = c670; dirty |= 0x200000000000; }
-            let c691: u64 = u64::from((self.v651) == (0xc));
-            if self.v691 != c691 { self.v691 = c691; dirty |= 0x200000000000; }
-            let c692: u64 = if (self.v485) != 0 { (self.v734) } else { ((self.q73 >> 14)) };
-            let c693: u64 = u64::from((self.v651) == (0x5));
-            if self.v693 != c693 { self.v693 = c693; dirty |= 0x200000000000; }
-            let c694: u64 = if (self.v660) != 0 { (c692) } else { (0x1) };
-            if self.v694 != c694 { self.v694 = c694; dirty |= 0x200000000000; }
-            let c696: u64 = u64::from((self.v651) == (0x4));
-            if self.v696 != c696 { self.v696 = c696; dirty |= 0x200000000000; }
-            let c699: u64 = u64::from((self.v651) == (0x3));
-            if self.v699 != c699 { self.v699 = c699; dirty |= 0x200000000000; }
-            let c704: u64 = if (self.v660) != 0 { (self.v698) } else { (0x1) };
-            if self.v704 != c704 { self.v704 = c704; dirty |= 0x200000000000; }
-            let c706: u64 = u64::from((self.v651) == (0x2));
-            if self.v706 != c706 { self.v706 = c706; dirty |= 0x200000000000; }
-            let c712: u64 = u64::from((self.v651) == (0xd));
-            if self.v712 != c712 { self.v712 = c712; dirty |= 0x200000000000; }
-            let c713: u64 = u64::from((self.v651) == (0x7));
-            if self.v713 != c713 { self.v713 = c713; dirty |= 0x200000000000; }
-            let c714: u64 = u64::from((self.v651) == (0x1));
-            if self.v714 != c714 { self.v714 = c714; dirty |= 0x200000000000; }
-            let c715: u64 = if (self.v497) != 0 { (0x0) } else { (self.v719) };
-            if self.v715 != c715 { self.v715 = c715; dirty |= 0x200000000000; }
-            let c716: u64 = if (self.v497) != 0 { (0x0) } else { (self.v720) };
-            if self.v716 != c716 { self.v716 = c716; dirty |= 0x200000000000; }
-            let c717: u64 = if (self.v497) != 0 { (0x0) } else { (self.v721) };
-            if self.v717 != c717 { self.v717 = c717; dirty |= 0x200000000000; }
-        }
-        if dirty >> 39 & 1 != 0 { // top$core$protocol
-            let c86: u64 = u64::from((self.i_reset | (self.v225 << 1) | (self.v362 << 2)) != 0);
-            if self.v86 != c86 { self.v86 = c86; dirty |= 0x20000000000000000000; }
-            let c228: u64 = (self.v488) & (self.v681) & 0x1;
-            if self.v228 != c228 { self.v228 = c228; dirty |= 0xa000000200000000000; }
-            let c61: u64 = u64::from((c228 | (self.v671 << 1)) == 0x3);
-            if self.v61 != c61 { self.v61 = c61; dirty |= 0x400000000000; }
-            let c243: u64 = !(self.v475) & 0x1;
-            let c229: u64 = (self.v477) & (c243) & 0x1;
-            if self.v229 != c229 { self.v229 = c229; dirty |= 0x200000000000; }
-            let c23: u64 = u64::from((c228 | (c229 << 1)) != 0);
-            let c24: u64 = u64::from((c228 | (c229 << 1) | (self.v671 << 2)) != (0x1));
-            let c60: u64 = u64::from((c24 | (c23 << 1)) == 0x3);
-            if self.v60 != c60 { self.v60 = c60; dirty |= 0x400000000000; }
-            let c245: u64 = !(self.v497) & 0x1;
-            let c230: u64 = (self.v244) & (c245) & 0x1;
-            let c88: u64 = u64::from((self.i_reset | (c229 << 1) | (c230 << 2)) != 0);
-            if self.v88 != c88 { self.v88 = c88; dirty |= 0x2000000400000000000; }
-            let c89: u64 = u64::from((self.i_reset | (c230 << 1)) != 0);
-            if self.v89 != c89 { self.v89 = c89; dirty |= 0x400000000000; }
-            let c247: u64 = ((self.v650) | (self.v225)) & 0x1;
-            if self.v247 != c247 { self.v247 = c247; dirty |= 0x800000000000; }
-            let c250: u64 = ((self.v658) | (self.v659)) & 0x1;
-            if self.v250 != c250 { self.v250 = c250; dirty |= 0x30000000000000000; }
-            let c267: u64 = if (self.q94) != 0 { (self.v549) } else { (self.q74) };
-            let c264: u64 = if (self.v242) != 0 { (0x0) } else { (c267) };
-            let c265: u64 = if (self.q113) != 0 { (c264) } else { (c267) };
-            if self.v265 != c265 { self.v265 = c265; dirty |= 0x40000000000000000; }
-            let c268: u64 = if (self.q94) != 0 { (self.v651) } else { (self.q115) };
-            let c266: u64 = if (self.q113) != 0 { (0xf) } else { (c268) };
-            let c263: u64 = if (self.v231) != 0 { (0x1) } else { (c266) };
-            let c262: u64 = if (self.v225) != 0 { (0x0) } else { (c263) };
-            let c261: u64 = if (self.i_reset) != 0 { (0x0) } else { (c262) };
-            if self.v261 != c261 { self.v261 = c261; dirty |= 0x200000000000000000; }
-            let c234: u64 = u64::from((c261) == (0x2));
-            let c235: u64 = u64::from((c261) == (0x3));
-            let c236: u64 = u64::from((c261) == (0x4));
-            let c237: u64 = u64::from((c261) == (0x5));
-            let c238: u64 = u64::from((c261) == (0x6));
-            let c239: u64 = u64::from((c261) == (0x7));
-            let c240: u64 = u64::from((c261) == (0x8));
-            let c241: u64 = u64::from((c261) == (0x9));
-            let c254: u64 = ((c234) | (c235)) & 0x1;
-            let c255: u64 = ((c254) | (c236)) & 0x1;
-            let c256: u64 = ((c255) | (c237)) & 0x1;
-            let c257: u64 = ((c256) | (c238)) & 0x1;
-            let c258: u64 = ((c257) | (c239)) & 0x1;
-            let c259: u64 = ((c258) | (c240)) & 0x1;
-            let c260: u64 = ((c259) | (c241)) & 0x1;
-            if self.v260 != c260 { self.v260 = c260; dirty |= 0x400000000000000000; }
-            let c270: u64 = ((self.q72) | (self.v481)) & 0x1;
-            if self.v270 != c270 { self.v270 = c270; dirty |= 0x80000000000000000; }
-            let c271: u64 = ((self.v479) | (self.v649)) & 0x1;
-            if self.v271 != c271 { self.v271 = c271; dirty |= 0x80000000000000000; }
-        }
-        if dirty >> 40 & 1 != 0 { // top$core$protocol$faults
-            let c306: u64 = (self.v478) & (self.v314) & 0x1;
-            if self.v306 != c306 { self.v306 = c306; dirty |= 0x20000000000; }
-            let c307: u64 = (self.v654) & (self.v315) & 0x1;
-            let c341: u64 = (self.v652) & (self.v340) & 0x1;
-            let c342: u64 = if (self.v652) != 0 { (self.v338) } else { (self.q68 | (self.q69 << 7)) };
-            let c336: u64 = if (c307) != 0 { (self.v304) } else { (c342) };
-            let c335: u64 = if (self.v653) != 0 { (self.v334) } else { (c336) };
-            let c331: u64 = if (self.v316) != 0 { (self.v357) } else { (c335) };
-            let c332: u64 = if (self.q69) != 0 { (0x7f) } else { (c331) };
-            let c333: u64 = if (self.v487) != 0 { (c332) } else { (c335) };
-            let c343: u64 = if (self.v652) != 0 { (self.v339) } else { ((self.q65 << 5)) };
-            let c337: u64 = if (c306) != 0 { (self.v356) } else { ((c343 & 0x1) | ((c343 & 0x1) << 1) | (c343 << 2)) };
-            let c344: u64 = if (self.v248) != 0 { (self.q68 | (self.q69 << 7)) } else { (c333) };
-            let c345: u64 = if (self.v248) != 0 { ((self.q65 << 7)) } else { (c337) };
-            let c346: u64 = if (self.v248) != 0 { (0x0) } else { (c341) };
-            let c353: u64 = if (self.q113) != 0 { (self.v350) } else { (c346) };
-            let c324: u64 = if (self.q113) != 0 { (0x0) } else { (c353) };
-            let c327: u64 = ((c324) | (self.v313)) & 0x1;
-            let c328: u64 = if (self.v1) != 0 { (c327) } else { (c353) };
-            let c319: u64 = if (self.i_reset) != 0 { (0x0) } else { (c328) };
-            if self.v319 != c319 { self.v319 = c319; dirty |= 0x100000000000000000; }
-            let c317: u64 = !(c319) & 0x1;
-            let c354: u64 = if (self.q113) != 0 { (self.v351) } else { (c344) };
-            let c323: u64 = if (self.q113) != 0 { (0x0) } else { (c354) };
-            let c325: u64 = if (self.v313) != 0 { (0x0) } else { (c323) };
-            let c329: u64 = if (self.v1) != 0 { (c325) } else { (c354) };
-            let c322: u64 = if (self.v308) != 0 { (self.i_wdata) } else { (c329) };
-            if self.v322 != c322 { self.v322 = c322; dirty |= 0x100000000000; }
-            let c320: u64 = if (self.i_reset) != 0 { (0x0) } else { (c322) };
-            if self.v320 != c320 { self.v320 = c320; dirty |= 0x100000000000; }
-            let c355: u64 = if (self.q113) != 0 { (self.v352) } else { (c345) };
-            let c330: u64 = if (self.v1) != 0 { (self.v326) } else { (c355) };
-            if self.v330 != c330 { self.v330 = c330; dirty |= 0x40000000000; }
-            let c321: u64 = if (self.i_reset) != 0 { (0x0) } else { (c330) };
-            if self.v321 != c321 { self.v321 = c321; dirty |= 0x40000000000; }
-            let c318: u64 = (((c321 >> 7)) | ((c320 >> 7))) & 0x1;
-            let c309: u64 = (c317) & (c318) & 0x1;
-            if self.v309 != c309 { self.v309 = c309; dirty |= 0x200000000000000000; }
-        }
-        if dirty >> 41 & 1 != 0 { // can_controller
-            let c33: u64 = u64::from((self.v652 | (self.q113 << 1) | (self.v306 << 2) | (self.v248 << 3) | (self.v1 << 4)) != 0);
-            let c34: u64 = u64::from((self.v652 | (self.q113 << 1) | (self.v306 << 2) | (self.v311 << 3) | (self.v248 << 4) | (self.v1 << 5)) != (0x1));
-            let c66: u64 = u64::from((self.v35 | (self.v36 << 1) | (self.v37 << 2) | (c34 << 3) | (c33 << 4)) == 0x1f);
-            if self.v66 != c66 { self.v66 = c66; dirty |= 0x40000000000; }
-            let c67: u64 = u64::from((self.v35 | (self.v36 << 1) | (self.v37 << 2) | (c33 << 3)) == 0xf);
-            if self.v67 != c67 { self.v67 = c67; dirty |= 0x40000000000; }
-        }
-        if dirty >> 42 & 1 != 0 { // top$core$protocol$faults$tec_count
-            self.n65 = ((self.v321 >> 7));
-            self.n66 = if (self.i_reset) != 0 { 0x0 } else if (self.v66) != 0 { ((self.v330 & 0x7)) } else { self.q66 };
-            self.n67 = if (self.i_reset) != 0 { 0x0 } else if (self.v67) != 0 { (((self.v330 >> 3) & 0xf)) } else { self.q67 };
-        }
-        if dirty >> 43 & 1 != 0 { // top$core$protocol$assembler
-            let c277: u64 = (self.v226) & (self.v275) & 0x1;
-            if self.v277 != c277 { self.v277 = c277; dirty |= 0x1000000000000000; }
-            let c278: u64 = (self.v226) & (self.v276) & 0x1;
-            if self.v278 != c278 { self.v278 = c278; dirty |= 0x2000000000000000; }
-        }
-        if dirty >> 44 & 1 != 0 { // top$core$protocol$faults$rec_count
-            self.n68 = if (self.i_reset) != 0 { 0x0 } else { ((self.v322 & 0x7f)) };
-            self.n69 = ((self.v320 >> 7));
-        }
-        if dirty >> 45 & 1 != 0 { // top$core$protocol$sender
-            let c695: u64 = if (self.v228) != 0 { (self.v728) } else { (self.v730) };
-            let c697: u64 = if (self.v660) != 0 { (c695) } else { (0x1) };
-            let c709: u64 = if (self.v717) != 0 { (self.v708) } else { (c695) };
-            let c707: u64 = if (self.v716) != 0 { ((self.v1084 >> 7)) } else { (c709) };
-            let c705: u64 = if (self.v715) != 0 { (((self.v1084 >> 6) & 0x1)) } else { (c707) };
-            let c710: u64 = if (self.v660) != 0 { (c705) } else { (0x1) };
-            let c711: u64 = { let s = (self.v712 | (self.v691 << 1) | (self.v713 << 2) | (self.v693 << 3) | (self.v696 << 4) | (self.v699 << 5) | (self.v706 << 6) | (self.v714 << 7)); if s >> 0 & 1 != 0 { self.q125 } else if s >> 1 & 1 != 0 { self.v690 } else if s >> 2 & 1 != 0 { self.v679 } else if s >> 3 & 1 != 0 { self.v694 } else if s >> 4 & 1 != 0 { c697 } else if s >> 5 & 1 != 0 { self.v704 } else if s >> 6 & 1 != 0 { c710 } else if s >> 7 & 1 != 0 { self.v674 } else { (0x1) } };
-            let c689: u64 = if (self.v670) != 0 { (self.v419) } else { (c711) };
-            let c688: u64 = if (self.q94) != 0 { (c689) } else { (self.q117) };
-            let c684: u64 = ((c688) | (self.v683)) & 0x1;
-            if self.v684 != c684 { self.v684 = c684; dirty |= 0x4000000000000000000; }
-            let c727: u64 = if (self.v228) != 0 { (self.v724) } else { ((self.q57 & 0x1)) };
-            let c723: u64 = if (self.v229) != 0 { ((self.v722 << 1) | 0x1) } else { (c727) };
-            if self.v723 != c723 { self.v723 = c723; dirty |= 0x400000000000; }
-        }
-        if dirty >> 46 & 1 != 0 { // top$core$protocol$sender$tx_ptr
-            self.n56 = if (self.v89) != 0 { 0x0 } else if (self.v60) != 0 { ((self.v723 >> 1)) } else { self.q56 };
-            self.n57 = if (self.v88) != 0 { 0x1 } else if (self.v61) != 0 { ((self.v663 & 0x1) | ((self.v663 >> 3) << 1)) } else { self.q57 };
-        }
-        if dirty >> 47 & 1 != 0 { // top$core$protocol$stuffing
-            let c743: u64 = if (self.v497) != 0 { (0x1) } else { (self.v745) };
-            if self.v743 != c743 { self.v743 = c743; dirty |= 0x10000000000000000000; }
-            let c744: u64 = ((self.q55) | (self.v497)) & 0x1;
-            let c742: u64 = if (self.v247) != 0 { (0x0) } else { (c744) };
-            if self.v742 != c742 { self.v742 = c742; dirty |= 0x8000000000000000000; }
-        }
-        if dirty >> 48 & 1 != 0 { // top$interrupts$ier_reg
-            self.n21 = if (self.i_reset) != 0 { 0x0 } else if (self.v49) != 0 { ((self.i_wdata >> 4)) } else { self.q21 };
-            self.n22 = if (self.i_reset) != 0 { 0x0 } else if (self.v50) != 0 { (self.v965) } else { self.q22 };
-        }
-        if dirty >> 49 & 1 != 0 { // top$read
-            let c1051: u64 = if (self.q8) != 0 { (self.v1086) } else { (self.v1052) };
-            if self.v1051 != c1051 { self.v1051 = c1051; dirty |= 0x0; }
-            let c1073: u64 = if (self.v130) != 0 { (self.v129) } else { (self.v1074) };
-            let c1072: u64 = if (self.v910) != 0 { (self.v903) } else { (c1073) };
-            let c1059: u64 = if (self.v1043) != 0 { (self.q127 | (self.q22 << 1) | (self.q13 << 6) | 0x20) } else { (c1072) };
-            let c1058: u64 = if (self.v1044) != 0 { (0xff) } else { (c1059) };
-            let c1057: u64 = if (self.v1045) != 0 { (self.v106 | ((self.q20 & 0xf) << 1) | 0xe0) } else { (c1058) };
-            let c1056: u64 = if (self.v1035) != 0 { (0xff) } else { (c1057) };
-            let c1067: u64 = if (self.v1043) != 0 { (self.q127 | (self.q126 << 1) | (self.q130 << 2) | (self.q16 << 3) | (self.q129 << 4)) } else { (c1072) };
-            let c1066: u64 = if (self.v863) != 0 { (self.q22 | (self.q21 << 4)) } else { (c1067) };
-            let c1065: u64 = if (self.v1037) != 0 { (self.q27) } else { (c1066) };
-            let c1064: u64 = if (self.v1038) != 0 { (self.q24) } else { (c1065) };
-            let c1063: u64 = if (self.v1039) != 0 { (self.q68 | (self.q69 << 7)) } else { (c1064) };
-            let c1062: u64 = if (self.v1040) != 0 { (self.q66 | (self.q67 << 3) | (self.q65 << 7)) } else { (c1063) };
-            let c1061: u64 = if (self.v1041) != 0 { (self.q50) } else { (c1062) };
-            let c1060: u64 = if (self.v1042) != 0 { (self.q48) } else { (c1061) };
-            let c1070: u64 = if (self.q14) != 0 { (c1060) } else { (c1056) };
-            let c1050: u64 = if (self.i_re) != 0 { (c1070) } else { (c1051) };
-            if self.v1050 != c1050 { self.v1050 = c1050; dirty |= 0x80000000000000000000000000000; }
-        }
-        if dirty >> 50 & 1 != 0 { // top$configuration$btr0 + top$configuration$btr1
-            self.n103 = if (self.i_reset) != 0 { 0x0 } else if (self.v76) != 0 { (self.i_wdata) } else { self.q103 };
-            self.n102 = if (self.i_reset) != 0 { 0x0 } else if (self.v75) != 0 { (self.i_wdata) } else { self.q102 };
-        }
-        if dirty >> 51 & 1 != 0 { // top$configuration$ewlr_reg + top$configuration$ocr
-            self.n101 = if (self.i_reset) != 0 { 0x60 } else if (self.v78) != 0 { (self.i_wdata) } else { self.q101 };
-            self.n100 = if (self.i_reset) != 0 { 0x0 } else if (self.v77) != 0 { (self.i_wdata) } else { self.q100 };
-        }
-        if dirty >> 52 & 1 != 0 { // top$configuration$sjw_reg + top$configuration$tseg2_reg
-            self.n99 = if (self.i_reset) != 0 { 0x0 } else if (self.v76) != 0 { ((self.i_wdata >> 6)) } else { self.q99 };
-            self.n98 = if (self.i_reset) != 0 { 0x0 } else if (self.v75) != 0 { (((self.i_wdata >> 4) & 0x7)) } else { self.q98 };
-        }
-        if dirty >> 53 & 1 != 0 { // top$core$bit_timing$last_quantum + top$core$bit_timing$process_pending
-            self.n95 = if (self.v95) != 0 { 0x0 } else { (self.v185) };
-            self.n94 = if (self.i_reset) != 0 { 0x0 } else { (self.v148) };
-        }
-        if dirty >> 54 & 1 != 0 { // top$core$bit_timing$quantum + top$core$bit_timing$sampled
-            self.n93 = if (self.v96) != 0 { 0x0 } else if (self.v158) != 0 { (self.v139) } else { self.q93 };
-            self.n109 = (self.v177);
-        }
-        if dirty >> 55 & 1 != 0 { // top$core$bit_timing$sampling$metastable + top$core$bit_timing$sampling$previous
-            self.n110 = (self.v221);
-            self.n111 = (self.v219);
-        }
-        if dirty >> 56 & 1 != 0 { // top$core$bit_timing$sampling$quantum_samples + top$core$bit_timing$sampling$stable
-            self.n92 = if (self.i_reset) != 0 { 0x3 } else if (self.v145) != 0 { (self.q112 | ((self.q92 & 0x1) << 1)) } else { self.q92 };
-            self.n112 = (self.v220);
-        }
-        if dirty >> 57 & 1 != 0 { // top$core$bit_timing$segment_state + top$core$bit_timing$sjw_quanta
-            self.n91 = if (self.v95) != 0 { 0x0 } else if (self.v74) != 0 { (self.v184) } else { self.q91 };
-            self.n108 = if (self.i_reset) != 0 { 0x1 } else { (self.v135) };
-        }
-        if dirty >> 58 & 1 != 0 { // top$core$bit_timing$synced + top$core$bit_timing$transmit_deferred
-            self.n90 = if (self.i_reset) != 0 { 0x0 } else { (self.v179) };
-            self.n89 = if (self.i_reset) != 0 { 0x0 } else { (self.v153) };
-        }
-        if dirty >> 59 & 1 != 0 { // top$core$protocol$abort_pending + top$core$protocol$assembler$byte_index
-            self.n88 = if (self.v94) != 0 { 0x0 } else { (self.v269) };
-            self.n87 = if (self.i_reset) != 0 { 0x0 } else if (self.v73) != 0 { (((self.q74 >> 3) & 0x7)) } else { self.q87 };
-        }
-        if dirty >> 60 & 1 != 0 { // top$core$protocol$assembler$byte_pulse + top$core$protocol$assembler$byte_reg
-            self.n86 = if (self.i_reset) != 0 { 0x0 } else { (self.v277) };
-            self.n85 = if (self.i_reset) != 0 { 0x0 } else if (self.v72) != 0 { (self.q109 | ((self.q85 & 0x7f) << 1)) } else { self.q85 };
-        }
-        if dirty >> 61 & 1 != 0 { // top$core$protocol$assembler$dlc_reg + top$core$protocol$assembler$header_pulse
-            self.n84 = if (self.v91) != 0 { 0x0 } else if (self.v71) != 0 { (self.q109 | ((self.q84 & 0x7) << 1)) } else { self.q84 };
-            self.n83 = if (self.i_reset) != 0 { 0x0 } else { (self.v278) };
-        }
-        if dirty >> 62 & 1 != 0 { // top$core$protocol$assembler$id_reg + top$core$protocol$assembler$ide_reg
-            self.n82 = if (self.v91) != 0 { 0x0 } else if (self.v70) != 0 { (self.q109 | ((self.q82 & 0xfffffff) << 1)) } else { self.q82 };
-            self.n81 = if (self.i_reset) != 0 { 0x0 } else if (self.v69) != 0 { (self.q109) } else { self.q81 };
-        }
-        if dirty >> 63 & 1 != 0 { // top$core$protocol$assembler$last_data_byte_reg + top$core$protocol$assembler$rtr_reg
-            self.n80 = if (self.i_reset) != 0 { 0x0 } else { (self.v281) };
-            self.n79 = if (self.i_reset) != 0 { 0x0 } else if (self.v68) != 0 { (self.q109) } else { self.q79 };
-        }
-        if dirty >> 64 & 1 != 0 { // top$core$protocol$capture$alc_reg + top$core$protocol$capture$ecc_reg
-            self.n78 = if (self.i_reset) != 0 { 0x0 } else if (self.v482) != 0 { ((self.q74 & 0x1f)) } else { self.q78 };
-            self.n77 = if (self.i_reset) != 0 { 0x0 } else if (self.v250) != 0 { (self.v300 | (self.v655 << 5) | (self.v657 << 6)) } else { self.q77 };
-        }
-        if dirty >> 65 & 1 != 0 { // top$core$protocol$capture$error_pulse + top$core$protocol$capture$lost_pulse
-            self.n76 = if (self.v93) != 0 { 0x0 } else { (self.v250) };
-            self.n75 = if (self.v93) != 0 { 0x0 } else { (self.v482) };
-        }
-        if dirty >> 66 & 1 != 0 { // top$core$protocol$count + top$core$protocol$crc$register
-            self.n74 = if (self.v92) != 0 { 0x0 } else { (self.v265) };
-            self.n73 = if (self.v497) != 0 { 0x0 } else if (self.v485) != 0 { ((self.v301 & 0x1) | ((self.q73 & 0x3) << 1) | (((self.v301 >> 1) & 0x3) << 3) | (((self.q73 >> 4) & 0x3) << 5) | (((self.v301 >> 3) & 0x3) << 7) | (((self.q73 >> 8) & 0x1) << 9) | (((self.v301 >> 5) & 0x1) << 10) | (((self.q73 >> 10) & 0x7) << 11) | ((self.v301 >> 6) << 14)) } else { self.q73 };
-        }
-        if dirty >> 67 & 1 != 0 { // top$core$protocol$crc_error + top$core$protocol$done_pulse
-            self.n72 = if (self.v91) != 0 { 0x0 } else { (self.v270) };
-            self.n71 = if (self.i_reset) != 0 { 0x0 } else { (self.v271) };
-        }
-        if dirty >> 68 & 1 != 0 { // top$core$protocol$done_success + top$core$protocol$faults$bus_off_state
-            self.n70 = if (self.v90) != 0 { 0x0 } else if (self.v479) != 0 { (self.v478) } else { self.q70 };
-            self.n113 = (self.v319);
-        }
-        if dirty >> 69 & 1 != 0 { // top$core$protocol$faults$passive_state + top$core$protocol$field
-            self.n114 = (self.v309);
-            self.n115 = (self.v261);
-        }
-        if dirty >> 70 & 1 != 0 { // top$core$protocol$in_frame + top$core$protocol$interframe$ack_penalty
-            self.n116 = (self.v260);
-            self.n64 = if (self.i_reset) != 0 { 0x0 } else { (self.v656) };
-        }
-        if dirty >> 71 & 1 != 0 { // top$core$protocol$interframe$after_error_flag + top$core$protocol$interframe$dominant_after_flag
-            self.n63 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v546) } else { self.q63 };
-            self.n62 = if (self.i_reset) != 0 { 0x0 } else if (self.v65) != 0 { (self.v628) } else { self.q62 };
-        }
-        if dirty >> 72 & 1 != 0 { // top$core$protocol$interframe$first_after_flag + top$core$protocol$interframe$flag_level
-            self.n61 = if (self.i_reset) != 0 { 0x0 } else if (self.v64) != 0 { (self.v629) } else { self.q61 };
-            self.n60 = if (self.i_reset) != 0 { 0x0 } else if (self.v63) != 0 { (self.q109) } else { self.q60 };
-        }
-        if dirty >> 73 & 1 != 0 { // top$core$protocol$interframe$flag_passive_reg + top$core$protocol$sender$tx_left
-            self.n59 = if (self.i_reset) != 0 { 0x0 } else if (self.v62) != 0 { (self.v547) } else { self.q59 };
-            self.n58 = if (self.v88) != 0 { 0x0 } else if (self.v228) != 0 { (self.v725) } else { self.q58 };
-        }
-        if dirty >> 74 & 1 != 0 { // top$core$protocol$sender$tx_next + top$core$protocol$sender$tx_reg
-            self.n117 = (self.v684);
-            self.n118 = (self.v685);
-        }
-        if dirty >> 75 & 1 != 0 { // top$core$protocol$sender$tx_shift + top$core$protocol$stuffing$active
-            self.n104 = if (self.i_reset) != 0 { 0x0 } else if (self.v228) != 0 { (self.v726) } else { self.q104 };
-            self.n55 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v742) } else { self.q55 };
-        }
-        if dirty >> 76 & 1 != 0 { // top$core$protocol$stuffing$run_length + top$core$protocol$stuffing$run_level_reg
-            self.n54 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v743) } else { self.q54 };
-            self.n53 = if (self.v59) != 0 { (self.q109) } else { self.q53 };
-        }
-        if dirty >> 77 & 1 != 0 { // top$core$protocol$transmitter + top$core$protocol$valid_pulse
-            self.n52 = if (self.v87) != 0 { 0x0 } else if (self.q94) != 0 { (self.v660) } else { self.q52 };
-            self.n51 = if (self.v86) != 0 { 0x0 } else { (self.v456) };
-        }
-        if dirty >> 78 & 1 != 0 { // top$fifo + top$fifo$fetching
-            let c800: u64 = if (self.v17) != 0 { (self.v1053) } else { (self.v777) };
-            if self.v800 != c800 { self.v800 = c800; dirty |= 0x200000000000000000000; }
-            self.n49 = if (self.i_reset) != 0 { 0x0 } else { (self.v804) };
-        }
-        if dirty >> 79 & 1 != 0 { // top$fifo$head + top$fifo$head_info_reg
-            self.n48 = if (self.i_reset) != 0 { 0x0 } else { (self.v796) };
-            self.n47 = if (self.i_reset) != 0 { 0x0 } else { (self.v805) };
-        }
-        if dirty >> 80 & 1 != 0 { // top$fifo$header_step
-            let c21: u64 = u64::from((self.q83 | (self.q41 << 1)) != 0);
-            self.n46 = if (self.i_reset) != 0 { 0x0 } else if (c21) != 0 { (self.v828) } else { self.q46 };
-        }
-        if dirty >> 81 & 1 != 0 { // top$fifo$overrun_state + top$fifo$ram
-            self.n44 = if (self.v85) != 0 { 0x0 } else { (self.v801) };
-            self.m0_re = (0x1) != 0;
-            self.m0_ra = (self.v800) as usize;
-            self.m0_wa = (self.v799) as usize;
-            self.m0_wd = (self.v798);
-            self.m0_we = (self.v797 | (self.v797 << 1) | (self.v797 << 2) | (self.v797 << 3) | (self.v797 << 4) | (self.v797 << 5) | (self.v797 << 6) | (self.v797 << 7));
-        }
-        if dirty >> 82 & 1 != 0 { // top$fifo$tail
-            self.n43 = if (self.i_reset) != 0 { 0x0 } else if (self.v20) != 0 { (self.v795) } else { self.q43 };
-        }
-        if dirty >> 83 & 1 != 0 { // top$fifo$writing_header
-            let c84: u64 = u64::from((self.i_reset | (self.q127 << 1)) != 0);
-            if self.v84 != c84 { self.v84 = c84; dirty |= 0x3000000000000000000000; }
-            self.n41 = if (c84) != 0 { 0x0 } else { (self.v827) };
-        }
-        if dirty >> 84 & 1 != 0 { // top$fifo$count + top$fifo$incomplete
-            self.n50 = if (self.v84) != 0 { 0x0 } else { (self.v806) };
-            self.n45 = if (self.v84) != 0 { 0x0 } else { (self.v813) };
-        }
-        if dirty >> 85 & 1 != 0 { // top$fifo$used + top$filter$acr0
-            self.n42 = if (self.v84) != 0 { 0x0 } else { (self.v807) };
-            self.n40 = if (self.i_reset) != 0 { 0x0 } else if (self.v58) != 0 { (self.i_wdata) } else { self.q40 };
-        }
-        if dirty >> 86 & 1 != 0 { // top$filter$acr1 + top$filter$acr2
-            self.n39 = if (self.i_reset) != 0 { 0x0 } else if (self.v57) != 0 { (self.i_wdata) } else { self.q39 };
-            self.n38 = if (self.i_reset) != 0 { 0x0 } else if (self.v56) != 0 { (self.i_wdata) } else { self.q38 };
-        }
-        if dirty >> 87 & 1 != 0 { // top$filter$acr3 + top$filter$amr0
-            self.n37 = if (self.i_reset) != 0 { 0x0 } else if (self.v55) != 0 { (self.i_wdata) } else { self.q37 };
-            self.n36 = if (self.i_reset) != 0 { 0x0 } else if (self.v54) != 0 { (self.i_wdata) } else { self.q36 };
-        }
-        if dirty >> 88 & 1 != 0 { // top$filter$amr1 + top$filter$amr2
-            self.n35 = if (self.i_reset) != 0 { 0x0 } else if (self.v53) != 0 { (self.i_wdata) } else { self.q35 };
-            self.n34 = if (self.i_reset) != 0 { 0x0 } else if (self.v52) != 0 { (self.i_wdata) } else { self.q34 };
-        }
-        if dirty >> 89 & 1 != 0 { // top$filter$amr3 + top$filter$basic_id_match
-            self.n33 = if (self.i_reset) != 0 { 0x0 } else if (self.v51) != 0 { (self.i_wdata) } else { self.q33 };
-            self.n32 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v872) } else { self.q32 };
-        }
-        if dirty >> 90 & 1 != 0 { // top$filter$dual1_data_match + top$filter$dual1_id_match
-            self.n119 = (self.v887);
-            self.n31 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v853) } else { self.q31 };
-        }
-        if dirty >> 91 & 1 != 0 { // top$filter$dual2_id_match + top$filter$extended_frame
-            self.n30 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v854) } else { self.q30 };
-            self.n29 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.q81) } else { self.q29 };
-        }
-        if dirty >> 92 & 1 != 0 { // top$filter$single_data1_match + top$filter$single_data2_match
-            self.n120 = (self.v889);
-            self.n121 = (self.v888);
-        }
-        if dirty >> 93 & 1 != 0 { // top$filter$single_id_match + top$interrupts$alc_armed
-            self.n28 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v856) } else { self.q28 };
-            self.n122 = (self.v950);
-        }
-        if dirty >> 94 & 1 != 0 { // top$interrupts$alc_reg + top$interrupts$basic_ri_reg
-            self.n27 = if (self.i_reset) != 0 { 0x0 } else if (self.v928) != 0 { (self.q78) } else { self.q27 };
-            self.n26 = if (self.i_reset) != 0 { 0x0 } else { (self.v953) };
-        }
-        if dirty >> 95 & 1 != 0 { // top$interrupts$bus_off_reg + top$interrupts$ecc_armed
-            self.n25 = if (self.i_reset) != 0 { 0x0 } else { (self.q113) };
-            self.n123 = (self.v949);
-        }
-        if dirty >> 96 & 1 != 0 { // top$interrupts$ecc_reg + top$interrupts$es_reg
-            self.n24 = if (self.i_reset) != 0 { 0x0 } else if (self.v929) != 0 { (self.q77) } else { self.q24 };
-            self.n23 = if (self.i_reset) != 0 { 0x0 } else { (self.v957) };
-        }
-        if dirty >> 97 & 1 != 0 { // top$interrupts$ir_reg + top$interrupts$overrun_before
-            self.n20 = if (self.i_reset) != 0 { 0x0 } else { (self.v114) };
-            self.n19 = if (self.i_reset) != 0 { 0x0 } else { (self.q44) };
-        }
-        if dirty >> 98 & 1 != 0 { // top$interrupts$passive_before
-            let c83: u64 = u64::from((self.i_reset | (self.q113 << 1)) != 0);
-            self.n18 = if (c83) != 0 { 0x0 } else if (self.q127) == 0 { (self.q114) } else { self.q18 };
-        }
-        if dirty >> 99 & 1 != 0 { // top$interrupts$rbs_before
-            self.n17 = if (self.i_reset) != 0 { 0x0 } else { (self.v943) };
-        }
-        if dirty >> 100 & 1 != 0 { // top$modes
-            let c997: u64 = if (self.v987) != 0 { (0x0) } else { (self.v1030) };
-            let c998: u64 = if (self.q129) != 0 { (c997) } else { (self.v1030) };
-            if self.v998 != c998 { self.v998 = c998; dirty |= 0x0; }
-        }
-        if dirty >> 101 & 1 != 0 { // top$modes$afm + top$modes$cr6_reg
-            self.n16 = if (self.i_reset) != 0 { 0x0 } else if (self.v48) != 0 { (((self.i_wdata >> 3) & 0x1)) } else { self.q16 };
-            self.n13 = if (self.i_reset) != 0 { 0x0 } else if (self.v46) != 0 { (((self.i_wdata >> 6) & 0x1)) } else { self.q13 };
-        }
-        if dirty >> 102 & 1 != 0 { // top$modes$divider$count
-            self.n12 = if (self.v82) != 0 { 0x0 } else { (self.v1026) };
-        }
-        if dirty >> 103 & 1 != 0 { // top$modes$divider$level
-            self.n11 = if (self.i_reset) != 0 { 0x0 } else if (self.v1029) != 0 { (self.v1027) } else { self.q11 };
-        }
-        if dirty >> 104 & 1 != 0 { // top$modes$enable_reg
-            self.n124 = (self.v977);
-        }
-        if dirty >> 105 & 1 != 0 { // top$modes$listen_only_reg
-            self.n125 = (self.v978);
-        }
-        if dirty >> 106 & 1 != 0 { // top$modes$lom
-            self.n126 = (self.v995);
-        }
-        if dirty >> 107 & 1 != 0 { // top$modes$rm
-            self.n127 = (self.v996);
-        }
-        if dirty >> 108 & 1 != 0 { // top$modes$self_test_reg
-            self.n128 = (self.v979);
-        }
-        if dirty >> 109 & 1 != 0 { // top$modes$sleep_bits
-            self.n10 = if (self.v81) != 0 { 0x0 } else if (self.v976) != 0 { (self.v966) } else { self.q10 };
-        }
-        if dirty >> 110 & 1 != 0 { // top$modes$sm
-            self.n129 = (self.v993);
-        }
-        if dirty >> 111 & 1 != 0 { // top$modes$stm
-            self.n130 = (self.v994);
-        }
-        if dirty >> 112 & 1 != 0 { // top$read$rdata_from_ram
-            self.n9 = if (self.i_reset) != 0 { 0x0 } else { (self.v17) };
-        }
-        if dirty >> 113 & 1 != 0 { // top$read$rdata_from_tx
-            self.n8 = if (self.i_reset) != 0 { 0x0 } else { (self.v1049) };
-        }
-        if dirty >> 114 & 1 != 0 { // top$read$rdata_ram_or
-            self.n106 = if (self.i_reset) != 0 { 0x0 } else if (self.i_re) != 0 { (self.v1071) } else { self.q106 };
-        }
-        if dirty >> 115 & 1 != 0 { // top$read$rdata_reg
-            self.n7 = if (self.i_reset) != 0 { 0x0 } else { (self.v1050) };
-        }
-        if dirty >> 116 & 1 != 0 { // top$self_reception
-            self.n6 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v754) } else { self.q6 };
-        }
-        if dirty >> 117 & 1 != 0 { // top$tbs
-            self.n131 = (self.v1094);
-        }
-        if dirty >> 118 & 1 != 0 { // top$tcs
-            self.n132 = (self.v1095);
-        }
-        if dirty >> 119 & 1 != 0 { // top$tx_buffer$basic_info
-            self.n107 = if (self.i_reset) != 0 { 0x0 } else if (self.v45) != 0 { ((self.i_wdata & 0x1f)) } else { self.q107 };
-        }
-        if dirty >> 120 & 1 != 0 { // top$tx_buffer$core_ram
-            self.m1_re = (0x1) != 0;
-            self.m1_ra = ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) as usize;
-            self.m1_wa = (self.v1103) as usize;
-            self.m1_wd = (self.i_wdata);
-            self.m1_we = (self.v1079 | (self.v1079 << 1) | (self.v1079 << 2) | (self.v1079 << 3) | (self.v1079 << 4) | (self.v1079 << 5) | (self.v1079 << 6) | (self.v1079 << 7));
-        }
-        if dirty >> 121 & 1 != 0 { // top$tx_buffer$core_written
-            self.n5 = if (self.i_reset) != 0 { 0x0 } else { (self.v1088) };
-        }
-        if dirty >> 122 & 1 != 0 { // top$tx_buffer$frame_info
-            self.n4 = if (self.i_reset) != 0 { 0x0 } else if (self.v44) != 0 { (self.i_wdata) } else { self.q4 };
-        }
-        if dirty >> 123 & 1 != 0 { // top$tx_buffer$host_ram
-            self.m2_re = (0x1) != 0;
-            self.m2_ra = (self.v1103) as usize;
-            self.m2_wa = (self.v1103) as usize;
-            self.m2_wd = (self.i_wdata);
-            self.m2_we = (self.v1079 | (self.v1079 << 1) | (self.v1079 << 2) | (self.v1079 << 3) | (self.v1079 << 4) | (self.v1079 << 5) | (self.v1079 << 6) | (self.v1079 << 7));
-        }
-        if dirty >> 124 & 1 != 0 { // top$tx_buffer$host_written
-            self.n3 = if (self.i_reset) != 0 { 0x0 } else { (self.v1087) };
-        }
-        if dirty >> 125 & 1 != 0 { // top$tx_buffer$written
-            self.n2 = if (self.i_reset) != 0 { 0x0 } else if (self.v1079) != 0 { (self.v111) } else { self.q2 };
-        }
-        if dirty >> 126 & 1 != 0 { // top$tx_pending
-            self.n1 = if (self.v80) != 0 { 0x0 } else { (self.v1099) };
-        }
-        if dirty >> 127 & 1 != 0 { // top$tx_single_shot
-            self.n0 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v749) } else { self.q0 };
-        }
+        if dirty >> 0 & 1 != 0 { self.group_0(&mut dirty); } // top$core$protocol$interframe
+        if dirty >> 1 & 1 != 0 { self.group_1(&mut dirty); } // top$core$protocol$frame
+        if dirty >> 2 & 1 != 0 { self.group_2(&mut dirty); } // top$filter
+        if dirty >> 3 & 1 != 0 { self.group_3(&mut dirty); } // top$core$bit_timing
+        if dirty >> 4 & 1 != 0 { self.group_4(&mut dirty); } // top$read
+        if dirty >> 5 & 1 != 0 { self.group_5(&mut dirty); } // can_controller
+        if dirty >> 6 & 1 != 0 { self.group_6(&mut dirty); } // top$fifo
+        if dirty >> 7 & 1 != 0 { self.group_7(&mut dirty); } // top$core$protocol$faults
+        if dirty >> 8 & 1 != 0 { self.group_8(&mut dirty); } // top$interrupts
+        if dirty >> 9 & 1 != 0 { self.group_9(&mut dirty); } // top$modes
+        if dirty >> 10 & 1 != 0 { self.group_10(&mut dirty); } // top$core$protocol$capture
+        if dirty >> 11 & 1 != 0 { self.group_11(&mut dirty); } // top$decode
+        if dirty >> 12 & 1 != 0 { self.group_12(&mut dirty); } // top$core$protocol
+        if dirty >> 13 & 1 != 0 { self.group_13(&mut dirty); } // top$core$protocol$sender
+        if dirty >> 14 & 1 != 0 { self.group_14(&mut dirty); } // can_controller
+        if dirty >> 15 & 1 != 0 { self.group_15(&mut dirty); } // top$core$bit_timing$sampling
+        if dirty >> 16 & 1 != 0 { self.group_16(&mut dirty); } // top$core$protocol$crc
+        if dirty >> 17 & 1 != 0 { self.group_17(&mut dirty); } // top$read
+        if dirty >> 18 & 1 != 0 { self.group_18(&mut dirty); } // top$tx_buffer
+        if dirty >> 19 & 1 != 0 { self.group_19(&mut dirty); } // top$core$bit_timing
+        if dirty >> 20 & 1 != 0 { self.group_20(&mut dirty); } // top$core$protocol$sender
+        if dirty >> 21 & 1 != 0 { self.group_21(&mut dirty); } // top$configuration
+        if dirty >> 22 & 1 != 0 { self.group_22(&mut dirty); } // top$core$protocol$assembler
+        if dirty >> 23 & 1 != 0 { self.group_23(&mut dirty); } // top$core$protocol$frame
+        if dirty >> 24 & 1 != 0 { self.group_24(&mut dirty); } // top$core$protocol$stuffing
+        if dirty >> 25 & 1 != 0 { self.group_25(&mut dirty); } // top$core$protocol$interframe
+        if dirty >> 26 & 1 != 0 { self.group_26(&mut dirty); } // top$core$protocol$sender
+        if dirty >> 27 & 1 != 0 { self.group_27(&mut dirty); } // top$modes
+        if dirty >> 28 & 1 != 0 { self.group_28(&mut dirty); } // top$interrupts
+        if dirty >> 29 & 1 != 0 { self.group_29(&mut dirty); } // top$fifo
+        if dirty >> 30 & 1 != 0 { self.group_30(&mut dirty); } // top$modes$divider
+        if dirty >> 31 & 1 != 0 { self.group_31(&mut dirty); } // can_controller
+        if dirty >> 32 & 1 != 0 { self.group_32(&mut dirty); } // top$core$protocol$faults
+        if dirty >> 33 & 1 != 0 { self.group_33(&mut dirty); } // top$modes$cdr_reg
+        if dirty >> 34 & 1 != 0 { self.group_34(&mut dirty); } // top$core$bit_timing$clocks
+        if dirty >> 35 & 1 != 0 { self.group_35(&mut dirty); } // top$core$protocol
+        if dirty >> 36 & 1 != 0 { self.group_36(&mut dirty); } // top$core$protocol$frame
+        if dirty >> 37 & 1 != 0 { self.group_37(&mut dirty); } // top$core$protocol$interframe
+        if dirty >> 38 & 1 != 0 { self.group_38(&mut dirty); } // top$core$protocol$sender
+        if dirty >> 39 & 1 != 0 { self.group_39(&mut dirty); } // top$core$protocol
+        if dirty >> 40 & 1 != 0 { self.group_40(&mut dirty); } // top$core$protocol$faults
+        if dirty >> 41 & 1 != 0 { self.group_41(&mut dirty); } // can_controller
+        if dirty >> 42 & 1 != 0 { self.group_42(&mut dirty); } // top$core$protocol$faults$tec_count
+        if dirty >> 43 & 1 != 0 { self.group_43(&mut dirty); } // top$core$protocol$assembler
+        if dirty >> 44 & 1 != 0 { self.group_44(&mut dirty); } // top$core$protocol$faults$rec_count
+        if dirty >> 45 & 1 != 0 { self.group_45(&mut dirty); } // top$core$protocol$sender
+        if dirty >> 46 & 1 != 0 { self.group_46(&mut dirty); } // top$core$protocol$sender$tx_ptr
+        if dirty >> 47 & 1 != 0 { self.group_47(&mut dirty); } // top$core$protocol$stuffing
+        if dirty >> 48 & 1 != 0 { self.group_48(&mut dirty); } // top$interrupts$ier_reg
+        if dirty >> 49 & 1 != 0 { self.group_49(&mut dirty); } // top$read
+        if dirty >> 50 & 1 != 0 { self.group_50(&mut dirty); } // top$configuration$btr0 + top$configuration$btr1
+        if dirty >> 51 & 1 != 0 { self.group_51(&mut dirty); } // top$configuration$ewlr_reg + top$configuration$ocr
+        if dirty >> 52 & 1 != 0 { self.group_52(&mut dirty); } // top$configuration$sjw_reg + top$configuration$tseg2_reg
+        if dirty >> 53 & 1 != 0 { self.group_53(&mut dirty); } // top$core$bit_timing$last_quantum + top$core$bit_timing$process_pending
+        if dirty >> 54 & 1 != 0 { self.group_54(&mut dirty); } // top$core$bit_timing$quantum + top$core$bit_timing$sampled
+        if dirty >> 55 & 1 != 0 { self.group_55(&mut dirty); } // top$core$bit_timing$sampling$metastable + top$core$bit_timing$sampling$previous
+        if dirty >> 56 & 1 != 0 { self.group_56(&mut dirty); } // top$core$bit_timing$sampling$quantum_samples + top$core$bit_timing$sampling$stable
+        if dirty >> 57 & 1 != 0 { self.group_57(&mut dirty); } // top$core$bit_timing$segment_state + top$core$bit_timing$sjw_quanta
+        if dirty >> 58 & 1 != 0 { self.group_58(&mut dirty); } // top$core$bit_timing$synced + top$core$bit_timing$transmit_deferred
+        if dirty >> 59 & 1 != 0 { self.group_59(&mut dirty); } // top$core$protocol$abort_pending + top$core$protocol$assembler$byte_index
+        if dirty >> 60 & 1 != 0 { self.group_60(&mut dirty); } // top$core$protocol$assembler$byte_pulse + top$core$protocol$assembler$byte_reg
+        if dirty >> 61 & 1 != 0 { self.group_61(&mut dirty); } // top$core$protocol$assembler$dlc_reg + top$core$protocol$assembler$header_pulse
+        if dirty >> 62 & 1 != 0 { self.group_62(&mut dirty); } // top$core$protocol$assembler$id_reg + top$core$protocol$assembler$ide_reg
+        if dirty >> 63 & 1 != 0 { self.group_63(&mut dirty); } // top$core$protocol$assembler$last_data_byte_reg + top$core$protocol$assembler$rtr_reg
+        if dirty >> 64 & 1 != 0 { self.group_64(&mut dirty); } // top$core$protocol$capture$alc_reg + top$core$protocol$capture$ecc_reg
+        if dirty >> 65 & 1 != 0 { self.group_65(&mut dirty); } // top$core$protocol$capture$error_pulse + top$core$protocol$capture$lost_pulse
+        if dirty >> 66 & 1 != 0 { self.group_66(&mut dirty); } // top$core$protocol$count + top$core$protocol$crc$register
+        if dirty >> 67 & 1 != 0 { self.group_67(&mut dirty); } // top$core$protocol$crc_error + top$core$protocol$done_pulse
+        if dirty >> 68 & 1 != 0 { self.group_68(&mut dirty); } // top$core$protocol$done_success + top$core$protocol$faults$bus_off_state
+        if dirty >> 69 & 1 != 0 { self.group_69(&mut dirty); } // top$core$protocol$faults$passive_state + top$core$protocol$field
+        if dirty >> 70 & 1 != 0 { self.group_70(&mut dirty); } // top$core$protocol$in_frame + top$core$protocol$interframe$ack_penalty
+        if dirty >> 71 & 1 != 0 { self.group_71(&mut dirty); } // top$core$protocol$interframe$after_error_flag + top$core$protocol$interframe$dominant_after_flag
+        if dirty >> 72 & 1 != 0 { self.group_72(&mut dirty); } // top$core$protocol$interframe$first_after_flag + top$core$protocol$interframe$flag_level
+        if dirty >> 73 & 1 != 0 { self.group_73(&mut dirty); } // top$core$protocol$interframe$flag_passive_reg + top$core$protocol$sender$tx_left
+        if dirty >> 74 & 1 != 0 { self.group_74(&mut dirty); } // top$core$protocol$sender$tx_next + top$core$protocol$sender$tx_reg
+        if dirty >> 75 & 1 != 0 { self.group_75(&mut dirty); } // top$core$protocol$sender$tx_shift + top$core$protocol$stuffing$active
+        if dirty >> 76 & 1 != 0 { self.group_76(&mut dirty); } // top$core$protocol$stuffing$run_length + top$core$protocol$stuffing$run_level_reg
+        if dirty >> 77 & 1 != 0 { self.group_77(&mut dirty); } // top$core$protocol$transmitter + top$core$protocol$valid_pulse
+        if dirty >> 78 & 1 != 0 { self.group_78(&mut dirty); } // top$fifo + top$fifo$fetching
+        if dirty >> 79 & 1 != 0 { self.group_79(&mut dirty); } // top$fifo$head + top$fifo$head_info_reg
+        if dirty >> 80 & 1 != 0 { self.group_80(&mut dirty); } // top$fifo$header_step
+        if dirty >> 81 & 1 != 0 { self.group_81(&mut dirty); } // top$fifo$overrun_state + top$fifo$ram
+        if dirty >> 82 & 1 != 0 { self.group_82(&mut dirty); } // top$fifo$tail
+        if dirty >> 83 & 1 != 0 { self.group_83(&mut dirty); } // top$fifo$writing_header
+        if dirty >> 84 & 1 != 0 { self.group_84(&mut dirty); } // top$fifo$count + top$fifo$incomplete
+        if dirty >> 85 & 1 != 0 { self.group_85(&mut dirty); } // top$fifo$used + top$filter$acr0
+        if dirty >> 86 & 1 != 0 { self.group_86(&mut dirty); } // top$filter$acr1 + top$filter$acr2
+        if dirty >> 87 & 1 != 0 { self.group_87(&mut dirty); } // top$filter$acr3 + top$filter$amr0
+        if dirty >> 88 & 1 != 0 { self.group_88(&mut dirty); } // top$filter$amr1 + top$filter$amr2
+        if dirty >> 89 & 1 != 0 { self.group_89(&mut dirty); } // top$filter$amr3 + top$filter$basic_id_match
+        if dirty >> 90 & 1 != 0 { self.group_90(&mut dirty); } // top$filter$dual1_data_match + top$filter$dual1_id_match
+        if dirty >> 91 & 1 != 0 { self.group_91(&mut dirty); } // top$filter$dual2_id_match + top$filter$extended_frame
+        if dirty >> 92 & 1 != 0 { self.group_92(&mut dirty); } // top$filter$single_data1_match + top$filter$single_data2_match
+        if dirty >> 93 & 1 != 0 { self.group_93(&mut dirty); } // top$filter$single_id_match + top$interrupts$alc_armed
+        if dirty >> 94 & 1 != 0 { self.group_94(&mut dirty); } // top$interrupts$alc_reg + top$interrupts$basic_ri_reg
+        if dirty >> 95 & 1 != 0 { self.group_95(&mut dirty); } // top$interrupts$bus_off_reg + top$interrupts$ecc_armed
+        if dirty >> 96 & 1 != 0 { self.group_96(&mut dirty); } // top$interrupts$ecc_reg + top$interrupts$es_reg
+        if dirty >> 97 & 1 != 0 { self.group_97(&mut dirty); } // top$interrupts$ir_reg + top$interrupts$overrun_before
+        if dirty >> 98 & 1 != 0 { self.group_98(&mut dirty); } // top$interrupts$passive_before
+        if dirty >> 99 & 1 != 0 { self.group_99(&mut dirty); } // top$interrupts$rbs_before
+        if dirty >> 100 & 1 != 0 { self.group_100(&mut dirty); } // top$modes
+        if dirty >> 101 & 1 != 0 { self.group_101(&mut dirty); } // top$modes$afm + top$modes$cr6_reg
+        if dirty >> 102 & 1 != 0 { self.group_102(&mut dirty); } // top$modes$divider$count
+        if dirty >> 103 & 1 != 0 { self.group_103(&mut dirty); } // top$modes$divider$level
+        if dirty >> 104 & 1 != 0 { self.group_104(&mut dirty); } // top$modes$enable_reg
+        if dirty >> 105 & 1 != 0 { self.group_105(&mut dirty); } // top$modes$listen_only_reg
+        if dirty >> 106 & 1 != 0 { self.group_106(&mut dirty); } // top$modes$lom
+        if dirty >> 107 & 1 != 0 { self.group_107(&mut dirty); } // top$modes$rm
+        if dirty >> 108 & 1 != 0 { self.group_108(&mut dirty); } // top$modes$self_test_reg
+        if dirty >> 109 & 1 != 0 { self.group_109(&mut dirty); } // top$modes$sleep_bits
+        if dirty >> 110 & 1 != 0 { self.group_110(&mut dirty); } // top$modes$sm
+        if dirty >> 111 & 1 != 0 { self.group_111(&mut dirty); } // top$modes$stm
+        if dirty >> 112 & 1 != 0 { self.group_112(&mut dirty); } // top$read$rdata_from_ram
+        if dirty >> 113 & 1 != 0 { self.group_113(&mut dirty); } // top$read$rdata_from_tx
+        if dirty >> 114 & 1 != 0 { self.group_114(&mut dirty); } // top$read$rdata_ram_or
+        if dirty >> 115 & 1 != 0 { self.group_115(&mut dirty); } // top$read$rdata_reg
+        if dirty >> 116 & 1 != 0 { self.group_116(&mut dirty); } // top$self_reception
+        if dirty >> 117 & 1 != 0 { self.group_117(&mut dirty); } // top$tbs
+        if dirty >> 118 & 1 != 0 { self.group_118(&mut dirty); } // top$tcs
+        if dirty >> 119 & 1 != 0 { self.group_119(&mut dirty); } // top$tx_buffer$basic_info
+        if dirty >> 120 & 1 != 0 { self.group_120(&mut dirty); } // top$tx_buffer$core_ram
+        if dirty >> 121 & 1 != 0 { self.group_121(&mut dirty); } // top$tx_buffer$core_written
+        if dirty >> 122 & 1 != 0 { self.group_122(&mut dirty); } // top$tx_buffer$frame_info
+        if dirty >> 123 & 1 != 0 { self.group_123(&mut dirty); } // top$tx_buffer$host_ram
+        if dirty >> 124 & 1 != 0 { self.group_124(&mut dirty); } // top$tx_buffer$host_written
+        if dirty >> 125 & 1 != 0 { self.group_125(&mut dirty); } // top$tx_buffer$written
+        if dirty >> 126 & 1 != 0 { self.group_126(&mut dirty); } // top$tx_pending
+        if dirty >> 127 & 1 != 0 { self.group_127(&mut dirty); } // top$tx_single_shot
         self.dirty = 0;
         self.ran |= dirty;
         self.out = 0 | (self.v1051) << 0 | (self.q118) << 8 | (self.v983) << 9 | (self.v998) << 10 | (self.v148) << 11 | (self.v178) << 12 | (self.q115) << 14 | (self.q66 | (self.q67 << 3) | (self.q65 << 7)) << 19 | (self.q68 | (self.q69 << 7)) << 27 | (self.v223) << 35;
@@ -3894,5 +2036,2375 @@ impl Model {
             if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x80000000000000000000000000000001; } // $auto$ff.cc:266:slice$9474
         }
         self.dirty |= dirty;
+    }
+
+    /// The cells of top$core$protocol$interframe.
+    fn group_0(&mut self, dirty: &mut u128) {
+        let c489: u64 = (self.q62).wrapping_add((0x1)) & 0x7;
+        let c499: u64 = (self.q52) & (self.q114) & 0x1;
+        if self.v499 != c499 { self.v499 = c499; *dirty |= 0x2000000000; }
+        let c504: u64 = (self.q61) & (self.q63) & 0x1;
+        let c506: u64 = (self.q109) & (self.q124) & 0x1;
+        if self.v506 != c506 { self.v506 = c506; *dirty |= 0x2000000000; }
+        let c511: u64 = u64::from((self.q115) == (0x1));
+        if self.v511 != c511 { self.v511 = c511; *dirty |= 0x2008000000; }
+        let c512: u64 = u64::from((self.q115) == (0xb));
+        if self.v512 != c512 { self.v512 = c512; *dirty |= 0x2000000000; }
+        let c120: u64 = u64::from((c511 | (c512 << 1)) != 0);
+        if self.v120 != c120 { self.v120 = c120; *dirty |= 0x400; }
+        let c513: u64 = u64::from((self.q115) == (0xa));
+        if self.v513 != c513 { self.v513 = c513; *dirty |= 0x2000000400; }
+        let c514: u64 = u64::from((self.q74) == (0x2));
+        if self.v514 != c514 { self.v514 = c514; *dirty |= 0x2000000000; }
+        let c496: u64 = (c513) & (c514) & 0x1;
+        if self.v496 != c496 { self.v496 = c496; *dirty |= 0x1000; }
+        let c516: u64 = u64::from((self.q74) == (0xa));
+        if self.v516 != c516 { self.v516 = c516; *dirty |= 0x2004000000; }
+        let c517: u64 = !(self.q118) & 0x1;
+        if self.v517 != c517 { self.v517 = c517; *dirty |= 0x2000000002; }
+        let c518: u64 = u64::from((self.q74) == (0x7));
+        if self.v518 != c518 { self.v518 = c518; *dirty |= 0x2000000000; }
+        let c519: u64 = u64::from((self.q74) == (0x5));
+        if self.v519 != c519 { self.v519 = c519; *dirty |= 0x2000000002; }
+        let c520: u64 = !(self.q52) & 0x1;
+        if self.v520 != c520 { self.v520 = c520; *dirty |= 0x1002; }
+        let c505: u64 = (c504) & (c520) & 0x1;
+        let c521: u64 = u64::from((self.q74) == 0);
+        if self.v521 != c521 { self.v521 = c521; *dirty |= 0x2000000400; }
+        let c522: u64 = u64::from((self.q62) == (0x7));
+        let c524: u64 = u64::from((self.q115) == (0xd));
+        if self.v524 != c524 { self.v524 = c524; *dirty |= 0x2000000400; }
+        let c525: u64 = u64::from((self.q74) != 0);
+        if self.v525 != c525 { self.v525 = c525; *dirty |= 0x400000; }
+        let c526: u64 = u64::from((self.q109) != (self.q60));
+        let c501: u64 = (c525) & (c526) & 0x1;
+        if self.v501 != c501 { self.v501 = c501; *dirty |= 0x2000000000; }
+        let c527: u64 = !(self.q125) & 0x1;
+        if self.v527 != c527 { self.v527 = c527; *dirty |= 0x2; }
+        let c490: u64 = (self.q1) & (c527) & 0x1;
+        let c503: u64 = (self.q109) & (c527) & 0x1;
+        if self.v503 != c503 { self.v503 = c503; *dirty |= 0x2000000000; }
+        let c28: u64 = u64::from((c524 | (c503 << 1)) != (0x3));
+        if self.v28 != c28 { self.v28 = c28; *dirty |= 0x2000000; }
+        let c30: u64 = u64::from((c524 | (c519 << 1) | (c503 << 2)) != (0x1));
+        if self.v30 != c30 { self.v30 = c30; *dirty |= 0x2000000; }
+        let c528: u64 = !(self.q88) & 0x1;
+        let c491: u64 = (c490) & (c528) & 0x1;
+        let c492: u64 = (c491) & (self.q124) & 0x1;
+        let c529: u64 = !(self.q113) & 0x1;
+        if self.v529 != c529 { self.v529 = c529; *dirty |= 0x1080; }
+        let c493: u64 = (c492) & (c529) & 0x1;
+        let c530: u64 = !(self.q71) & 0x1;
+        let c494: u64 = (c493) & (c530) & 0x1;
+        if self.v494 != c494 { self.v494 = c494; *dirty |= 0x2000; }
+        let c531: u64 = !(c499) & 0x1;
+        let c500: u64 = (c494) & (c531) & 0x1;
+        if self.v500 != c500 { self.v500 = c500; *dirty |= 0x2000000000; }
+        let c532: u64 = ((self.q114) | (self.q125)) & 0x1;
+        if self.v532 != c532 { self.v532 = c532; *dirty |= 0x2004000000; }
+        let c533: u64 = ((c511) | (c512)) & 0x1;
+        if self.v533 != c533 { self.v533 = c533; *dirty |= 0x1000; }
+        let c534: u64 = ((c533) | (c496)) & 0x1;
+        if self.v534 != c534 { self.v534 = c534; *dirty |= 0x2000000000; }
+        let c535: u64 = ((self.q0) | (self.q88)) & 0x1;
+        if self.v535 != c535 { self.v535 = c535; *dirty |= 0x2000000002; }
+        let c554: u64 = u64::from((self.q115) == (0xf));
+        if self.v554 != c554 { self.v554 = c554; *dirty |= 0x2000001010; }
+        let c556: u64 = (c506) & (c516) & 0x1;
+        let c558: u64 = u64::from((self.q115) == (0xe));
+        if self.v558 != c558 { self.v558 = c558; *dirty |= 0x2002000400; }
+        let c29: u64 = u64::from((c558 | (c521 << 1)) != (0x1));
+        if self.v29 != c29 { self.v29 = c29; *dirty |= 0x2000000; }
+        let c32: u64 = u64::from((c558 | (c521 << 1) | (self.q109 << 2)) != (0x7));
+        if self.v32 != c32 { self.v32 = c32; *dirty |= 0x2000000; }
+        let c566: u64 = if (c522) != 0 { (c520) } else { (c505) };
+        let c567: u64 = (c522) & (self.q52) & 0x1;
+        let c568: u64 = if (self.q109) != 0 { (0x0) } else { (c567) };
+        let c569: u64 = if (self.q109) != 0 { (0x0) } else { (c566) };
+        let c571: u64 = (c521) & (c568) & 0x1;
+        if self.v571 != c571 { self.v571 = c571; *dirty |= 0x2000000; }
+        let c572: u64 = (c521) & (c569) & 0x1;
+        let c577: u64 = if (c519) != 0 { (0x0) } else { (self.q63) };
+        let c581: u64 = if (c503) != 0 { (self.q63) } else { (c577) };
+        let c585: u64 = u64::from((self.q115) == (0xc));
+        if self.v585 != c585 { self.v585 = c585; *dirty |= 0x2007000400; }
+        let c27: u64 = u64::from((c524 | (c585 << 1) | (c558 << 2)) != 0);
+        if self.v27 != c27 { self.v27 = c27; *dirty |= 0x2000000; }
+        let c588: u64 = if (self.q109) != 0 { (0x0) } else { (c519) };
+        let c590: u64 = (self.q109) & (c520) & 0x1;
+        let c591: u64 = (self.q109) & (self.q52) & 0x1;
+        if self.v591 != c591 { self.v591 = c591; *dirty |= 0x2000000; }
+        let c592: u64 = (self.q109) & (c532) & 0x1;
+        let c594: u64 = if (c501) != 0 { (0x0) } else { (c519) };
+        let c598: u64 = if (self.q59) != 0 { (c594) } else { (c588) };
+        if self.v598 != c598 { self.v598 = c598; *dirty |= 0x2000000000; }
+        let c31: u64 = u64::from((c585 | (c598 << 1)) != (0x1));
+        if self.v31 != c31 { self.v31 = c31; *dirty |= 0x2000000; }
+        let c122: u64 = if (c524) != 0 { (c519) } else { (c598) };
+        let c576: u64 = ((self.q61) | (c122)) & 0x1;
+        let c600: u64 = ((c592) | (self.q59)) & 0x1;
+        if self.v600 != c600 { self.v600 = c600; *dirty |= 0x2000000000; }
+        let c601: u64 = if (self.q59) != 0 { (0x0) } else { (self.q109) };
+        let c602: u64 = if (self.q59) != 0 { (0x0) } else { (c590) };
+        let c622: u64 = u64::from((self.q115) == 0);
+        if self.v622 != c622 { self.v622 = c622; *dirty |= 0x2000001010; }
+        let c628: u64 = if (c558) != 0 { (c489) } else { (0x0) };
+        if self.v628 != c628 { self.v628 = c628; *dirty |= 0x800000000000000000; }
+        let c629: u64 = if (c558) != 0 { (0x0) } else { (c576) };
+        if self.v629 != c629 { self.v629 = c629; *dirty |= 0x1000000000000000000; }
+        let c630: u64 = if (c524) != 0 { (c581) } else { (self.q63) };
+        if self.v630 != c630 { self.v630 = c630; *dirty |= 0x2000000; }
+        let c633: u64 = (c585) & (c601) & 0x1;
+        if self.v633 != c633 { self.v633 = c633; *dirty |= 0x2000000; }
+        let c635: u64 = (c554) & (c556) & 0x1;
+        if self.v635 != c635 { self.v635 = c635; *dirty |= 0x2000000; }
+        let c637: u64 = { let s = (c558 | (c585 << 1)); if s >> 0 & 1 != 0 { c572 } else if s >> 1 & 1 != 0 { c602 } else { (0x0) } };
+        if self.v637 != c637 { self.v637 = c637; *dirty |= 0x2000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$frame.
+    fn group_1(&mut self, dirty: &mut u128) {
+        let c366: u64 = (self.q124) & (self.v527) & 0x1;
+        let c369: u64 = (self.v519) & (self.v520) & 0x1;
+        let c371: u64 = u64::from((self.q74) == (0xb));
+        if self.v371 != c371 { self.v371 = c371; *dirty |= 0x4000000; }
+        let c372: u64 = u64::from((self.q74) == (0xc));
+        if self.v372 != c372 { self.v372 = c372; *dirty |= 0x804000000; }
+        let c373: u64 = u64::from((self.q74) == (0x1f));
+        if self.v373 != c373 { self.v373 = c373; *dirty |= 0x4002000; }
+        let c38: u64 = u64::from((c371 | (c373 << 1)) != 0);
+        if self.v38 != c38 { self.v38 = c38; *dirty |= 0x1000000000; }
+        let c374: u64 = u64::from((self.q74) == (0x4));
+        let c375: u64 = !(self.q81) & 0x1;
+        if self.v375 != c375 { self.v375 = c375; *dirty |= 0x24; }
+        let c359: u64 = (c374) & (c375) & 0x1;
+        let c376: u64 = u64::from(((self.q84 & 0x7)) == 0);
+        let c377: u64 = u64::from(((self.q74 & 0x7)) == (0x7));
+        if self.v377 != c377 { self.v377 = c377; *dirty |= 0x800400000; }
+        let c378: u64 = u64::from(((self.q74 >> 3)) == (self.q80));
+        let c361: u64 = (c377) & (c378) & 0x1;
+        if self.v361 != c361 { self.v361 = c361; *dirty |= 0x800000; }
+        let c379: u64 = u64::from((self.q115) == (0x2));
+        if self.v379 != c379 { self.v379 = c379; *dirty |= 0x1800800400; }
+        let c363: u64 = (c379) & (self.q118) & 0x1;
+        let c380: u64 = u64::from((self.q109) == (self.q53));
+        if self.v380 != c380 { self.v380 = c380; *dirty |= 0x4000000; }
+        let c381: u64 = u64::from((self.q74) == (0xe));
+        let c382: u64 = u64::from((self.q73) == 0);
+        let c383: u64 = !(self.q128) & 0x1;
+        let c367: u64 = (self.q109) & (c383) & 0x1;
+        let c384: u64 = u64::from((self.q74) == (0x6));
+        if self.v384 != c384 { self.v384 = c384; *dirty |= 0x800000; }
+        let c368: u64 = (c384) & (self.v520) & 0x1;
+        let c370: u64 = (c384) & (self.q52) & 0x1;
+        let c385: u64 = u64::from((self.q118) != (self.q109));
+        let c358: u64 = (self.q52) & (c385) & 0x1;
+        let c386: u64 = ((c371) | (c372)) & 0x1;
+        let c387: u64 = ((c386) | (c373)) & 0x1;
+        let c43: u64 = !(c387) & 0x1;
+        if self.v43 != c43 { self.v43 = c43; *dirty |= 0x1000000000; }
+        let c364: u64 = (self.q52) & (c43) & 0x1;
+        let c388: u64 = ((self.v519) | (c359)) & 0x1;
+        if self.v388 != c388 { self.v388 = c388; *dirty |= 0x801000; }
+        let c391: u64 = u64::from((self.q115) == (0x9));
+        if self.v391 != c391 { self.v391 = c391; *dirty |= 0x800400; }
+        let c393: u64 = !(c368) & 0x1;
+        let c394: u64 = if (self.q109) != 0 { (0x0) } else { (c393) };
+        let c396: u64 = (self.q109) & (c370) & 0x1;
+        let c397: u64 = (self.q109) & (c369) & 0x1;
+        let c399: u64 = if (c384) != 0 { (0xa) } else { (self.q115) };
+        let c392: u64 = if (c368) != 0 { (0xd) } else { (c399) };
+        let c395: u64 = if (self.q109) != 0 { (c399) } else { (c392) };
+        let c400: u64 = u64::from((self.q115) == (0x8));
+        if self.v400 != c400 { self.v400 = c400; *dirty |= 0x800400; }
+        let c401: u64 = if (self.q109) != 0 { (self.q72 | (self.q72 << 1)) } else { (0x1) };
+        let c402: u64 = if (self.q109) != 0 { (self.q72) } else { (0x1) };
+        let c403: u64 = u64::from((self.q115) == (0x7));
+        if self.v403 != c403 { self.v403 = c403; *dirty |= 0x400; }
+        let c404: u64 = if (self.q118) != 0 { (0x0) } else { (self.q109) };
+        let c406: u64 = !(self.q114) & 0x1;
+        let c407: u64 = (c367) & (self.q114) & 0x1;
+        let c408: u64 = if (c367) != 0 { (c406) } else { (0x1) };
+        let c409: u64 = (self.q52) & (c407) & 0x1;
+        let c410: u64 = if (self.q52) != 0 { (c408) } else { (0x1) };
+        let c411: u64 = (self.q52) & (c367) & 0x1;
+        let c412: u64 = if (self.q52) != 0 { (c367) } else { (c404) };
+        let c414: u64 = (c382) & (c366) & 0x1;
+        let c415: u64 = u64::from((self.q115) == (0x6));
+        if self.v415 != c415 { self.v415 = c415; *dirty |= 0x400; }
+        let c416: u64 = !(c382) & 0x1;
+        let c417: u64 = if (self.q52) != 0 { (0x0) } else { (c416) };
+        let c418: u64 = if (self.q52) != 0 { (0x0) } else { (c414) };
+        let c419: u64 = !(self.q109) & 0x1;
+        if self.v419 != c419 { self.v419 = c419; *dirty |= 0x202002000000; }
+        let c360: u64 = (c376) & (c419) & 0x1;
+        let c365: u64 = (c372) & (c419) & 0x1;
+        let c389: u64 = ((self.q79) | (c360)) & 0x1;
+        let c390: u64 = ((c365) | (c373)) & 0x1;
+        if self.v390 != c390 { self.v390 = c390; *dirty |= 0x800000; }
+        let c405: u64 = if (self.q118) != 0 { (0x0) } else { (c419) };
+        let c413: u64 = if (self.q52) != 0 { (0x0) } else { (c405) };
+        let c420: u64 = (self.q109) & (c417) & 0x1;
+        let c421: u64 = (self.q109) & (c418) & 0x1;
+        let c422: u64 = if (c381) != 0 { (0x6) } else { (self.q115) };
+        let c423: u64 = u64::from((self.q115) == (0x5));
+        if self.v423 != c423 { self.v423 = c423; *dirty |= 0x400; }
+        let c425: u64 = u64::from((self.q115) == (0x4));
+        if self.v425 != c425 { self.v425 = c425; *dirty |= 0x800c00400; }
+        let c426: u64 = if (c361) != 0 { (0x5) } else { (self.q115) };
+        let c427: u64 = u64::from((self.q115) == (0x3));
+        if self.v427 != c427 { self.v427 = c427; *dirty |= 0x800c01400; }
+        let c118: u64 = u64::from((c427 | (c425 << 1) | (c423 << 2)) != 0);
+        let c119: u64 = u64::from((c427 | (c425 << 1) | (c379 << 2) | (c423 << 3)) != 0);
+        let c428: u64 = if (c388) != 0 { (c389 | 0x4) } else { (self.q115) };
+        let c430: u64 = (self.q118) & (self.v535) & 0x1;
+        let c431: u64 = if (self.q118) != 0 { (0x0) } else { (c364) };
+        let c432: u64 = (c358) & (c430) & 0x1;
+        let c433: u64 = (c358) & (self.q118) & 0x1;
+        let c434: u64 = (c358) & (self.v517) & 0x1;
+        let c435: u64 = if (c358) != 0 { (c431) } else { (c364) };
+        let c437: u64 = if (c390) != 0 { (0x3) } else { (self.q115) };
+        let c438: u64 = { let s = (c391 | (c379 << 1)); if s >> 0 & 1 != 0 { c396 } else if s >> 1 & 1 != 0 { c432 } else { (0x0) } };
+        let c439: u64 = (c379) & (c433) & 0x1;
+        let c440: u64 = { let s = (c391 | (c400 << 1) | (c403 << 2) | (c415 << 3) | (c118 << 4) | (c379 << 5)); if s >> 0 & 1 != 0 { c394 } else if s >> 1 & 1 != 0 { c402 } else if s >> 2 & 1 != 0 { c412 } else if s >> 3 & 1 != 0 { c419 } else if s >> 4 & 1 != 0 { c358 } else if s >> 5 & 1 != 0 { c434 } else { (0x0) } };
+        let c441: u64 = { let s = (c425 | (c379 << 1)); if s >> 0 & 1 != 0 { self.q52 } else if s >> 1 & 1 != 0 { c435 } else { (0x0) } };
+        let c442: u64 = (c379) & (c390) & 0x1;
+        let c444: u64 = { let s = (c391 | (c400 << 1) | (c403 << 2) | (c415 << 3) | (c423 << 4) | (c425 << 5) | (c427 << 6) | (c379 << 7)); if s >> 0 & 1 != 0 { c395 } else if s >> 1 & 1 != 0 { 0x9 } else if s >> 2 & 1 != 0 { 0x8 } else if s >> 3 & 1 != 0 { 0x7 } else if s >> 4 & 1 != 0 { c422 } else if s >> 5 & 1 != 0 { c426 } else if s >> 6 & 1 != 0 { c428 } else if s >> 7 & 1 != 0 { c437 } else { (self.q115) } };
+        let c445: u64 = (c391) & (c396) & 0x1;
+        let c446: u64 = (c391) & (c397) & 0x1;
+        let c447: u64 = (c403) & (c409) & 0x1;
+        let c448: u64 = (c415) & (c420) & 0x1;
+        let c449: u64 = if (c403) != 0 { (c410) } else { (0x1) };
+        let c450: u64 = { let s = (c391 | (c400 << 1) | (c403 << 2) | (c415 << 3)); if s >> 0 & 1 != 0 { c394 } else if s >> 1 & 1 != 0 { c401 } else if s >> 2 & 1 != 0 { c411 | (c411 << 1) } else if s >> 3 & 1 != 0 { c419 } else { (0x0) } };
+        let c451: u64 = (c415) & (c421) & 0x1;
+        let c452: u64 = (c403) & (c413) & 0x1;
+        let c453: u64 = (self.q94) & (c442) & 0x1;
+        if self.v453 != c453 { self.v453 = c453; *dirty |= 0x1000000000; }
+        let c454: u64 = (self.q94) & (c445) & 0x1;
+        if self.v454 != c454 { self.v454 = c454; *dirty |= 0x1000000000; }
+        let c455: u64 = (self.q94) & (c438) & 0x1;
+        if self.v455 != c455 { self.v455 = c455; *dirty |= 0x1000000000; }
+        let c456: u64 = (self.q94) & (c446) & 0x1;
+        if self.v456 != c456 { self.v456 = c456; *dirty |= 0x20000000000000000000; }
+        let c457: u64 = (self.q94) & (c447) & 0x1;
+        if self.v457 != c457 { self.v457 = c457; *dirty |= 0x1000000000; }
+        let c458: u64 = (self.q94) & (c448) & 0x1;
+        if self.v458 != c458 { self.v458 = c458; *dirty |= 0x1000000000; }
+        let c459: u64 = if (self.q94) != 0 { (c449) } else { (0x1) };
+        if self.v459 != c459 { self.v459 = c459; *dirty |= 0x1000000000; }
+        let c460: u64 = (self.q94) & (c439) & 0x1;
+        if self.v460 != c460 { self.v460 = c460; *dirty |= 0x1000000000; }
+        let c461: u64 = if (self.q94) != 0 { (c450) } else { (0x0) };
+        if self.v461 != c461 { self.v461 = c461; *dirty |= 0x1000000000; }
+        let c462: u64 = (self.q94) & (c440) & 0x1;
+        if self.v462 != c462 { self.v462 = c462; *dirty |= 0x1000000000; }
+        let c463: u64 = (self.q94) & (c415) & 0x1;
+        if self.v463 != c463 { self.v463 = c463; *dirty |= 0x1000000000; }
+        let c464: u64 = (self.q94) & (c451) & 0x1;
+        if self.v464 != c464 { self.v464 = c464; *dirty |= 0x1000000000; }
+        let c465: u64 = (self.q94) & (c119) & 0x1;
+        if self.v465 != c465 { self.v465 = c465; *dirty |= 0x1000000000; }
+        let c466: u64 = if (self.q94) != 0 { (c444) } else { (self.q115) };
+        if self.v466 != c466 { self.v466 = c466; *dirty |= 0x1000000000; }
+        let c467: u64 = (self.q94) & (c452) & 0x1;
+        if self.v467 != c467 { self.v467 = c467; *dirty |= 0x1000000000; }
+        let c468: u64 = (self.q94) & (c441) & 0x1;
+        if self.v468 != c468 { self.v468 = c468; *dirty |= 0x1000000000; }
+        let c469: u64 = !(c363) & 0x1;
+        let c470: u64 = if (c358) != 0 { (c469) } else { (0x1) };
+        if self.v470 != c470 { self.v470 = c470; *dirty |= 0x1000000000; }
+        let c471: u64 = if (c358) != 0 { (c363) } else { (c380) };
+        if self.v471 != c471 { self.v471 = c471; *dirty |= 0x1000000000; }
+        let c472: u64 = ((c380) | (c358)) & 0x1;
+        if self.v472 != c472 { self.v472 = c472; *dirty |= 0x1000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$filter.
+    fn group_2(&mut self, dirty: &mut u128) {
+        let c112: u64 = ((self.q79 | ((self.q82 & 0x1f) << 1)) ^ ((self.q37 >> 2))) & 0x3f;
+        let c840: u64 = (self.q14) & (self.q127) & 0x1;
+        let c842: u64 = (self.i_we) & (self.q127) & 0x1;
+        if self.v842 != c842 { self.v842 = c842; *dirty |= 0x204020; }
+        let c844: u64 = (self.q28) & (self.q120) & 0x1;
+        let c845: u64 = (c844) & (self.q121) & 0x1;
+        let c846: u64 = (self.q31) & (self.q119) & 0x1;
+        let c861: u64 = u64::from(((self.i_addr >> 3)) == (0x2));
+        let c841: u64 = (c840) & (c861) & 0x1;
+        let c862: u64 = u64::from((self.i_addr) == (0x5));
+        let c863: u64 = u64::from((self.i_addr) == (0x4));
+        if self.v863 != c863 { self.v863 = c863; *dirty |= 0x2000000000100; }
+        let c878: u64 = !(self.q29) & 0x1;
+        let c857: u64 = (self.q86) & (c878) & 0x1;
+        let c879: u64 = u64::from((self.q87) == 0);
+        let c882: u64 = u64::from((self.q87) == (0x1));
+        let c884: u64 = ((c863) | (c862)) & 0x1;
+        let c885: u64 = ((c846) | (self.q30)) & 0x1;
+        let c896: u64 = if (self.q81) != 0 { (((self.q82 >> 13) & 0xff)) } else { ((self.q79 << 4) | ((self.q82 & 0x7) << 5)) };
+        let c897: u64 = if (self.q81) != 0 { ((self.q82 >> 21)) } else { (((self.q82 >> 3) & 0xff)) };
+        let c898: u64 = ((self.q119) | (self.q83)) & 0x1;
+        let c899: u64 = ((self.q121) | (self.q83)) & 0x1;
+        let c900: u64 = ((self.q120) | (self.q83)) & 0x1;
+        let c901: u64 = if (self.q16) != 0 { (c845) } else { (c885) };
+        let c902: u64 = if (self.q14) != 0 { (c901) } else { (self.q32) };
+        if self.v902 != c902 { self.v902 = c902; *dirty |= 0x20; }
+        let c910: u64 = if (self.q14) != 0 { (c841) } else { (c884) };
+        if self.v910 != c910 { self.v910 = c910; *dirty |= 0x2000000000000; }
+        let c843: u64 = (c842) & (c910) & 0x1;
+        let c911: u64 = if (self.q14) != 0 { ((self.i_addr & 0x7)) } else { ((c862 << 2)) };
+        let c864: u64 = u64::from((c911) == (0x1));
+        let c57: u64 = u64::from((c843 | (c864 << 1)) == 0x3);
+        if self.v57 != c57 { self.v57 = c57; *dirty |= 0x4000000000000000000000; }
+        let c865: u64 = u64::from((c911) == (0x2));
+        let c56: u64 = u64::from((c843 | (c865 << 1)) == 0x3);
+        if self.v56 != c56 { self.v56 = c56; *dirty |= 0x4000000000000000000000; }
+        let c866: u64 = u64::from((c911) == 0);
+        let c58: u64 = u64::from((c866 | (c843 << 1)) == 0x3);
+        if self.v58 != c58 { self.v58 = c58; *dirty |= 0x2000000000000000000000; }
+        let c867: u64 = u64::from((c911) == (0x3));
+        let c55: u64 = u64::from((c843 | (c867 << 1)) == 0x3);
+        if self.v55 != c55 { self.v55 = c55; *dirty |= 0x8000000000000000000000; }
+        let c868: u64 = u64::from((c911) == (0x4));
+        let c54: u64 = u64::from((c843 | (c868 << 1)) == 0x3);
+        if self.v54 != c54 { self.v54 = c54; *dirty |= 0x8000000000000000000000; }
+        let c869: u64 = u64::from((c911) == (0x5));
+        let c53: u64 = u64::from((c843 | (c869 << 1)) == 0x3);
+        if self.v53 != c53 { self.v53 = c53; *dirty |= 0x10000000000000000000000; }
+        let c870: u64 = u64::from((c911) == (0x6));
+        let c52: u64 = u64::from((c843 | (c870 << 1)) == 0x3);
+        if self.v52 != c52 { self.v52 = c52; *dirty |= 0x10000000000000000000000; }
+        let c871: u64 = u64::from((c911) == (0x7));
+        let c51: u64 = u64::from((c843 | (c871 << 1)) == 0x3);
+        if self.v51 != c51 { self.v51 = c51; *dirty |= 0x20000000000000000000000; }
+        let c909: u64 = if (c864) != 0 { (self.q39) } else { (self.q40) };
+        let c908: u64 = if (c865) != 0 { (self.q38) } else { (c909) };
+        let c907: u64 = if (c867) != 0 { (self.q37) } else { (c908) };
+        let c906: u64 = if (c868) != 0 { (self.q36) } else { (c907) };
+        let c905: u64 = if (c869) != 0 { (self.q35) } else { (c906) };
+        let c904: u64 = if (c870) != 0 { (self.q34) } else { (c905) };
+        let c903: u64 = if (c871) != 0 { (self.q33) } else { (c904) };
+        if self.v903 != c903 { self.v903 = c903; *dirty |= 0x2000000000000; }
+        let c912: u64 = ((c897) ^ (self.q40)) & 0xff;
+        let c913: u64 = ((self.q36) ^ (0xff)) & 0xff;
+        let c847: u64 = (c912) & (c913) & 0xff;
+        let c872: u64 = u64::from((c847) == 0);
+        if self.v872 != c872 { self.v872 = c872; *dirty |= 0x20000000000000000000000; }
+        let c914: u64 = ((c896) ^ (self.q39)) & 0xff;
+        let c915: u64 = ((self.q35) ^ (0xff)) & 0xff;
+        let c848: u64 = (c914) & (c915) & 0xff;
+        let c115: u64 = ((c848 & 0xf)) & (self.q81 | (self.q81 << 1) | (self.q81 << 2) | (self.q81 << 3)) & 0xf;
+        let c873: u64 = u64::from((c115 | ((c848 >> 4) << 4)) == 0);
+        let c853: u64 = (c872) & (c873) & 0x1;
+        if self.v853 != c853 { self.v853 = c853; *dirty |= 0x40000000000000000000000; }
+        let c916: u64 = ((((self.q82 >> 5) & 0xff)) ^ (self.q38)) & 0xff;
+        let c917: u64 = ((c897) ^ (self.q38)) & 0xff;
+        let c918: u64 = ((self.q34) ^ (0xff)) & 0xff;
+        let c849: u64 = (c916) & (c918) & 0xff;
+        let c851: u64 = (c917) & (c918) & 0xff;
+        let c874: u64 = u64::from((c851) == 0);
+        let c876: u64 = u64::from((c849) == 0);
+        let c919: u64 = ((c896) ^ (self.q37)) & 0xff;
+        let c920: u64 = ((self.q33) ^ (0xff)) & 0xff;
+        let c850: u64 = ((self.q37 & 0x3) | (c112 << 2)) & (c920) & 0xff;
+        let c852: u64 = (c919) & (c920) & 0xff;
+        let c116: u64 = ((c852 & 0xf)) & (self.q81 | (self.q81 << 1) | (self.q81 << 2) | (self.q81 << 3)) & 0xf;
+        let c875: u64 = u64::from((c116 | ((c852 >> 4) << 4)) == 0);
+        let c854: u64 = (c874) & (c875) & 0x1;
+        if self.v854 != c854 { self.v854 = c854; *dirty |= 0x80000000000000000000000; }
+        let c877: u64 = u64::from(((c850 >> 2)) == 0);
+        let c855: u64 = (c876) & (c877) & 0x1;
+        let c886: u64 = ((self.v375) | (c855)) & 0x1;
+        let c856: u64 = (c853) & (c886) & 0x1;
+        if self.v856 != c856 { self.v856 = c856; *dirty |= 0x200000000000000000000000; }
+        let c921: u64 = ((self.q85) ^ (self.q38)) & 0xff;
+        let c858: u64 = (c921) & (c918) & 0xff;
+        let c880: u64 = u64::from((c858) == 0);
+        let c892: u64 = if (c879) != 0 { (c880) } else { (c900) };
+        let c895: u64 = if (c857) != 0 { (c892) } else { (c900) };
+        let c889: u64 = ((c895) | (self.i_reset)) & 0x1;
+        if self.v889 != c889 { self.v889 = c889; *dirty |= 0x100000000000000000000000; }
+        let c922: u64 = ((self.q85) ^ ((self.q37 & 0xf) | ((self.q39 & 0xf) << 4))) & 0xff;
+        let c923: u64 = (((self.q33 & 0xf) | ((self.q35 & 0xf) << 4)) ^ (0xff)) & 0xff;
+        let c859: u64 = (c922) & (c923) & 0xff;
+        let c881: u64 = u64::from((c859) == 0);
+        let c891: u64 = if (c879) != 0 { (c881) } else { (c898) };
+        let c894: u64 = if (c857) != 0 { (c891) } else { (c898) };
+        let c887: u64 = ((c894) | (self.i_reset)) & 0x1;
+        if self.v887 != c887 { self.v887 = c887; *dirty |= 0x40000000000000000000000; }
+        let c924: u64 = ((self.q85) ^ (self.q37)) & 0xff;
+        let c860: u64 = (c924) & (c920) & 0xff;
+        let c883: u64 = u64::from((c860) == 0);
+        let c890: u64 = if (c882) != 0 { (c883) } else { (c899) };
+        let c893: u64 = if (c857) != 0 { (c890) } else { (c899) };
+        let c888: u64 = ((c893) | (self.i_reset)) & 0x1;
+        if self.v888 != c888 { self.v888 = c888; *dirty |= 0x100000000000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$bit_timing.
+    fn group_3(&mut self, dirty: &mut u128) {
+        let c110: u64 = !(self.q99) & 0x3;
+        if self.v110 != c110 { self.v110 = c110; *dirty |= 0x80000; }
+        let c135: u64 = (self.q99).wrapping_add((0x1)) & 0x7;
+        if self.v135 != c135 { self.v135 = c135; *dirty |= 0x200000000000000; }
+        let c136: u64 = (self.q93).wrapping_add((self.q108)) & 0x1f;
+        let c138: u64 = (self.q96 | (self.q97 << 1)).wrapping_add((0x1)) & 0x7f;
+        if self.v138 != c138 { self.v138 = c138; *dirty |= 0x400000000; }
+        let c139: u64 = (self.q93).wrapping_add((0x1)) & 0x1f;
+        if self.v139 != c139 { self.v139 = c139; *dirty |= 0x40000000000000; }
+        let c154: u64 = u64::from((self.q93) == (self.q95));
+        let c155: u64 = u64::from((c136) == (self.q95));
+        let c156: u64 = u64::from((self.q93) == 0);
+        let c157: u64 = u64::from((self.q96 | (self.q97 << 1)) == 0);
+        let c158: u64 = u64::from((self.q96 | (self.q97 << 1)) >= (((self.q103 & 0x3f) << 1) | 0x1));
+        if self.v158 != c158 { self.v158 = c158; *dirty |= 0x40000000080000; }
+        let c142: u64 = (c158) & (c154) & 0x1;
+        if self.v142 != c142 { self.v142 = c142; *dirty |= 0x80000; }
+        let c144: u64 = (c158) & (c155) & 0x1;
+        if self.v144 != c144 { self.v144 = c144; *dirty |= 0x80000; }
+        let c159: u64 = u64::from((self.q93) <= (self.q99));
+        let c160: u64 = u64::from((self.q95) < (c136));
+        let c161: u64 = !(self.q90) & 0x1;
+        if self.v161 != c161 { self.v161 = c161; *dirty |= 0x80000; }
+        let c164: u64 = !(self.i_reset) & 0x1;
+        if self.v164 != c164 { self.v164 = c164; *dirty |= 0x80000; }
+        let c165: u64 = !(self.q94) & 0x1;
+        if self.v165 != c165 { self.v165 = c165; *dirty |= 0x80000; }
+        let c186: u64 = if (c158) != 0 { (0x0) } else { ((c138 & 0x1)) };
+        if self.v186 != c186 { self.v186 = c186; *dirty |= 0x80000; }
+        let c190: u64 = !(c160) & 0x1;
+        let c191: u64 = u64::from((self.q91) == (0x2));
+        if self.v191 != c191 { self.v191 = c191; *dirty |= 0x80000; }
+        let c192: u64 = !(c159) & 0x1;
+        let c193: u64 = (self.q118) & (c192) & 0x1;
+        let c194: u64 = (self.q118) & (c159) & 0x1;
+        let c195: u64 = u64::from((self.q91) == (0x1));
+        if self.v195 != c195 { self.v195 = c195; *dirty |= 0x80000; }
+        let c184: u64 = { let s = (c191 | (c195 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
+        if self.v184 != c184 { self.v184 = c184; *dirty |= 0x200000000000000; }
+        let c196: u64 = u64::from((self.q91) == 0);
+        if self.v196 != c196 { self.v196 = c196; *dirty |= 0x80000; }
+        let c39: u64 = u64::from((c196 | (c195 << 1) | (c191 << 2)) != 0);
+        if self.v39 != c39 { self.v39 = c39; *dirty |= 0x80000; }
+        let c149: u64 = (c196) & (c156) & 0x1;
+        let c150: u64 = (c149) & (c157) & 0x1;
+        if self.v150 != c150 { self.v150 = c150; *dirty |= 0x80000; }
+        let c197: u64 = (c191) & (c190) & 0x1;
+        if self.v197 != c197 { self.v197 = c197; *dirty |= 0x80000; }
+        let c198: u64 = (c195) & (c193) & 0x1;
+        if self.v198 != c198 { self.v198 = c198; *dirty |= 0x80000; }
+        let c199: u64 = (c191) & (c160) & 0x1;
+        if self.v199 != c199 { self.v199 = c199; *dirty |= 0x80000; }
+        let c200: u64 = (c195) & (c194) & 0x1;
+        if self.v200 != c200 { self.v200 = c200; *dirty |= 0x80000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$read.
+    fn group_4(&mut self, dirty: &mut u128) {
+        let c117: u64 = (((self.m0_rd & 0xf)) | (self.q106)) & 0xf;
+        let c1036: u64 = u64::from((self.i_addr) == (0x2));
+        if self.v1036 != c1036 { self.v1036 = c1036; *dirty |= 0x20000; }
+        let c1037: u64 = u64::from((self.i_addr) == (0xb));
+        if self.v1037 != c1037 { self.v1037 = c1037; *dirty |= 0x2000000000100; }
+        let c1038: u64 = u64::from((self.i_addr) == (0xc));
+        if self.v1038 != c1038 { self.v1038 = c1038; *dirty |= 0x2000000000100; }
+        let c1039: u64 = u64::from((self.i_addr) == (0xe));
+        if self.v1039 != c1039 { self.v1039 = c1039; *dirty |= 0x2000000000020; }
+        let c1040: u64 = u64::from((self.i_addr) == (0xf));
+        if self.v1040 != c1040 { self.v1040 = c1040; *dirty |= 0x2000000000020; }
+        let c1041: u64 = u64::from((self.i_addr) == (0x1d));
+        if self.v1041 != c1041 { self.v1041 = c1041; *dirty |= 0x2000000000000; }
+        let c1042: u64 = u64::from((self.i_addr) == (0x1e));
+        if self.v1042 != c1042 { self.v1042 = c1042; *dirty |= 0x2000000000020; }
+        let c1043: u64 = u64::from((self.i_addr) == 0);
+        if self.v1043 != c1043 { self.v1043 = c1043; *dirty |= 0x2000010000200; }
+        let c1044: u64 = u64::from((self.i_addr) == (0x1));
+        if self.v1044 != c1044 { self.v1044 = c1044; *dirty |= 0x2000000000800; }
+        let c1045: u64 = u64::from((self.i_addr) == (0x3));
+        if self.v1045 != c1045 { self.v1045 = c1045; *dirty |= 0x2000000020100; }
+        let c1046: u64 = u64::from((self.i_addr) == (0x15));
+        if self.v1046 != c1046 { self.v1046 = c1046; *dirty |= 0x20000; }
+        let c1047: u64 = ((self.v622) | (self.v554)) & 0x1;
+        if self.v1047 != c1047 { self.v1047 = c1047; *dirty |= 0x1000; }
+        let c1052: u64 = if (self.q9) != 0 { (c117 | ((self.m0_rd >> 4) << 4)) } else { (self.q7) };
+        if self.v1052 != c1052 { self.v1052 = c1052; *dirty |= 0x2000000000000; }
+        let c1077: u64 = if (self.q14) != 0 { (self.q21) } else { (0x1) };
+        if self.v1077 != c1077 { self.v1077 = c1077; *dirty |= 0x10020000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of can_controller.
+    fn group_5(&mut self, dirty: &mut u128) {
+        let c0: u64 = (self.v842) & (self.q14) & 0x1;
+        let c1: u64 = (c0) & (self.v1040) & 0x1;
+        if self.v1 != c1 { self.v1 = c1; *dirty |= 0x30080004000; }
+        let c2: u64 = (c0) & (self.v1039) & 0x1;
+        if self.v2 != c2 { self.v2 = c2; *dirty |= 0x80; }
+        let c3: u64 = (c0) & (self.v1042) & 0x1;
+        if self.v3 != c3 { self.v3 = c3; *dirty |= 0x20000040; }
+        let c13: u64 = (self.q71) & (self.q70) & 0x1;
+        let c14: u64 = (c13) & (self.q6) & 0x1;
+        let c762: u64 = { let s = (self.i_addr); if s < 256 { TABLE_0[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v762 != c762 { self.v762 = c762; *dirty |= 0x800; }
+        let c763: u64 = { let s = (self.i_addr); if s < 256 { TABLE_1[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v763 != c763 { self.v763 = c763; *dirty |= 0x800; }
+        let c764: u64 = { let s = (self.i_addr); if s < 256 { TABLE_2[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v764 != c764 { self.v764 = c764; *dirty |= 0x800; }
+        let c765: u64 = { let s = (self.i_addr); if s < 256 { TABLE_3[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v765 != c765 { self.v765 = c765; *dirty |= 0x800; }
+        let c766: u64 = { let s = (self.i_addr); if s < 256 { TABLE_4[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v766 != c766 { self.v766 = c766; *dirty |= 0x800; }
+        let c767: u64 = { let s = (self.i_addr); if s < 256 { TABLE_5[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v767 != c767 { self.v767 = c767; *dirty |= 0x20000; }
+        let c1088: u64 = if ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) < 16 { (self.q2) >> ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) & 0x1 } else { 0 };
+        if self.v1088 != c1088 { self.v1088 = c1088; *dirty |= 0x2000000000000000000000000000000; }
+        let c1092: u64 = ((self.q51) | (c14)) & 0x1;
+        let c15: u64 = (c1092) & (self.v902) & 0x1;
+        let c1093: u64 = ((self.q14) | (self.v375)) & 0x1;
+        let c16: u64 = (c15) & (c1093) & 0x1;
+        if self.v16 != c16 { self.v16 = c16; *dirty |= 0x40; }
+        let c1100: u64 = if (self.q71) != 0 { (self.q70) } else { (self.q132) };
+        if self.v1100 != c1100 { self.v1100 = c1100; *dirty |= 0x4000; }
+        let c1101: u64 = ((self.q131) | (self.q71)) & 0x1;
+        if self.v1101 != c1101 { self.v1101 = c1101; *dirty |= 0x4000; }
+        let c1102: u64 = if (self.q71) != 0 { (0x0) } else { (self.q1) };
+        if self.v1102 != c1102 { self.v1102 = c1102; *dirty |= 0x4000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$fifo.
+    fn group_6(&mut self, dirty: &mut u128) {
+        let c773: u64 = (self.q46).wrapping_add((0x1)) & 0x7;
+        let c782: u64 = (self.v16) & (self.q45) & 0x1;
+        let c784: u64 = u64::from((self.q46) == (0x3));
+        let c785: u64 = u64::from((self.q46) == (0x4));
+        let c786: u64 = u64::from((self.q46) == (0x1));
+        let c787: u64 = u64::from((self.q46) == (0x2));
+        let c788: u64 = !(self.q45) & 0x1;
+        let c781: u64 = (self.v16) & (c788) & 0x1;
+        if self.v781 != c781 { self.v781 = c781; *dirty |= 0x20000000; }
+        let c20: u64 = u64::from((c781 | (self.q127 << 1)) != 0);
+        if self.v20 != c20 { self.v20 = c20; *dirty |= 0x400000000000000000000; }
+        let c790: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (self.q48) };
+        let c801: u64 = ((self.q44) | (c782)) & 0x1;
+        if self.v801 != c801 { self.v801 = c801; *dirty |= 0x200000000000000000000; }
+        let c817: u64 = ((self.q41) | (self.q86)) & 0x1;
+        let c819: u64 = if (c786) != 0 { (((self.q82 >> 3) & 0xff)) } else { (self.q84 | (self.q79 << 6)) };
+        let c818: u64 = if (c787) != 0 { ((self.q79 << 4) | ((self.q82 & 0x7) << 5)) } else { (c819) };
+        let c823: u64 = if (c786) != 0 { ((self.q82 >> 21)) } else { (self.q84 | (self.q79 << 6) | 0x80) };
+        let c822: u64 = if (c787) != 0 { (((self.q82 >> 13) & 0xff)) } else { (c823) };
+        let c821: u64 = if (c784) != 0 { (((self.q82 >> 5) & 0xff)) } else { (c822) };
+        let c820: u64 = if (c785) != 0 { ((self.q79 << 2) | ((self.q82 & 0x1f) << 3)) } else { (c821) };
+        let c824: u64 = if (self.q81) != 0 { (c820) } else { (c818) };
+        let c826: u64 = if (self.q41) != 0 { (c824) } else { (self.q84 | (self.q79 << 6) | (self.q81 << 7)) };
+        let c815: u64 = if (self.q86) != 0 { (self.q85) } else { (c826) };
+        if self.v815 != c815 { self.v815 = c815; *dirty |= 0x20000000; }
+        let c828: u64 = if (self.q41) != 0 { (c773) } else { (0x0) };
+        if self.v828 != c828 { self.v828 = c828; *dirty |= 0x100000000000000000000; }
+        let c829: u64 = if (self.q83) != 0 { (0x0) } else { (self.q45) };
+        let c830: u64 = ((self.q41) | (self.q83)) & 0x1;
+        let c831: u64 = if (self.q81) != 0 { (0x2) } else { (0x1) };
+        let c772: u64 = ((c831 << 1) | 0x1).wrapping_add((self.q84)) & 0xf;
+        let c774: u64 = ((c831 << 1) | 0x1).wrapping_add((self.q87)) & 0xf;
+        let c783: u64 = u64::from((self.q46) == ((c831 << 1)));
+        let c816: u64 = if (self.q86) != 0 { (c774) } else { (self.q46) };
+        let c775: u64 = (self.q42).wrapping_add((c816)) & 0x7f;
+        let c776: u64 = (self.q43).wrapping_add((c816)) & 0x3f;
+        if self.v776 != c776 { self.v776 = c776; *dirty |= 0x20000000; }
+        let c811: u64 = ((c829) | ((c775 >> 6))) & 0x1;
+        let c812: u64 = !((c775 >> 6)) & 0x1;
+        let c813: u64 = if (c817) != 0 { (c811) } else { (c829) };
+        if self.v813 != c813 { self.v813 = c813; *dirty |= 0x1000000000000000000000; }
+        let c814: u64 = (c817) & (c812) & 0x1;
+        if self.v814 != c814 { self.v814 = c814; *dirty |= 0x20000000; }
+        let c825: u64 = if (c783) != 0 { (0x0) } else { (c830) };
+        let c827: u64 = if (self.q41) != 0 { (c825) } else { (c830) };
+        if self.v827 != c827 { self.v827 = c827; *dirty |= 0x800000000000000000000; }
+        let c833: u64 = if ((self.q84 >> 3)) != 0 { ((c831 << 1) | 0x9) } else { (c772) };
+        let c832: u64 = if (self.q79) != 0 { ((c831 << 1) | 0x1) } else { (c833) };
+        if self.v832 != c832 { self.v832 = c832; *dirty |= 0x20000000; }
+        let c778: u64 = (self.q43).wrapping_add((c832)) & 0x3f;
+        let c795: u64 = if (self.q127) != 0 { (c790) } else { (c778) };
+        if self.v795 != c795 { self.v795 = c795; *dirty |= 0x400000000000000000000; }
+        let c837: u64 = if (self.q49) != 0 { (self.m0_rd) } else { (self.q47) };
+        if self.v837 != c837 { self.v837 = c837; *dirty |= 0x20020000; }
+        let c836: u64 = if ((c837 >> 7)) != 0 { (0x2) } else { (0x1) };
+        let c771: u64 = ((c836 << 1) | 0x1).wrapping_add(((c837 & 0xf))) & 0xf;
+        let c835: u64 = if (((c837 >> 3) & 0x1)) != 0 { ((c836 << 1) | 0x9) } else { (c771) };
+        let c834: u64 = if (((c837 >> 6) & 0x1)) != 0 { ((c836 << 1) | 0x1) } else { (c835) };
+        let c777: u64 = (self.q48).wrapping_add((c834)) & 0x3f;
+        if self.v777 != c777 { self.v777 = c777; *dirty |= 0x40000000000020000000; }
+        let c838: u64 = (self.q42).wrapping_sub((c834)) & 0x7f;
+        if self.v838 != c838 { self.v838 = c838; *dirty |= 0x20000000; }
+        let c839: u64 = (self.q50).wrapping_sub((0x1)) & 0x1f;
+        if self.v839 != c839 { self.v839 = c839; *dirty |= 0x20000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$faults.
+    fn group_7(&mut self, dirty: &mut u128) {
+        let c303: u64 = (self.q67 | (self.q65 << 4)).wrapping_add((0x1)) & 0x1f;
+        let c304: u64 = (self.q68 | (self.q69 << 7)).wrapping_add((0x1)) & 0xff;
+        if self.v304 != c304 { self.v304 = c304; *dirty |= 0x10000000000; }
+        let c305: u64 = ((self.q68 >> 3) | (self.q69 << 4)).wrapping_add((0x1)) & 0x1f;
+        let c308: u64 = (self.v2) & (self.v529) & 0x1;
+        if self.v308 != c308 { self.v308 = c308; *dirty |= 0x10000000000; }
+        let c310: u64 = u64::from((self.q66 | (self.q67 << 3) | (self.q65 << 7)) == 0);
+        if self.v310 != c310 { self.v310 = c310; *dirty |= 0x80000000; }
+        let c311: u64 = u64::from((self.q67 | (self.q65 << 4)) == (0x1f));
+        if self.v311 != c311 { self.v311 = c311; *dirty |= 0x20000000000; }
+        let c312: u64 = u64::from(((self.q68 >> 3) | (self.q69 << 4)) == (0x1f));
+        let c313: u64 = u64::from((self.i_wdata) == (0xff));
+        if self.v313 != c313 { self.v313 = c313; *dirty |= 0x10000000000; }
+        let c314: u64 = u64::from((self.q66 | (self.q67 << 3) | (self.q65 << 7)) != 0);
+        if self.v314 != c314 { self.v314 = c314; *dirty |= 0x10000000000; }
+        let c315: u64 = u64::from((self.q68 | (self.q69 << 7)) != (0xff));
+        if self.v315 != c315 { self.v315 = c315; *dirty |= 0x10000000000; }
+        let c316: u64 = u64::from((self.q68 | (self.q69 << 7)) != 0);
+        if self.v316 != c316 { self.v316 = c316; *dirty |= 0x10000000000; }
+        let c326: u64 = if (c313) != 0 { (0x7f) } else { (self.i_wdata) };
+        if self.v326 != c326 { self.v326 = c326; *dirty |= 0x10000000000; }
+        let c334: u64 = if (c312) != 0 { (0xff) } else { ((self.q68 & 0x7) | (c305 << 3)) };
+        if self.v334 != c334 { self.v334 = c334; *dirty |= 0x10000000000; }
+        let c338: u64 = if (c311) != 0 { (0x0) } else { (self.q68 | (self.q69 << 7)) };
+        if self.v338 != c338 { self.v338 = c338; *dirty |= 0x10000000000; }
+        let c339: u64 = if (c311) != 0 { (0x1f) } else { ((c303 << 1)) };
+        if self.v339 != c339 { self.v339 = c339; *dirty |= 0x10000000000; }
+        let c340: u64 = ((self.q113) | (c311)) & 0x1;
+        if self.v340 != c340 { self.v340 = c340; *dirty |= 0x10000000000; }
+        let c347: u64 = if (c310) != 0 { (0x0) } else { (self.q68 | (self.q69 << 7)) };
+        if self.v347 != c347 { self.v347 = c347; *dirty |= 0x100000000; }
+        let c348: u64 = !(c310) & 0x1;
+        if self.v348 != c348 { self.v348 = c348; *dirty |= 0x100000000; }
+        let c356: u64 = (self.q66 | (self.q67 << 3) | (self.q65 << 7)).wrapping_sub((0x1)) & 0xff;
+        if self.v356 != c356 { self.v356 = c356; *dirty |= 0x10000000000; }
+        let c349: u64 = if (c310) != 0 { ((self.q65 << 7)) } else { (c356) };
+        if self.v349 != c349 { self.v349 = c349; *dirty |= 0x100000000; }
+        let c357: u64 = (self.q68 | (self.q69 << 7)).wrapping_sub((0x1)) & 0xff;
+        if self.v357 != c357 { self.v357 = c357; *dirty |= 0x10000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$interrupts.
+    fn group_8(&mut self, dirty: &mut u128) {
+        let c925: u64 = (self.i_re) & (self.v1045) & 0x1;
+        let c926: u64 = (self.q14) & (self.v863) & 0x1;
+        if self.v926 != c926 { self.v926 = c926; *dirty |= 0x10000000; }
+        let c928: u64 = (self.q75) & (self.q122) & 0x1;
+        if self.v928 != c928 { self.v928 = c928; *dirty |= 0x400000000000000010000000; }
+        let c929: u64 = (self.q76) & (self.q123) & 0x1;
+        if self.v929 != c929 { self.v929 = c929; *dirty |= 0x1000000000000000010000000; }
+        let c930: u64 = (self.i_re) & (self.q14) & 0x1;
+        let c935: u64 = !(self.q127) & 0x1;
+        if self.v935 != c935 { self.v935 = c935; *dirty |= 0x24a00; }
+        let c936: u64 = !(self.q19) & 0x1;
+        let c931: u64 = (self.q44) & (c936) & 0x1;
+        if self.v931 != c931 { self.v931 = c931; *dirty |= 0x10000000; }
+        let c937: u64 = !(self.q17) & 0x1;
+        let c941: u64 = u64::from((self.q113) != (self.q25));
+        let c942: u64 = u64::from((self.q114) != (self.q18));
+        let c943: u64 = u64::from((self.q50) != 0);
+        if self.v943 != c943 { self.v943 = c943; *dirty |= 0x8000000000000000010020000; }
+        let c105: u64 = (self.q26) & (c943) & 0x1;
+        let c121: u64 = if (self.q14) != 0 { (c943) } else { (c105) };
+        if self.v121 != c121 { self.v121 = c121; *dirty |= 0x20000; }
+        let c932: u64 = (c943) & (c937) & 0x1;
+        if self.v932 != c932 { self.v932 = c932; *dirty |= 0x10000000; }
+        let c944: u64 = u64::from((self.q50) != (0x1));
+        if self.v944 != c944 { self.v944 = c944; *dirty |= 0x10000000; }
+        let c952: u64 = if (c925) != 0 { (0x0) } else { (self.q20) };
+        if self.v952 != c952 { self.v952 = c952; *dirty |= 0x10000000; }
+        let c954: u64 = if (c925) != 0 { (0x0) } else { (self.q26) };
+        if self.v954 != c954 { self.v954 = c954; *dirty |= 0x10000000; }
+        let c955: u64 = if (self.q127) != 0 { (0x0) } else { (c942) };
+        let c956: u64 = if (self.q113) != 0 { (0x0) } else { (c955) };
+        if self.v956 != c956 { self.v956 = c956; *dirty |= 0x10000000; }
+        let c958: u64 = if (self.q14) != 0 { (self.q101) } else { (0x60) };
+        let c938: u64 = u64::from((self.q66 | (self.q67 << 3) | (self.q65 << 7)) >= (c958));
+        let c939: u64 = u64::from((self.q68 | (self.q69 << 7)) >= (c958));
+        let c945: u64 = ((c938) | (c939)) & 0x1;
+        let c946: u64 = ((c945) | (self.q113)) & 0x1;
+        let c957: u64 = if (self.q127) != 0 { (self.q23) } else { (c946) };
+        if self.v957 != c957 { self.v957 = c957; *dirty |= 0x1000000000000000000000000; }
+        let c940: u64 = u64::from((c957) != (self.q23));
+        let c947: u64 = ((c940) | (c941)) & 0x1;
+        if self.v947 != c947 { self.v947 = c947; *dirty |= 0x10000000; }
+        let c963: u64 = if (c929) != 0 { (0x0) } else { (self.q123) };
+        let c959: u64 = ((c963) | (self.v1038)) & 0x1;
+        let c961: u64 = if (c930) != 0 { (c959) } else { (c963) };
+        let c949: u64 = ((c961) | (self.i_reset)) & 0x1;
+        if self.v949 != c949 { self.v949 = c949; *dirty |= 0x800000000000000000000000; }
+        let c964: u64 = if (c928) != 0 { (0x0) } else { (self.q122) };
+        let c960: u64 = ((c964) | (self.v1037)) & 0x1;
+        let c962: u64 = if (c930) != 0 { (c960) } else { (c964) };
+        let c950: u64 = ((c962) | (self.i_reset)) & 0x1;
+        if self.v950 != c950 { self.v950 = c950; *dirty |= 0x200000000000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes.
+    fn group_9(&mut self, dirty: &mut u128) {
+        let c79: u64 = !(self.q129) & 0x1;
+        if self.v79 != c79 { self.v79 = c79; *dirty |= 0x8000000; }
+        let c81: u64 = u64::from((self.i_reset | (c79 << 1)) != 0);
+        if self.v81 != c81 { self.v81 = c81; *dirty |= 0x2000000000000000000000000000; }
+        let c966: u64 = (self.q10).wrapping_add((0x1)) & 0x1f;
+        if self.v966 != c966 { self.v966 = c966; *dirty |= 0x2000000000000000000000000000; }
+        let c967: u64 = (self.i_we) & (self.v1043) & 0x1;
+        if self.v967 != c967 { self.v967 = c967; *dirty |= 0x800; }
+        let c48: u64 = u64::from((self.q14 | (self.q127 << 1) | (c967 << 2)) == 0x7);
+        if self.v48 != c48 { self.v48 = c48; *dirty |= 0x20000000000000000000000000; }
+        let c968: u64 = ((self.i_wdata & 0x1)) & (self.v935) & 0x1;
+        let c980: u64 = !((self.i_wdata & 0x1)) & 0x1;
+        let c969: u64 = (((self.i_wdata >> 4) & 0x1)) & (c980) & 0x1;
+        let c981: u64 = !(((self.i_wdata >> 4) & 0x1)) & 0x1;
+        let c984: u64 = !(self.i_rx) & 0x1;
+        if self.v984 != c984 { self.v984 = c984; *dirty |= 0x8000000; }
+        let c985: u64 = !(self.q25) & 0x1;
+        let c974: u64 = (self.q113) & (c985) & 0x1;
+        let c986: u64 = u64::from((self.i_addr) == (0x1f));
+        if self.v986 != c986 { self.v986 = c986; *dirty |= 0x20000; }
+        let c975: u64 = (self.i_we) & (c986) & 0x1;
+        if self.v975 != c975 { self.v975 = c975; *dirty |= 0x200000000; }
+        let c47: u64 = u64::from((self.q127 | (c975 << 1)) == 0x3);
+        if self.v47 != c47 { self.v47 = c47; *dirty |= 0x200000000; }
+        let c987: u64 = u64::from((self.q10) == (0x10));
+        if self.v987 != c987 { self.v987 = c987; *dirty |= 0x10000000000000000000000000; }
+        let c990: u64 = u64::from((self.q10) != (0x10));
+        if self.v990 != c990 { self.v990 = c990; *dirty |= 0x8000000; }
+        let c999: u64 = if (self.q127) != 0 { (((self.i_wdata >> 3) & 0x1) | ((self.i_wdata >> 5) << 1)) } else { (self.q15 | (self.q14 << 3)) };
+        let c1000: u64 = if (c975) != 0 { ((self.i_wdata & 0x7) | (c999 << 3)) } else { (self.q105 | (self.q15 << 3) | (self.q14 << 6)) };
+        let c992: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1000) };
+        if self.v992 != c992 { self.v992 = c992; *dirty |= 0x200000000; }
+        let c1012: u64 = if (self.q127) != 0 { (((self.i_wdata >> 2) & 0x1)) } else { (self.q130) };
+        let c1013: u64 = if (self.q127) != 0 { (((self.i_wdata >> 1) & 0x1)) } else { (self.q126) };
+        let c1014: u64 = if (self.q127) != 0 { (0x0) } else { (c981) };
+        let c1015: u64 = if (self.q127) != 0 { (0x0) } else { (c969) };
+        let c1016: u64 = (self.q14) & (c1014) & 0x1;
+        let c1017: u64 = (self.q14) & (c1015) & 0x1;
+        let c1018: u64 = if (self.q14) != 0 { (c1012) } else { (self.q130) };
+        let c1019: u64 = if (self.q14) != 0 { (c1013) } else { (self.q126) };
+        let c1020: u64 = (c967) & (c1016) & 0x1;
+        if self.v1020 != c1020 { self.v1020 = c1020; *dirty |= 0x8000000; }
+        let c1021: u64 = (c967) & (c1017) & 0x1;
+        if self.v1021 != c1021 { self.v1021 = c1021; *dirty |= 0x8000000; }
+        let c1022: u64 = if (c967) != 0 { (c1018) } else { (self.q130) };
+        let c994: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1022) };
+        if self.v994 != c994 { self.v994 = c994; *dirty |= 0x8000000000000000000000000000; }
+        let c979: u64 = (c994) & ((c992 >> 6)) & 0x1;
+        if self.v979 != c979 { self.v979 = c979; *dirty |= 0x1000000000000000000000000000; }
+        let c1023: u64 = if (c967) != 0 { (c1019) } else { (self.q126) };
+        let c995: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1023) };
+        if self.v995 != c995 { self.v995 = c995; *dirty |= 0x400000000000000000000000000; }
+        let c978: u64 = (c995) & ((c992 >> 6)) & 0x1;
+        if self.v978 != c978 { self.v978 = c978; *dirty |= 0x200000000000000000000000000; }
+        let c1024: u64 = (c967) & (c968) & 0x1;
+        let c1002: u64 = if (c974) != 0 { (self.v935) } else { (c1024) };
+        if self.v1002 != c1002 { self.v1002 = c1002; *dirty |= 0x18004000; }
+        let c80: u64 = u64::from((self.i_reset | (c1002 << 1)) != 0);
+        if self.v80 != c80 { self.v80 = c80; *dirty |= 0x40000000000000000000000000000000; }
+        let c1025: u64 = if (c967) != 0 { ((self.i_wdata & 0x1)) } else { (self.q127) };
+        let c1003: u64 = ((c1025) | (c974)) & 0x1;
+        let c996: u64 = ((c1003) | (self.i_reset)) & 0x1;
+        if self.v996 != c996 { self.v996 = c996; *dirty |= 0x800000000000000000000000000; }
+        let c988: u64 = !(c996) & 0x1;
+        if self.v988 != c988 { self.v988 = c988; *dirty |= 0x8000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$capture.
+    fn group_10(&mut self, dirty: &mut u128) {
+        let c98: u64 = u64::from(((self.q74 >> 3)) == 0);
+        let c282: u64 = u64::from((self.q74) == (0x1));
+        if self.v282 != c282 { self.v282 = c282; *dirty |= 0x400000; }
+        let c283: u64 = u64::from((self.q74) < (0x1f));
+        let c284: u64 = u64::from((self.q74) < (0x1a));
+        let c285: u64 = u64::from((self.q74) < (0x12));
+        let c286: u64 = u64::from((self.q74) < (0xd));
+        let c287: u64 = u64::from((self.q74) < (0xc));
+        let c288: u64 = u64::from((self.q74) < (0xb));
+        let c289: u64 = !(self.v521) & 0x1;
+        let c290: u64 = if (self.q59) != 0 { (0x2) } else { (0x1) };
+        let c292: u64 = if (self.v521) != 0 { (0x2) } else { (0x1) };
+        let c291: u64 = if (c282) != 0 { (0x0) } else { (c292) };
+        let c293: u64 = if (self.q81) != 0 { (c291) } else { (c289) };
+        let c299: u64 = if (c284) != 0 { (0x3) } else { ((c283 << 1)) };
+        let c298: u64 = if (c285) != 0 { (0x3) } else { (c299 | 0x4) };
+        let c297: u64 = if (c286) != 0 { (0x1) } else { (c298) };
+        let c296: u64 = if (c287) != 0 { (0x0) } else { (c297) };
+        let c295: u64 = if (c288) != 0 { (0x2) } else { (c296) };
+        let c294: u64 = if (c98) != 0 { (0x2) } else { ((c295 & 0x3) | ((c295 >> 2) << 3) | 0x4) };
+        let c300: u64 = { let s = (self.v558 | (self.v524 << 1) | (self.v585 << 2) | (self.v513 << 3) | (self.v391 << 4) | (self.v400 << 5) | (self.v403 << 6) | (self.v415 << 7) | (self.v423 << 8) | (self.v425 << 9) | (self.v427 << 10) | (self.v379 << 11) | (self.v120 << 12)); if s >> 0 & 1 != 0 { (c289 << 2) | 0x13 } else if s >> 1 & 1 != 0 { 0x1c } else if s >> 2 & 1 != 0 { c290 | ((c290 >> 1) << 2) | 0x10 } else if s >> 3 & 1 != 0 { 0x12 } else if s >> 4 & 1 != 0 { 0x1a } else if s >> 5 & 1 != 0 { 0x1b } else if s >> 6 & 1 != 0 { 0x19 } else if s >> 7 & 1 != 0 { 0x18 } else if s >> 8 & 1 != 0 { 0x8 } else if s >> 9 & 1 != 0 { 0xa } else if s >> 10 & 1 != 0 { (c293 << 1) | 0x9 } else if s >> 11 & 1 != 0 { c294 } else if s >> 12 & 1 != 0 { 0x3 } else { (0x0) } };
+        if self.v300 != c300 { self.v300 = c300; *dirty |= 0x10000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$decode.
+    fn group_11(&mut self, dirty: &mut u128) {
+        let c40: u64 = !(self.q14) & 0x1;
+        if self.v40 != c40 { self.v40 = c40; *dirty |= 0x18000000; }
+        let c46: u64 = u64::from((c40 | (self.v967 << 1)) == 0x3);
+        if self.v46 != c46 { self.v46 = c46; *dirty |= 0x20000000000000000000000000; }
+        let c746: u64 = (self.i_we) & (self.v1044) & 0x1;
+        let c747: u64 = (c746) & (self.v935) & 0x1;
+        if self.v747 != c747 { self.v747 = c747; *dirty |= 0x8000000; }
+        let c748: u64 = (c747) & ((self.i_wdata & 0x1)) & 0x1;
+        if self.v748 != c748 { self.v748 = c748; *dirty |= 0x4000; }
+        let c749: u64 = (c747) & (((self.i_wdata >> 1) & 0x1)) & 0x1;
+        if self.v749 != c749 { self.v749 = c749; *dirty |= 0x80000000000000000000000000004000; }
+        let c750: u64 = (c747) & (((self.i_wdata >> 2) & 0x1)) & 0x1;
+        if self.v750 != c750 { self.v750 = c750; *dirty |= 0x10000000; }
+        let c751: u64 = (c747) & (((self.i_wdata >> 3) & 0x1)) & 0x1;
+        let c85: u64 = u64::from((self.i_reset | (c751 << 1) | (self.q127 << 2)) != 0);
+        if self.v85 != c85 { self.v85 = c85; *dirty |= 0x200000000000000000000; }
+        let c752: u64 = (c747) & (((self.i_wdata >> 4) & 0x1)) & 0x1;
+        let c753: u64 = (c752) & (self.q14) & 0x1;
+        let c755: u64 = (((self.i_wdata >> 4) & 0x1)) & (c40) & 0x1;
+        if self.v755 != c755 { self.v755 = c755; *dirty |= 0x8000000; }
+        let c756: u64 = !(c748) & 0x1;
+        if self.v756 != c756 { self.v756 = c756; *dirty |= 0x4000; }
+        let c754: u64 = (c753) & (c756) & 0x1;
+        if self.v754 != c754 { self.v754 = c754; *dirty |= 0x100000000000000000000000004000; }
+        let c757: u64 = (self.q14) & (self.v764) & 0x1;
+        if self.v757 != c757 { self.v757 = c757; *dirty |= 0x24000; }
+        let c758: u64 = (self.q14) & (self.v763) & 0x1;
+        if self.v758 != c758 { self.v758 = c758; *dirty |= 0x24000; }
+        let c759: u64 = (self.q14) & (self.v762) & 0x1;
+        if self.v759 != c759 { self.v759 = c759; *dirty |= 0x24000; }
+        let c760: u64 = if (self.q14) != 0 { (0x0) } else { (self.v766) };
+        if self.v760 != c760 { self.v760 = c760; *dirty |= 0x20000; }
+        let c761: u64 = if (self.q14) != 0 { (0x0) } else { (self.v765) };
+        if self.v761 != c761 { self.v761 = c761; *dirty |= 0x24000; }
+        let c768: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x9)) & 0xf;
+        if self.v768 != c768 { self.v768 = c768; *dirty |= 0x4000; }
+        let c769: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x3)) & 0xf;
+        if self.v769 != c769 { self.v769 = c769; *dirty |= 0x20000; }
+        let c770: u64 = (((self.i_addr >> 5) & 0x1)).wrapping_sub((0x1)) & 0x1;
+        if self.v770 != c770 { self.v770 = c770; *dirty |= 0x20000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol.
+    fn group_12(&mut self, dirty: &mut u128) {
+        let c223: u64 = (self.q52) & (self.q116) & 0x1;
+        if self.v223 != c223 { self.v223 = c223; *dirty |= 0x0; }
+        let c108: u64 = ((c223) | (self.v1047)) & 0x1;
+        if self.v108 != c108 { self.v108 = c108; *dirty |= 0x20000; }
+        let c224: u64 = (self.v520) & (self.q116) & 0x1;
+        let c109: u64 = ((c224) | (self.v1047)) & 0x1;
+        if self.v109 != c109 { self.v109 = c109; *dirty |= 0x20000; }
+        let c227: u64 = (self.v427) & (self.v388) & 0x1;
+        if self.v227 != c227 { self.v227 = c227; *dirty |= 0x400000; }
+        let c231: u64 = (self.v554) & (self.v529) & 0x1;
+        if self.v231 != c231 { self.v231 = c231; *dirty |= 0x8000000000; }
+        let c232: u64 = !(self.q1) & 0x1;
+        if self.v232 != c232 { self.v232 = c232; *dirty |= 0x4000; }
+        let c233: u64 = !(self.q124) & 0x1;
+        let c225: u64 = (c233) & (self.v529) & 0x1;
+        if self.v225 != c225 { self.v225 = c225; *dirty |= 0x8000000000; }
+        let c87: u64 = u64::from((self.i_reset | (c225 << 1) | (self.q113 << 2)) != 0);
+        if self.v87 != c87 { self.v87 = c87; *dirty |= 0x20000000000000000000; }
+        let c92: u64 = u64::from((self.i_reset | (c225 << 1) | (c231 << 2)) != 0);
+        if self.v92 != c92 { self.v92 = c92; *dirty |= 0x40000000000000000; }
+        let c93: u64 = u64::from((self.i_reset | (c225 << 1)) != 0);
+        if self.v93 != c93 { self.v93 = c93; *dirty |= 0x20000000000000000; }
+        let c242: u64 = u64::from((self.q115) != (0xf));
+        if self.v242 != c242 { self.v242 = c242; *dirty |= 0x8000000000; }
+        let c244: u64 = !(self.q116) & 0x1;
+        if self.v244 != c244 { self.v244 = c244; *dirty |= 0x8000000000; }
+        let c246: u64 = ((self.q71) | (c232)) & 0x1;
+        let c94: u64 = u64::from((self.i_reset | (c246 << 1)) != 0);
+        if self.v94 != c94 { self.v94 = c94; *dirty |= 0x800000000000000; }
+        let c248: u64 = ((self.q125) | (c225)) & 0x1;
+        if self.v248 != c248 { self.v248 = c248; *dirty |= 0x30000004000; }
+        let c249: u64 = ((self.q113) | (c233)) & 0x1;
+        if self.v249 != c249 { self.v249 = c249; *dirty |= 0x2000; }
+        let c251: u64 = ((self.v533) | (self.v622)) & 0x1;
+        let c252: u64 = ((c251) | (self.v554)) & 0x1;
+        let c253: u64 = ((c252) | (self.v496)) & 0x1;
+        if self.v253 != c253 { self.v253 = c253; *dirty |= 0x80000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$sender.
+    fn group_13(&mut self, dirty: &mut u128) {
+        let c663: u64 = ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
+        if self.v663 != c663 { self.v663 = c663; *dirty |= 0x400000000000; }
+        let c664: u64 = (self.q74).wrapping_add((0x1)) & 0x7f;
+        if self.v664 != c664 { self.v664 = c664; *dirty |= 0x4800000; }
+        let c671: u64 = u64::from((self.q58) == 0);
+        if self.v671 != c671 { self.v671 = c671; *dirty |= 0x8000100000; }
+        let c672: u64 = u64::from((self.q58) == (0x1));
+        if self.v672 != c672 { self.v672 = c672; *dirty |= 0x100000; }
+        let c673: u64 = u64::from((self.q74) == (0x1e));
+        if self.v673 != c673 { self.v673 = c673; *dirty |= 0x4000000; }
+        let c674: u64 = !(self.v494) & 0x1;
+        if self.v674 != c674 { self.v674 = c674; *dirty |= 0x200000000000; }
+        let c683: u64 = ((self.v249) | (self.i_reset)) & 0x1;
+        if self.v683 != c683 { self.v683 = c683; *dirty |= 0x200000100000; }
+        let c722: u64 = if (self.v373) != 0 { (0x2) } else { (0x1) };
+        if self.v722 != c722 { self.v722 = c722; *dirty |= 0x200000000000; }
+        let c724: u64 = if (c671) != 0 { ((c663 & 0x7)) } else { ((self.q57 & 0x1)) };
+        if self.v724 != c724 { self.v724 = c724; *dirty |= 0x200000000000; }
+        let c731: u64 = (self.q58).wrapping_sub((0x1)) & 0xf;
+        let c725: u64 = if (c671) != 0 { (0x7) } else { (c731) };
+        if self.v725 != c725 { self.v725 = c725; *dirty |= 0x2000000000000000000; }
+        let c733: u64 = ((((self.q73 >> 13) & 0x1)) ^ ((self.q73 >> 14))) & 0x1;
+        let c734: u64 = ((c733) ^ (self.q109)) & 0x1;
+        if self.v734 != c734 { self.v734 = c734; *dirty |= 0x4000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of can_controller.
+    fn group_14(&mut self, dirty: &mut u128) {
+        let c4: u64 = (self.i_we) & (self.v935) & 0x1;
+        let c5: u64 = (c4) & (self.q131) & 0x1;
+        let c7: u64 = (self.v842) & (self.v757) & 0x1;
+        let c8: u64 = (self.v749) & (self.v756) & 0x1;
+        let c18: u64 = (self.v842) & (self.v758) & 0x1;
+        if self.v18 != c18 { self.v18 = c18; *dirty |= 0x20000000; }
+        let c37: u64 = u64::from((self.q113 | (self.v248 << 1) | (self.v1 << 2)) != (0x2));
+        if self.v37 != c37 { self.v37 = c37; *dirty |= 0x20000000000; }
+        let c123: u64 = !(self.v754) & 0x1;
+        let c9: u64 = (c8) & (c123) & 0x1;
+        let c10: u64 = (c9) & (self.q1) & 0x1;
+        if self.v10 != c10 { self.v10 = c10; *dirty |= 0x800000000; }
+        let c1090: u64 = ((self.v759) | (self.v761)) & 0x1;
+        let c6: u64 = (c5) & (c1090) & 0x1;
+        let c1091: u64 = ((self.v748) | (self.v754)) & 0x1;
+        let c11: u64 = (c1091) & (self.q131) & 0x1;
+        let c12: u64 = (c11) & (self.v232) & 0x1;
+        if self.v12 != c12 { self.v12 = c12; *dirty |= 0x80100000000000000000000000000000; }
+        let c1097: u64 = if (c12) != 0 { (0x0) } else { (self.v1100) };
+        let c1095: u64 = ((c1097) | (self.i_reset)) & 0x1;
+        if self.v1095 != c1095 { self.v1095 = c1095; *dirty |= 0x400000000000000000000000000000; }
+        let c1098: u64 = if (c12) != 0 { (0x0) } else { (self.v1101) };
+        let c1096: u64 = ((c1098) | (self.v1002)) & 0x1;
+        let c1094: u64 = ((c1096) | (self.i_reset)) & 0x1;
+        if self.v1094 != c1094 { self.v1094 = c1094; *dirty |= 0x200000000000000000000000000000; }
+        let c1099: u64 = ((self.v1102) | (c12)) & 0x1;
+        if self.v1099 != c1099 { self.v1099 = c1099; *dirty |= 0x40000000000000000000000000000000; }
+        let c1103: u64 = if (self.q14) != 0 { ((self.i_addr & 0xf)) } else { (self.v768) };
+        if self.v1103 != c1103 { self.v1103 = c1103; *dirty |= 0x9000000000000000000000000040000; }
+        let c1087: u64 = if (c1103) < 16 { (self.q2) >> (c1103) & 0x1 } else { 0 };
+        if self.v1087 != c1087 { self.v1087 = c1087; *dirty |= 0x10000000000000000000000000000000; }
+        let c1104: u64 = ((c6) | (c7)) & 0x1;
+        if self.v1104 != c1104 { self.v1104 = c1104; *dirty |= 0x40000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$bit_timing$sampling.
+    fn group_15(&mut self, dirty: &mut u128) {
+        let c213: u64 = ((self.q92 >> 1)) & ((self.q92 & 0x1)) & 0x1;
+        let c214: u64 = ((self.q92 >> 1)) & (self.q112) & 0x1;
+        let c215: u64 = ((self.q92 & 0x1)) & (self.q112) & 0x1;
+        let c216: u64 = !(self.q112) & 0x1;
+        let c212: u64 = (self.q111) & (c216) & 0x1;
+        if self.v212 != c212 { self.v212 = c212; *dirty |= 0x80000; }
+        let c217: u64 = ((c213) | (c214)) & 0x1;
+        let c218: u64 = ((c217) | (c215)) & 0x1;
+        let c219: u64 = ((self.q112) | (self.i_reset)) & 0x1;
+        if self.v219 != c219 { self.v219 = c219; *dirty |= 0x80000000000000; }
+        let c220: u64 = ((self.q110) | (self.i_reset)) & 0x1;
+        if self.v220 != c220 { self.v220 = c220; *dirty |= 0x100000000000000; }
+        let c221: u64 = ((self.i_rx) | (self.i_reset)) & 0x1;
+        if self.v221 != c221 { self.v221 = c221; *dirty |= 0x80000000000000; }
+        let c222: u64 = if ((self.q102 >> 7)) != 0 { (c218) } else { (self.q112) };
+        if self.v222 != c222 { self.v222 = c222; *dirty |= 0x80000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$crc.
+    fn group_16(&mut self, dirty: &mut u128) {
+        let c99: u64 = !(((self.q73 >> 2) & 0x1)) & 0x1;
+        let c100: u64 = !(((self.q73 >> 3) & 0x1)) & 0x1;
+        let c101: u64 = !(((self.q73 >> 6) & 0x1)) & 0x1;
+        let c102: u64 = !(((self.q73 >> 7) & 0x1)) & 0x1;
+        let c103: u64 = !(((self.q73 >> 9) & 0x1)) & 0x1;
+        let c104: u64 = !(((self.q73 >> 13) & 0x1)) & 0x1;
+        let c302: u64 = ((self.q109) ^ ((self.q73 >> 14))) & 0x1;
+        let c301: u64 = if (c302) != 0 { ((c99 << 1) | (c100 << 2) | (c101 << 3) | (c102 << 4) | (c103 << 5) | (c104 << 6) | 0x1) } else { ((((self.q73 >> 2) & 0x3) << 1) | (((self.q73 >> 6) & 0x3) << 3) | (((self.q73 >> 9) & 0x1) << 5) | (((self.q73 >> 13) & 0x1) << 6)) };
+        if self.v301 != c301 { self.v301 = c301; *dirty |= 0x40000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$read.
+    fn group_17(&mut self, dirty: &mut u128) {
+        let c106: u64 = (self.v121) & ((self.q22 & 0x1)) & 0x1;
+        if self.v106 != c106 { self.v106 = c106; *dirty |= 0x2000000000000; }
+        let c1033: u64 = (c106 | (self.q20 << 1)) & (self.q22 | (self.v1077 << 4)) & 0xff;
+        let c1034: u64 = (self.v759) & (self.v935) & 0x1;
+        let c1035: u64 = (self.v935) & (self.v767) & 0x1;
+        if self.v1035 != c1035 { self.v1035 = c1035; *dirty |= 0x2000000000000; }
+        let c1048: u64 = ((c1034) | (self.v758)) & 0x1;
+        let c1054: u64 = if (self.v760) != 0 { (self.v769) } else { ((self.i_addr & 0xf)) };
+        let c1032: u64 = (self.q48).wrapping_add((c1054)) & 0x3f;
+        let c1053: u64 = if (self.v758) != 0 { ((self.i_addr & 0x1f) | (self.v770 << 5)) } else { (c1032) };
+        if self.v1053 != c1053 { self.v1053 = c1053; *dirty |= 0x40000000000020000000; }
+        let c1055: u64 = if (self.v1046) != 0 { ((self.v837 & 0xf)) } else { (0x0) };
+        let c1068: u64 = if (self.q14) != 0 { (self.v757) } else { (self.v761) };
+        let c1049: u64 = (self.i_re) & (c1068) & 0x1;
+        if self.v1049 != c1049 { self.v1049 = c1049; *dirty |= 0x20000000000000000000000000000; }
+        let c1069: u64 = if (self.q14) != 0 { (c1048) } else { (self.v760) };
+        if self.v1069 != c1069 { self.v1069 = c1069; *dirty |= 0x80000000; }
+        let c1071: u64 = if (self.q14) != 0 { (0x0) } else { (c1055) };
+        if self.v1071 != c1071 { self.v1071 = c1071; *dirty |= 0x40000000000000000000000000000; }
+        let c1076: u64 = if (self.v1036) != 0 { (self.v943 | (self.q44 << 1) | (self.q131 << 2) | (self.q132 << 3) | (self.v109 << 4) | (self.v108 << 5) | (self.q23 << 6) | (self.q113 << 7)) } else { (0x0) };
+        let c1075: u64 = if (self.v1045) != 0 { (c106 | (self.q20 << 1)) } else { (c1076) };
+        let c1074: u64 = if (self.v986) != 0 { (self.q105 | ((self.q15 & 0x1) << 3) | ((self.q15 >> 1) << 5) | (self.q14 << 7)) } else { (c1075) };
+        if self.v1074 != c1074 { self.v1074 = c1074; *dirty |= 0x2000000000000; }
+        let c1078: u64 = u64::from((c1033) != 0);
+        if self.v1078 != c1078 { self.v1078 = c1078; *dirty |= 0x8000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$tx_buffer.
+    fn group_18(&mut self, dirty: &mut u128) {
+        let c1080: u64 = u64::from((self.v1103) == 0);
+        let c1081: u64 = u64::from((self.v1103) == (0x2));
+        let c1082: u64 = u64::from((self.v1103) < (0xd));
+        let c1079: u64 = (self.v1104) & (c1082) & 0x1;
+        if self.v1079 != c1079 { self.v1079 = c1079; *dirty |= 0x29000000000000000000000000000000; }
+        let c44: u64 = u64::from((c1080 | (c1079 << 1)) == 0x3);
+        if self.v44 != c44 { self.v44 = c44; *dirty |= 0x4000000000000000000000000000000; }
+        let c45: u64 = u64::from((c1081 | (c1079 << 1)) == 0x3);
+        if self.v45 != c45 { self.v45 = c45; *dirty |= 0x800000000000000000000000000000; }
+        let c1084: u64 = if (self.q14) != 0 { (self.q4) } else { ((self.q107 & 0xf) | ((self.q107 >> 4) << 6)) };
+        if self.v1084 != c1084 { self.v1084 = c1084; *dirty |= 0x200004100000; }
+        let c1085: u64 = if (self.q5) != 0 { (self.m1_rd) } else { (0x0) };
+        if self.v1085 != c1085 { self.v1085 = c1085; *dirty |= 0x100000; }
+        let c1086: u64 = if (self.q3) != 0 { (self.m2_rd) } else { (0x0) };
+        if self.v1086 != c1086 { self.v1086 = c1086; *dirty |= 0x2000000000000; }
+        let c1089: u64 = (if (self.v1103) < 64 { (0x1) << (self.v1103) } else { 0 }) & 0xffff;
+        let c1083: u64 = !(c1089) & 0xffff;
+        let c107: u64 = (self.q2) & (c1083) & 0xffff;
+        let c111: u64 = ((c107) | (c1089)) & 0xffff;
+        if self.v111 != c111 { self.v111 = c111; *dirty |= 0x20000000000000000000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$bit_timing.
+    fn group_19(&mut self, dirty: &mut u128) {
+        let c140: u64 = (self.v212) & (self.q109) & 0x1;
+        let c141: u64 = (c140) & (self.v161) & 0x1;
+        let c201: u64 = if (self.v253) != 0 { (0x0) } else { (self.v196) };
+        let c202: u64 = if (self.v253) != 0 { (0x0) } else { (self.v197) };
+        let c203: u64 = if (self.v253) != 0 { (0x0) } else { (self.v198) };
+        let c204: u64 = if (self.v253) != 0 { (0x0) } else { (self.v199) };
+        let c205: u64 = if (self.v253) != 0 { (0x0) } else { (self.v200) };
+        let c206: u64 = (c141) & (c201) & 0x1;
+        let c207: u64 = (c141) & (c202) & 0x1;
+        let c189: u64 = if (c207) != 0 { (self.v110 | 0xc) } else { (self.q108) };
+        let c137: u64 = (self.q95).wrapping_add((c189 | ((c189 >> 3) << 4))) & 0x1f;
+        let c208: u64 = (c141) & (c203) & 0x1;
+        let c162: u64 = !(c208) & 0x1;
+        let c143: u64 = (self.v142) & (c162) & 0x1;
+        let c168: u64 = ((c208) | (c207)) & 0x1;
+        let c187: u64 = if (c207) != 0 { (self.v144) } else { (c143) };
+        let c74: u64 = u64::from((c187 | (self.v39 << 1)) == 0x3);
+        if self.v74 != c74 { self.v74 = c74; *dirty |= 0x200000000000000; }
+        let c146: u64 = (self.v195) & (c187) & 0x1;
+        let c188: u64 = if (c168) != 0 { (c137) } else { (self.q95) };
+        let c183: u64 = { let s = (self.v191 | (self.v195 << 1) | (self.v196 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.q98 } else if s >> 2 & 1 != 0 { (self.q102 & 0xf) } else { (c188) } };
+        let c185: u64 = if (c187) != 0 { (c183) } else { (c188) };
+        if self.v185 != c185 { self.v185 = c185; *dirty |= 0x20000000000000; }
+        let c209: u64 = (c141) & (c204) & 0x1;
+        let c210: u64 = (c141) & (c205) & 0x1;
+        let c172: u64 = ((c210) | (c209)) & 0x1;
+        let c173: u64 = ((c172) | (c208)) & 0x1;
+        let c174: u64 = ((c173) | (c207)) & 0x1;
+        let c175: u64 = ((c174) | (c206)) & 0x1;
+        let c211: u64 = (c141) & (self.v253) & 0x1;
+        let c166: u64 = ((c211) | (c210)) & 0x1;
+        let c167: u64 = ((c166) | (c209)) & 0x1;
+        let c95: u64 = u64::from((self.i_reset | (c167 << 1)) != 0);
+        if self.v95 != c95 { self.v95 = c95; *dirty |= 0x220000000000000; }
+        let c96: u64 = u64::from((self.i_reset | (c187 << 1) | (c167 << 2)) != 0);
+        if self.v96 != c96 { self.v96 = c96; *dirty |= 0x40000000000000; }
+        let c97: u64 = u64::from((self.i_reset | (self.v158 << 1) | (c167 << 2)) != 0);
+        if self.v97 != c97 { self.v97 = c97; *dirty |= 0x400000000; }
+        let c163: u64 = !(c167) & 0x1;
+        let c145: u64 = (self.v158) & (c163) & 0x1;
+        if self.v145 != c145 { self.v145 = c145; *dirty |= 0x100000000000000; }
+        let c147: u64 = (c146) & (c163) & 0x1;
+        let c148: u64 = (c147) & (self.v164) & 0x1;
+        if self.v148 != c148 { self.v148 = c148; *dirty |= 0x20000008000000; }
+        let c169: u64 = ((self.v150) | (c211)) & 0x1;
+        let c170: u64 = ((c169) | (c209)) & 0x1;
+        let c151: u64 = (c170) & (self.v165) & 0x1;
+        let c152: u64 = (c151) & (self.v164) & 0x1;
+        let c153: u64 = (c170) & (self.q94) & 0x1;
+        if self.v153 != c153 { self.v153 = c153; *dirty |= 0x400000000000000; }
+        let c171: u64 = ((c152) | (self.q89)) & 0x1;
+        if self.v171 != c171 { self.v171 = c171; *dirty |= 0x100000; }
+        let c176: u64 = ((c211) | (c175)) & 0x1;
+        let c178: u64 = if (c167) != 0 { (0x0) } else { (self.q91) };
+        if self.v178 != c178 { self.v178 = c178; *dirty |= 0x0; }
+        let c180: u64 = if (c148) != 0 { (0x0) } else { (self.q90) };
+        let c179: u64 = ((c180) | (c176)) & 0x1;
+        if self.v179 != c179 { self.v179 = c179; *dirty |= 0x400000000000000; }
+        let c181: u64 = if (c148) != 0 { (self.v222) } else { (self.q109) };
+        let c177: u64 = ((c181) | (self.i_reset)) & 0x1;
+        if self.v177 != c177 { self.v177 = c177; *dirty |= 0x40000000000000; }
+        let c182: u64 = ((self.v186) | (c167)) & 0x1;
+        if self.v182 != c182 { self.v182 = c182; *dirty |= 0x400000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$sender.
+    fn group_20(&mut self, dirty: &mut u128) {
+        let c687: u64 = if (self.v171) != 0 { (self.q117) } else { (self.q118) };
+        let c686: u64 = ((c687) | (self.q125)) & 0x1;
+        let c685: u64 = ((c686) | (self.v683)) & 0x1;
+        if self.v685 != c685 { self.v685 = c685; *dirty |= 0x4000000000000000000; }
+        let c708: u64 = ((((self.v1084 >> 6) & 0x1)) | ((self.v1084 >> 7))) & 0x1;
+        if self.v708 != c708 { self.v708 = c708; *dirty |= 0x200000000000; }
+        let c726: u64 = if (self.v671) != 0 { ((self.v1085 & 0x7f)) } else { (((self.q104 & 0x3f) << 1)) };
+        if self.v726 != c726 { self.v726 = c726; *dirty |= 0x8000000000000000000; }
+        let c729: u64 = if (self.v671) != 0 { (((self.v1085 >> 6) & 0x1)) } else { (((self.q104 >> 5) & 0x1)) };
+        let c728: u64 = if (self.v672) != 0 { ((self.v1085 >> 7)) } else { (c729) };
+        if self.v728 != c728 { self.v728 = c728; *dirty |= 0x200000000000; }
+        let c730: u64 = if (self.v671) != 0 { ((self.v1085 >> 7)) } else { ((self.q104 >> 6)) };
+        if self.v730 != c730 { self.v730 = c730; *dirty |= 0x200000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$configuration.
+    fn group_21(&mut self, dirty: &mut u128) {
+        let c125: u64 = u64::from((self.i_addr) == (0xd));
+        let c124: u64 = (self.q14) & (c125) & 0x1;
+        let c78: u64 = u64::from((self.v842 | (c124 << 1)) == 0x3);
+        if self.v78 != c78 { self.v78 = c78; *dirty |= 0x8000000000000; }
+        let c126: u64 = u64::from((self.i_addr) == (0x6));
+        let c76: u64 = u64::from((self.v842 | (c126 << 1)) == 0x3);
+        if self.v76 != c76 { self.v76 = c76; *dirty |= 0x14000000000000; }
+        let c127: u64 = u64::from((self.i_addr) == (0x7));
+        let c75: u64 = u64::from((self.v842 | (c127 << 1)) == 0x3);
+        if self.v75 != c75 { self.v75 = c75; *dirty |= 0x14000000000000; }
+        let c128: u64 = u64::from((self.i_addr) == (0x8));
+        let c77: u64 = u64::from((self.v842 | (c128 << 1)) == 0x3);
+        if self.v77 != c77 { self.v77 = c77; *dirty |= 0x8000000000000; }
+        let c133: u64 = if (c127) != 0 { (self.q102) } else { (self.q103) };
+        let c131: u64 = if (c128) != 0 { (self.q100) } else { (c133) };
+        let c129: u64 = if (c124) != 0 { (self.q101) } else { (c131) };
+        if self.v129 != c129 { self.v129 = c129; *dirty |= 0x2000000000000; }
+        let c134: u64 = ((c126) | (c127)) & 0x1;
+        let c132: u64 = ((c134) | (c128)) & 0x1;
+        let c130: u64 = ((c132) | (c124)) & 0x1;
+        if self.v130 != c130 { self.v130 = c130; *dirty |= 0x2000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$assembler.
+    fn group_22(&mut self, dirty: &mut u128) {
+        let c272: u64 = (self.v282) & (self.q81) & 0x1;
+        let c274: u64 = !(c272) & 0x1;
+        let c273: u64 = (self.v525) & (c274) & 0x1;
+        if self.v273 != c273 { self.v273 = c273; *dirty |= 0x800000000; }
+        let c275: u64 = (self.v425) & (self.v377) & 0x1;
+        if self.v275 != c275 { self.v275 = c275; *dirty |= 0x80000000000; }
+        let c276: u64 = (self.v427) & (self.v227) & 0x1;
+        if self.v276 != c276 { self.v276 = c276; *dirty |= 0x80000000000; }
+        let c280: u64 = if ((self.q84 >> 3)) != 0 { (0x8) } else { ((self.q84 & 0x7)) };
+        let c279: u64 = if (self.q79) != 0 { (0x0) } else { (c280) };
+        let c281: u64 = (c279).wrapping_sub((0x1)) & 0xf;
+        if self.v281 != c281 { self.v281 = c281; *dirty |= 0x8000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$frame.
+    fn group_23(&mut self, dirty: &mut u128) {
+        let c398: u64 = if (self.v384) != 0 { (0x0) } else { (self.v664) };
+        let c424: u64 = if (self.v361) != 0 { (0x0) } else { (self.v664) };
+        let c429: u64 = if (self.v388) != 0 { (0x0) } else { (self.v664) };
+        let c436: u64 = if (self.v390) != 0 { (0x0) } else { (self.v664) };
+        let c443: u64 = { let s = (self.v391 | (self.v400 << 1) | (self.v425 << 2) | (self.v427 << 3) | (self.v379 << 4)); if s >> 0 & 1 != 0 { c398 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c424 } else if s >> 3 & 1 != 0 { c429 } else if s >> 4 & 1 != 0 { c436 } else { (self.v664) } };
+        if self.v443 != c443 { self.v443 = c443; *dirty |= 0x1000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$stuffing.
+    fn group_24(&mut self, dirty: &mut u128) {
+        let c735: u64 = (self.q54).wrapping_add((0x1)) & 0x7;
+        let c738: u64 = u64::from((self.q54) == (0x5));
+        let c736: u64 = (self.q55) & (c738) & 0x1;
+        if self.v736 != c736 { self.v736 = c736; *dirty |= 0x3006000000; }
+        let c42: u64 = !(c736) & 0x1;
+        if self.v42 != c42 { self.v42 = c42; *dirty |= 0x806000000; }
+        let c63: u64 = u64::from((self.v585 | (self.q59 << 1) | (self.q94 << 2) | (c42 << 3)) == 0xf);
+        if self.v63 != c63 { self.v63 = c63; *dirty |= 0x1000000000000000000; }
+        let c739: u64 = u64::from((self.q54) == (0x4));
+        let c737: u64 = (self.q55) & (c739) & 0x1;
+        if self.v737 != c737 { self.v737 = c737; *dirty |= 0x4000000; }
+        let c740: u64 = u64::from((self.q109) != (self.q53));
+        let c741: u64 = ((c738) | (c740)) & 0x1;
+        if self.v741 != c741 { self.v741 = c741; *dirty |= 0x2000000000; }
+        let c745: u64 = if (c741) != 0 { (0x1) } else { (c735) };
+        if self.v745 != c745 { self.v745 = c745; *dirty |= 0x800000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$interframe.
+    fn group_25(&mut self, dirty: &mut u128) {
+        let c64: u64 = u64::from((self.q94 | (self.v29 << 1) | (self.v27 << 2) | (self.v28 << 3) | (self.v42 << 4)) == 0x1f);
+        if self.v64 != c64 { self.v64 = c64; *dirty |= 0x1000000000000000000; }
+        let c65: u64 = u64::from((self.q94 | (self.v29 << 1) | (self.v30 << 2) | (self.v31 << 3) | (self.v32 << 4) | (self.v27 << 5) | (self.v28 << 6) | (self.v42 << 7)) == 0xff);
+        if self.v65 != c65 { self.v65 = c65; *dirty |= 0x800000000000000000; }
+        let c502: u64 = (self.v419) & (self.q64) & 0x1;
+        if self.v502 != c502 { self.v502 = c502; *dirty |= 0x2000000000; }
+        let c597: u64 = if (self.q59) != 0 { (c502) } else { (self.v591) };
+        let c636: u64 = { let s = (self.v558 | (self.v585 << 1)); if s >> 0 & 1 != 0 { self.v571 } else if s >> 1 & 1 != 0 { c597 } else { (0x0) } };
+        let c639: u64 = if (self.v736) != 0 { (self.q63) } else { (self.v630) };
+        if self.v639 != c639 { self.v639 = c639; *dirty |= 0x2000000000; }
+        let c643: u64 = if (self.v736) != 0 { (0x0) } else { (self.v633) };
+        let c646: u64 = if (self.v736) != 0 { (0x0) } else { (self.v635) };
+        let c647: u64 = if (self.v736) != 0 { (0x0) } else { (c636) };
+        if self.v647 != c647 { self.v647 = c647; *dirty |= 0x2000000000; }
+        let c648: u64 = if (self.v736) != 0 { (0x0) } else { (self.v637) };
+        if self.v648 != c648 { self.v648 = c648; *dirty |= 0x2000000000; }
+        let c659: u64 = (self.q94) & (c643) & 0x1;
+        if self.v659 != c659 { self.v659 = c659; *dirty |= 0x8004000000; }
+        let c661: u64 = (self.q94) & (c646) & 0x1;
+        if self.v661 != c661 { self.v661 = c661; *dirty |= 0x180000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$sender.
+    fn group_26(&mut self, dirty: &mut u128) {
+        let c666: u64 = (self.v737) & (self.v42) & 0x1;
+        let c667: u64 = (c666) & (self.v380) & 0x1;
+        if self.v667 != c667 { self.v667 = c667; *dirty |= 0x4000000000; }
+        let c680: u64 = !(self.v659) & 0x1;
+        let c665: u64 = (self.v585) & (c680) & 0x1;
+        let c690: u64 = if (c665) != 0 { (self.q59) } else { (self.v532) };
+        if self.v690 != c690 { self.v690 = c690; *dirty |= 0x200000000000; }
+        let c718: u64 = if (self.v736) != 0 { ((self.q74 & 0x7)) } else { ((self.v664 & 0x7)) };
+        let c719: u64 = if (self.v736) != 0 { (self.v373) } else { (self.v673) };
+        if self.v719 != c719 { self.v719 = c719; *dirty |= 0x4000000000; }
+        let c720: u64 = if (self.v736) != 0 { (self.v372) } else { (self.v371) };
+        if self.v720 != c720 { self.v720 = c720; *dirty |= 0x4000000000; }
+        let c721: u64 = if (self.v736) != 0 { (self.v371) } else { (self.v516) };
+        if self.v721 != c721 { self.v721 = c721; *dirty |= 0x4000000000; }
+        let c732: u64 = (c718).wrapping_sub((0x1)) & 0x7;
+        let c703: u64 = if ((self.v1084 >> 7)) != 0 { (c732) } else { (c718) };
+        let c675: u64 = u64::from((c703) == (0x1));
+        let c676: u64 = u64::from((c703) == (0x2));
+        let c677: u64 = u64::from((c703) == (0x3));
+        let c678: u64 = u64::from((c703) == (0x4));
+        let c702: u64 = (c675) & (((self.v1084 >> 3) & 0x1)) & 0x1;
+        let c701: u64 = if (c676) != 0 { (((self.v1084 >> 2) & 0x1)) } else { (c702) };
+        let c700: u64 = if (c677) != 0 { (((self.v1084 >> 1) & 0x1)) } else { (c701) };
+        let c698: u64 = if (c678) != 0 { ((self.v1084 & 0x1)) } else { (c700) };
+        if self.v698 != c698 { self.v698 = c698; *dirty |= 0x4000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes.
+    fn group_27(&mut self, dirty: &mut u128) {
+        let c970: u64 = (self.v747) & (self.v40) & 0x1;
+        let c976: u64 = (self.v148) & (self.v990) & 0x1;
+        if self.v976 != c976 { self.v976 = c976; *dirty |= 0x2000000000000000000000000000; }
+        let c982: u64 = !(self.v755) & 0x1;
+        let c983: u64 = !(self.v1078) & 0x1;
+        if self.v983 != c983 { self.v983 = c983; *dirty |= 0x0; }
+        let c972: u64 = (self.v511) & (c983) & 0x1;
+        let c1006: u64 = ((self.q129) | (c972)) & 0x1;
+        let c1007: u64 = !(c972) & 0x1;
+        let c1010: u64 = if (c970) != 0 { (c982) } else { (self.v1020) };
+        let c991: u64 = ((c1010) | (self.v984)) & 0x1;
+        let c973: u64 = (self.q129) & (c991) & 0x1;
+        let c1011: u64 = if (c970) != 0 { (self.v755) } else { (self.v1021) };
+        let c971: u64 = (c1011) & (self.v79) & 0x1;
+        let c1008: u64 = if (c971) != 0 { (c1006) } else { (self.q129) };
+        let c1005: u64 = if (c973) != 0 { (0x0) } else { (c1008) };
+        let c1001: u64 = if (self.v1002) != 0 { (0x0) } else { (c1005) };
+        let c993: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1001) };
+        if self.v993 != c993 { self.v993 = c993; *dirty |= 0x4000000000000000000000000000; }
+        let c989: u64 = !(c993) & 0x1;
+        let c977: u64 = (self.v988) & (c989) & 0x1;
+        if self.v977 != c977 { self.v977 = c977; *dirty |= 0x100000000000000000000000000; }
+        let c1009: u64 = (c971) & (c1007) & 0x1;
+        let c1004: u64 = ((c1009) | (c973)) & 0x1;
+        if self.v1004 != c1004 { self.v1004 = c1004; *dirty |= 0x10000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$interrupts.
+    fn group_28(&mut self, dirty: &mut u128) {
+        let c113: u64 = (self.q71 | (self.v1004 << 1) | (self.v956 << 2) | (self.v931 << 3) | (self.v947 << 4) | (self.v929 << 5) | (self.v928 << 6)) & (((self.q22 >> 1) & 0x1) | ((self.v1077 & 0x3) << 1) | ((self.q22 >> 3) << 3) | (((self.q22 >> 2) & 0x1) << 4) | ((self.v1077 >> 3) << 5) | (((self.v1077 >> 2) & 0x1) << 6)) & 0x7f;
+        let c927: u64 = (self.v40) & (self.v1043) & 0x1;
+        let c19: u64 = u64::from((c927 | (self.v926 << 1)) != 0);
+        let c41: u64 = !(c927) & 0x1;
+        let c49: u64 = u64::from((self.i_we | (c41 << 1) | (self.v926 << 2)) == 0x7);
+        if self.v49 != c49 { self.v49 = c49; *dirty |= 0x1000000000000; }
+        let c50: u64 = u64::from((self.i_we | (c19 << 1)) == 0x3);
+        if self.v50 != c50 { self.v50 = c50; *dirty |= 0x1000000000000; }
+        let c933: u64 = (self.v750) & (self.v943) & 0x1;
+        if self.v933 != c933 { self.v933 = c933; *dirty |= 0x20000000; }
+        let c934: u64 = (c933) & (self.v944) & 0x1;
+        let c948: u64 = ((self.v932) | (c934)) & 0x1;
+        let c951: u64 = if (self.v1002) != 0 { (0x0) } else { ((self.v952 & 0x1) | ((self.v952 >> 2) << 1)) };
+        let c114: u64 = (((c951 & 0x1) | (((self.v952 >> 1) & 0x1) << 1) | ((c951 >> 1) << 2)) | ((c113 & 0x1) | (((c113 >> 4) & 0x1) << 1) | (((c113 >> 3) & 0x1) << 2) | (((c113 >> 1) & 0x3) << 3) | ((c113 >> 6) << 5) | (((c113 >> 5) & 0x1) << 6))) & 0x7f;
+        if self.v114 != c114 { self.v114 = c114; *dirty |= 0x2000000000000000000000000; }
+        let c953: u64 = ((self.v954) | (c948)) & 0x1;
+        if self.v953 != c953 { self.v953 = c953; *dirty |= 0x400000000000000000000000; }
+        let c965: u64 = if (c927) != 0 { (((self.i_wdata >> 1) & 0xf)) } else { ((self.i_wdata & 0xf)) };
+        if self.v965 != c965 { self.v965 = c965; *dirty |= 0x1000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$fifo.
+    fn group_29(&mut self, dirty: &mut u128) {
+        let c792: u64 = if (self.v18) != 0 { (self.i_wdata) } else { (self.v815) };
+        let c793: u64 = if (self.v18) != 0 { (self.v1053) } else { (self.v776) };
+        let c794: u64 = ((self.v814) | (self.v18)) & 0x1;
+        let c797: u64 = if (self.q127) != 0 { (c794) } else { (self.v814) };
+        if self.v797 != c797 { self.v797 = c797; *dirty |= 0x200000000000000000000; }
+        let c798: u64 = if (self.q127) != 0 { (c792) } else { (self.v815) };
+        if self.v798 != c798 { self.v798 = c798; *dirty |= 0x200000000000000000000; }
+        let c799: u64 = if (self.q127) != 0 { (c793) } else { (self.v776) };
+        if self.v799 != c799 { self.v799 = c799; *dirty |= 0x200000000000000000000; }
+        let c808: u64 = if (self.v933) != 0 { (self.v839) } else { (self.q50) };
+        let c780: u64 = (c808).wrapping_add((0x1)) & 0x1f;
+        let c789: u64 = u64::from((c808) == 0);
+        let c802: u64 = if (c789) != 0 { (0x0) } else { (self.v933) };
+        let c803: u64 = if (c789) != 0 { (self.q84 | (self.q79 << 6) | (self.q81 << 7)) } else { (self.v837) };
+        let c804: u64 = if (self.v781) != 0 { (c802) } else { (self.v933) };
+        if self.v804 != c804 { self.v804 = c804; *dirty |= 0x40000000000000000000; }
+        let c805: u64 = if (self.v781) != 0 { (c803) } else { (self.v837) };
+        if self.v805 != c805 { self.v805 = c805; *dirty |= 0x80000000000000000000; }
+        let c806: u64 = if (self.v781) != 0 { (c780) } else { (c808) };
+        if self.v806 != c806 { self.v806 = c806; *dirty |= 0x1000000000000000000000; }
+        let c809: u64 = if (self.v933) != 0 { (self.v838) } else { (self.q42) };
+        let c779: u64 = (c809).wrapping_add((self.v832)) & 0x7f;
+        let c807: u64 = if (self.v781) != 0 { (c779) } else { (c809) };
+        if self.v807 != c807 { self.v807 = c807; *dirty |= 0x2000000000000000000000; }
+        let c810: u64 = if (self.v933) != 0 { (self.v777) } else { (self.q48) };
+        let c791: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (c810) };
+        let c796: u64 = if (self.q127) != 0 { (c791) } else { (c810) };
+        if self.v796 != c796 { self.v796 = c796; *dirty |= 0x80000000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$divider.
+    fn group_30(&mut self, dirty: &mut u128) {
+        let c1026: u64 = (self.q12).wrapping_add((0x1)) & 0x7;
+        if self.v1026 != c1026 { self.v1026 = c1026; *dirty |= 0x40000000000000000000000000; }
+        let c1027: u64 = !(self.q11) & 0x1;
+        if self.v1027 != c1027 { self.v1027 = c1027; *dirty |= 0x80000000000000000000000000; }
+        let c1028: u64 = u64::from((self.q105) == (0x7));
+        let c1029: u64 = u64::from((self.q12) >= (self.q105));
+        if self.v1029 != c1029 { self.v1029 = c1029; *dirty |= 0x80000000000000000000000000; }
+        let c82: u64 = u64::from((self.i_reset | (c1029 << 1)) != 0);
+        if self.v82 != c82 { self.v82 = c82; *dirty |= 0x40000000000000000000000000; }
+        let c1031: u64 = if (c1028) != 0 { (0x0) } else { (self.q11) };
+        let c1030: u64 = ((c1031) | ((self.q15 & 0x1))) & 0x1;
+        if self.v1030 != c1030 { self.v1030 = c1030; *dirty |= 0x10000000000000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of can_controller.
+    fn group_31(&mut self, dirty: &mut u128) {
+        let c17: u64 = (self.i_re) & (self.v1069) & 0x1;
+        if self.v17 != c17 { self.v17 = c17; *dirty |= 0x10000000040000000000000000000; }
+        let c35: u64 = u64::from((self.v661 | (self.q113 << 1) | (self.v1 << 2)) != (0x2));
+        if self.v35 != c35 { self.v35 = c35; *dirty |= 0x20000000000; }
+        let c36: u64 = u64::from((self.v661 | (self.q113 << 1) | (self.v310 << 2) | (self.v1 << 3)) != (0x7));
+        if self.v36 != c36 { self.v36 = c36; *dirty |= 0x20000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$faults.
+    fn group_32(&mut self, dirty: &mut u128) {
+        let c350: u64 = if (self.v661) != 0 { (self.v348) } else { (0x1) };
+        if self.v350 != c350 { self.v350 = c350; *dirty |= 0x10000000000; }
+        let c351: u64 = if (self.v661) != 0 { (self.v347) } else { (self.q68 | (self.q69 << 7)) };
+        if self.v351 != c351 { self.v351 = c351; *dirty |= 0x10000000000; }
+        let c352: u64 = if (self.v661) != 0 { (self.v349) } else { ((self.q65 << 7)) };
+        if self.v352 != c352 { self.v352 = c352; *dirty |= 0x10000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$cdr_reg.
+    fn group_33(&mut self, dirty: &mut u128) {
+        self.n14 = ((self.v992 >> 6));
+        self.n15 = if (self.i_reset) != 0 { 0x0 } else if (self.v47) != 0 { (((self.i_wdata >> 3) & 0x1) | (((self.i_wdata >> 5) & 0x3) << 1)) } else { self.q15 };
+        self.n105 = if (self.i_reset) != 0 { 0x0 } else if (self.v975) != 0 { ((self.i_wdata & 0x7)) } else { self.q105 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$bit_timing$clocks.
+    fn group_34(&mut self, dirty: &mut u128) {
+        self.n96 = if (self.i_reset) != 0 { 0x0 } else { (self.v182) };
+        self.n97 = if (self.v97) != 0 { 0x0 } else { ((self.v138 >> 1)) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol.
+    fn group_35(&mut self, dirty: &mut u128) {
+        let c226: u64 = (self.q94) & (self.v42) & 0x1;
+        if self.v226 != c226 { self.v226 = c226; *dirty |= 0x83000000000; }
+        let c69: u64 = u64::from((c226 | (self.v372 << 1) | (self.v379 << 2)) == 0x7);
+        if self.v69 != c69 { self.v69 = c69; *dirty |= 0x4000000000000000; }
+        let c71: u64 = u64::from((c226 | (self.v427 << 1) | (self.v273 << 2)) == 0x7);
+        if self.v71 != c71 { self.v71 = c71; *dirty |= 0x2000000000000000; }
+        let c72: u64 = u64::from((c226 | (self.v425 << 1)) == 0x3);
+        if self.v72 != c72 { self.v72 = c72; *dirty |= 0x1000000000000000; }
+        let c73: u64 = u64::from((c226 | (self.v377 << 1) | (self.v425 << 2)) == 0x7);
+        if self.v73 != c73 { self.v73 = c73; *dirty |= 0x800000000000000; }
+        let c269: u64 = ((self.q88) | (self.v10)) & 0x1;
+        if self.v269 != c269 { self.v269 = c269; *dirty |= 0x800000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$frame.
+    fn group_36(&mut self, dirty: &mut u128) {
+        let c68: u64 = u64::from((self.v226 | (self.v379 << 1) | (self.v38 << 2)) == 0x7);
+        if self.v68 != c68 { self.v68 = c68; *dirty |= 0x8000000000000000; }
+        let c70: u64 = u64::from((self.v226 | (self.v43 << 1) | (self.v379 << 2)) == 0x7);
+        if self.v70 != c70 { self.v70 = c70; *dirty |= 0x4000000000000000; }
+        let c362: u64 = (self.q94) & (self.v736) & 0x1;
+        if self.v362 != c362 { self.v362 = c362; *dirty |= 0x8000000000; }
+        let c473: u64 = if (c362) != 0 { (self.v470) } else { (self.v459) };
+        if self.v473 != c473 { self.v473 = c473; *dirty |= 0x2000000000; }
+        let c474: u64 = if (c362) != 0 { ((self.v471 << 1)) } else { (self.v461) };
+        if self.v474 != c474 { self.v474 = c474; *dirty |= 0x2000000000; }
+        let c475: u64 = if (c362) != 0 { (self.v472) } else { (self.v462) };
+        if self.v475 != c475 { self.v475 = c475; *dirty |= 0xa000000000; }
+        let c476: u64 = if (c362) != 0 { (self.q74) } else { (self.v443) };
+        if self.v476 != c476 { self.v476 = c476; *dirty |= 0x2000000000; }
+        let c477: u64 = if (c362) != 0 { (0x0) } else { (self.v453) };
+        if self.v477 != c477 { self.v477 = c477; *dirty |= 0x8000000000; }
+        let c478: u64 = if (c362) != 0 { (0x0) } else { (self.v454) };
+        if self.v478 != c478 { self.v478 = c478; *dirty |= 0x100000010000000000; }
+        let c479: u64 = if (c362) != 0 { (0x0) } else { (self.v455) };
+        if self.v479 != c479 { self.v479 = c479; *dirty |= 0x100000008000000000; }
+        let c480: u64 = if (c362) != 0 { (0x0) } else { (self.v457) };
+        if self.v480 != c480 { self.v480 = c480; *dirty |= 0x2000000000; }
+        let c481: u64 = if (c362) != 0 { (0x0) } else { (self.v458) };
+        if self.v481 != c481 { self.v481 = c481; *dirty |= 0x8000000000; }
+        let c482: u64 = if (c362) != 0 { (0x0) } else { (self.v460) };
+        if self.v482 != c482 { self.v482 = c482; *dirty |= 0x30000002000000000; }
+        let c483: u64 = if (c362) != 0 { (0x0) } else { (self.v463) };
+        if self.v483 != c483 { self.v483 = c483; *dirty |= 0x2000000000; }
+        let c484: u64 = if (c362) != 0 { (0x0) } else { (self.v464) };
+        if self.v484 != c484 { self.v484 = c484; *dirty |= 0x4000000000; }
+        let c485: u64 = if (c362) != 0 { (0x0) } else { (self.v465) };
+        if self.v485 != c485 { self.v485 = c485; *dirty |= 0x40000004000000000; }
+        let c486: u64 = if (c362) != 0 { (self.q115) } else { (self.v466) };
+        if self.v486 != c486 { self.v486 = c486; *dirty |= 0x2000000000; }
+        let c487: u64 = if (c362) != 0 { (0x0) } else { (self.v467) };
+        if self.v487 != c487 { self.v487 = c487; *dirty |= 0x10000000000; }
+        let c488: u64 = if (c362) != 0 { (0x0) } else { (self.v468) };
+        if self.v488 != c488 { self.v488 = c488; *dirty |= 0x8000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$interframe.
+    fn group_37(&mut self, dirty: &mut u128) {
+        let c495: u64 = (self.v226) & (self.v419) & 0x1;
+        let c497: u64 = (c495) & (self.v534) & 0x1;
+        if self.v497 != c497 { self.v497 = c497; *dirty |= 0x4000080c000000000; }
+        let c22: u64 = u64::from((c497 | (self.v741 << 1)) != 0);
+        let c59: u64 = u64::from((self.q94 | (c22 << 1)) == 0x3);
+        if self.v59 != c59 { self.v59 = c59; *dirty |= 0x10000000000000000000; }
+        let c91: u64 = u64::from((self.i_reset | (c497 << 1)) != 0);
+        if self.v91 != c91 { self.v91 = c91; *dirty |= 0x86000000000000000; }
+        let c515: u64 = !(self.v482) & 0x1;
+        let c498: u64 = (self.q52) & (c515) & 0x1;
+        let c553: u64 = if (self.v516) != 0 { (0x0) } else { (self.v476) };
+        let c555: u64 = if (self.v506) != 0 { (c553) } else { (0x0) };
+        let c557: u64 = if (self.v518) != 0 { (0x0) } else { (self.v476) };
+        let c559: u64 = if (self.v518) != 0 { (0xa) } else { (self.v486) };
+        let c560: u64 = if (self.v518) != 0 { (0xd) } else { (self.v486) };
+        let c561: u64 = if (self.v518) != 0 { (self.v474) } else { (0x1) };
+        let c562: u64 = if (self.v518) != 0 { (self.v475) } else { (0x1) };
+        let c563: u64 = if (self.q109) != 0 { (self.v474) } else { (c561) };
+        let c564: u64 = if (self.q109) != 0 { (self.v475) } else { (c562) };
+        let c565: u64 = if (self.q109) != 0 { (c559) } else { (c560) };
+        let c573: u64 = if (self.v521) != 0 { (self.v474) } else { (c563) };
+        let c574: u64 = if (self.v521) != 0 { (self.v475) } else { (c564) };
+        let c575: u64 = if (self.v521) != 0 { (self.v486) } else { (c565) };
+        let c578: u64 = if (self.v519) != 0 { (0x0) } else { (self.v476) };
+        let c579: u64 = if (self.v519) != 0 { (0xe) } else { (self.v486) };
+        let c580: u64 = ((self.v475) | (self.v503)) & 0x1;
+        let c582: u64 = if (self.v503) != 0 { (self.v476) } else { (c578) };
+        let c583: u64 = if (self.v503) != 0 { (self.v486) } else { (c579) };
+        let c587: u64 = if (self.v598) != 0 { (0xe) } else { (self.v486) };
+        let c589: u64 = if (self.q109) != 0 { (0x0) } else { (self.v476) };
+        let c595: u64 = if (self.v501) != 0 { (0x1) } else { (self.v476) };
+        let c599: u64 = if (self.q59) != 0 { (c595) } else { (c589) };
+        let c586: u64 = if (self.v598) != 0 { (0x0) } else { (c599) };
+        let c603: u64 = if (self.v499) != 0 { (0x0) } else { (self.v476) };
+        let c604: u64 = if (self.v514) != 0 { (c603) } else { (self.v476) };
+        let c605: u64 = if (self.v514) != 0 { (self.v499) } else { (c498) };
+        let c606: u64 = if (self.v514) != 0 { ((self.v499 << 1) | (self.v499 << 3) | 0x1) } else { (self.v486) };
+        let c607: u64 = if (self.v514) != 0 { (self.v500) } else { (c498) };
+        let c608: u64 = if (self.v514) != 0 { (self.v476) } else { (0x0) };
+        let c609: u64 = if (self.v514) != 0 { (self.v486) } else { (0xd) };
+        let c610: u64 = if (self.q109) != 0 { (c604) } else { (c608) };
+        let c611: u64 = if (self.q109) != 0 { (c605) } else { (c607) };
+        let c612: u64 = if (self.q109) != 0 { (c606) } else { (c609) };
+        let c613: u64 = if (self.v518) != 0 { (0x0) } else { (c498) };
+        let c614: u64 = if (self.v518) != 0 { (0x1) } else { (self.v486) };
+        let c615: u64 = (self.q109) & (c613) & 0x1;
+        let c616: u64 = if (self.q109) != 0 { (c614) } else { (self.v486) };
+        let c617: u64 = if (self.q118) != 0 { (c498) } else { (0x1) };
+        let c618: u64 = if (self.q118) != 0 { (self.v475) } else { (0x1) };
+        let c619: u64 = if (self.q109) != 0 { (c617) } else { (self.v517) };
+        let c620: u64 = if (self.q109) != 0 { (c618) } else { (self.v475) };
+        let c621: u64 = if (self.v516) != 0 { (0x1) } else { (self.v486) };
+        let c623: u64 = if (self.q109) != 0 { (self.v476) } else { (0x0) };
+        let c570: u64 = if (self.v521) != 0 { (c623) } else { (c557) };
+        let c624: u64 = if (self.q109) != 0 { (c621) } else { (self.v486) };
+        let c625: u64 = { let s = (self.v554 | (self.v558 << 1) | (self.v524 << 2) | (self.v585 << 3) | (self.v513 << 4) | (self.v622 << 5)); if s >> 0 & 1 != 0 { c555 } else if s >> 1 & 1 != 0 { c570 } else if s >> 2 & 1 != 0 { c582 } else if s >> 3 & 1 != 0 { c586 } else if s >> 4 & 1 != 0 { c610 } else if s >> 5 & 1 != 0 { c623 } else { (self.v476) } };
+        let c626: u64 = { let s = (self.v558 | (self.v524 << 1) | (self.v585 << 2) | (self.v513 << 3) | (self.v512 << 4) | (self.v622 << 5)); if s >> 0 & 1 != 0 { c575 } else if s >> 1 & 1 != 0 { c583 } else if s >> 2 & 1 != 0 { c587 } else if s >> 3 & 1 != 0 { c612 } else if s >> 4 & 1 != 0 { c616 } else if s >> 5 & 1 != 0 { c624 } else { (self.v486) } };
+        let c631: u64 = if (self.v558) != 0 { (c573) } else { (self.v474) };
+        let c632: u64 = { let s = (self.v558 | (self.v524 << 1) | (self.v511 << 2)); if s >> 0 & 1 != 0 { c574 } else if s >> 1 & 1 != 0 { c580 } else if s >> 2 & 1 != 0 { c620 } else { (self.v475) } };
+        let c634: u64 = { let s = (self.v513 | (self.v512 << 1) | (self.v511 << 2)); if s >> 0 & 1 != 0 { c611 } else if s >> 1 & 1 != 0 { c615 } else if s >> 2 & 1 != 0 { c619 } else { (c498) } };
+        let c640: u64 = if (self.v736) != 0 { (self.v476) } else { (c625) };
+        let c551: u64 = if (c497) != 0 { (0x0) } else { (c640) };
+        let c641: u64 = if (self.v736) != 0 { (self.v474) } else { (c631) };
+        let c642: u64 = if (self.v736) != 0 { (self.v475) } else { (c632) };
+        let c25: u64 = u64::from((self.v585 | (self.v736 << 1) | (c642 << 2)) != 0);
+        let c26: u64 = u64::from((self.v736 | (c642 << 1)) != (0x1));
+        let c62: u64 = u64::from((self.q94 | (c26 << 1) | (c25 << 2)) == 0x7);
+        if self.v62 != c62 { self.v62 = c62; *dirty |= 0x2000000000000000000; }
+        let c546: u64 = ((self.v639) | (c642)) & 0x1;
+        if self.v546 != c546 { self.v546 = c546; *dirty |= 0x800000000000000000; }
+        let c547: u64 = if (c642) != 0 { (self.v532) } else { (self.v600) };
+        if self.v547 != c547 { self.v547 = c547; *dirty |= 0x2000000000000000000; }
+        let c548: u64 = ((self.v483) | (c642)) & 0x1;
+        let c549: u64 = if (c642) != 0 { (0x0) } else { (c551) };
+        if self.v549 != c549 { self.v549 = c549; *dirty |= 0x8000000000; }
+        let c644: u64 = if (self.v736) != 0 { (c498) } else { (c634) };
+        let c508: u64 = (c644) & (self.v535) & 0x1;
+        let c509: u64 = (c508) & (self.q116) & 0x1;
+        let c523: u64 = !(c644) & 0x1;
+        let c507: u64 = (self.v524) & (c523) & 0x1;
+        let c510: u64 = (self.q88) & (c523) & 0x1;
+        let c537: u64 = ((self.v648) | (c507)) & 0x1;
+        let c538: u64 = if (c507) != 0 { (0x0) } else { (c523) };
+        let c539: u64 = if (self.v473) != 0 { (c537) } else { (self.v648) };
+        let c540: u64 = (self.v473) & (c538) & 0x1;
+        let c541: u64 = if (self.v473) != 0 { (c644) } else { (self.v647) };
+        let c542: u64 = (c642) & (c509) & 0x1;
+        let c536: u64 = ((c542) | (c510)) & 0x1;
+        let c543: u64 = if (c642) != 0 { (c541) } else { (self.v647) };
+        let c544: u64 = if (c642) != 0 { (c539) } else { (self.v648) };
+        let c545: u64 = (c642) & (c540) & 0x1;
+        let c645: u64 = if (self.v736) != 0 { (self.v486) } else { (c626) };
+        let c552: u64 = if (c497) != 0 { (0x2) } else { (c645) };
+        let c550: u64 = if (c642) != 0 { (0xc) } else { (c552) };
+        let c649: u64 = (self.q94) & (c536) & 0x1;
+        if self.v649 != c649 { self.v649 = c649; *dirty |= 0x8000000000; }
+        let c90: u64 = u64::from((self.i_reset | (c649 << 1)) != 0);
+        if self.v90 != c90 { self.v90 = c90; *dirty |= 0x100000000000000000; }
+        let c650: u64 = if (self.q94) != 0 { (c548) } else { (self.v483) };
+        if self.v650 != c650 { self.v650 = c650; *dirty |= 0xc000000000; }
+        let c651: u64 = if (self.q94) != 0 { (c550) } else { (self.v486) };
+        if self.v651 != c651 { self.v651 = c651; *dirty |= 0xc000000000; }
+        let c652: u64 = (self.q94) & (c543) & 0x1;
+        if self.v652 != c652 { self.v652 = c652; *dirty |= 0x30000000000; }
+        let c653: u64 = (self.q94) & (c544) & 0x1;
+        if self.v653 != c653 { self.v653 = c653; *dirty |= 0x10000000000; }
+        let c654: u64 = (self.q94) & (c545) & 0x1;
+        if self.v654 != c654 { self.v654 = c654; *dirty |= 0x10000000000; }
+        let c655: u64 = (self.q94) & (c523) & 0x1;
+        if self.v655 != c655 { self.v655 = c655; *dirty |= 0x10000000000000000; }
+        let c657: u64 = if (self.q94) != 0 { (c641) } else { (self.v474) };
+        if self.v657 != c657 { self.v657 = c657; *dirty |= 0x10000000000000000; }
+        let c658: u64 = if (self.q94) != 0 { (c642) } else { (self.v475) };
+        if self.v658 != c658 { self.v658 = c658; *dirty |= 0xc000000000; }
+        let c660: u64 = if (self.q94) != 0 { (c644) } else { (c498) };
+        if self.v660 != c660 { self.v660 = c660; *dirty |= 0x20000000204000000000; }
+        let c662: u64 = ((self.q64) | (self.v480)) & 0x1;
+        let c593: u64 = if (self.v502) != 0 { (0x0) } else { (c662) };
+        let c596: u64 = if (self.q59) != 0 { (c593) } else { (c662) };
+        let c584: u64 = if (self.v598) != 0 { (0x0) } else { (c596) };
+        let c627: u64 = if (self.v585) != 0 { (c584) } else { (c662) };
+        let c638: u64 = if (self.v736) != 0 { (c662) } else { (c627) };
+        let c656: u64 = if (self.q94) != 0 { (c638) } else { (c662) };
+        if self.v656 != c656 { self.v656 = c656; *dirty |= 0x400000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$sender.
+    fn group_38(&mut self, dirty: &mut u128) {
+        let c668: u64 = (self.v667) & (self.v660) & 0x1;
+        let c679: u64 = !(self.v484) & 0x1;
+        if self.v679 != c679 { self.v679 = c679; *dirty |= 0x200000000000; }
+        let c681: u64 = !(self.v658) & 0x1;
+        if self.v681 != c681 { self.v681 = c681; *dirty |= 0x8000000000; }
+        let c669: u64 = (c668) & (c681) & 0x1;
+        let c682: u64 = !(self.v650) & 0x1;
+        let c670: u64 = (c669) & (c682) & 0x1;
+        if self.v670 != c670 { self.v670 = c670; *dirty |= 0x200000000000; }
+        let c691: u64 = u64::from((self.v651) == (0xc));
+        if self.v691 != c691 { self.v691 = c691; *dirty |= 0x200000000000; }
+        let c692: u64 = if (self.v485) != 0 { (self.v734) } else { ((self.q73 >> 14)) };
+        let c693: u64 = u64::from((self.v651) == (0x5));
+        if self.v693 != c693 { self.v693 = c693; *dirty |= 0x200000000000; }
+        let c694: u64 = if (self.v660) != 0 { (c692) } else { (0x1) };
+        if self.v694 != c694 { self.v694 = c694; *dirty |= 0x200000000000; }
+        let c696: u64 = u64::from((self.v651) == (0x4));
+        if self.v696 != c696 { self.v696 = c696; *dirty |= 0x200000000000; }
+        let c699: u64 = u64::from((self.v651) == (0x3));
+        if self.v699 != c699 { self.v699 = c699; *dirty |= 0x200000000000; }
+        let c704: u64 = if (self.v660) != 0 { (self.v698) } else { (0x1) };
+        if self.v704 != c704 { self.v704 = c704; *dirty |= 0x200000000000; }
+        let c706: u64 = u64::from((self.v651) == (0x2));
+        if self.v706 != c706 { self.v706 = c706; *dirty |= 0x200000000000; }
+        let c712: u64 = u64::from((self.v651) == (0xd));
+        if self.v712 != c712 { self.v712 = c712; *dirty |= 0x200000000000; }
+        let c713: u64 = u64::from((self.v651) == (0x7));
+        if self.v713 != c713 { self.v713 = c713; *dirty |= 0x200000000000; }
+        let c714: u64 = u64::from((self.v651) == (0x1));
+        if self.v714 != c714 { self.v714 = c714; *dirty |= 0x200000000000; }
+        let c715: u64 = if (self.v497) != 0 { (0x0) } else { (self.v719) };
+        if self.v715 != c715 { self.v715 = c715; *dirty |= 0x200000000000; }
+        let c716: u64 = if (self.v497) != 0 { (0x0) } else { (self.v720) };
+        if self.v716 != c716 { self.v716 = c716; *dirty |= 0x200000000000; }
+        let c717: u64 = if (self.v497) != 0 { (0x0) } else { (self.v721) };
+        if self.v717 != c717 { self.v717 = c717; *dirty |= 0x200000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol.
+    fn group_39(&mut self, dirty: &mut u128) {
+        let c86: u64 = u64::from((self.i_reset | (self.v225 << 1) | (self.v362 << 2)) != 0);
+        if self.v86 != c86 { self.v86 = c86; *dirty |= 0x20000000000000000000; }
+        let c228: u64 = (self.v488) & (self.v681) & 0x1;
+        if self.v228 != c228 { self.v228 = c228; *dirty |= 0xa000000200000000000; }
+        let c61: u64 = u64::from((c228 | (self.v671 << 1)) == 0x3);
+        if self.v61 != c61 { self.v61 = c61; *dirty |= 0x400000000000; }
+        let c243: u64 = !(self.v475) & 0x1;
+        let c229: u64 = (self.v477) & (c243) & 0x1;
+        if self.v229 != c229 { self.v229 = c229; *dirty |= 0x200000000000; }
+        let c23: u64 = u64::from((c228 | (c229 << 1)) != 0);
+        let c24: u64 = u64::from((c228 | (c229 << 1) | (self.v671 << 2)) != (0x1));
+        let c60: u64 = u64::from((c24 | (c23 << 1)) == 0x3);
+        if self.v60 != c60 { self.v60 = c60; *dirty |= 0x400000000000; }
+        let c245: u64 = !(self.v497) & 0x1;
+        let c230: u64 = (self.v244) & (c245) & 0x1;
+        let c88: u64 = u64::from((self.i_reset | (c229 << 1) | (c230 << 2)) != 0);
+        if self.v88 != c88 { self.v88 = c88; *dirty |= 0x2000000400000000000; }
+        let c89: u64 = u64::from((self.i_reset | (c230 << 1)) != 0);
+        if self.v89 != c89 { self.v89 = c89; *dirty |= 0x400000000000; }
+        let c247: u64 = ((self.v650) | (self.v225)) & 0x1;
+        if self.v247 != c247 { self.v247 = c247; *dirty |= 0x800000000000; }
+        let c250: u64 = ((self.v658) | (self.v659)) & 0x1;
+        if self.v250 != c250 { self.v250 = c250; *dirty |= 0x30000000000000000; }
+        let c267: u64 = if (self.q94) != 0 { (self.v549) } else { (self.q74) };
+        let c264: u64 = if (self.v242) != 0 { (0x0) } else { (c267) };
+        let c265: u64 = if (self.q113) != 0 { (c264) } else { (c267) };
+        if self.v265 != c265 { self.v265 = c265; *dirty |= 0x40000000000000000; }
+        let c268: u64 = if (self.q94) != 0 { (self.v651) } else { (self.q115) };
+        let c266: u64 = if (self.q113) != 0 { (0xf) } else { (c268) };
+        let c263: u64 = if (self.v231) != 0 { (0x1) } else { (c266) };
+        let c262: u64 = if (self.v225) != 0 { (0x0) } else { (c263) };
+        let c261: u64 = if (self.i_reset) != 0 { (0x0) } else { (c262) };
+        if self.v261 != c261 { self.v261 = c261; *dirty |= 0x200000000000000000; }
+        let c234: u64 = u64::from((c261) == (0x2));
+        let c235: u64 = u64::from((c261) == (0x3));
+        let c236: u64 = u64::from((c261) == (0x4));
+        let c237: u64 = u64::from((c261) == (0x5));
+        let c238: u64 = u64::from((c261) == (0x6));
+        let c239: u64 = u64::from((c261) == (0x7));
+        let c240: u64 = u64::from((c261) == (0x8));
+        let c241: u64 = u64::from((c261) == (0x9));
+        let c254: u64 = ((c234) | (c235)) & 0x1;
+        let c255: u64 = ((c254) | (c236)) & 0x1;
+        let c256: u64 = ((c255) | (c237)) & 0x1;
+        let c257: u64 = ((c256) | (c238)) & 0x1;
+        let c258: u64 = ((c257) | (c239)) & 0x1;
+        let c259: u64 = ((c258) | (c240)) & 0x1;
+        let c260: u64 = ((c259) | (c241)) & 0x1;
+        if self.v260 != c260 { self.v260 = c260; *dirty |= 0x400000000000000000; }
+        let c270: u64 = ((self.q72) | (self.v481)) & 0x1;
+        if self.v270 != c270 { self.v270 = c270; *dirty |= 0x80000000000000000; }
+        let c271: u64 = ((self.v479) | (self.v649)) & 0x1;
+        if self.v271 != c271 { self.v271 = c271; *dirty |= 0x80000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$faults.
+    fn group_40(&mut self, dirty: &mut u128) {
+        let c306: u64 = (self.v478) & (self.v314) & 0x1;
+        if self.v306 != c306 { self.v306 = c306; *dirty |= 0x20000000000; }
+        let c307: u64 = (self.v654) & (self.v315) & 0x1;
+        let c341: u64 = (self.v652) & (self.v340) & 0x1;
+        let c342: u64 = if (self.v652) != 0 { (self.v338) } else { (self.q68 | (self.q69 << 7)) };
+        let c336: u64 = if (c307) != 0 { (self.v304) } else { (c342) };
+        let c335: u64 = if (self.v653) != 0 { (self.v334) } else { (c336) };
+        let c331: u64 = if (self.v316) != 0 { (self.v357) } else { (c335) };
+        let c332: u64 = if (self.q69) != 0 { (0x7f) } else { (c331) };
+        let c333: u64 = if (self.v487) != 0 { (c332) } else { (c335) };
+        let c343: u64 = if (self.v652) != 0 { (self.v339) } else { ((self.q65 << 5)) };
+        let c337: u64 = if (c306) != 0 { (self.v356) } else { ((c343 & 0x1) | ((c343 & 0x1) << 1) | (c343 << 2)) };
+        let c344: u64 = if (self.v248) != 0 { (self.q68 | (self.q69 << 7)) } else { (c333) };
+        let c345: u64 = if (self.v248) != 0 { ((self.q65 << 7)) } else { (c337) };
+        let c346: u64 = if (self.v248) != 0 { (0x0) } else { (c341) };
+        let c353: u64 = if (self.q113) != 0 { (self.v350) } else { (c346) };
+        let c324: u64 = if (self.q113) != 0 { (0x0) } else { (c353) };
+        let c327: u64 = ((c324) | (self.v313)) & 0x1;
+        let c328: u64 = if (self.v1) != 0 { (c327) } else { (c353) };
+        let c319: u64 = if (self.i_reset) != 0 { (0x0) } else { (c328) };
+        if self.v319 != c319 { self.v319 = c319; *dirty |= 0x100000000000000000; }
+        let c317: u64 = !(c319) & 0x1;
+        let c354: u64 = if (self.q113) != 0 { (self.v351) } else { (c344) };
+        let c323: u64 = if (self.q113) != 0 { (0x0) } else { (c354) };
+        let c325: u64 = if (self.v313) != 0 { (0x0) } else { (c323) };
+        let c329: u64 = if (self.v1) != 0 { (c325) } else { (c354) };
+        let c322: u64 = if (self.v308) != 0 { (self.i_wdata) } else { (c329) };
+        if self.v322 != c322 { self.v322 = c322; *dirty |= 0x100000000000; }
+        let c320: u64 = if (self.i_reset) != 0 { (0x0) } else { (c322) };
+        if self.v320 != c320 { self.v320 = c320; *dirty |= 0x100000000000; }
+        let c355: u64 = if (self.q113) != 0 { (self.v352) } else { (c345) };
+        let c330: u64 = if (self.v1) != 0 { (self.v326) } else { (c355) };
+        if self.v330 != c330 { self.v330 = c330; *dirty |= 0x40000000000; }
+        let c321: u64 = if (self.i_reset) != 0 { (0x0) } else { (c330) };
+        if self.v321 != c321 { self.v321 = c321; *dirty |= 0x40000000000; }
+        let c318: u64 = (((c321 >> 7)) | ((c320 >> 7))) & 0x1;
+        let c309: u64 = (c317) & (c318) & 0x1;
+        if self.v309 != c309 { self.v309 = c309; *dirty |= 0x200000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of can_controller.
+    fn group_41(&mut self, dirty: &mut u128) {
+        let c33: u64 = u64::from((self.v652 | (self.q113 << 1) | (self.v306 << 2) | (self.v248 << 3) | (self.v1 << 4)) != 0);
+        let c34: u64 = u64::from((self.v652 | (self.q113 << 1) | (self.v306 << 2) | (self.v311 << 3) | (self.v248 << 4) | (self.v1 << 5)) != (0x1));
+        let c66: u64 = u64::from((self.v35 | (self.v36 << 1) | (self.v37 << 2) | (c34 << 3) | (c33 << 4)) == 0x1f);
+        if self.v66 != c66 { self.v66 = c66; *dirty |= 0x40000000000; }
+        let c67: u64 = u64::from((self.v35 | (self.v36 << 1) | (self.v37 << 2) | (c33 << 3)) == 0xf);
+        if self.v67 != c67 { self.v67 = c67; *dirty |= 0x40000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$faults$tec_count.
+    fn group_42(&mut self, dirty: &mut u128) {
+        self.n65 = ((self.v321 >> 7));
+        self.n66 = if (self.i_reset) != 0 { 0x0 } else if (self.v66) != 0 { ((self.v330 & 0x7)) } else { self.q66 };
+        self.n67 = if (self.i_reset) != 0 { 0x0 } else if (self.v67) != 0 { (((self.v330 >> 3) & 0xf)) } else { self.q67 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$assembler.
+    fn group_43(&mut self, dirty: &mut u128) {
+        let c277: u64 = (self.v226) & (self.v275) & 0x1;
+        if self.v277 != c277 { self.v277 = c277; *dirty |= 0x1000000000000000; }
+        let c278: u64 = (self.v226) & (self.v276) & 0x1;
+        if self.v278 != c278 { self.v278 = c278; *dirty |= 0x2000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$faults$rec_count.
+    fn group_44(&mut self, dirty: &mut u128) {
+        self.n68 = if (self.i_reset) != 0 { 0x0 } else { ((self.v322 & 0x7f)) };
+        self.n69 = ((self.v320 >> 7));
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$sender.
+    fn group_45(&mut self, dirty: &mut u128) {
+        let c695: u64 = if (self.v228) != 0 { (self.v728) } else { (self.v730) };
+        let c697: u64 = if (self.v660) != 0 { (c695) } else { (0x1) };
+        let c709: u64 = if (self.v717) != 0 { (self.v708) } else { (c695) };
+        let c707: u64 = if (self.v716) != 0 { ((self.v1084 >> 7)) } else { (c709) };
+        let c705: u64 = if (self.v715) != 0 { (((self.v1084 >> 6) & 0x1)) } else { (c707) };
+        let c710: u64 = if (self.v660) != 0 { (c705) } else { (0x1) };
+        let c711: u64 = { let s = (self.v712 | (self.v691 << 1) | (self.v713 << 2) | (self.v693 << 3) | (self.v696 << 4) | (self.v699 << 5) | (self.v706 << 6) | (self.v714 << 7)); if s >> 0 & 1 != 0 { self.q125 } else if s >> 1 & 1 != 0 { self.v690 } else if s >> 2 & 1 != 0 { self.v679 } else if s >> 3 & 1 != 0 { self.v694 } else if s >> 4 & 1 != 0 { c697 } else if s >> 5 & 1 != 0 { self.v704 } else if s >> 6 & 1 != 0 { c710 } else if s >> 7 & 1 != 0 { self.v674 } else { (0x1) } };
+        let c689: u64 = if (self.v670) != 0 { (self.v419) } else { (c711) };
+        let c688: u64 = if (self.q94) != 0 { (c689) } else { (self.q117) };
+        let c684: u64 = ((c688) | (self.v683)) & 0x1;
+        if self.v684 != c684 { self.v684 = c684; *dirty |= 0x4000000000000000000; }
+        let c727: u64 = if (self.v228) != 0 { (self.v724) } else { ((self.q57 & 0x1)) };
+        let c723: u64 = if (self.v229) != 0 { ((self.v722 << 1) | 0x1) } else { (c727) };
+        if self.v723 != c723 { self.v723 = c723; *dirty |= 0x400000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$sender$tx_ptr.
+    fn group_46(&mut self, dirty: &mut u128) {
+        self.n56 = if (self.v89) != 0 { 0x0 } else if (self.v60) != 0 { ((self.v723 >> 1)) } else { self.q56 };
+        self.n57 = if (self.v88) != 0 { 0x1 } else if (self.v61) != 0 { ((self.v663 & 0x1) | ((self.v663 >> 3) << 1)) } else { self.q57 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$stuffing.
+    fn group_47(&mut self, dirty: &mut u128) {
+        let c743: u64 = if (self.v497) != 0 { (0x1) } else { (self.v745) };
+        if self.v743 != c743 { self.v743 = c743; *dirty |= 0x10000000000000000000; }
+        let c744: u64 = ((self.q55) | (self.v497)) & 0x1;
+        let c742: u64 = if (self.v247) != 0 { (0x0) } else { (c744) };
+        if self.v742 != c742 { self.v742 = c742; *dirty |= 0x8000000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$interrupts$ier_reg.
+    fn group_48(&mut self, dirty: &mut u128) {
+        self.n21 = if (self.i_reset) != 0 { 0x0 } else if (self.v49) != 0 { ((self.i_wdata >> 4)) } else { self.q21 };
+        self.n22 = if (self.i_reset) != 0 { 0x0 } else if (self.v50) != 0 { (self.v965) } else { self.q22 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$read.
+    fn group_49(&mut self, dirty: &mut u128) {
+        let c1051: u64 = if (self.q8) != 0 { (self.v1086) } else { (self.v1052) };
+        if self.v1051 != c1051 { self.v1051 = c1051; *dirty |= 0x0; }
+        let c1073: u64 = if (self.v130) != 0 { (self.v129) } else { (self.v1074) };
+        let c1072: u64 = if (self.v910) != 0 { (self.v903) } else { (c1073) };
+        let c1059: u64 = if (self.v1043) != 0 { (self.q127 | (self.q22 << 1) | (self.q13 << 6) | 0x20) } else { (c1072) };
+        let c1058: u64 = if (self.v1044) != 0 { (0xff) } else { (c1059) };
+        let c1057: u64 = if (self.v1045) != 0 { (self.v106 | ((self.q20 & 0xf) << 1) | 0xe0) } else { (c1058) };
+        let c1056: u64 = if (self.v1035) != 0 { (0xff) } else { (c1057) };
+        let c1067: u64 = if (self.v1043) != 0 { (self.q127 | (self.q126 << 1) | (self.q130 << 2) | (self.q16 << 3) | (self.q129 << 4)) } else { (c1072) };
+        let c1066: u64 = if (self.v863) != 0 { (self.q22 | (self.q21 << 4)) } else { (c1067) };
+        let c1065: u64 = if (self.v1037) != 0 { (self.q27) } else { (c1066) };
+        let c1064: u64 = if (self.v1038) != 0 { (self.q24) } else { (c1065) };
+        let c1063: u64 = if (self.v1039) != 0 { (self.q68 | (self.q69 << 7)) } else { (c1064) };
+        let c1062: u64 = if (self.v1040) != 0 { (self.q66 | (self.q67 << 3) | (self.q65 << 7)) } else { (c1063) };
+        let c1061: u64 = if (self.v1041) != 0 { (self.q50) } else { (c1062) };
+        let c1060: u64 = if (self.v1042) != 0 { (self.q48) } else { (c1061) };
+        let c1070: u64 = if (self.q14) != 0 { (c1060) } else { (c1056) };
+        let c1050: u64 = if (self.i_re) != 0 { (c1070) } else { (c1051) };
+        if self.v1050 != c1050 { self.v1050 = c1050; *dirty |= 0x80000000000000000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$configuration$btr0 + top$configuration$btr1.
+    fn group_50(&mut self, dirty: &mut u128) {
+        self.n103 = if (self.i_reset) != 0 { 0x0 } else if (self.v76) != 0 { (self.i_wdata) } else { self.q103 };
+        self.n102 = if (self.i_reset) != 0 { 0x0 } else if (self.v75) != 0 { (self.i_wdata) } else { self.q102 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$configuration$ewlr_reg + top$configuration$ocr.
+    fn group_51(&mut self, dirty: &mut u128) {
+        self.n101 = if (self.i_reset) != 0 { 0x60 } else if (self.v78) != 0 { (self.i_wdata) } else { self.q101 };
+        self.n100 = if (self.i_reset) != 0 { 0x0 } else if (self.v77) != 0 { (self.i_wdata) } else { self.q100 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$configuration$sjw_reg + top$configuration$tseg2_reg.
+    fn group_52(&mut self, dirty: &mut u128) {
+        self.n99 = if (self.i_reset) != 0 { 0x0 } else if (self.v76) != 0 { ((self.i_wdata >> 6)) } else { self.q99 };
+        self.n98 = if (self.i_reset) != 0 { 0x0 } else if (self.v75) != 0 { (((self.i_wdata >> 4) & 0x7)) } else { self.q98 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$bit_timing$last_quantum + top$core$bit_timing$process_pending.
+    fn group_53(&mut self, dirty: &mut u128) {
+        self.n95 = if (self.v95) != 0 { 0x0 } else { (self.v185) };
+        self.n94 = if (self.i_reset) != 0 { 0x0 } else { (self.v148) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$bit_timing$quantum + top$core$bit_timing$sampled.
+    fn group_54(&mut self, dirty: &mut u128) {
+        self.n93 = if (self.v96) != 0 { 0x0 } else if (self.v158) != 0 { (self.v139) } else { self.q93 };
+        self.n109 = (self.v177);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$bit_timing$sampling$metastable + top$core$bit_timing$sampling$previous.
+    fn group_55(&mut self, dirty: &mut u128) {
+        self.n110 = (self.v221);
+        self.n111 = (self.v219);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$bit_timing$sampling$quantum_samples + top$core$bit_timing$sampling$stable.
+    fn group_56(&mut self, dirty: &mut u128) {
+        self.n92 = if (self.i_reset) != 0 { 0x3 } else if (self.v145) != 0 { (self.q112 | ((self.q92 & 0x1) << 1)) } else { self.q92 };
+        self.n112 = (self.v220);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$bit_timing$segment_state + top$core$bit_timing$sjw_quanta.
+    fn group_57(&mut self, dirty: &mut u128) {
+        self.n91 = if (self.v95) != 0 { 0x0 } else if (self.v74) != 0 { (self.v184) } else { self.q91 };
+        self.n108 = if (self.i_reset) != 0 { 0x1 } else { (self.v135) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$bit_timing$synced + top$core$bit_timing$transmit_deferred.
+    fn group_58(&mut self, dirty: &mut u128) {
+        self.n90 = if (self.i_reset) != 0 { 0x0 } else { (self.v179) };
+        self.n89 = if (self.i_reset) != 0 { 0x0 } else { (self.v153) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$abort_pending + top$core$protocol$assembler$byte_index.
+    fn group_59(&mut self, dirty: &mut u128) {
+        self.n88 = if (self.v94) != 0 { 0x0 } else { (self.v269) };
+        self.n87 = if (self.i_reset) != 0 { 0x0 } else if (self.v73) != 0 { (((self.q74 >> 3) & 0x7)) } else { self.q87 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$assembler$byte_pulse + top$core$protocol$assembler$byte_reg.
+    fn group_60(&mut self, dirty: &mut u128) {
+        self.n86 = if (self.i_reset) != 0 { 0x0 } else { (self.v277) };
+        self.n85 = if (self.i_reset) != 0 { 0x0 } else if (self.v72) != 0 { (self.q109 | ((self.q85 & 0x7f) << 1)) } else { self.q85 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$assembler$dlc_reg + top$core$protocol$assembler$header_pulse.
+    fn group_61(&mut self, dirty: &mut u128) {
+        self.n84 = if (self.v91) != 0 { 0x0 } else if (self.v71) != 0 { (self.q109 | ((self.q84 & 0x7) << 1)) } else { self.q84 };
+        self.n83 = if (self.i_reset) != 0 { 0x0 } else { (self.v278) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$assembler$id_reg + top$core$protocol$assembler$ide_reg.
+    fn group_62(&mut self, dirty: &mut u128) {
+        self.n82 = if (self.v91) != 0 { 0x0 } else if (self.v70) != 0 { (self.q109 | ((self.q82 & 0xfffffff) << 1)) } else { self.q82 };
+        self.n81 = if (self.i_reset) != 0 { 0x0 } else if (self.v69) != 0 { (self.q109) } else { self.q81 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$assembler$last_data_byte_reg + top$core$protocol$assembler$rtr_reg.
+    fn group_63(&mut self, dirty: &mut u128) {
+        self.n80 = if (self.i_reset) != 0 { 0x0 } else { (self.v281) };
+        self.n79 = if (self.i_reset) != 0 { 0x0 } else if (self.v68) != 0 { (self.q109) } else { self.q79 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$capture$alc_reg + top$core$protocol$capture$ecc_reg.
+    fn group_64(&mut self, dirty: &mut u128) {
+        self.n78 = if (self.i_reset) != 0 { 0x0 } else if (self.v482) != 0 { ((self.q74 & 0x1f)) } else { self.q78 };
+        self.n77 = if (self.i_reset) != 0 { 0x0 } else if (self.v250) != 0 { (self.v300 | (self.v655 << 5) | (self.v657 << 6)) } else { self.q77 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$capture$error_pulse + top$core$protocol$capture$lost_pulse.
+    fn group_65(&mut self, dirty: &mut u128) {
+        self.n76 = if (self.v93) != 0 { 0x0 } else { (self.v250) };
+        self.n75 = if (self.v93) != 0 { 0x0 } else { (self.v482) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$count + top$core$protocol$crc$register.
+    fn group_66(&mut self, dirty: &mut u128) {
+        self.n74 = if (self.v92) != 0 { 0x0 } else { (self.v265) };
+        self.n73 = if (self.v497) != 0 { 0x0 } else if (self.v485) != 0 { ((self.v301 & 0x1) | ((self.q73 & 0x3) << 1) | (((self.v301 >> 1) & 0x3) << 3) | (((self.q73 >> 4) & 0x3) << 5) | (((self.v301 >> 3) & 0x3) << 7) | (((self.q73 >> 8) & 0x1) << 9) | (((self.v301 >> 5) & 0x1) << 10) | (((self.q73 >> 10) & 0x7) << 11) | ((self.v301 >> 6) << 14)) } else { self.q73 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$crc_error + top$core$protocol$done_pulse.
+    fn group_67(&mut self, dirty: &mut u128) {
+        self.n72 = if (self.v91) != 0 { 0x0 } else { (self.v270) };
+        self.n71 = if (self.i_reset) != 0 { 0x0 } else { (self.v271) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$done_success + top$core$protocol$faults$bus_off_state.
+    fn group_68(&mut self, dirty: &mut u128) {
+        self.n70 = if (self.v90) != 0 { 0x0 } else if (self.v479) != 0 { (self.v478) } else { self.q70 };
+        self.n113 = (self.v319);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$faults$passive_state + top$core$protocol$field.
+    fn group_69(&mut self, dirty: &mut u128) {
+        self.n114 = (self.v309);
+        self.n115 = (self.v261);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$in_frame + top$core$protocol$interframe$ack_penalty.
+    fn group_70(&mut self, dirty: &mut u128) {
+        self.n116 = (self.v260);
+        self.n64 = if (self.i_reset) != 0 { 0x0 } else { (self.v656) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$interframe$after_error_flag + top$core$protocol$interframe$dominant_after_flag.
+    fn group_71(&mut self, dirty: &mut u128) {
+        self.n63 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v546) } else { self.q63 };
+        self.n62 = if (self.i_reset) != 0 { 0x0 } else if (self.v65) != 0 { (self.v628) } else { self.q62 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$interframe$first_after_flag + top$core$protocol$interframe$flag_level.
+    fn group_72(&mut self, dirty: &mut u128) {
+        self.n61 = if (self.i_reset) != 0 { 0x0 } else if (self.v64) != 0 { (self.v629) } else { self.q61 };
+        self.n60 = if (self.i_reset) != 0 { 0x0 } else if (self.v63) != 0 { (self.q109) } else { self.q60 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$interframe$flag_passive_reg + top$core$protocol$sender$tx_left.
+    fn group_73(&mut self, dirty: &mut u128) {
+        self.n59 = if (self.i_reset) != 0 { 0x0 } else if (self.v62) != 0 { (self.v547) } else { self.q59 };
+        self.n58 = if (self.v88) != 0 { 0x0 } else if (self.v228) != 0 { (self.v725) } else { self.q58 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$sender$tx_next + top$core$protocol$sender$tx_reg.
+    fn group_74(&mut self, dirty: &mut u128) {
+        self.n117 = (self.v684);
+        self.n118 = (self.v685);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$sender$tx_shift + top$core$protocol$stuffing$active.
+    fn group_75(&mut self, dirty: &mut u128) {
+        self.n104 = if (self.i_reset) != 0 { 0x0 } else if (self.v228) != 0 { (self.v726) } else { self.q104 };
+        self.n55 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v742) } else { self.q55 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$stuffing$run_length + top$core$protocol$stuffing$run_level_reg.
+    fn group_76(&mut self, dirty: &mut u128) {
+        self.n54 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v743) } else { self.q54 };
+        self.n53 = if (self.v59) != 0 { (self.q109) } else { self.q53 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$transmitter + top$core$protocol$valid_pulse.
+    fn group_77(&mut self, dirty: &mut u128) {
+        self.n52 = if (self.v87) != 0 { 0x0 } else if (self.q94) != 0 { (self.v660) } else { self.q52 };
+        self.n51 = if (self.v86) != 0 { 0x0 } else { (self.v456) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$fifo + top$fifo$fetching.
+    fn group_78(&mut self, dirty: &mut u128) {
+        let c800: u64 = if (self.v17) != 0 { (self.v1053) } else { (self.v777) };
+        if self.v800 != c800 { self.v800 = c800; *dirty |= 0x200000000000000000000; }
+        self.n49 = if (self.i_reset) != 0 { 0x0 } else { (self.v804) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$fifo$head + top$fifo$head_info_reg.
+    fn group_79(&mut self, dirty: &mut u128) {
+        self.n48 = if (self.i_reset) != 0 { 0x0 } else { (self.v796) };
+        self.n47 = if (self.i_reset) != 0 { 0x0 } else { (self.v805) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$fifo$header_step.
+    fn group_80(&mut self, dirty: &mut u128) {
+        let c21: u64 = u64::from((self.q83 | (self.q41 << 1)) != 0);
+        self.n46 = if (self.i_reset) != 0 { 0x0 } else if (c21) != 0 { (self.v828) } else { self.q46 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$fifo$overrun_state + top$fifo$ram.
+    fn group_81(&mut self, dirty: &mut u128) {
+        self.n44 = if (self.v85) != 0 { 0x0 } else { (self.v801) };
+        self.m0_re = (0x1) != 0;
+        self.m0_ra = (self.v800) as usize;
+        self.m0_wa = (self.v799) as usize;
+        self.m0_wd = (self.v798);
+        self.m0_we = (self.v797 | (self.v797 << 1) | (self.v797 << 2) | (self.v797 << 3) | (self.v797 << 4) | (self.v797 << 5) | (self.v797 << 6) | (self.v797 << 7));
+        let _ = &dirty;
+    }
+
+    /// The cells of top$fifo$tail.
+    fn group_82(&mut self, dirty: &mut u128) {
+        self.n43 = if (self.i_reset) != 0 { 0x0 } else if (self.v20) != 0 { (self.v795) } else { self.q43 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$fifo$writing_header.
+    fn group_83(&mut self, dirty: &mut u128) {
+        let c84: u64 = u64::from((self.i_reset | (self.q127 << 1)) != 0);
+        if self.v84 != c84 { self.v84 = c84; *dirty |= 0x3000000000000000000000; }
+        self.n41 = if (c84) != 0 { 0x0 } else { (self.v827) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$fifo$count + top$fifo$incomplete.
+    fn group_84(&mut self, dirty: &mut u128) {
+        self.n50 = if (self.v84) != 0 { 0x0 } else { (self.v806) };
+        self.n45 = if (self.v84) != 0 { 0x0 } else { (self.v813) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$fifo$used + top$filter$acr0.
+    fn group_85(&mut self, dirty: &mut u128) {
+        self.n42 = if (self.v84) != 0 { 0x0 } else { (self.v807) };
+        self.n40 = if (self.i_reset) != 0 { 0x0 } else if (self.v58) != 0 { (self.i_wdata) } else { self.q40 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$filter$acr1 + top$filter$acr2.
+    fn group_86(&mut self, dirty: &mut u128) {
+        self.n39 = if (self.i_reset) != 0 { 0x0 } else if (self.v57) != 0 { (self.i_wdata) } else { self.q39 };
+        self.n38 = if (self.i_reset) != 0 { 0x0 } else if (self.v56) != 0 { (self.i_wdata) } else { self.q38 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$filter$acr3 + top$filter$amr0.
+    fn group_87(&mut self, dirty: &mut u128) {
+        self.n37 = if (self.i_reset) != 0 { 0x0 } else if (self.v55) != 0 { (self.i_wdata) } else { self.q37 };
+        self.n36 = if (self.i_reset) != 0 { 0x0 } else if (self.v54) != 0 { (self.i_wdata) } else { self.q36 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$filter$amr1 + top$filter$amr2.
+    fn group_88(&mut self, dirty: &mut u128) {
+        self.n35 = if (self.i_reset) != 0 { 0x0 } else if (self.v53) != 0 { (self.i_wdata) } else { self.q35 };
+        self.n34 = if (self.i_reset) != 0 { 0x0 } else if (self.v52) != 0 { (self.i_wdata) } else { self.q34 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$filter$amr3 + top$filter$basic_id_match.
+    fn group_89(&mut self, dirty: &mut u128) {
+        self.n33 = if (self.i_reset) != 0 { 0x0 } else if (self.v51) != 0 { (self.i_wdata) } else { self.q33 };
+        self.n32 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v872) } else { self.q32 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$filter$dual1_data_match + top$filter$dual1_id_match.
+    fn group_90(&mut self, dirty: &mut u128) {
+        self.n119 = (self.v887);
+        self.n31 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v853) } else { self.q31 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$filter$dual2_id_match + top$filter$extended_frame.
+    fn group_91(&mut self, dirty: &mut u128) {
+        self.n30 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v854) } else { self.q30 };
+        self.n29 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.q81) } else { self.q29 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$filter$single_data1_match + top$filter$single_data2_match.
+    fn group_92(&mut self, dirty: &mut u128) {
+        self.n120 = (self.v889);
+        self.n121 = (self.v888);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$filter$single_id_match + top$interrupts$alc_armed.
+    fn group_93(&mut self, dirty: &mut u128) {
+        self.n28 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v856) } else { self.q28 };
+        self.n122 = (self.v950);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$interrupts$alc_reg + top$interrupts$basic_ri_reg.
+    fn group_94(&mut self, dirty: &mut u128) {
+        self.n27 = if (self.i_reset) != 0 { 0x0 } else if (self.v928) != 0 { (self.q78) } else { self.q27 };
+        self.n26 = if (self.i_reset) != 0 { 0x0 } else { (self.v953) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$interrupts$bus_off_reg + top$interrupts$ecc_armed.
+    fn group_95(&mut self, dirty: &mut u128) {
+        self.n25 = if (self.i_reset) != 0 { 0x0 } else { (self.q113) };
+        self.n123 = (self.v949);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$interrupts$ecc_reg + top$interrupts$es_reg.
+    fn group_96(&mut self, dirty: &mut u128) {
+        self.n24 = if (self.i_reset) != 0 { 0x0 } else if (self.v929) != 0 { (self.q77) } else { self.q24 };
+        self.n23 = if (self.i_reset) != 0 { 0x0 } else { (self.v957) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$interrupts$ir_reg + top$interrupts$overrun_before.
+    fn group_97(&mut self, dirty: &mut u128) {
+        self.n20 = if (self.i_reset) != 0 { 0x0 } else { (self.v114) };
+        self.n19 = if (self.i_reset) != 0 { 0x0 } else { (self.q44) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$interrupts$passive_before.
+    fn group_98(&mut self, dirty: &mut u128) {
+        let c83: u64 = u64::from((self.i_reset | (self.q113 << 1)) != 0);
+        self.n18 = if (c83) != 0 { 0x0 } else if (self.q127) == 0 { (self.q114) } else { self.q18 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$interrupts$rbs_before.
+    fn group_99(&mut self, dirty: &mut u128) {
+        self.n17 = if (self.i_reset) != 0 { 0x0 } else { (self.v943) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes.
+    fn group_100(&mut self, dirty: &mut u128) {
+        let c997: u64 = if (self.v987) != 0 { (0x0) } else { (self.v1030) };
+        let c998: u64 = if (self.q129) != 0 { (c997) } else { (self.v1030) };
+        if self.v998 != c998 { self.v998 = c998; *dirty |= 0x0; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$afm + top$modes$cr6_reg.
+    fn group_101(&mut self, dirty: &mut u128) {
+        self.n16 = if (self.i_reset) != 0 { 0x0 } else if (self.v48) != 0 { (((self.i_wdata >> 3) & 0x1)) } else { self.q16 };
+        self.n13 = if (self.i_reset) != 0 { 0x0 } else if (self.v46) != 0 { (((self.i_wdata >> 6) & 0x1)) } else { self.q13 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$divider$count.
+    fn group_102(&mut self, dirty: &mut u128) {
+        self.n12 = if (self.v82) != 0 { 0x0 } else { (self.v1026) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$divider$level.
+    fn group_103(&mut self, dirty: &mut u128) {
+        self.n11 = if (self.i_reset) != 0 { 0x0 } else if (self.v1029) != 0 { (self.v1027) } else { self.q11 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$enable_reg.
+    fn group_104(&mut self, dirty: &mut u128) {
+        self.n124 = (self.v977);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$listen_only_reg.
+    fn group_105(&mut self, dirty: &mut u128) {
+        self.n125 = (self.v978);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$lom.
+    fn group_106(&mut self, dirty: &mut u128) {
+        self.n126 = (self.v995);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$rm.
+    fn group_107(&mut self, dirty: &mut u128) {
+        self.n127 = (self.v996);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$self_test_reg.
+    fn group_108(&mut self, dirty: &mut u128) {
+        self.n128 = (self.v979);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$sleep_bits.
+    fn group_109(&mut self, dirty: &mut u128) {
+        self.n10 = if (self.v81) != 0 { 0x0 } else if (self.v976) != 0 { (self.v966) } else { self.q10 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$sm.
+    fn group_110(&mut self, dirty: &mut u128) {
+        self.n129 = (self.v993);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$stm.
+    fn group_111(&mut self, dirty: &mut u128) {
+        self.n130 = (self.v994);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$read$rdata_from_ram.
+    fn group_112(&mut self, dirty: &mut u128) {
+        self.n9 = if (self.i_reset) != 0 { 0x0 } else { (self.v17) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$read$rdata_from_tx.
+    fn group_113(&mut self, dirty: &mut u128) {
+        self.n8 = if (self.i_reset) != 0 { 0x0 } else { (self.v1049) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$read$rdata_ram_or.
+    fn group_114(&mut self, dirty: &mut u128) {
+        self.n106 = if (self.i_reset) != 0 { 0x0 } else if (self.i_re) != 0 { (self.v1071) } else { self.q106 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$read$rdata_reg.
+    fn group_115(&mut self, dirty: &mut u128) {
+        self.n7 = if (self.i_reset) != 0 { 0x0 } else { (self.v1050) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$self_reception.
+    fn group_116(&mut self, dirty: &mut u128) {
+        self.n6 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v754) } else { self.q6 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$tbs.
+    fn group_117(&mut self, dirty: &mut u128) {
+        self.n131 = (self.v1094);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$tcs.
+    fn group_118(&mut self, dirty: &mut u128) {
+        self.n132 = (self.v1095);
+        let _ = &dirty;
+    }
+
+    /// The cells of top$tx_buffer$basic_info.
+    fn group_119(&mut self, dirty: &mut u128) {
+        self.n107 = if (self.i_reset) != 0 { 0x0 } else if (self.v45) != 0 { ((self.i_wdata & 0x1f)) } else { self.q107 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$tx_buffer$core_ram.
+    fn group_120(&mut self, dirty: &mut u128) {
+        self.m1_re = (0x1) != 0;
+        self.m1_ra = ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) as usize;
+        self.m1_wa = (self.v1103) as usize;
+        self.m1_wd = (self.i_wdata);
+        self.m1_we = (self.v1079 | (self.v1079 << 1) | (self.v1079 << 2) | (self.v1079 << 3) | (self.v1079 << 4) | (self.v1079 << 5) | (self.v1079 << 6) | (self.v1079 << 7));
+        let _ = &dirty;
+    }
+
+    /// The cells of top$tx_buffer$core_written.
+    fn group_121(&mut self, dirty: &mut u128) {
+        self.n5 = if (self.i_reset) != 0 { 0x0 } else { (self.v1088) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$tx_buffer$frame_info.
+    fn group_122(&mut self, dirty: &mut u128) {
+        self.n4 = if (self.i_reset) != 0 { 0x0 } else if (self.v44) != 0 { (self.i_wdata) } else { self.q4 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$tx_buffer$host_ram.
+    fn group_123(&mut self, dirty: &mut u128) {
+        self.m2_re = (0x1) != 0;
+        self.m2_ra = (self.v1103) as usize;
+        self.m2_wa = (self.v1103) as usize;
+        self.m2_wd = (self.i_wdata);
+        self.m2_we = (self.v1079 | (self.v1079 << 1) | (self.v1079 << 2) | (self.v1079 << 3) | (self.v1079 << 4) | (self.v1079 << 5) | (self.v1079 << 6) | (self.v1079 << 7));
+        let _ = &dirty;
+    }
+
+    /// The cells of top$tx_buffer$host_written.
+    fn group_124(&mut self, dirty: &mut u128) {
+        self.n3 = if (self.i_reset) != 0 { 0x0 } else { (self.v1087) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$tx_buffer$written.
+    fn group_125(&mut self, dirty: &mut u128) {
+        self.n2 = if (self.i_reset) != 0 { 0x0 } else if (self.v1079) != 0 { (self.v111) } else { self.q2 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$tx_pending.
+    fn group_126(&mut self, dirty: &mut u128) {
+        self.n1 = if (self.v80) != 0 { 0x0 } else { (self.v1099) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$tx_single_shot.
+    fn group_127(&mut self, dirty: &mut u128) {
+        self.n0 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v749) } else { self.q0 };
+        let _ = &dirty;
     }
 }

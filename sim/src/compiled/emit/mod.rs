@@ -22,6 +22,9 @@ use super::cells::{cell_value, Operands};
 use super::groups::{group_cells, Groups, Item};
 use super::netlist::{Bit, Cell, Netlist};
 
+mod operands;
+mod state;
+
 /// Where the model's ports sit in the input and output words.
 pub(crate) struct Interface<'a> {
     /// The clock input (seen as data it reads 0: outputs are read with the clock low).
@@ -87,7 +90,7 @@ pub(crate) struct Emitter<'a> {
     current: usize,
     /// Comb cells read outside their group (they get a field).
     exported: BTreeSet<usize>,
-    pub(crate) tables: String,
+    tables: String,
 }
 
 impl<'a> Emitter<'a> {
@@ -260,10 +263,6 @@ impl<'a> Emitter<'a> {
         mask
     }
 
-    fn var_set(&self, bits: &[Bit]) -> BTreeSet<usize> {
-        self.reads(bits)
-    }
-
     fn source(mut self, header: &str) -> Result<String, String> {
         // Which variables each group reads (for the dirty masks).
         let mut reads: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); self.groups.count];
@@ -291,7 +290,7 @@ impl<'a> Emitter<'a> {
             }
         }
         self.groups.reads = reads;
-        let body = self.eval_body()?;
+        let (body, groups) = self.eval_body()?;
         let (fields, init, edge) = self.state()?;
         let mut outputs = String::new();
         self.current = usize::MAX;
@@ -351,7 +350,7 @@ impl Model {{
         let mut dirty = 0u128;
 {edge}        self.dirty |= dirty;
     }}
-}}
+{groups}}}
 ",
             tables = self.tables
         ))
@@ -366,7 +365,7 @@ impl Model {{
                 .iter()
                 .find(|(n, _)| n == name)
                 .ok_or_else(|| format!("the netlist has no input `{name}`"))?;
-            let readers = self.readers_mask(&self.var_set(bits), None);
+            let readers = self.readers_mask(&self.reads(bits), None);
             let m = hex(mask(bits.len()));
             writeln!(
                 code,
@@ -381,41 +380,48 @@ impl Model {{
     }
 
     /// The groups, each behind its dirty bit.
-    fn eval_body(&mut self) -> Result<String, String> {
-        let mut body = String::new();
+    /// The calls of the groups, each behind its dirty bit, and the groups as methods (one function
+    /// per group keeps the compiler's work per function small).
+    fn eval_body(&mut self) -> Result<(String, String), String> {
+        let (mut calls, mut methods) = (String::new(), String::new());
         for g in 0..self.groups.count {
             self.current = g;
+            let name = &self.groups.names[g];
             writeln!(
-                body,
-                "        if dirty >> {g} & 1 != 0 {{ // {}",
-                self.groups.names[g]
+                calls,
+                "        if dirty >> {g} & 1 != 0 {{ self.group_{g}(&mut dirty); }} // {name}"
+            )
+            .unwrap();
+            writeln!(
+                methods,
+                "\n    /// The cells of {name}.\n    fn group_{g}(&mut self, dirty: &mut u128) {{"
             )
             .unwrap();
             for item in self.groups.items[g].clone() {
                 match item {
-                    Item::Comb(k) => self.comb_item(&mut body, k, g)?,
+                    Item::Comb(k) => self.comb_item(&mut methods, k, g)?,
                     Item::Reg(k) => {
                         let value = self.next_state(k)?;
-                        writeln!(body, "            self.n{k} = {value};").unwrap();
+                        writeln!(methods, "        self.n{k} = {value};").unwrap();
                     }
-                    Item::Mem(k) => self.memory_item(&mut body, k)?,
+                    Item::Mem(k) => self.memory_item(&mut methods, k)?,
                 }
             }
-            writeln!(body, "        }}").unwrap();
+            writeln!(methods, "        let _ = &dirty;\n    }}").unwrap();
         }
-        Ok(body)
+        Ok((calls, methods))
     }
 
     fn comb_item(&mut self, body: &mut String, k: usize, g: usize) -> Result<(), String> {
         let cell = self.comb[k];
         let value = cell_value(self, cell)?;
-        writeln!(body, "            let c{k}: u64 = {value};").unwrap();
+        writeln!(body, "        let c{k}: u64 = {value};").unwrap();
         if self.exported.contains(&k) {
             let var = self.drivers[&first_net(cell.port("Y")?)?].0;
             let readers = self.readers_mask(&BTreeSet::from([var]), Some(g));
             writeln!(
                 body,
-                "            if self.v{k} != c{k} {{ self.v{k} = c{k}; dirty |= {readers:#x}; }}"
+                "        if self.v{k} != c{k} {{ self.v{k} = c{k}; *dirty |= {readers:#x}; }}"
             )
             .unwrap();
         }
@@ -426,8 +432,8 @@ impl Model {{
         let cell = self.mems[k];
         writeln!(
             body,
-            "            self.m{k}_re = {} != 0;\n            self.m{k}_ra = {} as usize;\n            \
-             self.m{k}_wa = {} as usize;\n            self.m{k}_wd = {};\n            self.m{k}_we = {};",
+            "        self.m{k}_re = {} != 0;\n        self.m{k}_ra = {} as usize;\n        \
+             self.m{k}_wa = {} as usize;\n        self.m{k}_wd = {};\n        self.m{k}_we = {};",
             self.input(cell, "RD_EN")?,
             self.input(cell, "RD_ADDR")?,
             self.input(cell, "WR_ADDR")?,
@@ -436,124 +442,6 @@ impl Model {{
         )
         .unwrap();
         Ok(())
-    }
-
-    fn next_state(&self, k: usize) -> Result<String, String> {
-        let cell = self.regs[k];
-        let d = self.input(cell, "D")?;
-        let hold = format!("self.q{k}");
-        let when = |port: &str| -> Result<String, String> {
-            let active = if cell.flag(&format!("{port}_POLARITY"), true)? {
-                "!="
-            } else {
-                "=="
-            };
-            Ok(format!("{} {active} 0", self.input(cell, port)?))
-        };
-        let reset_value = || -> Result<String, String> { Ok(hex(cell.param("SRST_VALUE")?)) };
-        Ok(match cell.kind.as_str() {
-            "dff" => d,
-            "dffe" => format!("if {} {{ {d} }} else {{ {hold} }}", when("EN")?),
-            "sdff" => format!(
-                "if {} {{ {} }} else {{ {d} }}",
-                when("SRST")?,
-                reset_value()?
-            ),
-            "sdffe" => format!(
-                "if {} {{ {} }} else if {} {{ {d} }} else {{ {hold} }}",
-                when("SRST")?,
-                reset_value()?,
-                when("EN")?
-            ),
-            _ => format!(
-                "if {} {{ if {} {{ {} }} else {{ {d} }} }} else {{ {hold} }}",
-                when("EN")?,
-                when("SRST")?,
-                reset_value()?
-            ),
-        })
-    }
-
-    /// Fields, initial values and edge code of flip-flops, memories and exported values.
-    fn state(&self) -> Result<(String, String, String), String> {
-        let (mut fields, mut init, mut edge) = (String::new(), String::new(), String::new());
-        for (k, cell) in self.mems.iter().enumerate() {
-            let size = cell.param("SIZE")? as usize;
-            let width = cell.param("WIDTH")? as usize;
-            let contents: Vec<String> = cell
-                .param_bits("INIT")?
-                .chunks(width)
-                .chain(std::iter::repeat(&[][..]))
-                .take(size)
-                .map(|w| {
-                    hex(w
-                        .iter()
-                        .enumerate()
-                        .fold(0, |v, (i, b)| v | u64::from(*b) << i))
-                })
-                .collect();
-            writeln!(
-                fields,
-                "    m{k}: [u64; {size}],\n    m{k}_rd: u64,\n    m{k}_re: bool,\n    m{k}_ra: usize,\n    \
-                 m{k}_wa: usize,\n    m{k}_wd: u64,\n    m{k}_we: u64,"
-            )
-            .unwrap();
-            writeln!(
-                init,
-                "            m{k}: [{}],\n            m{k}_rd: 0,\n            m{k}_re: false,\n            \
-                 m{k}_ra: 0,\n            m{k}_wa: 0,\n            m{k}_wd: 0,\n            m{k}_we: 0,",
-                contents.join(", ")
-            )
-            .unwrap();
-            let readers = self.readers_mask(&self.var_set(cell.port("RD_DATA")?), None);
-            writeln!(
-                edge,
-                "        if self.m{k}_re {{ let v = self.m{k}.get(self.m{k}_ra).copied().unwrap_or(0); \
-                 if v != self.m{k}_rd {{ self.m{k}_rd = v; dirty |= {readers:#x}; }} }} // {}",
-                cell.name
-            )
-            .unwrap();
-        }
-        for k in 0..self.mems.len() {
-            writeln!(
-                edge,
-                "        if self.m{k}_we != 0 {{ if let Some(word) = self.m{k}.get_mut(self.m{k}_wa) {{ \
-                 *word = *word & !self.m{k}_we | self.m{k}_wd & self.m{k}_we; }} }}"
-            )
-            .unwrap();
-        }
-        // A flip-flop's `n` changes only when its group runs: the others are not compared.
-        let mut loads: Vec<String> = vec![String::new(); self.groups.count];
-        for (k, cell) in self.regs.iter().enumerate() {
-            let q = cell.port("Q")?;
-            let start = q.iter().enumerate().fold(0u64, |v, (i, bit)| match bit {
-                Bit::Net(n) => v | u64::from(self.netlist.init.get(n) == Some(&true)) << i,
-                Bit::Const(_) => v,
-            });
-            writeln!(fields, "    q{k}: u64,\n    n{k}: u64,").unwrap();
-            writeln!(
-                init,
-                "            q{k}: {0},\n            n{k}: {0},",
-                hex(start)
-            )
-            .unwrap();
-            let readers = self.readers_mask(&self.var_set(q), None);
-            writeln!(
-                loads[self.groups.of_reg[k]],
-                "            if self.q{k} != self.n{k} {{ self.q{k} = self.n{k}; dirty |= {readers:#x}; }} // {}",
-                cell.name
-            )
-            .unwrap();
-        }
-        writeln!(edge, "        let ran = self.ran;\n        self.ran = 0;").unwrap();
-        for (g, code) in loads.iter().enumerate().filter(|(_, c)| !c.is_empty()) {
-            writeln!(edge, "        if ran >> {g} & 1 != 0 {{\n{code}        }}").unwrap();
-        }
-        for k in &self.exported {
-            writeln!(fields, "    v{k}: u64,").unwrap();
-            writeln!(init, "            v{k}: 0,").unwrap();
-        }
-        Ok((fields, init, edge))
     }
 }
 
@@ -566,74 +454,72 @@ fn first_net(bits: &[Bit]) -> Result<u64, String> {
         .ok_or_else(|| "a cell output without nets".to_string())
 }
 
-impl Operands for Emitter<'_> {
-    /// The expression of a list of bits (least significant first), at most 64 of them, as seen
-    /// from the group being written.
-    fn operand(&self, bits: &[Bit]) -> Result<String, String> {
-        if bits.len() > 64 {
-            return Err(format!("a {}-bit operand (at most 64 bits)", bits.len()));
-        }
-        let mut constant = 0u64;
-        // (var, first bit of var, position, length)
-        let mut runs: Vec<(usize, usize, usize, usize)> = Vec::new();
-        for (at, bit) in bits.iter().enumerate() {
-            let Bit::Net(n) = bit else {
-                constant |= u64::from(*bit == Bit::Const(true)) << at;
-                continue;
-            };
-            let Some(&(var, from)) = self.drivers.get(n) else {
-                continue; // undriven: Yosys's x, read as 0
-            };
-            if self.vars[var].source == Source::Zero {
-                continue;
-            }
-            match runs.last_mut() {
-                Some(run) if run.0 == var && run.1 + run.3 == from && run.2 + run.3 == at => {
-                    run.3 += 1
-                }
-                _ => runs.push((var, from, at, 1)),
-            }
-        }
-        let mut terms: Vec<String> = runs
-            .iter()
-            .map(|&(var, from, at, len)| {
-                let v = &self.vars[var];
-                let name = match v.source {
-                    Source::Comb(k) if self.groups.of_comb[k] != self.current => {
-                        format!("self.v{k}")
-                    }
-                    _ => v.expr.clone(),
-                };
-                let mut t = if from == 0 {
-                    name
-                } else {
-                    format!("({name} >> {from})")
-                };
-                if from + len < v.width {
-                    t = format!("({t} & {})", hex(mask(len)));
-                }
-                if at > 0 {
-                    t = format!("({t} << {at})");
-                }
-                t
-            })
-            .collect();
-        if constant != 0 || terms.is_empty() {
-            terms.push(hex(constant));
-        }
-        Ok(terms.join(" | "))
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A module `top` with a clock, a 2-bit input `a` (nets 3, 4) and a 2-bit output `y` (nets 5,
+    /// 6), holding `cells` (JSON members).
+    fn netlist(cells: &str) -> Netlist {
+        let json = format!(
+            r#"{{"modules":{{"top":{{"ports":{{
+                "clock":{{"direction":"input","bits":[2]}},
+                "a":{{"direction":"input","bits":[3,4]}},
+                "y":{{"direction":"output","bits":[5,6]}}}},
+              "cells":{{{cells}}},"netnames":{{}}}}}}}}"#
+        );
+        Netlist::parse(&json, "top").expect("netlist")
     }
 
-    fn table(&mut self, words: &[u64]) -> String {
-        let name = format!("TABLE_{}", self.tables.lines().count());
-        let list: Vec<String> = words.iter().map(|w| hex(*w)).collect();
-        writeln!(
-            self.tables,
-            "const {name}: [u64; {}] = [{}];",
-            words.len(),
-            list.join(", ")
+    fn cell(name: &str, kind: &str, signed: bool, a: &str, y: &str) -> String {
+        let s = u8::from(signed);
+        format!(
+            r#""{name}":{{"type":"{kind}","attributes":{{}},
+               "parameters":{{"A_SIGNED":"{s}","B_SIGNED":"{s}","A_WIDTH":"10","B_WIDTH":"10","Y_WIDTH":"10"}},
+               "connections":{{"A":{a},"B":{a},"Y":{y}}}}}"#
         )
-        .unwrap();
-        name
+    }
+
+    fn generate(cells: &str) -> Result<String, String> {
+        let io = Interface {
+            clock: "clock",
+            inputs: &[("a", 0)],
+            outputs: &[("y", 0)],
+            verilog: "",
+        };
+        emit(&netlist(cells), &io, "")
+    }
+
+    #[test]
+    fn a_supported_cell_becomes_one_expression() {
+        let code = generate(&cell("sum", "$add", false, "[3,4]", "[5,6]")).unwrap();
+        assert!(
+            code.contains("let c0: u64 = (self.i_a).wrapping_add((self.i_a)) & 0x3;"),
+            "{code}"
+        );
+        assert!(code.contains("self.out = 0 | (self.v0) << 0;"), "{code}");
+    }
+
+    #[test]
+    fn a_cell_type_it_does_not_know_is_refused_by_name() {
+        let err = generate(&cell("product", "$mul", false, "[3,4]", "[5,6]")).unwrap_err();
+        assert_eq!(err, "cell product: type $mul is not supported");
+    }
+
+    #[test]
+    fn a_signed_operation_is_refused() {
+        let err = generate(&cell("sum", "$add", true, "[3,4]", "[5,6]")).unwrap_err();
+        assert_eq!(err, "cell sum ($add) is signed");
+    }
+
+    #[test]
+    fn a_combinational_loop_is_refused() {
+        let cells = [
+            cell("first", "$and", false, "[3,6]", "[5,7]"),
+            cell("second", "$and", false, "[7,4]", "[8,6]"),
+        ]
+        .join(",");
+        let err = generate(&cells).unwrap_err();
+        assert!(err.contains("combinational loop"), "{err}");
     }
 }
