@@ -38,7 +38,7 @@ pub(crate) struct Groups {
     pub of_comb: Vec<usize>,
     pub of_reg: Vec<usize>,
     pub of_mem: Vec<usize>,
-    /// The variables each group reads (filled in by the emitter).
+    /// The variables each group reads (filled in by the emitter, which knows the variables).
     pub reads: Vec<BTreeSet<usize>>,
 }
 

@@ -178,41 +178,34 @@ impl Model {
         }
     }
 
-    /// The output word of a word-level engine (not the rust-hdl model).
-    fn words(&self) -> PortOutputs {
+    /// An output: read from the rust-hdl model by `rust_hdl`, from the output word of the other
+    /// engines by `word`.
+    fn output<T>(
+        &self,
+        rust_hdl: impl FnOnce(&CanController) -> T,
+        word: impl FnOnce(PortOutputs) -> T,
+    ) -> T {
         match self {
-            Model::RustHdl { .. } => unreachable!("the rust-hdl model has no output word"),
-            Model::Verilator(model) => model.outputs(),
-            Model::Compiled(model) => model.outputs(),
+            Model::RustHdl { uut, .. } => rust_hdl(uut),
+            Model::Verilator(model) => word(model.outputs()),
+            Model::Compiled(model) => word(model.outputs()),
         }
     }
 
     fn tx(&self) -> bool {
-        match self {
-            Model::RustHdl { uut, .. } => uut.tx.val(),
-            _ => self.words().tx(),
-        }
+        self.output(|u| u.tx.val(), PortOutputs::tx)
     }
 
     fn irq_n(&self) -> bool {
-        match self {
-            Model::RustHdl { uut, .. } => uut.irq_n.val(),
-            _ => self.words().irq_n(),
-        }
+        self.output(|u| u.irq_n.val(), PortOutputs::irq_n)
     }
 
     fn clkout(&self) -> bool {
-        match self {
-            Model::RustHdl { uut, .. } => uut.clkout.val(),
-            _ => self.words().clkout(),
-        }
+        self.output(|u| u.clkout.val(), PortOutputs::clkout)
     }
 
     fn rdata(&self) -> u8 {
-        match self {
-            Model::RustHdl { uut, .. } => uut.rdata.val().to_u8(),
-            _ => self.words().rdata(),
-        }
+        self.output(|u| u.rdata.val().to_u8(), PortOutputs::rdata)
     }
 }
 
@@ -356,19 +349,19 @@ impl ControllerNode {
 
     /// Protocol state of the core (for waves and diagnostics; tests observe registers).
     pub fn state(&self) -> ProtocolState {
-        match &self.model {
-            Model::RustHdl { uut, .. } => uut.core.status.state.val(),
-            model => protocol_state(model.words().internal(STATE)),
-        }
+        self.model.output(
+            |u| u.core.status.state.val(),
+            |w| protocol_state(w.internal(STATE)),
+        )
     }
 
     /// The core is transmitting a frame (it has not lost arbitration), for locating faults in the
     /// frame on the bus.
     pub fn transmitting(&self) -> bool {
-        match &self.model {
-            Model::RustHdl { uut, .. } => uut.core.status.transmitting.val(),
-            model => model.words().internal(TRANSMITTING) != 0,
-        }
+        self.model.output(
+            |u| u.core.status.transmitting.val(),
+            |w| w.internal(TRANSMITTING) != 0,
+        )
     }
 
     /// Drives or releases the hardware `reset` input from the next edge on.
@@ -421,14 +414,15 @@ impl Device for ControllerNode {
 
     fn probe_values(&self, values: &mut [u64]) {
         let (core, own) = values.split_at_mut(CORE_PROBES);
+        let from_word = |word: PortOutputs, core: &mut [u64]| {
+            for (i, value) in core.iter_mut().enumerate() {
+                *value = word.internal(i);
+            }
+        };
         match &self.model {
             Model::RustHdl { uut, .. } => core_probe_values(&uut.core, core),
-            model => {
-                let outputs = model.words();
-                for (i, value) in core.iter_mut().enumerate() {
-                    *value = outputs.internal(i);
-                }
-            }
+            Model::Verilator(model) => from_word(model.outputs(), core),
+            Model::Compiled(model) => from_word(model.outputs(), core),
         }
         own.copy_from_slice(&[
             u64::from(self.model.irq_n()),

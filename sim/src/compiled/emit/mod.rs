@@ -3,8 +3,8 @@
 //! `set_inputs` takes the input word, `eval` computes the combinational logic, the flip-flops' next
 //! values and the output word, `edge` loads the flip-flops and memories.
 //!
-//! The cells are grouped by the rust-hdl block (Verilog module) they come from; groups that depend
-//! on each other in a loop are merged, and the groups run in dependency order. `eval` runs a group
+//! The cells are grouped by the rust-hdl block (Verilog module) they come from (`groups`: runs of
+//! one block's cells in a dependency order), and the groups run in that order. `eval` runs a group
 //! only when something it reads changed since it last ran: an input, a flip-flop or memory output
 //! loaded at the edge, or a value of an earlier group. Values read outside their group live in
 //! fields, compared when written. Every group computes a pure function of what it reads, so the
@@ -134,6 +134,7 @@ impl<'a> Emitter<'a> {
         }
         let groups = group_cells(&e.comb, &e.regs, &e.mems, |bits| e.comb_reads(bits), io)?;
         e.groups = groups;
+        e.groups.reads = e.group_reads();
         e.exported = e.find_exported()?;
         Ok(e)
     }
@@ -207,36 +208,50 @@ impl<'a> Emitter<'a> {
         self.check_clock(cell, "WR_CLK")
     }
 
-    /// Comb cells read by another group, by a flip-flop or memory of another group, or by the
-    /// outputs.
-    fn find_exported(&self) -> Result<BTreeSet<usize>, String> {
-        let mut exported = BTreeSet::new();
-        let mut read_from = |group: Option<usize>, bits: &[Bit]| {
-            for k in self.comb_reads(bits) {
-                if group != Some(self.groups.of_comb[k]) {
-                    exported.insert(k);
+    /// Every port an item of a group reads, with the item's group: the inputs of combinational
+    /// cells, of flip-flops (and their own output, which a hold reads) and of memories.
+    fn item_inputs(&self) -> Vec<(usize, &'a [Bit])> {
+        let mut list = Vec::new();
+        let mut add = |group: usize, cell: &'a Cell, output: &str| {
+            for (port, bits) in &cell.connections {
+                if port != output {
+                    list.push((group, bits.as_slice()));
                 }
             }
         };
         for (k, cell) in self.comb.iter().enumerate() {
-            for (port, bits) in &cell.connections {
-                if port != "Y" {
-                    read_from(Some(self.groups.of_comb[k]), bits);
-                }
-            }
+            add(self.groups.of_comb[k], cell, "Y");
         }
         for (k, cell) in self.regs.iter().enumerate() {
-            for bits in cell.connections.values() {
-                read_from(Some(self.groups.of_reg[k]), bits);
-            }
+            add(self.groups.of_reg[k], cell, "");
         }
         for (k, cell) in self.mems.iter().enumerate() {
-            for bits in cell.connections.values() {
-                read_from(Some(self.groups.of_mem[k]), bits);
-            }
+            add(self.groups.of_mem[k], cell, "RD_DATA");
+        }
+        list
+    }
+
+    /// The variables each group reads (for the dirty masks).
+    fn group_reads(&self) -> Vec<BTreeSet<usize>> {
+        let mut reads = vec![BTreeSet::new(); self.groups.count];
+        for (g, bits) in self.item_inputs() {
+            reads[g].extend(self.reads(bits));
+        }
+        reads
+    }
+
+    /// Comb cells read by an item of another group or by the outputs (they get a field).
+    fn find_exported(&self) -> Result<BTreeSet<usize>, String> {
+        let mut exported = BTreeSet::new();
+        for (g, bits) in self.item_inputs() {
+            exported.extend(
+                self.comb_reads(bits)
+                    .into_iter()
+                    .filter(|&k| self.groups.of_comb[k] != g),
+            );
         }
         for (name, _) in self.io.outputs {
-            read_from(None, self.output_bits(name)?);
+            exported.extend(self.comb_reads(self.output_bits(name)?));
         }
         Ok(exported)
     }
@@ -264,32 +279,6 @@ impl<'a> Emitter<'a> {
     }
 
     fn source(mut self, header: &str) -> Result<String, String> {
-        // Which variables each group reads (for the dirty masks).
-        let mut reads: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); self.groups.count];
-        for (k, cell) in self.comb.iter().enumerate() {
-            for (port, bits) in &cell.connections {
-                if port != "Y" {
-                    reads[self.groups.of_comb[k]].extend(self.reads(bits));
-                }
-            }
-        }
-        for (k, cell) in self.regs.iter().enumerate() {
-            for (port, bits) in &cell.connections {
-                if port != "Q" {
-                    reads[self.groups.of_reg[k]].extend(self.reads(bits));
-                }
-            }
-            // A hold reads the flip-flop itself.
-            reads[self.groups.of_reg[k]].extend(self.reads(cell.port("Q")?));
-        }
-        for (k, cell) in self.mems.iter().enumerate() {
-            for (port, bits) in &cell.connections {
-                if port != "RD_DATA" {
-                    reads[self.groups.of_mem[k]].extend(self.reads(bits));
-                }
-            }
-        }
-        self.groups.reads = reads;
         let (body, groups) = self.eval_body()?;
         let (fields, init, edge) = self.state()?;
         let mut outputs = String::new();
@@ -379,7 +368,6 @@ impl Model {{
         Ok((code, fields, init))
     }
 
-    /// The groups, each behind its dirty bit.
     /// The calls of the groups, each behind its dirty bit, and the groups as methods (one function
     /// per group keeps the compiler's work per function small).
     fn eval_body(&mut self) -> Result<(String, String), String> {

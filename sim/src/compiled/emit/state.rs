@@ -8,6 +8,8 @@ use crate::compiled::cells::Operands;
 use crate::compiled::netlist::Bit;
 
 impl Emitter<'_> {
+    /// The value flip-flop `k` takes at the next edge, by its cell type (a synchronous reset wins
+    /// over the enable in `$sdffe`, the enable over the reset in `$sdffce`, as in Yosys).
     pub(super) fn next_state(&self, k: usize) -> Result<String, String> {
         let cell = self.regs[k];
         let d = self.input(cell, "D")?;
@@ -35,12 +37,13 @@ impl Emitter<'_> {
                 reset_value()?,
                 when("EN")?
             ),
-            _ => format!(
+            "sdffce" => format!(
                 "if {} {{ if {} {{ {} }} else {{ {d} }} }} else {{ {hold} }}",
                 when("EN")?,
                 when("SRST")?,
                 reset_value()?
             ),
+            other => return Err(format!("cell {}: flip-flop ${other}", cell.name)),
         })
     }
 
@@ -84,6 +87,7 @@ impl Emitter<'_> {
             )
             .unwrap();
         }
+        // Every memory reads before any is written: the read ports return the old word.
         for k in 0..self.mems.len() {
             writeln!(
                 edge,
