@@ -316,13 +316,16 @@ pub mod protocol_bench;
 pub mod register_iut;
 pub mod scenario_report;
 pub mod sigrok;
+pub mod skipping;
 pub mod waves_check;
 pub mod wrapper_equivalence;
 
 /// Defines the tests of protocol scenarios written once for both IUTs: for every function
 /// `name(iut: Iut)` listed, `on_core::name` runs it on the bare RTL core and `on_registers::name` on
-/// the complete controller through its registers ([`protocol_bench::Iut`]). Attributes written
-/// before a name (e.g. `#[ignore = "long: …"]`) apply to both tests.
+/// the complete controller through its registers ([`protocol_bench::Iut`]); `skipping::core::name`
+/// and `skipping::registers::name` run it on the compiled engine with and without its skipping
+/// and compare what the IUT did ([`skipping`]). Attributes written before a name (e.g. `#[ignore
+/// = "long: …"]`) apply to every test of it.
 #[macro_export]
 macro_rules! on_both_iuts {
     ($($(#[$attr:meta])* $name:ident),* $(,)?) => {
@@ -343,6 +346,32 @@ macro_rules! on_both_iuts {
                     super::$name($crate::protocol_bench::Iut::Registers)
                 }
             )*
+        }
+        mod skipping {
+            mod core {
+                $(
+                    #[test]
+                    $(#[$attr])*
+                    fn $name() {
+                        $crate::skipping::assert_skipping_changes_nothing(
+                            $crate::protocol_bench::Iut::Core,
+                            super::super::$name,
+                        )
+                    }
+                )*
+            }
+            mod registers {
+                $(
+                    #[test]
+                    $(#[$attr])*
+                    fn $name() {
+                        $crate::skipping::assert_skipping_changes_nothing(
+                            $crate::protocol_bench::Iut::Registers,
+                            super::super::$name,
+                        )
+                    }
+                )*
+            }
         }
     };
 }

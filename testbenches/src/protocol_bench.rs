@@ -23,6 +23,7 @@ use sim::nodes::lower_tester::LowerTester;
 
 use crate::controller_bench::{configure_pelican_for, rx_buffer_bytes};
 use crate::register_iut::{InterruptPass, IutHost, RegisterIut};
+use crate::skipping::{self, IutTrace};
 use crate::{bench_engine, CLOCK_HZ};
 use sim::host::sja1000::transmit;
 
@@ -170,9 +171,19 @@ impl ProtocolBench {
             lt.start_on_dominant();
         }
         let lt = engine.add(lt, 0);
-        let iut = match kind {
-            Iut::Core => engine.add(CanNode::new("iut", clock, btr), 0),
-            Iut::Registers => engine.add(RegisterIut::new("iut", clock), 0),
+        let iut = match (kind, skipping::engine()) {
+            (Iut::Core, None) => engine.add(CanNode::new("iut", clock, btr), 0),
+            (Iut::Core, Some(on)) => {
+                let node = CanNode::on_engine("iut", clock, btr, on)
+                    .unwrap_or_else(|e| panic!("the core on {on}: {e}"));
+                engine.add(node, 0)
+            }
+            (Iut::Registers, None) => engine.add(RegisterIut::new("iut", clock), 0),
+            (Iut::Registers, Some(on)) => {
+                let mut node = RegisterIut::on_engine("iut", clock, on);
+                node.record_accesses();
+                engine.add(node, 0)
+            }
         };
         let mut bench = ProtocolBench {
             engine,
@@ -644,6 +655,24 @@ impl ErrorInterrupt {
 }
 
 /// The events the IUT `iut` of kind `kind` has reported so far.
+/// A bench built during a skipping check leaves what its IUT did there.
+impl Drop for ProtocolBench {
+    fn drop(&mut self) {
+        skipping::record(|| IutTrace {
+            drive: self.engine.drive_changes(self.iut),
+            events: event_list(&self.engine, self.iut, self.kind).to_vec(),
+            accesses: match self.kind {
+                Iut::Core => Vec::new(),
+                Iut::Registers => self
+                    .engine
+                    .device::<RegisterIut>(self.iut)
+                    .accesses()
+                    .to_vec(),
+            },
+        });
+    }
+}
+
 fn event_list(engine: &Engine, iut: DeviceId, kind: Iut) -> &[(u64, NodeEvent)] {
     match kind {
         Iut::Core => engine.device::<CanNode>(iut).events(),

@@ -23,7 +23,7 @@ use sim::engine::{Device, DeviceId, Engine};
 use sim::host::frame_buffer::{buffer_len, decode_buffer, FRAME_BUFFER_BYTES};
 use sim::host::{RegisterPort, ACCESS_TIMEOUT_FS};
 use sim::nodes::can_node::NodeEvent;
-use sim::nodes::controller_node::{ControllerNode, HostAccess};
+use sim::nodes::controller_node::{ControllerNode, HostAccess, ModelEngine};
 
 /// The bits of ALC that hold the arbitration position (bits 7..5 are reserved).
 const ALC_POSITION: u8 = 0x1F;
@@ -135,19 +135,32 @@ pub struct RegisterIut {
     handling: bool,
     /// The host services `irq_n` at all.
     servicing: bool,
-    in_flight: Option<Origin>,
+    in_flight: Option<(Origin, HostAccess)>,
     requests: VecDeque<HostAccess>,
     request_reads: VecDeque<u8>,
     events: Vec<(u64, NodeEvent)>,
     passes: Vec<InterruptPass>,
+    /// Every access that ended, with its edge and the value read, once asked for.
+    accesses: Option<Vec<(u64, HostAccess, Option<u8>)>>,
 }
 
 impl RegisterIut {
     /// A controller on `clock` after a hardware reset (reset mode, BasicCAN); configure it through
-    /// an [`IutHost`].
+    /// an [`IutHost`]. It runs on the engine `CAN_ENGINE` names.
     pub fn new(name: &str, clock: ClockSpec) -> RegisterIut {
+        RegisterIut::with_node(ControllerNode::new(name, clock))
+    }
+
+    /// [`RegisterIut::new`] on `engine`; panics if that engine cannot run.
+    pub fn on_engine(name: &str, clock: ClockSpec, engine: ModelEngine) -> RegisterIut {
+        let node = ControllerNode::with_engine(name, clock, engine)
+            .unwrap_or_else(|e| panic!("{name} on {engine}: {e}"));
+        RegisterIut::with_node(node)
+    }
+
+    fn with_node(node: ControllerNode) -> RegisterIut {
         RegisterIut {
-            node: ControllerNode::new(name, clock),
+            node,
             steps: VecDeque::new(),
             pass: None,
             handling: false,
@@ -157,7 +170,18 @@ impl RegisterIut {
             request_reads: VecDeque::new(),
             events: Vec::new(),
             passes: Vec::new(),
+            accesses: None,
         }
+    }
+
+    /// From now on, keep every register access with its clock edge and the value read.
+    pub fn record_accesses(&mut self) {
+        self.accesses.get_or_insert_with(Vec::new);
+    }
+
+    /// The accesses kept since [`RegisterIut::record_accesses`] (none before).
+    pub fn accesses(&self) -> &[(u64, HostAccess, Option<u8>)] {
+        self.accesses.as_deref().unwrap_or_default()
     }
 
     /// The controller.
@@ -192,7 +216,7 @@ impl RegisterIut {
     }
 
     fn requests_done(&self) -> bool {
-        self.requests.is_empty() && !matches!(self.in_flight, Some(Origin::Bench))
+        self.requests.is_empty() && !matches!(self.in_flight, Some((Origin::Bench, _)))
     }
 
     /// Starts the next access: the handler's first, then the bench's.
@@ -205,15 +229,18 @@ impl RegisterIut {
             return;
         };
         self.node.queue(access);
-        self.in_flight = Some(origin);
+        self.in_flight = Some((origin, access));
     }
 
     /// Takes the result of the access that ended at the edge at `t_fs`.
     fn finish_access(&mut self, t_fs: u64) {
-        let Some(origin) = self.in_flight.take() else {
+        let Some((origin, access)) = self.in_flight.take() else {
             return;
         };
         let value = self.node.take_read();
+        if let Some(accesses) = &mut self.accesses {
+            accesses.push((t_fs, access, value));
+        }
         match origin {
             Origin::Bench => self.request_reads.extend(value),
             Origin::Handler(step) => {

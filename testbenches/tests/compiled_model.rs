@@ -1,17 +1,28 @@
-//! The compiled engine's model (`sim/src/compiled/model.rs`) is the one Yosys and the generator
-//! make from the Verilog of `rtl/` now: a change of `rtl/` without `make compiled-model` fails here
-//! (and the engine refuses to start). That the model computes what the rust-hdl model computes is
+//! The compiled engine's models (the controller's `sim/src/compiled/model.rs`, the bare core's
+//! `core_model.rs`) are the ones Yosys and the generator make from the Verilog of `rtl/` now: a
+//! change of `rtl/` without `make compiled-model` fails here (and the engine refuses to start). That the model computes what the rust-hdl model computes is
 //! checked by `engines.rs` (every example, a register session) and `verilog_equivalence.rs` (per
 //! cycle).
 
 use std::path::Path;
 
+use sim::compiled::Design;
+
 #[test]
-fn the_checked_in_model_is_generated_from_the_current_verilog() {
-    let generated = sim::compiled::generate_model_source().unwrap_or_else(|e| panic!("{e}"));
+fn the_checked_in_controller_model_is_generated_from_the_current_verilog() {
+    check(Design::Controller);
+}
+
+#[test]
+fn the_checked_in_core_model_is_generated_from_the_current_verilog() {
+    check(Design::Core);
+}
+
+fn check(design: Design) {
+    let generated = sim::compiled::generate_model_source(design).unwrap_or_else(|e| panic!("{e}"));
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("..")
-        .join(sim::compiled::MODEL_PATH);
+        .join(design.model_path());
     let checked_in = std::fs::read_to_string(&path).unwrap();
     assert!(
         generated == checked_in,

@@ -8,7 +8,10 @@
 //!   and the same report (driver events, frames, states, counters) with either;
 //! - a register-level session on three controllers (arbitration, reception, an error, counter
 //!   writes, every register read between the phases) reads the same values and puts the same bit
-//!   sequence on the bus.
+//!   sequence on the bus;
+//! - the bare CAN cores of the fault campaign (rust-hdl, or the core's own compiled model with and
+//!   without skipping) give the same result for a random slice of campaign cases: bus bits,
+//!   deliveries, error codes, counters and states, and the same VCD for the first cases.
 //!
 //! The cycle-by-cycle comparison of the outputs is in `verilog_equivalence.rs`.
 
@@ -17,9 +20,11 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use golden::frame::{Frame, Id};
 use rtl::registers::{command, interrupt, mode, pelican};
+use sim::engine::rng::Rng;
 use sim::host::sja1000::{drain_rx, transmit};
 use sim::nodes::controller_node::ModelEngine;
 use sim::scenario::{load, run, RunOptions, RunReport};
+use sim::workloads::campaign::{random_case, run_rtl_on, Outcome as CaseOutcome};
 use testbenches::controller_bench::{configure_pelican, ControllerBench, INTEGRATION_BITS};
 
 /// A fresh scratch directory, unique within the process (tests run in parallel).
@@ -309,4 +314,50 @@ fn a_register_session_reads_and_sends_the_same_on_compiled_with_every_group_ever
 #[test]
 fn a_register_session_reads_and_sends_the_same_with_every_kernel_on_every_pass() {
     register_session_is_the_same_on(ModelEngine::RustHdlExhaustive);
+}
+
+/// The campaign seed and cases of the slice compared, and how many of them are traced.
+const SLICE_SEED: u64 = 2026;
+const SLICE_CASES: u64 = 40;
+const TRACED_CASES: u64 = 4;
+
+/// The slice of the fault campaign on rust-hdl and on `other`, case by case.
+fn campaign_slice_is_the_same_on(other: ModelEngine) {
+    let dir = scratch(&format!("campaign-{other}"));
+    let mut outcomes = std::collections::BTreeSet::new();
+    for index in 0..SLICE_CASES {
+        let case = random_case(&mut Rng::for_case(SLICE_SEED, index));
+        let traced = index < TRACED_CASES;
+        let run_on = |engine: ModelEngine| {
+            let vcd = dir.join(format!("case{index}-{engine}.vcd"));
+            let run = run_rtl_on(&case, engine, traced.then_some(vcd.as_path())).unwrap();
+            (run, traced.then(|| std::fs::read_to_string(&vcd).unwrap()))
+        };
+        let (a, vcd_a) = run_on(ModelEngine::RustHdl);
+        let (b, vcd_b) = run_on(other);
+        assert_same_items(&format!("case {index}: bus bits"), other, &a.bus, &b.bus);
+        assert_eq!(a, b, "case {index}: rust-hdl and {other} differ");
+        if let (Some(x), Some(y)) = (vcd_a, vcd_b) {
+            assert_same_text(&format!("case {index}: VCD"), other, &x, &y);
+        }
+        outcomes.insert(sim::workloads::campaign::check(&case, &a).outcome);
+    }
+    // The slice exercises error handling, not only clean frames.
+    assert!(outcomes.contains(&CaseOutcome::Recovered), "{outcomes:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_campaign_slice_runs_the_same_on_the_compiled_core() {
+    campaign_slice_is_the_same_on(ModelEngine::Compiled);
+}
+
+#[test]
+fn a_campaign_slice_runs_the_same_on_the_compiled_core_with_every_group_every_cycle() {
+    campaign_slice_is_the_same_on(ModelEngine::CompiledExhaustive);
+}
+
+#[test]
+fn a_campaign_slice_runs_the_same_with_every_kernel_on_every_pass() {
+    campaign_slice_is_the_same_on(ModelEngine::RustHdlExhaustive);
 }

@@ -22,7 +22,7 @@ use sim::scenario::{load, run, RunOptions, RunReport, Scenario};
 use sim::serve::ServeOptions;
 use sim::verilated;
 use sim::workloads::campaign::{
-    check, describe, format_summary, random_case, run_campaign_shard, run_rtl_traced,
+    check, describe, format_summary, random_case, run_campaign_shard, run_rtl_on,
 };
 use sim::workloads::campaign_slice::{merge, read_slice, write_slice, Shard, Slice};
 use sim::workloads::demo::{demo_scenario, DEMO_LOG, DEMO_VCD};
@@ -235,12 +235,13 @@ enum Command {
     /// Build the Verilator model of the controller (CAN_ENGINE=verilator) if it is not built yet;
     /// prints the path of the library. Tests and runs build it on first use as well.
     VerilatorModel,
-    /// Regenerate the compiled engine's model (CAN_ENGINE=compiled) from the Verilog of rtl/
-    /// through Yosys, which must be installed; run it after every change of rtl/.
+    /// Regenerate the compiled engine's models (CAN_ENGINE=compiled) from the Verilog of rtl/
+    /// through Yosys, which must be installed: the controller's (sim/src/compiled/model.rs) and the
+    /// bare CAN core's (sim/src/compiled/core_model.rs); run it after every change of rtl/.
     CompiledModel {
-        /// The file to write.
-        #[arg(long, default_value = sim::compiled::MODEL_PATH)]
-        out: PathBuf,
+        /// The workspace root the models' paths are relative to.
+        #[arg(long, default_value = ".")]
+        root: PathBuf,
     },
     /// Worst-case response-time analysis of a CAN message set: per message the worst-case frame
     /// length, blocking, queuing delay, response time and deadline verdict by the classic analysis
@@ -429,9 +430,7 @@ fn main() -> ExitCode {
         Command::VerilatorModel => verilated::build_model()
             .map(|path| println!("{}", path.display()))
             .map_err(|e| e.to_string()),
-        Command::CompiledModel { out } => sim::compiled::generate_model_source().and_then(|text| {
-            std::fs::write(&out, text).map_err(|e| format!("{}: {e}", out.display()))
-        }),
+        Command::CompiledModel { root } => sim::compiled::write_models(&root),
         Command::Rta {
             file,
             csv,
@@ -445,8 +444,8 @@ fn main() -> ExitCode {
             runs,
             no_trace,
             campaign_faults,
-        } => bench(engine, &nodes, frames, runs, no_trace)
-            .and_then(|()| campaign_scaling(campaign_faults)),
+        } => bench(engine.clone(), &nodes, frames, runs, no_trace)
+            .and_then(|()| campaign_scaling(engine, campaign_faults)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -746,11 +745,14 @@ fn campaign(
     }
     let threads = default_threads(threads);
     let cases = shard.len(faults);
+    let model = ModelEngine::from_env()?;
     if shard == Shard::WHOLE {
-        println!("cansim campaign: {faults} faults, seed {seed}, {threads} threads");
+        println!(
+            "cansim campaign: {faults} faults, seed {seed}, {threads} threads, engine {model}"
+        );
     } else {
         println!(
-            "cansim campaign: shard {}/{} of {faults} faults ({cases} cases), seed {seed}, {threads} threads",
+            "cansim campaign: shard {}/{} of {faults} faults ({cases} cases), seed {seed}, {threads} threads, engine {model}",
             shard.index, shard.count
         );
     }
@@ -766,7 +768,7 @@ fn campaign(
             eprint!("\r{done}/{cases} cases, {rate:.0} cases/s, {eta:.0} s to go   ");
         }
     };
-    let summary = run_campaign_shard(seed, faults, shard, threads, &progress);
+    let summary = run_campaign_shard(seed, faults, shard, model, threads, &progress)?;
     if show {
         eprintln!();
     }
@@ -824,7 +826,8 @@ fn campaign_merge(files: &[PathBuf]) -> Result<(), String> {
 fn campaign_case(seed: u64, index: u64, vcd: Option<PathBuf>) -> Result<(), String> {
     let case = random_case(&mut Rng::for_case(seed, index));
     let path = vcd.map(|v| vcd_path(v, false)).transpose()?.flatten();
-    let run = run_rtl_traced(&case, path.as_deref()).map_err(|e| e.to_string())?;
+    let model = ModelEngine::from_env()?;
+    let run = run_rtl_on(&case, model, path.as_deref()).map_err(|e| e.to_string())?;
     let verdict = check(&case, &run);
     println!(
         "case {index} of seed {seed}:\n{}outcome {:?}",
@@ -1132,21 +1135,38 @@ fn on_off(flag: bool) -> &'static str {
     }
 }
 
-/// Campaign throughput on 1, 2, ... threads up to the number of cores.
-fn campaign_scaling(faults: u64) -> Result<(), String> {
+/// Campaign throughput on each engine (the bare cores have no Verilator model) and on 1, 2, ...
+/// threads up to the number of cores.
+fn campaign_scaling(engines: Vec<ModelEngine>, faults: u64) -> Result<(), String> {
     if faults == 0 {
         return Ok(());
     }
+    let engines = if engines.is_empty() {
+        vec![ModelEngine::from_env()?]
+    } else {
+        engines
+    };
     let cores = default_threads(None);
-    println!("fault-injection campaign, {faults} cases per thread count, {cores} cores");
-    println!("{:>7} {:>10} {:>8}", "threads", "cases/s", "speedup");
-    let mut single = None;
-    for threads in 1..=cores {
-        let rate =
-            sim::workloads::bench::campaign_rate(1, faults, threads).map_err(|e| e.to_string())?;
-        let speedup = rate / *single.get_or_insert(rate);
-        println!("{threads:>7} {rate:>10.1} {speedup:>7.2}x");
-        println!("BENCH campaign threads={threads} cases_per_s={rate:.1} speedup={speedup:.2}");
+    for engine in engines {
+        if engine == ModelEngine::Verilator {
+            println!("fault-injection campaign: no Verilator model of the bare core, skipped");
+            continue;
+        }
+        println!(
+            "fault-injection campaign on {engine}, {faults} cases per thread count, {cores} cores"
+        );
+        println!("{:>7} {:>10} {:>8}", "threads", "cases/s", "speedup");
+        let mut single = None;
+        for threads in 1..=cores {
+            let rate = sim::workloads::bench::campaign_rate(1, faults, engine, threads)
+                .map_err(|e| e.to_string())?;
+            let speedup = rate / *single.get_or_insert(rate);
+            println!("{threads:>7} {rate:>10.1} {speedup:>7.2}x");
+            println!(
+                "BENCH campaign engine={engine} threads={threads} cases_per_s={rate:.1} \
+                 speedup={speedup:.2}"
+            );
+        }
     }
     Ok(())
 }

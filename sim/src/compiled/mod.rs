@@ -1,9 +1,10 @@
 //! The compiled engine: the controller's generated Verilog, read by Yosys into a word-level netlist
 //! and turned into straight-line Rust (`model.rs`, checked in), stepped one clock cycle per call
 //! with the semantics of the other engines: inputs applied before the rising edge, outputs read
-//! after it with the clock low.
+//! after it with the clock low. The CAN core alone (the bare nodes of the fault campaign) is
+//! compiled the same way (`core_model.rs`, [`core`]).
 //!
-//! No tool is needed to run it: `model.rs` is generated ahead (`cansim compiled-model`, `make
+//! No tool is needed to run it: the models are generated ahead (`cansim compiled-model`, `make
 //! compiled-model`, which need Yosys) and compiled with the rest of the crate. A model older than
 //! `rtl/` is refused at start with the command that regenerates it: the file records a hash of the
 //! Verilog it was made from, checked against the Verilog of the running build once per process.
@@ -14,6 +15,10 @@
 //! once (after the edge), as the Verilator wrapper does.
 
 mod cells;
+pub mod core;
+#[rustfmt::skip]
+#[allow(clippy::all, clippy::pedantic, unused_parens)]
+mod core_model;
 mod emit;
 mod groups;
 #[rustfmt::skip]
@@ -33,18 +38,91 @@ use crate::verilated::sources::{
 use crate::verilated::verilog::{controller_verilog, TOP_MODULE};
 use crate::verilated::{fnv1a, EngineError, PortInputs, PortOutputs};
 
-/// Where the generated model lives in the source tree (relative to the workspace root).
+/// Where the controller's generated model lives in the source tree (relative to the workspace
+/// root).
 pub const MODEL_PATH: &str = "sim/src/compiled/model.rs";
+/// Where the CAN core's generated model lives.
+pub const CORE_MODEL_PATH: &str = "sim/src/compiled/core_model.rs";
 
-/// The Yosys commands that make the netlist: the internal signals the traces read are kept, then
-/// processes become cells, the hierarchy is flattened, the logic optimised and memories kept whole.
-fn yosys_script(verilog: &str, json: &str) -> String {
-    let keep: String = INTERNAL_SIGNALS
+/// A design the generator turns into a model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Design {
+    /// The complete controller with the SJA1000 host port (`can_controller`): the controller
+    /// nodes' engine ([`CompiledController`]).
+    Controller,
+    /// The CAN core alone (`rtl::can_core::CanCore`): the bare nodes of the fault campaign and
+    /// the response-time simulation ([`core::CompiledCore`]).
+    Core,
+}
+
+impl Design {
+    /// Every design with a checked-in model.
+    pub const ALL: [Design; 2] = [Design::Controller, Design::Core];
+
+    /// Where the design's model lives (relative to the workspace root).
+    pub fn model_path(self) -> &'static str {
+        match self {
+            Design::Controller => MODEL_PATH,
+            Design::Core => CORE_MODEL_PATH,
+        }
+    }
+
+    fn verilog(self) -> String {
+        match self {
+            Design::Controller => controller_verilog(),
+            Design::Core => core::core_verilog(),
+        }
+    }
+
+    fn top(self) -> &'static str {
+        match self {
+            Design::Controller => TOP_MODULE,
+            Design::Core => core::TOP,
+        }
+    }
+
+    /// What the model holds, for its header.
+    fn what(self) -> &'static str {
+        match self {
+            Design::Controller => "The controller",
+            Design::Core => "The CAN core (bit timing and protocol engine, no registers)",
+        }
+    }
+
+    /// Internal wires the model brings out (kept through the optimisation).
+    fn kept_wires(self) -> Vec<&'static str> {
+        match self {
+            Design::Controller => INTERNAL_SIGNALS.iter().map(|s| s.wire).collect(),
+            Design::Core => Vec::new(),
+        }
+    }
+
+    fn interface(self, verilog: &str) -> emit::Interface<'_> {
+        match self {
+            Design::Controller => controller_interface(verilog),
+            Design::Core => core::interface(verilog),
+        }
+    }
+
+    /// The hash of the Verilog this build gives for the design (computed once per process).
+    fn current_hash(self) -> u64 {
+        static HASHES: [OnceLock<u64>; 2] = [OnceLock::new(), OnceLock::new()];
+        *HASHES[self as usize].get_or_init(|| verilog_hash(&self.verilog()))
+    }
+}
+
+/// The Yosys commands that make the netlist: the internal signals the model brings out are kept,
+/// then processes become cells, the hierarchy is flattened, the logic optimised and memories kept
+/// whole.
+fn yosys_script(design: Design, verilog: &str, json: &str) -> String {
+    let keep: String = design
+        .kept_wires()
         .iter()
-        .map(|s| format!("setattr -set keep 1 w:{}\n", s.wire))
+        .map(|wire| format!("setattr -set keep 1 w:{wire}\n"))
         .collect();
+    let top = design.top();
     format!(
-        "read_verilog {verilog}\nhierarchy -top {TOP_MODULE}\n{keep}proc\nflatten\nopt -full\n\
+        "read_verilog {verilog}\nhierarchy -top {top}\n{keep}proc\nflatten\nopt -full\n\
          wreduce\nopt_clean\nmemory -nomap\nopt -full\nwrite_json {json}\n"
     )
 }
@@ -54,33 +132,47 @@ fn verilog_hash(verilog: &str) -> u64 {
     fnv1a(&[verilog])
 }
 
-/// The source of `model.rs` for the current `rtl/`: runs Yosys (which must be installed) in a
-/// temporary directory.
-pub fn generate_model_source() -> Result<String, String> {
-    let verilog = controller_verilog();
+/// The source of `design`'s model for the current `rtl/`: runs Yosys (which must be installed) in
+/// a temporary directory.
+pub fn generate_model_source(design: Design) -> Result<String, String> {
+    let verilog = design.verilog();
     static RUNS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
     let run = RUNS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let dir = std::env::temp_dir().join(format!("cansim-compiled-{}-{run}", std::process::id()));
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let result = run_yosys(&dir, &verilog).and_then(|json| {
-        let netlist = netlist::Netlist::parse(&json, TOP_MODULE)?;
+    let result = run_yosys(design, &dir, &verilog).and_then(|json| {
+        let netlist = netlist::Netlist::parse(&json, design.top())?;
         emit::emit(
             &netlist,
-            &interface(&verilog),
-            &header(verilog_hash(&verilog)),
+            &design.interface(&verilog),
+            &header(design, verilog_hash(&verilog)),
         )
     });
     let _ = std::fs::remove_dir_all(&dir);
     result
 }
 
+/// Writes every design's model under the workspace root `root`.
+pub fn write_models(root: &Path) -> Result<(), String> {
+    for design in Design::ALL {
+        let path = root.join(design.model_path());
+        let text = generate_model_source(design)?;
+        std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    Ok(())
+}
+
 /// Runs Yosys in `dir` on `verilog`; the file names are relative, so that the names Yosys gives
 /// cells (which carry the source file) do not depend on the directory.
-fn run_yosys(dir: &Path, verilog: &str) -> Result<String, String> {
-    let (v, json, script) = ("can_controller.v", "can_controller.json", "netlist.ys");
-    std::fs::write(dir.join(v), verilog).map_err(|e| format!("{}: {e}", dir.display()))?;
+fn run_yosys(design: Design, dir: &Path, verilog: &str) -> Result<String, String> {
+    let stem = match design {
+        Design::Controller => "can_controller",
+        Design::Core => "can_core",
+    };
+    let (v, json, script) = (format!("{stem}.v"), format!("{stem}.json"), "netlist.ys");
+    std::fs::write(dir.join(&v), verilog).map_err(|e| format!("{}: {e}", dir.display()))?;
     std::fs::File::create(dir.join(script))
-        .and_then(|mut f| f.write_all(yosys_script(v, json).as_bytes()))
+        .and_then(|mut f| f.write_all(yosys_script(design, &v, &json).as_bytes()))
         .map_err(|e| format!("{}: {e}", dir.display()))?;
     let output = Command::new("yosys")
         .current_dir(dir)
@@ -100,7 +192,7 @@ fn run_yosys(dir: &Path, verilog: &str) -> Result<String, String> {
     std::fs::read_to_string(dir.join(json)).map_err(|e| format!("{}: {e}", dir.display()))
 }
 
-fn interface(verilog: &str) -> emit::Interface<'_> {
+fn controller_interface(verilog: &str) -> emit::Interface<'_> {
     static OUTPUTS: OnceLock<Vec<(&'static str, u32)>> = OnceLock::new();
     let outputs = OUTPUTS.get_or_init(|| {
         let mut list = vec![
@@ -127,30 +219,31 @@ fn interface(verilog: &str) -> emit::Interface<'_> {
     }
 }
 
-fn header(hash: u64) -> String {
+fn header(design: Design, hash: u64) -> String {
     format!(
-        "//! The controller as straight-line Rust, generated by `cansim compiled-model` (`make \
+        "//! {} as straight-line Rust, generated by `cansim compiled-model` (`make \
          compiled-model`)\n//! from the Verilog of `rtl/` through Yosys; do not edit.\n\n\
          /// Hash of the Verilog this model was made from.\npub(super) const VERILOG_HASH: u64 = \
-         {hash:#018x};\n"
+         {hash:#018x};\n",
+        design.what()
     )
 }
 
-/// The checked-in model is made from the Verilog of this build (computed once per process).
-fn check_model_is_current() -> Result<(), EngineError> {
-    static CURRENT: OnceLock<u64> = OnceLock::new();
-    let current = *CURRENT.get_or_init(|| verilog_hash(&controller_verilog()));
-    check_made_from(model::VERILOG_HASH, current)
+/// `design`'s checked-in model, made from Verilog of hash `made_from`, is made from the Verilog
+/// of this build.
+fn check_model_is_current(design: Design, made_from: u64) -> Result<(), EngineError> {
+    check_made_from(design, made_from, design.current_hash())
 }
 
 /// A model made from Verilog of hash `made_from` may run when `rtl/` now gives `current`.
-fn check_made_from(made_from: u64, current: u64) -> Result<(), EngineError> {
+fn check_made_from(design: Design, made_from: u64, current: u64) -> Result<(), EngineError> {
     if made_from == current {
         Ok(())
     } else {
         Err(EngineError::Load(format!(
-            "the compiled model ({MODEL_PATH}) was made from other Verilog than rtl/ gives now: \
-             regenerate it with `make compiled-model` (needs Yosys), or use CAN_ENGINE=rust-hdl"
+            "the compiled model ({}) was made from other Verilog than rtl/ gives now: \
+             regenerate it with `make compiled-model` (needs Yosys), or use CAN_ENGINE=rust-hdl",
+            design.model_path()
         )))
     }
 }
@@ -167,7 +260,7 @@ impl CompiledController {
     /// A new controller at power-up (apply a reset before use, as with the hardware); an error if
     /// the checked-in model does not match `rtl/`.
     pub fn new() -> Result<CompiledController, EngineError> {
-        check_model_is_current()?;
+        check_model_is_current(Design::Controller, model::VERILOG_HASH)?;
         Ok(CompiledController {
             model: Box::new(model::Model::new()),
             applied: None,
@@ -205,10 +298,10 @@ mod tests {
 
     #[test]
     fn a_model_of_other_verilog_is_refused_with_the_command_that_regenerates_it() {
-        assert_eq!(check_made_from(7, 7), Ok(()));
-        let refused = check_made_from(7, 8).unwrap_err().to_string();
+        assert_eq!(check_made_from(Design::Core, 7, 7), Ok(()));
+        let refused = check_made_from(Design::Core, 7, 8).unwrap_err().to_string();
         assert!(refused.contains("make compiled-model"), "{refused}");
-        assert!(refused.contains(MODEL_PATH), "{refused}");
+        assert!(refused.contains(CORE_MODEL_PATH), "{refused}");
     }
 
     #[test]

@@ -11,7 +11,7 @@ const TABLE_3: [u64; 4] = [0xffc00, 0x0, 0x0, 0x0];
 const TABLE_4: [u64; 4] = [0x3ff00000, 0x0, 0x0, 0x0];
 const TABLE_5: [u64; 4] = [0x1f0, 0x0, 0x0, 0x0];
 
-/// The controller's state: inputs, flip-flops (`q` now, `n` after the next edge), memories, the
+/// The design's state: inputs, flip-flops (`q` now, `n` after the next edge), memories, the
 /// values read across groups, the groups to run at the next `eval` and those run since the last edge.
 #[derive(Clone)]
 pub(super) struct Model {
@@ -1572,17 +1572,17 @@ impl Model {
 
     /// Takes the input word.
     pub(super) fn set_inputs(&mut self, word: u32) {
-        let v = u64::from(word) >> 0 & 0xff;
+        let v = (word >> 0) as u64 & 0xff;
         if v != self.i_wdata { self.i_wdata = v; self.dirty |= 0xd80002003e00000001d010230000ac0; }
-        let v = u64::from(word) >> 8 & 0xff;
+        let v = (word >> 8) as u64 & 0xff;
         if v != self.i_addr { self.i_addr = v; self.dirty |= 0x224a34; }
-        let v = u64::from(word) >> 16 & 0x1;
+        let v = (word >> 16) as u64 & 0x1;
         if v != self.i_we { self.i_we = v; self.dirty |= 0x10004a04; }
-        let v = u64::from(word) >> 17 & 0x1;
+        let v = (word >> 17) as u64 & 0x1;
         if v != self.i_re { self.i_re = v; self.dirty |= 0x40000000000000002000080020100; }
-        let v = u64::from(word) >> 18 & 0x1;
+        let v = (word >> 18) as u64 & 0x1;
         if v != self.i_rx { self.i_rx = v; self.dirty |= 0x8200; }
-        let v = u64::from(word) >> 19 & 0x1;
+        let v = (word >> 19) as u64 & 0x1;
         if v != self.i_reset { self.i_reset = v; self.dirty |= 0xb69f00afefeddbc9ff3d15a64808fb0c; }
     }
 
@@ -1725,7 +1725,7 @@ impl Model {
         if dirty >> 127 & 1 != 0 { self.group_127(&mut dirty); } // top$tx_single_shot
         self.dirty = 0;
         self.ran |= dirty;
-        self.out = 0 | (self.v1051) << 0 | (self.q118) << 8 | (self.v983) << 9 | (self.v998) << 10 | (self.v148) << 11 | (self.v178) << 12 | (self.q115) << 14 | (self.q66 | (self.q67 << 3) | (self.q65 << 7)) << 19 | (self.q68 | (self.q69 << 7)) << 27 | (self.v223) << 35;
+        self.out = 0 | ((self.v1051) as u64) << 0 | ((self.q118) as u64) << 8 | ((self.v983) as u64) << 9 | ((self.v998) as u64) << 10 | ((self.v148) as u64) << 11 | ((self.v178) as u64) << 12 | ((self.q115) as u64) << 14 | ((self.q66 | (self.q67 << 3) | (self.q65 << 7)) as u64) << 19 | ((self.q68 | (self.q69 << 7)) as u64) << 27 | ((self.v223) as u64) << 35;
     }
 
     /// The rising clock edge: memories read, then written; the flip-flops of the groups run since

@@ -134,6 +134,12 @@ impl Bus {
         }
     }
 
+    /// Every retained change of `line`'s drive, as (time, new drive), oldest first (all of them
+    /// with [`Bus::keep_history`]).
+    pub fn drive_changes(&self, line: usize) -> impl Iterator<Item = (u64, Drive)> + '_ {
+        self.lines[line].changes.iter().copied()
+    }
+
     /// What `line` drove just before `t` (at the device, before the delay).
     pub fn drive_before(&self, line: usize, t: u64) -> Drive {
         self.lines[line].drive_before(t)

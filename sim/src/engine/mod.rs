@@ -397,6 +397,12 @@ impl Engine {
         self.bus.drive_before(self.slots[id.0].line, t)
     }
 
+    /// Every change of what `id` drove, as (time, new drive), oldest first: the whole run with
+    /// [`Engine::keep_history`], otherwise only the recent ones the bus still holds.
+    pub fn drive_changes(&self, id: DeviceId) -> Vec<(u64, Drive)> {
+        self.bus.drive_changes(self.slots[id.0].line).collect()
+    }
+
     /// The device `id`, as its concrete type.
     ///
     /// Panics if `T` is not the type that was added under `id`.

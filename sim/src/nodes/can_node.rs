@@ -5,19 +5,20 @@
 //!
 //! Stepping: inputs (including the transmit-buffer byte the core addresses) are applied with the clock
 //! low and settled, then the rising edge is settled; the strobes seen after the edge are collected.
+//! The core runs on the engine `CAN_ENGINE` names ([`crate::nodes::core_engine`]).
 
 use std::any::Any;
 
 use rtl::bsp::protocol::ProtocolState;
-use rtl::can_core::CanCore;
-use rust_hdl::prelude::*;
 
 use crate::engine::bus::Drive;
-use crate::engine::rtl_step::clock_cycle_with;
 use crate::engine::time::ClockSpec;
 use crate::engine::trace::Probe;
 use crate::engine::Device;
 use crate::host::frame_buffer::{encode_buffer, FRAME_BUFFER_BYTES};
+use crate::nodes::controller_node::ModelEngine;
+use crate::nodes::core_engine::{CoreInputs, CoreModel, CoreOutputs};
+use crate::verilated::EngineError;
 use golden::btr::Btr;
 use golden::frame::{Frame, Id};
 
@@ -38,46 +39,66 @@ pub enum NodeEvent {
 pub struct CanNode {
     name: String,
     clock: ClockSpec,
-    uut: CanCore,
+    core: CoreModel,
+    /// The inputs of the next clock cycle.
+    inputs: CoreInputs,
+    /// The outputs after the last clock edge.
+    out: CoreOutputs,
     tx_buffer: [u8; FRAME_BUFFER_BYTES],
     rx_data: [u8; 8],
     events: Vec<(u64, NodeEvent)>,
     pending_load: Option<(bool, u8)>,
     pending_abort: bool,
     request_pending: bool,
-    /// An input was changed since the last clock edge (the design needs an input settle).
-    inputs_changed: bool,
 }
 
 impl CanNode {
-    /// A node on `clock` with bit timing `btr`, reset, operating, error warning limit 96.
+    /// A node on `clock` with bit timing `btr`, reset, operating, error warning limit 96, on the
+    /// engine `CAN_ENGINE` names; panics with the reason if that engine cannot run (see
+    /// [`CanNode::on_engine`]).
     pub fn new(name: &str, clock: ClockSpec, btr: Btr) -> CanNode {
-        let mut uut = CanCore::default();
-        uut.connect_all();
-        uut.brp.next = (btr.brp as u64).to_bits();
-        uut.tseg1.next = (btr.tseg1 as u64).to_bits();
-        uut.tseg2.next = (btr.tseg2 as u64).to_bits();
-        uut.sjw.next = (btr.sjw as u64).to_bits();
-        uut.sam.next = btr.sam;
-        uut.rx.next = true;
-        uut.enable.next = true;
-        uut.reset.next = true;
-        let mut node = CanNode {
+        ModelEngine::from_env()
+            .map_err(|e| e.to_string())
+            .and_then(|engine| {
+                CanNode::on_engine(name, clock, btr, engine).map_err(|e| e.to_string())
+            })
+            .unwrap_or_else(|e| panic!("{name}: {e}"))
+    }
+
+    /// A node as [`CanNode::new`] makes it, on `engine`.
+    pub fn on_engine(
+        name: &str,
+        clock: ClockSpec,
+        btr: Btr,
+        engine: ModelEngine,
+    ) -> Result<CanNode, EngineError> {
+        let mut core = CoreModel::new(engine)?;
+        let mut inputs = CoreInputs {
+            reset: true,
+            rx: true,
+            enable: true,
+            brp: btr.brp,
+            tseg1: btr.tseg1,
+            tseg2: btr.tseg2,
+            sjw: btr.sjw,
+            sam: btr.sam,
+            ..CoreInputs::default()
+        };
+        let out = core.cycle(&inputs);
+        inputs.reset = false;
+        Ok(CanNode {
             name: name.to_string(),
             clock,
-            uut,
+            core,
+            inputs,
+            out,
             tx_buffer: [0; FRAME_BUFFER_BYTES],
             rx_data: [0; 8],
             events: Vec::new(),
             pending_load: None,
             pending_abort: false,
             request_pending: false,
-            inputs_changed: true,
-        };
-        node.clock_edge();
-        node.uut.reset.next = false;
-        node.inputs_changed = true;
-        node
+        })
     }
 
     /// Puts `frame` into the transmit buffer and requests its transmission (with automatic
@@ -90,10 +111,9 @@ impl CanNode {
         );
         self.request_pending = true;
         self.tx_buffer = encode_buffer(frame);
-        self.uut.transmit.info.next = (self.tx_buffer[0] as u64).to_bits();
-        self.uut.transmit.single_shot.next = single_shot;
-        self.uut.transmit.request.next = true;
-        self.inputs_changed = true;
+        self.inputs.info = self.tx_buffer[0];
+        self.inputs.single_shot = single_shot;
+        self.inputs.request = true;
     }
 
     /// Aborts the pending request at the next clock edge (SJA1000 CMR.AT): a frame not under
@@ -110,8 +130,7 @@ impl CanNode {
 
     /// Operating mode (`true`) or SJA1000 reset mode (`false`).
     pub fn set_enable(&mut self, enable: bool) {
-        self.uut.enable.next = enable;
-        self.inputs_changed = true;
+        self.inputs.enable = enable;
     }
 
     /// Loads TEC (`tec` = true) or REC at the next clock edge, like a host write in reset mode.
@@ -153,73 +172,66 @@ impl CanNode {
 
     /// Transmit error counter.
     pub fn tec(&self) -> u8 {
-        self.uut.status.tec.val().to_u8()
+        self.out.tec
     }
 
     /// Receive error counter.
     pub fn rec(&self) -> u8 {
-        self.uut.status.rec.val().to_u8()
+        self.out.rec
     }
 
     /// Error passive.
     pub fn error_passive(&self) -> bool {
-        self.uut.status.error_passive.val()
+        self.out.error_passive
     }
 
     /// Bus-off.
     pub fn bus_off(&self) -> bool {
-        self.uut.status.bus_off.val()
+        self.out.bus_off
     }
 
     /// Protocol state.
     pub fn state(&self) -> ProtocolState {
-        self.uut.status.state.val()
-    }
-
-    fn clock_edge(&mut self) {
-        let changed = std::mem::take(&mut self.inputs_changed);
-        clock_cycle_with(&mut self.uut, |u| &mut u.clock, "CAN core", changed);
+        self.out.state
     }
 
     /// Collects the strobes of the clock cycle that started at `t_fs`: errors first, then the
     /// frame and transmission results they may have caused.
     fn collect(&mut self, t_fs: u64) {
-        let u = &self.uut;
-        if u.status.bus_error.val() {
+        let out = self.out;
+        if out.bus_error {
+            self.events.push((t_fs, NodeEvent::BusError(out.ecc)));
+        }
+        if out.arbitration_lost {
             self.events
-                .push((t_fs, NodeEvent::BusError(u.status.ecc.val().to_u8())));
+                .push((t_fs, NodeEvent::ArbitrationLost(out.alc)));
         }
-        if u.status.arbitration_lost.val() {
-            self.events
-                .push((t_fs, NodeEvent::ArbitrationLost(u.status.alc.val().to_u8())));
+        if out.rx_strobe {
+            self.rx_data[usize::from(out.rx_index)] = out.rx_data;
         }
-        if u.rx_frame.strobe.val() {
-            self.rx_data[u.rx_frame.index.val().index()] = u.rx_frame.data.val().to_u8();
-        }
-        if u.rx_valid.val() {
+        if out.rx_valid {
             let frame = self.received_frame();
             self.events.push((t_fs, NodeEvent::Received(frame)));
         }
-        if self.uut.transmit.done.val() {
-            let success = self.uut.transmit.success.val();
-            self.events.push((t_fs, NodeEvent::TransmitDone(success)));
-            self.uut.transmit.request.next = false;
-            self.inputs_changed = true;
+        if out.tx_done {
+            self.events
+                .push((t_fs, NodeEvent::TransmitDone(out.tx_success)));
+            self.inputs.request = false;
             self.request_pending = false;
         }
     }
 
     fn received_frame(&self) -> Frame {
-        let u = &self.uut;
-        let raw = u.rx_frame.id.val().to_u32();
-        let id = if u.rx_frame.ide.val() {
+        let out = &self.out;
+        let raw = out.rx_id;
+        let id = if out.rx_ide {
             Id::extended(raw)
         } else {
             Id::standard(raw as u16)
         }
         .expect("the core delivers identifiers in range");
-        let dlc = u.rx_frame.dlc.val().to_u8();
-        let frame = if u.rx_frame.rtr.val() {
+        let dlc = out.rx_dlc;
+        let frame = if out.rx_rtr {
             Frame::remote(id, dlc)
         } else {
             Frame::data_with_dlc(id, dlc, &self.rx_data[..dlc.min(8) as usize])
@@ -238,30 +250,18 @@ impl Device for CanNode {
     }
 
     fn rising_edge(&mut self, t_fs: u64, rx: bool) -> Drive {
-        let addr = self.uut.transmit.addr.val().index();
-        let tx_data = (self.tx_buffer.get(addr).copied().unwrap_or(0) as u64).to_bits();
-        self.inputs_changed |= rx != self.uut.rx.val() || tx_data != self.uut.transmit.data.val();
-        self.uut.rx.next = rx;
-        self.uut.transmit.data.next = tx_data;
+        let addr = usize::from(self.out.tx_addr);
+        self.inputs.rx = rx;
+        self.inputs.data = self.tx_buffer.get(addr).copied().unwrap_or(0);
         let load = self.pending_load.take();
         let abort = std::mem::take(&mut self.pending_abort);
-        let strobes = load.is_some() || abort;
-        if strobes {
-            self.uut.counters.load_tec.next = matches!(load, Some((true, _)));
-            self.uut.counters.load_rec.next = matches!(load, Some((false, _)));
-            self.uut.counters.value.next = (load.map_or(0, |(_, v)| v) as u64).to_bits();
-            self.uut.transmit.abort.next = abort;
-            self.inputs_changed = true;
-        }
-        self.clock_edge();
-        if strobes {
-            self.uut.counters.load_tec.next = false;
-            self.uut.counters.load_rec.next = false;
-            self.uut.transmit.abort.next = false;
-            self.inputs_changed = true;
-        }
+        self.inputs.load_tec = matches!(load, Some((true, _)));
+        self.inputs.load_rec = matches!(load, Some((false, _)));
+        self.inputs.value = load.map_or(0, |(_, v)| v);
+        self.inputs.abort = abort;
+        self.out = self.core.cycle(&self.inputs);
         self.collect(t_fs);
-        Drive::from_level(self.uut.tx.val())
+        Drive::from_level(self.out.tx)
     }
 
     fn probes(&self) -> Vec<Probe> {
@@ -271,12 +271,11 @@ impl Device for CanNode {
     }
 
     fn probe_values(&self, values: &mut [u64]) {
-        let u = &self.uut;
         let (core, own) = values.split_at_mut(CORE_PROBES);
-        core_probe_values(u, core);
+        core_probe_values(&self.out, core);
         own.copy_from_slice(&[
-            u.status.error_passive.val() as u64,
-            u.status.bus_off.val() as u64,
+            u64::from(self.out.error_passive),
+            u64::from(self.out.bus_off),
         ]);
     }
 
@@ -316,13 +315,13 @@ pub(crate) fn core_probes() -> Vec<Probe> {
     ]
 }
 
-/// The values of [`core_probes`] for `core`.
-pub(crate) fn core_probe_values(core: &CanCore, values: &mut [u64]) {
+/// The values of [`core_probes`] for a core with outputs `out`.
+pub(crate) fn core_probe_values(out: &CoreOutputs, values: &mut [u64]) {
     values.copy_from_slice(&[
-        core.sample_point.val() as u64,
-        core.segment.val() as u64,
-        core.status.state.val() as u64,
-        core.status.tec.val().to_u64(),
-        core.status.rec.val().to_u64(),
+        u64::from(out.sample_point),
+        u64::from(out.segment),
+        out.state as u64,
+        u64::from(out.tec),
+        u64::from(out.rec),
     ]);
 }

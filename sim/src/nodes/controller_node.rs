@@ -28,6 +28,7 @@ use crate::engine::time::ClockSpec;
 use crate::engine::trace::Probe;
 use crate::engine::Device;
 use crate::nodes::can_node::{core_probe_values, core_probes, CORE_PROBES};
+use crate::nodes::core_engine::CoreOutputs;
 use crate::verilated::sources::{STATE, TRANSMITTING};
 pub use crate::verilated::EngineError;
 use crate::verilated::{PortInputs, PortOutputs, VerilatedController};
@@ -251,7 +252,7 @@ pub fn rust_hdl_cycle(
 }
 
 /// The protocol state encoded as `value` in the Verilog.
-fn protocol_state(value: u64) -> ProtocolState {
+pub(crate) fn protocol_state(value: u64) -> ProtocolState {
     *PROTOCOL_STATES
         .get(value as usize)
         .unwrap_or_else(|| panic!("protocol state {value} of the Verilated model has no name"))
@@ -420,7 +421,7 @@ impl Device for ControllerNode {
             }
         };
         match &self.model {
-            Model::RustHdl { uut, .. } => core_probe_values(&uut.core, core),
+            Model::RustHdl { uut, .. } => core_probe_values(&CoreOutputs::of(&uut.core), core),
             Model::Verilator(model) => from_word(model.outputs(), core),
             Model::Compiled(model) => from_word(model.outputs(), core),
         }

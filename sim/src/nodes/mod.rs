@@ -5,4 +5,5 @@
 pub mod btl_node;
 pub mod can_node;
 pub mod controller_node;
+pub mod core_engine;
 pub mod lower_tester;

@@ -233,10 +233,17 @@ fn thread_cpu_seconds() -> f64 {
 }
 
 /// Fault-injection cases per second of real time when `threads` workers share `faults` cases of the
-/// campaign with `seed` (`cansim campaign`); fails if a case broke a CAN rule.
-pub fn campaign_rate(seed: u64, faults: u64, threads: usize) -> Result<f64, BenchError> {
+/// campaign with `seed` (`cansim campaign`), the cores on `model`; fails if a case broke a CAN
+/// rule.
+pub fn campaign_rate(
+    seed: u64,
+    faults: u64,
+    model: ModelEngine,
+    threads: usize,
+) -> Result<f64, BenchError> {
     let start = Instant::now();
-    let summary = crate::workloads::campaign::run_campaign(seed, faults, threads, &|_| {});
+    let summary = crate::workloads::campaign::run_campaign(seed, faults, model, threads, &|_| {})
+        .map_err(BenchError)?;
     let seconds = start.elapsed().as_secs_f64();
     if let Some((index, violations)) = summary.failures.first() {
         return Err(BenchError(format!(
@@ -329,7 +336,9 @@ mod tests {
 
     #[test]
     fn the_campaign_rate_counts_cases() {
-        assert!(campaign_rate(1, 4, 2).expect("no case breaks a rule") > 0.0);
+        assert!(
+            campaign_rate(1, 4, ModelEngine::Compiled, 2).expect("no case breaks a rule") > 0.0
+        );
     }
 
     #[test]

@@ -31,6 +31,8 @@ use crate::engine::bus_timing::BusTiming;
 use crate::engine::time::ClockSpec;
 use crate::engine::{Device, DeviceId, Engine};
 use crate::nodes::can_node::{CanNode, NodeEvent};
+use crate::nodes::controller_node::ModelEngine;
+use crate::nodes::core_engine::CoreModel;
 use golden::btr::Btr;
 use golden::frame::{decode, encode, Field, Frame, Id, DOMINANT};
 use golden::reference::{self, Detected, Fault, FaultKind, Scenario};
@@ -112,7 +114,7 @@ pub struct NodeReport {
 }
 
 /// The result of a case on the RTL cores.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Run {
     /// Bus level in every bit from the SOF (sampled at the nominal sample point).
     pub bus: Vec<bool>,
@@ -166,21 +168,27 @@ pub fn campaign_btr() -> Btr {
     Btr::from_registers(BTR0_1M_AT_16MHZ, BTR1_1M_AT_16MHZ)
 }
 
-/// Plays `case` on [`NODES`] RTL cores (same clock, no propagation delay).
+/// Plays `case` on [`NODES`] RTL cores (same clock, no propagation delay) on the engine
+/// `CAN_ENGINE` names; panics if that engine cannot run.
 pub fn run_rtl(case: &Case) -> Run {
-    run_rtl_traced(case, None).expect("no tracing, no I/O")
+    let engine = ModelEngine::from_env().unwrap_or_else(|e| panic!("{e}"));
+    run_rtl_on(case, engine, None).unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// [`run_rtl`], writing a VCD of the bus and the nodes to `vcd` if given.
-pub fn run_rtl_traced(case: &Case, vcd: Option<&Path>) -> io::Result<Run> {
+/// [`run_rtl`] with the cores on `model`, writing a VCD of the bus and the nodes to `vcd` if
+/// given.
+pub fn run_rtl_on(case: &Case, model: ModelEngine, vcd: Option<&Path>) -> io::Result<Run> {
     let btr = campaign_btr();
     let clock = ClockSpec::from_hz(CLOCK_HZ);
     let period = clock.period_fs();
     let bit_fs = btr.clocks_per_bit() as u64 * period;
     let mut engine = Engine::new();
-    let ids: Vec<DeviceId> = (0..NODES)
-        .map(|n| engine.add(CanNode::new(&format!("n{n}"), clock, btr), 0))
-        .collect();
+    let mut ids = Vec::with_capacity(NODES);
+    for n in 0..NODES {
+        let node = CanNode::on_engine(&format!("n{n}"), clock, btr, model)
+            .map_err(|e| io::Error::other(e.to_string()))?;
+        ids.push(engine.add(node, 0));
+    }
     let monitor = engine.add(BusMonitor::new(clock, &btr), 0);
     if let Some(path) = vcd {
         engine.trace_vcd_timed(path, BusTiming::from_btr(&btr, clock))?;
@@ -735,26 +743,29 @@ pub struct Summary {
     pub failures: Vec<(u64, Vec<String>)>,
 }
 
-/// Runs cases `0..count` of the campaign with `seed` on `threads` threads; `progress` is called with
-/// the number of cases done from time to time.
+/// Runs cases `0..count` of the campaign with `seed` on `threads` threads, the cores on `model`;
+/// `progress` is called with the number of cases done from time to time.
 pub fn run_campaign(
     seed: u64,
     count: u64,
+    model: ModelEngine,
     threads: usize,
     progress: &(dyn Fn(u64) + Sync),
-) -> Summary {
-    run_campaign_shard(seed, count, Shard::WHOLE, threads, progress)
+) -> Result<Summary, String> {
+    run_campaign_shard(seed, count, Shard::WHOLE, model, threads, progress)
 }
 
 /// Runs the cases of `0..count` that fall to `shard` (case i is the same case whatever the
-/// sharding: it is drawn from `seed` and i alone).
+/// sharding: it is drawn from `seed` and i alone); an error if the cores cannot run on `model`.
 pub fn run_campaign_shard(
     seed: u64,
     count: u64,
     shard: Shard,
+    model: ModelEngine,
     threads: usize,
     progress: &(dyn Fn(u64) + Sync),
-) -> Summary {
+) -> Result<Summary, String> {
+    CoreModel::new(model).map_err(|e| e.to_string())?;
     let next = AtomicUsize::new(0);
     let summary = Mutex::new(Summary::default());
     std::thread::scope(|scope| {
@@ -765,7 +776,8 @@ pub fn run_campaign_shard(
                     break;
                 }
                 let case = random_case(&mut Rng::for_case(seed, index));
-                let verdict = check(&case, &run_rtl(&case));
+                let run = run_rtl_on(&case, model, None).expect("the engine runs (checked above)");
+                let verdict = check(&case, &run);
                 let mut s = summary.lock().expect("no worker panicked");
                 s.cases += 1;
                 *s.outcomes.entry(verdict.outcome).or_default() += 1;
@@ -780,7 +792,7 @@ pub fn run_campaign_shard(
     });
     let mut summary = summary.into_inner().expect("no worker panicked");
     summary.failures.sort_by_key(|(i, _)| *i);
-    summary
+    Ok(summary)
 }
 
 /// The summary as text: cases per outcome, then every case that broke a rule.

@@ -112,7 +112,7 @@ impl<'a> Emitter<'a> {
             if name == io.clock {
                 e.drive(bits, "0".into(), Source::Zero);
             } else {
-                e.drive(bits, format!("self.i_{name}"), Source::Input);
+                e.drive(bits, format!("self.i_{}", field_name(name)), Source::Input);
             }
         }
         for cell in &netlist.cells {
@@ -281,13 +281,18 @@ impl<'a> Emitter<'a> {
     fn source(mut self, header: &str) -> Result<String, String> {
         let (body, groups) = self.eval_body()?;
         let (fields, init, edge) = self.state()?;
-        let mut outputs = String::new();
         self.current = usize::MAX;
+        let mut ports = Vec::new();
         for (name, at) in self.io.outputs {
-            let bits = self.output_bits(name)?;
-            write!(outputs, " | ({}) << {at}", self.operand(bits)?).unwrap();
+            ports.push((*name, *at as usize, self.output_bits(name)?.len()));
         }
-        let (inputs, input_fields, input_init) = self.inputs()?;
+        let out = word_type(packed_width(ports)?, "output")?;
+        let mut outputs = String::new();
+        for (name, at) in self.io.outputs {
+            let operand = self.operand(self.output_bits(name)?)?;
+            write!(outputs, " | (({operand}) as {out}) << {at}").unwrap();
+        }
+        let (inputs, input_fields, input_init, input) = self.inputs()?;
         let all = if self.groups.count == 128 {
             u128::MAX
         } else {
@@ -296,13 +301,13 @@ impl<'a> Emitter<'a> {
         Ok(format!(
             "{header}
 {tables}
-/// The controller's state: inputs, flip-flops (`q` now, `n` after the next edge), memories, the
+/// The design's state: inputs, flip-flops (`q` now, `n` after the next edge), memories, the
 /// values read across groups, the groups to run at the next `eval` and those run since the last edge.
 #[derive(Clone)]
 pub(super) struct Model {{
 {input_fields}{fields}    dirty: u128,
     ran: u128,
-    out: u64,
+    out: {out},
 }}
 
 impl Model {{
@@ -316,11 +321,11 @@ impl Model {{
     }}
 
     /// Takes the input word.
-    pub(super) fn set_inputs(&mut self, word: u32) {{
+    pub(super) fn set_inputs(&mut self, word: {input}) {{
 {inputs}    }}
 
     /// The output word computed by the last `eval`.
-    pub(super) fn outputs(&self) -> u64 {{
+    pub(super) fn outputs(&self) -> {out} {{
         self.out
     }}
 
@@ -345,27 +350,36 @@ impl Model {{
         ))
     }
 
-    fn inputs(&self) -> Result<(String, String, String), String> {
+    /// The code of `set_inputs`, the input fields, their power-up values and the input word's type.
+    fn inputs(&self) -> Result<(String, String, String, &'static str), String> {
         let (mut code, mut fields, mut init) = (String::new(), String::new(), String::new());
-        for (name, at) in self.io.inputs {
+        let mut ports = Vec::new();
+        for (port, at) in self.io.inputs {
             let (_, bits) = self
                 .netlist
                 .inputs
                 .iter()
-                .find(|(n, _)| n == name)
-                .ok_or_else(|| format!("the netlist has no input `{name}`"))?;
+                .find(|(n, _)| n == port)
+                .ok_or_else(|| format!("the netlist has no input `{port}`"))?;
+            ports.push((*port, *at as usize, bits.len()));
+            let name = field_name(port);
             let readers = self.readers_mask(&self.reads(bits), None);
             let m = hex(mask(bits.len()));
             writeln!(
                 code,
-                "        let v = u64::from(word) >> {at} & {m};\n        if v != self.i_{name} {{ \
+                "        let v = (word >> {at}) as u64 & {m};\n        if v != self.i_{name} {{ \
                  self.i_{name} = v; self.dirty |= {readers:#x}; }}"
             )
             .unwrap();
             writeln!(fields, "    i_{name}: u64,").unwrap();
             writeln!(init, "            i_{name}: 0,").unwrap();
         }
-        Ok((code, fields, init))
+        Ok((
+            code,
+            fields,
+            init,
+            word_type(packed_width(ports)?, "input")?,
+        ))
     }
 
     /// The calls of the groups, each behind its dirty bit, and the groups as methods (one function
@@ -433,6 +447,34 @@ impl Model {{
     }
 }
 
+/// A port's name as a Rust identifier (rust-hdl joins the names of interface ports with `$`).
+fn field_name(port: &str) -> String {
+    port.replace(|c: char| !c.is_ascii_alphanumeric(), "_")
+}
+
+/// The bits a word of `ports` (name, position, width) needs; an error if two ports overlap (a
+/// port wider than the interface expects).
+fn packed_width(mut ports: Vec<(&str, usize, usize)>) -> Result<usize, String> {
+    ports.sort_by_key(|&(_, at, _)| at);
+    for pair in ports.windows(2) {
+        let ((a, a_at, a_width), (b, b_at, _)) = (pair[0], pair[1]);
+        if a_at + a_width > b_at {
+            return Err(format!("ports `{a}` and `{b}` overlap in the word"));
+        }
+    }
+    Ok(ports.last().map_or(0, |&(_, at, width)| at + width))
+}
+
+/// The smallest unsigned type holding `width` bits of the `what` word.
+fn word_type(width: usize, what: &str) -> Result<&'static str, String> {
+    match width {
+        0..=32 => Ok("u32"),
+        33..=64 => Ok("u64"),
+        65..=128 => Ok("u128"),
+        _ => Err(format!("the {what} word needs {width} bits (at most 128)")),
+    }
+}
+
 fn first_net(bits: &[Bit]) -> Result<u64, String> {
     bits.iter()
         .find_map(|b| match b {
@@ -485,7 +527,10 @@ mod tests {
             code.contains("let c0: u64 = (self.i_a).wrapping_add((self.i_a)) & 0x3;"),
             "{code}"
         );
-        assert!(code.contains("self.out = 0 | (self.v0) << 0;"), "{code}");
+        assert!(
+            code.contains("self.out = 0 | ((self.v0) as u32) << 0;"),
+            "{code}"
+        );
     }
 
     #[test]
