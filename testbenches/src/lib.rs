@@ -38,8 +38,13 @@ pub fn bench_engine(btr: &Btr, clock: ClockSpec) -> Engine {
     engine
 }
 
-/// Where the next engine of this test writes its VCD, or `None` without [`WAVES_ENV`].
+/// Where the next engine of this test writes its VCD, or `None` without [`WAVES_ENV`] and during a
+/// skipping check (its runs repeat the `on_core::` and `on_registers::` tests' scenarios: their
+/// waves would be copies).
 fn waves_path() -> Option<PathBuf> {
+    if skipping::engine().is_some() {
+        return None;
+    }
     let setting = std::env::var(WAVES_ENV)
         .ok()
         .filter(|v| !v.is_empty() && v != "0")?;
