@@ -928,8 +928,8 @@ impl Model {
             v667: 0,
             v668: 0,
             v670: 0,
-            dirty: 0x1ffffffffffffffffffff,
-            ran: 0x1ffffffffffffffffffff,
+            dirty: 0x3ffffffffffffffffffff,
+            ran: 0x3ffffffffffffffffffff,
             out: 0,
         }
     }
@@ -979,10 +979,10 @@ impl Model {
         self.out
     }
 
-    /// The groups whose inputs changed (all with `every_group`), in dependency order; then the
-    /// outputs.
+    /// The groups whose inputs changed (all with `every_group`), in dependency order (a group
+    /// marks only later ones); then the output word if something it reads changed.
     pub(super) fn eval(&mut self, every_group: bool) {
-        let mut dirty = if every_group { 0x1ffffffffffffffffffff } else { self.dirty };
+        let mut dirty = if every_group { 0x3ffffffffffffffffffff } else { self.dirty };
         if dirty >> 0 & 1 != 0 { self.group_0(&mut dirty); } // top$protocol$frame
         if dirty >> 1 & 1 != 0 { self.group_1(&mut dirty); } // top$protocol$interframe
         if dirty >> 2 & 1 != 0 { self.group_2(&mut dirty); } // top$bit_timing
@@ -1066,7 +1066,9 @@ impl Model {
         if dirty >> 80 & 1 != 0 { self.group_80(&mut dirty); } // top$protocol$valid_pulse
         self.dirty = 0;
         self.ran |= dirty;
-        self.out = 0 | ((self.q58) as u128) << 0 | ((self.q0) as u128) << 1 | (((self.q5 & 0x1) | (self.q6 << 1) | ((self.q5 >> 1) << 3)) as u128) << 2 | ((self.q20) as u128) << 6 | ((self.q19) as u128) << 7 | ((self.q32) as u128) << 8 | ((self.q31) as u128) << 9 | ((self.q30) as u128) << 38 | ((self.q28) as u128) << 39 | ((self.q33) as u128) << 40 | ((self.q35) as u128) << 44 | ((self.q34) as u128) << 45 | ((self.q36) as u128) << 53 | ((self.q25) as u128) << 56 | ((self.q26) as u128) << 57 | ((self.q24) as u128) << 65 | ((self.q27) as u128) << 66 | ((self.q15 | (self.q16 << 3) | (self.q14 << 7)) as u128) << 71 | ((self.q17 | (self.q18 << 7)) as u128) << 79 | ((self.q54) as u128) << 87 | ((self.q53) as u128) << 88 | ((self.v148) as u128) << 89 | ((self.v149) as u128) << 90 | ((self.q55) as u128) << 91 | ((self.v73) as u128) << 96 | ((self.v105) as u128) << 97;
+        if dirty >> 81 & 1 != 0 {
+            self.out = 0 | ((self.q58) as u128) << 0 | ((self.q0) as u128) << 1 | (((self.q5 & 0x1) | (self.q6 << 1) | ((self.q5 >> 1) << 3)) as u128) << 2 | ((self.q20) as u128) << 6 | ((self.q19) as u128) << 7 | ((self.q32) as u128) << 8 | ((self.q31) as u128) << 9 | ((self.q30) as u128) << 38 | ((self.q28) as u128) << 39 | ((self.q33) as u128) << 40 | ((self.q35) as u128) << 44 | ((self.q34) as u128) << 45 | ((self.q36) as u128) << 53 | ((self.q25) as u128) << 56 | ((self.q26) as u128) << 57 | ((self.q24) as u128) << 65 | ((self.q27) as u128) << 66 | ((self.q15 | (self.q16 << 3) | (self.q14 << 7)) as u128) << 71 | ((self.q17 | (self.q18 << 7)) as u128) << 79 | ((self.q54) as u128) << 87 | ((self.q53) as u128) << 88 | ((self.v148) as u128) << 89 | ((self.v149) as u128) << 90 | ((self.q55) as u128) << 91 | ((self.v73) as u128) << 96 | ((self.v105) as u128) << 97;
+        }
     }
 
     /// The rising clock edge: memories read, then written; the flip-flops of the groups run since
@@ -1080,17 +1082,17 @@ impl Model {
             if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x800004; } // $auto$ff.cc:266:slice$6232
         }
         if ran >> 25 & 1 != 0 {
-            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x2400008; } // $auto$ff.cc:266:slice$6122
-            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x2000008; } // $auto$ff.cc:266:slice$6123
-            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x2000008; } // $auto$ff.cc:266:slice$6136
+            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x200000000000002400008; } // $auto$ff.cc:266:slice$6122
+            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x200000000000002000008; } // $auto$ff.cc:266:slice$6123
+            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x200000000000002000008; } // $auto$ff.cc:266:slice$6136
         }
         if ran >> 26 & 1 != 0 {
-            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x4400008; } // $auto$ff.cc:266:slice$6147
-            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x4400008; } // $auto$ff.cc:266:slice$6148
+            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x200000000000004400008; } // $auto$ff.cc:266:slice$6147
+            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x200000000000004400008; } // $auto$ff.cc:266:slice$6148
         }
         if ran >> 28 & 1 != 0 {
-            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x18000040; } // $auto$ff.cc:266:slice$6060
-            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x10000040; } // $auto$ff.cc:266:slice$6063
+            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x200000000000018000040; } // $auto$ff.cc:266:slice$6060
+            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x200000000000010000040; } // $auto$ff.cc:266:slice$6063
         }
         if ran >> 30 & 1 != 0 {
             if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x40000404; } // $auto$ff.cc:266:slice$6228
@@ -1132,43 +1134,43 @@ impl Model {
             if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x40000080023; } // $auto$ff.cc:266:slice$6207
         }
         if ran >> 43 & 1 != 0 {
-            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x80000000000; } // $auto$ff.cc:266:slice$6204
+            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x200000000080000000000; } // $auto$ff.cc:266:slice$6204
         }
         if ran >> 44 & 1 != 0 {
-            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x100000000000; } // $auto$ff.cc:266:slice$6202
+            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x200000000100000000000; } // $auto$ff.cc:266:slice$6202
         }
         if ran >> 45 & 1 != 0 {
-            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x200000000000; } // $auto$ff.cc:266:slice$6199
+            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x200000000200000000000; } // $auto$ff.cc:266:slice$6199
         }
         if ran >> 46 & 1 != 0 {
-            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x400000001001; } // $auto$ff.cc:266:slice$6195
+            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x200000000400000001001; } // $auto$ff.cc:266:slice$6195
         }
         if ran >> 47 & 1 != 0 {
-            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x800000000000; } // $auto$ff.cc:266:slice$6191
+            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x200000000800000000000; } // $auto$ff.cc:266:slice$6191
         }
         if ran >> 48 & 1 != 0 {
-            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x1000000000000; } // $auto$ff.cc:266:slice$6186
+            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x200000001000000000000; } // $auto$ff.cc:266:slice$6186
         }
         if ran >> 49 & 1 != 0 {
-            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x2000000001011; } // $auto$ff.cc:266:slice$6180
+            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x200000002000000001011; } // $auto$ff.cc:266:slice$6180
         }
         if ran >> 50 & 1 != 0 {
             if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x4000000000001; } // $auto$ff.cc:266:slice$6178
         }
         if ran >> 51 & 1 != 0 {
-            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x8000000001001; } // $auto$ff.cc:266:slice$6173
+            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x200000008000000001001; } // $auto$ff.cc:266:slice$6173
         }
         if ran >> 53 & 1 != 0 {
-            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x20000000000000; } // $auto$ff.cc:266:slice$6171
+            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x200000020000000000000; } // $auto$ff.cc:266:slice$6171
         }
         if ran >> 54 & 1 != 0 {
-            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x40000000000000; } // $auto$ff.cc:266:slice$6169
+            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x200000040000000000000; } // $auto$ff.cc:266:slice$6169
         }
         if ran >> 55 & 1 != 0 {
-            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x80000000000000; } // $auto$ff.cc:266:slice$6165
+            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x200000080000000000000; } // $auto$ff.cc:266:slice$6165
         }
         if ran >> 56 & 1 != 0 {
-            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x100000000000000; } // $auto$ff.cc:266:slice$6162
+            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x200000100000000000000; } // $auto$ff.cc:266:slice$6162
         }
         if ran >> 57 & 1 != 0 {
             if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x220080000251073; } // $auto$ff.cc:266:slice$6159
@@ -1180,19 +1182,19 @@ impl Model {
             if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x800000000200001; } // $auto$ff.cc:266:slice$6154
         }
         if ran >> 60 & 1 != 0 {
-            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x1000000000000022; } // $auto$ff.cc:266:slice$6153
+            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x200001000000000000022; } // $auto$ff.cc:266:slice$6153
         }
         if ran >> 61 & 1 != 0 {
-            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x2000000000000000; } // $auto$ff.cc:266:slice$6152
+            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x200002000000000000000; } // $auto$ff.cc:266:slice$6152
         }
         if ran >> 62 & 1 != 0 {
-            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x4000000001608028; } // $flatten\protocol.\faults.\bus_off_state.$procdff$5842
+            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x200004000000001608028; } // $flatten\protocol.\faults.\bus_off_state.$procdff$5842
         }
         if ran >> 63 & 1 != 0 {
-            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x8000000000000003; } // $flatten\protocol.\faults.\passive_state.$procdff$5841
+            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x200008000000000000003; } // $flatten\protocol.\faults.\passive_state.$procdff$5841
         }
         if ran >> 64 & 1 != 0 {
-            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x10000000000243233; } // $flatten\protocol.\field.$procdff$5838
+            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x200010000000000243233; } // $flatten\protocol.\field.$procdff$5838
         }
         if ran >> 65 & 1 != 0 {
             if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x20000000000080020; } // $flatten\protocol.\in_frame.$procdff$5837
@@ -1222,7 +1224,7 @@ impl Model {
             if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x2000000000008010000; } // $flatten\protocol.\sender.\tx_next.$procdff$5829
         }
         if ran >> 74 & 1 != 0 {
-            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x4000000000000090205; } // $flatten\protocol.\sender.\tx_reg.$procdff$5827
+            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x204000000000000090205; } // $flatten\protocol.\sender.\tx_reg.$procdff$5827
         }
         if ran >> 75 & 1 != 0 {
             if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x8000000000000000040; } // $auto$ff.cc:266:slice$6235
@@ -1240,7 +1242,7 @@ impl Model {
             if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x80000000000000082223; } // $auto$ff.cc:266:slice$6042
         }
         if ran >> 80 & 1 != 0 {
-            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x100000000000000000000; } // $auto$ff.cc:266:slice$6036
+            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x300000000000000000000; } // $auto$ff.cc:266:slice$6036
         }
         self.dirty |= dirty;
     }
@@ -1614,9 +1616,9 @@ impl Model {
     /// The cells of top$protocol.
     fn group_5(&mut self, dirty: &mut u128) {
         let c148: u64 = (self.q1) & (self.q56) & 0x1;
-        if self.v148 != c148 { self.v148 = c148; *dirty |= 0x0; }
+        if self.v148 != c148 { self.v148 = c148; *dirty |= 0x200000000000000000000; }
         let c149: u64 = (self.v318) & (self.q56) & 0x1;
-        if self.v149 != c149 { self.v149 = c149; *dirty |= 0x0; }
+        if self.v149 != c149 { self.v149 = c149; *dirty |= 0x200000000000000000000; }
         let c151: u64 = (self.v362) & (self.v324) & 0x1;
         if self.v151 != c151 { self.v151 = c151; *dirty |= 0x1000; }
         let c155: u64 = (self.v557) & (self.v246) & 0x1;
@@ -1808,7 +1810,7 @@ impl Model {
         if self.v70 != c70 { self.v70 = c70; *dirty |= 0x1000000000; }
         let c72: u64 = (c71) & (c90) & 0x1;
         let c73: u64 = (c72) & (self.v91) & 0x1;
-        if self.v73 != c73 { self.v73 = c73; *dirty |= 0x80000000; }
+        if self.v73 != c73 { self.v73 = c73; *dirty |= 0x200000000000080000000; }
         let c96: u64 = ((self.v75) | (c136)) & 0x1;
         let c97: u64 = ((c96) | (c134)) & 0x1;
         let c76: u64 = (c97) & (self.v92) & 0x1;
@@ -1819,7 +1821,7 @@ impl Model {
         if self.v98 != c98 { self.v98 = c98; *dirty |= 0x10000; }
         let c103: u64 = ((c136) | (c102)) & 0x1;
         let c105: u64 = if (c94) != 0 { (0x0) } else { (self.q41) };
-        if self.v105 != c105 { self.v105 = c105; *dirty |= 0x0; }
+        if self.v105 != c105 { self.v105 = c105; *dirty |= 0x200000000000000000000; }
         let c107: u64 = if (c73) != 0 { (0x0) } else { (self.q39) };
         let c106: u64 = ((c107) | (c103)) & 0x1;
         if self.v106 != c106 { self.v106 = c106; *dirty |= 0x10000000000; }

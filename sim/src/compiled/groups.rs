@@ -11,8 +11,9 @@ use std::collections::{BTreeMap, BTreeSet};
 use super::emit::Interface;
 use super::netlist::{Bit, Cell};
 
-/// At most this many groups (the dirty set is a `u128`); adjacent groups are merged down to it.
-const MAX_GROUPS: usize = 128;
+/// At most this many groups (the dirty set is a `u128` whose last bit stands for the output word);
+/// adjacent groups are merged down to it.
+const MAX_GROUPS: usize = 127;
 
 /// What one step of the evaluation computes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1573,17 +1573,17 @@ impl Model {
     /// Takes the input word.
     pub(super) fn set_inputs(&mut self, word: u32) {
         let v = (word >> 0) as u64 & 0xff;
-        if v != self.i_wdata { self.i_wdata = v; self.dirty |= 0xd80002003e00000001d010230000ac0; }
+        if v != self.i_wdata { self.i_wdata = v; self.dirty |= 0x6c0002003e00000001d010230000ac0; }
         let v = (word >> 8) as u64 & 0xff;
         if v != self.i_addr { self.i_addr = v; self.dirty |= 0x224a34; }
         let v = (word >> 16) as u64 & 0x1;
         if v != self.i_we { self.i_we = v; self.dirty |= 0x10004a04; }
         let v = (word >> 17) as u64 & 0x1;
-        if v != self.i_re { self.i_re = v; self.dirty |= 0x40000000000000002000080020100; }
+        if v != self.i_re { self.i_re = v; self.dirty |= 0x20000000000000002000080020100; }
         let v = (word >> 18) as u64 & 0x1;
         if v != self.i_rx { self.i_rx = v; self.dirty |= 0x8200; }
         let v = (word >> 19) as u64 & 0x1;
-        if v != self.i_reset { self.i_reset = v; self.dirty |= 0xb69f00afefeddbc9ff3d15a64808fb0c; }
+        if v != self.i_reset { self.i_reset = v; self.dirty |= 0x5b4f806fefeddbc9ff3d15a64808fb0c; }
     }
 
     /// The output word computed by the last `eval`.
@@ -1591,8 +1591,8 @@ impl Model {
         self.out
     }
 
-    /// The groups whose inputs changed (all with `every_group`), in dependency order; then the
-    /// outputs.
+    /// The groups whose inputs changed (all with `every_group`), in dependency order (a group
+    /// marks only later ones); then the output word if something it reads changed.
     pub(super) fn eval(&mut self, every_group: bool) {
         let mut dirty = if every_group { 0xffffffffffffffffffffffffffffffff } else { self.dirty };
         if dirty >> 0 & 1 != 0 { self.group_0(&mut dirty); } // top$core$protocol$interframe
@@ -1697,35 +1697,36 @@ impl Model {
         if dirty >> 99 & 1 != 0 { self.group_99(&mut dirty); } // top$interrupts$rbs_before
         if dirty >> 100 & 1 != 0 { self.group_100(&mut dirty); } // top$modes
         if dirty >> 101 & 1 != 0 { self.group_101(&mut dirty); } // top$modes$afm + top$modes$cr6_reg
-        if dirty >> 102 & 1 != 0 { self.group_102(&mut dirty); } // top$modes$divider$count
-        if dirty >> 103 & 1 != 0 { self.group_103(&mut dirty); } // top$modes$divider$level
-        if dirty >> 104 & 1 != 0 { self.group_104(&mut dirty); } // top$modes$enable_reg
-        if dirty >> 105 & 1 != 0 { self.group_105(&mut dirty); } // top$modes$listen_only_reg
-        if dirty >> 106 & 1 != 0 { self.group_106(&mut dirty); } // top$modes$lom
-        if dirty >> 107 & 1 != 0 { self.group_107(&mut dirty); } // top$modes$rm
-        if dirty >> 108 & 1 != 0 { self.group_108(&mut dirty); } // top$modes$self_test_reg
-        if dirty >> 109 & 1 != 0 { self.group_109(&mut dirty); } // top$modes$sleep_bits
-        if dirty >> 110 & 1 != 0 { self.group_110(&mut dirty); } // top$modes$sm
-        if dirty >> 111 & 1 != 0 { self.group_111(&mut dirty); } // top$modes$stm
-        if dirty >> 112 & 1 != 0 { self.group_112(&mut dirty); } // top$read$rdata_from_ram
-        if dirty >> 113 & 1 != 0 { self.group_113(&mut dirty); } // top$read$rdata_from_tx
-        if dirty >> 114 & 1 != 0 { self.group_114(&mut dirty); } // top$read$rdata_ram_or
-        if dirty >> 115 & 1 != 0 { self.group_115(&mut dirty); } // top$read$rdata_reg
-        if dirty >> 116 & 1 != 0 { self.group_116(&mut dirty); } // top$self_reception
-        if dirty >> 117 & 1 != 0 { self.group_117(&mut dirty); } // top$tbs
-        if dirty >> 118 & 1 != 0 { self.group_118(&mut dirty); } // top$tcs
-        if dirty >> 119 & 1 != 0 { self.group_119(&mut dirty); } // top$tx_buffer$basic_info
-        if dirty >> 120 & 1 != 0 { self.group_120(&mut dirty); } // top$tx_buffer$core_ram
-        if dirty >> 121 & 1 != 0 { self.group_121(&mut dirty); } // top$tx_buffer$core_written
-        if dirty >> 122 & 1 != 0 { self.group_122(&mut dirty); } // top$tx_buffer$frame_info
-        if dirty >> 123 & 1 != 0 { self.group_123(&mut dirty); } // top$tx_buffer$host_ram
-        if dirty >> 124 & 1 != 0 { self.group_124(&mut dirty); } // top$tx_buffer$host_written
-        if dirty >> 125 & 1 != 0 { self.group_125(&mut dirty); } // top$tx_buffer$written
-        if dirty >> 126 & 1 != 0 { self.group_126(&mut dirty); } // top$tx_pending
-        if dirty >> 127 & 1 != 0 { self.group_127(&mut dirty); } // top$tx_single_shot
+        if dirty >> 102 & 1 != 0 { self.group_102(&mut dirty); } // top$modes$divider$count + top$modes$divider$level
+        if dirty >> 103 & 1 != 0 { self.group_103(&mut dirty); } // top$modes$enable_reg
+        if dirty >> 104 & 1 != 0 { self.group_104(&mut dirty); } // top$modes$listen_only_reg
+        if dirty >> 105 & 1 != 0 { self.group_105(&mut dirty); } // top$modes$lom
+        if dirty >> 106 & 1 != 0 { self.group_106(&mut dirty); } // top$modes$rm
+        if dirty >> 107 & 1 != 0 { self.group_107(&mut dirty); } // top$modes$self_test_reg
+        if dirty >> 108 & 1 != 0 { self.group_108(&mut dirty); } // top$modes$sleep_bits
+        if dirty >> 109 & 1 != 0 { self.group_109(&mut dirty); } // top$modes$sm
+        if dirty >> 110 & 1 != 0 { self.group_110(&mut dirty); } // top$modes$stm
+        if dirty >> 111 & 1 != 0 { self.group_111(&mut dirty); } // top$read$rdata_from_ram
+        if dirty >> 112 & 1 != 0 { self.group_112(&mut dirty); } // top$read$rdata_from_tx
+        if dirty >> 113 & 1 != 0 { self.group_113(&mut dirty); } // top$read$rdata_ram_or
+        if dirty >> 114 & 1 != 0 { self.group_114(&mut dirty); } // top$read$rdata_reg
+        if dirty >> 115 & 1 != 0 { self.group_115(&mut dirty); } // top$self_reception
+        if dirty >> 116 & 1 != 0 { self.group_116(&mut dirty); } // top$tbs
+        if dirty >> 117 & 1 != 0 { self.group_117(&mut dirty); } // top$tcs
+        if dirty >> 118 & 1 != 0 { self.group_118(&mut dirty); } // top$tx_buffer$basic_info
+        if dirty >> 119 & 1 != 0 { self.group_119(&mut dirty); } // top$tx_buffer$core_ram
+        if dirty >> 120 & 1 != 0 { self.group_120(&mut dirty); } // top$tx_buffer$core_written
+        if dirty >> 121 & 1 != 0 { self.group_121(&mut dirty); } // top$tx_buffer$frame_info
+        if dirty >> 122 & 1 != 0 { self.group_122(&mut dirty); } // top$tx_buffer$host_ram
+        if dirty >> 123 & 1 != 0 { self.group_123(&mut dirty); } // top$tx_buffer$host_written
+        if dirty >> 124 & 1 != 0 { self.group_124(&mut dirty); } // top$tx_buffer$written
+        if dirty >> 125 & 1 != 0 { self.group_125(&mut dirty); } // top$tx_pending
+        if dirty >> 126 & 1 != 0 { self.group_126(&mut dirty); } // top$tx_single_shot
         self.dirty = 0;
         self.ran |= dirty;
-        self.out = 0 | ((self.v1051) as u64) << 0 | ((self.q118) as u64) << 8 | ((self.v983) as u64) << 9 | ((self.v998) as u64) << 10 | ((self.v148) as u64) << 11 | ((self.v178) as u64) << 12 | ((self.q115) as u64) << 14 | ((self.q66 | (self.q67 << 3) | (self.q65 << 7)) as u64) << 19 | ((self.q68 | (self.q69 << 7)) as u64) << 27 | ((self.v223) as u64) << 35;
+        if dirty >> 127 & 1 != 0 {
+            self.out = 0 | ((self.v1051) as u64) << 0 | ((self.q118) as u64) << 8 | ((self.v983) as u64) << 9 | ((self.v998) as u64) << 10 | ((self.v148) as u64) << 11 | ((self.v178) as u64) << 12 | ((self.q115) as u64) << 14 | ((self.q66 | (self.q67 << 3) | (self.q65 << 7)) as u64) << 19 | ((self.q68 | (self.q69 << 7)) as u64) << 27 | ((self.v223) as u64) << 35;
+        }
     }
 
     /// The rising clock edge: memories read, then written; the flip-flops of the groups run since
@@ -1750,17 +1751,17 @@ impl Model {
             if self.q97 != self.n97 { self.q97 = self.n97; dirty |= 0x400000008; } // $auto$ff.cc:266:slice$9817
         }
         if ran >> 42 & 1 != 0 {
-            if self.q65 != self.n65 { self.q65 = self.n65; dirty |= 0x2050100000180; } // $auto$ff.cc:266:slice$9707
-            if self.q66 != self.n66 { self.q66 = self.n66; dirty |= 0x2040000000180; } // $auto$ff.cc:266:slice$9708
-            if self.q67 != self.n67 { self.q67 = self.n67; dirty |= 0x2040000000180; } // $auto$ff.cc:266:slice$9721
+            if self.q65 != self.n65 { self.q65 = self.n65; dirty |= 0x80000000000000000002050100000180; } // $auto$ff.cc:266:slice$9707
+            if self.q66 != self.n66 { self.q66 = self.n66; dirty |= 0x80000000000000000002040000000180; } // $auto$ff.cc:266:slice$9708
+            if self.q67 != self.n67 { self.q67 = self.n67; dirty |= 0x80000000000000000002040000000180; } // $auto$ff.cc:266:slice$9721
         }
         if ran >> 44 & 1 != 0 {
-            if self.q68 != self.n68 { self.q68 = self.n68; dirty |= 0x2110100000180; } // $auto$ff.cc:266:slice$9732
-            if self.q69 != self.n69 { self.q69 = self.n69; dirty |= 0x2110100000180; } // $auto$ff.cc:266:slice$9733
+            if self.q68 != self.n68 { self.q68 = self.n68; dirty |= 0x80000000000000000002110100000180; } // $auto$ff.cc:266:slice$9732
+            if self.q69 != self.n69 { self.q69 = self.n69; dirty |= 0x80000000000000000002110100000180; } // $auto$ff.cc:266:slice$9733
         }
         if ran >> 46 & 1 != 0 {
-            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x1000000000000000000400000002020; } // $auto$ff.cc:266:slice$9645
-            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x1000000000000000000600000002020; } // $auto$ff.cc:266:slice$9652
+            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x800000000000000000400000002020; } // $auto$ff.cc:266:slice$9645
+            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x800000000000000000600000002020; } // $auto$ff.cc:266:slice$9652
         }
         if ran >> 48 & 1 != 0 {
             if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x3000000000010; } // $auto$ff.cc:266:slice$9536
@@ -1844,7 +1845,7 @@ impl Model {
         }
         if ran >> 69 & 1 != 0 {
             if self.q114 != self.n114 { self.q114 = self.n114; dirty |= 0x4000000200000000000000103; } // $flatten\core.\protocol.\faults.\passive_state.$procdff$8769
-            if self.q115 != self.n115 { self.q115 = self.n115; dirty |= 0x200000009000001003; } // $flatten\core.\protocol.\field.$procdff$8766
+            if self.q115 != self.n115 { self.q115 = self.n115; dirty |= 0x80000000000000200000009000001003; } // $flatten\core.\protocol.\field.$procdff$8766
         }
         if ran >> 70 & 1 != 0 {
             if self.q64 != self.n64 { self.q64 = self.n64; dirty |= 0x400000002002000000; } // $auto$ff.cc:266:slice$9705
@@ -1864,7 +1865,7 @@ impl Model {
         }
         if ran >> 74 & 1 != 0 {
             if self.q117 != self.n117 { self.q117 = self.n117; dirty |= 0x4000000200000100000; } // $flatten\core.\protocol.\sender.\tx_next.$procdff$8757
-            if self.q118 != self.n118 { self.q118 = self.n118; dirty |= 0x400000000200010000b; } // $flatten\core.\protocol.\sender.\tx_reg.$procdff$8755
+            if self.q118 != self.n118 { self.q118 = self.n118; dirty |= 0x8000000000000400000000200010000b; } // $flatten\core.\protocol.\sender.\tx_reg.$procdff$8755
         }
         if ran >> 75 & 1 != 0 {
             if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x8000000800001000000; } // $auto$ff.cc:266:slice$9636
@@ -1964,76 +1965,74 @@ impl Model {
             if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x20000000000002000000000004; } // $auto$ff.cc:266:slice$9521
         }
         if ran >> 102 & 1 != 0 {
+            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x40000000000000000040000000; } // $auto$ff.cc:266:slice$9504
             if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x40000000000000000040000000; } // $auto$ff.cc:266:slice$9505
         }
         if ran >> 103 & 1 != 0 {
-            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x80000000000000000040000000; } // $auto$ff.cc:266:slice$9504
+            if self.q124 != self.n124 { self.q124 = self.n124; dirty |= 0x80000000000000000000001003; } // $flatten\modes.\enable_reg.$procdff$8701
         }
         if ran >> 104 & 1 != 0 {
-            if self.q124 != self.n124 { self.q124 = self.n124; dirty |= 0x100000000000000000000001003; } // $flatten\modes.\enable_reg.$procdff$8701
+            if self.q125 != self.n125 { self.q125 = self.n125; dirty |= 0x100000000000000200000101001; } // $flatten\modes.\listen_only_reg.$procdff$8700
         }
         if ran >> 105 & 1 != 0 {
-            if self.q125 != self.n125 { self.q125 = self.n125; dirty |= 0x200000000000000200000101001; } // $flatten\modes.\listen_only_reg.$procdff$8700
+            if self.q126 != self.n126 { self.q126 = self.n126; dirty |= 0x200000000000002000000000200; } // $flatten\modes.\lom.$procdff$8699
         }
         if ran >> 106 & 1 != 0 {
-            if self.q126 != self.n126 { self.q126 = self.n126; dirty |= 0x400000000000002000000000200; } // $flatten\modes.\lom.$procdff$8699
+            if self.q127 != self.n127 { self.q127 = self.n127; dirty |= 0x404000800000002000020000b44; } // $flatten\modes.\rm.$procdff$8698
         }
         if ran >> 107 & 1 != 0 {
-            if self.q127 != self.n127 { self.q127 = self.n127; dirty |= 0x804000800000002000020000b44; } // $flatten\modes.\rm.$procdff$8698
+            if self.q128 != self.n128 { self.q128 = self.n128; dirty |= 0x800000000000000000000000002; } // $flatten\modes.\self_test_reg.$procdff$8697
         }
         if ran >> 108 & 1 != 0 {
-            if self.q128 != self.n128 { self.q128 = self.n128; dirty |= 0x1000000000000000000000000002; } // $flatten\modes.\self_test_reg.$procdff$8697
+            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x1000000000000000000000000200; } // $auto$ff.cc:266:slice$9502
         }
         if ran >> 109 & 1 != 0 {
-            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x2000000000000000000000000200; } // $auto$ff.cc:266:slice$9502
+            if self.q129 != self.n129 { self.q129 = self.n129; dirty |= 0x2010000000000002000008000200; } // $flatten\modes.\sm.$procdff$8695
         }
         if ran >> 110 & 1 != 0 {
-            if self.q129 != self.n129 { self.q129 = self.n129; dirty |= 0x4010000000000002000008000200; } // $flatten\modes.\sm.$procdff$8695
+            if self.q130 != self.n130 { self.q130 = self.n130; dirty |= 0x4000000000000002000000000200; } // $flatten\modes.\stm.$procdff$8694
         }
         if ran >> 111 & 1 != 0 {
-            if self.q130 != self.n130 { self.q130 = self.n130; dirty |= 0x8000000000000002000000000200; } // $flatten\modes.\stm.$procdff$8694
+            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x8000000000000000000000000010; } // $auto$ff.cc:266:slice$9496
         }
         if ran >> 112 & 1 != 0 {
-            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x10000000000000000000000000010; } // $auto$ff.cc:266:slice$9496
+            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x10000000000000002000000000000; } // $auto$ff.cc:266:slice$9495
         }
         if ran >> 113 & 1 != 0 {
-            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x20000000000000002000000000000; } // $auto$ff.cc:266:slice$9495
+            if self.q106 != self.n106 { self.q106 = self.n106; dirty |= 0x20000000000000000000000000010; } // $auto$ff.cc:266:slice$9846
         }
         if ran >> 114 & 1 != 0 {
-            if self.q106 != self.n106 { self.q106 = self.n106; dirty |= 0x40000000000000000000000000010; } // $auto$ff.cc:266:slice$9846
+            if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x40000000000000000000000000010; } // $auto$ff.cc:266:slice$9492
         }
         if ran >> 115 & 1 != 0 {
-            if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x80000000000000000000000000010; } // $auto$ff.cc:266:slice$9492
+            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x80000000000000000000000000020; } // $auto$ff.cc:266:slice$9491
         }
         if ran >> 116 & 1 != 0 {
-            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x100000000000000000000000000020; } // $auto$ff.cc:266:slice$9491
+            if self.q131 != self.n131 { self.q131 = self.n131; dirty |= 0x100000000000000000000000024020; } // $flatten\tbs.$procdff$8688
         }
         if ran >> 117 & 1 != 0 {
-            if self.q131 != self.n131 { self.q131 = self.n131; dirty |= 0x200000000000000000000000024020; } // $flatten\tbs.$procdff$8688
+            if self.q132 != self.n132 { self.q132 = self.n132; dirty |= 0x200000000000000000000000020020; } // $flatten\tcs.$procdff$8687
         }
         if ran >> 118 & 1 != 0 {
-            if self.q132 != self.n132 { self.q132 = self.n132; dirty |= 0x400000000000000000000000020020; } // $flatten\tcs.$procdff$8687
+            if self.q107 != self.n107 { self.q107 = self.n107; dirty |= 0x400000000000000000000000040000; } // $auto$ff.cc:266:slice$9847
         }
-        if ran >> 119 & 1 != 0 {
-            if self.q107 != self.n107 { self.q107 = self.n107; dirty |= 0x800000000000000000000000040000; } // $auto$ff.cc:266:slice$9847
+        if ran >> 120 & 1 != 0 {
+            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x1000000000000000000000000040000; } // $auto$ff.cc:266:slice$9485
         }
         if ran >> 121 & 1 != 0 {
-            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x2000000000000000000000000040000; } // $auto$ff.cc:266:slice$9485
+            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x2000000000000000000000000040000; } // $auto$ff.cc:266:slice$9482
         }
-        if ran >> 122 & 1 != 0 {
-            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x4000000000000000000000000040000; } // $auto$ff.cc:266:slice$9482
+        if ran >> 123 & 1 != 0 {
+            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x8000000000000000000000000040000; } // $auto$ff.cc:266:slice$9480
         }
         if ran >> 124 & 1 != 0 {
-            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x10000000000000000000000000040000; } // $auto$ff.cc:266:slice$9480
+            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x10000000000000000000000000044020; } // $auto$ff.cc:266:slice$9479
         }
         if ran >> 125 & 1 != 0 {
-            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x20000000000000000000000000044020; } // $auto$ff.cc:266:slice$9479
+            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x20000000000000000000000000005021; } // $auto$ff.cc:266:slice$9475
         }
         if ran >> 126 & 1 != 0 {
-            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x40000000000000000000000000005021; } // $auto$ff.cc:266:slice$9475
-        }
-        if ran >> 127 & 1 != 0 {
-            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x80000000000000000000000000000001; } // $auto$ff.cc:266:slice$9474
+            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x40000000000000000000000000000001; } // $auto$ff.cc:266:slice$9474
         }
         self.dirty |= dirty;
     }
@@ -2559,7 +2558,7 @@ impl Model {
         let c767: u64 = { let s = (self.i_addr); if s < 256 { TABLE_5[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
         if self.v767 != c767 { self.v767 = c767; *dirty |= 0x20000; }
         let c1088: u64 = if ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) < 16 { (self.q2) >> ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) & 0x1 } else { 0 };
-        if self.v1088 != c1088 { self.v1088 = c1088; *dirty |= 0x2000000000000000000000000000000; }
+        if self.v1088 != c1088 { self.v1088 = c1088; *dirty |= 0x1000000000000000000000000000000; }
         let c1092: u64 = ((self.q51) | (c14)) & 0x1;
         let c15: u64 = (c1092) & (self.v902) & 0x1;
         let c1093: u64 = ((self.q14) | (self.v375)) & 0x1;
@@ -2749,9 +2748,9 @@ impl Model {
         let c79: u64 = !(self.q129) & 0x1;
         if self.v79 != c79 { self.v79 = c79; *dirty |= 0x8000000; }
         let c81: u64 = u64::from((self.i_reset | (c79 << 1)) != 0);
-        if self.v81 != c81 { self.v81 = c81; *dirty |= 0x2000000000000000000000000000; }
+        if self.v81 != c81 { self.v81 = c81; *dirty |= 0x1000000000000000000000000000; }
         let c966: u64 = (self.q10).wrapping_add((0x1)) & 0x1f;
-        if self.v966 != c966 { self.v966 = c966; *dirty |= 0x2000000000000000000000000000; }
+        if self.v966 != c966 { self.v966 = c966; *dirty |= 0x1000000000000000000000000000; }
         let c967: u64 = (self.i_we) & (self.v1043) & 0x1;
         if self.v967 != c967 { self.v967 = c967; *dirty |= 0x800; }
         let c48: u64 = u64::from((self.q14 | (self.q127 << 1) | (c967 << 2)) == 0x7);
@@ -2792,23 +2791,23 @@ impl Model {
         if self.v1021 != c1021 { self.v1021 = c1021; *dirty |= 0x8000000; }
         let c1022: u64 = if (c967) != 0 { (c1018) } else { (self.q130) };
         let c994: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1022) };
-        if self.v994 != c994 { self.v994 = c994; *dirty |= 0x8000000000000000000000000000; }
+        if self.v994 != c994 { self.v994 = c994; *dirty |= 0x4000000000000000000000000000; }
         let c979: u64 = (c994) & ((c992 >> 6)) & 0x1;
-        if self.v979 != c979 { self.v979 = c979; *dirty |= 0x1000000000000000000000000000; }
+        if self.v979 != c979 { self.v979 = c979; *dirty |= 0x800000000000000000000000000; }
         let c1023: u64 = if (c967) != 0 { (c1019) } else { (self.q126) };
         let c995: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1023) };
-        if self.v995 != c995 { self.v995 = c995; *dirty |= 0x400000000000000000000000000; }
+        if self.v995 != c995 { self.v995 = c995; *dirty |= 0x200000000000000000000000000; }
         let c978: u64 = (c995) & ((c992 >> 6)) & 0x1;
-        if self.v978 != c978 { self.v978 = c978; *dirty |= 0x200000000000000000000000000; }
+        if self.v978 != c978 { self.v978 = c978; *dirty |= 0x100000000000000000000000000; }
         let c1024: u64 = (c967) & (c968) & 0x1;
         let c1002: u64 = if (c974) != 0 { (self.v935) } else { (c1024) };
         if self.v1002 != c1002 { self.v1002 = c1002; *dirty |= 0x18004000; }
         let c80: u64 = u64::from((self.i_reset | (c1002 << 1)) != 0);
-        if self.v80 != c80 { self.v80 = c80; *dirty |= 0x40000000000000000000000000000000; }
+        if self.v80 != c80 { self.v80 = c80; *dirty |= 0x20000000000000000000000000000000; }
         let c1025: u64 = if (c967) != 0 { ((self.i_wdata & 0x1)) } else { (self.q127) };
         let c1003: u64 = ((c1025) | (c974)) & 0x1;
         let c996: u64 = ((c1003) | (self.i_reset)) & 0x1;
-        if self.v996 != c996 { self.v996 = c996; *dirty |= 0x800000000000000000000000000; }
+        if self.v996 != c996 { self.v996 = c996; *dirty |= 0x400000000000000000000000000; }
         let c988: u64 = !(c996) & 0x1;
         if self.v988 != c988 { self.v988 = c988; *dirty |= 0x8000000; }
         let _ = &dirty;
@@ -2853,7 +2852,7 @@ impl Model {
         let c748: u64 = (c747) & ((self.i_wdata & 0x1)) & 0x1;
         if self.v748 != c748 { self.v748 = c748; *dirty |= 0x4000; }
         let c749: u64 = (c747) & (((self.i_wdata >> 1) & 0x1)) & 0x1;
-        if self.v749 != c749 { self.v749 = c749; *dirty |= 0x80000000000000000000000000004000; }
+        if self.v749 != c749 { self.v749 = c749; *dirty |= 0x40000000000000000000000000004000; }
         let c750: u64 = (c747) & (((self.i_wdata >> 2) & 0x1)) & 0x1;
         if self.v750 != c750 { self.v750 = c750; *dirty |= 0x10000000; }
         let c751: u64 = (c747) & (((self.i_wdata >> 3) & 0x1)) & 0x1;
@@ -2866,7 +2865,7 @@ impl Model {
         let c756: u64 = !(c748) & 0x1;
         if self.v756 != c756 { self.v756 = c756; *dirty |= 0x4000; }
         let c754: u64 = (c753) & (c756) & 0x1;
-        if self.v754 != c754 { self.v754 = c754; *dirty |= 0x100000000000000000000000004000; }
+        if self.v754 != c754 { self.v754 = c754; *dirty |= 0x80000000000000000000000004000; }
         let c757: u64 = (self.q14) & (self.v764) & 0x1;
         if self.v757 != c757 { self.v757 = c757; *dirty |= 0x24000; }
         let c758: u64 = (self.q14) & (self.v763) & 0x1;
@@ -2889,7 +2888,7 @@ impl Model {
     /// The cells of top$core$protocol.
     fn group_12(&mut self, dirty: &mut u128) {
         let c223: u64 = (self.q52) & (self.q116) & 0x1;
-        if self.v223 != c223 { self.v223 = c223; *dirty |= 0x0; }
+        if self.v223 != c223 { self.v223 = c223; *dirty |= 0x80000000000000000000000000000000; }
         let c108: u64 = ((c223) | (self.v1047)) & 0x1;
         if self.v108 != c108 { self.v108 = c108; *dirty |= 0x20000; }
         let c224: u64 = (self.v520) & (self.q116) & 0x1;
@@ -2976,20 +2975,20 @@ impl Model {
         let c1091: u64 = ((self.v748) | (self.v754)) & 0x1;
         let c11: u64 = (c1091) & (self.q131) & 0x1;
         let c12: u64 = (c11) & (self.v232) & 0x1;
-        if self.v12 != c12 { self.v12 = c12; *dirty |= 0x80100000000000000000000000000000; }
+        if self.v12 != c12 { self.v12 = c12; *dirty |= 0x40080000000000000000000000000000; }
         let c1097: u64 = if (c12) != 0 { (0x0) } else { (self.v1100) };
         let c1095: u64 = ((c1097) | (self.i_reset)) & 0x1;
-        if self.v1095 != c1095 { self.v1095 = c1095; *dirty |= 0x400000000000000000000000000000; }
+        if self.v1095 != c1095 { self.v1095 = c1095; *dirty |= 0x200000000000000000000000000000; }
         let c1098: u64 = if (c12) != 0 { (0x0) } else { (self.v1101) };
         let c1096: u64 = ((c1098) | (self.v1002)) & 0x1;
         let c1094: u64 = ((c1096) | (self.i_reset)) & 0x1;
-        if self.v1094 != c1094 { self.v1094 = c1094; *dirty |= 0x200000000000000000000000000000; }
+        if self.v1094 != c1094 { self.v1094 = c1094; *dirty |= 0x100000000000000000000000000000; }
         let c1099: u64 = ((self.v1102) | (c12)) & 0x1;
-        if self.v1099 != c1099 { self.v1099 = c1099; *dirty |= 0x40000000000000000000000000000000; }
+        if self.v1099 != c1099 { self.v1099 = c1099; *dirty |= 0x20000000000000000000000000000000; }
         let c1103: u64 = if (self.q14) != 0 { ((self.i_addr & 0xf)) } else { (self.v768) };
-        if self.v1103 != c1103 { self.v1103 = c1103; *dirty |= 0x9000000000000000000000000040000; }
+        if self.v1103 != c1103 { self.v1103 = c1103; *dirty |= 0x4800000000000000000000000040000; }
         let c1087: u64 = if (c1103) < 16 { (self.q2) >> (c1103) & 0x1 } else { 0 };
-        if self.v1087 != c1087 { self.v1087 = c1087; *dirty |= 0x10000000000000000000000000000000; }
+        if self.v1087 != c1087 { self.v1087 = c1087; *dirty |= 0x8000000000000000000000000000000; }
         let c1104: u64 = ((c6) | (c7)) & 0x1;
         if self.v1104 != c1104 { self.v1104 = c1104; *dirty |= 0x40000; }
         let _ = &dirty;
@@ -3046,11 +3045,11 @@ impl Model {
         let c1055: u64 = if (self.v1046) != 0 { ((self.v837 & 0xf)) } else { (0x0) };
         let c1068: u64 = if (self.q14) != 0 { (self.v757) } else { (self.v761) };
         let c1049: u64 = (self.i_re) & (c1068) & 0x1;
-        if self.v1049 != c1049 { self.v1049 = c1049; *dirty |= 0x20000000000000000000000000000; }
+        if self.v1049 != c1049 { self.v1049 = c1049; *dirty |= 0x10000000000000000000000000000; }
         let c1069: u64 = if (self.q14) != 0 { (c1048) } else { (self.v760) };
         if self.v1069 != c1069 { self.v1069 = c1069; *dirty |= 0x80000000; }
         let c1071: u64 = if (self.q14) != 0 { (0x0) } else { (c1055) };
-        if self.v1071 != c1071 { self.v1071 = c1071; *dirty |= 0x40000000000000000000000000000; }
+        if self.v1071 != c1071 { self.v1071 = c1071; *dirty |= 0x20000000000000000000000000000; }
         let c1076: u64 = if (self.v1036) != 0 { (self.v943 | (self.q44 << 1) | (self.q131 << 2) | (self.q132 << 3) | (self.v109 << 4) | (self.v108 << 5) | (self.q23 << 6) | (self.q113 << 7)) } else { (0x0) };
         let c1075: u64 = if (self.v1045) != 0 { (c106 | (self.q20 << 1)) } else { (c1076) };
         let c1074: u64 = if (self.v986) != 0 { (self.q105 | ((self.q15 & 0x1) << 3) | ((self.q15 >> 1) << 5) | (self.q14 << 7)) } else { (c1075) };
@@ -3066,11 +3065,11 @@ impl Model {
         let c1081: u64 = u64::from((self.v1103) == (0x2));
         let c1082: u64 = u64::from((self.v1103) < (0xd));
         let c1079: u64 = (self.v1104) & (c1082) & 0x1;
-        if self.v1079 != c1079 { self.v1079 = c1079; *dirty |= 0x29000000000000000000000000000000; }
+        if self.v1079 != c1079 { self.v1079 = c1079; *dirty |= 0x14800000000000000000000000000000; }
         let c44: u64 = u64::from((c1080 | (c1079 << 1)) == 0x3);
-        if self.v44 != c44 { self.v44 = c44; *dirty |= 0x4000000000000000000000000000000; }
+        if self.v44 != c44 { self.v44 = c44; *dirty |= 0x2000000000000000000000000000000; }
         let c45: u64 = u64::from((c1081 | (c1079 << 1)) == 0x3);
-        if self.v45 != c45 { self.v45 = c45; *dirty |= 0x800000000000000000000000000000; }
+        if self.v45 != c45 { self.v45 = c45; *dirty |= 0x400000000000000000000000000000; }
         let c1084: u64 = if (self.q14) != 0 { (self.q4) } else { ((self.q107 & 0xf) | ((self.q107 >> 4) << 6)) };
         if self.v1084 != c1084 { self.v1084 = c1084; *dirty |= 0x200004100000; }
         let c1085: u64 = if (self.q5) != 0 { (self.m1_rd) } else { (0x0) };
@@ -3081,7 +3080,7 @@ impl Model {
         let c1083: u64 = !(c1089) & 0xffff;
         let c107: u64 = (self.q2) & (c1083) & 0xffff;
         let c111: u64 = ((c107) | (c1089)) & 0xffff;
-        if self.v111 != c111 { self.v111 = c111; *dirty |= 0x20000000000000000000000000000000; }
+        if self.v111 != c111 { self.v111 = c111; *dirty |= 0x10000000000000000000000000000000; }
         let _ = &dirty;
     }
 
@@ -3130,7 +3129,7 @@ impl Model {
         if self.v145 != c145 { self.v145 = c145; *dirty |= 0x100000000000000; }
         let c147: u64 = (c146) & (c163) & 0x1;
         let c148: u64 = (c147) & (self.v164) & 0x1;
-        if self.v148 != c148 { self.v148 = c148; *dirty |= 0x20000008000000; }
+        if self.v148 != c148 { self.v148 = c148; *dirty |= 0x80000000000000000020000008000000; }
         let c169: u64 = ((self.v150) | (c211)) & 0x1;
         let c170: u64 = ((c169) | (c209)) & 0x1;
         let c151: u64 = (c170) & (self.v165) & 0x1;
@@ -3141,7 +3140,7 @@ impl Model {
         if self.v171 != c171 { self.v171 = c171; *dirty |= 0x100000; }
         let c176: u64 = ((c211) | (c175)) & 0x1;
         let c178: u64 = if (c167) != 0 { (0x0) } else { (self.q91) };
-        if self.v178 != c178 { self.v178 = c178; *dirty |= 0x0; }
+        if self.v178 != c178 { self.v178 = c178; *dirty |= 0x80000000000000000000000000000000; }
         let c180: u64 = if (c148) != 0 { (0x0) } else { (self.q90) };
         let c179: u64 = ((c180) | (c176)) & 0x1;
         if self.v179 != c179 { self.v179 = c179; *dirty |= 0x400000000000000; }
@@ -3305,10 +3304,10 @@ impl Model {
     fn group_27(&mut self, dirty: &mut u128) {
         let c970: u64 = (self.v747) & (self.v40) & 0x1;
         let c976: u64 = (self.v148) & (self.v990) & 0x1;
-        if self.v976 != c976 { self.v976 = c976; *dirty |= 0x2000000000000000000000000000; }
+        if self.v976 != c976 { self.v976 = c976; *dirty |= 0x1000000000000000000000000000; }
         let c982: u64 = !(self.v755) & 0x1;
         let c983: u64 = !(self.v1078) & 0x1;
-        if self.v983 != c983 { self.v983 = c983; *dirty |= 0x0; }
+        if self.v983 != c983 { self.v983 = c983; *dirty |= 0x80000000000000000000000000000000; }
         let c972: u64 = (self.v511) & (c983) & 0x1;
         let c1006: u64 = ((self.q129) | (c972)) & 0x1;
         let c1007: u64 = !(c972) & 0x1;
@@ -3321,10 +3320,10 @@ impl Model {
         let c1005: u64 = if (c973) != 0 { (0x0) } else { (c1008) };
         let c1001: u64 = if (self.v1002) != 0 { (0x0) } else { (c1005) };
         let c993: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1001) };
-        if self.v993 != c993 { self.v993 = c993; *dirty |= 0x4000000000000000000000000000; }
+        if self.v993 != c993 { self.v993 = c993; *dirty |= 0x2000000000000000000000000000; }
         let c989: u64 = !(c993) & 0x1;
         let c977: u64 = (self.v988) & (c989) & 0x1;
-        if self.v977 != c977 { self.v977 = c977; *dirty |= 0x100000000000000000000000000; }
+        if self.v977 != c977 { self.v977 = c977; *dirty |= 0x80000000000000000000000000; }
         let c1009: u64 = (c971) & (c1007) & 0x1;
         let c1004: u64 = ((c1009) | (c973)) & 0x1;
         if self.v1004 != c1004 { self.v1004 = c1004; *dirty |= 0x10000000; }
@@ -3393,10 +3392,10 @@ impl Model {
         let c1026: u64 = (self.q12).wrapping_add((0x1)) & 0x7;
         if self.v1026 != c1026 { self.v1026 = c1026; *dirty |= 0x40000000000000000000000000; }
         let c1027: u64 = !(self.q11) & 0x1;
-        if self.v1027 != c1027 { self.v1027 = c1027; *dirty |= 0x80000000000000000000000000; }
+        if self.v1027 != c1027 { self.v1027 = c1027; *dirty |= 0x40000000000000000000000000; }
         let c1028: u64 = u64::from((self.q105) == (0x7));
         let c1029: u64 = u64::from((self.q12) >= (self.q105));
-        if self.v1029 != c1029 { self.v1029 = c1029; *dirty |= 0x80000000000000000000000000; }
+        if self.v1029 != c1029 { self.v1029 = c1029; *dirty |= 0x40000000000000000000000000; }
         let c82: u64 = u64::from((self.i_reset | (c1029 << 1)) != 0);
         if self.v82 != c82 { self.v82 = c82; *dirty |= 0x40000000000000000000000000; }
         let c1031: u64 = if (c1028) != 0 { (0x0) } else { (self.q11) };
@@ -3408,7 +3407,7 @@ impl Model {
     /// The cells of can_controller.
     fn group_31(&mut self, dirty: &mut u128) {
         let c17: u64 = (self.i_re) & (self.v1069) & 0x1;
-        if self.v17 != c17 { self.v17 = c17; *dirty |= 0x10000000040000000000000000000; }
+        if self.v17 != c17 { self.v17 = c17; *dirty |= 0x8000000040000000000000000000; }
         let c35: u64 = u64::from((self.v661 | (self.q113 << 1) | (self.v1 << 2)) != (0x2));
         if self.v35 != c35 { self.v35 = c35; *dirty |= 0x20000000000; }
         let c36: u64 = u64::from((self.v661 | (self.q113 << 1) | (self.v310 << 2) | (self.v1 << 3)) != (0x7));
@@ -3854,7 +3853,7 @@ impl Model {
     /// The cells of top$read.
     fn group_49(&mut self, dirty: &mut u128) {
         let c1051: u64 = if (self.q8) != 0 { (self.v1086) } else { (self.v1052) };
-        if self.v1051 != c1051 { self.v1051 = c1051; *dirty |= 0x0; }
+        if self.v1051 != c1051 { self.v1051 = c1051; *dirty |= 0x80000000000000000000000000000000; }
         let c1073: u64 = if (self.v130) != 0 { (self.v129) } else { (self.v1074) };
         let c1072: u64 = if (self.v910) != 0 { (self.v903) } else { (c1073) };
         let c1059: u64 = if (self.v1043) != 0 { (self.q127 | (self.q22 << 1) | (self.q13 << 6) | 0x20) } else { (c1072) };
@@ -3871,7 +3870,7 @@ impl Model {
         let c1060: u64 = if (self.v1042) != 0 { (self.q48) } else { (c1061) };
         let c1070: u64 = if (self.q14) != 0 { (c1060) } else { (c1056) };
         let c1050: u64 = if (self.i_re) != 0 { (c1070) } else { (c1051) };
-        if self.v1050 != c1050 { self.v1050 = c1050; *dirty |= 0x80000000000000000000000000000; }
+        if self.v1050 != c1050 { self.v1050 = c1050; *dirty |= 0x40000000000000000000000000000; }
         let _ = &dirty;
     }
 
@@ -4233,7 +4232,7 @@ impl Model {
     fn group_100(&mut self, dirty: &mut u128) {
         let c997: u64 = if (self.v987) != 0 { (0x0) } else { (self.v1030) };
         let c998: u64 = if (self.q129) != 0 { (c997) } else { (self.v1030) };
-        if self.v998 != c998 { self.v998 = c998; *dirty |= 0x0; }
+        if self.v998 != c998 { self.v998 = c998; *dirty |= 0x80000000000000000000000000000000; }
         let _ = &dirty;
     }
 
@@ -4244,116 +4243,111 @@ impl Model {
         let _ = &dirty;
     }
 
-    /// The cells of top$modes$divider$count.
+    /// The cells of top$modes$divider$count + top$modes$divider$level.
     fn group_102(&mut self, dirty: &mut u128) {
         self.n12 = if (self.v82) != 0 { 0x0 } else { (self.v1026) };
-        let _ = &dirty;
-    }
-
-    /// The cells of top$modes$divider$level.
-    fn group_103(&mut self, dirty: &mut u128) {
         self.n11 = if (self.i_reset) != 0 { 0x0 } else if (self.v1029) != 0 { (self.v1027) } else { self.q11 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$enable_reg.
-    fn group_104(&mut self, dirty: &mut u128) {
+    fn group_103(&mut self, dirty: &mut u128) {
         self.n124 = (self.v977);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$listen_only_reg.
-    fn group_105(&mut self, dirty: &mut u128) {
+    fn group_104(&mut self, dirty: &mut u128) {
         self.n125 = (self.v978);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$lom.
-    fn group_106(&mut self, dirty: &mut u128) {
+    fn group_105(&mut self, dirty: &mut u128) {
         self.n126 = (self.v995);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$rm.
-    fn group_107(&mut self, dirty: &mut u128) {
+    fn group_106(&mut self, dirty: &mut u128) {
         self.n127 = (self.v996);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$self_test_reg.
-    fn group_108(&mut self, dirty: &mut u128) {
+    fn group_107(&mut self, dirty: &mut u128) {
         self.n128 = (self.v979);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$sleep_bits.
-    fn group_109(&mut self, dirty: &mut u128) {
+    fn group_108(&mut self, dirty: &mut u128) {
         self.n10 = if (self.v81) != 0 { 0x0 } else if (self.v976) != 0 { (self.v966) } else { self.q10 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$sm.
-    fn group_110(&mut self, dirty: &mut u128) {
+    fn group_109(&mut self, dirty: &mut u128) {
         self.n129 = (self.v993);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$stm.
-    fn group_111(&mut self, dirty: &mut u128) {
+    fn group_110(&mut self, dirty: &mut u128) {
         self.n130 = (self.v994);
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_from_ram.
-    fn group_112(&mut self, dirty: &mut u128) {
+    fn group_111(&mut self, dirty: &mut u128) {
         self.n9 = if (self.i_reset) != 0 { 0x0 } else { (self.v17) };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_from_tx.
-    fn group_113(&mut self, dirty: &mut u128) {
+    fn group_112(&mut self, dirty: &mut u128) {
         self.n8 = if (self.i_reset) != 0 { 0x0 } else { (self.v1049) };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_ram_or.
-    fn group_114(&mut self, dirty: &mut u128) {
+    fn group_113(&mut self, dirty: &mut u128) {
         self.n106 = if (self.i_reset) != 0 { 0x0 } else if (self.i_re) != 0 { (self.v1071) } else { self.q106 };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_reg.
-    fn group_115(&mut self, dirty: &mut u128) {
+    fn group_114(&mut self, dirty: &mut u128) {
         self.n7 = if (self.i_reset) != 0 { 0x0 } else { (self.v1050) };
         let _ = &dirty;
     }
 
     /// The cells of top$self_reception.
-    fn group_116(&mut self, dirty: &mut u128) {
+    fn group_115(&mut self, dirty: &mut u128) {
         self.n6 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v754) } else { self.q6 };
         let _ = &dirty;
     }
 
     /// The cells of top$tbs.
-    fn group_117(&mut self, dirty: &mut u128) {
+    fn group_116(&mut self, dirty: &mut u128) {
         self.n131 = (self.v1094);
         let _ = &dirty;
     }
 
     /// The cells of top$tcs.
-    fn group_118(&mut self, dirty: &mut u128) {
+    fn group_117(&mut self, dirty: &mut u128) {
         self.n132 = (self.v1095);
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$basic_info.
-    fn group_119(&mut self, dirty: &mut u128) {
+    fn group_118(&mut self, dirty: &mut u128) {
         self.n107 = if (self.i_reset) != 0 { 0x0 } else if (self.v45) != 0 { ((self.i_wdata & 0x1f)) } else { self.q107 };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$core_ram.
-    fn group_120(&mut self, dirty: &mut u128) {
+    fn group_119(&mut self, dirty: &mut u128) {
         self.m1_re = (0x1) != 0;
         self.m1_ra = ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) as usize;
         self.m1_wa = (self.v1103) as usize;
@@ -4363,19 +4357,19 @@ impl Model {
     }
 
     /// The cells of top$tx_buffer$core_written.
-    fn group_121(&mut self, dirty: &mut u128) {
+    fn group_120(&mut self, dirty: &mut u128) {
         self.n5 = if (self.i_reset) != 0 { 0x0 } else { (self.v1088) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$frame_info.
-    fn group_122(&mut self, dirty: &mut u128) {
+    fn group_121(&mut self, dirty: &mut u128) {
         self.n4 = if (self.i_reset) != 0 { 0x0 } else if (self.v44) != 0 { (self.i_wdata) } else { self.q4 };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$host_ram.
-    fn group_123(&mut self, dirty: &mut u128) {
+    fn group_122(&mut self, dirty: &mut u128) {
         self.m2_re = (0x1) != 0;
         self.m2_ra = (self.v1103) as usize;
         self.m2_wa = (self.v1103) as usize;
@@ -4385,25 +4379,25 @@ impl Model {
     }
 
     /// The cells of top$tx_buffer$host_written.
-    fn group_124(&mut self, dirty: &mut u128) {
+    fn group_123(&mut self, dirty: &mut u128) {
         self.n3 = if (self.i_reset) != 0 { 0x0 } else { (self.v1087) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$written.
-    fn group_125(&mut self, dirty: &mut u128) {
+    fn group_124(&mut self, dirty: &mut u128) {
         self.n2 = if (self.i_reset) != 0 { 0x0 } else if (self.v1079) != 0 { (self.v111) } else { self.q2 };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_pending.
-    fn group_126(&mut self, dirty: &mut u128) {
+    fn group_125(&mut self, dirty: &mut u128) {
         self.n1 = if (self.v80) != 0 { 0x0 } else { (self.v1099) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_single_shot.
-    fn group_127(&mut self, dirty: &mut u128) {
+    fn group_126(&mut self, dirty: &mut u128) {
         self.n0 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v749) } else { self.q0 };
         let _ = &dirty;
     }

@@ -90,6 +90,8 @@ pub(crate) struct Emitter<'a> {
     current: usize,
     /// Comb cells read outside their group (they get a field).
     exported: BTreeSet<usize>,
+    /// The variables the outputs read.
+    output_reads: BTreeSet<usize>,
     tables: String,
 }
 
@@ -106,6 +108,7 @@ impl<'a> Emitter<'a> {
             groups: Groups::default(),
             current: 0,
             exported: BTreeSet::new(),
+            output_reads: BTreeSet::new(),
             tables: String::new(),
         };
         for (name, bits) in &netlist.inputs {
@@ -136,6 +139,10 @@ impl<'a> Emitter<'a> {
         e.groups = groups;
         e.groups.reads = e.group_reads();
         e.exported = e.find_exported()?;
+        for (name, _) in io.outputs {
+            let reads = e.reads(e.output_bits(name)?);
+            e.output_reads.extend(reads);
+        }
         Ok(e)
     }
 
@@ -267,7 +274,8 @@ impl<'a> Emitter<'a> {
             .ok_or_else(|| format!("the netlist has no output or net `{name}`"))
     }
 
-    /// The mask of the groups that read any of `vars` (other than the writer's own group).
+    /// The mask of the groups that read any of `vars` (other than the writer's own group), with
+    /// the output word's bit ([`Emitter::output_bit`]) if an output reads one of them.
     fn readers_mask(&self, vars: &BTreeSet<usize>, own: Option<usize>) -> u128 {
         let mut mask = 0u128;
         for (g, reads) in self.groups.reads.iter().enumerate() {
@@ -275,7 +283,16 @@ impl<'a> Emitter<'a> {
                 mask |= 1 << g;
             }
         }
+        if !self.output_reads.is_disjoint(vars) {
+            mask |= 1 << self.output_bit();
+        }
         mask
+    }
+
+    /// The dirty bit of the output word: the one after the groups' (the word is computed again
+    /// only when something it reads changed).
+    fn output_bit(&self) -> usize {
+        self.groups.count
     }
 
     fn source(mut self, header: &str) -> Result<String, String> {
@@ -293,11 +310,9 @@ impl<'a> Emitter<'a> {
             write!(outputs, " | (({operand}) as {out}) << {at}").unwrap();
         }
         let (inputs, input_fields, input_init, input) = self.inputs()?;
-        let all = if self.groups.count == 128 {
-            u128::MAX
-        } else {
-            (1u128 << self.groups.count) - 1
-        };
+        let out_bit = self.output_bit();
+        // The groups' bits and the output word's.
+        let all = u128::MAX >> (127 - out_bit);
         Ok(format!(
             "{header}
 {tables}
@@ -329,13 +344,15 @@ impl Model {{
         self.out
     }}
 
-    /// The groups whose inputs changed (all with `every_group`), in dependency order; then the
-    /// outputs.
+    /// The groups whose inputs changed (all with `every_group`), in dependency order (a group
+    /// marks only later ones); then the output word if something it reads changed.
     pub(super) fn eval(&mut self, every_group: bool) {{
         let mut dirty = if every_group {{ {all:#x} }} else {{ self.dirty }};
 {body}        self.dirty = 0;
         self.ran |= dirty;
-        self.out = 0{outputs};
+        if dirty >> {out_bit} & 1 != 0 {{
+            self.out = 0{outputs};
+        }}
     }}
 
     /// The rising clock edge: memories read, then written; the flip-flops of the groups run since
@@ -421,6 +438,12 @@ impl Model {{
         if self.exported.contains(&k) {
             let var = self.drivers[&first_net(cell.port("Y")?)?].0;
             let readers = self.readers_mask(&BTreeSet::from([var]), Some(g));
+            if readers & ((1u128 << (g + 1)) - 1) != 0 {
+                return Err(format!(
+                    "cell {} (group {g}) is read by an earlier group: the groups are out of order",
+                    cell.name
+                ));
+            }
             writeln!(
                 body,
                 "        if self.v{k} != c{k} {{ self.v{k} = c{k}; *dirty |= {readers:#x}; }}"
