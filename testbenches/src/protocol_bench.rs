@@ -19,6 +19,7 @@ use sim::engine::bus::Drive;
 use sim::engine::time::ClockSpec;
 use sim::engine::{DeviceId, Engine};
 use sim::nodes::can_node::{CanNode, NodeEvent};
+use sim::nodes::controller_node::ModelEngine;
 use sim::nodes::lower_tester::LowerTester;
 
 use crate::controller_bench::{configure_pelican_for, rx_buffer_bytes};
@@ -171,17 +172,21 @@ impl ProtocolBench {
             lt.start_on_dominant();
         }
         let lt = engine.add(lt, 0);
-        let iut = match (kind, skipping::engine()) {
-            (Iut::Core, None) => engine.add(CanNode::new("iut", clock, btr), 0),
-            (Iut::Core, Some(on)) => {
-                let node = CanNode::on_engine("iut", clock, btr, on)
+        // A skipping check names the engine; otherwise `CAN_ENGINE` does.
+        let checking = skipping::engine();
+        let on =
+            checking.unwrap_or_else(|| ModelEngine::from_env().unwrap_or_else(|e| panic!("{e}")));
+        let iut = match kind {
+            Iut::Core => {
+                let node = CanNode::with_engine("iut", clock, btr, on)
                     .unwrap_or_else(|e| panic!("the core on {on}: {e}"));
                 engine.add(node, 0)
             }
-            (Iut::Registers, None) => engine.add(RegisterIut::new("iut", clock), 0),
-            (Iut::Registers, Some(on)) => {
-                let mut node = RegisterIut::on_engine("iut", clock, on);
-                node.record_accesses();
+            Iut::Registers => {
+                let mut node = RegisterIut::with_engine("iut", clock, on);
+                if checking.is_some() {
+                    node.record_accesses();
+                }
                 engine.add(node, 0)
             }
         };

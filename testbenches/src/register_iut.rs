@@ -145,20 +145,11 @@ pub struct RegisterIut {
 }
 
 impl RegisterIut {
-    /// A controller on `clock` after a hardware reset (reset mode, BasicCAN); configure it through
-    /// an [`IutHost`]. It runs on the engine `CAN_ENGINE` names.
-    pub fn new(name: &str, clock: ClockSpec) -> RegisterIut {
-        RegisterIut::with_node(ControllerNode::new(name, clock))
-    }
-
-    /// [`RegisterIut::new`] on `engine`; panics if that engine cannot run.
-    pub fn on_engine(name: &str, clock: ClockSpec, engine: ModelEngine) -> RegisterIut {
+    /// A controller on `clock`, stepped by `engine`, after a hardware reset (reset mode, BasicCAN);
+    /// configure it through an [`IutHost`]. Panics if that engine cannot run.
+    pub fn with_engine(name: &str, clock: ClockSpec, engine: ModelEngine) -> RegisterIut {
         let node = ControllerNode::with_engine(name, clock, engine)
             .unwrap_or_else(|e| panic!("{name} on {engine}: {e}"));
-        RegisterIut::with_node(node)
-    }
-
-    fn with_node(node: ControllerNode) -> RegisterIut {
         RegisterIut {
             node,
             steps: VecDeque::new(),

@@ -67,19 +67,23 @@ const OUTPUTS: [(&str, u32); 26] = [
     ("segment", 2),
 ];
 
-/// The bit position of each port of `ports` when packed one after the other.
-const fn positions<const N: usize>(ports: &[(&str, u32); N]) -> [u32; N] {
-    let mut at = [0; N];
-    let mut k = 1;
+/// `ports` (name, width) as (name, bit position) when packed one after the other in that order.
+const fn packed<const N: usize>(ports: &[(&'static str, u32); N]) -> [(&'static str, u32); N] {
+    let mut placed = *ports;
+    let mut at = 0;
+    let mut k = 0;
     while k < N {
-        at[k] = at[k - 1] + ports[k - 1].1;
+        placed[k].1 = at;
+        at += ports[k].1;
         k += 1;
     }
-    at
+    placed
 }
 
-const INPUT_AT: [u32; INPUTS.len()] = positions(&INPUTS);
-const OUTPUT_AT: [u32; OUTPUTS.len()] = positions(&OUTPUTS);
+/// The input ports at their positions in the input word.
+static PACKED_INPUTS: [(&str, u32); INPUTS.len()] = packed(&INPUTS);
+/// The output ports at their positions in the output word.
+static PACKED_OUTPUTS: [(&str, u32); OUTPUTS.len()] = packed(&OUTPUTS);
 
 /// The Verilog of [`CanCore`] as rust-hdl generates it (top module [`TOP`]).
 pub(super) fn core_verilog() -> String {
@@ -91,27 +95,12 @@ pub(super) fn core_verilog() -> String {
 
 /// Where the core's ports sit in the model's words.
 pub(super) fn interface(verilog: &str) -> emit::Interface<'_> {
-    static IN: [(&str, u32); INPUTS.len()] = pair(&INPUTS, &INPUT_AT);
-    static OUT: [(&str, u32); OUTPUTS.len()] = pair(&OUTPUTS, &OUTPUT_AT);
     emit::Interface {
         clock: "clock",
-        inputs: &IN,
-        outputs: &OUT,
+        inputs: &PACKED_INPUTS,
+        outputs: &PACKED_OUTPUTS,
         verilog,
     }
-}
-
-const fn pair<'a, const N: usize>(
-    ports: &[(&'a str, u32); N],
-    at: &[u32; N],
-) -> [(&'a str, u32); N] {
-    let mut list = *ports;
-    let mut k = 0;
-    while k < N {
-        list[k].1 = at[k];
-        k += 1;
-    }
-    list
 }
 
 /// The input word of `inputs` (ports in [`INPUTS`] order).
@@ -138,9 +127,9 @@ fn input_word(i: &CoreInputs) -> u64 {
     ];
     values
         .iter()
-        .zip(INPUT_AT)
+        .zip(PACKED_INPUTS)
         .zip(INPUTS)
-        .fold(0, |word, ((v, at), (_, width))| {
+        .fold(0, |word, ((v, (_, at)), (_, width))| {
             word | (v & ((1 << width) - 1)) << at
         })
 }
@@ -153,9 +142,9 @@ struct Reader {
 
 impl Reader {
     fn field(&mut self) -> u64 {
-        let (k, width) = (self.next, OUTPUTS[self.next].1);
+        let ((_, at), (_, width)) = (PACKED_OUTPUTS[self.next], OUTPUTS[self.next]);
         self.next += 1;
-        (self.word >> OUTPUT_AT[k]) as u64 & ((1 << width) - 1)
+        (self.word >> at) as u64 & ((1 << width) - 1)
     }
 
     fn bit(&mut self) -> bool {
@@ -257,9 +246,9 @@ mod tests {
     #[test]
     fn the_ports_fit_their_words() {
         let last_in = INPUTS.len() - 1;
-        assert!(INPUT_AT[last_in] + INPUTS[last_in].1 <= 64);
+        assert!(PACKED_INPUTS[last_in].1 + INPUTS[last_in].1 <= 64);
         let last_out = OUTPUTS.len() - 1;
-        assert!(OUTPUT_AT[last_out] + OUTPUTS[last_out].1 <= 128);
+        assert!(PACKED_OUTPUTS[last_out].1 + OUTPUTS[last_out].1 <= 128);
     }
 
     #[test]
@@ -270,8 +259,8 @@ mod tests {
             ..CoreInputs::default()
         };
         let word = input_word(&inputs);
-        assert_eq!(word >> INPUT_AT[3] & 0x3f, 0x3f, "brp");
-        assert_eq!(word >> INPUT_AT[17], 0x81, "value, the last port");
+        assert_eq!(word >> PACKED_INPUTS[3].1 & 0x3f, 0x3f, "brp");
+        assert_eq!(word >> PACKED_INPUTS[17].1, 0x81, "value, the last port");
         assert_eq!(word.count_ones(), 8);
     }
 }

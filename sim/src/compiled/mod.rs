@@ -81,6 +81,14 @@ impl Design {
         }
     }
 
+    /// The name of the Verilog and netlist files Yosys reads and writes.
+    fn file_stem(self) -> &'static str {
+        match self {
+            Design::Controller => "can_controller",
+            Design::Core => "can_core",
+        }
+    }
+
     /// What the model holds, for its header.
     fn what(self) -> &'static str {
         match self {
@@ -165,10 +173,7 @@ pub fn write_models(root: &Path) -> Result<(), String> {
 /// Runs Yosys in `dir` on `verilog`; the file names are relative, so that the names Yosys gives
 /// cells (which carry the source file) do not depend on the directory.
 fn run_yosys(design: Design, dir: &Path, verilog: &str) -> Result<String, String> {
-    let stem = match design {
-        Design::Controller => "can_controller",
-        Design::Core => "can_core",
-    };
+    let stem = design.file_stem();
     let (v, json, script) = (format!("{stem}.v"), format!("{stem}.json"), "netlist.ys");
     std::fs::write(dir.join(&v), verilog).map_err(|e| format!("{}: {e}", dir.display()))?;
     std::fs::File::create(dir.join(script))

@@ -68,13 +68,6 @@ fn change(out: &mut impl Write, wire: &Wire, value: bool) -> io::Result<()> {
     out.write_all(wire.line(value))
 }
 
-/// Writes the timestamp line `#<ns>`.
-fn timestamp(out: &mut impl Write, ns: u64) -> io::Result<()> {
-    let mut text = [0u8; TIMESTAMP_MAX];
-    let len = format_timestamp(&mut text, ns);
-    out.write_all(&text[..len])
-}
-
 /// The current timestamp line, kept as text: the next one is the previous plus a small step
 /// (one clock period, or less between two nodes' edges), added digit by digit from the right
 /// instead of formatting the whole number again (a timestamp per traced edge made formatting
@@ -96,6 +89,11 @@ impl TimestampLine {
         line
     }
 
+    /// The current line.
+    fn text(&self) -> &[u8] {
+        &self.text[..self.len]
+    }
+
     /// Moves to `ns` (not earlier than the current time) and returns the line.
     fn advance(&mut self, ns: u64) -> &[u8] {
         let mut carry = ns - self.ns;
@@ -106,7 +104,7 @@ impl TimestampLine {
             if at == 1 {
                 // One digit more: format afresh.
                 self.len = format_timestamp(&mut self.text, ns);
-                return &self.text[..self.len];
+                return self.text();
             }
             at -= 1;
             let digit = u64::from(self.text[at] - b'0') + carry % 10;
@@ -118,7 +116,7 @@ impl TimestampLine {
                 self.text[at] = b'0' + digit as u8;
             }
         }
-        &self.text[..self.len]
+        self.text()
     }
 }
 
@@ -231,7 +229,8 @@ impl VcdTracer {
             });
         }
         writer.enddefinitions()?;
-        timestamp(&mut out, 0)?;
+        let now = TimestampLine::new(0);
+        out.write_all(now.text())?;
         change(&mut out, &bus, true)?;
         for p in &bus_probes {
             for wire in &p.bits {
@@ -255,7 +254,7 @@ impl VcdTracer {
             bus_last: true,
             bus_probes,
             devices: traces,
-            now: TimestampLine::new(0),
+            now,
             finished: false,
         })
     }
@@ -327,7 +326,7 @@ impl VcdTracer {
     pub fn finish(mut self, t_end_fs: u64) -> io::Result<PathBuf> {
         let end_ns = (t_end_fs + FS_PER_NS / 2) / FS_PER_NS;
         if end_ns > self.now.ns {
-            timestamp(&mut self.out, end_ns)?;
+            self.out.write_all(self.now.advance(end_ns))?;
         }
         self.out.flush()?;
         std::fs::rename(&self.temporary, &self.target).map_err(|e| {

@@ -55,18 +55,14 @@ pub struct CanNode {
 impl CanNode {
     /// A node on `clock` with bit timing `btr`, reset, operating, error warning limit 96, on the
     /// engine `CAN_ENGINE` names; panics with the reason if that engine cannot run (see
-    /// [`CanNode::on_engine`]).
+    /// [`CanNode::with_engine`]).
     pub fn new(name: &str, clock: ClockSpec, btr: Btr) -> CanNode {
-        ModelEngine::from_env()
-            .map_err(|e| e.to_string())
-            .and_then(|engine| {
-                CanNode::on_engine(name, clock, btr, engine).map_err(|e| e.to_string())
-            })
-            .unwrap_or_else(|e| panic!("{name}: {e}"))
+        let engine = ModelEngine::from_env().unwrap_or_else(|e| panic!("{e}"));
+        CanNode::with_engine(name, clock, btr, engine).unwrap_or_else(|e| panic!("{name}: {e}"))
     }
 
     /// A node as [`CanNode::new`] makes it, on `engine`.
-    pub fn on_engine(
+    pub fn with_engine(
         name: &str,
         clock: ClockSpec,
         btr: Btr,

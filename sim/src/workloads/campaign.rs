@@ -185,7 +185,7 @@ pub fn run_rtl_on(case: &Case, model: ModelEngine, vcd: Option<&Path>) -> io::Re
     let mut engine = Engine::new();
     let mut ids = Vec::with_capacity(NODES);
     for n in 0..NODES {
-        let node = CanNode::on_engine(&format!("n{n}"), clock, btr, model)
+        let node = CanNode::with_engine(&format!("n{n}"), clock, btr, model)
             .map_err(|e| io::Error::other(e.to_string()))?;
         ids.push(engine.add(node, 0));
     }
@@ -765,6 +765,7 @@ pub fn run_campaign_shard(
     threads: usize,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Summary, String> {
+    // Refused once here rather than by every worker's first case.
     CoreModel::new(model).map_err(|e| e.to_string())?;
     let next = AtomicUsize::new(0);
     let summary = Mutex::new(Summary::default());
