@@ -39,6 +39,14 @@ pub trait Device: Any {
     }
     /// Current values of [`Device::probes`], in the same order.
     fn probe_values(&self, _values: &mut [u64]) {}
+    /// The values of [`Device::probe_values`] packed into one word, each probe's bits above the
+    /// previous probe's (the first at bit 0), for a device that has them at hand so; the probes
+    /// must fit in 62 bits. The tracer then does not call [`Device::probe_values`] (on a traced
+    /// edge that call and the packing cost as much as writing the changes). `None` (the
+    /// default): the tracer calls it.
+    fn packed_probe_values(&self) -> Option<u64> {
+        None
+    }
     /// `self` as `Any`, for [`Engine::device`].
     fn as_any(&self) -> &dyn Any;
     /// `self` as mutable `Any`, for [`Engine::device_mut`].
@@ -469,9 +477,14 @@ impl Engine {
         let traced = i < self.observers.traced_devices;
         if let Some(tracer) = self.observers.tracer.as_mut().filter(|_| traced) {
             let slot = &mut self.slots[i];
-            slot.device.probe_values(&mut slot.probe_values);
             let tx = slot.pin.level();
-            tracer.device(i, t, tx, slot.rx, &slot.probe_values)?;
+            match slot.device.packed_probe_values() {
+                Some(packed) => tracer.device_packed(i, t, tx, slot.rx, packed)?,
+                None => {
+                    slot.device.probe_values(&mut slot.probe_values);
+                    tracer.device(i, t, tx, slot.rx, &slot.probe_values)?;
+                }
+            }
         }
         if self.edges.is_multiple_of(4096) {
             self.bus.prune(t);

@@ -287,6 +287,9 @@ impl Device for CanNode {
 /// How many probes [`core_probes`] lists.
 pub(crate) const CORE_PROBES: usize = 5;
 
+/// Their widths added up.
+pub(crate) const CORE_PROBE_BITS: u32 = 24;
+
 /// The probes every device built on the RTL core traces: sample point, bit timing segment, protocol
 /// state, TEC, REC.
 pub(crate) fn core_probes() -> Vec<Probe> {

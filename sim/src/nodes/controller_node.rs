@@ -27,7 +27,7 @@ use crate::engine::rtl_step::clock_cycle_with;
 use crate::engine::time::ClockSpec;
 use crate::engine::trace::Probe;
 use crate::engine::Device;
-use crate::nodes::can_node::{core_probe_values, core_probes, CORE_PROBES};
+use crate::nodes::can_node::{core_probe_values, core_probes, CORE_PROBES, CORE_PROBE_BITS};
 use crate::nodes::core_engine::CoreOutputs;
 use crate::verilated::sources::{STATE, TRANSMITTING};
 pub use crate::verilated::EngineError;
@@ -429,6 +429,19 @@ impl Device for ControllerNode {
             u64::from(self.model.irq_n()),
             u64::from(self.model.clkout()),
         ]);
+    }
+
+    fn packed_probe_values(&self) -> Option<u64> {
+        let word = match &self.model {
+            Model::RustHdl { .. } => return None,
+            Model::Verilator(model) => model.outputs(),
+            Model::Compiled(model) => model.outputs(),
+        };
+        Some(
+            word.internals_packed(CORE_PROBES)
+                | u64::from(word.irq_n()) << CORE_PROBE_BITS
+                | u64::from(word.clkout()) << (CORE_PROBE_BITS + 1),
+        )
     }
 
     fn as_any(&self) -> &dyn Any {

@@ -199,6 +199,13 @@ impl PortOutputs {
         self.bit(OUT_CLKOUT)
     }
 
+    /// The first `count` internal signals as they sit in the word: each above the previous one,
+    /// the first at bit 0.
+    pub(crate) fn internals_packed(self, count: usize) -> u64 {
+        let width: u32 = INTERNAL_SIGNALS[..count].iter().map(|s| s.width).sum();
+        self.0 >> INTERNAL_SHIFTS[0] & (u64::MAX >> (64 - width))
+    }
+
     /// Internal signal `index` of [`sources::INTERNAL_SIGNALS`].
     pub(crate) fn internal(self, index: usize) -> u64 {
         let width = INTERNAL_SIGNALS[index].width;

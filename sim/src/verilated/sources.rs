@@ -256,7 +256,7 @@ CC_EXPORT uint64_t cc_cycle(void* model, uint32_t inputs) {{
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::nodes::can_node::{core_probes, CORE_PROBES};
+    use crate::nodes::can_node::{core_probes, CORE_PROBES, CORE_PROBE_BITS};
     use crate::verilated::verilog::controller_verilog;
 
     #[test]
@@ -267,6 +267,8 @@ mod tests {
         }
         assert_eq!(INTERNAL_SIGNALS[STATE].name, "state");
         assert_eq!(INTERNAL_SIGNALS[TRANSMITTING].name, "transmitting");
+        let widths: u32 = core_probes().iter().map(|p| p.width).sum();
+        assert_eq!(widths, CORE_PROBE_BITS);
     }
 
     /// The wires the wrapper reads must exist in the generated Verilog, at most as wide as the
