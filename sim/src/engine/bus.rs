@@ -91,6 +91,11 @@ pub struct Bus {
     max_delay_fs: u64,
     keep_history: bool,
     faults: Vec<FaultWindow>,
+    /// Lines whose latest drive is dominant, and forced recessive.
+    dominant_lines: usize,
+    forcing_lines: usize,
+    /// The time of the latest drive change of any line.
+    last_change_fs: Option<u64>,
 }
 
 impl Bus {
@@ -129,9 +134,23 @@ impl Bus {
     /// The drive of `line` changes to `drive` at time `t` (times never decrease per line).
     pub fn set_drive(&mut self, line: usize, t: u64, drive: Drive) {
         let l = &mut self.lines[line];
-        if l.current() != drive {
-            l.changes.push_back((t, drive));
+        let old = l.current();
+        if old == drive {
+            return;
         }
+        l.changes.push_back((t, drive));
+        for (d, step) in [(old, -1isize), (drive, 1)] {
+            match d {
+                Drive::Dominant => {
+                    self.dominant_lines = self.dominant_lines.wrapping_add_signed(step)
+                }
+                Drive::ForceRecessive => {
+                    self.forcing_lines = self.forcing_lines.wrapping_add_signed(step)
+                }
+                Drive::Recessive => {}
+            }
+        }
+        self.last_change_fs = self.last_change_fs.max(Some(t));
     }
 
     /// Every retained change of `line`'s drive, as (time, new drive), oldest first (all of them
@@ -171,6 +190,15 @@ impl Bus {
 
     /// The wired-AND of the drives just before `t`, without bus faults.
     fn driven_level_before(&self, t: u64) -> bool {
+        // Without delays, once every change is older than `t` the latest drives decide: counted
+        // as they change instead of looking at every line (the engine asks at every clock edge).
+        if self.max_delay_fs == 0 && self.last_change_fs.is_none_or(|at| at < t) {
+            return if self.forcing_lines == 0 && self.dominant_lines > 0 {
+                DOMINANT
+            } else {
+                RECESSIVE
+            };
+        }
         let mut dominant = false;
         for l in &self.lines {
             match l.drive_before(t.saturating_sub(l.delay_fs)) {
@@ -252,6 +280,42 @@ mod tests {
                 DOMINANT, RECESSIVE
             ]
         );
+    }
+
+    /// Without delays the level comes from counts of the latest drives once every change is in
+    /// the past, and from the history before that: both give the scan's answer.
+    #[test]
+    fn the_counted_level_without_delays_is_the_level_of_the_history() {
+        let mut bus = Bus::new();
+        let lines: Vec<usize> = (0..4).map(|_| bus.add_line(0)).collect();
+        let mut seed = 7u64;
+        for step in 0..2_000u64 {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let t = step / 3 * 10;
+            let drive = match seed >> 40 & 7 {
+                0 => Drive::ForceRecessive,
+                1..=3 => Drive::Dominant,
+                _ => Drive::Recessive,
+            };
+            bus.set_drive(lines[(seed >> 50) as usize % 4], t, drive);
+            for query in [t, t + 1] {
+                let scanned = {
+                    let mut dominant = false;
+                    let mut forced = false;
+                    for l in &bus.lines {
+                        match l.drive_before(query) {
+                            Drive::ForceRecessive => forced = true,
+                            Drive::Dominant => dominant = true,
+                            Drive::Recessive => {}
+                        }
+                    }
+                    dominant && !forced
+                };
+                assert_eq!(bus.level_before(query) == DOMINANT, scanned, "step {step}");
+            }
+        }
     }
 
     #[test]
