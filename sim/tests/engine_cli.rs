@@ -66,7 +66,8 @@ fn bench_measures_each_engine_asked_for() {
     let bench_lines: Vec<&str> = stdout.lines().filter(|l| l.starts_with("BENCH")).collect();
     assert_eq!(bench_lines.len(), 2, "{stdout}");
     for (line, engine) in bench_lines.iter().zip(["rust-hdl", "verilator"]) {
-        let prefix = format!("BENCH engine={engine} nodes=3 trace=off pair_cycles_per_s=");
+        let prefix =
+            format!("BENCH engine={engine} nodes=3 bit_rate=500k trace=off pair_cycles_per_s=");
         assert!(line.starts_with(&prefix), "{line}");
         assert!(line.contains(" pair_cycles_per_cpu_s="), "{line}");
     }
@@ -95,4 +96,42 @@ fn bench_refuses_a_single_node_and_an_unknown_engine() {
         "{}",
         text(&out.stderr)
     );
+    let out = cansim(&["bench", "--bit-rate", "2M"], &[]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("bit rate \"2M\": one of 125k, 250k, 500k, 1M"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+#[test]
+fn bench_measures_each_bit_rate_asked_for() {
+    let out = cansim(
+        &[
+            "bench",
+            "--nodes",
+            "2",
+            "--frames",
+            "2",
+            "--runs",
+            "1",
+            "--no-trace",
+            "--campaign-faults",
+            "0",
+            "--engine",
+            "compiled",
+            "--bit-rate",
+            "125k,1M",
+        ],
+        &[],
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    let rates: Vec<&str> = stdout
+        .lines()
+        .filter_map(|l| l.strip_prefix("BENCH engine=compiled nodes=2 bit_rate="))
+        .map(|rest| rest.split(' ').next().unwrap())
+        .collect();
+    assert_eq!(rates, ["125k", "1M"], "{stdout}");
 }

@@ -21,6 +21,7 @@ use sim::scenario::summary::{format_counts, format_counts_table, format_report, 
 use sim::scenario::{load, run, RunOptions, RunReport, Scenario};
 use sim::serve::ServeOptions;
 use sim::verilated;
+use sim::workloads::bench::BitRate;
 use sim::workloads::campaign::{
     check, describe, format_summary, random_case, run_campaign_shard, run_rtl_on,
 };
@@ -279,6 +280,10 @@ enum Command {
         /// Frames per run.
         #[arg(long, default_value_t = 100)]
         frames: usize,
+        /// Bit rates to measure (comma-separated: 125k, 250k, 500k, 1M; the controllers' clock
+        /// stays 16 MHz).
+        #[arg(long, value_delimiter = ',', default_values_t = [BitRate::REFERENCE])]
+        bit_rate: Vec<BitRate>,
         /// Runs per result (the median is reported).
         #[arg(long, default_value_t = 5)]
         runs: usize,
@@ -441,10 +446,11 @@ fn main() -> ExitCode {
             engine,
             nodes,
             frames,
+            bit_rate,
             runs,
             no_trace,
             campaign_faults,
-        } => bench(engine.clone(), &nodes, frames, runs, no_trace)
+        } => bench(engine.clone(), &nodes, &bit_rate, frames, runs, no_trace)
             .and_then(|()| campaign_scaling(engine, campaign_faults)),
     };
     match result {
@@ -1041,6 +1047,7 @@ fn verilog(out: &Path, bus: &str) -> Result<(), String> {
 fn bench(
     engines: Vec<ModelEngine>,
     nodes: &[usize],
+    bit_rates: &[BitRate],
     frames: usize,
     runs: usize,
     no_trace: bool,
@@ -1060,65 +1067,76 @@ fn bench(
     let trace_file = std::env::temp_dir().join(format!("cansim-bench-{}.vcd", std::process::id()));
     let traces: &[bool] = if no_trace { &[false] } else { &[false, true] };
     println!(
-        "reference workload: {frames} frames of 8 bytes, 16 MHz, 500 kbit/s; median of {runs} runs (min..max)"
+        "reference workload: {frames} frames of 8 bytes, 16 MHz; median of {runs} runs (min..max)"
     );
     println!(
-        "{:<10} {:>5} {:>5} {:>28} {:>12} {:>10} {:>10}",
-        "engine", "nodes", "trace", "node-pair cycles/s", "per CPU s", "frames/s", "real time"
+        "{:<10} {:>5} {:>5} {:>5} {:>28} {:>12} {:>10} {:>10}",
+        "engine",
+        "nodes",
+        "bit/s",
+        "trace",
+        "node-pair cycles/s",
+        "per CPU s",
+        "frames/s",
+        "real time"
     );
     let progress = std::io::stderr().is_terminal();
     let mut lines = Vec::new();
-    for &engine in &engines {
-        for &n in nodes {
-            // Runs with and without tracing alternate, so that a change in the machine's speed
-            // during the measurement does not show up as a cost of tracing.
-            let mut results: Vec<Vec<sim::workloads::bench::BenchRun>> =
-                vec![Vec::new(); traces.len()];
-            for run in 0..runs {
-                for (k, &trace) in traces.iter().enumerate() {
-                    if progress {
-                        eprint!(
-                            "\r{engine}, {n} nodes, trace {}: run {}/{runs} ",
-                            on_off(trace),
-                            run + 1
-                        );
-                    }
-                    let path = trace.then_some(&trace_file);
-                    let result = sim::workloads::bench::run_workload(engine, n, frames, path);
-                    results[k].push(result.map_err(|e| e.to_string())?);
+    let cases = engines.iter().flat_map(|&engine| {
+        nodes
+            .iter()
+            .flat_map(move |&n| bit_rates.iter().map(move |&rate| (engine, n, rate)))
+    });
+    for (engine, n, rate) in cases {
+        // Runs with and without tracing alternate, so that a change in the machine's speed
+        // during the measurement does not show up as a cost of tracing.
+        let mut results: Vec<Vec<sim::workloads::bench::BenchRun>> = vec![Vec::new(); traces.len()];
+        for run in 0..runs {
+            for (k, &trace) in traces.iter().enumerate() {
+                if progress {
+                    eprint!(
+                        "\r{engine}, {n} nodes, {rate}bit/s, trace {}: run {}/{runs} ",
+                        on_off(trace),
+                        run + 1
+                    );
                 }
+                let path = trace.then_some(&trace_file);
+                let result = sim::workloads::bench::run_workload(engine, n, frames, rate, path);
+                results[k].push(result.map_err(|e| e.to_string())?);
             }
-            if progress {
-                eprint!("\r{:60}\r", "");
-            }
-            if let [off, on] = results.as_slice() {
-                lines.push(sim::workloads::bench::trace_cost_line(
-                    engine.name(),
-                    n,
-                    off,
-                    on,
-                ));
-            }
-            for (&trace, runs) in traces.iter().zip(results) {
-                let s = sim::workloads::bench::summarise(runs);
-                println!(
-                    "{:<10} {n:>5} {:>5} {:>10.0} ({:.0}..{:.0}) {:>12.0} {:>10.1} {:>9.4}x",
-                    engine.name(),
-                    on_off(trace),
-                    s.median.pair_cycles_per_s,
-                    s.min.pair_cycles_per_s,
-                    s.max.pair_cycles_per_s,
-                    s.median.pair_cycles_per_cpu_s,
-                    s.median.frames_per_s,
-                    s.median.real_time_factor()
-                );
-                lines.push(sim::workloads::bench::bench_line(
-                    engine.name(),
-                    n,
-                    trace,
-                    &s,
-                ));
-            }
+        }
+        if progress {
+            eprint!("\r{:60}\r", "");
+        }
+        if let [off, on] = results.as_slice() {
+            lines.push(sim::workloads::bench::trace_cost_line(
+                engine.name(),
+                n,
+                rate,
+                off,
+                on,
+            ));
+        }
+        for (&trace, runs) in traces.iter().zip(results) {
+            let s = sim::workloads::bench::summarise(runs);
+            println!(
+                "{:<10} {n:>5} {rate:>5} {:>5} {:>10.0} ({:.0}..{:.0}) {:>12.0} {:>10.1} {:>9.4}x",
+                engine.name(),
+                on_off(trace),
+                s.median.pair_cycles_per_s,
+                s.min.pair_cycles_per_s,
+                s.max.pair_cycles_per_s,
+                s.median.pair_cycles_per_cpu_s,
+                s.median.frames_per_s,
+                s.median.real_time_factor()
+            );
+            lines.push(sim::workloads::bench::bench_line(
+                engine.name(),
+                n,
+                rate,
+                trace,
+                &s,
+            ));
         }
     }
     for line in lines {

@@ -1,11 +1,13 @@
 //! The reference workload of `cansim bench`: complete controllers at 16 MHz on a 500 kbit/s bus
-//! (BTR0 0x40, BTR1 0x1C). Node A sends 8-byte standard data frames back to back through its
-//! registers (TX buffer, CMR TR, wait for TI); every other node takes each frame from its RX buffer
-//! on RI, checks it and releases the buffer. Speed is counted in node-pair clock cycles (all nodes'
-//! rising edges / 2) and frames per second of real time. Either engine of the controller
-//! ([`ModelEngine`]) runs it.
+//! (BTR0 0x40, BTR1 0x1C; [`BitRate`] gives the other rates measured). Node A sends 8-byte standard
+//! data frames back to back through its registers (TX buffer, CMR TR, wait for TI); every other
+//! node takes each frame from its RX buffer on RI, checks it and releases the buffer. Speed is
+//! counted in node-pair clock cycles (all nodes' rising edges / 2) and frames per second of real
+//! time. Either engine of the controller ([`ModelEngine`]) runs it.
 
+use std::fmt;
 use std::path::PathBuf;
+use std::str::FromStr;
 use std::time::Instant;
 
 use rtl::registers::{command, interrupt, mode, pelican, status};
@@ -14,7 +16,7 @@ use crate::engine::time::{ClockSpec, FS_PER_MS};
 use crate::engine::{Device, DeviceId, Engine};
 use crate::host::sja1000::{
     enter_operating_mode, read_rx_message, release_rx, set_up_pelican, transmit, PelicanSetup,
-    BTR0_500K_SJW2_AT_16MHZ, BTR1_500K_AT_16MHZ,
+    BTR0_500K_SJW2_AT_16MHZ, BTR1_1M_AT_16MHZ, BTR1_500K_AT_16MHZ,
 };
 use crate::host::Host;
 use crate::nodes::controller_node::{ControllerNode, ModelEngine};
@@ -29,8 +31,67 @@ const PPM_STEP: f64 = 100.0;
 const PPM_STEPS: usize = 8;
 /// The most nodes the workload runs.
 pub const MAX_NODES: usize = 128;
-/// Longest wait for an interrupt or for a node to see the bus idle (a frame takes about 0.25 ms).
+/// Longest wait for an interrupt or for a node to see the bus idle at 500 kbit/s (a frame takes
+/// about 0.25 ms); longer in proportion at lower rates.
 const WAIT_LIMIT_FS: u64 = FS_PER_MS;
+
+/// A bit rate of the workload at its 16 MHz clock, SJW 2 quanta: 16 quanta per bit up to 500 kbit/s
+/// (sample point at 14 of 16), 8 at 1 Mbit/s (6 of 8).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BitRate {
+    kbit_s: u32,
+    btr0: u8,
+    btr1: u8,
+}
+
+impl BitRate {
+    /// The rates `cansim bench --bit-rate` offers.
+    pub const ALL: [BitRate; 4] = [
+        BitRate::new(125, 0x43, BTR1_500K_AT_16MHZ),
+        BitRate::new(250, 0x41, BTR1_500K_AT_16MHZ),
+        BitRate::REFERENCE,
+        BitRate::new(1000, BTR0_500K_SJW2_AT_16MHZ, BTR1_1M_AT_16MHZ),
+    ];
+
+    /// The reference workload's 500 kbit/s.
+    pub const REFERENCE: BitRate = BitRate::new(500, BTR0_500K_SJW2_AT_16MHZ, BTR1_500K_AT_16MHZ);
+
+    const fn new(kbit_s: u32, btr0: u8, btr1: u8) -> BitRate {
+        BitRate { kbit_s, btr0, btr1 }
+    }
+
+    /// Bits per second.
+    pub fn bits_per_s(self) -> f64 {
+        f64::from(self.kbit_s) * 1e3
+    }
+
+    fn wait_limit_fs(self) -> u64 {
+        WAIT_LIMIT_FS * 500 / u64::from(self.kbit_s)
+    }
+}
+
+impl fmt::Display for BitRate {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.kbit_s {
+            1000 => f.write_str("1M"),
+            k => write!(f, "{k}k"),
+        }
+    }
+}
+
+impl FromStr for BitRate {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<BitRate, String> {
+        BitRate::ALL
+            .into_iter()
+            .find(|rate| rate.to_string().eq_ignore_ascii_case(text))
+            .ok_or_else(|| {
+                let names: Vec<String> = BitRate::ALL.iter().map(|r| r.to_string()).collect();
+                format!("bit rate {text:?}: one of {}", names.join(", "))
+            })
+    }
+}
 
 /// One run of the workload.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -64,12 +125,13 @@ impl std::fmt::Display for BenchError {
 
 impl std::error::Error for BenchError {}
 
-/// Runs the workload once: `nodes` controllers (at least 2) stepped by `model`, `frames` frames, a
-/// VCD written to `trace` when given (and deleted afterwards).
+/// Runs the workload once: `nodes` controllers (at least 2) stepped by `model`, `frames` frames at
+/// `bit_rate`, a VCD written to `trace` when given (and deleted afterwards).
 pub fn run_workload(
     model: ModelEngine,
     nodes: usize,
     frames: usize,
+    bit_rate: BitRate,
     trace: Option<&PathBuf>,
 ) -> Result<BenchRun, BenchError> {
     if nodes < 2 {
@@ -86,10 +148,10 @@ pub fn run_workload(
         ids.push(engine.add(node, 0));
     }
     for &id in &ids {
-        configure(&mut engine, id);
+        configure(&mut engine, id, bit_rate);
     }
     for &id in &ids {
-        wait_for_bus_idle(&mut engine, id)?;
+        wait_for_bus_idle(&mut engine, id, bit_rate)?;
     }
     if let Some(path) = trace {
         engine
@@ -100,7 +162,7 @@ pub fn run_workload(
     let start = Instant::now();
     let edges_before = engine.edges();
     for i in 0..frames {
-        transfer(&mut engine, &ids, &workload_frame(i))?;
+        transfer(&mut engine, &ids, &workload_frame(i), bit_rate)?;
     }
     let trace_result = engine.finish_trace();
     let seconds = start.elapsed().as_secs_f64();
@@ -132,11 +194,11 @@ pub fn workload_frame(i: usize) -> Frame {
     Frame::data(id, &data).expect("8 data bytes")
 }
 
-/// PeliCAN, 500 kbit/s, filter open, TI and RI enabled, operating mode.
-fn configure(engine: &mut Engine, id: DeviceId) {
+/// PeliCAN at `bit_rate`, filter open, TI and RI enabled, operating mode.
+fn configure(engine: &mut Engine, id: DeviceId, bit_rate: BitRate) {
     let mut host = Host::new(engine, id);
-    let setup = PelicanSetup::open(BTR0_500K_SJW2_AT_16MHZ, BTR1_500K_AT_16MHZ)
-        .with_ier(interrupt::RI | interrupt::TI);
+    let setup =
+        PelicanSetup::open(bit_rate.btr0, bit_rate.btr1).with_ier(interrupt::RI | interrupt::TI);
     set_up_pelican(&mut host, &setup);
     assert_eq!(
         enter_operating_mode(&mut host, 0) & mode::RM,
@@ -147,9 +209,13 @@ fn configure(engine: &mut Engine, id: DeviceId) {
 
 /// Polls node `id`'s status register until it has seen the bus idle (neither receiving nor
 /// transmitting: integration done), so that it takes part in the first frame.
-fn wait_for_bus_idle(engine: &mut Engine, id: DeviceId) -> Result<(), BenchError> {
+fn wait_for_bus_idle(
+    engine: &mut Engine,
+    id: DeviceId,
+    bit_rate: BitRate,
+) -> Result<(), BenchError> {
     let mut host = Host::new(engine, id);
-    let limit = host.engine().now() + WAIT_LIMIT_FS;
+    let limit = host.engine().now() + bit_rate.wait_limit_fs();
     while host.read(pelican::SR) & (status::RS | status::TS) != 0 {
         if host.engine().now() > limit {
             return Err(BenchError(format!(
@@ -162,14 +228,19 @@ fn wait_for_bus_idle(engine: &mut Engine, id: DeviceId) -> Result<(), BenchError
 }
 
 /// Node `ids[0]` sends `frame`; returns when it reported TI and every receiver has taken the frame.
-fn transfer(engine: &mut Engine, ids: &[DeviceId], frame: &Frame) -> Result<(), BenchError> {
+fn transfer(
+    engine: &mut Engine,
+    ids: &[DeviceId],
+    frame: &Frame,
+    bit_rate: BitRate,
+) -> Result<(), BenchError> {
     let (sender, receivers) = ids.split_first().expect("a sender");
     let mut host = Host::new(engine, *sender);
     transmit(&mut host, frame, command::TR);
     let mut sent = false;
     let mut received = vec![false; receivers.len()];
     while !sent || received.contains(&false) {
-        let limit = engine.now() + WAIT_LIMIT_FS;
+        let limit = engine.now() + bit_rate.wait_limit_fs();
         let interrupted = engine
             .run_while(limit, |e| {
                 ids.iter().any(|&id| e.device::<ControllerNode>(id).irq())
@@ -177,7 +248,8 @@ fn transfer(engine: &mut Engine, ids: &[DeviceId], frame: &Frame) -> Result<(), 
             .map_err(|e| BenchError(format!("simulation: {e}")))?;
         if !interrupted {
             return Err(BenchError(format!(
-                "no interrupt within 1 ms while sending {frame:?}"
+                "no interrupt within {} ms while sending {frame:?}",
+                bit_rate.wait_limit_fs() as f64 / FS_PER_MS as f64
             )));
         }
         for (r, &id) in receivers.iter().enumerate() {
@@ -277,9 +349,15 @@ pub fn summarise(mut runs: Vec<BenchRun>) -> BenchSummary {
 }
 
 /// The machine-readable result line.
-pub fn bench_line(engine: &str, nodes: usize, trace: bool, summary: &BenchSummary) -> String {
+pub fn bench_line(
+    engine: &str,
+    nodes: usize,
+    bit_rate: BitRate,
+    trace: bool,
+    summary: &BenchSummary,
+) -> String {
     format!(
-        "BENCH engine={engine} nodes={nodes} trace={} pair_cycles_per_s={:.0} \
+        "BENCH engine={engine} nodes={nodes} bit_rate={bit_rate} trace={} pair_cycles_per_s={:.0} \
          pair_cycles_per_cpu_s={:.0} frames_per_s={:.1}",
         if trace { "on" } else { "off" },
         summary.median.pair_cycles_per_s,
@@ -290,7 +368,13 @@ pub fn bench_line(engine: &str, nodes: usize, trace: bool, summary: &BenchSummar
 
 /// The cost of tracing as a machine-readable line: the median over the run pairs (run k without
 /// and run k with tracing, taken one after the other) of the processor time tracing added.
-pub fn trace_cost_line(engine: &str, nodes: usize, off: &[BenchRun], on: &[BenchRun]) -> String {
+pub fn trace_cost_line(
+    engine: &str,
+    nodes: usize,
+    bit_rate: BitRate,
+    off: &[BenchRun],
+    on: &[BenchRun],
+) -> String {
     let mut costs: Vec<f64> = off
         .iter()
         .zip(on)
@@ -299,7 +383,7 @@ pub fn trace_cost_line(engine: &str, nodes: usize, off: &[BenchRun], on: &[Bench
     assert!(!costs.is_empty(), "at least one pair of runs");
     costs.sort_by(f64::total_cmp);
     format!(
-        "BENCH engine={engine} nodes={nodes} trace_cost_percent={:.1}",
+        "BENCH engine={engine} nodes={nodes} bit_rate={bit_rate} trace_cost_percent={:.1}",
         costs[costs.len() / 2]
     )
 }
@@ -319,19 +403,43 @@ mod tests {
         let off = [run(100.0), run(200.0), run(50.0)];
         let on = [run(90.0), run(100.0), run(40.0)];
         assert_eq!(
-            trace_cost_line("verilator", 4, &off, &on),
-            "BENCH engine=verilator nodes=4 trace_cost_percent=20.0"
+            trace_cost_line("verilator", 4, BitRate::REFERENCE, &off, &on),
+            "BENCH engine=verilator nodes=4 bit_rate=500k trace_cost_percent=20.0"
         );
     }
 
     #[test]
     fn every_receiver_gets_every_frame_and_the_speed_is_counted_on_both_engines() {
         for model in ModelEngine::ALL {
-            let run = run_workload(model, 3, 2, None)
+            let run = run_workload(model, 3, 2, BitRate::REFERENCE, None)
                 .unwrap_or_else(|e| panic!("{model}: frames arrive intact: {e}"));
             assert!(run.pair_cycles_per_s > 0.0 && run.frames_per_s > 0.0);
             assert!(run.pair_cycles_per_cpu_s > 0.0);
         }
+    }
+
+    /// The frame rate follows the bit rate: simulated time per frame is the frame's bits at the
+    /// rate chosen: an 8-byte standard data frame is 108 bits before stuffing (SOF, identifier 11,
+    /// RTR, IDE, r0, DLC 4, data 64, CRC 15, CRC delimiter, ACK slot and delimiter, EOF 7), then 3
+    /// of intermission; the payloads add a few stuff bits, the host's accesses between frames
+    /// little.
+    #[test]
+    fn every_bit_rate_carries_the_frames_and_names_itself() {
+        for rate in BitRate::ALL {
+            assert_eq!(rate.to_string().parse::<BitRate>(), Ok(rate));
+            let run = run_workload(ModelEngine::Compiled, 2, 2, rate, None)
+                .unwrap_or_else(|e| panic!("{rate}: frames arrive intact: {e}"));
+            let seconds_per_frame = run.pair_cycles_per_s / run.frames_per_s / CLOCK_HZ;
+            let bit_times = seconds_per_frame * rate.bits_per_s();
+            assert!(
+                (111.0..=130.0).contains(&bit_times),
+                "{rate}: a frame took {bit_times:.1} bit times"
+            );
+        }
+        assert!("2M"
+            .parse::<BitRate>()
+            .unwrap_err()
+            .contains("125k, 250k, 500k, 1M"));
     }
 
     #[test]
@@ -343,7 +451,7 @@ mod tests {
 
     #[test]
     fn one_node_is_refused() {
-        let err = run_workload(ModelEngine::RustHdl, 1, 1, None).unwrap_err();
+        let err = run_workload(ModelEngine::RustHdl, 1, 1, BitRate::REFERENCE, None).unwrap_err();
         assert!(err.0.contains("at least one receiver"), "{err}");
     }
 
@@ -357,8 +465,8 @@ mod tests {
         let s = summarise(vec![run(3.0), run(1.0), run(2.0)]);
         assert_eq!((s.min, s.median, s.max), (run(1.0), run(2.0), run(3.0)));
         assert_eq!(
-            bench_line("rust-hdl", 2, false, &s),
-            "BENCH engine=rust-hdl nodes=2 trace=off pair_cycles_per_s=2 pair_cycles_per_cpu_s=4 \
+            bench_line("rust-hdl", 2, BitRate::REFERENCE, false, &s),
+            "BENCH engine=rust-hdl nodes=2 bit_rate=500k trace=off pair_cycles_per_s=2 pair_cycles_per_cpu_s=4 \
              frames_per_s=0.0"
         );
     }
