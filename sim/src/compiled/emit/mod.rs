@@ -25,6 +25,9 @@ use super::netlist::{Bit, Cell, Netlist};
 mod operands;
 mod state;
 
+/// Groups per block of calls in `eval` (see `eval_body`).
+const CALL_BLOCK: usize = 8;
+
 /// Where the model's ports sit in the input and output words.
 pub(crate) struct Interface<'a> {
     /// The clock input (seen as data it reads 0: outputs are read with the clock low).
@@ -399,16 +402,26 @@ impl Model {{
         ))
     }
 
-    /// The calls of the groups, each behind its dirty bit, and the groups as methods (one function
-    /// per group keeps the compiler's work per function small).
+    /// The calls of the groups, each behind its dirty bit, in blocks of [`CALL_BLOCK`] behind one
+    /// test of their bits (a group marks only later ones, so a block's bits are final when it is
+    /// reached; most evaluations run a few groups, and testing every bit was a fifth of `eval`),
+    /// and the groups as methods (one function per group keeps the compiler's work per function
+    /// small).
     fn eval_body(&mut self) -> Result<(String, String), String> {
         let (mut calls, mut methods) = (String::new(), String::new());
         for g in 0..self.groups.count {
             self.current = g;
             let name = &self.groups.names[g];
+            if g % CALL_BLOCK == 0 {
+                if g > 0 {
+                    calls.push_str("        }\n");
+                }
+                let mask = (1u128 << CALL_BLOCK.min(self.groups.count - g)) - 1;
+                writeln!(calls, "        if dirty >> {g} & {mask:#x} != 0 {{").unwrap();
+            }
             writeln!(
                 calls,
-                "        if dirty >> {g} & 1 != 0 {{ self.group_{g}(&mut dirty); }} // {name}"
+                "            if dirty >> {g} & 1 != 0 {{ self.group_{g}(&mut dirty); }} // {name}"
             )
             .unwrap();
             writeln!(
@@ -427,6 +440,9 @@ impl Model {{
                 }
             }
             writeln!(methods, "        let _ = &dirty;\n    }}").unwrap();
+        }
+        if self.groups.count > 0 {
+            calls.push_str("        }\n");
         }
         Ok((calls, methods))
     }
