@@ -158,6 +158,8 @@ pub struct Engine {
     bus: Bus,
     now: u64,
     edges: u64,
+    /// The device of the last edge stepped.
+    last_stepped: Option<DeviceId>,
     observers: BusObservers,
     /// A trace to start at the first step, once every device is added.
     deferred_trace: Option<(PathBuf, BusTiming)>,
@@ -177,6 +179,7 @@ impl Engine {
             bus: Bus::new(),
             now: 0,
             edges: 0,
+            last_stepped: None,
             observers: BusObservers::default(),
             deferred_trace: None,
         }
@@ -452,6 +455,7 @@ impl Engine {
         self.flush_bus_changes(t)?;
         self.now = t;
         self.edges += 1;
+        self.last_stepped = Some(DeviceId(i));
         let line = self.slots[i].line;
         let slot = &mut self.slots[i];
         let bus = self.bus.level_seen_by(line, t);
@@ -498,6 +502,12 @@ impl Engine {
             self.step()?;
         }
         Ok(())
+    }
+
+    /// The device whose clock edge the last [`Engine::step`] processed: the only one whose outputs
+    /// can have changed since (so a condition on every device's outputs can follow that one).
+    pub fn last_stepped(&self) -> Option<DeviceId> {
+        self.last_stepped
     }
 
     /// Steps until `done(self)` holds (checked after every edge) or `limit_fs` is reached. Returns
