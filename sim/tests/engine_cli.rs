@@ -5,6 +5,7 @@
 mod common;
 
 use std::path::PathBuf;
+use std::process::Output;
 
 use common::{cansim_with_env as cansim, example, text};
 
@@ -44,12 +45,10 @@ fn verilator_model_prints_the_cached_library() {
     assert_eq!(path.parent().unwrap().file_name().unwrap(), "verilator");
 }
 
-#[test]
-fn bench_measures_each_engine_asked_for() {
-    let quick = [
+/// `cansim bench` with the shortest runs, then `extra`.
+fn quick_bench(extra: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut args = vec![
         "bench",
-        "--nodes",
-        "3",
         "--frames",
         "2",
         "--runs",
@@ -58,9 +57,13 @@ fn bench_measures_each_engine_asked_for() {
         "--campaign-faults",
         "0",
     ];
-    let mut args = quick.to_vec();
-    args.extend(["--engine", "rust-hdl,verilator"]);
-    let out = cansim(&args, &[]);
+    args.extend(extra);
+    cansim(&args, env)
+}
+
+#[test]
+fn bench_measures_each_engine_asked_for() {
+    let out = quick_bench(&["--nodes", "3", "--engine", "rust-hdl,verilator"], &[]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let stdout = text(&out.stdout);
     let bench_lines: Vec<&str> = stdout.lines().filter(|l| l.starts_with("BENCH")).collect();
@@ -72,7 +75,7 @@ fn bench_measures_each_engine_asked_for() {
         assert!(line.contains(" pair_cycles_per_cpu_s="), "{line}");
     }
     // Without --engine, CAN_ENGINE chooses.
-    let out = cansim(&quick, &[("CAN_ENGINE", "verilator")]);
+    let out = quick_bench(&["--nodes", "3"], &[("CAN_ENGINE", "verilator")]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let stdout = text(&out.stdout);
     assert!(
@@ -107,18 +110,10 @@ fn bench_refuses_a_single_node_and_an_unknown_engine() {
 
 #[test]
 fn bench_measures_each_bit_rate_asked_for() {
-    let out = cansim(
+    let out = quick_bench(
         &[
-            "bench",
             "--nodes",
             "2",
-            "--frames",
-            "2",
-            "--runs",
-            "1",
-            "--no-trace",
-            "--campaign-faults",
-            "0",
             "--engine",
             "compiled",
             "--bit-rate",

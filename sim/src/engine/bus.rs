@@ -139,18 +139,22 @@ impl Bus {
             return;
         }
         l.changes.push_back((t, drive));
-        for (d, step) in [(old, -1isize), (drive, 1)] {
-            match d {
-                Drive::Dominant => {
-                    self.dominant_lines = self.dominant_lines.wrapping_add_signed(step)
-                }
-                Drive::ForceRecessive => {
-                    self.forcing_lines = self.forcing_lines.wrapping_add_signed(step)
-                }
-                Drive::Recessive => {}
-            }
+        if let Some(lines) = self.lines_driving(old) {
+            *lines -= 1;
+        }
+        if let Some(lines) = self.lines_driving(drive) {
+            *lines += 1;
         }
         self.last_change_fs = self.last_change_fs.max(Some(t));
+    }
+
+    /// The count of lines whose latest drive is `drive` (none kept for recessive).
+    fn lines_driving(&mut self, drive: Drive) -> Option<&mut usize> {
+        match drive {
+            Drive::Dominant => Some(&mut self.dominant_lines),
+            Drive::ForceRecessive => Some(&mut self.forcing_lines),
+            Drive::Recessive => None,
+        }
     }
 
     /// Every retained change of `line`'s drive, as (time, new drive), oldest first (all of them

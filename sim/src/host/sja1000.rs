@@ -21,8 +21,16 @@ pub const BTR0_500K_SJW2_AT_16MHZ: u8 = 0x40;
 /// BTR1 for 500 kbit/s at 16 MHz: TSEG1 13 tq, TSEG2 2 tq (16 tq per bit, sample point 87.5 %),
 /// one sample.
 pub const BTR1_500K_AT_16MHZ: u8 = 0x1C;
+/// BTR0 for 250 kbit/s at 16 MHz with SJW 2 tq: BRP 1 (tq = 4 clocks); with
+/// [`BTR1_500K_AT_16MHZ`]'s 16 tq per bit.
+pub const BTR0_250K_SJW2_AT_16MHZ: u8 = 0x41;
+/// BTR0 for 125 kbit/s at 16 MHz with SJW 2 tq: BRP 3 (tq = 8 clocks); with
+/// [`BTR1_500K_AT_16MHZ`]'s 16 tq per bit.
+pub const BTR0_125K_SJW2_AT_16MHZ: u8 = 0x43;
 /// BTR0 for 1 Mbit/s at 16 MHz: BRP 0 (tq = 2 clocks), SJW 1 tq.
 pub const BTR0_1M_AT_16MHZ: u8 = 0x00;
+/// BTR0 for 1 Mbit/s at 16 MHz with SJW 2 tq (BRP 0).
+pub const BTR0_1M_SJW2_AT_16MHZ: u8 = 0x40;
 /// BTR1 for 1 Mbit/s at 16 MHz: TSEG1 5 tq, TSEG2 2 tq (8 tq per bit, sample point 75 %), one
 /// sample.
 pub const BTR1_1M_AT_16MHZ: u8 = 0x14;
@@ -157,6 +165,18 @@ mod tests {
         assert_eq!(rate(BTR0_500K_AT_16MHZ, BTR1_500K_AT_16MHZ), 500_000.0);
         assert_eq!(rate(BTR0_500K_SJW2_AT_16MHZ, BTR1_500K_AT_16MHZ), 500_000.0);
         assert_eq!(rate(BTR0_1M_AT_16MHZ, BTR1_1M_AT_16MHZ), 1_000_000.0);
+        assert_eq!(rate(BTR0_1M_SJW2_AT_16MHZ, BTR1_1M_AT_16MHZ), 1_000_000.0);
+        assert_eq!(rate(BTR0_250K_SJW2_AT_16MHZ, BTR1_500K_AT_16MHZ), 250_000.0);
+        assert_eq!(rate(BTR0_125K_SJW2_AT_16MHZ, BTR1_500K_AT_16MHZ), 125_000.0);
+        for btr0 in [
+            BTR0_500K_SJW2_AT_16MHZ,
+            BTR0_1M_SJW2_AT_16MHZ,
+            BTR0_250K_SJW2_AT_16MHZ,
+            BTR0_125K_SJW2_AT_16MHZ,
+        ] {
+            let sjw_field = Btr::from_registers(btr0, BTR1_500K_AT_16MHZ).sjw;
+            assert_eq!(sjw_field + 1, 2, "BTR0 {btr0:#04x}: SJW 2 tq");
+        }
     }
 
     #[test]

@@ -438,7 +438,7 @@ impl Device for ControllerNode {
             Model::Compiled(model) => model.outputs(),
         };
         Some(
-            word.internals_packed(CORE_PROBES)
+            word.core_probe_bits()
                 | u64::from(word.irq_n()) << CORE_PROBE_BITS
                 | u64::from(word.clkout()) << (CORE_PROBE_BITS + 1),
         )

@@ -20,6 +20,8 @@ use std::ptr::NonNull;
 use std::sync::OnceLock;
 
 use dl::Library;
+
+use crate::nodes::can_node::CORE_PROBE_BITS;
 use sources::{
     ABI_VERSION, INTERNAL_SHIFTS, INTERNAL_SIGNALS, IN_ADDR, IN_RE, IN_RESET, IN_RX, IN_WDATA,
     IN_WE, OUT_CLKOUT, OUT_IRQ_N, OUT_RDATA, OUT_TX,
@@ -199,11 +201,10 @@ impl PortOutputs {
         self.bit(OUT_CLKOUT)
     }
 
-    /// The first `count` internal signals as they sit in the word: each above the previous one,
-    /// the first at bit 0.
-    pub(crate) fn internals_packed(self, count: usize) -> u64 {
-        let width: u32 = INTERNAL_SIGNALS[..count].iter().map(|s| s.width).sum();
-        self.0 >> INTERNAL_SHIFTS[0] & (u64::MAX >> (64 - width))
+    /// The core probes (the first internal signals) as they sit in the word: each above the
+    /// previous one, the first at bit 0.
+    pub(crate) fn core_probe_bits(self) -> u64 {
+        self.0 >> INTERNAL_SHIFTS[0] & ((1 << CORE_PROBE_BITS) - 1)
     }
 
     /// Internal signal `index` of [`sources::INTERNAL_SIGNALS`].

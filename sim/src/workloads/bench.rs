@@ -16,6 +16,7 @@ use crate::engine::time::{ClockSpec, FS_PER_MS};
 use crate::engine::{Device, DeviceId, Engine};
 use crate::host::sja1000::{
     enter_operating_mode, read_rx_message, release_rx, set_up_pelican, transmit, PelicanSetup,
+    BTR0_125K_SJW2_AT_16MHZ, BTR0_1M_SJW2_AT_16MHZ, BTR0_250K_SJW2_AT_16MHZ,
     BTR0_500K_SJW2_AT_16MHZ, BTR1_1M_AT_16MHZ, BTR1_500K_AT_16MHZ,
 };
 use crate::host::Host;
@@ -47,10 +48,10 @@ pub struct BitRate {
 impl BitRate {
     /// The rates `cansim bench --bit-rate` offers.
     pub const ALL: [BitRate; 4] = [
-        BitRate::new(125, 0x43, BTR1_500K_AT_16MHZ),
-        BitRate::new(250, 0x41, BTR1_500K_AT_16MHZ),
+        BitRate::new(125, BTR0_125K_SJW2_AT_16MHZ, BTR1_500K_AT_16MHZ),
+        BitRate::new(250, BTR0_250K_SJW2_AT_16MHZ, BTR1_500K_AT_16MHZ),
         BitRate::REFERENCE,
-        BitRate::new(1000, BTR0_500K_SJW2_AT_16MHZ, BTR1_1M_AT_16MHZ),
+        BitRate::new(1000, BTR0_1M_SJW2_AT_16MHZ, BTR1_1M_AT_16MHZ),
     ];
 
     /// The reference workload's 500 kbit/s.
