@@ -11,6 +11,7 @@
 `define ProtocolState_Suspend 4'd11
 `define ProtocolState_ErrorFlag 4'd12
 `define ProtocolState_BusOff 4'd15
+`define SyncMode_Hard 1'd0
 `define PortState_Idle 2'd0
 `define PortState_Capture 2'd2
 `define ApbState_Idle 2'd0

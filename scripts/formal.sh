@@ -8,6 +8,8 @@
 # Each formal/NAME.sv is a harness module NAME that instantiates a block of the controller, leaves the
 # block's inputs free but for the assumptions it states, and asserts the rule. Its `//!` header lines:
 #   //! read: FILE...          Verilog files of fpga/rtl/ the harness needs (can_controller.v, ...)
+#   //! reference: FILE...     Verilog files of formal/reference/ (a block as it was before a
+#                              restructuring, for an equivalence proof; never mutated)
 #   //! connect: WIRE = PATH   a harness wire driven by a wire inside the flattened design
 #   //! bmc: N                 bounded model check of N steps from reset (always run first)
 #   //! prove: pdr             then a proof for every depth (optional; without it the result is
@@ -58,6 +60,7 @@ build_model() {
   script=$out/model.ys
   {
     for file in $(header read "$sv"); do echo "read_verilog -sv $vdir/$file"; done
+    for file in $(header reference "$sv"); do echo "read_verilog -sv formal/reference/$file"; done
     echo "setattr -unset init w:*"
     echo "read_verilog -sv -formal $sv"
     echo "hierarchy -check -top $name"

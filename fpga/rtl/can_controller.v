@@ -1313,6 +1313,10 @@ module top$core$bit_timing(clock,reset,rx,brp,tseg1,tseg2,sjw,sam,sync_mode,tx_d
     output reg  hard_synced;
     output reg  resynced;
     
+    // Constant declarations
+    localparam  elapsed_over_sjw = 3'b100;
+    localparam  minus_one = 5'b11111;
+    
     // Enums
     localparam SyncMode$Hard = 0;
     localparam SyncMode$Resync = 1;
@@ -1332,12 +1336,12 @@ module top$core$bit_timing(clock,reset,rx,brp,tseg1,tseg2,sjw,sam,sync_mode,tx_d
     reg  [1:0] segment_state$d;
     wire  [1:0] segment_state$q;
     reg  segment_state$clock;
-    reg  [4:0] quantum$d;
-    wire  [4:0] quantum$q;
-    reg  quantum$clock;
-    reg  [4:0] last_quantum$d;
-    wire  [4:0] last_quantum$q;
-    reg  last_quantum$clock;
+    reg  [4:0] remaining$d;
+    wire  [4:0] remaining$q;
+    reg  remaining$clock;
+    reg  [2:0] elapsed$d;
+    wire  [2:0] elapsed$q;
+    reg  elapsed$clock;
     reg  [6:0] clocks$d;
     wire  [6:0] clocks$q;
     reg  clocks$clock;
@@ -1360,11 +1364,11 @@ module top$core$bit_timing(clock,reset,rx,brp,tseg1,tseg2,sjw,sam,sync_mode,tx_d
     // Local signals
     reg  [6:0] last_clock;
     reg  [4:0] sjw_field;
-    reg  [4:0] quantum_plus_sjw_quanta;
-    reg  [4:0] sjw_adjust;
+    reg  [2:0] sjw_field_narrow;
+    reg  [4:0] remaining_step;
     reg  quantum_end;
     reg  segment_end;
-    reg  [4:0] last_quantum_now;
+    reg  sync_edge;
     reg  hard_sync_now;
     reg  restart_late;
     reg  restart_early;
@@ -1390,15 +1394,15 @@ module top$core$bit_timing(clock,reset,rx,brp,tseg1,tseg2,sjw,sam,sync_mode,tx_d
         .q(segment_state$q),
         .clock(segment_state$clock)
     );
-    top$core$bit_timing$quantum quantum(
-        .d(quantum$d),
-        .q(quantum$q),
-        .clock(quantum$clock)
+    top$core$bit_timing$remaining remaining(
+        .d(remaining$d),
+        .q(remaining$q),
+        .clock(remaining$clock)
     );
-    top$core$bit_timing$last_quantum last_quantum(
-        .d(last_quantum$d),
-        .q(last_quantum$q),
-        .clock(last_quantum$clock)
+    top$core$bit_timing$elapsed elapsed(
+        .d(elapsed$d),
+        .q(elapsed$q),
+        .clock(elapsed$clock)
     );
     top$core$bit_timing$clocks clocks(
         .d(clocks$d),
@@ -1434,8 +1438,8 @@ module top$core$bit_timing(clock,reset,rx,brp,tseg1,tseg2,sjw,sam,sync_mode,tx_d
     // Update code
     always @(*) begin
         segment_state$clock = clock;
-        quantum$clock = clock;
-        last_quantum$clock = clock;
+        remaining$clock = clock;
+        elapsed$clock = clock;
         clocks$clock = clock;
         synced$clock = clock;
         sampled$clock = clock;
@@ -1443,8 +1447,8 @@ module top$core$bit_timing(clock,reset,rx,brp,tseg1,tseg2,sjw,sam,sync_mode,tx_d
         transmit_deferred$clock = clock;
         sjw_quanta$clock = clock;
         segment_state$d = segment_state$q;
-        quantum$d = quantum$q;
-        last_quantum$d = last_quantum$q;
+        remaining$d = remaining$q;
+        elapsed$d = elapsed$q;
         clocks$d = clocks$q;
         synced$d = synced$q;
         sampled$d = sampled$q;
@@ -1457,8 +1461,8 @@ module top$core$bit_timing(clock,reset,rx,brp,tseg1,tseg2,sjw,sam,sync_mode,tx_d
         sampling$sam = sam;
         last_clock = (((((((((brp) & 7'h7f) & ~(1 << (32'h6)) | ((brp[32'h5]) << (32'h6))) & ~(1 << (32'h5)) | ((brp[32'h4]) << (32'h5))) & ~(1 << (32'h4)) | ((brp[32'h3]) << (32'h4))) & ~(1 << (32'h3)) | ((brp[32'h2]) << (32'h3))) & ~(1 << (32'h2)) | ((brp[32'h1]) << (32'h2))) & ~(1 << (32'h1)) | ((brp[32'h0]) << (32'h1))) & ~(1 << (32'h0)) | ((1'b1) << (32'h0)));
         sjw_field = ((sjw) & 5'h1f);
+        sjw_field_narrow = ((sjw) & 3'h7);
         sjw_quanta$d = ((sjw) & 5'h1f) + 32'h1;
-        quantum_plus_sjw_quanta = quantum$q + sjw_quanta$q;
         quantum_end = clocks$q >= last_clock;
         hard_sync_now = 1'b0;
         restart_late = 1'b0;
@@ -1466,7 +1470,8 @@ module top$core$bit_timing(clock,reset,rx,brp,tseg1,tseg2,sjw,sam,sync_mode,tx_d
         lengthen = 1'b0;
         shorten = 1'b0;
         zero_phase = 1'b0;
-        if (sampling$falling_edge & sampled$q & ~synced$q) begin
+        sync_edge = sampling$falling_edge & sampled$q & ~synced$q;
+        if (sync_edge) begin
             case (sync_mode)
                 SyncMode$Hard:
                     begin
@@ -1482,7 +1487,7 @@ module top$core$bit_timing(clock,reset,rx,brp,tseg1,tseg2,sjw,sam,sync_mode,tx_d
                             Segment$Tseg1:
                                 begin
                                     if (~tx_dominant) begin
-                                        if (quantum$q <= sjw_field) begin
+                                        if (elapsed$q <= sjw_field_narrow) begin
                                             restart_late = 1'b1;
                                         end
                                         else begin
@@ -1492,7 +1497,7 @@ module top$core$bit_timing(clock,reset,rx,brp,tseg1,tseg2,sjw,sam,sync_mode,tx_d
                                 end
                             Segment$Tseg2:
                                 begin
-                                    if (last_quantum$q < quantum_plus_sjw_quanta) begin
+                                    if (remaining$q <= sjw_field) begin
                                         restart_early = 1'b1;
                                     end
                                     else begin
@@ -1504,55 +1509,65 @@ module top$core$bit_timing(clock,reset,rx,brp,tseg1,tseg2,sjw,sam,sync_mode,tx_d
             endcase
         end
         restart = hard_sync_now | restart_late | restart_early;
-        sjw_adjust = sjw_quanta$q;
+        segment_end = quantum_end & (remaining$q == 32'h0) & ~lengthen;
         if (shorten) begin
-            sjw_adjust = ~sjw_field;
+            segment_end = quantum_end & (remaining$q == sjw_quanta$q);
         end
-        last_quantum_now = last_quantum$q;
-        if (lengthen | shorten) begin
-            last_quantum_now = last_quantum$q + sjw_adjust;
+        remaining_step = 32'h0;
+        if (quantum_end) begin
+            remaining_step = minus_one;
         end
-        segment_end = quantum_end & (quantum$q == last_quantum$q) & ~lengthen;
+        if (lengthen) begin
+            remaining_step = sjw_quanta$q;
+            if (quantum_end) begin
+                remaining_step = sjw_field;
+            end
+        end
         if (shorten) begin
-            segment_end = quantum_end & (quantum_plus_sjw_quanta == last_quantum$q);
+            remaining_step = ~sjw_field;
+            if (quantum_end) begin
+                remaining_step = ~sjw_quanta$q;
+            end
         end
         clocks$d = clocks$q + 32'h1;
-        last_quantum$d = last_quantum_now;
+        remaining$d = remaining$q + remaining_step;
         if (quantum_end) begin
             clocks$d = 32'h0;
-            quantum$d = quantum$q + 32'h1;
+            if (elapsed$q != elapsed_over_sjw) begin
+                elapsed$d = elapsed$q + 32'h1;
+            end
         end
         if (segment_end) begin
-            quantum$d = 32'h0;
+            elapsed$d = 32'h0;
             case (segment_state$q)
                 Segment$Sync:
                     begin
                         segment_state$d = Segment$Tseg1;
-                        last_quantum$d = ((tseg1) & 5'h1f);
+                        remaining$d = ((tseg1) & 5'h1f);
                     end
                 Segment$Tseg1:
                     begin
                         segment_state$d = Segment$Tseg2;
-                        last_quantum$d = ((tseg2) & 5'h1f);
+                        remaining$d = ((tseg2) & 5'h1f);
                     end
                 Segment$Tseg2:
                     begin
                         segment_state$d = Segment$Sync;
-                        last_quantum$d = 32'h0;
+                        remaining$d = 32'h0;
                     end
             endcase
         end
         if (restart) begin
             segment_state$d = Segment$Sync;
-            quantum$d = 32'h0;
+            elapsed$d = 32'h0;
             clocks$d = 32'h1;
-            last_quantum$d = 32'h0;
+            remaining$d = 32'h0;
         end
         sampling$quantum_end = quantum_end & ~restart;
-        sample_point = (segment_state$q == Segment$Tseg1) & segment_end & ~restart & ~reset;
+        sample_point = (segment_state$q == Segment$Tseg1) & quantum_end & (remaining$q == 32'h0) & ~(sync_edge & ~((sync_mode == SyncMode$Resync) & tx_dominant)) & ~reset;
         process_pending$d = sample_point;
         process_point = process_pending$q;
-        transmit_now = ((segment_state$q == Segment$Sync) & (quantum$q == 32'h0) & (clocks$q == 32'h0)) | hard_sync_now | restart_early;
+        transmit_now = ((segment_state$q == Segment$Sync) & (clocks$q == 32'h0)) | hard_sync_now | restart_early;
         transmit_point = (transmit_now & ~process_pending$q & ~reset) | transmit_deferred$q;
         transmit_deferred$d = transmit_now & process_pending$q;
         rx_bit = sampled$q;
@@ -1571,9 +1586,9 @@ module top$core$bit_timing(clock,reset,rx,brp,tseg1,tseg2,sjw,sam,sync_mode,tx_d
         end
         if (reset) begin
             segment_state$d = Segment$Sync;
-            quantum$d = 32'h0;
+            elapsed$d = 32'h0;
             clocks$d = 32'h0;
-            last_quantum$d = 32'h0;
+            remaining$d = 32'h0;
             synced$d = 1'b0;
             sampled$d = 1'b1;
             process_pending$d = 1'b0;
@@ -1604,23 +1619,23 @@ module top$core$bit_timing$clocks(d,q,clock);
 endmodule // top$core$bit_timing$clocks
 
 
-module top$core$bit_timing$last_quantum(d,q,clock);
+module top$core$bit_timing$elapsed(d,q,clock);
     
     // Module arguments
-    input wire  [4:0] d;
-    output reg  [4:0] q;
+    input wire  [2:0] d;
+    output reg  [2:0] q;
     input wire  clock;
     
     // Update code (custom)
     initial begin
-       q = 5'h0;
+       q = 3'h0;
     end
     
     always @(posedge clock) begin
        q <= d;
     end
           
-endmodule // top$core$bit_timing$last_quantum
+endmodule // top$core$bit_timing$elapsed
 
 
 module top$core$bit_timing$process_pending(d,q,clock);
@@ -1642,7 +1657,7 @@ module top$core$bit_timing$process_pending(d,q,clock);
 endmodule // top$core$bit_timing$process_pending
 
 
-module top$core$bit_timing$quantum(d,q,clock);
+module top$core$bit_timing$remaining(d,q,clock);
     
     // Module arguments
     input wire  [4:0] d;
@@ -1658,7 +1673,7 @@ module top$core$bit_timing$quantum(d,q,clock);
        q <= d;
     end
           
-endmodule // top$core$bit_timing$quantum
+endmodule // top$core$bit_timing$remaining
 
 
 module top$core$bit_timing$sampled(d,q,clock);

@@ -28,9 +28,13 @@
 
 use rust_hdl::prelude::*;
 
-use crate::activity::{Activity, ActivityBlock};
+use crate::activity::{Activity, ActivityBlock, BlockDefault};
 
 use crate::bus_sampling::BusSampling;
+
+/// Where `elapsed` stops counting: the largest SJW (BTR0.7..6 = 3) is 4 quanta, and an edge that
+/// many quanta into TSEG1 is past every SJW.
+const ELAPSED_OVER_SJW: u64 = 4;
 
 /// The segment of the bit time the bit timing logic is in.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, LogicState)]
@@ -53,7 +57,7 @@ pub enum SyncMode {
 }
 
 /// The bit timing logic of one CAN node (SJA1000 BTL).
-#[derive(ActivityBlock, Default)]
+#[derive(ActivityBlock, BlockDefault)]
 pub struct BitTiming {
     /// Simulation bookkeeping (see `crate::activity`); not hardware.
     activity: Activity,
@@ -93,8 +97,18 @@ pub struct BitTiming {
     pub resynced: Signal<Out, Bit>,
     sampling: BusSampling,
     segment_state: DFF<Segment>,
-    quantum: DFF<Bits<5>>,
-    last_quantum: DFF<Bits<5>>,
+    /// Quanta of the segment after the current one: the segment ends with the quantum in which
+    /// this is 0. Counting down the rest (instead of up to a last quantum) makes every
+    /// resynchronisation decision a comparison of registers with SJW, with no adder in front.
+    remaining: DFF<Bits<5>>,
+    /// Quanta since the end of Sync, saturating at `ELAPSED_OVER_SJW` (more than any SJW): the phase
+    /// error of an edge in TSEG1 matters only in its comparison with SJW.
+    elapsed: DFF<Bits<3>>,
+    #[constant(ELAPSED_OVER_SJW)]
+    elapsed_over_sjw: Constant<Bits<3>>,
+    /// -1 in the remaining-quanta count.
+    #[constant(0x1F)]
+    minus_one: Constant<Bits<5>>,
     clocks: DFF<Bits<7>>,
     synced: DFF<Bit>,
     sampled: DFF<Bit>,
@@ -102,15 +116,18 @@ pub struct BitTiming {
     transmit_deferred: DFF<Bit>,
     last_clock: Signal<Local, Bits<7>>,
     sjw_field: Signal<Local, Bits<5>>,
-    /// SJW in quanta (the field + 1), registered: the adder stays off the resynchronisation path,
-    /// the longest of the design. SJW changes only in reset mode, where the protocol engine asks for
-    /// hard synchronisation only, so the clock of delay is never seen.
+    sjw_field_narrow: Signal<Local, Bits<3>>,
+    /// SJW in quanta (the field + 1), registered: the adder stays off the resynchronisation path.
+    /// SJW changes only in reset mode, where the protocol engine asks for hard synchronisation
+    /// only, so the clock of delay is never seen.
     sjw_quanta: DFF<Bits<5>>,
-    quantum_plus_sjw_quanta: Signal<Local, Bits<5>>,
-    sjw_adjust: Signal<Local, Bits<5>>,
+    /// What the remaining quanta change by in this clock: -1 at a quantum's end, +- SJW quanta.
+    remaining_step: Signal<Local, Bits<5>>,
     quantum_end: Signal<Local, Bit>,
     segment_end: Signal<Local, Bit>,
-    last_quantum_now: Signal<Local, Bits<5>>,
+    /// A recessive to dominant edge that may synchronise: the bit before was sampled recessive and
+    /// no synchronisation happened since.
+    sync_edge: Signal<Local, Bit>,
     hard_sync_now: Signal<Local, Bit>,
     restart_late: Signal<Local, Bit>,
     restart_early: Signal<Local, Bit>,
@@ -128,8 +145,8 @@ impl Logic for BitTiming {
             self,
             clock,
             segment_state,
-            quantum,
-            last_quantum,
+            remaining,
+            elapsed,
             clocks,
             synced,
             sampled,
@@ -153,9 +170,8 @@ impl Logic for BitTiming {
             .replace_bit(1, self.brp.val().get_bit(0))
             .replace_bit(0, true);
         self.sjw_field.next = bit_cast::<5, 2>(self.sjw.val());
+        self.sjw_field_narrow.next = bit_cast::<3, 2>(self.sjw.val());
         self.sjw_quanta.d.next = bit_cast::<5, 2>(self.sjw.val()) + 1;
-        // Quanta values stay below 32: no wrap-around in these sums.
-        self.quantum_plus_sjw_quanta.next = self.quantum.q.val() + self.sjw_quanta.q.val();
         self.quantum_end.next = self.clocks.q.val() >= self.last_clock.val();
 
         // Edge qualification and the kind of synchronisation.
@@ -165,7 +181,9 @@ impl Logic for BitTiming {
         self.lengthen.next = false;
         self.shorten.next = false;
         self.zero_phase.next = false;
-        if self.sampling.falling_edge.val() & self.sampled.q.val() & !self.synced.q.val() {
+        self.sync_edge.next =
+            self.sampling.falling_edge.val() & self.sampled.q.val() & !self.synced.q.val();
+        if self.sync_edge.val() {
             match self.sync_mode.val() {
                 SyncMode::Hard => {
                     self.hard_sync_now.next = true;
@@ -176,7 +194,7 @@ impl Logic for BitTiming {
                     }
                     Segment::Tseg1 => {
                         if !self.tx_dominant.val() {
-                            if self.quantum.q.val() <= self.sjw_field.val() {
+                            if self.elapsed.q.val() <= self.sjw_field_narrow.val() {
                                 self.restart_late.next = true;
                             } else {
                                 self.lengthen.next = true;
@@ -184,8 +202,8 @@ impl Logic for BitTiming {
                         }
                     }
                     Segment::Tseg2 => {
-                        // last_quantum <= quantum + the SJW field, with the sum already made.
-                        if self.last_quantum.q.val() < self.quantum_plus_sjw_quanta.val() {
+                        // |e| = the current quantum and the remaining ones: |e| <= SJW quanta.
+                        if self.remaining.q.val() <= self.sjw_field.val() {
                             self.restart_early.next = true;
                         } else {
                             self.shorten.next = true;
@@ -196,71 +214,83 @@ impl Logic for BitTiming {
         }
         self.restart.next =
             self.hard_sync_now.val() | self.restart_late.val() | self.restart_early.val();
-        // One adder for both adjustments: + SJW quanta, or - SJW quanta = the SJW field inverted.
-        self.sjw_adjust.next = self.sjw_quanta.q.val();
+        // A lengthened TSEG1 does not end now; a shortened TSEG2 ends with this quantum exactly
+        // when SJW quanta remain after it.
+        self.segment_end.next =
+            self.quantum_end.val() & (self.remaining.q.val() == 0) & !self.lengthen.val();
         if self.shorten.val() {
-            self.sjw_adjust.next = !self.sjw_field.val();
+            self.segment_end.next =
+                self.quantum_end.val() & (self.remaining.q.val() == self.sjw_quanta.q.val());
         }
-        self.last_quantum_now.next = self.last_quantum.q.val();
-        if self.lengthen.val() | self.shorten.val() {
-            self.last_quantum_now.next = self.last_quantum.q.val() + self.sjw_adjust.val();
+        // One adder for the quantum's end (-1) and the adjustment (+ SJW quanta, or - SJW quanta =
+        // the SJW field inverted), both at once: sjw_field = SJW quanta - 1.
+        self.remaining_step.next = 0.into();
+        if self.quantum_end.val() {
+            self.remaining_step.next = self.minus_one.val();
         }
-        // The end of the segment as `quantum >= last_quantum_now`, but compared on registers only,
-        // beside the edge decision instead of after the adjusted length (the longest path of the
-        // design otherwise): quantum <= last_quantum always holds (quantum counts up to it, and
-        // both restart at 0), so the segment ends when they are equal, a lengthened TSEG1 does not
-        // end now, and a shortened TSEG2 ends now exactly when quantum + SJW quanta is its last
-        // quantum.
-        self.segment_end.next = self.quantum_end.val()
-            & (self.quantum.q.val() == self.last_quantum.q.val())
-            & !self.lengthen.val();
+        if self.lengthen.val() {
+            self.remaining_step.next = self.sjw_quanta.q.val();
+            if self.quantum_end.val() {
+                self.remaining_step.next = self.sjw_field.val();
+            }
+        }
         if self.shorten.val() {
-            self.segment_end.next = self.quantum_end.val()
-                & (self.quantum_plus_sjw_quanta.val() == self.last_quantum.q.val());
+            self.remaining_step.next = !self.sjw_field.val();
+            if self.quantum_end.val() {
+                self.remaining_step.next = !self.sjw_quanta.q.val();
+            }
         }
 
         // Prescaler and segment sequencing.
         self.clocks.d.next = self.clocks.q.val() + 1;
-        self.last_quantum.d.next = self.last_quantum_now.val();
+        self.remaining.d.next = self.remaining.q.val() + self.remaining_step.val();
         if self.quantum_end.val() {
             self.clocks.d.next = 0.into();
-            self.quantum.d.next = self.quantum.q.val() + 1;
+            if self.elapsed.q.val() != self.elapsed_over_sjw.val() {
+                self.elapsed.d.next = self.elapsed.q.val() + 1;
+            }
         }
         if self.segment_end.val() {
-            self.quantum.d.next = 0.into();
+            self.elapsed.d.next = 0.into();
             match self.segment_state.q.val() {
                 Segment::Sync => {
                     self.segment_state.d.next = Segment::Tseg1;
-                    self.last_quantum.d.next = bit_cast::<5, 4>(self.tseg1.val());
+                    self.remaining.d.next = bit_cast::<5, 4>(self.tseg1.val());
                 }
                 Segment::Tseg1 => {
                     self.segment_state.d.next = Segment::Tseg2;
-                    self.last_quantum.d.next = bit_cast::<5, 3>(self.tseg2.val());
+                    self.remaining.d.next = bit_cast::<5, 3>(self.tseg2.val());
                 }
                 Segment::Tseg2 => {
                     self.segment_state.d.next = Segment::Sync;
-                    self.last_quantum.d.next = 0.into();
+                    self.remaining.d.next = 0.into();
                 }
             }
         }
         // The clock that saw the edge is the first clock of the new Sync segment.
         if self.restart.val() {
             self.segment_state.d.next = Segment::Sync;
-            self.quantum.d.next = 0.into();
+            self.elapsed.d.next = 0.into();
             self.clocks.d.next = 1.into();
-            self.last_quantum.d.next = 0.into();
+            self.remaining.d.next = 0.into();
         }
         self.sampling.quantum_end.next = self.quantum_end.val() & !self.restart.val();
 
         // Triggers.
+        // The last clock of TSEG1 unless an edge restarts or lengthens the bit: every edge taken
+        // in TSEG1 does, but one ignored while sending dominant. Written flat from flip-flops and
+        // the two protocol inputs (not through `segment_end` and `restart`): the sample point
+        // fans out to the whole protocol engine, and this keeps it a few levels deep.
         self.sample_point.next = (self.segment_state.q.val() == Segment::Tseg1)
-            & self.segment_end.val()
-            & !self.restart.val()
+            & self.quantum_end.val()
+            & (self.remaining.q.val() == 0)
+            & !(self.sync_edge.val()
+                & !((self.sync_mode.val() == SyncMode::Resync) & self.tx_dominant.val()))
             & !self.reset.val();
         self.process_pending.d.next = self.sample_point.val();
         self.process_point.next = self.process_pending.q.val();
+        // Sync lasts one quantum: its first clock is the one with `clocks` 0.
         self.transmit_now.next = ((self.segment_state.q.val() == Segment::Sync)
-            & (self.quantum.q.val() == 0)
             & (self.clocks.q.val() == 0))
             | self.hard_sync_now.val()
             | self.restart_early.val();
@@ -292,9 +322,9 @@ impl Logic for BitTiming {
         // The idle bus is recessive (1): start as after a bit sampled recessive.
         if self.reset.val() {
             self.segment_state.d.next = Segment::Sync;
-            self.quantum.d.next = 0.into();
+            self.elapsed.d.next = 0.into();
             self.clocks.d.next = 0.into();
-            self.last_quantum.d.next = 0.into();
+            self.remaining.d.next = 0.into();
             self.synced.d.next = false;
             self.sampled.d.next = true;
             self.process_pending.d.next = false;

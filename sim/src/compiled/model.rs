@@ -2,7 +2,7 @@
 //! from the Verilog of `rtl/` through Yosys; do not edit.
 
 /// Hash of the Verilog this model was made from.
-pub(super) const VERILOG_HASH: u64 = 0xef4f6d464a4b7506;
+pub(super) const VERILOG_HASH: u64 = 0x0c540f42fac31592;
 
 const TABLE_0: [u64; 4] = [0x1fff0000, 0x0, 0x0, 0x0];
 const TABLE_1: [u64; 4] = [0xffffffff00000000, 0xffffffff, 0x0, 0x0];
@@ -323,8 +323,6 @@ pub(super) struct Model {
     v30: u64,
     v31: u64,
     v32: u64,
-    v35: u64,
-    v36: u64,
     v37: u64,
     v38: u64,
     v39: u64,
@@ -370,7 +368,7 @@ pub(super) struct Model {
     v80: u64,
     v81: u64,
     v82: u64,
-    v84: u64,
+    v83: u64,
     v85: u64,
     v86: u64,
     v87: u64,
@@ -384,50 +382,48 @@ pub(super) struct Model {
     v95: u64,
     v96: u64,
     v97: u64,
-    v106: u64,
-    v108: u64,
+    v98: u64,
+    v107: u64,
     v109: u64,
     v110: u64,
-    v111: u64,
-    v114: u64,
-    v120: u64,
-    v121: u64,
-    v129: u64,
-    v130: u64,
-    v135: u64,
+    v112: u64,
+    v115: u64,
+    v122: u64,
+    v123: u64,
+    v131: u64,
+    v132: u64,
+    v137: u64,
     v138: u64,
-    v139: u64,
-    v142: u64,
-    v144: u64,
+    v140: u64,
+    v143: u64,
     v145: u64,
+    v146: u64,
     v148: u64,
-    v150: u64,
+    v152: u64,
     v153: u64,
-    v158: u64,
+    v156: u64,
+    v159: u64,
     v161: u64,
-    v164: u64,
     v165: u64,
+    v170: u64,
     v171: u64,
-    v177: u64,
-    v178: u64,
-    v179: u64,
+    v176: u64,
     v182: u64,
+    v183: u64,
     v184: u64,
-    v185: u64,
-    v186: u64,
+    v187: u64,
+    v189: u64,
+    v190: u64,
     v191: u64,
+    v192: u64,
+    v193: u64,
     v195: u64,
-    v196: u64,
-    v197: u64,
-    v198: u64,
-    v199: u64,
-    v200: u64,
-    v212: u64,
-    v219: u64,
-    v220: u64,
-    v221: u64,
-    v222: u64,
-    v223: u64,
+    v202: u64,
+    v203: u64,
+    v204: u64,
+    v205: u64,
+    v206: u64,
+    v218: u64,
     v225: u64,
     v226: u64,
     v227: u64,
@@ -435,83 +431,79 @@ pub(super) struct Model {
     v229: u64,
     v231: u64,
     v232: u64,
-    v242: u64,
-    v244: u64,
+    v233: u64,
+    v234: u64,
+    v236: u64,
+    v237: u64,
     v247: u64,
-    v248: u64,
     v249: u64,
-    v250: u64,
+    v252: u64,
     v253: u64,
-    v260: u64,
-    v261: u64,
+    v254: u64,
+    v255: u64,
+    v258: u64,
     v265: u64,
-    v269: u64,
-    v270: u64,
+    v266: u64,
+    v267: u64,
     v271: u64,
-    v273: u64,
     v275: u64,
     v276: u64,
     v277: u64,
-    v278: u64,
+    v279: u64,
     v281: u64,
     v282: u64,
-    v300: u64,
-    v301: u64,
-    v304: u64,
+    v283: u64,
+    v284: u64,
+    v287: u64,
+    v288: u64,
     v306: u64,
-    v308: u64,
-    v309: u64,
+    v307: u64,
     v310: u64,
-    v311: u64,
-    v313: u64,
+    v312: u64,
     v314: u64,
     v315: u64,
     v316: u64,
+    v317: u64,
     v319: u64,
     v320: u64,
     v321: u64,
     v322: u64,
+    v325: u64,
     v326: u64,
-    v330: u64,
-    v334: u64,
-    v338: u64,
-    v339: u64,
+    v327: u64,
+    v328: u64,
+    v332: u64,
+    v336: u64,
     v340: u64,
-    v347: u64,
-    v348: u64,
-    v349: u64,
-    v350: u64,
-    v351: u64,
-    v352: u64,
-    v356: u64,
-    v357: u64,
-    v361: u64,
+    v344: u64,
+    v345: u64,
+    v346: u64,
+    v353: u64,
+    v354: u64,
+    v355: u64,
     v362: u64,
-    v371: u64,
-    v372: u64,
-    v373: u64,
-    v375: u64,
+    v363: u64,
+    v367: u64,
+    v368: u64,
     v377: u64,
+    v378: u64,
     v379: u64,
-    v380: u64,
-    v384: u64,
-    v388: u64,
+    v381: u64,
+    v383: u64,
+    v385: u64,
+    v386: u64,
     v390: u64,
-    v391: u64,
-    v400: u64,
-    v403: u64,
-    v415: u64,
-    v419: u64,
-    v423: u64,
+    v394: u64,
+    v396: u64,
+    v397: u64,
+    v406: u64,
+    v409: u64,
+    v421: u64,
     v425: u64,
-    v427: u64,
-    v443: u64,
-    v453: u64,
-    v454: u64,
-    v455: u64,
-    v456: u64,
-    v457: u64,
-    v458: u64,
+    v429: u64,
+    v431: u64,
+    v433: u64,
+    v449: u64,
     v459: u64,
     v460: u64,
     v461: u64,
@@ -522,12 +514,12 @@ pub(super) struct Model {
     v466: u64,
     v467: u64,
     v468: u64,
+    v469: u64,
     v470: u64,
     v471: u64,
     v472: u64,
     v473: u64,
     v474: u64,
-    v475: u64,
     v476: u64,
     v477: u64,
     v478: u64,
@@ -541,58 +533,58 @@ pub(super) struct Model {
     v486: u64,
     v487: u64,
     v488: u64,
+    v489: u64,
+    v490: u64,
+    v491: u64,
+    v492: u64,
+    v493: u64,
     v494: u64,
-    v496: u64,
-    v497: u64,
-    v499: u64,
     v500: u64,
     v501: u64,
-    v502: u64,
     v503: u64,
+    v504: u64,
     v506: u64,
-    v511: u64,
-    v512: u64,
+    v507: u64,
+    v508: u64,
+    v509: u64,
+    v510: u64,
     v513: u64,
-    v514: u64,
-    v516: u64,
-    v517: u64,
     v518: u64,
     v519: u64,
     v520: u64,
     v521: u64,
+    v523: u64,
     v524: u64,
     v525: u64,
+    v526: u64,
     v527: u64,
-    v529: u64,
+    v528: u64,
+    v531: u64,
     v532: u64,
-    v533: u64,
     v534: u64,
-    v535: u64,
-    v546: u64,
-    v547: u64,
-    v549: u64,
+    v536: u64,
+    v539: u64,
+    v540: u64,
+    v541: u64,
+    v542: u64,
+    v553: u64,
     v554: u64,
-    v558: u64,
-    v571: u64,
-    v585: u64,
-    v591: u64,
+    v556: u64,
+    v561: u64,
+    v565: u64,
+    v578: u64,
+    v592: u64,
     v598: u64,
-    v600: u64,
-    v622: u64,
-    v628: u64,
+    v605: u64,
+    v607: u64,
     v629: u64,
-    v630: u64,
-    v633: u64,
     v635: u64,
+    v636: u64,
     v637: u64,
-    v639: u64,
-    v647: u64,
-    v648: u64,
-    v649: u64,
-    v650: u64,
-    v651: u64,
-    v652: u64,
-    v653: u64,
+    v640: u64,
+    v642: u64,
+    v644: u64,
+    v646: u64,
     v654: u64,
     v655: u64,
     v656: u64,
@@ -601,63 +593,58 @@ pub(super) struct Model {
     v659: u64,
     v660: u64,
     v661: u64,
+    v662: u64,
     v663: u64,
     v664: u64,
+    v665: u64,
+    v666: u64,
     v667: u64,
+    v668: u64,
     v670: u64,
     v671: u64,
-    v672: u64,
-    v673: u64,
-    v674: u64,
+    v677: u64,
+    v678: u64,
     v679: u64,
+    v680: u64,
     v681: u64,
-    v683: u64,
-    v684: u64,
-    v685: u64,
+    v686: u64,
+    v688: u64,
     v690: u64,
     v691: u64,
-    v693: u64,
-    v694: u64,
-    v696: u64,
+    v692: u64,
+    v697: u64,
     v698: u64,
-    v699: u64,
-    v704: u64,
+    v700: u64,
+    v701: u64,
+    v703: u64,
     v706: u64,
-    v708: u64,
-    v712: u64,
+    v711: u64,
     v713: u64,
-    v714: u64,
     v715: u64,
-    v716: u64,
-    v717: u64,
     v719: u64,
     v720: u64,
     v721: u64,
     v722: u64,
     v723: u64,
     v724: u64,
-    v725: u64,
-    v726: u64,
-    v728: u64,
+    v729: u64,
     v730: u64,
-    v734: u64,
-    v736: u64,
+    v731: u64,
+    v732: u64,
+    v733: u64,
+    v735: u64,
     v737: u64,
     v741: u64,
-    v742: u64,
     v743: u64,
-    v745: u64,
-    v747: u64,
+    v744: u64,
     v748: u64,
     v749: u64,
     v750: u64,
+    v752: u64,
     v754: u64,
     v755: u64,
     v756: u64,
     v757: u64,
-    v758: u64,
-    v759: u64,
-    v760: u64,
     v761: u64,
     v762: u64,
     v763: u64,
@@ -668,123 +655,132 @@ pub(super) struct Model {
     v768: u64,
     v769: u64,
     v770: u64,
+    v771: u64,
+    v772: u64,
+    v773: u64,
+    v774: u64,
+    v775: u64,
     v776: u64,
     v777: u64,
-    v781: u64,
-    v795: u64,
-    v796: u64,
-    v797: u64,
+    v783: u64,
+    v784: u64,
+    v788: u64,
+    v789: u64,
     v798: u64,
-    v799: u64,
-    v800: u64,
-    v801: u64,
     v804: u64,
     v805: u64,
     v806: u64,
     v807: u64,
+    v808: u64,
+    v809: u64,
+    v810: u64,
     v813: u64,
     v814: u64,
     v815: u64,
-    v827: u64,
-    v828: u64,
-    v832: u64,
+    v816: u64,
+    v822: u64,
+    v823: u64,
+    v824: u64,
+    v836: u64,
     v837: u64,
-    v838: u64,
-    v839: u64,
-    v842: u64,
-    v853: u64,
-    v854: u64,
-    v856: u64,
+    v841: u64,
+    v846: u64,
+    v847: u64,
+    v848: u64,
+    v851: u64,
+    v862: u64,
     v863: u64,
+    v865: u64,
     v872: u64,
-    v887: u64,
-    v888: u64,
-    v889: u64,
-    v902: u64,
-    v903: u64,
-    v910: u64,
-    v926: u64,
-    v928: u64,
-    v929: u64,
-    v931: u64,
-    v932: u64,
-    v933: u64,
+    v881: u64,
+    v896: u64,
+    v897: u64,
+    v898: u64,
+    v911: u64,
+    v912: u64,
+    v919: u64,
     v935: u64,
+    v937: u64,
+    v938: u64,
+    v940: u64,
+    v941: u64,
     v943: u64,
-    v944: u64,
-    v947: u64,
-    v949: u64,
-    v950: u64,
-    v952: u64,
-    v953: u64,
+    v951: u64,
     v954: u64,
     v956: u64,
     v957: u64,
-    v965: u64,
-    v966: u64,
-    v967: u64,
-    v975: u64,
-    v976: u64,
-    v977: u64,
-    v978: u64,
-    v979: u64,
+    v959: u64,
+    v960: u64,
+    v961: u64,
+    v963: u64,
+    v964: u64,
+    v972: u64,
+    v973: u64,
+    v974: u64,
+    v981: u64,
+    v982: u64,
     v983: u64,
     v984: u64,
+    v985: u64,
     v986: u64,
-    v987: u64,
-    v988: u64,
     v990: u64,
-    v992: u64,
+    v991: u64,
     v993: u64,
     v994: u64,
     v995: u64,
-    v996: u64,
-    v998: u64,
+    v997: u64,
+    v999: u64,
+    v1000: u64,
+    v1001: u64,
     v1002: u64,
-    v1004: u64,
-    v1020: u64,
-    v1021: u64,
-    v1026: u64,
+    v1003: u64,
+    v1005: u64,
+    v1009: u64,
+    v1011: u64,
     v1027: u64,
-    v1029: u64,
-    v1030: u64,
-    v1035: u64,
+    v1028: u64,
+    v1033: u64,
+    v1034: u64,
     v1036: u64,
     v1037: u64,
-    v1038: u64,
-    v1039: u64,
-    v1040: u64,
-    v1041: u64,
     v1042: u64,
     v1043: u64,
     v1044: u64,
     v1045: u64,
     v1046: u64,
     v1047: u64,
+    v1048: u64,
     v1049: u64,
     v1050: u64,
     v1051: u64,
     v1052: u64,
     v1053: u64,
-    v1069: u64,
-    v1071: u64,
-    v1074: u64,
-    v1077: u64,
+    v1054: u64,
+    v1056: u64,
+    v1057: u64,
+    v1058: u64,
+    v1059: u64,
+    v1060: u64,
+    v1076: u64,
     v1078: u64,
-    v1079: u64,
+    v1081: u64,
     v1084: u64,
     v1085: u64,
     v1086: u64,
-    v1087: u64,
-    v1088: u64,
+    v1091: u64,
+    v1092: u64,
+    v1093: u64,
     v1094: u64,
     v1095: u64,
-    v1099: u64,
-    v1100: u64,
     v1101: u64,
     v1102: u64,
-    v1103: u64,
-    v1104: u64,
+    v1105: u64,
+    v1106: u64,
+    v1107: u64,
+    v1108: u64,
+    v1109: u64,
+    v1110: u64,
+    v1111: u64,
     dirty: u128,
     ran: u128,
     out: u64,
@@ -1102,8 +1098,6 @@ impl Model {
             v30: 0,
             v31: 0,
             v32: 0,
-            v35: 0,
-            v36: 0,
             v37: 0,
             v38: 0,
             v39: 0,
@@ -1149,7 +1143,7 @@ impl Model {
             v80: 0,
             v81: 0,
             v82: 0,
-            v84: 0,
+            v83: 0,
             v85: 0,
             v86: 0,
             v87: 0,
@@ -1163,50 +1157,48 @@ impl Model {
             v95: 0,
             v96: 0,
             v97: 0,
-            v106: 0,
-            v108: 0,
+            v98: 0,
+            v107: 0,
             v109: 0,
             v110: 0,
-            v111: 0,
-            v114: 0,
-            v120: 0,
-            v121: 0,
-            v129: 0,
-            v130: 0,
-            v135: 0,
+            v112: 0,
+            v115: 0,
+            v122: 0,
+            v123: 0,
+            v131: 0,
+            v132: 0,
+            v137: 0,
             v138: 0,
-            v139: 0,
-            v142: 0,
-            v144: 0,
+            v140: 0,
+            v143: 0,
             v145: 0,
+            v146: 0,
             v148: 0,
-            v150: 0,
+            v152: 0,
             v153: 0,
-            v158: 0,
+            v156: 0,
+            v159: 0,
             v161: 0,
-            v164: 0,
             v165: 0,
+            v170: 0,
             v171: 0,
-            v177: 0,
-            v178: 0,
-            v179: 0,
+            v176: 0,
             v182: 0,
+            v183: 0,
             v184: 0,
-            v185: 0,
-            v186: 0,
+            v187: 0,
+            v189: 0,
+            v190: 0,
             v191: 0,
+            v192: 0,
+            v193: 0,
             v195: 0,
-            v196: 0,
-            v197: 0,
-            v198: 0,
-            v199: 0,
-            v200: 0,
-            v212: 0,
-            v219: 0,
-            v220: 0,
-            v221: 0,
-            v222: 0,
-            v223: 0,
+            v202: 0,
+            v203: 0,
+            v204: 0,
+            v205: 0,
+            v206: 0,
+            v218: 0,
             v225: 0,
             v226: 0,
             v227: 0,
@@ -1214,83 +1206,79 @@ impl Model {
             v229: 0,
             v231: 0,
             v232: 0,
-            v242: 0,
-            v244: 0,
+            v233: 0,
+            v234: 0,
+            v236: 0,
+            v237: 0,
             v247: 0,
-            v248: 0,
             v249: 0,
-            v250: 0,
+            v252: 0,
             v253: 0,
-            v260: 0,
-            v261: 0,
+            v254: 0,
+            v255: 0,
+            v258: 0,
             v265: 0,
-            v269: 0,
-            v270: 0,
+            v266: 0,
+            v267: 0,
             v271: 0,
-            v273: 0,
             v275: 0,
             v276: 0,
             v277: 0,
-            v278: 0,
+            v279: 0,
             v281: 0,
             v282: 0,
-            v300: 0,
-            v301: 0,
-            v304: 0,
+            v283: 0,
+            v284: 0,
+            v287: 0,
+            v288: 0,
             v306: 0,
-            v308: 0,
-            v309: 0,
+            v307: 0,
             v310: 0,
-            v311: 0,
-            v313: 0,
+            v312: 0,
             v314: 0,
             v315: 0,
             v316: 0,
+            v317: 0,
             v319: 0,
             v320: 0,
             v321: 0,
             v322: 0,
+            v325: 0,
             v326: 0,
-            v330: 0,
-            v334: 0,
-            v338: 0,
-            v339: 0,
+            v327: 0,
+            v328: 0,
+            v332: 0,
+            v336: 0,
             v340: 0,
-            v347: 0,
-            v348: 0,
-            v349: 0,
-            v350: 0,
-            v351: 0,
-            v352: 0,
-            v356: 0,
-            v357: 0,
-            v361: 0,
+            v344: 0,
+            v345: 0,
+            v346: 0,
+            v353: 0,
+            v354: 0,
+            v355: 0,
             v362: 0,
-            v371: 0,
-            v372: 0,
-            v373: 0,
-            v375: 0,
+            v363: 0,
+            v367: 0,
+            v368: 0,
             v377: 0,
+            v378: 0,
             v379: 0,
-            v380: 0,
-            v384: 0,
-            v388: 0,
+            v381: 0,
+            v383: 0,
+            v385: 0,
+            v386: 0,
             v390: 0,
-            v391: 0,
-            v400: 0,
-            v403: 0,
-            v415: 0,
-            v419: 0,
-            v423: 0,
+            v394: 0,
+            v396: 0,
+            v397: 0,
+            v406: 0,
+            v409: 0,
+            v421: 0,
             v425: 0,
-            v427: 0,
-            v443: 0,
-            v453: 0,
-            v454: 0,
-            v455: 0,
-            v456: 0,
-            v457: 0,
-            v458: 0,
+            v429: 0,
+            v431: 0,
+            v433: 0,
+            v449: 0,
             v459: 0,
             v460: 0,
             v461: 0,
@@ -1301,12 +1289,12 @@ impl Model {
             v466: 0,
             v467: 0,
             v468: 0,
+            v469: 0,
             v470: 0,
             v471: 0,
             v472: 0,
             v473: 0,
             v474: 0,
-            v475: 0,
             v476: 0,
             v477: 0,
             v478: 0,
@@ -1320,58 +1308,58 @@ impl Model {
             v486: 0,
             v487: 0,
             v488: 0,
+            v489: 0,
+            v490: 0,
+            v491: 0,
+            v492: 0,
+            v493: 0,
             v494: 0,
-            v496: 0,
-            v497: 0,
-            v499: 0,
             v500: 0,
             v501: 0,
-            v502: 0,
             v503: 0,
+            v504: 0,
             v506: 0,
-            v511: 0,
-            v512: 0,
+            v507: 0,
+            v508: 0,
+            v509: 0,
+            v510: 0,
             v513: 0,
-            v514: 0,
-            v516: 0,
-            v517: 0,
             v518: 0,
             v519: 0,
             v520: 0,
             v521: 0,
+            v523: 0,
             v524: 0,
             v525: 0,
+            v526: 0,
             v527: 0,
-            v529: 0,
+            v528: 0,
+            v531: 0,
             v532: 0,
-            v533: 0,
             v534: 0,
-            v535: 0,
-            v546: 0,
-            v547: 0,
-            v549: 0,
+            v536: 0,
+            v539: 0,
+            v540: 0,
+            v541: 0,
+            v542: 0,
+            v553: 0,
             v554: 0,
-            v558: 0,
-            v571: 0,
-            v585: 0,
-            v591: 0,
+            v556: 0,
+            v561: 0,
+            v565: 0,
+            v578: 0,
+            v592: 0,
             v598: 0,
-            v600: 0,
-            v622: 0,
-            v628: 0,
+            v605: 0,
+            v607: 0,
             v629: 0,
-            v630: 0,
-            v633: 0,
             v635: 0,
+            v636: 0,
             v637: 0,
-            v639: 0,
-            v647: 0,
-            v648: 0,
-            v649: 0,
-            v650: 0,
-            v651: 0,
-            v652: 0,
-            v653: 0,
+            v640: 0,
+            v642: 0,
+            v644: 0,
+            v646: 0,
             v654: 0,
             v655: 0,
             v656: 0,
@@ -1380,63 +1368,58 @@ impl Model {
             v659: 0,
             v660: 0,
             v661: 0,
+            v662: 0,
             v663: 0,
             v664: 0,
+            v665: 0,
+            v666: 0,
             v667: 0,
+            v668: 0,
             v670: 0,
             v671: 0,
-            v672: 0,
-            v673: 0,
-            v674: 0,
+            v677: 0,
+            v678: 0,
             v679: 0,
+            v680: 0,
             v681: 0,
-            v683: 0,
-            v684: 0,
-            v685: 0,
+            v686: 0,
+            v688: 0,
             v690: 0,
             v691: 0,
-            v693: 0,
-            v694: 0,
-            v696: 0,
+            v692: 0,
+            v697: 0,
             v698: 0,
-            v699: 0,
-            v704: 0,
+            v700: 0,
+            v701: 0,
+            v703: 0,
             v706: 0,
-            v708: 0,
-            v712: 0,
+            v711: 0,
             v713: 0,
-            v714: 0,
             v715: 0,
-            v716: 0,
-            v717: 0,
             v719: 0,
             v720: 0,
             v721: 0,
             v722: 0,
             v723: 0,
             v724: 0,
-            v725: 0,
-            v726: 0,
-            v728: 0,
+            v729: 0,
             v730: 0,
-            v734: 0,
-            v736: 0,
+            v731: 0,
+            v732: 0,
+            v733: 0,
+            v735: 0,
             v737: 0,
             v741: 0,
-            v742: 0,
             v743: 0,
-            v745: 0,
-            v747: 0,
+            v744: 0,
             v748: 0,
             v749: 0,
             v750: 0,
+            v752: 0,
             v754: 0,
             v755: 0,
             v756: 0,
             v757: 0,
-            v758: 0,
-            v759: 0,
-            v760: 0,
             v761: 0,
             v762: 0,
             v763: 0,
@@ -1447,123 +1430,132 @@ impl Model {
             v768: 0,
             v769: 0,
             v770: 0,
+            v771: 0,
+            v772: 0,
+            v773: 0,
+            v774: 0,
+            v775: 0,
             v776: 0,
             v777: 0,
-            v781: 0,
-            v795: 0,
-            v796: 0,
-            v797: 0,
+            v783: 0,
+            v784: 0,
+            v788: 0,
+            v789: 0,
             v798: 0,
-            v799: 0,
-            v800: 0,
-            v801: 0,
             v804: 0,
             v805: 0,
             v806: 0,
             v807: 0,
+            v808: 0,
+            v809: 0,
+            v810: 0,
             v813: 0,
             v814: 0,
             v815: 0,
-            v827: 0,
-            v828: 0,
-            v832: 0,
+            v816: 0,
+            v822: 0,
+            v823: 0,
+            v824: 0,
+            v836: 0,
             v837: 0,
-            v838: 0,
-            v839: 0,
-            v842: 0,
-            v853: 0,
-            v854: 0,
-            v856: 0,
+            v841: 0,
+            v846: 0,
+            v847: 0,
+            v848: 0,
+            v851: 0,
+            v862: 0,
             v863: 0,
+            v865: 0,
             v872: 0,
-            v887: 0,
-            v888: 0,
-            v889: 0,
-            v902: 0,
-            v903: 0,
-            v910: 0,
-            v926: 0,
-            v928: 0,
-            v929: 0,
-            v931: 0,
-            v932: 0,
-            v933: 0,
+            v881: 0,
+            v896: 0,
+            v897: 0,
+            v898: 0,
+            v911: 0,
+            v912: 0,
+            v919: 0,
             v935: 0,
+            v937: 0,
+            v938: 0,
+            v940: 0,
+            v941: 0,
             v943: 0,
-            v944: 0,
-            v947: 0,
-            v949: 0,
-            v950: 0,
-            v952: 0,
-            v953: 0,
+            v951: 0,
             v954: 0,
             v956: 0,
             v957: 0,
-            v965: 0,
-            v966: 0,
-            v967: 0,
-            v975: 0,
-            v976: 0,
-            v977: 0,
-            v978: 0,
-            v979: 0,
+            v959: 0,
+            v960: 0,
+            v961: 0,
+            v963: 0,
+            v964: 0,
+            v972: 0,
+            v973: 0,
+            v974: 0,
+            v981: 0,
+            v982: 0,
             v983: 0,
             v984: 0,
+            v985: 0,
             v986: 0,
-            v987: 0,
-            v988: 0,
             v990: 0,
-            v992: 0,
+            v991: 0,
             v993: 0,
             v994: 0,
             v995: 0,
-            v996: 0,
-            v998: 0,
+            v997: 0,
+            v999: 0,
+            v1000: 0,
+            v1001: 0,
             v1002: 0,
-            v1004: 0,
-            v1020: 0,
-            v1021: 0,
-            v1026: 0,
+            v1003: 0,
+            v1005: 0,
+            v1009: 0,
+            v1011: 0,
             v1027: 0,
-            v1029: 0,
-            v1030: 0,
-            v1035: 0,
+            v1028: 0,
+            v1033: 0,
+            v1034: 0,
             v1036: 0,
             v1037: 0,
-            v1038: 0,
-            v1039: 0,
-            v1040: 0,
-            v1041: 0,
             v1042: 0,
             v1043: 0,
             v1044: 0,
             v1045: 0,
             v1046: 0,
             v1047: 0,
+            v1048: 0,
             v1049: 0,
             v1050: 0,
             v1051: 0,
             v1052: 0,
             v1053: 0,
-            v1069: 0,
-            v1071: 0,
-            v1074: 0,
-            v1077: 0,
+            v1054: 0,
+            v1056: 0,
+            v1057: 0,
+            v1058: 0,
+            v1059: 0,
+            v1060: 0,
+            v1076: 0,
             v1078: 0,
-            v1079: 0,
+            v1081: 0,
             v1084: 0,
             v1085: 0,
             v1086: 0,
-            v1087: 0,
-            v1088: 0,
+            v1091: 0,
+            v1092: 0,
+            v1093: 0,
             v1094: 0,
             v1095: 0,
-            v1099: 0,
-            v1100: 0,
             v1101: 0,
             v1102: 0,
-            v1103: 0,
-            v1104: 0,
+            v1105: 0,
+            v1106: 0,
+            v1107: 0,
+            v1108: 0,
+            v1109: 0,
+            v1110: 0,
+            v1111: 0,
             dirty: 0xffffffffffffffffffffffffffffffff,
             ran: 0xffffffffffffffffffffffffffffffff,
             out: 0,
@@ -1573,17 +1565,17 @@ impl Model {
     /// Takes the input word.
     pub(super) fn set_inputs(&mut self, word: u32) {
         let v = (word >> 0) as u64 & 0xff;
-        if v != self.i_wdata { self.i_wdata = v; self.dirty |= 0x6c0002003e00000001d010230000ac0; }
+        if v != self.i_wdata { self.i_wdata = v; self.dirty |= 0x6c00018003e00000001d046802009c0; }
         let v = (word >> 8) as u64 & 0xff;
-        if v != self.i_addr { self.i_addr = v; self.dirty |= 0x224a34; }
+        if v != self.i_addr { self.i_addr = v; self.dirty |= 0x444934; }
         let v = (word >> 16) as u64 & 0x1;
-        if v != self.i_we { self.i_we = v; self.dirty |= 0x10004a04; }
+        if v != self.i_we { self.i_we = v; self.dirty |= 0x400004904; }
         let v = (word >> 17) as u64 & 0x1;
-        if v != self.i_re { self.i_re = v; self.dirty |= 0x20000000000000002000080020100; }
+        if v != self.i_re { self.i_re = v; self.dirty |= 0x20000000000000000200100040200; }
         let v = (word >> 18) as u64 & 0x1;
-        if v != self.i_rx { self.i_rx = v; self.dirty |= 0x8200; }
+        if v != self.i_rx { self.i_rx = v; self.dirty |= 0x8100; }
         let v = (word >> 19) as u64 & 0x1;
-        if v != self.i_reset { self.i_reset = v; self.dirty |= 0x5b4f806fefeddbc9ff3d15a64808fb0c; }
+        if v != self.i_reset { self.i_reset = v; self.dirty |= 0x5b4f805bfefeddbc9ff3d1e9d421fb0c; }
     }
 
     /// The output word computed by the last `eval`.
@@ -1606,8 +1598,8 @@ impl Model {
             if dirty >> 7 & 1 != 0 { self.group_7(&mut dirty); } // top$core$protocol$faults
         }
         if dirty >> 8 & 0xff != 0 {
-            if dirty >> 8 & 1 != 0 { self.group_8(&mut dirty); } // top$interrupts
-            if dirty >> 9 & 1 != 0 { self.group_9(&mut dirty); } // top$modes
+            if dirty >> 8 & 1 != 0 { self.group_8(&mut dirty); } // top$modes
+            if dirty >> 9 & 1 != 0 { self.group_9(&mut dirty); } // top$interrupts
             if dirty >> 10 & 1 != 0 { self.group_10(&mut dirty); } // top$core$protocol$capture
             if dirty >> 11 & 1 != 0 { self.group_11(&mut dirty); } // top$decode
             if dirty >> 12 & 1 != 0 { self.group_12(&mut dirty); } // top$core$protocol
@@ -1616,113 +1608,113 @@ impl Model {
             if dirty >> 15 & 1 != 0 { self.group_15(&mut dirty); } // top$core$bit_timing$sampling
         }
         if dirty >> 16 & 0xff != 0 {
-            if dirty >> 16 & 1 != 0 { self.group_16(&mut dirty); } // top$core$protocol$crc
-            if dirty >> 17 & 1 != 0 { self.group_17(&mut dirty); } // top$read
-            if dirty >> 18 & 1 != 0 { self.group_18(&mut dirty); } // top$tx_buffer
-            if dirty >> 19 & 1 != 0 { self.group_19(&mut dirty); } // top$core$bit_timing
+            if dirty >> 16 & 1 != 0 { self.group_16(&mut dirty); } // top$core$bit_timing
+            if dirty >> 17 & 1 != 0 { self.group_17(&mut dirty); } // top$core$protocol$crc
+            if dirty >> 18 & 1 != 0 { self.group_18(&mut dirty); } // top$read
+            if dirty >> 19 & 1 != 0 { self.group_19(&mut dirty); } // top$tx_buffer
             if dirty >> 20 & 1 != 0 { self.group_20(&mut dirty); } // top$core$protocol$sender
-            if dirty >> 21 & 1 != 0 { self.group_21(&mut dirty); } // top$configuration
-            if dirty >> 22 & 1 != 0 { self.group_22(&mut dirty); } // top$core$protocol$assembler
-            if dirty >> 23 & 1 != 0 { self.group_23(&mut dirty); } // top$core$protocol$frame
+            if dirty >> 21 & 1 != 0 { self.group_21(&mut dirty); } // top$modes
+            if dirty >> 22 & 1 != 0 { self.group_22(&mut dirty); } // top$configuration
+            if dirty >> 23 & 1 != 0 { self.group_23(&mut dirty); } // top$core$protocol$assembler
         }
         if dirty >> 24 & 0xff != 0 {
-            if dirty >> 24 & 1 != 0 { self.group_24(&mut dirty); } // top$core$protocol$stuffing
-            if dirty >> 25 & 1 != 0 { self.group_25(&mut dirty); } // top$core$protocol$interframe
-            if dirty >> 26 & 1 != 0 { self.group_26(&mut dirty); } // top$core$protocol$sender
-            if dirty >> 27 & 1 != 0 { self.group_27(&mut dirty); } // top$modes
-            if dirty >> 28 & 1 != 0 { self.group_28(&mut dirty); } // top$interrupts
-            if dirty >> 29 & 1 != 0 { self.group_29(&mut dirty); } // top$fifo
-            if dirty >> 30 & 1 != 0 { self.group_30(&mut dirty); } // top$modes$divider
-            if dirty >> 31 & 1 != 0 { self.group_31(&mut dirty); } // can_controller
+            if dirty >> 24 & 1 != 0 { self.group_24(&mut dirty); } // top$core$protocol$frame
+            if dirty >> 25 & 1 != 0 { self.group_25(&mut dirty); } // top$core$protocol$stuffing
+            if dirty >> 26 & 1 != 0 { self.group_26(&mut dirty); } // top$core$protocol$interframe
+            if dirty >> 27 & 1 != 0 { self.group_27(&mut dirty); } // top$core$protocol$frame
+            if dirty >> 28 & 1 != 0 { self.group_28(&mut dirty); } // top$core$protocol$interframe
+            if dirty >> 29 & 1 != 0 { self.group_29(&mut dirty); } // top$core$protocol$sender
+            if dirty >> 30 & 1 != 0 { self.group_30(&mut dirty); } // top$core$protocol
+            if dirty >> 31 & 1 != 0 { self.group_31(&mut dirty); } // top$core$protocol$faults
         }
         if dirty >> 32 & 0xff != 0 {
-            if dirty >> 32 & 1 != 0 { self.group_32(&mut dirty); } // top$core$protocol$faults
-            if dirty >> 33 & 1 != 0 { self.group_33(&mut dirty); } // top$modes$cdr_reg
-            if dirty >> 34 & 1 != 0 { self.group_34(&mut dirty); } // top$core$bit_timing$clocks
-            if dirty >> 35 & 1 != 0 { self.group_35(&mut dirty); } // top$core$protocol
-            if dirty >> 36 & 1 != 0 { self.group_36(&mut dirty); } // top$core$protocol$frame
-            if dirty >> 37 & 1 != 0 { self.group_37(&mut dirty); } // top$core$protocol$interframe
-            if dirty >> 38 & 1 != 0 { self.group_38(&mut dirty); } // top$core$protocol$sender
-            if dirty >> 39 & 1 != 0 { self.group_39(&mut dirty); } // top$core$protocol
+            if dirty >> 32 & 1 != 0 { self.group_32(&mut dirty); } // can_controller
+            if dirty >> 33 & 1 != 0 { self.group_33(&mut dirty); } // top$fifo
+            if dirty >> 34 & 1 != 0 { self.group_34(&mut dirty); } // top$interrupts
+            if dirty >> 35 & 1 != 0 { self.group_35(&mut dirty); } // top$modes$divider
+            if dirty >> 36 & 1 != 0 { self.group_36(&mut dirty); } // top$core$protocol$assembler
+            if dirty >> 37 & 1 != 0 { self.group_37(&mut dirty); } // top$core$protocol$faults$tec_count
+            if dirty >> 38 & 1 != 0 { self.group_38(&mut dirty); } // top$modes$cdr_reg
+            if dirty >> 39 & 1 != 0 { self.group_39(&mut dirty); } // top$core$bit_timing$clocks
         }
         if dirty >> 40 & 0xff != 0 {
-            if dirty >> 40 & 1 != 0 { self.group_40(&mut dirty); } // top$core$protocol$faults
-            if dirty >> 41 & 1 != 0 { self.group_41(&mut dirty); } // can_controller
-            if dirty >> 42 & 1 != 0 { self.group_42(&mut dirty); } // top$core$protocol$faults$tec_count
-            if dirty >> 43 & 1 != 0 { self.group_43(&mut dirty); } // top$core$protocol$assembler
-            if dirty >> 44 & 1 != 0 { self.group_44(&mut dirty); } // top$core$protocol$faults$rec_count
-            if dirty >> 45 & 1 != 0 { self.group_45(&mut dirty); } // top$core$protocol$sender
-            if dirty >> 46 & 1 != 0 { self.group_46(&mut dirty); } // top$core$protocol$sender$tx_ptr
-            if dirty >> 47 & 1 != 0 { self.group_47(&mut dirty); } // top$core$protocol$stuffing
+            if dirty >> 40 & 1 != 0 { self.group_40(&mut dirty); } // top$core$protocol$faults$rec_count
+            if dirty >> 41 & 1 != 0 { self.group_41(&mut dirty); } // top$core$protocol$sender
+            if dirty >> 42 & 1 != 0 { self.group_42(&mut dirty); } // top$core$protocol$sender$tx_ptr
+            if dirty >> 43 & 1 != 0 { self.group_43(&mut dirty); } // top$core$protocol$stuffing
+            if dirty >> 44 & 1 != 0 { self.group_44(&mut dirty); } // top$interrupts$ier_reg
+            if dirty >> 45 & 1 != 0 { self.group_45(&mut dirty); } // top$read
+            if dirty >> 46 & 1 != 0 { self.group_46(&mut dirty); } // top$configuration$btr0 + top$configuration$btr1
+            if dirty >> 47 & 1 != 0 { self.group_47(&mut dirty); } // top$configuration$ewlr_reg + top$configuration$ocr
         }
         if dirty >> 48 & 0xff != 0 {
-            if dirty >> 48 & 1 != 0 { self.group_48(&mut dirty); } // top$interrupts$ier_reg
-            if dirty >> 49 & 1 != 0 { self.group_49(&mut dirty); } // top$read
-            if dirty >> 50 & 1 != 0 { self.group_50(&mut dirty); } // top$configuration$btr0 + top$configuration$btr1
-            if dirty >> 51 & 1 != 0 { self.group_51(&mut dirty); } // top$configuration$ewlr_reg + top$configuration$ocr
-            if dirty >> 52 & 1 != 0 { self.group_52(&mut dirty); } // top$configuration$sjw_reg + top$configuration$tseg2_reg
-            if dirty >> 53 & 1 != 0 { self.group_53(&mut dirty); } // top$core$bit_timing$last_quantum + top$core$bit_timing$process_pending
-            if dirty >> 54 & 1 != 0 { self.group_54(&mut dirty); } // top$core$bit_timing$quantum + top$core$bit_timing$sampled
-            if dirty >> 55 & 1 != 0 { self.group_55(&mut dirty); } // top$core$bit_timing$sampling$metastable + top$core$bit_timing$sampling$previous
+            if dirty >> 48 & 1 != 0 { self.group_48(&mut dirty); } // top$configuration$sjw_reg + top$configuration$tseg2_reg
+            if dirty >> 49 & 1 != 0 { self.group_49(&mut dirty); } // top$core$bit_timing$elapsed + top$core$bit_timing$process_pending
+            if dirty >> 50 & 1 != 0 { self.group_50(&mut dirty); } // top$core$bit_timing$remaining + top$core$bit_timing$sampled
+            if dirty >> 51 & 1 != 0 { self.group_51(&mut dirty); } // top$core$bit_timing$sampling$metastable + top$core$bit_timing$sampling$previous
+            if dirty >> 52 & 1 != 0 { self.group_52(&mut dirty); } // top$core$bit_timing$sampling$quantum_samples + top$core$bit_timing$sampling$stable
+            if dirty >> 53 & 1 != 0 { self.group_53(&mut dirty); } // top$core$bit_timing$segment_state + top$core$bit_timing$sjw_quanta
+            if dirty >> 54 & 1 != 0 { self.group_54(&mut dirty); } // top$core$bit_timing$synced + top$core$bit_timing$transmit_deferred
+            if dirty >> 55 & 1 != 0 { self.group_55(&mut dirty); } // top$core$protocol$abort_pending + top$core$protocol$assembler$byte_index
         }
         if dirty >> 56 & 0xff != 0 {
-            if dirty >> 56 & 1 != 0 { self.group_56(&mut dirty); } // top$core$bit_timing$sampling$quantum_samples + top$core$bit_timing$sampling$stable
-            if dirty >> 57 & 1 != 0 { self.group_57(&mut dirty); } // top$core$bit_timing$segment_state + top$core$bit_timing$sjw_quanta
-            if dirty >> 58 & 1 != 0 { self.group_58(&mut dirty); } // top$core$bit_timing$synced + top$core$bit_timing$transmit_deferred
-            if dirty >> 59 & 1 != 0 { self.group_59(&mut dirty); } // top$core$protocol$abort_pending + top$core$protocol$assembler$byte_index
-            if dirty >> 60 & 1 != 0 { self.group_60(&mut dirty); } // top$core$protocol$assembler$byte_pulse + top$core$protocol$assembler$byte_reg
-            if dirty >> 61 & 1 != 0 { self.group_61(&mut dirty); } // top$core$protocol$assembler$dlc_reg + top$core$protocol$assembler$header_pulse
-            if dirty >> 62 & 1 != 0 { self.group_62(&mut dirty); } // top$core$protocol$assembler$id_reg + top$core$protocol$assembler$ide_reg
-            if dirty >> 63 & 1 != 0 { self.group_63(&mut dirty); } // top$core$protocol$assembler$last_data_byte_reg + top$core$protocol$assembler$rtr_reg
+            if dirty >> 56 & 1 != 0 { self.group_56(&mut dirty); } // top$core$protocol$assembler$byte_pulse + top$core$protocol$assembler$byte_reg
+            if dirty >> 57 & 1 != 0 { self.group_57(&mut dirty); } // top$core$protocol$assembler$dlc_reg + top$core$protocol$assembler$header_pulse
+            if dirty >> 58 & 1 != 0 { self.group_58(&mut dirty); } // top$core$protocol$assembler$id_reg + top$core$protocol$assembler$ide_reg
+            if dirty >> 59 & 1 != 0 { self.group_59(&mut dirty); } // top$core$protocol$assembler$last_data_byte_reg + top$core$protocol$assembler$rtr_reg
+            if dirty >> 60 & 1 != 0 { self.group_60(&mut dirty); } // top$core$protocol$capture$alc_reg + top$core$protocol$capture$ecc_reg
+            if dirty >> 61 & 1 != 0 { self.group_61(&mut dirty); } // top$core$protocol$capture$error_pulse + top$core$protocol$capture$lost_pulse
+            if dirty >> 62 & 1 != 0 { self.group_62(&mut dirty); } // top$core$protocol$count + top$core$protocol$crc$register
+            if dirty >> 63 & 1 != 0 { self.group_63(&mut dirty); } // top$core$protocol$crc_error + top$core$protocol$done_pulse
         }
         if dirty >> 64 & 0xff != 0 {
-            if dirty >> 64 & 1 != 0 { self.group_64(&mut dirty); } // top$core$protocol$capture$alc_reg + top$core$protocol$capture$ecc_reg
-            if dirty >> 65 & 1 != 0 { self.group_65(&mut dirty); } // top$core$protocol$capture$error_pulse + top$core$protocol$capture$lost_pulse
-            if dirty >> 66 & 1 != 0 { self.group_66(&mut dirty); } // top$core$protocol$count + top$core$protocol$crc$register
-            if dirty >> 67 & 1 != 0 { self.group_67(&mut dirty); } // top$core$protocol$crc_error + top$core$protocol$done_pulse
-            if dirty >> 68 & 1 != 0 { self.group_68(&mut dirty); } // top$core$protocol$done_success + top$core$protocol$faults$bus_off_state
-            if dirty >> 69 & 1 != 0 { self.group_69(&mut dirty); } // top$core$protocol$faults$passive_state + top$core$protocol$field
-            if dirty >> 70 & 1 != 0 { self.group_70(&mut dirty); } // top$core$protocol$in_frame + top$core$protocol$interframe$ack_penalty
-            if dirty >> 71 & 1 != 0 { self.group_71(&mut dirty); } // top$core$protocol$interframe$after_error_flag + top$core$protocol$interframe$dominant_after_flag
+            if dirty >> 64 & 1 != 0 { self.group_64(&mut dirty); } // top$core$protocol$done_success + top$core$protocol$faults$bus_off_state
+            if dirty >> 65 & 1 != 0 { self.group_65(&mut dirty); } // top$core$protocol$faults$passive_state + top$core$protocol$field
+            if dirty >> 66 & 1 != 0 { self.group_66(&mut dirty); } // top$core$protocol$in_frame + top$core$protocol$interframe$ack_penalty
+            if dirty >> 67 & 1 != 0 { self.group_67(&mut dirty); } // top$core$protocol$interframe$after_error_flag + top$core$protocol$interframe$dominant_after_flag
+            if dirty >> 68 & 1 != 0 { self.group_68(&mut dirty); } // top$core$protocol$interframe$first_after_flag + top$core$protocol$interframe$flag_level
+            if dirty >> 69 & 1 != 0 { self.group_69(&mut dirty); } // top$core$protocol$interframe$flag_passive_reg + top$core$protocol$sender$tx_left
+            if dirty >> 70 & 1 != 0 { self.group_70(&mut dirty); } // top$core$protocol$sender$tx_next + top$core$protocol$sender$tx_reg
+            if dirty >> 71 & 1 != 0 { self.group_71(&mut dirty); } // top$core$protocol$sender$tx_shift + top$core$protocol$stuffing$active
         }
         if dirty >> 72 & 0xff != 0 {
-            if dirty >> 72 & 1 != 0 { self.group_72(&mut dirty); } // top$core$protocol$interframe$first_after_flag + top$core$protocol$interframe$flag_level
-            if dirty >> 73 & 1 != 0 { self.group_73(&mut dirty); } // top$core$protocol$interframe$flag_passive_reg + top$core$protocol$sender$tx_left
-            if dirty >> 74 & 1 != 0 { self.group_74(&mut dirty); } // top$core$protocol$sender$tx_next + top$core$protocol$sender$tx_reg
-            if dirty >> 75 & 1 != 0 { self.group_75(&mut dirty); } // top$core$protocol$sender$tx_shift + top$core$protocol$stuffing$active
-            if dirty >> 76 & 1 != 0 { self.group_76(&mut dirty); } // top$core$protocol$stuffing$run_length + top$core$protocol$stuffing$run_level_reg
-            if dirty >> 77 & 1 != 0 { self.group_77(&mut dirty); } // top$core$protocol$transmitter + top$core$protocol$valid_pulse
-            if dirty >> 78 & 1 != 0 { self.group_78(&mut dirty); } // top$fifo + top$fifo$fetching
-            if dirty >> 79 & 1 != 0 { self.group_79(&mut dirty); } // top$fifo$head + top$fifo$head_info_reg
+            if dirty >> 72 & 1 != 0 { self.group_72(&mut dirty); } // top$core$protocol$stuffing$run_length + top$core$protocol$stuffing$run_level_reg
+            if dirty >> 73 & 1 != 0 { self.group_73(&mut dirty); } // top$core$protocol$transmitter + top$core$protocol$valid_pulse
+            if dirty >> 74 & 1 != 0 { self.group_74(&mut dirty); } // top$fifo$fetching + top$fifo$head
+            if dirty >> 75 & 1 != 0 { self.group_75(&mut dirty); } // top$fifo$head_info_reg
+            if dirty >> 76 & 1 != 0 { self.group_76(&mut dirty); } // top$fifo$header_step
+            if dirty >> 77 & 1 != 0 { self.group_77(&mut dirty); } // top$fifo$overrun_state + top$fifo$ram
+            if dirty >> 78 & 1 != 0 { self.group_78(&mut dirty); } // top$fifo$tail
+            if dirty >> 79 & 1 != 0 { self.group_79(&mut dirty); } // top$fifo$writing_header
         }
         if dirty >> 80 & 0xff != 0 {
-            if dirty >> 80 & 1 != 0 { self.group_80(&mut dirty); } // top$fifo$header_step
-            if dirty >> 81 & 1 != 0 { self.group_81(&mut dirty); } // top$fifo$overrun_state + top$fifo$ram
-            if dirty >> 82 & 1 != 0 { self.group_82(&mut dirty); } // top$fifo$tail
-            if dirty >> 83 & 1 != 0 { self.group_83(&mut dirty); } // top$fifo$writing_header
-            if dirty >> 84 & 1 != 0 { self.group_84(&mut dirty); } // top$fifo$count + top$fifo$incomplete
-            if dirty >> 85 & 1 != 0 { self.group_85(&mut dirty); } // top$fifo$used + top$filter$acr0
-            if dirty >> 86 & 1 != 0 { self.group_86(&mut dirty); } // top$filter$acr1 + top$filter$acr2
-            if dirty >> 87 & 1 != 0 { self.group_87(&mut dirty); } // top$filter$acr3 + top$filter$amr0
+            if dirty >> 80 & 1 != 0 { self.group_80(&mut dirty); } // top$fifo$count + top$fifo$incomplete
+            if dirty >> 81 & 1 != 0 { self.group_81(&mut dirty); } // top$fifo$used + top$filter$acr0
+            if dirty >> 82 & 1 != 0 { self.group_82(&mut dirty); } // top$filter$acr1 + top$filter$acr2
+            if dirty >> 83 & 1 != 0 { self.group_83(&mut dirty); } // top$filter$acr3 + top$filter$amr0
+            if dirty >> 84 & 1 != 0 { self.group_84(&mut dirty); } // top$filter$amr1 + top$filter$amr2
+            if dirty >> 85 & 1 != 0 { self.group_85(&mut dirty); } // top$filter$amr3 + top$filter$basic_id_match
+            if dirty >> 86 & 1 != 0 { self.group_86(&mut dirty); } // top$filter$dual1_data_match + top$filter$dual1_id_match
+            if dirty >> 87 & 1 != 0 { self.group_87(&mut dirty); } // top$filter$dual2_id_match + top$filter$extended_frame
         }
         if dirty >> 88 & 0xff != 0 {
-            if dirty >> 88 & 1 != 0 { self.group_88(&mut dirty); } // top$filter$amr1 + top$filter$amr2
-            if dirty >> 89 & 1 != 0 { self.group_89(&mut dirty); } // top$filter$amr3 + top$filter$basic_id_match
-            if dirty >> 90 & 1 != 0 { self.group_90(&mut dirty); } // top$filter$dual1_data_match + top$filter$dual1_id_match
-            if dirty >> 91 & 1 != 0 { self.group_91(&mut dirty); } // top$filter$dual2_id_match + top$filter$extended_frame
-            if dirty >> 92 & 1 != 0 { self.group_92(&mut dirty); } // top$filter$single_data1_match + top$filter$single_data2_match
-            if dirty >> 93 & 1 != 0 { self.group_93(&mut dirty); } // top$filter$single_id_match + top$interrupts$alc_armed
-            if dirty >> 94 & 1 != 0 { self.group_94(&mut dirty); } // top$interrupts$alc_reg + top$interrupts$basic_ri_reg
-            if dirty >> 95 & 1 != 0 { self.group_95(&mut dirty); } // top$interrupts$bus_off_reg + top$interrupts$ecc_armed
+            if dirty >> 88 & 1 != 0 { self.group_88(&mut dirty); } // top$filter$single_data1_match + top$filter$single_data2_match
+            if dirty >> 89 & 1 != 0 { self.group_89(&mut dirty); } // top$filter$single_id_match + top$interrupts$alc_armed
+            if dirty >> 90 & 1 != 0 { self.group_90(&mut dirty); } // top$interrupts$alc_reg + top$interrupts$basic_ri_reg
+            if dirty >> 91 & 1 != 0 { self.group_91(&mut dirty); } // top$interrupts$bus_off_reg + top$interrupts$ecc_armed
+            if dirty >> 92 & 1 != 0 { self.group_92(&mut dirty); } // top$interrupts$ecc_reg
+            if dirty >> 93 & 1 != 0 { self.group_93(&mut dirty); } // top$interrupts$es_reg
+            if dirty >> 94 & 1 != 0 { self.group_94(&mut dirty); } // top$interrupts$ir_reg
+            if dirty >> 95 & 1 != 0 { self.group_95(&mut dirty); } // top$interrupts$overrun_before
         }
         if dirty >> 96 & 0xff != 0 {
-            if dirty >> 96 & 1 != 0 { self.group_96(&mut dirty); } // top$interrupts$ecc_reg + top$interrupts$es_reg
-            if dirty >> 97 & 1 != 0 { self.group_97(&mut dirty); } // top$interrupts$ir_reg + top$interrupts$overrun_before
-            if dirty >> 98 & 1 != 0 { self.group_98(&mut dirty); } // top$interrupts$passive_before
-            if dirty >> 99 & 1 != 0 { self.group_99(&mut dirty); } // top$interrupts$rbs_before
-            if dirty >> 100 & 1 != 0 { self.group_100(&mut dirty); } // top$modes
-            if dirty >> 101 & 1 != 0 { self.group_101(&mut dirty); } // top$modes$afm + top$modes$cr6_reg
-            if dirty >> 102 & 1 != 0 { self.group_102(&mut dirty); } // top$modes$divider$count + top$modes$divider$level
+            if dirty >> 96 & 1 != 0 { self.group_96(&mut dirty); } // top$interrupts$passive_before
+            if dirty >> 97 & 1 != 0 { self.group_97(&mut dirty); } // top$interrupts$rbs_before
+            if dirty >> 98 & 1 != 0 { self.group_98(&mut dirty); } // top$modes
+            if dirty >> 99 & 1 != 0 { self.group_99(&mut dirty); } // top$modes$afm
+            if dirty >> 100 & 1 != 0 { self.group_100(&mut dirty); } // top$modes$cr6_reg
+            if dirty >> 101 & 1 != 0 { self.group_101(&mut dirty); } // top$modes$divider$count
+            if dirty >> 102 & 1 != 0 { self.group_102(&mut dirty); } // top$modes$divider$level
             if dirty >> 103 & 1 != 0 { self.group_103(&mut dirty); } // top$modes$enable_reg
         }
         if dirty >> 104 & 0xff != 0 {
@@ -1757,7 +1749,7 @@ impl Model {
         self.dirty = 0;
         self.ran |= dirty;
         if dirty >> 127 & 1 != 0 {
-            self.out = 0 | ((self.v1051) as u64) << 0 | ((self.q118) as u64) << 8 | ((self.v983) as u64) << 9 | ((self.v998) as u64) << 10 | ((self.v148) as u64) << 11 | ((self.v178) as u64) << 12 | ((self.q115) as u64) << 14 | ((self.q66 | (self.q67 << 3) | (self.q65 << 7)) as u64) << 19 | ((self.q68 | (self.q69 << 7)) as u64) << 27 | ((self.v223) as u64) << 35;
+            self.out = 0 | ((self.v1058) as u64) << 0 | ((self.q118) as u64) << 8 | ((self.v990) as u64) << 9 | ((self.v1005) as u64) << 10 | ((self.v152) as u64) << 11 | ((self.v183) as u64) << 12 | ((self.q115) as u64) << 14 | ((self.q66 | (self.q67 << 3) | (self.q65 << 7)) as u64) << 19 | ((self.q68 | (self.q69 << 7)) as u64) << 27 | ((self.v229) as u64) << 35;
         }
     }
 
@@ -1766,2567 +1758,2578 @@ impl Model {
     pub(super) fn edge(&mut self) {
         let mut dirty = 0u128;
         if self.m0_re { let v = self.m0.get(self.m0_ra).copied().unwrap_or(0); if v != self.m0_rd { self.m0_rd = v; dirty |= 0x50; } } // fifo.ram.mem
-        if self.m1_re { let v = self.m1.get(self.m1_ra).copied().unwrap_or(0); if v != self.m1_rd { self.m1_rd = v; dirty |= 0x40000; } } // tx_buffer.core_ram.mem
-        if self.m2_re { let v = self.m2.get(self.m2_ra).copied().unwrap_or(0); if v != self.m2_rd { self.m2_rd = v; dirty |= 0x40000; } } // tx_buffer.host_ram.mem
+        if self.m1_re { let v = self.m1.get(self.m1_ra).copied().unwrap_or(0); if v != self.m1_rd { self.m1_rd = v; dirty |= 0x80000; } } // tx_buffer.core_ram.mem
+        if self.m2_re { let v = self.m2.get(self.m2_ra).copied().unwrap_or(0); if v != self.m2_rd { self.m2_rd = v; dirty |= 0x80000; } } // tx_buffer.host_ram.mem
         if self.m0_we != 0 { if let Some(word) = self.m0.get_mut(self.m0_wa) { *word = *word & !self.m0_we | self.m0_wd & self.m0_we; } }
         if self.m1_we != 0 { if let Some(word) = self.m1.get_mut(self.m1_wa) { *word = *word & !self.m1_we | self.m1_wd & self.m1_we; } }
         if self.m2_we != 0 { if let Some(word) = self.m2.get_mut(self.m2_wa) { *word = *word & !self.m2_we | self.m2_wd & self.m2_we; } }
         let ran = self.ran;
         self.ran = 0;
-        if ran >> 33 & 1 != 0 {
-            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x2000200264b34; } // $auto$ff.cc:266:slice$9515
-            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x240020200; } // $auto$ff.cc:266:slice$9516
-            if self.q105 != self.n105 { self.q105 = self.n105; dirty |= 0x240020200; } // $auto$ff.cc:266:slice$9845
+        if ran >> 37 & 1 != 0 {
+            if self.q65 != self.n65 { self.q65 = self.n65; dirty |= 0x80000000000000000000202080000280; } // $auto$ff.cc:266:slice$9737
+            if self.q66 != self.n66 { self.q66 = self.n66; dirty |= 0x80000000000000000000202000000280; } // $auto$ff.cc:266:slice$9738
+            if self.q67 != self.n67 { self.q67 = self.n67; dirty |= 0x80000000000000000000202000000280; } // $auto$ff.cc:266:slice$9751
         }
-        if ran >> 34 & 1 != 0 {
-            if self.q96 != self.n96 { self.q96 = self.n96; dirty |= 0x400000008; } // $auto$ff.cc:266:slice$9816
-            if self.q97 != self.n97 { self.q97 = self.n97; dirty |= 0x400000008; } // $auto$ff.cc:266:slice$9817
+        if ran >> 38 & 1 != 0 {
+            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x2040004c4b74; } // $auto$ff.cc:266:slice$9545
+            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x4800040100; } // $auto$ff.cc:266:slice$9546
+            if self.q105 != self.n105 { self.q105 = self.n105; dirty |= 0x4800040100; } // $auto$ff.cc:266:slice$9877
+        }
+        if ran >> 39 & 1 != 0 {
+            if self.q96 != self.n96 { self.q96 = self.n96; dirty |= 0x8000000008; } // $auto$ff.cc:266:slice$9848
+            if self.q97 != self.n97 { self.q97 = self.n97; dirty |= 0x8000000008; } // $auto$ff.cc:266:slice$9849
+        }
+        if ran >> 40 & 1 != 0 {
+            if self.q68 != self.n68 { self.q68 = self.n68; dirty |= 0x80000000000000000000210080000280; } // $auto$ff.cc:266:slice$9762
+            if self.q69 != self.n69 { self.q69 = self.n69; dirty |= 0x80000000000000000000210080000280; } // $auto$ff.cc:266:slice$9763
         }
         if ran >> 42 & 1 != 0 {
-            if self.q65 != self.n65 { self.q65 = self.n65; dirty |= 0x80000000000000000002050100000180; } // $auto$ff.cc:266:slice$9707
-            if self.q66 != self.n66 { self.q66 = self.n66; dirty |= 0x80000000000000000002040000000180; } // $auto$ff.cc:266:slice$9708
-            if self.q67 != self.n67 { self.q67 = self.n67; dirty |= 0x80000000000000000002040000000180; } // $auto$ff.cc:266:slice$9721
+            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x800000000000000000040000002020; } // $auto$ff.cc:266:slice$9675
+            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x800000000000000000060000002020; } // $auto$ff.cc:266:slice$9682
         }
         if ran >> 44 & 1 != 0 {
-            if self.q68 != self.n68 { self.q68 = self.n68; dirty |= 0x80000000000000000002110100000180; } // $auto$ff.cc:266:slice$9732
-            if self.q69 != self.n69 { self.q69 = self.n69; dirty |= 0x80000000000000000002110100000180; } // $auto$ff.cc:266:slice$9733
+            if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x300000000010; } // $auto$ff.cc:266:slice$9566
+            if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0x300400040000; } // $auto$ff.cc:266:slice$9571
         }
         if ran >> 46 & 1 != 0 {
-            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x800000000000000000400000002020; } // $auto$ff.cc:266:slice$9645
-            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x800000000000000000600000002020; } // $auto$ff.cc:266:slice$9652
+            if self.q102 != self.n102 { self.q102 = self.n102; dirty |= 0x400000418000; } // $auto$ff.cc:266:slice$9869
+            if self.q103 != self.n103 { self.q103 = self.n103; dirty |= 0x400000400008; } // $auto$ff.cc:266:slice$9873
+        }
+        if ran >> 47 & 1 != 0 {
+            if self.q100 != self.n100 { self.q100 = self.n100; dirty |= 0x800000400000; } // $auto$ff.cc:266:slice$9861
+            if self.q101 != self.n101 { self.q101 = self.n101; dirty |= 0x800000400200; } // $auto$ff.cc:266:slice$9865
         }
         if ran >> 48 & 1 != 0 {
-            if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x3000000000010; } // $auto$ff.cc:266:slice$9536
-            if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0x3000010020000; } // $auto$ff.cc:266:slice$9541
+            if self.q98 != self.n98 { self.q98 = self.n98; dirty |= 0x1000000010000; } // $auto$ff.cc:266:slice$9853
+            if self.q99 != self.n99 { self.q99 = self.n99; dirty |= 0x1000000000008; } // $auto$ff.cc:266:slice$9857
+        }
+        if ran >> 49 & 1 != 0 {
+            if self.q94 != self.n94 { self.q94 = self.n94; dirty |= 0x388000202005e01000a; } // $auto$ff.cc:266:slice$9841
+            if self.q95 != self.n95 { self.q95 = self.n95; dirty |= 0x2000000000008; } // $auto$ff.cc:266:slice$9845
         }
         if ran >> 50 & 1 != 0 {
-            if self.q102 != self.n102 { self.q102 = self.n102; dirty |= 0x4000000288000; } // $auto$ff.cc:266:slice$9837
-            if self.q103 != self.n103 { self.q103 = self.n103; dirty |= 0x4000000200008; } // $auto$ff.cc:266:slice$9841
+            if self.q93 != self.n93 { self.q93 = self.n93; dirty |= 0x4000000010008; } // $auto$ff.cc:266:slice$9838
+            if self.q109 != self.n109 { self.q109 = self.n109; dirty |= 0x1100f04000012032003; } // $flatten\core.\bit_timing.\sampled.$procdff$8825
         }
         if ran >> 51 & 1 != 0 {
-            if self.q100 != self.n100 { self.q100 = self.n100; dirty |= 0x8000000200000; } // $auto$ff.cc:266:slice$9829
-            if self.q101 != self.n101 { self.q101 = self.n101; dirty |= 0x8000000200100; } // $auto$ff.cc:266:slice$9833
+            if self.q110 != self.n110 { self.q110 = self.n110; dirty |= 0x8000000008000; } // $flatten\core.\bit_timing.\sampling.\metastable.$procdff$8824
+            if self.q111 != self.n111 { self.q111 = self.n111; dirty |= 0x8000000008000; } // $flatten\core.\bit_timing.\sampling.\previous.$procdff$8823
         }
         if ran >> 52 & 1 != 0 {
-            if self.q98 != self.n98 { self.q98 = self.n98; dirty |= 0x10000000080000; } // $auto$ff.cc:266:slice$9821
-            if self.q99 != self.n99 { self.q99 = self.n99; dirty |= 0x10000000000008; } // $auto$ff.cc:266:slice$9825
+            if self.q92 != self.n92 { self.q92 = self.n92; dirty |= 0x10000000008000; } // $auto$ff.cc:266:slice$9837
+            if self.q112 != self.n112 { self.q112 = self.n112; dirty |= 0x10000000008000; } // $flatten\core.\bit_timing.\sampling.\stable.$procdff$8821
         }
         if ran >> 53 & 1 != 0 {
-            if self.q94 != self.n94 { self.q94 = self.n94; dirty |= 0x3880002020b80308000a; } // $auto$ff.cc:266:slice$9812
-            if self.q95 != self.n95 { self.q95 = self.n95; dirty |= 0x20000000080008; } // $auto$ff.cc:266:slice$9813
+            if self.q91 != self.n91 { self.q91 = self.n91; dirty |= 0x20000000010008; } // $auto$ff.cc:266:slice$9831
+            if self.q108 != self.n108 { self.q108 = self.n108; dirty |= 0x20000000000008; } // $auto$ff.cc:266:slice$9948
         }
         if ran >> 54 & 1 != 0 {
-            if self.q93 != self.n93 { self.q93 = self.n93; dirty |= 0x40000000000008; } // $auto$ff.cc:266:slice$9811
-            if self.q109 != self.n109 { self.q109 = self.n109; dirty |= 0x1100f040002001092003; } // $flatten\core.\bit_timing.\sampled.$procdff$8798
+            if self.q89 != self.n89 { self.q89 = self.n89; dirty |= 0x40000000010000; } // $auto$ff.cc:266:slice$9825
+            if self.q90 != self.n90 { self.q90 = self.n90; dirty |= 0x40000000010008; } // $auto$ff.cc:266:slice$9826
         }
         if ran >> 55 & 1 != 0 {
-            if self.q110 != self.n110 { self.q110 = self.n110; dirty |= 0x80000000008000; } // $flatten\core.\bit_timing.\sampling.\metastable.$procdff$8797
-            if self.q111 != self.n111 { self.q111 = self.n111; dirty |= 0x80000000008000; } // $flatten\core.\bit_timing.\sampling.\previous.$procdff$8796
+            if self.q87 != self.n87 { self.q87 = self.n87; dirty |= 0x80000000000044; } // $auto$ff.cc:266:slice$9819
+            if self.q88 != self.n88 { self.q88 = self.n88; dirty |= 0x80000050000001; } // $auto$ff.cc:266:slice$9822
         }
         if ran >> 56 & 1 != 0 {
-            if self.q92 != self.n92 { self.q92 = self.n92; dirty |= 0x100000000008000; } // $auto$ff.cc:266:slice$9807
-            if self.q112 != self.n112 { self.q112 = self.n112; dirty |= 0x100000000008000; } // $flatten\core.\bit_timing.\sampling.\stable.$procdff$8794
+            if self.q85 != self.n85 { self.q85 = self.n85; dirty |= 0x100000000000044; } // $auto$ff.cc:266:slice$9814
+            if self.q86 != self.n86 { self.q86 = self.n86; dirty |= 0x100000000000044; } // $auto$ff.cc:266:slice$9817
         }
         if ran >> 57 & 1 != 0 {
-            if self.q91 != self.n91 { self.q91 = self.n91; dirty |= 0x200000000080008; } // $auto$ff.cc:266:slice$9801
-            if self.q108 != self.n108 { self.q108 = self.n108; dirty |= 0x200000000080008; } // $auto$ff.cc:266:slice$9922
+            if self.q83 != self.n83 { self.q83 = self.n83; dirty |= 0x2e010000200000000000044; } // $auto$ff.cc:266:slice$9806
+            if self.q84 != self.n84 { self.q84 = self.n84; dirty |= 0x200000200800042; } // $auto$ff.cc:266:slice$9810
         }
         if ran >> 58 & 1 != 0 {
-            if self.q89 != self.n89 { self.q89 = self.n89; dirty |= 0x400000000080000; } // $auto$ff.cc:266:slice$9795
-            if self.q90 != self.n90 { self.q90 = self.n90; dirty |= 0x400000000080008; } // $auto$ff.cc:266:slice$9796
+            if self.q81 != self.n81 { self.q81 = self.n81; dirty |= 0x8000000400000200800446; } // $auto$ff.cc:266:slice$9795
+            if self.q82 != self.n82 { self.q82 = self.n82; dirty |= 0x400000000000044; } // $auto$ff.cc:266:slice$9801
         }
         if ran >> 59 & 1 != 0 {
-            if self.q87 != self.n87 { self.q87 = self.n87; dirty |= 0x800000000000044; } // $auto$ff.cc:266:slice$9789
-            if self.q88 != self.n88 { self.q88 = self.n88; dirty |= 0x800002800000001; } // $auto$ff.cc:266:slice$9792
+            if self.q79 != self.n79 { self.q79 = self.n79; dirty |= 0x800000200800046; } // $auto$ff.cc:266:slice$9788
+            if self.q80 != self.n80 { self.q80 = self.n80; dirty |= 0x800000000000002; } // $auto$ff.cc:266:slice$9793
         }
         if ran >> 60 & 1 != 0 {
-            if self.q85 != self.n85 { self.q85 = self.n85; dirty |= 0x1000000000000044; } // $auto$ff.cc:266:slice$9784
-            if self.q86 != self.n86 { self.q86 = self.n86; dirty |= 0x1000000000000044; } // $auto$ff.cc:266:slice$9787
+            if self.q77 != self.n77 { self.q77 = self.n77; dirty |= 0x100000001000000000000000; } // $auto$ff.cc:266:slice$9784
+            if self.q78 != self.n78 { self.q78 = self.n78; dirty |= 0x40000001000000000000000; } // $auto$ff.cc:266:slice$9786
         }
         if ran >> 61 & 1 != 0 {
-            if self.q83 != self.n83 { self.q83 = self.n83; dirty |= 0x2e0100002000000000000044; } // $auto$ff.cc:266:slice$9776
-            if self.q84 != self.n84 { self.q84 = self.n84; dirty |= 0x2000000020400042; } // $auto$ff.cc:266:slice$9780
+            if self.q75 != self.n75 { self.q75 = self.n75; dirty |= 0x2000000000000200; } // $auto$ff.cc:266:slice$9777
+            if self.q76 != self.n76 { self.q76 = self.n76; dirty |= 0x2000000000000200; } // $auto$ff.cc:266:slice$9780
         }
         if ran >> 62 & 1 != 0 {
-            if self.q81 != self.n81 { self.q81 = self.n81; dirty |= 0x80000004000000020400446; } // $auto$ff.cc:266:slice$9765
-            if self.q82 != self.n82 { self.q82 = self.n82; dirty |= 0x4000000000000044; } // $auto$ff.cc:266:slice$9771
+            if self.q73 != self.n73 { self.q73 = self.n73; dirty |= 0x4000000020022002; } // $auto$ff.cc:266:slice$9773
+            if self.q74 != self.n74 { self.q74 = self.n74; dirty |= 0x5080000068002403; } // $auto$ff.cc:266:slice$9774
         }
         if ran >> 63 & 1 != 0 {
-            if self.q79 != self.n79 { self.q79 = self.n79; dirty |= 0x8000000020400046; } // $auto$ff.cc:266:slice$9758
-            if self.q80 != self.n80 { self.q80 = self.n80; dirty |= 0x8000000000000002; } // $auto$ff.cc:266:slice$9763
+            if self.q71 != self.n71 { self.q71 = self.n71; dirty |= 0x8000000400001021; } // $auto$ff.cc:266:slice$9768
+            if self.q72 != self.n72 { self.q72 = self.n72; dirty |= 0x8000000040000002; } // $auto$ff.cc:266:slice$9769
         }
         if ran >> 64 & 1 != 0 {
-            if self.q77 != self.n77 { self.q77 = self.n77; dirty |= 0x1000000010000000000000000; } // $auto$ff.cc:266:slice$9754
-            if self.q78 != self.n78 { self.q78 = self.n78; dirty |= 0x400000010000000000000000; } // $auto$ff.cc:266:slice$9756
+            if self.q70 != self.n70 { self.q70 = self.n70; dirty |= 0x10000000000000020; } // $auto$ff.cc:266:slice$9767
+            if self.q113 != self.n113 { self.q113 = self.n113; dirty |= 0x10800000100000001c0045381; } // $flatten\core.\protocol.\faults.\bus_off_state.$procdff$8797
         }
         if ran >> 65 & 1 != 0 {
-            if self.q75 != self.n75 { self.q75 = self.n75; dirty |= 0x20000000000000100; } // $auto$ff.cc:266:slice$9747
-            if self.q76 != self.n76 { self.q76 = self.n76; dirty |= 0x20000000000000100; } // $auto$ff.cc:266:slice$9750
+            if self.q114 != self.n114 { self.q114 = self.n114; dirty |= 0x1000000020000000000000203; } // $flatten\core.\protocol.\faults.\passive_state.$procdff$8796
+            if self.q115 != self.n115 { self.q115 = self.n115; dirty |= 0x80000000000000020000000048001003; } // $flatten\core.\protocol.\field.$procdff$8793
         }
         if ran >> 66 & 1 != 0 {
-            if self.q73 != self.n73 { self.q73 = self.n73; dirty |= 0x40000004000012002; } // $auto$ff.cc:266:slice$9743
-            if self.q74 != self.n74 { self.q74 = self.n74; dirty |= 0x50800009004002403; } // $auto$ff.cc:266:slice$9744
+            if self.q64 != self.n64 { self.q64 = self.n64; dirty |= 0x40000000014000000; } // $auto$ff.cc:266:slice$9735
+            if self.q116 != self.n116 { self.q116 = self.n116; dirty |= 0x40000000010001000; } // $flatten\core.\protocol.\in_frame.$procdff$8792
         }
         if ran >> 67 & 1 != 0 {
-            if self.q71 != self.n71 { self.q71 = self.n71; dirty |= 0x80000000010001021; } // $auto$ff.cc:266:slice$9738
-            if self.q72 != self.n72 { self.q72 = self.n72; dirty |= 0x80000008000000002; } // $auto$ff.cc:266:slice$9739
+            if self.q62 != self.n62 { self.q62 = self.n62; dirty |= 0x80000000000000001; } // $auto$ff.cc:266:slice$9716
+            if self.q63 != self.n63 { self.q63 = self.n63; dirty |= 0x80000000004000001; } // $auto$ff.cc:266:slice$9734
         }
         if ran >> 68 & 1 != 0 {
-            if self.q70 != self.n70 { self.q70 = self.n70; dirty |= 0x100000000000000020; } // $auto$ff.cc:266:slice$9737
-            if self.q113 != self.n113 { self.q113 = self.n113; dirty |= 0x4800000100000038080025381; } // $flatten\core.\protocol.\faults.\bus_off_state.$procdff$8770
+            if self.q60 != self.n60 { self.q60 = self.n60; dirty |= 0x100000000000000001; } // $auto$ff.cc:266:slice$9698
+            if self.q61 != self.n61 { self.q61 = self.n61; dirty |= 0x100000000000000001; } // $auto$ff.cc:266:slice$9704
         }
         if ran >> 69 & 1 != 0 {
-            if self.q114 != self.n114 { self.q114 = self.n114; dirty |= 0x4000000200000000000000103; } // $flatten\core.\protocol.\faults.\passive_state.$procdff$8769
-            if self.q115 != self.n115 { self.q115 = self.n115; dirty |= 0x80000000000000200000009000001003; } // $flatten\core.\protocol.\field.$procdff$8766
+            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x200000000000002000; } // $auto$ff.cc:266:slice$9688
+            if self.q59 != self.n59 { self.q59 = self.n59; dirty |= 0x200000000036000401; } // $auto$ff.cc:266:slice$9690
         }
         if ran >> 70 & 1 != 0 {
-            if self.q64 != self.n64 { self.q64 = self.n64; dirty |= 0x400000002002000000; } // $auto$ff.cc:266:slice$9705
-            if self.q116 != self.n116 { self.q116 = self.n116; dirty |= 0x400000002000001000; } // $flatten\core.\protocol.\in_frame.$procdff$8765
+            if self.q117 != self.n117 { self.q117 = self.n117; dirty |= 0x400000020000100000; } // $flatten\core.\protocol.\sender.\tx_next.$procdff$8784
+            if self.q118 != self.n118 { self.q118 = self.n118; dirty |= 0x8000000000000040000000001010000b; } // $flatten\core.\protocol.\sender.\tx_reg.$procdff$8782
         }
         if ran >> 71 & 1 != 0 {
-            if self.q62 != self.n62 { self.q62 = self.n62; dirty |= 0x800000000000000001; } // $auto$ff.cc:266:slice$9686
-            if self.q63 != self.n63 { self.q63 = self.n63; dirty |= 0x800000000002000001; } // $auto$ff.cc:266:slice$9704
+            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x800000080002000000; } // $auto$ff.cc:266:slice$9666
+            if self.q104 != self.n104 { self.q104 = self.n104; dirty |= 0x800000000000100000; } // $auto$ff.cc:266:slice$9876
         }
         if ran >> 72 & 1 != 0 {
-            if self.q60 != self.n60 { self.q60 = self.n60; dirty |= 0x1000000000000000001; } // $auto$ff.cc:266:slice$9668
-            if self.q61 != self.n61 { self.q61 = self.n61; dirty |= 0x1000000000000000001; } // $auto$ff.cc:266:slice$9674
+            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x1000000000002000002; } // $auto$ff.cc:266:slice$9658
+            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x1000000000002000000; } // $auto$ff.cc:266:slice$9664
         }
         if ran >> 73 & 1 != 0 {
-            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x2000000000000002000; } // $auto$ff.cc:266:slice$9658
-            if self.q59 != self.n59 { self.q59 = self.n59; dirty |= 0x2000000002007000401; } // $auto$ff.cc:266:slice$9660
+            if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x2000000000000000020; } // $auto$ff.cc:266:slice$9651
+            if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x2000000000010001003; } // $auto$ff.cc:266:slice$9657
         }
         if ran >> 74 & 1 != 0 {
-            if self.q117 != self.n117 { self.q117 = self.n117; dirty |= 0x4000000200000100000; } // $flatten\core.\protocol.\sender.\tx_next.$procdff$8757
-            if self.q118 != self.n118 { self.q118 = self.n118; dirty |= 0x8000000000000400000000200010000b; } // $flatten\core.\protocol.\sender.\tx_reg.$procdff$8755
+            if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x4000000200200040040; } // $auto$ff.cc:266:slice$9646
+            if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x4000000000000000040; } // $auto$ff.cc:266:slice$9647
         }
         if ran >> 75 & 1 != 0 {
-            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x8000000800001000000; } // $auto$ff.cc:266:slice$9636
-            if self.q104 != self.n104 { self.q104 = self.n104; dirty |= 0x8000000000000100000; } // $auto$ff.cc:266:slice$9844
+            if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x8000000000000000040; } // $auto$ff.cc:266:slice$9645
         }
         if ran >> 76 & 1 != 0 {
-            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x10000000000001000002; } // $auto$ff.cc:266:slice$9628
-            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x10000000000001000000; } // $auto$ff.cc:266:slice$9634
+            if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x10000000000000000040; } // $auto$ff.cc:266:slice$9642
         }
         if ran >> 77 & 1 != 0 {
-            if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x20000000000000000020; } // $auto$ff.cc:266:slice$9621
-            if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x20000000002000001003; } // $auto$ff.cc:266:slice$9627
+            if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x800020000000000000040240; } // $auto$ff.cc:266:slice$9635
         }
         if ran >> 78 & 1 != 0 {
-            if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x40000000000000000040; } // $auto$ff.cc:266:slice$9617
+            if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x40000000000000000040; } // $auto$ff.cc:266:slice$9632
         }
         if ran >> 79 & 1 != 0 {
-            if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x80000000000000000040; } // $auto$ff.cc:266:slice$9615
-            if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x80000002000020020040; } // $auto$ff.cc:266:slice$9616
+            if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x90000000000000000040; } // $auto$ff.cc:266:slice$9625
         }
         if ran >> 80 & 1 != 0 {
-            if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x100000000000000000040; } // $auto$ff.cc:266:slice$9612
+            if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x100000000000000000040; } // $auto$ff.cc:266:slice$9638
+            if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x100000000200200000240; } // $auto$ff.cc:266:slice$9648
         }
         if ran >> 81 & 1 != 0 {
-            if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x2000200000000000000020140; } // $auto$ff.cc:266:slice$9605
+            if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x200000000000000000004; } // $auto$ff.cc:266:slice$9622
+            if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x200000000000200000040; } // $auto$ff.cc:266:slice$9628
         }
         if ran >> 82 & 1 != 0 {
-            if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x400000000000000000040; } // $auto$ff.cc:266:slice$9602
+            if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x400000000000000000004; } // $auto$ff.cc:266:slice$9614
+            if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x400000000000000000004; } // $auto$ff.cc:266:slice$9618
         }
         if ran >> 83 & 1 != 0 {
-            if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x900000000000000000040; } // $auto$ff.cc:266:slice$9595
+            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x800000000000000000004; } // $auto$ff.cc:266:slice$9606
+            if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x800000000000000000004; } // $auto$ff.cc:266:slice$9610
         }
         if ran >> 84 & 1 != 0 {
-            if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x1000000000000000000040; } // $auto$ff.cc:266:slice$9608
-            if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x1000000002000020000140; } // $auto$ff.cc:266:slice$9618
+            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x1000000000000000000004; } // $auto$ff.cc:266:slice$9598
+            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x1000000000000000000004; } // $auto$ff.cc:266:slice$9602
         }
         if ran >> 85 & 1 != 0 {
-            if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9592
-            if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x2000000000000020000040; } // $auto$ff.cc:266:slice$9598
+            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9592
+            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9594
         }
         if ran >> 86 & 1 != 0 {
-            if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9584
-            if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9588
+            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9590
+            if self.q119 != self.n119 { self.q119 = self.n119; dirty |= 0x4000000000000000000004; } // $flatten\filter.\dual1_data_match.$procdff$8752
         }
         if ran >> 87 & 1 != 0 {
-            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9576
-            if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9580
+            if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9586
+            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9588
         }
         if ran >> 88 & 1 != 0 {
-            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9568
-            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9572
+            if self.q120 != self.n120 { self.q120 = self.n120; dirty |= 0x10000000000000000000004; } // $flatten\filter.\single_data1_match.$procdff$8748
+            if self.q121 != self.n121 { self.q121 = self.n121; dirty |= 0x10000000000000000000004; } // $flatten\filter.\single_data2_match.$procdff$8747
         }
         if ran >> 89 & 1 != 0 {
-            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x20000000000000000000004; } // $auto$ff.cc:266:slice$9562
-            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x20000000000000000000004; } // $auto$ff.cc:266:slice$9564
+            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x20000000000000000000004; } // $auto$ff.cc:266:slice$9584
+            if self.q122 != self.n122 { self.q122 = self.n122; dirty |= 0x20000000000000000000200; } // $flatten\interrupts.\alc_armed.$procdff$8745
         }
         if ran >> 90 & 1 != 0 {
-            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x40000000000000000000004; } // $auto$ff.cc:266:slice$9560
-            if self.q119 != self.n119 { self.q119 = self.n119; dirty |= 0x40000000000000000000004; } // $flatten\filter.\dual1_data_match.$procdff$8725
+            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x40000000000000000000240; } // $auto$ff.cc:266:slice$9580
+            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x40000000000200000000000; } // $auto$ff.cc:266:slice$9582
         }
         if ran >> 91 & 1 != 0 {
-            if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x80000000000000000000004; } // $auto$ff.cc:266:slice$9556
-            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x80000000000000000000004; } // $auto$ff.cc:266:slice$9558
+            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x80000000000000000000300; } // $auto$ff.cc:266:slice$9579
+            if self.q123 != self.n123 { self.q123 = self.n123; dirty |= 0x80000000000000000000200; } // $flatten\interrupts.\ecc_armed.$procdff$8741
         }
         if ran >> 92 & 1 != 0 {
-            if self.q120 != self.n120 { self.q120 = self.n120; dirty |= 0x100000000000000000000004; } // $flatten\filter.\single_data1_match.$procdff$8721
-            if self.q121 != self.n121 { self.q121 = self.n121; dirty |= 0x100000000000000000000004; } // $flatten\filter.\single_data2_match.$procdff$8720
+            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x100000000000200000000000; } // $auto$ff.cc:266:slice$9578
         }
         if ran >> 93 & 1 != 0 {
-            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x200000000000000000000004; } // $auto$ff.cc:266:slice$9554
-            if self.q122 != self.n122 { self.q122 = self.n122; dirty |= 0x200000000000000000000100; } // $flatten\interrupts.\alc_armed.$procdff$8718
+            if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x200000000000000000040200; } // $auto$ff.cc:266:slice$9576
         }
         if ran >> 94 & 1 != 0 {
-            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x400000000000000000000100; } // $auto$ff.cc:266:slice$9550
-            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x400000000002000000000000; } // $auto$ff.cc:266:slice$9552
+            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x400000000000200000040200; } // $auto$ff.cc:266:slice$9560
         }
         if ran >> 95 & 1 != 0 {
-            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x800000000000000000000300; } // $auto$ff.cc:266:slice$9549
-            if self.q123 != self.n123 { self.q123 = self.n123; dirty |= 0x800000000000000000000100; } // $flatten\interrupts.\ecc_armed.$procdff$8714
+            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x800000000000000000000200; } // $auto$ff.cc:266:slice$9559
         }
         if ran >> 96 & 1 != 0 {
-            if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x1000000000000000000020100; } // $auto$ff.cc:266:slice$9546
-            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x1000000000002000000000000; } // $auto$ff.cc:266:slice$9548
+            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x1000000000000000000000200; } // $auto$ff.cc:266:slice$9558
         }
         if ran >> 97 & 1 != 0 {
-            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x2000000000000000000000100; } // $auto$ff.cc:266:slice$9529
-            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x2000000000002000000020100; } // $auto$ff.cc:266:slice$9530
-        }
-        if ran >> 98 & 1 != 0 {
-            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x4000000000000000000000100; } // $auto$ff.cc:266:slice$9528
+            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x2000000000000000000000200; } // $auto$ff.cc:266:slice$9554
         }
         if ran >> 99 & 1 != 0 {
-            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x8000000000000000000000100; } // $auto$ff.cc:266:slice$9524
+            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x8000000000000200000000004; } // $auto$ff.cc:266:slice$9551
+        }
+        if ran >> 100 & 1 != 0 {
+            if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x10000000000000200000000000; } // $auto$ff.cc:266:slice$9539
         }
         if ran >> 101 & 1 != 0 {
-            if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x20000000000002000000000000; } // $auto$ff.cc:266:slice$9509
-            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x20000000000002000000000004; } // $auto$ff.cc:266:slice$9521
+            if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x20000000000000000800000000; } // $auto$ff.cc:266:slice$9535
         }
         if ran >> 102 & 1 != 0 {
-            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x40000000000000000040000000; } // $auto$ff.cc:266:slice$9504
-            if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x40000000000000000040000000; } // $auto$ff.cc:266:slice$9505
+            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x40000000000000000800000000; } // $auto$ff.cc:266:slice$9534
         }
         if ran >> 103 & 1 != 0 {
-            if self.q124 != self.n124 { self.q124 = self.n124; dirty |= 0x80000000000000000000001003; } // $flatten\modes.\enable_reg.$procdff$8701
+            if self.q124 != self.n124 { self.q124 = self.n124; dirty |= 0x80000000000000000000001003; } // $flatten\modes.\enable_reg.$procdff$8728
         }
         if ran >> 104 & 1 != 0 {
-            if self.q125 != self.n125 { self.q125 = self.n125; dirty |= 0x100000000000000200000101001; } // $flatten\modes.\listen_only_reg.$procdff$8700
+            if self.q125 != self.n125 { self.q125 = self.n125; dirty |= 0x100000000000000020000101001; } // $flatten\modes.\listen_only_reg.$procdff$8727
         }
         if ran >> 105 & 1 != 0 {
-            if self.q126 != self.n126 { self.q126 = self.n126; dirty |= 0x200000000000002000000000200; } // $flatten\modes.\lom.$procdff$8699
+            if self.q126 != self.n126 { self.q126 = self.n126; dirty |= 0x200000000000000200000000100; } // $flatten\modes.\lom.$procdff$8726
         }
         if ran >> 106 & 1 != 0 {
-            if self.q127 != self.n127 { self.q127 = self.n127; dirty |= 0x404000800000002000020000b44; } // $flatten\modes.\rm.$procdff$8698
+            if self.q127 != self.n127 { self.q127 = self.n127; dirty |= 0x401000080000000200200000b44; } // $flatten\modes.\rm.$procdff$8725
         }
         if ran >> 107 & 1 != 0 {
-            if self.q128 != self.n128 { self.q128 = self.n128; dirty |= 0x800000000000000000000000002; } // $flatten\modes.\self_test_reg.$procdff$8697
+            if self.q128 != self.n128 { self.q128 = self.n128; dirty |= 0x800000000000000000000000002; } // $flatten\modes.\self_test_reg.$procdff$8724
         }
         if ran >> 108 & 1 != 0 {
-            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x1000000000000000000000000200; } // $auto$ff.cc:266:slice$9502
+            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x1000000000000000000000000100; } // $auto$ff.cc:266:slice$9532
         }
         if ran >> 109 & 1 != 0 {
-            if self.q129 != self.n129 { self.q129 = self.n129; dirty |= 0x2010000000000002000008000200; } // $flatten\modes.\sm.$procdff$8695
+            if self.q129 != self.n129 { self.q129 = self.n129; dirty |= 0x2004000000000000200000200100; } // $flatten\modes.\sm.$procdff$8722
         }
         if ran >> 110 & 1 != 0 {
-            if self.q130 != self.n130 { self.q130 = self.n130; dirty |= 0x4000000000000002000000000200; } // $flatten\modes.\stm.$procdff$8694
+            if self.q130 != self.n130 { self.q130 = self.n130; dirty |= 0x4000000000000000200000000100; } // $flatten\modes.\stm.$procdff$8721
         }
         if ran >> 111 & 1 != 0 {
-            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x8000000000000000000000000010; } // $auto$ff.cc:266:slice$9496
+            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x8000000000000000000000000010; } // $auto$ff.cc:266:slice$9526
         }
         if ran >> 112 & 1 != 0 {
-            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x10000000000000002000000000000; } // $auto$ff.cc:266:slice$9495
+            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x10000000000000000200000000000; } // $auto$ff.cc:266:slice$9525
         }
         if ran >> 113 & 1 != 0 {
-            if self.q106 != self.n106 { self.q106 = self.n106; dirty |= 0x20000000000000000000000000010; } // $auto$ff.cc:266:slice$9846
+            if self.q106 != self.n106 { self.q106 = self.n106; dirty |= 0x20000000000000000000000000010; } // $auto$ff.cc:266:slice$9878
         }
         if ran >> 114 & 1 != 0 {
-            if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x40000000000000000000000000010; } // $auto$ff.cc:266:slice$9492
+            if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x40000000000000000000000000010; } // $auto$ff.cc:266:slice$9522
         }
         if ran >> 115 & 1 != 0 {
-            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x80000000000000000000000000020; } // $auto$ff.cc:266:slice$9491
+            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x80000000000000000000000000020; } // $auto$ff.cc:266:slice$9521
         }
         if ran >> 116 & 1 != 0 {
-            if self.q131 != self.n131 { self.q131 = self.n131; dirty |= 0x100000000000000000000000024020; } // $flatten\tbs.$procdff$8688
+            if self.q131 != self.n131 { self.q131 = self.n131; dirty |= 0x100000000000000000000000044020; } // $flatten\tbs.$procdff$8715
         }
         if ran >> 117 & 1 != 0 {
-            if self.q132 != self.n132 { self.q132 = self.n132; dirty |= 0x200000000000000000000000020020; } // $flatten\tcs.$procdff$8687
+            if self.q132 != self.n132 { self.q132 = self.n132; dirty |= 0x200000000000000000000000040020; } // $flatten\tcs.$procdff$8714
         }
         if ran >> 118 & 1 != 0 {
-            if self.q107 != self.n107 { self.q107 = self.n107; dirty |= 0x400000000000000000000000040000; } // $auto$ff.cc:266:slice$9847
+            if self.q107 != self.n107 { self.q107 = self.n107; dirty |= 0x400000000000000000000000080000; } // $auto$ff.cc:266:slice$9879
         }
         if ran >> 120 & 1 != 0 {
-            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x1000000000000000000000000040000; } // $auto$ff.cc:266:slice$9485
+            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x1000000000000000000000000080000; } // $auto$ff.cc:266:slice$9515
         }
         if ran >> 121 & 1 != 0 {
-            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x2000000000000000000000000040000; } // $auto$ff.cc:266:slice$9482
+            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x2000000000000000000000000080000; } // $auto$ff.cc:266:slice$9512
         }
         if ran >> 123 & 1 != 0 {
-            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x8000000000000000000000000040000; } // $auto$ff.cc:266:slice$9480
+            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x8000000000000000000000000080000; } // $auto$ff.cc:266:slice$9510
         }
         if ran >> 124 & 1 != 0 {
-            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x10000000000000000000000000044020; } // $auto$ff.cc:266:slice$9479
+            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x10000000000000000000000000084020; } // $auto$ff.cc:266:slice$9509
         }
         if ran >> 125 & 1 != 0 {
-            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x20000000000000000000000000005021; } // $auto$ff.cc:266:slice$9475
+            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x20000000000000000000000000005021; } // $auto$ff.cc:266:slice$9505
         }
         if ran >> 126 & 1 != 0 {
-            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x40000000000000000000000000000001; } // $auto$ff.cc:266:slice$9474
+            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x40000000000000000000000000000001; } // $auto$ff.cc:266:slice$9504
         }
         self.dirty |= dirty;
     }
 
     /// The cells of top$core$protocol$interframe.
     fn group_0(&mut self, dirty: &mut u128) {
-        let c489: u64 = (self.q62).wrapping_add((0x1)) & 0x7;
-        let c499: u64 = (self.q52) & (self.q114) & 0x1;
-        if self.v499 != c499 { self.v499 = c499; *dirty |= 0x2000000000; }
-        let c504: u64 = (self.q61) & (self.q63) & 0x1;
-        let c506: u64 = (self.q109) & (self.q124) & 0x1;
-        if self.v506 != c506 { self.v506 = c506; *dirty |= 0x2000000000; }
-        let c511: u64 = u64::from((self.q115) == (0x1));
-        if self.v511 != c511 { self.v511 = c511; *dirty |= 0x2008000000; }
-        let c512: u64 = u64::from((self.q115) == (0xb));
-        if self.v512 != c512 { self.v512 = c512; *dirty |= 0x2000000000; }
-        let c120: u64 = u64::from((c511 | (c512 << 1)) != 0);
-        if self.v120 != c120 { self.v120 = c120; *dirty |= 0x400; }
-        let c513: u64 = u64::from((self.q115) == (0xa));
-        if self.v513 != c513 { self.v513 = c513; *dirty |= 0x2000000400; }
-        let c514: u64 = u64::from((self.q74) == (0x2));
-        if self.v514 != c514 { self.v514 = c514; *dirty |= 0x2000000000; }
-        let c496: u64 = (c513) & (c514) & 0x1;
-        if self.v496 != c496 { self.v496 = c496; *dirty |= 0x1000; }
-        let c516: u64 = u64::from((self.q74) == (0xa));
-        if self.v516 != c516 { self.v516 = c516; *dirty |= 0x2004000000; }
-        let c517: u64 = !(self.q118) & 0x1;
-        if self.v517 != c517 { self.v517 = c517; *dirty |= 0x2000000002; }
-        let c518: u64 = u64::from((self.q74) == (0x7));
-        if self.v518 != c518 { self.v518 = c518; *dirty |= 0x2000000000; }
-        let c519: u64 = u64::from((self.q74) == (0x5));
-        if self.v519 != c519 { self.v519 = c519; *dirty |= 0x2000000002; }
-        let c520: u64 = !(self.q52) & 0x1;
-        if self.v520 != c520 { self.v520 = c520; *dirty |= 0x1002; }
-        let c505: u64 = (c504) & (c520) & 0x1;
-        let c521: u64 = u64::from((self.q74) == 0);
-        if self.v521 != c521 { self.v521 = c521; *dirty |= 0x2000000400; }
-        let c522: u64 = u64::from((self.q62) == (0x7));
-        let c524: u64 = u64::from((self.q115) == (0xd));
-        if self.v524 != c524 { self.v524 = c524; *dirty |= 0x2000000400; }
-        let c525: u64 = u64::from((self.q74) != 0);
-        if self.v525 != c525 { self.v525 = c525; *dirty |= 0x400000; }
-        let c526: u64 = u64::from((self.q109) != (self.q60));
-        let c501: u64 = (c525) & (c526) & 0x1;
-        if self.v501 != c501 { self.v501 = c501; *dirty |= 0x2000000000; }
-        let c527: u64 = !(self.q125) & 0x1;
-        if self.v527 != c527 { self.v527 = c527; *dirty |= 0x2; }
-        let c490: u64 = (self.q1) & (c527) & 0x1;
-        let c503: u64 = (self.q109) & (c527) & 0x1;
-        if self.v503 != c503 { self.v503 = c503; *dirty |= 0x2000000000; }
-        let c28: u64 = u64::from((c524 | (c503 << 1)) != (0x3));
-        if self.v28 != c28 { self.v28 = c28; *dirty |= 0x2000000; }
-        let c30: u64 = u64::from((c524 | (c519 << 1) | (c503 << 2)) != (0x1));
-        if self.v30 != c30 { self.v30 = c30; *dirty |= 0x2000000; }
-        let c528: u64 = !(self.q88) & 0x1;
-        let c491: u64 = (c490) & (c528) & 0x1;
-        let c492: u64 = (c491) & (self.q124) & 0x1;
-        let c529: u64 = !(self.q113) & 0x1;
-        if self.v529 != c529 { self.v529 = c529; *dirty |= 0x1080; }
-        let c493: u64 = (c492) & (c529) & 0x1;
-        let c530: u64 = !(self.q71) & 0x1;
-        let c494: u64 = (c493) & (c530) & 0x1;
-        if self.v494 != c494 { self.v494 = c494; *dirty |= 0x2000; }
-        let c531: u64 = !(c499) & 0x1;
-        let c500: u64 = (c494) & (c531) & 0x1;
-        if self.v500 != c500 { self.v500 = c500; *dirty |= 0x2000000000; }
-        let c532: u64 = ((self.q114) | (self.q125)) & 0x1;
-        if self.v532 != c532 { self.v532 = c532; *dirty |= 0x2004000000; }
-        let c533: u64 = ((c511) | (c512)) & 0x1;
-        if self.v533 != c533 { self.v533 = c533; *dirty |= 0x1000; }
-        let c534: u64 = ((c533) | (c496)) & 0x1;
-        if self.v534 != c534 { self.v534 = c534; *dirty |= 0x2000000000; }
-        let c535: u64 = ((self.q0) | (self.q88)) & 0x1;
-        if self.v535 != c535 { self.v535 = c535; *dirty |= 0x2000000002; }
-        let c554: u64 = u64::from((self.q115) == (0xf));
-        if self.v554 != c554 { self.v554 = c554; *dirty |= 0x2000001010; }
-        let c556: u64 = (c506) & (c516) & 0x1;
-        let c558: u64 = u64::from((self.q115) == (0xe));
-        if self.v558 != c558 { self.v558 = c558; *dirty |= 0x2002000400; }
-        let c29: u64 = u64::from((c558 | (c521 << 1)) != (0x1));
-        if self.v29 != c29 { self.v29 = c29; *dirty |= 0x2000000; }
-        let c32: u64 = u64::from((c558 | (c521 << 1) | (self.q109 << 2)) != (0x7));
-        if self.v32 != c32 { self.v32 = c32; *dirty |= 0x2000000; }
-        let c566: u64 = if (c522) != 0 { (c520) } else { (c505) };
-        let c567: u64 = (c522) & (self.q52) & 0x1;
-        let c568: u64 = if (self.q109) != 0 { (0x0) } else { (c567) };
-        let c569: u64 = if (self.q109) != 0 { (0x0) } else { (c566) };
-        let c571: u64 = (c521) & (c568) & 0x1;
-        if self.v571 != c571 { self.v571 = c571; *dirty |= 0x2000000; }
-        let c572: u64 = (c521) & (c569) & 0x1;
-        let c577: u64 = if (c519) != 0 { (0x0) } else { (self.q63) };
-        let c581: u64 = if (c503) != 0 { (self.q63) } else { (c577) };
-        let c585: u64 = u64::from((self.q115) == (0xc));
-        if self.v585 != c585 { self.v585 = c585; *dirty |= 0x2007000400; }
-        let c27: u64 = u64::from((c524 | (c585 << 1) | (c558 << 2)) != 0);
-        if self.v27 != c27 { self.v27 = c27; *dirty |= 0x2000000; }
-        let c588: u64 = if (self.q109) != 0 { (0x0) } else { (c519) };
-        let c590: u64 = (self.q109) & (c520) & 0x1;
-        let c591: u64 = (self.q109) & (self.q52) & 0x1;
-        if self.v591 != c591 { self.v591 = c591; *dirty |= 0x2000000; }
-        let c592: u64 = (self.q109) & (c532) & 0x1;
-        let c594: u64 = if (c501) != 0 { (0x0) } else { (c519) };
-        let c598: u64 = if (self.q59) != 0 { (c594) } else { (c588) };
-        if self.v598 != c598 { self.v598 = c598; *dirty |= 0x2000000000; }
-        let c31: u64 = u64::from((c585 | (c598 << 1)) != (0x1));
-        if self.v31 != c31 { self.v31 = c31; *dirty |= 0x2000000; }
-        let c122: u64 = if (c524) != 0 { (c519) } else { (c598) };
-        let c576: u64 = ((self.q61) | (c122)) & 0x1;
-        let c600: u64 = ((c592) | (self.q59)) & 0x1;
-        if self.v600 != c600 { self.v600 = c600; *dirty |= 0x2000000000; }
-        let c601: u64 = if (self.q59) != 0 { (0x0) } else { (self.q109) };
-        let c602: u64 = if (self.q59) != 0 { (0x0) } else { (c590) };
-        let c622: u64 = u64::from((self.q115) == 0);
-        if self.v622 != c622 { self.v622 = c622; *dirty |= 0x2000001010; }
-        let c628: u64 = if (c558) != 0 { (c489) } else { (0x0) };
-        if self.v628 != c628 { self.v628 = c628; *dirty |= 0x800000000000000000; }
-        let c629: u64 = if (c558) != 0 { (0x0) } else { (c576) };
-        if self.v629 != c629 { self.v629 = c629; *dirty |= 0x1000000000000000000; }
-        let c630: u64 = if (c524) != 0 { (c581) } else { (self.q63) };
-        if self.v630 != c630 { self.v630 = c630; *dirty |= 0x2000000; }
-        let c633: u64 = (c585) & (c601) & 0x1;
-        if self.v633 != c633 { self.v633 = c633; *dirty |= 0x2000000; }
-        let c635: u64 = (c554) & (c556) & 0x1;
-        if self.v635 != c635 { self.v635 = c635; *dirty |= 0x2000000; }
-        let c637: u64 = { let s = (c558 | (c585 << 1)); if s >> 0 & 1 != 0 { c572 } else if s >> 1 & 1 != 0 { c602 } else { (0x0) } };
-        if self.v637 != c637 { self.v637 = c637; *dirty |= 0x2000000; }
+        let c495: u64 = (self.q62).wrapping_add((0x1)) & 0x7;
+        let c506: u64 = (self.q52) & (self.q114) & 0x1;
+        if self.v506 != c506 { self.v506 = c506; *dirty |= 0x10000000; }
+        let c511: u64 = (self.q61) & (self.q63) & 0x1;
+        let c513: u64 = (self.q109) & (self.q124) & 0x1;
+        if self.v513 != c513 { self.v513 = c513; *dirty |= 0x10000000; }
+        let c518: u64 = u64::from((self.q115) == (0x1));
+        if self.v518 != c518 { self.v518 = c518; *dirty |= 0x10200000; }
+        let c519: u64 = u64::from((self.q115) == (0xb));
+        if self.v519 != c519 { self.v519 = c519; *dirty |= 0x10000000; }
+        let c122: u64 = u64::from((c518 | (c519 << 1)) != 0);
+        if self.v122 != c122 { self.v122 = c122; *dirty |= 0x400; }
+        let c520: u64 = u64::from((self.q115) == (0xa));
+        if self.v520 != c520 { self.v520 = c520; *dirty |= 0x10000400; }
+        let c521: u64 = u64::from((self.q74) == (0x2));
+        if self.v521 != c521 { self.v521 = c521; *dirty |= 0x10000000; }
+        let c503: u64 = (c520) & (c521) & 0x1;
+        if self.v503 != c503 { self.v503 = c503; *dirty |= 0x1000; }
+        let c523: u64 = u64::from((self.q74) == (0xa));
+        if self.v523 != c523 { self.v523 = c523; *dirty |= 0x30000000; }
+        let c524: u64 = !(self.q118) & 0x1;
+        if self.v524 != c524 { self.v524 = c524; *dirty |= 0x10010002; }
+        let c525: u64 = u64::from((self.q74) == (0x7));
+        if self.v525 != c525 { self.v525 = c525; *dirty |= 0x10000000; }
+        let c526: u64 = u64::from((self.q74) == (0x5));
+        if self.v526 != c526 { self.v526 = c526; *dirty |= 0x10000002; }
+        let c527: u64 = !(self.q52) & 0x1;
+        if self.v527 != c527 { self.v527 = c527; *dirty |= 0x1002; }
+        let c512: u64 = (c511) & (c527) & 0x1;
+        let c528: u64 = u64::from((self.q74) == 0);
+        if self.v528 != c528 { self.v528 = c528; *dirty |= 0x10000400; }
+        let c529: u64 = u64::from((self.q62) == (0x7));
+        let c531: u64 = u64::from((self.q115) == (0xd));
+        if self.v531 != c531 { self.v531 = c531; *dirty |= 0x10000400; }
+        let c532: u64 = u64::from((self.q74) != 0);
+        if self.v532 != c532 { self.v532 = c532; *dirty |= 0x800000; }
+        let c533: u64 = u64::from((self.q109) != (self.q60));
+        let c508: u64 = (c532) & (c533) & 0x1;
+        if self.v508 != c508 { self.v508 = c508; *dirty |= 0x10000000; }
+        let c534: u64 = !(self.q125) & 0x1;
+        if self.v534 != c534 { self.v534 = c534; *dirty |= 0x2; }
+        let c496: u64 = (self.q1) & (c534) & 0x1;
+        let c510: u64 = (self.q109) & (c534) & 0x1;
+        if self.v510 != c510 { self.v510 = c510; *dirty |= 0x10000000; }
+        let c28: u64 = u64::from((c531 | (c510 << 1)) != (0x3));
+        if self.v28 != c28 { self.v28 = c28; *dirty |= 0x4000000; }
+        let c30: u64 = u64::from((c531 | (c526 << 1) | (c510 << 2)) != (0x1));
+        if self.v30 != c30 { self.v30 = c30; *dirty |= 0x4000000; }
+        let c535: u64 = !(self.q88) & 0x1;
+        let c497: u64 = (c496) & (c535) & 0x1;
+        let c498: u64 = (c497) & (self.q124) & 0x1;
+        let c536: u64 = !(self.q113) & 0x1;
+        if self.v536 != c536 { self.v536 = c536; *dirty |= 0x1080; }
+        let c499: u64 = (c498) & (c536) & 0x1;
+        let c537: u64 = !(self.q71) & 0x1;
+        let c500: u64 = (c499) & (c537) & 0x1;
+        if self.v500 != c500 { self.v500 = c500; *dirty |= 0x2000; }
+        let c538: u64 = !(c506) & 0x1;
+        let c507: u64 = (c500) & (c538) & 0x1;
+        if self.v507 != c507 { self.v507 = c507; *dirty |= 0x10000000; }
+        let c539: u64 = ((self.q114) | (self.q125)) & 0x1;
+        if self.v539 != c539 { self.v539 = c539; *dirty |= 0x30000000; }
+        let c540: u64 = ((c518) | (c519)) & 0x1;
+        if self.v540 != c540 { self.v540 = c540; *dirty |= 0x1000; }
+        let c541: u64 = ((c540) | (c503)) & 0x1;
+        if self.v541 != c541 { self.v541 = c541; *dirty |= 0x4000000; }
+        let c542: u64 = ((self.q0) | (self.q88)) & 0x1;
+        if self.v542 != c542 { self.v542 = c542; *dirty |= 0x10000002; }
+        let c561: u64 = u64::from((self.q115) == (0xf));
+        if self.v561 != c561 { self.v561 = c561; *dirty |= 0x10001010; }
+        let c563: u64 = (c513) & (c523) & 0x1;
+        let c565: u64 = u64::from((self.q115) == (0xe));
+        if self.v565 != c565 { self.v565 = c565; *dirty |= 0x14000400; }
+        let c29: u64 = u64::from((c565 | (c528 << 1)) != (0x1));
+        if self.v29 != c29 { self.v29 = c29; *dirty |= 0x4000000; }
+        let c32: u64 = u64::from((c565 | (c528 << 1) | (self.q109 << 2)) != (0x7));
+        if self.v32 != c32 { self.v32 = c32; *dirty |= 0x4000000; }
+        let c573: u64 = if (c529) != 0 { (c527) } else { (c512) };
+        let c574: u64 = (c529) & (self.q52) & 0x1;
+        let c575: u64 = if (self.q109) != 0 { (0x0) } else { (c574) };
+        let c576: u64 = if (self.q109) != 0 { (0x0) } else { (c573) };
+        let c578: u64 = (c528) & (c575) & 0x1;
+        if self.v578 != c578 { self.v578 = c578; *dirty |= 0x4000000; }
+        let c579: u64 = (c528) & (c576) & 0x1;
+        let c584: u64 = if (c526) != 0 { (0x0) } else { (self.q63) };
+        let c588: u64 = if (c510) != 0 { (self.q63) } else { (c584) };
+        let c592: u64 = u64::from((self.q115) == (0xc));
+        if self.v592 != c592 { self.v592 = c592; *dirty |= 0x36000400; }
+        let c27: u64 = u64::from((c531 | (c592 << 1) | (c565 << 2)) != 0);
+        if self.v27 != c27 { self.v27 = c27; *dirty |= 0x4000000; }
+        let c595: u64 = if (self.q109) != 0 { (0x0) } else { (c526) };
+        let c597: u64 = (self.q109) & (c527) & 0x1;
+        let c598: u64 = (self.q109) & (self.q52) & 0x1;
+        if self.v598 != c598 { self.v598 = c598; *dirty |= 0x4000000; }
+        let c599: u64 = (self.q109) & (c539) & 0x1;
+        let c601: u64 = if (c508) != 0 { (0x0) } else { (c526) };
+        let c605: u64 = if (self.q59) != 0 { (c601) } else { (c595) };
+        if self.v605 != c605 { self.v605 = c605; *dirty |= 0x10000000; }
+        let c31: u64 = u64::from((c592 | (c605 << 1)) != (0x1));
+        if self.v31 != c31 { self.v31 = c31; *dirty |= 0x4000000; }
+        let c124: u64 = if (c531) != 0 { (c526) } else { (c605) };
+        let c583: u64 = ((self.q61) | (c124)) & 0x1;
+        let c607: u64 = ((c599) | (self.q59)) & 0x1;
+        if self.v607 != c607 { self.v607 = c607; *dirty |= 0x10000000; }
+        let c608: u64 = if (self.q59) != 0 { (0x0) } else { (self.q109) };
+        let c609: u64 = if (self.q59) != 0 { (0x0) } else { (c597) };
+        let c629: u64 = u64::from((self.q115) == 0);
+        if self.v629 != c629 { self.v629 = c629; *dirty |= 0x10001010; }
+        let c635: u64 = if (c565) != 0 { (c495) } else { (0x0) };
+        if self.v635 != c635 { self.v635 = c635; *dirty |= 0x80000000000000000; }
+        let c636: u64 = if (c565) != 0 { (0x0) } else { (c583) };
+        if self.v636 != c636 { self.v636 = c636; *dirty |= 0x100000000000000000; }
+        let c637: u64 = if (c531) != 0 { (c588) } else { (self.q63) };
+        if self.v637 != c637 { self.v637 = c637; *dirty |= 0x4000000; }
+        let c640: u64 = (c592) & (c608) & 0x1;
+        if self.v640 != c640 { self.v640 = c640; *dirty |= 0x4000000; }
+        let c642: u64 = (c561) & (c563) & 0x1;
+        if self.v642 != c642 { self.v642 = c642; *dirty |= 0x4000000; }
+        let c644: u64 = { let s = (c565 | (c592 << 1)); if s >> 0 & 1 != 0 { c579 } else if s >> 1 & 1 != 0 { c609 } else { (0x0) } };
+        if self.v644 != c644 { self.v644 = c644; *dirty |= 0x4000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$frame.
     fn group_1(&mut self, dirty: &mut u128) {
-        let c366: u64 = (self.q124) & (self.v527) & 0x1;
-        let c369: u64 = (self.v519) & (self.v520) & 0x1;
-        let c371: u64 = u64::from((self.q74) == (0xb));
-        if self.v371 != c371 { self.v371 = c371; *dirty |= 0x4000000; }
-        let c372: u64 = u64::from((self.q74) == (0xc));
-        if self.v372 != c372 { self.v372 = c372; *dirty |= 0x804000000; }
-        let c373: u64 = u64::from((self.q74) == (0x1f));
-        if self.v373 != c373 { self.v373 = c373; *dirty |= 0x4002000; }
-        let c38: u64 = u64::from((c371 | (c373 << 1)) != 0);
-        if self.v38 != c38 { self.v38 = c38; *dirty |= 0x1000000000; }
-        let c374: u64 = u64::from((self.q74) == (0x4));
-        let c375: u64 = !(self.q81) & 0x1;
-        if self.v375 != c375 { self.v375 = c375; *dirty |= 0x24; }
-        let c359: u64 = (c374) & (c375) & 0x1;
-        let c376: u64 = u64::from(((self.q84 & 0x7)) == 0);
-        let c377: u64 = u64::from(((self.q74 & 0x7)) == (0x7));
-        if self.v377 != c377 { self.v377 = c377; *dirty |= 0x800400000; }
-        let c378: u64 = u64::from(((self.q74 >> 3)) == (self.q80));
-        let c361: u64 = (c377) & (c378) & 0x1;
-        if self.v361 != c361 { self.v361 = c361; *dirty |= 0x800000; }
-        let c379: u64 = u64::from((self.q115) == (0x2));
-        if self.v379 != c379 { self.v379 = c379; *dirty |= 0x1800800400; }
-        let c363: u64 = (c379) & (self.q118) & 0x1;
-        let c380: u64 = u64::from((self.q109) == (self.q53));
-        if self.v380 != c380 { self.v380 = c380; *dirty |= 0x4000000; }
-        let c381: u64 = u64::from((self.q74) == (0xe));
-        let c382: u64 = u64::from((self.q73) == 0);
-        let c383: u64 = !(self.q128) & 0x1;
-        let c367: u64 = (self.q109) & (c383) & 0x1;
-        let c384: u64 = u64::from((self.q74) == (0x6));
-        if self.v384 != c384 { self.v384 = c384; *dirty |= 0x800000; }
-        let c368: u64 = (c384) & (self.v520) & 0x1;
-        let c370: u64 = (c384) & (self.q52) & 0x1;
-        let c385: u64 = u64::from((self.q118) != (self.q109));
-        let c358: u64 = (self.q52) & (c385) & 0x1;
-        let c386: u64 = ((c371) | (c372)) & 0x1;
-        let c387: u64 = ((c386) | (c373)) & 0x1;
-        let c43: u64 = !(c387) & 0x1;
-        if self.v43 != c43 { self.v43 = c43; *dirty |= 0x1000000000; }
-        let c364: u64 = (self.q52) & (c43) & 0x1;
-        let c388: u64 = ((self.v519) | (c359)) & 0x1;
-        if self.v388 != c388 { self.v388 = c388; *dirty |= 0x801000; }
-        let c391: u64 = u64::from((self.q115) == (0x9));
-        if self.v391 != c391 { self.v391 = c391; *dirty |= 0x800400; }
-        let c393: u64 = !(c368) & 0x1;
-        let c394: u64 = if (self.q109) != 0 { (0x0) } else { (c393) };
-        let c396: u64 = (self.q109) & (c370) & 0x1;
-        let c397: u64 = (self.q109) & (c369) & 0x1;
-        let c399: u64 = if (c384) != 0 { (0xa) } else { (self.q115) };
-        let c392: u64 = if (c368) != 0 { (0xd) } else { (c399) };
-        let c395: u64 = if (self.q109) != 0 { (c399) } else { (c392) };
-        let c400: u64 = u64::from((self.q115) == (0x8));
-        if self.v400 != c400 { self.v400 = c400; *dirty |= 0x800400; }
-        let c401: u64 = if (self.q109) != 0 { (self.q72 | (self.q72 << 1)) } else { (0x1) };
-        let c402: u64 = if (self.q109) != 0 { (self.q72) } else { (0x1) };
-        let c403: u64 = u64::from((self.q115) == (0x7));
-        if self.v403 != c403 { self.v403 = c403; *dirty |= 0x400; }
-        let c404: u64 = if (self.q118) != 0 { (0x0) } else { (self.q109) };
-        let c406: u64 = !(self.q114) & 0x1;
-        let c407: u64 = (c367) & (self.q114) & 0x1;
-        let c408: u64 = if (c367) != 0 { (c406) } else { (0x1) };
-        let c409: u64 = (self.q52) & (c407) & 0x1;
-        let c410: u64 = if (self.q52) != 0 { (c408) } else { (0x1) };
-        let c411: u64 = (self.q52) & (c367) & 0x1;
-        let c412: u64 = if (self.q52) != 0 { (c367) } else { (c404) };
-        let c414: u64 = (c382) & (c366) & 0x1;
-        let c415: u64 = u64::from((self.q115) == (0x6));
-        if self.v415 != c415 { self.v415 = c415; *dirty |= 0x400; }
-        let c416: u64 = !(c382) & 0x1;
-        let c417: u64 = if (self.q52) != 0 { (0x0) } else { (c416) };
-        let c418: u64 = if (self.q52) != 0 { (0x0) } else { (c414) };
-        let c419: u64 = !(self.q109) & 0x1;
-        if self.v419 != c419 { self.v419 = c419; *dirty |= 0x202002000000; }
-        let c360: u64 = (c376) & (c419) & 0x1;
-        let c365: u64 = (c372) & (c419) & 0x1;
-        let c389: u64 = ((self.q79) | (c360)) & 0x1;
-        let c390: u64 = ((c365) | (c373)) & 0x1;
-        if self.v390 != c390 { self.v390 = c390; *dirty |= 0x800000; }
-        let c405: u64 = if (self.q118) != 0 { (0x0) } else { (c419) };
-        let c413: u64 = if (self.q52) != 0 { (0x0) } else { (c405) };
-        let c420: u64 = (self.q109) & (c417) & 0x1;
-        let c421: u64 = (self.q109) & (c418) & 0x1;
-        let c422: u64 = if (c381) != 0 { (0x6) } else { (self.q115) };
-        let c423: u64 = u64::from((self.q115) == (0x5));
-        if self.v423 != c423 { self.v423 = c423; *dirty |= 0x400; }
-        let c425: u64 = u64::from((self.q115) == (0x4));
-        if self.v425 != c425 { self.v425 = c425; *dirty |= 0x800c00400; }
-        let c426: u64 = if (c361) != 0 { (0x5) } else { (self.q115) };
-        let c427: u64 = u64::from((self.q115) == (0x3));
-        if self.v427 != c427 { self.v427 = c427; *dirty |= 0x800c01400; }
-        let c118: u64 = u64::from((c427 | (c425 << 1) | (c423 << 2)) != 0);
-        let c119: u64 = u64::from((c427 | (c425 << 1) | (c379 << 2) | (c423 << 3)) != 0);
-        let c428: u64 = if (c388) != 0 { (c389 | 0x4) } else { (self.q115) };
-        let c430: u64 = (self.q118) & (self.v535) & 0x1;
-        let c431: u64 = if (self.q118) != 0 { (0x0) } else { (c364) };
-        let c432: u64 = (c358) & (c430) & 0x1;
-        let c433: u64 = (c358) & (self.q118) & 0x1;
-        let c434: u64 = (c358) & (self.v517) & 0x1;
-        let c435: u64 = if (c358) != 0 { (c431) } else { (c364) };
-        let c437: u64 = if (c390) != 0 { (0x3) } else { (self.q115) };
-        let c438: u64 = { let s = (c391 | (c379 << 1)); if s >> 0 & 1 != 0 { c396 } else if s >> 1 & 1 != 0 { c432 } else { (0x0) } };
-        let c439: u64 = (c379) & (c433) & 0x1;
-        let c440: u64 = { let s = (c391 | (c400 << 1) | (c403 << 2) | (c415 << 3) | (c118 << 4) | (c379 << 5)); if s >> 0 & 1 != 0 { c394 } else if s >> 1 & 1 != 0 { c402 } else if s >> 2 & 1 != 0 { c412 } else if s >> 3 & 1 != 0 { c419 } else if s >> 4 & 1 != 0 { c358 } else if s >> 5 & 1 != 0 { c434 } else { (0x0) } };
-        let c441: u64 = { let s = (c425 | (c379 << 1)); if s >> 0 & 1 != 0 { self.q52 } else if s >> 1 & 1 != 0 { c435 } else { (0x0) } };
-        let c442: u64 = (c379) & (c390) & 0x1;
-        let c444: u64 = { let s = (c391 | (c400 << 1) | (c403 << 2) | (c415 << 3) | (c423 << 4) | (c425 << 5) | (c427 << 6) | (c379 << 7)); if s >> 0 & 1 != 0 { c395 } else if s >> 1 & 1 != 0 { 0x9 } else if s >> 2 & 1 != 0 { 0x8 } else if s >> 3 & 1 != 0 { 0x7 } else if s >> 4 & 1 != 0 { c422 } else if s >> 5 & 1 != 0 { c426 } else if s >> 6 & 1 != 0 { c428 } else if s >> 7 & 1 != 0 { c437 } else { (self.q115) } };
-        let c445: u64 = (c391) & (c396) & 0x1;
-        let c446: u64 = (c391) & (c397) & 0x1;
-        let c447: u64 = (c403) & (c409) & 0x1;
-        let c448: u64 = (c415) & (c420) & 0x1;
-        let c449: u64 = if (c403) != 0 { (c410) } else { (0x1) };
-        let c450: u64 = { let s = (c391 | (c400 << 1) | (c403 << 2) | (c415 << 3)); if s >> 0 & 1 != 0 { c394 } else if s >> 1 & 1 != 0 { c401 } else if s >> 2 & 1 != 0 { c411 | (c411 << 1) } else if s >> 3 & 1 != 0 { c419 } else { (0x0) } };
-        let c451: u64 = (c415) & (c421) & 0x1;
-        let c452: u64 = (c403) & (c413) & 0x1;
-        let c453: u64 = (self.q94) & (c442) & 0x1;
-        if self.v453 != c453 { self.v453 = c453; *dirty |= 0x1000000000; }
-        let c454: u64 = (self.q94) & (c445) & 0x1;
-        if self.v454 != c454 { self.v454 = c454; *dirty |= 0x1000000000; }
-        let c455: u64 = (self.q94) & (c438) & 0x1;
-        if self.v455 != c455 { self.v455 = c455; *dirty |= 0x1000000000; }
-        let c456: u64 = (self.q94) & (c446) & 0x1;
-        if self.v456 != c456 { self.v456 = c456; *dirty |= 0x20000000000000000000; }
-        let c457: u64 = (self.q94) & (c447) & 0x1;
-        if self.v457 != c457 { self.v457 = c457; *dirty |= 0x1000000000; }
-        let c458: u64 = (self.q94) & (c448) & 0x1;
-        if self.v458 != c458 { self.v458 = c458; *dirty |= 0x1000000000; }
-        let c459: u64 = if (self.q94) != 0 { (c449) } else { (0x1) };
-        if self.v459 != c459 { self.v459 = c459; *dirty |= 0x1000000000; }
-        let c460: u64 = (self.q94) & (c439) & 0x1;
-        if self.v460 != c460 { self.v460 = c460; *dirty |= 0x1000000000; }
-        let c461: u64 = if (self.q94) != 0 { (c450) } else { (0x0) };
-        if self.v461 != c461 { self.v461 = c461; *dirty |= 0x1000000000; }
-        let c462: u64 = (self.q94) & (c440) & 0x1;
-        if self.v462 != c462 { self.v462 = c462; *dirty |= 0x1000000000; }
-        let c463: u64 = (self.q94) & (c415) & 0x1;
-        if self.v463 != c463 { self.v463 = c463; *dirty |= 0x1000000000; }
-        let c464: u64 = (self.q94) & (c451) & 0x1;
-        if self.v464 != c464 { self.v464 = c464; *dirty |= 0x1000000000; }
-        let c465: u64 = (self.q94) & (c119) & 0x1;
-        if self.v465 != c465 { self.v465 = c465; *dirty |= 0x1000000000; }
-        let c466: u64 = if (self.q94) != 0 { (c444) } else { (self.q115) };
-        if self.v466 != c466 { self.v466 = c466; *dirty |= 0x1000000000; }
-        let c467: u64 = (self.q94) & (c452) & 0x1;
-        if self.v467 != c467 { self.v467 = c467; *dirty |= 0x1000000000; }
-        let c468: u64 = (self.q94) & (c441) & 0x1;
-        if self.v468 != c468 { self.v468 = c468; *dirty |= 0x1000000000; }
-        let c469: u64 = !(c363) & 0x1;
-        let c470: u64 = if (c358) != 0 { (c469) } else { (0x1) };
-        if self.v470 != c470 { self.v470 = c470; *dirty |= 0x1000000000; }
-        let c471: u64 = if (c358) != 0 { (c363) } else { (c380) };
-        if self.v471 != c471 { self.v471 = c471; *dirty |= 0x1000000000; }
-        let c472: u64 = ((c380) | (c358)) & 0x1;
-        if self.v472 != c472 { self.v472 = c472; *dirty |= 0x1000000000; }
+        let c372: u64 = (self.q124) & (self.v534) & 0x1;
+        let c375: u64 = (self.v526) & (self.v527) & 0x1;
+        let c377: u64 = u64::from((self.q74) == (0xb));
+        if self.v377 != c377 { self.v377 = c377; *dirty |= 0x20000000; }
+        let c378: u64 = u64::from((self.q74) == (0xc));
+        if self.v378 != c378 { self.v378 = c378; *dirty |= 0x28000000; }
+        let c379: u64 = u64::from((self.q74) == (0x1f));
+        if self.v379 != c379 { self.v379 = c379; *dirty |= 0x20002000; }
+        let c38: u64 = u64::from((c377 | (c379 << 1)) != 0);
+        if self.v38 != c38 { self.v38 = c38; *dirty |= 0x8000000; }
+        let c380: u64 = u64::from((self.q74) == (0x4));
+        let c381: u64 = !(self.q81) & 0x1;
+        if self.v381 != c381 { self.v381 = c381; *dirty |= 0x24; }
+        let c365: u64 = (c380) & (c381) & 0x1;
+        let c382: u64 = u64::from(((self.q84 & 0x7)) == 0);
+        let c383: u64 = u64::from(((self.q74 & 0x7)) == (0x7));
+        if self.v383 != c383 { self.v383 = c383; *dirty |= 0x8800000; }
+        let c384: u64 = u64::from(((self.q74 >> 3)) == (self.q80));
+        let c367: u64 = (c383) & (c384) & 0x1;
+        if self.v367 != c367 { self.v367 = c367; *dirty |= 0x1000000; }
+        let c385: u64 = u64::from((self.q115) == (0x2));
+        if self.v385 != c385 { self.v385 = c385; *dirty |= 0x9000400; }
+        let c369: u64 = (c385) & (self.q118) & 0x1;
+        let c386: u64 = u64::from((self.q109) == (self.q53));
+        if self.v386 != c386 { self.v386 = c386; *dirty |= 0x20000000; }
+        let c387: u64 = u64::from((self.q74) == (0xe));
+        let c388: u64 = u64::from((self.q73) == 0);
+        let c389: u64 = !(self.q128) & 0x1;
+        let c373: u64 = (self.q109) & (c389) & 0x1;
+        let c390: u64 = u64::from((self.q74) == (0x6));
+        if self.v390 != c390 { self.v390 = c390; *dirty |= 0x1000000; }
+        let c374: u64 = (c390) & (self.v527) & 0x1;
+        let c376: u64 = (c390) & (self.q52) & 0x1;
+        let c391: u64 = u64::from((self.q118) != (self.q109));
+        let c364: u64 = (self.q52) & (c391) & 0x1;
+        let c393: u64 = ((c377) | (c378)) & 0x1;
+        let c392: u64 = ((c393) | (c379)) & 0x1;
+        let c43: u64 = !(c392) & 0x1;
+        if self.v43 != c43 { self.v43 = c43; *dirty |= 0x8000000; }
+        let c370: u64 = (self.q52) & (c43) & 0x1;
+        let c394: u64 = ((self.v526) | (c365)) & 0x1;
+        if self.v394 != c394 { self.v394 = c394; *dirty |= 0x1001000; }
+        let c397: u64 = u64::from((self.q115) == (0x9));
+        if self.v397 != c397 { self.v397 = c397; *dirty |= 0x1000400; }
+        let c399: u64 = !(c374) & 0x1;
+        let c400: u64 = if (self.q109) != 0 { (0x0) } else { (c399) };
+        let c402: u64 = (self.q109) & (c376) & 0x1;
+        let c403: u64 = (self.q109) & (c375) & 0x1;
+        let c405: u64 = if (c390) != 0 { (0xa) } else { (self.q115) };
+        let c398: u64 = if (c374) != 0 { (0xd) } else { (c405) };
+        let c401: u64 = if (self.q109) != 0 { (c405) } else { (c398) };
+        let c406: u64 = u64::from((self.q115) == (0x8));
+        if self.v406 != c406 { self.v406 = c406; *dirty |= 0x1000400; }
+        let c407: u64 = if (self.q109) != 0 { (self.q72 | (self.q72 << 1)) } else { (0x1) };
+        let c408: u64 = if (self.q109) != 0 { (self.q72) } else { (0x1) };
+        let c409: u64 = u64::from((self.q115) == (0x7));
+        if self.v409 != c409 { self.v409 = c409; *dirty |= 0x400; }
+        let c410: u64 = if (self.q118) != 0 { (0x0) } else { (self.q109) };
+        let c412: u64 = !(self.q114) & 0x1;
+        let c413: u64 = (c373) & (self.q114) & 0x1;
+        let c414: u64 = if (c373) != 0 { (c412) } else { (0x1) };
+        let c415: u64 = (self.q52) & (c413) & 0x1;
+        let c416: u64 = if (self.q52) != 0 { (c414) } else { (0x1) };
+        let c417: u64 = (self.q52) & (c373) & 0x1;
+        let c418: u64 = if (self.q52) != 0 { (c373) } else { (c410) };
+        let c420: u64 = (c388) & (c372) & 0x1;
+        let c421: u64 = u64::from((self.q115) == (0x6));
+        if self.v421 != c421 { self.v421 = c421; *dirty |= 0x400; }
+        let c422: u64 = !(c388) & 0x1;
+        let c423: u64 = if (self.q52) != 0 { (0x0) } else { (c422) };
+        let c424: u64 = if (self.q52) != 0 { (0x0) } else { (c420) };
+        let c425: u64 = !(self.q109) & 0x1;
+        if self.v425 != c425 { self.v425 = c425; *dirty |= 0x20004000000; }
+        let c366: u64 = (c382) & (c425) & 0x1;
+        let c371: u64 = (c378) & (c425) & 0x1;
+        let c395: u64 = ((self.q79) | (c366)) & 0x1;
+        let c396: u64 = ((c371) | (c379)) & 0x1;
+        if self.v396 != c396 { self.v396 = c396; *dirty |= 0x1000000; }
+        let c411: u64 = if (self.q118) != 0 { (0x0) } else { (c425) };
+        let c419: u64 = if (self.q52) != 0 { (0x0) } else { (c411) };
+        let c426: u64 = (self.q109) & (c423) & 0x1;
+        let c427: u64 = (self.q109) & (c424) & 0x1;
+        let c428: u64 = if (c387) != 0 { (0x6) } else { (self.q115) };
+        let c429: u64 = u64::from((self.q115) == (0x5));
+        if self.v429 != c429 { self.v429 = c429; *dirty |= 0x400; }
+        let c431: u64 = u64::from((self.q115) == (0x4));
+        if self.v431 != c431 { self.v431 = c431; *dirty |= 0x9800400; }
+        let c432: u64 = if (c367) != 0 { (0x5) } else { (self.q115) };
+        let c433: u64 = u64::from((self.q115) == (0x3));
+        if self.v433 != c433 { self.v433 = c433; *dirty |= 0x1001801400; }
+        let c120: u64 = u64::from((c433 | (c431 << 1) | (c429 << 2)) != 0);
+        let c121: u64 = u64::from((c433 | (c431 << 1) | (c385 << 2) | (c429 << 3)) != 0);
+        let c434: u64 = if (c394) != 0 { (c395 | 0x4) } else { (self.q115) };
+        let c436: u64 = (self.q118) & (self.v542) & 0x1;
+        let c437: u64 = if (self.q118) != 0 { (0x0) } else { (c370) };
+        let c438: u64 = (c364) & (c436) & 0x1;
+        let c439: u64 = (c364) & (self.q118) & 0x1;
+        let c440: u64 = (c364) & (self.v524) & 0x1;
+        let c441: u64 = if (c364) != 0 { (c437) } else { (c370) };
+        let c443: u64 = if (c396) != 0 { (0x3) } else { (self.q115) };
+        let c444: u64 = { let s = (c397 | (c385 << 1)); if s >> 0 & 1 != 0 { c402 } else if s >> 1 & 1 != 0 { c438 } else { (0x0) } };
+        let c445: u64 = (c385) & (c439) & 0x1;
+        let c446: u64 = { let s = (c397 | (c406 << 1) | (c409 << 2) | (c421 << 3) | (c120 << 4) | (c385 << 5)); if s >> 0 & 1 != 0 { c400 } else if s >> 1 & 1 != 0 { c408 } else if s >> 2 & 1 != 0 { c418 } else if s >> 3 & 1 != 0 { c425 } else if s >> 4 & 1 != 0 { c364 } else if s >> 5 & 1 != 0 { c440 } else { (0x0) } };
+        let c447: u64 = { let s = (c431 | (c385 << 1)); if s >> 0 & 1 != 0 { self.q52 } else if s >> 1 & 1 != 0 { c441 } else { (0x0) } };
+        let c448: u64 = (c385) & (c396) & 0x1;
+        let c450: u64 = { let s = (c397 | (c406 << 1) | (c409 << 2) | (c421 << 3) | (c429 << 4) | (c431 << 5) | (c433 << 6) | (c385 << 7)); if s >> 0 & 1 != 0 { c401 } else if s >> 1 & 1 != 0 { 0x9 } else if s >> 2 & 1 != 0 { 0x8 } else if s >> 3 & 1 != 0 { 0x7 } else if s >> 4 & 1 != 0 { c428 } else if s >> 5 & 1 != 0 { c432 } else if s >> 6 & 1 != 0 { c434 } else if s >> 7 & 1 != 0 { c443 } else { (self.q115) } };
+        let c451: u64 = (c397) & (c402) & 0x1;
+        let c452: u64 = (c397) & (c403) & 0x1;
+        let c453: u64 = (c409) & (c415) & 0x1;
+        let c454: u64 = (c421) & (c426) & 0x1;
+        let c455: u64 = if (c409) != 0 { (c416) } else { (0x1) };
+        let c456: u64 = { let s = (c397 | (c406 << 1) | (c409 << 2) | (c421 << 3)); if s >> 0 & 1 != 0 { c400 } else if s >> 1 & 1 != 0 { c407 } else if s >> 2 & 1 != 0 { c417 | (c417 << 1) } else if s >> 3 & 1 != 0 { c425 } else { (0x0) } };
+        let c457: u64 = (c421) & (c427) & 0x1;
+        let c458: u64 = (c409) & (c419) & 0x1;
+        let c459: u64 = (self.q94) & (c448) & 0x1;
+        if self.v459 != c459 { self.v459 = c459; *dirty |= 0x8000000; }
+        let c460: u64 = (self.q94) & (c451) & 0x1;
+        if self.v460 != c460 { self.v460 = c460; *dirty |= 0x8000000; }
+        let c461: u64 = (self.q94) & (c444) & 0x1;
+        if self.v461 != c461 { self.v461 = c461; *dirty |= 0x8000000; }
+        let c462: u64 = (self.q94) & (c452) & 0x1;
+        if self.v462 != c462 { self.v462 = c462; *dirty |= 0x2000000000000000000; }
+        let c463: u64 = (self.q94) & (c453) & 0x1;
+        if self.v463 != c463 { self.v463 = c463; *dirty |= 0x8000000; }
+        let c464: u64 = (self.q94) & (c454) & 0x1;
+        if self.v464 != c464 { self.v464 = c464; *dirty |= 0x8000000; }
+        let c465: u64 = if (self.q94) != 0 { (c455) } else { (0x1) };
+        if self.v465 != c465 { self.v465 = c465; *dirty |= 0x8000000; }
+        let c466: u64 = (self.q94) & (c445) & 0x1;
+        if self.v466 != c466 { self.v466 = c466; *dirty |= 0x8000000; }
+        let c467: u64 = if (self.q94) != 0 { (c456) } else { (0x0) };
+        if self.v467 != c467 { self.v467 = c467; *dirty |= 0x8000000; }
+        let c468: u64 = (self.q94) & (c446) & 0x1;
+        if self.v468 != c468 { self.v468 = c468; *dirty |= 0x8000000; }
+        let c469: u64 = (self.q94) & (c421) & 0x1;
+        if self.v469 != c469 { self.v469 = c469; *dirty |= 0x8000000; }
+        let c470: u64 = (self.q94) & (c457) & 0x1;
+        if self.v470 != c470 { self.v470 = c470; *dirty |= 0x8000000; }
+        let c471: u64 = (self.q94) & (c121) & 0x1;
+        if self.v471 != c471 { self.v471 = c471; *dirty |= 0x8000000; }
+        let c472: u64 = if (self.q94) != 0 { (c450) } else { (self.q115) };
+        if self.v472 != c472 { self.v472 = c472; *dirty |= 0x8000000; }
+        let c473: u64 = (self.q94) & (c458) & 0x1;
+        if self.v473 != c473 { self.v473 = c473; *dirty |= 0x8000000; }
+        let c474: u64 = (self.q94) & (c447) & 0x1;
+        if self.v474 != c474 { self.v474 = c474; *dirty |= 0x8000000; }
+        let c475: u64 = !(c369) & 0x1;
+        let c476: u64 = if (c364) != 0 { (c475) } else { (0x1) };
+        if self.v476 != c476 { self.v476 = c476; *dirty |= 0x8000000; }
+        let c477: u64 = if (c364) != 0 { (c369) } else { (c386) };
+        if self.v477 != c477 { self.v477 = c477; *dirty |= 0x8000000; }
+        let c478: u64 = ((c386) | (c364)) & 0x1;
+        if self.v478 != c478 { self.v478 = c478; *dirty |= 0x8000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$filter.
     fn group_2(&mut self, dirty: &mut u128) {
-        let c112: u64 = ((self.q79 | ((self.q82 & 0x1f) << 1)) ^ ((self.q37 >> 2))) & 0x3f;
-        let c840: u64 = (self.q14) & (self.q127) & 0x1;
-        let c842: u64 = (self.i_we) & (self.q127) & 0x1;
-        if self.v842 != c842 { self.v842 = c842; *dirty |= 0x204020; }
-        let c844: u64 = (self.q28) & (self.q120) & 0x1;
-        let c845: u64 = (c844) & (self.q121) & 0x1;
-        let c846: u64 = (self.q31) & (self.q119) & 0x1;
-        let c861: u64 = u64::from(((self.i_addr >> 3)) == (0x2));
-        let c841: u64 = (c840) & (c861) & 0x1;
-        let c862: u64 = u64::from((self.i_addr) == (0x5));
-        let c863: u64 = u64::from((self.i_addr) == (0x4));
-        if self.v863 != c863 { self.v863 = c863; *dirty |= 0x2000000000100; }
-        let c878: u64 = !(self.q29) & 0x1;
-        let c857: u64 = (self.q86) & (c878) & 0x1;
-        let c879: u64 = u64::from((self.q87) == 0);
-        let c882: u64 = u64::from((self.q87) == (0x1));
-        let c884: u64 = ((c863) | (c862)) & 0x1;
-        let c885: u64 = ((c846) | (self.q30)) & 0x1;
-        let c896: u64 = if (self.q81) != 0 { (((self.q82 >> 13) & 0xff)) } else { ((self.q79 << 4) | ((self.q82 & 0x7) << 5)) };
-        let c897: u64 = if (self.q81) != 0 { ((self.q82 >> 21)) } else { (((self.q82 >> 3) & 0xff)) };
-        let c898: u64 = ((self.q119) | (self.q83)) & 0x1;
-        let c899: u64 = ((self.q121) | (self.q83)) & 0x1;
-        let c900: u64 = ((self.q120) | (self.q83)) & 0x1;
-        let c901: u64 = if (self.q16) != 0 { (c845) } else { (c885) };
-        let c902: u64 = if (self.q14) != 0 { (c901) } else { (self.q32) };
-        if self.v902 != c902 { self.v902 = c902; *dirty |= 0x20; }
-        let c910: u64 = if (self.q14) != 0 { (c841) } else { (c884) };
-        if self.v910 != c910 { self.v910 = c910; *dirty |= 0x2000000000000; }
-        let c843: u64 = (c842) & (c910) & 0x1;
-        let c911: u64 = if (self.q14) != 0 { ((self.i_addr & 0x7)) } else { ((c862 << 2)) };
-        let c864: u64 = u64::from((c911) == (0x1));
-        let c57: u64 = u64::from((c843 | (c864 << 1)) == 0x3);
-        if self.v57 != c57 { self.v57 = c57; *dirty |= 0x4000000000000000000000; }
-        let c865: u64 = u64::from((c911) == (0x2));
-        let c56: u64 = u64::from((c843 | (c865 << 1)) == 0x3);
-        if self.v56 != c56 { self.v56 = c56; *dirty |= 0x4000000000000000000000; }
-        let c866: u64 = u64::from((c911) == 0);
-        let c58: u64 = u64::from((c866 | (c843 << 1)) == 0x3);
-        if self.v58 != c58 { self.v58 = c58; *dirty |= 0x2000000000000000000000; }
-        let c867: u64 = u64::from((c911) == (0x3));
-        let c55: u64 = u64::from((c843 | (c867 << 1)) == 0x3);
-        if self.v55 != c55 { self.v55 = c55; *dirty |= 0x8000000000000000000000; }
-        let c868: u64 = u64::from((c911) == (0x4));
-        let c54: u64 = u64::from((c843 | (c868 << 1)) == 0x3);
-        if self.v54 != c54 { self.v54 = c54; *dirty |= 0x8000000000000000000000; }
-        let c869: u64 = u64::from((c911) == (0x5));
-        let c53: u64 = u64::from((c843 | (c869 << 1)) == 0x3);
-        if self.v53 != c53 { self.v53 = c53; *dirty |= 0x10000000000000000000000; }
-        let c870: u64 = u64::from((c911) == (0x6));
-        let c52: u64 = u64::from((c843 | (c870 << 1)) == 0x3);
-        if self.v52 != c52 { self.v52 = c52; *dirty |= 0x10000000000000000000000; }
-        let c871: u64 = u64::from((c911) == (0x7));
-        let c51: u64 = u64::from((c843 | (c871 << 1)) == 0x3);
-        if self.v51 != c51 { self.v51 = c51; *dirty |= 0x20000000000000000000000; }
-        let c909: u64 = if (c864) != 0 { (self.q39) } else { (self.q40) };
-        let c908: u64 = if (c865) != 0 { (self.q38) } else { (c909) };
-        let c907: u64 = if (c867) != 0 { (self.q37) } else { (c908) };
-        let c906: u64 = if (c868) != 0 { (self.q36) } else { (c907) };
-        let c905: u64 = if (c869) != 0 { (self.q35) } else { (c906) };
-        let c904: u64 = if (c870) != 0 { (self.q34) } else { (c905) };
-        let c903: u64 = if (c871) != 0 { (self.q33) } else { (c904) };
-        if self.v903 != c903 { self.v903 = c903; *dirty |= 0x2000000000000; }
-        let c912: u64 = ((c897) ^ (self.q40)) & 0xff;
-        let c913: u64 = ((self.q36) ^ (0xff)) & 0xff;
-        let c847: u64 = (c912) & (c913) & 0xff;
-        let c872: u64 = u64::from((c847) == 0);
-        if self.v872 != c872 { self.v872 = c872; *dirty |= 0x20000000000000000000000; }
-        let c914: u64 = ((c896) ^ (self.q39)) & 0xff;
-        let c915: u64 = ((self.q35) ^ (0xff)) & 0xff;
-        let c848: u64 = (c914) & (c915) & 0xff;
-        let c115: u64 = ((c848 & 0xf)) & (self.q81 | (self.q81 << 1) | (self.q81 << 2) | (self.q81 << 3)) & 0xf;
-        let c873: u64 = u64::from((c115 | ((c848 >> 4) << 4)) == 0);
-        let c853: u64 = (c872) & (c873) & 0x1;
-        if self.v853 != c853 { self.v853 = c853; *dirty |= 0x40000000000000000000000; }
-        let c916: u64 = ((((self.q82 >> 5) & 0xff)) ^ (self.q38)) & 0xff;
-        let c917: u64 = ((c897) ^ (self.q38)) & 0xff;
-        let c918: u64 = ((self.q34) ^ (0xff)) & 0xff;
-        let c849: u64 = (c916) & (c918) & 0xff;
-        let c851: u64 = (c917) & (c918) & 0xff;
-        let c874: u64 = u64::from((c851) == 0);
-        let c876: u64 = u64::from((c849) == 0);
-        let c919: u64 = ((c896) ^ (self.q37)) & 0xff;
-        let c920: u64 = ((self.q33) ^ (0xff)) & 0xff;
-        let c850: u64 = ((self.q37 & 0x3) | (c112 << 2)) & (c920) & 0xff;
-        let c852: u64 = (c919) & (c920) & 0xff;
-        let c116: u64 = ((c852 & 0xf)) & (self.q81 | (self.q81 << 1) | (self.q81 << 2) | (self.q81 << 3)) & 0xf;
-        let c875: u64 = u64::from((c116 | ((c852 >> 4) << 4)) == 0);
-        let c854: u64 = (c874) & (c875) & 0x1;
-        if self.v854 != c854 { self.v854 = c854; *dirty |= 0x80000000000000000000000; }
-        let c877: u64 = u64::from(((c850 >> 2)) == 0);
-        let c855: u64 = (c876) & (c877) & 0x1;
-        let c886: u64 = ((self.v375) | (c855)) & 0x1;
-        let c856: u64 = (c853) & (c886) & 0x1;
-        if self.v856 != c856 { self.v856 = c856; *dirty |= 0x200000000000000000000000; }
-        let c921: u64 = ((self.q85) ^ (self.q38)) & 0xff;
-        let c858: u64 = (c921) & (c918) & 0xff;
-        let c880: u64 = u64::from((c858) == 0);
-        let c892: u64 = if (c879) != 0 { (c880) } else { (c900) };
-        let c895: u64 = if (c857) != 0 { (c892) } else { (c900) };
-        let c889: u64 = ((c895) | (self.i_reset)) & 0x1;
-        if self.v889 != c889 { self.v889 = c889; *dirty |= 0x100000000000000000000000; }
-        let c922: u64 = ((self.q85) ^ ((self.q37 & 0xf) | ((self.q39 & 0xf) << 4))) & 0xff;
-        let c923: u64 = (((self.q33 & 0xf) | ((self.q35 & 0xf) << 4)) ^ (0xff)) & 0xff;
-        let c859: u64 = (c922) & (c923) & 0xff;
-        let c881: u64 = u64::from((c859) == 0);
-        let c891: u64 = if (c879) != 0 { (c881) } else { (c898) };
-        let c894: u64 = if (c857) != 0 { (c891) } else { (c898) };
-        let c887: u64 = ((c894) | (self.i_reset)) & 0x1;
-        if self.v887 != c887 { self.v887 = c887; *dirty |= 0x40000000000000000000000; }
-        let c924: u64 = ((self.q85) ^ (self.q37)) & 0xff;
-        let c860: u64 = (c924) & (c920) & 0xff;
+        let c113: u64 = ((self.q79 | ((self.q82 & 0x1f) << 1)) ^ ((self.q37 >> 2))) & 0x3f;
+        let c849: u64 = (self.q14) & (self.q127) & 0x1;
+        let c851: u64 = (self.i_we) & (self.q127) & 0x1;
+        if self.v851 != c851 { self.v851 = c851; *dirty |= 0x404020; }
+        let c853: u64 = (self.q28) & (self.q120) & 0x1;
+        let c854: u64 = (c853) & (self.q121) & 0x1;
+        let c855: u64 = (self.q31) & (self.q119) & 0x1;
+        let c870: u64 = u64::from(((self.i_addr >> 3)) == (0x2));
+        let c850: u64 = (c849) & (c870) & 0x1;
+        let c871: u64 = u64::from((self.i_addr) == (0x5));
+        let c872: u64 = u64::from((self.i_addr) == (0x4));
+        if self.v872 != c872 { self.v872 = c872; *dirty |= 0x200000000200; }
+        let c887: u64 = !(self.q29) & 0x1;
+        let c866: u64 = (self.q86) & (c887) & 0x1;
+        let c888: u64 = u64::from((self.q87) == 0);
+        let c891: u64 = u64::from((self.q87) == (0x1));
+        let c893: u64 = ((c872) | (c871)) & 0x1;
+        let c894: u64 = ((c855) | (self.q30)) & 0x1;
+        let c905: u64 = if (self.q81) != 0 { (((self.q82 >> 13) & 0xff)) } else { ((self.q79 << 4) | ((self.q82 & 0x7) << 5)) };
+        let c906: u64 = if (self.q81) != 0 { ((self.q82 >> 21)) } else { (((self.q82 >> 3) & 0xff)) };
+        let c907: u64 = ((self.q119) | (self.q83)) & 0x1;
+        let c908: u64 = ((self.q121) | (self.q83)) & 0x1;
+        let c909: u64 = ((self.q120) | (self.q83)) & 0x1;
+        let c910: u64 = if (self.q16) != 0 { (c854) } else { (c894) };
+        let c911: u64 = if (self.q14) != 0 { (c910) } else { (self.q32) };
+        if self.v911 != c911 { self.v911 = c911; *dirty |= 0x20; }
+        let c919: u64 = if (self.q14) != 0 { (c850) } else { (c893) };
+        if self.v919 != c919 { self.v919 = c919; *dirty |= 0x200000000000; }
+        let c852: u64 = (c851) & (c919) & 0x1;
+        let c920: u64 = if (self.q14) != 0 { ((self.i_addr & 0x7)) } else { ((c871 << 2)) };
+        let c873: u64 = u64::from((c920) == (0x1));
+        let c57: u64 = u64::from((c852 | (c873 << 1)) == 0x3);
+        if self.v57 != c57 { self.v57 = c57; *dirty |= 0x400000000000000000000; }
+        let c874: u64 = u64::from((c920) == (0x2));
+        let c56: u64 = u64::from((c852 | (c874 << 1)) == 0x3);
+        if self.v56 != c56 { self.v56 = c56; *dirty |= 0x400000000000000000000; }
+        let c875: u64 = u64::from((c920) == 0);
+        let c58: u64 = u64::from((c875 | (c852 << 1)) == 0x3);
+        if self.v58 != c58 { self.v58 = c58; *dirty |= 0x200000000000000000000; }
+        let c876: u64 = u64::from((c920) == (0x3));
+        let c55: u64 = u64::from((c852 | (c876 << 1)) == 0x3);
+        if self.v55 != c55 { self.v55 = c55; *dirty |= 0x800000000000000000000; }
+        let c877: u64 = u64::from((c920) == (0x4));
+        let c54: u64 = u64::from((c852 | (c877 << 1)) == 0x3);
+        if self.v54 != c54 { self.v54 = c54; *dirty |= 0x800000000000000000000; }
+        let c878: u64 = u64::from((c920) == (0x5));
+        let c53: u64 = u64::from((c852 | (c878 << 1)) == 0x3);
+        if self.v53 != c53 { self.v53 = c53; *dirty |= 0x1000000000000000000000; }
+        let c879: u64 = u64::from((c920) == (0x6));
+        let c52: u64 = u64::from((c852 | (c879 << 1)) == 0x3);
+        if self.v52 != c52 { self.v52 = c52; *dirty |= 0x1000000000000000000000; }
+        let c880: u64 = u64::from((c920) == (0x7));
+        let c51: u64 = u64::from((c852 | (c880 << 1)) == 0x3);
+        if self.v51 != c51 { self.v51 = c51; *dirty |= 0x2000000000000000000000; }
+        let c918: u64 = if (c873) != 0 { (self.q39) } else { (self.q40) };
+        let c917: u64 = if (c874) != 0 { (self.q38) } else { (c918) };
+        let c916: u64 = if (c876) != 0 { (self.q37) } else { (c917) };
+        let c915: u64 = if (c877) != 0 { (self.q36) } else { (c916) };
+        let c914: u64 = if (c878) != 0 { (self.q35) } else { (c915) };
+        let c913: u64 = if (c879) != 0 { (self.q34) } else { (c914) };
+        let c912: u64 = if (c880) != 0 { (self.q33) } else { (c913) };
+        if self.v912 != c912 { self.v912 = c912; *dirty |= 0x200000000000; }
+        let c921: u64 = ((c906) ^ (self.q40)) & 0xff;
+        let c922: u64 = ((self.q36) ^ (0xff)) & 0xff;
+        let c856: u64 = (c921) & (c922) & 0xff;
+        let c881: u64 = u64::from((c856) == 0);
+        if self.v881 != c881 { self.v881 = c881; *dirty |= 0x2000000000000000000000; }
+        let c923: u64 = ((c905) ^ (self.q39)) & 0xff;
+        let c924: u64 = ((self.q35) ^ (0xff)) & 0xff;
+        let c857: u64 = (c923) & (c924) & 0xff;
+        let c116: u64 = ((c857 & 0xf)) & (self.q81 | (self.q81 << 1) | (self.q81 << 2) | (self.q81 << 3)) & 0xf;
+        let c882: u64 = u64::from((c116 | ((c857 >> 4) << 4)) == 0);
+        let c862: u64 = (c881) & (c882) & 0x1;
+        if self.v862 != c862 { self.v862 = c862; *dirty |= 0x4000000000000000000000; }
+        let c925: u64 = ((((self.q82 >> 5) & 0xff)) ^ (self.q38)) & 0xff;
+        let c926: u64 = ((c906) ^ (self.q38)) & 0xff;
+        let c927: u64 = ((self.q34) ^ (0xff)) & 0xff;
+        let c858: u64 = (c925) & (c927) & 0xff;
+        let c860: u64 = (c926) & (c927) & 0xff;
         let c883: u64 = u64::from((c860) == 0);
-        let c890: u64 = if (c882) != 0 { (c883) } else { (c899) };
-        let c893: u64 = if (c857) != 0 { (c890) } else { (c899) };
-        let c888: u64 = ((c893) | (self.i_reset)) & 0x1;
-        if self.v888 != c888 { self.v888 = c888; *dirty |= 0x100000000000000000000000; }
+        let c885: u64 = u64::from((c858) == 0);
+        let c928: u64 = ((c905) ^ (self.q37)) & 0xff;
+        let c929: u64 = ((self.q33) ^ (0xff)) & 0xff;
+        let c859: u64 = ((self.q37 & 0x3) | (c113 << 2)) & (c929) & 0xff;
+        let c861: u64 = (c928) & (c929) & 0xff;
+        let c117: u64 = ((c861 & 0xf)) & (self.q81 | (self.q81 << 1) | (self.q81 << 2) | (self.q81 << 3)) & 0xf;
+        let c884: u64 = u64::from((c117 | ((c861 >> 4) << 4)) == 0);
+        let c863: u64 = (c883) & (c884) & 0x1;
+        if self.v863 != c863 { self.v863 = c863; *dirty |= 0x8000000000000000000000; }
+        let c886: u64 = u64::from(((c859 >> 2)) == 0);
+        let c864: u64 = (c885) & (c886) & 0x1;
+        let c895: u64 = ((self.v381) | (c864)) & 0x1;
+        let c865: u64 = (c862) & (c895) & 0x1;
+        if self.v865 != c865 { self.v865 = c865; *dirty |= 0x20000000000000000000000; }
+        let c930: u64 = ((self.q85) ^ (self.q38)) & 0xff;
+        let c867: u64 = (c930) & (c927) & 0xff;
+        let c889: u64 = u64::from((c867) == 0);
+        let c901: u64 = if (c888) != 0 { (c889) } else { (c909) };
+        let c904: u64 = if (c866) != 0 { (c901) } else { (c909) };
+        let c898: u64 = ((c904) | (self.i_reset)) & 0x1;
+        if self.v898 != c898 { self.v898 = c898; *dirty |= 0x10000000000000000000000; }
+        let c931: u64 = ((self.q85) ^ ((self.q37 & 0xf) | ((self.q39 & 0xf) << 4))) & 0xff;
+        let c932: u64 = (((self.q33 & 0xf) | ((self.q35 & 0xf) << 4)) ^ (0xff)) & 0xff;
+        let c868: u64 = (c931) & (c932) & 0xff;
+        let c890: u64 = u64::from((c868) == 0);
+        let c900: u64 = if (c888) != 0 { (c890) } else { (c907) };
+        let c903: u64 = if (c866) != 0 { (c900) } else { (c907) };
+        let c896: u64 = ((c903) | (self.i_reset)) & 0x1;
+        if self.v896 != c896 { self.v896 = c896; *dirty |= 0x4000000000000000000000; }
+        let c933: u64 = ((self.q85) ^ (self.q37)) & 0xff;
+        let c869: u64 = (c933) & (c929) & 0xff;
+        let c892: u64 = u64::from((c869) == 0);
+        let c899: u64 = if (c891) != 0 { (c892) } else { (c908) };
+        let c902: u64 = if (c866) != 0 { (c899) } else { (c908) };
+        let c897: u64 = ((c902) | (self.i_reset)) & 0x1;
+        if self.v897 != c897 { self.v897 = c897; *dirty |= 0x10000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing.
     fn group_3(&mut self, dirty: &mut u128) {
-        let c110: u64 = !(self.q99) & 0x3;
-        if self.v110 != c110 { self.v110 = c110; *dirty |= 0x80000; }
-        let c135: u64 = (self.q99).wrapping_add((0x1)) & 0x7;
-        if self.v135 != c135 { self.v135 = c135; *dirty |= 0x200000000000000; }
-        let c136: u64 = (self.q93).wrapping_add((self.q108)) & 0x1f;
+        let c111: u64 = !(self.q99) & 0x3;
+        let c119: u64 = !(self.q108) & 0x7;
+        let c137: u64 = (self.q99).wrapping_add((0x1)) & 0x7;
+        if self.v137 != c137 { self.v137 = c137; *dirty |= 0x20000000000000; }
         let c138: u64 = (self.q96 | (self.q97 << 1)).wrapping_add((0x1)) & 0x7f;
-        if self.v138 != c138 { self.v138 = c138; *dirty |= 0x400000000; }
-        let c139: u64 = (self.q93).wrapping_add((0x1)) & 0x1f;
-        if self.v139 != c139 { self.v139 = c139; *dirty |= 0x40000000000000; }
-        let c154: u64 = u64::from((self.q93) == (self.q95));
-        let c155: u64 = u64::from((c136) == (self.q95));
-        let c156: u64 = u64::from((self.q93) == 0);
-        let c157: u64 = u64::from((self.q96 | (self.q97 << 1)) == 0);
-        let c158: u64 = u64::from((self.q96 | (self.q97 << 1)) >= (((self.q103 & 0x3f) << 1) | 0x1));
-        if self.v158 != c158 { self.v158 = c158; *dirty |= 0x40000000080000; }
-        let c142: u64 = (c158) & (c154) & 0x1;
-        if self.v142 != c142 { self.v142 = c142; *dirty |= 0x80000; }
-        let c144: u64 = (c158) & (c155) & 0x1;
-        if self.v144 != c144 { self.v144 = c144; *dirty |= 0x80000; }
-        let c159: u64 = u64::from((self.q93) <= (self.q99));
-        let c160: u64 = u64::from((self.q95) < (c136));
-        let c161: u64 = !(self.q90) & 0x1;
-        if self.v161 != c161 { self.v161 = c161; *dirty |= 0x80000; }
-        let c164: u64 = !(self.i_reset) & 0x1;
-        if self.v164 != c164 { self.v164 = c164; *dirty |= 0x80000; }
-        let c165: u64 = !(self.q94) & 0x1;
-        if self.v165 != c165 { self.v165 = c165; *dirty |= 0x80000; }
-        let c186: u64 = if (c158) != 0 { (0x0) } else { ((c138 & 0x1)) };
-        if self.v186 != c186 { self.v186 = c186; *dirty |= 0x80000; }
-        let c190: u64 = !(c160) & 0x1;
-        let c191: u64 = u64::from((self.q91) == (0x2));
-        if self.v191 != c191 { self.v191 = c191; *dirty |= 0x80000; }
-        let c192: u64 = !(c159) & 0x1;
-        let c193: u64 = (self.q118) & (c192) & 0x1;
-        let c194: u64 = (self.q118) & (c159) & 0x1;
-        let c195: u64 = u64::from((self.q91) == (0x1));
-        if self.v195 != c195 { self.v195 = c195; *dirty |= 0x80000; }
-        let c184: u64 = { let s = (c191 | (c195 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
-        if self.v184 != c184 { self.v184 = c184; *dirty |= 0x200000000000000; }
-        let c196: u64 = u64::from((self.q91) == 0);
-        if self.v196 != c196 { self.v196 = c196; *dirty |= 0x80000; }
-        let c39: u64 = u64::from((c196 | (c195 << 1) | (c191 << 2)) != 0);
-        if self.v39 != c39 { self.v39 = c39; *dirty |= 0x80000; }
-        let c149: u64 = (c196) & (c156) & 0x1;
-        let c150: u64 = (c149) & (c157) & 0x1;
-        if self.v150 != c150 { self.v150 = c150; *dirty |= 0x80000; }
-        let c197: u64 = (c191) & (c190) & 0x1;
-        if self.v197 != c197 { self.v197 = c197; *dirty |= 0x80000; }
-        let c198: u64 = (c195) & (c193) & 0x1;
-        if self.v198 != c198 { self.v198 = c198; *dirty |= 0x80000; }
-        let c199: u64 = (c191) & (c160) & 0x1;
-        if self.v199 != c199 { self.v199 = c199; *dirty |= 0x80000; }
-        let c200: u64 = (c195) & (c194) & 0x1;
-        if self.v200 != c200 { self.v200 = c200; *dirty |= 0x80000; }
+        if self.v138 != c138 { self.v138 = c138; *dirty |= 0x8000000000; }
+        let c140: u64 = (self.q95).wrapping_add((0x1)) & 0x7;
+        if self.v140 != c140 { self.v140 = c140; *dirty |= 0x2000000000000; }
+        let c157: u64 = u64::from((self.q93) == 0);
+        let c158: u64 = u64::from((self.q93) == (self.q108));
+        let c159: u64 = u64::from((self.q91) == (0x1));
+        if self.v159 != c159 { self.v159 = c159; *dirty |= 0x10000; }
+        let c160: u64 = u64::from((self.q96 | (self.q97 << 1)) == 0);
+        let c161: u64 = u64::from((self.q96 | (self.q97 << 1)) >= (((self.q103 & 0x3f) << 1) | 0x1));
+        if self.v161 != c161 { self.v161 = c161; *dirty |= 0x10000; }
+        let c143: u64 = (c161) & (c157) & 0x1;
+        if self.v143 != c143 { self.v143 = c143; *dirty |= 0x10000; }
+        let c145: u64 = (c161) & (c158) & 0x1;
+        if self.v145 != c145 { self.v145 = c145; *dirty |= 0x10000; }
+        let c147: u64 = (c159) & (c161) & 0x1;
+        let c148: u64 = (c147) & (c157) & 0x1;
+        if self.v148 != c148 { self.v148 = c148; *dirty |= 0x10000; }
+        let c162: u64 = u64::from((self.q95) <= (self.q99));
+        let c163: u64 = u64::from((self.q93) <= (self.q99));
+        let c164: u64 = u64::from((self.q95) != (0x4));
+        let c75: u64 = u64::from((c161 | (c164 << 1)) == 0x3);
+        if self.v75 != c75 { self.v75 = c75; *dirty |= 0x2000000000000; }
+        let c165: u64 = !(self.q90) & 0x1;
+        if self.v165 != c165 { self.v165 = c165; *dirty |= 0x10000; }
+        let c170: u64 = !(self.i_reset) & 0x1;
+        if self.v170 != c170 { self.v170 = c170; *dirty |= 0x10000; }
+        let c171: u64 = !(self.q94) & 0x1;
+        if self.v171 != c171 { self.v171 = c171; *dirty |= 0x10000; }
+        let c189: u64 = u64::from((self.q91) == 0);
+        if self.v189 != c189 { self.v189 = c189; *dirty |= 0x10000; }
+        let c153: u64 = (c189) & (c160) & 0x1;
+        if self.v153 != c153 { self.v153 = c153; *dirty |= 0x10000; }
+        let c192: u64 = if (c161) != 0 { (0x0) } else { ((c138 & 0x1)) };
+        if self.v192 != c192 { self.v192 = c192; *dirty |= 0x10000; }
+        let c193: u64 = if (c161) != 0 { (c119) } else { (c111 | 0x4) };
+        if self.v193 != c193 { self.v193 = c193; *dirty |= 0x10000; }
+        let c195: u64 = if (c161) != 0 { (self.q99) } else { (self.q108) };
+        if self.v195 != c195 { self.v195 = c195; *dirty |= 0x10000; }
+        let c198: u64 = !(c163) & 0x1;
+        let c199: u64 = !(c162) & 0x1;
+        let c200: u64 = (self.q118) & (c199) & 0x1;
+        let c201: u64 = (self.q118) & (c162) & 0x1;
+        let c203: u64 = u64::from((self.q91) == (0x2));
+        if self.v203 != c203 { self.v203 = c203; *dirty |= 0x10000; }
+        let c39: u64 = u64::from((c189 | (c159 << 1) | (c203 << 2)) != 0);
+        if self.v39 != c39 { self.v39 = c39; *dirty |= 0x10000; }
+        let c190: u64 = { let s = (c203 | (c159 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
+        if self.v190 != c190 { self.v190 = c190; *dirty |= 0x20000000000000; }
+        let c202: u64 = (c203) & (c198) & 0x1;
+        if self.v202 != c202 { self.v202 = c202; *dirty |= 0x10000; }
+        let c204: u64 = (c159) & (c200) & 0x1;
+        if self.v204 != c204 { self.v204 = c204; *dirty |= 0x10000; }
+        let c205: u64 = (c203) & (c163) & 0x1;
+        if self.v205 != c205 { self.v205 = c205; *dirty |= 0x10000; }
+        let c206: u64 = (c159) & (c201) & 0x1;
+        if self.v206 != c206 { self.v206 = c206; *dirty |= 0x10000; }
         let _ = &dirty;
     }
 
     /// The cells of top$read.
     fn group_4(&mut self, dirty: &mut u128) {
-        let c117: u64 = (((self.m0_rd & 0xf)) | (self.q106)) & 0xf;
-        let c1036: u64 = u64::from((self.i_addr) == (0x2));
-        if self.v1036 != c1036 { self.v1036 = c1036; *dirty |= 0x20000; }
-        let c1037: u64 = u64::from((self.i_addr) == (0xb));
-        if self.v1037 != c1037 { self.v1037 = c1037; *dirty |= 0x2000000000100; }
-        let c1038: u64 = u64::from((self.i_addr) == (0xc));
-        if self.v1038 != c1038 { self.v1038 = c1038; *dirty |= 0x2000000000100; }
-        let c1039: u64 = u64::from((self.i_addr) == (0xe));
-        if self.v1039 != c1039 { self.v1039 = c1039; *dirty |= 0x2000000000020; }
-        let c1040: u64 = u64::from((self.i_addr) == (0xf));
-        if self.v1040 != c1040 { self.v1040 = c1040; *dirty |= 0x2000000000020; }
-        let c1041: u64 = u64::from((self.i_addr) == (0x1d));
-        if self.v1041 != c1041 { self.v1041 = c1041; *dirty |= 0x2000000000000; }
-        let c1042: u64 = u64::from((self.i_addr) == (0x1e));
-        if self.v1042 != c1042 { self.v1042 = c1042; *dirty |= 0x2000000000020; }
-        let c1043: u64 = u64::from((self.i_addr) == 0);
-        if self.v1043 != c1043 { self.v1043 = c1043; *dirty |= 0x2000010000200; }
-        let c1044: u64 = u64::from((self.i_addr) == (0x1));
-        if self.v1044 != c1044 { self.v1044 = c1044; *dirty |= 0x2000000000800; }
-        let c1045: u64 = u64::from((self.i_addr) == (0x3));
-        if self.v1045 != c1045 { self.v1045 = c1045; *dirty |= 0x2000000020100; }
-        let c1046: u64 = u64::from((self.i_addr) == (0x15));
-        if self.v1046 != c1046 { self.v1046 = c1046; *dirty |= 0x20000; }
-        let c1047: u64 = ((self.v622) | (self.v554)) & 0x1;
-        if self.v1047 != c1047 { self.v1047 = c1047; *dirty |= 0x1000; }
-        let c1052: u64 = if (self.q9) != 0 { (c117 | ((self.m0_rd >> 4) << 4)) } else { (self.q7) };
-        if self.v1052 != c1052 { self.v1052 = c1052; *dirty |= 0x2000000000000; }
-        let c1077: u64 = if (self.q14) != 0 { (self.q21) } else { (0x1) };
-        if self.v1077 != c1077 { self.v1077 = c1077; *dirty |= 0x10020000; }
+        let c118: u64 = (((self.m0_rd & 0xf)) | (self.q106)) & 0xf;
+        let c1043: u64 = u64::from((self.i_addr) == (0x2));
+        if self.v1043 != c1043 { self.v1043 = c1043; *dirty |= 0x40000; }
+        let c1044: u64 = u64::from((self.i_addr) == (0xb));
+        if self.v1044 != c1044 { self.v1044 = c1044; *dirty |= 0x200000000200; }
+        let c1045: u64 = u64::from((self.i_addr) == (0xc));
+        if self.v1045 != c1045 { self.v1045 = c1045; *dirty |= 0x200000000200; }
+        let c1046: u64 = u64::from((self.i_addr) == (0xe));
+        if self.v1046 != c1046 { self.v1046 = c1046; *dirty |= 0x200000000020; }
+        let c1047: u64 = u64::from((self.i_addr) == (0xf));
+        if self.v1047 != c1047 { self.v1047 = c1047; *dirty |= 0x200000000020; }
+        let c1048: u64 = u64::from((self.i_addr) == (0x1d));
+        if self.v1048 != c1048 { self.v1048 = c1048; *dirty |= 0x200000000000; }
+        let c1049: u64 = u64::from((self.i_addr) == (0x1e));
+        if self.v1049 != c1049 { self.v1049 = c1049; *dirty |= 0x200000000020; }
+        let c1050: u64 = u64::from((self.i_addr) == 0);
+        if self.v1050 != c1050 { self.v1050 = c1050; *dirty |= 0x200400000100; }
+        let c1051: u64 = u64::from((self.i_addr) == (0x1));
+        if self.v1051 != c1051 { self.v1051 = c1051; *dirty |= 0x200000000800; }
+        let c1052: u64 = u64::from((self.i_addr) == (0x3));
+        if self.v1052 != c1052 { self.v1052 = c1052; *dirty |= 0x200000040200; }
+        let c1053: u64 = u64::from((self.i_addr) == (0x15));
+        if self.v1053 != c1053 { self.v1053 = c1053; *dirty |= 0x40000; }
+        let c1054: u64 = ((self.v629) | (self.v561)) & 0x1;
+        if self.v1054 != c1054 { self.v1054 = c1054; *dirty |= 0x1000; }
+        let c1059: u64 = if (self.q9) != 0 { (c118 | ((self.m0_rd >> 4) << 4)) } else { (self.q7) };
+        if self.v1059 != c1059 { self.v1059 = c1059; *dirty |= 0x200000000000; }
+        let c1084: u64 = if (self.q14) != 0 { (self.q21) } else { (0x1) };
+        if self.v1084 != c1084 { self.v1084 = c1084; *dirty |= 0x400040000; }
         let _ = &dirty;
     }
 
     /// The cells of can_controller.
     fn group_5(&mut self, dirty: &mut u128) {
-        let c0: u64 = (self.v842) & (self.q14) & 0x1;
-        let c1: u64 = (c0) & (self.v1040) & 0x1;
-        if self.v1 != c1 { self.v1 = c1; *dirty |= 0x30080004000; }
-        let c2: u64 = (c0) & (self.v1039) & 0x1;
+        let c0: u64 = (self.v851) & (self.q14) & 0x1;
+        let c1: u64 = (c0) & (self.v1047) & 0x1;
+        if self.v1 != c1 { self.v1 = c1; *dirty |= 0x180004000; }
+        let c2: u64 = (c0) & (self.v1046) & 0x1;
         if self.v2 != c2 { self.v2 = c2; *dirty |= 0x80; }
-        let c3: u64 = (c0) & (self.v1042) & 0x1;
-        if self.v3 != c3 { self.v3 = c3; *dirty |= 0x20000040; }
+        let c3: u64 = (c0) & (self.v1049) & 0x1;
+        if self.v3 != c3 { self.v3 = c3; *dirty |= 0x200000040; }
         let c13: u64 = (self.q71) & (self.q70) & 0x1;
         let c14: u64 = (c13) & (self.q6) & 0x1;
-        let c762: u64 = { let s = (self.i_addr); if s < 256 { TABLE_0[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-        if self.v762 != c762 { self.v762 = c762; *dirty |= 0x800; }
-        let c763: u64 = { let s = (self.i_addr); if s < 256 { TABLE_1[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-        if self.v763 != c763 { self.v763 = c763; *dirty |= 0x800; }
-        let c764: u64 = { let s = (self.i_addr); if s < 256 { TABLE_2[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-        if self.v764 != c764 { self.v764 = c764; *dirty |= 0x800; }
-        let c765: u64 = { let s = (self.i_addr); if s < 256 { TABLE_3[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-        if self.v765 != c765 { self.v765 = c765; *dirty |= 0x800; }
-        let c766: u64 = { let s = (self.i_addr); if s < 256 { TABLE_4[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-        if self.v766 != c766 { self.v766 = c766; *dirty |= 0x800; }
-        let c767: u64 = { let s = (self.i_addr); if s < 256 { TABLE_5[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-        if self.v767 != c767 { self.v767 = c767; *dirty |= 0x20000; }
-        let c1088: u64 = if ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) < 16 { (self.q2) >> ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) & 0x1 } else { 0 };
-        if self.v1088 != c1088 { self.v1088 = c1088; *dirty |= 0x1000000000000000000000000000000; }
-        let c1092: u64 = ((self.q51) | (c14)) & 0x1;
-        let c15: u64 = (c1092) & (self.v902) & 0x1;
-        let c1093: u64 = ((self.q14) | (self.v375)) & 0x1;
-        let c16: u64 = (c15) & (c1093) & 0x1;
+        let c769: u64 = { let s = (self.i_addr); if s < 256 { TABLE_0[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v769 != c769 { self.v769 = c769; *dirty |= 0x800; }
+        let c770: u64 = { let s = (self.i_addr); if s < 256 { TABLE_1[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v770 != c770 { self.v770 = c770; *dirty |= 0x800; }
+        let c771: u64 = { let s = (self.i_addr); if s < 256 { TABLE_2[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v771 != c771 { self.v771 = c771; *dirty |= 0x800; }
+        let c772: u64 = { let s = (self.i_addr); if s < 256 { TABLE_3[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v772 != c772 { self.v772 = c772; *dirty |= 0x800; }
+        let c773: u64 = { let s = (self.i_addr); if s < 256 { TABLE_4[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v773 != c773 { self.v773 = c773; *dirty |= 0x800; }
+        let c774: u64 = { let s = (self.i_addr); if s < 256 { TABLE_5[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v774 != c774 { self.v774 = c774; *dirty |= 0x40000; }
+        let c1095: u64 = if ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) < 16 { (self.q2) >> ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) & 0x1 } else { 0 };
+        if self.v1095 != c1095 { self.v1095 = c1095; *dirty |= 0x1000000000000000000000000000000; }
+        let c1099: u64 = ((self.q51) | (c14)) & 0x1;
+        let c15: u64 = (c1099) & (self.v911) & 0x1;
+        let c1100: u64 = ((self.q14) | (self.v381)) & 0x1;
+        let c16: u64 = (c15) & (c1100) & 0x1;
         if self.v16 != c16 { self.v16 = c16; *dirty |= 0x40; }
-        let c1100: u64 = if (self.q71) != 0 { (self.q70) } else { (self.q132) };
-        if self.v1100 != c1100 { self.v1100 = c1100; *dirty |= 0x4000; }
-        let c1101: u64 = ((self.q131) | (self.q71)) & 0x1;
-        if self.v1101 != c1101 { self.v1101 = c1101; *dirty |= 0x4000; }
-        let c1102: u64 = if (self.q71) != 0 { (0x0) } else { (self.q1) };
-        if self.v1102 != c1102 { self.v1102 = c1102; *dirty |= 0x4000; }
+        let c1107: u64 = if (self.q71) != 0 { (self.q70) } else { (self.q132) };
+        if self.v1107 != c1107 { self.v1107 = c1107; *dirty |= 0x4000; }
+        let c1108: u64 = ((self.q131) | (self.q71)) & 0x1;
+        if self.v1108 != c1108 { self.v1108 = c1108; *dirty |= 0x4000; }
+        let c1109: u64 = if (self.q71) != 0 { (0x0) } else { (self.q1) };
+        if self.v1109 != c1109 { self.v1109 = c1109; *dirty |= 0x4000; }
         let _ = &dirty;
     }
 
     /// The cells of top$fifo.
     fn group_6(&mut self, dirty: &mut u128) {
-        let c773: u64 = (self.q46).wrapping_add((0x1)) & 0x7;
-        let c782: u64 = (self.v16) & (self.q45) & 0x1;
-        let c784: u64 = u64::from((self.q46) == (0x3));
-        let c785: u64 = u64::from((self.q46) == (0x4));
-        let c786: u64 = u64::from((self.q46) == (0x1));
-        let c787: u64 = u64::from((self.q46) == (0x2));
-        let c788: u64 = !(self.q45) & 0x1;
-        let c781: u64 = (self.v16) & (c788) & 0x1;
-        if self.v781 != c781 { self.v781 = c781; *dirty |= 0x20000000; }
-        let c20: u64 = u64::from((c781 | (self.q127 << 1)) != 0);
-        if self.v20 != c20 { self.v20 = c20; *dirty |= 0x400000000000000000000; }
-        let c790: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (self.q48) };
-        let c801: u64 = ((self.q44) | (c782)) & 0x1;
-        if self.v801 != c801 { self.v801 = c801; *dirty |= 0x200000000000000000000; }
-        let c817: u64 = ((self.q41) | (self.q86)) & 0x1;
-        let c819: u64 = if (c786) != 0 { (((self.q82 >> 3) & 0xff)) } else { (self.q84 | (self.q79 << 6)) };
-        let c818: u64 = if (c787) != 0 { ((self.q79 << 4) | ((self.q82 & 0x7) << 5)) } else { (c819) };
-        let c823: u64 = if (c786) != 0 { ((self.q82 >> 21)) } else { (self.q84 | (self.q79 << 6) | 0x80) };
-        let c822: u64 = if (c787) != 0 { (((self.q82 >> 13) & 0xff)) } else { (c823) };
-        let c821: u64 = if (c784) != 0 { (((self.q82 >> 5) & 0xff)) } else { (c822) };
-        let c820: u64 = if (c785) != 0 { ((self.q79 << 2) | ((self.q82 & 0x1f) << 3)) } else { (c821) };
-        let c824: u64 = if (self.q81) != 0 { (c820) } else { (c818) };
-        let c826: u64 = if (self.q41) != 0 { (c824) } else { (self.q84 | (self.q79 << 6) | (self.q81 << 7)) };
-        let c815: u64 = if (self.q86) != 0 { (self.q85) } else { (c826) };
-        if self.v815 != c815 { self.v815 = c815; *dirty |= 0x20000000; }
-        let c828: u64 = if (self.q41) != 0 { (c773) } else { (0x0) };
-        if self.v828 != c828 { self.v828 = c828; *dirty |= 0x100000000000000000000; }
-        let c829: u64 = if (self.q83) != 0 { (0x0) } else { (self.q45) };
-        let c830: u64 = ((self.q41) | (self.q83)) & 0x1;
-        let c831: u64 = if (self.q81) != 0 { (0x2) } else { (0x1) };
-        let c772: u64 = ((c831 << 1) | 0x1).wrapping_add((self.q84)) & 0xf;
-        let c774: u64 = ((c831 << 1) | 0x1).wrapping_add((self.q87)) & 0xf;
-        let c783: u64 = u64::from((self.q46) == ((c831 << 1)));
-        let c816: u64 = if (self.q86) != 0 { (c774) } else { (self.q46) };
-        let c775: u64 = (self.q42).wrapping_add((c816)) & 0x7f;
-        let c776: u64 = (self.q43).wrapping_add((c816)) & 0x3f;
-        if self.v776 != c776 { self.v776 = c776; *dirty |= 0x20000000; }
-        let c811: u64 = ((c829) | ((c775 >> 6))) & 0x1;
-        let c812: u64 = !((c775 >> 6)) & 0x1;
-        let c813: u64 = if (c817) != 0 { (c811) } else { (c829) };
-        if self.v813 != c813 { self.v813 = c813; *dirty |= 0x1000000000000000000000; }
-        let c814: u64 = (c817) & (c812) & 0x1;
-        if self.v814 != c814 { self.v814 = c814; *dirty |= 0x20000000; }
-        let c825: u64 = if (c783) != 0 { (0x0) } else { (c830) };
-        let c827: u64 = if (self.q41) != 0 { (c825) } else { (c830) };
-        if self.v827 != c827 { self.v827 = c827; *dirty |= 0x800000000000000000000; }
-        let c833: u64 = if ((self.q84 >> 3)) != 0 { ((c831 << 1) | 0x9) } else { (c772) };
-        let c832: u64 = if (self.q79) != 0 { ((c831 << 1) | 0x1) } else { (c833) };
-        if self.v832 != c832 { self.v832 = c832; *dirty |= 0x20000000; }
-        let c778: u64 = (self.q43).wrapping_add((c832)) & 0x3f;
-        let c795: u64 = if (self.q127) != 0 { (c790) } else { (c778) };
-        if self.v795 != c795 { self.v795 = c795; *dirty |= 0x400000000000000000000; }
-        let c837: u64 = if (self.q49) != 0 { (self.m0_rd) } else { (self.q47) };
-        if self.v837 != c837 { self.v837 = c837; *dirty |= 0x20020000; }
-        let c836: u64 = if ((c837 >> 7)) != 0 { (0x2) } else { (0x1) };
-        let c771: u64 = ((c836 << 1) | 0x1).wrapping_add(((c837 & 0xf))) & 0xf;
-        let c835: u64 = if (((c837 >> 3) & 0x1)) != 0 { ((c836 << 1) | 0x9) } else { (c771) };
-        let c834: u64 = if (((c837 >> 6) & 0x1)) != 0 { ((c836 << 1) | 0x1) } else { (c835) };
-        let c777: u64 = (self.q48).wrapping_add((c834)) & 0x3f;
-        if self.v777 != c777 { self.v777 = c777; *dirty |= 0x40000000000020000000; }
-        let c838: u64 = (self.q42).wrapping_sub((c834)) & 0x7f;
-        if self.v838 != c838 { self.v838 = c838; *dirty |= 0x20000000; }
-        let c839: u64 = (self.q50).wrapping_sub((0x1)) & 0x1f;
-        if self.v839 != c839 { self.v839 = c839; *dirty |= 0x20000000; }
+        let c780: u64 = (self.q46).wrapping_add((0x1)) & 0x7;
+        let c790: u64 = (self.v16) & (self.q45) & 0x1;
+        let c792: u64 = u64::from((self.q46) == (0x3));
+        let c793: u64 = u64::from((self.q46) == (0x4));
+        let c794: u64 = u64::from((self.q46) == (0x1));
+        let c795: u64 = u64::from((self.q46) == (0x2));
+        let c796: u64 = !(self.q45) & 0x1;
+        let c789: u64 = (self.v16) & (c796) & 0x1;
+        if self.v789 != c789 { self.v789 = c789; *dirty |= 0x200000000; }
+        let c20: u64 = u64::from((c789 | (self.q127 << 1)) != 0);
+        if self.v20 != c20 { self.v20 = c20; *dirty |= 0x40000000000000000000; }
+        let c798: u64 = u64::from((self.q50) != 0);
+        if self.v798 != c798 { self.v798 = c798; *dirty |= 0x2000000000000000200040200; }
+        let c106: u64 = (self.q26) & (c798) & 0x1;
+        let c123: u64 = if (self.q14) != 0 { (c798) } else { (c106) };
+        if self.v123 != c123 { self.v123 = c123; *dirty |= 0x40000; }
+        let c799: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (self.q48) };
+        let c810: u64 = ((self.q44) | (c790)) & 0x1;
+        if self.v810 != c810 { self.v810 = c810; *dirty |= 0x20000000000000000000; }
+        let c826: u64 = ((self.q41) | (self.q86)) & 0x1;
+        let c828: u64 = if (c794) != 0 { (((self.q82 >> 3) & 0xff)) } else { (self.q84 | (self.q79 << 6)) };
+        let c827: u64 = if (c795) != 0 { ((self.q79 << 4) | ((self.q82 & 0x7) << 5)) } else { (c828) };
+        let c832: u64 = if (c794) != 0 { ((self.q82 >> 21)) } else { (self.q84 | (self.q79 << 6) | 0x80) };
+        let c831: u64 = if (c795) != 0 { (((self.q82 >> 13) & 0xff)) } else { (c832) };
+        let c830: u64 = if (c792) != 0 { (((self.q82 >> 5) & 0xff)) } else { (c831) };
+        let c829: u64 = if (c793) != 0 { ((self.q79 << 2) | ((self.q82 & 0x1f) << 3)) } else { (c830) };
+        let c833: u64 = if (self.q81) != 0 { (c829) } else { (c827) };
+        let c835: u64 = if (self.q41) != 0 { (c833) } else { (self.q84 | (self.q79 << 6) | (self.q81 << 7)) };
+        let c824: u64 = if (self.q86) != 0 { (self.q85) } else { (c835) };
+        if self.v824 != c824 { self.v824 = c824; *dirty |= 0x200000000; }
+        let c837: u64 = if (self.q41) != 0 { (c780) } else { (0x0) };
+        if self.v837 != c837 { self.v837 = c837; *dirty |= 0x10000000000000000000; }
+        let c838: u64 = if (self.q83) != 0 { (0x0) } else { (self.q45) };
+        let c839: u64 = ((self.q41) | (self.q83)) & 0x1;
+        let c840: u64 = if (self.q81) != 0 { (0x2) } else { (0x1) };
+        let c779: u64 = ((c840 << 1) | 0x1).wrapping_add((self.q84)) & 0xf;
+        let c781: u64 = ((c840 << 1) | 0x1).wrapping_add((self.q87)) & 0xf;
+        let c791: u64 = u64::from((self.q46) == ((c840 << 1)));
+        let c825: u64 = if (self.q86) != 0 { (c781) } else { (self.q46) };
+        let c782: u64 = (self.q42).wrapping_add((c825)) & 0x7f;
+        let c783: u64 = (self.q43).wrapping_add((c825)) & 0x3f;
+        if self.v783 != c783 { self.v783 = c783; *dirty |= 0x200000000; }
+        let c820: u64 = ((c838) | ((c782 >> 6))) & 0x1;
+        let c821: u64 = !((c782 >> 6)) & 0x1;
+        let c822: u64 = if (c826) != 0 { (c820) } else { (c838) };
+        if self.v822 != c822 { self.v822 = c822; *dirty |= 0x100000000000000000000; }
+        let c823: u64 = (c826) & (c821) & 0x1;
+        if self.v823 != c823 { self.v823 = c823; *dirty |= 0x200000000; }
+        let c834: u64 = if (c791) != 0 { (0x0) } else { (c839) };
+        let c836: u64 = if (self.q41) != 0 { (c834) } else { (c839) };
+        if self.v836 != c836 { self.v836 = c836; *dirty |= 0x80000000000000000000; }
+        let c842: u64 = if ((self.q84 >> 3)) != 0 { ((c840 << 1) | 0x9) } else { (c779) };
+        let c841: u64 = if (self.q79) != 0 { ((c840 << 1) | 0x1) } else { (c842) };
+        if self.v841 != c841 { self.v841 = c841; *dirty |= 0x200000000; }
+        let c785: u64 = (self.q43).wrapping_add((c841)) & 0x3f;
+        let c804: u64 = if (self.q127) != 0 { (c799) } else { (c785) };
+        if self.v804 != c804 { self.v804 = c804; *dirty |= 0x40000000000000000000; }
+        let c846: u64 = if (self.q49) != 0 { (self.m0_rd) } else { (self.q47) };
+        if self.v846 != c846 { self.v846 = c846; *dirty |= 0x200040000; }
+        let c845: u64 = if ((c846 >> 7)) != 0 { (0x2) } else { (0x1) };
+        let c778: u64 = ((c845 << 1) | 0x1).wrapping_add(((c846 & 0xf))) & 0xf;
+        let c844: u64 = if (((c846 >> 3) & 0x1)) != 0 { ((c845 << 1) | 0x9) } else { (c778) };
+        let c843: u64 = if (((c846 >> 6) & 0x1)) != 0 { ((c845 << 1) | 0x1) } else { (c844) };
+        let c784: u64 = (self.q48).wrapping_add((c843)) & 0x3f;
+        if self.v784 != c784 { self.v784 = c784; *dirty |= 0x200000000; }
+        let c847: u64 = (self.q42).wrapping_sub((c843)) & 0x7f;
+        if self.v847 != c847 { self.v847 = c847; *dirty |= 0x200000000; }
+        let c848: u64 = (self.q50).wrapping_sub((0x1)) & 0x1f;
+        if self.v848 != c848 { self.v848 = c848; *dirty |= 0x200000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults.
     fn group_7(&mut self, dirty: &mut u128) {
-        let c303: u64 = (self.q67 | (self.q65 << 4)).wrapping_add((0x1)) & 0x1f;
-        let c304: u64 = (self.q68 | (self.q69 << 7)).wrapping_add((0x1)) & 0xff;
-        if self.v304 != c304 { self.v304 = c304; *dirty |= 0x10000000000; }
-        let c305: u64 = ((self.q68 >> 3) | (self.q69 << 4)).wrapping_add((0x1)) & 0x1f;
-        let c308: u64 = (self.v2) & (self.v529) & 0x1;
-        if self.v308 != c308 { self.v308 = c308; *dirty |= 0x10000000000; }
-        let c310: u64 = u64::from((self.q66 | (self.q67 << 3) | (self.q65 << 7)) == 0);
+        let c309: u64 = (self.q67 | (self.q65 << 4)).wrapping_add((0x1)) & 0x1f;
+        let c310: u64 = (self.q68 | (self.q69 << 7)).wrapping_add((0x1)) & 0xff;
         if self.v310 != c310 { self.v310 = c310; *dirty |= 0x80000000; }
-        let c311: u64 = u64::from((self.q67 | (self.q65 << 4)) == (0x1f));
-        if self.v311 != c311 { self.v311 = c311; *dirty |= 0x20000000000; }
-        let c312: u64 = u64::from(((self.q68 >> 3) | (self.q69 << 4)) == (0x1f));
-        let c313: u64 = u64::from((self.i_wdata) == (0xff));
-        if self.v313 != c313 { self.v313 = c313; *dirty |= 0x10000000000; }
-        let c314: u64 = u64::from((self.q66 | (self.q67 << 3) | (self.q65 << 7)) != 0);
-        if self.v314 != c314 { self.v314 = c314; *dirty |= 0x10000000000; }
-        let c315: u64 = u64::from((self.q68 | (self.q69 << 7)) != (0xff));
-        if self.v315 != c315 { self.v315 = c315; *dirty |= 0x10000000000; }
-        let c316: u64 = u64::from((self.q68 | (self.q69 << 7)) != 0);
-        if self.v316 != c316 { self.v316 = c316; *dirty |= 0x10000000000; }
-        let c326: u64 = if (c313) != 0 { (0x7f) } else { (self.i_wdata) };
-        if self.v326 != c326 { self.v326 = c326; *dirty |= 0x10000000000; }
-        let c334: u64 = if (c312) != 0 { (0xff) } else { ((self.q68 & 0x7) | (c305 << 3)) };
-        if self.v334 != c334 { self.v334 = c334; *dirty |= 0x10000000000; }
-        let c338: u64 = if (c311) != 0 { (0x0) } else { (self.q68 | (self.q69 << 7)) };
-        if self.v338 != c338 { self.v338 = c338; *dirty |= 0x10000000000; }
-        let c339: u64 = if (c311) != 0 { (0x1f) } else { ((c303 << 1)) };
-        if self.v339 != c339 { self.v339 = c339; *dirty |= 0x10000000000; }
-        let c340: u64 = ((self.q113) | (c311)) & 0x1;
-        if self.v340 != c340 { self.v340 = c340; *dirty |= 0x10000000000; }
-        let c347: u64 = if (c310) != 0 { (0x0) } else { (self.q68 | (self.q69 << 7)) };
-        if self.v347 != c347 { self.v347 = c347; *dirty |= 0x100000000; }
-        let c348: u64 = !(c310) & 0x1;
-        if self.v348 != c348 { self.v348 = c348; *dirty |= 0x100000000; }
-        let c356: u64 = (self.q66 | (self.q67 << 3) | (self.q65 << 7)).wrapping_sub((0x1)) & 0xff;
-        if self.v356 != c356 { self.v356 = c356; *dirty |= 0x10000000000; }
-        let c349: u64 = if (c310) != 0 { ((self.q65 << 7)) } else { (c356) };
-        if self.v349 != c349 { self.v349 = c349; *dirty |= 0x100000000; }
-        let c357: u64 = (self.q68 | (self.q69 << 7)).wrapping_sub((0x1)) & 0xff;
-        if self.v357 != c357 { self.v357 = c357; *dirty |= 0x10000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$interrupts.
-    fn group_8(&mut self, dirty: &mut u128) {
-        let c925: u64 = (self.i_re) & (self.v1045) & 0x1;
-        let c926: u64 = (self.q14) & (self.v863) & 0x1;
-        if self.v926 != c926 { self.v926 = c926; *dirty |= 0x10000000; }
-        let c928: u64 = (self.q75) & (self.q122) & 0x1;
-        if self.v928 != c928 { self.v928 = c928; *dirty |= 0x400000000000000010000000; }
-        let c929: u64 = (self.q76) & (self.q123) & 0x1;
-        if self.v929 != c929 { self.v929 = c929; *dirty |= 0x1000000000000000010000000; }
-        let c930: u64 = (self.i_re) & (self.q14) & 0x1;
-        let c935: u64 = !(self.q127) & 0x1;
-        if self.v935 != c935 { self.v935 = c935; *dirty |= 0x24a00; }
-        let c936: u64 = !(self.q19) & 0x1;
-        let c931: u64 = (self.q44) & (c936) & 0x1;
-        if self.v931 != c931 { self.v931 = c931; *dirty |= 0x10000000; }
-        let c937: u64 = !(self.q17) & 0x1;
-        let c941: u64 = u64::from((self.q113) != (self.q25));
-        let c942: u64 = u64::from((self.q114) != (self.q18));
-        let c943: u64 = u64::from((self.q50) != 0);
-        if self.v943 != c943 { self.v943 = c943; *dirty |= 0x8000000000000000010020000; }
-        let c105: u64 = (self.q26) & (c943) & 0x1;
-        let c121: u64 = if (self.q14) != 0 { (c943) } else { (c105) };
-        if self.v121 != c121 { self.v121 = c121; *dirty |= 0x20000; }
-        let c932: u64 = (c943) & (c937) & 0x1;
-        if self.v932 != c932 { self.v932 = c932; *dirty |= 0x10000000; }
-        let c944: u64 = u64::from((self.q50) != (0x1));
-        if self.v944 != c944 { self.v944 = c944; *dirty |= 0x10000000; }
-        let c952: u64 = if (c925) != 0 { (0x0) } else { (self.q20) };
-        if self.v952 != c952 { self.v952 = c952; *dirty |= 0x10000000; }
-        let c954: u64 = if (c925) != 0 { (0x0) } else { (self.q26) };
-        if self.v954 != c954 { self.v954 = c954; *dirty |= 0x10000000; }
-        let c955: u64 = if (self.q127) != 0 { (0x0) } else { (c942) };
-        let c956: u64 = if (self.q113) != 0 { (0x0) } else { (c955) };
-        if self.v956 != c956 { self.v956 = c956; *dirty |= 0x10000000; }
-        let c958: u64 = if (self.q14) != 0 { (self.q101) } else { (0x60) };
-        let c938: u64 = u64::from((self.q66 | (self.q67 << 3) | (self.q65 << 7)) >= (c958));
-        let c939: u64 = u64::from((self.q68 | (self.q69 << 7)) >= (c958));
-        let c945: u64 = ((c938) | (c939)) & 0x1;
-        let c946: u64 = ((c945) | (self.q113)) & 0x1;
-        let c957: u64 = if (self.q127) != 0 { (self.q23) } else { (c946) };
-        if self.v957 != c957 { self.v957 = c957; *dirty |= 0x1000000000000000000000000; }
-        let c940: u64 = u64::from((c957) != (self.q23));
-        let c947: u64 = ((c940) | (c941)) & 0x1;
-        if self.v947 != c947 { self.v947 = c947; *dirty |= 0x10000000; }
-        let c963: u64 = if (c929) != 0 { (0x0) } else { (self.q123) };
-        let c959: u64 = ((c963) | (self.v1038)) & 0x1;
-        let c961: u64 = if (c930) != 0 { (c959) } else { (c963) };
-        let c949: u64 = ((c961) | (self.i_reset)) & 0x1;
-        if self.v949 != c949 { self.v949 = c949; *dirty |= 0x800000000000000000000000; }
-        let c964: u64 = if (c928) != 0 { (0x0) } else { (self.q122) };
-        let c960: u64 = ((c964) | (self.v1037)) & 0x1;
-        let c962: u64 = if (c930) != 0 { (c960) } else { (c964) };
-        let c950: u64 = ((c962) | (self.i_reset)) & 0x1;
-        if self.v950 != c950 { self.v950 = c950; *dirty |= 0x200000000000000000000000; }
+        let c311: u64 = ((self.q68 >> 3) | (self.q69 << 4)).wrapping_add((0x1)) & 0x1f;
+        let c314: u64 = (self.v2) & (self.v536) & 0x1;
+        if self.v314 != c314 { self.v314 = c314; *dirty |= 0x80000000; }
+        let c316: u64 = u64::from((self.q66 | (self.q67 << 3) | (self.q65 << 7)) == 0);
+        if self.v316 != c316 { self.v316 = c316; *dirty |= 0x100000000; }
+        let c317: u64 = u64::from((self.q67 | (self.q65 << 4)) == (0x1f));
+        if self.v317 != c317 { self.v317 = c317; *dirty |= 0x100000000; }
+        let c318: u64 = u64::from(((self.q68 >> 3) | (self.q69 << 4)) == (0x1f));
+        let c319: u64 = u64::from((self.i_wdata) == (0xff));
+        if self.v319 != c319 { self.v319 = c319; *dirty |= 0x80000000; }
+        let c320: u64 = u64::from((self.q66 | (self.q67 << 3) | (self.q65 << 7)) != 0);
+        if self.v320 != c320 { self.v320 = c320; *dirty |= 0x80000000; }
+        let c321: u64 = u64::from((self.q68 | (self.q69 << 7)) != (0xff));
+        if self.v321 != c321 { self.v321 = c321; *dirty |= 0x80000000; }
+        let c322: u64 = u64::from((self.q68 | (self.q69 << 7)) != 0);
+        if self.v322 != c322 { self.v322 = c322; *dirty |= 0x80000000; }
+        let c332: u64 = if (c319) != 0 { (0x7f) } else { (self.i_wdata) };
+        if self.v332 != c332 { self.v332 = c332; *dirty |= 0x80000000; }
+        let c340: u64 = if (c318) != 0 { (0xff) } else { ((self.q68 & 0x7) | (c311 << 3)) };
+        if self.v340 != c340 { self.v340 = c340; *dirty |= 0x80000000; }
+        let c344: u64 = if (c317) != 0 { (0x0) } else { (self.q68 | (self.q69 << 7)) };
+        if self.v344 != c344 { self.v344 = c344; *dirty |= 0x80000000; }
+        let c345: u64 = if (c317) != 0 { (0x1f) } else { ((c309 << 1)) };
+        if self.v345 != c345 { self.v345 = c345; *dirty |= 0x80000000; }
+        let c346: u64 = ((self.q113) | (c317)) & 0x1;
+        if self.v346 != c346 { self.v346 = c346; *dirty |= 0x80000000; }
+        let c353: u64 = if (c316) != 0 { (0x0) } else { (self.q68 | (self.q69 << 7)) };
+        if self.v353 != c353 { self.v353 = c353; *dirty |= 0x80000000; }
+        let c354: u64 = !(c316) & 0x1;
+        if self.v354 != c354 { self.v354 = c354; *dirty |= 0x80000000; }
+        let c362: u64 = (self.q66 | (self.q67 << 3) | (self.q65 << 7)).wrapping_sub((0x1)) & 0xff;
+        if self.v362 != c362 { self.v362 = c362; *dirty |= 0x80000000; }
+        let c355: u64 = if (c316) != 0 { ((self.q65 << 7)) } else { (c362) };
+        if self.v355 != c355 { self.v355 = c355; *dirty |= 0x80000000; }
+        let c363: u64 = (self.q68 | (self.q69 << 7)).wrapping_sub((0x1)) & 0xff;
+        if self.v363 != c363 { self.v363 = c363; *dirty |= 0x80000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$modes.
+    fn group_8(&mut self, dirty: &mut u128) {
+        let c80: u64 = !(self.q129) & 0x1;
+        if self.v80 != c80 { self.v80 = c80; *dirty |= 0x200000; }
+        let c82: u64 = u64::from((self.i_reset | (c80 << 1)) != 0);
+        if self.v82 != c82 { self.v82 = c82; *dirty |= 0x1000000000000000000000000000; }
+        let c973: u64 = (self.q10).wrapping_add((0x1)) & 0x1f;
+        if self.v973 != c973 { self.v973 = c973; *dirty |= 0x1000000000000000000000000000; }
+        let c974: u64 = (self.i_we) & (self.v1050) & 0x1;
+        if self.v974 != c974 { self.v974 = c974; *dirty |= 0x200800; }
+        let c48: u64 = u64::from((self.q14 | (self.q127 << 1) | (c974 << 2)) == 0x7);
+        if self.v48 != c48 { self.v48 = c48; *dirty |= 0x8000000000000000000000000; }
+        let c987: u64 = !((self.i_wdata & 0x1)) & 0x1;
+        let c976: u64 = (((self.i_wdata >> 4) & 0x1)) & (c987) & 0x1;
+        let c988: u64 = !(((self.i_wdata >> 4) & 0x1)) & 0x1;
+        let c991: u64 = !(self.i_rx) & 0x1;
+        if self.v991 != c991 { self.v991 = c991; *dirty |= 0x200000; }
+        let c992: u64 = !(self.q25) & 0x1;
+        let c981: u64 = (self.q113) & (c992) & 0x1;
+        if self.v981 != c981 { self.v981 = c981; *dirty |= 0x200000; }
+        let c993: u64 = u64::from((self.i_addr) == (0x1f));
+        if self.v993 != c993 { self.v993 = c993; *dirty |= 0x40000; }
+        let c982: u64 = (self.i_we) & (c993) & 0x1;
+        if self.v982 != c982 { self.v982 = c982; *dirty |= 0x4000000000; }
+        let c47: u64 = u64::from((self.q127 | (c982 << 1)) == 0x3);
+        if self.v47 != c47 { self.v47 = c47; *dirty |= 0x4000000000; }
+        let c994: u64 = u64::from((self.q10) == (0x10));
+        if self.v994 != c994 { self.v994 = c994; *dirty |= 0x4000000000000000000000000; }
+        let c997: u64 = u64::from((self.q10) != (0x10));
+        if self.v997 != c997 { self.v997 = c997; *dirty |= 0x200000; }
+        let c1006: u64 = if (self.q127) != 0 { (((self.i_wdata >> 3) & 0x1) | ((self.i_wdata >> 5) << 1)) } else { (self.q15 | (self.q14 << 3)) };
+        let c1007: u64 = if (c982) != 0 { ((self.i_wdata & 0x7) | (c1006 << 3)) } else { (self.q105 | (self.q15 << 3) | (self.q14 << 6)) };
+        let c999: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1007) };
+        if self.v999 != c999 { self.v999 = c999; *dirty |= 0x4000000000; }
+        let c1019: u64 = if (self.q127) != 0 { (((self.i_wdata >> 2) & 0x1)) } else { (self.q130) };
+        let c1020: u64 = if (self.q127) != 0 { (((self.i_wdata >> 1) & 0x1)) } else { (self.q126) };
+        let c1021: u64 = if (self.q127) != 0 { (0x0) } else { (c988) };
+        let c1022: u64 = if (self.q127) != 0 { (0x0) } else { (c976) };
+        let c1023: u64 = (self.q14) & (c1021) & 0x1;
+        let c1024: u64 = (self.q14) & (c1022) & 0x1;
+        let c1025: u64 = if (self.q14) != 0 { (c1019) } else { (self.q130) };
+        let c1026: u64 = if (self.q14) != 0 { (c1020) } else { (self.q126) };
+        let c1027: u64 = (c974) & (c1023) & 0x1;
+        if self.v1027 != c1027 { self.v1027 = c1027; *dirty |= 0x200000; }
+        let c1028: u64 = (c974) & (c1024) & 0x1;
+        if self.v1028 != c1028 { self.v1028 = c1028; *dirty |= 0x200000; }
+        let c1029: u64 = if (c974) != 0 { (c1025) } else { (self.q130) };
+        let c1001: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1029) };
+        if self.v1001 != c1001 { self.v1001 = c1001; *dirty |= 0x4000000000000000000000000000; }
+        let c986: u64 = (c1001) & ((c999 >> 6)) & 0x1;
+        if self.v986 != c986 { self.v986 = c986; *dirty |= 0x800000000000000000000000000; }
+        let c1030: u64 = if (c974) != 0 { (c1026) } else { (self.q126) };
+        let c1002: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1030) };
+        if self.v1002 != c1002 { self.v1002 = c1002; *dirty |= 0x200000000000000000000000000; }
+        let c985: u64 = (c1002) & ((c999 >> 6)) & 0x1;
+        if self.v985 != c985 { self.v985 = c985; *dirty |= 0x100000000000000000000000000; }
+        let c1032: u64 = if (c974) != 0 { ((self.i_wdata & 0x1)) } else { (self.q127) };
+        let c1010: u64 = ((c1032) | (c981)) & 0x1;
+        let c1003: u64 = ((c1010) | (self.i_reset)) & 0x1;
+        if self.v1003 != c1003 { self.v1003 = c1003; *dirty |= 0x400000000000000000000000000; }
+        let c995: u64 = !(c1003) & 0x1;
+        if self.v995 != c995 { self.v995 = c995; *dirty |= 0x200000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$interrupts.
     fn group_9(&mut self, dirty: &mut u128) {
-        let c79: u64 = !(self.q129) & 0x1;
-        if self.v79 != c79 { self.v79 = c79; *dirty |= 0x8000000; }
-        let c81: u64 = u64::from((self.i_reset | (c79 << 1)) != 0);
-        if self.v81 != c81 { self.v81 = c81; *dirty |= 0x1000000000000000000000000000; }
-        let c966: u64 = (self.q10).wrapping_add((0x1)) & 0x1f;
-        if self.v966 != c966 { self.v966 = c966; *dirty |= 0x1000000000000000000000000000; }
-        let c967: u64 = (self.i_we) & (self.v1043) & 0x1;
-        if self.v967 != c967 { self.v967 = c967; *dirty |= 0x800; }
-        let c48: u64 = u64::from((self.q14 | (self.q127 << 1) | (c967 << 2)) == 0x7);
-        if self.v48 != c48 { self.v48 = c48; *dirty |= 0x20000000000000000000000000; }
-        let c968: u64 = ((self.i_wdata & 0x1)) & (self.v935) & 0x1;
-        let c980: u64 = !((self.i_wdata & 0x1)) & 0x1;
-        let c969: u64 = (((self.i_wdata >> 4) & 0x1)) & (c980) & 0x1;
-        let c981: u64 = !(((self.i_wdata >> 4) & 0x1)) & 0x1;
-        let c984: u64 = !(self.i_rx) & 0x1;
-        if self.v984 != c984 { self.v984 = c984; *dirty |= 0x8000000; }
-        let c985: u64 = !(self.q25) & 0x1;
-        let c974: u64 = (self.q113) & (c985) & 0x1;
-        let c986: u64 = u64::from((self.i_addr) == (0x1f));
-        if self.v986 != c986 { self.v986 = c986; *dirty |= 0x20000; }
-        let c975: u64 = (self.i_we) & (c986) & 0x1;
-        if self.v975 != c975 { self.v975 = c975; *dirty |= 0x200000000; }
-        let c47: u64 = u64::from((self.q127 | (c975 << 1)) == 0x3);
-        if self.v47 != c47 { self.v47 = c47; *dirty |= 0x200000000; }
-        let c987: u64 = u64::from((self.q10) == (0x10));
-        if self.v987 != c987 { self.v987 = c987; *dirty |= 0x10000000000000000000000000; }
-        let c990: u64 = u64::from((self.q10) != (0x10));
-        if self.v990 != c990 { self.v990 = c990; *dirty |= 0x8000000; }
-        let c999: u64 = if (self.q127) != 0 { (((self.i_wdata >> 3) & 0x1) | ((self.i_wdata >> 5) << 1)) } else { (self.q15 | (self.q14 << 3)) };
-        let c1000: u64 = if (c975) != 0 { ((self.i_wdata & 0x7) | (c999 << 3)) } else { (self.q105 | (self.q15 << 3) | (self.q14 << 6)) };
-        let c992: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1000) };
-        if self.v992 != c992 { self.v992 = c992; *dirty |= 0x200000000; }
-        let c1012: u64 = if (self.q127) != 0 { (((self.i_wdata >> 2) & 0x1)) } else { (self.q130) };
-        let c1013: u64 = if (self.q127) != 0 { (((self.i_wdata >> 1) & 0x1)) } else { (self.q126) };
-        let c1014: u64 = if (self.q127) != 0 { (0x0) } else { (c981) };
-        let c1015: u64 = if (self.q127) != 0 { (0x0) } else { (c969) };
-        let c1016: u64 = (self.q14) & (c1014) & 0x1;
-        let c1017: u64 = (self.q14) & (c1015) & 0x1;
-        let c1018: u64 = if (self.q14) != 0 { (c1012) } else { (self.q130) };
-        let c1019: u64 = if (self.q14) != 0 { (c1013) } else { (self.q126) };
-        let c1020: u64 = (c967) & (c1016) & 0x1;
-        if self.v1020 != c1020 { self.v1020 = c1020; *dirty |= 0x8000000; }
-        let c1021: u64 = (c967) & (c1017) & 0x1;
-        if self.v1021 != c1021 { self.v1021 = c1021; *dirty |= 0x8000000; }
-        let c1022: u64 = if (c967) != 0 { (c1018) } else { (self.q130) };
-        let c994: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1022) };
-        if self.v994 != c994 { self.v994 = c994; *dirty |= 0x4000000000000000000000000000; }
-        let c979: u64 = (c994) & ((c992 >> 6)) & 0x1;
-        if self.v979 != c979 { self.v979 = c979; *dirty |= 0x800000000000000000000000000; }
-        let c1023: u64 = if (c967) != 0 { (c1019) } else { (self.q126) };
-        let c995: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1023) };
-        if self.v995 != c995 { self.v995 = c995; *dirty |= 0x200000000000000000000000000; }
-        let c978: u64 = (c995) & ((c992 >> 6)) & 0x1;
-        if self.v978 != c978 { self.v978 = c978; *dirty |= 0x100000000000000000000000000; }
-        let c1024: u64 = (c967) & (c968) & 0x1;
-        let c1002: u64 = if (c974) != 0 { (self.v935) } else { (c1024) };
-        if self.v1002 != c1002 { self.v1002 = c1002; *dirty |= 0x18004000; }
-        let c80: u64 = u64::from((self.i_reset | (c1002 << 1)) != 0);
-        if self.v80 != c80 { self.v80 = c80; *dirty |= 0x20000000000000000000000000000000; }
-        let c1025: u64 = if (c967) != 0 { ((self.i_wdata & 0x1)) } else { (self.q127) };
-        let c1003: u64 = ((c1025) | (c974)) & 0x1;
-        let c996: u64 = ((c1003) | (self.i_reset)) & 0x1;
-        if self.v996 != c996 { self.v996 = c996; *dirty |= 0x400000000000000000000000000; }
-        let c988: u64 = !(c996) & 0x1;
-        if self.v988 != c988 { self.v988 = c988; *dirty |= 0x8000000; }
+        let c934: u64 = (self.i_re) & (self.v1052) & 0x1;
+        let c935: u64 = (self.q14) & (self.v872) & 0x1;
+        if self.v935 != c935 { self.v935 = c935; *dirty |= 0x400000000; }
+        let c937: u64 = (self.q75) & (self.q122) & 0x1;
+        if self.v937 != c937 { self.v937 = c937; *dirty |= 0x40000000000000400000000; }
+        let c938: u64 = (self.q76) & (self.q123) & 0x1;
+        if self.v938 != c938 { self.v938 = c938; *dirty |= 0x100000000000000400000000; }
+        let c939: u64 = (self.i_re) & (self.q14) & 0x1;
+        let c943: u64 = !(self.q127) & 0x1;
+        if self.v943 != c943 { self.v943 = c943; *dirty |= 0x244800; }
+        let c944: u64 = !(self.q19) & 0x1;
+        let c940: u64 = (self.q44) & (c944) & 0x1;
+        if self.v940 != c940 { self.v940 = c940; *dirty |= 0x400000000; }
+        let c945: u64 = !(self.q17) & 0x1;
+        let c941: u64 = (self.v798) & (c945) & 0x1;
+        if self.v941 != c941 { self.v941 = c941; *dirty |= 0x400000000; }
+        let c949: u64 = u64::from((self.q113) != (self.q25));
+        let c950: u64 = u64::from((self.q114) != (self.q18));
+        let c951: u64 = u64::from((self.q50) != (0x1));
+        if self.v951 != c951 { self.v951 = c951; *dirty |= 0x400000000; }
+        let c959: u64 = if (c934) != 0 { (0x0) } else { (self.q20) };
+        if self.v959 != c959 { self.v959 = c959; *dirty |= 0x400000000; }
+        let c961: u64 = if (c934) != 0 { (0x0) } else { (self.q26) };
+        if self.v961 != c961 { self.v961 = c961; *dirty |= 0x400000000; }
+        let c962: u64 = if (self.q127) != 0 { (0x0) } else { (c950) };
+        let c963: u64 = if (self.q113) != 0 { (0x0) } else { (c962) };
+        if self.v963 != c963 { self.v963 = c963; *dirty |= 0x400000000; }
+        let c965: u64 = if (self.q14) != 0 { (self.q101) } else { (0x60) };
+        let c946: u64 = u64::from((self.q66 | (self.q67 << 3) | (self.q65 << 7)) >= (c965));
+        let c947: u64 = u64::from((self.q68 | (self.q69 << 7)) >= (c965));
+        let c952: u64 = ((c946) | (c947)) & 0x1;
+        let c953: u64 = ((c952) | (self.q113)) & 0x1;
+        let c964: u64 = if (self.q127) != 0 { (self.q23) } else { (c953) };
+        if self.v964 != c964 { self.v964 = c964; *dirty |= 0x200000000000000000000000; }
+        let c948: u64 = u64::from((c964) != (self.q23));
+        let c954: u64 = ((c948) | (c949)) & 0x1;
+        if self.v954 != c954 { self.v954 = c954; *dirty |= 0x400000000; }
+        let c970: u64 = if (c938) != 0 { (0x0) } else { (self.q123) };
+        let c966: u64 = ((c970) | (self.v1045)) & 0x1;
+        let c968: u64 = if (c939) != 0 { (c966) } else { (c970) };
+        let c956: u64 = ((c968) | (self.i_reset)) & 0x1;
+        if self.v956 != c956 { self.v956 = c956; *dirty |= 0x80000000000000000000000; }
+        let c971: u64 = if (c937) != 0 { (0x0) } else { (self.q122) };
+        let c967: u64 = ((c971) | (self.v1044)) & 0x1;
+        let c969: u64 = if (c939) != 0 { (c967) } else { (c971) };
+        let c957: u64 = ((c969) | (self.i_reset)) & 0x1;
+        if self.v957 != c957 { self.v957 = c957; *dirty |= 0x20000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$capture.
     fn group_10(&mut self, dirty: &mut u128) {
-        let c98: u64 = u64::from(((self.q74 >> 3)) == 0);
-        let c282: u64 = u64::from((self.q74) == (0x1));
-        if self.v282 != c282 { self.v282 = c282; *dirty |= 0x400000; }
-        let c283: u64 = u64::from((self.q74) < (0x1f));
-        let c284: u64 = u64::from((self.q74) < (0x1a));
-        let c285: u64 = u64::from((self.q74) < (0x12));
-        let c286: u64 = u64::from((self.q74) < (0xd));
-        let c287: u64 = u64::from((self.q74) < (0xc));
-        let c288: u64 = u64::from((self.q74) < (0xb));
-        let c289: u64 = !(self.v521) & 0x1;
-        let c290: u64 = if (self.q59) != 0 { (0x2) } else { (0x1) };
-        let c292: u64 = if (self.v521) != 0 { (0x2) } else { (0x1) };
-        let c291: u64 = if (c282) != 0 { (0x0) } else { (c292) };
-        let c293: u64 = if (self.q81) != 0 { (c291) } else { (c289) };
-        let c299: u64 = if (c284) != 0 { (0x3) } else { ((c283 << 1)) };
-        let c298: u64 = if (c285) != 0 { (0x3) } else { (c299 | 0x4) };
-        let c297: u64 = if (c286) != 0 { (0x1) } else { (c298) };
-        let c296: u64 = if (c287) != 0 { (0x0) } else { (c297) };
-        let c295: u64 = if (c288) != 0 { (0x2) } else { (c296) };
-        let c294: u64 = if (c98) != 0 { (0x2) } else { ((c295 & 0x3) | ((c295 >> 2) << 3) | 0x4) };
-        let c300: u64 = { let s = (self.v558 | (self.v524 << 1) | (self.v585 << 2) | (self.v513 << 3) | (self.v391 << 4) | (self.v400 << 5) | (self.v403 << 6) | (self.v415 << 7) | (self.v423 << 8) | (self.v425 << 9) | (self.v427 << 10) | (self.v379 << 11) | (self.v120 << 12)); if s >> 0 & 1 != 0 { (c289 << 2) | 0x13 } else if s >> 1 & 1 != 0 { 0x1c } else if s >> 2 & 1 != 0 { c290 | ((c290 >> 1) << 2) | 0x10 } else if s >> 3 & 1 != 0 { 0x12 } else if s >> 4 & 1 != 0 { 0x1a } else if s >> 5 & 1 != 0 { 0x1b } else if s >> 6 & 1 != 0 { 0x19 } else if s >> 7 & 1 != 0 { 0x18 } else if s >> 8 & 1 != 0 { 0x8 } else if s >> 9 & 1 != 0 { 0xa } else if s >> 10 & 1 != 0 { (c293 << 1) | 0x9 } else if s >> 11 & 1 != 0 { c294 } else if s >> 12 & 1 != 0 { 0x3 } else { (0x0) } };
-        if self.v300 != c300 { self.v300 = c300; *dirty |= 0x10000000000000000; }
+        let c99: u64 = u64::from(((self.q74 >> 3)) == 0);
+        let c288: u64 = u64::from((self.q74) == (0x1));
+        if self.v288 != c288 { self.v288 = c288; *dirty |= 0x800000; }
+        let c289: u64 = u64::from((self.q74) < (0x1f));
+        let c290: u64 = u64::from((self.q74) < (0x1a));
+        let c291: u64 = u64::from((self.q74) < (0x12));
+        let c292: u64 = u64::from((self.q74) < (0xd));
+        let c293: u64 = u64::from((self.q74) < (0xc));
+        let c294: u64 = u64::from((self.q74) < (0xb));
+        let c295: u64 = !(self.v528) & 0x1;
+        let c296: u64 = if (self.q59) != 0 { (0x2) } else { (0x1) };
+        let c298: u64 = if (self.v528) != 0 { (0x2) } else { (0x1) };
+        let c297: u64 = if (c288) != 0 { (0x0) } else { (c298) };
+        let c299: u64 = if (self.q81) != 0 { (c297) } else { (c295) };
+        let c305: u64 = if (c290) != 0 { (0x3) } else { ((c289 << 1)) };
+        let c304: u64 = if (c291) != 0 { (0x3) } else { (c305 | 0x4) };
+        let c303: u64 = if (c292) != 0 { (0x1) } else { (c304) };
+        let c302: u64 = if (c293) != 0 { (0x0) } else { (c303) };
+        let c301: u64 = if (c294) != 0 { (0x2) } else { (c302) };
+        let c300: u64 = if (c99) != 0 { (0x2) } else { ((c301 & 0x3) | ((c301 >> 2) << 3) | 0x4) };
+        let c306: u64 = { let s = (self.v565 | (self.v531 << 1) | (self.v592 << 2) | (self.v520 << 3) | (self.v397 << 4) | (self.v406 << 5) | (self.v409 << 6) | (self.v421 << 7) | (self.v429 << 8) | (self.v431 << 9) | (self.v433 << 10) | (self.v385 << 11) | (self.v122 << 12)); if s >> 0 & 1 != 0 { (c295 << 2) | 0x13 } else if s >> 1 & 1 != 0 { 0x1c } else if s >> 2 & 1 != 0 { c296 | ((c296 >> 1) << 2) | 0x10 } else if s >> 3 & 1 != 0 { 0x12 } else if s >> 4 & 1 != 0 { 0x1a } else if s >> 5 & 1 != 0 { 0x1b } else if s >> 6 & 1 != 0 { 0x19 } else if s >> 7 & 1 != 0 { 0x18 } else if s >> 8 & 1 != 0 { 0x8 } else if s >> 9 & 1 != 0 { 0xa } else if s >> 10 & 1 != 0 { (c299 << 1) | 0x9 } else if s >> 11 & 1 != 0 { c300 } else if s >> 12 & 1 != 0 { 0x3 } else { (0x0) } };
+        if self.v306 != c306 { self.v306 = c306; *dirty |= 0x1000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$decode.
     fn group_11(&mut self, dirty: &mut u128) {
         let c40: u64 = !(self.q14) & 0x1;
-        if self.v40 != c40 { self.v40 = c40; *dirty |= 0x18000000; }
-        let c46: u64 = u64::from((c40 | (self.v967 << 1)) == 0x3);
-        if self.v46 != c46 { self.v46 = c46; *dirty |= 0x20000000000000000000000000; }
-        let c746: u64 = (self.i_we) & (self.v1044) & 0x1;
-        let c747: u64 = (c746) & (self.v935) & 0x1;
-        if self.v747 != c747 { self.v747 = c747; *dirty |= 0x8000000; }
-        let c748: u64 = (c747) & ((self.i_wdata & 0x1)) & 0x1;
-        if self.v748 != c748 { self.v748 = c748; *dirty |= 0x4000; }
-        let c749: u64 = (c747) & (((self.i_wdata >> 1) & 0x1)) & 0x1;
-        if self.v749 != c749 { self.v749 = c749; *dirty |= 0x40000000000000000000000000004000; }
-        let c750: u64 = (c747) & (((self.i_wdata >> 2) & 0x1)) & 0x1;
-        if self.v750 != c750 { self.v750 = c750; *dirty |= 0x10000000; }
-        let c751: u64 = (c747) & (((self.i_wdata >> 3) & 0x1)) & 0x1;
-        let c85: u64 = u64::from((self.i_reset | (c751 << 1) | (self.q127 << 2)) != 0);
-        if self.v85 != c85 { self.v85 = c85; *dirty |= 0x200000000000000000000; }
-        let c752: u64 = (c747) & (((self.i_wdata >> 4) & 0x1)) & 0x1;
-        let c753: u64 = (c752) & (self.q14) & 0x1;
-        let c755: u64 = (((self.i_wdata >> 4) & 0x1)) & (c40) & 0x1;
-        if self.v755 != c755 { self.v755 = c755; *dirty |= 0x8000000; }
-        let c756: u64 = !(c748) & 0x1;
-        if self.v756 != c756 { self.v756 = c756; *dirty |= 0x4000; }
-        let c754: u64 = (c753) & (c756) & 0x1;
-        if self.v754 != c754 { self.v754 = c754; *dirty |= 0x80000000000000000000000004000; }
-        let c757: u64 = (self.q14) & (self.v764) & 0x1;
-        if self.v757 != c757 { self.v757 = c757; *dirty |= 0x24000; }
-        let c758: u64 = (self.q14) & (self.v763) & 0x1;
-        if self.v758 != c758 { self.v758 = c758; *dirty |= 0x24000; }
-        let c759: u64 = (self.q14) & (self.v762) & 0x1;
-        if self.v759 != c759 { self.v759 = c759; *dirty |= 0x24000; }
-        let c760: u64 = if (self.q14) != 0 { (0x0) } else { (self.v766) };
-        if self.v760 != c760 { self.v760 = c760; *dirty |= 0x20000; }
-        let c761: u64 = if (self.q14) != 0 { (0x0) } else { (self.v765) };
-        if self.v761 != c761 { self.v761 = c761; *dirty |= 0x24000; }
-        let c768: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x9)) & 0xf;
-        if self.v768 != c768 { self.v768 = c768; *dirty |= 0x4000; }
-        let c769: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x3)) & 0xf;
-        if self.v769 != c769 { self.v769 = c769; *dirty |= 0x20000; }
-        let c770: u64 = (((self.i_addr >> 5) & 0x1)).wrapping_sub((0x1)) & 0x1;
-        if self.v770 != c770 { self.v770 = c770; *dirty |= 0x20000; }
+        if self.v40 != c40 { self.v40 = c40; *dirty |= 0x400200000; }
+        let c46: u64 = u64::from((c40 | (self.v974 << 1)) == 0x3);
+        if self.v46 != c46 { self.v46 = c46; *dirty |= 0x10000000000000000000000000; }
+        let c753: u64 = (self.i_we) & (self.v1051) & 0x1;
+        let c754: u64 = (c753) & (self.v943) & 0x1;
+        if self.v754 != c754 { self.v754 = c754; *dirty |= 0x200000; }
+        let c755: u64 = (c754) & ((self.i_wdata & 0x1)) & 0x1;
+        if self.v755 != c755 { self.v755 = c755; *dirty |= 0x4000; }
+        let c756: u64 = (c754) & (((self.i_wdata >> 1) & 0x1)) & 0x1;
+        if self.v756 != c756 { self.v756 = c756; *dirty |= 0x40000000000000000000000000004000; }
+        let c757: u64 = (c754) & (((self.i_wdata >> 2) & 0x1)) & 0x1;
+        if self.v757 != c757 { self.v757 = c757; *dirty |= 0x200000000; }
+        let c758: u64 = (c754) & (((self.i_wdata >> 3) & 0x1)) & 0x1;
+        let c86: u64 = u64::from((self.i_reset | (c758 << 1) | (self.q127 << 2)) != 0);
+        if self.v86 != c86 { self.v86 = c86; *dirty |= 0x20000000000000000000; }
+        let c759: u64 = (c754) & (((self.i_wdata >> 4) & 0x1)) & 0x1;
+        let c760: u64 = (c759) & (self.q14) & 0x1;
+        let c762: u64 = (((self.i_wdata >> 4) & 0x1)) & (c40) & 0x1;
+        if self.v762 != c762 { self.v762 = c762; *dirty |= 0x200000; }
+        let c763: u64 = !(c755) & 0x1;
+        if self.v763 != c763 { self.v763 = c763; *dirty |= 0x4000; }
+        let c761: u64 = (c760) & (c763) & 0x1;
+        if self.v761 != c761 { self.v761 = c761; *dirty |= 0x80000000000000000000000004000; }
+        let c764: u64 = (self.q14) & (self.v771) & 0x1;
+        if self.v764 != c764 { self.v764 = c764; *dirty |= 0x44000; }
+        let c765: u64 = (self.q14) & (self.v770) & 0x1;
+        if self.v765 != c765 { self.v765 = c765; *dirty |= 0x44000; }
+        let c766: u64 = (self.q14) & (self.v769) & 0x1;
+        if self.v766 != c766 { self.v766 = c766; *dirty |= 0x44000; }
+        let c767: u64 = if (self.q14) != 0 { (0x0) } else { (self.v773) };
+        if self.v767 != c767 { self.v767 = c767; *dirty |= 0x40000; }
+        let c768: u64 = if (self.q14) != 0 { (0x0) } else { (self.v772) };
+        if self.v768 != c768 { self.v768 = c768; *dirty |= 0x44000; }
+        let c775: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x9)) & 0xf;
+        if self.v775 != c775 { self.v775 = c775; *dirty |= 0x4000; }
+        let c776: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x3)) & 0xf;
+        if self.v776 != c776 { self.v776 = c776; *dirty |= 0x40000; }
+        let c777: u64 = (((self.i_addr >> 5) & 0x1)).wrapping_sub((0x1)) & 0x1;
+        if self.v777 != c777 { self.v777 = c777; *dirty |= 0x40000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol.
     fn group_12(&mut self, dirty: &mut u128) {
-        let c223: u64 = (self.q52) & (self.q116) & 0x1;
-        if self.v223 != c223 { self.v223 = c223; *dirty |= 0x80000000000000000000000000000000; }
-        let c108: u64 = ((c223) | (self.v1047)) & 0x1;
-        if self.v108 != c108 { self.v108 = c108; *dirty |= 0x20000; }
-        let c224: u64 = (self.v520) & (self.q116) & 0x1;
-        let c109: u64 = ((c224) | (self.v1047)) & 0x1;
-        if self.v109 != c109 { self.v109 = c109; *dirty |= 0x20000; }
-        let c227: u64 = (self.v427) & (self.v388) & 0x1;
-        if self.v227 != c227 { self.v227 = c227; *dirty |= 0x400000; }
-        let c231: u64 = (self.v554) & (self.v529) & 0x1;
-        if self.v231 != c231 { self.v231 = c231; *dirty |= 0x8000000000; }
-        let c232: u64 = !(self.q1) & 0x1;
-        if self.v232 != c232 { self.v232 = c232; *dirty |= 0x4000; }
-        let c233: u64 = !(self.q124) & 0x1;
-        let c225: u64 = (c233) & (self.v529) & 0x1;
-        if self.v225 != c225 { self.v225 = c225; *dirty |= 0x8000000000; }
-        let c87: u64 = u64::from((self.i_reset | (c225 << 1) | (self.q113 << 2)) != 0);
-        if self.v87 != c87 { self.v87 = c87; *dirty |= 0x20000000000000000000; }
-        let c92: u64 = u64::from((self.i_reset | (c225 << 1) | (c231 << 2)) != 0);
-        if self.v92 != c92 { self.v92 = c92; *dirty |= 0x40000000000000000; }
-        let c93: u64 = u64::from((self.i_reset | (c225 << 1)) != 0);
-        if self.v93 != c93 { self.v93 = c93; *dirty |= 0x20000000000000000; }
-        let c242: u64 = u64::from((self.q115) != (0xf));
-        if self.v242 != c242 { self.v242 = c242; *dirty |= 0x8000000000; }
-        let c244: u64 = !(self.q116) & 0x1;
-        if self.v244 != c244 { self.v244 = c244; *dirty |= 0x8000000000; }
-        let c246: u64 = ((self.q71) | (c232)) & 0x1;
-        let c94: u64 = u64::from((self.i_reset | (c246 << 1)) != 0);
-        if self.v94 != c94 { self.v94 = c94; *dirty |= 0x800000000000000; }
-        let c248: u64 = ((self.q125) | (c225)) & 0x1;
-        if self.v248 != c248 { self.v248 = c248; *dirty |= 0x30000004000; }
-        let c249: u64 = ((self.q113) | (c233)) & 0x1;
-        if self.v249 != c249 { self.v249 = c249; *dirty |= 0x2000; }
-        let c251: u64 = ((self.v533) | (self.v622)) & 0x1;
-        let c252: u64 = ((c251) | (self.v554)) & 0x1;
-        let c253: u64 = ((c252) | (self.v496)) & 0x1;
-        if self.v253 != c253 { self.v253 = c253; *dirty |= 0x80000; }
+        let c229: u64 = (self.q52) & (self.q116) & 0x1;
+        if self.v229 != c229 { self.v229 = c229; *dirty |= 0x80000000000000000000000000000000; }
+        let c109: u64 = ((c229) | (self.v1054)) & 0x1;
+        if self.v109 != c109 { self.v109 = c109; *dirty |= 0x40000; }
+        let c230: u64 = (self.v527) & (self.q116) & 0x1;
+        let c110: u64 = ((c230) | (self.v1054)) & 0x1;
+        if self.v110 != c110 { self.v110 = c110; *dirty |= 0x40000; }
+        let c232: u64 = (self.v433) & (self.v394) & 0x1;
+        if self.v232 != c232 { self.v232 = c232; *dirty |= 0x800000; }
+        let c236: u64 = (self.v561) & (self.v536) & 0x1;
+        if self.v236 != c236 { self.v236 = c236; *dirty |= 0x40000000; }
+        let c237: u64 = !(self.q1) & 0x1;
+        if self.v237 != c237 { self.v237 = c237; *dirty |= 0x4000; }
+        let c238: u64 = !(self.q124) & 0x1;
+        let c231: u64 = (c238) & (self.v536) & 0x1;
+        if self.v231 != c231 { self.v231 = c231; *dirty |= 0x40000000; }
+        let c88: u64 = u64::from((self.i_reset | (c231 << 1) | (self.q113 << 2)) != 0);
+        if self.v88 != c88 { self.v88 = c88; *dirty |= 0x2000000000000000000; }
+        let c93: u64 = u64::from((self.i_reset | (c231 << 1) | (c236 << 2)) != 0);
+        if self.v93 != c93 { self.v93 = c93; *dirty |= 0x4000000000000000; }
+        let c94: u64 = u64::from((self.i_reset | (c231 << 1)) != 0);
+        if self.v94 != c94 { self.v94 = c94; *dirty |= 0x2000000000000000; }
+        let c247: u64 = u64::from((self.q115) != (0xf));
+        if self.v247 != c247 { self.v247 = c247; *dirty |= 0x40000000; }
+        let c249: u64 = !(self.q116) & 0x1;
+        if self.v249 != c249 { self.v249 = c249; *dirty |= 0x40000000; }
+        let c251: u64 = ((self.q71) | (c237)) & 0x1;
+        let c95: u64 = u64::from((self.i_reset | (c251 << 1)) != 0);
+        if self.v95 != c95 { self.v95 = c95; *dirty |= 0x80000000000000; }
+        let c253: u64 = ((self.q125) | (c231)) & 0x1;
+        if self.v253 != c253 { self.v253 = c253; *dirty |= 0x180004000; }
+        let c254: u64 = ((self.q113) | (c238)) & 0x1;
+        if self.v254 != c254 { self.v254 = c254; *dirty |= 0x2000; }
+        let c256: u64 = ((self.v540) | (self.v629)) & 0x1;
+        let c257: u64 = ((c256) | (self.v561)) & 0x1;
+        let c258: u64 = ((c257) | (self.v503)) & 0x1;
+        if self.v258 != c258 { self.v258 = c258; *dirty |= 0x10000; }
+        let c267: u64 = !(c258) & 0x1;
+        if self.v267 != c267 { self.v267 = c267; *dirty |= 0x10000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender.
     fn group_13(&mut self, dirty: &mut u128) {
-        let c663: u64 = ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
-        if self.v663 != c663 { self.v663 = c663; *dirty |= 0x400000000000; }
-        let c664: u64 = (self.q74).wrapping_add((0x1)) & 0x7f;
-        if self.v664 != c664 { self.v664 = c664; *dirty |= 0x4800000; }
-        let c671: u64 = u64::from((self.q58) == 0);
-        if self.v671 != c671 { self.v671 = c671; *dirty |= 0x8000100000; }
-        let c672: u64 = u64::from((self.q58) == (0x1));
-        if self.v672 != c672 { self.v672 = c672; *dirty |= 0x100000; }
-        let c673: u64 = u64::from((self.q74) == (0x1e));
-        if self.v673 != c673 { self.v673 = c673; *dirty |= 0x4000000; }
-        let c674: u64 = !(self.v494) & 0x1;
-        if self.v674 != c674 { self.v674 = c674; *dirty |= 0x200000000000; }
-        let c683: u64 = ((self.v249) | (self.i_reset)) & 0x1;
-        if self.v683 != c683 { self.v683 = c683; *dirty |= 0x200000100000; }
-        let c722: u64 = if (self.v373) != 0 { (0x2) } else { (0x1) };
-        if self.v722 != c722 { self.v722 = c722; *dirty |= 0x200000000000; }
-        let c724: u64 = if (c671) != 0 { ((c663 & 0x7)) } else { ((self.q57 & 0x1)) };
-        if self.v724 != c724 { self.v724 = c724; *dirty |= 0x200000000000; }
-        let c731: u64 = (self.q58).wrapping_sub((0x1)) & 0xf;
-        let c725: u64 = if (c671) != 0 { (0x7) } else { (c731) };
-        if self.v725 != c725 { self.v725 = c725; *dirty |= 0x2000000000000000000; }
-        let c733: u64 = ((((self.q73 >> 13) & 0x1)) ^ ((self.q73 >> 14))) & 0x1;
-        let c734: u64 = ((c733) ^ (self.q109)) & 0x1;
-        if self.v734 != c734 { self.v734 = c734; *dirty |= 0x4000000000; }
+        let c670: u64 = ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
+        if self.v670 != c670 { self.v670 = c670; *dirty |= 0x40000000000; }
+        let c671: u64 = (self.q74).wrapping_add((0x1)) & 0x7f;
+        if self.v671 != c671 { self.v671 = c671; *dirty |= 0x21000000; }
+        let c678: u64 = u64::from((self.q58) == 0);
+        if self.v678 != c678 { self.v678 = c678; *dirty |= 0x40100000; }
+        let c679: u64 = u64::from((self.q58) == (0x1));
+        if self.v679 != c679 { self.v679 = c679; *dirty |= 0x100000; }
+        let c680: u64 = u64::from((self.q74) == (0x1e));
+        if self.v680 != c680 { self.v680 = c680; *dirty |= 0x20000000; }
+        let c681: u64 = !(self.v500) & 0x1;
+        if self.v681 != c681 { self.v681 = c681; *dirty |= 0x20000000000; }
+        let c690: u64 = ((self.v254) | (self.i_reset)) & 0x1;
+        if self.v690 != c690 { self.v690 = c690; *dirty |= 0x20000100000; }
+        let c729: u64 = if (self.v379) != 0 { (0x2) } else { (0x1) };
+        if self.v729 != c729 { self.v729 = c729; *dirty |= 0x20000000000; }
+        let c731: u64 = if (c678) != 0 { ((c670 & 0x7)) } else { ((self.q57 & 0x1)) };
+        if self.v731 != c731 { self.v731 = c731; *dirty |= 0x20000000000; }
+        let c738: u64 = (self.q58).wrapping_sub((0x1)) & 0xf;
+        let c732: u64 = if (c678) != 0 { (0x7) } else { (c738) };
+        if self.v732 != c732 { self.v732 = c732; *dirty |= 0x200000000000000000; }
+        let c740: u64 = ((((self.q73 >> 13) & 0x1)) ^ ((self.q73 >> 14))) & 0x1;
+        let c741: u64 = ((c740) ^ (self.q109)) & 0x1;
+        if self.v741 != c741 { self.v741 = c741; *dirty |= 0x20000000; }
         let _ = &dirty;
     }
 
     /// The cells of can_controller.
     fn group_14(&mut self, dirty: &mut u128) {
-        let c4: u64 = (self.i_we) & (self.v935) & 0x1;
+        let c4: u64 = (self.i_we) & (self.v943) & 0x1;
         let c5: u64 = (c4) & (self.q131) & 0x1;
-        let c7: u64 = (self.v842) & (self.v757) & 0x1;
-        let c8: u64 = (self.v749) & (self.v756) & 0x1;
-        let c18: u64 = (self.v842) & (self.v758) & 0x1;
-        if self.v18 != c18 { self.v18 = c18; *dirty |= 0x20000000; }
-        let c37: u64 = u64::from((self.q113 | (self.v248 << 1) | (self.v1 << 2)) != (0x2));
-        if self.v37 != c37 { self.v37 = c37; *dirty |= 0x20000000000; }
-        let c123: u64 = !(self.v754) & 0x1;
-        let c9: u64 = (c8) & (c123) & 0x1;
+        let c7: u64 = (self.v851) & (self.v764) & 0x1;
+        let c8: u64 = (self.v756) & (self.v763) & 0x1;
+        let c18: u64 = (self.v851) & (self.v765) & 0x1;
+        if self.v18 != c18 { self.v18 = c18; *dirty |= 0x200000000; }
+        let c37: u64 = u64::from((self.q113 | (self.v253 << 1) | (self.v1 << 2)) != (0x2));
+        if self.v37 != c37 { self.v37 = c37; *dirty |= 0x100000000; }
+        let c125: u64 = !(self.v761) & 0x1;
+        let c9: u64 = (c8) & (c125) & 0x1;
         let c10: u64 = (c9) & (self.q1) & 0x1;
-        if self.v10 != c10 { self.v10 = c10; *dirty |= 0x800000000; }
-        let c1090: u64 = ((self.v759) | (self.v761)) & 0x1;
-        let c6: u64 = (c5) & (c1090) & 0x1;
-        let c1091: u64 = ((self.v748) | (self.v754)) & 0x1;
-        let c11: u64 = (c1091) & (self.q131) & 0x1;
-        let c12: u64 = (c11) & (self.v232) & 0x1;
+        if self.v10 != c10 { self.v10 = c10; *dirty |= 0x40000000; }
+        let c1097: u64 = ((self.v766) | (self.v768)) & 0x1;
+        let c6: u64 = (c5) & (c1097) & 0x1;
+        let c1098: u64 = ((self.v755) | (self.v761)) & 0x1;
+        let c11: u64 = (c1098) & (self.q131) & 0x1;
+        let c12: u64 = (c11) & (self.v237) & 0x1;
         if self.v12 != c12 { self.v12 = c12; *dirty |= 0x40080000000000000000000000000000; }
-        let c1097: u64 = if (c12) != 0 { (0x0) } else { (self.v1100) };
-        let c1095: u64 = ((c1097) | (self.i_reset)) & 0x1;
-        if self.v1095 != c1095 { self.v1095 = c1095; *dirty |= 0x200000000000000000000000000000; }
-        let c1098: u64 = if (c12) != 0 { (0x0) } else { (self.v1101) };
-        let c1096: u64 = ((c1098) | (self.v1002)) & 0x1;
-        let c1094: u64 = ((c1096) | (self.i_reset)) & 0x1;
-        if self.v1094 != c1094 { self.v1094 = c1094; *dirty |= 0x100000000000000000000000000000; }
-        let c1099: u64 = ((self.v1102) | (c12)) & 0x1;
-        if self.v1099 != c1099 { self.v1099 = c1099; *dirty |= 0x20000000000000000000000000000000; }
-        let c1103: u64 = if (self.q14) != 0 { ((self.i_addr & 0xf)) } else { (self.v768) };
-        if self.v1103 != c1103 { self.v1103 = c1103; *dirty |= 0x4800000000000000000000000040000; }
-        let c1087: u64 = if (c1103) < 16 { (self.q2) >> (c1103) & 0x1 } else { 0 };
-        if self.v1087 != c1087 { self.v1087 = c1087; *dirty |= 0x8000000000000000000000000000000; }
-        let c1104: u64 = ((c6) | (c7)) & 0x1;
-        if self.v1104 != c1104 { self.v1104 = c1104; *dirty |= 0x40000; }
+        let c1104: u64 = if (c12) != 0 { (0x0) } else { (self.v1107) };
+        let c1102: u64 = ((c1104) | (self.i_reset)) & 0x1;
+        if self.v1102 != c1102 { self.v1102 = c1102; *dirty |= 0x200000000000000000000000000000; }
+        let c1105: u64 = if (c12) != 0 { (0x0) } else { (self.v1108) };
+        if self.v1105 != c1105 { self.v1105 = c1105; *dirty |= 0x100000000; }
+        let c1106: u64 = ((self.v1109) | (c12)) & 0x1;
+        if self.v1106 != c1106 { self.v1106 = c1106; *dirty |= 0x20000000000000000000000000000000; }
+        let c1110: u64 = if (self.q14) != 0 { ((self.i_addr & 0xf)) } else { (self.v775) };
+        if self.v1110 != c1110 { self.v1110 = c1110; *dirty |= 0x4800000000000000000000000080000; }
+        let c1094: u64 = if (c1110) < 16 { (self.q2) >> (c1110) & 0x1 } else { 0 };
+        if self.v1094 != c1094 { self.v1094 = c1094; *dirty |= 0x8000000000000000000000000000000; }
+        let c1111: u64 = ((c6) | (c7)) & 0x1;
+        if self.v1111 != c1111 { self.v1111 = c1111; *dirty |= 0x80000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sampling.
     fn group_15(&mut self, dirty: &mut u128) {
-        let c213: u64 = ((self.q92 >> 1)) & ((self.q92 & 0x1)) & 0x1;
-        let c214: u64 = ((self.q92 >> 1)) & (self.q112) & 0x1;
-        let c215: u64 = ((self.q92 & 0x1)) & (self.q112) & 0x1;
-        let c216: u64 = !(self.q112) & 0x1;
-        let c212: u64 = (self.q111) & (c216) & 0x1;
-        if self.v212 != c212 { self.v212 = c212; *dirty |= 0x80000; }
-        let c217: u64 = ((c213) | (c214)) & 0x1;
-        let c218: u64 = ((c217) | (c215)) & 0x1;
-        let c219: u64 = ((self.q112) | (self.i_reset)) & 0x1;
-        if self.v219 != c219 { self.v219 = c219; *dirty |= 0x80000000000000; }
-        let c220: u64 = ((self.q110) | (self.i_reset)) & 0x1;
-        if self.v220 != c220 { self.v220 = c220; *dirty |= 0x100000000000000; }
-        let c221: u64 = ((self.i_rx) | (self.i_reset)) & 0x1;
-        if self.v221 != c221 { self.v221 = c221; *dirty |= 0x80000000000000; }
-        let c222: u64 = if ((self.q102 >> 7)) != 0 { (c218) } else { (self.q112) };
-        if self.v222 != c222 { self.v222 = c222; *dirty |= 0x80000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol$crc.
-    fn group_16(&mut self, dirty: &mut u128) {
-        let c99: u64 = !(((self.q73 >> 2) & 0x1)) & 0x1;
-        let c100: u64 = !(((self.q73 >> 3) & 0x1)) & 0x1;
-        let c101: u64 = !(((self.q73 >> 6) & 0x1)) & 0x1;
-        let c102: u64 = !(((self.q73 >> 7) & 0x1)) & 0x1;
-        let c103: u64 = !(((self.q73 >> 9) & 0x1)) & 0x1;
-        let c104: u64 = !(((self.q73 >> 13) & 0x1)) & 0x1;
-        let c302: u64 = ((self.q109) ^ ((self.q73 >> 14))) & 0x1;
-        let c301: u64 = if (c302) != 0 { ((c99 << 1) | (c100 << 2) | (c101 << 3) | (c102 << 4) | (c103 << 5) | (c104 << 6) | 0x1) } else { ((((self.q73 >> 2) & 0x3) << 1) | (((self.q73 >> 6) & 0x3) << 3) | (((self.q73 >> 9) & 0x1) << 5) | (((self.q73 >> 13) & 0x1) << 6)) };
-        if self.v301 != c301 { self.v301 = c301; *dirty |= 0x40000000000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$read.
-    fn group_17(&mut self, dirty: &mut u128) {
-        let c106: u64 = (self.v121) & ((self.q22 & 0x1)) & 0x1;
-        if self.v106 != c106 { self.v106 = c106; *dirty |= 0x2000000000000; }
-        let c1033: u64 = (c106 | (self.q20 << 1)) & (self.q22 | (self.v1077 << 4)) & 0xff;
-        let c1034: u64 = (self.v759) & (self.v935) & 0x1;
-        let c1035: u64 = (self.v935) & (self.v767) & 0x1;
-        if self.v1035 != c1035 { self.v1035 = c1035; *dirty |= 0x2000000000000; }
-        let c1048: u64 = ((c1034) | (self.v758)) & 0x1;
-        let c1054: u64 = if (self.v760) != 0 { (self.v769) } else { ((self.i_addr & 0xf)) };
-        let c1032: u64 = (self.q48).wrapping_add((c1054)) & 0x3f;
-        let c1053: u64 = if (self.v758) != 0 { ((self.i_addr & 0x1f) | (self.v770 << 5)) } else { (c1032) };
-        if self.v1053 != c1053 { self.v1053 = c1053; *dirty |= 0x40000000000020000000; }
-        let c1055: u64 = if (self.v1046) != 0 { ((self.v837 & 0xf)) } else { (0x0) };
-        let c1068: u64 = if (self.q14) != 0 { (self.v757) } else { (self.v761) };
-        let c1049: u64 = (self.i_re) & (c1068) & 0x1;
-        if self.v1049 != c1049 { self.v1049 = c1049; *dirty |= 0x10000000000000000000000000000; }
-        let c1069: u64 = if (self.q14) != 0 { (c1048) } else { (self.v760) };
-        if self.v1069 != c1069 { self.v1069 = c1069; *dirty |= 0x80000000; }
-        let c1071: u64 = if (self.q14) != 0 { (0x0) } else { (c1055) };
-        if self.v1071 != c1071 { self.v1071 = c1071; *dirty |= 0x20000000000000000000000000000; }
-        let c1076: u64 = if (self.v1036) != 0 { (self.v943 | (self.q44 << 1) | (self.q131 << 2) | (self.q132 << 3) | (self.v109 << 4) | (self.v108 << 5) | (self.q23 << 6) | (self.q113 << 7)) } else { (0x0) };
-        let c1075: u64 = if (self.v1045) != 0 { (c106 | (self.q20 << 1)) } else { (c1076) };
-        let c1074: u64 = if (self.v986) != 0 { (self.q105 | ((self.q15 & 0x1) << 3) | ((self.q15 >> 1) << 5) | (self.q14 << 7)) } else { (c1075) };
-        if self.v1074 != c1074 { self.v1074 = c1074; *dirty |= 0x2000000000000; }
-        let c1078: u64 = u64::from((c1033) != 0);
-        if self.v1078 != c1078 { self.v1078 = c1078; *dirty |= 0x8000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$tx_buffer.
-    fn group_18(&mut self, dirty: &mut u128) {
-        let c1080: u64 = u64::from((self.v1103) == 0);
-        let c1081: u64 = u64::from((self.v1103) == (0x2));
-        let c1082: u64 = u64::from((self.v1103) < (0xd));
-        let c1079: u64 = (self.v1104) & (c1082) & 0x1;
-        if self.v1079 != c1079 { self.v1079 = c1079; *dirty |= 0x14800000000000000000000000000000; }
-        let c44: u64 = u64::from((c1080 | (c1079 << 1)) == 0x3);
-        if self.v44 != c44 { self.v44 = c44; *dirty |= 0x2000000000000000000000000000000; }
-        let c45: u64 = u64::from((c1081 | (c1079 << 1)) == 0x3);
-        if self.v45 != c45 { self.v45 = c45; *dirty |= 0x400000000000000000000000000000; }
-        let c1084: u64 = if (self.q14) != 0 { (self.q4) } else { ((self.q107 & 0xf) | ((self.q107 >> 4) << 6)) };
-        if self.v1084 != c1084 { self.v1084 = c1084; *dirty |= 0x200004100000; }
-        let c1085: u64 = if (self.q5) != 0 { (self.m1_rd) } else { (0x0) };
-        if self.v1085 != c1085 { self.v1085 = c1085; *dirty |= 0x100000; }
-        let c1086: u64 = if (self.q3) != 0 { (self.m2_rd) } else { (0x0) };
-        if self.v1086 != c1086 { self.v1086 = c1086; *dirty |= 0x2000000000000; }
-        let c1089: u64 = (if (self.v1103) < 64 { (0x1) << (self.v1103) } else { 0 }) & 0xffff;
-        let c1083: u64 = !(c1089) & 0xffff;
-        let c107: u64 = (self.q2) & (c1083) & 0xffff;
-        let c111: u64 = ((c107) | (c1089)) & 0xffff;
-        if self.v111 != c111 { self.v111 = c111; *dirty |= 0x10000000000000000000000000000000; }
+        let c219: u64 = ((self.q92 >> 1)) & ((self.q92 & 0x1)) & 0x1;
+        let c220: u64 = ((self.q92 >> 1)) & (self.q112) & 0x1;
+        let c221: u64 = ((self.q92 & 0x1)) & (self.q112) & 0x1;
+        let c222: u64 = !(self.q112) & 0x1;
+        let c218: u64 = (self.q111) & (c222) & 0x1;
+        if self.v218 != c218 { self.v218 = c218; *dirty |= 0x10000; }
+        let c223: u64 = ((c219) | (c220)) & 0x1;
+        let c224: u64 = ((c223) | (c221)) & 0x1;
+        let c225: u64 = ((self.q112) | (self.i_reset)) & 0x1;
+        if self.v225 != c225 { self.v225 = c225; *dirty |= 0x8000000000000; }
+        let c226: u64 = ((self.q110) | (self.i_reset)) & 0x1;
+        if self.v226 != c226 { self.v226 = c226; *dirty |= 0x10000000000000; }
+        let c227: u64 = ((self.i_rx) | (self.i_reset)) & 0x1;
+        if self.v227 != c227 { self.v227 = c227; *dirty |= 0x8000000000000; }
+        let c228: u64 = if ((self.q102 >> 7)) != 0 { (c224) } else { (self.q112) };
+        if self.v228 != c228 { self.v228 = c228; *dirty |= 0x10000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing.
+    fn group_16(&mut self, dirty: &mut u128) {
+        let c141: u64 = (self.v218) & (self.q109) & 0x1;
+        let c142: u64 = (c141) & (self.v165) & 0x1;
+        let c149: u64 = (self.v267) & (self.v524) & 0x1;
+        let c168: u64 = !(c149) & 0x1;
+        let c150: u64 = (c142) & (c168) & 0x1;
+        let c169: u64 = !(c150) & 0x1;
+        let c151: u64 = (self.v148) & (c169) & 0x1;
+        let c152: u64 = (c151) & (self.v170) & 0x1;
+        if self.v152 != c152 { self.v152 = c152; *dirty |= 0x80000000000000000002000000200000; }
+        let c185: u64 = if (c152) != 0 { (0x0) } else { (self.q90) };
+        let c186: u64 = if (c152) != 0 { (self.v228) } else { (self.q109) };
+        let c182: u64 = ((c186) | (self.i_reset)) & 0x1;
+        if self.v182 != c182 { self.v182 = c182; *dirty |= 0x4000000000000; }
+        let c207: u64 = if (self.v258) != 0 { (0x0) } else { (self.v189) };
+        let c208: u64 = if (self.v258) != 0 { (0x0) } else { (self.v202) };
+        let c209: u64 = if (self.v258) != 0 { (0x0) } else { (self.v204) };
+        let c210: u64 = if (self.v258) != 0 { (0x0) } else { (self.v205) };
+        let c211: u64 = if (self.v258) != 0 { (0x0) } else { (self.v206) };
+        let c212: u64 = (c142) & (c207) & 0x1;
+        let c213: u64 = (c142) & (c208) & 0x1;
+        let c214: u64 = (c142) & (c209) & 0x1;
+        let c166: u64 = !(c214) & 0x1;
+        let c144: u64 = (self.v143) & (c166) & 0x1;
+        let c196: u64 = if (c214) != 0 { (self.v195) } else { (self.v161 | (self.v161 << 1) | (self.v161 << 2) | (self.v161 << 3)) };
+        let c194: u64 = if (c213) != 0 { (self.v193 | 0x8) } else { (c196) };
+        let c139: u64 = (self.q93).wrapping_add((c194 | ((c194 >> 3) << 4))) & 0x1f;
+        let c188: u64 = { let s = (self.v203 | (self.v159 << 1) | (self.v189 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.q98 } else if s >> 2 & 1 != 0 { (self.q102 & 0xf) } else { (c139) } };
+        let c197: u64 = if (c213) != 0 { (self.v145) } else { (c144) };
+        let c74: u64 = u64::from((c197 | (self.v39 << 1)) == 0x3);
+        if self.v74 != c74 { self.v74 = c74; *dirty |= 0x20000000000000; }
+        let c191: u64 = if (c197) != 0 { (c188) } else { (c139) };
+        if self.v191 != c191 { self.v191 = c191; *dirty |= 0x4000000000000; }
+        let c215: u64 = (c142) & (c210) & 0x1;
+        let c216: u64 = (c142) & (c211) & 0x1;
+        let c177: u64 = ((c216) | (c215)) & 0x1;
+        let c178: u64 = ((c177) | (c214)) & 0x1;
+        let c179: u64 = ((c178) | (c213)) & 0x1;
+        let c180: u64 = ((c179) | (c212)) & 0x1;
+        let c217: u64 = (c142) & (self.v258) & 0x1;
+        let c172: u64 = ((c217) | (c216)) & 0x1;
+        let c173: u64 = ((c172) | (c215)) & 0x1;
+        let c96: u64 = u64::from((self.i_reset | (c173 << 1)) != 0);
+        if self.v96 != c96 { self.v96 = c96; *dirty |= 0x24000000000000; }
+        let c97: u64 = u64::from((self.i_reset | (c197 << 1) | (c173 << 2)) != 0);
+        if self.v97 != c97 { self.v97 = c97; *dirty |= 0x2000000000000; }
+        let c98: u64 = u64::from((self.i_reset | (self.v161 << 1) | (c173 << 2)) != 0);
+        if self.v98 != c98 { self.v98 = c98; *dirty |= 0x8000000000; }
+        let c167: u64 = !(c173) & 0x1;
+        let c146: u64 = (self.v161) & (c167) & 0x1;
+        if self.v146 != c146 { self.v146 = c146; *dirty |= 0x10000000000000; }
+        let c174: u64 = ((self.v153) | (c217)) & 0x1;
+        let c175: u64 = ((c174) | (c215)) & 0x1;
+        let c154: u64 = (c175) & (self.v171) & 0x1;
+        let c155: u64 = (c154) & (self.v170) & 0x1;
+        let c156: u64 = (c175) & (self.q94) & 0x1;
+        if self.v156 != c156 { self.v156 = c156; *dirty |= 0x40000000000000; }
+        let c176: u64 = ((c155) | (self.q89)) & 0x1;
+        if self.v176 != c176 { self.v176 = c176; *dirty |= 0x100000; }
+        let c181: u64 = ((c217) | (c180)) & 0x1;
+        let c183: u64 = if (c173) != 0 { (0x0) } else { (self.q91) };
+        if self.v183 != c183 { self.v183 = c183; *dirty |= 0x80000000000000000000000000000000; }
+        let c184: u64 = ((c185) | (c181)) & 0x1;
+        if self.v184 != c184 { self.v184 = c184; *dirty |= 0x40000000000000; }
+        let c187: u64 = ((self.v192) | (c173)) & 0x1;
+        if self.v187 != c187 { self.v187 = c187; *dirty |= 0x8000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$crc.
+    fn group_17(&mut self, dirty: &mut u128) {
+        let c100: u64 = !(((self.q73 >> 2) & 0x1)) & 0x1;
+        let c101: u64 = !(((self.q73 >> 3) & 0x1)) & 0x1;
+        let c102: u64 = !(((self.q73 >> 6) & 0x1)) & 0x1;
+        let c103: u64 = !(((self.q73 >> 7) & 0x1)) & 0x1;
+        let c104: u64 = !(((self.q73 >> 9) & 0x1)) & 0x1;
+        let c105: u64 = !(((self.q73 >> 13) & 0x1)) & 0x1;
+        let c308: u64 = ((self.q109) ^ ((self.q73 >> 14))) & 0x1;
+        let c307: u64 = if (c308) != 0 { ((c100 << 1) | (c101 << 2) | (c102 << 3) | (c103 << 4) | (c104 << 5) | (c105 << 6) | 0x1) } else { ((((self.q73 >> 2) & 0x3) << 1) | (((self.q73 >> 6) & 0x3) << 3) | (((self.q73 >> 9) & 0x1) << 5) | (((self.q73 >> 13) & 0x1) << 6)) };
+        if self.v307 != c307 { self.v307 = c307; *dirty |= 0x4000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$read.
+    fn group_18(&mut self, dirty: &mut u128) {
+        let c107: u64 = (self.v123) & ((self.q22 & 0x1)) & 0x1;
+        if self.v107 != c107 { self.v107 = c107; *dirty |= 0x200000000000; }
+        let c1040: u64 = (c107 | (self.q20 << 1)) & (self.q22 | (self.v1084 << 4)) & 0xff;
+        let c1041: u64 = (self.v766) & (self.v943) & 0x1;
+        let c1042: u64 = (self.v943) & (self.v774) & 0x1;
+        if self.v1042 != c1042 { self.v1042 = c1042; *dirty |= 0x200000000000; }
+        let c1055: u64 = ((c1041) | (self.v765)) & 0x1;
+        let c1061: u64 = if (self.v767) != 0 { (self.v776) } else { ((self.i_addr & 0xf)) };
+        let c1039: u64 = (self.q48).wrapping_add((c1061)) & 0x3f;
+        let c1060: u64 = if (self.v765) != 0 { ((self.i_addr & 0x1f) | (self.v777 << 5)) } else { (c1039) };
+        if self.v1060 != c1060 { self.v1060 = c1060; *dirty |= 0x200000000; }
+        let c1062: u64 = if (self.v1053) != 0 { ((self.v846 & 0xf)) } else { (0x0) };
+        let c1075: u64 = if (self.q14) != 0 { (self.v764) } else { (self.v768) };
+        let c1056: u64 = (self.i_re) & (c1075) & 0x1;
+        if self.v1056 != c1056 { self.v1056 = c1056; *dirty |= 0x10000000000000000000000000000; }
+        let c1076: u64 = if (self.q14) != 0 { (c1055) } else { (self.v767) };
+        if self.v1076 != c1076 { self.v1076 = c1076; *dirty |= 0x100000000; }
+        let c1078: u64 = if (self.q14) != 0 { (0x0) } else { (c1062) };
+        if self.v1078 != c1078 { self.v1078 = c1078; *dirty |= 0x20000000000000000000000000000; }
+        let c1083: u64 = if (self.v1043) != 0 { (self.v798 | (self.q44 << 1) | (self.q131 << 2) | (self.q132 << 3) | (self.v110 << 4) | (self.v109 << 5) | (self.q23 << 6) | (self.q113 << 7)) } else { (0x0) };
+        let c1082: u64 = if (self.v1052) != 0 { (c107 | (self.q20 << 1)) } else { (c1083) };
+        let c1081: u64 = if (self.v993) != 0 { (self.q105 | ((self.q15 & 0x1) << 3) | ((self.q15 >> 1) << 5) | (self.q14 << 7)) } else { (c1082) };
+        if self.v1081 != c1081 { self.v1081 = c1081; *dirty |= 0x200000000000; }
+        let c1085: u64 = u64::from((c1040) != 0);
+        if self.v1085 != c1085 { self.v1085 = c1085; *dirty |= 0x200000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$tx_buffer.
     fn group_19(&mut self, dirty: &mut u128) {
-        let c140: u64 = (self.v212) & (self.q109) & 0x1;
-        let c141: u64 = (c140) & (self.v161) & 0x1;
-        let c201: u64 = if (self.v253) != 0 { (0x0) } else { (self.v196) };
-        let c202: u64 = if (self.v253) != 0 { (0x0) } else { (self.v197) };
-        let c203: u64 = if (self.v253) != 0 { (0x0) } else { (self.v198) };
-        let c204: u64 = if (self.v253) != 0 { (0x0) } else { (self.v199) };
-        let c205: u64 = if (self.v253) != 0 { (0x0) } else { (self.v200) };
-        let c206: u64 = (c141) & (c201) & 0x1;
-        let c207: u64 = (c141) & (c202) & 0x1;
-        let c189: u64 = if (c207) != 0 { (self.v110 | 0xc) } else { (self.q108) };
-        let c137: u64 = (self.q95).wrapping_add((c189 | ((c189 >> 3) << 4))) & 0x1f;
-        let c208: u64 = (c141) & (c203) & 0x1;
-        let c162: u64 = !(c208) & 0x1;
-        let c143: u64 = (self.v142) & (c162) & 0x1;
-        let c168: u64 = ((c208) | (c207)) & 0x1;
-        let c187: u64 = if (c207) != 0 { (self.v144) } else { (c143) };
-        let c74: u64 = u64::from((c187 | (self.v39 << 1)) == 0x3);
-        if self.v74 != c74 { self.v74 = c74; *dirty |= 0x200000000000000; }
-        let c146: u64 = (self.v195) & (c187) & 0x1;
-        let c188: u64 = if (c168) != 0 { (c137) } else { (self.q95) };
-        let c183: u64 = { let s = (self.v191 | (self.v195 << 1) | (self.v196 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.q98 } else if s >> 2 & 1 != 0 { (self.q102 & 0xf) } else { (c188) } };
-        let c185: u64 = if (c187) != 0 { (c183) } else { (c188) };
-        if self.v185 != c185 { self.v185 = c185; *dirty |= 0x20000000000000; }
-        let c209: u64 = (c141) & (c204) & 0x1;
-        let c210: u64 = (c141) & (c205) & 0x1;
-        let c172: u64 = ((c210) | (c209)) & 0x1;
-        let c173: u64 = ((c172) | (c208)) & 0x1;
-        let c174: u64 = ((c173) | (c207)) & 0x1;
-        let c175: u64 = ((c174) | (c206)) & 0x1;
-        let c211: u64 = (c141) & (self.v253) & 0x1;
-        let c166: u64 = ((c211) | (c210)) & 0x1;
-        let c167: u64 = ((c166) | (c209)) & 0x1;
-        let c95: u64 = u64::from((self.i_reset | (c167 << 1)) != 0);
-        if self.v95 != c95 { self.v95 = c95; *dirty |= 0x220000000000000; }
-        let c96: u64 = u64::from((self.i_reset | (c187 << 1) | (c167 << 2)) != 0);
-        if self.v96 != c96 { self.v96 = c96; *dirty |= 0x40000000000000; }
-        let c97: u64 = u64::from((self.i_reset | (self.v158 << 1) | (c167 << 2)) != 0);
-        if self.v97 != c97 { self.v97 = c97; *dirty |= 0x400000000; }
-        let c163: u64 = !(c167) & 0x1;
-        let c145: u64 = (self.v158) & (c163) & 0x1;
-        if self.v145 != c145 { self.v145 = c145; *dirty |= 0x100000000000000; }
-        let c147: u64 = (c146) & (c163) & 0x1;
-        let c148: u64 = (c147) & (self.v164) & 0x1;
-        if self.v148 != c148 { self.v148 = c148; *dirty |= 0x80000000000000000020000008000000; }
-        let c169: u64 = ((self.v150) | (c211)) & 0x1;
-        let c170: u64 = ((c169) | (c209)) & 0x1;
-        let c151: u64 = (c170) & (self.v165) & 0x1;
-        let c152: u64 = (c151) & (self.v164) & 0x1;
-        let c153: u64 = (c170) & (self.q94) & 0x1;
-        if self.v153 != c153 { self.v153 = c153; *dirty |= 0x400000000000000; }
-        let c171: u64 = ((c152) | (self.q89)) & 0x1;
-        if self.v171 != c171 { self.v171 = c171; *dirty |= 0x100000; }
-        let c176: u64 = ((c211) | (c175)) & 0x1;
-        let c178: u64 = if (c167) != 0 { (0x0) } else { (self.q91) };
-        if self.v178 != c178 { self.v178 = c178; *dirty |= 0x80000000000000000000000000000000; }
-        let c180: u64 = if (c148) != 0 { (0x0) } else { (self.q90) };
-        let c179: u64 = ((c180) | (c176)) & 0x1;
-        if self.v179 != c179 { self.v179 = c179; *dirty |= 0x400000000000000; }
-        let c181: u64 = if (c148) != 0 { (self.v222) } else { (self.q109) };
-        let c177: u64 = ((c181) | (self.i_reset)) & 0x1;
-        if self.v177 != c177 { self.v177 = c177; *dirty |= 0x40000000000000; }
-        let c182: u64 = ((self.v186) | (c167)) & 0x1;
-        if self.v182 != c182 { self.v182 = c182; *dirty |= 0x400000000; }
+        let c1087: u64 = u64::from((self.v1110) == 0);
+        let c1088: u64 = u64::from((self.v1110) == (0x2));
+        let c1089: u64 = u64::from((self.v1110) < (0xd));
+        let c1086: u64 = (self.v1111) & (c1089) & 0x1;
+        if self.v1086 != c1086 { self.v1086 = c1086; *dirty |= 0x14800000000000000000000000000000; }
+        let c44: u64 = u64::from((c1087 | (c1086 << 1)) == 0x3);
+        if self.v44 != c44 { self.v44 = c44; *dirty |= 0x2000000000000000000000000000000; }
+        let c45: u64 = u64::from((c1088 | (c1086 << 1)) == 0x3);
+        if self.v45 != c45 { self.v45 = c45; *dirty |= 0x400000000000000000000000000000; }
+        let c1091: u64 = if (self.q14) != 0 { (self.q4) } else { ((self.q107 & 0xf) | ((self.q107 >> 4) << 6)) };
+        if self.v1091 != c1091 { self.v1091 = c1091; *dirty |= 0x20020100000; }
+        let c1092: u64 = if (self.q5) != 0 { (self.m1_rd) } else { (0x0) };
+        if self.v1092 != c1092 { self.v1092 = c1092; *dirty |= 0x100000; }
+        let c1093: u64 = if (self.q3) != 0 { (self.m2_rd) } else { (0x0) };
+        if self.v1093 != c1093 { self.v1093 = c1093; *dirty |= 0x200000000000; }
+        let c1096: u64 = (if (self.v1110) < 64 { (0x1) << (self.v1110) } else { 0 }) & 0xffff;
+        let c1090: u64 = !(c1096) & 0xffff;
+        let c108: u64 = (self.q2) & (c1090) & 0xffff;
+        let c112: u64 = ((c108) | (c1096)) & 0xffff;
+        if self.v112 != c112 { self.v112 = c112; *dirty |= 0x10000000000000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender.
     fn group_20(&mut self, dirty: &mut u128) {
-        let c687: u64 = if (self.v171) != 0 { (self.q117) } else { (self.q118) };
-        let c686: u64 = ((c687) | (self.q125)) & 0x1;
-        let c685: u64 = ((c686) | (self.v683)) & 0x1;
-        if self.v685 != c685 { self.v685 = c685; *dirty |= 0x4000000000000000000; }
-        let c708: u64 = ((((self.v1084 >> 6) & 0x1)) | ((self.v1084 >> 7))) & 0x1;
-        if self.v708 != c708 { self.v708 = c708; *dirty |= 0x200000000000; }
-        let c726: u64 = if (self.v671) != 0 { ((self.v1085 & 0x7f)) } else { (((self.q104 & 0x3f) << 1)) };
-        if self.v726 != c726 { self.v726 = c726; *dirty |= 0x8000000000000000000; }
-        let c729: u64 = if (self.v671) != 0 { (((self.v1085 >> 6) & 0x1)) } else { (((self.q104 >> 5) & 0x1)) };
-        let c728: u64 = if (self.v672) != 0 { ((self.v1085 >> 7)) } else { (c729) };
-        if self.v728 != c728 { self.v728 = c728; *dirty |= 0x200000000000; }
-        let c730: u64 = if (self.v671) != 0 { ((self.v1085 >> 7)) } else { ((self.q104 >> 6)) };
-        if self.v730 != c730 { self.v730 = c730; *dirty |= 0x200000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$configuration.
-    fn group_21(&mut self, dirty: &mut u128) {
-        let c125: u64 = u64::from((self.i_addr) == (0xd));
-        let c124: u64 = (self.q14) & (c125) & 0x1;
-        let c78: u64 = u64::from((self.v842 | (c124 << 1)) == 0x3);
-        if self.v78 != c78 { self.v78 = c78; *dirty |= 0x8000000000000; }
-        let c126: u64 = u64::from((self.i_addr) == (0x6));
-        let c76: u64 = u64::from((self.v842 | (c126 << 1)) == 0x3);
-        if self.v76 != c76 { self.v76 = c76; *dirty |= 0x14000000000000; }
-        let c127: u64 = u64::from((self.i_addr) == (0x7));
-        let c75: u64 = u64::from((self.v842 | (c127 << 1)) == 0x3);
-        if self.v75 != c75 { self.v75 = c75; *dirty |= 0x14000000000000; }
-        let c128: u64 = u64::from((self.i_addr) == (0x8));
-        let c77: u64 = u64::from((self.v842 | (c128 << 1)) == 0x3);
-        if self.v77 != c77 { self.v77 = c77; *dirty |= 0x8000000000000; }
-        let c133: u64 = if (c127) != 0 { (self.q102) } else { (self.q103) };
-        let c131: u64 = if (c128) != 0 { (self.q100) } else { (c133) };
-        let c129: u64 = if (c124) != 0 { (self.q101) } else { (c131) };
-        if self.v129 != c129 { self.v129 = c129; *dirty |= 0x2000000000000; }
-        let c134: u64 = ((c126) | (c127)) & 0x1;
-        let c132: u64 = ((c134) | (c128)) & 0x1;
-        let c130: u64 = ((c132) | (c124)) & 0x1;
-        if self.v130 != c130 { self.v130 = c130; *dirty |= 0x2000000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol$assembler.
-    fn group_22(&mut self, dirty: &mut u128) {
-        let c272: u64 = (self.v282) & (self.q81) & 0x1;
-        let c274: u64 = !(c272) & 0x1;
-        let c273: u64 = (self.v525) & (c274) & 0x1;
-        if self.v273 != c273 { self.v273 = c273; *dirty |= 0x800000000; }
-        let c275: u64 = (self.v425) & (self.v377) & 0x1;
-        if self.v275 != c275 { self.v275 = c275; *dirty |= 0x80000000000; }
-        let c276: u64 = (self.v427) & (self.v227) & 0x1;
-        if self.v276 != c276 { self.v276 = c276; *dirty |= 0x80000000000; }
-        let c280: u64 = if ((self.q84 >> 3)) != 0 { (0x8) } else { ((self.q84 & 0x7)) };
-        let c279: u64 = if (self.q79) != 0 { (0x0) } else { (c280) };
-        let c281: u64 = (c279).wrapping_sub((0x1)) & 0xf;
-        if self.v281 != c281 { self.v281 = c281; *dirty |= 0x8000000000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol$frame.
-    fn group_23(&mut self, dirty: &mut u128) {
-        let c398: u64 = if (self.v384) != 0 { (0x0) } else { (self.v664) };
-        let c424: u64 = if (self.v361) != 0 { (0x0) } else { (self.v664) };
-        let c429: u64 = if (self.v388) != 0 { (0x0) } else { (self.v664) };
-        let c436: u64 = if (self.v390) != 0 { (0x0) } else { (self.v664) };
-        let c443: u64 = { let s = (self.v391 | (self.v400 << 1) | (self.v425 << 2) | (self.v427 << 3) | (self.v379 << 4)); if s >> 0 & 1 != 0 { c398 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c424 } else if s >> 3 & 1 != 0 { c429 } else if s >> 4 & 1 != 0 { c436 } else { (self.v664) } };
-        if self.v443 != c443 { self.v443 = c443; *dirty |= 0x1000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol$stuffing.
-    fn group_24(&mut self, dirty: &mut u128) {
-        let c735: u64 = (self.q54).wrapping_add((0x1)) & 0x7;
-        let c738: u64 = u64::from((self.q54) == (0x5));
-        let c736: u64 = (self.q55) & (c738) & 0x1;
-        if self.v736 != c736 { self.v736 = c736; *dirty |= 0x3006000000; }
-        let c42: u64 = !(c736) & 0x1;
-        if self.v42 != c42 { self.v42 = c42; *dirty |= 0x806000000; }
-        let c63: u64 = u64::from((self.v585 | (self.q59 << 1) | (self.q94 << 2) | (c42 << 3)) == 0xf);
-        if self.v63 != c63 { self.v63 = c63; *dirty |= 0x1000000000000000000; }
-        let c739: u64 = u64::from((self.q54) == (0x4));
-        let c737: u64 = (self.q55) & (c739) & 0x1;
-        if self.v737 != c737 { self.v737 = c737; *dirty |= 0x4000000; }
-        let c740: u64 = u64::from((self.q109) != (self.q53));
-        let c741: u64 = ((c738) | (c740)) & 0x1;
-        if self.v741 != c741 { self.v741 = c741; *dirty |= 0x2000000000; }
-        let c745: u64 = if (c741) != 0 { (0x1) } else { (c735) };
-        if self.v745 != c745 { self.v745 = c745; *dirty |= 0x800000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol$interframe.
-    fn group_25(&mut self, dirty: &mut u128) {
-        let c64: u64 = u64::from((self.q94 | (self.v29 << 1) | (self.v27 << 2) | (self.v28 << 3) | (self.v42 << 4)) == 0x1f);
-        if self.v64 != c64 { self.v64 = c64; *dirty |= 0x1000000000000000000; }
-        let c65: u64 = u64::from((self.q94 | (self.v29 << 1) | (self.v30 << 2) | (self.v31 << 3) | (self.v32 << 4) | (self.v27 << 5) | (self.v28 << 6) | (self.v42 << 7)) == 0xff);
-        if self.v65 != c65 { self.v65 = c65; *dirty |= 0x800000000000000000; }
-        let c502: u64 = (self.v419) & (self.q64) & 0x1;
-        if self.v502 != c502 { self.v502 = c502; *dirty |= 0x2000000000; }
-        let c597: u64 = if (self.q59) != 0 { (c502) } else { (self.v591) };
-        let c636: u64 = { let s = (self.v558 | (self.v585 << 1)); if s >> 0 & 1 != 0 { self.v571 } else if s >> 1 & 1 != 0 { c597 } else { (0x0) } };
-        let c639: u64 = if (self.v736) != 0 { (self.q63) } else { (self.v630) };
-        if self.v639 != c639 { self.v639 = c639; *dirty |= 0x2000000000; }
-        let c643: u64 = if (self.v736) != 0 { (0x0) } else { (self.v633) };
-        let c646: u64 = if (self.v736) != 0 { (0x0) } else { (self.v635) };
-        let c647: u64 = if (self.v736) != 0 { (0x0) } else { (c636) };
-        if self.v647 != c647 { self.v647 = c647; *dirty |= 0x2000000000; }
-        let c648: u64 = if (self.v736) != 0 { (0x0) } else { (self.v637) };
-        if self.v648 != c648 { self.v648 = c648; *dirty |= 0x2000000000; }
-        let c659: u64 = (self.q94) & (c643) & 0x1;
-        if self.v659 != c659 { self.v659 = c659; *dirty |= 0x8004000000; }
-        let c661: u64 = (self.q94) & (c646) & 0x1;
-        if self.v661 != c661 { self.v661 = c661; *dirty |= 0x180000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol$sender.
-    fn group_26(&mut self, dirty: &mut u128) {
-        let c666: u64 = (self.v737) & (self.v42) & 0x1;
-        let c667: u64 = (c666) & (self.v380) & 0x1;
-        if self.v667 != c667 { self.v667 = c667; *dirty |= 0x4000000000; }
-        let c680: u64 = !(self.v659) & 0x1;
-        let c665: u64 = (self.v585) & (c680) & 0x1;
-        let c690: u64 = if (c665) != 0 { (self.q59) } else { (self.v532) };
-        if self.v690 != c690 { self.v690 = c690; *dirty |= 0x200000000000; }
-        let c718: u64 = if (self.v736) != 0 { ((self.q74 & 0x7)) } else { ((self.v664 & 0x7)) };
-        let c719: u64 = if (self.v736) != 0 { (self.v373) } else { (self.v673) };
-        if self.v719 != c719 { self.v719 = c719; *dirty |= 0x4000000000; }
-        let c720: u64 = if (self.v736) != 0 { (self.v372) } else { (self.v371) };
-        if self.v720 != c720 { self.v720 = c720; *dirty |= 0x4000000000; }
-        let c721: u64 = if (self.v736) != 0 { (self.v371) } else { (self.v516) };
-        if self.v721 != c721 { self.v721 = c721; *dirty |= 0x4000000000; }
-        let c732: u64 = (c718).wrapping_sub((0x1)) & 0x7;
-        let c703: u64 = if ((self.v1084 >> 7)) != 0 { (c732) } else { (c718) };
-        let c675: u64 = u64::from((c703) == (0x1));
-        let c676: u64 = u64::from((c703) == (0x2));
-        let c677: u64 = u64::from((c703) == (0x3));
-        let c678: u64 = u64::from((c703) == (0x4));
-        let c702: u64 = (c675) & (((self.v1084 >> 3) & 0x1)) & 0x1;
-        let c701: u64 = if (c676) != 0 { (((self.v1084 >> 2) & 0x1)) } else { (c702) };
-        let c700: u64 = if (c677) != 0 { (((self.v1084 >> 1) & 0x1)) } else { (c701) };
-        let c698: u64 = if (c678) != 0 { ((self.v1084 & 0x1)) } else { (c700) };
-        if self.v698 != c698 { self.v698 = c698; *dirty |= 0x4000000000; }
+        let c694: u64 = if (self.v176) != 0 { (self.q117) } else { (self.q118) };
+        let c693: u64 = ((c694) | (self.q125)) & 0x1;
+        let c692: u64 = ((c693) | (self.v690)) & 0x1;
+        if self.v692 != c692 { self.v692 = c692; *dirty |= 0x400000000000000000; }
+        let c715: u64 = ((((self.v1091 >> 6) & 0x1)) | ((self.v1091 >> 7))) & 0x1;
+        if self.v715 != c715 { self.v715 = c715; *dirty |= 0x20000000000; }
+        let c733: u64 = if (self.v678) != 0 { ((self.v1092 & 0x7f)) } else { (((self.q104 & 0x3f) << 1)) };
+        if self.v733 != c733 { self.v733 = c733; *dirty |= 0x800000000000000000; }
+        let c736: u64 = if (self.v678) != 0 { (((self.v1092 >> 6) & 0x1)) } else { (((self.q104 >> 5) & 0x1)) };
+        let c735: u64 = if (self.v679) != 0 { ((self.v1092 >> 7)) } else { (c736) };
+        if self.v735 != c735 { self.v735 = c735; *dirty |= 0x20000000000; }
+        let c737: u64 = if (self.v678) != 0 { ((self.v1092 >> 7)) } else { ((self.q104 >> 6)) };
+        if self.v737 != c737 { self.v737 = c737; *dirty |= 0x20000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$modes.
-    fn group_27(&mut self, dirty: &mut u128) {
-        let c970: u64 = (self.v747) & (self.v40) & 0x1;
-        let c976: u64 = (self.v148) & (self.v990) & 0x1;
-        if self.v976 != c976 { self.v976 = c976; *dirty |= 0x1000000000000000000000000000; }
-        let c982: u64 = !(self.v755) & 0x1;
-        let c983: u64 = !(self.v1078) & 0x1;
-        if self.v983 != c983 { self.v983 = c983; *dirty |= 0x80000000000000000000000000000000; }
-        let c972: u64 = (self.v511) & (c983) & 0x1;
-        let c1006: u64 = ((self.q129) | (c972)) & 0x1;
-        let c1007: u64 = !(c972) & 0x1;
-        let c1010: u64 = if (c970) != 0 { (c982) } else { (self.v1020) };
-        let c991: u64 = ((c1010) | (self.v984)) & 0x1;
-        let c973: u64 = (self.q129) & (c991) & 0x1;
-        let c1011: u64 = if (c970) != 0 { (self.v755) } else { (self.v1021) };
-        let c971: u64 = (c1011) & (self.v79) & 0x1;
-        let c1008: u64 = if (c971) != 0 { (c1006) } else { (self.q129) };
-        let c1005: u64 = if (c973) != 0 { (0x0) } else { (c1008) };
-        let c1001: u64 = if (self.v1002) != 0 { (0x0) } else { (c1005) };
-        let c993: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1001) };
-        if self.v993 != c993 { self.v993 = c993; *dirty |= 0x2000000000000000000000000000; }
-        let c989: u64 = !(c993) & 0x1;
-        let c977: u64 = (self.v988) & (c989) & 0x1;
-        if self.v977 != c977 { self.v977 = c977; *dirty |= 0x80000000000000000000000000; }
-        let c1009: u64 = (c971) & (c1007) & 0x1;
-        let c1004: u64 = ((c1009) | (c973)) & 0x1;
-        if self.v1004 != c1004 { self.v1004 = c1004; *dirty |= 0x10000000; }
+    fn group_21(&mut self, dirty: &mut u128) {
+        let c975: u64 = ((self.i_wdata & 0x1)) & (self.v943) & 0x1;
+        let c977: u64 = (self.v754) & (self.v40) & 0x1;
+        let c983: u64 = (self.v152) & (self.v997) & 0x1;
+        if self.v983 != c983 { self.v983 = c983; *dirty |= 0x1000000000000000000000000000; }
+        let c989: u64 = !(self.v762) & 0x1;
+        let c990: u64 = !(self.v1085) & 0x1;
+        if self.v990 != c990 { self.v990 = c990; *dirty |= 0x80000000000000000000000000000000; }
+        let c979: u64 = (self.v518) & (c990) & 0x1;
+        let c1013: u64 = ((self.q129) | (c979)) & 0x1;
+        let c1014: u64 = !(c979) & 0x1;
+        let c1017: u64 = if (c977) != 0 { (c989) } else { (self.v1027) };
+        let c998: u64 = ((c1017) | (self.v991)) & 0x1;
+        let c980: u64 = (self.q129) & (c998) & 0x1;
+        let c1018: u64 = if (c977) != 0 { (self.v762) } else { (self.v1028) };
+        let c978: u64 = (c1018) & (self.v80) & 0x1;
+        let c1015: u64 = if (c978) != 0 { (c1013) } else { (self.q129) };
+        let c1012: u64 = if (c980) != 0 { (0x0) } else { (c1015) };
+        let c1016: u64 = (c978) & (c1014) & 0x1;
+        let c1011: u64 = ((c1016) | (c980)) & 0x1;
+        if self.v1011 != c1011 { self.v1011 = c1011; *dirty |= 0x400000000; }
+        let c1031: u64 = (self.v974) & (c975) & 0x1;
+        let c1009: u64 = if (self.v981) != 0 { (self.v943) } else { (c1031) };
+        if self.v1009 != c1009 { self.v1009 = c1009; *dirty |= 0x500000000; }
+        let c81: u64 = u64::from((self.i_reset | (c1009 << 1)) != 0);
+        if self.v81 != c81 { self.v81 = c81; *dirty |= 0x20000000000000000000000000000000; }
+        let c1008: u64 = if (c1009) != 0 { (0x0) } else { (c1012) };
+        let c1000: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1008) };
+        if self.v1000 != c1000 { self.v1000 = c1000; *dirty |= 0x2000000000000000000000000000; }
+        let c996: u64 = !(c1000) & 0x1;
+        let c984: u64 = (self.v995) & (c996) & 0x1;
+        if self.v984 != c984 { self.v984 = c984; *dirty |= 0x80000000000000000000000000; }
         let _ = &dirty;
     }
 
-    /// The cells of top$interrupts.
-    fn group_28(&mut self, dirty: &mut u128) {
-        let c113: u64 = (self.q71 | (self.v1004 << 1) | (self.v956 << 2) | (self.v931 << 3) | (self.v947 << 4) | (self.v929 << 5) | (self.v928 << 6)) & (((self.q22 >> 1) & 0x1) | ((self.v1077 & 0x3) << 1) | ((self.q22 >> 3) << 3) | (((self.q22 >> 2) & 0x1) << 4) | ((self.v1077 >> 3) << 5) | (((self.v1077 >> 2) & 0x1) << 6)) & 0x7f;
-        let c927: u64 = (self.v40) & (self.v1043) & 0x1;
-        let c19: u64 = u64::from((c927 | (self.v926 << 1)) != 0);
-        let c41: u64 = !(c927) & 0x1;
-        let c49: u64 = u64::from((self.i_we | (c41 << 1) | (self.v926 << 2)) == 0x7);
-        if self.v49 != c49 { self.v49 = c49; *dirty |= 0x1000000000000; }
-        let c50: u64 = u64::from((self.i_we | (c19 << 1)) == 0x3);
-        if self.v50 != c50 { self.v50 = c50; *dirty |= 0x1000000000000; }
-        let c933: u64 = (self.v750) & (self.v943) & 0x1;
-        if self.v933 != c933 { self.v933 = c933; *dirty |= 0x20000000; }
-        let c934: u64 = (c933) & (self.v944) & 0x1;
-        let c948: u64 = ((self.v932) | (c934)) & 0x1;
-        let c951: u64 = if (self.v1002) != 0 { (0x0) } else { ((self.v952 & 0x1) | ((self.v952 >> 2) << 1)) };
-        let c114: u64 = (((c951 & 0x1) | (((self.v952 >> 1) & 0x1) << 1) | ((c951 >> 1) << 2)) | ((c113 & 0x1) | (((c113 >> 4) & 0x1) << 1) | (((c113 >> 3) & 0x1) << 2) | (((c113 >> 1) & 0x3) << 3) | ((c113 >> 6) << 5) | (((c113 >> 5) & 0x1) << 6))) & 0x7f;
-        if self.v114 != c114 { self.v114 = c114; *dirty |= 0x2000000000000000000000000; }
-        let c953: u64 = ((self.v954) | (c948)) & 0x1;
-        if self.v953 != c953 { self.v953 = c953; *dirty |= 0x400000000000000000000000; }
-        let c965: u64 = if (c927) != 0 { (((self.i_wdata >> 1) & 0xf)) } else { ((self.i_wdata & 0xf)) };
-        if self.v965 != c965 { self.v965 = c965; *dirty |= 0x1000000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$fifo.
-    fn group_29(&mut self, dirty: &mut u128) {
-        let c792: u64 = if (self.v18) != 0 { (self.i_wdata) } else { (self.v815) };
-        let c793: u64 = if (self.v18) != 0 { (self.v1053) } else { (self.v776) };
-        let c794: u64 = ((self.v814) | (self.v18)) & 0x1;
-        let c797: u64 = if (self.q127) != 0 { (c794) } else { (self.v814) };
-        if self.v797 != c797 { self.v797 = c797; *dirty |= 0x200000000000000000000; }
-        let c798: u64 = if (self.q127) != 0 { (c792) } else { (self.v815) };
-        if self.v798 != c798 { self.v798 = c798; *dirty |= 0x200000000000000000000; }
-        let c799: u64 = if (self.q127) != 0 { (c793) } else { (self.v776) };
-        if self.v799 != c799 { self.v799 = c799; *dirty |= 0x200000000000000000000; }
-        let c808: u64 = if (self.v933) != 0 { (self.v839) } else { (self.q50) };
-        let c780: u64 = (c808).wrapping_add((0x1)) & 0x1f;
-        let c789: u64 = u64::from((c808) == 0);
-        let c802: u64 = if (c789) != 0 { (0x0) } else { (self.v933) };
-        let c803: u64 = if (c789) != 0 { (self.q84 | (self.q79 << 6) | (self.q81 << 7)) } else { (self.v837) };
-        let c804: u64 = if (self.v781) != 0 { (c802) } else { (self.v933) };
-        if self.v804 != c804 { self.v804 = c804; *dirty |= 0x40000000000000000000; }
-        let c805: u64 = if (self.v781) != 0 { (c803) } else { (self.v837) };
-        if self.v805 != c805 { self.v805 = c805; *dirty |= 0x80000000000000000000; }
-        let c806: u64 = if (self.v781) != 0 { (c780) } else { (c808) };
-        if self.v806 != c806 { self.v806 = c806; *dirty |= 0x1000000000000000000000; }
-        let c809: u64 = if (self.v933) != 0 { (self.v838) } else { (self.q42) };
-        let c779: u64 = (c809).wrapping_add((self.v832)) & 0x7f;
-        let c807: u64 = if (self.v781) != 0 { (c779) } else { (c809) };
-        if self.v807 != c807 { self.v807 = c807; *dirty |= 0x2000000000000000000000; }
-        let c810: u64 = if (self.v933) != 0 { (self.v777) } else { (self.q48) };
-        let c791: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (c810) };
-        let c796: u64 = if (self.q127) != 0 { (c791) } else { (c810) };
-        if self.v796 != c796 { self.v796 = c796; *dirty |= 0x80000000000000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$modes$divider.
-    fn group_30(&mut self, dirty: &mut u128) {
-        let c1026: u64 = (self.q12).wrapping_add((0x1)) & 0x7;
-        if self.v1026 != c1026 { self.v1026 = c1026; *dirty |= 0x40000000000000000000000000; }
-        let c1027: u64 = !(self.q11) & 0x1;
-        if self.v1027 != c1027 { self.v1027 = c1027; *dirty |= 0x40000000000000000000000000; }
-        let c1028: u64 = u64::from((self.q105) == (0x7));
-        let c1029: u64 = u64::from((self.q12) >= (self.q105));
-        if self.v1029 != c1029 { self.v1029 = c1029; *dirty |= 0x40000000000000000000000000; }
-        let c82: u64 = u64::from((self.i_reset | (c1029 << 1)) != 0);
-        if self.v82 != c82 { self.v82 = c82; *dirty |= 0x40000000000000000000000000; }
-        let c1031: u64 = if (c1028) != 0 { (0x0) } else { (self.q11) };
-        let c1030: u64 = ((c1031) | ((self.q15 & 0x1))) & 0x1;
-        if self.v1030 != c1030 { self.v1030 = c1030; *dirty |= 0x10000000000000000000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of can_controller.
-    fn group_31(&mut self, dirty: &mut u128) {
-        let c17: u64 = (self.i_re) & (self.v1069) & 0x1;
-        if self.v17 != c17 { self.v17 = c17; *dirty |= 0x8000000040000000000000000000; }
-        let c35: u64 = u64::from((self.v661 | (self.q113 << 1) | (self.v1 << 2)) != (0x2));
-        if self.v35 != c35 { self.v35 = c35; *dirty |= 0x20000000000; }
-        let c36: u64 = u64::from((self.v661 | (self.q113 << 1) | (self.v310 << 2) | (self.v1 << 3)) != (0x7));
-        if self.v36 != c36 { self.v36 = c36; *dirty |= 0x20000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol$faults.
-    fn group_32(&mut self, dirty: &mut u128) {
-        let c350: u64 = if (self.v661) != 0 { (self.v348) } else { (0x1) };
-        if self.v350 != c350 { self.v350 = c350; *dirty |= 0x10000000000; }
-        let c351: u64 = if (self.v661) != 0 { (self.v347) } else { (self.q68 | (self.q69 << 7)) };
-        if self.v351 != c351 { self.v351 = c351; *dirty |= 0x10000000000; }
-        let c352: u64 = if (self.v661) != 0 { (self.v349) } else { ((self.q65 << 7)) };
-        if self.v352 != c352 { self.v352 = c352; *dirty |= 0x10000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$modes$cdr_reg.
-    fn group_33(&mut self, dirty: &mut u128) {
-        self.n14 = ((self.v992 >> 6));
-        self.n15 = if (self.i_reset) != 0 { 0x0 } else if (self.v47) != 0 { (((self.i_wdata >> 3) & 0x1) | (((self.i_wdata >> 5) & 0x3) << 1)) } else { self.q15 };
-        self.n105 = if (self.i_reset) != 0 { 0x0 } else if (self.v975) != 0 { ((self.i_wdata & 0x7)) } else { self.q105 };
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$bit_timing$clocks.
-    fn group_34(&mut self, dirty: &mut u128) {
-        self.n96 = if (self.i_reset) != 0 { 0x0 } else { (self.v182) };
-        self.n97 = if (self.v97) != 0 { 0x0 } else { ((self.v138 >> 1)) };
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol.
-    fn group_35(&mut self, dirty: &mut u128) {
-        let c226: u64 = (self.q94) & (self.v42) & 0x1;
-        if self.v226 != c226 { self.v226 = c226; *dirty |= 0x83000000000; }
-        let c69: u64 = u64::from((c226 | (self.v372 << 1) | (self.v379 << 2)) == 0x7);
-        if self.v69 != c69 { self.v69 = c69; *dirty |= 0x4000000000000000; }
-        let c71: u64 = u64::from((c226 | (self.v427 << 1) | (self.v273 << 2)) == 0x7);
-        if self.v71 != c71 { self.v71 = c71; *dirty |= 0x2000000000000000; }
-        let c72: u64 = u64::from((c226 | (self.v425 << 1)) == 0x3);
-        if self.v72 != c72 { self.v72 = c72; *dirty |= 0x1000000000000000; }
-        let c73: u64 = u64::from((c226 | (self.v377 << 1) | (self.v425 << 2)) == 0x7);
-        if self.v73 != c73 { self.v73 = c73; *dirty |= 0x800000000000000; }
-        let c269: u64 = ((self.q88) | (self.v10)) & 0x1;
-        if self.v269 != c269 { self.v269 = c269; *dirty |= 0x800000000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol$frame.
-    fn group_36(&mut self, dirty: &mut u128) {
-        let c68: u64 = u64::from((self.v226 | (self.v379 << 1) | (self.v38 << 2)) == 0x7);
-        if self.v68 != c68 { self.v68 = c68; *dirty |= 0x8000000000000000; }
-        let c70: u64 = u64::from((self.v226 | (self.v43 << 1) | (self.v379 << 2)) == 0x7);
-        if self.v70 != c70 { self.v70 = c70; *dirty |= 0x4000000000000000; }
-        let c362: u64 = (self.q94) & (self.v736) & 0x1;
-        if self.v362 != c362 { self.v362 = c362; *dirty |= 0x8000000000; }
-        let c473: u64 = if (c362) != 0 { (self.v470) } else { (self.v459) };
-        if self.v473 != c473 { self.v473 = c473; *dirty |= 0x2000000000; }
-        let c474: u64 = if (c362) != 0 { ((self.v471 << 1)) } else { (self.v461) };
-        if self.v474 != c474 { self.v474 = c474; *dirty |= 0x2000000000; }
-        let c475: u64 = if (c362) != 0 { (self.v472) } else { (self.v462) };
-        if self.v475 != c475 { self.v475 = c475; *dirty |= 0xa000000000; }
-        let c476: u64 = if (c362) != 0 { (self.q74) } else { (self.v443) };
-        if self.v476 != c476 { self.v476 = c476; *dirty |= 0x2000000000; }
-        let c477: u64 = if (c362) != 0 { (0x0) } else { (self.v453) };
-        if self.v477 != c477 { self.v477 = c477; *dirty |= 0x8000000000; }
-        let c478: u64 = if (c362) != 0 { (0x0) } else { (self.v454) };
-        if self.v478 != c478 { self.v478 = c478; *dirty |= 0x100000010000000000; }
-        let c479: u64 = if (c362) != 0 { (0x0) } else { (self.v455) };
-        if self.v479 != c479 { self.v479 = c479; *dirty |= 0x100000008000000000; }
-        let c480: u64 = if (c362) != 0 { (0x0) } else { (self.v457) };
-        if self.v480 != c480 { self.v480 = c480; *dirty |= 0x2000000000; }
-        let c481: u64 = if (c362) != 0 { (0x0) } else { (self.v458) };
-        if self.v481 != c481 { self.v481 = c481; *dirty |= 0x8000000000; }
-        let c482: u64 = if (c362) != 0 { (0x0) } else { (self.v460) };
-        if self.v482 != c482 { self.v482 = c482; *dirty |= 0x30000002000000000; }
-        let c483: u64 = if (c362) != 0 { (0x0) } else { (self.v463) };
-        if self.v483 != c483 { self.v483 = c483; *dirty |= 0x2000000000; }
-        let c484: u64 = if (c362) != 0 { (0x0) } else { (self.v464) };
-        if self.v484 != c484 { self.v484 = c484; *dirty |= 0x4000000000; }
-        let c485: u64 = if (c362) != 0 { (0x0) } else { (self.v465) };
-        if self.v485 != c485 { self.v485 = c485; *dirty |= 0x40000004000000000; }
-        let c486: u64 = if (c362) != 0 { (self.q115) } else { (self.v466) };
-        if self.v486 != c486 { self.v486 = c486; *dirty |= 0x2000000000; }
-        let c487: u64 = if (c362) != 0 { (0x0) } else { (self.v467) };
-        if self.v487 != c487 { self.v487 = c487; *dirty |= 0x10000000000; }
-        let c488: u64 = if (c362) != 0 { (0x0) } else { (self.v468) };
-        if self.v488 != c488 { self.v488 = c488; *dirty |= 0x8000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol$interframe.
-    fn group_37(&mut self, dirty: &mut u128) {
-        let c495: u64 = (self.v226) & (self.v419) & 0x1;
-        let c497: u64 = (c495) & (self.v534) & 0x1;
-        if self.v497 != c497 { self.v497 = c497; *dirty |= 0x4000080c000000000; }
-        let c22: u64 = u64::from((c497 | (self.v741 << 1)) != 0);
-        let c59: u64 = u64::from((self.q94 | (c22 << 1)) == 0x3);
-        if self.v59 != c59 { self.v59 = c59; *dirty |= 0x10000000000000000000; }
-        let c91: u64 = u64::from((self.i_reset | (c497 << 1)) != 0);
-        if self.v91 != c91 { self.v91 = c91; *dirty |= 0x86000000000000000; }
-        let c515: u64 = !(self.v482) & 0x1;
-        let c498: u64 = (self.q52) & (c515) & 0x1;
-        let c553: u64 = if (self.v516) != 0 { (0x0) } else { (self.v476) };
-        let c555: u64 = if (self.v506) != 0 { (c553) } else { (0x0) };
-        let c557: u64 = if (self.v518) != 0 { (0x0) } else { (self.v476) };
-        let c559: u64 = if (self.v518) != 0 { (0xa) } else { (self.v486) };
-        let c560: u64 = if (self.v518) != 0 { (0xd) } else { (self.v486) };
-        let c561: u64 = if (self.v518) != 0 { (self.v474) } else { (0x1) };
-        let c562: u64 = if (self.v518) != 0 { (self.v475) } else { (0x1) };
-        let c563: u64 = if (self.q109) != 0 { (self.v474) } else { (c561) };
-        let c564: u64 = if (self.q109) != 0 { (self.v475) } else { (c562) };
-        let c565: u64 = if (self.q109) != 0 { (c559) } else { (c560) };
-        let c573: u64 = if (self.v521) != 0 { (self.v474) } else { (c563) };
-        let c574: u64 = if (self.v521) != 0 { (self.v475) } else { (c564) };
-        let c575: u64 = if (self.v521) != 0 { (self.v486) } else { (c565) };
-        let c578: u64 = if (self.v519) != 0 { (0x0) } else { (self.v476) };
-        let c579: u64 = if (self.v519) != 0 { (0xe) } else { (self.v486) };
-        let c580: u64 = ((self.v475) | (self.v503)) & 0x1;
-        let c582: u64 = if (self.v503) != 0 { (self.v476) } else { (c578) };
-        let c583: u64 = if (self.v503) != 0 { (self.v486) } else { (c579) };
-        let c587: u64 = if (self.v598) != 0 { (0xe) } else { (self.v486) };
-        let c589: u64 = if (self.q109) != 0 { (0x0) } else { (self.v476) };
-        let c595: u64 = if (self.v501) != 0 { (0x1) } else { (self.v476) };
-        let c599: u64 = if (self.q59) != 0 { (c595) } else { (c589) };
-        let c586: u64 = if (self.v598) != 0 { (0x0) } else { (c599) };
-        let c603: u64 = if (self.v499) != 0 { (0x0) } else { (self.v476) };
-        let c604: u64 = if (self.v514) != 0 { (c603) } else { (self.v476) };
-        let c605: u64 = if (self.v514) != 0 { (self.v499) } else { (c498) };
-        let c606: u64 = if (self.v514) != 0 { ((self.v499 << 1) | (self.v499 << 3) | 0x1) } else { (self.v486) };
-        let c607: u64 = if (self.v514) != 0 { (self.v500) } else { (c498) };
-        let c608: u64 = if (self.v514) != 0 { (self.v476) } else { (0x0) };
-        let c609: u64 = if (self.v514) != 0 { (self.v486) } else { (0xd) };
-        let c610: u64 = if (self.q109) != 0 { (c604) } else { (c608) };
-        let c611: u64 = if (self.q109) != 0 { (c605) } else { (c607) };
-        let c612: u64 = if (self.q109) != 0 { (c606) } else { (c609) };
-        let c613: u64 = if (self.v518) != 0 { (0x0) } else { (c498) };
-        let c614: u64 = if (self.v518) != 0 { (0x1) } else { (self.v486) };
-        let c615: u64 = (self.q109) & (c613) & 0x1;
-        let c616: u64 = if (self.q109) != 0 { (c614) } else { (self.v486) };
-        let c617: u64 = if (self.q118) != 0 { (c498) } else { (0x1) };
-        let c618: u64 = if (self.q118) != 0 { (self.v475) } else { (0x1) };
-        let c619: u64 = if (self.q109) != 0 { (c617) } else { (self.v517) };
-        let c620: u64 = if (self.q109) != 0 { (c618) } else { (self.v475) };
-        let c621: u64 = if (self.v516) != 0 { (0x1) } else { (self.v486) };
-        let c623: u64 = if (self.q109) != 0 { (self.v476) } else { (0x0) };
-        let c570: u64 = if (self.v521) != 0 { (c623) } else { (c557) };
-        let c624: u64 = if (self.q109) != 0 { (c621) } else { (self.v486) };
-        let c625: u64 = { let s = (self.v554 | (self.v558 << 1) | (self.v524 << 2) | (self.v585 << 3) | (self.v513 << 4) | (self.v622 << 5)); if s >> 0 & 1 != 0 { c555 } else if s >> 1 & 1 != 0 { c570 } else if s >> 2 & 1 != 0 { c582 } else if s >> 3 & 1 != 0 { c586 } else if s >> 4 & 1 != 0 { c610 } else if s >> 5 & 1 != 0 { c623 } else { (self.v476) } };
-        let c626: u64 = { let s = (self.v558 | (self.v524 << 1) | (self.v585 << 2) | (self.v513 << 3) | (self.v512 << 4) | (self.v622 << 5)); if s >> 0 & 1 != 0 { c575 } else if s >> 1 & 1 != 0 { c583 } else if s >> 2 & 1 != 0 { c587 } else if s >> 3 & 1 != 0 { c612 } else if s >> 4 & 1 != 0 { c616 } else if s >> 5 & 1 != 0 { c624 } else { (self.v486) } };
-        let c631: u64 = if (self.v558) != 0 { (c573) } else { (self.v474) };
-        let c632: u64 = { let s = (self.v558 | (self.v524 << 1) | (self.v511 << 2)); if s >> 0 & 1 != 0 { c574 } else if s >> 1 & 1 != 0 { c580 } else if s >> 2 & 1 != 0 { c620 } else { (self.v475) } };
-        let c634: u64 = { let s = (self.v513 | (self.v512 << 1) | (self.v511 << 2)); if s >> 0 & 1 != 0 { c611 } else if s >> 1 & 1 != 0 { c615 } else if s >> 2 & 1 != 0 { c619 } else { (c498) } };
-        let c640: u64 = if (self.v736) != 0 { (self.v476) } else { (c625) };
-        let c551: u64 = if (c497) != 0 { (0x0) } else { (c640) };
-        let c641: u64 = if (self.v736) != 0 { (self.v474) } else { (c631) };
-        let c642: u64 = if (self.v736) != 0 { (self.v475) } else { (c632) };
-        let c25: u64 = u64::from((self.v585 | (self.v736 << 1) | (c642 << 2)) != 0);
-        let c26: u64 = u64::from((self.v736 | (c642 << 1)) != (0x1));
-        let c62: u64 = u64::from((self.q94 | (c26 << 1) | (c25 << 2)) == 0x7);
-        if self.v62 != c62 { self.v62 = c62; *dirty |= 0x2000000000000000000; }
-        let c546: u64 = ((self.v639) | (c642)) & 0x1;
-        if self.v546 != c546 { self.v546 = c546; *dirty |= 0x800000000000000000; }
-        let c547: u64 = if (c642) != 0 { (self.v532) } else { (self.v600) };
-        if self.v547 != c547 { self.v547 = c547; *dirty |= 0x2000000000000000000; }
-        let c548: u64 = ((self.v483) | (c642)) & 0x1;
-        let c549: u64 = if (c642) != 0 { (0x0) } else { (c551) };
-        if self.v549 != c549 { self.v549 = c549; *dirty |= 0x8000000000; }
-        let c644: u64 = if (self.v736) != 0 { (c498) } else { (c634) };
-        let c508: u64 = (c644) & (self.v535) & 0x1;
-        let c509: u64 = (c508) & (self.q116) & 0x1;
-        let c523: u64 = !(c644) & 0x1;
-        let c507: u64 = (self.v524) & (c523) & 0x1;
-        let c510: u64 = (self.q88) & (c523) & 0x1;
-        let c537: u64 = ((self.v648) | (c507)) & 0x1;
-        let c538: u64 = if (c507) != 0 { (0x0) } else { (c523) };
-        let c539: u64 = if (self.v473) != 0 { (c537) } else { (self.v648) };
-        let c540: u64 = (self.v473) & (c538) & 0x1;
-        let c541: u64 = if (self.v473) != 0 { (c644) } else { (self.v647) };
-        let c542: u64 = (c642) & (c509) & 0x1;
-        let c536: u64 = ((c542) | (c510)) & 0x1;
-        let c543: u64 = if (c642) != 0 { (c541) } else { (self.v647) };
-        let c544: u64 = if (c642) != 0 { (c539) } else { (self.v648) };
-        let c545: u64 = (c642) & (c540) & 0x1;
-        let c645: u64 = if (self.v736) != 0 { (self.v486) } else { (c626) };
-        let c552: u64 = if (c497) != 0 { (0x2) } else { (c645) };
-        let c550: u64 = if (c642) != 0 { (0xc) } else { (c552) };
-        let c649: u64 = (self.q94) & (c536) & 0x1;
-        if self.v649 != c649 { self.v649 = c649; *dirty |= 0x8000000000; }
-        let c90: u64 = u64::from((self.i_reset | (c649 << 1)) != 0);
-        if self.v90 != c90 { self.v90 = c90; *dirty |= 0x100000000000000000; }
-        let c650: u64 = if (self.q94) != 0 { (c548) } else { (self.v483) };
-        if self.v650 != c650 { self.v650 = c650; *dirty |= 0xc000000000; }
-        let c651: u64 = if (self.q94) != 0 { (c550) } else { (self.v486) };
-        if self.v651 != c651 { self.v651 = c651; *dirty |= 0xc000000000; }
-        let c652: u64 = (self.q94) & (c543) & 0x1;
-        if self.v652 != c652 { self.v652 = c652; *dirty |= 0x30000000000; }
-        let c653: u64 = (self.q94) & (c544) & 0x1;
-        if self.v653 != c653 { self.v653 = c653; *dirty |= 0x10000000000; }
-        let c654: u64 = (self.q94) & (c545) & 0x1;
-        if self.v654 != c654 { self.v654 = c654; *dirty |= 0x10000000000; }
-        let c655: u64 = (self.q94) & (c523) & 0x1;
-        if self.v655 != c655 { self.v655 = c655; *dirty |= 0x10000000000000000; }
-        let c657: u64 = if (self.q94) != 0 { (c641) } else { (self.v474) };
-        if self.v657 != c657 { self.v657 = c657; *dirty |= 0x10000000000000000; }
-        let c658: u64 = if (self.q94) != 0 { (c642) } else { (self.v475) };
-        if self.v658 != c658 { self.v658 = c658; *dirty |= 0xc000000000; }
-        let c660: u64 = if (self.q94) != 0 { (c644) } else { (c498) };
-        if self.v660 != c660 { self.v660 = c660; *dirty |= 0x20000000204000000000; }
-        let c662: u64 = ((self.q64) | (self.v480)) & 0x1;
-        let c593: u64 = if (self.v502) != 0 { (0x0) } else { (c662) };
-        let c596: u64 = if (self.q59) != 0 { (c593) } else { (c662) };
-        let c584: u64 = if (self.v598) != 0 { (0x0) } else { (c596) };
-        let c627: u64 = if (self.v585) != 0 { (c584) } else { (c662) };
-        let c638: u64 = if (self.v736) != 0 { (c662) } else { (c627) };
-        let c656: u64 = if (self.q94) != 0 { (c638) } else { (c662) };
-        if self.v656 != c656 { self.v656 = c656; *dirty |= 0x400000000000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol$sender.
-    fn group_38(&mut self, dirty: &mut u128) {
-        let c668: u64 = (self.v667) & (self.v660) & 0x1;
-        let c679: u64 = !(self.v484) & 0x1;
-        if self.v679 != c679 { self.v679 = c679; *dirty |= 0x200000000000; }
-        let c681: u64 = !(self.v658) & 0x1;
-        if self.v681 != c681 { self.v681 = c681; *dirty |= 0x8000000000; }
-        let c669: u64 = (c668) & (c681) & 0x1;
-        let c682: u64 = !(self.v650) & 0x1;
-        let c670: u64 = (c669) & (c682) & 0x1;
-        if self.v670 != c670 { self.v670 = c670; *dirty |= 0x200000000000; }
-        let c691: u64 = u64::from((self.v651) == (0xc));
-        if self.v691 != c691 { self.v691 = c691; *dirty |= 0x200000000000; }
-        let c692: u64 = if (self.v485) != 0 { (self.v734) } else { ((self.q73 >> 14)) };
-        let c693: u64 = u64::from((self.v651) == (0x5));
-        if self.v693 != c693 { self.v693 = c693; *dirty |= 0x200000000000; }
-        let c694: u64 = if (self.v660) != 0 { (c692) } else { (0x1) };
-        if self.v694 != c694 { self.v694 = c694; *dirty |= 0x200000000000; }
-        let c696: u64 = u64::from((self.v651) == (0x4));
-        if self.v696 != c696 { self.v696 = c696; *dirty |= 0x200000000000; }
-        let c699: u64 = u64::from((self.v651) == (0x3));
-        if self.v699 != c699 { self.v699 = c699; *dirty |= 0x200000000000; }
-        let c704: u64 = if (self.v660) != 0 { (self.v698) } else { (0x1) };
-        if self.v704 != c704 { self.v704 = c704; *dirty |= 0x200000000000; }
-        let c706: u64 = u64::from((self.v651) == (0x2));
-        if self.v706 != c706 { self.v706 = c706; *dirty |= 0x200000000000; }
-        let c712: u64 = u64::from((self.v651) == (0xd));
-        if self.v712 != c712 { self.v712 = c712; *dirty |= 0x200000000000; }
-        let c713: u64 = u64::from((self.v651) == (0x7));
-        if self.v713 != c713 { self.v713 = c713; *dirty |= 0x200000000000; }
-        let c714: u64 = u64::from((self.v651) == (0x1));
-        if self.v714 != c714 { self.v714 = c714; *dirty |= 0x200000000000; }
-        let c715: u64 = if (self.v497) != 0 { (0x0) } else { (self.v719) };
-        if self.v715 != c715 { self.v715 = c715; *dirty |= 0x200000000000; }
-        let c716: u64 = if (self.v497) != 0 { (0x0) } else { (self.v720) };
-        if self.v716 != c716 { self.v716 = c716; *dirty |= 0x200000000000; }
-        let c717: u64 = if (self.v497) != 0 { (0x0) } else { (self.v721) };
-        if self.v717 != c717 { self.v717 = c717; *dirty |= 0x200000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol.
-    fn group_39(&mut self, dirty: &mut u128) {
-        let c86: u64 = u64::from((self.i_reset | (self.v225 << 1) | (self.v362 << 2)) != 0);
-        if self.v86 != c86 { self.v86 = c86; *dirty |= 0x20000000000000000000; }
-        let c228: u64 = (self.v488) & (self.v681) & 0x1;
-        if self.v228 != c228 { self.v228 = c228; *dirty |= 0xa000000200000000000; }
-        let c61: u64 = u64::from((c228 | (self.v671 << 1)) == 0x3);
-        if self.v61 != c61 { self.v61 = c61; *dirty |= 0x400000000000; }
-        let c243: u64 = !(self.v475) & 0x1;
-        let c229: u64 = (self.v477) & (c243) & 0x1;
-        if self.v229 != c229 { self.v229 = c229; *dirty |= 0x200000000000; }
-        let c23: u64 = u64::from((c228 | (c229 << 1)) != 0);
-        let c24: u64 = u64::from((c228 | (c229 << 1) | (self.v671 << 2)) != (0x1));
-        let c60: u64 = u64::from((c24 | (c23 << 1)) == 0x3);
-        if self.v60 != c60 { self.v60 = c60; *dirty |= 0x400000000000; }
-        let c245: u64 = !(self.v497) & 0x1;
-        let c230: u64 = (self.v244) & (c245) & 0x1;
-        let c88: u64 = u64::from((self.i_reset | (c229 << 1) | (c230 << 2)) != 0);
-        if self.v88 != c88 { self.v88 = c88; *dirty |= 0x2000000400000000000; }
-        let c89: u64 = u64::from((self.i_reset | (c230 << 1)) != 0);
-        if self.v89 != c89 { self.v89 = c89; *dirty |= 0x400000000000; }
-        let c247: u64 = ((self.v650) | (self.v225)) & 0x1;
-        if self.v247 != c247 { self.v247 = c247; *dirty |= 0x800000000000; }
-        let c250: u64 = ((self.v658) | (self.v659)) & 0x1;
-        if self.v250 != c250 { self.v250 = c250; *dirty |= 0x30000000000000000; }
-        let c267: u64 = if (self.q94) != 0 { (self.v549) } else { (self.q74) };
-        let c264: u64 = if (self.v242) != 0 { (0x0) } else { (c267) };
-        let c265: u64 = if (self.q113) != 0 { (c264) } else { (c267) };
-        if self.v265 != c265 { self.v265 = c265; *dirty |= 0x40000000000000000; }
-        let c268: u64 = if (self.q94) != 0 { (self.v651) } else { (self.q115) };
-        let c266: u64 = if (self.q113) != 0 { (0xf) } else { (c268) };
-        let c263: u64 = if (self.v231) != 0 { (0x1) } else { (c266) };
-        let c262: u64 = if (self.v225) != 0 { (0x0) } else { (c263) };
-        let c261: u64 = if (self.i_reset) != 0 { (0x0) } else { (c262) };
-        if self.v261 != c261 { self.v261 = c261; *dirty |= 0x200000000000000000; }
-        let c234: u64 = u64::from((c261) == (0x2));
-        let c235: u64 = u64::from((c261) == (0x3));
-        let c236: u64 = u64::from((c261) == (0x4));
-        let c237: u64 = u64::from((c261) == (0x5));
-        let c238: u64 = u64::from((c261) == (0x6));
-        let c239: u64 = u64::from((c261) == (0x7));
-        let c240: u64 = u64::from((c261) == (0x8));
-        let c241: u64 = u64::from((c261) == (0x9));
-        let c254: u64 = ((c234) | (c235)) & 0x1;
-        let c255: u64 = ((c254) | (c236)) & 0x1;
-        let c256: u64 = ((c255) | (c237)) & 0x1;
-        let c257: u64 = ((c256) | (c238)) & 0x1;
-        let c258: u64 = ((c257) | (c239)) & 0x1;
-        let c259: u64 = ((c258) | (c240)) & 0x1;
-        let c260: u64 = ((c259) | (c241)) & 0x1;
-        if self.v260 != c260 { self.v260 = c260; *dirty |= 0x400000000000000000; }
-        let c270: u64 = ((self.q72) | (self.v481)) & 0x1;
-        if self.v270 != c270 { self.v270 = c270; *dirty |= 0x80000000000000000; }
-        let c271: u64 = ((self.v479) | (self.v649)) & 0x1;
-        if self.v271 != c271 { self.v271 = c271; *dirty |= 0x80000000000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol$faults.
-    fn group_40(&mut self, dirty: &mut u128) {
-        let c306: u64 = (self.v478) & (self.v314) & 0x1;
-        if self.v306 != c306 { self.v306 = c306; *dirty |= 0x20000000000; }
-        let c307: u64 = (self.v654) & (self.v315) & 0x1;
-        let c341: u64 = (self.v652) & (self.v340) & 0x1;
-        let c342: u64 = if (self.v652) != 0 { (self.v338) } else { (self.q68 | (self.q69 << 7)) };
-        let c336: u64 = if (c307) != 0 { (self.v304) } else { (c342) };
-        let c335: u64 = if (self.v653) != 0 { (self.v334) } else { (c336) };
-        let c331: u64 = if (self.v316) != 0 { (self.v357) } else { (c335) };
-        let c332: u64 = if (self.q69) != 0 { (0x7f) } else { (c331) };
-        let c333: u64 = if (self.v487) != 0 { (c332) } else { (c335) };
-        let c343: u64 = if (self.v652) != 0 { (self.v339) } else { ((self.q65 << 5)) };
-        let c337: u64 = if (c306) != 0 { (self.v356) } else { ((c343 & 0x1) | ((c343 & 0x1) << 1) | (c343 << 2)) };
-        let c344: u64 = if (self.v248) != 0 { (self.q68 | (self.q69 << 7)) } else { (c333) };
-        let c345: u64 = if (self.v248) != 0 { ((self.q65 << 7)) } else { (c337) };
-        let c346: u64 = if (self.v248) != 0 { (0x0) } else { (c341) };
-        let c353: u64 = if (self.q113) != 0 { (self.v350) } else { (c346) };
-        let c324: u64 = if (self.q113) != 0 { (0x0) } else { (c353) };
-        let c327: u64 = ((c324) | (self.v313)) & 0x1;
-        let c328: u64 = if (self.v1) != 0 { (c327) } else { (c353) };
-        let c319: u64 = if (self.i_reset) != 0 { (0x0) } else { (c328) };
-        if self.v319 != c319 { self.v319 = c319; *dirty |= 0x100000000000000000; }
-        let c317: u64 = !(c319) & 0x1;
-        let c354: u64 = if (self.q113) != 0 { (self.v351) } else { (c344) };
-        let c323: u64 = if (self.q113) != 0 { (0x0) } else { (c354) };
-        let c325: u64 = if (self.v313) != 0 { (0x0) } else { (c323) };
-        let c329: u64 = if (self.v1) != 0 { (c325) } else { (c354) };
-        let c322: u64 = if (self.v308) != 0 { (self.i_wdata) } else { (c329) };
-        if self.v322 != c322 { self.v322 = c322; *dirty |= 0x100000000000; }
-        let c320: u64 = if (self.i_reset) != 0 { (0x0) } else { (c322) };
-        if self.v320 != c320 { self.v320 = c320; *dirty |= 0x100000000000; }
-        let c355: u64 = if (self.q113) != 0 { (self.v352) } else { (c345) };
-        let c330: u64 = if (self.v1) != 0 { (self.v326) } else { (c355) };
-        if self.v330 != c330 { self.v330 = c330; *dirty |= 0x40000000000; }
-        let c321: u64 = if (self.i_reset) != 0 { (0x0) } else { (c330) };
-        if self.v321 != c321 { self.v321 = c321; *dirty |= 0x40000000000; }
-        let c318: u64 = (((c321 >> 7)) | ((c320 >> 7))) & 0x1;
-        let c309: u64 = (c317) & (c318) & 0x1;
-        if self.v309 != c309 { self.v309 = c309; *dirty |= 0x200000000000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of can_controller.
-    fn group_41(&mut self, dirty: &mut u128) {
-        let c33: u64 = u64::from((self.v652 | (self.q113 << 1) | (self.v306 << 2) | (self.v248 << 3) | (self.v1 << 4)) != 0);
-        let c34: u64 = u64::from((self.v652 | (self.q113 << 1) | (self.v306 << 2) | (self.v311 << 3) | (self.v248 << 4) | (self.v1 << 5)) != (0x1));
-        let c66: u64 = u64::from((self.v35 | (self.v36 << 1) | (self.v37 << 2) | (c34 << 3) | (c33 << 4)) == 0x1f);
-        if self.v66 != c66 { self.v66 = c66; *dirty |= 0x40000000000; }
-        let c67: u64 = u64::from((self.v35 | (self.v36 << 1) | (self.v37 << 2) | (c33 << 3)) == 0xf);
-        if self.v67 != c67 { self.v67 = c67; *dirty |= 0x40000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol$faults$tec_count.
-    fn group_42(&mut self, dirty: &mut u128) {
-        self.n65 = ((self.v321 >> 7));
-        self.n66 = if (self.i_reset) != 0 { 0x0 } else if (self.v66) != 0 { ((self.v330 & 0x7)) } else { self.q66 };
-        self.n67 = if (self.i_reset) != 0 { 0x0 } else if (self.v67) != 0 { (((self.v330 >> 3) & 0xf)) } else { self.q67 };
+    /// The cells of top$configuration.
+    fn group_22(&mut self, dirty: &mut u128) {
+        let c127: u64 = u64::from((self.i_addr) == (0xd));
+        let c126: u64 = (self.q14) & (c127) & 0x1;
+        let c79: u64 = u64::from((self.v851 | (c126 << 1)) == 0x3);
+        if self.v79 != c79 { self.v79 = c79; *dirty |= 0x800000000000; }
+        let c128: u64 = u64::from((self.i_addr) == (0x6));
+        let c77: u64 = u64::from((self.v851 | (c128 << 1)) == 0x3);
+        if self.v77 != c77 { self.v77 = c77; *dirty |= 0x1400000000000; }
+        let c129: u64 = u64::from((self.i_addr) == (0x7));
+        let c76: u64 = u64::from((self.v851 | (c129 << 1)) == 0x3);
+        if self.v76 != c76 { self.v76 = c76; *dirty |= 0x1400000000000; }
+        let c130: u64 = u64::from((self.i_addr) == (0x8));
+        let c78: u64 = u64::from((self.v851 | (c130 << 1)) == 0x3);
+        if self.v78 != c78 { self.v78 = c78; *dirty |= 0x800000000000; }
+        let c135: u64 = if (c129) != 0 { (self.q102) } else { (self.q103) };
+        let c133: u64 = if (c130) != 0 { (self.q100) } else { (c135) };
+        let c131: u64 = if (c126) != 0 { (self.q101) } else { (c133) };
+        if self.v131 != c131 { self.v131 = c131; *dirty |= 0x200000000000; }
+        let c136: u64 = ((c128) | (c129)) & 0x1;
+        let c134: u64 = ((c136) | (c130)) & 0x1;
+        let c132: u64 = ((c134) | (c126)) & 0x1;
+        if self.v132 != c132 { self.v132 = c132; *dirty |= 0x200000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler.
-    fn group_43(&mut self, dirty: &mut u128) {
-        let c277: u64 = (self.v226) & (self.v275) & 0x1;
-        if self.v277 != c277 { self.v277 = c277; *dirty |= 0x1000000000000000; }
-        let c278: u64 = (self.v226) & (self.v276) & 0x1;
-        if self.v278 != c278 { self.v278 = c278; *dirty |= 0x2000000000000000; }
+    fn group_23(&mut self, dirty: &mut u128) {
+        let c278: u64 = (self.v288) & (self.q81) & 0x1;
+        let c280: u64 = !(c278) & 0x1;
+        let c279: u64 = (self.v532) & (c280) & 0x1;
+        if self.v279 != c279 { self.v279 = c279; *dirty |= 0x1000000000; }
+        let c281: u64 = (self.v431) & (self.v383) & 0x1;
+        if self.v281 != c281 { self.v281 = c281; *dirty |= 0x1000000000; }
+        let c282: u64 = (self.v433) & (self.v232) & 0x1;
+        if self.v282 != c282 { self.v282 = c282; *dirty |= 0x1000000000; }
+        let c286: u64 = if ((self.q84 >> 3)) != 0 { (0x8) } else { ((self.q84 & 0x7)) };
+        let c285: u64 = if (self.q79) != 0 { (0x0) } else { (c286) };
+        let c287: u64 = (c285).wrapping_sub((0x1)) & 0xf;
+        if self.v287 != c287 { self.v287 = c287; *dirty |= 0x800000000000000; }
         let _ = &dirty;
     }
 
-    /// The cells of top$core$protocol$faults$rec_count.
-    fn group_44(&mut self, dirty: &mut u128) {
-        self.n68 = if (self.i_reset) != 0 { 0x0 } else { ((self.v322 & 0x7f)) };
-        self.n69 = ((self.v320 >> 7));
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol$sender.
-    fn group_45(&mut self, dirty: &mut u128) {
-        let c695: u64 = if (self.v228) != 0 { (self.v728) } else { (self.v730) };
-        let c697: u64 = if (self.v660) != 0 { (c695) } else { (0x1) };
-        let c709: u64 = if (self.v717) != 0 { (self.v708) } else { (c695) };
-        let c707: u64 = if (self.v716) != 0 { ((self.v1084 >> 7)) } else { (c709) };
-        let c705: u64 = if (self.v715) != 0 { (((self.v1084 >> 6) & 0x1)) } else { (c707) };
-        let c710: u64 = if (self.v660) != 0 { (c705) } else { (0x1) };
-        let c711: u64 = { let s = (self.v712 | (self.v691 << 1) | (self.v713 << 2) | (self.v693 << 3) | (self.v696 << 4) | (self.v699 << 5) | (self.v706 << 6) | (self.v714 << 7)); if s >> 0 & 1 != 0 { self.q125 } else if s >> 1 & 1 != 0 { self.v690 } else if s >> 2 & 1 != 0 { self.v679 } else if s >> 3 & 1 != 0 { self.v694 } else if s >> 4 & 1 != 0 { c697 } else if s >> 5 & 1 != 0 { self.v704 } else if s >> 6 & 1 != 0 { c710 } else if s >> 7 & 1 != 0 { self.v674 } else { (0x1) } };
-        let c689: u64 = if (self.v670) != 0 { (self.v419) } else { (c711) };
-        let c688: u64 = if (self.q94) != 0 { (c689) } else { (self.q117) };
-        let c684: u64 = ((c688) | (self.v683)) & 0x1;
-        if self.v684 != c684 { self.v684 = c684; *dirty |= 0x4000000000000000000; }
-        let c727: u64 = if (self.v228) != 0 { (self.v724) } else { ((self.q57 & 0x1)) };
-        let c723: u64 = if (self.v229) != 0 { ((self.v722 << 1) | 0x1) } else { (c727) };
-        if self.v723 != c723 { self.v723 = c723; *dirty |= 0x400000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol$sender$tx_ptr.
-    fn group_46(&mut self, dirty: &mut u128) {
-        self.n56 = if (self.v89) != 0 { 0x0 } else if (self.v60) != 0 { ((self.v723 >> 1)) } else { self.q56 };
-        self.n57 = if (self.v88) != 0 { 0x1 } else if (self.v61) != 0 { ((self.v663 & 0x1) | ((self.v663 >> 3) << 1)) } else { self.q57 };
+    /// The cells of top$core$protocol$frame.
+    fn group_24(&mut self, dirty: &mut u128) {
+        let c404: u64 = if (self.v390) != 0 { (0x0) } else { (self.v671) };
+        let c430: u64 = if (self.v367) != 0 { (0x0) } else { (self.v671) };
+        let c435: u64 = if (self.v394) != 0 { (0x0) } else { (self.v671) };
+        let c442: u64 = if (self.v396) != 0 { (0x0) } else { (self.v671) };
+        let c449: u64 = { let s = (self.v397 | (self.v406 << 1) | (self.v431 << 2) | (self.v433 << 3) | (self.v385 << 4)); if s >> 0 & 1 != 0 { c404 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c430 } else if s >> 3 & 1 != 0 { c435 } else if s >> 4 & 1 != 0 { c442 } else { (self.v671) } };
+        if self.v449 != c449 { self.v449 = c449; *dirty |= 0x8000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing.
-    fn group_47(&mut self, dirty: &mut u128) {
-        let c743: u64 = if (self.v497) != 0 { (0x1) } else { (self.v745) };
-        if self.v743 != c743 { self.v743 = c743; *dirty |= 0x10000000000000000000; }
-        let c744: u64 = ((self.q55) | (self.v497)) & 0x1;
-        let c742: u64 = if (self.v247) != 0 { (0x0) } else { (c744) };
-        if self.v742 != c742 { self.v742 = c742; *dirty |= 0x8000000000000000000; }
+    fn group_25(&mut self, dirty: &mut u128) {
+        let c742: u64 = (self.q54).wrapping_add((0x1)) & 0x7;
+        let c745: u64 = u64::from((self.q54) == (0x5));
+        let c743: u64 = (self.q55) & (c745) & 0x1;
+        if self.v743 != c743 { self.v743 = c743; *dirty |= 0x3c000000; }
+        let c42: u64 = !(c743) & 0x1;
+        if self.v42 != c42 { self.v42 = c42; *dirty |= 0x24000000; }
+        let c63: u64 = u64::from((self.v592 | (self.q59 << 1) | (self.q94 << 2) | (c42 << 3)) == 0xf);
+        if self.v63 != c63 { self.v63 = c63; *dirty |= 0x100000000000000000; }
+        let c746: u64 = u64::from((self.q54) == (0x4));
+        let c744: u64 = (self.q55) & (c746) & 0x1;
+        if self.v744 != c744 { self.v744 = c744; *dirty |= 0x20000000; }
+        let c747: u64 = u64::from((self.q109) != (self.q53));
+        let c748: u64 = ((c745) | (c747)) & 0x1;
+        if self.v748 != c748 { self.v748 = c748; *dirty |= 0x4000000; }
+        let c752: u64 = if (c748) != 0 { (0x1) } else { (c742) };
+        if self.v752 != c752 { self.v752 = c752; *dirty |= 0x80000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$interframe.
+    fn group_26(&mut self, dirty: &mut u128) {
+        let c64: u64 = u64::from((self.q94 | (self.v27 << 1) | (self.v29 << 2) | (self.v28 << 3) | (self.v42 << 4)) == 0x1f);
+        if self.v64 != c64 { self.v64 = c64; *dirty |= 0x100000000000000000; }
+        let c65: u64 = u64::from((self.q94 | (self.v27 << 1) | (self.v29 << 2) | (self.v28 << 3) | (self.v31 << 4) | (self.v30 << 5) | (self.v32 << 6) | (self.v42 << 7)) == 0xff);
+        if self.v65 != c65 { self.v65 = c65; *dirty |= 0x80000000000000000; }
+        let c501: u64 = (self.q94) & (self.v42) & 0x1;
+        if self.v501 != c501 { self.v501 = c501; *dirty |= 0x1008000000; }
+        let c502: u64 = (c501) & (self.v425) & 0x1;
+        let c504: u64 = (c502) & (self.v541) & 0x1;
+        if self.v504 != c504 { self.v504 = c504; *dirty |= 0x4000080070000000; }
+        let c22: u64 = u64::from((c504 | (self.v748 << 1)) != 0);
+        let c59: u64 = u64::from((self.q94 | (c22 << 1)) == 0x3);
+        if self.v59 != c59 { self.v59 = c59; *dirty |= 0x1000000000000000000; }
+        let c92: u64 = u64::from((self.i_reset | (c504 << 1)) != 0);
+        if self.v92 != c92 { self.v92 = c92; *dirty |= 0x8600000000000000; }
+        let c509: u64 = (self.v425) & (self.q64) & 0x1;
+        if self.v509 != c509 { self.v509 = c509; *dirty |= 0x10000000; }
+        let c604: u64 = if (self.q59) != 0 { (c509) } else { (self.v598) };
+        let c643: u64 = { let s = (self.v565 | (self.v592 << 1)); if s >> 0 & 1 != 0 { self.v578 } else if s >> 1 & 1 != 0 { c604 } else { (0x0) } };
+        let c646: u64 = if (self.v743) != 0 { (self.q63) } else { (self.v637) };
+        if self.v646 != c646 { self.v646 = c646; *dirty |= 0x10000000; }
+        let c650: u64 = if (self.v743) != 0 { (0x0) } else { (self.v640) };
+        let c653: u64 = if (self.v743) != 0 { (0x0) } else { (self.v642) };
+        let c654: u64 = if (self.v743) != 0 { (0x0) } else { (c643) };
+        if self.v654 != c654 { self.v654 = c654; *dirty |= 0x10000000; }
+        let c655: u64 = if (self.v743) != 0 { (0x0) } else { (self.v644) };
+        if self.v655 != c655 { self.v655 = c655; *dirty |= 0x10000000; }
+        let c666: u64 = (self.q94) & (c650) & 0x1;
+        if self.v666 != c666 { self.v666 = c666; *dirty |= 0x60000000; }
+        let c668: u64 = (self.q94) & (c653) & 0x1;
+        if self.v668 != c668 { self.v668 = c668; *dirty |= 0x180000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$frame.
+    fn group_27(&mut self, dirty: &mut u128) {
+        let c68: u64 = u64::from((self.v501 | (self.v385 << 1) | (self.v38 << 2)) == 0x7);
+        if self.v68 != c68 { self.v68 = c68; *dirty |= 0x800000000000000; }
+        let c69: u64 = u64::from((self.v501 | (self.v378 << 1) | (self.v385 << 2)) == 0x7);
+        if self.v69 != c69 { self.v69 = c69; *dirty |= 0x400000000000000; }
+        let c70: u64 = u64::from((self.v501 | (self.v43 << 1) | (self.v385 << 2)) == 0x7);
+        if self.v70 != c70 { self.v70 = c70; *dirty |= 0x400000000000000; }
+        let c72: u64 = u64::from((self.v501 | (self.v431 << 1)) == 0x3);
+        if self.v72 != c72 { self.v72 = c72; *dirty |= 0x100000000000000; }
+        let c73: u64 = u64::from((self.v501 | (self.v383 << 1) | (self.v431 << 2)) == 0x7);
+        if self.v73 != c73 { self.v73 = c73; *dirty |= 0x80000000000000; }
+        let c368: u64 = (self.q94) & (self.v743) & 0x1;
+        if self.v368 != c368 { self.v368 = c368; *dirty |= 0x40000000; }
+        let c479: u64 = if (c368) != 0 { (self.v476) } else { (self.v465) };
+        if self.v479 != c479 { self.v479 = c479; *dirty |= 0x10000000; }
+        let c480: u64 = if (c368) != 0 { ((self.v477 << 1)) } else { (self.v467) };
+        if self.v480 != c480 { self.v480 = c480; *dirty |= 0x10000000; }
+        let c481: u64 = if (c368) != 0 { (self.v478) } else { (self.v468) };
+        if self.v481 != c481 { self.v481 = c481; *dirty |= 0x50000000; }
+        let c482: u64 = if (c368) != 0 { (self.q74) } else { (self.v449) };
+        if self.v482 != c482 { self.v482 = c482; *dirty |= 0x10000000; }
+        let c483: u64 = if (c368) != 0 { (0x0) } else { (self.v459) };
+        if self.v483 != c483 { self.v483 = c483; *dirty |= 0x40000000; }
+        let c484: u64 = if (c368) != 0 { (0x0) } else { (self.v460) };
+        if self.v484 != c484 { self.v484 = c484; *dirty |= 0x10000000080000000; }
+        let c485: u64 = if (c368) != 0 { (0x0) } else { (self.v461) };
+        if self.v485 != c485 { self.v485 = c485; *dirty |= 0x10000000040000000; }
+        let c486: u64 = if (c368) != 0 { (0x0) } else { (self.v463) };
+        if self.v486 != c486 { self.v486 = c486; *dirty |= 0x10000000; }
+        let c487: u64 = if (c368) != 0 { (0x0) } else { (self.v464) };
+        if self.v487 != c487 { self.v487 = c487; *dirty |= 0x40000000; }
+        let c488: u64 = if (c368) != 0 { (0x0) } else { (self.v466) };
+        if self.v488 != c488 { self.v488 = c488; *dirty |= 0x3000000010000000; }
+        let c489: u64 = if (c368) != 0 { (0x0) } else { (self.v469) };
+        if self.v489 != c489 { self.v489 = c489; *dirty |= 0x10000000; }
+        let c490: u64 = if (c368) != 0 { (0x0) } else { (self.v470) };
+        if self.v490 != c490 { self.v490 = c490; *dirty |= 0x20000000; }
+        let c491: u64 = if (c368) != 0 { (0x0) } else { (self.v471) };
+        if self.v491 != c491 { self.v491 = c491; *dirty |= 0x4000000020000000; }
+        let c492: u64 = if (c368) != 0 { (self.q115) } else { (self.v472) };
+        if self.v492 != c492 { self.v492 = c492; *dirty |= 0x10000000; }
+        let c493: u64 = if (c368) != 0 { (0x0) } else { (self.v473) };
+        if self.v493 != c493 { self.v493 = c493; *dirty |= 0x80000000; }
+        let c494: u64 = if (c368) != 0 { (0x0) } else { (self.v474) };
+        if self.v494 != c494 { self.v494 = c494; *dirty |= 0x40000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$interframe.
+    fn group_28(&mut self, dirty: &mut u128) {
+        let c522: u64 = !(self.v488) & 0x1;
+        let c505: u64 = (self.q52) & (c522) & 0x1;
+        let c560: u64 = if (self.v523) != 0 { (0x0) } else { (self.v482) };
+        let c562: u64 = if (self.v513) != 0 { (c560) } else { (0x0) };
+        let c564: u64 = if (self.v525) != 0 { (0x0) } else { (self.v482) };
+        let c566: u64 = if (self.v525) != 0 { (0xa) } else { (self.v492) };
+        let c567: u64 = if (self.v525) != 0 { (0xd) } else { (self.v492) };
+        let c568: u64 = if (self.v525) != 0 { (self.v480) } else { (0x1) };
+        let c569: u64 = if (self.v525) != 0 { (self.v481) } else { (0x1) };
+        let c570: u64 = if (self.q109) != 0 { (self.v480) } else { (c568) };
+        let c571: u64 = if (self.q109) != 0 { (self.v481) } else { (c569) };
+        let c572: u64 = if (self.q109) != 0 { (c566) } else { (c567) };
+        let c580: u64 = if (self.v528) != 0 { (self.v480) } else { (c570) };
+        let c581: u64 = if (self.v528) != 0 { (self.v481) } else { (c571) };
+        let c582: u64 = if (self.v528) != 0 { (self.v492) } else { (c572) };
+        let c585: u64 = if (self.v526) != 0 { (0x0) } else { (self.v482) };
+        let c586: u64 = if (self.v526) != 0 { (0xe) } else { (self.v492) };
+        let c587: u64 = ((self.v481) | (self.v510)) & 0x1;
+        let c589: u64 = if (self.v510) != 0 { (self.v482) } else { (c585) };
+        let c590: u64 = if (self.v510) != 0 { (self.v492) } else { (c586) };
+        let c594: u64 = if (self.v605) != 0 { (0xe) } else { (self.v492) };
+        let c596: u64 = if (self.q109) != 0 { (0x0) } else { (self.v482) };
+        let c602: u64 = if (self.v508) != 0 { (0x1) } else { (self.v482) };
+        let c606: u64 = if (self.q59) != 0 { (c602) } else { (c596) };
+        let c593: u64 = if (self.v605) != 0 { (0x0) } else { (c606) };
+        let c610: u64 = if (self.v506) != 0 { (0x0) } else { (self.v482) };
+        let c611: u64 = if (self.v521) != 0 { (c610) } else { (self.v482) };
+        let c612: u64 = if (self.v521) != 0 { (self.v506) } else { (c505) };
+        let c613: u64 = if (self.v521) != 0 { ((self.v506 << 1) | (self.v506 << 3) | 0x1) } else { (self.v492) };
+        let c614: u64 = if (self.v521) != 0 { (self.v507) } else { (c505) };
+        let c615: u64 = if (self.v521) != 0 { (self.v482) } else { (0x0) };
+        let c616: u64 = if (self.v521) != 0 { (self.v492) } else { (0xd) };
+        let c617: u64 = if (self.q109) != 0 { (c611) } else { (c615) };
+        let c618: u64 = if (self.q109) != 0 { (c612) } else { (c614) };
+        let c619: u64 = if (self.q109) != 0 { (c613) } else { (c616) };
+        let c620: u64 = if (self.v525) != 0 { (0x0) } else { (c505) };
+        let c621: u64 = if (self.v525) != 0 { (0x1) } else { (self.v492) };
+        let c622: u64 = (self.q109) & (c620) & 0x1;
+        let c623: u64 = if (self.q109) != 0 { (c621) } else { (self.v492) };
+        let c624: u64 = if (self.q118) != 0 { (c505) } else { (0x1) };
+        let c625: u64 = if (self.q118) != 0 { (self.v481) } else { (0x1) };
+        let c626: u64 = if (self.q109) != 0 { (c624) } else { (self.v524) };
+        let c627: u64 = if (self.q109) != 0 { (c625) } else { (self.v481) };
+        let c628: u64 = if (self.v523) != 0 { (0x1) } else { (self.v492) };
+        let c630: u64 = if (self.q109) != 0 { (self.v482) } else { (0x0) };
+        let c577: u64 = if (self.v528) != 0 { (c630) } else { (c564) };
+        let c631: u64 = if (self.q109) != 0 { (c628) } else { (self.v492) };
+        let c632: u64 = { let s = (self.v561 | (self.v565 << 1) | (self.v531 << 2) | (self.v592 << 3) | (self.v520 << 4) | (self.v629 << 5)); if s >> 0 & 1 != 0 { c562 } else if s >> 1 & 1 != 0 { c577 } else if s >> 2 & 1 != 0 { c589 } else if s >> 3 & 1 != 0 { c593 } else if s >> 4 & 1 != 0 { c617 } else if s >> 5 & 1 != 0 { c630 } else { (self.v482) } };
+        let c633: u64 = { let s = (self.v565 | (self.v531 << 1) | (self.v592 << 2) | (self.v520 << 3) | (self.v519 << 4) | (self.v629 << 5)); if s >> 0 & 1 != 0 { c582 } else if s >> 1 & 1 != 0 { c590 } else if s >> 2 & 1 != 0 { c594 } else if s >> 3 & 1 != 0 { c619 } else if s >> 4 & 1 != 0 { c623 } else if s >> 5 & 1 != 0 { c631 } else { (self.v492) } };
+        let c638: u64 = if (self.v565) != 0 { (c580) } else { (self.v480) };
+        let c639: u64 = { let s = (self.v565 | (self.v531 << 1) | (self.v518 << 2)); if s >> 0 & 1 != 0 { c581 } else if s >> 1 & 1 != 0 { c587 } else if s >> 2 & 1 != 0 { c627 } else { (self.v481) } };
+        let c641: u64 = { let s = (self.v520 | (self.v519 << 1) | (self.v518 << 2)); if s >> 0 & 1 != 0 { c618 } else if s >> 1 & 1 != 0 { c622 } else if s >> 2 & 1 != 0 { c626 } else { (c505) } };
+        let c647: u64 = if (self.v743) != 0 { (self.v482) } else { (c632) };
+        let c558: u64 = if (self.v504) != 0 { (0x0) } else { (c647) };
+        let c648: u64 = if (self.v743) != 0 { (self.v480) } else { (c638) };
+        let c649: u64 = if (self.v743) != 0 { (self.v481) } else { (c639) };
+        let c25: u64 = u64::from((self.v592 | (self.v743 << 1) | (c649 << 2)) != 0);
+        let c26: u64 = u64::from((self.v743 | (c649 << 1)) != (0x1));
+        let c62: u64 = u64::from((self.q94 | (c25 << 1) | (c26 << 2)) == 0x7);
+        if self.v62 != c62 { self.v62 = c62; *dirty |= 0x200000000000000000; }
+        let c553: u64 = ((self.v646) | (c649)) & 0x1;
+        if self.v553 != c553 { self.v553 = c553; *dirty |= 0x80000000000000000; }
+        let c554: u64 = if (c649) != 0 { (self.v539) } else { (self.v607) };
+        if self.v554 != c554 { self.v554 = c554; *dirty |= 0x200000000000000000; }
+        let c555: u64 = ((self.v489) | (c649)) & 0x1;
+        let c556: u64 = if (c649) != 0 { (0x0) } else { (c558) };
+        if self.v556 != c556 { self.v556 = c556; *dirty |= 0x40000000; }
+        let c651: u64 = if (self.v743) != 0 { (c505) } else { (c641) };
+        let c515: u64 = (c651) & (self.v542) & 0x1;
+        let c516: u64 = (c515) & (self.q116) & 0x1;
+        let c530: u64 = !(c651) & 0x1;
+        let c514: u64 = (self.v531) & (c530) & 0x1;
+        let c517: u64 = (self.q88) & (c530) & 0x1;
+        let c544: u64 = ((self.v655) | (c514)) & 0x1;
+        let c545: u64 = if (c514) != 0 { (0x0) } else { (c530) };
+        let c546: u64 = if (self.v479) != 0 { (c544) } else { (self.v655) };
+        let c547: u64 = (self.v479) & (c545) & 0x1;
+        let c548: u64 = if (self.v479) != 0 { (c651) } else { (self.v654) };
+        let c549: u64 = (c649) & (c516) & 0x1;
+        let c543: u64 = ((c549) | (c517)) & 0x1;
+        let c550: u64 = if (c649) != 0 { (c548) } else { (self.v654) };
+        let c551: u64 = if (c649) != 0 { (c546) } else { (self.v655) };
+        let c552: u64 = (c649) & (c547) & 0x1;
+        let c652: u64 = if (self.v743) != 0 { (self.v492) } else { (c633) };
+        let c559: u64 = if (self.v504) != 0 { (0x2) } else { (c652) };
+        let c557: u64 = if (c649) != 0 { (0xc) } else { (c559) };
+        let c656: u64 = (self.q94) & (c543) & 0x1;
+        if self.v656 != c656 { self.v656 = c656; *dirty |= 0x40000000; }
+        let c91: u64 = u64::from((self.i_reset | (c656 << 1)) != 0);
+        if self.v91 != c91 { self.v91 = c91; *dirty |= 0x10000000000000000; }
+        let c657: u64 = if (self.q94) != 0 { (c555) } else { (self.v489) };
+        if self.v657 != c657 { self.v657 = c657; *dirty |= 0x60000000; }
+        let c658: u64 = if (self.q94) != 0 { (c557) } else { (self.v492) };
+        if self.v658 != c658 { self.v658 = c658; *dirty |= 0x60000000; }
+        let c659: u64 = (self.q94) & (c550) & 0x1;
+        if self.v659 != c659 { self.v659 = c659; *dirty |= 0x180000000; }
+        let c660: u64 = (self.q94) & (c551) & 0x1;
+        if self.v660 != c660 { self.v660 = c660; *dirty |= 0x80000000; }
+        let c661: u64 = (self.q94) & (c552) & 0x1;
+        if self.v661 != c661 { self.v661 = c661; *dirty |= 0x80000000; }
+        let c662: u64 = (self.q94) & (c530) & 0x1;
+        if self.v662 != c662 { self.v662 = c662; *dirty |= 0x1000000000000000; }
+        let c664: u64 = if (self.q94) != 0 { (c648) } else { (self.v480) };
+        if self.v664 != c664 { self.v664 = c664; *dirty |= 0x1000000000000000; }
+        let c665: u64 = if (self.q94) != 0 { (c649) } else { (self.v481) };
+        if self.v665 != c665 { self.v665 = c665; *dirty |= 0x60000000; }
+        let c667: u64 = if (self.q94) != 0 { (c651) } else { (c505) };
+        if self.v667 != c667 { self.v667 = c667; *dirty |= 0x2000000020020000000; }
+        let c669: u64 = ((self.q64) | (self.v486)) & 0x1;
+        let c600: u64 = if (self.v509) != 0 { (0x0) } else { (c669) };
+        let c603: u64 = if (self.q59) != 0 { (c600) } else { (c669) };
+        let c591: u64 = if (self.v605) != 0 { (0x0) } else { (c603) };
+        let c634: u64 = if (self.v592) != 0 { (c591) } else { (c669) };
+        let c645: u64 = if (self.v743) != 0 { (c669) } else { (c634) };
+        let c663: u64 = if (self.q94) != 0 { (c645) } else { (c669) };
+        if self.v663 != c663 { self.v663 = c663; *dirty |= 0x40000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$sender.
+    fn group_29(&mut self, dirty: &mut u128) {
+        let c673: u64 = (self.v744) & (self.v42) & 0x1;
+        let c674: u64 = (c673) & (self.v386) & 0x1;
+        let c675: u64 = (c674) & (self.v667) & 0x1;
+        let c686: u64 = !(self.v490) & 0x1;
+        if self.v686 != c686 { self.v686 = c686; *dirty |= 0x20000000000; }
+        let c687: u64 = !(self.v666) & 0x1;
+        let c672: u64 = (self.v592) & (c687) & 0x1;
+        let c688: u64 = !(self.v665) & 0x1;
+        if self.v688 != c688 { self.v688 = c688; *dirty |= 0x40000000; }
+        let c676: u64 = (c675) & (c688) & 0x1;
+        let c689: u64 = !(self.v657) & 0x1;
+        let c677: u64 = (c676) & (c689) & 0x1;
+        if self.v677 != c677 { self.v677 = c677; *dirty |= 0x20000000000; }
+        let c697: u64 = if (c672) != 0 { (self.q59) } else { (self.v539) };
+        if self.v697 != c697 { self.v697 = c697; *dirty |= 0x20000000000; }
+        let c698: u64 = u64::from((self.v658) == (0xc));
+        if self.v698 != c698 { self.v698 = c698; *dirty |= 0x20000000000; }
+        let c699: u64 = if (self.v491) != 0 { (self.v741) } else { ((self.q73 >> 14)) };
+        let c700: u64 = u64::from((self.v658) == (0x5));
+        if self.v700 != c700 { self.v700 = c700; *dirty |= 0x20000000000; }
+        let c701: u64 = if (self.v667) != 0 { (c699) } else { (0x1) };
+        if self.v701 != c701 { self.v701 = c701; *dirty |= 0x20000000000; }
+        let c703: u64 = u64::from((self.v658) == (0x4));
+        if self.v703 != c703 { self.v703 = c703; *dirty |= 0x20000000000; }
+        let c706: u64 = u64::from((self.v658) == (0x3));
+        if self.v706 != c706 { self.v706 = c706; *dirty |= 0x20000000000; }
+        let c713: u64 = u64::from((self.v658) == (0x2));
+        if self.v713 != c713 { self.v713 = c713; *dirty |= 0x20000000000; }
+        let c719: u64 = u64::from((self.v658) == (0xd));
+        if self.v719 != c719 { self.v719 = c719; *dirty |= 0x20000000000; }
+        let c720: u64 = u64::from((self.v658) == (0x7));
+        if self.v720 != c720 { self.v720 = c720; *dirty |= 0x20000000000; }
+        let c721: u64 = u64::from((self.v658) == (0x1));
+        if self.v721 != c721 { self.v721 = c721; *dirty |= 0x20000000000; }
+        let c725: u64 = if (self.v743) != 0 { ((self.q74 & 0x7)) } else { ((self.v671 & 0x7)) };
+        let c726: u64 = if (self.v743) != 0 { (self.v379) } else { (self.v680) };
+        let c722: u64 = if (self.v504) != 0 { (0x0) } else { (c726) };
+        if self.v722 != c722 { self.v722 = c722; *dirty |= 0x20000000000; }
+        let c727: u64 = if (self.v743) != 0 { (self.v378) } else { (self.v377) };
+        let c723: u64 = if (self.v504) != 0 { (0x0) } else { (c727) };
+        if self.v723 != c723 { self.v723 = c723; *dirty |= 0x20000000000; }
+        let c728: u64 = if (self.v743) != 0 { (self.v377) } else { (self.v523) };
+        let c724: u64 = if (self.v504) != 0 { (0x0) } else { (c728) };
+        if self.v724 != c724 { self.v724 = c724; *dirty |= 0x20000000000; }
+        let c739: u64 = (c725).wrapping_sub((0x1)) & 0x7;
+        let c710: u64 = if ((self.v1091 >> 7)) != 0 { (c739) } else { (c725) };
+        let c682: u64 = u64::from((c710) == (0x1));
+        let c683: u64 = u64::from((c710) == (0x2));
+        let c684: u64 = u64::from((c710) == (0x3));
+        let c685: u64 = u64::from((c710) == (0x4));
+        let c709: u64 = (c682) & (((self.v1091 >> 3) & 0x1)) & 0x1;
+        let c708: u64 = if (c683) != 0 { (((self.v1091 >> 2) & 0x1)) } else { (c709) };
+        let c707: u64 = if (c684) != 0 { (((self.v1091 >> 1) & 0x1)) } else { (c708) };
+        let c705: u64 = if (c685) != 0 { ((self.v1091 & 0x1)) } else { (c707) };
+        let c711: u64 = if (self.v667) != 0 { (c705) } else { (0x1) };
+        if self.v711 != c711 { self.v711 = c711; *dirty |= 0x20000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol.
+    fn group_30(&mut self, dirty: &mut u128) {
+        let c87: u64 = u64::from((self.i_reset | (self.v231 << 1) | (self.v368 << 2)) != 0);
+        if self.v87 != c87 { self.v87 = c87; *dirty |= 0x2000000000000000000; }
+        let c233: u64 = (self.v494) & (self.v688) & 0x1;
+        if self.v233 != c233 { self.v233 = c233; *dirty |= 0xa00000020000000000; }
+        let c61: u64 = u64::from((c233 | (self.v678 << 1)) == 0x3);
+        if self.v61 != c61 { self.v61 = c61; *dirty |= 0x40000000000; }
+        let c248: u64 = !(self.v481) & 0x1;
+        let c234: u64 = (self.v483) & (c248) & 0x1;
+        if self.v234 != c234 { self.v234 = c234; *dirty |= 0x20000000000; }
+        let c23: u64 = u64::from((c233 | (c234 << 1)) != 0);
+        let c24: u64 = u64::from((c233 | (c234 << 1) | (self.v678 << 2)) != (0x1));
+        let c60: u64 = u64::from((c24 | (c23 << 1)) == 0x3);
+        if self.v60 != c60 { self.v60 = c60; *dirty |= 0x40000000000; }
+        let c250: u64 = !(self.v504) & 0x1;
+        let c235: u64 = (self.v249) & (c250) & 0x1;
+        let c89: u64 = u64::from((self.i_reset | (c234 << 1) | (c235 << 2)) != 0);
+        if self.v89 != c89 { self.v89 = c89; *dirty |= 0x200000040000000000; }
+        let c90: u64 = u64::from((self.i_reset | (c235 << 1)) != 0);
+        if self.v90 != c90 { self.v90 = c90; *dirty |= 0x40000000000; }
+        let c252: u64 = ((self.v657) | (self.v231)) & 0x1;
+        if self.v252 != c252 { self.v252 = c252; *dirty |= 0x80000000000; }
+        let c255: u64 = ((self.v665) | (self.v666)) & 0x1;
+        if self.v255 != c255 { self.v255 = c255; *dirty |= 0x3000000000000000; }
+        let c273: u64 = if (self.q94) != 0 { (self.v556) } else { (self.q74) };
+        let c270: u64 = if (self.v247) != 0 { (0x0) } else { (c273) };
+        let c271: u64 = if (self.q113) != 0 { (c270) } else { (c273) };
+        if self.v271 != c271 { self.v271 = c271; *dirty |= 0x4000000000000000; }
+        let c274: u64 = if (self.q94) != 0 { (self.v658) } else { (self.q115) };
+        let c272: u64 = if (self.q113) != 0 { (0xf) } else { (c274) };
+        let c269: u64 = if (self.v236) != 0 { (0x1) } else { (c272) };
+        let c268: u64 = if (self.v231) != 0 { (0x0) } else { (c269) };
+        let c266: u64 = if (self.i_reset) != 0 { (0x0) } else { (c268) };
+        if self.v266 != c266 { self.v266 = c266; *dirty |= 0x20000000000000000; }
+        let c239: u64 = u64::from((c266) == (0x2));
+        let c240: u64 = u64::from((c266) == (0x3));
+        let c241: u64 = u64::from((c266) == (0x4));
+        let c242: u64 = u64::from((c266) == (0x5));
+        let c243: u64 = u64::from((c266) == (0x6));
+        let c244: u64 = u64::from((c266) == (0x7));
+        let c245: u64 = u64::from((c266) == (0x8));
+        let c246: u64 = u64::from((c266) == (0x9));
+        let c259: u64 = ((c239) | (c240)) & 0x1;
+        let c260: u64 = ((c259) | (c241)) & 0x1;
+        let c261: u64 = ((c260) | (c242)) & 0x1;
+        let c262: u64 = ((c261) | (c243)) & 0x1;
+        let c263: u64 = ((c262) | (c244)) & 0x1;
+        let c264: u64 = ((c263) | (c245)) & 0x1;
+        let c265: u64 = ((c264) | (c246)) & 0x1;
+        if self.v265 != c265 { self.v265 = c265; *dirty |= 0x40000000000000000; }
+        let c275: u64 = ((self.q88) | (self.v10)) & 0x1;
+        if self.v275 != c275 { self.v275 = c275; *dirty |= 0x80000000000000; }
+        let c276: u64 = ((self.q72) | (self.v487)) & 0x1;
+        if self.v276 != c276 { self.v276 = c276; *dirty |= 0x8000000000000000; }
+        let c277: u64 = ((self.v485) | (self.v656)) & 0x1;
+        if self.v277 != c277 { self.v277 = c277; *dirty |= 0x8000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$faults.
+    fn group_31(&mut self, dirty: &mut u128) {
+        let c312: u64 = (self.v484) & (self.v320) & 0x1;
+        if self.v312 != c312 { self.v312 = c312; *dirty |= 0x100000000; }
+        let c313: u64 = (self.v661) & (self.v321) & 0x1;
+        let c347: u64 = (self.v659) & (self.v346) & 0x1;
+        let c348: u64 = if (self.v659) != 0 { (self.v344) } else { (self.q68 | (self.q69 << 7)) };
+        let c342: u64 = if (c313) != 0 { (self.v310) } else { (c348) };
+        let c341: u64 = if (self.v660) != 0 { (self.v340) } else { (c342) };
+        let c337: u64 = if (self.v322) != 0 { (self.v363) } else { (c341) };
+        let c338: u64 = if (self.q69) != 0 { (0x7f) } else { (c337) };
+        let c339: u64 = if (self.v493) != 0 { (c338) } else { (c341) };
+        let c349: u64 = if (self.v659) != 0 { (self.v345) } else { ((self.q65 << 5)) };
+        let c343: u64 = if (c312) != 0 { (self.v362) } else { ((c349 & 0x1) | ((c349 & 0x1) << 1) | (c349 << 2)) };
+        let c350: u64 = if (self.v253) != 0 { (self.q68 | (self.q69 << 7)) } else { (c339) };
+        let c351: u64 = if (self.v253) != 0 { ((self.q65 << 7)) } else { (c343) };
+        let c352: u64 = if (self.v253) != 0 { (0x0) } else { (c347) };
+        let c356: u64 = if (self.v668) != 0 { (self.v354) } else { (0x1) };
+        let c357: u64 = if (self.v668) != 0 { (self.v353) } else { (self.q68 | (self.q69 << 7)) };
+        let c358: u64 = if (self.v668) != 0 { (self.v355) } else { ((self.q65 << 7)) };
+        let c359: u64 = if (self.q113) != 0 { (c356) } else { (c352) };
+        let c330: u64 = if (self.q113) != 0 { (0x0) } else { (c359) };
+        let c333: u64 = ((c330) | (self.v319)) & 0x1;
+        let c334: u64 = if (self.v1) != 0 { (c333) } else { (c359) };
+        let c325: u64 = if (self.i_reset) != 0 { (0x0) } else { (c334) };
+        if self.v325 != c325 { self.v325 = c325; *dirty |= 0x10000000000000000; }
+        let c323: u64 = !(c325) & 0x1;
+        let c360: u64 = if (self.q113) != 0 { (c357) } else { (c350) };
+        let c329: u64 = if (self.q113) != 0 { (0x0) } else { (c360) };
+        let c331: u64 = if (self.v319) != 0 { (0x0) } else { (c329) };
+        let c335: u64 = if (self.v1) != 0 { (c331) } else { (c360) };
+        let c328: u64 = if (self.v314) != 0 { (self.i_wdata) } else { (c335) };
+        if self.v328 != c328 { self.v328 = c328; *dirty |= 0x10000000000; }
+        let c326: u64 = if (self.i_reset) != 0 { (0x0) } else { (c328) };
+        if self.v326 != c326 { self.v326 = c326; *dirty |= 0x10000000000; }
+        let c361: u64 = if (self.q113) != 0 { (c358) } else { (c351) };
+        let c336: u64 = if (self.v1) != 0 { (self.v332) } else { (c361) };
+        if self.v336 != c336 { self.v336 = c336; *dirty |= 0x2000000000; }
+        let c327: u64 = if (self.i_reset) != 0 { (0x0) } else { (c336) };
+        if self.v327 != c327 { self.v327 = c327; *dirty |= 0x2000000000; }
+        let c324: u64 = (((c327 >> 7)) | ((c326 >> 7))) & 0x1;
+        let c315: u64 = (c323) & (c324) & 0x1;
+        if self.v315 != c315 { self.v315 = c315; *dirty |= 0x20000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of can_controller.
+    fn group_32(&mut self, dirty: &mut u128) {
+        let c17: u64 = (self.i_re) & (self.v1076) & 0x1;
+        if self.v17 != c17 { self.v17 = c17; *dirty |= 0x8000000000000000000200000000; }
+        let c33: u64 = u64::from((self.v659 | (self.q113 << 1) | (self.v312 << 2) | (self.v253 << 3) | (self.v1 << 4)) != 0);
+        let c34: u64 = u64::from((self.v659 | (self.q113 << 1) | (self.v312 << 2) | (self.v317 << 3) | (self.v253 << 4) | (self.v1 << 5)) != (0x1));
+        let c35: u64 = u64::from((self.v668 | (self.q113 << 1) | (self.v1 << 2)) != (0x2));
+        let c36: u64 = u64::from((self.v668 | (self.q113 << 1) | (self.v316 << 2) | (self.v1 << 3)) != (0x7));
+        let c66: u64 = u64::from((c34 | (c35 << 1) | (c36 << 2) | (self.v37 << 3) | (c33 << 4)) == 0x1f);
+        if self.v66 != c66 { self.v66 = c66; *dirty |= 0x2000000000; }
+        let c67: u64 = u64::from((c35 | (c36 << 1) | (self.v37 << 2) | (c33 << 3)) == 0xf);
+        if self.v67 != c67 { self.v67 = c67; *dirty |= 0x2000000000; }
+        let c1103: u64 = ((self.v1105) | (self.v1009)) & 0x1;
+        let c1101: u64 = ((c1103) | (self.i_reset)) & 0x1;
+        if self.v1101 != c1101 { self.v1101 = c1101; *dirty |= 0x100000000000000000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$fifo.
+    fn group_33(&mut self, dirty: &mut u128) {
+        let c788: u64 = (self.v757) & (self.v798) & 0x1;
+        if self.v788 != c788 { self.v788 = c788; *dirty |= 0x400000000; }
+        let c801: u64 = if (self.v18) != 0 { (self.i_wdata) } else { (self.v824) };
+        let c802: u64 = if (self.v18) != 0 { (self.v1060) } else { (self.v783) };
+        let c803: u64 = ((self.v823) | (self.v18)) & 0x1;
+        let c806: u64 = if (self.q127) != 0 { (c803) } else { (self.v823) };
+        if self.v806 != c806 { self.v806 = c806; *dirty |= 0x20000000000000000000; }
+        let c807: u64 = if (self.q127) != 0 { (c801) } else { (self.v824) };
+        if self.v807 != c807 { self.v807 = c807; *dirty |= 0x20000000000000000000; }
+        let c808: u64 = if (self.q127) != 0 { (c802) } else { (self.v783) };
+        if self.v808 != c808 { self.v808 = c808; *dirty |= 0x20000000000000000000; }
+        let c809: u64 = if (self.v17) != 0 { (self.v1060) } else { (self.v784) };
+        if self.v809 != c809 { self.v809 = c809; *dirty |= 0x20000000000000000000; }
+        let c817: u64 = if (c788) != 0 { (self.v848) } else { (self.q50) };
+        let c787: u64 = (c817).wrapping_add((0x1)) & 0x1f;
+        let c797: u64 = u64::from((c817) == 0);
+        let c811: u64 = if (c797) != 0 { (0x0) } else { (c788) };
+        let c812: u64 = if (c797) != 0 { (self.q84 | (self.q79 << 6) | (self.q81 << 7)) } else { (self.v846) };
+        let c813: u64 = if (self.v789) != 0 { (c811) } else { (c788) };
+        if self.v813 != c813 { self.v813 = c813; *dirty |= 0x4000000000000000000; }
+        let c814: u64 = if (self.v789) != 0 { (c812) } else { (self.v846) };
+        if self.v814 != c814 { self.v814 = c814; *dirty |= 0x8000000000000000000; }
+        let c815: u64 = if (self.v789) != 0 { (c787) } else { (c817) };
+        if self.v815 != c815 { self.v815 = c815; *dirty |= 0x100000000000000000000; }
+        let c818: u64 = if (c788) != 0 { (self.v847) } else { (self.q42) };
+        let c786: u64 = (c818).wrapping_add((self.v841)) & 0x7f;
+        let c816: u64 = if (self.v789) != 0 { (c786) } else { (c818) };
+        if self.v816 != c816 { self.v816 = c816; *dirty |= 0x200000000000000000000; }
+        let c819: u64 = if (c788) != 0 { (self.v784) } else { (self.q48) };
+        let c800: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (c819) };
+        let c805: u64 = if (self.q127) != 0 { (c800) } else { (c819) };
+        if self.v805 != c805 { self.v805 = c805; *dirty |= 0x4000000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$interrupts.
+    fn group_34(&mut self, dirty: &mut u128) {
+        let c114: u64 = (self.q71 | (self.v1011 << 1) | (self.v963 << 2) | (self.v940 << 3) | (self.v954 << 4) | (self.v938 << 5) | (self.v937 << 6)) & (((self.q22 >> 1) & 0x1) | ((self.v1084 & 0x3) << 1) | ((self.q22 >> 3) << 3) | (((self.q22 >> 2) & 0x1) << 4) | ((self.v1084 >> 3) << 5) | (((self.v1084 >> 2) & 0x1) << 6)) & 0x7f;
+        let c936: u64 = (self.v40) & (self.v1050) & 0x1;
+        let c19: u64 = u64::from((c936 | (self.v935 << 1)) != 0);
+        let c41: u64 = !(c936) & 0x1;
+        let c49: u64 = u64::from((self.i_we | (c41 << 1) | (self.v935 << 2)) == 0x7);
+        if self.v49 != c49 { self.v49 = c49; *dirty |= 0x100000000000; }
+        let c50: u64 = u64::from((self.i_we | (c19 << 1)) == 0x3);
+        if self.v50 != c50 { self.v50 = c50; *dirty |= 0x100000000000; }
+        let c942: u64 = (self.v788) & (self.v951) & 0x1;
+        let c955: u64 = ((self.v941) | (c942)) & 0x1;
+        let c958: u64 = if (self.v1009) != 0 { (0x0) } else { ((self.v959 & 0x1) | ((self.v959 >> 2) << 1)) };
+        let c115: u64 = (((c958 & 0x1) | (((self.v959 >> 1) & 0x1) << 1) | ((c958 >> 1) << 2)) | ((c114 & 0x1) | (((c114 >> 4) & 0x1) << 1) | (((c114 >> 3) & 0x1) << 2) | (((c114 >> 1) & 0x3) << 3) | ((c114 >> 6) << 5) | (((c114 >> 5) & 0x1) << 6))) & 0x7f;
+        if self.v115 != c115 { self.v115 = c115; *dirty |= 0x400000000000000000000000; }
+        let c960: u64 = ((self.v961) | (c955)) & 0x1;
+        if self.v960 != c960 { self.v960 = c960; *dirty |= 0x40000000000000000000000; }
+        let c972: u64 = if (c936) != 0 { (((self.i_wdata >> 1) & 0xf)) } else { ((self.i_wdata & 0xf)) };
+        if self.v972 != c972 { self.v972 = c972; *dirty |= 0x100000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$divider.
+    fn group_35(&mut self, dirty: &mut u128) {
+        let c1033: u64 = (self.q12).wrapping_add((0x1)) & 0x7;
+        if self.v1033 != c1033 { self.v1033 = c1033; *dirty |= 0x20000000000000000000000000; }
+        let c1034: u64 = !(self.q11) & 0x1;
+        if self.v1034 != c1034 { self.v1034 = c1034; *dirty |= 0x40000000000000000000000000; }
+        let c1035: u64 = u64::from((self.q105) == (0x7));
+        let c1036: u64 = u64::from((self.q12) >= (self.q105));
+        if self.v1036 != c1036 { self.v1036 = c1036; *dirty |= 0x40000000000000000000000000; }
+        let c83: u64 = u64::from((self.i_reset | (c1036 << 1)) != 0);
+        if self.v83 != c83 { self.v83 = c83; *dirty |= 0x20000000000000000000000000; }
+        let c1038: u64 = if (c1035) != 0 { (0x0) } else { (self.q11) };
+        let c1037: u64 = ((c1038) | ((self.q15 & 0x1))) & 0x1;
+        if self.v1037 != c1037 { self.v1037 = c1037; *dirty |= 0x4000000000000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$assembler.
+    fn group_36(&mut self, dirty: &mut u128) {
+        let c71: u64 = u64::from((self.v501 | (self.v433 << 1) | (self.v279 << 2)) == 0x7);
+        if self.v71 != c71 { self.v71 = c71; *dirty |= 0x200000000000000; }
+        let c283: u64 = (self.v501) & (self.v281) & 0x1;
+        if self.v283 != c283 { self.v283 = c283; *dirty |= 0x100000000000000; }
+        let c284: u64 = (self.v501) & (self.v282) & 0x1;
+        if self.v284 != c284 { self.v284 = c284; *dirty |= 0x200000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$faults$tec_count.
+    fn group_37(&mut self, dirty: &mut u128) {
+        self.n65 = ((self.v327 >> 7));
+        self.n66 = if (self.i_reset) != 0 { 0x0 } else if (self.v66) != 0 { ((self.v336 & 0x7)) } else { self.q66 };
+        self.n67 = if (self.i_reset) != 0 { 0x0 } else if (self.v67) != 0 { (((self.v336 >> 3) & 0xf)) } else { self.q67 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$cdr_reg.
+    fn group_38(&mut self, dirty: &mut u128) {
+        self.n14 = ((self.v999 >> 6));
+        self.n15 = if (self.i_reset) != 0 { 0x0 } else if (self.v47) != 0 { (((self.i_wdata >> 3) & 0x1) | (((self.i_wdata >> 5) & 0x3) << 1)) } else { self.q15 };
+        self.n105 = if (self.i_reset) != 0 { 0x0 } else if (self.v982) != 0 { ((self.i_wdata & 0x7)) } else { self.q105 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$bit_timing$clocks.
+    fn group_39(&mut self, dirty: &mut u128) {
+        self.n96 = if (self.i_reset) != 0 { 0x0 } else { (self.v187) };
+        self.n97 = if (self.v98) != 0 { 0x0 } else { ((self.v138 >> 1)) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$faults$rec_count.
+    fn group_40(&mut self, dirty: &mut u128) {
+        self.n68 = if (self.i_reset) != 0 { 0x0 } else { ((self.v328 & 0x7f)) };
+        self.n69 = ((self.v326 >> 7));
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$sender.
+    fn group_41(&mut self, dirty: &mut u128) {
+        let c702: u64 = if (self.v233) != 0 { (self.v735) } else { (self.v737) };
+        let c704: u64 = if (self.v667) != 0 { (c702) } else { (0x1) };
+        let c716: u64 = if (self.v724) != 0 { (self.v715) } else { (c702) };
+        let c714: u64 = if (self.v723) != 0 { ((self.v1091 >> 7)) } else { (c716) };
+        let c712: u64 = if (self.v722) != 0 { (((self.v1091 >> 6) & 0x1)) } else { (c714) };
+        let c717: u64 = if (self.v667) != 0 { (c712) } else { (0x1) };
+        let c718: u64 = { let s = (self.v719 | (self.v698 << 1) | (self.v720 << 2) | (self.v700 << 3) | (self.v703 << 4) | (self.v706 << 5) | (self.v713 << 6) | (self.v721 << 7)); if s >> 0 & 1 != 0 { self.q125 } else if s >> 1 & 1 != 0 { self.v697 } else if s >> 2 & 1 != 0 { self.v686 } else if s >> 3 & 1 != 0 { self.v701 } else if s >> 4 & 1 != 0 { c704 } else if s >> 5 & 1 != 0 { self.v711 } else if s >> 6 & 1 != 0 { c717 } else if s >> 7 & 1 != 0 { self.v681 } else { (0x1) } };
+        let c696: u64 = if (self.v677) != 0 { (self.v425) } else { (c718) };
+        let c695: u64 = if (self.q94) != 0 { (c696) } else { (self.q117) };
+        let c691: u64 = ((c695) | (self.v690)) & 0x1;
+        if self.v691 != c691 { self.v691 = c691; *dirty |= 0x400000000000000000; }
+        let c734: u64 = if (self.v233) != 0 { (self.v731) } else { ((self.q57 & 0x1)) };
+        let c730: u64 = if (self.v234) != 0 { ((self.v729 << 1) | 0x1) } else { (c734) };
+        if self.v730 != c730 { self.v730 = c730; *dirty |= 0x40000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$sender$tx_ptr.
+    fn group_42(&mut self, dirty: &mut u128) {
+        self.n56 = if (self.v90) != 0 { 0x0 } else if (self.v60) != 0 { ((self.v730 >> 1)) } else { self.q56 };
+        self.n57 = if (self.v89) != 0 { 0x1 } else if (self.v61) != 0 { ((self.v670 & 0x1) | ((self.v670 >> 3) << 1)) } else { self.q57 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$stuffing.
+    fn group_43(&mut self, dirty: &mut u128) {
+        let c750: u64 = if (self.v504) != 0 { (0x1) } else { (self.v752) };
+        if self.v750 != c750 { self.v750 = c750; *dirty |= 0x1000000000000000000; }
+        let c751: u64 = ((self.q55) | (self.v504)) & 0x1;
+        let c749: u64 = if (self.v252) != 0 { (0x0) } else { (c751) };
+        if self.v749 != c749 { self.v749 = c749; *dirty |= 0x800000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$ier_reg.
-    fn group_48(&mut self, dirty: &mut u128) {
+    fn group_44(&mut self, dirty: &mut u128) {
         self.n21 = if (self.i_reset) != 0 { 0x0 } else if (self.v49) != 0 { ((self.i_wdata >> 4)) } else { self.q21 };
-        self.n22 = if (self.i_reset) != 0 { 0x0 } else if (self.v50) != 0 { (self.v965) } else { self.q22 };
+        self.n22 = if (self.i_reset) != 0 { 0x0 } else if (self.v50) != 0 { (self.v972) } else { self.q22 };
         let _ = &dirty;
     }
 
     /// The cells of top$read.
-    fn group_49(&mut self, dirty: &mut u128) {
-        let c1051: u64 = if (self.q8) != 0 { (self.v1086) } else { (self.v1052) };
-        if self.v1051 != c1051 { self.v1051 = c1051; *dirty |= 0x80000000000000000000000000000000; }
-        let c1073: u64 = if (self.v130) != 0 { (self.v129) } else { (self.v1074) };
-        let c1072: u64 = if (self.v910) != 0 { (self.v903) } else { (c1073) };
-        let c1059: u64 = if (self.v1043) != 0 { (self.q127 | (self.q22 << 1) | (self.q13 << 6) | 0x20) } else { (c1072) };
-        let c1058: u64 = if (self.v1044) != 0 { (0xff) } else { (c1059) };
-        let c1057: u64 = if (self.v1045) != 0 { (self.v106 | ((self.q20 & 0xf) << 1) | 0xe0) } else { (c1058) };
-        let c1056: u64 = if (self.v1035) != 0 { (0xff) } else { (c1057) };
-        let c1067: u64 = if (self.v1043) != 0 { (self.q127 | (self.q126 << 1) | (self.q130 << 2) | (self.q16 << 3) | (self.q129 << 4)) } else { (c1072) };
-        let c1066: u64 = if (self.v863) != 0 { (self.q22 | (self.q21 << 4)) } else { (c1067) };
-        let c1065: u64 = if (self.v1037) != 0 { (self.q27) } else { (c1066) };
-        let c1064: u64 = if (self.v1038) != 0 { (self.q24) } else { (c1065) };
-        let c1063: u64 = if (self.v1039) != 0 { (self.q68 | (self.q69 << 7)) } else { (c1064) };
-        let c1062: u64 = if (self.v1040) != 0 { (self.q66 | (self.q67 << 3) | (self.q65 << 7)) } else { (c1063) };
-        let c1061: u64 = if (self.v1041) != 0 { (self.q50) } else { (c1062) };
-        let c1060: u64 = if (self.v1042) != 0 { (self.q48) } else { (c1061) };
-        let c1070: u64 = if (self.q14) != 0 { (c1060) } else { (c1056) };
-        let c1050: u64 = if (self.i_re) != 0 { (c1070) } else { (c1051) };
-        if self.v1050 != c1050 { self.v1050 = c1050; *dirty |= 0x40000000000000000000000000000; }
+    fn group_45(&mut self, dirty: &mut u128) {
+        let c1058: u64 = if (self.q8) != 0 { (self.v1093) } else { (self.v1059) };
+        if self.v1058 != c1058 { self.v1058 = c1058; *dirty |= 0x80000000000000000000000000000000; }
+        let c1080: u64 = if (self.v132) != 0 { (self.v131) } else { (self.v1081) };
+        let c1079: u64 = if (self.v919) != 0 { (self.v912) } else { (c1080) };
+        let c1066: u64 = if (self.v1050) != 0 { (self.q127 | (self.q22 << 1) | (self.q13 << 6) | 0x20) } else { (c1079) };
+        let c1065: u64 = if (self.v1051) != 0 { (0xff) } else { (c1066) };
+        let c1064: u64 = if (self.v1052) != 0 { (self.v107 | ((self.q20 & 0xf) << 1) | 0xe0) } else { (c1065) };
+        let c1063: u64 = if (self.v1042) != 0 { (0xff) } else { (c1064) };
+        let c1074: u64 = if (self.v1050) != 0 { (self.q127 | (self.q126 << 1) | (self.q130 << 2) | (self.q16 << 3) | (self.q129 << 4)) } else { (c1079) };
+        let c1073: u64 = if (self.v872) != 0 { (self.q22 | (self.q21 << 4)) } else { (c1074) };
+        let c1072: u64 = if (self.v1044) != 0 { (self.q27) } else { (c1073) };
+        let c1071: u64 = if (self.v1045) != 0 { (self.q24) } else { (c1072) };
+        let c1070: u64 = if (self.v1046) != 0 { (self.q68 | (self.q69 << 7)) } else { (c1071) };
+        let c1069: u64 = if (self.v1047) != 0 { (self.q66 | (self.q67 << 3) | (self.q65 << 7)) } else { (c1070) };
+        let c1068: u64 = if (self.v1048) != 0 { (self.q50) } else { (c1069) };
+        let c1067: u64 = if (self.v1049) != 0 { (self.q48) } else { (c1068) };
+        let c1077: u64 = if (self.q14) != 0 { (c1067) } else { (c1063) };
+        let c1057: u64 = if (self.i_re) != 0 { (c1077) } else { (c1058) };
+        if self.v1057 != c1057 { self.v1057 = c1057; *dirty |= 0x40000000000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$configuration$btr0 + top$configuration$btr1.
-    fn group_50(&mut self, dirty: &mut u128) {
-        self.n103 = if (self.i_reset) != 0 { 0x0 } else if (self.v76) != 0 { (self.i_wdata) } else { self.q103 };
-        self.n102 = if (self.i_reset) != 0 { 0x0 } else if (self.v75) != 0 { (self.i_wdata) } else { self.q102 };
+    fn group_46(&mut self, dirty: &mut u128) {
+        self.n103 = if (self.i_reset) != 0 { 0x0 } else if (self.v77) != 0 { (self.i_wdata) } else { self.q103 };
+        self.n102 = if (self.i_reset) != 0 { 0x0 } else if (self.v76) != 0 { (self.i_wdata) } else { self.q102 };
         let _ = &dirty;
     }
 
     /// The cells of top$configuration$ewlr_reg + top$configuration$ocr.
-    fn group_51(&mut self, dirty: &mut u128) {
-        self.n101 = if (self.i_reset) != 0 { 0x60 } else if (self.v78) != 0 { (self.i_wdata) } else { self.q101 };
-        self.n100 = if (self.i_reset) != 0 { 0x0 } else if (self.v77) != 0 { (self.i_wdata) } else { self.q100 };
+    fn group_47(&mut self, dirty: &mut u128) {
+        self.n101 = if (self.i_reset) != 0 { 0x60 } else if (self.v79) != 0 { (self.i_wdata) } else { self.q101 };
+        self.n100 = if (self.i_reset) != 0 { 0x0 } else if (self.v78) != 0 { (self.i_wdata) } else { self.q100 };
         let _ = &dirty;
     }
 
     /// The cells of top$configuration$sjw_reg + top$configuration$tseg2_reg.
-    fn group_52(&mut self, dirty: &mut u128) {
-        self.n99 = if (self.i_reset) != 0 { 0x0 } else if (self.v76) != 0 { ((self.i_wdata >> 6)) } else { self.q99 };
-        self.n98 = if (self.i_reset) != 0 { 0x0 } else if (self.v75) != 0 { (((self.i_wdata >> 4) & 0x7)) } else { self.q98 };
+    fn group_48(&mut self, dirty: &mut u128) {
+        self.n99 = if (self.i_reset) != 0 { 0x0 } else if (self.v77) != 0 { ((self.i_wdata >> 6)) } else { self.q99 };
+        self.n98 = if (self.i_reset) != 0 { 0x0 } else if (self.v76) != 0 { (((self.i_wdata >> 4) & 0x7)) } else { self.q98 };
         let _ = &dirty;
     }
 
-    /// The cells of top$core$bit_timing$last_quantum + top$core$bit_timing$process_pending.
-    fn group_53(&mut self, dirty: &mut u128) {
-        self.n95 = if (self.v95) != 0 { 0x0 } else { (self.v185) };
-        self.n94 = if (self.i_reset) != 0 { 0x0 } else { (self.v148) };
+    /// The cells of top$core$bit_timing$elapsed + top$core$bit_timing$process_pending.
+    fn group_49(&mut self, dirty: &mut u128) {
+        self.n95 = if (self.v97) != 0 { 0x0 } else if (self.v75) != 0 { (self.v140) } else { self.q95 };
+        self.n94 = if (self.i_reset) != 0 { 0x0 } else { (self.v152) };
         let _ = &dirty;
     }
 
-    /// The cells of top$core$bit_timing$quantum + top$core$bit_timing$sampled.
-    fn group_54(&mut self, dirty: &mut u128) {
-        self.n93 = if (self.v96) != 0 { 0x0 } else if (self.v158) != 0 { (self.v139) } else { self.q93 };
-        self.n109 = (self.v177);
+    /// The cells of top$core$bit_timing$remaining + top$core$bit_timing$sampled.
+    fn group_50(&mut self, dirty: &mut u128) {
+        self.n93 = if (self.v96) != 0 { 0x0 } else { (self.v191) };
+        self.n109 = (self.v182);
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sampling$metastable + top$core$bit_timing$sampling$previous.
-    fn group_55(&mut self, dirty: &mut u128) {
-        self.n110 = (self.v221);
-        self.n111 = (self.v219);
+    fn group_51(&mut self, dirty: &mut u128) {
+        self.n110 = (self.v227);
+        self.n111 = (self.v225);
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sampling$quantum_samples + top$core$bit_timing$sampling$stable.
-    fn group_56(&mut self, dirty: &mut u128) {
-        self.n92 = if (self.i_reset) != 0 { 0x3 } else if (self.v145) != 0 { (self.q112 | ((self.q92 & 0x1) << 1)) } else { self.q92 };
-        self.n112 = (self.v220);
+    fn group_52(&mut self, dirty: &mut u128) {
+        self.n92 = if (self.i_reset) != 0 { 0x3 } else if (self.v146) != 0 { (self.q112 | ((self.q92 & 0x1) << 1)) } else { self.q92 };
+        self.n112 = (self.v226);
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$segment_state + top$core$bit_timing$sjw_quanta.
-    fn group_57(&mut self, dirty: &mut u128) {
-        self.n91 = if (self.v95) != 0 { 0x0 } else if (self.v74) != 0 { (self.v184) } else { self.q91 };
-        self.n108 = if (self.i_reset) != 0 { 0x1 } else { (self.v135) };
+    fn group_53(&mut self, dirty: &mut u128) {
+        self.n91 = if (self.v96) != 0 { 0x0 } else if (self.v74) != 0 { (self.v190) } else { self.q91 };
+        self.n108 = if (self.i_reset) != 0 { 0x1 } else { (self.v137) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$synced + top$core$bit_timing$transmit_deferred.
-    fn group_58(&mut self, dirty: &mut u128) {
-        self.n90 = if (self.i_reset) != 0 { 0x0 } else { (self.v179) };
-        self.n89 = if (self.i_reset) != 0 { 0x0 } else { (self.v153) };
+    fn group_54(&mut self, dirty: &mut u128) {
+        self.n90 = if (self.i_reset) != 0 { 0x0 } else { (self.v184) };
+        self.n89 = if (self.i_reset) != 0 { 0x0 } else { (self.v156) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$abort_pending + top$core$protocol$assembler$byte_index.
-    fn group_59(&mut self, dirty: &mut u128) {
-        self.n88 = if (self.v94) != 0 { 0x0 } else { (self.v269) };
+    fn group_55(&mut self, dirty: &mut u128) {
+        self.n88 = if (self.v95) != 0 { 0x0 } else { (self.v275) };
         self.n87 = if (self.i_reset) != 0 { 0x0 } else if (self.v73) != 0 { (((self.q74 >> 3) & 0x7)) } else { self.q87 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$byte_pulse + top$core$protocol$assembler$byte_reg.
-    fn group_60(&mut self, dirty: &mut u128) {
-        self.n86 = if (self.i_reset) != 0 { 0x0 } else { (self.v277) };
+    fn group_56(&mut self, dirty: &mut u128) {
+        self.n86 = if (self.i_reset) != 0 { 0x0 } else { (self.v283) };
         self.n85 = if (self.i_reset) != 0 { 0x0 } else if (self.v72) != 0 { (self.q109 | ((self.q85 & 0x7f) << 1)) } else { self.q85 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$dlc_reg + top$core$protocol$assembler$header_pulse.
-    fn group_61(&mut self, dirty: &mut u128) {
-        self.n84 = if (self.v91) != 0 { 0x0 } else if (self.v71) != 0 { (self.q109 | ((self.q84 & 0x7) << 1)) } else { self.q84 };
-        self.n83 = if (self.i_reset) != 0 { 0x0 } else { (self.v278) };
+    fn group_57(&mut self, dirty: &mut u128) {
+        self.n84 = if (self.v92) != 0 { 0x0 } else if (self.v71) != 0 { (self.q109 | ((self.q84 & 0x7) << 1)) } else { self.q84 };
+        self.n83 = if (self.i_reset) != 0 { 0x0 } else { (self.v284) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$id_reg + top$core$protocol$assembler$ide_reg.
-    fn group_62(&mut self, dirty: &mut u128) {
-        self.n82 = if (self.v91) != 0 { 0x0 } else if (self.v70) != 0 { (self.q109 | ((self.q82 & 0xfffffff) << 1)) } else { self.q82 };
+    fn group_58(&mut self, dirty: &mut u128) {
+        self.n82 = if (self.v92) != 0 { 0x0 } else if (self.v70) != 0 { (self.q109 | ((self.q82 & 0xfffffff) << 1)) } else { self.q82 };
         self.n81 = if (self.i_reset) != 0 { 0x0 } else if (self.v69) != 0 { (self.q109) } else { self.q81 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$last_data_byte_reg + top$core$protocol$assembler$rtr_reg.
-    fn group_63(&mut self, dirty: &mut u128) {
-        self.n80 = if (self.i_reset) != 0 { 0x0 } else { (self.v281) };
+    fn group_59(&mut self, dirty: &mut u128) {
+        self.n80 = if (self.i_reset) != 0 { 0x0 } else { (self.v287) };
         self.n79 = if (self.i_reset) != 0 { 0x0 } else if (self.v68) != 0 { (self.q109) } else { self.q79 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$capture$alc_reg + top$core$protocol$capture$ecc_reg.
-    fn group_64(&mut self, dirty: &mut u128) {
-        self.n78 = if (self.i_reset) != 0 { 0x0 } else if (self.v482) != 0 { ((self.q74 & 0x1f)) } else { self.q78 };
-        self.n77 = if (self.i_reset) != 0 { 0x0 } else if (self.v250) != 0 { (self.v300 | (self.v655 << 5) | (self.v657 << 6)) } else { self.q77 };
+    fn group_60(&mut self, dirty: &mut u128) {
+        self.n78 = if (self.i_reset) != 0 { 0x0 } else if (self.v488) != 0 { ((self.q74 & 0x1f)) } else { self.q78 };
+        self.n77 = if (self.i_reset) != 0 { 0x0 } else if (self.v255) != 0 { (self.v306 | (self.v662 << 5) | (self.v664 << 6)) } else { self.q77 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$capture$error_pulse + top$core$protocol$capture$lost_pulse.
-    fn group_65(&mut self, dirty: &mut u128) {
-        self.n76 = if (self.v93) != 0 { 0x0 } else { (self.v250) };
-        self.n75 = if (self.v93) != 0 { 0x0 } else { (self.v482) };
+    fn group_61(&mut self, dirty: &mut u128) {
+        self.n76 = if (self.v94) != 0 { 0x0 } else { (self.v255) };
+        self.n75 = if (self.v94) != 0 { 0x0 } else { (self.v488) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$count + top$core$protocol$crc$register.
-    fn group_66(&mut self, dirty: &mut u128) {
-        self.n74 = if (self.v92) != 0 { 0x0 } else { (self.v265) };
-        self.n73 = if (self.v497) != 0 { 0x0 } else if (self.v485) != 0 { ((self.v301 & 0x1) | ((self.q73 & 0x3) << 1) | (((self.v301 >> 1) & 0x3) << 3) | (((self.q73 >> 4) & 0x3) << 5) | (((self.v301 >> 3) & 0x3) << 7) | (((self.q73 >> 8) & 0x1) << 9) | (((self.v301 >> 5) & 0x1) << 10) | (((self.q73 >> 10) & 0x7) << 11) | ((self.v301 >> 6) << 14)) } else { self.q73 };
+    fn group_62(&mut self, dirty: &mut u128) {
+        self.n74 = if (self.v93) != 0 { 0x0 } else { (self.v271) };
+        self.n73 = if (self.v504) != 0 { 0x0 } else if (self.v491) != 0 { ((self.v307 & 0x1) | ((self.q73 & 0x3) << 1) | (((self.v307 >> 1) & 0x3) << 3) | (((self.q73 >> 4) & 0x3) << 5) | (((self.v307 >> 3) & 0x3) << 7) | (((self.q73 >> 8) & 0x1) << 9) | (((self.v307 >> 5) & 0x1) << 10) | (((self.q73 >> 10) & 0x7) << 11) | ((self.v307 >> 6) << 14)) } else { self.q73 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$crc_error + top$core$protocol$done_pulse.
-    fn group_67(&mut self, dirty: &mut u128) {
-        self.n72 = if (self.v91) != 0 { 0x0 } else { (self.v270) };
-        self.n71 = if (self.i_reset) != 0 { 0x0 } else { (self.v271) };
+    fn group_63(&mut self, dirty: &mut u128) {
+        self.n72 = if (self.v92) != 0 { 0x0 } else { (self.v276) };
+        self.n71 = if (self.i_reset) != 0 { 0x0 } else { (self.v277) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$done_success + top$core$protocol$faults$bus_off_state.
-    fn group_68(&mut self, dirty: &mut u128) {
-        self.n70 = if (self.v90) != 0 { 0x0 } else if (self.v479) != 0 { (self.v478) } else { self.q70 };
-        self.n113 = (self.v319);
+    fn group_64(&mut self, dirty: &mut u128) {
+        self.n70 = if (self.v91) != 0 { 0x0 } else if (self.v485) != 0 { (self.v484) } else { self.q70 };
+        self.n113 = (self.v325);
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults$passive_state + top$core$protocol$field.
-    fn group_69(&mut self, dirty: &mut u128) {
-        self.n114 = (self.v309);
-        self.n115 = (self.v261);
+    fn group_65(&mut self, dirty: &mut u128) {
+        self.n114 = (self.v315);
+        self.n115 = (self.v266);
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$in_frame + top$core$protocol$interframe$ack_penalty.
-    fn group_70(&mut self, dirty: &mut u128) {
-        self.n116 = (self.v260);
-        self.n64 = if (self.i_reset) != 0 { 0x0 } else { (self.v656) };
+    fn group_66(&mut self, dirty: &mut u128) {
+        self.n116 = (self.v265);
+        self.n64 = if (self.i_reset) != 0 { 0x0 } else { (self.v663) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$after_error_flag + top$core$protocol$interframe$dominant_after_flag.
-    fn group_71(&mut self, dirty: &mut u128) {
-        self.n63 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v546) } else { self.q63 };
-        self.n62 = if (self.i_reset) != 0 { 0x0 } else if (self.v65) != 0 { (self.v628) } else { self.q62 };
+    fn group_67(&mut self, dirty: &mut u128) {
+        self.n63 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v553) } else { self.q63 };
+        self.n62 = if (self.i_reset) != 0 { 0x0 } else if (self.v65) != 0 { (self.v635) } else { self.q62 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$first_after_flag + top$core$protocol$interframe$flag_level.
-    fn group_72(&mut self, dirty: &mut u128) {
-        self.n61 = if (self.i_reset) != 0 { 0x0 } else if (self.v64) != 0 { (self.v629) } else { self.q61 };
+    fn group_68(&mut self, dirty: &mut u128) {
+        self.n61 = if (self.i_reset) != 0 { 0x0 } else if (self.v64) != 0 { (self.v636) } else { self.q61 };
         self.n60 = if (self.i_reset) != 0 { 0x0 } else if (self.v63) != 0 { (self.q109) } else { self.q60 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$flag_passive_reg + top$core$protocol$sender$tx_left.
-    fn group_73(&mut self, dirty: &mut u128) {
-        self.n59 = if (self.i_reset) != 0 { 0x0 } else if (self.v62) != 0 { (self.v547) } else { self.q59 };
-        self.n58 = if (self.v88) != 0 { 0x0 } else if (self.v228) != 0 { (self.v725) } else { self.q58 };
+    fn group_69(&mut self, dirty: &mut u128) {
+        self.n59 = if (self.i_reset) != 0 { 0x0 } else if (self.v62) != 0 { (self.v554) } else { self.q59 };
+        self.n58 = if (self.v89) != 0 { 0x0 } else if (self.v233) != 0 { (self.v732) } else { self.q58 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender$tx_next + top$core$protocol$sender$tx_reg.
-    fn group_74(&mut self, dirty: &mut u128) {
-        self.n117 = (self.v684);
-        self.n118 = (self.v685);
+    fn group_70(&mut self, dirty: &mut u128) {
+        self.n117 = (self.v691);
+        self.n118 = (self.v692);
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender$tx_shift + top$core$protocol$stuffing$active.
-    fn group_75(&mut self, dirty: &mut u128) {
-        self.n104 = if (self.i_reset) != 0 { 0x0 } else if (self.v228) != 0 { (self.v726) } else { self.q104 };
-        self.n55 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v742) } else { self.q55 };
+    fn group_71(&mut self, dirty: &mut u128) {
+        self.n104 = if (self.i_reset) != 0 { 0x0 } else if (self.v233) != 0 { (self.v733) } else { self.q104 };
+        self.n55 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v749) } else { self.q55 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing$run_length + top$core$protocol$stuffing$run_level_reg.
-    fn group_76(&mut self, dirty: &mut u128) {
-        self.n54 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v743) } else { self.q54 };
+    fn group_72(&mut self, dirty: &mut u128) {
+        self.n54 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v750) } else { self.q54 };
         self.n53 = if (self.v59) != 0 { (self.q109) } else { self.q53 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$transmitter + top$core$protocol$valid_pulse.
-    fn group_77(&mut self, dirty: &mut u128) {
-        self.n52 = if (self.v87) != 0 { 0x0 } else if (self.q94) != 0 { (self.v660) } else { self.q52 };
-        self.n51 = if (self.v86) != 0 { 0x0 } else { (self.v456) };
+    fn group_73(&mut self, dirty: &mut u128) {
+        self.n52 = if (self.v88) != 0 { 0x0 } else if (self.q94) != 0 { (self.v667) } else { self.q52 };
+        self.n51 = if (self.v87) != 0 { 0x0 } else { (self.v462) };
         let _ = &dirty;
     }
 
-    /// The cells of top$fifo + top$fifo$fetching.
-    fn group_78(&mut self, dirty: &mut u128) {
-        let c800: u64 = if (self.v17) != 0 { (self.v1053) } else { (self.v777) };
-        if self.v800 != c800 { self.v800 = c800; *dirty |= 0x200000000000000000000; }
-        self.n49 = if (self.i_reset) != 0 { 0x0 } else { (self.v804) };
+    /// The cells of top$fifo$fetching + top$fifo$head.
+    fn group_74(&mut self, dirty: &mut u128) {
+        self.n49 = if (self.i_reset) != 0 { 0x0 } else { (self.v813) };
+        self.n48 = if (self.i_reset) != 0 { 0x0 } else { (self.v805) };
         let _ = &dirty;
     }
 
-    /// The cells of top$fifo$head + top$fifo$head_info_reg.
-    fn group_79(&mut self, dirty: &mut u128) {
-        self.n48 = if (self.i_reset) != 0 { 0x0 } else { (self.v796) };
-        self.n47 = if (self.i_reset) != 0 { 0x0 } else { (self.v805) };
+    /// The cells of top$fifo$head_info_reg.
+    fn group_75(&mut self, dirty: &mut u128) {
+        self.n47 = if (self.i_reset) != 0 { 0x0 } else { (self.v814) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$header_step.
-    fn group_80(&mut self, dirty: &mut u128) {
+    fn group_76(&mut self, dirty: &mut u128) {
         let c21: u64 = u64::from((self.q83 | (self.q41 << 1)) != 0);
-        self.n46 = if (self.i_reset) != 0 { 0x0 } else if (c21) != 0 { (self.v828) } else { self.q46 };
+        self.n46 = if (self.i_reset) != 0 { 0x0 } else if (c21) != 0 { (self.v837) } else { self.q46 };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$overrun_state + top$fifo$ram.
-    fn group_81(&mut self, dirty: &mut u128) {
-        self.n44 = if (self.v85) != 0 { 0x0 } else { (self.v801) };
+    fn group_77(&mut self, dirty: &mut u128) {
+        self.n44 = if (self.v86) != 0 { 0x0 } else { (self.v810) };
         self.m0_re = (0x1) != 0;
-        self.m0_ra = (self.v800) as usize;
-        self.m0_wa = (self.v799) as usize;
-        self.m0_wd = (self.v798);
-        self.m0_we = (self.v797 | (self.v797 << 1) | (self.v797 << 2) | (self.v797 << 3) | (self.v797 << 4) | (self.v797 << 5) | (self.v797 << 6) | (self.v797 << 7));
+        self.m0_ra = (self.v809) as usize;
+        self.m0_wa = (self.v808) as usize;
+        self.m0_wd = (self.v807);
+        self.m0_we = (self.v806 | (self.v806 << 1) | (self.v806 << 2) | (self.v806 << 3) | (self.v806 << 4) | (self.v806 << 5) | (self.v806 << 6) | (self.v806 << 7));
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$tail.
-    fn group_82(&mut self, dirty: &mut u128) {
-        self.n43 = if (self.i_reset) != 0 { 0x0 } else if (self.v20) != 0 { (self.v795) } else { self.q43 };
+    fn group_78(&mut self, dirty: &mut u128) {
+        self.n43 = if (self.i_reset) != 0 { 0x0 } else if (self.v20) != 0 { (self.v804) } else { self.q43 };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$writing_header.
-    fn group_83(&mut self, dirty: &mut u128) {
-        let c84: u64 = u64::from((self.i_reset | (self.q127 << 1)) != 0);
-        if self.v84 != c84 { self.v84 = c84; *dirty |= 0x3000000000000000000000; }
-        self.n41 = if (c84) != 0 { 0x0 } else { (self.v827) };
+    fn group_79(&mut self, dirty: &mut u128) {
+        let c85: u64 = u64::from((self.i_reset | (self.q127 << 1)) != 0);
+        if self.v85 != c85 { self.v85 = c85; *dirty |= 0x300000000000000000000; }
+        self.n41 = if (c85) != 0 { 0x0 } else { (self.v836) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$count + top$fifo$incomplete.
-    fn group_84(&mut self, dirty: &mut u128) {
-        self.n50 = if (self.v84) != 0 { 0x0 } else { (self.v806) };
-        self.n45 = if (self.v84) != 0 { 0x0 } else { (self.v813) };
+    fn group_80(&mut self, dirty: &mut u128) {
+        self.n50 = if (self.v85) != 0 { 0x0 } else { (self.v815) };
+        self.n45 = if (self.v85) != 0 { 0x0 } else { (self.v822) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$used + top$filter$acr0.
-    fn group_85(&mut self, dirty: &mut u128) {
-        self.n42 = if (self.v84) != 0 { 0x0 } else { (self.v807) };
+    fn group_81(&mut self, dirty: &mut u128) {
+        self.n42 = if (self.v85) != 0 { 0x0 } else { (self.v816) };
         self.n40 = if (self.i_reset) != 0 { 0x0 } else if (self.v58) != 0 { (self.i_wdata) } else { self.q40 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$acr1 + top$filter$acr2.
-    fn group_86(&mut self, dirty: &mut u128) {
+    fn group_82(&mut self, dirty: &mut u128) {
         self.n39 = if (self.i_reset) != 0 { 0x0 } else if (self.v57) != 0 { (self.i_wdata) } else { self.q39 };
         self.n38 = if (self.i_reset) != 0 { 0x0 } else if (self.v56) != 0 { (self.i_wdata) } else { self.q38 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$acr3 + top$filter$amr0.
-    fn group_87(&mut self, dirty: &mut u128) {
+    fn group_83(&mut self, dirty: &mut u128) {
         self.n37 = if (self.i_reset) != 0 { 0x0 } else if (self.v55) != 0 { (self.i_wdata) } else { self.q37 };
         self.n36 = if (self.i_reset) != 0 { 0x0 } else if (self.v54) != 0 { (self.i_wdata) } else { self.q36 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$amr1 + top$filter$amr2.
-    fn group_88(&mut self, dirty: &mut u128) {
+    fn group_84(&mut self, dirty: &mut u128) {
         self.n35 = if (self.i_reset) != 0 { 0x0 } else if (self.v53) != 0 { (self.i_wdata) } else { self.q35 };
         self.n34 = if (self.i_reset) != 0 { 0x0 } else if (self.v52) != 0 { (self.i_wdata) } else { self.q34 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$amr3 + top$filter$basic_id_match.
-    fn group_89(&mut self, dirty: &mut u128) {
+    fn group_85(&mut self, dirty: &mut u128) {
         self.n33 = if (self.i_reset) != 0 { 0x0 } else if (self.v51) != 0 { (self.i_wdata) } else { self.q33 };
-        self.n32 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v872) } else { self.q32 };
+        self.n32 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v881) } else { self.q32 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$dual1_data_match + top$filter$dual1_id_match.
-    fn group_90(&mut self, dirty: &mut u128) {
-        self.n119 = (self.v887);
-        self.n31 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v853) } else { self.q31 };
+    fn group_86(&mut self, dirty: &mut u128) {
+        self.n119 = (self.v896);
+        self.n31 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v862) } else { self.q31 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$dual2_id_match + top$filter$extended_frame.
-    fn group_91(&mut self, dirty: &mut u128) {
-        self.n30 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v854) } else { self.q30 };
+    fn group_87(&mut self, dirty: &mut u128) {
+        self.n30 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v863) } else { self.q30 };
         self.n29 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.q81) } else { self.q29 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$single_data1_match + top$filter$single_data2_match.
-    fn group_92(&mut self, dirty: &mut u128) {
-        self.n120 = (self.v889);
-        self.n121 = (self.v888);
+    fn group_88(&mut self, dirty: &mut u128) {
+        self.n120 = (self.v898);
+        self.n121 = (self.v897);
         let _ = &dirty;
     }
 
     /// The cells of top$filter$single_id_match + top$interrupts$alc_armed.
-    fn group_93(&mut self, dirty: &mut u128) {
-        self.n28 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v856) } else { self.q28 };
-        self.n122 = (self.v950);
+    fn group_89(&mut self, dirty: &mut u128) {
+        self.n28 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v865) } else { self.q28 };
+        self.n122 = (self.v957);
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$alc_reg + top$interrupts$basic_ri_reg.
-    fn group_94(&mut self, dirty: &mut u128) {
-        self.n27 = if (self.i_reset) != 0 { 0x0 } else if (self.v928) != 0 { (self.q78) } else { self.q27 };
-        self.n26 = if (self.i_reset) != 0 { 0x0 } else { (self.v953) };
+    fn group_90(&mut self, dirty: &mut u128) {
+        self.n27 = if (self.i_reset) != 0 { 0x0 } else if (self.v937) != 0 { (self.q78) } else { self.q27 };
+        self.n26 = if (self.i_reset) != 0 { 0x0 } else { (self.v960) };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$bus_off_reg + top$interrupts$ecc_armed.
-    fn group_95(&mut self, dirty: &mut u128) {
+    fn group_91(&mut self, dirty: &mut u128) {
         self.n25 = if (self.i_reset) != 0 { 0x0 } else { (self.q113) };
-        self.n123 = (self.v949);
+        self.n123 = (self.v956);
         let _ = &dirty;
     }
 
-    /// The cells of top$interrupts$ecc_reg + top$interrupts$es_reg.
-    fn group_96(&mut self, dirty: &mut u128) {
-        self.n24 = if (self.i_reset) != 0 { 0x0 } else if (self.v929) != 0 { (self.q77) } else { self.q24 };
-        self.n23 = if (self.i_reset) != 0 { 0x0 } else { (self.v957) };
+    /// The cells of top$interrupts$ecc_reg.
+    fn group_92(&mut self, dirty: &mut u128) {
+        self.n24 = if (self.i_reset) != 0 { 0x0 } else if (self.v938) != 0 { (self.q77) } else { self.q24 };
         let _ = &dirty;
     }
 
-    /// The cells of top$interrupts$ir_reg + top$interrupts$overrun_before.
-    fn group_97(&mut self, dirty: &mut u128) {
-        self.n20 = if (self.i_reset) != 0 { 0x0 } else { (self.v114) };
+    /// The cells of top$interrupts$es_reg.
+    fn group_93(&mut self, dirty: &mut u128) {
+        self.n23 = if (self.i_reset) != 0 { 0x0 } else { (self.v964) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$interrupts$ir_reg.
+    fn group_94(&mut self, dirty: &mut u128) {
+        self.n20 = if (self.i_reset) != 0 { 0x0 } else { (self.v115) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$interrupts$overrun_before.
+    fn group_95(&mut self, dirty: &mut u128) {
         self.n19 = if (self.i_reset) != 0 { 0x0 } else { (self.q44) };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$passive_before.
-    fn group_98(&mut self, dirty: &mut u128) {
-        let c83: u64 = u64::from((self.i_reset | (self.q113 << 1)) != 0);
-        self.n18 = if (c83) != 0 { 0x0 } else if (self.q127) == 0 { (self.q114) } else { self.q18 };
+    fn group_96(&mut self, dirty: &mut u128) {
+        let c84: u64 = u64::from((self.i_reset | (self.q113 << 1)) != 0);
+        self.n18 = if (c84) != 0 { 0x0 } else if (self.q127) == 0 { (self.q114) } else { self.q18 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$rbs_before.
-    fn group_99(&mut self, dirty: &mut u128) {
-        self.n17 = if (self.i_reset) != 0 { 0x0 } else { (self.v943) };
+    fn group_97(&mut self, dirty: &mut u128) {
+        self.n17 = if (self.i_reset) != 0 { 0x0 } else { (self.v798) };
         let _ = &dirty;
     }
 
     /// The cells of top$modes.
-    fn group_100(&mut self, dirty: &mut u128) {
-        let c997: u64 = if (self.v987) != 0 { (0x0) } else { (self.v1030) };
-        let c998: u64 = if (self.q129) != 0 { (c997) } else { (self.v1030) };
-        if self.v998 != c998 { self.v998 = c998; *dirty |= 0x80000000000000000000000000000000; }
+    fn group_98(&mut self, dirty: &mut u128) {
+        let c1004: u64 = if (self.v994) != 0 { (0x0) } else { (self.v1037) };
+        let c1005: u64 = if (self.q129) != 0 { (c1004) } else { (self.v1037) };
+        if self.v1005 != c1005 { self.v1005 = c1005; *dirty |= 0x80000000000000000000000000000000; }
         let _ = &dirty;
     }
 
-    /// The cells of top$modes$afm + top$modes$cr6_reg.
-    fn group_101(&mut self, dirty: &mut u128) {
+    /// The cells of top$modes$afm.
+    fn group_99(&mut self, dirty: &mut u128) {
         self.n16 = if (self.i_reset) != 0 { 0x0 } else if (self.v48) != 0 { (((self.i_wdata >> 3) & 0x1)) } else { self.q16 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$cr6_reg.
+    fn group_100(&mut self, dirty: &mut u128) {
         self.n13 = if (self.i_reset) != 0 { 0x0 } else if (self.v46) != 0 { (((self.i_wdata >> 6) & 0x1)) } else { self.q13 };
         let _ = &dirty;
     }
 
-    /// The cells of top$modes$divider$count + top$modes$divider$level.
+    /// The cells of top$modes$divider$count.
+    fn group_101(&mut self, dirty: &mut u128) {
+        self.n12 = if (self.v83) != 0 { 0x0 } else { (self.v1033) };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$divider$level.
     fn group_102(&mut self, dirty: &mut u128) {
-        self.n12 = if (self.v82) != 0 { 0x0 } else { (self.v1026) };
-        self.n11 = if (self.i_reset) != 0 { 0x0 } else if (self.v1029) != 0 { (self.v1027) } else { self.q11 };
+        self.n11 = if (self.i_reset) != 0 { 0x0 } else if (self.v1036) != 0 { (self.v1034) } else { self.q11 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$enable_reg.
     fn group_103(&mut self, dirty: &mut u128) {
-        self.n124 = (self.v977);
+        self.n124 = (self.v984);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$listen_only_reg.
     fn group_104(&mut self, dirty: &mut u128) {
-        self.n125 = (self.v978);
+        self.n125 = (self.v985);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$lom.
     fn group_105(&mut self, dirty: &mut u128) {
-        self.n126 = (self.v995);
+        self.n126 = (self.v1002);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$rm.
     fn group_106(&mut self, dirty: &mut u128) {
-        self.n127 = (self.v996);
+        self.n127 = (self.v1003);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$self_test_reg.
     fn group_107(&mut self, dirty: &mut u128) {
-        self.n128 = (self.v979);
+        self.n128 = (self.v986);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$sleep_bits.
     fn group_108(&mut self, dirty: &mut u128) {
-        self.n10 = if (self.v81) != 0 { 0x0 } else if (self.v976) != 0 { (self.v966) } else { self.q10 };
+        self.n10 = if (self.v82) != 0 { 0x0 } else if (self.v983) != 0 { (self.v973) } else { self.q10 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$sm.
     fn group_109(&mut self, dirty: &mut u128) {
-        self.n129 = (self.v993);
+        self.n129 = (self.v1000);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$stm.
     fn group_110(&mut self, dirty: &mut u128) {
-        self.n130 = (self.v994);
+        self.n130 = (self.v1001);
         let _ = &dirty;
     }
 
@@ -4338,37 +4341,37 @@ impl Model {
 
     /// The cells of top$read$rdata_from_tx.
     fn group_112(&mut self, dirty: &mut u128) {
-        self.n8 = if (self.i_reset) != 0 { 0x0 } else { (self.v1049) };
+        self.n8 = if (self.i_reset) != 0 { 0x0 } else { (self.v1056) };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_ram_or.
     fn group_113(&mut self, dirty: &mut u128) {
-        self.n106 = if (self.i_reset) != 0 { 0x0 } else if (self.i_re) != 0 { (self.v1071) } else { self.q106 };
+        self.n106 = if (self.i_reset) != 0 { 0x0 } else if (self.i_re) != 0 { (self.v1078) } else { self.q106 };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_reg.
     fn group_114(&mut self, dirty: &mut u128) {
-        self.n7 = if (self.i_reset) != 0 { 0x0 } else { (self.v1050) };
+        self.n7 = if (self.i_reset) != 0 { 0x0 } else { (self.v1057) };
         let _ = &dirty;
     }
 
     /// The cells of top$self_reception.
     fn group_115(&mut self, dirty: &mut u128) {
-        self.n6 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v754) } else { self.q6 };
+        self.n6 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v761) } else { self.q6 };
         let _ = &dirty;
     }
 
     /// The cells of top$tbs.
     fn group_116(&mut self, dirty: &mut u128) {
-        self.n131 = (self.v1094);
+        self.n131 = (self.v1101);
         let _ = &dirty;
     }
 
     /// The cells of top$tcs.
     fn group_117(&mut self, dirty: &mut u128) {
-        self.n132 = (self.v1095);
+        self.n132 = (self.v1102);
         let _ = &dirty;
     }
 
@@ -4382,15 +4385,15 @@ impl Model {
     fn group_119(&mut self, dirty: &mut u128) {
         self.m1_re = (0x1) != 0;
         self.m1_ra = ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) as usize;
-        self.m1_wa = (self.v1103) as usize;
+        self.m1_wa = (self.v1110) as usize;
         self.m1_wd = (self.i_wdata);
-        self.m1_we = (self.v1079 | (self.v1079 << 1) | (self.v1079 << 2) | (self.v1079 << 3) | (self.v1079 << 4) | (self.v1079 << 5) | (self.v1079 << 6) | (self.v1079 << 7));
+        self.m1_we = (self.v1086 | (self.v1086 << 1) | (self.v1086 << 2) | (self.v1086 << 3) | (self.v1086 << 4) | (self.v1086 << 5) | (self.v1086 << 6) | (self.v1086 << 7));
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$core_written.
     fn group_120(&mut self, dirty: &mut u128) {
-        self.n5 = if (self.i_reset) != 0 { 0x0 } else { (self.v1088) };
+        self.n5 = if (self.i_reset) != 0 { 0x0 } else { (self.v1095) };
         let _ = &dirty;
     }
 
@@ -4403,34 +4406,34 @@ impl Model {
     /// The cells of top$tx_buffer$host_ram.
     fn group_122(&mut self, dirty: &mut u128) {
         self.m2_re = (0x1) != 0;
-        self.m2_ra = (self.v1103) as usize;
-        self.m2_wa = (self.v1103) as usize;
+        self.m2_ra = (self.v1110) as usize;
+        self.m2_wa = (self.v1110) as usize;
         self.m2_wd = (self.i_wdata);
-        self.m2_we = (self.v1079 | (self.v1079 << 1) | (self.v1079 << 2) | (self.v1079 << 3) | (self.v1079 << 4) | (self.v1079 << 5) | (self.v1079 << 6) | (self.v1079 << 7));
+        self.m2_we = (self.v1086 | (self.v1086 << 1) | (self.v1086 << 2) | (self.v1086 << 3) | (self.v1086 << 4) | (self.v1086 << 5) | (self.v1086 << 6) | (self.v1086 << 7));
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$host_written.
     fn group_123(&mut self, dirty: &mut u128) {
-        self.n3 = if (self.i_reset) != 0 { 0x0 } else { (self.v1087) };
+        self.n3 = if (self.i_reset) != 0 { 0x0 } else { (self.v1094) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$written.
     fn group_124(&mut self, dirty: &mut u128) {
-        self.n2 = if (self.i_reset) != 0 { 0x0 } else if (self.v1079) != 0 { (self.v111) } else { self.q2 };
+        self.n2 = if (self.i_reset) != 0 { 0x0 } else if (self.v1086) != 0 { (self.v112) } else { self.q2 };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_pending.
     fn group_125(&mut self, dirty: &mut u128) {
-        self.n1 = if (self.v80) != 0 { 0x0 } else { (self.v1099) };
+        self.n1 = if (self.v81) != 0 { 0x0 } else { (self.v1106) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_single_shot.
     fn group_126(&mut self, dirty: &mut u128) {
-        self.n0 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v749) } else { self.q0 };
+        self.n0 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v756) } else { self.q0 };
         let _ = &dirty;
     }
 }
