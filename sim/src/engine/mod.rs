@@ -445,13 +445,30 @@ impl Engine {
 
     /// Processes the earliest pending clock edge.
     pub fn step(&mut self) -> io::Result<()> {
-        if let Some((path, timing)) = self.deferred_trace.take() {
-            self.start_trace(&path, Some(&timing))?;
+        self.start_deferred_trace()?;
+        self.step_before(u64::MAX).map(|_| ())
+    }
+
+    /// Starts the trace asked for by [`Engine::trace_vcd_from_first_step`], if any.
+    fn start_deferred_trace(&mut self) -> io::Result<()> {
+        match self.deferred_trace.take() {
+            Some((path, timing)) => self.start_trace(&path, Some(&timing)),
+            None => Ok(()),
         }
+    }
+
+    /// Processes the earliest pending clock edge if it comes before `limit_fs`; returns whether
+    /// it did. One search for the earliest edge serves both the test and the step (the search
+    /// looks at every device: a separate [`Engine::next_edge`] before each step doubled it).
+    fn step_before(&mut self, limit_fs: u64) -> io::Result<bool> {
         let Some(i) = self.earliest() else {
-            return Ok(());
+            return Ok(false);
         };
         let t = self.slots[i].next_edge;
+        if t >= limit_fs {
+            return Ok(false);
+        }
+        self.start_deferred_trace()?;
         self.flush_bus_changes(t)?;
         self.now = t;
         self.edges += 1;
@@ -493,14 +510,12 @@ impl Engine {
         if self.edges.is_multiple_of(4096) {
             self.bus.prune(t);
         }
-        Ok(())
+        Ok(true)
     }
 
     /// Processes every clock edge before `t_fs`.
     pub fn run_until(&mut self, t_fs: u64) -> io::Result<()> {
-        while self.next_edge().is_some_and(|t| t < t_fs) {
-            self.step()?;
-        }
+        while self.step_before(t_fs)? {}
         Ok(())
     }
 
@@ -517,8 +532,7 @@ impl Engine {
         limit_fs: u64,
         mut done: F,
     ) -> io::Result<bool> {
-        while self.next_edge().is_some_and(|t| t < limit_fs) {
-            self.step()?;
+        while self.step_before(limit_fs)? {
             if done(self) {
                 return Ok(true);
             }
