@@ -19,16 +19,7 @@
 //! prove: pdr
 //! mutation: no-deferred-transmit | transmit_point = (transmit_now & ~process_pending$q & ~reset) | transmit_deferred$q; => transmit_point = (transmit_now & ~reset) | transmit_deferred$q;
 module bit_timing (
-    input clock,
-    input reset,
-    input rx,
-    input [5:0] brp,
-    input [3:0] tseg1,
-    input [2:0] tseg2,
-    input [1:0] sjw,
-    input sam,
-    input sync_mode,
-    input tx_dominant
+`include "bit_timing_ports.vh"
 );
   wire sample_point, process_point, transmit_point;
 

@@ -23,16 +23,7 @@
 //! mutation: lengthen-step | remaining_step = sjw_field; => remaining_step = sjw_quanta$q;
 `include "encodings.vh"
 module bit_timing_equivalence (
-    input clock,
-    input reset,
-    input rx,
-    input [5:0] brp,
-    input [3:0] tseg1,
-    input [2:0] tseg2,
-    input [1:0] sjw,
-    input sam,
-    input sync_mode,
-    input tx_dominant
+`include "bit_timing_ports.vh"
 );
   wire sample_now, process_now, transmit_now, rx_bit_now, hard_synced_now, resynced_now;
   wire [1:0] segment_now;

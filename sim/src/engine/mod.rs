@@ -445,6 +445,8 @@ impl Engine {
 
     /// Processes the earliest pending clock edge.
     pub fn step(&mut self) -> io::Result<()> {
+        // A deferred trace starts at the first `step` even when no edge is pending (the run loops
+        // start it only when they step).
         self.start_deferred_trace()?;
         self.step_before(u64::MAX).map(|_| ())
     }
