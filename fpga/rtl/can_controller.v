@@ -8035,6 +8035,7 @@ module top$tx_buffer(clock,reset,write,write_index,write_data,host_index,host_da
     
     // Local signals
     reg  in_range;
+    reg  writing;
     
     // Sub module instances
     top$tx_buffer$host_ram host_ram(
@@ -8098,16 +8099,17 @@ module top$tx_buffer(clock,reset,write,write_index,write_data,host_index,host_da
         core_ram$write_clock = clock;
         core_ram$read_clock = clock;
         in_range = write_index < byte_count;
-        host_ram$write_enable = write & in_range;
+        writing = write & in_range;
+        host_ram$write_enable = writing;
         host_ram$write_address = write_index;
         host_ram$write_data = write_data;
-        core_ram$write_enable = write & in_range;
+        core_ram$write_enable = writing;
         core_ram$write_address = write_index;
         core_ram$write_data = write_data;
         host_ram$read_address = host_index;
         core_ram$read_address = core_index;
-        host_written$d = written$q[host_index];
-        core_written$d = written$q[core_index];
+        host_written$d = written$q[host_index] & (writing == 1'b0);
+        core_written$d = written$q[core_index] & (writing == 1'b0);
         host_data = 32'h0;
         if (host_written$q) begin
             host_data = host_ram$read_data;
@@ -8120,7 +8122,7 @@ module top$tx_buffer(clock,reset,write,write_index,write_data,host_index,host_da
         if (basic_layout) begin
             info = basic_info$q;
         end
-        if (write & in_range) begin
+        if (writing) begin
             written$d = (written$q & ~(1 << (write_index)) | ((1'b1) << (write_index)));
             if (write_index == frame_info_index) begin
                 frame_info$d = write_data;
@@ -8172,7 +8174,7 @@ module top$tx_buffer$core_ram(read_address,read_clock,read_data,write_address,wr
     input wire  write_enable;
     
     // Update code (custom)
-    reg[7:0] mem[15:0];
+    (* no_rw_check *) reg[7:0] mem[15:0];
     
     initial begin
     mem[4'h0] = 8'h0;
@@ -8257,7 +8259,7 @@ module top$tx_buffer$host_ram(read_address,read_clock,read_data,write_address,wr
     input wire  write_enable;
     
     // Update code (custom)
-    reg[7:0] mem[15:0];
+    (* no_rw_check *) reg[7:0] mem[15:0];
     
     initial begin
     mem[4'h0] = 8'h0;

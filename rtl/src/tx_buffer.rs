@@ -3,7 +3,8 @@
 //!
 //! Ports: one write port (`write`, `write_index`, `write_data`) for the host; two registered read
 //! ports, `host_index` → `host_data` for the register window and `core_index` → `core_data` for the
-//! protocol engine (each the byte that was at its index before the last rising edge of `clock`),
+//! protocol engine (each the byte that was at its index before the last rising edge of `clock`, 0
+//! if that cycle wrote the buffer),
 //! and `info` (byte 0, the frame information the engine reads all the time).
 //! Writes act on the rising edge of `clock`; indices 13..15 are ignored and read 0. The synchronous
 //! `reset` clears every byte (undefined on the SJA1000; cleared here so nothing after a reset
@@ -15,7 +16,8 @@
 //! to RAM (distributed RAM on Xilinx, block RAM on iCE40) instead of two 13-way multiplexers of
 //! flip-flops. A RAM cannot be cleared at once: a flag per byte, cleared by `reset` and set by a
 //! write, makes a byte not written since the reset read 0, and flip-flop copies give the two
-//! bytes `info` is made of without a third read port.
+//! bytes `info` is made of without a third read port. A read in a write cycle reads 0, so the RAMs
+//! need no read-during-write logic (`no_rw_check` in the emitted Verilog, docs/FPGA.md).
 
 use rust_hdl::prelude::*;
 
@@ -46,11 +48,13 @@ pub struct TxBuffer {
     pub write_data: Signal<In, Bits<8>>,
     /// Byte the host reads.
     pub host_index: Signal<In, Bits<INDEX_BITS>>,
-    /// The byte that was at `host_index` before the last rising edge of `clock`.
+    /// The byte that was at `host_index` before the last rising edge of `clock` (0 if that cycle
+    /// wrote the buffer).
     pub host_data: Signal<Out, Bits<8>>,
     /// Byte the protocol engine reads.
     pub core_index: Signal<In, Bits<INDEX_BITS>>,
-    /// The byte that was at `core_index` before the last rising edge of `clock`.
+    /// The byte that was at `core_index` before the last rising edge of `clock` (0 if that cycle
+    /// wrote the buffer).
     pub core_data: Signal<Out, Bits<8>>,
     /// BasicCAN buffer layout.
     pub basic_layout: Signal<In, Bit>,
@@ -75,6 +79,8 @@ pub struct TxBuffer {
     #[constant(index(2))]
     basic_info_index: Constant<Bits<INDEX_BITS>>,
     in_range: Signal<Local, Bit>,
+    /// A byte is written this cycle.
+    writing: Signal<Local, Bit>,
 }
 
 /// A RAM whose every word is initialised (unwritten RAM reads X in Verilog, RUST_HDL.md).
@@ -103,16 +109,23 @@ impl Logic for TxBuffer {
         self.core_ram.write_clock.next = self.clock.val();
         self.core_ram.read_clock.next = self.clock.val();
         self.in_range.next = self.write_index.val() < self.byte_count.val();
-        self.host_ram.write_enable.next = self.write.val() & self.in_range.val();
+        self.writing.next = self.write.val() & self.in_range.val();
+        self.host_ram.write_enable.next = self.writing.val();
         self.host_ram.write_address.next = self.write_index.val();
         self.host_ram.write_data.next = self.write_data.val();
-        self.core_ram.write_enable.next = self.write.val() & self.in_range.val();
+        self.core_ram.write_enable.next = self.writing.val();
         self.core_ram.write_address.next = self.write_index.val();
         self.core_ram.write_data.next = self.write_data.val();
         self.host_ram.read_address.next = self.host_index.val();
         self.core_ram.read_address.next = self.core_index.val();
-        self.host_written.d.next = self.written.q.val().get_bit(self.host_index.val().index());
-        self.core_written.d.next = self.written.q.val().get_bit(self.core_index.val().index());
+        // A read in a write cycle gives 0, not the RAM's read data: the emitted RAMs carry
+        // `no_rw_check` (synthesis adds no read-during-write logic, so block RAM may return the old
+        // or the new byte then), and this keeps the outputs defined and equal to the model's. The host never reads in a write cycle (port contract); the engine never
+        // reads the buffer while the host may write it (TBS is 0 from the request to the end).
+        self.host_written.d.next = self.written.q.val().get_bit(self.host_index.val().index())
+            & (self.writing.val() == false);
+        self.core_written.d.next = self.written.q.val().get_bit(self.core_index.val().index())
+            & (self.writing.val() == false);
 
         // Outputs from flip-flops and RAM read registers only (Verilator loops, RUST_HDL.md).
         self.host_data.next = 0.into();
@@ -128,7 +141,7 @@ impl Logic for TxBuffer {
             self.info.next = self.basic_info.q.val();
         }
 
-        if self.write.val() & self.in_range.val() {
+        if self.writing.val() {
             self.written.d.next = self
                 .written
                 .q

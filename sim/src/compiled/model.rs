@@ -2,7 +2,7 @@
 //! from the Verilog of `rtl/` through Yosys; do not edit.
 
 /// Hash of the Verilog this model was made from.
-pub(super) const VERILOG_HASH: u64 = 0x0c540f42fac31592;
+pub(super) const VERILOG_HASH: u64 = 0x18151c109a2fe04d;
 
 const TABLE_0: [u64; 4] = [0x1fff0000, 0x0, 0x0, 0x0];
 const TABLE_1: [u64; 4] = [0xffffffff00000000, 0xffffffff, 0x0, 0x0];
@@ -402,7 +402,7 @@ pub(super) struct Model {
     v152: u64,
     v153: u64,
     v156: u64,
-    v159: u64,
+    v158: u64,
     v161: u64,
     v165: u64,
     v170: u64,
@@ -665,43 +665,43 @@ pub(super) struct Model {
     v783: u64,
     v784: u64,
     v788: u64,
-    v789: u64,
-    v798: u64,
+    v797: u64,
+    v803: u64,
     v804: u64,
     v805: u64,
     v806: u64,
     v807: u64,
     v808: u64,
     v809: u64,
-    v810: u64,
+    v812: u64,
     v813: u64,
     v814: u64,
     v815: u64,
-    v816: u64,
+    v821: u64,
     v822: u64,
     v823: u64,
-    v824: u64,
+    v835: u64,
     v836: u64,
-    v837: u64,
-    v841: u64,
+    v839: u64,
+    v845: u64,
     v846: u64,
     v847: u64,
-    v848: u64,
-    v851: u64,
+    v850: u64,
+    v861: u64,
     v862: u64,
-    v863: u64,
-    v865: u64,
-    v872: u64,
-    v881: u64,
+    v864: u64,
+    v871: u64,
+    v880: u64,
+    v895: u64,
     v896: u64,
     v897: u64,
-    v898: u64,
+    v910: u64,
     v911: u64,
-    v912: u64,
-    v919: u64,
-    v935: u64,
+    v918: u64,
+    v934: u64,
+    v936: u64,
     v937: u64,
-    v938: u64,
+    v939: u64,
     v940: u64,
     v941: u64,
     v943: u64,
@@ -767,20 +767,22 @@ pub(super) struct Model {
     v1084: u64,
     v1085: u64,
     v1086: u64,
-    v1091: u64,
-    v1092: u64,
-    v1093: u64,
+    v1087: u64,
+    v1088: u64,
     v1094: u64,
     v1095: u64,
-    v1101: u64,
-    v1102: u64,
+    v1096: u64,
+    v1097: u64,
+    v1098: u64,
+    v1104: u64,
     v1105: u64,
-    v1106: u64,
-    v1107: u64,
     v1108: u64,
     v1109: u64,
     v1110: u64,
     v1111: u64,
+    v1112: u64,
+    v1113: u64,
+    v1114: u64,
     dirty: u128,
     ran: u128,
     out: u64,
@@ -1177,7 +1179,7 @@ impl Model {
             v152: 0,
             v153: 0,
             v156: 0,
-            v159: 0,
+            v158: 0,
             v161: 0,
             v165: 0,
             v170: 0,
@@ -1440,43 +1442,43 @@ impl Model {
             v783: 0,
             v784: 0,
             v788: 0,
-            v789: 0,
-            v798: 0,
+            v797: 0,
+            v803: 0,
             v804: 0,
             v805: 0,
             v806: 0,
             v807: 0,
             v808: 0,
             v809: 0,
-            v810: 0,
+            v812: 0,
             v813: 0,
             v814: 0,
             v815: 0,
-            v816: 0,
+            v821: 0,
             v822: 0,
             v823: 0,
-            v824: 0,
+            v835: 0,
             v836: 0,
-            v837: 0,
-            v841: 0,
+            v839: 0,
+            v845: 0,
             v846: 0,
             v847: 0,
-            v848: 0,
-            v851: 0,
+            v850: 0,
+            v861: 0,
             v862: 0,
-            v863: 0,
-            v865: 0,
-            v872: 0,
-            v881: 0,
+            v864: 0,
+            v871: 0,
+            v880: 0,
+            v895: 0,
             v896: 0,
             v897: 0,
-            v898: 0,
+            v910: 0,
             v911: 0,
-            v912: 0,
-            v919: 0,
-            v935: 0,
+            v918: 0,
+            v934: 0,
+            v936: 0,
             v937: 0,
-            v938: 0,
+            v939: 0,
             v940: 0,
             v941: 0,
             v943: 0,
@@ -1542,20 +1544,22 @@ impl Model {
             v1084: 0,
             v1085: 0,
             v1086: 0,
-            v1091: 0,
-            v1092: 0,
-            v1093: 0,
+            v1087: 0,
+            v1088: 0,
             v1094: 0,
             v1095: 0,
-            v1101: 0,
-            v1102: 0,
+            v1096: 0,
+            v1097: 0,
+            v1098: 0,
+            v1104: 0,
             v1105: 0,
-            v1106: 0,
-            v1107: 0,
             v1108: 0,
             v1109: 0,
             v1110: 0,
             v1111: 0,
+            v1112: 0,
+            v1113: 0,
+            v1114: 0,
             dirty: 0xffffffffffffffffffffffffffffffff,
             ran: 0xffffffffffffffffffffffffffffffff,
             out: 0,
@@ -1565,17 +1569,17 @@ impl Model {
     /// Takes the input word.
     pub(super) fn set_inputs(&mut self, word: u32) {
         let v = (word >> 0) as u64 & 0xff;
-        if v != self.i_wdata { self.i_wdata = v; self.dirty |= 0x6c00018003e00000001d046802009c0; }
+        if v != self.i_wdata { self.i_wdata = v; self.dirty |= 0x6c00018007c00000003a0c6802009c0; }
         let v = (word >> 8) as u64 & 0xff;
         if v != self.i_addr { self.i_addr = v; self.dirty |= 0x444934; }
         let v = (word >> 16) as u64 & 0x1;
         if v != self.i_we { self.i_we = v; self.dirty |= 0x400004904; }
         let v = (word >> 17) as u64 & 0x1;
-        if v != self.i_re { self.i_re = v; self.dirty |= 0x20000000000000000200100040200; }
+        if v != self.i_re { self.i_re = v; self.dirty |= 0x20000000000000000400100040200; }
         let v = (word >> 18) as u64 & 0x1;
         if v != self.i_rx { self.i_rx = v; self.dirty |= 0x8100; }
         let v = (word >> 19) as u64 & 0x1;
-        if v != self.i_reset { self.i_reset = v; self.dirty |= 0x5b4f805bfefeddbc9ff3d1e9d421fb0c; }
+        if v != self.i_reset { self.i_reset = v; self.dirty |= 0x5b4f805bfdfdbb793fe7a3a9d421fb0c; }
     }
 
     /// The output word computed by the last `eval`.
@@ -1634,76 +1638,76 @@ impl Model {
             if dirty >> 35 & 1 != 0 { self.group_35(&mut dirty); } // top$modes$divider
             if dirty >> 36 & 1 != 0 { self.group_36(&mut dirty); } // top$core$protocol$assembler
             if dirty >> 37 & 1 != 0 { self.group_37(&mut dirty); } // top$core$protocol$faults$tec_count
-            if dirty >> 38 & 1 != 0 { self.group_38(&mut dirty); } // top$modes$cdr_reg
-            if dirty >> 39 & 1 != 0 { self.group_39(&mut dirty); } // top$core$bit_timing$clocks
+            if dirty >> 38 & 1 != 0 { self.group_38(&mut dirty); } // top$fifo
+            if dirty >> 39 & 1 != 0 { self.group_39(&mut dirty); } // top$modes$cdr_reg
         }
         if dirty >> 40 & 0xff != 0 {
-            if dirty >> 40 & 1 != 0 { self.group_40(&mut dirty); } // top$core$protocol$faults$rec_count
-            if dirty >> 41 & 1 != 0 { self.group_41(&mut dirty); } // top$core$protocol$sender
-            if dirty >> 42 & 1 != 0 { self.group_42(&mut dirty); } // top$core$protocol$sender$tx_ptr
-            if dirty >> 43 & 1 != 0 { self.group_43(&mut dirty); } // top$core$protocol$stuffing
-            if dirty >> 44 & 1 != 0 { self.group_44(&mut dirty); } // top$interrupts$ier_reg
-            if dirty >> 45 & 1 != 0 { self.group_45(&mut dirty); } // top$read
-            if dirty >> 46 & 1 != 0 { self.group_46(&mut dirty); } // top$configuration$btr0 + top$configuration$btr1
-            if dirty >> 47 & 1 != 0 { self.group_47(&mut dirty); } // top$configuration$ewlr_reg + top$configuration$ocr
+            if dirty >> 40 & 1 != 0 { self.group_40(&mut dirty); } // top$core$bit_timing$clocks
+            if dirty >> 41 & 1 != 0 { self.group_41(&mut dirty); } // top$core$protocol$faults$rec_count
+            if dirty >> 42 & 1 != 0 { self.group_42(&mut dirty); } // top$core$protocol$sender
+            if dirty >> 43 & 1 != 0 { self.group_43(&mut dirty); } // top$core$protocol$sender$tx_ptr
+            if dirty >> 44 & 1 != 0 { self.group_44(&mut dirty); } // top$core$protocol$stuffing
+            if dirty >> 45 & 1 != 0 { self.group_45(&mut dirty); } // top$interrupts$ier_reg
+            if dirty >> 46 & 1 != 0 { self.group_46(&mut dirty); } // top$read
+            if dirty >> 47 & 1 != 0 { self.group_47(&mut dirty); } // top$configuration$btr0 + top$configuration$btr1
         }
         if dirty >> 48 & 0xff != 0 {
-            if dirty >> 48 & 1 != 0 { self.group_48(&mut dirty); } // top$configuration$sjw_reg + top$configuration$tseg2_reg
-            if dirty >> 49 & 1 != 0 { self.group_49(&mut dirty); } // top$core$bit_timing$elapsed + top$core$bit_timing$process_pending
-            if dirty >> 50 & 1 != 0 { self.group_50(&mut dirty); } // top$core$bit_timing$remaining + top$core$bit_timing$sampled
-            if dirty >> 51 & 1 != 0 { self.group_51(&mut dirty); } // top$core$bit_timing$sampling$metastable + top$core$bit_timing$sampling$previous
-            if dirty >> 52 & 1 != 0 { self.group_52(&mut dirty); } // top$core$bit_timing$sampling$quantum_samples + top$core$bit_timing$sampling$stable
-            if dirty >> 53 & 1 != 0 { self.group_53(&mut dirty); } // top$core$bit_timing$segment_state + top$core$bit_timing$sjw_quanta
-            if dirty >> 54 & 1 != 0 { self.group_54(&mut dirty); } // top$core$bit_timing$synced + top$core$bit_timing$transmit_deferred
-            if dirty >> 55 & 1 != 0 { self.group_55(&mut dirty); } // top$core$protocol$abort_pending + top$core$protocol$assembler$byte_index
+            if dirty >> 48 & 1 != 0 { self.group_48(&mut dirty); } // top$configuration$ewlr_reg + top$configuration$ocr
+            if dirty >> 49 & 1 != 0 { self.group_49(&mut dirty); } // top$configuration$sjw_reg + top$configuration$tseg2_reg
+            if dirty >> 50 & 1 != 0 { self.group_50(&mut dirty); } // top$core$bit_timing$elapsed + top$core$bit_timing$process_pending
+            if dirty >> 51 & 1 != 0 { self.group_51(&mut dirty); } // top$core$bit_timing$remaining + top$core$bit_timing$sampled
+            if dirty >> 52 & 1 != 0 { self.group_52(&mut dirty); } // top$core$bit_timing$sampling$metastable + top$core$bit_timing$sampling$previous
+            if dirty >> 53 & 1 != 0 { self.group_53(&mut dirty); } // top$core$bit_timing$sampling$quantum_samples + top$core$bit_timing$sampling$stable
+            if dirty >> 54 & 1 != 0 { self.group_54(&mut dirty); } // top$core$bit_timing$segment_state + top$core$bit_timing$sjw_quanta
+            if dirty >> 55 & 1 != 0 { self.group_55(&mut dirty); } // top$core$bit_timing$synced + top$core$bit_timing$transmit_deferred
         }
         if dirty >> 56 & 0xff != 0 {
-            if dirty >> 56 & 1 != 0 { self.group_56(&mut dirty); } // top$core$protocol$assembler$byte_pulse + top$core$protocol$assembler$byte_reg
-            if dirty >> 57 & 1 != 0 { self.group_57(&mut dirty); } // top$core$protocol$assembler$dlc_reg + top$core$protocol$assembler$header_pulse
-            if dirty >> 58 & 1 != 0 { self.group_58(&mut dirty); } // top$core$protocol$assembler$id_reg + top$core$protocol$assembler$ide_reg
-            if dirty >> 59 & 1 != 0 { self.group_59(&mut dirty); } // top$core$protocol$assembler$last_data_byte_reg + top$core$protocol$assembler$rtr_reg
-            if dirty >> 60 & 1 != 0 { self.group_60(&mut dirty); } // top$core$protocol$capture$alc_reg + top$core$protocol$capture$ecc_reg
-            if dirty >> 61 & 1 != 0 { self.group_61(&mut dirty); } // top$core$protocol$capture$error_pulse + top$core$protocol$capture$lost_pulse
-            if dirty >> 62 & 1 != 0 { self.group_62(&mut dirty); } // top$core$protocol$count + top$core$protocol$crc$register
-            if dirty >> 63 & 1 != 0 { self.group_63(&mut dirty); } // top$core$protocol$crc_error + top$core$protocol$done_pulse
+            if dirty >> 56 & 1 != 0 { self.group_56(&mut dirty); } // top$core$protocol$abort_pending + top$core$protocol$assembler$byte_index
+            if dirty >> 57 & 1 != 0 { self.group_57(&mut dirty); } // top$core$protocol$assembler$byte_pulse + top$core$protocol$assembler$byte_reg
+            if dirty >> 58 & 1 != 0 { self.group_58(&mut dirty); } // top$core$protocol$assembler$dlc_reg + top$core$protocol$assembler$header_pulse
+            if dirty >> 59 & 1 != 0 { self.group_59(&mut dirty); } // top$core$protocol$assembler$id_reg + top$core$protocol$assembler$ide_reg
+            if dirty >> 60 & 1 != 0 { self.group_60(&mut dirty); } // top$core$protocol$assembler$last_data_byte_reg + top$core$protocol$assembler$rtr_reg
+            if dirty >> 61 & 1 != 0 { self.group_61(&mut dirty); } // top$core$protocol$capture$alc_reg + top$core$protocol$capture$ecc_reg
+            if dirty >> 62 & 1 != 0 { self.group_62(&mut dirty); } // top$core$protocol$capture$error_pulse + top$core$protocol$capture$lost_pulse
+            if dirty >> 63 & 1 != 0 { self.group_63(&mut dirty); } // top$core$protocol$count + top$core$protocol$crc$register
         }
         if dirty >> 64 & 0xff != 0 {
-            if dirty >> 64 & 1 != 0 { self.group_64(&mut dirty); } // top$core$protocol$done_success + top$core$protocol$faults$bus_off_state
-            if dirty >> 65 & 1 != 0 { self.group_65(&mut dirty); } // top$core$protocol$faults$passive_state + top$core$protocol$field
-            if dirty >> 66 & 1 != 0 { self.group_66(&mut dirty); } // top$core$protocol$in_frame + top$core$protocol$interframe$ack_penalty
-            if dirty >> 67 & 1 != 0 { self.group_67(&mut dirty); } // top$core$protocol$interframe$after_error_flag + top$core$protocol$interframe$dominant_after_flag
-            if dirty >> 68 & 1 != 0 { self.group_68(&mut dirty); } // top$core$protocol$interframe$first_after_flag + top$core$protocol$interframe$flag_level
-            if dirty >> 69 & 1 != 0 { self.group_69(&mut dirty); } // top$core$protocol$interframe$flag_passive_reg + top$core$protocol$sender$tx_left
-            if dirty >> 70 & 1 != 0 { self.group_70(&mut dirty); } // top$core$protocol$sender$tx_next + top$core$protocol$sender$tx_reg
-            if dirty >> 71 & 1 != 0 { self.group_71(&mut dirty); } // top$core$protocol$sender$tx_shift + top$core$protocol$stuffing$active
+            if dirty >> 64 & 1 != 0 { self.group_64(&mut dirty); } // top$core$protocol$crc_error + top$core$protocol$done_pulse
+            if dirty >> 65 & 1 != 0 { self.group_65(&mut dirty); } // top$core$protocol$done_success + top$core$protocol$faults$bus_off_state
+            if dirty >> 66 & 1 != 0 { self.group_66(&mut dirty); } // top$core$protocol$faults$passive_state + top$core$protocol$field
+            if dirty >> 67 & 1 != 0 { self.group_67(&mut dirty); } // top$core$protocol$in_frame + top$core$protocol$interframe$ack_penalty
+            if dirty >> 68 & 1 != 0 { self.group_68(&mut dirty); } // top$core$protocol$interframe$after_error_flag + top$core$protocol$interframe$dominant_after_flag
+            if dirty >> 69 & 1 != 0 { self.group_69(&mut dirty); } // top$core$protocol$interframe$first_after_flag + top$core$protocol$interframe$flag_level
+            if dirty >> 70 & 1 != 0 { self.group_70(&mut dirty); } // top$core$protocol$interframe$flag_passive_reg + top$core$protocol$sender$tx_left
+            if dirty >> 71 & 1 != 0 { self.group_71(&mut dirty); } // top$core$protocol$sender$tx_next + top$core$protocol$sender$tx_reg
         }
         if dirty >> 72 & 0xff != 0 {
-            if dirty >> 72 & 1 != 0 { self.group_72(&mut dirty); } // top$core$protocol$stuffing$run_length + top$core$protocol$stuffing$run_level_reg
-            if dirty >> 73 & 1 != 0 { self.group_73(&mut dirty); } // top$core$protocol$transmitter + top$core$protocol$valid_pulse
-            if dirty >> 74 & 1 != 0 { self.group_74(&mut dirty); } // top$fifo$fetching + top$fifo$head
-            if dirty >> 75 & 1 != 0 { self.group_75(&mut dirty); } // top$fifo$head_info_reg
-            if dirty >> 76 & 1 != 0 { self.group_76(&mut dirty); } // top$fifo$header_step
-            if dirty >> 77 & 1 != 0 { self.group_77(&mut dirty); } // top$fifo$overrun_state + top$fifo$ram
-            if dirty >> 78 & 1 != 0 { self.group_78(&mut dirty); } // top$fifo$tail
-            if dirty >> 79 & 1 != 0 { self.group_79(&mut dirty); } // top$fifo$writing_header
+            if dirty >> 72 & 1 != 0 { self.group_72(&mut dirty); } // top$core$protocol$sender$tx_shift + top$core$protocol$stuffing$active
+            if dirty >> 73 & 1 != 0 { self.group_73(&mut dirty); } // top$core$protocol$stuffing$run_length + top$core$protocol$stuffing$run_level_reg
+            if dirty >> 74 & 1 != 0 { self.group_74(&mut dirty); } // top$core$protocol$transmitter + top$core$protocol$valid_pulse
+            if dirty >> 75 & 1 != 0 { self.group_75(&mut dirty); } // top$fifo$fetching + top$fifo$head
+            if dirty >> 76 & 1 != 0 { self.group_76(&mut dirty); } // top$fifo$head_info_reg
+            if dirty >> 77 & 1 != 0 { self.group_77(&mut dirty); } // top$fifo$header_step
+            if dirty >> 78 & 1 != 0 { self.group_78(&mut dirty); } // top$fifo$overrun_state + top$fifo$ram
+            if dirty >> 79 & 1 != 0 { self.group_79(&mut dirty); } // top$fifo$tail
         }
         if dirty >> 80 & 0xff != 0 {
-            if dirty >> 80 & 1 != 0 { self.group_80(&mut dirty); } // top$fifo$count + top$fifo$incomplete
-            if dirty >> 81 & 1 != 0 { self.group_81(&mut dirty); } // top$fifo$used + top$filter$acr0
-            if dirty >> 82 & 1 != 0 { self.group_82(&mut dirty); } // top$filter$acr1 + top$filter$acr2
-            if dirty >> 83 & 1 != 0 { self.group_83(&mut dirty); } // top$filter$acr3 + top$filter$amr0
-            if dirty >> 84 & 1 != 0 { self.group_84(&mut dirty); } // top$filter$amr1 + top$filter$amr2
-            if dirty >> 85 & 1 != 0 { self.group_85(&mut dirty); } // top$filter$amr3 + top$filter$basic_id_match
-            if dirty >> 86 & 1 != 0 { self.group_86(&mut dirty); } // top$filter$dual1_data_match + top$filter$dual1_id_match
-            if dirty >> 87 & 1 != 0 { self.group_87(&mut dirty); } // top$filter$dual2_id_match + top$filter$extended_frame
+            if dirty >> 80 & 1 != 0 { self.group_80(&mut dirty); } // top$fifo$writing_header
+            if dirty >> 81 & 1 != 0 { self.group_81(&mut dirty); } // top$fifo$count + top$fifo$incomplete
+            if dirty >> 82 & 1 != 0 { self.group_82(&mut dirty); } // top$fifo$used + top$filter$acr0
+            if dirty >> 83 & 1 != 0 { self.group_83(&mut dirty); } // top$filter$acr1 + top$filter$acr2
+            if dirty >> 84 & 1 != 0 { self.group_84(&mut dirty); } // top$filter$acr3 + top$filter$amr0
+            if dirty >> 85 & 1 != 0 { self.group_85(&mut dirty); } // top$filter$amr1 + top$filter$amr2
+            if dirty >> 86 & 1 != 0 { self.group_86(&mut dirty); } // top$filter$amr3 + top$filter$basic_id_match
+            if dirty >> 87 & 1 != 0 { self.group_87(&mut dirty); } // top$filter$dual1_data_match + top$filter$dual1_id_match
         }
         if dirty >> 88 & 0xff != 0 {
-            if dirty >> 88 & 1 != 0 { self.group_88(&mut dirty); } // top$filter$single_data1_match + top$filter$single_data2_match
-            if dirty >> 89 & 1 != 0 { self.group_89(&mut dirty); } // top$filter$single_id_match + top$interrupts$alc_armed
-            if dirty >> 90 & 1 != 0 { self.group_90(&mut dirty); } // top$interrupts$alc_reg + top$interrupts$basic_ri_reg
-            if dirty >> 91 & 1 != 0 { self.group_91(&mut dirty); } // top$interrupts$bus_off_reg + top$interrupts$ecc_armed
-            if dirty >> 92 & 1 != 0 { self.group_92(&mut dirty); } // top$interrupts$ecc_reg
-            if dirty >> 93 & 1 != 0 { self.group_93(&mut dirty); } // top$interrupts$es_reg
+            if dirty >> 88 & 1 != 0 { self.group_88(&mut dirty); } // top$filter$dual2_id_match + top$filter$extended_frame
+            if dirty >> 89 & 1 != 0 { self.group_89(&mut dirty); } // top$filter$single_data1_match + top$filter$single_data2_match
+            if dirty >> 90 & 1 != 0 { self.group_90(&mut dirty); } // top$filter$single_id_match + top$interrupts$alc_armed
+            if dirty >> 91 & 1 != 0 { self.group_91(&mut dirty); } // top$interrupts$alc_reg + top$interrupts$basic_ri_reg
+            if dirty >> 92 & 1 != 0 { self.group_92(&mut dirty); } // top$interrupts$bus_off_reg + top$interrupts$ecc_armed
+            if dirty >> 93 & 1 != 0 { self.group_93(&mut dirty); } // top$interrupts$ecc_reg + top$interrupts$es_reg
             if dirty >> 94 & 1 != 0 { self.group_94(&mut dirty); } // top$interrupts$ir_reg
             if dirty >> 95 & 1 != 0 { self.group_95(&mut dirty); } // top$interrupts$overrun_before
         }
@@ -1766,305 +1770,303 @@ impl Model {
         let ran = self.ran;
         self.ran = 0;
         if ran >> 37 & 1 != 0 {
-            if self.q65 != self.n65 { self.q65 = self.n65; dirty |= 0x80000000000000000000202080000280; } // $auto$ff.cc:266:slice$9737
-            if self.q66 != self.n66 { self.q66 = self.n66; dirty |= 0x80000000000000000000202000000280; } // $auto$ff.cc:266:slice$9738
-            if self.q67 != self.n67 { self.q67 = self.n67; dirty |= 0x80000000000000000000202000000280; } // $auto$ff.cc:266:slice$9751
-        }
-        if ran >> 38 & 1 != 0 {
-            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x2040004c4b74; } // $auto$ff.cc:266:slice$9545
-            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x4800040100; } // $auto$ff.cc:266:slice$9546
-            if self.q105 != self.n105 { self.q105 = self.n105; dirty |= 0x4800040100; } // $auto$ff.cc:266:slice$9877
+            if self.q65 != self.n65 { self.q65 = self.n65; dirty |= 0x80000000000000000000402080000280; } // $auto$ff.cc:266:slice$9739
+            if self.q66 != self.n66 { self.q66 = self.n66; dirty |= 0x80000000000000000000402000000280; } // $auto$ff.cc:266:slice$9740
+            if self.q67 != self.n67 { self.q67 = self.n67; dirty |= 0x80000000000000000000402000000280; } // $auto$ff.cc:266:slice$9753
         }
         if ran >> 39 & 1 != 0 {
-            if self.q96 != self.n96 { self.q96 = self.n96; dirty |= 0x8000000008; } // $auto$ff.cc:266:slice$9848
-            if self.q97 != self.n97 { self.q97 = self.n97; dirty |= 0x8000000008; } // $auto$ff.cc:266:slice$9849
+            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x4080004c4b74; } // $auto$ff.cc:266:slice$9547
+            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x8800040100; } // $auto$ff.cc:266:slice$9548
+            if self.q105 != self.n105 { self.q105 = self.n105; dirty |= 0x8800040100; } // $auto$ff.cc:266:slice$9879
         }
         if ran >> 40 & 1 != 0 {
-            if self.q68 != self.n68 { self.q68 = self.n68; dirty |= 0x80000000000000000000210080000280; } // $auto$ff.cc:266:slice$9762
-            if self.q69 != self.n69 { self.q69 = self.n69; dirty |= 0x80000000000000000000210080000280; } // $auto$ff.cc:266:slice$9763
+            if self.q96 != self.n96 { self.q96 = self.n96; dirty |= 0x10000000008; } // $auto$ff.cc:266:slice$9850
+            if self.q97 != self.n97 { self.q97 = self.n97; dirty |= 0x10000000008; } // $auto$ff.cc:266:slice$9851
         }
-        if ran >> 42 & 1 != 0 {
-            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x800000000000000000040000002020; } // $auto$ff.cc:266:slice$9675
-            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x800000000000000000060000002020; } // $auto$ff.cc:266:slice$9682
+        if ran >> 41 & 1 != 0 {
+            if self.q68 != self.n68 { self.q68 = self.n68; dirty |= 0x80000000000000000000420080000280; } // $auto$ff.cc:266:slice$9764
+            if self.q69 != self.n69 { self.q69 = self.n69; dirty |= 0x80000000000000000000420080000280; } // $auto$ff.cc:266:slice$9765
         }
-        if ran >> 44 & 1 != 0 {
-            if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x300000000010; } // $auto$ff.cc:266:slice$9566
-            if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0x300400040000; } // $auto$ff.cc:266:slice$9571
+        if ran >> 43 & 1 != 0 {
+            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x800000000000000000080000002020; } // $auto$ff.cc:266:slice$9677
+            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x8000000000000000000c0000002020; } // $auto$ff.cc:266:slice$9684
         }
-        if ran >> 46 & 1 != 0 {
-            if self.q102 != self.n102 { self.q102 = self.n102; dirty |= 0x400000418000; } // $auto$ff.cc:266:slice$9869
-            if self.q103 != self.n103 { self.q103 = self.n103; dirty |= 0x400000400008; } // $auto$ff.cc:266:slice$9873
+        if ran >> 45 & 1 != 0 {
+            if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x600000000010; } // $auto$ff.cc:266:slice$9568
+            if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0x600400040000; } // $auto$ff.cc:266:slice$9573
         }
         if ran >> 47 & 1 != 0 {
-            if self.q100 != self.n100 { self.q100 = self.n100; dirty |= 0x800000400000; } // $auto$ff.cc:266:slice$9861
-            if self.q101 != self.n101 { self.q101 = self.n101; dirty |= 0x800000400200; } // $auto$ff.cc:266:slice$9865
+            if self.q102 != self.n102 { self.q102 = self.n102; dirty |= 0x800000418000; } // $auto$ff.cc:266:slice$9871
+            if self.q103 != self.n103 { self.q103 = self.n103; dirty |= 0x800000400008; } // $auto$ff.cc:266:slice$9875
         }
         if ran >> 48 & 1 != 0 {
-            if self.q98 != self.n98 { self.q98 = self.n98; dirty |= 0x1000000010000; } // $auto$ff.cc:266:slice$9853
-            if self.q99 != self.n99 { self.q99 = self.n99; dirty |= 0x1000000000008; } // $auto$ff.cc:266:slice$9857
+            if self.q100 != self.n100 { self.q100 = self.n100; dirty |= 0x1000000400000; } // $auto$ff.cc:266:slice$9863
+            if self.q101 != self.n101 { self.q101 = self.n101; dirty |= 0x1000000400200; } // $auto$ff.cc:266:slice$9867
         }
         if ran >> 49 & 1 != 0 {
-            if self.q94 != self.n94 { self.q94 = self.n94; dirty |= 0x388000202005e01000a; } // $auto$ff.cc:266:slice$9841
-            if self.q95 != self.n95 { self.q95 = self.n95; dirty |= 0x2000000000008; } // $auto$ff.cc:266:slice$9845
+            if self.q98 != self.n98 { self.q98 = self.n98; dirty |= 0x2000000010000; } // $auto$ff.cc:266:slice$9855
+            if self.q99 != self.n99 { self.q99 = self.n99; dirty |= 0x2000000000008; } // $auto$ff.cc:266:slice$9859
         }
         if ran >> 50 & 1 != 0 {
-            if self.q93 != self.n93 { self.q93 = self.n93; dirty |= 0x4000000010008; } // $auto$ff.cc:266:slice$9838
-            if self.q109 != self.n109 { self.q109 = self.n109; dirty |= 0x1100f04000012032003; } // $flatten\core.\bit_timing.\sampled.$procdff$8825
+            if self.q94 != self.n94 { self.q94 = self.n94; dirty |= 0x710000404005e01000a; } // $auto$ff.cc:266:slice$9843
+            if self.q95 != self.n95 { self.q95 = self.n95; dirty |= 0x4000000000008; } // $auto$ff.cc:266:slice$9847
         }
         if ran >> 51 & 1 != 0 {
-            if self.q110 != self.n110 { self.q110 = self.n110; dirty |= 0x8000000008000; } // $flatten\core.\bit_timing.\sampling.\metastable.$procdff$8824
-            if self.q111 != self.n111 { self.q111 = self.n111; dirty |= 0x8000000008000; } // $flatten\core.\bit_timing.\sampling.\previous.$procdff$8823
+            if self.q93 != self.n93 { self.q93 = self.n93; dirty |= 0x8000000010008; } // $auto$ff.cc:266:slice$9840
+            if self.q109 != self.n109 { self.q109 = self.n109; dirty |= 0x2201e08000012032003; } // $flatten\core.\bit_timing.\sampled.$procdff$8827
         }
         if ran >> 52 & 1 != 0 {
-            if self.q92 != self.n92 { self.q92 = self.n92; dirty |= 0x10000000008000; } // $auto$ff.cc:266:slice$9837
-            if self.q112 != self.n112 { self.q112 = self.n112; dirty |= 0x10000000008000; } // $flatten\core.\bit_timing.\sampling.\stable.$procdff$8821
+            if self.q110 != self.n110 { self.q110 = self.n110; dirty |= 0x10000000008000; } // $flatten\core.\bit_timing.\sampling.\metastable.$procdff$8826
+            if self.q111 != self.n111 { self.q111 = self.n111; dirty |= 0x10000000008000; } // $flatten\core.\bit_timing.\sampling.\previous.$procdff$8825
         }
         if ran >> 53 & 1 != 0 {
-            if self.q91 != self.n91 { self.q91 = self.n91; dirty |= 0x20000000010008; } // $auto$ff.cc:266:slice$9831
-            if self.q108 != self.n108 { self.q108 = self.n108; dirty |= 0x20000000000008; } // $auto$ff.cc:266:slice$9948
+            if self.q92 != self.n92 { self.q92 = self.n92; dirty |= 0x20000000008000; } // $auto$ff.cc:266:slice$9839
+            if self.q112 != self.n112 { self.q112 = self.n112; dirty |= 0x20000000008000; } // $flatten\core.\bit_timing.\sampling.\stable.$procdff$8823
         }
         if ran >> 54 & 1 != 0 {
-            if self.q89 != self.n89 { self.q89 = self.n89; dirty |= 0x40000000010000; } // $auto$ff.cc:266:slice$9825
-            if self.q90 != self.n90 { self.q90 = self.n90; dirty |= 0x40000000010008; } // $auto$ff.cc:266:slice$9826
+            if self.q91 != self.n91 { self.q91 = self.n91; dirty |= 0x40000000010008; } // $auto$ff.cc:266:slice$9833
+            if self.q108 != self.n108 { self.q108 = self.n108; dirty |= 0x40000000000008; } // $auto$ff.cc:266:slice$9950
         }
         if ran >> 55 & 1 != 0 {
-            if self.q87 != self.n87 { self.q87 = self.n87; dirty |= 0x80000000000044; } // $auto$ff.cc:266:slice$9819
-            if self.q88 != self.n88 { self.q88 = self.n88; dirty |= 0x80000050000001; } // $auto$ff.cc:266:slice$9822
+            if self.q89 != self.n89 { self.q89 = self.n89; dirty |= 0x80000000010000; } // $auto$ff.cc:266:slice$9827
+            if self.q90 != self.n90 { self.q90 = self.n90; dirty |= 0x80000000010008; } // $auto$ff.cc:266:slice$9828
         }
         if ran >> 56 & 1 != 0 {
-            if self.q85 != self.n85 { self.q85 = self.n85; dirty |= 0x100000000000044; } // $auto$ff.cc:266:slice$9814
-            if self.q86 != self.n86 { self.q86 = self.n86; dirty |= 0x100000000000044; } // $auto$ff.cc:266:slice$9817
+            if self.q87 != self.n87 { self.q87 = self.n87; dirty |= 0x100000000000044; } // $auto$ff.cc:266:slice$9821
+            if self.q88 != self.n88 { self.q88 = self.n88; dirty |= 0x100000050000001; } // $auto$ff.cc:266:slice$9824
         }
         if ran >> 57 & 1 != 0 {
-            if self.q83 != self.n83 { self.q83 = self.n83; dirty |= 0x2e010000200000000000044; } // $auto$ff.cc:266:slice$9806
-            if self.q84 != self.n84 { self.q84 = self.n84; dirty |= 0x200000200800042; } // $auto$ff.cc:266:slice$9810
+            if self.q85 != self.n85 { self.q85 = self.n85; dirty |= 0x200000000000044; } // $auto$ff.cc:266:slice$9816
+            if self.q86 != self.n86 { self.q86 = self.n86; dirty |= 0x200000000000044; } // $auto$ff.cc:266:slice$9819
         }
         if ran >> 58 & 1 != 0 {
-            if self.q81 != self.n81 { self.q81 = self.n81; dirty |= 0x8000000400000200800446; } // $auto$ff.cc:266:slice$9795
-            if self.q82 != self.n82 { self.q82 = self.n82; dirty |= 0x400000000000044; } // $auto$ff.cc:266:slice$9801
+            if self.q83 != self.n83 { self.q83 = self.n83; dirty |= 0x5c020000400000000000044; } // $auto$ff.cc:266:slice$9808
+            if self.q84 != self.n84 { self.q84 = self.n84; dirty |= 0x400004000800042; } // $auto$ff.cc:266:slice$9812
         }
         if ran >> 59 & 1 != 0 {
-            if self.q79 != self.n79 { self.q79 = self.n79; dirty |= 0x800000200800046; } // $auto$ff.cc:266:slice$9788
-            if self.q80 != self.n80 { self.q80 = self.n80; dirty |= 0x800000000000002; } // $auto$ff.cc:266:slice$9793
+            if self.q81 != self.n81 { self.q81 = self.n81; dirty |= 0x10000000800004000800446; } // $auto$ff.cc:266:slice$9797
+            if self.q82 != self.n82 { self.q82 = self.n82; dirty |= 0x800000000000044; } // $auto$ff.cc:266:slice$9803
         }
         if ran >> 60 & 1 != 0 {
-            if self.q77 != self.n77 { self.q77 = self.n77; dirty |= 0x100000001000000000000000; } // $auto$ff.cc:266:slice$9784
-            if self.q78 != self.n78 { self.q78 = self.n78; dirty |= 0x40000001000000000000000; } // $auto$ff.cc:266:slice$9786
+            if self.q79 != self.n79 { self.q79 = self.n79; dirty |= 0x1000004000800046; } // $auto$ff.cc:266:slice$9790
+            if self.q80 != self.n80 { self.q80 = self.n80; dirty |= 0x1000000000000002; } // $auto$ff.cc:266:slice$9795
         }
         if ran >> 61 & 1 != 0 {
-            if self.q75 != self.n75 { self.q75 = self.n75; dirty |= 0x2000000000000200; } // $auto$ff.cc:266:slice$9777
-            if self.q76 != self.n76 { self.q76 = self.n76; dirty |= 0x2000000000000200; } // $auto$ff.cc:266:slice$9780
+            if self.q77 != self.n77 { self.q77 = self.n77; dirty |= 0x200000002000000000000000; } // $auto$ff.cc:266:slice$9786
+            if self.q78 != self.n78 { self.q78 = self.n78; dirty |= 0x80000002000000000000000; } // $auto$ff.cc:266:slice$9788
         }
         if ran >> 62 & 1 != 0 {
-            if self.q73 != self.n73 { self.q73 = self.n73; dirty |= 0x4000000020022002; } // $auto$ff.cc:266:slice$9773
-            if self.q74 != self.n74 { self.q74 = self.n74; dirty |= 0x5080000068002403; } // $auto$ff.cc:266:slice$9774
+            if self.q75 != self.n75 { self.q75 = self.n75; dirty |= 0x4000000000000200; } // $auto$ff.cc:266:slice$9779
+            if self.q76 != self.n76 { self.q76 = self.n76; dirty |= 0x4000000000000200; } // $auto$ff.cc:266:slice$9782
         }
         if ran >> 63 & 1 != 0 {
-            if self.q71 != self.n71 { self.q71 = self.n71; dirty |= 0x8000000400001021; } // $auto$ff.cc:266:slice$9768
-            if self.q72 != self.n72 { self.q72 = self.n72; dirty |= 0x8000000040000002; } // $auto$ff.cc:266:slice$9769
+            if self.q73 != self.n73 { self.q73 = self.n73; dirty |= 0x8000000020022002; } // $auto$ff.cc:266:slice$9775
+            if self.q74 != self.n74 { self.q74 = self.n74; dirty |= 0xa100000068002403; } // $auto$ff.cc:266:slice$9776
         }
         if ran >> 64 & 1 != 0 {
-            if self.q70 != self.n70 { self.q70 = self.n70; dirty |= 0x10000000000000020; } // $auto$ff.cc:266:slice$9767
-            if self.q113 != self.n113 { self.q113 = self.n113; dirty |= 0x10800000100000001c0045381; } // $flatten\core.\protocol.\faults.\bus_off_state.$procdff$8797
+            if self.q71 != self.n71 { self.q71 = self.n71; dirty |= 0x10000000400001021; } // $auto$ff.cc:266:slice$9770
+            if self.q72 != self.n72 { self.q72 = self.n72; dirty |= 0x10000000040000002; } // $auto$ff.cc:266:slice$9771
         }
         if ran >> 65 & 1 != 0 {
-            if self.q114 != self.n114 { self.q114 = self.n114; dirty |= 0x1000000020000000000000203; } // $flatten\core.\protocol.\faults.\passive_state.$procdff$8796
-            if self.q115 != self.n115 { self.q115 = self.n115; dirty |= 0x80000000000000020000000048001003; } // $flatten\core.\protocol.\field.$procdff$8793
+            if self.q70 != self.n70 { self.q70 = self.n70; dirty |= 0x20000000000000020; } // $auto$ff.cc:266:slice$9769
+            if self.q113 != self.n113 { self.q113 = self.n113; dirty |= 0x11000000200000001c0045381; } // $flatten\core.\protocol.\faults.\bus_off_state.$procdff$8799
         }
         if ran >> 66 & 1 != 0 {
-            if self.q64 != self.n64 { self.q64 = self.n64; dirty |= 0x40000000014000000; } // $auto$ff.cc:266:slice$9735
-            if self.q116 != self.n116 { self.q116 = self.n116; dirty |= 0x40000000010001000; } // $flatten\core.\protocol.\in_frame.$procdff$8792
+            if self.q114 != self.n114 { self.q114 = self.n114; dirty |= 0x1000000040000000000000203; } // $flatten\core.\protocol.\faults.\passive_state.$procdff$8798
+            if self.q115 != self.n115 { self.q115 = self.n115; dirty |= 0x80000000000000040000000048001003; } // $flatten\core.\protocol.\field.$procdff$8795
         }
         if ran >> 67 & 1 != 0 {
-            if self.q62 != self.n62 { self.q62 = self.n62; dirty |= 0x80000000000000001; } // $auto$ff.cc:266:slice$9716
-            if self.q63 != self.n63 { self.q63 = self.n63; dirty |= 0x80000000004000001; } // $auto$ff.cc:266:slice$9734
+            if self.q64 != self.n64 { self.q64 = self.n64; dirty |= 0x80000000014000000; } // $auto$ff.cc:266:slice$9737
+            if self.q116 != self.n116 { self.q116 = self.n116; dirty |= 0x80000000010001000; } // $flatten\core.\protocol.\in_frame.$procdff$8794
         }
         if ran >> 68 & 1 != 0 {
-            if self.q60 != self.n60 { self.q60 = self.n60; dirty |= 0x100000000000000001; } // $auto$ff.cc:266:slice$9698
-            if self.q61 != self.n61 { self.q61 = self.n61; dirty |= 0x100000000000000001; } // $auto$ff.cc:266:slice$9704
+            if self.q62 != self.n62 { self.q62 = self.n62; dirty |= 0x100000000000000001; } // $auto$ff.cc:266:slice$9718
+            if self.q63 != self.n63 { self.q63 = self.n63; dirty |= 0x100000000004000001; } // $auto$ff.cc:266:slice$9736
         }
         if ran >> 69 & 1 != 0 {
-            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x200000000000002000; } // $auto$ff.cc:266:slice$9688
-            if self.q59 != self.n59 { self.q59 = self.n59; dirty |= 0x200000000036000401; } // $auto$ff.cc:266:slice$9690
+            if self.q60 != self.n60 { self.q60 = self.n60; dirty |= 0x200000000000000001; } // $auto$ff.cc:266:slice$9700
+            if self.q61 != self.n61 { self.q61 = self.n61; dirty |= 0x200000000000000001; } // $auto$ff.cc:266:slice$9706
         }
         if ran >> 70 & 1 != 0 {
-            if self.q117 != self.n117 { self.q117 = self.n117; dirty |= 0x400000020000100000; } // $flatten\core.\protocol.\sender.\tx_next.$procdff$8784
-            if self.q118 != self.n118 { self.q118 = self.n118; dirty |= 0x8000000000000040000000001010000b; } // $flatten\core.\protocol.\sender.\tx_reg.$procdff$8782
+            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x400000000000002000; } // $auto$ff.cc:266:slice$9690
+            if self.q59 != self.n59 { self.q59 = self.n59; dirty |= 0x400000000036000401; } // $auto$ff.cc:266:slice$9692
         }
         if ran >> 71 & 1 != 0 {
-            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x800000080002000000; } // $auto$ff.cc:266:slice$9666
-            if self.q104 != self.n104 { self.q104 = self.n104; dirty |= 0x800000000000100000; } // $auto$ff.cc:266:slice$9876
+            if self.q117 != self.n117 { self.q117 = self.n117; dirty |= 0x800000040000100000; } // $flatten\core.\protocol.\sender.\tx_next.$procdff$8786
+            if self.q118 != self.n118 { self.q118 = self.n118; dirty |= 0x8000000000000080000000001010000b; } // $flatten\core.\protocol.\sender.\tx_reg.$procdff$8784
         }
         if ran >> 72 & 1 != 0 {
-            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x1000000000002000002; } // $auto$ff.cc:266:slice$9658
-            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x1000000000002000000; } // $auto$ff.cc:266:slice$9664
+            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x1000000100002000000; } // $auto$ff.cc:266:slice$9668
+            if self.q104 != self.n104 { self.q104 = self.n104; dirty |= 0x1000000000000100000; } // $auto$ff.cc:266:slice$9878
         }
         if ran >> 73 & 1 != 0 {
-            if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x2000000000000000020; } // $auto$ff.cc:266:slice$9651
-            if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x2000000000010001003; } // $auto$ff.cc:266:slice$9657
+            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x2000000000002000002; } // $auto$ff.cc:266:slice$9660
+            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x2000000000002000000; } // $auto$ff.cc:266:slice$9666
         }
         if ran >> 74 & 1 != 0 {
-            if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x4000000200200040040; } // $auto$ff.cc:266:slice$9646
-            if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x4000000000000000040; } // $auto$ff.cc:266:slice$9647
+            if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x4000000000000000020; } // $auto$ff.cc:266:slice$9653
+            if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x4000000000010001003; } // $auto$ff.cc:266:slice$9659
         }
         if ran >> 75 & 1 != 0 {
-            if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x8000000000000000040; } // $auto$ff.cc:266:slice$9645
+            if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x8000000404000040040; } // $auto$ff.cc:266:slice$9648
+            if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x8000000000000000040; } // $auto$ff.cc:266:slice$9649
         }
         if ran >> 76 & 1 != 0 {
-            if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x10000000000000000040; } // $auto$ff.cc:266:slice$9642
+            if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x10000000000000000040; } // $auto$ff.cc:266:slice$9647
         }
         if ran >> 77 & 1 != 0 {
-            if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x800020000000000000040240; } // $auto$ff.cc:266:slice$9635
+            if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x20000000000000000040; } // $auto$ff.cc:266:slice$9644
         }
         if ran >> 78 & 1 != 0 {
-            if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x40000000000000000040; } // $auto$ff.cc:266:slice$9632
+            if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x800040000000000000040240; } // $auto$ff.cc:266:slice$9637
         }
         if ran >> 79 & 1 != 0 {
-            if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x90000000000000000040; } // $auto$ff.cc:266:slice$9625
+            if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x80000000000000000040; } // $auto$ff.cc:266:slice$9634
         }
         if ran >> 80 & 1 != 0 {
-            if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x100000000000000000040; } // $auto$ff.cc:266:slice$9638
-            if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x100000000200200000240; } // $auto$ff.cc:266:slice$9648
+            if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x120000000000000000040; } // $auto$ff.cc:266:slice$9627
         }
         if ran >> 81 & 1 != 0 {
-            if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x200000000000000000004; } // $auto$ff.cc:266:slice$9622
-            if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x200000000000200000040; } // $auto$ff.cc:266:slice$9628
+            if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x200000000000000000040; } // $auto$ff.cc:266:slice$9640
+            if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x200000000404000000240; } // $auto$ff.cc:266:slice$9650
         }
         if ran >> 82 & 1 != 0 {
-            if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x400000000000000000004; } // $auto$ff.cc:266:slice$9614
-            if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x400000000000000000004; } // $auto$ff.cc:266:slice$9618
+            if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x400000000000000000004; } // $auto$ff.cc:266:slice$9624
+            if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x400000000004000000040; } // $auto$ff.cc:266:slice$9630
         }
         if ran >> 83 & 1 != 0 {
-            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x800000000000000000004; } // $auto$ff.cc:266:slice$9606
-            if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x800000000000000000004; } // $auto$ff.cc:266:slice$9610
+            if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x800000000000000000004; } // $auto$ff.cc:266:slice$9616
+            if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x800000000000000000004; } // $auto$ff.cc:266:slice$9620
         }
         if ran >> 84 & 1 != 0 {
-            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x1000000000000000000004; } // $auto$ff.cc:266:slice$9598
-            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x1000000000000000000004; } // $auto$ff.cc:266:slice$9602
+            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x1000000000000000000004; } // $auto$ff.cc:266:slice$9608
+            if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x1000000000000000000004; } // $auto$ff.cc:266:slice$9612
         }
         if ran >> 85 & 1 != 0 {
-            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9592
-            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9594
+            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9600
+            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9604
         }
         if ran >> 86 & 1 != 0 {
-            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9590
-            if self.q119 != self.n119 { self.q119 = self.n119; dirty |= 0x4000000000000000000004; } // $flatten\filter.\dual1_data_match.$procdff$8752
+            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9594
+            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9596
         }
         if ran >> 87 & 1 != 0 {
-            if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9586
-            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9588
+            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9592
+            if self.q119 != self.n119 { self.q119 = self.n119; dirty |= 0x8000000000000000000004; } // $flatten\filter.\dual1_data_match.$procdff$8754
         }
         if ran >> 88 & 1 != 0 {
-            if self.q120 != self.n120 { self.q120 = self.n120; dirty |= 0x10000000000000000000004; } // $flatten\filter.\single_data1_match.$procdff$8748
-            if self.q121 != self.n121 { self.q121 = self.n121; dirty |= 0x10000000000000000000004; } // $flatten\filter.\single_data2_match.$procdff$8747
+            if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9588
+            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9590
         }
         if ran >> 89 & 1 != 0 {
-            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x20000000000000000000004; } // $auto$ff.cc:266:slice$9584
-            if self.q122 != self.n122 { self.q122 = self.n122; dirty |= 0x20000000000000000000200; } // $flatten\interrupts.\alc_armed.$procdff$8745
+            if self.q120 != self.n120 { self.q120 = self.n120; dirty |= 0x20000000000000000000004; } // $flatten\filter.\single_data1_match.$procdff$8750
+            if self.q121 != self.n121 { self.q121 = self.n121; dirty |= 0x20000000000000000000004; } // $flatten\filter.\single_data2_match.$procdff$8749
         }
         if ran >> 90 & 1 != 0 {
-            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x40000000000000000000240; } // $auto$ff.cc:266:slice$9580
-            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x40000000000200000000000; } // $auto$ff.cc:266:slice$9582
+            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x40000000000000000000004; } // $auto$ff.cc:266:slice$9586
+            if self.q122 != self.n122 { self.q122 = self.n122; dirty |= 0x40000000000000000000200; } // $flatten\interrupts.\alc_armed.$procdff$8747
         }
         if ran >> 91 & 1 != 0 {
-            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x80000000000000000000300; } // $auto$ff.cc:266:slice$9579
-            if self.q123 != self.n123 { self.q123 = self.n123; dirty |= 0x80000000000000000000200; } // $flatten\interrupts.\ecc_armed.$procdff$8741
+            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x80000000000000000000240; } // $auto$ff.cc:266:slice$9582
+            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x80000000000400000000000; } // $auto$ff.cc:266:slice$9584
         }
         if ran >> 92 & 1 != 0 {
-            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x100000000000200000000000; } // $auto$ff.cc:266:slice$9578
+            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x100000000000000000000300; } // $auto$ff.cc:266:slice$9581
+            if self.q123 != self.n123 { self.q123 = self.n123; dirty |= 0x100000000000000000000200; } // $flatten\interrupts.\ecc_armed.$procdff$8743
         }
         if ran >> 93 & 1 != 0 {
-            if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x200000000000000000040200; } // $auto$ff.cc:266:slice$9576
+            if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x200000000000000000040200; } // $auto$ff.cc:266:slice$9578
+            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x200000000000400000000000; } // $auto$ff.cc:266:slice$9580
         }
         if ran >> 94 & 1 != 0 {
-            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x400000000000200000040200; } // $auto$ff.cc:266:slice$9560
+            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x400000000000400000040200; } // $auto$ff.cc:266:slice$9562
         }
         if ran >> 95 & 1 != 0 {
-            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x800000000000000000000200; } // $auto$ff.cc:266:slice$9559
+            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x800000000000000000000200; } // $auto$ff.cc:266:slice$9561
         }
         if ran >> 96 & 1 != 0 {
-            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x1000000000000000000000200; } // $auto$ff.cc:266:slice$9558
+            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x1000000000000000000000200; } // $auto$ff.cc:266:slice$9560
         }
         if ran >> 97 & 1 != 0 {
-            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x2000000000000000000000200; } // $auto$ff.cc:266:slice$9554
+            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x2000000000000000000000200; } // $auto$ff.cc:266:slice$9556
         }
         if ran >> 99 & 1 != 0 {
-            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x8000000000000200000000004; } // $auto$ff.cc:266:slice$9551
+            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x8000000000000400000000004; } // $auto$ff.cc:266:slice$9553
         }
         if ran >> 100 & 1 != 0 {
-            if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x10000000000000200000000000; } // $auto$ff.cc:266:slice$9539
+            if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x10000000000000400000000000; } // $auto$ff.cc:266:slice$9541
         }
         if ran >> 101 & 1 != 0 {
-            if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x20000000000000000800000000; } // $auto$ff.cc:266:slice$9535
+            if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x20000000000000000800000000; } // $auto$ff.cc:266:slice$9537
         }
         if ran >> 102 & 1 != 0 {
-            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x40000000000000000800000000; } // $auto$ff.cc:266:slice$9534
+            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x40000000000000000800000000; } // $auto$ff.cc:266:slice$9536
         }
         if ran >> 103 & 1 != 0 {
-            if self.q124 != self.n124 { self.q124 = self.n124; dirty |= 0x80000000000000000000001003; } // $flatten\modes.\enable_reg.$procdff$8728
+            if self.q124 != self.n124 { self.q124 = self.n124; dirty |= 0x80000000000000000000001003; } // $flatten\modes.\enable_reg.$procdff$8730
         }
         if ran >> 104 & 1 != 0 {
-            if self.q125 != self.n125 { self.q125 = self.n125; dirty |= 0x100000000000000020000101001; } // $flatten\modes.\listen_only_reg.$procdff$8727
+            if self.q125 != self.n125 { self.q125 = self.n125; dirty |= 0x100000000000000040000101001; } // $flatten\modes.\listen_only_reg.$procdff$8729
         }
         if ran >> 105 & 1 != 0 {
-            if self.q126 != self.n126 { self.q126 = self.n126; dirty |= 0x200000000000000200000000100; } // $flatten\modes.\lom.$procdff$8726
+            if self.q126 != self.n126 { self.q126 = self.n126; dirty |= 0x200000000000000400000000100; } // $flatten\modes.\lom.$procdff$8728
         }
         if ran >> 106 & 1 != 0 {
-            if self.q127 != self.n127 { self.q127 = self.n127; dirty |= 0x401000080000000200200000b44; } // $flatten\modes.\rm.$procdff$8725
+            if self.q127 != self.n127 { self.q127 = self.n127; dirty |= 0x401000100000000404200000b44; } // $flatten\modes.\rm.$procdff$8727
         }
         if ran >> 107 & 1 != 0 {
-            if self.q128 != self.n128 { self.q128 = self.n128; dirty |= 0x800000000000000000000000002; } // $flatten\modes.\self_test_reg.$procdff$8724
+            if self.q128 != self.n128 { self.q128 = self.n128; dirty |= 0x800000000000000000000000002; } // $flatten\modes.\self_test_reg.$procdff$8726
         }
         if ran >> 108 & 1 != 0 {
-            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x1000000000000000000000000100; } // $auto$ff.cc:266:slice$9532
+            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x1000000000000000000000000100; } // $auto$ff.cc:266:slice$9534
         }
         if ran >> 109 & 1 != 0 {
-            if self.q129 != self.n129 { self.q129 = self.n129; dirty |= 0x2004000000000000200000200100; } // $flatten\modes.\sm.$procdff$8722
+            if self.q129 != self.n129 { self.q129 = self.n129; dirty |= 0x2004000000000000400000200100; } // $flatten\modes.\sm.$procdff$8724
         }
         if ran >> 110 & 1 != 0 {
-            if self.q130 != self.n130 { self.q130 = self.n130; dirty |= 0x4000000000000000200000000100; } // $flatten\modes.\stm.$procdff$8721
+            if self.q130 != self.n130 { self.q130 = self.n130; dirty |= 0x4000000000000000400000000100; } // $flatten\modes.\stm.$procdff$8723
         }
         if ran >> 111 & 1 != 0 {
-            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x8000000000000000000000000010; } // $auto$ff.cc:266:slice$9526
+            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x8000000000000000000000000010; } // $auto$ff.cc:266:slice$9528
         }
         if ran >> 112 & 1 != 0 {
-            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x10000000000000000200000000000; } // $auto$ff.cc:266:slice$9525
+            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x10000000000000000400000000000; } // $auto$ff.cc:266:slice$9527
         }
         if ran >> 113 & 1 != 0 {
-            if self.q106 != self.n106 { self.q106 = self.n106; dirty |= 0x20000000000000000000000000010; } // $auto$ff.cc:266:slice$9878
+            if self.q106 != self.n106 { self.q106 = self.n106; dirty |= 0x20000000000000000000000000010; } // $auto$ff.cc:266:slice$9880
         }
         if ran >> 114 & 1 != 0 {
-            if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x40000000000000000000000000010; } // $auto$ff.cc:266:slice$9522
+            if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x40000000000000000000000000010; } // $auto$ff.cc:266:slice$9524
         }
         if ran >> 115 & 1 != 0 {
-            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x80000000000000000000000000020; } // $auto$ff.cc:266:slice$9521
+            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x80000000000000000000000000020; } // $auto$ff.cc:266:slice$9523
         }
         if ran >> 116 & 1 != 0 {
-            if self.q131 != self.n131 { self.q131 = self.n131; dirty |= 0x100000000000000000000000044020; } // $flatten\tbs.$procdff$8715
+            if self.q131 != self.n131 { self.q131 = self.n131; dirty |= 0x100000000000000000000000044020; } // $flatten\tbs.$procdff$8717
         }
         if ran >> 117 & 1 != 0 {
-            if self.q132 != self.n132 { self.q132 = self.n132; dirty |= 0x200000000000000000000000040020; } // $flatten\tcs.$procdff$8714
+            if self.q132 != self.n132 { self.q132 = self.n132; dirty |= 0x200000000000000000000000040020; } // $flatten\tcs.$procdff$8716
         }
         if ran >> 118 & 1 != 0 {
-            if self.q107 != self.n107 { self.q107 = self.n107; dirty |= 0x400000000000000000000000080000; } // $auto$ff.cc:266:slice$9879
+            if self.q107 != self.n107 { self.q107 = self.n107; dirty |= 0x400000000000000000000000080000; } // $auto$ff.cc:266:slice$9881
         }
         if ran >> 120 & 1 != 0 {
-            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x1000000000000000000000000080000; } // $auto$ff.cc:266:slice$9515
+            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x1000000000000000000000000080000; } // $auto$ff.cc:266:slice$9517
         }
         if ran >> 121 & 1 != 0 {
-            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x2000000000000000000000000080000; } // $auto$ff.cc:266:slice$9512
+            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x2000000000000000000000000080000; } // $auto$ff.cc:266:slice$9514
         }
         if ran >> 123 & 1 != 0 {
-            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x8000000000000000000000000080000; } // $auto$ff.cc:266:slice$9510
+            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x8000000000000000000000000080000; } // $auto$ff.cc:266:slice$9512
         }
         if ran >> 124 & 1 != 0 {
-            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x10000000000000000000000000084020; } // $auto$ff.cc:266:slice$9509
+            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x10000000000000000000000000084020; } // $auto$ff.cc:266:slice$9511
         }
         if ran >> 125 & 1 != 0 {
-            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x20000000000000000000000000005021; } // $auto$ff.cc:266:slice$9505
+            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x20000000000000000000000000005021; } // $auto$ff.cc:266:slice$9507
         }
         if ran >> 126 & 1 != 0 {
-            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x40000000000000000000000000000001; } // $auto$ff.cc:266:slice$9504
+            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x40000000000000000000000000000001; } // $auto$ff.cc:266:slice$9506
         }
         self.dirty |= dirty;
     }
@@ -2180,9 +2182,9 @@ impl Model {
         let c629: u64 = u64::from((self.q115) == 0);
         if self.v629 != c629 { self.v629 = c629; *dirty |= 0x10001010; }
         let c635: u64 = if (c565) != 0 { (c495) } else { (0x0) };
-        if self.v635 != c635 { self.v635 = c635; *dirty |= 0x80000000000000000; }
+        if self.v635 != c635 { self.v635 = c635; *dirty |= 0x100000000000000000; }
         let c636: u64 = if (c565) != 0 { (0x0) } else { (c583) };
-        if self.v636 != c636 { self.v636 = c636; *dirty |= 0x100000000000000000; }
+        if self.v636 != c636 { self.v636 = c636; *dirty |= 0x200000000000000000; }
         let c637: u64 = if (c531) != 0 { (c588) } else { (self.q63) };
         if self.v637 != c637 { self.v637 = c637; *dirty |= 0x4000000; }
         let c640: u64 = (c592) & (c608) & 0x1;
@@ -2268,7 +2270,7 @@ impl Model {
         let c423: u64 = if (self.q52) != 0 { (0x0) } else { (c422) };
         let c424: u64 = if (self.q52) != 0 { (0x0) } else { (c420) };
         let c425: u64 = !(self.q109) & 0x1;
-        if self.v425 != c425 { self.v425 = c425; *dirty |= 0x20004000000; }
+        if self.v425 != c425 { self.v425 = c425; *dirty |= 0x40004000000; }
         let c366: u64 = (c382) & (c425) & 0x1;
         let c371: u64 = (c378) & (c425) & 0x1;
         let c395: u64 = ((self.q79) | (c366)) & 0x1;
@@ -2317,7 +2319,7 @@ impl Model {
         let c461: u64 = (self.q94) & (c444) & 0x1;
         if self.v461 != c461 { self.v461 = c461; *dirty |= 0x8000000; }
         let c462: u64 = (self.q94) & (c452) & 0x1;
-        if self.v462 != c462 { self.v462 = c462; *dirty |= 0x2000000000000000000; }
+        if self.v462 != c462 { self.v462 = c462; *dirty |= 0x4000000000000000000; }
         let c463: u64 = (self.q94) & (c453) & 0x1;
         if self.v463 != c463 { self.v463 = c463; *dirty |= 0x8000000; }
         let c464: u64 = (self.q94) & (c454) & 0x1;
@@ -2355,121 +2357,121 @@ impl Model {
     /// The cells of top$filter.
     fn group_2(&mut self, dirty: &mut u128) {
         let c113: u64 = ((self.q79 | ((self.q82 & 0x1f) << 1)) ^ ((self.q37 >> 2))) & 0x3f;
-        let c849: u64 = (self.q14) & (self.q127) & 0x1;
-        let c851: u64 = (self.i_we) & (self.q127) & 0x1;
-        if self.v851 != c851 { self.v851 = c851; *dirty |= 0x404020; }
-        let c853: u64 = (self.q28) & (self.q120) & 0x1;
-        let c854: u64 = (c853) & (self.q121) & 0x1;
-        let c855: u64 = (self.q31) & (self.q119) & 0x1;
-        let c870: u64 = u64::from(((self.i_addr >> 3)) == (0x2));
-        let c850: u64 = (c849) & (c870) & 0x1;
-        let c871: u64 = u64::from((self.i_addr) == (0x5));
-        let c872: u64 = u64::from((self.i_addr) == (0x4));
-        if self.v872 != c872 { self.v872 = c872; *dirty |= 0x200000000200; }
-        let c887: u64 = !(self.q29) & 0x1;
-        let c866: u64 = (self.q86) & (c887) & 0x1;
-        let c888: u64 = u64::from((self.q87) == 0);
-        let c891: u64 = u64::from((self.q87) == (0x1));
-        let c893: u64 = ((c872) | (c871)) & 0x1;
-        let c894: u64 = ((c855) | (self.q30)) & 0x1;
-        let c905: u64 = if (self.q81) != 0 { (((self.q82 >> 13) & 0xff)) } else { ((self.q79 << 4) | ((self.q82 & 0x7) << 5)) };
-        let c906: u64 = if (self.q81) != 0 { ((self.q82 >> 21)) } else { (((self.q82 >> 3) & 0xff)) };
-        let c907: u64 = ((self.q119) | (self.q83)) & 0x1;
-        let c908: u64 = ((self.q121) | (self.q83)) & 0x1;
-        let c909: u64 = ((self.q120) | (self.q83)) & 0x1;
-        let c910: u64 = if (self.q16) != 0 { (c854) } else { (c894) };
-        let c911: u64 = if (self.q14) != 0 { (c910) } else { (self.q32) };
-        if self.v911 != c911 { self.v911 = c911; *dirty |= 0x20; }
-        let c919: u64 = if (self.q14) != 0 { (c850) } else { (c893) };
-        if self.v919 != c919 { self.v919 = c919; *dirty |= 0x200000000000; }
-        let c852: u64 = (c851) & (c919) & 0x1;
-        let c920: u64 = if (self.q14) != 0 { ((self.i_addr & 0x7)) } else { ((c871 << 2)) };
-        let c873: u64 = u64::from((c920) == (0x1));
-        let c57: u64 = u64::from((c852 | (c873 << 1)) == 0x3);
-        if self.v57 != c57 { self.v57 = c57; *dirty |= 0x400000000000000000000; }
-        let c874: u64 = u64::from((c920) == (0x2));
-        let c56: u64 = u64::from((c852 | (c874 << 1)) == 0x3);
-        if self.v56 != c56 { self.v56 = c56; *dirty |= 0x400000000000000000000; }
-        let c875: u64 = u64::from((c920) == 0);
-        let c58: u64 = u64::from((c875 | (c852 << 1)) == 0x3);
-        if self.v58 != c58 { self.v58 = c58; *dirty |= 0x200000000000000000000; }
-        let c876: u64 = u64::from((c920) == (0x3));
-        let c55: u64 = u64::from((c852 | (c876 << 1)) == 0x3);
-        if self.v55 != c55 { self.v55 = c55; *dirty |= 0x800000000000000000000; }
-        let c877: u64 = u64::from((c920) == (0x4));
-        let c54: u64 = u64::from((c852 | (c877 << 1)) == 0x3);
-        if self.v54 != c54 { self.v54 = c54; *dirty |= 0x800000000000000000000; }
-        let c878: u64 = u64::from((c920) == (0x5));
-        let c53: u64 = u64::from((c852 | (c878 << 1)) == 0x3);
-        if self.v53 != c53 { self.v53 = c53; *dirty |= 0x1000000000000000000000; }
-        let c879: u64 = u64::from((c920) == (0x6));
-        let c52: u64 = u64::from((c852 | (c879 << 1)) == 0x3);
-        if self.v52 != c52 { self.v52 = c52; *dirty |= 0x1000000000000000000000; }
-        let c880: u64 = u64::from((c920) == (0x7));
-        let c51: u64 = u64::from((c852 | (c880 << 1)) == 0x3);
-        if self.v51 != c51 { self.v51 = c51; *dirty |= 0x2000000000000000000000; }
-        let c918: u64 = if (c873) != 0 { (self.q39) } else { (self.q40) };
-        let c917: u64 = if (c874) != 0 { (self.q38) } else { (c918) };
-        let c916: u64 = if (c876) != 0 { (self.q37) } else { (c917) };
-        let c915: u64 = if (c877) != 0 { (self.q36) } else { (c916) };
-        let c914: u64 = if (c878) != 0 { (self.q35) } else { (c915) };
-        let c913: u64 = if (c879) != 0 { (self.q34) } else { (c914) };
-        let c912: u64 = if (c880) != 0 { (self.q33) } else { (c913) };
-        if self.v912 != c912 { self.v912 = c912; *dirty |= 0x200000000000; }
-        let c921: u64 = ((c906) ^ (self.q40)) & 0xff;
-        let c922: u64 = ((self.q36) ^ (0xff)) & 0xff;
-        let c856: u64 = (c921) & (c922) & 0xff;
-        let c881: u64 = u64::from((c856) == 0);
-        if self.v881 != c881 { self.v881 = c881; *dirty |= 0x2000000000000000000000; }
-        let c923: u64 = ((c905) ^ (self.q39)) & 0xff;
-        let c924: u64 = ((self.q35) ^ (0xff)) & 0xff;
-        let c857: u64 = (c923) & (c924) & 0xff;
-        let c116: u64 = ((c857 & 0xf)) & (self.q81 | (self.q81 << 1) | (self.q81 << 2) | (self.q81 << 3)) & 0xf;
-        let c882: u64 = u64::from((c116 | ((c857 >> 4) << 4)) == 0);
-        let c862: u64 = (c881) & (c882) & 0x1;
-        if self.v862 != c862 { self.v862 = c862; *dirty |= 0x4000000000000000000000; }
-        let c925: u64 = ((((self.q82 >> 5) & 0xff)) ^ (self.q38)) & 0xff;
-        let c926: u64 = ((c906) ^ (self.q38)) & 0xff;
-        let c927: u64 = ((self.q34) ^ (0xff)) & 0xff;
-        let c858: u64 = (c925) & (c927) & 0xff;
-        let c860: u64 = (c926) & (c927) & 0xff;
-        let c883: u64 = u64::from((c860) == 0);
-        let c885: u64 = u64::from((c858) == 0);
-        let c928: u64 = ((c905) ^ (self.q37)) & 0xff;
-        let c929: u64 = ((self.q33) ^ (0xff)) & 0xff;
-        let c859: u64 = ((self.q37 & 0x3) | (c113 << 2)) & (c929) & 0xff;
-        let c861: u64 = (c928) & (c929) & 0xff;
-        let c117: u64 = ((c861 & 0xf)) & (self.q81 | (self.q81 << 1) | (self.q81 << 2) | (self.q81 << 3)) & 0xf;
-        let c884: u64 = u64::from((c117 | ((c861 >> 4) << 4)) == 0);
-        let c863: u64 = (c883) & (c884) & 0x1;
-        if self.v863 != c863 { self.v863 = c863; *dirty |= 0x8000000000000000000000; }
-        let c886: u64 = u64::from(((c859 >> 2)) == 0);
-        let c864: u64 = (c885) & (c886) & 0x1;
-        let c895: u64 = ((self.v381) | (c864)) & 0x1;
-        let c865: u64 = (c862) & (c895) & 0x1;
-        if self.v865 != c865 { self.v865 = c865; *dirty |= 0x20000000000000000000000; }
-        let c930: u64 = ((self.q85) ^ (self.q38)) & 0xff;
-        let c867: u64 = (c930) & (c927) & 0xff;
+        let c848: u64 = (self.q14) & (self.q127) & 0x1;
+        let c850: u64 = (self.i_we) & (self.q127) & 0x1;
+        if self.v850 != c850 { self.v850 = c850; *dirty |= 0x404020; }
+        let c852: u64 = (self.q28) & (self.q120) & 0x1;
+        let c853: u64 = (c852) & (self.q121) & 0x1;
+        let c854: u64 = (self.q31) & (self.q119) & 0x1;
+        let c869: u64 = u64::from(((self.i_addr >> 3)) == (0x2));
+        let c849: u64 = (c848) & (c869) & 0x1;
+        let c870: u64 = u64::from((self.i_addr) == (0x5));
+        let c871: u64 = u64::from((self.i_addr) == (0x4));
+        if self.v871 != c871 { self.v871 = c871; *dirty |= 0x400000000200; }
+        let c886: u64 = !(self.q29) & 0x1;
+        let c865: u64 = (self.q86) & (c886) & 0x1;
+        let c887: u64 = u64::from((self.q87) == 0);
+        let c890: u64 = u64::from((self.q87) == (0x1));
+        let c892: u64 = ((c871) | (c870)) & 0x1;
+        let c893: u64 = ((c854) | (self.q30)) & 0x1;
+        let c904: u64 = if (self.q81) != 0 { (((self.q82 >> 13) & 0xff)) } else { ((self.q79 << 4) | ((self.q82 & 0x7) << 5)) };
+        let c905: u64 = if (self.q81) != 0 { ((self.q82 >> 21)) } else { (((self.q82 >> 3) & 0xff)) };
+        let c906: u64 = ((self.q119) | (self.q83)) & 0x1;
+        let c907: u64 = ((self.q121) | (self.q83)) & 0x1;
+        let c908: u64 = ((self.q120) | (self.q83)) & 0x1;
+        let c909: u64 = if (self.q16) != 0 { (c853) } else { (c893) };
+        let c910: u64 = if (self.q14) != 0 { (c909) } else { (self.q32) };
+        if self.v910 != c910 { self.v910 = c910; *dirty |= 0x20; }
+        let c918: u64 = if (self.q14) != 0 { (c849) } else { (c892) };
+        if self.v918 != c918 { self.v918 = c918; *dirty |= 0x400000000000; }
+        let c851: u64 = (c850) & (c918) & 0x1;
+        let c919: u64 = if (self.q14) != 0 { ((self.i_addr & 0x7)) } else { ((c870 << 2)) };
+        let c872: u64 = u64::from((c919) == (0x1));
+        let c57: u64 = u64::from((c851 | (c872 << 1)) == 0x3);
+        if self.v57 != c57 { self.v57 = c57; *dirty |= 0x800000000000000000000; }
+        let c873: u64 = u64::from((c919) == (0x2));
+        let c56: u64 = u64::from((c851 | (c873 << 1)) == 0x3);
+        if self.v56 != c56 { self.v56 = c56; *dirty |= 0x800000000000000000000; }
+        let c874: u64 = u64::from((c919) == 0);
+        let c58: u64 = u64::from((c874 | (c851 << 1)) == 0x3);
+        if self.v58 != c58 { self.v58 = c58; *dirty |= 0x400000000000000000000; }
+        let c875: u64 = u64::from((c919) == (0x3));
+        let c55: u64 = u64::from((c851 | (c875 << 1)) == 0x3);
+        if self.v55 != c55 { self.v55 = c55; *dirty |= 0x1000000000000000000000; }
+        let c876: u64 = u64::from((c919) == (0x4));
+        let c54: u64 = u64::from((c851 | (c876 << 1)) == 0x3);
+        if self.v54 != c54 { self.v54 = c54; *dirty |= 0x1000000000000000000000; }
+        let c877: u64 = u64::from((c919) == (0x5));
+        let c53: u64 = u64::from((c851 | (c877 << 1)) == 0x3);
+        if self.v53 != c53 { self.v53 = c53; *dirty |= 0x2000000000000000000000; }
+        let c878: u64 = u64::from((c919) == (0x6));
+        let c52: u64 = u64::from((c851 | (c878 << 1)) == 0x3);
+        if self.v52 != c52 { self.v52 = c52; *dirty |= 0x2000000000000000000000; }
+        let c879: u64 = u64::from((c919) == (0x7));
+        let c51: u64 = u64::from((c851 | (c879 << 1)) == 0x3);
+        if self.v51 != c51 { self.v51 = c51; *dirty |= 0x4000000000000000000000; }
+        let c917: u64 = if (c872) != 0 { (self.q39) } else { (self.q40) };
+        let c916: u64 = if (c873) != 0 { (self.q38) } else { (c917) };
+        let c915: u64 = if (c875) != 0 { (self.q37) } else { (c916) };
+        let c914: u64 = if (c876) != 0 { (self.q36) } else { (c915) };
+        let c913: u64 = if (c877) != 0 { (self.q35) } else { (c914) };
+        let c912: u64 = if (c878) != 0 { (self.q34) } else { (c913) };
+        let c911: u64 = if (c879) != 0 { (self.q33) } else { (c912) };
+        if self.v911 != c911 { self.v911 = c911; *dirty |= 0x400000000000; }
+        let c920: u64 = ((c905) ^ (self.q40)) & 0xff;
+        let c921: u64 = ((self.q36) ^ (0xff)) & 0xff;
+        let c855: u64 = (c920) & (c921) & 0xff;
+        let c880: u64 = u64::from((c855) == 0);
+        if self.v880 != c880 { self.v880 = c880; *dirty |= 0x4000000000000000000000; }
+        let c922: u64 = ((c904) ^ (self.q39)) & 0xff;
+        let c923: u64 = ((self.q35) ^ (0xff)) & 0xff;
+        let c856: u64 = (c922) & (c923) & 0xff;
+        let c116: u64 = ((c856 & 0xf)) & (self.q81 | (self.q81 << 1) | (self.q81 << 2) | (self.q81 << 3)) & 0xf;
+        let c881: u64 = u64::from((c116 | ((c856 >> 4) << 4)) == 0);
+        let c861: u64 = (c880) & (c881) & 0x1;
+        if self.v861 != c861 { self.v861 = c861; *dirty |= 0x8000000000000000000000; }
+        let c924: u64 = ((((self.q82 >> 5) & 0xff)) ^ (self.q38)) & 0xff;
+        let c925: u64 = ((c905) ^ (self.q38)) & 0xff;
+        let c926: u64 = ((self.q34) ^ (0xff)) & 0xff;
+        let c857: u64 = (c924) & (c926) & 0xff;
+        let c859: u64 = (c925) & (c926) & 0xff;
+        let c882: u64 = u64::from((c859) == 0);
+        let c884: u64 = u64::from((c857) == 0);
+        let c927: u64 = ((c904) ^ (self.q37)) & 0xff;
+        let c928: u64 = ((self.q33) ^ (0xff)) & 0xff;
+        let c858: u64 = ((self.q37 & 0x3) | (c113 << 2)) & (c928) & 0xff;
+        let c860: u64 = (c927) & (c928) & 0xff;
+        let c117: u64 = ((c860 & 0xf)) & (self.q81 | (self.q81 << 1) | (self.q81 << 2) | (self.q81 << 3)) & 0xf;
+        let c883: u64 = u64::from((c117 | ((c860 >> 4) << 4)) == 0);
+        let c862: u64 = (c882) & (c883) & 0x1;
+        if self.v862 != c862 { self.v862 = c862; *dirty |= 0x10000000000000000000000; }
+        let c885: u64 = u64::from(((c858 >> 2)) == 0);
+        let c863: u64 = (c884) & (c885) & 0x1;
+        let c894: u64 = ((self.v381) | (c863)) & 0x1;
+        let c864: u64 = (c861) & (c894) & 0x1;
+        if self.v864 != c864 { self.v864 = c864; *dirty |= 0x40000000000000000000000; }
+        let c929: u64 = ((self.q85) ^ (self.q38)) & 0xff;
+        let c866: u64 = (c929) & (c926) & 0xff;
+        let c888: u64 = u64::from((c866) == 0);
+        let c900: u64 = if (c887) != 0 { (c888) } else { (c908) };
+        let c903: u64 = if (c865) != 0 { (c900) } else { (c908) };
+        let c897: u64 = ((c903) | (self.i_reset)) & 0x1;
+        if self.v897 != c897 { self.v897 = c897; *dirty |= 0x20000000000000000000000; }
+        let c930: u64 = ((self.q85) ^ ((self.q37 & 0xf) | ((self.q39 & 0xf) << 4))) & 0xff;
+        let c931: u64 = (((self.q33 & 0xf) | ((self.q35 & 0xf) << 4)) ^ (0xff)) & 0xff;
+        let c867: u64 = (c930) & (c931) & 0xff;
         let c889: u64 = u64::from((c867) == 0);
-        let c901: u64 = if (c888) != 0 { (c889) } else { (c909) };
-        let c904: u64 = if (c866) != 0 { (c901) } else { (c909) };
-        let c898: u64 = ((c904) | (self.i_reset)) & 0x1;
-        if self.v898 != c898 { self.v898 = c898; *dirty |= 0x10000000000000000000000; }
-        let c931: u64 = ((self.q85) ^ ((self.q37 & 0xf) | ((self.q39 & 0xf) << 4))) & 0xff;
-        let c932: u64 = (((self.q33 & 0xf) | ((self.q35 & 0xf) << 4)) ^ (0xff)) & 0xff;
-        let c868: u64 = (c931) & (c932) & 0xff;
-        let c890: u64 = u64::from((c868) == 0);
-        let c900: u64 = if (c888) != 0 { (c890) } else { (c907) };
-        let c903: u64 = if (c866) != 0 { (c900) } else { (c907) };
-        let c896: u64 = ((c903) | (self.i_reset)) & 0x1;
-        if self.v896 != c896 { self.v896 = c896; *dirty |= 0x4000000000000000000000; }
-        let c933: u64 = ((self.q85) ^ (self.q37)) & 0xff;
-        let c869: u64 = (c933) & (c929) & 0xff;
-        let c892: u64 = u64::from((c869) == 0);
-        let c899: u64 = if (c891) != 0 { (c892) } else { (c908) };
-        let c902: u64 = if (c866) != 0 { (c899) } else { (c908) };
-        let c897: u64 = ((c902) | (self.i_reset)) & 0x1;
-        if self.v897 != c897 { self.v897 = c897; *dirty |= 0x10000000000000000000000; }
+        let c899: u64 = if (c887) != 0 { (c889) } else { (c906) };
+        let c902: u64 = if (c865) != 0 { (c899) } else { (c906) };
+        let c895: u64 = ((c902) | (self.i_reset)) & 0x1;
+        if self.v895 != c895 { self.v895 = c895; *dirty |= 0x8000000000000000000000; }
+        let c932: u64 = ((self.q85) ^ (self.q37)) & 0xff;
+        let c868: u64 = (c932) & (c928) & 0xff;
+        let c891: u64 = u64::from((c868) == 0);
+        let c898: u64 = if (c890) != 0 { (c891) } else { (c907) };
+        let c901: u64 = if (c865) != 0 { (c898) } else { (c907) };
+        let c896: u64 = ((c901) | (self.i_reset)) & 0x1;
+        if self.v896 != c896 { self.v896 = c896; *dirty |= 0x20000000000000000000000; }
         let _ = &dirty;
     }
 
@@ -2478,35 +2480,35 @@ impl Model {
         let c111: u64 = !(self.q99) & 0x3;
         let c119: u64 = !(self.q108) & 0x7;
         let c137: u64 = (self.q99).wrapping_add((0x1)) & 0x7;
-        if self.v137 != c137 { self.v137 = c137; *dirty |= 0x20000000000000; }
+        if self.v137 != c137 { self.v137 = c137; *dirty |= 0x40000000000000; }
         let c138: u64 = (self.q96 | (self.q97 << 1)).wrapping_add((0x1)) & 0x7f;
-        if self.v138 != c138 { self.v138 = c138; *dirty |= 0x8000000000; }
+        if self.v138 != c138 { self.v138 = c138; *dirty |= 0x10000000000; }
         let c140: u64 = (self.q95).wrapping_add((0x1)) & 0x7;
-        if self.v140 != c140 { self.v140 = c140; *dirty |= 0x2000000000000; }
-        let c157: u64 = u64::from((self.q93) == 0);
-        let c158: u64 = u64::from((self.q93) == (self.q108));
-        let c159: u64 = u64::from((self.q91) == (0x1));
-        if self.v159 != c159 { self.v159 = c159; *dirty |= 0x10000; }
+        if self.v140 != c140 { self.v140 = c140; *dirty |= 0x4000000000000; }
+        let c157: u64 = u64::from((self.q93) == (self.q108));
+        let c158: u64 = u64::from((self.q91) == (0x1));
+        if self.v158 != c158 { self.v158 = c158; *dirty |= 0x10000; }
+        let c159: u64 = u64::from((self.q93) == 0);
         let c160: u64 = u64::from((self.q96 | (self.q97 << 1)) == 0);
         let c161: u64 = u64::from((self.q96 | (self.q97 << 1)) >= (((self.q103 & 0x3f) << 1) | 0x1));
         if self.v161 != c161 { self.v161 = c161; *dirty |= 0x10000; }
-        let c143: u64 = (c161) & (c157) & 0x1;
+        let c143: u64 = (c161) & (c159) & 0x1;
         if self.v143 != c143 { self.v143 = c143; *dirty |= 0x10000; }
-        let c145: u64 = (c161) & (c158) & 0x1;
+        let c145: u64 = (c161) & (c157) & 0x1;
         if self.v145 != c145 { self.v145 = c145; *dirty |= 0x10000; }
-        let c147: u64 = (c159) & (c161) & 0x1;
-        let c148: u64 = (c147) & (c157) & 0x1;
+        let c147: u64 = (c158) & (c161) & 0x1;
+        let c148: u64 = (c147) & (c159) & 0x1;
         if self.v148 != c148 { self.v148 = c148; *dirty |= 0x10000; }
         let c162: u64 = u64::from((self.q95) <= (self.q99));
         let c163: u64 = u64::from((self.q93) <= (self.q99));
         let c164: u64 = u64::from((self.q95) != (0x4));
         let c75: u64 = u64::from((c161 | (c164 << 1)) == 0x3);
-        if self.v75 != c75 { self.v75 = c75; *dirty |= 0x2000000000000; }
+        if self.v75 != c75 { self.v75 = c75; *dirty |= 0x4000000000000; }
         let c165: u64 = !(self.q90) & 0x1;
         if self.v165 != c165 { self.v165 = c165; *dirty |= 0x10000; }
-        let c170: u64 = !(self.i_reset) & 0x1;
+        let c170: u64 = !(self.q94) & 0x1;
         if self.v170 != c170 { self.v170 = c170; *dirty |= 0x10000; }
-        let c171: u64 = !(self.q94) & 0x1;
+        let c171: u64 = !(self.i_reset) & 0x1;
         if self.v171 != c171 { self.v171 = c171; *dirty |= 0x10000; }
         let c189: u64 = u64::from((self.q91) == 0);
         if self.v189 != c189 { self.v189 = c189; *dirty |= 0x10000; }
@@ -2522,19 +2524,19 @@ impl Model {
         let c199: u64 = !(c162) & 0x1;
         let c200: u64 = (self.q118) & (c199) & 0x1;
         let c201: u64 = (self.q118) & (c162) & 0x1;
-        let c203: u64 = u64::from((self.q91) == (0x2));
+        let c203: u64 = (c158) & (c200) & 0x1;
         if self.v203 != c203 { self.v203 = c203; *dirty |= 0x10000; }
-        let c39: u64 = u64::from((c189 | (c159 << 1) | (c203 << 2)) != 0);
-        if self.v39 != c39 { self.v39 = c39; *dirty |= 0x10000; }
-        let c190: u64 = { let s = (c203 | (c159 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
-        if self.v190 != c190 { self.v190 = c190; *dirty |= 0x20000000000000; }
-        let c202: u64 = (c203) & (c198) & 0x1;
-        if self.v202 != c202 { self.v202 = c202; *dirty |= 0x10000; }
-        let c204: u64 = (c159) & (c200) & 0x1;
-        if self.v204 != c204 { self.v204 = c204; *dirty |= 0x10000; }
-        let c205: u64 = (c203) & (c163) & 0x1;
+        let c205: u64 = u64::from((self.q91) == (0x2));
         if self.v205 != c205 { self.v205 = c205; *dirty |= 0x10000; }
-        let c206: u64 = (c159) & (c201) & 0x1;
+        let c39: u64 = u64::from((c189 | (c158 << 1) | (c205 << 2)) != 0);
+        if self.v39 != c39 { self.v39 = c39; *dirty |= 0x10000; }
+        let c190: u64 = { let s = (c205 | (c158 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
+        if self.v190 != c190 { self.v190 = c190; *dirty |= 0x40000000000000; }
+        let c202: u64 = (c205) & (c198) & 0x1;
+        if self.v202 != c202 { self.v202 = c202; *dirty |= 0x10000; }
+        let c204: u64 = (c205) & (c163) & 0x1;
+        if self.v204 != c204 { self.v204 = c204; *dirty |= 0x10000; }
+        let c206: u64 = (c158) & (c201) & 0x1;
         if self.v206 != c206 { self.v206 = c206; *dirty |= 0x10000; }
         let _ = &dirty;
     }
@@ -2545,29 +2547,29 @@ impl Model {
         let c1043: u64 = u64::from((self.i_addr) == (0x2));
         if self.v1043 != c1043 { self.v1043 = c1043; *dirty |= 0x40000; }
         let c1044: u64 = u64::from((self.i_addr) == (0xb));
-        if self.v1044 != c1044 { self.v1044 = c1044; *dirty |= 0x200000000200; }
+        if self.v1044 != c1044 { self.v1044 = c1044; *dirty |= 0x400000000200; }
         let c1045: u64 = u64::from((self.i_addr) == (0xc));
-        if self.v1045 != c1045 { self.v1045 = c1045; *dirty |= 0x200000000200; }
+        if self.v1045 != c1045 { self.v1045 = c1045; *dirty |= 0x400000000200; }
         let c1046: u64 = u64::from((self.i_addr) == (0xe));
-        if self.v1046 != c1046 { self.v1046 = c1046; *dirty |= 0x200000000020; }
+        if self.v1046 != c1046 { self.v1046 = c1046; *dirty |= 0x400000000020; }
         let c1047: u64 = u64::from((self.i_addr) == (0xf));
-        if self.v1047 != c1047 { self.v1047 = c1047; *dirty |= 0x200000000020; }
+        if self.v1047 != c1047 { self.v1047 = c1047; *dirty |= 0x400000000020; }
         let c1048: u64 = u64::from((self.i_addr) == (0x1d));
-        if self.v1048 != c1048 { self.v1048 = c1048; *dirty |= 0x200000000000; }
+        if self.v1048 != c1048 { self.v1048 = c1048; *dirty |= 0x400000000000; }
         let c1049: u64 = u64::from((self.i_addr) == (0x1e));
-        if self.v1049 != c1049 { self.v1049 = c1049; *dirty |= 0x200000000020; }
+        if self.v1049 != c1049 { self.v1049 = c1049; *dirty |= 0x400000000020; }
         let c1050: u64 = u64::from((self.i_addr) == 0);
-        if self.v1050 != c1050 { self.v1050 = c1050; *dirty |= 0x200400000100; }
+        if self.v1050 != c1050 { self.v1050 = c1050; *dirty |= 0x400400000100; }
         let c1051: u64 = u64::from((self.i_addr) == (0x1));
-        if self.v1051 != c1051 { self.v1051 = c1051; *dirty |= 0x200000000800; }
+        if self.v1051 != c1051 { self.v1051 = c1051; *dirty |= 0x400000000800; }
         let c1052: u64 = u64::from((self.i_addr) == (0x3));
-        if self.v1052 != c1052 { self.v1052 = c1052; *dirty |= 0x200000040200; }
+        if self.v1052 != c1052 { self.v1052 = c1052; *dirty |= 0x400000040200; }
         let c1053: u64 = u64::from((self.i_addr) == (0x15));
         if self.v1053 != c1053 { self.v1053 = c1053; *dirty |= 0x40000; }
         let c1054: u64 = ((self.v629) | (self.v561)) & 0x1;
         if self.v1054 != c1054 { self.v1054 = c1054; *dirty |= 0x1000; }
         let c1059: u64 = if (self.q9) != 0 { (c118 | ((self.m0_rd >> 4) << 4)) } else { (self.q7) };
-        if self.v1059 != c1059 { self.v1059 = c1059; *dirty |= 0x200000000000; }
+        if self.v1059 != c1059 { self.v1059 = c1059; *dirty |= 0x400000000000; }
         let c1084: u64 = if (self.q14) != 0 { (self.q21) } else { (0x1) };
         if self.v1084 != c1084 { self.v1084 = c1084; *dirty |= 0x400040000; }
         let _ = &dirty;
@@ -2575,13 +2577,13 @@ impl Model {
 
     /// The cells of can_controller.
     fn group_5(&mut self, dirty: &mut u128) {
-        let c0: u64 = (self.v851) & (self.q14) & 0x1;
+        let c0: u64 = (self.v850) & (self.q14) & 0x1;
         let c1: u64 = (c0) & (self.v1047) & 0x1;
         if self.v1 != c1 { self.v1 = c1; *dirty |= 0x180004000; }
         let c2: u64 = (c0) & (self.v1046) & 0x1;
         if self.v2 != c2 { self.v2 = c2; *dirty |= 0x80; }
         let c3: u64 = (c0) & (self.v1049) & 0x1;
-        if self.v3 != c3 { self.v3 = c3; *dirty |= 0x200000040; }
+        if self.v3 != c3 { self.v3 = c3; *dirty |= 0x4000000040; }
         let c13: u64 = (self.q71) & (self.q70) & 0x1;
         let c14: u64 = (c13) & (self.q6) & 0x1;
         let c769: u64 = { let s = (self.i_addr); if s < 256 { TABLE_0[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
@@ -2596,93 +2598,93 @@ impl Model {
         if self.v773 != c773 { self.v773 = c773; *dirty |= 0x800; }
         let c774: u64 = { let s = (self.i_addr); if s < 256 { TABLE_5[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
         if self.v774 != c774 { self.v774 = c774; *dirty |= 0x40000; }
-        let c1095: u64 = if ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) < 16 { (self.q2) >> ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) & 0x1 } else { 0 };
-        if self.v1095 != c1095 { self.v1095 = c1095; *dirty |= 0x1000000000000000000000000000000; }
-        let c1099: u64 = ((self.q51) | (c14)) & 0x1;
-        let c15: u64 = (c1099) & (self.v911) & 0x1;
-        let c1100: u64 = ((self.q14) | (self.v381)) & 0x1;
-        let c16: u64 = (c15) & (c1100) & 0x1;
+        let c1098: u64 = if ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) < 16 { (self.q2) >> ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) & 0x1 } else { 0 };
+        if self.v1098 != c1098 { self.v1098 = c1098; *dirty |= 0x80000; }
+        let c1102: u64 = ((self.q51) | (c14)) & 0x1;
+        let c15: u64 = (c1102) & (self.v910) & 0x1;
+        let c1103: u64 = ((self.q14) | (self.v381)) & 0x1;
+        let c16: u64 = (c15) & (c1103) & 0x1;
         if self.v16 != c16 { self.v16 = c16; *dirty |= 0x40; }
-        let c1107: u64 = if (self.q71) != 0 { (self.q70) } else { (self.q132) };
-        if self.v1107 != c1107 { self.v1107 = c1107; *dirty |= 0x4000; }
-        let c1108: u64 = ((self.q131) | (self.q71)) & 0x1;
-        if self.v1108 != c1108 { self.v1108 = c1108; *dirty |= 0x4000; }
-        let c1109: u64 = if (self.q71) != 0 { (0x0) } else { (self.q1) };
-        if self.v1109 != c1109 { self.v1109 = c1109; *dirty |= 0x4000; }
+        let c1110: u64 = if (self.q71) != 0 { (self.q70) } else { (self.q132) };
+        if self.v1110 != c1110 { self.v1110 = c1110; *dirty |= 0x4000; }
+        let c1111: u64 = ((self.q131) | (self.q71)) & 0x1;
+        if self.v1111 != c1111 { self.v1111 = c1111; *dirty |= 0x4000; }
+        let c1112: u64 = if (self.q71) != 0 { (0x0) } else { (self.q1) };
+        if self.v1112 != c1112 { self.v1112 = c1112; *dirty |= 0x4000; }
         let _ = &dirty;
     }
 
     /// The cells of top$fifo.
     fn group_6(&mut self, dirty: &mut u128) {
         let c780: u64 = (self.q46).wrapping_add((0x1)) & 0x7;
-        let c790: u64 = (self.v16) & (self.q45) & 0x1;
-        let c792: u64 = u64::from((self.q46) == (0x3));
-        let c793: u64 = u64::from((self.q46) == (0x4));
-        let c794: u64 = u64::from((self.q46) == (0x1));
-        let c795: u64 = u64::from((self.q46) == (0x2));
-        let c796: u64 = !(self.q45) & 0x1;
-        let c789: u64 = (self.v16) & (c796) & 0x1;
-        if self.v789 != c789 { self.v789 = c789; *dirty |= 0x200000000; }
-        let c20: u64 = u64::from((c789 | (self.q127 << 1)) != 0);
-        if self.v20 != c20 { self.v20 = c20; *dirty |= 0x40000000000000000000; }
-        let c798: u64 = u64::from((self.q50) != 0);
-        if self.v798 != c798 { self.v798 = c798; *dirty |= 0x2000000000000000200040200; }
-        let c106: u64 = (self.q26) & (c798) & 0x1;
-        let c123: u64 = if (self.q14) != 0 { (c798) } else { (c106) };
+        let c789: u64 = (self.v16) & (self.q45) & 0x1;
+        let c791: u64 = u64::from((self.q46) == (0x1));
+        let c792: u64 = u64::from((self.q46) == (0x2));
+        let c793: u64 = u64::from((self.q46) == (0x3));
+        let c794: u64 = u64::from((self.q46) == (0x4));
+        let c795: u64 = !(self.q45) & 0x1;
+        let c788: u64 = (self.v16) & (c795) & 0x1;
+        if self.v788 != c788 { self.v788 = c788; *dirty |= 0x4000000000; }
+        let c20: u64 = u64::from((c788 | (self.q127 << 1)) != 0);
+        if self.v20 != c20 { self.v20 = c20; *dirty |= 0x80000000000000000000; }
+        let c797: u64 = u64::from((self.q50) != 0);
+        if self.v797 != c797 { self.v797 = c797; *dirty |= 0x2000000000000000400040200; }
+        let c106: u64 = (self.q26) & (c797) & 0x1;
+        let c123: u64 = if (self.q14) != 0 { (c797) } else { (c106) };
         if self.v123 != c123 { self.v123 = c123; *dirty |= 0x40000; }
-        let c799: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (self.q48) };
-        let c810: u64 = ((self.q44) | (c790)) & 0x1;
-        if self.v810 != c810 { self.v810 = c810; *dirty |= 0x20000000000000000000; }
-        let c826: u64 = ((self.q41) | (self.q86)) & 0x1;
-        let c828: u64 = if (c794) != 0 { (((self.q82 >> 3) & 0xff)) } else { (self.q84 | (self.q79 << 6)) };
-        let c827: u64 = if (c795) != 0 { ((self.q79 << 4) | ((self.q82 & 0x7) << 5)) } else { (c828) };
-        let c832: u64 = if (c794) != 0 { ((self.q82 >> 21)) } else { (self.q84 | (self.q79 << 6) | 0x80) };
-        let c831: u64 = if (c795) != 0 { (((self.q82 >> 13) & 0xff)) } else { (c832) };
-        let c830: u64 = if (c792) != 0 { (((self.q82 >> 5) & 0xff)) } else { (c831) };
-        let c829: u64 = if (c793) != 0 { ((self.q79 << 2) | ((self.q82 & 0x1f) << 3)) } else { (c830) };
-        let c833: u64 = if (self.q81) != 0 { (c829) } else { (c827) };
-        let c835: u64 = if (self.q41) != 0 { (c833) } else { (self.q84 | (self.q79 << 6) | (self.q81 << 7)) };
-        let c824: u64 = if (self.q86) != 0 { (self.q85) } else { (c835) };
-        if self.v824 != c824 { self.v824 = c824; *dirty |= 0x200000000; }
-        let c837: u64 = if (self.q41) != 0 { (c780) } else { (0x0) };
-        if self.v837 != c837 { self.v837 = c837; *dirty |= 0x10000000000000000000; }
-        let c838: u64 = if (self.q83) != 0 { (0x0) } else { (self.q45) };
-        let c839: u64 = ((self.q41) | (self.q83)) & 0x1;
-        let c840: u64 = if (self.q81) != 0 { (0x2) } else { (0x1) };
-        let c779: u64 = ((c840 << 1) | 0x1).wrapping_add((self.q84)) & 0xf;
-        let c781: u64 = ((c840 << 1) | 0x1).wrapping_add((self.q87)) & 0xf;
-        let c791: u64 = u64::from((self.q46) == ((c840 << 1)));
-        let c825: u64 = if (self.q86) != 0 { (c781) } else { (self.q46) };
-        let c782: u64 = (self.q42).wrapping_add((c825)) & 0x7f;
-        let c783: u64 = (self.q43).wrapping_add((c825)) & 0x3f;
-        if self.v783 != c783 { self.v783 = c783; *dirty |= 0x200000000; }
-        let c820: u64 = ((c838) | ((c782 >> 6))) & 0x1;
-        let c821: u64 = !((c782 >> 6)) & 0x1;
-        let c822: u64 = if (c826) != 0 { (c820) } else { (c838) };
-        if self.v822 != c822 { self.v822 = c822; *dirty |= 0x100000000000000000000; }
-        let c823: u64 = (c826) & (c821) & 0x1;
+        let c798: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (self.q48) };
+        let c809: u64 = ((self.q44) | (c789)) & 0x1;
+        if self.v809 != c809 { self.v809 = c809; *dirty |= 0x40000000000000000000; }
+        let c825: u64 = ((self.q41) | (self.q86)) & 0x1;
+        let c827: u64 = if (c791) != 0 { (((self.q82 >> 3) & 0xff)) } else { (self.q84 | (self.q79 << 6)) };
+        let c826: u64 = if (c792) != 0 { ((self.q79 << 4) | ((self.q82 & 0x7) << 5)) } else { (c827) };
+        let c831: u64 = if (c791) != 0 { ((self.q82 >> 21)) } else { (self.q84 | (self.q79 << 6) | 0x80) };
+        let c830: u64 = if (c792) != 0 { (((self.q82 >> 13) & 0xff)) } else { (c831) };
+        let c829: u64 = if (c793) != 0 { (((self.q82 >> 5) & 0xff)) } else { (c830) };
+        let c828: u64 = if (c794) != 0 { ((self.q79 << 2) | ((self.q82 & 0x1f) << 3)) } else { (c829) };
+        let c832: u64 = if (self.q81) != 0 { (c828) } else { (c826) };
+        let c834: u64 = if (self.q41) != 0 { (c832) } else { (self.q84 | (self.q79 << 6) | (self.q81 << 7)) };
+        let c823: u64 = if (self.q86) != 0 { (self.q85) } else { (c834) };
         if self.v823 != c823 { self.v823 = c823; *dirty |= 0x200000000; }
-        let c834: u64 = if (c791) != 0 { (0x0) } else { (c839) };
-        let c836: u64 = if (self.q41) != 0 { (c834) } else { (c839) };
-        if self.v836 != c836 { self.v836 = c836; *dirty |= 0x80000000000000000000; }
-        let c842: u64 = if ((self.q84 >> 3)) != 0 { ((c840 << 1) | 0x9) } else { (c779) };
-        let c841: u64 = if (self.q79) != 0 { ((c840 << 1) | 0x1) } else { (c842) };
-        if self.v841 != c841 { self.v841 = c841; *dirty |= 0x200000000; }
-        let c785: u64 = (self.q43).wrapping_add((c841)) & 0x3f;
-        let c804: u64 = if (self.q127) != 0 { (c799) } else { (c785) };
-        if self.v804 != c804 { self.v804 = c804; *dirty |= 0x40000000000000000000; }
-        let c846: u64 = if (self.q49) != 0 { (self.m0_rd) } else { (self.q47) };
-        if self.v846 != c846 { self.v846 = c846; *dirty |= 0x200040000; }
-        let c845: u64 = if ((c846 >> 7)) != 0 { (0x2) } else { (0x1) };
-        let c778: u64 = ((c845 << 1) | 0x1).wrapping_add(((c846 & 0xf))) & 0xf;
-        let c844: u64 = if (((c846 >> 3) & 0x1)) != 0 { ((c845 << 1) | 0x9) } else { (c778) };
-        let c843: u64 = if (((c846 >> 6) & 0x1)) != 0 { ((c845 << 1) | 0x1) } else { (c844) };
-        let c784: u64 = (self.q48).wrapping_add((c843)) & 0x3f;
-        if self.v784 != c784 { self.v784 = c784; *dirty |= 0x200000000; }
-        let c847: u64 = (self.q42).wrapping_sub((c843)) & 0x7f;
-        if self.v847 != c847 { self.v847 = c847; *dirty |= 0x200000000; }
-        let c848: u64 = (self.q50).wrapping_sub((0x1)) & 0x1f;
-        if self.v848 != c848 { self.v848 = c848; *dirty |= 0x200000000; }
+        let c836: u64 = if (self.q41) != 0 { (c780) } else { (0x0) };
+        if self.v836 != c836 { self.v836 = c836; *dirty |= 0x20000000000000000000; }
+        let c837: u64 = if (self.q83) != 0 { (0x0) } else { (self.q45) };
+        let c838: u64 = ((self.q41) | (self.q83)) & 0x1;
+        let c841: u64 = if (self.q81) != 0 { (0x2) } else { (0x1) };
+        let c779: u64 = ((c841 << 1) | 0x1).wrapping_add((self.q84)) & 0xf;
+        let c781: u64 = ((c841 << 1) | 0x1).wrapping_add((self.q87)) & 0xf;
+        let c790: u64 = u64::from((self.q46) == ((c841 << 1)));
+        let c824: u64 = if (self.q86) != 0 { (c781) } else { (self.q46) };
+        let c782: u64 = (self.q42).wrapping_add((c824)) & 0x7f;
+        let c783: u64 = (self.q43).wrapping_add((c824)) & 0x3f;
+        if self.v783 != c783 { self.v783 = c783; *dirty |= 0x200000000; }
+        let c819: u64 = ((c837) | ((c782 >> 6))) & 0x1;
+        let c820: u64 = !((c782 >> 6)) & 0x1;
+        let c821: u64 = if (c825) != 0 { (c819) } else { (c837) };
+        if self.v821 != c821 { self.v821 = c821; *dirty |= 0x200000000000000000000; }
+        let c822: u64 = (c825) & (c820) & 0x1;
+        if self.v822 != c822 { self.v822 = c822; *dirty |= 0x200000000; }
+        let c833: u64 = if (c790) != 0 { (0x0) } else { (c838) };
+        let c835: u64 = if (self.q41) != 0 { (c833) } else { (c838) };
+        if self.v835 != c835 { self.v835 = c835; *dirty |= 0x100000000000000000000; }
+        let c840: u64 = if ((self.q84 >> 3)) != 0 { ((c841 << 1) | 0x9) } else { (c779) };
+        let c839: u64 = if (self.q79) != 0 { ((c841 << 1) | 0x1) } else { (c840) };
+        if self.v839 != c839 { self.v839 = c839; *dirty |= 0x4000000000; }
+        let c785: u64 = (self.q43).wrapping_add((c839)) & 0x3f;
+        let c803: u64 = if (self.q127) != 0 { (c798) } else { (c785) };
+        if self.v803 != c803 { self.v803 = c803; *dirty |= 0x80000000000000000000; }
+        let c845: u64 = if (self.q49) != 0 { (self.m0_rd) } else { (self.q47) };
+        if self.v845 != c845 { self.v845 = c845; *dirty |= 0x4000040000; }
+        let c844: u64 = if ((c845 >> 7)) != 0 { (0x2) } else { (0x1) };
+        let c778: u64 = ((c844 << 1) | 0x1).wrapping_add(((c845 & 0xf))) & 0xf;
+        let c843: u64 = if (((c845 >> 3) & 0x1)) != 0 { ((c844 << 1) | 0x9) } else { (c778) };
+        let c842: u64 = if (((c845 >> 6) & 0x1)) != 0 { ((c844 << 1) | 0x1) } else { (c843) };
+        let c784: u64 = (self.q48).wrapping_add((c842)) & 0x3f;
+        if self.v784 != c784 { self.v784 = c784; *dirty |= 0x4200000000; }
+        let c846: u64 = (self.q42).wrapping_sub((c842)) & 0x7f;
+        if self.v846 != c846 { self.v846 = c846; *dirty |= 0x4000000000; }
+        let c847: u64 = (self.q50).wrapping_sub((0x1)) & 0x1f;
+        if self.v847 != c847 { self.v847 = c847; *dirty |= 0x4000000000; }
         let _ = &dirty;
     }
 
@@ -2753,9 +2755,9 @@ impl Model {
         let c993: u64 = u64::from((self.i_addr) == (0x1f));
         if self.v993 != c993 { self.v993 = c993; *dirty |= 0x40000; }
         let c982: u64 = (self.i_we) & (c993) & 0x1;
-        if self.v982 != c982 { self.v982 = c982; *dirty |= 0x4000000000; }
+        if self.v982 != c982 { self.v982 = c982; *dirty |= 0x8000000000; }
         let c47: u64 = u64::from((self.q127 | (c982 << 1)) == 0x3);
-        if self.v47 != c47 { self.v47 = c47; *dirty |= 0x4000000000; }
+        if self.v47 != c47 { self.v47 = c47; *dirty |= 0x8000000000; }
         let c994: u64 = u64::from((self.q10) == (0x10));
         if self.v994 != c994 { self.v994 = c994; *dirty |= 0x4000000000000000000000000; }
         let c997: u64 = u64::from((self.q10) != (0x10));
@@ -2763,7 +2765,7 @@ impl Model {
         let c1006: u64 = if (self.q127) != 0 { (((self.i_wdata >> 3) & 0x1) | ((self.i_wdata >> 5) << 1)) } else { (self.q15 | (self.q14 << 3)) };
         let c1007: u64 = if (c982) != 0 { ((self.i_wdata & 0x7) | (c1006 << 3)) } else { (self.q105 | (self.q15 << 3) | (self.q14 << 6)) };
         let c999: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1007) };
-        if self.v999 != c999 { self.v999 = c999; *dirty |= 0x4000000000; }
+        if self.v999 != c999 { self.v999 = c999; *dirty |= 0x8000000000; }
         let c1019: u64 = if (self.q127) != 0 { (((self.i_wdata >> 2) & 0x1)) } else { (self.q130) };
         let c1020: u64 = if (self.q127) != 0 { (((self.i_wdata >> 1) & 0x1)) } else { (self.q126) };
         let c1021: u64 = if (self.q127) != 0 { (0x0) } else { (c988) };
@@ -2797,29 +2799,29 @@ impl Model {
 
     /// The cells of top$interrupts.
     fn group_9(&mut self, dirty: &mut u128) {
-        let c934: u64 = (self.i_re) & (self.v1052) & 0x1;
-        let c935: u64 = (self.q14) & (self.v872) & 0x1;
-        if self.v935 != c935 { self.v935 = c935; *dirty |= 0x400000000; }
-        let c937: u64 = (self.q75) & (self.q122) & 0x1;
-        if self.v937 != c937 { self.v937 = c937; *dirty |= 0x40000000000000400000000; }
-        let c938: u64 = (self.q76) & (self.q123) & 0x1;
-        if self.v938 != c938 { self.v938 = c938; *dirty |= 0x100000000000000400000000; }
-        let c939: u64 = (self.i_re) & (self.q14) & 0x1;
+        let c933: u64 = (self.i_re) & (self.v1052) & 0x1;
+        let c934: u64 = (self.q14) & (self.v871) & 0x1;
+        if self.v934 != c934 { self.v934 = c934; *dirty |= 0x400000000; }
+        let c936: u64 = (self.q75) & (self.q122) & 0x1;
+        if self.v936 != c936 { self.v936 = c936; *dirty |= 0x80000000000000400000000; }
+        let c937: u64 = (self.q76) & (self.q123) & 0x1;
+        if self.v937 != c937 { self.v937 = c937; *dirty |= 0x200000000000000400000000; }
+        let c938: u64 = (self.i_re) & (self.q14) & 0x1;
         let c943: u64 = !(self.q127) & 0x1;
         if self.v943 != c943 { self.v943 = c943; *dirty |= 0x244800; }
         let c944: u64 = !(self.q19) & 0x1;
-        let c940: u64 = (self.q44) & (c944) & 0x1;
-        if self.v940 != c940 { self.v940 = c940; *dirty |= 0x400000000; }
+        let c939: u64 = (self.q44) & (c944) & 0x1;
+        if self.v939 != c939 { self.v939 = c939; *dirty |= 0x400000000; }
         let c945: u64 = !(self.q17) & 0x1;
-        let c941: u64 = (self.v798) & (c945) & 0x1;
-        if self.v941 != c941 { self.v941 = c941; *dirty |= 0x400000000; }
+        let c940: u64 = (self.v797) & (c945) & 0x1;
+        if self.v940 != c940 { self.v940 = c940; *dirty |= 0x400000000; }
         let c949: u64 = u64::from((self.q113) != (self.q25));
         let c950: u64 = u64::from((self.q114) != (self.q18));
         let c951: u64 = u64::from((self.q50) != (0x1));
         if self.v951 != c951 { self.v951 = c951; *dirty |= 0x400000000; }
-        let c959: u64 = if (c934) != 0 { (0x0) } else { (self.q20) };
+        let c959: u64 = if (c933) != 0 { (0x0) } else { (self.q20) };
         if self.v959 != c959 { self.v959 = c959; *dirty |= 0x400000000; }
-        let c961: u64 = if (c934) != 0 { (0x0) } else { (self.q26) };
+        let c961: u64 = if (c933) != 0 { (0x0) } else { (self.q26) };
         if self.v961 != c961 { self.v961 = c961; *dirty |= 0x400000000; }
         let c962: u64 = if (self.q127) != 0 { (0x0) } else { (c950) };
         let c963: u64 = if (self.q113) != 0 { (0x0) } else { (c962) };
@@ -2834,16 +2836,16 @@ impl Model {
         let c948: u64 = u64::from((c964) != (self.q23));
         let c954: u64 = ((c948) | (c949)) & 0x1;
         if self.v954 != c954 { self.v954 = c954; *dirty |= 0x400000000; }
-        let c970: u64 = if (c938) != 0 { (0x0) } else { (self.q123) };
+        let c970: u64 = if (c937) != 0 { (0x0) } else { (self.q123) };
         let c966: u64 = ((c970) | (self.v1045)) & 0x1;
-        let c968: u64 = if (c939) != 0 { (c966) } else { (c970) };
+        let c968: u64 = if (c938) != 0 { (c966) } else { (c970) };
         let c956: u64 = ((c968) | (self.i_reset)) & 0x1;
-        if self.v956 != c956 { self.v956 = c956; *dirty |= 0x80000000000000000000000; }
-        let c971: u64 = if (c937) != 0 { (0x0) } else { (self.q122) };
+        if self.v956 != c956 { self.v956 = c956; *dirty |= 0x100000000000000000000000; }
+        let c971: u64 = if (c936) != 0 { (0x0) } else { (self.q122) };
         let c967: u64 = ((c971) | (self.v1044)) & 0x1;
-        let c969: u64 = if (c939) != 0 { (c967) } else { (c971) };
+        let c969: u64 = if (c938) != 0 { (c967) } else { (c971) };
         let c957: u64 = ((c969) | (self.i_reset)) & 0x1;
-        if self.v957 != c957 { self.v957 = c957; *dirty |= 0x20000000000000000000000; }
+        if self.v957 != c957 { self.v957 = c957; *dirty |= 0x40000000000000000000000; }
         let _ = &dirty;
     }
 
@@ -2870,7 +2872,7 @@ impl Model {
         let c301: u64 = if (c294) != 0 { (0x2) } else { (c302) };
         let c300: u64 = if (c99) != 0 { (0x2) } else { ((c301 & 0x3) | ((c301 >> 2) << 3) | 0x4) };
         let c306: u64 = { let s = (self.v565 | (self.v531 << 1) | (self.v592 << 2) | (self.v520 << 3) | (self.v397 << 4) | (self.v406 << 5) | (self.v409 << 6) | (self.v421 << 7) | (self.v429 << 8) | (self.v431 << 9) | (self.v433 << 10) | (self.v385 << 11) | (self.v122 << 12)); if s >> 0 & 1 != 0 { (c295 << 2) | 0x13 } else if s >> 1 & 1 != 0 { 0x1c } else if s >> 2 & 1 != 0 { c296 | ((c296 >> 1) << 2) | 0x10 } else if s >> 3 & 1 != 0 { 0x12 } else if s >> 4 & 1 != 0 { 0x1a } else if s >> 5 & 1 != 0 { 0x1b } else if s >> 6 & 1 != 0 { 0x19 } else if s >> 7 & 1 != 0 { 0x18 } else if s >> 8 & 1 != 0 { 0x8 } else if s >> 9 & 1 != 0 { 0xa } else if s >> 10 & 1 != 0 { (c299 << 1) | 0x9 } else if s >> 11 & 1 != 0 { c300 } else if s >> 12 & 1 != 0 { 0x3 } else { (0x0) } };
-        if self.v306 != c306 { self.v306 = c306; *dirty |= 0x1000000000000000; }
+        if self.v306 != c306 { self.v306 = c306; *dirty |= 0x2000000000000000; }
         let _ = &dirty;
     }
 
@@ -2888,10 +2890,10 @@ impl Model {
         let c756: u64 = (c754) & (((self.i_wdata >> 1) & 0x1)) & 0x1;
         if self.v756 != c756 { self.v756 = c756; *dirty |= 0x40000000000000000000000000004000; }
         let c757: u64 = (c754) & (((self.i_wdata >> 2) & 0x1)) & 0x1;
-        if self.v757 != c757 { self.v757 = c757; *dirty |= 0x200000000; }
+        if self.v757 != c757 { self.v757 = c757; *dirty |= 0x400000000; }
         let c758: u64 = (c754) & (((self.i_wdata >> 3) & 0x1)) & 0x1;
         let c86: u64 = u64::from((self.i_reset | (c758 << 1) | (self.q127 << 2)) != 0);
-        if self.v86 != c86 { self.v86 = c86; *dirty |= 0x20000000000000000000; }
+        if self.v86 != c86 { self.v86 = c86; *dirty |= 0x40000000000000000000; }
         let c759: u64 = (c754) & (((self.i_wdata >> 4) & 0x1)) & 0x1;
         let c760: u64 = (c759) & (self.q14) & 0x1;
         let c762: u64 = (((self.i_wdata >> 4) & 0x1)) & (c40) & 0x1;
@@ -2938,18 +2940,18 @@ impl Model {
         let c231: u64 = (c238) & (self.v536) & 0x1;
         if self.v231 != c231 { self.v231 = c231; *dirty |= 0x40000000; }
         let c88: u64 = u64::from((self.i_reset | (c231 << 1) | (self.q113 << 2)) != 0);
-        if self.v88 != c88 { self.v88 = c88; *dirty |= 0x2000000000000000000; }
+        if self.v88 != c88 { self.v88 = c88; *dirty |= 0x4000000000000000000; }
         let c93: u64 = u64::from((self.i_reset | (c231 << 1) | (c236 << 2)) != 0);
-        if self.v93 != c93 { self.v93 = c93; *dirty |= 0x4000000000000000; }
+        if self.v93 != c93 { self.v93 = c93; *dirty |= 0x8000000000000000; }
         let c94: u64 = u64::from((self.i_reset | (c231 << 1)) != 0);
-        if self.v94 != c94 { self.v94 = c94; *dirty |= 0x2000000000000000; }
+        if self.v94 != c94 { self.v94 = c94; *dirty |= 0x4000000000000000; }
         let c247: u64 = u64::from((self.q115) != (0xf));
         if self.v247 != c247 { self.v247 = c247; *dirty |= 0x40000000; }
         let c249: u64 = !(self.q116) & 0x1;
         if self.v249 != c249 { self.v249 = c249; *dirty |= 0x40000000; }
         let c251: u64 = ((self.q71) | (c237)) & 0x1;
         let c95: u64 = u64::from((self.i_reset | (c251 << 1)) != 0);
-        if self.v95 != c95 { self.v95 = c95; *dirty |= 0x80000000000000; }
+        if self.v95 != c95 { self.v95 = c95; *dirty |= 0x100000000000000; }
         let c253: u64 = ((self.q125) | (c231)) & 0x1;
         if self.v253 != c253 { self.v253 = c253; *dirty |= 0x180004000; }
         let c254: u64 = ((self.q113) | (c238)) & 0x1;
@@ -2966,7 +2968,7 @@ impl Model {
     /// The cells of top$core$protocol$sender.
     fn group_13(&mut self, dirty: &mut u128) {
         let c670: u64 = ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
-        if self.v670 != c670 { self.v670 = c670; *dirty |= 0x40000000000; }
+        if self.v670 != c670 { self.v670 = c670; *dirty |= 0x80000000000; }
         let c671: u64 = (self.q74).wrapping_add((0x1)) & 0x7f;
         if self.v671 != c671 { self.v671 = c671; *dirty |= 0x21000000; }
         let c678: u64 = u64::from((self.q58) == 0);
@@ -2976,16 +2978,16 @@ impl Model {
         let c680: u64 = u64::from((self.q74) == (0x1e));
         if self.v680 != c680 { self.v680 = c680; *dirty |= 0x20000000; }
         let c681: u64 = !(self.v500) & 0x1;
-        if self.v681 != c681 { self.v681 = c681; *dirty |= 0x20000000000; }
+        if self.v681 != c681 { self.v681 = c681; *dirty |= 0x40000000000; }
         let c690: u64 = ((self.v254) | (self.i_reset)) & 0x1;
-        if self.v690 != c690 { self.v690 = c690; *dirty |= 0x20000100000; }
+        if self.v690 != c690 { self.v690 = c690; *dirty |= 0x40000100000; }
         let c729: u64 = if (self.v379) != 0 { (0x2) } else { (0x1) };
-        if self.v729 != c729 { self.v729 = c729; *dirty |= 0x20000000000; }
+        if self.v729 != c729 { self.v729 = c729; *dirty |= 0x40000000000; }
         let c731: u64 = if (c678) != 0 { ((c670 & 0x7)) } else { ((self.q57 & 0x1)) };
-        if self.v731 != c731 { self.v731 = c731; *dirty |= 0x20000000000; }
+        if self.v731 != c731 { self.v731 = c731; *dirty |= 0x40000000000; }
         let c738: u64 = (self.q58).wrapping_sub((0x1)) & 0xf;
         let c732: u64 = if (c678) != 0 { (0x7) } else { (c738) };
-        if self.v732 != c732 { self.v732 = c732; *dirty |= 0x200000000000000000; }
+        if self.v732 != c732 { self.v732 = c732; *dirty |= 0x400000000000000000; }
         let c740: u64 = ((((self.q73 >> 13) & 0x1)) ^ ((self.q73 >> 14))) & 0x1;
         let c741: u64 = ((c740) ^ (self.q109)) & 0x1;
         if self.v741 != c741 { self.v741 = c741; *dirty |= 0x20000000; }
@@ -2996,9 +2998,9 @@ impl Model {
     fn group_14(&mut self, dirty: &mut u128) {
         let c4: u64 = (self.i_we) & (self.v943) & 0x1;
         let c5: u64 = (c4) & (self.q131) & 0x1;
-        let c7: u64 = (self.v851) & (self.v764) & 0x1;
+        let c7: u64 = (self.v850) & (self.v764) & 0x1;
         let c8: u64 = (self.v756) & (self.v763) & 0x1;
-        let c18: u64 = (self.v851) & (self.v765) & 0x1;
+        let c18: u64 = (self.v850) & (self.v765) & 0x1;
         if self.v18 != c18 { self.v18 = c18; *dirty |= 0x200000000; }
         let c37: u64 = u64::from((self.q113 | (self.v253 << 1) | (self.v1 << 2)) != (0x2));
         if self.v37 != c37 { self.v37 = c37; *dirty |= 0x100000000; }
@@ -3006,25 +3008,25 @@ impl Model {
         let c9: u64 = (c8) & (c125) & 0x1;
         let c10: u64 = (c9) & (self.q1) & 0x1;
         if self.v10 != c10 { self.v10 = c10; *dirty |= 0x40000000; }
-        let c1097: u64 = ((self.v766) | (self.v768)) & 0x1;
-        let c6: u64 = (c5) & (c1097) & 0x1;
-        let c1098: u64 = ((self.v755) | (self.v761)) & 0x1;
-        let c11: u64 = (c1098) & (self.q131) & 0x1;
+        let c1100: u64 = ((self.v766) | (self.v768)) & 0x1;
+        let c6: u64 = (c5) & (c1100) & 0x1;
+        let c1101: u64 = ((self.v755) | (self.v761)) & 0x1;
+        let c11: u64 = (c1101) & (self.q131) & 0x1;
         let c12: u64 = (c11) & (self.v237) & 0x1;
         if self.v12 != c12 { self.v12 = c12; *dirty |= 0x40080000000000000000000000000000; }
-        let c1104: u64 = if (c12) != 0 { (0x0) } else { (self.v1107) };
-        let c1102: u64 = ((c1104) | (self.i_reset)) & 0x1;
-        if self.v1102 != c1102 { self.v1102 = c1102; *dirty |= 0x200000000000000000000000000000; }
-        let c1105: u64 = if (c12) != 0 { (0x0) } else { (self.v1108) };
-        if self.v1105 != c1105 { self.v1105 = c1105; *dirty |= 0x100000000; }
-        let c1106: u64 = ((self.v1109) | (c12)) & 0x1;
-        if self.v1106 != c1106 { self.v1106 = c1106; *dirty |= 0x20000000000000000000000000000000; }
-        let c1110: u64 = if (self.q14) != 0 { ((self.i_addr & 0xf)) } else { (self.v775) };
-        if self.v1110 != c1110 { self.v1110 = c1110; *dirty |= 0x4800000000000000000000000080000; }
-        let c1094: u64 = if (c1110) < 16 { (self.q2) >> (c1110) & 0x1 } else { 0 };
-        if self.v1094 != c1094 { self.v1094 = c1094; *dirty |= 0x8000000000000000000000000000000; }
-        let c1111: u64 = ((c6) | (c7)) & 0x1;
-        if self.v1111 != c1111 { self.v1111 = c1111; *dirty |= 0x80000; }
+        let c1107: u64 = if (c12) != 0 { (0x0) } else { (self.v1110) };
+        let c1105: u64 = ((c1107) | (self.i_reset)) & 0x1;
+        if self.v1105 != c1105 { self.v1105 = c1105; *dirty |= 0x200000000000000000000000000000; }
+        let c1108: u64 = if (c12) != 0 { (0x0) } else { (self.v1111) };
+        if self.v1108 != c1108 { self.v1108 = c1108; *dirty |= 0x100000000; }
+        let c1109: u64 = ((self.v1112) | (c12)) & 0x1;
+        if self.v1109 != c1109 { self.v1109 = c1109; *dirty |= 0x20000000000000000000000000000000; }
+        let c1113: u64 = if (self.q14) != 0 { ((self.i_addr & 0xf)) } else { (self.v775) };
+        if self.v1113 != c1113 { self.v1113 = c1113; *dirty |= 0x4800000000000000000000000080000; }
+        let c1097: u64 = if (c1113) < 16 { (self.q2) >> (c1113) & 0x1 } else { 0 };
+        if self.v1097 != c1097 { self.v1097 = c1097; *dirty |= 0x80000; }
+        let c1114: u64 = ((c6) | (c7)) & 0x1;
+        if self.v1114 != c1114 { self.v1114 = c1114; *dirty |= 0x80000; }
         let _ = &dirty;
     }
 
@@ -3039,11 +3041,11 @@ impl Model {
         let c223: u64 = ((c219) | (c220)) & 0x1;
         let c224: u64 = ((c223) | (c221)) & 0x1;
         let c225: u64 = ((self.q112) | (self.i_reset)) & 0x1;
-        if self.v225 != c225 { self.v225 = c225; *dirty |= 0x8000000000000; }
+        if self.v225 != c225 { self.v225 = c225; *dirty |= 0x10000000000000; }
         let c226: u64 = ((self.q110) | (self.i_reset)) & 0x1;
-        if self.v226 != c226 { self.v226 = c226; *dirty |= 0x10000000000000; }
+        if self.v226 != c226 { self.v226 = c226; *dirty |= 0x20000000000000; }
         let c227: u64 = ((self.i_rx) | (self.i_reset)) & 0x1;
-        if self.v227 != c227 { self.v227 = c227; *dirty |= 0x8000000000000; }
+        if self.v227 != c227 { self.v227 = c227; *dirty |= 0x10000000000000; }
         let c228: u64 = if ((self.q102 >> 7)) != 0 { (c224) } else { (self.q112) };
         if self.v228 != c228 { self.v228 = c228; *dirty |= 0x10000; }
         let _ = &dirty;
@@ -3058,16 +3060,16 @@ impl Model {
         let c150: u64 = (c142) & (c168) & 0x1;
         let c169: u64 = !(c150) & 0x1;
         let c151: u64 = (self.v148) & (c169) & 0x1;
-        let c152: u64 = (c151) & (self.v170) & 0x1;
-        if self.v152 != c152 { self.v152 = c152; *dirty |= 0x80000000000000000002000000200000; }
+        let c152: u64 = (c151) & (self.v171) & 0x1;
+        if self.v152 != c152 { self.v152 = c152; *dirty |= 0x80000000000000000004000000200000; }
         let c185: u64 = if (c152) != 0 { (0x0) } else { (self.q90) };
         let c186: u64 = if (c152) != 0 { (self.v228) } else { (self.q109) };
         let c182: u64 = ((c186) | (self.i_reset)) & 0x1;
-        if self.v182 != c182 { self.v182 = c182; *dirty |= 0x4000000000000; }
+        if self.v182 != c182 { self.v182 = c182; *dirty |= 0x8000000000000; }
         let c207: u64 = if (self.v258) != 0 { (0x0) } else { (self.v189) };
         let c208: u64 = if (self.v258) != 0 { (0x0) } else { (self.v202) };
-        let c209: u64 = if (self.v258) != 0 { (0x0) } else { (self.v204) };
-        let c210: u64 = if (self.v258) != 0 { (0x0) } else { (self.v205) };
+        let c209: u64 = if (self.v258) != 0 { (0x0) } else { (self.v203) };
+        let c210: u64 = if (self.v258) != 0 { (0x0) } else { (self.v204) };
         let c211: u64 = if (self.v258) != 0 { (0x0) } else { (self.v206) };
         let c212: u64 = (c142) & (c207) & 0x1;
         let c213: u64 = (c142) & (c208) & 0x1;
@@ -3077,12 +3079,12 @@ impl Model {
         let c196: u64 = if (c214) != 0 { (self.v195) } else { (self.v161 | (self.v161 << 1) | (self.v161 << 2) | (self.v161 << 3)) };
         let c194: u64 = if (c213) != 0 { (self.v193 | 0x8) } else { (c196) };
         let c139: u64 = (self.q93).wrapping_add((c194 | ((c194 >> 3) << 4))) & 0x1f;
-        let c188: u64 = { let s = (self.v203 | (self.v159 << 1) | (self.v189 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.q98 } else if s >> 2 & 1 != 0 { (self.q102 & 0xf) } else { (c139) } };
+        let c188: u64 = { let s = (self.v205 | (self.v158 << 1) | (self.v189 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.q98 } else if s >> 2 & 1 != 0 { (self.q102 & 0xf) } else { (c139) } };
         let c197: u64 = if (c213) != 0 { (self.v145) } else { (c144) };
         let c74: u64 = u64::from((c197 | (self.v39 << 1)) == 0x3);
-        if self.v74 != c74 { self.v74 = c74; *dirty |= 0x20000000000000; }
+        if self.v74 != c74 { self.v74 = c74; *dirty |= 0x40000000000000; }
         let c191: u64 = if (c197) != 0 { (c188) } else { (c139) };
-        if self.v191 != c191 { self.v191 = c191; *dirty |= 0x4000000000000; }
+        if self.v191 != c191 { self.v191 = c191; *dirty |= 0x8000000000000; }
         let c215: u64 = (c142) & (c210) & 0x1;
         let c216: u64 = (c142) & (c211) & 0x1;
         let c177: u64 = ((c216) | (c215)) & 0x1;
@@ -3093,29 +3095,29 @@ impl Model {
         let c172: u64 = ((c217) | (c216)) & 0x1;
         let c173: u64 = ((c172) | (c215)) & 0x1;
         let c96: u64 = u64::from((self.i_reset | (c173 << 1)) != 0);
-        if self.v96 != c96 { self.v96 = c96; *dirty |= 0x24000000000000; }
+        if self.v96 != c96 { self.v96 = c96; *dirty |= 0x48000000000000; }
         let c97: u64 = u64::from((self.i_reset | (c197 << 1) | (c173 << 2)) != 0);
-        if self.v97 != c97 { self.v97 = c97; *dirty |= 0x2000000000000; }
+        if self.v97 != c97 { self.v97 = c97; *dirty |= 0x4000000000000; }
         let c98: u64 = u64::from((self.i_reset | (self.v161 << 1) | (c173 << 2)) != 0);
-        if self.v98 != c98 { self.v98 = c98; *dirty |= 0x8000000000; }
+        if self.v98 != c98 { self.v98 = c98; *dirty |= 0x10000000000; }
         let c167: u64 = !(c173) & 0x1;
         let c146: u64 = (self.v161) & (c167) & 0x1;
-        if self.v146 != c146 { self.v146 = c146; *dirty |= 0x10000000000000; }
+        if self.v146 != c146 { self.v146 = c146; *dirty |= 0x20000000000000; }
         let c174: u64 = ((self.v153) | (c217)) & 0x1;
         let c175: u64 = ((c174) | (c215)) & 0x1;
-        let c154: u64 = (c175) & (self.v171) & 0x1;
-        let c155: u64 = (c154) & (self.v170) & 0x1;
+        let c154: u64 = (c175) & (self.v170) & 0x1;
+        let c155: u64 = (c154) & (self.v171) & 0x1;
         let c156: u64 = (c175) & (self.q94) & 0x1;
-        if self.v156 != c156 { self.v156 = c156; *dirty |= 0x40000000000000; }
+        if self.v156 != c156 { self.v156 = c156; *dirty |= 0x80000000000000; }
         let c176: u64 = ((c155) | (self.q89)) & 0x1;
         if self.v176 != c176 { self.v176 = c176; *dirty |= 0x100000; }
         let c181: u64 = ((c217) | (c180)) & 0x1;
         let c183: u64 = if (c173) != 0 { (0x0) } else { (self.q91) };
         if self.v183 != c183 { self.v183 = c183; *dirty |= 0x80000000000000000000000000000000; }
         let c184: u64 = ((c185) | (c181)) & 0x1;
-        if self.v184 != c184 { self.v184 = c184; *dirty |= 0x40000000000000; }
+        if self.v184 != c184 { self.v184 = c184; *dirty |= 0x80000000000000; }
         let c187: u64 = ((self.v192) | (c173)) & 0x1;
-        if self.v187 != c187 { self.v187 = c187; *dirty |= 0x8000000000; }
+        if self.v187 != c187 { self.v187 = c187; *dirty |= 0x10000000000; }
         let _ = &dirty;
     }
 
@@ -3129,24 +3131,24 @@ impl Model {
         let c105: u64 = !(((self.q73 >> 13) & 0x1)) & 0x1;
         let c308: u64 = ((self.q109) ^ ((self.q73 >> 14))) & 0x1;
         let c307: u64 = if (c308) != 0 { ((c100 << 1) | (c101 << 2) | (c102 << 3) | (c103 << 4) | (c104 << 5) | (c105 << 6) | 0x1) } else { ((((self.q73 >> 2) & 0x3) << 1) | (((self.q73 >> 6) & 0x3) << 3) | (((self.q73 >> 9) & 0x1) << 5) | (((self.q73 >> 13) & 0x1) << 6)) };
-        if self.v307 != c307 { self.v307 = c307; *dirty |= 0x4000000000000000; }
+        if self.v307 != c307 { self.v307 = c307; *dirty |= 0x8000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$read.
     fn group_18(&mut self, dirty: &mut u128) {
         let c107: u64 = (self.v123) & ((self.q22 & 0x1)) & 0x1;
-        if self.v107 != c107 { self.v107 = c107; *dirty |= 0x200000000000; }
+        if self.v107 != c107 { self.v107 = c107; *dirty |= 0x400000000000; }
         let c1040: u64 = (c107 | (self.q20 << 1)) & (self.q22 | (self.v1084 << 4)) & 0xff;
         let c1041: u64 = (self.v766) & (self.v943) & 0x1;
         let c1042: u64 = (self.v943) & (self.v774) & 0x1;
-        if self.v1042 != c1042 { self.v1042 = c1042; *dirty |= 0x200000000000; }
+        if self.v1042 != c1042 { self.v1042 = c1042; *dirty |= 0x400000000000; }
         let c1055: u64 = ((c1041) | (self.v765)) & 0x1;
         let c1061: u64 = if (self.v767) != 0 { (self.v776) } else { ((self.i_addr & 0xf)) };
         let c1039: u64 = (self.q48).wrapping_add((c1061)) & 0x3f;
         let c1060: u64 = if (self.v765) != 0 { ((self.i_addr & 0x1f) | (self.v777 << 5)) } else { (c1039) };
         if self.v1060 != c1060 { self.v1060 = c1060; *dirty |= 0x200000000; }
-        let c1062: u64 = if (self.v1053) != 0 { ((self.v846 & 0xf)) } else { (0x0) };
+        let c1062: u64 = if (self.v1053) != 0 { ((self.v845 & 0xf)) } else { (0x0) };
         let c1075: u64 = if (self.q14) != 0 { (self.v764) } else { (self.v768) };
         let c1056: u64 = (self.i_re) & (c1075) & 0x1;
         if self.v1056 != c1056 { self.v1056 = c1056; *dirty |= 0x10000000000000000000000000000; }
@@ -3154,10 +3156,10 @@ impl Model {
         if self.v1076 != c1076 { self.v1076 = c1076; *dirty |= 0x100000000; }
         let c1078: u64 = if (self.q14) != 0 { (0x0) } else { (c1062) };
         if self.v1078 != c1078 { self.v1078 = c1078; *dirty |= 0x20000000000000000000000000000; }
-        let c1083: u64 = if (self.v1043) != 0 { (self.v798 | (self.q44 << 1) | (self.q131 << 2) | (self.q132 << 3) | (self.v110 << 4) | (self.v109 << 5) | (self.q23 << 6) | (self.q113 << 7)) } else { (0x0) };
+        let c1083: u64 = if (self.v1043) != 0 { (self.v797 | (self.q44 << 1) | (self.q131 << 2) | (self.q132 << 3) | (self.v110 << 4) | (self.v109 << 5) | (self.q23 << 6) | (self.q113 << 7)) } else { (0x0) };
         let c1082: u64 = if (self.v1052) != 0 { (c107 | (self.q20 << 1)) } else { (c1083) };
         let c1081: u64 = if (self.v993) != 0 { (self.q105 | ((self.q15 & 0x1) << 3) | ((self.q15 >> 1) << 5) | (self.q14 << 7)) } else { (c1082) };
-        if self.v1081 != c1081 { self.v1081 = c1081; *dirty |= 0x200000000000; }
+        if self.v1081 != c1081 { self.v1081 = c1081; *dirty |= 0x400000000000; }
         let c1085: u64 = u64::from((c1040) != 0);
         if self.v1085 != c1085 { self.v1085 = c1085; *dirty |= 0x200000; }
         let _ = &dirty;
@@ -3165,25 +3167,30 @@ impl Model {
 
     /// The cells of top$tx_buffer.
     fn group_19(&mut self, dirty: &mut u128) {
-        let c1087: u64 = u64::from((self.v1110) == 0);
-        let c1088: u64 = u64::from((self.v1110) == (0x2));
-        let c1089: u64 = u64::from((self.v1110) < (0xd));
-        let c1086: u64 = (self.v1111) & (c1089) & 0x1;
+        let c1090: u64 = u64::from((self.v1113) == 0);
+        let c1091: u64 = u64::from((self.v1113) == (0x2));
+        let c1092: u64 = u64::from((self.v1113) < (0xd));
+        let c1086: u64 = (self.v1114) & (c1092) & 0x1;
         if self.v1086 != c1086 { self.v1086 = c1086; *dirty |= 0x14800000000000000000000000000000; }
-        let c44: u64 = u64::from((c1087 | (c1086 << 1)) == 0x3);
+        let c44: u64 = u64::from((c1090 | (c1086 << 1)) == 0x3);
         if self.v44 != c44 { self.v44 = c44; *dirty |= 0x2000000000000000000000000000000; }
-        let c45: u64 = u64::from((c1088 | (c1086 << 1)) == 0x3);
+        let c45: u64 = u64::from((c1091 | (c1086 << 1)) == 0x3);
         if self.v45 != c45 { self.v45 = c45; *dirty |= 0x400000000000000000000000000000; }
-        let c1091: u64 = if (self.q14) != 0 { (self.q4) } else { ((self.q107 & 0xf) | ((self.q107 >> 4) << 6)) };
-        if self.v1091 != c1091 { self.v1091 = c1091; *dirty |= 0x20020100000; }
-        let c1092: u64 = if (self.q5) != 0 { (self.m1_rd) } else { (0x0) };
-        if self.v1092 != c1092 { self.v1092 = c1092; *dirty |= 0x100000; }
-        let c1093: u64 = if (self.q3) != 0 { (self.m2_rd) } else { (0x0) };
-        if self.v1093 != c1093 { self.v1093 = c1093; *dirty |= 0x200000000000; }
-        let c1096: u64 = (if (self.v1110) < 64 { (0x1) << (self.v1110) } else { 0 }) & 0xffff;
-        let c1090: u64 = !(c1096) & 0xffff;
-        let c108: u64 = (self.q2) & (c1090) & 0xffff;
-        let c112: u64 = ((c108) | (c1096)) & 0xffff;
+        let c1089: u64 = !(c1086) & 0x1;
+        let c1087: u64 = (self.v1097) & (c1089) & 0x1;
+        if self.v1087 != c1087 { self.v1087 = c1087; *dirty |= 0x8000000000000000000000000000000; }
+        let c1088: u64 = (self.v1098) & (c1089) & 0x1;
+        if self.v1088 != c1088 { self.v1088 = c1088; *dirty |= 0x1000000000000000000000000000000; }
+        let c1094: u64 = if (self.q14) != 0 { (self.q4) } else { ((self.q107 & 0xf) | ((self.q107 >> 4) << 6)) };
+        if self.v1094 != c1094 { self.v1094 = c1094; *dirty |= 0x40020100000; }
+        let c1095: u64 = if (self.q5) != 0 { (self.m1_rd) } else { (0x0) };
+        if self.v1095 != c1095 { self.v1095 = c1095; *dirty |= 0x100000; }
+        let c1096: u64 = if (self.q3) != 0 { (self.m2_rd) } else { (0x0) };
+        if self.v1096 != c1096 { self.v1096 = c1096; *dirty |= 0x400000000000; }
+        let c1099: u64 = (if (self.v1113) < 64 { (0x1) << (self.v1113) } else { 0 }) & 0xffff;
+        let c1093: u64 = !(c1099) & 0xffff;
+        let c108: u64 = (self.q2) & (c1093) & 0xffff;
+        let c112: u64 = ((c108) | (c1099)) & 0xffff;
         if self.v112 != c112 { self.v112 = c112; *dirty |= 0x10000000000000000000000000000000; }
         let _ = &dirty;
     }
@@ -3193,16 +3200,16 @@ impl Model {
         let c694: u64 = if (self.v176) != 0 { (self.q117) } else { (self.q118) };
         let c693: u64 = ((c694) | (self.q125)) & 0x1;
         let c692: u64 = ((c693) | (self.v690)) & 0x1;
-        if self.v692 != c692 { self.v692 = c692; *dirty |= 0x400000000000000000; }
-        let c715: u64 = ((((self.v1091 >> 6) & 0x1)) | ((self.v1091 >> 7))) & 0x1;
-        if self.v715 != c715 { self.v715 = c715; *dirty |= 0x20000000000; }
-        let c733: u64 = if (self.v678) != 0 { ((self.v1092 & 0x7f)) } else { (((self.q104 & 0x3f) << 1)) };
-        if self.v733 != c733 { self.v733 = c733; *dirty |= 0x800000000000000000; }
-        let c736: u64 = if (self.v678) != 0 { (((self.v1092 >> 6) & 0x1)) } else { (((self.q104 >> 5) & 0x1)) };
-        let c735: u64 = if (self.v679) != 0 { ((self.v1092 >> 7)) } else { (c736) };
-        if self.v735 != c735 { self.v735 = c735; *dirty |= 0x20000000000; }
-        let c737: u64 = if (self.v678) != 0 { ((self.v1092 >> 7)) } else { ((self.q104 >> 6)) };
-        if self.v737 != c737 { self.v737 = c737; *dirty |= 0x20000000000; }
+        if self.v692 != c692 { self.v692 = c692; *dirty |= 0x800000000000000000; }
+        let c715: u64 = ((((self.v1094 >> 6) & 0x1)) | ((self.v1094 >> 7))) & 0x1;
+        if self.v715 != c715 { self.v715 = c715; *dirty |= 0x40000000000; }
+        let c733: u64 = if (self.v678) != 0 { ((self.v1095 & 0x7f)) } else { (((self.q104 & 0x3f) << 1)) };
+        if self.v733 != c733 { self.v733 = c733; *dirty |= 0x1000000000000000000; }
+        let c736: u64 = if (self.v678) != 0 { (((self.v1095 >> 6) & 0x1)) } else { (((self.q104 >> 5) & 0x1)) };
+        let c735: u64 = if (self.v679) != 0 { ((self.v1095 >> 7)) } else { (c736) };
+        if self.v735 != c735 { self.v735 = c735; *dirty |= 0x40000000000; }
+        let c737: u64 = if (self.v678) != 0 { ((self.v1095 >> 7)) } else { ((self.q104 >> 6)) };
+        if self.v737 != c737 { self.v737 = c737; *dirty |= 0x40000000000; }
         let _ = &dirty;
     }
 
@@ -3246,25 +3253,25 @@ impl Model {
     fn group_22(&mut self, dirty: &mut u128) {
         let c127: u64 = u64::from((self.i_addr) == (0xd));
         let c126: u64 = (self.q14) & (c127) & 0x1;
-        let c79: u64 = u64::from((self.v851 | (c126 << 1)) == 0x3);
-        if self.v79 != c79 { self.v79 = c79; *dirty |= 0x800000000000; }
+        let c79: u64 = u64::from((self.v850 | (c126 << 1)) == 0x3);
+        if self.v79 != c79 { self.v79 = c79; *dirty |= 0x1000000000000; }
         let c128: u64 = u64::from((self.i_addr) == (0x6));
-        let c77: u64 = u64::from((self.v851 | (c128 << 1)) == 0x3);
-        if self.v77 != c77 { self.v77 = c77; *dirty |= 0x1400000000000; }
+        let c77: u64 = u64::from((self.v850 | (c128 << 1)) == 0x3);
+        if self.v77 != c77 { self.v77 = c77; *dirty |= 0x2800000000000; }
         let c129: u64 = u64::from((self.i_addr) == (0x7));
-        let c76: u64 = u64::from((self.v851 | (c129 << 1)) == 0x3);
-        if self.v76 != c76 { self.v76 = c76; *dirty |= 0x1400000000000; }
+        let c76: u64 = u64::from((self.v850 | (c129 << 1)) == 0x3);
+        if self.v76 != c76 { self.v76 = c76; *dirty |= 0x2800000000000; }
         let c130: u64 = u64::from((self.i_addr) == (0x8));
-        let c78: u64 = u64::from((self.v851 | (c130 << 1)) == 0x3);
-        if self.v78 != c78 { self.v78 = c78; *dirty |= 0x800000000000; }
+        let c78: u64 = u64::from((self.v850 | (c130 << 1)) == 0x3);
+        if self.v78 != c78 { self.v78 = c78; *dirty |= 0x1000000000000; }
         let c135: u64 = if (c129) != 0 { (self.q102) } else { (self.q103) };
         let c133: u64 = if (c130) != 0 { (self.q100) } else { (c135) };
         let c131: u64 = if (c126) != 0 { (self.q101) } else { (c133) };
-        if self.v131 != c131 { self.v131 = c131; *dirty |= 0x200000000000; }
+        if self.v131 != c131 { self.v131 = c131; *dirty |= 0x400000000000; }
         let c136: u64 = ((c128) | (c129)) & 0x1;
         let c134: u64 = ((c136) | (c130)) & 0x1;
         let c132: u64 = ((c134) | (c126)) & 0x1;
-        if self.v132 != c132 { self.v132 = c132; *dirty |= 0x200000000000; }
+        if self.v132 != c132 { self.v132 = c132; *dirty |= 0x400000000000; }
         let _ = &dirty;
     }
 
@@ -3281,7 +3288,7 @@ impl Model {
         let c286: u64 = if ((self.q84 >> 3)) != 0 { (0x8) } else { ((self.q84 & 0x7)) };
         let c285: u64 = if (self.q79) != 0 { (0x0) } else { (c286) };
         let c287: u64 = (c285).wrapping_sub((0x1)) & 0xf;
-        if self.v287 != c287 { self.v287 = c287; *dirty |= 0x800000000000000; }
+        if self.v287 != c287 { self.v287 = c287; *dirty |= 0x1000000000000000; }
         let _ = &dirty;
     }
 
@@ -3305,7 +3312,7 @@ impl Model {
         let c42: u64 = !(c743) & 0x1;
         if self.v42 != c42 { self.v42 = c42; *dirty |= 0x24000000; }
         let c63: u64 = u64::from((self.v592 | (self.q59 << 1) | (self.q94 << 2) | (c42 << 3)) == 0xf);
-        if self.v63 != c63 { self.v63 = c63; *dirty |= 0x100000000000000000; }
+        if self.v63 != c63 { self.v63 = c63; *dirty |= 0x200000000000000000; }
         let c746: u64 = u64::from((self.q54) == (0x4));
         let c744: u64 = (self.q55) & (c746) & 0x1;
         if self.v744 != c744 { self.v744 = c744; *dirty |= 0x20000000; }
@@ -3313,26 +3320,26 @@ impl Model {
         let c748: u64 = ((c745) | (c747)) & 0x1;
         if self.v748 != c748 { self.v748 = c748; *dirty |= 0x4000000; }
         let c752: u64 = if (c748) != 0 { (0x1) } else { (c742) };
-        if self.v752 != c752 { self.v752 = c752; *dirty |= 0x80000000000; }
+        if self.v752 != c752 { self.v752 = c752; *dirty |= 0x100000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe.
     fn group_26(&mut self, dirty: &mut u128) {
         let c64: u64 = u64::from((self.q94 | (self.v27 << 1) | (self.v29 << 2) | (self.v28 << 3) | (self.v42 << 4)) == 0x1f);
-        if self.v64 != c64 { self.v64 = c64; *dirty |= 0x100000000000000000; }
+        if self.v64 != c64 { self.v64 = c64; *dirty |= 0x200000000000000000; }
         let c65: u64 = u64::from((self.q94 | (self.v27 << 1) | (self.v29 << 2) | (self.v28 << 3) | (self.v31 << 4) | (self.v30 << 5) | (self.v32 << 6) | (self.v42 << 7)) == 0xff);
-        if self.v65 != c65 { self.v65 = c65; *dirty |= 0x80000000000000000; }
+        if self.v65 != c65 { self.v65 = c65; *dirty |= 0x100000000000000000; }
         let c501: u64 = (self.q94) & (self.v42) & 0x1;
         if self.v501 != c501 { self.v501 = c501; *dirty |= 0x1008000000; }
         let c502: u64 = (c501) & (self.v425) & 0x1;
         let c504: u64 = (c502) & (self.v541) & 0x1;
-        if self.v504 != c504 { self.v504 = c504; *dirty |= 0x4000080070000000; }
+        if self.v504 != c504 { self.v504 = c504; *dirty |= 0x8000100070000000; }
         let c22: u64 = u64::from((c504 | (self.v748 << 1)) != 0);
         let c59: u64 = u64::from((self.q94 | (c22 << 1)) == 0x3);
-        if self.v59 != c59 { self.v59 = c59; *dirty |= 0x1000000000000000000; }
+        if self.v59 != c59 { self.v59 = c59; *dirty |= 0x2000000000000000000; }
         let c92: u64 = u64::from((self.i_reset | (c504 << 1)) != 0);
-        if self.v92 != c92 { self.v92 = c92; *dirty |= 0x8600000000000000; }
+        if self.v92 != c92 { self.v92 = c92; *dirty |= 0x10c00000000000000; }
         let c509: u64 = (self.v425) & (self.q64) & 0x1;
         if self.v509 != c509 { self.v509 = c509; *dirty |= 0x10000000; }
         let c604: u64 = if (self.q59) != 0 { (c509) } else { (self.v598) };
@@ -3355,15 +3362,15 @@ impl Model {
     /// The cells of top$core$protocol$frame.
     fn group_27(&mut self, dirty: &mut u128) {
         let c68: u64 = u64::from((self.v501 | (self.v385 << 1) | (self.v38 << 2)) == 0x7);
-        if self.v68 != c68 { self.v68 = c68; *dirty |= 0x800000000000000; }
+        if self.v68 != c68 { self.v68 = c68; *dirty |= 0x1000000000000000; }
         let c69: u64 = u64::from((self.v501 | (self.v378 << 1) | (self.v385 << 2)) == 0x7);
-        if self.v69 != c69 { self.v69 = c69; *dirty |= 0x400000000000000; }
+        if self.v69 != c69 { self.v69 = c69; *dirty |= 0x800000000000000; }
         let c70: u64 = u64::from((self.v501 | (self.v43 << 1) | (self.v385 << 2)) == 0x7);
-        if self.v70 != c70 { self.v70 = c70; *dirty |= 0x400000000000000; }
+        if self.v70 != c70 { self.v70 = c70; *dirty |= 0x800000000000000; }
         let c72: u64 = u64::from((self.v501 | (self.v431 << 1)) == 0x3);
-        if self.v72 != c72 { self.v72 = c72; *dirty |= 0x100000000000000; }
+        if self.v72 != c72 { self.v72 = c72; *dirty |= 0x200000000000000; }
         let c73: u64 = u64::from((self.v501 | (self.v383 << 1) | (self.v431 << 2)) == 0x7);
-        if self.v73 != c73 { self.v73 = c73; *dirty |= 0x80000000000000; }
+        if self.v73 != c73 { self.v73 = c73; *dirty |= 0x100000000000000; }
         let c368: u64 = (self.q94) & (self.v743) & 0x1;
         if self.v368 != c368 { self.v368 = c368; *dirty |= 0x40000000; }
         let c479: u64 = if (c368) != 0 { (self.v476) } else { (self.v465) };
@@ -3377,21 +3384,21 @@ impl Model {
         let c483: u64 = if (c368) != 0 { (0x0) } else { (self.v459) };
         if self.v483 != c483 { self.v483 = c483; *dirty |= 0x40000000; }
         let c484: u64 = if (c368) != 0 { (0x0) } else { (self.v460) };
-        if self.v484 != c484 { self.v484 = c484; *dirty |= 0x10000000080000000; }
+        if self.v484 != c484 { self.v484 = c484; *dirty |= 0x20000000080000000; }
         let c485: u64 = if (c368) != 0 { (0x0) } else { (self.v461) };
-        if self.v485 != c485 { self.v485 = c485; *dirty |= 0x10000000040000000; }
+        if self.v485 != c485 { self.v485 = c485; *dirty |= 0x20000000040000000; }
         let c486: u64 = if (c368) != 0 { (0x0) } else { (self.v463) };
         if self.v486 != c486 { self.v486 = c486; *dirty |= 0x10000000; }
         let c487: u64 = if (c368) != 0 { (0x0) } else { (self.v464) };
         if self.v487 != c487 { self.v487 = c487; *dirty |= 0x40000000; }
         let c488: u64 = if (c368) != 0 { (0x0) } else { (self.v466) };
-        if self.v488 != c488 { self.v488 = c488; *dirty |= 0x3000000010000000; }
+        if self.v488 != c488 { self.v488 = c488; *dirty |= 0x6000000010000000; }
         let c489: u64 = if (c368) != 0 { (0x0) } else { (self.v469) };
         if self.v489 != c489 { self.v489 = c489; *dirty |= 0x10000000; }
         let c490: u64 = if (c368) != 0 { (0x0) } else { (self.v470) };
         if self.v490 != c490 { self.v490 = c490; *dirty |= 0x20000000; }
         let c491: u64 = if (c368) != 0 { (0x0) } else { (self.v471) };
-        if self.v491 != c491 { self.v491 = c491; *dirty |= 0x4000000020000000; }
+        if self.v491 != c491 { self.v491 = c491; *dirty |= 0x8000000020000000; }
         let c492: u64 = if (c368) != 0 { (self.q115) } else { (self.v472) };
         if self.v492 != c492 { self.v492 = c492; *dirty |= 0x10000000; }
         let c493: u64 = if (c368) != 0 { (0x0) } else { (self.v473) };
@@ -3462,11 +3469,11 @@ impl Model {
         let c25: u64 = u64::from((self.v592 | (self.v743 << 1) | (c649 << 2)) != 0);
         let c26: u64 = u64::from((self.v743 | (c649 << 1)) != (0x1));
         let c62: u64 = u64::from((self.q94 | (c25 << 1) | (c26 << 2)) == 0x7);
-        if self.v62 != c62 { self.v62 = c62; *dirty |= 0x200000000000000000; }
+        if self.v62 != c62 { self.v62 = c62; *dirty |= 0x400000000000000000; }
         let c553: u64 = ((self.v646) | (c649)) & 0x1;
-        if self.v553 != c553 { self.v553 = c553; *dirty |= 0x80000000000000000; }
+        if self.v553 != c553 { self.v553 = c553; *dirty |= 0x100000000000000000; }
         let c554: u64 = if (c649) != 0 { (self.v539) } else { (self.v607) };
-        if self.v554 != c554 { self.v554 = c554; *dirty |= 0x200000000000000000; }
+        if self.v554 != c554 { self.v554 = c554; *dirty |= 0x400000000000000000; }
         let c555: u64 = ((self.v489) | (c649)) & 0x1;
         let c556: u64 = if (c649) != 0 { (0x0) } else { (c558) };
         if self.v556 != c556 { self.v556 = c556; *dirty |= 0x40000000; }
@@ -3492,7 +3499,7 @@ impl Model {
         let c656: u64 = (self.q94) & (c543) & 0x1;
         if self.v656 != c656 { self.v656 = c656; *dirty |= 0x40000000; }
         let c91: u64 = u64::from((self.i_reset | (c656 << 1)) != 0);
-        if self.v91 != c91 { self.v91 = c91; *dirty |= 0x10000000000000000; }
+        if self.v91 != c91 { self.v91 = c91; *dirty |= 0x20000000000000000; }
         let c657: u64 = if (self.q94) != 0 { (c555) } else { (self.v489) };
         if self.v657 != c657 { self.v657 = c657; *dirty |= 0x60000000; }
         let c658: u64 = if (self.q94) != 0 { (c557) } else { (self.v492) };
@@ -3504,13 +3511,13 @@ impl Model {
         let c661: u64 = (self.q94) & (c552) & 0x1;
         if self.v661 != c661 { self.v661 = c661; *dirty |= 0x80000000; }
         let c662: u64 = (self.q94) & (c530) & 0x1;
-        if self.v662 != c662 { self.v662 = c662; *dirty |= 0x1000000000000000; }
+        if self.v662 != c662 { self.v662 = c662; *dirty |= 0x2000000000000000; }
         let c664: u64 = if (self.q94) != 0 { (c648) } else { (self.v480) };
-        if self.v664 != c664 { self.v664 = c664; *dirty |= 0x1000000000000000; }
+        if self.v664 != c664 { self.v664 = c664; *dirty |= 0x2000000000000000; }
         let c665: u64 = if (self.q94) != 0 { (c649) } else { (self.v481) };
         if self.v665 != c665 { self.v665 = c665; *dirty |= 0x60000000; }
         let c667: u64 = if (self.q94) != 0 { (c651) } else { (c505) };
-        if self.v667 != c667 { self.v667 = c667; *dirty |= 0x2000000020020000000; }
+        if self.v667 != c667 { self.v667 = c667; *dirty |= 0x4000000040020000000; }
         let c669: u64 = ((self.q64) | (self.v486)) & 0x1;
         let c600: u64 = if (self.v509) != 0 { (0x0) } else { (c669) };
         let c603: u64 = if (self.q59) != 0 { (c600) } else { (c669) };
@@ -3518,7 +3525,7 @@ impl Model {
         let c634: u64 = if (self.v592) != 0 { (c591) } else { (c669) };
         let c645: u64 = if (self.v743) != 0 { (c669) } else { (c634) };
         let c663: u64 = if (self.q94) != 0 { (c645) } else { (c669) };
-        if self.v663 != c663 { self.v663 = c663; *dirty |= 0x40000000000000000; }
+        if self.v663 != c663 { self.v663 = c663; *dirty |= 0x80000000000000000; }
         let _ = &dirty;
     }
 
@@ -3528,7 +3535,7 @@ impl Model {
         let c674: u64 = (c673) & (self.v386) & 0x1;
         let c675: u64 = (c674) & (self.v667) & 0x1;
         let c686: u64 = !(self.v490) & 0x1;
-        if self.v686 != c686 { self.v686 = c686; *dirty |= 0x20000000000; }
+        if self.v686 != c686 { self.v686 = c686; *dirty |= 0x40000000000; }
         let c687: u64 = !(self.v666) & 0x1;
         let c672: u64 = (self.v592) & (c687) & 0x1;
         let c688: u64 = !(self.v665) & 0x1;
@@ -3536,88 +3543,88 @@ impl Model {
         let c676: u64 = (c675) & (c688) & 0x1;
         let c689: u64 = !(self.v657) & 0x1;
         let c677: u64 = (c676) & (c689) & 0x1;
-        if self.v677 != c677 { self.v677 = c677; *dirty |= 0x20000000000; }
+        if self.v677 != c677 { self.v677 = c677; *dirty |= 0x40000000000; }
         let c697: u64 = if (c672) != 0 { (self.q59) } else { (self.v539) };
-        if self.v697 != c697 { self.v697 = c697; *dirty |= 0x20000000000; }
+        if self.v697 != c697 { self.v697 = c697; *dirty |= 0x40000000000; }
         let c698: u64 = u64::from((self.v658) == (0xc));
-        if self.v698 != c698 { self.v698 = c698; *dirty |= 0x20000000000; }
+        if self.v698 != c698 { self.v698 = c698; *dirty |= 0x40000000000; }
         let c699: u64 = if (self.v491) != 0 { (self.v741) } else { ((self.q73 >> 14)) };
         let c700: u64 = u64::from((self.v658) == (0x5));
-        if self.v700 != c700 { self.v700 = c700; *dirty |= 0x20000000000; }
+        if self.v700 != c700 { self.v700 = c700; *dirty |= 0x40000000000; }
         let c701: u64 = if (self.v667) != 0 { (c699) } else { (0x1) };
-        if self.v701 != c701 { self.v701 = c701; *dirty |= 0x20000000000; }
+        if self.v701 != c701 { self.v701 = c701; *dirty |= 0x40000000000; }
         let c703: u64 = u64::from((self.v658) == (0x4));
-        if self.v703 != c703 { self.v703 = c703; *dirty |= 0x20000000000; }
+        if self.v703 != c703 { self.v703 = c703; *dirty |= 0x40000000000; }
         let c706: u64 = u64::from((self.v658) == (0x3));
-        if self.v706 != c706 { self.v706 = c706; *dirty |= 0x20000000000; }
+        if self.v706 != c706 { self.v706 = c706; *dirty |= 0x40000000000; }
         let c713: u64 = u64::from((self.v658) == (0x2));
-        if self.v713 != c713 { self.v713 = c713; *dirty |= 0x20000000000; }
+        if self.v713 != c713 { self.v713 = c713; *dirty |= 0x40000000000; }
         let c719: u64 = u64::from((self.v658) == (0xd));
-        if self.v719 != c719 { self.v719 = c719; *dirty |= 0x20000000000; }
+        if self.v719 != c719 { self.v719 = c719; *dirty |= 0x40000000000; }
         let c720: u64 = u64::from((self.v658) == (0x7));
-        if self.v720 != c720 { self.v720 = c720; *dirty |= 0x20000000000; }
+        if self.v720 != c720 { self.v720 = c720; *dirty |= 0x40000000000; }
         let c721: u64 = u64::from((self.v658) == (0x1));
-        if self.v721 != c721 { self.v721 = c721; *dirty |= 0x20000000000; }
+        if self.v721 != c721 { self.v721 = c721; *dirty |= 0x40000000000; }
         let c725: u64 = if (self.v743) != 0 { ((self.q74 & 0x7)) } else { ((self.v671 & 0x7)) };
         let c726: u64 = if (self.v743) != 0 { (self.v379) } else { (self.v680) };
         let c722: u64 = if (self.v504) != 0 { (0x0) } else { (c726) };
-        if self.v722 != c722 { self.v722 = c722; *dirty |= 0x20000000000; }
+        if self.v722 != c722 { self.v722 = c722; *dirty |= 0x40000000000; }
         let c727: u64 = if (self.v743) != 0 { (self.v378) } else { (self.v377) };
         let c723: u64 = if (self.v504) != 0 { (0x0) } else { (c727) };
-        if self.v723 != c723 { self.v723 = c723; *dirty |= 0x20000000000; }
+        if self.v723 != c723 { self.v723 = c723; *dirty |= 0x40000000000; }
         let c728: u64 = if (self.v743) != 0 { (self.v377) } else { (self.v523) };
         let c724: u64 = if (self.v504) != 0 { (0x0) } else { (c728) };
-        if self.v724 != c724 { self.v724 = c724; *dirty |= 0x20000000000; }
+        if self.v724 != c724 { self.v724 = c724; *dirty |= 0x40000000000; }
         let c739: u64 = (c725).wrapping_sub((0x1)) & 0x7;
-        let c710: u64 = if ((self.v1091 >> 7)) != 0 { (c739) } else { (c725) };
+        let c710: u64 = if ((self.v1094 >> 7)) != 0 { (c739) } else { (c725) };
         let c682: u64 = u64::from((c710) == (0x1));
         let c683: u64 = u64::from((c710) == (0x2));
         let c684: u64 = u64::from((c710) == (0x3));
         let c685: u64 = u64::from((c710) == (0x4));
-        let c709: u64 = (c682) & (((self.v1091 >> 3) & 0x1)) & 0x1;
-        let c708: u64 = if (c683) != 0 { (((self.v1091 >> 2) & 0x1)) } else { (c709) };
-        let c707: u64 = if (c684) != 0 { (((self.v1091 >> 1) & 0x1)) } else { (c708) };
-        let c705: u64 = if (c685) != 0 { ((self.v1091 & 0x1)) } else { (c707) };
+        let c709: u64 = (c682) & (((self.v1094 >> 3) & 0x1)) & 0x1;
+        let c708: u64 = if (c683) != 0 { (((self.v1094 >> 2) & 0x1)) } else { (c709) };
+        let c707: u64 = if (c684) != 0 { (((self.v1094 >> 1) & 0x1)) } else { (c708) };
+        let c705: u64 = if (c685) != 0 { ((self.v1094 & 0x1)) } else { (c707) };
         let c711: u64 = if (self.v667) != 0 { (c705) } else { (0x1) };
-        if self.v711 != c711 { self.v711 = c711; *dirty |= 0x20000000000; }
+        if self.v711 != c711 { self.v711 = c711; *dirty |= 0x40000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol.
     fn group_30(&mut self, dirty: &mut u128) {
         let c87: u64 = u64::from((self.i_reset | (self.v231 << 1) | (self.v368 << 2)) != 0);
-        if self.v87 != c87 { self.v87 = c87; *dirty |= 0x2000000000000000000; }
+        if self.v87 != c87 { self.v87 = c87; *dirty |= 0x4000000000000000000; }
         let c233: u64 = (self.v494) & (self.v688) & 0x1;
-        if self.v233 != c233 { self.v233 = c233; *dirty |= 0xa00000020000000000; }
+        if self.v233 != c233 { self.v233 = c233; *dirty |= 0x1400000040000000000; }
         let c61: u64 = u64::from((c233 | (self.v678 << 1)) == 0x3);
-        if self.v61 != c61 { self.v61 = c61; *dirty |= 0x40000000000; }
+        if self.v61 != c61 { self.v61 = c61; *dirty |= 0x80000000000; }
         let c248: u64 = !(self.v481) & 0x1;
         let c234: u64 = (self.v483) & (c248) & 0x1;
-        if self.v234 != c234 { self.v234 = c234; *dirty |= 0x20000000000; }
+        if self.v234 != c234 { self.v234 = c234; *dirty |= 0x40000000000; }
         let c23: u64 = u64::from((c233 | (c234 << 1)) != 0);
         let c24: u64 = u64::from((c233 | (c234 << 1) | (self.v678 << 2)) != (0x1));
         let c60: u64 = u64::from((c24 | (c23 << 1)) == 0x3);
-        if self.v60 != c60 { self.v60 = c60; *dirty |= 0x40000000000; }
+        if self.v60 != c60 { self.v60 = c60; *dirty |= 0x80000000000; }
         let c250: u64 = !(self.v504) & 0x1;
         let c235: u64 = (self.v249) & (c250) & 0x1;
         let c89: u64 = u64::from((self.i_reset | (c234 << 1) | (c235 << 2)) != 0);
-        if self.v89 != c89 { self.v89 = c89; *dirty |= 0x200000040000000000; }
+        if self.v89 != c89 { self.v89 = c89; *dirty |= 0x400000080000000000; }
         let c90: u64 = u64::from((self.i_reset | (c235 << 1)) != 0);
-        if self.v90 != c90 { self.v90 = c90; *dirty |= 0x40000000000; }
+        if self.v90 != c90 { self.v90 = c90; *dirty |= 0x80000000000; }
         let c252: u64 = ((self.v657) | (self.v231)) & 0x1;
-        if self.v252 != c252 { self.v252 = c252; *dirty |= 0x80000000000; }
+        if self.v252 != c252 { self.v252 = c252; *dirty |= 0x100000000000; }
         let c255: u64 = ((self.v665) | (self.v666)) & 0x1;
-        if self.v255 != c255 { self.v255 = c255; *dirty |= 0x3000000000000000; }
+        if self.v255 != c255 { self.v255 = c255; *dirty |= 0x6000000000000000; }
         let c273: u64 = if (self.q94) != 0 { (self.v556) } else { (self.q74) };
         let c270: u64 = if (self.v247) != 0 { (0x0) } else { (c273) };
         let c271: u64 = if (self.q113) != 0 { (c270) } else { (c273) };
-        if self.v271 != c271 { self.v271 = c271; *dirty |= 0x4000000000000000; }
+        if self.v271 != c271 { self.v271 = c271; *dirty |= 0x8000000000000000; }
         let c274: u64 = if (self.q94) != 0 { (self.v658) } else { (self.q115) };
         let c272: u64 = if (self.q113) != 0 { (0xf) } else { (c274) };
         let c269: u64 = if (self.v236) != 0 { (0x1) } else { (c272) };
         let c268: u64 = if (self.v231) != 0 { (0x0) } else { (c269) };
         let c266: u64 = if (self.i_reset) != 0 { (0x0) } else { (c268) };
-        if self.v266 != c266 { self.v266 = c266; *dirty |= 0x20000000000000000; }
+        if self.v266 != c266 { self.v266 = c266; *dirty |= 0x40000000000000000; }
         let c239: u64 = u64::from((c266) == (0x2));
         let c240: u64 = u64::from((c266) == (0x3));
         let c241: u64 = u64::from((c266) == (0x4));
@@ -3633,13 +3640,13 @@ impl Model {
         let c263: u64 = ((c262) | (c244)) & 0x1;
         let c264: u64 = ((c263) | (c245)) & 0x1;
         let c265: u64 = ((c264) | (c246)) & 0x1;
-        if self.v265 != c265 { self.v265 = c265; *dirty |= 0x40000000000000000; }
+        if self.v265 != c265 { self.v265 = c265; *dirty |= 0x80000000000000000; }
         let c275: u64 = ((self.q88) | (self.v10)) & 0x1;
-        if self.v275 != c275 { self.v275 = c275; *dirty |= 0x80000000000000; }
+        if self.v275 != c275 { self.v275 = c275; *dirty |= 0x100000000000000; }
         let c276: u64 = ((self.q72) | (self.v487)) & 0x1;
-        if self.v276 != c276 { self.v276 = c276; *dirty |= 0x8000000000000000; }
+        if self.v276 != c276 { self.v276 = c276; *dirty |= 0x10000000000000000; }
         let c277: u64 = ((self.v485) | (self.v656)) & 0x1;
-        if self.v277 != c277 { self.v277 = c277; *dirty |= 0x8000000000000000; }
+        if self.v277 != c277 { self.v277 = c277; *dirty |= 0x10000000000000000; }
         let _ = &dirty;
     }
 
@@ -3668,16 +3675,16 @@ impl Model {
         let c333: u64 = ((c330) | (self.v319)) & 0x1;
         let c334: u64 = if (self.v1) != 0 { (c333) } else { (c359) };
         let c325: u64 = if (self.i_reset) != 0 { (0x0) } else { (c334) };
-        if self.v325 != c325 { self.v325 = c325; *dirty |= 0x10000000000000000; }
+        if self.v325 != c325 { self.v325 = c325; *dirty |= 0x20000000000000000; }
         let c323: u64 = !(c325) & 0x1;
         let c360: u64 = if (self.q113) != 0 { (c357) } else { (c350) };
         let c329: u64 = if (self.q113) != 0 { (0x0) } else { (c360) };
         let c331: u64 = if (self.v319) != 0 { (0x0) } else { (c329) };
         let c335: u64 = if (self.v1) != 0 { (c331) } else { (c360) };
         let c328: u64 = if (self.v314) != 0 { (self.i_wdata) } else { (c335) };
-        if self.v328 != c328 { self.v328 = c328; *dirty |= 0x10000000000; }
+        if self.v328 != c328 { self.v328 = c328; *dirty |= 0x20000000000; }
         let c326: u64 = if (self.i_reset) != 0 { (0x0) } else { (c328) };
-        if self.v326 != c326 { self.v326 = c326; *dirty |= 0x10000000000; }
+        if self.v326 != c326 { self.v326 = c326; *dirty |= 0x20000000000; }
         let c361: u64 = if (self.q113) != 0 { (c358) } else { (c351) };
         let c336: u64 = if (self.v1) != 0 { (self.v332) } else { (c361) };
         if self.v336 != c336 { self.v336 = c336; *dirty |= 0x2000000000; }
@@ -3685,7 +3692,7 @@ impl Model {
         if self.v327 != c327 { self.v327 = c327; *dirty |= 0x2000000000; }
         let c324: u64 = (((c327 >> 7)) | ((c326 >> 7))) & 0x1;
         let c315: u64 = (c323) & (c324) & 0x1;
-        if self.v315 != c315 { self.v315 = c315; *dirty |= 0x20000000000000000; }
+        if self.v315 != c315 { self.v315 = c315; *dirty |= 0x40000000000000000; }
         let _ = &dirty;
     }
 
@@ -3701,68 +3708,49 @@ impl Model {
         if self.v66 != c66 { self.v66 = c66; *dirty |= 0x2000000000; }
         let c67: u64 = u64::from((c35 | (c36 << 1) | (self.v37 << 2) | (c33 << 3)) == 0xf);
         if self.v67 != c67 { self.v67 = c67; *dirty |= 0x2000000000; }
-        let c1103: u64 = ((self.v1105) | (self.v1009)) & 0x1;
-        let c1101: u64 = ((c1103) | (self.i_reset)) & 0x1;
-        if self.v1101 != c1101 { self.v1101 = c1101; *dirty |= 0x100000000000000000000000000000; }
+        let c1106: u64 = ((self.v1108) | (self.v1009)) & 0x1;
+        let c1104: u64 = ((c1106) | (self.i_reset)) & 0x1;
+        if self.v1104 != c1104 { self.v1104 = c1104; *dirty |= 0x100000000000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$fifo.
     fn group_33(&mut self, dirty: &mut u128) {
-        let c788: u64 = (self.v757) & (self.v798) & 0x1;
-        if self.v788 != c788 { self.v788 = c788; *dirty |= 0x400000000; }
-        let c801: u64 = if (self.v18) != 0 { (self.i_wdata) } else { (self.v824) };
-        let c802: u64 = if (self.v18) != 0 { (self.v1060) } else { (self.v783) };
-        let c803: u64 = ((self.v823) | (self.v18)) & 0x1;
-        let c806: u64 = if (self.q127) != 0 { (c803) } else { (self.v823) };
-        if self.v806 != c806 { self.v806 = c806; *dirty |= 0x20000000000000000000; }
-        let c807: u64 = if (self.q127) != 0 { (c801) } else { (self.v824) };
-        if self.v807 != c807 { self.v807 = c807; *dirty |= 0x20000000000000000000; }
-        let c808: u64 = if (self.q127) != 0 { (c802) } else { (self.v783) };
-        if self.v808 != c808 { self.v808 = c808; *dirty |= 0x20000000000000000000; }
-        let c809: u64 = if (self.v17) != 0 { (self.v1060) } else { (self.v784) };
-        if self.v809 != c809 { self.v809 = c809; *dirty |= 0x20000000000000000000; }
-        let c817: u64 = if (c788) != 0 { (self.v848) } else { (self.q50) };
-        let c787: u64 = (c817).wrapping_add((0x1)) & 0x1f;
-        let c797: u64 = u64::from((c817) == 0);
-        let c811: u64 = if (c797) != 0 { (0x0) } else { (c788) };
-        let c812: u64 = if (c797) != 0 { (self.q84 | (self.q79 << 6) | (self.q81 << 7)) } else { (self.v846) };
-        let c813: u64 = if (self.v789) != 0 { (c811) } else { (c788) };
-        if self.v813 != c813 { self.v813 = c813; *dirty |= 0x4000000000000000000; }
-        let c814: u64 = if (self.v789) != 0 { (c812) } else { (self.v846) };
-        if self.v814 != c814 { self.v814 = c814; *dirty |= 0x8000000000000000000; }
-        let c815: u64 = if (self.v789) != 0 { (c787) } else { (c817) };
-        if self.v815 != c815 { self.v815 = c815; *dirty |= 0x100000000000000000000; }
-        let c818: u64 = if (c788) != 0 { (self.v847) } else { (self.q42) };
-        let c786: u64 = (c818).wrapping_add((self.v841)) & 0x7f;
-        let c816: u64 = if (self.v789) != 0 { (c786) } else { (c818) };
-        if self.v816 != c816 { self.v816 = c816; *dirty |= 0x200000000000000000000; }
-        let c819: u64 = if (c788) != 0 { (self.v784) } else { (self.q48) };
-        let c800: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (c819) };
-        let c805: u64 = if (self.q127) != 0 { (c800) } else { (c819) };
-        if self.v805 != c805 { self.v805 = c805; *dirty |= 0x4000000000000000000; }
+        let c800: u64 = if (self.v18) != 0 { (self.i_wdata) } else { (self.v823) };
+        let c801: u64 = if (self.v18) != 0 { (self.v1060) } else { (self.v783) };
+        let c802: u64 = ((self.v822) | (self.v18)) & 0x1;
+        let c805: u64 = if (self.q127) != 0 { (c802) } else { (self.v822) };
+        if self.v805 != c805 { self.v805 = c805; *dirty |= 0x40000000000000000000; }
+        let c806: u64 = if (self.q127) != 0 { (c800) } else { (self.v823) };
+        if self.v806 != c806 { self.v806 = c806; *dirty |= 0x40000000000000000000; }
+        let c807: u64 = if (self.q127) != 0 { (c801) } else { (self.v783) };
+        if self.v807 != c807 { self.v807 = c807; *dirty |= 0x40000000000000000000; }
+        let c808: u64 = if (self.v17) != 0 { (self.v1060) } else { (self.v784) };
+        if self.v808 != c808 { self.v808 = c808; *dirty |= 0x40000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts.
     fn group_34(&mut self, dirty: &mut u128) {
-        let c114: u64 = (self.q71 | (self.v1011 << 1) | (self.v963 << 2) | (self.v940 << 3) | (self.v954 << 4) | (self.v938 << 5) | (self.v937 << 6)) & (((self.q22 >> 1) & 0x1) | ((self.v1084 & 0x3) << 1) | ((self.q22 >> 3) << 3) | (((self.q22 >> 2) & 0x1) << 4) | ((self.v1084 >> 3) << 5) | (((self.v1084 >> 2) & 0x1) << 6)) & 0x7f;
-        let c936: u64 = (self.v40) & (self.v1050) & 0x1;
-        let c19: u64 = u64::from((c936 | (self.v935 << 1)) != 0);
-        let c41: u64 = !(c936) & 0x1;
-        let c49: u64 = u64::from((self.i_we | (c41 << 1) | (self.v935 << 2)) == 0x7);
-        if self.v49 != c49 { self.v49 = c49; *dirty |= 0x100000000000; }
+        let c114: u64 = (self.q71 | (self.v1011 << 1) | (self.v963 << 2) | (self.v939 << 3) | (self.v954 << 4) | (self.v937 << 5) | (self.v936 << 6)) & (((self.q22 >> 1) & 0x1) | ((self.v1084 & 0x3) << 1) | ((self.q22 >> 3) << 3) | (((self.q22 >> 2) & 0x1) << 4) | ((self.v1084 >> 3) << 5) | (((self.v1084 >> 2) & 0x1) << 6)) & 0x7f;
+        let c935: u64 = (self.v40) & (self.v1050) & 0x1;
+        let c19: u64 = u64::from((c935 | (self.v934 << 1)) != 0);
+        let c41: u64 = !(c935) & 0x1;
+        let c49: u64 = u64::from((self.i_we | (c41 << 1) | (self.v934 << 2)) == 0x7);
+        if self.v49 != c49 { self.v49 = c49; *dirty |= 0x200000000000; }
         let c50: u64 = u64::from((self.i_we | (c19 << 1)) == 0x3);
-        if self.v50 != c50 { self.v50 = c50; *dirty |= 0x100000000000; }
-        let c942: u64 = (self.v788) & (self.v951) & 0x1;
-        let c955: u64 = ((self.v941) | (c942)) & 0x1;
+        if self.v50 != c50 { self.v50 = c50; *dirty |= 0x200000000000; }
+        let c941: u64 = (self.v757) & (self.v797) & 0x1;
+        if self.v941 != c941 { self.v941 = c941; *dirty |= 0x4000000000; }
+        let c942: u64 = (c941) & (self.v951) & 0x1;
+        let c955: u64 = ((self.v940) | (c942)) & 0x1;
         let c958: u64 = if (self.v1009) != 0 { (0x0) } else { ((self.v959 & 0x1) | ((self.v959 >> 2) << 1)) };
         let c115: u64 = (((c958 & 0x1) | (((self.v959 >> 1) & 0x1) << 1) | ((c958 >> 1) << 2)) | ((c114 & 0x1) | (((c114 >> 4) & 0x1) << 1) | (((c114 >> 3) & 0x1) << 2) | (((c114 >> 1) & 0x3) << 3) | ((c114 >> 6) << 5) | (((c114 >> 5) & 0x1) << 6))) & 0x7f;
         if self.v115 != c115 { self.v115 = c115; *dirty |= 0x400000000000000000000000; }
         let c960: u64 = ((self.v961) | (c955)) & 0x1;
-        if self.v960 != c960 { self.v960 = c960; *dirty |= 0x40000000000000000000000; }
-        let c972: u64 = if (c936) != 0 { (((self.i_wdata >> 1) & 0xf)) } else { ((self.i_wdata & 0xf)) };
-        if self.v972 != c972 { self.v972 = c972; *dirty |= 0x100000000000; }
+        if self.v960 != c960 { self.v960 = c960; *dirty |= 0x80000000000000000000000; }
+        let c972: u64 = if (c935) != 0 { (((self.i_wdata >> 1) & 0xf)) } else { ((self.i_wdata & 0xf)) };
+        if self.v972 != c972 { self.v972 = c972; *dirty |= 0x200000000000; }
         let _ = &dirty;
     }
 
@@ -3786,11 +3774,11 @@ impl Model {
     /// The cells of top$core$protocol$assembler.
     fn group_36(&mut self, dirty: &mut u128) {
         let c71: u64 = u64::from((self.v501 | (self.v433 << 1) | (self.v279 << 2)) == 0x7);
-        if self.v71 != c71 { self.v71 = c71; *dirty |= 0x200000000000000; }
+        if self.v71 != c71 { self.v71 = c71; *dirty |= 0x400000000000000; }
         let c283: u64 = (self.v501) & (self.v281) & 0x1;
-        if self.v283 != c283 { self.v283 = c283; *dirty |= 0x100000000000000; }
+        if self.v283 != c283 { self.v283 = c283; *dirty |= 0x200000000000000; }
         let c284: u64 = (self.v501) & (self.v282) & 0x1;
-        if self.v284 != c284 { self.v284 = c284; *dirty |= 0x200000000000000; }
+        if self.v284 != c284 { self.v284 = c284; *dirty |= 0x400000000000000; }
         let _ = &dirty;
     }
 
@@ -3802,8 +3790,32 @@ impl Model {
         let _ = &dirty;
     }
 
-    /// The cells of top$modes$cdr_reg.
+    /// The cells of top$fifo.
     fn group_38(&mut self, dirty: &mut u128) {
+        let c816: u64 = if (self.v941) != 0 { (self.v847) } else { (self.q50) };
+        let c787: u64 = (c816).wrapping_add((0x1)) & 0x1f;
+        let c796: u64 = u64::from((c816) == 0);
+        let c810: u64 = if (c796) != 0 { (0x0) } else { (self.v941) };
+        let c811: u64 = if (c796) != 0 { (self.q84 | (self.q79 << 6) | (self.q81 << 7)) } else { (self.v845) };
+        let c812: u64 = if (self.v788) != 0 { (c810) } else { (self.v941) };
+        if self.v812 != c812 { self.v812 = c812; *dirty |= 0x8000000000000000000; }
+        let c813: u64 = if (self.v788) != 0 { (c811) } else { (self.v845) };
+        if self.v813 != c813 { self.v813 = c813; *dirty |= 0x10000000000000000000; }
+        let c814: u64 = if (self.v788) != 0 { (c787) } else { (c816) };
+        if self.v814 != c814 { self.v814 = c814; *dirty |= 0x200000000000000000000; }
+        let c817: u64 = if (self.v941) != 0 { (self.v846) } else { (self.q42) };
+        let c786: u64 = (c817).wrapping_add((self.v839)) & 0x7f;
+        let c815: u64 = if (self.v788) != 0 { (c786) } else { (c817) };
+        if self.v815 != c815 { self.v815 = c815; *dirty |= 0x400000000000000000000; }
+        let c818: u64 = if (self.v941) != 0 { (self.v784) } else { (self.q48) };
+        let c799: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (c818) };
+        let c804: u64 = if (self.q127) != 0 { (c799) } else { (c818) };
+        if self.v804 != c804 { self.v804 = c804; *dirty |= 0x8000000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes$cdr_reg.
+    fn group_39(&mut self, dirty: &mut u128) {
         self.n14 = ((self.v999 >> 6));
         self.n15 = if (self.i_reset) != 0 { 0x0 } else if (self.v47) != 0 { (((self.i_wdata >> 3) & 0x1) | (((self.i_wdata >> 5) & 0x3) << 1)) } else { self.q15 };
         self.n105 = if (self.i_reset) != 0 { 0x0 } else if (self.v982) != 0 { ((self.i_wdata & 0x7)) } else { self.q105 };
@@ -3811,74 +3823,74 @@ impl Model {
     }
 
     /// The cells of top$core$bit_timing$clocks.
-    fn group_39(&mut self, dirty: &mut u128) {
+    fn group_40(&mut self, dirty: &mut u128) {
         self.n96 = if (self.i_reset) != 0 { 0x0 } else { (self.v187) };
         self.n97 = if (self.v98) != 0 { 0x0 } else { ((self.v138 >> 1)) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults$rec_count.
-    fn group_40(&mut self, dirty: &mut u128) {
+    fn group_41(&mut self, dirty: &mut u128) {
         self.n68 = if (self.i_reset) != 0 { 0x0 } else { ((self.v328 & 0x7f)) };
         self.n69 = ((self.v326 >> 7));
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender.
-    fn group_41(&mut self, dirty: &mut u128) {
+    fn group_42(&mut self, dirty: &mut u128) {
         let c702: u64 = if (self.v233) != 0 { (self.v735) } else { (self.v737) };
         let c704: u64 = if (self.v667) != 0 { (c702) } else { (0x1) };
         let c716: u64 = if (self.v724) != 0 { (self.v715) } else { (c702) };
-        let c714: u64 = if (self.v723) != 0 { ((self.v1091 >> 7)) } else { (c716) };
-        let c712: u64 = if (self.v722) != 0 { (((self.v1091 >> 6) & 0x1)) } else { (c714) };
+        let c714: u64 = if (self.v723) != 0 { ((self.v1094 >> 7)) } else { (c716) };
+        let c712: u64 = if (self.v722) != 0 { (((self.v1094 >> 6) & 0x1)) } else { (c714) };
         let c717: u64 = if (self.v667) != 0 { (c712) } else { (0x1) };
         let c718: u64 = { let s = (self.v719 | (self.v698 << 1) | (self.v720 << 2) | (self.v700 << 3) | (self.v703 << 4) | (self.v706 << 5) | (self.v713 << 6) | (self.v721 << 7)); if s >> 0 & 1 != 0 { self.q125 } else if s >> 1 & 1 != 0 { self.v697 } else if s >> 2 & 1 != 0 { self.v686 } else if s >> 3 & 1 != 0 { self.v701 } else if s >> 4 & 1 != 0 { c704 } else if s >> 5 & 1 != 0 { self.v711 } else if s >> 6 & 1 != 0 { c717 } else if s >> 7 & 1 != 0 { self.v681 } else { (0x1) } };
         let c696: u64 = if (self.v677) != 0 { (self.v425) } else { (c718) };
         let c695: u64 = if (self.q94) != 0 { (c696) } else { (self.q117) };
         let c691: u64 = ((c695) | (self.v690)) & 0x1;
-        if self.v691 != c691 { self.v691 = c691; *dirty |= 0x400000000000000000; }
+        if self.v691 != c691 { self.v691 = c691; *dirty |= 0x800000000000000000; }
         let c734: u64 = if (self.v233) != 0 { (self.v731) } else { ((self.q57 & 0x1)) };
         let c730: u64 = if (self.v234) != 0 { ((self.v729 << 1) | 0x1) } else { (c734) };
-        if self.v730 != c730 { self.v730 = c730; *dirty |= 0x40000000000; }
+        if self.v730 != c730 { self.v730 = c730; *dirty |= 0x80000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender$tx_ptr.
-    fn group_42(&mut self, dirty: &mut u128) {
+    fn group_43(&mut self, dirty: &mut u128) {
         self.n56 = if (self.v90) != 0 { 0x0 } else if (self.v60) != 0 { ((self.v730 >> 1)) } else { self.q56 };
         self.n57 = if (self.v89) != 0 { 0x1 } else if (self.v61) != 0 { ((self.v670 & 0x1) | ((self.v670 >> 3) << 1)) } else { self.q57 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing.
-    fn group_43(&mut self, dirty: &mut u128) {
+    fn group_44(&mut self, dirty: &mut u128) {
         let c750: u64 = if (self.v504) != 0 { (0x1) } else { (self.v752) };
-        if self.v750 != c750 { self.v750 = c750; *dirty |= 0x1000000000000000000; }
+        if self.v750 != c750 { self.v750 = c750; *dirty |= 0x2000000000000000000; }
         let c751: u64 = ((self.q55) | (self.v504)) & 0x1;
         let c749: u64 = if (self.v252) != 0 { (0x0) } else { (c751) };
-        if self.v749 != c749 { self.v749 = c749; *dirty |= 0x800000000000000000; }
+        if self.v749 != c749 { self.v749 = c749; *dirty |= 0x1000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$ier_reg.
-    fn group_44(&mut self, dirty: &mut u128) {
+    fn group_45(&mut self, dirty: &mut u128) {
         self.n21 = if (self.i_reset) != 0 { 0x0 } else if (self.v49) != 0 { ((self.i_wdata >> 4)) } else { self.q21 };
         self.n22 = if (self.i_reset) != 0 { 0x0 } else if (self.v50) != 0 { (self.v972) } else { self.q22 };
         let _ = &dirty;
     }
 
     /// The cells of top$read.
-    fn group_45(&mut self, dirty: &mut u128) {
-        let c1058: u64 = if (self.q8) != 0 { (self.v1093) } else { (self.v1059) };
+    fn group_46(&mut self, dirty: &mut u128) {
+        let c1058: u64 = if (self.q8) != 0 { (self.v1096) } else { (self.v1059) };
         if self.v1058 != c1058 { self.v1058 = c1058; *dirty |= 0x80000000000000000000000000000000; }
         let c1080: u64 = if (self.v132) != 0 { (self.v131) } else { (self.v1081) };
-        let c1079: u64 = if (self.v919) != 0 { (self.v912) } else { (c1080) };
+        let c1079: u64 = if (self.v918) != 0 { (self.v911) } else { (c1080) };
         let c1066: u64 = if (self.v1050) != 0 { (self.q127 | (self.q22 << 1) | (self.q13 << 6) | 0x20) } else { (c1079) };
         let c1065: u64 = if (self.v1051) != 0 { (0xff) } else { (c1066) };
         let c1064: u64 = if (self.v1052) != 0 { (self.v107 | ((self.q20 & 0xf) << 1) | 0xe0) } else { (c1065) };
         let c1063: u64 = if (self.v1042) != 0 { (0xff) } else { (c1064) };
         let c1074: u64 = if (self.v1050) != 0 { (self.q127 | (self.q126 << 1) | (self.q130 << 2) | (self.q16 << 3) | (self.q129 << 4)) } else { (c1079) };
-        let c1073: u64 = if (self.v872) != 0 { (self.q22 | (self.q21 << 4)) } else { (c1074) };
+        let c1073: u64 = if (self.v871) != 0 { (self.q22 | (self.q21 << 4)) } else { (c1074) };
         let c1072: u64 = if (self.v1044) != 0 { (self.q27) } else { (c1073) };
         let c1071: u64 = if (self.v1045) != 0 { (self.q24) } else { (c1072) };
         let c1070: u64 = if (self.v1046) != 0 { (self.q68 | (self.q69 << 7)) } else { (c1071) };
@@ -3892,338 +3904,333 @@ impl Model {
     }
 
     /// The cells of top$configuration$btr0 + top$configuration$btr1.
-    fn group_46(&mut self, dirty: &mut u128) {
+    fn group_47(&mut self, dirty: &mut u128) {
         self.n103 = if (self.i_reset) != 0 { 0x0 } else if (self.v77) != 0 { (self.i_wdata) } else { self.q103 };
         self.n102 = if (self.i_reset) != 0 { 0x0 } else if (self.v76) != 0 { (self.i_wdata) } else { self.q102 };
         let _ = &dirty;
     }
 
     /// The cells of top$configuration$ewlr_reg + top$configuration$ocr.
-    fn group_47(&mut self, dirty: &mut u128) {
+    fn group_48(&mut self, dirty: &mut u128) {
         self.n101 = if (self.i_reset) != 0 { 0x60 } else if (self.v79) != 0 { (self.i_wdata) } else { self.q101 };
         self.n100 = if (self.i_reset) != 0 { 0x0 } else if (self.v78) != 0 { (self.i_wdata) } else { self.q100 };
         let _ = &dirty;
     }
 
     /// The cells of top$configuration$sjw_reg + top$configuration$tseg2_reg.
-    fn group_48(&mut self, dirty: &mut u128) {
+    fn group_49(&mut self, dirty: &mut u128) {
         self.n99 = if (self.i_reset) != 0 { 0x0 } else if (self.v77) != 0 { ((self.i_wdata >> 6)) } else { self.q99 };
         self.n98 = if (self.i_reset) != 0 { 0x0 } else if (self.v76) != 0 { (((self.i_wdata >> 4) & 0x7)) } else { self.q98 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$elapsed + top$core$bit_timing$process_pending.
-    fn group_49(&mut self, dirty: &mut u128) {
+    fn group_50(&mut self, dirty: &mut u128) {
         self.n95 = if (self.v97) != 0 { 0x0 } else if (self.v75) != 0 { (self.v140) } else { self.q95 };
         self.n94 = if (self.i_reset) != 0 { 0x0 } else { (self.v152) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$remaining + top$core$bit_timing$sampled.
-    fn group_50(&mut self, dirty: &mut u128) {
+    fn group_51(&mut self, dirty: &mut u128) {
         self.n93 = if (self.v96) != 0 { 0x0 } else { (self.v191) };
         self.n109 = (self.v182);
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sampling$metastable + top$core$bit_timing$sampling$previous.
-    fn group_51(&mut self, dirty: &mut u128) {
+    fn group_52(&mut self, dirty: &mut u128) {
         self.n110 = (self.v227);
         self.n111 = (self.v225);
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sampling$quantum_samples + top$core$bit_timing$sampling$stable.
-    fn group_52(&mut self, dirty: &mut u128) {
+    fn group_53(&mut self, dirty: &mut u128) {
         self.n92 = if (self.i_reset) != 0 { 0x3 } else if (self.v146) != 0 { (self.q112 | ((self.q92 & 0x1) << 1)) } else { self.q92 };
         self.n112 = (self.v226);
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$segment_state + top$core$bit_timing$sjw_quanta.
-    fn group_53(&mut self, dirty: &mut u128) {
+    fn group_54(&mut self, dirty: &mut u128) {
         self.n91 = if (self.v96) != 0 { 0x0 } else if (self.v74) != 0 { (self.v190) } else { self.q91 };
         self.n108 = if (self.i_reset) != 0 { 0x1 } else { (self.v137) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$synced + top$core$bit_timing$transmit_deferred.
-    fn group_54(&mut self, dirty: &mut u128) {
+    fn group_55(&mut self, dirty: &mut u128) {
         self.n90 = if (self.i_reset) != 0 { 0x0 } else { (self.v184) };
         self.n89 = if (self.i_reset) != 0 { 0x0 } else { (self.v156) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$abort_pending + top$core$protocol$assembler$byte_index.
-    fn group_55(&mut self, dirty: &mut u128) {
+    fn group_56(&mut self, dirty: &mut u128) {
         self.n88 = if (self.v95) != 0 { 0x0 } else { (self.v275) };
         self.n87 = if (self.i_reset) != 0 { 0x0 } else if (self.v73) != 0 { (((self.q74 >> 3) & 0x7)) } else { self.q87 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$byte_pulse + top$core$protocol$assembler$byte_reg.
-    fn group_56(&mut self, dirty: &mut u128) {
+    fn group_57(&mut self, dirty: &mut u128) {
         self.n86 = if (self.i_reset) != 0 { 0x0 } else { (self.v283) };
         self.n85 = if (self.i_reset) != 0 { 0x0 } else if (self.v72) != 0 { (self.q109 | ((self.q85 & 0x7f) << 1)) } else { self.q85 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$dlc_reg + top$core$protocol$assembler$header_pulse.
-    fn group_57(&mut self, dirty: &mut u128) {
+    fn group_58(&mut self, dirty: &mut u128) {
         self.n84 = if (self.v92) != 0 { 0x0 } else if (self.v71) != 0 { (self.q109 | ((self.q84 & 0x7) << 1)) } else { self.q84 };
         self.n83 = if (self.i_reset) != 0 { 0x0 } else { (self.v284) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$id_reg + top$core$protocol$assembler$ide_reg.
-    fn group_58(&mut self, dirty: &mut u128) {
+    fn group_59(&mut self, dirty: &mut u128) {
         self.n82 = if (self.v92) != 0 { 0x0 } else if (self.v70) != 0 { (self.q109 | ((self.q82 & 0xfffffff) << 1)) } else { self.q82 };
         self.n81 = if (self.i_reset) != 0 { 0x0 } else if (self.v69) != 0 { (self.q109) } else { self.q81 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$last_data_byte_reg + top$core$protocol$assembler$rtr_reg.
-    fn group_59(&mut self, dirty: &mut u128) {
+    fn group_60(&mut self, dirty: &mut u128) {
         self.n80 = if (self.i_reset) != 0 { 0x0 } else { (self.v287) };
         self.n79 = if (self.i_reset) != 0 { 0x0 } else if (self.v68) != 0 { (self.q109) } else { self.q79 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$capture$alc_reg + top$core$protocol$capture$ecc_reg.
-    fn group_60(&mut self, dirty: &mut u128) {
+    fn group_61(&mut self, dirty: &mut u128) {
         self.n78 = if (self.i_reset) != 0 { 0x0 } else if (self.v488) != 0 { ((self.q74 & 0x1f)) } else { self.q78 };
         self.n77 = if (self.i_reset) != 0 { 0x0 } else if (self.v255) != 0 { (self.v306 | (self.v662 << 5) | (self.v664 << 6)) } else { self.q77 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$capture$error_pulse + top$core$protocol$capture$lost_pulse.
-    fn group_61(&mut self, dirty: &mut u128) {
+    fn group_62(&mut self, dirty: &mut u128) {
         self.n76 = if (self.v94) != 0 { 0x0 } else { (self.v255) };
         self.n75 = if (self.v94) != 0 { 0x0 } else { (self.v488) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$count + top$core$protocol$crc$register.
-    fn group_62(&mut self, dirty: &mut u128) {
+    fn group_63(&mut self, dirty: &mut u128) {
         self.n74 = if (self.v93) != 0 { 0x0 } else { (self.v271) };
         self.n73 = if (self.v504) != 0 { 0x0 } else if (self.v491) != 0 { ((self.v307 & 0x1) | ((self.q73 & 0x3) << 1) | (((self.v307 >> 1) & 0x3) << 3) | (((self.q73 >> 4) & 0x3) << 5) | (((self.v307 >> 3) & 0x3) << 7) | (((self.q73 >> 8) & 0x1) << 9) | (((self.v307 >> 5) & 0x1) << 10) | (((self.q73 >> 10) & 0x7) << 11) | ((self.v307 >> 6) << 14)) } else { self.q73 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$crc_error + top$core$protocol$done_pulse.
-    fn group_63(&mut self, dirty: &mut u128) {
+    fn group_64(&mut self, dirty: &mut u128) {
         self.n72 = if (self.v92) != 0 { 0x0 } else { (self.v276) };
         self.n71 = if (self.i_reset) != 0 { 0x0 } else { (self.v277) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$done_success + top$core$protocol$faults$bus_off_state.
-    fn group_64(&mut self, dirty: &mut u128) {
+    fn group_65(&mut self, dirty: &mut u128) {
         self.n70 = if (self.v91) != 0 { 0x0 } else if (self.v485) != 0 { (self.v484) } else { self.q70 };
         self.n113 = (self.v325);
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults$passive_state + top$core$protocol$field.
-    fn group_65(&mut self, dirty: &mut u128) {
+    fn group_66(&mut self, dirty: &mut u128) {
         self.n114 = (self.v315);
         self.n115 = (self.v266);
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$in_frame + top$core$protocol$interframe$ack_penalty.
-    fn group_66(&mut self, dirty: &mut u128) {
+    fn group_67(&mut self, dirty: &mut u128) {
         self.n116 = (self.v265);
         self.n64 = if (self.i_reset) != 0 { 0x0 } else { (self.v663) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$after_error_flag + top$core$protocol$interframe$dominant_after_flag.
-    fn group_67(&mut self, dirty: &mut u128) {
+    fn group_68(&mut self, dirty: &mut u128) {
         self.n63 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v553) } else { self.q63 };
         self.n62 = if (self.i_reset) != 0 { 0x0 } else if (self.v65) != 0 { (self.v635) } else { self.q62 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$first_after_flag + top$core$protocol$interframe$flag_level.
-    fn group_68(&mut self, dirty: &mut u128) {
+    fn group_69(&mut self, dirty: &mut u128) {
         self.n61 = if (self.i_reset) != 0 { 0x0 } else if (self.v64) != 0 { (self.v636) } else { self.q61 };
         self.n60 = if (self.i_reset) != 0 { 0x0 } else if (self.v63) != 0 { (self.q109) } else { self.q60 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$flag_passive_reg + top$core$protocol$sender$tx_left.
-    fn group_69(&mut self, dirty: &mut u128) {
+    fn group_70(&mut self, dirty: &mut u128) {
         self.n59 = if (self.i_reset) != 0 { 0x0 } else if (self.v62) != 0 { (self.v554) } else { self.q59 };
         self.n58 = if (self.v89) != 0 { 0x0 } else if (self.v233) != 0 { (self.v732) } else { self.q58 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender$tx_next + top$core$protocol$sender$tx_reg.
-    fn group_70(&mut self, dirty: &mut u128) {
+    fn group_71(&mut self, dirty: &mut u128) {
         self.n117 = (self.v691);
         self.n118 = (self.v692);
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender$tx_shift + top$core$protocol$stuffing$active.
-    fn group_71(&mut self, dirty: &mut u128) {
+    fn group_72(&mut self, dirty: &mut u128) {
         self.n104 = if (self.i_reset) != 0 { 0x0 } else if (self.v233) != 0 { (self.v733) } else { self.q104 };
         self.n55 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v749) } else { self.q55 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing$run_length + top$core$protocol$stuffing$run_level_reg.
-    fn group_72(&mut self, dirty: &mut u128) {
+    fn group_73(&mut self, dirty: &mut u128) {
         self.n54 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v750) } else { self.q54 };
         self.n53 = if (self.v59) != 0 { (self.q109) } else { self.q53 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$transmitter + top$core$protocol$valid_pulse.
-    fn group_73(&mut self, dirty: &mut u128) {
+    fn group_74(&mut self, dirty: &mut u128) {
         self.n52 = if (self.v88) != 0 { 0x0 } else if (self.q94) != 0 { (self.v667) } else { self.q52 };
         self.n51 = if (self.v87) != 0 { 0x0 } else { (self.v462) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$fetching + top$fifo$head.
-    fn group_74(&mut self, dirty: &mut u128) {
-        self.n49 = if (self.i_reset) != 0 { 0x0 } else { (self.v813) };
-        self.n48 = if (self.i_reset) != 0 { 0x0 } else { (self.v805) };
+    fn group_75(&mut self, dirty: &mut u128) {
+        self.n49 = if (self.i_reset) != 0 { 0x0 } else { (self.v812) };
+        self.n48 = if (self.i_reset) != 0 { 0x0 } else { (self.v804) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$head_info_reg.
-    fn group_75(&mut self, dirty: &mut u128) {
-        self.n47 = if (self.i_reset) != 0 { 0x0 } else { (self.v814) };
+    fn group_76(&mut self, dirty: &mut u128) {
+        self.n47 = if (self.i_reset) != 0 { 0x0 } else { (self.v813) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$header_step.
-    fn group_76(&mut self, dirty: &mut u128) {
+    fn group_77(&mut self, dirty: &mut u128) {
         let c21: u64 = u64::from((self.q83 | (self.q41 << 1)) != 0);
-        self.n46 = if (self.i_reset) != 0 { 0x0 } else if (c21) != 0 { (self.v837) } else { self.q46 };
+        self.n46 = if (self.i_reset) != 0 { 0x0 } else if (c21) != 0 { (self.v836) } else { self.q46 };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$overrun_state + top$fifo$ram.
-    fn group_77(&mut self, dirty: &mut u128) {
-        self.n44 = if (self.v86) != 0 { 0x0 } else { (self.v810) };
+    fn group_78(&mut self, dirty: &mut u128) {
+        self.n44 = if (self.v86) != 0 { 0x0 } else { (self.v809) };
         self.m0_re = (0x1) != 0;
-        self.m0_ra = (self.v809) as usize;
-        self.m0_wa = (self.v808) as usize;
-        self.m0_wd = (self.v807);
-        self.m0_we = (self.v806 | (self.v806 << 1) | (self.v806 << 2) | (self.v806 << 3) | (self.v806 << 4) | (self.v806 << 5) | (self.v806 << 6) | (self.v806 << 7));
+        self.m0_ra = (self.v808) as usize;
+        self.m0_wa = (self.v807) as usize;
+        self.m0_wd = (self.v806);
+        self.m0_we = (self.v805 | (self.v805 << 1) | (self.v805 << 2) | (self.v805 << 3) | (self.v805 << 4) | (self.v805 << 5) | (self.v805 << 6) | (self.v805 << 7));
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$tail.
-    fn group_78(&mut self, dirty: &mut u128) {
-        self.n43 = if (self.i_reset) != 0 { 0x0 } else if (self.v20) != 0 { (self.v804) } else { self.q43 };
+    fn group_79(&mut self, dirty: &mut u128) {
+        self.n43 = if (self.i_reset) != 0 { 0x0 } else if (self.v20) != 0 { (self.v803) } else { self.q43 };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$writing_header.
-    fn group_79(&mut self, dirty: &mut u128) {
+    fn group_80(&mut self, dirty: &mut u128) {
         let c85: u64 = u64::from((self.i_reset | (self.q127 << 1)) != 0);
-        if self.v85 != c85 { self.v85 = c85; *dirty |= 0x300000000000000000000; }
-        self.n41 = if (c85) != 0 { 0x0 } else { (self.v836) };
+        if self.v85 != c85 { self.v85 = c85; *dirty |= 0x600000000000000000000; }
+        self.n41 = if (c85) != 0 { 0x0 } else { (self.v835) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$count + top$fifo$incomplete.
-    fn group_80(&mut self, dirty: &mut u128) {
-        self.n50 = if (self.v85) != 0 { 0x0 } else { (self.v815) };
-        self.n45 = if (self.v85) != 0 { 0x0 } else { (self.v822) };
+    fn group_81(&mut self, dirty: &mut u128) {
+        self.n50 = if (self.v85) != 0 { 0x0 } else { (self.v814) };
+        self.n45 = if (self.v85) != 0 { 0x0 } else { (self.v821) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$used + top$filter$acr0.
-    fn group_81(&mut self, dirty: &mut u128) {
-        self.n42 = if (self.v85) != 0 { 0x0 } else { (self.v816) };
+    fn group_82(&mut self, dirty: &mut u128) {
+        self.n42 = if (self.v85) != 0 { 0x0 } else { (self.v815) };
         self.n40 = if (self.i_reset) != 0 { 0x0 } else if (self.v58) != 0 { (self.i_wdata) } else { self.q40 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$acr1 + top$filter$acr2.
-    fn group_82(&mut self, dirty: &mut u128) {
+    fn group_83(&mut self, dirty: &mut u128) {
         self.n39 = if (self.i_reset) != 0 { 0x0 } else if (self.v57) != 0 { (self.i_wdata) } else { self.q39 };
         self.n38 = if (self.i_reset) != 0 { 0x0 } else if (self.v56) != 0 { (self.i_wdata) } else { self.q38 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$acr3 + top$filter$amr0.
-    fn group_83(&mut self, dirty: &mut u128) {
+    fn group_84(&mut self, dirty: &mut u128) {
         self.n37 = if (self.i_reset) != 0 { 0x0 } else if (self.v55) != 0 { (self.i_wdata) } else { self.q37 };
         self.n36 = if (self.i_reset) != 0 { 0x0 } else if (self.v54) != 0 { (self.i_wdata) } else { self.q36 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$amr1 + top$filter$amr2.
-    fn group_84(&mut self, dirty: &mut u128) {
+    fn group_85(&mut self, dirty: &mut u128) {
         self.n35 = if (self.i_reset) != 0 { 0x0 } else if (self.v53) != 0 { (self.i_wdata) } else { self.q35 };
         self.n34 = if (self.i_reset) != 0 { 0x0 } else if (self.v52) != 0 { (self.i_wdata) } else { self.q34 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$amr3 + top$filter$basic_id_match.
-    fn group_85(&mut self, dirty: &mut u128) {
+    fn group_86(&mut self, dirty: &mut u128) {
         self.n33 = if (self.i_reset) != 0 { 0x0 } else if (self.v51) != 0 { (self.i_wdata) } else { self.q33 };
-        self.n32 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v881) } else { self.q32 };
+        self.n32 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v880) } else { self.q32 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$dual1_data_match + top$filter$dual1_id_match.
-    fn group_86(&mut self, dirty: &mut u128) {
-        self.n119 = (self.v896);
-        self.n31 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v862) } else { self.q31 };
+    fn group_87(&mut self, dirty: &mut u128) {
+        self.n119 = (self.v895);
+        self.n31 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v861) } else { self.q31 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$dual2_id_match + top$filter$extended_frame.
-    fn group_87(&mut self, dirty: &mut u128) {
-        self.n30 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v863) } else { self.q30 };
+    fn group_88(&mut self, dirty: &mut u128) {
+        self.n30 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v862) } else { self.q30 };
         self.n29 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.q81) } else { self.q29 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$single_data1_match + top$filter$single_data2_match.
-    fn group_88(&mut self, dirty: &mut u128) {
-        self.n120 = (self.v898);
-        self.n121 = (self.v897);
+    fn group_89(&mut self, dirty: &mut u128) {
+        self.n120 = (self.v897);
+        self.n121 = (self.v896);
         let _ = &dirty;
     }
 
     /// The cells of top$filter$single_id_match + top$interrupts$alc_armed.
-    fn group_89(&mut self, dirty: &mut u128) {
-        self.n28 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v865) } else { self.q28 };
+    fn group_90(&mut self, dirty: &mut u128) {
+        self.n28 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v864) } else { self.q28 };
         self.n122 = (self.v957);
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$alc_reg + top$interrupts$basic_ri_reg.
-    fn group_90(&mut self, dirty: &mut u128) {
-        self.n27 = if (self.i_reset) != 0 { 0x0 } else if (self.v937) != 0 { (self.q78) } else { self.q27 };
+    fn group_91(&mut self, dirty: &mut u128) {
+        self.n27 = if (self.i_reset) != 0 { 0x0 } else if (self.v936) != 0 { (self.q78) } else { self.q27 };
         self.n26 = if (self.i_reset) != 0 { 0x0 } else { (self.v960) };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$bus_off_reg + top$interrupts$ecc_armed.
-    fn group_91(&mut self, dirty: &mut u128) {
+    fn group_92(&mut self, dirty: &mut u128) {
         self.n25 = if (self.i_reset) != 0 { 0x0 } else { (self.q113) };
         self.n123 = (self.v956);
         let _ = &dirty;
     }
 
-    /// The cells of top$interrupts$ecc_reg.
-    fn group_92(&mut self, dirty: &mut u128) {
-        self.n24 = if (self.i_reset) != 0 { 0x0 } else if (self.v938) != 0 { (self.q77) } else { self.q24 };
-        let _ = &dirty;
-    }
-
-    /// The cells of top$interrupts$es_reg.
+    /// The cells of top$interrupts$ecc_reg + top$interrupts$es_reg.
     fn group_93(&mut self, dirty: &mut u128) {
+        self.n24 = if (self.i_reset) != 0 { 0x0 } else if (self.v937) != 0 { (self.q77) } else { self.q24 };
         self.n23 = if (self.i_reset) != 0 { 0x0 } else { (self.v964) };
         let _ = &dirty;
     }
@@ -4249,7 +4256,7 @@ impl Model {
 
     /// The cells of top$interrupts$rbs_before.
     fn group_97(&mut self, dirty: &mut u128) {
-        self.n17 = if (self.i_reset) != 0 { 0x0 } else { (self.v798) };
+        self.n17 = if (self.i_reset) != 0 { 0x0 } else { (self.v797) };
         let _ = &dirty;
     }
 
@@ -4365,13 +4372,13 @@ impl Model {
 
     /// The cells of top$tbs.
     fn group_116(&mut self, dirty: &mut u128) {
-        self.n131 = (self.v1101);
+        self.n131 = (self.v1104);
         let _ = &dirty;
     }
 
     /// The cells of top$tcs.
     fn group_117(&mut self, dirty: &mut u128) {
-        self.n132 = (self.v1102);
+        self.n132 = (self.v1105);
         let _ = &dirty;
     }
 
@@ -4385,7 +4392,7 @@ impl Model {
     fn group_119(&mut self, dirty: &mut u128) {
         self.m1_re = (0x1) != 0;
         self.m1_ra = ((self.q57 & 0x1) | (self.q56 << 1) | ((self.q57 >> 1) << 3)) as usize;
-        self.m1_wa = (self.v1110) as usize;
+        self.m1_wa = (self.v1113) as usize;
         self.m1_wd = (self.i_wdata);
         self.m1_we = (self.v1086 | (self.v1086 << 1) | (self.v1086 << 2) | (self.v1086 << 3) | (self.v1086 << 4) | (self.v1086 << 5) | (self.v1086 << 6) | (self.v1086 << 7));
         let _ = &dirty;
@@ -4393,7 +4400,7 @@ impl Model {
 
     /// The cells of top$tx_buffer$core_written.
     fn group_120(&mut self, dirty: &mut u128) {
-        self.n5 = if (self.i_reset) != 0 { 0x0 } else { (self.v1095) };
+        self.n5 = if (self.i_reset) != 0 { 0x0 } else { (self.v1088) };
         let _ = &dirty;
     }
 
@@ -4406,8 +4413,8 @@ impl Model {
     /// The cells of top$tx_buffer$host_ram.
     fn group_122(&mut self, dirty: &mut u128) {
         self.m2_re = (0x1) != 0;
-        self.m2_ra = (self.v1110) as usize;
-        self.m2_wa = (self.v1110) as usize;
+        self.m2_ra = (self.v1113) as usize;
+        self.m2_wa = (self.v1113) as usize;
         self.m2_wd = (self.i_wdata);
         self.m2_we = (self.v1086 | (self.v1086 << 1) | (self.v1086 << 2) | (self.v1086 << 3) | (self.v1086 << 4) | (self.v1086 << 5) | (self.v1086 << 6) | (self.v1086 << 7));
         let _ = &dirty;
@@ -4415,7 +4422,7 @@ impl Model {
 
     /// The cells of top$tx_buffer$host_written.
     fn group_123(&mut self, dirty: &mut u128) {
-        self.n3 = if (self.i_reset) != 0 { 0x0 } else { (self.v1094) };
+        self.n3 = if (self.i_reset) != 0 { 0x0 } else { (self.v1087) };
         let _ = &dirty;
     }
 
@@ -4427,7 +4434,7 @@ impl Model {
 
     /// The cells of top$tx_pending.
     fn group_125(&mut self, dirty: &mut u128) {
-        self.n1 = if (self.v81) != 0 { 0x0 } else { (self.v1106) };
+        self.n1 = if (self.v81) != 0 { 0x0 } else { (self.v1109) };
         let _ = &dirty;
     }
 

@@ -53,7 +53,42 @@ pub fn controller_verilog() -> String {
     let mut uut = CanController::default();
     uut.connect_all();
     check_all(&uut).expect("rust-hdl connectivity checks of the controller");
-    rename_top(&generate_verilog(&uut), TOP_MODULE)
+    let verilog = rename_top(&generate_verilog(&uut), TOP_MODULE);
+    without_read_during_write_logic(&verilog, &UNCHECKED_RAMS)
+}
+
+/// The RAM modules whose read data after a write cycle is never used: the TX buffer's
+/// (`rtl::tx_buffer`: a read in a write cycle gives 0 whatever the RAM returns). Synthesis would
+/// otherwise emulate the model's read-before-write there with a delayed write and a bypass (on
+/// iCE40 11 to 12 flip-flops and about 13 LUTs per RAM, docs/FPGA.md).
+pub const UNCHECKED_RAMS: [&str; 2] = ["top$tx_buffer$host_ram", "top$tx_buffer$core_ram"];
+
+/// Marks the memory of each module in `modules` with Yosys's `no_rw_check` attribute (the read
+/// during a write to the same word may return anything); panics unless each has exactly one
+/// memory declaration.
+fn without_read_during_write_logic(verilog: &str, modules: &[&str]) -> String {
+    let mut marked = vec![0; modules.len()];
+    let mut current: Option<usize> = None;
+    let mut out = String::with_capacity(verilog.len() + 64);
+    for line in verilog.split_inclusive('\n') {
+        if let Some(rest) = line.strip_prefix("module ") {
+            let name = rest.split('(').next().unwrap_or("");
+            current = modules.iter().position(|m| *m == name);
+        }
+        let body = line.trim_start();
+        match current {
+            Some(k) if body.starts_with("reg[") && body.contains(" mem[") => {
+                marked[k] += 1;
+                let indent = &line[..line.len() - body.len()];
+                write!(out, "{indent}(* no_rw_check *) {body}").unwrap();
+            }
+            _ => out.push_str(line),
+        }
+    }
+    for (module, count) in modules.iter().zip(marked) {
+        assert_eq!(count, 1, "expected one memory in module {module}");
+    }
+    out
 }
 
 /// The file users get: the header, then [`controller_verilog`].
@@ -286,6 +321,25 @@ fn rename_top(verilog: &str, name: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn marks_only_the_named_rams() {
+        let v = "module top$a(x);\n    reg[7:0] mem[15:0];\nendmodule\nmodule top$b(x);\n    reg[7:0] mem[63:0];\nendmodule\n";
+        assert_eq!(
+            without_read_during_write_logic(v, &["top$b"]),
+            "module top$a(x);\n    reg[7:0] mem[15:0];\nendmodule\nmodule top$b(x);\n    (* no_rw_check *) reg[7:0] mem[63:0];\nendmodule\n"
+        );
+    }
+
+    #[test]
+    fn the_tx_buffer_rams_are_marked_and_the_rx_fifo_is_not() {
+        let v = controller_verilog();
+        assert_eq!(
+            v.matches("(* no_rw_check *) reg[7:0] mem[15:0];").count(),
+            2
+        );
+        assert_eq!(v.matches("no_rw_check").count(), 2);
+    }
 
     #[test]
     fn renames_only_the_top_module() {
