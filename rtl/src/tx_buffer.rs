@@ -120,8 +120,9 @@ impl Logic for TxBuffer {
         self.core_ram.read_address.next = self.core_index.val();
         // A read in a write cycle gives 0, not the RAM's read data: the emitted RAMs carry
         // `no_rw_check` (synthesis adds no read-during-write logic, so block RAM may return the old
-        // or the new byte then), and this keeps the outputs defined and equal to the model's. The host never reads in a write cycle (port contract); the engine never
-        // reads the buffer while the host may write it (TBS is 0 from the request to the end).
+        // or the new byte then), and this keeps the outputs defined and equal to the model's. The
+        // host never reads in a write cycle (port contract); the engine never reads the buffer
+        // while the host may write it (TBS is 0 from the request to the end).
         self.host_written.d.next = self.written.q.val().get_bit(self.host_index.val().index())
             & (self.writing.val() == false);
         self.core_written.d.next = self.written.q.val().get_bit(self.core_index.val().index())
