@@ -2746,9 +2746,12 @@ module top$core$protocol$assembler(clock,reset,field_bit,rx_bit,field,count,star
     localparam ProtocolState$BusOff = 15;
     
     // Stub signals
-    reg  [28:0] id_reg$d;
-    wire  [28:0] id_reg$q;
-    reg  id_reg$clock;
+    reg  [10:0] id_base$d;
+    wire  [10:0] id_base$q;
+    reg  id_base$clock;
+    reg  [17:0] id_extension$d;
+    wire  [17:0] id_extension$q;
+    reg  id_extension$clock;
     reg  ide_reg$d;
     wire  ide_reg$q;
     reg  ide_reg$clock;
@@ -2778,12 +2781,18 @@ module top$core$protocol$assembler(clock,reset,field_bit,rx_bit,field,count,star
     reg  [3:0] data_bytes;
     reg  [3:0] dlc_after;
     reg  dlc_bit;
+    reg  base_id_bit;
     
     // Sub module instances
-    top$core$protocol$assembler$id_reg id_reg(
-        .d(id_reg$d),
-        .q(id_reg$q),
-        .clock(id_reg$clock)
+    top$core$protocol$assembler$id_base id_base(
+        .d(id_base$d),
+        .q(id_base$q),
+        .clock(id_base$clock)
+    );
+    top$core$protocol$assembler$id_extension id_extension(
+        .d(id_extension$d),
+        .q(id_extension$q),
+        .clock(id_extension$clock)
     );
     top$core$protocol$assembler$ide_reg ide_reg(
         .d(ide_reg$d),
@@ -2828,7 +2837,8 @@ module top$core$protocol$assembler(clock,reset,field_bit,rx_bit,field,count,star
     
     // Update code
     always @(*) begin
-        id_reg$clock = clock;
+        id_base$clock = clock;
+        id_extension$clock = clock;
         ide_reg$clock = clock;
         rtr_reg$clock = clock;
         dlc_reg$clock = clock;
@@ -2837,7 +2847,8 @@ module top$core$protocol$assembler(clock,reset,field_bit,rx_bit,field,count,star
         byte_pulse$clock = clock;
         byte_index$clock = clock;
         last_data_byte_reg$clock = clock;
-        id_reg$d = id_reg$q;
+        id_base$d = id_base$q;
+        id_extension$d = id_extension$q;
         ide_reg$d = ide_reg$q;
         rtr_reg$d = rtr_reg$q;
         dlc_reg$d = dlc_reg$q;
@@ -2846,7 +2857,7 @@ module top$core$protocol$assembler(clock,reset,field_bit,rx_bit,field,count,star
         byte_pulse$d = byte_pulse$q;
         byte_index$d = byte_index$q;
         last_data_byte_reg$d = last_data_byte_reg$q;
-        frame$id = id_reg$q;
+        frame$id = (((id_base$q) & 29'h1fffffff) << 32'h12) | ((id_extension$q) & 29'h1fffffff);
         frame$ide = ide_reg$q;
         frame$rtr = rtr_reg$q;
         frame$dlc = dlc_reg$q;
@@ -2867,10 +2878,16 @@ module top$core$protocol$assembler(clock,reset,field_bit,rx_bit,field,count,star
         last_data_byte_reg$d = data_bytes - 32'h1;
         dlc_after = ((((dlc_reg$q & ~(1 << (32'h3)) | ((dlc_reg$q[32'h2]) << (32'h3))) & ~(1 << (32'h2)) | ((dlc_reg$q[32'h1]) << (32'h2))) & ~(1 << (32'h1)) | ((dlc_reg$q[32'h0]) << (32'h1))) & ~(1 << (32'h0)) | ((rx_bit) << (32'h0)));
         dlc_bit = (count != 32'h0) & ~((count == 32'h1) & ide_reg$q);
+        base_id_bit = (count[32'h4] == 1'b0) & ~(count[32'h3] & count[32'h2]);
         if (field_bit) begin
             if (field == ProtocolState$Arbitration) begin
                 if (id_bit) begin
-                    id_reg$d = ((id_reg$q << 32'h1) & ~(1 << (32'h0)) | ((rx_bit) << (32'h0)));
+                    if (base_id_bit) begin
+                        id_base$d = ((id_base$q << 32'h1) & ~(1 << (32'h0)) | ((rx_bit) << (32'h0)));
+                    end
+                    else begin
+                        id_extension$d = ((id_extension$q << 32'h1) & ~(1 << (32'h0)) | ((rx_bit) << (32'h0)));
+                    end
                 end
                 if (srr_rtr_bit) begin
                     rtr_reg$d = rx_bit;
@@ -2897,11 +2914,13 @@ module top$core$protocol$assembler(clock,reset,field_bit,rx_bit,field,count,star
             end
         end
         if (start_frame) begin
-            id_reg$d = 32'h0;
+            id_base$d = 32'h0;
+            id_extension$d = 32'h0;
             dlc_reg$d = 32'h0;
         end
         if (reset) begin
-            id_reg$d = 32'h0;
+            id_base$d = 32'h0;
+            id_extension$d = 32'h0;
             ide_reg$d = 1'b0;
             rtr_reg$d = 1'b0;
             dlc_reg$d = 32'h0;
@@ -3011,23 +3030,42 @@ module top$core$protocol$assembler$header_pulse(d,q,clock);
 endmodule // top$core$protocol$assembler$header_pulse
 
 
-module top$core$protocol$assembler$id_reg(d,q,clock);
+module top$core$protocol$assembler$id_base(d,q,clock);
     
     // Module arguments
-    input wire  [28:0] d;
-    output reg  [28:0] q;
+    input wire  [10:0] d;
+    output reg  [10:0] q;
     input wire  clock;
     
     // Update code (custom)
     initial begin
-       q = 29'h0;
+       q = 11'h0;
     end
     
     always @(posedge clock) begin
        q <= d;
     end
           
-endmodule // top$core$protocol$assembler$id_reg
+endmodule // top$core$protocol$assembler$id_base
+
+
+module top$core$protocol$assembler$id_extension(d,q,clock);
+    
+    // Module arguments
+    input wire  [17:0] d;
+    output reg  [17:0] q;
+    input wire  clock;
+    
+    // Update code (custom)
+    initial begin
+       q = 18'h0;
+    end
+    
+    always @(posedge clock) begin
+       q <= d;
+    end
+          
+endmodule // top$core$protocol$assembler$id_extension
 
 
 module top$core$protocol$assembler$ide_reg(d,q,clock);
@@ -5424,27 +5462,20 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
             if (header_step$q == header_last) begin
                 writing_header$d = 1'b0;
             end
-            if (rx_frame$ide) begin
-                if (header_step$q == 32'h1) begin
-                    write_byte = rx_frame$id[(32'h15)+:(8)];
-                end
-                if (header_step$q == 32'h2) begin
-                    write_byte = rx_frame$id[(32'hd)+:(8)];
-                end
-                if (header_step$q == 32'h3) begin
-                    write_byte = rx_frame$id[(32'h5)+:(8)];
-                end
-                if (header_step$q == 32'h4) begin
-                    write_byte = ((((((zero_byte & ~(1 << (32'h7)) | ((rx_frame$id[32'h4]) << (32'h7))) & ~(1 << (32'h6)) | ((rx_frame$id[32'h3]) << (32'h6))) & ~(1 << (32'h5)) | ((rx_frame$id[32'h2]) << (32'h5))) & ~(1 << (32'h4)) | ((rx_frame$id[32'h1]) << (32'h4))) & ~(1 << (32'h3)) | ((rx_frame$id[32'h0]) << (32'h3))) & ~(1 << (32'h2)) | ((rx_frame$rtr) << (32'h2)));
+            if (header_step$q == 32'h1) begin
+                write_byte = rx_frame$id[(32'h15)+:(8)];
+            end
+            if (header_step$q == 32'h2) begin
+                write_byte = rx_frame$id[(32'hd)+:(8)];
+                if (rx_frame$ide == 1'b0) begin
+                    write_byte = (rx_frame$id[(32'hd)+:(8)] & ~(1 << (32'h4)) | ((rx_frame$rtr) << (32'h4)));
                 end
             end
-            else begin
-                if (header_step$q == 32'h1) begin
-                    write_byte = rx_frame$id[(32'h3)+:(8)];
-                end
-                if (header_step$q == 32'h2) begin
-                    write_byte = ((((zero_byte & ~(1 << (32'h7)) | ((rx_frame$id[32'h2]) << (32'h7))) & ~(1 << (32'h6)) | ((rx_frame$id[32'h1]) << (32'h6))) & ~(1 << (32'h5)) | ((rx_frame$id[32'h0]) << (32'h5))) & ~(1 << (32'h4)) | ((rx_frame$rtr) << (32'h4)));
-                end
+            if (header_step$q == 32'h3) begin
+                write_byte = rx_frame$id[(32'h5)+:(8)];
+            end
+            if (header_step$q == 32'h4) begin
+                write_byte = ((((((zero_byte & ~(1 << (32'h7)) | ((rx_frame$id[32'h4]) << (32'h7))) & ~(1 << (32'h6)) | ((rx_frame$id[32'h3]) << (32'h6))) & ~(1 << (32'h5)) | ((rx_frame$id[32'h2]) << (32'h5))) & ~(1 << (32'h4)) | ((rx_frame$id[32'h1]) << (32'h4))) & ~(1 << (32'h3)) | ((rx_frame$id[32'h0]) << (32'h3))) & ~(1 << (32'h2)) | ((rx_frame$rtr) << (32'h2)));
             end
         end
         if (rx_frame$strobe) begin
@@ -5892,9 +5923,6 @@ module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we
     reg  basic_id_match$d;
     wire  basic_id_match$q;
     reg  basic_id_match$clock;
-    reg  extended_frame$d;
-    wire  extended_frame$q;
-    reg  extended_frame$clock;
     
     // Local signals
     reg  in_pelican_block;
@@ -5991,11 +6019,6 @@ module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we
         .q(basic_id_match$q),
         .clock(basic_id_match$clock)
     );
-    top$filter$extended_frame extended_frame(
-        .d(extended_frame$d),
-        .q(extended_frame$q),
-        .clock(extended_frame$clock)
-    );
     
     // Update code
     always @(*) begin
@@ -6006,7 +6029,6 @@ module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we
         dual1_data_match$clock = clock;
         dual2_id_match$clock = clock;
         basic_id_match$clock = clock;
-        extended_frame$clock = clock;
         acr0$clock = clock;
         acr1$clock = clock;
         acr2$clock = clock;
@@ -6022,7 +6044,6 @@ module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we
         dual1_data_match$d = dual1_data_match$q;
         dual2_id_match$d = dual2_id_match$q;
         basic_id_match$d = basic_id_match$q;
-        extended_frame$d = extended_frame$q;
         acr0$d = acr0$q;
         acr1$d = acr1$q;
         acr2$d = acr2$q;
@@ -6114,13 +6135,12 @@ module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we
             end
         end
         if (rx_frame$header) begin
-            frame_byte0 = rx_frame$id[(32'h3)+:(8)];
-            frame_byte1 = (((rx_frame$id[(32'h0)+:(3)]) & 8'hff) << 32'h5) | (((rx_frame$rtr) & 8'hff) << 32'h4);
-            byte1_care = standard_id_care;
-            if (rx_frame$ide) begin
-                frame_byte0 = rx_frame$id[(32'h15)+:(8)];
-                frame_byte1 = rx_frame$id[(32'hd)+:(8)];
-                byte1_care = ones;
+            frame_byte0 = rx_frame$id[(32'h15)+:(8)];
+            frame_byte1 = rx_frame$id[(32'hd)+:(8)];
+            byte1_care = ones;
+            if (rx_frame$ide == 1'b0) begin
+                frame_byte1 = (rx_frame$id[(32'hd)+:(8)] & ~(1 << (32'h4)) | ((rx_frame$rtr) << (32'h4)));
+                byte1_care = standard_id_care;
             end
             frame_byte2 = rx_frame$id[(32'h5)+:(8)];
             frame_byte3 = (((rx_frame$id[(32'h0)+:(5)]) & 8'hff) << 32'h3) | (((rx_frame$rtr) & 8'hff) << 32'h2);
@@ -6137,9 +6157,8 @@ module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we
             single_data1_match$d = 1'b1;
             single_data2_match$d = 1'b1;
             dual1_data_match$d = 1'b1;
-            extended_frame$d = rx_frame$ide;
         end
-        if (rx_frame$strobe & (extended_frame$q == 1'b0)) begin
+        if (rx_frame$strobe & (rx_frame$ide == 1'b0)) begin
             if (rx_frame$index == 32'h0) begin
                 data_mismatch_single = (rx_frame$data ^ acr2$q) & (amr2$q ^ ones);
                 dual_data_code = (((acr1$q[(32'h0)+:(4)]) & 8'hff) << 32'h4) | ((acr3$q[(32'h0)+:(4)]) & 8'hff);
@@ -6161,7 +6180,6 @@ module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we
             dual1_data_match$d = 1'b1;
             dual2_id_match$d = 1'b0;
             basic_id_match$d = 1'b0;
-            extended_frame$d = 1'b0;
             acr0$d = 32'h0;
             acr1$d = 32'h0;
             acr2$d = 32'h0;
@@ -6402,25 +6420,6 @@ module top$filter$dual2_id_match(d,q,clock);
     end
           
 endmodule // top$filter$dual2_id_match
-
-
-module top$filter$extended_frame(d,q,clock);
-    
-    // Module arguments
-    input wire  d;
-    output reg  q;
-    input wire  clock;
-    
-    // Update code (custom)
-    initial begin
-       q = 1'h0;
-    end
-    
-    always @(posedge clock) begin
-       q <= d;
-    end
-          
-endmodule // top$filter$extended_frame
 
 
 module top$filter$single_data1_match(d,q,clock);

@@ -7,10 +7,11 @@
 //! combinational from `addr` and the registers; the controller registers them into its read data.
 //!
 //! Ports in: the host bus (`host`: `addr`, `we`, `wdata`; and `reset_mode`), the filter configuration
-//! (`pelican`: PeliCAN mode, 0 = BasicCAN; `single_filter`: MOD.AFM) and the received-frame stream of the protocol engine `rx_frame`: `header` (one-clock strobe
-//! when the header is complete) with `id` (11-bit standard or 29-bit extended identifier,
-//! right-aligned), `ide` and `rtr`, then one `strobe` per data byte with `data` and `index` (0 = data
-//! byte 1). Out: `accept`, valid from the clock after the last strobe of a frame (its header or its
+//! (`pelican`: PeliCAN mode, 0 = BasicCAN; `single_filter`: MOD.AFM) and the received-frame stream
+//! of the protocol engine `rx_frame`: `header` (one-clock strobe when the header is complete) with
+//! `id` (ID.28..18 in bits 28..18 in both formats, `crate::bsp::received_frame`), `ide` and `rtr`,
+//! held until the frame's last strobe, then one `strobe` per data byte with `data` and `index` (0 =
+//! data byte 1). Out: `accept`, valid from the clock after the last strobe of a frame (its header or its
 //! last data byte) until the next `header`; it is combinational from the
 //! registers and the two mode inputs. Acts on the rising edge of `clock`; `reset` is synchronous,
 //! active high, and leaves `accept` low in every mode (no frame seen).
@@ -111,8 +112,6 @@ pub struct AcceptanceFilter {
     dual2_id_match: DFF<Bit>,
     /// BasicCAN: ID.28..21 match.
     basic_id_match: DFF<Bit>,
-    /// The current frame is extended (data bytes are not filtered).
-    extended_frame: DFF<Bit>,
     /// 0xFF: `amr ^ ones` is the "care" mask of a register.
     #[constant(0xFFu64)]
     ones: Constant<Bits<8>>,
@@ -167,7 +166,6 @@ impl Logic for AcceptanceFilter {
             dual1_data_match,
             dual2_id_match,
             basic_id_match,
-            extended_frame,
             acr0,
             acr1,
             acr2,
@@ -272,15 +270,20 @@ impl Logic for AcceptanceFilter {
 
         // Header: compare identifier and RTR with every filter; missing data bytes match.
         if self.rx_frame.header.val() {
-            self.frame_byte0.next = self.rx_frame.id.val().get_bits::<8>(3);
-            self.frame_byte1.next = (bit_cast::<8, 3>(self.rx_frame.id.val().get_bits::<3>(0))
-                << 5)
-                | (bit_cast::<8, 1>(self.rx_frame.rtr.val().into()) << 4);
-            self.byte1_care.next = self.standard_id_care.val();
-            if self.rx_frame.ide.val() {
-                self.frame_byte0.next = self.rx_frame.id.val().get_bits::<8>(21);
-                self.frame_byte1.next = self.rx_frame.id.val().get_bits::<8>(13);
-                self.byte1_care.next = self.ones.val();
+            // ID.28..13 are id bits 28..13 in both formats (a standard frame's are ID.28..18,
+            // then 0); a standard frame's RTR takes bit 4 of byte 1, whose bits 3..0 are not
+            // compared.
+            self.frame_byte0.next = self.rx_frame.id.val().get_bits::<8>(21);
+            self.frame_byte1.next = self.rx_frame.id.val().get_bits::<8>(13);
+            self.byte1_care.next = self.ones.val();
+            if self.rx_frame.ide.val() == false {
+                self.frame_byte1.next = self
+                    .rx_frame
+                    .id
+                    .val()
+                    .get_bits::<8>(13)
+                    .replace_bit(4, self.rx_frame.rtr.val());
+                self.byte1_care.next = self.standard_id_care.val();
             }
             self.frame_byte2.next = self.rx_frame.id.val().get_bits::<8>(5);
             self.frame_byte3.next = (bit_cast::<8, 5>(self.rx_frame.id.val().get_bits::<5>(0))
@@ -313,11 +316,10 @@ impl Logic for AcceptanceFilter {
             self.single_data1_match.d.next = true;
             self.single_data2_match.d.next = true;
             self.dual1_data_match.d.next = true;
-            self.extended_frame.d.next = self.rx_frame.ide.val();
         }
 
-        // Data bytes 1 and 2 of a standard frame.
-        if self.rx_frame.strobe.val() & (self.extended_frame.q.val() == false) {
+        // Data bytes 1 and 2 of a standard frame (`ide` is held from the header on).
+        if self.rx_frame.strobe.val() & (self.rx_frame.ide.val() == false) {
             if self.rx_frame.index.val() == 0 {
                 self.data_mismatch_single.next = (self.rx_frame.data.val() ^ self.acr2.q.val())
                     & (self.amr2.q.val() ^ self.ones.val());
@@ -348,7 +350,6 @@ impl Logic for AcceptanceFilter {
             self.dual1_data_match.d.next = true;
             self.dual2_id_match.d.next = false;
             self.basic_id_match.d.next = false;
-            self.extended_frame.d.next = false;
             self.acr0.d.next = 0.into();
             self.acr1.d.next = 0.into();
             self.acr2.d.next = 0.into();

@@ -192,42 +192,37 @@ impl Logic for RxFifo {
             if self.header_step.q.val() == self.header_last.val() {
                 self.writing_header.d.next = false;
             }
-            if self.rx_frame.ide.val() {
-                if self.header_step.q.val() == 1 {
-                    self.write_byte.next = self.rx_frame.id.val().get_bits::<8>(21);
-                }
-                if self.header_step.q.val() == 2 {
-                    self.write_byte.next = self.rx_frame.id.val().get_bits::<8>(13);
-                }
-                if self.header_step.q.val() == 3 {
-                    self.write_byte.next = self.rx_frame.id.val().get_bits::<8>(5);
-                }
-                if self.header_step.q.val() == 4 {
-                    // ID.4..0 in bits 7..3, the RTR copy in bit 2.
+            // The stream's `id` holds ID.28..18 in bits 28..18 in both formats and 0 below in a
+            // standard frame: ID.28..21, then ID.20..13 or (standard) ID.20..18, the RTR copy in
+            // bit 4 and 0000.
+            if self.header_step.q.val() == 1 {
+                self.write_byte.next = self.rx_frame.id.val().get_bits::<8>(21);
+            }
+            if self.header_step.q.val() == 2 {
+                self.write_byte.next = self.rx_frame.id.val().get_bits::<8>(13);
+                if self.rx_frame.ide.val() == false {
                     self.write_byte.next = self
-                        .zero_byte
+                        .rx_frame
+                        .id
                         .val()
-                        .replace_bit(7, self.rx_frame.id.val().get_bit(4))
-                        .replace_bit(6, self.rx_frame.id.val().get_bit(3))
-                        .replace_bit(5, self.rx_frame.id.val().get_bit(2))
-                        .replace_bit(4, self.rx_frame.id.val().get_bit(1))
-                        .replace_bit(3, self.rx_frame.id.val().get_bit(0))
-                        .replace_bit(2, self.rx_frame.rtr.val());
-                }
-            } else {
-                if self.header_step.q.val() == 1 {
-                    self.write_byte.next = self.rx_frame.id.val().get_bits::<8>(3);
-                }
-                if self.header_step.q.val() == 2 {
-                    // ID.2..0 in bits 7..5, the RTR copy in bit 4.
-                    self.write_byte.next = self
-                        .zero_byte
-                        .val()
-                        .replace_bit(7, self.rx_frame.id.val().get_bit(2))
-                        .replace_bit(6, self.rx_frame.id.val().get_bit(1))
-                        .replace_bit(5, self.rx_frame.id.val().get_bit(0))
+                        .get_bits::<8>(13)
                         .replace_bit(4, self.rx_frame.rtr.val());
                 }
+            }
+            if self.header_step.q.val() == 3 {
+                self.write_byte.next = self.rx_frame.id.val().get_bits::<8>(5);
+            }
+            if self.header_step.q.val() == 4 {
+                // ID.4..0 in bits 7..3, the RTR copy in bit 2.
+                self.write_byte.next = self
+                    .zero_byte
+                    .val()
+                    .replace_bit(7, self.rx_frame.id.val().get_bit(4))
+                    .replace_bit(6, self.rx_frame.id.val().get_bit(3))
+                    .replace_bit(5, self.rx_frame.id.val().get_bit(2))
+                    .replace_bit(4, self.rx_frame.id.val().get_bit(1))
+                    .replace_bit(3, self.rx_frame.id.val().get_bit(0))
+                    .replace_bit(2, self.rx_frame.rtr.val());
             }
         }
         if self.rx_frame.strobe.val() {

@@ -8,6 +8,7 @@ use proptest::prelude::*;
 use proptest::strategy::ValueTree;
 use proptest::test_runner::TestRunner;
 use rtl::acceptance_filter::AcceptanceFilter;
+use rtl::bsp::received_frame::STANDARD_ID_SHIFT;
 use rtl::registers::{basic, pelican};
 use rust_hdl::prelude::*;
 use sim::engine::rtl_step::clock_cycle;
@@ -161,7 +162,7 @@ impl Bench {
     /// inputs change.
     fn receive(&mut self, frame: &Frame, gap: usize) -> bool {
         self.inputs.rx_header = true;
-        self.inputs.rx_id = frame.id().raw();
+        self.inputs.rx_id = stream_id(frame);
         self.inputs.rx_ide = frame.id().is_extended();
         self.inputs.rx_rtr = frame.is_remote();
         self.cycle();
@@ -211,6 +212,15 @@ impl Bench {
 }
 
 // ---- frames and configurations ----------------------------------------------------------------
+
+/// The identifier as the received-frame stream carries it (`rtl::bsp::received_frame`): ID.28..18
+/// in bits 28..18 in both formats, so a standard identifier shifted up.
+fn stream_id(frame: &Frame) -> u32 {
+    match frame.id() {
+        Id::Standard(id) => u32::from(id) << STANDARD_ID_SHIFT,
+        Id::Extended(id) => id,
+    }
+}
 
 fn standard(id: u16, data: &[u8]) -> Frame {
     Frame::data(Id::standard(id).unwrap(), data).unwrap()

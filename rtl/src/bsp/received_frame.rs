@@ -2,8 +2,11 @@
 //! delivers a frame while it arrives (the receive assembler drives it; the acceptance filter and the
 //! receive FIFO take it in).
 //!
-//! `header` is one clock when the header is complete: `id` (11 or 29 bits, right-aligned), `ide`,
-//! `rtr` and `dlc` are valid from then until the next frame's header. Then each data byte comes as
+//! `header` is one clock when the header is complete: `id`, `ide`, `rtr` and `dlc` are valid from
+//! then until the next frame's header. `id` holds ID.28..18 in bits 28..18 in both formats: an
+//! extended identifier as its number, a standard one shifted up by [`STANDARD_ID_SHIFT`] with 0
+//! below, so the bits the SJA1000's registers place alike (frame buffer, acceptance code) come from
+//! the same wires. Then each data byte comes as
 //! `data` with its `index` (0 = data byte 1) and the one-clock `strobe`. All are flip-flop outputs
 //! of the assembler, changing on the rising edge of `clock`.
 //!
@@ -18,13 +21,17 @@
 
 use rust_hdl::prelude::*;
 
+/// The position of ID.18 in `id`: a standard identifier is carried shifted up by this.
+pub const STANDARD_ID_SHIFT: u32 = 18;
+
 /// The received-frame stream, from its source (`Out`).
 #[derive(LogicInterface, Default)]
 #[join = "ReceivedFrameIn"]
 pub struct ReceivedFrame {
     /// One clock when the header is complete.
     pub header: Signal<Out, Bit>,
-    /// Identifier (11 or 29 bits, right-aligned).
+    /// Identifier: ID.28..18 in bits 28..18 (a standard one shifted up by
+    /// [`STANDARD_ID_SHIFT`]).
     pub id: Signal<Out, Bits<29>>,
     /// IDE.
     pub ide: Signal<Out, Bit>,
@@ -45,7 +52,8 @@ pub struct ReceivedFrame {
 pub struct ReceivedFrameIn {
     /// One clock when the header is complete.
     pub header: Signal<In, Bit>,
-    /// Identifier (11 or 29 bits, right-aligned).
+    /// Identifier: ID.28..18 in bits 28..18 (a standard one shifted up by
+    /// [`STANDARD_ID_SHIFT`]).
     pub id: Signal<In, Bits<29>>,
     /// IDE.
     pub ide: Signal<In, Bit>,

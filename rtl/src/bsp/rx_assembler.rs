@@ -49,7 +49,10 @@ pub struct RxAssembler {
     pub frame: ReceivedFrame,
     /// Index of the last data byte (DLC 9..15 count as 8; meaningless without data).
     pub last_data_byte: Signal<Out, Bits<4>>,
-    id_reg: DFF<Bits<29>>,
+    /// ID.28..18, in every frame.
+    id_base: DFF<Bits<11>>,
+    /// ID.17..0 of an extended frame (0 in a standard frame).
+    id_extension: DFF<Bits<18>>,
     ide_reg: DFF<Bit>,
     rtr_reg: DFF<Bit>,
     dlc_reg: DFF<Bits<4>>,
@@ -65,6 +68,9 @@ pub struct RxAssembler {
 
     /// The bit is a DLC bit (after r0, and r1 in an extended frame).
     dlc_bit: Signal<Local, Bit>,
+    /// The identifier bit is one of ID.28..18 (arbitration-field bits 0..10; the extension's are
+    /// 13..30).
+    base_id_bit: Signal<Local, Bit>,
 }
 
 impl Logic for RxAssembler {
@@ -73,7 +79,8 @@ impl Logic for RxAssembler {
         dff_setup!(
             self,
             clock,
-            id_reg,
+            id_base,
+            id_extension,
             ide_reg,
             rtr_reg,
             dlc_reg,
@@ -83,7 +90,8 @@ impl Logic for RxAssembler {
             byte_index,
             last_data_byte_reg
         );
-        self.frame.id.next = self.id_reg.q.val();
+        self.frame.id.next = (bit_cast::<29, 11>(self.id_base.q.val()) << 18)
+            | bit_cast::<29, 18>(self.id_extension.q.val());
         self.frame.ide.next = self.ide_reg.q.val();
         self.frame.rtr.next = self.rtr_reg.q.val();
         self.frame.dlc.next = self.dlc_reg.q.val();
@@ -118,11 +126,21 @@ impl Logic for RxAssembler {
         self.dlc_bit.next =
             (self.count.val() != 0) & !((self.count.val() == 1) & self.ide_reg.q.val());
 
+        // Among the identifier positions (0..10, 13..30), 0..10 are those below 16 without both
+        // bits 3 and 2 (12..15).
+        self.base_id_bit.next = (self.count.val().get_bit(4) == false)
+            & !(self.count.val().get_bit(3) & self.count.val().get_bit(2));
+
         if self.field_bit.val() {
             if self.field.val() == ProtocolState::Arbitration {
                 if self.id_bit.val() {
-                    self.id_reg.d.next =
-                        (self.id_reg.q.val() << 1).replace_bit(0, self.rx_bit.val());
+                    if self.base_id_bit.val() {
+                        self.id_base.d.next =
+                            (self.id_base.q.val() << 1).replace_bit(0, self.rx_bit.val());
+                    } else {
+                        self.id_extension.d.next =
+                            (self.id_extension.q.val() << 1).replace_bit(0, self.rx_bit.val());
+                    }
                 }
                 if self.srr_rtr_bit.val() {
                     self.rtr_reg.d.next = self.rx_bit.val();
@@ -150,11 +168,13 @@ impl Logic for RxAssembler {
             }
         }
         if self.start_frame.val() {
-            self.id_reg.d.next = 0.into();
+            self.id_base.d.next = 0.into();
+            self.id_extension.d.next = 0.into();
             self.dlc_reg.d.next = 0.into();
         }
         if self.reset.val() {
-            self.id_reg.d.next = 0.into();
+            self.id_base.d.next = 0.into();
+            self.id_extension.d.next = 0.into();
             self.ide_reg.d.next = false;
             self.rtr_reg.d.next = false;
             self.dlc_reg.d.next = 0.into();

@@ -2,7 +2,7 @@
 //! from the Verilog of `rtl/` through Yosys; do not edit.
 
 /// Hash of the Verilog this model was made from.
-pub(super) const VERILOG_HASH: u64 = 0xbf5aa0cc6c3c2cce;
+pub(super) const VERILOG_HASH: u64 = 0x0414e629187be171;
 
 
 /// The design's state: inputs, flip-flops (`q` now, `n` after the next edge), memories, the
@@ -145,6 +145,8 @@ pub(super) struct Model {
     n57: u64,
     q58: u64,
     n58: u64,
+    q59: u64,
+    n59: u64,
     v5: u64,
     v6: u64,
     v7: u64,
@@ -187,42 +189,44 @@ pub(super) struct Model {
     v46: u64,
     v47: u64,
     v48: u64,
-    v58: u64,
+    v49: u64,
+    v50: u64,
+    v60: u64,
     v61: u64,
     v62: u64,
     v63: u64,
+    v64: u64,
     v65: u64,
-    v68: u64,
+    v67: u64,
     v70: u64,
-    v71: u64,
+    v72: u64,
     v73: u64,
-    v77: u64,
-    v78: u64,
-    v81: u64,
-    v84: u64,
-    v85: u64,
+    v75: u64,
+    v79: u64,
+    v80: u64,
+    v83: u64,
+    v86: u64,
     v87: u64,
-    v91: u64,
-    v96: u64,
-    v97: u64,
-    v102: u64,
-    v108: u64,
-    v109: u64,
+    v89: u64,
+    v93: u64,
+    v98: u64,
+    v99: u64,
+    v104: u64,
     v110: u64,
-    v113: u64,
+    v111: u64,
+    v112: u64,
     v115: u64,
-    v116: u64,
     v117: u64,
     v118: u64,
     v119: u64,
+    v120: u64,
     v121: u64,
-    v128: u64,
-    v129: u64,
+    v123: u64,
     v130: u64,
     v131: u64,
-    v143: u64,
-    v150: u64,
-    v151: u64,
+    v132: u64,
+    v133: u64,
+    v145: u64,
     v152: u64,
     v153: u64,
     v154: u64,
@@ -231,105 +235,104 @@ pub(super) struct Model {
     v157: u64,
     v158: u64,
     v159: u64,
+    v160: u64,
     v161: u64,
-    v162: u64,
-    v165: u64,
-    v166: u64,
-    v175: u64,
+    v163: u64,
+    v164: u64,
+    v167: u64,
+    v168: u64,
     v177: u64,
-    v180: u64,
-    v181: u64,
+    v179: u64,
     v182: u64,
     v183: u64,
     v184: u64,
-    v187: u64,
-    v194: u64,
-    v195: u64,
+    v185: u64,
+    v186: u64,
+    v189: u64,
     v196: u64,
-    v200: u64,
-    v204: u64,
-    v205: u64,
+    v197: u64,
+    v198: u64,
+    v202: u64,
     v206: u64,
+    v207: u64,
     v208: u64,
-    v209: u64,
     v210: u64,
-    v211: u64,
-    v213: u64,
+    v212: u64,
     v214: u64,
-    v215: u64,
-    v216: u64,
+    v217: u64,
+    v218: u64,
     v219: u64,
     v220: u64,
-    v227: u64,
-    v228: u64,
-    v230: u64,
+    v223: u64,
+    v224: u64,
+    v225: u64,
     v232: u64,
+    v233: u64,
+    v234: u64,
+    v236: u64,
     v238: u64,
     v239: u64,
-    v240: u64,
-    v241: u64,
-    v244: u64,
+    v245: u64,
     v246: u64,
-    v248: u64,
     v249: u64,
-    v250: u64,
     v251: u64,
     v253: u64,
     v254: u64,
     v255: u64,
     v256: u64,
-    v257: u64,
+    v258: u64,
+    v259: u64,
     v260: u64,
     v261: u64,
     v262: u64,
-    v263: u64,
+    v265: u64,
+    v266: u64,
     v267: u64,
-    v271: u64,
-    v275: u64,
-    v279: u64,
+    v268: u64,
+    v272: u64,
+    v276: u64,
     v280: u64,
-    v281: u64,
-    v288: u64,
-    v289: u64,
-    v290: u64,
-    v297: u64,
-    v298: u64,
-    v299: u64,
+    v284: u64,
+    v285: u64,
+    v286: u64,
+    v293: u64,
+    v294: u64,
+    v295: u64,
+    v302: u64,
     v303: u64,
     v304: u64,
-    v312: u64,
-    v313: u64,
-    v314: u64,
+    v307: u64,
+    v308: u64,
+    v317: u64,
     v318: u64,
-    v321: u64,
+    v319: u64,
     v323: u64,
-    v324: u64,
     v325: u64,
-    v326: u64,
     v328: u64,
+    v330: u64,
     v331: u64,
+    v332: u64,
     v333: u64,
-    v337: u64,
+    v335: u64,
+    v338: u64,
     v340: u64,
-    v342: u64,
-    v345: u64,
-    v346: u64,
-    v352: u64,
-    v364: u64,
-    v367: u64,
-    v368: u64,
-    v370: u64,
-    v376: u64,
-    v377: u64,
-    v381: u64,
-    v385: u64,
-    v386: u64,
-    v394: u64,
-    v397: u64,
-    v398: u64,
+    v343: u64,
+    v344: u64,
+    v350: u64,
+    v351: u64,
+    v360: u64,
+    v361: u64,
+    v369: u64,
+    v371: u64,
+    v372: u64,
+    v378: u64,
+    v379: u64,
+    v382: u64,
+    v388: u64,
+    v390: u64,
+    v391: u64,
+    v396: u64,
     v399: u64,
-    v400: u64,
-    v401: u64,
     v402: u64,
     v403: u64,
     v404: u64,
@@ -337,15 +340,16 @@ pub(super) struct Model {
     v406: u64,
     v407: u64,
     v408: u64,
+    v409: u64,
     v410: u64,
     v411: u64,
     v412: u64,
+    v413: u64,
     v414: u64,
     v415: u64,
     v416: u64,
     v417: u64,
     v418: u64,
-    v419: u64,
     v420: u64,
     v421: u64,
     v422: u64,
@@ -359,52 +363,53 @@ pub(super) struct Model {
     v430: u64,
     v431: u64,
     v432: u64,
+    v433: u64,
+    v434: u64,
+    v435: u64,
     v436: u64,
+    v437: u64,
     v438: u64,
     v439: u64,
-    v441: u64,
-    v443: u64,
+    v442: u64,
     v444: u64,
     v445: u64,
-    v446: u64,
     v447: u64,
+    v449: u64,
     v450: u64,
-    v457: u64,
-    v459: u64,
-    v461: u64,
-    v462: u64,
+    v451: u64,
+    v452: u64,
+    v453: u64,
+    v456: u64,
     v463: u64,
-    v464: u64,
-    v475: u64,
-    v476: u64,
-    v478: u64,
-    v495: u64,
-    v496: u64,
-    v515: u64,
-    v524: u64,
-    v525: u64,
-    v527: u64,
+    v465: u64,
+    v467: u64,
+    v468: u64,
+    v469: u64,
+    v470: u64,
+    v481: u64,
+    v482: u64,
+    v484: u64,
+    v501: u64,
+    v502: u64,
+    v520: u64,
     v529: u64,
-    v553: u64,
-    v554: u64,
-    v555: u64,
+    v530: u64,
+    v532: u64,
+    v534: u64,
     v558: u64,
-    v559: u64,
+    v560: u64,
     v561: u64,
     v562: u64,
-    v563: u64,
-    v564: u64,
     v565: u64,
     v566: u64,
-    v567: u64,
+    v568: u64,
     v569: u64,
-    v577: u64,
-    v578: u64,
-    v579: u64,
-    v580: u64,
-    v581: u64,
-    v582: u64,
-    v583: u64,
+    v570: u64,
+    v571: u64,
+    v572: u64,
+    v573: u64,
+    v574: u64,
+    v576: u64,
     v584: u64,
     v585: u64,
     v586: u64,
@@ -413,50 +418,54 @@ pub(super) struct Model {
     v589: u64,
     v590: u64,
     v591: u64,
+    v592: u64,
     v593: u64,
     v594: u64,
+    v595: u64,
+    v596: u64,
     v597: u64,
+    v598: u64,
     v600: u64,
     v601: u64,
-    v603: u64,
-    v604: u64,
-    v605: u64,
+    v607: u64,
+    v608: u64,
     v610: u64,
     v611: u64,
-    v613: u64,
-    v615: u64,
-    v616: u64,
+    v612: u64,
     v617: u64,
+    v619: u64,
+    v621: u64,
     v622: u64,
     v623: u64,
-    v625: u64,
-    v626: u64,
+    v628: u64,
     v629: u64,
-    v634: u64,
-    v637: u64,
-    v640: u64,
+    v631: u64,
+    v632: u64,
+    v635: u64,
+    v638: u64,
     v642: u64,
-    v643: u64,
     v644: u64,
-    v645: u64,
     v646: u64,
-    v647: u64,
-    v648: u64,
-    v649: u64,
+    v650: u64,
+    v651: u64,
+    v652: u64,
+    v653: u64,
     v654: u64,
     v655: u64,
-    v656: u64,
-    v657: u64,
-    v658: u64,
     v660: u64,
+    v661: u64,
     v662: u64,
+    v663: u64,
+    v664: u64,
     v666: u64,
     v668: u64,
-    v669: u64,
-    v673: u64,
+    v672: u64,
     v674: u64,
     v675: u64,
-    v677: u64,
+    v679: u64,
+    v680: u64,
+    v681: u64,
+    v683: u64,
     dirty: u128,
     ran: u128,
     out: u128,
@@ -602,6 +611,8 @@ impl Model {
             n57: 0x0,
             q58: 0x0,
             n58: 0x0,
+            q59: 0x0,
+            n59: 0x0,
             v5: 0,
             v6: 0,
             v7: 0,
@@ -644,42 +655,44 @@ impl Model {
             v46: 0,
             v47: 0,
             v48: 0,
-            v58: 0,
+            v49: 0,
+            v50: 0,
+            v60: 0,
             v61: 0,
             v62: 0,
             v63: 0,
+            v64: 0,
             v65: 0,
-            v68: 0,
+            v67: 0,
             v70: 0,
-            v71: 0,
+            v72: 0,
             v73: 0,
-            v77: 0,
-            v78: 0,
-            v81: 0,
-            v84: 0,
-            v85: 0,
+            v75: 0,
+            v79: 0,
+            v80: 0,
+            v83: 0,
+            v86: 0,
             v87: 0,
-            v91: 0,
-            v96: 0,
-            v97: 0,
-            v102: 0,
-            v108: 0,
-            v109: 0,
+            v89: 0,
+            v93: 0,
+            v98: 0,
+            v99: 0,
+            v104: 0,
             v110: 0,
-            v113: 0,
+            v111: 0,
+            v112: 0,
             v115: 0,
-            v116: 0,
             v117: 0,
             v118: 0,
             v119: 0,
+            v120: 0,
             v121: 0,
-            v128: 0,
-            v129: 0,
+            v123: 0,
             v130: 0,
             v131: 0,
-            v143: 0,
-            v150: 0,
-            v151: 0,
+            v132: 0,
+            v133: 0,
+            v145: 0,
             v152: 0,
             v153: 0,
             v154: 0,
@@ -688,105 +701,104 @@ impl Model {
             v157: 0,
             v158: 0,
             v159: 0,
+            v160: 0,
             v161: 0,
-            v162: 0,
-            v165: 0,
-            v166: 0,
-            v175: 0,
+            v163: 0,
+            v164: 0,
+            v167: 0,
+            v168: 0,
             v177: 0,
-            v180: 0,
-            v181: 0,
+            v179: 0,
             v182: 0,
             v183: 0,
             v184: 0,
-            v187: 0,
-            v194: 0,
-            v195: 0,
+            v185: 0,
+            v186: 0,
+            v189: 0,
             v196: 0,
-            v200: 0,
-            v204: 0,
-            v205: 0,
+            v197: 0,
+            v198: 0,
+            v202: 0,
             v206: 0,
+            v207: 0,
             v208: 0,
-            v209: 0,
             v210: 0,
-            v211: 0,
-            v213: 0,
+            v212: 0,
             v214: 0,
-            v215: 0,
-            v216: 0,
+            v217: 0,
+            v218: 0,
             v219: 0,
             v220: 0,
-            v227: 0,
-            v228: 0,
-            v230: 0,
+            v223: 0,
+            v224: 0,
+            v225: 0,
             v232: 0,
+            v233: 0,
+            v234: 0,
+            v236: 0,
             v238: 0,
             v239: 0,
-            v240: 0,
-            v241: 0,
-            v244: 0,
+            v245: 0,
             v246: 0,
-            v248: 0,
             v249: 0,
-            v250: 0,
             v251: 0,
             v253: 0,
             v254: 0,
             v255: 0,
             v256: 0,
-            v257: 0,
+            v258: 0,
+            v259: 0,
             v260: 0,
             v261: 0,
             v262: 0,
-            v263: 0,
+            v265: 0,
+            v266: 0,
             v267: 0,
-            v271: 0,
-            v275: 0,
-            v279: 0,
+            v268: 0,
+            v272: 0,
+            v276: 0,
             v280: 0,
-            v281: 0,
-            v288: 0,
-            v289: 0,
-            v290: 0,
-            v297: 0,
-            v298: 0,
-            v299: 0,
+            v284: 0,
+            v285: 0,
+            v286: 0,
+            v293: 0,
+            v294: 0,
+            v295: 0,
+            v302: 0,
             v303: 0,
             v304: 0,
-            v312: 0,
-            v313: 0,
-            v314: 0,
+            v307: 0,
+            v308: 0,
+            v317: 0,
             v318: 0,
-            v321: 0,
+            v319: 0,
             v323: 0,
-            v324: 0,
             v325: 0,
-            v326: 0,
             v328: 0,
+            v330: 0,
             v331: 0,
+            v332: 0,
             v333: 0,
-            v337: 0,
+            v335: 0,
+            v338: 0,
             v340: 0,
-            v342: 0,
-            v345: 0,
-            v346: 0,
-            v352: 0,
-            v364: 0,
-            v367: 0,
-            v368: 0,
-            v370: 0,
-            v376: 0,
-            v377: 0,
-            v381: 0,
-            v385: 0,
-            v386: 0,
-            v394: 0,
-            v397: 0,
-            v398: 0,
+            v343: 0,
+            v344: 0,
+            v350: 0,
+            v351: 0,
+            v360: 0,
+            v361: 0,
+            v369: 0,
+            v371: 0,
+            v372: 0,
+            v378: 0,
+            v379: 0,
+            v382: 0,
+            v388: 0,
+            v390: 0,
+            v391: 0,
+            v396: 0,
             v399: 0,
-            v400: 0,
-            v401: 0,
             v402: 0,
             v403: 0,
             v404: 0,
@@ -794,15 +806,16 @@ impl Model {
             v406: 0,
             v407: 0,
             v408: 0,
+            v409: 0,
             v410: 0,
             v411: 0,
             v412: 0,
+            v413: 0,
             v414: 0,
             v415: 0,
             v416: 0,
             v417: 0,
             v418: 0,
-            v419: 0,
             v420: 0,
             v421: 0,
             v422: 0,
@@ -816,52 +829,53 @@ impl Model {
             v430: 0,
             v431: 0,
             v432: 0,
+            v433: 0,
+            v434: 0,
+            v435: 0,
             v436: 0,
+            v437: 0,
             v438: 0,
             v439: 0,
-            v441: 0,
-            v443: 0,
+            v442: 0,
             v444: 0,
             v445: 0,
-            v446: 0,
             v447: 0,
+            v449: 0,
             v450: 0,
-            v457: 0,
-            v459: 0,
-            v461: 0,
-            v462: 0,
+            v451: 0,
+            v452: 0,
+            v453: 0,
+            v456: 0,
             v463: 0,
-            v464: 0,
-            v475: 0,
-            v476: 0,
-            v478: 0,
-            v495: 0,
-            v496: 0,
-            v515: 0,
-            v524: 0,
-            v525: 0,
-            v527: 0,
+            v465: 0,
+            v467: 0,
+            v468: 0,
+            v469: 0,
+            v470: 0,
+            v481: 0,
+            v482: 0,
+            v484: 0,
+            v501: 0,
+            v502: 0,
+            v520: 0,
             v529: 0,
-            v553: 0,
-            v554: 0,
-            v555: 0,
+            v530: 0,
+            v532: 0,
+            v534: 0,
             v558: 0,
-            v559: 0,
+            v560: 0,
             v561: 0,
             v562: 0,
-            v563: 0,
-            v564: 0,
             v565: 0,
             v566: 0,
-            v567: 0,
+            v568: 0,
             v569: 0,
-            v577: 0,
-            v578: 0,
-            v579: 0,
-            v580: 0,
-            v581: 0,
-            v582: 0,
-            v583: 0,
+            v570: 0,
+            v571: 0,
+            v572: 0,
+            v573: 0,
+            v574: 0,
+            v576: 0,
             v584: 0,
             v585: 0,
             v586: 0,
@@ -870,50 +884,54 @@ impl Model {
             v589: 0,
             v590: 0,
             v591: 0,
+            v592: 0,
             v593: 0,
             v594: 0,
+            v595: 0,
+            v596: 0,
             v597: 0,
+            v598: 0,
             v600: 0,
             v601: 0,
-            v603: 0,
-            v604: 0,
-            v605: 0,
+            v607: 0,
+            v608: 0,
             v610: 0,
             v611: 0,
-            v613: 0,
-            v615: 0,
-            v616: 0,
+            v612: 0,
             v617: 0,
+            v619: 0,
+            v621: 0,
             v622: 0,
             v623: 0,
-            v625: 0,
-            v626: 0,
+            v628: 0,
             v629: 0,
-            v634: 0,
-            v637: 0,
-            v640: 0,
+            v631: 0,
+            v632: 0,
+            v635: 0,
+            v638: 0,
             v642: 0,
-            v643: 0,
             v644: 0,
-            v645: 0,
             v646: 0,
-            v647: 0,
-            v648: 0,
-            v649: 0,
+            v650: 0,
+            v651: 0,
+            v652: 0,
+            v653: 0,
             v654: 0,
             v655: 0,
-            v656: 0,
-            v657: 0,
-            v658: 0,
             v660: 0,
+            v661: 0,
             v662: 0,
+            v663: 0,
+            v664: 0,
             v666: 0,
             v668: 0,
-            v669: 0,
-            v673: 0,
+            v672: 0,
             v674: 0,
             v675: 0,
-            v677: 0,
+            v679: 0,
+            v680: 0,
+            v681: 0,
+            v683: 0,
             dirty: 0x1ffffffffffffffffffff,
             ran: 0x1ffffffffffffffffffff,
             out: 0,
@@ -923,23 +941,23 @@ impl Model {
     /// Takes the input word.
     pub(super) fn set_inputs(&mut self, word: u64) {
         let v = (word >> 0) as u64 & 0x1;
-        if v != self.i_reset { self.i_reset = v; self.dirty |= 0x1c7e08375dc8435a41e4; }
+        if v != self.i_reset { self.i_reset = v; self.dirty |= 0x1c7e08372ee421ad4364; }
         let v = (word >> 1) as u64 & 0x1;
-        if v != self.i_rx { self.i_rx = v; self.dirty |= 0x80; }
+        if v != self.i_rx { self.i_rx = v; self.dirty |= 0x100; }
         let v = (word >> 2) as u64 & 0x1;
         if v != self.i_enable { self.i_enable = v; self.dirty |= 0x23; }
         let v = (word >> 3) as u64 & 0x3f;
         if v != self.i_brp { self.i_brp = v; self.dirty |= 0x4; }
         let v = (word >> 9) as u64 & 0xf;
-        if v != self.i_tseg1 { self.i_tseg1 = v; self.dirty |= 0x100; }
+        if v != self.i_tseg1 { self.i_tseg1 = v; self.dirty |= 0x200; }
         let v = (word >> 13) as u64 & 0x7;
-        if v != self.i_tseg2 { self.i_tseg2 = v; self.dirty |= 0x100; }
+        if v != self.i_tseg2 { self.i_tseg2 = v; self.dirty |= 0x200; }
         let v = (word >> 16) as u64 & 0x3;
         if v != self.i_sjw { self.i_sjw = v; self.dirty |= 0x4; }
         let v = (word >> 18) as u64 & 0x1;
-        if v != self.i_sam { self.i_sam = v; self.dirty |= 0x80; }
+        if v != self.i_sam { self.i_sam = v; self.dirty |= 0x100; }
         let v = (word >> 19) as u64 & 0x1;
-        if v != self.i_listen_only { self.i_listen_only = v; self.dirty |= 0x4008023; }
+        if v != self.i_listen_only { self.i_listen_only = v; self.dirty |= 0x2020023; }
         let v = (word >> 20) as u64 & 0x1;
         if v != self.i_self_test { self.i_self_test = v; self.dirty |= 0x1; }
         let v = (word >> 21) as u64 & 0x1;
@@ -949,15 +967,15 @@ impl Model {
         let v = (word >> 23) as u64 & 0x1;
         if v != self.i_transmit_abort { self.i_transmit_abort = v; self.dirty |= 0x20; }
         let v = (word >> 24) as u64 & 0xff;
-        if v != self.i_transmit_info { self.i_transmit_info = v; self.dirty |= 0x4008040; }
+        if v != self.i_transmit_info { self.i_transmit_info = v; self.dirty |= 0x2020040; }
         let v = (word >> 32) as u64 & 0xff;
         if v != self.i_transmit_data { self.i_transmit_data = v; self.dirty |= 0x40; }
         let v = (word >> 40) as u64 & 0x1;
-        if v != self.i_counters_load_tec { self.i_counters_load_tec = v; self.dirty |= 0x904020; }
+        if v != self.i_counters_load_tec { self.i_counters_load_tec = v; self.dirty |= 0x484020; }
         let v = (word >> 41) as u64 & 0x1;
         if v != self.i_counters_load_rec { self.i_counters_load_rec = v; self.dirty |= 0x8; }
         let v = (word >> 42) as u64 & 0xff;
-        if v != self.i_counters_value { self.i_counters_value = v; self.dirty |= 0x100008; }
+        if v != self.i_counters_value { self.i_counters_value = v; self.dirty |= 0x80008; }
     }
 
     /// The output word computed by the last `eval`.
@@ -977,57 +995,57 @@ impl Model {
             if dirty >> 4 & 1 != 0 { self.group_4(&mut dirty); } // top$protocol$capture
             if dirty >> 5 & 1 != 0 { self.group_5(&mut dirty); } // top$protocol
             if dirty >> 6 & 1 != 0 { self.group_6(&mut dirty); } // top$protocol$sender
-            if dirty >> 7 & 1 != 0 { self.group_7(&mut dirty); } // top$bit_timing$sampling
+            if dirty >> 7 & 1 != 0 { self.group_7(&mut dirty); } // top$protocol$frame
         }
         if dirty >> 8 & 0xff != 0 {
-            if dirty >> 8 & 1 != 0 { self.group_8(&mut dirty); } // top$bit_timing
-            if dirty >> 9 & 1 != 0 { self.group_9(&mut dirty); } // top$protocol$crc
-            if dirty >> 10 & 1 != 0 { self.group_10(&mut dirty); } // top$protocol$frame
-            if dirty >> 11 & 1 != 0 { self.group_11(&mut dirty); } // top$protocol$assembler
+            if dirty >> 8 & 1 != 0 { self.group_8(&mut dirty); } // top$bit_timing$sampling
+            if dirty >> 9 & 1 != 0 { self.group_9(&mut dirty); } // top$bit_timing
+            if dirty >> 10 & 1 != 0 { self.group_10(&mut dirty); } // top$protocol$assembler
+            if dirty >> 11 & 1 != 0 { self.group_11(&mut dirty); } // top$protocol$crc
             if dirty >> 12 & 1 != 0 { self.group_12(&mut dirty); } // top$protocol$interframe
             if dirty >> 13 & 1 != 0 { self.group_13(&mut dirty); } // top$protocol$stuffing
             if dirty >> 14 & 1 != 0 { self.group_14(&mut dirty); } // top$protocol$interframe
-            if dirty >> 15 & 1 != 0 { self.group_15(&mut dirty); } // top$protocol$sender
+            if dirty >> 15 & 1 != 0 { self.group_15(&mut dirty); } // top$protocol$frame
         }
         if dirty >> 16 & 0xff != 0 {
-            if dirty >> 16 & 1 != 0 { self.group_16(&mut dirty); } // top$protocol$frame
-            if dirty >> 17 & 1 != 0 { self.group_17(&mut dirty); } // top$protocol$interframe
-            if dirty >> 18 & 1 != 0 { self.group_18(&mut dirty); } // top$protocol$sender
-            if dirty >> 19 & 1 != 0 { self.group_19(&mut dirty); } // top$protocol
-            if dirty >> 20 & 1 != 0 { self.group_20(&mut dirty); } // top$protocol$faults
-            if dirty >> 21 & 1 != 0 { self.group_21(&mut dirty); } // top$protocol$assembler
-            if dirty >> 22 & 1 != 0 { self.group_22(&mut dirty); } // top$bit_timing$clocks
-            if dirty >> 23 & 1 != 0 { self.group_23(&mut dirty); } // top$protocol
+            if dirty >> 16 & 1 != 0 { self.group_16(&mut dirty); } // top$protocol$interframe
+            if dirty >> 17 & 1 != 0 { self.group_17(&mut dirty); } // top$protocol$sender
+            if dirty >> 18 & 1 != 0 { self.group_18(&mut dirty); } // top$protocol
+            if dirty >> 19 & 1 != 0 { self.group_19(&mut dirty); } // top$protocol$faults
+            if dirty >> 20 & 1 != 0 { self.group_20(&mut dirty); } // top$protocol$assembler
+            if dirty >> 21 & 1 != 0 { self.group_21(&mut dirty); } // top$bit_timing$clocks
+            if dirty >> 22 & 1 != 0 { self.group_22(&mut dirty); } // top$protocol
+            if dirty >> 23 & 1 != 0 { self.group_23(&mut dirty); } // top$protocol$faults$tec_count
         }
         if dirty >> 24 & 0xff != 0 {
-            if dirty >> 24 & 1 != 0 { self.group_24(&mut dirty); } // top$protocol$faults$tec_count
-            if dirty >> 25 & 1 != 0 { self.group_25(&mut dirty); } // top$protocol$faults$rec_count
-            if dirty >> 26 & 1 != 0 { self.group_26(&mut dirty); } // top$protocol$sender
-            if dirty >> 27 & 1 != 0 { self.group_27(&mut dirty); } // top$protocol$sender$tx_ptr
-            if dirty >> 28 & 1 != 0 { self.group_28(&mut dirty); } // top$protocol$stuffing
-            if dirty >> 29 & 1 != 0 { self.group_29(&mut dirty); } // top$bit_timing$elapsed
-            if dirty >> 30 & 1 != 0 { self.group_30(&mut dirty); } // top$bit_timing$process_pending
-            if dirty >> 31 & 1 != 0 { self.group_31(&mut dirty); } // top$bit_timing$remaining
+            if dirty >> 24 & 1 != 0 { self.group_24(&mut dirty); } // top$protocol$faults$rec_count
+            if dirty >> 25 & 1 != 0 { self.group_25(&mut dirty); } // top$protocol$sender
+            if dirty >> 26 & 1 != 0 { self.group_26(&mut dirty); } // top$protocol$sender$tx_ptr
+            if dirty >> 27 & 1 != 0 { self.group_27(&mut dirty); } // top$protocol$stuffing
+            if dirty >> 28 & 1 != 0 { self.group_28(&mut dirty); } // top$bit_timing$elapsed
+            if dirty >> 29 & 1 != 0 { self.group_29(&mut dirty); } // top$bit_timing$process_pending
+            if dirty >> 30 & 1 != 0 { self.group_30(&mut dirty); } // top$bit_timing$remaining
+            if dirty >> 31 & 1 != 0 { self.group_31(&mut dirty); } // top$bit_timing$sampled
         }
         if dirty >> 32 & 0xff != 0 {
-            if dirty >> 32 & 1 != 0 { self.group_32(&mut dirty); } // top$bit_timing$sampled
-            if dirty >> 33 & 1 != 0 { self.group_33(&mut dirty); } // top$bit_timing$sampling$metastable
-            if dirty >> 34 & 1 != 0 { self.group_34(&mut dirty); } // top$bit_timing$sampling$previous
-            if dirty >> 35 & 1 != 0 { self.group_35(&mut dirty); } // top$bit_timing$sampling$quantum_samples
-            if dirty >> 36 & 1 != 0 { self.group_36(&mut dirty); } // top$bit_timing$sampling$stable
-            if dirty >> 37 & 1 != 0 { self.group_37(&mut dirty); } // top$bit_timing$segment_state
-            if dirty >> 38 & 1 != 0 { self.group_38(&mut dirty); } // top$bit_timing$sjw_quanta
-            if dirty >> 39 & 1 != 0 { self.group_39(&mut dirty); } // top$bit_timing$synced
+            if dirty >> 32 & 1 != 0 { self.group_32(&mut dirty); } // top$bit_timing$sampling$metastable
+            if dirty >> 33 & 1 != 0 { self.group_33(&mut dirty); } // top$bit_timing$sampling$previous
+            if dirty >> 34 & 1 != 0 { self.group_34(&mut dirty); } // top$bit_timing$sampling$quantum_samples
+            if dirty >> 35 & 1 != 0 { self.group_35(&mut dirty); } // top$bit_timing$sampling$stable
+            if dirty >> 36 & 1 != 0 { self.group_36(&mut dirty); } // top$bit_timing$segment_state
+            if dirty >> 37 & 1 != 0 { self.group_37(&mut dirty); } // top$bit_timing$sjw_quanta
+            if dirty >> 38 & 1 != 0 { self.group_38(&mut dirty); } // top$bit_timing$synced
+            if dirty >> 39 & 1 != 0 { self.group_39(&mut dirty); } // top$bit_timing$transmit_deferred
         }
         if dirty >> 40 & 0xff != 0 {
-            if dirty >> 40 & 1 != 0 { self.group_40(&mut dirty); } // top$bit_timing$transmit_deferred
-            if dirty >> 41 & 1 != 0 { self.group_41(&mut dirty); } // top$protocol$abort_pending
-            if dirty >> 42 & 1 != 0 { self.group_42(&mut dirty); } // top$protocol$assembler$byte_index
-            if dirty >> 43 & 1 != 0 { self.group_43(&mut dirty); } // top$protocol$assembler$byte_pulse
-            if dirty >> 44 & 1 != 0 { self.group_44(&mut dirty); } // top$protocol$assembler$byte_reg
-            if dirty >> 45 & 1 != 0 { self.group_45(&mut dirty); } // top$protocol$assembler$dlc_reg
-            if dirty >> 46 & 1 != 0 { self.group_46(&mut dirty); } // top$protocol$assembler$header_pulse
-            if dirty >> 47 & 1 != 0 { self.group_47(&mut dirty); } // top$protocol$assembler$id_reg
+            if dirty >> 40 & 1 != 0 { self.group_40(&mut dirty); } // top$protocol$abort_pending
+            if dirty >> 41 & 1 != 0 { self.group_41(&mut dirty); } // top$protocol$assembler$byte_index
+            if dirty >> 42 & 1 != 0 { self.group_42(&mut dirty); } // top$protocol$assembler$byte_pulse
+            if dirty >> 43 & 1 != 0 { self.group_43(&mut dirty); } // top$protocol$assembler$byte_reg
+            if dirty >> 44 & 1 != 0 { self.group_44(&mut dirty); } // top$protocol$assembler$dlc_reg
+            if dirty >> 45 & 1 != 0 { self.group_45(&mut dirty); } // top$protocol$assembler$header_pulse
+            if dirty >> 46 & 1 != 0 { self.group_46(&mut dirty); } // top$protocol$assembler$id_base
+            if dirty >> 47 & 1 != 0 { self.group_47(&mut dirty); } // top$protocol$assembler$id_extension
         }
         if dirty >> 48 & 0xff != 0 {
             if dirty >> 48 & 1 != 0 { self.group_48(&mut dirty); } // top$protocol$assembler$ide_reg
@@ -1072,7 +1090,7 @@ impl Model {
         self.dirty = 0;
         self.ran |= dirty;
         if dirty >> 80 & 1 != 0 {
-            self.out = 0 | ((self.q58) as u128) << 0 | ((self.q0) as u128) << 1 | (((self.q5 & 0x1) | (self.q6 << 1) | ((self.q5 >> 1) << 3)) as u128) << 2 | ((self.q20) as u128) << 6 | ((self.q19) as u128) << 7 | ((self.q32) as u128) << 8 | ((self.q31) as u128) << 9 | ((self.q30) as u128) << 38 | ((self.q28) as u128) << 39 | ((self.q33) as u128) << 40 | ((self.q35) as u128) << 44 | ((self.q34) as u128) << 45 | ((self.q36) as u128) << 53 | ((self.q25) as u128) << 56 | ((self.q26) as u128) << 57 | ((self.q24) as u128) << 65 | ((self.q27) as u128) << 66 | ((self.q15 | (self.q16 << 3) | (self.q14 << 7)) as u128) << 71 | ((self.q17 | (self.q18 << 7)) as u128) << 79 | ((self.q54) as u128) << 87 | ((self.q53) as u128) << 88 | ((self.v154) as u128) << 89 | ((self.v155) as u128) << 90 | ((self.q55) as u128) << 91 | ((self.v77) as u128) << 96 | ((self.v109) as u128) << 97;
+            self.out = 0 | ((self.q59) as u128) << 0 | ((self.q0) as u128) << 1 | (((self.q5 & 0x1) | (self.q6 << 1) | ((self.q5 >> 1) << 3)) as u128) << 2 | ((self.q20) as u128) << 6 | ((self.q19) as u128) << 7 | ((self.q33) as u128) << 8 | ((self.q31 | (self.q32 << 18)) as u128) << 9 | ((self.q30) as u128) << 38 | ((self.q28) as u128) << 39 | ((self.q34) as u128) << 40 | ((self.q36) as u128) << 44 | ((self.q35) as u128) << 45 | ((self.q37) as u128) << 53 | ((self.q25) as u128) << 56 | ((self.q26) as u128) << 57 | ((self.q24) as u128) << 65 | ((self.q27) as u128) << 66 | ((self.q15 | (self.q16 << 3) | (self.q14 << 7)) as u128) << 71 | ((self.q17 | (self.q18 << 7)) as u128) << 79 | ((self.q55) as u128) << 87 | ((self.q54) as u128) << 88 | ((self.v156) as u128) << 89 | ((self.v157) as u128) << 90 | ((self.q56) as u128) << 91 | ((self.v79) as u128) << 96 | ((self.v111) as u128) << 97;
         }
     }
 
@@ -1082,1622 +1100,1639 @@ impl Model {
         let mut dirty = 0u128;
         let ran = self.ran;
         self.ran = 0;
-        if ran >> 22 & 1 != 0 {
-            if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x400004; } // $auto$ff.cc:266:slice$6263
-            if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x400004; } // $auto$ff.cc:266:slice$6264
+        if ran >> 21 & 1 != 0 {
+            if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x200004; } // $auto$ff.cc:266:slice$6360
+            if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x200004; } // $auto$ff.cc:266:slice$6361
+        }
+        if ran >> 23 & 1 != 0 {
+            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x100000000000000880008; } // $auto$ff.cc:266:slice$6239
+            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x100000000000000800008; } // $auto$ff.cc:266:slice$6240
+            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x100000000000000800008; } // $auto$ff.cc:266:slice$6253
         }
         if ran >> 24 & 1 != 0 {
-            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x100000000000001100008; } // $auto$ff.cc:266:slice$6152
-            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x100000000000001000008; } // $auto$ff.cc:266:slice$6153
-            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x100000000000001000008; } // $auto$ff.cc:266:slice$6166
+            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x100000000000001080008; } // $auto$ff.cc:266:slice$6264
+            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x100000000000001080008; } // $auto$ff.cc:266:slice$6265
         }
-        if ran >> 25 & 1 != 0 {
-            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x100000000000002100008; } // $auto$ff.cc:266:slice$6177
-            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x100000000000002100008; } // $auto$ff.cc:266:slice$6178
+        if ran >> 26 & 1 != 0 {
+            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x100000000000006000040; } // $auto$ff.cc:266:slice$6177
+            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x100000000000004000040; } // $auto$ff.cc:266:slice$6180
         }
-        if ran >> 27 & 1 != 0 {
-            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x10000000000000c000040; } // $auto$ff.cc:266:slice$6090
-            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x100000000000008000040; } // $auto$ff.cc:266:slice$6093
+        if ran >> 28 & 1 != 0 {
+            if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x10000004; } // $auto$ff.cc:266:slice$6357
         }
         if ran >> 29 & 1 != 0 {
-            if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x20000004; } // $auto$ff.cc:266:slice$6260
+            if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x5804000000002205e285; } // $auto$ff.cc:266:slice$6353
         }
         if ran >> 30 & 1 != 0 {
-            if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x580400000000440b6105; } // $auto$ff.cc:266:slice$6256
+            if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x40000204; } // $auto$ff.cc:266:slice$6350
         }
         if ran >> 31 & 1 != 0 {
-            if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x80000104; } // $auto$ff.cc:266:slice$6253
+            if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x20200005d80080012a53; } // $flatten\bit_timing.\sampled.$procdff$5969
         }
         if ran >> 32 & 1 != 0 {
-            if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x20200005b00100022353; } // $flatten\bit_timing.\sampled.$procdff$5897
+            if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x100000100; } // $flatten\bit_timing.\sampling.\metastable.$procdff$5968
         }
         if ran >> 33 & 1 != 0 {
-            if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x200000080; } // $flatten\bit_timing.\sampling.\metastable.$procdff$5896
+            if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x200000100; } // $flatten\bit_timing.\sampling.\previous.$procdff$5967
         }
         if ran >> 34 & 1 != 0 {
-            if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x400000080; } // $flatten\bit_timing.\sampling.\previous.$procdff$5895
+            if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x400000100; } // $auto$ff.cc:266:slice$6349
         }
         if ran >> 35 & 1 != 0 {
-            if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x800000080; } // $auto$ff.cc:266:slice$6252
+            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0xc00000100; } // $flatten\bit_timing.\sampling.\stable.$procdff$5965
         }
         if ran >> 36 & 1 != 0 {
-            if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x1800000080; } // $flatten\bit_timing.\sampling.\stable.$procdff$5893
+            if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x1000000204; } // $auto$ff.cc:266:slice$6343
         }
         if ran >> 37 & 1 != 0 {
-            if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x2000000104; } // $auto$ff.cc:266:slice$6246
+            if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x2000000004; } // $auto$ff.cc:266:slice$6339
         }
         if ran >> 38 & 1 != 0 {
-            if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x4000000004; } // $auto$ff.cc:266:slice$6242
+            if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x4000000204; } // $auto$ff.cc:266:slice$6338
         }
         if ran >> 39 & 1 != 0 {
-            if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x8000000104; } // $auto$ff.cc:266:slice$6241
+            if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x8000000200; } // $auto$ff.cc:266:slice$6337
         }
         if ran >> 40 & 1 != 0 {
-            if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x10000000100; } // $auto$ff.cc:266:slice$6240
+            if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x10000010023; } // $auto$ff.cc:266:slice$6334
         }
         if ran >> 41 & 1 != 0 {
-            if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x20000020023; } // $auto$ff.cc:266:slice$6237
+            if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x100000000020000000000; } // $auto$ff.cc:266:slice$6331
         }
         if ran >> 42 & 1 != 0 {
-            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x100000000040000000000; } // $auto$ff.cc:266:slice$6234
+            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x100000000040000000000; } // $auto$ff.cc:266:slice$6329
         }
         if ran >> 43 & 1 != 0 {
-            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x100000000080000000000; } // $auto$ff.cc:266:slice$6232
+            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x100000000080000000000; } // $auto$ff.cc:266:slice$6326
         }
         if ran >> 44 & 1 != 0 {
-            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x100000000100000000000; } // $auto$ff.cc:266:slice$6229
+            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x100000000100000000401; } // $auto$ff.cc:266:slice$6322
         }
         if ran >> 45 & 1 != 0 {
-            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x100000000200000000801; } // $auto$ff.cc:266:slice$6225
+            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x100000000200000000000; } // $auto$ff.cc:266:slice$6318
         }
         if ran >> 46 & 1 != 0 {
-            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x100000000400000000000; } // $auto$ff.cc:266:slice$6221
+            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x100000000400000000000; } // $auto$ff.cc:266:slice$6313
         }
         if ran >> 47 & 1 != 0 {
-            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x100000000800000000000; } // $auto$ff.cc:266:slice$6216
+            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x100000000800000000000; } // $auto$ff.cc:266:slice$6303
         }
         if ran >> 48 & 1 != 0 {
-            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x100000009000000000801; } // $auto$ff.cc:266:slice$6210
+            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x100000001000000000411; } // $auto$ff.cc:266:slice$6297
         }
         if ran >> 49 & 1 != 0 {
-            if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x2000000000001; } // $auto$ff.cc:266:slice$6208
+            if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x2000000000001; } // $auto$ff.cc:266:slice$6295
         }
         if ran >> 50 & 1 != 0 {
-            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x100000004000000000801; } // $auto$ff.cc:266:slice$6203
+            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x100000004000000000401; } // $auto$ff.cc:266:slice$6290
         }
         if ran >> 52 & 1 != 0 {
-            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x100000010000000000000; } // $auto$ff.cc:266:slice$6201
+            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x100000010000000000000; } // $auto$ff.cc:266:slice$6288
         }
         if ran >> 53 & 1 != 0 {
-            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x100000020000000000000; } // $auto$ff.cc:266:slice$6199
+            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x100000020000000000000; } // $auto$ff.cc:266:slice$6286
         }
         if ran >> 54 & 1 != 0 {
-            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x100000040000000000000; } // $auto$ff.cc:266:slice$6195
+            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x100000040000000000000; } // $auto$ff.cc:266:slice$6282
         }
         if ran >> 55 & 1 != 0 {
-            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x100000080000000000000; } // $auto$ff.cc:266:slice$6192
+            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x100000080000000000000; } // $auto$ff.cc:266:slice$6279
         }
         if ran >> 56 & 1 != 0 {
-            if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x110040000098873; } // $auto$ff.cc:266:slice$6189
+            if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x110020000068473; } // $auto$ff.cc:266:slice$6276
         }
         if ran >> 57 & 1 != 0 {
-            if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0x200000000040241; } // $auto$ff.cc:266:slice$6188
+            if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0x200000000020841; } // $auto$ff.cc:266:slice$6275
         }
         if ran >> 58 & 1 != 0 {
-            if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x400000000080001; } // $auto$ff.cc:266:slice$6184
+            if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x400000000040001; } // $auto$ff.cc:266:slice$6271
         }
         if ran >> 59 & 1 != 0 {
-            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x100000800000000000022; } // $auto$ff.cc:266:slice$6183
+            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x100000800000000000022; } // $auto$ff.cc:266:slice$6270
         }
         if ran >> 60 & 1 != 0 {
-            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x100001000000000000000; } // $auto$ff.cc:266:slice$6182
+            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x100001000000000000000; } // $auto$ff.cc:266:slice$6269
         }
         if ran >> 61 & 1 != 0 {
-            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x100002000000000984028; } // $flatten\protocol.\faults.\bus_off_state.$procdff$5869
+            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x1000020000000004c4028; } // $flatten\protocol.\faults.\bus_off_state.$procdff$5940
         }
         if ran >> 62 & 1 != 0 {
-            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x100004000000000000003; } // $flatten\protocol.\faults.\passive_state.$procdff$5868
+            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x100004000000000000003; } // $flatten\protocol.\faults.\passive_state.$procdff$5939
         }
         if ran >> 63 & 1 != 0 {
-            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x100008000000000090033; } // $flatten\protocol.\field.$procdff$5865
+            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x1000080000000000480b3; } // $flatten\protocol.\field.$procdff$5936
         }
         if ran >> 64 & 1 != 0 {
-            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x10000000000020020; } // $flatten\protocol.\in_frame.$procdff$5864
+            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x10000000000010020; } // $flatten\protocol.\in_frame.$procdff$5935
         }
         if ran >> 65 & 1 != 0 {
-            if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x20000000000020002; } // $auto$ff.cc:266:slice$6150
+            if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x20000000000010002; } // $auto$ff.cc:266:slice$6237
         }
         if ran >> 66 & 1 != 0 {
-            if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x40000000000004002; } // $auto$ff.cc:266:slice$6149
+            if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x40000000000004002; } // $auto$ff.cc:266:slice$6236
         }
         if ran >> 67 & 1 != 0 {
-            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x80000000000000002; } // $auto$ff.cc:266:slice$6131
+            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x80000000000000002; } // $auto$ff.cc:266:slice$6218
         }
         if ran >> 68 & 1 != 0 {
-            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x100000000000020002; } // $auto$ff.cc:266:slice$6119
+            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x100000000000010002; } // $auto$ff.cc:266:slice$6206
         }
         if ran >> 69 & 1 != 0 {
-            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x200000000000000002; } // $auto$ff.cc:266:slice$6113
+            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x200000000000000002; } // $auto$ff.cc:266:slice$6200
         }
         if ran >> 70 & 1 != 0 {
-            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x40000000000002b012; } // $auto$ff.cc:266:slice$6105
+            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x400000000000033012; } // $auto$ff.cc:266:slice$6192
         }
         if ran >> 71 & 1 != 0 {
-            if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x800000000000000040; } // $auto$ff.cc:266:slice$6103
+            if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x800000000000000040; } // $auto$ff.cc:266:slice$6190
         }
         if ran >> 72 & 1 != 0 {
-            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x1000000000004008000; } // $flatten\protocol.\sender.\tx_next.$procdff$5856
+            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x1000000000002020000; } // $flatten\protocol.\sender.\tx_next.$procdff$5927
         }
         if ran >> 73 & 1 != 0 {
-            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x102000000000000028005; } // $flatten\protocol.\sender.\tx_reg.$procdff$5854
+            if self.q59 != self.n59 { self.q59 = self.n59; dirty |= 0x102000000000000030005; } // $flatten\protocol.\sender.\tx_reg.$procdff$5925
         }
         if ran >> 74 & 1 != 0 {
-            if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x4000000000000000040; } // $auto$ff.cc:266:slice$6267
+            if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x4000000000000000040; } // $auto$ff.cc:266:slice$6364
         }
         if ran >> 75 & 1 != 0 {
-            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x8000000000010002000; } // $auto$ff.cc:266:slice$6081
+            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x8000000000008002000; } // $auto$ff.cc:266:slice$6168
         }
         if ran >> 76 & 1 != 0 {
-            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x10000000000000002000; } // $auto$ff.cc:266:slice$6079
+            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x10000000000000002000; } // $auto$ff.cc:266:slice$6166
         }
         if ran >> 77 & 1 != 0 {
-            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x20000000000000002040; } // $auto$ff.cc:266:slice$6073
+            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x20000000000000002001; } // $auto$ff.cc:266:slice$6160
         }
         if ran >> 78 & 1 != 0 {
-            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x40000000000000020023; } // $auto$ff.cc:266:slice$6072
+            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x40000000000000010023; } // $auto$ff.cc:266:slice$6159
         }
         if ran >> 79 & 1 != 0 {
-            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x180000000000000000000; } // $auto$ff.cc:266:slice$6066
+            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x180000000000000000000; } // $auto$ff.cc:266:slice$6153
         }
         self.dirty |= dirty;
     }
 
     /// The cells of top$protocol$frame.
     fn group_0(&mut self, dirty: &mut u128) {
-        let c312: u64 = u64::from((self.q23) == (0xb));
-        if self.v312 != c312 { self.v312 = c312; *dirty |= 0x8000; }
-        let c313: u64 = u64::from((self.q23) == (0xc));
-        if self.v313 != c313 { self.v313 = c313; *dirty |= 0x18000; }
-        let c314: u64 = u64::from((self.q23) == (0x1f));
-        if self.v314 != c314 { self.v314 = c314; *dirty |= 0x8040; }
-        let c16: u64 = u64::from((c314 | (c312 << 1)) != 0);
-        if self.v16 != c16 { self.v16 = c16; *dirty |= 0x10000; }
-        let c315: u64 = u64::from((self.q23) == (0x4));
-        let c316: u64 = !(self.q30) & 0x1;
-        let c300: u64 = (c315) & (c316) & 0x1;
-        let c317: u64 = u64::from(((self.q33 & 0x7)) == 0);
-        let c318: u64 = u64::from(((self.q23 >> 3)) == (self.q29));
-        if self.v318 != c318 { self.v318 = c318; *dirty |= 0x10000; }
-        let c319: u64 = u64::from((self.q23) == (0xe));
-        let c320: u64 = u64::from((self.q22) == 0);
-        let c321: u64 = !(self.i_listen_only) & 0x1;
-        if self.v321 != c321 { self.v321 = c321; *dirty |= 0x2; }
-        let c307: u64 = (self.i_enable) & (c321) & 0x1;
-        let c322: u64 = !(self.i_self_test) & 0x1;
-        let c308: u64 = (self.q49) & (c322) & 0x1;
-        let c323: u64 = !(self.q58) & 0x1;
-        if self.v323 != c323 { self.v323 = c323; *dirty |= 0x20100; }
-        let c324: u64 = u64::from((self.q23) == (0x5));
-        if self.v324 != c324 { self.v324 = c324; *dirty |= 0x31402; }
-        let c325: u64 = !(self.q1) & 0x1;
-        if self.v325 != c325 { self.v325 = c325; *dirty |= 0x22; }
-        let c310: u64 = (c324) & (c325) & 0x1;
-        let c326: u64 = u64::from((self.q23) == (0x6));
-        if self.v326 != c326 { self.v326 = c326; *dirty |= 0x400; }
-        let c309: u64 = (c326) & (c325) & 0x1;
-        let c311: u64 = (c326) & (self.q1) & 0x1;
-        let c327: u64 = u64::from((self.q58) != (self.q49));
-        let c299: u64 = (self.q1) & (c327) & 0x1;
-        if self.v299 != c299 { self.v299 = c299; *dirty |= 0x400; }
-        let c328: u64 = ((self.i_transmit_single_shot) | (self.q37)) & 0x1;
-        if self.v328 != c328 { self.v328 = c328; *dirty |= 0x20000; }
-        let c329: u64 = ((c312) | (c313)) & 0x1;
-        let c330: u64 = ((c329) | (c314)) & 0x1;
-        let c19: u64 = !(c330) & 0x1;
-        if self.v19 != c19 { self.v19 = c19; *dirty |= 0x10000; }
-        let c305: u64 = (self.q1) & (c19) & 0x1;
-        let c331: u64 = ((c324) | (c300)) & 0x1;
-        if self.v331 != c331 { self.v331 = c331; *dirty |= 0x420; }
-        let c335: u64 = !(c309) & 0x1;
-        let c336: u64 = if (self.q49) != 0 { (0x0) } else { (c335) };
-        let c338: u64 = (self.q49) & (c310) & 0x1;
-        let c339: u64 = (self.q49) & (c311) & 0x1;
-        let c341: u64 = if (c326) != 0 { (0xa) } else { (self.q55) };
-        let c334: u64 = if (c309) != 0 { (0xd) } else { (c341) };
-        let c337: u64 = if (self.q49) != 0 { (c341) } else { (c334) };
-        if self.v337 != c337 { self.v337 = c337; *dirty |= 0x10000; }
-        let c342: u64 = u64::from((self.q55) == (0x9));
-        if self.v342 != c342 { self.v342 = c342; *dirty |= 0x8000000010000; }
-        let c343: u64 = if (self.q49) != 0 { (self.q21 | (self.q21 << 1)) } else { (0x1) };
-        let c344: u64 = if (self.q49) != 0 { (self.q21) } else { (0x1) };
-        let c345: u64 = u64::from((self.q55) == (0x8));
-        if self.v345 != c345 { self.v345 = c345; *dirty |= 0x8000000010000; }
-        let c346: u64 = !(self.q49) & 0x1;
-        if self.v346 != c346 { self.v346 = c346; *dirty |= 0x4004002; }
-        let c301: u64 = (c317) & (c346) & 0x1;
-        let c306: u64 = (c313) & (c346) & 0x1;
-        let c332: u64 = ((self.q28) | (c301)) & 0x1;
-        let c333: u64 = ((c306) | (c314)) & 0x1;
-        if self.v333 != c333 { self.v333 = c333; *dirty |= 0x400; }
-        let c347: u64 = if (self.q58) != 0 { (0x0) } else { (self.q49) };
-        let c348: u64 = if (self.q58) != 0 { (0x0) } else { (c346) };
-        let c349: u64 = !(self.q54) & 0x1;
-        let c350: u64 = (c308) & (self.q54) & 0x1;
-        let c351: u64 = if (c308) != 0 { (c349) } else { (0x1) };
-        let c352: u64 = u64::from((self.q55) == (0x7));
-        if self.v352 != c352 { self.v352 = c352; *dirty |= 0x8000000010000; }
-        let c353: u64 = (self.q1) & (c350) & 0x1;
-        let c354: u64 = if (self.q1) != 0 { (c351) } else { (0x1) };
-        let c355: u64 = (self.q1) & (c308) & 0x1;
-        let c356: u64 = if (self.q1) != 0 { (c308) } else { (c347) };
-        let c357: u64 = if (self.q1) != 0 { (0x0) } else { (c348) };
-        let c358: u64 = (c320) & (c307) & 0x1;
-        let c359: u64 = !(c320) & 0x1;
-        let c360: u64 = if (self.q1) != 0 { (0x0) } else { (c359) };
-        let c361: u64 = if (self.q1) != 0 { (0x0) } else { (c358) };
-        let c362: u64 = (self.q49) & (c360) & 0x1;
-        let c363: u64 = (self.q49) & (c361) & 0x1;
-        let c364: u64 = if (c319) != 0 { (0x6) } else { (self.q55) };
-        if self.v364 != c364 { self.v364 = c364; *dirty |= 0x10000; }
-        let c367: u64 = if (c331) != 0 { (c332 | 0x4) } else { (self.q55) };
-        if self.v367 != c367 { self.v367 = c367; *dirty |= 0x10000; }
-        let c369: u64 = (self.q58) & (c328) & 0x1;
-        let c370: u64 = u64::from((self.q55) == (0x2));
-        if self.v370 != c370 { self.v370 = c370; *dirty |= 0x8000000010000; }
-        let c304: u64 = (c370) & (self.q58) & 0x1;
-        if self.v304 != c304 { self.v304 = c304; *dirty |= 0x400; }
-        let c371: u64 = if (self.q58) != 0 { (0x0) } else { (c305) };
-        let c372: u64 = (c299) & (c369) & 0x1;
-        let c373: u64 = (c299) & (self.q58) & 0x1;
-        let c374: u64 = (c299) & (c323) & 0x1;
-        let c375: u64 = if (c299) != 0 { (c371) } else { (c305) };
-        let c377: u64 = if (c333) != 0 { (0x3) } else { (self.q55) };
-        if self.v377 != c377 { self.v377 = c377; *dirty |= 0x10000; }
-        let c378: u64 = { let s = (c342 | (c370 << 1)); if s >> 0 & 1 != 0 { c339 } else if s >> 1 & 1 != 0 { c372 } else { (0x0) } };
-        let c379: u64 = (c370) & (c373) & 0x1;
-        let c381: u64 = u64::from((self.q55) == (0x5));
-        if self.v381 != c381 { self.v381 = c381; *dirty |= 0x8000000010000; }
-        let c383: u64 = (c370) & (c333) & 0x1;
-        let c385: u64 = u64::from((self.q55) == (0x4));
-        if self.v385 != c385 { self.v385 = c385; *dirty |= 0x8000000210800; }
-        let c382: u64 = { let s = (c385 | (c370 << 1)); if s >> 0 & 1 != 0 { self.q1 } else if s >> 1 & 1 != 0 { c375 } else { (0x0) } };
-        let c386: u64 = u64::from((self.q55) == (0x3));
-        if self.v386 != c386 { self.v386 = c386; *dirty |= 0x8000000210820; }
-        let c59: u64 = u64::from((c381 | (c385 << 1) | (c386 << 2)) != 0);
-        let c60: u64 = u64::from((c381 | (c370 << 1) | (c385 << 2) | (c386 << 3)) != 0);
-        let c388: u64 = (c342) & (c339) & 0x1;
-        let c389: u64 = (c342) & (c338) & 0x1;
-        let c390: u64 = (c352) & (c353) & 0x1;
-        let c392: u64 = if (c352) != 0 { (c354) } else { (0x1) };
-        let c394: u64 = u64::from((self.q55) == (0x6));
-        if self.v394 != c394 { self.v394 = c394; *dirty |= 0x8000000010000; }
-        let c380: u64 = { let s = (c342 | (c345 << 1) | (c352 << 2) | (c394 << 3) | (c59 << 4) | (c370 << 5)); if s >> 0 & 1 != 0 { c336 } else if s >> 1 & 1 != 0 { c344 } else if s >> 2 & 1 != 0 { c356 } else if s >> 3 & 1 != 0 { c346 } else if s >> 4 & 1 != 0 { c299 } else if s >> 5 & 1 != 0 { c374 } else { (0x0) } };
-        let c391: u64 = (c394) & (c362) & 0x1;
-        let c393: u64 = { let s = (c342 | (c345 << 1) | (c352 << 2) | (c394 << 3)); if s >> 0 & 1 != 0 { c336 } else if s >> 1 & 1 != 0 { c343 } else if s >> 2 & 1 != 0 { c355 | (c355 << 1) } else if s >> 3 & 1 != 0 { c346 } else { (0x0) } };
-        let c395: u64 = (c394) & (c363) & 0x1;
-        let c396: u64 = (c352) & (c357) & 0x1;
-        let c397: u64 = (self.q44) & (c383) & 0x1;
-        if self.v397 != c397 { self.v397 = c397; *dirty |= 0x10000; }
-        let c398: u64 = (self.q44) & (c378) & 0x1;
-        if self.v398 != c398 { self.v398 = c398; *dirty |= 0x10000; }
-        let c399: u64 = (self.q44) & (c389) & 0x1;
-        if self.v399 != c399 { self.v399 = c399; *dirty |= 0x80000000000000000000; }
-        let c400: u64 = (self.q44) & (c390) & 0x1;
-        if self.v400 != c400 { self.v400 = c400; *dirty |= 0x10000; }
-        let c401: u64 = (self.q44) & (c391) & 0x1;
-        if self.v401 != c401 { self.v401 = c401; *dirty |= 0x10000; }
-        let c402: u64 = if (self.q44) != 0 { (c392) } else { (0x1) };
-        if self.v402 != c402 { self.v402 = c402; *dirty |= 0x10000; }
-        let c403: u64 = (self.q44) & (c379) & 0x1;
-        if self.v403 != c403 { self.v403 = c403; *dirty |= 0x10000; }
-        let c404: u64 = if (self.q44) != 0 { (c393) } else { (0x0) };
-        if self.v404 != c404 { self.v404 = c404; *dirty |= 0x10000; }
-        let c405: u64 = (self.q44) & (c380) & 0x1;
-        if self.v405 != c405 { self.v405 = c405; *dirty |= 0x10000; }
-        let c406: u64 = (self.q44) & (c394) & 0x1;
-        if self.v406 != c406 { self.v406 = c406; *dirty |= 0x10000; }
-        let c407: u64 = (self.q44) & (c395) & 0x1;
-        if self.v407 != c407 { self.v407 = c407; *dirty |= 0x10000; }
-        let c408: u64 = (self.q44) & (c60) & 0x1;
-        if self.v408 != c408 { self.v408 = c408; *dirty |= 0x10000; }
-        let c410: u64 = (self.q44) & (c396) & 0x1;
-        if self.v410 != c410 { self.v410 = c410; *dirty |= 0x10000; }
-        let c411: u64 = (self.q44) & (c388) & 0x1;
-        if self.v411 != c411 { self.v411 = c411; *dirty |= 0x10000; }
-        let c412: u64 = (self.q44) & (c382) & 0x1;
-        if self.v412 != c412 { self.v412 = c412; *dirty |= 0x10000; }
-        let c413: u64 = !(c304) & 0x1;
-        let c414: u64 = if (c299) != 0 { (c413) } else { (0x1) };
-        if self.v414 != c414 { self.v414 = c414; *dirty |= 0x10000; }
+        let c317: u64 = u64::from((self.q23) == (0xb));
+        if self.v317 != c317 { self.v317 = c317; *dirty |= 0x20000; }
+        let c318: u64 = u64::from((self.q23) == (0xc));
+        if self.v318 != c318 { self.v318 = c318; *dirty |= 0x28000; }
+        let c319: u64 = u64::from((self.q23) == (0x1f));
+        if self.v319 != c319 { self.v319 = c319; *dirty |= 0x20040; }
+        let c16: u64 = u64::from((c319 | (c317 << 1)) != 0);
+        if self.v16 != c16 { self.v16 = c16; *dirty |= 0x8000; }
+        let c320: u64 = u64::from((self.q23) == (0x4));
+        let c321: u64 = !(self.q30) & 0x1;
+        let c305: u64 = (c320) & (c321) & 0x1;
+        let c322: u64 = u64::from(((self.q34 & 0x7)) == 0);
+        let c323: u64 = u64::from(((self.q23 & 0x7)) == (0x7));
+        if self.v323 != c323 { self.v323 = c323; *dirty |= 0x8400; }
+        let c324: u64 = u64::from(((self.q23 >> 3)) == (self.q29));
+        let c307: u64 = (c323) & (c324) & 0x1;
+        if self.v307 != c307 { self.v307 = c307; *dirty |= 0x80; }
+        let c325: u64 = u64::from((self.q50) == (self.q2));
+        if self.v325 != c325 { self.v325 = c325; *dirty |= 0x20000; }
+        let c326: u64 = u64::from((self.q23) == (0xe));
+        let c327: u64 = u64::from((self.q22) == 0);
+        let c328: u64 = !(self.i_listen_only) & 0x1;
+        if self.v328 != c328 { self.v328 = c328; *dirty |= 0x2; }
+        let c312: u64 = (self.i_enable) & (c328) & 0x1;
+        let c329: u64 = !(self.i_self_test) & 0x1;
+        let c313: u64 = (self.q50) & (c329) & 0x1;
+        let c330: u64 = !(self.q59) & 0x1;
+        if self.v330 != c330 { self.v330 = c330; *dirty |= 0x10200; }
+        let c331: u64 = u64::from((self.q23) == (0x5));
+        if self.v331 != c331 { self.v331 = c331; *dirty |= 0x19082; }
+        let c332: u64 = !(self.q1) & 0x1;
+        if self.v332 != c332 { self.v332 = c332; *dirty |= 0x22; }
+        let c315: u64 = (c331) & (c332) & 0x1;
+        let c333: u64 = u64::from((self.q23) == (0x6));
+        if self.v333 != c333 { self.v333 = c333; *dirty |= 0x80; }
+        let c314: u64 = (c333) & (c332) & 0x1;
+        let c316: u64 = (c333) & (self.q1) & 0x1;
+        let c334: u64 = u64::from((self.q59) != (self.q50));
+        let c304: u64 = (self.q1) & (c334) & 0x1;
+        if self.v304 != c304 { self.v304 = c304; *dirty |= 0x80; }
+        let c335: u64 = ((self.i_transmit_single_shot) | (self.q38)) & 0x1;
+        if self.v335 != c335 { self.v335 = c335; *dirty |= 0x10000; }
+        let c336: u64 = ((c317) | (c318)) & 0x1;
+        let c337: u64 = ((c336) | (c319)) & 0x1;
+        let c19: u64 = !(c337) & 0x1;
+        if self.v19 != c19 { self.v19 = c19; *dirty |= 0x8000; }
+        let c310: u64 = (self.q1) & (c19) & 0x1;
+        let c338: u64 = ((c331) | (c305)) & 0x1;
+        if self.v338 != c338 { self.v338 = c338; *dirty |= 0xa0; }
+        let c342: u64 = !(c314) & 0x1;
+        let c343: u64 = if (self.q50) != 0 { (0x0) } else { (c342) };
+        if self.v343 != c343 { self.v343 = c343; *dirty |= 0x80; }
+        let c345: u64 = (self.q50) & (c315) & 0x1;
+        let c346: u64 = (self.q50) & (c316) & 0x1;
+        let c348: u64 = if (c333) != 0 { (0xa) } else { (self.q56) };
+        let c341: u64 = if (c314) != 0 { (0xd) } else { (c348) };
+        let c344: u64 = if (self.q50) != 0 { (c348) } else { (c341) };
+        if self.v344 != c344 { self.v344 = c344; *dirty |= 0x80; }
+        let c349: u64 = if (self.q50) != 0 { (self.q21 | (self.q21 << 1)) } else { (0x1) };
+        let c350: u64 = if (self.q50) != 0 { (self.q21) } else { (0x1) };
+        if self.v350 != c350 { self.v350 = c350; *dirty |= 0x80; }
+        let c351: u64 = !(self.q50) & 0x1;
+        if self.v351 != c351 { self.v351 = c351; *dirty |= 0x2004082; }
+        let c306: u64 = (c322) & (c351) & 0x1;
+        let c311: u64 = (c318) & (c351) & 0x1;
+        let c339: u64 = ((self.q28) | (c306)) & 0x1;
+        let c340: u64 = ((c311) | (c319)) & 0x1;
+        if self.v340 != c340 { self.v340 = c340; *dirty |= 0x80; }
+        let c352: u64 = if (self.q59) != 0 { (0x0) } else { (self.q50) };
+        let c353: u64 = if (self.q59) != 0 { (0x0) } else { (c351) };
+        let c354: u64 = !(self.q55) & 0x1;
+        let c355: u64 = (c313) & (self.q55) & 0x1;
+        let c356: u64 = if (c313) != 0 { (c354) } else { (0x1) };
+        let c357: u64 = (self.q1) & (c355) & 0x1;
+        let c358: u64 = if (self.q1) != 0 { (c356) } else { (0x1) };
+        let c359: u64 = (self.q1) & (c313) & 0x1;
+        let c360: u64 = u64::from((self.q56) == (0x7));
+        if self.v360 != c360 { self.v360 = c360; *dirty |= 0x8000000000080; }
+        let c361: u64 = if (self.q1) != 0 { (c313) } else { (c352) };
+        if self.v361 != c361 { self.v361 = c361; *dirty |= 0x80; }
+        let c362: u64 = if (self.q1) != 0 { (0x0) } else { (c353) };
+        let c363: u64 = (c327) & (c312) & 0x1;
+        let c364: u64 = !(c327) & 0x1;
+        let c365: u64 = if (self.q1) != 0 { (0x0) } else { (c364) };
+        let c366: u64 = if (self.q1) != 0 { (0x0) } else { (c363) };
+        let c367: u64 = (self.q50) & (c365) & 0x1;
+        let c368: u64 = (self.q50) & (c366) & 0x1;
+        let c369: u64 = if (c326) != 0 { (0x6) } else { (self.q56) };
+        if self.v369 != c369 { self.v369 = c369; *dirty |= 0x80; }
+        let c371: u64 = if (c307) != 0 { (0x5) } else { (self.q56) };
+        if self.v371 != c371 { self.v371 = c371; *dirty |= 0x80; }
+        let c372: u64 = if (c338) != 0 { (c339 | 0x4) } else { (self.q56) };
+        if self.v372 != c372 { self.v372 = c372; *dirty |= 0x80; }
+        let c374: u64 = (self.q59) & (c335) & 0x1;
+        let c375: u64 = if (self.q59) != 0 { (0x0) } else { (c310) };
+        let c376: u64 = (c304) & (c374) & 0x1;
+        let c377: u64 = (c304) & (self.q59) & 0x1;
+        let c378: u64 = u64::from((self.q56) == (0x2));
+        if self.v378 != c378 { self.v378 = c378; *dirty |= 0x8000000008090; }
+        let c309: u64 = (c378) & (self.q59) & 0x1;
+        let c379: u64 = (c304) & (c330) & 0x1;
+        if self.v379 != c379 { self.v379 = c379; *dirty |= 0x80; }
+        let c380: u64 = if (c304) != 0 { (c375) } else { (c310) };
+        let c382: u64 = if (c340) != 0 { (0x3) } else { (self.q56) };
+        if self.v382 != c382 { self.v382 = c382; *dirty |= 0x80; }
+        let c384: u64 = (c378) & (c377) & 0x1;
+        let c387: u64 = (c378) & (c340) & 0x1;
+        let c390: u64 = u64::from((self.q56) == (0x5));
+        if self.v390 != c390 { self.v390 = c390; *dirty |= 0x8000000000090; }
+        let c391: u64 = u64::from((self.q56) == (0x4));
+        if self.v391 != c391 { self.v391 = c391; *dirty |= 0x8000000008490; }
+        let c386: u64 = { let s = (c391 | (c378 << 1)); if s >> 0 & 1 != 0 { self.q1 } else if s >> 1 & 1 != 0 { c380 } else { (0x0) } };
+        let c394: u64 = (c360) & (c357) & 0x1;
+        let c396: u64 = u64::from((self.q56) == (0x6));
+        if self.v396 != c396 { self.v396 = c396; *dirty |= 0x8000000000080; }
+        let c395: u64 = (c396) & (c367) & 0x1;
+        let c397: u64 = if (c360) != 0 { (c358) } else { (0x1) };
+        let c399: u64 = u64::from((self.q56) == (0x8));
+        if self.v399 != c399 { self.v399 = c399; *dirty |= 0x8000000000080; }
+        let c400: u64 = (c396) & (c368) & 0x1;
+        let c401: u64 = (c360) & (c362) & 0x1;
+        let c402: u64 = u64::from((self.q56) == (0x9));
+        if self.v402 != c402 { self.v402 = c402; *dirty |= 0x8000000000080; }
+        let c383: u64 = { let s = (c402 | (c378 << 1)); if s >> 0 & 1 != 0 { c346 } else if s >> 1 & 1 != 0 { c376 } else { (0x0) } };
+        let c392: u64 = (c402) & (c346) & 0x1;
+        let c393: u64 = (c402) & (c345) & 0x1;
+        let c398: u64 = { let s = (c402 | (c399 << 1) | (c360 << 2) | (c396 << 3)); if s >> 0 & 1 != 0 { c343 } else if s >> 1 & 1 != 0 { c349 } else if s >> 2 & 1 != 0 { c359 | (c359 << 1) } else if s >> 3 & 1 != 0 { c351 } else { (0x0) } };
+        let c403: u64 = (self.q45) & (c387) & 0x1;
+        if self.v403 != c403 { self.v403 = c403; *dirty |= 0x8000; }
+        let c404: u64 = (self.q45) & (c392) & 0x1;
+        if self.v404 != c404 { self.v404 = c404; *dirty |= 0x8000; }
+        let c405: u64 = (self.q45) & (c383) & 0x1;
+        if self.v405 != c405 { self.v405 = c405; *dirty |= 0x8000; }
+        let c406: u64 = (self.q45) & (c393) & 0x1;
+        if self.v406 != c406 { self.v406 = c406; *dirty |= 0x80000000000000000000; }
+        let c407: u64 = (self.q45) & (c394) & 0x1;
+        if self.v407 != c407 { self.v407 = c407; *dirty |= 0x8000; }
+        let c408: u64 = (self.q45) & (c395) & 0x1;
+        if self.v408 != c408 { self.v408 = c408; *dirty |= 0x8000; }
+        let c409: u64 = if (self.q45) != 0 { (c397) } else { (0x1) };
+        if self.v409 != c409 { self.v409 = c409; *dirty |= 0x8000; }
+        let c410: u64 = (self.q45) & (c384) & 0x1;
+        if self.v410 != c410 { self.v410 = c410; *dirty |= 0x8000; }
+        let c411: u64 = if (self.q45) != 0 { (c398) } else { (0x0) };
+        if self.v411 != c411 { self.v411 = c411; *dirty |= 0x8000; }
+        let c413: u64 = (self.q45) & (c396) & 0x1;
+        if self.v413 != c413 { self.v413 = c413; *dirty |= 0x8000; }
+        let c414: u64 = (self.q45) & (c400) & 0x1;
+        if self.v414 != c414 { self.v414 = c414; *dirty |= 0x8000; }
+        let c417: u64 = (self.q45) & (c401) & 0x1;
+        if self.v417 != c417 { self.v417 = c417; *dirty |= 0x8000; }
+        let c418: u64 = (self.q45) & (c386) & 0x1;
+        if self.v418 != c418 { self.v418 = c418; *dirty |= 0x8000; }
+        let c419: u64 = !(c309) & 0x1;
+        let c420: u64 = if (c304) != 0 { (c419) } else { (0x1) };
+        if self.v420 != c420 { self.v420 = c420; *dirty |= 0x8000; }
+        let c421: u64 = if (c304) != 0 { (c309) } else { (c325) };
+        if self.v421 != c421 { self.v421 = c421; *dirty |= 0x8000; }
+        let c422: u64 = ((c325) | (c304)) & 0x1;
+        if self.v422 != c422 { self.v422 = c422; *dirty |= 0x8000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe.
     fn group_1(&mut self, dirty: &mut u128) {
-        let c433: u64 = (self.q11).wrapping_add((0x1)) & 0x7;
-        let c434: u64 = (self.i_transmit_request) & (self.v321) & 0x1;
-        let c444: u64 = (self.q1) & (self.q54) & 0x1;
-        if self.v444 != c444 { self.v444 = c444; *dirty |= 0x20000; }
-        let c446: u64 = (self.v346) & (self.q13) & 0x1;
-        if self.v446 != c446 { self.v446 = c446; *dirty |= 0x20000; }
-        let c447: u64 = (self.q49) & (self.v321) & 0x1;
-        if self.v447 != c447 { self.v447 = c447; *dirty |= 0x20400; }
-        let c448: u64 = (self.q10) & (self.q12) & 0x1;
-        let c449: u64 = (c448) & (self.v325) & 0x1;
-        let c450: u64 = (self.q49) & (self.i_enable) & 0x1;
-        if self.v450 != c450 { self.v450 = c450; *dirty |= 0x21000; }
-        let c456: u64 = u64::from((self.q11) == (0x7));
-        let c457: u64 = u64::from((self.q23) == (0x7));
-        if self.v457 != c457 { self.v457 = c457; *dirty |= 0x20000; }
-        let c459: u64 = u64::from((self.q49) != (self.q9));
-        if self.v459 != c459 { self.v459 = c459; *dirty |= 0x1000; }
-        let c460: u64 = !(self.q37) & 0x1;
-        let c435: u64 = (c434) & (c460) & 0x1;
-        let c436: u64 = (c435) & (self.i_enable) & 0x1;
-        if self.v436 != c436 { self.v436 = c436; *dirty |= 0x1000; }
-        let c461: u64 = !(self.q20) & 0x1;
-        if self.v461 != c461 { self.v461 = c461; *dirty |= 0x1000; }
-        let c462: u64 = !(c444) & 0x1;
-        if self.v462 != c462 { self.v462 = c462; *dirty |= 0x1000; }
-        let c463: u64 = ((self.q54) | (self.i_listen_only)) & 0x1;
-        if self.v463 != c463 { self.v463 = c463; *dirty |= 0x28000; }
-        let c493: u64 = if (c456) != 0 { (self.v325) } else { (c449) };
-        let c494: u64 = (c456) & (self.q1) & 0x1;
-        let c495: u64 = if (self.q49) != 0 { (0x0) } else { (c494) };
-        if self.v495 != c495 { self.v495 = c495; *dirty |= 0x1000; }
-        let c496: u64 = if (self.q49) != 0 { (0x0) } else { (c493) };
-        if self.v496 != c496 { self.v496 = c496; *dirty |= 0x1000; }
-        let c505: u64 = if (self.v324) != 0 { (0x0) } else { (self.q12) };
-        let c509: u64 = if (c447) != 0 { (self.q12) } else { (c505) };
-        let c515: u64 = if (self.q49) != 0 { (0x0) } else { (self.v324) };
-        if self.v515 != c515 { self.v515 = c515; *dirty |= 0x1000; }
-        let c517: u64 = (self.q49) & (self.v325) & 0x1;
-        let c518: u64 = (self.q49) & (self.q1) & 0x1;
-        let c519: u64 = (self.q49) & (c463) & 0x1;
-        let c524: u64 = if (self.q8) != 0 { (c446) } else { (c518) };
-        if self.v524 != c524 { self.v524 = c524; *dirty |= 0x1000; }
-        let c527: u64 = ((c519) | (self.q8)) & 0x1;
-        if self.v527 != c527 { self.v527 = c527; *dirty |= 0x20000; }
-        let c528: u64 = if (self.q8) != 0 { (0x0) } else { (self.q49) };
-        let c529: u64 = if (self.q8) != 0 { (0x0) } else { (c517) };
+        let c439: u64 = (self.q11).wrapping_add((0x1)) & 0x7;
+        if self.v439 != c439 { self.v439 = c439; *dirty |= 0x1000; }
+        let c440: u64 = (self.i_transmit_request) & (self.v328) & 0x1;
+        let c450: u64 = (self.q1) & (self.q55) & 0x1;
+        if self.v450 != c450 { self.v450 = c450; *dirty |= 0x10000; }
+        let c452: u64 = (self.v351) & (self.q13) & 0x1;
+        if self.v452 != c452 { self.v452 = c452; *dirty |= 0x10000; }
+        let c453: u64 = (self.q50) & (self.v328) & 0x1;
+        if self.v453 != c453 { self.v453 = c453; *dirty |= 0x10080; }
+        let c454: u64 = (self.q10) & (self.q12) & 0x1;
+        let c455: u64 = (c454) & (self.v332) & 0x1;
+        let c456: u64 = (self.q50) & (self.i_enable) & 0x1;
+        if self.v456 != c456 { self.v456 = c456; *dirty |= 0x11000; }
+        let c462: u64 = u64::from((self.q11) == (0x7));
+        let c463: u64 = u64::from((self.q23) == (0x7));
+        if self.v463 != c463 { self.v463 = c463; *dirty |= 0x10000; }
+        let c465: u64 = u64::from((self.q50) != (self.q9));
+        if self.v465 != c465 { self.v465 = c465; *dirty |= 0x1000; }
+        let c466: u64 = !(self.q38) & 0x1;
+        let c441: u64 = (c440) & (c466) & 0x1;
+        let c442: u64 = (c441) & (self.i_enable) & 0x1;
+        if self.v442 != c442 { self.v442 = c442; *dirty |= 0x1000; }
+        let c467: u64 = !(self.q20) & 0x1;
+        if self.v467 != c467 { self.v467 = c467; *dirty |= 0x1000; }
+        let c468: u64 = !(c450) & 0x1;
+        if self.v468 != c468 { self.v468 = c468; *dirty |= 0x1000; }
+        let c469: u64 = ((self.q55) | (self.i_listen_only)) & 0x1;
+        if self.v469 != c469 { self.v469 = c469; *dirty |= 0x30000; }
+        let c499: u64 = if (c462) != 0 { (self.v332) } else { (c455) };
+        let c500: u64 = (c462) & (self.q1) & 0x1;
+        let c501: u64 = if (self.q50) != 0 { (0x0) } else { (c500) };
+        if self.v501 != c501 { self.v501 = c501; *dirty |= 0x1000; }
+        let c502: u64 = if (self.q50) != 0 { (0x0) } else { (c499) };
+        if self.v502 != c502 { self.v502 = c502; *dirty |= 0x1000; }
+        let c510: u64 = if (self.v331) != 0 { (0x0) } else { (self.q12) };
+        let c514: u64 = if (c453) != 0 { (self.q12) } else { (c510) };
+        let c520: u64 = if (self.q50) != 0 { (0x0) } else { (self.v331) };
+        if self.v520 != c520 { self.v520 = c520; *dirty |= 0x1000; }
+        let c522: u64 = (self.q50) & (self.v332) & 0x1;
+        let c523: u64 = (self.q50) & (self.q1) & 0x1;
+        let c524: u64 = (self.q50) & (c469) & 0x1;
+        let c529: u64 = if (self.q8) != 0 { (c452) } else { (c523) };
         if self.v529 != c529 { self.v529 = c529; *dirty |= 0x1000; }
-        let c558: u64 = u64::from((self.q55) == (0xd));
-        if self.v558 != c558 { self.v558 = c558; *dirty |= 0x8000000030400; }
-        let c5: u64 = u64::from((c447 | (c558 << 1)) != (0x3));
+        let c532: u64 = ((c524) | (self.q8)) & 0x1;
+        if self.v532 != c532 { self.v532 = c532; *dirty |= 0x10000; }
+        let c533: u64 = if (self.q8) != 0 { (0x0) } else { (self.q50) };
+        let c534: u64 = if (self.q8) != 0 { (0x0) } else { (c522) };
+        if self.v534 != c534 { self.v534 = c534; *dirty |= 0x1000; }
+        let c558: u64 = u64::from((self.q56) == 0);
+        if self.v558 != c558 { self.v558 = c558; *dirty |= 0x10020; }
+        let c565: u64 = u64::from((self.q56) == (0xd));
+        if self.v565 != c565 { self.v565 = c565; *dirty |= 0x8000000018090; }
+        let c5: u64 = u64::from((c453 | (c565 << 1)) != (0x3));
         if self.v5 != c5 { self.v5 = c5; *dirty |= 0x4000; }
-        let c555: u64 = if (c558) != 0 { (c509) } else { (self.q12) };
-        if self.v555 != c555 { self.v555 = c555; *dirty |= 0x4000; }
-        let c561: u64 = u64::from((self.q55) == (0xa));
-        if self.v561 != c561 { self.v561 = c561; *dirty |= 0x8000000020020; }
-        let c562: u64 = u64::from((self.q55) == (0xb));
-        if self.v562 != c562 { self.v562 = c562; *dirty |= 0x20030; }
-        let c566: u64 = u64::from((self.q55) == (0xe));
-        if self.v566 != c566 { self.v566 = c566; *dirty |= 0x8000000021010; }
-        let c553: u64 = if (c566) != 0 { (c433) } else { (0x0) };
-        if self.v553 != c553 { self.v553 = c553; *dirty |= 0x80000000000000000; }
-        let c567: u64 = u64::from((self.q55) == (0xc));
-        if self.v567 != c567 { self.v567 = c567; *dirty |= 0x800000002b000; }
-        let c7: u64 = u64::from((c566 | (c567 << 1) | (c558 << 2)) != 0);
-        if self.v7 != c7 { self.v7 = c7; *dirty |= 0x4000; }
-        let c559: u64 = (c567) & (c528) & 0x1;
-        if self.v559 != c559 { self.v559 = c559; *dirty |= 0x4000; }
+        let c562: u64 = if (c565) != 0 { (c514) } else { (self.q12) };
+        if self.v562 != c562 { self.v562 = c562; *dirty |= 0x4000; }
+        let c568: u64 = u64::from((self.q56) == (0xa));
+        if self.v568 != c568 { self.v568 = c568; *dirty |= 0x8000000010020; }
+        let c569: u64 = u64::from((self.q56) == (0xb));
+        if self.v569 != c569 { self.v569 = c569; *dirty |= 0x10020; }
+        let c571: u64 = u64::from((self.q56) == (0xf));
+        if self.v571 != c571 { self.v571 = c571; *dirty |= 0x11020; }
+        let c574: u64 = u64::from((self.q56) == (0xc));
+        if self.v574 != c574 { self.v574 = c574; *dirty |= 0x8000000033010; }
+        let c566: u64 = (c574) & (c533) & 0x1;
+        if self.v566 != c566 { self.v566 = c566; *dirty |= 0x4000; }
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing.
     fn group_2(&mut self, dirty: &mut u128) {
-        let c56: u64 = !(self.i_sjw) & 0x3;
-        let c57: u64 = !(self.q40) & 0x7;
-        let c62: u64 = (self.i_sjw).wrapping_add((0x1)) & 0x7;
-        if self.v62 != c62 { self.v62 = c62; *dirty |= 0x4000000000; }
-        let c63: u64 = (self.q46 | (self.q47 << 1)).wrapping_add((0x1)) & 0x7f;
-        if self.v63 != c63 { self.v63 = c63; *dirty |= 0x400000; }
-        let c65: u64 = (self.q45).wrapping_add((0x1)) & 0x7;
-        if self.v65 != c65 { self.v65 = c65; *dirty |= 0x20000000; }
-        let c82: u64 = u64::from((self.q43) == 0);
-        let c83: u64 = u64::from((self.q43) == (self.q40));
-        let c84: u64 = u64::from((self.q41) == (0x1));
-        if self.v84 != c84 { self.v84 = c84; *dirty |= 0x100; }
-        let c85: u64 = u64::from((self.q41) == 0);
-        if self.v85 != c85 { self.v85 = c85; *dirty |= 0x100; }
-        let c86: u64 = u64::from((self.q46 | (self.q47 << 1)) == 0);
-        let c78: u64 = (c85) & (c86) & 0x1;
-        if self.v78 != c78 { self.v78 = c78; *dirty |= 0x100; }
-        let c87: u64 = u64::from((self.q46 | (self.q47 << 1)) >= ((self.i_brp << 1) | 0x1));
-        if self.v87 != c87 { self.v87 = c87; *dirty |= 0x100; }
-        let c68: u64 = (c87) & (c82) & 0x1;
-        if self.v68 != c68 { self.v68 = c68; *dirty |= 0x100; }
-        let c70: u64 = (c87) & (c83) & 0x1;
-        if self.v70 != c70 { self.v70 = c70; *dirty |= 0x100; }
-        let c72: u64 = (c84) & (c87) & 0x1;
-        let c73: u64 = (c72) & (c82) & 0x1;
-        if self.v73 != c73 { self.v73 = c73; *dirty |= 0x100; }
-        let c88: u64 = u64::from((self.q45) <= (self.i_sjw));
-        let c89: u64 = u64::from((self.q43) <= (self.i_sjw));
-        let c90: u64 = u64::from((self.q45) != (0x4));
-        let c36: u64 = u64::from((c90 | (c87 << 1)) == 0x3);
-        if self.v36 != c36 { self.v36 = c36; *dirty |= 0x20000000; }
-        let c91: u64 = !(self.q39) & 0x1;
-        if self.v91 != c91 { self.v91 = c91; *dirty |= 0x100; }
-        let c96: u64 = !(self.i_reset) & 0x1;
-        if self.v96 != c96 { self.v96 = c96; *dirty |= 0x100; }
-        let c97: u64 = !(self.q44) & 0x1;
-        if self.v97 != c97 { self.v97 = c97; *dirty |= 0x100; }
-        let c115: u64 = u64::from((self.q41) == (0x2));
-        if self.v115 != c115 { self.v115 = c115; *dirty |= 0x100; }
-        let c17: u64 = u64::from((c115 | (c84 << 1) | (c85 << 2)) != 0);
-        if self.v17 != c17 { self.v17 = c17; *dirty |= 0x100; }
-        let c116: u64 = { let s = (c115 | (c84 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
-        if self.v116 != c116 { self.v116 = c116; *dirty |= 0x2000000000; }
-        let c118: u64 = if (c87) != 0 { (0x0) } else { ((c63 & 0x1)) };
-        if self.v118 != c118 { self.v118 = c118; *dirty |= 0x100; }
-        let c119: u64 = if (c87) != 0 { (c57) } else { (c56 | 0x4) };
-        if self.v119 != c119 { self.v119 = c119; *dirty |= 0x100; }
-        let c121: u64 = if (c87) != 0 { (self.i_sjw) } else { (self.q40) };
-        if self.v121 != c121 { self.v121 = c121; *dirty |= 0x100; }
-        let c124: u64 = !(c89) & 0x1;
-        let c125: u64 = !(c88) & 0x1;
-        let c126: u64 = (self.q58) & (c125) & 0x1;
-        let c127: u64 = (self.q58) & (c88) & 0x1;
-        let c128: u64 = (c115) & (c124) & 0x1;
-        if self.v128 != c128 { self.v128 = c128; *dirty |= 0x100; }
-        let c129: u64 = (c84) & (c126) & 0x1;
-        if self.v129 != c129 { self.v129 = c129; *dirty |= 0x100; }
-        let c130: u64 = (c115) & (c89) & 0x1;
-        if self.v130 != c130 { self.v130 = c130; *dirty |= 0x100; }
-        let c131: u64 = (c84) & (c127) & 0x1;
-        if self.v131 != c131 { self.v131 = c131; *dirty |= 0x100; }
+        let c58: u64 = !(self.i_sjw) & 0x3;
+        let c59: u64 = !(self.q41) & 0x7;
+        let c64: u64 = (self.i_sjw).wrapping_add((0x1)) & 0x7;
+        if self.v64 != c64 { self.v64 = c64; *dirty |= 0x2000000000; }
+        let c65: u64 = (self.q47 | (self.q48 << 1)).wrapping_add((0x1)) & 0x7f;
+        if self.v65 != c65 { self.v65 = c65; *dirty |= 0x200000; }
+        let c67: u64 = (self.q46).wrapping_add((0x1)) & 0x7;
+        if self.v67 != c67 { self.v67 = c67; *dirty |= 0x10000000; }
+        let c84: u64 = u64::from((self.q44) == 0);
+        let c85: u64 = u64::from((self.q44) == (self.q41));
+        let c86: u64 = u64::from((self.q42) == (0x1));
+        if self.v86 != c86 { self.v86 = c86; *dirty |= 0x200; }
+        let c87: u64 = u64::from((self.q42) == 0);
+        if self.v87 != c87 { self.v87 = c87; *dirty |= 0x200; }
+        let c88: u64 = u64::from((self.q47 | (self.q48 << 1)) == 0);
+        let c80: u64 = (c87) & (c88) & 0x1;
+        if self.v80 != c80 { self.v80 = c80; *dirty |= 0x200; }
+        let c89: u64 = u64::from((self.q47 | (self.q48 << 1)) >= ((self.i_brp << 1) | 0x1));
+        if self.v89 != c89 { self.v89 = c89; *dirty |= 0x200; }
+        let c70: u64 = (c89) & (c84) & 0x1;
+        if self.v70 != c70 { self.v70 = c70; *dirty |= 0x200; }
+        let c72: u64 = (c89) & (c85) & 0x1;
+        if self.v72 != c72 { self.v72 = c72; *dirty |= 0x200; }
+        let c74: u64 = (c86) & (c89) & 0x1;
+        let c75: u64 = (c74) & (c84) & 0x1;
+        if self.v75 != c75 { self.v75 = c75; *dirty |= 0x200; }
+        let c90: u64 = u64::from((self.q46) <= (self.i_sjw));
+        let c91: u64 = u64::from((self.q44) <= (self.i_sjw));
+        let c92: u64 = u64::from((self.q46) != (0x4));
+        let c38: u64 = u64::from((c92 | (c89 << 1)) == 0x3);
+        if self.v38 != c38 { self.v38 = c38; *dirty |= 0x10000000; }
+        let c93: u64 = !(self.q40) & 0x1;
+        if self.v93 != c93 { self.v93 = c93; *dirty |= 0x200; }
+        let c98: u64 = !(self.i_reset) & 0x1;
+        if self.v98 != c98 { self.v98 = c98; *dirty |= 0x200; }
+        let c99: u64 = !(self.q45) & 0x1;
+        if self.v99 != c99 { self.v99 = c99; *dirty |= 0x200; }
+        let c117: u64 = u64::from((self.q42) == (0x2));
+        if self.v117 != c117 { self.v117 = c117; *dirty |= 0x200; }
+        let c17: u64 = u64::from((c117 | (c86 << 1) | (c87 << 2)) != 0);
+        if self.v17 != c17 { self.v17 = c17; *dirty |= 0x200; }
+        let c118: u64 = { let s = (c117 | (c86 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
+        if self.v118 != c118 { self.v118 = c118; *dirty |= 0x1000000000; }
+        let c120: u64 = if (c89) != 0 { (0x0) } else { ((c65 & 0x1)) };
+        if self.v120 != c120 { self.v120 = c120; *dirty |= 0x200; }
+        let c121: u64 = if (c89) != 0 { (c59) } else { (c58 | 0x4) };
+        if self.v121 != c121 { self.v121 = c121; *dirty |= 0x200; }
+        let c123: u64 = if (c89) != 0 { (self.i_sjw) } else { (self.q41) };
+        if self.v123 != c123 { self.v123 = c123; *dirty |= 0x200; }
+        let c126: u64 = !(c91) & 0x1;
+        let c127: u64 = !(c90) & 0x1;
+        let c128: u64 = (self.q59) & (c127) & 0x1;
+        let c129: u64 = (self.q59) & (c90) & 0x1;
+        let c130: u64 = (c117) & (c126) & 0x1;
+        if self.v130 != c130 { self.v130 = c130; *dirty |= 0x200; }
+        let c131: u64 = (c86) & (c128) & 0x1;
+        if self.v131 != c131 { self.v131 = c131; *dirty |= 0x200; }
+        let c132: u64 = (c117) & (c91) & 0x1;
+        if self.v132 != c132 { self.v132 = c132; *dirty |= 0x200; }
+        let c133: u64 = (c86) & (c129) & 0x1;
+        if self.v133 != c133 { self.v133 = c133; *dirty |= 0x200; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$faults.
     fn group_3(&mut self, dirty: &mut u128) {
-        let c243: u64 = (self.q16 | (self.q14 << 4)).wrapping_add((0x1)) & 0x1f;
-        let c244: u64 = (self.q17 | (self.q18 << 7)).wrapping_add((0x1)) & 0xff;
-        if self.v244 != c244 { self.v244 = c244; *dirty |= 0x100000; }
-        let c245: u64 = ((self.q17 >> 3) | (self.q18 << 4)).wrapping_add((0x1)) & 0x1f;
-        let c250: u64 = u64::from((self.q15 | (self.q16 << 3) | (self.q14 << 7)) == 0);
-        if self.v250 != c250 { self.v250 = c250; *dirty |= 0x100000; }
-        let c251: u64 = u64::from((self.q16 | (self.q14 << 4)) == (0x1f));
-        if self.v251 != c251 { self.v251 = c251; *dirty |= 0x800000; }
-        let c252: u64 = u64::from(((self.q17 >> 3) | (self.q18 << 4)) == (0x1f));
-        let c253: u64 = u64::from((self.i_counters_value) == (0xff));
-        if self.v253 != c253 { self.v253 = c253; *dirty |= 0x100000; }
-        let c254: u64 = !(self.q53) & 0x1;
-        if self.v254 != c254 { self.v254 = c254; *dirty |= 0x1020; }
-        let c248: u64 = (self.i_counters_load_rec) & (c254) & 0x1;
-        if self.v248 != c248 { self.v248 = c248; *dirty |= 0x100000; }
-        let c255: u64 = u64::from((self.q15 | (self.q16 << 3) | (self.q14 << 7)) != 0);
-        if self.v255 != c255 { self.v255 = c255; *dirty |= 0x100000; }
-        let c256: u64 = u64::from((self.q17 | (self.q18 << 7)) != (0xff));
-        if self.v256 != c256 { self.v256 = c256; *dirty |= 0x100000; }
-        let c257: u64 = u64::from((self.q17 | (self.q18 << 7)) != 0);
-        if self.v257 != c257 { self.v257 = c257; *dirty |= 0x100000; }
-        let c267: u64 = if (c253) != 0 { (0x7f) } else { (self.i_counters_value) };
-        if self.v267 != c267 { self.v267 = c267; *dirty |= 0x100000; }
-        let c275: u64 = if (c252) != 0 { (0xff) } else { ((self.q17 & 0x7) | (c245 << 3)) };
-        if self.v275 != c275 { self.v275 = c275; *dirty |= 0x100000; }
-        let c279: u64 = if (c251) != 0 { (0x0) } else { (self.q17 | (self.q18 << 7)) };
-        if self.v279 != c279 { self.v279 = c279; *dirty |= 0x100000; }
-        let c280: u64 = if (c251) != 0 { (0x1f) } else { ((c243 << 1)) };
-        if self.v280 != c280 { self.v280 = c280; *dirty |= 0x100000; }
-        let c281: u64 = ((self.q53) | (c251)) & 0x1;
-        if self.v281 != c281 { self.v281 = c281; *dirty |= 0x100000; }
-        let c288: u64 = if (c250) != 0 { (0x0) } else { (self.q17 | (self.q18 << 7)) };
-        if self.v288 != c288 { self.v288 = c288; *dirty |= 0x100000; }
-        let c289: u64 = !(c250) & 0x1;
-        if self.v289 != c289 { self.v289 = c289; *dirty |= 0x100000; }
-        let c297: u64 = (self.q15 | (self.q16 << 3) | (self.q14 << 7)).wrapping_sub((0x1)) & 0xff;
-        if self.v297 != c297 { self.v297 = c297; *dirty |= 0x100000; }
-        let c290: u64 = if (c250) != 0 { ((self.q14 << 7)) } else { (c297) };
-        if self.v290 != c290 { self.v290 = c290; *dirty |= 0x100000; }
-        let c298: u64 = (self.q17 | (self.q18 << 7)).wrapping_sub((0x1)) & 0xff;
-        if self.v298 != c298 { self.v298 = c298; *dirty |= 0x100000; }
+        let c248: u64 = (self.q16 | (self.q14 << 4)).wrapping_add((0x1)) & 0x1f;
+        let c249: u64 = (self.q17 | (self.q18 << 7)).wrapping_add((0x1)) & 0xff;
+        if self.v249 != c249 { self.v249 = c249; *dirty |= 0x80000; }
+        let c250: u64 = ((self.q17 >> 3) | (self.q18 << 4)).wrapping_add((0x1)) & 0x1f;
+        let c255: u64 = u64::from((self.q15 | (self.q16 << 3) | (self.q14 << 7)) == 0);
+        if self.v255 != c255 { self.v255 = c255; *dirty |= 0x80000; }
+        let c256: u64 = u64::from((self.q16 | (self.q14 << 4)) == (0x1f));
+        if self.v256 != c256 { self.v256 = c256; *dirty |= 0x400000; }
+        let c257: u64 = u64::from(((self.q17 >> 3) | (self.q18 << 4)) == (0x1f));
+        let c258: u64 = u64::from((self.i_counters_value) == (0xff));
+        if self.v258 != c258 { self.v258 = c258; *dirty |= 0x80000; }
+        let c259: u64 = !(self.q54) & 0x1;
+        if self.v259 != c259 { self.v259 = c259; *dirty |= 0x1020; }
+        let c253: u64 = (self.i_counters_load_rec) & (c259) & 0x1;
+        if self.v253 != c253 { self.v253 = c253; *dirty |= 0x80000; }
+        let c260: u64 = u64::from((self.q15 | (self.q16 << 3) | (self.q14 << 7)) != 0);
+        if self.v260 != c260 { self.v260 = c260; *dirty |= 0x80000; }
+        let c261: u64 = u64::from((self.q17 | (self.q18 << 7)) != (0xff));
+        if self.v261 != c261 { self.v261 = c261; *dirty |= 0x80000; }
+        let c262: u64 = u64::from((self.q17 | (self.q18 << 7)) != 0);
+        if self.v262 != c262 { self.v262 = c262; *dirty |= 0x80000; }
+        let c272: u64 = if (c258) != 0 { (0x7f) } else { (self.i_counters_value) };
+        if self.v272 != c272 { self.v272 = c272; *dirty |= 0x80000; }
+        let c280: u64 = if (c257) != 0 { (0xff) } else { ((self.q17 & 0x7) | (c250 << 3)) };
+        if self.v280 != c280 { self.v280 = c280; *dirty |= 0x80000; }
+        let c284: u64 = if (c256) != 0 { (0x0) } else { (self.q17 | (self.q18 << 7)) };
+        if self.v284 != c284 { self.v284 = c284; *dirty |= 0x80000; }
+        let c285: u64 = if (c256) != 0 { (0x1f) } else { ((c248 << 1)) };
+        if self.v285 != c285 { self.v285 = c285; *dirty |= 0x80000; }
+        let c286: u64 = ((self.q54) | (c256)) & 0x1;
+        if self.v286 != c286 { self.v286 = c286; *dirty |= 0x80000; }
+        let c293: u64 = if (c255) != 0 { (0x0) } else { (self.q17 | (self.q18 << 7)) };
+        if self.v293 != c293 { self.v293 = c293; *dirty |= 0x80000; }
+        let c294: u64 = !(c255) & 0x1;
+        if self.v294 != c294 { self.v294 = c294; *dirty |= 0x80000; }
+        let c302: u64 = (self.q15 | (self.q16 << 3) | (self.q14 << 7)).wrapping_sub((0x1)) & 0xff;
+        if self.v302 != c302 { self.v302 = c302; *dirty |= 0x80000; }
+        let c295: u64 = if (c255) != 0 { ((self.q14 << 7)) } else { (c302) };
+        if self.v295 != c295 { self.v295 = c295; *dirty |= 0x80000; }
+        let c303: u64 = (self.q17 | (self.q18 << 7)).wrapping_sub((0x1)) & 0xff;
+        if self.v303 != c303 { self.v303 = c303; *dirty |= 0x80000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$capture.
     fn group_4(&mut self, dirty: &mut u128) {
-        let c49: u64 = u64::from(((self.q23 >> 3)) == 0);
-        let c220: u64 = u64::from((self.q23) == 0);
-        if self.v220 != c220 { self.v220 = c220; *dirty |= 0x21000; }
-        let c6: u64 = u64::from((c220 | (self.v566 << 1)) != (0x2));
-        if self.v6 != c6 { self.v6 = c6; *dirty |= 0x4000; }
-        let c8: u64 = u64::from((self.q49 | (c220 << 1) | (self.v566 << 2)) != (0x7));
-        if self.v8 != c8 { self.v8 = c8; *dirty |= 0x4000; }
-        let c221: u64 = u64::from((self.q23) < (0x1f));
-        let c222: u64 = u64::from((self.q23) < (0x1a));
-        let c223: u64 = u64::from((self.q23) < (0x12));
-        let c224: u64 = u64::from((self.q23) < (0xd));
-        let c225: u64 = u64::from((self.q23) < (0xc));
-        let c226: u64 = u64::from((self.q23) < (0xb));
-        let c227: u64 = !(c220) & 0x1;
-        if self.v227 != c227 { self.v227 = c227; *dirty |= 0x8000000000000; }
-        let c228: u64 = if (self.q8) != 0 { (0x2) } else { (0x1) };
-        if self.v228 != c228 { self.v228 = c228; *dirty |= 0x8000000000000; }
-        let c230: u64 = if (c220) != 0 { (0x2) } else { (0x1) };
-        if self.v230 != c230 { self.v230 = c230; *dirty |= 0x8000000000000; }
-        let c237: u64 = if (c222) != 0 { (0x3) } else { ((c221 << 1)) };
-        let c236: u64 = if (c223) != 0 { (0x3) } else { (c237 | 0x4) };
-        let c235: u64 = if (c224) != 0 { (0x1) } else { (c236) };
-        let c234: u64 = if (c225) != 0 { (0x0) } else { (c235) };
-        let c233: u64 = if (c226) != 0 { (0x2) } else { (c234) };
-        let c232: u64 = if (c49) != 0 { (0x2) } else { ((c233 & 0x3) | ((c233 >> 2) << 3) | 0x4) };
+        let c51: u64 = u64::from(((self.q23 >> 3)) == 0);
+        let c224: u64 = u64::from((self.q23) == 0);
+        if self.v224 != c224 { self.v224 = c224; *dirty |= 0x11000; }
+        let c225: u64 = u64::from((self.q23) == (0x1));
+        if self.v225 != c225 { self.v225 = c225; *dirty |= 0x400; }
+        let c226: u64 = u64::from((self.q23) < (0x1f));
+        let c227: u64 = u64::from((self.q23) < (0x1a));
+        let c228: u64 = u64::from((self.q23) < (0x12));
+        let c229: u64 = u64::from((self.q23) < (0xd));
+        let c230: u64 = u64::from((self.q23) < (0xc));
+        let c231: u64 = u64::from((self.q23) < (0xb));
+        let c232: u64 = !(c224) & 0x1;
         if self.v232 != c232 { self.v232 = c232; *dirty |= 0x8000000000000; }
-        let c239: u64 = u64::from((self.q55) == (0x1));
-        if self.v239 != c239 { self.v239 = c239; *dirty |= 0x20020; }
-        let c58: u64 = u64::from((self.v562 | (c239 << 1)) != 0);
-        if self.v58 != c58 { self.v58 = c58; *dirty |= 0x8000000000000; }
-        let c240: u64 = u64::from((self.q55) == (0xf));
-        if self.v240 != c240 { self.v240 = c240; *dirty |= 0x21020; }
+        let c233: u64 = u64::from((self.q56) == (0xe));
+        if self.v233 != c233 { self.v233 = c233; *dirty |= 0x8000000011000; }
+        let c6: u64 = u64::from((c224 | (c233 << 1)) != (0x2));
+        if self.v6 != c6 { self.v6 = c6; *dirty |= 0x4000; }
+        let c7: u64 = u64::from((c233 | (self.v574 << 1) | (self.v565 << 2)) != 0);
+        if self.v7 != c7 { self.v7 = c7; *dirty |= 0x4000; }
+        let c8: u64 = u64::from((self.q50 | (c224 << 1) | (c233 << 2)) != (0x7));
+        if self.v8 != c8 { self.v8 = c8; *dirty |= 0x4000; }
+        let c234: u64 = if (self.q8) != 0 { (0x2) } else { (0x1) };
+        if self.v234 != c234 { self.v234 = c234; *dirty |= 0x8000000000000; }
+        let c236: u64 = u64::from((self.q56) == (0x3));
+        if self.v236 != c236 { self.v236 = c236; *dirty |= 0x80000001004a0; }
+        let c61: u64 = u64::from((self.v390 | (self.v391 << 1) | (c236 << 2)) != 0);
+        if self.v61 != c61 { self.v61 = c61; *dirty |= 0x80; }
+        let c62: u64 = u64::from((self.v390 | (self.v378 << 1) | (self.v391 << 2) | (c236 << 3)) != 0);
+        if self.v62 != c62 { self.v62 = c62; *dirty |= 0x80; }
+        let c237: u64 = if (c224) != 0 { (0x2) } else { (0x1) };
+        let c235: u64 = if (c225) != 0 { (0x0) } else { (c237) };
+        let c238: u64 = if (self.q30) != 0 { (c235) } else { (c232) };
+        if self.v238 != c238 { self.v238 = c238; *dirty |= 0x8000000000000; }
+        let c244: u64 = if (c227) != 0 { (0x3) } else { ((c226 << 1)) };
+        let c243: u64 = if (c228) != 0 { (0x3) } else { (c244 | 0x4) };
+        let c242: u64 = if (c229) != 0 { (0x1) } else { (c243) };
+        let c241: u64 = if (c230) != 0 { (0x0) } else { (c242) };
+        let c240: u64 = if (c231) != 0 { (0x2) } else { (c241) };
+        let c239: u64 = if (c51) != 0 { (0x2) } else { ((c240 & 0x3) | ((c240 >> 2) << 3) | 0x4) };
+        if self.v239 != c239 { self.v239 = c239; *dirty |= 0x8000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol.
     fn group_5(&mut self, dirty: &mut u128) {
-        let c154: u64 = (self.q1) & (self.q56) & 0x1;
-        if self.v154 != c154 { self.v154 = c154; *dirty |= 0x100000000000000000000; }
-        let c155: u64 = (self.v325) & (self.q56) & 0x1;
-        if self.v155 != c155 { self.v155 = c155; *dirty |= 0x100000000000000000000; }
-        let c157: u64 = (self.v386) & (self.v331) & 0x1;
-        if self.v157 != c157 { self.v157 = c157; *dirty |= 0x800; }
-        let c161: u64 = (self.v240) & (self.v254) & 0x1;
-        if self.v161 != c161 { self.v161 = c161; *dirty |= 0x80000; }
-        let c163: u64 = !(self.i_transmit_request) & 0x1;
-        let c164: u64 = !(self.i_enable) & 0x1;
-        let c156: u64 = (c164) & (self.v254) & 0x1;
-        if self.v156 != c156 { self.v156 = c156; *dirty |= 0x80000; }
-        let c38: u64 = u64::from((self.i_reset | (self.q53 << 1) | (c156 << 2)) != 0);
-        if self.v38 != c38 { self.v38 = c38; *dirty |= 0x40000000000000000000; }
-        let c43: u64 = u64::from((self.i_reset | (c161 << 1) | (c156 << 2)) != 0);
-        if self.v43 != c43 { self.v43 = c43; *dirty |= 0x100000000000000; }
-        let c44: u64 = u64::from((self.i_reset | (c156 << 1)) != 0);
-        if self.v44 != c44 { self.v44 = c44; *dirty |= 0xc0000000000000; }
-        let c165: u64 = u64::from((self.q55) == 0);
-        if self.v165 != c165 { self.v165 = c165; *dirty |= 0x20000; }
-        let c166: u64 = u64::from((self.q23) == (0x2));
-        if self.v166 != c166 { self.v166 = c166; *dirty |= 0x20000; }
-        let c162: u64 = (self.v561) & (c166) & 0x1;
-        if self.v162 != c162 { self.v162 = c162; *dirty |= 0x1000; }
-        let c175: u64 = u64::from((self.q55) != (0xf));
-        if self.v175 != c175 { self.v175 = c175; *dirty |= 0x80000; }
-        let c177: u64 = !(self.q56) & 0x1;
-        if self.v177 != c177 { self.v177 = c177; *dirty |= 0x80000; }
-        let c179: u64 = ((self.q20) | (c163)) & 0x1;
-        let c45: u64 = u64::from((self.i_reset | (c179 << 1)) != 0);
-        if self.v45 != c45 { self.v45 = c45; *dirty |= 0x20000000000; }
-        let c181: u64 = ((self.i_listen_only) | (c156)) & 0x1;
-        if self.v181 != c181 { self.v181 = c181; *dirty |= 0x900000; }
-        let c13: u64 = u64::from((self.i_counters_load_tec | (c181 << 1) | (self.q53 << 2)) != (0x2));
-        if self.v13 != c13 { self.v13 = c13; *dirty |= 0x800000; }
-        let c182: u64 = ((self.q53) | (c164)) & 0x1;
-        if self.v182 != c182 { self.v182 = c182; *dirty |= 0x40; }
-        let c184: u64 = ((self.v239) | (self.v562)) & 0x1;
-        if self.v184 != c184 { self.v184 = c184; *dirty |= 0x1000; }
-        let c185: u64 = ((c184) | (c165)) & 0x1;
-        let c186: u64 = ((c185) | (self.v240)) & 0x1;
-        let c187: u64 = ((c186) | (c162)) & 0x1;
-        if self.v187 != c187 { self.v187 = c187; *dirty |= 0x100; }
-        let c196: u64 = !(c187) & 0x1;
-        if self.v196 != c196 { self.v196 = c196; *dirty |= 0x100; }
-        let c204: u64 = ((self.q37) | (self.i_transmit_abort)) & 0x1;
-        if self.v204 != c204 { self.v204 = c204; *dirty |= 0x20000000000; }
+        let c156: u64 = (self.q1) & (self.q57) & 0x1;
+        if self.v156 != c156 { self.v156 = c156; *dirty |= 0x100000000000000000000; }
+        let c157: u64 = (self.v332) & (self.q57) & 0x1;
+        if self.v157 != c157 { self.v157 = c157; *dirty |= 0x100000000000000000000; }
+        let c159: u64 = (self.v236) & (self.v338) & 0x1;
+        if self.v159 != c159 { self.v159 = c159; *dirty |= 0x400; }
+        let c163: u64 = (self.v571) & (self.v259) & 0x1;
+        if self.v163 != c163 { self.v163 = c163; *dirty |= 0x40000; }
+        let c165: u64 = !(self.i_transmit_request) & 0x1;
+        let c166: u64 = !(self.i_enable) & 0x1;
+        let c158: u64 = (c166) & (self.v259) & 0x1;
+        if self.v158 != c158 { self.v158 = c158; *dirty |= 0x40000; }
+        let c40: u64 = u64::from((self.i_reset | (self.q54 << 1) | (c158 << 2)) != 0);
+        if self.v40 != c40 { self.v40 = c40; *dirty |= 0x40000000000000000000; }
+        let c45: u64 = u64::from((self.i_reset | (c163 << 1) | (c158 << 2)) != 0);
+        if self.v45 != c45 { self.v45 = c45; *dirty |= 0x100000000000000; }
+        let c46: u64 = u64::from((self.i_reset | (c158 << 1)) != 0);
+        if self.v46 != c46 { self.v46 = c46; *dirty |= 0xc0000000000000; }
+        let c167: u64 = u64::from((self.q56) == (0x1));
+        if self.v167 != c167 { self.v167 = c167; *dirty |= 0x10000; }
+        let c60: u64 = u64::from((self.v569 | (c167 << 1)) != 0);
+        if self.v60 != c60 { self.v60 = c60; *dirty |= 0x8000000000000; }
+        let c168: u64 = u64::from((self.q23) == (0x2));
+        if self.v168 != c168 { self.v168 = c168; *dirty |= 0x10000; }
+        let c164: u64 = (self.v568) & (c168) & 0x1;
+        if self.v164 != c164 { self.v164 = c164; *dirty |= 0x1000; }
+        let c177: u64 = u64::from((self.q56) != (0xf));
+        if self.v177 != c177 { self.v177 = c177; *dirty |= 0x40000; }
+        let c179: u64 = !(self.q57) & 0x1;
+        if self.v179 != c179 { self.v179 = c179; *dirty |= 0x40000; }
+        let c181: u64 = ((self.q20) | (c165)) & 0x1;
+        let c47: u64 = u64::from((self.i_reset | (c181 << 1)) != 0);
+        if self.v47 != c47 { self.v47 = c47; *dirty |= 0x10000000000; }
+        let c183: u64 = ((self.i_listen_only) | (c158)) & 0x1;
+        if self.v183 != c183 { self.v183 = c183; *dirty |= 0x480000; }
+        let c13: u64 = u64::from((self.i_counters_load_tec | (c183 << 1) | (self.q54 << 2)) != (0x2));
+        if self.v13 != c13 { self.v13 = c13; *dirty |= 0x400000; }
+        let c184: u64 = ((self.q54) | (c166)) & 0x1;
+        if self.v184 != c184 { self.v184 = c184; *dirty |= 0x40; }
+        let c186: u64 = ((c167) | (self.v569)) & 0x1;
+        if self.v186 != c186 { self.v186 = c186; *dirty |= 0x1000; }
+        let c187: u64 = ((c186) | (self.v558)) & 0x1;
+        let c188: u64 = ((c187) | (self.v571)) & 0x1;
+        let c189: u64 = ((c188) | (c164)) & 0x1;
+        if self.v189 != c189 { self.v189 = c189; *dirty |= 0x200; }
+        let c198: u64 = !(c189) & 0x1;
+        if self.v198 != c198 { self.v198 = c198; *dirty |= 0x200; }
+        let c206: u64 = ((self.q38) | (self.i_transmit_abort)) & 0x1;
+        if self.v206 != c206 { self.v206 = c206; *dirty |= 0x10000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender.
     fn group_6(&mut self, dirty: &mut u128) {
-        let c593: u64 = ((self.q5 & 0x1) | (self.q6 << 1) | ((self.q5 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
-        if self.v593 != c593 { self.v593 = c593; *dirty |= 0x8000000; }
-        let c594: u64 = (self.q23).wrapping_add((0x1)) & 0x7f;
-        if self.v594 != c594 { self.v594 = c594; *dirty |= 0x18400; }
-        let c601: u64 = u64::from((self.q7) == 0);
-        if self.v601 != c601 { self.v601 = c601; *dirty |= 0x80000; }
-        let c602: u64 = u64::from((self.q7) == (0x1));
-        let c603: u64 = u64::from((self.q23) == (0xa));
-        if self.v603 != c603 { self.v603 = c603; *dirty |= 0x29000; }
-        let c604: u64 = u64::from((self.q23) == (0x1e));
-        if self.v604 != c604 { self.v604 = c604; *dirty |= 0x8000; }
-        let c611: u64 = u64::from((self.q49) == (self.q2));
-        if self.v611 != c611 { self.v611 = c611; *dirty |= 0x8400; }
-        let c615: u64 = ((self.v182) | (self.i_reset)) & 0x1;
-        if self.v615 != c615 { self.v615 = c615; *dirty |= 0x4008000; }
-        let c637: u64 = ((((self.i_transmit_info >> 6) & 0x1)) | ((self.i_transmit_info >> 7))) & 0x1;
-        if self.v637 != c637 { self.v637 = c637; *dirty |= 0x4000000; }
-        let c654: u64 = if (self.v314) != 0 { (0x2) } else { (0x1) };
-        if self.v654 != c654 { self.v654 = c654; *dirty |= 0x4000000; }
-        let c656: u64 = if (c601) != 0 { ((c593 & 0x7)) } else { ((self.q5 & 0x1)) };
-        if self.v656 != c656 { self.v656 = c656; *dirty |= 0x4000000; }
-        let c658: u64 = if (c601) != 0 { ((self.i_transmit_data & 0x7f)) } else { (((self.q48 & 0x3f) << 1)) };
-        if self.v658 != c658 { self.v658 = c658; *dirty |= 0x4000000000000000000; }
-        let c661: u64 = if (c601) != 0 { (((self.i_transmit_data >> 6) & 0x1)) } else { (((self.q48 >> 5) & 0x1)) };
-        let c660: u64 = if (c602) != 0 { ((self.i_transmit_data >> 7)) } else { (c661) };
-        if self.v660 != c660 { self.v660 = c660; *dirty |= 0x4000000; }
-        let c662: u64 = if (c601) != 0 { ((self.i_transmit_data >> 7)) } else { ((self.q48 >> 6)) };
-        if self.v662 != c662 { self.v662 = c662; *dirty |= 0x4000000; }
-        let c663: u64 = (self.q7).wrapping_sub((0x1)) & 0xf;
-        let c657: u64 = if (c601) != 0 { (0x7) } else { (c663) };
-        if self.v657 != c657 { self.v657 = c657; *dirty |= 0x800000000000000000; }
-        let c665: u64 = ((((self.q22 >> 13) & 0x1)) ^ ((self.q22 >> 14))) & 0x1;
-        let c666: u64 = ((c665) ^ (self.q49)) & 0x1;
-        if self.v666 != c666 { self.v666 = c666; *dirty |= 0x40000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$bit_timing$sampling.
-    fn group_7(&mut self, dirty: &mut u128) {
-        let c144: u64 = ((self.q42 >> 1)) & ((self.q42 & 0x1)) & 0x1;
-        let c145: u64 = ((self.q42 >> 1)) & (self.q52) & 0x1;
-        let c146: u64 = ((self.q42 & 0x1)) & (self.q52) & 0x1;
-        let c147: u64 = !(self.q52) & 0x1;
-        let c143: u64 = (self.q51) & (c147) & 0x1;
-        if self.v143 != c143 { self.v143 = c143; *dirty |= 0x100; }
-        let c148: u64 = ((c144) | (c145)) & 0x1;
-        let c149: u64 = ((c148) | (c146)) & 0x1;
-        let c150: u64 = ((self.q52) | (self.i_reset)) & 0x1;
-        if self.v150 != c150 { self.v150 = c150; *dirty |= 0x400000000; }
-        let c151: u64 = ((self.q50) | (self.i_reset)) & 0x1;
-        if self.v151 != c151 { self.v151 = c151; *dirty |= 0x1000000000; }
-        let c152: u64 = ((self.i_rx) | (self.i_reset)) & 0x1;
-        if self.v152 != c152 { self.v152 = c152; *dirty |= 0x200000000; }
-        let c153: u64 = if (self.i_sam) != 0 { (c149) } else { (self.q52) };
-        if self.v153 != c153 { self.v153 = c153; *dirty |= 0x100; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$bit_timing.
-    fn group_8(&mut self, dirty: &mut u128) {
-        let c66: u64 = (self.v143) & (self.q49) & 0x1;
-        let c67: u64 = (c66) & (self.v91) & 0x1;
-        let c74: u64 = (self.v196) & (self.v323) & 0x1;
-        let c94: u64 = !(c74) & 0x1;
-        let c75: u64 = (c67) & (c94) & 0x1;
-        let c95: u64 = !(c75) & 0x1;
-        let c76: u64 = (self.v73) & (c95) & 0x1;
-        let c77: u64 = (c76) & (self.v96) & 0x1;
-        if self.v77 != c77 { self.v77 = c77; *dirty |= 0x100000000000040000000; }
-        let c111: u64 = if (c77) != 0 { (0x0) } else { (self.q39) };
-        let c112: u64 = if (c77) != 0 { (self.v153) } else { (self.q49) };
-        let c108: u64 = ((c112) | (self.i_reset)) & 0x1;
-        if self.v108 != c108 { self.v108 = c108; *dirty |= 0x100000000; }
-        let c132: u64 = if (self.v187) != 0 { (0x0) } else { (self.v85) };
-        let c133: u64 = if (self.v187) != 0 { (0x0) } else { (self.v128) };
-        let c134: u64 = if (self.v187) != 0 { (0x0) } else { (self.v129) };
-        let c135: u64 = if (self.v187) != 0 { (0x0) } else { (self.v130) };
-        let c136: u64 = if (self.v187) != 0 { (0x0) } else { (self.v131) };
-        let c137: u64 = (c67) & (c132) & 0x1;
-        let c138: u64 = (c67) & (c133) & 0x1;
-        let c139: u64 = (c67) & (c134) & 0x1;
-        let c92: u64 = !(c139) & 0x1;
-        let c69: u64 = (self.v68) & (c92) & 0x1;
-        let c122: u64 = if (c139) != 0 { (self.v121) } else { (self.v87 | (self.v87 << 1) | (self.v87 << 2) | (self.v87 << 3)) };
-        let c120: u64 = if (c138) != 0 { (self.v119 | 0x8) } else { (c122) };
-        let c64: u64 = (self.q43).wrapping_add((c120 | ((c120 >> 3) << 4))) & 0x1f;
-        let c114: u64 = { let s = (self.v115 | (self.v84 << 1) | (self.v85 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.i_tseg2 } else if s >> 2 & 1 != 0 { self.i_tseg1 } else { (c64) } };
-        let c123: u64 = if (c138) != 0 { (self.v70) } else { (c69) };
-        let c35: u64 = u64::from((c123 | (self.v17 << 1)) == 0x3);
-        if self.v35 != c35 { self.v35 = c35; *dirty |= 0x2000000000; }
-        let c117: u64 = if (c123) != 0 { (c114) } else { (c64) };
-        if self.v117 != c117 { self.v117 = c117; *dirty |= 0x80000000; }
-        let c140: u64 = (c67) & (c135) & 0x1;
-        let c141: u64 = (c67) & (c136) & 0x1;
-        let c103: u64 = ((c141) | (c140)) & 0x1;
-        let c104: u64 = ((c103) | (c139)) & 0x1;
-        let c105: u64 = ((c104) | (c138)) & 0x1;
-        let c106: u64 = ((c105) | (c137)) & 0x1;
-        let c142: u64 = (c67) & (self.v187) & 0x1;
-        let c98: u64 = ((c142) | (c141)) & 0x1;
-        let c99: u64 = ((c98) | (c140)) & 0x1;
-        let c46: u64 = u64::from((self.i_reset | (c99 << 1)) != 0);
-        if self.v46 != c46 { self.v46 = c46; *dirty |= 0x2080000000; }
-        let c47: u64 = u64::from((self.i_reset | (c99 << 1) | (c123 << 2)) != 0);
-        if self.v47 != c47 { self.v47 = c47; *dirty |= 0x20000000; }
-        let c48: u64 = u64::from((self.i_reset | (c99 << 1) | (self.v87 << 2)) != 0);
-        if self.v48 != c48 { self.v48 = c48; *dirty |= 0x400000; }
-        let c93: u64 = !(c99) & 0x1;
-        let c71: u64 = (self.v87) & (c93) & 0x1;
-        if self.v71 != c71 { self.v71 = c71; *dirty |= 0x800000000; }
-        let c100: u64 = ((self.v78) | (c142)) & 0x1;
-        let c101: u64 = ((c100) | (c140)) & 0x1;
-        let c79: u64 = (c101) & (self.v97) & 0x1;
-        let c80: u64 = (c79) & (self.v96) & 0x1;
-        let c81: u64 = (c101) & (self.q44) & 0x1;
-        if self.v81 != c81 { self.v81 = c81; *dirty |= 0x10000000000; }
-        let c102: u64 = ((c80) | (self.q38)) & 0x1;
-        if self.v102 != c102 { self.v102 = c102; *dirty |= 0x8000; }
-        let c107: u64 = ((c142) | (c106)) & 0x1;
-        let c109: u64 = if (c99) != 0 { (0x0) } else { (self.q41) };
-        if self.v109 != c109 { self.v109 = c109; *dirty |= 0x100000000000000000000; }
-        let c110: u64 = ((c111) | (c107)) & 0x1;
-        if self.v110 != c110 { self.v110 = c110; *dirty |= 0x8000000000; }
-        let c113: u64 = ((self.v118) | (c99)) & 0x1;
-        if self.v113 != c113 { self.v113 = c113; *dirty |= 0x400000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$protocol$crc.
-    fn group_9(&mut self, dirty: &mut u128) {
-        let c50: u64 = !(((self.q22 >> 2) & 0x1)) & 0x1;
-        let c51: u64 = !(((self.q22 >> 3) & 0x1)) & 0x1;
-        let c52: u64 = !(((self.q22 >> 6) & 0x1)) & 0x1;
-        let c53: u64 = !(((self.q22 >> 7) & 0x1)) & 0x1;
-        let c54: u64 = !(((self.q22 >> 9) & 0x1)) & 0x1;
-        let c55: u64 = !(((self.q22 >> 13) & 0x1)) & 0x1;
-        let c242: u64 = ((self.q49) ^ ((self.q22 >> 14))) & 0x1;
-        let c241: u64 = if (c242) != 0 { ((c50 << 1) | (c51 << 2) | (c52 << 3) | (c53 << 4) | (c54 << 5) | (c55 << 6) | 0x1) } else { ((((self.q22 >> 2) & 0x3) << 1) | (((self.q22 >> 6) & 0x3) << 3) | (((self.q22 >> 9) & 0x1) << 5) | (((self.q22 >> 13) & 0x1) << 6)) };
-        if self.v241 != c241 { self.v241 = c241; *dirty |= 0x200000000000000; }
+        let c600: u64 = ((self.q5 & 0x1) | (self.q6 << 1) | ((self.q5 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
+        if self.v600 != c600 { self.v600 = c600; *dirty |= 0x4000000; }
+        let c601: u64 = (self.q23).wrapping_add((0x1)) & 0x7f;
+        if self.v601 != c601 { self.v601 = c601; *dirty |= 0x20080; }
+        let c608: u64 = u64::from((self.q7) == 0);
+        if self.v608 != c608 { self.v608 = c608; *dirty |= 0x40000; }
+        let c609: u64 = u64::from((self.q7) == (0x1));
+        let c610: u64 = u64::from((self.q23) == (0xa));
+        if self.v610 != c610 { self.v610 = c610; *dirty |= 0x31000; }
+        let c611: u64 = u64::from((self.q23) == (0x1e));
+        if self.v611 != c611 { self.v611 = c611; *dirty |= 0x20000; }
+        let c621: u64 = ((self.v184) | (self.i_reset)) & 0x1;
+        if self.v621 != c621 { self.v621 = c621; *dirty |= 0x2020000; }
+        let c646: u64 = ((((self.i_transmit_info >> 6) & 0x1)) | ((self.i_transmit_info >> 7))) & 0x1;
+        if self.v646 != c646 { self.v646 = c646; *dirty |= 0x2000000; }
+        let c660: u64 = if (self.v319) != 0 { (0x2) } else { (0x1) };
+        if self.v660 != c660 { self.v660 = c660; *dirty |= 0x2000000; }
+        let c662: u64 = if (c608) != 0 { ((c600 & 0x7)) } else { ((self.q5 & 0x1)) };
+        if self.v662 != c662 { self.v662 = c662; *dirty |= 0x2000000; }
+        let c664: u64 = if (c608) != 0 { ((self.i_transmit_data & 0x7f)) } else { (((self.q49 & 0x3f) << 1)) };
+        if self.v664 != c664 { self.v664 = c664; *dirty |= 0x4000000000000000000; }
+        let c667: u64 = if (c608) != 0 { (((self.i_transmit_data >> 6) & 0x1)) } else { (((self.q49 >> 5) & 0x1)) };
+        let c666: u64 = if (c609) != 0 { ((self.i_transmit_data >> 7)) } else { (c667) };
+        if self.v666 != c666 { self.v666 = c666; *dirty |= 0x2000000; }
+        let c668: u64 = if (c608) != 0 { ((self.i_transmit_data >> 7)) } else { ((self.q49 >> 6)) };
+        if self.v668 != c668 { self.v668 = c668; *dirty |= 0x2000000; }
+        let c669: u64 = (self.q7).wrapping_sub((0x1)) & 0xf;
+        let c663: u64 = if (c608) != 0 { (0x7) } else { (c669) };
+        if self.v663 != c663 { self.v663 = c663; *dirty |= 0x800000000000000000; }
+        let c671: u64 = ((((self.q22 >> 13) & 0x1)) ^ ((self.q22 >> 14))) & 0x1;
+        let c672: u64 = ((c671) ^ (self.q50)) & 0x1;
+        if self.v672 != c672 { self.v672 = c672; *dirty |= 0x20000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$frame.
-    fn group_10(&mut self, dirty: &mut u128) {
-        let c10: u64 = u64::from((self.v447 | (self.v324 << 1) | (self.v558 << 2)) != (0x4));
+    fn group_7(&mut self, dirty: &mut u128) {
+        let c10: u64 = u64::from((self.v453 | (self.v331 << 1) | (self.v565 << 2)) != (0x4));
         if self.v10 != c10 { self.v10 = c10; *dirty |= 0x4000; }
-        let c340: u64 = if (self.v326) != 0 { (0x0) } else { (self.v594) };
-        if self.v340 != c340 { self.v340 = c340; *dirty |= 0x10000; }
-        let c368: u64 = if (self.v331) != 0 { (0x0) } else { (self.v594) };
-        if self.v368 != c368 { self.v368 = c368; *dirty |= 0x10000; }
-        let c376: u64 = if (self.v333) != 0 { (0x0) } else { (self.v594) };
-        if self.v376 != c376 { self.v376 = c376; *dirty |= 0x10000; }
-        let c415: u64 = if (self.v299) != 0 { (self.v304) } else { (self.v611) };
-        if self.v415 != c415 { self.v415 = c415; *dirty |= 0x10000; }
-        let c416: u64 = ((self.v611) | (self.v299)) & 0x1;
-        if self.v416 != c416 { self.v416 = c416; *dirty |= 0x10000; }
+        let c347: u64 = if (self.v333) != 0 { (0x0) } else { (self.v601) };
+        let c370: u64 = if (self.v307) != 0 { (0x0) } else { (self.v601) };
+        let c373: u64 = if (self.v338) != 0 { (0x0) } else { (self.v601) };
+        let c381: u64 = if (self.v340) != 0 { (0x0) } else { (self.v601) };
+        let c385: u64 = { let s = (self.v402 | (self.v399 << 1) | (self.v360 << 2) | (self.v396 << 3) | (self.v61 << 4) | (self.v378 << 5)); if s >> 0 & 1 != 0 { self.v343 } else if s >> 1 & 1 != 0 { self.v350 } else if s >> 2 & 1 != 0 { self.v361 } else if s >> 3 & 1 != 0 { self.v351 } else if s >> 4 & 1 != 0 { self.v304 } else if s >> 5 & 1 != 0 { self.v379 } else { (0x0) } };
+        let c388: u64 = { let s = (self.v402 | (self.v399 << 1) | (self.v391 << 2) | (self.v236 << 3) | (self.v378 << 4)); if s >> 0 & 1 != 0 { c347 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c370 } else if s >> 3 & 1 != 0 { c373 } else if s >> 4 & 1 != 0 { c381 } else { (self.v601) } };
+        if self.v388 != c388 { self.v388 = c388; *dirty |= 0x8000; }
+        let c389: u64 = { let s = (self.v402 | (self.v399 << 1) | (self.v360 << 2) | (self.v396 << 3) | (self.v390 << 4) | (self.v391 << 5) | (self.v236 << 6) | (self.v378 << 7)); if s >> 0 & 1 != 0 { self.v344 } else if s >> 1 & 1 != 0 { 0x9 } else if s >> 2 & 1 != 0 { 0x8 } else if s >> 3 & 1 != 0 { 0x7 } else if s >> 4 & 1 != 0 { self.v369 } else if s >> 5 & 1 != 0 { self.v371 } else if s >> 6 & 1 != 0 { self.v372 } else if s >> 7 & 1 != 0 { self.v382 } else { (self.q56) } };
+        let c412: u64 = (self.q45) & (c385) & 0x1;
+        if self.v412 != c412 { self.v412 = c412; *dirty |= 0x8000; }
+        let c415: u64 = (self.q45) & (self.v62) & 0x1;
+        if self.v415 != c415 { self.v415 = c415; *dirty |= 0x8000; }
+        let c416: u64 = if (self.q45) != 0 { (c389) } else { (self.q56) };
+        if self.v416 != c416 { self.v416 = c416; *dirty |= 0x8000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$bit_timing$sampling.
+    fn group_8(&mut self, dirty: &mut u128) {
+        let c146: u64 = ((self.q43 >> 1)) & ((self.q43 & 0x1)) & 0x1;
+        let c147: u64 = ((self.q43 >> 1)) & (self.q53) & 0x1;
+        let c148: u64 = ((self.q43 & 0x1)) & (self.q53) & 0x1;
+        let c149: u64 = !(self.q53) & 0x1;
+        let c145: u64 = (self.q52) & (c149) & 0x1;
+        if self.v145 != c145 { self.v145 = c145; *dirty |= 0x200; }
+        let c150: u64 = ((c146) | (c147)) & 0x1;
+        let c151: u64 = ((c150) | (c148)) & 0x1;
+        let c152: u64 = ((self.q53) | (self.i_reset)) & 0x1;
+        if self.v152 != c152 { self.v152 = c152; *dirty |= 0x200000000; }
+        let c153: u64 = ((self.q51) | (self.i_reset)) & 0x1;
+        if self.v153 != c153 { self.v153 = c153; *dirty |= 0x800000000; }
+        let c154: u64 = ((self.i_rx) | (self.i_reset)) & 0x1;
+        if self.v154 != c154 { self.v154 = c154; *dirty |= 0x100000000; }
+        let c155: u64 = if (self.i_sam) != 0 { (c151) } else { (self.q53) };
+        if self.v155 != c155 { self.v155 = c155; *dirty |= 0x200; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$bit_timing.
+    fn group_9(&mut self, dirty: &mut u128) {
+        let c68: u64 = (self.v145) & (self.q50) & 0x1;
+        let c69: u64 = (c68) & (self.v93) & 0x1;
+        let c76: u64 = (self.v198) & (self.v330) & 0x1;
+        let c96: u64 = !(c76) & 0x1;
+        let c77: u64 = (c69) & (c96) & 0x1;
+        let c97: u64 = !(c77) & 0x1;
+        let c78: u64 = (self.v75) & (c97) & 0x1;
+        let c79: u64 = (c78) & (self.v98) & 0x1;
+        if self.v79 != c79 { self.v79 = c79; *dirty |= 0x100000000000020000000; }
+        let c113: u64 = if (c79) != 0 { (0x0) } else { (self.q40) };
+        let c114: u64 = if (c79) != 0 { (self.v155) } else { (self.q50) };
+        let c110: u64 = ((c114) | (self.i_reset)) & 0x1;
+        if self.v110 != c110 { self.v110 = c110; *dirty |= 0x80000000; }
+        let c134: u64 = if (self.v189) != 0 { (0x0) } else { (self.v87) };
+        let c135: u64 = if (self.v189) != 0 { (0x0) } else { (self.v130) };
+        let c136: u64 = if (self.v189) != 0 { (0x0) } else { (self.v131) };
+        let c137: u64 = if (self.v189) != 0 { (0x0) } else { (self.v132) };
+        let c138: u64 = if (self.v189) != 0 { (0x0) } else { (self.v133) };
+        let c139: u64 = (c69) & (c134) & 0x1;
+        let c140: u64 = (c69) & (c135) & 0x1;
+        let c141: u64 = (c69) & (c136) & 0x1;
+        let c94: u64 = !(c141) & 0x1;
+        let c71: u64 = (self.v70) & (c94) & 0x1;
+        let c124: u64 = if (c141) != 0 { (self.v123) } else { (self.v89 | (self.v89 << 1) | (self.v89 << 2) | (self.v89 << 3)) };
+        let c122: u64 = if (c140) != 0 { (self.v121 | 0x8) } else { (c124) };
+        let c66: u64 = (self.q44).wrapping_add((c122 | ((c122 >> 3) << 4))) & 0x1f;
+        let c116: u64 = { let s = (self.v117 | (self.v86 << 1) | (self.v87 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.i_tseg2 } else if s >> 2 & 1 != 0 { self.i_tseg1 } else { (c66) } };
+        let c125: u64 = if (c140) != 0 { (self.v72) } else { (c71) };
+        let c37: u64 = u64::from((c125 | (self.v17 << 1)) == 0x3);
+        if self.v37 != c37 { self.v37 = c37; *dirty |= 0x1000000000; }
+        let c119: u64 = if (c125) != 0 { (c116) } else { (c66) };
+        if self.v119 != c119 { self.v119 = c119; *dirty |= 0x40000000; }
+        let c142: u64 = (c69) & (c137) & 0x1;
+        let c143: u64 = (c69) & (c138) & 0x1;
+        let c105: u64 = ((c143) | (c142)) & 0x1;
+        let c106: u64 = ((c105) | (c141)) & 0x1;
+        let c107: u64 = ((c106) | (c140)) & 0x1;
+        let c108: u64 = ((c107) | (c139)) & 0x1;
+        let c144: u64 = (c69) & (self.v189) & 0x1;
+        let c100: u64 = ((c144) | (c143)) & 0x1;
+        let c101: u64 = ((c100) | (c142)) & 0x1;
+        let c48: u64 = u64::from((self.i_reset | (c101 << 1)) != 0);
+        if self.v48 != c48 { self.v48 = c48; *dirty |= 0x1040000000; }
+        let c49: u64 = u64::from((self.i_reset | (c101 << 1) | (c125 << 2)) != 0);
+        if self.v49 != c49 { self.v49 = c49; *dirty |= 0x10000000; }
+        let c50: u64 = u64::from((self.i_reset | (c101 << 1) | (self.v89 << 2)) != 0);
+        if self.v50 != c50 { self.v50 = c50; *dirty |= 0x200000; }
+        let c95: u64 = !(c101) & 0x1;
+        let c73: u64 = (self.v89) & (c95) & 0x1;
+        if self.v73 != c73 { self.v73 = c73; *dirty |= 0x400000000; }
+        let c102: u64 = ((self.v80) | (c144)) & 0x1;
+        let c103: u64 = ((c102) | (c142)) & 0x1;
+        let c81: u64 = (c103) & (self.v99) & 0x1;
+        let c82: u64 = (c81) & (self.v98) & 0x1;
+        let c83: u64 = (c103) & (self.q45) & 0x1;
+        if self.v83 != c83 { self.v83 = c83; *dirty |= 0x8000000000; }
+        let c104: u64 = ((c82) | (self.q39)) & 0x1;
+        if self.v104 != c104 { self.v104 = c104; *dirty |= 0x20000; }
+        let c109: u64 = ((c144) | (c108)) & 0x1;
+        let c111: u64 = if (c101) != 0 { (0x0) } else { (self.q42) };
+        if self.v111 != c111 { self.v111 = c111; *dirty |= 0x100000000000000000000; }
+        let c112: u64 = ((c113) | (c109)) & 0x1;
+        if self.v112 != c112 { self.v112 = c112; *dirty |= 0x4000000000; }
+        let c115: u64 = ((self.v120) | (c101)) & 0x1;
+        if self.v115 != c115 { self.v115 = c115; *dirty |= 0x200000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler.
+    fn group_10(&mut self, dirty: &mut u128) {
+        let c209: u64 = (self.v225) & (self.q30) & 0x1;
+        let c211: u64 = (((self.q23 >> 3) & 0x1)) & (((self.q23 >> 2) & 0x1)) & 0x1;
+        let c213: u64 = !(((self.q23 >> 4) & 0x1)) & 0x1;
+        let c214: u64 = u64::from((self.q23) != 0);
+        if self.v214 != c214 { self.v214 = c214; *dirty |= 0x1000; }
+        let c215: u64 = !(c209) & 0x1;
+        let c210: u64 = (c214) & (c215) & 0x1;
+        if self.v210 != c210 { self.v210 = c210; *dirty |= 0x100000; }
+        let c216: u64 = !(c211) & 0x1;
+        let c212: u64 = (c213) & (c216) & 0x1;
+        if self.v212 != c212 { self.v212 = c212; *dirty |= 0x8000; }
+        let c20: u64 = !(c212) & 0x1;
+        if self.v20 != c20 { self.v20 = c20; *dirty |= 0x8000; }
+        let c217: u64 = (self.v391) & (self.v323) & 0x1;
+        if self.v217 != c217 { self.v217 = c217; *dirty |= 0x100000; }
+        let c218: u64 = (self.v236) & (self.v159) & 0x1;
+        if self.v218 != c218 { self.v218 = c218; *dirty |= 0x100000; }
+        let c222: u64 = if ((self.q34 >> 3)) != 0 { (0x8) } else { ((self.q34 & 0x7)) };
+        let c221: u64 = if (self.q28) != 0 { (0x0) } else { (c222) };
+        let c223: u64 = (c221).wrapping_sub((0x1)) & 0xf;
+        if self.v223 != c223 { self.v223 = c223; *dirty |= 0x2000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$protocol$crc.
     fn group_11(&mut self, dirty: &mut u128) {
-        let c209: u64 = u64::from((self.q23) == (0x1));
-        if self.v209 != c209 { self.v209 = c209; *dirty |= 0x8000000000000; }
-        let c207: u64 = (c209) & (self.q30) & 0x1;
-        let c210: u64 = u64::from(((self.q23 & 0x7)) == (0x7));
-        if self.v210 != c210 { self.v210 = c210; *dirty |= 0x210000; }
-        let c211: u64 = u64::from((self.q23) != 0);
-        if self.v211 != c211 { self.v211 = c211; *dirty |= 0x1000; }
-        let c212: u64 = !(c207) & 0x1;
-        let c208: u64 = (c211) & (c212) & 0x1;
-        if self.v208 != c208 { self.v208 = c208; *dirty |= 0x200000; }
-        let c213: u64 = (self.v385) & (c210) & 0x1;
-        if self.v213 != c213 { self.v213 = c213; *dirty |= 0x200000; }
-        let c214: u64 = (self.v386) & (self.v157) & 0x1;
-        if self.v214 != c214 { self.v214 = c214; *dirty |= 0x200000; }
-        let c218: u64 = if ((self.q33 >> 3)) != 0 { (0x8) } else { ((self.q33 & 0x7)) };
-        let c217: u64 = if (self.q28) != 0 { (0x0) } else { (c218) };
-        let c219: u64 = (c217).wrapping_sub((0x1)) & 0xf;
-        if self.v219 != c219 { self.v219 = c219; *dirty |= 0x2000000000000; }
+        let c52: u64 = !(((self.q22 >> 2) & 0x1)) & 0x1;
+        let c53: u64 = !(((self.q22 >> 3) & 0x1)) & 0x1;
+        let c54: u64 = !(((self.q22 >> 6) & 0x1)) & 0x1;
+        let c55: u64 = !(((self.q22 >> 7) & 0x1)) & 0x1;
+        let c56: u64 = !(((self.q22 >> 9) & 0x1)) & 0x1;
+        let c57: u64 = !(((self.q22 >> 13) & 0x1)) & 0x1;
+        let c247: u64 = ((self.q50) ^ ((self.q22 >> 14))) & 0x1;
+        let c246: u64 = if (c247) != 0 { ((c52 << 1) | (c53 << 2) | (c54 << 3) | (c55 << 4) | (c56 << 5) | (c57 << 6) | 0x1) } else { ((((self.q22 >> 2) & 0x3) << 1) | (((self.q22 >> 6) & 0x3) << 3) | (((self.q22 >> 9) & 0x1) << 5) | (((self.q22 >> 13) & 0x1) << 6)) };
+        if self.v246 != c246 { self.v246 = c246; *dirty |= 0x200000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe.
     fn group_12(&mut self, dirty: &mut u128) {
-        let c437: u64 = (self.v436) & (self.v254) & 0x1;
-        let c438: u64 = (c437) & (self.v461) & 0x1;
-        if self.v438 != c438 { self.v438 = c438; *dirty |= 0x8000; }
-        let c443: u64 = (c438) & (self.v462) & 0x1;
-        if self.v443 != c443 { self.v443 = c443; *dirty |= 0x20000; }
-        let c445: u64 = (self.v211) & (self.v459) & 0x1;
-        if self.v445 != c445 { self.v445 = c445; *dirty |= 0x20000; }
-        let c464: u64 = ((self.v184) | (self.v162)) & 0x1;
-        if self.v464 != c464 { self.v464 = c464; *dirty |= 0x4000; }
-        let c484: u64 = (self.v450) & (self.v603) & 0x1;
-        let c499: u64 = (self.v220) & (self.v495) & 0x1;
-        let c500: u64 = (self.v220) & (self.v496) & 0x1;
-        let c521: u64 = if (c445) != 0 { (0x0) } else { (self.v324) };
-        let c525: u64 = if (self.q8) != 0 { (c521) } else { (self.v515) };
-        if self.v525 != c525 { self.v525 = c525; *dirty |= 0x30000; }
-        let c9: u64 = u64::from((c525 | (self.v567 << 1)) != (0x2));
+        let c443: u64 = (self.v442) & (self.v259) & 0x1;
+        let c444: u64 = (c443) & (self.v467) & 0x1;
+        if self.v444 != c444 { self.v444 = c444; *dirty |= 0x20000; }
+        let c449: u64 = (c444) & (self.v468) & 0x1;
+        if self.v449 != c449 { self.v449 = c449; *dirty |= 0x10000; }
+        let c451: u64 = (self.v214) & (self.v465) & 0x1;
+        if self.v451 != c451 { self.v451 = c451; *dirty |= 0x10000; }
+        let c470: u64 = ((self.v186) | (self.v164)) & 0x1;
+        if self.v470 != c470 { self.v470 = c470; *dirty |= 0x4000; }
+        let c490: u64 = (self.v456) & (self.v610) & 0x1;
+        let c504: u64 = (self.v224) & (self.v501) & 0x1;
+        let c505: u64 = (self.v224) & (self.v502) & 0x1;
+        let c526: u64 = if (c451) != 0 { (0x0) } else { (self.v331) };
+        let c530: u64 = if (self.q8) != 0 { (c526) } else { (self.v520) };
+        if self.v530 != c530 { self.v530 = c530; *dirty |= 0x18000; }
+        let c9: u64 = u64::from((c530 | (self.v574 << 1)) != (0x2));
         if self.v9 != c9 { self.v9 = c9; *dirty |= 0x4000; }
-        let c563: u64 = (self.v240) & (c484) & 0x1;
-        if self.v563 != c563 { self.v563 = c563; *dirty |= 0x4000; }
-        let c564: u64 = { let s = (self.v566 | (self.v567 << 1)); if s >> 0 & 1 != 0 { c499 } else if s >> 1 & 1 != 0 { self.v524 } else { (0x0) } };
-        if self.v564 != c564 { self.v564 = c564; *dirty |= 0x4000; }
-        let c565: u64 = { let s = (self.v566 | (self.v567 << 1)); if s >> 0 & 1 != 0 { c500 } else if s >> 1 & 1 != 0 { self.v529 } else { (0x0) } };
-        if self.v565 != c565 { self.v565 = c565; *dirty |= 0x4000; }
+        let c560: u64 = if (self.v233) != 0 { (self.v439) } else { (0x0) };
+        if self.v560 != c560 { self.v560 = c560; *dirty |= 0x80000000000000000; }
+        let c570: u64 = (self.v571) & (c490) & 0x1;
+        if self.v570 != c570 { self.v570 = c570; *dirty |= 0x4000; }
+        let c572: u64 = { let s = (self.v233 | (self.v574 << 1)); if s >> 0 & 1 != 0 { c504 } else if s >> 1 & 1 != 0 { self.v529 } else { (0x0) } };
+        if self.v572 != c572 { self.v572 = c572; *dirty |= 0x4000; }
+        let c573: u64 = { let s = (self.v233 | (self.v574 << 1)); if s >> 0 & 1 != 0 { c505 } else if s >> 1 & 1 != 0 { self.v534 } else { (0x0) } };
+        if self.v573 != c573 { self.v573 = c573; *dirty |= 0x4000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$stuffing.
     fn group_13(&mut self, dirty: &mut u128) {
-        let c667: u64 = (self.q3).wrapping_add((0x1)) & 0x7;
-        let c670: u64 = u64::from((self.q3) == (0x5));
-        let c668: u64 = (self.q4) & (c670) & 0x1;
-        if self.v668 != c668 { self.v668 = c668; *dirty |= 0x3c000; }
-        let c18: u64 = !(c668) & 0x1;
-        if self.v18 != c18 { self.v18 = c18; *dirty |= 0xc000; }
-        let c24: u64 = u64::from((self.q44 | (self.q8 << 1) | (self.v567 << 2) | (c18 << 3)) == 0xf);
-        if self.v24 != c24 { self.v24 = c24; *dirty |= 0x200000000000000000; }
-        let c671: u64 = u64::from((self.q3) == (0x4));
-        let c669: u64 = (self.q4) & (c671) & 0x1;
-        if self.v669 != c669 { self.v669 = c669; *dirty |= 0x8000; }
-        let c672: u64 = u64::from((self.q49) != (self.q2));
-        let c673: u64 = ((c670) | (c672)) & 0x1;
-        if self.v673 != c673 { self.v673 = c673; *dirty |= 0x4000; }
-        let c677: u64 = if (c673) != 0 { (0x1) } else { (c667) };
-        if self.v677 != c677 { self.v677 = c677; *dirty |= 0x10000000; }
+        let c673: u64 = (self.q3).wrapping_add((0x1)) & 0x7;
+        let c676: u64 = u64::from((self.q3) == (0x5));
+        let c674: u64 = (self.q4) & (c676) & 0x1;
+        if self.v674 != c674 { self.v674 = c674; *dirty |= 0x3c000; }
+        let c18: u64 = !(c674) & 0x1;
+        if self.v18 != c18 { self.v18 = c18; *dirty |= 0x24000; }
+        let c25: u64 = u64::from((self.q45 | (self.q8 << 1) | (self.v574 << 2) | (c18 << 3)) == 0xf);
+        if self.v25 != c25 { self.v25 = c25; *dirty |= 0x200000000000000000; }
+        let c677: u64 = u64::from((self.q3) == (0x4));
+        let c675: u64 = (self.q4) & (c677) & 0x1;
+        if self.v675 != c675 { self.v675 = c675; *dirty |= 0x20000; }
+        let c678: u64 = u64::from((self.q50) != (self.q2));
+        let c679: u64 = ((c676) | (c678)) & 0x1;
+        if self.v679 != c679 { self.v679 = c679; *dirty |= 0x4000; }
+        let c683: u64 = if (c679) != 0 { (0x1) } else { (c673) };
+        if self.v683 != c683 { self.v683 = c683; *dirty |= 0x8000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe.
     fn group_14(&mut self, dirty: &mut u128) {
-        let c25: u64 = u64::from((self.q44 | (self.v18 << 1) | (self.v7 << 2) | (self.v6 << 3) | (self.v5 << 4)) == 0x1f);
-        if self.v25 != c25 { self.v25 = c25; *dirty |= 0x100000000000000000; }
-        let c26: u64 = u64::from((self.q44 | (self.v10 << 1) | (self.v9 << 2) | (self.v18 << 3) | (self.v8 << 4) | (self.v7 << 5) | (self.v6 << 6) | (self.v5 << 7)) == 0xff);
-        if self.v26 != c26 { self.v26 = c26; *dirty |= 0x80000000000000000; }
-        let c439: u64 = (self.q44) & (self.v18) & 0x1;
-        if self.v439 != c439 { self.v439 = c439; *dirty |= 0x210000; }
-        let c440: u64 = (c439) & (self.v346) & 0x1;
-        let c441: u64 = (c440) & (self.v464) & 0x1;
-        if self.v441 != c441 { self.v441 = c441; *dirty |= 0x2000000100a8000; }
-        let c0: u64 = u64::from((self.v673 | (c441 << 1)) != 0);
-        let c20: u64 = u64::from((self.q44 | (c0 << 1)) == 0x3);
-        if self.v20 != c20 { self.v20 = c20; *dirty |= 0x20000000000000000000; }
-        let c42: u64 = u64::from((self.i_reset | (c441 << 1)) != 0);
-        if self.v42 != c42 { self.v42 = c42; *dirty |= 0x400a00000000000; }
-        let c569: u64 = if (self.v668) != 0 { (self.q12) } else { (self.v555) };
-        if self.v569 != c569 { self.v569 = c569; *dirty |= 0x20000; }
-        let c573: u64 = if (self.v668) != 0 { (0x0) } else { (self.v559) };
-        let c576: u64 = if (self.v668) != 0 { (0x0) } else { (self.v563) };
-        let c577: u64 = if (self.v668) != 0 { (0x0) } else { (self.v564) };
-        if self.v577 != c577 { self.v577 = c577; *dirty |= 0x20000; }
-        let c578: u64 = if (self.v668) != 0 { (0x0) } else { (self.v565) };
-        if self.v578 != c578 { self.v578 = c578; *dirty |= 0x20000; }
-        let c589: u64 = (self.q44) & (c573) & 0x1;
-        if self.v589 != c589 { self.v589 = c589; *dirty |= 0x88000; }
-        let c591: u64 = (self.q44) & (c576) & 0x1;
-        if self.v591 != c591 { self.v591 = c591; *dirty |= 0x100000; }
-        let c15: u64 = u64::from((self.i_counters_load_tec | (self.q53 << 1) | (c591 << 2)) != (0x2));
-        if self.v15 != c15 { self.v15 = c15; *dirty |= 0x800000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$protocol$sender.
-    fn group_15(&mut self, dirty: &mut u128) {
-        let c596: u64 = (self.v669) & (self.v18) & 0x1;
-        let c597: u64 = (c596) & (self.v611) & 0x1;
-        if self.v597 != c597 { self.v597 = c597; *dirty |= 0x40000; }
-        let c605: u64 = !(self.v438) & 0x1;
-        if self.v605 != c605 { self.v605 = c605; *dirty |= 0x4000000; }
-        let c612: u64 = !(self.v589) & 0x1;
-        let c595: u64 = (self.v567) & (c612) & 0x1;
-        let c619: u64 = if (self.v102) != 0 { (self.q57) } else { (self.q58) };
-        let c618: u64 = ((c619) | (self.i_listen_only)) & 0x1;
-        let c617: u64 = ((c618) | (self.v615)) & 0x1;
-        if self.v617 != c617 { self.v617 = c617; *dirty |= 0x2000000000000000000; }
-        let c622: u64 = if (c595) != 0 { (self.q8) } else { (self.v463) };
-        if self.v622 != c622 { self.v622 = c622; *dirty |= 0x4000000; }
-        let c650: u64 = if (self.v668) != 0 { ((self.q23 & 0x7)) } else { ((self.v594 & 0x7)) };
-        let c651: u64 = if (self.v668) != 0 { (self.v314) } else { (self.v604) };
-        let c647: u64 = if (self.v441) != 0 { (0x0) } else { (c651) };
-        if self.v647 != c647 { self.v647 = c647; *dirty |= 0x4000000; }
-        let c652: u64 = if (self.v668) != 0 { (self.v313) } else { (self.v312) };
-        let c648: u64 = if (self.v441) != 0 { (0x0) } else { (c652) };
-        if self.v648 != c648 { self.v648 = c648; *dirty |= 0x4000000; }
-        let c653: u64 = if (self.v668) != 0 { (self.v312) } else { (self.v603) };
-        let c649: u64 = if (self.v441) != 0 { (0x0) } else { (c653) };
-        if self.v649 != c649 { self.v649 = c649; *dirty |= 0x4000000; }
-        let c664: u64 = (c650).wrapping_sub((0x1)) & 0x7;
-        let c633: u64 = if ((self.i_transmit_info >> 7)) != 0 { (c664) } else { (c650) };
-        let c606: u64 = u64::from((c633) == (0x1));
-        let c607: u64 = u64::from((c633) == (0x2));
-        let c608: u64 = u64::from((c633) == (0x3));
-        let c609: u64 = u64::from((c633) == (0x4));
-        let c632: u64 = (c606) & (((self.i_transmit_info >> 3) & 0x1)) & 0x1;
-        let c631: u64 = if (c607) != 0 { (((self.i_transmit_info >> 2) & 0x1)) } else { (c632) };
-        let c630: u64 = if (c608) != 0 { (((self.i_transmit_info >> 1) & 0x1)) } else { (c631) };
-        let c629: u64 = if (c609) != 0 { ((self.i_transmit_info & 0x1)) } else { (c630) };
-        if self.v629 != c629 { self.v629 = c629; *dirty |= 0x40000; }
+        let c26: u64 = u64::from((self.q45 | (self.v18 << 1) | (self.v6 << 2) | (self.v5 << 3) | (self.v7 << 4)) == 0x1f);
+        if self.v26 != c26 { self.v26 = c26; *dirty |= 0x100000000000000000; }
+        let c27: u64 = u64::from((self.q45 | (self.v18 << 1) | (self.v10 << 2) | (self.v9 << 3) | (self.v8 << 4) | (self.v6 << 5) | (self.v5 << 6) | (self.v7 << 7)) == 0xff);
+        if self.v27 != c27 { self.v27 = c27; *dirty |= 0x80000000000000000; }
+        let c445: u64 = (self.q45) & (self.v18) & 0x1;
+        if self.v445 != c445 { self.v445 = c445; *dirty |= 0x108000; }
+        let c446: u64 = (c445) & (self.v351) & 0x1;
+        let c447: u64 = (c446) & (self.v470) & 0x1;
+        if self.v447 != c447 { self.v447 = c447; *dirty |= 0x200000008070000; }
+        let c0: u64 = u64::from((self.v679 | (c447 << 1)) != 0);
+        let c21: u64 = u64::from((self.q45 | (c0 << 1)) == 0x3);
+        if self.v21 != c21 { self.v21 = c21; *dirty |= 0x20000000000000000000; }
+        let c44: u64 = u64::from((self.i_reset | (c447 << 1)) != 0);
+        if self.v44 != c44 { self.v44 = c44; *dirty |= 0x400d00000000000; }
+        let c576: u64 = if (self.v674) != 0 { (self.q12) } else { (self.v562) };
+        if self.v576 != c576 { self.v576 = c576; *dirty |= 0x10000; }
+        let c580: u64 = if (self.v674) != 0 { (0x0) } else { (self.v566) };
+        let c583: u64 = if (self.v674) != 0 { (0x0) } else { (self.v570) };
+        let c584: u64 = if (self.v674) != 0 { (0x0) } else { (self.v572) };
+        if self.v584 != c584 { self.v584 = c584; *dirty |= 0x10000; }
+        let c585: u64 = if (self.v674) != 0 { (0x0) } else { (self.v573) };
+        if self.v585 != c585 { self.v585 = c585; *dirty |= 0x10000; }
+        let c596: u64 = (self.q45) & (c580) & 0x1;
+        if self.v596 != c596 { self.v596 = c596; *dirty |= 0x60000; }
+        let c598: u64 = (self.q45) & (c583) & 0x1;
+        if self.v598 != c598 { self.v598 = c598; *dirty |= 0x80000; }
+        let c15: u64 = u64::from((self.i_counters_load_tec | (self.q54 << 1) | (c598 << 2)) != (0x2));
+        if self.v15 != c15 { self.v15 = c15; *dirty |= 0x400000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$frame.
-    fn group_16(&mut self, dirty: &mut u128) {
-        let c29: u64 = u64::from((self.v16 | (self.v370 << 1) | (self.v439 << 2)) == 0x7);
-        if self.v29 != c29 { self.v29 = c29; *dirty |= 0x4000000000000; }
-        let c30: u64 = u64::from((self.v370 | (self.v313 << 1) | (self.v439 << 2)) == 0x7);
-        if self.v30 != c30 { self.v30 = c30; *dirty |= 0x1000000000000; }
-        let c31: u64 = u64::from((self.v370 | (self.v19 << 1) | (self.v439 << 2)) == 0x7);
-        if self.v31 != c31 { self.v31 = c31; *dirty |= 0x800000000000; }
-        let c33: u64 = u64::from((self.v385 | (self.v439 << 1)) == 0x3);
-        if self.v33 != c33 { self.v33 = c33; *dirty |= 0x100000000000; }
-        let c61: u64 = if (self.v558) != 0 { (self.v324) } else { (self.v525) };
-        if self.v61 != c61 { self.v61 = c61; *dirty |= 0x20000; }
-        let c302: u64 = (self.v210) & (self.v318) & 0x1;
-        let c303: u64 = (self.q44) & (self.v668) & 0x1;
-        if self.v303 != c303 { self.v303 = c303; *dirty |= 0x80000; }
-        let c365: u64 = if (c302) != 0 { (0x0) } else { (self.v594) };
-        let c366: u64 = if (c302) != 0 { (0x5) } else { (self.q55) };
-        let c384: u64 = { let s = (self.v342 | (self.v345 << 1) | (self.v385 << 2) | (self.v386 << 3) | (self.v370 << 4)); if s >> 0 & 1 != 0 { self.v340 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c365 } else if s >> 3 & 1 != 0 { self.v368 } else if s >> 4 & 1 != 0 { self.v376 } else { (self.v594) } };
-        let c387: u64 = { let s = (self.v342 | (self.v345 << 1) | (self.v352 << 2) | (self.v394 << 3) | (self.v381 << 4) | (self.v385 << 5) | (self.v386 << 6) | (self.v370 << 7)); if s >> 0 & 1 != 0 { self.v337 } else if s >> 1 & 1 != 0 { 0x9 } else if s >> 2 & 1 != 0 { 0x8 } else if s >> 3 & 1 != 0 { 0x7 } else if s >> 4 & 1 != 0 { self.v364 } else if s >> 5 & 1 != 0 { c366 } else if s >> 6 & 1 != 0 { self.v367 } else if s >> 7 & 1 != 0 { self.v377 } else { (self.q55) } };
-        let c409: u64 = if (self.q44) != 0 { (c387) } else { (self.q55) };
-        let c417: u64 = if (c303) != 0 { (self.v414) } else { (self.v402) };
-        if self.v417 != c417 { self.v417 = c417; *dirty |= 0x20000; }
-        let c418: u64 = if (c303) != 0 { ((self.v415 << 1)) } else { (self.v404) };
-        if self.v418 != c418 { self.v418 = c418; *dirty |= 0x20000; }
-        let c419: u64 = if (c303) != 0 { (self.v416) } else { (self.v405) };
-        if self.v419 != c419 { self.v419 = c419; *dirty |= 0xa0000; }
-        let c420: u64 = if (c303) != 0 { (self.q23) } else { (c384) };
-        if self.v420 != c420 { self.v420 = c420; *dirty |= 0x20000; }
-        let c421: u64 = if (c303) != 0 { (0x0) } else { (self.v397) };
-        if self.v421 != c421 { self.v421 = c421; *dirty |= 0x80000; }
-        let c422: u64 = if (c303) != 0 { (0x0) } else { (self.v411) };
-        if self.v422 != c422 { self.v422 = c422; *dirty |= 0x1000000000100000; }
-        let c423: u64 = if (c303) != 0 { (0x0) } else { (self.v398) };
-        if self.v423 != c423 { self.v423 = c423; *dirty |= 0x1000000000080000; }
-        let c424: u64 = if (c303) != 0 { (0x0) } else { (self.v400) };
-        if self.v424 != c424 { self.v424 = c424; *dirty |= 0x20000; }
-        let c425: u64 = if (c303) != 0 { (0x0) } else { (self.v401) };
-        if self.v425 != c425 { self.v425 = c425; *dirty |= 0x80000; }
-        let c426: u64 = if (c303) != 0 { (0x0) } else { (self.v403) };
-        if self.v426 != c426 { self.v426 = c426; *dirty |= 0x90000000020000; }
-        let c427: u64 = if (c303) != 0 { (0x0) } else { (self.v406) };
-        if self.v427 != c427 { self.v427 = c427; *dirty |= 0x20000; }
-        let c428: u64 = if (c303) != 0 { (0x0) } else { (self.v407) };
-        if self.v428 != c428 { self.v428 = c428; *dirty |= 0x40000; }
-        let c429: u64 = if (c303) != 0 { (0x0) } else { (self.v408) };
-        if self.v429 != c429 { self.v429 = c429; *dirty |= 0x200000000040000; }
-        let c430: u64 = if (c303) != 0 { (self.q55) } else { (c409) };
-        if self.v430 != c430 { self.v430 = c430; *dirty |= 0x20000; }
-        let c431: u64 = if (c303) != 0 { (0x0) } else { (self.v410) };
-        if self.v431 != c431 { self.v431 = c431; *dirty |= 0x100000; }
-        let c432: u64 = if (c303) != 0 { (0x0) } else { (self.v412) };
-        if self.v432 != c432 { self.v432 = c432; *dirty |= 0x80000; }
+    fn group_15(&mut self, dirty: &mut u128) {
+        let c30: u64 = u64::from((self.v16 | (self.v378 << 1) | (self.v445 << 2)) == 0x7);
+        if self.v30 != c30 { self.v30 = c30; *dirty |= 0x4000000000000; }
+        let c31: u64 = u64::from((self.v378 | (self.v318 << 1) | (self.v445 << 2)) == 0x7);
+        if self.v31 != c31 { self.v31 = c31; *dirty |= 0x1000000000000; }
+        let c32: u64 = u64::from((self.v20 | (self.v378 << 1) | (self.v19 << 2) | (self.v445 << 3)) == 0xf);
+        if self.v32 != c32 { self.v32 = c32; *dirty |= 0x800000000000; }
+        let c33: u64 = u64::from((self.v212 | (self.v378 << 1) | (self.v19 << 2) | (self.v445 << 3)) == 0xf);
+        if self.v33 != c33 { self.v33 = c33; *dirty |= 0x400000000000; }
+        let c35: u64 = u64::from((self.v391 | (self.v445 << 1)) == 0x3);
+        if self.v35 != c35 { self.v35 = c35; *dirty |= 0x80000000000; }
+        let c36: u64 = u64::from((self.v391 | (self.v323 << 1) | (self.v445 << 2)) == 0x7);
+        if self.v36 != c36 { self.v36 = c36; *dirty |= 0x20000000000; }
+        let c63: u64 = if (self.v565) != 0 { (self.v331) } else { (self.v530) };
+        if self.v63 != c63 { self.v63 = c63; *dirty |= 0x10000; }
+        let c308: u64 = (self.q45) & (self.v674) & 0x1;
+        if self.v308 != c308 { self.v308 = c308; *dirty |= 0x40000; }
+        let c423: u64 = if (c308) != 0 { (self.v420) } else { (self.v409) };
+        if self.v423 != c423 { self.v423 = c423; *dirty |= 0x10000; }
+        let c424: u64 = if (c308) != 0 { ((self.v421 << 1)) } else { (self.v411) };
+        if self.v424 != c424 { self.v424 = c424; *dirty |= 0x10000; }
+        let c425: u64 = if (c308) != 0 { (self.v422) } else { (self.v412) };
+        if self.v425 != c425 { self.v425 = c425; *dirty |= 0x50000; }
+        let c426: u64 = if (c308) != 0 { (self.q23) } else { (self.v388) };
+        if self.v426 != c426 { self.v426 = c426; *dirty |= 0x10000; }
+        let c427: u64 = if (c308) != 0 { (0x0) } else { (self.v403) };
+        if self.v427 != c427 { self.v427 = c427; *dirty |= 0x40000; }
+        let c428: u64 = if (c308) != 0 { (0x0) } else { (self.v404) };
+        if self.v428 != c428 { self.v428 = c428; *dirty |= 0x1000000000080000; }
+        let c429: u64 = if (c308) != 0 { (0x0) } else { (self.v405) };
+        if self.v429 != c429 { self.v429 = c429; *dirty |= 0x1000000000040000; }
+        let c430: u64 = if (c308) != 0 { (0x0) } else { (self.v407) };
+        if self.v430 != c430 { self.v430 = c430; *dirty |= 0x10000; }
+        let c431: u64 = if (c308) != 0 { (0x0) } else { (self.v408) };
+        if self.v431 != c431 { self.v431 = c431; *dirty |= 0x40000; }
+        let c432: u64 = if (c308) != 0 { (0x0) } else { (self.v410) };
+        if self.v432 != c432 { self.v432 = c432; *dirty |= 0x90000000010000; }
+        let c433: u64 = if (c308) != 0 { (0x0) } else { (self.v413) };
+        if self.v433 != c433 { self.v433 = c433; *dirty |= 0x10000; }
+        let c434: u64 = if (c308) != 0 { (0x0) } else { (self.v414) };
+        if self.v434 != c434 { self.v434 = c434; *dirty |= 0x20000; }
+        let c435: u64 = if (c308) != 0 { (0x0) } else { (self.v415) };
+        if self.v435 != c435 { self.v435 = c435; *dirty |= 0x200000000020000; }
+        let c436: u64 = if (c308) != 0 { (self.q56) } else { (self.v416) };
+        if self.v436 != c436 { self.v436 = c436; *dirty |= 0x10000; }
+        let c437: u64 = if (c308) != 0 { (0x0) } else { (self.v417) };
+        if self.v437 != c437 { self.v437 = c437; *dirty |= 0x80000; }
+        let c438: u64 = if (c308) != 0 { (0x0) } else { (self.v418) };
+        if self.v438 != c438 { self.v438 = c438; *dirty |= 0x40000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe.
-    fn group_17(&mut self, dirty: &mut u128) {
-        let c455: u64 = !(self.v426) & 0x1;
-        let c442: u64 = (self.q1) & (c455) & 0x1;
-        let c482: u64 = if (self.v603) != 0 { (0x0) } else { (self.v420) };
-        let c483: u64 = if (self.v450) != 0 { (c482) } else { (0x0) };
-        let c485: u64 = if (self.v457) != 0 { (0xa) } else { (self.v430) };
-        let c486: u64 = if (self.v457) != 0 { (0x0) } else { (self.v420) };
-        let c487: u64 = if (self.v457) != 0 { (0xd) } else { (self.v430) };
-        let c488: u64 = if (self.v457) != 0 { (self.v418) } else { (0x1) };
-        let c489: u64 = if (self.v457) != 0 { (self.v419) } else { (0x1) };
-        let c490: u64 = if (self.q49) != 0 { (self.v418) } else { (c488) };
-        let c491: u64 = if (self.q49) != 0 { (self.v419) } else { (c489) };
-        let c492: u64 = if (self.q49) != 0 { (c485) } else { (c487) };
-        let c497: u64 = if (self.q49) != 0 { (self.v420) } else { (0x0) };
-        let c498: u64 = if (self.v220) != 0 { (c497) } else { (c486) };
-        let c501: u64 = if (self.v220) != 0 { (self.v418) } else { (c490) };
-        let c502: u64 = if (self.v220) != 0 { (self.v419) } else { (c491) };
-        let c503: u64 = if (self.v220) != 0 { (self.v430) } else { (c492) };
-        let c504: u64 = ((self.q10) | (self.v61)) & 0x1;
-        let c506: u64 = if (self.v324) != 0 { (0x0) } else { (self.v420) };
-        let c507: u64 = if (self.v324) != 0 { (0xe) } else { (self.v430) };
-        let c508: u64 = ((self.v419) | (self.v447)) & 0x1;
-        let c510: u64 = if (self.v447) != 0 { (self.v420) } else { (c506) };
-        let c511: u64 = if (self.v447) != 0 { (self.v430) } else { (c507) };
-        let c514: u64 = if (self.v525) != 0 { (0xe) } else { (self.v430) };
-        let c516: u64 = if (self.q49) != 0 { (0x0) } else { (self.v420) };
-        let c522: u64 = if (self.v445) != 0 { (0x1) } else { (self.v420) };
-        let c526: u64 = if (self.q8) != 0 { (c522) } else { (c516) };
-        let c513: u64 = if (self.v525) != 0 { (0x0) } else { (c526) };
-        let c530: u64 = if (self.v444) != 0 { (0x0) } else { (self.v420) };
-        let c531: u64 = if (self.v166) != 0 { (c530) } else { (self.v420) };
-        let c532: u64 = if (self.v166) != 0 { (self.v444) } else { (c442) };
-        let c533: u64 = if (self.v166) != 0 { ((self.v444 << 1) | (self.v444 << 3) | 0x1) } else { (self.v430) };
-        let c534: u64 = if (self.v166) != 0 { (self.v443) } else { (c442) };
-        let c535: u64 = if (self.v166) != 0 { (self.v420) } else { (0x0) };
-        let c536: u64 = if (self.v166) != 0 { (self.v430) } else { (0xd) };
-        let c537: u64 = if (self.q49) != 0 { (c531) } else { (c535) };
-        let c538: u64 = if (self.q49) != 0 { (c532) } else { (c534) };
-        let c539: u64 = if (self.q49) != 0 { (c533) } else { (c536) };
-        let c540: u64 = if (self.v457) != 0 { (0x0) } else { (c442) };
-        let c541: u64 = if (self.v457) != 0 { (0x1) } else { (self.v430) };
-        let c542: u64 = (self.q49) & (c540) & 0x1;
-        let c543: u64 = if (self.q49) != 0 { (c541) } else { (self.v430) };
-        let c544: u64 = if (self.q58) != 0 { (c442) } else { (0x1) };
-        let c545: u64 = if (self.q58) != 0 { (self.v419) } else { (0x1) };
-        let c546: u64 = if (self.q49) != 0 { (c544) } else { (self.v323) };
-        let c547: u64 = if (self.q49) != 0 { (c545) } else { (self.v419) };
-        let c548: u64 = if (self.v603) != 0 { (0x1) } else { (self.v430) };
-        let c549: u64 = if (self.q49) != 0 { (c548) } else { (self.v430) };
-        let c550: u64 = { let s = (self.v240 | (self.v566 << 1) | (self.v558 << 2) | (self.v567 << 3) | (self.v561 << 4) | (self.v165 << 5)); if s >> 0 & 1 != 0 { c483 } else if s >> 1 & 1 != 0 { c498 } else if s >> 2 & 1 != 0 { c510 } else if s >> 3 & 1 != 0 { c513 } else if s >> 4 & 1 != 0 { c537 } else if s >> 5 & 1 != 0 { c497 } else { (self.v420) } };
-        let c551: u64 = { let s = (self.v566 | (self.v558 << 1) | (self.v567 << 2) | (self.v561 << 3) | (self.v562 << 4) | (self.v165 << 5)); if s >> 0 & 1 != 0 { c503 } else if s >> 1 & 1 != 0 { c511 } else if s >> 2 & 1 != 0 { c514 } else if s >> 3 & 1 != 0 { c539 } else if s >> 4 & 1 != 0 { c543 } else if s >> 5 & 1 != 0 { c549 } else { (self.v430) } };
-        let c554: u64 = if (self.v566) != 0 { (0x0) } else { (c504) };
-        if self.v554 != c554 { self.v554 = c554; *dirty |= 0x100000000000000000; }
-        let c556: u64 = if (self.v566) != 0 { (c501) } else { (self.v418) };
-        let c557: u64 = { let s = (self.v566 | (self.v558 << 1) | (self.v239 << 2)); if s >> 0 & 1 != 0 { c502 } else if s >> 1 & 1 != 0 { c508 } else if s >> 2 & 1 != 0 { c547 } else { (self.v419) } };
-        let c560: u64 = { let s = (self.v561 | (self.v562 << 1) | (self.v239 << 2)); if s >> 0 & 1 != 0 { c538 } else if s >> 1 & 1 != 0 { c542 } else if s >> 2 & 1 != 0 { c546 } else { (c442) } };
-        let c570: u64 = if (self.v668) != 0 { (self.v420) } else { (c550) };
-        let c480: u64 = if (self.v441) != 0 { (0x0) } else { (c570) };
-        let c571: u64 = if (self.v668) != 0 { (self.v418) } else { (c556) };
-        let c572: u64 = if (self.v668) != 0 { (self.v419) } else { (c557) };
-        let c3: u64 = u64::from((c572 | (self.v668 << 1) | (self.v567 << 2)) != 0);
-        let c4: u64 = u64::from((c572 | (self.v668 << 1)) != (0x2));
-        let c23: u64 = u64::from((self.q44 | (c3 << 1) | (c4 << 2)) == 0x7);
-        if self.v23 != c23 { self.v23 = c23; *dirty |= 0x400000000000000000; }
-        let c475: u64 = ((self.v569) | (c572)) & 0x1;
-        if self.v475 != c475 { self.v475 = c475; *dirty |= 0x40000000000000000; }
-        let c476: u64 = if (c572) != 0 { (self.v463) } else { (self.v527) };
-        if self.v476 != c476 { self.v476 = c476; *dirty |= 0x400000000000000000; }
-        let c477: u64 = ((self.v427) | (c572)) & 0x1;
-        let c478: u64 = if (c572) != 0 { (0x0) } else { (c480) };
-        if self.v478 != c478 { self.v478 = c478; *dirty |= 0x80000; }
-        let c574: u64 = if (self.v668) != 0 { (c442) } else { (c560) };
-        let c452: u64 = (c574) & (self.v328) & 0x1;
-        let c453: u64 = (c452) & (self.q56) & 0x1;
-        let c458: u64 = !(c574) & 0x1;
-        let c451: u64 = (self.v558) & (c458) & 0x1;
-        let c454: u64 = (self.q37) & (c458) & 0x1;
-        let c466: u64 = ((self.v578) | (c451)) & 0x1;
-        let c467: u64 = if (c451) != 0 { (0x0) } else { (c458) };
-        let c468: u64 = if (self.v417) != 0 { (c466) } else { (self.v578) };
-        let c469: u64 = (self.v417) & (c467) & 0x1;
-        let c470: u64 = if (self.v417) != 0 { (c574) } else { (self.v577) };
-        let c471: u64 = (c572) & (c453) & 0x1;
-        let c465: u64 = ((c471) | (c454)) & 0x1;
-        let c472: u64 = if (c572) != 0 { (c470) } else { (self.v577) };
-        let c473: u64 = if (c572) != 0 { (c468) } else { (self.v578) };
-        let c474: u64 = (c572) & (c469) & 0x1;
-        let c575: u64 = if (self.v668) != 0 { (self.v430) } else { (c551) };
-        let c481: u64 = if (self.v441) != 0 { (0x2) } else { (c575) };
-        let c479: u64 = if (c572) != 0 { (0xc) } else { (c481) };
-        let c579: u64 = (self.q44) & (c465) & 0x1;
-        if self.v579 != c579 { self.v579 = c579; *dirty |= 0x80000; }
-        let c41: u64 = u64::from((self.i_reset | (c579 << 1)) != 0);
-        if self.v41 != c41 { self.v41 = c41; *dirty |= 0x1000000000000000; }
-        let c580: u64 = if (self.q44) != 0 { (c477) } else { (self.v427) };
-        if self.v580 != c580 { self.v580 = c580; *dirty |= 0xc0000; }
-        let c581: u64 = if (self.q44) != 0 { (c479) } else { (self.v430) };
-        if self.v581 != c581 { self.v581 = c581; *dirty |= 0xc0000; }
-        let c582: u64 = (self.q44) & (c472) & 0x1;
-        if self.v582 != c582 { self.v582 = c582; *dirty |= 0x900000; }
-        let c583: u64 = (self.q44) & (c473) & 0x1;
-        if self.v583 != c583 { self.v583 = c583; *dirty |= 0x100000; }
-        let c584: u64 = (self.q44) & (c474) & 0x1;
-        if self.v584 != c584 { self.v584 = c584; *dirty |= 0x100000; }
-        let c585: u64 = (self.q44) & (c458) & 0x1;
-        if self.v585 != c585 { self.v585 = c585; *dirty |= 0x20000000000000; }
-        let c587: u64 = if (self.q44) != 0 { (c571) } else { (self.v418) };
-        if self.v587 != c587 { self.v587 = c587; *dirty |= 0x20000000000000; }
-        let c588: u64 = if (self.q44) != 0 { (c572) } else { (self.v419) };
-        if self.v588 != c588 { self.v588 = c588; *dirty |= 0xc0000; }
-        let c590: u64 = if (self.q44) != 0 { (c574) } else { (c442) };
-        if self.v590 != c590 { self.v590 = c590; *dirty |= 0x40000000000004040000; }
-        let c592: u64 = ((self.q13) | (self.v424)) & 0x1;
-        let c520: u64 = if (self.v446) != 0 { (0x0) } else { (c592) };
-        let c523: u64 = if (self.q8) != 0 { (c520) } else { (c592) };
-        let c512: u64 = if (self.v525) != 0 { (0x0) } else { (c523) };
-        let c552: u64 = if (self.v567) != 0 { (c512) } else { (c592) };
-        let c568: u64 = if (self.v668) != 0 { (c592) } else { (c552) };
-        let c586: u64 = if (self.q44) != 0 { (c568) } else { (c592) };
-        if self.v586 != c586 { self.v586 = c586; *dirty |= 0x20000000000000000; }
+    fn group_16(&mut self, dirty: &mut u128) {
+        let c461: u64 = !(self.v432) & 0x1;
+        let c448: u64 = (self.q1) & (c461) & 0x1;
+        let c488: u64 = if (self.v610) != 0 { (0x0) } else { (self.v426) };
+        let c489: u64 = if (self.v456) != 0 { (c488) } else { (0x0) };
+        let c491: u64 = if (self.v463) != 0 { (0xa) } else { (self.v436) };
+        let c492: u64 = if (self.v463) != 0 { (0x0) } else { (self.v426) };
+        let c493: u64 = if (self.v463) != 0 { (0xd) } else { (self.v436) };
+        let c494: u64 = if (self.v463) != 0 { (self.v424) } else { (0x1) };
+        let c495: u64 = if (self.v463) != 0 { (self.v425) } else { (0x1) };
+        let c496: u64 = if (self.q50) != 0 { (self.v424) } else { (c494) };
+        let c497: u64 = if (self.q50) != 0 { (self.v425) } else { (c495) };
+        let c498: u64 = if (self.q50) != 0 { (c491) } else { (c493) };
+        let c506: u64 = if (self.v224) != 0 { (self.v424) } else { (c496) };
+        let c507: u64 = if (self.v224) != 0 { (self.v425) } else { (c497) };
+        let c508: u64 = if (self.v224) != 0 { (self.v436) } else { (c498) };
+        let c509: u64 = ((self.q10) | (self.v63)) & 0x1;
+        let c511: u64 = if (self.v331) != 0 { (0x0) } else { (self.v426) };
+        let c512: u64 = if (self.v331) != 0 { (0xe) } else { (self.v436) };
+        let c513: u64 = ((self.v425) | (self.v453)) & 0x1;
+        let c515: u64 = if (self.v453) != 0 { (self.v426) } else { (c511) };
+        let c516: u64 = if (self.v453) != 0 { (self.v436) } else { (c512) };
+        let c519: u64 = if (self.v530) != 0 { (0xe) } else { (self.v436) };
+        let c521: u64 = if (self.q50) != 0 { (0x0) } else { (self.v426) };
+        let c527: u64 = if (self.v451) != 0 { (0x1) } else { (self.v426) };
+        let c531: u64 = if (self.q8) != 0 { (c527) } else { (c521) };
+        let c518: u64 = if (self.v530) != 0 { (0x0) } else { (c531) };
+        let c535: u64 = if (self.v450) != 0 { (0x0) } else { (self.v426) };
+        let c536: u64 = if (self.v168) != 0 { (c535) } else { (self.v426) };
+        let c537: u64 = if (self.v168) != 0 { (self.v450) } else { (c448) };
+        let c538: u64 = if (self.v168) != 0 { ((self.v450 << 1) | (self.v450 << 3) | 0x1) } else { (self.v436) };
+        let c539: u64 = if (self.v168) != 0 { (self.v449) } else { (c448) };
+        let c540: u64 = if (self.v168) != 0 { (self.v426) } else { (0x0) };
+        let c541: u64 = if (self.v168) != 0 { (self.v436) } else { (0xd) };
+        let c542: u64 = if (self.q50) != 0 { (c536) } else { (c540) };
+        let c543: u64 = if (self.q50) != 0 { (c537) } else { (c539) };
+        let c544: u64 = if (self.q50) != 0 { (c538) } else { (c541) };
+        let c545: u64 = if (self.v463) != 0 { (0x0) } else { (c448) };
+        let c546: u64 = if (self.v463) != 0 { (0x1) } else { (self.v436) };
+        let c547: u64 = (self.q50) & (c545) & 0x1;
+        let c548: u64 = if (self.q50) != 0 { (c546) } else { (self.v436) };
+        let c549: u64 = if (self.q59) != 0 { (c448) } else { (0x1) };
+        let c550: u64 = if (self.q59) != 0 { (self.v425) } else { (0x1) };
+        let c551: u64 = if (self.q50) != 0 { (c549) } else { (self.v330) };
+        let c552: u64 = if (self.q50) != 0 { (c550) } else { (self.v425) };
+        let c553: u64 = if (self.v610) != 0 { (0x1) } else { (self.v436) };
+        let c554: u64 = if (self.q50) != 0 { (self.v426) } else { (0x0) };
+        let c503: u64 = if (self.v224) != 0 { (c554) } else { (c492) };
+        let c555: u64 = if (self.q50) != 0 { (c553) } else { (self.v436) };
+        let c556: u64 = { let s = (self.v571 | (self.v233 << 1) | (self.v565 << 2) | (self.v574 << 3) | (self.v568 << 4) | (self.v558 << 5)); if s >> 0 & 1 != 0 { c489 } else if s >> 1 & 1 != 0 { c503 } else if s >> 2 & 1 != 0 { c515 } else if s >> 3 & 1 != 0 { c518 } else if s >> 4 & 1 != 0 { c542 } else if s >> 5 & 1 != 0 { c554 } else { (self.v426) } };
+        let c557: u64 = { let s = (self.v233 | (self.v565 << 1) | (self.v574 << 2) | (self.v568 << 3) | (self.v569 << 4) | (self.v558 << 5)); if s >> 0 & 1 != 0 { c508 } else if s >> 1 & 1 != 0 { c516 } else if s >> 2 & 1 != 0 { c519 } else if s >> 3 & 1 != 0 { c544 } else if s >> 4 & 1 != 0 { c548 } else if s >> 5 & 1 != 0 { c555 } else { (self.v436) } };
+        let c561: u64 = if (self.v233) != 0 { (0x0) } else { (c509) };
+        if self.v561 != c561 { self.v561 = c561; *dirty |= 0x100000000000000000; }
+        let c563: u64 = if (self.v233) != 0 { (c506) } else { (self.v424) };
+        let c564: u64 = { let s = (self.v233 | (self.v565 << 1) | (self.v167 << 2)); if s >> 0 & 1 != 0 { c507 } else if s >> 1 & 1 != 0 { c513 } else if s >> 2 & 1 != 0 { c552 } else { (self.v425) } };
+        let c567: u64 = { let s = (self.v568 | (self.v569 << 1) | (self.v167 << 2)); if s >> 0 & 1 != 0 { c543 } else if s >> 1 & 1 != 0 { c547 } else if s >> 2 & 1 != 0 { c551 } else { (c448) } };
+        let c577: u64 = if (self.v674) != 0 { (self.v426) } else { (c556) };
+        let c486: u64 = if (self.v447) != 0 { (0x0) } else { (c577) };
+        let c578: u64 = if (self.v674) != 0 { (self.v424) } else { (c563) };
+        let c579: u64 = if (self.v674) != 0 { (self.v425) } else { (c564) };
+        let c3: u64 = u64::from((c579 | (self.v674 << 1) | (self.v574 << 2)) != 0);
+        let c4: u64 = u64::from((c579 | (self.v674 << 1)) != (0x2));
+        let c24: u64 = u64::from((self.q45 | (c3 << 1) | (c4 << 2)) == 0x7);
+        if self.v24 != c24 { self.v24 = c24; *dirty |= 0x400000000000000000; }
+        let c481: u64 = ((self.v576) | (c579)) & 0x1;
+        if self.v481 != c481 { self.v481 = c481; *dirty |= 0x40000000000000000; }
+        let c482: u64 = if (c579) != 0 { (self.v469) } else { (self.v532) };
+        if self.v482 != c482 { self.v482 = c482; *dirty |= 0x400000000000000000; }
+        let c483: u64 = ((self.v433) | (c579)) & 0x1;
+        let c484: u64 = if (c579) != 0 { (0x0) } else { (c486) };
+        if self.v484 != c484 { self.v484 = c484; *dirty |= 0x40000; }
+        let c581: u64 = if (self.v674) != 0 { (c448) } else { (c567) };
+        let c458: u64 = (c581) & (self.v335) & 0x1;
+        let c459: u64 = (c458) & (self.q57) & 0x1;
+        let c464: u64 = !(c581) & 0x1;
+        let c457: u64 = (self.v565) & (c464) & 0x1;
+        let c460: u64 = (self.q38) & (c464) & 0x1;
+        let c472: u64 = ((self.v585) | (c457)) & 0x1;
+        let c473: u64 = if (c457) != 0 { (0x0) } else { (c464) };
+        let c474: u64 = if (self.v423) != 0 { (c472) } else { (self.v585) };
+        let c475: u64 = (self.v423) & (c473) & 0x1;
+        let c476: u64 = if (self.v423) != 0 { (c581) } else { (self.v584) };
+        let c477: u64 = (c579) & (c459) & 0x1;
+        let c471: u64 = ((c477) | (c460)) & 0x1;
+        let c478: u64 = if (c579) != 0 { (c476) } else { (self.v584) };
+        let c479: u64 = if (c579) != 0 { (c474) } else { (self.v585) };
+        let c480: u64 = (c579) & (c475) & 0x1;
+        let c582: u64 = if (self.v674) != 0 { (self.v436) } else { (c557) };
+        let c487: u64 = if (self.v447) != 0 { (0x2) } else { (c582) };
+        let c485: u64 = if (c579) != 0 { (0xc) } else { (c487) };
+        let c586: u64 = (self.q45) & (c471) & 0x1;
+        if self.v586 != c586 { self.v586 = c586; *dirty |= 0x40000; }
+        let c43: u64 = u64::from((self.i_reset | (c586 << 1)) != 0);
+        if self.v43 != c43 { self.v43 = c43; *dirty |= 0x1000000000000000; }
+        let c587: u64 = if (self.q45) != 0 { (c483) } else { (self.v433) };
+        if self.v587 != c587 { self.v587 = c587; *dirty |= 0x60000; }
+        let c588: u64 = if (self.q45) != 0 { (c485) } else { (self.v436) };
+        if self.v588 != c588 { self.v588 = c588; *dirty |= 0x60000; }
+        let c589: u64 = (self.q45) & (c478) & 0x1;
+        if self.v589 != c589 { self.v589 = c589; *dirty |= 0x480000; }
+        let c590: u64 = (self.q45) & (c479) & 0x1;
+        if self.v590 != c590 { self.v590 = c590; *dirty |= 0x80000; }
+        let c591: u64 = (self.q45) & (c480) & 0x1;
+        if self.v591 != c591 { self.v591 = c591; *dirty |= 0x80000; }
+        let c592: u64 = (self.q45) & (c464) & 0x1;
+        if self.v592 != c592 { self.v592 = c592; *dirty |= 0x20000000000000; }
+        let c594: u64 = if (self.q45) != 0 { (c578) } else { (self.v424) };
+        if self.v594 != c594 { self.v594 = c594; *dirty |= 0x20000000000000; }
+        let c595: u64 = if (self.q45) != 0 { (c579) } else { (self.v425) };
+        if self.v595 != c595 { self.v595 = c595; *dirty |= 0x60000; }
+        let c597: u64 = if (self.q45) != 0 { (c581) } else { (c448) };
+        if self.v597 != c597 { self.v597 = c597; *dirty |= 0x40000000000002020000; }
+        let c599: u64 = ((self.q13) | (self.v430)) & 0x1;
+        let c525: u64 = if (self.v452) != 0 { (0x0) } else { (c599) };
+        let c528: u64 = if (self.q8) != 0 { (c525) } else { (c599) };
+        let c517: u64 = if (self.v530) != 0 { (0x0) } else { (c528) };
+        let c559: u64 = if (self.v574) != 0 { (c517) } else { (c599) };
+        let c575: u64 = if (self.v674) != 0 { (c599) } else { (c559) };
+        let c593: u64 = if (self.q45) != 0 { (c575) } else { (c599) };
+        if self.v593 != c593 { self.v593 = c593; *dirty |= 0x20000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender.
-    fn group_18(&mut self, dirty: &mut u128) {
-        let c598: u64 = (self.v597) & (self.v590) & 0x1;
-        let c610: u64 = !(self.v428) & 0x1;
-        if self.v610 != c610 { self.v610 = c610; *dirty |= 0x4000000; }
-        let c613: u64 = !(self.v588) & 0x1;
-        if self.v613 != c613 { self.v613 = c613; *dirty |= 0x80000; }
-        let c599: u64 = (c598) & (c613) & 0x1;
-        let c614: u64 = !(self.v580) & 0x1;
-        let c600: u64 = (c599) & (c614) & 0x1;
-        if self.v600 != c600 { self.v600 = c600; *dirty |= 0x4000000; }
-        let c623: u64 = u64::from((self.v581) == (0xc));
-        if self.v623 != c623 { self.v623 = c623; *dirty |= 0x4000000; }
-        let c624: u64 = if (self.v429) != 0 { (self.v666) } else { ((self.q22 >> 14)) };
-        let c625: u64 = u64::from((self.v581) == (0x5));
-        if self.v625 != c625 { self.v625 = c625; *dirty |= 0x4000000; }
-        let c626: u64 = if (self.v590) != 0 { (c624) } else { (0x1) };
-        if self.v626 != c626 { self.v626 = c626; *dirty |= 0x4000000; }
-        let c634: u64 = if (self.v590) != 0 { (self.v629) } else { (0x1) };
-        if self.v634 != c634 { self.v634 = c634; *dirty |= 0x4000000; }
-        let c640: u64 = u64::from((self.v581) == (0x2));
-        if self.v640 != c640 { self.v640 = c640; *dirty |= 0x4000000; }
-        let c642: u64 = u64::from((self.v581) == (0xd));
-        if self.v642 != c642 { self.v642 = c642; *dirty |= 0x4000000; }
-        let c643: u64 = u64::from((self.v581) == (0x7));
-        if self.v643 != c643 { self.v643 = c643; *dirty |= 0x4000000; }
-        let c644: u64 = u64::from((self.v581) == (0x4));
-        if self.v644 != c644 { self.v644 = c644; *dirty |= 0x4000000; }
-        let c645: u64 = u64::from((self.v581) == (0x1));
-        if self.v645 != c645 { self.v645 = c645; *dirty |= 0x4000000; }
-        let c646: u64 = u64::from((self.v581) == (0x3));
-        if self.v646 != c646 { self.v646 = c646; *dirty |= 0x4000000; }
+    fn group_17(&mut self, dirty: &mut u128) {
+        let c603: u64 = (self.v675) & (self.v18) & 0x1;
+        let c604: u64 = (c603) & (self.v325) & 0x1;
+        let c605: u64 = (c604) & (self.v597) & 0x1;
+        let c612: u64 = !(self.v444) & 0x1;
+        if self.v612 != c612 { self.v612 = c612; *dirty |= 0x2000000; }
+        let c617: u64 = !(self.v434) & 0x1;
+        if self.v617 != c617 { self.v617 = c617; *dirty |= 0x2000000; }
+        let c618: u64 = !(self.v596) & 0x1;
+        let c602: u64 = (self.v574) & (c618) & 0x1;
+        let c619: u64 = !(self.v595) & 0x1;
+        if self.v619 != c619 { self.v619 = c619; *dirty |= 0x40000; }
+        let c606: u64 = (c605) & (c619) & 0x1;
+        let c620: u64 = !(self.v587) & 0x1;
+        let c607: u64 = (c606) & (c620) & 0x1;
+        if self.v607 != c607 { self.v607 = c607; *dirty |= 0x2000000; }
+        let c625: u64 = if (self.v104) != 0 { (self.q58) } else { (self.q59) };
+        let c624: u64 = ((c625) | (self.i_listen_only)) & 0x1;
+        let c623: u64 = ((c624) | (self.v621)) & 0x1;
+        if self.v623 != c623 { self.v623 = c623; *dirty |= 0x2000000000000000000; }
+        let c628: u64 = if (c602) != 0 { (self.q8) } else { (self.v469) };
+        if self.v628 != c628 { self.v628 = c628; *dirty |= 0x2000000; }
+        let c629: u64 = u64::from((self.v588) == (0xc));
+        if self.v629 != c629 { self.v629 = c629; *dirty |= 0x2000000; }
+        let c630: u64 = if (self.v435) != 0 { (self.v672) } else { ((self.q22 >> 14)) };
+        let c631: u64 = if (self.v597) != 0 { (c630) } else { (0x1) };
+        if self.v631 != c631 { self.v631 = c631; *dirty |= 0x2000000; }
+        let c632: u64 = u64::from((self.v588) == (0x5));
+        if self.v632 != c632 { self.v632 = c632; *dirty |= 0x2000000; }
+        let c635: u64 = u64::from((self.v588) == (0x4));
+        if self.v635 != c635 { self.v635 = c635; *dirty |= 0x2000000; }
+        let c638: u64 = u64::from((self.v588) == (0x3));
+        if self.v638 != c638 { self.v638 = c638; *dirty |= 0x2000000; }
+        let c644: u64 = u64::from((self.v588) == (0x2));
+        if self.v644 != c644 { self.v644 = c644; *dirty |= 0x2000000; }
+        let c650: u64 = u64::from((self.v588) == (0xd));
+        if self.v650 != c650 { self.v650 = c650; *dirty |= 0x2000000; }
+        let c651: u64 = u64::from((self.v588) == (0x7));
+        if self.v651 != c651 { self.v651 = c651; *dirty |= 0x2000000; }
+        let c652: u64 = u64::from((self.v588) == (0x1));
+        if self.v652 != c652 { self.v652 = c652; *dirty |= 0x2000000; }
+        let c656: u64 = if (self.v674) != 0 { ((self.q23 & 0x7)) } else { ((self.v601 & 0x7)) };
+        let c657: u64 = if (self.v674) != 0 { (self.v319) } else { (self.v611) };
+        let c653: u64 = if (self.v447) != 0 { (0x0) } else { (c657) };
+        if self.v653 != c653 { self.v653 = c653; *dirty |= 0x2000000; }
+        let c658: u64 = if (self.v674) != 0 { (self.v318) } else { (self.v317) };
+        let c654: u64 = if (self.v447) != 0 { (0x0) } else { (c658) };
+        if self.v654 != c654 { self.v654 = c654; *dirty |= 0x2000000; }
+        let c659: u64 = if (self.v674) != 0 { (self.v317) } else { (self.v610) };
+        let c655: u64 = if (self.v447) != 0 { (0x0) } else { (c659) };
+        if self.v655 != c655 { self.v655 = c655; *dirty |= 0x2000000; }
+        let c670: u64 = (c656).wrapping_sub((0x1)) & 0x7;
+        let c641: u64 = if ((self.i_transmit_info >> 7)) != 0 { (c670) } else { (c656) };
+        let c613: u64 = u64::from((c641) == (0x1));
+        let c614: u64 = u64::from((c641) == (0x2));
+        let c615: u64 = u64::from((c641) == (0x3));
+        let c616: u64 = u64::from((c641) == (0x4));
+        let c640: u64 = (c613) & (((self.i_transmit_info >> 3) & 0x1)) & 0x1;
+        let c639: u64 = if (c614) != 0 { (((self.i_transmit_info >> 2) & 0x1)) } else { (c640) };
+        let c637: u64 = if (c615) != 0 { (((self.i_transmit_info >> 1) & 0x1)) } else { (c639) };
+        let c636: u64 = if (c616) != 0 { ((self.i_transmit_info & 0x1)) } else { (c637) };
+        let c642: u64 = if (self.v597) != 0 { (c636) } else { (0x1) };
+        if self.v642 != c642 { self.v642 = c642; *dirty |= 0x2000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol.
-    fn group_19(&mut self, dirty: &mut u128) {
-        let c37: u64 = u64::from((self.i_reset | (self.v303 << 1) | (self.v156 << 2)) != 0);
-        if self.v37 != c37 { self.v37 = c37; *dirty |= 0x80000000000000000000; }
-        let c158: u64 = (self.v432) & (self.v613) & 0x1;
-        if self.v158 != c158 { self.v158 = c158; *dirty |= 0x4800000000004000000; }
-        let c21: u64 = u64::from((self.v601 | (c158 << 1)) == 0x3);
-        if self.v21 != c21 { self.v21 = c21; *dirty |= 0x8000000; }
-        let c176: u64 = !(self.v419) & 0x1;
-        let c159: u64 = (self.v421) & (c176) & 0x1;
-        if self.v159 != c159 { self.v159 = c159; *dirty |= 0x4000000; }
-        let c1: u64 = u64::from((self.v601 | (c159 << 1) | (c158 << 2)) != (0x4));
-        let c2: u64 = u64::from((c159 | (c158 << 1)) != 0);
-        let c22: u64 = u64::from((c1 | (c2 << 1)) == 0x3);
-        if self.v22 != c22 { self.v22 = c22; *dirty |= 0x8000000; }
-        let c178: u64 = !(self.v441) & 0x1;
-        let c160: u64 = (self.v177) & (c178) & 0x1;
-        let c39: u64 = u64::from((self.i_reset | (c160 << 1)) != 0);
-        if self.v39 != c39 { self.v39 = c39; *dirty |= 0x8000000; }
-        let c40: u64 = u64::from((self.i_reset | (c160 << 1) | (c159 << 2)) != 0);
-        if self.v40 != c40 { self.v40 = c40; *dirty |= 0x800000000008000000; }
-        let c180: u64 = ((self.v580) | (self.v156)) & 0x1;
-        if self.v180 != c180 { self.v180 = c180; *dirty |= 0x10000000; }
-        let c183: u64 = ((self.v588) | (self.v589)) & 0x1;
-        if self.v183 != c183 { self.v183 = c183; *dirty |= 0x60000000000000; }
-        let c202: u64 = if (self.q44) != 0 { (self.v478) } else { (self.q23) };
-        let c199: u64 = if (self.v175) != 0 { (0x0) } else { (c202) };
-        let c200: u64 = if (self.q53) != 0 { (c199) } else { (c202) };
-        if self.v200 != c200 { self.v200 = c200; *dirty |= 0x100000000000000; }
-        let c203: u64 = if (self.q44) != 0 { (self.v581) } else { (self.q55) };
-        let c201: u64 = if (self.q53) != 0 { (0xf) } else { (c203) };
-        let c198: u64 = if (self.v161) != 0 { (0x1) } else { (c201) };
-        let c197: u64 = if (self.v156) != 0 { (0x0) } else { (c198) };
-        let c195: u64 = if (self.i_reset) != 0 { (0x0) } else { (c197) };
-        if self.v195 != c195 { self.v195 = c195; *dirty |= 0x8000000000000000; }
-        let c167: u64 = u64::from((c195) == (0x2));
-        let c168: u64 = u64::from((c195) == (0x3));
-        let c169: u64 = u64::from((c195) == (0x4));
-        let c170: u64 = u64::from((c195) == (0x5));
-        let c171: u64 = u64::from((c195) == (0x6));
-        let c172: u64 = u64::from((c195) == (0x7));
-        let c173: u64 = u64::from((c195) == (0x8));
-        let c174: u64 = u64::from((c195) == (0x9));
-        let c188: u64 = ((c167) | (c168)) & 0x1;
-        let c189: u64 = ((c188) | (c169)) & 0x1;
-        let c190: u64 = ((c189) | (c170)) & 0x1;
+    fn group_18(&mut self, dirty: &mut u128) {
+        let c39: u64 = u64::from((self.i_reset | (self.v308 << 1) | (self.v158 << 2)) != 0);
+        if self.v39 != c39 { self.v39 = c39; *dirty |= 0x80000000000000000000; }
+        let c160: u64 = (self.v438) & (self.v619) & 0x1;
+        if self.v160 != c160 { self.v160 = c160; *dirty |= 0x4800000000002000000; }
+        let c22: u64 = u64::from((self.v608 | (c160 << 1)) == 0x3);
+        if self.v22 != c22 { self.v22 = c22; *dirty |= 0x4000000; }
+        let c178: u64 = !(self.v425) & 0x1;
+        let c161: u64 = (self.v427) & (c178) & 0x1;
+        if self.v161 != c161 { self.v161 = c161; *dirty |= 0x2000000; }
+        let c1: u64 = u64::from((self.v608 | (c161 << 1) | (c160 << 2)) != (0x4));
+        let c2: u64 = u64::from((c161 | (c160 << 1)) != 0);
+        let c23: u64 = u64::from((c1 | (c2 << 1)) == 0x3);
+        if self.v23 != c23 { self.v23 = c23; *dirty |= 0x4000000; }
+        let c180: u64 = !(self.v447) & 0x1;
+        let c162: u64 = (self.v179) & (c180) & 0x1;
+        let c41: u64 = u64::from((self.i_reset | (c162 << 1)) != 0);
+        if self.v41 != c41 { self.v41 = c41; *dirty |= 0x4000000; }
+        let c42: u64 = u64::from((self.i_reset | (c162 << 1) | (c161 << 2)) != 0);
+        if self.v42 != c42 { self.v42 = c42; *dirty |= 0x800000000004000000; }
+        let c182: u64 = ((self.v587) | (self.v158)) & 0x1;
+        if self.v182 != c182 { self.v182 = c182; *dirty |= 0x8000000; }
+        let c185: u64 = ((self.v595) | (self.v596)) & 0x1;
+        if self.v185 != c185 { self.v185 = c185; *dirty |= 0x60000000000000; }
+        let c204: u64 = if (self.q45) != 0 { (self.v484) } else { (self.q23) };
+        let c201: u64 = if (self.v177) != 0 { (0x0) } else { (c204) };
+        let c202: u64 = if (self.q54) != 0 { (c201) } else { (c204) };
+        if self.v202 != c202 { self.v202 = c202; *dirty |= 0x100000000000000; }
+        let c205: u64 = if (self.q45) != 0 { (self.v588) } else { (self.q56) };
+        let c203: u64 = if (self.q54) != 0 { (0xf) } else { (c205) };
+        let c200: u64 = if (self.v163) != 0 { (0x1) } else { (c203) };
+        let c199: u64 = if (self.v158) != 0 { (0x0) } else { (c200) };
+        let c197: u64 = if (self.i_reset) != 0 { (0x0) } else { (c199) };
+        if self.v197 != c197 { self.v197 = c197; *dirty |= 0x8000000000000000; }
+        let c169: u64 = u64::from((c197) == (0x2));
+        let c170: u64 = u64::from((c197) == (0x3));
+        let c171: u64 = u64::from((c197) == (0x4));
+        let c172: u64 = u64::from((c197) == (0x5));
+        let c173: u64 = u64::from((c197) == (0x6));
+        let c174: u64 = u64::from((c197) == (0x7));
+        let c175: u64 = u64::from((c197) == (0x8));
+        let c176: u64 = u64::from((c197) == (0x9));
+        let c190: u64 = ((c169) | (c170)) & 0x1;
         let c191: u64 = ((c190) | (c171)) & 0x1;
         let c192: u64 = ((c191) | (c172)) & 0x1;
         let c193: u64 = ((c192) | (c173)) & 0x1;
         let c194: u64 = ((c193) | (c174)) & 0x1;
-        if self.v194 != c194 { self.v194 = c194; *dirty |= 0x10000000000000000; }
-        let c205: u64 = ((self.q21) | (self.v425)) & 0x1;
-        if self.v205 != c205 { self.v205 = c205; *dirty |= 0x400000000000000; }
-        let c206: u64 = ((self.v423) | (self.v579)) & 0x1;
-        if self.v206 != c206 { self.v206 = c206; *dirty |= 0x800000000000000; }
+        let c195: u64 = ((c194) | (c175)) & 0x1;
+        let c196: u64 = ((c195) | (c176)) & 0x1;
+        if self.v196 != c196 { self.v196 = c196; *dirty |= 0x10000000000000000; }
+        let c207: u64 = ((self.q21) | (self.v431)) & 0x1;
+        if self.v207 != c207 { self.v207 = c207; *dirty |= 0x400000000000000; }
+        let c208: u64 = ((self.v429) | (self.v586)) & 0x1;
+        if self.v208 != c208 { self.v208 = c208; *dirty |= 0x800000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$faults.
-    fn group_20(&mut self, dirty: &mut u128) {
-        let c14: u64 = u64::from((self.i_counters_load_tec | (self.v250 << 1) | (self.q53 << 2) | (self.v591 << 3)) != (0xe));
-        if self.v14 != c14 { self.v14 = c14; *dirty |= 0x800000; }
-        let c246: u64 = (self.v422) & (self.v255) & 0x1;
-        if self.v246 != c246 { self.v246 = c246; *dirty |= 0x800000; }
-        let c247: u64 = (self.v584) & (self.v256) & 0x1;
-        let c282: u64 = (self.v582) & (self.v281) & 0x1;
-        let c283: u64 = if (self.v582) != 0 { (self.v279) } else { (self.q17 | (self.q18 << 7)) };
-        let c277: u64 = if (c247) != 0 { (self.v244) } else { (c283) };
-        let c276: u64 = if (self.v583) != 0 { (self.v275) } else { (c277) };
-        let c272: u64 = if (self.v257) != 0 { (self.v298) } else { (c276) };
-        let c273: u64 = if (self.q18) != 0 { (0x7f) } else { (c272) };
-        let c274: u64 = if (self.v431) != 0 { (c273) } else { (c276) };
-        let c284: u64 = if (self.v582) != 0 { (self.v280) } else { ((self.q14 << 5)) };
-        let c278: u64 = if (c246) != 0 { (self.v297) } else { ((c284 & 0x1) | ((c284 & 0x1) << 1) | (c284 << 2)) };
-        let c285: u64 = if (self.v181) != 0 { (self.q17 | (self.q18 << 7)) } else { (c274) };
-        let c286: u64 = if (self.v181) != 0 { ((self.q14 << 7)) } else { (c278) };
-        let c287: u64 = if (self.v181) != 0 { (0x0) } else { (c282) };
-        let c291: u64 = if (self.v591) != 0 { (self.v289) } else { (0x1) };
-        let c292: u64 = if (self.v591) != 0 { (self.v288) } else { (self.q17 | (self.q18 << 7)) };
-        let c293: u64 = if (self.v591) != 0 { (self.v290) } else { ((self.q14 << 7)) };
-        let c294: u64 = if (self.q53) != 0 { (c291) } else { (c287) };
-        let c265: u64 = if (self.q53) != 0 { (0x0) } else { (c294) };
-        let c268: u64 = ((c265) | (self.v253)) & 0x1;
-        let c269: u64 = if (self.i_counters_load_tec) != 0 { (c268) } else { (c294) };
-        let c260: u64 = if (self.i_reset) != 0 { (0x0) } else { (c269) };
-        if self.v260 != c260 { self.v260 = c260; *dirty |= 0x2000000000000000; }
-        let c258: u64 = !(c260) & 0x1;
-        let c295: u64 = if (self.q53) != 0 { (c292) } else { (c285) };
-        let c264: u64 = if (self.q53) != 0 { (0x0) } else { (c295) };
-        let c266: u64 = if (self.v253) != 0 { (0x0) } else { (c264) };
-        let c270: u64 = if (self.i_counters_load_tec) != 0 { (c266) } else { (c295) };
-        let c263: u64 = if (self.v248) != 0 { (self.i_counters_value) } else { (c270) };
-        if self.v263 != c263 { self.v263 = c263; *dirty |= 0x2000000; }
-        let c261: u64 = if (self.i_reset) != 0 { (0x0) } else { (c263) };
-        if self.v261 != c261 { self.v261 = c261; *dirty |= 0x2000000; }
-        let c296: u64 = if (self.q53) != 0 { (c293) } else { (c286) };
-        let c271: u64 = if (self.i_counters_load_tec) != 0 { (self.v267) } else { (c296) };
-        if self.v271 != c271 { self.v271 = c271; *dirty |= 0x1000000; }
-        let c262: u64 = if (self.i_reset) != 0 { (0x0) } else { (c271) };
-        if self.v262 != c262 { self.v262 = c262; *dirty |= 0x1000000; }
-        let c259: u64 = (((c262 >> 7)) | ((c261 >> 7))) & 0x1;
-        let c249: u64 = (c258) & (c259) & 0x1;
-        if self.v249 != c249 { self.v249 = c249; *dirty |= 0x4000000000000000; }
+    fn group_19(&mut self, dirty: &mut u128) {
+        let c14: u64 = u64::from((self.i_counters_load_tec | (self.v255 << 1) | (self.q54 << 2) | (self.v598 << 3)) != (0xe));
+        if self.v14 != c14 { self.v14 = c14; *dirty |= 0x400000; }
+        let c251: u64 = (self.v428) & (self.v260) & 0x1;
+        if self.v251 != c251 { self.v251 = c251; *dirty |= 0x400000; }
+        let c252: u64 = (self.v591) & (self.v261) & 0x1;
+        let c287: u64 = (self.v589) & (self.v286) & 0x1;
+        let c288: u64 = if (self.v589) != 0 { (self.v284) } else { (self.q17 | (self.q18 << 7)) };
+        let c282: u64 = if (c252) != 0 { (self.v249) } else { (c288) };
+        let c281: u64 = if (self.v590) != 0 { (self.v280) } else { (c282) };
+        let c277: u64 = if (self.v262) != 0 { (self.v303) } else { (c281) };
+        let c278: u64 = if (self.q18) != 0 { (0x7f) } else { (c277) };
+        let c279: u64 = if (self.v437) != 0 { (c278) } else { (c281) };
+        let c289: u64 = if (self.v589) != 0 { (self.v285) } else { ((self.q14 << 5)) };
+        let c283: u64 = if (c251) != 0 { (self.v302) } else { ((c289 & 0x1) | ((c289 & 0x1) << 1) | (c289 << 2)) };
+        let c290: u64 = if (self.v183) != 0 { (self.q17 | (self.q18 << 7)) } else { (c279) };
+        let c291: u64 = if (self.v183) != 0 { ((self.q14 << 7)) } else { (c283) };
+        let c292: u64 = if (self.v183) != 0 { (0x0) } else { (c287) };
+        let c296: u64 = if (self.v598) != 0 { (self.v294) } else { (0x1) };
+        let c297: u64 = if (self.v598) != 0 { (self.v293) } else { (self.q17 | (self.q18 << 7)) };
+        let c298: u64 = if (self.v598) != 0 { (self.v295) } else { ((self.q14 << 7)) };
+        let c299: u64 = if (self.q54) != 0 { (c296) } else { (c292) };
+        let c270: u64 = if (self.q54) != 0 { (0x0) } else { (c299) };
+        let c273: u64 = ((c270) | (self.v258)) & 0x1;
+        let c274: u64 = if (self.i_counters_load_tec) != 0 { (c273) } else { (c299) };
+        let c265: u64 = if (self.i_reset) != 0 { (0x0) } else { (c274) };
+        if self.v265 != c265 { self.v265 = c265; *dirty |= 0x2000000000000000; }
+        let c263: u64 = !(c265) & 0x1;
+        let c300: u64 = if (self.q54) != 0 { (c297) } else { (c290) };
+        let c269: u64 = if (self.q54) != 0 { (0x0) } else { (c300) };
+        let c271: u64 = if (self.v258) != 0 { (0x0) } else { (c269) };
+        let c275: u64 = if (self.i_counters_load_tec) != 0 { (c271) } else { (c300) };
+        let c268: u64 = if (self.v253) != 0 { (self.i_counters_value) } else { (c275) };
+        if self.v268 != c268 { self.v268 = c268; *dirty |= 0x1000000; }
+        let c266: u64 = if (self.i_reset) != 0 { (0x0) } else { (c268) };
+        if self.v266 != c266 { self.v266 = c266; *dirty |= 0x1000000; }
+        let c301: u64 = if (self.q54) != 0 { (c298) } else { (c291) };
+        let c276: u64 = if (self.i_counters_load_tec) != 0 { (self.v272) } else { (c301) };
+        if self.v276 != c276 { self.v276 = c276; *dirty |= 0x800000; }
+        let c267: u64 = if (self.i_reset) != 0 { (0x0) } else { (c276) };
+        if self.v267 != c267 { self.v267 = c267; *dirty |= 0x800000; }
+        let c264: u64 = (((c267 >> 7)) | ((c266 >> 7))) & 0x1;
+        let c254: u64 = (c263) & (c264) & 0x1;
+        if self.v254 != c254 { self.v254 = c254; *dirty |= 0x4000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler.
-    fn group_21(&mut self, dirty: &mut u128) {
-        let c32: u64 = u64::from((self.v208 | (self.v386 << 1) | (self.v439 << 2)) == 0x7);
-        if self.v32 != c32 { self.v32 = c32; *dirty |= 0x200000000000; }
-        let c34: u64 = u64::from((self.v385 | (self.v210 << 1) | (self.v439 << 2)) == 0x7);
-        if self.v34 != c34 { self.v34 = c34; *dirty |= 0x40000000000; }
-        let c215: u64 = (self.v439) & (self.v213) & 0x1;
-        if self.v215 != c215 { self.v215 = c215; *dirty |= 0x80000000000; }
-        let c216: u64 = (self.v439) & (self.v214) & 0x1;
-        if self.v216 != c216 { self.v216 = c216; *dirty |= 0x400000000000; }
+    fn group_20(&mut self, dirty: &mut u128) {
+        let c34: u64 = u64::from((self.v210 | (self.v236 << 1) | (self.v445 << 2)) == 0x7);
+        if self.v34 != c34 { self.v34 = c34; *dirty |= 0x100000000000; }
+        let c219: u64 = (self.v445) & (self.v217) & 0x1;
+        if self.v219 != c219 { self.v219 = c219; *dirty |= 0x40000000000; }
+        let c220: u64 = (self.v445) & (self.v218) & 0x1;
+        if self.v220 != c220 { self.v220 = c220; *dirty |= 0x200000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$clocks.
-    fn group_22(&mut self, dirty: &mut u128) {
-        self.n46 = if (self.i_reset) != 0 { 0x0 } else { (self.v113) };
-        self.n47 = if (self.v48) != 0 { 0x0 } else { ((self.v63 >> 1)) };
+    fn group_21(&mut self, dirty: &mut u128) {
+        self.n47 = if (self.i_reset) != 0 { 0x0 } else { (self.v115) };
+        self.n48 = if (self.v50) != 0 { 0x0 } else { ((self.v65 >> 1)) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol.
-    fn group_23(&mut self, dirty: &mut u128) {
-        let c11: u64 = u64::from((self.i_counters_load_tec | (self.v181 << 1) | (self.v251 << 2) | (self.v246 << 3) | (self.q53 << 4) | (self.v582 << 5)) != (0x20));
-        let c12: u64 = u64::from((self.i_counters_load_tec | (self.v181 << 1) | (self.v246 << 2) | (self.q53 << 3) | (self.v582 << 4)) != 0);
-        let c27: u64 = u64::from((self.v14 | (self.v15 << 1) | (self.v13 << 2) | (c12 << 3) | (c11 << 4)) == 0x1f);
-        if self.v27 != c27 { self.v27 = c27; *dirty |= 0x1000000; }
-        let c28: u64 = u64::from((self.v14 | (self.v15 << 1) | (self.v13 << 2) | (c12 << 3)) == 0xf);
-        if self.v28 != c28 { self.v28 = c28; *dirty |= 0x1000000; }
+    fn group_22(&mut self, dirty: &mut u128) {
+        let c11: u64 = u64::from((self.i_counters_load_tec | (self.v183 << 1) | (self.v256 << 2) | (self.v251 << 3) | (self.q54 << 4) | (self.v589 << 5)) != (0x20));
+        let c12: u64 = u64::from((self.i_counters_load_tec | (self.v183 << 1) | (self.v251 << 2) | (self.q54 << 3) | (self.v589 << 4)) != 0);
+        let c28: u64 = u64::from((c11 | (c12 << 1) | (self.v13 << 2) | (self.v15 << 3) | (self.v14 << 4)) == 0x1f);
+        if self.v28 != c28 { self.v28 = c28; *dirty |= 0x800000; }
+        let c29: u64 = u64::from((c12 | (self.v13 << 1) | (self.v15 << 2) | (self.v14 << 3)) == 0xf);
+        if self.v29 != c29 { self.v29 = c29; *dirty |= 0x800000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$faults$tec_count.
-    fn group_24(&mut self, dirty: &mut u128) {
-        self.n14 = ((self.v262 >> 7));
-        self.n15 = if (self.i_reset) != 0 { 0x0 } else if (self.v27) != 0 { ((self.v271 & 0x7)) } else { self.q15 };
-        self.n16 = if (self.i_reset) != 0 { 0x0 } else if (self.v28) != 0 { (((self.v271 >> 3) & 0xf)) } else { self.q16 };
+    fn group_23(&mut self, dirty: &mut u128) {
+        self.n14 = ((self.v267 >> 7));
+        self.n15 = if (self.i_reset) != 0 { 0x0 } else if (self.v28) != 0 { ((self.v276 & 0x7)) } else { self.q15 };
+        self.n16 = if (self.i_reset) != 0 { 0x0 } else if (self.v29) != 0 { (((self.v276 >> 3) & 0xf)) } else { self.q16 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$faults$rec_count.
-    fn group_25(&mut self, dirty: &mut u128) {
-        self.n17 = if (self.i_reset) != 0 { 0x0 } else { ((self.v263 & 0x7f)) };
-        self.n18 = ((self.v261 >> 7));
+    fn group_24(&mut self, dirty: &mut u128) {
+        self.n17 = if (self.i_reset) != 0 { 0x0 } else { ((self.v268 & 0x7f)) };
+        self.n18 = ((self.v266 >> 7));
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender.
-    fn group_26(&mut self, dirty: &mut u128) {
-        let c627: u64 = if (self.v158) != 0 { (self.v660) } else { (self.v662) };
-        let c628: u64 = if (self.v590) != 0 { (c627) } else { (0x1) };
-        let c638: u64 = if (self.v649) != 0 { (self.v637) } else { (c627) };
-        let c636: u64 = if (self.v648) != 0 { ((self.i_transmit_info >> 7)) } else { (c638) };
-        let c635: u64 = if (self.v647) != 0 { (((self.i_transmit_info >> 6) & 0x1)) } else { (c636) };
-        let c639: u64 = if (self.v590) != 0 { (c635) } else { (0x1) };
-        let c641: u64 = { let s = (self.v642 | (self.v623 << 1) | (self.v643 << 2) | (self.v625 << 3) | (self.v644 << 4) | (self.v646 << 5) | (self.v640 << 6) | (self.v645 << 7)); if s >> 0 & 1 != 0 { self.i_listen_only } else if s >> 1 & 1 != 0 { self.v622 } else if s >> 2 & 1 != 0 { self.v610 } else if s >> 3 & 1 != 0 { self.v626 } else if s >> 4 & 1 != 0 { c628 } else if s >> 5 & 1 != 0 { self.v634 } else if s >> 6 & 1 != 0 { c639 } else if s >> 7 & 1 != 0 { self.v605 } else { (0x1) } };
-        let c621: u64 = if (self.v600) != 0 { (self.v346) } else { (c641) };
-        let c620: u64 = if (self.q44) != 0 { (c621) } else { (self.q57) };
-        let c616: u64 = ((c620) | (self.v615)) & 0x1;
-        if self.v616 != c616 { self.v616 = c616; *dirty |= 0x1000000000000000000; }
-        let c659: u64 = if (self.v158) != 0 { (self.v656) } else { ((self.q5 & 0x1)) };
-        let c655: u64 = if (self.v159) != 0 { ((self.v654 << 1) | 0x1) } else { (c659) };
-        if self.v655 != c655 { self.v655 = c655; *dirty |= 0x8000000; }
+    fn group_25(&mut self, dirty: &mut u128) {
+        let c633: u64 = if (self.v160) != 0 { (self.v666) } else { (self.v668) };
+        let c634: u64 = if (self.v597) != 0 { (c633) } else { (0x1) };
+        let c647: u64 = if (self.v655) != 0 { (self.v646) } else { (c633) };
+        let c645: u64 = if (self.v654) != 0 { ((self.i_transmit_info >> 7)) } else { (c647) };
+        let c643: u64 = if (self.v653) != 0 { (((self.i_transmit_info >> 6) & 0x1)) } else { (c645) };
+        let c648: u64 = if (self.v597) != 0 { (c643) } else { (0x1) };
+        let c649: u64 = { let s = (self.v650 | (self.v629 << 1) | (self.v651 << 2) | (self.v632 << 3) | (self.v635 << 4) | (self.v638 << 5) | (self.v644 << 6) | (self.v652 << 7)); if s >> 0 & 1 != 0 { self.i_listen_only } else if s >> 1 & 1 != 0 { self.v628 } else if s >> 2 & 1 != 0 { self.v617 } else if s >> 3 & 1 != 0 { self.v631 } else if s >> 4 & 1 != 0 { c634 } else if s >> 5 & 1 != 0 { self.v642 } else if s >> 6 & 1 != 0 { c648 } else if s >> 7 & 1 != 0 { self.v612 } else { (0x1) } };
+        let c627: u64 = if (self.v607) != 0 { (self.v351) } else { (c649) };
+        let c626: u64 = if (self.q45) != 0 { (c627) } else { (self.q58) };
+        let c622: u64 = ((c626) | (self.v621)) & 0x1;
+        if self.v622 != c622 { self.v622 = c622; *dirty |= 0x1000000000000000000; }
+        let c665: u64 = if (self.v160) != 0 { (self.v662) } else { ((self.q5 & 0x1)) };
+        let c661: u64 = if (self.v161) != 0 { ((self.v660 << 1) | 0x1) } else { (c665) };
+        if self.v661 != c661 { self.v661 = c661; *dirty |= 0x4000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender$tx_ptr.
-    fn group_27(&mut self, dirty: &mut u128) {
-        self.n5 = if (self.v40) != 0 { 0x1 } else if (self.v21) != 0 { ((self.v593 & 0x1) | ((self.v593 >> 3) << 1)) } else { self.q5 };
-        self.n6 = if (self.v39) != 0 { 0x0 } else if (self.v22) != 0 { ((self.v655 >> 1)) } else { self.q6 };
+    fn group_26(&mut self, dirty: &mut u128) {
+        self.n5 = if (self.v42) != 0 { 0x1 } else if (self.v22) != 0 { ((self.v600 & 0x1) | ((self.v600 >> 3) << 1)) } else { self.q5 };
+        self.n6 = if (self.v41) != 0 { 0x0 } else if (self.v23) != 0 { ((self.v661 >> 1)) } else { self.q6 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$stuffing.
-    fn group_28(&mut self, dirty: &mut u128) {
-        let c675: u64 = if (self.v441) != 0 { (0x1) } else { (self.v677) };
-        if self.v675 != c675 { self.v675 = c675; *dirty |= 0x10000000000000000000; }
-        let c676: u64 = ((self.q4) | (self.v441)) & 0x1;
-        let c674: u64 = if (self.v180) != 0 { (0x0) } else { (c676) };
-        if self.v674 != c674 { self.v674 = c674; *dirty |= 0x8000000000000000000; }
+    fn group_27(&mut self, dirty: &mut u128) {
+        let c681: u64 = if (self.v447) != 0 { (0x1) } else { (self.v683) };
+        if self.v681 != c681 { self.v681 = c681; *dirty |= 0x10000000000000000000; }
+        let c682: u64 = ((self.q4) | (self.v447)) & 0x1;
+        let c680: u64 = if (self.v182) != 0 { (0x0) } else { (c682) };
+        if self.v680 != c680 { self.v680 = c680; *dirty |= 0x8000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$elapsed.
-    fn group_29(&mut self, dirty: &mut u128) {
-        self.n45 = if (self.v47) != 0 { 0x0 } else if (self.v36) != 0 { (self.v65) } else { self.q45 };
+    fn group_28(&mut self, dirty: &mut u128) {
+        self.n46 = if (self.v49) != 0 { 0x0 } else if (self.v38) != 0 { (self.v67) } else { self.q46 };
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$process_pending.
-    fn group_30(&mut self, dirty: &mut u128) {
-        self.n44 = if (self.i_reset) != 0 { 0x0 } else { (self.v77) };
+    fn group_29(&mut self, dirty: &mut u128) {
+        self.n45 = if (self.i_reset) != 0 { 0x0 } else { (self.v79) };
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$remaining.
-    fn group_31(&mut self, dirty: &mut u128) {
-        self.n43 = if (self.v46) != 0 { 0x0 } else { (self.v117) };
+    fn group_30(&mut self, dirty: &mut u128) {
+        self.n44 = if (self.v48) != 0 { 0x0 } else { (self.v119) };
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$sampled.
-    fn group_32(&mut self, dirty: &mut u128) {
-        self.n49 = (self.v108);
+    fn group_31(&mut self, dirty: &mut u128) {
+        self.n50 = (self.v110);
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$sampling$metastable.
-    fn group_33(&mut self, dirty: &mut u128) {
-        self.n50 = (self.v152);
+    fn group_32(&mut self, dirty: &mut u128) {
+        self.n51 = (self.v154);
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$sampling$previous.
-    fn group_34(&mut self, dirty: &mut u128) {
-        self.n51 = (self.v150);
+    fn group_33(&mut self, dirty: &mut u128) {
+        self.n52 = (self.v152);
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$sampling$quantum_samples.
-    fn group_35(&mut self, dirty: &mut u128) {
-        self.n42 = if (self.i_reset) != 0 { 0x3 } else if (self.v71) != 0 { (self.q52 | ((self.q42 & 0x1) << 1)) } else { self.q42 };
+    fn group_34(&mut self, dirty: &mut u128) {
+        self.n43 = if (self.i_reset) != 0 { 0x3 } else if (self.v73) != 0 { (self.q53 | ((self.q43 & 0x1) << 1)) } else { self.q43 };
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$sampling$stable.
-    fn group_36(&mut self, dirty: &mut u128) {
-        self.n52 = (self.v151);
+    fn group_35(&mut self, dirty: &mut u128) {
+        self.n53 = (self.v153);
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$segment_state.
-    fn group_37(&mut self, dirty: &mut u128) {
-        self.n41 = if (self.v46) != 0 { 0x0 } else if (self.v35) != 0 { (self.v116) } else { self.q41 };
+    fn group_36(&mut self, dirty: &mut u128) {
+        self.n42 = if (self.v48) != 0 { 0x0 } else if (self.v37) != 0 { (self.v118) } else { self.q42 };
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$sjw_quanta.
-    fn group_38(&mut self, dirty: &mut u128) {
-        self.n40 = if (self.i_reset) != 0 { 0x1 } else { (self.v62) };
+    fn group_37(&mut self, dirty: &mut u128) {
+        self.n41 = if (self.i_reset) != 0 { 0x1 } else { (self.v64) };
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$synced.
-    fn group_39(&mut self, dirty: &mut u128) {
-        self.n39 = if (self.i_reset) != 0 { 0x0 } else { (self.v110) };
+    fn group_38(&mut self, dirty: &mut u128) {
+        self.n40 = if (self.i_reset) != 0 { 0x0 } else { (self.v112) };
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$transmit_deferred.
-    fn group_40(&mut self, dirty: &mut u128) {
-        self.n38 = if (self.i_reset) != 0 { 0x0 } else { (self.v81) };
+    fn group_39(&mut self, dirty: &mut u128) {
+        self.n39 = if (self.i_reset) != 0 { 0x0 } else { (self.v83) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$abort_pending.
-    fn group_41(&mut self, dirty: &mut u128) {
-        self.n37 = if (self.v45) != 0 { 0x0 } else { (self.v204) };
+    fn group_40(&mut self, dirty: &mut u128) {
+        self.n38 = if (self.v47) != 0 { 0x0 } else { (self.v206) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$byte_index.
-    fn group_42(&mut self, dirty: &mut u128) {
-        self.n36 = if (self.i_reset) != 0 { 0x0 } else if (self.v34) != 0 { (((self.q23 >> 3) & 0x7)) } else { self.q36 };
+    fn group_41(&mut self, dirty: &mut u128) {
+        self.n37 = if (self.i_reset) != 0 { 0x0 } else if (self.v36) != 0 { (((self.q23 >> 3) & 0x7)) } else { self.q37 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$byte_pulse.
-    fn group_43(&mut self, dirty: &mut u128) {
-        self.n35 = if (self.i_reset) != 0 { 0x0 } else { (self.v215) };
+    fn group_42(&mut self, dirty: &mut u128) {
+        self.n36 = if (self.i_reset) != 0 { 0x0 } else { (self.v219) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$byte_reg.
-    fn group_44(&mut self, dirty: &mut u128) {
-        self.n34 = if (self.i_reset) != 0 { 0x0 } else if (self.v33) != 0 { (self.q49 | ((self.q34 & 0x7f) << 1)) } else { self.q34 };
+    fn group_43(&mut self, dirty: &mut u128) {
+        self.n35 = if (self.i_reset) != 0 { 0x0 } else if (self.v35) != 0 { (self.q50 | ((self.q35 & 0x7f) << 1)) } else { self.q35 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$dlc_reg.
-    fn group_45(&mut self, dirty: &mut u128) {
-        self.n33 = if (self.v42) != 0 { 0x0 } else if (self.v32) != 0 { (self.q49 | ((self.q33 & 0x7) << 1)) } else { self.q33 };
+    fn group_44(&mut self, dirty: &mut u128) {
+        self.n34 = if (self.v44) != 0 { 0x0 } else if (self.v34) != 0 { (self.q50 | ((self.q34 & 0x7) << 1)) } else { self.q34 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$header_pulse.
-    fn group_46(&mut self, dirty: &mut u128) {
-        self.n32 = if (self.i_reset) != 0 { 0x0 } else { (self.v216) };
+    fn group_45(&mut self, dirty: &mut u128) {
+        self.n33 = if (self.i_reset) != 0 { 0x0 } else { (self.v220) };
         let _ = &dirty;
     }
 
-    /// The cells of top$protocol$assembler$id_reg.
+    /// The cells of top$protocol$assembler$id_base.
+    fn group_46(&mut self, dirty: &mut u128) {
+        self.n32 = if (self.v44) != 0 { 0x0 } else if (self.v33) != 0 { (self.q50 | ((self.q32 & 0x3ff) << 1)) } else { self.q32 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$protocol$assembler$id_extension.
     fn group_47(&mut self, dirty: &mut u128) {
-        self.n31 = if (self.v42) != 0 { 0x0 } else if (self.v31) != 0 { (self.q49 | ((self.q31 & 0xfffffff) << 1)) } else { self.q31 };
+        self.n31 = if (self.v44) != 0 { 0x0 } else if (self.v32) != 0 { (self.q50 | ((self.q31 & 0x1ffff) << 1)) } else { self.q31 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$ide_reg.
     fn group_48(&mut self, dirty: &mut u128) {
-        self.n30 = if (self.i_reset) != 0 { 0x0 } else if (self.v30) != 0 { (self.q49) } else { self.q30 };
+        self.n30 = if (self.i_reset) != 0 { 0x0 } else if (self.v31) != 0 { (self.q50) } else { self.q30 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$last_data_byte_reg.
     fn group_49(&mut self, dirty: &mut u128) {
-        self.n29 = if (self.i_reset) != 0 { 0x0 } else { (self.v219) };
+        self.n29 = if (self.i_reset) != 0 { 0x0 } else { (self.v223) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$rtr_reg.
     fn group_50(&mut self, dirty: &mut u128) {
-        self.n28 = if (self.i_reset) != 0 { 0x0 } else if (self.v29) != 0 { (self.q49) } else { self.q28 };
+        self.n28 = if (self.i_reset) != 0 { 0x0 } else if (self.v30) != 0 { (self.q50) } else { self.q28 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$capture.
     fn group_51(&mut self, dirty: &mut u128) {
-        let c229: u64 = if (self.v209) != 0 { (0x0) } else { (self.v230) };
-        let c231: u64 = if (self.q30) != 0 { (c229) } else { (self.v227) };
-        let c238: u64 = { let s = (self.v566 | (self.v558 << 1) | (self.v567 << 2) | (self.v561 << 3) | (self.v342 << 4) | (self.v345 << 5) | (self.v352 << 6) | (self.v394 << 7) | (self.v381 << 8) | (self.v385 << 9) | (self.v386 << 10) | (self.v370 << 11) | (self.v58 << 12)); if s >> 0 & 1 != 0 { (self.v227 << 2) | 0x13 } else if s >> 1 & 1 != 0 { 0x1c } else if s >> 2 & 1 != 0 { self.v228 | ((self.v228 >> 1) << 2) | 0x10 } else if s >> 3 & 1 != 0 { 0x12 } else if s >> 4 & 1 != 0 { 0x1a } else if s >> 5 & 1 != 0 { 0x1b } else if s >> 6 & 1 != 0 { 0x19 } else if s >> 7 & 1 != 0 { 0x18 } else if s >> 8 & 1 != 0 { 0x8 } else if s >> 9 & 1 != 0 { 0xa } else if s >> 10 & 1 != 0 { (c231 << 1) | 0x9 } else if s >> 11 & 1 != 0 { self.v232 } else if s >> 12 & 1 != 0 { 0x3 } else { (0x0) } };
-        if self.v238 != c238 { self.v238 = c238; *dirty |= 0x20000000000000; }
+        let c245: u64 = { let s = (self.v233 | (self.v565 << 1) | (self.v574 << 2) | (self.v568 << 3) | (self.v402 << 4) | (self.v399 << 5) | (self.v360 << 6) | (self.v396 << 7) | (self.v390 << 8) | (self.v391 << 9) | (self.v236 << 10) | (self.v378 << 11) | (self.v60 << 12)); if s >> 0 & 1 != 0 { (self.v232 << 2) | 0x13 } else if s >> 1 & 1 != 0 { 0x1c } else if s >> 2 & 1 != 0 { self.v234 | ((self.v234 >> 1) << 2) | 0x10 } else if s >> 3 & 1 != 0 { 0x12 } else if s >> 4 & 1 != 0 { 0x1a } else if s >> 5 & 1 != 0 { 0x1b } else if s >> 6 & 1 != 0 { 0x19 } else if s >> 7 & 1 != 0 { 0x18 } else if s >> 8 & 1 != 0 { 0x8 } else if s >> 9 & 1 != 0 { 0xa } else if s >> 10 & 1 != 0 { (self.v238 << 1) | 0x9 } else if s >> 11 & 1 != 0 { self.v239 } else if s >> 12 & 1 != 0 { 0x3 } else { (0x0) } };
+        if self.v245 != c245 { self.v245 = c245; *dirty |= 0x20000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$capture$alc_reg.
     fn group_52(&mut self, dirty: &mut u128) {
-        self.n27 = if (self.i_reset) != 0 { 0x0 } else if (self.v426) != 0 { ((self.q23 & 0x1f)) } else { self.q27 };
+        self.n27 = if (self.i_reset) != 0 { 0x0 } else if (self.v432) != 0 { ((self.q23 & 0x1f)) } else { self.q27 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$capture$ecc_reg.
     fn group_53(&mut self, dirty: &mut u128) {
-        self.n26 = if (self.i_reset) != 0 { 0x0 } else if (self.v183) != 0 { (self.v238 | (self.v585 << 5) | (self.v587 << 6)) } else { self.q26 };
+        self.n26 = if (self.i_reset) != 0 { 0x0 } else if (self.v185) != 0 { (self.v245 | (self.v592 << 5) | (self.v594 << 6)) } else { self.q26 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$capture$error_pulse.
     fn group_54(&mut self, dirty: &mut u128) {
-        self.n25 = if (self.v44) != 0 { 0x0 } else { (self.v183) };
+        self.n25 = if (self.v46) != 0 { 0x0 } else { (self.v185) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$capture$lost_pulse.
     fn group_55(&mut self, dirty: &mut u128) {
-        self.n24 = if (self.v44) != 0 { 0x0 } else { (self.v426) };
+        self.n24 = if (self.v46) != 0 { 0x0 } else { (self.v432) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$count.
     fn group_56(&mut self, dirty: &mut u128) {
-        self.n23 = if (self.v43) != 0 { 0x0 } else { (self.v200) };
+        self.n23 = if (self.v45) != 0 { 0x0 } else { (self.v202) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$crc$register.
     fn group_57(&mut self, dirty: &mut u128) {
-        self.n22 = if (self.v441) != 0 { 0x0 } else if (self.v429) != 0 { ((self.v241 & 0x1) | ((self.q22 & 0x3) << 1) | (((self.v241 >> 1) & 0x3) << 3) | (((self.q22 >> 4) & 0x3) << 5) | (((self.v241 >> 3) & 0x3) << 7) | (((self.q22 >> 8) & 0x1) << 9) | (((self.v241 >> 5) & 0x1) << 10) | (((self.q22 >> 10) & 0x7) << 11) | ((self.v241 >> 6) << 14)) } else { self.q22 };
+        self.n22 = if (self.v447) != 0 { 0x0 } else if (self.v435) != 0 { ((self.v246 & 0x1) | ((self.q22 & 0x3) << 1) | (((self.v246 >> 1) & 0x3) << 3) | (((self.q22 >> 4) & 0x3) << 5) | (((self.v246 >> 3) & 0x3) << 7) | (((self.q22 >> 8) & 0x1) << 9) | (((self.v246 >> 5) & 0x1) << 10) | (((self.q22 >> 10) & 0x7) << 11) | ((self.v246 >> 6) << 14)) } else { self.q22 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$crc_error.
     fn group_58(&mut self, dirty: &mut u128) {
-        self.n21 = if (self.v42) != 0 { 0x0 } else { (self.v205) };
+        self.n21 = if (self.v44) != 0 { 0x0 } else { (self.v207) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$done_pulse.
     fn group_59(&mut self, dirty: &mut u128) {
-        self.n20 = if (self.i_reset) != 0 { 0x0 } else { (self.v206) };
+        self.n20 = if (self.i_reset) != 0 { 0x0 } else { (self.v208) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$done_success.
     fn group_60(&mut self, dirty: &mut u128) {
-        self.n19 = if (self.v41) != 0 { 0x0 } else if (self.v423) != 0 { (self.v422) } else { self.q19 };
+        self.n19 = if (self.v43) != 0 { 0x0 } else if (self.v429) != 0 { (self.v428) } else { self.q19 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$faults$bus_off_state.
     fn group_61(&mut self, dirty: &mut u128) {
-        self.n53 = (self.v260);
+        self.n54 = (self.v265);
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$faults$passive_state.
     fn group_62(&mut self, dirty: &mut u128) {
-        self.n54 = (self.v249);
+        self.n55 = (self.v254);
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$field.
     fn group_63(&mut self, dirty: &mut u128) {
-        self.n55 = (self.v195);
+        self.n56 = (self.v197);
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$in_frame.
     fn group_64(&mut self, dirty: &mut u128) {
-        self.n56 = (self.v194);
+        self.n57 = (self.v196);
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe$ack_penalty.
     fn group_65(&mut self, dirty: &mut u128) {
-        self.n13 = if (self.i_reset) != 0 { 0x0 } else { (self.v586) };
+        self.n13 = if (self.i_reset) != 0 { 0x0 } else { (self.v593) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe$after_error_flag.
     fn group_66(&mut self, dirty: &mut u128) {
-        self.n12 = if (self.i_reset) != 0 { 0x0 } else if (self.q44) != 0 { (self.v475) } else { self.q12 };
+        self.n12 = if (self.i_reset) != 0 { 0x0 } else if (self.q45) != 0 { (self.v481) } else { self.q12 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe$dominant_after_flag.
     fn group_67(&mut self, dirty: &mut u128) {
-        self.n11 = if (self.i_reset) != 0 { 0x0 } else if (self.v26) != 0 { (self.v553) } else { self.q11 };
+        self.n11 = if (self.i_reset) != 0 { 0x0 } else if (self.v27) != 0 { (self.v560) } else { self.q11 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe$first_after_flag.
     fn group_68(&mut self, dirty: &mut u128) {
-        self.n10 = if (self.i_reset) != 0 { 0x0 } else if (self.v25) != 0 { (self.v554) } else { self.q10 };
+        self.n10 = if (self.i_reset) != 0 { 0x0 } else if (self.v26) != 0 { (self.v561) } else { self.q10 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe$flag_level.
     fn group_69(&mut self, dirty: &mut u128) {
-        self.n9 = if (self.i_reset) != 0 { 0x0 } else if (self.v24) != 0 { (self.q49) } else { self.q9 };
+        self.n9 = if (self.i_reset) != 0 { 0x0 } else if (self.v25) != 0 { (self.q50) } else { self.q9 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe$flag_passive_reg.
     fn group_70(&mut self, dirty: &mut u128) {
-        self.n8 = if (self.i_reset) != 0 { 0x0 } else if (self.v23) != 0 { (self.v476) } else { self.q8 };
+        self.n8 = if (self.i_reset) != 0 { 0x0 } else if (self.v24) != 0 { (self.v482) } else { self.q8 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender$tx_left.
     fn group_71(&mut self, dirty: &mut u128) {
-        self.n7 = if (self.v40) != 0 { 0x0 } else if (self.v158) != 0 { (self.v657) } else { self.q7 };
+        self.n7 = if (self.v42) != 0 { 0x0 } else if (self.v160) != 0 { (self.v663) } else { self.q7 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender$tx_next.
     fn group_72(&mut self, dirty: &mut u128) {
-        self.n57 = (self.v616);
+        self.n58 = (self.v622);
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender$tx_reg.
     fn group_73(&mut self, dirty: &mut u128) {
-        self.n58 = (self.v617);
+        self.n59 = (self.v623);
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender$tx_shift.
     fn group_74(&mut self, dirty: &mut u128) {
-        self.n48 = if (self.i_reset) != 0 { 0x0 } else if (self.v158) != 0 { (self.v658) } else { self.q48 };
+        self.n49 = if (self.i_reset) != 0 { 0x0 } else if (self.v160) != 0 { (self.v664) } else { self.q49 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$stuffing$active.
     fn group_75(&mut self, dirty: &mut u128) {
-        self.n4 = if (self.i_reset) != 0 { 0x0 } else if (self.q44) != 0 { (self.v674) } else { self.q4 };
+        self.n4 = if (self.i_reset) != 0 { 0x0 } else if (self.q45) != 0 { (self.v680) } else { self.q4 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$stuffing$run_length.
     fn group_76(&mut self, dirty: &mut u128) {
-        self.n3 = if (self.i_reset) != 0 { 0x0 } else if (self.q44) != 0 { (self.v675) } else { self.q3 };
+        self.n3 = if (self.i_reset) != 0 { 0x0 } else if (self.q45) != 0 { (self.v681) } else { self.q3 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$stuffing$run_level_reg.
     fn group_77(&mut self, dirty: &mut u128) {
-        self.n2 = if (self.v20) != 0 { (self.q49) } else { self.q2 };
+        self.n2 = if (self.v21) != 0 { (self.q50) } else { self.q2 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$transmitter.
     fn group_78(&mut self, dirty: &mut u128) {
-        self.n1 = if (self.v38) != 0 { 0x0 } else if (self.q44) != 0 { (self.v590) } else { self.q1 };
+        self.n1 = if (self.v40) != 0 { 0x0 } else if (self.q45) != 0 { (self.v597) } else { self.q1 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$valid_pulse.
     fn group_79(&mut self, dirty: &mut u128) {
-        self.n0 = if (self.v37) != 0 { 0x0 } else { (self.v399) };
+        self.n0 = if (self.v39) != 0 { 0x0 } else { (self.v406) };
         let _ = &dirty;
     }
 }

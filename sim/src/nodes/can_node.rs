@@ -10,6 +10,7 @@
 use std::any::Any;
 
 use rtl::bsp::protocol::ProtocolState;
+use rtl::bsp::received_frame::STANDARD_ID_SHIFT;
 
 use crate::engine::bus::Drive;
 use crate::engine::time::ClockSpec;
@@ -223,7 +224,7 @@ impl CanNode {
         let id = if out.rx_ide {
             Id::extended(raw)
         } else {
-            Id::standard(raw as u16)
+            Id::standard((raw >> STANDARD_ID_SHIFT) as u16)
         }
         .expect("the core delivers identifiers in range");
         let dlc = out.rx_dlc;

@@ -70,7 +70,8 @@ pub struct CoreOutputs {
     pub tx_success: bool,
     /// The received header is complete (one clock).
     pub rx_header: bool,
-    /// Received identifier.
+    /// Received identifier, as the stream carries it (a standard one shifted up by
+    /// `rtl::bsp::received_frame::STANDARD_ID_SHIFT`).
     pub rx_id: u32,
     /// Received IDE.
     pub rx_ide: bool,
