@@ -7998,6 +7998,7 @@ module top$tx_buffer(clock,reset,write,write_index,write_data,host_index,host_da
     
     // Constant declarations
     localparam  byte_count = 4'hd;
+    localparam  byte_mask = 16'h1fff;
     localparam  frame_info_index = 4'h0;
     localparam  basic_info_index = 4'h2;
     
@@ -8122,7 +8123,7 @@ module top$tx_buffer(clock,reset,write,write_index,write_data,host_index,host_da
             info = basic_info$q;
         end
         if (writing) begin
-            written$d = (written$q & ~(1 << (write_index)) | ((1'b1) << (write_index)));
+            written$d = (written$q & ~(1 << (write_index)) | ((1'b1) << (write_index))) & byte_mask;
             if (write_index == frame_info_index) begin
                 frame_info$d = write_data;
             end

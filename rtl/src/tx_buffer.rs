@@ -74,6 +74,9 @@ pub struct TxBuffer {
     basic_info: DFF<Bits<8>>,
     #[constant(index(TX_BUFFER_BYTES))]
     byte_count: Constant<Bits<INDEX_BITS>>,
+    /// Bits 0..12 set: the buffer's bytes among the RAM words.
+    #[constant((1u64 << TX_BUFFER_BYTES) - 1)]
+    byte_mask: Constant<Bits<WORDS>>,
     #[constant(index(0))]
     frame_info_index: Constant<Bits<INDEX_BITS>>,
     #[constant(index(2))]
@@ -143,11 +146,14 @@ impl Logic for TxBuffer {
         }
 
         if self.writing.val() {
+            // Only bytes 0..12 are ever written: the mask makes that visible to synthesis, which
+            // then keeps no flip-flops for 13..15.
             self.written.d.next = self
                 .written
                 .q
                 .val()
-                .replace_bit(self.write_index.val().index(), true);
+                .replace_bit(self.write_index.val().index(), true)
+                & self.byte_mask.val();
             if self.write_index.val() == self.frame_info_index.val() {
                 self.frame_info.d.next = self.write_data.val();
             }

@@ -2,7 +2,7 @@
 //! from the Verilog of `rtl/` through Yosys; do not edit.
 
 /// Hash of the Verilog this model was made from.
-pub(super) const VERILOG_HASH: u64 = 0x1b636fc944d9df3f;
+pub(super) const VERILOG_HASH: u64 = 0x5035787ee98200d2;
 
 const TABLE_0: [u64; 4] = [0x1fff0000, 0x0, 0x0, 0x0];
 const TABLE_1: [u64; 4] = [0xffffffff00000000, 0xffffffff, 0x0, 0x0];
@@ -386,10 +386,10 @@ pub(super) struct Model {
     v99: u64,
     v100: u64,
     v109: u64,
+    v110: u64,
     v111: u64,
-    v112: u64,
-    v114: u64,
-    v117: u64,
+    v115: u64,
+    v120: u64,
     v124: u64,
     v125: u64,
     v133: u64,
@@ -404,16 +404,16 @@ pub(super) struct Model {
     v154: u64,
     v155: u64,
     v158: u64,
-    v162: u64,
-    v166: u64,
-    v171: u64,
+    v161: u64,
+    v163: u64,
+    v167: u64,
     v172: u64,
-    v177: u64,
-    v183: u64,
+    v173: u64,
+    v178: u64,
     v184: u64,
     v185: u64,
-    v188: u64,
-    v190: u64,
+    v186: u64,
+    v189: u64,
     v191: u64,
     v192: u64,
     v193: u64,
@@ -1170,10 +1170,10 @@ impl Model {
             v99: 0,
             v100: 0,
             v109: 0,
+            v110: 0,
             v111: 0,
-            v112: 0,
-            v114: 0,
-            v117: 0,
+            v115: 0,
+            v120: 0,
             v124: 0,
             v125: 0,
             v133: 0,
@@ -1188,16 +1188,16 @@ impl Model {
             v154: 0,
             v155: 0,
             v158: 0,
-            v162: 0,
-            v166: 0,
-            v171: 0,
+            v161: 0,
+            v163: 0,
+            v167: 0,
             v172: 0,
-            v177: 0,
-            v183: 0,
+            v173: 0,
+            v178: 0,
             v184: 0,
             v185: 0,
-            v188: 0,
-            v190: 0,
+            v186: 0,
+            v189: 0,
             v191: 0,
             v192: 0,
             v193: 0,
@@ -1767,7 +1767,7 @@ impl Model {
         self.dirty = 0;
         self.ran |= dirty;
         if dirty >> 127 & 1 != 0 {
-            self.out = 0 | ((self.v1059) as u64) << 0 | ((self.q118) as u64) << 8 | ((self.v991) as u64) << 9 | ((self.v1006) as u64) << 10 | ((self.v154) as u64) << 11 | ((self.v184) as u64) << 12 | ((self.q115) as u64) << 14 | ((self.q65 | (self.q66 << 3) | (self.q64 << 7)) as u64) << 19 | ((self.q67 | (self.q68 << 7)) as u64) << 27 | ((self.v231) as u64) << 35;
+            self.out = 0 | ((self.v1059) as u64) << 0 | ((self.q118) as u64) << 8 | ((self.v991) as u64) << 9 | ((self.v1006) as u64) << 10 | ((self.v154) as u64) << 11 | ((self.v185) as u64) << 12 | ((self.q115) as u64) << 14 | ((self.q64 | (self.q65 << 3) | (self.q63 << 7)) as u64) << 19 | ((self.q66 | (self.q67 << 7)) as u64) << 27 | ((self.v231) as u64) << 35;
         }
     }
 
@@ -1784,313 +1784,313 @@ impl Model {
         let ran = self.ran;
         self.ran = 0;
         if ran >> 37 & 1 != 0 {
-            if self.q64 != self.n64 { self.q64 = self.n64; dirty |= 0x80000000000000000000402040000180; } // $auto$ff.cc:266:slice$9748
-            if self.q65 != self.n65 { self.q65 = self.n65; dirty |= 0x80000000000000000000402000000180; } // $auto$ff.cc:266:slice$9749
-            if self.q66 != self.n66 { self.q66 = self.n66; dirty |= 0x80000000000000000000402000000180; } // $auto$ff.cc:266:slice$9762
+            if self.q63 != self.n63 { self.q63 = self.n63; dirty |= 0x80000000000000000000402040000180; } // $auto$ff.cc:266:slice$9752
+            if self.q64 != self.n64 { self.q64 = self.n64; dirty |= 0x80000000000000000000402000000180; } // $auto$ff.cc:266:slice$9753
+            if self.q65 != self.n65 { self.q65 = self.n65; dirty |= 0x80000000000000000000402000000180; } // $auto$ff.cc:266:slice$9766
         }
         if ran >> 39 & 1 != 0 {
-            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x4080004c2b34; } // $auto$ff.cc:266:slice$9558
-            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x9000040200; } // $auto$ff.cc:266:slice$9559
-            if self.q105 != self.n105 { self.q105 = self.n105; dirty |= 0x9000040200; } // $auto$ff.cc:266:slice$9898
+            if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x4080004c2b34; } // $auto$ff.cc:266:slice$9562
+            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x9000040200; } // $auto$ff.cc:266:slice$9563
+            if self.q104 != self.n104 { self.q104 = self.n104; dirty |= 0x9000040200; } // $auto$ff.cc:266:slice$9902
         }
         if ran >> 40 & 1 != 0 {
-            if self.q96 != self.n96 { self.q96 = self.n96; dirty |= 0x10000000008; } // $auto$ff.cc:266:slice$9869
-            if self.q97 != self.n97 { self.q97 = self.n97; dirty |= 0x10000000008; } // $auto$ff.cc:266:slice$9870
+            if self.q95 != self.n95 { self.q95 = self.n95; dirty |= 0x10000000008; } // $auto$ff.cc:266:slice$9873
+            if self.q96 != self.n96 { self.q96 = self.n96; dirty |= 0x10000000008; } // $auto$ff.cc:266:slice$9874
         }
         if ran >> 41 & 1 != 0 {
-            if self.q67 != self.n67 { self.q67 = self.n67; dirty |= 0x80000000000000000000420040000180; } // $auto$ff.cc:266:slice$9773
-            if self.q68 != self.n68 { self.q68 = self.n68; dirty |= 0x80000000000000000000420040000180; } // $auto$ff.cc:266:slice$9774
+            if self.q66 != self.n66 { self.q66 = self.n66; dirty |= 0x80000000000000000000420040000180; } // $auto$ff.cc:266:slice$9777
+            if self.q67 != self.n67 { self.q67 = self.n67; dirty |= 0x80000000000000000000420040000180; } // $auto$ff.cc:266:slice$9778
         }
         if ran >> 43 & 1 != 0 {
-            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x800000000000000000080000001020; } // $auto$ff.cc:266:slice$9686
-            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x8000000000000000000c0000001020; } // $auto$ff.cc:266:slice$9693
+            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x800000000000000000080000001020; } // $auto$ff.cc:266:slice$9690
+            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x8000000000000000000c0000001020; } // $auto$ff.cc:266:slice$9697
         }
         if ran >> 45 & 1 != 0 {
-            if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x600000000010; } // $auto$ff.cc:266:slice$9579
-            if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0x600800040000; } // $auto$ff.cc:266:slice$9584
+            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x600000000010; } // $auto$ff.cc:266:slice$9583
+            if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x600800040000; } // $auto$ff.cc:266:slice$9588
         }
         if ran >> 47 & 1 != 0 {
-            if self.q102 != self.n102 { self.q102 = self.n102; dirty |= 0x800000418000; } // $auto$ff.cc:266:slice$9890
-            if self.q103 != self.n103 { self.q103 = self.n103; dirty |= 0x800000400008; } // $auto$ff.cc:266:slice$9894
+            if self.q101 != self.n101 { self.q101 = self.n101; dirty |= 0x800000418000; } // $auto$ff.cc:266:slice$9894
+            if self.q102 != self.n102 { self.q102 = self.n102; dirty |= 0x800000400008; } // $auto$ff.cc:266:slice$9898
         }
         if ran >> 48 & 1 != 0 {
-            if self.q100 != self.n100 { self.q100 = self.n100; dirty |= 0x1000000400000; } // $auto$ff.cc:266:slice$9882
-            if self.q101 != self.n101 { self.q101 = self.n101; dirty |= 0x1000000400100; } // $auto$ff.cc:266:slice$9886
+            if self.q99 != self.n99 { self.q99 = self.n99; dirty |= 0x1000000400000; } // $auto$ff.cc:266:slice$9886
+            if self.q100 != self.n100 { self.q100 = self.n100; dirty |= 0x1000000400100; } // $auto$ff.cc:266:slice$9890
         }
         if ran >> 49 & 1 != 0 {
-            if self.q98 != self.n98 { self.q98 = self.n98; dirty |= 0x2000000010000; } // $auto$ff.cc:266:slice$9874
-            if self.q99 != self.n99 { self.q99 = self.n99; dirty |= 0x2000000000008; } // $auto$ff.cc:266:slice$9878
+            if self.q97 != self.n97 { self.q97 = self.n97; dirty |= 0x2000000010000; } // $auto$ff.cc:266:slice$9878
+            if self.q98 != self.n98 { self.q98 = self.n98; dirty |= 0x2000000000008; } // $auto$ff.cc:266:slice$9882
         }
         if ran >> 50 & 1 != 0 {
-            if self.q94 != self.n94 { self.q94 = self.n94; dirty |= 0x610000404002f81000a; } // $auto$ff.cc:266:slice$9862
-            if self.q95 != self.n95 { self.q95 = self.n95; dirty |= 0x4000000000008; } // $auto$ff.cc:266:slice$9866
+            if self.q93 != self.n93 { self.q93 = self.n93; dirty |= 0x610000404002f81000a; } // $auto$ff.cc:266:slice$9866
+            if self.q94 != self.n94 { self.q94 = self.n94; dirty |= 0x4000000000008; } // $auto$ff.cc:266:slice$9870
         }
         if ran >> 51 & 1 != 0 {
-            if self.q93 != self.n93 { self.q93 = self.n93; dirty |= 0x8000000010008; } // $auto$ff.cc:266:slice$9859
-            if self.q109 != self.n109 { self.q109 = self.n109; dirty |= 0x4403e08000009031003; } // $flatten\core.\bit_timing.\sampled.$procdff$8843
+            if self.q92 != self.n92 { self.q92 = self.n92; dirty |= 0x8000000010008; } // $auto$ff.cc:266:slice$9863
+            if self.q109 != self.n109 { self.q109 = self.n109; dirty |= 0x4403e08000009031003; } // $flatten\core.\bit_timing.\sampled.$procdff$8844
         }
         if ran >> 52 & 1 != 0 {
-            if self.q110 != self.n110 { self.q110 = self.n110; dirty |= 0x10000000008000; } // $flatten\core.\bit_timing.\sampling.\metastable.$procdff$8842
-            if self.q111 != self.n111 { self.q111 = self.n111; dirty |= 0x10000000008000; } // $flatten\core.\bit_timing.\sampling.\previous.$procdff$8841
+            if self.q110 != self.n110 { self.q110 = self.n110; dirty |= 0x10000000008000; } // $flatten\core.\bit_timing.\sampling.\metastable.$procdff$8843
+            if self.q111 != self.n111 { self.q111 = self.n111; dirty |= 0x10000000008000; } // $flatten\core.\bit_timing.\sampling.\previous.$procdff$8842
         }
         if ran >> 53 & 1 != 0 {
-            if self.q92 != self.n92 { self.q92 = self.n92; dirty |= 0x20000000008000; } // $auto$ff.cc:266:slice$9858
-            if self.q112 != self.n112 { self.q112 = self.n112; dirty |= 0x20000000008000; } // $flatten\core.\bit_timing.\sampling.\stable.$procdff$8839
+            if self.q91 != self.n91 { self.q91 = self.n91; dirty |= 0x20000000008000; } // $auto$ff.cc:266:slice$9862
+            if self.q112 != self.n112 { self.q112 = self.n112; dirty |= 0x20000000008000; } // $flatten\core.\bit_timing.\sampling.\stable.$procdff$8840
         }
         if ran >> 54 & 1 != 0 {
-            if self.q91 != self.n91 { self.q91 = self.n91; dirty |= 0x40000000010008; } // $auto$ff.cc:266:slice$9852
-            if self.q108 != self.n108 { self.q108 = self.n108; dirty |= 0x40000000000008; } // $auto$ff.cc:266:slice$9972
+            if self.q90 != self.n90 { self.q90 = self.n90; dirty |= 0x40000000010008; } // $auto$ff.cc:266:slice$9856
+            if self.q108 != self.n108 { self.q108 = self.n108; dirty |= 0x40000000000008; } // $auto$ff.cc:266:slice$9987
         }
         if ran >> 55 & 1 != 0 {
-            if self.q89 != self.n89 { self.q89 = self.n89; dirty |= 0x80000000010000; } // $auto$ff.cc:266:slice$9846
-            if self.q90 != self.n90 { self.q90 = self.n90; dirty |= 0x80000000010008; } // $auto$ff.cc:266:slice$9847
+            if self.q88 != self.n88 { self.q88 = self.n88; dirty |= 0x80000000010000; } // $auto$ff.cc:266:slice$9850
+            if self.q89 != self.n89 { self.q89 = self.n89; dirty |= 0x80000000010008; } // $auto$ff.cc:266:slice$9851
         }
         if ran >> 56 & 1 != 0 {
-            if self.q87 != self.n87 { self.q87 = self.n87; dirty |= 0x100000000000044; } // $auto$ff.cc:266:slice$9840
-            if self.q88 != self.n88 { self.q88 = self.n88; dirty |= 0x100000008004001; } // $auto$ff.cc:266:slice$9843
+            if self.q86 != self.n86 { self.q86 = self.n86; dirty |= 0x100000000000044; } // $auto$ff.cc:266:slice$9844
+            if self.q87 != self.n87 { self.q87 = self.n87; dirty |= 0x100000008004001; } // $auto$ff.cc:266:slice$9847
         }
         if ran >> 57 & 1 != 0 {
-            if self.q85 != self.n85 { self.q85 = self.n85; dirty |= 0x200000000000044; } // $auto$ff.cc:266:slice$9835
-            if self.q86 != self.n86 { self.q86 = self.n86; dirty |= 0x200000000000044; } // $auto$ff.cc:266:slice$9838
+            if self.q84 != self.n84 { self.q84 = self.n84; dirty |= 0x200000000000044; } // $auto$ff.cc:266:slice$9839
+            if self.q85 != self.n85 { self.q85 = self.n85; dirty |= 0x200000000000044; } // $auto$ff.cc:266:slice$9842
         }
         if ran >> 58 & 1 != 0 {
-            if self.q83 != self.n83 { self.q83 = self.n83; dirty |= 0x3c020000400000000000044; } // $auto$ff.cc:266:slice$9827
-            if self.q84 != self.n84 { self.q84 = self.n84; dirty |= 0x400004000200042; } // $auto$ff.cc:266:slice$9831
+            if self.q82 != self.n82 { self.q82 = self.n82; dirty |= 0x3c020000400000000000044; } // $auto$ff.cc:266:slice$9831
+            if self.q83 != self.n83 { self.q83 = self.n83; dirty |= 0x400004000200042; } // $auto$ff.cc:266:slice$9835
         }
         if ran >> 59 & 1 != 0 {
-            if self.q81 != self.n81 { self.q81 = self.n81; dirty |= 0x800000000000044; } // $auto$ff.cc:266:slice$9812
-            if self.q82 != self.n82 { self.q82 = self.n82; dirty |= 0x800000000000044; } // $auto$ff.cc:266:slice$9822
+            if self.q80 != self.n80 { self.q80 = self.n80; dirty |= 0x800000000000044; } // $auto$ff.cc:266:slice$9816
+            if self.q81 != self.n81 { self.q81 = self.n81; dirty |= 0x800000000000044; } // $auto$ff.cc:266:slice$9826
         }
         if ran >> 60 & 1 != 0 {
-            if self.q79 != self.n79 { self.q79 = self.n79; dirty |= 0x1000000000000002; } // $auto$ff.cc:266:slice$9804
-            if self.q80 != self.n80 { self.q80 = self.n80; dirty |= 0x1000004000200444; } // $auto$ff.cc:266:slice$9806
+            if self.q78 != self.n78 { self.q78 = self.n78; dirty |= 0x1000000000000002; } // $auto$ff.cc:266:slice$9808
+            if self.q79 != self.n79 { self.q79 = self.n79; dirty |= 0x1000004000200444; } // $auto$ff.cc:266:slice$9810
         }
         if ran >> 61 & 1 != 0 {
-            if self.q77 != self.n77 { self.q77 = self.n77; dirty |= 0x40000002000000000000000; } // $auto$ff.cc:266:slice$9797
-            if self.q78 != self.n78 { self.q78 = self.n78; dirty |= 0x2000004000200046; } // $auto$ff.cc:266:slice$9799
+            if self.q76 != self.n76 { self.q76 = self.n76; dirty |= 0x40000002000000000000000; } // $auto$ff.cc:266:slice$9801
+            if self.q77 != self.n77 { self.q77 = self.n77; dirty |= 0x2000004000200046; } // $auto$ff.cc:266:slice$9803
         }
         if ran >> 62 & 1 != 0 {
-            if self.q75 != self.n75 { self.q75 = self.n75; dirty |= 0x4000000000000100; } // $auto$ff.cc:266:slice$9791
-            if self.q76 != self.n76 { self.q76 = self.n76; dirty |= 0x100000004000000000000000; } // $auto$ff.cc:266:slice$9795
+            if self.q74 != self.n74 { self.q74 = self.n74; dirty |= 0x4000000000000100; } // $auto$ff.cc:266:slice$9795
+            if self.q75 != self.n75 { self.q75 = self.n75; dirty |= 0x100000004000000000000000; } // $auto$ff.cc:266:slice$9799
         }
         if ran >> 63 & 1 != 0 {
-            if self.q73 != self.n73 { self.q73 = self.n73; dirty |= 0xa100000034201403; } // $auto$ff.cc:266:slice$9785
-            if self.q74 != self.n74 { self.q74 = self.n74; dirty |= 0x8000000000000100; } // $auto$ff.cc:266:slice$9788
+            if self.q72 != self.n72 { self.q72 = self.n72; dirty |= 0xa100000034201403; } // $auto$ff.cc:266:slice$9789
+            if self.q73 != self.n73 { self.q73 = self.n73; dirty |= 0x8000000000000100; } // $auto$ff.cc:266:slice$9792
         }
         if ran >> 64 & 1 != 0 {
-            if self.q71 != self.n71 { self.q71 = self.n71; dirty |= 0x10000000020000002; } // $auto$ff.cc:266:slice$9780
-            if self.q72 != self.n72 { self.q72 = self.n72; dirty |= 0x10000000010021002; } // $auto$ff.cc:266:slice$9784
+            if self.q70 != self.n70 { self.q70 = self.n70; dirty |= 0x10000000020000002; } // $auto$ff.cc:266:slice$9784
+            if self.q71 != self.n71 { self.q71 = self.n71; dirty |= 0x10000000010021002; } // $auto$ff.cc:266:slice$9788
         }
         if ran >> 65 & 1 != 0 {
-            if self.q69 != self.n69 { self.q69 = self.n69; dirty |= 0x20000000000000020; } // $auto$ff.cc:266:slice$9778
-            if self.q70 != self.n70 { self.q70 = self.n70; dirty |= 0x20000000800004021; } // $auto$ff.cc:266:slice$9779
+            if self.q68 != self.n68 { self.q68 = self.n68; dirty |= 0x20000000000000020; } // $auto$ff.cc:266:slice$9782
+            if self.q69 != self.n69 { self.q69 = self.n69; dirty |= 0x20000000800004021; } // $auto$ff.cc:266:slice$9783
         }
         if ran >> 66 & 1 != 0 {
-            if self.q113 != self.n113 { self.q113 = self.n113; dirty |= 0x10800000400000000e0044381; } // $flatten\core.\protocol.\faults.\bus_off_state.$procdff$8814
-            if self.q114 != self.n114 { self.q114 = self.n114; dirty |= 0x1000000040000000000000103; } // $flatten\core.\protocol.\faults.\passive_state.$procdff$8813
+            if self.q113 != self.n113 { self.q113 = self.n113; dirty |= 0x10800000400000000e0044381; } // $flatten\core.\protocol.\faults.\bus_off_state.$procdff$8815
+            if self.q114 != self.n114 { self.q114 = self.n114; dirty |= 0x1000000040000000000000103; } // $flatten\core.\protocol.\faults.\passive_state.$procdff$8814
         }
         if ran >> 67 & 1 != 0 {
-            if self.q115 != self.n115 { self.q115 = self.n115; dirty |= 0x80000000000000080000000024804003; } // $flatten\core.\protocol.\field.$procdff$8810
-            if self.q116 != self.n116 { self.q116 = self.n116; dirty |= 0x80000000008004000; } // $flatten\core.\protocol.\in_frame.$procdff$8809
+            if self.q115 != self.n115 { self.q115 = self.n115; dirty |= 0x80000000000000080000000024804003; } // $flatten\core.\protocol.\field.$procdff$8811
+            if self.q116 != self.n116 { self.q116 = self.n116; dirty |= 0x80000000008004000; } // $flatten\core.\protocol.\in_frame.$procdff$8810
         }
         if ran >> 68 & 1 != 0 {
-            if self.q62 != self.n62 { self.q62 = self.n62; dirty |= 0x100000000002000001; } // $auto$ff.cc:266:slice$9745
-            if self.q63 != self.n63 { self.q63 = self.n63; dirty |= 0x10000000000a000000; } // $auto$ff.cc:266:slice$9746
+            if self.q61 != self.n61 { self.q61 = self.n61; dirty |= 0x100000000002000001; } // $auto$ff.cc:266:slice$9749
+            if self.q62 != self.n62 { self.q62 = self.n62; dirty |= 0x10000000000a000000; } // $auto$ff.cc:266:slice$9750
         }
         if ran >> 69 & 1 != 0 {
-            if self.q60 != self.n60 { self.q60 = self.n60; dirty |= 0x200000000000000001; } // $auto$ff.cc:266:slice$9715
-            if self.q61 != self.n61 { self.q61 = self.n61; dirty |= 0x200000000000000001; } // $auto$ff.cc:266:slice$9727
+            if self.q59 != self.n59 { self.q59 = self.n59; dirty |= 0x200000000000000001; } // $auto$ff.cc:266:slice$9719
+            if self.q60 != self.n60 { self.q60 = self.n60; dirty |= 0x200000000000000001; } // $auto$ff.cc:266:slice$9731
         }
         if ran >> 70 & 1 != 0 {
-            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x40000000001b000401; } // $auto$ff.cc:266:slice$9701
-            if self.q59 != self.n59 { self.q59 = self.n59; dirty |= 0x400000000000000001; } // $auto$ff.cc:266:slice$9709
+            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x40000000001b000401; } // $auto$ff.cc:266:slice$9705
+            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x400000000000000001; } // $auto$ff.cc:266:slice$9713
         }
         if ran >> 71 & 1 != 0 {
-            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x800000000000001000; } // $auto$ff.cc:266:slice$9699
-            if self.q117 != self.n117 { self.q117 = self.n117; dirty |= 0x800000040000100000; } // $flatten\core.\protocol.\sender.\tx_next.$procdff$8801
+            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x800000000000001000; } // $auto$ff.cc:266:slice$9703
+            if self.q117 != self.n117 { self.q117 = self.n117; dirty |= 0x800000040000100000; } // $flatten\core.\protocol.\sender.\tx_next.$procdff$8802
         }
         if ran >> 72 & 1 != 0 {
-            if self.q104 != self.n104 { self.q104 = self.n104; dirty |= 0x1000000000000100000; } // $auto$ff.cc:266:slice$9897
-            if self.q118 != self.n118 { self.q118 = self.n118; dirty |= 0x8000000000000100000000000810000b; } // $flatten\core.\protocol.\sender.\tx_reg.$procdff$8799
+            if self.q103 != self.n103 { self.q103 = self.n103; dirty |= 0x1000000000000100000; } // $auto$ff.cc:266:slice$9901
+            if self.q118 != self.n118 { self.q118 = self.n118; dirty |= 0x8000000000000100000000000810000b; } // $flatten\core.\protocol.\sender.\tx_reg.$procdff$8800
         }
         if ran >> 73 & 1 != 0 {
-            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x2000000000001000000; } // $auto$ff.cc:266:slice$9675
-            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x2000000100001000000; } // $auto$ff.cc:266:slice$9677
+            if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x2000000000001000000; } // $auto$ff.cc:266:slice$9679
+            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x2000000100001000000; } // $auto$ff.cc:266:slice$9681
         }
         if ran >> 74 & 1 != 0 {
-            if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x4000000000008004003; } // $auto$ff.cc:266:slice$9668
-            if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x4000000000001000002; } // $auto$ff.cc:266:slice$9669
+            if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x4000000000008004003; } // $auto$ff.cc:266:slice$9672
+            if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x4000000000001000002; } // $auto$ff.cc:266:slice$9673
         }
         if ran >> 75 & 1 != 0 {
-            if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x8000000000000000040; } // $auto$ff.cc:266:slice$9658
-            if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x8000000000000000020; } // $auto$ff.cc:266:slice$9662
+            if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x8000000000000000040; } // $auto$ff.cc:266:slice$9662
+            if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x8000000000000000020; } // $auto$ff.cc:266:slice$9666
         }
         if ran >> 76 & 1 != 0 {
-            if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x10000000000000000040; } // $auto$ff.cc:266:slice$9656
-            if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x10000000404000040040; } // $auto$ff.cc:266:slice$9657
+            if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x10000000000000000040; } // $auto$ff.cc:266:slice$9660
+            if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x10000000404000040040; } // $auto$ff.cc:266:slice$9661
         }
         if ran >> 77 & 1 != 0 {
-            if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x20000000000000000040; } // $auto$ff.cc:266:slice$9653
+            if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x20000000000000000040; } // $auto$ff.cc:266:slice$9657
         }
         if ran >> 78 & 1 != 0 {
-            if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x800040000000000000040140; } // $auto$ff.cc:266:slice$9646
+            if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x800040000000000000040140; } // $auto$ff.cc:266:slice$9650
         }
         if ran >> 79 & 1 != 0 {
-            if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x80000000000000000040; } // $auto$ff.cc:266:slice$9643
+            if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x80000000000000000040; } // $auto$ff.cc:266:slice$9647
         }
         if ran >> 80 & 1 != 0 {
-            if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x120000000000000000040; } // $auto$ff.cc:266:slice$9636
+            if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x120000000000000000040; } // $auto$ff.cc:266:slice$9640
         }
         if ran >> 81 & 1 != 0 {
-            if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x200000000000000000040; } // $auto$ff.cc:266:slice$9649
-            if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x200000000404000000140; } // $auto$ff.cc:266:slice$9659
+            if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x200000000000000000040; } // $auto$ff.cc:266:slice$9653
+            if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x200000000404000000140; } // $auto$ff.cc:266:slice$9663
         }
         if ran >> 82 & 1 != 0 {
-            if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x400000000000000000004; } // $auto$ff.cc:266:slice$9633
-            if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x400000000004000000040; } // $auto$ff.cc:266:slice$9639
+            if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x400000000000000000004; } // $auto$ff.cc:266:slice$9637
+            if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x400000000004000000040; } // $auto$ff.cc:266:slice$9643
         }
         if ran >> 83 & 1 != 0 {
-            if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x800000000000000000004; } // $auto$ff.cc:266:slice$9625
-            if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x800000000000000000004; } // $auto$ff.cc:266:slice$9629
+            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x800000000000000000004; } // $auto$ff.cc:266:slice$9629
+            if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x800000000000000000004; } // $auto$ff.cc:266:slice$9633
         }
         if ran >> 84 & 1 != 0 {
-            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x1000000000000000000004; } // $auto$ff.cc:266:slice$9617
-            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x1000000000000000000004; } // $auto$ff.cc:266:slice$9621
+            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x1000000000000000000004; } // $auto$ff.cc:266:slice$9621
+            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x1000000000000000000004; } // $auto$ff.cc:266:slice$9625
         }
         if ran >> 85 & 1 != 0 {
-            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9609
-            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9613
+            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9613
+            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9617
         }
         if ran >> 86 & 1 != 0 {
-            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9603
-            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9605
+            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9607
+            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9609
         }
         if ran >> 87 & 1 != 0 {
-            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9601
-            if self.q119 != self.n119 { self.q119 = self.n119; dirty |= 0x8000000000000000000004; } // $flatten\filter.\dual1_data_match.$procdff$8769
+            if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9605
+            if self.q119 != self.n119 { self.q119 = self.n119; dirty |= 0x8000000000000000000004; } // $flatten\filter.\dual1_data_match.$procdff$8770
         }
         if ran >> 88 & 1 != 0 {
-            if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9599
-            if self.q120 != self.n120 { self.q120 = self.n120; dirty |= 0x10000000000000000000004; } // $flatten\filter.\single_data1_match.$procdff$8766
+            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9603
+            if self.q120 != self.n120 { self.q120 = self.n120; dirty |= 0x10000000000000000000004; } // $flatten\filter.\single_data1_match.$procdff$8767
         }
         if ran >> 89 & 1 != 0 {
-            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x20000000000000000000004; } // $auto$ff.cc:266:slice$9597
-            if self.q121 != self.n121 { self.q121 = self.n121; dirty |= 0x20000000000000000000004; } // $flatten\filter.\single_data2_match.$procdff$8765
+            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x20000000000000000000004; } // $auto$ff.cc:266:slice$9601
+            if self.q121 != self.n121 { self.q121 = self.n121; dirty |= 0x20000000000000000000004; } // $flatten\filter.\single_data2_match.$procdff$8766
         }
         if ran >> 90 & 1 != 0 {
-            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x40000000000400000000000; } // $auto$ff.cc:266:slice$9595
-            if self.q122 != self.n122 { self.q122 = self.n122; dirty |= 0x40000000000000000000100; } // $flatten\interrupts.\alc_armed.$procdff$8763
+            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x40000000000400000000000; } // $auto$ff.cc:266:slice$9599
+            if self.q122 != self.n122 { self.q122 = self.n122; dirty |= 0x40000000000000000000100; } // $flatten\interrupts.\alc_armed.$procdff$8764
         }
         if ran >> 91 & 1 != 0 {
-            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x80000000000000000000300; } // $auto$ff.cc:266:slice$9592
-            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x80000000000000000000100; } // $auto$ff.cc:266:slice$9593
+            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x80000000000000000000300; } // $auto$ff.cc:266:slice$9596
+            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x80000000000000000000100; } // $auto$ff.cc:266:slice$9597
         }
         if ran >> 92 & 1 != 0 {
-            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x100000000000400000000000; } // $auto$ff.cc:266:slice$9591
-            if self.q123 != self.n123 { self.q123 = self.n123; dirty |= 0x100000000000000000000100; } // $flatten\interrupts.\ecc_armed.$procdff$8759
+            if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x100000000000400000000000; } // $auto$ff.cc:266:slice$9595
+            if self.q123 != self.n123 { self.q123 = self.n123; dirty |= 0x100000000000000000000100; } // $flatten\interrupts.\ecc_armed.$procdff$8760
         }
         if ran >> 93 & 1 != 0 {
-            if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x200000000000000000040100; } // $auto$ff.cc:266:slice$9589
+            if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0x200000000000000000040100; } // $auto$ff.cc:266:slice$9593
         }
         if ran >> 94 & 1 != 0 {
-            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x400000000000400000040100; } // $auto$ff.cc:266:slice$9573
+            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x400000000000400000040100; } // $auto$ff.cc:266:slice$9577
         }
         if ran >> 95 & 1 != 0 {
-            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x800000000000000000000100; } // $auto$ff.cc:266:slice$9572
+            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x800000000000000000000100; } // $auto$ff.cc:266:slice$9576
         }
         if ran >> 96 & 1 != 0 {
-            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x1000000000000000000000100; } // $auto$ff.cc:266:slice$9571
+            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x1000000000000000000000100; } // $auto$ff.cc:266:slice$9575
         }
         if ran >> 97 & 1 != 0 {
-            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x2000000000000000000000100; } // $auto$ff.cc:266:slice$9567
+            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x2000000000000000000000100; } // $auto$ff.cc:266:slice$9571
         }
         if ran >> 99 & 1 != 0 {
-            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x8000000000000400000000004; } // $auto$ff.cc:266:slice$9564
+            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x8000000000000400000000004; } // $auto$ff.cc:266:slice$9568
         }
         if ran >> 100 & 1 != 0 {
-            if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x10000000000000400000000000; } // $auto$ff.cc:266:slice$9552
+            if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x10000000000000400000000000; } // $auto$ff.cc:266:slice$9556
         }
         if ran >> 101 & 1 != 0 {
-            if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x20000000000000001000000000; } // $auto$ff.cc:266:slice$9548
+            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x20000000000000001000000000; } // $auto$ff.cc:266:slice$9552
         }
         if ran >> 102 & 1 != 0 {
-            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x40000000000000001000000000; } // $auto$ff.cc:266:slice$9547
+            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x40000000000000001000000000; } // $auto$ff.cc:266:slice$9551
         }
         if ran >> 103 & 1 != 0 {
-            if self.q124 != self.n124 { self.q124 = self.n124; dirty |= 0x80000000000000000000004003; } // $flatten\modes.\enable_reg.$procdff$8746
+            if self.q124 != self.n124 { self.q124 = self.n124; dirty |= 0x80000000000000000000004003; } // $flatten\modes.\enable_reg.$procdff$8747
         }
         if ran >> 104 & 1 != 0 {
-            if self.q125 != self.n125 { self.q125 = self.n125; dirty |= 0x100000000000000040000104001; } // $flatten\modes.\listen_only_reg.$procdff$8745
+            if self.q125 != self.n125 { self.q125 = self.n125; dirty |= 0x100000000000000040000104001; } // $flatten\modes.\listen_only_reg.$procdff$8746
         }
         if ran >> 105 & 1 != 0 {
-            if self.q126 != self.n126 { self.q126 = self.n126; dirty |= 0x200000000000000400000000200; } // $flatten\modes.\lom.$procdff$8744
+            if self.q126 != self.n126 { self.q126 = self.n126; dirty |= 0x200000000000000400000000200; } // $flatten\modes.\lom.$procdff$8745
         }
         if ran >> 106 & 1 != 0 {
-            if self.q127 != self.n127 { self.q127 = self.n127; dirty |= 0x401000100000000404200000b44; } // $flatten\modes.\rm.$procdff$8743
+            if self.q127 != self.n127 { self.q127 = self.n127; dirty |= 0x401000100000000404200000b44; } // $flatten\modes.\rm.$procdff$8744
         }
         if ran >> 107 & 1 != 0 {
-            if self.q128 != self.n128 { self.q128 = self.n128; dirty |= 0x800000000000000000000000002; } // $flatten\modes.\self_test_reg.$procdff$8742
+            if self.q128 != self.n128 { self.q128 = self.n128; dirty |= 0x800000000000000000000000002; } // $flatten\modes.\self_test_reg.$procdff$8743
         }
         if ran >> 108 & 1 != 0 {
-            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x1000000000000000000000000200; } // $auto$ff.cc:266:slice$9545
+            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x1000000000000000000000000200; } // $auto$ff.cc:266:slice$9549
         }
         if ran >> 109 & 1 != 0 {
-            if self.q129 != self.n129 { self.q129 = self.n129; dirty |= 0x2004000000000000400400000200; } // $flatten\modes.\sm.$procdff$8740
+            if self.q129 != self.n129 { self.q129 = self.n129; dirty |= 0x2004000000000000400400000200; } // $flatten\modes.\sm.$procdff$8741
         }
         if ran >> 110 & 1 != 0 {
-            if self.q130 != self.n130 { self.q130 = self.n130; dirty |= 0x4000000000000000400000000200; } // $flatten\modes.\stm.$procdff$8739
+            if self.q130 != self.n130 { self.q130 = self.n130; dirty |= 0x4000000000000000400000000200; } // $flatten\modes.\stm.$procdff$8740
         }
         if ran >> 111 & 1 != 0 {
-            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x8000000000000000000000000010; } // $auto$ff.cc:266:slice$9539
+            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x8000000000000000000000000010; } // $auto$ff.cc:266:slice$9543
         }
         if ran >> 112 & 1 != 0 {
-            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x10000000000000000400000000000; } // $auto$ff.cc:266:slice$9538
+            if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x10000000000000000400000000000; } // $auto$ff.cc:266:slice$9542
         }
         if ran >> 113 & 1 != 0 {
-            if self.q106 != self.n106 { self.q106 = self.n106; dirty |= 0x20000000000000000000000000010; } // $auto$ff.cc:266:slice$9899
+            if self.q105 != self.n105 { self.q105 = self.n105; dirty |= 0x20000000000000000000000000010; } // $auto$ff.cc:266:slice$9903
         }
         if ran >> 114 & 1 != 0 {
-            if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x40000000000000000000000000010; } // $auto$ff.cc:266:slice$9535
+            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x40000000000000000000000000010; } // $auto$ff.cc:266:slice$9539
         }
         if ran >> 115 & 1 != 0 {
-            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x80000000000000000000000000020; } // $auto$ff.cc:266:slice$9534
+            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x80000000000000000000000000020; } // $auto$ff.cc:266:slice$9538
         }
         if ran >> 116 & 1 != 0 {
-            if self.q131 != self.n131 { self.q131 = self.n131; dirty |= 0x100000000000000000000000042020; } // $flatten\tbs.$procdff$8733
+            if self.q131 != self.n131 { self.q131 = self.n131; dirty |= 0x100000000000000000000000042020; } // $flatten\tbs.$procdff$8734
         }
         if ran >> 117 & 1 != 0 {
-            if self.q132 != self.n132 { self.q132 = self.n132; dirty |= 0x200000000000000000000000040020; } // $flatten\tcs.$procdff$8732
+            if self.q132 != self.n132 { self.q132 = self.n132; dirty |= 0x200000000000000000000000040020; } // $flatten\tcs.$procdff$8733
         }
         if ran >> 118 & 1 != 0 {
-            if self.q107 != self.n107 { self.q107 = self.n107; dirty |= 0x400000000000000000000000080000; } // $auto$ff.cc:266:slice$9900
+            if self.q106 != self.n106 { self.q106 = self.n106; dirty |= 0x400000000000000000000000080000; } // $auto$ff.cc:266:slice$9904
         }
         if ran >> 120 & 1 != 0 {
-            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x1000000000000000000000000080000; } // $auto$ff.cc:266:slice$9528
+            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x1000000000000000000000000080000; } // $auto$ff.cc:266:slice$9532
         }
         if ran >> 121 & 1 != 0 {
-            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x2000000000000000000000000080000; } // $auto$ff.cc:266:slice$9525
+            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x2000000000000000000000000080000; } // $auto$ff.cc:266:slice$9529
         }
         if ran >> 123 & 1 != 0 {
-            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x8000000000000000000000000080000; } // $auto$ff.cc:266:slice$9523
+            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x8000000000000000000000000080000; } // $auto$ff.cc:266:slice$9527
         }
         if ran >> 124 & 1 != 0 {
-            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x10000000000000000000000000082020; } // $auto$ff.cc:266:slice$9522
+            if self.q107 != self.n107 { self.q107 = self.n107; dirty |= 0x10000000000000000000000000082020; } // $auto$ff.cc:266:slice$9905
         }
         if ran >> 125 & 1 != 0 {
-            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x20000000000000000000000000006021; } // $auto$ff.cc:266:slice$9518
+            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x20000000000000000000000000006021; } // $auto$ff.cc:266:slice$9522
         }
         if ran >> 126 & 1 != 0 {
-            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x40000000000000000000000000000001; } // $auto$ff.cc:266:slice$9517
+            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x40000000000000000000000000000001; } // $auto$ff.cc:266:slice$9521
         }
         self.dirty |= dirty;
     }
 
     /// The cells of top$core$protocol$interframe.
     fn group_0(&mut self, dirty: &mut u128) {
-        let c500: u64 = (self.q61).wrapping_add((0x1)) & 0x7;
-        let c511: u64 = (self.q51) & (self.q114) & 0x1;
+        let c500: u64 = (self.q60).wrapping_add((0x1)) & 0x7;
+        let c511: u64 = (self.q50) & (self.q114) & 0x1;
         if self.v511 != c511 { self.v511 = c511; *dirty |= 0x8000000; }
-        let c516: u64 = (self.q60) & (self.q62) & 0x1;
+        let c516: u64 = (self.q59) & (self.q61) & 0x1;
         let c518: u64 = (self.q109) & (self.q124) & 0x1;
         if self.v518 != c518 { self.v518 = c518; *dirty |= 0x8000000; }
         let c523: u64 = u64::from((self.q115) == (0x1));
@@ -2101,29 +2101,29 @@ impl Model {
         if self.v124 != c124 { self.v124 = c124; *dirty |= 0x400; }
         let c525: u64 = u64::from((self.q115) == (0xa));
         if self.v525 != c525 { self.v525 = c525; *dirty |= 0x8000400; }
-        let c526: u64 = u64::from((self.q73) == (0x2));
+        let c526: u64 = u64::from((self.q72) == (0x2));
         if self.v526 != c526 { self.v526 = c526; *dirty |= 0x8000000; }
         let c508: u64 = (c525) & (c526) & 0x1;
         if self.v508 != c508 { self.v508 = c508; *dirty |= 0x4000; }
-        let c528: u64 = u64::from((self.q73) == (0xa));
+        let c528: u64 = u64::from((self.q72) == (0xa));
         if self.v528 != c528 { self.v528 = c528; *dirty |= 0x18000000; }
         let c529: u64 = !(self.q118) & 0x1;
         if self.v529 != c529 { self.v529 = c529; *dirty |= 0x8010002; }
-        let c530: u64 = u64::from((self.q73) == (0x7));
+        let c530: u64 = u64::from((self.q72) == (0x7));
         if self.v530 != c530 { self.v530 = c530; *dirty |= 0x8000000; }
-        let c531: u64 = u64::from((self.q73) == (0x5));
+        let c531: u64 = u64::from((self.q72) == (0x5));
         if self.v531 != c531 { self.v531 = c531; *dirty |= 0x8800002; }
-        let c532: u64 = !(self.q51) & 0x1;
+        let c532: u64 = !(self.q50) & 0x1;
         if self.v532 != c532 { self.v532 = c532; *dirty |= 0x4002; }
         let c517: u64 = (c516) & (c532) & 0x1;
-        let c533: u64 = u64::from((self.q73) == 0);
+        let c533: u64 = u64::from((self.q72) == 0);
         if self.v533 != c533 { self.v533 = c533; *dirty |= 0x8000400; }
-        let c534: u64 = u64::from((self.q61) == (0x7));
+        let c534: u64 = u64::from((self.q60) == (0x7));
         let c536: u64 = u64::from((self.q115) == (0xd));
         if self.v536 != c536 { self.v536 = c536; *dirty |= 0x8000400; }
-        let c537: u64 = u64::from((self.q73) != 0);
+        let c537: u64 = u64::from((self.q72) != 0);
         if self.v537 != c537 { self.v537 = c537; *dirty |= 0x200000; }
-        let c538: u64 = u64::from((self.q109) != (self.q59));
+        let c538: u64 = u64::from((self.q109) != (self.q58));
         let c513: u64 = (c537) & (c538) & 0x1;
         if self.v513 != c513 { self.v513 = c513; *dirty |= 0x8000000; }
         let c539: u64 = !(self.q125) & 0x1;
@@ -2135,13 +2135,13 @@ impl Model {
         if self.v28 != c28 { self.v28 = c28; *dirty |= 0x2000000; }
         let c30: u64 = u64::from((c536 | (c531 << 1) | (c515 << 2)) != (0x1));
         if self.v30 != c30 { self.v30 = c30; *dirty |= 0x2000000; }
-        let c540: u64 = !(self.q88) & 0x1;
+        let c540: u64 = !(self.q87) & 0x1;
         let c502: u64 = (c501) & (c540) & 0x1;
         let c503: u64 = (c502) & (self.q124) & 0x1;
         let c541: u64 = !(self.q113) & 0x1;
         if self.v541 != c541 { self.v541 = c541; *dirty |= 0x4080; }
         let c504: u64 = (c503) & (c541) & 0x1;
-        let c542: u64 = !(self.q70) & 0x1;
+        let c542: u64 = !(self.q69) & 0x1;
         let c505: u64 = (c504) & (c542) & 0x1;
         if self.v505 != c505 { self.v505 = c505; *dirty |= 0x1000; }
         let c543: u64 = !(c511) & 0x1;
@@ -2153,7 +2153,7 @@ impl Model {
         if self.v545 != c545 { self.v545 = c545; *dirty |= 0x4000; }
         let c546: u64 = ((c545) | (c508)) & 0x1;
         if self.v546 != c546 { self.v546 = c546; *dirty |= 0x2000000; }
-        let c547: u64 = ((self.q0) | (self.q88)) & 0x1;
+        let c547: u64 = ((self.q0) | (self.q87)) & 0x1;
         if self.v547 != c547 { self.v547 = c547; *dirty |= 0x8000002; }
         let c566: u64 = u64::from((self.q115) == (0xf));
         if self.v566 != c566 { self.v566 = c566; *dirty |= 0x8004010; }
@@ -2165,41 +2165,41 @@ impl Model {
         let c32: u64 = u64::from((c570 | (c533 << 1) | (self.q109 << 2)) != (0x7));
         if self.v32 != c32 { self.v32 = c32; *dirty |= 0x2000000; }
         let c578: u64 = if (c534) != 0 { (c532) } else { (c517) };
-        let c579: u64 = (c534) & (self.q51) & 0x1;
+        let c579: u64 = (c534) & (self.q50) & 0x1;
         let c580: u64 = if (self.q109) != 0 { (0x0) } else { (c579) };
         let c581: u64 = if (self.q109) != 0 { (0x0) } else { (c578) };
         let c583: u64 = (c533) & (c580) & 0x1;
         if self.v583 != c583 { self.v583 = c583; *dirty |= 0x2000000; }
         let c584: u64 = (c533) & (c581) & 0x1;
-        let c589: u64 = if (c531) != 0 { (0x0) } else { (self.q62) };
-        let c593: u64 = if (c515) != 0 { (self.q62) } else { (c589) };
+        let c589: u64 = if (c531) != 0 { (0x0) } else { (self.q61) };
+        let c593: u64 = if (c515) != 0 { (self.q61) } else { (c589) };
         let c597: u64 = u64::from((self.q115) == (0xc));
         if self.v597 != c597 { self.v597 = c597; *dirty |= 0x1b000400; }
         let c27: u64 = u64::from((c536 | (c597 << 1) | (c570 << 2)) != 0);
         if self.v27 != c27 { self.v27 = c27; *dirty |= 0x2000000; }
         let c600: u64 = if (self.q109) != 0 { (0x0) } else { (c531) };
         let c602: u64 = (self.q109) & (c532) & 0x1;
-        let c603: u64 = (self.q109) & (self.q51) & 0x1;
+        let c603: u64 = (self.q109) & (self.q50) & 0x1;
         if self.v603 != c603 { self.v603 = c603; *dirty |= 0x2000000; }
         let c604: u64 = (self.q109) & (c544) & 0x1;
         let c606: u64 = if (c513) != 0 { (0x0) } else { (c531) };
-        let c610: u64 = if (self.q58) != 0 { (c606) } else { (c600) };
+        let c610: u64 = if (self.q57) != 0 { (c606) } else { (c600) };
         if self.v610 != c610 { self.v610 = c610; *dirty |= 0x8000000; }
         let c31: u64 = u64::from((c597 | (c610 << 1)) != (0x1));
         if self.v31 != c31 { self.v31 = c31; *dirty |= 0x2000000; }
         let c126: u64 = if (c536) != 0 { (c531) } else { (c610) };
-        let c588: u64 = ((self.q60) | (c126)) & 0x1;
-        let c612: u64 = ((c604) | (self.q58)) & 0x1;
+        let c588: u64 = ((self.q59) | (c126)) & 0x1;
+        let c612: u64 = ((c604) | (self.q57)) & 0x1;
         if self.v612 != c612 { self.v612 = c612; *dirty |= 0x8000000; }
-        let c613: u64 = if (self.q58) != 0 { (0x0) } else { (self.q109) };
-        let c614: u64 = if (self.q58) != 0 { (0x0) } else { (c602) };
+        let c613: u64 = if (self.q57) != 0 { (0x0) } else { (self.q109) };
+        let c614: u64 = if (self.q57) != 0 { (0x0) } else { (c602) };
         let c634: u64 = u64::from((self.q115) == 0);
         if self.v634 != c634 { self.v634 = c634; *dirty |= 0x8004010; }
         let c640: u64 = if (c570) != 0 { (c500) } else { (0x0) };
         if self.v640 != c640 { self.v640 = c640; *dirty |= 0x200000000000000000; }
         let c641: u64 = if (c570) != 0 { (0x0) } else { (c588) };
         if self.v641 != c641 { self.v641 = c641; *dirty |= 0x200000000000000000; }
-        let c642: u64 = if (c536) != 0 { (c593) } else { (self.q62) };
+        let c642: u64 = if (c536) != 0 { (c593) } else { (self.q61) };
         if self.v642 != c642 { self.v642 = c642; *dirty |= 0x2000000; }
         let c645: u64 = (c597) & (c613) & 0x1;
         if self.v645 != c645 { self.v645 = c645; *dirty |= 0x2000000; }
@@ -2214,42 +2214,42 @@ impl Model {
     fn group_1(&mut self, dirty: &mut u128) {
         let c378: u64 = (self.q124) & (self.v539) & 0x1;
         let c381: u64 = (self.v531) & (self.v532) & 0x1;
-        let c383: u64 = u64::from((self.q73) == (0xb));
+        let c383: u64 = u64::from((self.q72) == (0xb));
         if self.v383 != c383 { self.v383 = c383; *dirty |= 0x10000000; }
-        let c384: u64 = u64::from((self.q73) == (0xc));
+        let c384: u64 = u64::from((self.q72) == (0xc));
         if self.v384 != c384 { self.v384 = c384; *dirty |= 0x14000000; }
-        let c385: u64 = u64::from((self.q73) == (0x1f));
+        let c385: u64 = u64::from((self.q72) == (0x1f));
         if self.v385 != c385 { self.v385 = c385; *dirty |= 0x10001000; }
         let c38: u64 = u64::from((c383 | (c385 << 1)) != 0);
         if self.v38 != c38 { self.v38 = c38; *dirty |= 0x4000000; }
-        let c386: u64 = u64::from((self.q73) == (0x4));
+        let c386: u64 = u64::from((self.q72) == (0x4));
         if self.v386 != c386 { self.v386 = c386; *dirty |= 0x800000; }
-        let c387: u64 = u64::from(((self.q84 & 0x7)) == 0);
-        let c388: u64 = u64::from(((self.q73 & 0x7)) == (0x7));
+        let c387: u64 = u64::from(((self.q83 & 0x7)) == 0);
+        let c388: u64 = u64::from(((self.q72 & 0x7)) == (0x7));
         if self.v388 != c388 { self.v388 = c388; *dirty |= 0x4200000; }
-        let c389: u64 = u64::from(((self.q73 >> 3)) == (self.q79));
+        let c389: u64 = u64::from(((self.q72 >> 3)) == (self.q78));
         let c373: u64 = (c388) & (c389) & 0x1;
         if self.v373 != c373 { self.v373 = c373; *dirty |= 0x800000; }
         let c390: u64 = u64::from((self.q115) == (0x2));
         if self.v390 != c390 { self.v390 = c390; *dirty |= 0x104800400; }
         let c375: u64 = (c390) & (self.q118) & 0x1;
-        let c391: u64 = u64::from((self.q109) == (self.q52));
+        let c391: u64 = u64::from((self.q109) == (self.q51));
         if self.v391 != c391 { self.v391 = c391; *dirty |= 0x10000000; }
-        let c392: u64 = u64::from((self.q73) == (0xe));
-        let c393: u64 = u64::from((self.q72) == 0);
+        let c392: u64 = u64::from((self.q72) == (0xe));
+        let c393: u64 = u64::from((self.q71) == 0);
         let c394: u64 = !(self.q128) & 0x1;
         let c379: u64 = (self.q109) & (c394) & 0x1;
-        let c395: u64 = u64::from((self.q73) == (0x6));
+        let c395: u64 = u64::from((self.q72) == (0x6));
         if self.v395 != c395 { self.v395 = c395; *dirty |= 0x800000; }
         let c380: u64 = (c395) & (self.v532) & 0x1;
-        let c382: u64 = (c395) & (self.q51) & 0x1;
+        let c382: u64 = (c395) & (self.q50) & 0x1;
         let c396: u64 = u64::from((self.q118) != (self.q109));
-        let c370: u64 = (self.q51) & (c396) & 0x1;
+        let c370: u64 = (self.q50) & (c396) & 0x1;
         let c397: u64 = ((c383) | (c384)) & 0x1;
         let c398: u64 = ((c397) | (c385)) & 0x1;
         let c44: u64 = !(c398) & 0x1;
         if self.v44 != c44 { self.v44 = c44; *dirty |= 0x104000000; }
-        let c376: u64 = (self.q51) & (c44) & 0x1;
+        let c376: u64 = (self.q50) & (c44) & 0x1;
         let c402: u64 = u64::from((self.q115) == (0x9));
         if self.v402 != c402 { self.v402 = c402; *dirty |= 0x800400; }
         let c404: u64 = !(c380) & 0x1;
@@ -2262,34 +2262,34 @@ impl Model {
         if self.v406 != c406 { self.v406 = c406; *dirty |= 0x800000; }
         let c411: u64 = u64::from((self.q115) == (0x8));
         if self.v411 != c411 { self.v411 = c411; *dirty |= 0x800400; }
-        let c412: u64 = if (self.q109) != 0 { (self.q71 | (self.q71 << 1)) } else { (0x1) };
-        let c413: u64 = if (self.q109) != 0 { (self.q71) } else { (0x1) };
+        let c412: u64 = if (self.q109) != 0 { (self.q70 | (self.q70 << 1)) } else { (0x1) };
+        let c413: u64 = if (self.q109) != 0 { (self.q70) } else { (0x1) };
         let c414: u64 = u64::from((self.q115) == (0x7));
         if self.v414 != c414 { self.v414 = c414; *dirty |= 0x800400; }
         let c415: u64 = if (self.q118) != 0 { (0x0) } else { (self.q109) };
         let c417: u64 = !(self.q114) & 0x1;
         let c418: u64 = (c379) & (self.q114) & 0x1;
         let c419: u64 = if (c379) != 0 { (c417) } else { (0x1) };
-        let c420: u64 = (self.q51) & (c418) & 0x1;
-        let c421: u64 = if (self.q51) != 0 { (c419) } else { (0x1) };
-        let c422: u64 = (self.q51) & (c379) & 0x1;
-        let c423: u64 = if (self.q51) != 0 { (c379) } else { (c415) };
+        let c420: u64 = (self.q50) & (c418) & 0x1;
+        let c421: u64 = if (self.q50) != 0 { (c419) } else { (0x1) };
+        let c422: u64 = (self.q50) & (c379) & 0x1;
+        let c423: u64 = if (self.q50) != 0 { (c379) } else { (c415) };
         let c425: u64 = (c393) & (c378) & 0x1;
         let c426: u64 = u64::from((self.q115) == (0x6));
         if self.v426 != c426 { self.v426 = c426; *dirty |= 0x800400; }
         let c427: u64 = !(c393) & 0x1;
-        let c428: u64 = if (self.q51) != 0 { (0x0) } else { (c427) };
-        let c429: u64 = if (self.q51) != 0 { (0x0) } else { (c425) };
+        let c428: u64 = if (self.q50) != 0 { (0x0) } else { (c427) };
+        let c429: u64 = if (self.q50) != 0 { (0x0) } else { (c425) };
         let c430: u64 = !(self.q109) & 0x1;
         if self.v430 != c430 { self.v430 = c430; *dirty |= 0x40002000000; }
         let c372: u64 = (c387) & (c430) & 0x1;
         let c377: u64 = (c384) & (c430) & 0x1;
-        let c400: u64 = ((self.q78) | (c372)) & 0x1;
+        let c400: u64 = ((self.q77) | (c372)) & 0x1;
         if self.v400 != c400 { self.v400 = c400; *dirty |= 0x800000; }
         let c401: u64 = ((c377) | (c385)) & 0x1;
         if self.v401 != c401 { self.v401 = c401; *dirty |= 0x800000; }
         let c416: u64 = if (self.q118) != 0 { (0x0) } else { (c430) };
-        let c424: u64 = if (self.q51) != 0 { (0x0) } else { (c416) };
+        let c424: u64 = if (self.q50) != 0 { (0x0) } else { (c416) };
         let c431: u64 = (self.q109) & (c428) & 0x1;
         let c432: u64 = (self.q109) & (c429) & 0x1;
         let c433: u64 = if (c392) != 0 { (0x6) } else { (self.q115) };
@@ -2315,7 +2315,7 @@ impl Model {
         let c449: u64 = { let s = (c402 | (c390 << 1)); if s >> 0 & 1 != 0 { c407 } else if s >> 1 & 1 != 0 { c443 } else { (0x0) } };
         let c450: u64 = (c390) & (c444) & 0x1;
         let c451: u64 = { let s = (c402 | (c411 << 1) | (c414 << 2) | (c426 << 3) | (c122 << 4) | (c390 << 5)); if s >> 0 & 1 != 0 { c405 } else if s >> 1 & 1 != 0 { c413 } else if s >> 2 & 1 != 0 { c423 } else if s >> 3 & 1 != 0 { c430 } else if s >> 4 & 1 != 0 { c370 } else if s >> 5 & 1 != 0 { c445 } else { (0x0) } };
-        let c452: u64 = { let s = (c436 | (c390 << 1)); if s >> 0 & 1 != 0 { self.q51 } else if s >> 1 & 1 != 0 { c446 } else { (0x0) } };
+        let c452: u64 = { let s = (c436 | (c390 << 1)); if s >> 0 & 1 != 0 { self.q50 } else if s >> 1 & 1 != 0 { c446 } else { (0x0) } };
         let c453: u64 = (c390) & (c401) & 0x1;
         let c456: u64 = (c402) & (c407) & 0x1;
         let c457: u64 = (c402) & (c408) & 0x1;
@@ -2325,35 +2325,35 @@ impl Model {
         let c461: u64 = { let s = (c402 | (c411 << 1) | (c414 << 2) | (c426 << 3)); if s >> 0 & 1 != 0 { c405 } else if s >> 1 & 1 != 0 { c412 } else if s >> 2 & 1 != 0 { c422 | (c422 << 1) } else if s >> 3 & 1 != 0 { c430 } else { (0x0) } };
         let c462: u64 = (c426) & (c432) & 0x1;
         let c463: u64 = (c414) & (c424) & 0x1;
-        let c464: u64 = (self.q94) & (c453) & 0x1;
+        let c464: u64 = (self.q93) & (c453) & 0x1;
         if self.v464 != c464 { self.v464 = c464; *dirty |= 0x4000000; }
-        let c465: u64 = (self.q94) & (c456) & 0x1;
+        let c465: u64 = (self.q93) & (c456) & 0x1;
         if self.v465 != c465 { self.v465 = c465; *dirty |= 0x4000000; }
-        let c466: u64 = (self.q94) & (c449) & 0x1;
+        let c466: u64 = (self.q93) & (c449) & 0x1;
         if self.v466 != c466 { self.v466 = c466; *dirty |= 0x4000000; }
-        let c467: u64 = (self.q94) & (c457) & 0x1;
+        let c467: u64 = (self.q93) & (c457) & 0x1;
         if self.v467 != c467 { self.v467 = c467; *dirty |= 0x8000000000000000000; }
-        let c468: u64 = (self.q94) & (c458) & 0x1;
+        let c468: u64 = (self.q93) & (c458) & 0x1;
         if self.v468 != c468 { self.v468 = c468; *dirty |= 0x4000000; }
-        let c469: u64 = (self.q94) & (c459) & 0x1;
+        let c469: u64 = (self.q93) & (c459) & 0x1;
         if self.v469 != c469 { self.v469 = c469; *dirty |= 0x4000000; }
-        let c470: u64 = if (self.q94) != 0 { (c460) } else { (0x1) };
+        let c470: u64 = if (self.q93) != 0 { (c460) } else { (0x1) };
         if self.v470 != c470 { self.v470 = c470; *dirty |= 0x4000000; }
-        let c471: u64 = (self.q94) & (c450) & 0x1;
+        let c471: u64 = (self.q93) & (c450) & 0x1;
         if self.v471 != c471 { self.v471 = c471; *dirty |= 0x4000000; }
-        let c472: u64 = if (self.q94) != 0 { (c461) } else { (0x0) };
+        let c472: u64 = if (self.q93) != 0 { (c461) } else { (0x0) };
         if self.v472 != c472 { self.v472 = c472; *dirty |= 0x4000000; }
-        let c473: u64 = (self.q94) & (c451) & 0x1;
+        let c473: u64 = (self.q93) & (c451) & 0x1;
         if self.v473 != c473 { self.v473 = c473; *dirty |= 0x4000000; }
-        let c474: u64 = (self.q94) & (c426) & 0x1;
+        let c474: u64 = (self.q93) & (c426) & 0x1;
         if self.v474 != c474 { self.v474 = c474; *dirty |= 0x4000000; }
-        let c475: u64 = (self.q94) & (c462) & 0x1;
+        let c475: u64 = (self.q93) & (c462) & 0x1;
         if self.v475 != c475 { self.v475 = c475; *dirty |= 0x4000000; }
-        let c476: u64 = (self.q94) & (c123) & 0x1;
+        let c476: u64 = (self.q93) & (c123) & 0x1;
         if self.v476 != c476 { self.v476 = c476; *dirty |= 0x4000000; }
-        let c478: u64 = (self.q94) & (c463) & 0x1;
+        let c478: u64 = (self.q93) & (c463) & 0x1;
         if self.v478 != c478 { self.v478 = c478; *dirty |= 0x4000000; }
-        let c479: u64 = (self.q94) & (c452) & 0x1;
+        let c479: u64 = (self.q93) & (c452) & 0x1;
         if self.v479 != c479 { self.v479 = c479; *dirty |= 0x4000000; }
         let c480: u64 = !(c375) & 0x1;
         let c481: u64 = if (c370) != 0 { (c480) } else { (0x1) };
@@ -2367,37 +2367,37 @@ impl Model {
 
     /// The cells of top$filter.
     fn group_2(&mut self, dirty: &mut u128) {
-        let c115: u64 = ((self.q78 | ((self.q81 & 0x1f) << 1)) ^ ((self.q36 >> 2))) & 0x3f;
-        let c849: u64 = (self.q14) & (self.q127) & 0x1;
+        let c113: u64 = ((self.q77 | ((self.q80 & 0x1f) << 1)) ^ ((self.q35 >> 2))) & 0x3f;
+        let c849: u64 = (self.q13) & (self.q127) & 0x1;
         let c851: u64 = (self.i_we) & (self.q127) & 0x1;
         if self.v851 != c851 { self.v851 = c851; *dirty |= 0x402020; }
-        let c853: u64 = (self.q28) & (self.q120) & 0x1;
+        let c853: u64 = (self.q27) & (self.q120) & 0x1;
         let c854: u64 = (c853) & (self.q121) & 0x1;
-        let c855: u64 = (self.q30) & (self.q119) & 0x1;
+        let c855: u64 = (self.q29) & (self.q119) & 0x1;
         let c870: u64 = u64::from(((self.i_addr >> 3)) == (0x2));
         let c850: u64 = (c849) & (c870) & 0x1;
         let c871: u64 = u64::from((self.i_addr) == (0x4));
         if self.v871 != c871 { self.v871 = c871; *dirty |= 0x400000000100; }
         let c872: u64 = u64::from((self.i_addr) == (0x5));
-        let c881: u64 = !(self.q80) & 0x1;
+        let c881: u64 = !(self.q79) & 0x1;
         if self.v881 != c881 { self.v881 = c881; *dirty |= 0x800020; }
-        let c866: u64 = (self.q86) & (c881) & 0x1;
-        let c888: u64 = u64::from((self.q87) == 0);
-        let c891: u64 = u64::from((self.q87) == (0x1));
+        let c866: u64 = (self.q85) & (c881) & 0x1;
+        let c888: u64 = u64::from((self.q86) == 0);
+        let c891: u64 = u64::from((self.q86) == (0x1));
         let c893: u64 = ((c871) | (c872)) & 0x1;
-        let c894: u64 = ((c855) | (self.q29)) & 0x1;
-        let c905: u64 = if (self.q80) != 0 { ((self.q81 >> 17)) } else { (self.q78) };
+        let c894: u64 = ((c855) | (self.q28)) & 0x1;
+        let c905: u64 = if (self.q79) != 0 { ((self.q80 >> 17)) } else { (self.q77) };
         if self.v905 != c905 { self.v905 = c905; *dirty |= 0x40; }
-        let c906: u64 = ((self.q119) | (self.q83)) & 0x1;
-        let c907: u64 = ((self.q121) | (self.q83)) & 0x1;
-        let c908: u64 = ((self.q120) | (self.q83)) & 0x1;
-        let c909: u64 = if (self.q16) != 0 { (c854) } else { (c894) };
-        let c910: u64 = if (self.q14) != 0 { (c909) } else { (self.q31) };
+        let c906: u64 = ((self.q119) | (self.q82)) & 0x1;
+        let c907: u64 = ((self.q121) | (self.q82)) & 0x1;
+        let c908: u64 = ((self.q120) | (self.q82)) & 0x1;
+        let c909: u64 = if (self.q15) != 0 { (c854) } else { (c894) };
+        let c910: u64 = if (self.q13) != 0 { (c909) } else { (self.q30) };
         if self.v910 != c910 { self.v910 = c910; *dirty |= 0x20; }
-        let c918: u64 = if (self.q14) != 0 { (c850) } else { (c893) };
+        let c918: u64 = if (self.q13) != 0 { (c850) } else { (c893) };
         if self.v918 != c918 { self.v918 = c918; *dirty |= 0x400000000000; }
         let c852: u64 = (c851) & (c918) & 0x1;
-        let c919: u64 = if (self.q14) != 0 { ((self.i_addr & 0x7)) } else { ((c872 << 2)) };
+        let c919: u64 = if (self.q13) != 0 { ((self.i_addr & 0x7)) } else { ((c872 << 2)) };
         let c873: u64 = u64::from((c919) == (0x1));
         let c58: u64 = u64::from((c852 | (c873 << 1)) == 0x3);
         if self.v58 != c58 { self.v58 = c58; *dirty |= 0x800000000000000000000; }
@@ -2422,39 +2422,39 @@ impl Model {
         let c880: u64 = u64::from((c919) == (0x7));
         let c52: u64 = u64::from((c852 | (c880 << 1)) == 0x3);
         if self.v52 != c52 { self.v52 = c52; *dirty |= 0x4000000000000000000000; }
-        let c917: u64 = if (c873) != 0 { (self.q38) } else { (self.q39) };
-        let c916: u64 = if (c874) != 0 { (self.q37) } else { (c917) };
-        let c915: u64 = if (c875) != 0 { (self.q36) } else { (c916) };
-        let c914: u64 = if (c877) != 0 { (self.q35) } else { (c915) };
-        let c913: u64 = if (c878) != 0 { (self.q34) } else { (c914) };
-        let c912: u64 = if (c879) != 0 { (self.q33) } else { (c913) };
-        let c911: u64 = if (c880) != 0 { (self.q32) } else { (c912) };
+        let c917: u64 = if (c873) != 0 { (self.q37) } else { (self.q38) };
+        let c916: u64 = if (c874) != 0 { (self.q36) } else { (c917) };
+        let c915: u64 = if (c875) != 0 { (self.q35) } else { (c916) };
+        let c914: u64 = if (c877) != 0 { (self.q34) } else { (c915) };
+        let c913: u64 = if (c878) != 0 { (self.q33) } else { (c914) };
+        let c912: u64 = if (c879) != 0 { (self.q32) } else { (c913) };
+        let c911: u64 = if (c880) != 0 { (self.q31) } else { (c912) };
         if self.v911 != c911 { self.v911 = c911; *dirty |= 0x400000000000; }
-        let c920: u64 = (((self.q82 >> 3)) ^ (self.q39)) & 0xff;
-        let c921: u64 = ((self.q35) ^ (0xff)) & 0xff;
+        let c920: u64 = (((self.q81 >> 3)) ^ (self.q38)) & 0xff;
+        let c921: u64 = ((self.q34) ^ (0xff)) & 0xff;
         let c856: u64 = (c920) & (c921) & 0xff;
         let c882: u64 = u64::from((c856) == 0);
         if self.v882 != c882 { self.v882 = c882; *dirty |= 0x4000000000000000000000; }
-        let c922: u64 = ((((self.q81 >> 13) & 0xf) | (c905 << 4) | ((self.q82 & 0x7) << 5)) ^ (self.q38)) & 0xff;
-        let c923: u64 = ((self.q34) ^ (0xff)) & 0xff;
+        let c922: u64 = ((((self.q80 >> 13) & 0xf) | (c905 << 4) | ((self.q81 & 0x7) << 5)) ^ (self.q37)) & 0xff;
+        let c923: u64 = ((self.q33) ^ (0xff)) & 0xff;
         let c857: u64 = (c922) & (c923) & 0xff;
-        let c118: u64 = ((c857 & 0xf)) & (self.q80 | (self.q80 << 1) | (self.q80 << 2) | (self.q80 << 3)) & 0xf;
-        let c883: u64 = u64::from((c118 | ((c857 >> 4) << 4)) == 0);
+        let c116: u64 = ((c857 & 0xf)) & (self.q79 | (self.q79 << 1) | (self.q79 << 2) | (self.q79 << 3)) & 0xf;
+        let c883: u64 = u64::from((c116 | ((c857 >> 4) << 4)) == 0);
         let c862: u64 = (c882) & (c883) & 0x1;
         if self.v862 != c862 { self.v862 = c862; *dirty |= 0x8000000000000000000000; }
-        let c924: u64 = ((((self.q81 >> 5) & 0xff)) ^ (self.q37)) & 0xff;
-        let c925: u64 = ((self.q33) ^ (0xff)) & 0xff;
+        let c924: u64 = ((((self.q80 >> 5) & 0xff)) ^ (self.q36)) & 0xff;
+        let c925: u64 = ((self.q32) ^ (0xff)) & 0xff;
         let c858: u64 = (c924) & (c925) & 0xff;
         let c886: u64 = u64::from((c858) == 0);
-        let c926: u64 = (((self.q82 >> 3)) ^ (self.q37)) & 0xff;
+        let c926: u64 = (((self.q81 >> 3)) ^ (self.q36)) & 0xff;
         let c860: u64 = (c926) & (c925) & 0xff;
         let c884: u64 = u64::from((c860) == 0);
-        let c927: u64 = ((((self.q81 >> 13) & 0xf) | (c905 << 4) | ((self.q82 & 0x7) << 5)) ^ (self.q36)) & 0xff;
-        let c928: u64 = ((self.q32) ^ (0xff)) & 0xff;
-        let c859: u64 = ((self.q36 & 0x3) | (c115 << 2)) & (c928) & 0xff;
+        let c927: u64 = ((((self.q80 >> 13) & 0xf) | (c905 << 4) | ((self.q81 & 0x7) << 5)) ^ (self.q35)) & 0xff;
+        let c928: u64 = ((self.q31) ^ (0xff)) & 0xff;
+        let c859: u64 = ((self.q35 & 0x3) | (c113 << 2)) & (c928) & 0xff;
         let c861: u64 = (c927) & (c928) & 0xff;
-        let c119: u64 = ((c861 & 0xf)) & (self.q80 | (self.q80 << 1) | (self.q80 << 2) | (self.q80 << 3)) & 0xf;
-        let c885: u64 = u64::from((c119 | ((c861 >> 4) << 4)) == 0);
+        let c117: u64 = ((c861 & 0xf)) & (self.q79 | (self.q79 << 1) | (self.q79 << 2) | (self.q79 << 3)) & 0xf;
+        let c885: u64 = u64::from((c117 | ((c861 >> 4) << 4)) == 0);
         let c863: u64 = (c884) & (c885) & 0x1;
         if self.v863 != c863 { self.v863 = c863; *dirty |= 0x10000000000000000000000; }
         let c887: u64 = u64::from(((c859 >> 2)) == 0);
@@ -2462,22 +2462,22 @@ impl Model {
         let c895: u64 = ((c881) | (c864)) & 0x1;
         let c865: u64 = (c862) & (c895) & 0x1;
         if self.v865 != c865 { self.v865 = c865; *dirty |= 0x20000000000000000000000; }
-        let c929: u64 = ((self.q85) ^ (self.q37)) & 0xff;
+        let c929: u64 = ((self.q84) ^ (self.q36)) & 0xff;
         let c867: u64 = (c929) & (c925) & 0xff;
         let c889: u64 = u64::from((c867) == 0);
         let c901: u64 = if (c888) != 0 { (c889) } else { (c908) };
         let c904: u64 = if (c866) != 0 { (c901) } else { (c908) };
         let c898: u64 = ((c904) | (self.i_reset)) & 0x1;
         if self.v898 != c898 { self.v898 = c898; *dirty |= 0x10000000000000000000000; }
-        let c930: u64 = ((self.q85) ^ ((self.q36 & 0xf) | ((self.q38 & 0xf) << 4))) & 0xff;
-        let c931: u64 = (((self.q32 & 0xf) | ((self.q34 & 0xf) << 4)) ^ (0xff)) & 0xff;
+        let c930: u64 = ((self.q84) ^ ((self.q35 & 0xf) | ((self.q37 & 0xf) << 4))) & 0xff;
+        let c931: u64 = (((self.q31 & 0xf) | ((self.q33 & 0xf) << 4)) ^ (0xff)) & 0xff;
         let c868: u64 = (c930) & (c931) & 0xff;
         let c890: u64 = u64::from((c868) == 0);
         let c900: u64 = if (c888) != 0 { (c890) } else { (c906) };
         let c903: u64 = if (c866) != 0 { (c900) } else { (c906) };
         let c896: u64 = ((c903) | (self.i_reset)) & 0x1;
         if self.v896 != c896 { self.v896 = c896; *dirty |= 0x8000000000000000000000; }
-        let c932: u64 = ((self.q85) ^ (self.q36)) & 0xff;
+        let c932: u64 = ((self.q84) ^ (self.q35)) & 0xff;
         let c869: u64 = (c932) & (c928) & 0xff;
         let c892: u64 = u64::from((c869) == 0);
         let c899: u64 = if (c891) != 0 { (c892) } else { (c907) };
@@ -2489,73 +2489,73 @@ impl Model {
 
     /// The cells of top$core$bit_timing.
     fn group_3(&mut self, dirty: &mut u128) {
-        let c113: u64 = !(self.q99) & 0x3;
+        let c112: u64 = !(self.q98) & 0x3;
         let c121: u64 = !(self.q108) & 0x7;
-        let c139: u64 = (self.q99).wrapping_add((0x1)) & 0x7;
+        let c139: u64 = (self.q98).wrapping_add((0x1)) & 0x7;
         if self.v139 != c139 { self.v139 = c139; *dirty |= 0x40000000000000; }
-        let c140: u64 = (self.q96 | (self.q97 << 1)).wrapping_add((0x1)) & 0x7f;
+        let c140: u64 = (self.q95 | (self.q96 << 1)).wrapping_add((0x1)) & 0x7f;
         if self.v140 != c140 { self.v140 = c140; *dirty |= 0x10000000000; }
-        let c142: u64 = (self.q95).wrapping_add((0x1)) & 0x7;
+        let c142: u64 = (self.q94).wrapping_add((0x1)) & 0x7;
         if self.v142 != c142 { self.v142 = c142; *dirty |= 0x4000000000000; }
-        let c159: u64 = u64::from((self.q93) == (self.q108));
-        let c160: u64 = u64::from((self.q93) == 0);
-        let c161: u64 = u64::from((self.q96 | (self.q97 << 1)) == 0);
-        let c162: u64 = u64::from((self.q96 | (self.q97 << 1)) >= (((self.q103 & 0x3f) << 1) | 0x1));
-        if self.v162 != c162 { self.v162 = c162; *dirty |= 0x10000; }
-        let c145: u64 = (c162) & (c160) & 0x1;
+        let c159: u64 = u64::from((self.q92) == (self.q108));
+        let c160: u64 = u64::from((self.q92) == 0);
+        let c161: u64 = u64::from((self.q90) == 0);
+        if self.v161 != c161 { self.v161 = c161; *dirty |= 0x10000; }
+        let c162: u64 = u64::from((self.q95 | (self.q96 << 1)) == 0);
+        let c155: u64 = (c161) & (c162) & 0x1;
+        if self.v155 != c155 { self.v155 = c155; *dirty |= 0x10000; }
+        let c163: u64 = u64::from((self.q95 | (self.q96 << 1)) >= (((self.q102 & 0x3f) << 1) | 0x1));
+        if self.v163 != c163 { self.v163 = c163; *dirty |= 0x10000; }
+        let c145: u64 = (c163) & (c160) & 0x1;
         if self.v145 != c145 { self.v145 = c145; *dirty |= 0x10000; }
-        let c147: u64 = (c162) & (c159) & 0x1;
+        let c147: u64 = (c163) & (c159) & 0x1;
         if self.v147 != c147 { self.v147 = c147; *dirty |= 0x10000; }
-        let c163: u64 = u64::from((self.q95) <= (self.q99));
-        let c164: u64 = u64::from((self.q93) <= (self.q99));
-        let c165: u64 = u64::from((self.q95) != (0x4));
-        let c77: u64 = u64::from((c162 | (c165 << 1)) == 0x3);
+        let c164: u64 = u64::from((self.q94) <= (self.q98));
+        let c165: u64 = u64::from((self.q92) <= (self.q98));
+        let c166: u64 = u64::from((self.q94) != (0x4));
+        let c77: u64 = u64::from((c163 | (c166 << 1)) == 0x3);
         if self.v77 != c77 { self.v77 = c77; *dirty |= 0x4000000000000; }
-        let c166: u64 = !(self.q90) & 0x1;
-        if self.v166 != c166 { self.v166 = c166; *dirty |= 0x10000; }
-        let c171: u64 = !(self.q94) & 0x1;
-        if self.v171 != c171 { self.v171 = c171; *dirty |= 0x10000; }
-        let c172: u64 = !(self.i_reset) & 0x1;
+        let c167: u64 = !(self.q89) & 0x1;
+        if self.v167 != c167 { self.v167 = c167; *dirty |= 0x10000; }
+        let c172: u64 = !(self.q93) & 0x1;
         if self.v172 != c172 { self.v172 = c172; *dirty |= 0x10000; }
-        let c190: u64 = u64::from((self.q91) == (0x2));
-        if self.v190 != c190 { self.v190 = c190; *dirty |= 0x10000; }
-        let c192: u64 = u64::from((self.q91) == (0x1));
-        if self.v192 != c192 { self.v192 = c192; *dirty |= 0x10000; }
-        let c149: u64 = (c192) & (c162) & 0x1;
+        let c173: u64 = !(self.i_reset) & 0x1;
+        if self.v173 != c173 { self.v173 = c173; *dirty |= 0x10000; }
+        let c191: u64 = u64::from((self.q90) == (0x2));
+        if self.v191 != c191 { self.v191 = c191; *dirty |= 0x10000; }
+        let c193: u64 = u64::from((self.q90) == (0x1));
+        if self.v193 != c193 { self.v193 = c193; *dirty |= 0x10000; }
+        let c39: u64 = u64::from((c161 | (c193 << 1) | (c191 << 2)) != 0);
+        if self.v39 != c39 { self.v39 = c39; *dirty |= 0x10000; }
+        let c149: u64 = (c193) & (c163) & 0x1;
         let c150: u64 = (c149) & (c160) & 0x1;
         if self.v150 != c150 { self.v150 = c150; *dirty |= 0x10000; }
-        let c191: u64 = { let s = (c190 | (c192 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
-        if self.v191 != c191 { self.v191 = c191; *dirty |= 0x40000000000000; }
-        let c193: u64 = u64::from((self.q91) == 0);
-        if self.v193 != c193 { self.v193 = c193; *dirty |= 0x10000; }
-        let c39: u64 = u64::from((c193 | (c192 << 1) | (c190 << 2)) != 0);
-        if self.v39 != c39 { self.v39 = c39; *dirty |= 0x10000; }
-        let c155: u64 = (c193) & (c161) & 0x1;
-        if self.v155 != c155 { self.v155 = c155; *dirty |= 0x10000; }
-        let c195: u64 = if (c162) != 0 { (0x0) } else { ((c140 & 0x1)) };
+        let c192: u64 = { let s = (c191 | (c193 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
+        if self.v192 != c192 { self.v192 = c192; *dirty |= 0x40000000000000; }
+        let c195: u64 = if (c163) != 0 { (0x0) } else { ((c140 & 0x1)) };
         if self.v195 != c195 { self.v195 = c195; *dirty |= 0x10000; }
-        let c196: u64 = if (c162) != 0 { (c121) } else { (c113 | 0x4) };
+        let c196: u64 = if (c163) != 0 { (c121) } else { (c112 | 0x4) };
         if self.v196 != c196 { self.v196 = c196; *dirty |= 0x10000; }
-        let c198: u64 = if (c162) != 0 { (self.q99) } else { (self.q108) };
+        let c198: u64 = if (c163) != 0 { (self.q98) } else { (self.q108) };
         if self.v198 != c198 { self.v198 = c198; *dirty |= 0x10000; }
-        let c201: u64 = !(c164) & 0x1;
-        let c202: u64 = !(c163) & 0x1;
+        let c201: u64 = !(c165) & 0x1;
+        let c202: u64 = !(c164) & 0x1;
         let c203: u64 = (self.q118) & (c202) & 0x1;
-        let c204: u64 = (self.q118) & (c163) & 0x1;
-        let c205: u64 = (c190) & (c201) & 0x1;
+        let c204: u64 = (self.q118) & (c164) & 0x1;
+        let c205: u64 = (c191) & (c201) & 0x1;
         if self.v205 != c205 { self.v205 = c205; *dirty |= 0x10000; }
-        let c206: u64 = (c192) & (c203) & 0x1;
+        let c206: u64 = (c193) & (c203) & 0x1;
         if self.v206 != c206 { self.v206 = c206; *dirty |= 0x10000; }
-        let c207: u64 = (c190) & (c164) & 0x1;
+        let c207: u64 = (c191) & (c165) & 0x1;
         if self.v207 != c207 { self.v207 = c207; *dirty |= 0x10000; }
-        let c208: u64 = (c192) & (c204) & 0x1;
+        let c208: u64 = (c193) & (c204) & 0x1;
         if self.v208 != c208 { self.v208 = c208; *dirty |= 0x10000; }
         let _ = &dirty;
     }
 
     /// The cells of top$read.
     fn group_4(&mut self, dirty: &mut u128) {
-        let c120: u64 = (((self.m0_rd & 0xf)) | (self.q106)) & 0xf;
+        let c119: u64 = (((self.m0_rd & 0xf)) | (self.q105)) & 0xf;
         let c1044: u64 = u64::from((self.i_addr) == (0x2));
         if self.v1044 != c1044 { self.v1044 = c1044; *dirty |= 0x40000; }
         let c1045: u64 = u64::from((self.i_addr) == (0xb));
@@ -2580,24 +2580,24 @@ impl Model {
         if self.v1054 != c1054 { self.v1054 = c1054; *dirty |= 0x40000; }
         let c1055: u64 = ((self.v634) | (self.v566)) & 0x1;
         if self.v1055 != c1055 { self.v1055 = c1055; *dirty |= 0x4000; }
-        let c1060: u64 = if (self.q9) != 0 { (c120 | ((self.m0_rd >> 4) << 4)) } else { (self.q7) };
+        let c1060: u64 = if (self.q8) != 0 { (c119 | ((self.m0_rd >> 4) << 4)) } else { (self.q6) };
         if self.v1060 != c1060 { self.v1060 = c1060; *dirty |= 0x400000000000; }
-        let c1085: u64 = if (self.q14) != 0 { (self.q21) } else { (0x1) };
+        let c1085: u64 = if (self.q13) != 0 { (self.q20) } else { (0x1) };
         if self.v1085 != c1085 { self.v1085 = c1085; *dirty |= 0x800040000; }
         let _ = &dirty;
     }
 
     /// The cells of can_controller.
     fn group_5(&mut self, dirty: &mut u128) {
-        let c0: u64 = (self.v851) & (self.q14) & 0x1;
+        let c0: u64 = (self.v851) & (self.q13) & 0x1;
         let c1: u64 = (c0) & (self.v1048) & 0x1;
         if self.v1 != c1 { self.v1 = c1; *dirty |= 0xc0000000; }
         let c2: u64 = (c0) & (self.v1047) & 0x1;
         if self.v2 != c2 { self.v2 = c2; *dirty |= 0x80; }
         let c3: u64 = (c0) & (self.v1050) & 0x1;
         if self.v3 != c3 { self.v3 = c3; *dirty |= 0x4000000040; }
-        let c13: u64 = (self.q70) & (self.q69) & 0x1;
-        let c14: u64 = (c13) & (self.q6) & 0x1;
+        let c13: u64 = (self.q69) & (self.q68) & 0x1;
+        let c14: u64 = (c13) & (self.q5) & 0x1;
         let c774: u64 = { let s = (self.i_addr); if s < 256 { TABLE_0[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
         if self.v774 != c774 { self.v774 = c774; *dirty |= 0x800; }
         let c775: u64 = { let s = (self.i_addr); if s < 256 { TABLE_1[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
@@ -2610,57 +2610,57 @@ impl Model {
         if self.v778 != c778 { self.v778 = c778; *dirty |= 0x800; }
         let c779: u64 = { let s = (self.i_addr); if s < 256 { TABLE_5[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
         if self.v779 != c779 { self.v779 = c779; *dirty |= 0x40000; }
-        let c1099: u64 = if ((self.q56 & 0x1) | (self.q55 << 1) | ((self.q56 >> 1) << 3)) < 16 { (self.q2) >> ((self.q56 & 0x1) | (self.q55 << 1) | ((self.q56 >> 1) << 3)) & 0x1 } else { 0 };
+        let c1099: u64 = if ((self.q55 & 0x1) | (self.q54 << 1) | ((self.q55 >> 1) << 3)) < 16 { (self.q107) >> ((self.q55 & 0x1) | (self.q54 << 1) | ((self.q55 >> 1) << 3)) & 0x1 } else { 0 };
         if self.v1099 != c1099 { self.v1099 = c1099; *dirty |= 0x80000; }
-        let c1103: u64 = ((self.q50) | (c14)) & 0x1;
+        let c1103: u64 = ((self.q49) | (c14)) & 0x1;
         let c15: u64 = (c1103) & (self.v910) & 0x1;
-        let c1104: u64 = ((self.q14) | (self.v881)) & 0x1;
+        let c1104: u64 = ((self.q13) | (self.v881)) & 0x1;
         let c16: u64 = (c15) & (c1104) & 0x1;
         if self.v16 != c16 { self.v16 = c16; *dirty |= 0x40; }
-        let c1111: u64 = if (self.q70) != 0 { (self.q69) } else { (self.q132) };
+        let c1111: u64 = if (self.q69) != 0 { (self.q68) } else { (self.q132) };
         if self.v1111 != c1111 { self.v1111 = c1111; *dirty |= 0x80000000; }
-        let c1112: u64 = ((self.q131) | (self.q70)) & 0x1;
+        let c1112: u64 = ((self.q131) | (self.q69)) & 0x1;
         if self.v1112 != c1112 { self.v1112 = c1112; *dirty |= 0x80000000; }
-        let c1113: u64 = if (self.q70) != 0 { (0x0) } else { (self.q1) };
+        let c1113: u64 = if (self.q69) != 0 { (0x0) } else { (self.q1) };
         if self.v1113 != c1113 { self.v1113 = c1113; *dirty |= 0x80000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$fifo.
     fn group_6(&mut self, dirty: &mut u128) {
-        let c785: u64 = (self.q45).wrapping_add((0x1)) & 0x7;
-        let c794: u64 = (self.v16) & (self.q44) & 0x1;
-        let c796: u64 = u64::from((self.q45) == (0x1));
-        let c797: u64 = u64::from((self.q45) == (0x2));
-        let c798: u64 = u64::from((self.q45) == (0x3));
-        let c799: u64 = u64::from((self.q45) == (0x4));
-        let c800: u64 = !(self.q44) & 0x1;
+        let c785: u64 = (self.q44).wrapping_add((0x1)) & 0x7;
+        let c794: u64 = (self.v16) & (self.q43) & 0x1;
+        let c796: u64 = u64::from((self.q44) == (0x1));
+        let c797: u64 = u64::from((self.q44) == (0x2));
+        let c798: u64 = u64::from((self.q44) == (0x3));
+        let c799: u64 = u64::from((self.q44) == (0x4));
+        let c800: u64 = !(self.q43) & 0x1;
         let c793: u64 = (self.v16) & (c800) & 0x1;
         if self.v793 != c793 { self.v793 = c793; *dirty |= 0x4000000000; }
         let c20: u64 = u64::from((c793 | (self.q127 << 1)) != 0);
         if self.v20 != c20 { self.v20 = c20; *dirty |= 0x80000000000000000000; }
-        let c802: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (self.q47) };
-        let c813: u64 = ((self.q43) | (c794)) & 0x1;
+        let c802: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (self.q46) };
+        let c813: u64 = ((self.q42) | (c794)) & 0x1;
         if self.v813 != c813 { self.v813 = c813; *dirty |= 0x40000000000000000000; }
-        let c829: u64 = ((self.q40) | (self.q86)) & 0x1;
-        let c833: u64 = if (c796) != 0 { ((self.q82 >> 3)) } else { (self.q84 | (self.q78 << 6) | (self.q80 << 7)) };
-        let c832: u64 = if (c797) != 0 { (((self.q81 >> 13) & 0xf) | (self.v905 << 4) | ((self.q82 & 0x7) << 5)) } else { (c833) };
-        let c831: u64 = if (c798) != 0 { (((self.q81 >> 5) & 0xff)) } else { (c832) };
-        let c830: u64 = if (c799) != 0 { ((self.q78 << 2) | ((self.q81 & 0x1f) << 3)) } else { (c831) };
-        let c835: u64 = if (self.q40) != 0 { (c830) } else { (self.q84 | (self.q78 << 6) | (self.q80 << 7)) };
-        let c827: u64 = if (self.q86) != 0 { (self.q85) } else { (c835) };
+        let c829: u64 = ((self.q39) | (self.q85)) & 0x1;
+        let c833: u64 = if (c796) != 0 { ((self.q81 >> 3)) } else { (self.q83 | (self.q77 << 6) | (self.q79 << 7)) };
+        let c832: u64 = if (c797) != 0 { (((self.q80 >> 13) & 0xf) | (self.v905 << 4) | ((self.q81 & 0x7) << 5)) } else { (c833) };
+        let c831: u64 = if (c798) != 0 { (((self.q80 >> 5) & 0xff)) } else { (c832) };
+        let c830: u64 = if (c799) != 0 { ((self.q77 << 2) | ((self.q80 & 0x1f) << 3)) } else { (c831) };
+        let c835: u64 = if (self.q39) != 0 { (c830) } else { (self.q83 | (self.q77 << 6) | (self.q79 << 7)) };
+        let c827: u64 = if (self.q85) != 0 { (self.q84) } else { (c835) };
         if self.v827 != c827 { self.v827 = c827; *dirty |= 0x200000000; }
-        let c837: u64 = if (self.q40) != 0 { (c785) } else { (0x0) };
+        let c837: u64 = if (self.q39) != 0 { (c785) } else { (0x0) };
         if self.v837 != c837 { self.v837 = c837; *dirty |= 0x20000000000000000000; }
-        let c838: u64 = if (self.q83) != 0 { (0x0) } else { (self.q44) };
-        let c839: u64 = ((self.q40) | (self.q83)) & 0x1;
-        let c840: u64 = if (self.q80) != 0 { (0x2) } else { (0x1) };
-        let c784: u64 = ((c840 << 1) | 0x1).wrapping_add((self.q84)) & 0xf;
-        let c786: u64 = ((c840 << 1) | 0x1).wrapping_add((self.q87)) & 0xf;
-        let c795: u64 = u64::from((self.q45) == ((c840 << 1)));
-        let c828: u64 = if (self.q86) != 0 { (c786) } else { (self.q45) };
-        let c787: u64 = (self.q41).wrapping_add((c828)) & 0x7f;
-        let c788: u64 = (self.q42).wrapping_add((c828)) & 0x3f;
+        let c838: u64 = if (self.q82) != 0 { (0x0) } else { (self.q43) };
+        let c839: u64 = ((self.q39) | (self.q82)) & 0x1;
+        let c840: u64 = if (self.q79) != 0 { (0x2) } else { (0x1) };
+        let c784: u64 = ((c840 << 1) | 0x1).wrapping_add((self.q83)) & 0xf;
+        let c786: u64 = ((c840 << 1) | 0x1).wrapping_add((self.q86)) & 0xf;
+        let c795: u64 = u64::from((self.q44) == ((c840 << 1)));
+        let c828: u64 = if (self.q85) != 0 { (c786) } else { (self.q44) };
+        let c787: u64 = (self.q40).wrapping_add((c828)) & 0x7f;
+        let c788: u64 = (self.q41).wrapping_add((c828)) & 0x3f;
         if self.v788 != c788 { self.v788 = c788; *dirty |= 0x200000000; }
         let c823: u64 = ((c838) | ((c787 >> 6))) & 0x1;
         let c824: u64 = !((c787 >> 6)) & 0x1;
@@ -2669,69 +2669,69 @@ impl Model {
         let c826: u64 = (c829) & (c824) & 0x1;
         if self.v826 != c826 { self.v826 = c826; *dirty |= 0x200000000; }
         let c834: u64 = if (c795) != 0 { (0x0) } else { (c839) };
-        let c836: u64 = if (self.q40) != 0 { (c834) } else { (c839) };
+        let c836: u64 = if (self.q39) != 0 { (c834) } else { (c839) };
         if self.v836 != c836 { self.v836 = c836; *dirty |= 0x100000000000000000000; }
-        let c842: u64 = if ((self.q84 >> 3)) != 0 { ((c840 << 1) | 0x9) } else { (c784) };
-        let c841: u64 = if (self.q78) != 0 { ((c840 << 1) | 0x1) } else { (c842) };
+        let c842: u64 = if ((self.q83 >> 3)) != 0 { ((c840 << 1) | 0x9) } else { (c784) };
+        let c841: u64 = if (self.q77) != 0 { ((c840 << 1) | 0x1) } else { (c842) };
         if self.v841 != c841 { self.v841 = c841; *dirty |= 0x4000000000; }
-        let c790: u64 = (self.q42).wrapping_add((c841)) & 0x3f;
+        let c790: u64 = (self.q41).wrapping_add((c841)) & 0x3f;
         let c807: u64 = if (self.q127) != 0 { (c802) } else { (c790) };
         if self.v807 != c807 { self.v807 = c807; *dirty |= 0x80000000000000000000; }
-        let c846: u64 = if (self.q48) != 0 { (self.m0_rd) } else { (self.q46) };
+        let c846: u64 = if (self.q47) != 0 { (self.m0_rd) } else { (self.q45) };
         if self.v846 != c846 { self.v846 = c846; *dirty |= 0x4000040000; }
         let c845: u64 = if ((c846 >> 7)) != 0 { (0x2) } else { (0x1) };
         let c783: u64 = ((c845 << 1) | 0x1).wrapping_add(((c846 & 0xf))) & 0xf;
         let c844: u64 = if (((c846 >> 3) & 0x1)) != 0 { ((c845 << 1) | 0x9) } else { (c783) };
         let c843: u64 = if (((c846 >> 6) & 0x1)) != 0 { ((c845 << 1) | 0x1) } else { (c844) };
-        let c789: u64 = (self.q47).wrapping_add((c843)) & 0x3f;
+        let c789: u64 = (self.q46).wrapping_add((c843)) & 0x3f;
         if self.v789 != c789 { self.v789 = c789; *dirty |= 0x4200000000; }
-        let c847: u64 = (self.q41).wrapping_sub((c843)) & 0x7f;
+        let c847: u64 = (self.q40).wrapping_sub((c843)) & 0x7f;
         if self.v847 != c847 { self.v847 = c847; *dirty |= 0x4000000000; }
-        let c848: u64 = (self.q49).wrapping_sub((0x1)) & 0x1f;
+        let c848: u64 = (self.q48).wrapping_sub((0x1)) & 0x1f;
         if self.v848 != c848 { self.v848 = c848; *dirty |= 0x4000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults.
     fn group_7(&mut self, dirty: &mut u128) {
-        let c315: u64 = (self.q66 | (self.q64 << 4)).wrapping_add((0x1)) & 0x1f;
-        let c316: u64 = (self.q67 | (self.q68 << 7)).wrapping_add((0x1)) & 0xff;
+        let c315: u64 = (self.q65 | (self.q63 << 4)).wrapping_add((0x1)) & 0x1f;
+        let c316: u64 = (self.q66 | (self.q67 << 7)).wrapping_add((0x1)) & 0xff;
         if self.v316 != c316 { self.v316 = c316; *dirty |= 0x40000000; }
-        let c317: u64 = ((self.q67 >> 3) | (self.q68 << 4)).wrapping_add((0x1)) & 0x1f;
+        let c317: u64 = ((self.q66 >> 3) | (self.q67 << 4)).wrapping_add((0x1)) & 0x1f;
         let c320: u64 = (self.v2) & (self.v541) & 0x1;
         if self.v320 != c320 { self.v320 = c320; *dirty |= 0x40000000; }
-        let c322: u64 = u64::from((self.q65 | (self.q66 << 3) | (self.q64 << 7)) == 0);
+        let c322: u64 = u64::from((self.q64 | (self.q65 << 3) | (self.q63 << 7)) == 0);
         if self.v322 != c322 { self.v322 = c322; *dirty |= 0x80000000; }
-        let c323: u64 = u64::from((self.q66 | (self.q64 << 4)) == (0x1f));
+        let c323: u64 = u64::from((self.q65 | (self.q63 << 4)) == (0x1f));
         if self.v323 != c323 { self.v323 = c323; *dirty |= 0x80000000; }
-        let c324: u64 = u64::from(((self.q67 >> 3) | (self.q68 << 4)) == (0x1f));
+        let c324: u64 = u64::from(((self.q66 >> 3) | (self.q67 << 4)) == (0x1f));
         let c325: u64 = u64::from((self.i_wdata) == (0xff));
         if self.v325 != c325 { self.v325 = c325; *dirty |= 0x40000000; }
-        let c326: u64 = u64::from((self.q65 | (self.q66 << 3) | (self.q64 << 7)) != 0);
+        let c326: u64 = u64::from((self.q64 | (self.q65 << 3) | (self.q63 << 7)) != 0);
         if self.v326 != c326 { self.v326 = c326; *dirty |= 0x40000000; }
-        let c327: u64 = u64::from((self.q67 | (self.q68 << 7)) != (0xff));
+        let c327: u64 = u64::from((self.q66 | (self.q67 << 7)) != (0xff));
         if self.v327 != c327 { self.v327 = c327; *dirty |= 0x40000000; }
-        let c328: u64 = u64::from((self.q67 | (self.q68 << 7)) != 0);
+        let c328: u64 = u64::from((self.q66 | (self.q67 << 7)) != 0);
         if self.v328 != c328 { self.v328 = c328; *dirty |= 0x40000000; }
         let c338: u64 = if (c325) != 0 { (0x7f) } else { (self.i_wdata) };
         if self.v338 != c338 { self.v338 = c338; *dirty |= 0x40000000; }
-        let c346: u64 = if (c324) != 0 { (0xff) } else { ((self.q67 & 0x7) | (c317 << 3)) };
+        let c346: u64 = if (c324) != 0 { (0xff) } else { ((self.q66 & 0x7) | (c317 << 3)) };
         if self.v346 != c346 { self.v346 = c346; *dirty |= 0x40000000; }
-        let c350: u64 = if (c323) != 0 { (0x0) } else { (self.q67 | (self.q68 << 7)) };
+        let c350: u64 = if (c323) != 0 { (0x0) } else { (self.q66 | (self.q67 << 7)) };
         if self.v350 != c350 { self.v350 = c350; *dirty |= 0x40000000; }
         let c351: u64 = if (c323) != 0 { (0x1f) } else { ((c315 << 1)) };
         if self.v351 != c351 { self.v351 = c351; *dirty |= 0x40000000; }
         let c352: u64 = ((self.q113) | (c323)) & 0x1;
         if self.v352 != c352 { self.v352 = c352; *dirty |= 0x40000000; }
-        let c359: u64 = if (c322) != 0 { (0x0) } else { (self.q67 | (self.q68 << 7)) };
+        let c359: u64 = if (c322) != 0 { (0x0) } else { (self.q66 | (self.q67 << 7)) };
         if self.v359 != c359 { self.v359 = c359; *dirty |= 0x40000000; }
         let c360: u64 = !(c322) & 0x1;
         if self.v360 != c360 { self.v360 = c360; *dirty |= 0x40000000; }
-        let c368: u64 = (self.q65 | (self.q66 << 3) | (self.q64 << 7)).wrapping_sub((0x1)) & 0xff;
+        let c368: u64 = (self.q64 | (self.q65 << 3) | (self.q63 << 7)).wrapping_sub((0x1)) & 0xff;
         if self.v368 != c368 { self.v368 = c368; *dirty |= 0x40000000; }
-        let c361: u64 = if (c322) != 0 { ((self.q64 << 7)) } else { (c368) };
+        let c361: u64 = if (c322) != 0 { ((self.q63 << 7)) } else { (c368) };
         if self.v361 != c361 { self.v361 = c361; *dirty |= 0x40000000; }
-        let c369: u64 = (self.q67 | (self.q68 << 7)).wrapping_sub((0x1)) & 0xff;
+        let c369: u64 = (self.q66 | (self.q67 << 7)).wrapping_sub((0x1)) & 0xff;
         if self.v369 != c369 { self.v369 = c369; *dirty |= 0x40000000; }
         let _ = &dirty;
     }
@@ -2739,45 +2739,45 @@ impl Model {
     /// The cells of top$interrupts.
     fn group_8(&mut self, dirty: &mut u128) {
         let c933: u64 = (self.i_re) & (self.v1053) & 0x1;
-        let c934: u64 = (self.q14) & (self.v871) & 0x1;
+        let c934: u64 = (self.q13) & (self.v871) & 0x1;
         if self.v934 != c934 { self.v934 = c934; *dirty |= 0x800000000; }
-        let c936: u64 = (self.q74) & (self.q122) & 0x1;
+        let c936: u64 = (self.q73) & (self.q122) & 0x1;
         if self.v936 != c936 { self.v936 = c936; *dirty |= 0x40000000000000800000000; }
-        let c937: u64 = (self.q75) & (self.q123) & 0x1;
+        let c937: u64 = (self.q74) & (self.q123) & 0x1;
         if self.v937 != c937 { self.v937 = c937; *dirty |= 0x100000000000000800000000; }
-        let c938: u64 = (self.i_re) & (self.q14) & 0x1;
+        let c938: u64 = (self.i_re) & (self.q13) & 0x1;
         let c943: u64 = !(self.q127) & 0x1;
         if self.v943 != c943 { self.v943 = c943; *dirty |= 0x42a00; }
-        let c944: u64 = !(self.q19) & 0x1;
-        let c939: u64 = (self.q43) & (c944) & 0x1;
+        let c944: u64 = !(self.q18) & 0x1;
+        let c939: u64 = (self.q42) & (c944) & 0x1;
         if self.v939 != c939 { self.v939 = c939; *dirty |= 0x800000000; }
-        let c945: u64 = !(self.q17) & 0x1;
-        let c949: u64 = u64::from((self.q113) != (self.q25));
-        let c950: u64 = u64::from((self.q114) != (self.q18));
-        let c951: u64 = u64::from((self.q49) != 0);
+        let c945: u64 = !(self.q16) & 0x1;
+        let c949: u64 = u64::from((self.q113) != (self.q24));
+        let c950: u64 = u64::from((self.q114) != (self.q17));
+        let c951: u64 = u64::from((self.q48) != 0);
         if self.v951 != c951 { self.v951 = c951; *dirty |= 0x2000000000000000800040000; }
-        let c108: u64 = (self.q26) & (c951) & 0x1;
-        let c125: u64 = if (self.q14) != 0 { (c951) } else { (c108) };
+        let c108: u64 = (self.q25) & (c951) & 0x1;
+        let c125: u64 = if (self.q13) != 0 { (c951) } else { (c108) };
         if self.v125 != c125 { self.v125 = c125; *dirty |= 0x40000; }
         let c940: u64 = (c951) & (c945) & 0x1;
         if self.v940 != c940 { self.v940 = c940; *dirty |= 0x800000000; }
-        let c952: u64 = u64::from((self.q49) != (0x1));
+        let c952: u64 = u64::from((self.q48) != (0x1));
         if self.v952 != c952 { self.v952 = c952; *dirty |= 0x800000000; }
-        let c960: u64 = if (c933) != 0 { (0x0) } else { (self.q20) };
+        let c960: u64 = if (c933) != 0 { (0x0) } else { (self.q19) };
         if self.v960 != c960 { self.v960 = c960; *dirty |= 0x800000000; }
-        let c962: u64 = if (c933) != 0 { (0x0) } else { (self.q26) };
+        let c962: u64 = if (c933) != 0 { (0x0) } else { (self.q25) };
         if self.v962 != c962 { self.v962 = c962; *dirty |= 0x800000000; }
         let c963: u64 = if (self.q127) != 0 { (0x0) } else { (c950) };
         let c964: u64 = if (self.q113) != 0 { (0x0) } else { (c963) };
         if self.v964 != c964 { self.v964 = c964; *dirty |= 0x800000000; }
-        let c966: u64 = if (self.q14) != 0 { (self.q101) } else { (0x60) };
-        let c946: u64 = u64::from((self.q65 | (self.q66 << 3) | (self.q64 << 7)) >= (c966));
-        let c947: u64 = u64::from((self.q67 | (self.q68 << 7)) >= (c966));
+        let c966: u64 = if (self.q13) != 0 { (self.q100) } else { (0x60) };
+        let c946: u64 = u64::from((self.q64 | (self.q65 << 3) | (self.q63 << 7)) >= (c966));
+        let c947: u64 = u64::from((self.q66 | (self.q67 << 7)) >= (c966));
         let c953: u64 = ((c946) | (c947)) & 0x1;
         let c954: u64 = ((c953) | (self.q113)) & 0x1;
-        let c965: u64 = if (self.q127) != 0 { (self.q23) } else { (c954) };
+        let c965: u64 = if (self.q127) != 0 { (self.q22) } else { (c954) };
         if self.v965 != c965 { self.v965 = c965; *dirty |= 0x200000000000000000000000; }
-        let c948: u64 = u64::from((c965) != (self.q23));
+        let c948: u64 = u64::from((c965) != (self.q22));
         let c955: u64 = ((c948) | (c949)) & 0x1;
         if self.v955 != c955 { self.v955 = c955; *dirty |= 0x800000000; }
         let c971: u64 = if (c937) != 0 { (0x0) } else { (self.q123) };
@@ -2799,11 +2799,11 @@ impl Model {
         if self.v82 != c82 { self.v82 = c82; *dirty |= 0x400000000; }
         let c84: u64 = u64::from((self.i_reset | (c82 << 1)) != 0);
         if self.v84 != c84 { self.v84 = c84; *dirty |= 0x1000000000000000000000000000; }
-        let c974: u64 = (self.q10).wrapping_add((0x1)) & 0x1f;
+        let c974: u64 = (self.q9).wrapping_add((0x1)) & 0x1f;
         if self.v974 != c974 { self.v974 = c974; *dirty |= 0x1000000000000000000000000000; }
         let c975: u64 = (self.i_we) & (self.v1051) & 0x1;
         if self.v975 != c975 { self.v975 = c975; *dirty |= 0x800; }
-        let c49: u64 = u64::from((self.q14 | (self.q127 << 1) | (c975 << 2)) == 0x7);
+        let c49: u64 = u64::from((self.q13 | (self.q127 << 1) | (c975 << 2)) == 0x7);
         if self.v49 != c49 { self.v49 = c49; *dirty |= 0x8000000000000000000000000; }
         let c976: u64 = ((self.i_wdata & 0x1)) & (self.v943) & 0x1;
         let c988: u64 = !((self.i_wdata & 0x1)) & 0x1;
@@ -2811,7 +2811,7 @@ impl Model {
         let c989: u64 = !(((self.i_wdata >> 4) & 0x1)) & 0x1;
         let c992: u64 = !(self.i_rx) & 0x1;
         if self.v992 != c992 { self.v992 = c992; *dirty |= 0x400000000; }
-        let c993: u64 = !(self.q25) & 0x1;
+        let c993: u64 = !(self.q24) & 0x1;
         let c982: u64 = (self.q113) & (c993) & 0x1;
         let c994: u64 = u64::from((self.i_addr) == (0x1f));
         if self.v994 != c994 { self.v994 = c994; *dirty |= 0x40000; }
@@ -2819,22 +2819,22 @@ impl Model {
         if self.v983 != c983 { self.v983 = c983; *dirty |= 0x8000000000; }
         let c48: u64 = u64::from((self.q127 | (c983 << 1)) == 0x3);
         if self.v48 != c48 { self.v48 = c48; *dirty |= 0x8000000000; }
-        let c995: u64 = u64::from((self.q10) == (0x10));
+        let c995: u64 = u64::from((self.q9) == (0x10));
         if self.v995 != c995 { self.v995 = c995; *dirty |= 0x4000000000000000000000000; }
-        let c998: u64 = u64::from((self.q10) != (0x10));
+        let c998: u64 = u64::from((self.q9) != (0x10));
         if self.v998 != c998 { self.v998 = c998; *dirty |= 0x400000000; }
-        let c1007: u64 = if (self.q127) != 0 { (((self.i_wdata >> 3) & 0x1) | ((self.i_wdata >> 5) << 1)) } else { (self.q15 | (self.q14 << 3)) };
-        let c1008: u64 = if (c983) != 0 { ((self.i_wdata & 0x7) | (c1007 << 3)) } else { (self.q105 | (self.q15 << 3) | (self.q14 << 6)) };
+        let c1007: u64 = if (self.q127) != 0 { (((self.i_wdata >> 3) & 0x1) | ((self.i_wdata >> 5) << 1)) } else { (self.q14 | (self.q13 << 3)) };
+        let c1008: u64 = if (c983) != 0 { ((self.i_wdata & 0x7) | (c1007 << 3)) } else { (self.q104 | (self.q14 << 3) | (self.q13 << 6)) };
         let c1000: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1008) };
         if self.v1000 != c1000 { self.v1000 = c1000; *dirty |= 0x8000000000; }
         let c1020: u64 = if (self.q127) != 0 { (((self.i_wdata >> 2) & 0x1)) } else { (self.q130) };
         let c1021: u64 = if (self.q127) != 0 { (((self.i_wdata >> 1) & 0x1)) } else { (self.q126) };
         let c1022: u64 = if (self.q127) != 0 { (0x0) } else { (c989) };
         let c1023: u64 = if (self.q127) != 0 { (0x0) } else { (c977) };
-        let c1024: u64 = (self.q14) & (c1022) & 0x1;
-        let c1025: u64 = (self.q14) & (c1023) & 0x1;
-        let c1026: u64 = if (self.q14) != 0 { (c1020) } else { (self.q130) };
-        let c1027: u64 = if (self.q14) != 0 { (c1021) } else { (self.q126) };
+        let c1024: u64 = (self.q13) & (c1022) & 0x1;
+        let c1025: u64 = (self.q13) & (c1023) & 0x1;
+        let c1026: u64 = if (self.q13) != 0 { (c1020) } else { (self.q130) };
+        let c1027: u64 = if (self.q13) != 0 { (c1021) } else { (self.q126) };
         let c1028: u64 = (c975) & (c1024) & 0x1;
         if self.v1028 != c1028 { self.v1028 = c1028; *dirty |= 0x400000000; }
         let c1029: u64 = (c975) & (c1025) & 0x1;
@@ -2865,20 +2865,20 @@ impl Model {
 
     /// The cells of top$core$protocol$capture.
     fn group_10(&mut self, dirty: &mut u128) {
-        let c101: u64 = u64::from(((self.q73 >> 3)) == 0);
-        let c294: u64 = u64::from((self.q73) == (0x1));
+        let c101: u64 = u64::from(((self.q72 >> 3)) == 0);
+        let c294: u64 = u64::from((self.q72) == (0x1));
         if self.v294 != c294 { self.v294 = c294; *dirty |= 0x200000; }
-        let c295: u64 = u64::from((self.q73) < (0x1f));
-        let c296: u64 = u64::from((self.q73) < (0x1a));
-        let c297: u64 = u64::from((self.q73) < (0x12));
-        let c298: u64 = u64::from((self.q73) < (0xd));
-        let c299: u64 = u64::from((self.q73) < (0xc));
-        let c300: u64 = u64::from((self.q73) < (0xb));
+        let c295: u64 = u64::from((self.q72) < (0x1f));
+        let c296: u64 = u64::from((self.q72) < (0x1a));
+        let c297: u64 = u64::from((self.q72) < (0x12));
+        let c298: u64 = u64::from((self.q72) < (0xd));
+        let c299: u64 = u64::from((self.q72) < (0xc));
+        let c300: u64 = u64::from((self.q72) < (0xb));
         let c301: u64 = !(self.v533) & 0x1;
-        let c302: u64 = if (self.q58) != 0 { (0x2) } else { (0x1) };
+        let c302: u64 = if (self.q57) != 0 { (0x2) } else { (0x1) };
         let c304: u64 = if (self.v533) != 0 { (0x2) } else { (0x1) };
         let c303: u64 = if (c294) != 0 { (0x0) } else { (c304) };
-        let c305: u64 = if (self.q80) != 0 { (c303) } else { (c301) };
+        let c305: u64 = if (self.q79) != 0 { (c303) } else { (c301) };
         let c311: u64 = if (c296) != 0 { (0x3) } else { ((c295 << 1)) };
         let c310: u64 = if (c297) != 0 { (0x3) } else { (c311 | 0x4) };
         let c309: u64 = if (c298) != 0 { (0x1) } else { (c310) };
@@ -2892,7 +2892,7 @@ impl Model {
 
     /// The cells of top$decode.
     fn group_11(&mut self, dirty: &mut u128) {
-        let c40: u64 = !(self.q14) & 0x1;
+        let c40: u64 = !(self.q13) & 0x1;
         if self.v40 != c40 { self.v40 = c40; *dirty |= 0xc00000000; }
         let c47: u64 = u64::from((c40 | (self.v975 << 1)) == 0x3);
         if self.v47 != c47 { self.v47 = c47; *dirty |= 0x10000000000000000000000000; }
@@ -2909,22 +2909,22 @@ impl Model {
         let c88: u64 = u64::from((self.i_reset | (c763 << 1) | (self.q127 << 2)) != 0);
         if self.v88 != c88 { self.v88 = c88; *dirty |= 0x40000000000000000000; }
         let c764: u64 = (c759) & (((self.i_wdata >> 4) & 0x1)) & 0x1;
-        let c765: u64 = (c764) & (self.q14) & 0x1;
+        let c765: u64 = (c764) & (self.q13) & 0x1;
         let c767: u64 = (((self.i_wdata >> 4) & 0x1)) & (c40) & 0x1;
         if self.v767 != c767 { self.v767 = c767; *dirty |= 0x400000000; }
         let c768: u64 = !(c760) & 0x1;
         if self.v768 != c768 { self.v768 = c768; *dirty |= 0x2000; }
         let c766: u64 = (c765) & (c768) & 0x1;
         if self.v766 != c766 { self.v766 = c766; *dirty |= 0x80000000000000000000000002000; }
-        let c769: u64 = (self.q14) & (self.v776) & 0x1;
+        let c769: u64 = (self.q13) & (self.v776) & 0x1;
         if self.v769 != c769 { self.v769 = c769; *dirty |= 0x42000; }
-        let c770: u64 = (self.q14) & (self.v775) & 0x1;
+        let c770: u64 = (self.q13) & (self.v775) & 0x1;
         if self.v770 != c770 { self.v770 = c770; *dirty |= 0x42000; }
-        let c771: u64 = (self.q14) & (self.v774) & 0x1;
+        let c771: u64 = (self.q13) & (self.v774) & 0x1;
         if self.v771 != c771 { self.v771 = c771; *dirty |= 0x42000; }
-        let c772: u64 = if (self.q14) != 0 { (0x0) } else { (self.v778) };
+        let c772: u64 = if (self.q13) != 0 { (0x0) } else { (self.v778) };
         if self.v772 != c772 { self.v772 = c772; *dirty |= 0x40000; }
-        let c773: u64 = if (self.q14) != 0 { (0x0) } else { (self.v777) };
+        let c773: u64 = if (self.q13) != 0 { (0x0) } else { (self.v777) };
         if self.v773 != c773 { self.v773 = c773; *dirty |= 0x42000; }
         let c780: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x9)) & 0xf;
         if self.v780 != c780 { self.v780 = c780; *dirty |= 0x2000; }
@@ -2937,26 +2937,26 @@ impl Model {
 
     /// The cells of top$core$protocol$sender.
     fn group_12(&mut self, dirty: &mut u128) {
-        let c675: u64 = ((self.q56 & 0x1) | (self.q55 << 1) | ((self.q56 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
+        let c675: u64 = ((self.q55 & 0x1) | (self.q54 << 1) | ((self.q55 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
         if self.v675 != c675 { self.v675 = c675; *dirty |= 0x80000000000; }
-        let c676: u64 = (self.q73).wrapping_add((0x1)) & 0x7f;
+        let c676: u64 = (self.q72).wrapping_add((0x1)) & 0x7f;
         if self.v676 != c676 { self.v676 = c676; *dirty |= 0x10800000; }
-        let c683: u64 = u64::from((self.q57) == 0);
+        let c683: u64 = u64::from((self.q56) == 0);
         if self.v683 != c683 { self.v683 = c683; *dirty |= 0x20100000; }
-        let c684: u64 = u64::from((self.q57) == (0x1));
+        let c684: u64 = u64::from((self.q56) == (0x1));
         if self.v684 != c684 { self.v684 = c684; *dirty |= 0x100000; }
-        let c685: u64 = u64::from((self.q73) == (0x1e));
+        let c685: u64 = u64::from((self.q72) == (0x1e));
         if self.v685 != c685 { self.v685 = c685; *dirty |= 0x10000000; }
         let c686: u64 = !(self.v505) & 0x1;
         if self.v686 != c686 { self.v686 = c686; *dirty |= 0x40000000000; }
         let c734: u64 = if (self.v385) != 0 { (0x2) } else { (0x1) };
         if self.v734 != c734 { self.v734 = c734; *dirty |= 0x40000000000; }
-        let c736: u64 = if (c683) != 0 { ((c675 & 0x7)) } else { ((self.q56 & 0x1)) };
+        let c736: u64 = if (c683) != 0 { ((c675 & 0x7)) } else { ((self.q55 & 0x1)) };
         if self.v736 != c736 { self.v736 = c736; *dirty |= 0x40000000000; }
-        let c743: u64 = (self.q57).wrapping_sub((0x1)) & 0xf;
+        let c743: u64 = (self.q56).wrapping_sub((0x1)) & 0xf;
         let c737: u64 = if (c683) != 0 { (0x7) } else { (c743) };
         if self.v737 != c737 { self.v737 = c737; *dirty |= 0x800000000000000000; }
-        let c745: u64 = ((((self.q72 >> 13) & 0x1)) ^ ((self.q72 >> 14))) & 0x1;
+        let c745: u64 = ((((self.q71 >> 13) & 0x1)) ^ ((self.q71 >> 14))) & 0x1;
         let c746: u64 = ((c745) ^ (self.q109)) & 0x1;
         if self.v746 != c746 { self.v746 = c746; *dirty |= 0x10000000; }
         let _ = &dirty;
@@ -2979,9 +2979,9 @@ impl Model {
         let c1102: u64 = ((self.v760) | (self.v766)) & 0x1;
         let c11: u64 = (c1102) & (self.q131) & 0x1;
         if self.v11 != c11 { self.v11 = c11; *dirty |= 0x80000000; }
-        let c1114: u64 = if (self.q14) != 0 { ((self.i_addr & 0xf)) } else { (self.v780) };
+        let c1114: u64 = if (self.q13) != 0 { ((self.i_addr & 0xf)) } else { (self.v780) };
         if self.v1114 != c1114 { self.v1114 = c1114; *dirty |= 0x4800000000000000000000000080000; }
-        let c1098: u64 = if (c1114) < 16 { (self.q2) >> (c1114) & 0x1 } else { 0 };
+        let c1098: u64 = if (c1114) < 16 { (self.q107) >> (c1114) & 0x1 } else { 0 };
         if self.v1098 != c1098 { self.v1098 = c1098; *dirty |= 0x80000; }
         let c1115: u64 = ((c6) | (c7)) & 0x1;
         if self.v1115 != c1115 { self.v1115 = c1115; *dirty |= 0x80000; }
@@ -2990,13 +2990,13 @@ impl Model {
 
     /// The cells of top$core$protocol.
     fn group_14(&mut self, dirty: &mut u128) {
-        let c231: u64 = (self.q51) & (self.q116) & 0x1;
+        let c231: u64 = (self.q50) & (self.q116) & 0x1;
         if self.v231 != c231 { self.v231 = c231; *dirty |= 0x80000000000000000000000000000000; }
-        let c111: u64 = ((c231) | (self.v1055)) & 0x1;
-        if self.v111 != c111 { self.v111 = c111; *dirty |= 0x40000; }
+        let c110: u64 = ((c231) | (self.v1055)) & 0x1;
+        if self.v110 != c110 { self.v110 = c110; *dirty |= 0x40000; }
         let c232: u64 = (self.v532) & (self.q116) & 0x1;
-        let c112: u64 = ((c232) | (self.v1055)) & 0x1;
-        if self.v112 != c112 { self.v112 = c112; *dirty |= 0x40000; }
+        let c111: u64 = ((c232) | (self.v1055)) & 0x1;
+        if self.v111 != c111 { self.v111 = c111; *dirty |= 0x40000; }
         let c238: u64 = (self.v566) & (self.v541) & 0x1;
         if self.v238 != c238 { self.v238 = c238; *dirty |= 0x20000000; }
         let c239: u64 = !(self.q1) & 0x1;
@@ -3014,7 +3014,7 @@ impl Model {
         if self.v249 != c249 { self.v249 = c249; *dirty |= 0x20000000; }
         let c251: u64 = !(self.q116) & 0x1;
         if self.v251 != c251 { self.v251 = c251; *dirty |= 0x20000000; }
-        let c253: u64 = ((self.q70) | (c239)) & 0x1;
+        let c253: u64 = ((self.q69) | (c239)) & 0x1;
         let c97: u64 = u64::from((self.i_reset | (c253 << 1)) != 0);
         if self.v97 != c97 { self.v97 = c97; *dirty |= 0x100000000000000; }
         let c255: u64 = ((self.q125) | (c233)) & 0x1;
@@ -3027,16 +3027,16 @@ impl Model {
         if self.v260 != c260 { self.v260 = c260; *dirty |= 0x10000; }
         let c269: u64 = !(c260) & 0x1;
         if self.v269 != c269 { self.v269 = c269; *dirty |= 0x10000; }
-        let c277: u64 = ((self.q88) | (self.v10)) & 0x1;
+        let c277: u64 = ((self.q87) | (self.v10)) & 0x1;
         if self.v277 != c277 { self.v277 = c277; *dirty |= 0x100000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sampling.
     fn group_15(&mut self, dirty: &mut u128) {
-        let c221: u64 = ((self.q92 >> 1)) & ((self.q92 & 0x1)) & 0x1;
-        let c222: u64 = ((self.q92 >> 1)) & (self.q112) & 0x1;
-        let c223: u64 = ((self.q92 & 0x1)) & (self.q112) & 0x1;
+        let c221: u64 = ((self.q91 >> 1)) & ((self.q91 & 0x1)) & 0x1;
+        let c222: u64 = ((self.q91 >> 1)) & (self.q112) & 0x1;
+        let c223: u64 = ((self.q91 & 0x1)) & (self.q112) & 0x1;
         let c224: u64 = !(self.q112) & 0x1;
         let c220: u64 = (self.q111) & (c224) & 0x1;
         if self.v220 != c220 { self.v220 = c220; *dirty |= 0x10000; }
@@ -3048,7 +3048,7 @@ impl Model {
         if self.v228 != c228 { self.v228 = c228; *dirty |= 0x20000000000000; }
         let c229: u64 = ((self.i_rx) | (self.i_reset)) & 0x1;
         if self.v229 != c229 { self.v229 = c229; *dirty |= 0x10000000000000; }
-        let c230: u64 = if ((self.q102 >> 7)) != 0 { (c226) } else { (self.q112) };
+        let c230: u64 = if ((self.q101 >> 7)) != 0 { (c226) } else { (self.q112) };
         if self.v230 != c230 { self.v230 = c230; *dirty |= 0x10000; }
         let _ = &dirty;
     }
@@ -3056,19 +3056,19 @@ impl Model {
     /// The cells of top$core$bit_timing.
     fn group_16(&mut self, dirty: &mut u128) {
         let c143: u64 = (self.v220) & (self.q109) & 0x1;
-        let c144: u64 = (c143) & (self.v166) & 0x1;
+        let c144: u64 = (c143) & (self.v167) & 0x1;
         let c151: u64 = (self.v269) & (self.v529) & 0x1;
-        let c169: u64 = !(c151) & 0x1;
-        let c152: u64 = (c144) & (c169) & 0x1;
-        let c170: u64 = !(c152) & 0x1;
-        let c153: u64 = (self.v150) & (c170) & 0x1;
-        let c154: u64 = (c153) & (self.v172) & 0x1;
+        let c170: u64 = !(c151) & 0x1;
+        let c152: u64 = (c144) & (c170) & 0x1;
+        let c171: u64 = !(c152) & 0x1;
+        let c153: u64 = (self.v150) & (c171) & 0x1;
+        let c154: u64 = (c153) & (self.v173) & 0x1;
         if self.v154 != c154 { self.v154 = c154; *dirty |= 0x80000000000000000004000400000000; }
-        let c186: u64 = if (c154) != 0 { (0x0) } else { (self.q90) };
-        let c187: u64 = if (c154) != 0 { (self.v230) } else { (self.q109) };
-        let c183: u64 = ((c187) | (self.i_reset)) & 0x1;
-        if self.v183 != c183 { self.v183 = c183; *dirty |= 0x8000000000000; }
-        let c209: u64 = if (self.v260) != 0 { (0x0) } else { (self.v193) };
+        let c187: u64 = if (c154) != 0 { (0x0) } else { (self.q89) };
+        let c188: u64 = if (c154) != 0 { (self.v230) } else { (self.q109) };
+        let c184: u64 = ((c188) | (self.i_reset)) & 0x1;
+        if self.v184 != c184 { self.v184 = c184; *dirty |= 0x8000000000000; }
+        let c209: u64 = if (self.v260) != 0 { (0x0) } else { (self.v161) };
         let c210: u64 = if (self.v260) != 0 { (0x0) } else { (self.v205) };
         let c211: u64 = if (self.v260) != 0 { (0x0) } else { (self.v206) };
         let c212: u64 = if (self.v260) != 0 { (0x0) } else { (self.v207) };
@@ -3076,91 +3076,91 @@ impl Model {
         let c214: u64 = (c144) & (c209) & 0x1;
         let c215: u64 = (c144) & (c210) & 0x1;
         let c216: u64 = (c144) & (c211) & 0x1;
-        let c167: u64 = !(c216) & 0x1;
-        let c146: u64 = (self.v145) & (c167) & 0x1;
-        let c199: u64 = if (c216) != 0 { (self.v198) } else { (self.v162 | (self.v162 << 1) | (self.v162 << 2) | (self.v162 << 3)) };
+        let c168: u64 = !(c216) & 0x1;
+        let c146: u64 = (self.v145) & (c168) & 0x1;
+        let c199: u64 = if (c216) != 0 { (self.v198) } else { (self.v163 | (self.v163 << 1) | (self.v163 << 2) | (self.v163 << 3)) };
         let c197: u64 = if (c215) != 0 { (self.v196 | 0x8) } else { (c199) };
-        let c141: u64 = (self.q93).wrapping_add((c197 | ((c197 >> 3) << 4))) & 0x1f;
-        let c189: u64 = { let s = (self.v190 | (self.v192 << 1) | (self.v193 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.q98 } else if s >> 2 & 1 != 0 { (self.q102 & 0xf) } else { (c141) } };
+        let c141: u64 = (self.q92).wrapping_add((c197 | ((c197 >> 3) << 4))) & 0x1f;
+        let c190: u64 = { let s = (self.v191 | (self.v193 << 1) | (self.v161 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.q97 } else if s >> 2 & 1 != 0 { (self.q101 & 0xf) } else { (c141) } };
         let c200: u64 = if (c215) != 0 { (self.v147) } else { (c146) };
         let c76: u64 = u64::from((c200 | (self.v39 << 1)) == 0x3);
         if self.v76 != c76 { self.v76 = c76; *dirty |= 0x40000000000000; }
-        let c194: u64 = if (c200) != 0 { (c189) } else { (c141) };
+        let c194: u64 = if (c200) != 0 { (c190) } else { (c141) };
         if self.v194 != c194 { self.v194 = c194; *dirty |= 0x8000000000000; }
         let c217: u64 = (c144) & (c212) & 0x1;
         let c218: u64 = (c144) & (c213) & 0x1;
-        let c178: u64 = ((c218) | (c217)) & 0x1;
-        let c179: u64 = ((c178) | (c216)) & 0x1;
-        let c180: u64 = ((c179) | (c215)) & 0x1;
-        let c181: u64 = ((c180) | (c214)) & 0x1;
+        let c179: u64 = ((c218) | (c217)) & 0x1;
+        let c180: u64 = ((c179) | (c216)) & 0x1;
+        let c181: u64 = ((c180) | (c215)) & 0x1;
+        let c182: u64 = ((c181) | (c214)) & 0x1;
         let c219: u64 = (c144) & (self.v260) & 0x1;
-        let c173: u64 = ((c219) | (c218)) & 0x1;
-        let c174: u64 = ((c173) | (c217)) & 0x1;
-        let c98: u64 = u64::from((self.i_reset | (c174 << 1)) != 0);
+        let c174: u64 = ((c219) | (c218)) & 0x1;
+        let c175: u64 = ((c174) | (c217)) & 0x1;
+        let c98: u64 = u64::from((self.i_reset | (c175 << 1)) != 0);
         if self.v98 != c98 { self.v98 = c98; *dirty |= 0x48000000000000; }
-        let c99: u64 = u64::from((self.i_reset | (c200 << 1) | (c174 << 2)) != 0);
+        let c99: u64 = u64::from((self.i_reset | (c200 << 1) | (c175 << 2)) != 0);
         if self.v99 != c99 { self.v99 = c99; *dirty |= 0x4000000000000; }
-        let c100: u64 = u64::from((self.i_reset | (self.v162 << 1) | (c174 << 2)) != 0);
+        let c100: u64 = u64::from((self.i_reset | (self.v163 << 1) | (c175 << 2)) != 0);
         if self.v100 != c100 { self.v100 = c100; *dirty |= 0x10000000000; }
-        let c168: u64 = !(c174) & 0x1;
-        let c148: u64 = (self.v162) & (c168) & 0x1;
+        let c169: u64 = !(c175) & 0x1;
+        let c148: u64 = (self.v163) & (c169) & 0x1;
         if self.v148 != c148 { self.v148 = c148; *dirty |= 0x20000000000000; }
-        let c175: u64 = ((self.v155) | (c219)) & 0x1;
-        let c176: u64 = ((c175) | (c217)) & 0x1;
-        let c156: u64 = (c176) & (self.v171) & 0x1;
-        let c157: u64 = (c156) & (self.v172) & 0x1;
-        let c158: u64 = (c176) & (self.q94) & 0x1;
+        let c176: u64 = ((self.v155) | (c219)) & 0x1;
+        let c177: u64 = ((c176) | (c217)) & 0x1;
+        let c156: u64 = (c177) & (self.v172) & 0x1;
+        let c157: u64 = (c156) & (self.v173) & 0x1;
+        let c158: u64 = (c177) & (self.q93) & 0x1;
         if self.v158 != c158 { self.v158 = c158; *dirty |= 0x80000000000000; }
-        let c177: u64 = ((c157) | (self.q89)) & 0x1;
-        if self.v177 != c177 { self.v177 = c177; *dirty |= 0x100000; }
-        let c182: u64 = ((c219) | (c181)) & 0x1;
-        let c184: u64 = if (c174) != 0 { (0x0) } else { (self.q91) };
-        if self.v184 != c184 { self.v184 = c184; *dirty |= 0x80000000000000000000000000000000; }
-        let c185: u64 = ((c186) | (c182)) & 0x1;
-        if self.v185 != c185 { self.v185 = c185; *dirty |= 0x80000000000000; }
-        let c188: u64 = ((self.v195) | (c174)) & 0x1;
-        if self.v188 != c188 { self.v188 = c188; *dirty |= 0x10000000000; }
+        let c178: u64 = ((c157) | (self.q88)) & 0x1;
+        if self.v178 != c178 { self.v178 = c178; *dirty |= 0x100000; }
+        let c183: u64 = ((c219) | (c182)) & 0x1;
+        let c185: u64 = if (c175) != 0 { (0x0) } else { (self.q90) };
+        if self.v185 != c185 { self.v185 = c185; *dirty |= 0x80000000000000000000000000000000; }
+        let c186: u64 = ((c187) | (c183)) & 0x1;
+        if self.v186 != c186 { self.v186 = c186; *dirty |= 0x80000000000000; }
+        let c189: u64 = ((self.v195) | (c175)) & 0x1;
+        if self.v189 != c189 { self.v189 = c189; *dirty |= 0x10000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$crc.
     fn group_17(&mut self, dirty: &mut u128) {
-        let c102: u64 = !(((self.q72 >> 2) & 0x1)) & 0x1;
-        let c103: u64 = !(((self.q72 >> 3) & 0x1)) & 0x1;
-        let c104: u64 = !(((self.q72 >> 6) & 0x1)) & 0x1;
-        let c105: u64 = !(((self.q72 >> 7) & 0x1)) & 0x1;
-        let c106: u64 = !(((self.q72 >> 9) & 0x1)) & 0x1;
-        let c107: u64 = !(((self.q72 >> 13) & 0x1)) & 0x1;
-        let c314: u64 = ((self.q109) ^ ((self.q72 >> 14))) & 0x1;
-        let c313: u64 = if (c314) != 0 { ((c102 << 1) | (c103 << 2) | (c104 << 3) | (c105 << 4) | (c106 << 5) | (c107 << 6) | 0x1) } else { ((((self.q72 >> 2) & 0x3) << 1) | (((self.q72 >> 6) & 0x3) << 3) | (((self.q72 >> 9) & 0x1) << 5) | (((self.q72 >> 13) & 0x1) << 6)) };
+        let c102: u64 = !(((self.q71 >> 2) & 0x1)) & 0x1;
+        let c103: u64 = !(((self.q71 >> 3) & 0x1)) & 0x1;
+        let c104: u64 = !(((self.q71 >> 6) & 0x1)) & 0x1;
+        let c105: u64 = !(((self.q71 >> 7) & 0x1)) & 0x1;
+        let c106: u64 = !(((self.q71 >> 9) & 0x1)) & 0x1;
+        let c107: u64 = !(((self.q71 >> 13) & 0x1)) & 0x1;
+        let c314: u64 = ((self.q109) ^ ((self.q71 >> 14))) & 0x1;
+        let c313: u64 = if (c314) != 0 { ((c102 << 1) | (c103 << 2) | (c104 << 3) | (c105 << 4) | (c106 << 5) | (c107 << 6) | 0x1) } else { ((((self.q71 >> 2) & 0x3) << 1) | (((self.q71 >> 6) & 0x3) << 3) | (((self.q71 >> 9) & 0x1) << 5) | (((self.q71 >> 13) & 0x1) << 6)) };
         if self.v313 != c313 { self.v313 = c313; *dirty |= 0x10000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$read.
     fn group_18(&mut self, dirty: &mut u128) {
-        let c109: u64 = (self.v125) & ((self.q22 & 0x1)) & 0x1;
+        let c109: u64 = (self.v125) & ((self.q21 & 0x1)) & 0x1;
         if self.v109 != c109 { self.v109 = c109; *dirty |= 0x400000000000; }
-        let c1041: u64 = (c109 | (self.q20 << 1)) & (self.q22 | (self.v1085 << 4)) & 0xff;
+        let c1041: u64 = (c109 | (self.q19 << 1)) & (self.q21 | (self.v1085 << 4)) & 0xff;
         let c1042: u64 = (self.v771) & (self.v943) & 0x1;
         let c1043: u64 = (self.v943) & (self.v779) & 0x1;
         if self.v1043 != c1043 { self.v1043 = c1043; *dirty |= 0x400000000000; }
         let c1056: u64 = ((c1042) | (self.v770)) & 0x1;
         let c1062: u64 = if (self.v772) != 0 { (self.v781) } else { ((self.i_addr & 0xf)) };
-        let c1040: u64 = (self.q47).wrapping_add((c1062)) & 0x3f;
+        let c1040: u64 = (self.q46).wrapping_add((c1062)) & 0x3f;
         let c1061: u64 = if (self.v770) != 0 { ((self.i_addr & 0x1f) | (self.v782 << 5)) } else { (c1040) };
         if self.v1061 != c1061 { self.v1061 = c1061; *dirty |= 0x200000000; }
         let c1063: u64 = if (self.v1054) != 0 { ((self.v846 & 0xf)) } else { (0x0) };
-        let c1076: u64 = if (self.q14) != 0 { (self.v769) } else { (self.v773) };
+        let c1076: u64 = if (self.q13) != 0 { (self.v769) } else { (self.v773) };
         let c1057: u64 = (self.i_re) & (c1076) & 0x1;
         if self.v1057 != c1057 { self.v1057 = c1057; *dirty |= 0x10000000000000000000000000000; }
-        let c1077: u64 = if (self.q14) != 0 { (c1056) } else { (self.v772) };
+        let c1077: u64 = if (self.q13) != 0 { (c1056) } else { (self.v772) };
         if self.v1077 != c1077 { self.v1077 = c1077; *dirty |= 0x80000000; }
-        let c1079: u64 = if (self.q14) != 0 { (0x0) } else { (c1063) };
+        let c1079: u64 = if (self.q13) != 0 { (0x0) } else { (c1063) };
         if self.v1079 != c1079 { self.v1079 = c1079; *dirty |= 0x20000000000000000000000000000; }
-        let c1084: u64 = if (self.v1044) != 0 { (self.v951 | (self.q43 << 1) | (self.q131 << 2) | (self.q132 << 3) | (self.v112 << 4) | (self.v111 << 5) | (self.q23 << 6) | (self.q113 << 7)) } else { (0x0) };
-        let c1083: u64 = if (self.v1053) != 0 { (c109 | (self.q20 << 1)) } else { (c1084) };
-        let c1082: u64 = if (self.v994) != 0 { (self.q105 | ((self.q15 & 0x1) << 3) | ((self.q15 >> 1) << 5) | (self.q14 << 7)) } else { (c1083) };
+        let c1084: u64 = if (self.v1044) != 0 { (self.v951 | (self.q42 << 1) | (self.q131 << 2) | (self.q132 << 3) | (self.v111 << 4) | (self.v110 << 5) | (self.q22 << 6) | (self.q113 << 7)) } else { (0x0) };
+        let c1083: u64 = if (self.v1053) != 0 { (c109 | (self.q19 << 1)) } else { (c1084) };
+        let c1082: u64 = if (self.v994) != 0 { (self.q104 | ((self.q14 & 0x1) << 3) | ((self.q14 >> 1) << 5) | (self.q13 << 7)) } else { (c1083) };
         if self.v1082 != c1082 { self.v1082 = c1082; *dirty |= 0x400000000000; }
         let c1086: u64 = u64::from((c1041) != 0);
         if self.v1086 != c1086 { self.v1086 = c1086; *dirty |= 0x400000000; }
@@ -3183,17 +3183,17 @@ impl Model {
         if self.v1088 != c1088 { self.v1088 = c1088; *dirty |= 0x8000000000000000000000000000000; }
         let c1089: u64 = (self.v1099) & (c1090) & 0x1;
         if self.v1089 != c1089 { self.v1089 = c1089; *dirty |= 0x1000000000000000000000000000000; }
-        let c1095: u64 = if (self.q14) != 0 { (self.q4) } else { ((self.q107 & 0xf) | ((self.q107 >> 4) << 6)) };
+        let c1095: u64 = if (self.q13) != 0 { (self.q3) } else { ((self.q106 & 0xf) | ((self.q106 >> 4) << 6)) };
         if self.v1095 != c1095 { self.v1095 = c1095; *dirty |= 0x40010100000; }
-        let c1096: u64 = if (self.q5) != 0 { (self.m1_rd) } else { (0x0) };
+        let c1096: u64 = if (self.q4) != 0 { (self.m1_rd) } else { (0x0) };
         if self.v1096 != c1096 { self.v1096 = c1096; *dirty |= 0x100000; }
-        let c1097: u64 = if (self.q3) != 0 { (self.m2_rd) } else { (0x0) };
+        let c1097: u64 = if (self.q2) != 0 { (self.m2_rd) } else { (0x0) };
         if self.v1097 != c1097 { self.v1097 = c1097; *dirty |= 0x400000000000; }
-        let c1100: u64 = (if (self.v1114) < 64 { (0x1) << (self.v1114) } else { 0 }) & 0xffff;
-        let c1094: u64 = !(c1100) & 0xffff;
-        let c110: u64 = (self.q2) & (c1094) & 0xffff;
-        let c114: u64 = ((c110) | (c1100)) & 0xffff;
-        if self.v114 != c114 { self.v114 = c114; *dirty |= 0x10000000000000000000000000000000; }
+        let c1100: u64 = (if (self.v1114) < 64 { (0x1) << (self.v1114) } else { 0 }) & 0x1fff;
+        let c1094: u64 = !(c1100) & 0x1fff;
+        let c118: u64 = (self.q107) & (c1094) & 0x1fff;
+        let c120: u64 = ((c118) | (c1100)) & 0x1fff;
+        if self.v120 != c120 { self.v120 = c120; *dirty |= 0x10000000000000000000000000000000; }
         let _ = &dirty;
     }
 
@@ -3201,27 +3201,27 @@ impl Model {
     fn group_20(&mut self, dirty: &mut u128) {
         let c695: u64 = ((self.v256) | (self.i_reset)) & 0x1;
         if self.v695 != c695 { self.v695 = c695; *dirty |= 0x40000000000; }
-        let c699: u64 = if (self.v177) != 0 { (self.q117) } else { (self.q118) };
+        let c699: u64 = if (self.v178) != 0 { (self.q117) } else { (self.q118) };
         let c698: u64 = ((c699) | (self.q125)) & 0x1;
         let c697: u64 = ((c698) | (c695)) & 0x1;
         if self.v697 != c697 { self.v697 = c697; *dirty |= 0x1000000000000000000; }
         let c720: u64 = ((((self.v1095 >> 6) & 0x1)) | ((self.v1095 >> 7))) & 0x1;
         if self.v720 != c720 { self.v720 = c720; *dirty |= 0x40000000000; }
-        let c738: u64 = if (self.v683) != 0 { ((self.v1096 & 0x7f)) } else { (((self.q104 & 0x3f) << 1)) };
+        let c738: u64 = if (self.v683) != 0 { ((self.v1096 & 0x7f)) } else { (((self.q103 & 0x3f) << 1)) };
         if self.v738 != c738 { self.v738 = c738; *dirty |= 0x1000000000000000000; }
-        let c741: u64 = if (self.v683) != 0 { (((self.v1096 >> 6) & 0x1)) } else { (((self.q104 >> 5) & 0x1)) };
+        let c741: u64 = if (self.v683) != 0 { (((self.v1096 >> 6) & 0x1)) } else { (((self.q103 >> 5) & 0x1)) };
         let c740: u64 = if (self.v684) != 0 { ((self.v1096 >> 7)) } else { (c741) };
         if self.v740 != c740 { self.v740 = c740; *dirty |= 0x40000000000; }
-        let c742: u64 = if (self.v683) != 0 { ((self.v1096 >> 7)) } else { ((self.q104 >> 6)) };
+        let c742: u64 = if (self.v683) != 0 { ((self.v1096 >> 7)) } else { ((self.q103 >> 6)) };
         if self.v742 != c742 { self.v742 = c742; *dirty |= 0x40000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler.
     fn group_21(&mut self, dirty: &mut u128) {
-        let c280: u64 = (self.v294) & (self.q80) & 0x1;
-        let c282: u64 = (((self.q73 >> 3) & 0x1)) & (((self.q73 >> 2) & 0x1)) & 0x1;
-        let c284: u64 = !(((self.q73 >> 4) & 0x1)) & 0x1;
+        let c280: u64 = (self.v294) & (self.q79) & 0x1;
+        let c282: u64 = (((self.q72 >> 3) & 0x1)) & (((self.q72 >> 2) & 0x1)) & 0x1;
+        let c284: u64 = !(((self.q72 >> 4) & 0x1)) & 0x1;
         let c285: u64 = !(c280) & 0x1;
         let c281: u64 = (self.v537) & (c285) & 0x1;
         if self.v281 != c281 { self.v281 = c281; *dirty |= 0x100000000; }
@@ -3232,8 +3232,8 @@ impl Model {
         if self.v43 != c43 { self.v43 = c43; *dirty |= 0x100000000; }
         let c287: u64 = (self.v436) & (self.v388) & 0x1;
         if self.v287 != c287 { self.v287 = c287; *dirty |= 0x100000000; }
-        let c292: u64 = if ((self.q84 >> 3)) != 0 { (0x8) } else { ((self.q84 & 0x7)) };
-        let c291: u64 = if (self.q78) != 0 { (0x0) } else { (c292) };
+        let c292: u64 = if ((self.q83 >> 3)) != 0 { (0x8) } else { ((self.q83 & 0x7)) };
+        let c291: u64 = if (self.q77) != 0 { (0x0) } else { (c292) };
         let c293: u64 = (c291).wrapping_sub((0x1)) & 0xf;
         if self.v293 != c293 { self.v293 = c293; *dirty |= 0x1000000000000000; }
         let _ = &dirty;
@@ -3242,7 +3242,7 @@ impl Model {
     /// The cells of top$configuration.
     fn group_22(&mut self, dirty: &mut u128) {
         let c129: u64 = u64::from((self.i_addr) == (0xd));
-        let c128: u64 = (self.q14) & (c129) & 0x1;
+        let c128: u64 = (self.q13) & (c129) & 0x1;
         let c81: u64 = u64::from((self.v851 | (c128 << 1)) == 0x3);
         if self.v81 != c81 { self.v81 = c81; *dirty |= 0x1000000000000; }
         let c130: u64 = u64::from((self.i_addr) == (0x6));
@@ -3254,9 +3254,9 @@ impl Model {
         let c132: u64 = u64::from((self.i_addr) == (0x8));
         let c80: u64 = u64::from((self.v851 | (c132 << 1)) == 0x3);
         if self.v80 != c80 { self.v80 = c80; *dirty |= 0x1000000000000; }
-        let c137: u64 = if (c131) != 0 { (self.q102) } else { (self.q103) };
-        let c135: u64 = if (c132) != 0 { (self.q100) } else { (c137) };
-        let c133: u64 = if (c128) != 0 { (self.q101) } else { (c135) };
+        let c137: u64 = if (c131) != 0 { (self.q101) } else { (self.q102) };
+        let c135: u64 = if (c132) != 0 { (self.q99) } else { (c137) };
+        let c133: u64 = if (c128) != 0 { (self.q100) } else { (c135) };
         if self.v133 != c133 { self.v133 = c133; *dirty |= 0x400000000000; }
         let c138: u64 = ((c130) | (c131)) & 0x1;
         let c136: u64 = ((c138) | (c132)) & 0x1;
@@ -3278,25 +3278,25 @@ impl Model {
         let c454: u64 = { let s = (self.v402 | (self.v411 << 1) | (self.v436 << 2) | (self.v438 << 3) | (self.v390 << 4)); if s >> 0 & 1 != 0 { c409 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c435 } else if s >> 3 & 1 != 0 { c440 } else if s >> 4 & 1 != 0 { c447 } else { (self.v676) } };
         if self.v454 != c454 { self.v454 = c454; *dirty |= 0x4000000; }
         let c455: u64 = { let s = (self.v402 | (self.v411 << 1) | (self.v414 << 2) | (self.v426 << 3) | (self.v434 << 4) | (self.v436 << 5) | (self.v438 << 6) | (self.v390 << 7)); if s >> 0 & 1 != 0 { self.v406 } else if s >> 1 & 1 != 0 { 0x9 } else if s >> 2 & 1 != 0 { 0x8 } else if s >> 3 & 1 != 0 { 0x7 } else if s >> 4 & 1 != 0 { self.v433 } else if s >> 5 & 1 != 0 { self.v437 } else if s >> 6 & 1 != 0 { c439 } else if s >> 7 & 1 != 0 { self.v448 } else { (self.q115) } };
-        let c477: u64 = if (self.q94) != 0 { (c455) } else { (self.q115) };
+        let c477: u64 = if (self.q93) != 0 { (c455) } else { (self.q115) };
         if self.v477 != c477 { self.v477 = c477; *dirty |= 0x4000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing.
     fn group_24(&mut self, dirty: &mut u128) {
-        let c747: u64 = (self.q53).wrapping_add((0x1)) & 0x7;
-        let c750: u64 = u64::from((self.q53) == (0x5));
-        let c748: u64 = (self.q54) & (c750) & 0x1;
+        let c747: u64 = (self.q52).wrapping_add((0x1)) & 0x7;
+        let c750: u64 = u64::from((self.q52) == (0x5));
+        let c748: u64 = (self.q53) & (c750) & 0x1;
         if self.v748 != c748 { self.v748 = c748; *dirty |= 0x1e000000; }
         let c42: u64 = !(c748) & 0x1;
         if self.v42 != c42 { self.v42 = c42; *dirty |= 0x12000000; }
-        let c64: u64 = u64::from((self.v597 | (self.q58 << 1) | (self.q94 << 2) | (c42 << 3)) == 0xf);
+        let c64: u64 = u64::from((self.v597 | (self.q57 << 1) | (self.q93 << 2) | (c42 << 3)) == 0xf);
         if self.v64 != c64 { self.v64 = c64; *dirty |= 0x400000000000000000; }
-        let c751: u64 = u64::from((self.q53) == (0x4));
-        let c749: u64 = (self.q54) & (c751) & 0x1;
+        let c751: u64 = u64::from((self.q52) == (0x4));
+        let c749: u64 = (self.q53) & (c751) & 0x1;
         if self.v749 != c749 { self.v749 = c749; *dirty |= 0x10000000; }
-        let c752: u64 = u64::from((self.q109) != (self.q52));
+        let c752: u64 = u64::from((self.q109) != (self.q51));
         let c753: u64 = ((c750) | (c752)) & 0x1;
         if self.v753 != c753 { self.v753 = c753; *dirty |= 0x2000000; }
         let c757: u64 = if (c753) != 0 { (0x1) } else { (c747) };
@@ -3306,25 +3306,25 @@ impl Model {
 
     /// The cells of top$core$protocol$interframe.
     fn group_25(&mut self, dirty: &mut u128) {
-        let c65: u64 = u64::from((self.q94 | (self.v27 << 1) | (self.v29 << 2) | (self.v28 << 3) | (self.v42 << 4)) == 0x1f);
+        let c65: u64 = u64::from((self.q93 | (self.v27 << 1) | (self.v28 << 2) | (self.v29 << 3) | (self.v42 << 4)) == 0x1f);
         if self.v65 != c65 { self.v65 = c65; *dirty |= 0x200000000000000000; }
-        let c66: u64 = u64::from((self.q94 | (self.v27 << 1) | (self.v29 << 2) | (self.v28 << 3) | (self.v30 << 4) | (self.v31 << 5) | (self.v32 << 6) | (self.v42 << 7)) == 0xff);
+        let c66: u64 = u64::from((self.q93 | (self.v27 << 1) | (self.v28 << 2) | (self.v29 << 3) | (self.v30 << 4) | (self.v32 << 5) | (self.v31 << 6) | (self.v42 << 7)) == 0xff);
         if self.v66 != c66 { self.v66 = c66; *dirty |= 0x200000000000000000; }
-        let c506: u64 = (self.q94) & (self.v42) & 0x1;
+        let c506: u64 = (self.q93) & (self.v42) & 0x1;
         if self.v506 != c506 { self.v506 = c506; *dirty |= 0x104000000; }
         let c507: u64 = (c506) & (self.v430) & 0x1;
         let c509: u64 = (c507) & (self.v546) & 0x1;
         if self.v509 != c509 { self.v509 = c509; *dirty |= 0x10000100038000000; }
         let c22: u64 = u64::from((c509 | (self.v753 << 1)) != 0);
-        let c60: u64 = u64::from((self.q94 | (c22 << 1)) == 0x3);
+        let c60: u64 = u64::from((self.q93 | (c22 << 1)) == 0x3);
         if self.v60 != c60 { self.v60 = c60; *dirty |= 0x4000000000000000000; }
         let c94: u64 = u64::from((self.i_reset | (c509 << 1)) != 0);
         if self.v94 != c94 { self.v94 = c94; *dirty |= 0x10c00000000000000; }
-        let c514: u64 = (self.v430) & (self.q63) & 0x1;
+        let c514: u64 = (self.v430) & (self.q62) & 0x1;
         if self.v514 != c514 { self.v514 = c514; *dirty |= 0x8000000; }
-        let c609: u64 = if (self.q58) != 0 { (c514) } else { (self.v603) };
+        let c609: u64 = if (self.q57) != 0 { (c514) } else { (self.v603) };
         let c648: u64 = { let s = (self.v570 | (self.v597 << 1)); if s >> 0 & 1 != 0 { self.v583 } else if s >> 1 & 1 != 0 { c609 } else { (0x0) } };
-        let c651: u64 = if (self.v748) != 0 { (self.q62) } else { (self.v642) };
+        let c651: u64 = if (self.v748) != 0 { (self.q61) } else { (self.v642) };
         if self.v651 != c651 { self.v651 = c651; *dirty |= 0x8000000; }
         let c655: u64 = if (self.v748) != 0 { (0x0) } else { (self.v645) };
         let c658: u64 = if (self.v748) != 0 { (0x0) } else { (self.v647) };
@@ -3332,9 +3332,9 @@ impl Model {
         if self.v659 != c659 { self.v659 = c659; *dirty |= 0x8000000; }
         let c660: u64 = if (self.v748) != 0 { (0x0) } else { (self.v649) };
         if self.v660 != c660 { self.v660 = c660; *dirty |= 0x8000000; }
-        let c671: u64 = (self.q94) & (c655) & 0x1;
+        let c671: u64 = (self.q93) & (c655) & 0x1;
         if self.v671 != c671 { self.v671 = c671; *dirty |= 0x30000000; }
-        let c673: u64 = (self.q94) & (c658) & 0x1;
+        let c673: u64 = (self.q93) & (c658) & 0x1;
         if self.v673 != c673 { self.v673 = c673; *dirty |= 0xc0000000; }
         let _ = &dirty;
     }
@@ -3351,7 +3351,7 @@ impl Model {
         if self.v74 != c74 { self.v74 = c74; *dirty |= 0x200000000000000; }
         let c75: u64 = u64::from((self.v506 | (self.v388 << 1) | (self.v436 << 2)) == 0x7);
         if self.v75 != c75 { self.v75 = c75; *dirty |= 0x100000000000000; }
-        let c374: u64 = (self.q94) & (self.v748) & 0x1;
+        let c374: u64 = (self.q93) & (self.v748) & 0x1;
         if self.v374 != c374 { self.v374 = c374; *dirty |= 0x20000000; }
         let c484: u64 = if (c374) != 0 { (self.v481) } else { (self.v470) };
         if self.v484 != c484 { self.v484 = c484; *dirty |= 0x8000000; }
@@ -3359,7 +3359,7 @@ impl Model {
         if self.v485 != c485 { self.v485 = c485; *dirty |= 0x8000000; }
         let c486: u64 = if (c374) != 0 { (self.v483) } else { (self.v473) };
         if self.v486 != c486 { self.v486 = c486; *dirty |= 0x28000000; }
-        let c487: u64 = if (c374) != 0 { (self.q73) } else { (self.v454) };
+        let c487: u64 = if (c374) != 0 { (self.q72) } else { (self.v454) };
         if self.v487 != c487 { self.v487 = c487; *dirty |= 0x8000000; }
         let c488: u64 = if (c374) != 0 { (0x0) } else { (self.v464) };
         if self.v488 != c488 { self.v488 = c488; *dirty |= 0x20000000; }
@@ -3391,7 +3391,7 @@ impl Model {
     /// The cells of top$core$protocol$interframe.
     fn group_27(&mut self, dirty: &mut u128) {
         let c527: u64 = !(self.v493) & 0x1;
-        let c510: u64 = (self.q51) & (c527) & 0x1;
+        let c510: u64 = (self.q50) & (c527) & 0x1;
         let c565: u64 = if (self.v528) != 0 { (0x0) } else { (self.v487) };
         let c567: u64 = if (self.v518) != 0 { (c565) } else { (0x0) };
         let c569: u64 = if (self.v530) != 0 { (0x0) } else { (self.v487) };
@@ -3413,7 +3413,7 @@ impl Model {
         let c599: u64 = if (self.v610) != 0 { (0xe) } else { (self.v497) };
         let c601: u64 = if (self.q109) != 0 { (0x0) } else { (self.v487) };
         let c607: u64 = if (self.v513) != 0 { (0x1) } else { (self.v487) };
-        let c611: u64 = if (self.q58) != 0 { (c607) } else { (c601) };
+        let c611: u64 = if (self.q57) != 0 { (c607) } else { (c601) };
         let c598: u64 = if (self.v610) != 0 { (0x0) } else { (c611) };
         let c615: u64 = if (self.v511) != 0 { (0x0) } else { (self.v487) };
         let c616: u64 = if (self.v526) != 0 { (c615) } else { (self.v487) };
@@ -3448,7 +3448,7 @@ impl Model {
         let c654: u64 = if (self.v748) != 0 { (self.v486) } else { (c644) };
         let c25: u64 = u64::from((self.v597 | (self.v748 << 1) | (c654 << 2)) != 0);
         let c26: u64 = u64::from((self.v748 | (c654 << 1)) != (0x1));
-        let c63: u64 = u64::from((self.q94 | (c26 << 1) | (c25 << 2)) == 0x7);
+        let c63: u64 = u64::from((self.q93 | (c25 << 1) | (c26 << 2)) == 0x7);
         if self.v63 != c63 { self.v63 = c63; *dirty |= 0x400000000000000000; }
         let c558: u64 = ((self.v651) | (c654)) & 0x1;
         if self.v558 != c558 { self.v558 = c558; *dirty |= 0x100000000000000000; }
@@ -3462,7 +3462,7 @@ impl Model {
         let c521: u64 = (c520) & (self.q116) & 0x1;
         let c535: u64 = !(c656) & 0x1;
         let c519: u64 = (self.v536) & (c535) & 0x1;
-        let c522: u64 = (self.q88) & (c535) & 0x1;
+        let c522: u64 = (self.q87) & (c535) & 0x1;
         let c549: u64 = ((self.v660) | (c519)) & 0x1;
         let c550: u64 = if (c519) != 0 { (0x0) } else { (c535) };
         let c551: u64 = if (self.v484) != 0 { (c549) } else { (self.v660) };
@@ -3476,35 +3476,35 @@ impl Model {
         let c657: u64 = if (self.v748) != 0 { (self.v497) } else { (c638) };
         let c564: u64 = if (self.v509) != 0 { (0x2) } else { (c657) };
         let c562: u64 = if (c654) != 0 { (0xc) } else { (c564) };
-        let c661: u64 = (self.q94) & (c548) & 0x1;
+        let c661: u64 = (self.q93) & (c548) & 0x1;
         if self.v661 != c661 { self.v661 = c661; *dirty |= 0x20000000; }
         let c93: u64 = u64::from((self.i_reset | (c661 << 1)) != 0);
         if self.v93 != c93 { self.v93 = c93; *dirty |= 0x20000000000000000; }
-        let c662: u64 = if (self.q94) != 0 { (c560) } else { (self.v494) };
+        let c662: u64 = if (self.q93) != 0 { (c560) } else { (self.v494) };
         if self.v662 != c662 { self.v662 = c662; *dirty |= 0x30000000; }
-        let c663: u64 = if (self.q94) != 0 { (c562) } else { (self.v497) };
+        let c663: u64 = if (self.q93) != 0 { (c562) } else { (self.v497) };
         if self.v663 != c663 { self.v663 = c663; *dirty |= 0x30000000; }
-        let c664: u64 = (self.q94) & (c555) & 0x1;
+        let c664: u64 = (self.q93) & (c555) & 0x1;
         if self.v664 != c664 { self.v664 = c664; *dirty |= 0xc0000000; }
-        let c665: u64 = (self.q94) & (c556) & 0x1;
+        let c665: u64 = (self.q93) & (c556) & 0x1;
         if self.v665 != c665 { self.v665 = c665; *dirty |= 0x40000000; }
-        let c666: u64 = (self.q94) & (c557) & 0x1;
+        let c666: u64 = (self.q93) & (c557) & 0x1;
         if self.v666 != c666 { self.v666 = c666; *dirty |= 0x40000000; }
-        let c667: u64 = (self.q94) & (c535) & 0x1;
+        let c667: u64 = (self.q93) & (c535) & 0x1;
         if self.v667 != c667 { self.v667 = c667; *dirty |= 0x4000000000000000; }
-        let c669: u64 = if (self.q94) != 0 { (c653) } else { (self.v485) };
+        let c669: u64 = if (self.q93) != 0 { (c653) } else { (self.v485) };
         if self.v669 != c669 { self.v669 = c669; *dirty |= 0x4000000000000000; }
-        let c670: u64 = if (self.q94) != 0 { (c654) } else { (self.v486) };
+        let c670: u64 = if (self.q93) != 0 { (c654) } else { (self.v486) };
         if self.v670 != c670 { self.v670 = c670; *dirty |= 0x30000000; }
-        let c672: u64 = if (self.q94) != 0 { (c656) } else { (c510) };
+        let c672: u64 = if (self.q93) != 0 { (c656) } else { (c510) };
         if self.v672 != c672 { self.v672 = c672; *dirty |= 0x4000000040010000000; }
-        let c674: u64 = ((self.q63) | (self.v491)) & 0x1;
+        let c674: u64 = ((self.q62) | (self.v491)) & 0x1;
         let c605: u64 = if (self.v514) != 0 { (0x0) } else { (c674) };
-        let c608: u64 = if (self.q58) != 0 { (c605) } else { (c674) };
+        let c608: u64 = if (self.q57) != 0 { (c605) } else { (c674) };
         let c596: u64 = if (self.v610) != 0 { (0x0) } else { (c608) };
         let c639: u64 = if (self.v597) != 0 { (c596) } else { (c674) };
         let c650: u64 = if (self.v748) != 0 { (c674) } else { (c639) };
-        let c668: u64 = if (self.q94) != 0 { (c650) } else { (c674) };
+        let c668: u64 = if (self.q93) != 0 { (c650) } else { (c674) };
         if self.v668 != c668 { self.v668 = c668; *dirty |= 0x100000000000000000; }
         let _ = &dirty;
     }
@@ -3524,11 +3524,11 @@ impl Model {
         let c694: u64 = !(self.v662) & 0x1;
         let c682: u64 = (c681) & (c694) & 0x1;
         if self.v682 != c682 { self.v682 = c682; *dirty |= 0x40000000000; }
-        let c702: u64 = if (c677) != 0 { (self.q58) } else { (self.v544) };
+        let c702: u64 = if (c677) != 0 { (self.q57) } else { (self.v544) };
         if self.v702 != c702 { self.v702 = c702; *dirty |= 0x40000000000; }
         let c703: u64 = u64::from((self.v663) == (0xc));
         if self.v703 != c703 { self.v703 = c703; *dirty |= 0x40000000000; }
-        let c704: u64 = if (self.v496) != 0 { (self.v746) } else { ((self.q72 >> 14)) };
+        let c704: u64 = if (self.v496) != 0 { (self.v746) } else { ((self.q71 >> 14)) };
         let c705: u64 = u64::from((self.v663) == (0x5));
         if self.v705 != c705 { self.v705 = c705; *dirty |= 0x40000000000; }
         let c706: u64 = if (self.v672) != 0 { (c704) } else { (0x1) };
@@ -3545,7 +3545,7 @@ impl Model {
         if self.v725 != c725 { self.v725 = c725; *dirty |= 0x40000000000; }
         let c726: u64 = u64::from((self.v663) == (0x1));
         if self.v726 != c726 { self.v726 = c726; *dirty |= 0x40000000000; }
-        let c730: u64 = if (self.v748) != 0 { ((self.q73 & 0x7)) } else { ((self.v676 & 0x7)) };
+        let c730: u64 = if (self.v748) != 0 { ((self.q72 & 0x7)) } else { ((self.v676 & 0x7)) };
         let c731: u64 = if (self.v748) != 0 { (self.v385) } else { (self.v685) };
         let c727: u64 = if (self.v509) != 0 { (0x0) } else { (c731) };
         if self.v727 != c727 { self.v727 = c727; *dirty |= 0x40000000000; }
@@ -3597,11 +3597,11 @@ impl Model {
         if self.v254 != c254 { self.v254 = c254; *dirty |= 0x100000000000; }
         let c257: u64 = ((self.v670) | (self.v671)) & 0x1;
         if self.v257 != c257 { self.v257 = c257; *dirty |= 0x4000000000000000; }
-        let c275: u64 = if (self.q94) != 0 { (self.v561) } else { (self.q73) };
+        let c275: u64 = if (self.q93) != 0 { (self.v561) } else { (self.q72) };
         let c272: u64 = if (self.v249) != 0 { (0x0) } else { (c275) };
         let c273: u64 = if (self.q113) != 0 { (c272) } else { (c275) };
         if self.v273 != c273 { self.v273 = c273; *dirty |= 0x8000000000000000; }
-        let c276: u64 = if (self.q94) != 0 { (self.v663) } else { (self.q115) };
+        let c276: u64 = if (self.q93) != 0 { (self.v663) } else { (self.q115) };
         let c274: u64 = if (self.q113) != 0 { (0xf) } else { (c276) };
         let c271: u64 = if (self.v238) != 0 { (0x1) } else { (c274) };
         let c270: u64 = if (self.v233) != 0 { (0x0) } else { (c271) };
@@ -3623,7 +3623,7 @@ impl Model {
         let c266: u64 = ((c265) | (c247)) & 0x1;
         let c267: u64 = ((c266) | (c248)) & 0x1;
         if self.v267 != c267 { self.v267 = c267; *dirty |= 0x80000000000000000; }
-        let c278: u64 = ((self.q71) | (self.v492)) & 0x1;
+        let c278: u64 = ((self.q70) | (self.v492)) & 0x1;
         if self.v278 != c278 { self.v278 = c278; *dirty |= 0x10000000000000000; }
         let c279: u64 = ((self.v490) | (self.v661)) & 0x1;
         if self.v279 != c279 { self.v279 = c279; *dirty |= 0x20000000000000000; }
@@ -3636,20 +3636,20 @@ impl Model {
         if self.v318 != c318 { self.v318 = c318; *dirty |= 0x80000000; }
         let c319: u64 = (self.v666) & (self.v327) & 0x1;
         let c353: u64 = (self.v664) & (self.v352) & 0x1;
-        let c354: u64 = if (self.v664) != 0 { (self.v350) } else { (self.q67 | (self.q68 << 7)) };
+        let c354: u64 = if (self.v664) != 0 { (self.v350) } else { (self.q66 | (self.q67 << 7)) };
         let c348: u64 = if (c319) != 0 { (self.v316) } else { (c354) };
         let c347: u64 = if (self.v665) != 0 { (self.v346) } else { (c348) };
         let c343: u64 = if (self.v328) != 0 { (self.v369) } else { (c347) };
-        let c344: u64 = if (self.q68) != 0 { (0x7f) } else { (c343) };
+        let c344: u64 = if (self.q67) != 0 { (0x7f) } else { (c343) };
         let c345: u64 = if (self.v498) != 0 { (c344) } else { (c347) };
-        let c355: u64 = if (self.v664) != 0 { (self.v351) } else { ((self.q64 << 5)) };
+        let c355: u64 = if (self.v664) != 0 { (self.v351) } else { ((self.q63 << 5)) };
         let c349: u64 = if (c318) != 0 { (self.v368) } else { ((c355 & 0x1) | ((c355 & 0x1) << 1) | (c355 << 2)) };
-        let c356: u64 = if (self.v255) != 0 { (self.q67 | (self.q68 << 7)) } else { (c345) };
-        let c357: u64 = if (self.v255) != 0 { ((self.q64 << 7)) } else { (c349) };
+        let c356: u64 = if (self.v255) != 0 { (self.q66 | (self.q67 << 7)) } else { (c345) };
+        let c357: u64 = if (self.v255) != 0 { ((self.q63 << 7)) } else { (c349) };
         let c358: u64 = if (self.v255) != 0 { (0x0) } else { (c353) };
         let c362: u64 = if (self.v673) != 0 { (self.v360) } else { (0x1) };
-        let c363: u64 = if (self.v673) != 0 { (self.v359) } else { (self.q67 | (self.q68 << 7)) };
-        let c364: u64 = if (self.v673) != 0 { (self.v361) } else { ((self.q64 << 7)) };
+        let c363: u64 = if (self.v673) != 0 { (self.v359) } else { (self.q66 | (self.q67 << 7)) };
+        let c364: u64 = if (self.v673) != 0 { (self.v361) } else { ((self.q63 << 7)) };
         let c365: u64 = if (self.q113) != 0 { (c362) } else { (c358) };
         let c336: u64 = if (self.q113) != 0 { (0x0) } else { (c365) };
         let c339: u64 = ((c336) | (self.v325)) & 0x1;
@@ -3765,7 +3765,7 @@ impl Model {
 
     /// The cells of top$interrupts.
     fn group_35(&mut self, dirty: &mut u128) {
-        let c116: u64 = (self.q70 | (self.v1012 << 1) | (self.v964 << 2) | (self.v939 << 3) | (self.v955 << 4) | (self.v937 << 5) | (self.v936 << 6)) & (((self.q22 >> 1) & 0x1) | ((self.v1085 & 0x3) << 1) | ((self.q22 >> 3) << 3) | (((self.q22 >> 2) & 0x1) << 4) | ((self.v1085 >> 3) << 5) | (((self.v1085 >> 2) & 0x1) << 6)) & 0x7f;
+        let c114: u64 = (self.q69 | (self.v1012 << 1) | (self.v964 << 2) | (self.v939 << 3) | (self.v955 << 4) | (self.v937 << 5) | (self.v936 << 6)) & (((self.q21 >> 1) & 0x1) | ((self.v1085 & 0x3) << 1) | ((self.q21 >> 3) << 3) | (((self.q21 >> 2) & 0x1) << 4) | ((self.v1085 >> 3) << 5) | (((self.v1085 >> 2) & 0x1) << 6)) & 0x7f;
         let c935: u64 = (self.v40) & (self.v1051) & 0x1;
         let c19: u64 = u64::from((c935 | (self.v934 << 1)) != 0);
         let c41: u64 = !(c935) & 0x1;
@@ -3778,8 +3778,8 @@ impl Model {
         let c942: u64 = (c941) & (self.v952) & 0x1;
         let c956: u64 = ((self.v940) | (c942)) & 0x1;
         let c959: u64 = if (self.v1010) != 0 { (0x0) } else { ((self.v960 & 0x1) | ((self.v960 >> 2) << 1)) };
-        let c117: u64 = (((c959 & 0x1) | (((self.v960 >> 1) & 0x1) << 1) | ((c959 >> 1) << 2)) | ((c116 & 0x1) | (((c116 >> 4) & 0x1) << 1) | (((c116 >> 3) & 0x1) << 2) | (((c116 >> 1) & 0x3) << 3) | ((c116 >> 6) << 5) | (((c116 >> 5) & 0x1) << 6))) & 0x7f;
-        if self.v117 != c117 { self.v117 = c117; *dirty |= 0x400000000000000000000000; }
+        let c115: u64 = (((c959 & 0x1) | (((self.v960 >> 1) & 0x1) << 1) | ((c959 >> 1) << 2)) | ((c114 & 0x1) | (((c114 >> 4) & 0x1) << 1) | (((c114 >> 3) & 0x1) << 2) | (((c114 >> 1) & 0x3) << 3) | ((c114 >> 6) << 5) | (((c114 >> 5) & 0x1) << 6))) & 0x7f;
+        if self.v115 != c115 { self.v115 = c115; *dirty |= 0x400000000000000000000000; }
         let c961: u64 = ((self.v962) | (c956)) & 0x1;
         if self.v961 != c961 { self.v961 = c961; *dirty |= 0x80000000000000000000000; }
         let c973: u64 = if (c935) != 0 { (((self.i_wdata >> 1) & 0xf)) } else { ((self.i_wdata & 0xf)) };
@@ -3789,47 +3789,47 @@ impl Model {
 
     /// The cells of top$modes$divider.
     fn group_36(&mut self, dirty: &mut u128) {
-        let c1034: u64 = (self.q12).wrapping_add((0x1)) & 0x7;
+        let c1034: u64 = (self.q11).wrapping_add((0x1)) & 0x7;
         if self.v1034 != c1034 { self.v1034 = c1034; *dirty |= 0x20000000000000000000000000; }
-        let c1035: u64 = !(self.q11) & 0x1;
+        let c1035: u64 = !(self.q10) & 0x1;
         if self.v1035 != c1035 { self.v1035 = c1035; *dirty |= 0x40000000000000000000000000; }
-        let c1036: u64 = u64::from((self.q105) == (0x7));
-        let c1037: u64 = u64::from((self.q12) >= (self.q105));
+        let c1036: u64 = u64::from((self.q104) == (0x7));
+        let c1037: u64 = u64::from((self.q11) >= (self.q104));
         if self.v1037 != c1037 { self.v1037 = c1037; *dirty |= 0x40000000000000000000000000; }
         let c85: u64 = u64::from((self.i_reset | (c1037 << 1)) != 0);
         if self.v85 != c85 { self.v85 = c85; *dirty |= 0x20000000000000000000000000; }
-        let c1039: u64 = if (c1036) != 0 { (0x0) } else { (self.q11) };
-        let c1038: u64 = ((c1039) | ((self.q15 & 0x1))) & 0x1;
+        let c1039: u64 = if (c1036) != 0 { (0x0) } else { (self.q10) };
+        let c1038: u64 = ((c1039) | ((self.q14 & 0x1))) & 0x1;
         if self.v1038 != c1038 { self.v1038 = c1038; *dirty |= 0x4000000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults$tec_count.
     fn group_37(&mut self, dirty: &mut u128) {
-        self.n64 = ((self.v333 >> 7));
-        self.n65 = if (self.i_reset) != 0 { 0x0 } else if (self.v67) != 0 { ((self.v342 & 0x7)) } else { self.q65 };
-        self.n66 = if (self.i_reset) != 0 { 0x0 } else if (self.v68) != 0 { (((self.v342 >> 3) & 0xf)) } else { self.q66 };
+        self.n63 = ((self.v333 >> 7));
+        self.n64 = if (self.i_reset) != 0 { 0x0 } else if (self.v67) != 0 { ((self.v342 & 0x7)) } else { self.q64 };
+        self.n65 = if (self.i_reset) != 0 { 0x0 } else if (self.v68) != 0 { (((self.v342 >> 3) & 0xf)) } else { self.q65 };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo.
     fn group_38(&mut self, dirty: &mut u128) {
-        let c820: u64 = if (self.v941) != 0 { (self.v848) } else { (self.q49) };
+        let c820: u64 = if (self.v941) != 0 { (self.v848) } else { (self.q48) };
         let c792: u64 = (c820).wrapping_add((0x1)) & 0x1f;
         let c801: u64 = u64::from((c820) == 0);
         let c814: u64 = if (c801) != 0 { (0x0) } else { (self.v941) };
-        let c815: u64 = if (c801) != 0 { (self.q84 | (self.q78 << 6) | (self.q80 << 7)) } else { (self.v846) };
+        let c815: u64 = if (c801) != 0 { (self.q83 | (self.q77 << 6) | (self.q79 << 7)) } else { (self.v846) };
         let c816: u64 = if (self.v793) != 0 { (c814) } else { (self.v941) };
         if self.v816 != c816 { self.v816 = c816; *dirty |= 0x8000000000000000000; }
         let c817: u64 = if (self.v793) != 0 { (c815) } else { (self.v846) };
         if self.v817 != c817 { self.v817 = c817; *dirty |= 0x10000000000000000000; }
         let c818: u64 = if (self.v793) != 0 { (c792) } else { (c820) };
         if self.v818 != c818 { self.v818 = c818; *dirty |= 0x200000000000000000000; }
-        let c821: u64 = if (self.v941) != 0 { (self.v847) } else { (self.q41) };
+        let c821: u64 = if (self.v941) != 0 { (self.v847) } else { (self.q40) };
         let c791: u64 = (c821).wrapping_add((self.v841)) & 0x7f;
         let c819: u64 = if (self.v793) != 0 { (c791) } else { (c821) };
         if self.v819 != c819 { self.v819 = c819; *dirty |= 0x400000000000000000000; }
-        let c822: u64 = if (self.v941) != 0 { (self.v789) } else { (self.q47) };
+        let c822: u64 = if (self.v941) != 0 { (self.v789) } else { (self.q46) };
         let c803: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (c822) };
         let c808: u64 = if (self.q127) != 0 { (c803) } else { (c822) };
         if self.v808 != c808 { self.v808 = c808; *dirty |= 0x10000000000000000000; }
@@ -3838,23 +3838,23 @@ impl Model {
 
     /// The cells of top$modes$cdr_reg.
     fn group_39(&mut self, dirty: &mut u128) {
-        self.n14 = ((self.v1000 >> 6));
-        self.n15 = if (self.i_reset) != 0 { 0x0 } else if (self.v48) != 0 { (((self.i_wdata >> 3) & 0x1) | (((self.i_wdata >> 5) & 0x3) << 1)) } else { self.q15 };
-        self.n105 = if (self.i_reset) != 0 { 0x0 } else if (self.v983) != 0 { ((self.i_wdata & 0x7)) } else { self.q105 };
+        self.n13 = ((self.v1000 >> 6));
+        self.n14 = if (self.i_reset) != 0 { 0x0 } else if (self.v48) != 0 { (((self.i_wdata >> 3) & 0x1) | (((self.i_wdata >> 5) & 0x3) << 1)) } else { self.q14 };
+        self.n104 = if (self.i_reset) != 0 { 0x0 } else if (self.v983) != 0 { ((self.i_wdata & 0x7)) } else { self.q104 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$clocks.
     fn group_40(&mut self, dirty: &mut u128) {
-        self.n96 = if (self.i_reset) != 0 { 0x0 } else { (self.v188) };
-        self.n97 = if (self.v100) != 0 { 0x0 } else { ((self.v140 >> 1)) };
+        self.n95 = if (self.i_reset) != 0 { 0x0 } else { (self.v189) };
+        self.n96 = if (self.v100) != 0 { 0x0 } else { ((self.v140 >> 1)) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults$rec_count.
     fn group_41(&mut self, dirty: &mut u128) {
-        self.n67 = if (self.i_reset) != 0 { 0x0 } else { ((self.v334 & 0x7f)) };
-        self.n68 = ((self.v332 >> 7));
+        self.n66 = if (self.i_reset) != 0 { 0x0 } else { ((self.v334 & 0x7f)) };
+        self.n67 = ((self.v332 >> 7));
         let _ = &dirty;
     }
 
@@ -3868,10 +3868,10 @@ impl Model {
         let c722: u64 = if (self.v672) != 0 { (c717) } else { (0x1) };
         let c723: u64 = { let s = (self.v724 | (self.v703 << 1) | (self.v725 << 2) | (self.v705 << 3) | (self.v708 << 4) | (self.v711 << 5) | (self.v718 << 6) | (self.v726 << 7)); if s >> 0 & 1 != 0 { self.q125 } else if s >> 1 & 1 != 0 { self.v702 } else if s >> 2 & 1 != 0 { self.v691 } else if s >> 3 & 1 != 0 { self.v706 } else if s >> 4 & 1 != 0 { c709 } else if s >> 5 & 1 != 0 { self.v716 } else if s >> 6 & 1 != 0 { c722 } else if s >> 7 & 1 != 0 { self.v686 } else { (0x1) } };
         let c701: u64 = if (self.v682) != 0 { (self.v430) } else { (c723) };
-        let c700: u64 = if (self.q94) != 0 { (c701) } else { (self.q117) };
+        let c700: u64 = if (self.q93) != 0 { (c701) } else { (self.q117) };
         let c696: u64 = ((c700) | (self.v695)) & 0x1;
         if self.v696 != c696 { self.v696 = c696; *dirty |= 0x800000000000000000; }
-        let c739: u64 = if (self.v235) != 0 { (self.v736) } else { ((self.q56 & 0x1)) };
+        let c739: u64 = if (self.v235) != 0 { (self.v736) } else { ((self.q55 & 0x1)) };
         let c735: u64 = if (self.v236) != 0 { ((self.v734 << 1) | 0x1) } else { (c739) };
         if self.v735 != c735 { self.v735 = c735; *dirty |= 0x80000000000; }
         let _ = &dirty;
@@ -3879,8 +3879,8 @@ impl Model {
 
     /// The cells of top$core$protocol$sender$tx_ptr.
     fn group_43(&mut self, dirty: &mut u128) {
-        self.n55 = if (self.v92) != 0 { 0x0 } else if (self.v61) != 0 { ((self.v735 >> 1)) } else { self.q55 };
-        self.n56 = if (self.v91) != 0 { 0x1 } else if (self.v62) != 0 { ((self.v675 & 0x1) | ((self.v675 >> 3) << 1)) } else { self.q56 };
+        self.n54 = if (self.v92) != 0 { 0x0 } else if (self.v61) != 0 { ((self.v735 >> 1)) } else { self.q54 };
+        self.n55 = if (self.v91) != 0 { 0x1 } else if (self.v62) != 0 { ((self.v675 & 0x1) | ((self.v675 >> 3) << 1)) } else { self.q55 };
         let _ = &dirty;
     }
 
@@ -3888,7 +3888,7 @@ impl Model {
     fn group_44(&mut self, dirty: &mut u128) {
         let c755: u64 = if (self.v509) != 0 { (0x1) } else { (self.v757) };
         if self.v755 != c755 { self.v755 = c755; *dirty |= 0x2000000000000000000; }
-        let c756: u64 = ((self.q54) | (self.v509)) & 0x1;
+        let c756: u64 = ((self.q53) | (self.v509)) & 0x1;
         let c754: u64 = if (self.v254) != 0 { (0x0) } else { (c756) };
         if self.v754 != c754 { self.v754 = c754; *dirty |= 0x2000000000000000000; }
         let _ = &dirty;
@@ -3896,30 +3896,30 @@ impl Model {
 
     /// The cells of top$interrupts$ier_reg.
     fn group_45(&mut self, dirty: &mut u128) {
-        self.n21 = if (self.i_reset) != 0 { 0x0 } else if (self.v50) != 0 { ((self.i_wdata >> 4)) } else { self.q21 };
-        self.n22 = if (self.i_reset) != 0 { 0x0 } else if (self.v51) != 0 { (self.v973) } else { self.q22 };
+        self.n20 = if (self.i_reset) != 0 { 0x0 } else if (self.v50) != 0 { ((self.i_wdata >> 4)) } else { self.q20 };
+        self.n21 = if (self.i_reset) != 0 { 0x0 } else if (self.v51) != 0 { (self.v973) } else { self.q21 };
         let _ = &dirty;
     }
 
     /// The cells of top$read.
     fn group_46(&mut self, dirty: &mut u128) {
-        let c1059: u64 = if (self.q8) != 0 { (self.v1097) } else { (self.v1060) };
+        let c1059: u64 = if (self.q7) != 0 { (self.v1097) } else { (self.v1060) };
         if self.v1059 != c1059 { self.v1059 = c1059; *dirty |= 0x80000000000000000000000000000000; }
         let c1081: u64 = if (self.v134) != 0 { (self.v133) } else { (self.v1082) };
         let c1080: u64 = if (self.v918) != 0 { (self.v911) } else { (c1081) };
-        let c1067: u64 = if (self.v1051) != 0 { (self.q127 | (self.q22 << 1) | (self.q13 << 6) | 0x20) } else { (c1080) };
+        let c1067: u64 = if (self.v1051) != 0 { (self.q127 | (self.q21 << 1) | (self.q12 << 6) | 0x20) } else { (c1080) };
         let c1066: u64 = if (self.v1052) != 0 { (0xff) } else { (c1067) };
-        let c1065: u64 = if (self.v1053) != 0 { (self.v109 | ((self.q20 & 0xf) << 1) | 0xe0) } else { (c1066) };
+        let c1065: u64 = if (self.v1053) != 0 { (self.v109 | ((self.q19 & 0xf) << 1) | 0xe0) } else { (c1066) };
         let c1064: u64 = if (self.v1043) != 0 { (0xff) } else { (c1065) };
-        let c1075: u64 = if (self.v1051) != 0 { (self.q127 | (self.q126 << 1) | (self.q130 << 2) | (self.q16 << 3) | (self.q129 << 4)) } else { (c1080) };
-        let c1074: u64 = if (self.v871) != 0 { (self.q22 | (self.q21 << 4)) } else { (c1075) };
-        let c1073: u64 = if (self.v1045) != 0 { (self.q27) } else { (c1074) };
-        let c1072: u64 = if (self.v1046) != 0 { (self.q24) } else { (c1073) };
-        let c1071: u64 = if (self.v1047) != 0 { (self.q67 | (self.q68 << 7)) } else { (c1072) };
-        let c1070: u64 = if (self.v1048) != 0 { (self.q65 | (self.q66 << 3) | (self.q64 << 7)) } else { (c1071) };
-        let c1069: u64 = if (self.v1049) != 0 { (self.q49) } else { (c1070) };
-        let c1068: u64 = if (self.v1050) != 0 { (self.q47) } else { (c1069) };
-        let c1078: u64 = if (self.q14) != 0 { (c1068) } else { (c1064) };
+        let c1075: u64 = if (self.v1051) != 0 { (self.q127 | (self.q126 << 1) | (self.q130 << 2) | (self.q15 << 3) | (self.q129 << 4)) } else { (c1080) };
+        let c1074: u64 = if (self.v871) != 0 { (self.q21 | (self.q20 << 4)) } else { (c1075) };
+        let c1073: u64 = if (self.v1045) != 0 { (self.q26) } else { (c1074) };
+        let c1072: u64 = if (self.v1046) != 0 { (self.q23) } else { (c1073) };
+        let c1071: u64 = if (self.v1047) != 0 { (self.q66 | (self.q67 << 7)) } else { (c1072) };
+        let c1070: u64 = if (self.v1048) != 0 { (self.q64 | (self.q65 << 3) | (self.q63 << 7)) } else { (c1071) };
+        let c1069: u64 = if (self.v1049) != 0 { (self.q48) } else { (c1070) };
+        let c1068: u64 = if (self.v1050) != 0 { (self.q46) } else { (c1069) };
+        let c1078: u64 = if (self.q13) != 0 { (c1068) } else { (c1064) };
         let c1058: u64 = if (self.i_re) != 0 { (c1078) } else { (c1059) };
         if self.v1058 != c1058 { self.v1058 = c1058; *dirty |= 0x40000000000000000000000000000; }
         let _ = &dirty;
@@ -3927,36 +3927,36 @@ impl Model {
 
     /// The cells of top$configuration$btr0 + top$configuration$btr1.
     fn group_47(&mut self, dirty: &mut u128) {
-        self.n103 = if (self.i_reset) != 0 { 0x0 } else if (self.v79) != 0 { (self.i_wdata) } else { self.q103 };
-        self.n102 = if (self.i_reset) != 0 { 0x0 } else if (self.v78) != 0 { (self.i_wdata) } else { self.q102 };
+        self.n102 = if (self.i_reset) != 0 { 0x0 } else if (self.v79) != 0 { (self.i_wdata) } else { self.q102 };
+        self.n101 = if (self.i_reset) != 0 { 0x0 } else if (self.v78) != 0 { (self.i_wdata) } else { self.q101 };
         let _ = &dirty;
     }
 
     /// The cells of top$configuration$ewlr_reg + top$configuration$ocr.
     fn group_48(&mut self, dirty: &mut u128) {
-        self.n101 = if (self.i_reset) != 0 { 0x60 } else if (self.v81) != 0 { (self.i_wdata) } else { self.q101 };
-        self.n100 = if (self.i_reset) != 0 { 0x0 } else if (self.v80) != 0 { (self.i_wdata) } else { self.q100 };
+        self.n100 = if (self.i_reset) != 0 { 0x60 } else if (self.v81) != 0 { (self.i_wdata) } else { self.q100 };
+        self.n99 = if (self.i_reset) != 0 { 0x0 } else if (self.v80) != 0 { (self.i_wdata) } else { self.q99 };
         let _ = &dirty;
     }
 
     /// The cells of top$configuration$sjw_reg + top$configuration$tseg2_reg.
     fn group_49(&mut self, dirty: &mut u128) {
-        self.n99 = if (self.i_reset) != 0 { 0x0 } else if (self.v79) != 0 { ((self.i_wdata >> 6)) } else { self.q99 };
-        self.n98 = if (self.i_reset) != 0 { 0x0 } else if (self.v78) != 0 { (((self.i_wdata >> 4) & 0x7)) } else { self.q98 };
+        self.n98 = if (self.i_reset) != 0 { 0x0 } else if (self.v79) != 0 { ((self.i_wdata >> 6)) } else { self.q98 };
+        self.n97 = if (self.i_reset) != 0 { 0x0 } else if (self.v78) != 0 { (((self.i_wdata >> 4) & 0x7)) } else { self.q97 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$elapsed + top$core$bit_timing$process_pending.
     fn group_50(&mut self, dirty: &mut u128) {
-        self.n95 = if (self.v99) != 0 { 0x0 } else if (self.v77) != 0 { (self.v142) } else { self.q95 };
-        self.n94 = if (self.i_reset) != 0 { 0x0 } else { (self.v154) };
+        self.n94 = if (self.v99) != 0 { 0x0 } else if (self.v77) != 0 { (self.v142) } else { self.q94 };
+        self.n93 = if (self.i_reset) != 0 { 0x0 } else { (self.v154) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$remaining + top$core$bit_timing$sampled.
     fn group_51(&mut self, dirty: &mut u128) {
-        self.n93 = if (self.v98) != 0 { 0x0 } else { (self.v194) };
-        self.n109 = (self.v183);
+        self.n92 = if (self.v98) != 0 { 0x0 } else { (self.v194) };
+        self.n109 = (self.v184);
         let _ = &dirty;
     }
 
@@ -3969,92 +3969,92 @@ impl Model {
 
     /// The cells of top$core$bit_timing$sampling$quantum_samples + top$core$bit_timing$sampling$stable.
     fn group_53(&mut self, dirty: &mut u128) {
-        self.n92 = if (self.i_reset) != 0 { 0x3 } else if (self.v148) != 0 { (self.q112 | ((self.q92 & 0x1) << 1)) } else { self.q92 };
+        self.n91 = if (self.i_reset) != 0 { 0x3 } else if (self.v148) != 0 { (self.q112 | ((self.q91 & 0x1) << 1)) } else { self.q91 };
         self.n112 = (self.v228);
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$segment_state + top$core$bit_timing$sjw_quanta.
     fn group_54(&mut self, dirty: &mut u128) {
-        self.n91 = if (self.v98) != 0 { 0x0 } else if (self.v76) != 0 { (self.v191) } else { self.q91 };
+        self.n90 = if (self.v98) != 0 { 0x0 } else if (self.v76) != 0 { (self.v192) } else { self.q90 };
         self.n108 = if (self.i_reset) != 0 { 0x1 } else { (self.v139) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$synced + top$core$bit_timing$transmit_deferred.
     fn group_55(&mut self, dirty: &mut u128) {
-        self.n90 = if (self.i_reset) != 0 { 0x0 } else { (self.v185) };
-        self.n89 = if (self.i_reset) != 0 { 0x0 } else { (self.v158) };
+        self.n89 = if (self.i_reset) != 0 { 0x0 } else { (self.v186) };
+        self.n88 = if (self.i_reset) != 0 { 0x0 } else { (self.v158) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$abort_pending + top$core$protocol$assembler$byte_index.
     fn group_56(&mut self, dirty: &mut u128) {
-        self.n88 = if (self.v97) != 0 { 0x0 } else { (self.v277) };
-        self.n87 = if (self.i_reset) != 0 { 0x0 } else if (self.v75) != 0 { (((self.q73 >> 3) & 0x7)) } else { self.q87 };
+        self.n87 = if (self.v97) != 0 { 0x0 } else { (self.v277) };
+        self.n86 = if (self.i_reset) != 0 { 0x0 } else if (self.v75) != 0 { (((self.q72 >> 3) & 0x7)) } else { self.q86 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$byte_pulse + top$core$protocol$assembler$byte_reg.
     fn group_57(&mut self, dirty: &mut u128) {
-        self.n86 = if (self.i_reset) != 0 { 0x0 } else { (self.v289) };
-        self.n85 = if (self.i_reset) != 0 { 0x0 } else if (self.v74) != 0 { (self.q109 | ((self.q85 & 0x7f) << 1)) } else { self.q85 };
+        self.n85 = if (self.i_reset) != 0 { 0x0 } else { (self.v289) };
+        self.n84 = if (self.i_reset) != 0 { 0x0 } else if (self.v74) != 0 { (self.q109 | ((self.q84 & 0x7f) << 1)) } else { self.q84 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$dlc_reg + top$core$protocol$assembler$header_pulse.
     fn group_58(&mut self, dirty: &mut u128) {
-        self.n84 = if (self.v94) != 0 { 0x0 } else if (self.v73) != 0 { (self.q109 | ((self.q84 & 0x7) << 1)) } else { self.q84 };
-        self.n83 = if (self.i_reset) != 0 { 0x0 } else { (self.v290) };
+        self.n83 = if (self.v94) != 0 { 0x0 } else if (self.v73) != 0 { (self.q109 | ((self.q83 & 0x7) << 1)) } else { self.q83 };
+        self.n82 = if (self.i_reset) != 0 { 0x0 } else { (self.v290) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$id_base + top$core$protocol$assembler$id_extension.
     fn group_59(&mut self, dirty: &mut u128) {
-        self.n82 = if (self.v94) != 0 { 0x0 } else if (self.v72) != 0 { (self.q109 | ((self.q82 & 0x3ff) << 1)) } else { self.q82 };
-        self.n81 = if (self.v94) != 0 { 0x0 } else if (self.v71) != 0 { (self.q109 | ((self.q81 & 0x1ffff) << 1)) } else { self.q81 };
+        self.n81 = if (self.v94) != 0 { 0x0 } else if (self.v72) != 0 { (self.q109 | ((self.q81 & 0x3ff) << 1)) } else { self.q81 };
+        self.n80 = if (self.v94) != 0 { 0x0 } else if (self.v71) != 0 { (self.q109 | ((self.q80 & 0x1ffff) << 1)) } else { self.q80 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$ide_reg + top$core$protocol$assembler$last_data_byte_reg.
     fn group_60(&mut self, dirty: &mut u128) {
-        self.n80 = if (self.i_reset) != 0 { 0x0 } else if (self.v70) != 0 { (self.q109) } else { self.q80 };
-        self.n79 = if (self.i_reset) != 0 { 0x0 } else { (self.v293) };
+        self.n79 = if (self.i_reset) != 0 { 0x0 } else if (self.v70) != 0 { (self.q109) } else { self.q79 };
+        self.n78 = if (self.i_reset) != 0 { 0x0 } else { (self.v293) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$rtr_reg + top$core$protocol$capture$alc_reg.
     fn group_61(&mut self, dirty: &mut u128) {
-        self.n78 = if (self.i_reset) != 0 { 0x0 } else if (self.v69) != 0 { (self.q109) } else { self.q78 };
-        self.n77 = if (self.i_reset) != 0 { 0x0 } else if (self.v493) != 0 { ((self.q73 & 0x1f)) } else { self.q77 };
+        self.n77 = if (self.i_reset) != 0 { 0x0 } else if (self.v69) != 0 { (self.q109) } else { self.q77 };
+        self.n76 = if (self.i_reset) != 0 { 0x0 } else if (self.v493) != 0 { ((self.q72 & 0x1f)) } else { self.q76 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$capture$ecc_reg + top$core$protocol$capture$error_pulse.
     fn group_62(&mut self, dirty: &mut u128) {
-        self.n76 = if (self.i_reset) != 0 { 0x0 } else if (self.v257) != 0 { (self.v312 | (self.v667 << 5) | (self.v669 << 6)) } else { self.q76 };
-        self.n75 = if (self.v96) != 0 { 0x0 } else { (self.v257) };
+        self.n75 = if (self.i_reset) != 0 { 0x0 } else if (self.v257) != 0 { (self.v312 | (self.v667 << 5) | (self.v669 << 6)) } else { self.q75 };
+        self.n74 = if (self.v96) != 0 { 0x0 } else { (self.v257) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$capture$lost_pulse + top$core$protocol$count.
     fn group_63(&mut self, dirty: &mut u128) {
-        self.n74 = if (self.v96) != 0 { 0x0 } else { (self.v493) };
-        self.n73 = if (self.v95) != 0 { 0x0 } else { (self.v273) };
+        self.n73 = if (self.v96) != 0 { 0x0 } else { (self.v493) };
+        self.n72 = if (self.v95) != 0 { 0x0 } else { (self.v273) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$crc$register + top$core$protocol$crc_error.
     fn group_64(&mut self, dirty: &mut u128) {
-        self.n72 = if (self.v509) != 0 { 0x0 } else if (self.v496) != 0 { ((self.v313 & 0x1) | ((self.q72 & 0x3) << 1) | (((self.v313 >> 1) & 0x3) << 3) | (((self.q72 >> 4) & 0x3) << 5) | (((self.v313 >> 3) & 0x3) << 7) | (((self.q72 >> 8) & 0x1) << 9) | (((self.v313 >> 5) & 0x1) << 10) | (((self.q72 >> 10) & 0x7) << 11) | ((self.v313 >> 6) << 14)) } else { self.q72 };
-        self.n71 = if (self.v94) != 0 { 0x0 } else { (self.v278) };
+        self.n71 = if (self.v509) != 0 { 0x0 } else if (self.v496) != 0 { ((self.v313 & 0x1) | ((self.q71 & 0x3) << 1) | (((self.v313 >> 1) & 0x3) << 3) | (((self.q71 >> 4) & 0x3) << 5) | (((self.v313 >> 3) & 0x3) << 7) | (((self.q71 >> 8) & 0x1) << 9) | (((self.v313 >> 5) & 0x1) << 10) | (((self.q71 >> 10) & 0x7) << 11) | ((self.v313 >> 6) << 14)) } else { self.q71 };
+        self.n70 = if (self.v94) != 0 { 0x0 } else { (self.v278) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$done_pulse + top$core$protocol$done_success.
     fn group_65(&mut self, dirty: &mut u128) {
-        self.n70 = if (self.i_reset) != 0 { 0x0 } else { (self.v279) };
-        self.n69 = if (self.v93) != 0 { 0x0 } else if (self.v490) != 0 { (self.v489) } else { self.q69 };
+        self.n69 = if (self.i_reset) != 0 { 0x0 } else { (self.v279) };
+        self.n68 = if (self.v93) != 0 { 0x0 } else if (self.v490) != 0 { (self.v489) } else { self.q68 };
         let _ = &dirty;
     }
 
@@ -4074,28 +4074,28 @@ impl Model {
 
     /// The cells of top$core$protocol$interframe$ack_penalty + top$core$protocol$interframe$after_error_flag.
     fn group_68(&mut self, dirty: &mut u128) {
-        self.n63 = if (self.i_reset) != 0 { 0x0 } else { (self.v668) };
-        self.n62 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v558) } else { self.q62 };
+        self.n62 = if (self.i_reset) != 0 { 0x0 } else { (self.v668) };
+        self.n61 = if (self.i_reset) != 0 { 0x0 } else if (self.q93) != 0 { (self.v558) } else { self.q61 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$dominant_after_flag + top$core$protocol$interframe$first_after_flag.
     fn group_69(&mut self, dirty: &mut u128) {
-        self.n61 = if (self.i_reset) != 0 { 0x0 } else if (self.v66) != 0 { (self.v640) } else { self.q61 };
-        self.n60 = if (self.i_reset) != 0 { 0x0 } else if (self.v65) != 0 { (self.v641) } else { self.q60 };
+        self.n60 = if (self.i_reset) != 0 { 0x0 } else if (self.v66) != 0 { (self.v640) } else { self.q60 };
+        self.n59 = if (self.i_reset) != 0 { 0x0 } else if (self.v65) != 0 { (self.v641) } else { self.q59 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$flag_level + top$core$protocol$interframe$flag_passive_reg.
     fn group_70(&mut self, dirty: &mut u128) {
-        self.n59 = if (self.i_reset) != 0 { 0x0 } else if (self.v64) != 0 { (self.q109) } else { self.q59 };
-        self.n58 = if (self.i_reset) != 0 { 0x0 } else if (self.v63) != 0 { (self.v559) } else { self.q58 };
+        self.n58 = if (self.i_reset) != 0 { 0x0 } else if (self.v64) != 0 { (self.q109) } else { self.q58 };
+        self.n57 = if (self.i_reset) != 0 { 0x0 } else if (self.v63) != 0 { (self.v559) } else { self.q57 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender$tx_left + top$core$protocol$sender$tx_next.
     fn group_71(&mut self, dirty: &mut u128) {
-        self.n57 = if (self.v91) != 0 { 0x0 } else if (self.v235) != 0 { (self.v737) } else { self.q57 };
+        self.n56 = if (self.v91) != 0 { 0x0 } else if (self.v235) != 0 { (self.v737) } else { self.q56 };
         self.n117 = (self.v696);
         let _ = &dirty;
     }
@@ -4103,48 +4103,48 @@ impl Model {
     /// The cells of top$core$protocol$sender$tx_reg + top$core$protocol$sender$tx_shift.
     fn group_72(&mut self, dirty: &mut u128) {
         self.n118 = (self.v697);
-        self.n104 = if (self.i_reset) != 0 { 0x0 } else if (self.v235) != 0 { (self.v738) } else { self.q104 };
+        self.n103 = if (self.i_reset) != 0 { 0x0 } else if (self.v235) != 0 { (self.v738) } else { self.q103 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing$active + top$core$protocol$stuffing$run_length.
     fn group_73(&mut self, dirty: &mut u128) {
-        self.n54 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v754) } else { self.q54 };
-        self.n53 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v755) } else { self.q53 };
+        self.n53 = if (self.i_reset) != 0 { 0x0 } else if (self.q93) != 0 { (self.v754) } else { self.q53 };
+        self.n52 = if (self.i_reset) != 0 { 0x0 } else if (self.q93) != 0 { (self.v755) } else { self.q52 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing$run_level_reg + top$core$protocol$transmitter.
     fn group_74(&mut self, dirty: &mut u128) {
-        self.n52 = if (self.v60) != 0 { (self.q109) } else { self.q52 };
-        self.n51 = if (self.v90) != 0 { 0x0 } else if (self.q94) != 0 { (self.v672) } else { self.q51 };
+        self.n51 = if (self.v60) != 0 { (self.q109) } else { self.q51 };
+        self.n50 = if (self.v90) != 0 { 0x0 } else if (self.q93) != 0 { (self.v672) } else { self.q50 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$valid_pulse + top$fifo$fetching.
     fn group_75(&mut self, dirty: &mut u128) {
-        self.n50 = if (self.v89) != 0 { 0x0 } else { (self.v467) };
-        self.n48 = if (self.i_reset) != 0 { 0x0 } else { (self.v816) };
+        self.n49 = if (self.v89) != 0 { 0x0 } else { (self.v467) };
+        self.n47 = if (self.i_reset) != 0 { 0x0 } else { (self.v816) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$head + top$fifo$head_info_reg.
     fn group_76(&mut self, dirty: &mut u128) {
-        self.n47 = if (self.i_reset) != 0 { 0x0 } else { (self.v808) };
-        self.n46 = if (self.i_reset) != 0 { 0x0 } else { (self.v817) };
+        self.n46 = if (self.i_reset) != 0 { 0x0 } else { (self.v808) };
+        self.n45 = if (self.i_reset) != 0 { 0x0 } else { (self.v817) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$header_step.
     fn group_77(&mut self, dirty: &mut u128) {
-        let c21: u64 = u64::from((self.q83 | (self.q40 << 1)) != 0);
-        self.n45 = if (self.i_reset) != 0 { 0x0 } else if (c21) != 0 { (self.v837) } else { self.q45 };
+        let c21: u64 = u64::from((self.q82 | (self.q39 << 1)) != 0);
+        self.n44 = if (self.i_reset) != 0 { 0x0 } else if (c21) != 0 { (self.v837) } else { self.q44 };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$overrun_state + top$fifo$ram.
     fn group_78(&mut self, dirty: &mut u128) {
-        self.n43 = if (self.v88) != 0 { 0x0 } else { (self.v813) };
+        self.n42 = if (self.v88) != 0 { 0x0 } else { (self.v813) };
         self.m0_re = (0x1) != 0;
         self.m0_ra = (self.v812) as usize;
         self.m0_wa = (self.v811) as usize;
@@ -4155,7 +4155,7 @@ impl Model {
 
     /// The cells of top$fifo$tail.
     fn group_79(&mut self, dirty: &mut u128) {
-        self.n42 = if (self.i_reset) != 0 { 0x0 } else if (self.v20) != 0 { (self.v807) } else { self.q42 };
+        self.n41 = if (self.i_reset) != 0 { 0x0 } else if (self.v20) != 0 { (self.v807) } else { self.q41 };
         let _ = &dirty;
     }
 
@@ -4163,62 +4163,62 @@ impl Model {
     fn group_80(&mut self, dirty: &mut u128) {
         let c87: u64 = u64::from((self.i_reset | (self.q127 << 1)) != 0);
         if self.v87 != c87 { self.v87 = c87; *dirty |= 0x600000000000000000000; }
-        self.n40 = if (c87) != 0 { 0x0 } else { (self.v836) };
+        self.n39 = if (c87) != 0 { 0x0 } else { (self.v836) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$count + top$fifo$incomplete.
     fn group_81(&mut self, dirty: &mut u128) {
-        self.n49 = if (self.v87) != 0 { 0x0 } else { (self.v818) };
-        self.n44 = if (self.v87) != 0 { 0x0 } else { (self.v825) };
+        self.n48 = if (self.v87) != 0 { 0x0 } else { (self.v818) };
+        self.n43 = if (self.v87) != 0 { 0x0 } else { (self.v825) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$used + top$filter$acr0.
     fn group_82(&mut self, dirty: &mut u128) {
-        self.n41 = if (self.v87) != 0 { 0x0 } else { (self.v819) };
-        self.n39 = if (self.i_reset) != 0 { 0x0 } else if (self.v59) != 0 { (self.i_wdata) } else { self.q39 };
+        self.n40 = if (self.v87) != 0 { 0x0 } else { (self.v819) };
+        self.n38 = if (self.i_reset) != 0 { 0x0 } else if (self.v59) != 0 { (self.i_wdata) } else { self.q38 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$acr1 + top$filter$acr2.
     fn group_83(&mut self, dirty: &mut u128) {
-        self.n38 = if (self.i_reset) != 0 { 0x0 } else if (self.v58) != 0 { (self.i_wdata) } else { self.q38 };
-        self.n37 = if (self.i_reset) != 0 { 0x0 } else if (self.v57) != 0 { (self.i_wdata) } else { self.q37 };
+        self.n37 = if (self.i_reset) != 0 { 0x0 } else if (self.v58) != 0 { (self.i_wdata) } else { self.q37 };
+        self.n36 = if (self.i_reset) != 0 { 0x0 } else if (self.v57) != 0 { (self.i_wdata) } else { self.q36 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$acr3 + top$filter$amr0.
     fn group_84(&mut self, dirty: &mut u128) {
-        self.n36 = if (self.i_reset) != 0 { 0x0 } else if (self.v56) != 0 { (self.i_wdata) } else { self.q36 };
-        self.n35 = if (self.i_reset) != 0 { 0x0 } else if (self.v55) != 0 { (self.i_wdata) } else { self.q35 };
+        self.n35 = if (self.i_reset) != 0 { 0x0 } else if (self.v56) != 0 { (self.i_wdata) } else { self.q35 };
+        self.n34 = if (self.i_reset) != 0 { 0x0 } else if (self.v55) != 0 { (self.i_wdata) } else { self.q34 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$amr1 + top$filter$amr2.
     fn group_85(&mut self, dirty: &mut u128) {
-        self.n34 = if (self.i_reset) != 0 { 0x0 } else if (self.v54) != 0 { (self.i_wdata) } else { self.q34 };
-        self.n33 = if (self.i_reset) != 0 { 0x0 } else if (self.v53) != 0 { (self.i_wdata) } else { self.q33 };
+        self.n33 = if (self.i_reset) != 0 { 0x0 } else if (self.v54) != 0 { (self.i_wdata) } else { self.q33 };
+        self.n32 = if (self.i_reset) != 0 { 0x0 } else if (self.v53) != 0 { (self.i_wdata) } else { self.q32 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$amr3 + top$filter$basic_id_match.
     fn group_86(&mut self, dirty: &mut u128) {
-        self.n32 = if (self.i_reset) != 0 { 0x0 } else if (self.v52) != 0 { (self.i_wdata) } else { self.q32 };
-        self.n31 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v882) } else { self.q31 };
+        self.n31 = if (self.i_reset) != 0 { 0x0 } else if (self.v52) != 0 { (self.i_wdata) } else { self.q31 };
+        self.n30 = if (self.i_reset) != 0 { 0x0 } else if (self.q82) != 0 { (self.v882) } else { self.q30 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$dual1_data_match + top$filter$dual1_id_match.
     fn group_87(&mut self, dirty: &mut u128) {
         self.n119 = (self.v896);
-        self.n30 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v862) } else { self.q30 };
+        self.n29 = if (self.i_reset) != 0 { 0x0 } else if (self.q82) != 0 { (self.v862) } else { self.q29 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$dual2_id_match + top$filter$single_data1_match.
     fn group_88(&mut self, dirty: &mut u128) {
-        self.n29 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v863) } else { self.q29 };
+        self.n28 = if (self.i_reset) != 0 { 0x0 } else if (self.q82) != 0 { (self.v863) } else { self.q28 };
         self.n120 = (self.v898);
         let _ = &dirty;
     }
@@ -4226,59 +4226,59 @@ impl Model {
     /// The cells of top$filter$single_data2_match + top$filter$single_id_match.
     fn group_89(&mut self, dirty: &mut u128) {
         self.n121 = (self.v897);
-        self.n28 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v865) } else { self.q28 };
+        self.n27 = if (self.i_reset) != 0 { 0x0 } else if (self.q82) != 0 { (self.v865) } else { self.q27 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$alc_armed + top$interrupts$alc_reg.
     fn group_90(&mut self, dirty: &mut u128) {
         self.n122 = (self.v958);
-        self.n27 = if (self.i_reset) != 0 { 0x0 } else if (self.v936) != 0 { (self.q77) } else { self.q27 };
+        self.n26 = if (self.i_reset) != 0 { 0x0 } else if (self.v936) != 0 { (self.q76) } else { self.q26 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$basic_ri_reg + top$interrupts$bus_off_reg.
     fn group_91(&mut self, dirty: &mut u128) {
-        self.n26 = if (self.i_reset) != 0 { 0x0 } else { (self.v961) };
-        self.n25 = if (self.i_reset) != 0 { 0x0 } else { (self.q113) };
+        self.n25 = if (self.i_reset) != 0 { 0x0 } else { (self.v961) };
+        self.n24 = if (self.i_reset) != 0 { 0x0 } else { (self.q113) };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$ecc_armed + top$interrupts$ecc_reg.
     fn group_92(&mut self, dirty: &mut u128) {
         self.n123 = (self.v957);
-        self.n24 = if (self.i_reset) != 0 { 0x0 } else if (self.v937) != 0 { (self.q76) } else { self.q24 };
+        self.n23 = if (self.i_reset) != 0 { 0x0 } else if (self.v937) != 0 { (self.q75) } else { self.q23 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$es_reg.
     fn group_93(&mut self, dirty: &mut u128) {
-        self.n23 = if (self.i_reset) != 0 { 0x0 } else { (self.v965) };
+        self.n22 = if (self.i_reset) != 0 { 0x0 } else { (self.v965) };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$ir_reg.
     fn group_94(&mut self, dirty: &mut u128) {
-        self.n20 = if (self.i_reset) != 0 { 0x0 } else { (self.v117) };
+        self.n19 = if (self.i_reset) != 0 { 0x0 } else { (self.v115) };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$overrun_before.
     fn group_95(&mut self, dirty: &mut u128) {
-        self.n19 = if (self.i_reset) != 0 { 0x0 } else { (self.q43) };
+        self.n18 = if (self.i_reset) != 0 { 0x0 } else { (self.q42) };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$passive_before.
     fn group_96(&mut self, dirty: &mut u128) {
         let c86: u64 = u64::from((self.i_reset | (self.q113 << 1)) != 0);
-        self.n18 = if (c86) != 0 { 0x0 } else if (self.q127) == 0 { (self.q114) } else { self.q18 };
+        self.n17 = if (c86) != 0 { 0x0 } else if (self.q127) == 0 { (self.q114) } else { self.q17 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$rbs_before.
     fn group_97(&mut self, dirty: &mut u128) {
-        self.n17 = if (self.i_reset) != 0 { 0x0 } else { (self.v951) };
+        self.n16 = if (self.i_reset) != 0 { 0x0 } else { (self.v951) };
         let _ = &dirty;
     }
 
@@ -4292,25 +4292,25 @@ impl Model {
 
     /// The cells of top$modes$afm.
     fn group_99(&mut self, dirty: &mut u128) {
-        self.n16 = if (self.i_reset) != 0 { 0x0 } else if (self.v49) != 0 { (((self.i_wdata >> 3) & 0x1)) } else { self.q16 };
+        self.n15 = if (self.i_reset) != 0 { 0x0 } else if (self.v49) != 0 { (((self.i_wdata >> 3) & 0x1)) } else { self.q15 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$cr6_reg.
     fn group_100(&mut self, dirty: &mut u128) {
-        self.n13 = if (self.i_reset) != 0 { 0x0 } else if (self.v47) != 0 { (((self.i_wdata >> 6) & 0x1)) } else { self.q13 };
+        self.n12 = if (self.i_reset) != 0 { 0x0 } else if (self.v47) != 0 { (((self.i_wdata >> 6) & 0x1)) } else { self.q12 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$divider$count.
     fn group_101(&mut self, dirty: &mut u128) {
-        self.n12 = if (self.v85) != 0 { 0x0 } else { (self.v1034) };
+        self.n11 = if (self.v85) != 0 { 0x0 } else { (self.v1034) };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$divider$level.
     fn group_102(&mut self, dirty: &mut u128) {
-        self.n11 = if (self.i_reset) != 0 { 0x0 } else if (self.v1037) != 0 { (self.v1035) } else { self.q11 };
+        self.n10 = if (self.i_reset) != 0 { 0x0 } else if (self.v1037) != 0 { (self.v1035) } else { self.q10 };
         let _ = &dirty;
     }
 
@@ -4346,7 +4346,7 @@ impl Model {
 
     /// The cells of top$modes$sleep_bits.
     fn group_108(&mut self, dirty: &mut u128) {
-        self.n10 = if (self.v84) != 0 { 0x0 } else if (self.v984) != 0 { (self.v974) } else { self.q10 };
+        self.n9 = if (self.v84) != 0 { 0x0 } else if (self.v984) != 0 { (self.v974) } else { self.q9 };
         let _ = &dirty;
     }
 
@@ -4364,31 +4364,31 @@ impl Model {
 
     /// The cells of top$read$rdata_from_ram.
     fn group_111(&mut self, dirty: &mut u128) {
-        self.n9 = if (self.i_reset) != 0 { 0x0 } else { (self.v17) };
+        self.n8 = if (self.i_reset) != 0 { 0x0 } else { (self.v17) };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_from_tx.
     fn group_112(&mut self, dirty: &mut u128) {
-        self.n8 = if (self.i_reset) != 0 { 0x0 } else { (self.v1057) };
+        self.n7 = if (self.i_reset) != 0 { 0x0 } else { (self.v1057) };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_ram_or.
     fn group_113(&mut self, dirty: &mut u128) {
-        self.n106 = if (self.i_reset) != 0 { 0x0 } else if (self.i_re) != 0 { (self.v1079) } else { self.q106 };
+        self.n105 = if (self.i_reset) != 0 { 0x0 } else if (self.i_re) != 0 { (self.v1079) } else { self.q105 };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_reg.
     fn group_114(&mut self, dirty: &mut u128) {
-        self.n7 = if (self.i_reset) != 0 { 0x0 } else { (self.v1058) };
+        self.n6 = if (self.i_reset) != 0 { 0x0 } else { (self.v1058) };
         let _ = &dirty;
     }
 
     /// The cells of top$self_reception.
     fn group_115(&mut self, dirty: &mut u128) {
-        self.n6 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v766) } else { self.q6 };
+        self.n5 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v766) } else { self.q5 };
         let _ = &dirty;
     }
 
@@ -4406,14 +4406,14 @@ impl Model {
 
     /// The cells of top$tx_buffer$basic_info.
     fn group_118(&mut self, dirty: &mut u128) {
-        self.n107 = if (self.i_reset) != 0 { 0x0 } else if (self.v46) != 0 { ((self.i_wdata & 0x1f)) } else { self.q107 };
+        self.n106 = if (self.i_reset) != 0 { 0x0 } else if (self.v46) != 0 { ((self.i_wdata & 0x1f)) } else { self.q106 };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$core_ram.
     fn group_119(&mut self, dirty: &mut u128) {
         self.m1_re = (0x1) != 0;
-        self.m1_ra = ((self.q56 & 0x1) | (self.q55 << 1) | ((self.q56 >> 1) << 3)) as usize;
+        self.m1_ra = ((self.q55 & 0x1) | (self.q54 << 1) | ((self.q55 >> 1) << 3)) as usize;
         self.m1_wa = (self.v1114) as usize;
         self.m1_wd = (self.i_wdata);
         self.m1_we = (self.v1087 | (self.v1087 << 1) | (self.v1087 << 2) | (self.v1087 << 3) | (self.v1087 << 4) | (self.v1087 << 5) | (self.v1087 << 6) | (self.v1087 << 7));
@@ -4422,13 +4422,13 @@ impl Model {
 
     /// The cells of top$tx_buffer$core_written.
     fn group_120(&mut self, dirty: &mut u128) {
-        self.n5 = if (self.i_reset) != 0 { 0x0 } else { (self.v1089) };
+        self.n4 = if (self.i_reset) != 0 { 0x0 } else { (self.v1089) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$frame_info.
     fn group_121(&mut self, dirty: &mut u128) {
-        self.n4 = if (self.i_reset) != 0 { 0x0 } else if (self.v45) != 0 { (self.i_wdata) } else { self.q4 };
+        self.n3 = if (self.i_reset) != 0 { 0x0 } else if (self.v45) != 0 { (self.i_wdata) } else { self.q3 };
         let _ = &dirty;
     }
 
@@ -4444,13 +4444,13 @@ impl Model {
 
     /// The cells of top$tx_buffer$host_written.
     fn group_123(&mut self, dirty: &mut u128) {
-        self.n3 = if (self.i_reset) != 0 { 0x0 } else { (self.v1088) };
+        self.n2 = if (self.i_reset) != 0 { 0x0 } else { (self.v1088) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$written.
     fn group_124(&mut self, dirty: &mut u128) {
-        self.n2 = if (self.i_reset) != 0 { 0x0 } else if (self.v1087) != 0 { (self.v114) } else { self.q2 };
+        self.n107 = if (self.i_reset) != 0 { 0x0 } else if (self.v1087) != 0 { (self.v120) } else { self.q107 };
         let _ = &dirty;
     }
 
