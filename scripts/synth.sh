@@ -2,6 +2,7 @@
 # make synth: synthesis figures of the generated Verilog (build/verilog/can_controller.v).
 #   iCE40:  Yosys synth_ice40 (LUT4, flip-flops, block RAM, carries), per block without flattening,
 #           nextpnr-ice40 --hx8k --package ct256 max clock frequency (median of SEEDS seeds);
+#           and per block in the flattened design (scripts/lut_attribution.py);
 #   Xilinx: Yosys synth_xilinx -flatten -abc9 (LUTs, flip-flops); the default ABC mapper's count is
 #           printed beside it for comparison (it moved by +-60 LUTs over logic-equivalent designs).
 # Writes build/synth/report.txt and prints it. Needs yosys and nextpnr-ice40 (scripts/install-tools.sh
@@ -68,6 +69,10 @@ median=$(printf '%s\n' "${freqs[@]}" | sort -n | awk '{ v[NR] = $1 } END { print
     echo "iCE40 SB_LUT4 per block (synth_ice40 -noflatten: no optimisation across blocks, so the sum"
     echo "is above the flattened total)"
     awk '/^=== /{ block = $2 } $1 == "SB_LUT4" { printf "  %-40s %5d\n", block, $2 }' "$DIR/ice40_blocks.txt" | sort -k2 -nr
+    echo
+    echo "iCE40 per block in the flattened design (each SB_LUT4 and SB_CARRY shared among the blocks"
+    echo "whose flip-flops, RAMs or outputs it feeds; scripts/lut_attribution.py)"
+    python3 scripts/lut_attribution.py "$DIR/ice40.json"
 } | tee "$DIR/report.txt"
 
 # recorded ROW: the measured figure of a row of docs/FPGA.md's resources table (spaces removed).

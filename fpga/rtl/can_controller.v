@@ -3145,13 +3145,6 @@ module top$core$protocol$capture(clock,reset,field,count,ide,flag_passive,error,
     output reg  [4:0] alc;
     
     // Constant declarations
-    localparam  id_20_18_start = 7'b1000;
-    localparam  srr_rtr_position = 7'b1011;
-    localparam  ide_position = 7'b1100;
-    localparam  id_17_13_start = 7'b1101;
-    localparam  id_12_5_start = 7'b10010;
-    localparam  id_4_0_start = 7'b11010;
-    localparam  ext_rtr_position = 7'b11111;
     localparam  seg_sof = 5'b11;
     localparam  seg_id_28_21 = 5'b10;
     localparam  seg_id_20_18 = 5'b110;
@@ -3211,6 +3204,8 @@ module top$core$protocol$capture(clock,reset,field,count,ide,flag_passive,error,
     
     // Local signals
     reg  [4:0] segment;
+    reg  [1:0] arbitration_eighth;
+    reg  [2:0] arbitration_offset;
     
     // Sub module instances
     top$core$protocol$capture$error_pulse error_pulse(
@@ -3251,6 +3246,8 @@ module top$core$protocol$capture(clock,reset,field,count,ide,flag_passive,error,
         error_pulse$d = 1'b0;
         lost_pulse$d = 1'b0;
         segment = 32'h0;
+        arbitration_eighth = count[(32'h3)+:(2)];
+        arbitration_offset = count[(32'h0)+:(3)];
         case (field)
             ProtocolState$Integrating:
                 begin
@@ -3268,27 +3265,36 @@ module top$core$protocol$capture(clock,reset,field,count,ide,flag_passive,error,
                 end
             ProtocolState$Arbitration:
                 begin
-                    segment = seg_rtr;
-                    if (count < ext_rtr_position) begin
-                        segment = seg_id_4_0;
-                    end
-                    if (count < id_4_0_start) begin
-                        segment = seg_id_12_5;
-                    end
-                    if (count < id_12_5_start) begin
+                    segment = seg_id_28_21;
+                    if (arbitration_eighth == 32'h1) begin
                         segment = seg_id_17_13;
+                        if (arbitration_offset == 32'h4) begin
+                            segment = seg_ide;
+                        end
+                        if (arbitration_offset == 32'h3) begin
+                            segment = seg_srtr;
+                        end
+                        if ((arbitration_offset[32'h2] == 1'b0) & (arbitration_offset != 32'h3)) begin
+                            segment = seg_id_20_18;
+                        end
                     end
-                    if (count < id_17_13_start) begin
-                        segment = seg_ide;
+                    if (arbitration_eighth == 32'h2) begin
+                        segment = seg_id_12_5;
+                        if (arbitration_offset[(32'h1)+:(2)] == 32'h0) begin
+                            segment = seg_id_17_13;
+                        end
                     end
-                    if (count < ide_position) begin
-                        segment = seg_srtr;
+                    if (arbitration_eighth == 32'h3) begin
+                        segment = seg_id_4_0;
+                        if (arbitration_offset[(32'h1)+:(2)] == 32'h0) begin
+                            segment = seg_id_12_5;
+                        end
+                        if (arbitration_offset == 32'h7) begin
+                            segment = seg_rtr;
+                        end
                     end
-                    if (count < srr_rtr_position) begin
-                        segment = seg_id_20_18;
-                    end
-                    if (count < id_20_18_start) begin
-                        segment = seg_id_28_21;
+                    if (count[(32'h5)+:(2)] != 32'h0) begin
+                        segment = seg_rtr;
                     end
                 end
             ProtocolState$Control:

@@ -16,6 +16,29 @@ use crate::bsp::ecc_segment;
 use crate::bsp::protocol::ProtocolState;
 use crate::bsp::{BASE_ID_BITS, EXT_RTR_POSITION, IDE_POSITION, SRR_RTR_POSITION};
 
+/// The first arbitration position of each identifier part with an ECC segment of its own (SJA1000
+/// ALC coding: ID.28..21 are the first 8 of the 11 base identifier bits), in order; the kernel
+/// decodes them from the count's eighths, which these assertions tie to the named positions.
+pub const ARBITRATION_PARTS: [(u64, u64); 8] = [
+    (0, ecc_segment::ID_28_21),
+    (BASE_ID_BITS - 3, ecc_segment::ID_20_18),
+    (SRR_RTR_POSITION, ecc_segment::SRTR),
+    (IDE_POSITION, ecc_segment::IDE),
+    (IDE_POSITION + 1, ecc_segment::ID_17_13),
+    (IDE_POSITION + 6, ecc_segment::ID_12_5),
+    (IDE_POSITION + 14, ecc_segment::ID_4_0),
+    (EXT_RTR_POSITION, ecc_segment::RTR),
+];
+const _: () = assert!(
+    ARBITRATION_PARTS[1].0 == 8
+        && ARBITRATION_PARTS[2].0 == 11
+        && ARBITRATION_PARTS[3].0 == 12
+        && ARBITRATION_PARTS[4].0 == 13
+        && ARBITRATION_PARTS[5].0 == 18
+        && ARBITRATION_PARTS[6].0 == 26
+        && ARBITRATION_PARTS[7].0 == 31
+);
+
 /// ECC and ALC capture of the bit stream processor.
 #[derive(ActivityBlock, BlockDefault)]
 pub struct ErrorCapture {
@@ -57,22 +80,9 @@ pub struct ErrorCapture {
     alc_reg: DFF<Bits<5>>,
     /// ECC segment of the bit being processed.
     segment: Signal<Local, Bits<5>>,
-    // First arbitration positions of the identifier parts (SJA1000 ALC coding): ID.28..21 are the
-    // first 8 of the 11 base identifier bits.
-    #[constant(BASE_ID_BITS - 3)]
-    id_20_18_start: Constant<Bits<7>>,
-    #[constant(SRR_RTR_POSITION)]
-    srr_rtr_position: Constant<Bits<7>>,
-    #[constant(IDE_POSITION)]
-    ide_position: Constant<Bits<7>>,
-    #[constant(IDE_POSITION + 1)]
-    id_17_13_start: Constant<Bits<7>>,
-    #[constant(IDE_POSITION + 6)]
-    id_12_5_start: Constant<Bits<7>>,
-    #[constant(IDE_POSITION + 14)]
-    id_4_0_start: Constant<Bits<7>>,
-    #[constant(EXT_RTR_POSITION)]
-    ext_rtr_position: Constant<Bits<7>>,
+    /// In the arbitration field: the bit count's eighth (bits 4..3) and position in it (2..0).
+    arbitration_eighth: Signal<Local, Bits<2>>,
+    arbitration_offset: Signal<Local, Bits<3>>,
     #[constant(ecc_segment::SOF)]
     seg_sof: Constant<Bits<5>>,
     #[constant(ecc_segment::ID_28_21)]
@@ -135,6 +145,8 @@ impl Logic for ErrorCapture {
         self.lost_pulse.d.next = false;
 
         self.segment.next = 0.into();
+        self.arbitration_eighth.next = self.count.val().get_bits::<2>(3);
+        self.arbitration_offset.next = self.count.val().get_bits::<3>(0);
         match self.field.val() {
             ProtocolState::Integrating => {}
             ProtocolState::BusOff => {}
@@ -145,28 +157,44 @@ impl Logic for ErrorCapture {
                 self.segment.next = self.seg_sof.val();
             }
             ProtocolState::Arbitration => {
-                // From the last part down: each test narrows to an earlier part.
-                self.segment.next = self.seg_rtr.val();
-                if self.count.val() < self.ext_rtr_position.val() {
-                    self.segment.next = self.seg_id_4_0.val();
-                }
-                if self.count.val() < self.id_4_0_start.val() {
-                    self.segment.next = self.seg_id_12_5.val();
-                }
-                if self.count.val() < self.id_12_5_start.val() {
+                // The parts by position (SJA1000 ALC coding, `ARBITRATION_PARTS`), decoded from the
+                // count's eighths: equalities, where comparisons would be carry chains.
+                self.segment.next = self.seg_id_28_21.val();
+                if self.arbitration_eighth.val() == 1 {
+                    // 8..10 ID.20..18, 11 SRR/RTR, 12 IDE, 13..15 ID.17..13.
                     self.segment.next = self.seg_id_17_13.val();
+                    if self.arbitration_offset.val() == 4 {
+                        self.segment.next = self.seg_ide.val();
+                    }
+                    if self.arbitration_offset.val() == 3 {
+                        self.segment.next = self.seg_srtr.val();
+                    }
+                    if (self.arbitration_offset.val().get_bit(2) == false)
+                        & (self.arbitration_offset.val() != 3)
+                    {
+                        self.segment.next = self.seg_id_20_18.val();
+                    }
                 }
-                if self.count.val() < self.id_17_13_start.val() {
-                    self.segment.next = self.seg_ide.val();
+                if self.arbitration_eighth.val() == 2 {
+                    // 16..17 ID.17..13, 18..23 ID.12..5.
+                    self.segment.next = self.seg_id_12_5.val();
+                    if self.arbitration_offset.val().get_bits::<2>(1) == 0 {
+                        self.segment.next = self.seg_id_17_13.val();
+                    }
                 }
-                if self.count.val() < self.ide_position.val() {
-                    self.segment.next = self.seg_srtr.val();
+                if self.arbitration_eighth.val() == 3 {
+                    // 24..25 ID.12..5, 26..30 ID.4..0, 31 RTR.
+                    self.segment.next = self.seg_id_4_0.val();
+                    if self.arbitration_offset.val().get_bits::<2>(1) == 0 {
+                        self.segment.next = self.seg_id_12_5.val();
+                    }
+                    if self.arbitration_offset.val() == 7 {
+                        self.segment.next = self.seg_rtr.val();
+                    }
                 }
-                if self.count.val() < self.srr_rtr_position.val() {
-                    self.segment.next = self.seg_id_20_18.val();
-                }
-                if self.count.val() < self.id_20_18_start.val() {
-                    self.segment.next = self.seg_id_28_21.val();
+                // Past the field's 32 positions (never reached): the last part, as before.
+                if self.count.val().get_bits::<2>(5) != 0 {
+                    self.segment.next = self.seg_rtr.val();
                 }
             }
             ProtocolState::Control => {

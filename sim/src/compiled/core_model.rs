@@ -2,7 +2,7 @@
 //! from the Verilog of `rtl/` through Yosys; do not edit.
 
 /// Hash of the Verilog this model was made from.
-pub(super) const VERILOG_HASH: u64 = 0x0414e629187be171;
+pub(super) const VERILOG_HASH: u64 = 0x12d0fae7fe844975;
 
 
 /// The design's state: inputs, flip-flops (`q` now, `n` after the next edge), memories, the
@@ -191,42 +191,43 @@ pub(super) struct Model {
     v48: u64,
     v49: u64,
     v50: u64,
+    v59: u64,
     v60: u64,
     v61: u64,
     v62: u64,
     v63: u64,
     v64: u64,
-    v65: u64,
-    v67: u64,
-    v70: u64,
+    v66: u64,
+    v69: u64,
+    v71: u64,
     v72: u64,
-    v73: u64,
-    v75: u64,
+    v74: u64,
+    v78: u64,
     v79: u64,
-    v80: u64,
-    v83: u64,
+    v82: u64,
+    v85: u64,
     v86: u64,
-    v87: u64,
-    v89: u64,
-    v93: u64,
+    v88: u64,
+    v92: u64,
+    v97: u64,
     v98: u64,
-    v99: u64,
-    v104: u64,
+    v103: u64,
+    v109: u64,
     v110: u64,
     v111: u64,
-    v112: u64,
-    v115: u64,
+    v114: u64,
+    v116: u64,
     v117: u64,
     v118: u64,
     v119: u64,
     v120: u64,
-    v121: u64,
-    v123: u64,
+    v122: u64,
+    v129: u64,
     v130: u64,
     v131: u64,
     v132: u64,
-    v133: u64,
-    v145: u64,
+    v144: u64,
+    v151: u64,
     v152: u64,
     v153: u64,
     v154: u64,
@@ -236,109 +237,100 @@ pub(super) struct Model {
     v158: u64,
     v159: u64,
     v160: u64,
-    v161: u64,
+    v162: u64,
     v163: u64,
-    v164: u64,
+    v166: u64,
     v167: u64,
-    v168: u64,
-    v177: u64,
-    v179: u64,
+    v176: u64,
+    v178: u64,
+    v181: u64,
     v182: u64,
     v183: u64,
     v184: u64,
     v185: u64,
-    v186: u64,
-    v189: u64,
+    v188: u64,
+    v195: u64,
     v196: u64,
     v197: u64,
-    v198: u64,
-    v202: u64,
+    v201: u64,
+    v205: u64,
     v206: u64,
     v207: u64,
-    v208: u64,
-    v210: u64,
-    v212: u64,
-    v214: u64,
+    v209: u64,
+    v211: u64,
+    v213: u64,
+    v216: u64,
     v217: u64,
     v218: u64,
     v219: u64,
-    v220: u64,
-    v223: u64,
-    v224: u64,
-    v225: u64,
+    v222: u64,
+    v231: u64,
     v232: u64,
     v233: u64,
-    v234: u64,
-    v236: u64,
-    v238: u64,
-    v239: u64,
-    v245: u64,
-    v246: u64,
-    v249: u64,
+    v242: u64,
     v251: u64,
+    v252: u64,
     v253: u64,
     v254: u64,
-    v255: u64,
-    v256: u64,
-    v258: u64,
+    v257: u64,
     v259: u64,
-    v260: u64,
-    v261: u64,
     v262: u64,
-    v265: u64,
+    v263: u64,
+    v264: u64,
     v266: u64,
     v267: u64,
     v268: u64,
+    v269: u64,
     v272: u64,
-    v276: u64,
-    v280: u64,
-    v284: u64,
-    v285: u64,
-    v286: u64,
+    v273: u64,
+    v274: u64,
+    v275: u64,
+    v279: u64,
+    v283: u64,
+    v287: u64,
+    v291: u64,
+    v292: u64,
     v293: u64,
-    v294: u64,
-    v295: u64,
+    v300: u64,
+    v301: u64,
     v302: u64,
-    v303: u64,
-    v304: u64,
-    v307: u64,
-    v308: u64,
-    v317: u64,
-    v318: u64,
-    v319: u64,
-    v323: u64,
+    v309: u64,
+    v310: u64,
+    v311: u64,
+    v315: u64,
+    v324: u64,
     v325: u64,
-    v328: u64,
+    v326: u64,
     v330: u64,
     v331: u64,
-    v332: u64,
-    v333: u64,
-    v335: u64,
+    v334: u64,
+    v336: u64,
+    v337: u64,
     v338: u64,
-    v340: u64,
-    v343: u64,
+    v339: u64,
+    v341: u64,
     v344: u64,
+    v346: u64,
+    v349: u64,
     v350: u64,
-    v351: u64,
-    v360: u64,
-    v361: u64,
+    v352: u64,
+    v356: u64,
+    v357: u64,
+    v358: u64,
+    v367: u64,
     v369: u64,
-    v371: u64,
-    v372: u64,
-    v378: u64,
+    v376: u64,
     v379: u64,
-    v382: u64,
+    v383: u64,
+    v384: u64,
+    v385: u64,
+    v386: u64,
     v388: u64,
-    v390: u64,
-    v391: u64,
-    v396: u64,
-    v399: u64,
+    v392: u64,
+    v395: u64,
+    v397: u64,
+    v398: u64,
     v402: u64,
-    v403: u64,
-    v404: u64,
-    v405: u64,
-    v406: u64,
-    v407: u64,
     v408: u64,
     v409: u64,
     v410: u64,
@@ -350,11 +342,11 @@ pub(super) struct Model {
     v416: u64,
     v417: u64,
     v418: u64,
+    v419: u64,
     v420: u64,
     v421: u64,
     v422: u64,
     v423: u64,
-    v424: u64,
     v425: u64,
     v426: u64,
     v427: u64,
@@ -370,52 +362,51 @@ pub(super) struct Model {
     v437: u64,
     v438: u64,
     v439: u64,
+    v440: u64,
+    v441: u64,
     v442: u64,
-    v444: u64,
-    v445: u64,
+    v443: u64,
     v447: u64,
     v449: u64,
     v450: u64,
-    v451: u64,
     v452: u64,
-    v453: u64,
+    v454: u64,
+    v455: u64,
     v456: u64,
-    v463: u64,
-    v465: u64,
-    v467: u64,
+    v457: u64,
+    v458: u64,
+    v461: u64,
     v468: u64,
-    v469: u64,
     v470: u64,
-    v481: u64,
-    v482: u64,
-    v484: u64,
-    v501: u64,
-    v502: u64,
-    v520: u64,
-    v529: u64,
-    v530: u64,
-    v532: u64,
+    v472: u64,
+    v473: u64,
+    v474: u64,
+    v475: u64,
+    v486: u64,
+    v487: u64,
+    v489: u64,
+    v506: u64,
+    v507: u64,
+    v525: u64,
     v534: u64,
-    v558: u64,
-    v560: u64,
-    v561: u64,
-    v562: u64,
+    v535: u64,
+    v537: u64,
+    v539: u64,
+    v564: u64,
     v565: u64,
     v566: u64,
-    v568: u64,
     v569: u64,
     v570: u64,
-    v571: u64,
     v572: u64,
     v573: u64,
     v574: u64,
+    v575: u64,
     v576: u64,
-    v584: u64,
-    v585: u64,
-    v586: u64,
-    v587: u64,
-    v588: u64,
-    v589: u64,
+    v577: u64,
+    v578: u64,
+    v579: u64,
+    v580: u64,
+    v582: u64,
     v590: u64,
     v591: u64,
     v592: u64,
@@ -425,47 +416,55 @@ pub(super) struct Model {
     v596: u64,
     v597: u64,
     v598: u64,
+    v599: u64,
     v600: u64,
     v601: u64,
+    v602: u64,
+    v603: u64,
+    v604: u64,
+    v606: u64,
     v607: u64,
-    v608: u64,
     v610: u64,
-    v611: u64,
-    v612: u64,
+    v613: u64,
+    v614: u64,
+    v616: u64,
     v617: u64,
-    v619: u64,
-    v621: u64,
-    v622: u64,
+    v618: u64,
     v623: u64,
+    v625: u64,
+    v627: u64,
     v628: u64,
     v629: u64,
-    v631: u64,
-    v632: u64,
-    v635: u64,
-    v638: u64,
-    v642: u64,
-    v644: u64,
-    v646: u64,
-    v650: u64,
+    v634: u64,
+    v636: u64,
+    v637: u64,
+    v640: u64,
+    v641: u64,
+    v643: u64,
+    v647: u64,
+    v649: u64,
     v651: u64,
-    v652: u64,
-    v653: u64,
-    v654: u64,
     v655: u64,
+    v656: u64,
+    v657: u64,
+    v658: u64,
+    v659: u64,
     v660: u64,
     v661: u64,
-    v662: u64,
-    v663: u64,
-    v664: u64,
     v666: u64,
+    v667: u64,
     v668: u64,
+    v669: u64,
+    v670: u64,
     v672: u64,
     v674: u64,
-    v675: u64,
-    v679: u64,
+    v678: u64,
     v680: u64,
     v681: u64,
-    v683: u64,
+    v685: u64,
+    v686: u64,
+    v687: u64,
+    v689: u64,
     dirty: u128,
     ran: u128,
     out: u128,
@@ -657,42 +656,43 @@ impl Model {
             v48: 0,
             v49: 0,
             v50: 0,
+            v59: 0,
             v60: 0,
             v61: 0,
             v62: 0,
             v63: 0,
             v64: 0,
-            v65: 0,
-            v67: 0,
-            v70: 0,
+            v66: 0,
+            v69: 0,
+            v71: 0,
             v72: 0,
-            v73: 0,
-            v75: 0,
+            v74: 0,
+            v78: 0,
             v79: 0,
-            v80: 0,
-            v83: 0,
+            v82: 0,
+            v85: 0,
             v86: 0,
-            v87: 0,
-            v89: 0,
-            v93: 0,
+            v88: 0,
+            v92: 0,
+            v97: 0,
             v98: 0,
-            v99: 0,
-            v104: 0,
+            v103: 0,
+            v109: 0,
             v110: 0,
             v111: 0,
-            v112: 0,
-            v115: 0,
+            v114: 0,
+            v116: 0,
             v117: 0,
             v118: 0,
             v119: 0,
             v120: 0,
-            v121: 0,
-            v123: 0,
+            v122: 0,
+            v129: 0,
             v130: 0,
             v131: 0,
             v132: 0,
-            v133: 0,
-            v145: 0,
+            v144: 0,
+            v151: 0,
             v152: 0,
             v153: 0,
             v154: 0,
@@ -702,109 +702,100 @@ impl Model {
             v158: 0,
             v159: 0,
             v160: 0,
-            v161: 0,
+            v162: 0,
             v163: 0,
-            v164: 0,
+            v166: 0,
             v167: 0,
-            v168: 0,
-            v177: 0,
-            v179: 0,
+            v176: 0,
+            v178: 0,
+            v181: 0,
             v182: 0,
             v183: 0,
             v184: 0,
             v185: 0,
-            v186: 0,
-            v189: 0,
+            v188: 0,
+            v195: 0,
             v196: 0,
             v197: 0,
-            v198: 0,
-            v202: 0,
+            v201: 0,
+            v205: 0,
             v206: 0,
             v207: 0,
-            v208: 0,
-            v210: 0,
-            v212: 0,
-            v214: 0,
+            v209: 0,
+            v211: 0,
+            v213: 0,
+            v216: 0,
             v217: 0,
             v218: 0,
             v219: 0,
-            v220: 0,
-            v223: 0,
-            v224: 0,
-            v225: 0,
+            v222: 0,
+            v231: 0,
             v232: 0,
             v233: 0,
-            v234: 0,
-            v236: 0,
-            v238: 0,
-            v239: 0,
-            v245: 0,
-            v246: 0,
-            v249: 0,
+            v242: 0,
             v251: 0,
+            v252: 0,
             v253: 0,
             v254: 0,
-            v255: 0,
-            v256: 0,
-            v258: 0,
+            v257: 0,
             v259: 0,
-            v260: 0,
-            v261: 0,
             v262: 0,
-            v265: 0,
+            v263: 0,
+            v264: 0,
             v266: 0,
             v267: 0,
             v268: 0,
+            v269: 0,
             v272: 0,
-            v276: 0,
-            v280: 0,
-            v284: 0,
-            v285: 0,
-            v286: 0,
+            v273: 0,
+            v274: 0,
+            v275: 0,
+            v279: 0,
+            v283: 0,
+            v287: 0,
+            v291: 0,
+            v292: 0,
             v293: 0,
-            v294: 0,
-            v295: 0,
+            v300: 0,
+            v301: 0,
             v302: 0,
-            v303: 0,
-            v304: 0,
-            v307: 0,
-            v308: 0,
-            v317: 0,
-            v318: 0,
-            v319: 0,
-            v323: 0,
+            v309: 0,
+            v310: 0,
+            v311: 0,
+            v315: 0,
+            v324: 0,
             v325: 0,
-            v328: 0,
+            v326: 0,
             v330: 0,
             v331: 0,
-            v332: 0,
-            v333: 0,
-            v335: 0,
+            v334: 0,
+            v336: 0,
+            v337: 0,
             v338: 0,
-            v340: 0,
-            v343: 0,
+            v339: 0,
+            v341: 0,
             v344: 0,
+            v346: 0,
+            v349: 0,
             v350: 0,
-            v351: 0,
-            v360: 0,
-            v361: 0,
+            v352: 0,
+            v356: 0,
+            v357: 0,
+            v358: 0,
+            v367: 0,
             v369: 0,
-            v371: 0,
-            v372: 0,
-            v378: 0,
+            v376: 0,
             v379: 0,
-            v382: 0,
+            v383: 0,
+            v384: 0,
+            v385: 0,
+            v386: 0,
             v388: 0,
-            v390: 0,
-            v391: 0,
-            v396: 0,
-            v399: 0,
+            v392: 0,
+            v395: 0,
+            v397: 0,
+            v398: 0,
             v402: 0,
-            v403: 0,
-            v404: 0,
-            v405: 0,
-            v406: 0,
-            v407: 0,
             v408: 0,
             v409: 0,
             v410: 0,
@@ -816,11 +807,11 @@ impl Model {
             v416: 0,
             v417: 0,
             v418: 0,
+            v419: 0,
             v420: 0,
             v421: 0,
             v422: 0,
             v423: 0,
-            v424: 0,
             v425: 0,
             v426: 0,
             v427: 0,
@@ -836,52 +827,51 @@ impl Model {
             v437: 0,
             v438: 0,
             v439: 0,
+            v440: 0,
+            v441: 0,
             v442: 0,
-            v444: 0,
-            v445: 0,
+            v443: 0,
             v447: 0,
             v449: 0,
             v450: 0,
-            v451: 0,
             v452: 0,
-            v453: 0,
+            v454: 0,
+            v455: 0,
             v456: 0,
-            v463: 0,
-            v465: 0,
-            v467: 0,
+            v457: 0,
+            v458: 0,
+            v461: 0,
             v468: 0,
-            v469: 0,
             v470: 0,
-            v481: 0,
-            v482: 0,
-            v484: 0,
-            v501: 0,
-            v502: 0,
-            v520: 0,
-            v529: 0,
-            v530: 0,
-            v532: 0,
+            v472: 0,
+            v473: 0,
+            v474: 0,
+            v475: 0,
+            v486: 0,
+            v487: 0,
+            v489: 0,
+            v506: 0,
+            v507: 0,
+            v525: 0,
             v534: 0,
-            v558: 0,
-            v560: 0,
-            v561: 0,
-            v562: 0,
+            v535: 0,
+            v537: 0,
+            v539: 0,
+            v564: 0,
             v565: 0,
             v566: 0,
-            v568: 0,
             v569: 0,
             v570: 0,
-            v571: 0,
             v572: 0,
             v573: 0,
             v574: 0,
+            v575: 0,
             v576: 0,
-            v584: 0,
-            v585: 0,
-            v586: 0,
-            v587: 0,
-            v588: 0,
-            v589: 0,
+            v577: 0,
+            v578: 0,
+            v579: 0,
+            v580: 0,
+            v582: 0,
             v590: 0,
             v591: 0,
             v592: 0,
@@ -891,49 +881,57 @@ impl Model {
             v596: 0,
             v597: 0,
             v598: 0,
+            v599: 0,
             v600: 0,
             v601: 0,
+            v602: 0,
+            v603: 0,
+            v604: 0,
+            v606: 0,
             v607: 0,
-            v608: 0,
             v610: 0,
-            v611: 0,
-            v612: 0,
+            v613: 0,
+            v614: 0,
+            v616: 0,
             v617: 0,
-            v619: 0,
-            v621: 0,
-            v622: 0,
+            v618: 0,
             v623: 0,
+            v625: 0,
+            v627: 0,
             v628: 0,
             v629: 0,
-            v631: 0,
-            v632: 0,
-            v635: 0,
-            v638: 0,
-            v642: 0,
-            v644: 0,
-            v646: 0,
-            v650: 0,
+            v634: 0,
+            v636: 0,
+            v637: 0,
+            v640: 0,
+            v641: 0,
+            v643: 0,
+            v647: 0,
+            v649: 0,
             v651: 0,
-            v652: 0,
-            v653: 0,
-            v654: 0,
             v655: 0,
+            v656: 0,
+            v657: 0,
+            v658: 0,
+            v659: 0,
             v660: 0,
             v661: 0,
-            v662: 0,
-            v663: 0,
-            v664: 0,
             v666: 0,
+            v667: 0,
             v668: 0,
+            v669: 0,
+            v670: 0,
             v672: 0,
             v674: 0,
-            v675: 0,
-            v679: 0,
+            v678: 0,
             v680: 0,
             v681: 0,
-            v683: 0,
-            dirty: 0x1ffffffffffffffffffff,
-            ran: 0x1ffffffffffffffffffff,
+            v685: 0,
+            v686: 0,
+            v687: 0,
+            v689: 0,
+            dirty: 0x3ffffffffffffffffffff,
+            ran: 0x3ffffffffffffffffffff,
             out: 0,
         }
     }
@@ -941,7 +939,7 @@ impl Model {
     /// Takes the input word.
     pub(super) fn set_inputs(&mut self, word: u64) {
         let v = (word >> 0) as u64 & 0x1;
-        if v != self.i_reset { self.i_reset = v; self.dirty |= 0x1c7e08372ee421ad4364; }
+        if v != self.i_reset { self.i_reset = v; self.dirty |= 0x38fc107cbb90855a4364; }
         let v = (word >> 1) as u64 & 0x1;
         if v != self.i_rx { self.i_rx = v; self.dirty |= 0x100; }
         let v = (word >> 2) as u64 & 0x1;
@@ -957,7 +955,7 @@ impl Model {
         let v = (word >> 18) as u64 & 0x1;
         if v != self.i_sam { self.i_sam = v; self.dirty |= 0x100; }
         let v = (word >> 19) as u64 & 0x1;
-        if v != self.i_listen_only { self.i_listen_only = v; self.dirty |= 0x2020023; }
+        if v != self.i_listen_only { self.i_listen_only = v; self.dirty |= 0x8008023; }
         let v = (word >> 20) as u64 & 0x1;
         if v != self.i_self_test { self.i_self_test = v; self.dirty |= 0x1; }
         let v = (word >> 21) as u64 & 0x1;
@@ -967,15 +965,15 @@ impl Model {
         let v = (word >> 23) as u64 & 0x1;
         if v != self.i_transmit_abort { self.i_transmit_abort = v; self.dirty |= 0x20; }
         let v = (word >> 24) as u64 & 0xff;
-        if v != self.i_transmit_info { self.i_transmit_info = v; self.dirty |= 0x2020040; }
+        if v != self.i_transmit_info { self.i_transmit_info = v; self.dirty |= 0x8008040; }
         let v = (word >> 32) as u64 & 0xff;
         if v != self.i_transmit_data { self.i_transmit_data = v; self.dirty |= 0x40; }
         let v = (word >> 40) as u64 & 0x1;
-        if v != self.i_counters_load_tec { self.i_counters_load_tec = v; self.dirty |= 0x484020; }
+        if v != self.i_counters_load_tec { self.i_counters_load_tec = v; self.dirty |= 0x904020; }
         let v = (word >> 41) as u64 & 0x1;
-        if v != self.i_counters_load_rec { self.i_counters_load_rec = v; self.dirty |= 0x8; }
+        if v != self.i_counters_load_rec { self.i_counters_load_rec = v; self.dirty |= 0x100000; }
         let v = (word >> 42) as u64 & 0xff;
-        if v != self.i_counters_value { self.i_counters_value = v; self.dirty |= 0x80008; }
+        if v != self.i_counters_value { self.i_counters_value = v; self.dirty |= 0x100010; }
     }
 
     /// The output word computed by the last `eval`.
@@ -986,13 +984,13 @@ impl Model {
     /// The groups whose inputs changed (all with `every_group`), in dependency order (a group
     /// marks only later ones); then the output word if something it reads changed.
     pub(super) fn eval(&mut self, every_group: bool) {
-        let mut dirty = if every_group { 0x1ffffffffffffffffffff } else { self.dirty };
+        let mut dirty = if every_group { 0x3ffffffffffffffffffff } else { self.dirty };
         if dirty >> 0 & 0xff != 0 {
             if dirty >> 0 & 1 != 0 { self.group_0(&mut dirty); } // top$protocol$frame
             if dirty >> 1 & 1 != 0 { self.group_1(&mut dirty); } // top$protocol$interframe
             if dirty >> 2 & 1 != 0 { self.group_2(&mut dirty); } // top$bit_timing
-            if dirty >> 3 & 1 != 0 { self.group_3(&mut dirty); } // top$protocol$faults
-            if dirty >> 4 & 1 != 0 { self.group_4(&mut dirty); } // top$protocol$capture
+            if dirty >> 3 & 1 != 0 { self.group_3(&mut dirty); } // top$protocol$capture
+            if dirty >> 4 & 1 != 0 { self.group_4(&mut dirty); } // top$protocol$faults
             if dirty >> 5 & 1 != 0 { self.group_5(&mut dirty); } // top$protocol
             if dirty >> 6 & 1 != 0 { self.group_6(&mut dirty); } // top$protocol$sender
             if dirty >> 7 & 1 != 0 { self.group_7(&mut dirty); } // top$protocol$frame
@@ -1005,92 +1003,95 @@ impl Model {
             if dirty >> 12 & 1 != 0 { self.group_12(&mut dirty); } // top$protocol$interframe
             if dirty >> 13 & 1 != 0 { self.group_13(&mut dirty); } // top$protocol$stuffing
             if dirty >> 14 & 1 != 0 { self.group_14(&mut dirty); } // top$protocol$interframe
-            if dirty >> 15 & 1 != 0 { self.group_15(&mut dirty); } // top$protocol$frame
+            if dirty >> 15 & 1 != 0 { self.group_15(&mut dirty); } // top$protocol$sender
         }
         if dirty >> 16 & 0xff != 0 {
-            if dirty >> 16 & 1 != 0 { self.group_16(&mut dirty); } // top$protocol$interframe
-            if dirty >> 17 & 1 != 0 { self.group_17(&mut dirty); } // top$protocol$sender
-            if dirty >> 18 & 1 != 0 { self.group_18(&mut dirty); } // top$protocol
-            if dirty >> 19 & 1 != 0 { self.group_19(&mut dirty); } // top$protocol$faults
-            if dirty >> 20 & 1 != 0 { self.group_20(&mut dirty); } // top$protocol$assembler
-            if dirty >> 21 & 1 != 0 { self.group_21(&mut dirty); } // top$bit_timing$clocks
-            if dirty >> 22 & 1 != 0 { self.group_22(&mut dirty); } // top$protocol
-            if dirty >> 23 & 1 != 0 { self.group_23(&mut dirty); } // top$protocol$faults$tec_count
+            if dirty >> 16 & 1 != 0 { self.group_16(&mut dirty); } // top$protocol$frame
+            if dirty >> 17 & 1 != 0 { self.group_17(&mut dirty); } // top$protocol$interframe
+            if dirty >> 18 & 1 != 0 { self.group_18(&mut dirty); } // top$protocol$sender
+            if dirty >> 19 & 1 != 0 { self.group_19(&mut dirty); } // top$protocol
+            if dirty >> 20 & 1 != 0 { self.group_20(&mut dirty); } // top$protocol$faults
+            if dirty >> 21 & 1 != 0 { self.group_21(&mut dirty); } // top$protocol$assembler
+            if dirty >> 22 & 1 != 0 { self.group_22(&mut dirty); } // top$bit_timing$clocks
+            if dirty >> 23 & 1 != 0 { self.group_23(&mut dirty); } // top$protocol
         }
         if dirty >> 24 & 0xff != 0 {
-            if dirty >> 24 & 1 != 0 { self.group_24(&mut dirty); } // top$protocol$faults$rec_count
-            if dirty >> 25 & 1 != 0 { self.group_25(&mut dirty); } // top$protocol$sender
-            if dirty >> 26 & 1 != 0 { self.group_26(&mut dirty); } // top$protocol$sender$tx_ptr
-            if dirty >> 27 & 1 != 0 { self.group_27(&mut dirty); } // top$protocol$stuffing
-            if dirty >> 28 & 1 != 0 { self.group_28(&mut dirty); } // top$bit_timing$elapsed
-            if dirty >> 29 & 1 != 0 { self.group_29(&mut dirty); } // top$bit_timing$process_pending
-            if dirty >> 30 & 1 != 0 { self.group_30(&mut dirty); } // top$bit_timing$remaining
-            if dirty >> 31 & 1 != 0 { self.group_31(&mut dirty); } // top$bit_timing$sampled
+            if dirty >> 24 & 1 != 0 { self.group_24(&mut dirty); } // top$protocol$faults$tec_count
+            if dirty >> 25 & 1 != 0 { self.group_25(&mut dirty); } // top$protocol$capture
+            if dirty >> 26 & 1 != 0 { self.group_26(&mut dirty); } // top$protocol$faults$rec_count
+            if dirty >> 27 & 1 != 0 { self.group_27(&mut dirty); } // top$protocol$sender
+            if dirty >> 28 & 1 != 0 { self.group_28(&mut dirty); } // top$protocol$sender$tx_ptr
+            if dirty >> 29 & 1 != 0 { self.group_29(&mut dirty); } // top$protocol$stuffing
+            if dirty >> 30 & 1 != 0 { self.group_30(&mut dirty); } // top$bit_timing$elapsed
+            if dirty >> 31 & 1 != 0 { self.group_31(&mut dirty); } // top$bit_timing$process_pending
         }
         if dirty >> 32 & 0xff != 0 {
-            if dirty >> 32 & 1 != 0 { self.group_32(&mut dirty); } // top$bit_timing$sampling$metastable
-            if dirty >> 33 & 1 != 0 { self.group_33(&mut dirty); } // top$bit_timing$sampling$previous
-            if dirty >> 34 & 1 != 0 { self.group_34(&mut dirty); } // top$bit_timing$sampling$quantum_samples
-            if dirty >> 35 & 1 != 0 { self.group_35(&mut dirty); } // top$bit_timing$sampling$stable
-            if dirty >> 36 & 1 != 0 { self.group_36(&mut dirty); } // top$bit_timing$segment_state
-            if dirty >> 37 & 1 != 0 { self.group_37(&mut dirty); } // top$bit_timing$sjw_quanta
-            if dirty >> 38 & 1 != 0 { self.group_38(&mut dirty); } // top$bit_timing$synced
-            if dirty >> 39 & 1 != 0 { self.group_39(&mut dirty); } // top$bit_timing$transmit_deferred
+            if dirty >> 32 & 1 != 0 { self.group_32(&mut dirty); } // top$bit_timing$remaining
+            if dirty >> 33 & 1 != 0 { self.group_33(&mut dirty); } // top$bit_timing$sampled
+            if dirty >> 34 & 1 != 0 { self.group_34(&mut dirty); } // top$bit_timing$sampling$metastable
+            if dirty >> 35 & 1 != 0 { self.group_35(&mut dirty); } // top$bit_timing$sampling$previous
+            if dirty >> 36 & 1 != 0 { self.group_36(&mut dirty); } // top$bit_timing$sampling$quantum_samples
+            if dirty >> 37 & 1 != 0 { self.group_37(&mut dirty); } // top$bit_timing$sampling$stable
+            if dirty >> 38 & 1 != 0 { self.group_38(&mut dirty); } // top$bit_timing$segment_state
+            if dirty >> 39 & 1 != 0 { self.group_39(&mut dirty); } // top$bit_timing$sjw_quanta
         }
         if dirty >> 40 & 0xff != 0 {
-            if dirty >> 40 & 1 != 0 { self.group_40(&mut dirty); } // top$protocol$abort_pending
-            if dirty >> 41 & 1 != 0 { self.group_41(&mut dirty); } // top$protocol$assembler$byte_index
-            if dirty >> 42 & 1 != 0 { self.group_42(&mut dirty); } // top$protocol$assembler$byte_pulse
-            if dirty >> 43 & 1 != 0 { self.group_43(&mut dirty); } // top$protocol$assembler$byte_reg
-            if dirty >> 44 & 1 != 0 { self.group_44(&mut dirty); } // top$protocol$assembler$dlc_reg
-            if dirty >> 45 & 1 != 0 { self.group_45(&mut dirty); } // top$protocol$assembler$header_pulse
-            if dirty >> 46 & 1 != 0 { self.group_46(&mut dirty); } // top$protocol$assembler$id_base
-            if dirty >> 47 & 1 != 0 { self.group_47(&mut dirty); } // top$protocol$assembler$id_extension
+            if dirty >> 40 & 1 != 0 { self.group_40(&mut dirty); } // top$bit_timing$synced
+            if dirty >> 41 & 1 != 0 { self.group_41(&mut dirty); } // top$bit_timing$transmit_deferred
+            if dirty >> 42 & 1 != 0 { self.group_42(&mut dirty); } // top$protocol$abort_pending
+            if dirty >> 43 & 1 != 0 { self.group_43(&mut dirty); } // top$protocol$assembler$byte_index
+            if dirty >> 44 & 1 != 0 { self.group_44(&mut dirty); } // top$protocol$assembler$byte_pulse
+            if dirty >> 45 & 1 != 0 { self.group_45(&mut dirty); } // top$protocol$assembler$byte_reg
+            if dirty >> 46 & 1 != 0 { self.group_46(&mut dirty); } // top$protocol$assembler$dlc_reg
+            if dirty >> 47 & 1 != 0 { self.group_47(&mut dirty); } // top$protocol$assembler$header_pulse
         }
         if dirty >> 48 & 0xff != 0 {
-            if dirty >> 48 & 1 != 0 { self.group_48(&mut dirty); } // top$protocol$assembler$ide_reg
-            if dirty >> 49 & 1 != 0 { self.group_49(&mut dirty); } // top$protocol$assembler$last_data_byte_reg
-            if dirty >> 50 & 1 != 0 { self.group_50(&mut dirty); } // top$protocol$assembler$rtr_reg
-            if dirty >> 51 & 1 != 0 { self.group_51(&mut dirty); } // top$protocol$capture
-            if dirty >> 52 & 1 != 0 { self.group_52(&mut dirty); } // top$protocol$capture$alc_reg
-            if dirty >> 53 & 1 != 0 { self.group_53(&mut dirty); } // top$protocol$capture$ecc_reg
-            if dirty >> 54 & 1 != 0 { self.group_54(&mut dirty); } // top$protocol$capture$error_pulse
-            if dirty >> 55 & 1 != 0 { self.group_55(&mut dirty); } // top$protocol$capture$lost_pulse
+            if dirty >> 48 & 1 != 0 { self.group_48(&mut dirty); } // top$protocol$assembler$id_base
+            if dirty >> 49 & 1 != 0 { self.group_49(&mut dirty); } // top$protocol$assembler$id_extension
+            if dirty >> 50 & 1 != 0 { self.group_50(&mut dirty); } // top$protocol$assembler$ide_reg
+            if dirty >> 51 & 1 != 0 { self.group_51(&mut dirty); } // top$protocol$assembler$last_data_byte_reg
+            if dirty >> 52 & 1 != 0 { self.group_52(&mut dirty); } // top$protocol$assembler$rtr_reg
+            if dirty >> 53 & 1 != 0 { self.group_53(&mut dirty); } // top$protocol$capture$alc_reg
+            if dirty >> 54 & 1 != 0 { self.group_54(&mut dirty); } // top$protocol$capture$ecc_reg
+            if dirty >> 55 & 1 != 0 { self.group_55(&mut dirty); } // top$protocol$capture$error_pulse
         }
         if dirty >> 56 & 0xff != 0 {
-            if dirty >> 56 & 1 != 0 { self.group_56(&mut dirty); } // top$protocol$count
-            if dirty >> 57 & 1 != 0 { self.group_57(&mut dirty); } // top$protocol$crc$register
-            if dirty >> 58 & 1 != 0 { self.group_58(&mut dirty); } // top$protocol$crc_error
-            if dirty >> 59 & 1 != 0 { self.group_59(&mut dirty); } // top$protocol$done_pulse
-            if dirty >> 60 & 1 != 0 { self.group_60(&mut dirty); } // top$protocol$done_success
-            if dirty >> 61 & 1 != 0 { self.group_61(&mut dirty); } // top$protocol$faults$bus_off_state
-            if dirty >> 62 & 1 != 0 { self.group_62(&mut dirty); } // top$protocol$faults$passive_state
-            if dirty >> 63 & 1 != 0 { self.group_63(&mut dirty); } // top$protocol$field
+            if dirty >> 56 & 1 != 0 { self.group_56(&mut dirty); } // top$protocol$capture$lost_pulse
+            if dirty >> 57 & 1 != 0 { self.group_57(&mut dirty); } // top$protocol$count
+            if dirty >> 58 & 1 != 0 { self.group_58(&mut dirty); } // top$protocol$crc$register
+            if dirty >> 59 & 1 != 0 { self.group_59(&mut dirty); } // top$protocol$crc_error
+            if dirty >> 60 & 1 != 0 { self.group_60(&mut dirty); } // top$protocol$done_pulse
+            if dirty >> 61 & 1 != 0 { self.group_61(&mut dirty); } // top$protocol$done_success
+            if dirty >> 62 & 1 != 0 { self.group_62(&mut dirty); } // top$protocol$faults$bus_off_state
+            if dirty >> 63 & 1 != 0 { self.group_63(&mut dirty); } // top$protocol$faults$passive_state
         }
         if dirty >> 64 & 0xff != 0 {
-            if dirty >> 64 & 1 != 0 { self.group_64(&mut dirty); } // top$protocol$in_frame
-            if dirty >> 65 & 1 != 0 { self.group_65(&mut dirty); } // top$protocol$interframe$ack_penalty
-            if dirty >> 66 & 1 != 0 { self.group_66(&mut dirty); } // top$protocol$interframe$after_error_flag
-            if dirty >> 67 & 1 != 0 { self.group_67(&mut dirty); } // top$protocol$interframe$dominant_after_flag
-            if dirty >> 68 & 1 != 0 { self.group_68(&mut dirty); } // top$protocol$interframe$first_after_flag
-            if dirty >> 69 & 1 != 0 { self.group_69(&mut dirty); } // top$protocol$interframe$flag_level
-            if dirty >> 70 & 1 != 0 { self.group_70(&mut dirty); } // top$protocol$interframe$flag_passive_reg
-            if dirty >> 71 & 1 != 0 { self.group_71(&mut dirty); } // top$protocol$sender$tx_left
+            if dirty >> 64 & 1 != 0 { self.group_64(&mut dirty); } // top$protocol$field
+            if dirty >> 65 & 1 != 0 { self.group_65(&mut dirty); } // top$protocol$in_frame
+            if dirty >> 66 & 1 != 0 { self.group_66(&mut dirty); } // top$protocol$interframe$ack_penalty
+            if dirty >> 67 & 1 != 0 { self.group_67(&mut dirty); } // top$protocol$interframe$after_error_flag
+            if dirty >> 68 & 1 != 0 { self.group_68(&mut dirty); } // top$protocol$interframe$dominant_after_flag
+            if dirty >> 69 & 1 != 0 { self.group_69(&mut dirty); } // top$protocol$interframe$first_after_flag
+            if dirty >> 70 & 1 != 0 { self.group_70(&mut dirty); } // top$protocol$interframe$flag_level
+            if dirty >> 71 & 1 != 0 { self.group_71(&mut dirty); } // top$protocol$interframe$flag_passive_reg
         }
         if dirty >> 72 & 0xff != 0 {
-            if dirty >> 72 & 1 != 0 { self.group_72(&mut dirty); } // top$protocol$sender$tx_next
-            if dirty >> 73 & 1 != 0 { self.group_73(&mut dirty); } // top$protocol$sender$tx_reg
-            if dirty >> 74 & 1 != 0 { self.group_74(&mut dirty); } // top$protocol$sender$tx_shift
-            if dirty >> 75 & 1 != 0 { self.group_75(&mut dirty); } // top$protocol$stuffing$active
-            if dirty >> 76 & 1 != 0 { self.group_76(&mut dirty); } // top$protocol$stuffing$run_length
-            if dirty >> 77 & 1 != 0 { self.group_77(&mut dirty); } // top$protocol$stuffing$run_level_reg
-            if dirty >> 78 & 1 != 0 { self.group_78(&mut dirty); } // top$protocol$transmitter
-            if dirty >> 79 & 1 != 0 { self.group_79(&mut dirty); } // top$protocol$valid_pulse
+            if dirty >> 72 & 1 != 0 { self.group_72(&mut dirty); } // top$protocol$sender$tx_left
+            if dirty >> 73 & 1 != 0 { self.group_73(&mut dirty); } // top$protocol$sender$tx_next
+            if dirty >> 74 & 1 != 0 { self.group_74(&mut dirty); } // top$protocol$sender$tx_reg
+            if dirty >> 75 & 1 != 0 { self.group_75(&mut dirty); } // top$protocol$sender$tx_shift
+            if dirty >> 76 & 1 != 0 { self.group_76(&mut dirty); } // top$protocol$stuffing$active
+            if dirty >> 77 & 1 != 0 { self.group_77(&mut dirty); } // top$protocol$stuffing$run_length
+            if dirty >> 78 & 1 != 0 { self.group_78(&mut dirty); } // top$protocol$stuffing$run_level_reg
+            if dirty >> 79 & 1 != 0 { self.group_79(&mut dirty); } // top$protocol$transmitter
+        }
+        if dirty >> 80 & 0x1 != 0 {
+            if dirty >> 80 & 1 != 0 { self.group_80(&mut dirty); } // top$protocol$valid_pulse
         }
         self.dirty = 0;
         self.ran |= dirty;
-        if dirty >> 80 & 1 != 0 {
-            self.out = 0 | ((self.q59) as u128) << 0 | ((self.q0) as u128) << 1 | (((self.q5 & 0x1) | (self.q6 << 1) | ((self.q5 >> 1) << 3)) as u128) << 2 | ((self.q20) as u128) << 6 | ((self.q19) as u128) << 7 | ((self.q33) as u128) << 8 | ((self.q31 | (self.q32 << 18)) as u128) << 9 | ((self.q30) as u128) << 38 | ((self.q28) as u128) << 39 | ((self.q34) as u128) << 40 | ((self.q36) as u128) << 44 | ((self.q35) as u128) << 45 | ((self.q37) as u128) << 53 | ((self.q25) as u128) << 56 | ((self.q26) as u128) << 57 | ((self.q24) as u128) << 65 | ((self.q27) as u128) << 66 | ((self.q15 | (self.q16 << 3) | (self.q14 << 7)) as u128) << 71 | ((self.q17 | (self.q18 << 7)) as u128) << 79 | ((self.q55) as u128) << 87 | ((self.q54) as u128) << 88 | ((self.v156) as u128) << 89 | ((self.v157) as u128) << 90 | ((self.q56) as u128) << 91 | ((self.v79) as u128) << 96 | ((self.v111) as u128) << 97;
+        if dirty >> 81 & 1 != 0 {
+            self.out = 0 | ((self.q59) as u128) << 0 | ((self.q0) as u128) << 1 | (((self.q5 & 0x1) | (self.q6 << 1) | ((self.q5 >> 1) << 3)) as u128) << 2 | ((self.q20) as u128) << 6 | ((self.q19) as u128) << 7 | ((self.q33) as u128) << 8 | ((self.q31 | (self.q32 << 18)) as u128) << 9 | ((self.q30) as u128) << 38 | ((self.q28) as u128) << 39 | ((self.q34) as u128) << 40 | ((self.q36) as u128) << 44 | ((self.q35) as u128) << 45 | ((self.q37) as u128) << 53 | ((self.q25) as u128) << 56 | ((self.q26) as u128) << 57 | ((self.q24) as u128) << 65 | ((self.q27) as u128) << 66 | ((self.q15 | (self.q16 << 3) | (self.q14 << 7)) as u128) << 71 | ((self.q17 | (self.q18 << 7)) as u128) << 79 | ((self.q55) as u128) << 87 | ((self.q54) as u128) << 88 | ((self.v155) as u128) << 89 | ((self.v156) as u128) << 90 | ((self.q56) as u128) << 91 | ((self.v78) as u128) << 96 | ((self.v110) as u128) << 97;
         }
     }
 
@@ -1100,1639 +1101,1649 @@ impl Model {
         let mut dirty = 0u128;
         let ran = self.ran;
         self.ran = 0;
-        if ran >> 21 & 1 != 0 {
-            if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x200004; } // $auto$ff.cc:266:slice$6360
-            if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x200004; } // $auto$ff.cc:266:slice$6361
-        }
-        if ran >> 23 & 1 != 0 {
-            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x100000000000000880008; } // $auto$ff.cc:266:slice$6239
-            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x100000000000000800008; } // $auto$ff.cc:266:slice$6240
-            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x100000000000000800008; } // $auto$ff.cc:266:slice$6253
+        if ran >> 22 & 1 != 0 {
+            if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x400004; } // $auto$ff.cc:266:slice$6430
+            if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x400004; } // $auto$ff.cc:266:slice$6431
         }
         if ran >> 24 & 1 != 0 {
-            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x100000000000001080008; } // $auto$ff.cc:266:slice$6264
-            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x100000000000001080008; } // $auto$ff.cc:266:slice$6265
+            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x200000000000001100010; } // $auto$ff.cc:266:slice$6309
+            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x200000000000001000010; } // $auto$ff.cc:266:slice$6310
+            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x200000000000001000010; } // $auto$ff.cc:266:slice$6323
         }
         if ran >> 26 & 1 != 0 {
-            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x100000000000006000040; } // $auto$ff.cc:266:slice$6177
-            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x100000000000004000040; } // $auto$ff.cc:266:slice$6180
+            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x200000000000004100010; } // $auto$ff.cc:266:slice$6334
+            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x200000000000004100010; } // $auto$ff.cc:266:slice$6335
         }
         if ran >> 28 & 1 != 0 {
-            if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x10000004; } // $auto$ff.cc:266:slice$6357
-        }
-        if ran >> 29 & 1 != 0 {
-            if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x5804000000002205e285; } // $auto$ff.cc:266:slice$6353
+            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x200000000000018000040; } // $auto$ff.cc:266:slice$6247
+            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x200000000000010000040; } // $auto$ff.cc:266:slice$6250
         }
         if ran >> 30 & 1 != 0 {
-            if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x40000204; } // $auto$ff.cc:266:slice$6350
+            if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x40000004; } // $auto$ff.cc:266:slice$6427
         }
         if ran >> 31 & 1 != 0 {
-            if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x20200005d80080012a53; } // $flatten\bit_timing.\sampled.$procdff$5969
+            if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0xb00800000000880b6285; } // $auto$ff.cc:266:slice$6423
         }
         if ran >> 32 & 1 != 0 {
-            if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x100000100; } // $flatten\bit_timing.\sampling.\metastable.$procdff$5968
+            if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x100000204; } // $auto$ff.cc:266:slice$6420
         }
         if ran >> 33 & 1 != 0 {
-            if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x200000100; } // $flatten\bit_timing.\sampling.\previous.$procdff$5967
+            if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x40400017600200022a4b; } // $flatten\bit_timing.\sampled.$procdff$6040
         }
         if ran >> 34 & 1 != 0 {
-            if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x400000100; } // $auto$ff.cc:266:slice$6349
+            if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x400000100; } // $flatten\bit_timing.\sampling.\metastable.$procdff$6039
         }
         if ran >> 35 & 1 != 0 {
-            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0xc00000100; } // $flatten\bit_timing.\sampling.\stable.$procdff$5965
+            if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x800000100; } // $flatten\bit_timing.\sampling.\previous.$procdff$6038
         }
         if ran >> 36 & 1 != 0 {
-            if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x1000000204; } // $auto$ff.cc:266:slice$6343
+            if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x1000000100; } // $auto$ff.cc:266:slice$6419
         }
         if ran >> 37 & 1 != 0 {
-            if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x2000000004; } // $auto$ff.cc:266:slice$6339
+            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x3000000100; } // $flatten\bit_timing.\sampling.\stable.$procdff$6036
         }
         if ran >> 38 & 1 != 0 {
-            if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x4000000204; } // $auto$ff.cc:266:slice$6338
+            if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x4000000204; } // $auto$ff.cc:266:slice$6413
         }
         if ran >> 39 & 1 != 0 {
-            if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x8000000200; } // $auto$ff.cc:266:slice$6337
+            if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x8000000004; } // $auto$ff.cc:266:slice$6409
         }
         if ran >> 40 & 1 != 0 {
-            if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x10000010023; } // $auto$ff.cc:266:slice$6334
+            if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x10000000204; } // $auto$ff.cc:266:slice$6408
         }
         if ran >> 41 & 1 != 0 {
-            if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x100000000020000000000; } // $auto$ff.cc:266:slice$6331
+            if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x20000000200; } // $auto$ff.cc:266:slice$6407
         }
         if ran >> 42 & 1 != 0 {
-            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x100000000040000000000; } // $auto$ff.cc:266:slice$6329
+            if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x40000020023; } // $auto$ff.cc:266:slice$6404
         }
         if ran >> 43 & 1 != 0 {
-            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x100000000080000000000; } // $auto$ff.cc:266:slice$6326
+            if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x200000000080000000000; } // $auto$ff.cc:266:slice$6401
         }
         if ran >> 44 & 1 != 0 {
-            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x100000000100000000401; } // $auto$ff.cc:266:slice$6322
+            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x200000000100000000000; } // $auto$ff.cc:266:slice$6399
         }
         if ran >> 45 & 1 != 0 {
-            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x100000000200000000000; } // $auto$ff.cc:266:slice$6318
+            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x200000000200000000000; } // $auto$ff.cc:266:slice$6396
         }
         if ran >> 46 & 1 != 0 {
-            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x100000000400000000000; } // $auto$ff.cc:266:slice$6313
+            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x200000000400000000401; } // $auto$ff.cc:266:slice$6392
         }
         if ran >> 47 & 1 != 0 {
-            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x100000000800000000000; } // $auto$ff.cc:266:slice$6303
+            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x200000000800000000000; } // $auto$ff.cc:266:slice$6388
         }
         if ran >> 48 & 1 != 0 {
-            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x100000001000000000411; } // $auto$ff.cc:266:slice$6297
+            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x200000001000000000000; } // $auto$ff.cc:266:slice$6383
         }
         if ran >> 49 & 1 != 0 {
-            if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x2000000000001; } // $auto$ff.cc:266:slice$6295
+            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x200000002000000000000; } // $auto$ff.cc:266:slice$6373
         }
         if ran >> 50 & 1 != 0 {
-            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x100000004000000000401; } // $auto$ff.cc:266:slice$6290
+            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x200000004000000000409; } // $auto$ff.cc:266:slice$6367
+        }
+        if ran >> 51 & 1 != 0 {
+            if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x8000000000001; } // $auto$ff.cc:266:slice$6365
         }
         if ran >> 52 & 1 != 0 {
-            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x100000010000000000000; } // $auto$ff.cc:266:slice$6288
+            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x200000010000000000401; } // $auto$ff.cc:266:slice$6360
         }
         if ran >> 53 & 1 != 0 {
-            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x100000020000000000000; } // $auto$ff.cc:266:slice$6286
+            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x200000020000000000000; } // $auto$ff.cc:266:slice$6358
         }
         if ran >> 54 & 1 != 0 {
-            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x100000040000000000000; } // $auto$ff.cc:266:slice$6282
+            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x200000040000000000000; } // $auto$ff.cc:266:slice$6356
         }
         if ran >> 55 & 1 != 0 {
-            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x100000080000000000000; } // $auto$ff.cc:266:slice$6279
+            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x200000080000000000000; } // $auto$ff.cc:266:slice$6352
         }
         if ran >> 56 & 1 != 0 {
-            if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x110020000068473; } // $auto$ff.cc:266:slice$6276
+            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x200000100000000000000; } // $auto$ff.cc:266:slice$6349
         }
         if ran >> 57 & 1 != 0 {
-            if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0x200000000020841; } // $auto$ff.cc:266:slice$6275
+            if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x22008000009846b; } // $auto$ff.cc:266:slice$6346
         }
         if ran >> 58 & 1 != 0 {
-            if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x400000000040001; } // $auto$ff.cc:266:slice$6271
+            if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0x400000000040841; } // $auto$ff.cc:266:slice$6345
         }
         if ran >> 59 & 1 != 0 {
-            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x100000800000000000022; } // $auto$ff.cc:266:slice$6270
+            if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x800000000080001; } // $auto$ff.cc:266:slice$6341
         }
         if ran >> 60 & 1 != 0 {
-            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x100001000000000000000; } // $auto$ff.cc:266:slice$6269
+            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x200001000000000000022; } // $auto$ff.cc:266:slice$6340
         }
         if ran >> 61 & 1 != 0 {
-            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x1000020000000004c4028; } // $flatten\protocol.\faults.\bus_off_state.$procdff$5940
+            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x200002000000000000000; } // $auto$ff.cc:266:slice$6339
         }
         if ran >> 62 & 1 != 0 {
-            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x100004000000000000003; } // $flatten\protocol.\faults.\passive_state.$procdff$5939
+            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x200004000000000984030; } // $flatten\protocol.\faults.\bus_off_state.$procdff$6011
         }
         if ran >> 63 & 1 != 0 {
-            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x1000080000000000480b3; } // $flatten\protocol.\field.$procdff$5936
+            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x200008000000000000003; } // $flatten\protocol.\faults.\passive_state.$procdff$6010
         }
         if ran >> 64 & 1 != 0 {
-            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x10000000000010020; } // $flatten\protocol.\in_frame.$procdff$5935
+            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x2000100000000000900ab; } // $flatten\protocol.\field.$procdff$6007
         }
         if ran >> 65 & 1 != 0 {
-            if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x20000000000010002; } // $auto$ff.cc:266:slice$6237
+            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x20000000000020020; } // $flatten\protocol.\in_frame.$procdff$6006
         }
         if ran >> 66 & 1 != 0 {
-            if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x40000000000004002; } // $auto$ff.cc:266:slice$6236
+            if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x40000000000020002; } // $auto$ff.cc:266:slice$6307
         }
         if ran >> 67 & 1 != 0 {
-            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x80000000000000002; } // $auto$ff.cc:266:slice$6218
+            if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x80000000000004002; } // $auto$ff.cc:266:slice$6306
         }
         if ran >> 68 & 1 != 0 {
-            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x100000000000010002; } // $auto$ff.cc:266:slice$6206
+            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x100000000000000002; } // $auto$ff.cc:266:slice$6288
         }
         if ran >> 69 & 1 != 0 {
-            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x200000000000000002; } // $auto$ff.cc:266:slice$6200
+            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x200000000000020002; } // $auto$ff.cc:266:slice$6276
         }
         if ran >> 70 & 1 != 0 {
-            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x400000000000033012; } // $auto$ff.cc:266:slice$6192
+            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x400000000000000002; } // $auto$ff.cc:266:slice$6270
         }
         if ran >> 71 & 1 != 0 {
-            if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x800000000000000040; } // $auto$ff.cc:266:slice$6190
+            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x80000000000002b00a; } // $auto$ff.cc:266:slice$6262
         }
         if ran >> 72 & 1 != 0 {
-            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x1000000000002020000; } // $flatten\protocol.\sender.\tx_next.$procdff$5927
+            if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x1000000000000000040; } // $auto$ff.cc:266:slice$6260
         }
         if ran >> 73 & 1 != 0 {
-            if self.q59 != self.n59 { self.q59 = self.n59; dirty |= 0x102000000000000030005; } // $flatten\protocol.\sender.\tx_reg.$procdff$5925
+            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x2000000000008008000; } // $flatten\protocol.\sender.\tx_next.$procdff$5998
         }
         if ran >> 74 & 1 != 0 {
-            if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x4000000000000000040; } // $auto$ff.cc:266:slice$6364
+            if self.q59 != self.n59 { self.q59 = self.n59; dirty |= 0x204000000000000028085; } // $flatten\protocol.\sender.\tx_reg.$procdff$5996
         }
         if ran >> 75 & 1 != 0 {
-            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x8000000000008002000; } // $auto$ff.cc:266:slice$6168
+            if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x8000000000000000040; } // $auto$ff.cc:266:slice$6434
         }
         if ran >> 76 & 1 != 0 {
-            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x10000000000000002000; } // $auto$ff.cc:266:slice$6166
+            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x10000000000020002000; } // $auto$ff.cc:266:slice$6238
         }
         if ran >> 77 & 1 != 0 {
-            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x20000000000000002001; } // $auto$ff.cc:266:slice$6160
+            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x20000000000000002000; } // $auto$ff.cc:266:slice$6236
         }
         if ran >> 78 & 1 != 0 {
-            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x40000000000000010023; } // $auto$ff.cc:266:slice$6159
+            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x40000000000000002001; } // $auto$ff.cc:266:slice$6230
         }
         if ran >> 79 & 1 != 0 {
-            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x180000000000000000000; } // $auto$ff.cc:266:slice$6153
+            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x800000000000000200a3; } // $auto$ff.cc:266:slice$6229
+        }
+        if ran >> 80 & 1 != 0 {
+            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x300000000000000000000; } // $auto$ff.cc:266:slice$6223
         }
         self.dirty |= dirty;
     }
 
     /// The cells of top$protocol$frame.
     fn group_0(&mut self, dirty: &mut u128) {
-        let c317: u64 = u64::from((self.q23) == (0xb));
-        if self.v317 != c317 { self.v317 = c317; *dirty |= 0x20000; }
-        let c318: u64 = u64::from((self.q23) == (0xc));
-        if self.v318 != c318 { self.v318 = c318; *dirty |= 0x28000; }
-        let c319: u64 = u64::from((self.q23) == (0x1f));
-        if self.v319 != c319 { self.v319 = c319; *dirty |= 0x20040; }
-        let c16: u64 = u64::from((c319 | (c317 << 1)) != 0);
-        if self.v16 != c16 { self.v16 = c16; *dirty |= 0x8000; }
-        let c320: u64 = u64::from((self.q23) == (0x4));
-        let c321: u64 = !(self.q30) & 0x1;
-        let c305: u64 = (c320) & (c321) & 0x1;
-        let c322: u64 = u64::from(((self.q34 & 0x7)) == 0);
-        let c323: u64 = u64::from(((self.q23 & 0x7)) == (0x7));
-        if self.v323 != c323 { self.v323 = c323; *dirty |= 0x8400; }
-        let c324: u64 = u64::from(((self.q23 >> 3)) == (self.q29));
-        let c307: u64 = (c323) & (c324) & 0x1;
-        if self.v307 != c307 { self.v307 = c307; *dirty |= 0x80; }
-        let c325: u64 = u64::from((self.q50) == (self.q2));
-        if self.v325 != c325 { self.v325 = c325; *dirty |= 0x20000; }
-        let c326: u64 = u64::from((self.q23) == (0xe));
-        let c327: u64 = u64::from((self.q22) == 0);
-        let c328: u64 = !(self.i_listen_only) & 0x1;
-        if self.v328 != c328 { self.v328 = c328; *dirty |= 0x2; }
-        let c312: u64 = (self.i_enable) & (c328) & 0x1;
-        let c329: u64 = !(self.i_self_test) & 0x1;
-        let c313: u64 = (self.q50) & (c329) & 0x1;
-        let c330: u64 = !(self.q59) & 0x1;
-        if self.v330 != c330 { self.v330 = c330; *dirty |= 0x10200; }
-        let c331: u64 = u64::from((self.q23) == (0x5));
-        if self.v331 != c331 { self.v331 = c331; *dirty |= 0x19082; }
-        let c332: u64 = !(self.q1) & 0x1;
-        if self.v332 != c332 { self.v332 = c332; *dirty |= 0x22; }
-        let c315: u64 = (c331) & (c332) & 0x1;
-        let c333: u64 = u64::from((self.q23) == (0x6));
-        if self.v333 != c333 { self.v333 = c333; *dirty |= 0x80; }
-        let c314: u64 = (c333) & (c332) & 0x1;
-        let c316: u64 = (c333) & (self.q1) & 0x1;
-        let c334: u64 = u64::from((self.q59) != (self.q50));
-        let c304: u64 = (self.q1) & (c334) & 0x1;
-        if self.v304 != c304 { self.v304 = c304; *dirty |= 0x80; }
-        let c335: u64 = ((self.i_transmit_single_shot) | (self.q38)) & 0x1;
-        if self.v335 != c335 { self.v335 = c335; *dirty |= 0x10000; }
-        let c336: u64 = ((c317) | (c318)) & 0x1;
-        let c337: u64 = ((c336) | (c319)) & 0x1;
-        let c19: u64 = !(c337) & 0x1;
-        if self.v19 != c19 { self.v19 = c19; *dirty |= 0x8000; }
-        let c310: u64 = (self.q1) & (c19) & 0x1;
-        let c338: u64 = ((c331) | (c305)) & 0x1;
-        if self.v338 != c338 { self.v338 = c338; *dirty |= 0xa0; }
-        let c342: u64 = !(c314) & 0x1;
-        let c343: u64 = if (self.q50) != 0 { (0x0) } else { (c342) };
-        if self.v343 != c343 { self.v343 = c343; *dirty |= 0x80; }
-        let c345: u64 = (self.q50) & (c315) & 0x1;
-        let c346: u64 = (self.q50) & (c316) & 0x1;
-        let c348: u64 = if (c333) != 0 { (0xa) } else { (self.q56) };
-        let c341: u64 = if (c314) != 0 { (0xd) } else { (c348) };
-        let c344: u64 = if (self.q50) != 0 { (c348) } else { (c341) };
-        if self.v344 != c344 { self.v344 = c344; *dirty |= 0x80; }
-        let c349: u64 = if (self.q50) != 0 { (self.q21 | (self.q21 << 1)) } else { (0x1) };
-        let c350: u64 = if (self.q50) != 0 { (self.q21) } else { (0x1) };
+        let c324: u64 = u64::from((self.q23) == (0xb));
+        if self.v324 != c324 { self.v324 = c324; *dirty |= 0x8000; }
+        let c325: u64 = u64::from((self.q23) == (0xc));
+        if self.v325 != c325 { self.v325 = c325; *dirty |= 0x2008000; }
+        let c326: u64 = u64::from((self.q23) == (0x1f));
+        if self.v326 != c326 { self.v326 = c326; *dirty |= 0x8040; }
+        let c16: u64 = u64::from((c326 | (c324 << 1)) != 0);
+        if self.v16 != c16 { self.v16 = c16; *dirty |= 0x10000; }
+        let c327: u64 = u64::from((self.q23) == (0x4));
+        let c328: u64 = !(self.q30) & 0x1;
+        let c312: u64 = (c327) & (c328) & 0x1;
+        let c329: u64 = u64::from(((self.q34 & 0x7)) == 0);
+        let c330: u64 = u64::from(((self.q23 >> 3)) == (self.q29));
+        if self.v330 != c330 { self.v330 = c330; *dirty |= 0x80; }
+        let c331: u64 = u64::from((self.q50) == (self.q2));
+        if self.v331 != c331 { self.v331 = c331; *dirty |= 0x8080; }
+        let c332: u64 = u64::from((self.q23) == (0xe));
+        let c333: u64 = u64::from((self.q22) == 0);
+        let c334: u64 = !(self.i_listen_only) & 0x1;
+        if self.v334 != c334 { self.v334 = c334; *dirty |= 0x2; }
+        let c319: u64 = (self.i_enable) & (c334) & 0x1;
+        let c335: u64 = !(self.i_self_test) & 0x1;
+        let c320: u64 = (self.q50) & (c335) & 0x1;
+        let c336: u64 = !(self.q59) & 0x1;
+        if self.v336 != c336 { self.v336 = c336; *dirty |= 0x20200; }
+        let c337: u64 = u64::from((self.q23) == (0x5));
+        if self.v337 != c337 { self.v337 = c337; *dirty |= 0x31082; }
+        let c338: u64 = !(self.q1) & 0x1;
+        if self.v338 != c338 { self.v338 = c338; *dirty |= 0x22; }
+        let c322: u64 = (c337) & (c338) & 0x1;
+        let c339: u64 = u64::from((self.q23) == (0x6));
+        if self.v339 != c339 { self.v339 = c339; *dirty |= 0x80; }
+        let c321: u64 = (c339) & (c338) & 0x1;
+        let c323: u64 = (c339) & (self.q1) & 0x1;
+        let c340: u64 = u64::from((self.q59) != (self.q50));
+        let c311: u64 = (self.q1) & (c340) & 0x1;
+        if self.v311 != c311 { self.v311 = c311; *dirty |= 0x80; }
+        let c341: u64 = ((self.i_transmit_single_shot) | (self.q38)) & 0x1;
+        if self.v341 != c341 { self.v341 = c341; *dirty |= 0x20000; }
+        let c342: u64 = ((c324) | (c325)) & 0x1;
+        let c343: u64 = ((c342) | (c326)) & 0x1;
+        let c19: u64 = !(c343) & 0x1;
+        if self.v19 != c19 { self.v19 = c19; *dirty |= 0x10000; }
+        let c317: u64 = (self.q1) & (c19) & 0x1;
+        let c344: u64 = ((c337) | (c312)) & 0x1;
+        if self.v344 != c344 { self.v344 = c344; *dirty |= 0xa0; }
+        let c348: u64 = !(c321) & 0x1;
+        let c349: u64 = if (self.q50) != 0 { (0x0) } else { (c348) };
+        if self.v349 != c349 { self.v349 = c349; *dirty |= 0x80; }
+        let c351: u64 = (self.q50) & (c322) & 0x1;
+        let c352: u64 = (self.q50) & (c323) & 0x1;
+        if self.v352 != c352 { self.v352 = c352; *dirty |= 0x80; }
+        let c354: u64 = if (c339) != 0 { (0xa) } else { (self.q56) };
+        let c347: u64 = if (c321) != 0 { (0xd) } else { (c354) };
+        let c350: u64 = if (self.q50) != 0 { (c354) } else { (c347) };
         if self.v350 != c350 { self.v350 = c350; *dirty |= 0x80; }
-        let c351: u64 = !(self.q50) & 0x1;
-        if self.v351 != c351 { self.v351 = c351; *dirty |= 0x2004082; }
-        let c306: u64 = (c322) & (c351) & 0x1;
-        let c311: u64 = (c318) & (c351) & 0x1;
-        let c339: u64 = ((self.q28) | (c306)) & 0x1;
-        let c340: u64 = ((c311) | (c319)) & 0x1;
-        if self.v340 != c340 { self.v340 = c340; *dirty |= 0x80; }
-        let c352: u64 = if (self.q59) != 0 { (0x0) } else { (self.q50) };
-        let c353: u64 = if (self.q59) != 0 { (0x0) } else { (c351) };
-        let c354: u64 = !(self.q55) & 0x1;
-        let c355: u64 = (c313) & (self.q55) & 0x1;
-        let c356: u64 = if (c313) != 0 { (c354) } else { (0x1) };
-        let c357: u64 = (self.q1) & (c355) & 0x1;
-        let c358: u64 = if (self.q1) != 0 { (c356) } else { (0x1) };
-        let c359: u64 = (self.q1) & (c313) & 0x1;
-        let c360: u64 = u64::from((self.q56) == (0x7));
-        if self.v360 != c360 { self.v360 = c360; *dirty |= 0x8000000000080; }
-        let c361: u64 = if (self.q1) != 0 { (c313) } else { (c352) };
-        if self.v361 != c361 { self.v361 = c361; *dirty |= 0x80; }
-        let c362: u64 = if (self.q1) != 0 { (0x0) } else { (c353) };
-        let c363: u64 = (c327) & (c312) & 0x1;
-        let c364: u64 = !(c327) & 0x1;
-        let c365: u64 = if (self.q1) != 0 { (0x0) } else { (c364) };
-        let c366: u64 = if (self.q1) != 0 { (0x0) } else { (c363) };
-        let c367: u64 = (self.q50) & (c365) & 0x1;
-        let c368: u64 = (self.q50) & (c366) & 0x1;
-        let c369: u64 = if (c326) != 0 { (0x6) } else { (self.q56) };
-        if self.v369 != c369 { self.v369 = c369; *dirty |= 0x80; }
-        let c371: u64 = if (c307) != 0 { (0x5) } else { (self.q56) };
-        if self.v371 != c371 { self.v371 = c371; *dirty |= 0x80; }
-        let c372: u64 = if (c338) != 0 { (c339 | 0x4) } else { (self.q56) };
-        if self.v372 != c372 { self.v372 = c372; *dirty |= 0x80; }
-        let c374: u64 = (self.q59) & (c335) & 0x1;
-        let c375: u64 = if (self.q59) != 0 { (0x0) } else { (c310) };
-        let c376: u64 = (c304) & (c374) & 0x1;
-        let c377: u64 = (c304) & (self.q59) & 0x1;
-        let c378: u64 = u64::from((self.q56) == (0x2));
-        if self.v378 != c378 { self.v378 = c378; *dirty |= 0x8000000008090; }
-        let c309: u64 = (c378) & (self.q59) & 0x1;
-        let c379: u64 = (c304) & (c330) & 0x1;
+        let c355: u64 = if (self.q50) != 0 { (self.q21 | (self.q21 << 1)) } else { (0x1) };
+        let c356: u64 = if (self.q50) != 0 { (self.q21) } else { (0x1) };
+        if self.v356 != c356 { self.v356 = c356; *dirty |= 0x80; }
+        let c357: u64 = u64::from((self.q56) == (0x8));
+        if self.v357 != c357 { self.v357 = c357; *dirty |= 0x88; }
+        let c358: u64 = !(self.q50) & 0x1;
+        if self.v358 != c358 { self.v358 = c358; *dirty |= 0x8004082; }
+        let c313: u64 = (c329) & (c358) & 0x1;
+        let c318: u64 = (c325) & (c358) & 0x1;
+        let c345: u64 = ((self.q28) | (c313)) & 0x1;
+        let c346: u64 = ((c318) | (c326)) & 0x1;
+        if self.v346 != c346 { self.v346 = c346; *dirty |= 0x80; }
+        let c359: u64 = if (self.q59) != 0 { (0x0) } else { (self.q50) };
+        let c360: u64 = if (self.q59) != 0 { (0x0) } else { (c358) };
+        let c361: u64 = !(self.q55) & 0x1;
+        let c362: u64 = (c320) & (self.q55) & 0x1;
+        let c363: u64 = if (c320) != 0 { (c361) } else { (0x1) };
+        let c364: u64 = (self.q1) & (c362) & 0x1;
+        let c365: u64 = if (self.q1) != 0 { (c363) } else { (0x1) };
+        let c366: u64 = (self.q1) & (c320) & 0x1;
+        let c367: u64 = if (self.q1) != 0 { (c320) } else { (c359) };
+        if self.v367 != c367 { self.v367 = c367; *dirty |= 0x80; }
+        let c368: u64 = if (self.q1) != 0 { (0x0) } else { (c360) };
+        let c369: u64 = u64::from((self.q56) == (0x7));
+        if self.v369 != c369 { self.v369 = c369; *dirty |= 0x88; }
+        let c370: u64 = (c333) & (c319) & 0x1;
+        let c371: u64 = !(c333) & 0x1;
+        let c372: u64 = if (self.q1) != 0 { (0x0) } else { (c371) };
+        let c373: u64 = if (self.q1) != 0 { (0x0) } else { (c370) };
+        let c374: u64 = (self.q50) & (c372) & 0x1;
+        let c375: u64 = (self.q50) & (c373) & 0x1;
+        let c376: u64 = if (c332) != 0 { (0x6) } else { (self.q56) };
+        if self.v376 != c376 { self.v376 = c376; *dirty |= 0x80; }
+        let c379: u64 = if (c344) != 0 { (c345 | 0x4) } else { (self.q56) };
         if self.v379 != c379 { self.v379 = c379; *dirty |= 0x80; }
-        let c380: u64 = if (c304) != 0 { (c375) } else { (c310) };
-        let c382: u64 = if (c340) != 0 { (0x3) } else { (self.q56) };
-        if self.v382 != c382 { self.v382 = c382; *dirty |= 0x80; }
-        let c384: u64 = (c378) & (c377) & 0x1;
-        let c387: u64 = (c378) & (c340) & 0x1;
-        let c390: u64 = u64::from((self.q56) == (0x5));
-        if self.v390 != c390 { self.v390 = c390; *dirty |= 0x8000000000090; }
-        let c391: u64 = u64::from((self.q56) == (0x4));
-        if self.v391 != c391 { self.v391 = c391; *dirty |= 0x8000000008490; }
-        let c386: u64 = { let s = (c391 | (c378 << 1)); if s >> 0 & 1 != 0 { self.q1 } else if s >> 1 & 1 != 0 { c380 } else { (0x0) } };
-        let c394: u64 = (c360) & (c357) & 0x1;
-        let c396: u64 = u64::from((self.q56) == (0x6));
-        if self.v396 != c396 { self.v396 = c396; *dirty |= 0x8000000000080; }
-        let c395: u64 = (c396) & (c367) & 0x1;
-        let c397: u64 = if (c360) != 0 { (c358) } else { (0x1) };
-        let c399: u64 = u64::from((self.q56) == (0x8));
-        if self.v399 != c399 { self.v399 = c399; *dirty |= 0x8000000000080; }
-        let c400: u64 = (c396) & (c368) & 0x1;
-        let c401: u64 = (c360) & (c362) & 0x1;
-        let c402: u64 = u64::from((self.q56) == (0x9));
-        if self.v402 != c402 { self.v402 = c402; *dirty |= 0x8000000000080; }
-        let c383: u64 = { let s = (c402 | (c378 << 1)); if s >> 0 & 1 != 0 { c346 } else if s >> 1 & 1 != 0 { c376 } else { (0x0) } };
-        let c392: u64 = (c402) & (c346) & 0x1;
-        let c393: u64 = (c402) & (c345) & 0x1;
-        let c398: u64 = { let s = (c402 | (c399 << 1) | (c360 << 2) | (c396 << 3)); if s >> 0 & 1 != 0 { c343 } else if s >> 1 & 1 != 0 { c349 } else if s >> 2 & 1 != 0 { c359 | (c359 << 1) } else if s >> 3 & 1 != 0 { c351 } else { (0x0) } };
-        let c403: u64 = (self.q45) & (c387) & 0x1;
-        if self.v403 != c403 { self.v403 = c403; *dirty |= 0x8000; }
-        let c404: u64 = (self.q45) & (c392) & 0x1;
-        if self.v404 != c404 { self.v404 = c404; *dirty |= 0x8000; }
-        let c405: u64 = (self.q45) & (c383) & 0x1;
-        if self.v405 != c405 { self.v405 = c405; *dirty |= 0x8000; }
-        let c406: u64 = (self.q45) & (c393) & 0x1;
-        if self.v406 != c406 { self.v406 = c406; *dirty |= 0x80000000000000000000; }
-        let c407: u64 = (self.q45) & (c394) & 0x1;
-        if self.v407 != c407 { self.v407 = c407; *dirty |= 0x8000; }
-        let c408: u64 = (self.q45) & (c395) & 0x1;
-        if self.v408 != c408 { self.v408 = c408; *dirty |= 0x8000; }
-        let c409: u64 = if (self.q45) != 0 { (c397) } else { (0x1) };
-        if self.v409 != c409 { self.v409 = c409; *dirty |= 0x8000; }
-        let c410: u64 = (self.q45) & (c384) & 0x1;
-        if self.v410 != c410 { self.v410 = c410; *dirty |= 0x8000; }
-        let c411: u64 = if (self.q45) != 0 { (c398) } else { (0x0) };
-        if self.v411 != c411 { self.v411 = c411; *dirty |= 0x8000; }
-        let c413: u64 = (self.q45) & (c396) & 0x1;
-        if self.v413 != c413 { self.v413 = c413; *dirty |= 0x8000; }
-        let c414: u64 = (self.q45) & (c400) & 0x1;
-        if self.v414 != c414 { self.v414 = c414; *dirty |= 0x8000; }
-        let c417: u64 = (self.q45) & (c401) & 0x1;
-        if self.v417 != c417 { self.v417 = c417; *dirty |= 0x8000; }
-        let c418: u64 = (self.q45) & (c386) & 0x1;
-        if self.v418 != c418 { self.v418 = c418; *dirty |= 0x8000; }
-        let c419: u64 = !(c309) & 0x1;
-        let c420: u64 = if (c304) != 0 { (c419) } else { (0x1) };
-        if self.v420 != c420 { self.v420 = c420; *dirty |= 0x8000; }
-        let c421: u64 = if (c304) != 0 { (c309) } else { (c325) };
-        if self.v421 != c421 { self.v421 = c421; *dirty |= 0x8000; }
-        let c422: u64 = ((c325) | (c304)) & 0x1;
-        if self.v422 != c422 { self.v422 = c422; *dirty |= 0x8000; }
+        let c381: u64 = (self.q59) & (c341) & 0x1;
+        let c382: u64 = if (self.q59) != 0 { (0x0) } else { (c317) };
+        let c383: u64 = (c311) & (c381) & 0x1;
+        if self.v383 != c383 { self.v383 = c383; *dirty |= 0x80; }
+        let c384: u64 = (c311) & (self.q59) & 0x1;
+        if self.v384 != c384 { self.v384 = c384; *dirty |= 0x80; }
+        let c385: u64 = (c311) & (c336) & 0x1;
+        if self.v385 != c385 { self.v385 = c385; *dirty |= 0x80; }
+        let c386: u64 = if (c311) != 0 { (c382) } else { (c317) };
+        if self.v386 != c386 { self.v386 = c386; *dirty |= 0x80; }
+        let c388: u64 = if (c346) != 0 { (0x3) } else { (self.q56) };
+        if self.v388 != c388 { self.v388 = c388; *dirty |= 0x80; }
+        let c392: u64 = u64::from((self.q56) == (0x9));
+        if self.v392 != c392 { self.v392 = c392; *dirty |= 0x88; }
+        let c397: u64 = u64::from((self.q56) == (0x4));
+        if self.v397 != c397 { self.v397 = c397; *dirty |= 0x2010488; }
+        let c398: u64 = u64::from((self.q56) == (0x3));
+        if self.v398 != c398 { self.v398 = c398; *dirty |= 0x2004a8; }
+        let c399: u64 = (c392) & (c351) & 0x1;
+        let c400: u64 = (c369) & (c364) & 0x1;
+        let c402: u64 = u64::from((self.q56) == (0x6));
+        if self.v402 != c402 { self.v402 = c402; *dirty |= 0x88; }
+        let c401: u64 = (c402) & (c374) & 0x1;
+        let c403: u64 = if (c369) != 0 { (c365) } else { (0x1) };
+        let c404: u64 = { let s = (c392 | (c357 << 1) | (c369 << 2) | (c402 << 3)); if s >> 0 & 1 != 0 { c349 } else if s >> 1 & 1 != 0 { c355 } else if s >> 2 & 1 != 0 { c366 | (c366 << 1) } else if s >> 3 & 1 != 0 { c358 } else { (0x0) } };
+        let c405: u64 = (c402) & (c375) & 0x1;
+        let c406: u64 = (c369) & (c368) & 0x1;
+        let c407: u64 = (c392) & (c352) & 0x1;
+        let c409: u64 = (self.q45) & (c407) & 0x1;
+        if self.v409 != c409 { self.v409 = c409; *dirty |= 0x10000; }
+        let c411: u64 = (self.q45) & (c399) & 0x1;
+        if self.v411 != c411 { self.v411 = c411; *dirty |= 0x100000000000000000000; }
+        let c412: u64 = (self.q45) & (c400) & 0x1;
+        if self.v412 != c412 { self.v412 = c412; *dirty |= 0x10000; }
+        let c413: u64 = (self.q45) & (c401) & 0x1;
+        if self.v413 != c413 { self.v413 = c413; *dirty |= 0x10000; }
+        let c414: u64 = if (self.q45) != 0 { (c403) } else { (0x1) };
+        if self.v414 != c414 { self.v414 = c414; *dirty |= 0x10000; }
+        let c416: u64 = if (self.q45) != 0 { (c404) } else { (0x0) };
+        if self.v416 != c416 { self.v416 = c416; *dirty |= 0x10000; }
+        let c418: u64 = (self.q45) & (c402) & 0x1;
+        if self.v418 != c418 { self.v418 = c418; *dirty |= 0x10000; }
+        let c419: u64 = (self.q45) & (c405) & 0x1;
+        if self.v419 != c419 { self.v419 = c419; *dirty |= 0x10000; }
+        let c422: u64 = (self.q45) & (c406) & 0x1;
+        if self.v422 != c422 { self.v422 = c422; *dirty |= 0x10000; }
+        let c427: u64 = ((c331) | (c311)) & 0x1;
+        if self.v427 != c427 { self.v427 = c427; *dirty |= 0x10000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe.
     fn group_1(&mut self, dirty: &mut u128) {
-        let c439: u64 = (self.q11).wrapping_add((0x1)) & 0x7;
-        if self.v439 != c439 { self.v439 = c439; *dirty |= 0x1000; }
-        let c440: u64 = (self.i_transmit_request) & (self.v328) & 0x1;
-        let c450: u64 = (self.q1) & (self.q55) & 0x1;
-        if self.v450 != c450 { self.v450 = c450; *dirty |= 0x10000; }
-        let c452: u64 = (self.v351) & (self.q13) & 0x1;
-        if self.v452 != c452 { self.v452 = c452; *dirty |= 0x10000; }
-        let c453: u64 = (self.q50) & (self.v328) & 0x1;
-        if self.v453 != c453 { self.v453 = c453; *dirty |= 0x10080; }
-        let c454: u64 = (self.q10) & (self.q12) & 0x1;
-        let c455: u64 = (c454) & (self.v332) & 0x1;
-        let c456: u64 = (self.q50) & (self.i_enable) & 0x1;
-        if self.v456 != c456 { self.v456 = c456; *dirty |= 0x11000; }
-        let c462: u64 = u64::from((self.q11) == (0x7));
-        let c463: u64 = u64::from((self.q23) == (0x7));
-        if self.v463 != c463 { self.v463 = c463; *dirty |= 0x10000; }
-        let c465: u64 = u64::from((self.q50) != (self.q9));
-        if self.v465 != c465 { self.v465 = c465; *dirty |= 0x1000; }
-        let c466: u64 = !(self.q38) & 0x1;
-        let c441: u64 = (c440) & (c466) & 0x1;
-        let c442: u64 = (c441) & (self.i_enable) & 0x1;
-        if self.v442 != c442 { self.v442 = c442; *dirty |= 0x1000; }
-        let c467: u64 = !(self.q20) & 0x1;
-        if self.v467 != c467 { self.v467 = c467; *dirty |= 0x1000; }
-        let c468: u64 = !(c450) & 0x1;
-        if self.v468 != c468 { self.v468 = c468; *dirty |= 0x1000; }
-        let c469: u64 = ((self.q55) | (self.i_listen_only)) & 0x1;
-        if self.v469 != c469 { self.v469 = c469; *dirty |= 0x30000; }
-        let c499: u64 = if (c462) != 0 { (self.v332) } else { (c455) };
-        let c500: u64 = (c462) & (self.q1) & 0x1;
-        let c501: u64 = if (self.q50) != 0 { (0x0) } else { (c500) };
-        if self.v501 != c501 { self.v501 = c501; *dirty |= 0x1000; }
-        let c502: u64 = if (self.q50) != 0 { (0x0) } else { (c499) };
-        if self.v502 != c502 { self.v502 = c502; *dirty |= 0x1000; }
-        let c510: u64 = if (self.v331) != 0 { (0x0) } else { (self.q12) };
-        let c514: u64 = if (c453) != 0 { (self.q12) } else { (c510) };
-        let c520: u64 = if (self.q50) != 0 { (0x0) } else { (self.v331) };
-        if self.v520 != c520 { self.v520 = c520; *dirty |= 0x1000; }
-        let c522: u64 = (self.q50) & (self.v332) & 0x1;
-        let c523: u64 = (self.q50) & (self.q1) & 0x1;
-        let c524: u64 = (self.q50) & (c469) & 0x1;
-        let c529: u64 = if (self.q8) != 0 { (c452) } else { (c523) };
-        if self.v529 != c529 { self.v529 = c529; *dirty |= 0x1000; }
-        let c532: u64 = ((c524) | (self.q8)) & 0x1;
-        if self.v532 != c532 { self.v532 = c532; *dirty |= 0x10000; }
-        let c533: u64 = if (self.q8) != 0 { (0x0) } else { (self.q50) };
-        let c534: u64 = if (self.q8) != 0 { (0x0) } else { (c522) };
+        let c444: u64 = (self.q11).wrapping_add((0x1)) & 0x7;
+        let c445: u64 = (self.i_transmit_request) & (self.v334) & 0x1;
+        let c455: u64 = (self.q1) & (self.q55) & 0x1;
+        if self.v455 != c455 { self.v455 = c455; *dirty |= 0x20000; }
+        let c457: u64 = (self.v358) & (self.q13) & 0x1;
+        if self.v457 != c457 { self.v457 = c457; *dirty |= 0x20000; }
+        let c458: u64 = (self.q50) & (self.v334) & 0x1;
+        if self.v458 != c458 { self.v458 = c458; *dirty |= 0x20080; }
+        let c459: u64 = (self.q10) & (self.q12) & 0x1;
+        let c460: u64 = (c459) & (self.v338) & 0x1;
+        let c461: u64 = (self.q50) & (self.i_enable) & 0x1;
+        if self.v461 != c461 { self.v461 = c461; *dirty |= 0x21000; }
+        let c467: u64 = u64::from((self.q11) == (0x7));
+        let c468: u64 = u64::from((self.q23) == (0x7));
+        if self.v468 != c468 { self.v468 = c468; *dirty |= 0x20000; }
+        let c470: u64 = u64::from((self.q50) != (self.q9));
+        if self.v470 != c470 { self.v470 = c470; *dirty |= 0x1000; }
+        let c471: u64 = !(self.q38) & 0x1;
+        let c446: u64 = (c445) & (c471) & 0x1;
+        let c447: u64 = (c446) & (self.i_enable) & 0x1;
+        if self.v447 != c447 { self.v447 = c447; *dirty |= 0x1000; }
+        let c472: u64 = !(self.q20) & 0x1;
+        if self.v472 != c472 { self.v472 = c472; *dirty |= 0x1000; }
+        let c473: u64 = !(c455) & 0x1;
+        if self.v473 != c473 { self.v473 = c473; *dirty |= 0x1000; }
+        let c474: u64 = ((self.q55) | (self.i_listen_only)) & 0x1;
+        if self.v474 != c474 { self.v474 = c474; *dirty |= 0x28000; }
+        let c504: u64 = if (c467) != 0 { (self.v338) } else { (c460) };
+        let c505: u64 = (c467) & (self.q1) & 0x1;
+        let c506: u64 = if (self.q50) != 0 { (0x0) } else { (c505) };
+        if self.v506 != c506 { self.v506 = c506; *dirty |= 0x1000; }
+        let c507: u64 = if (self.q50) != 0 { (0x0) } else { (c504) };
+        if self.v507 != c507 { self.v507 = c507; *dirty |= 0x1000; }
+        let c515: u64 = if (self.v337) != 0 { (0x0) } else { (self.q12) };
+        let c519: u64 = if (c458) != 0 { (self.q12) } else { (c515) };
+        let c525: u64 = if (self.q50) != 0 { (0x0) } else { (self.v337) };
+        if self.v525 != c525 { self.v525 = c525; *dirty |= 0x1000; }
+        let c527: u64 = (self.q50) & (self.v338) & 0x1;
+        let c528: u64 = (self.q50) & (self.q1) & 0x1;
+        let c529: u64 = (self.q50) & (c474) & 0x1;
+        let c534: u64 = if (self.q8) != 0 { (c457) } else { (c528) };
         if self.v534 != c534 { self.v534 = c534; *dirty |= 0x1000; }
-        let c558: u64 = u64::from((self.q56) == 0);
-        if self.v558 != c558 { self.v558 = c558; *dirty |= 0x10020; }
-        let c565: u64 = u64::from((self.q56) == (0xd));
-        if self.v565 != c565 { self.v565 = c565; *dirty |= 0x8000000018090; }
-        let c5: u64 = u64::from((c453 | (c565 << 1)) != (0x3));
+        let c537: u64 = ((c529) | (self.q8)) & 0x1;
+        if self.v537 != c537 { self.v537 = c537; *dirty |= 0x20000; }
+        let c538: u64 = if (self.q8) != 0 { (0x0) } else { (self.q50) };
+        let c539: u64 = if (self.q8) != 0 { (0x0) } else { (c527) };
+        if self.v539 != c539 { self.v539 = c539; *dirty |= 0x1000; }
+        let c569: u64 = u64::from((self.q56) == (0xd));
+        if self.v569 != c569 { self.v569 = c569; *dirty |= 0x30088; }
+        let c5: u64 = u64::from((c458 | (c569 << 1)) != (0x3));
         if self.v5 != c5 { self.v5 = c5; *dirty |= 0x4000; }
-        let c562: u64 = if (c565) != 0 { (c514) } else { (self.q12) };
-        if self.v562 != c562 { self.v562 = c562; *dirty |= 0x4000; }
-        let c568: u64 = u64::from((self.q56) == (0xa));
-        if self.v568 != c568 { self.v568 = c568; *dirty |= 0x8000000010020; }
-        let c569: u64 = u64::from((self.q56) == (0xb));
-        if self.v569 != c569 { self.v569 = c569; *dirty |= 0x10020; }
-        let c571: u64 = u64::from((self.q56) == (0xf));
-        if self.v571 != c571 { self.v571 = c571; *dirty |= 0x11020; }
-        let c574: u64 = u64::from((self.q56) == (0xc));
-        if self.v574 != c574 { self.v574 = c574; *dirty |= 0x8000000033010; }
-        let c566: u64 = (c574) & (c533) & 0x1;
+        let c566: u64 = if (c569) != 0 { (c519) } else { (self.q12) };
         if self.v566 != c566 { self.v566 = c566; *dirty |= 0x4000; }
+        let c572: u64 = u64::from((self.q56) == (0xa));
+        if self.v572 != c572 { self.v572 = c572; *dirty |= 0x20028; }
+        let c573: u64 = u64::from((self.q56) == (0xb));
+        if self.v573 != c573 { self.v573 = c573; *dirty |= 0x20020; }
+        let c574: u64 = u64::from((self.q56) == (0x1));
+        if self.v574 != c574 { self.v574 = c574; *dirty |= 0x20020; }
+        let c59: u64 = u64::from((c573 | (c574 << 1)) != 0);
+        if self.v59 != c59 { self.v59 = c59; *dirty |= 0x8; }
+        let c576: u64 = u64::from((self.q56) == (0xf));
+        if self.v576 != c576 { self.v576 = c576; *dirty |= 0x21020; }
+        let c579: u64 = u64::from((self.q56) == (0xe));
+        if self.v579 != c579 { self.v579 = c579; *dirty |= 0x21008; }
+        let c564: u64 = if (c579) != 0 { (c444) } else { (0x0) };
+        if self.v564 != c564 { self.v564 = c564; *dirty |= 0x100000000000000000; }
+        let c580: u64 = u64::from((self.q56) == (0xc));
+        if self.v580 != c580 { self.v580 = c580; *dirty |= 0x2b008; }
+        let c7: u64 = u64::from((c579 | (c580 << 1) | (c569 << 2)) != 0);
+        if self.v7 != c7 { self.v7 = c7; *dirty |= 0x4000; }
+        let c570: u64 = (c580) & (c538) & 0x1;
+        if self.v570 != c570 { self.v570 = c570; *dirty |= 0x4000; }
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing.
     fn group_2(&mut self, dirty: &mut u128) {
-        let c58: u64 = !(self.i_sjw) & 0x3;
-        let c59: u64 = !(self.q41) & 0x7;
-        let c64: u64 = (self.i_sjw).wrapping_add((0x1)) & 0x7;
-        if self.v64 != c64 { self.v64 = c64; *dirty |= 0x2000000000; }
-        let c65: u64 = (self.q47 | (self.q48 << 1)).wrapping_add((0x1)) & 0x7f;
-        if self.v65 != c65 { self.v65 = c65; *dirty |= 0x200000; }
-        let c67: u64 = (self.q46).wrapping_add((0x1)) & 0x7;
-        if self.v67 != c67 { self.v67 = c67; *dirty |= 0x10000000; }
-        let c84: u64 = u64::from((self.q44) == 0);
-        let c85: u64 = u64::from((self.q44) == (self.q41));
-        let c86: u64 = u64::from((self.q42) == (0x1));
+        let c57: u64 = !(self.i_sjw) & 0x3;
+        let c58: u64 = !(self.q41) & 0x7;
+        let c63: u64 = (self.i_sjw).wrapping_add((0x1)) & 0x7;
+        if self.v63 != c63 { self.v63 = c63; *dirty |= 0x8000000000; }
+        let c64: u64 = (self.q47 | (self.q48 << 1)).wrapping_add((0x1)) & 0x7f;
+        if self.v64 != c64 { self.v64 = c64; *dirty |= 0x400000; }
+        let c66: u64 = (self.q46).wrapping_add((0x1)) & 0x7;
+        if self.v66 != c66 { self.v66 = c66; *dirty |= 0x40000000; }
+        let c83: u64 = u64::from((self.q44) == 0);
+        let c84: u64 = u64::from((self.q44) == (self.q41));
+        let c85: u64 = u64::from((self.q42) == (0x1));
+        if self.v85 != c85 { self.v85 = c85; *dirty |= 0x200; }
+        let c86: u64 = u64::from((self.q42) == 0);
         if self.v86 != c86 { self.v86 = c86; *dirty |= 0x200; }
-        let c87: u64 = u64::from((self.q42) == 0);
-        if self.v87 != c87 { self.v87 = c87; *dirty |= 0x200; }
-        let c88: u64 = u64::from((self.q47 | (self.q48 << 1)) == 0);
-        let c80: u64 = (c87) & (c88) & 0x1;
-        if self.v80 != c80 { self.v80 = c80; *dirty |= 0x200; }
-        let c89: u64 = u64::from((self.q47 | (self.q48 << 1)) >= ((self.i_brp << 1) | 0x1));
-        if self.v89 != c89 { self.v89 = c89; *dirty |= 0x200; }
-        let c70: u64 = (c89) & (c84) & 0x1;
-        if self.v70 != c70 { self.v70 = c70; *dirty |= 0x200; }
-        let c72: u64 = (c89) & (c85) & 0x1;
-        if self.v72 != c72 { self.v72 = c72; *dirty |= 0x200; }
-        let c74: u64 = (c86) & (c89) & 0x1;
-        let c75: u64 = (c74) & (c84) & 0x1;
-        if self.v75 != c75 { self.v75 = c75; *dirty |= 0x200; }
-        let c90: u64 = u64::from((self.q46) <= (self.i_sjw));
-        let c91: u64 = u64::from((self.q44) <= (self.i_sjw));
-        let c92: u64 = u64::from((self.q46) != (0x4));
-        let c38: u64 = u64::from((c92 | (c89 << 1)) == 0x3);
-        if self.v38 != c38 { self.v38 = c38; *dirty |= 0x10000000; }
-        let c93: u64 = !(self.q40) & 0x1;
-        if self.v93 != c93 { self.v93 = c93; *dirty |= 0x200; }
-        let c98: u64 = !(self.i_reset) & 0x1;
+        let c87: u64 = u64::from((self.q47 | (self.q48 << 1)) == 0);
+        let c79: u64 = (c86) & (c87) & 0x1;
+        if self.v79 != c79 { self.v79 = c79; *dirty |= 0x200; }
+        let c88: u64 = u64::from((self.q47 | (self.q48 << 1)) >= ((self.i_brp << 1) | 0x1));
+        if self.v88 != c88 { self.v88 = c88; *dirty |= 0x200; }
+        let c69: u64 = (c88) & (c83) & 0x1;
+        if self.v69 != c69 { self.v69 = c69; *dirty |= 0x200; }
+        let c71: u64 = (c88) & (c84) & 0x1;
+        if self.v71 != c71 { self.v71 = c71; *dirty |= 0x200; }
+        let c73: u64 = (c85) & (c88) & 0x1;
+        let c74: u64 = (c73) & (c83) & 0x1;
+        if self.v74 != c74 { self.v74 = c74; *dirty |= 0x200; }
+        let c89: u64 = u64::from((self.q46) <= (self.i_sjw));
+        let c90: u64 = u64::from((self.q44) <= (self.i_sjw));
+        let c91: u64 = u64::from((self.q46) != (0x4));
+        let c38: u64 = u64::from((c91 | (c88 << 1)) == 0x3);
+        if self.v38 != c38 { self.v38 = c38; *dirty |= 0x40000000; }
+        let c92: u64 = !(self.q40) & 0x1;
+        if self.v92 != c92 { self.v92 = c92; *dirty |= 0x200; }
+        let c97: u64 = !(self.i_reset) & 0x1;
+        if self.v97 != c97 { self.v97 = c97; *dirty |= 0x200; }
+        let c98: u64 = !(self.q45) & 0x1;
         if self.v98 != c98 { self.v98 = c98; *dirty |= 0x200; }
-        let c99: u64 = !(self.q45) & 0x1;
-        if self.v99 != c99 { self.v99 = c99; *dirty |= 0x200; }
-        let c117: u64 = u64::from((self.q42) == (0x2));
-        if self.v117 != c117 { self.v117 = c117; *dirty |= 0x200; }
-        let c17: u64 = u64::from((c117 | (c86 << 1) | (c87 << 2)) != 0);
+        let c116: u64 = u64::from((self.q42) == (0x2));
+        if self.v116 != c116 { self.v116 = c116; *dirty |= 0x200; }
+        let c17: u64 = u64::from((c116 | (c85 << 1) | (c86 << 2)) != 0);
         if self.v17 != c17 { self.v17 = c17; *dirty |= 0x200; }
-        let c118: u64 = { let s = (c117 | (c86 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
-        if self.v118 != c118 { self.v118 = c118; *dirty |= 0x1000000000; }
-        let c120: u64 = if (c89) != 0 { (0x0) } else { ((c65 & 0x1)) };
+        let c117: u64 = { let s = (c116 | (c85 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
+        if self.v117 != c117 { self.v117 = c117; *dirty |= 0x4000000000; }
+        let c119: u64 = if (c88) != 0 { (0x0) } else { ((c64 & 0x1)) };
+        if self.v119 != c119 { self.v119 = c119; *dirty |= 0x200; }
+        let c120: u64 = if (c88) != 0 { (c58) } else { (c57 | 0x4) };
         if self.v120 != c120 { self.v120 = c120; *dirty |= 0x200; }
-        let c121: u64 = if (c89) != 0 { (c59) } else { (c58 | 0x4) };
-        if self.v121 != c121 { self.v121 = c121; *dirty |= 0x200; }
-        let c123: u64 = if (c89) != 0 { (self.i_sjw) } else { (self.q41) };
-        if self.v123 != c123 { self.v123 = c123; *dirty |= 0x200; }
-        let c126: u64 = !(c91) & 0x1;
-        let c127: u64 = !(c90) & 0x1;
-        let c128: u64 = (self.q59) & (c127) & 0x1;
-        let c129: u64 = (self.q59) & (c90) & 0x1;
-        let c130: u64 = (c117) & (c126) & 0x1;
+        let c122: u64 = if (c88) != 0 { (self.i_sjw) } else { (self.q41) };
+        if self.v122 != c122 { self.v122 = c122; *dirty |= 0x200; }
+        let c125: u64 = !(c90) & 0x1;
+        let c126: u64 = !(c89) & 0x1;
+        let c127: u64 = (self.q59) & (c126) & 0x1;
+        let c128: u64 = (self.q59) & (c89) & 0x1;
+        let c129: u64 = (c116) & (c125) & 0x1;
+        if self.v129 != c129 { self.v129 = c129; *dirty |= 0x200; }
+        let c130: u64 = (c85) & (c127) & 0x1;
         if self.v130 != c130 { self.v130 = c130; *dirty |= 0x200; }
-        let c131: u64 = (c86) & (c128) & 0x1;
+        let c131: u64 = (c116) & (c90) & 0x1;
         if self.v131 != c131 { self.v131 = c131; *dirty |= 0x200; }
-        let c132: u64 = (c117) & (c91) & 0x1;
+        let c132: u64 = (c85) & (c128) & 0x1;
         if self.v132 != c132 { self.v132 = c132; *dirty |= 0x200; }
-        let c133: u64 = (c86) & (c129) & 0x1;
-        if self.v133 != c133 { self.v133 = c133; *dirty |= 0x200; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$protocol$faults.
-    fn group_3(&mut self, dirty: &mut u128) {
-        let c248: u64 = (self.q16 | (self.q14 << 4)).wrapping_add((0x1)) & 0x1f;
-        let c249: u64 = (self.q17 | (self.q18 << 7)).wrapping_add((0x1)) & 0xff;
-        if self.v249 != c249 { self.v249 = c249; *dirty |= 0x80000; }
-        let c250: u64 = ((self.q17 >> 3) | (self.q18 << 4)).wrapping_add((0x1)) & 0x1f;
-        let c255: u64 = u64::from((self.q15 | (self.q16 << 3) | (self.q14 << 7)) == 0);
-        if self.v255 != c255 { self.v255 = c255; *dirty |= 0x80000; }
-        let c256: u64 = u64::from((self.q16 | (self.q14 << 4)) == (0x1f));
-        if self.v256 != c256 { self.v256 = c256; *dirty |= 0x400000; }
-        let c257: u64 = u64::from(((self.q17 >> 3) | (self.q18 << 4)) == (0x1f));
-        let c258: u64 = u64::from((self.i_counters_value) == (0xff));
-        if self.v258 != c258 { self.v258 = c258; *dirty |= 0x80000; }
-        let c259: u64 = !(self.q54) & 0x1;
-        if self.v259 != c259 { self.v259 = c259; *dirty |= 0x1020; }
-        let c253: u64 = (self.i_counters_load_rec) & (c259) & 0x1;
-        if self.v253 != c253 { self.v253 = c253; *dirty |= 0x80000; }
-        let c260: u64 = u64::from((self.q15 | (self.q16 << 3) | (self.q14 << 7)) != 0);
-        if self.v260 != c260 { self.v260 = c260; *dirty |= 0x80000; }
-        let c261: u64 = u64::from((self.q17 | (self.q18 << 7)) != (0xff));
-        if self.v261 != c261 { self.v261 = c261; *dirty |= 0x80000; }
-        let c262: u64 = u64::from((self.q17 | (self.q18 << 7)) != 0);
-        if self.v262 != c262 { self.v262 = c262; *dirty |= 0x80000; }
-        let c272: u64 = if (c258) != 0 { (0x7f) } else { (self.i_counters_value) };
-        if self.v272 != c272 { self.v272 = c272; *dirty |= 0x80000; }
-        let c280: u64 = if (c257) != 0 { (0xff) } else { ((self.q17 & 0x7) | (c250 << 3)) };
-        if self.v280 != c280 { self.v280 = c280; *dirty |= 0x80000; }
-        let c284: u64 = if (c256) != 0 { (0x0) } else { (self.q17 | (self.q18 << 7)) };
-        if self.v284 != c284 { self.v284 = c284; *dirty |= 0x80000; }
-        let c285: u64 = if (c256) != 0 { (0x1f) } else { ((c248 << 1)) };
-        if self.v285 != c285 { self.v285 = c285; *dirty |= 0x80000; }
-        let c286: u64 = ((self.q54) | (c256)) & 0x1;
-        if self.v286 != c286 { self.v286 = c286; *dirty |= 0x80000; }
-        let c293: u64 = if (c255) != 0 { (0x0) } else { (self.q17 | (self.q18 << 7)) };
-        if self.v293 != c293 { self.v293 = c293; *dirty |= 0x80000; }
-        let c294: u64 = !(c255) & 0x1;
-        if self.v294 != c294 { self.v294 = c294; *dirty |= 0x80000; }
-        let c302: u64 = (self.q15 | (self.q16 << 3) | (self.q14 << 7)).wrapping_sub((0x1)) & 0xff;
-        if self.v302 != c302 { self.v302 = c302; *dirty |= 0x80000; }
-        let c295: u64 = if (c255) != 0 { ((self.q14 << 7)) } else { (c302) };
-        if self.v295 != c295 { self.v295 = c295; *dirty |= 0x80000; }
-        let c303: u64 = (self.q17 | (self.q18 << 7)).wrapping_sub((0x1)) & 0xff;
-        if self.v303 != c303 { self.v303 = c303; *dirty |= 0x80000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$capture.
-    fn group_4(&mut self, dirty: &mut u128) {
-        let c51: u64 = u64::from(((self.q23 >> 3)) == 0);
-        let c224: u64 = u64::from((self.q23) == 0);
-        if self.v224 != c224 { self.v224 = c224; *dirty |= 0x11000; }
-        let c225: u64 = u64::from((self.q23) == (0x1));
-        if self.v225 != c225 { self.v225 = c225; *dirty |= 0x400; }
-        let c226: u64 = u64::from((self.q23) < (0x1f));
-        let c227: u64 = u64::from((self.q23) < (0x1a));
-        let c228: u64 = u64::from((self.q23) < (0x12));
-        let c229: u64 = u64::from((self.q23) < (0xd));
-        let c230: u64 = u64::from((self.q23) < (0xc));
-        let c231: u64 = u64::from((self.q23) < (0xb));
-        let c232: u64 = !(c224) & 0x1;
-        if self.v232 != c232 { self.v232 = c232; *dirty |= 0x8000000000000; }
-        let c233: u64 = u64::from((self.q56) == (0xe));
-        if self.v233 != c233 { self.v233 = c233; *dirty |= 0x8000000011000; }
-        let c6: u64 = u64::from((c224 | (c233 << 1)) != (0x2));
+    fn group_3(&mut self, dirty: &mut u128) {
+        let c224: u64 = u64::from((((self.q23 >> 3) & 0x3)) == (0x1));
+        let c225: u64 = u64::from(((self.q23 & 0x7)) == (0x4));
+        let c226: u64 = u64::from(((self.q23 & 0x7)) == (0x3));
+        let c227: u64 = !(((self.q23 >> 2) & 0x1)) & 0x1;
+        let c228: u64 = u64::from((((self.q23 >> 3) & 0x3)) == (0x2));
+        let c229: u64 = u64::from((((self.q23 >> 1) & 0x3)) == 0);
+        let c230: u64 = u64::from((((self.q23 >> 3) & 0x3)) == (0x3));
+        let c231: u64 = u64::from(((self.q23 & 0x7)) == (0x7));
+        if self.v231 != c231 { self.v231 = c231; *dirty |= 0x2000480; }
+        let c232: u64 = u64::from((self.q23) == 0);
+        if self.v232 != c232 { self.v232 = c232; *dirty |= 0x21000; }
+        let c6: u64 = u64::from((c232 | (self.v579 << 1)) != (0x2));
         if self.v6 != c6 { self.v6 = c6; *dirty |= 0x4000; }
-        let c7: u64 = u64::from((c233 | (self.v574 << 1) | (self.v565 << 2)) != 0);
-        if self.v7 != c7 { self.v7 = c7; *dirty |= 0x4000; }
-        let c8: u64 = u64::from((self.q50 | (c224 << 1) | (c233 << 2)) != (0x7));
+        let c8: u64 = u64::from((self.q50 | (c232 << 1) | (self.v579 << 2)) != (0x7));
         if self.v8 != c8 { self.v8 = c8; *dirty |= 0x4000; }
-        let c234: u64 = if (self.q8) != 0 { (0x2) } else { (0x1) };
-        if self.v234 != c234 { self.v234 = c234; *dirty |= 0x8000000000000; }
-        let c236: u64 = u64::from((self.q56) == (0x3));
-        if self.v236 != c236 { self.v236 = c236; *dirty |= 0x80000001004a0; }
-        let c61: u64 = u64::from((self.v390 | (self.v391 << 1) | (c236 << 2)) != 0);
+        let c233: u64 = u64::from((self.q23) == (0x1));
+        if self.v233 != c233 { self.v233 = c233; *dirty |= 0x400; }
+        let c234: u64 = u64::from(((self.q23 & 0x7)) != (0x3));
+        let c223: u64 = (c227) & (c234) & 0x1;
+        let c235: u64 = u64::from(((self.q23 >> 5)) != 0);
+        let c236: u64 = !(c232) & 0x1;
+        let c237: u64 = if (self.q8) != 0 { (0x2) } else { (0x1) };
+        let c239: u64 = if (c232) != 0 { (0x2) } else { (0x1) };
+        let c238: u64 = if (c233) != 0 { (0x0) } else { (c239) };
+        let c240: u64 = if (self.q30) != 0 { (c238) } else { (c236) };
+        let c242: u64 = u64::from((self.q56) == (0x2));
+        if self.v242 != c242 { self.v242 = c242; *dirty |= 0x2010080; }
+        let c243: u64 = if (c231) != 0 { (0x0) } else { (c229 | 0x2) };
+        let c245: u64 = !(c229) & 0x1;
+        let c249: u64 = !(c225) & 0x1;
+        let c248: u64 = if (c226) != 0 { (0x0) } else { ((c249 << 1) | 0x1) };
+        let c247: u64 = if (c223) != 0 { (0x2) } else { (c248) };
+        let c250: u64 = if (c224) != 0 { (c247 | 0x4) } else { (0x2) };
+        let c246: u64 = if (c228) != 0 { ((c245 << 3) | 0x7) } else { (c250) };
+        let c244: u64 = if (c230) != 0 { (c243 | 0xc) } else { (c246) };
+        let c241: u64 = if (c235) != 0 { (0xc) } else { (c244) };
+        let c252: u64 = u64::from((self.q56) == (0x5));
+        if self.v252 != c252 { self.v252 = c252; *dirty |= 0x80; }
+        let c60: u64 = u64::from((c252 | (self.v397 << 1) | (self.v398 << 2)) != 0);
+        if self.v60 != c60 { self.v60 = c60; *dirty |= 0x80; }
+        let c61: u64 = u64::from((c252 | (c242 << 1) | (self.v397 << 2) | (self.v398 << 3)) != 0);
         if self.v61 != c61 { self.v61 = c61; *dirty |= 0x80; }
-        let c62: u64 = u64::from((self.v390 | (self.v378 << 1) | (self.v391 << 2) | (c236 << 3)) != 0);
-        if self.v62 != c62 { self.v62 = c62; *dirty |= 0x80; }
-        let c237: u64 = if (c224) != 0 { (0x2) } else { (0x1) };
-        let c235: u64 = if (c225) != 0 { (0x0) } else { (c237) };
-        let c238: u64 = if (self.q30) != 0 { (c235) } else { (c232) };
-        if self.v238 != c238 { self.v238 = c238; *dirty |= 0x8000000000000; }
-        let c244: u64 = if (c227) != 0 { (0x3) } else { ((c226 << 1)) };
-        let c243: u64 = if (c228) != 0 { (0x3) } else { (c244 | 0x4) };
-        let c242: u64 = if (c229) != 0 { (0x1) } else { (c243) };
-        let c241: u64 = if (c230) != 0 { (0x0) } else { (c242) };
-        let c240: u64 = if (c231) != 0 { (0x2) } else { (c241) };
-        let c239: u64 = if (c51) != 0 { (0x2) } else { ((c240 & 0x3) | ((c240 >> 2) << 3) | 0x4) };
-        if self.v239 != c239 { self.v239 = c239; *dirty |= 0x8000000000000; }
+        let c251: u64 = { let s = (self.v579 | (self.v569 << 1) | (self.v580 << 2) | (self.v572 << 3) | (self.v392 << 4) | (self.v357 << 5) | (self.v369 << 6) | (self.v402 << 7) | (c252 << 8) | (self.v397 << 9) | (self.v398 << 10) | (c242 << 11) | (self.v59 << 12)); if s >> 0 & 1 != 0 { (c236 << 2) | 0x13 } else if s >> 1 & 1 != 0 { 0x1c } else if s >> 2 & 1 != 0 { c237 | ((c237 >> 1) << 2) | 0x10 } else if s >> 3 & 1 != 0 { 0x12 } else if s >> 4 & 1 != 0 { 0x1a } else if s >> 5 & 1 != 0 { 0x1b } else if s >> 6 & 1 != 0 { 0x19 } else if s >> 7 & 1 != 0 { 0x18 } else if s >> 8 & 1 != 0 { 0x8 } else if s >> 9 & 1 != 0 { 0xa } else if s >> 10 & 1 != 0 { (c240 << 1) | 0x9 } else if s >> 11 & 1 != 0 { c241 } else if s >> 12 & 1 != 0 { 0x3 } else { (0x0) } };
+        if self.v251 != c251 { self.v251 = c251; *dirty |= 0x40000000000000; }
+        let c253: u64 = u64::from((self.q56) == 0);
+        if self.v253 != c253 { self.v253 = c253; *dirty |= 0x20020; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$protocol$faults.
+    fn group_4(&mut self, dirty: &mut u128) {
+        let c256: u64 = (self.q16 | (self.q14 << 4)).wrapping_add((0x1)) & 0x1f;
+        let c257: u64 = (self.q17 | (self.q18 << 7)).wrapping_add((0x1)) & 0xff;
+        if self.v257 != c257 { self.v257 = c257; *dirty |= 0x100000; }
+        let c258: u64 = ((self.q17 >> 3) | (self.q18 << 4)).wrapping_add((0x1)) & 0x1f;
+        let c263: u64 = u64::from((self.q15 | (self.q16 << 3) | (self.q14 << 7)) == 0);
+        if self.v263 != c263 { self.v263 = c263; *dirty |= 0x100000; }
+        let c264: u64 = u64::from((self.q16 | (self.q14 << 4)) == (0x1f));
+        if self.v264 != c264 { self.v264 = c264; *dirty |= 0x800000; }
+        let c265: u64 = u64::from(((self.q17 >> 3) | (self.q18 << 4)) == (0x1f));
+        let c266: u64 = u64::from((self.i_counters_value) == (0xff));
+        if self.v266 != c266 { self.v266 = c266; *dirty |= 0x100000; }
+        let c267: u64 = u64::from((self.q15 | (self.q16 << 3) | (self.q14 << 7)) != 0);
+        if self.v267 != c267 { self.v267 = c267; *dirty |= 0x100000; }
+        let c268: u64 = u64::from((self.q17 | (self.q18 << 7)) != (0xff));
+        if self.v268 != c268 { self.v268 = c268; *dirty |= 0x100000; }
+        let c269: u64 = u64::from((self.q17 | (self.q18 << 7)) != 0);
+        if self.v269 != c269 { self.v269 = c269; *dirty |= 0x100000; }
+        let c279: u64 = if (c266) != 0 { (0x7f) } else { (self.i_counters_value) };
+        if self.v279 != c279 { self.v279 = c279; *dirty |= 0x100000; }
+        let c287: u64 = if (c265) != 0 { (0xff) } else { ((self.q17 & 0x7) | (c258 << 3)) };
+        if self.v287 != c287 { self.v287 = c287; *dirty |= 0x100000; }
+        let c291: u64 = if (c264) != 0 { (0x0) } else { (self.q17 | (self.q18 << 7)) };
+        if self.v291 != c291 { self.v291 = c291; *dirty |= 0x100000; }
+        let c292: u64 = if (c264) != 0 { (0x1f) } else { ((c256 << 1)) };
+        if self.v292 != c292 { self.v292 = c292; *dirty |= 0x100000; }
+        let c293: u64 = ((self.q54) | (c264)) & 0x1;
+        if self.v293 != c293 { self.v293 = c293; *dirty |= 0x100000; }
+        let c300: u64 = if (c263) != 0 { (0x0) } else { (self.q17 | (self.q18 << 7)) };
+        if self.v300 != c300 { self.v300 = c300; *dirty |= 0x100000; }
+        let c301: u64 = !(c263) & 0x1;
+        if self.v301 != c301 { self.v301 = c301; *dirty |= 0x100000; }
+        let c309: u64 = (self.q15 | (self.q16 << 3) | (self.q14 << 7)).wrapping_sub((0x1)) & 0xff;
+        if self.v309 != c309 { self.v309 = c309; *dirty |= 0x100000; }
+        let c302: u64 = if (c263) != 0 { ((self.q14 << 7)) } else { (c309) };
+        if self.v302 != c302 { self.v302 = c302; *dirty |= 0x100000; }
+        let c310: u64 = (self.q17 | (self.q18 << 7)).wrapping_sub((0x1)) & 0xff;
+        if self.v310 != c310 { self.v310 = c310; *dirty |= 0x100000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol.
     fn group_5(&mut self, dirty: &mut u128) {
-        let c156: u64 = (self.q1) & (self.q57) & 0x1;
-        if self.v156 != c156 { self.v156 = c156; *dirty |= 0x100000000000000000000; }
-        let c157: u64 = (self.v332) & (self.q57) & 0x1;
-        if self.v157 != c157 { self.v157 = c157; *dirty |= 0x100000000000000000000; }
-        let c159: u64 = (self.v236) & (self.v338) & 0x1;
-        if self.v159 != c159 { self.v159 = c159; *dirty |= 0x400; }
-        let c163: u64 = (self.v571) & (self.v259) & 0x1;
-        if self.v163 != c163 { self.v163 = c163; *dirty |= 0x40000; }
-        let c165: u64 = !(self.i_transmit_request) & 0x1;
-        let c166: u64 = !(self.i_enable) & 0x1;
-        let c158: u64 = (c166) & (self.v259) & 0x1;
-        if self.v158 != c158 { self.v158 = c158; *dirty |= 0x40000; }
-        let c40: u64 = u64::from((self.i_reset | (self.q54 << 1) | (c158 << 2)) != 0);
-        if self.v40 != c40 { self.v40 = c40; *dirty |= 0x40000000000000000000; }
-        let c45: u64 = u64::from((self.i_reset | (c163 << 1) | (c158 << 2)) != 0);
-        if self.v45 != c45 { self.v45 = c45; *dirty |= 0x100000000000000; }
-        let c46: u64 = u64::from((self.i_reset | (c158 << 1)) != 0);
-        if self.v46 != c46 { self.v46 = c46; *dirty |= 0xc0000000000000; }
-        let c167: u64 = u64::from((self.q56) == (0x1));
-        if self.v167 != c167 { self.v167 = c167; *dirty |= 0x10000; }
-        let c60: u64 = u64::from((self.v569 | (c167 << 1)) != 0);
-        if self.v60 != c60 { self.v60 = c60; *dirty |= 0x8000000000000; }
-        let c168: u64 = u64::from((self.q23) == (0x2));
-        if self.v168 != c168 { self.v168 = c168; *dirty |= 0x10000; }
-        let c164: u64 = (self.v568) & (c168) & 0x1;
-        if self.v164 != c164 { self.v164 = c164; *dirty |= 0x1000; }
-        let c177: u64 = u64::from((self.q56) != (0xf));
-        if self.v177 != c177 { self.v177 = c177; *dirty |= 0x40000; }
-        let c179: u64 = !(self.q57) & 0x1;
-        if self.v179 != c179 { self.v179 = c179; *dirty |= 0x40000; }
-        let c181: u64 = ((self.q20) | (c165)) & 0x1;
-        let c47: u64 = u64::from((self.i_reset | (c181 << 1)) != 0);
-        if self.v47 != c47 { self.v47 = c47; *dirty |= 0x10000000000; }
-        let c183: u64 = ((self.i_listen_only) | (c158)) & 0x1;
-        if self.v183 != c183 { self.v183 = c183; *dirty |= 0x480000; }
-        let c13: u64 = u64::from((self.i_counters_load_tec | (c183 << 1) | (self.q54 << 2)) != (0x2));
-        if self.v13 != c13 { self.v13 = c13; *dirty |= 0x400000; }
-        let c184: u64 = ((self.q54) | (c166)) & 0x1;
-        if self.v184 != c184 { self.v184 = c184; *dirty |= 0x40; }
-        let c186: u64 = ((c167) | (self.v569)) & 0x1;
-        if self.v186 != c186 { self.v186 = c186; *dirty |= 0x1000; }
-        let c187: u64 = ((c186) | (self.v558)) & 0x1;
-        let c188: u64 = ((c187) | (self.v571)) & 0x1;
-        let c189: u64 = ((c188) | (c164)) & 0x1;
-        if self.v189 != c189 { self.v189 = c189; *dirty |= 0x200; }
-        let c198: u64 = !(c189) & 0x1;
-        if self.v198 != c198 { self.v198 = c198; *dirty |= 0x200; }
-        let c206: u64 = ((self.q38) | (self.i_transmit_abort)) & 0x1;
-        if self.v206 != c206 { self.v206 = c206; *dirty |= 0x10000000000; }
+        let c155: u64 = (self.q1) & (self.q57) & 0x1;
+        if self.v155 != c155 { self.v155 = c155; *dirty |= 0x200000000000000000000; }
+        let c156: u64 = (self.v338) & (self.q57) & 0x1;
+        if self.v156 != c156 { self.v156 = c156; *dirty |= 0x200000000000000000000; }
+        let c158: u64 = (self.v398) & (self.v344) & 0x1;
+        if self.v158 != c158 { self.v158 = c158; *dirty |= 0x400; }
+        let c164: u64 = !(self.i_transmit_request) & 0x1;
+        let c165: u64 = !(self.i_enable) & 0x1;
+        let c166: u64 = !(self.q54) & 0x1;
+        if self.v166 != c166 { self.v166 = c166; *dirty |= 0x101000; }
+        let c157: u64 = (c165) & (c166) & 0x1;
+        if self.v157 != c157 { self.v157 = c157; *dirty |= 0x80000; }
+        let c40: u64 = u64::from((self.i_reset | (self.q54 << 1) | (c157 << 2)) != 0);
+        if self.v40 != c40 { self.v40 = c40; *dirty |= 0x80000000000000000000; }
+        let c46: u64 = u64::from((self.i_reset | (c157 << 1)) != 0);
+        if self.v46 != c46 { self.v46 = c46; *dirty |= 0x180000000000000; }
+        let c162: u64 = (self.v576) & (c166) & 0x1;
+        if self.v162 != c162 { self.v162 = c162; *dirty |= 0x80000; }
+        let c45: u64 = u64::from((self.i_reset | (c162 << 1) | (c157 << 2)) != 0);
+        if self.v45 != c45 { self.v45 = c45; *dirty |= 0x200000000000000; }
+        let c167: u64 = u64::from((self.q23) == (0x2));
+        if self.v167 != c167 { self.v167 = c167; *dirty |= 0x20000; }
+        let c163: u64 = (self.v572) & (c167) & 0x1;
+        if self.v163 != c163 { self.v163 = c163; *dirty |= 0x1000; }
+        let c176: u64 = u64::from((self.q56) != (0xf));
+        if self.v176 != c176 { self.v176 = c176; *dirty |= 0x80000; }
+        let c178: u64 = !(self.q57) & 0x1;
+        if self.v178 != c178 { self.v178 = c178; *dirty |= 0x80000; }
+        let c180: u64 = ((self.q20) | (c164)) & 0x1;
+        let c47: u64 = u64::from((self.i_reset | (c180 << 1)) != 0);
+        if self.v47 != c47 { self.v47 = c47; *dirty |= 0x40000000000; }
+        let c182: u64 = ((self.i_listen_only) | (c157)) & 0x1;
+        if self.v182 != c182 { self.v182 = c182; *dirty |= 0x900000; }
+        let c13: u64 = u64::from((self.i_counters_load_tec | (c182 << 1) | (self.q54 << 2)) != (0x2));
+        if self.v13 != c13 { self.v13 = c13; *dirty |= 0x800000; }
+        let c183: u64 = ((self.q54) | (c165)) & 0x1;
+        if self.v183 != c183 { self.v183 = c183; *dirty |= 0x40; }
+        let c185: u64 = ((self.v574) | (self.v573)) & 0x1;
+        if self.v185 != c185 { self.v185 = c185; *dirty |= 0x1000; }
+        let c186: u64 = ((c185) | (self.v253)) & 0x1;
+        let c187: u64 = ((c186) | (self.v576)) & 0x1;
+        let c188: u64 = ((c187) | (c163)) & 0x1;
+        if self.v188 != c188 { self.v188 = c188; *dirty |= 0x200; }
+        let c197: u64 = !(c188) & 0x1;
+        if self.v197 != c197 { self.v197 = c197; *dirty |= 0x200; }
+        let c205: u64 = ((self.q38) | (self.i_transmit_abort)) & 0x1;
+        if self.v205 != c205 { self.v205 = c205; *dirty |= 0x40000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender.
     fn group_6(&mut self, dirty: &mut u128) {
-        let c600: u64 = ((self.q5 & 0x1) | (self.q6 << 1) | ((self.q5 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
-        if self.v600 != c600 { self.v600 = c600; *dirty |= 0x4000000; }
-        let c601: u64 = (self.q23).wrapping_add((0x1)) & 0x7f;
-        if self.v601 != c601 { self.v601 = c601; *dirty |= 0x20080; }
-        let c608: u64 = u64::from((self.q7) == 0);
-        if self.v608 != c608 { self.v608 = c608; *dirty |= 0x40000; }
-        let c609: u64 = u64::from((self.q7) == (0x1));
-        let c610: u64 = u64::from((self.q23) == (0xa));
-        if self.v610 != c610 { self.v610 = c610; *dirty |= 0x31000; }
-        let c611: u64 = u64::from((self.q23) == (0x1e));
-        if self.v611 != c611 { self.v611 = c611; *dirty |= 0x20000; }
-        let c621: u64 = ((self.v184) | (self.i_reset)) & 0x1;
-        if self.v621 != c621 { self.v621 = c621; *dirty |= 0x2020000; }
-        let c646: u64 = ((((self.i_transmit_info >> 6) & 0x1)) | ((self.i_transmit_info >> 7))) & 0x1;
-        if self.v646 != c646 { self.v646 = c646; *dirty |= 0x2000000; }
-        let c660: u64 = if (self.v319) != 0 { (0x2) } else { (0x1) };
-        if self.v660 != c660 { self.v660 = c660; *dirty |= 0x2000000; }
-        let c662: u64 = if (c608) != 0 { ((c600 & 0x7)) } else { ((self.q5 & 0x1)) };
-        if self.v662 != c662 { self.v662 = c662; *dirty |= 0x2000000; }
-        let c664: u64 = if (c608) != 0 { ((self.i_transmit_data & 0x7f)) } else { (((self.q49 & 0x3f) << 1)) };
-        if self.v664 != c664 { self.v664 = c664; *dirty |= 0x4000000000000000000; }
-        let c667: u64 = if (c608) != 0 { (((self.i_transmit_data >> 6) & 0x1)) } else { (((self.q49 >> 5) & 0x1)) };
-        let c666: u64 = if (c609) != 0 { ((self.i_transmit_data >> 7)) } else { (c667) };
-        if self.v666 != c666 { self.v666 = c666; *dirty |= 0x2000000; }
-        let c668: u64 = if (c608) != 0 { ((self.i_transmit_data >> 7)) } else { ((self.q49 >> 6)) };
-        if self.v668 != c668 { self.v668 = c668; *dirty |= 0x2000000; }
-        let c669: u64 = (self.q7).wrapping_sub((0x1)) & 0xf;
-        let c663: u64 = if (c608) != 0 { (0x7) } else { (c669) };
-        if self.v663 != c663 { self.v663 = c663; *dirty |= 0x800000000000000000; }
-        let c671: u64 = ((((self.q22 >> 13) & 0x1)) ^ ((self.q22 >> 14))) & 0x1;
-        let c672: u64 = ((c671) ^ (self.q50)) & 0x1;
-        if self.v672 != c672 { self.v672 = c672; *dirty |= 0x20000; }
+        let c606: u64 = ((self.q5 & 0x1) | (self.q6 << 1) | ((self.q5 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
+        if self.v606 != c606 { self.v606 = c606; *dirty |= 0x10000000; }
+        let c607: u64 = (self.q23).wrapping_add((0x1)) & 0x7f;
+        if self.v607 != c607 { self.v607 = c607; *dirty |= 0x8080; }
+        let c614: u64 = u64::from((self.q7) == 0);
+        if self.v614 != c614 { self.v614 = c614; *dirty |= 0x80000; }
+        let c615: u64 = u64::from((self.q7) == (0x1));
+        let c616: u64 = u64::from((self.q23) == (0xa));
+        if self.v616 != c616 { self.v616 = c616; *dirty |= 0x29000; }
+        let c617: u64 = u64::from((self.q23) == (0x1e));
+        if self.v617 != c617 { self.v617 = c617; *dirty |= 0x8000; }
+        let c627: u64 = ((self.v183) | (self.i_reset)) & 0x1;
+        if self.v627 != c627 { self.v627 = c627; *dirty |= 0x8008000; }
+        let c651: u64 = ((((self.i_transmit_info >> 6) & 0x1)) | ((self.i_transmit_info >> 7))) & 0x1;
+        if self.v651 != c651 { self.v651 = c651; *dirty |= 0x8000000; }
+        let c666: u64 = if (self.v326) != 0 { (0x2) } else { (0x1) };
+        if self.v666 != c666 { self.v666 = c666; *dirty |= 0x8000000; }
+        let c668: u64 = if (c614) != 0 { ((c606 & 0x7)) } else { ((self.q5 & 0x1)) };
+        if self.v668 != c668 { self.v668 = c668; *dirty |= 0x8000000; }
+        let c670: u64 = if (c614) != 0 { ((self.i_transmit_data & 0x7f)) } else { (((self.q49 & 0x3f) << 1)) };
+        if self.v670 != c670 { self.v670 = c670; *dirty |= 0x8000000000000000000; }
+        let c673: u64 = if (c614) != 0 { (((self.i_transmit_data >> 6) & 0x1)) } else { (((self.q49 >> 5) & 0x1)) };
+        let c672: u64 = if (c615) != 0 { ((self.i_transmit_data >> 7)) } else { (c673) };
+        if self.v672 != c672 { self.v672 = c672; *dirty |= 0x8000000; }
+        let c674: u64 = if (c614) != 0 { ((self.i_transmit_data >> 7)) } else { ((self.q49 >> 6)) };
+        if self.v674 != c674 { self.v674 = c674; *dirty |= 0x8000000; }
+        let c675: u64 = (self.q7).wrapping_sub((0x1)) & 0xf;
+        let c669: u64 = if (c614) != 0 { (0x7) } else { (c675) };
+        if self.v669 != c669 { self.v669 = c669; *dirty |= 0x1000000000000000000; }
+        let c677: u64 = ((((self.q22 >> 13) & 0x1)) ^ ((self.q22 >> 14))) & 0x1;
+        let c678: u64 = ((c677) ^ (self.q50)) & 0x1;
+        if self.v678 != c678 { self.v678 = c678; *dirty |= 0x40000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$frame.
     fn group_7(&mut self, dirty: &mut u128) {
-        let c10: u64 = u64::from((self.v453 | (self.v331 << 1) | (self.v565 << 2)) != (0x4));
+        let c10: u64 = u64::from((self.v458 | (self.v337 << 1) | (self.v569 << 2)) != (0x4));
         if self.v10 != c10 { self.v10 = c10; *dirty |= 0x4000; }
-        let c347: u64 = if (self.v333) != 0 { (0x0) } else { (self.v601) };
-        let c370: u64 = if (self.v307) != 0 { (0x0) } else { (self.v601) };
-        let c373: u64 = if (self.v338) != 0 { (0x0) } else { (self.v601) };
-        let c381: u64 = if (self.v340) != 0 { (0x0) } else { (self.v601) };
-        let c385: u64 = { let s = (self.v402 | (self.v399 << 1) | (self.v360 << 2) | (self.v396 << 3) | (self.v61 << 4) | (self.v378 << 5)); if s >> 0 & 1 != 0 { self.v343 } else if s >> 1 & 1 != 0 { self.v350 } else if s >> 2 & 1 != 0 { self.v361 } else if s >> 3 & 1 != 0 { self.v351 } else if s >> 4 & 1 != 0 { self.v304 } else if s >> 5 & 1 != 0 { self.v379 } else { (0x0) } };
-        let c388: u64 = { let s = (self.v402 | (self.v399 << 1) | (self.v391 << 2) | (self.v236 << 3) | (self.v378 << 4)); if s >> 0 & 1 != 0 { c347 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c370 } else if s >> 3 & 1 != 0 { c373 } else if s >> 4 & 1 != 0 { c381 } else { (self.v601) } };
-        if self.v388 != c388 { self.v388 = c388; *dirty |= 0x8000; }
-        let c389: u64 = { let s = (self.v402 | (self.v399 << 1) | (self.v360 << 2) | (self.v396 << 3) | (self.v390 << 4) | (self.v391 << 5) | (self.v236 << 6) | (self.v378 << 7)); if s >> 0 & 1 != 0 { self.v344 } else if s >> 1 & 1 != 0 { 0x9 } else if s >> 2 & 1 != 0 { 0x8 } else if s >> 3 & 1 != 0 { 0x7 } else if s >> 4 & 1 != 0 { self.v369 } else if s >> 5 & 1 != 0 { self.v371 } else if s >> 6 & 1 != 0 { self.v372 } else if s >> 7 & 1 != 0 { self.v382 } else { (self.q56) } };
-        let c412: u64 = (self.q45) & (c385) & 0x1;
-        if self.v412 != c412 { self.v412 = c412; *dirty |= 0x8000; }
-        let c415: u64 = (self.q45) & (self.v62) & 0x1;
-        if self.v415 != c415 { self.v415 = c415; *dirty |= 0x8000; }
-        let c416: u64 = if (self.q45) != 0 { (c389) } else { (self.q56) };
-        if self.v416 != c416 { self.v416 = c416; *dirty |= 0x8000; }
+        let c314: u64 = (self.v231) & (self.v330) & 0x1;
+        let c316: u64 = (self.v242) & (self.q59) & 0x1;
+        let c353: u64 = if (self.v339) != 0 { (0x0) } else { (self.v607) };
+        let c377: u64 = if (c314) != 0 { (0x0) } else { (self.v607) };
+        let c378: u64 = if (c314) != 0 { (0x5) } else { (self.q56) };
+        let c380: u64 = if (self.v344) != 0 { (0x0) } else { (self.v607) };
+        let c387: u64 = if (self.v346) != 0 { (0x0) } else { (self.v607) };
+        let c389: u64 = { let s = (self.v392 | (self.v242 << 1)); if s >> 0 & 1 != 0 { self.v352 } else if s >> 1 & 1 != 0 { self.v383 } else { (0x0) } };
+        let c390: u64 = (self.v242) & (self.v384) & 0x1;
+        let c391: u64 = { let s = (self.v392 | (self.v357 << 1) | (self.v369 << 2) | (self.v402 << 3) | (self.v60 << 4) | (self.v242 << 5)); if s >> 0 & 1 != 0 { self.v349 } else if s >> 1 & 1 != 0 { self.v356 } else if s >> 2 & 1 != 0 { self.v367 } else if s >> 3 & 1 != 0 { self.v358 } else if s >> 4 & 1 != 0 { self.v311 } else if s >> 5 & 1 != 0 { self.v385 } else { (0x0) } };
+        let c393: u64 = { let s = (self.v397 | (self.v242 << 1)); if s >> 0 & 1 != 0 { self.q1 } else if s >> 1 & 1 != 0 { self.v386 } else { (0x0) } };
+        let c394: u64 = (self.v242) & (self.v346) & 0x1;
+        let c395: u64 = { let s = (self.v392 | (self.v357 << 1) | (self.v397 << 2) | (self.v398 << 3) | (self.v242 << 4)); if s >> 0 & 1 != 0 { c353 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c377 } else if s >> 3 & 1 != 0 { c380 } else if s >> 4 & 1 != 0 { c387 } else { (self.v607) } };
+        if self.v395 != c395 { self.v395 = c395; *dirty |= 0x10000; }
+        let c396: u64 = { let s = (self.v392 | (self.v357 << 1) | (self.v369 << 2) | (self.v402 << 3) | (self.v252 << 4) | (self.v397 << 5) | (self.v398 << 6) | (self.v242 << 7)); if s >> 0 & 1 != 0 { self.v350 } else if s >> 1 & 1 != 0 { 0x9 } else if s >> 2 & 1 != 0 { 0x8 } else if s >> 3 & 1 != 0 { 0x7 } else if s >> 4 & 1 != 0 { self.v376 } else if s >> 5 & 1 != 0 { c378 } else if s >> 6 & 1 != 0 { self.v379 } else if s >> 7 & 1 != 0 { self.v388 } else { (self.q56) } };
+        let c408: u64 = (self.q45) & (c394) & 0x1;
+        if self.v408 != c408 { self.v408 = c408; *dirty |= 0x10000; }
+        let c410: u64 = (self.q45) & (c389) & 0x1;
+        if self.v410 != c410 { self.v410 = c410; *dirty |= 0x10000; }
+        let c415: u64 = (self.q45) & (c390) & 0x1;
+        if self.v415 != c415 { self.v415 = c415; *dirty |= 0x10000; }
+        let c417: u64 = (self.q45) & (c391) & 0x1;
+        if self.v417 != c417 { self.v417 = c417; *dirty |= 0x10000; }
+        let c420: u64 = (self.q45) & (self.v61) & 0x1;
+        if self.v420 != c420 { self.v420 = c420; *dirty |= 0x10000; }
+        let c421: u64 = if (self.q45) != 0 { (c396) } else { (self.q56) };
+        if self.v421 != c421 { self.v421 = c421; *dirty |= 0x10000; }
+        let c423: u64 = (self.q45) & (c393) & 0x1;
+        if self.v423 != c423 { self.v423 = c423; *dirty |= 0x10000; }
+        let c424: u64 = !(c316) & 0x1;
+        let c425: u64 = if (self.v311) != 0 { (c424) } else { (0x1) };
+        if self.v425 != c425 { self.v425 = c425; *dirty |= 0x10000; }
+        let c426: u64 = if (self.v311) != 0 { (c316) } else { (self.v331) };
+        if self.v426 != c426 { self.v426 = c426; *dirty |= 0x10000; }
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$sampling.
     fn group_8(&mut self, dirty: &mut u128) {
-        let c146: u64 = ((self.q43 >> 1)) & ((self.q43 & 0x1)) & 0x1;
-        let c147: u64 = ((self.q43 >> 1)) & (self.q53) & 0x1;
-        let c148: u64 = ((self.q43 & 0x1)) & (self.q53) & 0x1;
-        let c149: u64 = !(self.q53) & 0x1;
-        let c145: u64 = (self.q52) & (c149) & 0x1;
-        if self.v145 != c145 { self.v145 = c145; *dirty |= 0x200; }
-        let c150: u64 = ((c146) | (c147)) & 0x1;
-        let c151: u64 = ((c150) | (c148)) & 0x1;
-        let c152: u64 = ((self.q53) | (self.i_reset)) & 0x1;
-        if self.v152 != c152 { self.v152 = c152; *dirty |= 0x200000000; }
-        let c153: u64 = ((self.q51) | (self.i_reset)) & 0x1;
-        if self.v153 != c153 { self.v153 = c153; *dirty |= 0x800000000; }
-        let c154: u64 = ((self.i_rx) | (self.i_reset)) & 0x1;
-        if self.v154 != c154 { self.v154 = c154; *dirty |= 0x100000000; }
-        let c155: u64 = if (self.i_sam) != 0 { (c151) } else { (self.q53) };
-        if self.v155 != c155 { self.v155 = c155; *dirty |= 0x200; }
+        let c145: u64 = ((self.q43 >> 1)) & ((self.q43 & 0x1)) & 0x1;
+        let c146: u64 = ((self.q43 >> 1)) & (self.q53) & 0x1;
+        let c147: u64 = ((self.q43 & 0x1)) & (self.q53) & 0x1;
+        let c148: u64 = !(self.q53) & 0x1;
+        let c144: u64 = (self.q52) & (c148) & 0x1;
+        if self.v144 != c144 { self.v144 = c144; *dirty |= 0x200; }
+        let c149: u64 = ((c145) | (c146)) & 0x1;
+        let c150: u64 = ((c149) | (c147)) & 0x1;
+        let c151: u64 = ((self.q53) | (self.i_reset)) & 0x1;
+        if self.v151 != c151 { self.v151 = c151; *dirty |= 0x800000000; }
+        let c152: u64 = ((self.q51) | (self.i_reset)) & 0x1;
+        if self.v152 != c152 { self.v152 = c152; *dirty |= 0x2000000000; }
+        let c153: u64 = ((self.i_rx) | (self.i_reset)) & 0x1;
+        if self.v153 != c153 { self.v153 = c153; *dirty |= 0x400000000; }
+        let c154: u64 = if (self.i_sam) != 0 { (c150) } else { (self.q53) };
+        if self.v154 != c154 { self.v154 = c154; *dirty |= 0x200; }
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing.
     fn group_9(&mut self, dirty: &mut u128) {
-        let c68: u64 = (self.v145) & (self.q50) & 0x1;
-        let c69: u64 = (c68) & (self.v93) & 0x1;
-        let c76: u64 = (self.v198) & (self.v330) & 0x1;
+        let c67: u64 = (self.v144) & (self.q50) & 0x1;
+        let c68: u64 = (c67) & (self.v92) & 0x1;
+        let c75: u64 = (self.v197) & (self.v336) & 0x1;
+        let c95: u64 = !(c75) & 0x1;
+        let c76: u64 = (c68) & (c95) & 0x1;
         let c96: u64 = !(c76) & 0x1;
-        let c77: u64 = (c69) & (c96) & 0x1;
-        let c97: u64 = !(c77) & 0x1;
-        let c78: u64 = (self.v75) & (c97) & 0x1;
-        let c79: u64 = (c78) & (self.v98) & 0x1;
-        if self.v79 != c79 { self.v79 = c79; *dirty |= 0x100000000000020000000; }
-        let c113: u64 = if (c79) != 0 { (0x0) } else { (self.q40) };
-        let c114: u64 = if (c79) != 0 { (self.v155) } else { (self.q50) };
-        let c110: u64 = ((c114) | (self.i_reset)) & 0x1;
-        if self.v110 != c110 { self.v110 = c110; *dirty |= 0x80000000; }
-        let c134: u64 = if (self.v189) != 0 { (0x0) } else { (self.v87) };
-        let c135: u64 = if (self.v189) != 0 { (0x0) } else { (self.v130) };
-        let c136: u64 = if (self.v189) != 0 { (0x0) } else { (self.v131) };
-        let c137: u64 = if (self.v189) != 0 { (0x0) } else { (self.v132) };
-        let c138: u64 = if (self.v189) != 0 { (0x0) } else { (self.v133) };
-        let c139: u64 = (c69) & (c134) & 0x1;
-        let c140: u64 = (c69) & (c135) & 0x1;
-        let c141: u64 = (c69) & (c136) & 0x1;
-        let c94: u64 = !(c141) & 0x1;
-        let c71: u64 = (self.v70) & (c94) & 0x1;
-        let c124: u64 = if (c141) != 0 { (self.v123) } else { (self.v89 | (self.v89 << 1) | (self.v89 << 2) | (self.v89 << 3)) };
-        let c122: u64 = if (c140) != 0 { (self.v121 | 0x8) } else { (c124) };
-        let c66: u64 = (self.q44).wrapping_add((c122 | ((c122 >> 3) << 4))) & 0x1f;
-        let c116: u64 = { let s = (self.v117 | (self.v86 << 1) | (self.v87 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.i_tseg2 } else if s >> 2 & 1 != 0 { self.i_tseg1 } else { (c66) } };
-        let c125: u64 = if (c140) != 0 { (self.v72) } else { (c71) };
-        let c37: u64 = u64::from((c125 | (self.v17 << 1)) == 0x3);
-        if self.v37 != c37 { self.v37 = c37; *dirty |= 0x1000000000; }
-        let c119: u64 = if (c125) != 0 { (c116) } else { (c66) };
-        if self.v119 != c119 { self.v119 = c119; *dirty |= 0x40000000; }
-        let c142: u64 = (c69) & (c137) & 0x1;
-        let c143: u64 = (c69) & (c138) & 0x1;
-        let c105: u64 = ((c143) | (c142)) & 0x1;
-        let c106: u64 = ((c105) | (c141)) & 0x1;
-        let c107: u64 = ((c106) | (c140)) & 0x1;
-        let c108: u64 = ((c107) | (c139)) & 0x1;
-        let c144: u64 = (c69) & (self.v189) & 0x1;
-        let c100: u64 = ((c144) | (c143)) & 0x1;
-        let c101: u64 = ((c100) | (c142)) & 0x1;
-        let c48: u64 = u64::from((self.i_reset | (c101 << 1)) != 0);
-        if self.v48 != c48 { self.v48 = c48; *dirty |= 0x1040000000; }
-        let c49: u64 = u64::from((self.i_reset | (c101 << 1) | (c125 << 2)) != 0);
-        if self.v49 != c49 { self.v49 = c49; *dirty |= 0x10000000; }
-        let c50: u64 = u64::from((self.i_reset | (c101 << 1) | (self.v89 << 2)) != 0);
-        if self.v50 != c50 { self.v50 = c50; *dirty |= 0x200000; }
-        let c95: u64 = !(c101) & 0x1;
-        let c73: u64 = (self.v89) & (c95) & 0x1;
-        if self.v73 != c73 { self.v73 = c73; *dirty |= 0x400000000; }
-        let c102: u64 = ((self.v80) | (c144)) & 0x1;
-        let c103: u64 = ((c102) | (c142)) & 0x1;
-        let c81: u64 = (c103) & (self.v99) & 0x1;
-        let c82: u64 = (c81) & (self.v98) & 0x1;
-        let c83: u64 = (c103) & (self.q45) & 0x1;
-        if self.v83 != c83 { self.v83 = c83; *dirty |= 0x8000000000; }
-        let c104: u64 = ((c82) | (self.q39)) & 0x1;
-        if self.v104 != c104 { self.v104 = c104; *dirty |= 0x20000; }
-        let c109: u64 = ((c144) | (c108)) & 0x1;
-        let c111: u64 = if (c101) != 0 { (0x0) } else { (self.q42) };
-        if self.v111 != c111 { self.v111 = c111; *dirty |= 0x100000000000000000000; }
-        let c112: u64 = ((c113) | (c109)) & 0x1;
-        if self.v112 != c112 { self.v112 = c112; *dirty |= 0x4000000000; }
-        let c115: u64 = ((self.v120) | (c101)) & 0x1;
-        if self.v115 != c115 { self.v115 = c115; *dirty |= 0x200000; }
+        let c77: u64 = (self.v74) & (c96) & 0x1;
+        let c78: u64 = (c77) & (self.v97) & 0x1;
+        if self.v78 != c78 { self.v78 = c78; *dirty |= 0x200000000000080000000; }
+        let c112: u64 = if (c78) != 0 { (0x0) } else { (self.q40) };
+        let c113: u64 = if (c78) != 0 { (self.v154) } else { (self.q50) };
+        let c109: u64 = ((c113) | (self.i_reset)) & 0x1;
+        if self.v109 != c109 { self.v109 = c109; *dirty |= 0x200000000; }
+        let c133: u64 = if (self.v188) != 0 { (0x0) } else { (self.v86) };
+        let c134: u64 = if (self.v188) != 0 { (0x0) } else { (self.v129) };
+        let c135: u64 = if (self.v188) != 0 { (0x0) } else { (self.v130) };
+        let c136: u64 = if (self.v188) != 0 { (0x0) } else { (self.v131) };
+        let c137: u64 = if (self.v188) != 0 { (0x0) } else { (self.v132) };
+        let c138: u64 = (c68) & (c133) & 0x1;
+        let c139: u64 = (c68) & (c134) & 0x1;
+        let c140: u64 = (c68) & (c135) & 0x1;
+        let c93: u64 = !(c140) & 0x1;
+        let c70: u64 = (self.v69) & (c93) & 0x1;
+        let c123: u64 = if (c140) != 0 { (self.v122) } else { (self.v88 | (self.v88 << 1) | (self.v88 << 2) | (self.v88 << 3)) };
+        let c121: u64 = if (c139) != 0 { (self.v120 | 0x8) } else { (c123) };
+        let c65: u64 = (self.q44).wrapping_add((c121 | ((c121 >> 3) << 4))) & 0x1f;
+        let c115: u64 = { let s = (self.v116 | (self.v85 << 1) | (self.v86 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.i_tseg2 } else if s >> 2 & 1 != 0 { self.i_tseg1 } else { (c65) } };
+        let c124: u64 = if (c139) != 0 { (self.v71) } else { (c70) };
+        let c37: u64 = u64::from((c124 | (self.v17 << 1)) == 0x3);
+        if self.v37 != c37 { self.v37 = c37; *dirty |= 0x4000000000; }
+        let c118: u64 = if (c124) != 0 { (c115) } else { (c65) };
+        if self.v118 != c118 { self.v118 = c118; *dirty |= 0x100000000; }
+        let c141: u64 = (c68) & (c136) & 0x1;
+        let c142: u64 = (c68) & (c137) & 0x1;
+        let c104: u64 = ((c142) | (c141)) & 0x1;
+        let c105: u64 = ((c104) | (c140)) & 0x1;
+        let c106: u64 = ((c105) | (c139)) & 0x1;
+        let c107: u64 = ((c106) | (c138)) & 0x1;
+        let c143: u64 = (c68) & (self.v188) & 0x1;
+        let c99: u64 = ((c143) | (c142)) & 0x1;
+        let c100: u64 = ((c99) | (c141)) & 0x1;
+        let c48: u64 = u64::from((self.i_reset | (c100 << 1)) != 0);
+        if self.v48 != c48 { self.v48 = c48; *dirty |= 0x4100000000; }
+        let c49: u64 = u64::from((self.i_reset | (c100 << 1) | (c124 << 2)) != 0);
+        if self.v49 != c49 { self.v49 = c49; *dirty |= 0x40000000; }
+        let c50: u64 = u64::from((self.i_reset | (c100 << 1) | (self.v88 << 2)) != 0);
+        if self.v50 != c50 { self.v50 = c50; *dirty |= 0x400000; }
+        let c94: u64 = !(c100) & 0x1;
+        let c72: u64 = (self.v88) & (c94) & 0x1;
+        if self.v72 != c72 { self.v72 = c72; *dirty |= 0x1000000000; }
+        let c101: u64 = ((self.v79) | (c143)) & 0x1;
+        let c102: u64 = ((c101) | (c141)) & 0x1;
+        let c80: u64 = (c102) & (self.v98) & 0x1;
+        let c81: u64 = (c80) & (self.v97) & 0x1;
+        let c82: u64 = (c102) & (self.q45) & 0x1;
+        if self.v82 != c82 { self.v82 = c82; *dirty |= 0x20000000000; }
+        let c103: u64 = ((c81) | (self.q39)) & 0x1;
+        if self.v103 != c103 { self.v103 = c103; *dirty |= 0x8000; }
+        let c108: u64 = ((c143) | (c107)) & 0x1;
+        let c110: u64 = if (c100) != 0 { (0x0) } else { (self.q42) };
+        if self.v110 != c110 { self.v110 = c110; *dirty |= 0x200000000000000000000; }
+        let c111: u64 = ((c112) | (c108)) & 0x1;
+        if self.v111 != c111 { self.v111 = c111; *dirty |= 0x10000000000; }
+        let c114: u64 = ((self.v119) | (c100)) & 0x1;
+        if self.v114 != c114 { self.v114 = c114; *dirty |= 0x400000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler.
     fn group_10(&mut self, dirty: &mut u128) {
-        let c209: u64 = (self.v225) & (self.q30) & 0x1;
-        let c211: u64 = (((self.q23 >> 3) & 0x1)) & (((self.q23 >> 2) & 0x1)) & 0x1;
-        let c213: u64 = !(((self.q23 >> 4) & 0x1)) & 0x1;
-        let c214: u64 = u64::from((self.q23) != 0);
-        if self.v214 != c214 { self.v214 = c214; *dirty |= 0x1000; }
-        let c215: u64 = !(c209) & 0x1;
-        let c210: u64 = (c214) & (c215) & 0x1;
-        if self.v210 != c210 { self.v210 = c210; *dirty |= 0x100000; }
-        let c216: u64 = !(c211) & 0x1;
-        let c212: u64 = (c213) & (c216) & 0x1;
-        if self.v212 != c212 { self.v212 = c212; *dirty |= 0x8000; }
-        let c20: u64 = !(c212) & 0x1;
-        if self.v20 != c20 { self.v20 = c20; *dirty |= 0x8000; }
-        let c217: u64 = (self.v391) & (self.v323) & 0x1;
-        if self.v217 != c217 { self.v217 = c217; *dirty |= 0x100000; }
-        let c218: u64 = (self.v236) & (self.v159) & 0x1;
-        if self.v218 != c218 { self.v218 = c218; *dirty |= 0x100000; }
-        let c222: u64 = if ((self.q34 >> 3)) != 0 { (0x8) } else { ((self.q34 & 0x7)) };
-        let c221: u64 = if (self.q28) != 0 { (0x0) } else { (c222) };
-        let c223: u64 = (c221).wrapping_sub((0x1)) & 0xf;
-        if self.v223 != c223 { self.v223 = c223; *dirty |= 0x2000000000000; }
+        let c208: u64 = (self.v233) & (self.q30) & 0x1;
+        let c210: u64 = (((self.q23 >> 3) & 0x1)) & (((self.q23 >> 2) & 0x1)) & 0x1;
+        let c212: u64 = !(((self.q23 >> 4) & 0x1)) & 0x1;
+        let c213: u64 = u64::from((self.q23) != 0);
+        if self.v213 != c213 { self.v213 = c213; *dirty |= 0x1000; }
+        let c214: u64 = !(c208) & 0x1;
+        let c209: u64 = (c213) & (c214) & 0x1;
+        if self.v209 != c209 { self.v209 = c209; *dirty |= 0x200000; }
+        let c215: u64 = !(c210) & 0x1;
+        let c211: u64 = (c212) & (c215) & 0x1;
+        if self.v211 != c211 { self.v211 = c211; *dirty |= 0x10000; }
+        let c20: u64 = !(c211) & 0x1;
+        if self.v20 != c20 { self.v20 = c20; *dirty |= 0x10000; }
+        let c216: u64 = (self.v397) & (self.v231) & 0x1;
+        if self.v216 != c216 { self.v216 = c216; *dirty |= 0x200000; }
+        let c217: u64 = (self.v398) & (self.v158) & 0x1;
+        if self.v217 != c217 { self.v217 = c217; *dirty |= 0x200000; }
+        let c221: u64 = if ((self.q34 >> 3)) != 0 { (0x8) } else { ((self.q34 & 0x7)) };
+        let c220: u64 = if (self.q28) != 0 { (0x0) } else { (c221) };
+        let c222: u64 = (c220).wrapping_sub((0x1)) & 0xf;
+        if self.v222 != c222 { self.v222 = c222; *dirty |= 0x8000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$crc.
     fn group_11(&mut self, dirty: &mut u128) {
-        let c52: u64 = !(((self.q22 >> 2) & 0x1)) & 0x1;
-        let c53: u64 = !(((self.q22 >> 3) & 0x1)) & 0x1;
-        let c54: u64 = !(((self.q22 >> 6) & 0x1)) & 0x1;
-        let c55: u64 = !(((self.q22 >> 7) & 0x1)) & 0x1;
-        let c56: u64 = !(((self.q22 >> 9) & 0x1)) & 0x1;
-        let c57: u64 = !(((self.q22 >> 13) & 0x1)) & 0x1;
-        let c247: u64 = ((self.q50) ^ ((self.q22 >> 14))) & 0x1;
-        let c246: u64 = if (c247) != 0 { ((c52 << 1) | (c53 << 2) | (c54 << 3) | (c55 << 4) | (c56 << 5) | (c57 << 6) | 0x1) } else { ((((self.q22 >> 2) & 0x3) << 1) | (((self.q22 >> 6) & 0x3) << 3) | (((self.q22 >> 9) & 0x1) << 5) | (((self.q22 >> 13) & 0x1) << 6)) };
-        if self.v246 != c246 { self.v246 = c246; *dirty |= 0x200000000000000; }
+        let c51: u64 = !(((self.q22 >> 2) & 0x1)) & 0x1;
+        let c52: u64 = !(((self.q22 >> 3) & 0x1)) & 0x1;
+        let c53: u64 = !(((self.q22 >> 6) & 0x1)) & 0x1;
+        let c54: u64 = !(((self.q22 >> 7) & 0x1)) & 0x1;
+        let c55: u64 = !(((self.q22 >> 9) & 0x1)) & 0x1;
+        let c56: u64 = !(((self.q22 >> 13) & 0x1)) & 0x1;
+        let c255: u64 = ((self.q50) ^ ((self.q22 >> 14))) & 0x1;
+        let c254: u64 = if (c255) != 0 { ((c51 << 1) | (c52 << 2) | (c53 << 3) | (c54 << 4) | (c55 << 5) | (c56 << 6) | 0x1) } else { ((((self.q22 >> 2) & 0x3) << 1) | (((self.q22 >> 6) & 0x3) << 3) | (((self.q22 >> 9) & 0x1) << 5) | (((self.q22 >> 13) & 0x1) << 6)) };
+        if self.v254 != c254 { self.v254 = c254; *dirty |= 0x400000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe.
     fn group_12(&mut self, dirty: &mut u128) {
-        let c443: u64 = (self.v442) & (self.v259) & 0x1;
-        let c444: u64 = (c443) & (self.v467) & 0x1;
-        if self.v444 != c444 { self.v444 = c444; *dirty |= 0x20000; }
-        let c449: u64 = (c444) & (self.v468) & 0x1;
-        if self.v449 != c449 { self.v449 = c449; *dirty |= 0x10000; }
-        let c451: u64 = (self.v214) & (self.v465) & 0x1;
-        if self.v451 != c451 { self.v451 = c451; *dirty |= 0x10000; }
-        let c470: u64 = ((self.v186) | (self.v164)) & 0x1;
-        if self.v470 != c470 { self.v470 = c470; *dirty |= 0x4000; }
-        let c490: u64 = (self.v456) & (self.v610) & 0x1;
-        let c504: u64 = (self.v224) & (self.v501) & 0x1;
-        let c505: u64 = (self.v224) & (self.v502) & 0x1;
-        let c526: u64 = if (c451) != 0 { (0x0) } else { (self.v331) };
-        let c530: u64 = if (self.q8) != 0 { (c526) } else { (self.v520) };
-        if self.v530 != c530 { self.v530 = c530; *dirty |= 0x18000; }
-        let c9: u64 = u64::from((c530 | (self.v574 << 1)) != (0x2));
+        let c448: u64 = (self.v447) & (self.v166) & 0x1;
+        let c449: u64 = (c448) & (self.v472) & 0x1;
+        if self.v449 != c449 { self.v449 = c449; *dirty |= 0x8000; }
+        let c454: u64 = (c449) & (self.v473) & 0x1;
+        if self.v454 != c454 { self.v454 = c454; *dirty |= 0x20000; }
+        let c456: u64 = (self.v213) & (self.v470) & 0x1;
+        if self.v456 != c456 { self.v456 = c456; *dirty |= 0x20000; }
+        let c475: u64 = ((self.v185) | (self.v163)) & 0x1;
+        if self.v475 != c475 { self.v475 = c475; *dirty |= 0x4000; }
+        let c495: u64 = (self.v461) & (self.v616) & 0x1;
+        let c509: u64 = (self.v232) & (self.v506) & 0x1;
+        let c510: u64 = (self.v232) & (self.v507) & 0x1;
+        let c531: u64 = if (c456) != 0 { (0x0) } else { (self.v337) };
+        let c535: u64 = if (self.q8) != 0 { (c531) } else { (self.v525) };
+        if self.v535 != c535 { self.v535 = c535; *dirty |= 0x30000; }
+        let c9: u64 = u64::from((c535 | (self.v580 << 1)) != (0x2));
         if self.v9 != c9 { self.v9 = c9; *dirty |= 0x4000; }
-        let c560: u64 = if (self.v233) != 0 { (self.v439) } else { (0x0) };
-        if self.v560 != c560 { self.v560 = c560; *dirty |= 0x80000000000000000; }
-        let c570: u64 = (self.v571) & (c490) & 0x1;
-        if self.v570 != c570 { self.v570 = c570; *dirty |= 0x4000; }
-        let c572: u64 = { let s = (self.v233 | (self.v574 << 1)); if s >> 0 & 1 != 0 { c504 } else if s >> 1 & 1 != 0 { self.v529 } else { (0x0) } };
-        if self.v572 != c572 { self.v572 = c572; *dirty |= 0x4000; }
-        let c573: u64 = { let s = (self.v233 | (self.v574 << 1)); if s >> 0 & 1 != 0 { c505 } else if s >> 1 & 1 != 0 { self.v534 } else { (0x0) } };
-        if self.v573 != c573 { self.v573 = c573; *dirty |= 0x4000; }
+        let c575: u64 = (self.v576) & (c495) & 0x1;
+        if self.v575 != c575 { self.v575 = c575; *dirty |= 0x4000; }
+        let c577: u64 = { let s = (self.v579 | (self.v580 << 1)); if s >> 0 & 1 != 0 { c509 } else if s >> 1 & 1 != 0 { self.v534 } else { (0x0) } };
+        if self.v577 != c577 { self.v577 = c577; *dirty |= 0x4000; }
+        let c578: u64 = { let s = (self.v579 | (self.v580 << 1)); if s >> 0 & 1 != 0 { c510 } else if s >> 1 & 1 != 0 { self.v539 } else { (0x0) } };
+        if self.v578 != c578 { self.v578 = c578; *dirty |= 0x4000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$stuffing.
     fn group_13(&mut self, dirty: &mut u128) {
-        let c673: u64 = (self.q3).wrapping_add((0x1)) & 0x7;
-        let c676: u64 = u64::from((self.q3) == (0x5));
-        let c674: u64 = (self.q4) & (c676) & 0x1;
-        if self.v674 != c674 { self.v674 = c674; *dirty |= 0x3c000; }
-        let c18: u64 = !(c674) & 0x1;
-        if self.v18 != c18 { self.v18 = c18; *dirty |= 0x24000; }
-        let c25: u64 = u64::from((self.q45 | (self.q8 << 1) | (self.v574 << 2) | (c18 << 3)) == 0xf);
-        if self.v25 != c25 { self.v25 = c25; *dirty |= 0x200000000000000000; }
-        let c677: u64 = u64::from((self.q3) == (0x4));
-        let c675: u64 = (self.q4) & (c677) & 0x1;
-        if self.v675 != c675 { self.v675 = c675; *dirty |= 0x20000; }
-        let c678: u64 = u64::from((self.q50) != (self.q2));
-        let c679: u64 = ((c676) | (c678)) & 0x1;
-        if self.v679 != c679 { self.v679 = c679; *dirty |= 0x4000; }
-        let c683: u64 = if (c679) != 0 { (0x1) } else { (c673) };
-        if self.v683 != c683 { self.v683 = c683; *dirty |= 0x8000000; }
+        let c679: u64 = (self.q3).wrapping_add((0x1)) & 0x7;
+        let c682: u64 = u64::from((self.q3) == (0x5));
+        let c680: u64 = (self.q4) & (c682) & 0x1;
+        if self.v680 != c680 { self.v680 = c680; *dirty |= 0x3c000; }
+        let c18: u64 = !(c680) & 0x1;
+        if self.v18 != c18 { self.v18 = c18; *dirty |= 0xc000; }
+        let c25: u64 = u64::from((self.q45 | (self.q8 << 1) | (self.v580 << 2) | (c18 << 3)) == 0xf);
+        if self.v25 != c25 { self.v25 = c25; *dirty |= 0x400000000000000000; }
+        let c683: u64 = u64::from((self.q3) == (0x4));
+        let c681: u64 = (self.q4) & (c683) & 0x1;
+        if self.v681 != c681 { self.v681 = c681; *dirty |= 0x8000; }
+        let c684: u64 = u64::from((self.q50) != (self.q2));
+        let c685: u64 = ((c682) | (c684)) & 0x1;
+        if self.v685 != c685 { self.v685 = c685; *dirty |= 0x4000; }
+        let c689: u64 = if (c685) != 0 { (0x1) } else { (c679) };
+        if self.v689 != c689 { self.v689 = c689; *dirty |= 0x20000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe.
     fn group_14(&mut self, dirty: &mut u128) {
         let c26: u64 = u64::from((self.q45 | (self.v18 << 1) | (self.v6 << 2) | (self.v5 << 3) | (self.v7 << 4)) == 0x1f);
-        if self.v26 != c26 { self.v26 = c26; *dirty |= 0x100000000000000000; }
+        if self.v26 != c26 { self.v26 = c26; *dirty |= 0x200000000000000000; }
         let c27: u64 = u64::from((self.q45 | (self.v18 << 1) | (self.v10 << 2) | (self.v9 << 3) | (self.v8 << 4) | (self.v6 << 5) | (self.v5 << 6) | (self.v7 << 7)) == 0xff);
-        if self.v27 != c27 { self.v27 = c27; *dirty |= 0x80000000000000000; }
-        let c445: u64 = (self.q45) & (self.v18) & 0x1;
-        if self.v445 != c445 { self.v445 = c445; *dirty |= 0x108000; }
-        let c446: u64 = (c445) & (self.v351) & 0x1;
-        let c447: u64 = (c446) & (self.v470) & 0x1;
-        if self.v447 != c447 { self.v447 = c447; *dirty |= 0x200000008070000; }
-        let c0: u64 = u64::from((self.v679 | (c447 << 1)) != 0);
+        if self.v27 != c27 { self.v27 = c27; *dirty |= 0x100000000000000000; }
+        let c450: u64 = (self.q45) & (self.v18) & 0x1;
+        if self.v450 != c450 { self.v450 = c450; *dirty |= 0x2210000; }
+        let c451: u64 = (c450) & (self.v358) & 0x1;
+        let c452: u64 = (c451) & (self.v475) & 0x1;
+        if self.v452 != c452 { self.v452 = c452; *dirty |= 0x4000000200a8000; }
+        let c0: u64 = u64::from((self.v685 | (c452 << 1)) != 0);
         let c21: u64 = u64::from((self.q45 | (c0 << 1)) == 0x3);
-        if self.v21 != c21 { self.v21 = c21; *dirty |= 0x20000000000000000000; }
-        let c44: u64 = u64::from((self.i_reset | (c447 << 1)) != 0);
-        if self.v44 != c44 { self.v44 = c44; *dirty |= 0x400d00000000000; }
-        let c576: u64 = if (self.v674) != 0 { (self.q12) } else { (self.v562) };
-        if self.v576 != c576 { self.v576 = c576; *dirty |= 0x10000; }
-        let c580: u64 = if (self.v674) != 0 { (0x0) } else { (self.v566) };
-        let c583: u64 = if (self.v674) != 0 { (0x0) } else { (self.v570) };
-        let c584: u64 = if (self.v674) != 0 { (0x0) } else { (self.v572) };
-        if self.v584 != c584 { self.v584 = c584; *dirty |= 0x10000; }
-        let c585: u64 = if (self.v674) != 0 { (0x0) } else { (self.v573) };
-        if self.v585 != c585 { self.v585 = c585; *dirty |= 0x10000; }
-        let c596: u64 = (self.q45) & (c580) & 0x1;
-        if self.v596 != c596 { self.v596 = c596; *dirty |= 0x60000; }
-        let c598: u64 = (self.q45) & (c583) & 0x1;
-        if self.v598 != c598 { self.v598 = c598; *dirty |= 0x80000; }
-        let c15: u64 = u64::from((self.i_counters_load_tec | (self.q54 << 1) | (c598 << 2)) != (0x2));
-        if self.v15 != c15 { self.v15 = c15; *dirty |= 0x400000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$protocol$frame.
-    fn group_15(&mut self, dirty: &mut u128) {
-        let c30: u64 = u64::from((self.v16 | (self.v378 << 1) | (self.v445 << 2)) == 0x7);
-        if self.v30 != c30 { self.v30 = c30; *dirty |= 0x4000000000000; }
-        let c31: u64 = u64::from((self.v378 | (self.v318 << 1) | (self.v445 << 2)) == 0x7);
-        if self.v31 != c31 { self.v31 = c31; *dirty |= 0x1000000000000; }
-        let c32: u64 = u64::from((self.v20 | (self.v378 << 1) | (self.v19 << 2) | (self.v445 << 3)) == 0xf);
-        if self.v32 != c32 { self.v32 = c32; *dirty |= 0x800000000000; }
-        let c33: u64 = u64::from((self.v212 | (self.v378 << 1) | (self.v19 << 2) | (self.v445 << 3)) == 0xf);
-        if self.v33 != c33 { self.v33 = c33; *dirty |= 0x400000000000; }
-        let c35: u64 = u64::from((self.v391 | (self.v445 << 1)) == 0x3);
-        if self.v35 != c35 { self.v35 = c35; *dirty |= 0x80000000000; }
-        let c36: u64 = u64::from((self.v391 | (self.v323 << 1) | (self.v445 << 2)) == 0x7);
-        if self.v36 != c36 { self.v36 = c36; *dirty |= 0x20000000000; }
-        let c63: u64 = if (self.v565) != 0 { (self.v331) } else { (self.v530) };
-        if self.v63 != c63 { self.v63 = c63; *dirty |= 0x10000; }
-        let c308: u64 = (self.q45) & (self.v674) & 0x1;
-        if self.v308 != c308 { self.v308 = c308; *dirty |= 0x40000; }
-        let c423: u64 = if (c308) != 0 { (self.v420) } else { (self.v409) };
-        if self.v423 != c423 { self.v423 = c423; *dirty |= 0x10000; }
-        let c424: u64 = if (c308) != 0 { ((self.v421 << 1)) } else { (self.v411) };
-        if self.v424 != c424 { self.v424 = c424; *dirty |= 0x10000; }
-        let c425: u64 = if (c308) != 0 { (self.v422) } else { (self.v412) };
-        if self.v425 != c425 { self.v425 = c425; *dirty |= 0x50000; }
-        let c426: u64 = if (c308) != 0 { (self.q23) } else { (self.v388) };
-        if self.v426 != c426 { self.v426 = c426; *dirty |= 0x10000; }
-        let c427: u64 = if (c308) != 0 { (0x0) } else { (self.v403) };
-        if self.v427 != c427 { self.v427 = c427; *dirty |= 0x40000; }
-        let c428: u64 = if (c308) != 0 { (0x0) } else { (self.v404) };
-        if self.v428 != c428 { self.v428 = c428; *dirty |= 0x1000000000080000; }
-        let c429: u64 = if (c308) != 0 { (0x0) } else { (self.v405) };
-        if self.v429 != c429 { self.v429 = c429; *dirty |= 0x1000000000040000; }
-        let c430: u64 = if (c308) != 0 { (0x0) } else { (self.v407) };
-        if self.v430 != c430 { self.v430 = c430; *dirty |= 0x10000; }
-        let c431: u64 = if (c308) != 0 { (0x0) } else { (self.v408) };
-        if self.v431 != c431 { self.v431 = c431; *dirty |= 0x40000; }
-        let c432: u64 = if (c308) != 0 { (0x0) } else { (self.v410) };
-        if self.v432 != c432 { self.v432 = c432; *dirty |= 0x90000000010000; }
-        let c433: u64 = if (c308) != 0 { (0x0) } else { (self.v413) };
-        if self.v433 != c433 { self.v433 = c433; *dirty |= 0x10000; }
-        let c434: u64 = if (c308) != 0 { (0x0) } else { (self.v414) };
-        if self.v434 != c434 { self.v434 = c434; *dirty |= 0x20000; }
-        let c435: u64 = if (c308) != 0 { (0x0) } else { (self.v415) };
-        if self.v435 != c435 { self.v435 = c435; *dirty |= 0x200000000020000; }
-        let c436: u64 = if (c308) != 0 { (self.q56) } else { (self.v416) };
-        if self.v436 != c436 { self.v436 = c436; *dirty |= 0x10000; }
-        let c437: u64 = if (c308) != 0 { (0x0) } else { (self.v417) };
-        if self.v437 != c437 { self.v437 = c437; *dirty |= 0x80000; }
-        let c438: u64 = if (c308) != 0 { (0x0) } else { (self.v418) };
-        if self.v438 != c438 { self.v438 = c438; *dirty |= 0x40000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$protocol$interframe.
-    fn group_16(&mut self, dirty: &mut u128) {
-        let c461: u64 = !(self.v432) & 0x1;
-        let c448: u64 = (self.q1) & (c461) & 0x1;
-        let c488: u64 = if (self.v610) != 0 { (0x0) } else { (self.v426) };
-        let c489: u64 = if (self.v456) != 0 { (c488) } else { (0x0) };
-        let c491: u64 = if (self.v463) != 0 { (0xa) } else { (self.v436) };
-        let c492: u64 = if (self.v463) != 0 { (0x0) } else { (self.v426) };
-        let c493: u64 = if (self.v463) != 0 { (0xd) } else { (self.v436) };
-        let c494: u64 = if (self.v463) != 0 { (self.v424) } else { (0x1) };
-        let c495: u64 = if (self.v463) != 0 { (self.v425) } else { (0x1) };
-        let c496: u64 = if (self.q50) != 0 { (self.v424) } else { (c494) };
-        let c497: u64 = if (self.q50) != 0 { (self.v425) } else { (c495) };
-        let c498: u64 = if (self.q50) != 0 { (c491) } else { (c493) };
-        let c506: u64 = if (self.v224) != 0 { (self.v424) } else { (c496) };
-        let c507: u64 = if (self.v224) != 0 { (self.v425) } else { (c497) };
-        let c508: u64 = if (self.v224) != 0 { (self.v436) } else { (c498) };
-        let c509: u64 = ((self.q10) | (self.v63)) & 0x1;
-        let c511: u64 = if (self.v331) != 0 { (0x0) } else { (self.v426) };
-        let c512: u64 = if (self.v331) != 0 { (0xe) } else { (self.v436) };
-        let c513: u64 = ((self.v425) | (self.v453)) & 0x1;
-        let c515: u64 = if (self.v453) != 0 { (self.v426) } else { (c511) };
-        let c516: u64 = if (self.v453) != 0 { (self.v436) } else { (c512) };
-        let c519: u64 = if (self.v530) != 0 { (0xe) } else { (self.v436) };
-        let c521: u64 = if (self.q50) != 0 { (0x0) } else { (self.v426) };
-        let c527: u64 = if (self.v451) != 0 { (0x1) } else { (self.v426) };
-        let c531: u64 = if (self.q8) != 0 { (c527) } else { (c521) };
-        let c518: u64 = if (self.v530) != 0 { (0x0) } else { (c531) };
-        let c535: u64 = if (self.v450) != 0 { (0x0) } else { (self.v426) };
-        let c536: u64 = if (self.v168) != 0 { (c535) } else { (self.v426) };
-        let c537: u64 = if (self.v168) != 0 { (self.v450) } else { (c448) };
-        let c538: u64 = if (self.v168) != 0 { ((self.v450 << 1) | (self.v450 << 3) | 0x1) } else { (self.v436) };
-        let c539: u64 = if (self.v168) != 0 { (self.v449) } else { (c448) };
-        let c540: u64 = if (self.v168) != 0 { (self.v426) } else { (0x0) };
-        let c541: u64 = if (self.v168) != 0 { (self.v436) } else { (0xd) };
-        let c542: u64 = if (self.q50) != 0 { (c536) } else { (c540) };
-        let c543: u64 = if (self.q50) != 0 { (c537) } else { (c539) };
-        let c544: u64 = if (self.q50) != 0 { (c538) } else { (c541) };
-        let c545: u64 = if (self.v463) != 0 { (0x0) } else { (c448) };
-        let c546: u64 = if (self.v463) != 0 { (0x1) } else { (self.v436) };
-        let c547: u64 = (self.q50) & (c545) & 0x1;
-        let c548: u64 = if (self.q50) != 0 { (c546) } else { (self.v436) };
-        let c549: u64 = if (self.q59) != 0 { (c448) } else { (0x1) };
-        let c550: u64 = if (self.q59) != 0 { (self.v425) } else { (0x1) };
-        let c551: u64 = if (self.q50) != 0 { (c549) } else { (self.v330) };
-        let c552: u64 = if (self.q50) != 0 { (c550) } else { (self.v425) };
-        let c553: u64 = if (self.v610) != 0 { (0x1) } else { (self.v436) };
-        let c554: u64 = if (self.q50) != 0 { (self.v426) } else { (0x0) };
-        let c503: u64 = if (self.v224) != 0 { (c554) } else { (c492) };
-        let c555: u64 = if (self.q50) != 0 { (c553) } else { (self.v436) };
-        let c556: u64 = { let s = (self.v571 | (self.v233 << 1) | (self.v565 << 2) | (self.v574 << 3) | (self.v568 << 4) | (self.v558 << 5)); if s >> 0 & 1 != 0 { c489 } else if s >> 1 & 1 != 0 { c503 } else if s >> 2 & 1 != 0 { c515 } else if s >> 3 & 1 != 0 { c518 } else if s >> 4 & 1 != 0 { c542 } else if s >> 5 & 1 != 0 { c554 } else { (self.v426) } };
-        let c557: u64 = { let s = (self.v233 | (self.v565 << 1) | (self.v574 << 2) | (self.v568 << 3) | (self.v569 << 4) | (self.v558 << 5)); if s >> 0 & 1 != 0 { c508 } else if s >> 1 & 1 != 0 { c516 } else if s >> 2 & 1 != 0 { c519 } else if s >> 3 & 1 != 0 { c544 } else if s >> 4 & 1 != 0 { c548 } else if s >> 5 & 1 != 0 { c555 } else { (self.v436) } };
-        let c561: u64 = if (self.v233) != 0 { (0x0) } else { (c509) };
-        if self.v561 != c561 { self.v561 = c561; *dirty |= 0x100000000000000000; }
-        let c563: u64 = if (self.v233) != 0 { (c506) } else { (self.v424) };
-        let c564: u64 = { let s = (self.v233 | (self.v565 << 1) | (self.v167 << 2)); if s >> 0 & 1 != 0 { c507 } else if s >> 1 & 1 != 0 { c513 } else if s >> 2 & 1 != 0 { c552 } else { (self.v425) } };
-        let c567: u64 = { let s = (self.v568 | (self.v569 << 1) | (self.v167 << 2)); if s >> 0 & 1 != 0 { c543 } else if s >> 1 & 1 != 0 { c547 } else if s >> 2 & 1 != 0 { c551 } else { (c448) } };
-        let c577: u64 = if (self.v674) != 0 { (self.v426) } else { (c556) };
-        let c486: u64 = if (self.v447) != 0 { (0x0) } else { (c577) };
-        let c578: u64 = if (self.v674) != 0 { (self.v424) } else { (c563) };
-        let c579: u64 = if (self.v674) != 0 { (self.v425) } else { (c564) };
-        let c3: u64 = u64::from((c579 | (self.v674 << 1) | (self.v574 << 2)) != 0);
-        let c4: u64 = u64::from((c579 | (self.v674 << 1)) != (0x2));
-        let c24: u64 = u64::from((self.q45 | (c3 << 1) | (c4 << 2)) == 0x7);
-        if self.v24 != c24 { self.v24 = c24; *dirty |= 0x400000000000000000; }
-        let c481: u64 = ((self.v576) | (c579)) & 0x1;
-        if self.v481 != c481 { self.v481 = c481; *dirty |= 0x40000000000000000; }
-        let c482: u64 = if (c579) != 0 { (self.v469) } else { (self.v532) };
-        if self.v482 != c482 { self.v482 = c482; *dirty |= 0x400000000000000000; }
-        let c483: u64 = ((self.v433) | (c579)) & 0x1;
-        let c484: u64 = if (c579) != 0 { (0x0) } else { (c486) };
-        if self.v484 != c484 { self.v484 = c484; *dirty |= 0x40000; }
-        let c581: u64 = if (self.v674) != 0 { (c448) } else { (c567) };
-        let c458: u64 = (c581) & (self.v335) & 0x1;
-        let c459: u64 = (c458) & (self.q57) & 0x1;
-        let c464: u64 = !(c581) & 0x1;
-        let c457: u64 = (self.v565) & (c464) & 0x1;
-        let c460: u64 = (self.q38) & (c464) & 0x1;
-        let c472: u64 = ((self.v585) | (c457)) & 0x1;
-        let c473: u64 = if (c457) != 0 { (0x0) } else { (c464) };
-        let c474: u64 = if (self.v423) != 0 { (c472) } else { (self.v585) };
-        let c475: u64 = (self.v423) & (c473) & 0x1;
-        let c476: u64 = if (self.v423) != 0 { (c581) } else { (self.v584) };
-        let c477: u64 = (c579) & (c459) & 0x1;
-        let c471: u64 = ((c477) | (c460)) & 0x1;
-        let c478: u64 = if (c579) != 0 { (c476) } else { (self.v584) };
-        let c479: u64 = if (c579) != 0 { (c474) } else { (self.v585) };
-        let c480: u64 = (c579) & (c475) & 0x1;
-        let c582: u64 = if (self.v674) != 0 { (self.v436) } else { (c557) };
-        let c487: u64 = if (self.v447) != 0 { (0x2) } else { (c582) };
-        let c485: u64 = if (c579) != 0 { (0xc) } else { (c487) };
-        let c586: u64 = (self.q45) & (c471) & 0x1;
-        if self.v586 != c586 { self.v586 = c586; *dirty |= 0x40000; }
-        let c43: u64 = u64::from((self.i_reset | (c586 << 1)) != 0);
-        if self.v43 != c43 { self.v43 = c43; *dirty |= 0x1000000000000000; }
-        let c587: u64 = if (self.q45) != 0 { (c483) } else { (self.v433) };
-        if self.v587 != c587 { self.v587 = c587; *dirty |= 0x60000; }
-        let c588: u64 = if (self.q45) != 0 { (c485) } else { (self.v436) };
-        if self.v588 != c588 { self.v588 = c588; *dirty |= 0x60000; }
-        let c589: u64 = (self.q45) & (c478) & 0x1;
-        if self.v589 != c589 { self.v589 = c589; *dirty |= 0x480000; }
-        let c590: u64 = (self.q45) & (c479) & 0x1;
-        if self.v590 != c590 { self.v590 = c590; *dirty |= 0x80000; }
-        let c591: u64 = (self.q45) & (c480) & 0x1;
-        if self.v591 != c591 { self.v591 = c591; *dirty |= 0x80000; }
-        let c592: u64 = (self.q45) & (c464) & 0x1;
-        if self.v592 != c592 { self.v592 = c592; *dirty |= 0x20000000000000; }
-        let c594: u64 = if (self.q45) != 0 { (c578) } else { (self.v424) };
-        if self.v594 != c594 { self.v594 = c594; *dirty |= 0x20000000000000; }
-        let c595: u64 = if (self.q45) != 0 { (c579) } else { (self.v425) };
-        if self.v595 != c595 { self.v595 = c595; *dirty |= 0x60000; }
-        let c597: u64 = if (self.q45) != 0 { (c581) } else { (c448) };
-        if self.v597 != c597 { self.v597 = c597; *dirty |= 0x40000000000002020000; }
-        let c599: u64 = ((self.q13) | (self.v430)) & 0x1;
-        let c525: u64 = if (self.v452) != 0 { (0x0) } else { (c599) };
-        let c528: u64 = if (self.q8) != 0 { (c525) } else { (c599) };
-        let c517: u64 = if (self.v530) != 0 { (0x0) } else { (c528) };
-        let c559: u64 = if (self.v574) != 0 { (c517) } else { (c599) };
-        let c575: u64 = if (self.v674) != 0 { (c599) } else { (c559) };
-        let c593: u64 = if (self.q45) != 0 { (c575) } else { (c599) };
-        if self.v593 != c593 { self.v593 = c593; *dirty |= 0x20000000000000000; }
+        if self.v21 != c21 { self.v21 = c21; *dirty |= 0x40000000000000000000; }
+        let c44: u64 = u64::from((self.i_reset | (c452 << 1)) != 0);
+        if self.v44 != c44 { self.v44 = c44; *dirty |= 0x803400000000000; }
+        let c582: u64 = if (self.v680) != 0 { (self.q12) } else { (self.v566) };
+        if self.v582 != c582 { self.v582 = c582; *dirty |= 0x20000; }
+        let c586: u64 = if (self.v680) != 0 { (0x0) } else { (self.v570) };
+        let c589: u64 = if (self.v680) != 0 { (0x0) } else { (self.v575) };
+        let c590: u64 = if (self.v680) != 0 { (0x0) } else { (self.v577) };
+        if self.v590 != c590 { self.v590 = c590; *dirty |= 0x20000; }
+        let c591: u64 = if (self.v680) != 0 { (0x0) } else { (self.v578) };
+        if self.v591 != c591 { self.v591 = c591; *dirty |= 0x20000; }
+        let c602: u64 = (self.q45) & (c586) & 0x1;
+        if self.v602 != c602 { self.v602 = c602; *dirty |= 0x88000; }
+        let c604: u64 = (self.q45) & (c589) & 0x1;
+        if self.v604 != c604 { self.v604 = c604; *dirty |= 0x100000; }
+        let c15: u64 = u64::from((self.i_counters_load_tec | (self.q54 << 1) | (c604 << 2)) != (0x2));
+        if self.v15 != c15 { self.v15 = c15; *dirty |= 0x800000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender.
+    fn group_15(&mut self, dirty: &mut u128) {
+        let c609: u64 = (self.v681) & (self.v18) & 0x1;
+        let c610: u64 = (c609) & (self.v331) & 0x1;
+        if self.v610 != c610 { self.v610 = c610; *dirty |= 0x40000; }
+        let c618: u64 = !(self.v449) & 0x1;
+        if self.v618 != c618 { self.v618 = c618; *dirty |= 0x8000000; }
+        let c624: u64 = !(self.v602) & 0x1;
+        let c608: u64 = (self.v580) & (c624) & 0x1;
+        let c631: u64 = if (self.v103) != 0 { (self.q58) } else { (self.q59) };
+        let c630: u64 = ((c631) | (self.i_listen_only)) & 0x1;
+        let c629: u64 = ((c630) | (self.v627)) & 0x1;
+        if self.v629 != c629 { self.v629 = c629; *dirty |= 0x4000000000000000000; }
+        let c634: u64 = if (c608) != 0 { (self.q8) } else { (self.v474) };
+        if self.v634 != c634 { self.v634 = c634; *dirty |= 0x8000000; }
+        let c662: u64 = if (self.v680) != 0 { ((self.q23 & 0x7)) } else { ((self.v607 & 0x7)) };
+        let c663: u64 = if (self.v680) != 0 { (self.v326) } else { (self.v617) };
+        let c659: u64 = if (self.v452) != 0 { (0x0) } else { (c663) };
+        if self.v659 != c659 { self.v659 = c659; *dirty |= 0x8000000; }
+        let c664: u64 = if (self.v680) != 0 { (self.v325) } else { (self.v324) };
+        let c660: u64 = if (self.v452) != 0 { (0x0) } else { (c664) };
+        if self.v660 != c660 { self.v660 = c660; *dirty |= 0x8000000; }
+        let c665: u64 = if (self.v680) != 0 { (self.v324) } else { (self.v616) };
+        let c661: u64 = if (self.v452) != 0 { (0x0) } else { (c665) };
+        if self.v661 != c661 { self.v661 = c661; *dirty |= 0x8000000; }
+        let c676: u64 = (c662).wrapping_sub((0x1)) & 0x7;
+        let c646: u64 = if ((self.i_transmit_info >> 7)) != 0 { (c676) } else { (c662) };
+        let c619: u64 = u64::from((c646) == (0x1));
+        let c620: u64 = u64::from((c646) == (0x2));
+        let c621: u64 = u64::from((c646) == (0x3));
+        let c622: u64 = u64::from((c646) == (0x4));
+        let c645: u64 = (c619) & (((self.i_transmit_info >> 3) & 0x1)) & 0x1;
+        let c644: u64 = if (c620) != 0 { (((self.i_transmit_info >> 2) & 0x1)) } else { (c645) };
+        let c642: u64 = if (c621) != 0 { (((self.i_transmit_info >> 1) & 0x1)) } else { (c644) };
+        let c641: u64 = if (c622) != 0 { ((self.i_transmit_info & 0x1)) } else { (c642) };
+        if self.v641 != c641 { self.v641 = c641; *dirty |= 0x40000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$protocol$frame.
+    fn group_16(&mut self, dirty: &mut u128) {
+        let c30: u64 = u64::from((self.v16 | (self.v242 << 1) | (self.v450 << 2)) == 0x7);
+        if self.v30 != c30 { self.v30 = c30; *dirty |= 0x10000000000000; }
+        let c32: u64 = u64::from((self.v20 | (self.v242 << 1) | (self.v19 << 2) | (self.v450 << 3)) == 0xf);
+        if self.v32 != c32 { self.v32 = c32; *dirty |= 0x2000000000000; }
+        let c33: u64 = u64::from((self.v211 | (self.v242 << 1) | (self.v19 << 2) | (self.v450 << 3)) == 0xf);
+        if self.v33 != c33 { self.v33 = c33; *dirty |= 0x1000000000000; }
+        let c35: u64 = u64::from((self.v397 | (self.v450 << 1)) == 0x3);
+        if self.v35 != c35 { self.v35 = c35; *dirty |= 0x200000000000; }
+        let c62: u64 = if (self.v569) != 0 { (self.v337) } else { (self.v535) };
+        if self.v62 != c62 { self.v62 = c62; *dirty |= 0x20000; }
+        let c315: u64 = (self.q45) & (self.v680) & 0x1;
+        if self.v315 != c315 { self.v315 = c315; *dirty |= 0x80000; }
+        let c428: u64 = if (c315) != 0 { (self.v425) } else { (self.v414) };
+        if self.v428 != c428 { self.v428 = c428; *dirty |= 0x20000; }
+        let c429: u64 = if (c315) != 0 { ((self.v426 << 1)) } else { (self.v416) };
+        if self.v429 != c429 { self.v429 = c429; *dirty |= 0x20000; }
+        let c430: u64 = if (c315) != 0 { (self.v427) } else { (self.v417) };
+        if self.v430 != c430 { self.v430 = c430; *dirty |= 0xa0000; }
+        let c431: u64 = if (c315) != 0 { (self.q23) } else { (self.v395) };
+        if self.v431 != c431 { self.v431 = c431; *dirty |= 0x20000; }
+        let c432: u64 = if (c315) != 0 { (0x0) } else { (self.v408) };
+        if self.v432 != c432 { self.v432 = c432; *dirty |= 0x80000; }
+        let c433: u64 = if (c315) != 0 { (0x0) } else { (self.v410) };
+        if self.v433 != c433 { self.v433 = c433; *dirty |= 0x2000000000080000; }
+        let c434: u64 = if (c315) != 0 { (0x0) } else { (self.v412) };
+        if self.v434 != c434 { self.v434 = c434; *dirty |= 0x20000; }
+        let c435: u64 = if (c315) != 0 { (0x0) } else { (self.v413) };
+        if self.v435 != c435 { self.v435 = c435; *dirty |= 0x80000; }
+        let c436: u64 = if (c315) != 0 { (0x0) } else { (self.v415) };
+        if self.v436 != c436 { self.v436 = c436; *dirty |= 0x120000000020000; }
+        let c437: u64 = if (c315) != 0 { (0x0) } else { (self.v418) };
+        if self.v437 != c437 { self.v437 = c437; *dirty |= 0x20000; }
+        let c438: u64 = if (c315) != 0 { (0x0) } else { (self.v419) };
+        if self.v438 != c438 { self.v438 = c438; *dirty |= 0x40000; }
+        let c439: u64 = if (c315) != 0 { (0x0) } else { (self.v420) };
+        if self.v439 != c439 { self.v439 = c439; *dirty |= 0x400000000040000; }
+        let c440: u64 = if (c315) != 0 { (self.q56) } else { (self.v421) };
+        if self.v440 != c440 { self.v440 = c440; *dirty |= 0x20000; }
+        let c441: u64 = if (c315) != 0 { (0x0) } else { (self.v422) };
+        if self.v441 != c441 { self.v441 = c441; *dirty |= 0x100000; }
+        let c442: u64 = if (c315) != 0 { (0x0) } else { (self.v409) };
+        if self.v442 != c442 { self.v442 = c442; *dirty |= 0x2000000000100000; }
+        let c443: u64 = if (c315) != 0 { (0x0) } else { (self.v423) };
+        if self.v443 != c443 { self.v443 = c443; *dirty |= 0x80000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$protocol$interframe.
     fn group_17(&mut self, dirty: &mut u128) {
-        let c603: u64 = (self.v675) & (self.v18) & 0x1;
-        let c604: u64 = (c603) & (self.v325) & 0x1;
-        let c605: u64 = (c604) & (self.v597) & 0x1;
-        let c612: u64 = !(self.v444) & 0x1;
-        if self.v612 != c612 { self.v612 = c612; *dirty |= 0x2000000; }
-        let c617: u64 = !(self.v434) & 0x1;
-        if self.v617 != c617 { self.v617 = c617; *dirty |= 0x2000000; }
-        let c618: u64 = !(self.v596) & 0x1;
-        let c602: u64 = (self.v574) & (c618) & 0x1;
-        let c619: u64 = !(self.v595) & 0x1;
-        if self.v619 != c619 { self.v619 = c619; *dirty |= 0x40000; }
-        let c606: u64 = (c605) & (c619) & 0x1;
-        let c620: u64 = !(self.v587) & 0x1;
-        let c607: u64 = (c606) & (c620) & 0x1;
-        if self.v607 != c607 { self.v607 = c607; *dirty |= 0x2000000; }
-        let c625: u64 = if (self.v104) != 0 { (self.q58) } else { (self.q59) };
-        let c624: u64 = ((c625) | (self.i_listen_only)) & 0x1;
-        let c623: u64 = ((c624) | (self.v621)) & 0x1;
-        if self.v623 != c623 { self.v623 = c623; *dirty |= 0x2000000000000000000; }
-        let c628: u64 = if (c602) != 0 { (self.q8) } else { (self.v469) };
-        if self.v628 != c628 { self.v628 = c628; *dirty |= 0x2000000; }
-        let c629: u64 = u64::from((self.v588) == (0xc));
-        if self.v629 != c629 { self.v629 = c629; *dirty |= 0x2000000; }
-        let c630: u64 = if (self.v435) != 0 { (self.v672) } else { ((self.q22 >> 14)) };
-        let c631: u64 = if (self.v597) != 0 { (c630) } else { (0x1) };
-        if self.v631 != c631 { self.v631 = c631; *dirty |= 0x2000000; }
-        let c632: u64 = u64::from((self.v588) == (0x5));
-        if self.v632 != c632 { self.v632 = c632; *dirty |= 0x2000000; }
-        let c635: u64 = u64::from((self.v588) == (0x4));
-        if self.v635 != c635 { self.v635 = c635; *dirty |= 0x2000000; }
-        let c638: u64 = u64::from((self.v588) == (0x3));
-        if self.v638 != c638 { self.v638 = c638; *dirty |= 0x2000000; }
-        let c644: u64 = u64::from((self.v588) == (0x2));
-        if self.v644 != c644 { self.v644 = c644; *dirty |= 0x2000000; }
-        let c650: u64 = u64::from((self.v588) == (0xd));
-        if self.v650 != c650 { self.v650 = c650; *dirty |= 0x2000000; }
-        let c651: u64 = u64::from((self.v588) == (0x7));
-        if self.v651 != c651 { self.v651 = c651; *dirty |= 0x2000000; }
-        let c652: u64 = u64::from((self.v588) == (0x1));
-        if self.v652 != c652 { self.v652 = c652; *dirty |= 0x2000000; }
-        let c656: u64 = if (self.v674) != 0 { ((self.q23 & 0x7)) } else { ((self.v601 & 0x7)) };
-        let c657: u64 = if (self.v674) != 0 { (self.v319) } else { (self.v611) };
-        let c653: u64 = if (self.v447) != 0 { (0x0) } else { (c657) };
-        if self.v653 != c653 { self.v653 = c653; *dirty |= 0x2000000; }
-        let c658: u64 = if (self.v674) != 0 { (self.v318) } else { (self.v317) };
-        let c654: u64 = if (self.v447) != 0 { (0x0) } else { (c658) };
-        if self.v654 != c654 { self.v654 = c654; *dirty |= 0x2000000; }
-        let c659: u64 = if (self.v674) != 0 { (self.v317) } else { (self.v610) };
-        let c655: u64 = if (self.v447) != 0 { (0x0) } else { (c659) };
-        if self.v655 != c655 { self.v655 = c655; *dirty |= 0x2000000; }
-        let c670: u64 = (c656).wrapping_sub((0x1)) & 0x7;
-        let c641: u64 = if ((self.i_transmit_info >> 7)) != 0 { (c670) } else { (c656) };
-        let c613: u64 = u64::from((c641) == (0x1));
-        let c614: u64 = u64::from((c641) == (0x2));
-        let c615: u64 = u64::from((c641) == (0x3));
-        let c616: u64 = u64::from((c641) == (0x4));
-        let c640: u64 = (c613) & (((self.i_transmit_info >> 3) & 0x1)) & 0x1;
-        let c639: u64 = if (c614) != 0 { (((self.i_transmit_info >> 2) & 0x1)) } else { (c640) };
-        let c637: u64 = if (c615) != 0 { (((self.i_transmit_info >> 1) & 0x1)) } else { (c639) };
-        let c636: u64 = if (c616) != 0 { ((self.i_transmit_info & 0x1)) } else { (c637) };
-        let c642: u64 = if (self.v597) != 0 { (c636) } else { (0x1) };
-        if self.v642 != c642 { self.v642 = c642; *dirty |= 0x2000000; }
+        let c466: u64 = !(self.v436) & 0x1;
+        let c453: u64 = (self.q1) & (c466) & 0x1;
+        let c493: u64 = if (self.v616) != 0 { (0x0) } else { (self.v431) };
+        let c494: u64 = if (self.v461) != 0 { (c493) } else { (0x0) };
+        let c496: u64 = if (self.v468) != 0 { (0xa) } else { (self.v440) };
+        let c497: u64 = if (self.v468) != 0 { (0x0) } else { (self.v431) };
+        let c498: u64 = if (self.v468) != 0 { (0xd) } else { (self.v440) };
+        let c499: u64 = if (self.v468) != 0 { (self.v429) } else { (0x1) };
+        let c500: u64 = if (self.v468) != 0 { (self.v430) } else { (0x1) };
+        let c501: u64 = if (self.q50) != 0 { (self.v429) } else { (c499) };
+        let c502: u64 = if (self.q50) != 0 { (self.v430) } else { (c500) };
+        let c503: u64 = if (self.q50) != 0 { (c496) } else { (c498) };
+        let c511: u64 = if (self.v232) != 0 { (self.v429) } else { (c501) };
+        let c512: u64 = if (self.v232) != 0 { (self.v430) } else { (c502) };
+        let c513: u64 = if (self.v232) != 0 { (self.v440) } else { (c503) };
+        let c514: u64 = ((self.q10) | (self.v62)) & 0x1;
+        let c516: u64 = if (self.v337) != 0 { (0x0) } else { (self.v431) };
+        let c517: u64 = if (self.v337) != 0 { (0xe) } else { (self.v440) };
+        let c518: u64 = ((self.v430) | (self.v458)) & 0x1;
+        let c520: u64 = if (self.v458) != 0 { (self.v431) } else { (c516) };
+        let c521: u64 = if (self.v458) != 0 { (self.v440) } else { (c517) };
+        let c524: u64 = if (self.v535) != 0 { (0xe) } else { (self.v440) };
+        let c526: u64 = if (self.q50) != 0 { (0x0) } else { (self.v431) };
+        let c532: u64 = if (self.v456) != 0 { (0x1) } else { (self.v431) };
+        let c536: u64 = if (self.q8) != 0 { (c532) } else { (c526) };
+        let c523: u64 = if (self.v535) != 0 { (0x0) } else { (c536) };
+        let c540: u64 = if (self.v455) != 0 { (0x0) } else { (self.v431) };
+        let c541: u64 = if (self.v167) != 0 { (c540) } else { (self.v431) };
+        let c542: u64 = if (self.v167) != 0 { (self.v455) } else { (c453) };
+        let c543: u64 = if (self.v167) != 0 { ((self.v455 << 1) | (self.v455 << 3) | 0x1) } else { (self.v440) };
+        let c544: u64 = if (self.v167) != 0 { (self.v454) } else { (c453) };
+        let c545: u64 = if (self.v167) != 0 { (self.v431) } else { (0x0) };
+        let c546: u64 = if (self.v167) != 0 { (self.v440) } else { (0xd) };
+        let c547: u64 = if (self.q50) != 0 { (c541) } else { (c545) };
+        let c548: u64 = if (self.q50) != 0 { (c542) } else { (c544) };
+        let c549: u64 = if (self.q50) != 0 { (c543) } else { (c546) };
+        let c550: u64 = if (self.v468) != 0 { (0x0) } else { (c453) };
+        let c551: u64 = if (self.v468) != 0 { (0x1) } else { (self.v440) };
+        let c552: u64 = (self.q50) & (c550) & 0x1;
+        let c553: u64 = if (self.q50) != 0 { (c551) } else { (self.v440) };
+        let c554: u64 = if (self.q59) != 0 { (c453) } else { (0x1) };
+        let c555: u64 = if (self.q59) != 0 { (self.v430) } else { (0x1) };
+        let c556: u64 = if (self.q50) != 0 { (c554) } else { (self.v336) };
+        let c557: u64 = if (self.q50) != 0 { (c555) } else { (self.v430) };
+        let c558: u64 = if (self.v616) != 0 { (0x1) } else { (self.v440) };
+        let c559: u64 = if (self.q50) != 0 { (self.v431) } else { (0x0) };
+        let c508: u64 = if (self.v232) != 0 { (c559) } else { (c497) };
+        let c560: u64 = if (self.q50) != 0 { (c558) } else { (self.v440) };
+        let c561: u64 = { let s = (self.v576 | (self.v579 << 1) | (self.v569 << 2) | (self.v580 << 3) | (self.v572 << 4) | (self.v253 << 5)); if s >> 0 & 1 != 0 { c494 } else if s >> 1 & 1 != 0 { c508 } else if s >> 2 & 1 != 0 { c520 } else if s >> 3 & 1 != 0 { c523 } else if s >> 4 & 1 != 0 { c547 } else if s >> 5 & 1 != 0 { c559 } else { (self.v431) } };
+        let c562: u64 = { let s = (self.v579 | (self.v569 << 1) | (self.v580 << 2) | (self.v572 << 3) | (self.v573 << 4) | (self.v253 << 5)); if s >> 0 & 1 != 0 { c513 } else if s >> 1 & 1 != 0 { c521 } else if s >> 2 & 1 != 0 { c524 } else if s >> 3 & 1 != 0 { c549 } else if s >> 4 & 1 != 0 { c553 } else if s >> 5 & 1 != 0 { c560 } else { (self.v440) } };
+        let c565: u64 = if (self.v579) != 0 { (0x0) } else { (c514) };
+        if self.v565 != c565 { self.v565 = c565; *dirty |= 0x200000000000000000; }
+        let c567: u64 = if (self.v579) != 0 { (c511) } else { (self.v429) };
+        let c568: u64 = { let s = (self.v579 | (self.v569 << 1) | (self.v574 << 2)); if s >> 0 & 1 != 0 { c512 } else if s >> 1 & 1 != 0 { c518 } else if s >> 2 & 1 != 0 { c557 } else { (self.v430) } };
+        let c571: u64 = { let s = (self.v572 | (self.v573 << 1) | (self.v574 << 2)); if s >> 0 & 1 != 0 { c548 } else if s >> 1 & 1 != 0 { c552 } else if s >> 2 & 1 != 0 { c556 } else { (c453) } };
+        let c583: u64 = if (self.v680) != 0 { (self.v431) } else { (c561) };
+        let c491: u64 = if (self.v452) != 0 { (0x0) } else { (c583) };
+        let c584: u64 = if (self.v680) != 0 { (self.v429) } else { (c567) };
+        let c585: u64 = if (self.v680) != 0 { (self.v430) } else { (c568) };
+        let c3: u64 = u64::from((c585 | (self.v680 << 1) | (self.v580 << 2)) != 0);
+        let c4: u64 = u64::from((c585 | (self.v680 << 1)) != (0x2));
+        let c24: u64 = u64::from((self.q45 | (c3 << 1) | (c4 << 2)) == 0x7);
+        if self.v24 != c24 { self.v24 = c24; *dirty |= 0x800000000000000000; }
+        let c486: u64 = ((self.v582) | (c585)) & 0x1;
+        if self.v486 != c486 { self.v486 = c486; *dirty |= 0x80000000000000000; }
+        let c487: u64 = if (c585) != 0 { (self.v474) } else { (self.v537) };
+        if self.v487 != c487 { self.v487 = c487; *dirty |= 0x800000000000000000; }
+        let c488: u64 = ((self.v437) | (c585)) & 0x1;
+        let c489: u64 = if (c585) != 0 { (0x0) } else { (c491) };
+        if self.v489 != c489 { self.v489 = c489; *dirty |= 0x80000; }
+        let c587: u64 = if (self.v680) != 0 { (c453) } else { (c571) };
+        let c463: u64 = (c587) & (self.v341) & 0x1;
+        let c464: u64 = (c463) & (self.q57) & 0x1;
+        let c469: u64 = !(c587) & 0x1;
+        let c462: u64 = (self.v569) & (c469) & 0x1;
+        let c465: u64 = (self.q38) & (c469) & 0x1;
+        let c477: u64 = ((self.v591) | (c462)) & 0x1;
+        let c478: u64 = if (c462) != 0 { (0x0) } else { (c469) };
+        let c479: u64 = if (self.v428) != 0 { (c477) } else { (self.v591) };
+        let c480: u64 = (self.v428) & (c478) & 0x1;
+        let c481: u64 = if (self.v428) != 0 { (c587) } else { (self.v590) };
+        let c482: u64 = (c585) & (c464) & 0x1;
+        let c476: u64 = ((c482) | (c465)) & 0x1;
+        let c483: u64 = if (c585) != 0 { (c481) } else { (self.v590) };
+        let c484: u64 = if (c585) != 0 { (c479) } else { (self.v591) };
+        let c485: u64 = (c585) & (c480) & 0x1;
+        let c588: u64 = if (self.v680) != 0 { (self.v440) } else { (c562) };
+        let c492: u64 = if (self.v452) != 0 { (0x2) } else { (c588) };
+        let c490: u64 = if (c585) != 0 { (0xc) } else { (c492) };
+        let c592: u64 = (self.q45) & (c476) & 0x1;
+        if self.v592 != c592 { self.v592 = c592; *dirty |= 0x80000; }
+        let c43: u64 = u64::from((self.i_reset | (c592 << 1)) != 0);
+        if self.v43 != c43 { self.v43 = c43; *dirty |= 0x2000000000000000; }
+        let c593: u64 = if (self.q45) != 0 { (c488) } else { (self.v437) };
+        if self.v593 != c593 { self.v593 = c593; *dirty |= 0xc0000; }
+        let c594: u64 = if (self.q45) != 0 { (c490) } else { (self.v440) };
+        if self.v594 != c594 { self.v594 = c594; *dirty |= 0xc0000; }
+        let c595: u64 = (self.q45) & (c483) & 0x1;
+        if self.v595 != c595 { self.v595 = c595; *dirty |= 0x900000; }
+        let c596: u64 = (self.q45) & (c484) & 0x1;
+        if self.v596 != c596 { self.v596 = c596; *dirty |= 0x100000; }
+        let c597: u64 = (self.q45) & (c485) & 0x1;
+        if self.v597 != c597 { self.v597 = c597; *dirty |= 0x100000; }
+        let c598: u64 = (self.q45) & (c469) & 0x1;
+        if self.v598 != c598 { self.v598 = c598; *dirty |= 0x40000000000000; }
+        let c600: u64 = if (self.q45) != 0 { (c584) } else { (self.v429) };
+        if self.v600 != c600 { self.v600 = c600; *dirty |= 0x40000000000000; }
+        let c601: u64 = if (self.q45) != 0 { (c585) } else { (self.v430) };
+        if self.v601 != c601 { self.v601 = c601; *dirty |= 0xc0000; }
+        let c603: u64 = if (self.q45) != 0 { (c587) } else { (c453) };
+        if self.v603 != c603 { self.v603 = c603; *dirty |= 0x80000000000008040000; }
+        let c605: u64 = ((self.q13) | (self.v434)) & 0x1;
+        let c530: u64 = if (self.v457) != 0 { (0x0) } else { (c605) };
+        let c533: u64 = if (self.q8) != 0 { (c530) } else { (c605) };
+        let c522: u64 = if (self.v535) != 0 { (0x0) } else { (c533) };
+        let c563: u64 = if (self.v580) != 0 { (c522) } else { (c605) };
+        let c581: u64 = if (self.v680) != 0 { (c605) } else { (c563) };
+        let c599: u64 = if (self.q45) != 0 { (c581) } else { (c605) };
+        if self.v599 != c599 { self.v599 = c599; *dirty |= 0x40000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$protocol$sender.
+    fn group_18(&mut self, dirty: &mut u128) {
+        let c611: u64 = (self.v610) & (self.v603) & 0x1;
+        let c623: u64 = !(self.v438) & 0x1;
+        if self.v623 != c623 { self.v623 = c623; *dirty |= 0x8000000; }
+        let c625: u64 = !(self.v601) & 0x1;
+        if self.v625 != c625 { self.v625 = c625; *dirty |= 0x80000; }
+        let c612: u64 = (c611) & (c625) & 0x1;
+        let c626: u64 = !(self.v593) & 0x1;
+        let c613: u64 = (c612) & (c626) & 0x1;
+        if self.v613 != c613 { self.v613 = c613; *dirty |= 0x8000000; }
+        let c635: u64 = if (self.v439) != 0 { (self.v678) } else { ((self.q22 >> 14)) };
+        let c636: u64 = if (self.v603) != 0 { (c635) } else { (0x1) };
+        if self.v636 != c636 { self.v636 = c636; *dirty |= 0x8000000; }
+        let c637: u64 = u64::from((self.v594) == (0x5));
+        if self.v637 != c637 { self.v637 = c637; *dirty |= 0x8000000; }
+        let c640: u64 = u64::from((self.v594) == (0x4));
+        if self.v640 != c640 { self.v640 = c640; *dirty |= 0x8000000; }
+        let c643: u64 = u64::from((self.v594) == (0x3));
+        if self.v643 != c643 { self.v643 = c643; *dirty |= 0x8000000; }
+        let c647: u64 = if (self.v603) != 0 { (self.v641) } else { (0x1) };
+        if self.v647 != c647 { self.v647 = c647; *dirty |= 0x8000000; }
+        let c649: u64 = u64::from((self.v594) == (0x2));
+        if self.v649 != c649 { self.v649 = c649; *dirty |= 0x8000000; }
+        let c655: u64 = u64::from((self.v594) == (0xd));
+        if self.v655 != c655 { self.v655 = c655; *dirty |= 0x8000000; }
+        let c656: u64 = u64::from((self.v594) == (0xc));
+        if self.v656 != c656 { self.v656 = c656; *dirty |= 0x8000000; }
+        let c657: u64 = u64::from((self.v594) == (0x7));
+        if self.v657 != c657 { self.v657 = c657; *dirty |= 0x8000000; }
+        let c658: u64 = u64::from((self.v594) == (0x1));
+        if self.v658 != c658 { self.v658 = c658; *dirty |= 0x8000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol.
-    fn group_18(&mut self, dirty: &mut u128) {
-        let c39: u64 = u64::from((self.i_reset | (self.v308 << 1) | (self.v158 << 2)) != 0);
-        if self.v39 != c39 { self.v39 = c39; *dirty |= 0x80000000000000000000; }
-        let c160: u64 = (self.v438) & (self.v619) & 0x1;
-        if self.v160 != c160 { self.v160 = c160; *dirty |= 0x4800000000002000000; }
-        let c22: u64 = u64::from((self.v608 | (c160 << 1)) == 0x3);
-        if self.v22 != c22 { self.v22 = c22; *dirty |= 0x4000000; }
-        let c178: u64 = !(self.v425) & 0x1;
-        let c161: u64 = (self.v427) & (c178) & 0x1;
-        if self.v161 != c161 { self.v161 = c161; *dirty |= 0x2000000; }
-        let c1: u64 = u64::from((self.v608 | (c161 << 1) | (c160 << 2)) != (0x4));
-        let c2: u64 = u64::from((c161 | (c160 << 1)) != 0);
+    fn group_19(&mut self, dirty: &mut u128) {
+        let c39: u64 = u64::from((self.i_reset | (self.v315 << 1) | (self.v157 << 2)) != 0);
+        if self.v39 != c39 { self.v39 = c39; *dirty |= 0x100000000000000000000; }
+        let c159: u64 = (self.v443) & (self.v625) & 0x1;
+        if self.v159 != c159 { self.v159 = c159; *dirty |= 0x9000000000008000000; }
+        let c22: u64 = u64::from((self.v614 | (c159 << 1)) == 0x3);
+        if self.v22 != c22 { self.v22 = c22; *dirty |= 0x10000000; }
+        let c177: u64 = !(self.v430) & 0x1;
+        let c160: u64 = (self.v432) & (c177) & 0x1;
+        if self.v160 != c160 { self.v160 = c160; *dirty |= 0x8000000; }
+        let c1: u64 = u64::from((self.v614 | (c160 << 1) | (c159 << 2)) != (0x4));
+        let c2: u64 = u64::from((c160 | (c159 << 1)) != 0);
         let c23: u64 = u64::from((c1 | (c2 << 1)) == 0x3);
-        if self.v23 != c23 { self.v23 = c23; *dirty |= 0x4000000; }
-        let c180: u64 = !(self.v447) & 0x1;
-        let c162: u64 = (self.v179) & (c180) & 0x1;
-        let c41: u64 = u64::from((self.i_reset | (c162 << 1)) != 0);
-        if self.v41 != c41 { self.v41 = c41; *dirty |= 0x4000000; }
-        let c42: u64 = u64::from((self.i_reset | (c162 << 1) | (c161 << 2)) != 0);
-        if self.v42 != c42 { self.v42 = c42; *dirty |= 0x800000000004000000; }
-        let c182: u64 = ((self.v587) | (self.v158)) & 0x1;
-        if self.v182 != c182 { self.v182 = c182; *dirty |= 0x8000000; }
-        let c185: u64 = ((self.v595) | (self.v596)) & 0x1;
-        if self.v185 != c185 { self.v185 = c185; *dirty |= 0x60000000000000; }
-        let c204: u64 = if (self.q45) != 0 { (self.v484) } else { (self.q23) };
-        let c201: u64 = if (self.v177) != 0 { (0x0) } else { (c204) };
-        let c202: u64 = if (self.q54) != 0 { (c201) } else { (c204) };
-        if self.v202 != c202 { self.v202 = c202; *dirty |= 0x100000000000000; }
-        let c205: u64 = if (self.q45) != 0 { (self.v588) } else { (self.q56) };
-        let c203: u64 = if (self.q54) != 0 { (0xf) } else { (c205) };
-        let c200: u64 = if (self.v163) != 0 { (0x1) } else { (c203) };
-        let c199: u64 = if (self.v158) != 0 { (0x0) } else { (c200) };
-        let c197: u64 = if (self.i_reset) != 0 { (0x0) } else { (c199) };
-        if self.v197 != c197 { self.v197 = c197; *dirty |= 0x8000000000000000; }
-        let c169: u64 = u64::from((c197) == (0x2));
-        let c170: u64 = u64::from((c197) == (0x3));
-        let c171: u64 = u64::from((c197) == (0x4));
-        let c172: u64 = u64::from((c197) == (0x5));
-        let c173: u64 = u64::from((c197) == (0x6));
-        let c174: u64 = u64::from((c197) == (0x7));
-        let c175: u64 = u64::from((c197) == (0x8));
-        let c176: u64 = u64::from((c197) == (0x9));
-        let c190: u64 = ((c169) | (c170)) & 0x1;
+        if self.v23 != c23 { self.v23 = c23; *dirty |= 0x10000000; }
+        let c179: u64 = !(self.v452) & 0x1;
+        let c161: u64 = (self.v178) & (c179) & 0x1;
+        let c41: u64 = u64::from((self.i_reset | (c161 << 1)) != 0);
+        if self.v41 != c41 { self.v41 = c41; *dirty |= 0x10000000; }
+        let c42: u64 = u64::from((self.i_reset | (c161 << 1) | (c160 << 2)) != 0);
+        if self.v42 != c42 { self.v42 = c42; *dirty |= 0x1000000000010000000; }
+        let c181: u64 = ((self.v593) | (self.v157)) & 0x1;
+        if self.v181 != c181 { self.v181 = c181; *dirty |= 0x20000000; }
+        let c184: u64 = ((self.v601) | (self.v602)) & 0x1;
+        if self.v184 != c184 { self.v184 = c184; *dirty |= 0xc0000000000000; }
+        let c203: u64 = if (self.q45) != 0 { (self.v489) } else { (self.q23) };
+        let c200: u64 = if (self.v176) != 0 { (0x0) } else { (c203) };
+        let c201: u64 = if (self.q54) != 0 { (c200) } else { (c203) };
+        if self.v201 != c201 { self.v201 = c201; *dirty |= 0x200000000000000; }
+        let c204: u64 = if (self.q45) != 0 { (self.v594) } else { (self.q56) };
+        let c202: u64 = if (self.q54) != 0 { (0xf) } else { (c204) };
+        let c199: u64 = if (self.v162) != 0 { (0x1) } else { (c202) };
+        let c198: u64 = if (self.v157) != 0 { (0x0) } else { (c199) };
+        let c196: u64 = if (self.i_reset) != 0 { (0x0) } else { (c198) };
+        if self.v196 != c196 { self.v196 = c196; *dirty |= 0x10000000000000000; }
+        let c168: u64 = u64::from((c196) == (0x2));
+        let c169: u64 = u64::from((c196) == (0x3));
+        let c170: u64 = u64::from((c196) == (0x4));
+        let c171: u64 = u64::from((c196) == (0x5));
+        let c172: u64 = u64::from((c196) == (0x6));
+        let c173: u64 = u64::from((c196) == (0x7));
+        let c174: u64 = u64::from((c196) == (0x8));
+        let c175: u64 = u64::from((c196) == (0x9));
+        let c189: u64 = ((c168) | (c169)) & 0x1;
+        let c190: u64 = ((c189) | (c170)) & 0x1;
         let c191: u64 = ((c190) | (c171)) & 0x1;
         let c192: u64 = ((c191) | (c172)) & 0x1;
         let c193: u64 = ((c192) | (c173)) & 0x1;
         let c194: u64 = ((c193) | (c174)) & 0x1;
         let c195: u64 = ((c194) | (c175)) & 0x1;
-        let c196: u64 = ((c195) | (c176)) & 0x1;
-        if self.v196 != c196 { self.v196 = c196; *dirty |= 0x10000000000000000; }
-        let c207: u64 = ((self.q21) | (self.v431)) & 0x1;
-        if self.v207 != c207 { self.v207 = c207; *dirty |= 0x400000000000000; }
-        let c208: u64 = ((self.v429) | (self.v586)) & 0x1;
-        if self.v208 != c208 { self.v208 = c208; *dirty |= 0x800000000000000; }
+        if self.v195 != c195 { self.v195 = c195; *dirty |= 0x20000000000000000; }
+        let c206: u64 = ((self.q21) | (self.v435)) & 0x1;
+        if self.v206 != c206 { self.v206 = c206; *dirty |= 0x800000000000000; }
+        let c207: u64 = ((self.v433) | (self.v592)) & 0x1;
+        if self.v207 != c207 { self.v207 = c207; *dirty |= 0x1000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$faults.
-    fn group_19(&mut self, dirty: &mut u128) {
-        let c14: u64 = u64::from((self.i_counters_load_tec | (self.v255 << 1) | (self.q54 << 2) | (self.v598 << 3)) != (0xe));
-        if self.v14 != c14 { self.v14 = c14; *dirty |= 0x400000; }
-        let c251: u64 = (self.v428) & (self.v260) & 0x1;
-        if self.v251 != c251 { self.v251 = c251; *dirty |= 0x400000; }
-        let c252: u64 = (self.v591) & (self.v261) & 0x1;
-        let c287: u64 = (self.v589) & (self.v286) & 0x1;
-        let c288: u64 = if (self.v589) != 0 { (self.v284) } else { (self.q17 | (self.q18 << 7)) };
-        let c282: u64 = if (c252) != 0 { (self.v249) } else { (c288) };
-        let c281: u64 = if (self.v590) != 0 { (self.v280) } else { (c282) };
-        let c277: u64 = if (self.v262) != 0 { (self.v303) } else { (c281) };
-        let c278: u64 = if (self.q18) != 0 { (0x7f) } else { (c277) };
-        let c279: u64 = if (self.v437) != 0 { (c278) } else { (c281) };
-        let c289: u64 = if (self.v589) != 0 { (self.v285) } else { ((self.q14 << 5)) };
-        let c283: u64 = if (c251) != 0 { (self.v302) } else { ((c289 & 0x1) | ((c289 & 0x1) << 1) | (c289 << 2)) };
-        let c290: u64 = if (self.v183) != 0 { (self.q17 | (self.q18 << 7)) } else { (c279) };
-        let c291: u64 = if (self.v183) != 0 { ((self.q14 << 7)) } else { (c283) };
-        let c292: u64 = if (self.v183) != 0 { (0x0) } else { (c287) };
-        let c296: u64 = if (self.v598) != 0 { (self.v294) } else { (0x1) };
-        let c297: u64 = if (self.v598) != 0 { (self.v293) } else { (self.q17 | (self.q18 << 7)) };
-        let c298: u64 = if (self.v598) != 0 { (self.v295) } else { ((self.q14 << 7)) };
-        let c299: u64 = if (self.q54) != 0 { (c296) } else { (c292) };
-        let c270: u64 = if (self.q54) != 0 { (0x0) } else { (c299) };
-        let c273: u64 = ((c270) | (self.v258)) & 0x1;
-        let c274: u64 = if (self.i_counters_load_tec) != 0 { (c273) } else { (c299) };
-        let c265: u64 = if (self.i_reset) != 0 { (0x0) } else { (c274) };
-        if self.v265 != c265 { self.v265 = c265; *dirty |= 0x2000000000000000; }
-        let c263: u64 = !(c265) & 0x1;
-        let c300: u64 = if (self.q54) != 0 { (c297) } else { (c290) };
-        let c269: u64 = if (self.q54) != 0 { (0x0) } else { (c300) };
-        let c271: u64 = if (self.v258) != 0 { (0x0) } else { (c269) };
-        let c275: u64 = if (self.i_counters_load_tec) != 0 { (c271) } else { (c300) };
-        let c268: u64 = if (self.v253) != 0 { (self.i_counters_value) } else { (c275) };
-        if self.v268 != c268 { self.v268 = c268; *dirty |= 0x1000000; }
-        let c266: u64 = if (self.i_reset) != 0 { (0x0) } else { (c268) };
-        if self.v266 != c266 { self.v266 = c266; *dirty |= 0x1000000; }
-        let c301: u64 = if (self.q54) != 0 { (c298) } else { (c291) };
-        let c276: u64 = if (self.i_counters_load_tec) != 0 { (self.v272) } else { (c301) };
-        if self.v276 != c276 { self.v276 = c276; *dirty |= 0x800000; }
-        let c267: u64 = if (self.i_reset) != 0 { (0x0) } else { (c276) };
-        if self.v267 != c267 { self.v267 = c267; *dirty |= 0x800000; }
-        let c264: u64 = (((c267 >> 7)) | ((c266 >> 7))) & 0x1;
-        let c254: u64 = (c263) & (c264) & 0x1;
-        if self.v254 != c254 { self.v254 = c254; *dirty |= 0x4000000000000000; }
+    fn group_20(&mut self, dirty: &mut u128) {
+        let c14: u64 = u64::from((self.i_counters_load_tec | (self.v263 << 1) | (self.q54 << 2) | (self.v604 << 3)) != (0xe));
+        if self.v14 != c14 { self.v14 = c14; *dirty |= 0x800000; }
+        let c259: u64 = (self.v442) & (self.v267) & 0x1;
+        if self.v259 != c259 { self.v259 = c259; *dirty |= 0x800000; }
+        let c260: u64 = (self.v597) & (self.v268) & 0x1;
+        let c261: u64 = (self.i_counters_load_rec) & (self.v166) & 0x1;
+        let c294: u64 = (self.v595) & (self.v293) & 0x1;
+        let c295: u64 = if (self.v595) != 0 { (self.v291) } else { (self.q17 | (self.q18 << 7)) };
+        let c289: u64 = if (c260) != 0 { (self.v257) } else { (c295) };
+        let c288: u64 = if (self.v596) != 0 { (self.v287) } else { (c289) };
+        let c284: u64 = if (self.v269) != 0 { (self.v310) } else { (c288) };
+        let c285: u64 = if (self.q18) != 0 { (0x7f) } else { (c284) };
+        let c286: u64 = if (self.v441) != 0 { (c285) } else { (c288) };
+        let c296: u64 = if (self.v595) != 0 { (self.v292) } else { ((self.q14 << 5)) };
+        let c290: u64 = if (c259) != 0 { (self.v309) } else { ((c296 & 0x1) | ((c296 & 0x1) << 1) | (c296 << 2)) };
+        let c297: u64 = if (self.v182) != 0 { (self.q17 | (self.q18 << 7)) } else { (c286) };
+        let c298: u64 = if (self.v182) != 0 { ((self.q14 << 7)) } else { (c290) };
+        let c299: u64 = if (self.v182) != 0 { (0x0) } else { (c294) };
+        let c303: u64 = if (self.v604) != 0 { (self.v301) } else { (0x1) };
+        let c304: u64 = if (self.v604) != 0 { (self.v300) } else { (self.q17 | (self.q18 << 7)) };
+        let c305: u64 = if (self.v604) != 0 { (self.v302) } else { ((self.q14 << 7)) };
+        let c306: u64 = if (self.q54) != 0 { (c303) } else { (c299) };
+        let c277: u64 = if (self.q54) != 0 { (0x0) } else { (c306) };
+        let c280: u64 = ((c277) | (self.v266)) & 0x1;
+        let c281: u64 = if (self.i_counters_load_tec) != 0 { (c280) } else { (c306) };
+        let c272: u64 = if (self.i_reset) != 0 { (0x0) } else { (c281) };
+        if self.v272 != c272 { self.v272 = c272; *dirty |= 0x4000000000000000; }
+        let c270: u64 = !(c272) & 0x1;
+        let c307: u64 = if (self.q54) != 0 { (c304) } else { (c297) };
+        let c276: u64 = if (self.q54) != 0 { (0x0) } else { (c307) };
+        let c278: u64 = if (self.v266) != 0 { (0x0) } else { (c276) };
+        let c282: u64 = if (self.i_counters_load_tec) != 0 { (c278) } else { (c307) };
+        let c275: u64 = if (c261) != 0 { (self.i_counters_value) } else { (c282) };
+        if self.v275 != c275 { self.v275 = c275; *dirty |= 0x4000000; }
+        let c273: u64 = if (self.i_reset) != 0 { (0x0) } else { (c275) };
+        if self.v273 != c273 { self.v273 = c273; *dirty |= 0x4000000; }
+        let c308: u64 = if (self.q54) != 0 { (c305) } else { (c298) };
+        let c283: u64 = if (self.i_counters_load_tec) != 0 { (self.v279) } else { (c308) };
+        if self.v283 != c283 { self.v283 = c283; *dirty |= 0x1000000; }
+        let c274: u64 = if (self.i_reset) != 0 { (0x0) } else { (c283) };
+        if self.v274 != c274 { self.v274 = c274; *dirty |= 0x1000000; }
+        let c271: u64 = (((c274 >> 7)) | ((c273 >> 7))) & 0x1;
+        let c262: u64 = (c270) & (c271) & 0x1;
+        if self.v262 != c262 { self.v262 = c262; *dirty |= 0x8000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler.
-    fn group_20(&mut self, dirty: &mut u128) {
-        let c34: u64 = u64::from((self.v210 | (self.v236 << 1) | (self.v445 << 2)) == 0x7);
-        if self.v34 != c34 { self.v34 = c34; *dirty |= 0x100000000000; }
-        let c219: u64 = (self.v445) & (self.v217) & 0x1;
-        if self.v219 != c219 { self.v219 = c219; *dirty |= 0x40000000000; }
-        let c220: u64 = (self.v445) & (self.v218) & 0x1;
-        if self.v220 != c220 { self.v220 = c220; *dirty |= 0x200000000000; }
+    fn group_21(&mut self, dirty: &mut u128) {
+        let c34: u64 = u64::from((self.v209 | (self.v398 << 1) | (self.v450 << 2)) == 0x7);
+        if self.v34 != c34 { self.v34 = c34; *dirty |= 0x400000000000; }
+        let c218: u64 = (self.v450) & (self.v216) & 0x1;
+        if self.v218 != c218 { self.v218 = c218; *dirty |= 0x100000000000; }
+        let c219: u64 = (self.v450) & (self.v217) & 0x1;
+        if self.v219 != c219 { self.v219 = c219; *dirty |= 0x800000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$clocks.
-    fn group_21(&mut self, dirty: &mut u128) {
-        self.n47 = if (self.i_reset) != 0 { 0x0 } else { (self.v115) };
-        self.n48 = if (self.v50) != 0 { 0x0 } else { ((self.v65 >> 1)) };
+    fn group_22(&mut self, dirty: &mut u128) {
+        self.n47 = if (self.i_reset) != 0 { 0x0 } else { (self.v114) };
+        self.n48 = if (self.v50) != 0 { 0x0 } else { ((self.v64 >> 1)) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol.
-    fn group_22(&mut self, dirty: &mut u128) {
-        let c11: u64 = u64::from((self.i_counters_load_tec | (self.v183 << 1) | (self.v256 << 2) | (self.v251 << 3) | (self.q54 << 4) | (self.v589 << 5)) != (0x20));
-        let c12: u64 = u64::from((self.i_counters_load_tec | (self.v183 << 1) | (self.v251 << 2) | (self.q54 << 3) | (self.v589 << 4)) != 0);
-        let c28: u64 = u64::from((c11 | (c12 << 1) | (self.v13 << 2) | (self.v15 << 3) | (self.v14 << 4)) == 0x1f);
-        if self.v28 != c28 { self.v28 = c28; *dirty |= 0x800000; }
-        let c29: u64 = u64::from((c12 | (self.v13 << 1) | (self.v15 << 2) | (self.v14 << 3)) == 0xf);
-        if self.v29 != c29 { self.v29 = c29; *dirty |= 0x800000; }
+    fn group_23(&mut self, dirty: &mut u128) {
+        let c11: u64 = u64::from((self.i_counters_load_tec | (self.v182 << 1) | (self.v264 << 2) | (self.v259 << 3) | (self.q54 << 4) | (self.v595 << 5)) != (0x20));
+        let c12: u64 = u64::from((self.i_counters_load_tec | (self.v182 << 1) | (self.v259 << 2) | (self.q54 << 3) | (self.v595 << 4)) != 0);
+        let c28: u64 = u64::from((c11 | (c12 << 1) | (self.v13 << 2) | (self.v14 << 3) | (self.v15 << 4)) == 0x1f);
+        if self.v28 != c28 { self.v28 = c28; *dirty |= 0x1000000; }
+        let c29: u64 = u64::from((c12 | (self.v13 << 1) | (self.v14 << 2) | (self.v15 << 3)) == 0xf);
+        if self.v29 != c29 { self.v29 = c29; *dirty |= 0x1000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$faults$tec_count.
-    fn group_23(&mut self, dirty: &mut u128) {
-        self.n14 = ((self.v267 >> 7));
-        self.n15 = if (self.i_reset) != 0 { 0x0 } else if (self.v28) != 0 { ((self.v276 & 0x7)) } else { self.q15 };
-        self.n16 = if (self.i_reset) != 0 { 0x0 } else if (self.v29) != 0 { (((self.v276 >> 3) & 0xf)) } else { self.q16 };
+    fn group_24(&mut self, dirty: &mut u128) {
+        self.n14 = ((self.v274 >> 7));
+        self.n15 = if (self.i_reset) != 0 { 0x0 } else if (self.v28) != 0 { ((self.v283 & 0x7)) } else { self.q15 };
+        self.n16 = if (self.i_reset) != 0 { 0x0 } else if (self.v29) != 0 { (((self.v283 >> 3) & 0xf)) } else { self.q16 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$protocol$capture.
+    fn group_25(&mut self, dirty: &mut u128) {
+        let c31: u64 = u64::from((self.v242 | (self.v325 << 1) | (self.v450 << 2)) == 0x7);
+        if self.v31 != c31 { self.v31 = c31; *dirty |= 0x4000000000000; }
+        let c36: u64 = u64::from((self.v397 | (self.v231 << 1) | (self.v450 << 2)) == 0x7);
+        if self.v36 != c36 { self.v36 = c36; *dirty |= 0x80000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$faults$rec_count.
-    fn group_24(&mut self, dirty: &mut u128) {
-        self.n17 = if (self.i_reset) != 0 { 0x0 } else { ((self.v268 & 0x7f)) };
-        self.n18 = ((self.v266 >> 7));
+    fn group_26(&mut self, dirty: &mut u128) {
+        self.n17 = if (self.i_reset) != 0 { 0x0 } else { ((self.v275 & 0x7f)) };
+        self.n18 = ((self.v273 >> 7));
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender.
-    fn group_25(&mut self, dirty: &mut u128) {
-        let c633: u64 = if (self.v160) != 0 { (self.v666) } else { (self.v668) };
-        let c634: u64 = if (self.v597) != 0 { (c633) } else { (0x1) };
-        let c647: u64 = if (self.v655) != 0 { (self.v646) } else { (c633) };
-        let c645: u64 = if (self.v654) != 0 { ((self.i_transmit_info >> 7)) } else { (c647) };
-        let c643: u64 = if (self.v653) != 0 { (((self.i_transmit_info >> 6) & 0x1)) } else { (c645) };
-        let c648: u64 = if (self.v597) != 0 { (c643) } else { (0x1) };
-        let c649: u64 = { let s = (self.v650 | (self.v629 << 1) | (self.v651 << 2) | (self.v632 << 3) | (self.v635 << 4) | (self.v638 << 5) | (self.v644 << 6) | (self.v652 << 7)); if s >> 0 & 1 != 0 { self.i_listen_only } else if s >> 1 & 1 != 0 { self.v628 } else if s >> 2 & 1 != 0 { self.v617 } else if s >> 3 & 1 != 0 { self.v631 } else if s >> 4 & 1 != 0 { c634 } else if s >> 5 & 1 != 0 { self.v642 } else if s >> 6 & 1 != 0 { c648 } else if s >> 7 & 1 != 0 { self.v612 } else { (0x1) } };
-        let c627: u64 = if (self.v607) != 0 { (self.v351) } else { (c649) };
-        let c626: u64 = if (self.q45) != 0 { (c627) } else { (self.q58) };
-        let c622: u64 = ((c626) | (self.v621)) & 0x1;
-        if self.v622 != c622 { self.v622 = c622; *dirty |= 0x1000000000000000000; }
-        let c665: u64 = if (self.v160) != 0 { (self.v662) } else { ((self.q5 & 0x1)) };
-        let c661: u64 = if (self.v161) != 0 { ((self.v660 << 1) | 0x1) } else { (c665) };
-        if self.v661 != c661 { self.v661 = c661; *dirty |= 0x4000000; }
+    fn group_27(&mut self, dirty: &mut u128) {
+        let c638: u64 = if (self.v159) != 0 { (self.v672) } else { (self.v674) };
+        let c639: u64 = if (self.v603) != 0 { (c638) } else { (0x1) };
+        let c652: u64 = if (self.v661) != 0 { (self.v651) } else { (c638) };
+        let c650: u64 = if (self.v660) != 0 { ((self.i_transmit_info >> 7)) } else { (c652) };
+        let c648: u64 = if (self.v659) != 0 { (((self.i_transmit_info >> 6) & 0x1)) } else { (c650) };
+        let c653: u64 = if (self.v603) != 0 { (c648) } else { (0x1) };
+        let c654: u64 = { let s = (self.v655 | (self.v656 << 1) | (self.v657 << 2) | (self.v637 << 3) | (self.v640 << 4) | (self.v643 << 5) | (self.v649 << 6) | (self.v658 << 7)); if s >> 0 & 1 != 0 { self.i_listen_only } else if s >> 1 & 1 != 0 { self.v634 } else if s >> 2 & 1 != 0 { self.v623 } else if s >> 3 & 1 != 0 { self.v636 } else if s >> 4 & 1 != 0 { c639 } else if s >> 5 & 1 != 0 { self.v647 } else if s >> 6 & 1 != 0 { c653 } else if s >> 7 & 1 != 0 { self.v618 } else { (0x1) } };
+        let c633: u64 = if (self.v613) != 0 { (self.v358) } else { (c654) };
+        let c632: u64 = if (self.q45) != 0 { (c633) } else { (self.q58) };
+        let c628: u64 = ((c632) | (self.v627)) & 0x1;
+        if self.v628 != c628 { self.v628 = c628; *dirty |= 0x2000000000000000000; }
+        let c671: u64 = if (self.v159) != 0 { (self.v668) } else { ((self.q5 & 0x1)) };
+        let c667: u64 = if (self.v160) != 0 { ((self.v666 << 1) | 0x1) } else { (c671) };
+        if self.v667 != c667 { self.v667 = c667; *dirty |= 0x10000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender$tx_ptr.
-    fn group_26(&mut self, dirty: &mut u128) {
-        self.n5 = if (self.v42) != 0 { 0x1 } else if (self.v22) != 0 { ((self.v600 & 0x1) | ((self.v600 >> 3) << 1)) } else { self.q5 };
-        self.n6 = if (self.v41) != 0 { 0x0 } else if (self.v23) != 0 { ((self.v661 >> 1)) } else { self.q6 };
+    fn group_28(&mut self, dirty: &mut u128) {
+        self.n5 = if (self.v42) != 0 { 0x1 } else if (self.v22) != 0 { ((self.v606 & 0x1) | ((self.v606 >> 3) << 1)) } else { self.q5 };
+        self.n6 = if (self.v41) != 0 { 0x0 } else if (self.v23) != 0 { ((self.v667 >> 1)) } else { self.q6 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$stuffing.
-    fn group_27(&mut self, dirty: &mut u128) {
-        let c681: u64 = if (self.v447) != 0 { (0x1) } else { (self.v683) };
-        if self.v681 != c681 { self.v681 = c681; *dirty |= 0x10000000000000000000; }
-        let c682: u64 = ((self.q4) | (self.v447)) & 0x1;
-        let c680: u64 = if (self.v182) != 0 { (0x0) } else { (c682) };
-        if self.v680 != c680 { self.v680 = c680; *dirty |= 0x8000000000000000000; }
+    fn group_29(&mut self, dirty: &mut u128) {
+        let c687: u64 = if (self.v452) != 0 { (0x1) } else { (self.v689) };
+        if self.v687 != c687 { self.v687 = c687; *dirty |= 0x20000000000000000000; }
+        let c688: u64 = ((self.q4) | (self.v452)) & 0x1;
+        let c686: u64 = if (self.v181) != 0 { (0x0) } else { (c688) };
+        if self.v686 != c686 { self.v686 = c686; *dirty |= 0x10000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$elapsed.
-    fn group_28(&mut self, dirty: &mut u128) {
-        self.n46 = if (self.v49) != 0 { 0x0 } else if (self.v38) != 0 { (self.v67) } else { self.q46 };
+    fn group_30(&mut self, dirty: &mut u128) {
+        self.n46 = if (self.v49) != 0 { 0x0 } else if (self.v38) != 0 { (self.v66) } else { self.q46 };
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$process_pending.
-    fn group_29(&mut self, dirty: &mut u128) {
-        self.n45 = if (self.i_reset) != 0 { 0x0 } else { (self.v79) };
+    fn group_31(&mut self, dirty: &mut u128) {
+        self.n45 = if (self.i_reset) != 0 { 0x0 } else { (self.v78) };
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$remaining.
-    fn group_30(&mut self, dirty: &mut u128) {
-        self.n44 = if (self.v48) != 0 { 0x0 } else { (self.v119) };
+    fn group_32(&mut self, dirty: &mut u128) {
+        self.n44 = if (self.v48) != 0 { 0x0 } else { (self.v118) };
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$sampled.
-    fn group_31(&mut self, dirty: &mut u128) {
-        self.n50 = (self.v110);
+    fn group_33(&mut self, dirty: &mut u128) {
+        self.n50 = (self.v109);
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$sampling$metastable.
-    fn group_32(&mut self, dirty: &mut u128) {
-        self.n51 = (self.v154);
+    fn group_34(&mut self, dirty: &mut u128) {
+        self.n51 = (self.v153);
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$sampling$previous.
-    fn group_33(&mut self, dirty: &mut u128) {
-        self.n52 = (self.v152);
+    fn group_35(&mut self, dirty: &mut u128) {
+        self.n52 = (self.v151);
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$sampling$quantum_samples.
-    fn group_34(&mut self, dirty: &mut u128) {
-        self.n43 = if (self.i_reset) != 0 { 0x3 } else if (self.v73) != 0 { (self.q53 | ((self.q43 & 0x1) << 1)) } else { self.q43 };
+    fn group_36(&mut self, dirty: &mut u128) {
+        self.n43 = if (self.i_reset) != 0 { 0x3 } else if (self.v72) != 0 { (self.q53 | ((self.q43 & 0x1) << 1)) } else { self.q43 };
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$sampling$stable.
-    fn group_35(&mut self, dirty: &mut u128) {
-        self.n53 = (self.v153);
+    fn group_37(&mut self, dirty: &mut u128) {
+        self.n53 = (self.v152);
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$segment_state.
-    fn group_36(&mut self, dirty: &mut u128) {
-        self.n42 = if (self.v48) != 0 { 0x0 } else if (self.v37) != 0 { (self.v118) } else { self.q42 };
+    fn group_38(&mut self, dirty: &mut u128) {
+        self.n42 = if (self.v48) != 0 { 0x0 } else if (self.v37) != 0 { (self.v117) } else { self.q42 };
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$sjw_quanta.
-    fn group_37(&mut self, dirty: &mut u128) {
-        self.n41 = if (self.i_reset) != 0 { 0x1 } else { (self.v64) };
+    fn group_39(&mut self, dirty: &mut u128) {
+        self.n41 = if (self.i_reset) != 0 { 0x1 } else { (self.v63) };
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$synced.
-    fn group_38(&mut self, dirty: &mut u128) {
-        self.n40 = if (self.i_reset) != 0 { 0x0 } else { (self.v112) };
+    fn group_40(&mut self, dirty: &mut u128) {
+        self.n40 = if (self.i_reset) != 0 { 0x0 } else { (self.v111) };
         let _ = &dirty;
     }
 
     /// The cells of top$bit_timing$transmit_deferred.
-    fn group_39(&mut self, dirty: &mut u128) {
-        self.n39 = if (self.i_reset) != 0 { 0x0 } else { (self.v83) };
+    fn group_41(&mut self, dirty: &mut u128) {
+        self.n39 = if (self.i_reset) != 0 { 0x0 } else { (self.v82) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$abort_pending.
-    fn group_40(&mut self, dirty: &mut u128) {
-        self.n38 = if (self.v47) != 0 { 0x0 } else { (self.v206) };
+    fn group_42(&mut self, dirty: &mut u128) {
+        self.n38 = if (self.v47) != 0 { 0x0 } else { (self.v205) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$byte_index.
-    fn group_41(&mut self, dirty: &mut u128) {
+    fn group_43(&mut self, dirty: &mut u128) {
         self.n37 = if (self.i_reset) != 0 { 0x0 } else if (self.v36) != 0 { (((self.q23 >> 3) & 0x7)) } else { self.q37 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$byte_pulse.
-    fn group_42(&mut self, dirty: &mut u128) {
-        self.n36 = if (self.i_reset) != 0 { 0x0 } else { (self.v219) };
+    fn group_44(&mut self, dirty: &mut u128) {
+        self.n36 = if (self.i_reset) != 0 { 0x0 } else { (self.v218) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$byte_reg.
-    fn group_43(&mut self, dirty: &mut u128) {
+    fn group_45(&mut self, dirty: &mut u128) {
         self.n35 = if (self.i_reset) != 0 { 0x0 } else if (self.v35) != 0 { (self.q50 | ((self.q35 & 0x7f) << 1)) } else { self.q35 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$dlc_reg.
-    fn group_44(&mut self, dirty: &mut u128) {
+    fn group_46(&mut self, dirty: &mut u128) {
         self.n34 = if (self.v44) != 0 { 0x0 } else if (self.v34) != 0 { (self.q50 | ((self.q34 & 0x7) << 1)) } else { self.q34 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$header_pulse.
-    fn group_45(&mut self, dirty: &mut u128) {
-        self.n33 = if (self.i_reset) != 0 { 0x0 } else { (self.v220) };
+    fn group_47(&mut self, dirty: &mut u128) {
+        self.n33 = if (self.i_reset) != 0 { 0x0 } else { (self.v219) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$id_base.
-    fn group_46(&mut self, dirty: &mut u128) {
+    fn group_48(&mut self, dirty: &mut u128) {
         self.n32 = if (self.v44) != 0 { 0x0 } else if (self.v33) != 0 { (self.q50 | ((self.q32 & 0x3ff) << 1)) } else { self.q32 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$id_extension.
-    fn group_47(&mut self, dirty: &mut u128) {
+    fn group_49(&mut self, dirty: &mut u128) {
         self.n31 = if (self.v44) != 0 { 0x0 } else if (self.v32) != 0 { (self.q50 | ((self.q31 & 0x1ffff) << 1)) } else { self.q31 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$ide_reg.
-    fn group_48(&mut self, dirty: &mut u128) {
+    fn group_50(&mut self, dirty: &mut u128) {
         self.n30 = if (self.i_reset) != 0 { 0x0 } else if (self.v31) != 0 { (self.q50) } else { self.q30 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$last_data_byte_reg.
-    fn group_49(&mut self, dirty: &mut u128) {
-        self.n29 = if (self.i_reset) != 0 { 0x0 } else { (self.v223) };
+    fn group_51(&mut self, dirty: &mut u128) {
+        self.n29 = if (self.i_reset) != 0 { 0x0 } else { (self.v222) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$assembler$rtr_reg.
-    fn group_50(&mut self, dirty: &mut u128) {
+    fn group_52(&mut self, dirty: &mut u128) {
         self.n28 = if (self.i_reset) != 0 { 0x0 } else if (self.v30) != 0 { (self.q50) } else { self.q28 };
         let _ = &dirty;
     }
 
-    /// The cells of top$protocol$capture.
-    fn group_51(&mut self, dirty: &mut u128) {
-        let c245: u64 = { let s = (self.v233 | (self.v565 << 1) | (self.v574 << 2) | (self.v568 << 3) | (self.v402 << 4) | (self.v399 << 5) | (self.v360 << 6) | (self.v396 << 7) | (self.v390 << 8) | (self.v391 << 9) | (self.v236 << 10) | (self.v378 << 11) | (self.v60 << 12)); if s >> 0 & 1 != 0 { (self.v232 << 2) | 0x13 } else if s >> 1 & 1 != 0 { 0x1c } else if s >> 2 & 1 != 0 { self.v234 | ((self.v234 >> 1) << 2) | 0x10 } else if s >> 3 & 1 != 0 { 0x12 } else if s >> 4 & 1 != 0 { 0x1a } else if s >> 5 & 1 != 0 { 0x1b } else if s >> 6 & 1 != 0 { 0x19 } else if s >> 7 & 1 != 0 { 0x18 } else if s >> 8 & 1 != 0 { 0x8 } else if s >> 9 & 1 != 0 { 0xa } else if s >> 10 & 1 != 0 { (self.v238 << 1) | 0x9 } else if s >> 11 & 1 != 0 { self.v239 } else if s >> 12 & 1 != 0 { 0x3 } else { (0x0) } };
-        if self.v245 != c245 { self.v245 = c245; *dirty |= 0x20000000000000; }
-        let _ = &dirty;
-    }
-
     /// The cells of top$protocol$capture$alc_reg.
-    fn group_52(&mut self, dirty: &mut u128) {
-        self.n27 = if (self.i_reset) != 0 { 0x0 } else if (self.v432) != 0 { ((self.q23 & 0x1f)) } else { self.q27 };
+    fn group_53(&mut self, dirty: &mut u128) {
+        self.n27 = if (self.i_reset) != 0 { 0x0 } else if (self.v436) != 0 { ((self.q23 & 0x1f)) } else { self.q27 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$capture$ecc_reg.
-    fn group_53(&mut self, dirty: &mut u128) {
-        self.n26 = if (self.i_reset) != 0 { 0x0 } else if (self.v185) != 0 { (self.v245 | (self.v592 << 5) | (self.v594 << 6)) } else { self.q26 };
+    fn group_54(&mut self, dirty: &mut u128) {
+        self.n26 = if (self.i_reset) != 0 { 0x0 } else if (self.v184) != 0 { (self.v251 | (self.v598 << 5) | (self.v600 << 6)) } else { self.q26 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$capture$error_pulse.
-    fn group_54(&mut self, dirty: &mut u128) {
-        self.n25 = if (self.v46) != 0 { 0x0 } else { (self.v185) };
+    fn group_55(&mut self, dirty: &mut u128) {
+        self.n25 = if (self.v46) != 0 { 0x0 } else { (self.v184) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$capture$lost_pulse.
-    fn group_55(&mut self, dirty: &mut u128) {
-        self.n24 = if (self.v46) != 0 { 0x0 } else { (self.v432) };
+    fn group_56(&mut self, dirty: &mut u128) {
+        self.n24 = if (self.v46) != 0 { 0x0 } else { (self.v436) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$count.
-    fn group_56(&mut self, dirty: &mut u128) {
-        self.n23 = if (self.v45) != 0 { 0x0 } else { (self.v202) };
+    fn group_57(&mut self, dirty: &mut u128) {
+        self.n23 = if (self.v45) != 0 { 0x0 } else { (self.v201) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$crc$register.
-    fn group_57(&mut self, dirty: &mut u128) {
-        self.n22 = if (self.v447) != 0 { 0x0 } else if (self.v435) != 0 { ((self.v246 & 0x1) | ((self.q22 & 0x3) << 1) | (((self.v246 >> 1) & 0x3) << 3) | (((self.q22 >> 4) & 0x3) << 5) | (((self.v246 >> 3) & 0x3) << 7) | (((self.q22 >> 8) & 0x1) << 9) | (((self.v246 >> 5) & 0x1) << 10) | (((self.q22 >> 10) & 0x7) << 11) | ((self.v246 >> 6) << 14)) } else { self.q22 };
+    fn group_58(&mut self, dirty: &mut u128) {
+        self.n22 = if (self.v452) != 0 { 0x0 } else if (self.v439) != 0 { ((self.v254 & 0x1) | ((self.q22 & 0x3) << 1) | (((self.v254 >> 1) & 0x3) << 3) | (((self.q22 >> 4) & 0x3) << 5) | (((self.v254 >> 3) & 0x3) << 7) | (((self.q22 >> 8) & 0x1) << 9) | (((self.v254 >> 5) & 0x1) << 10) | (((self.q22 >> 10) & 0x7) << 11) | ((self.v254 >> 6) << 14)) } else { self.q22 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$crc_error.
-    fn group_58(&mut self, dirty: &mut u128) {
-        self.n21 = if (self.v44) != 0 { 0x0 } else { (self.v207) };
+    fn group_59(&mut self, dirty: &mut u128) {
+        self.n21 = if (self.v44) != 0 { 0x0 } else { (self.v206) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$done_pulse.
-    fn group_59(&mut self, dirty: &mut u128) {
-        self.n20 = if (self.i_reset) != 0 { 0x0 } else { (self.v208) };
+    fn group_60(&mut self, dirty: &mut u128) {
+        self.n20 = if (self.i_reset) != 0 { 0x0 } else { (self.v207) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$done_success.
-    fn group_60(&mut self, dirty: &mut u128) {
-        self.n19 = if (self.v43) != 0 { 0x0 } else if (self.v429) != 0 { (self.v428) } else { self.q19 };
+    fn group_61(&mut self, dirty: &mut u128) {
+        self.n19 = if (self.v43) != 0 { 0x0 } else if (self.v433) != 0 { (self.v442) } else { self.q19 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$faults$bus_off_state.
-    fn group_61(&mut self, dirty: &mut u128) {
-        self.n54 = (self.v265);
+    fn group_62(&mut self, dirty: &mut u128) {
+        self.n54 = (self.v272);
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$faults$passive_state.
-    fn group_62(&mut self, dirty: &mut u128) {
-        self.n55 = (self.v254);
+    fn group_63(&mut self, dirty: &mut u128) {
+        self.n55 = (self.v262);
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$field.
-    fn group_63(&mut self, dirty: &mut u128) {
-        self.n56 = (self.v197);
+    fn group_64(&mut self, dirty: &mut u128) {
+        self.n56 = (self.v196);
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$in_frame.
-    fn group_64(&mut self, dirty: &mut u128) {
-        self.n57 = (self.v196);
+    fn group_65(&mut self, dirty: &mut u128) {
+        self.n57 = (self.v195);
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe$ack_penalty.
-    fn group_65(&mut self, dirty: &mut u128) {
-        self.n13 = if (self.i_reset) != 0 { 0x0 } else { (self.v593) };
+    fn group_66(&mut self, dirty: &mut u128) {
+        self.n13 = if (self.i_reset) != 0 { 0x0 } else { (self.v599) };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe$after_error_flag.
-    fn group_66(&mut self, dirty: &mut u128) {
-        self.n12 = if (self.i_reset) != 0 { 0x0 } else if (self.q45) != 0 { (self.v481) } else { self.q12 };
+    fn group_67(&mut self, dirty: &mut u128) {
+        self.n12 = if (self.i_reset) != 0 { 0x0 } else if (self.q45) != 0 { (self.v486) } else { self.q12 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe$dominant_after_flag.
-    fn group_67(&mut self, dirty: &mut u128) {
-        self.n11 = if (self.i_reset) != 0 { 0x0 } else if (self.v27) != 0 { (self.v560) } else { self.q11 };
+    fn group_68(&mut self, dirty: &mut u128) {
+        self.n11 = if (self.i_reset) != 0 { 0x0 } else if (self.v27) != 0 { (self.v564) } else { self.q11 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe$first_after_flag.
-    fn group_68(&mut self, dirty: &mut u128) {
-        self.n10 = if (self.i_reset) != 0 { 0x0 } else if (self.v26) != 0 { (self.v561) } else { self.q10 };
+    fn group_69(&mut self, dirty: &mut u128) {
+        self.n10 = if (self.i_reset) != 0 { 0x0 } else if (self.v26) != 0 { (self.v565) } else { self.q10 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe$flag_level.
-    fn group_69(&mut self, dirty: &mut u128) {
+    fn group_70(&mut self, dirty: &mut u128) {
         self.n9 = if (self.i_reset) != 0 { 0x0 } else if (self.v25) != 0 { (self.q50) } else { self.q9 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe$flag_passive_reg.
-    fn group_70(&mut self, dirty: &mut u128) {
-        self.n8 = if (self.i_reset) != 0 { 0x0 } else if (self.v24) != 0 { (self.v482) } else { self.q8 };
+    fn group_71(&mut self, dirty: &mut u128) {
+        self.n8 = if (self.i_reset) != 0 { 0x0 } else if (self.v24) != 0 { (self.v487) } else { self.q8 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender$tx_left.
-    fn group_71(&mut self, dirty: &mut u128) {
-        self.n7 = if (self.v42) != 0 { 0x0 } else if (self.v160) != 0 { (self.v663) } else { self.q7 };
+    fn group_72(&mut self, dirty: &mut u128) {
+        self.n7 = if (self.v42) != 0 { 0x0 } else if (self.v159) != 0 { (self.v669) } else { self.q7 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender$tx_next.
-    fn group_72(&mut self, dirty: &mut u128) {
-        self.n58 = (self.v622);
+    fn group_73(&mut self, dirty: &mut u128) {
+        self.n58 = (self.v628);
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender$tx_reg.
-    fn group_73(&mut self, dirty: &mut u128) {
-        self.n59 = (self.v623);
+    fn group_74(&mut self, dirty: &mut u128) {
+        self.n59 = (self.v629);
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender$tx_shift.
-    fn group_74(&mut self, dirty: &mut u128) {
-        self.n49 = if (self.i_reset) != 0 { 0x0 } else if (self.v160) != 0 { (self.v664) } else { self.q49 };
+    fn group_75(&mut self, dirty: &mut u128) {
+        self.n49 = if (self.i_reset) != 0 { 0x0 } else if (self.v159) != 0 { (self.v670) } else { self.q49 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$stuffing$active.
-    fn group_75(&mut self, dirty: &mut u128) {
-        self.n4 = if (self.i_reset) != 0 { 0x0 } else if (self.q45) != 0 { (self.v680) } else { self.q4 };
+    fn group_76(&mut self, dirty: &mut u128) {
+        self.n4 = if (self.i_reset) != 0 { 0x0 } else if (self.q45) != 0 { (self.v686) } else { self.q4 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$stuffing$run_length.
-    fn group_76(&mut self, dirty: &mut u128) {
-        self.n3 = if (self.i_reset) != 0 { 0x0 } else if (self.q45) != 0 { (self.v681) } else { self.q3 };
+    fn group_77(&mut self, dirty: &mut u128) {
+        self.n3 = if (self.i_reset) != 0 { 0x0 } else if (self.q45) != 0 { (self.v687) } else { self.q3 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$stuffing$run_level_reg.
-    fn group_77(&mut self, dirty: &mut u128) {
+    fn group_78(&mut self, dirty: &mut u128) {
         self.n2 = if (self.v21) != 0 { (self.q50) } else { self.q2 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$transmitter.
-    fn group_78(&mut self, dirty: &mut u128) {
-        self.n1 = if (self.v40) != 0 { 0x0 } else if (self.q45) != 0 { (self.v597) } else { self.q1 };
+    fn group_79(&mut self, dirty: &mut u128) {
+        self.n1 = if (self.v40) != 0 { 0x0 } else if (self.q45) != 0 { (self.v603) } else { self.q1 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$valid_pulse.
-    fn group_79(&mut self, dirty: &mut u128) {
-        self.n0 = if (self.v39) != 0 { 0x0 } else { (self.v406) };
+    fn group_80(&mut self, dirty: &mut u128) {
+        self.n0 = if (self.v39) != 0 { 0x0 } else { (self.v411) };
         let _ = &dirty;
     }
 }

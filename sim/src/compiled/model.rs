@@ -2,7 +2,7 @@
 //! from the Verilog of `rtl/` through Yosys; do not edit.
 
 /// Hash of the Verilog this model was made from.
-pub(super) const VERILOG_HASH: u64 = 0x5035787ee98200d2;
+pub(super) const VERILOG_HASH: u64 = 0x9095894513f4f33a;
 
 const TABLE_0: [u64; 4] = [0x1fff0000, 0x0, 0x0, 0x0];
 const TABLE_1: [u64; 4] = [0xffffffff00000000, 0xffffffff, 0x0, 0x0];
@@ -390,133 +390,127 @@ pub(super) struct Model {
     v111: u64,
     v115: u64,
     v120: u64,
+    v123: u64,
     v124: u64,
-    v125: u64,
+    v132: u64,
     v133: u64,
-    v134: u64,
+    v138: u64,
     v139: u64,
-    v140: u64,
-    v142: u64,
-    v145: u64,
+    v141: u64,
+    v144: u64,
+    v146: u64,
     v147: u64,
-    v148: u64,
-    v150: u64,
+    v149: u64,
+    v153: u64,
     v154: u64,
-    v155: u64,
-    v158: u64,
+    v157: u64,
     v161: u64,
-    v163: u64,
-    v167: u64,
-    v172: u64,
-    v173: u64,
-    v178: u64,
+    v165: u64,
+    v170: u64,
+    v171: u64,
+    v176: u64,
+    v182: u64,
+    v183: u64,
     v184: u64,
-    v185: u64,
-    v186: u64,
+    v187: u64,
     v189: u64,
+    v190: u64,
     v191: u64,
     v192: u64,
     v193: u64,
-    v194: u64,
     v195: u64,
-    v196: u64,
     v198: u64,
+    v203: u64,
+    v204: u64,
     v205: u64,
     v206: u64,
     v207: u64,
-    v208: u64,
-    v220: u64,
+    v219: u64,
+    v226: u64,
     v227: u64,
     v228: u64,
     v229: u64,
     v230: u64,
-    v231: u64,
+    v232: u64,
     v233: u64,
     v234: u64,
     v235: u64,
-    v236: u64,
+    v237: u64,
     v238: u64,
-    v239: u64,
-    v249: u64,
-    v251: u64,
+    v248: u64,
+    v250: u64,
+    v253: u64,
     v254: u64,
     v255: u64,
     v256: u64,
-    v257: u64,
-    v260: u64,
+    v259: u64,
+    v266: u64,
     v267: u64,
     v268: u64,
-    v269: u64,
-    v273: u64,
+    v272: u64,
+    v276: u64,
     v277: u64,
     v278: u64,
-    v279: u64,
-    v281: u64,
-    v283: u64,
-    v287: u64,
+    v280: u64,
+    v282: u64,
+    v286: u64,
+    v288: u64,
     v289: u64,
-    v290: u64,
-    v293: u64,
-    v294: u64,
-    v312: u64,
-    v313: u64,
-    v316: u64,
+    v292: u64,
+    v301: u64,
     v318: u64,
-    v320: u64,
-    v321: u64,
+    v319: u64,
     v322: u64,
-    v323: u64,
-    v325: u64,
+    v324: u64,
     v326: u64,
     v327: u64,
     v328: u64,
+    v329: u64,
     v331: u64,
     v332: u64,
     v333: u64,
     v334: u64,
+    v337: u64,
     v338: u64,
-    v342: u64,
-    v346: u64,
-    v350: u64,
-    v351: u64,
+    v339: u64,
+    v340: u64,
+    v344: u64,
+    v348: u64,
     v352: u64,
-    v359: u64,
-    v360: u64,
-    v361: u64,
-    v368: u64,
-    v369: u64,
-    v373: u64,
+    v356: u64,
+    v357: u64,
+    v358: u64,
+    v365: u64,
+    v366: u64,
+    v367: u64,
     v374: u64,
-    v383: u64,
-    v384: u64,
-    v385: u64,
-    v386: u64,
-    v388: u64,
+    v375: u64,
+    v379: u64,
+    v380: u64,
+    v389: u64,
     v390: u64,
     v391: u64,
-    v395: u64,
-    v399: u64,
-    v400: u64,
+    v392: u64,
+    v394: u64,
+    v396: u64,
+    v397: u64,
     v401: u64,
-    v402: u64,
+    v405: u64,
     v406: u64,
-    v411: u64,
-    v414: u64,
-    v426: u64,
-    v430: u64,
-    v433: u64,
-    v434: u64,
+    v407: u64,
+    v408: u64,
+    v412: u64,
+    v417: u64,
+    v420: u64,
+    v432: u64,
     v436: u64,
-    v437: u64,
-    v438: u64,
-    v448: u64,
+    v439: u64,
+    v440: u64,
+    v442: u64,
+    v443: u64,
+    v444: u64,
     v454: u64,
-    v464: u64,
-    v465: u64,
-    v466: u64,
-    v467: u64,
-    v468: u64,
-    v469: u64,
+    v460: u64,
     v470: u64,
     v471: u64,
     v472: u64,
@@ -527,12 +521,12 @@ pub(super) struct Model {
     v477: u64,
     v478: u64,
     v479: u64,
+    v480: u64,
     v481: u64,
     v482: u64,
     v483: u64,
     v484: u64,
     v485: u64,
-    v486: u64,
     v487: u64,
     v488: u64,
     v489: u64,
@@ -546,58 +540,58 @@ pub(super) struct Model {
     v497: u64,
     v498: u64,
     v499: u64,
+    v500: u64,
+    v501: u64,
+    v502: u64,
+    v503: u64,
+    v504: u64,
     v505: u64,
-    v506: u64,
-    v508: u64,
-    v509: u64,
     v511: u64,
     v512: u64,
-    v513: u64,
     v514: u64,
     v515: u64,
+    v517: u64,
     v518: u64,
-    v523: u64,
+    v519: u64,
+    v520: u64,
+    v521: u64,
     v524: u64,
-    v525: u64,
-    v526: u64,
-    v528: u64,
     v529: u64,
     v530: u64,
     v531: u64,
     v532: u64,
-    v533: u64,
+    v534: u64,
+    v535: u64,
     v536: u64,
     v537: u64,
+    v538: u64,
     v539: u64,
-    v541: u64,
-    v544: u64,
+    v542: u64,
+    v543: u64,
     v545: u64,
-    v546: u64,
     v547: u64,
-    v558: u64,
-    v559: u64,
-    v561: u64,
-    v566: u64,
-    v570: u64,
-    v583: u64,
-    v597: u64,
+    v550: u64,
+    v551: u64,
+    v552: u64,
+    v553: u64,
+    v564: u64,
+    v565: u64,
+    v567: u64,
+    v572: u64,
+    v576: u64,
+    v589: u64,
     v603: u64,
-    v610: u64,
-    v612: u64,
-    v634: u64,
+    v609: u64,
+    v616: u64,
+    v618: u64,
     v640: u64,
-    v641: u64,
-    v642: u64,
-    v645: u64,
+    v646: u64,
     v647: u64,
-    v649: u64,
+    v648: u64,
     v651: u64,
-    v659: u64,
-    v660: u64,
-    v661: u64,
-    v662: u64,
-    v663: u64,
-    v664: u64,
+    v653: u64,
+    v655: u64,
+    v657: u64,
     v665: u64,
     v666: u64,
     v667: u64,
@@ -607,57 +601,57 @@ pub(super) struct Model {
     v671: u64,
     v672: u64,
     v673: u64,
+    v674: u64,
     v675: u64,
     v676: u64,
+    v677: u64,
+    v678: u64,
+    v679: u64,
+    v681: u64,
     v682: u64,
-    v683: u64,
-    v684: u64,
-    v685: u64,
-    v686: u64,
+    v688: u64,
+    v689: u64,
+    v690: u64,
     v691: u64,
-    v693: u64,
-    v695: u64,
-    v696: u64,
+    v692: u64,
     v697: u64,
+    v699: u64,
+    v701: u64,
     v702: u64,
     v703: u64,
-    v705: u64,
-    v706: u64,
     v708: u64,
+    v709: u64,
     v711: u64,
-    v716: u64,
-    v718: u64,
-    v720: u64,
+    v712: u64,
+    v714: u64,
+    v717: u64,
+    v722: u64,
     v724: u64,
-    v725: u64,
     v726: u64,
-    v727: u64,
-    v728: u64,
-    v729: u64,
+    v730: u64,
+    v731: u64,
+    v732: u64,
+    v733: u64,
     v734: u64,
     v735: u64,
-    v736: u64,
-    v737: u64,
-    v738: u64,
     v740: u64,
+    v741: u64,
     v742: u64,
+    v743: u64,
+    v744: u64,
     v746: u64,
     v748: u64,
-    v749: u64,
-    v753: u64,
+    v752: u64,
     v754: u64,
     v755: u64,
-    v757: u64,
     v759: u64,
     v760: u64,
     v761: u64,
-    v762: u64,
+    v763: u64,
+    v765: u64,
     v766: u64,
     v767: u64,
     v768: u64,
-    v769: u64,
-    v770: u64,
-    v771: u64,
     v772: u64,
     v773: u64,
     v774: u64,
@@ -669,94 +663,98 @@ pub(super) struct Model {
     v780: u64,
     v781: u64,
     v782: u64,
+    v783: u64,
+    v784: u64,
+    v785: u64,
+    v786: u64,
+    v787: u64,
     v788: u64,
-    v789: u64,
-    v793: u64,
-    v807: u64,
-    v808: u64,
-    v809: u64,
-    v810: u64,
-    v811: u64,
-    v812: u64,
+    v794: u64,
+    v795: u64,
+    v799: u64,
     v813: u64,
+    v814: u64,
+    v815: u64,
     v816: u64,
     v817: u64,
     v818: u64,
     v819: u64,
+    v822: u64,
+    v823: u64,
+    v824: u64,
     v825: u64,
-    v826: u64,
-    v827: u64,
-    v836: u64,
-    v837: u64,
-    v841: u64,
-    v846: u64,
-    v847: u64,
+    v831: u64,
+    v832: u64,
+    v833: u64,
+    v838: u64,
+    v843: u64,
+    v844: u64,
     v848: u64,
-    v851: u64,
-    v862: u64,
-    v863: u64,
-    v865: u64,
-    v871: u64,
-    v881: u64,
-    v882: u64,
-    v896: u64,
-    v897: u64,
-    v898: u64,
+    v853: u64,
+    v854: u64,
+    v855: u64,
+    v858: u64,
+    v869: u64,
+    v870: u64,
+    v872: u64,
+    v878: u64,
+    v888: u64,
+    v889: u64,
+    v891: u64,
+    v902: u64,
+    v903: u64,
+    v904: u64,
     v905: u64,
-    v910: u64,
-    v911: u64,
-    v918: u64,
+    v916: u64,
+    v917: u64,
+    v924: u64,
+    v929: u64,
     v934: u64,
-    v936: u64,
-    v937: u64,
-    v939: u64,
     v940: u64,
-    v941: u64,
+    v942: u64,
     v943: u64,
-    v951: u64,
-    v952: u64,
-    v955: u64,
+    v945: u64,
+    v946: u64,
+    v947: u64,
+    v949: u64,
     v957: u64,
     v958: u64,
-    v960: u64,
     v961: u64,
-    v962: u64,
+    v963: u64,
     v964: u64,
-    v965: u64,
-    v973: u64,
-    v974: u64,
-    v975: u64,
-    v983: u64,
-    v984: u64,
-    v985: u64,
-    v986: u64,
-    v987: u64,
+    v966: u64,
+    v967: u64,
+    v968: u64,
+    v970: u64,
+    v971: u64,
+    v979: u64,
+    v980: u64,
+    v981: u64,
+    v989: u64,
+    v990: u64,
     v991: u64,
     v992: u64,
-    v994: u64,
-    v995: u64,
-    v996: u64,
+    v993: u64,
+    v997: u64,
     v998: u64,
     v1000: u64,
     v1001: u64,
     v1002: u64,
-    v1003: u64,
     v1004: u64,
     v1006: u64,
+    v1007: u64,
+    v1008: u64,
+    v1009: u64,
     v1010: u64,
     v1012: u64,
-    v1028: u64,
-    v1029: u64,
+    v1016: u64,
+    v1018: u64,
     v1034: u64,
     v1035: u64,
-    v1037: u64,
-    v1038: u64,
+    v1040: u64,
+    v1041: u64,
     v1043: u64,
     v1044: u64,
-    v1045: u64,
-    v1046: u64,
-    v1047: u64,
-    v1048: u64,
     v1049: u64,
     v1050: u64,
     v1051: u64,
@@ -764,32 +762,38 @@ pub(super) struct Model {
     v1053: u64,
     v1054: u64,
     v1055: u64,
+    v1056: u64,
     v1057: u64,
     v1058: u64,
     v1059: u64,
     v1060: u64,
     v1061: u64,
-    v1077: u64,
-    v1079: u64,
-    v1082: u64,
+    v1063: u64,
+    v1064: u64,
+    v1065: u64,
+    v1066: u64,
+    v1067: u64,
+    v1083: u64,
     v1085: u64,
-    v1086: u64,
-    v1087: u64,
     v1088: u64,
-    v1089: u64,
+    v1091: u64,
+    v1092: u64,
+    v1093: u64,
+    v1094: u64,
     v1095: u64,
-    v1096: u64,
-    v1097: u64,
-    v1098: u64,
-    v1099: u64,
+    v1101: u64,
+    v1102: u64,
+    v1103: u64,
+    v1104: u64,
     v1105: u64,
-    v1106: u64,
-    v1110: u64,
     v1111: u64,
     v1112: u64,
-    v1113: u64,
-    v1114: u64,
-    v1115: u64,
+    v1116: u64,
+    v1117: u64,
+    v1118: u64,
+    v1119: u64,
+    v1120: u64,
+    v1121: u64,
     dirty: u128,
     ran: u128,
     out: u64,
@@ -1174,133 +1178,127 @@ impl Model {
             v111: 0,
             v115: 0,
             v120: 0,
+            v123: 0,
             v124: 0,
-            v125: 0,
+            v132: 0,
             v133: 0,
-            v134: 0,
+            v138: 0,
             v139: 0,
-            v140: 0,
-            v142: 0,
-            v145: 0,
+            v141: 0,
+            v144: 0,
+            v146: 0,
             v147: 0,
-            v148: 0,
-            v150: 0,
+            v149: 0,
+            v153: 0,
             v154: 0,
-            v155: 0,
-            v158: 0,
+            v157: 0,
             v161: 0,
-            v163: 0,
-            v167: 0,
-            v172: 0,
-            v173: 0,
-            v178: 0,
+            v165: 0,
+            v170: 0,
+            v171: 0,
+            v176: 0,
+            v182: 0,
+            v183: 0,
             v184: 0,
-            v185: 0,
-            v186: 0,
+            v187: 0,
             v189: 0,
+            v190: 0,
             v191: 0,
             v192: 0,
             v193: 0,
-            v194: 0,
             v195: 0,
-            v196: 0,
             v198: 0,
+            v203: 0,
+            v204: 0,
             v205: 0,
             v206: 0,
             v207: 0,
-            v208: 0,
-            v220: 0,
+            v219: 0,
+            v226: 0,
             v227: 0,
             v228: 0,
             v229: 0,
             v230: 0,
-            v231: 0,
+            v232: 0,
             v233: 0,
             v234: 0,
             v235: 0,
-            v236: 0,
+            v237: 0,
             v238: 0,
-            v239: 0,
-            v249: 0,
-            v251: 0,
+            v248: 0,
+            v250: 0,
+            v253: 0,
             v254: 0,
             v255: 0,
             v256: 0,
-            v257: 0,
-            v260: 0,
+            v259: 0,
+            v266: 0,
             v267: 0,
             v268: 0,
-            v269: 0,
-            v273: 0,
+            v272: 0,
+            v276: 0,
             v277: 0,
             v278: 0,
-            v279: 0,
-            v281: 0,
-            v283: 0,
-            v287: 0,
+            v280: 0,
+            v282: 0,
+            v286: 0,
+            v288: 0,
             v289: 0,
-            v290: 0,
-            v293: 0,
-            v294: 0,
-            v312: 0,
-            v313: 0,
-            v316: 0,
+            v292: 0,
+            v301: 0,
             v318: 0,
-            v320: 0,
-            v321: 0,
+            v319: 0,
             v322: 0,
-            v323: 0,
-            v325: 0,
+            v324: 0,
             v326: 0,
             v327: 0,
             v328: 0,
+            v329: 0,
             v331: 0,
             v332: 0,
             v333: 0,
             v334: 0,
+            v337: 0,
             v338: 0,
-            v342: 0,
-            v346: 0,
-            v350: 0,
-            v351: 0,
+            v339: 0,
+            v340: 0,
+            v344: 0,
+            v348: 0,
             v352: 0,
-            v359: 0,
-            v360: 0,
-            v361: 0,
-            v368: 0,
-            v369: 0,
-            v373: 0,
+            v356: 0,
+            v357: 0,
+            v358: 0,
+            v365: 0,
+            v366: 0,
+            v367: 0,
             v374: 0,
-            v383: 0,
-            v384: 0,
-            v385: 0,
-            v386: 0,
-            v388: 0,
+            v375: 0,
+            v379: 0,
+            v380: 0,
+            v389: 0,
             v390: 0,
             v391: 0,
-            v395: 0,
-            v399: 0,
-            v400: 0,
+            v392: 0,
+            v394: 0,
+            v396: 0,
+            v397: 0,
             v401: 0,
-            v402: 0,
+            v405: 0,
             v406: 0,
-            v411: 0,
-            v414: 0,
-            v426: 0,
-            v430: 0,
-            v433: 0,
-            v434: 0,
+            v407: 0,
+            v408: 0,
+            v412: 0,
+            v417: 0,
+            v420: 0,
+            v432: 0,
             v436: 0,
-            v437: 0,
-            v438: 0,
-            v448: 0,
+            v439: 0,
+            v440: 0,
+            v442: 0,
+            v443: 0,
+            v444: 0,
             v454: 0,
-            v464: 0,
-            v465: 0,
-            v466: 0,
-            v467: 0,
-            v468: 0,
-            v469: 0,
+            v460: 0,
             v470: 0,
             v471: 0,
             v472: 0,
@@ -1311,12 +1309,12 @@ impl Model {
             v477: 0,
             v478: 0,
             v479: 0,
+            v480: 0,
             v481: 0,
             v482: 0,
             v483: 0,
             v484: 0,
             v485: 0,
-            v486: 0,
             v487: 0,
             v488: 0,
             v489: 0,
@@ -1330,58 +1328,58 @@ impl Model {
             v497: 0,
             v498: 0,
             v499: 0,
+            v500: 0,
+            v501: 0,
+            v502: 0,
+            v503: 0,
+            v504: 0,
             v505: 0,
-            v506: 0,
-            v508: 0,
-            v509: 0,
             v511: 0,
             v512: 0,
-            v513: 0,
             v514: 0,
             v515: 0,
+            v517: 0,
             v518: 0,
-            v523: 0,
+            v519: 0,
+            v520: 0,
+            v521: 0,
             v524: 0,
-            v525: 0,
-            v526: 0,
-            v528: 0,
             v529: 0,
             v530: 0,
             v531: 0,
             v532: 0,
-            v533: 0,
+            v534: 0,
+            v535: 0,
             v536: 0,
             v537: 0,
+            v538: 0,
             v539: 0,
-            v541: 0,
-            v544: 0,
+            v542: 0,
+            v543: 0,
             v545: 0,
-            v546: 0,
             v547: 0,
-            v558: 0,
-            v559: 0,
-            v561: 0,
-            v566: 0,
-            v570: 0,
-            v583: 0,
-            v597: 0,
+            v550: 0,
+            v551: 0,
+            v552: 0,
+            v553: 0,
+            v564: 0,
+            v565: 0,
+            v567: 0,
+            v572: 0,
+            v576: 0,
+            v589: 0,
             v603: 0,
-            v610: 0,
-            v612: 0,
-            v634: 0,
+            v609: 0,
+            v616: 0,
+            v618: 0,
             v640: 0,
-            v641: 0,
-            v642: 0,
-            v645: 0,
+            v646: 0,
             v647: 0,
-            v649: 0,
+            v648: 0,
             v651: 0,
-            v659: 0,
-            v660: 0,
-            v661: 0,
-            v662: 0,
-            v663: 0,
-            v664: 0,
+            v653: 0,
+            v655: 0,
+            v657: 0,
             v665: 0,
             v666: 0,
             v667: 0,
@@ -1391,57 +1389,57 @@ impl Model {
             v671: 0,
             v672: 0,
             v673: 0,
+            v674: 0,
             v675: 0,
             v676: 0,
+            v677: 0,
+            v678: 0,
+            v679: 0,
+            v681: 0,
             v682: 0,
-            v683: 0,
-            v684: 0,
-            v685: 0,
-            v686: 0,
+            v688: 0,
+            v689: 0,
+            v690: 0,
             v691: 0,
-            v693: 0,
-            v695: 0,
-            v696: 0,
+            v692: 0,
             v697: 0,
+            v699: 0,
+            v701: 0,
             v702: 0,
             v703: 0,
-            v705: 0,
-            v706: 0,
             v708: 0,
+            v709: 0,
             v711: 0,
-            v716: 0,
-            v718: 0,
-            v720: 0,
+            v712: 0,
+            v714: 0,
+            v717: 0,
+            v722: 0,
             v724: 0,
-            v725: 0,
             v726: 0,
-            v727: 0,
-            v728: 0,
-            v729: 0,
+            v730: 0,
+            v731: 0,
+            v732: 0,
+            v733: 0,
             v734: 0,
             v735: 0,
-            v736: 0,
-            v737: 0,
-            v738: 0,
             v740: 0,
+            v741: 0,
             v742: 0,
+            v743: 0,
+            v744: 0,
             v746: 0,
             v748: 0,
-            v749: 0,
-            v753: 0,
+            v752: 0,
             v754: 0,
             v755: 0,
-            v757: 0,
             v759: 0,
             v760: 0,
             v761: 0,
-            v762: 0,
+            v763: 0,
+            v765: 0,
             v766: 0,
             v767: 0,
             v768: 0,
-            v769: 0,
-            v770: 0,
-            v771: 0,
             v772: 0,
             v773: 0,
             v774: 0,
@@ -1453,94 +1451,98 @@ impl Model {
             v780: 0,
             v781: 0,
             v782: 0,
+            v783: 0,
+            v784: 0,
+            v785: 0,
+            v786: 0,
+            v787: 0,
             v788: 0,
-            v789: 0,
-            v793: 0,
-            v807: 0,
-            v808: 0,
-            v809: 0,
-            v810: 0,
-            v811: 0,
-            v812: 0,
+            v794: 0,
+            v795: 0,
+            v799: 0,
             v813: 0,
+            v814: 0,
+            v815: 0,
             v816: 0,
             v817: 0,
             v818: 0,
             v819: 0,
+            v822: 0,
+            v823: 0,
+            v824: 0,
             v825: 0,
-            v826: 0,
-            v827: 0,
-            v836: 0,
-            v837: 0,
-            v841: 0,
-            v846: 0,
-            v847: 0,
+            v831: 0,
+            v832: 0,
+            v833: 0,
+            v838: 0,
+            v843: 0,
+            v844: 0,
             v848: 0,
-            v851: 0,
-            v862: 0,
-            v863: 0,
-            v865: 0,
-            v871: 0,
-            v881: 0,
-            v882: 0,
-            v896: 0,
-            v897: 0,
-            v898: 0,
+            v853: 0,
+            v854: 0,
+            v855: 0,
+            v858: 0,
+            v869: 0,
+            v870: 0,
+            v872: 0,
+            v878: 0,
+            v888: 0,
+            v889: 0,
+            v891: 0,
+            v902: 0,
+            v903: 0,
+            v904: 0,
             v905: 0,
-            v910: 0,
-            v911: 0,
-            v918: 0,
+            v916: 0,
+            v917: 0,
+            v924: 0,
+            v929: 0,
             v934: 0,
-            v936: 0,
-            v937: 0,
-            v939: 0,
             v940: 0,
-            v941: 0,
+            v942: 0,
             v943: 0,
-            v951: 0,
-            v952: 0,
-            v955: 0,
+            v945: 0,
+            v946: 0,
+            v947: 0,
+            v949: 0,
             v957: 0,
             v958: 0,
-            v960: 0,
             v961: 0,
-            v962: 0,
+            v963: 0,
             v964: 0,
-            v965: 0,
-            v973: 0,
-            v974: 0,
-            v975: 0,
-            v983: 0,
-            v984: 0,
-            v985: 0,
-            v986: 0,
-            v987: 0,
+            v966: 0,
+            v967: 0,
+            v968: 0,
+            v970: 0,
+            v971: 0,
+            v979: 0,
+            v980: 0,
+            v981: 0,
+            v989: 0,
+            v990: 0,
             v991: 0,
             v992: 0,
-            v994: 0,
-            v995: 0,
-            v996: 0,
+            v993: 0,
+            v997: 0,
             v998: 0,
             v1000: 0,
             v1001: 0,
             v1002: 0,
-            v1003: 0,
             v1004: 0,
             v1006: 0,
+            v1007: 0,
+            v1008: 0,
+            v1009: 0,
             v1010: 0,
             v1012: 0,
-            v1028: 0,
-            v1029: 0,
+            v1016: 0,
+            v1018: 0,
             v1034: 0,
             v1035: 0,
-            v1037: 0,
-            v1038: 0,
+            v1040: 0,
+            v1041: 0,
             v1043: 0,
             v1044: 0,
-            v1045: 0,
-            v1046: 0,
-            v1047: 0,
-            v1048: 0,
             v1049: 0,
             v1050: 0,
             v1051: 0,
@@ -1548,32 +1550,38 @@ impl Model {
             v1053: 0,
             v1054: 0,
             v1055: 0,
+            v1056: 0,
             v1057: 0,
             v1058: 0,
             v1059: 0,
             v1060: 0,
             v1061: 0,
-            v1077: 0,
-            v1079: 0,
-            v1082: 0,
+            v1063: 0,
+            v1064: 0,
+            v1065: 0,
+            v1066: 0,
+            v1067: 0,
+            v1083: 0,
             v1085: 0,
-            v1086: 0,
-            v1087: 0,
             v1088: 0,
-            v1089: 0,
+            v1091: 0,
+            v1092: 0,
+            v1093: 0,
+            v1094: 0,
             v1095: 0,
-            v1096: 0,
-            v1097: 0,
-            v1098: 0,
-            v1099: 0,
+            v1101: 0,
+            v1102: 0,
+            v1103: 0,
+            v1104: 0,
             v1105: 0,
-            v1106: 0,
-            v1110: 0,
             v1111: 0,
             v1112: 0,
-            v1113: 0,
-            v1114: 0,
-            v1115: 0,
+            v1116: 0,
+            v1117: 0,
+            v1118: 0,
+            v1119: 0,
+            v1120: 0,
+            v1121: 0,
             dirty: 0xffffffffffffffffffffffffffffffff,
             ran: 0xffffffffffffffffffffffffffffffff,
             out: 0,
@@ -1583,17 +1591,17 @@ impl Model {
     /// Takes the input word.
     pub(super) fn set_inputs(&mut self, word: u32) {
         let v = (word >> 0) as u64 & 0xff;
-        if v != self.i_wdata { self.i_wdata = v; self.dirty |= 0x6c00018007c00000003a0ca40000ac0; }
+        if v != self.i_wdata { self.i_wdata = v; self.dirty |= 0x6c0001800f80000000740ca40000d40; }
         let v = (word >> 8) as u64 & 0xff;
-        if v != self.i_addr { self.i_addr = v; self.dirty |= 0x442a34; }
+        if v != self.i_addr { self.i_addr = v; self.dirty |= 0x442c34; }
         let v = (word >> 16) as u64 & 0x1;
-        if v != self.i_we { self.i_we = v; self.dirty |= 0x800002a04; }
+        if v != self.i_we { self.i_we = v; self.dirty |= 0x800002c04; }
         let v = (word >> 17) as u64 & 0x1;
-        if v != self.i_re { self.i_re = v; self.dirty |= 0x20000000000000000400080040100; }
+        if v != self.i_re { self.i_re = v; self.dirty |= 0x20000000000000000800080040200; }
         let v = (word >> 18) as u64 & 0x1;
-        if v != self.i_rx { self.i_rx = v; self.dirty |= 0x8200; }
+        if v != self.i_rx { self.i_rx = v; self.dirty |= 0x8400; }
         let v = (word >> 19) as u64 & 0x1;
-        if v != self.i_reset { self.i_reset = v; self.dirty |= 0x5b4f805bfffdbb7277e7a3b4ea11cb0c; }
+        if v != self.i_reset { self.i_reset = v; self.dirty |= 0x5b4f805bfffb76e4efcf43b4ea11ce0c; }
     }
 
     /// The output word computed by the last `eval`.
@@ -1613,12 +1621,12 @@ impl Model {
             if dirty >> 4 & 1 != 0 { self.group_4(&mut dirty); } // top$read
             if dirty >> 5 & 1 != 0 { self.group_5(&mut dirty); } // can_controller
             if dirty >> 6 & 1 != 0 { self.group_6(&mut dirty); } // top$fifo
-            if dirty >> 7 & 1 != 0 { self.group_7(&mut dirty); } // top$core$protocol$faults
+            if dirty >> 7 & 1 != 0 { self.group_7(&mut dirty); } // top$core$protocol$capture
         }
         if dirty >> 8 & 0xff != 0 {
-            if dirty >> 8 & 1 != 0 { self.group_8(&mut dirty); } // top$interrupts
-            if dirty >> 9 & 1 != 0 { self.group_9(&mut dirty); } // top$modes
-            if dirty >> 10 & 1 != 0 { self.group_10(&mut dirty); } // top$core$protocol$capture
+            if dirty >> 8 & 1 != 0 { self.group_8(&mut dirty); } // top$core$protocol$faults
+            if dirty >> 9 & 1 != 0 { self.group_9(&mut dirty); } // top$interrupts
+            if dirty >> 10 & 1 != 0 { self.group_10(&mut dirty); } // top$modes
             if dirty >> 11 & 1 != 0 { self.group_11(&mut dirty); } // top$decode
             if dirty >> 12 & 1 != 0 { self.group_12(&mut dirty); } // top$core$protocol$sender
             if dirty >> 13 & 1 != 0 { self.group_13(&mut dirty); } // can_controller
@@ -1661,68 +1669,68 @@ impl Model {
             if dirty >> 42 & 1 != 0 { self.group_42(&mut dirty); } // top$core$protocol$sender
             if dirty >> 43 & 1 != 0 { self.group_43(&mut dirty); } // top$core$protocol$sender$tx_ptr
             if dirty >> 44 & 1 != 0 { self.group_44(&mut dirty); } // top$core$protocol$stuffing
-            if dirty >> 45 & 1 != 0 { self.group_45(&mut dirty); } // top$interrupts$ier_reg
-            if dirty >> 46 & 1 != 0 { self.group_46(&mut dirty); } // top$read
-            if dirty >> 47 & 1 != 0 { self.group_47(&mut dirty); } // top$configuration$btr0 + top$configuration$btr1
+            if dirty >> 45 & 1 != 0 { self.group_45(&mut dirty); } // top$filter
+            if dirty >> 46 & 1 != 0 { self.group_46(&mut dirty); } // top$interrupts$ier_reg
+            if dirty >> 47 & 1 != 0 { self.group_47(&mut dirty); } // top$read
         }
         if dirty >> 48 & 0xff != 0 {
-            if dirty >> 48 & 1 != 0 { self.group_48(&mut dirty); } // top$configuration$ewlr_reg + top$configuration$ocr
-            if dirty >> 49 & 1 != 0 { self.group_49(&mut dirty); } // top$configuration$sjw_reg + top$configuration$tseg2_reg
-            if dirty >> 50 & 1 != 0 { self.group_50(&mut dirty); } // top$core$bit_timing$elapsed + top$core$bit_timing$process_pending
-            if dirty >> 51 & 1 != 0 { self.group_51(&mut dirty); } // top$core$bit_timing$remaining + top$core$bit_timing$sampled
-            if dirty >> 52 & 1 != 0 { self.group_52(&mut dirty); } // top$core$bit_timing$sampling$metastable + top$core$bit_timing$sampling$previous
-            if dirty >> 53 & 1 != 0 { self.group_53(&mut dirty); } // top$core$bit_timing$sampling$quantum_samples + top$core$bit_timing$sampling$stable
-            if dirty >> 54 & 1 != 0 { self.group_54(&mut dirty); } // top$core$bit_timing$segment_state + top$core$bit_timing$sjw_quanta
-            if dirty >> 55 & 1 != 0 { self.group_55(&mut dirty); } // top$core$bit_timing$synced + top$core$bit_timing$transmit_deferred
+            if dirty >> 48 & 1 != 0 { self.group_48(&mut dirty); } // top$configuration$btr0 + top$configuration$btr1
+            if dirty >> 49 & 1 != 0 { self.group_49(&mut dirty); } // top$configuration$ewlr_reg + top$configuration$ocr
+            if dirty >> 50 & 1 != 0 { self.group_50(&mut dirty); } // top$configuration$sjw_reg + top$configuration$tseg2_reg
+            if dirty >> 51 & 1 != 0 { self.group_51(&mut dirty); } // top$core$bit_timing$elapsed + top$core$bit_timing$process_pending
+            if dirty >> 52 & 1 != 0 { self.group_52(&mut dirty); } // top$core$bit_timing$remaining + top$core$bit_timing$sampled
+            if dirty >> 53 & 1 != 0 { self.group_53(&mut dirty); } // top$core$bit_timing$sampling$metastable + top$core$bit_timing$sampling$previous
+            if dirty >> 54 & 1 != 0 { self.group_54(&mut dirty); } // top$core$bit_timing$sampling$quantum_samples + top$core$bit_timing$sampling$stable
+            if dirty >> 55 & 1 != 0 { self.group_55(&mut dirty); } // top$core$bit_timing$segment_state + top$core$bit_timing$sjw_quanta
         }
         if dirty >> 56 & 0xff != 0 {
-            if dirty >> 56 & 1 != 0 { self.group_56(&mut dirty); } // top$core$protocol$abort_pending + top$core$protocol$assembler$byte_index
-            if dirty >> 57 & 1 != 0 { self.group_57(&mut dirty); } // top$core$protocol$assembler$byte_pulse + top$core$protocol$assembler$byte_reg
-            if dirty >> 58 & 1 != 0 { self.group_58(&mut dirty); } // top$core$protocol$assembler$dlc_reg + top$core$protocol$assembler$header_pulse
-            if dirty >> 59 & 1 != 0 { self.group_59(&mut dirty); } // top$core$protocol$assembler$id_base + top$core$protocol$assembler$id_extension
-            if dirty >> 60 & 1 != 0 { self.group_60(&mut dirty); } // top$core$protocol$assembler$ide_reg + top$core$protocol$assembler$last_data_byte_reg
-            if dirty >> 61 & 1 != 0 { self.group_61(&mut dirty); } // top$core$protocol$assembler$rtr_reg + top$core$protocol$capture$alc_reg
-            if dirty >> 62 & 1 != 0 { self.group_62(&mut dirty); } // top$core$protocol$capture$ecc_reg + top$core$protocol$capture$error_pulse
-            if dirty >> 63 & 1 != 0 { self.group_63(&mut dirty); } // top$core$protocol$capture$lost_pulse + top$core$protocol$count
+            if dirty >> 56 & 1 != 0 { self.group_56(&mut dirty); } // top$core$bit_timing$synced + top$core$bit_timing$transmit_deferred
+            if dirty >> 57 & 1 != 0 { self.group_57(&mut dirty); } // top$core$protocol$abort_pending + top$core$protocol$assembler$byte_index
+            if dirty >> 58 & 1 != 0 { self.group_58(&mut dirty); } // top$core$protocol$assembler$byte_pulse + top$core$protocol$assembler$byte_reg
+            if dirty >> 59 & 1 != 0 { self.group_59(&mut dirty); } // top$core$protocol$assembler$dlc_reg + top$core$protocol$assembler$header_pulse
+            if dirty >> 60 & 1 != 0 { self.group_60(&mut dirty); } // top$core$protocol$assembler$id_base + top$core$protocol$assembler$id_extension
+            if dirty >> 61 & 1 != 0 { self.group_61(&mut dirty); } // top$core$protocol$assembler$ide_reg + top$core$protocol$assembler$last_data_byte_reg
+            if dirty >> 62 & 1 != 0 { self.group_62(&mut dirty); } // top$core$protocol$assembler$rtr_reg + top$core$protocol$capture$alc_reg
+            if dirty >> 63 & 1 != 0 { self.group_63(&mut dirty); } // top$core$protocol$capture$ecc_reg + top$core$protocol$capture$error_pulse
         }
         if dirty >> 64 & 0xff != 0 {
-            if dirty >> 64 & 1 != 0 { self.group_64(&mut dirty); } // top$core$protocol$crc$register + top$core$protocol$crc_error
-            if dirty >> 65 & 1 != 0 { self.group_65(&mut dirty); } // top$core$protocol$done_pulse + top$core$protocol$done_success
-            if dirty >> 66 & 1 != 0 { self.group_66(&mut dirty); } // top$core$protocol$faults$bus_off_state + top$core$protocol$faults$passive_state
-            if dirty >> 67 & 1 != 0 { self.group_67(&mut dirty); } // top$core$protocol$field + top$core$protocol$in_frame
-            if dirty >> 68 & 1 != 0 { self.group_68(&mut dirty); } // top$core$protocol$interframe$ack_penalty + top$core$protocol$interframe$after_error_flag
-            if dirty >> 69 & 1 != 0 { self.group_69(&mut dirty); } // top$core$protocol$interframe$dominant_after_flag + top$core$protocol$interframe$first_after_flag
-            if dirty >> 70 & 1 != 0 { self.group_70(&mut dirty); } // top$core$protocol$interframe$flag_level + top$core$protocol$interframe$flag_passive_reg
-            if dirty >> 71 & 1 != 0 { self.group_71(&mut dirty); } // top$core$protocol$sender$tx_left + top$core$protocol$sender$tx_next
+            if dirty >> 64 & 1 != 0 { self.group_64(&mut dirty); } // top$core$protocol$capture$lost_pulse + top$core$protocol$count
+            if dirty >> 65 & 1 != 0 { self.group_65(&mut dirty); } // top$core$protocol$crc$register + top$core$protocol$crc_error
+            if dirty >> 66 & 1 != 0 { self.group_66(&mut dirty); } // top$core$protocol$done_pulse + top$core$protocol$done_success
+            if dirty >> 67 & 1 != 0 { self.group_67(&mut dirty); } // top$core$protocol$faults$bus_off_state + top$core$protocol$faults$passive_state
+            if dirty >> 68 & 1 != 0 { self.group_68(&mut dirty); } // top$core$protocol$field + top$core$protocol$in_frame
+            if dirty >> 69 & 1 != 0 { self.group_69(&mut dirty); } // top$core$protocol$interframe$ack_penalty + top$core$protocol$interframe$after_error_flag
+            if dirty >> 70 & 1 != 0 { self.group_70(&mut dirty); } // top$core$protocol$interframe$dominant_after_flag + top$core$protocol$interframe$first_after_flag
+            if dirty >> 71 & 1 != 0 { self.group_71(&mut dirty); } // top$core$protocol$interframe$flag_level + top$core$protocol$interframe$flag_passive_reg
         }
         if dirty >> 72 & 0xff != 0 {
-            if dirty >> 72 & 1 != 0 { self.group_72(&mut dirty); } // top$core$protocol$sender$tx_reg + top$core$protocol$sender$tx_shift
-            if dirty >> 73 & 1 != 0 { self.group_73(&mut dirty); } // top$core$protocol$stuffing$active + top$core$protocol$stuffing$run_length
-            if dirty >> 74 & 1 != 0 { self.group_74(&mut dirty); } // top$core$protocol$stuffing$run_level_reg + top$core$protocol$transmitter
-            if dirty >> 75 & 1 != 0 { self.group_75(&mut dirty); } // top$core$protocol$valid_pulse + top$fifo$fetching
-            if dirty >> 76 & 1 != 0 { self.group_76(&mut dirty); } // top$fifo$head + top$fifo$head_info_reg
-            if dirty >> 77 & 1 != 0 { self.group_77(&mut dirty); } // top$fifo$header_step
-            if dirty >> 78 & 1 != 0 { self.group_78(&mut dirty); } // top$fifo$overrun_state + top$fifo$ram
-            if dirty >> 79 & 1 != 0 { self.group_79(&mut dirty); } // top$fifo$tail
+            if dirty >> 72 & 1 != 0 { self.group_72(&mut dirty); } // top$core$protocol$sender$tx_left + top$core$protocol$sender$tx_next
+            if dirty >> 73 & 1 != 0 { self.group_73(&mut dirty); } // top$core$protocol$sender$tx_reg + top$core$protocol$sender$tx_shift
+            if dirty >> 74 & 1 != 0 { self.group_74(&mut dirty); } // top$core$protocol$stuffing$active + top$core$protocol$stuffing$run_length
+            if dirty >> 75 & 1 != 0 { self.group_75(&mut dirty); } // top$core$protocol$stuffing$run_level_reg + top$core$protocol$transmitter
+            if dirty >> 76 & 1 != 0 { self.group_76(&mut dirty); } // top$core$protocol$valid_pulse + top$fifo$fetching
+            if dirty >> 77 & 1 != 0 { self.group_77(&mut dirty); } // top$fifo$head + top$fifo$head_info_reg
+            if dirty >> 78 & 1 != 0 { self.group_78(&mut dirty); } // top$fifo$header_step
+            if dirty >> 79 & 1 != 0 { self.group_79(&mut dirty); } // top$fifo$overrun_state + top$fifo$ram
         }
         if dirty >> 80 & 0xff != 0 {
-            if dirty >> 80 & 1 != 0 { self.group_80(&mut dirty); } // top$fifo$writing_header
-            if dirty >> 81 & 1 != 0 { self.group_81(&mut dirty); } // top$fifo$count + top$fifo$incomplete
-            if dirty >> 82 & 1 != 0 { self.group_82(&mut dirty); } // top$fifo$used + top$filter$acr0
-            if dirty >> 83 & 1 != 0 { self.group_83(&mut dirty); } // top$filter$acr1 + top$filter$acr2
-            if dirty >> 84 & 1 != 0 { self.group_84(&mut dirty); } // top$filter$acr3 + top$filter$amr0
-            if dirty >> 85 & 1 != 0 { self.group_85(&mut dirty); } // top$filter$amr1 + top$filter$amr2
-            if dirty >> 86 & 1 != 0 { self.group_86(&mut dirty); } // top$filter$amr3 + top$filter$basic_id_match
-            if dirty >> 87 & 1 != 0 { self.group_87(&mut dirty); } // top$filter$dual1_data_match + top$filter$dual1_id_match
+            if dirty >> 80 & 1 != 0 { self.group_80(&mut dirty); } // top$fifo$tail
+            if dirty >> 81 & 1 != 0 { self.group_81(&mut dirty); } // top$fifo$writing_header
+            if dirty >> 82 & 1 != 0 { self.group_82(&mut dirty); } // top$fifo$count + top$fifo$incomplete
+            if dirty >> 83 & 1 != 0 { self.group_83(&mut dirty); } // top$fifo$used + top$filter$acr0
+            if dirty >> 84 & 1 != 0 { self.group_84(&mut dirty); } // top$filter$acr1 + top$filter$acr2
+            if dirty >> 85 & 1 != 0 { self.group_85(&mut dirty); } // top$filter$acr3 + top$filter$amr0
+            if dirty >> 86 & 1 != 0 { self.group_86(&mut dirty); } // top$filter$amr1 + top$filter$amr2
+            if dirty >> 87 & 1 != 0 { self.group_87(&mut dirty); } // top$filter$amr3 + top$filter$basic_id_match
         }
         if dirty >> 88 & 0xff != 0 {
-            if dirty >> 88 & 1 != 0 { self.group_88(&mut dirty); } // top$filter$dual2_id_match + top$filter$single_data1_match
-            if dirty >> 89 & 1 != 0 { self.group_89(&mut dirty); } // top$filter$single_data2_match + top$filter$single_id_match
-            if dirty >> 90 & 1 != 0 { self.group_90(&mut dirty); } // top$interrupts$alc_armed + top$interrupts$alc_reg
-            if dirty >> 91 & 1 != 0 { self.group_91(&mut dirty); } // top$interrupts$basic_ri_reg + top$interrupts$bus_off_reg
-            if dirty >> 92 & 1 != 0 { self.group_92(&mut dirty); } // top$interrupts$ecc_armed + top$interrupts$ecc_reg
-            if dirty >> 93 & 1 != 0 { self.group_93(&mut dirty); } // top$interrupts$es_reg
-            if dirty >> 94 & 1 != 0 { self.group_94(&mut dirty); } // top$interrupts$ir_reg
+            if dirty >> 88 & 1 != 0 { self.group_88(&mut dirty); } // top$filter$dual1_data_match + top$filter$dual1_id_match
+            if dirty >> 89 & 1 != 0 { self.group_89(&mut dirty); } // top$filter$dual2_id_match + top$filter$single_data1_match
+            if dirty >> 90 & 1 != 0 { self.group_90(&mut dirty); } // top$filter$single_data2_match + top$filter$single_id_match
+            if dirty >> 91 & 1 != 0 { self.group_91(&mut dirty); } // top$interrupts$alc_armed + top$interrupts$alc_reg
+            if dirty >> 92 & 1 != 0 { self.group_92(&mut dirty); } // top$interrupts$basic_ri_reg + top$interrupts$bus_off_reg
+            if dirty >> 93 & 1 != 0 { self.group_93(&mut dirty); } // top$interrupts$ecc_armed + top$interrupts$ecc_reg
+            if dirty >> 94 & 1 != 0 { self.group_94(&mut dirty); } // top$interrupts$es_reg + top$interrupts$ir_reg
             if dirty >> 95 & 1 != 0 { self.group_95(&mut dirty); } // top$interrupts$overrun_before
         }
         if dirty >> 96 & 0xff != 0 {
@@ -1767,7 +1775,7 @@ impl Model {
         self.dirty = 0;
         self.ran |= dirty;
         if dirty >> 127 & 1 != 0 {
-            self.out = 0 | ((self.v1059) as u64) << 0 | ((self.q118) as u64) << 8 | ((self.v991) as u64) << 9 | ((self.v1006) as u64) << 10 | ((self.v154) as u64) << 11 | ((self.v185) as u64) << 12 | ((self.q115) as u64) << 14 | ((self.q64 | (self.q65 << 3) | (self.q63 << 7)) as u64) << 19 | ((self.q66 | (self.q67 << 7)) as u64) << 27 | ((self.v231) as u64) << 35;
+            self.out = 0 | ((self.v1065) as u64) << 0 | ((self.q118) as u64) << 8 | ((self.v997) as u64) << 9 | ((self.v1012) as u64) << 10 | ((self.v153) as u64) << 11 | ((self.v183) as u64) << 12 | ((self.q115) as u64) << 14 | ((self.q65 | (self.q66 << 3) | (self.q64 << 7)) as u64) << 19 | ((self.q67 | (self.q68 << 7)) as u64) << 27 | ((self.v230) as u64) << 35;
         }
     }
 
@@ -1784,2685 +1792,2693 @@ impl Model {
         let ran = self.ran;
         self.ran = 0;
         if ran >> 37 & 1 != 0 {
-            if self.q63 != self.n63 { self.q63 = self.n63; dirty |= 0x80000000000000000000402040000180; } // $auto$ff.cc:266:slice$9752
-            if self.q64 != self.n64 { self.q64 = self.n64; dirty |= 0x80000000000000000000402000000180; } // $auto$ff.cc:266:slice$9753
-            if self.q65 != self.n65 { self.q65 = self.n65; dirty |= 0x80000000000000000000402000000180; } // $auto$ff.cc:266:slice$9766
+            if self.q64 != self.n64 { self.q64 = self.n64; dirty |= 0x80000000000000000000802040000300; } // $auto$ff.cc:266:slice$9822
+            if self.q65 != self.n65 { self.q65 = self.n65; dirty |= 0x80000000000000000000802000000300; } // $auto$ff.cc:266:slice$9823
+            if self.q66 != self.n66 { self.q66 = self.n66; dirty |= 0x80000000000000000000802000000300; } // $auto$ff.cc:266:slice$9836
         }
         if ran >> 39 & 1 != 0 {
-            if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x4080004c2b34; } // $auto$ff.cc:266:slice$9562
-            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x9000040200; } // $auto$ff.cc:266:slice$9563
-            if self.q104 != self.n104 { self.q104 = self.n104; dirty |= 0x9000040200; } // $auto$ff.cc:266:slice$9902
+            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x8080004c2e34; } // $auto$ff.cc:266:slice$9632
+            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x9000040400; } // $auto$ff.cc:266:slice$9633
+            if self.q105 != self.n105 { self.q105 = self.n105; dirty |= 0x9000040400; } // $auto$ff.cc:266:slice$9972
         }
         if ran >> 40 & 1 != 0 {
-            if self.q95 != self.n95 { self.q95 = self.n95; dirty |= 0x10000000008; } // $auto$ff.cc:266:slice$9873
-            if self.q96 != self.n96 { self.q96 = self.n96; dirty |= 0x10000000008; } // $auto$ff.cc:266:slice$9874
+            if self.q96 != self.n96 { self.q96 = self.n96; dirty |= 0x10000000008; } // $auto$ff.cc:266:slice$9943
+            if self.q97 != self.n97 { self.q97 = self.n97; dirty |= 0x10000000008; } // $auto$ff.cc:266:slice$9944
         }
         if ran >> 41 & 1 != 0 {
-            if self.q66 != self.n66 { self.q66 = self.n66; dirty |= 0x80000000000000000000420040000180; } // $auto$ff.cc:266:slice$9777
-            if self.q67 != self.n67 { self.q67 = self.n67; dirty |= 0x80000000000000000000420040000180; } // $auto$ff.cc:266:slice$9778
+            if self.q67 != self.n67 { self.q67 = self.n67; dirty |= 0x80000000000000000000820040000300; } // $auto$ff.cc:266:slice$9847
+            if self.q68 != self.n68 { self.q68 = self.n68; dirty |= 0x80000000000000000000820040000300; } // $auto$ff.cc:266:slice$9848
         }
         if ran >> 43 & 1 != 0 {
-            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x800000000000000000080000001020; } // $auto$ff.cc:266:slice$9690
-            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x8000000000000000000c0000001020; } // $auto$ff.cc:266:slice$9697
+            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x800000000000000000080000001020; } // $auto$ff.cc:266:slice$9760
+            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x8000000000000000000c0000001020; } // $auto$ff.cc:266:slice$9767
         }
-        if ran >> 45 & 1 != 0 {
-            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x600000000010; } // $auto$ff.cc:266:slice$9583
-            if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x600800040000; } // $auto$ff.cc:266:slice$9588
-        }
-        if ran >> 47 & 1 != 0 {
-            if self.q101 != self.n101 { self.q101 = self.n101; dirty |= 0x800000418000; } // $auto$ff.cc:266:slice$9894
-            if self.q102 != self.n102 { self.q102 = self.n102; dirty |= 0x800000400008; } // $auto$ff.cc:266:slice$9898
+        if ran >> 46 & 1 != 0 {
+            if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0xc00000000010; } // $auto$ff.cc:266:slice$9653
+            if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0xc00800040000; } // $auto$ff.cc:266:slice$9658
         }
         if ran >> 48 & 1 != 0 {
-            if self.q99 != self.n99 { self.q99 = self.n99; dirty |= 0x1000000400000; } // $auto$ff.cc:266:slice$9886
-            if self.q100 != self.n100 { self.q100 = self.n100; dirty |= 0x1000000400100; } // $auto$ff.cc:266:slice$9890
+            if self.q102 != self.n102 { self.q102 = self.n102; dirty |= 0x1000000418000; } // $auto$ff.cc:266:slice$9964
+            if self.q103 != self.n103 { self.q103 = self.n103; dirty |= 0x1000000400008; } // $auto$ff.cc:266:slice$9968
         }
         if ran >> 49 & 1 != 0 {
-            if self.q97 != self.n97 { self.q97 = self.n97; dirty |= 0x2000000010000; } // $auto$ff.cc:266:slice$9878
-            if self.q98 != self.n98 { self.q98 = self.n98; dirty |= 0x2000000000008; } // $auto$ff.cc:266:slice$9882
+            if self.q100 != self.n100 { self.q100 = self.n100; dirty |= 0x2000000400000; } // $auto$ff.cc:266:slice$9956
+            if self.q101 != self.n101 { self.q101 = self.n101; dirty |= 0x2000000400200; } // $auto$ff.cc:266:slice$9960
         }
         if ran >> 50 & 1 != 0 {
-            if self.q93 != self.n93 { self.q93 = self.n93; dirty |= 0x610000404002f81000a; } // $auto$ff.cc:266:slice$9866
-            if self.q94 != self.n94 { self.q94 = self.n94; dirty |= 0x4000000000008; } // $auto$ff.cc:266:slice$9870
+            if self.q98 != self.n98 { self.q98 = self.n98; dirty |= 0x4000000010000; } // $auto$ff.cc:266:slice$9948
+            if self.q99 != self.n99 { self.q99 = self.n99; dirty |= 0x4000000000008; } // $auto$ff.cc:266:slice$9952
         }
         if ran >> 51 & 1 != 0 {
-            if self.q92 != self.n92 { self.q92 = self.n92; dirty |= 0x8000000010008; } // $auto$ff.cc:266:slice$9863
-            if self.q109 != self.n109 { self.q109 = self.n109; dirty |= 0x4403e08000009031003; } // $flatten\core.\bit_timing.\sampled.$procdff$8844
+            if self.q94 != self.n94 { self.q94 = self.n94; dirty |= 0xc20000804002f81000a; } // $auto$ff.cc:266:slice$9936
+            if self.q95 != self.n95 { self.q95 = self.n95; dirty |= 0x8000000000008; } // $auto$ff.cc:266:slice$9940
         }
         if ran >> 52 & 1 != 0 {
-            if self.q110 != self.n110 { self.q110 = self.n110; dirty |= 0x10000000008000; } // $flatten\core.\bit_timing.\sampling.\metastable.$procdff$8843
-            if self.q111 != self.n111 { self.q111 = self.n111; dirty |= 0x10000000008000; } // $flatten\core.\bit_timing.\sampling.\previous.$procdff$8842
+            if self.q93 != self.n93 { self.q93 = self.n93; dirty |= 0x10000000010008; } // $auto$ff.cc:266:slice$9933
+            if self.q109 != self.n109 { self.q109 = self.n109; dirty |= 0x8807c10000009031003; } // $flatten\core.\bit_timing.\sampled.$procdff$8915
         }
         if ran >> 53 & 1 != 0 {
-            if self.q91 != self.n91 { self.q91 = self.n91; dirty |= 0x20000000008000; } // $auto$ff.cc:266:slice$9862
-            if self.q112 != self.n112 { self.q112 = self.n112; dirty |= 0x20000000008000; } // $flatten\core.\bit_timing.\sampling.\stable.$procdff$8840
+            if self.q110 != self.n110 { self.q110 = self.n110; dirty |= 0x20000000008000; } // $flatten\core.\bit_timing.\sampling.\metastable.$procdff$8914
+            if self.q111 != self.n111 { self.q111 = self.n111; dirty |= 0x20000000008000; } // $flatten\core.\bit_timing.\sampling.\previous.$procdff$8913
         }
         if ran >> 54 & 1 != 0 {
-            if self.q90 != self.n90 { self.q90 = self.n90; dirty |= 0x40000000010008; } // $auto$ff.cc:266:slice$9856
-            if self.q108 != self.n108 { self.q108 = self.n108; dirty |= 0x40000000000008; } // $auto$ff.cc:266:slice$9987
+            if self.q92 != self.n92 { self.q92 = self.n92; dirty |= 0x40000000008000; } // $auto$ff.cc:266:slice$9932
+            if self.q112 != self.n112 { self.q112 = self.n112; dirty |= 0x40000000008000; } // $flatten\core.\bit_timing.\sampling.\stable.$procdff$8911
         }
         if ran >> 55 & 1 != 0 {
-            if self.q88 != self.n88 { self.q88 = self.n88; dirty |= 0x80000000010000; } // $auto$ff.cc:266:slice$9850
-            if self.q89 != self.n89 { self.q89 = self.n89; dirty |= 0x80000000010008; } // $auto$ff.cc:266:slice$9851
+            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x80000000000008; } // $auto$ff.cc:266:slice$10060
+            if self.q91 != self.n91 { self.q91 = self.n91; dirty |= 0x80000000010008; } // $auto$ff.cc:266:slice$9926
         }
         if ran >> 56 & 1 != 0 {
-            if self.q86 != self.n86 { self.q86 = self.n86; dirty |= 0x100000000000044; } // $auto$ff.cc:266:slice$9844
-            if self.q87 != self.n87 { self.q87 = self.n87; dirty |= 0x100000008004001; } // $auto$ff.cc:266:slice$9847
+            if self.q89 != self.n89 { self.q89 = self.n89; dirty |= 0x100000000010000; } // $auto$ff.cc:266:slice$9920
+            if self.q90 != self.n90 { self.q90 = self.n90; dirty |= 0x100000000010008; } // $auto$ff.cc:266:slice$9921
         }
         if ran >> 57 & 1 != 0 {
-            if self.q84 != self.n84 { self.q84 = self.n84; dirty |= 0x200000000000044; } // $auto$ff.cc:266:slice$9839
-            if self.q85 != self.n85 { self.q85 = self.n85; dirty |= 0x200000000000044; } // $auto$ff.cc:266:slice$9842
+            if self.q87 != self.n87 { self.q87 = self.n87; dirty |= 0x200000000000044; } // $auto$ff.cc:266:slice$9914
+            if self.q88 != self.n88 { self.q88 = self.n88; dirty |= 0x200000008004001; } // $auto$ff.cc:266:slice$9917
         }
         if ran >> 58 & 1 != 0 {
-            if self.q82 != self.n82 { self.q82 = self.n82; dirty |= 0x3c020000400000000000044; } // $auto$ff.cc:266:slice$9831
-            if self.q83 != self.n83 { self.q83 = self.n83; dirty |= 0x400004000200042; } // $auto$ff.cc:266:slice$9835
+            if self.q85 != self.n85 { self.q85 = self.n85; dirty |= 0x400000000000044; } // $auto$ff.cc:266:slice$9909
+            if self.q86 != self.n86 { self.q86 = self.n86; dirty |= 0x400000000000044; } // $auto$ff.cc:266:slice$9912
         }
         if ran >> 59 & 1 != 0 {
-            if self.q80 != self.n80 { self.q80 = self.n80; dirty |= 0x800000000000044; } // $auto$ff.cc:266:slice$9816
-            if self.q81 != self.n81 { self.q81 = self.n81; dirty |= 0x800000000000044; } // $auto$ff.cc:266:slice$9826
+            if self.q83 != self.n83 { self.q83 = self.n83; dirty |= 0x78040000800000000000044; } // $auto$ff.cc:266:slice$9901
+            if self.q84 != self.n84 { self.q84 = self.n84; dirty |= 0x800004000200042; } // $auto$ff.cc:266:slice$9905
         }
         if ran >> 60 & 1 != 0 {
-            if self.q78 != self.n78 { self.q78 = self.n78; dirty |= 0x1000000000000002; } // $auto$ff.cc:266:slice$9808
-            if self.q79 != self.n79 { self.q79 = self.n79; dirty |= 0x1000004000200444; } // $auto$ff.cc:266:slice$9810
+            if self.q81 != self.n81 { self.q81 = self.n81; dirty |= 0x1000200000000044; } // $auto$ff.cc:266:slice$9886
+            if self.q82 != self.n82 { self.q82 = self.n82; dirty |= 0x1000200000000044; } // $auto$ff.cc:266:slice$9896
         }
         if ran >> 61 & 1 != 0 {
-            if self.q76 != self.n76 { self.q76 = self.n76; dirty |= 0x40000002000000000000000; } // $auto$ff.cc:266:slice$9801
-            if self.q77 != self.n77 { self.q77 = self.n77; dirty |= 0x2000004000200046; } // $auto$ff.cc:266:slice$9803
+            if self.q79 != self.n79 { self.q79 = self.n79; dirty |= 0x2000000000000002; } // $auto$ff.cc:266:slice$9878
+            if self.q80 != self.n80 { self.q80 = self.n80; dirty |= 0x20002040002000c4; } // $auto$ff.cc:266:slice$9880
         }
         if ran >> 62 & 1 != 0 {
-            if self.q74 != self.n74 { self.q74 = self.n74; dirty |= 0x4000000000000100; } // $auto$ff.cc:266:slice$9795
-            if self.q75 != self.n75 { self.q75 = self.n75; dirty |= 0x100000004000000000000000; } // $auto$ff.cc:266:slice$9799
+            if self.q77 != self.n77 { self.q77 = self.n77; dirty |= 0x80000004000000000000000; } // $auto$ff.cc:266:slice$9871
+            if self.q78 != self.n78 { self.q78 = self.n78; dirty |= 0x4000004000200046; } // $auto$ff.cc:266:slice$9873
         }
         if ran >> 63 & 1 != 0 {
-            if self.q72 != self.n72 { self.q72 = self.n72; dirty |= 0xa100000034201403; } // $auto$ff.cc:266:slice$9789
-            if self.q73 != self.n73 { self.q73 = self.n73; dirty |= 0x8000000000000100; } // $auto$ff.cc:266:slice$9792
+            if self.q75 != self.n75 { self.q75 = self.n75; dirty |= 0x8000000000000200; } // $auto$ff.cc:266:slice$9865
+            if self.q76 != self.n76 { self.q76 = self.n76; dirty |= 0x200000008000000000000000; } // $auto$ff.cc:266:slice$9869
         }
         if ran >> 64 & 1 != 0 {
-            if self.q70 != self.n70 { self.q70 = self.n70; dirty |= 0x10000000020000002; } // $auto$ff.cc:266:slice$9784
-            if self.q71 != self.n71 { self.q71 = self.n71; dirty |= 0x10000000010021002; } // $auto$ff.cc:266:slice$9788
+            if self.q73 != self.n73 { self.q73 = self.n73; dirty |= 0x14200000034201083; } // $auto$ff.cc:266:slice$9859
+            if self.q74 != self.n74 { self.q74 = self.n74; dirty |= 0x10000000000000200; } // $auto$ff.cc:266:slice$9862
         }
         if ran >> 65 & 1 != 0 {
-            if self.q68 != self.n68 { self.q68 = self.n68; dirty |= 0x20000000000000020; } // $auto$ff.cc:266:slice$9782
-            if self.q69 != self.n69 { self.q69 = self.n69; dirty |= 0x20000000800004021; } // $auto$ff.cc:266:slice$9783
+            if self.q71 != self.n71 { self.q71 = self.n71; dirty |= 0x20000000020000002; } // $auto$ff.cc:266:slice$9854
+            if self.q72 != self.n72 { self.q72 = self.n72; dirty |= 0x20000000010021002; } // $auto$ff.cc:266:slice$9858
         }
         if ran >> 66 & 1 != 0 {
-            if self.q113 != self.n113 { self.q113 = self.n113; dirty |= 0x10800000400000000e0044381; } // $flatten\core.\protocol.\faults.\bus_off_state.$procdff$8815
-            if self.q114 != self.n114 { self.q114 = self.n114; dirty |= 0x1000000040000000000000103; } // $flatten\core.\protocol.\faults.\passive_state.$procdff$8814
+            if self.q69 != self.n69 { self.q69 = self.n69; dirty |= 0x40000000000000020; } // $auto$ff.cc:266:slice$9852
+            if self.q70 != self.n70 { self.q70 = self.n70; dirty |= 0x40000000800004021; } // $auto$ff.cc:266:slice$9853
         }
         if ran >> 67 & 1 != 0 {
-            if self.q115 != self.n115 { self.q115 = self.n115; dirty |= 0x80000000000000080000000024804003; } // $flatten\core.\protocol.\field.$procdff$8811
-            if self.q116 != self.n116 { self.q116 = self.n116; dirty |= 0x80000000008004000; } // $flatten\core.\protocol.\in_frame.$procdff$8810
+            if self.q113 != self.n113 { self.q113 = self.n113; dirty |= 0x11000000800000000e0044701; } // $flatten\core.\protocol.\faults.\bus_off_state.$procdff$8886
+            if self.q114 != self.n114 { self.q114 = self.n114; dirty |= 0x1000000080000000000000203; } // $flatten\core.\protocol.\faults.\passive_state.$procdff$8885
         }
         if ran >> 68 & 1 != 0 {
-            if self.q61 != self.n61 { self.q61 = self.n61; dirty |= 0x100000000002000001; } // $auto$ff.cc:266:slice$9749
-            if self.q62 != self.n62 { self.q62 = self.n62; dirty |= 0x10000000000a000000; } // $auto$ff.cc:266:slice$9750
+            if self.q115 != self.n115 { self.q115 = self.n115; dirty |= 0x80000000000000100000000024804003; } // $flatten\core.\protocol.\field.$procdff$8882
+            if self.q116 != self.n116 { self.q116 = self.n116; dirty |= 0x100000000008004000; } // $flatten\core.\protocol.\in_frame.$procdff$8881
         }
         if ran >> 69 & 1 != 0 {
-            if self.q59 != self.n59 { self.q59 = self.n59; dirty |= 0x200000000000000001; } // $auto$ff.cc:266:slice$9719
-            if self.q60 != self.n60 { self.q60 = self.n60; dirty |= 0x200000000000000001; } // $auto$ff.cc:266:slice$9731
+            if self.q62 != self.n62 { self.q62 = self.n62; dirty |= 0x200000000002000001; } // $auto$ff.cc:266:slice$9819
+            if self.q63 != self.n63 { self.q63 = self.n63; dirty |= 0x20000000000a000000; } // $auto$ff.cc:266:slice$9820
         }
         if ran >> 70 & 1 != 0 {
-            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x40000000001b000401; } // $auto$ff.cc:266:slice$9705
-            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x400000000000000001; } // $auto$ff.cc:266:slice$9713
+            if self.q60 != self.n60 { self.q60 = self.n60; dirty |= 0x400000000000000001; } // $auto$ff.cc:266:slice$9789
+            if self.q61 != self.n61 { self.q61 = self.n61; dirty |= 0x400000000000000001; } // $auto$ff.cc:266:slice$9801
         }
         if ran >> 71 & 1 != 0 {
-            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x800000000000001000; } // $auto$ff.cc:266:slice$9703
-            if self.q117 != self.n117 { self.q117 = self.n117; dirty |= 0x800000040000100000; } // $flatten\core.\protocol.\sender.\tx_next.$procdff$8802
+            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x80000000001b000081; } // $auto$ff.cc:266:slice$9775
+            if self.q59 != self.n59 { self.q59 = self.n59; dirty |= 0x800000000000000001; } // $auto$ff.cc:266:slice$9783
         }
         if ran >> 72 & 1 != 0 {
-            if self.q103 != self.n103 { self.q103 = self.n103; dirty |= 0x1000000000000100000; } // $auto$ff.cc:266:slice$9901
-            if self.q118 != self.n118 { self.q118 = self.n118; dirty |= 0x8000000000000100000000000810000b; } // $flatten\core.\protocol.\sender.\tx_reg.$procdff$8800
+            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x1000000000000001000; } // $auto$ff.cc:266:slice$9773
+            if self.q117 != self.n117 { self.q117 = self.n117; dirty |= 0x1000000040000100000; } // $flatten\core.\protocol.\sender.\tx_next.$procdff$8873
         }
         if ran >> 73 & 1 != 0 {
-            if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x2000000000001000000; } // $auto$ff.cc:266:slice$9679
-            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x2000000100001000000; } // $auto$ff.cc:266:slice$9681
+            if self.q104 != self.n104 { self.q104 = self.n104; dirty |= 0x2000000000000100000; } // $auto$ff.cc:266:slice$9971
+            if self.q118 != self.n118 { self.q118 = self.n118; dirty |= 0x8000000000000200000000000810000b; } // $flatten\core.\protocol.\sender.\tx_reg.$procdff$8871
         }
         if ran >> 74 & 1 != 0 {
-            if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x4000000000008004003; } // $auto$ff.cc:266:slice$9672
-            if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x4000000000001000002; } // $auto$ff.cc:266:slice$9673
+            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x4000000000001000000; } // $auto$ff.cc:266:slice$9749
+            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x4000000100001000000; } // $auto$ff.cc:266:slice$9751
         }
         if ran >> 75 & 1 != 0 {
-            if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x8000000000000000040; } // $auto$ff.cc:266:slice$9662
-            if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x8000000000000000020; } // $auto$ff.cc:266:slice$9666
+            if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x8000000000008004003; } // $auto$ff.cc:266:slice$9742
+            if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x8000000000001000002; } // $auto$ff.cc:266:slice$9743
         }
         if ran >> 76 & 1 != 0 {
-            if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x10000000000000000040; } // $auto$ff.cc:266:slice$9660
-            if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x10000000404000040040; } // $auto$ff.cc:266:slice$9661
+            if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x10000000000000000040; } // $auto$ff.cc:266:slice$9732
+            if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x10000000000000000020; } // $auto$ff.cc:266:slice$9736
         }
         if ran >> 77 & 1 != 0 {
-            if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x20000000000000000040; } // $auto$ff.cc:266:slice$9657
+            if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x20000000000000000040; } // $auto$ff.cc:266:slice$9730
+            if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x20000000804000040040; } // $auto$ff.cc:266:slice$9731
         }
         if ran >> 78 & 1 != 0 {
-            if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x800040000000000000040140; } // $auto$ff.cc:266:slice$9650
+            if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x40000000000000000040; } // $auto$ff.cc:266:slice$9727
         }
         if ran >> 79 & 1 != 0 {
-            if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x80000000000000000040; } // $auto$ff.cc:266:slice$9647
+            if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x800080000000000000040240; } // $auto$ff.cc:266:slice$9720
         }
         if ran >> 80 & 1 != 0 {
-            if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x120000000000000000040; } // $auto$ff.cc:266:slice$9640
+            if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x100000000000000000040; } // $auto$ff.cc:266:slice$9717
         }
         if ran >> 81 & 1 != 0 {
-            if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x200000000000000000040; } // $auto$ff.cc:266:slice$9653
-            if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x200000000404000000140; } // $auto$ff.cc:266:slice$9663
+            if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x240000000000000000040; } // $auto$ff.cc:266:slice$9710
         }
         if ran >> 82 & 1 != 0 {
-            if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x400000000000000000004; } // $auto$ff.cc:266:slice$9637
-            if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x400000000004000000040; } // $auto$ff.cc:266:slice$9643
+            if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x400000000000000000040; } // $auto$ff.cc:266:slice$9723
+            if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x400000000804000000240; } // $auto$ff.cc:266:slice$9733
         }
         if ran >> 83 & 1 != 0 {
-            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x800000000000000000004; } // $auto$ff.cc:266:slice$9629
-            if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x800000000000000000004; } // $auto$ff.cc:266:slice$9633
+            if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x800000000000000000004; } // $auto$ff.cc:266:slice$9707
+            if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x800000000004000000040; } // $auto$ff.cc:266:slice$9713
         }
         if ran >> 84 & 1 != 0 {
-            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x1000000000000000000004; } // $auto$ff.cc:266:slice$9621
-            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x1000000000000000000004; } // $auto$ff.cc:266:slice$9625
+            if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x1000000000000000000004; } // $auto$ff.cc:266:slice$9699
+            if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x1000000000200000000004; } // $auto$ff.cc:266:slice$9703
         }
         if ran >> 85 & 1 != 0 {
-            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9613
-            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9617
+            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9691
+            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x2000000000200000000004; } // $auto$ff.cc:266:slice$9695
         }
         if ran >> 86 & 1 != 0 {
-            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9607
-            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9609
+            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9683
+            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9687
         }
         if ran >> 87 & 1 != 0 {
-            if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9605
-            if self.q119 != self.n119 { self.q119 = self.n119; dirty |= 0x8000000000000000000004; } // $flatten\filter.\dual1_data_match.$procdff$8770
+            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9677
+            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9679
         }
         if ran >> 88 & 1 != 0 {
-            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9603
-            if self.q120 != self.n120 { self.q120 = self.n120; dirty |= 0x10000000000000000000004; } // $flatten\filter.\single_data1_match.$procdff$8767
+            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9675
+            if self.q119 != self.n119 { self.q119 = self.n119; dirty |= 0x10000000000000000000004; } // $flatten\filter.\dual1_data_match.$procdff$8841
         }
         if ran >> 89 & 1 != 0 {
-            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x20000000000000000000004; } // $auto$ff.cc:266:slice$9601
-            if self.q121 != self.n121 { self.q121 = self.n121; dirty |= 0x20000000000000000000004; } // $flatten\filter.\single_data2_match.$procdff$8766
+            if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x20000000000000000000004; } // $auto$ff.cc:266:slice$9673
+            if self.q120 != self.n120 { self.q120 = self.n120; dirty |= 0x20000000000000000000004; } // $flatten\filter.\single_data1_match.$procdff$8838
         }
         if ran >> 90 & 1 != 0 {
-            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x40000000000400000000000; } // $auto$ff.cc:266:slice$9599
-            if self.q122 != self.n122 { self.q122 = self.n122; dirty |= 0x40000000000000000000100; } // $flatten\interrupts.\alc_armed.$procdff$8764
+            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x40000000000000000000004; } // $auto$ff.cc:266:slice$9671
+            if self.q121 != self.n121 { self.q121 = self.n121; dirty |= 0x40000000000000000000004; } // $flatten\filter.\single_data2_match.$procdff$8837
         }
         if ran >> 91 & 1 != 0 {
-            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x80000000000000000000300; } // $auto$ff.cc:266:slice$9596
-            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x80000000000000000000100; } // $auto$ff.cc:266:slice$9597
+            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x80000000000800000000000; } // $auto$ff.cc:266:slice$9669
+            if self.q122 != self.n122 { self.q122 = self.n122; dirty |= 0x80000000000000000000200; } // $flatten\interrupts.\alc_armed.$procdff$8835
         }
         if ran >> 92 & 1 != 0 {
-            if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x100000000000400000000000; } // $auto$ff.cc:266:slice$9595
-            if self.q123 != self.n123 { self.q123 = self.n123; dirty |= 0x100000000000000000000100; } // $flatten\interrupts.\ecc_armed.$procdff$8760
+            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x100000000000000000000600; } // $auto$ff.cc:266:slice$9666
+            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x100000000000000000000200; } // $auto$ff.cc:266:slice$9667
         }
         if ran >> 93 & 1 != 0 {
-            if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0x200000000000000000040100; } // $auto$ff.cc:266:slice$9593
+            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x200000000000800000000000; } // $auto$ff.cc:266:slice$9665
+            if self.q123 != self.n123 { self.q123 = self.n123; dirty |= 0x200000000000000000000200; } // $flatten\interrupts.\ecc_armed.$procdff$8831
         }
         if ran >> 94 & 1 != 0 {
-            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x400000000000400000040100; } // $auto$ff.cc:266:slice$9577
+            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x400000000000800000040200; } // $auto$ff.cc:266:slice$9647
+            if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x400000000000000000040200; } // $auto$ff.cc:266:slice$9663
         }
         if ran >> 95 & 1 != 0 {
-            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x800000000000000000000100; } // $auto$ff.cc:266:slice$9576
+            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x800000000000000000000200; } // $auto$ff.cc:266:slice$9646
         }
         if ran >> 96 & 1 != 0 {
-            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x1000000000000000000000100; } // $auto$ff.cc:266:slice$9575
+            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x1000000000000000000000200; } // $auto$ff.cc:266:slice$9645
         }
         if ran >> 97 & 1 != 0 {
-            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x2000000000000000000000100; } // $auto$ff.cc:266:slice$9571
+            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x2000000000000000000000200; } // $auto$ff.cc:266:slice$9641
         }
         if ran >> 99 & 1 != 0 {
-            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x8000000000000400000000004; } // $auto$ff.cc:266:slice$9568
+            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x8000000000000800000000004; } // $auto$ff.cc:266:slice$9638
         }
         if ran >> 100 & 1 != 0 {
-            if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x10000000000000400000000000; } // $auto$ff.cc:266:slice$9556
+            if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x10000000000000800000000000; } // $auto$ff.cc:266:slice$9626
         }
         if ran >> 101 & 1 != 0 {
-            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x20000000000000001000000000; } // $auto$ff.cc:266:slice$9552
+            if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x20000000000000001000000000; } // $auto$ff.cc:266:slice$9622
         }
         if ran >> 102 & 1 != 0 {
-            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x40000000000000001000000000; } // $auto$ff.cc:266:slice$9551
+            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x40000000000000001000000000; } // $auto$ff.cc:266:slice$9621
         }
         if ran >> 103 & 1 != 0 {
-            if self.q124 != self.n124 { self.q124 = self.n124; dirty |= 0x80000000000000000000004003; } // $flatten\modes.\enable_reg.$procdff$8747
+            if self.q124 != self.n124 { self.q124 = self.n124; dirty |= 0x80000000000000000000004003; } // $flatten\modes.\enable_reg.$procdff$8818
         }
         if ran >> 104 & 1 != 0 {
-            if self.q125 != self.n125 { self.q125 = self.n125; dirty |= 0x100000000000000040000104001; } // $flatten\modes.\listen_only_reg.$procdff$8746
+            if self.q125 != self.n125 { self.q125 = self.n125; dirty |= 0x100000000000000040000104001; } // $flatten\modes.\listen_only_reg.$procdff$8817
         }
         if ran >> 105 & 1 != 0 {
-            if self.q126 != self.n126 { self.q126 = self.n126; dirty |= 0x200000000000000400000000200; } // $flatten\modes.\lom.$procdff$8745
+            if self.q126 != self.n126 { self.q126 = self.n126; dirty |= 0x200000000000000800000000400; } // $flatten\modes.\lom.$procdff$8816
         }
         if ran >> 106 & 1 != 0 {
-            if self.q127 != self.n127 { self.q127 = self.n127; dirty |= 0x401000100000000404200000b44; } // $flatten\modes.\rm.$procdff$8744
+            if self.q127 != self.n127 { self.q127 = self.n127; dirty |= 0x401000200000000804200000e44; } // $flatten\modes.\rm.$procdff$8815
         }
         if ran >> 107 & 1 != 0 {
-            if self.q128 != self.n128 { self.q128 = self.n128; dirty |= 0x800000000000000000000000002; } // $flatten\modes.\self_test_reg.$procdff$8743
+            if self.q128 != self.n128 { self.q128 = self.n128; dirty |= 0x800000000000000000000000002; } // $flatten\modes.\self_test_reg.$procdff$8814
         }
         if ran >> 108 & 1 != 0 {
-            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x1000000000000000000000000200; } // $auto$ff.cc:266:slice$9549
+            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x1000000000000000000000000400; } // $auto$ff.cc:266:slice$9619
         }
         if ran >> 109 & 1 != 0 {
-            if self.q129 != self.n129 { self.q129 = self.n129; dirty |= 0x2004000000000000400400000200; } // $flatten\modes.\sm.$procdff$8741
+            if self.q129 != self.n129 { self.q129 = self.n129; dirty |= 0x2004000000000000800400000400; } // $flatten\modes.\sm.$procdff$8812
         }
         if ran >> 110 & 1 != 0 {
-            if self.q130 != self.n130 { self.q130 = self.n130; dirty |= 0x4000000000000000400000000200; } // $flatten\modes.\stm.$procdff$8740
+            if self.q130 != self.n130 { self.q130 = self.n130; dirty |= 0x4000000000000000800000000400; } // $flatten\modes.\stm.$procdff$8811
         }
         if ran >> 111 & 1 != 0 {
-            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x8000000000000000000000000010; } // $auto$ff.cc:266:slice$9543
+            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x8000000000000000000000000010; } // $auto$ff.cc:266:slice$9613
         }
         if ran >> 112 & 1 != 0 {
-            if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x10000000000000000400000000000; } // $auto$ff.cc:266:slice$9542
+            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x10000000000000000800000000000; } // $auto$ff.cc:266:slice$9612
         }
         if ran >> 113 & 1 != 0 {
-            if self.q105 != self.n105 { self.q105 = self.n105; dirty |= 0x20000000000000000000000000010; } // $auto$ff.cc:266:slice$9903
+            if self.q106 != self.n106 { self.q106 = self.n106; dirty |= 0x20000000000000000000000000010; } // $auto$ff.cc:266:slice$9973
         }
         if ran >> 114 & 1 != 0 {
-            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x40000000000000000000000000010; } // $auto$ff.cc:266:slice$9539
+            if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x40000000000000000000000000010; } // $auto$ff.cc:266:slice$9609
         }
         if ran >> 115 & 1 != 0 {
-            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x80000000000000000000000000020; } // $auto$ff.cc:266:slice$9538
+            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x80000000000000000000000000020; } // $auto$ff.cc:266:slice$9608
         }
         if ran >> 116 & 1 != 0 {
-            if self.q131 != self.n131 { self.q131 = self.n131; dirty |= 0x100000000000000000000000042020; } // $flatten\tbs.$procdff$8734
+            if self.q131 != self.n131 { self.q131 = self.n131; dirty |= 0x100000000000000000000000042020; } // $flatten\tbs.$procdff$8805
         }
         if ran >> 117 & 1 != 0 {
-            if self.q132 != self.n132 { self.q132 = self.n132; dirty |= 0x200000000000000000000000040020; } // $flatten\tcs.$procdff$8733
+            if self.q132 != self.n132 { self.q132 = self.n132; dirty |= 0x200000000000000000000000040020; } // $flatten\tcs.$procdff$8804
         }
         if ran >> 118 & 1 != 0 {
-            if self.q106 != self.n106 { self.q106 = self.n106; dirty |= 0x400000000000000000000000080000; } // $auto$ff.cc:266:slice$9904
+            if self.q107 != self.n107 { self.q107 = self.n107; dirty |= 0x400000000000000000000000080000; } // $auto$ff.cc:266:slice$9974
         }
         if ran >> 120 & 1 != 0 {
-            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x1000000000000000000000000080000; } // $auto$ff.cc:266:slice$9532
+            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x1000000000000000000000000080000; } // $auto$ff.cc:266:slice$9602
         }
         if ran >> 121 & 1 != 0 {
-            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x2000000000000000000000000080000; } // $auto$ff.cc:266:slice$9529
+            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x2000000000000000000000000080000; } // $auto$ff.cc:266:slice$9599
         }
         if ran >> 123 & 1 != 0 {
-            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x8000000000000000000000000080000; } // $auto$ff.cc:266:slice$9527
+            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x8000000000000000000000000080000; } // $auto$ff.cc:266:slice$9597
         }
         if ran >> 124 & 1 != 0 {
-            if self.q107 != self.n107 { self.q107 = self.n107; dirty |= 0x10000000000000000000000000082020; } // $auto$ff.cc:266:slice$9905
+            if self.q108 != self.n108 { self.q108 = self.n108; dirty |= 0x10000000000000000000000000082020; } // $auto$ff.cc:266:slice$9975
         }
         if ran >> 125 & 1 != 0 {
-            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x20000000000000000000000000006021; } // $auto$ff.cc:266:slice$9522
+            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x20000000000000000000000000006021; } // $auto$ff.cc:266:slice$9592
         }
         if ran >> 126 & 1 != 0 {
-            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x40000000000000000000000000000001; } // $auto$ff.cc:266:slice$9521
+            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x40000000000000000000000000000001; } // $auto$ff.cc:266:slice$9591
         }
         self.dirty |= dirty;
     }
 
     /// The cells of top$core$protocol$interframe.
     fn group_0(&mut self, dirty: &mut u128) {
-        let c500: u64 = (self.q60).wrapping_add((0x1)) & 0x7;
-        let c511: u64 = (self.q50) & (self.q114) & 0x1;
-        if self.v511 != c511 { self.v511 = c511; *dirty |= 0x8000000; }
-        let c516: u64 = (self.q59) & (self.q61) & 0x1;
-        let c518: u64 = (self.q109) & (self.q124) & 0x1;
-        if self.v518 != c518 { self.v518 = c518; *dirty |= 0x8000000; }
-        let c523: u64 = u64::from((self.q115) == (0x1));
-        if self.v523 != c523 { self.v523 = c523; *dirty |= 0x408000000; }
-        let c524: u64 = u64::from((self.q115) == (0xb));
+        let c506: u64 = (self.q61).wrapping_add((0x1)) & 0x7;
+        let c517: u64 = (self.q51) & (self.q114) & 0x1;
+        if self.v517 != c517 { self.v517 = c517; *dirty |= 0x8000000; }
+        let c522: u64 = (self.q60) & (self.q62) & 0x1;
+        let c524: u64 = (self.q109) & (self.q124) & 0x1;
         if self.v524 != c524 { self.v524 = c524; *dirty |= 0x8000000; }
-        let c124: u64 = u64::from((c523 | (c524 << 1)) != 0);
-        if self.v124 != c124 { self.v124 = c124; *dirty |= 0x400; }
-        let c525: u64 = u64::from((self.q115) == (0xa));
-        if self.v525 != c525 { self.v525 = c525; *dirty |= 0x8000400; }
-        let c526: u64 = u64::from((self.q72) == (0x2));
-        if self.v526 != c526 { self.v526 = c526; *dirty |= 0x8000000; }
-        let c508: u64 = (c525) & (c526) & 0x1;
-        if self.v508 != c508 { self.v508 = c508; *dirty |= 0x4000; }
-        let c528: u64 = u64::from((self.q72) == (0xa));
-        if self.v528 != c528 { self.v528 = c528; *dirty |= 0x18000000; }
-        let c529: u64 = !(self.q118) & 0x1;
-        if self.v529 != c529 { self.v529 = c529; *dirty |= 0x8010002; }
-        let c530: u64 = u64::from((self.q72) == (0x7));
+        let c529: u64 = u64::from((self.q115) == (0x1));
+        if self.v529 != c529 { self.v529 = c529; *dirty |= 0x408000000; }
+        let c530: u64 = u64::from((self.q115) == (0xb));
         if self.v530 != c530 { self.v530 = c530; *dirty |= 0x8000000; }
-        let c531: u64 = u64::from((self.q72) == (0x5));
-        if self.v531 != c531 { self.v531 = c531; *dirty |= 0x8800002; }
-        let c532: u64 = !(self.q50) & 0x1;
-        if self.v532 != c532 { self.v532 = c532; *dirty |= 0x4002; }
-        let c517: u64 = (c516) & (c532) & 0x1;
-        let c533: u64 = u64::from((self.q72) == 0);
-        if self.v533 != c533 { self.v533 = c533; *dirty |= 0x8000400; }
-        let c534: u64 = u64::from((self.q60) == (0x7));
-        let c536: u64 = u64::from((self.q115) == (0xd));
-        if self.v536 != c536 { self.v536 = c536; *dirty |= 0x8000400; }
-        let c537: u64 = u64::from((self.q72) != 0);
-        if self.v537 != c537 { self.v537 = c537; *dirty |= 0x200000; }
-        let c538: u64 = u64::from((self.q109) != (self.q58));
-        let c513: u64 = (c537) & (c538) & 0x1;
-        if self.v513 != c513 { self.v513 = c513; *dirty |= 0x8000000; }
-        let c539: u64 = !(self.q125) & 0x1;
-        if self.v539 != c539 { self.v539 = c539; *dirty |= 0x2; }
-        let c501: u64 = (self.q1) & (c539) & 0x1;
-        let c515: u64 = (self.q109) & (c539) & 0x1;
-        if self.v515 != c515 { self.v515 = c515; *dirty |= 0x8000000; }
-        let c28: u64 = u64::from((c536 | (c515 << 1)) != (0x3));
+        let c123: u64 = u64::from((c529 | (c530 << 1)) != 0);
+        if self.v123 != c123 { self.v123 = c123; *dirty |= 0x80; }
+        let c531: u64 = u64::from((self.q115) == (0xa));
+        if self.v531 != c531 { self.v531 = c531; *dirty |= 0x8000080; }
+        let c532: u64 = u64::from((self.q73) == (0x2));
+        if self.v532 != c532 { self.v532 = c532; *dirty |= 0x8000000; }
+        let c514: u64 = (c531) & (c532) & 0x1;
+        if self.v514 != c514 { self.v514 = c514; *dirty |= 0x4000; }
+        let c534: u64 = u64::from((self.q73) == (0xa));
+        if self.v534 != c534 { self.v534 = c534; *dirty |= 0x18000000; }
+        let c535: u64 = !(self.q118) & 0x1;
+        if self.v535 != c535 { self.v535 = c535; *dirty |= 0x8010002; }
+        let c536: u64 = u64::from((self.q73) == (0x7));
+        if self.v536 != c536 { self.v536 = c536; *dirty |= 0x8000000; }
+        let c537: u64 = u64::from((self.q73) == (0x5));
+        if self.v537 != c537 { self.v537 = c537; *dirty |= 0x8800002; }
+        let c538: u64 = !(self.q51) & 0x1;
+        if self.v538 != c538 { self.v538 = c538; *dirty |= 0x4002; }
+        let c523: u64 = (c522) & (c538) & 0x1;
+        let c539: u64 = u64::from((self.q73) == 0);
+        if self.v539 != c539 { self.v539 = c539; *dirty |= 0x8000080; }
+        let c540: u64 = u64::from((self.q61) == (0x7));
+        let c542: u64 = u64::from((self.q115) == (0xd));
+        if self.v542 != c542 { self.v542 = c542; *dirty |= 0x8000080; }
+        let c543: u64 = u64::from((self.q73) != 0);
+        if self.v543 != c543 { self.v543 = c543; *dirty |= 0x200000; }
+        let c544: u64 = u64::from((self.q109) != (self.q59));
+        let c519: u64 = (c543) & (c544) & 0x1;
+        if self.v519 != c519 { self.v519 = c519; *dirty |= 0x8000000; }
+        let c545: u64 = !(self.q125) & 0x1;
+        if self.v545 != c545 { self.v545 = c545; *dirty |= 0x2; }
+        let c507: u64 = (self.q2) & (c545) & 0x1;
+        let c521: u64 = (self.q109) & (c545) & 0x1;
+        if self.v521 != c521 { self.v521 = c521; *dirty |= 0x8000000; }
+        let c28: u64 = u64::from((c542 | (c521 << 1)) != (0x3));
         if self.v28 != c28 { self.v28 = c28; *dirty |= 0x2000000; }
-        let c30: u64 = u64::from((c536 | (c531 << 1) | (c515 << 2)) != (0x1));
+        let c30: u64 = u64::from((c542 | (c537 << 1) | (c521 << 2)) != (0x1));
         if self.v30 != c30 { self.v30 = c30; *dirty |= 0x2000000; }
-        let c540: u64 = !(self.q87) & 0x1;
-        let c502: u64 = (c501) & (c540) & 0x1;
-        let c503: u64 = (c502) & (self.q124) & 0x1;
-        let c541: u64 = !(self.q113) & 0x1;
-        if self.v541 != c541 { self.v541 = c541; *dirty |= 0x4080; }
-        let c504: u64 = (c503) & (c541) & 0x1;
-        let c542: u64 = !(self.q69) & 0x1;
-        let c505: u64 = (c504) & (c542) & 0x1;
-        if self.v505 != c505 { self.v505 = c505; *dirty |= 0x1000; }
-        let c543: u64 = !(c511) & 0x1;
-        let c512: u64 = (c505) & (c543) & 0x1;
-        if self.v512 != c512 { self.v512 = c512; *dirty |= 0x8000000; }
-        let c544: u64 = ((self.q114) | (self.q125)) & 0x1;
-        if self.v544 != c544 { self.v544 = c544; *dirty |= 0x18000000; }
-        let c545: u64 = ((c523) | (c524)) & 0x1;
-        if self.v545 != c545 { self.v545 = c545; *dirty |= 0x4000; }
-        let c546: u64 = ((c545) | (c508)) & 0x1;
-        if self.v546 != c546 { self.v546 = c546; *dirty |= 0x2000000; }
-        let c547: u64 = ((self.q0) | (self.q87)) & 0x1;
-        if self.v547 != c547 { self.v547 = c547; *dirty |= 0x8000002; }
-        let c566: u64 = u64::from((self.q115) == (0xf));
-        if self.v566 != c566 { self.v566 = c566; *dirty |= 0x8004010; }
-        let c568: u64 = (c518) & (c528) & 0x1;
-        let c570: u64 = u64::from((self.q115) == (0xe));
-        if self.v570 != c570 { self.v570 = c570; *dirty |= 0xa000400; }
-        let c29: u64 = u64::from((c570 | (c533 << 1)) != (0x1));
+        let c546: u64 = !(self.q88) & 0x1;
+        let c508: u64 = (c507) & (c546) & 0x1;
+        let c509: u64 = (c508) & (self.q124) & 0x1;
+        let c547: u64 = !(self.q113) & 0x1;
+        if self.v547 != c547 { self.v547 = c547; *dirty |= 0x4100; }
+        let c510: u64 = (c509) & (c547) & 0x1;
+        let c548: u64 = !(self.q70) & 0x1;
+        let c511: u64 = (c510) & (c548) & 0x1;
+        if self.v511 != c511 { self.v511 = c511; *dirty |= 0x1000; }
+        let c549: u64 = !(c517) & 0x1;
+        let c518: u64 = (c511) & (c549) & 0x1;
+        if self.v518 != c518 { self.v518 = c518; *dirty |= 0x8000000; }
+        let c550: u64 = ((self.q114) | (self.q125)) & 0x1;
+        if self.v550 != c550 { self.v550 = c550; *dirty |= 0x18000000; }
+        let c551: u64 = ((c529) | (c530)) & 0x1;
+        if self.v551 != c551 { self.v551 = c551; *dirty |= 0x4000; }
+        let c552: u64 = ((c551) | (c514)) & 0x1;
+        if self.v552 != c552 { self.v552 = c552; *dirty |= 0x2000000; }
+        let c553: u64 = ((self.q1) | (self.q88)) & 0x1;
+        if self.v553 != c553 { self.v553 = c553; *dirty |= 0x8000002; }
+        let c572: u64 = u64::from((self.q115) == (0xf));
+        if self.v572 != c572 { self.v572 = c572; *dirty |= 0x8004010; }
+        let c574: u64 = (c524) & (c534) & 0x1;
+        let c576: u64 = u64::from((self.q115) == (0xe));
+        if self.v576 != c576 { self.v576 = c576; *dirty |= 0xa000080; }
+        let c29: u64 = u64::from((c576 | (c539 << 1)) != (0x1));
         if self.v29 != c29 { self.v29 = c29; *dirty |= 0x2000000; }
-        let c32: u64 = u64::from((c570 | (c533 << 1) | (self.q109 << 2)) != (0x7));
+        let c32: u64 = u64::from((c576 | (c539 << 1) | (self.q109 << 2)) != (0x7));
         if self.v32 != c32 { self.v32 = c32; *dirty |= 0x2000000; }
-        let c578: u64 = if (c534) != 0 { (c532) } else { (c517) };
-        let c579: u64 = (c534) & (self.q50) & 0x1;
-        let c580: u64 = if (self.q109) != 0 { (0x0) } else { (c579) };
-        let c581: u64 = if (self.q109) != 0 { (0x0) } else { (c578) };
-        let c583: u64 = (c533) & (c580) & 0x1;
-        if self.v583 != c583 { self.v583 = c583; *dirty |= 0x2000000; }
-        let c584: u64 = (c533) & (c581) & 0x1;
-        let c589: u64 = if (c531) != 0 { (0x0) } else { (self.q61) };
-        let c593: u64 = if (c515) != 0 { (self.q61) } else { (c589) };
-        let c597: u64 = u64::from((self.q115) == (0xc));
-        if self.v597 != c597 { self.v597 = c597; *dirty |= 0x1b000400; }
-        let c27: u64 = u64::from((c536 | (c597 << 1) | (c570 << 2)) != 0);
+        let c584: u64 = if (c540) != 0 { (c538) } else { (c523) };
+        let c585: u64 = (c540) & (self.q51) & 0x1;
+        let c586: u64 = if (self.q109) != 0 { (0x0) } else { (c585) };
+        let c587: u64 = if (self.q109) != 0 { (0x0) } else { (c584) };
+        let c589: u64 = (c539) & (c586) & 0x1;
+        if self.v589 != c589 { self.v589 = c589; *dirty |= 0x2000000; }
+        let c590: u64 = (c539) & (c587) & 0x1;
+        let c595: u64 = if (c537) != 0 { (0x0) } else { (self.q62) };
+        let c599: u64 = if (c521) != 0 { (self.q62) } else { (c595) };
+        let c603: u64 = u64::from((self.q115) == (0xc));
+        if self.v603 != c603 { self.v603 = c603; *dirty |= 0x1b000080; }
+        let c27: u64 = u64::from((c542 | (c603 << 1) | (c576 << 2)) != 0);
         if self.v27 != c27 { self.v27 = c27; *dirty |= 0x2000000; }
-        let c600: u64 = if (self.q109) != 0 { (0x0) } else { (c531) };
-        let c602: u64 = (self.q109) & (c532) & 0x1;
-        let c603: u64 = (self.q109) & (self.q50) & 0x1;
-        if self.v603 != c603 { self.v603 = c603; *dirty |= 0x2000000; }
-        let c604: u64 = (self.q109) & (c544) & 0x1;
-        let c606: u64 = if (c513) != 0 { (0x0) } else { (c531) };
-        let c610: u64 = if (self.q57) != 0 { (c606) } else { (c600) };
-        if self.v610 != c610 { self.v610 = c610; *dirty |= 0x8000000; }
-        let c31: u64 = u64::from((c597 | (c610 << 1)) != (0x1));
+        let c606: u64 = if (self.q109) != 0 { (0x0) } else { (c537) };
+        let c608: u64 = (self.q109) & (c538) & 0x1;
+        let c609: u64 = (self.q109) & (self.q51) & 0x1;
+        if self.v609 != c609 { self.v609 = c609; *dirty |= 0x2000000; }
+        let c610: u64 = (self.q109) & (c550) & 0x1;
+        let c612: u64 = if (c519) != 0 { (0x0) } else { (c537) };
+        let c616: u64 = if (self.q58) != 0 { (c612) } else { (c606) };
+        if self.v616 != c616 { self.v616 = c616; *dirty |= 0x8000000; }
+        let c31: u64 = u64::from((c603 | (c616 << 1)) != (0x1));
         if self.v31 != c31 { self.v31 = c31; *dirty |= 0x2000000; }
-        let c126: u64 = if (c536) != 0 { (c531) } else { (c610) };
-        let c588: u64 = ((self.q59) | (c126)) & 0x1;
-        let c612: u64 = ((c604) | (self.q57)) & 0x1;
-        if self.v612 != c612 { self.v612 = c612; *dirty |= 0x8000000; }
-        let c613: u64 = if (self.q57) != 0 { (0x0) } else { (self.q109) };
-        let c614: u64 = if (self.q57) != 0 { (0x0) } else { (c602) };
-        let c634: u64 = u64::from((self.q115) == 0);
-        if self.v634 != c634 { self.v634 = c634; *dirty |= 0x8004010; }
-        let c640: u64 = if (c570) != 0 { (c500) } else { (0x0) };
-        if self.v640 != c640 { self.v640 = c640; *dirty |= 0x200000000000000000; }
-        let c641: u64 = if (c570) != 0 { (0x0) } else { (c588) };
-        if self.v641 != c641 { self.v641 = c641; *dirty |= 0x200000000000000000; }
-        let c642: u64 = if (c536) != 0 { (c593) } else { (self.q61) };
-        if self.v642 != c642 { self.v642 = c642; *dirty |= 0x2000000; }
-        let c645: u64 = (c597) & (c613) & 0x1;
-        if self.v645 != c645 { self.v645 = c645; *dirty |= 0x2000000; }
-        let c647: u64 = (c566) & (c568) & 0x1;
-        if self.v647 != c647 { self.v647 = c647; *dirty |= 0x2000000; }
-        let c649: u64 = { let s = (c570 | (c597 << 1)); if s >> 0 & 1 != 0 { c584 } else if s >> 1 & 1 != 0 { c614 } else { (0x0) } };
-        if self.v649 != c649 { self.v649 = c649; *dirty |= 0x2000000; }
+        let c125: u64 = if (c542) != 0 { (c537) } else { (c616) };
+        let c594: u64 = ((self.q60) | (c125)) & 0x1;
+        let c618: u64 = ((c610) | (self.q58)) & 0x1;
+        if self.v618 != c618 { self.v618 = c618; *dirty |= 0x8000000; }
+        let c619: u64 = if (self.q58) != 0 { (0x0) } else { (self.q109) };
+        let c620: u64 = if (self.q58) != 0 { (0x0) } else { (c608) };
+        let c640: u64 = u64::from((self.q115) == 0);
+        if self.v640 != c640 { self.v640 = c640; *dirty |= 0x8004010; }
+        let c646: u64 = if (c576) != 0 { (c506) } else { (0x0) };
+        if self.v646 != c646 { self.v646 = c646; *dirty |= 0x400000000000000000; }
+        let c647: u64 = if (c576) != 0 { (0x0) } else { (c594) };
+        if self.v647 != c647 { self.v647 = c647; *dirty |= 0x400000000000000000; }
+        let c648: u64 = if (c542) != 0 { (c599) } else { (self.q62) };
+        if self.v648 != c648 { self.v648 = c648; *dirty |= 0x2000000; }
+        let c651: u64 = (c603) & (c619) & 0x1;
+        if self.v651 != c651 { self.v651 = c651; *dirty |= 0x2000000; }
+        let c653: u64 = (c572) & (c574) & 0x1;
+        if self.v653 != c653 { self.v653 = c653; *dirty |= 0x2000000; }
+        let c655: u64 = { let s = (c576 | (c603 << 1)); if s >> 0 & 1 != 0 { c590 } else if s >> 1 & 1 != 0 { c620 } else { (0x0) } };
+        if self.v655 != c655 { self.v655 = c655; *dirty |= 0x2000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$frame.
     fn group_1(&mut self, dirty: &mut u128) {
-        let c378: u64 = (self.q124) & (self.v539) & 0x1;
-        let c381: u64 = (self.v531) & (self.v532) & 0x1;
-        let c383: u64 = u64::from((self.q72) == (0xb));
-        if self.v383 != c383 { self.v383 = c383; *dirty |= 0x10000000; }
-        let c384: u64 = u64::from((self.q72) == (0xc));
-        if self.v384 != c384 { self.v384 = c384; *dirty |= 0x14000000; }
-        let c385: u64 = u64::from((self.q72) == (0x1f));
-        if self.v385 != c385 { self.v385 = c385; *dirty |= 0x10001000; }
-        let c38: u64 = u64::from((c383 | (c385 << 1)) != 0);
+        let c384: u64 = (self.q124) & (self.v545) & 0x1;
+        let c387: u64 = (self.v537) & (self.v538) & 0x1;
+        let c389: u64 = u64::from((self.q73) == (0xb));
+        if self.v389 != c389 { self.v389 = c389; *dirty |= 0x10000000; }
+        let c390: u64 = u64::from((self.q73) == (0xc));
+        if self.v390 != c390 { self.v390 = c390; *dirty |= 0x14000000; }
+        let c391: u64 = u64::from((self.q73) == (0x1f));
+        if self.v391 != c391 { self.v391 = c391; *dirty |= 0x10001000; }
+        let c38: u64 = u64::from((c389 | (c391 << 1)) != 0);
         if self.v38 != c38 { self.v38 = c38; *dirty |= 0x4000000; }
-        let c386: u64 = u64::from((self.q72) == (0x4));
-        if self.v386 != c386 { self.v386 = c386; *dirty |= 0x800000; }
-        let c387: u64 = u64::from(((self.q83 & 0x7)) == 0);
-        let c388: u64 = u64::from(((self.q72 & 0x7)) == (0x7));
-        if self.v388 != c388 { self.v388 = c388; *dirty |= 0x4200000; }
-        let c389: u64 = u64::from(((self.q72 >> 3)) == (self.q78));
-        let c373: u64 = (c388) & (c389) & 0x1;
-        if self.v373 != c373 { self.v373 = c373; *dirty |= 0x800000; }
-        let c390: u64 = u64::from((self.q115) == (0x2));
-        if self.v390 != c390 { self.v390 = c390; *dirty |= 0x104800400; }
-        let c375: u64 = (c390) & (self.q118) & 0x1;
-        let c391: u64 = u64::from((self.q109) == (self.q51));
-        if self.v391 != c391 { self.v391 = c391; *dirty |= 0x10000000; }
-        let c392: u64 = u64::from((self.q72) == (0xe));
-        let c393: u64 = u64::from((self.q71) == 0);
-        let c394: u64 = !(self.q128) & 0x1;
-        let c379: u64 = (self.q109) & (c394) & 0x1;
-        let c395: u64 = u64::from((self.q72) == (0x6));
-        if self.v395 != c395 { self.v395 = c395; *dirty |= 0x800000; }
-        let c380: u64 = (c395) & (self.v532) & 0x1;
-        let c382: u64 = (c395) & (self.q50) & 0x1;
-        let c396: u64 = u64::from((self.q118) != (self.q109));
-        let c370: u64 = (self.q50) & (c396) & 0x1;
-        let c397: u64 = ((c383) | (c384)) & 0x1;
-        let c398: u64 = ((c397) | (c385)) & 0x1;
-        let c44: u64 = !(c398) & 0x1;
-        if self.v44 != c44 { self.v44 = c44; *dirty |= 0x104000000; }
-        let c376: u64 = (self.q50) & (c44) & 0x1;
-        let c402: u64 = u64::from((self.q115) == (0x9));
-        if self.v402 != c402 { self.v402 = c402; *dirty |= 0x800400; }
-        let c404: u64 = !(c380) & 0x1;
-        let c405: u64 = if (self.q109) != 0 { (0x0) } else { (c404) };
-        let c407: u64 = (self.q109) & (c382) & 0x1;
-        let c408: u64 = (self.q109) & (c381) & 0x1;
-        let c410: u64 = if (c395) != 0 { (0xa) } else { (self.q115) };
-        let c403: u64 = if (c380) != 0 { (0xd) } else { (c410) };
-        let c406: u64 = if (self.q109) != 0 { (c410) } else { (c403) };
-        if self.v406 != c406 { self.v406 = c406; *dirty |= 0x800000; }
-        let c411: u64 = u64::from((self.q115) == (0x8));
-        if self.v411 != c411 { self.v411 = c411; *dirty |= 0x800400; }
-        let c412: u64 = if (self.q109) != 0 { (self.q70 | (self.q70 << 1)) } else { (0x1) };
-        let c413: u64 = if (self.q109) != 0 { (self.q70) } else { (0x1) };
-        let c414: u64 = u64::from((self.q115) == (0x7));
-        if self.v414 != c414 { self.v414 = c414; *dirty |= 0x800400; }
-        let c415: u64 = if (self.q118) != 0 { (0x0) } else { (self.q109) };
-        let c417: u64 = !(self.q114) & 0x1;
-        let c418: u64 = (c379) & (self.q114) & 0x1;
-        let c419: u64 = if (c379) != 0 { (c417) } else { (0x1) };
-        let c420: u64 = (self.q50) & (c418) & 0x1;
-        let c421: u64 = if (self.q50) != 0 { (c419) } else { (0x1) };
-        let c422: u64 = (self.q50) & (c379) & 0x1;
-        let c423: u64 = if (self.q50) != 0 { (c379) } else { (c415) };
-        let c425: u64 = (c393) & (c378) & 0x1;
-        let c426: u64 = u64::from((self.q115) == (0x6));
-        if self.v426 != c426 { self.v426 = c426; *dirty |= 0x800400; }
-        let c427: u64 = !(c393) & 0x1;
-        let c428: u64 = if (self.q50) != 0 { (0x0) } else { (c427) };
-        let c429: u64 = if (self.q50) != 0 { (0x0) } else { (c425) };
-        let c430: u64 = !(self.q109) & 0x1;
-        if self.v430 != c430 { self.v430 = c430; *dirty |= 0x40002000000; }
-        let c372: u64 = (c387) & (c430) & 0x1;
-        let c377: u64 = (c384) & (c430) & 0x1;
-        let c400: u64 = ((self.q77) | (c372)) & 0x1;
-        if self.v400 != c400 { self.v400 = c400; *dirty |= 0x800000; }
-        let c401: u64 = ((c377) | (c385)) & 0x1;
+        let c392: u64 = u64::from((self.q73) == (0x4));
+        if self.v392 != c392 { self.v392 = c392; *dirty |= 0x800000; }
+        let c393: u64 = u64::from(((self.q84 & 0x7)) == 0);
+        let c394: u64 = u64::from(((self.q73 & 0x7)) == (0x7));
+        if self.v394 != c394 { self.v394 = c394; *dirty |= 0x4200080; }
+        let c395: u64 = u64::from(((self.q73 >> 3)) == (self.q79));
+        let c379: u64 = (c394) & (c395) & 0x1;
+        if self.v379 != c379 { self.v379 = c379; *dirty |= 0x800000; }
+        let c396: u64 = u64::from((self.q115) == (0x2));
+        if self.v396 != c396 { self.v396 = c396; *dirty |= 0x104800080; }
+        let c381: u64 = (c396) & (self.q118) & 0x1;
+        let c397: u64 = u64::from((self.q109) == (self.q52));
+        if self.v397 != c397 { self.v397 = c397; *dirty |= 0x10000000; }
+        let c398: u64 = u64::from((self.q73) == (0xe));
+        let c399: u64 = u64::from((self.q72) == 0);
+        let c400: u64 = !(self.q128) & 0x1;
+        let c385: u64 = (self.q109) & (c400) & 0x1;
+        let c401: u64 = u64::from((self.q73) == (0x6));
         if self.v401 != c401 { self.v401 = c401; *dirty |= 0x800000; }
-        let c416: u64 = if (self.q118) != 0 { (0x0) } else { (c430) };
-        let c424: u64 = if (self.q50) != 0 { (0x0) } else { (c416) };
-        let c431: u64 = (self.q109) & (c428) & 0x1;
-        let c432: u64 = (self.q109) & (c429) & 0x1;
-        let c433: u64 = if (c392) != 0 { (0x6) } else { (self.q115) };
-        if self.v433 != c433 { self.v433 = c433; *dirty |= 0x800000; }
-        let c434: u64 = u64::from((self.q115) == (0x5));
-        if self.v434 != c434 { self.v434 = c434; *dirty |= 0x800400; }
-        let c436: u64 = u64::from((self.q115) == (0x4));
-        if self.v436 != c436 { self.v436 = c436; *dirty |= 0x4a00400; }
-        let c437: u64 = if (c373) != 0 { (0x5) } else { (self.q115) };
-        if self.v437 != c437 { self.v437 = c437; *dirty |= 0x800000; }
-        let c438: u64 = u64::from((self.q115) == (0x3));
-        if self.v438 != c438 { self.v438 = c438; *dirty |= 0x120800400; }
-        let c122: u64 = u64::from((c438 | (c436 << 1) | (c434 << 2)) != 0);
-        let c123: u64 = u64::from((c438 | (c436 << 1) | (c390 << 2) | (c434 << 3)) != 0);
-        let c441: u64 = (self.q118) & (self.v547) & 0x1;
-        let c442: u64 = if (self.q118) != 0 { (0x0) } else { (c376) };
-        let c443: u64 = (c370) & (c441) & 0x1;
-        let c444: u64 = (c370) & (self.q118) & 0x1;
-        let c445: u64 = (c370) & (self.v529) & 0x1;
-        let c446: u64 = if (c370) != 0 { (c442) } else { (c376) };
-        let c448: u64 = if (c401) != 0 { (0x3) } else { (self.q115) };
-        if self.v448 != c448 { self.v448 = c448; *dirty |= 0x800000; }
-        let c449: u64 = { let s = (c402 | (c390 << 1)); if s >> 0 & 1 != 0 { c407 } else if s >> 1 & 1 != 0 { c443 } else { (0x0) } };
-        let c450: u64 = (c390) & (c444) & 0x1;
-        let c451: u64 = { let s = (c402 | (c411 << 1) | (c414 << 2) | (c426 << 3) | (c122 << 4) | (c390 << 5)); if s >> 0 & 1 != 0 { c405 } else if s >> 1 & 1 != 0 { c413 } else if s >> 2 & 1 != 0 { c423 } else if s >> 3 & 1 != 0 { c430 } else if s >> 4 & 1 != 0 { c370 } else if s >> 5 & 1 != 0 { c445 } else { (0x0) } };
-        let c452: u64 = { let s = (c436 | (c390 << 1)); if s >> 0 & 1 != 0 { self.q50 } else if s >> 1 & 1 != 0 { c446 } else { (0x0) } };
-        let c453: u64 = (c390) & (c401) & 0x1;
-        let c456: u64 = (c402) & (c407) & 0x1;
-        let c457: u64 = (c402) & (c408) & 0x1;
-        let c458: u64 = (c414) & (c420) & 0x1;
-        let c459: u64 = (c426) & (c431) & 0x1;
-        let c460: u64 = if (c414) != 0 { (c421) } else { (0x1) };
-        let c461: u64 = { let s = (c402 | (c411 << 1) | (c414 << 2) | (c426 << 3)); if s >> 0 & 1 != 0 { c405 } else if s >> 1 & 1 != 0 { c412 } else if s >> 2 & 1 != 0 { c422 | (c422 << 1) } else if s >> 3 & 1 != 0 { c430 } else { (0x0) } };
-        let c462: u64 = (c426) & (c432) & 0x1;
-        let c463: u64 = (c414) & (c424) & 0x1;
-        let c464: u64 = (self.q93) & (c453) & 0x1;
-        if self.v464 != c464 { self.v464 = c464; *dirty |= 0x4000000; }
-        let c465: u64 = (self.q93) & (c456) & 0x1;
-        if self.v465 != c465 { self.v465 = c465; *dirty |= 0x4000000; }
-        let c466: u64 = (self.q93) & (c449) & 0x1;
-        if self.v466 != c466 { self.v466 = c466; *dirty |= 0x4000000; }
-        let c467: u64 = (self.q93) & (c457) & 0x1;
-        if self.v467 != c467 { self.v467 = c467; *dirty |= 0x8000000000000000000; }
-        let c468: u64 = (self.q93) & (c458) & 0x1;
-        if self.v468 != c468 { self.v468 = c468; *dirty |= 0x4000000; }
-        let c469: u64 = (self.q93) & (c459) & 0x1;
-        if self.v469 != c469 { self.v469 = c469; *dirty |= 0x4000000; }
-        let c470: u64 = if (self.q93) != 0 { (c460) } else { (0x1) };
+        let c386: u64 = (c401) & (self.v538) & 0x1;
+        let c388: u64 = (c401) & (self.q51) & 0x1;
+        let c402: u64 = u64::from((self.q118) != (self.q109));
+        let c376: u64 = (self.q51) & (c402) & 0x1;
+        let c403: u64 = ((c389) | (c390)) & 0x1;
+        let c404: u64 = ((c403) | (c391)) & 0x1;
+        let c44: u64 = !(c404) & 0x1;
+        if self.v44 != c44 { self.v44 = c44; *dirty |= 0x104000000; }
+        let c382: u64 = (self.q51) & (c44) & 0x1;
+        let c408: u64 = u64::from((self.q115) == (0x9));
+        if self.v408 != c408 { self.v408 = c408; *dirty |= 0x800080; }
+        let c410: u64 = !(c386) & 0x1;
+        let c411: u64 = if (self.q109) != 0 { (0x0) } else { (c410) };
+        let c413: u64 = (self.q109) & (c388) & 0x1;
+        let c414: u64 = (self.q109) & (c387) & 0x1;
+        let c416: u64 = if (c401) != 0 { (0xa) } else { (self.q115) };
+        let c409: u64 = if (c386) != 0 { (0xd) } else { (c416) };
+        let c412: u64 = if (self.q109) != 0 { (c416) } else { (c409) };
+        if self.v412 != c412 { self.v412 = c412; *dirty |= 0x800000; }
+        let c417: u64 = u64::from((self.q115) == (0x8));
+        if self.v417 != c417 { self.v417 = c417; *dirty |= 0x800080; }
+        let c418: u64 = if (self.q109) != 0 { (self.q71 | (self.q71 << 1)) } else { (0x1) };
+        let c419: u64 = if (self.q109) != 0 { (self.q71) } else { (0x1) };
+        let c420: u64 = u64::from((self.q115) == (0x7));
+        if self.v420 != c420 { self.v420 = c420; *dirty |= 0x800080; }
+        let c421: u64 = if (self.q118) != 0 { (0x0) } else { (self.q109) };
+        let c423: u64 = !(self.q114) & 0x1;
+        let c424: u64 = (c385) & (self.q114) & 0x1;
+        let c425: u64 = if (c385) != 0 { (c423) } else { (0x1) };
+        let c426: u64 = (self.q51) & (c424) & 0x1;
+        let c427: u64 = if (self.q51) != 0 { (c425) } else { (0x1) };
+        let c428: u64 = (self.q51) & (c385) & 0x1;
+        let c429: u64 = if (self.q51) != 0 { (c385) } else { (c421) };
+        let c431: u64 = (c399) & (c384) & 0x1;
+        let c432: u64 = u64::from((self.q115) == (0x6));
+        if self.v432 != c432 { self.v432 = c432; *dirty |= 0x800080; }
+        let c433: u64 = !(c399) & 0x1;
+        let c434: u64 = if (self.q51) != 0 { (0x0) } else { (c433) };
+        let c435: u64 = if (self.q51) != 0 { (0x0) } else { (c431) };
+        let c436: u64 = !(self.q109) & 0x1;
+        if self.v436 != c436 { self.v436 = c436; *dirty |= 0x40002000000; }
+        let c378: u64 = (c393) & (c436) & 0x1;
+        let c383: u64 = (c390) & (c436) & 0x1;
+        let c406: u64 = ((self.q78) | (c378)) & 0x1;
+        if self.v406 != c406 { self.v406 = c406; *dirty |= 0x800000; }
+        let c407: u64 = ((c383) | (c391)) & 0x1;
+        if self.v407 != c407 { self.v407 = c407; *dirty |= 0x800000; }
+        let c422: u64 = if (self.q118) != 0 { (0x0) } else { (c436) };
+        let c430: u64 = if (self.q51) != 0 { (0x0) } else { (c422) };
+        let c437: u64 = (self.q109) & (c434) & 0x1;
+        let c438: u64 = (self.q109) & (c435) & 0x1;
+        let c439: u64 = if (c398) != 0 { (0x6) } else { (self.q115) };
+        if self.v439 != c439 { self.v439 = c439; *dirty |= 0x800000; }
+        let c440: u64 = u64::from((self.q115) == (0x5));
+        if self.v440 != c440 { self.v440 = c440; *dirty |= 0x800080; }
+        let c442: u64 = u64::from((self.q115) == (0x4));
+        if self.v442 != c442 { self.v442 = c442; *dirty |= 0x4a00080; }
+        let c443: u64 = if (c379) != 0 { (0x5) } else { (self.q115) };
+        if self.v443 != c443 { self.v443 = c443; *dirty |= 0x800000; }
+        let c444: u64 = u64::from((self.q115) == (0x3));
+        if self.v444 != c444 { self.v444 = c444; *dirty |= 0x120800080; }
+        let c121: u64 = u64::from((c444 | (c442 << 1) | (c440 << 2)) != 0);
+        let c122: u64 = u64::from((c444 | (c442 << 1) | (c396 << 2) | (c440 << 3)) != 0);
+        let c447: u64 = (self.q118) & (self.v553) & 0x1;
+        let c448: u64 = if (self.q118) != 0 { (0x0) } else { (c382) };
+        let c449: u64 = (c376) & (c447) & 0x1;
+        let c450: u64 = (c376) & (self.q118) & 0x1;
+        let c451: u64 = (c376) & (self.v535) & 0x1;
+        let c452: u64 = if (c376) != 0 { (c448) } else { (c382) };
+        let c454: u64 = if (c407) != 0 { (0x3) } else { (self.q115) };
+        if self.v454 != c454 { self.v454 = c454; *dirty |= 0x800000; }
+        let c455: u64 = { let s = (c408 | (c396 << 1)); if s >> 0 & 1 != 0 { c413 } else if s >> 1 & 1 != 0 { c449 } else { (0x0) } };
+        let c456: u64 = (c396) & (c450) & 0x1;
+        let c457: u64 = { let s = (c408 | (c417 << 1) | (c420 << 2) | (c432 << 3) | (c121 << 4) | (c396 << 5)); if s >> 0 & 1 != 0 { c411 } else if s >> 1 & 1 != 0 { c419 } else if s >> 2 & 1 != 0 { c429 } else if s >> 3 & 1 != 0 { c436 } else if s >> 4 & 1 != 0 { c376 } else if s >> 5 & 1 != 0 { c451 } else { (0x0) } };
+        let c458: u64 = { let s = (c442 | (c396 << 1)); if s >> 0 & 1 != 0 { self.q51 } else if s >> 1 & 1 != 0 { c452 } else { (0x0) } };
+        let c459: u64 = (c396) & (c407) & 0x1;
+        let c462: u64 = (c408) & (c413) & 0x1;
+        let c463: u64 = (c408) & (c414) & 0x1;
+        let c464: u64 = (c420) & (c426) & 0x1;
+        let c465: u64 = (c432) & (c437) & 0x1;
+        let c466: u64 = if (c420) != 0 { (c427) } else { (0x1) };
+        let c467: u64 = { let s = (c408 | (c417 << 1) | (c420 << 2) | (c432 << 3)); if s >> 0 & 1 != 0 { c411 } else if s >> 1 & 1 != 0 { c418 } else if s >> 2 & 1 != 0 { c428 | (c428 << 1) } else if s >> 3 & 1 != 0 { c436 } else { (0x0) } };
+        let c468: u64 = (c432) & (c438) & 0x1;
+        let c469: u64 = (c420) & (c430) & 0x1;
+        let c470: u64 = (self.q94) & (c459) & 0x1;
         if self.v470 != c470 { self.v470 = c470; *dirty |= 0x4000000; }
-        let c471: u64 = (self.q93) & (c450) & 0x1;
+        let c471: u64 = (self.q94) & (c462) & 0x1;
         if self.v471 != c471 { self.v471 = c471; *dirty |= 0x4000000; }
-        let c472: u64 = if (self.q93) != 0 { (c461) } else { (0x0) };
+        let c472: u64 = (self.q94) & (c455) & 0x1;
         if self.v472 != c472 { self.v472 = c472; *dirty |= 0x4000000; }
-        let c473: u64 = (self.q93) & (c451) & 0x1;
-        if self.v473 != c473 { self.v473 = c473; *dirty |= 0x4000000; }
-        let c474: u64 = (self.q93) & (c426) & 0x1;
+        let c473: u64 = (self.q94) & (c463) & 0x1;
+        if self.v473 != c473 { self.v473 = c473; *dirty |= 0x10000000000000000000; }
+        let c474: u64 = (self.q94) & (c464) & 0x1;
         if self.v474 != c474 { self.v474 = c474; *dirty |= 0x4000000; }
-        let c475: u64 = (self.q93) & (c462) & 0x1;
+        let c475: u64 = (self.q94) & (c465) & 0x1;
         if self.v475 != c475 { self.v475 = c475; *dirty |= 0x4000000; }
-        let c476: u64 = (self.q93) & (c123) & 0x1;
+        let c476: u64 = if (self.q94) != 0 { (c466) } else { (0x1) };
         if self.v476 != c476 { self.v476 = c476; *dirty |= 0x4000000; }
-        let c478: u64 = (self.q93) & (c463) & 0x1;
+        let c477: u64 = (self.q94) & (c456) & 0x1;
+        if self.v477 != c477 { self.v477 = c477; *dirty |= 0x4000000; }
+        let c478: u64 = if (self.q94) != 0 { (c467) } else { (0x0) };
         if self.v478 != c478 { self.v478 = c478; *dirty |= 0x4000000; }
-        let c479: u64 = (self.q93) & (c452) & 0x1;
+        let c479: u64 = (self.q94) & (c457) & 0x1;
         if self.v479 != c479 { self.v479 = c479; *dirty |= 0x4000000; }
-        let c480: u64 = !(c375) & 0x1;
-        let c481: u64 = if (c370) != 0 { (c480) } else { (0x1) };
+        let c480: u64 = (self.q94) & (c432) & 0x1;
+        if self.v480 != c480 { self.v480 = c480; *dirty |= 0x4000000; }
+        let c481: u64 = (self.q94) & (c468) & 0x1;
         if self.v481 != c481 { self.v481 = c481; *dirty |= 0x4000000; }
-        let c482: u64 = if (c370) != 0 { (c375) } else { (c391) };
+        let c482: u64 = (self.q94) & (c122) & 0x1;
         if self.v482 != c482 { self.v482 = c482; *dirty |= 0x4000000; }
-        let c483: u64 = ((c391) | (c370)) & 0x1;
-        if self.v483 != c483 { self.v483 = c483; *dirty |= 0x4000000; }
+        let c484: u64 = (self.q94) & (c469) & 0x1;
+        if self.v484 != c484 { self.v484 = c484; *dirty |= 0x4000000; }
+        let c485: u64 = (self.q94) & (c458) & 0x1;
+        if self.v485 != c485 { self.v485 = c485; *dirty |= 0x4000000; }
+        let c486: u64 = !(c381) & 0x1;
+        let c487: u64 = if (c376) != 0 { (c486) } else { (0x1) };
+        if self.v487 != c487 { self.v487 = c487; *dirty |= 0x4000000; }
+        let c488: u64 = if (c376) != 0 { (c381) } else { (c397) };
+        if self.v488 != c488 { self.v488 = c488; *dirty |= 0x4000000; }
+        let c489: u64 = ((c397) | (c376)) & 0x1;
+        if self.v489 != c489 { self.v489 = c489; *dirty |= 0x4000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$filter.
     fn group_2(&mut self, dirty: &mut u128) {
-        let c113: u64 = ((self.q77 | ((self.q80 & 0x1f) << 1)) ^ ((self.q35 >> 2))) & 0x3f;
-        let c849: u64 = (self.q13) & (self.q127) & 0x1;
-        let c851: u64 = (self.i_we) & (self.q127) & 0x1;
-        if self.v851 != c851 { self.v851 = c851; *dirty |= 0x402020; }
-        let c853: u64 = (self.q27) & (self.q120) & 0x1;
-        let c854: u64 = (c853) & (self.q121) & 0x1;
-        let c855: u64 = (self.q29) & (self.q119) & 0x1;
-        let c870: u64 = u64::from(((self.i_addr >> 3)) == (0x2));
-        let c850: u64 = (c849) & (c870) & 0x1;
-        let c871: u64 = u64::from((self.i_addr) == (0x4));
-        if self.v871 != c871 { self.v871 = c871; *dirty |= 0x400000000100; }
-        let c872: u64 = u64::from((self.i_addr) == (0x5));
-        let c881: u64 = !(self.q79) & 0x1;
-        if self.v881 != c881 { self.v881 = c881; *dirty |= 0x800020; }
-        let c866: u64 = (self.q85) & (c881) & 0x1;
-        let c888: u64 = u64::from((self.q86) == 0);
-        let c891: u64 = u64::from((self.q86) == (0x1));
-        let c893: u64 = ((c871) | (c872)) & 0x1;
-        let c894: u64 = ((c855) | (self.q28)) & 0x1;
-        let c905: u64 = if (self.q79) != 0 { ((self.q80 >> 17)) } else { (self.q77) };
-        if self.v905 != c905 { self.v905 = c905; *dirty |= 0x40; }
-        let c906: u64 = ((self.q119) | (self.q82)) & 0x1;
-        let c907: u64 = ((self.q121) | (self.q82)) & 0x1;
-        let c908: u64 = ((self.q120) | (self.q82)) & 0x1;
-        let c909: u64 = if (self.q15) != 0 { (c854) } else { (c894) };
-        let c910: u64 = if (self.q13) != 0 { (c909) } else { (self.q30) };
-        if self.v910 != c910 { self.v910 = c910; *dirty |= 0x20; }
-        let c918: u64 = if (self.q13) != 0 { (c850) } else { (c893) };
-        if self.v918 != c918 { self.v918 = c918; *dirty |= 0x400000000000; }
-        let c852: u64 = (c851) & (c918) & 0x1;
-        let c919: u64 = if (self.q13) != 0 { ((self.i_addr & 0x7)) } else { ((c872 << 2)) };
-        let c873: u64 = u64::from((c919) == (0x1));
-        let c58: u64 = u64::from((c852 | (c873 << 1)) == 0x3);
-        if self.v58 != c58 { self.v58 = c58; *dirty |= 0x800000000000000000000; }
-        let c874: u64 = u64::from((c919) == (0x2));
-        let c57: u64 = u64::from((c852 | (c874 << 1)) == 0x3);
-        if self.v57 != c57 { self.v57 = c57; *dirty |= 0x800000000000000000000; }
-        let c875: u64 = u64::from((c919) == (0x3));
-        let c56: u64 = u64::from((c852 | (c875 << 1)) == 0x3);
-        if self.v56 != c56 { self.v56 = c56; *dirty |= 0x1000000000000000000000; }
-        let c876: u64 = u64::from((c919) == 0);
-        let c59: u64 = u64::from((c876 | (c852 << 1)) == 0x3);
-        if self.v59 != c59 { self.v59 = c59; *dirty |= 0x400000000000000000000; }
-        let c877: u64 = u64::from((c919) == (0x4));
-        let c55: u64 = u64::from((c852 | (c877 << 1)) == 0x3);
-        if self.v55 != c55 { self.v55 = c55; *dirty |= 0x1000000000000000000000; }
-        let c878: u64 = u64::from((c919) == (0x5));
-        let c54: u64 = u64::from((c852 | (c878 << 1)) == 0x3);
-        if self.v54 != c54 { self.v54 = c54; *dirty |= 0x2000000000000000000000; }
-        let c879: u64 = u64::from((c919) == (0x6));
-        let c53: u64 = u64::from((c852 | (c879 << 1)) == 0x3);
-        if self.v53 != c53 { self.v53 = c53; *dirty |= 0x2000000000000000000000; }
-        let c880: u64 = u64::from((c919) == (0x7));
-        let c52: u64 = u64::from((c852 | (c880 << 1)) == 0x3);
-        if self.v52 != c52 { self.v52 = c52; *dirty |= 0x4000000000000000000000; }
-        let c917: u64 = if (c873) != 0 { (self.q37) } else { (self.q38) };
-        let c916: u64 = if (c874) != 0 { (self.q36) } else { (c917) };
-        let c915: u64 = if (c875) != 0 { (self.q35) } else { (c916) };
-        let c914: u64 = if (c877) != 0 { (self.q34) } else { (c915) };
-        let c913: u64 = if (c878) != 0 { (self.q33) } else { (c914) };
-        let c912: u64 = if (c879) != 0 { (self.q32) } else { (c913) };
-        let c911: u64 = if (c880) != 0 { (self.q31) } else { (c912) };
-        if self.v911 != c911 { self.v911 = c911; *dirty |= 0x400000000000; }
-        let c920: u64 = (((self.q81 >> 3)) ^ (self.q38)) & 0xff;
-        let c921: u64 = ((self.q34) ^ (0xff)) & 0xff;
-        let c856: u64 = (c920) & (c921) & 0xff;
-        let c882: u64 = u64::from((c856) == 0);
-        if self.v882 != c882 { self.v882 = c882; *dirty |= 0x4000000000000000000000; }
-        let c922: u64 = ((((self.q80 >> 13) & 0xf) | (c905 << 4) | ((self.q81 & 0x7) << 5)) ^ (self.q37)) & 0xff;
-        let c923: u64 = ((self.q33) ^ (0xff)) & 0xff;
-        let c857: u64 = (c922) & (c923) & 0xff;
-        let c116: u64 = ((c857 & 0xf)) & (self.q79 | (self.q79 << 1) | (self.q79 << 2) | (self.q79 << 3)) & 0xf;
-        let c883: u64 = u64::from((c116 | ((c857 >> 4) << 4)) == 0);
-        let c862: u64 = (c882) & (c883) & 0x1;
-        if self.v862 != c862 { self.v862 = c862; *dirty |= 0x8000000000000000000000; }
-        let c924: u64 = ((((self.q80 >> 5) & 0xff)) ^ (self.q36)) & 0xff;
-        let c925: u64 = ((self.q32) ^ (0xff)) & 0xff;
-        let c858: u64 = (c924) & (c925) & 0xff;
-        let c886: u64 = u64::from((c858) == 0);
-        let c926: u64 = (((self.q81 >> 3)) ^ (self.q36)) & 0xff;
-        let c860: u64 = (c926) & (c925) & 0xff;
-        let c884: u64 = u64::from((c860) == 0);
-        let c927: u64 = ((((self.q80 >> 13) & 0xf) | (c905 << 4) | ((self.q81 & 0x7) << 5)) ^ (self.q35)) & 0xff;
-        let c928: u64 = ((self.q31) ^ (0xff)) & 0xff;
-        let c859: u64 = ((self.q35 & 0x3) | (c113 << 2)) & (c928) & 0xff;
-        let c861: u64 = (c927) & (c928) & 0xff;
-        let c117: u64 = ((c861 & 0xf)) & (self.q79 | (self.q79 << 1) | (self.q79 << 2) | (self.q79 << 3)) & 0xf;
-        let c885: u64 = u64::from((c117 | ((c861 >> 4) << 4)) == 0);
-        let c863: u64 = (c884) & (c885) & 0x1;
-        if self.v863 != c863 { self.v863 = c863; *dirty |= 0x10000000000000000000000; }
-        let c887: u64 = u64::from(((c859 >> 2)) == 0);
-        let c864: u64 = (c886) & (c887) & 0x1;
-        let c895: u64 = ((c881) | (c864)) & 0x1;
-        let c865: u64 = (c862) & (c895) & 0x1;
-        if self.v865 != c865 { self.v865 = c865; *dirty |= 0x20000000000000000000000; }
-        let c929: u64 = ((self.q84) ^ (self.q36)) & 0xff;
-        let c867: u64 = (c929) & (c925) & 0xff;
-        let c889: u64 = u64::from((c867) == 0);
-        let c901: u64 = if (c888) != 0 { (c889) } else { (c908) };
-        let c904: u64 = if (c866) != 0 { (c901) } else { (c908) };
-        let c898: u64 = ((c904) | (self.i_reset)) & 0x1;
-        if self.v898 != c898 { self.v898 = c898; *dirty |= 0x10000000000000000000000; }
-        let c930: u64 = ((self.q84) ^ ((self.q35 & 0xf) | ((self.q37 & 0xf) << 4))) & 0xff;
-        let c931: u64 = (((self.q31 & 0xf) | ((self.q33 & 0xf) << 4)) ^ (0xff)) & 0xff;
-        let c868: u64 = (c930) & (c931) & 0xff;
-        let c890: u64 = u64::from((c868) == 0);
-        let c900: u64 = if (c888) != 0 { (c890) } else { (c906) };
-        let c903: u64 = if (c866) != 0 { (c900) } else { (c906) };
-        let c896: u64 = ((c903) | (self.i_reset)) & 0x1;
-        if self.v896 != c896 { self.v896 = c896; *dirty |= 0x8000000000000000000000; }
-        let c932: u64 = ((self.q84) ^ (self.q35)) & 0xff;
-        let c869: u64 = (c932) & (c928) & 0xff;
-        let c892: u64 = u64::from((c869) == 0);
-        let c899: u64 = if (c891) != 0 { (c892) } else { (c907) };
-        let c902: u64 = if (c866) != 0 { (c899) } else { (c907) };
-        let c897: u64 = ((c902) | (self.i_reset)) & 0x1;
-        if self.v897 != c897 { self.v897 = c897; *dirty |= 0x20000000000000000000000; }
+        let c113: u64 = ((self.q78 | ((self.q81 & 0x1f) << 1)) ^ ((self.q36 >> 2))) & 0x3f;
+        let c856: u64 = (self.q14) & (self.q127) & 0x1;
+        let c858: u64 = (self.i_we) & (self.q127) & 0x1;
+        if self.v858 != c858 { self.v858 = c858; *dirty |= 0x402020; }
+        let c860: u64 = (self.q28) & (self.q120) & 0x1;
+        let c861: u64 = (c860) & (self.q121) & 0x1;
+        let c862: u64 = (self.q30) & (self.q119) & 0x1;
+        let c877: u64 = u64::from(((self.i_addr >> 3)) == (0x2));
+        let c857: u64 = (c856) & (c877) & 0x1;
+        let c878: u64 = u64::from((self.i_addr) == (0x4));
+        if self.v878 != c878 { self.v878 = c878; *dirty |= 0x800000000200; }
+        let c879: u64 = u64::from((self.i_addr) == (0x5));
+        let c888: u64 = !(self.q80) & 0x1;
+        if self.v888 != c888 { self.v888 = c888; *dirty |= 0x800020; }
+        let c873: u64 = (self.q86) & (c888) & 0x1;
+        let c895: u64 = u64::from((self.q87) == 0);
+        let c898: u64 = u64::from((self.q87) == (0x1));
+        let c900: u64 = ((c878) | (c879)) & 0x1;
+        let c901: u64 = ((c862) | (self.q29)) & 0x1;
+        let c912: u64 = ((self.q119) | (self.q83)) & 0x1;
+        let c913: u64 = ((self.q121) | (self.q83)) & 0x1;
+        let c914: u64 = ((self.q120) | (self.q83)) & 0x1;
+        let c915: u64 = if (self.q16) != 0 { (c861) } else { (c901) };
+        let c916: u64 = if (self.q14) != 0 { (c915) } else { (self.q31) };
+        if self.v916 != c916 { self.v916 = c916; *dirty |= 0x20; }
+        let c924: u64 = if (self.q14) != 0 { (c857) } else { (c900) };
+        if self.v924 != c924 { self.v924 = c924; *dirty |= 0x800000000000; }
+        let c859: u64 = (c858) & (c924) & 0x1;
+        let c925: u64 = if (self.q14) != 0 { ((self.i_addr & 0x7)) } else { ((c879 << 2)) };
+        let c880: u64 = u64::from((c925) == (0x1));
+        let c58: u64 = u64::from((c859 | (c880 << 1)) == 0x3);
+        if self.v58 != c58 { self.v58 = c58; *dirty |= 0x1000000000000000000000; }
+        let c881: u64 = u64::from((c925) == (0x2));
+        let c57: u64 = u64::from((c859 | (c881 << 1)) == 0x3);
+        if self.v57 != c57 { self.v57 = c57; *dirty |= 0x1000000000000000000000; }
+        let c882: u64 = u64::from((c925) == (0x3));
+        let c56: u64 = u64::from((c859 | (c882 << 1)) == 0x3);
+        if self.v56 != c56 { self.v56 = c56; *dirty |= 0x2000000000000000000000; }
+        let c883: u64 = u64::from((c925) == 0);
+        let c59: u64 = u64::from((c883 | (c859 << 1)) == 0x3);
+        if self.v59 != c59 { self.v59 = c59; *dirty |= 0x800000000000000000000; }
+        let c884: u64 = u64::from((c925) == (0x4));
+        let c55: u64 = u64::from((c859 | (c884 << 1)) == 0x3);
+        if self.v55 != c55 { self.v55 = c55; *dirty |= 0x2000000000000000000000; }
+        let c885: u64 = u64::from((c925) == (0x5));
+        let c54: u64 = u64::from((c859 | (c885 << 1)) == 0x3);
+        if self.v54 != c54 { self.v54 = c54; *dirty |= 0x4000000000000000000000; }
+        let c886: u64 = u64::from((c925) == (0x6));
+        let c53: u64 = u64::from((c859 | (c886 << 1)) == 0x3);
+        if self.v53 != c53 { self.v53 = c53; *dirty |= 0x4000000000000000000000; }
+        let c887: u64 = u64::from((c925) == (0x7));
+        let c52: u64 = u64::from((c859 | (c887 << 1)) == 0x3);
+        if self.v52 != c52 { self.v52 = c52; *dirty |= 0x8000000000000000000000; }
+        let c923: u64 = if (c880) != 0 { (self.q38) } else { (self.q39) };
+        let c922: u64 = if (c881) != 0 { (self.q37) } else { (c923) };
+        let c921: u64 = if (c882) != 0 { (self.q36) } else { (c922) };
+        let c920: u64 = if (c884) != 0 { (self.q35) } else { (c921) };
+        let c919: u64 = if (c885) != 0 { (self.q34) } else { (c920) };
+        let c918: u64 = if (c886) != 0 { (self.q33) } else { (c919) };
+        let c917: u64 = if (c887) != 0 { (self.q32) } else { (c918) };
+        if self.v917 != c917 { self.v917 = c917; *dirty |= 0x800000000000; }
+        let c926: u64 = (((self.q82 >> 3)) ^ (self.q39)) & 0xff;
+        let c927: u64 = ((self.q35) ^ (0xff)) & 0xff;
+        let c863: u64 = (c926) & (c927) & 0xff;
+        let c889: u64 = u64::from((c863) == 0);
+        if self.v889 != c889 { self.v889 = c889; *dirty |= 0x8000000000200000000000; }
+        let c929: u64 = ((self.q34) ^ (0xff)) & 0xff;
+        if self.v929 != c929 { self.v929 = c929; *dirty |= 0x200000000000; }
+        let c930: u64 = ((((self.q81 >> 5) & 0xff)) ^ (self.q37)) & 0xff;
+        let c931: u64 = ((self.q33) ^ (0xff)) & 0xff;
+        let c865: u64 = (c930) & (c931) & 0xff;
+        let c893: u64 = u64::from((c865) == 0);
+        let c932: u64 = (((self.q82 >> 3)) ^ (self.q37)) & 0xff;
+        let c867: u64 = (c932) & (c931) & 0xff;
+        let c891: u64 = u64::from((c867) == 0);
+        if self.v891 != c891 { self.v891 = c891; *dirty |= 0x200000000000; }
+        let c934: u64 = ((self.q32) ^ (0xff)) & 0xff;
+        if self.v934 != c934 { self.v934 = c934; *dirty |= 0x200000000000; }
+        let c866: u64 = ((self.q36 & 0x3) | (c113 << 2)) & (c934) & 0xff;
+        let c894: u64 = u64::from(((c866 >> 2)) == 0);
+        let c871: u64 = (c893) & (c894) & 0x1;
+        let c902: u64 = ((c888) | (c871)) & 0x1;
+        if self.v902 != c902 { self.v902 = c902; *dirty |= 0x200000000000; }
+        let c935: u64 = ((self.q85) ^ (self.q37)) & 0xff;
+        let c874: u64 = (c935) & (c931) & 0xff;
+        let c896: u64 = u64::from((c874) == 0);
+        let c908: u64 = if (c895) != 0 { (c896) } else { (c914) };
+        let c911: u64 = if (c873) != 0 { (c908) } else { (c914) };
+        let c905: u64 = ((c911) | (self.i_reset)) & 0x1;
+        if self.v905 != c905 { self.v905 = c905; *dirty |= 0x20000000000000000000000; }
+        let c936: u64 = ((self.q85) ^ ((self.q36 & 0xf) | ((self.q38 & 0xf) << 4))) & 0xff;
+        let c937: u64 = (((self.q32 & 0xf) | ((self.q34 & 0xf) << 4)) ^ (0xff)) & 0xff;
+        let c875: u64 = (c936) & (c937) & 0xff;
+        let c897: u64 = u64::from((c875) == 0);
+        let c907: u64 = if (c895) != 0 { (c897) } else { (c912) };
+        let c910: u64 = if (c873) != 0 { (c907) } else { (c912) };
+        let c903: u64 = ((c910) | (self.i_reset)) & 0x1;
+        if self.v903 != c903 { self.v903 = c903; *dirty |= 0x10000000000000000000000; }
+        let c938: u64 = ((self.q85) ^ (self.q36)) & 0xff;
+        let c876: u64 = (c938) & (c934) & 0xff;
+        let c899: u64 = u64::from((c876) == 0);
+        let c906: u64 = if (c898) != 0 { (c899) } else { (c913) };
+        let c909: u64 = if (c873) != 0 { (c906) } else { (c913) };
+        let c904: u64 = ((c909) | (self.i_reset)) & 0x1;
+        if self.v904 != c904 { self.v904 = c904; *dirty |= 0x40000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing.
     fn group_3(&mut self, dirty: &mut u128) {
-        let c112: u64 = !(self.q98) & 0x3;
-        let c121: u64 = !(self.q108) & 0x7;
-        let c139: u64 = (self.q98).wrapping_add((0x1)) & 0x7;
-        if self.v139 != c139 { self.v139 = c139; *dirty |= 0x40000000000000; }
-        let c140: u64 = (self.q95 | (self.q96 << 1)).wrapping_add((0x1)) & 0x7f;
-        if self.v140 != c140 { self.v140 = c140; *dirty |= 0x10000000000; }
-        let c142: u64 = (self.q94).wrapping_add((0x1)) & 0x7;
-        if self.v142 != c142 { self.v142 = c142; *dirty |= 0x4000000000000; }
-        let c159: u64 = u64::from((self.q92) == (self.q108));
-        let c160: u64 = u64::from((self.q92) == 0);
-        let c161: u64 = u64::from((self.q90) == 0);
+        let c107: u64 = !(self.q0) & 0x7;
+        let c112: u64 = !(self.q99) & 0x3;
+        let c138: u64 = (self.q99).wrapping_add((0x1)) & 0x7;
+        if self.v138 != c138 { self.v138 = c138; *dirty |= 0x80000000000000; }
+        let c139: u64 = (self.q96 | (self.q97 << 1)).wrapping_add((0x1)) & 0x7f;
+        if self.v139 != c139 { self.v139 = c139; *dirty |= 0x10000000000; }
+        let c141: u64 = (self.q95).wrapping_add((0x1)) & 0x7;
+        if self.v141 != c141 { self.v141 = c141; *dirty |= 0x8000000000000; }
+        let c158: u64 = u64::from((self.q93) == (self.q0));
+        let c159: u64 = u64::from((self.q93) == 0);
+        let c160: u64 = u64::from((self.q96 | (self.q97 << 1)) == 0);
+        let c161: u64 = u64::from((self.q96 | (self.q97 << 1)) >= (((self.q103 & 0x3f) << 1) | 0x1));
         if self.v161 != c161 { self.v161 = c161; *dirty |= 0x10000; }
-        let c162: u64 = u64::from((self.q95 | (self.q96 << 1)) == 0);
-        let c155: u64 = (c161) & (c162) & 0x1;
-        if self.v155 != c155 { self.v155 = c155; *dirty |= 0x10000; }
-        let c163: u64 = u64::from((self.q95 | (self.q96 << 1)) >= (((self.q102 & 0x3f) << 1) | 0x1));
-        if self.v163 != c163 { self.v163 = c163; *dirty |= 0x10000; }
-        let c145: u64 = (c163) & (c160) & 0x1;
-        if self.v145 != c145 { self.v145 = c145; *dirty |= 0x10000; }
-        let c147: u64 = (c163) & (c159) & 0x1;
-        if self.v147 != c147 { self.v147 = c147; *dirty |= 0x10000; }
-        let c164: u64 = u64::from((self.q94) <= (self.q98));
-        let c165: u64 = u64::from((self.q92) <= (self.q98));
-        let c166: u64 = u64::from((self.q94) != (0x4));
-        let c77: u64 = u64::from((c163 | (c166 << 1)) == 0x3);
-        if self.v77 != c77 { self.v77 = c77; *dirty |= 0x4000000000000; }
-        let c167: u64 = !(self.q89) & 0x1;
-        if self.v167 != c167 { self.v167 = c167; *dirty |= 0x10000; }
-        let c172: u64 = !(self.q93) & 0x1;
-        if self.v172 != c172 { self.v172 = c172; *dirty |= 0x10000; }
-        let c173: u64 = !(self.i_reset) & 0x1;
-        if self.v173 != c173 { self.v173 = c173; *dirty |= 0x10000; }
-        let c191: u64 = u64::from((self.q90) == (0x2));
-        if self.v191 != c191 { self.v191 = c191; *dirty |= 0x10000; }
-        let c193: u64 = u64::from((self.q90) == (0x1));
+        let c144: u64 = (c161) & (c159) & 0x1;
+        if self.v144 != c144 { self.v144 = c144; *dirty |= 0x10000; }
+        let c146: u64 = (c161) & (c158) & 0x1;
+        if self.v146 != c146 { self.v146 = c146; *dirty |= 0x10000; }
+        let c162: u64 = u64::from((self.q95) <= (self.q99));
+        let c163: u64 = u64::from((self.q93) <= (self.q99));
+        let c164: u64 = u64::from((self.q95) != (0x4));
+        let c77: u64 = u64::from((c161 | (c164 << 1)) == 0x3);
+        if self.v77 != c77 { self.v77 = c77; *dirty |= 0x8000000000000; }
+        let c165: u64 = !(self.q90) & 0x1;
+        if self.v165 != c165 { self.v165 = c165; *dirty |= 0x10000; }
+        let c170: u64 = !(self.i_reset) & 0x1;
+        if self.v170 != c170 { self.v170 = c170; *dirty |= 0x10000; }
+        let c171: u64 = !(self.q94) & 0x1;
+        if self.v171 != c171 { self.v171 = c171; *dirty |= 0x10000; }
+        let c189: u64 = u64::from((self.q91) == 0);
+        if self.v189 != c189 { self.v189 = c189; *dirty |= 0x10000; }
+        let c154: u64 = (c189) & (c160) & 0x1;
+        if self.v154 != c154 { self.v154 = c154; *dirty |= 0x10000; }
+        let c192: u64 = if (c161) != 0 { (0x0) } else { ((c139 & 0x1)) };
+        if self.v192 != c192 { self.v192 = c192; *dirty |= 0x10000; }
+        let c193: u64 = if (c161) != 0 { (c107) } else { (c112 | 0x4) };
         if self.v193 != c193 { self.v193 = c193; *dirty |= 0x10000; }
-        let c39: u64 = u64::from((c161 | (c193 << 1) | (c191 << 2)) != 0);
-        if self.v39 != c39 { self.v39 = c39; *dirty |= 0x10000; }
-        let c149: u64 = (c193) & (c163) & 0x1;
-        let c150: u64 = (c149) & (c160) & 0x1;
-        if self.v150 != c150 { self.v150 = c150; *dirty |= 0x10000; }
-        let c192: u64 = { let s = (c191 | (c193 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
-        if self.v192 != c192 { self.v192 = c192; *dirty |= 0x40000000000000; }
-        let c195: u64 = if (c163) != 0 { (0x0) } else { ((c140 & 0x1)) };
+        let c195: u64 = if (c161) != 0 { (self.q99) } else { (self.q0) };
         if self.v195 != c195 { self.v195 = c195; *dirty |= 0x10000; }
-        let c196: u64 = if (c163) != 0 { (c121) } else { (c112 | 0x4) };
-        if self.v196 != c196 { self.v196 = c196; *dirty |= 0x10000; }
-        let c198: u64 = if (c163) != 0 { (self.q98) } else { (self.q108) };
+        let c198: u64 = u64::from((self.q91) == (0x2));
         if self.v198 != c198 { self.v198 = c198; *dirty |= 0x10000; }
-        let c201: u64 = !(c165) & 0x1;
-        let c202: u64 = !(c164) & 0x1;
-        let c203: u64 = (self.q118) & (c202) & 0x1;
-        let c204: u64 = (self.q118) & (c164) & 0x1;
-        let c205: u64 = (c191) & (c201) & 0x1;
+        let c199: u64 = !(c163) & 0x1;
+        let c200: u64 = !(c162) & 0x1;
+        let c201: u64 = (self.q118) & (c200) & 0x1;
+        let c202: u64 = (self.q118) & (c162) & 0x1;
+        let c203: u64 = u64::from((self.q91) == (0x1));
+        if self.v203 != c203 { self.v203 = c203; *dirty |= 0x10000; }
+        let c39: u64 = u64::from((c189 | (c203 << 1) | (c198 << 2)) != 0);
+        if self.v39 != c39 { self.v39 = c39; *dirty |= 0x10000; }
+        let c148: u64 = (c203) & (c161) & 0x1;
+        let c149: u64 = (c148) & (c159) & 0x1;
+        if self.v149 != c149 { self.v149 = c149; *dirty |= 0x10000; }
+        let c190: u64 = { let s = (c198 | (c203 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
+        if self.v190 != c190 { self.v190 = c190; *dirty |= 0x80000000000000; }
+        let c204: u64 = (c198) & (c199) & 0x1;
+        if self.v204 != c204 { self.v204 = c204; *dirty |= 0x10000; }
+        let c205: u64 = (c203) & (c201) & 0x1;
         if self.v205 != c205 { self.v205 = c205; *dirty |= 0x10000; }
-        let c206: u64 = (c193) & (c203) & 0x1;
+        let c206: u64 = (c198) & (c163) & 0x1;
         if self.v206 != c206 { self.v206 = c206; *dirty |= 0x10000; }
-        let c207: u64 = (c191) & (c165) & 0x1;
+        let c207: u64 = (c203) & (c202) & 0x1;
         if self.v207 != c207 { self.v207 = c207; *dirty |= 0x10000; }
-        let c208: u64 = (c193) & (c204) & 0x1;
-        if self.v208 != c208 { self.v208 = c208; *dirty |= 0x10000; }
         let _ = &dirty;
     }
 
     /// The cells of top$read.
     fn group_4(&mut self, dirty: &mut u128) {
-        let c119: u64 = (((self.m0_rd & 0xf)) | (self.q105)) & 0xf;
-        let c1044: u64 = u64::from((self.i_addr) == (0x2));
-        if self.v1044 != c1044 { self.v1044 = c1044; *dirty |= 0x40000; }
-        let c1045: u64 = u64::from((self.i_addr) == (0xb));
-        if self.v1045 != c1045 { self.v1045 = c1045; *dirty |= 0x400000000100; }
-        let c1046: u64 = u64::from((self.i_addr) == (0xc));
-        if self.v1046 != c1046 { self.v1046 = c1046; *dirty |= 0x400000000100; }
-        let c1047: u64 = u64::from((self.i_addr) == (0xe));
-        if self.v1047 != c1047 { self.v1047 = c1047; *dirty |= 0x400000000020; }
-        let c1048: u64 = u64::from((self.i_addr) == (0xf));
-        if self.v1048 != c1048 { self.v1048 = c1048; *dirty |= 0x400000000020; }
-        let c1049: u64 = u64::from((self.i_addr) == (0x1d));
-        if self.v1049 != c1049 { self.v1049 = c1049; *dirty |= 0x400000000000; }
-        let c1050: u64 = u64::from((self.i_addr) == (0x1e));
-        if self.v1050 != c1050 { self.v1050 = c1050; *dirty |= 0x400000000020; }
-        let c1051: u64 = u64::from((self.i_addr) == 0);
-        if self.v1051 != c1051 { self.v1051 = c1051; *dirty |= 0x400800000200; }
-        let c1052: u64 = u64::from((self.i_addr) == (0x1));
-        if self.v1052 != c1052 { self.v1052 = c1052; *dirty |= 0x400000000800; }
-        let c1053: u64 = u64::from((self.i_addr) == (0x3));
-        if self.v1053 != c1053 { self.v1053 = c1053; *dirty |= 0x400000040100; }
-        let c1054: u64 = u64::from((self.i_addr) == (0x15));
-        if self.v1054 != c1054 { self.v1054 = c1054; *dirty |= 0x40000; }
-        let c1055: u64 = ((self.v634) | (self.v566)) & 0x1;
-        if self.v1055 != c1055 { self.v1055 = c1055; *dirty |= 0x4000; }
-        let c1060: u64 = if (self.q8) != 0 { (c119 | ((self.m0_rd >> 4) << 4)) } else { (self.q6) };
-        if self.v1060 != c1060 { self.v1060 = c1060; *dirty |= 0x400000000000; }
-        let c1085: u64 = if (self.q13) != 0 { (self.q20) } else { (0x1) };
-        if self.v1085 != c1085 { self.v1085 = c1085; *dirty |= 0x800040000; }
+        let c119: u64 = (((self.m0_rd & 0xf)) | (self.q106)) & 0xf;
+        let c1050: u64 = u64::from((self.i_addr) == (0x2));
+        if self.v1050 != c1050 { self.v1050 = c1050; *dirty |= 0x40000; }
+        let c1051: u64 = u64::from((self.i_addr) == (0xb));
+        if self.v1051 != c1051 { self.v1051 = c1051; *dirty |= 0x800000000200; }
+        let c1052: u64 = u64::from((self.i_addr) == (0xc));
+        if self.v1052 != c1052 { self.v1052 = c1052; *dirty |= 0x800000000200; }
+        let c1053: u64 = u64::from((self.i_addr) == (0xe));
+        if self.v1053 != c1053 { self.v1053 = c1053; *dirty |= 0x800000000020; }
+        let c1054: u64 = u64::from((self.i_addr) == (0xf));
+        if self.v1054 != c1054 { self.v1054 = c1054; *dirty |= 0x800000000020; }
+        let c1055: u64 = u64::from((self.i_addr) == (0x1d));
+        if self.v1055 != c1055 { self.v1055 = c1055; *dirty |= 0x800000000000; }
+        let c1056: u64 = u64::from((self.i_addr) == (0x1e));
+        if self.v1056 != c1056 { self.v1056 = c1056; *dirty |= 0x800000000020; }
+        let c1057: u64 = u64::from((self.i_addr) == 0);
+        if self.v1057 != c1057 { self.v1057 = c1057; *dirty |= 0x800800000400; }
+        let c1058: u64 = u64::from((self.i_addr) == (0x1));
+        if self.v1058 != c1058 { self.v1058 = c1058; *dirty |= 0x800000000800; }
+        let c1059: u64 = u64::from((self.i_addr) == (0x3));
+        if self.v1059 != c1059 { self.v1059 = c1059; *dirty |= 0x800000040200; }
+        let c1060: u64 = u64::from((self.i_addr) == (0x15));
+        if self.v1060 != c1060 { self.v1060 = c1060; *dirty |= 0x40000; }
+        let c1061: u64 = ((self.v640) | (self.v572)) & 0x1;
+        if self.v1061 != c1061 { self.v1061 = c1061; *dirty |= 0x4000; }
+        let c1066: u64 = if (self.q9) != 0 { (c119 | ((self.m0_rd >> 4) << 4)) } else { (self.q7) };
+        if self.v1066 != c1066 { self.v1066 = c1066; *dirty |= 0x800000000000; }
+        let c1091: u64 = if (self.q14) != 0 { (self.q21) } else { (0x1) };
+        if self.v1091 != c1091 { self.v1091 = c1091; *dirty |= 0x800040000; }
         let _ = &dirty;
     }
 
     /// The cells of can_controller.
     fn group_5(&mut self, dirty: &mut u128) {
-        let c0: u64 = (self.v851) & (self.q13) & 0x1;
-        let c1: u64 = (c0) & (self.v1048) & 0x1;
+        let c0: u64 = (self.v858) & (self.q14) & 0x1;
+        let c1: u64 = (c0) & (self.v1054) & 0x1;
         if self.v1 != c1 { self.v1 = c1; *dirty |= 0xc0000000; }
-        let c2: u64 = (c0) & (self.v1047) & 0x1;
-        if self.v2 != c2 { self.v2 = c2; *dirty |= 0x80; }
-        let c3: u64 = (c0) & (self.v1050) & 0x1;
+        let c2: u64 = (c0) & (self.v1053) & 0x1;
+        if self.v2 != c2 { self.v2 = c2; *dirty |= 0x100; }
+        let c3: u64 = (c0) & (self.v1056) & 0x1;
         if self.v3 != c3 { self.v3 = c3; *dirty |= 0x4000000040; }
-        let c13: u64 = (self.q69) & (self.q68) & 0x1;
-        let c14: u64 = (c13) & (self.q5) & 0x1;
-        let c774: u64 = { let s = (self.i_addr); if s < 256 { TABLE_0[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-        if self.v774 != c774 { self.v774 = c774; *dirty |= 0x800; }
-        let c775: u64 = { let s = (self.i_addr); if s < 256 { TABLE_1[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-        if self.v775 != c775 { self.v775 = c775; *dirty |= 0x800; }
-        let c776: u64 = { let s = (self.i_addr); if s < 256 { TABLE_2[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-        if self.v776 != c776 { self.v776 = c776; *dirty |= 0x800; }
-        let c777: u64 = { let s = (self.i_addr); if s < 256 { TABLE_3[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-        if self.v777 != c777 { self.v777 = c777; *dirty |= 0x800; }
-        let c778: u64 = { let s = (self.i_addr); if s < 256 { TABLE_4[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-        if self.v778 != c778 { self.v778 = c778; *dirty |= 0x800; }
-        let c779: u64 = { let s = (self.i_addr); if s < 256 { TABLE_5[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-        if self.v779 != c779 { self.v779 = c779; *dirty |= 0x40000; }
-        let c1099: u64 = if ((self.q55 & 0x1) | (self.q54 << 1) | ((self.q55 >> 1) << 3)) < 16 { (self.q107) >> ((self.q55 & 0x1) | (self.q54 << 1) | ((self.q55 >> 1) << 3)) & 0x1 } else { 0 };
-        if self.v1099 != c1099 { self.v1099 = c1099; *dirty |= 0x80000; }
-        let c1103: u64 = ((self.q49) | (c14)) & 0x1;
-        let c15: u64 = (c1103) & (self.v910) & 0x1;
-        let c1104: u64 = ((self.q13) | (self.v881)) & 0x1;
-        let c16: u64 = (c15) & (c1104) & 0x1;
+        let c13: u64 = (self.q70) & (self.q69) & 0x1;
+        let c14: u64 = (c13) & (self.q6) & 0x1;
+        let c780: u64 = { let s = (self.i_addr); if s < 256 { TABLE_0[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v780 != c780 { self.v780 = c780; *dirty |= 0x800; }
+        let c781: u64 = { let s = (self.i_addr); if s < 256 { TABLE_1[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v781 != c781 { self.v781 = c781; *dirty |= 0x800; }
+        let c782: u64 = { let s = (self.i_addr); if s < 256 { TABLE_2[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v782 != c782 { self.v782 = c782; *dirty |= 0x800; }
+        let c783: u64 = { let s = (self.i_addr); if s < 256 { TABLE_3[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v783 != c783 { self.v783 = c783; *dirty |= 0x800; }
+        let c784: u64 = { let s = (self.i_addr); if s < 256 { TABLE_4[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v784 != c784 { self.v784 = c784; *dirty |= 0x800; }
+        let c785: u64 = { let s = (self.i_addr); if s < 256 { TABLE_5[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v785 != c785 { self.v785 = c785; *dirty |= 0x40000; }
+        let c1105: u64 = if ((self.q56 & 0x1) | (self.q55 << 1) | ((self.q56 >> 1) << 3)) < 16 { (self.q108) >> ((self.q56 & 0x1) | (self.q55 << 1) | ((self.q56 >> 1) << 3)) & 0x1 } else { 0 };
+        if self.v1105 != c1105 { self.v1105 = c1105; *dirty |= 0x80000; }
+        let c1109: u64 = ((self.q50) | (c14)) & 0x1;
+        let c15: u64 = (c1109) & (self.v916) & 0x1;
+        let c1110: u64 = ((self.q14) | (self.v888)) & 0x1;
+        let c16: u64 = (c15) & (c1110) & 0x1;
         if self.v16 != c16 { self.v16 = c16; *dirty |= 0x40; }
-        let c1111: u64 = if (self.q69) != 0 { (self.q68) } else { (self.q132) };
-        if self.v1111 != c1111 { self.v1111 = c1111; *dirty |= 0x80000000; }
-        let c1112: u64 = ((self.q131) | (self.q69)) & 0x1;
-        if self.v1112 != c1112 { self.v1112 = c1112; *dirty |= 0x80000000; }
-        let c1113: u64 = if (self.q69) != 0 { (0x0) } else { (self.q1) };
-        if self.v1113 != c1113 { self.v1113 = c1113; *dirty |= 0x80000000; }
+        let c1117: u64 = if (self.q70) != 0 { (self.q69) } else { (self.q132) };
+        if self.v1117 != c1117 { self.v1117 = c1117; *dirty |= 0x80000000; }
+        let c1118: u64 = ((self.q131) | (self.q70)) & 0x1;
+        if self.v1118 != c1118 { self.v1118 = c1118; *dirty |= 0x80000000; }
+        let c1119: u64 = if (self.q70) != 0 { (0x0) } else { (self.q2) };
+        if self.v1119 != c1119 { self.v1119 = c1119; *dirty |= 0x80000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$fifo.
     fn group_6(&mut self, dirty: &mut u128) {
-        let c785: u64 = (self.q44).wrapping_add((0x1)) & 0x7;
-        let c794: u64 = (self.v16) & (self.q43) & 0x1;
-        let c796: u64 = u64::from((self.q44) == (0x1));
-        let c797: u64 = u64::from((self.q44) == (0x2));
-        let c798: u64 = u64::from((self.q44) == (0x3));
-        let c799: u64 = u64::from((self.q44) == (0x4));
-        let c800: u64 = !(self.q43) & 0x1;
-        let c793: u64 = (self.v16) & (c800) & 0x1;
-        if self.v793 != c793 { self.v793 = c793; *dirty |= 0x4000000000; }
-        let c20: u64 = u64::from((c793 | (self.q127 << 1)) != 0);
-        if self.v20 != c20 { self.v20 = c20; *dirty |= 0x80000000000000000000; }
-        let c802: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (self.q46) };
-        let c813: u64 = ((self.q42) | (c794)) & 0x1;
-        if self.v813 != c813 { self.v813 = c813; *dirty |= 0x40000000000000000000; }
-        let c829: u64 = ((self.q39) | (self.q85)) & 0x1;
-        let c833: u64 = if (c796) != 0 { ((self.q81 >> 3)) } else { (self.q83 | (self.q77 << 6) | (self.q79 << 7)) };
-        let c832: u64 = if (c797) != 0 { (((self.q80 >> 13) & 0xf) | (self.v905 << 4) | ((self.q81 & 0x7) << 5)) } else { (c833) };
-        let c831: u64 = if (c798) != 0 { (((self.q80 >> 5) & 0xff)) } else { (c832) };
-        let c830: u64 = if (c799) != 0 { ((self.q77 << 2) | ((self.q80 & 0x1f) << 3)) } else { (c831) };
-        let c835: u64 = if (self.q39) != 0 { (c830) } else { (self.q83 | (self.q77 << 6) | (self.q79 << 7)) };
-        let c827: u64 = if (self.q85) != 0 { (self.q84) } else { (c835) };
-        if self.v827 != c827 { self.v827 = c827; *dirty |= 0x200000000; }
-        let c837: u64 = if (self.q39) != 0 { (c785) } else { (0x0) };
-        if self.v837 != c837 { self.v837 = c837; *dirty |= 0x20000000000000000000; }
-        let c838: u64 = if (self.q82) != 0 { (0x0) } else { (self.q43) };
-        let c839: u64 = ((self.q39) | (self.q82)) & 0x1;
-        let c840: u64 = if (self.q79) != 0 { (0x2) } else { (0x1) };
-        let c784: u64 = ((c840 << 1) | 0x1).wrapping_add((self.q83)) & 0xf;
-        let c786: u64 = ((c840 << 1) | 0x1).wrapping_add((self.q86)) & 0xf;
-        let c795: u64 = u64::from((self.q44) == ((c840 << 1)));
-        let c828: u64 = if (self.q85) != 0 { (c786) } else { (self.q44) };
-        let c787: u64 = (self.q40).wrapping_add((c828)) & 0x7f;
-        let c788: u64 = (self.q41).wrapping_add((c828)) & 0x3f;
-        if self.v788 != c788 { self.v788 = c788; *dirty |= 0x200000000; }
-        let c823: u64 = ((c838) | ((c787 >> 6))) & 0x1;
-        let c824: u64 = !((c787 >> 6)) & 0x1;
-        let c825: u64 = if (c829) != 0 { (c823) } else { (c838) };
-        if self.v825 != c825 { self.v825 = c825; *dirty |= 0x200000000000000000000; }
-        let c826: u64 = (c829) & (c824) & 0x1;
-        if self.v826 != c826 { self.v826 = c826; *dirty |= 0x200000000; }
-        let c834: u64 = if (c795) != 0 { (0x0) } else { (c839) };
-        let c836: u64 = if (self.q39) != 0 { (c834) } else { (c839) };
-        if self.v836 != c836 { self.v836 = c836; *dirty |= 0x100000000000000000000; }
-        let c842: u64 = if ((self.q83 >> 3)) != 0 { ((c840 << 1) | 0x9) } else { (c784) };
-        let c841: u64 = if (self.q77) != 0 { ((c840 << 1) | 0x1) } else { (c842) };
-        if self.v841 != c841 { self.v841 = c841; *dirty |= 0x4000000000; }
-        let c790: u64 = (self.q41).wrapping_add((c841)) & 0x3f;
-        let c807: u64 = if (self.q127) != 0 { (c802) } else { (c790) };
-        if self.v807 != c807 { self.v807 = c807; *dirty |= 0x80000000000000000000; }
-        let c846: u64 = if (self.q47) != 0 { (self.m0_rd) } else { (self.q45) };
-        if self.v846 != c846 { self.v846 = c846; *dirty |= 0x4000040000; }
-        let c845: u64 = if ((c846 >> 7)) != 0 { (0x2) } else { (0x1) };
-        let c783: u64 = ((c845 << 1) | 0x1).wrapping_add(((c846 & 0xf))) & 0xf;
-        let c844: u64 = if (((c846 >> 3) & 0x1)) != 0 { ((c845 << 1) | 0x9) } else { (c783) };
-        let c843: u64 = if (((c846 >> 6) & 0x1)) != 0 { ((c845 << 1) | 0x1) } else { (c844) };
-        let c789: u64 = (self.q46).wrapping_add((c843)) & 0x3f;
-        if self.v789 != c789 { self.v789 = c789; *dirty |= 0x4200000000; }
-        let c847: u64 = (self.q40).wrapping_sub((c843)) & 0x7f;
-        if self.v847 != c847 { self.v847 = c847; *dirty |= 0x4000000000; }
-        let c848: u64 = (self.q48).wrapping_sub((0x1)) & 0x1f;
+        let c791: u64 = (self.q45).wrapping_add((0x1)) & 0x7;
+        let c800: u64 = (self.v16) & (self.q44) & 0x1;
+        let c802: u64 = u64::from((self.q45) == (0x1));
+        let c803: u64 = u64::from((self.q45) == (0x2));
+        let c804: u64 = u64::from((self.q45) == (0x3));
+        let c805: u64 = u64::from((self.q45) == (0x4));
+        let c806: u64 = !(self.q44) & 0x1;
+        let c799: u64 = (self.v16) & (c806) & 0x1;
+        if self.v799 != c799 { self.v799 = c799; *dirty |= 0x4000000000; }
+        let c20: u64 = u64::from((c799 | (self.q127 << 1)) != 0);
+        if self.v20 != c20 { self.v20 = c20; *dirty |= 0x100000000000000000000; }
+        let c808: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (self.q47) };
+        let c819: u64 = ((self.q43) | (c800)) & 0x1;
+        if self.v819 != c819 { self.v819 = c819; *dirty |= 0x80000000000000000000; }
+        let c835: u64 = ((self.q40) | (self.q86)) & 0x1;
+        let c838: u64 = if (self.q80) != 0 { ((self.q81 >> 17)) } else { (self.q78) };
+        if self.v838 != c838 { self.v838 = c838; *dirty |= 0x200000000000; }
+        let c840: u64 = if (c802) != 0 { ((self.q82 >> 3)) } else { (self.q84 | (self.q78 << 6) | (self.q80 << 7)) };
+        let c839: u64 = if (c803) != 0 { (((self.q81 >> 13) & 0xf) | (c838 << 4) | ((self.q82 & 0x7) << 5)) } else { (c840) };
+        let c837: u64 = if (c804) != 0 { (((self.q81 >> 5) & 0xff)) } else { (c839) };
+        let c836: u64 = if (c805) != 0 { ((self.q78 << 2) | ((self.q81 & 0x1f) << 3)) } else { (c837) };
+        let c842: u64 = if (self.q40) != 0 { (c836) } else { (self.q84 | (self.q78 << 6) | (self.q80 << 7)) };
+        let c833: u64 = if (self.q86) != 0 { (self.q85) } else { (c842) };
+        if self.v833 != c833 { self.v833 = c833; *dirty |= 0x200000000; }
+        let c844: u64 = if (self.q40) != 0 { (c791) } else { (0x0) };
+        if self.v844 != c844 { self.v844 = c844; *dirty |= 0x40000000000000000000; }
+        let c845: u64 = if (self.q83) != 0 { (0x0) } else { (self.q44) };
+        let c846: u64 = ((self.q40) | (self.q83)) & 0x1;
+        let c847: u64 = if (self.q80) != 0 { (0x2) } else { (0x1) };
+        let c790: u64 = ((c847 << 1) | 0x1).wrapping_add((self.q84)) & 0xf;
+        let c792: u64 = ((c847 << 1) | 0x1).wrapping_add((self.q87)) & 0xf;
+        let c801: u64 = u64::from((self.q45) == ((c847 << 1)));
+        let c834: u64 = if (self.q86) != 0 { (c792) } else { (self.q45) };
+        let c793: u64 = (self.q41).wrapping_add((c834)) & 0x7f;
+        let c794: u64 = (self.q42).wrapping_add((c834)) & 0x3f;
+        if self.v794 != c794 { self.v794 = c794; *dirty |= 0x200000000; }
+        let c829: u64 = ((c845) | ((c793 >> 6))) & 0x1;
+        let c830: u64 = !((c793 >> 6)) & 0x1;
+        let c831: u64 = if (c835) != 0 { (c829) } else { (c845) };
+        if self.v831 != c831 { self.v831 = c831; *dirty |= 0x400000000000000000000; }
+        let c832: u64 = (c835) & (c830) & 0x1;
+        if self.v832 != c832 { self.v832 = c832; *dirty |= 0x200000000; }
+        let c841: u64 = if (c801) != 0 { (0x0) } else { (c846) };
+        let c843: u64 = if (self.q40) != 0 { (c841) } else { (c846) };
+        if self.v843 != c843 { self.v843 = c843; *dirty |= 0x200000000000000000000; }
+        let c849: u64 = if ((self.q84 >> 3)) != 0 { ((c847 << 1) | 0x9) } else { (c790) };
+        let c848: u64 = if (self.q78) != 0 { ((c847 << 1) | 0x1) } else { (c849) };
         if self.v848 != c848 { self.v848 = c848; *dirty |= 0x4000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol$faults.
-    fn group_7(&mut self, dirty: &mut u128) {
-        let c315: u64 = (self.q65 | (self.q63 << 4)).wrapping_add((0x1)) & 0x1f;
-        let c316: u64 = (self.q66 | (self.q67 << 7)).wrapping_add((0x1)) & 0xff;
-        if self.v316 != c316 { self.v316 = c316; *dirty |= 0x40000000; }
-        let c317: u64 = ((self.q66 >> 3) | (self.q67 << 4)).wrapping_add((0x1)) & 0x1f;
-        let c320: u64 = (self.v2) & (self.v541) & 0x1;
-        if self.v320 != c320 { self.v320 = c320; *dirty |= 0x40000000; }
-        let c322: u64 = u64::from((self.q64 | (self.q65 << 3) | (self.q63 << 7)) == 0);
-        if self.v322 != c322 { self.v322 = c322; *dirty |= 0x80000000; }
-        let c323: u64 = u64::from((self.q65 | (self.q63 << 4)) == (0x1f));
-        if self.v323 != c323 { self.v323 = c323; *dirty |= 0x80000000; }
-        let c324: u64 = u64::from(((self.q66 >> 3) | (self.q67 << 4)) == (0x1f));
-        let c325: u64 = u64::from((self.i_wdata) == (0xff));
-        if self.v325 != c325 { self.v325 = c325; *dirty |= 0x40000000; }
-        let c326: u64 = u64::from((self.q64 | (self.q65 << 3) | (self.q63 << 7)) != 0);
-        if self.v326 != c326 { self.v326 = c326; *dirty |= 0x40000000; }
-        let c327: u64 = u64::from((self.q66 | (self.q67 << 7)) != (0xff));
-        if self.v327 != c327 { self.v327 = c327; *dirty |= 0x40000000; }
-        let c328: u64 = u64::from((self.q66 | (self.q67 << 7)) != 0);
-        if self.v328 != c328 { self.v328 = c328; *dirty |= 0x40000000; }
-        let c338: u64 = if (c325) != 0 { (0x7f) } else { (self.i_wdata) };
-        if self.v338 != c338 { self.v338 = c338; *dirty |= 0x40000000; }
-        let c346: u64 = if (c324) != 0 { (0xff) } else { ((self.q66 & 0x7) | (c317 << 3)) };
-        if self.v346 != c346 { self.v346 = c346; *dirty |= 0x40000000; }
-        let c350: u64 = if (c323) != 0 { (0x0) } else { (self.q66 | (self.q67 << 7)) };
-        if self.v350 != c350 { self.v350 = c350; *dirty |= 0x40000000; }
-        let c351: u64 = if (c323) != 0 { (0x1f) } else { ((c315 << 1)) };
-        if self.v351 != c351 { self.v351 = c351; *dirty |= 0x40000000; }
-        let c352: u64 = ((self.q113) | (c323)) & 0x1;
-        if self.v352 != c352 { self.v352 = c352; *dirty |= 0x40000000; }
-        let c359: u64 = if (c322) != 0 { (0x0) } else { (self.q66 | (self.q67 << 7)) };
-        if self.v359 != c359 { self.v359 = c359; *dirty |= 0x40000000; }
-        let c360: u64 = !(c322) & 0x1;
-        if self.v360 != c360 { self.v360 = c360; *dirty |= 0x40000000; }
-        let c368: u64 = (self.q64 | (self.q65 << 3) | (self.q63 << 7)).wrapping_sub((0x1)) & 0xff;
-        if self.v368 != c368 { self.v368 = c368; *dirty |= 0x40000000; }
-        let c361: u64 = if (c322) != 0 { ((self.q63 << 7)) } else { (c368) };
-        if self.v361 != c361 { self.v361 = c361; *dirty |= 0x40000000; }
-        let c369: u64 = (self.q66 | (self.q67 << 7)).wrapping_sub((0x1)) & 0xff;
-        if self.v369 != c369 { self.v369 = c369; *dirty |= 0x40000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$interrupts.
-    fn group_8(&mut self, dirty: &mut u128) {
-        let c933: u64 = (self.i_re) & (self.v1053) & 0x1;
-        let c934: u64 = (self.q13) & (self.v871) & 0x1;
-        if self.v934 != c934 { self.v934 = c934; *dirty |= 0x800000000; }
-        let c936: u64 = (self.q73) & (self.q122) & 0x1;
-        if self.v936 != c936 { self.v936 = c936; *dirty |= 0x40000000000000800000000; }
-        let c937: u64 = (self.q74) & (self.q123) & 0x1;
-        if self.v937 != c937 { self.v937 = c937; *dirty |= 0x100000000000000800000000; }
-        let c938: u64 = (self.i_re) & (self.q13) & 0x1;
-        let c943: u64 = !(self.q127) & 0x1;
-        if self.v943 != c943 { self.v943 = c943; *dirty |= 0x42a00; }
-        let c944: u64 = !(self.q18) & 0x1;
-        let c939: u64 = (self.q42) & (c944) & 0x1;
-        if self.v939 != c939 { self.v939 = c939; *dirty |= 0x800000000; }
-        let c945: u64 = !(self.q16) & 0x1;
-        let c949: u64 = u64::from((self.q113) != (self.q24));
-        let c950: u64 = u64::from((self.q114) != (self.q17));
-        let c951: u64 = u64::from((self.q48) != 0);
-        if self.v951 != c951 { self.v951 = c951; *dirty |= 0x2000000000000000800040000; }
-        let c108: u64 = (self.q25) & (c951) & 0x1;
-        let c125: u64 = if (self.q13) != 0 { (c951) } else { (c108) };
-        if self.v125 != c125 { self.v125 = c125; *dirty |= 0x40000; }
-        let c940: u64 = (c951) & (c945) & 0x1;
-        if self.v940 != c940 { self.v940 = c940; *dirty |= 0x800000000; }
-        let c952: u64 = u64::from((self.q48) != (0x1));
-        if self.v952 != c952 { self.v952 = c952; *dirty |= 0x800000000; }
-        let c960: u64 = if (c933) != 0 { (0x0) } else { (self.q19) };
-        if self.v960 != c960 { self.v960 = c960; *dirty |= 0x800000000; }
-        let c962: u64 = if (c933) != 0 { (0x0) } else { (self.q25) };
-        if self.v962 != c962 { self.v962 = c962; *dirty |= 0x800000000; }
-        let c963: u64 = if (self.q127) != 0 { (0x0) } else { (c950) };
-        let c964: u64 = if (self.q113) != 0 { (0x0) } else { (c963) };
-        if self.v964 != c964 { self.v964 = c964; *dirty |= 0x800000000; }
-        let c966: u64 = if (self.q13) != 0 { (self.q100) } else { (0x60) };
-        let c946: u64 = u64::from((self.q64 | (self.q65 << 3) | (self.q63 << 7)) >= (c966));
-        let c947: u64 = u64::from((self.q66 | (self.q67 << 7)) >= (c966));
-        let c953: u64 = ((c946) | (c947)) & 0x1;
-        let c954: u64 = ((c953) | (self.q113)) & 0x1;
-        let c965: u64 = if (self.q127) != 0 { (self.q22) } else { (c954) };
-        if self.v965 != c965 { self.v965 = c965; *dirty |= 0x200000000000000000000000; }
-        let c948: u64 = u64::from((c965) != (self.q22));
-        let c955: u64 = ((c948) | (c949)) & 0x1;
-        if self.v955 != c955 { self.v955 = c955; *dirty |= 0x800000000; }
-        let c971: u64 = if (c937) != 0 { (0x0) } else { (self.q123) };
-        let c967: u64 = ((c971) | (self.v1046)) & 0x1;
-        let c969: u64 = if (c938) != 0 { (c967) } else { (c971) };
-        let c957: u64 = ((c969) | (self.i_reset)) & 0x1;
-        if self.v957 != c957 { self.v957 = c957; *dirty |= 0x100000000000000000000000; }
-        let c972: u64 = if (c936) != 0 { (0x0) } else { (self.q122) };
-        let c968: u64 = ((c972) | (self.v1045)) & 0x1;
-        let c970: u64 = if (c938) != 0 { (c968) } else { (c972) };
-        let c958: u64 = ((c970) | (self.i_reset)) & 0x1;
-        if self.v958 != c958 { self.v958 = c958; *dirty |= 0x40000000000000000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$modes.
-    fn group_9(&mut self, dirty: &mut u128) {
-        let c82: u64 = !(self.q129) & 0x1;
-        if self.v82 != c82 { self.v82 = c82; *dirty |= 0x400000000; }
-        let c84: u64 = u64::from((self.i_reset | (c82 << 1)) != 0);
-        if self.v84 != c84 { self.v84 = c84; *dirty |= 0x1000000000000000000000000000; }
-        let c974: u64 = (self.q9).wrapping_add((0x1)) & 0x1f;
-        if self.v974 != c974 { self.v974 = c974; *dirty |= 0x1000000000000000000000000000; }
-        let c975: u64 = (self.i_we) & (self.v1051) & 0x1;
-        if self.v975 != c975 { self.v975 = c975; *dirty |= 0x800; }
-        let c49: u64 = u64::from((self.q13 | (self.q127 << 1) | (c975 << 2)) == 0x7);
-        if self.v49 != c49 { self.v49 = c49; *dirty |= 0x8000000000000000000000000; }
-        let c976: u64 = ((self.i_wdata & 0x1)) & (self.v943) & 0x1;
-        let c988: u64 = !((self.i_wdata & 0x1)) & 0x1;
-        let c977: u64 = (((self.i_wdata >> 4) & 0x1)) & (c988) & 0x1;
-        let c989: u64 = !(((self.i_wdata >> 4) & 0x1)) & 0x1;
-        let c992: u64 = !(self.i_rx) & 0x1;
-        if self.v992 != c992 { self.v992 = c992; *dirty |= 0x400000000; }
-        let c993: u64 = !(self.q24) & 0x1;
-        let c982: u64 = (self.q113) & (c993) & 0x1;
-        let c994: u64 = u64::from((self.i_addr) == (0x1f));
-        if self.v994 != c994 { self.v994 = c994; *dirty |= 0x40000; }
-        let c983: u64 = (self.i_we) & (c994) & 0x1;
-        if self.v983 != c983 { self.v983 = c983; *dirty |= 0x8000000000; }
-        let c48: u64 = u64::from((self.q127 | (c983 << 1)) == 0x3);
-        if self.v48 != c48 { self.v48 = c48; *dirty |= 0x8000000000; }
-        let c995: u64 = u64::from((self.q9) == (0x10));
-        if self.v995 != c995 { self.v995 = c995; *dirty |= 0x4000000000000000000000000; }
-        let c998: u64 = u64::from((self.q9) != (0x10));
-        if self.v998 != c998 { self.v998 = c998; *dirty |= 0x400000000; }
-        let c1007: u64 = if (self.q127) != 0 { (((self.i_wdata >> 3) & 0x1) | ((self.i_wdata >> 5) << 1)) } else { (self.q14 | (self.q13 << 3)) };
-        let c1008: u64 = if (c983) != 0 { ((self.i_wdata & 0x7) | (c1007 << 3)) } else { (self.q104 | (self.q14 << 3) | (self.q13 << 6)) };
-        let c1000: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1008) };
-        if self.v1000 != c1000 { self.v1000 = c1000; *dirty |= 0x8000000000; }
-        let c1020: u64 = if (self.q127) != 0 { (((self.i_wdata >> 2) & 0x1)) } else { (self.q130) };
-        let c1021: u64 = if (self.q127) != 0 { (((self.i_wdata >> 1) & 0x1)) } else { (self.q126) };
-        let c1022: u64 = if (self.q127) != 0 { (0x0) } else { (c989) };
-        let c1023: u64 = if (self.q127) != 0 { (0x0) } else { (c977) };
-        let c1024: u64 = (self.q13) & (c1022) & 0x1;
-        let c1025: u64 = (self.q13) & (c1023) & 0x1;
-        let c1026: u64 = if (self.q13) != 0 { (c1020) } else { (self.q130) };
-        let c1027: u64 = if (self.q13) != 0 { (c1021) } else { (self.q126) };
-        let c1028: u64 = (c975) & (c1024) & 0x1;
-        if self.v1028 != c1028 { self.v1028 = c1028; *dirty |= 0x400000000; }
-        let c1029: u64 = (c975) & (c1025) & 0x1;
-        if self.v1029 != c1029 { self.v1029 = c1029; *dirty |= 0x400000000; }
-        let c1030: u64 = if (c975) != 0 { (c1026) } else { (self.q130) };
-        let c1002: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1030) };
-        if self.v1002 != c1002 { self.v1002 = c1002; *dirty |= 0x4000000000000000000000000000; }
-        let c987: u64 = (c1002) & ((c1000 >> 6)) & 0x1;
-        if self.v987 != c987 { self.v987 = c987; *dirty |= 0x800000000000000000000000000; }
-        let c1031: u64 = if (c975) != 0 { (c1027) } else { (self.q126) };
-        let c1003: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1031) };
-        if self.v1003 != c1003 { self.v1003 = c1003; *dirty |= 0x200000000000000000000000000; }
-        let c986: u64 = (c1003) & ((c1000 >> 6)) & 0x1;
-        if self.v986 != c986 { self.v986 = c986; *dirty |= 0x100000000000000000000000000; }
-        let c1032: u64 = (c975) & (c976) & 0x1;
-        let c1010: u64 = if (c982) != 0 { (self.v943) } else { (c1032) };
-        if self.v1010 != c1010 { self.v1010 = c1010; *dirty |= 0xc80000000; }
-        let c83: u64 = u64::from((self.i_reset | (c1010 << 1)) != 0);
-        if self.v83 != c83 { self.v83 = c83; *dirty |= 0x20000000000000000000000000000000; }
-        let c1033: u64 = if (c975) != 0 { ((self.i_wdata & 0x1)) } else { (self.q127) };
-        let c1011: u64 = ((c1033) | (c982)) & 0x1;
-        let c1004: u64 = ((c1011) | (self.i_reset)) & 0x1;
-        if self.v1004 != c1004 { self.v1004 = c1004; *dirty |= 0x400000000000000000000000000; }
-        let c996: u64 = !(c1004) & 0x1;
-        if self.v996 != c996 { self.v996 = c996; *dirty |= 0x400000000; }
+        let c796: u64 = (self.q42).wrapping_add((c848)) & 0x3f;
+        let c813: u64 = if (self.q127) != 0 { (c808) } else { (c796) };
+        if self.v813 != c813 { self.v813 = c813; *dirty |= 0x100000000000000000000; }
+        let c853: u64 = if (self.q48) != 0 { (self.m0_rd) } else { (self.q46) };
+        if self.v853 != c853 { self.v853 = c853; *dirty |= 0x4000040000; }
+        let c852: u64 = if ((c853 >> 7)) != 0 { (0x2) } else { (0x1) };
+        let c789: u64 = ((c852 << 1) | 0x1).wrapping_add(((c853 & 0xf))) & 0xf;
+        let c851: u64 = if (((c853 >> 3) & 0x1)) != 0 { ((c852 << 1) | 0x9) } else { (c789) };
+        let c850: u64 = if (((c853 >> 6) & 0x1)) != 0 { ((c852 << 1) | 0x1) } else { (c851) };
+        let c795: u64 = (self.q47).wrapping_add((c850)) & 0x3f;
+        if self.v795 != c795 { self.v795 = c795; *dirty |= 0x4200000000; }
+        let c854: u64 = (self.q41).wrapping_sub((c850)) & 0x7f;
+        if self.v854 != c854 { self.v854 = c854; *dirty |= 0x4000000000; }
+        let c855: u64 = (self.q49).wrapping_sub((0x1)) & 0x1f;
+        if self.v855 != c855 { self.v855 = c855; *dirty |= 0x4000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$capture.
+    fn group_7(&mut self, dirty: &mut u128) {
+        let c294: u64 = u64::from((((self.q73 >> 3) & 0x3)) == (0x1));
+        let c295: u64 = u64::from(((self.q73 & 0x7)) == (0x4));
+        let c296: u64 = u64::from(((self.q73 & 0x7)) == (0x3));
+        let c297: u64 = !(((self.q73 >> 2) & 0x1)) & 0x1;
+        let c298: u64 = u64::from((((self.q73 >> 3) & 0x3)) == (0x2));
+        let c299: u64 = u64::from((((self.q73 >> 1) & 0x3)) == 0);
+        let c300: u64 = u64::from((((self.q73 >> 3) & 0x3)) == (0x3));
+        let c301: u64 = u64::from((self.q73) == (0x1));
+        if self.v301 != c301 { self.v301 = c301; *dirty |= 0x200000; }
+        let c302: u64 = u64::from(((self.q73 & 0x7)) != (0x3));
+        let c293: u64 = (c297) & (c302) & 0x1;
+        let c303: u64 = u64::from(((self.q73 >> 5)) != 0);
+        let c304: u64 = !(self.v539) & 0x1;
+        let c305: u64 = if (self.q58) != 0 { (0x2) } else { (0x1) };
+        let c307: u64 = if (self.v539) != 0 { (0x2) } else { (0x1) };
+        let c306: u64 = if (c301) != 0 { (0x0) } else { (c307) };
+        let c308: u64 = if (self.q80) != 0 { (c306) } else { (c304) };
+        let c310: u64 = if (self.v394) != 0 { (0x0) } else { (c299 | 0x2) };
+        let c312: u64 = !(c299) & 0x1;
+        let c316: u64 = !(c295) & 0x1;
+        let c315: u64 = if (c296) != 0 { (0x0) } else { ((c316 << 1) | 0x1) };
+        let c314: u64 = if (c293) != 0 { (0x2) } else { (c315) };
+        let c317: u64 = if (c294) != 0 { (c314 | 0x4) } else { (0x2) };
+        let c313: u64 = if (c298) != 0 { ((c312 << 3) | 0x7) } else { (c317) };
+        let c311: u64 = if (c300) != 0 { (c310 | 0xc) } else { (c313) };
+        let c309: u64 = if (c303) != 0 { (0xc) } else { (c311) };
+        let c318: u64 = { let s = (self.v576 | (self.v542 << 1) | (self.v603 << 2) | (self.v531 << 3) | (self.v408 << 4) | (self.v417 << 5) | (self.v420 << 6) | (self.v432 << 7) | (self.v440 << 8) | (self.v442 << 9) | (self.v444 << 10) | (self.v396 << 11) | (self.v123 << 12)); if s >> 0 & 1 != 0 { (c304 << 2) | 0x13 } else if s >> 1 & 1 != 0 { 0x1c } else if s >> 2 & 1 != 0 { c305 | ((c305 >> 1) << 2) | 0x10 } else if s >> 3 & 1 != 0 { 0x12 } else if s >> 4 & 1 != 0 { 0x1a } else if s >> 5 & 1 != 0 { 0x1b } else if s >> 6 & 1 != 0 { 0x19 } else if s >> 7 & 1 != 0 { 0x18 } else if s >> 8 & 1 != 0 { 0x8 } else if s >> 9 & 1 != 0 { 0xa } else if s >> 10 & 1 != 0 { (c308 << 1) | 0x9 } else if s >> 11 & 1 != 0 { c309 } else if s >> 12 & 1 != 0 { 0x3 } else { (0x0) } };
+        if self.v318 != c318 { self.v318 = c318; *dirty |= 0x8000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$faults.
+    fn group_8(&mut self, dirty: &mut u128) {
+        let c321: u64 = (self.q66 | (self.q64 << 4)).wrapping_add((0x1)) & 0x1f;
+        let c322: u64 = (self.q67 | (self.q68 << 7)).wrapping_add((0x1)) & 0xff;
+        if self.v322 != c322 { self.v322 = c322; *dirty |= 0x40000000; }
+        let c323: u64 = ((self.q67 >> 3) | (self.q68 << 4)).wrapping_add((0x1)) & 0x1f;
+        let c326: u64 = (self.v2) & (self.v547) & 0x1;
+        if self.v326 != c326 { self.v326 = c326; *dirty |= 0x40000000; }
+        let c328: u64 = u64::from((self.q65 | (self.q66 << 3) | (self.q64 << 7)) == 0);
+        if self.v328 != c328 { self.v328 = c328; *dirty |= 0x80000000; }
+        let c329: u64 = u64::from((self.q66 | (self.q64 << 4)) == (0x1f));
+        if self.v329 != c329 { self.v329 = c329; *dirty |= 0x80000000; }
+        let c330: u64 = u64::from(((self.q67 >> 3) | (self.q68 << 4)) == (0x1f));
+        let c331: u64 = u64::from((self.i_wdata) == (0xff));
+        if self.v331 != c331 { self.v331 = c331; *dirty |= 0x40000000; }
+        let c332: u64 = u64::from((self.q65 | (self.q66 << 3) | (self.q64 << 7)) != 0);
+        if self.v332 != c332 { self.v332 = c332; *dirty |= 0x40000000; }
+        let c333: u64 = u64::from((self.q67 | (self.q68 << 7)) != (0xff));
+        if self.v333 != c333 { self.v333 = c333; *dirty |= 0x40000000; }
+        let c334: u64 = u64::from((self.q67 | (self.q68 << 7)) != 0);
+        if self.v334 != c334 { self.v334 = c334; *dirty |= 0x40000000; }
+        let c344: u64 = if (c331) != 0 { (0x7f) } else { (self.i_wdata) };
+        if self.v344 != c344 { self.v344 = c344; *dirty |= 0x40000000; }
+        let c352: u64 = if (c330) != 0 { (0xff) } else { ((self.q67 & 0x7) | (c323 << 3)) };
+        if self.v352 != c352 { self.v352 = c352; *dirty |= 0x40000000; }
+        let c356: u64 = if (c329) != 0 { (0x0) } else { (self.q67 | (self.q68 << 7)) };
+        if self.v356 != c356 { self.v356 = c356; *dirty |= 0x40000000; }
+        let c357: u64 = if (c329) != 0 { (0x1f) } else { ((c321 << 1)) };
+        if self.v357 != c357 { self.v357 = c357; *dirty |= 0x40000000; }
+        let c358: u64 = ((self.q113) | (c329)) & 0x1;
+        if self.v358 != c358 { self.v358 = c358; *dirty |= 0x40000000; }
+        let c365: u64 = if (c328) != 0 { (0x0) } else { (self.q67 | (self.q68 << 7)) };
+        if self.v365 != c365 { self.v365 = c365; *dirty |= 0x40000000; }
+        let c366: u64 = !(c328) & 0x1;
+        if self.v366 != c366 { self.v366 = c366; *dirty |= 0x40000000; }
+        let c374: u64 = (self.q65 | (self.q66 << 3) | (self.q64 << 7)).wrapping_sub((0x1)) & 0xff;
+        if self.v374 != c374 { self.v374 = c374; *dirty |= 0x40000000; }
+        let c367: u64 = if (c328) != 0 { ((self.q64 << 7)) } else { (c374) };
+        if self.v367 != c367 { self.v367 = c367; *dirty |= 0x40000000; }
+        let c375: u64 = (self.q67 | (self.q68 << 7)).wrapping_sub((0x1)) & 0xff;
+        if self.v375 != c375 { self.v375 = c375; *dirty |= 0x40000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$interrupts.
+    fn group_9(&mut self, dirty: &mut u128) {
+        let c939: u64 = (self.i_re) & (self.v1059) & 0x1;
+        let c940: u64 = (self.q14) & (self.v878) & 0x1;
+        if self.v940 != c940 { self.v940 = c940; *dirty |= 0x800000000; }
+        let c942: u64 = (self.q74) & (self.q122) & 0x1;
+        if self.v942 != c942 { self.v942 = c942; *dirty |= 0x80000000000000800000000; }
+        let c943: u64 = (self.q75) & (self.q123) & 0x1;
+        if self.v943 != c943 { self.v943 = c943; *dirty |= 0x200000000000000800000000; }
+        let c944: u64 = (self.i_re) & (self.q14) & 0x1;
+        let c949: u64 = !(self.q127) & 0x1;
+        if self.v949 != c949 { self.v949 = c949; *dirty |= 0x42c00; }
+        let c950: u64 = !(self.q19) & 0x1;
+        let c945: u64 = (self.q43) & (c950) & 0x1;
+        if self.v945 != c945 { self.v945 = c945; *dirty |= 0x800000000; }
+        let c951: u64 = !(self.q17) & 0x1;
+        let c955: u64 = u64::from((self.q113) != (self.q25));
+        let c956: u64 = u64::from((self.q114) != (self.q18));
+        let c957: u64 = u64::from((self.q49) != 0);
+        if self.v957 != c957 { self.v957 = c957; *dirty |= 0x2000000000000000800040000; }
+        let c108: u64 = (self.q26) & (c957) & 0x1;
+        let c124: u64 = if (self.q14) != 0 { (c957) } else { (c108) };
+        if self.v124 != c124 { self.v124 = c124; *dirty |= 0x40000; }
+        let c946: u64 = (c957) & (c951) & 0x1;
+        if self.v946 != c946 { self.v946 = c946; *dirty |= 0x800000000; }
+        let c958: u64 = u64::from((self.q49) != (0x1));
+        if self.v958 != c958 { self.v958 = c958; *dirty |= 0x800000000; }
+        let c966: u64 = if (c939) != 0 { (0x0) } else { (self.q20) };
+        if self.v966 != c966 { self.v966 = c966; *dirty |= 0x800000000; }
+        let c968: u64 = if (c939) != 0 { (0x0) } else { (self.q26) };
+        if self.v968 != c968 { self.v968 = c968; *dirty |= 0x800000000; }
+        let c969: u64 = if (self.q127) != 0 { (0x0) } else { (c956) };
+        let c970: u64 = if (self.q113) != 0 { (0x0) } else { (c969) };
+        if self.v970 != c970 { self.v970 = c970; *dirty |= 0x800000000; }
+        let c972: u64 = if (self.q14) != 0 { (self.q101) } else { (0x60) };
+        let c952: u64 = u64::from((self.q65 | (self.q66 << 3) | (self.q64 << 7)) >= (c972));
+        let c953: u64 = u64::from((self.q67 | (self.q68 << 7)) >= (c972));
+        let c959: u64 = ((c952) | (c953)) & 0x1;
+        let c960: u64 = ((c959) | (self.q113)) & 0x1;
+        let c971: u64 = if (self.q127) != 0 { (self.q23) } else { (c960) };
+        if self.v971 != c971 { self.v971 = c971; *dirty |= 0x400000000000000000000000; }
+        let c954: u64 = u64::from((c971) != (self.q23));
+        let c961: u64 = ((c954) | (c955)) & 0x1;
+        if self.v961 != c961 { self.v961 = c961; *dirty |= 0x800000000; }
+        let c977: u64 = if (c943) != 0 { (0x0) } else { (self.q123) };
+        let c973: u64 = ((c977) | (self.v1052)) & 0x1;
+        let c975: u64 = if (c944) != 0 { (c973) } else { (c977) };
+        let c963: u64 = ((c975) | (self.i_reset)) & 0x1;
+        if self.v963 != c963 { self.v963 = c963; *dirty |= 0x200000000000000000000000; }
+        let c978: u64 = if (c942) != 0 { (0x0) } else { (self.q122) };
+        let c974: u64 = ((c978) | (self.v1051)) & 0x1;
+        let c976: u64 = if (c944) != 0 { (c974) } else { (c978) };
+        let c964: u64 = ((c976) | (self.i_reset)) & 0x1;
+        if self.v964 != c964 { self.v964 = c964; *dirty |= 0x80000000000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$modes.
     fn group_10(&mut self, dirty: &mut u128) {
-        let c101: u64 = u64::from(((self.q72 >> 3)) == 0);
-        let c294: u64 = u64::from((self.q72) == (0x1));
-        if self.v294 != c294 { self.v294 = c294; *dirty |= 0x200000; }
-        let c295: u64 = u64::from((self.q72) < (0x1f));
-        let c296: u64 = u64::from((self.q72) < (0x1a));
-        let c297: u64 = u64::from((self.q72) < (0x12));
-        let c298: u64 = u64::from((self.q72) < (0xd));
-        let c299: u64 = u64::from((self.q72) < (0xc));
-        let c300: u64 = u64::from((self.q72) < (0xb));
-        let c301: u64 = !(self.v533) & 0x1;
-        let c302: u64 = if (self.q57) != 0 { (0x2) } else { (0x1) };
-        let c304: u64 = if (self.v533) != 0 { (0x2) } else { (0x1) };
-        let c303: u64 = if (c294) != 0 { (0x0) } else { (c304) };
-        let c305: u64 = if (self.q79) != 0 { (c303) } else { (c301) };
-        let c311: u64 = if (c296) != 0 { (0x3) } else { ((c295 << 1)) };
-        let c310: u64 = if (c297) != 0 { (0x3) } else { (c311 | 0x4) };
-        let c309: u64 = if (c298) != 0 { (0x1) } else { (c310) };
-        let c308: u64 = if (c299) != 0 { (0x0) } else { (c309) };
-        let c307: u64 = if (c300) != 0 { (0x2) } else { (c308) };
-        let c306: u64 = if (c101) != 0 { (0x2) } else { ((c307 & 0x3) | ((c307 >> 2) << 3) | 0x4) };
-        let c312: u64 = { let s = (self.v570 | (self.v536 << 1) | (self.v597 << 2) | (self.v525 << 3) | (self.v402 << 4) | (self.v411 << 5) | (self.v414 << 6) | (self.v426 << 7) | (self.v434 << 8) | (self.v436 << 9) | (self.v438 << 10) | (self.v390 << 11) | (self.v124 << 12)); if s >> 0 & 1 != 0 { (c301 << 2) | 0x13 } else if s >> 1 & 1 != 0 { 0x1c } else if s >> 2 & 1 != 0 { c302 | ((c302 >> 1) << 2) | 0x10 } else if s >> 3 & 1 != 0 { 0x12 } else if s >> 4 & 1 != 0 { 0x1a } else if s >> 5 & 1 != 0 { 0x1b } else if s >> 6 & 1 != 0 { 0x19 } else if s >> 7 & 1 != 0 { 0x18 } else if s >> 8 & 1 != 0 { 0x8 } else if s >> 9 & 1 != 0 { 0xa } else if s >> 10 & 1 != 0 { (c305 << 1) | 0x9 } else if s >> 11 & 1 != 0 { c306 } else if s >> 12 & 1 != 0 { 0x3 } else { (0x0) } };
-        if self.v312 != c312 { self.v312 = c312; *dirty |= 0x4000000000000000; }
+        let c82: u64 = !(self.q129) & 0x1;
+        if self.v82 != c82 { self.v82 = c82; *dirty |= 0x400000000; }
+        let c84: u64 = u64::from((self.i_reset | (c82 << 1)) != 0);
+        if self.v84 != c84 { self.v84 = c84; *dirty |= 0x1000000000000000000000000000; }
+        let c980: u64 = (self.q10).wrapping_add((0x1)) & 0x1f;
+        if self.v980 != c980 { self.v980 = c980; *dirty |= 0x1000000000000000000000000000; }
+        let c981: u64 = (self.i_we) & (self.v1057) & 0x1;
+        if self.v981 != c981 { self.v981 = c981; *dirty |= 0x800; }
+        let c49: u64 = u64::from((self.q14 | (self.q127 << 1) | (c981 << 2)) == 0x7);
+        if self.v49 != c49 { self.v49 = c49; *dirty |= 0x8000000000000000000000000; }
+        let c982: u64 = ((self.i_wdata & 0x1)) & (self.v949) & 0x1;
+        let c994: u64 = !((self.i_wdata & 0x1)) & 0x1;
+        let c983: u64 = (((self.i_wdata >> 4) & 0x1)) & (c994) & 0x1;
+        let c995: u64 = !(((self.i_wdata >> 4) & 0x1)) & 0x1;
+        let c998: u64 = !(self.i_rx) & 0x1;
+        if self.v998 != c998 { self.v998 = c998; *dirty |= 0x400000000; }
+        let c999: u64 = !(self.q25) & 0x1;
+        let c988: u64 = (self.q113) & (c999) & 0x1;
+        let c1000: u64 = u64::from((self.i_addr) == (0x1f));
+        if self.v1000 != c1000 { self.v1000 = c1000; *dirty |= 0x40000; }
+        let c989: u64 = (self.i_we) & (c1000) & 0x1;
+        if self.v989 != c989 { self.v989 = c989; *dirty |= 0x8000000000; }
+        let c48: u64 = u64::from((self.q127 | (c989 << 1)) == 0x3);
+        if self.v48 != c48 { self.v48 = c48; *dirty |= 0x8000000000; }
+        let c1001: u64 = u64::from((self.q10) == (0x10));
+        if self.v1001 != c1001 { self.v1001 = c1001; *dirty |= 0x4000000000000000000000000; }
+        let c1004: u64 = u64::from((self.q10) != (0x10));
+        if self.v1004 != c1004 { self.v1004 = c1004; *dirty |= 0x400000000; }
+        let c1013: u64 = if (self.q127) != 0 { (((self.i_wdata >> 3) & 0x1) | ((self.i_wdata >> 5) << 1)) } else { (self.q15 | (self.q14 << 3)) };
+        let c1014: u64 = if (c989) != 0 { ((self.i_wdata & 0x7) | (c1013 << 3)) } else { (self.q105 | (self.q15 << 3) | (self.q14 << 6)) };
+        let c1006: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1014) };
+        if self.v1006 != c1006 { self.v1006 = c1006; *dirty |= 0x8000000000; }
+        let c1026: u64 = if (self.q127) != 0 { (((self.i_wdata >> 2) & 0x1)) } else { (self.q130) };
+        let c1027: u64 = if (self.q127) != 0 { (((self.i_wdata >> 1) & 0x1)) } else { (self.q126) };
+        let c1028: u64 = if (self.q127) != 0 { (0x0) } else { (c995) };
+        let c1029: u64 = if (self.q127) != 0 { (0x0) } else { (c983) };
+        let c1030: u64 = (self.q14) & (c1028) & 0x1;
+        let c1031: u64 = (self.q14) & (c1029) & 0x1;
+        let c1032: u64 = if (self.q14) != 0 { (c1026) } else { (self.q130) };
+        let c1033: u64 = if (self.q14) != 0 { (c1027) } else { (self.q126) };
+        let c1034: u64 = (c981) & (c1030) & 0x1;
+        if self.v1034 != c1034 { self.v1034 = c1034; *dirty |= 0x400000000; }
+        let c1035: u64 = (c981) & (c1031) & 0x1;
+        if self.v1035 != c1035 { self.v1035 = c1035; *dirty |= 0x400000000; }
+        let c1036: u64 = if (c981) != 0 { (c1032) } else { (self.q130) };
+        let c1008: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1036) };
+        if self.v1008 != c1008 { self.v1008 = c1008; *dirty |= 0x4000000000000000000000000000; }
+        let c993: u64 = (c1008) & ((c1006 >> 6)) & 0x1;
+        if self.v993 != c993 { self.v993 = c993; *dirty |= 0x800000000000000000000000000; }
+        let c1037: u64 = if (c981) != 0 { (c1033) } else { (self.q126) };
+        let c1009: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1037) };
+        if self.v1009 != c1009 { self.v1009 = c1009; *dirty |= 0x200000000000000000000000000; }
+        let c992: u64 = (c1009) & ((c1006 >> 6)) & 0x1;
+        if self.v992 != c992 { self.v992 = c992; *dirty |= 0x100000000000000000000000000; }
+        let c1038: u64 = (c981) & (c982) & 0x1;
+        let c1016: u64 = if (c988) != 0 { (self.v949) } else { (c1038) };
+        if self.v1016 != c1016 { self.v1016 = c1016; *dirty |= 0xc80000000; }
+        let c83: u64 = u64::from((self.i_reset | (c1016 << 1)) != 0);
+        if self.v83 != c83 { self.v83 = c83; *dirty |= 0x20000000000000000000000000000000; }
+        let c1039: u64 = if (c981) != 0 { ((self.i_wdata & 0x1)) } else { (self.q127) };
+        let c1017: u64 = ((c1039) | (c988)) & 0x1;
+        let c1010: u64 = ((c1017) | (self.i_reset)) & 0x1;
+        if self.v1010 != c1010 { self.v1010 = c1010; *dirty |= 0x400000000000000000000000000; }
+        let c1002: u64 = !(c1010) & 0x1;
+        if self.v1002 != c1002 { self.v1002 = c1002; *dirty |= 0x400000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$decode.
     fn group_11(&mut self, dirty: &mut u128) {
-        let c40: u64 = !(self.q13) & 0x1;
+        let c40: u64 = !(self.q14) & 0x1;
         if self.v40 != c40 { self.v40 = c40; *dirty |= 0xc00000000; }
-        let c47: u64 = u64::from((c40 | (self.v975 << 1)) == 0x3);
+        let c47: u64 = u64::from((c40 | (self.v981 << 1)) == 0x3);
         if self.v47 != c47 { self.v47 = c47; *dirty |= 0x10000000000000000000000000; }
-        let c758: u64 = (self.i_we) & (self.v1052) & 0x1;
-        let c759: u64 = (c758) & (self.v943) & 0x1;
-        if self.v759 != c759 { self.v759 = c759; *dirty |= 0x400000000; }
-        let c760: u64 = (c759) & ((self.i_wdata & 0x1)) & 0x1;
-        if self.v760 != c760 { self.v760 = c760; *dirty |= 0x2000; }
-        let c761: u64 = (c759) & (((self.i_wdata >> 1) & 0x1)) & 0x1;
-        if self.v761 != c761 { self.v761 = c761; *dirty |= 0x40000000000000000000000000002000; }
-        let c762: u64 = (c759) & (((self.i_wdata >> 2) & 0x1)) & 0x1;
-        if self.v762 != c762 { self.v762 = c762; *dirty |= 0x800000000; }
-        let c763: u64 = (c759) & (((self.i_wdata >> 3) & 0x1)) & 0x1;
-        let c88: u64 = u64::from((self.i_reset | (c763 << 1) | (self.q127 << 2)) != 0);
-        if self.v88 != c88 { self.v88 = c88; *dirty |= 0x40000000000000000000; }
-        let c764: u64 = (c759) & (((self.i_wdata >> 4) & 0x1)) & 0x1;
-        let c765: u64 = (c764) & (self.q13) & 0x1;
-        let c767: u64 = (((self.i_wdata >> 4) & 0x1)) & (c40) & 0x1;
-        if self.v767 != c767 { self.v767 = c767; *dirty |= 0x400000000; }
-        let c768: u64 = !(c760) & 0x1;
-        if self.v768 != c768 { self.v768 = c768; *dirty |= 0x2000; }
-        let c766: u64 = (c765) & (c768) & 0x1;
-        if self.v766 != c766 { self.v766 = c766; *dirty |= 0x80000000000000000000000002000; }
-        let c769: u64 = (self.q13) & (self.v776) & 0x1;
-        if self.v769 != c769 { self.v769 = c769; *dirty |= 0x42000; }
-        let c770: u64 = (self.q13) & (self.v775) & 0x1;
-        if self.v770 != c770 { self.v770 = c770; *dirty |= 0x42000; }
-        let c771: u64 = (self.q13) & (self.v774) & 0x1;
-        if self.v771 != c771 { self.v771 = c771; *dirty |= 0x42000; }
-        let c772: u64 = if (self.q13) != 0 { (0x0) } else { (self.v778) };
-        if self.v772 != c772 { self.v772 = c772; *dirty |= 0x40000; }
-        let c773: u64 = if (self.q13) != 0 { (0x0) } else { (self.v777) };
-        if self.v773 != c773 { self.v773 = c773; *dirty |= 0x42000; }
-        let c780: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x9)) & 0xf;
-        if self.v780 != c780 { self.v780 = c780; *dirty |= 0x2000; }
-        let c781: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x3)) & 0xf;
-        if self.v781 != c781 { self.v781 = c781; *dirty |= 0x40000; }
-        let c782: u64 = (((self.i_addr >> 5) & 0x1)).wrapping_sub((0x1)) & 0x1;
-        if self.v782 != c782 { self.v782 = c782; *dirty |= 0x40000; }
+        let c764: u64 = (self.i_we) & (self.v1058) & 0x1;
+        let c765: u64 = (c764) & (self.v949) & 0x1;
+        if self.v765 != c765 { self.v765 = c765; *dirty |= 0x400000000; }
+        let c766: u64 = (c765) & ((self.i_wdata & 0x1)) & 0x1;
+        if self.v766 != c766 { self.v766 = c766; *dirty |= 0x2000; }
+        let c767: u64 = (c765) & (((self.i_wdata >> 1) & 0x1)) & 0x1;
+        if self.v767 != c767 { self.v767 = c767; *dirty |= 0x40000000000000000000000000002000; }
+        let c768: u64 = (c765) & (((self.i_wdata >> 2) & 0x1)) & 0x1;
+        if self.v768 != c768 { self.v768 = c768; *dirty |= 0x800000000; }
+        let c769: u64 = (c765) & (((self.i_wdata >> 3) & 0x1)) & 0x1;
+        let c88: u64 = u64::from((self.i_reset | (c769 << 1) | (self.q127 << 2)) != 0);
+        if self.v88 != c88 { self.v88 = c88; *dirty |= 0x80000000000000000000; }
+        let c770: u64 = (c765) & (((self.i_wdata >> 4) & 0x1)) & 0x1;
+        let c771: u64 = (c770) & (self.q14) & 0x1;
+        let c773: u64 = (((self.i_wdata >> 4) & 0x1)) & (c40) & 0x1;
+        if self.v773 != c773 { self.v773 = c773; *dirty |= 0x400000000; }
+        let c774: u64 = !(c766) & 0x1;
+        if self.v774 != c774 { self.v774 = c774; *dirty |= 0x2000; }
+        let c772: u64 = (c771) & (c774) & 0x1;
+        if self.v772 != c772 { self.v772 = c772; *dirty |= 0x80000000000000000000000002000; }
+        let c775: u64 = (self.q14) & (self.v782) & 0x1;
+        if self.v775 != c775 { self.v775 = c775; *dirty |= 0x42000; }
+        let c776: u64 = (self.q14) & (self.v781) & 0x1;
+        if self.v776 != c776 { self.v776 = c776; *dirty |= 0x42000; }
+        let c777: u64 = (self.q14) & (self.v780) & 0x1;
+        if self.v777 != c777 { self.v777 = c777; *dirty |= 0x42000; }
+        let c778: u64 = if (self.q14) != 0 { (0x0) } else { (self.v784) };
+        if self.v778 != c778 { self.v778 = c778; *dirty |= 0x40000; }
+        let c779: u64 = if (self.q14) != 0 { (0x0) } else { (self.v783) };
+        if self.v779 != c779 { self.v779 = c779; *dirty |= 0x42000; }
+        let c786: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x9)) & 0xf;
+        if self.v786 != c786 { self.v786 = c786; *dirty |= 0x2000; }
+        let c787: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x3)) & 0xf;
+        if self.v787 != c787 { self.v787 = c787; *dirty |= 0x40000; }
+        let c788: u64 = (((self.i_addr >> 5) & 0x1)).wrapping_sub((0x1)) & 0x1;
+        if self.v788 != c788 { self.v788 = c788; *dirty |= 0x40000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender.
     fn group_12(&mut self, dirty: &mut u128) {
-        let c675: u64 = ((self.q55 & 0x1) | (self.q54 << 1) | ((self.q55 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
-        if self.v675 != c675 { self.v675 = c675; *dirty |= 0x80000000000; }
-        let c676: u64 = (self.q72).wrapping_add((0x1)) & 0x7f;
-        if self.v676 != c676 { self.v676 = c676; *dirty |= 0x10800000; }
-        let c683: u64 = u64::from((self.q56) == 0);
-        if self.v683 != c683 { self.v683 = c683; *dirty |= 0x20100000; }
-        let c684: u64 = u64::from((self.q56) == (0x1));
-        if self.v684 != c684 { self.v684 = c684; *dirty |= 0x100000; }
-        let c685: u64 = u64::from((self.q72) == (0x1e));
-        if self.v685 != c685 { self.v685 = c685; *dirty |= 0x10000000; }
-        let c686: u64 = !(self.v505) & 0x1;
-        if self.v686 != c686 { self.v686 = c686; *dirty |= 0x40000000000; }
-        let c734: u64 = if (self.v385) != 0 { (0x2) } else { (0x1) };
-        if self.v734 != c734 { self.v734 = c734; *dirty |= 0x40000000000; }
-        let c736: u64 = if (c683) != 0 { ((c675 & 0x7)) } else { ((self.q55 & 0x1)) };
-        if self.v736 != c736 { self.v736 = c736; *dirty |= 0x40000000000; }
-        let c743: u64 = (self.q56).wrapping_sub((0x1)) & 0xf;
-        let c737: u64 = if (c683) != 0 { (0x7) } else { (c743) };
-        if self.v737 != c737 { self.v737 = c737; *dirty |= 0x800000000000000000; }
-        let c745: u64 = ((((self.q71 >> 13) & 0x1)) ^ ((self.q71 >> 14))) & 0x1;
-        let c746: u64 = ((c745) ^ (self.q109)) & 0x1;
-        if self.v746 != c746 { self.v746 = c746; *dirty |= 0x10000000; }
+        let c681: u64 = ((self.q56 & 0x1) | (self.q55 << 1) | ((self.q56 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
+        if self.v681 != c681 { self.v681 = c681; *dirty |= 0x80000000000; }
+        let c682: u64 = (self.q73).wrapping_add((0x1)) & 0x7f;
+        if self.v682 != c682 { self.v682 = c682; *dirty |= 0x10800000; }
+        let c689: u64 = u64::from((self.q57) == 0);
+        if self.v689 != c689 { self.v689 = c689; *dirty |= 0x20100000; }
+        let c690: u64 = u64::from((self.q57) == (0x1));
+        if self.v690 != c690 { self.v690 = c690; *dirty |= 0x100000; }
+        let c691: u64 = u64::from((self.q73) == (0x1e));
+        if self.v691 != c691 { self.v691 = c691; *dirty |= 0x10000000; }
+        let c692: u64 = !(self.v511) & 0x1;
+        if self.v692 != c692 { self.v692 = c692; *dirty |= 0x40000000000; }
+        let c740: u64 = if (self.v391) != 0 { (0x2) } else { (0x1) };
+        if self.v740 != c740 { self.v740 = c740; *dirty |= 0x40000000000; }
+        let c742: u64 = if (c689) != 0 { ((c681 & 0x7)) } else { ((self.q56 & 0x1)) };
+        if self.v742 != c742 { self.v742 = c742; *dirty |= 0x40000000000; }
+        let c749: u64 = (self.q57).wrapping_sub((0x1)) & 0xf;
+        let c743: u64 = if (c689) != 0 { (0x7) } else { (c749) };
+        if self.v743 != c743 { self.v743 = c743; *dirty |= 0x1000000000000000000; }
+        let c751: u64 = ((((self.q72 >> 13) & 0x1)) ^ ((self.q72 >> 14))) & 0x1;
+        let c752: u64 = ((c751) ^ (self.q109)) & 0x1;
+        if self.v752 != c752 { self.v752 = c752; *dirty |= 0x10000000; }
         let _ = &dirty;
     }
 
     /// The cells of can_controller.
     fn group_13(&mut self, dirty: &mut u128) {
-        let c4: u64 = (self.i_we) & (self.v943) & 0x1;
+        let c4: u64 = (self.i_we) & (self.v949) & 0x1;
         let c5: u64 = (c4) & (self.q131) & 0x1;
-        let c7: u64 = (self.v851) & (self.v769) & 0x1;
-        let c8: u64 = (self.v761) & (self.v768) & 0x1;
-        let c18: u64 = (self.v851) & (self.v770) & 0x1;
+        let c7: u64 = (self.v858) & (self.v775) & 0x1;
+        let c8: u64 = (self.v767) & (self.v774) & 0x1;
+        let c18: u64 = (self.v858) & (self.v776) & 0x1;
         if self.v18 != c18 { self.v18 = c18; *dirty |= 0x200000000; }
-        let c127: u64 = !(self.v766) & 0x1;
-        let c9: u64 = (c8) & (c127) & 0x1;
-        let c10: u64 = (c9) & (self.q1) & 0x1;
+        let c126: u64 = !(self.v772) & 0x1;
+        let c9: u64 = (c8) & (c126) & 0x1;
+        let c10: u64 = (c9) & (self.q2) & 0x1;
         if self.v10 != c10 { self.v10 = c10; *dirty |= 0x4000; }
-        let c1101: u64 = ((self.v771) | (self.v773)) & 0x1;
-        let c6: u64 = (c5) & (c1101) & 0x1;
-        let c1102: u64 = ((self.v760) | (self.v766)) & 0x1;
-        let c11: u64 = (c1102) & (self.q131) & 0x1;
+        let c1107: u64 = ((self.v777) | (self.v779)) & 0x1;
+        let c6: u64 = (c5) & (c1107) & 0x1;
+        let c1108: u64 = ((self.v766) | (self.v772)) & 0x1;
+        let c11: u64 = (c1108) & (self.q131) & 0x1;
         if self.v11 != c11 { self.v11 = c11; *dirty |= 0x80000000; }
-        let c1114: u64 = if (self.q13) != 0 { ((self.i_addr & 0xf)) } else { (self.v780) };
-        if self.v1114 != c1114 { self.v1114 = c1114; *dirty |= 0x4800000000000000000000000080000; }
-        let c1098: u64 = if (c1114) < 16 { (self.q107) >> (c1114) & 0x1 } else { 0 };
-        if self.v1098 != c1098 { self.v1098 = c1098; *dirty |= 0x80000; }
-        let c1115: u64 = ((c6) | (c7)) & 0x1;
-        if self.v1115 != c1115 { self.v1115 = c1115; *dirty |= 0x80000; }
+        let c1120: u64 = if (self.q14) != 0 { ((self.i_addr & 0xf)) } else { (self.v786) };
+        if self.v1120 != c1120 { self.v1120 = c1120; *dirty |= 0x4800000000000000000000000080000; }
+        let c1104: u64 = if (c1120) < 16 { (self.q108) >> (c1120) & 0x1 } else { 0 };
+        if self.v1104 != c1104 { self.v1104 = c1104; *dirty |= 0x80000; }
+        let c1121: u64 = ((c6) | (c7)) & 0x1;
+        if self.v1121 != c1121 { self.v1121 = c1121; *dirty |= 0x80000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol.
     fn group_14(&mut self, dirty: &mut u128) {
-        let c231: u64 = (self.q50) & (self.q116) & 0x1;
-        if self.v231 != c231 { self.v231 = c231; *dirty |= 0x80000000000000000000000000000000; }
-        let c110: u64 = ((c231) | (self.v1055)) & 0x1;
+        let c230: u64 = (self.q51) & (self.q116) & 0x1;
+        if self.v230 != c230 { self.v230 = c230; *dirty |= 0x80000000000000000000000000000000; }
+        let c110: u64 = ((c230) | (self.v1061)) & 0x1;
         if self.v110 != c110 { self.v110 = c110; *dirty |= 0x40000; }
-        let c232: u64 = (self.v532) & (self.q116) & 0x1;
-        let c111: u64 = ((c232) | (self.v1055)) & 0x1;
+        let c231: u64 = (self.v538) & (self.q116) & 0x1;
+        let c111: u64 = ((c231) | (self.v1061)) & 0x1;
         if self.v111 != c111 { self.v111 = c111; *dirty |= 0x40000; }
-        let c238: u64 = (self.v566) & (self.v541) & 0x1;
-        if self.v238 != c238 { self.v238 = c238; *dirty |= 0x20000000; }
-        let c239: u64 = !(self.q1) & 0x1;
-        if self.v239 != c239 { self.v239 = c239; *dirty |= 0x80000000; }
-        let c240: u64 = !(self.q124) & 0x1;
-        let c233: u64 = (c240) & (self.v541) & 0x1;
-        if self.v233 != c233 { self.v233 = c233; *dirty |= 0x20000000; }
-        let c90: u64 = u64::from((self.i_reset | (c233 << 1) | (self.q113 << 2)) != 0);
-        if self.v90 != c90 { self.v90 = c90; *dirty |= 0x4000000000000000000; }
-        let c95: u64 = u64::from((self.i_reset | (c233 << 1) | (c238 << 2)) != 0);
-        if self.v95 != c95 { self.v95 = c95; *dirty |= 0x8000000000000000; }
-        let c96: u64 = u64::from((self.i_reset | (c233 << 1)) != 0);
-        if self.v96 != c96 { self.v96 = c96; *dirty |= 0xc000000000000000; }
-        let c249: u64 = u64::from((self.q115) != (0xf));
-        if self.v249 != c249 { self.v249 = c249; *dirty |= 0x20000000; }
-        let c251: u64 = !(self.q116) & 0x1;
-        if self.v251 != c251 { self.v251 = c251; *dirty |= 0x20000000; }
-        let c253: u64 = ((self.q69) | (c239)) & 0x1;
-        let c97: u64 = u64::from((self.i_reset | (c253 << 1)) != 0);
-        if self.v97 != c97 { self.v97 = c97; *dirty |= 0x100000000000000; }
-        let c255: u64 = ((self.q125) | (c233)) & 0x1;
-        if self.v255 != c255 { self.v255 = c255; *dirty |= 0xc0000000; }
-        let c256: u64 = ((self.q113) | (c240)) & 0x1;
-        if self.v256 != c256 { self.v256 = c256; *dirty |= 0x100000; }
-        let c258: u64 = ((self.v545) | (self.v634)) & 0x1;
-        let c259: u64 = ((c258) | (self.v566)) & 0x1;
-        let c260: u64 = ((c259) | (self.v508)) & 0x1;
-        if self.v260 != c260 { self.v260 = c260; *dirty |= 0x10000; }
-        let c269: u64 = !(c260) & 0x1;
-        if self.v269 != c269 { self.v269 = c269; *dirty |= 0x10000; }
-        let c277: u64 = ((self.q87) | (self.v10)) & 0x1;
-        if self.v277 != c277 { self.v277 = c277; *dirty |= 0x100000000000000; }
+        let c237: u64 = (self.v572) & (self.v547) & 0x1;
+        if self.v237 != c237 { self.v237 = c237; *dirty |= 0x20000000; }
+        let c238: u64 = !(self.q2) & 0x1;
+        if self.v238 != c238 { self.v238 = c238; *dirty |= 0x80000000; }
+        let c239: u64 = !(self.q124) & 0x1;
+        let c232: u64 = (c239) & (self.v547) & 0x1;
+        if self.v232 != c232 { self.v232 = c232; *dirty |= 0x20000000; }
+        let c90: u64 = u64::from((self.i_reset | (c232 << 1) | (self.q113 << 2)) != 0);
+        if self.v90 != c90 { self.v90 = c90; *dirty |= 0x8000000000000000000; }
+        let c95: u64 = u64::from((self.i_reset | (c232 << 1) | (c237 << 2)) != 0);
+        if self.v95 != c95 { self.v95 = c95; *dirty |= 0x10000000000000000; }
+        let c96: u64 = u64::from((self.i_reset | (c232 << 1)) != 0);
+        if self.v96 != c96 { self.v96 = c96; *dirty |= 0x18000000000000000; }
+        let c248: u64 = u64::from((self.q115) != (0xf));
+        if self.v248 != c248 { self.v248 = c248; *dirty |= 0x20000000; }
+        let c250: u64 = !(self.q116) & 0x1;
+        if self.v250 != c250 { self.v250 = c250; *dirty |= 0x20000000; }
+        let c252: u64 = ((self.q70) | (c238)) & 0x1;
+        let c97: u64 = u64::from((self.i_reset | (c252 << 1)) != 0);
+        if self.v97 != c97 { self.v97 = c97; *dirty |= 0x200000000000000; }
+        let c254: u64 = ((self.q125) | (c232)) & 0x1;
+        if self.v254 != c254 { self.v254 = c254; *dirty |= 0xc0000000; }
+        let c255: u64 = ((self.q113) | (c239)) & 0x1;
+        if self.v255 != c255 { self.v255 = c255; *dirty |= 0x100000; }
+        let c257: u64 = ((self.v551) | (self.v640)) & 0x1;
+        let c258: u64 = ((c257) | (self.v572)) & 0x1;
+        let c259: u64 = ((c258) | (self.v514)) & 0x1;
+        if self.v259 != c259 { self.v259 = c259; *dirty |= 0x10000; }
+        let c268: u64 = !(c259) & 0x1;
+        if self.v268 != c268 { self.v268 = c268; *dirty |= 0x10000; }
+        let c276: u64 = ((self.q88) | (self.v10)) & 0x1;
+        if self.v276 != c276 { self.v276 = c276; *dirty |= 0x200000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sampling.
     fn group_15(&mut self, dirty: &mut u128) {
-        let c221: u64 = ((self.q91 >> 1)) & ((self.q91 & 0x1)) & 0x1;
-        let c222: u64 = ((self.q91 >> 1)) & (self.q112) & 0x1;
-        let c223: u64 = ((self.q91 & 0x1)) & (self.q112) & 0x1;
-        let c224: u64 = !(self.q112) & 0x1;
-        let c220: u64 = (self.q111) & (c224) & 0x1;
-        if self.v220 != c220 { self.v220 = c220; *dirty |= 0x10000; }
-        let c225: u64 = ((c221) | (c222)) & 0x1;
-        let c226: u64 = ((c225) | (c223)) & 0x1;
-        let c227: u64 = ((self.q112) | (self.i_reset)) & 0x1;
-        if self.v227 != c227 { self.v227 = c227; *dirty |= 0x10000000000000; }
-        let c228: u64 = ((self.q110) | (self.i_reset)) & 0x1;
+        let c220: u64 = ((self.q92 >> 1)) & ((self.q92 & 0x1)) & 0x1;
+        let c221: u64 = ((self.q92 >> 1)) & (self.q112) & 0x1;
+        let c222: u64 = ((self.q92 & 0x1)) & (self.q112) & 0x1;
+        let c223: u64 = !(self.q112) & 0x1;
+        let c219: u64 = (self.q111) & (c223) & 0x1;
+        if self.v219 != c219 { self.v219 = c219; *dirty |= 0x10000; }
+        let c224: u64 = ((c220) | (c221)) & 0x1;
+        let c225: u64 = ((c224) | (c222)) & 0x1;
+        let c226: u64 = ((self.q112) | (self.i_reset)) & 0x1;
+        if self.v226 != c226 { self.v226 = c226; *dirty |= 0x20000000000000; }
+        let c227: u64 = ((self.q110) | (self.i_reset)) & 0x1;
+        if self.v227 != c227 { self.v227 = c227; *dirty |= 0x40000000000000; }
+        let c228: u64 = ((self.i_rx) | (self.i_reset)) & 0x1;
         if self.v228 != c228 { self.v228 = c228; *dirty |= 0x20000000000000; }
-        let c229: u64 = ((self.i_rx) | (self.i_reset)) & 0x1;
-        if self.v229 != c229 { self.v229 = c229; *dirty |= 0x10000000000000; }
-        let c230: u64 = if ((self.q101 >> 7)) != 0 { (c226) } else { (self.q112) };
-        if self.v230 != c230 { self.v230 = c230; *dirty |= 0x10000; }
+        let c229: u64 = if ((self.q102 >> 7)) != 0 { (c225) } else { (self.q112) };
+        if self.v229 != c229 { self.v229 = c229; *dirty |= 0x10000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing.
     fn group_16(&mut self, dirty: &mut u128) {
-        let c143: u64 = (self.v220) & (self.q109) & 0x1;
-        let c144: u64 = (c143) & (self.v167) & 0x1;
-        let c151: u64 = (self.v269) & (self.v529) & 0x1;
-        let c170: u64 = !(c151) & 0x1;
-        let c152: u64 = (c144) & (c170) & 0x1;
-        let c171: u64 = !(c152) & 0x1;
-        let c153: u64 = (self.v150) & (c171) & 0x1;
-        let c154: u64 = (c153) & (self.v173) & 0x1;
-        if self.v154 != c154 { self.v154 = c154; *dirty |= 0x80000000000000000004000400000000; }
-        let c187: u64 = if (c154) != 0 { (0x0) } else { (self.q89) };
-        let c188: u64 = if (c154) != 0 { (self.v230) } else { (self.q109) };
-        let c184: u64 = ((c188) | (self.i_reset)) & 0x1;
-        if self.v184 != c184 { self.v184 = c184; *dirty |= 0x8000000000000; }
-        let c209: u64 = if (self.v260) != 0 { (0x0) } else { (self.v161) };
-        let c210: u64 = if (self.v260) != 0 { (0x0) } else { (self.v205) };
-        let c211: u64 = if (self.v260) != 0 { (0x0) } else { (self.v206) };
-        let c212: u64 = if (self.v260) != 0 { (0x0) } else { (self.v207) };
-        let c213: u64 = if (self.v260) != 0 { (0x0) } else { (self.v208) };
-        let c214: u64 = (c144) & (c209) & 0x1;
-        let c215: u64 = (c144) & (c210) & 0x1;
-        let c216: u64 = (c144) & (c211) & 0x1;
-        let c168: u64 = !(c216) & 0x1;
-        let c146: u64 = (self.v145) & (c168) & 0x1;
-        let c199: u64 = if (c216) != 0 { (self.v198) } else { (self.v163 | (self.v163 << 1) | (self.v163 << 2) | (self.v163 << 3)) };
-        let c197: u64 = if (c215) != 0 { (self.v196 | 0x8) } else { (c199) };
-        let c141: u64 = (self.q92).wrapping_add((c197 | ((c197 >> 3) << 4))) & 0x1f;
-        let c190: u64 = { let s = (self.v191 | (self.v193 << 1) | (self.v161 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.q97 } else if s >> 2 & 1 != 0 { (self.q101 & 0xf) } else { (c141) } };
-        let c200: u64 = if (c215) != 0 { (self.v147) } else { (c146) };
-        let c76: u64 = u64::from((c200 | (self.v39 << 1)) == 0x3);
-        if self.v76 != c76 { self.v76 = c76; *dirty |= 0x40000000000000; }
-        let c194: u64 = if (c200) != 0 { (c190) } else { (c141) };
-        if self.v194 != c194 { self.v194 = c194; *dirty |= 0x8000000000000; }
-        let c217: u64 = (c144) & (c212) & 0x1;
-        let c218: u64 = (c144) & (c213) & 0x1;
-        let c179: u64 = ((c218) | (c217)) & 0x1;
-        let c180: u64 = ((c179) | (c216)) & 0x1;
-        let c181: u64 = ((c180) | (c215)) & 0x1;
-        let c182: u64 = ((c181) | (c214)) & 0x1;
-        let c219: u64 = (c144) & (self.v260) & 0x1;
-        let c174: u64 = ((c219) | (c218)) & 0x1;
-        let c175: u64 = ((c174) | (c217)) & 0x1;
-        let c98: u64 = u64::from((self.i_reset | (c175 << 1)) != 0);
-        if self.v98 != c98 { self.v98 = c98; *dirty |= 0x48000000000000; }
-        let c99: u64 = u64::from((self.i_reset | (c200 << 1) | (c175 << 2)) != 0);
-        if self.v99 != c99 { self.v99 = c99; *dirty |= 0x4000000000000; }
-        let c100: u64 = u64::from((self.i_reset | (self.v163 << 1) | (c175 << 2)) != 0);
+        let c142: u64 = (self.v219) & (self.q109) & 0x1;
+        let c143: u64 = (c142) & (self.v165) & 0x1;
+        let c150: u64 = (self.v268) & (self.v535) & 0x1;
+        let c168: u64 = !(c150) & 0x1;
+        let c151: u64 = (c143) & (c168) & 0x1;
+        let c169: u64 = !(c151) & 0x1;
+        let c152: u64 = (self.v149) & (c169) & 0x1;
+        let c153: u64 = (c152) & (self.v170) & 0x1;
+        if self.v153 != c153 { self.v153 = c153; *dirty |= 0x80000000000000000008000400000000; }
+        let c185: u64 = if (c153) != 0 { (0x0) } else { (self.q90) };
+        let c186: u64 = if (c153) != 0 { (self.v229) } else { (self.q109) };
+        let c182: u64 = ((c186) | (self.i_reset)) & 0x1;
+        if self.v182 != c182 { self.v182 = c182; *dirty |= 0x10000000000000; }
+        let c208: u64 = if (self.v259) != 0 { (0x0) } else { (self.v189) };
+        let c209: u64 = if (self.v259) != 0 { (0x0) } else { (self.v204) };
+        let c210: u64 = if (self.v259) != 0 { (0x0) } else { (self.v205) };
+        let c211: u64 = if (self.v259) != 0 { (0x0) } else { (self.v206) };
+        let c212: u64 = if (self.v259) != 0 { (0x0) } else { (self.v207) };
+        let c213: u64 = (c143) & (c208) & 0x1;
+        let c214: u64 = (c143) & (c209) & 0x1;
+        let c215: u64 = (c143) & (c210) & 0x1;
+        let c166: u64 = !(c215) & 0x1;
+        let c145: u64 = (self.v144) & (c166) & 0x1;
+        let c196: u64 = if (c215) != 0 { (self.v195) } else { (self.v161 | (self.v161 << 1) | (self.v161 << 2) | (self.v161 << 3)) };
+        let c194: u64 = if (c214) != 0 { (self.v193 | 0x8) } else { (c196) };
+        let c140: u64 = (self.q93).wrapping_add((c194 | ((c194 >> 3) << 4))) & 0x1f;
+        let c188: u64 = { let s = (self.v198 | (self.v203 << 1) | (self.v189 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.q98 } else if s >> 2 & 1 != 0 { (self.q102 & 0xf) } else { (c140) } };
+        let c197: u64 = if (c214) != 0 { (self.v146) } else { (c145) };
+        let c76: u64 = u64::from((c197 | (self.v39 << 1)) == 0x3);
+        if self.v76 != c76 { self.v76 = c76; *dirty |= 0x80000000000000; }
+        let c191: u64 = if (c197) != 0 { (c188) } else { (c140) };
+        if self.v191 != c191 { self.v191 = c191; *dirty |= 0x10000000000000; }
+        let c216: u64 = (c143) & (c211) & 0x1;
+        let c217: u64 = (c143) & (c212) & 0x1;
+        let c177: u64 = ((c217) | (c216)) & 0x1;
+        let c178: u64 = ((c177) | (c215)) & 0x1;
+        let c179: u64 = ((c178) | (c214)) & 0x1;
+        let c180: u64 = ((c179) | (c213)) & 0x1;
+        let c218: u64 = (c143) & (self.v259) & 0x1;
+        let c172: u64 = ((c218) | (c217)) & 0x1;
+        let c173: u64 = ((c172) | (c216)) & 0x1;
+        let c98: u64 = u64::from((self.i_reset | (c173 << 1)) != 0);
+        if self.v98 != c98 { self.v98 = c98; *dirty |= 0x90000000000000; }
+        let c99: u64 = u64::from((self.i_reset | (c197 << 1) | (c173 << 2)) != 0);
+        if self.v99 != c99 { self.v99 = c99; *dirty |= 0x8000000000000; }
+        let c100: u64 = u64::from((self.i_reset | (self.v161 << 1) | (c173 << 2)) != 0);
         if self.v100 != c100 { self.v100 = c100; *dirty |= 0x10000000000; }
-        let c169: u64 = !(c175) & 0x1;
-        let c148: u64 = (self.v163) & (c169) & 0x1;
-        if self.v148 != c148 { self.v148 = c148; *dirty |= 0x20000000000000; }
-        let c176: u64 = ((self.v155) | (c219)) & 0x1;
-        let c177: u64 = ((c176) | (c217)) & 0x1;
-        let c156: u64 = (c177) & (self.v172) & 0x1;
-        let c157: u64 = (c156) & (self.v173) & 0x1;
-        let c158: u64 = (c177) & (self.q93) & 0x1;
-        if self.v158 != c158 { self.v158 = c158; *dirty |= 0x80000000000000; }
-        let c178: u64 = ((c157) | (self.q88)) & 0x1;
-        if self.v178 != c178 { self.v178 = c178; *dirty |= 0x100000; }
-        let c183: u64 = ((c219) | (c182)) & 0x1;
-        let c185: u64 = if (c175) != 0 { (0x0) } else { (self.q90) };
-        if self.v185 != c185 { self.v185 = c185; *dirty |= 0x80000000000000000000000000000000; }
-        let c186: u64 = ((c187) | (c183)) & 0x1;
-        if self.v186 != c186 { self.v186 = c186; *dirty |= 0x80000000000000; }
-        let c189: u64 = ((self.v195) | (c175)) & 0x1;
-        if self.v189 != c189 { self.v189 = c189; *dirty |= 0x10000000000; }
+        let c167: u64 = !(c173) & 0x1;
+        let c147: u64 = (self.v161) & (c167) & 0x1;
+        if self.v147 != c147 { self.v147 = c147; *dirty |= 0x40000000000000; }
+        let c174: u64 = ((self.v154) | (c218)) & 0x1;
+        let c175: u64 = ((c174) | (c216)) & 0x1;
+        let c155: u64 = (c175) & (self.v171) & 0x1;
+        let c156: u64 = (c155) & (self.v170) & 0x1;
+        let c157: u64 = (c175) & (self.q94) & 0x1;
+        if self.v157 != c157 { self.v157 = c157; *dirty |= 0x100000000000000; }
+        let c176: u64 = ((c156) | (self.q89)) & 0x1;
+        if self.v176 != c176 { self.v176 = c176; *dirty |= 0x100000; }
+        let c181: u64 = ((c218) | (c180)) & 0x1;
+        let c183: u64 = if (c173) != 0 { (0x0) } else { (self.q91) };
+        if self.v183 != c183 { self.v183 = c183; *dirty |= 0x80000000000000000000000000000000; }
+        let c184: u64 = ((c185) | (c181)) & 0x1;
+        if self.v184 != c184 { self.v184 = c184; *dirty |= 0x100000000000000; }
+        let c187: u64 = ((self.v192) | (c173)) & 0x1;
+        if self.v187 != c187 { self.v187 = c187; *dirty |= 0x10000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$crc.
     fn group_17(&mut self, dirty: &mut u128) {
-        let c102: u64 = !(((self.q71 >> 2) & 0x1)) & 0x1;
-        let c103: u64 = !(((self.q71 >> 3) & 0x1)) & 0x1;
-        let c104: u64 = !(((self.q71 >> 6) & 0x1)) & 0x1;
-        let c105: u64 = !(((self.q71 >> 7) & 0x1)) & 0x1;
-        let c106: u64 = !(((self.q71 >> 9) & 0x1)) & 0x1;
-        let c107: u64 = !(((self.q71 >> 13) & 0x1)) & 0x1;
-        let c314: u64 = ((self.q109) ^ ((self.q71 >> 14))) & 0x1;
-        let c313: u64 = if (c314) != 0 { ((c102 << 1) | (c103 << 2) | (c104 << 3) | (c105 << 4) | (c106 << 5) | (c107 << 6) | 0x1) } else { ((((self.q71 >> 2) & 0x3) << 1) | (((self.q71 >> 6) & 0x3) << 3) | (((self.q71 >> 9) & 0x1) << 5) | (((self.q71 >> 13) & 0x1) << 6)) };
-        if self.v313 != c313 { self.v313 = c313; *dirty |= 0x10000000000000000; }
+        let c101: u64 = !(((self.q72 >> 2) & 0x1)) & 0x1;
+        let c102: u64 = !(((self.q72 >> 3) & 0x1)) & 0x1;
+        let c103: u64 = !(((self.q72 >> 6) & 0x1)) & 0x1;
+        let c104: u64 = !(((self.q72 >> 7) & 0x1)) & 0x1;
+        let c105: u64 = !(((self.q72 >> 9) & 0x1)) & 0x1;
+        let c106: u64 = !(((self.q72 >> 13) & 0x1)) & 0x1;
+        let c320: u64 = ((self.q109) ^ ((self.q72 >> 14))) & 0x1;
+        let c319: u64 = if (c320) != 0 { ((c101 << 1) | (c102 << 2) | (c103 << 3) | (c104 << 4) | (c105 << 5) | (c106 << 6) | 0x1) } else { ((((self.q72 >> 2) & 0x3) << 1) | (((self.q72 >> 6) & 0x3) << 3) | (((self.q72 >> 9) & 0x1) << 5) | (((self.q72 >> 13) & 0x1) << 6)) };
+        if self.v319 != c319 { self.v319 = c319; *dirty |= 0x20000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$read.
     fn group_18(&mut self, dirty: &mut u128) {
-        let c109: u64 = (self.v125) & ((self.q21 & 0x1)) & 0x1;
-        if self.v109 != c109 { self.v109 = c109; *dirty |= 0x400000000000; }
-        let c1041: u64 = (c109 | (self.q19 << 1)) & (self.q21 | (self.v1085 << 4)) & 0xff;
-        let c1042: u64 = (self.v771) & (self.v943) & 0x1;
-        let c1043: u64 = (self.v943) & (self.v779) & 0x1;
-        if self.v1043 != c1043 { self.v1043 = c1043; *dirty |= 0x400000000000; }
-        let c1056: u64 = ((c1042) | (self.v770)) & 0x1;
-        let c1062: u64 = if (self.v772) != 0 { (self.v781) } else { ((self.i_addr & 0xf)) };
-        let c1040: u64 = (self.q46).wrapping_add((c1062)) & 0x3f;
-        let c1061: u64 = if (self.v770) != 0 { ((self.i_addr & 0x1f) | (self.v782 << 5)) } else { (c1040) };
-        if self.v1061 != c1061 { self.v1061 = c1061; *dirty |= 0x200000000; }
-        let c1063: u64 = if (self.v1054) != 0 { ((self.v846 & 0xf)) } else { (0x0) };
-        let c1076: u64 = if (self.q13) != 0 { (self.v769) } else { (self.v773) };
-        let c1057: u64 = (self.i_re) & (c1076) & 0x1;
-        if self.v1057 != c1057 { self.v1057 = c1057; *dirty |= 0x10000000000000000000000000000; }
-        let c1077: u64 = if (self.q13) != 0 { (c1056) } else { (self.v772) };
-        if self.v1077 != c1077 { self.v1077 = c1077; *dirty |= 0x80000000; }
-        let c1079: u64 = if (self.q13) != 0 { (0x0) } else { (c1063) };
-        if self.v1079 != c1079 { self.v1079 = c1079; *dirty |= 0x20000000000000000000000000000; }
-        let c1084: u64 = if (self.v1044) != 0 { (self.v951 | (self.q42 << 1) | (self.q131 << 2) | (self.q132 << 3) | (self.v111 << 4) | (self.v110 << 5) | (self.q22 << 6) | (self.q113 << 7)) } else { (0x0) };
-        let c1083: u64 = if (self.v1053) != 0 { (c109 | (self.q19 << 1)) } else { (c1084) };
-        let c1082: u64 = if (self.v994) != 0 { (self.q104 | ((self.q14 & 0x1) << 3) | ((self.q14 >> 1) << 5) | (self.q13 << 7)) } else { (c1083) };
-        if self.v1082 != c1082 { self.v1082 = c1082; *dirty |= 0x400000000000; }
-        let c1086: u64 = u64::from((c1041) != 0);
-        if self.v1086 != c1086 { self.v1086 = c1086; *dirty |= 0x400000000; }
+        let c109: u64 = (self.v124) & ((self.q22 & 0x1)) & 0x1;
+        if self.v109 != c109 { self.v109 = c109; *dirty |= 0x800000000000; }
+        let c1047: u64 = (c109 | (self.q20 << 1)) & (self.q22 | (self.v1091 << 4)) & 0xff;
+        let c1048: u64 = (self.v777) & (self.v949) & 0x1;
+        let c1049: u64 = (self.v949) & (self.v785) & 0x1;
+        if self.v1049 != c1049 { self.v1049 = c1049; *dirty |= 0x800000000000; }
+        let c1062: u64 = ((c1048) | (self.v776)) & 0x1;
+        let c1068: u64 = if (self.v778) != 0 { (self.v787) } else { ((self.i_addr & 0xf)) };
+        let c1046: u64 = (self.q47).wrapping_add((c1068)) & 0x3f;
+        let c1067: u64 = if (self.v776) != 0 { ((self.i_addr & 0x1f) | (self.v788 << 5)) } else { (c1046) };
+        if self.v1067 != c1067 { self.v1067 = c1067; *dirty |= 0x200000000; }
+        let c1069: u64 = if (self.v1060) != 0 { ((self.v853 & 0xf)) } else { (0x0) };
+        let c1082: u64 = if (self.q14) != 0 { (self.v775) } else { (self.v779) };
+        let c1063: u64 = (self.i_re) & (c1082) & 0x1;
+        if self.v1063 != c1063 { self.v1063 = c1063; *dirty |= 0x10000000000000000000000000000; }
+        let c1083: u64 = if (self.q14) != 0 { (c1062) } else { (self.v778) };
+        if self.v1083 != c1083 { self.v1083 = c1083; *dirty |= 0x80000000; }
+        let c1085: u64 = if (self.q14) != 0 { (0x0) } else { (c1069) };
+        if self.v1085 != c1085 { self.v1085 = c1085; *dirty |= 0x20000000000000000000000000000; }
+        let c1090: u64 = if (self.v1050) != 0 { (self.v957 | (self.q43 << 1) | (self.q131 << 2) | (self.q132 << 3) | (self.v111 << 4) | (self.v110 << 5) | (self.q23 << 6) | (self.q113 << 7)) } else { (0x0) };
+        let c1089: u64 = if (self.v1059) != 0 { (c109 | (self.q20 << 1)) } else { (c1090) };
+        let c1088: u64 = if (self.v1000) != 0 { (self.q105 | ((self.q15 & 0x1) << 3) | ((self.q15 >> 1) << 5) | (self.q14 << 7)) } else { (c1089) };
+        if self.v1088 != c1088 { self.v1088 = c1088; *dirty |= 0x800000000000; }
+        let c1092: u64 = u64::from((c1047) != 0);
+        if self.v1092 != c1092 { self.v1092 = c1092; *dirty |= 0x400000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer.
     fn group_19(&mut self, dirty: &mut u128) {
-        let c1091: u64 = u64::from((self.v1114) == 0);
-        let c1092: u64 = u64::from((self.v1114) == (0x2));
-        let c1093: u64 = u64::from((self.v1114) < (0xd));
-        let c1087: u64 = (self.v1115) & (c1093) & 0x1;
-        if self.v1087 != c1087 { self.v1087 = c1087; *dirty |= 0x14800000000000000000000000000000; }
-        let c45: u64 = u64::from((c1091 | (c1087 << 1)) == 0x3);
+        let c1097: u64 = u64::from((self.v1120) == 0);
+        let c1098: u64 = u64::from((self.v1120) == (0x2));
+        let c1099: u64 = u64::from((self.v1120) < (0xd));
+        let c1093: u64 = (self.v1121) & (c1099) & 0x1;
+        if self.v1093 != c1093 { self.v1093 = c1093; *dirty |= 0x14800000000000000000000000000000; }
+        let c45: u64 = u64::from((c1097 | (c1093 << 1)) == 0x3);
         if self.v45 != c45 { self.v45 = c45; *dirty |= 0x2000000000000000000000000000000; }
-        let c46: u64 = u64::from((c1092 | (c1087 << 1)) == 0x3);
+        let c46: u64 = u64::from((c1098 | (c1093 << 1)) == 0x3);
         if self.v46 != c46 { self.v46 = c46; *dirty |= 0x400000000000000000000000000000; }
-        let c1090: u64 = !(c1087) & 0x1;
-        let c1088: u64 = (self.v1098) & (c1090) & 0x1;
-        if self.v1088 != c1088 { self.v1088 = c1088; *dirty |= 0x8000000000000000000000000000000; }
-        let c1089: u64 = (self.v1099) & (c1090) & 0x1;
-        if self.v1089 != c1089 { self.v1089 = c1089; *dirty |= 0x1000000000000000000000000000000; }
-        let c1095: u64 = if (self.q13) != 0 { (self.q3) } else { ((self.q106 & 0xf) | ((self.q106 >> 4) << 6)) };
-        if self.v1095 != c1095 { self.v1095 = c1095; *dirty |= 0x40010100000; }
-        let c1096: u64 = if (self.q4) != 0 { (self.m1_rd) } else { (0x0) };
-        if self.v1096 != c1096 { self.v1096 = c1096; *dirty |= 0x100000; }
-        let c1097: u64 = if (self.q2) != 0 { (self.m2_rd) } else { (0x0) };
-        if self.v1097 != c1097 { self.v1097 = c1097; *dirty |= 0x400000000000; }
-        let c1100: u64 = (if (self.v1114) < 64 { (0x1) << (self.v1114) } else { 0 }) & 0x1fff;
-        let c1094: u64 = !(c1100) & 0x1fff;
-        let c118: u64 = (self.q107) & (c1094) & 0x1fff;
-        let c120: u64 = ((c118) | (c1100)) & 0x1fff;
+        let c1096: u64 = !(c1093) & 0x1;
+        let c1094: u64 = (self.v1104) & (c1096) & 0x1;
+        if self.v1094 != c1094 { self.v1094 = c1094; *dirty |= 0x8000000000000000000000000000000; }
+        let c1095: u64 = (self.v1105) & (c1096) & 0x1;
+        if self.v1095 != c1095 { self.v1095 = c1095; *dirty |= 0x1000000000000000000000000000000; }
+        let c1101: u64 = if (self.q14) != 0 { (self.q4) } else { ((self.q107 & 0xf) | ((self.q107 >> 4) << 6)) };
+        if self.v1101 != c1101 { self.v1101 = c1101; *dirty |= 0x40010100000; }
+        let c1102: u64 = if (self.q5) != 0 { (self.m1_rd) } else { (0x0) };
+        if self.v1102 != c1102 { self.v1102 = c1102; *dirty |= 0x100000; }
+        let c1103: u64 = if (self.q3) != 0 { (self.m2_rd) } else { (0x0) };
+        if self.v1103 != c1103 { self.v1103 = c1103; *dirty |= 0x800000000000; }
+        let c1106: u64 = (if (self.v1120) < 64 { (0x1) << (self.v1120) } else { 0 }) & 0x1fff;
+        let c1100: u64 = !(c1106) & 0x1fff;
+        let c118: u64 = (self.q108) & (c1100) & 0x1fff;
+        let c120: u64 = ((c118) | (c1106)) & 0x1fff;
         if self.v120 != c120 { self.v120 = c120; *dirty |= 0x10000000000000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender.
     fn group_20(&mut self, dirty: &mut u128) {
-        let c695: u64 = ((self.v256) | (self.i_reset)) & 0x1;
-        if self.v695 != c695 { self.v695 = c695; *dirty |= 0x40000000000; }
-        let c699: u64 = if (self.v178) != 0 { (self.q117) } else { (self.q118) };
-        let c698: u64 = ((c699) | (self.q125)) & 0x1;
-        let c697: u64 = ((c698) | (c695)) & 0x1;
-        if self.v697 != c697 { self.v697 = c697; *dirty |= 0x1000000000000000000; }
-        let c720: u64 = ((((self.v1095 >> 6) & 0x1)) | ((self.v1095 >> 7))) & 0x1;
-        if self.v720 != c720 { self.v720 = c720; *dirty |= 0x40000000000; }
-        let c738: u64 = if (self.v683) != 0 { ((self.v1096 & 0x7f)) } else { (((self.q103 & 0x3f) << 1)) };
-        if self.v738 != c738 { self.v738 = c738; *dirty |= 0x1000000000000000000; }
-        let c741: u64 = if (self.v683) != 0 { (((self.v1096 >> 6) & 0x1)) } else { (((self.q103 >> 5) & 0x1)) };
-        let c740: u64 = if (self.v684) != 0 { ((self.v1096 >> 7)) } else { (c741) };
-        if self.v740 != c740 { self.v740 = c740; *dirty |= 0x40000000000; }
-        let c742: u64 = if (self.v683) != 0 { ((self.v1096 >> 7)) } else { ((self.q103 >> 6)) };
-        if self.v742 != c742 { self.v742 = c742; *dirty |= 0x40000000000; }
+        let c701: u64 = ((self.v255) | (self.i_reset)) & 0x1;
+        if self.v701 != c701 { self.v701 = c701; *dirty |= 0x40000000000; }
+        let c705: u64 = if (self.v176) != 0 { (self.q117) } else { (self.q118) };
+        let c704: u64 = ((c705) | (self.q125)) & 0x1;
+        let c703: u64 = ((c704) | (c701)) & 0x1;
+        if self.v703 != c703 { self.v703 = c703; *dirty |= 0x2000000000000000000; }
+        let c726: u64 = ((((self.v1101 >> 6) & 0x1)) | ((self.v1101 >> 7))) & 0x1;
+        if self.v726 != c726 { self.v726 = c726; *dirty |= 0x40000000000; }
+        let c744: u64 = if (self.v689) != 0 { ((self.v1102 & 0x7f)) } else { (((self.q104 & 0x3f) << 1)) };
+        if self.v744 != c744 { self.v744 = c744; *dirty |= 0x2000000000000000000; }
+        let c747: u64 = if (self.v689) != 0 { (((self.v1102 >> 6) & 0x1)) } else { (((self.q104 >> 5) & 0x1)) };
+        let c746: u64 = if (self.v690) != 0 { ((self.v1102 >> 7)) } else { (c747) };
+        if self.v746 != c746 { self.v746 = c746; *dirty |= 0x40000000000; }
+        let c748: u64 = if (self.v689) != 0 { ((self.v1102 >> 7)) } else { ((self.q104 >> 6)) };
+        if self.v748 != c748 { self.v748 = c748; *dirty |= 0x40000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler.
     fn group_21(&mut self, dirty: &mut u128) {
-        let c280: u64 = (self.v294) & (self.q79) & 0x1;
-        let c282: u64 = (((self.q72 >> 3) & 0x1)) & (((self.q72 >> 2) & 0x1)) & 0x1;
-        let c284: u64 = !(((self.q72 >> 4) & 0x1)) & 0x1;
-        let c285: u64 = !(c280) & 0x1;
-        let c281: u64 = (self.v537) & (c285) & 0x1;
-        if self.v281 != c281 { self.v281 = c281; *dirty |= 0x100000000; }
-        let c286: u64 = !(c282) & 0x1;
-        let c283: u64 = (c284) & (c286) & 0x1;
-        if self.v283 != c283 { self.v283 = c283; *dirty |= 0x4000000; }
-        let c43: u64 = !(c283) & 0x1;
+        let c279: u64 = (self.v301) & (self.q80) & 0x1;
+        let c281: u64 = (((self.q73 >> 3) & 0x1)) & (((self.q73 >> 2) & 0x1)) & 0x1;
+        let c283: u64 = !(((self.q73 >> 4) & 0x1)) & 0x1;
+        let c284: u64 = !(c279) & 0x1;
+        let c280: u64 = (self.v543) & (c284) & 0x1;
+        if self.v280 != c280 { self.v280 = c280; *dirty |= 0x100000000; }
+        let c285: u64 = !(c281) & 0x1;
+        let c282: u64 = (c283) & (c285) & 0x1;
+        if self.v282 != c282 { self.v282 = c282; *dirty |= 0x4000000; }
+        let c43: u64 = !(c282) & 0x1;
         if self.v43 != c43 { self.v43 = c43; *dirty |= 0x100000000; }
-        let c287: u64 = (self.v436) & (self.v388) & 0x1;
-        if self.v287 != c287 { self.v287 = c287; *dirty |= 0x100000000; }
-        let c292: u64 = if ((self.q83 >> 3)) != 0 { (0x8) } else { ((self.q83 & 0x7)) };
-        let c291: u64 = if (self.q77) != 0 { (0x0) } else { (c292) };
-        let c293: u64 = (c291).wrapping_sub((0x1)) & 0xf;
-        if self.v293 != c293 { self.v293 = c293; *dirty |= 0x1000000000000000; }
+        let c286: u64 = (self.v442) & (self.v394) & 0x1;
+        if self.v286 != c286 { self.v286 = c286; *dirty |= 0x100000000; }
+        let c291: u64 = if ((self.q84 >> 3)) != 0 { (0x8) } else { ((self.q84 & 0x7)) };
+        let c290: u64 = if (self.q78) != 0 { (0x0) } else { (c291) };
+        let c292: u64 = (c290).wrapping_sub((0x1)) & 0xf;
+        if self.v292 != c292 { self.v292 = c292; *dirty |= 0x2000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$configuration.
     fn group_22(&mut self, dirty: &mut u128) {
-        let c129: u64 = u64::from((self.i_addr) == (0xd));
-        let c128: u64 = (self.q13) & (c129) & 0x1;
-        let c81: u64 = u64::from((self.v851 | (c128 << 1)) == 0x3);
-        if self.v81 != c81 { self.v81 = c81; *dirty |= 0x1000000000000; }
-        let c130: u64 = u64::from((self.i_addr) == (0x6));
-        let c79: u64 = u64::from((self.v851 | (c130 << 1)) == 0x3);
-        if self.v79 != c79 { self.v79 = c79; *dirty |= 0x2800000000000; }
-        let c131: u64 = u64::from((self.i_addr) == (0x7));
-        let c78: u64 = u64::from((self.v851 | (c131 << 1)) == 0x3);
-        if self.v78 != c78 { self.v78 = c78; *dirty |= 0x2800000000000; }
-        let c132: u64 = u64::from((self.i_addr) == (0x8));
-        let c80: u64 = u64::from((self.v851 | (c132 << 1)) == 0x3);
-        if self.v80 != c80 { self.v80 = c80; *dirty |= 0x1000000000000; }
-        let c137: u64 = if (c131) != 0 { (self.q101) } else { (self.q102) };
-        let c135: u64 = if (c132) != 0 { (self.q99) } else { (c137) };
-        let c133: u64 = if (c128) != 0 { (self.q100) } else { (c135) };
-        if self.v133 != c133 { self.v133 = c133; *dirty |= 0x400000000000; }
-        let c138: u64 = ((c130) | (c131)) & 0x1;
-        let c136: u64 = ((c138) | (c132)) & 0x1;
-        let c134: u64 = ((c136) | (c128)) & 0x1;
-        if self.v134 != c134 { self.v134 = c134; *dirty |= 0x400000000000; }
+        let c128: u64 = u64::from((self.i_addr) == (0xd));
+        let c127: u64 = (self.q14) & (c128) & 0x1;
+        let c81: u64 = u64::from((self.v858 | (c127 << 1)) == 0x3);
+        if self.v81 != c81 { self.v81 = c81; *dirty |= 0x2000000000000; }
+        let c129: u64 = u64::from((self.i_addr) == (0x6));
+        let c79: u64 = u64::from((self.v858 | (c129 << 1)) == 0x3);
+        if self.v79 != c79 { self.v79 = c79; *dirty |= 0x5000000000000; }
+        let c130: u64 = u64::from((self.i_addr) == (0x7));
+        let c78: u64 = u64::from((self.v858 | (c130 << 1)) == 0x3);
+        if self.v78 != c78 { self.v78 = c78; *dirty |= 0x5000000000000; }
+        let c131: u64 = u64::from((self.i_addr) == (0x8));
+        let c80: u64 = u64::from((self.v858 | (c131 << 1)) == 0x3);
+        if self.v80 != c80 { self.v80 = c80; *dirty |= 0x2000000000000; }
+        let c136: u64 = if (c130) != 0 { (self.q102) } else { (self.q103) };
+        let c134: u64 = if (c131) != 0 { (self.q100) } else { (c136) };
+        let c132: u64 = if (c127) != 0 { (self.q101) } else { (c134) };
+        if self.v132 != c132 { self.v132 = c132; *dirty |= 0x800000000000; }
+        let c137: u64 = ((c129) | (c130)) & 0x1;
+        let c135: u64 = ((c137) | (c131)) & 0x1;
+        let c133: u64 = ((c135) | (c127)) & 0x1;
+        if self.v133 != c133 { self.v133 = c133; *dirty |= 0x800000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$frame.
     fn group_23(&mut self, dirty: &mut u128) {
-        let c371: u64 = (self.v386) & (self.v881) & 0x1;
-        let c399: u64 = ((self.v531) | (c371)) & 0x1;
-        if self.v399 != c399 { self.v399 = c399; *dirty |= 0x20000000; }
-        let c409: u64 = if (self.v395) != 0 { (0x0) } else { (self.v676) };
-        let c435: u64 = if (self.v373) != 0 { (0x0) } else { (self.v676) };
-        let c439: u64 = if (c399) != 0 { (self.v400 | 0x4) } else { (self.q115) };
-        let c440: u64 = if (c399) != 0 { (0x0) } else { (self.v676) };
-        let c447: u64 = if (self.v401) != 0 { (0x0) } else { (self.v676) };
-        let c454: u64 = { let s = (self.v402 | (self.v411 << 1) | (self.v436 << 2) | (self.v438 << 3) | (self.v390 << 4)); if s >> 0 & 1 != 0 { c409 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c435 } else if s >> 3 & 1 != 0 { c440 } else if s >> 4 & 1 != 0 { c447 } else { (self.v676) } };
-        if self.v454 != c454 { self.v454 = c454; *dirty |= 0x4000000; }
-        let c455: u64 = { let s = (self.v402 | (self.v411 << 1) | (self.v414 << 2) | (self.v426 << 3) | (self.v434 << 4) | (self.v436 << 5) | (self.v438 << 6) | (self.v390 << 7)); if s >> 0 & 1 != 0 { self.v406 } else if s >> 1 & 1 != 0 { 0x9 } else if s >> 2 & 1 != 0 { 0x8 } else if s >> 3 & 1 != 0 { 0x7 } else if s >> 4 & 1 != 0 { self.v433 } else if s >> 5 & 1 != 0 { self.v437 } else if s >> 6 & 1 != 0 { c439 } else if s >> 7 & 1 != 0 { self.v448 } else { (self.q115) } };
-        let c477: u64 = if (self.q93) != 0 { (c455) } else { (self.q115) };
-        if self.v477 != c477 { self.v477 = c477; *dirty |= 0x4000000; }
+        let c377: u64 = (self.v392) & (self.v888) & 0x1;
+        let c405: u64 = ((self.v537) | (c377)) & 0x1;
+        if self.v405 != c405 { self.v405 = c405; *dirty |= 0x20000000; }
+        let c415: u64 = if (self.v401) != 0 { (0x0) } else { (self.v682) };
+        let c441: u64 = if (self.v379) != 0 { (0x0) } else { (self.v682) };
+        let c445: u64 = if (c405) != 0 { (self.v406 | 0x4) } else { (self.q115) };
+        let c446: u64 = if (c405) != 0 { (0x0) } else { (self.v682) };
+        let c453: u64 = if (self.v407) != 0 { (0x0) } else { (self.v682) };
+        let c460: u64 = { let s = (self.v408 | (self.v417 << 1) | (self.v442 << 2) | (self.v444 << 3) | (self.v396 << 4)); if s >> 0 & 1 != 0 { c415 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c441 } else if s >> 3 & 1 != 0 { c446 } else if s >> 4 & 1 != 0 { c453 } else { (self.v682) } };
+        if self.v460 != c460 { self.v460 = c460; *dirty |= 0x4000000; }
+        let c461: u64 = { let s = (self.v408 | (self.v417 << 1) | (self.v420 << 2) | (self.v432 << 3) | (self.v440 << 4) | (self.v442 << 5) | (self.v444 << 6) | (self.v396 << 7)); if s >> 0 & 1 != 0 { self.v412 } else if s >> 1 & 1 != 0 { 0x9 } else if s >> 2 & 1 != 0 { 0x8 } else if s >> 3 & 1 != 0 { 0x7 } else if s >> 4 & 1 != 0 { self.v439 } else if s >> 5 & 1 != 0 { self.v443 } else if s >> 6 & 1 != 0 { c445 } else if s >> 7 & 1 != 0 { self.v454 } else { (self.q115) } };
+        let c483: u64 = if (self.q94) != 0 { (c461) } else { (self.q115) };
+        if self.v483 != c483 { self.v483 = c483; *dirty |= 0x4000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing.
     fn group_24(&mut self, dirty: &mut u128) {
-        let c747: u64 = (self.q52).wrapping_add((0x1)) & 0x7;
-        let c750: u64 = u64::from((self.q52) == (0x5));
-        let c748: u64 = (self.q53) & (c750) & 0x1;
-        if self.v748 != c748 { self.v748 = c748; *dirty |= 0x1e000000; }
-        let c42: u64 = !(c748) & 0x1;
+        let c753: u64 = (self.q53).wrapping_add((0x1)) & 0x7;
+        let c756: u64 = u64::from((self.q53) == (0x5));
+        let c754: u64 = (self.q54) & (c756) & 0x1;
+        if self.v754 != c754 { self.v754 = c754; *dirty |= 0x1e000000; }
+        let c42: u64 = !(c754) & 0x1;
         if self.v42 != c42 { self.v42 = c42; *dirty |= 0x12000000; }
-        let c64: u64 = u64::from((self.v597 | (self.q57 << 1) | (self.q93 << 2) | (c42 << 3)) == 0xf);
-        if self.v64 != c64 { self.v64 = c64; *dirty |= 0x400000000000000000; }
-        let c751: u64 = u64::from((self.q52) == (0x4));
-        let c749: u64 = (self.q53) & (c751) & 0x1;
-        if self.v749 != c749 { self.v749 = c749; *dirty |= 0x10000000; }
-        let c752: u64 = u64::from((self.q109) != (self.q51));
-        let c753: u64 = ((c750) | (c752)) & 0x1;
-        if self.v753 != c753 { self.v753 = c753; *dirty |= 0x2000000; }
-        let c757: u64 = if (c753) != 0 { (0x1) } else { (c747) };
-        if self.v757 != c757 { self.v757 = c757; *dirty |= 0x100000000000; }
+        let c64: u64 = u64::from((self.v603 | (self.q58 << 1) | (self.q94 << 2) | (c42 << 3)) == 0xf);
+        if self.v64 != c64 { self.v64 = c64; *dirty |= 0x800000000000000000; }
+        let c757: u64 = u64::from((self.q53) == (0x4));
+        let c755: u64 = (self.q54) & (c757) & 0x1;
+        if self.v755 != c755 { self.v755 = c755; *dirty |= 0x10000000; }
+        let c758: u64 = u64::from((self.q109) != (self.q52));
+        let c759: u64 = ((c756) | (c758)) & 0x1;
+        if self.v759 != c759 { self.v759 = c759; *dirty |= 0x2000000; }
+        let c763: u64 = if (c759) != 0 { (0x1) } else { (c753) };
+        if self.v763 != c763 { self.v763 = c763; *dirty |= 0x100000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe.
     fn group_25(&mut self, dirty: &mut u128) {
-        let c65: u64 = u64::from((self.q93 | (self.v27 << 1) | (self.v28 << 2) | (self.v29 << 3) | (self.v42 << 4)) == 0x1f);
-        if self.v65 != c65 { self.v65 = c65; *dirty |= 0x200000000000000000; }
-        let c66: u64 = u64::from((self.q93 | (self.v27 << 1) | (self.v28 << 2) | (self.v29 << 3) | (self.v30 << 4) | (self.v32 << 5) | (self.v31 << 6) | (self.v42 << 7)) == 0xff);
-        if self.v66 != c66 { self.v66 = c66; *dirty |= 0x200000000000000000; }
-        let c506: u64 = (self.q93) & (self.v42) & 0x1;
-        if self.v506 != c506 { self.v506 = c506; *dirty |= 0x104000000; }
-        let c507: u64 = (c506) & (self.v430) & 0x1;
-        let c509: u64 = (c507) & (self.v546) & 0x1;
-        if self.v509 != c509 { self.v509 = c509; *dirty |= 0x10000100038000000; }
-        let c22: u64 = u64::from((c509 | (self.v753 << 1)) != 0);
-        let c60: u64 = u64::from((self.q93 | (c22 << 1)) == 0x3);
-        if self.v60 != c60 { self.v60 = c60; *dirty |= 0x4000000000000000000; }
-        let c94: u64 = u64::from((self.i_reset | (c509 << 1)) != 0);
-        if self.v94 != c94 { self.v94 = c94; *dirty |= 0x10c00000000000000; }
-        let c514: u64 = (self.v430) & (self.q62) & 0x1;
-        if self.v514 != c514 { self.v514 = c514; *dirty |= 0x8000000; }
-        let c609: u64 = if (self.q57) != 0 { (c514) } else { (self.v603) };
-        let c648: u64 = { let s = (self.v570 | (self.v597 << 1)); if s >> 0 & 1 != 0 { self.v583 } else if s >> 1 & 1 != 0 { c609 } else { (0x0) } };
-        let c651: u64 = if (self.v748) != 0 { (self.q61) } else { (self.v642) };
-        if self.v651 != c651 { self.v651 = c651; *dirty |= 0x8000000; }
-        let c655: u64 = if (self.v748) != 0 { (0x0) } else { (self.v645) };
-        let c658: u64 = if (self.v748) != 0 { (0x0) } else { (self.v647) };
-        let c659: u64 = if (self.v748) != 0 { (0x0) } else { (c648) };
-        if self.v659 != c659 { self.v659 = c659; *dirty |= 0x8000000; }
-        let c660: u64 = if (self.v748) != 0 { (0x0) } else { (self.v649) };
-        if self.v660 != c660 { self.v660 = c660; *dirty |= 0x8000000; }
-        let c671: u64 = (self.q93) & (c655) & 0x1;
-        if self.v671 != c671 { self.v671 = c671; *dirty |= 0x30000000; }
-        let c673: u64 = (self.q93) & (c658) & 0x1;
-        if self.v673 != c673 { self.v673 = c673; *dirty |= 0xc0000000; }
+        let c65: u64 = u64::from((self.q94 | (self.v27 << 1) | (self.v28 << 2) | (self.v29 << 3) | (self.v42 << 4)) == 0x1f);
+        if self.v65 != c65 { self.v65 = c65; *dirty |= 0x400000000000000000; }
+        let c66: u64 = u64::from((self.q94 | (self.v27 << 1) | (self.v28 << 2) | (self.v29 << 3) | (self.v30 << 4) | (self.v32 << 5) | (self.v31 << 6) | (self.v42 << 7)) == 0xff);
+        if self.v66 != c66 { self.v66 = c66; *dirty |= 0x400000000000000000; }
+        let c512: u64 = (self.q94) & (self.v42) & 0x1;
+        if self.v512 != c512 { self.v512 = c512; *dirty |= 0x104000000; }
+        let c513: u64 = (c512) & (self.v436) & 0x1;
+        let c515: u64 = (c513) & (self.v552) & 0x1;
+        if self.v515 != c515 { self.v515 = c515; *dirty |= 0x20000100038000000; }
+        let c22: u64 = u64::from((c515 | (self.v759 << 1)) != 0);
+        let c60: u64 = u64::from((self.q94 | (c22 << 1)) == 0x3);
+        if self.v60 != c60 { self.v60 = c60; *dirty |= 0x8000000000000000000; }
+        let c94: u64 = u64::from((self.i_reset | (c515 << 1)) != 0);
+        if self.v94 != c94 { self.v94 = c94; *dirty |= 0x21800000000000000; }
+        let c520: u64 = (self.v436) & (self.q63) & 0x1;
+        if self.v520 != c520 { self.v520 = c520; *dirty |= 0x8000000; }
+        let c615: u64 = if (self.q58) != 0 { (c520) } else { (self.v609) };
+        let c654: u64 = { let s = (self.v576 | (self.v603 << 1)); if s >> 0 & 1 != 0 { self.v589 } else if s >> 1 & 1 != 0 { c615 } else { (0x0) } };
+        let c657: u64 = if (self.v754) != 0 { (self.q62) } else { (self.v648) };
+        if self.v657 != c657 { self.v657 = c657; *dirty |= 0x8000000; }
+        let c661: u64 = if (self.v754) != 0 { (0x0) } else { (self.v651) };
+        let c664: u64 = if (self.v754) != 0 { (0x0) } else { (self.v653) };
+        let c665: u64 = if (self.v754) != 0 { (0x0) } else { (c654) };
+        if self.v665 != c665 { self.v665 = c665; *dirty |= 0x8000000; }
+        let c666: u64 = if (self.v754) != 0 { (0x0) } else { (self.v655) };
+        if self.v666 != c666 { self.v666 = c666; *dirty |= 0x8000000; }
+        let c677: u64 = (self.q94) & (c661) & 0x1;
+        if self.v677 != c677 { self.v677 = c677; *dirty |= 0x30000000; }
+        let c679: u64 = (self.q94) & (c664) & 0x1;
+        if self.v679 != c679 { self.v679 = c679; *dirty |= 0xc0000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$frame.
     fn group_26(&mut self, dirty: &mut u128) {
-        let c69: u64 = u64::from((self.v506 | (self.v390 << 1) | (self.v38 << 2)) == 0x7);
-        if self.v69 != c69 { self.v69 = c69; *dirty |= 0x2000000000000000; }
-        let c70: u64 = u64::from((self.v506 | (self.v384 << 1) | (self.v390 << 2)) == 0x7);
-        if self.v70 != c70 { self.v70 = c70; *dirty |= 0x1000000000000000; }
-        let c72: u64 = u64::from((self.v506 | (self.v44 << 1) | (self.v390 << 2) | (self.v283 << 3)) == 0xf);
-        if self.v72 != c72 { self.v72 = c72; *dirty |= 0x800000000000000; }
-        let c74: u64 = u64::from((self.v506 | (self.v436 << 1)) == 0x3);
-        if self.v74 != c74 { self.v74 = c74; *dirty |= 0x200000000000000; }
-        let c75: u64 = u64::from((self.v506 | (self.v388 << 1) | (self.v436 << 2)) == 0x7);
-        if self.v75 != c75 { self.v75 = c75; *dirty |= 0x100000000000000; }
-        let c374: u64 = (self.q93) & (self.v748) & 0x1;
-        if self.v374 != c374 { self.v374 = c374; *dirty |= 0x20000000; }
-        let c484: u64 = if (c374) != 0 { (self.v481) } else { (self.v470) };
-        if self.v484 != c484 { self.v484 = c484; *dirty |= 0x8000000; }
-        let c485: u64 = if (c374) != 0 { ((self.v482 << 1)) } else { (self.v472) };
-        if self.v485 != c485 { self.v485 = c485; *dirty |= 0x8000000; }
-        let c486: u64 = if (c374) != 0 { (self.v483) } else { (self.v473) };
-        if self.v486 != c486 { self.v486 = c486; *dirty |= 0x28000000; }
-        let c487: u64 = if (c374) != 0 { (self.q72) } else { (self.v454) };
-        if self.v487 != c487 { self.v487 = c487; *dirty |= 0x8000000; }
-        let c488: u64 = if (c374) != 0 { (0x0) } else { (self.v464) };
-        if self.v488 != c488 { self.v488 = c488; *dirty |= 0x20000000; }
-        let c489: u64 = if (c374) != 0 { (0x0) } else { (self.v465) };
-        if self.v489 != c489 { self.v489 = c489; *dirty |= 0x20000000040000000; }
-        let c490: u64 = if (c374) != 0 { (0x0) } else { (self.v466) };
-        if self.v490 != c490 { self.v490 = c490; *dirty |= 0x20000000020000000; }
-        let c491: u64 = if (c374) != 0 { (0x0) } else { (self.v468) };
+        let c69: u64 = u64::from((self.v512 | (self.v396 << 1) | (self.v38 << 2)) == 0x7);
+        if self.v69 != c69 { self.v69 = c69; *dirty |= 0x4000000000000000; }
+        let c70: u64 = u64::from((self.v512 | (self.v390 << 1) | (self.v396 << 2)) == 0x7);
+        if self.v70 != c70 { self.v70 = c70; *dirty |= 0x2000000000000000; }
+        let c72: u64 = u64::from((self.v512 | (self.v44 << 1) | (self.v396 << 2) | (self.v282 << 3)) == 0xf);
+        if self.v72 != c72 { self.v72 = c72; *dirty |= 0x1000000000000000; }
+        let c74: u64 = u64::from((self.v512 | (self.v442 << 1)) == 0x3);
+        if self.v74 != c74 { self.v74 = c74; *dirty |= 0x400000000000000; }
+        let c75: u64 = u64::from((self.v512 | (self.v394 << 1) | (self.v442 << 2)) == 0x7);
+        if self.v75 != c75 { self.v75 = c75; *dirty |= 0x200000000000000; }
+        let c380: u64 = (self.q94) & (self.v754) & 0x1;
+        if self.v380 != c380 { self.v380 = c380; *dirty |= 0x20000000; }
+        let c490: u64 = if (c380) != 0 { (self.v487) } else { (self.v476) };
+        if self.v490 != c490 { self.v490 = c490; *dirty |= 0x8000000; }
+        let c491: u64 = if (c380) != 0 { ((self.v488 << 1)) } else { (self.v478) };
         if self.v491 != c491 { self.v491 = c491; *dirty |= 0x8000000; }
-        let c492: u64 = if (c374) != 0 { (0x0) } else { (self.v469) };
-        if self.v492 != c492 { self.v492 = c492; *dirty |= 0x20000000; }
-        let c493: u64 = if (c374) != 0 { (0x0) } else { (self.v471) };
-        if self.v493 != c493 { self.v493 = c493; *dirty |= 0xa000000008000000; }
-        let c494: u64 = if (c374) != 0 { (0x0) } else { (self.v474) };
-        if self.v494 != c494 { self.v494 = c494; *dirty |= 0x8000000; }
-        let c495: u64 = if (c374) != 0 { (0x0) } else { (self.v475) };
-        if self.v495 != c495 { self.v495 = c495; *dirty |= 0x10000000; }
-        let c496: u64 = if (c374) != 0 { (0x0) } else { (self.v476) };
-        if self.v496 != c496 { self.v496 = c496; *dirty |= 0x10000000010000000; }
-        let c497: u64 = if (c374) != 0 { (self.q115) } else { (self.v477) };
+        let c492: u64 = if (c380) != 0 { (self.v489) } else { (self.v479) };
+        if self.v492 != c492 { self.v492 = c492; *dirty |= 0x28000000; }
+        let c493: u64 = if (c380) != 0 { (self.q73) } else { (self.v460) };
+        if self.v493 != c493 { self.v493 = c493; *dirty |= 0x8000000; }
+        let c494: u64 = if (c380) != 0 { (0x0) } else { (self.v470) };
+        if self.v494 != c494 { self.v494 = c494; *dirty |= 0x20000000; }
+        let c495: u64 = if (c380) != 0 { (0x0) } else { (self.v471) };
+        if self.v495 != c495 { self.v495 = c495; *dirty |= 0x40000000040000000; }
+        let c496: u64 = if (c380) != 0 { (0x0) } else { (self.v472) };
+        if self.v496 != c496 { self.v496 = c496; *dirty |= 0x40000000020000000; }
+        let c497: u64 = if (c380) != 0 { (0x0) } else { (self.v474) };
         if self.v497 != c497 { self.v497 = c497; *dirty |= 0x8000000; }
-        let c498: u64 = if (c374) != 0 { (0x0) } else { (self.v478) };
-        if self.v498 != c498 { self.v498 = c498; *dirty |= 0x40000000; }
-        let c499: u64 = if (c374) != 0 { (0x0) } else { (self.v479) };
-        if self.v499 != c499 { self.v499 = c499; *dirty |= 0x20000000; }
+        let c498: u64 = if (c380) != 0 { (0x0) } else { (self.v475) };
+        if self.v498 != c498 { self.v498 = c498; *dirty |= 0x20000000; }
+        let c499: u64 = if (c380) != 0 { (0x0) } else { (self.v477) };
+        if self.v499 != c499 { self.v499 = c499; *dirty |= 0x14000000008000000; }
+        let c500: u64 = if (c380) != 0 { (0x0) } else { (self.v480) };
+        if self.v500 != c500 { self.v500 = c500; *dirty |= 0x8000000; }
+        let c501: u64 = if (c380) != 0 { (0x0) } else { (self.v481) };
+        if self.v501 != c501 { self.v501 = c501; *dirty |= 0x10000000; }
+        let c502: u64 = if (c380) != 0 { (0x0) } else { (self.v482) };
+        if self.v502 != c502 { self.v502 = c502; *dirty |= 0x20000000010000000; }
+        let c503: u64 = if (c380) != 0 { (self.q115) } else { (self.v483) };
+        if self.v503 != c503 { self.v503 = c503; *dirty |= 0x8000000; }
+        let c504: u64 = if (c380) != 0 { (0x0) } else { (self.v484) };
+        if self.v504 != c504 { self.v504 = c504; *dirty |= 0x40000000; }
+        let c505: u64 = if (c380) != 0 { (0x0) } else { (self.v485) };
+        if self.v505 != c505 { self.v505 = c505; *dirty |= 0x20000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe.
     fn group_27(&mut self, dirty: &mut u128) {
-        let c527: u64 = !(self.v493) & 0x1;
-        let c510: u64 = (self.q50) & (c527) & 0x1;
-        let c565: u64 = if (self.v528) != 0 { (0x0) } else { (self.v487) };
-        let c567: u64 = if (self.v518) != 0 { (c565) } else { (0x0) };
-        let c569: u64 = if (self.v530) != 0 { (0x0) } else { (self.v487) };
-        let c571: u64 = if (self.v530) != 0 { (0xa) } else { (self.v497) };
-        let c572: u64 = if (self.v530) != 0 { (0xd) } else { (self.v497) };
-        let c573: u64 = if (self.v530) != 0 { (self.v485) } else { (0x1) };
-        let c574: u64 = if (self.v530) != 0 { (self.v486) } else { (0x1) };
-        let c575: u64 = if (self.q109) != 0 { (self.v485) } else { (c573) };
-        let c576: u64 = if (self.q109) != 0 { (self.v486) } else { (c574) };
-        let c577: u64 = if (self.q109) != 0 { (c571) } else { (c572) };
-        let c585: u64 = if (self.v533) != 0 { (self.v485) } else { (c575) };
-        let c586: u64 = if (self.v533) != 0 { (self.v486) } else { (c576) };
-        let c587: u64 = if (self.v533) != 0 { (self.v497) } else { (c577) };
-        let c590: u64 = if (self.v531) != 0 { (0x0) } else { (self.v487) };
-        let c591: u64 = if (self.v531) != 0 { (0xe) } else { (self.v497) };
-        let c592: u64 = ((self.v486) | (self.v515)) & 0x1;
-        let c594: u64 = if (self.v515) != 0 { (self.v487) } else { (c590) };
-        let c595: u64 = if (self.v515) != 0 { (self.v497) } else { (c591) };
-        let c599: u64 = if (self.v610) != 0 { (0xe) } else { (self.v497) };
-        let c601: u64 = if (self.q109) != 0 { (0x0) } else { (self.v487) };
-        let c607: u64 = if (self.v513) != 0 { (0x1) } else { (self.v487) };
-        let c611: u64 = if (self.q57) != 0 { (c607) } else { (c601) };
-        let c598: u64 = if (self.v610) != 0 { (0x0) } else { (c611) };
-        let c615: u64 = if (self.v511) != 0 { (0x0) } else { (self.v487) };
-        let c616: u64 = if (self.v526) != 0 { (c615) } else { (self.v487) };
-        let c617: u64 = if (self.v526) != 0 { (self.v511) } else { (c510) };
-        let c618: u64 = if (self.v526) != 0 { ((self.v511 << 1) | (self.v511 << 3) | 0x1) } else { (self.v497) };
-        let c619: u64 = if (self.v526) != 0 { (self.v512) } else { (c510) };
-        let c620: u64 = if (self.v526) != 0 { (self.v487) } else { (0x0) };
-        let c621: u64 = if (self.v526) != 0 { (self.v497) } else { (0xd) };
-        let c622: u64 = if (self.q109) != 0 { (c616) } else { (c620) };
-        let c623: u64 = if (self.q109) != 0 { (c617) } else { (c619) };
-        let c624: u64 = if (self.q109) != 0 { (c618) } else { (c621) };
-        let c625: u64 = if (self.v530) != 0 { (0x0) } else { (c510) };
-        let c626: u64 = if (self.v530) != 0 { (0x1) } else { (self.v497) };
-        let c627: u64 = (self.q109) & (c625) & 0x1;
-        let c628: u64 = if (self.q109) != 0 { (c626) } else { (self.v497) };
-        let c629: u64 = if (self.q118) != 0 { (c510) } else { (0x1) };
-        let c630: u64 = if (self.q118) != 0 { (self.v486) } else { (0x1) };
-        let c631: u64 = if (self.q109) != 0 { (c629) } else { (self.v529) };
-        let c632: u64 = if (self.q109) != 0 { (c630) } else { (self.v486) };
-        let c633: u64 = if (self.v528) != 0 { (0x1) } else { (self.v497) };
-        let c635: u64 = if (self.q109) != 0 { (self.v487) } else { (0x0) };
-        let c582: u64 = if (self.v533) != 0 { (c635) } else { (c569) };
-        let c636: u64 = if (self.q109) != 0 { (c633) } else { (self.v497) };
-        let c637: u64 = { let s = (self.v566 | (self.v570 << 1) | (self.v536 << 2) | (self.v597 << 3) | (self.v525 << 4) | (self.v634 << 5)); if s >> 0 & 1 != 0 { c567 } else if s >> 1 & 1 != 0 { c582 } else if s >> 2 & 1 != 0 { c594 } else if s >> 3 & 1 != 0 { c598 } else if s >> 4 & 1 != 0 { c622 } else if s >> 5 & 1 != 0 { c635 } else { (self.v487) } };
-        let c638: u64 = { let s = (self.v570 | (self.v536 << 1) | (self.v597 << 2) | (self.v525 << 3) | (self.v524 << 4) | (self.v634 << 5)); if s >> 0 & 1 != 0 { c587 } else if s >> 1 & 1 != 0 { c595 } else if s >> 2 & 1 != 0 { c599 } else if s >> 3 & 1 != 0 { c624 } else if s >> 4 & 1 != 0 { c628 } else if s >> 5 & 1 != 0 { c636 } else { (self.v497) } };
-        let c643: u64 = if (self.v570) != 0 { (c585) } else { (self.v485) };
-        let c644: u64 = { let s = (self.v570 | (self.v536 << 1) | (self.v523 << 2)); if s >> 0 & 1 != 0 { c586 } else if s >> 1 & 1 != 0 { c592 } else if s >> 2 & 1 != 0 { c632 } else { (self.v486) } };
-        let c646: u64 = { let s = (self.v525 | (self.v524 << 1) | (self.v523 << 2)); if s >> 0 & 1 != 0 { c623 } else if s >> 1 & 1 != 0 { c627 } else if s >> 2 & 1 != 0 { c631 } else { (c510) } };
-        let c652: u64 = if (self.v748) != 0 { (self.v487) } else { (c637) };
-        let c563: u64 = if (self.v509) != 0 { (0x0) } else { (c652) };
-        let c653: u64 = if (self.v748) != 0 { (self.v485) } else { (c643) };
-        let c654: u64 = if (self.v748) != 0 { (self.v486) } else { (c644) };
-        let c25: u64 = u64::from((self.v597 | (self.v748 << 1) | (c654 << 2)) != 0);
-        let c26: u64 = u64::from((self.v748 | (c654 << 1)) != (0x1));
-        let c63: u64 = u64::from((self.q93 | (c25 << 1) | (c26 << 2)) == 0x7);
-        if self.v63 != c63 { self.v63 = c63; *dirty |= 0x400000000000000000; }
-        let c558: u64 = ((self.v651) | (c654)) & 0x1;
-        if self.v558 != c558 { self.v558 = c558; *dirty |= 0x100000000000000000; }
-        let c559: u64 = if (c654) != 0 { (self.v544) } else { (self.v612) };
-        if self.v559 != c559 { self.v559 = c559; *dirty |= 0x400000000000000000; }
-        let c560: u64 = ((self.v494) | (c654)) & 0x1;
-        let c561: u64 = if (c654) != 0 { (0x0) } else { (c563) };
-        if self.v561 != c561 { self.v561 = c561; *dirty |= 0x20000000; }
-        let c656: u64 = if (self.v748) != 0 { (c510) } else { (c646) };
-        let c520: u64 = (c656) & (self.v547) & 0x1;
-        let c521: u64 = (c520) & (self.q116) & 0x1;
-        let c535: u64 = !(c656) & 0x1;
-        let c519: u64 = (self.v536) & (c535) & 0x1;
-        let c522: u64 = (self.q87) & (c535) & 0x1;
-        let c549: u64 = ((self.v660) | (c519)) & 0x1;
-        let c550: u64 = if (c519) != 0 { (0x0) } else { (c535) };
-        let c551: u64 = if (self.v484) != 0 { (c549) } else { (self.v660) };
-        let c552: u64 = (self.v484) & (c550) & 0x1;
-        let c553: u64 = if (self.v484) != 0 { (c656) } else { (self.v659) };
-        let c554: u64 = (c654) & (c521) & 0x1;
-        let c548: u64 = ((c554) | (c522)) & 0x1;
-        let c555: u64 = if (c654) != 0 { (c553) } else { (self.v659) };
-        let c556: u64 = if (c654) != 0 { (c551) } else { (self.v660) };
-        let c557: u64 = (c654) & (c552) & 0x1;
-        let c657: u64 = if (self.v748) != 0 { (self.v497) } else { (c638) };
-        let c564: u64 = if (self.v509) != 0 { (0x2) } else { (c657) };
-        let c562: u64 = if (c654) != 0 { (0xc) } else { (c564) };
-        let c661: u64 = (self.q93) & (c548) & 0x1;
-        if self.v661 != c661 { self.v661 = c661; *dirty |= 0x20000000; }
-        let c93: u64 = u64::from((self.i_reset | (c661 << 1)) != 0);
-        if self.v93 != c93 { self.v93 = c93; *dirty |= 0x20000000000000000; }
-        let c662: u64 = if (self.q93) != 0 { (c560) } else { (self.v494) };
-        if self.v662 != c662 { self.v662 = c662; *dirty |= 0x30000000; }
-        let c663: u64 = if (self.q93) != 0 { (c562) } else { (self.v497) };
-        if self.v663 != c663 { self.v663 = c663; *dirty |= 0x30000000; }
-        let c664: u64 = (self.q93) & (c555) & 0x1;
-        if self.v664 != c664 { self.v664 = c664; *dirty |= 0xc0000000; }
-        let c665: u64 = (self.q93) & (c556) & 0x1;
-        if self.v665 != c665 { self.v665 = c665; *dirty |= 0x40000000; }
-        let c666: u64 = (self.q93) & (c557) & 0x1;
-        if self.v666 != c666 { self.v666 = c666; *dirty |= 0x40000000; }
-        let c667: u64 = (self.q93) & (c535) & 0x1;
-        if self.v667 != c667 { self.v667 = c667; *dirty |= 0x4000000000000000; }
-        let c669: u64 = if (self.q93) != 0 { (c653) } else { (self.v485) };
-        if self.v669 != c669 { self.v669 = c669; *dirty |= 0x4000000000000000; }
-        let c670: u64 = if (self.q93) != 0 { (c654) } else { (self.v486) };
-        if self.v670 != c670 { self.v670 = c670; *dirty |= 0x30000000; }
-        let c672: u64 = if (self.q93) != 0 { (c656) } else { (c510) };
-        if self.v672 != c672 { self.v672 = c672; *dirty |= 0x4000000040010000000; }
-        let c674: u64 = ((self.q62) | (self.v491)) & 0x1;
-        let c605: u64 = if (self.v514) != 0 { (0x0) } else { (c674) };
-        let c608: u64 = if (self.q57) != 0 { (c605) } else { (c674) };
-        let c596: u64 = if (self.v610) != 0 { (0x0) } else { (c608) };
-        let c639: u64 = if (self.v597) != 0 { (c596) } else { (c674) };
-        let c650: u64 = if (self.v748) != 0 { (c674) } else { (c639) };
-        let c668: u64 = if (self.q93) != 0 { (c650) } else { (c674) };
-        if self.v668 != c668 { self.v668 = c668; *dirty |= 0x100000000000000000; }
+        let c533: u64 = !(self.v499) & 0x1;
+        let c516: u64 = (self.q51) & (c533) & 0x1;
+        let c571: u64 = if (self.v534) != 0 { (0x0) } else { (self.v493) };
+        let c573: u64 = if (self.v524) != 0 { (c571) } else { (0x0) };
+        let c575: u64 = if (self.v536) != 0 { (0x0) } else { (self.v493) };
+        let c577: u64 = if (self.v536) != 0 { (0xa) } else { (self.v503) };
+        let c578: u64 = if (self.v536) != 0 { (0xd) } else { (self.v503) };
+        let c579: u64 = if (self.v536) != 0 { (self.v491) } else { (0x1) };
+        let c580: u64 = if (self.v536) != 0 { (self.v492) } else { (0x1) };
+        let c581: u64 = if (self.q109) != 0 { (self.v491) } else { (c579) };
+        let c582: u64 = if (self.q109) != 0 { (self.v492) } else { (c580) };
+        let c583: u64 = if (self.q109) != 0 { (c577) } else { (c578) };
+        let c591: u64 = if (self.v539) != 0 { (self.v491) } else { (c581) };
+        let c592: u64 = if (self.v539) != 0 { (self.v492) } else { (c582) };
+        let c593: u64 = if (self.v539) != 0 { (self.v503) } else { (c583) };
+        let c596: u64 = if (self.v537) != 0 { (0x0) } else { (self.v493) };
+        let c597: u64 = if (self.v537) != 0 { (0xe) } else { (self.v503) };
+        let c598: u64 = ((self.v492) | (self.v521)) & 0x1;
+        let c600: u64 = if (self.v521) != 0 { (self.v493) } else { (c596) };
+        let c601: u64 = if (self.v521) != 0 { (self.v503) } else { (c597) };
+        let c605: u64 = if (self.v616) != 0 { (0xe) } else { (self.v503) };
+        let c607: u64 = if (self.q109) != 0 { (0x0) } else { (self.v493) };
+        let c613: u64 = if (self.v519) != 0 { (0x1) } else { (self.v493) };
+        let c617: u64 = if (self.q58) != 0 { (c613) } else { (c607) };
+        let c604: u64 = if (self.v616) != 0 { (0x0) } else { (c617) };
+        let c621: u64 = if (self.v517) != 0 { (0x0) } else { (self.v493) };
+        let c622: u64 = if (self.v532) != 0 { (c621) } else { (self.v493) };
+        let c623: u64 = if (self.v532) != 0 { (self.v517) } else { (c516) };
+        let c624: u64 = if (self.v532) != 0 { ((self.v517 << 1) | (self.v517 << 3) | 0x1) } else { (self.v503) };
+        let c625: u64 = if (self.v532) != 0 { (self.v518) } else { (c516) };
+        let c626: u64 = if (self.v532) != 0 { (self.v493) } else { (0x0) };
+        let c627: u64 = if (self.v532) != 0 { (self.v503) } else { (0xd) };
+        let c628: u64 = if (self.q109) != 0 { (c622) } else { (c626) };
+        let c629: u64 = if (self.q109) != 0 { (c623) } else { (c625) };
+        let c630: u64 = if (self.q109) != 0 { (c624) } else { (c627) };
+        let c631: u64 = if (self.v536) != 0 { (0x0) } else { (c516) };
+        let c632: u64 = if (self.v536) != 0 { (0x1) } else { (self.v503) };
+        let c633: u64 = (self.q109) & (c631) & 0x1;
+        let c634: u64 = if (self.q109) != 0 { (c632) } else { (self.v503) };
+        let c635: u64 = if (self.q118) != 0 { (c516) } else { (0x1) };
+        let c636: u64 = if (self.q118) != 0 { (self.v492) } else { (0x1) };
+        let c637: u64 = if (self.q109) != 0 { (c635) } else { (self.v535) };
+        let c638: u64 = if (self.q109) != 0 { (c636) } else { (self.v492) };
+        let c639: u64 = if (self.v534) != 0 { (0x1) } else { (self.v503) };
+        let c641: u64 = if (self.q109) != 0 { (self.v493) } else { (0x0) };
+        let c588: u64 = if (self.v539) != 0 { (c641) } else { (c575) };
+        let c642: u64 = if (self.q109) != 0 { (c639) } else { (self.v503) };
+        let c643: u64 = { let s = (self.v572 | (self.v576 << 1) | (self.v542 << 2) | (self.v603 << 3) | (self.v531 << 4) | (self.v640 << 5)); if s >> 0 & 1 != 0 { c573 } else if s >> 1 & 1 != 0 { c588 } else if s >> 2 & 1 != 0 { c600 } else if s >> 3 & 1 != 0 { c604 } else if s >> 4 & 1 != 0 { c628 } else if s >> 5 & 1 != 0 { c641 } else { (self.v493) } };
+        let c644: u64 = { let s = (self.v576 | (self.v542 << 1) | (self.v603 << 2) | (self.v531 << 3) | (self.v530 << 4) | (self.v640 << 5)); if s >> 0 & 1 != 0 { c593 } else if s >> 1 & 1 != 0 { c601 } else if s >> 2 & 1 != 0 { c605 } else if s >> 3 & 1 != 0 { c630 } else if s >> 4 & 1 != 0 { c634 } else if s >> 5 & 1 != 0 { c642 } else { (self.v503) } };
+        let c649: u64 = if (self.v576) != 0 { (c591) } else { (self.v491) };
+        let c650: u64 = { let s = (self.v576 | (self.v542 << 1) | (self.v529 << 2)); if s >> 0 & 1 != 0 { c592 } else if s >> 1 & 1 != 0 { c598 } else if s >> 2 & 1 != 0 { c638 } else { (self.v492) } };
+        let c652: u64 = { let s = (self.v531 | (self.v530 << 1) | (self.v529 << 2)); if s >> 0 & 1 != 0 { c629 } else if s >> 1 & 1 != 0 { c633 } else if s >> 2 & 1 != 0 { c637 } else { (c516) } };
+        let c658: u64 = if (self.v754) != 0 { (self.v493) } else { (c643) };
+        let c569: u64 = if (self.v515) != 0 { (0x0) } else { (c658) };
+        let c659: u64 = if (self.v754) != 0 { (self.v491) } else { (c649) };
+        let c660: u64 = if (self.v754) != 0 { (self.v492) } else { (c650) };
+        let c25: u64 = u64::from((self.v603 | (self.v754 << 1) | (c660 << 2)) != 0);
+        let c26: u64 = u64::from((self.v754 | (c660 << 1)) != (0x1));
+        let c63: u64 = u64::from((self.q94 | (c25 << 1) | (c26 << 2)) == 0x7);
+        if self.v63 != c63 { self.v63 = c63; *dirty |= 0x800000000000000000; }
+        let c564: u64 = ((self.v657) | (c660)) & 0x1;
+        if self.v564 != c564 { self.v564 = c564; *dirty |= 0x200000000000000000; }
+        let c565: u64 = if (c660) != 0 { (self.v550) } else { (self.v618) };
+        if self.v565 != c565 { self.v565 = c565; *dirty |= 0x800000000000000000; }
+        let c566: u64 = ((self.v500) | (c660)) & 0x1;
+        let c567: u64 = if (c660) != 0 { (0x0) } else { (c569) };
+        if self.v567 != c567 { self.v567 = c567; *dirty |= 0x20000000; }
+        let c662: u64 = if (self.v754) != 0 { (c516) } else { (c652) };
+        let c526: u64 = (c662) & (self.v553) & 0x1;
+        let c527: u64 = (c526) & (self.q116) & 0x1;
+        let c541: u64 = !(c662) & 0x1;
+        let c525: u64 = (self.v542) & (c541) & 0x1;
+        let c528: u64 = (self.q88) & (c541) & 0x1;
+        let c555: u64 = ((self.v666) | (c525)) & 0x1;
+        let c556: u64 = if (c525) != 0 { (0x0) } else { (c541) };
+        let c557: u64 = if (self.v490) != 0 { (c555) } else { (self.v666) };
+        let c558: u64 = (self.v490) & (c556) & 0x1;
+        let c559: u64 = if (self.v490) != 0 { (c662) } else { (self.v665) };
+        let c560: u64 = (c660) & (c527) & 0x1;
+        let c554: u64 = ((c560) | (c528)) & 0x1;
+        let c561: u64 = if (c660) != 0 { (c559) } else { (self.v665) };
+        let c562: u64 = if (c660) != 0 { (c557) } else { (self.v666) };
+        let c563: u64 = (c660) & (c558) & 0x1;
+        let c663: u64 = if (self.v754) != 0 { (self.v503) } else { (c644) };
+        let c570: u64 = if (self.v515) != 0 { (0x2) } else { (c663) };
+        let c568: u64 = if (c660) != 0 { (0xc) } else { (c570) };
+        let c667: u64 = (self.q94) & (c554) & 0x1;
+        if self.v667 != c667 { self.v667 = c667; *dirty |= 0x20000000; }
+        let c93: u64 = u64::from((self.i_reset | (c667 << 1)) != 0);
+        if self.v93 != c93 { self.v93 = c93; *dirty |= 0x40000000000000000; }
+        let c668: u64 = if (self.q94) != 0 { (c566) } else { (self.v500) };
+        if self.v668 != c668 { self.v668 = c668; *dirty |= 0x30000000; }
+        let c669: u64 = if (self.q94) != 0 { (c568) } else { (self.v503) };
+        if self.v669 != c669 { self.v669 = c669; *dirty |= 0x30000000; }
+        let c670: u64 = (self.q94) & (c561) & 0x1;
+        if self.v670 != c670 { self.v670 = c670; *dirty |= 0xc0000000; }
+        let c671: u64 = (self.q94) & (c562) & 0x1;
+        if self.v671 != c671 { self.v671 = c671; *dirty |= 0x40000000; }
+        let c672: u64 = (self.q94) & (c563) & 0x1;
+        if self.v672 != c672 { self.v672 = c672; *dirty |= 0x40000000; }
+        let c673: u64 = (self.q94) & (c541) & 0x1;
+        if self.v673 != c673 { self.v673 = c673; *dirty |= 0x8000000000000000; }
+        let c675: u64 = if (self.q94) != 0 { (c659) } else { (self.v491) };
+        if self.v675 != c675 { self.v675 = c675; *dirty |= 0x8000000000000000; }
+        let c676: u64 = if (self.q94) != 0 { (c660) } else { (self.v492) };
+        if self.v676 != c676 { self.v676 = c676; *dirty |= 0x30000000; }
+        let c678: u64 = if (self.q94) != 0 { (c662) } else { (c516) };
+        if self.v678 != c678 { self.v678 = c678; *dirty |= 0x8000000040010000000; }
+        let c680: u64 = ((self.q63) | (self.v497)) & 0x1;
+        let c611: u64 = if (self.v520) != 0 { (0x0) } else { (c680) };
+        let c614: u64 = if (self.q58) != 0 { (c611) } else { (c680) };
+        let c602: u64 = if (self.v616) != 0 { (0x0) } else { (c614) };
+        let c645: u64 = if (self.v603) != 0 { (c602) } else { (c680) };
+        let c656: u64 = if (self.v754) != 0 { (c680) } else { (c645) };
+        let c674: u64 = if (self.q94) != 0 { (c656) } else { (c680) };
+        if self.v674 != c674 { self.v674 = c674; *dirty |= 0x200000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender.
     fn group_28(&mut self, dirty: &mut u128) {
-        let c678: u64 = (self.v749) & (self.v42) & 0x1;
-        let c679: u64 = (c678) & (self.v391) & 0x1;
-        let c680: u64 = (c679) & (self.v672) & 0x1;
-        let c691: u64 = !(self.v495) & 0x1;
-        if self.v691 != c691 { self.v691 = c691; *dirty |= 0x40000000000; }
-        let c692: u64 = !(self.v671) & 0x1;
-        let c677: u64 = (self.v597) & (c692) & 0x1;
-        let c693: u64 = !(self.v670) & 0x1;
-        if self.v693 != c693 { self.v693 = c693; *dirty |= 0x20000000; }
-        let c681: u64 = (c680) & (c693) & 0x1;
-        let c694: u64 = !(self.v662) & 0x1;
-        let c682: u64 = (c681) & (c694) & 0x1;
-        if self.v682 != c682 { self.v682 = c682; *dirty |= 0x40000000000; }
-        let c702: u64 = if (c677) != 0 { (self.q57) } else { (self.v544) };
-        if self.v702 != c702 { self.v702 = c702; *dirty |= 0x40000000000; }
-        let c703: u64 = u64::from((self.v663) == (0xc));
-        if self.v703 != c703 { self.v703 = c703; *dirty |= 0x40000000000; }
-        let c704: u64 = if (self.v496) != 0 { (self.v746) } else { ((self.q71 >> 14)) };
-        let c705: u64 = u64::from((self.v663) == (0x5));
-        if self.v705 != c705 { self.v705 = c705; *dirty |= 0x40000000000; }
-        let c706: u64 = if (self.v672) != 0 { (c704) } else { (0x1) };
-        if self.v706 != c706 { self.v706 = c706; *dirty |= 0x40000000000; }
-        let c708: u64 = u64::from((self.v663) == (0x4));
+        let c684: u64 = (self.v755) & (self.v42) & 0x1;
+        let c685: u64 = (c684) & (self.v397) & 0x1;
+        let c686: u64 = (c685) & (self.v678) & 0x1;
+        let c697: u64 = !(self.v501) & 0x1;
+        if self.v697 != c697 { self.v697 = c697; *dirty |= 0x40000000000; }
+        let c698: u64 = !(self.v677) & 0x1;
+        let c683: u64 = (self.v603) & (c698) & 0x1;
+        let c699: u64 = !(self.v676) & 0x1;
+        if self.v699 != c699 { self.v699 = c699; *dirty |= 0x20000000; }
+        let c687: u64 = (c686) & (c699) & 0x1;
+        let c700: u64 = !(self.v668) & 0x1;
+        let c688: u64 = (c687) & (c700) & 0x1;
+        if self.v688 != c688 { self.v688 = c688; *dirty |= 0x40000000000; }
+        let c708: u64 = if (c683) != 0 { (self.q58) } else { (self.v550) };
         if self.v708 != c708 { self.v708 = c708; *dirty |= 0x40000000000; }
-        let c711: u64 = u64::from((self.v663) == (0x3));
+        let c709: u64 = u64::from((self.v669) == (0xc));
+        if self.v709 != c709 { self.v709 = c709; *dirty |= 0x40000000000; }
+        let c710: u64 = if (self.v502) != 0 { (self.v752) } else { ((self.q72 >> 14)) };
+        let c711: u64 = u64::from((self.v669) == (0x5));
         if self.v711 != c711 { self.v711 = c711; *dirty |= 0x40000000000; }
-        let c718: u64 = u64::from((self.v663) == (0x2));
-        if self.v718 != c718 { self.v718 = c718; *dirty |= 0x40000000000; }
-        let c724: u64 = u64::from((self.v663) == (0xd));
+        let c712: u64 = if (self.v678) != 0 { (c710) } else { (0x1) };
+        if self.v712 != c712 { self.v712 = c712; *dirty |= 0x40000000000; }
+        let c714: u64 = u64::from((self.v669) == (0x4));
+        if self.v714 != c714 { self.v714 = c714; *dirty |= 0x40000000000; }
+        let c717: u64 = u64::from((self.v669) == (0x3));
+        if self.v717 != c717 { self.v717 = c717; *dirty |= 0x40000000000; }
+        let c724: u64 = u64::from((self.v669) == (0x2));
         if self.v724 != c724 { self.v724 = c724; *dirty |= 0x40000000000; }
-        let c725: u64 = u64::from((self.v663) == (0x7));
-        if self.v725 != c725 { self.v725 = c725; *dirty |= 0x40000000000; }
-        let c726: u64 = u64::from((self.v663) == (0x1));
-        if self.v726 != c726 { self.v726 = c726; *dirty |= 0x40000000000; }
-        let c730: u64 = if (self.v748) != 0 { ((self.q72 & 0x7)) } else { ((self.v676 & 0x7)) };
-        let c731: u64 = if (self.v748) != 0 { (self.v385) } else { (self.v685) };
-        let c727: u64 = if (self.v509) != 0 { (0x0) } else { (c731) };
-        if self.v727 != c727 { self.v727 = c727; *dirty |= 0x40000000000; }
-        let c732: u64 = if (self.v748) != 0 { (self.v384) } else { (self.v383) };
-        let c728: u64 = if (self.v509) != 0 { (0x0) } else { (c732) };
-        if self.v728 != c728 { self.v728 = c728; *dirty |= 0x40000000000; }
-        let c733: u64 = if (self.v748) != 0 { (self.v383) } else { (self.v528) };
-        let c729: u64 = if (self.v509) != 0 { (0x0) } else { (c733) };
-        if self.v729 != c729 { self.v729 = c729; *dirty |= 0x40000000000; }
-        let c744: u64 = (c730).wrapping_sub((0x1)) & 0x7;
-        let c715: u64 = if ((self.v1095 >> 7)) != 0 { (c744) } else { (c730) };
-        let c687: u64 = u64::from((c715) == (0x1));
-        let c688: u64 = u64::from((c715) == (0x2));
-        let c689: u64 = u64::from((c715) == (0x3));
-        let c690: u64 = u64::from((c715) == (0x4));
-        let c714: u64 = (c687) & (((self.v1095 >> 3) & 0x1)) & 0x1;
-        let c713: u64 = if (c688) != 0 { (((self.v1095 >> 2) & 0x1)) } else { (c714) };
-        let c712: u64 = if (c689) != 0 { (((self.v1095 >> 1) & 0x1)) } else { (c713) };
-        let c710: u64 = if (c690) != 0 { ((self.v1095 & 0x1)) } else { (c712) };
-        let c716: u64 = if (self.v672) != 0 { (c710) } else { (0x1) };
-        if self.v716 != c716 { self.v716 = c716; *dirty |= 0x40000000000; }
+        let c730: u64 = u64::from((self.v669) == (0xd));
+        if self.v730 != c730 { self.v730 = c730; *dirty |= 0x40000000000; }
+        let c731: u64 = u64::from((self.v669) == (0x7));
+        if self.v731 != c731 { self.v731 = c731; *dirty |= 0x40000000000; }
+        let c732: u64 = u64::from((self.v669) == (0x1));
+        if self.v732 != c732 { self.v732 = c732; *dirty |= 0x40000000000; }
+        let c736: u64 = if (self.v754) != 0 { ((self.q73 & 0x7)) } else { ((self.v682 & 0x7)) };
+        let c737: u64 = if (self.v754) != 0 { (self.v391) } else { (self.v691) };
+        let c733: u64 = if (self.v515) != 0 { (0x0) } else { (c737) };
+        if self.v733 != c733 { self.v733 = c733; *dirty |= 0x40000000000; }
+        let c738: u64 = if (self.v754) != 0 { (self.v390) } else { (self.v389) };
+        let c734: u64 = if (self.v515) != 0 { (0x0) } else { (c738) };
+        if self.v734 != c734 { self.v734 = c734; *dirty |= 0x40000000000; }
+        let c739: u64 = if (self.v754) != 0 { (self.v389) } else { (self.v534) };
+        let c735: u64 = if (self.v515) != 0 { (0x0) } else { (c739) };
+        if self.v735 != c735 { self.v735 = c735; *dirty |= 0x40000000000; }
+        let c750: u64 = (c736).wrapping_sub((0x1)) & 0x7;
+        let c721: u64 = if ((self.v1101 >> 7)) != 0 { (c750) } else { (c736) };
+        let c693: u64 = u64::from((c721) == (0x1));
+        let c694: u64 = u64::from((c721) == (0x2));
+        let c695: u64 = u64::from((c721) == (0x3));
+        let c696: u64 = u64::from((c721) == (0x4));
+        let c720: u64 = (c693) & (((self.v1101 >> 3) & 0x1)) & 0x1;
+        let c719: u64 = if (c694) != 0 { (((self.v1101 >> 2) & 0x1)) } else { (c720) };
+        let c718: u64 = if (c695) != 0 { (((self.v1101 >> 1) & 0x1)) } else { (c719) };
+        let c716: u64 = if (c696) != 0 { ((self.v1101 & 0x1)) } else { (c718) };
+        let c722: u64 = if (self.v678) != 0 { (c716) } else { (0x1) };
+        if self.v722 != c722 { self.v722 = c722; *dirty |= 0x40000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol.
     fn group_29(&mut self, dirty: &mut u128) {
-        let c89: u64 = u64::from((self.i_reset | (self.v233 << 1) | (self.v374 << 2)) != 0);
-        if self.v89 != c89 { self.v89 = c89; *dirty |= 0x8000000000000000000; }
-        let c234: u64 = (self.v438) & (self.v399) & 0x1;
-        if self.v234 != c234 { self.v234 = c234; *dirty |= 0x100000000; }
-        let c235: u64 = (self.v499) & (self.v693) & 0x1;
-        if self.v235 != c235 { self.v235 = c235; *dirty |= 0x1800000040000000000; }
-        let c62: u64 = u64::from((c235 | (self.v683 << 1)) == 0x3);
+        let c89: u64 = u64::from((self.i_reset | (self.v232 << 1) | (self.v380 << 2)) != 0);
+        if self.v89 != c89 { self.v89 = c89; *dirty |= 0x10000000000000000000; }
+        let c233: u64 = (self.v444) & (self.v405) & 0x1;
+        if self.v233 != c233 { self.v233 = c233; *dirty |= 0x100000000; }
+        let c234: u64 = (self.v505) & (self.v699) & 0x1;
+        if self.v234 != c234 { self.v234 = c234; *dirty |= 0x3000000040000000000; }
+        let c62: u64 = u64::from((c234 | (self.v689 << 1)) == 0x3);
         if self.v62 != c62 { self.v62 = c62; *dirty |= 0x80000000000; }
-        let c250: u64 = !(self.v486) & 0x1;
-        let c236: u64 = (self.v488) & (c250) & 0x1;
-        if self.v236 != c236 { self.v236 = c236; *dirty |= 0x40000000000; }
-        let c23: u64 = u64::from((c235 | (c236 << 1)) != 0);
-        let c24: u64 = u64::from((c235 | (c236 << 1) | (self.v683 << 2)) != (0x1));
-        let c61: u64 = u64::from((c24 | (c23 << 1)) == 0x3);
+        let c249: u64 = !(self.v492) & 0x1;
+        let c235: u64 = (self.v494) & (c249) & 0x1;
+        if self.v235 != c235 { self.v235 = c235; *dirty |= 0x40000000000; }
+        let c23: u64 = u64::from((c234 | (c235 << 1)) != 0);
+        let c24: u64 = u64::from((c234 | (c235 << 1) | (self.v689 << 2)) != (0x1));
+        let c61: u64 = u64::from((c23 | (c24 << 1)) == 0x3);
         if self.v61 != c61 { self.v61 = c61; *dirty |= 0x80000000000; }
-        let c252: u64 = !(self.v509) & 0x1;
-        let c237: u64 = (self.v251) & (c252) & 0x1;
-        let c91: u64 = u64::from((self.i_reset | (c236 << 1) | (c237 << 2)) != 0);
-        if self.v91 != c91 { self.v91 = c91; *dirty |= 0x800000080000000000; }
-        let c92: u64 = u64::from((self.i_reset | (c237 << 1)) != 0);
+        let c251: u64 = !(self.v515) & 0x1;
+        let c236: u64 = (self.v250) & (c251) & 0x1;
+        let c91: u64 = u64::from((self.i_reset | (c235 << 1) | (c236 << 2)) != 0);
+        if self.v91 != c91 { self.v91 = c91; *dirty |= 0x1000000080000000000; }
+        let c92: u64 = u64::from((self.i_reset | (c236 << 1)) != 0);
         if self.v92 != c92 { self.v92 = c92; *dirty |= 0x80000000000; }
-        let c254: u64 = ((self.v662) | (self.v233)) & 0x1;
-        if self.v254 != c254 { self.v254 = c254; *dirty |= 0x100000000000; }
-        let c257: u64 = ((self.v670) | (self.v671)) & 0x1;
-        if self.v257 != c257 { self.v257 = c257; *dirty |= 0x4000000000000000; }
-        let c275: u64 = if (self.q93) != 0 { (self.v561) } else { (self.q72) };
-        let c272: u64 = if (self.v249) != 0 { (0x0) } else { (c275) };
-        let c273: u64 = if (self.q113) != 0 { (c272) } else { (c275) };
-        if self.v273 != c273 { self.v273 = c273; *dirty |= 0x8000000000000000; }
-        let c276: u64 = if (self.q93) != 0 { (self.v663) } else { (self.q115) };
-        let c274: u64 = if (self.q113) != 0 { (0xf) } else { (c276) };
-        let c271: u64 = if (self.v238) != 0 { (0x1) } else { (c274) };
-        let c270: u64 = if (self.v233) != 0 { (0x0) } else { (c271) };
-        let c268: u64 = if (self.i_reset) != 0 { (0x0) } else { (c270) };
-        if self.v268 != c268 { self.v268 = c268; *dirty |= 0x80000000000000000; }
-        let c241: u64 = u64::from((c268) == (0x2));
-        let c242: u64 = u64::from((c268) == (0x3));
-        let c243: u64 = u64::from((c268) == (0x4));
-        let c244: u64 = u64::from((c268) == (0x5));
-        let c245: u64 = u64::from((c268) == (0x6));
-        let c246: u64 = u64::from((c268) == (0x7));
-        let c247: u64 = u64::from((c268) == (0x8));
-        let c248: u64 = u64::from((c268) == (0x9));
-        let c261: u64 = ((c241) | (c242)) & 0x1;
+        let c253: u64 = ((self.v668) | (self.v232)) & 0x1;
+        if self.v253 != c253 { self.v253 = c253; *dirty |= 0x100000000000; }
+        let c256: u64 = ((self.v676) | (self.v677)) & 0x1;
+        if self.v256 != c256 { self.v256 = c256; *dirty |= 0x8000000000000000; }
+        let c274: u64 = if (self.q94) != 0 { (self.v567) } else { (self.q73) };
+        let c271: u64 = if (self.v248) != 0 { (0x0) } else { (c274) };
+        let c272: u64 = if (self.q113) != 0 { (c271) } else { (c274) };
+        if self.v272 != c272 { self.v272 = c272; *dirty |= 0x10000000000000000; }
+        let c275: u64 = if (self.q94) != 0 { (self.v669) } else { (self.q115) };
+        let c273: u64 = if (self.q113) != 0 { (0xf) } else { (c275) };
+        let c270: u64 = if (self.v237) != 0 { (0x1) } else { (c273) };
+        let c269: u64 = if (self.v232) != 0 { (0x0) } else { (c270) };
+        let c267: u64 = if (self.i_reset) != 0 { (0x0) } else { (c269) };
+        if self.v267 != c267 { self.v267 = c267; *dirty |= 0x100000000000000000; }
+        let c240: u64 = u64::from((c267) == (0x2));
+        let c241: u64 = u64::from((c267) == (0x3));
+        let c242: u64 = u64::from((c267) == (0x4));
+        let c243: u64 = u64::from((c267) == (0x5));
+        let c244: u64 = u64::from((c267) == (0x6));
+        let c245: u64 = u64::from((c267) == (0x7));
+        let c246: u64 = u64::from((c267) == (0x8));
+        let c247: u64 = u64::from((c267) == (0x9));
+        let c260: u64 = ((c240) | (c241)) & 0x1;
+        let c261: u64 = ((c260) | (c242)) & 0x1;
         let c262: u64 = ((c261) | (c243)) & 0x1;
         let c263: u64 = ((c262) | (c244)) & 0x1;
         let c264: u64 = ((c263) | (c245)) & 0x1;
         let c265: u64 = ((c264) | (c246)) & 0x1;
         let c266: u64 = ((c265) | (c247)) & 0x1;
-        let c267: u64 = ((c266) | (c248)) & 0x1;
-        if self.v267 != c267 { self.v267 = c267; *dirty |= 0x80000000000000000; }
-        let c278: u64 = ((self.q70) | (self.v492)) & 0x1;
-        if self.v278 != c278 { self.v278 = c278; *dirty |= 0x10000000000000000; }
-        let c279: u64 = ((self.v490) | (self.v661)) & 0x1;
-        if self.v279 != c279 { self.v279 = c279; *dirty |= 0x20000000000000000; }
+        if self.v266 != c266 { self.v266 = c266; *dirty |= 0x100000000000000000; }
+        let c277: u64 = ((self.q71) | (self.v498)) & 0x1;
+        if self.v277 != c277 { self.v277 = c277; *dirty |= 0x20000000000000000; }
+        let c278: u64 = ((self.v496) | (self.v667)) & 0x1;
+        if self.v278 != c278 { self.v278 = c278; *dirty |= 0x40000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults.
     fn group_30(&mut self, dirty: &mut u128) {
-        let c318: u64 = (self.v489) & (self.v326) & 0x1;
-        if self.v318 != c318 { self.v318 = c318; *dirty |= 0x80000000; }
-        let c319: u64 = (self.v666) & (self.v327) & 0x1;
-        let c353: u64 = (self.v664) & (self.v352) & 0x1;
-        let c354: u64 = if (self.v664) != 0 { (self.v350) } else { (self.q66 | (self.q67 << 7)) };
-        let c348: u64 = if (c319) != 0 { (self.v316) } else { (c354) };
-        let c347: u64 = if (self.v665) != 0 { (self.v346) } else { (c348) };
-        let c343: u64 = if (self.v328) != 0 { (self.v369) } else { (c347) };
-        let c344: u64 = if (self.q67) != 0 { (0x7f) } else { (c343) };
-        let c345: u64 = if (self.v498) != 0 { (c344) } else { (c347) };
-        let c355: u64 = if (self.v664) != 0 { (self.v351) } else { ((self.q63 << 5)) };
-        let c349: u64 = if (c318) != 0 { (self.v368) } else { ((c355 & 0x1) | ((c355 & 0x1) << 1) | (c355 << 2)) };
-        let c356: u64 = if (self.v255) != 0 { (self.q66 | (self.q67 << 7)) } else { (c345) };
-        let c357: u64 = if (self.v255) != 0 { ((self.q63 << 7)) } else { (c349) };
-        let c358: u64 = if (self.v255) != 0 { (0x0) } else { (c353) };
-        let c362: u64 = if (self.v673) != 0 { (self.v360) } else { (0x1) };
-        let c363: u64 = if (self.v673) != 0 { (self.v359) } else { (self.q66 | (self.q67 << 7)) };
-        let c364: u64 = if (self.v673) != 0 { (self.v361) } else { ((self.q63 << 7)) };
-        let c365: u64 = if (self.q113) != 0 { (c362) } else { (c358) };
-        let c336: u64 = if (self.q113) != 0 { (0x0) } else { (c365) };
-        let c339: u64 = ((c336) | (self.v325)) & 0x1;
-        let c340: u64 = if (self.v1) != 0 { (c339) } else { (c365) };
-        let c331: u64 = if (self.i_reset) != 0 { (0x0) } else { (c340) };
-        if self.v331 != c331 { self.v331 = c331; *dirty |= 0x40000000000000000; }
-        let c329: u64 = !(c331) & 0x1;
-        let c366: u64 = if (self.q113) != 0 { (c363) } else { (c356) };
-        let c335: u64 = if (self.q113) != 0 { (0x0) } else { (c366) };
-        let c337: u64 = if (self.v325) != 0 { (0x0) } else { (c335) };
-        let c341: u64 = if (self.v1) != 0 { (c337) } else { (c366) };
-        let c334: u64 = if (self.v320) != 0 { (self.i_wdata) } else { (c341) };
-        if self.v334 != c334 { self.v334 = c334; *dirty |= 0x20000000000; }
-        let c332: u64 = if (self.i_reset) != 0 { (0x0) } else { (c334) };
-        if self.v332 != c332 { self.v332 = c332; *dirty |= 0x20000000000; }
-        let c367: u64 = if (self.q113) != 0 { (c364) } else { (c357) };
-        let c342: u64 = if (self.v1) != 0 { (self.v338) } else { (c367) };
-        if self.v342 != c342 { self.v342 = c342; *dirty |= 0x2000000000; }
-        let c333: u64 = if (self.i_reset) != 0 { (0x0) } else { (c342) };
-        if self.v333 != c333 { self.v333 = c333; *dirty |= 0x2000000000; }
-        let c330: u64 = (((c333 >> 7)) | ((c332 >> 7))) & 0x1;
-        let c321: u64 = (c329) & (c330) & 0x1;
-        if self.v321 != c321 { self.v321 = c321; *dirty |= 0x40000000000000000; }
+        let c324: u64 = (self.v495) & (self.v332) & 0x1;
+        if self.v324 != c324 { self.v324 = c324; *dirty |= 0x80000000; }
+        let c325: u64 = (self.v672) & (self.v333) & 0x1;
+        let c359: u64 = (self.v670) & (self.v358) & 0x1;
+        let c360: u64 = if (self.v670) != 0 { (self.v356) } else { (self.q67 | (self.q68 << 7)) };
+        let c354: u64 = if (c325) != 0 { (self.v322) } else { (c360) };
+        let c353: u64 = if (self.v671) != 0 { (self.v352) } else { (c354) };
+        let c349: u64 = if (self.v334) != 0 { (self.v375) } else { (c353) };
+        let c350: u64 = if (self.q68) != 0 { (0x7f) } else { (c349) };
+        let c351: u64 = if (self.v504) != 0 { (c350) } else { (c353) };
+        let c361: u64 = if (self.v670) != 0 { (self.v357) } else { ((self.q64 << 5)) };
+        let c355: u64 = if (c324) != 0 { (self.v374) } else { ((c361 & 0x1) | ((c361 & 0x1) << 1) | (c361 << 2)) };
+        let c362: u64 = if (self.v254) != 0 { (self.q67 | (self.q68 << 7)) } else { (c351) };
+        let c363: u64 = if (self.v254) != 0 { ((self.q64 << 7)) } else { (c355) };
+        let c364: u64 = if (self.v254) != 0 { (0x0) } else { (c359) };
+        let c368: u64 = if (self.v679) != 0 { (self.v366) } else { (0x1) };
+        let c369: u64 = if (self.v679) != 0 { (self.v365) } else { (self.q67 | (self.q68 << 7)) };
+        let c370: u64 = if (self.v679) != 0 { (self.v367) } else { ((self.q64 << 7)) };
+        let c371: u64 = if (self.q113) != 0 { (c368) } else { (c364) };
+        let c342: u64 = if (self.q113) != 0 { (0x0) } else { (c371) };
+        let c345: u64 = ((c342) | (self.v331)) & 0x1;
+        let c346: u64 = if (self.v1) != 0 { (c345) } else { (c371) };
+        let c337: u64 = if (self.i_reset) != 0 { (0x0) } else { (c346) };
+        if self.v337 != c337 { self.v337 = c337; *dirty |= 0x80000000000000000; }
+        let c335: u64 = !(c337) & 0x1;
+        let c372: u64 = if (self.q113) != 0 { (c369) } else { (c362) };
+        let c341: u64 = if (self.q113) != 0 { (0x0) } else { (c372) };
+        let c343: u64 = if (self.v331) != 0 { (0x0) } else { (c341) };
+        let c347: u64 = if (self.v1) != 0 { (c343) } else { (c372) };
+        let c340: u64 = if (self.v326) != 0 { (self.i_wdata) } else { (c347) };
+        if self.v340 != c340 { self.v340 = c340; *dirty |= 0x20000000000; }
+        let c338: u64 = if (self.i_reset) != 0 { (0x0) } else { (c340) };
+        if self.v338 != c338 { self.v338 = c338; *dirty |= 0x20000000000; }
+        let c373: u64 = if (self.q113) != 0 { (c370) } else { (c363) };
+        let c348: u64 = if (self.v1) != 0 { (self.v344) } else { (c373) };
+        if self.v348 != c348 { self.v348 = c348; *dirty |= 0x2000000000; }
+        let c339: u64 = if (self.i_reset) != 0 { (0x0) } else { (c348) };
+        if self.v339 != c339 { self.v339 = c339; *dirty |= 0x2000000000; }
+        let c336: u64 = (((c339 >> 7)) | ((c338 >> 7))) & 0x1;
+        let c327: u64 = (c335) & (c336) & 0x1;
+        if self.v327 != c327 { self.v327 = c327; *dirty |= 0x80000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of can_controller.
     fn group_31(&mut self, dirty: &mut u128) {
-        let c12: u64 = (self.v11) & (self.v239) & 0x1;
+        let c12: u64 = (self.v11) & (self.v238) & 0x1;
         if self.v12 != c12 { self.v12 = c12; *dirty |= 0x40080000000000000000000000000000; }
-        let c17: u64 = (self.i_re) & (self.v1077) & 0x1;
+        let c17: u64 = (self.i_re) & (self.v1083) & 0x1;
         if self.v17 != c17 { self.v17 = c17; *dirty |= 0x8000000000000000000200000000; }
-        let c33: u64 = u64::from((self.v664 | (self.q113 << 1) | (self.v318 << 2) | (self.v255 << 3) | (self.v1 << 4)) != 0);
-        let c34: u64 = u64::from((self.v664 | (self.q113 << 1) | (self.v318 << 2) | (self.v323 << 3) | (self.v255 << 4) | (self.v1 << 5)) != (0x1));
-        let c35: u64 = u64::from((self.v673 | (self.q113 << 1) | (self.v1 << 2)) != (0x2));
-        let c36: u64 = u64::from((self.v673 | (self.q113 << 1) | (self.v322 << 2) | (self.v1 << 3)) != (0x7));
-        let c37: u64 = u64::from((self.q113 | (self.v255 << 1) | (self.v1 << 2)) != (0x2));
+        let c33: u64 = u64::from((self.v670 | (self.q113 << 1) | (self.v324 << 2) | (self.v254 << 3) | (self.v1 << 4)) != 0);
+        let c34: u64 = u64::from((self.v670 | (self.q113 << 1) | (self.v324 << 2) | (self.v329 << 3) | (self.v254 << 4) | (self.v1 << 5)) != (0x1));
+        let c35: u64 = u64::from((self.v679 | (self.q113 << 1) | (self.v1 << 2)) != (0x2));
+        let c36: u64 = u64::from((self.v679 | (self.q113 << 1) | (self.v328 << 2) | (self.v1 << 3)) != (0x7));
+        let c37: u64 = u64::from((self.q113 | (self.v254 << 1) | (self.v1 << 2)) != (0x2));
         let c67: u64 = u64::from((c34 | (c35 << 1) | (c36 << 2) | (c37 << 3) | (c33 << 4)) == 0x1f);
         if self.v67 != c67 { self.v67 = c67; *dirty |= 0x2000000000; }
         let c68: u64 = u64::from((c35 | (c36 << 1) | (c37 << 2) | (c33 << 3)) == 0xf);
         if self.v68 != c68 { self.v68 = c68; *dirty |= 0x2000000000; }
-        let c1108: u64 = if (c12) != 0 { (0x0) } else { (self.v1111) };
-        let c1106: u64 = ((c1108) | (self.i_reset)) & 0x1;
-        if self.v1106 != c1106 { self.v1106 = c1106; *dirty |= 0x200000000000000000000000000000; }
-        let c1109: u64 = if (c12) != 0 { (0x0) } else { (self.v1112) };
-        let c1107: u64 = ((c1109) | (self.v1010)) & 0x1;
-        let c1105: u64 = ((c1107) | (self.i_reset)) & 0x1;
-        if self.v1105 != c1105 { self.v1105 = c1105; *dirty |= 0x100000000000000000000000000000; }
-        let c1110: u64 = ((self.v1113) | (c12)) & 0x1;
-        if self.v1110 != c1110 { self.v1110 = c1110; *dirty |= 0x20000000000000000000000000000000; }
+        let c1114: u64 = if (c12) != 0 { (0x0) } else { (self.v1117) };
+        let c1112: u64 = ((c1114) | (self.i_reset)) & 0x1;
+        if self.v1112 != c1112 { self.v1112 = c1112; *dirty |= 0x200000000000000000000000000000; }
+        let c1115: u64 = if (c12) != 0 { (0x0) } else { (self.v1118) };
+        let c1113: u64 = ((c1115) | (self.v1016)) & 0x1;
+        let c1111: u64 = ((c1113) | (self.i_reset)) & 0x1;
+        if self.v1111 != c1111 { self.v1111 = c1111; *dirty |= 0x100000000000000000000000000000; }
+        let c1116: u64 = ((self.v1119) | (c12)) & 0x1;
+        if self.v1116 != c1116 { self.v1116 = c1116; *dirty |= 0x20000000000000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler.
     fn group_32(&mut self, dirty: &mut u128) {
-        let c71: u64 = u64::from((self.v506 | (self.v44 << 1) | (self.v390 << 2) | (self.v43 << 3)) == 0xf);
-        if self.v71 != c71 { self.v71 = c71; *dirty |= 0x800000000000000; }
-        let c73: u64 = u64::from((self.v506 | (self.v438 << 1) | (self.v281 << 2)) == 0x7);
-        if self.v73 != c73 { self.v73 = c73; *dirty |= 0x400000000000000; }
-        let c288: u64 = (self.v438) & (self.v234) & 0x1;
-        let c289: u64 = (self.v506) & (self.v287) & 0x1;
-        if self.v289 != c289 { self.v289 = c289; *dirty |= 0x200000000000000; }
-        let c290: u64 = (self.v506) & (c288) & 0x1;
-        if self.v290 != c290 { self.v290 = c290; *dirty |= 0x400000000000000; }
+        let c71: u64 = u64::from((self.v512 | (self.v44 << 1) | (self.v396 << 2) | (self.v43 << 3)) == 0xf);
+        if self.v71 != c71 { self.v71 = c71; *dirty |= 0x1000000000000000; }
+        let c73: u64 = u64::from((self.v512 | (self.v444 << 1) | (self.v280 << 2)) == 0x7);
+        if self.v73 != c73 { self.v73 = c73; *dirty |= 0x800000000000000; }
+        let c287: u64 = (self.v444) & (self.v233) & 0x1;
+        let c288: u64 = (self.v512) & (self.v286) & 0x1;
+        if self.v288 != c288 { self.v288 = c288; *dirty |= 0x400000000000000; }
+        let c289: u64 = (self.v512) & (c287) & 0x1;
+        if self.v289 != c289 { self.v289 = c289; *dirty |= 0x800000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$fifo.
     fn group_33(&mut self, dirty: &mut u128) {
-        let c804: u64 = if (self.v18) != 0 { (self.i_wdata) } else { (self.v827) };
-        let c805: u64 = if (self.v18) != 0 { (self.v1061) } else { (self.v788) };
-        let c806: u64 = ((self.v826) | (self.v18)) & 0x1;
-        let c809: u64 = if (self.q127) != 0 { (c806) } else { (self.v826) };
-        if self.v809 != c809 { self.v809 = c809; *dirty |= 0x40000000000000000000; }
-        let c810: u64 = if (self.q127) != 0 { (c804) } else { (self.v827) };
-        if self.v810 != c810 { self.v810 = c810; *dirty |= 0x40000000000000000000; }
-        let c811: u64 = if (self.q127) != 0 { (c805) } else { (self.v788) };
-        if self.v811 != c811 { self.v811 = c811; *dirty |= 0x40000000000000000000; }
-        let c812: u64 = if (self.v17) != 0 { (self.v1061) } else { (self.v789) };
-        if self.v812 != c812 { self.v812 = c812; *dirty |= 0x40000000000000000000; }
+        let c810: u64 = if (self.v18) != 0 { (self.i_wdata) } else { (self.v833) };
+        let c811: u64 = if (self.v18) != 0 { (self.v1067) } else { (self.v794) };
+        let c812: u64 = ((self.v832) | (self.v18)) & 0x1;
+        let c815: u64 = if (self.q127) != 0 { (c812) } else { (self.v832) };
+        if self.v815 != c815 { self.v815 = c815; *dirty |= 0x80000000000000000000; }
+        let c816: u64 = if (self.q127) != 0 { (c810) } else { (self.v833) };
+        if self.v816 != c816 { self.v816 = c816; *dirty |= 0x80000000000000000000; }
+        let c817: u64 = if (self.q127) != 0 { (c811) } else { (self.v794) };
+        if self.v817 != c817 { self.v817 = c817; *dirty |= 0x80000000000000000000; }
+        let c818: u64 = if (self.v17) != 0 { (self.v1067) } else { (self.v795) };
+        if self.v818 != c818 { self.v818 = c818; *dirty |= 0x80000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$modes.
     fn group_34(&mut self, dirty: &mut u128) {
-        let c978: u64 = (self.v759) & (self.v40) & 0x1;
-        let c984: u64 = (self.v154) & (self.v998) & 0x1;
-        if self.v984 != c984 { self.v984 = c984; *dirty |= 0x1000000000000000000000000000; }
-        let c990: u64 = !(self.v767) & 0x1;
-        let c991: u64 = !(self.v1086) & 0x1;
-        if self.v991 != c991 { self.v991 = c991; *dirty |= 0x80000000000000000000000000000000; }
-        let c980: u64 = (self.v523) & (c991) & 0x1;
-        let c1014: u64 = ((self.q129) | (c980)) & 0x1;
-        let c1015: u64 = !(c980) & 0x1;
-        let c1018: u64 = if (c978) != 0 { (c990) } else { (self.v1028) };
-        let c999: u64 = ((c1018) | (self.v992)) & 0x1;
-        let c981: u64 = (self.q129) & (c999) & 0x1;
-        let c1019: u64 = if (c978) != 0 { (self.v767) } else { (self.v1029) };
-        let c979: u64 = (c1019) & (self.v82) & 0x1;
-        let c1016: u64 = if (c979) != 0 { (c1014) } else { (self.q129) };
-        let c1013: u64 = if (c981) != 0 { (0x0) } else { (c1016) };
-        let c1009: u64 = if (self.v1010) != 0 { (0x0) } else { (c1013) };
-        let c1001: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1009) };
-        if self.v1001 != c1001 { self.v1001 = c1001; *dirty |= 0x2000000000000000000000000000; }
-        let c997: u64 = !(c1001) & 0x1;
-        let c985: u64 = (self.v996) & (c997) & 0x1;
-        if self.v985 != c985 { self.v985 = c985; *dirty |= 0x80000000000000000000000000; }
-        let c1017: u64 = (c979) & (c1015) & 0x1;
-        let c1012: u64 = ((c1017) | (c981)) & 0x1;
-        if self.v1012 != c1012 { self.v1012 = c1012; *dirty |= 0x800000000; }
+        let c984: u64 = (self.v765) & (self.v40) & 0x1;
+        let c990: u64 = (self.v153) & (self.v1004) & 0x1;
+        if self.v990 != c990 { self.v990 = c990; *dirty |= 0x1000000000000000000000000000; }
+        let c996: u64 = !(self.v773) & 0x1;
+        let c997: u64 = !(self.v1092) & 0x1;
+        if self.v997 != c997 { self.v997 = c997; *dirty |= 0x80000000000000000000000000000000; }
+        let c986: u64 = (self.v529) & (c997) & 0x1;
+        let c1020: u64 = ((self.q129) | (c986)) & 0x1;
+        let c1021: u64 = !(c986) & 0x1;
+        let c1024: u64 = if (c984) != 0 { (c996) } else { (self.v1034) };
+        let c1005: u64 = ((c1024) | (self.v998)) & 0x1;
+        let c987: u64 = (self.q129) & (c1005) & 0x1;
+        let c1025: u64 = if (c984) != 0 { (self.v773) } else { (self.v1035) };
+        let c985: u64 = (c1025) & (self.v82) & 0x1;
+        let c1022: u64 = if (c985) != 0 { (c1020) } else { (self.q129) };
+        let c1019: u64 = if (c987) != 0 { (0x0) } else { (c1022) };
+        let c1015: u64 = if (self.v1016) != 0 { (0x0) } else { (c1019) };
+        let c1007: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1015) };
+        if self.v1007 != c1007 { self.v1007 = c1007; *dirty |= 0x2000000000000000000000000000; }
+        let c1003: u64 = !(c1007) & 0x1;
+        let c991: u64 = (self.v1002) & (c1003) & 0x1;
+        if self.v991 != c991 { self.v991 = c991; *dirty |= 0x80000000000000000000000000; }
+        let c1023: u64 = (c985) & (c1021) & 0x1;
+        let c1018: u64 = ((c1023) | (c987)) & 0x1;
+        if self.v1018 != c1018 { self.v1018 = c1018; *dirty |= 0x800000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts.
     fn group_35(&mut self, dirty: &mut u128) {
-        let c114: u64 = (self.q69 | (self.v1012 << 1) | (self.v964 << 2) | (self.v939 << 3) | (self.v955 << 4) | (self.v937 << 5) | (self.v936 << 6)) & (((self.q21 >> 1) & 0x1) | ((self.v1085 & 0x3) << 1) | ((self.q21 >> 3) << 3) | (((self.q21 >> 2) & 0x1) << 4) | ((self.v1085 >> 3) << 5) | (((self.v1085 >> 2) & 0x1) << 6)) & 0x7f;
-        let c935: u64 = (self.v40) & (self.v1051) & 0x1;
-        let c19: u64 = u64::from((c935 | (self.v934 << 1)) != 0);
-        let c41: u64 = !(c935) & 0x1;
-        let c50: u64 = u64::from((self.i_we | (c41 << 1) | (self.v934 << 2)) == 0x7);
-        if self.v50 != c50 { self.v50 = c50; *dirty |= 0x200000000000; }
+        let c114: u64 = (self.q70 | (self.v1018 << 1) | (self.v970 << 2) | (self.v945 << 3) | (self.v961 << 4) | (self.v943 << 5) | (self.v942 << 6)) & (((self.q22 >> 1) & 0x1) | ((self.v1091 & 0x3) << 1) | ((self.q22 >> 3) << 3) | (((self.q22 >> 2) & 0x1) << 4) | ((self.v1091 >> 3) << 5) | (((self.v1091 >> 2) & 0x1) << 6)) & 0x7f;
+        let c941: u64 = (self.v40) & (self.v1057) & 0x1;
+        let c19: u64 = u64::from((c941 | (self.v940 << 1)) != 0);
+        let c41: u64 = !(c941) & 0x1;
+        let c50: u64 = u64::from((self.i_we | (c41 << 1) | (self.v940 << 2)) == 0x7);
+        if self.v50 != c50 { self.v50 = c50; *dirty |= 0x400000000000; }
         let c51: u64 = u64::from((self.i_we | (c19 << 1)) == 0x3);
-        if self.v51 != c51 { self.v51 = c51; *dirty |= 0x200000000000; }
-        let c941: u64 = (self.v762) & (self.v951) & 0x1;
-        if self.v941 != c941 { self.v941 = c941; *dirty |= 0x4000000000; }
-        let c942: u64 = (c941) & (self.v952) & 0x1;
-        let c956: u64 = ((self.v940) | (c942)) & 0x1;
-        let c959: u64 = if (self.v1010) != 0 { (0x0) } else { ((self.v960 & 0x1) | ((self.v960 >> 2) << 1)) };
-        let c115: u64 = (((c959 & 0x1) | (((self.v960 >> 1) & 0x1) << 1) | ((c959 >> 1) << 2)) | ((c114 & 0x1) | (((c114 >> 4) & 0x1) << 1) | (((c114 >> 3) & 0x1) << 2) | (((c114 >> 1) & 0x3) << 3) | ((c114 >> 6) << 5) | (((c114 >> 5) & 0x1) << 6))) & 0x7f;
+        if self.v51 != c51 { self.v51 = c51; *dirty |= 0x400000000000; }
+        let c947: u64 = (self.v768) & (self.v957) & 0x1;
+        if self.v947 != c947 { self.v947 = c947; *dirty |= 0x4000000000; }
+        let c948: u64 = (c947) & (self.v958) & 0x1;
+        let c962: u64 = ((self.v946) | (c948)) & 0x1;
+        let c965: u64 = if (self.v1016) != 0 { (0x0) } else { ((self.v966 & 0x1) | ((self.v966 >> 2) << 1)) };
+        let c115: u64 = (((c965 & 0x1) | (((self.v966 >> 1) & 0x1) << 1) | ((c965 >> 1) << 2)) | ((c114 & 0x1) | (((c114 >> 4) & 0x1) << 1) | (((c114 >> 3) & 0x1) << 2) | (((c114 >> 1) & 0x3) << 3) | ((c114 >> 6) << 5) | (((c114 >> 5) & 0x1) << 6))) & 0x7f;
         if self.v115 != c115 { self.v115 = c115; *dirty |= 0x400000000000000000000000; }
-        let c961: u64 = ((self.v962) | (c956)) & 0x1;
-        if self.v961 != c961 { self.v961 = c961; *dirty |= 0x80000000000000000000000; }
-        let c973: u64 = if (c935) != 0 { (((self.i_wdata >> 1) & 0xf)) } else { ((self.i_wdata & 0xf)) };
-        if self.v973 != c973 { self.v973 = c973; *dirty |= 0x200000000000; }
+        let c967: u64 = ((self.v968) | (c962)) & 0x1;
+        if self.v967 != c967 { self.v967 = c967; *dirty |= 0x100000000000000000000000; }
+        let c979: u64 = if (c941) != 0 { (((self.i_wdata >> 1) & 0xf)) } else { ((self.i_wdata & 0xf)) };
+        if self.v979 != c979 { self.v979 = c979; *dirty |= 0x400000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$modes$divider.
     fn group_36(&mut self, dirty: &mut u128) {
-        let c1034: u64 = (self.q11).wrapping_add((0x1)) & 0x7;
-        if self.v1034 != c1034 { self.v1034 = c1034; *dirty |= 0x20000000000000000000000000; }
-        let c1035: u64 = !(self.q10) & 0x1;
-        if self.v1035 != c1035 { self.v1035 = c1035; *dirty |= 0x40000000000000000000000000; }
-        let c1036: u64 = u64::from((self.q104) == (0x7));
-        let c1037: u64 = u64::from((self.q11) >= (self.q104));
-        if self.v1037 != c1037 { self.v1037 = c1037; *dirty |= 0x40000000000000000000000000; }
-        let c85: u64 = u64::from((self.i_reset | (c1037 << 1)) != 0);
+        let c1040: u64 = (self.q12).wrapping_add((0x1)) & 0x7;
+        if self.v1040 != c1040 { self.v1040 = c1040; *dirty |= 0x20000000000000000000000000; }
+        let c1041: u64 = !(self.q11) & 0x1;
+        if self.v1041 != c1041 { self.v1041 = c1041; *dirty |= 0x40000000000000000000000000; }
+        let c1042: u64 = u64::from((self.q105) == (0x7));
+        let c1043: u64 = u64::from((self.q12) >= (self.q105));
+        if self.v1043 != c1043 { self.v1043 = c1043; *dirty |= 0x40000000000000000000000000; }
+        let c85: u64 = u64::from((self.i_reset | (c1043 << 1)) != 0);
         if self.v85 != c85 { self.v85 = c85; *dirty |= 0x20000000000000000000000000; }
-        let c1039: u64 = if (c1036) != 0 { (0x0) } else { (self.q10) };
-        let c1038: u64 = ((c1039) | ((self.q14 & 0x1))) & 0x1;
-        if self.v1038 != c1038 { self.v1038 = c1038; *dirty |= 0x4000000000000000000000000; }
+        let c1045: u64 = if (c1042) != 0 { (0x0) } else { (self.q11) };
+        let c1044: u64 = ((c1045) | ((self.q15 & 0x1))) & 0x1;
+        if self.v1044 != c1044 { self.v1044 = c1044; *dirty |= 0x4000000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults$tec_count.
     fn group_37(&mut self, dirty: &mut u128) {
-        self.n63 = ((self.v333 >> 7));
-        self.n64 = if (self.i_reset) != 0 { 0x0 } else if (self.v67) != 0 { ((self.v342 & 0x7)) } else { self.q64 };
-        self.n65 = if (self.i_reset) != 0 { 0x0 } else if (self.v68) != 0 { (((self.v342 >> 3) & 0xf)) } else { self.q65 };
+        self.n64 = ((self.v339 >> 7));
+        self.n65 = if (self.i_reset) != 0 { 0x0 } else if (self.v67) != 0 { ((self.v348 & 0x7)) } else { self.q65 };
+        self.n66 = if (self.i_reset) != 0 { 0x0 } else if (self.v68) != 0 { (((self.v348 >> 3) & 0xf)) } else { self.q66 };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo.
     fn group_38(&mut self, dirty: &mut u128) {
-        let c820: u64 = if (self.v941) != 0 { (self.v848) } else { (self.q48) };
-        let c792: u64 = (c820).wrapping_add((0x1)) & 0x1f;
-        let c801: u64 = u64::from((c820) == 0);
-        let c814: u64 = if (c801) != 0 { (0x0) } else { (self.v941) };
-        let c815: u64 = if (c801) != 0 { (self.q83 | (self.q77 << 6) | (self.q79 << 7)) } else { (self.v846) };
-        let c816: u64 = if (self.v793) != 0 { (c814) } else { (self.v941) };
-        if self.v816 != c816 { self.v816 = c816; *dirty |= 0x8000000000000000000; }
-        let c817: u64 = if (self.v793) != 0 { (c815) } else { (self.v846) };
-        if self.v817 != c817 { self.v817 = c817; *dirty |= 0x10000000000000000000; }
-        let c818: u64 = if (self.v793) != 0 { (c792) } else { (c820) };
-        if self.v818 != c818 { self.v818 = c818; *dirty |= 0x200000000000000000000; }
-        let c821: u64 = if (self.v941) != 0 { (self.v847) } else { (self.q40) };
-        let c791: u64 = (c821).wrapping_add((self.v841)) & 0x7f;
-        let c819: u64 = if (self.v793) != 0 { (c791) } else { (c821) };
-        if self.v819 != c819 { self.v819 = c819; *dirty |= 0x400000000000000000000; }
-        let c822: u64 = if (self.v941) != 0 { (self.v789) } else { (self.q46) };
-        let c803: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (c822) };
-        let c808: u64 = if (self.q127) != 0 { (c803) } else { (c822) };
-        if self.v808 != c808 { self.v808 = c808; *dirty |= 0x10000000000000000000; }
+        let c826: u64 = if (self.v947) != 0 { (self.v855) } else { (self.q49) };
+        let c798: u64 = (c826).wrapping_add((0x1)) & 0x1f;
+        let c807: u64 = u64::from((c826) == 0);
+        let c820: u64 = if (c807) != 0 { (0x0) } else { (self.v947) };
+        let c821: u64 = if (c807) != 0 { (self.q84 | (self.q78 << 6) | (self.q80 << 7)) } else { (self.v853) };
+        let c822: u64 = if (self.v799) != 0 { (c820) } else { (self.v947) };
+        if self.v822 != c822 { self.v822 = c822; *dirty |= 0x10000000000000000000; }
+        let c823: u64 = if (self.v799) != 0 { (c821) } else { (self.v853) };
+        if self.v823 != c823 { self.v823 = c823; *dirty |= 0x20000000000000000000; }
+        let c824: u64 = if (self.v799) != 0 { (c798) } else { (c826) };
+        if self.v824 != c824 { self.v824 = c824; *dirty |= 0x400000000000000000000; }
+        let c827: u64 = if (self.v947) != 0 { (self.v854) } else { (self.q41) };
+        let c797: u64 = (c827).wrapping_add((self.v848)) & 0x7f;
+        let c825: u64 = if (self.v799) != 0 { (c797) } else { (c827) };
+        if self.v825 != c825 { self.v825 = c825; *dirty |= 0x800000000000000000000; }
+        let c828: u64 = if (self.v947) != 0 { (self.v795) } else { (self.q47) };
+        let c809: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (c828) };
+        let c814: u64 = if (self.q127) != 0 { (c809) } else { (c828) };
+        if self.v814 != c814 { self.v814 = c814; *dirty |= 0x20000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$modes$cdr_reg.
     fn group_39(&mut self, dirty: &mut u128) {
-        self.n13 = ((self.v1000 >> 6));
-        self.n14 = if (self.i_reset) != 0 { 0x0 } else if (self.v48) != 0 { (((self.i_wdata >> 3) & 0x1) | (((self.i_wdata >> 5) & 0x3) << 1)) } else { self.q14 };
-        self.n104 = if (self.i_reset) != 0 { 0x0 } else if (self.v983) != 0 { ((self.i_wdata & 0x7)) } else { self.q104 };
+        self.n14 = ((self.v1006 >> 6));
+        self.n15 = if (self.i_reset) != 0 { 0x0 } else if (self.v48) != 0 { (((self.i_wdata >> 3) & 0x1) | (((self.i_wdata >> 5) & 0x3) << 1)) } else { self.q15 };
+        self.n105 = if (self.i_reset) != 0 { 0x0 } else if (self.v989) != 0 { ((self.i_wdata & 0x7)) } else { self.q105 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$clocks.
     fn group_40(&mut self, dirty: &mut u128) {
-        self.n95 = if (self.i_reset) != 0 { 0x0 } else { (self.v189) };
-        self.n96 = if (self.v100) != 0 { 0x0 } else { ((self.v140 >> 1)) };
+        self.n96 = if (self.i_reset) != 0 { 0x0 } else { (self.v187) };
+        self.n97 = if (self.v100) != 0 { 0x0 } else { ((self.v139 >> 1)) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults$rec_count.
     fn group_41(&mut self, dirty: &mut u128) {
-        self.n66 = if (self.i_reset) != 0 { 0x0 } else { ((self.v334 & 0x7f)) };
-        self.n67 = ((self.v332 >> 7));
+        self.n67 = if (self.i_reset) != 0 { 0x0 } else { ((self.v340 & 0x7f)) };
+        self.n68 = ((self.v338 >> 7));
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender.
     fn group_42(&mut self, dirty: &mut u128) {
-        let c707: u64 = if (self.v235) != 0 { (self.v740) } else { (self.v742) };
-        let c709: u64 = if (self.v672) != 0 { (c707) } else { (0x1) };
-        let c721: u64 = if (self.v729) != 0 { (self.v720) } else { (c707) };
-        let c719: u64 = if (self.v728) != 0 { ((self.v1095 >> 7)) } else { (c721) };
-        let c717: u64 = if (self.v727) != 0 { (((self.v1095 >> 6) & 0x1)) } else { (c719) };
-        let c722: u64 = if (self.v672) != 0 { (c717) } else { (0x1) };
-        let c723: u64 = { let s = (self.v724 | (self.v703 << 1) | (self.v725 << 2) | (self.v705 << 3) | (self.v708 << 4) | (self.v711 << 5) | (self.v718 << 6) | (self.v726 << 7)); if s >> 0 & 1 != 0 { self.q125 } else if s >> 1 & 1 != 0 { self.v702 } else if s >> 2 & 1 != 0 { self.v691 } else if s >> 3 & 1 != 0 { self.v706 } else if s >> 4 & 1 != 0 { c709 } else if s >> 5 & 1 != 0 { self.v716 } else if s >> 6 & 1 != 0 { c722 } else if s >> 7 & 1 != 0 { self.v686 } else { (0x1) } };
-        let c701: u64 = if (self.v682) != 0 { (self.v430) } else { (c723) };
-        let c700: u64 = if (self.q93) != 0 { (c701) } else { (self.q117) };
-        let c696: u64 = ((c700) | (self.v695)) & 0x1;
-        if self.v696 != c696 { self.v696 = c696; *dirty |= 0x800000000000000000; }
-        let c739: u64 = if (self.v235) != 0 { (self.v736) } else { ((self.q55 & 0x1)) };
-        let c735: u64 = if (self.v236) != 0 { ((self.v734 << 1) | 0x1) } else { (c739) };
-        if self.v735 != c735 { self.v735 = c735; *dirty |= 0x80000000000; }
+        let c713: u64 = if (self.v234) != 0 { (self.v746) } else { (self.v748) };
+        let c715: u64 = if (self.v678) != 0 { (c713) } else { (0x1) };
+        let c727: u64 = if (self.v735) != 0 { (self.v726) } else { (c713) };
+        let c725: u64 = if (self.v734) != 0 { ((self.v1101 >> 7)) } else { (c727) };
+        let c723: u64 = if (self.v733) != 0 { (((self.v1101 >> 6) & 0x1)) } else { (c725) };
+        let c728: u64 = if (self.v678) != 0 { (c723) } else { (0x1) };
+        let c729: u64 = { let s = (self.v730 | (self.v709 << 1) | (self.v731 << 2) | (self.v711 << 3) | (self.v714 << 4) | (self.v717 << 5) | (self.v724 << 6) | (self.v732 << 7)); if s >> 0 & 1 != 0 { self.q125 } else if s >> 1 & 1 != 0 { self.v708 } else if s >> 2 & 1 != 0 { self.v697 } else if s >> 3 & 1 != 0 { self.v712 } else if s >> 4 & 1 != 0 { c715 } else if s >> 5 & 1 != 0 { self.v722 } else if s >> 6 & 1 != 0 { c728 } else if s >> 7 & 1 != 0 { self.v692 } else { (0x1) } };
+        let c707: u64 = if (self.v688) != 0 { (self.v436) } else { (c729) };
+        let c706: u64 = if (self.q94) != 0 { (c707) } else { (self.q117) };
+        let c702: u64 = ((c706) | (self.v701)) & 0x1;
+        if self.v702 != c702 { self.v702 = c702; *dirty |= 0x1000000000000000000; }
+        let c745: u64 = if (self.v234) != 0 { (self.v742) } else { ((self.q56 & 0x1)) };
+        let c741: u64 = if (self.v235) != 0 { ((self.v740 << 1) | 0x1) } else { (c745) };
+        if self.v741 != c741 { self.v741 = c741; *dirty |= 0x80000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender$tx_ptr.
     fn group_43(&mut self, dirty: &mut u128) {
-        self.n54 = if (self.v92) != 0 { 0x0 } else if (self.v61) != 0 { ((self.v735 >> 1)) } else { self.q54 };
-        self.n55 = if (self.v91) != 0 { 0x1 } else if (self.v62) != 0 { ((self.v675 & 0x1) | ((self.v675 >> 3) << 1)) } else { self.q55 };
+        self.n55 = if (self.v92) != 0 { 0x0 } else if (self.v61) != 0 { ((self.v741 >> 1)) } else { self.q55 };
+        self.n56 = if (self.v91) != 0 { 0x1 } else if (self.v62) != 0 { ((self.v681 & 0x1) | ((self.v681 >> 3) << 1)) } else { self.q56 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing.
     fn group_44(&mut self, dirty: &mut u128) {
-        let c755: u64 = if (self.v509) != 0 { (0x1) } else { (self.v757) };
-        if self.v755 != c755 { self.v755 = c755; *dirty |= 0x2000000000000000000; }
-        let c756: u64 = ((self.q53) | (self.v509)) & 0x1;
-        let c754: u64 = if (self.v254) != 0 { (0x0) } else { (c756) };
-        if self.v754 != c754 { self.v754 = c754; *dirty |= 0x2000000000000000000; }
+        let c761: u64 = if (self.v515) != 0 { (0x1) } else { (self.v763) };
+        if self.v761 != c761 { self.v761 = c761; *dirty |= 0x4000000000000000000; }
+        let c762: u64 = ((self.q54) | (self.v515)) & 0x1;
+        let c760: u64 = if (self.v253) != 0 { (0x0) } else { (c762) };
+        if self.v760 != c760 { self.v760 = c760; *dirty |= 0x4000000000000000000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$filter.
+    fn group_45(&mut self, dirty: &mut u128) {
+        let c928: u64 = ((((self.q81 >> 13) & 0xf) | (self.v838 << 4) | ((self.q82 & 0x7) << 5)) ^ (self.q38)) & 0xff;
+        let c864: u64 = (c928) & (self.v929) & 0xff;
+        let c116: u64 = ((c864 & 0xf)) & (self.q80 | (self.q80 << 1) | (self.q80 << 2) | (self.q80 << 3)) & 0xf;
+        let c890: u64 = u64::from((c116 | ((c864 >> 4) << 4)) == 0);
+        let c869: u64 = (self.v889) & (c890) & 0x1;
+        if self.v869 != c869 { self.v869 = c869; *dirty |= 0x10000000000000000000000; }
+        let c872: u64 = (c869) & (self.v902) & 0x1;
+        if self.v872 != c872 { self.v872 = c872; *dirty |= 0x40000000000000000000000; }
+        let c933: u64 = ((((self.q81 >> 13) & 0xf) | (self.v838 << 4) | ((self.q82 & 0x7) << 5)) ^ (self.q36)) & 0xff;
+        let c868: u64 = (c933) & (self.v934) & 0xff;
+        let c117: u64 = ((c868 & 0xf)) & (self.q80 | (self.q80 << 1) | (self.q80 << 2) | (self.q80 << 3)) & 0xf;
+        let c892: u64 = u64::from((c117 | ((c868 >> 4) << 4)) == 0);
+        let c870: u64 = (self.v891) & (c892) & 0x1;
+        if self.v870 != c870 { self.v870 = c870; *dirty |= 0x20000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$ier_reg.
-    fn group_45(&mut self, dirty: &mut u128) {
-        self.n20 = if (self.i_reset) != 0 { 0x0 } else if (self.v50) != 0 { ((self.i_wdata >> 4)) } else { self.q20 };
-        self.n21 = if (self.i_reset) != 0 { 0x0 } else if (self.v51) != 0 { (self.v973) } else { self.q21 };
+    fn group_46(&mut self, dirty: &mut u128) {
+        self.n21 = if (self.i_reset) != 0 { 0x0 } else if (self.v50) != 0 { ((self.i_wdata >> 4)) } else { self.q21 };
+        self.n22 = if (self.i_reset) != 0 { 0x0 } else if (self.v51) != 0 { (self.v979) } else { self.q22 };
         let _ = &dirty;
     }
 
     /// The cells of top$read.
-    fn group_46(&mut self, dirty: &mut u128) {
-        let c1059: u64 = if (self.q7) != 0 { (self.v1097) } else { (self.v1060) };
-        if self.v1059 != c1059 { self.v1059 = c1059; *dirty |= 0x80000000000000000000000000000000; }
-        let c1081: u64 = if (self.v134) != 0 { (self.v133) } else { (self.v1082) };
-        let c1080: u64 = if (self.v918) != 0 { (self.v911) } else { (c1081) };
-        let c1067: u64 = if (self.v1051) != 0 { (self.q127 | (self.q21 << 1) | (self.q12 << 6) | 0x20) } else { (c1080) };
-        let c1066: u64 = if (self.v1052) != 0 { (0xff) } else { (c1067) };
-        let c1065: u64 = if (self.v1053) != 0 { (self.v109 | ((self.q19 & 0xf) << 1) | 0xe0) } else { (c1066) };
-        let c1064: u64 = if (self.v1043) != 0 { (0xff) } else { (c1065) };
-        let c1075: u64 = if (self.v1051) != 0 { (self.q127 | (self.q126 << 1) | (self.q130 << 2) | (self.q15 << 3) | (self.q129 << 4)) } else { (c1080) };
-        let c1074: u64 = if (self.v871) != 0 { (self.q21 | (self.q20 << 4)) } else { (c1075) };
-        let c1073: u64 = if (self.v1045) != 0 { (self.q26) } else { (c1074) };
-        let c1072: u64 = if (self.v1046) != 0 { (self.q23) } else { (c1073) };
-        let c1071: u64 = if (self.v1047) != 0 { (self.q66 | (self.q67 << 7)) } else { (c1072) };
-        let c1070: u64 = if (self.v1048) != 0 { (self.q64 | (self.q65 << 3) | (self.q63 << 7)) } else { (c1071) };
-        let c1069: u64 = if (self.v1049) != 0 { (self.q48) } else { (c1070) };
-        let c1068: u64 = if (self.v1050) != 0 { (self.q46) } else { (c1069) };
-        let c1078: u64 = if (self.q13) != 0 { (c1068) } else { (c1064) };
-        let c1058: u64 = if (self.i_re) != 0 { (c1078) } else { (c1059) };
-        if self.v1058 != c1058 { self.v1058 = c1058; *dirty |= 0x40000000000000000000000000000; }
+    fn group_47(&mut self, dirty: &mut u128) {
+        let c1065: u64 = if (self.q8) != 0 { (self.v1103) } else { (self.v1066) };
+        if self.v1065 != c1065 { self.v1065 = c1065; *dirty |= 0x80000000000000000000000000000000; }
+        let c1087: u64 = if (self.v133) != 0 { (self.v132) } else { (self.v1088) };
+        let c1086: u64 = if (self.v924) != 0 { (self.v917) } else { (c1087) };
+        let c1073: u64 = if (self.v1057) != 0 { (self.q127 | (self.q22 << 1) | (self.q13 << 6) | 0x20) } else { (c1086) };
+        let c1072: u64 = if (self.v1058) != 0 { (0xff) } else { (c1073) };
+        let c1071: u64 = if (self.v1059) != 0 { (self.v109 | ((self.q20 & 0xf) << 1) | 0xe0) } else { (c1072) };
+        let c1070: u64 = if (self.v1049) != 0 { (0xff) } else { (c1071) };
+        let c1081: u64 = if (self.v1057) != 0 { (self.q127 | (self.q126 << 1) | (self.q130 << 2) | (self.q16 << 3) | (self.q129 << 4)) } else { (c1086) };
+        let c1080: u64 = if (self.v878) != 0 { (self.q22 | (self.q21 << 4)) } else { (c1081) };
+        let c1079: u64 = if (self.v1051) != 0 { (self.q27) } else { (c1080) };
+        let c1078: u64 = if (self.v1052) != 0 { (self.q24) } else { (c1079) };
+        let c1077: u64 = if (self.v1053) != 0 { (self.q67 | (self.q68 << 7)) } else { (c1078) };
+        let c1076: u64 = if (self.v1054) != 0 { (self.q65 | (self.q66 << 3) | (self.q64 << 7)) } else { (c1077) };
+        let c1075: u64 = if (self.v1055) != 0 { (self.q49) } else { (c1076) };
+        let c1074: u64 = if (self.v1056) != 0 { (self.q47) } else { (c1075) };
+        let c1084: u64 = if (self.q14) != 0 { (c1074) } else { (c1070) };
+        let c1064: u64 = if (self.i_re) != 0 { (c1084) } else { (c1065) };
+        if self.v1064 != c1064 { self.v1064 = c1064; *dirty |= 0x40000000000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$configuration$btr0 + top$configuration$btr1.
-    fn group_47(&mut self, dirty: &mut u128) {
-        self.n102 = if (self.i_reset) != 0 { 0x0 } else if (self.v79) != 0 { (self.i_wdata) } else { self.q102 };
-        self.n101 = if (self.i_reset) != 0 { 0x0 } else if (self.v78) != 0 { (self.i_wdata) } else { self.q101 };
+    fn group_48(&mut self, dirty: &mut u128) {
+        self.n103 = if (self.i_reset) != 0 { 0x0 } else if (self.v79) != 0 { (self.i_wdata) } else { self.q103 };
+        self.n102 = if (self.i_reset) != 0 { 0x0 } else if (self.v78) != 0 { (self.i_wdata) } else { self.q102 };
         let _ = &dirty;
     }
 
     /// The cells of top$configuration$ewlr_reg + top$configuration$ocr.
-    fn group_48(&mut self, dirty: &mut u128) {
-        self.n100 = if (self.i_reset) != 0 { 0x60 } else if (self.v81) != 0 { (self.i_wdata) } else { self.q100 };
-        self.n99 = if (self.i_reset) != 0 { 0x0 } else if (self.v80) != 0 { (self.i_wdata) } else { self.q99 };
+    fn group_49(&mut self, dirty: &mut u128) {
+        self.n101 = if (self.i_reset) != 0 { 0x60 } else if (self.v81) != 0 { (self.i_wdata) } else { self.q101 };
+        self.n100 = if (self.i_reset) != 0 { 0x0 } else if (self.v80) != 0 { (self.i_wdata) } else { self.q100 };
         let _ = &dirty;
     }
 
     /// The cells of top$configuration$sjw_reg + top$configuration$tseg2_reg.
-    fn group_49(&mut self, dirty: &mut u128) {
-        self.n98 = if (self.i_reset) != 0 { 0x0 } else if (self.v79) != 0 { ((self.i_wdata >> 6)) } else { self.q98 };
-        self.n97 = if (self.i_reset) != 0 { 0x0 } else if (self.v78) != 0 { (((self.i_wdata >> 4) & 0x7)) } else { self.q97 };
+    fn group_50(&mut self, dirty: &mut u128) {
+        self.n99 = if (self.i_reset) != 0 { 0x0 } else if (self.v79) != 0 { ((self.i_wdata >> 6)) } else { self.q99 };
+        self.n98 = if (self.i_reset) != 0 { 0x0 } else if (self.v78) != 0 { (((self.i_wdata >> 4) & 0x7)) } else { self.q98 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$elapsed + top$core$bit_timing$process_pending.
-    fn group_50(&mut self, dirty: &mut u128) {
-        self.n94 = if (self.v99) != 0 { 0x0 } else if (self.v77) != 0 { (self.v142) } else { self.q94 };
-        self.n93 = if (self.i_reset) != 0 { 0x0 } else { (self.v154) };
+    fn group_51(&mut self, dirty: &mut u128) {
+        self.n95 = if (self.v99) != 0 { 0x0 } else if (self.v77) != 0 { (self.v141) } else { self.q95 };
+        self.n94 = if (self.i_reset) != 0 { 0x0 } else { (self.v153) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$remaining + top$core$bit_timing$sampled.
-    fn group_51(&mut self, dirty: &mut u128) {
-        self.n92 = if (self.v98) != 0 { 0x0 } else { (self.v194) };
-        self.n109 = (self.v184);
+    fn group_52(&mut self, dirty: &mut u128) {
+        self.n93 = if (self.v98) != 0 { 0x0 } else { (self.v191) };
+        self.n109 = (self.v182);
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sampling$metastable + top$core$bit_timing$sampling$previous.
-    fn group_52(&mut self, dirty: &mut u128) {
-        self.n110 = (self.v229);
-        self.n111 = (self.v227);
+    fn group_53(&mut self, dirty: &mut u128) {
+        self.n110 = (self.v228);
+        self.n111 = (self.v226);
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sampling$quantum_samples + top$core$bit_timing$sampling$stable.
-    fn group_53(&mut self, dirty: &mut u128) {
-        self.n91 = if (self.i_reset) != 0 { 0x3 } else if (self.v148) != 0 { (self.q112 | ((self.q91 & 0x1) << 1)) } else { self.q91 };
-        self.n112 = (self.v228);
+    fn group_54(&mut self, dirty: &mut u128) {
+        self.n92 = if (self.i_reset) != 0 { 0x3 } else if (self.v147) != 0 { (self.q112 | ((self.q92 & 0x1) << 1)) } else { self.q92 };
+        self.n112 = (self.v227);
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$segment_state + top$core$bit_timing$sjw_quanta.
-    fn group_54(&mut self, dirty: &mut u128) {
-        self.n90 = if (self.v98) != 0 { 0x0 } else if (self.v76) != 0 { (self.v192) } else { self.q90 };
-        self.n108 = if (self.i_reset) != 0 { 0x1 } else { (self.v139) };
+    fn group_55(&mut self, dirty: &mut u128) {
+        self.n91 = if (self.v98) != 0 { 0x0 } else if (self.v76) != 0 { (self.v190) } else { self.q91 };
+        self.n0 = if (self.i_reset) != 0 { 0x1 } else { (self.v138) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$synced + top$core$bit_timing$transmit_deferred.
-    fn group_55(&mut self, dirty: &mut u128) {
-        self.n89 = if (self.i_reset) != 0 { 0x0 } else { (self.v186) };
-        self.n88 = if (self.i_reset) != 0 { 0x0 } else { (self.v158) };
+    fn group_56(&mut self, dirty: &mut u128) {
+        self.n90 = if (self.i_reset) != 0 { 0x0 } else { (self.v184) };
+        self.n89 = if (self.i_reset) != 0 { 0x0 } else { (self.v157) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$abort_pending + top$core$protocol$assembler$byte_index.
-    fn group_56(&mut self, dirty: &mut u128) {
-        self.n87 = if (self.v97) != 0 { 0x0 } else { (self.v277) };
-        self.n86 = if (self.i_reset) != 0 { 0x0 } else if (self.v75) != 0 { (((self.q72 >> 3) & 0x7)) } else { self.q86 };
+    fn group_57(&mut self, dirty: &mut u128) {
+        self.n88 = if (self.v97) != 0 { 0x0 } else { (self.v276) };
+        self.n87 = if (self.i_reset) != 0 { 0x0 } else if (self.v75) != 0 { (((self.q73 >> 3) & 0x7)) } else { self.q87 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$byte_pulse + top$core$protocol$assembler$byte_reg.
-    fn group_57(&mut self, dirty: &mut u128) {
-        self.n85 = if (self.i_reset) != 0 { 0x0 } else { (self.v289) };
-        self.n84 = if (self.i_reset) != 0 { 0x0 } else if (self.v74) != 0 { (self.q109 | ((self.q84 & 0x7f) << 1)) } else { self.q84 };
+    fn group_58(&mut self, dirty: &mut u128) {
+        self.n86 = if (self.i_reset) != 0 { 0x0 } else { (self.v288) };
+        self.n85 = if (self.i_reset) != 0 { 0x0 } else if (self.v74) != 0 { (self.q109 | ((self.q85 & 0x7f) << 1)) } else { self.q85 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$dlc_reg + top$core$protocol$assembler$header_pulse.
-    fn group_58(&mut self, dirty: &mut u128) {
-        self.n83 = if (self.v94) != 0 { 0x0 } else if (self.v73) != 0 { (self.q109 | ((self.q83 & 0x7) << 1)) } else { self.q83 };
-        self.n82 = if (self.i_reset) != 0 { 0x0 } else { (self.v290) };
+    fn group_59(&mut self, dirty: &mut u128) {
+        self.n84 = if (self.v94) != 0 { 0x0 } else if (self.v73) != 0 { (self.q109 | ((self.q84 & 0x7) << 1)) } else { self.q84 };
+        self.n83 = if (self.i_reset) != 0 { 0x0 } else { (self.v289) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$id_base + top$core$protocol$assembler$id_extension.
-    fn group_59(&mut self, dirty: &mut u128) {
-        self.n81 = if (self.v94) != 0 { 0x0 } else if (self.v72) != 0 { (self.q109 | ((self.q81 & 0x3ff) << 1)) } else { self.q81 };
-        self.n80 = if (self.v94) != 0 { 0x0 } else if (self.v71) != 0 { (self.q109 | ((self.q80 & 0x1ffff) << 1)) } else { self.q80 };
+    fn group_60(&mut self, dirty: &mut u128) {
+        self.n82 = if (self.v94) != 0 { 0x0 } else if (self.v72) != 0 { (self.q109 | ((self.q82 & 0x3ff) << 1)) } else { self.q82 };
+        self.n81 = if (self.v94) != 0 { 0x0 } else if (self.v71) != 0 { (self.q109 | ((self.q81 & 0x1ffff) << 1)) } else { self.q81 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$ide_reg + top$core$protocol$assembler$last_data_byte_reg.
-    fn group_60(&mut self, dirty: &mut u128) {
-        self.n79 = if (self.i_reset) != 0 { 0x0 } else if (self.v70) != 0 { (self.q109) } else { self.q79 };
-        self.n78 = if (self.i_reset) != 0 { 0x0 } else { (self.v293) };
+    fn group_61(&mut self, dirty: &mut u128) {
+        self.n80 = if (self.i_reset) != 0 { 0x0 } else if (self.v70) != 0 { (self.q109) } else { self.q80 };
+        self.n79 = if (self.i_reset) != 0 { 0x0 } else { (self.v292) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$rtr_reg + top$core$protocol$capture$alc_reg.
-    fn group_61(&mut self, dirty: &mut u128) {
-        self.n77 = if (self.i_reset) != 0 { 0x0 } else if (self.v69) != 0 { (self.q109) } else { self.q77 };
-        self.n76 = if (self.i_reset) != 0 { 0x0 } else if (self.v493) != 0 { ((self.q72 & 0x1f)) } else { self.q76 };
+    fn group_62(&mut self, dirty: &mut u128) {
+        self.n78 = if (self.i_reset) != 0 { 0x0 } else if (self.v69) != 0 { (self.q109) } else { self.q78 };
+        self.n77 = if (self.i_reset) != 0 { 0x0 } else if (self.v499) != 0 { ((self.q73 & 0x1f)) } else { self.q77 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$capture$ecc_reg + top$core$protocol$capture$error_pulse.
-    fn group_62(&mut self, dirty: &mut u128) {
-        self.n75 = if (self.i_reset) != 0 { 0x0 } else if (self.v257) != 0 { (self.v312 | (self.v667 << 5) | (self.v669 << 6)) } else { self.q75 };
-        self.n74 = if (self.v96) != 0 { 0x0 } else { (self.v257) };
+    fn group_63(&mut self, dirty: &mut u128) {
+        self.n76 = if (self.i_reset) != 0 { 0x0 } else if (self.v256) != 0 { (self.v318 | (self.v673 << 5) | (self.v675 << 6)) } else { self.q76 };
+        self.n75 = if (self.v96) != 0 { 0x0 } else { (self.v256) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$capture$lost_pulse + top$core$protocol$count.
-    fn group_63(&mut self, dirty: &mut u128) {
-        self.n73 = if (self.v96) != 0 { 0x0 } else { (self.v493) };
-        self.n72 = if (self.v95) != 0 { 0x0 } else { (self.v273) };
+    fn group_64(&mut self, dirty: &mut u128) {
+        self.n74 = if (self.v96) != 0 { 0x0 } else { (self.v499) };
+        self.n73 = if (self.v95) != 0 { 0x0 } else { (self.v272) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$crc$register + top$core$protocol$crc_error.
-    fn group_64(&mut self, dirty: &mut u128) {
-        self.n71 = if (self.v509) != 0 { 0x0 } else if (self.v496) != 0 { ((self.v313 & 0x1) | ((self.q71 & 0x3) << 1) | (((self.v313 >> 1) & 0x3) << 3) | (((self.q71 >> 4) & 0x3) << 5) | (((self.v313 >> 3) & 0x3) << 7) | (((self.q71 >> 8) & 0x1) << 9) | (((self.v313 >> 5) & 0x1) << 10) | (((self.q71 >> 10) & 0x7) << 11) | ((self.v313 >> 6) << 14)) } else { self.q71 };
-        self.n70 = if (self.v94) != 0 { 0x0 } else { (self.v278) };
+    fn group_65(&mut self, dirty: &mut u128) {
+        self.n72 = if (self.v515) != 0 { 0x0 } else if (self.v502) != 0 { ((self.v319 & 0x1) | ((self.q72 & 0x3) << 1) | (((self.v319 >> 1) & 0x3) << 3) | (((self.q72 >> 4) & 0x3) << 5) | (((self.v319 >> 3) & 0x3) << 7) | (((self.q72 >> 8) & 0x1) << 9) | (((self.v319 >> 5) & 0x1) << 10) | (((self.q72 >> 10) & 0x7) << 11) | ((self.v319 >> 6) << 14)) } else { self.q72 };
+        self.n71 = if (self.v94) != 0 { 0x0 } else { (self.v277) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$done_pulse + top$core$protocol$done_success.
-    fn group_65(&mut self, dirty: &mut u128) {
-        self.n69 = if (self.i_reset) != 0 { 0x0 } else { (self.v279) };
-        self.n68 = if (self.v93) != 0 { 0x0 } else if (self.v490) != 0 { (self.v489) } else { self.q68 };
+    fn group_66(&mut self, dirty: &mut u128) {
+        self.n70 = if (self.i_reset) != 0 { 0x0 } else { (self.v278) };
+        self.n69 = if (self.v93) != 0 { 0x0 } else if (self.v496) != 0 { (self.v495) } else { self.q69 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults$bus_off_state + top$core$protocol$faults$passive_state.
-    fn group_66(&mut self, dirty: &mut u128) {
-        self.n113 = (self.v331);
-        self.n114 = (self.v321);
+    fn group_67(&mut self, dirty: &mut u128) {
+        self.n113 = (self.v337);
+        self.n114 = (self.v327);
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$field + top$core$protocol$in_frame.
-    fn group_67(&mut self, dirty: &mut u128) {
-        self.n115 = (self.v268);
-        self.n116 = (self.v267);
+    fn group_68(&mut self, dirty: &mut u128) {
+        self.n115 = (self.v267);
+        self.n116 = (self.v266);
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$ack_penalty + top$core$protocol$interframe$after_error_flag.
-    fn group_68(&mut self, dirty: &mut u128) {
-        self.n62 = if (self.i_reset) != 0 { 0x0 } else { (self.v668) };
-        self.n61 = if (self.i_reset) != 0 { 0x0 } else if (self.q93) != 0 { (self.v558) } else { self.q61 };
+    fn group_69(&mut self, dirty: &mut u128) {
+        self.n63 = if (self.i_reset) != 0 { 0x0 } else { (self.v674) };
+        self.n62 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v564) } else { self.q62 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$dominant_after_flag + top$core$protocol$interframe$first_after_flag.
-    fn group_69(&mut self, dirty: &mut u128) {
-        self.n60 = if (self.i_reset) != 0 { 0x0 } else if (self.v66) != 0 { (self.v640) } else { self.q60 };
-        self.n59 = if (self.i_reset) != 0 { 0x0 } else if (self.v65) != 0 { (self.v641) } else { self.q59 };
+    fn group_70(&mut self, dirty: &mut u128) {
+        self.n61 = if (self.i_reset) != 0 { 0x0 } else if (self.v66) != 0 { (self.v646) } else { self.q61 };
+        self.n60 = if (self.i_reset) != 0 { 0x0 } else if (self.v65) != 0 { (self.v647) } else { self.q60 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$flag_level + top$core$protocol$interframe$flag_passive_reg.
-    fn group_70(&mut self, dirty: &mut u128) {
-        self.n58 = if (self.i_reset) != 0 { 0x0 } else if (self.v64) != 0 { (self.q109) } else { self.q58 };
-        self.n57 = if (self.i_reset) != 0 { 0x0 } else if (self.v63) != 0 { (self.v559) } else { self.q57 };
+    fn group_71(&mut self, dirty: &mut u128) {
+        self.n59 = if (self.i_reset) != 0 { 0x0 } else if (self.v64) != 0 { (self.q109) } else { self.q59 };
+        self.n58 = if (self.i_reset) != 0 { 0x0 } else if (self.v63) != 0 { (self.v565) } else { self.q58 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender$tx_left + top$core$protocol$sender$tx_next.
-    fn group_71(&mut self, dirty: &mut u128) {
-        self.n56 = if (self.v91) != 0 { 0x0 } else if (self.v235) != 0 { (self.v737) } else { self.q56 };
-        self.n117 = (self.v696);
+    fn group_72(&mut self, dirty: &mut u128) {
+        self.n57 = if (self.v91) != 0 { 0x0 } else if (self.v234) != 0 { (self.v743) } else { self.q57 };
+        self.n117 = (self.v702);
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender$tx_reg + top$core$protocol$sender$tx_shift.
-    fn group_72(&mut self, dirty: &mut u128) {
-        self.n118 = (self.v697);
-        self.n103 = if (self.i_reset) != 0 { 0x0 } else if (self.v235) != 0 { (self.v738) } else { self.q103 };
+    fn group_73(&mut self, dirty: &mut u128) {
+        self.n118 = (self.v703);
+        self.n104 = if (self.i_reset) != 0 { 0x0 } else if (self.v234) != 0 { (self.v744) } else { self.q104 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing$active + top$core$protocol$stuffing$run_length.
-    fn group_73(&mut self, dirty: &mut u128) {
-        self.n53 = if (self.i_reset) != 0 { 0x0 } else if (self.q93) != 0 { (self.v754) } else { self.q53 };
-        self.n52 = if (self.i_reset) != 0 { 0x0 } else if (self.q93) != 0 { (self.v755) } else { self.q52 };
+    fn group_74(&mut self, dirty: &mut u128) {
+        self.n54 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v760) } else { self.q54 };
+        self.n53 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v761) } else { self.q53 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing$run_level_reg + top$core$protocol$transmitter.
-    fn group_74(&mut self, dirty: &mut u128) {
-        self.n51 = if (self.v60) != 0 { (self.q109) } else { self.q51 };
-        self.n50 = if (self.v90) != 0 { 0x0 } else if (self.q93) != 0 { (self.v672) } else { self.q50 };
+    fn group_75(&mut self, dirty: &mut u128) {
+        self.n52 = if (self.v60) != 0 { (self.q109) } else { self.q52 };
+        self.n51 = if (self.v90) != 0 { 0x0 } else if (self.q94) != 0 { (self.v678) } else { self.q51 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$valid_pulse + top$fifo$fetching.
-    fn group_75(&mut self, dirty: &mut u128) {
-        self.n49 = if (self.v89) != 0 { 0x0 } else { (self.v467) };
-        self.n47 = if (self.i_reset) != 0 { 0x0 } else { (self.v816) };
+    fn group_76(&mut self, dirty: &mut u128) {
+        self.n50 = if (self.v89) != 0 { 0x0 } else { (self.v473) };
+        self.n48 = if (self.i_reset) != 0 { 0x0 } else { (self.v822) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$head + top$fifo$head_info_reg.
-    fn group_76(&mut self, dirty: &mut u128) {
-        self.n46 = if (self.i_reset) != 0 { 0x0 } else { (self.v808) };
-        self.n45 = if (self.i_reset) != 0 { 0x0 } else { (self.v817) };
+    fn group_77(&mut self, dirty: &mut u128) {
+        self.n47 = if (self.i_reset) != 0 { 0x0 } else { (self.v814) };
+        self.n46 = if (self.i_reset) != 0 { 0x0 } else { (self.v823) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$header_step.
-    fn group_77(&mut self, dirty: &mut u128) {
-        let c21: u64 = u64::from((self.q82 | (self.q39 << 1)) != 0);
-        self.n44 = if (self.i_reset) != 0 { 0x0 } else if (c21) != 0 { (self.v837) } else { self.q44 };
+    fn group_78(&mut self, dirty: &mut u128) {
+        let c21: u64 = u64::from((self.q83 | (self.q40 << 1)) != 0);
+        self.n45 = if (self.i_reset) != 0 { 0x0 } else if (c21) != 0 { (self.v844) } else { self.q45 };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$overrun_state + top$fifo$ram.
-    fn group_78(&mut self, dirty: &mut u128) {
-        self.n42 = if (self.v88) != 0 { 0x0 } else { (self.v813) };
+    fn group_79(&mut self, dirty: &mut u128) {
+        self.n43 = if (self.v88) != 0 { 0x0 } else { (self.v819) };
         self.m0_re = (0x1) != 0;
-        self.m0_ra = (self.v812) as usize;
-        self.m0_wa = (self.v811) as usize;
-        self.m0_wd = (self.v810);
-        self.m0_we = (self.v809 | (self.v809 << 1) | (self.v809 << 2) | (self.v809 << 3) | (self.v809 << 4) | (self.v809 << 5) | (self.v809 << 6) | (self.v809 << 7));
+        self.m0_ra = (self.v818) as usize;
+        self.m0_wa = (self.v817) as usize;
+        self.m0_wd = (self.v816);
+        self.m0_we = (self.v815 | (self.v815 << 1) | (self.v815 << 2) | (self.v815 << 3) | (self.v815 << 4) | (self.v815 << 5) | (self.v815 << 6) | (self.v815 << 7));
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$tail.
-    fn group_79(&mut self, dirty: &mut u128) {
-        self.n41 = if (self.i_reset) != 0 { 0x0 } else if (self.v20) != 0 { (self.v807) } else { self.q41 };
+    fn group_80(&mut self, dirty: &mut u128) {
+        self.n42 = if (self.i_reset) != 0 { 0x0 } else if (self.v20) != 0 { (self.v813) } else { self.q42 };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$writing_header.
-    fn group_80(&mut self, dirty: &mut u128) {
+    fn group_81(&mut self, dirty: &mut u128) {
         let c87: u64 = u64::from((self.i_reset | (self.q127 << 1)) != 0);
-        if self.v87 != c87 { self.v87 = c87; *dirty |= 0x600000000000000000000; }
-        self.n39 = if (c87) != 0 { 0x0 } else { (self.v836) };
+        if self.v87 != c87 { self.v87 = c87; *dirty |= 0xc00000000000000000000; }
+        self.n40 = if (c87) != 0 { 0x0 } else { (self.v843) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$count + top$fifo$incomplete.
-    fn group_81(&mut self, dirty: &mut u128) {
-        self.n48 = if (self.v87) != 0 { 0x0 } else { (self.v818) };
-        self.n43 = if (self.v87) != 0 { 0x0 } else { (self.v825) };
+    fn group_82(&mut self, dirty: &mut u128) {
+        self.n49 = if (self.v87) != 0 { 0x0 } else { (self.v824) };
+        self.n44 = if (self.v87) != 0 { 0x0 } else { (self.v831) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$used + top$filter$acr0.
-    fn group_82(&mut self, dirty: &mut u128) {
-        self.n40 = if (self.v87) != 0 { 0x0 } else { (self.v819) };
-        self.n38 = if (self.i_reset) != 0 { 0x0 } else if (self.v59) != 0 { (self.i_wdata) } else { self.q38 };
+    fn group_83(&mut self, dirty: &mut u128) {
+        self.n41 = if (self.v87) != 0 { 0x0 } else { (self.v825) };
+        self.n39 = if (self.i_reset) != 0 { 0x0 } else if (self.v59) != 0 { (self.i_wdata) } else { self.q39 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$acr1 + top$filter$acr2.
-    fn group_83(&mut self, dirty: &mut u128) {
-        self.n37 = if (self.i_reset) != 0 { 0x0 } else if (self.v58) != 0 { (self.i_wdata) } else { self.q37 };
-        self.n36 = if (self.i_reset) != 0 { 0x0 } else if (self.v57) != 0 { (self.i_wdata) } else { self.q36 };
+    fn group_84(&mut self, dirty: &mut u128) {
+        self.n38 = if (self.i_reset) != 0 { 0x0 } else if (self.v58) != 0 { (self.i_wdata) } else { self.q38 };
+        self.n37 = if (self.i_reset) != 0 { 0x0 } else if (self.v57) != 0 { (self.i_wdata) } else { self.q37 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$acr3 + top$filter$amr0.
-    fn group_84(&mut self, dirty: &mut u128) {
-        self.n35 = if (self.i_reset) != 0 { 0x0 } else if (self.v56) != 0 { (self.i_wdata) } else { self.q35 };
-        self.n34 = if (self.i_reset) != 0 { 0x0 } else if (self.v55) != 0 { (self.i_wdata) } else { self.q34 };
+    fn group_85(&mut self, dirty: &mut u128) {
+        self.n36 = if (self.i_reset) != 0 { 0x0 } else if (self.v56) != 0 { (self.i_wdata) } else { self.q36 };
+        self.n35 = if (self.i_reset) != 0 { 0x0 } else if (self.v55) != 0 { (self.i_wdata) } else { self.q35 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$amr1 + top$filter$amr2.
-    fn group_85(&mut self, dirty: &mut u128) {
-        self.n33 = if (self.i_reset) != 0 { 0x0 } else if (self.v54) != 0 { (self.i_wdata) } else { self.q33 };
-        self.n32 = if (self.i_reset) != 0 { 0x0 } else if (self.v53) != 0 { (self.i_wdata) } else { self.q32 };
+    fn group_86(&mut self, dirty: &mut u128) {
+        self.n34 = if (self.i_reset) != 0 { 0x0 } else if (self.v54) != 0 { (self.i_wdata) } else { self.q34 };
+        self.n33 = if (self.i_reset) != 0 { 0x0 } else if (self.v53) != 0 { (self.i_wdata) } else { self.q33 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$amr3 + top$filter$basic_id_match.
-    fn group_86(&mut self, dirty: &mut u128) {
-        self.n31 = if (self.i_reset) != 0 { 0x0 } else if (self.v52) != 0 { (self.i_wdata) } else { self.q31 };
-        self.n30 = if (self.i_reset) != 0 { 0x0 } else if (self.q82) != 0 { (self.v882) } else { self.q30 };
+    fn group_87(&mut self, dirty: &mut u128) {
+        self.n32 = if (self.i_reset) != 0 { 0x0 } else if (self.v52) != 0 { (self.i_wdata) } else { self.q32 };
+        self.n31 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v889) } else { self.q31 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$dual1_data_match + top$filter$dual1_id_match.
-    fn group_87(&mut self, dirty: &mut u128) {
-        self.n119 = (self.v896);
-        self.n29 = if (self.i_reset) != 0 { 0x0 } else if (self.q82) != 0 { (self.v862) } else { self.q29 };
+    fn group_88(&mut self, dirty: &mut u128) {
+        self.n119 = (self.v903);
+        self.n30 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v869) } else { self.q30 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$dual2_id_match + top$filter$single_data1_match.
-    fn group_88(&mut self, dirty: &mut u128) {
-        self.n28 = if (self.i_reset) != 0 { 0x0 } else if (self.q82) != 0 { (self.v863) } else { self.q28 };
-        self.n120 = (self.v898);
+    fn group_89(&mut self, dirty: &mut u128) {
+        self.n29 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v870) } else { self.q29 };
+        self.n120 = (self.v905);
         let _ = &dirty;
     }
 
     /// The cells of top$filter$single_data2_match + top$filter$single_id_match.
-    fn group_89(&mut self, dirty: &mut u128) {
-        self.n121 = (self.v897);
-        self.n27 = if (self.i_reset) != 0 { 0x0 } else if (self.q82) != 0 { (self.v865) } else { self.q27 };
+    fn group_90(&mut self, dirty: &mut u128) {
+        self.n121 = (self.v904);
+        self.n28 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v872) } else { self.q28 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$alc_armed + top$interrupts$alc_reg.
-    fn group_90(&mut self, dirty: &mut u128) {
-        self.n122 = (self.v958);
-        self.n26 = if (self.i_reset) != 0 { 0x0 } else if (self.v936) != 0 { (self.q76) } else { self.q26 };
+    fn group_91(&mut self, dirty: &mut u128) {
+        self.n122 = (self.v964);
+        self.n27 = if (self.i_reset) != 0 { 0x0 } else if (self.v942) != 0 { (self.q77) } else { self.q27 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$basic_ri_reg + top$interrupts$bus_off_reg.
-    fn group_91(&mut self, dirty: &mut u128) {
-        self.n25 = if (self.i_reset) != 0 { 0x0 } else { (self.v961) };
-        self.n24 = if (self.i_reset) != 0 { 0x0 } else { (self.q113) };
+    fn group_92(&mut self, dirty: &mut u128) {
+        self.n26 = if (self.i_reset) != 0 { 0x0 } else { (self.v967) };
+        self.n25 = if (self.i_reset) != 0 { 0x0 } else { (self.q113) };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$ecc_armed + top$interrupts$ecc_reg.
-    fn group_92(&mut self, dirty: &mut u128) {
-        self.n123 = (self.v957);
-        self.n23 = if (self.i_reset) != 0 { 0x0 } else if (self.v937) != 0 { (self.q75) } else { self.q23 };
-        let _ = &dirty;
-    }
-
-    /// The cells of top$interrupts$es_reg.
     fn group_93(&mut self, dirty: &mut u128) {
-        self.n22 = if (self.i_reset) != 0 { 0x0 } else { (self.v965) };
+        self.n123 = (self.v963);
+        self.n24 = if (self.i_reset) != 0 { 0x0 } else if (self.v943) != 0 { (self.q76) } else { self.q24 };
         let _ = &dirty;
     }
 
-    /// The cells of top$interrupts$ir_reg.
+    /// The cells of top$interrupts$es_reg + top$interrupts$ir_reg.
     fn group_94(&mut self, dirty: &mut u128) {
-        self.n19 = if (self.i_reset) != 0 { 0x0 } else { (self.v115) };
+        self.n23 = if (self.i_reset) != 0 { 0x0 } else { (self.v971) };
+        self.n20 = if (self.i_reset) != 0 { 0x0 } else { (self.v115) };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$overrun_before.
     fn group_95(&mut self, dirty: &mut u128) {
-        self.n18 = if (self.i_reset) != 0 { 0x0 } else { (self.q42) };
+        self.n19 = if (self.i_reset) != 0 { 0x0 } else { (self.q43) };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$passive_before.
     fn group_96(&mut self, dirty: &mut u128) {
         let c86: u64 = u64::from((self.i_reset | (self.q113 << 1)) != 0);
-        self.n17 = if (c86) != 0 { 0x0 } else if (self.q127) == 0 { (self.q114) } else { self.q17 };
+        self.n18 = if (c86) != 0 { 0x0 } else if (self.q127) == 0 { (self.q114) } else { self.q18 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$rbs_before.
     fn group_97(&mut self, dirty: &mut u128) {
-        self.n16 = if (self.i_reset) != 0 { 0x0 } else { (self.v951) };
+        self.n17 = if (self.i_reset) != 0 { 0x0 } else { (self.v957) };
         let _ = &dirty;
     }
 
     /// The cells of top$modes.
     fn group_98(&mut self, dirty: &mut u128) {
-        let c1005: u64 = if (self.v995) != 0 { (0x0) } else { (self.v1038) };
-        let c1006: u64 = if (self.q129) != 0 { (c1005) } else { (self.v1038) };
-        if self.v1006 != c1006 { self.v1006 = c1006; *dirty |= 0x80000000000000000000000000000000; }
+        let c1011: u64 = if (self.v1001) != 0 { (0x0) } else { (self.v1044) };
+        let c1012: u64 = if (self.q129) != 0 { (c1011) } else { (self.v1044) };
+        if self.v1012 != c1012 { self.v1012 = c1012; *dirty |= 0x80000000000000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$modes$afm.
     fn group_99(&mut self, dirty: &mut u128) {
-        self.n15 = if (self.i_reset) != 0 { 0x0 } else if (self.v49) != 0 { (((self.i_wdata >> 3) & 0x1)) } else { self.q15 };
+        self.n16 = if (self.i_reset) != 0 { 0x0 } else if (self.v49) != 0 { (((self.i_wdata >> 3) & 0x1)) } else { self.q16 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$cr6_reg.
     fn group_100(&mut self, dirty: &mut u128) {
-        self.n12 = if (self.i_reset) != 0 { 0x0 } else if (self.v47) != 0 { (((self.i_wdata >> 6) & 0x1)) } else { self.q12 };
+        self.n13 = if (self.i_reset) != 0 { 0x0 } else if (self.v47) != 0 { (((self.i_wdata >> 6) & 0x1)) } else { self.q13 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$divider$count.
     fn group_101(&mut self, dirty: &mut u128) {
-        self.n11 = if (self.v85) != 0 { 0x0 } else { (self.v1034) };
+        self.n12 = if (self.v85) != 0 { 0x0 } else { (self.v1040) };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$divider$level.
     fn group_102(&mut self, dirty: &mut u128) {
-        self.n10 = if (self.i_reset) != 0 { 0x0 } else if (self.v1037) != 0 { (self.v1035) } else { self.q10 };
+        self.n11 = if (self.i_reset) != 0 { 0x0 } else if (self.v1043) != 0 { (self.v1041) } else { self.q11 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$enable_reg.
     fn group_103(&mut self, dirty: &mut u128) {
-        self.n124 = (self.v985);
+        self.n124 = (self.v991);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$listen_only_reg.
     fn group_104(&mut self, dirty: &mut u128) {
-        self.n125 = (self.v986);
+        self.n125 = (self.v992);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$lom.
     fn group_105(&mut self, dirty: &mut u128) {
-        self.n126 = (self.v1003);
+        self.n126 = (self.v1009);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$rm.
     fn group_106(&mut self, dirty: &mut u128) {
-        self.n127 = (self.v1004);
+        self.n127 = (self.v1010);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$self_test_reg.
     fn group_107(&mut self, dirty: &mut u128) {
-        self.n128 = (self.v987);
+        self.n128 = (self.v993);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$sleep_bits.
     fn group_108(&mut self, dirty: &mut u128) {
-        self.n9 = if (self.v84) != 0 { 0x0 } else if (self.v984) != 0 { (self.v974) } else { self.q9 };
+        self.n10 = if (self.v84) != 0 { 0x0 } else if (self.v990) != 0 { (self.v980) } else { self.q10 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$sm.
     fn group_109(&mut self, dirty: &mut u128) {
-        self.n129 = (self.v1001);
+        self.n129 = (self.v1007);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$stm.
     fn group_110(&mut self, dirty: &mut u128) {
-        self.n130 = (self.v1002);
+        self.n130 = (self.v1008);
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_from_ram.
     fn group_111(&mut self, dirty: &mut u128) {
-        self.n8 = if (self.i_reset) != 0 { 0x0 } else { (self.v17) };
+        self.n9 = if (self.i_reset) != 0 { 0x0 } else { (self.v17) };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_from_tx.
     fn group_112(&mut self, dirty: &mut u128) {
-        self.n7 = if (self.i_reset) != 0 { 0x0 } else { (self.v1057) };
+        self.n8 = if (self.i_reset) != 0 { 0x0 } else { (self.v1063) };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_ram_or.
     fn group_113(&mut self, dirty: &mut u128) {
-        self.n105 = if (self.i_reset) != 0 { 0x0 } else if (self.i_re) != 0 { (self.v1079) } else { self.q105 };
+        self.n106 = if (self.i_reset) != 0 { 0x0 } else if (self.i_re) != 0 { (self.v1085) } else { self.q106 };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_reg.
     fn group_114(&mut self, dirty: &mut u128) {
-        self.n6 = if (self.i_reset) != 0 { 0x0 } else { (self.v1058) };
+        self.n7 = if (self.i_reset) != 0 { 0x0 } else { (self.v1064) };
         let _ = &dirty;
     }
 
     /// The cells of top$self_reception.
     fn group_115(&mut self, dirty: &mut u128) {
-        self.n5 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v766) } else { self.q5 };
+        self.n6 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v772) } else { self.q6 };
         let _ = &dirty;
     }
 
     /// The cells of top$tbs.
     fn group_116(&mut self, dirty: &mut u128) {
-        self.n131 = (self.v1105);
+        self.n131 = (self.v1111);
         let _ = &dirty;
     }
 
     /// The cells of top$tcs.
     fn group_117(&mut self, dirty: &mut u128) {
-        self.n132 = (self.v1106);
+        self.n132 = (self.v1112);
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$basic_info.
     fn group_118(&mut self, dirty: &mut u128) {
-        self.n106 = if (self.i_reset) != 0 { 0x0 } else if (self.v46) != 0 { ((self.i_wdata & 0x1f)) } else { self.q106 };
+        self.n107 = if (self.i_reset) != 0 { 0x0 } else if (self.v46) != 0 { ((self.i_wdata & 0x1f)) } else { self.q107 };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$core_ram.
     fn group_119(&mut self, dirty: &mut u128) {
         self.m1_re = (0x1) != 0;
-        self.m1_ra = ((self.q55 & 0x1) | (self.q54 << 1) | ((self.q55 >> 1) << 3)) as usize;
-        self.m1_wa = (self.v1114) as usize;
+        self.m1_ra = ((self.q56 & 0x1) | (self.q55 << 1) | ((self.q56 >> 1) << 3)) as usize;
+        self.m1_wa = (self.v1120) as usize;
         self.m1_wd = (self.i_wdata);
-        self.m1_we = (self.v1087 | (self.v1087 << 1) | (self.v1087 << 2) | (self.v1087 << 3) | (self.v1087 << 4) | (self.v1087 << 5) | (self.v1087 << 6) | (self.v1087 << 7));
+        self.m1_we = (self.v1093 | (self.v1093 << 1) | (self.v1093 << 2) | (self.v1093 << 3) | (self.v1093 << 4) | (self.v1093 << 5) | (self.v1093 << 6) | (self.v1093 << 7));
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$core_written.
     fn group_120(&mut self, dirty: &mut u128) {
-        self.n4 = if (self.i_reset) != 0 { 0x0 } else { (self.v1089) };
+        self.n5 = if (self.i_reset) != 0 { 0x0 } else { (self.v1095) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$frame_info.
     fn group_121(&mut self, dirty: &mut u128) {
-        self.n3 = if (self.i_reset) != 0 { 0x0 } else if (self.v45) != 0 { (self.i_wdata) } else { self.q3 };
+        self.n4 = if (self.i_reset) != 0 { 0x0 } else if (self.v45) != 0 { (self.i_wdata) } else { self.q4 };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$host_ram.
     fn group_122(&mut self, dirty: &mut u128) {
         self.m2_re = (0x1) != 0;
-        self.m2_ra = (self.v1114) as usize;
-        self.m2_wa = (self.v1114) as usize;
+        self.m2_ra = (self.v1120) as usize;
+        self.m2_wa = (self.v1120) as usize;
         self.m2_wd = (self.i_wdata);
-        self.m2_we = (self.v1087 | (self.v1087 << 1) | (self.v1087 << 2) | (self.v1087 << 3) | (self.v1087 << 4) | (self.v1087 << 5) | (self.v1087 << 6) | (self.v1087 << 7));
+        self.m2_we = (self.v1093 | (self.v1093 << 1) | (self.v1093 << 2) | (self.v1093 << 3) | (self.v1093 << 4) | (self.v1093 << 5) | (self.v1093 << 6) | (self.v1093 << 7));
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$host_written.
     fn group_123(&mut self, dirty: &mut u128) {
-        self.n2 = if (self.i_reset) != 0 { 0x0 } else { (self.v1088) };
+        self.n3 = if (self.i_reset) != 0 { 0x0 } else { (self.v1094) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$written.
     fn group_124(&mut self, dirty: &mut u128) {
-        self.n107 = if (self.i_reset) != 0 { 0x0 } else if (self.v1087) != 0 { (self.v120) } else { self.q107 };
+        self.n108 = if (self.i_reset) != 0 { 0x0 } else if (self.v1093) != 0 { (self.v120) } else { self.q108 };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_pending.
     fn group_125(&mut self, dirty: &mut u128) {
-        self.n1 = if (self.v83) != 0 { 0x0 } else { (self.v1110) };
+        self.n2 = if (self.v83) != 0 { 0x0 } else { (self.v1116) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_single_shot.
     fn group_126(&mut self, dirty: &mut u128) {
-        self.n0 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v761) } else { self.q0 };
+        self.n1 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v767) } else { self.q1 };
         let _ = &dirty;
     }
 }
