@@ -13,7 +13,16 @@ use rust_hdl::prelude::*;
 
 use crate::activity::{Activity, ActivityBlock, BlockDefault};
 use crate::bsp::protocol::ProtocolState;
-use crate::bsp::received_frame::ReceivedFrame;
+use crate::bsp::received_frame::{ReceivedFrame, STANDARD_ID_SHIFT};
+use crate::bsp::{BASE_ID_BITS, EXT_RTR_POSITION, IDE_POSITION, SRR_RTR_POSITION};
+
+// The kernel writes these as literals (Rust constants are not Verilog): `id_extension` holds the
+// 18 bits below the base identifier, and `base_id_bit` decodes positions 0..10 (base) from 13..30
+// (extension), with SRR/RTR at 11 and IDE at 12 between them.
+const _: () = assert!(STANDARD_ID_SHIFT == 18 && BASE_ID_BITS + STANDARD_ID_SHIFT as u64 == 29);
+const _: () = assert!(
+    BASE_ID_BITS == 11 && SRR_RTR_POSITION == 11 && IDE_POSITION == 12 && EXT_RTR_POSITION == 31
+);
 
 /// Received-frame assembler of the bit stream processor.
 #[derive(ActivityBlock, BlockDefault)]
