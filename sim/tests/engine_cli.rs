@@ -25,6 +25,48 @@ fn a_bad_can_engine_stops_a_run_naming_the_allowed_values() {
 }
 
 #[test]
+fn a_bad_can_skip_edges_stops_a_run_naming_the_allowed_values() {
+    let out = cansim(
+        &["run", "-q", &example("replay.toml")],
+        &[("CAN_SKIP_EDGES", "yes")],
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(text(&out.stdout), "");
+    assert_eq!(
+        text(&out.stderr),
+        "cansim: CAN_SKIP_EDGES=`yes` is not an edge skipping mode: use `off` (the default), `on` \
+         or `checked`\n"
+    );
+}
+
+#[test]
+fn a_run_with_edges_skipped_says_how_many() {
+    let out = cansim(
+        &["run", &example("replay.toml")],
+        &[("CAN_SKIP_EDGES", "on")],
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    let speed = stdout
+        .lines()
+        .find(|l| l.starts_with("real time "))
+        .unwrap_or_else(|| panic!("no speed line: {stdout}"));
+    assert!(
+        speed.contains(" % of ") && speed.ends_with(" clock edges skipped"),
+        "{speed}"
+    );
+    let plain = cansim(
+        &["run", &example("replay.toml")],
+        &[("CAN_SKIP_EDGES", "off")],
+    );
+    assert!(
+        !text(&plain.stdout).contains("skipped"),
+        "{}",
+        text(&plain.stdout)
+    );
+}
+
+#[test]
 fn without_verilator_the_engine_says_how_to_install_it() {
     let out = cansim(&["verilator-model"], &[("PATH", "")]);
     assert_eq!(out.status.code(), Some(1));
@@ -69,8 +111,9 @@ fn bench_measures_each_engine_asked_for() {
     let bench_lines: Vec<&str> = stdout.lines().filter(|l| l.starts_with("BENCH")).collect();
     assert_eq!(bench_lines.len(), 2, "{stdout}");
     for (line, engine) in bench_lines.iter().zip(["rust-hdl", "verilator"]) {
-        let prefix =
-            format!("BENCH engine={engine} nodes=3 bit_rate=500k trace=off pair_cycles_per_s=");
+        let prefix = format!(
+            "BENCH engine={engine} nodes=3 bit_rate=500k trace=off skip_edges=off pair_cycles_per_s="
+        );
         assert!(line.starts_with(&prefix), "{line}");
         assert!(line.contains(" pair_cycles_per_cpu_s="), "{line}");
     }

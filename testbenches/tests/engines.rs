@@ -5,7 +5,8 @@
 //! without (`compiled-exhaustive`):
 //! - every scenario of `examples/` writes the same VCD (the bus and, per node, `tx`, `rx`, sample
 //!   point, segment, protocol state, TEC, REC, `irq_n`, `clkout` at every change), the same bus log
-//!   and the same report (driver events, frames, states, counters) with either;
+//!   and the same report (driver events, frames, states, counters) with either, and with the
+//!   compiled engine skipping its quiet clock edges (`CAN_SKIP_EDGES`), each skip checked;
 //! - a register-level session on three controllers (arbitration, reception, an error, counter
 //!   writes, every register read between the phases) reads the same values and puts the same bit
 //!   sequence on the bus;
@@ -21,6 +22,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use golden::frame::{Frame, Id};
 use rtl::registers::{command, interrupt, mode, pelican};
 use sim::engine::rng::Rng;
+use sim::engine::EdgeSkipping;
 use sim::host::sja1000::{drain_rx, transmit};
 use sim::nodes::controller_node::ModelEngine;
 use sim::scenario::{load, run, RunOptions, RunReport};
@@ -40,8 +42,17 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// Panics at the first line where `a` (from rust-hdl) and `b` (from `other`) differ, showing both.
-fn assert_same_text(what: &str, other: ModelEngine, a: &str, b: &str) {
+/// The runs compared: the reference's name (usually rust-hdl) and the other's.
+type Sides<'a> = (&'a str, &'a str);
+
+/// The usual sides: rust-hdl against `other`.
+fn against(other: ModelEngine) -> Sides<'static> {
+    ("rust-hdl", other.name())
+}
+
+/// Panics at the first line where `a` (from the reference) and `b` (from the other run) differ,
+/// showing both.
+fn assert_same_text(what: &str, (reference, other): Sides, a: &str, b: &str) {
     if let Some((k, (x, y))) = a
         .lines()
         .zip(b.lines())
@@ -49,7 +60,7 @@ fn assert_same_text(what: &str, other: ModelEngine, a: &str, b: &str) {
         .find(|(_, (x, y))| x != y)
     {
         panic!(
-            "{what}: line {} differs:\n  rust-hdl:  {x}\n  {other}: {y}",
+            "{what}: line {} differs:\n  {reference}:  {x}\n  {other}: {y}",
             k + 1
         );
     }
@@ -60,16 +71,17 @@ fn assert_same_text(what: &str, other: ModelEngine, a: &str, b: &str) {
     );
 }
 
-/// Panics at the first element where `a` (from rust-hdl) and `b` (from `other`) differ.
+/// Panics at the first element where `a` (from the reference) and `b` (from the other run)
+/// differ.
 fn assert_same_items<T: PartialEq + std::fmt::Debug>(
     what: &str,
-    other: ModelEngine,
+    (reference, other): Sides,
     a: &[T],
     b: &[T],
 ) {
     if let Some(k) = (0..a.len().min(b.len())).find(|&k| a[k] != b[k]) {
         panic!(
-            "{what}: item {k} differs: rust-hdl {:?}, {other} {:?}",
+            "{what}: item {k} differs: {reference} {:?}, {other} {:?}",
             a[k], b[k]
         );
     }
@@ -83,7 +95,7 @@ struct Outcome {
     log: String,
 }
 
-fn run_example(name: &str, engine: ModelEngine) -> Outcome {
+fn run_example(name: &str, engine: ModelEngine, skipping: EdgeSkipping) -> Outcome {
     let file = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../examples")
         .join(name);
@@ -93,6 +105,7 @@ fn run_example(name: &str, engine: ModelEngine) -> Outcome {
         vcd: Some(dir.join("run.vcd")),
         log: Some(dir.join("run.log")),
         engine: Some(engine),
+        edge_skipping: Some(skipping),
         ..RunOptions::default()
     };
     let report = run(&scenario, options).unwrap_or_else(|e| panic!("{name} on {engine}: {e}"));
@@ -108,20 +121,39 @@ fn run_example(name: &str, engine: ModelEngine) -> Outcome {
 
 /// Runs example `name` on rust-hdl and on `other` and compares everything they wrote and reported.
 fn example_is_the_same_on(name: &str, other: ModelEngine) {
-    let a = run_example(name, ModelEngine::RustHdl);
-    let b = run_example(name, other);
+    let a = run_example(name, ModelEngine::RustHdl, EdgeSkipping::Off);
+    let b = run_example(name, other, EdgeSkipping::Off);
+    example_matches(name, against(other), &a, &b);
+}
+
+/// Example `name` on the compiled engine with its quiet edges skipped, each skip checked against
+/// stepping a copy of the controller edge by edge, writes and reports what the compiled engine
+/// stepping every edge does (which the tests above compare with rust-hdl).
+fn example_is_the_same_with_quiet_edges_skipped(name: &str) {
+    let a = run_example(name, ModelEngine::Compiled, EdgeSkipping::Off);
+    let b = run_example(name, ModelEngine::Compiled, EdgeSkipping::Checked);
+    assert!(
+        b.report.skipped_edges > 0,
+        "{name}: no edge was skipped ({} stepped)",
+        b.report.edges
+    );
+    example_matches(name, ("compiled", "compiled skipping edges"), &a, &b);
+}
+
+/// Compares everything example `name`'s runs `a` and `b` wrote and reported.
+fn example_matches(name: &str, sides: Sides, a: &Outcome, b: &Outcome) {
     assert!(!a.report.log.is_empty(), "{name}: nothing on the bus");
-    assert_same_text(&format!("{name}: VCD"), other, &a.vcd, &b.vcd);
-    assert_same_text(&format!("{name}: bus log"), other, &a.log, &b.log);
+    assert_same_text(&format!("{name}: VCD"), sides, &a.vcd, &b.vcd);
+    assert_same_text(&format!("{name}: bus log"), sides, &a.log, &b.log);
     let r = (&a.report, &b.report);
     assert_same_items(
         &format!("{name}: node reports"),
-        other,
+        sides,
         &r.0.nodes,
         &r.1.nodes,
     );
-    assert_same_items(&format!("{name}: events"), other, &r.0.events, &r.1.events);
-    assert_same_items(&format!("{name}: faults"), other, &r.0.faults, &r.1.faults);
+    assert_same_items(&format!("{name}: events"), sides, &r.0.events, &r.1.events);
+    assert_same_items(&format!("{name}: faults"), sides, &r.0.faults, &r.1.faults);
     assert_eq!(r.0.missed_faults, r.1.missed_faults, "{name}");
     assert_eq!(r.0.master, r.1.master, "{name}: CANopen master");
     assert_eq!(r.0.frame_starts, r.1.frame_starts, "{name}");
@@ -147,6 +179,11 @@ macro_rules! example_tests {
             #[test]
             fn is_the_same_on_compiled_with_every_group_every_cycle() {
                 example_is_the_same_on($file, ModelEngine::CompiledExhaustive);
+            }
+
+            #[test]
+            fn is_the_same_with_quiet_edges_skipped() {
+                example_is_the_same_with_quiet_edges_skipped($file);
             }
 
             #[test]
@@ -291,9 +328,9 @@ fn register_session_is_the_same_on(other: ModelEngine) {
     );
     let ir_after_error = a.reads[(2 * NODES + 2) * SNAPSHOT.len() + usize::from(pelican::IR)];
     assert_ne!(ir_after_error & interrupt::BEI, 0, "node 2 saw a bus error");
-    assert_same_items("register reads", other, &a.reads, &b.reads);
-    assert_same_items("drained frames", other, &a.drained, &b.drained);
-    assert_same_items("bus level changes", other, &a.bus, &b.bus);
+    assert_same_items("register reads", against(other), &a.reads, &b.reads);
+    assert_same_items("drained frames", against(other), &a.drained, &b.drained);
+    assert_same_items("bus level changes", against(other), &a.bus, &b.bus);
 }
 
 #[test]
@@ -335,10 +372,15 @@ fn campaign_slice_is_the_same_on(other: ModelEngine) {
         };
         let (a, vcd_a) = run_on(ModelEngine::RustHdl);
         let (b, vcd_b) = run_on(other);
-        assert_same_items(&format!("case {index}: bus bits"), other, &a.bus, &b.bus);
+        assert_same_items(
+            &format!("case {index}: bus bits"),
+            against(other),
+            &a.bus,
+            &b.bus,
+        );
         assert_eq!(a, b, "case {index}: rust-hdl and {other} differ");
         if let (Some(x), Some(y)) = (vcd_a, vcd_b) {
-            assert_same_text(&format!("case {index}: VCD"), other, &x, &y);
+            assert_same_text(&format!("case {index}: VCD"), against(other), &x, &y);
         }
         outcomes.insert(sim::workloads::campaign::check(&case, &a).outcome);
     }

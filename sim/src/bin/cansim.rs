@@ -12,6 +12,7 @@ use golden::btr::{calc_bittiming, format_calculation, format_table, sample_point
 use sim::decode::bus_decoder::{EventCounts, Remark};
 use sim::decode::vcd_reader::{self, decode_vcd, DecodeOptions};
 use sim::engine::rng::Rng;
+use sim::engine::EdgeSkipping;
 use sim::nodes::controller_node::ModelEngine;
 use sim::rta;
 use sim::scenario::canopen_node::CanopenLog;
@@ -290,6 +291,10 @@ enum Command {
         /// Measure without VCD tracing only.
         #[arg(long)]
         no_trace: bool,
+        /// Skipping of quiet clock edges to measure (comma-separated: off, on, checked; only the
+        /// compiled engine skips) [default: the one CAN_SKIP_EDGES chooses, else off].
+        #[arg(long, value_delimiter = ',')]
+        skip_edges: Vec<EdgeSkipping>,
         /// Fault-injection cases per thread count of the campaign scaling measurement (0: skip it;
         /// a few seconds per thread count, so that starting and ending the threads do not count).
         #[arg(long, default_value_t = 2000)]
@@ -330,6 +335,11 @@ set, or when a simulated response exceeds the corrected bound.";
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // Every engine reads it; refused here with its message rather than by a panic later.
+    if let Err(e) = EdgeSkipping::from_env() {
+        eprintln!("cansim: {e}");
+        return ExitCode::FAILURE;
+    }
     let result = match cli.command.unwrap_or(Command::Demo {
         vcd: PathBuf::from(DEMO_VCD),
         log: PathBuf::from(DEMO_LOG),
@@ -449,9 +459,18 @@ fn main() -> ExitCode {
             bit_rate,
             runs,
             no_trace,
+            skip_edges,
             campaign_faults,
-        } => bench(engine.clone(), &nodes, &bit_rate, frames, runs, no_trace)
-            .and_then(|()| campaign_scaling(engine, campaign_faults)),
+        } => bench(
+            engine.clone(),
+            &nodes,
+            &bit_rate,
+            skip_edges,
+            frames,
+            runs,
+            no_trace,
+        )
+        .and_then(|()| campaign_scaling(engine, campaign_faults)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -509,6 +528,7 @@ fn run_with_progress(
         until_fs: outputs.until_fs,
         progress: None,
         engine: None,
+        edge_skipping: None,
     };
     let show = !quiet && std::io::stderr().is_terminal();
     let mut progress = Progress::new();
@@ -533,7 +553,8 @@ fn run_with_progress(
 /// Characters cleared after the progress line.
 const PROGRESS_CLEAR_WIDTH: usize = 100;
 
-/// `real time 4.2 s (1.76 ms simulated per second), peak memory 21 MB`.
+/// `real time 4.2 s (1.76 ms simulated per second), peak memory 21 MB` (and the share of clock
+/// edges skipped, if any).
 fn speed_line(report: &RunReport, seconds: f64) -> String {
     let ms = report.simulated_fs as f64 / 1e12;
     let mut line = format!(
@@ -542,6 +563,13 @@ fn speed_line(report: &RunReport, seconds: f64) -> String {
     );
     if let Some(bytes) = peak_resident_bytes() {
         line += &format!(", peak memory {} MB", bytes.div_ceil(1 << 20));
+    }
+    if report.skipped_edges > 0 {
+        line += &format!(
+            ", {:.0} % of {} clock edges skipped",
+            100.0 * report.skipped_edges as f64 / report.edges as f64,
+            report.edges
+        );
     }
     line
 }
@@ -1048,6 +1076,7 @@ fn bench(
     engines: Vec<ModelEngine>,
     nodes: &[usize],
     bit_rates: &[BitRate],
+    skip_edges: Vec<EdgeSkipping>,
     frames: usize,
     runs: usize,
     no_trace: bool,
@@ -1064,17 +1093,24 @@ fn bench(
     } else {
         engines
     };
+    let skip_edges = if skip_edges.is_empty() {
+        vec![EdgeSkipping::from_env()?]
+    } else {
+        skip_edges
+    };
+    let skip_edges = skip_edges.as_slice();
     let trace_file = std::env::temp_dir().join(format!("cansim-bench-{}.vcd", std::process::id()));
     let traces: &[bool] = if no_trace { &[false] } else { &[false, true] };
     println!(
         "reference workload: {frames} frames of 8 bytes, 16 MHz; median of {runs} runs (min..max)"
     );
     println!(
-        "{:<10} {:>5} {:>5} {:>5} {:>28} {:>12} {:>10} {:>10}",
+        "{:<10} {:>5} {:>5} {:>5} {:>7} {:>28} {:>12} {:>10} {:>10}",
         "engine",
         "nodes",
         "bit/s",
         "trace",
+        "skip",
         "node-pair cycles/s",
         "per CPU s",
         "frames/s",
@@ -1083,11 +1119,13 @@ fn bench(
     let progress = std::io::stderr().is_terminal();
     let mut lines = Vec::new();
     let cases = engines.iter().flat_map(|&engine| {
-        nodes
-            .iter()
-            .flat_map(move |&n| bit_rates.iter().map(move |&rate| (engine, n, rate)))
+        nodes.iter().flat_map(move |&n| {
+            bit_rates
+                .iter()
+                .flat_map(move |&rate| skip_edges.iter().map(move |&skip| (engine, n, rate, skip)))
+        })
     });
-    for (engine, n, rate) in cases {
+    for (engine, n, rate, skip) in cases {
         // Runs with and without tracing alternate, so that a change in the machine's speed
         // during the measurement does not show up as a cost of tracing.
         let mut results: Vec<Vec<sim::workloads::bench::BenchRun>> = vec![Vec::new(); traces.len()];
@@ -1095,13 +1133,15 @@ fn bench(
             for (k, &trace) in traces.iter().enumerate() {
                 if progress {
                     eprint!(
-                        "\r{engine}, {n} nodes, {rate}bit/s, trace {}: run {}/{runs} ",
+                        "\r{engine}, {n} nodes, {rate}bit/s, trace {}, skip {}: run {}/{runs} ",
                         on_off(trace),
+                        skip.name(),
                         run + 1
                     );
                 }
                 let path = trace.then_some(&trace_file);
-                let result = sim::workloads::bench::run_workload(engine, n, frames, rate, path);
+                let result =
+                    sim::workloads::bench::run_workload(engine, n, frames, rate, path, skip);
                 results[k].push(result.map_err(|e| e.to_string())?);
             }
         }
@@ -1113,6 +1153,7 @@ fn bench(
                 engine.name(),
                 n,
                 rate,
+                skip,
                 off,
                 on,
             ));
@@ -1120,9 +1161,10 @@ fn bench(
         for (&trace, runs) in traces.iter().zip(results) {
             let s = sim::workloads::bench::summarise(runs);
             println!(
-                "{:<10} {n:>5} {rate:>5} {:>5} {:>10.0} ({:.0}..{:.0}) {:>12.0} {:>10.1} {:>9.4}x",
+                "{:<10} {n:>5} {rate:>5} {:>5} {:>7} {:>10.0} ({:.0}..{:.0}) {:>12.0} {:>10.1} {:>9.4}x",
                 engine.name(),
                 on_off(trace),
+                skip.name(),
                 s.median.pair_cycles_per_s,
                 s.min.pair_cycles_per_s,
                 s.max.pair_cycles_per_s,
@@ -1135,6 +1177,7 @@ fn bench(
                 n,
                 rate,
                 trace,
+                skip,
                 &s,
             ));
         }

@@ -100,6 +100,7 @@ pub(super) fn interface(verilog: &str) -> emit::Interface<'_> {
         inputs: &PACKED_INPUTS,
         outputs: &PACKED_OUTPUTS,
         verilog,
+        state: &[],
     }
 }
 

@@ -7,7 +7,7 @@ pub(super) const VERILOG_HASH: u64 = 0x12d0fae7fe844975;
 
 /// The design's state: inputs, flip-flops (`q` now, `n` after the next edge), memories, the
 /// values read across groups, the groups to run at the next `eval` and those run since the last edge.
-#[derive(Clone)]
+#[derive(Clone, PartialEq)]
 pub(super) struct Model {
     i_reset: u64,
     i_rx: u64,

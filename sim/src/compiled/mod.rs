@@ -25,6 +25,7 @@ mod groups;
 #[allow(clippy::all, clippy::pedantic, unused_parens)]
 mod model;
 mod netlist;
+mod quiet;
 
 use std::io::Write as _;
 use std::path::Path;
@@ -221,6 +222,7 @@ fn controller_interface(verilog: &str) -> emit::Interface<'_> {
         ],
         outputs,
         verilog,
+        state: &quiet::STATE,
     }
 }
 
@@ -294,6 +296,52 @@ impl CompiledController {
     /// The outputs after the last cycle.
     pub fn outputs(&self) -> PortOutputs {
         PortOutputs::from_word(self.model.outputs())
+    }
+
+    /// How many cycles from the next one on, all with `inputs`, change nothing outside the
+    /// controller's counters: no output (`clkout` may toggle unless `clkout_seen`), no register,
+    /// no memory ([`quiet`]). 0 when `inputs` differ from the last cycle's.
+    pub fn quiet_cycles(&self, inputs: PortInputs, clkout_seen: bool) -> u64 {
+        if self.applied != Some(inputs) || inputs.reset {
+            return 0;
+        }
+        // The counters' arithmetic first: it rules out most edges at less cost than `settled`.
+        match quiet::quiet_cycles(&self.model, inputs.rx, clkout_seen) {
+            0 => 0,
+            cycles if self.model.settled() => cycles,
+            _ => 0,
+        }
+    }
+
+    /// Runs `cycles` quiet cycles (at most [`CompiledController::quiet_cycles`] gave) in one
+    /// step. `checked`: also runs them one by one on a copy and panics unless every output stayed
+    /// (`clkout` only if `clkout_seen`) and the two end in the same state.
+    pub fn skip(&mut self, cycles: u64, clkout_seen: bool, checked: bool) {
+        let copy = checked.then(|| self.clone());
+        quiet::advance(&mut self.model, cycles);
+        if let Some(mut copy) = copy {
+            let inputs = copy.applied.expect("a cycle ran before the skip");
+            let seen = if clkout_seen {
+                u64::MAX
+            } else {
+                !(1 << OUT_CLKOUT)
+            };
+            let before = copy.model.outputs() & seen;
+            for cycle in 0..cycles {
+                copy.cycle(inputs);
+                let after = copy.model.outputs() & seen;
+                assert_eq!(
+                    before, after,
+                    "cycle {cycle} of {cycles} skipped ones changed the outputs \
+                     ({before:#x} -> {after:#x})"
+                );
+            }
+            let differences = copy.model.differences(&self.model);
+            assert!(
+                differences.is_empty(),
+                "skipping {cycles} cycles left another state than stepping them: {differences:?}"
+            );
+        }
     }
 }
 

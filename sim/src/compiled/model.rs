@@ -13,7 +13,7 @@ const TABLE_5: [u64; 4] = [0x1f0, 0x0, 0x0, 0x0];
 
 /// The design's state: inputs, flip-flops (`q` now, `n` after the next edge), memories, the
 /// values read across groups, the groups to run at the next `eval` and those run since the last edge.
-#[derive(Clone)]
+#[derive(Clone, PartialEq)]
 pub(super) struct Model {
     i_wdata: u64,
     i_addr: u64,
@@ -2089,6 +2089,969 @@ impl Model {
             if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x40000000000000000000000000000001; } // $auto$ff.cc:266:slice$9591
         }
         self.dirty |= dirty;
+    }
+
+    /// The value of net `i` of the design's state list for edge skipping (flip-flop outputs).
+    pub(super) fn state(&self, i: usize) -> u64 {
+        match i {
+            0 => self.q96 | (self.q97 << 1), // core.bit_timing.clocks.q
+            1 => self.q93, // core.bit_timing.remaining.q
+            2 => self.q95, // core.bit_timing.elapsed.q
+            3 => self.q12, // modes.divider.count.q
+            4 => self.q11, // modes.divider.level.q
+            5 => self.q91, // core.bit_timing.segment_state.q
+            6 => self.q94, // core.bit_timing.process_pending.q
+            7 => self.q89, // core.bit_timing.transmit_deferred.q
+            8 => self.q110, // core.bit_timing.sampling.metastable.q
+            9 => self.q112, // core.bit_timing.sampling.stable.q
+            10 => self.q111, // core.bit_timing.sampling.previous.q
+            11 => self.q92, // core.bit_timing.sampling.quantum_samples.q
+            12 => self.q103, // configuration.btr0.q
+            13 => self.q105 | ((self.q15 & 0x1) << 3) | ((self.q15 >> 1) << 5) | (self.q14 << 7), // modes.cdr_reg.q
+            _ => panic!("no state net {i}"),
+        }
+    }
+
+    /// Writes `value` into the flip-flops of state net `i` (as if an edge had loaded it); the
+    /// groups that read a changed one run at the next `eval`.
+    pub(super) fn set_state(&mut self, i: usize, value: u64) {
+        match i {
+            0 => { // core.bit_timing.clocks.q
+                let q = self.q96 & !0x1 | (value >> 0 & 1) << 0;
+                if q != self.q96 { self.q96 = q; self.dirty |= 0x10000000008; }
+                let q = self.q97 & !0x3f | (value >> 1 & 1) << 0 | (value >> 2 & 1) << 1 | (value >> 3 & 1) << 2 | (value >> 4 & 1) << 3 | (value >> 5 & 1) << 4 | (value >> 6 & 1) << 5;
+                if q != self.q97 { self.q97 = q; self.dirty |= 0x10000000008; }
+            }
+            1 => { // core.bit_timing.remaining.q
+                let q = self.q93 & !0x1f | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2 | (value >> 3 & 1) << 3 | (value >> 4 & 1) << 4;
+                if q != self.q93 { self.q93 = q; self.dirty |= 0x10000000010008; }
+            }
+            2 => { // core.bit_timing.elapsed.q
+                let q = self.q95 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
+                if q != self.q95 { self.q95 = q; self.dirty |= 0x8000000000008; }
+            }
+            3 => { // modes.divider.count.q
+                let q = self.q12 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
+                if q != self.q12 { self.q12 = q; self.dirty |= 0x20000000000000001000000000; }
+            }
+            4 => { // modes.divider.level.q
+                let q = self.q11 & !0x1 | (value >> 0 & 1) << 0;
+                if q != self.q11 { self.q11 = q; self.dirty |= 0x40000000000000001000000000; }
+            }
+            5 => { // core.bit_timing.segment_state.q
+                let q = self.q91 & !0x3 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1;
+                if q != self.q91 { self.q91 = q; self.dirty |= 0x80000000010008; }
+            }
+            6 => { // core.bit_timing.process_pending.q
+                let q = self.q94 & !0x1 | (value >> 0 & 1) << 0;
+                if q != self.q94 { self.q94 = q; self.dirty |= 0xc20000804002f81000a; }
+            }
+            7 => { // core.bit_timing.transmit_deferred.q
+                let q = self.q89 & !0x1 | (value >> 0 & 1) << 0;
+                if q != self.q89 { self.q89 = q; self.dirty |= 0x100000000010000; }
+            }
+            8 => { // core.bit_timing.sampling.metastable.q
+                let q = self.q110 & !0x1 | (value >> 0 & 1) << 0;
+                if q != self.q110 { self.q110 = q; self.dirty |= 0x20000000008000; }
+            }
+            9 => { // core.bit_timing.sampling.stable.q
+                let q = self.q112 & !0x1 | (value >> 0 & 1) << 0;
+                if q != self.q112 { self.q112 = q; self.dirty |= 0x40000000008000; }
+            }
+            10 => { // core.bit_timing.sampling.previous.q
+                let q = self.q111 & !0x1 | (value >> 0 & 1) << 0;
+                if q != self.q111 { self.q111 = q; self.dirty |= 0x20000000008000; }
+            }
+            11 => { // core.bit_timing.sampling.quantum_samples.q
+                let q = self.q92 & !0x3 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1;
+                if q != self.q92 { self.q92 = q; self.dirty |= 0x40000000008000; }
+            }
+            12 => { // configuration.btr0.q
+                let q = self.q103 & !0xff | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2 | (value >> 3 & 1) << 3 | (value >> 4 & 1) << 4 | (value >> 5 & 1) << 5 | (value >> 6 & 1) << 6 | (value >> 7 & 1) << 7;
+                if q != self.q103 { self.q103 = q; self.dirty |= 0x1000000400008; }
+            }
+            13 => { // modes.cdr_reg.q
+                let q = self.q14 & !0x1 | (value >> 7 & 1) << 0;
+                if q != self.q14 { self.q14 = q; self.dirty |= 0x8080004c2e34; }
+                let q = self.q15 & !0x7 | (value >> 3 & 1) << 0 | (value >> 5 & 1) << 1 | (value >> 6 & 1) << 2;
+                if q != self.q15 { self.q15 = q; self.dirty |= 0x9000040400; }
+                let q = self.q105 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
+                if q != self.q105 { self.q105 = q; self.dirty |= 0x9000040400; }
+            }
+            _ => panic!("no state net {i}"),
+        }
+    }
+
+    /// The next edge writes no memory, changes no memory's read register and no flip-flop but the
+    /// free-running ones of the state list: the groups that did not run since the last edge hold (`n` equals `q`), those
+    /// that ran are compared.
+    pub(super) fn settled(&self) -> bool {
+        let ran = self.ran;
+        if self.m0_we != 0 || self.m0_re && self.m0.get(self.m0_ra).copied().unwrap_or(0) != self.m0_rd { return false; }
+        if self.m1_we != 0 || self.m1_re && self.m1.get(self.m1_ra).copied().unwrap_or(0) != self.m1_rd { return false; }
+        if self.m2_we != 0 || self.m2_re && self.m2.get(self.m2_ra).copied().unwrap_or(0) != self.m2_rd { return false; }
+        if ran >> 37 & 1 != 0 && (self.q64 != self.n64 || self.q65 != self.n65 || self.q66 != self.n66) { return false; }
+        if ran >> 39 & 1 != 0 && (self.q14 != self.n14 || self.q15 != self.n15 || self.q105 != self.n105) { return false; }
+        if ran >> 41 & 1 != 0 && (self.q67 != self.n67 || self.q68 != self.n68) { return false; }
+        if ran >> 43 & 1 != 0 && (self.q55 != self.n55 || self.q56 != self.n56) { return false; }
+        if ran >> 46 & 1 != 0 && (self.q21 != self.n21 || self.q22 != self.n22) { return false; }
+        if ran >> 48 & 1 != 0 && (self.q102 != self.n102 || self.q103 != self.n103) { return false; }
+        if ran >> 49 & 1 != 0 && (self.q100 != self.n100 || self.q101 != self.n101) { return false; }
+        if ran >> 50 & 1 != 0 && (self.q98 != self.n98 || self.q99 != self.n99) { return false; }
+        if ran >> 51 & 1 != 0 && (self.q94 != self.n94) { return false; }
+        if ran >> 52 & 1 != 0 && (self.q109 != self.n109) { return false; }
+        if ran >> 53 & 1 != 0 && (self.q110 != self.n110 || self.q111 != self.n111) { return false; }
+        if ran >> 54 & 1 != 0 && (self.q92 != self.n92 || self.q112 != self.n112) { return false; }
+        if ran >> 55 & 1 != 0 && (self.q0 != self.n0 || self.q91 != self.n91) { return false; }
+        if ran >> 56 & 1 != 0 && (self.q89 != self.n89 || self.q90 != self.n90) { return false; }
+        if ran >> 57 & 1 != 0 && (self.q87 != self.n87 || self.q88 != self.n88) { return false; }
+        if ran >> 58 & 1 != 0 && (self.q85 != self.n85 || self.q86 != self.n86) { return false; }
+        if ran >> 59 & 1 != 0 && (self.q83 != self.n83 || self.q84 != self.n84) { return false; }
+        if ran >> 60 & 1 != 0 && (self.q81 != self.n81 || self.q82 != self.n82) { return false; }
+        if ran >> 61 & 1 != 0 && (self.q79 != self.n79 || self.q80 != self.n80) { return false; }
+        if ran >> 62 & 1 != 0 && (self.q77 != self.n77 || self.q78 != self.n78) { return false; }
+        if ran >> 63 & 1 != 0 && (self.q75 != self.n75 || self.q76 != self.n76) { return false; }
+        if ran >> 64 & 1 != 0 && (self.q73 != self.n73 || self.q74 != self.n74) { return false; }
+        if ran >> 65 & 1 != 0 && (self.q71 != self.n71 || self.q72 != self.n72) { return false; }
+        if ran >> 66 & 1 != 0 && (self.q69 != self.n69 || self.q70 != self.n70) { return false; }
+        if ran >> 67 & 1 != 0 && (self.q113 != self.n113 || self.q114 != self.n114) { return false; }
+        if ran >> 68 & 1 != 0 && (self.q115 != self.n115 || self.q116 != self.n116) { return false; }
+        if ran >> 69 & 1 != 0 && (self.q62 != self.n62 || self.q63 != self.n63) { return false; }
+        if ran >> 70 & 1 != 0 && (self.q60 != self.n60 || self.q61 != self.n61) { return false; }
+        if ran >> 71 & 1 != 0 && (self.q58 != self.n58 || self.q59 != self.n59) { return false; }
+        if ran >> 72 & 1 != 0 && (self.q57 != self.n57 || self.q117 != self.n117) { return false; }
+        if ran >> 73 & 1 != 0 && (self.q104 != self.n104 || self.q118 != self.n118) { return false; }
+        if ran >> 74 & 1 != 0 && (self.q53 != self.n53 || self.q54 != self.n54) { return false; }
+        if ran >> 75 & 1 != 0 && (self.q51 != self.n51 || self.q52 != self.n52) { return false; }
+        if ran >> 76 & 1 != 0 && (self.q48 != self.n48 || self.q50 != self.n50) { return false; }
+        if ran >> 77 & 1 != 0 && (self.q46 != self.n46 || self.q47 != self.n47) { return false; }
+        if ran >> 78 & 1 != 0 && (self.q45 != self.n45) { return false; }
+        if ran >> 79 & 1 != 0 && (self.q43 != self.n43) { return false; }
+        if ran >> 80 & 1 != 0 && (self.q42 != self.n42) { return false; }
+        if ran >> 81 & 1 != 0 && (self.q40 != self.n40) { return false; }
+        if ran >> 82 & 1 != 0 && (self.q44 != self.n44 || self.q49 != self.n49) { return false; }
+        if ran >> 83 & 1 != 0 && (self.q39 != self.n39 || self.q41 != self.n41) { return false; }
+        if ran >> 84 & 1 != 0 && (self.q37 != self.n37 || self.q38 != self.n38) { return false; }
+        if ran >> 85 & 1 != 0 && (self.q35 != self.n35 || self.q36 != self.n36) { return false; }
+        if ran >> 86 & 1 != 0 && (self.q33 != self.n33 || self.q34 != self.n34) { return false; }
+        if ran >> 87 & 1 != 0 && (self.q31 != self.n31 || self.q32 != self.n32) { return false; }
+        if ran >> 88 & 1 != 0 && (self.q30 != self.n30 || self.q119 != self.n119) { return false; }
+        if ran >> 89 & 1 != 0 && (self.q29 != self.n29 || self.q120 != self.n120) { return false; }
+        if ran >> 90 & 1 != 0 && (self.q28 != self.n28 || self.q121 != self.n121) { return false; }
+        if ran >> 91 & 1 != 0 && (self.q27 != self.n27 || self.q122 != self.n122) { return false; }
+        if ran >> 92 & 1 != 0 && (self.q25 != self.n25 || self.q26 != self.n26) { return false; }
+        if ran >> 93 & 1 != 0 && (self.q24 != self.n24 || self.q123 != self.n123) { return false; }
+        if ran >> 94 & 1 != 0 && (self.q20 != self.n20 || self.q23 != self.n23) { return false; }
+        if ran >> 95 & 1 != 0 && (self.q19 != self.n19) { return false; }
+        if ran >> 96 & 1 != 0 && (self.q18 != self.n18) { return false; }
+        if ran >> 97 & 1 != 0 && (self.q17 != self.n17) { return false; }
+        if ran >> 99 & 1 != 0 && (self.q16 != self.n16) { return false; }
+        if ran >> 100 & 1 != 0 && (self.q13 != self.n13) { return false; }
+        if ran >> 103 & 1 != 0 && (self.q124 != self.n124) { return false; }
+        if ran >> 104 & 1 != 0 && (self.q125 != self.n125) { return false; }
+        if ran >> 105 & 1 != 0 && (self.q126 != self.n126) { return false; }
+        if ran >> 106 & 1 != 0 && (self.q127 != self.n127) { return false; }
+        if ran >> 107 & 1 != 0 && (self.q128 != self.n128) { return false; }
+        if ran >> 108 & 1 != 0 && (self.q10 != self.n10) { return false; }
+        if ran >> 109 & 1 != 0 && (self.q129 != self.n129) { return false; }
+        if ran >> 110 & 1 != 0 && (self.q130 != self.n130) { return false; }
+        if ran >> 111 & 1 != 0 && (self.q9 != self.n9) { return false; }
+        if ran >> 112 & 1 != 0 && (self.q8 != self.n8) { return false; }
+        if ran >> 113 & 1 != 0 && (self.q106 != self.n106) { return false; }
+        if ran >> 114 & 1 != 0 && (self.q7 != self.n7) { return false; }
+        if ran >> 115 & 1 != 0 && (self.q6 != self.n6) { return false; }
+        if ran >> 116 & 1 != 0 && (self.q131 != self.n131) { return false; }
+        if ran >> 117 & 1 != 0 && (self.q132 != self.n132) { return false; }
+        if ran >> 118 & 1 != 0 && (self.q107 != self.n107) { return false; }
+        if ran >> 120 & 1 != 0 && (self.q5 != self.n5) { return false; }
+        if ran >> 121 & 1 != 0 && (self.q4 != self.n4) { return false; }
+        if ran >> 123 & 1 != 0 && (self.q3 != self.n3) { return false; }
+        if ran >> 124 & 1 != 0 && (self.q108 != self.n108) { return false; }
+        if ran >> 125 & 1 != 0 && (self.q2 != self.n2) { return false; }
+        if ran >> 126 & 1 != 0 && (self.q1 != self.n1) { return false; }
+        true
+    }
+
+    /// The flip-flops, memories, values and output word that differ from `other`'s (which
+    /// groups ran since the last edge may differ), by name.
+    pub(super) fn differences(&self, other: &Model) -> Vec<&'static str> {
+        let mut names = Vec::new();
+        if self.q0 != other.q0 { names.push("q0 $auto$ff.cc:266:slice$10060"); }
+        if self.n0 != other.n0 { names.push("n0 $auto$ff.cc:266:slice$10060"); }
+        if self.q1 != other.q1 { names.push("q1 $auto$ff.cc:266:slice$9591"); }
+        if self.n1 != other.n1 { names.push("n1 $auto$ff.cc:266:slice$9591"); }
+        if self.q2 != other.q2 { names.push("q2 $auto$ff.cc:266:slice$9592"); }
+        if self.n2 != other.n2 { names.push("n2 $auto$ff.cc:266:slice$9592"); }
+        if self.q3 != other.q3 { names.push("q3 $auto$ff.cc:266:slice$9597"); }
+        if self.n3 != other.n3 { names.push("n3 $auto$ff.cc:266:slice$9597"); }
+        if self.q4 != other.q4 { names.push("q4 $auto$ff.cc:266:slice$9599"); }
+        if self.n4 != other.n4 { names.push("n4 $auto$ff.cc:266:slice$9599"); }
+        if self.q5 != other.q5 { names.push("q5 $auto$ff.cc:266:slice$9602"); }
+        if self.n5 != other.n5 { names.push("n5 $auto$ff.cc:266:slice$9602"); }
+        if self.q6 != other.q6 { names.push("q6 $auto$ff.cc:266:slice$9608"); }
+        if self.n6 != other.n6 { names.push("n6 $auto$ff.cc:266:slice$9608"); }
+        if self.q7 != other.q7 { names.push("q7 $auto$ff.cc:266:slice$9609"); }
+        if self.n7 != other.n7 { names.push("n7 $auto$ff.cc:266:slice$9609"); }
+        if self.q8 != other.q8 { names.push("q8 $auto$ff.cc:266:slice$9612"); }
+        if self.n8 != other.n8 { names.push("n8 $auto$ff.cc:266:slice$9612"); }
+        if self.q9 != other.q9 { names.push("q9 $auto$ff.cc:266:slice$9613"); }
+        if self.n9 != other.n9 { names.push("n9 $auto$ff.cc:266:slice$9613"); }
+        if self.q10 != other.q10 { names.push("q10 $auto$ff.cc:266:slice$9619"); }
+        if self.n10 != other.n10 { names.push("n10 $auto$ff.cc:266:slice$9619"); }
+        if self.q11 != other.q11 { names.push("q11 $auto$ff.cc:266:slice$9621"); }
+        if self.n11 != other.n11 { names.push("n11 $auto$ff.cc:266:slice$9621"); }
+        if self.q12 != other.q12 { names.push("q12 $auto$ff.cc:266:slice$9622"); }
+        if self.n12 != other.n12 { names.push("n12 $auto$ff.cc:266:slice$9622"); }
+        if self.q13 != other.q13 { names.push("q13 $auto$ff.cc:266:slice$9626"); }
+        if self.n13 != other.n13 { names.push("n13 $auto$ff.cc:266:slice$9626"); }
+        if self.q14 != other.q14 { names.push("q14 $auto$ff.cc:266:slice$9632"); }
+        if self.n14 != other.n14 { names.push("n14 $auto$ff.cc:266:slice$9632"); }
+        if self.q15 != other.q15 { names.push("q15 $auto$ff.cc:266:slice$9633"); }
+        if self.n15 != other.n15 { names.push("n15 $auto$ff.cc:266:slice$9633"); }
+        if self.q16 != other.q16 { names.push("q16 $auto$ff.cc:266:slice$9638"); }
+        if self.n16 != other.n16 { names.push("n16 $auto$ff.cc:266:slice$9638"); }
+        if self.q17 != other.q17 { names.push("q17 $auto$ff.cc:266:slice$9641"); }
+        if self.n17 != other.n17 { names.push("n17 $auto$ff.cc:266:slice$9641"); }
+        if self.q18 != other.q18 { names.push("q18 $auto$ff.cc:266:slice$9645"); }
+        if self.n18 != other.n18 { names.push("n18 $auto$ff.cc:266:slice$9645"); }
+        if self.q19 != other.q19 { names.push("q19 $auto$ff.cc:266:slice$9646"); }
+        if self.n19 != other.n19 { names.push("n19 $auto$ff.cc:266:slice$9646"); }
+        if self.q20 != other.q20 { names.push("q20 $auto$ff.cc:266:slice$9647"); }
+        if self.n20 != other.n20 { names.push("n20 $auto$ff.cc:266:slice$9647"); }
+        if self.q21 != other.q21 { names.push("q21 $auto$ff.cc:266:slice$9653"); }
+        if self.n21 != other.n21 { names.push("n21 $auto$ff.cc:266:slice$9653"); }
+        if self.q22 != other.q22 { names.push("q22 $auto$ff.cc:266:slice$9658"); }
+        if self.n22 != other.n22 { names.push("n22 $auto$ff.cc:266:slice$9658"); }
+        if self.q23 != other.q23 { names.push("q23 $auto$ff.cc:266:slice$9663"); }
+        if self.n23 != other.n23 { names.push("n23 $auto$ff.cc:266:slice$9663"); }
+        if self.q24 != other.q24 { names.push("q24 $auto$ff.cc:266:slice$9665"); }
+        if self.n24 != other.n24 { names.push("n24 $auto$ff.cc:266:slice$9665"); }
+        if self.q25 != other.q25 { names.push("q25 $auto$ff.cc:266:slice$9666"); }
+        if self.n25 != other.n25 { names.push("n25 $auto$ff.cc:266:slice$9666"); }
+        if self.q26 != other.q26 { names.push("q26 $auto$ff.cc:266:slice$9667"); }
+        if self.n26 != other.n26 { names.push("n26 $auto$ff.cc:266:slice$9667"); }
+        if self.q27 != other.q27 { names.push("q27 $auto$ff.cc:266:slice$9669"); }
+        if self.n27 != other.n27 { names.push("n27 $auto$ff.cc:266:slice$9669"); }
+        if self.q28 != other.q28 { names.push("q28 $auto$ff.cc:266:slice$9671"); }
+        if self.n28 != other.n28 { names.push("n28 $auto$ff.cc:266:slice$9671"); }
+        if self.q29 != other.q29 { names.push("q29 $auto$ff.cc:266:slice$9673"); }
+        if self.n29 != other.n29 { names.push("n29 $auto$ff.cc:266:slice$9673"); }
+        if self.q30 != other.q30 { names.push("q30 $auto$ff.cc:266:slice$9675"); }
+        if self.n30 != other.n30 { names.push("n30 $auto$ff.cc:266:slice$9675"); }
+        if self.q31 != other.q31 { names.push("q31 $auto$ff.cc:266:slice$9677"); }
+        if self.n31 != other.n31 { names.push("n31 $auto$ff.cc:266:slice$9677"); }
+        if self.q32 != other.q32 { names.push("q32 $auto$ff.cc:266:slice$9679"); }
+        if self.n32 != other.n32 { names.push("n32 $auto$ff.cc:266:slice$9679"); }
+        if self.q33 != other.q33 { names.push("q33 $auto$ff.cc:266:slice$9683"); }
+        if self.n33 != other.n33 { names.push("n33 $auto$ff.cc:266:slice$9683"); }
+        if self.q34 != other.q34 { names.push("q34 $auto$ff.cc:266:slice$9687"); }
+        if self.n34 != other.n34 { names.push("n34 $auto$ff.cc:266:slice$9687"); }
+        if self.q35 != other.q35 { names.push("q35 $auto$ff.cc:266:slice$9691"); }
+        if self.n35 != other.n35 { names.push("n35 $auto$ff.cc:266:slice$9691"); }
+        if self.q36 != other.q36 { names.push("q36 $auto$ff.cc:266:slice$9695"); }
+        if self.n36 != other.n36 { names.push("n36 $auto$ff.cc:266:slice$9695"); }
+        if self.q37 != other.q37 { names.push("q37 $auto$ff.cc:266:slice$9699"); }
+        if self.n37 != other.n37 { names.push("n37 $auto$ff.cc:266:slice$9699"); }
+        if self.q38 != other.q38 { names.push("q38 $auto$ff.cc:266:slice$9703"); }
+        if self.n38 != other.n38 { names.push("n38 $auto$ff.cc:266:slice$9703"); }
+        if self.q39 != other.q39 { names.push("q39 $auto$ff.cc:266:slice$9707"); }
+        if self.n39 != other.n39 { names.push("n39 $auto$ff.cc:266:slice$9707"); }
+        if self.q40 != other.q40 { names.push("q40 $auto$ff.cc:266:slice$9710"); }
+        if self.n40 != other.n40 { names.push("n40 $auto$ff.cc:266:slice$9710"); }
+        if self.q41 != other.q41 { names.push("q41 $auto$ff.cc:266:slice$9713"); }
+        if self.n41 != other.n41 { names.push("n41 $auto$ff.cc:266:slice$9713"); }
+        if self.q42 != other.q42 { names.push("q42 $auto$ff.cc:266:slice$9717"); }
+        if self.n42 != other.n42 { names.push("n42 $auto$ff.cc:266:slice$9717"); }
+        if self.q43 != other.q43 { names.push("q43 $auto$ff.cc:266:slice$9720"); }
+        if self.n43 != other.n43 { names.push("n43 $auto$ff.cc:266:slice$9720"); }
+        if self.q44 != other.q44 { names.push("q44 $auto$ff.cc:266:slice$9723"); }
+        if self.n44 != other.n44 { names.push("n44 $auto$ff.cc:266:slice$9723"); }
+        if self.q45 != other.q45 { names.push("q45 $auto$ff.cc:266:slice$9727"); }
+        if self.n45 != other.n45 { names.push("n45 $auto$ff.cc:266:slice$9727"); }
+        if self.q46 != other.q46 { names.push("q46 $auto$ff.cc:266:slice$9730"); }
+        if self.n46 != other.n46 { names.push("n46 $auto$ff.cc:266:slice$9730"); }
+        if self.q47 != other.q47 { names.push("q47 $auto$ff.cc:266:slice$9731"); }
+        if self.n47 != other.n47 { names.push("n47 $auto$ff.cc:266:slice$9731"); }
+        if self.q48 != other.q48 { names.push("q48 $auto$ff.cc:266:slice$9732"); }
+        if self.n48 != other.n48 { names.push("n48 $auto$ff.cc:266:slice$9732"); }
+        if self.q49 != other.q49 { names.push("q49 $auto$ff.cc:266:slice$9733"); }
+        if self.n49 != other.n49 { names.push("n49 $auto$ff.cc:266:slice$9733"); }
+        if self.q50 != other.q50 { names.push("q50 $auto$ff.cc:266:slice$9736"); }
+        if self.n50 != other.n50 { names.push("n50 $auto$ff.cc:266:slice$9736"); }
+        if self.q51 != other.q51 { names.push("q51 $auto$ff.cc:266:slice$9742"); }
+        if self.n51 != other.n51 { names.push("n51 $auto$ff.cc:266:slice$9742"); }
+        if self.q52 != other.q52 { names.push("q52 $auto$ff.cc:266:slice$9743"); }
+        if self.n52 != other.n52 { names.push("n52 $auto$ff.cc:266:slice$9743"); }
+        if self.q53 != other.q53 { names.push("q53 $auto$ff.cc:266:slice$9749"); }
+        if self.n53 != other.n53 { names.push("n53 $auto$ff.cc:266:slice$9749"); }
+        if self.q54 != other.q54 { names.push("q54 $auto$ff.cc:266:slice$9751"); }
+        if self.n54 != other.n54 { names.push("n54 $auto$ff.cc:266:slice$9751"); }
+        if self.q55 != other.q55 { names.push("q55 $auto$ff.cc:266:slice$9760"); }
+        if self.n55 != other.n55 { names.push("n55 $auto$ff.cc:266:slice$9760"); }
+        if self.q56 != other.q56 { names.push("q56 $auto$ff.cc:266:slice$9767"); }
+        if self.n56 != other.n56 { names.push("n56 $auto$ff.cc:266:slice$9767"); }
+        if self.q57 != other.q57 { names.push("q57 $auto$ff.cc:266:slice$9773"); }
+        if self.n57 != other.n57 { names.push("n57 $auto$ff.cc:266:slice$9773"); }
+        if self.q58 != other.q58 { names.push("q58 $auto$ff.cc:266:slice$9775"); }
+        if self.n58 != other.n58 { names.push("n58 $auto$ff.cc:266:slice$9775"); }
+        if self.q59 != other.q59 { names.push("q59 $auto$ff.cc:266:slice$9783"); }
+        if self.n59 != other.n59 { names.push("n59 $auto$ff.cc:266:slice$9783"); }
+        if self.q60 != other.q60 { names.push("q60 $auto$ff.cc:266:slice$9789"); }
+        if self.n60 != other.n60 { names.push("n60 $auto$ff.cc:266:slice$9789"); }
+        if self.q61 != other.q61 { names.push("q61 $auto$ff.cc:266:slice$9801"); }
+        if self.n61 != other.n61 { names.push("n61 $auto$ff.cc:266:slice$9801"); }
+        if self.q62 != other.q62 { names.push("q62 $auto$ff.cc:266:slice$9819"); }
+        if self.n62 != other.n62 { names.push("n62 $auto$ff.cc:266:slice$9819"); }
+        if self.q63 != other.q63 { names.push("q63 $auto$ff.cc:266:slice$9820"); }
+        if self.n63 != other.n63 { names.push("n63 $auto$ff.cc:266:slice$9820"); }
+        if self.q64 != other.q64 { names.push("q64 $auto$ff.cc:266:slice$9822"); }
+        if self.n64 != other.n64 { names.push("n64 $auto$ff.cc:266:slice$9822"); }
+        if self.q65 != other.q65 { names.push("q65 $auto$ff.cc:266:slice$9823"); }
+        if self.n65 != other.n65 { names.push("n65 $auto$ff.cc:266:slice$9823"); }
+        if self.q66 != other.q66 { names.push("q66 $auto$ff.cc:266:slice$9836"); }
+        if self.n66 != other.n66 { names.push("n66 $auto$ff.cc:266:slice$9836"); }
+        if self.q67 != other.q67 { names.push("q67 $auto$ff.cc:266:slice$9847"); }
+        if self.n67 != other.n67 { names.push("n67 $auto$ff.cc:266:slice$9847"); }
+        if self.q68 != other.q68 { names.push("q68 $auto$ff.cc:266:slice$9848"); }
+        if self.n68 != other.n68 { names.push("n68 $auto$ff.cc:266:slice$9848"); }
+        if self.q69 != other.q69 { names.push("q69 $auto$ff.cc:266:slice$9852"); }
+        if self.n69 != other.n69 { names.push("n69 $auto$ff.cc:266:slice$9852"); }
+        if self.q70 != other.q70 { names.push("q70 $auto$ff.cc:266:slice$9853"); }
+        if self.n70 != other.n70 { names.push("n70 $auto$ff.cc:266:slice$9853"); }
+        if self.q71 != other.q71 { names.push("q71 $auto$ff.cc:266:slice$9854"); }
+        if self.n71 != other.n71 { names.push("n71 $auto$ff.cc:266:slice$9854"); }
+        if self.q72 != other.q72 { names.push("q72 $auto$ff.cc:266:slice$9858"); }
+        if self.n72 != other.n72 { names.push("n72 $auto$ff.cc:266:slice$9858"); }
+        if self.q73 != other.q73 { names.push("q73 $auto$ff.cc:266:slice$9859"); }
+        if self.n73 != other.n73 { names.push("n73 $auto$ff.cc:266:slice$9859"); }
+        if self.q74 != other.q74 { names.push("q74 $auto$ff.cc:266:slice$9862"); }
+        if self.n74 != other.n74 { names.push("n74 $auto$ff.cc:266:slice$9862"); }
+        if self.q75 != other.q75 { names.push("q75 $auto$ff.cc:266:slice$9865"); }
+        if self.n75 != other.n75 { names.push("n75 $auto$ff.cc:266:slice$9865"); }
+        if self.q76 != other.q76 { names.push("q76 $auto$ff.cc:266:slice$9869"); }
+        if self.n76 != other.n76 { names.push("n76 $auto$ff.cc:266:slice$9869"); }
+        if self.q77 != other.q77 { names.push("q77 $auto$ff.cc:266:slice$9871"); }
+        if self.n77 != other.n77 { names.push("n77 $auto$ff.cc:266:slice$9871"); }
+        if self.q78 != other.q78 { names.push("q78 $auto$ff.cc:266:slice$9873"); }
+        if self.n78 != other.n78 { names.push("n78 $auto$ff.cc:266:slice$9873"); }
+        if self.q79 != other.q79 { names.push("q79 $auto$ff.cc:266:slice$9878"); }
+        if self.n79 != other.n79 { names.push("n79 $auto$ff.cc:266:slice$9878"); }
+        if self.q80 != other.q80 { names.push("q80 $auto$ff.cc:266:slice$9880"); }
+        if self.n80 != other.n80 { names.push("n80 $auto$ff.cc:266:slice$9880"); }
+        if self.q81 != other.q81 { names.push("q81 $auto$ff.cc:266:slice$9886"); }
+        if self.n81 != other.n81 { names.push("n81 $auto$ff.cc:266:slice$9886"); }
+        if self.q82 != other.q82 { names.push("q82 $auto$ff.cc:266:slice$9896"); }
+        if self.n82 != other.n82 { names.push("n82 $auto$ff.cc:266:slice$9896"); }
+        if self.q83 != other.q83 { names.push("q83 $auto$ff.cc:266:slice$9901"); }
+        if self.n83 != other.n83 { names.push("n83 $auto$ff.cc:266:slice$9901"); }
+        if self.q84 != other.q84 { names.push("q84 $auto$ff.cc:266:slice$9905"); }
+        if self.n84 != other.n84 { names.push("n84 $auto$ff.cc:266:slice$9905"); }
+        if self.q85 != other.q85 { names.push("q85 $auto$ff.cc:266:slice$9909"); }
+        if self.n85 != other.n85 { names.push("n85 $auto$ff.cc:266:slice$9909"); }
+        if self.q86 != other.q86 { names.push("q86 $auto$ff.cc:266:slice$9912"); }
+        if self.n86 != other.n86 { names.push("n86 $auto$ff.cc:266:slice$9912"); }
+        if self.q87 != other.q87 { names.push("q87 $auto$ff.cc:266:slice$9914"); }
+        if self.n87 != other.n87 { names.push("n87 $auto$ff.cc:266:slice$9914"); }
+        if self.q88 != other.q88 { names.push("q88 $auto$ff.cc:266:slice$9917"); }
+        if self.n88 != other.n88 { names.push("n88 $auto$ff.cc:266:slice$9917"); }
+        if self.q89 != other.q89 { names.push("q89 $auto$ff.cc:266:slice$9920"); }
+        if self.n89 != other.n89 { names.push("n89 $auto$ff.cc:266:slice$9920"); }
+        if self.q90 != other.q90 { names.push("q90 $auto$ff.cc:266:slice$9921"); }
+        if self.n90 != other.n90 { names.push("n90 $auto$ff.cc:266:slice$9921"); }
+        if self.q91 != other.q91 { names.push("q91 $auto$ff.cc:266:slice$9926"); }
+        if self.n91 != other.n91 { names.push("n91 $auto$ff.cc:266:slice$9926"); }
+        if self.q92 != other.q92 { names.push("q92 $auto$ff.cc:266:slice$9932"); }
+        if self.n92 != other.n92 { names.push("n92 $auto$ff.cc:266:slice$9932"); }
+        if self.q93 != other.q93 { names.push("q93 $auto$ff.cc:266:slice$9933"); }
+        if self.n93 != other.n93 { names.push("n93 $auto$ff.cc:266:slice$9933"); }
+        if self.q94 != other.q94 { names.push("q94 $auto$ff.cc:266:slice$9936"); }
+        if self.n94 != other.n94 { names.push("n94 $auto$ff.cc:266:slice$9936"); }
+        if self.q95 != other.q95 { names.push("q95 $auto$ff.cc:266:slice$9940"); }
+        if self.n95 != other.n95 { names.push("n95 $auto$ff.cc:266:slice$9940"); }
+        if self.q96 != other.q96 { names.push("q96 $auto$ff.cc:266:slice$9943"); }
+        if self.n96 != other.n96 { names.push("n96 $auto$ff.cc:266:slice$9943"); }
+        if self.q97 != other.q97 { names.push("q97 $auto$ff.cc:266:slice$9944"); }
+        if self.n97 != other.n97 { names.push("n97 $auto$ff.cc:266:slice$9944"); }
+        if self.q98 != other.q98 { names.push("q98 $auto$ff.cc:266:slice$9948"); }
+        if self.n98 != other.n98 { names.push("n98 $auto$ff.cc:266:slice$9948"); }
+        if self.q99 != other.q99 { names.push("q99 $auto$ff.cc:266:slice$9952"); }
+        if self.n99 != other.n99 { names.push("n99 $auto$ff.cc:266:slice$9952"); }
+        if self.q100 != other.q100 { names.push("q100 $auto$ff.cc:266:slice$9956"); }
+        if self.n100 != other.n100 { names.push("n100 $auto$ff.cc:266:slice$9956"); }
+        if self.q101 != other.q101 { names.push("q101 $auto$ff.cc:266:slice$9960"); }
+        if self.n101 != other.n101 { names.push("n101 $auto$ff.cc:266:slice$9960"); }
+        if self.q102 != other.q102 { names.push("q102 $auto$ff.cc:266:slice$9964"); }
+        if self.n102 != other.n102 { names.push("n102 $auto$ff.cc:266:slice$9964"); }
+        if self.q103 != other.q103 { names.push("q103 $auto$ff.cc:266:slice$9968"); }
+        if self.n103 != other.n103 { names.push("n103 $auto$ff.cc:266:slice$9968"); }
+        if self.q104 != other.q104 { names.push("q104 $auto$ff.cc:266:slice$9971"); }
+        if self.n104 != other.n104 { names.push("n104 $auto$ff.cc:266:slice$9971"); }
+        if self.q105 != other.q105 { names.push("q105 $auto$ff.cc:266:slice$9972"); }
+        if self.n105 != other.n105 { names.push("n105 $auto$ff.cc:266:slice$9972"); }
+        if self.q106 != other.q106 { names.push("q106 $auto$ff.cc:266:slice$9973"); }
+        if self.n106 != other.n106 { names.push("n106 $auto$ff.cc:266:slice$9973"); }
+        if self.q107 != other.q107 { names.push("q107 $auto$ff.cc:266:slice$9974"); }
+        if self.n107 != other.n107 { names.push("n107 $auto$ff.cc:266:slice$9974"); }
+        if self.q108 != other.q108 { names.push("q108 $auto$ff.cc:266:slice$9975"); }
+        if self.n108 != other.n108 { names.push("n108 $auto$ff.cc:266:slice$9975"); }
+        if self.q109 != other.q109 { names.push("q109 $flattencore.bit_timing.sampled.$procdff$8915"); }
+        if self.n109 != other.n109 { names.push("n109 $flattencore.bit_timing.sampled.$procdff$8915"); }
+        if self.q110 != other.q110 { names.push("q110 $flattencore.bit_timing.sampling.metastable.$procdff$8914"); }
+        if self.n110 != other.n110 { names.push("n110 $flattencore.bit_timing.sampling.metastable.$procdff$8914"); }
+        if self.q111 != other.q111 { names.push("q111 $flattencore.bit_timing.sampling.previous.$procdff$8913"); }
+        if self.n111 != other.n111 { names.push("n111 $flattencore.bit_timing.sampling.previous.$procdff$8913"); }
+        if self.q112 != other.q112 { names.push("q112 $flattencore.bit_timing.sampling.stable.$procdff$8911"); }
+        if self.n112 != other.n112 { names.push("n112 $flattencore.bit_timing.sampling.stable.$procdff$8911"); }
+        if self.q113 != other.q113 { names.push("q113 $flattencore.protocol.faults.bus_off_state.$procdff$8886"); }
+        if self.n113 != other.n113 { names.push("n113 $flattencore.protocol.faults.bus_off_state.$procdff$8886"); }
+        if self.q114 != other.q114 { names.push("q114 $flattencore.protocol.faults.passive_state.$procdff$8885"); }
+        if self.n114 != other.n114 { names.push("n114 $flattencore.protocol.faults.passive_state.$procdff$8885"); }
+        if self.q115 != other.q115 { names.push("q115 $flattencore.protocol.field.$procdff$8882"); }
+        if self.n115 != other.n115 { names.push("n115 $flattencore.protocol.field.$procdff$8882"); }
+        if self.q116 != other.q116 { names.push("q116 $flattencore.protocol.in_frame.$procdff$8881"); }
+        if self.n116 != other.n116 { names.push("n116 $flattencore.protocol.in_frame.$procdff$8881"); }
+        if self.q117 != other.q117 { names.push("q117 $flattencore.protocol.sender.tx_next.$procdff$8873"); }
+        if self.n117 != other.n117 { names.push("n117 $flattencore.protocol.sender.tx_next.$procdff$8873"); }
+        if self.q118 != other.q118 { names.push("q118 $flattencore.protocol.sender.tx_reg.$procdff$8871"); }
+        if self.n118 != other.n118 { names.push("n118 $flattencore.protocol.sender.tx_reg.$procdff$8871"); }
+        if self.q119 != other.q119 { names.push("q119 $flattenfilter.dual1_data_match.$procdff$8841"); }
+        if self.n119 != other.n119 { names.push("n119 $flattenfilter.dual1_data_match.$procdff$8841"); }
+        if self.q120 != other.q120 { names.push("q120 $flattenfilter.single_data1_match.$procdff$8838"); }
+        if self.n120 != other.n120 { names.push("n120 $flattenfilter.single_data1_match.$procdff$8838"); }
+        if self.q121 != other.q121 { names.push("q121 $flattenfilter.single_data2_match.$procdff$8837"); }
+        if self.n121 != other.n121 { names.push("n121 $flattenfilter.single_data2_match.$procdff$8837"); }
+        if self.q122 != other.q122 { names.push("q122 $flatteninterrupts.alc_armed.$procdff$8835"); }
+        if self.n122 != other.n122 { names.push("n122 $flatteninterrupts.alc_armed.$procdff$8835"); }
+        if self.q123 != other.q123 { names.push("q123 $flatteninterrupts.ecc_armed.$procdff$8831"); }
+        if self.n123 != other.n123 { names.push("n123 $flatteninterrupts.ecc_armed.$procdff$8831"); }
+        if self.q124 != other.q124 { names.push("q124 $flattenmodes.enable_reg.$procdff$8818"); }
+        if self.n124 != other.n124 { names.push("n124 $flattenmodes.enable_reg.$procdff$8818"); }
+        if self.q125 != other.q125 { names.push("q125 $flattenmodes.listen_only_reg.$procdff$8817"); }
+        if self.n125 != other.n125 { names.push("n125 $flattenmodes.listen_only_reg.$procdff$8817"); }
+        if self.q126 != other.q126 { names.push("q126 $flattenmodes.lom.$procdff$8816"); }
+        if self.n126 != other.n126 { names.push("n126 $flattenmodes.lom.$procdff$8816"); }
+        if self.q127 != other.q127 { names.push("q127 $flattenmodes.rm.$procdff$8815"); }
+        if self.n127 != other.n127 { names.push("n127 $flattenmodes.rm.$procdff$8815"); }
+        if self.q128 != other.q128 { names.push("q128 $flattenmodes.self_test_reg.$procdff$8814"); }
+        if self.n128 != other.n128 { names.push("n128 $flattenmodes.self_test_reg.$procdff$8814"); }
+        if self.q129 != other.q129 { names.push("q129 $flattenmodes.sm.$procdff$8812"); }
+        if self.n129 != other.n129 { names.push("n129 $flattenmodes.sm.$procdff$8812"); }
+        if self.q130 != other.q130 { names.push("q130 $flattenmodes.stm.$procdff$8811"); }
+        if self.n130 != other.n130 { names.push("n130 $flattenmodes.stm.$procdff$8811"); }
+        if self.q131 != other.q131 { names.push("q131 $flattentbs.$procdff$8805"); }
+        if self.n131 != other.n131 { names.push("n131 $flattentbs.$procdff$8805"); }
+        if self.q132 != other.q132 { names.push("q132 $flattentcs.$procdff$8804"); }
+        if self.n132 != other.n132 { names.push("n132 $flattentcs.$procdff$8804"); }
+        if self.m0 != other.m0 { names.push("m0 fifo.ram.mem"); }
+        if self.m0_rd != other.m0_rd { names.push("m0_rd fifo.ram.mem"); }
+        if self.m0_re != other.m0_re { names.push("m0_re fifo.ram.mem"); }
+        if self.m0_ra != other.m0_ra { names.push("m0_ra fifo.ram.mem"); }
+        if self.m0_wa != other.m0_wa { names.push("m0_wa fifo.ram.mem"); }
+        if self.m0_wd != other.m0_wd { names.push("m0_wd fifo.ram.mem"); }
+        if self.m0_we != other.m0_we { names.push("m0_we fifo.ram.mem"); }
+        if self.m1 != other.m1 { names.push("m1 tx_buffer.core_ram.mem"); }
+        if self.m1_rd != other.m1_rd { names.push("m1_rd tx_buffer.core_ram.mem"); }
+        if self.m1_re != other.m1_re { names.push("m1_re tx_buffer.core_ram.mem"); }
+        if self.m1_ra != other.m1_ra { names.push("m1_ra tx_buffer.core_ram.mem"); }
+        if self.m1_wa != other.m1_wa { names.push("m1_wa tx_buffer.core_ram.mem"); }
+        if self.m1_wd != other.m1_wd { names.push("m1_wd tx_buffer.core_ram.mem"); }
+        if self.m1_we != other.m1_we { names.push("m1_we tx_buffer.core_ram.mem"); }
+        if self.m2 != other.m2 { names.push("m2 tx_buffer.host_ram.mem"); }
+        if self.m2_rd != other.m2_rd { names.push("m2_rd tx_buffer.host_ram.mem"); }
+        if self.m2_re != other.m2_re { names.push("m2_re tx_buffer.host_ram.mem"); }
+        if self.m2_ra != other.m2_ra { names.push("m2_ra tx_buffer.host_ram.mem"); }
+        if self.m2_wa != other.m2_wa { names.push("m2_wa tx_buffer.host_ram.mem"); }
+        if self.m2_wd != other.m2_wd { names.push("m2_wd tx_buffer.host_ram.mem"); }
+        if self.m2_we != other.m2_we { names.push("m2_we tx_buffer.host_ram.mem"); }
+        if self.v1 != other.v1 { names.push("v1 $and$can_controller.v:722$157"); }
+        if self.v2 != other.v2 { names.push("v2 $and$can_controller.v:723$159"); }
+        if self.v3 != other.v3 { names.push("v3 $and$can_controller.v:724$161"); }
+        if self.v10 != other.v10 { names.push("v10 $and$can_controller.v:741$180"); }
+        if self.v11 != other.v11 { names.push("v11 $and$can_controller.v:748$185"); }
+        if self.v12 != other.v12 { names.push("v12 $and$can_controller.v:748$187"); }
+        if self.v16 != other.v16 { names.push("v16 $and$can_controller.v:761$201"); }
+        if self.v17 != other.v17 { names.push("v17 $and$can_controller.v:765$202"); }
+        if self.v18 != other.v18 { names.push("v18 $and$can_controller.v:766$204"); }
+        if self.v20 != other.v20 { names.push("v20 $auto$opt_dff.cc:195:make_patterns_logic$9719"); }
+        if self.v27 != other.v27 { names.push("v27 $auto$opt_dff.cc:195:make_patterns_logic$9791"); }
+        if self.v28 != other.v28 { names.push("v28 $auto$opt_dff.cc:195:make_patterns_logic$9793"); }
+        if self.v29 != other.v29 { names.push("v29 $auto$opt_dff.cc:195:make_patterns_logic$9795"); }
+        if self.v30 != other.v30 { names.push("v30 $auto$opt_dff.cc:195:make_patterns_logic$9805"); }
+        if self.v31 != other.v31 { names.push("v31 $auto$opt_dff.cc:195:make_patterns_logic$9809"); }
+        if self.v32 != other.v32 { names.push("v32 $auto$opt_dff.cc:195:make_patterns_logic$9813"); }
+        if self.v38 != other.v38 { names.push("v38 $auto$opt_dff.cc:195:make_patterns_logic$9875"); }
+        if self.v39 != other.v39 { names.push("v39 $auto$opt_dff.cc:195:make_patterns_logic$9928"); }
+        if self.v40 != other.v40 { names.push("v40 $auto$opt_dff.cc:210:make_patterns_logic$9627"); }
+        if self.v42 != other.v42 { names.push("v42 $auto$opt_dff.cc:210:make_patterns_logic$9784"); }
+        if self.v43 != other.v43 { names.push("v43 $auto$opt_dff.cc:210:make_patterns_logic$9887"); }
+        if self.v44 != other.v44 { names.push("v44 $auto$opt_dff.cc:210:make_patterns_logic$9889"); }
+        if self.v45 != other.v45 { names.push("v45 $auto$opt_dff.cc:220:make_patterns_logic$9601"); }
+        if self.v46 != other.v46 { names.push("v46 $auto$opt_dff.cc:220:make_patterns_logic$9606"); }
+        if self.v47 != other.v47 { names.push("v47 $auto$opt_dff.cc:220:make_patterns_logic$9630"); }
+        if self.v48 != other.v48 { names.push("v48 $auto$opt_dff.cc:220:make_patterns_logic$9635"); }
+        if self.v49 != other.v49 { names.push("v49 $auto$opt_dff.cc:220:make_patterns_logic$9640"); }
+        if self.v50 != other.v50 { names.push("v50 $auto$opt_dff.cc:220:make_patterns_logic$9657"); }
+        if self.v51 != other.v51 { names.push("v51 $auto$opt_dff.cc:220:make_patterns_logic$9662"); }
+        if self.v52 != other.v52 { names.push("v52 $auto$opt_dff.cc:220:make_patterns_logic$9681"); }
+        if self.v53 != other.v53 { names.push("v53 $auto$opt_dff.cc:220:make_patterns_logic$9685"); }
+        if self.v54 != other.v54 { names.push("v54 $auto$opt_dff.cc:220:make_patterns_logic$9689"); }
+        if self.v55 != other.v55 { names.push("v55 $auto$opt_dff.cc:220:make_patterns_logic$9693"); }
+        if self.v56 != other.v56 { names.push("v56 $auto$opt_dff.cc:220:make_patterns_logic$9697"); }
+        if self.v57 != other.v57 { names.push("v57 $auto$opt_dff.cc:220:make_patterns_logic$9701"); }
+        if self.v58 != other.v58 { names.push("v58 $auto$opt_dff.cc:220:make_patterns_logic$9705"); }
+        if self.v59 != other.v59 { names.push("v59 $auto$opt_dff.cc:220:make_patterns_logic$9709"); }
+        if self.v60 != other.v60 { names.push("v60 $auto$opt_dff.cc:220:make_patterns_logic$9747"); }
+        if self.v61 != other.v61 { names.push("v61 $auto$opt_dff.cc:220:make_patterns_logic$9766"); }
+        if self.v62 != other.v62 { names.push("v62 $auto$opt_dff.cc:220:make_patterns_logic$9769"); }
+        if self.v63 != other.v63 { names.push("v63 $auto$opt_dff.cc:220:make_patterns_logic$9781"); }
+        if self.v64 != other.v64 { names.push("v64 $auto$opt_dff.cc:220:make_patterns_logic$9787"); }
+        if self.v65 != other.v65 { names.push("v65 $auto$opt_dff.cc:220:make_patterns_logic$9799"); }
+        if self.v66 != other.v66 { names.push("v66 $auto$opt_dff.cc:220:make_patterns_logic$9817"); }
+        if self.v67 != other.v67 { names.push("v67 $auto$opt_dff.cc:220:make_patterns_logic$9835"); }
+        if self.v68 != other.v68 { names.push("v68 $auto$opt_dff.cc:220:make_patterns_logic$9846"); }
+        if self.v69 != other.v69 { names.push("v69 $auto$opt_dff.cc:220:make_patterns_logic$9877"); }
+        if self.v70 != other.v70 { names.push("v70 $auto$opt_dff.cc:220:make_patterns_logic$9882"); }
+        if self.v71 != other.v71 { names.push("v71 $auto$opt_dff.cc:220:make_patterns_logic$9892"); }
+        if self.v72 != other.v72 { names.push("v72 $auto$opt_dff.cc:220:make_patterns_logic$9900"); }
+        if self.v73 != other.v73 { names.push("v73 $auto$opt_dff.cc:220:make_patterns_logic$9907"); }
+        if self.v74 != other.v74 { names.push("v74 $auto$opt_dff.cc:220:make_patterns_logic$9911"); }
+        if self.v75 != other.v75 { names.push("v75 $auto$opt_dff.cc:220:make_patterns_logic$9916"); }
+        if self.v76 != other.v76 { names.push("v76 $auto$opt_dff.cc:220:make_patterns_logic$9930"); }
+        if self.v77 != other.v77 { names.push("v77 $auto$opt_dff.cc:220:make_patterns_logic$9942"); }
+        if self.v78 != other.v78 { names.push("v78 $auto$opt_dff.cc:220:make_patterns_logic$9950"); }
+        if self.v79 != other.v79 { names.push("v79 $auto$opt_dff.cc:220:make_patterns_logic$9954"); }
+        if self.v80 != other.v80 { names.push("v80 $auto$opt_dff.cc:220:make_patterns_logic$9958"); }
+        if self.v81 != other.v81 { names.push("v81 $auto$opt_dff.cc:220:make_patterns_logic$9962"); }
+        if self.v82 != other.v82 { names.push("v82 $auto$opt_dff.cc:250:combine_resets$9615"); }
+        if self.v83 != other.v83 { names.push("v83 $auto$opt_dff.cc:254:combine_resets$9594"); }
+        if self.v84 != other.v84 { names.push("v84 $auto$opt_dff.cc:254:combine_resets$9618"); }
+        if self.v85 != other.v85 { names.push("v85 $auto$opt_dff.cc:254:combine_resets$9624"); }
+        if self.v87 != other.v87 { names.push("v87 $auto$opt_dff.cc:254:combine_resets$9712"); }
+        if self.v88 != other.v88 { names.push("v88 $auto$opt_dff.cc:254:combine_resets$9722"); }
+        if self.v89 != other.v89 { names.push("v89 $auto$opt_dff.cc:254:combine_resets$9738"); }
+        if self.v90 != other.v90 { names.push("v90 $auto$opt_dff.cc:254:combine_resets$9741"); }
+        if self.v91 != other.v91 { names.push("v91 $auto$opt_dff.cc:254:combine_resets$9756"); }
+        if self.v92 != other.v92 { names.push("v92 $auto$opt_dff.cc:254:combine_resets$9759"); }
+        if self.v93 != other.v93 { names.push("v93 $auto$opt_dff.cc:254:combine_resets$9851"); }
+        if self.v94 != other.v94 { names.push("v94 $auto$opt_dff.cc:254:combine_resets$9856"); }
+        if self.v95 != other.v95 { names.push("v95 $auto$opt_dff.cc:254:combine_resets$9861"); }
+        if self.v96 != other.v96 { names.push("v96 $auto$opt_dff.cc:254:combine_resets$9864"); }
+        if self.v97 != other.v97 { names.push("v97 $auto$opt_dff.cc:254:combine_resets$9919"); }
+        if self.v98 != other.v98 { names.push("v98 $auto$opt_dff.cc:254:combine_resets$9925"); }
+        if self.v99 != other.v99 { names.push("v99 $auto$opt_dff.cc:254:combine_resets$9939"); }
+        if self.v100 != other.v100 { names.push("v100 $auto$opt_dff.cc:254:combine_resets$9946"); }
+        if self.v109 != other.v109 { names.push("v109 $auto$opt_expr.cc:276:group_cell_inputs$8941"); }
+        if self.v110 != other.v110 { names.push("v110 $auto$opt_expr.cc:276:group_cell_inputs$9422"); }
+        if self.v111 != other.v111 { names.push("v111 $auto$opt_expr.cc:276:group_cell_inputs$9426"); }
+        if self.v115 != other.v115 { names.push("v115 $auto$opt_expr.cc:276:group_cell_inputs$9573"); }
+        if self.v120 != other.v120 { names.push("v120 $auto$opt_expr.cc:276:group_cell_inputs$9984"); }
+        if self.v123 != other.v123 { names.push("v123 $auto$opt_reduce.cc:128:opt_pmux$9579"); }
+        if self.v124 != other.v124 { names.push("v124 $auto$opt_share.cc:241:merge_operators$9582"); }
+        if self.v132 != other.v132 { names.push("v132 $flattenconfiguration.$procmux$8658"); }
+        if self.v133 != other.v133 { names.push("v133 $flattenconfiguration.$procmux$8661"); }
+        if self.v138 != other.v138 { names.push("v138 $flattencore.bit_timing.$add$can_controller.v:1444$365"); }
+        if self.v139 != other.v139 { names.push("v139 $flattencore.bit_timing.$add$can_controller.v:1511$383"); }
+        if self.v141 != other.v141 { names.push("v141 $flattencore.bit_timing.$add$can_controller.v:1516$389"); }
+        if self.v144 != other.v144 { names.push("v144 $flattencore.bit_timing.$and$can_controller.v:1491$376"); }
+        if self.v146 != other.v146 { names.push("v146 $flattencore.bit_timing.$and$can_controller.v:1493$380"); }
+        if self.v147 != other.v147 { names.push("v147 $flattencore.bit_timing.$and$can_controller.v:1545$402"); }
+        if self.v149 != other.v149 { names.push("v149 $flattencore.bit_timing.$and$can_controller.v:1546$406"); }
+        if self.v153 != other.v153 { names.push("v153 $flattencore.bit_timing.$and$can_controller.v:1546$414"); }
+        if self.v154 != other.v154 { names.push("v154 $flattencore.bit_timing.$and$can_controller.v:1549$417"); }
+        if self.v157 != other.v157 { names.push("v157 $flattencore.bit_timing.$and$can_controller.v:1551$425"); }
+        if self.v161 != other.v161 { names.push("v161 $flattencore.bit_timing.$ge$can_controller.v:1445$366"); }
+        if self.v165 != other.v165 { names.push("v165 $flattencore.bit_timing.$not$can_controller.v:1452$368"); }
+        if self.v170 != other.v170 { names.push("v170 $flattencore.bit_timing.$not$can_controller.v:1546$413"); }
+        if self.v171 != other.v171 { names.push("v171 $flattencore.bit_timing.$not$can_controller.v:1550$420"); }
+        if self.v176 != other.v176 { names.push("v176 $flattencore.bit_timing.$or$can_controller.v:1550$424"); }
+        if self.v182 != other.v182 { names.push("v182 $flattencore.bit_timing.$procmux$8363"); }
+        if self.v183 != other.v183 { names.push("v183 $flattencore.bit_timing.$procmux$8381"); }
+        if self.v184 != other.v184 { names.push("v184 $flattencore.bit_timing.$procmux$8384"); }
+        if self.v187 != other.v187 { names.push("v187 $flattencore.bit_timing.$procmux$8396"); }
+        if self.v189 != other.v189 { names.push("v189 $flattencore.bit_timing.$procmux$8409_CMP0"); }
+        if self.v190 != other.v190 { names.push("v190 $flattencore.bit_timing.$procmux$8414"); }
+        if self.v191 != other.v191 { names.push("v191 $flattencore.bit_timing.$procmux$8421"); }
+        if self.v192 != other.v192 { names.push("v192 $flattencore.bit_timing.$procmux$8439"); }
+        if self.v193 != other.v193 { names.push("v193 $flattencore.bit_timing.$procmux$8443"); }
+        if self.v195 != other.v195 { names.push("v195 $flattencore.bit_timing.$procmux$8452"); }
+        if self.v198 != other.v198 { names.push("v198 $flattencore.bit_timing.$procmux$8471_CMP0"); }
+        if self.v203 != other.v203 { names.push("v203 $flattencore.bit_timing.$procmux$8536_CMP0"); }
+        if self.v204 != other.v204 { names.push("v204 $flattencore.bit_timing.$procmux$8553"); }
+        if self.v205 != other.v205 { names.push("v205 $flattencore.bit_timing.$procmux$8562"); }
+        if self.v206 != other.v206 { names.push("v206 $flattencore.bit_timing.$procmux$8570"); }
+        if self.v207 != other.v207 { names.push("v207 $flattencore.bit_timing.$procmux$8579"); }
+        if self.v219 != other.v219 { names.push("v219 $flattencore.bit_timing.sampling.$and$can_controller.v:1739$463"); }
+        if self.v226 != other.v226 { names.push("v226 $flattencore.bit_timing.sampling.$procmux$8339"); }
+        if self.v227 != other.v227 { names.push("v227 $flattencore.bit_timing.sampling.$procmux$8342"); }
+        if self.v228 != other.v228 { names.push("v228 $flattencore.bit_timing.sampling.$procmux$8345"); }
+        if self.v229 != other.v229 { names.push("v229 $flattencore.bit_timing.sampling.$procmux$8351"); }
+        if self.v230 != other.v230 { names.push("v230 $flattencore.protocol.$and$can_controller.v:2483$652"); }
+        if self.v232 != other.v232 { names.push("v232 $flattencore.protocol.$and$can_controller.v:2485$657"); }
+        if self.v233 != other.v233 { names.push("v233 $flattencore.protocol.$and$can_controller.v:2582$673"); }
+        if self.v234 != other.v234 { names.push("v234 $flattencore.protocol.$and$can_controller.v:2585$675"); }
+        if self.v235 != other.v235 { names.push("v235 $flattencore.protocol.$and$can_controller.v:2586$677"); }
+        if self.v237 != other.v237 { names.push("v237 $flattencore.protocol.$and$can_controller.v:2635$694"); }
+        if self.v238 != other.v238 { names.push("v238 $flattencore.protocol.$eq$can_controller.v:2550$665"); }
+        if self.v248 != other.v248 { names.push("v248 $flattencore.protocol.$ne$can_controller.v:2631$690"); }
+        if self.v250 != other.v250 { names.push("v250 $flattencore.protocol.$not$can_controller.v:2588$678"); }
+        if self.v253 != other.v253 { names.push("v253 $flattencore.protocol.$or$can_controller.v:2556$668"); }
+        if self.v254 != other.v254 { names.push("v254 $flattencore.protocol.$or$can_controller.v:2566$669"); }
+        if self.v255 != other.v255 { names.push("v255 $flattencore.protocol.$or$can_controller.v:2612$682"); }
+        if self.v256 != other.v256 { names.push("v256 $flattencore.protocol.$or$can_controller.v:2618$683"); }
+        if self.v259 != other.v259 { names.push("v259 $flattencore.protocol.$or$can_controller.v:2646$711"); }
+        if self.v266 != other.v266 { names.push("v266 $flattencore.protocol.$or$can_controller.v:2659$734"); }
+        if self.v267 != other.v267 { names.push("v267 $flattencore.protocol.$procmux$8264"); }
+        if self.v268 != other.v268 { names.push("v268 $flattencore.protocol.$procmux$8267"); }
+        if self.v272 != other.v272 { names.push("v272 $flattencore.protocol.$procmux$8294"); }
+        if self.v276 != other.v276 { names.push("v276 $flattencore.protocol.$procmux$8315"); }
+        if self.v277 != other.v277 { names.push("v277 $flattencore.protocol.$procmux$8321"); }
+        if self.v278 != other.v278 { names.push("v278 $flattencore.protocol.$procmux$8327"); }
+        if self.v280 != other.v280 { names.push("v280 $flattencore.protocol.assembler.$and$can_controller.v:2859$787"); }
+        if self.v282 != other.v282 { names.push("v282 $flattencore.protocol.assembler.$and$can_controller.v:2860$791"); }
+        if self.v286 != other.v286 { names.push("v286 $flattencore.protocol.assembler.$procmux$8085"); }
+        if self.v288 != other.v288 { names.push("v288 $flattencore.protocol.assembler.$procmux$8213"); }
+        if self.v289 != other.v289 { names.push("v289 $flattencore.protocol.assembler.$procmux$8219"); }
+        if self.v292 != other.v292 { names.push("v292 $flattencore.protocol.assembler.$sub$can_controller.v:2857$770"); }
+        if self.v301 != other.v301 { names.push("v301 $flattencore.protocol.capture.$eq$can_controller.v:3286$891"); }
+        if self.v318 != other.v318 { names.push("v318 $flattencore.protocol.capture.$procmux$8003"); }
+        if self.v319 != other.v319 { names.push("v319 $flattencore.protocol.crc.$procmux$7707"); }
+        if self.v322 != other.v322 { names.push("v322 $flattencore.protocol.faults.$add$can_controller.v:3674$981"); }
+        if self.v324 != other.v324 { names.push("v324 $flattencore.protocol.faults.$and$can_controller.v:3670$975"); }
+        if self.v326 != other.v326 { names.push("v326 $flattencore.protocol.faults.$and$can_controller.v:3703$1001"); }
+        if self.v327 != other.v327 { names.push("v327 $flattencore.protocol.faults.$and$can_controller.v:3711$1008"); }
+        if self.v328 != other.v328 { names.push("v328 $flattencore.protocol.faults.$eq$can_controller.v:3650$957"); }
+        if self.v329 != other.v329 { names.push("v329 $flattencore.protocol.faults.$eq$can_controller.v:3661$969"); }
+        if self.v331 != other.v331 { names.push("v331 $flattencore.protocol.faults.$eq$can_controller.v:3693$994"); }
+        if self.v332 != other.v332 { names.push("v332 $flattencore.protocol.faults.$ne$can_controller.v:3670$974"); }
+        if self.v333 != other.v333 { names.push("v333 $flattencore.protocol.faults.$ne$can_controller.v:3673$978"); }
+        if self.v334 != other.v334 { names.push("v334 $flattencore.protocol.faults.$ne$can_controller.v:3686$988"); }
+        if self.v337 != other.v337 { names.push("v337 $flattencore.protocol.faults.$procmux$7436"); }
+        if self.v338 != other.v338 { names.push("v338 $flattencore.protocol.faults.$procmux$7439"); }
+        if self.v339 != other.v339 { names.push("v339 $flattencore.protocol.faults.$procmux$7442"); }
+        if self.v340 != other.v340 { names.push("v340 $flattencore.protocol.faults.$procmux$7445"); }
+        if self.v344 != other.v344 { names.push("v344 $flattencore.protocol.faults.$procmux$7473"); }
+        if self.v348 != other.v348 { names.push("v348 $flattencore.protocol.faults.$procmux$7490"); }
+        if self.v352 != other.v352 { names.push("v352 $flattencore.protocol.faults.$procmux$7531"); }
+        if self.v356 != other.v356 { names.push("v356 $flattencore.protocol.faults.$procmux$7570"); }
+        if self.v357 != other.v357 { names.push("v357 $flattencore.protocol.faults.$procmux$7582"); }
+        if self.v358 != other.v358 { names.push("v358 $flattencore.protocol.faults.$procmux$7594"); }
+        if self.v365 != other.v365 { names.push("v365 $flattencore.protocol.faults.$procmux$7651"); }
+        if self.v366 != other.v366 { names.push("v366 $flattencore.protocol.faults.$procmux$7660"); }
+        if self.v367 != other.v367 { names.push("v367 $flattencore.protocol.faults.$procmux$7669"); }
+        if self.v374 != other.v374 { names.push("v374 $flattencore.protocol.faults.$sub$can_controller.v:3655$961"); }
+        if self.v375 != other.v375 { names.push("v375 $flattencore.protocol.faults.$sub$can_controller.v:3687$990"); }
+        if self.v379 != other.v379 { names.push("v379 $flattencore.protocol.frame.$and$can_controller.v:3928$1042"); }
+        if self.v380 != other.v380 { names.push("v380 $flattencore.protocol.frame.$and$can_controller.v:3947$1043"); }
+        if self.v389 != other.v389 { names.push("v389 $flattencore.protocol.frame.$eq$can_controller.v:3922$1024"); }
+        if self.v390 != other.v390 { names.push("v390 $flattencore.protocol.frame.$eq$can_controller.v:3923$1025"); }
+        if self.v391 != other.v391 { names.push("v391 $flattencore.protocol.frame.$eq$can_controller.v:3924$1026"); }
+        if self.v392 != other.v392 { names.push("v392 $flattencore.protocol.frame.$eq$can_controller.v:3926$1031"); }
+        if self.v394 != other.v394 { names.push("v394 $flattencore.protocol.frame.$eq$can_controller.v:3928$1040"); }
+        if self.v396 != other.v396 { names.push("v396 $flattencore.protocol.frame.$eq$can_controller.v:3951$1044"); }
+        if self.v397 != other.v397 { names.push("v397 $flattencore.protocol.frame.$eq$can_controller.v:3956$1046"); }
+        if self.v401 != other.v401 { names.push("v401 $flattencore.protocol.frame.$eq$can_controller.v:4067$1061"); }
+        if self.v405 != other.v405 { names.push("v405 $flattencore.protocol.frame.$or$can_controller.v:3926$1034"); }
+        if self.v406 != other.v406 { names.push("v406 $flattencore.protocol.frame.$or$can_controller.v:3927$1039"); }
+        if self.v407 != other.v407 { names.push("v407 $flattencore.protocol.frame.$or$can_controller.v:3967$1050"); }
+        if self.v408 != other.v408 { names.push("v408 $flattencore.protocol.frame.$procmux$6028_CMP0"); }
+        if self.v412 != other.v412 { names.push("v412 $flattencore.protocol.frame.$procmux$6136"); }
+        if self.v417 != other.v417 { names.push("v417 $flattencore.protocol.frame.$procmux$6227_CMP0"); }
+        if self.v420 != other.v420 { names.push("v420 $flattencore.protocol.frame.$procmux$6289_CMP0"); }
+        if self.v432 != other.v432 { names.push("v432 $flattencore.protocol.frame.$procmux$6542_CMP0"); }
+        if self.v436 != other.v436 { names.push("v436 $flattencore.protocol.frame.$procmux$6611"); }
+        if self.v439 != other.v439 { names.push("v439 $flattencore.protocol.frame.$procmux$6672"); }
+        if self.v440 != other.v440 { names.push("v440 $flattencore.protocol.frame.$procmux$6675_CMP0"); }
+        if self.v442 != other.v442 { names.push("v442 $flattencore.protocol.frame.$procmux$6692_CMP0"); }
+        if self.v443 != other.v443 { names.push("v443 $flattencore.protocol.frame.$procmux$6706"); }
+        if self.v444 != other.v444 { names.push("v444 $flattencore.protocol.frame.$procmux$6730_CMP0"); }
+        if self.v454 != other.v454 { names.push("v454 $flattencore.protocol.frame.$procmux$6984"); }
+        if self.v460 != other.v460 { names.push("v460 $flattencore.protocol.frame.$procmux$7068"); }
+        if self.v470 != other.v470 { names.push("v470 $flattencore.protocol.frame.$procmux$7220"); }
+        if self.v471 != other.v471 { names.push("v471 $flattencore.protocol.frame.$procmux$7226"); }
+        if self.v472 != other.v472 { names.push("v472 $flattencore.protocol.frame.$procmux$7232"); }
+        if self.v473 != other.v473 { names.push("v473 $flattencore.protocol.frame.$procmux$7238"); }
+        if self.v474 != other.v474 { names.push("v474 $flattencore.protocol.frame.$procmux$7244"); }
+        if self.v475 != other.v475 { names.push("v475 $flattencore.protocol.frame.$procmux$7250"); }
+        if self.v476 != other.v476 { names.push("v476 $flattencore.protocol.frame.$procmux$7256"); }
+        if self.v477 != other.v477 { names.push("v477 $flattencore.protocol.frame.$procmux$7268"); }
+        if self.v478 != other.v478 { names.push("v478 $flattencore.protocol.frame.$procmux$7274"); }
+        if self.v479 != other.v479 { names.push("v479 $flattencore.protocol.frame.$procmux$7280"); }
+        if self.v480 != other.v480 { names.push("v480 $flattencore.protocol.frame.$procmux$7286"); }
+        if self.v481 != other.v481 { names.push("v481 $flattencore.protocol.frame.$procmux$7292"); }
+        if self.v482 != other.v482 { names.push("v482 $flattencore.protocol.frame.$procmux$7298"); }
+        if self.v483 != other.v483 { names.push("v483 $flattencore.protocol.frame.$procmux$7304"); }
+        if self.v484 != other.v484 { names.push("v484 $flattencore.protocol.frame.$procmux$7310"); }
+        if self.v485 != other.v485 { names.push("v485 $flattencore.protocol.frame.$procmux$7322"); }
+        if self.v487 != other.v487 { names.push("v487 $flattencore.protocol.frame.$procmux$7365"); }
+        if self.v488 != other.v488 { names.push("v488 $flattencore.protocol.frame.$procmux$7371"); }
+        if self.v489 != other.v489 { names.push("v489 $flattencore.protocol.frame.$procmux$7377"); }
+        if self.v490 != other.v490 { names.push("v490 $flattencore.protocol.frame.$procmux$7382"); }
+        if self.v491 != other.v491 { names.push("v491 $flattencore.protocol.frame.$procmux$7385"); }
+        if self.v492 != other.v492 { names.push("v492 $flattencore.protocol.frame.$procmux$7388"); }
+        if self.v493 != other.v493 { names.push("v493 $flattencore.protocol.frame.$procmux$7391"); }
+        if self.v494 != other.v494 { names.push("v494 $flattencore.protocol.frame.$procmux$7394"); }
+        if self.v495 != other.v495 { names.push("v495 $flattencore.protocol.frame.$procmux$7397"); }
+        if self.v496 != other.v496 { names.push("v496 $flattencore.protocol.frame.$procmux$7400"); }
+        if self.v497 != other.v497 { names.push("v497 $flattencore.protocol.frame.$procmux$7406"); }
+        if self.v498 != other.v498 { names.push("v498 $flattencore.protocol.frame.$procmux$7409"); }
+        if self.v499 != other.v499 { names.push("v499 $flattencore.protocol.frame.$procmux$7412"); }
+        if self.v500 != other.v500 { names.push("v500 $flattencore.protocol.frame.$procmux$7415"); }
+        if self.v501 != other.v501 { names.push("v501 $flattencore.protocol.frame.$procmux$7418"); }
+        if self.v502 != other.v502 { names.push("v502 $flattencore.protocol.frame.$procmux$7421"); }
+        if self.v503 != other.v503 { names.push("v503 $flattencore.protocol.frame.$procmux$7424"); }
+        if self.v504 != other.v504 { names.push("v504 $flattencore.protocol.frame.$procmux$7427"); }
+        if self.v505 != other.v505 { names.push("v505 $flattencore.protocol.frame.$procmux$7433"); }
+        if self.v511 != other.v511 { names.push("v511 $flattencore.protocol.interframe.$and$can_controller.v:4264$1095"); }
+        if self.v512 != other.v512 { names.push("v512 $flattencore.protocol.interframe.$and$can_controller.v:4265$1097"); }
+        if self.v514 != other.v514 { names.push("v514 $flattencore.protocol.interframe.$and$can_controller.v:4265$1105"); }
+        if self.v515 != other.v515 { names.push("v515 $flattencore.protocol.interframe.$and$can_controller.v:4265$1107"); }
+        if self.v517 != other.v517 { names.push("v517 $flattencore.protocol.interframe.$and$can_controller.v:4320$1139"); }
+        if self.v518 != other.v518 { names.push("v518 $flattencore.protocol.interframe.$and$can_controller.v:4320$1141"); }
+        if self.v519 != other.v519 { names.push("v519 $flattencore.protocol.interframe.$and$can_controller.v:4342$1150"); }
+        if self.v520 != other.v520 { names.push("v520 $flattencore.protocol.interframe.$and$can_controller.v:4346$1152"); }
+        if self.v521 != other.v521 { names.push("v521 $flattencore.protocol.interframe.$and$can_controller.v:4369$1160"); }
+        if self.v524 != other.v524 { names.push("v524 $flattencore.protocol.interframe.$and$can_controller.v:4413$1182"); }
+        if self.v529 != other.v529 { names.push("v529 $flattencore.protocol.interframe.$eq$can_controller.v:4265$1100"); }
+        if self.v530 != other.v530 { names.push("v530 $flattencore.protocol.interframe.$eq$can_controller.v:4265$1101"); }
+        if self.v531 != other.v531 { names.push("v531 $flattencore.protocol.interframe.$eq$can_controller.v:4265$1103"); }
+        if self.v532 != other.v532 { names.push("v532 $flattencore.protocol.interframe.$eq$can_controller.v:4265$1104"); }
+        if self.v534 != other.v534 { names.push("v534 $flattencore.protocol.interframe.$eq$can_controller.v:4292$1131"); }
+        if self.v535 != other.v535 { names.push("v535 $flattencore.protocol.interframe.$eq$can_controller.v:4299$1133"); }
+        if self.v536 != other.v536 { names.push("v536 $flattencore.protocol.interframe.$eq$can_controller.v:4311$1136"); }
+        if self.v537 != other.v537 { names.push("v537 $flattencore.protocol.interframe.$eq$can_controller.v:4339$1144"); }
+        if self.v538 != other.v538 { names.push("v538 $flattencore.protocol.interframe.$eq$can_controller.v:4355$1155"); }
+        if self.v539 != other.v539 { names.push("v539 $flattencore.protocol.interframe.$eq$can_controller.v:4382$1168"); }
+        if self.v542 != other.v542 { names.push("v542 $flattencore.protocol.interframe.$eq$can_controller.v:4440$1189"); }
+        if self.v543 != other.v543 { names.push("v543 $flattencore.protocol.interframe.$ne$can_controller.v:4342$1148"); }
+        if self.v545 != other.v545 { names.push("v545 $flattencore.protocol.interframe.$not$can_controller.v:4264$1087"); }
+        if self.v547 != other.v547 { names.push("v547 $flattencore.protocol.interframe.$not$can_controller.v:4264$1092"); }
+        if self.v550 != other.v550 { names.push("v550 $flattencore.protocol.interframe.$or$can_controller.v:4263$1086"); }
+        if self.v551 != other.v551 { names.push("v551 $flattencore.protocol.interframe.$or$can_controller.v:4265$1102"); }
+        if self.v552 != other.v552 { names.push("v552 $flattencore.protocol.interframe.$or$can_controller.v:4265$1106"); }
+        if self.v553 != other.v553 { names.push("v553 $flattencore.protocol.interframe.$or$can_controller.v:4445$1192"); }
+        if self.v564 != other.v564 { names.push("v564 $flattencore.protocol.interframe.$procmux$4187"); }
+        if self.v565 != other.v565 { names.push("v565 $flattencore.protocol.interframe.$procmux$4193"); }
+        if self.v567 != other.v567 { names.push("v567 $flattencore.protocol.interframe.$procmux$4205"); }
+        if self.v572 != other.v572 { names.push("v572 $flattencore.protocol.interframe.$procmux$4237_CMP0"); }
+        if self.v576 != other.v576 { names.push("v576 $flattencore.protocol.interframe.$procmux$4295_CMP0"); }
+        if self.v589 != other.v589 { names.push("v589 $flattencore.protocol.interframe.$procmux$4611"); }
+        if self.v603 != other.v603 { names.push("v603 $flattencore.protocol.interframe.$procmux$4863_CMP0"); }
+        if self.v609 != other.v609 { names.push("v609 $flattencore.protocol.interframe.$procmux$4989"); }
+        if self.v616 != other.v616 { names.push("v616 $flattencore.protocol.interframe.$procmux$5145"); }
+        if self.v618 != other.v618 { names.push("v618 $flattencore.protocol.interframe.$procmux$5190"); }
+        if self.v640 != other.v640 { names.push("v640 $flattencore.protocol.interframe.$procmux$5625_CMP0"); }
+        if self.v646 != other.v646 { names.push("v646 $flattencore.protocol.interframe.$procmux$5725"); }
+        if self.v647 != other.v647 { names.push("v647 $flattencore.protocol.interframe.$procmux$5737"); }
+        if self.v648 != other.v648 { names.push("v648 $flattencore.protocol.interframe.$procmux$5750"); }
+        if self.v651 != other.v651 { names.push("v651 $flattencore.protocol.interframe.$procmux$5808"); }
+        if self.v653 != other.v653 { names.push("v653 $flattencore.protocol.interframe.$procmux$5832"); }
+        if self.v655 != other.v655 { names.push("v655 $flattencore.protocol.interframe.$procmux$5853"); }
+        if self.v657 != other.v657 { names.push("v657 $flattencore.protocol.interframe.$procmux$5886"); }
+        if self.v665 != other.v665 { names.push("v665 $flattencore.protocol.interframe.$procmux$5946"); }
+        if self.v666 != other.v666 { names.push("v666 $flattencore.protocol.interframe.$procmux$5952"); }
+        if self.v667 != other.v667 { names.push("v667 $flattencore.protocol.interframe.$procmux$5957"); }
+        if self.v668 != other.v668 { names.push("v668 $flattencore.protocol.interframe.$procmux$5969"); }
+        if self.v669 != other.v669 { names.push("v669 $flattencore.protocol.interframe.$procmux$5972"); }
+        if self.v670 != other.v670 { names.push("v670 $flattencore.protocol.interframe.$procmux$5975"); }
+        if self.v671 != other.v671 { names.push("v671 $flattencore.protocol.interframe.$procmux$5978"); }
+        if self.v672 != other.v672 { names.push("v672 $flattencore.protocol.interframe.$procmux$5981"); }
+        if self.v673 != other.v673 { names.push("v673 $flattencore.protocol.interframe.$procmux$5984"); }
+        if self.v674 != other.v674 { names.push("v674 $flattencore.protocol.interframe.$procmux$5990"); }
+        if self.v675 != other.v675 { names.push("v675 $flattencore.protocol.interframe.$procmux$6002"); }
+        if self.v676 != other.v676 { names.push("v676 $flattencore.protocol.interframe.$procmux$6005"); }
+        if self.v677 != other.v677 { names.push("v677 $flattencore.protocol.interframe.$procmux$6008"); }
+        if self.v678 != other.v678 { names.push("v678 $flattencore.protocol.interframe.$procmux$6011"); }
+        if self.v679 != other.v679 { names.push("v679 $flattencore.protocol.interframe.$procmux$6014"); }
+        if self.v681 != other.v681 { names.push("v681 $flattencore.protocol.sender.$add$can_controller.v:4725$1236"); }
+        if self.v682 != other.v682 { names.push("v682 $flattencore.protocol.sender.$add$can_controller.v:4746$1247"); }
+        if self.v688 != other.v688 { names.push("v688 $flattencore.protocol.sender.$and$can_controller.v:4846$1273"); }
+        if self.v689 != other.v689 { names.push("v689 $flattencore.protocol.sender.$eq$can_controller.v:4714$1226"); }
+        if self.v690 != other.v690 { names.push("v690 $flattencore.protocol.sender.$eq$can_controller.v:4718$1227"); }
+        if self.v691 != other.v691 { names.push("v691 $flattencore.protocol.sender.$eq$can_controller.v:4745$1246"); }
+        if self.v692 != other.v692 { names.push("v692 $flattencore.protocol.sender.$eq$can_controller.v:4764$1253"); }
+        if self.v697 != other.v697 { names.push("v697 $flattencore.protocol.sender.$eq$can_controller.v:4829$1261"); }
+        if self.v699 != other.v699 { names.push("v699 $flattencore.protocol.sender.$not$can_controller.v:4846$1270"); }
+        if self.v701 != other.v701 { names.push("v701 $flattencore.protocol.sender.$or$can_controller.v:4858$1278"); }
+        if self.v702 != other.v702 { names.push("v702 $flattencore.protocol.sender.$procmux$3743"); }
+        if self.v703 != other.v703 { names.push("v703 $flattencore.protocol.sender.$procmux$3746"); }
+        if self.v708 != other.v708 { names.push("v708 $flattencore.protocol.sender.$procmux$3763"); }
+        if self.v709 != other.v709 { names.push("v709 $flattencore.protocol.sender.$procmux$3766_CMP0"); }
+        if self.v711 != other.v711 { names.push("v711 $flattencore.protocol.sender.$procmux$3778_CMP0"); }
+        if self.v712 != other.v712 { names.push("v712 $flattencore.protocol.sender.$procmux$3784"); }
+        if self.v714 != other.v714 { names.push("v714 $flattencore.protocol.sender.$procmux$3800_CMP0"); }
+        if self.v717 != other.v717 { names.push("v717 $flattencore.protocol.sender.$procmux$3824_CMP0"); }
+        if self.v722 != other.v722 { names.push("v722 $flattencore.protocol.sender.$procmux$3888"); }
+        if self.v724 != other.v724 { names.push("v724 $flattencore.protocol.sender.$procmux$3917_CMP0"); }
+        if self.v726 != other.v726 { names.push("v726 $flattencore.protocol.sender.$procmux$3943"); }
+        if self.v730 != other.v730 { names.push("v730 $flattencore.protocol.sender.$procmux$3995_CMP0"); }
+        if self.v731 != other.v731 { names.push("v731 $flattencore.protocol.sender.$procmux$3997_CMP0"); }
+        if self.v732 != other.v732 { names.push("v732 $flattencore.protocol.sender.$procmux$4002_CMP0"); }
+        if self.v733 != other.v733 { names.push("v733 $flattencore.protocol.sender.$procmux$4012"); }
+        if self.v734 != other.v734 { names.push("v734 $flattencore.protocol.sender.$procmux$4015"); }
+        if self.v735 != other.v735 { names.push("v735 $flattencore.protocol.sender.$procmux$4018"); }
+        if self.v740 != other.v740 { names.push("v740 $flattencore.protocol.sender.$procmux$4040"); }
+        if self.v741 != other.v741 { names.push("v741 $flattencore.protocol.sender.$procmux$4045"); }
+        if self.v742 != other.v742 { names.push("v742 $flattencore.protocol.sender.$procmux$4052"); }
+        if self.v743 != other.v743 { names.push("v743 $flattencore.protocol.sender.$procmux$4058"); }
+        if self.v744 != other.v744 { names.push("v744 $flattencore.protocol.sender.$procmux$4064"); }
+        if self.v746 != other.v746 { names.push("v746 $flattencore.protocol.sender.$procmux$4078"); }
+        if self.v748 != other.v748 { names.push("v748 $flattencore.protocol.sender.$procmux$4084"); }
+        if self.v752 != other.v752 { names.push("v752 $flattencore.protocol.sender.$xor$can_controller.v:4823$1260"); }
+        if self.v754 != other.v754 { names.push("v754 $flattencore.protocol.stuffing.$and$can_controller.v:5016$1302"); }
+        if self.v755 != other.v755 { names.push("v755 $flattencore.protocol.stuffing.$and$can_controller.v:5017$1304"); }
+        if self.v759 != other.v759 { names.push("v759 $flattencore.protocol.stuffing.$or$can_controller.v:5020$1310"); }
+        if self.v760 != other.v760 { names.push("v760 $flattencore.protocol.stuffing.$procmux$3690"); }
+        if self.v761 != other.v761 { names.push("v761 $flattencore.protocol.stuffing.$procmux$3696"); }
+        if self.v763 != other.v763 { names.push("v763 $flattencore.protocol.stuffing.$procmux$3714"); }
+        if self.v765 != other.v765 { names.push("v765 $flattendecode.$and$can_controller.v:5209$1348"); }
+        if self.v766 != other.v766 { names.push("v766 $flattendecode.$and$can_controller.v:5210$1349"); }
+        if self.v767 != other.v767 { names.push("v767 $flattendecode.$and$can_controller.v:5211$1350"); }
+        if self.v768 != other.v768 { names.push("v768 $flattendecode.$and$can_controller.v:5212$1351"); }
+        if self.v772 != other.v772 { names.push("v772 $flattendecode.$and$can_controller.v:5214$1356"); }
+        if self.v773 != other.v773 { names.push("v773 $flattendecode.$and$can_controller.v:5215$1358"); }
+        if self.v774 != other.v774 { names.push("v774 $flattendecode.$eq$can_controller.v:5214$1355"); }
+        if self.v775 != other.v775 { names.push("v775 $flattendecode.$procmux$3668"); }
+        if self.v776 != other.v776 { names.push("v776 $flattendecode.$procmux$3671"); }
+        if self.v777 != other.v777 { names.push("v777 $flattendecode.$procmux$3674"); }
+        if self.v778 != other.v778 { names.push("v778 $flattendecode.$procmux$3677"); }
+        if self.v779 != other.v779 { names.push("v779 $flattendecode.$procmux$3680"); }
+        if self.v780 != other.v780 { names.push("v780 $flattendecode.$shiftx$can_controller.v:0$1338"); }
+        if self.v781 != other.v781 { names.push("v781 $flattendecode.$shiftx$can_controller.v:0$1339"); }
+        if self.v782 != other.v782 { names.push("v782 $flattendecode.$shiftx$can_controller.v:0$1340"); }
+        if self.v783 != other.v783 { names.push("v783 $flattendecode.$shiftx$can_controller.v:0$1341"); }
+        if self.v784 != other.v784 { names.push("v784 $flattendecode.$shiftx$can_controller.v:0$1342"); }
+        if self.v785 != other.v785 { names.push("v785 $flattendecode.$shiftx$can_controller.v:0$1343"); }
+        if self.v786 != other.v786 { names.push("v786 $flattendecode.$sub$can_controller.v:5191$1335"); }
+        if self.v787 != other.v787 { names.push("v787 $flattendecode.$sub$can_controller.v:5192$1336"); }
+        if self.v788 != other.v788 { names.push("v788 $flattendecode.$sub$can_controller.v:5193$1337"); }
+        if self.v794 != other.v794 { names.push("v794 $flattenfifo.$add$can_controller.v:5473$1437"); }
+        if self.v795 != other.v795 { names.push("v795 $flattenfifo.$add$can_controller.v:5485$1447"); }
+        if self.v799 != other.v799 { names.push("v799 $flattenfifo.$and$can_controller.v:5484$1445"); }
+        if self.v813 != other.v813 { names.push("v813 $flattenfifo.$procmux$3476"); }
+        if self.v814 != other.v814 { names.push("v814 $flattenfifo.$procmux$3479"); }
+        if self.v815 != other.v815 { names.push("v815 $flattenfifo.$procmux$3497"); }
+        if self.v816 != other.v816 { names.push("v816 $flattenfifo.$procmux$3500"); }
+        if self.v817 != other.v817 { names.push("v817 $flattenfifo.$procmux$3503"); }
+        if self.v818 != other.v818 { names.push("v818 $flattenfifo.$procmux$3506"); }
+        if self.v819 != other.v819 { names.push("v819 $flattenfifo.$procmux$3512"); }
+        if self.v822 != other.v822 { names.push("v822 $flattenfifo.$procmux$3527"); }
+        if self.v823 != other.v823 { names.push("v823 $flattenfifo.$procmux$3530"); }
+        if self.v824 != other.v824 { names.push("v824 $flattenfifo.$procmux$3533"); }
+        if self.v825 != other.v825 { names.push("v825 $flattenfifo.$procmux$3536"); }
+        if self.v831 != other.v831 { names.push("v831 $flattenfifo.$procmux$3566"); }
+        if self.v832 != other.v832 { names.push("v832 $flattenfifo.$procmux$3569"); }
+        if self.v833 != other.v833 { names.push("v833 $flattenfifo.$procmux$3572"); }
+        if self.v838 != other.v838 { names.push("v838 $flattenfifo.$procmux$3595"); }
+        if self.v843 != other.v843 { names.push("v843 $flattenfifo.$procmux$3623"); }
+        if self.v844 != other.v844 { names.push("v844 $flattenfifo.$procmux$3626"); }
+        if self.v848 != other.v848 { names.push("v848 $flattenfifo.$procmux$3644"); }
+        if self.v853 != other.v853 { names.push("v853 $flattenfifo.$procmux$3665"); }
+        if self.v854 != other.v854 { names.push("v854 $flattenfifo.$sub$can_controller.v:5490$1451"); }
+        if self.v855 != other.v855 { names.push("v855 $flattenfifo.$sub$can_controller.v:5491$1452"); }
+        if self.v858 != other.v858 { names.push("v858 $flattenfilter.$and$can_controller.v:6072$1765"); }
+        if self.v869 != other.v869 { names.push("v869 $flattenfilter.$and$can_controller.v:6139$1835"); }
+        if self.v870 != other.v870 { names.push("v870 $flattenfilter.$and$can_controller.v:6140$1838"); }
+        if self.v872 != other.v872 { names.push("v872 $flattenfilter.$and$can_controller.v:6141$1847"); }
+        if self.v878 != other.v878 { names.push("v878 $flattenfilter.$eq$can_controller.v:6048$1755"); }
+        if self.v888 != other.v888 { names.push("v888 $flattenfilter.$eq$can_controller.v:6126$1802"); }
+        if self.v889 != other.v889 { names.push("v889 $flattenfilter.$eq$can_controller.v:6138$1832"); }
+        if self.v891 != other.v891 { names.push("v891 $flattenfilter.$eq$can_controller.v:6140$1836"); }
+        if self.v902 != other.v902 { names.push("v902 $flattenfilter.$or$can_controller.v:6141$1846"); }
+        if self.v903 != other.v903 { names.push("v903 $flattenfilter.$procmux$3143"); }
+        if self.v904 != other.v904 { names.push("v904 $flattenfilter.$procmux$3149"); }
+        if self.v905 != other.v905 { names.push("v905 $flattenfilter.$procmux$3152"); }
+        if self.v916 != other.v916 { names.push("v916 $flattenfilter.$procmux$3299"); }
+        if self.v917 != other.v917 { names.push("v917 $flattenfilter.$procmux$3374"); }
+        if self.v924 != other.v924 { names.push("v924 $flattenfilter.$procmux$3401"); }
+        if self.v929 != other.v929 { names.push("v929 $flattenfilter.$xor$can_controller.v:6133$1815"); }
+        if self.v934 != other.v934 { names.push("v934 $flattenfilter.$xor$can_controller.v:6137$1829"); }
+        if self.v940 != other.v940 { names.push("v940 $flatteninterrupts.$and$can_controller.v:6661$1959"); }
+        if self.v942 != other.v942 { names.push("v942 $flatteninterrupts.$and$can_controller.v:6670$1978"); }
+        if self.v943 != other.v943 { names.push("v943 $flatteninterrupts.$and$can_controller.v:6675$1981"); }
+        if self.v945 != other.v945 { names.push("v945 $flatteninterrupts.$and$can_controller.v:6708$2005"); }
+        if self.v946 != other.v946 { names.push("v946 $flatteninterrupts.$and$can_controller.v:6710$2007"); }
+        if self.v947 != other.v947 { names.push("v947 $flatteninterrupts.$and$can_controller.v:6710$2009"); }
+        if self.v949 != other.v949 { names.push("v949 $flatteninterrupts.$eq$can_controller.v:6703$2001"); }
+        if self.v957 != other.v957 { names.push("v957 $flatteninterrupts.$ne$can_controller.v:6710$2008"); }
+        if self.v958 != other.v958 { names.push("v958 $flatteninterrupts.$ne$can_controller.v:6710$2010"); }
+        if self.v961 != other.v961 { names.push("v961 $flatteninterrupts.$or$can_controller.v:6698$1999"); }
+        if self.v963 != other.v963 { names.push("v963 $flatteninterrupts.$procmux$3008"); }
+        if self.v964 != other.v964 { names.push("v964 $flatteninterrupts.$procmux$3014"); }
+        if self.v966 != other.v966 { names.push("v966 $flatteninterrupts.$procmux$3029"); }
+        if self.v967 != other.v967 { names.push("v967 $flatteninterrupts.$procmux$3032"); }
+        if self.v968 != other.v968 { names.push("v968 $flatteninterrupts.$procmux$3035"); }
+        if self.v970 != other.v970 { names.push("v970 $flatteninterrupts.$procmux$3053"); }
+        if self.v971 != other.v971 { names.push("v971 $flatteninterrupts.$procmux$3056"); }
+        if self.v979 != other.v979 { names.push("v979 $flatteninterrupts.$procmux$3099"); }
+        if self.v980 != other.v980 { names.push("v980 $flattenmodes.$add$can_controller.v:7232$2165"); }
+        if self.v981 != other.v981 { names.push("v981 $flattenmodes.$and$can_controller.v:7172$2103"); }
+        if self.v989 != other.v989 { names.push("v989 $flattenmodes.$and$can_controller.v:7218$2141"); }
+        if self.v990 != other.v990 { names.push("v990 $flattenmodes.$and$can_controller.v:7231$2163"); }
+        if self.v991 != other.v991 { names.push("v991 $flattenmodes.$and$can_controller.v:7248$2177"); }
+        if self.v992 != other.v992 { names.push("v992 $flattenmodes.$and$can_controller.v:7249$2178"); }
+        if self.v993 != other.v993 { names.push("v993 $flattenmodes.$and$can_controller.v:7250$2179"); }
+        if self.v997 != other.v997 { names.push("v997 $flattenmodes.$eq$can_controller.v:7200$2128"); }
+        if self.v998 != other.v998 { names.push("v998 $flattenmodes.$eq$can_controller.v:7207$2131"); }
+        if self.v1000 != other.v1000 { names.push("v1000 $flattenmodes.$eq$can_controller.v:7218$2140"); }
+        if self.v1001 != other.v1001 { names.push("v1001 $flattenmodes.$eq$can_controller.v:7234$2166"); }
+        if self.v1002 != other.v1002 { names.push("v1002 $flattenmodes.$eq$can_controller.v:7248$2175"); }
+        if self.v1004 != other.v1004 { names.push("v1004 $flattenmodes.$ne$can_controller.v:7231$2162"); }
+        if self.v1006 != other.v1006 { names.push("v1006 $flattenmodes.$procmux$2798"); }
+        if self.v1007 != other.v1007 { names.push("v1007 $flattenmodes.$procmux$2804"); }
+        if self.v1008 != other.v1008 { names.push("v1008 $flattenmodes.$procmux$2810"); }
+        if self.v1009 != other.v1009 { names.push("v1009 $flattenmodes.$procmux$2813"); }
+        if self.v1010 != other.v1010 { names.push("v1010 $flattenmodes.$procmux$2816"); }
+        if self.v1012 != other.v1012 { names.push("v1012 $flattenmodes.$procmux$2831"); }
+        if self.v1016 != other.v1016 { names.push("v1016 $flattenmodes.$procmux$2849"); }
+        if self.v1018 != other.v1018 { names.push("v1018 $flattenmodes.$procmux$2855"); }
+        if self.v1034 != other.v1034 { names.push("v1034 $flattenmodes.$procmux$2966"); }
+        if self.v1035 != other.v1035 { names.push("v1035 $flattenmodes.$procmux$2969"); }
+        if self.v1040 != other.v1040 { names.push("v1040 $flattenmodes.divider.$add$can_controller.v:7355$2192"); }
+        if self.v1041 != other.v1041 { names.push("v1041 $flattenmodes.divider.$eq$can_controller.v:7358$2196"); }
+        if self.v1043 != other.v1043 { names.push("v1043 $flattenmodes.divider.$ge$can_controller.v:7356$2193"); }
+        if self.v1044 != other.v1044 { names.push("v1044 $flattenmodes.divider.$procmux$2783"); }
+        if self.v1049 != other.v1049 { names.push("v1049 $flattenread.$and$can_controller.v:7790$2335"); }
+        if self.v1050 != other.v1050 { names.push("v1050 $flattenread.$eq$can_controller.v:7737$2275"); }
+        if self.v1051 != other.v1051 { names.push("v1051 $flattenread.$eq$can_controller.v:7759$2294"); }
+        if self.v1052 != other.v1052 { names.push("v1052 $flattenread.$eq$can_controller.v:7762$2296"); }
+        if self.v1053 != other.v1053 { names.push("v1053 $flattenread.$eq$can_controller.v:7765$2297"); }
+        if self.v1054 != other.v1054 { names.push("v1054 $flattenread.$eq$can_controller.v:7768$2298"); }
+        if self.v1055 != other.v1055 { names.push("v1055 $flattenread.$eq$can_controller.v:7771$2299"); }
+        if self.v1056 != other.v1056 { names.push("v1056 $flattenread.$eq$can_controller.v:7774$2301"); }
+        if self.v1057 != other.v1057 { names.push("v1057 $flattenread.$eq$can_controller.v:7781$2306"); }
+        if self.v1058 != other.v1058 { names.push("v1058 $flattenread.$eq$can_controller.v:7784$2326"); }
+        if self.v1059 != other.v1059 { names.push("v1059 $flattenread.$eq$can_controller.v:7787$2327"); }
+        if self.v1060 != other.v1060 { names.push("v1060 $flattenread.$eq$can_controller.v:7795$2336"); }
+        if self.v1061 != other.v1061 { names.push("v1061 $flattenread.$or$can_controller.v:7724$2233"); }
+        if self.v1063 != other.v1063 { names.push("v1063 $flattenread.$procmux$2633"); }
+        if self.v1064 != other.v1064 { names.push("v1064 $flattenread.$procmux$2639"); }
+        if self.v1065 != other.v1065 { names.push("v1065 $flattenread.$procmux$2645"); }
+        if self.v1066 != other.v1066 { names.push("v1066 $flattenread.$procmux$2654"); }
+        if self.v1067 != other.v1067 { names.push("v1067 $flattenread.$procmux$2660"); }
+        if self.v1083 != other.v1083 { names.push("v1083 $flattenread.$procmux$2747"); }
+        if self.v1085 != other.v1085 { names.push("v1085 $flattenread.$procmux$2753"); }
+        if self.v1088 != other.v1088 { names.push("v1088 $flattenread.$procmux$2762"); }
+        if self.v1091 != other.v1091 { names.push("v1091 $flattenread.$procmux$2774"); }
+        if self.v1092 != other.v1092 { names.push("v1092 $flattenread.$reduce_or$can_controller.v:7732$2274"); }
+        if self.v1093 != other.v1093 { names.push("v1093 $flattentx_buffer.$and$can_controller.v:8087$2392"); }
+        if self.v1094 != other.v1094 { names.push("v1094 $flattentx_buffer.$and$can_controller.v:8096$2395"); }
+        if self.v1095 != other.v1095 { names.push("v1095 $flattentx_buffer.$and$can_controller.v:8097$2398"); }
+        if self.v1101 != other.v1101 { names.push("v1101 $flattentx_buffer.$procmux$2609"); }
+        if self.v1102 != other.v1102 { names.push("v1102 $flattentx_buffer.$procmux$2612"); }
+        if self.v1103 != other.v1103 { names.push("v1103 $flattentx_buffer.$procmux$2615"); }
+        if self.v1104 != other.v1104 { names.push("v1104 $flattentx_buffer.$shiftx$can_controller.v:0$2393"); }
+        if self.v1105 != other.v1105 { names.push("v1105 $flattentx_buffer.$shiftx$can_controller.v:0$2396"); }
+        if self.v1111 != other.v1111 { names.push("v1111 $procmux$8733"); }
+        if self.v1112 != other.v1112 { names.push("v1112 $procmux$8736"); }
+        if self.v1116 != other.v1116 { names.push("v1116 $procmux$8766"); }
+        if self.v1117 != other.v1117 { names.push("v1117 $procmux$8769"); }
+        if self.v1118 != other.v1118 { names.push("v1118 $procmux$8772"); }
+        if self.v1119 != other.v1119 { names.push("v1119 $procmux$8775"); }
+        if self.v1120 != other.v1120 { names.push("v1120 $procmux$8781"); }
+        if self.v1121 != other.v1121 { names.push("v1121 $procmux$8787"); }
+        if self.dirty != other.dirty { names.push("dirty "); }
+        if self.out != other.out { names.push("out "); }
+        names
     }
 
     /// The cells of top$core$protocol$interframe.

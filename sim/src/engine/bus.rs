@@ -218,6 +218,23 @@ impl Bus {
         }
     }
 
+    /// The time from which every line sees the level the drives of now give (every change has
+    /// passed both delays): later levels change only with a later drive change or a fault.
+    pub fn settled_from(&self) -> u64 {
+        self.last_change_fs
+            .map_or(0, |at| at.saturating_add(2 * self.max_delay_fs + 1))
+    }
+
+    /// The first start or end of a fault window after `t` (`u64::MAX` if none).
+    pub fn next_fault_boundary(&self, t: u64) -> u64 {
+        self.faults
+            .iter()
+            .flat_map(|w| [w.from_fs, w.to_fs])
+            .filter(|&b| b > t)
+            .min()
+            .unwrap_or(u64::MAX)
+    }
+
     /// The level the device on `line` sees just before `t`.
     pub fn level_seen_by(&self, line: usize, t: u64) -> bool {
         self.level_before(t.saturating_sub(self.lines[line].delay_fs))

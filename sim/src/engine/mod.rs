@@ -47,6 +47,18 @@ pub trait Device: Any {
     fn packed_probe_values(&self) -> Option<u64> {
         None
     }
+    /// How many of the device's next rising edges change nothing outside it, provided it sees
+    /// `rx` at each of them: neither what it drives nor (when `traced`) a probe, nor anything a
+    /// caller can read from it between edges except free-running counters (cycle skipping,
+    /// [`Engine::set_edge_skipping`]). 0, the default: the device does not skip.
+    fn quiet_edges(&self, _rx: bool, _traced: bool) -> u64 {
+        0
+    }
+    /// Runs `edges` of its quiet edges at once (at most [`Device::quiet_edges`] gave for the same
+    /// `rx` and `traced`). `checked`: also step a copy edge by edge and panic if the two differ.
+    fn skip_edges(&mut self, _edges: u64, _traced: bool, _checked: bool) {
+        unreachable!("a device without quiet edges is never skipped")
+    }
     /// `self` as `Any`, for [`Engine::device`].
     fn as_any(&self) -> &dyn Any;
     /// `self` as mutable `Any`, for [`Engine::device_mut`].
@@ -73,6 +85,9 @@ struct Slot {
     probe_values: Vec<u64>,
     /// The device has left the bus ([`Engine::leave`]): never stepped, its place free for another.
     departed: bool,
+    /// The time of its first edge that is not quiet ([`Device::quiet_edges`]), while known: forgotten
+    /// when it is stepped, changed from outside, or the bus level may have changed.
+    quiet_until: Option<u64>,
 }
 
 impl Slot {
@@ -102,6 +117,76 @@ struct Disturbance {
     to_fs: u64,
     /// The level seen, or `None`: the bus level inverted.
     level: Option<bool>,
+}
+
+/// Whether the engine jumps over clock edges at which provably nothing changes outside the device
+/// (issue 21: the bit timing only counting between its sample and transmit points). Chosen by
+/// `CAN_SKIP_EDGES` (`off`, `on`, `checked`) or [`Engine::set_edge_skipping`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum EdgeSkipping {
+    /// Every edge of every device is stepped (the default).
+    #[default]
+    Off,
+    /// Quiet edges are skipped: the same results, fewer steps.
+    On,
+    /// As `On`, and every skip is checked against stepping a copy of the device edge by edge
+    /// (slow; for tests).
+    Checked,
+}
+
+/// The environment variable that chooses [`EdgeSkipping`] for new engines.
+pub const SKIP_ENV: &str = "CAN_SKIP_EDGES";
+
+impl EdgeSkipping {
+    /// The mode `CAN_SKIP_EDGES` chooses: unset or empty is [`EdgeSkipping::Off`]; anything but `off`,
+    /// `on` or `checked` is an error naming them.
+    pub fn from_env() -> Result<EdgeSkipping, String> {
+        match std::env::var(SKIP_ENV) {
+            Ok(value) => value.parse(),
+            Err(std::env::VarError::NotPresent) => Ok(EdgeSkipping::Off),
+            Err(std::env::VarError::NotUnicode(value)) => {
+                format!("{}", value.to_string_lossy()).parse()
+            }
+        }
+    }
+
+    /// The name `CAN_SKIP_EDGES` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            EdgeSkipping::Off => "off",
+            EdgeSkipping::On => "on",
+            EdgeSkipping::Checked => "checked",
+        }
+    }
+}
+
+impl std::str::FromStr for EdgeSkipping {
+    type Err = String;
+
+    fn from_str(value: &str) -> Result<EdgeSkipping, String> {
+        match value {
+            "" | "off" => Ok(EdgeSkipping::Off),
+            "on" => Ok(EdgeSkipping::On),
+            "checked" => Ok(EdgeSkipping::Checked),
+            other => Err(format!(
+                "{SKIP_ENV}=`{other}` is not an edge skipping mode: use `off` (the default), `on` or `checked`"
+            )),
+        }
+    }
+}
+
+/// The bus prunes its history every this many edges.
+const PRUNE_EDGES: u64 = 4096;
+
+/// How many of the slot's edges from its next one on come before `t`.
+fn edges_before(slot: &Slot, t: u64) -> u64 {
+    if slot.departed {
+        return 0;
+    }
+    let period = slot.clock.period_fs();
+    // Edge n comes before t when phase + n * period < t: n < ceil((t - phase) / period).
+    let before = t.saturating_sub(slot.clock.edge(0)).div_ceil(period);
+    before.saturating_sub(slot.edges)
 }
 
 /// Derives a traced value from the bus level changes (time, new level): the new value when it
@@ -163,6 +248,9 @@ pub struct Engine {
     observers: BusObservers,
     /// A trace to start at the first step, once every device is added.
     deferred_trace: Option<(PathBuf, BusTiming)>,
+    skipping: EdgeSkipping,
+    /// Edges skipped rather than stepped (counted in `edges` too).
+    skipped: u64,
 }
 
 impl Default for Engine {
@@ -182,6 +270,31 @@ impl Engine {
             last_stepped: None,
             observers: BusObservers::default(),
             deferred_trace: None,
+            skipping: EdgeSkipping::from_env().unwrap_or_else(|e| panic!("{e}")),
+            skipped: 0,
+        }
+    }
+
+    /// Chooses whether quiet edges are skipped (the default is `CAN_SKIP_EDGES`'s choice).
+    pub fn set_edge_skipping(&mut self, skipping: EdgeSkipping) {
+        self.skipping = skipping;
+        self.forget_quiet();
+    }
+
+    /// Whether quiet edges are skipped.
+    pub fn edge_skipping(&self) -> EdgeSkipping {
+        self.skipping
+    }
+
+    /// How many of [`Engine::edges`] were skipped rather than stepped.
+    pub fn skipped_edges(&self) -> u64 {
+        self.skipped
+    }
+
+    /// Forgets every device's quiet edges (the bus, a fault or the tracing changed).
+    fn forget_quiet(&mut self) {
+        for slot in &mut self.slots {
+            slot.quiet_until = None;
         }
     }
 
@@ -205,7 +318,9 @@ impl Engine {
             overrides: Vec::new(),
             probe_values: vec![0; probes],
             departed: false,
+            quiet_until: None,
         });
+        self.forget_quiet();
         DeviceId(self.slots.len() - 1)
     }
 
@@ -232,6 +347,7 @@ impl Engine {
         slot.next_edge = clock.edge(0);
         slot.rx = true;
         slot.departed = false;
+        self.forget_quiet();
         DeviceId(i)
     }
 
@@ -245,6 +361,7 @@ impl Engine {
         slot.disturbances.clear();
         slot.overrides.clear();
         slot.pin = Drive::Recessive;
+        slot.quiet_until = None;
         if slot.drive != Drive::Recessive {
             slot.drive = Drive::Recessive;
             let line = slot.line;
@@ -264,6 +381,7 @@ impl Engine {
     /// not before the last processed edge.
     pub fn record_drive(&mut self, line: usize, t_fs: u64, drive: Drive) {
         debug_assert!(t_fs >= self.now, "a recording cannot change the past");
+        self.forget_quiet();
         self.bus.set_drive(line, t_fs, drive);
         self.observers
             .expect_change_at(t_fs + self.bus.delay_fs(line));
@@ -272,6 +390,7 @@ impl Engine {
     /// Makes device `id` see `level` instead of the bus at its clock edges in `from_fs..to_fs` (the
     /// other devices and the bus are unaffected).
     pub fn disturb_rx(&mut self, id: DeviceId, from_fs: u64, to_fs: u64, level: bool) {
+        self.forget_quiet();
         self.slots[id.0].disturbances.push(Disturbance {
             from_fs,
             to_fs,
@@ -281,6 +400,7 @@ impl Engine {
 
     /// Makes device `id` see the inverted bus level at its clock edges in `from_fs..to_fs`.
     pub fn invert_rx(&mut self, id: DeviceId, from_fs: u64, to_fs: u64) {
+        self.forget_quiet();
         self.slots[id.0].disturbances.push(Disturbance {
             from_fs,
             to_fs,
@@ -292,6 +412,7 @@ impl Engine {
     /// (a disconnected transmitter: [`Drive::Recessive`]; a stuck one: [`Drive::Dominant`]). The
     /// device's `tx` pin, as traced, is unaffected.
     pub fn override_drive(&mut self, id: DeviceId, from_fs: u64, to_fs: u64, drive: Drive) {
+        self.forget_quiet();
         self.slots[id.0].overrides.push(DriveOverride {
             from_fs,
             to_fs,
@@ -302,6 +423,7 @@ impl Engine {
     /// Puts `fault` on the bus itself from `from_fs` to `to_fs` (every device sees it through its
     /// delay, and the traced `bus` shows it). The window must not begin in the past.
     pub fn fault_bus(&mut self, from_fs: u64, to_fs: u64, fault: BusFault) {
+        self.forget_quiet();
         self.bus.add_fault(from_fs, to_fs, fault);
         self.observers.expect_change_at(from_fs);
         self.observers.expect_change_at(to_fs);
@@ -347,12 +469,14 @@ impl Engine {
         let bus_probes: Vec<Probe> = self.observers.annotation.iter().map(|(p, _)| *p).collect();
         self.observers.tracer = Some(VcdTracer::create(path, &bus_probes, &devices, timing)?);
         self.observers.traced_devices = devices.len();
+        self.forget_quiet();
         Ok(())
     }
 
     /// Ends tracing: writes the rest of the VCD and moves it into place. Returns the path, if tracing.
     pub fn finish_trace(&mut self) -> io::Result<Option<std::path::PathBuf>> {
         self.flush_bus_changes(u64::MAX)?;
+        self.forget_quiet();
         match self.observers.tracer.take() {
             Some(tracer) => tracer.finish(self.now).map(Some),
             None => Ok(None),
@@ -362,6 +486,7 @@ impl Engine {
     /// Ends tracing without writing the VCD (a failed run): its temporary file is removed.
     pub fn discard_trace(&mut self) {
         self.observers.tracer = None;
+        self.forget_quiet();
     }
 
     /// Starts recording the changes of the bus level for [`Engine::take_bus_changes`]; call before
@@ -427,6 +552,7 @@ impl Engine {
 
     /// The device `id`, as its concrete type, mutably.
     pub fn device_mut<T: Device>(&mut self, id: DeviceId) -> &mut T {
+        self.slots[id.0].quiet_until = None;
         self.slots[id.0]
             .device
             .as_any_mut()
@@ -471,6 +597,9 @@ impl Engine {
             return Ok(false);
         }
         self.start_deferred_trace()?;
+        if self.skipping != EdgeSkipping::Off && self.skip_quiet_edges(i, limit_fs) {
+            return Ok(true);
+        }
         self.flush_bus_changes(t)?;
         self.now = t;
         self.edges += 1;
@@ -492,10 +621,12 @@ impl Engine {
         slot.rx = rx;
         slot.edges += 1;
         slot.next_edge = slot.clock.edge(slot.edges);
+        slot.quiet_until = None;
         if drive != slot.drive {
             slot.drive = drive;
             self.bus.set_drive(line, t, drive);
             self.observers.expect_change_at(t + self.bus.delay_fs(line));
+            self.forget_quiet();
         }
         let traced = i < self.observers.traced_devices;
         if let Some(tracer) = self.observers.tracer.as_mut().filter(|_| traced) {
@@ -509,15 +640,122 @@ impl Engine {
                 }
             }
         }
-        if self.edges.is_multiple_of(4096) {
+        if self.edges.is_multiple_of(PRUNE_EDGES) {
             self.bus.prune(t);
         }
         Ok(true)
     }
 
+    /// When device `i`, the earliest, has quiet edges ahead: skips every device's edges before
+    /// the horizon, the earliest of `limit_fs` and any device's first edge that is not quiet (the
+    /// earliest time the bus can change), so that every device continues from there in time
+    /// order. Returns whether it skipped. Only while the level every device sees is settled (no
+    /// change on its way through a delay).
+    fn skip_quiet_edges(&mut self, i: usize, limit_fs: u64) -> bool {
+        let next = self.slots[i].next_edge;
+        if self.quiet_until(i) <= next.saturating_add(self.slots[i].clock.period_fs())
+            || self.bus.settled_from() > next
+        {
+            return false;
+        }
+        let mut horizon = limit_fs.min(self.bus.next_fault_boundary(self.now));
+        for j in 0..self.slots.len() {
+            horizon = horizon
+                .min(self.quiet_until(j))
+                .min(self.next_window_boundary(j));
+        }
+        if edges_before(&self.slots[i], horizon) < 2 {
+            return false;
+        }
+        let checked = self.skipping == EdgeSkipping::Checked;
+        let pruned_before = self.edges / PRUNE_EDGES;
+        for j in 0..self.slots.len() {
+            let edges = edges_before(&self.slots[j], horizon);
+            if edges == 0 {
+                continue;
+            }
+            let traced = self.observers.tracer.is_some() && j < self.observers.traced_devices;
+            let slot = &mut self.slots[j];
+            slot.device.skip_edges(edges, traced, checked);
+            slot.edges += edges;
+            slot.next_edge = slot.clock.edge(slot.edges);
+            self.now = self.now.max(slot.clock.edge(slot.edges - 1));
+            self.edges += edges;
+            self.skipped += edges;
+        }
+        self.last_stepped = Some(DeviceId(i));
+        if self.edges / PRUNE_EDGES != pruned_before {
+            self.bus.prune(self.now);
+        }
+        true
+    }
+
+    /// The time of device `j`'s first edge that is not quiet (its next edge if it has none).
+    fn quiet_until(&mut self, j: usize) -> u64 {
+        if let Some(t) = self.slots[j].quiet_until {
+            return t;
+        }
+        let traced = self.observers.tracer.is_some() && j < self.observers.traced_devices;
+        let slot = &self.slots[j];
+        let t = if slot.departed {
+            u64::MAX
+        } else {
+            let rx = self.rx_seen(j, slot.next_edge);
+            let slot = &self.slots[j];
+            let quiet = slot.device.quiet_edges(rx, traced);
+            slot.clock.edge(slot.edges + quiet)
+        };
+        self.slots[j].quiet_until = Some(t);
+        t
+    }
+
+    /// The level device `j` sees at its edge at `t`: the bus, or a disturbance of its own.
+    fn rx_seen(&self, j: usize, t: u64) -> bool {
+        let slot = &self.slots[j];
+        let bus = self.bus.level_seen_by(slot.line, t);
+        match slot
+            .disturbances
+            .iter()
+            .find(|d| (d.from_fs..d.to_fs).contains(&t))
+        {
+            Some(d) => d.level.unwrap_or(!bus),
+            None => bus,
+        }
+    }
+
+    /// The first start or end after the last processed edge of a window that changes what device
+    /// `j` sees or drives.
+    fn next_window_boundary(&self, j: usize) -> u64 {
+        let slot = &self.slots[j];
+        let disturbances = slot.disturbances.iter().map(|d| (d.from_fs, d.to_fs));
+        let overrides = slot.overrides.iter().map(|o| (o.from_fs, o.to_fs));
+        disturbances
+            .chain(overrides)
+            .flat_map(|(from, to)| [from, to])
+            .filter(|&b| b > self.now)
+            .min()
+            .unwrap_or(u64::MAX)
+    }
+
     /// Processes every clock edge before `t_fs`.
     pub fn run_until(&mut self, t_fs: u64) -> io::Result<()> {
         while self.step_before(t_fs)? {}
+        Ok(())
+    }
+
+    /// Steps until device `id` has processed `count` more clock edges, as stepping edge by edge
+    /// does (stopping right after that edge: other devices' edges at the same time that come
+    /// after it in order wait), whether or not quiet edges are skipped on the way.
+    pub fn run_edges(&mut self, id: DeviceId, count: u64) -> io::Result<()> {
+        let slot = &self.slots[id.0];
+        let end = slot.edges + count;
+        if count == 0 || slot.departed {
+            return Ok(());
+        }
+        let last = slot.clock.edge(end - 1);
+        self.run_until(last)?;
+        // Only edges at `last` remain before the device's: no room for a skip.
+        while self.slots[id.0].edges < end && self.step_before(last + 1)? {}
         Ok(())
     }
 
@@ -626,6 +864,163 @@ mod tests {
             drive,
             seen: Vec::new(),
         }
+    }
+
+    /// Toggles its drive at every `period`-th edge and records those edges and every change of
+    /// what it sees; every other edge is quiet while the level it sees holds.
+    struct Pulser {
+        clock: ClockSpec,
+        period: u64,
+        edges: u64,
+        seen: bool,
+        drive: Drive,
+        record: Vec<(u64, &'static str, bool)>,
+    }
+
+    impl Pulser {
+        fn new(hz: f64, period: u64) -> Pulser {
+            Pulser {
+                clock: ClockSpec::from_hz(hz),
+                period,
+                edges: 0,
+                seen: RECESSIVE,
+                drive: Drive::Recessive,
+                record: Vec::new(),
+            }
+        }
+    }
+
+    impl Device for Pulser {
+        fn name(&self) -> &str {
+            "pulser"
+        }
+        fn clock(&self) -> ClockSpec {
+            self.clock
+        }
+        fn rising_edge(&mut self, t_fs: u64, rx: bool) -> Drive {
+            self.edges += 1;
+            if rx != self.seen {
+                self.seen = rx;
+                self.record.push((t_fs, "sees", rx));
+            }
+            if self.edges.is_multiple_of(self.period) {
+                self.drive = Drive::from_level(!self.drive.level());
+                self.record.push((t_fs, "drives", self.drive.level()));
+            }
+            self.drive
+        }
+        fn quiet_edges(&self, rx: bool, _traced: bool) -> u64 {
+            if rx == self.seen {
+                self.period - 1 - self.edges % self.period
+            } else {
+                0
+            }
+        }
+        fn skip_edges(&mut self, edges: u64, _traced: bool, _checked: bool) {
+            assert!(
+                edges <= self.quiet_edges(self.seen, false),
+                "a skip past an event"
+            );
+            self.edges += edges;
+        }
+        fn as_any(&self) -> &dyn Any {
+            self
+        }
+        fn as_any_mut(&mut self) -> &mut dyn Any {
+            self
+        }
+    }
+
+    /// Three pulsers on different clocks (one behind a delay), run to the same time.
+    fn pulsers(skipping: EdgeSkipping) -> Engine {
+        let mut engine = Engine::new();
+        engine.set_edge_skipping(skipping);
+        engine.add(Pulser::new(1e6, 7), 0);
+        engine.add(Pulser::new(1.3e6, 11), 250_000);
+        engine.add(Pulser::new(0.7e6, 5), 0);
+        engine.run_until(200 * 1_000_000_000).unwrap();
+        engine
+    }
+
+    #[test]
+    fn skipping_quiet_edges_gives_the_same_edges_drives_and_levels_as_stepping_them() {
+        let (plain, skipping) = (pulsers(EdgeSkipping::Off), pulsers(EdgeSkipping::On));
+        assert_eq!(plain.skipped_edges(), 0);
+        assert!(
+            skipping.skipped_edges() > skipping.edges() / 2,
+            "{} of {} skipped",
+            skipping.skipped_edges(),
+            skipping.edges()
+        );
+        assert_eq!(plain.edges(), skipping.edges());
+        assert_eq!(plain.now(), skipping.now());
+        for k in 0..3 {
+            let (a, b) = (
+                plain.device::<Pulser>(DeviceId(k)),
+                skipping.device::<Pulser>(DeviceId(k)),
+            );
+            assert!(a.record.len() > 10, "pulser {k}: {:?}", a.record);
+            assert_eq!(a.record, b.record, "pulser {k}");
+            assert_eq!(a.edges, b.edges, "pulser {k}");
+        }
+    }
+
+    /// A pulser behind a delay changes its drive 100 ns before the other's edge: that edge still
+    /// sees the old level, the next ones the new level, skipped or not.
+    #[test]
+    fn a_level_on_its_way_through_a_delay_is_seen_when_it_arrives_with_edges_skipped() {
+        let run = |skipping| {
+            let mut engine = Engine::new();
+            engine.set_edge_skipping(skipping);
+            let mut sender = Pulser::new(1e6, 4);
+            let mut listener = Pulser::new(1e6, 1000);
+            listener.clock = listener.clock.with_phase(100_000_000);
+            sender.clock = sender.clock.with_phase(0);
+            engine.add(sender, 500_000_000);
+            engine.add(listener, 0);
+            engine.run_until(100 * 1_000_000_000).unwrap();
+            (
+                engine.device::<Pulser>(DeviceId(1)).record.clone(),
+                engine.skipped_edges(),
+            )
+        };
+        let ((plain, _), (skipped, skips)) = (run(EdgeSkipping::Off), run(EdgeSkipping::On));
+        assert!(skips > 0);
+        assert!(plain.len() > 10, "{plain:?}");
+        assert_eq!(plain, skipped);
+    }
+
+    #[test]
+    fn running_a_device_s_edges_stops_after_its_last_one_as_stepping_does() {
+        for skipping in [EdgeSkipping::Off, EdgeSkipping::On] {
+            let mut engine = Engine::new();
+            engine.set_edge_skipping(skipping);
+            // The same clock: edges at the same times, taken in the order the devices came.
+            let first = engine.add(Pulser::new(1e6, 50), 0);
+            let second = engine.add(Pulser::new(1e6, 50), 0);
+            let third = engine.add(Pulser::new(1e6, 50), 0);
+            engine.run_edges(second, 40).unwrap();
+            let edges = |id| engine.device::<Pulser>(id).edges;
+            assert_eq!(
+                (edges(first), edges(second), edges(third)),
+                (40, 40, 39),
+                "{skipping:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn skipping_modes_parse_and_anything_else_is_refused_with_the_allowed_values() {
+        for mode in [EdgeSkipping::Off, EdgeSkipping::On, EdgeSkipping::Checked] {
+            assert_eq!(mode.name().parse::<EdgeSkipping>(), Ok(mode));
+        }
+        assert_eq!("".parse::<EdgeSkipping>(), Ok(EdgeSkipping::Off));
+        let refused = "yes".parse::<EdgeSkipping>().unwrap_err();
+        assert!(refused.contains("CAN_SKIP_EDGES=`yes`"), "{refused}");
+        assert!(
+            refused.contains("`off` (the default), `on` or `checked`"),
+            "{refused}"
+        );
     }
 
     #[test]

@@ -51,12 +51,8 @@ impl<'e> Host<'e> {
 
     /// Lets `cycles` clock cycles of the node pass without an access.
     pub fn idle(&mut self, cycles: u64) {
-        let node = self.node;
-        let end = self.node().edges() + cycles;
         self.engine
-            .run_while(u64::MAX, |e| {
-                e.device::<ControllerNode>(node).edges() >= end
-            })
+            .run_edges(self.node, cycles)
             .expect("simulation");
     }
 

@@ -370,6 +370,16 @@ impl ControllerNode {
         self.inputs.reset = active;
     }
 
+    /// The inputs of an edge without a host access at which the node sees `rx`.
+    fn idle_inputs(&self, rx: bool) -> PortInputs {
+        PortInputs {
+            we: false,
+            re: false,
+            rx,
+            ..self.inputs
+        }
+    }
+
     /// Sets the host port inputs of the next edge for `access` (`None`: no access; the address
     /// and write data keep their values).
     fn apply(&mut self, access: Option<HostAccess>) {
@@ -405,6 +415,24 @@ impl Device for ControllerNode {
             self.reads.push_back(self.model.rdata());
         }
         Drive::from_level(self.model.tx())
+    }
+
+    fn quiet_edges(&self, rx: bool, traced: bool) -> u64 {
+        match &self.model {
+            Model::Compiled(model) if self.queue.is_empty() => {
+                model.quiet_cycles(self.idle_inputs(rx), traced)
+            }
+            _ => 0,
+        }
+    }
+
+    fn skip_edges(&mut self, edges: u64, traced: bool, checked: bool) {
+        let Model::Compiled(model) = &mut self.model else {
+            unreachable!("only the compiled engine has quiet edges");
+        };
+        model.skip(edges, traced, checked);
+        self.apply(None);
+        self.edges += edges;
     }
 
     fn probes(&self) -> Vec<Probe> {

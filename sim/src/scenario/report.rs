@@ -33,6 +33,11 @@ pub struct RunReport {
     pub frame_starts: Vec<u64>,
     /// Simulated time.
     pub simulated_fs: u64,
+    /// Clock edges of all nodes, and how many of them were skipped rather than stepped
+    /// (`CAN_SKIP_EDGES`, [`crate::engine::EdgeSkipping`]).
+    pub edges: u64,
+    /// See `edges`.
+    pub skipped_edges: u64,
     /// The VCD written, if any.
     pub vcd: Option<PathBuf>,
     /// The log file written, if any.

@@ -20,7 +20,7 @@ use rtl::registers::pelican;
 use crate::decode::bus_decoder::{BusDecoder, BusEvent};
 use crate::engine::bus_timing::BusTiming;
 use crate::engine::time::ClockSpec;
-use crate::engine::{DeviceId, Engine};
+use crate::engine::{DeviceId, EdgeSkipping, Engine};
 use crate::host::driver::{
     CanState, CtrlMode, DriverConfig, DriverError, DriverEvent, Sja1000Driver,
 };
@@ -64,6 +64,8 @@ pub struct RunOptions<'p> {
     pub progress: Option<&'p mut dyn FnMut(u64, u64)>,
     /// The engine stepping the controllers (`None`: the one `CAN_ENGINE` chooses).
     pub engine: Option<ModelEngine>,
+    /// Whether quiet clock edges are skipped (`None`: as `CAN_SKIP_EDGES` chooses).
+    pub edge_skipping: Option<EdgeSkipping>,
 }
 
 /// Runs `scenario`.
@@ -74,6 +76,7 @@ pub fn run(scenario: &Scenario, options: RunOptions) -> Result<RunReport, Scenar
         until_fs,
         mut progress,
         engine,
+        edge_skipping,
     } = options;
     let engine = match engine {
         Some(engine) => engine,
@@ -82,6 +85,9 @@ pub fn run(scenario: &Scenario, options: RunOptions) -> Result<RunReport, Scenar
     let log_file = log.map(|path| PendingFile::create(&path)).transpose()?;
     let end = until_fs.unwrap_or(scenario.duration_fs);
     let mut runner = Runner::new(scenario, engine)?;
+    if let Some(skipping) = edge_skipping {
+        runner.engine.set_edge_skipping(skipping);
+    }
     if let Some(path) = &vcd {
         runner.trace(path)?;
     }
@@ -705,6 +711,8 @@ impl<'s> Runner<'s> {
             master: std::mem::take(&mut self.master_lines),
             frame_starts: std::mem::take(&mut self.frame_starts),
             simulated_fs,
+            edges: self.engine.edges(),
+            skipped_edges: self.engine.skipped_edges(),
             vcd,
             log_file: None,
             view: None,

@@ -13,7 +13,7 @@ use std::time::Instant;
 use rtl::registers::{command, interrupt, mode, pelican, status};
 
 use crate::engine::time::{ClockSpec, FS_PER_MS};
-use crate::engine::{Device, DeviceId, Engine};
+use crate::engine::{Device, DeviceId, EdgeSkipping, Engine};
 use crate::host::sja1000::{
     enter_operating_mode, read_rx_message, release_rx, set_up_pelican, transmit, PelicanSetup,
     BTR0_125K_SJW2_AT_16MHZ, BTR0_1M_SJW2_AT_16MHZ, BTR0_250K_SJW2_AT_16MHZ,
@@ -104,6 +104,8 @@ pub struct BenchRun {
     pub pair_cycles_per_cpu_s: f64,
     /// Frames sent and received per second of real time.
     pub frames_per_s: f64,
+    /// The share of the measured clock edges skipped rather than stepped (0 to 1).
+    pub skipped_share: f64,
 }
 
 impl BenchRun {
@@ -134,6 +136,7 @@ pub fn run_workload(
     frames: usize,
     bit_rate: BitRate,
     trace: Option<&PathBuf>,
+    skipping: EdgeSkipping,
 ) -> Result<BenchRun, BenchError> {
     if nodes < 2 {
         return Err(BenchError(format!(
@@ -141,6 +144,7 @@ pub fn run_workload(
         )));
     }
     let mut engine = Engine::new();
+    engine.set_edge_skipping(skipping);
     let mut ids = Vec::with_capacity(nodes);
     for n in 0..nodes {
         let clock = ClockSpec::with_ppm(CLOCK_HZ, PPM_STEP * (n % PPM_STEPS) as f64);
@@ -161,7 +165,7 @@ pub fn run_workload(
     }
     let cpu_start = thread_cpu_seconds();
     let start = Instant::now();
-    let edges_before = engine.edges();
+    let (edges_before, skipped_before) = (engine.edges(), engine.skipped_edges());
     for i in 0..frames {
         transfer(&mut engine, &ids, &workload_frame(i), bit_rate)?;
     }
@@ -172,8 +176,10 @@ pub fn run_workload(
         trace_result.map_err(|e| BenchError(format!("{}: {e}", path.display())))?;
         std::fs::remove_file(path).ok();
     }
-    let pair_cycles = (engine.edges() - edges_before) as f64 / 2.0;
+    let edges = engine.edges() - edges_before;
+    let pair_cycles = edges as f64 / 2.0;
     Ok(BenchRun {
+        skipped_share: (engine.skipped_edges() - skipped_before) as f64 / edges.max(1) as f64,
         pair_cycles_per_s: pair_cycles / seconds,
         pair_cycles_per_cpu_s: pair_cycles / cpu_seconds,
         frames_per_s: frames as f64 / seconds,
@@ -405,15 +411,19 @@ pub fn bench_line(
     nodes: usize,
     bit_rate: BitRate,
     trace: bool,
+    skipping: EdgeSkipping,
     summary: &BenchSummary,
 ) -> String {
     format!(
-        "BENCH engine={engine} nodes={nodes} bit_rate={bit_rate} trace={} pair_cycles_per_s={:.0} \
-         pair_cycles_per_cpu_s={:.0} frames_per_s={:.1}",
+        "BENCH engine={engine} nodes={nodes} bit_rate={bit_rate} trace={} skip_edges={} \
+         pair_cycles_per_s={:.0} pair_cycles_per_cpu_s={:.0} frames_per_s={:.1} \
+         skipped_percent={:.1}",
         if trace { "on" } else { "off" },
+        skipping.name(),
         summary.median.pair_cycles_per_s,
         summary.median.pair_cycles_per_cpu_s,
-        summary.median.frames_per_s
+        summary.median.frames_per_s,
+        100.0 * summary.median.skipped_share
     )
 }
 
@@ -423,6 +433,7 @@ pub fn trace_cost_line(
     engine: &str,
     nodes: usize,
     bit_rate: BitRate,
+    skipping: EdgeSkipping,
     off: &[BenchRun],
     on: &[BenchRun],
 ) -> String {
@@ -434,7 +445,9 @@ pub fn trace_cost_line(
     assert!(!costs.is_empty(), "at least one pair of runs");
     costs.sort_by(f64::total_cmp);
     format!(
-        "BENCH engine={engine} nodes={nodes} bit_rate={bit_rate} trace_cost_percent={:.1}",
+        "BENCH engine={engine} nodes={nodes} bit_rate={bit_rate} skip_edges={} \
+         trace_cost_percent={:.1}",
+        skipping.name(),
         costs[costs.len() / 2]
     )
 }
@@ -449,20 +462,28 @@ mod tests {
             pair_cycles_per_s: c,
             pair_cycles_per_cpu_s: c,
             frames_per_s: 1.0,
+            skipped_share: 0.0,
         };
         // Pairs cost 10 %, 50 % and 20 %: the median is 20 %, whatever the run-to-run spread.
         let off = [run(100.0), run(200.0), run(50.0)];
         let on = [run(90.0), run(100.0), run(40.0)];
         assert_eq!(
-            trace_cost_line("verilator", 4, BitRate::REFERENCE, &off, &on),
-            "BENCH engine=verilator nodes=4 bit_rate=500k trace_cost_percent=20.0"
+            trace_cost_line(
+                "verilator",
+                4,
+                BitRate::REFERENCE,
+                EdgeSkipping::Off,
+                &off,
+                &on
+            ),
+            "BENCH engine=verilator nodes=4 bit_rate=500k skip_edges=off trace_cost_percent=20.0"
         );
     }
 
     #[test]
     fn every_receiver_gets_every_frame_and_the_speed_is_counted_on_both_engines() {
         for model in ModelEngine::ALL {
-            let run = run_workload(model, 3, 2, BitRate::REFERENCE, None)
+            let run = run_workload(model, 3, 2, BitRate::REFERENCE, None, EdgeSkipping::Off)
                 .unwrap_or_else(|e| panic!("{model}: frames arrive intact: {e}"));
             assert!(run.pair_cycles_per_s > 0.0 && run.frames_per_s > 0.0);
             assert!(run.pair_cycles_per_cpu_s > 0.0);
@@ -478,7 +499,7 @@ mod tests {
     fn every_bit_rate_carries_the_frames_and_names_itself() {
         for rate in BitRate::ALL {
             assert_eq!(rate.to_string().parse::<BitRate>(), Ok(rate));
-            let run = run_workload(ModelEngine::Compiled, 2, 2, rate, None)
+            let run = run_workload(ModelEngine::Compiled, 2, 2, rate, None, EdgeSkipping::Off)
                 .unwrap_or_else(|e| panic!("{rate}: frames arrive intact: {e}"));
             let seconds_per_frame = run.pair_cycles_per_s / run.frames_per_s / CLOCK_HZ;
             let bit_times = seconds_per_frame * rate.bits_per_s();
@@ -493,6 +514,37 @@ mod tests {
             .contains("125k, 250k, 500k, 1M"));
     }
 
+    /// With the quiet edges skipped the workload moves the same frames in the same simulated time
+    /// with most edges skipped; without, none is.
+    #[test]
+    fn skipping_quiet_edges_skips_most_of_the_workload() {
+        let plain = run_workload(
+            ModelEngine::Compiled,
+            2,
+            2,
+            BitRate::REFERENCE,
+            None,
+            EdgeSkipping::Off,
+        )
+        .unwrap();
+        let skipping = run_workload(
+            ModelEngine::Compiled,
+            2,
+            2,
+            BitRate::REFERENCE,
+            None,
+            EdgeSkipping::Checked,
+        )
+        .unwrap();
+        assert_eq!(plain.skipped_share, 0.0);
+        assert!(skipping.skipped_share > 0.5, "{}", skipping.skipped_share);
+        let cycles_per_frame = |r: &BenchRun| r.pair_cycles_per_s / r.frames_per_s;
+        assert_eq!(
+            cycles_per_frame(&plain).round(),
+            cycles_per_frame(&skipping).round()
+        );
+    }
+
     #[test]
     fn the_campaign_rate_counts_cases() {
         assert!(
@@ -502,7 +554,15 @@ mod tests {
 
     #[test]
     fn one_node_is_refused() {
-        let err = run_workload(ModelEngine::RustHdl, 1, 1, BitRate::REFERENCE, None).unwrap_err();
+        let err = run_workload(
+            ModelEngine::RustHdl,
+            1,
+            1,
+            BitRate::REFERENCE,
+            None,
+            EdgeSkipping::Off,
+        )
+        .unwrap_err();
         assert!(err.0.contains("at least one receiver"), "{err}");
     }
 
@@ -512,13 +572,14 @@ mod tests {
             pair_cycles_per_s: c,
             pair_cycles_per_cpu_s: 2.0 * c,
             frames_per_s: c / 100.0,
+            skipped_share: c / 4.0,
         };
         let s = summarise(vec![run(3.0), run(1.0), run(2.0)]);
         assert_eq!((s.min, s.median, s.max), (run(1.0), run(2.0), run(3.0)));
         assert_eq!(
-            bench_line("rust-hdl", 2, BitRate::REFERENCE, false, &s),
-            "BENCH engine=rust-hdl nodes=2 bit_rate=500k trace=off pair_cycles_per_s=2 pair_cycles_per_cpu_s=4 \
-             frames_per_s=0.0"
+            bench_line("rust-hdl", 2, BitRate::REFERENCE, false, EdgeSkipping::On, &s),
+            "BENCH engine=rust-hdl nodes=2 bit_rate=500k trace=off skip_edges=on pair_cycles_per_s=2 \
+             pair_cycles_per_cpu_s=4 frames_per_s=0.0 skipped_percent=50.0"
         );
     }
 }

@@ -111,6 +111,7 @@ pub fn replay(options: &ReplayOptions) -> Result<ReplayOutcome, ScenarioError> {
         &scenario,
         RunOptions {
             engine: options.engine,
+            edge_skipping: None,
             vcd: options.vcd.clone(),
             ..RunOptions::default()
         },

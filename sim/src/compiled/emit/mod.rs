@@ -23,6 +23,7 @@ use super::groups::{group_cells, Groups, Item};
 use super::netlist::{Bit, Cell, Netlist};
 
 mod operands;
+mod quiet;
 mod state;
 
 /// Groups per block of calls in `eval` (see `eval_body`).
@@ -38,6 +39,10 @@ pub(crate) struct Interface<'a> {
     pub outputs: &'a [(&'a str, u32)],
     /// The Verilog the netlist was made from (its module boundaries group the cells).
     pub verilog: &'a str,
+    /// Flip-flop outputs (named nets) the model reads and writes by their index in this list, for
+    /// the engine's edge skipping (`crate::compiled::quiet`); `true` marks a free-running one, which the
+    /// skipped cycles may change. Empty: the model has no skipping methods.
+    pub state: &'a [(&'a str, bool)],
 }
 
 /// The generated source of the model for `netlist`.
@@ -313,6 +318,7 @@ impl<'a> Emitter<'a> {
             write!(outputs, " | (({operand}) as {out}) << {at}").unwrap();
         }
         let (inputs, input_fields, input_init, input) = self.inputs()?;
+        let quiet = self.quiet()?;
         let out_bit = self.output_bit();
         // The groups' bits and the output word's.
         let all = u128::MAX >> (127 - out_bit);
@@ -321,7 +327,7 @@ impl<'a> Emitter<'a> {
 {tables}
 /// The design's state: inputs, flip-flops (`q` now, `n` after the next edge), memories, the
 /// values read across groups, the groups to run at the next `eval` and those run since the last edge.
-#[derive(Clone)]
+#[derive(Clone, PartialEq)]
 pub(super) struct Model {{
 {input_fields}{fields}    dirty: u128,
     ran: u128,
@@ -364,7 +370,7 @@ impl Model {{
         let mut dirty = 0u128;
 {edge}        self.dirty |= dirty;
     }}
-{groups}}}
+{quiet}{groups}}}
 ",
             tables = self.tables
         ))
@@ -554,6 +560,7 @@ mod tests {
             clock: "clock",
             inputs: &[("a", 0)],
             outputs: &[("y", 0)],
+            state: &[],
             verilog: "",
         };
         emit(&netlist(cells), &io, "")

@@ -1,0 +1,174 @@
+//! Quiet cycles of the compiled controller, which the engine's edge skipping jumps over: between the bit timing's events (a segment's end,
+//! the sample, process and transmit points) a controller whose inputs hold, whose other blocks
+//! are settled and whose bus input has passed the synchroniser only counts: the prescaler, the
+//! quanta left in the segment, the quanta since Sync and the CLKOUT divider. Those stretches are
+//! jumped in one step by writing the counters' values after them (`rtl/src/bit_timing.rs` and
+//! `rtl/src/clock_divider.rs` say how they count).
+//!
+//! What makes a jump exact: the next edge changes no flip-flop but the counters (`settled`, from
+//! the model), the bit timing's outputs to the rest of the design (sample, process and transmit
+//! points, `rx_bit`, the segment, the synchronisation pulses) stay what they are until the jump's
+//! end (computed here), and the inputs hold (the caller's word). The engine's checked mode steps a
+//! copy cycle by cycle beside every jump and compares the whole state (`CompiledController::skip`).
+
+use rtl::bit_timing::Segment;
+
+use super::model::Model;
+
+/// The nets read or written here (flattened names of the generated Verilog), each with
+/// whether it is one of the counters a skipped cycle may change.
+pub(super) const STATE: [(&str, bool); 14] = [
+    ("core.bit_timing.clocks.q", true),
+    ("core.bit_timing.remaining.q", true),
+    ("core.bit_timing.elapsed.q", true),
+    ("modes.divider.count.q", true),
+    ("modes.divider.level.q", true),
+    ("core.bit_timing.segment_state.q", false),
+    ("core.bit_timing.process_pending.q", false),
+    ("core.bit_timing.transmit_deferred.q", false),
+    ("core.bit_timing.sampling.metastable.q", false),
+    ("core.bit_timing.sampling.stable.q", false),
+    ("core.bit_timing.sampling.previous.q", false),
+    ("core.bit_timing.sampling.quantum_samples.q", false),
+    ("configuration.btr0.q", false),
+    ("modes.cdr_reg.q", false),
+];
+
+const CLOCKS: usize = 0;
+const REMAINING: usize = 1;
+const ELAPSED: usize = 2;
+const DIVIDER_COUNT: usize = 3;
+const DIVIDER_LEVEL: usize = 4;
+const SEGMENT: usize = 5;
+const PROCESS_PENDING: usize = 6;
+const TRANSMIT_DEFERRED: usize = 7;
+const METASTABLE: usize = 8;
+const STABLE: usize = 9;
+const PREVIOUS: usize = 10;
+const QUANTUM_SAMPLES: usize = 11;
+const BTR0: usize = 12;
+const CDR: usize = 13;
+
+/// BTR0.5..0: the prescaler.
+const BRP_MASK: u64 = 0x3F;
+/// CDR.2..0: the CLKOUT divider code; CDR.3: clock off.
+const CDR_CODE_MASK: u64 = 0x7;
+const CDR_CLOCK_OFF: u64 = 1 << 3;
+/// The CDR code that passes the controller clock through (no divided level on the pin).
+const CDR_CODE_FOSC: u64 = 7;
+/// Where `elapsed` stops counting (`ELAPSED_OVER_SJW` of the bit timing).
+const ELAPSED_SATURATED: u64 = 4;
+
+/// A counter that counts up by one per cycle and restarts at 0 in the cycle after it reached
+/// `last` (the bit timing's prescaler, the CLKOUT divider): its value after `cycles` cycles from
+/// `count`, and how many restarts those cycles made.
+fn count_cycles(count: u64, last: u64, cycles: u64) -> (u64, u64) {
+    let first = last.saturating_sub(count);
+    if cycles <= first {
+        return (count + cycles, 0);
+    }
+    let after_first = cycles - 1 - first;
+    (after_first % (last + 1), 1 + after_first / (last + 1))
+}
+
+/// How many cycles from the next one on change nothing but the counters, given that the inputs
+/// stay those of the last cycle with the bus input at `rx`, and that the whole model is settled
+/// (`Model::settled`, checked by the caller). With `clkout_seen` the CLKOUT pin must hold too.
+pub(super) fn quiet_cycles(model: &Model, rx: bool, clkout_seen: bool) -> u64 {
+    // The CLKOUT pin first: while traced it usually toggles every few clocks, and then nothing
+    // else needs a look.
+    let cdr = model.state(CDR);
+    let code = cdr & CDR_CODE_MASK;
+    let pin_toggles = clkout_seen && cdr & CDR_CLOCK_OFF == 0 && code != CDR_CODE_FOSC;
+    // The level toggles at the edge after the cycle in which the count reaches the code.
+    let clkout = if pin_toggles {
+        code.saturating_sub(model.state(DIVIDER_COUNT))
+    } else {
+        u64::MAX
+    };
+    if clkout == 0 {
+        return 0;
+    }
+    let stable = model.state(STABLE);
+    let sampling_settled = model.state(METASTABLE) == u64::from(rx)
+        && stable == u64::from(rx)
+        && model.state(PREVIOUS) == stable
+        && model.state(QUANTUM_SAMPLES) == stable * 0b11;
+    let idle_triggers = model.state(PROCESS_PENDING) == 0 && model.state(TRANSMIT_DEFERRED) == 0;
+    if !sampling_settled || !idle_triggers || model.state(ELAPSED) > ELAPSED_SATURATED {
+        return 0;
+    }
+    let last_clock = 2 * (model.state(BTR0) & BRP_MASK) + 1;
+    let clocks = model.state(CLOCKS);
+    // The segment ends in the cycle of its last quantum's end.
+    let segment_end = last_clock.saturating_sub(clocks) + model.state(REMAINING) * (last_clock + 1);
+    let segment = model.state(SEGMENT);
+    let bit_timing = if segment == Segment::Sync as u64 {
+        // The first clock of Sync is a transmit point.
+        if clocks == 0 {
+            return 0;
+        }
+        segment_end
+    } else if segment == Segment::Tseg1 as u64 {
+        // The sample point is the cycle of TSEG1's end itself.
+        match segment_end.checked_sub(1) {
+            Some(cycles) => cycles,
+            None => return 0,
+        }
+    } else if segment == Segment::Tseg2 as u64 {
+        segment_end
+    } else {
+        return 0;
+    };
+    bit_timing.min(clkout)
+}
+
+/// Writes the counters' values `cycles` cycles on (at most [`quiet_cycles`] gave) and evaluates.
+pub(super) fn advance(model: &mut Model, cycles: u64) {
+    let last_clock = 2 * (model.state(BTR0) & BRP_MASK) + 1;
+    let (clocks, quantum_ends) = count_cycles(model.state(CLOCKS), last_clock, cycles);
+    model.set_state(CLOCKS, clocks);
+    let remaining = model.state(REMAINING) - quantum_ends;
+    model.set_state(REMAINING, remaining);
+    let elapsed = (model.state(ELAPSED) + quantum_ends).min(ELAPSED_SATURATED);
+    model.set_state(ELAPSED, elapsed);
+    let code = model.state(CDR) & CDR_CODE_MASK;
+    let (count, toggles) = count_cycles(model.state(DIVIDER_COUNT), code, cycles);
+    model.set_state(DIVIDER_COUNT, count);
+    model.set_state(DIVIDER_LEVEL, model.state(DIVIDER_LEVEL) ^ (toggles & 1));
+    model.eval(false);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The counter stepped cycle by cycle, as the RTL counts.
+    fn stepped(mut count: u64, last: u64, cycles: u64) -> (u64, u64) {
+        let mut restarts = 0;
+        for _ in 0..cycles {
+            if count >= last {
+                count = 0;
+                restarts += 1;
+            } else {
+                count += 1;
+            }
+        }
+        (count, restarts)
+    }
+
+    #[test]
+    fn counting_many_cycles_at_once_gives_what_counting_one_by_one_does() {
+        for last in 0..10 {
+            for count in 0..12 {
+                for cycles in 0..40 {
+                    assert_eq!(
+                        count_cycles(count, last, cycles),
+                        stepped(count, last, cycles),
+                        "count {count}, last {last}, {cycles} cycles"
+                    );
+                }
+            }
+        }
+    }
+}
