@@ -32,6 +32,9 @@ pub const WAVES_ENV: &str = "CANSIM_WAVES";
 /// is finished when the engine is dropped, also when the test fails.
 pub fn bench_engine(btr: &Btr, clock: ClockSpec) -> Engine {
     let mut engine = Engine::new();
+    if let Some(mode) = skipping::edge_skipping() {
+        engine.set_edge_skipping(mode);
+    }
     if let Some(path) = waves_path() {
         engine.trace_vcd_from_first_step(&path, BusTiming::from_btr(btr, clock));
     }

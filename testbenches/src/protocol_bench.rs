@@ -674,6 +674,7 @@ impl Drop for ProtocolBench {
                     .accesses()
                     .to_vec(),
             },
+            skipped_edges: self.engine.skipped_edges(),
         });
     }
 }

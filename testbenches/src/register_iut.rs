@@ -338,6 +338,22 @@ impl Device for RegisterIut {
         drive
     }
 
+    fn quiet_edges(&self, rx: bool, traced: bool) -> u64 {
+        let idle = self.steps.is_empty()
+            && self.in_flight.is_none()
+            && self.requests.is_empty()
+            && !(self.servicing && !self.handling && self.node.irq());
+        if idle {
+            self.node.quiet_edges(rx, traced)
+        } else {
+            0
+        }
+    }
+
+    fn skip_edges(&mut self, edges: u64, rx: bool, traced: bool, checked: bool) {
+        self.node.skip_edges(edges, rx, traced, checked);
+    }
+
     fn probes(&self) -> Vec<Probe> {
         self.node.probes()
     }

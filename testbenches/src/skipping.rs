@@ -4,12 +4,17 @@
 //! the same IUT: its drive changes on the bus, its events with their times and, through the
 //! registers, every register access with its clock edge and the value read.
 //!
+//! The complete controller's scenarios run a third time, on `compiled` with the engine skipping
+//! the quiet clock edges (`CAN_SKIP_EDGES`, each skip checked against stepping a copy): the same
+//! drive changes, events and register accesses at the same times again.
+//!
 //! [`crate::on_both_iuts!`] runs every protocol scenario this way (`skipping::core::…`,
 //! `skipping::registers::…`); the benches find the engine to use here while a check runs.
 
 use std::cell::RefCell;
 
 use sim::engine::bus::Drive;
+use sim::engine::EdgeSkipping;
 use sim::nodes::can_node::NodeEvent;
 use sim::nodes::controller_node::{HostAccess, ModelEngine};
 
@@ -24,10 +29,14 @@ pub struct IutTrace {
     pub events: Vec<(u64, NodeEvent)>,
     /// The register accesses (clock edge, access, value read); empty for the bare core.
     pub accesses: Vec<(u64, HostAccess, Option<u8>)>,
+    /// Clock edges the bench's engine skipped (not compared: only the edge skipping check has
+    /// any).
+    pub skipped_edges: u64,
 }
 
 struct Check {
     engine: ModelEngine,
+    edges: EdgeSkipping,
     traces: Vec<IutTrace>,
 }
 
@@ -40,6 +49,11 @@ pub(crate) fn engine() -> Option<ModelEngine> {
     CHECK.with(|c| c.borrow().as_ref().map(|c| c.engine))
 }
 
+/// The edge skipping the benches of a running check use (`None` outside a check).
+pub(crate) fn edge_skipping() -> Option<EdgeSkipping> {
+    CHECK.with(|c| c.borrow().as_ref().map(|c| c.edges))
+}
+
 /// Keeps the trace of a bench of the running check (nothing outside a check).
 pub(crate) fn record(trace: impl FnOnce() -> IutTrace) {
     CHECK.with(|c| {
@@ -49,10 +63,16 @@ pub(crate) fn record(trace: impl FnOnce() -> IutTrace) {
     });
 }
 
-fn traces_on(engine: ModelEngine, iut: Iut, scenario: fn(Iut)) -> Vec<IutTrace> {
+fn traces_on(
+    engine: ModelEngine,
+    edges: EdgeSkipping,
+    iut: Iut,
+    scenario: fn(Iut),
+) -> Vec<IutTrace> {
     CHECK.with(|c| {
         *c.borrow_mut() = Some(Check {
             engine,
+            edges,
             traces: Vec::new(),
         })
     });
@@ -66,8 +86,13 @@ fn traces_on(engine: ModelEngine, iut: Iut, scenario: fn(Iut)) -> Vec<IutTrace> 
 /// Runs `scenario` on `iut` with the compiled engine's skipping and without; panics at the first
 /// difference in what its benches' IUT did.
 pub fn assert_skipping_changes_nothing(iut: Iut, scenario: fn(Iut)) {
-    let skipping = traces_on(ModelEngine::Compiled, iut, scenario);
-    let every_group = traces_on(ModelEngine::CompiledExhaustive, iut, scenario);
+    let skipping = traces_on(ModelEngine::Compiled, EdgeSkipping::Off, iut, scenario);
+    let every_group = traces_on(
+        ModelEngine::CompiledExhaustive,
+        EdgeSkipping::Off,
+        iut,
+        scenario,
+    );
     assert!(!skipping.is_empty(), "the scenario built no bench");
     assert!(
         skipping
@@ -81,20 +106,40 @@ pub fn assert_skipping_changes_nothing(iut: Iut, scenario: fn(Iut)) {
             "no register access was recorded"
         );
     }
-    assert_eq!(skipping.len(), every_group.len(), "benches built");
-    for (k, (a, b)) in skipping.iter().zip(&every_group).enumerate() {
-        first_difference(k, "drive change", &a.drive, &b.drive);
-        first_difference(k, "event", &a.events, &b.events);
-        first_difference(k, "register access", &a.accesses, &b.accesses);
+    assert_same_traces("skipping", &skipping, &every_group);
+    if iut == Iut::Registers {
+        let edges = traces_on(ModelEngine::Compiled, EdgeSkipping::Checked, iut, scenario);
+        assert!(
+            edges.iter().any(|t| t.skipped_edges > 0),
+            "no clock edge was skipped"
+        );
+        assert_same_traces("edges skipped", &edges, &every_group);
     }
 }
 
-fn first_difference<T: PartialEq + std::fmt::Debug>(bench: usize, what: &str, a: &[T], b: &[T]) {
+/// Panics at the first difference between the traces of `how` (`a`) and of every group's run
+/// (`b`).
+fn assert_same_traces(how: &str, a: &[IutTrace], b: &[IutTrace]) {
+    assert_eq!(a.len(), b.len(), "benches built");
+    for (k, (a, b)) in a.iter().zip(b).enumerate() {
+        first_difference(how, k, "drive change", &a.drive, &b.drive);
+        first_difference(how, k, "event", &a.events, &b.events);
+        first_difference(how, k, "register access", &a.accesses, &b.accesses);
+    }
+}
+
+fn first_difference<T: PartialEq + std::fmt::Debug>(
+    how: &str,
+    bench: usize,
+    what: &str,
+    a: &[T],
+    b: &[T],
+) {
     if let Some(i) = (0..a.len().min(b.len())).find(|&i| a[i] != b[i]) {
         panic!(
-            "bench {bench}, {what} {i}: skipping {:?}, every group {:?}",
+            "bench {bench}, {what} {i}: {how} {:?}, every group {:?}",
             a[i], b[i]
         );
     }
-    assert_eq!(a.len(), b.len(), "bench {bench}: {what}s");
+    assert_eq!(a.len(), b.len(), "bench {bench} ({how}): {what}s");
 }

@@ -54,9 +54,10 @@ pub trait Device: Any {
     fn quiet_edges(&self, _rx: bool, _traced: bool) -> u64 {
         0
     }
-    /// Runs `edges` of its quiet edges at once (at most [`Device::quiet_edges`] gave for the same
-    /// `rx` and `traced`). `checked`: also step a copy edge by edge and panic if the two differ.
-    fn skip_edges(&mut self, _edges: u64, _traced: bool, _checked: bool) {
+    /// Runs `edges` of its quiet edges at once, seeing `rx` at each (at most
+    /// [`Device::quiet_edges`] gave for the same `rx` and `traced`). `checked`: also step a copy
+    /// edge by edge and panic if the two differ.
+    fn skip_edges(&mut self, _edges: u64, _rx: bool, _traced: bool, _checked: bool) {
         unreachable!("a device without quiet edges is never skipped")
     }
     /// `self` as `Any`, for [`Engine::device`].
@@ -569,12 +570,12 @@ impl Engine {
             .filter(|&t| t != u64::MAX)
     }
 
-    /// Processes the earliest pending clock edge.
+    /// Processes the earliest pending clock edge (never skips: one edge).
     pub fn step(&mut self) -> io::Result<()> {
         // A deferred trace starts at the first `step` even when no edge is pending (the run loops
         // start it only when they step).
         self.start_deferred_trace()?;
-        self.step_before(u64::MAX).map(|_| ())
+        self.step_before(u64::MAX, false).map(|_| ())
     }
 
     /// Starts the trace asked for by [`Engine::trace_vcd_from_first_step`], if any.
@@ -585,10 +586,11 @@ impl Engine {
         }
     }
 
-    /// Processes the earliest pending clock edge if it comes before `limit_fs`; returns whether
-    /// it did. One search for the earliest edge serves both the test and the step (the search
-    /// looks at every device: a separate [`Engine::next_edge`] before each step doubled it).
-    fn step_before(&mut self, limit_fs: u64) -> io::Result<bool> {
+    /// Processes the earliest pending clock edge if it comes before `limit_fs`, or with
+    /// `may_skip` the quiet edges from it on (when skipping); returns whether it did. One search
+    /// for the earliest edge serves both the test and the step (the search looks at every device:
+    /// a separate [`Engine::next_edge`] before each step doubled it).
+    fn step_before(&mut self, limit_fs: u64, may_skip: bool) -> io::Result<bool> {
         let Some(i) = self.earliest() else {
             return Ok(false);
         };
@@ -597,7 +599,7 @@ impl Engine {
             return Ok(false);
         }
         self.start_deferred_trace()?;
-        if self.skipping != EdgeSkipping::Off && self.skip_quiet_edges(i, limit_fs) {
+        if may_skip && self.skipping != EdgeSkipping::Off && self.skip_quiet_edges(i, limit_fs) {
             return Ok(true);
         }
         self.flush_bus_changes(t)?;
@@ -675,8 +677,9 @@ impl Engine {
                 continue;
             }
             let traced = self.observers.tracer.is_some() && j < self.observers.traced_devices;
+            let rx = self.rx_seen(j, self.slots[j].next_edge);
             let slot = &mut self.slots[j];
-            slot.device.skip_edges(edges, traced, checked);
+            slot.device.skip_edges(edges, rx, traced, checked);
             slot.edges += edges;
             slot.next_edge = slot.clock.edge(slot.edges);
             self.now = self.now.max(slot.clock.edge(slot.edges - 1));
@@ -703,7 +706,11 @@ impl Engine {
             let rx = self.rx_seen(j, slot.next_edge);
             let slot = &self.slots[j];
             let quiet = slot.device.quiet_edges(rx, traced);
-            slot.clock.edge(slot.edges + quiet)
+            // A device quiet for as long as nothing changes may say so with a huge count.
+            let edge = slot.edges.saturating_add(quiet);
+            slot.clock
+                .edge(0)
+                .saturating_add(edge.saturating_mul(slot.clock.period_fs()))
         };
         self.slots[j].quiet_until = Some(t);
         t
@@ -739,7 +746,7 @@ impl Engine {
 
     /// Processes every clock edge before `t_fs`.
     pub fn run_until(&mut self, t_fs: u64) -> io::Result<()> {
-        while self.step_before(t_fs)? {}
+        while self.step_before(t_fs, true)? {}
         Ok(())
     }
 
@@ -755,7 +762,7 @@ impl Engine {
         let last = slot.clock.edge(end - 1);
         self.run_until(last)?;
         // Only edges at `last` remain before the device's: no room for a skip.
-        while self.slots[id.0].edges < end && self.step_before(last + 1)? {}
+        while self.slots[id.0].edges < end && self.step_before(last + 1, false)? {}
         Ok(())
     }
 
@@ -767,15 +774,22 @@ impl Engine {
 
     /// Steps until `done(self)` holds (checked after every edge) or `limit_fs` is reached. Returns
     /// whether `done` held.
+    ///
+    /// With quiet edges skipped, the first edge is always stepped (`done` may hold before it, and
+    /// then it is asked right after that edge), the later ones only once `done` has not held after
+    /// an edge: quiet edges change nothing `done` can look at but the time, so a condition on the
+    /// time (`now()`) needs skipping off.
     pub fn run_while<F: FnMut(&Engine) -> bool>(
         &mut self,
         limit_fs: u64,
         mut done: F,
     ) -> io::Result<bool> {
-        while self.step_before(limit_fs)? {
+        let mut may_skip = false;
+        while self.step_before(limit_fs, may_skip)? {
             if done(self) {
                 return Ok(true);
             }
+            may_skip = true;
         }
         Ok(false)
     }
@@ -916,7 +930,7 @@ mod tests {
                 0
             }
         }
-        fn skip_edges(&mut self, edges: u64, _traced: bool, _checked: bool) {
+        fn skip_edges(&mut self, edges: u64, _rx: bool, _traced: bool, _checked: bool) {
             assert!(
                 edges <= self.quiet_edges(self.seen, false),
                 "a skip past an event"

@@ -426,12 +426,13 @@ impl Device for ControllerNode {
         }
     }
 
-    fn skip_edges(&mut self, edges: u64, traced: bool, checked: bool) {
+    fn skip_edges(&mut self, edges: u64, rx: bool, traced: bool, checked: bool) {
         let Model::Compiled(model) = &mut self.model else {
             unreachable!("only the compiled engine has quiet edges");
         };
         model.skip(edges, traced, checked);
         self.apply(None);
+        self.inputs.rx = rx;
         self.edges += edges;
     }
 

@@ -233,6 +233,42 @@ impl LowerTester {
     }
 }
 
+impl LowerTester {
+    /// The edges from the next one on at which the drive stays, `finished` stays and the level
+    /// seen is only recorded (as long as it is `rx`).
+    fn quiet(&self, rx: bool) -> u64 {
+        if !self.compiled {
+            return 0;
+        }
+        let Some(_) = self.started_at else {
+            // Waiting for a dominant bit: nothing happens while the bus is recessive.
+            return if self.start_on_dominant && rx == RECESSIVE {
+                u64::MAX
+            } else {
+                0
+            };
+        };
+        // The edges up to the next quantum's start, then a quantum's worth per following quantum
+        // with the same drive, up to the end of the script (where `finished` turns true).
+        let per_tq = u64::from(self.clocks_per_tq);
+        let to_next = per_tq - u64::from(self.clock_in_quantum);
+        let drive = self.drive_now();
+        let end = self.program.len().max(self.script_quanta);
+        let mut same = 0;
+        for q in self.quantum + 1.. {
+            if q >= end && q > self.script_quanta && drive == Drive::Recessive {
+                return u64::MAX; // recessive for good, the script played
+            }
+            let next = self.program.get(q).copied().unwrap_or(Drive::Recessive);
+            if q == self.script_quanta || next != drive {
+                break;
+            }
+            same += 1;
+        }
+        to_next + same * per_tq - 1
+    }
+}
+
 impl Device for LowerTester {
     fn name(&self) -> &str {
         &self.name
@@ -266,11 +302,76 @@ impl Device for LowerTester {
         self.drive_now()
     }
 
+    fn quiet_edges(&self, rx: bool, _traced: bool) -> u64 {
+        self.quiet(rx)
+    }
+
+    fn skip_edges(&mut self, edges: u64, rx: bool, _traced: bool, _checked: bool) {
+        debug_assert!(
+            edges <= self.quiet(rx),
+            "skipped past the lower tester's next change"
+        );
+        if self.started_at.is_none() {
+            return;
+        }
+        let per_tq = u64::from(self.clocks_per_tq);
+        let clocks = u64::from(self.clock_in_quantum) + edges;
+        let quanta = (clocks / per_tq) as usize;
+        self.clock_in_quantum = (clocks % per_tq) as u32;
+        self.quantum += quanta;
+        self.observed.extend(std::iter::repeat_n(rx, quanta));
+    }
+
     fn as_any(&self) -> &dyn Any {
         self
     }
 
     fn as_any_mut(&mut self) -> &mut dyn Any {
         self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::{EdgeSkipping, Engine};
+
+    /// The LT alone on the bus (it sees its own bits), playing a script with a lengthened bit and
+    /// a forced quantum, until it has finished and a little longer.
+    fn played(skipping: EdgeSkipping) -> (Vec<bool>, Vec<(u64, Drive)>, u64, u64) {
+        let clock = ClockSpec::from_hz(16e6);
+        let mut lt = LowerTester::new("lt", clock, Btr::from_registers(0x01, 0x1C));
+        lt.send_bits([false, true, true, false, false, false, true])
+            .lengthen_bit(2, 3)
+            .force(4, 5, 1, Drive::Recessive);
+        let mut engine = Engine::new();
+        engine.set_edge_skipping(skipping);
+        let id = engine.add(lt, 0);
+        let limit = 50 * 64 * clock.period_fs();
+        let finished = engine
+            .run_while(limit, |e| e.device::<LowerTester>(id).finished())
+            .unwrap();
+        assert!(finished);
+        let finished_at = engine.now();
+        engine
+            .run_until(finished_at + 100 * clock.period_fs())
+            .unwrap();
+        let lt = engine.device::<LowerTester>(id);
+        (
+            lt.observed_quanta().to_vec(),
+            engine.drive_changes(id),
+            finished_at,
+            engine.skipped_edges(),
+        )
+    }
+
+    #[test]
+    fn a_script_played_with_quiet_edges_skipped_is_the_script_played_edge_by_edge() {
+        let (observed, drives, finished_at, _) = played(EdgeSkipping::Off);
+        let skipped = played(EdgeSkipping::On);
+        assert!(skipped.3 > 0, "no edge skipped");
+        assert_eq!(skipped.0, observed, "levels recorded per quantum");
+        assert_eq!(skipped.1, drives, "drive changes");
+        assert_eq!(skipped.2, finished_at, "the edge at which it finished");
     }
 }
