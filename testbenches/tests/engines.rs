@@ -26,7 +26,7 @@ use sim::engine::EdgeSkipping;
 use sim::host::sja1000::{drain_rx, transmit};
 use sim::nodes::controller_node::ModelEngine;
 use sim::scenario::{load, run, RunOptions, RunReport};
-use sim::workloads::campaign::{random_case, run_rtl_on, Outcome as CaseOutcome};
+use sim::workloads::campaign::{random_case, run_rtl_on, run_rtl_with, Outcome as CaseOutcome};
 use testbenches::controller_bench::{configure_pelican, ControllerBench, INTEGRATION_BITS};
 
 /// A fresh scratch directory, unique within the process (tests run in parallel).
@@ -386,6 +386,40 @@ fn campaign_slice_is_the_same_on(other: ModelEngine) {
     }
     // The slice exercises error handling, not only clean frames.
     assert!(outcomes.contains(&CaseOutcome::Recovered), "{outcomes:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The slice on the compiled core with the quiet edges skipped (each skip checked against stepping
+/// a copy) gives what it gives stepping every edge, case by case, VCDs included.
+#[test]
+fn a_campaign_slice_runs_the_same_with_quiet_edges_skipped() {
+    let dir = scratch("campaign-skipping");
+    let mut skipped = 0;
+    for index in 0..SLICE_CASES {
+        let case = random_case(&mut Rng::for_case(SLICE_SEED, index));
+        let traced = index < TRACED_CASES;
+        let run_with = |skipping: EdgeSkipping| {
+            let vcd = dir.join(format!("case{index}-{}.vcd", skipping.name()));
+            let vcd = traced.then_some(vcd.as_path());
+            let (run, skipped) =
+                run_rtl_with(&case, ModelEngine::Compiled, vcd, Some(skipping)).unwrap();
+            (
+                run,
+                vcd.map(|v| std::fs::read_to_string(v).unwrap()),
+                skipped,
+            )
+        };
+        let (a, vcd_a, _) = run_with(EdgeSkipping::Off);
+        let (b, vcd_b, edges) = run_with(EdgeSkipping::Checked);
+        skipped += edges;
+        let sides = ("compiled", "compiled skipping edges");
+        assert_same_items(&format!("case {index}: bus bits"), sides, &a.bus, &b.bus);
+        assert_eq!(a, b, "case {index}: skipping edges changed the run");
+        if let (Some(x), Some(y)) = (vcd_a, vcd_b) {
+            assert_same_text(&format!("case {index}: VCD"), sides, &x, &y);
+        }
+    }
+    assert!(skipped > 0, "no edge was skipped");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -100,7 +100,7 @@ pub(super) fn interface(verilog: &str) -> emit::Interface<'_> {
         inputs: &PACKED_INPUTS,
         outputs: &PACKED_OUTPUTS,
         verilog,
-        state: &[],
+        state: &super::quiet::CORE_STATE,
     }
 }
 
@@ -231,12 +231,58 @@ impl CompiledCore {
         }
         self.model.edge();
         self.model.eval(self.every_group);
+        self.take_outputs()
+    }
+
+    /// The outputs after the last cycle (unpacked again only when the word changed).
+    fn take_outputs(&mut self) -> CoreOutputs {
         let word = self.model.outputs();
         if word != self.word {
             self.word = word;
             self.out = outputs(word);
         }
         self.out
+    }
+
+    /// How many cycles from the next one on, all with `inputs`, change nothing outside the
+    /// core's bit timing counters (no output, no other register: [`super::quiet`]). 0 when
+    /// `inputs` differ from the last cycle's.
+    pub fn quiet_cycles(&self, inputs: &CoreInputs) -> u64 {
+        if self.applied != Some(*inputs) || inputs.reset {
+            return 0;
+        }
+        match super::quiet::quiet_cycles(&*self.model, inputs.rx, false) {
+            0 => 0,
+            cycles if self.model.settled() => cycles,
+            _ => 0,
+        }
+    }
+
+    /// Runs `cycles` quiet cycles (at most [`CompiledCore::quiet_cycles`] gave) in one step.
+    /// `checked`: also runs them one by one on a copy and panics unless every output stayed and
+    /// the two end in the same state.
+    pub fn skip(&mut self, cycles: u64, checked: bool) {
+        let copy = checked.then(|| self.clone());
+        super::quiet::advance(&mut *self.model, cycles);
+        self.take_outputs();
+        if let Some(mut copy) = copy {
+            let inputs = copy.applied.expect("a cycle ran before the skip");
+            let before = copy.model.outputs();
+            for cycle in 0..cycles {
+                copy.cycle(&inputs);
+                let after = copy.model.outputs();
+                assert_eq!(
+                    before, after,
+                    "cycle {cycle} of {cycles} skipped ones changed the core's outputs"
+                );
+            }
+            let differences = copy.model.differences(&self.model);
+            assert!(
+                differences.is_empty(),
+                "skipping {cycles} cycles left another core state than stepping them: \
+                 {differences:?}"
+            );
+        }
     }
 }
 

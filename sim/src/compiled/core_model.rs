@@ -1274,6 +1274,554 @@ impl Model {
         self.dirty |= dirty;
     }
 
+    /// The value of net `i` of the design's state list for edge skipping (flip-flop outputs and
+    /// inputs).
+    pub(super) fn state(&self, i: usize) -> u64 {
+        match i {
+            0 => self.q47 | (self.q48 << 1), // bit_timing.clocks.q
+            1 => self.q44, // bit_timing.remaining.q
+            2 => self.q46, // bit_timing.elapsed.q
+            3 => self.q42, // bit_timing.segment_state.q
+            4 => self.q45, // bit_timing.process_pending.q
+            5 => self.q39, // bit_timing.transmit_deferred.q
+            6 => self.q51, // bit_timing.sampling.metastable.q
+            7 => self.q53, // bit_timing.sampling.stable.q
+            8 => self.q52, // bit_timing.sampling.previous.q
+            9 => self.q43, // bit_timing.sampling.quantum_samples.q
+            10 => self.i_brp, // brp
+            _ => panic!("no state net {i}"),
+        }
+    }
+
+    /// Writes `value` into the flip-flops of free-running state net `i` (as if an edge had
+    /// loaded it); the groups that read a changed one run at the next `eval`.
+    pub(super) fn set_state(&mut self, i: usize, value: u64) {
+        match i {
+            0 => { // bit_timing.clocks.q
+                let q = self.q47 & !0x1 | (value >> 0 & 1) << 0;
+                if q != self.q47 { self.q47 = q; self.dirty |= 0x400004; }
+                let q = self.q48 & !0x3f | (value >> 1 & 1) << 0 | (value >> 2 & 1) << 1 | (value >> 3 & 1) << 2 | (value >> 4 & 1) << 3 | (value >> 5 & 1) << 4 | (value >> 6 & 1) << 5;
+                if q != self.q48 { self.q48 = q; self.dirty |= 0x400004; }
+            }
+            1 => { // bit_timing.remaining.q
+                let q = self.q44 & !0x1f | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2 | (value >> 3 & 1) << 3 | (value >> 4 & 1) << 4;
+                if q != self.q44 { self.q44 = q; self.dirty |= 0x100000204; }
+            }
+            2 => { // bit_timing.elapsed.q
+                let q = self.q46 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
+                if q != self.q46 { self.q46 = q; self.dirty |= 0x40000004; }
+            }
+            _ => panic!("no free-running state net {i}"),
+        }
+    }
+
+    /// The next edge writes no memory, changes no memory's read register and no flip-flop but the
+    /// free-running ones of the state list: the groups that did not run since the last edge hold (`n` equals `q`), those
+    /// that ran are compared.
+    pub(super) fn settled(&self) -> bool {
+        let ran = self.ran;
+        if ran >> 24 & 1 != 0 && (self.q14 != self.n14 || self.q15 != self.n15 || self.q16 != self.n16) { return false; }
+        if ran >> 26 & 1 != 0 && (self.q17 != self.n17 || self.q18 != self.n18) { return false; }
+        if ran >> 28 & 1 != 0 && (self.q5 != self.n5 || self.q6 != self.n6) { return false; }
+        if ran >> 31 & 1 != 0 && (self.q45 != self.n45) { return false; }
+        if ran >> 33 & 1 != 0 && (self.q50 != self.n50) { return false; }
+        if ran >> 34 & 1 != 0 && (self.q51 != self.n51) { return false; }
+        if ran >> 35 & 1 != 0 && (self.q52 != self.n52) { return false; }
+        if ran >> 36 & 1 != 0 && (self.q43 != self.n43) { return false; }
+        if ran >> 37 & 1 != 0 && (self.q53 != self.n53) { return false; }
+        if ran >> 38 & 1 != 0 && (self.q42 != self.n42) { return false; }
+        if ran >> 39 & 1 != 0 && (self.q41 != self.n41) { return false; }
+        if ran >> 40 & 1 != 0 && (self.q40 != self.n40) { return false; }
+        if ran >> 41 & 1 != 0 && (self.q39 != self.n39) { return false; }
+        if ran >> 42 & 1 != 0 && (self.q38 != self.n38) { return false; }
+        if ran >> 43 & 1 != 0 && (self.q37 != self.n37) { return false; }
+        if ran >> 44 & 1 != 0 && (self.q36 != self.n36) { return false; }
+        if ran >> 45 & 1 != 0 && (self.q35 != self.n35) { return false; }
+        if ran >> 46 & 1 != 0 && (self.q34 != self.n34) { return false; }
+        if ran >> 47 & 1 != 0 && (self.q33 != self.n33) { return false; }
+        if ran >> 48 & 1 != 0 && (self.q32 != self.n32) { return false; }
+        if ran >> 49 & 1 != 0 && (self.q31 != self.n31) { return false; }
+        if ran >> 50 & 1 != 0 && (self.q30 != self.n30) { return false; }
+        if ran >> 51 & 1 != 0 && (self.q29 != self.n29) { return false; }
+        if ran >> 52 & 1 != 0 && (self.q28 != self.n28) { return false; }
+        if ran >> 53 & 1 != 0 && (self.q27 != self.n27) { return false; }
+        if ran >> 54 & 1 != 0 && (self.q26 != self.n26) { return false; }
+        if ran >> 55 & 1 != 0 && (self.q25 != self.n25) { return false; }
+        if ran >> 56 & 1 != 0 && (self.q24 != self.n24) { return false; }
+        if ran >> 57 & 1 != 0 && (self.q23 != self.n23) { return false; }
+        if ran >> 58 & 1 != 0 && (self.q22 != self.n22) { return false; }
+        if ran >> 59 & 1 != 0 && (self.q21 != self.n21) { return false; }
+        if ran >> 60 & 1 != 0 && (self.q20 != self.n20) { return false; }
+        if ran >> 61 & 1 != 0 && (self.q19 != self.n19) { return false; }
+        if ran >> 62 & 1 != 0 && (self.q54 != self.n54) { return false; }
+        if ran >> 63 & 1 != 0 && (self.q55 != self.n55) { return false; }
+        if ran >> 64 & 1 != 0 && (self.q56 != self.n56) { return false; }
+        if ran >> 65 & 1 != 0 && (self.q57 != self.n57) { return false; }
+        if ran >> 66 & 1 != 0 && (self.q13 != self.n13) { return false; }
+        if ran >> 67 & 1 != 0 && (self.q12 != self.n12) { return false; }
+        if ran >> 68 & 1 != 0 && (self.q11 != self.n11) { return false; }
+        if ran >> 69 & 1 != 0 && (self.q10 != self.n10) { return false; }
+        if ran >> 70 & 1 != 0 && (self.q9 != self.n9) { return false; }
+        if ran >> 71 & 1 != 0 && (self.q8 != self.n8) { return false; }
+        if ran >> 72 & 1 != 0 && (self.q7 != self.n7) { return false; }
+        if ran >> 73 & 1 != 0 && (self.q58 != self.n58) { return false; }
+        if ran >> 74 & 1 != 0 && (self.q59 != self.n59) { return false; }
+        if ran >> 75 & 1 != 0 && (self.q49 != self.n49) { return false; }
+        if ran >> 76 & 1 != 0 && (self.q4 != self.n4) { return false; }
+        if ran >> 77 & 1 != 0 && (self.q3 != self.n3) { return false; }
+        if ran >> 78 & 1 != 0 && (self.q2 != self.n2) { return false; }
+        if ran >> 79 & 1 != 0 && (self.q1 != self.n1) { return false; }
+        if ran >> 80 & 1 != 0 && (self.q0 != self.n0) { return false; }
+        true
+    }
+
+    /// The flip-flops, memories, values and output word that differ from `other`'s (which
+    /// groups ran since the last edge may differ), by name.
+    pub(super) fn differences(&self, other: &Model) -> Vec<&'static str> {
+        let mut names = Vec::new();
+        if self.q0 != other.q0 { names.push("q0 $auto$ff.cc:266:slice$6223"); }
+        if self.n0 != other.n0 { names.push("n0 $auto$ff.cc:266:slice$6223"); }
+        if self.q1 != other.q1 { names.push("q1 $auto$ff.cc:266:slice$6229"); }
+        if self.n1 != other.n1 { names.push("n1 $auto$ff.cc:266:slice$6229"); }
+        if self.q2 != other.q2 { names.push("q2 $auto$ff.cc:266:slice$6230"); }
+        if self.n2 != other.n2 { names.push("n2 $auto$ff.cc:266:slice$6230"); }
+        if self.q3 != other.q3 { names.push("q3 $auto$ff.cc:266:slice$6236"); }
+        if self.n3 != other.n3 { names.push("n3 $auto$ff.cc:266:slice$6236"); }
+        if self.q4 != other.q4 { names.push("q4 $auto$ff.cc:266:slice$6238"); }
+        if self.n4 != other.n4 { names.push("n4 $auto$ff.cc:266:slice$6238"); }
+        if self.q5 != other.q5 { names.push("q5 $auto$ff.cc:266:slice$6247"); }
+        if self.n5 != other.n5 { names.push("n5 $auto$ff.cc:266:slice$6247"); }
+        if self.q6 != other.q6 { names.push("q6 $auto$ff.cc:266:slice$6250"); }
+        if self.n6 != other.n6 { names.push("n6 $auto$ff.cc:266:slice$6250"); }
+        if self.q7 != other.q7 { names.push("q7 $auto$ff.cc:266:slice$6260"); }
+        if self.n7 != other.n7 { names.push("n7 $auto$ff.cc:266:slice$6260"); }
+        if self.q8 != other.q8 { names.push("q8 $auto$ff.cc:266:slice$6262"); }
+        if self.n8 != other.n8 { names.push("n8 $auto$ff.cc:266:slice$6262"); }
+        if self.q9 != other.q9 { names.push("q9 $auto$ff.cc:266:slice$6270"); }
+        if self.n9 != other.n9 { names.push("n9 $auto$ff.cc:266:slice$6270"); }
+        if self.q10 != other.q10 { names.push("q10 $auto$ff.cc:266:slice$6276"); }
+        if self.n10 != other.n10 { names.push("n10 $auto$ff.cc:266:slice$6276"); }
+        if self.q11 != other.q11 { names.push("q11 $auto$ff.cc:266:slice$6288"); }
+        if self.n11 != other.n11 { names.push("n11 $auto$ff.cc:266:slice$6288"); }
+        if self.q12 != other.q12 { names.push("q12 $auto$ff.cc:266:slice$6306"); }
+        if self.n12 != other.n12 { names.push("n12 $auto$ff.cc:266:slice$6306"); }
+        if self.q13 != other.q13 { names.push("q13 $auto$ff.cc:266:slice$6307"); }
+        if self.n13 != other.n13 { names.push("n13 $auto$ff.cc:266:slice$6307"); }
+        if self.q14 != other.q14 { names.push("q14 $auto$ff.cc:266:slice$6309"); }
+        if self.n14 != other.n14 { names.push("n14 $auto$ff.cc:266:slice$6309"); }
+        if self.q15 != other.q15 { names.push("q15 $auto$ff.cc:266:slice$6310"); }
+        if self.n15 != other.n15 { names.push("n15 $auto$ff.cc:266:slice$6310"); }
+        if self.q16 != other.q16 { names.push("q16 $auto$ff.cc:266:slice$6323"); }
+        if self.n16 != other.n16 { names.push("n16 $auto$ff.cc:266:slice$6323"); }
+        if self.q17 != other.q17 { names.push("q17 $auto$ff.cc:266:slice$6334"); }
+        if self.n17 != other.n17 { names.push("n17 $auto$ff.cc:266:slice$6334"); }
+        if self.q18 != other.q18 { names.push("q18 $auto$ff.cc:266:slice$6335"); }
+        if self.n18 != other.n18 { names.push("n18 $auto$ff.cc:266:slice$6335"); }
+        if self.q19 != other.q19 { names.push("q19 $auto$ff.cc:266:slice$6339"); }
+        if self.n19 != other.n19 { names.push("n19 $auto$ff.cc:266:slice$6339"); }
+        if self.q20 != other.q20 { names.push("q20 $auto$ff.cc:266:slice$6340"); }
+        if self.n20 != other.n20 { names.push("n20 $auto$ff.cc:266:slice$6340"); }
+        if self.q21 != other.q21 { names.push("q21 $auto$ff.cc:266:slice$6341"); }
+        if self.n21 != other.n21 { names.push("n21 $auto$ff.cc:266:slice$6341"); }
+        if self.q22 != other.q22 { names.push("q22 $auto$ff.cc:266:slice$6345"); }
+        if self.n22 != other.n22 { names.push("n22 $auto$ff.cc:266:slice$6345"); }
+        if self.q23 != other.q23 { names.push("q23 $auto$ff.cc:266:slice$6346"); }
+        if self.n23 != other.n23 { names.push("n23 $auto$ff.cc:266:slice$6346"); }
+        if self.q24 != other.q24 { names.push("q24 $auto$ff.cc:266:slice$6349"); }
+        if self.n24 != other.n24 { names.push("n24 $auto$ff.cc:266:slice$6349"); }
+        if self.q25 != other.q25 { names.push("q25 $auto$ff.cc:266:slice$6352"); }
+        if self.n25 != other.n25 { names.push("n25 $auto$ff.cc:266:slice$6352"); }
+        if self.q26 != other.q26 { names.push("q26 $auto$ff.cc:266:slice$6356"); }
+        if self.n26 != other.n26 { names.push("n26 $auto$ff.cc:266:slice$6356"); }
+        if self.q27 != other.q27 { names.push("q27 $auto$ff.cc:266:slice$6358"); }
+        if self.n27 != other.n27 { names.push("n27 $auto$ff.cc:266:slice$6358"); }
+        if self.q28 != other.q28 { names.push("q28 $auto$ff.cc:266:slice$6360"); }
+        if self.n28 != other.n28 { names.push("n28 $auto$ff.cc:266:slice$6360"); }
+        if self.q29 != other.q29 { names.push("q29 $auto$ff.cc:266:slice$6365"); }
+        if self.n29 != other.n29 { names.push("n29 $auto$ff.cc:266:slice$6365"); }
+        if self.q30 != other.q30 { names.push("q30 $auto$ff.cc:266:slice$6367"); }
+        if self.n30 != other.n30 { names.push("n30 $auto$ff.cc:266:slice$6367"); }
+        if self.q31 != other.q31 { names.push("q31 $auto$ff.cc:266:slice$6373"); }
+        if self.n31 != other.n31 { names.push("n31 $auto$ff.cc:266:slice$6373"); }
+        if self.q32 != other.q32 { names.push("q32 $auto$ff.cc:266:slice$6383"); }
+        if self.n32 != other.n32 { names.push("n32 $auto$ff.cc:266:slice$6383"); }
+        if self.q33 != other.q33 { names.push("q33 $auto$ff.cc:266:slice$6388"); }
+        if self.n33 != other.n33 { names.push("n33 $auto$ff.cc:266:slice$6388"); }
+        if self.q34 != other.q34 { names.push("q34 $auto$ff.cc:266:slice$6392"); }
+        if self.n34 != other.n34 { names.push("n34 $auto$ff.cc:266:slice$6392"); }
+        if self.q35 != other.q35 { names.push("q35 $auto$ff.cc:266:slice$6396"); }
+        if self.n35 != other.n35 { names.push("n35 $auto$ff.cc:266:slice$6396"); }
+        if self.q36 != other.q36 { names.push("q36 $auto$ff.cc:266:slice$6399"); }
+        if self.n36 != other.n36 { names.push("n36 $auto$ff.cc:266:slice$6399"); }
+        if self.q37 != other.q37 { names.push("q37 $auto$ff.cc:266:slice$6401"); }
+        if self.n37 != other.n37 { names.push("n37 $auto$ff.cc:266:slice$6401"); }
+        if self.q38 != other.q38 { names.push("q38 $auto$ff.cc:266:slice$6404"); }
+        if self.n38 != other.n38 { names.push("n38 $auto$ff.cc:266:slice$6404"); }
+        if self.q39 != other.q39 { names.push("q39 $auto$ff.cc:266:slice$6407"); }
+        if self.n39 != other.n39 { names.push("n39 $auto$ff.cc:266:slice$6407"); }
+        if self.q40 != other.q40 { names.push("q40 $auto$ff.cc:266:slice$6408"); }
+        if self.n40 != other.n40 { names.push("n40 $auto$ff.cc:266:slice$6408"); }
+        if self.q41 != other.q41 { names.push("q41 $auto$ff.cc:266:slice$6409"); }
+        if self.n41 != other.n41 { names.push("n41 $auto$ff.cc:266:slice$6409"); }
+        if self.q42 != other.q42 { names.push("q42 $auto$ff.cc:266:slice$6413"); }
+        if self.n42 != other.n42 { names.push("n42 $auto$ff.cc:266:slice$6413"); }
+        if self.q43 != other.q43 { names.push("q43 $auto$ff.cc:266:slice$6419"); }
+        if self.n43 != other.n43 { names.push("n43 $auto$ff.cc:266:slice$6419"); }
+        if self.q44 != other.q44 { names.push("q44 $auto$ff.cc:266:slice$6420"); }
+        if self.n44 != other.n44 { names.push("n44 $auto$ff.cc:266:slice$6420"); }
+        if self.q45 != other.q45 { names.push("q45 $auto$ff.cc:266:slice$6423"); }
+        if self.n45 != other.n45 { names.push("n45 $auto$ff.cc:266:slice$6423"); }
+        if self.q46 != other.q46 { names.push("q46 $auto$ff.cc:266:slice$6427"); }
+        if self.n46 != other.n46 { names.push("n46 $auto$ff.cc:266:slice$6427"); }
+        if self.q47 != other.q47 { names.push("q47 $auto$ff.cc:266:slice$6430"); }
+        if self.n47 != other.n47 { names.push("n47 $auto$ff.cc:266:slice$6430"); }
+        if self.q48 != other.q48 { names.push("q48 $auto$ff.cc:266:slice$6431"); }
+        if self.n48 != other.n48 { names.push("n48 $auto$ff.cc:266:slice$6431"); }
+        if self.q49 != other.q49 { names.push("q49 $auto$ff.cc:266:slice$6434"); }
+        if self.n49 != other.n49 { names.push("n49 $auto$ff.cc:266:slice$6434"); }
+        if self.q50 != other.q50 { names.push("q50 $flattenbit_timing.sampled.$procdff$6040"); }
+        if self.n50 != other.n50 { names.push("n50 $flattenbit_timing.sampled.$procdff$6040"); }
+        if self.q51 != other.q51 { names.push("q51 $flattenbit_timing.sampling.metastable.$procdff$6039"); }
+        if self.n51 != other.n51 { names.push("n51 $flattenbit_timing.sampling.metastable.$procdff$6039"); }
+        if self.q52 != other.q52 { names.push("q52 $flattenbit_timing.sampling.previous.$procdff$6038"); }
+        if self.n52 != other.n52 { names.push("n52 $flattenbit_timing.sampling.previous.$procdff$6038"); }
+        if self.q53 != other.q53 { names.push("q53 $flattenbit_timing.sampling.stable.$procdff$6036"); }
+        if self.n53 != other.n53 { names.push("n53 $flattenbit_timing.sampling.stable.$procdff$6036"); }
+        if self.q54 != other.q54 { names.push("q54 $flattenprotocol.faults.bus_off_state.$procdff$6011"); }
+        if self.n54 != other.n54 { names.push("n54 $flattenprotocol.faults.bus_off_state.$procdff$6011"); }
+        if self.q55 != other.q55 { names.push("q55 $flattenprotocol.faults.passive_state.$procdff$6010"); }
+        if self.n55 != other.n55 { names.push("n55 $flattenprotocol.faults.passive_state.$procdff$6010"); }
+        if self.q56 != other.q56 { names.push("q56 $flattenprotocol.field.$procdff$6007"); }
+        if self.n56 != other.n56 { names.push("n56 $flattenprotocol.field.$procdff$6007"); }
+        if self.q57 != other.q57 { names.push("q57 $flattenprotocol.in_frame.$procdff$6006"); }
+        if self.n57 != other.n57 { names.push("n57 $flattenprotocol.in_frame.$procdff$6006"); }
+        if self.q58 != other.q58 { names.push("q58 $flattenprotocol.sender.tx_next.$procdff$5998"); }
+        if self.n58 != other.n58 { names.push("n58 $flattenprotocol.sender.tx_next.$procdff$5998"); }
+        if self.q59 != other.q59 { names.push("q59 $flattenprotocol.sender.tx_reg.$procdff$5996"); }
+        if self.n59 != other.n59 { names.push("n59 $flattenprotocol.sender.tx_reg.$procdff$5996"); }
+        if self.v5 != other.v5 { names.push("v5 $auto$opt_dff.cc:195:make_patterns_logic$6278"); }
+        if self.v6 != other.v6 { names.push("v6 $auto$opt_dff.cc:195:make_patterns_logic$6280"); }
+        if self.v7 != other.v7 { names.push("v7 $auto$opt_dff.cc:195:make_patterns_logic$6282"); }
+        if self.v8 != other.v8 { names.push("v8 $auto$opt_dff.cc:195:make_patterns_logic$6290"); }
+        if self.v9 != other.v9 { names.push("v9 $auto$opt_dff.cc:195:make_patterns_logic$6292"); }
+        if self.v10 != other.v10 { names.push("v10 $auto$opt_dff.cc:195:make_patterns_logic$6294"); }
+        if self.v13 != other.v13 { names.push("v13 $auto$opt_dff.cc:195:make_patterns_logic$6316"); }
+        if self.v14 != other.v14 { names.push("v14 $auto$opt_dff.cc:195:make_patterns_logic$6318"); }
+        if self.v15 != other.v15 { names.push("v15 $auto$opt_dff.cc:195:make_patterns_logic$6320"); }
+        if self.v16 != other.v16 { names.push("v16 $auto$opt_dff.cc:195:make_patterns_logic$6362"); }
+        if self.v17 != other.v17 { names.push("v17 $auto$opt_dff.cc:195:make_patterns_logic$6415"); }
+        if self.v18 != other.v18 { names.push("v18 $auto$opt_dff.cc:210:make_patterns_logic$6271"); }
+        if self.v19 != other.v19 { names.push("v19 $auto$opt_dff.cc:210:make_patterns_logic$6374"); }
+        if self.v20 != other.v20 { names.push("v20 $auto$opt_dff.cc:210:make_patterns_logic$6376"); }
+        if self.v21 != other.v21 { names.push("v21 $auto$opt_dff.cc:220:make_patterns_logic$6234"); }
+        if self.v22 != other.v22 { names.push("v22 $auto$opt_dff.cc:220:make_patterns_logic$6249"); }
+        if self.v23 != other.v23 { names.push("v23 $auto$opt_dff.cc:220:make_patterns_logic$6256"); }
+        if self.v24 != other.v24 { names.push("v24 $auto$opt_dff.cc:220:make_patterns_logic$6268"); }
+        if self.v25 != other.v25 { names.push("v25 $auto$opt_dff.cc:220:make_patterns_logic$6274"); }
+        if self.v26 != other.v26 { names.push("v26 $auto$opt_dff.cc:220:make_patterns_logic$6286"); }
+        if self.v27 != other.v27 { names.push("v27 $auto$opt_dff.cc:220:make_patterns_logic$6304"); }
+        if self.v28 != other.v28 { names.push("v28 $auto$opt_dff.cc:220:make_patterns_logic$6322"); }
+        if self.v29 != other.v29 { names.push("v29 $auto$opt_dff.cc:220:make_patterns_logic$6333"); }
+        if self.v30 != other.v30 { names.push("v30 $auto$opt_dff.cc:220:make_patterns_logic$6364"); }
+        if self.v31 != other.v31 { names.push("v31 $auto$opt_dff.cc:220:make_patterns_logic$6369"); }
+        if self.v32 != other.v32 { names.push("v32 $auto$opt_dff.cc:220:make_patterns_logic$6379"); }
+        if self.v33 != other.v33 { names.push("v33 $auto$opt_dff.cc:220:make_patterns_logic$6387"); }
+        if self.v34 != other.v34 { names.push("v34 $auto$opt_dff.cc:220:make_patterns_logic$6394"); }
+        if self.v35 != other.v35 { names.push("v35 $auto$opt_dff.cc:220:make_patterns_logic$6398"); }
+        if self.v36 != other.v36 { names.push("v36 $auto$opt_dff.cc:220:make_patterns_logic$6403"); }
+        if self.v37 != other.v37 { names.push("v37 $auto$opt_dff.cc:220:make_patterns_logic$6417"); }
+        if self.v38 != other.v38 { names.push("v38 $auto$opt_dff.cc:220:make_patterns_logic$6429"); }
+        if self.v39 != other.v39 { names.push("v39 $auto$opt_dff.cc:254:combine_resets$6225"); }
+        if self.v40 != other.v40 { names.push("v40 $auto$opt_dff.cc:254:combine_resets$6228"); }
+        if self.v41 != other.v41 { names.push("v41 $auto$opt_dff.cc:254:combine_resets$6243"); }
+        if self.v42 != other.v42 { names.push("v42 $auto$opt_dff.cc:254:combine_resets$6246"); }
+        if self.v43 != other.v43 { names.push("v43 $auto$opt_dff.cc:254:combine_resets$6338"); }
+        if self.v44 != other.v44 { names.push("v44 $auto$opt_dff.cc:254:combine_resets$6343"); }
+        if self.v45 != other.v45 { names.push("v45 $auto$opt_dff.cc:254:combine_resets$6348"); }
+        if self.v46 != other.v46 { names.push("v46 $auto$opt_dff.cc:254:combine_resets$6351"); }
+        if self.v47 != other.v47 { names.push("v47 $auto$opt_dff.cc:254:combine_resets$6406"); }
+        if self.v48 != other.v48 { names.push("v48 $auto$opt_dff.cc:254:combine_resets$6412"); }
+        if self.v49 != other.v49 { names.push("v49 $auto$opt_dff.cc:254:combine_resets$6426"); }
+        if self.v50 != other.v50 { names.push("v50 $auto$opt_dff.cc:254:combine_resets$6433"); }
+        if self.v59 != other.v59 { names.push("v59 $auto$opt_reduce.cc:128:opt_pmux$6217"); }
+        if self.v60 != other.v60 { names.push("v60 $auto$opt_reduce.cc:128:opt_pmux$6219"); }
+        if self.v61 != other.v61 { names.push("v61 $auto$opt_reduce.cc:128:opt_pmux$6221"); }
+        if self.v62 != other.v62 { names.push("v62 $auto$opt_share.cc:241:merge_operators$6436"); }
+        if self.v63 != other.v63 { names.push("v63 $flattenbit_timing.$add$can_core.v:370$68"); }
+        if self.v64 != other.v64 { names.push("v64 $flattenbit_timing.$add$can_core.v:437$86"); }
+        if self.v66 != other.v66 { names.push("v66 $flattenbit_timing.$add$can_core.v:442$92"); }
+        if self.v69 != other.v69 { names.push("v69 $flattenbit_timing.$and$can_core.v:417$79"); }
+        if self.v71 != other.v71 { names.push("v71 $flattenbit_timing.$and$can_core.v:419$83"); }
+        if self.v72 != other.v72 { names.push("v72 $flattenbit_timing.$and$can_core.v:471$105"); }
+        if self.v74 != other.v74 { names.push("v74 $flattenbit_timing.$and$can_core.v:472$109"); }
+        if self.v78 != other.v78 { names.push("v78 $flattenbit_timing.$and$can_core.v:472$117"); }
+        if self.v79 != other.v79 { names.push("v79 $flattenbit_timing.$and$can_core.v:475$120"); }
+        if self.v82 != other.v82 { names.push("v82 $flattenbit_timing.$and$can_core.v:477$128"); }
+        if self.v85 != other.v85 { names.push("v85 $flattenbit_timing.$eq$can_core.v:472$106"); }
+        if self.v86 != other.v86 { names.push("v86 $flattenbit_timing.$eq$can_core.v:475$118"); }
+        if self.v88 != other.v88 { names.push("v88 $flattenbit_timing.$ge$can_core.v:371$69"); }
+        if self.v92 != other.v92 { names.push("v92 $flattenbit_timing.$not$can_core.v:378$71"); }
+        if self.v97 != other.v97 { names.push("v97 $flattenbit_timing.$not$can_core.v:472$116"); }
+        if self.v98 != other.v98 { names.push("v98 $flattenbit_timing.$not$can_core.v:476$123"); }
+        if self.v103 != other.v103 { names.push("v103 $flattenbit_timing.$or$can_core.v:476$127"); }
+        if self.v109 != other.v109 { names.push("v109 $flattenbit_timing.$procmux$5714"); }
+        if self.v110 != other.v110 { names.push("v110 $flattenbit_timing.$procmux$5732"); }
+        if self.v111 != other.v111 { names.push("v111 $flattenbit_timing.$procmux$5735"); }
+        if self.v114 != other.v114 { names.push("v114 $flattenbit_timing.$procmux$5747"); }
+        if self.v116 != other.v116 { names.push("v116 $flattenbit_timing.$procmux$5758_CMP0"); }
+        if self.v117 != other.v117 { names.push("v117 $flattenbit_timing.$procmux$5765"); }
+        if self.v118 != other.v118 { names.push("v118 $flattenbit_timing.$procmux$5772"); }
+        if self.v119 != other.v119 { names.push("v119 $flattenbit_timing.$procmux$5790"); }
+        if self.v120 != other.v120 { names.push("v120 $flattenbit_timing.$procmux$5794"); }
+        if self.v122 != other.v122 { names.push("v122 $flattenbit_timing.$procmux$5803"); }
+        if self.v129 != other.v129 { names.push("v129 $flattenbit_timing.$procmux$5904"); }
+        if self.v130 != other.v130 { names.push("v130 $flattenbit_timing.$procmux$5913"); }
+        if self.v131 != other.v131 { names.push("v131 $flattenbit_timing.$procmux$5921"); }
+        if self.v132 != other.v132 { names.push("v132 $flattenbit_timing.$procmux$5930"); }
+        if self.v144 != other.v144 { names.push("v144 $flattenbit_timing.sampling.$and$can_core.v:665$166"); }
+        if self.v151 != other.v151 { names.push("v151 $flattenbit_timing.sampling.$procmux$5690"); }
+        if self.v152 != other.v152 { names.push("v152 $flattenbit_timing.sampling.$procmux$5693"); }
+        if self.v153 != other.v153 { names.push("v153 $flattenbit_timing.sampling.$procmux$5696"); }
+        if self.v154 != other.v154 { names.push("v154 $flattenbit_timing.sampling.$procmux$5702"); }
+        if self.v155 != other.v155 { names.push("v155 $flattenprotocol.$and$can_core.v:1409$355"); }
+        if self.v156 != other.v156 { names.push("v156 $flattenprotocol.$and$can_core.v:1410$357"); }
+        if self.v157 != other.v157 { names.push("v157 $flattenprotocol.$and$can_core.v:1411$360"); }
+        if self.v158 != other.v158 { names.push("v158 $flattenprotocol.$and$can_core.v:1508$376"); }
+        if self.v159 != other.v159 { names.push("v159 $flattenprotocol.$and$can_core.v:1511$378"); }
+        if self.v160 != other.v160 { names.push("v160 $flattenprotocol.$and$can_core.v:1512$380"); }
+        if self.v162 != other.v162 { names.push("v162 $flattenprotocol.$and$can_core.v:1561$397"); }
+        if self.v163 != other.v163 { names.push("v163 $flattenprotocol.$and$can_core.v:1572$413"); }
+        if self.v166 != other.v166 { names.push("v166 $flattenprotocol.$eq$can_core.v:1561$396"); }
+        if self.v167 != other.v167 { names.push("v167 $flattenprotocol.$eq$can_core.v:1572$412"); }
+        if self.v176 != other.v176 { names.push("v176 $flattenprotocol.$ne$can_core.v:1557$393"); }
+        if self.v178 != other.v178 { names.push("v178 $flattenprotocol.$not$can_core.v:1514$381"); }
+        if self.v181 != other.v181 { names.push("v181 $flattenprotocol.$or$can_core.v:1482$371"); }
+        if self.v182 != other.v182 { names.push("v182 $flattenprotocol.$or$can_core.v:1492$372"); }
+        if self.v183 != other.v183 { names.push("v183 $flattenprotocol.$or$can_core.v:1538$385"); }
+        if self.v184 != other.v184 { names.push("v184 $flattenprotocol.$or$can_core.v:1544$386"); }
+        if self.v185 != other.v185 { names.push("v185 $flattenprotocol.$or$can_core.v:1572$406"); }
+        if self.v188 != other.v188 { names.push("v188 $flattenprotocol.$or$can_core.v:1572$414"); }
+        if self.v195 != other.v195 { names.push("v195 $flattenprotocol.$or$can_core.v:1585$437"); }
+        if self.v196 != other.v196 { names.push("v196 $flattenprotocol.$procmux$5615"); }
+        if self.v197 != other.v197 { names.push("v197 $flattenprotocol.$procmux$5618"); }
+        if self.v201 != other.v201 { names.push("v201 $flattenprotocol.$procmux$5645"); }
+        if self.v205 != other.v205 { names.push("v205 $flattenprotocol.$procmux$5666"); }
+        if self.v206 != other.v206 { names.push("v206 $flattenprotocol.$procmux$5672"); }
+        if self.v207 != other.v207 { names.push("v207 $flattenprotocol.$procmux$5678"); }
+        if self.v209 != other.v209 { names.push("v209 $flattenprotocol.assembler.$and$can_core.v:1785$490"); }
+        if self.v211 != other.v211 { names.push("v211 $flattenprotocol.assembler.$and$can_core.v:1786$494"); }
+        if self.v213 != other.v213 { names.push("v213 $flattenprotocol.assembler.$ne$can_core.v:1785$486"); }
+        if self.v216 != other.v216 { names.push("v216 $flattenprotocol.assembler.$procmux$5436"); }
+        if self.v217 != other.v217 { names.push("v217 $flattenprotocol.assembler.$procmux$5457"); }
+        if self.v218 != other.v218 { names.push("v218 $flattenprotocol.assembler.$procmux$5564"); }
+        if self.v219 != other.v219 { names.push("v219 $flattenprotocol.assembler.$procmux$5570"); }
+        if self.v222 != other.v222 { names.push("v222 $flattenprotocol.assembler.$sub$can_core.v:1783$473"); }
+        if self.v231 != other.v231 { names.push("v231 $flattenprotocol.capture.$eq$can_core.v:2197$591"); }
+        if self.v232 != other.v232 { names.push("v232 $flattenprotocol.capture.$eq$can_core.v:2209$593"); }
+        if self.v233 != other.v233 { names.push("v233 $flattenprotocol.capture.$eq$can_core.v:2212$594"); }
+        if self.v242 != other.v242 { names.push("v242 $flattenprotocol.capture.$procmux$5191_CMP0"); }
+        if self.v251 != other.v251 { names.push("v251 $flattenprotocol.capture.$procmux$5354"); }
+        if self.v252 != other.v252 { names.push("v252 $flattenprotocol.capture.$procmux$5363_CMP0"); }
+        if self.v253 != other.v253 { names.push("v253 $flattenprotocol.capture.$procmux$5370_CMP0"); }
+        if self.v254 != other.v254 { names.push("v254 $flattenprotocol.crc.$procmux$5058"); }
+        if self.v257 != other.v257 { names.push("v257 $flattenprotocol.faults.$add$can_core.v:2600$684"); }
+        if self.v259 != other.v259 { names.push("v259 $flattenprotocol.faults.$and$can_core.v:2596$678"); }
+        if self.v262 != other.v262 { names.push("v262 $flattenprotocol.faults.$and$can_core.v:2637$711"); }
+        if self.v263 != other.v263 { names.push("v263 $flattenprotocol.faults.$eq$can_core.v:2576$660"); }
+        if self.v264 != other.v264 { names.push("v264 $flattenprotocol.faults.$eq$can_core.v:2587$672"); }
+        if self.v266 != other.v266 { names.push("v266 $flattenprotocol.faults.$eq$can_core.v:2619$697"); }
+        if self.v267 != other.v267 { names.push("v267 $flattenprotocol.faults.$ne$can_core.v:2596$677"); }
+        if self.v268 != other.v268 { names.push("v268 $flattenprotocol.faults.$ne$can_core.v:2599$681"); }
+        if self.v269 != other.v269 { names.push("v269 $flattenprotocol.faults.$ne$can_core.v:2612$691"); }
+        if self.v272 != other.v272 { names.push("v272 $flattenprotocol.faults.$procmux$4787"); }
+        if self.v273 != other.v273 { names.push("v273 $flattenprotocol.faults.$procmux$4790"); }
+        if self.v274 != other.v274 { names.push("v274 $flattenprotocol.faults.$procmux$4793"); }
+        if self.v275 != other.v275 { names.push("v275 $flattenprotocol.faults.$procmux$4796"); }
+        if self.v279 != other.v279 { names.push("v279 $flattenprotocol.faults.$procmux$4824"); }
+        if self.v283 != other.v283 { names.push("v283 $flattenprotocol.faults.$procmux$4841"); }
+        if self.v287 != other.v287 { names.push("v287 $flattenprotocol.faults.$procmux$4882"); }
+        if self.v291 != other.v291 { names.push("v291 $flattenprotocol.faults.$procmux$4921"); }
+        if self.v292 != other.v292 { names.push("v292 $flattenprotocol.faults.$procmux$4933"); }
+        if self.v293 != other.v293 { names.push("v293 $flattenprotocol.faults.$procmux$4945"); }
+        if self.v300 != other.v300 { names.push("v300 $flattenprotocol.faults.$procmux$5002"); }
+        if self.v301 != other.v301 { names.push("v301 $flattenprotocol.faults.$procmux$5011"); }
+        if self.v302 != other.v302 { names.push("v302 $flattenprotocol.faults.$procmux$5020"); }
+        if self.v309 != other.v309 { names.push("v309 $flattenprotocol.faults.$sub$can_core.v:2581$664"); }
+        if self.v310 != other.v310 { names.push("v310 $flattenprotocol.faults.$sub$can_core.v:2613$693"); }
+        if self.v311 != other.v311 { names.push("v311 $flattenprotocol.frame.$and$can_core.v:2846$725"); }
+        if self.v315 != other.v315 { names.push("v315 $flattenprotocol.frame.$and$can_core.v:2873$746"); }
+        if self.v324 != other.v324 { names.push("v324 $flattenprotocol.frame.$eq$can_core.v:2848$727"); }
+        if self.v325 != other.v325 { names.push("v325 $flattenprotocol.frame.$eq$can_core.v:2849$728"); }
+        if self.v326 != other.v326 { names.push("v326 $flattenprotocol.frame.$eq$can_core.v:2850$729"); }
+        if self.v330 != other.v330 { names.push("v330 $flattenprotocol.frame.$eq$can_core.v:2854$744"); }
+        if self.v331 != other.v331 { names.push("v331 $flattenprotocol.frame.$eq$can_core.v:2882$749"); }
+        if self.v334 != other.v334 { names.push("v334 $flattenprotocol.frame.$eq$can_core.v:2949$758"); }
+        if self.v336 != other.v336 { names.push("v336 $flattenprotocol.frame.$eq$can_core.v:2969$762"); }
+        if self.v337 != other.v337 { names.push("v337 $flattenprotocol.frame.$eq$can_core.v:3007$769"); }
+        if self.v338 != other.v338 { names.push("v338 $flattenprotocol.frame.$eq$can_core.v:3007$770"); }
+        if self.v339 != other.v339 { names.push("v339 $flattenprotocol.frame.$eq$can_core.v:3008$772"); }
+        if self.v341 != other.v341 { names.push("v341 $flattenprotocol.frame.$or$can_core.v:2847$726"); }
+        if self.v344 != other.v344 { names.push("v344 $flattenprotocol.frame.$or$can_core.v:2852$737"); }
+        if self.v346 != other.v346 { names.push("v346 $flattenprotocol.frame.$or$can_core.v:2893$753"); }
+        if self.v349 != other.v349 { names.push("v349 $flattenprotocol.frame.$procmux$3463"); }
+        if self.v350 != other.v350 { names.push("v350 $flattenprotocol.frame.$procmux$3487"); }
+        if self.v352 != other.v352 { names.push("v352 $flattenprotocol.frame.$procmux$3535"); }
+        if self.v356 != other.v356 { names.push("v356 $flattenprotocol.frame.$procmux$3617"); }
+        if self.v357 != other.v357 { names.push("v357 $flattenprotocol.frame.$procmux$3620_CMP0"); }
+        if self.v358 != other.v358 { names.push("v358 $flattenprotocol.frame.$procmux$3652"); }
+        if self.v367 != other.v367 { names.push("v367 $flattenprotocol.frame.$procmux$3855"); }
+        if self.v369 != other.v369 { names.push("v369 $flattenprotocol.frame.$procmux$3872_CMP0"); }
+        if self.v376 != other.v376 { names.push("v376 $flattenprotocol.frame.$procmux$4023"); }
+        if self.v379 != other.v379 { names.push("v379 $flattenprotocol.frame.$procmux$4096"); }
+        if self.v383 != other.v383 { names.push("v383 $flattenprotocol.frame.$procmux$4221"); }
+        if self.v384 != other.v384 { names.push("v384 $flattenprotocol.frame.$procmux$4240"); }
+        if self.v385 != other.v385 { names.push("v385 $flattenprotocol.frame.$procmux$4259"); }
+        if self.v386 != other.v386 { names.push("v386 $flattenprotocol.frame.$procmux$4278"); }
+        if self.v388 != other.v388 { names.push("v388 $flattenprotocol.frame.$procmux$4335"); }
+        if self.v392 != other.v392 { names.push("v392 $flattenprotocol.frame.$procmux$4373_CMP0"); }
+        if self.v395 != other.v395 { names.push("v395 $flattenprotocol.frame.$procmux$4419"); }
+        if self.v397 != other.v397 { names.push("v397 $flattenprotocol.frame.$procmux$4438_CMP0"); }
+        if self.v398 != other.v398 { names.push("v398 $flattenprotocol.frame.$procmux$4455_CMP0"); }
+        if self.v402 != other.v402 { names.push("v402 $flattenprotocol.frame.$procmux$4497_CMP0"); }
+        if self.v408 != other.v408 { names.push("v408 $flattenprotocol.frame.$procmux$4571"); }
+        if self.v409 != other.v409 { names.push("v409 $flattenprotocol.frame.$procmux$4577"); }
+        if self.v410 != other.v410 { names.push("v410 $flattenprotocol.frame.$procmux$4583"); }
+        if self.v411 != other.v411 { names.push("v411 $flattenprotocol.frame.$procmux$4589"); }
+        if self.v412 != other.v412 { names.push("v412 $flattenprotocol.frame.$procmux$4595"); }
+        if self.v413 != other.v413 { names.push("v413 $flattenprotocol.frame.$procmux$4601"); }
+        if self.v414 != other.v414 { names.push("v414 $flattenprotocol.frame.$procmux$4607"); }
+        if self.v415 != other.v415 { names.push("v415 $flattenprotocol.frame.$procmux$4619"); }
+        if self.v416 != other.v416 { names.push("v416 $flattenprotocol.frame.$procmux$4625"); }
+        if self.v417 != other.v417 { names.push("v417 $flattenprotocol.frame.$procmux$4631"); }
+        if self.v418 != other.v418 { names.push("v418 $flattenprotocol.frame.$procmux$4637"); }
+        if self.v419 != other.v419 { names.push("v419 $flattenprotocol.frame.$procmux$4643"); }
+        if self.v420 != other.v420 { names.push("v420 $flattenprotocol.frame.$procmux$4649"); }
+        if self.v421 != other.v421 { names.push("v421 $flattenprotocol.frame.$procmux$4655"); }
+        if self.v422 != other.v422 { names.push("v422 $flattenprotocol.frame.$procmux$4661"); }
+        if self.v423 != other.v423 { names.push("v423 $flattenprotocol.frame.$procmux$4673"); }
+        if self.v425 != other.v425 { names.push("v425 $flattenprotocol.frame.$procmux$4716"); }
+        if self.v426 != other.v426 { names.push("v426 $flattenprotocol.frame.$procmux$4722"); }
+        if self.v427 != other.v427 { names.push("v427 $flattenprotocol.frame.$procmux$4728"); }
+        if self.v428 != other.v428 { names.push("v428 $flattenprotocol.frame.$procmux$4733"); }
+        if self.v429 != other.v429 { names.push("v429 $flattenprotocol.frame.$procmux$4736"); }
+        if self.v430 != other.v430 { names.push("v430 $flattenprotocol.frame.$procmux$4739"); }
+        if self.v431 != other.v431 { names.push("v431 $flattenprotocol.frame.$procmux$4742"); }
+        if self.v432 != other.v432 { names.push("v432 $flattenprotocol.frame.$procmux$4745"); }
+        if self.v433 != other.v433 { names.push("v433 $flattenprotocol.frame.$procmux$4751"); }
+        if self.v434 != other.v434 { names.push("v434 $flattenprotocol.frame.$procmux$4757"); }
+        if self.v435 != other.v435 { names.push("v435 $flattenprotocol.frame.$procmux$4760"); }
+        if self.v436 != other.v436 { names.push("v436 $flattenprotocol.frame.$procmux$4763"); }
+        if self.v437 != other.v437 { names.push("v437 $flattenprotocol.frame.$procmux$4766"); }
+        if self.v438 != other.v438 { names.push("v438 $flattenprotocol.frame.$procmux$4769"); }
+        if self.v439 != other.v439 { names.push("v439 $flattenprotocol.frame.$procmux$4772"); }
+        if self.v440 != other.v440 { names.push("v440 $flattenprotocol.frame.$procmux$4775"); }
+        if self.v441 != other.v441 { names.push("v441 $flattenprotocol.frame.$procmux$4778"); }
+        if self.v442 != other.v442 { names.push("v442 $flattenprotocol.frame.$procmux$4781"); }
+        if self.v443 != other.v443 { names.push("v443 $flattenprotocol.frame.$procmux$4784"); }
+        if self.v447 != other.v447 { names.push("v447 $flattenprotocol.interframe.$and$can_core.v:3190$794"); }
+        if self.v449 != other.v449 { names.push("v449 $flattenprotocol.interframe.$and$can_core.v:3190$798"); }
+        if self.v450 != other.v450 { names.push("v450 $flattenprotocol.interframe.$and$can_core.v:3191$800"); }
+        if self.v452 != other.v452 { names.push("v452 $flattenprotocol.interframe.$and$can_core.v:3191$810"); }
+        if self.v454 != other.v454 { names.push("v454 $flattenprotocol.interframe.$and$can_core.v:3246$844"); }
+        if self.v455 != other.v455 { names.push("v455 $flattenprotocol.interframe.$and$can_core.v:3256$846"); }
+        if self.v456 != other.v456 { names.push("v456 $flattenprotocol.interframe.$and$can_core.v:3268$853"); }
+        if self.v457 != other.v457 { names.push("v457 $flattenprotocol.interframe.$and$can_core.v:3272$855"); }
+        if self.v458 != other.v458 { names.push("v458 $flattenprotocol.interframe.$and$can_core.v:3295$863"); }
+        if self.v461 != other.v461 { names.push("v461 $flattenprotocol.interframe.$and$can_core.v:3339$885"); }
+        if self.v468 != other.v468 { names.push("v468 $flattenprotocol.interframe.$eq$can_core.v:3332$884"); }
+        if self.v470 != other.v470 { names.push("v470 $flattenprotocol.interframe.$ne$can_core.v:3268$852"); }
+        if self.v472 != other.v472 { names.push("v472 $flattenprotocol.interframe.$not$can_core.v:3190$797"); }
+        if self.v473 != other.v473 { names.push("v473 $flattenprotocol.interframe.$not$can_core.v:3246$843"); }
+        if self.v474 != other.v474 { names.push("v474 $flattenprotocol.interframe.$or$can_core.v:3189$789"); }
+        if self.v475 != other.v475 { names.push("v475 $flattenprotocol.interframe.$or$can_core.v:3191$809"); }
+        if self.v486 != other.v486 { names.push("v486 $flattenprotocol.interframe.$procmux$1538"); }
+        if self.v487 != other.v487 { names.push("v487 $flattenprotocol.interframe.$procmux$1544"); }
+        if self.v489 != other.v489 { names.push("v489 $flattenprotocol.interframe.$procmux$1556"); }
+        if self.v506 != other.v506 { names.push("v506 $flattenprotocol.interframe.$procmux$1873"); }
+        if self.v507 != other.v507 { names.push("v507 $flattenprotocol.interframe.$procmux$1889"); }
+        if self.v525 != other.v525 { names.push("v525 $flattenprotocol.interframe.$procmux$2286"); }
+        if self.v534 != other.v534 { names.push("v534 $flattenprotocol.interframe.$procmux$2481"); }
+        if self.v535 != other.v535 { names.push("v535 $flattenprotocol.interframe.$procmux$2496"); }
+        if self.v537 != other.v537 { names.push("v537 $flattenprotocol.interframe.$procmux$2541"); }
+        if self.v539 != other.v539 { names.push("v539 $flattenprotocol.interframe.$procmux$2571"); }
+        if self.v564 != other.v564 { names.push("v564 $flattenprotocol.interframe.$procmux$3076"); }
+        if self.v565 != other.v565 { names.push("v565 $flattenprotocol.interframe.$procmux$3088"); }
+        if self.v566 != other.v566 { names.push("v566 $flattenprotocol.interframe.$procmux$3101"); }
+        if self.v569 != other.v569 { names.push("v569 $flattenprotocol.interframe.$procmux$3147_CMP0"); }
+        if self.v570 != other.v570 { names.push("v570 $flattenprotocol.interframe.$procmux$3159"); }
+        if self.v572 != other.v572 { names.push("v572 $flattenprotocol.interframe.$procmux$3173_CMP0"); }
+        if self.v573 != other.v573 { names.push("v573 $flattenprotocol.interframe.$procmux$3174_CMP0"); }
+        if self.v574 != other.v574 { names.push("v574 $flattenprotocol.interframe.$procmux$3175_CMP0"); }
+        if self.v575 != other.v575 { names.push("v575 $flattenprotocol.interframe.$procmux$3183"); }
+        if self.v576 != other.v576 { names.push("v576 $flattenprotocol.interframe.$procmux$3184_CMP0"); }
+        if self.v577 != other.v577 { names.push("v577 $flattenprotocol.interframe.$procmux$3193"); }
+        if self.v578 != other.v578 { names.push("v578 $flattenprotocol.interframe.$procmux$3204"); }
+        if self.v579 != other.v579 { names.push("v579 $flattenprotocol.interframe.$procmux$3205_CMP0"); }
+        if self.v580 != other.v580 { names.push("v580 $flattenprotocol.interframe.$procmux$3206_CMP0"); }
+        if self.v582 != other.v582 { names.push("v582 $flattenprotocol.interframe.$procmux$3237"); }
+        if self.v590 != other.v590 { names.push("v590 $flattenprotocol.interframe.$procmux$3297"); }
+        if self.v591 != other.v591 { names.push("v591 $flattenprotocol.interframe.$procmux$3303"); }
+        if self.v592 != other.v592 { names.push("v592 $flattenprotocol.interframe.$procmux$3308"); }
+        if self.v593 != other.v593 { names.push("v593 $flattenprotocol.interframe.$procmux$3320"); }
+        if self.v594 != other.v594 { names.push("v594 $flattenprotocol.interframe.$procmux$3323"); }
+        if self.v595 != other.v595 { names.push("v595 $flattenprotocol.interframe.$procmux$3326"); }
+        if self.v596 != other.v596 { names.push("v596 $flattenprotocol.interframe.$procmux$3329"); }
+        if self.v597 != other.v597 { names.push("v597 $flattenprotocol.interframe.$procmux$3332"); }
+        if self.v598 != other.v598 { names.push("v598 $flattenprotocol.interframe.$procmux$3335"); }
+        if self.v599 != other.v599 { names.push("v599 $flattenprotocol.interframe.$procmux$3341"); }
+        if self.v600 != other.v600 { names.push("v600 $flattenprotocol.interframe.$procmux$3353"); }
+        if self.v601 != other.v601 { names.push("v601 $flattenprotocol.interframe.$procmux$3356"); }
+        if self.v602 != other.v602 { names.push("v602 $flattenprotocol.interframe.$procmux$3359"); }
+        if self.v603 != other.v603 { names.push("v603 $flattenprotocol.interframe.$procmux$3362"); }
+        if self.v604 != other.v604 { names.push("v604 $flattenprotocol.interframe.$procmux$3365"); }
+        if self.v606 != other.v606 { names.push("v606 $flattenprotocol.sender.$add$can_core.v:3651$939"); }
+        if self.v607 != other.v607 { names.push("v607 $flattenprotocol.sender.$add$can_core.v:3672$950"); }
+        if self.v610 != other.v610 { names.push("v610 $flattenprotocol.sender.$and$can_core.v:3772$971"); }
+        if self.v613 != other.v613 { names.push("v613 $flattenprotocol.sender.$and$can_core.v:3772$976"); }
+        if self.v614 != other.v614 { names.push("v614 $flattenprotocol.sender.$eq$can_core.v:3640$929"); }
+        if self.v616 != other.v616 { names.push("v616 $flattenprotocol.sender.$eq$can_core.v:3669$947"); }
+        if self.v617 != other.v617 { names.push("v617 $flattenprotocol.sender.$eq$can_core.v:3671$949"); }
+        if self.v618 != other.v618 { names.push("v618 $flattenprotocol.sender.$eq$can_core.v:3690$956"); }
+        if self.v623 != other.v623 { names.push("v623 $flattenprotocol.sender.$eq$can_core.v:3755$964"); }
+        if self.v625 != other.v625 { names.push("v625 $flattenprotocol.sender.$not$can_core.v:3772$973"); }
+        if self.v627 != other.v627 { names.push("v627 $flattenprotocol.sender.$or$can_core.v:3784$981"); }
+        if self.v628 != other.v628 { names.push("v628 $flattenprotocol.sender.$procmux$1094"); }
+        if self.v629 != other.v629 { names.push("v629 $flattenprotocol.sender.$procmux$1097"); }
+        if self.v634 != other.v634 { names.push("v634 $flattenprotocol.sender.$procmux$1114"); }
+        if self.v636 != other.v636 { names.push("v636 $flattenprotocol.sender.$procmux$1135"); }
+        if self.v637 != other.v637 { names.push("v637 $flattenprotocol.sender.$procmux$1138_CMP0"); }
+        if self.v640 != other.v640 { names.push("v640 $flattenprotocol.sender.$procmux$1161_CMP0"); }
+        if self.v641 != other.v641 { names.push("v641 $flattenprotocol.sender.$procmux$1170"); }
+        if self.v643 != other.v643 { names.push("v643 $flattenprotocol.sender.$procmux$1189_CMP0"); }
+        if self.v647 != other.v647 { names.push("v647 $flattenprotocol.sender.$procmux$1239"); }
+        if self.v649 != other.v649 { names.push("v649 $flattenprotocol.sender.$procmux$1268_CMP0"); }
+        if self.v651 != other.v651 { names.push("v651 $flattenprotocol.sender.$procmux$1294"); }
+        if self.v655 != other.v655 { names.push("v655 $flattenprotocol.sender.$procmux$1346_CMP0"); }
+        if self.v656 != other.v656 { names.push("v656 $flattenprotocol.sender.$procmux$1347_CMP0"); }
+        if self.v657 != other.v657 { names.push("v657 $flattenprotocol.sender.$procmux$1348_CMP0"); }
+        if self.v658 != other.v658 { names.push("v658 $flattenprotocol.sender.$procmux$1353_CMP0"); }
+        if self.v659 != other.v659 { names.push("v659 $flattenprotocol.sender.$procmux$1363"); }
+        if self.v660 != other.v660 { names.push("v660 $flattenprotocol.sender.$procmux$1366"); }
+        if self.v661 != other.v661 { names.push("v661 $flattenprotocol.sender.$procmux$1369"); }
+        if self.v666 != other.v666 { names.push("v666 $flattenprotocol.sender.$procmux$1391"); }
+        if self.v667 != other.v667 { names.push("v667 $flattenprotocol.sender.$procmux$1396"); }
+        if self.v668 != other.v668 { names.push("v668 $flattenprotocol.sender.$procmux$1403"); }
+        if self.v669 != other.v669 { names.push("v669 $flattenprotocol.sender.$procmux$1409"); }
+        if self.v670 != other.v670 { names.push("v670 $flattenprotocol.sender.$procmux$1415"); }
+        if self.v672 != other.v672 { names.push("v672 $flattenprotocol.sender.$procmux$1429"); }
+        if self.v674 != other.v674 { names.push("v674 $flattenprotocol.sender.$procmux$1435"); }
+        if self.v678 != other.v678 { names.push("v678 $flattenprotocol.sender.$xor$can_core.v:3749$963"); }
+        if self.v680 != other.v680 { names.push("v680 $flattenprotocol.stuffing.$and$can_core.v:3942$1005"); }
+        if self.v681 != other.v681 { names.push("v681 $flattenprotocol.stuffing.$and$can_core.v:3943$1007"); }
+        if self.v685 != other.v685 { names.push("v685 $flattenprotocol.stuffing.$or$can_core.v:3946$1013"); }
+        if self.v686 != other.v686 { names.push("v686 $flattenprotocol.stuffing.$procmux$1041"); }
+        if self.v687 != other.v687 { names.push("v687 $flattenprotocol.stuffing.$procmux$1047"); }
+        if self.v689 != other.v689 { names.push("v689 $flattenprotocol.stuffing.$procmux$1065"); }
+        if self.dirty != other.dirty { names.push("dirty "); }
+        if self.out != other.out { names.push("out "); }
+        names
+    }
+
     /// The cells of top$protocol$frame.
     fn group_0(&mut self, dirty: &mut u128) {
         let c324: u64 = u64::from((self.q23) == (0xb));

@@ -222,7 +222,7 @@ fn controller_interface(verilog: &str) -> emit::Interface<'_> {
         ],
         outputs,
         verilog,
-        state: &quiet::STATE,
+        state: &quiet::CONTROLLER_STATE,
     }
 }
 
@@ -306,7 +306,7 @@ impl CompiledController {
             return 0;
         }
         // The counters' arithmetic first: it rules out most edges at less cost than `settled`.
-        match quiet::quiet_cycles(&self.model, inputs.rx, clkout_seen) {
+        match quiet::quiet_cycles(&*self.model, inputs.rx, clkout_seen) {
             0 => 0,
             cycles if self.model.settled() => cycles,
             _ => 0,
@@ -318,7 +318,7 @@ impl CompiledController {
     /// (`clkout` only if `clkout_seen`) and the two end in the same state.
     pub fn skip(&mut self, cycles: u64, clkout_seen: bool, checked: bool) {
         let copy = checked.then(|| self.clone());
-        quiet::advance(&mut self.model, cycles);
+        quiet::advance(&mut *self.model, cycles);
         if let Some(mut copy) = copy {
             let inputs = copy.applied.expect("a cycle ran before the skip");
             let seen = if clkout_seen {

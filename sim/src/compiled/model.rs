@@ -2091,29 +2091,30 @@ impl Model {
         self.dirty |= dirty;
     }
 
-    /// The value of net `i` of the design's state list for edge skipping (flip-flop outputs).
+    /// The value of net `i` of the design's state list for edge skipping (flip-flop outputs and
+    /// inputs).
     pub(super) fn state(&self, i: usize) -> u64 {
         match i {
             0 => self.q96 | (self.q97 << 1), // core.bit_timing.clocks.q
             1 => self.q93, // core.bit_timing.remaining.q
             2 => self.q95, // core.bit_timing.elapsed.q
-            3 => self.q12, // modes.divider.count.q
-            4 => self.q11, // modes.divider.level.q
-            5 => self.q91, // core.bit_timing.segment_state.q
-            6 => self.q94, // core.bit_timing.process_pending.q
-            7 => self.q89, // core.bit_timing.transmit_deferred.q
-            8 => self.q110, // core.bit_timing.sampling.metastable.q
-            9 => self.q112, // core.bit_timing.sampling.stable.q
-            10 => self.q111, // core.bit_timing.sampling.previous.q
-            11 => self.q92, // core.bit_timing.sampling.quantum_samples.q
-            12 => self.q103, // configuration.btr0.q
+            3 => self.q91, // core.bit_timing.segment_state.q
+            4 => self.q94, // core.bit_timing.process_pending.q
+            5 => self.q89, // core.bit_timing.transmit_deferred.q
+            6 => self.q110, // core.bit_timing.sampling.metastable.q
+            7 => self.q112, // core.bit_timing.sampling.stable.q
+            8 => self.q111, // core.bit_timing.sampling.previous.q
+            9 => self.q92, // core.bit_timing.sampling.quantum_samples.q
+            10 => self.q103, // configuration.btr0.q
+            11 => self.q12, // modes.divider.count.q
+            12 => self.q11, // modes.divider.level.q
             13 => self.q105 | ((self.q15 & 0x1) << 3) | ((self.q15 >> 1) << 5) | (self.q14 << 7), // modes.cdr_reg.q
             _ => panic!("no state net {i}"),
         }
     }
 
-    /// Writes `value` into the flip-flops of state net `i` (as if an edge had loaded it); the
-    /// groups that read a changed one run at the next `eval`.
+    /// Writes `value` into the flip-flops of free-running state net `i` (as if an edge had
+    /// loaded it); the groups that read a changed one run at the next `eval`.
     pub(super) fn set_state(&mut self, i: usize, value: u64) {
         match i {
             0 => { // core.bit_timing.clocks.q
@@ -2130,55 +2131,15 @@ impl Model {
                 let q = self.q95 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
                 if q != self.q95 { self.q95 = q; self.dirty |= 0x8000000000008; }
             }
-            3 => { // modes.divider.count.q
+            11 => { // modes.divider.count.q
                 let q = self.q12 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
                 if q != self.q12 { self.q12 = q; self.dirty |= 0x20000000000000001000000000; }
             }
-            4 => { // modes.divider.level.q
+            12 => { // modes.divider.level.q
                 let q = self.q11 & !0x1 | (value >> 0 & 1) << 0;
                 if q != self.q11 { self.q11 = q; self.dirty |= 0x40000000000000001000000000; }
             }
-            5 => { // core.bit_timing.segment_state.q
-                let q = self.q91 & !0x3 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1;
-                if q != self.q91 { self.q91 = q; self.dirty |= 0x80000000010008; }
-            }
-            6 => { // core.bit_timing.process_pending.q
-                let q = self.q94 & !0x1 | (value >> 0 & 1) << 0;
-                if q != self.q94 { self.q94 = q; self.dirty |= 0xc20000804002f81000a; }
-            }
-            7 => { // core.bit_timing.transmit_deferred.q
-                let q = self.q89 & !0x1 | (value >> 0 & 1) << 0;
-                if q != self.q89 { self.q89 = q; self.dirty |= 0x100000000010000; }
-            }
-            8 => { // core.bit_timing.sampling.metastable.q
-                let q = self.q110 & !0x1 | (value >> 0 & 1) << 0;
-                if q != self.q110 { self.q110 = q; self.dirty |= 0x20000000008000; }
-            }
-            9 => { // core.bit_timing.sampling.stable.q
-                let q = self.q112 & !0x1 | (value >> 0 & 1) << 0;
-                if q != self.q112 { self.q112 = q; self.dirty |= 0x40000000008000; }
-            }
-            10 => { // core.bit_timing.sampling.previous.q
-                let q = self.q111 & !0x1 | (value >> 0 & 1) << 0;
-                if q != self.q111 { self.q111 = q; self.dirty |= 0x20000000008000; }
-            }
-            11 => { // core.bit_timing.sampling.quantum_samples.q
-                let q = self.q92 & !0x3 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1;
-                if q != self.q92 { self.q92 = q; self.dirty |= 0x40000000008000; }
-            }
-            12 => { // configuration.btr0.q
-                let q = self.q103 & !0xff | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2 | (value >> 3 & 1) << 3 | (value >> 4 & 1) << 4 | (value >> 5 & 1) << 5 | (value >> 6 & 1) << 6 | (value >> 7 & 1) << 7;
-                if q != self.q103 { self.q103 = q; self.dirty |= 0x1000000400008; }
-            }
-            13 => { // modes.cdr_reg.q
-                let q = self.q14 & !0x1 | (value >> 7 & 1) << 0;
-                if q != self.q14 { self.q14 = q; self.dirty |= 0x8080004c2e34; }
-                let q = self.q15 & !0x7 | (value >> 3 & 1) << 0 | (value >> 5 & 1) << 1 | (value >> 6 & 1) << 2;
-                if q != self.q15 { self.q15 = q; self.dirty |= 0x9000040400; }
-                let q = self.q105 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
-                if q != self.q105 { self.q105 = q; self.dirty |= 0x9000040400; }
-            }
-            _ => panic!("no state net {i}"),
+            _ => panic!("no free-running state net {i}"),
         }
     }
 

@@ -1,9 +1,10 @@
-//! Quiet cycles of the compiled controller, which the engine's edge skipping jumps over: between the bit timing's events (a segment's end,
-//! the sample, process and transmit points) a controller whose inputs hold, whose other blocks
-//! are settled and whose bus input has passed the synchroniser only counts: the prescaler, the
-//! quanta left in the segment, the quanta since Sync and the CLKOUT divider. Those stretches are
-//! jumped in one step by writing the counters' values after them (`rtl/src/bit_timing.rs` and
-//! `rtl/src/clock_divider.rs` say how they count).
+//! Quiet cycles of the compiled controller and of the bare core, which the engine's edge skipping
+//! jumps over: between the bit timing's events (a segment's end, the sample, process and transmit
+//! points) a design whose inputs hold, whose other blocks are settled and whose bus input has
+//! passed the synchroniser only counts: the prescaler, the quanta left in the segment, the quanta
+//! since Sync and (the controller) the CLKOUT divider. Those stretches are jumped in one step by
+//! writing the counters' values after them (`rtl/src/bit_timing.rs` and `rtl/src/clock_divider.rs`
+//! say how they count).
 //!
 //! What makes a jump exact: the next edge changes no flip-flop but the counters (`settled`, from
 //! the model), the bit timing's outputs to the rest of the design (sample, process and transmit
@@ -13,16 +14,15 @@
 
 use rtl::bit_timing::Segment;
 
-use super::model::Model;
+use super::{core_model, model};
 
-/// The nets read or written here (flattened names of the generated Verilog), each with
-/// whether it is one of the counters a skipped cycle may change.
-pub(super) const STATE: [(&str, bool); 14] = [
+/// The nets of the controller read or written here (flattened names of the generated Verilog),
+/// each with whether it is one of the counters a skipped cycle may change; the bit timing's in the
+/// order of the bare core's ([`CORE_STATE`]), then the CLKOUT divider's.
+pub(super) const CONTROLLER_STATE: [(&str, bool); 14] = [
     ("core.bit_timing.clocks.q", true),
     ("core.bit_timing.remaining.q", true),
     ("core.bit_timing.elapsed.q", true),
-    ("modes.divider.count.q", true),
-    ("modes.divider.level.q", true),
     ("core.bit_timing.segment_state.q", false),
     ("core.bit_timing.process_pending.q", false),
     ("core.bit_timing.transmit_deferred.q", false),
@@ -31,25 +31,81 @@ pub(super) const STATE: [(&str, bool); 14] = [
     ("core.bit_timing.sampling.previous.q", false),
     ("core.bit_timing.sampling.quantum_samples.q", false),
     ("configuration.btr0.q", false),
+    ("modes.divider.count.q", true),
+    ("modes.divider.level.q", true),
     ("modes.cdr_reg.q", false),
+];
+
+/// The same nets of the bare core (whose prescaler field is an input).
+pub(super) const CORE_STATE: [(&str, bool); 11] = [
+    ("bit_timing.clocks.q", true),
+    ("bit_timing.remaining.q", true),
+    ("bit_timing.elapsed.q", true),
+    ("bit_timing.segment_state.q", false),
+    ("bit_timing.process_pending.q", false),
+    ("bit_timing.transmit_deferred.q", false),
+    ("bit_timing.sampling.metastable.q", false),
+    ("bit_timing.sampling.stable.q", false),
+    ("bit_timing.sampling.previous.q", false),
+    ("bit_timing.sampling.quantum_samples.q", false),
+    ("brp", false),
 ];
 
 const CLOCKS: usize = 0;
 const REMAINING: usize = 1;
 const ELAPSED: usize = 2;
-const DIVIDER_COUNT: usize = 3;
-const DIVIDER_LEVEL: usize = 4;
-const SEGMENT: usize = 5;
-const PROCESS_PENDING: usize = 6;
-const TRANSMIT_DEFERRED: usize = 7;
-const METASTABLE: usize = 8;
-const STABLE: usize = 9;
-const PREVIOUS: usize = 10;
-const QUANTUM_SAMPLES: usize = 11;
-const BTR0: usize = 12;
+const SEGMENT: usize = 3;
+const PROCESS_PENDING: usize = 4;
+const TRANSMIT_DEFERRED: usize = 5;
+const METASTABLE: usize = 6;
+const STABLE: usize = 7;
+const PREVIOUS: usize = 8;
+const QUANTUM_SAMPLES: usize = 9;
+/// BTR0 (the controller) or the BRP input (the core).
+const BRP_SOURCE: usize = 10;
+const DIVIDER_COUNT: usize = 11;
+const DIVIDER_LEVEL: usize = 12;
 const CDR: usize = 13;
 
-/// BTR0.5..0: the prescaler.
+/// A generated model with one of the state lists above.
+pub(super) trait Counters {
+    /// Whether the design has the CLKOUT divider (the controller's last three nets).
+    const DIVIDER: bool;
+    /// The value of state net `i`.
+    fn state(&self, i: usize) -> u64;
+    /// Writes free-running state net `i`.
+    fn set_state(&mut self, i: usize, value: u64);
+    /// Evaluates the groups whose inputs changed.
+    fn evaluate(&mut self);
+}
+
+impl Counters for model::Model {
+    const DIVIDER: bool = true;
+    fn state(&self, i: usize) -> u64 {
+        model::Model::state(self, i)
+    }
+    fn set_state(&mut self, i: usize, value: u64) {
+        model::Model::set_state(self, i, value);
+    }
+    fn evaluate(&mut self) {
+        self.eval(false);
+    }
+}
+
+impl Counters for core_model::Model {
+    const DIVIDER: bool = false;
+    fn state(&self, i: usize) -> u64 {
+        core_model::Model::state(self, i)
+    }
+    fn set_state(&mut self, i: usize, value: u64) {
+        core_model::Model::set_state(self, i, value);
+    }
+    fn evaluate(&mut self) {
+        self.eval(false);
+    }
+}
+
+/// BTR0.5..0 (the BRP input of the core has only these): the prescaler.
 const BRP_MASK: u64 = 0x3F;
 /// CDR.2..0: the CLKOUT divider code; CDR.3: clock off.
 const CDR_CODE_MASK: u64 = 0x7;
@@ -74,15 +130,19 @@ fn count_cycles(count: u64, last: u64, cycles: u64) -> (u64, u64) {
 /// How many cycles from the next one on change nothing but the counters, given that the inputs
 /// stay those of the last cycle with the bus input at `rx`, and that the whole model is settled
 /// (`Model::settled`, checked by the caller). With `clkout_seen` the CLKOUT pin must hold too.
-pub(super) fn quiet_cycles(model: &Model, rx: bool, clkout_seen: bool) -> u64 {
+pub(super) fn quiet_cycles<M: Counters>(model: &M, rx: bool, clkout_seen: bool) -> u64 {
     // The CLKOUT pin first: while traced it usually toggles every few clocks, and then nothing
     // else needs a look.
-    let cdr = model.state(CDR);
-    let code = cdr & CDR_CODE_MASK;
-    let pin_toggles = clkout_seen && cdr & CDR_CLOCK_OFF == 0 && code != CDR_CODE_FOSC;
-    // The level toggles at the edge after the cycle in which the count reaches the code.
-    let clkout = if pin_toggles {
-        code.saturating_sub(model.state(DIVIDER_COUNT))
+    let clkout = if M::DIVIDER && clkout_seen {
+        let cdr = model.state(CDR);
+        let code = cdr & CDR_CODE_MASK;
+        let pin_toggles = cdr & CDR_CLOCK_OFF == 0 && code != CDR_CODE_FOSC;
+        // The level toggles at the edge after the cycle in which the count reaches the code.
+        if pin_toggles {
+            code.saturating_sub(model.state(DIVIDER_COUNT))
+        } else {
+            u64::MAX
+        }
     } else {
         u64::MAX
     };
@@ -98,7 +158,7 @@ pub(super) fn quiet_cycles(model: &Model, rx: bool, clkout_seen: bool) -> u64 {
     if !sampling_settled || !idle_triggers || model.state(ELAPSED) > ELAPSED_SATURATED {
         return 0;
     }
-    let last_clock = 2 * (model.state(BTR0) & BRP_MASK) + 1;
+    let last_clock = 2 * (model.state(BRP_SOURCE) & BRP_MASK) + 1;
     let clocks = model.state(CLOCKS);
     // The segment ends in the cycle of its last quantum's end.
     let segment_end = last_clock.saturating_sub(clocks) + model.state(REMAINING) * (last_clock + 1);
@@ -124,19 +184,21 @@ pub(super) fn quiet_cycles(model: &Model, rx: bool, clkout_seen: bool) -> u64 {
 }
 
 /// Writes the counters' values `cycles` cycles on (at most [`quiet_cycles`] gave) and evaluates.
-pub(super) fn advance(model: &mut Model, cycles: u64) {
-    let last_clock = 2 * (model.state(BTR0) & BRP_MASK) + 1;
+pub(super) fn advance<M: Counters>(model: &mut M, cycles: u64) {
+    let last_clock = 2 * (model.state(BRP_SOURCE) & BRP_MASK) + 1;
     let (clocks, quantum_ends) = count_cycles(model.state(CLOCKS), last_clock, cycles);
     model.set_state(CLOCKS, clocks);
     let remaining = model.state(REMAINING) - quantum_ends;
     model.set_state(REMAINING, remaining);
     let elapsed = (model.state(ELAPSED) + quantum_ends).min(ELAPSED_SATURATED);
     model.set_state(ELAPSED, elapsed);
-    let code = model.state(CDR) & CDR_CODE_MASK;
-    let (count, toggles) = count_cycles(model.state(DIVIDER_COUNT), code, cycles);
-    model.set_state(DIVIDER_COUNT, count);
-    model.set_state(DIVIDER_LEVEL, model.state(DIVIDER_LEVEL) ^ (toggles & 1));
-    model.eval(false);
+    if M::DIVIDER {
+        let code = model.state(CDR) & CDR_CODE_MASK;
+        let (count, toggles) = count_cycles(model.state(DIVIDER_COUNT), code, cycles);
+        model.set_state(DIVIDER_COUNT, count);
+        model.set_state(DIVIDER_LEVEL, model.state(DIVIDER_LEVEL) ^ (toggles & 1));
+    }
+    model.evaluate();
 }
 
 #[cfg(test)]

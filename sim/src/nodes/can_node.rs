@@ -194,6 +194,23 @@ impl CanNode {
 
     /// Collects the strobes of the clock cycle that started at `t_fs`: errors first, then the
     /// frame and transmission results they may have caused.
+    /// The inputs of an edge without a counter load or abort at which the node sees `rx`.
+    fn idle_inputs(&self, rx: bool) -> CoreInputs {
+        CoreInputs {
+            rx,
+            data: self
+                .tx_buffer
+                .get(usize::from(self.out.tx_addr))
+                .copied()
+                .unwrap_or(0),
+            load_tec: false,
+            load_rec: false,
+            value: 0,
+            abort: false,
+            ..self.inputs
+        }
+    }
+
     fn collect(&mut self, t_fs: u64) {
         let out = self.out;
         if out.bus_error {
@@ -259,6 +276,20 @@ impl Device for CanNode {
         self.out = self.core.cycle(&self.inputs);
         self.collect(t_fs);
         Drive::from_level(self.out.tx)
+    }
+
+    fn quiet_edges(&self, rx: bool, _traced: bool) -> u64 {
+        let out = &self.out;
+        let pulses = out.bus_error || out.arbitration_lost || out.rx_strobe || out.rx_valid;
+        if pulses || out.tx_done || self.pending_load.is_some() || self.pending_abort {
+            return 0;
+        }
+        self.core.quiet_cycles(&self.idle_inputs(rx))
+    }
+
+    fn skip_edges(&mut self, edges: u64, rx: bool, _traced: bool, checked: bool) {
+        self.inputs = self.idle_inputs(rx);
+        self.core.skip(edges, checked);
     }
 
     fn probes(&self) -> Vec<Probe> {

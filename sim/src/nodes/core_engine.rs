@@ -158,6 +158,22 @@ impl CoreModel {
             CoreModel::Compiled(core) => core.cycle(inputs),
         }
     }
+
+    /// Quiet cycles ahead with `inputs` ([`CompiledCore::quiet_cycles`]); none on rust-hdl.
+    pub fn quiet_cycles(&self, inputs: &CoreInputs) -> u64 {
+        match self {
+            CoreModel::RustHdl { .. } => 0,
+            CoreModel::Compiled(core) => core.quiet_cycles(inputs),
+        }
+    }
+
+    /// Runs `cycles` quiet cycles at once ([`CompiledCore::skip`]).
+    pub fn skip(&mut self, cycles: u64, checked: bool) {
+        match self {
+            CoreModel::RustHdl { .. } => unreachable!("the rust-hdl core has no quiet cycles"),
+            CoreModel::Compiled(core) => core.skip(cycles, checked),
+        }
+    }
 }
 
 fn bits<const N: usize>(value: u8) -> Bits<N> {

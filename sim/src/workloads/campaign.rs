@@ -29,7 +29,7 @@ use rtl::bsp::protocol::ProtocolState;
 use crate::engine::bus::Drive;
 use crate::engine::bus_timing::BusTiming;
 use crate::engine::time::ClockSpec;
-use crate::engine::{Device, DeviceId, Engine};
+use crate::engine::{Device, DeviceId, EdgeSkipping, Engine};
 use crate::nodes::can_node::{CanNode, NodeEvent};
 use crate::nodes::controller_node::ModelEngine;
 use crate::nodes::core_engine::CoreModel;
@@ -178,11 +178,25 @@ pub fn run_rtl(case: &Case) -> Run {
 /// [`run_rtl`] with the cores on `model`, writing a VCD of the bus and the nodes to `vcd` if
 /// given.
 pub fn run_rtl_on(case: &Case, model: ModelEngine, vcd: Option<&Path>) -> io::Result<Run> {
+    run_rtl_with(case, model, vcd, None).map(|(run, _)| run)
+}
+
+/// [`run_rtl_on`] with quiet clock edges skipped as `skipping` says (`None`: as
+/// `CAN_SKIP_EDGES` says); also how many edges were skipped.
+pub fn run_rtl_with(
+    case: &Case,
+    model: ModelEngine,
+    vcd: Option<&Path>,
+    skipping: Option<EdgeSkipping>,
+) -> io::Result<(Run, u64)> {
     let btr = campaign_btr();
     let clock = ClockSpec::from_hz(CLOCK_HZ);
     let period = clock.period_fs();
     let bit_fs = btr.clocks_per_bit() as u64 * period;
     let mut engine = Engine::new();
+    if let Some(skipping) = skipping {
+        engine.set_edge_skipping(skipping);
+    }
     let mut ids = Vec::with_capacity(NODES);
     for n in 0..NODES {
         let node = CanNode::with_engine(&format!("n{n}"), clock, btr, model)
@@ -239,11 +253,12 @@ pub fn run_rtl_on(case: &Case, model: ModelEngine, vcd: Option<&Path>) -> io::Re
         .map(|&id| node_report(engine.device::<CanNode>(id)))
         .collect();
     engine.finish_trace()?;
-    Ok(Run {
+    let run = Run {
         bus: engine.device::<BusMonitor>(monitor).samples.clone(),
         nodes,
         transmitted,
-    })
+    };
+    Ok((run, engine.skipped_edges()))
 }
 
 /// Reads the bus bit by bit: synchronises on a recessive-to-dominant edge when the last bit it read
@@ -315,6 +330,27 @@ impl Device for BusMonitor {
         }
         self.phase = Some(phase);
         Drive::Recessive
+    }
+
+    /// Quiet while the level holds: up to the next bit's start or sample, or for good before
+    /// the first edge.
+    fn quiet_edges(&self, rx: bool, _traced: bool) -> u64 {
+        if rx != self.last_level {
+            return 0;
+        }
+        match self.phase {
+            Some(p) if self.started && p < self.sample_clock => {
+                u64::from(self.sample_clock - p - 1)
+            }
+            Some(p) if self.started => u64::from(self.clocks_per_bit - p - 1),
+            _ => u64::MAX,
+        }
+    }
+
+    fn skip_edges(&mut self, edges: u64, _rx: bool, _traced: bool, _checked: bool) {
+        if let (true, Some(p)) = (self.started, self.phase) {
+            self.phase = Some(p + edges as u32);
+        }
     }
 
     fn as_any(&self) -> &dyn Any {

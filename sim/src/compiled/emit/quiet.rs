@@ -10,8 +10,9 @@ use crate::compiled::cells::Operands;
 use crate::compiled::netlist::Bit;
 
 impl Emitter<'_> {
-    /// `state`, `set_state` and `settled` for the nets of [`super::Interface::state`] (nothing when
-    /// the list is empty).
+    /// `state`, `set_state` (the free-running nets only, which must be flip-flop outputs),
+    /// `settled` and `differences` for the nets of [`super::Interface::state`] (nothing when the
+    /// list is empty).
     pub(super) fn quiet(&self) -> Result<String, String> {
         if self.io.state.is_empty() {
             return Ok(String::new());
@@ -20,13 +21,14 @@ impl Emitter<'_> {
         let mut free = vec![false; self.regs.len()];
         for (i, (name, free_running)) in self.io.state.iter().enumerate() {
             let bits = self.output_bits(name)?;
-            let flip_flops = self.flip_flop_bits(name, bits)?;
-            if *free_running {
-                for &k in flip_flops.keys() {
-                    free[k] = true;
-                }
-            }
             writeln!(get, "            {i} => {}, // {name}", self.operand(bits)?).unwrap();
+            if !free_running {
+                continue; // read only: a register, or an input
+            }
+            let flip_flops = self.flip_flop_bits(name, bits)?;
+            for &k in flip_flops.keys() {
+                free[k] = true;
+            }
             writeln!(set, "            {i} => {{ // {name}").unwrap();
             for (k, placed) in &flip_flops {
                 let clear = placed.iter().fold(0u64, |m, &(_, at)| m | 1 << at);
@@ -49,18 +51,19 @@ impl Emitter<'_> {
         let differences = self.differences_code()?;
         Ok(format!(
             "
-    /// The value of net `i` of the design's state list for edge skipping (flip-flop outputs).
+    /// The value of net `i` of the design's state list for edge skipping (flip-flop outputs and
+    /// inputs).
     pub(super) fn state(&self, i: usize) -> u64 {{
         match i {{
 {get}            _ => panic!(\"no state net {{i}}\"),
         }}
     }}
 
-    /// Writes `value` into the flip-flops of state net `i` (as if an edge had loaded it); the
-    /// groups that read a changed one run at the next `eval`.
+    /// Writes `value` into the flip-flops of free-running state net `i` (as if an edge had
+    /// loaded it); the groups that read a changed one run at the next `eval`.
     pub(super) fn set_state(&mut self, i: usize, value: u64) {{
         match i {{
-{set}            _ => panic!(\"no state net {{i}}\"),
+{set}            _ => panic!(\"no free-running state net {{i}}\"),
         }}
     }}
 
