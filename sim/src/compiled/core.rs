@@ -268,20 +268,12 @@ impl CompiledCore {
         if let Some(mut copy) = copy {
             let inputs = copy.applied.expect("a cycle ran before the skip");
             let before = copy.model.outputs();
-            for cycle in 0..cycles {
+            let step = || {
                 copy.cycle(&inputs);
-                let after = copy.model.outputs();
-                assert_eq!(
-                    before, after,
-                    "cycle {cycle} of {cycles} skipped ones changed the core's outputs"
-                );
-            }
-            let differences = copy.model.differences(&self.model);
-            assert!(
-                differences.is_empty(),
-                "skipping {cycles} cycles left another core state than stepping them: \
-                 {differences:?}"
-            );
+                copy.model.outputs()
+            };
+            super::quiet::assert_stepping_agrees("core", cycles, before, step);
+            super::quiet::assert_same_state("core", cycles, copy.model.differences(&self.model));
         }
     }
 }

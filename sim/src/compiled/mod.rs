@@ -327,20 +327,12 @@ impl CompiledController {
                 !(1 << OUT_CLKOUT)
             };
             let before = copy.model.outputs() & seen;
-            for cycle in 0..cycles {
+            let step = || {
                 copy.cycle(inputs);
-                let after = copy.model.outputs() & seen;
-                assert_eq!(
-                    before, after,
-                    "cycle {cycle} of {cycles} skipped ones changed the outputs \
-                     ({before:#x} -> {after:#x})"
-                );
-            }
-            let differences = copy.model.differences(&self.model);
-            assert!(
-                differences.is_empty(),
-                "skipping {cycles} cycles left another state than stepping them: {differences:?}"
-            );
+                copy.model.outputs() & seen
+            };
+            quiet::assert_stepping_agrees("controller", cycles, before, step);
+            quiet::assert_same_state("controller", cycles, copy.model.differences(&self.model));
         }
     }
 }

@@ -201,6 +201,33 @@ pub(super) fn advance<M: Counters>(model: &mut M, cycles: u64) {
     model.evaluate();
 }
 
+/// The checked mode's test of a skip of `cycles` cycles: panics unless every one of them, stepped
+/// by `step` (which gives the outputs seen after it), leaves the outputs at `before`.
+pub(super) fn assert_stepping_agrees<W: PartialEq + std::fmt::LowerHex>(
+    design: &str,
+    cycles: u64,
+    before: W,
+    mut step: impl FnMut() -> W,
+) {
+    for cycle in 0..cycles {
+        let after = step();
+        assert!(
+            after == before,
+            "{design}: cycle {cycle} of {cycles} skipped ones changed the outputs \
+             ({before:#x} -> {after:#x})"
+        );
+    }
+}
+
+/// Panics unless the skip and the stepping ended in the same state (`differences` empty).
+pub(super) fn assert_same_state(design: &str, cycles: u64, differences: Vec<&'static str>) {
+    assert!(
+        differences.is_empty(),
+        "{design}: skipping {cycles} cycles left another state than stepping them: \
+         {differences:?}"
+    );
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
