@@ -111,14 +111,14 @@ fn malformed_input_gets_an_error_the_connection_stays_and_the_bus_is_untouched()
         ("< subscribe 0 0 123 >", "'subscribe' is not served"),
         ("garbage", "text outside a message, from byte 0x67"),
     ] {
-        let answer = client.ask(message);
+        let answer = client.ask_in_raw_mode(message);
         assert!(
             answer.starts_with("< error ") && answer.contains(expected),
             "{message}: {answer}"
         );
     }
     // Still connected and served.
-    assert_eq!(client.ask("< echo >"), "< echo >");
+    assert_eq!(client.ask_in_raw_mode("< echo >"), "< echo >");
     client.say("< send 124 1 aa >");
     // A second client sends one frame and vanishes in the middle of its next message.
     let mut second = Raw::connect(server.port);

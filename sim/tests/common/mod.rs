@@ -171,6 +171,18 @@ impl Raw {
         self.answer()
     }
 
+    /// The answer to `message` in raw mode, where frames from the bus may come first (the bus
+    /// runs while the client talks): those are skipped.
+    pub fn ask_in_raw_mode(&mut self, message: &str) -> String {
+        self.0.write_all(message.as_bytes()).unwrap();
+        loop {
+            let answer = self.answer();
+            if !answer.starts_with("< frame ") {
+                return answer;
+            }
+        }
+    }
+
     pub fn say(&mut self, message: &str) {
         self.0.write_all(message.as_bytes()).unwrap();
     }
