@@ -79,31 +79,26 @@ pub(super) trait Counters {
     fn evaluate(&mut self);
 }
 
-impl Counters for model::Model {
-    const DIVIDER: bool = true;
-    fn state(&self, i: usize) -> u64 {
-        model::Model::state(self, i)
-    }
-    fn set_state(&mut self, i: usize, value: u64) {
-        model::Model::set_state(self, i, value);
-    }
-    fn evaluate(&mut self) {
-        self.eval(false);
-    }
+/// `Counters` for a generated model, whose methods of the same names it calls.
+macro_rules! counters {
+    ($model:ty, divider: $divider:literal) => {
+        impl Counters for $model {
+            const DIVIDER: bool = $divider;
+            fn state(&self, i: usize) -> u64 {
+                <$model>::state(self, i)
+            }
+            fn set_state(&mut self, i: usize, value: u64) {
+                <$model>::set_state(self, i, value);
+            }
+            fn evaluate(&mut self) {
+                self.eval(false);
+            }
+        }
+    };
 }
 
-impl Counters for core_model::Model {
-    const DIVIDER: bool = false;
-    fn state(&self, i: usize) -> u64 {
-        core_model::Model::state(self, i)
-    }
-    fn set_state(&mut self, i: usize, value: u64) {
-        core_model::Model::set_state(self, i, value);
-    }
-    fn evaluate(&mut self) {
-        self.eval(false);
-    }
-}
+counters!(model::Model, divider: true);
+counters!(core_model::Model, divider: false);
 
 /// BTR0.5..0 (the BRP input of the core has only these): the prescaler.
 const BRP_MASK: u64 = 0x3F;

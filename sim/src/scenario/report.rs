@@ -33,10 +33,10 @@ pub struct RunReport {
     pub frame_starts: Vec<u64>,
     /// Simulated time.
     pub simulated_fs: u64,
-    /// Clock edges of all nodes, and how many of them were skipped rather than stepped
-    /// (`CAN_SKIP_EDGES`, [`crate::engine::EdgeSkipping`]).
+    /// Clock edges of all nodes, stepped or skipped.
     pub edges: u64,
-    /// See `edges`.
+    /// How many of `edges` were skipped rather than stepped (`CAN_SKIP_EDGES`,
+    /// [`crate::engine::EdgeSkipping`]).
     pub skipped_edges: u64,
     /// The VCD written, if any.
     pub vcd: Option<PathBuf>,
