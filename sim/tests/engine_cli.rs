@@ -173,3 +173,45 @@ fn bench_measures_each_bit_rate_asked_for() {
         .collect();
     assert_eq!(rates, ["125k", "1M"], "{stdout}");
 }
+
+/// `cansim campaign` names its runner, gives the same counts with both, and refuses an unknown one.
+#[test]
+fn the_campaign_runs_in_lanes_or_on_the_engine_with_the_same_counts() {
+    let counts = |runner: &str| {
+        let out = cansim(
+            &[
+                "campaign", "--faults", "70", "--seed", "5", "--runner", runner,
+            ],
+            &[],
+        );
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        let stdout = text(&out.stdout);
+        let first = stdout.lines().next().unwrap_or_default().to_string();
+        let rows: Vec<String> = stdout
+            .lines()
+            .skip(1)
+            .filter(|l| !l.contains("cases/s"))
+            .map(str::to_string)
+            .collect();
+        (first, rows)
+    };
+    let (lanes_line, lanes) = counts("lanes");
+    let (engine_line, engine) = counts("engine");
+    assert!(lanes_line.ends_with("runner lanes (64 cases per evaluation of the gate-level core)"));
+    assert!(
+        engine_line.ends_with("runner engine, cores on compiled"),
+        "{engine_line}"
+    );
+    assert_eq!(lanes, engine);
+    assert!(
+        lanes.iter().any(|l| l.starts_with("  Recovered")),
+        "{lanes:?}"
+    );
+
+    let out = cansim(&["campaign", "--faults", "3", "--runner", "fast"], &[]);
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(
+        text(&out.stderr),
+        "cansim: `fast` is not a campaign runner: use `lanes` (the default) or `engine`\n"
+    );
+}

@@ -26,7 +26,9 @@ use sim::engine::EdgeSkipping;
 use sim::host::sja1000::{drain_rx, transmit};
 use sim::nodes::controller_node::ModelEngine;
 use sim::scenario::{load, run, RunOptions, RunReport};
-use sim::workloads::campaign::{random_case, run_rtl_on, run_rtl_with, Outcome as CaseOutcome};
+use sim::workloads::campaign::{
+    check, random_case, run_rtl_lanes, run_rtl_on, run_rtl_with, Outcome as CaseOutcome,
+};
 use testbenches::controller_bench::{configure_pelican, ControllerBench, INTEGRATION_BITS};
 
 /// A fresh scratch directory, unique within the process (tests run in parallel).
@@ -421,6 +423,34 @@ fn a_campaign_slice_runs_the_same_with_quiet_edges_skipped() {
     }
     assert!(skipped > 0, "no edge was skipped");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Cases of the lane comparison: enough for every lane to take several cases one after the other.
+const LANE_CASES: u64 = 200;
+
+/// The lane runner (64 cases at a time in the lane model, the core mapped to gates by Yosys; a lane
+/// takes the next case as soon as its case ends) gives every case the run the engine gives it
+/// alone on the compiled core: bus bits, deliveries, errors, counters.
+#[test]
+fn campaign_cases_run_the_same_in_lanes_as_alone_on_the_engine() {
+    let cases: Vec<_> = (0..LANE_CASES)
+        .map(|index| random_case(&mut Rng::for_case(SLICE_SEED, index)))
+        .collect();
+    let runs = run_rtl_lanes(&cases).unwrap();
+    let mut outcomes = std::collections::BTreeSet::new();
+    let sides = ("compiled engine", "lanes");
+    for (index, (case, lanes)) in cases.iter().zip(&runs).enumerate() {
+        let alone = run_rtl_on(case, ModelEngine::Compiled, None).unwrap();
+        let what = format!("case {index}: bus bits");
+        assert_same_items(&what, sides, &alone.bus, &lanes.bus);
+        assert_eq!(
+            &alone, lanes,
+            "case {index}: the lanes differ from the engine"
+        );
+        outcomes.insert(check(case, &alone).outcome);
+    }
+    // Errors, retransmissions and error-passive nodes are among them, not only clean frames.
+    assert!(outcomes.len() >= 4, "{outcomes:?}");
 }
 
 #[test]

@@ -14,7 +14,7 @@ use golden::reference::{Fault, FaultKind};
 use proptest::prelude::*;
 use sim::nodes::controller_node::ModelEngine;
 use sim::workloads::campaign::{
-    check, run_campaign, run_campaign_shard, run_rtl, Case, Injection, Outcome, Run, NODES,
+    check, run_campaign, run_campaign_shard, run_rtl, Case, Injection, Outcome, Run, Runner, NODES,
 };
 use sim::workloads::campaign_slice::{merge, read_slice, write_slice, Shard, Slice};
 
@@ -267,7 +267,7 @@ fn a_fault_free_frame_reaches_every_receiver_once() {
 
 #[test]
 fn short_campaign_breaks_no_rule() {
-    let summary = run_campaign(7, 200, engine(), 2, &|_| {}).unwrap();
+    let summary = run_campaign(7, 200, Runner::Lanes, 2, &|_| {}).unwrap();
     assert_eq!(summary.cases, 200);
     assert!(
         summary.failures.is_empty(),
@@ -286,7 +286,7 @@ fn short_campaign_breaks_no_rule() {
 /// Shard `index` of `count` of the 90-case campaign with seed 11, through its slice file.
 fn slice_file(dir: &std::path::Path, index: u64, count: u64) -> Slice {
     let shard = Shard { index, count };
-    let summary = run_campaign_shard(11, 90, shard, engine(), 1, &|_| {}).unwrap();
+    let summary = run_campaign_shard(11, 90, shard, Runner::Lanes, 1, &|_| {}).unwrap();
     let path = dir.join(format!("slice-{index}-of-{count}.jsonl"));
     let slice = Slice {
         seed: 11,
@@ -302,7 +302,8 @@ fn slice_file(dir: &std::path::Path, index: u64, count: u64) -> Slice {
 fn campaign_slices_merge_into_the_report_of_one_run() {
     let dir = std::env::temp_dir().join(format!("cansim-slices-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let whole = run_campaign(11, 90, engine(), 2, &|_| {}).unwrap();
+    // The whole run plays each case alone on the engine, the slices 64 at a time in lanes.
+    let whole = run_campaign(11, 90, Runner::Engine(engine()), 2, &|_| {}).unwrap();
     for count in [2, 3] {
         let slices: Vec<Slice> = (1..=count).map(|k| slice_file(&dir, k, count)).collect();
         assert_eq!(

@@ -24,7 +24,7 @@ use sim::serve::ServeOptions;
 use sim::verilated;
 use sim::workloads::bench::BitRate;
 use sim::workloads::campaign::{
-    check, describe, format_summary, random_case, run_campaign_shard, run_rtl_on,
+    check, describe, format_summary, random_case, run_campaign_shard, run_rtl_on, Runner,
 };
 use sim::workloads::campaign_slice::{merge, read_slice, write_slice, Shard, Slice};
 use sim::workloads::demo::{demo_scenario, DEMO_LOG, DEMO_VCD};
@@ -169,6 +169,11 @@ enum Command {
         /// Write the counts and failures as JSON lines (the input of `campaign-merge`).
         #[arg(long, conflicts_with = "case")]
         out: Option<PathBuf>,
+        /// How the cases are played: `lanes` (64 at a time in the gate-level lane model of the
+        /// core) or `engine` (each alone on the simulation engine, the cores on CAN_ENGINE's
+        /// model, as --case plays one); both give the same result for every case.
+        #[arg(long, default_value = "lanes", conflicts_with = "case")]
+        runner: String,
     },
     /// Add up campaign slices (`campaign --shard K/N --out FILE`) into the report of one run of the
     /// whole campaign; refuses slices of different campaigns, a shard given twice or missing.
@@ -408,9 +413,10 @@ fn main() -> ExitCode {
             vcd,
             shard,
             out,
+            runner,
         } => match case {
             Some(index) => campaign_case(seed, index, vcd),
-            None => campaign(faults, seed, threads, shard, out),
+            None => campaign(faults, seed, threads, shard, out, &runner),
         },
         Command::CampaignMerge { files } => campaign_merge(&files),
         Command::Decode {
@@ -773,20 +779,21 @@ fn campaign(
     threads: Option<usize>,
     shard: Shard,
     out: Option<PathBuf>,
+    runner: &str,
 ) -> Result<(), String> {
     if faults == 0 {
         return Err("--faults must be at least 1".into());
     }
     let threads = default_threads(threads);
     let cases = shard.len(faults);
-    let model = ModelEngine::from_env()?;
+    let runner = Runner::parse(runner, ModelEngine::from_env()?)?;
     if shard == Shard::WHOLE {
         println!(
-            "cansim campaign: {faults} faults, seed {seed}, {threads} threads, engine {model}"
+            "cansim campaign: {faults} faults, seed {seed}, {threads} threads, runner {runner}"
         );
     } else {
         println!(
-            "cansim campaign: shard {}/{} of {faults} faults ({cases} cases), seed {seed}, {threads} threads, engine {model}",
+            "cansim campaign: shard {}/{} of {faults} faults ({cases} cases), seed {seed}, {threads} threads, runner {runner}",
             shard.index, shard.count
         );
     }
@@ -802,7 +809,7 @@ fn campaign(
             eprint!("\r{done}/{cases} cases, {rate:.0} cases/s, {eta:.0} s to go   ");
         }
     };
-    let summary = run_campaign_shard(seed, faults, shard, model, threads, &progress)?;
+    let summary = run_campaign_shard(seed, faults, shard, runner, threads, &progress)?;
     if show {
         eprintln!();
     }
@@ -1196,8 +1203,8 @@ fn on_off(flag: bool) -> &'static str {
     }
 }
 
-/// Campaign throughput on each engine (the bare cores have no Verilator model) and on 1, 2, ...
-/// threads up to the number of cores.
+/// Campaign throughput with the lane runner and with each engine (the bare cores have no
+/// Verilator model) on 1, 2, ... threads up to the number of cores.
 fn campaign_scaling(engines: Vec<ModelEngine>, faults: u64) -> Result<(), String> {
     if faults == 0 {
         return Ok(());
@@ -1208,23 +1215,31 @@ fn campaign_scaling(engines: Vec<ModelEngine>, faults: u64) -> Result<(), String
         engines
     };
     let cores = default_threads(None);
+    let mut runners = vec![Runner::Lanes];
     for engine in engines {
         if engine == ModelEngine::Verilator {
             println!("fault-injection campaign: no Verilator model of the bare core, skipped");
-            continue;
+        } else {
+            runners.push(Runner::Engine(engine));
         }
+    }
+    for runner in runners {
         println!(
-            "fault-injection campaign on {engine}, {faults} cases per thread count, {cores} cores"
+            "fault-injection campaign, runner {runner}: {faults} cases per thread count, {cores} cores"
         );
         println!("{:>7} {:>10} {:>8}", "threads", "cases/s", "speedup");
+        let name = match runner {
+            Runner::Lanes => "lanes".to_string(),
+            Runner::Engine(engine) => engine.to_string(),
+        };
         let mut single = None;
         for threads in 1..=cores {
-            let rate = sim::workloads::bench::campaign_rate(1, faults, engine, threads)
+            let rate = sim::workloads::bench::campaign_rate(1, faults, runner, threads)
                 .map_err(|e| e.to_string())?;
             let speedup = rate / *single.get_or_insert(rate);
             println!("{threads:>7} {rate:>10.1} {speedup:>7.2}x");
             println!(
-                "BENCH campaign engine={engine} threads={threads} cases_per_s={rate:.1} \
+                "BENCH campaign engine={name} threads={threads} cases_per_s={rate:.1} \
                  speedup={speedup:.2}"
             );
         }

@@ -15,7 +15,7 @@ use crate::verilated::EngineError;
 pub(super) const TOP: &str = "top";
 
 /// The core's input ports and their widths, in the order they are packed into the input word.
-const INPUTS: [(&str, u32); 18] = [
+pub(super) const INPUTS: [(&str, u32); 18] = [
     ("reset", 1),
     ("rx", 1),
     ("enable", 1),
@@ -38,7 +38,7 @@ const INPUTS: [(&str, u32); 18] = [
 
 /// The core's output ports and their widths, in the order they are packed into the output word
 /// (and read back by [`outputs`]).
-const OUTPUTS: [(&str, u32); 26] = [
+pub(super) const OUTPUTS: [(&str, u32); 26] = [
     ("tx", 1),
     ("rx_valid", 1),
     ("transmit$addr", 4),
@@ -81,9 +81,9 @@ const fn packed<const N: usize>(ports: &[(&'static str, u32); N]) -> [(&'static 
 }
 
 /// The input ports at their positions in the input word.
-static PACKED_INPUTS: [(&str, u32); INPUTS.len()] = packed(&INPUTS);
+pub(super) static PACKED_INPUTS: [(&str, u32); INPUTS.len()] = packed(&INPUTS);
 /// The output ports at their positions in the output word.
-static PACKED_OUTPUTS: [(&str, u32); OUTPUTS.len()] = packed(&OUTPUTS);
+pub(super) static PACKED_OUTPUTS: [(&str, u32); OUTPUTS.len()] = packed(&OUTPUTS);
 
 /// The Verilog of [`CanCore`] as rust-hdl generates it (top module [`TOP`]).
 pub(super) fn core_verilog() -> String {
@@ -105,7 +105,7 @@ pub(super) fn interface(verilog: &str) -> emit::Interface<'_> {
 }
 
 /// The input word of `inputs` (ports in [`INPUTS`] order).
-fn input_word(i: &CoreInputs) -> u64 {
+pub(super) fn input_word(i: &CoreInputs) -> u64 {
     let values = [
         u64::from(i.reset),
         u64::from(i.rx),
@@ -158,7 +158,7 @@ impl Reader {
 }
 
 /// The outputs packed in `word` (struct fields are evaluated in the order written: [`OUTPUTS`]'s).
-fn outputs(word: u128) -> CoreOutputs {
+pub(super) fn outputs(word: u128) -> CoreOutputs {
     let mut r = Reader { word, next: 0 };
     let out = CoreOutputs {
         tx: r.bit(),

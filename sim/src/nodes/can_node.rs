@@ -192,8 +192,6 @@ impl CanNode {
         self.out.state
     }
 
-    /// Collects the strobes of the clock cycle that started at `t_fs`: errors first, then the
-    /// frame and transmission results they may have caused.
     /// The inputs of an edge without a counter load or abort at which the node sees `rx`.
     fn idle_inputs(&self, rx: bool) -> CoreInputs {
         CoreInputs {
@@ -211,47 +209,63 @@ impl CanNode {
         }
     }
 
+    /// Records the strobes of the clock cycle that started at `t_fs` ([`cycle_events`]); a
+    /// finished transmission ends the request.
     fn collect(&mut self, t_fs: u64) {
-        let out = self.out;
-        if out.bus_error {
-            self.events.push((t_fs, NodeEvent::BusError(out.ecc)));
-        }
-        if out.arbitration_lost {
-            self.events
-                .push((t_fs, NodeEvent::ArbitrationLost(out.alc)));
-        }
-        if out.rx_strobe {
-            self.rx_data[usize::from(out.rx_index)] = out.rx_data;
-        }
-        if out.rx_valid {
-            let frame = self.received_frame();
-            self.events.push((t_fs, NodeEvent::Received(frame)));
-        }
-        if out.tx_done {
-            self.events
-                .push((t_fs, NodeEvent::TransmitDone(out.tx_success)));
+        let (events, request_pending) = (&mut self.events, &mut self.request_pending);
+        cycle_events(&self.out, &mut self.rx_data, |event| {
+            if matches!(event, NodeEvent::TransmitDone(_)) {
+                *request_pending = false;
+            }
+            events.push((t_fs, event));
+        });
+        if !self.request_pending {
             self.inputs.request = false;
-            self.request_pending = false;
         }
     }
+}
 
-    fn received_frame(&self) -> Frame {
-        let out = &self.out;
-        let raw = out.rx_id;
-        let id = if out.rx_ide {
-            Id::extended(raw)
-        } else {
-            Id::standard((raw >> STANDARD_ID_SHIFT) as u16)
-        }
-        .expect("the core delivers identifiers in range");
-        let dlc = out.rx_dlc;
-        let frame = if out.rx_rtr {
-            Frame::remote(id, dlc)
-        } else {
-            Frame::data_with_dlc(id, dlc, &self.rx_data[..dlc.min(8) as usize])
-        };
-        frame.expect("the core delivers DLC 0..15")
+/// Reports the strobes among one cycle's outputs `out` in the order a node records them: errors
+/// first, then the frame and transmission results they may have caused; `rx_data` collects the
+/// received data bytes as they are strobed.
+pub(crate) fn cycle_events(
+    out: &CoreOutputs,
+    rx_data: &mut [u8; 8],
+    mut report: impl FnMut(NodeEvent),
+) {
+    if out.bus_error {
+        report(NodeEvent::BusError(out.ecc));
     }
+    if out.arbitration_lost {
+        report(NodeEvent::ArbitrationLost(out.alc));
+    }
+    if out.rx_strobe {
+        rx_data[usize::from(out.rx_index)] = out.rx_data;
+    }
+    if out.rx_valid {
+        report(NodeEvent::Received(received_frame(out, rx_data)));
+    }
+    if out.tx_done {
+        report(NodeEvent::TransmitDone(out.tx_success));
+    }
+}
+
+/// The frame a core with outputs `out` delivers, its data bytes collected in `rx_data`.
+fn received_frame(out: &CoreOutputs, rx_data: &[u8; 8]) -> Frame {
+    let raw = out.rx_id;
+    let id = if out.rx_ide {
+        Id::extended(raw)
+    } else {
+        Id::standard((raw >> STANDARD_ID_SHIFT) as u16)
+    }
+    .expect("the core delivers identifiers in range");
+    let dlc = out.rx_dlc;
+    let frame = if out.rx_rtr {
+        Frame::remote(id, dlc)
+    } else {
+        Frame::data_with_dlc(id, dlc, &rx_data[..dlc.min(8) as usize])
+    };
+    frame.expect("the core delivers DLC 0..15")
 }
 
 impl Device for CanNode {

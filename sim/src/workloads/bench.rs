@@ -21,6 +21,7 @@ use crate::host::sja1000::{
 };
 use crate::host::Host;
 use crate::nodes::controller_node::{ControllerNode, ModelEngine};
+use crate::workloads::campaign::Runner;
 use golden::frame::{Frame, Id};
 
 /// Controller clock of the workload.
@@ -362,16 +363,15 @@ fn thread_cpu_seconds() -> f64 {
 }
 
 /// Fault-injection cases per second of real time when `threads` workers share `faults` cases of the
-/// campaign with `seed` (`cansim campaign`), the cores on `model`; fails if a case broke a CAN
-/// rule.
+/// campaign with `seed` (`cansim campaign`) played by `runner`; fails if a case broke a CAN rule.
 pub fn campaign_rate(
     seed: u64,
     faults: u64,
-    model: ModelEngine,
+    runner: Runner,
     threads: usize,
 ) -> Result<f64, BenchError> {
     let start = Instant::now();
-    let summary = crate::workloads::campaign::run_campaign(seed, faults, model, threads, &|_| {})
+    let summary = crate::workloads::campaign::run_campaign(seed, faults, runner, threads, &|_| {})
         .map_err(BenchError)?;
     let seconds = start.elapsed().as_secs_f64();
     if let Some((index, violations)) = summary.failures.first() {
@@ -547,9 +547,9 @@ mod tests {
 
     #[test]
     fn the_campaign_rate_counts_cases() {
-        assert!(
-            campaign_rate(1, 4, ModelEngine::Compiled, 2).expect("no case breaks a rule") > 0.0
-        );
+        for runner in [Runner::Lanes, Runner::Engine(ModelEngine::Compiled)] {
+            assert!(campaign_rate(1, 4, runner, 2).expect("no case breaks a rule") > 0.0);
+        }
     }
 
     #[test]

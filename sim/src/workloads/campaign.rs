@@ -14,9 +14,13 @@
 //! that bit lies inside and those of its neighbours outside, whatever the small phase differences
 //! between the nodes.
 
+mod lanes;
+
 use crate::engine::rng::Rng;
 use crate::host::sja1000::{BTR0_1M_AT_16MHZ, BTR1_1M_AT_16MHZ};
+use crate::verilated::EngineError;
 use crate::workloads::campaign_slice::Shard;
+use lanes::LaneRunner;
 use std::any::Any;
 use std::collections::BTreeMap;
 use std::io;
@@ -161,6 +165,39 @@ pub struct Verdict {
     /// Violations: disagreement with the golden model, or a disagreement between nodes outside the
     /// last EOF bits.
     pub violations: Vec<String>,
+}
+
+/// How a campaign plays its cases.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Runner {
+    /// 64 cases at a time in the lanes of the lane model (the CAN core mapped to gates by Yosys,
+    /// [`crate::compiled::lane_core`]): the default, about ten times faster.
+    Lanes,
+    /// Each case alone on the simulation engine with its cores on this model, as
+    /// [`run_rtl_on`] plays it (and `cansim campaign --case`).
+    Engine(ModelEngine),
+}
+
+impl Runner {
+    /// `lanes`, or `engine` with the cores on `model`.
+    pub fn parse(text: &str, model: ModelEngine) -> Result<Runner, String> {
+        match text {
+            "lanes" => Ok(Runner::Lanes),
+            "engine" => Ok(Runner::Engine(model)),
+            other => Err(format!(
+                "`{other}` is not a campaign runner: use `lanes` (the default) or `engine`"
+            )),
+        }
+    }
+}
+
+impl std::fmt::Display for Runner {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Runner::Lanes => write!(f, "lanes (64 cases per evaluation of the gate-level core)"),
+            Runner::Engine(model) => write!(f, "engine, cores on {model}"),
+        }
+    }
 }
 
 /// The campaign bit timing.
@@ -392,6 +429,69 @@ fn load_counters(
     engine.run_until(engine.now() + 2 * period)
 }
 
+/// What an injection does to the nodes, and when: at the clock edges in `from_fs..to_fs`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Window {
+    from_fs: u64,
+    to_fs: u64,
+    /// The node it applies to, or every node.
+    node: Option<usize>,
+    effect: Effect,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Effect {
+    /// The node sees this level.
+    Force(bool),
+    /// The node sees the inverted bus level.
+    Invert,
+    /// What the node drives does not reach the bus (it drives recessive).
+    Cut,
+}
+
+/// The window of `injection` in the bit that started at `start` (as the bus monitor saw it).
+fn window(injection: &Injection, start: u64, period: u64, btr: &Btr) -> Window {
+    let bit_fs = btr.clocks_per_bit() as u64 * period;
+    let tq_fs = btr.clocks_per_tq() as u64 * period;
+    match *injection {
+        Injection::Bit(Fault {
+            node, kind, bits, ..
+        }) => {
+            let from_fs = start + WINDOW_SHIFT_CLOCKS * period;
+            let effect = match kind {
+                FaultKind::Dominant => Effect::Force(DOMINANT),
+                FaultKind::Recessive => Effect::Force(!DOMINANT),
+                FaultKind::Flip => Effect::Invert,
+                FaultKind::Disconnected => {
+                    assert!(node.is_some(), "a disconnection is of one node");
+                    Effect::Cut
+                }
+            };
+            Window {
+                from_fs,
+                to_fs: from_fs + bits as u64 * bit_fs,
+                node,
+                effect,
+            }
+        }
+        Injection::Glitch {
+            from_tq,
+            quanta,
+            node,
+            level,
+            ..
+        } => {
+            let from_fs = start + from_tq as u64 * tq_fs;
+            Window {
+                from_fs,
+                to_fs: from_fs + quanta as u64 * tq_fs,
+                node,
+                effect: Effect::Force(level),
+            }
+        }
+    }
+}
+
 /// Applies `injection` to the bit that started at `start` (as the bus monitor saw it).
 fn disturb(
     engine: &mut Engine,
@@ -401,45 +501,16 @@ fn disturb(
     period: u64,
     btr: &Btr,
 ) {
-    let bit_fs = btr.clocks_per_bit() as u64 * period;
-    let tq_fs = btr.clocks_per_tq() as u64 * period;
-    let (from, to, node, level) = match *injection {
-        Injection::Bit(Fault {
-            node, kind, bits, ..
-        }) => {
-            let from = start + WINDOW_SHIFT_CLOCKS * period;
-            let to = from + bits as u64 * bit_fs;
-            let level = match kind {
-                FaultKind::Dominant => Some(DOMINANT),
-                FaultKind::Recessive => Some(!DOMINANT),
-                FaultKind::Flip => None,
-                FaultKind::Disconnected => {
-                    let cut = ids[node.expect("a disconnection is of one node")];
-                    engine.override_drive(cut, from, to, Drive::Recessive);
-                    return;
-                }
-            };
-            (from, to, node, level)
-        }
-        Injection::Glitch {
-            from_tq,
-            quanta,
-            node,
-            level,
-            ..
-        } => {
-            let from = start + from_tq as u64 * tq_fs;
-            (from, from + quanta as u64 * tq_fs, node, Some(level))
-        }
-    };
-    let targets: Vec<DeviceId> = match node {
+    let w = window(injection, start, period, btr);
+    let targets: Vec<DeviceId> = match w.node {
         Some(n) => vec![ids[n]],
         None => ids.to_vec(),
     };
     for id in targets {
-        match level {
-            Some(level) => engine.disturb_rx(id, from, to, level),
-            None => engine.invert_rx(id, from, to),
+        match w.effect {
+            Effect::Force(level) => engine.disturb_rx(id, w.from_fs, w.to_fs, level),
+            Effect::Invert => engine.invert_rx(id, w.from_fs, w.to_fs),
+            Effect::Cut => engine.override_drive(id, w.from_fs, w.to_fs, Drive::Recessive),
         }
     }
 }
@@ -784,11 +855,11 @@ pub struct Summary {
 pub fn run_campaign(
     seed: u64,
     count: u64,
-    model: ModelEngine,
+    runner: Runner,
     threads: usize,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Summary, String> {
-    run_campaign_shard(seed, count, Shard::WHOLE, model, threads, progress)
+    run_campaign_shard(seed, count, Shard::WHOLE, runner, threads, progress)
 }
 
 /// Runs the cases of `0..count` that fall to `shard` (case i is the same case whatever the
@@ -797,39 +868,72 @@ pub fn run_campaign_shard(
     seed: u64,
     count: u64,
     shard: Shard,
-    model: ModelEngine,
+    runner: Runner,
     threads: usize,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Summary, String> {
     // Refused once here rather than by every worker's first case.
-    CoreModel::new(model).map_err(|e| e.to_string())?;
+    match runner {
+        Runner::Lanes => LaneRunner::new()
+            .map(drop)
+            .map_err(|e| format!("{e} (the campaign's --runner engine needs no lane model)")),
+        Runner::Engine(model) => CoreModel::new(model).map(drop).map_err(|e| e.to_string()),
+    }?;
     let next = AtomicUsize::new(0);
+    let next_case = || {
+        let index = shard.case(next.fetch_add(1, Ordering::Relaxed) as u64);
+        (index < count).then(|| (index, random_case(&mut Rng::for_case(seed, index))))
+    };
     let summary = Mutex::new(Summary::default());
+    let record = |index: u64, case: &Case, run: &Run| {
+        let verdict = check(case, run);
+        let mut s = summary.lock().expect("no worker panicked");
+        s.cases += 1;
+        *s.outcomes.entry(verdict.outcome).or_default() += 1;
+        if !verdict.violations.is_empty() {
+            s.failures.push((index, verdict.violations));
+        }
+        let done = s.cases as u64;
+        drop(s);
+        progress(done);
+    };
     std::thread::scope(|scope| {
         for _ in 0..threads.max(1) {
-            scope.spawn(|| loop {
-                let index = shard.case(next.fetch_add(1, Ordering::Relaxed) as u64);
-                if index >= count {
-                    break;
+            scope.spawn(|| match runner {
+                Runner::Lanes => {
+                    let mut lanes = LaneRunner::new().expect("the lane model runs (checked above)");
+                    lanes.run(next_case, |index, case, run| record(index, &case, &run));
                 }
-                let case = random_case(&mut Rng::for_case(seed, index));
-                let run = run_rtl_on(&case, model, None).expect("the engine runs (checked above)");
-                let verdict = check(&case, &run);
-                let mut s = summary.lock().expect("no worker panicked");
-                s.cases += 1;
-                *s.outcomes.entry(verdict.outcome).or_default() += 1;
-                if !verdict.violations.is_empty() {
-                    s.failures.push((index, verdict.violations));
+                Runner::Engine(model) => {
+                    while let Some((index, case)) = next_case() {
+                        let run = run_rtl_on(&case, model, None)
+                            .expect("the engine runs (checked above)");
+                        record(index, &case, &run);
+                    }
                 }
-                let done = s.cases as u64;
-                drop(s);
-                progress(done);
             });
         }
     });
     let mut summary = summary.into_inner().expect("no worker panicked");
     summary.failures.sort_by_key(|(i, _)| *i);
     Ok(summary)
+}
+
+/// Plays `cases` as [`run_rtl`] does, 64 at a time in the lanes of the lane model (the CAN core
+/// mapped to gates, [`crate::compiled::lane_core`]); the runs in the order of `cases`. An error if
+/// the lane model does not match `rtl/`.
+pub fn run_rtl_lanes(cases: &[Case]) -> Result<Vec<Run>, EngineError> {
+    let mut runner = LaneRunner::new()?;
+    let mut runs: Vec<Option<Run>> = vec![None; cases.len()];
+    let mut queue = cases.iter().cloned().enumerate();
+    runner.run(
+        || queue.next().map(|(i, case)| (i as u64, case)),
+        |i, _, run| runs[i as usize] = Some(run),
+    );
+    Ok(runs
+        .into_iter()
+        .map(|run| run.expect("every case ran"))
+        .collect())
 }
 
 /// The summary as text: cases per outcome, then every case that broke a rule.
