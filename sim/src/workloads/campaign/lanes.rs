@@ -246,19 +246,8 @@ impl LaneRunner {
             self.prepare_inputs(l, k);
             let lane = self.lanes[l].as_mut().expect("a case");
             lane.monitor.rising_edge(t, bus >> l & 1 != 0);
-            let Some(w) = lane.window else {
-                continue;
-            };
-            if !(w.from_fs..w.to_fs).contains(&t) {
-                continue;
-            }
-            for n in (0..NODES).filter(|&n| w.node.is_none_or(|m| m == n)) {
-                match w.effect {
-                    Effect::Force(true) => rx[n] |= 1 << l,
-                    Effect::Force(false) => rx[n] &= !(1 << l),
-                    Effect::Invert => rx[n] ^= 1 << l,
-                    Effect::Cut => cut[n] |= 1 << l,
-                }
+            if let Some(w) = lane.window.filter(|w| (w.from_fs..w.to_fs).contains(&t)) {
+                apply_window(&w, l, &mut rx, &mut cut);
             }
         }
         for n in 0..NODES {
@@ -325,60 +314,65 @@ impl LaneRunner {
 
     /// Records the strobes of the clock, and follows each node's transmit-buffer address.
     fn collect(&mut self, starting: u64) {
-        let ports = &self.ports;
-        for (n, core) in self.cores.iter_mut().enumerate() {
-            let strobes = ports
-                .strobes
-                .iter()
-                .fold(0, |any, &port| any | core.mask(port))
-                & !starting;
-            let mut lanes = strobes;
-            while lanes != 0 {
-                let l = lanes.trailing_zeros() as usize;
-                lanes &= lanes - 1;
-                let Some(lane) = self.lanes[l].as_mut() else {
-                    continue;
-                };
-                let node = &mut lane.nodes[n];
-                let out = core.lane_outputs(l);
-                let mut request_ended = false;
-                cycle_events(&out, &mut node.rx_data, |event| match event {
-                    NodeEvent::Received(frame) => node.received.push(frame),
-                    NodeEvent::BusError(ecc) => node.errors.push(ecc),
-                    NodeEvent::TransmitDone(success) => {
-                        node.transmitted |= success;
-                        request_ended = true;
-                    }
-                    NodeEvent::ArbitrationLost(_) => {}
-                });
-                if request_ended {
-                    node.request_pending = false;
-                    node.inputs.request = false;
-                    core.set_lane(l, &node.inputs);
+        for n in 0..NODES {
+            self.collect_strobes(n, starting);
+            self.follow_tx_addr(n, starting);
+        }
+    }
+
+    /// Records node `n`'s strobes as its `CanNode` would (lanes just out of reset have none).
+    fn collect_strobes(&mut self, n: usize, starting: u64) {
+        let core = &mut self.cores[n];
+        let strobes = self
+            .ports
+            .strobes
+            .iter()
+            .fold(0, |any, &port| any | core.mask(port));
+        for l in set_lanes(strobes & !starting) {
+            let Some(lane) = self.lanes[l].as_mut() else {
+                continue;
+            };
+            let node = &mut lane.nodes[n];
+            let out = core.lane_outputs(l);
+            let mut request_ended = false;
+            cycle_events(&out, &mut node.rx_data, |event| match event {
+                NodeEvent::Received(frame) => node.received.push(frame),
+                NodeEvent::BusError(ecc) => node.errors.push(ecc),
+                NodeEvent::TransmitDone(success) => {
+                    node.transmitted |= success;
+                    request_ended = true;
                 }
+                NodeEvent::ArbitrationLost(_) => {}
+            });
+            if request_ended {
+                node.request_pending = false;
+                node.inputs.request = false;
+                core.set_lane(l, &node.inputs);
             }
-            let addr = ports.tx_addr.map(|port| core.mask(port));
-            let moved = addr
-                .iter()
-                .zip(&self.tx_addr[n])
-                .fold(0, |any, (now, before)| any | (now ^ before));
-            self.tx_addr[n] = addr;
-            let mut lanes = moved | starting;
-            while lanes != 0 {
-                let l = lanes.trailing_zeros() as usize;
-                lanes &= lanes - 1;
-                let Some(lane) = self.lanes[l].as_mut() else {
-                    continue;
-                };
-                let node = &mut lane.nodes[n];
-                node.tx_addr = core.value(ports.tx_addr_port, l) as u8;
-                node.inputs.data = node.data();
-                if starting >> l & 1 != 0 {
-                    // Out of reset: the inputs of the first edge.
-                    core.set_lane(l, &node.inputs);
-                } else {
-                    core.set_value(ports.data, l, u64::from(node.inputs.data));
-                }
+        }
+    }
+
+    /// Gives node `n` the transmit-buffer byte at its address in the lanes where the address moved
+    /// (and in those just out of reset, which also get the inputs of their first edge).
+    fn follow_tx_addr(&mut self, n: usize, starting: u64) {
+        let core = &mut self.cores[n];
+        let addr = self.ports.tx_addr.map(|port| core.mask(port));
+        let moved = addr
+            .iter()
+            .zip(&self.tx_addr[n])
+            .fold(0, |any, (now, before)| any | (now ^ before));
+        self.tx_addr[n] = addr;
+        for l in set_lanes(moved | starting) {
+            let Some(lane) = self.lanes[l].as_mut() else {
+                continue;
+            };
+            let node = &mut lane.nodes[n];
+            node.tx_addr = core.value(self.ports.tx_addr_port, l) as u8;
+            node.inputs.data = node.data();
+            if starting >> l & 1 != 0 {
+                core.set_lane(l, &node.inputs);
+            } else {
+                core.set_value(self.ports.data, l, u64::from(node.inputs.data));
             }
         }
     }
@@ -447,4 +441,29 @@ impl LaneRunner {
             transmitted: lane.nodes[0].transmitted,
         }
     }
+}
+
+/// Lane `l`'s injection window `w`, in force this clock: changes the levels the nodes see (`rx`)
+/// or cuts their drives from the bus (`cut`).
+fn apply_window(w: &Window, l: usize, rx: &mut [u64; NODES], cut: &mut [u64; NODES]) {
+    let bit = 1 << l;
+    for n in (0..NODES).filter(|&n| w.node.is_none_or(|m| m == n)) {
+        match w.effect {
+            Effect::Force(true) => rx[n] |= bit,
+            Effect::Force(false) => rx[n] &= !bit,
+            Effect::Invert => rx[n] ^= bit,
+            Effect::Cut => cut[n] |= bit,
+        }
+    }
+}
+
+/// The lanes whose bit is set in `mask`, lowest first.
+fn set_lanes(mut mask: u64) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let l = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            l
+        })
+    })
 }
