@@ -96,22 +96,18 @@ impl LaneCores {
 
     /// Sets every input of lane `lane`.
     pub fn set_lane(&mut self, lane: usize, inputs: &CoreInputs) {
-        let word = input_word(inputs);
-        let bit = 1 << lane;
-        for (k, mask) in self.inputs.iter_mut().enumerate() {
-            *mask = if word >> k & 1 != 0 {
-                *mask | bit
-            } else {
-                *mask & !bit
-            };
-        }
+        self.set_bits(0..self.inputs.len(), lane, input_word(inputs));
     }
 
     /// Sets input `port` of lane `lane` to `value`.
     pub fn set_value(&mut self, port: Port, lane: usize, value: u64) {
+        self.set_bits(port.bits(), lane, value);
+    }
+
+    /// Lane `lane`'s bits of the input word at `bits`: bit `j` of `value` to the `j`-th of them.
+    fn set_bits(&mut self, bits: std::ops::Range<usize>, lane: usize, value: u64) {
         let bit = 1 << lane;
-        for (j, k) in port.bits().enumerate() {
-            let mask = &mut self.inputs[k];
+        for (j, mask) in self.inputs[bits].iter_mut().enumerate() {
             *mask = if value >> j & 1 != 0 {
                 *mask | bit
             } else {

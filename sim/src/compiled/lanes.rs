@@ -34,8 +34,8 @@ enum Source {
     Gate(usize),
 }
 
-/// The flip-flops of the netlist, in cell order: (D bit, output net, power-up value).
-type FlipFlops = Vec<(Bit, u64, bool)>;
+/// The flip-flops of the netlist, in cell order: (D bit, power-up value).
+type FlipFlops = Vec<(Bit, bool)>;
 
 /// The source of the lane model for `netlist`: `inputs` and `outputs` name every port with its
 /// bit position in the input and output words.
@@ -45,7 +45,27 @@ pub(super) fn emit(
     outputs: &[(&str, u32)],
     header: &str,
 ) -> Result<String, String> {
-    let mut sources: HashMap<u64, Source> = HashMap::new();
+    let (sources, flip_flops) = sources(netlist, inputs)?;
+    let mut code = Code {
+        netlist,
+        sources: &sources,
+        emitted: vec![false; netlist.cells.len()],
+        visiting: vec![false; netlist.cells.len()],
+        text: String::new(),
+    };
+    let mut out = String::from(header);
+    write_state(&mut out, &flip_flops);
+    write_next_state(&mut out, &mut code, &flip_flops)?;
+    write_outputs(&mut out, &mut code, outputs)?;
+    Ok(out)
+}
+
+/// Where each net comes from (an input bit, a flip-flop, a gate), and the flip-flops.
+fn sources(
+    netlist: &Netlist,
+    inputs: &[(&str, u32)],
+) -> Result<(HashMap<u64, Source>, FlipFlops), String> {
+    let mut sources = HashMap::new();
     for (name, bits) in &netlist.inputs {
         let Some(&(_, at)) = inputs.iter().find(|(port, _)| port == name) else {
             continue; // the clock
@@ -56,14 +76,14 @@ pub(super) fn emit(
             }
         }
     }
-    let mut flip_flops: FlipFlops = Vec::new();
+    let mut flip_flops = Vec::new();
     for (k, cell) in netlist.cells.iter().enumerate() {
         match cell.kind.as_str() {
             "_DFF_P_" => {
                 let q = single_net(cell, "Q")?;
                 let init = netlist.init.get(&q).copied().unwrap_or(false);
                 sources.insert(q, Source::State(flip_flops.len()));
-                flip_flops.push((cell.port("D")?[0], q, init));
+                flip_flops.push((cell.port("D")?[0], init));
             }
             kind if gate_expression(kind, "", "", "").is_some() => {
                 sources.insert(single_net(cell, "Y")?, Source::Gate(k));
@@ -71,23 +91,19 @@ pub(super) fn emit(
             kind => return Err(format!("cell {} of kind {kind}: not a gate", cell.name)),
         }
     }
-    let mut code = Code {
-        netlist,
-        sources: &sources,
-        emitted: vec![false; netlist.cells.len()],
-        visiting: vec![false; netlist.cells.len()],
-        text: String::new(),
-    };
-    let mut out = String::from(header);
-    write_state(&mut out, &flip_flops);
+    Ok((sources, flip_flops))
+}
 
-    for (d, _, _) in &flip_flops {
+/// `next_state`: the gates the flip-flops' D inputs depend on, then the new state.
+fn write_next_state(
+    out: &mut String,
+    code: &mut Code,
+    flip_flops: &FlipFlops,
+) -> Result<(), String> {
+    for (d, _) in flip_flops {
         code.define(*d)?;
     }
-    let next: Vec<String> = flip_flops
-        .iter()
-        .map(|(d, _, _)| code.operand(*d))
-        .collect();
+    let next: Vec<String> = flip_flops.iter().map(|(d, _)| code.operand(*d)).collect();
     writeln!(
         out,
         "\n/// The flip-flops' values after a rising edge with inputs `i`.\n\
@@ -97,23 +113,23 @@ pub(super) fn emit(
         next.join(", ")
     )
     .unwrap();
+    Ok(())
+}
 
+/// `outputs`: the gates the output ports depend on (their own cone, defined again), then each
+/// output bit at its place in the output word.
+fn write_outputs(out: &mut String, code: &mut Code, outputs: &[(&str, u32)]) -> Result<(), String> {
     code.emitted.fill(false);
     let mut assigns = String::new();
-    for (name, bits) in &netlist.outputs {
+    for (name, bits) in &code.netlist.outputs {
         let &(_, at) = outputs
             .iter()
             .find(|(port, _)| port == name)
             .ok_or_else(|| format!("output {name} has no place in the output word"))?;
         for (k, bit) in bits.iter().enumerate() {
             code.define(*bit)?;
-            writeln!(
-                assigns,
-                "    o[{}] = {};",
-                at + k as u32,
-                code.operand(*bit)
-            )
-            .unwrap();
+            let operand = code.operand(*bit);
+            writeln!(assigns, "    o[{}] = {operand};", at + k as u32).unwrap();
         }
     }
     writeln!(
@@ -124,14 +140,14 @@ pub(super) fn emit(
         code.take()
     )
     .unwrap();
-    Ok(out)
+    Ok(())
 }
 
 /// The number of flip-flops and their power-up values, one bit per flip-flop.
 fn write_state(out: &mut String, flip_flops: &FlipFlops) {
     let init: Vec<&str> = flip_flops
         .iter()
-        .map(|(_, _, init)| if *init { "true" } else { "false" })
+        .map(|(_, init)| if *init { "true" } else { "false" })
         .collect();
     writeln!(
         out,

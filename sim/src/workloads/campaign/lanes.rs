@@ -8,8 +8,8 @@
 //! of what the nodes drove at edge `k − 1` (no propagation delay, one clock), changed by the
 //! injection's window; the bus monitor sees it undisturbed. TEC is loaded at edge 0 and REC at
 //! edge 2 (the two `run_until(now + 2 periods)` of `load_counters`, `now` being the last edge
-//! processed), the bus monitor starts and node 0 requests the frame at edge
-//! [`START_EDGE`]. The checks after each bus bit (bus-off, idle) follow the monitor's edge, as
+//! processed), the bus monitor starts and node 0 requests the frame [`INTEGRATION_BITS`] bit
+//! times later (edge 226 at 16 clocks a bit). The checks after each bus bit (bus-off, idle) follow the monitor's edge, as
 //! the engine's `run_while` conditions do.
 
 use golden::btr::Btr;
@@ -33,10 +33,6 @@ use rtl::bsp::protocol::ProtocolState;
 const TEC_EDGE: u64 = 0;
 /// The edge at which REC is loaded.
 const REC_EDGE: u64 = 2;
-/// The edge from which the monitor reads and node 0 requests the frame.
-const START_EDGE: u64 = REC_EDGE + INTEGRATION_BITS * CLOCKS_PER_BIT;
-/// Clocks per bit of the campaign's bit timing (checked against [`campaign_btr`] at start).
-const CLOCKS_PER_BIT: u64 = 16;
 /// Width of the core's transmit-buffer address.
 const TX_ADDR_BITS: usize = 4;
 
@@ -45,9 +41,9 @@ struct Ports {
     rx: Port,
     data: Port,
     tx: Port,
-    /// The transmit-buffer address, bit by bit.
-    tx_addr: [Port; TX_ADDR_BITS],
-    tx_addr_port: Port,
+    tx_addr: Port,
+    /// `tx_addr` bit by bit.
+    tx_addr_bits: [Port; TX_ADDR_BITS],
     strobes: [Port; 4],
     tec: Port,
     rec: Port,
@@ -62,8 +58,8 @@ impl Ports {
             rx: Port::input("rx"),
             data: Port::input("transmit$data"),
             tx: Port::output("tx"),
-            tx_addr: std::array::from_fn(|j| Port::output("transmit$addr").bit(j as u32)),
-            tx_addr_port: Port::output("transmit$addr"),
+            tx_addr: Port::output("transmit$addr"),
+            tx_addr_bits: std::array::from_fn(|j| Port::output("transmit$addr").bit(j as u32)),
             strobes: [
                 "status$bus_error",
                 "rx_frame$strobe",
@@ -129,13 +125,14 @@ pub(crate) struct LaneRunner {
     tx_addr: [[u64; TX_ADDR_BITS]; NODES],
     btr: Btr,
     clock: ClockSpec,
+    /// The edge from which the monitor reads and node 0 requests the frame.
+    start_edge: u64,
 }
 
 impl LaneRunner {
     /// A runner with every lane free; an error if the lane model does not match `rtl/`.
     pub(crate) fn new() -> Result<LaneRunner, EngineError> {
         let btr = campaign_btr();
-        assert_eq!(u64::from(btr.clocks_per_bit()), CLOCKS_PER_BIT);
         Ok(LaneRunner {
             cores: (0..NODES)
                 .map(|_| LaneCores::new())
@@ -144,6 +141,7 @@ impl LaneRunner {
             lanes: (0..LANES).map(|_| None).collect(),
             drive: [!0; NODES],
             tx_addr: [[0; TX_ADDR_BITS]; NODES],
+            start_edge: REC_EDGE + INTEGRATION_BITS * u64::from(btr.clocks_per_bit()),
             btr,
             clock: ClockSpec::from_hz(CLOCK_HZ),
         })
@@ -181,9 +179,7 @@ impl LaneRunner {
             }
             self.clock(starting);
             for l in 0..LANES {
-                if starting >> l & 1 == 0
-                    && self.lanes[l].as_ref().is_some_and(|lane| self.over(lane))
-                {
+                if self.lanes[l].as_ref().is_some_and(|lane| self.over(lane)) {
                     let lane = self.lanes[l].take().expect("a case");
                     let run = self.finish(l, &lane);
                     done(lane.number, lane.case, run);
@@ -242,7 +238,7 @@ impl LaneRunner {
                 continue;
             }
             let k = lane.edge;
-            let t = k * self.clock.period_fs();
+            let t = self.clock.edge(k);
             self.prepare_inputs(l, k);
             let lane = self.lanes[l].as_mut().expect("a case");
             lane.monitor.rising_edge(t, bus >> l & 1 != 0);
@@ -264,7 +260,7 @@ impl LaneRunner {
                 }
             }
         }
-        self.after_edges(starting);
+        self.after_edge(starting);
     }
 
     /// Sets the inputs of lane `l` that change at edge `k`: the counter loads, the request.
@@ -292,7 +288,7 @@ impl LaneRunner {
                     changed[n] = true;
                 }
             }
-            START_EDGE => {
+            _ if k == self.start_edge => {
                 lane.monitor.start();
                 let node = &mut lane.nodes[0];
                 node.tx_buffer = encode_buffer(&lane.case.frame);
@@ -356,7 +352,7 @@ impl LaneRunner {
     /// (and in those just out of reset, which also get the inputs of their first edge).
     fn follow_tx_addr(&mut self, n: usize, starting: u64) {
         let core = &mut self.cores[n];
-        let addr = self.ports.tx_addr.map(|port| core.mask(port));
+        let addr = self.ports.tx_addr_bits.map(|port| core.mask(port));
         let moved = addr
             .iter()
             .zip(&self.tx_addr[n])
@@ -367,7 +363,7 @@ impl LaneRunner {
                 continue;
             };
             let node = &mut lane.nodes[n];
-            node.tx_addr = core.value(self.ports.tx_addr_port, l) as u8;
+            node.tx_addr = core.value(self.ports.tx_addr, l) as u8;
             node.inputs.data = node.data();
             if starting >> l & 1 != 0 {
                 core.set_lane(l, &node.inputs);
@@ -377,9 +373,10 @@ impl LaneRunner {
         }
     }
 
-    /// The checks after each bus bit the monitor read: a node at bus-off goes to reset mode (as
-    /// the SJA1000 register block makes it), the injection's window is placed when its bit starts.
-    fn after_edges(&mut self, starting: u64) {
+    /// What follows each lane's edge: the injection's window placed when its bit starts, and
+    /// after each bus bit the monitor read, a node at bus-off put in reset mode (as the SJA1000
+    /// register block does) and the idle bits counted.
+    fn after_edge(&mut self, starting: u64) {
         for l in 0..LANES {
             if starting >> l & 1 != 0 {
                 continue;
