@@ -31,16 +31,20 @@
 // where the fifth overruns, and proves the overrun rules there; simulation covers other mixes
 // (testbenches/tests/rx_fifo.rs: the 22nd smallest message overruns). The assertions
 // are written as induction lemmas (the harness's view of the frame being received against the
-// block's registers, `tail` = RBSA + `used`, the no-overwrite and room rules taking `used` <= 64 as
-// premise): they need not depend on the RAM, but neither ABC `pdr` (170 s) nor ABC `ind` closed
-// them; the release of the head message subtracts the length read from the RAM, and a proof that
-// `used` stays <= 64 needs the stored frame informations to be chained through the RAM.
+// block's registers and the bytes it stores, `used` = `tail` - RBSA, 64 when `full`).
+// The block's byte count is its pointers' distance; the harness counts the bytes itself (`counted`:
+// + each message stored whole, - the length the block releases, which it takes from the frame
+// information of the head message). That length is not chained through the RAM here, so the rules
+// are claimed up to a release longer than the bytes counted (`overdrawn`); formal/rx_fifo_overrun.sv
+// asserts that this never happens with the largest frames, for every depth. (Without that premise a
+// bounded proof has to chain every release through the RAM: bmc3 reached 19 clocks in 40 s.)
 //
 // Harness state: `stored` counts the stores of messages that fit minus the releases (mod 32, as RMC's
-// five bits); `lost` marks a frame with a byte that found no room.
+// five bits); `lost` marks a frame with a byte that found no room; `counted` and `overdrawn` above.
 //
 //! read: can_controller.v
-//! connect: used = dut.used$q
+//! connect: distance = dut.distance
+//! connect: full = dut.full$q
 //! connect: tail = dut.tail$q
 //! connect: incomplete = dut.incomplete$q
 //! connect: info = dut.new_info
@@ -49,8 +53,9 @@
 //! connect: header_step = dut.header_step$q
 //! connect: ram_write_enable = dut.ram$write_enable
 //! connect: ram_write_address = dut.ram$write_address
+//! connect: release_length = dut.head_length
 //! bmc: 30
-//! mutation: release-length | used_after_release = used$q - ((head_length) & 7'h7f); => used_after_release = used$q - 7'h3;
+//! mutation: release-length | head$d = next_head; => head$d = head$q + 6'h3;
 //! mutation: release-not-counted | count_after_release = count$q - 32'h1; => count_after_release = count$q;
 //! mutation: rtr-length | new_length = header_bytes; => new_length = header_bytes + 32'h1;
 module rx_fifo #(
@@ -92,7 +97,9 @@ module rx_fifo #(
   );
 
   // Inside the block (see the `connect` lines).
-  wire [6:0] used;
+  wire [5:0] distance;  // tail - head
+  wire full;  // the pointers meet with a message stored
+  wire [6:0] used = full ? 7'd64 : {1'b0, distance};  // the bytes stored
   wire [5:0] tail;
   wire incomplete, writing_header;
   wire [7:0] info;
@@ -100,6 +107,7 @@ module rx_fifo #(
   wire [2:0] header_step;
   wire ram_write_enable;
   wire [5:0] ram_write_address;
+  wire [3:0] release_length;
 
   // ---- The frame being received, as the engine sends it.
   reg started = 1'b0;
@@ -174,6 +182,22 @@ module rx_fifo #(
     if (reset || clear) stored <= 5'd0;
     else stored <= stored - released + accepted;
 
+  // The bytes stored as a count of their own: + the length of each message stored whole, - the
+  // length the block releases (that of the frame information it holds for the head message, which
+  // this harness does not chain through the RAM). After a release longer than the bytes counted
+  // (`overdrawn`, until reset mode) the rules below make no claim; formal/rx_fifo_overrun.sv proves
+  // for every depth that the block's own count never does that with the largest frames.
+  reg [6:0] counted;
+  reg overdrawn;
+  always @(posedge clock)
+    if (reset || clear) begin
+      counted <= 7'd0;
+      overdrawn <= 1'b0;
+    end else begin
+      counted <= counted - (released ? {3'd0, release_length} : 7'd0) + (accepted ? {3'd0, frame_bytes} : 7'd0);
+      if (released && {3'd0, release_length} > counted) overdrawn <= 1'b1;
+    end
+
   // A RAM write lands in the stored messages' bytes, [RBSA, RBSA + used) circularly.
   wire [5:0] write_distance = ram_write_address - start;
   wire write_in_stored = ram_write_enable && {1'b0, write_distance} < used;
@@ -192,15 +216,17 @@ module rx_fifo #(
     if (started) begin
       // The rules.
       assert (message_count == stored);
-      if (!clear && used <= 7'd64) assert (!write_in_stored);
-      if (receiving && !lost && used <= 7'd64) assert (used + reach <= 7'd64);
+      if (!clear && !overdrawn) assert (!write_in_stored);
+      if (receiving && !lost && !overdrawn) assert (used + reach <= 7'd64);
       if (past_valid && past_store && past_lost && !past_clear && !past_reset && !past_clear_overrun) begin
         assert (overrun);
         assert (message_count == past_count - past_release);
       end
 
       // Lemmas: the bookkeeping, and the frame being received as the block sees it.
-      assert (tail == start + used[5:0]);
+      if (!overdrawn) assert (used == counted && (!full || distance == 0));
+      // With the largest frames the head message is always 13 bytes long: never overdrawn.
+      if (LARGEST_BACK_TO_BACK) assert (!overdrawn);
       assert (writing_header == header_writing);
       if (header_writing) assert (header_step == header_done && receiving);
       if (receiving && !header) begin

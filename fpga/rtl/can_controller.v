@@ -5285,12 +5285,12 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
     reg  [5:0] tail$d;
     wire  [5:0] tail$q;
     reg  tail$clock;
-    reg  [6:0] used$d;
-    wire  [6:0] used$q;
-    reg  used$clock;
     reg  [4:0] count$d;
     wire  [4:0] count$q;
     reg  count$clock;
+    reg  full$d;
+    wire  full$q;
+    reg  full$clock;
     reg  overrun_state$d;
     wire  overrun_state$q;
     reg  overrun_state$clock;
@@ -5311,6 +5311,8 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
     reg  incomplete$clock;
     
     // Local signals
+    reg  [5:0] distance;
+    reg  [5:0] next_tail;
     reg  [7:0] new_info;
     reg  [3:0] new_length;
     reg  [3:0] header_bytes;
@@ -5324,7 +5326,6 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
     reg  releasing;
     reg  storing;
     reg  [5:0] next_head;
-    reg  [6:0] used_after_release;
     reg  [4:0] count_after_release;
     reg  [2:0] header_last;
     
@@ -5348,15 +5349,15 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
         .q(tail$q),
         .clock(tail$clock)
     );
-    top$fifo$used used(
-        .d(used$d),
-        .q(used$q),
-        .clock(used$clock)
-    );
     top$fifo$count count(
         .d(count$d),
         .q(count$q),
         .clock(count$clock)
+    );
+    top$fifo$full full(
+        .d(full$d),
+        .q(full$q),
+        .clock(full$clock)
     );
     top$fifo$overrun_state overrun_state(
         .d(overrun_state$d),
@@ -5393,8 +5394,8 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
     always @(*) begin
         head$clock = clock;
         tail$clock = clock;
-        used$clock = clock;
         count$clock = clock;
+        full$clock = clock;
         overrun_state$clock = clock;
         head_info_reg$clock = clock;
         fetching$clock = clock;
@@ -5403,8 +5404,8 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
         incomplete$clock = clock;
         head$d = head$q;
         tail$d = tail$q;
-        used$d = used$q;
         count$d = count$q;
+        full$d = full$q;
         overrun_state$d = overrun_state$q;
         head_info_reg$d = head_info_reg$q;
         fetching$d = fetching$q;
@@ -5450,6 +5451,7 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
         if (rx_frame$rtr) begin
             new_length = header_bytes;
         end
+        distance = tail$q - head$q;
         write_now = 1'b0;
         offset = ((header_step$q) & 4'hf);
         write_byte = new_info;
@@ -5489,7 +5491,7 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
             offset = header_bytes + ((rx_frame$index) & 4'hf);
             write_byte = rx_frame$data;
         end
-        room_needed = used$q + ((offset) & 7'h7f);
+        room_needed = (((distance) & 7'h7f) & ~(1 << (32'h6)) | ((full$q) << (32'h6))) + ((offset) & 7'h7f);
         ram$write_enable = 1'b0;
         ram$write_address = tail$q + ((offset) & 6'h3f);
         ram$write_data = write_byte;
@@ -5504,19 +5506,18 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
         releasing = release_head & (count$q != 32'h0);
         storing = store & (incomplete$q == 1'b0);
         next_head = head$q + ((head_length) & 6'h3f);
-        used_after_release = used$q;
         count_after_release = count$q;
         if (releasing) begin
+            full$d = 1'b0;
             head$d = next_head;
-            used_after_release = used$q - ((head_length) & 7'h7f);
             count_after_release = count$q - 32'h1;
             fetching$d = 1'b1;
         end
-        used$d = used_after_release;
         count$d = count_after_release;
+        next_tail = tail$q + ((new_length) & 6'h3f);
         if (storing) begin
-            tail$d = tail$q + ((new_length) & 6'h3f);
-            used$d = used_after_release + ((new_length) & 7'h7f);
+            tail$d = next_tail;
+            full$d = (next_tail == head$q) & ~releasing;
             count$d = count_after_release + 32'h1;
             if (count_after_release == 32'h0) begin
                 head_info_reg$d = new_info;
@@ -5540,8 +5541,8 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
                 ram$write_data = host_data;
             end
             tail$d = head$q;
-            used$d = 32'h0;
             count$d = 32'h0;
+            full$d = 1'b0;
             overrun_state$d = 1'b0;
             writing_header$d = 1'b0;
             incomplete$d = 1'b0;
@@ -5553,8 +5554,8 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
         if (reset) begin
             head$d = 32'h0;
             tail$d = 32'h0;
-            used$d = 32'h0;
             count$d = 32'h0;
+            full$d = 1'b0;
             overrun_state$d = 1'b0;
             writing_header$d = 1'b0;
             incomplete$d = 1'b0;
@@ -5603,6 +5604,25 @@ module top$fifo$fetching(d,q,clock);
     end
           
 endmodule // top$fifo$fetching
+
+
+module top$fifo$full(d,q,clock);
+    
+    // Module arguments
+    input wire  d;
+    output reg  q;
+    input wire  clock;
+    
+    // Update code (custom)
+    initial begin
+       q = 1'h0;
+    end
+    
+    always @(posedge clock) begin
+       q <= d;
+    end
+          
+endmodule // top$fifo$full
 
 
 module top$fifo$head(d,q,clock);
@@ -5812,25 +5832,6 @@ module top$fifo$tail(d,q,clock);
     end
           
 endmodule // top$fifo$tail
-
-
-module top$fifo$used(d,q,clock);
-    
-    // Module arguments
-    input wire  [6:0] d;
-    output reg  [6:0] q;
-    input wire  clock;
-    
-    // Update code (custom)
-    initial begin
-       q = 7'h0;
-    end
-    
-    always @(posedge clock) begin
-       q <= d;
-    end
-          
-endmodule // top$fifo$used
 
 
 module top$fifo$writing_header(d,q,clock);

@@ -73,8 +73,9 @@ pub struct RxFifo {
     ram: RAM<Bits<8>, 6>,
     head: DFF<Bits<6>>,
     tail: DFF<Bits<6>>,
-    used: DFF<Bits<7>>,
     count: DFF<Bits<5>>,
+    /// The pointers meet with messages stored: all 64 bytes are used (`distance` is 0 then).
+    full: DFF<Bit>,
     overrun_state: DFF<Bit>,
     head_info_reg: DFF<Bits<8>>,
     fetching: DFF<Bit>,
@@ -82,6 +83,10 @@ pub struct RxFifo {
     writing_header: DFF<Bit>,
     incomplete: DFF<Bit>,
     // Combinational helpers.
+    /// Bytes from the head message to the write position, modulo the FIFO size: a signal of its own,
+    /// so the subtraction is made in 6 bits (docs/RUST_HDL.md).
+    distance: Signal<Local, Bits<6>>,
+    next_tail: Signal<Local, Bits<6>>,
     new_info: Signal<Local, Bits<8>>,
     new_length: Signal<Local, Bits<4>>,
     header_bytes: Signal<Local, Bits<4>>,
@@ -95,7 +100,6 @@ pub struct RxFifo {
     releasing: Signal<Local, Bit>,
     storing: Signal<Local, Bit>,
     next_head: Signal<Local, Bits<6>>,
-    used_after_release: Signal<Local, Bits<7>>,
     count_after_release: Signal<Local, Bits<5>>,
     header_last: Signal<Local, Bits<3>>,
     #[constant(0u64)]
@@ -115,8 +119,8 @@ impl Logic for RxFifo {
             clock,
             head,
             tail,
-            used,
             count,
+            full,
             overrun_state,
             head_info_reg,
             fetching,
@@ -172,6 +176,10 @@ impl Logic for RxFifo {
         if self.rx_frame.rtr.val() {
             self.new_length.next = self.header_bytes.val();
         }
+
+        // ---- The bytes stored, from the pointers: the write position runs ahead of the head by
+        // `distance`, which is 0 both when the FIFO is empty and when it is `full`.
+        self.distance.next = self.tail.q.val() - self.head.q.val();
 
         // ---- Writing the message being received.
         self.write_now.next = false;
@@ -231,8 +239,11 @@ impl Logic for RxFifo {
                 self.header_bytes.val() + bit_cast::<4, 3>(self.rx_frame.index.val());
             self.write_byte.next = self.rx_frame.data.val();
         }
-        // A byte fits if it lands before the stored messages: used + offset < 64.
-        self.room_needed.next = self.used.q.val() + bit_cast::<7, 4>(self.offset.val());
+        // A byte fits if it lands before the stored messages: used + offset < 64, where the bytes
+        // used are `distance` with 64 for a full FIFO (whose `distance` is 0).
+        self.room_needed.next = bit_cast::<7, 6>(self.distance.val())
+            .replace_bit(6, self.full.q.val())
+            + bit_cast::<7, 4>(self.offset.val());
         self.ram.write_enable.next = false;
         self.ram.write_address.next = self.tail.q.val() + bit_cast::<6, 4>(self.offset.val());
         self.ram.write_data.next = self.write_byte.val();
@@ -248,21 +259,20 @@ impl Logic for RxFifo {
         self.releasing.next = self.release_head.val() & (self.count.q.val() != 0);
         self.storing.next = self.store.val() & (self.incomplete.q.val() == false);
         self.next_head.next = self.head.q.val() + bit_cast::<6, 4>(self.head_length.val());
-        self.used_after_release.next = self.used.q.val();
         self.count_after_release.next = self.count.q.val();
         if self.releasing.val() {
+            self.full.d.next = false;
             self.head.d.next = self.next_head.val();
-            self.used_after_release.next =
-                self.used.q.val() - bit_cast::<7, 4>(self.head_length.val());
             self.count_after_release.next = self.count.q.val() - 1;
             self.fetching.d.next = true;
         }
-        self.used.d.next = self.used_after_release.val();
         self.count.d.next = self.count_after_release.val();
+        self.next_tail.next = self.tail.q.val() + bit_cast::<6, 4>(self.new_length.val());
         if self.storing.val() {
-            self.tail.d.next = self.tail.q.val() + bit_cast::<6, 4>(self.new_length.val());
-            self.used.d.next =
-                self.used_after_release.val() + bit_cast::<7, 4>(self.new_length.val());
+            self.tail.d.next = self.next_tail.val();
+            // The message takes the last free bytes (with a release in the same clock it cannot: it
+            // fitted before the release freed at least 3 more).
+            self.full.d.next = (self.next_tail.val() == self.head.q.val()) & !self.releasing.val();
             self.count.d.next = self.count_after_release.val() + 1;
             if self.count_after_release.val() == 0 {
                 self.head_info_reg.d.next = self.new_info.val();
@@ -290,8 +300,8 @@ impl Logic for RxFifo {
                 self.ram.write_data.next = self.host_data.val();
             }
             self.tail.d.next = self.head.q.val();
-            self.used.d.next = 0.into();
             self.count.d.next = 0.into();
+            self.full.d.next = false;
             self.overrun_state.d.next = false;
             self.writing_header.d.next = false;
             self.incomplete.d.next = false;
@@ -303,8 +313,8 @@ impl Logic for RxFifo {
         if self.reset.val() {
             self.head.d.next = 0.into();
             self.tail.d.next = 0.into();
-            self.used.d.next = 0.into();
             self.count.d.next = 0.into();
+            self.full.d.next = false;
             self.overrun_state.d.next = false;
             self.writing_header.d.next = false;
             self.incomplete.d.next = false;
