@@ -31,7 +31,7 @@
 // where the fifth overruns, and proves the overrun rules there; simulation covers other mixes
 // (testbenches/tests/rx_fifo.rs: the 22nd smallest message overruns). The assertions
 // are written as induction lemmas (the harness's view of the frame being received against the
-// block's registers and the bytes it stores, `used` = `tail` - RBSA, 64 when `full`).
+// block's registers and the bytes it stores, `used`: the pointers' distance, 64 when `full`).
 // The block's byte count is its pointers' distance; the harness counts the bytes itself (`counted`:
 // + each message stored whole, - the length the block releases, which it takes from the frame
 // information of the head message). That length is not chained through the RAM here, so the rules
@@ -45,7 +45,6 @@
 //! read: can_controller.v
 //! connect: distance = dut.distance
 //! connect: full = dut.full$q
-//! connect: tail = dut.tail$q
 //! connect: incomplete = dut.incomplete$q
 //! connect: info = dut.new_info
 //! connect: length = dut.new_length
@@ -100,7 +99,6 @@ module rx_fifo #(
   wire [5:0] distance;  // tail - head
   wire full;  // the pointers meet with a message stored
   wire [6:0] used = full ? 7'd64 : {1'b0, distance};  // the bytes stored
-  wire [5:0] tail;
   wire incomplete, writing_header;
   wire [7:0] info;
   wire [3:0] length;
@@ -186,7 +184,7 @@ module rx_fifo #(
   // length the block releases (that of the frame information it holds for the head message, which
   // this harness does not chain through the RAM). After a release longer than the bytes counted
   // (`overdrawn`, until reset mode) the rules below make no claim; formal/rx_fifo_overrun.sv proves
-  // for every depth that the block's own count never does that with the largest frames.
+  // for every depth that no release is overdrawn with the largest frames.
   reg [6:0] counted;
   reg overdrawn;
   always @(posedge clock)

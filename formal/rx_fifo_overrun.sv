@@ -17,7 +17,6 @@
 //! read: can_controller.v
 //! connect: harness.distance = harness.dut.distance
 //! connect: harness.full = harness.dut.full$q
-//! connect: harness.tail = harness.dut.tail$q
 //! connect: harness.incomplete = harness.dut.incomplete$q
 //! connect: harness.info = harness.dut.new_info
 //! connect: harness.length = harness.dut.new_length

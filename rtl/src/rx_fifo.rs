@@ -12,7 +12,8 @@
 //! information of the head message). Acts on the rising edge of `clock`.
 //!
 //! A message is written while it arrives, into the free space after the stored messages; bytes that
-//! find no room are dropped and mark the message incomplete. At `store` a complete message is counted
+//! find no room are dropped and mark the message incomplete. The bytes in use are the distance from
+//! the head message to the write position, with a `full` flag telling 64 from 0. At `store` a complete message is counted
 //! (RMC + 1), an incomplete one is dropped entirely and sets `overrun`. `release_head` frees the head
 //! message; the frame information of the next one is fetched through the RAM read port in that same
 //! cycle (a host write cycle, so the port is free) and is valid from the cycle after.
