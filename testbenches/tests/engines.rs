@@ -6,7 +6,7 @@
 //! - every scenario of `examples/` writes the same VCD (the bus and, per node, `tx`, `rx`, sample
 //!   point, segment, protocol state, TEC, REC, `irq_n`, `clkout` at every change), the same bus log
 //!   and the same report (driver events, frames, states, counters) with either, and with the
-//!   compiled engine skipping its quiet clock edges (`CAN_SKIP_EDGES`), each skip checked;
+//!   compiled and the Verilator engine skipping their quiet clock edges (`CAN_SKIP_EDGES`);
 //! - a register-level session on three controllers (arbitration, reception, an error, counter
 //!   writes, every register read between the phases) reads the same values and puts the same bit
 //!   sequence on the bus;
@@ -128,18 +128,28 @@ fn example_is_the_same_on(name: &str, other: ModelEngine) {
     example_matches(name, against(other), &a, &b);
 }
 
-/// Example `name` on the compiled engine with its quiet edges skipped, each skip checked against
-/// stepping a copy of the controller edge by edge, writes and reports what the compiled engine
-/// stepping every edge does (which the tests above compare with rust-hdl).
-fn example_is_the_same_with_quiet_edges_skipped(name: &str) {
-    let a = run_example(name, ModelEngine::Compiled, EdgeSkipping::Off);
-    let b = run_example(name, ModelEngine::Compiled, EdgeSkipping::Checked);
-    assert!(
-        b.report.skipped_edges > 0,
-        "{name}: no edge was skipped ({} stepped)",
-        b.report.edges
-    );
-    example_matches(name, ("compiled", "compiled skipping edges"), &a, &b);
+/// Example `name` on `engine` with its quiet edges skipped writes and reports what the same engine
+/// stepping every edge does (which the tests above compare with rust-hdl), with each skip checked
+/// (`checked`: the compiled engine steps a copy of the controller beside the skip and compares the
+/// whole state, the Verilator engine steps the edges instead of skipping and compares the state
+/// with the skip's) and, on Verilator, with the skips made as such (the wrapper loading the
+/// counters).
+fn example_is_the_same_with_quiet_edges_skipped(name: &str, engine: ModelEngine) {
+    let a = run_example(name, engine, EdgeSkipping::Off);
+    let mut modes = vec![EdgeSkipping::Checked];
+    if engine == ModelEngine::Verilator {
+        modes.push(EdgeSkipping::On);
+    }
+    for skipping in modes {
+        let b = run_example(name, engine, skipping);
+        assert!(
+            b.report.skipped_edges > 0,
+            "{name}: no edge was skipped ({} stepped)",
+            b.report.edges
+        );
+        let skipping_side = format!("{engine} skipping edges ({})", skipping.name());
+        example_matches(name, (engine.name(), &skipping_side), &a, &b);
+    }
 }
 
 /// Compares everything example `name`'s runs `a` and `b` wrote and reported.
@@ -185,7 +195,12 @@ macro_rules! example_tests {
 
             #[test]
             fn is_the_same_with_quiet_edges_skipped() {
-                example_is_the_same_with_quiet_edges_skipped($file);
+                example_is_the_same_with_quiet_edges_skipped($file, ModelEngine::Compiled);
+            }
+
+            #[test]
+            fn is_the_same_on_verilator_with_quiet_edges_skipped() {
+                example_is_the_same_with_quiet_edges_skipped($file, ModelEngine::Verilator);
             }
 
             #[test]

@@ -296,8 +296,9 @@ enum Command {
         /// Measure without VCD tracing only.
         #[arg(long)]
         no_trace: bool,
-        /// Skipping of quiet clock edges to measure (comma-separated: off, on, checked; only the
-        /// compiled engine skips) [default: the one CAN_SKIP_EDGES chooses, else off].
+        /// Skipping of quiet clock edges to measure (comma-separated: off, on, checked; the
+        /// compiled and Verilator engines skip, rust-hdl steps every edge) [default: the one
+        /// CAN_SKIP_EDGES chooses, else off].
         #[arg(long, value_delimiter = ',')]
         skip_edges: Vec<EdgeSkipping>,
         /// Fault-injection cases per thread count of the campaign scaling measurement (0: skip it;

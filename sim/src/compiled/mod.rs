@@ -30,7 +30,7 @@ mod lanes;
 #[allow(clippy::all, clippy::pedantic, unused_parens)]
 mod model;
 mod netlist;
-mod quiet;
+pub(crate) mod quiet;
 
 use std::io::Write as _;
 use std::path::Path;

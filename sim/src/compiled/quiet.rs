@@ -19,7 +19,7 @@ use super::{core_model, model};
 /// The nets of the controller read or written here (flattened names of the generated Verilog),
 /// each with whether it is one of the counters a skipped cycle may change; the bit timing's in the
 /// order of the bare core's ([`CORE_STATE`]), then the CLKOUT divider's.
-pub(super) const CONTROLLER_STATE: [(&str, bool); 14] = [
+pub(crate) const CONTROLLER_STATE: [(&str, bool); 14] = [
     ("core.bit_timing.clocks.q", true),
     ("core.bit_timing.remaining.q", true),
     ("core.bit_timing.elapsed.q", true),
@@ -37,7 +37,7 @@ pub(super) const CONTROLLER_STATE: [(&str, bool); 14] = [
 ];
 
 /// The same nets of the bare core (whose prescaler field is an input).
-pub(super) const CORE_STATE: [(&str, bool); 11] = [
+pub(crate) const CORE_STATE: [(&str, bool); 11] = [
     ("bit_timing.clocks.q", true),
     ("bit_timing.remaining.q", true),
     ("bit_timing.elapsed.q", true),
@@ -68,7 +68,7 @@ const DIVIDER_LEVEL: usize = 12;
 const CDR: usize = 13;
 
 /// A generated model with one of the state lists above.
-pub(super) trait Counters {
+pub(crate) trait Counters {
     /// Whether the design has the CLKOUT divider (the controller's last three nets).
     const DIVIDER: bool;
     /// The value of state net `i`.
@@ -125,7 +125,7 @@ fn count_cycles(count: u64, last: u64, cycles: u64) -> (u64, u64) {
 /// How many cycles from the next one on change nothing but the counters, given that the inputs
 /// stay those of the last cycle with the bus input at `rx`, and that the whole model is settled
 /// (`Model::settled`, checked by the caller). With `clkout_seen` the CLKOUT pin must hold too.
-pub(super) fn quiet_cycles<M: Counters>(model: &M, rx: bool, clkout_seen: bool) -> u64 {
+pub(crate) fn quiet_cycles<M: Counters>(model: &M, rx: bool, clkout_seen: bool) -> u64 {
     // The CLKOUT pin first: while traced it usually toggles every few clocks, and then nothing
     // else needs a look.
     let clkout = if M::DIVIDER && clkout_seen {
@@ -179,7 +179,7 @@ pub(super) fn quiet_cycles<M: Counters>(model: &M, rx: bool, clkout_seen: bool) 
 }
 
 /// Writes the counters' values `cycles` cycles on (at most [`quiet_cycles`] gave) and evaluates.
-pub(super) fn advance<M: Counters>(model: &mut M, cycles: u64) {
+pub(crate) fn advance<M: Counters>(model: &mut M, cycles: u64) {
     let last_clock = 2 * (model.state(BRP_SOURCE) & BRP_MASK) + 1;
     let (clocks, quantum_ends) = count_cycles(model.state(CLOCKS), last_clock, cycles);
     model.set_state(CLOCKS, clocks);
@@ -198,7 +198,7 @@ pub(super) fn advance<M: Counters>(model: &mut M, cycles: u64) {
 
 /// The checked mode's test of a skip of `cycles` cycles: panics unless every one of them, stepped
 /// by `step` (which gives the outputs seen after it), leaves the outputs at `before`.
-pub(super) fn assert_stepping_agrees<W: PartialEq + std::fmt::LowerHex>(
+pub(crate) fn assert_stepping_agrees<W: PartialEq + std::fmt::LowerHex>(
     design: &str,
     cycles: u64,
     before: W,
@@ -215,7 +215,7 @@ pub(super) fn assert_stepping_agrees<W: PartialEq + std::fmt::LowerHex>(
 }
 
 /// Panics unless the skip and the stepping ended in the same state (`differences` empty).
-pub(super) fn assert_same_state(design: &str, cycles: u64, differences: Vec<&'static str>) {
+pub(crate) fn assert_same_state(design: &str, cycles: u64, differences: Vec<&'static str>) {
     assert!(
         differences.is_empty(),
         "{design}: skipping {cycles} cycles left another state than stepping them: \

@@ -422,15 +422,19 @@ impl Device for ControllerNode {
             Model::Compiled(model) if self.queue.is_empty() => {
                 model.quiet_cycles(self.idle_inputs(rx), traced)
             }
+            Model::Verilator(model) if self.queue.is_empty() => {
+                model.quiet_cycles(self.idle_inputs(rx), traced)
+            }
             _ => 0,
         }
     }
 
     fn skip_edges(&mut self, edges: u64, rx: bool, traced: bool, checked: bool) {
-        let Model::Compiled(model) = &mut self.model else {
-            unreachable!("only the compiled engine has quiet edges");
-        };
-        model.skip(edges, traced, checked);
+        match &mut self.model {
+            Model::Compiled(model) => model.skip(edges, traced, checked),
+            Model::Verilator(model) => model.skip(edges, traced, checked),
+            Model::RustHdl { .. } => unreachable!("the rust-hdl engine has no quiet edges"),
+        }
         self.apply(None);
         self.inputs.rx = rx;
         self.edges += edges;

@@ -11,7 +11,8 @@ use std::process::Command;
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 use super::sources::{
-    shim_cpp, wrapper_verilog, CONTROLLER_FILE, SHIM_FILE, WRAPPER_FILE, WRAPPER_MODULE,
+    quiet_layout, shim_cpp, wrapper_verilog, QuietField, StateElements, CONTROLLER_FILE, SHIM_FILE,
+    WRAPPER_FILE, WRAPPER_MODULE,
 };
 use super::EngineError;
 use crate::verilated::verilog::controller_verilog;
@@ -109,9 +110,10 @@ struct Sources {
 
 impl Sources {
     fn new() -> Sources {
+        let controller = controller_verilog();
         Sources {
-            controller: controller_verilog(),
-            wrapper: wrapper_verilog(),
+            wrapper: wrapper_verilog(&controller),
+            controller,
             shim: shim_cpp(),
         }
     }
@@ -143,10 +145,12 @@ impl Sources {
     }
 }
 
-/// The library of the current design: built first if the cache does not hold it.
-pub(crate) fn library() -> Result<PathBuf, EngineError> {
+/// The library of the current design (built first if the cache does not hold it) and where its
+/// quiet word holds each state net.
+pub(crate) fn library() -> Result<(PathBuf, Vec<QuietField>), EngineError> {
     let version = verilator_version()?;
     let sources = Sources::new();
+    let layout = quiet_layout(&StateElements::of(&sources.controller));
     let dir = cache_dir();
     let path = dir.join(format!(
         "{WRAPPER_MODULE}-{:016x}.so",
@@ -155,7 +159,7 @@ pub(crate) fn library() -> Result<PathBuf, EngineError> {
     if !path.is_file() {
         build(&sources, &dir, &path)?;
     }
-    Ok(path)
+    Ok((path, layout))
 }
 
 /// Builds the library in a fresh directory under `dir` and renames it to `target`.

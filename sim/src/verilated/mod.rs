@@ -10,6 +10,7 @@
 mod cache;
 pub(crate) use cache::fnv1a;
 mod dl;
+mod quiet_word;
 pub(crate) mod sources;
 pub mod verilog;
 
@@ -20,11 +21,13 @@ use std::ptr::NonNull;
 use std::sync::OnceLock;
 
 use dl::Library;
+use quiet_word::QuietWord;
 
+use crate::compiled::quiet;
 use crate::nodes::can_node::CORE_PROBE_BITS;
 use sources::{
-    ABI_VERSION, INTERNAL_SHIFTS, INTERNAL_SIGNALS, IN_ADDR, IN_RE, IN_RESET, IN_RX, IN_WDATA,
-    IN_WE, OUT_CLKOUT, OUT_IRQ_N, OUT_RDATA, OUT_TX,
+    QuietField, ABI_VERSION, INTERNAL_SHIFTS, INTERNAL_SIGNALS, IN_ADDR, IN_RE, IN_RESET, IN_RX,
+    IN_WDATA, IN_WE, OUT_CLKOUT, OUT_IRQ_N, OUT_RDATA, OUT_TX, QUIET_SETTLED,
 };
 
 /// Why the Verilator engine is not available.
@@ -68,6 +71,9 @@ impl std::error::Error for EngineError {}
 type CreateFn = unsafe extern "C" fn() -> *mut c_void;
 type DestroyFn = unsafe extern "C" fn(*mut c_void);
 type CycleFn = unsafe extern "C" fn(*mut c_void, u32) -> u64;
+type QuietFn = unsafe extern "C" fn(*mut c_void) -> u64;
+type SettledFn = unsafe extern "C" fn(*mut c_void) -> u32;
+type SkipFn = unsafe extern "C" fn(*mut c_void, u64) -> u64;
 type AbiFn = unsafe extern "C" fn() -> u32;
 
 /// The loaded library and its functions.
@@ -76,11 +82,16 @@ struct ModelLibrary {
     create: CreateFn,
     destroy: DestroyFn,
     cycle: CycleFn,
+    quiet: QuietFn,
+    settled: SettledFn,
+    skip: SkipFn,
+    /// Where the quiet word holds each state net.
+    layout: Vec<QuietField>,
     _library: Library,
 }
 
 impl ModelLibrary {
-    fn open(path: PathBuf) -> Result<ModelLibrary, EngineError> {
+    fn open((path, layout): (PathBuf, Vec<QuietField>)) -> Result<ModelLibrary, EngineError> {
         let fail = |why: String| {
             EngineError::Load(format!(
                 "{}: {why} (delete the file to rebuild it)",
@@ -102,7 +113,11 @@ impl ModelLibrary {
                 create: library.function("cc_create").map_err(fail)?,
                 destroy: library.function("cc_destroy").map_err(fail)?,
                 cycle: library.function("cc_cycle").map_err(fail)?,
+                quiet: library.function("cc_quiet").map_err(fail)?,
+                settled: library.function("cc_settled").map_err(fail)?,
+                skip: library.function("cc_skip").map_err(fail)?,
                 path,
+                layout,
                 _library: library,
             })
         }
@@ -219,6 +234,8 @@ pub struct VerilatedController {
     model: NonNull<c_void>,
     library: &'static ModelLibrary,
     outputs: PortOutputs,
+    /// The inputs of the last cycle, which the wrapper's input registers hold.
+    applied: Option<PortInputs>,
 }
 
 // SAFETY: the model is owned by this value alone and used through `&mut self`; a Verilated model
@@ -237,6 +254,7 @@ impl VerilatedController {
             model,
             library,
             outputs: PortOutputs(0),
+            applied: None,
         })
     }
 
@@ -245,12 +263,96 @@ impl VerilatedController {
         // SAFETY: the model is live and exclusively borrowed.
         self.outputs =
             PortOutputs(unsafe { (self.library.cycle)(self.model.as_ptr(), inputs.word()) });
+        self.applied = Some(inputs);
         self.outputs
     }
 
     /// The outputs after the last cycle (all zero before the first).
     pub fn outputs(&self) -> PortOutputs {
         self.outputs
+    }
+
+    /// The state nets of the quiet word (its settled bit 0).
+    fn quiet_word(&self) -> QuietWord<'static> {
+        // SAFETY: the model is live; `quiet` only reads it.
+        let word = unsafe { (self.library.quiet)(self.model.as_ptr()) };
+        let library: &'static ModelLibrary = self.library;
+        QuietWord {
+            word,
+            layout: &library.layout,
+        }
+    }
+
+    /// No flip-flop but the counters and no memory changes at the next edge.
+    fn settled(&self) -> bool {
+        // SAFETY: the model is live and used by one thread (`VerilatedController` is not `Sync`);
+        // `settled` evaluates only the wrapper's comparison, no state of the design.
+        unsafe { (self.library.settled)(self.model.as_ptr()) != 0 }
+    }
+
+    /// The state the quiet-edge skipping reads and loads, as one word: the bit timing's and the
+    /// CLKOUT divider's flip-flops (`compiled::quiet::CONTROLLER_STATE`) and, in bit 63, whether
+    /// every other flip-flop and memory is settled. Two models in the same state give the same
+    /// word (for tests that compare a skip with stepping).
+    pub fn quiet_state(&self) -> u64 {
+        self.quiet_word().word | u64::from(self.settled()) << QUIET_SETTLED
+    }
+
+    /// How many cycles from the next one on, all with `inputs`, change nothing outside the
+    /// controller's counters: no output (`clkout` may toggle unless `clkout_seen`), no register,
+    /// no memory; the same arithmetic as the compiled engine's
+    /// (`CompiledController::quiet_cycles`), on the state the wrapper brings out. 0 when `inputs`
+    /// differ from the last cycle's.
+    pub fn quiet_cycles(&self, inputs: PortInputs, clkout_seen: bool) -> u64 {
+        if self.applied != Some(inputs) || inputs.reset {
+            return 0;
+        }
+        // The counters' arithmetic first: it rules out most edges without an evaluation.
+        match quiet::quiet_cycles(&self.quiet_word(), inputs.rx, clkout_seen) {
+            0 => 0,
+            cycles if self.settled() => cycles,
+            _ => 0,
+        }
+    }
+
+    /// Runs `cycles` quiet cycles (at most [`VerilatedController::quiet_cycles`] gave) in one
+    /// step: the wrapper loads the counters with their values after them. `checked`: steps the
+    /// cycles one by one instead and panics unless every output stayed (`clkout` only if
+    /// `clkout_seen`), everything but the counters stayed settled after each, and the state ends
+    /// where the skip would have put it (a model cannot be copied to do both; the skip's load
+    /// itself is checked against stepping by `testbenches::equivalence::verilated_skips_agree`
+    /// and by the examples run with skipping on, `testbenches/tests/engines.rs`).
+    pub fn skip(&mut self, cycles: u64, clkout_seen: bool, checked: bool) {
+        let mut after = self.quiet_word();
+        quiet::advance(&mut after, cycles);
+        if checked {
+            let inputs = self.applied.expect("a cycle ran before the skip");
+            let seen = if clkout_seen {
+                u64::MAX
+            } else {
+                !(1 << OUT_CLKOUT)
+            };
+            // Compared after each edge: the outputs and, above them, that every flip-flop but
+            // the counters and every memory stays settled up to the last skipped edge (so none
+            // of them changes at any).
+            let watched = |outputs: PortOutputs, settled: bool| {
+                u128::from(outputs.0 & seen) | u128::from(settled) << 64
+            };
+            let before = watched(self.outputs, true);
+            let mut stepped = 0;
+            let step = || {
+                let outputs = self.cycle(inputs);
+                stepped += 1;
+                watched(outputs, stepped == cycles || self.settled())
+            };
+            quiet::assert_stepping_agrees("Verilated controller", cycles, before, step);
+            let differences = self.quiet_word().differences(after);
+            quiet::assert_same_state("Verilated controller", cycles, differences);
+        } else {
+            // SAFETY: the model is live and exclusively borrowed.
+            self.outputs =
+                PortOutputs(unsafe { (self.library.skip)(self.model.as_ptr(), after.word) });
+        }
     }
 }
 

@@ -9,12 +9,19 @@
 //!   controller depends on `reset`, the host port or `rx`; fed from registers, that logic runs
 //!   only after a clock edge or after the inputs really changed (measured: twice as fast);
 //! - it brings the few internal signals the traces and diagnostics need ([`INTERNAL_SIGNALS`]) out
-//!   as ports, by hierarchical reference, so nothing else of the design has to be public.
+//!   as ports, by hierarchical reference, so nothing else of the design has to be public;
+//! - for skipping quiet edges (docs/ENGINES.md) it brings out the bit timing's and the CLKOUT
+//!   divider's state ([`quiet::CONTROLLER_STATE`]) and whether every other flip-flop and memory is
+//!   settled (its next value is its value), and it loads the free-running counters among them on
+//!   each edge of an extra input, `skip`, with the clock still.
 //!
-//! [`INTERNAL_SIGNALS`] is the only place that names signals inside the generated Verilog.
+//! [`INTERNAL_SIGNALS`] and [`quiet::CONTROLLER_STATE`] are the only places that name signals inside
+//! the generated Verilog; the flip-flops and memories `settled` compares are found in it
+//! ([`StateElements`]).
 
 use std::fmt::Write as _;
 
+use crate::compiled::quiet;
 use crate::verilated::verilog::TOP_MODULE;
 
 /// Top module of the wrapper (and the prefix of Verilator's generated classes).
@@ -26,7 +33,7 @@ pub(crate) const CONTROLLER_FILE: &str = "can_controller.v";
 /// File name of the C++ shim.
 pub(crate) const SHIM_FILE: &str = "shim.cpp";
 /// Version of the C interface; the library reports it and the loader checks it.
-pub(crate) const ABI_VERSION: u32 = 1;
+pub(crate) const ABI_VERSION: u32 = 2;
 
 /// An internal signal of the controller that the wrapper brings out.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -123,8 +130,167 @@ const fn internal_shifts() -> [u32; INTERNAL_SIGNALS.len()] {
     shifts
 }
 
-/// The wrapper module around [`TOP_MODULE`].
-pub(crate) fn wrapper_verilog() -> String {
+// ---- quiet edges --------------------------------------------------------------------------------
+
+/// Bit of the quiet state (`VerilatedController::quiet_state`) that says every flip-flop but the
+/// counters and every memory is settled (the wrapper's `p_settled`, below the state nets).
+pub(crate) const QUIET_SETTLED: u32 = 63;
+
+/// The flip-flops and memories of the generated controller, by instance path below the top module
+/// (`core.bit_timing.clocks`): rust-hdl emits each `DFF` as a module with the ports `d`, `q`,
+/// `clock` and each RAM as one with `read_address` … `write_enable`, every one instantiated once.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub(crate) struct StateElements {
+    /// Each flip-flop's path and width.
+    pub flip_flops: Vec<(String, u32)>,
+    /// Each memory's path.
+    pub memories: Vec<String>,
+}
+
+const DFF_PORTS: &str = "(d,q,clock);";
+const RAM_PORTS: &str =
+    "(read_address,read_clock,read_data,write_address,write_clock,write_data,write_enable);";
+
+impl StateElements {
+    /// Finds them in `verilog` by walking the instances from [`TOP_MODULE`].
+    pub(crate) fn of(verilog: &str) -> StateElements {
+        let mut modules = std::collections::HashMap::new();
+        for text in verilog.split("\nmodule ").skip(1) {
+            let name = text.split('(').next().unwrap_or_default();
+            modules.insert(name, text);
+        }
+        let mut found = StateElements::default();
+        let mut pending = vec![(String::new(), TOP_MODULE)];
+        while let Some((path, module)) = pending.pop() {
+            let text = modules[module];
+            let header = text.lines().next().unwrap_or_default();
+            if header.ends_with(DFF_PORTS) {
+                found.flip_flops.push((path, output_width(text, "q")));
+                continue;
+            }
+            if header.ends_with(RAM_PORTS) {
+                found.memories.push(path);
+                continue;
+            }
+            for line in text.lines().skip(1) {
+                let mut words = line.trim().split(' ');
+                if let (Some(child), Some(instance), None) =
+                    (words.next(), words.next(), words.next())
+                {
+                    if let (Some(child), Some(instance)) =
+                        (modules.get_key_value(child), instance.strip_suffix('('))
+                    {
+                        let at = if path.is_empty() {
+                            instance.to_string()
+                        } else {
+                            format!("{path}.{instance}")
+                        };
+                        pending.push((at, child.0));
+                    }
+                }
+            }
+        }
+        found.flip_flops.sort();
+        found.memories.sort();
+        found
+    }
+}
+
+/// The width of output `port` declared in a module's text (`output reg [5:0] q;`).
+fn output_width(module: &str, port: &str) -> u32 {
+    let decl = module
+        .lines()
+        .map(str::trim)
+        .find(|l| l.starts_with("output") && l.ends_with(&format!(" {port};")))
+        .unwrap_or_else(|| panic!("a flip-flop module without output {port}"));
+    match decl.find('[') {
+        Some(open) => {
+            decl[open + 1..decl.find(':').unwrap()]
+                .parse::<u32>()
+                .unwrap()
+                + 1
+        }
+        None => 1,
+    }
+}
+
+/// One net of [`quiet::CONTROLLER_STATE`] in the quiet word.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct QuietField {
+    /// The flip-flop's instance path (the state net without its `.q`).
+    pub path: String,
+    /// Its lowest bit in the word.
+    pub shift: u32,
+    /// Its width.
+    pub width: u32,
+    /// A free-running counter that a skip loads.
+    pub counter: bool,
+}
+
+/// Where each net of [`quiet::CONTROLLER_STATE`] sits in the quiet word (below [`QUIET_SETTLED`]),
+/// in that table's order.
+pub(crate) fn quiet_layout(elements: &StateElements) -> Vec<QuietField> {
+    let mut shift = 0;
+    let layout: Vec<QuietField> = quiet::CONTROLLER_STATE
+        .iter()
+        .map(|&(net, counter)| {
+            let path = net.strip_suffix(".q").expect("a flip-flop's output");
+            let width = elements
+                .flip_flops
+                .iter()
+                .find(|(p, _)| p == path)
+                .unwrap_or_else(|| panic!("{net} is no flip-flop of the generated Verilog"))
+                .1;
+            let field = QuietField {
+                path: path.to_string(),
+                shift,
+                width,
+                counter,
+            };
+            shift += width;
+            field
+        })
+        .collect();
+    assert!(
+        shift <= QUIET_SETTLED,
+        "the quiet state fits below the settled bit"
+    );
+    layout
+}
+
+/// Verilog's hierarchical name of `path.net` below the wrapper's instance.
+fn below_dut(path: &str, net: &str) -> String {
+    format!("dut.{path}.{net}")
+}
+
+/// The wrapper's expression that is 1 when no flip-flop but the counters and no memory changes at
+/// the next edge.
+fn settled_expression(elements: &StateElements, layout: &[QuietField]) -> String {
+    let counters: Vec<&str> = layout
+        .iter()
+        .filter(|f| f.counter)
+        .map(|f| f.path.as_str())
+        .collect();
+    let mut terms: Vec<String> = elements
+        .flip_flops
+        .iter()
+        .filter(|(path, _)| !counters.contains(&path.as_str()))
+        .map(|(path, _)| format!("({} == {})", below_dut(path, "d"), below_dut(path, "q")))
+        .collect();
+    for ram in &elements.memories {
+        terms.push(format!(
+            "!{} && ({} == {}[{}])",
+            below_dut(ram, "write_enable"),
+            below_dut(ram, "read_data"),
+            below_dut(ram, "mem"),
+            below_dut(ram, "read_address")
+        ));
+    }
+    terms.join("\n        && ")
+}
+
+/// The wrapper module around [`TOP_MODULE`], whose Verilog is `controller`.
+pub(crate) fn wrapper_verilog(controller: &str) -> String {
     let mut ports = String::new();
     let mut decls = String::new();
     let mut assigns = String::new();
@@ -137,11 +303,27 @@ pub(crate) fn wrapper_verilog() -> String {
         writeln!(decls, "    output wire {range}p_{};", s.name).unwrap();
         writeln!(assigns, "    assign p_{} = dut.{};", s.name, s.wire).unwrap();
     }
+    let elements = StateElements::of(controller);
+    let layout = quiet_layout(&elements);
+    let mut quiet_fields = String::new();
+    let mut skip_loads = String::new();
+    for f in &layout {
+        let range = format!("{}:{}", f.shift + f.width - 1, f.shift);
+        let q = below_dut(&f.path, "q");
+        writeln!(quiet_fields, "    assign p_quiet[{range}] = {q};").unwrap();
+        if f.counter {
+            writeln!(skip_loads, "        {q} <= skip_state[{range}];").unwrap();
+        }
+    }
+    let used = layout.last().map_or(0, |f| f.shift + f.width);
+    let settled = settled_expression(&elements, &layout);
     format!(
         "\
-// Generated by sim::verilated: {TOP_MODULE} with registered inputs and a few internal signals as
-// ports, for the Verilator engine of the simulator. Not part of the hardware.
-module {WRAPPER_MODULE}(clock, load, reset, addr, wdata, we, re, rx, rdata, tx, irq_n, clkout{ports});
+// Generated by sim::verilated: {TOP_MODULE} with registered inputs, a few internal signals as
+// ports and the state of the quiet-edge skipping, for the Verilator engine of the simulator. Not
+// part of the hardware.
+module {WRAPPER_MODULE}(clock, load, reset, addr, wdata, we, re, rx, rdata, tx, irq_n, clkout{ports},
+    p_quiet, probe, p_settled, skip, skip_state);
     input wire clock;
     input wire load;
     input wire reset;
@@ -154,7 +336,12 @@ module {WRAPPER_MODULE}(clock, load, reset, addr, wdata, we, re, rx, rdata, tx, 
     output wire tx;
     output wire irq_n;
     output wire clkout;
-{decls}
+{decls}    output wire [{last_field}:0] p_quiet;
+    input wire probe;
+    output reg p_settled = 1'b0;
+    input wire skip;
+    input wire [63:0] skip_state;
+
     // The controller's inputs, loaded on either edge of `load` (never together with a clock edge).
     reg reset_q = 1'b0;
     reg [7:0] addr_q = 8'h0;
@@ -174,13 +361,28 @@ module {WRAPPER_MODULE}(clock, load, reset, addr, wdata, we, re, rx, rdata, tx, 
     {TOP_MODULE} dut(.clock(clock), .reset(reset_q), .addr(addr_q), .wdata(wdata_q), .we(we_q),
         .re(re_q), .rdata(rdata), .rx(rx_q), .tx(tx), .irq_n(irq_n), .clkout(clkout));
 
-{assigns}endmodule
-"
+{assigns}
+    // Quiet edges: the bit timing's and the CLKOUT divider's state; whether everything else is
+    // settled, taken on either edge of `probe` (so the comparisons cost nothing in the cycles that
+    // do not ask); the free-running counters loaded on either edge of `skip` with their values
+    // after the skipped edges (neither edge ever together with a clock edge).
+{quiet_fields}    always @(posedge probe or negedge probe) begin
+        p_settled <= {settled};
+    end
+    /* verilator lint_off MULTIDRIVEN */
+    always @(posedge skip or negedge skip) begin
+{skip_loads}    end
+    /* verilator lint_on MULTIDRIVEN */
+endmodule
+",
+        last_field = used - 1,
     )
 }
 
-/// The C++ shim: `cc_abi_version`, `cc_create`, `cc_destroy` and `cc_cycle` (one clock cycle: the
-/// input word in, the output word out).
+/// The C++ shim: `cc_abi_version`, `cc_create`, `cc_destroy`, `cc_cycle` (one clock cycle: the
+/// input word in, the output word out), `cc_quiet` (the quiet word without its settled bit),
+/// `cc_settled` (evaluates and gives that bit) and `cc_skip` (loads the counters from a quiet
+/// word, gives the output word).
 pub(crate) fn shim_cpp() -> String {
     let mut pack = String::new();
     for (s, shift) in INTERNAL_SIGNALS.iter().zip(INTERNAL_SHIFTS) {
@@ -210,10 +412,18 @@ struct Model {{
     // The input word the wrapper's input registers hold; `loaded` is false until the first load.
     uint32_t inputs = 0;
     bool loaded = false;
-    // The first evaluation runs the `initial` blocks and takes the clock and `load` as they are
-    // (low) without seeing an edge; from then on their changes are edges.
+    // The first evaluation runs the `initial` blocks and takes the clock, `load`, `probe` and `skip` as they
+    // are (low) without seeing an edge; from then on their changes are edges.
     Model() : context(), top(&context, \"{WRAPPER_MODULE}\") {{ top.eval(); }}
 }};
+
+uint64_t outputs({class}& t) {{
+    uint64_t out = static_cast<uint64_t>(t.rdata) << {OUT_RDATA};
+    out |= static_cast<uint64_t>(t.tx) << {OUT_TX};
+    out |= static_cast<uint64_t>(t.irq_n) << {OUT_IRQ_N};
+    out |= static_cast<uint64_t>(t.clkout) << {OUT_CLKOUT};
+{pack}    return out;
+}}
 }}
 
 CC_EXPORT uint32_t cc_abi_version() {{ return {ABI_VERSION}; }}
@@ -243,11 +453,24 @@ CC_EXPORT uint64_t cc_cycle(void* model, uint32_t inputs) {{
     t.eval();
     t.clock = 0;
     t.eval();
-    uint64_t out = static_cast<uint64_t>(t.rdata) << {OUT_RDATA};
-    out |= static_cast<uint64_t>(t.tx) << {OUT_TX};
-    out |= static_cast<uint64_t>(t.irq_n) << {OUT_IRQ_N};
-    out |= static_cast<uint64_t>(t.clkout) << {OUT_CLKOUT};
-{pack}    return out;
+    return outputs(t);
+}}
+
+CC_EXPORT uint64_t cc_quiet(void* model) {{ return static_cast<Model*>(model)->top.p_quiet; }}
+
+CC_EXPORT uint32_t cc_settled(void* model) {{
+    {class}& t = static_cast<Model*>(model)->top;
+    t.probe = !t.probe;
+    t.eval();
+    return t.p_settled;
+}}
+
+CC_EXPORT uint64_t cc_skip(void* model, uint64_t state) {{
+    {class}& t = static_cast<Model*>(model)->top;
+    t.skip_state = state;
+    t.skip = !t.skip;
+    t.eval();
+    return outputs(t);
 }}
 "
     )
@@ -306,6 +529,35 @@ mod tests {
                 s.wire,
                 s.width
             );
+        }
+    }
+
+    /// The wrapper loads exactly the free-running counters on `skip`, brings out every net of the
+    /// quiet state, and calls the design settled only if every other flip-flop and every memory
+    /// is.
+    #[test]
+    fn the_wrapper_loads_the_counters_and_compares_every_other_flip_flop_and_memory() {
+        let verilog = controller_verilog();
+        let wrapper = wrapper_verilog(&verilog);
+        let elements = StateElements::of(&verilog);
+        let layout = quiet_layout(&elements);
+        for field in &layout {
+            let q = below_dut(&field.path, "q");
+            let range = format!("[{}:{}]", field.shift + field.width - 1, field.shift);
+            assert!(
+                wrapper.contains(&format!("assign p_quiet{range} = {q};")),
+                "{q}"
+            );
+            let load = format!("{q} <= skip_state{range};");
+            assert_eq!(wrapper.contains(&load), field.counter, "{load}");
+        }
+        for (path, _) in &elements.flip_flops {
+            let compared = format!("({} == {})", below_dut(path, "d"), below_dut(path, "q"));
+            let counter = layout.iter().any(|f| f.counter && &f.path == path);
+            assert_eq!(wrapper.contains(&compared), !counter, "{path}");
+        }
+        for ram in &elements.memories {
+            assert!(wrapper.contains(&format!("!{}", below_dut(ram, "write_enable"))));
         }
     }
 
