@@ -10,9 +10,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
+use super::quiet_word::{quiet_layout, QuietField, StateElements};
 use super::sources::{
-    quiet_layout, shim_cpp, wrapper_verilog, QuietField, StateElements, CONTROLLER_FILE, SHIM_FILE,
-    WRAPPER_FILE, WRAPPER_MODULE,
+    shim_cpp, wrapper_verilog, CONTROLLER_FILE, SHIM_FILE, WRAPPER_FILE, WRAPPER_MODULE,
 };
 use super::EngineError;
 use crate::verilated::verilog::controller_verilog;

@@ -21,13 +21,13 @@ use std::ptr::NonNull;
 use std::sync::OnceLock;
 
 use dl::Library;
-use quiet_word::QuietWord;
+use quiet_word::{QuietField, QuietWord, QUIET_SETTLED};
 
 use crate::compiled::quiet;
 use crate::nodes::can_node::CORE_PROBE_BITS;
 use sources::{
-    QuietField, ABI_VERSION, INTERNAL_SHIFTS, INTERNAL_SIGNALS, IN_ADDR, IN_RE, IN_RESET, IN_RX,
-    IN_WDATA, IN_WE, OUT_CLKOUT, OUT_IRQ_N, OUT_RDATA, OUT_TX, QUIET_SETTLED,
+    ABI_VERSION, INTERNAL_SHIFTS, INTERNAL_SIGNALS, IN_ADDR, IN_RE, IN_RESET, IN_RX, IN_WDATA,
+    IN_WE, OUT_CLKOUT, OUT_IRQ_N, OUT_RDATA, OUT_TX,
 };
 
 /// Why the Verilator engine is not available.

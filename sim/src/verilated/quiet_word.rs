@@ -1,10 +1,136 @@
-//! The quiet word of a Verilated controller (`sources::wrapper_verilog`: the nets of
-//! [`quiet::CONTROLLER_STATE`]) read and written as the
-//! compiled engine's [`quiet::Counters`], so that both engines skip the same edges by the same
-//! arithmetic (`crate::compiled::quiet`).
+//! The quiet word of a Verilated controller: the nets of [`quiet::CONTROLLER_STATE`] as the
+//! wrapper brings them out (`sources::wrapper_verilog`), where each sits (found in the generated
+//! Verilog, [`StateElements`]), read and written as the compiled engine's [`quiet::Counters`], so
+//! that both engines skip the same edges by the same arithmetic (`crate::compiled::quiet`).
 
-use super::sources::QuietField;
 use crate::compiled::quiet::{self, Counters};
+use crate::verilated::verilog::TOP_MODULE;
+
+/// Bit of the quiet state (`VerilatedController::quiet_state`) that says every flip-flop but the
+/// counters and every memory is settled (the wrapper's `p_settled`, below the state nets).
+pub(crate) const QUIET_SETTLED: u32 = 63;
+
+/// The flip-flops and memories of the generated controller, by instance path below the top module
+/// (`core.bit_timing.clocks`): rust-hdl emits each `DFF` as a module with the ports `d`, `q`,
+/// `clock` and each RAM as one with `read_address` … `write_enable`, every one instantiated once.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub(crate) struct StateElements {
+    /// Each flip-flop's path and width.
+    pub flip_flops: Vec<(String, u32)>,
+    /// Each memory's path.
+    pub memories: Vec<String>,
+}
+
+const DFF_PORTS: &str = "(d,q,clock);";
+const RAM_PORTS: &str =
+    "(read_address,read_clock,read_data,write_address,write_clock,write_data,write_enable);";
+
+impl StateElements {
+    /// Finds them in `verilog` by walking the instances from [`TOP_MODULE`].
+    pub(crate) fn of(verilog: &str) -> StateElements {
+        let mut modules = std::collections::HashMap::new();
+        for text in verilog.split("\nmodule ").skip(1) {
+            let name = text.split('(').next().unwrap_or_default();
+            modules.insert(name, text);
+        }
+        let mut found = StateElements::default();
+        let mut pending = vec![(String::new(), TOP_MODULE)];
+        while let Some((path, module)) = pending.pop() {
+            let text = modules[module];
+            let header = text.lines().next().unwrap_or_default();
+            if header.ends_with(DFF_PORTS) {
+                found.flip_flops.push((path, output_width(text, "q")));
+                continue;
+            }
+            if header.ends_with(RAM_PORTS) {
+                found.memories.push(path);
+                continue;
+            }
+            for line in text.lines().skip(1) {
+                let mut words = line.trim().split(' ');
+                if let (Some(child), Some(instance), None) =
+                    (words.next(), words.next(), words.next())
+                {
+                    if let (Some(child), Some(instance)) =
+                        (modules.get_key_value(child), instance.strip_suffix('('))
+                    {
+                        let at = if path.is_empty() {
+                            instance.to_string()
+                        } else {
+                            format!("{path}.{instance}")
+                        };
+                        pending.push((at, child.0));
+                    }
+                }
+            }
+        }
+        found.flip_flops.sort();
+        found.memories.sort();
+        found
+    }
+}
+
+/// The width of output `port` declared in a module's text (`output reg [5:0] q;`).
+fn output_width(module: &str, port: &str) -> u32 {
+    let decl = module
+        .lines()
+        .map(str::trim)
+        .find(|l| l.starts_with("output") && l.ends_with(&format!(" {port};")))
+        .unwrap_or_else(|| panic!("a flip-flop module without output {port}"));
+    match decl.find('[') {
+        Some(open) => {
+            decl[open + 1..decl.find(':').unwrap()]
+                .parse::<u32>()
+                .unwrap()
+                + 1
+        }
+        None => 1,
+    }
+}
+
+/// One net of [`quiet::CONTROLLER_STATE`] in the quiet word.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct QuietField {
+    /// The flip-flop's instance path (the state net without its `.q`).
+    pub path: String,
+    /// Its lowest bit in the word.
+    pub shift: u32,
+    /// Its width.
+    pub width: u32,
+    /// A free-running counter that a skip loads.
+    pub counter: bool,
+}
+
+/// Where each net of [`quiet::CONTROLLER_STATE`] sits in the quiet word (below [`QUIET_SETTLED`]),
+/// in that table's order.
+pub(crate) fn quiet_layout(elements: &StateElements) -> Vec<QuietField> {
+    let mut shift = 0;
+    let layout: Vec<QuietField> = quiet::CONTROLLER_STATE
+        .iter()
+        .map(|&(net, counter)| {
+            let path = net.strip_suffix(".q").expect("a flip-flop's output");
+            let width = elements
+                .flip_flops
+                .iter()
+                .find(|(p, _)| p == path)
+                .unwrap_or_else(|| panic!("{net} is no flip-flop of the generated Verilog"))
+                .1;
+            let field = QuietField {
+                path: path.to_string(),
+                shift,
+                width,
+                counter,
+            };
+            shift += width;
+            field
+        })
+        .collect();
+    assert!(
+        shift <= QUIET_SETTLED,
+        "the quiet state fits below the settled bit"
+    );
+    layout
+}
 
 /// A quiet word with the layout of its library; `set_state` changes the copy, which the caller
 /// then loads into the model.
@@ -50,7 +176,6 @@ impl Counters for QuietWord<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::verilated::sources::{quiet_layout, StateElements};
     use crate::verilated::verilog::controller_verilog;
 
     #[test]

@@ -11,17 +11,19 @@
 //! - it brings the few internal signals the traces and diagnostics need ([`INTERNAL_SIGNALS`]) out
 //!   as ports, by hierarchical reference, so nothing else of the design has to be public;
 //! - for skipping quiet edges (docs/ENGINES.md) it brings out the bit timing's and the CLKOUT
-//!   divider's state ([`quiet::CONTROLLER_STATE`]) and whether every other flip-flop and memory is
+//!   divider's state ([`CONTROLLER_STATE`]) and whether every other flip-flop and memory is
 //!   settled (its next value is its value), and it loads the free-running counters among them on
 //!   each edge of an extra input, `skip`, with the clock still.
 //!
-//! [`INTERNAL_SIGNALS`] and [`quiet::CONTROLLER_STATE`] are the only places that name signals inside
-//! the generated Verilog; the flip-flops and memories `settled` compares are found in it
+//! [`INTERNAL_SIGNALS`] and [`CONTROLLER_STATE`] are the only places that name signals inside the
+//! generated Verilog; the flip-flops and memories `settled` compares are found in it
 //! ([`StateElements`]).
+//!
+//! [`CONTROLLER_STATE`]: crate::compiled::quiet::CONTROLLER_STATE
 
 use std::fmt::Write as _;
 
-use crate::compiled::quiet;
+use crate::verilated::quiet_word::{quiet_layout, QuietField, StateElements};
 use crate::verilated::verilog::TOP_MODULE;
 
 /// Top module of the wrapper (and the prefix of Verilator's generated classes).
@@ -131,132 +133,6 @@ const fn internal_shifts() -> [u32; INTERNAL_SIGNALS.len()] {
 }
 
 // ---- quiet edges --------------------------------------------------------------------------------
-
-/// Bit of the quiet state (`VerilatedController::quiet_state`) that says every flip-flop but the
-/// counters and every memory is settled (the wrapper's `p_settled`, below the state nets).
-pub(crate) const QUIET_SETTLED: u32 = 63;
-
-/// The flip-flops and memories of the generated controller, by instance path below the top module
-/// (`core.bit_timing.clocks`): rust-hdl emits each `DFF` as a module with the ports `d`, `q`,
-/// `clock` and each RAM as one with `read_address` … `write_enable`, every one instantiated once.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub(crate) struct StateElements {
-    /// Each flip-flop's path and width.
-    pub flip_flops: Vec<(String, u32)>,
-    /// Each memory's path.
-    pub memories: Vec<String>,
-}
-
-const DFF_PORTS: &str = "(d,q,clock);";
-const RAM_PORTS: &str =
-    "(read_address,read_clock,read_data,write_address,write_clock,write_data,write_enable);";
-
-impl StateElements {
-    /// Finds them in `verilog` by walking the instances from [`TOP_MODULE`].
-    pub(crate) fn of(verilog: &str) -> StateElements {
-        let mut modules = std::collections::HashMap::new();
-        for text in verilog.split("\nmodule ").skip(1) {
-            let name = text.split('(').next().unwrap_or_default();
-            modules.insert(name, text);
-        }
-        let mut found = StateElements::default();
-        let mut pending = vec![(String::new(), TOP_MODULE)];
-        while let Some((path, module)) = pending.pop() {
-            let text = modules[module];
-            let header = text.lines().next().unwrap_or_default();
-            if header.ends_with(DFF_PORTS) {
-                found.flip_flops.push((path, output_width(text, "q")));
-                continue;
-            }
-            if header.ends_with(RAM_PORTS) {
-                found.memories.push(path);
-                continue;
-            }
-            for line in text.lines().skip(1) {
-                let mut words = line.trim().split(' ');
-                if let (Some(child), Some(instance), None) =
-                    (words.next(), words.next(), words.next())
-                {
-                    if let (Some(child), Some(instance)) =
-                        (modules.get_key_value(child), instance.strip_suffix('('))
-                    {
-                        let at = if path.is_empty() {
-                            instance.to_string()
-                        } else {
-                            format!("{path}.{instance}")
-                        };
-                        pending.push((at, child.0));
-                    }
-                }
-            }
-        }
-        found.flip_flops.sort();
-        found.memories.sort();
-        found
-    }
-}
-
-/// The width of output `port` declared in a module's text (`output reg [5:0] q;`).
-fn output_width(module: &str, port: &str) -> u32 {
-    let decl = module
-        .lines()
-        .map(str::trim)
-        .find(|l| l.starts_with("output") && l.ends_with(&format!(" {port};")))
-        .unwrap_or_else(|| panic!("a flip-flop module without output {port}"));
-    match decl.find('[') {
-        Some(open) => {
-            decl[open + 1..decl.find(':').unwrap()]
-                .parse::<u32>()
-                .unwrap()
-                + 1
-        }
-        None => 1,
-    }
-}
-
-/// One net of [`quiet::CONTROLLER_STATE`] in the quiet word.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub(crate) struct QuietField {
-    /// The flip-flop's instance path (the state net without its `.q`).
-    pub path: String,
-    /// Its lowest bit in the word.
-    pub shift: u32,
-    /// Its width.
-    pub width: u32,
-    /// A free-running counter that a skip loads.
-    pub counter: bool,
-}
-
-/// Where each net of [`quiet::CONTROLLER_STATE`] sits in the quiet word (below [`QUIET_SETTLED`]),
-/// in that table's order.
-pub(crate) fn quiet_layout(elements: &StateElements) -> Vec<QuietField> {
-    let mut shift = 0;
-    let layout: Vec<QuietField> = quiet::CONTROLLER_STATE
-        .iter()
-        .map(|&(net, counter)| {
-            let path = net.strip_suffix(".q").expect("a flip-flop's output");
-            let width = elements
-                .flip_flops
-                .iter()
-                .find(|(p, _)| p == path)
-                .unwrap_or_else(|| panic!("{net} is no flip-flop of the generated Verilog"))
-                .1;
-            let field = QuietField {
-                path: path.to_string(),
-                shift,
-                width,
-                counter,
-            };
-            shift += width;
-            field
-        })
-        .collect();
-    assert!(
-        shift <= QUIET_SETTLED,
-        "the quiet state fits below the settled bit"
-    );
-    layout
-}
 
 /// Verilog's hierarchical name of `path.net` below the wrapper's instance.
 fn below_dut(path: &str, net: &str) -> String {
