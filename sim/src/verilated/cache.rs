@@ -104,6 +104,8 @@ pub(crate) fn fnv1a(parts: &[&str]) -> u64 {
 /// The files of one build.
 struct Sources {
     controller: String,
+    /// Where the wrapper's quiet word holds each state net.
+    layout: Vec<QuietField>,
     wrapper: String,
     shim: String,
 }
@@ -111,9 +113,12 @@ struct Sources {
 impl Sources {
     fn new() -> Sources {
         let controller = controller_verilog();
+        let elements = StateElements::of(&controller);
+        let layout = quiet_layout(&elements);
         Sources {
-            wrapper: wrapper_verilog(&controller),
+            wrapper: wrapper_verilog(&elements, &layout),
             controller,
+            layout,
             shim: shim_cpp(),
         }
     }
@@ -150,7 +155,6 @@ impl Sources {
 pub(crate) fn library() -> Result<(PathBuf, Vec<QuietField>), EngineError> {
     let version = verilator_version()?;
     let sources = Sources::new();
-    let layout = quiet_layout(&StateElements::of(&sources.controller));
     let dir = cache_dir();
     let path = dir.join(format!(
         "{WRAPPER_MODULE}-{:016x}.so",
@@ -159,7 +163,7 @@ pub(crate) fn library() -> Result<(PathBuf, Vec<QuietField>), EngineError> {
     if !path.is_file() {
         build(&sources, &dir, &path)?;
     }
-    Ok((path, layout))
+    Ok((path, sources.layout))
 }
 
 /// Builds the library in a fresh directory under `dir` and renames it to `target`.
