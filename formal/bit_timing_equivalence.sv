@@ -17,6 +17,7 @@
 //! reference: bit_timing_448f1d3.v
 //! bmc: 16
 //! prove: pdr
+//! start: first
 //! mutation: early-restart-bound | if (remaining$q <= sjw_field) begin => if (remaining$q < sjw_field) begin
 //! mutation: shortened-end | segment_end = quantum_end & (remaining$q == sjw_quanta$q); => segment_end = quantum_end & (remaining$q == sjw_field);
 //! mutation: elapsed-not-saturated | if (elapsed$q != elapsed_over_sjw) begin => if (1'b1) begin

@@ -27,6 +27,7 @@
 //! connect: harness.release_length = harness.dut.head_length
 //! bmc: 90
 //! prove: pdr
+//! start: first
 //! mutation: room-check | if (room_needed[32'h6]) begin => if (room_needed[32'h6] & 1'b0) begin
 //! mutation: no-dos | overrun_state$d = 1'b1; => overrun_state$d = overrun_state$q;
 //! mutation: release-length | head$d = next_head; => head$d = head$q + 6'h3;

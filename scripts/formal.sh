@@ -18,6 +18,8 @@
 #                              a deliberate break of the rule in the Verilog: with --mutations the
 #                              TEXT (exactly once in the files read) is replaced and the proof must fail
 #   //! mutation-long: ...     the same, only with --long (a counterexample thousands of steps deep)
+#   //! start: first           a long proof: started before the others, so that it does not run
+#                              alone on one processor at the end
 # --mutation-texts only checks that each mutation's TEXT still occurs exactly once (seconds, for
 # `make test`: a change of the Verilog that moves a mutation's text shows at once; proving that
 # every mutation is caught takes minutes and is `make formal`).
@@ -95,12 +97,18 @@ counterexample() {
 }
 
 # prove NAME SV OUTDIR: a bounded check from reset (ABC bmc3), then, when the header asks for it, a
-# proof for every depth (ABC pdr, property-directed reachability). Prints one line; returns 1 when
-# the property fails or is not decided.
+# proof for every depth (ABC pdr, property-directed reachability). With --mutation-texts (`make
+# test`) a property with a proof skips the bounded check, which the proof for every depth implies
+# (it only finds a failing mutation's counterexample sooner). Prints one line; returns 1 when the
+# property fails or is not decided.
 prove() {
   local name=$1 sv=$2 out=$3 depth complete log
   depth=$(header bmc "$sv")
   complete=$(header prove "$sv")
+  if [ "$complete" = pdr ] && [ "$mutations" -eq 2 ]; then
+    prove_every_depth "$out" "pdr"
+    return
+  fi
   log=$out/bmc.log
   yosys-abc -c "read_aiger $out/model.aig; fold; strash; bmc3 -F $depth -T $BMC_SECONDS; write_cex -a $out/model.aiw" >"$log" 2>&1 || true
   if grep -q 'was asserted in frame' "$log"; then
@@ -115,15 +123,20 @@ prove() {
     echo "bounded: holds for $depth steps from reset"
     return 0
   fi
-  log=$out/pdr.log
+  prove_every_depth "$out" "pdr; bmc $depth"
+}
+
+# prove_every_depth OUTDIR HOW: ABC's pdr on OUTDIR/model.aig; HOW goes into the result line.
+prove_every_depth() {
+  local out=$1 how=$2 log=$1/pdr.log
   yosys-abc -c "read_aiger $out/model.aig; fold; strash; pdr -T $PDR_SECONDS; write_cex -a $out/model.aiw" >"$log" 2>&1 || true
   if grep -q 'Property proved' "$log"; then
-    echo "proved for every depth (pdr; bmc $depth)"
+    echo "proved for every depth ($how)"
   elif grep -q 'was asserted in frame' "$log"; then
     echo "FAIL at step $(grep -o 'asserted in frame [0-9]*' "$log" | grep -o '[0-9]*$'): $(counterexample "$out")"
     return 1
   else
-    echo "FAIL pdr undecided in ${PDR_SECONDS}s (bmc $depth passed)"
+    echo "FAIL pdr undecided in ${PDR_SECONDS}s ($how)"
     return 1
   fi
 }
@@ -200,10 +213,23 @@ for name in "${names[@]}"; do
   fi
 done
 
+# Start order: the proofs marked `start: first`, then the rest in file order.
+order=()
+for pass in first rest; do
+  for i in "${!tasks[@]}"; do
+    task=${tasks[$i]}
+    if [[ "$task" != *"|"* ]] && [ "$(header start "formal/$task.sv")" = first ]; then
+      [ $pass = first ] && order+=("$i")
+    else
+      [ $pass = rest ] && order+=("$i")
+    fi
+  done
+done
+
 jobs_max=${FORMAL_JOBS:-$(nproc)}
 results=$(mktemp -d)
 trap 'rm -rf "$results"' EXIT
-for i in "${!tasks[@]}"; do
+for i in "${order[@]}"; do
   while [ "$(jobs -rp | wc -l)" -ge "$jobs_max" ]; do wait -n || true; done
   task=${tasks[$i]}
   if [[ "$task" == *"|"* ]]; then
