@@ -65,7 +65,8 @@ const QUANTUM_SAMPLES: usize = 9;
 const BRP_SOURCE: usize = 10;
 const DIVIDER_COUNT: usize = 11;
 const DIVIDER_LEVEL: usize = 12;
-const CDR: usize = 13;
+/// The CDR register's index in [`CONTROLLER_STATE`].
+pub(crate) const CDR: usize = 13;
 
 /// A generated model with one of the state lists above.
 pub(crate) trait Counters {
@@ -103,10 +104,10 @@ counters!(core_model::Model, divider: false);
 /// BTR0.5..0 (the BRP input of the core has only these): the prescaler.
 const BRP_MASK: u64 = 0x3F;
 /// CDR.2..0: the CLKOUT divider code; CDR.3: clock off.
-const CDR_CODE_MASK: u64 = 0x7;
-const CDR_CLOCK_OFF: u64 = 1 << 3;
+pub(crate) const CDR_CODE_MASK: u64 = 0x7;
+pub(crate) const CDR_CLOCK_OFF: u64 = 1 << 3;
 /// The CDR code that passes the controller clock through (no divided level on the pin).
-const CDR_CODE_FOSC: u64 = 7;
+pub(crate) const CDR_CODE_FOSC: u64 = 7;
 /// Where `elapsed` stops counting (`ELAPSED_OVER_SJW` of the bit timing).
 const ELAPSED_SATURATED: u64 = 4;
 
