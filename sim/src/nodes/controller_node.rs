@@ -31,6 +31,7 @@ use crate::nodes::can_node::{core_probe_values, core_probes, CORE_PROBES, CORE_P
 use crate::nodes::core_engine::CoreOutputs;
 use crate::verilated::sources::{STATE, TRANSMITTING};
 pub use crate::verilated::EngineError;
+use crate::verilated::MIN_SKIPPED_CYCLES;
 use crate::verilated::{PortInputs, PortOutputs, VerilatedController};
 
 /// The environment variable that chooses the engine of [`ControllerNode::new`].
@@ -423,7 +424,7 @@ impl Device for ControllerNode {
                 model.quiet_cycles(self.idle_inputs(rx), traced)
             }
             Model::Verilator(model) if self.queue.is_empty() => {
-                model.quiet_cycles(self.idle_inputs(rx), traced)
+                model.quiet_cycles(self.idle_inputs(rx), traced, MIN_SKIPPED_CYCLES)
             }
             _ => 0,
         }
