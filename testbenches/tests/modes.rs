@@ -552,14 +552,16 @@ fn clkout_divides_fosc_by_every_cdr_code() {
     }
     // Code 7 passes fosc through. Sampled once per clock at a fixed phase it aliases to a
     // constant level: its frequency cannot be seen by this bench, only that it is not divided.
+    // Every engine hands over the outputs of a cycle with the clock low again (docs/ENGINES.md),
+    // so that level is low; on Verilator this is the one cycle whose falling edge is evaluated.
     bench
         .host(0)
         .write(pelican::CDR, clock_divider::PELICAN | 7);
     sample_clkout(&mut bench, 0, 20);
     let samples = sample_clkout(&mut bench, 0, 200);
     assert!(
-        samples.iter().all(|&s| s == samples[0]),
-        "code 7 (fosc) sampled once per clock is constant"
+        samples.iter().all(|&s| !s),
+        "code 7 (fosc) sampled once per clock, with the clock low, reads low"
     );
 }
 

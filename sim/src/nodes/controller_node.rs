@@ -31,8 +31,7 @@ use crate::nodes::can_node::{core_probe_values, core_probes, CORE_PROBES, CORE_P
 use crate::nodes::core_engine::CoreOutputs;
 use crate::verilated::sources::{STATE, TRANSMITTING};
 pub use crate::verilated::EngineError;
-use crate::verilated::MIN_SKIPPED_CYCLES;
-use crate::verilated::{PortInputs, PortOutputs, VerilatedController};
+use crate::verilated::{PortInputs, PortOutputs, VerilatedController, MIN_SKIPPED_CYCLES};
 
 /// The environment variable that chooses the engine of [`ControllerNode::new`].
 pub const ENGINE_ENV: &str = "CAN_ENGINE";

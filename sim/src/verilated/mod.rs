@@ -24,6 +24,11 @@ use dl::Library;
 use quiet_word::{QuietField, QuietWord, QUIET_SETTLED};
 
 use crate::compiled::quiet;
+use crate::nodes::can_node::CORE_PROBE_BITS;
+use sources::{
+    ABI_VERSION, INTERNAL_SHIFTS, INTERNAL_SIGNALS, IN_ADDR, IN_RE, IN_RESET, IN_RX, IN_WDATA,
+    IN_WE, OUT_CLKOUT, OUT_IRQ_N, OUT_RDATA, OUT_TX,
+};
 
 /// The shortest quiet stretch worth skipping on the Verilated controller: the `settled`
 /// evaluation and the counters' load cost more than stepping one or two edges (callgrind, the
@@ -31,11 +36,6 @@ use crate::compiled::quiet;
 /// every stretch, 174.5 M from 2 cycles on, 170.6 M from 3, the same from 4; at 500 kbit/s and at
 /// 1 Mbit/s alike).
 pub(crate) const MIN_SKIPPED_CYCLES: u64 = 3;
-use crate::nodes::can_node::CORE_PROBE_BITS;
-use sources::{
-    ABI_VERSION, INTERNAL_SHIFTS, INTERNAL_SIGNALS, IN_ADDR, IN_RE, IN_RESET, IN_RX, IN_WDATA,
-    IN_WE, OUT_CLKOUT, OUT_IRQ_N, OUT_RDATA, OUT_TX,
-};
 
 /// Why the Verilator engine is not available.
 #[derive(Clone, Debug, PartialEq, Eq)]
