@@ -752,10 +752,11 @@ pub fn run_verilated(stim: &Stimulus) -> Result<Trace, EngineError> {
 /// Checks the Verilator engine's quiet-edge skips on `stim`: every node is stepped cycle by cycle
 /// (the reference, on the bus the stepped nodes make), and a second model of each node, given the
 /// same inputs and bus, skips wherever it reports quiet cycles (as many as its inputs stay the
-/// same, `clkout` seen), then must show the state ([`VerilatedController::quiet_state`]) and the
-/// outputs the stepped model had after the same cycle. Returns the cycles skipped; the error names
-/// the first cycle at which they differ.
-pub fn verilated_skips_agree(stim: &Stimulus) -> Result<u64, String> {
+/// same; `traced`: as for a traced node, whose CLKOUT, segment and sample point must hold), then
+/// must show the state ([`VerilatedController::quiet_state`]) and the outputs the stepped model
+/// had after the same cycle. Returns the cycles skipped; the error names the first cycle at which
+/// they differ.
+pub fn verilated_skips_agree(stim: &Stimulus, traced: bool) -> Result<u64, String> {
     stim.validate()?;
     let new = || VerilatedController::new().map_err(|e| e.to_string());
     let mut stepped = (0..stim.nodes)
@@ -784,9 +785,9 @@ pub fn verilated_skips_agree(stim: &Stimulus) -> Result<u64, String> {
             let holding = inputs[cycle..].iter().take_while(|&&p| p == ports).count() as u64;
             // Every stretch of two or more cycles, also the ones the engine steps as cheaper
             // (`MIN_SKIPPED_CYCLES`): the test is of the load, not of when to use it.
-            let quiet = model.quiet_cycles(ports, true, 2).min(holding);
+            let quiet = model.quiet_cycles(ports, traced, 2).min(holding);
             if quiet >= 2 {
-                model.skip(quiet, true, false);
+                model.skip(quiet, traced, false);
                 skipped += quiet;
                 cycle += quiet as usize;
             } else {

@@ -1289,6 +1289,8 @@ impl Model {
             8 => self.q52, // bit_timing.sampling.previous.q
             9 => self.q43, // bit_timing.sampling.quantum_samples.q
             10 => self.i_brp, // brp
+            11 => self.i_tseg1, // tseg1
+            12 => self.i_tseg2, // tseg2
             _ => panic!("no state net {i}"),
         }
     }
@@ -1311,6 +1313,14 @@ impl Model {
                 let q = self.q46 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
                 if q != self.q46 { self.q46 = q; self.dirty |= 0x40000004; }
             }
+            3 => { // bit_timing.segment_state.q
+                let q = self.q42 & !0x3 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1;
+                if q != self.q42 { self.q42 = q; self.dirty |= 0x4000000204; }
+            }
+            9 => { // bit_timing.sampling.quantum_samples.q
+                let q = self.q43 & !0x3 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1;
+                if q != self.q43 { self.q43 = q; self.dirty |= 0x1000000100; }
+            }
             _ => panic!("no free-running state net {i}"),
         }
     }
@@ -1327,9 +1337,7 @@ impl Model {
         if ran >> 33 & 1 != 0 && (self.q50 != self.n50) { return false; }
         if ran >> 34 & 1 != 0 && (self.q51 != self.n51) { return false; }
         if ran >> 35 & 1 != 0 && (self.q52 != self.n52) { return false; }
-        if ran >> 36 & 1 != 0 && (self.q43 != self.n43) { return false; }
         if ran >> 37 & 1 != 0 && (self.q53 != self.n53) { return false; }
-        if ran >> 38 & 1 != 0 && (self.q42 != self.n42) { return false; }
         if ran >> 39 & 1 != 0 && (self.q41 != self.n41) { return false; }
         if ran >> 40 & 1 != 0 && (self.q40 != self.n40) { return false; }
         if ran >> 41 & 1 != 0 && (self.q39 != self.n39) { return false; }

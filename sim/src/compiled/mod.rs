@@ -39,7 +39,7 @@ use std::sync::OnceLock;
 
 use crate::verilated::sources::{
     INTERNAL_SHIFTS, INTERNAL_SIGNALS, IN_ADDR, IN_RE, IN_RESET, IN_RX, IN_WDATA, IN_WE,
-    OUT_CLKOUT, OUT_IRQ_N, OUT_RDATA, OUT_TX,
+    OUT_CLKOUT, OUT_IRQ_N, OUT_RDATA, OUT_TX, UNTRACED_OUTPUTS,
 };
 use crate::verilated::verilog::{controller_verilog, TOP_MODULE};
 use crate::verilated::{fnv1a, EngineError, PortInputs, PortOutputs};
@@ -337,14 +337,14 @@ impl CompiledController {
     }
 
     /// How many cycles from the next one on, all with `inputs`, change nothing outside the
-    /// controller's counters: no output (`clkout` may toggle unless `clkout_seen`), no register,
-    /// no memory ([`quiet`]). 0 when `inputs` differ from the last cycle's.
-    pub fn quiet_cycles(&self, inputs: PortInputs, clkout_seen: bool) -> u64 {
+    /// controller's counters: no output but those only a trace shows (CLKOUT, the sample point
+    /// and the segment, which may change unless `traced`), no register, no memory ([`quiet`]). 0 when `inputs` differ from the last cycle's.
+    pub fn quiet_cycles(&self, inputs: PortInputs, traced: bool) -> u64 {
         if self.applied != Some(inputs) || inputs.reset {
             return 0;
         }
         // The counters' arithmetic first: it rules out most edges at less cost than `settled`.
-        match quiet::quiet_cycles(&*self.model, inputs.rx, clkout_seen) {
+        match quiet::quiet_cycles(&*self.model, inputs.rx, traced) {
             0 => 0,
             cycles if self.model.settled() => cycles,
             _ => 0,
@@ -353,17 +353,13 @@ impl CompiledController {
 
     /// Runs `cycles` quiet cycles (at most [`CompiledController::quiet_cycles`] gave) in one
     /// step. `checked`: also runs them one by one on a copy and panics unless every output stayed
-    /// (`clkout` only if `clkout_seen`) and the two end in the same state.
-    pub fn skip(&mut self, cycles: u64, clkout_seen: bool, checked: bool) {
+    /// (those only a trace shows only if `traced`) and the two end in the same state.
+    pub fn skip(&mut self, cycles: u64, traced: bool, checked: bool) {
         let copy = checked.then(|| self.clone());
         quiet::advance(&mut *self.model, cycles);
         if let Some(mut copy) = copy {
             let inputs = copy.applied.expect("a cycle ran before the skip");
-            let seen = if clkout_seen {
-                u64::MAX
-            } else {
-                !(1 << OUT_CLKOUT)
-            };
+            let seen = if traced { u64::MAX } else { !UNTRACED_OUTPUTS };
             let before = copy.model.outputs() & seen;
             let step = || {
                 copy.cycle(inputs);

@@ -2103,6 +2103,7 @@ impl Model {
             11 => self.q12, // modes.divider.count.q
             12 => self.q11, // modes.divider.level.q
             13 => self.q105 | ((self.q15 & 0x1) << 3) | ((self.q15 >> 1) << 5) | (self.q14 << 7), // modes.cdr_reg.q
+            14 => self.q102, // configuration.btr1.q
             _ => panic!("no state net {i}"),
         }
     }
@@ -2124,6 +2125,14 @@ impl Model {
             2 => { // core.bit_timing.elapsed.q
                 let q = self.q95 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
                 if q != self.q95 { self.q95 = q; self.dirty |= 0x4000000000008; }
+            }
+            3 => { // core.bit_timing.segment_state.q
+                let q = self.q91 & !0x3 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1;
+                if q != self.q91 { self.q91 = q; self.dirty |= 0x40000000010008; }
+            }
+            9 => { // core.bit_timing.sampling.quantum_samples.q
+                let q = self.q92 & !0x3 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1;
+                if q != self.q92 { self.q92 = q; self.dirty |= 0x20000000008000; }
             }
             11 => { // modes.divider.count.q
                 let q = self.q12 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
@@ -2156,8 +2165,8 @@ impl Model {
         if ran >> 50 & 1 != 0 && (self.q94 != self.n94) { return false; }
         if ran >> 51 & 1 != 0 && (self.q109 != self.n109) { return false; }
         if ran >> 52 & 1 != 0 && (self.q110 != self.n110 || self.q111 != self.n111) { return false; }
-        if ran >> 53 & 1 != 0 && (self.q92 != self.n92 || self.q112 != self.n112) { return false; }
-        if ran >> 54 & 1 != 0 && (self.q0 != self.n0 || self.q91 != self.n91) { return false; }
+        if ran >> 53 & 1 != 0 && (self.q112 != self.n112) { return false; }
+        if ran >> 54 & 1 != 0 && (self.q0 != self.n0) { return false; }
         if ran >> 55 & 1 != 0 && (self.q89 != self.n89 || self.q90 != self.n90) { return false; }
         if ran >> 56 & 1 != 0 && (self.q87 != self.n87 || self.q88 != self.n88) { return false; }
         if ran >> 57 & 1 != 0 && (self.q85 != self.n85 || self.q86 != self.n86) { return false; }

@@ -89,9 +89,21 @@ struct Slot {
     /// The time of its first edge that is not quiet ([`Device::quiet_edges`]), while known: forgotten
     /// when it is stepped, changed from outside, or the bus level may have changed.
     quiet_until: Option<u64>,
+    /// Quiet edges from its next one on that it jumps over in one step when the last of them comes
+    /// first in time order (0: none), found while the engine runs ([`Engine::park_quiet_edges`]):
+    /// cut back when the bus changes before them, jumped over or dropped before a run returns.
+    parked: u64,
 }
 
 impl Slot {
+    /// The time of the slot's turn: its next edge, or the last of its parked edges.
+    fn turn(&self) -> u64 {
+        match self.parked {
+            0 => self.next_edge,
+            parked => self.clock.edge(self.edges + parked - 1),
+        }
+    }
+
     /// What reaches the bus from this device at its edge at `t` when its pin drives `pin`.
     fn effective_drive(&self, t: u64, pin: Drive) -> Drive {
         self.overrides
@@ -320,6 +332,7 @@ impl Engine {
             probe_values: vec![0; probes],
             departed: false,
             quiet_until: None,
+            parked: 0,
         });
         self.forget_quiet();
         DeviceId(self.slots.len() - 1)
@@ -591,17 +604,24 @@ impl Engine {
     /// for the earliest edge serves both the test and the step (the search looks at every device:
     /// a separate [`Engine::next_edge`] before each step doubled it).
     fn step_before(&mut self, limit_fs: u64, may_skip: bool) -> io::Result<bool> {
-        let Some(i) = self.earliest() else {
-            return Ok(false);
+        let i = loop {
+            let Some(i) = self.earliest() else {
+                return Ok(false);
+            };
+            if self.slots[i].turn() >= limit_fs {
+                return Ok(false);
+            }
+            self.start_deferred_trace()?;
+            if self.slots[i].parked > 0 {
+                self.jump_parked(i);
+                return Ok(true);
+            }
+            let parks = may_skip && self.skipping != EdgeSkipping::Off;
+            if !(parks && self.park_quiet_edges(i, limit_fs)) {
+                break i;
+            }
         };
         let t = self.slots[i].next_edge;
-        if t >= limit_fs {
-            return Ok(false);
-        }
-        self.start_deferred_trace()?;
-        if may_skip && self.skipping != EdgeSkipping::Off && self.skip_quiet_edges(i, limit_fs) {
-            return Ok(true);
-        }
         self.flush_bus_changes(t)?;
         self.now = t;
         self.edges += 1;
@@ -629,6 +649,7 @@ impl Engine {
             self.bus.set_drive(line, t, drive);
             self.observers.expect_change_at(t + self.bus.delay_fs(line));
             self.forget_quiet();
+            self.cut_parked(t);
         }
         let traced = i < self.observers.traced_devices;
         if let Some(tracer) = self.observers.tracer.as_mut().filter(|_| traced) {
@@ -648,49 +669,80 @@ impl Engine {
         Ok(true)
     }
 
-    /// When device `i`, the earliest, has quiet edges ahead: skips every device's edges before
-    /// the horizon, the earliest of `limit_fs` and any device's first edge that is not quiet (the
-    /// earliest time the bus can change), so that every device continues from there in time
-    /// order. Returns whether it skipped. Only while the level every device sees is settled (no
-    /// change on its way through a delay).
-    fn skip_quiet_edges(&mut self, i: usize, limit_fs: u64) -> bool {
+    /// When device `i`, the earliest, has quiet edges ahead (at least two, before `limit_fs`, a
+    /// bus fault's or its own disturbance's start or end): parks them, to be jumped over when the
+    /// last of them comes first in time order ([`Engine::jump_parked`]), and returns true. Other
+    /// devices go on stepping meanwhile; what they drive cannot change what device `i` does in
+    /// those edges unless it changes the bus before them, and then the parked edges are cut back
+    /// to those before the change ([`Engine::cut_parked`]). Only while the level every device sees
+    /// is settled (no change on its way through a delay).
+    fn park_quiet_edges(&mut self, i: usize, limit_fs: u64) -> bool {
         let next = self.slots[i].next_edge;
         if self.quiet_until(i) <= next.saturating_add(self.slots[i].clock.period_fs())
             || self.bus.settled_from() > next
         {
             return false;
         }
-        let mut horizon = limit_fs.min(self.bus.next_fault_boundary(self.now));
-        for j in 0..self.slots.len() {
-            horizon = horizon
-                .min(self.quiet_until(j))
-                .min(self.next_window_boundary(j));
-        }
-        if edges_before(&self.slots[i], horizon) < 2 {
+        let horizon = limit_fs
+            .min(self.bus.next_fault_boundary(self.now))
+            .min(self.quiet_until(i))
+            .min(self.next_window_boundary(i));
+        let edges = edges_before(&self.slots[i], horizon);
+        if edges < 2 {
             return false;
         }
+        self.slots[i].parked = edges;
+        true
+    }
+
+    /// Jumps over device `i`'s parked edges in one step.
+    fn jump_parked(&mut self, i: usize) {
         let checked = self.skipping == EdgeSkipping::Checked;
         let pruned_before = self.edges / PRUNE_EDGES;
-        for j in 0..self.slots.len() {
-            let edges = edges_before(&self.slots[j], horizon);
-            if edges == 0 {
-                continue;
-            }
-            let traced = self.observers.tracer.is_some() && j < self.observers.traced_devices;
-            let rx = self.rx_seen(j, self.slots[j].next_edge);
-            let slot = &mut self.slots[j];
-            slot.device.skip_edges(edges, rx, traced, checked);
-            slot.edges += edges;
-            slot.next_edge = slot.clock.edge(slot.edges);
-            self.now = self.now.max(slot.clock.edge(slot.edges - 1));
-            self.edges += edges;
-            self.skipped += edges;
-        }
+        let traced = self.observers.tracer.is_some() && i < self.observers.traced_devices;
+        let rx = self.rx_seen(i, self.slots[i].next_edge);
+        let slot = &mut self.slots[i];
+        let edges = std::mem::take(&mut slot.parked);
+        slot.device.skip_edges(edges, rx, traced, checked);
+        slot.edges += edges;
+        slot.next_edge = slot.clock.edge(slot.edges);
+        self.now = self.now.max(slot.clock.edge(slot.edges - 1));
+        self.edges += edges;
+        self.skipped += edges;
         self.last_stepped = Some(DeviceId(i));
         if self.edges / PRUNE_EDGES != pruned_before {
             self.bus.prune(self.now);
         }
-        true
+    }
+
+    /// The bus changes at `t`: parked edges after `t` are no longer quiet (a device sees a change
+    /// only after it, `Bus::level_seen_by`).
+    fn cut_parked(&mut self, t: u64) {
+        for slot in &mut self.slots {
+            if slot.parked > 0 {
+                slot.parked = slot.parked.min(edges_before(slot, t.saturating_add(1)));
+            }
+        }
+    }
+
+    /// Jumps over the parked edges that stepping in time order would have processed by now (the
+    /// last step was device `last`'s edge at `now`) and drops the others, so that a run returns
+    /// with every device where stepping each edge would have left it.
+    fn settle_parked(&mut self) {
+        let last = self.last_stepped.map_or(0, |id| id.0);
+        for i in 0..self.slots.len() {
+            let slot = &mut self.slots[i];
+            if slot.parked == 0 {
+                continue;
+            }
+            // Edges at `now` itself come before the last one's when their device is earlier.
+            let until = self.now.saturating_add(u64::from(i < last));
+            slot.parked = slot.parked.min(edges_before(slot, until));
+            if slot.parked > 0 {
+                self.jump_parked(i);
+            }
+        }
+        self.last_stepped = Some(DeviceId(last));
     }
 
     /// The time of device `j`'s first edge that is not quiet (its next edge if it has none).
@@ -787,6 +839,7 @@ impl Engine {
         let mut may_skip = false;
         while self.step_before(limit_fs, may_skip)? {
             if done(self) {
+                self.settle_parked();
                 return Ok(true);
             }
             may_skip = true;
@@ -797,8 +850,9 @@ impl Engine {
     fn earliest(&self) -> Option<usize> {
         let mut best: Option<(u64, usize)> = None;
         for (i, s) in self.slots.iter().enumerate() {
-            if best.is_none_or(|(t, _)| s.next_edge < t) {
-                best = Some((s.next_edge, i));
+            let turn = s.turn();
+            if best.is_none_or(|(t, _)| turn < t) {
+                best = Some((turn, i));
             }
         }
         best.filter(|&(t, _)| t != u64::MAX).map(|(_, i)| i)
@@ -1002,6 +1056,30 @@ mod tests {
         assert!(skips > 0);
         assert!(plain.len() > 10, "{plain:?}");
         assert_eq!(plain, skipped);
+    }
+
+    /// `run_while` stops after the edge at which its condition holds (here the probe's 40th, which
+    /// steps every edge); every other device has then run the edges that stepping runs by that
+    /// time (its parked quiet edges before it jumped over, the later ones not), skipped or not.
+    #[test]
+    fn a_run_while_leaves_every_device_where_stepping_does() {
+        let run = |skipping| {
+            let mut engine = Engine::new();
+            engine.set_edge_skipping(skipping);
+            engine.add(Pulser::new(1.3e6, 11), 250_000);
+            let watched = engine.add(probe(Drive::Recessive), 0);
+            engine.add(Pulser::new(0.7e6, 13), 0);
+            let done = |e: &Engine| e.device::<Probe>(watched).seen.len() >= 40;
+            assert!(engine.run_while(u64::MAX, done).unwrap());
+            let pulsers = [DeviceId(0), DeviceId(2)];
+            let edges = pulsers.map(|id| engine.device::<Pulser>(id).edges);
+            (edges, engine.now(), engine.skipped_edges())
+        };
+        let ((plain, plain_now, _), (skipped, now, skips)) =
+            (run(EdgeSkipping::Off), run(EdgeSkipping::On));
+        assert!(skips > 0);
+        assert_eq!(plain, skipped);
+        assert_eq!(plain_now, now);
     }
 
     #[test]

@@ -292,18 +292,18 @@ impl Device for CanNode {
         Drive::from_level(self.out.tx)
     }
 
-    fn quiet_edges(&self, rx: bool, _traced: bool) -> u64 {
+    fn quiet_edges(&self, rx: bool, traced: bool) -> u64 {
         let out = &self.out;
         let pulses = out.bus_error || out.arbitration_lost || out.rx_strobe || out.rx_valid;
         if pulses || out.tx_done || self.pending_load.is_some() || self.pending_abort {
             return 0;
         }
-        self.core.quiet_cycles(&self.idle_inputs(rx))
+        self.core.quiet_cycles(&self.idle_inputs(rx), traced)
     }
 
-    fn skip_edges(&mut self, edges: u64, rx: bool, _traced: bool, checked: bool) {
+    fn skip_edges(&mut self, edges: u64, rx: bool, traced: bool, checked: bool) {
         self.inputs = self.idle_inputs(rx);
-        self.core.skip(edges, checked);
+        self.core.skip(edges, traced, checked);
     }
 
     fn probes(&self) -> Vec<Probe> {

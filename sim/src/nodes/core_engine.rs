@@ -160,18 +160,18 @@ impl CoreModel {
     }
 
     /// Quiet cycles ahead with `inputs` ([`CompiledCore::quiet_cycles`]); none on rust-hdl.
-    pub fn quiet_cycles(&self, inputs: &CoreInputs) -> u64 {
+    pub fn quiet_cycles(&self, inputs: &CoreInputs, traced: bool) -> u64 {
         match self {
             CoreModel::RustHdl { .. } => 0,
-            CoreModel::Compiled(core) => core.quiet_cycles(inputs),
+            CoreModel::Compiled(core) => core.quiet_cycles(inputs, traced),
         }
     }
 
     /// Runs `cycles` quiet cycles at once ([`CompiledCore::skip`]).
-    pub fn skip(&mut self, cycles: u64, checked: bool) {
+    pub fn skip(&mut self, cycles: u64, traced: bool, checked: bool) {
         match self {
             CoreModel::RustHdl { .. } => unreachable!("the rust-hdl core has no quiet cycles"),
-            CoreModel::Compiled(core) => core.skip(cycles, checked),
+            CoreModel::Compiled(core) => core.skip(cycles, traced, checked),
         }
     }
 }

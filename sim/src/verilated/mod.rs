@@ -27,7 +27,7 @@ use crate::compiled::quiet;
 use crate::nodes::can_node::CORE_PROBE_BITS;
 use sources::{
     ABI_VERSION, INTERNAL_SHIFTS, INTERNAL_SIGNALS, IN_ADDR, IN_RE, IN_RESET, IN_RX, IN_WDATA,
-    IN_WE, OUT_CLKOUT, OUT_IRQ_N, OUT_RDATA, OUT_TX,
+    IN_WE, OUT_CLKOUT, OUT_IRQ_N, OUT_RDATA, OUT_TX, UNTRACED_OUTPUTS,
 };
 
 /// The shortest quiet stretch worth skipping on the Verilated controller: the `settled`
@@ -306,17 +306,17 @@ impl VerilatedController {
     }
 
     /// How many cycles from the next one on, all with `inputs`, change nothing outside the
-    /// controller's counters: no output (`clkout` may toggle unless `clkout_seen`), no register,
-    /// no memory; the same arithmetic as the compiled engine's
+    /// controller's counters: no output but those only a trace shows (CLKOUT, the sample point
+    /// and the segment, which may change unless `traced`), no register, no memory; the same arithmetic as the compiled engine's
     /// (`CompiledController::quiet_cycles`), on the state the wrapper brings out. 0 when `inputs`
     /// differ from the last cycle's, and when fewer than `at_least` cycles are quiet (then the
     /// wrapper's `settled` comparison, an evaluation, is not spent).
-    pub fn quiet_cycles(&self, inputs: PortInputs, clkout_seen: bool, at_least: u64) -> u64 {
+    pub fn quiet_cycles(&self, inputs: PortInputs, traced: bool, at_least: u64) -> u64 {
         if self.applied != Some(inputs) || inputs.reset {
             return 0;
         }
         // The counters' arithmetic first: it rules out most edges without an evaluation.
-        match quiet::quiet_cycles(&self.quiet_word(), inputs.rx, clkout_seen) {
+        match quiet::quiet_cycles(&self.quiet_word(), inputs.rx, traced) {
             cycles if cycles < at_least.max(1) => 0,
             cycles if self.settled() => cycles,
             _ => 0,
@@ -325,21 +325,17 @@ impl VerilatedController {
 
     /// Runs `cycles` quiet cycles (at most [`VerilatedController::quiet_cycles`] gave) in one
     /// step: the wrapper loads the counters with their values after them. `checked`: steps the
-    /// cycles one by one instead and panics unless every output stayed (`clkout` only if
-    /// `clkout_seen`), everything but the counters stayed settled after each, and the state ends
+    /// cycles one by one instead and panics unless every output stayed (those only a trace
+    /// shows only if `traced`), everything but the counters stayed settled after each, and the state ends
     /// where the skip would have put it (a model cannot be copied to do both; the skip's load
     /// itself is checked against stepping by `testbenches::equivalence::verilated_skips_agree`
     /// and by the examples run with skipping on, `testbenches/tests/engines.rs`).
-    pub fn skip(&mut self, cycles: u64, clkout_seen: bool, checked: bool) {
+    pub fn skip(&mut self, cycles: u64, traced: bool, checked: bool) {
         let mut after = self.quiet_word();
         quiet::advance(&mut after, cycles);
         if checked {
             let inputs = self.applied.expect("a cycle ran before the skip");
-            let seen = if clkout_seen {
-                u64::MAX
-            } else {
-                !(1 << OUT_CLKOUT)
-            };
+            let seen = if traced { u64::MAX } else { !UNTRACED_OUTPUTS };
             // Compared after each edge: the outputs and, above them, that every flip-flop but
             // the counters and every memory stays settled up to the last skipped edge (so none
             // of them changes at any).

@@ -157,7 +157,7 @@ fn mask(field: &QuietField) -> u64 {
 }
 
 impl Counters for QuietWord<'_> {
-    const DIVIDER: bool = true;
+    const CONTROLLER: bool = true;
 
     fn state(&self, i: usize) -> u64 {
         let field = &self.layout[i];

@@ -87,6 +87,10 @@ pub(crate) const INTERNAL_SIGNALS: [InternalSignal; 6] = [
     },
 ];
 
+/// Index of the sample point in [`INTERNAL_SIGNALS`].
+const SAMPLE_POINT: usize = 0;
+/// Index of the segment in [`INTERNAL_SIGNALS`].
+const SEGMENT: usize = 1;
 /// Index of the protocol state in [`INTERNAL_SIGNALS`].
 pub(crate) const STATE: usize = 2;
 /// Index of the "transmitting" flag in [`INTERNAL_SIGNALS`].
@@ -119,6 +123,12 @@ pub(crate) const OUT_IRQ_N: u32 = 9;
 pub(crate) const OUT_CLKOUT: u32 = 10;
 /// Bit position of the first internal signal; the others follow in table order.
 const OUT_FIRST_INTERNAL: u32 = 11;
+
+/// The outputs only a trace shows, which a skip of quiet edges in an untraced run may change on
+/// the way (`crate::compiled::quiet`): CLKOUT, the sample point and the segment.
+pub(crate) const UNTRACED_OUTPUTS: u64 = 1 << OUT_CLKOUT
+    | ((1 << INTERNAL_SIGNALS[SAMPLE_POINT].width) - 1) << INTERNAL_SHIFTS[SAMPLE_POINT]
+    | ((1 << INTERNAL_SIGNALS[SEGMENT].width) - 1) << INTERNAL_SHIFTS[SEGMENT];
 
 /// Bit position of each internal signal in the output word.
 pub(crate) const INTERNAL_SHIFTS: [u32; INTERNAL_SIGNALS.len()] = internal_shifts();
