@@ -12,6 +12,7 @@ pub(crate) use cache::fnv1a;
 mod dl;
 mod quiet_word;
 pub(crate) mod sources;
+mod training;
 pub mod verilog;
 
 use std::ffi::c_void;
@@ -94,7 +95,7 @@ struct ModelLibrary {
     skip: SkipFn,
     /// Where the quiet word holds each state net.
     layout: Vec<QuietField>,
-    _library: Library,
+    handle: Library,
 }
 
 impl ModelLibrary {
@@ -125,7 +126,7 @@ impl ModelLibrary {
                 skip: library.function("cc_skip").map_err(fail)?,
                 path,
                 layout,
-                _library: library,
+                handle: library,
             })
         }
     }
@@ -253,7 +254,11 @@ impl VerilatedController {
     /// A new controller at power-up (the values of the Verilog's `initial` blocks; apply a reset
     /// before use, as with the hardware). Builds and loads the library on first use.
     pub fn new() -> Result<VerilatedController, EngineError> {
-        let library = model_library()?;
+        VerilatedController::with_library(model_library()?)
+    }
+
+    /// A new controller of `library`.
+    fn with_library(library: &'static ModelLibrary) -> Result<VerilatedController, EngineError> {
         // SAFETY: `create` takes no arguments and returns an owned model or null.
         let model = NonNull::new(unsafe { (library.create)() })
             .ok_or_else(|| EngineError::Load("out of memory creating a model".into()))?;

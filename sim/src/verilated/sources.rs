@@ -38,6 +38,9 @@ pub(crate) const WRAPPER_FILE: &str = "can_controller_sim.v";
 pub(crate) const CONTROLLER_FILE: &str = "can_controller.v";
 /// File name of the C++ shim.
 pub(crate) const SHIM_FILE: &str = "shim.cpp";
+/// Defined in the instrumented build of a profile-guided build: the shim then exports
+/// `cc_profile_dump`, which writes the training run's profile.
+pub(crate) const PROFILE_GENERATE_MACRO: &str = "CC_PROFILE_GENERATE";
 /// Version of the C interface; the library reports it and the loader checks it.
 pub(crate) const ABI_VERSION: u32 = 2;
 
@@ -387,6 +390,12 @@ CC_EXPORT uint64_t cc_skip(void* model, uint64_t state) {{
     t.eval();
     return outputs(t);
 }}
+
+#ifdef {PROFILE_GENERATE_MACRO}
+// The instrumented build of a profile-guided one writes its profile when the training ends.
+extern \"C\" void __gcov_dump(void);
+CC_EXPORT void cc_profile_dump() {{ __gcov_dump(); }}
+#endif
 "
     )
 }
