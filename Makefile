@@ -64,7 +64,7 @@ waves-compare:
 ## Speed figures: the reference workload (cansim bench) on both engines of the complete controller,
 ## then the bit-timing and core-only devices.
 bench:
-	$(CARGO) run --release -p sim --bin cansim -- bench --engine compiled,rust-hdl,verilator
+	$(CARGO) run --release -p sim --bin cansim -- bench --engine compiled,rust-hdl,verilator --skip-edges off,on
 	$(CARGO) bench -p sim --bench engine
 
 ## Fault-injection campaign on every core (FAULTS=100000 by default, SEED=1).
