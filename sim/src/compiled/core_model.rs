@@ -1290,7 +1290,6 @@ impl Model {
             9 => self.q43, // bit_timing.sampling.quantum_samples.q
             10 => self.i_brp, // brp
             11 => self.i_tseg1, // tseg1
-            12 => self.i_tseg2, // tseg2
             _ => panic!("no state net {i}"),
         }
     }

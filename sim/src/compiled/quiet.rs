@@ -22,7 +22,7 @@ use super::{core_model, model};
 
 /// The nets of the controller read or written here (flattened names of the generated Verilog),
 /// each with whether it is one of the counters a skipped cycle may change; the bit timing's in the
-/// order of the bare core's ([`CORE_STATE`]), then the CLKOUT divider's, then the segment lengths.
+/// order of the bare core's ([`CORE_STATE`]), then the CLKOUT divider's, then BTR1 (TSEG1).
 pub(crate) const CONTROLLER_STATE: [(&str, bool); 15] = [
     ("core.bit_timing.clocks.q", true),
     ("core.bit_timing.remaining.q", true),
@@ -42,7 +42,7 @@ pub(crate) const CONTROLLER_STATE: [(&str, bool); 15] = [
 ];
 
 /// The same nets of the bare core (whose bit timing fields are inputs).
-pub(crate) const CORE_STATE: [(&str, bool); 13] = [
+pub(crate) const CORE_STATE: [(&str, bool); 12] = [
     ("bit_timing.clocks.q", true),
     ("bit_timing.remaining.q", true),
     ("bit_timing.elapsed.q", true),
@@ -55,7 +55,6 @@ pub(crate) const CORE_STATE: [(&str, bool); 13] = [
     ("bit_timing.sampling.quantum_samples.q", true),
     ("brp", false),
     ("tseg1", false),
-    ("tseg2", false),
 ];
 
 const CLOCKS: usize = 0;
@@ -76,9 +75,8 @@ const DIVIDER_LEVEL: usize = 12;
 pub(crate) const CDR: usize = 13;
 /// BTR1 in [`CONTROLLER_STATE`].
 const BTR1: usize = 14;
-/// The TSEG1 and TSEG2 inputs in [`CORE_STATE`].
+/// The TSEG1 input in [`CORE_STATE`].
 const CORE_TSEG1: usize = 11;
-const CORE_TSEG2: usize = 12;
 
 /// A generated model with one of the state lists above.
 pub(crate) trait Counters {
@@ -116,10 +114,8 @@ counters!(core_model::Model, controller: false);
 
 /// BTR0.5..0 (the BRP input of the core has only these): the prescaler.
 const BRP_MASK: u64 = 0x3F;
-/// BTR1.3..0: TSEG1 (the core's TSEG1 input); BTR1.6..4: TSEG2 (the core's TSEG2 input).
+/// BTR1.3..0: TSEG1 (the core's TSEG1 input).
 const TSEG1_MASK: u64 = 0xF;
-const TSEG2_SHIFT: u32 = 4;
-const TSEG2_MASK: u64 = 0x7;
 /// CDR.2..0: the CLKOUT divider code; CDR.3: clock off.
 pub(crate) const CDR_CODE_MASK: u64 = 0x7;
 pub(crate) const CDR_CLOCK_OFF: u64 = 1 << 3;
@@ -144,13 +140,11 @@ fn count_cycles(count: u64, last: u64, cycles: u64) -> (u64, u64) {
 }
 
 /// The bit timing's counters and segment: where the next edges take them.
-#[derive(Clone, Copy)]
 struct Timing {
     /// The prescaler's last count (2·BRP + 1).
     last_clock: u64,
-    /// The quanta after the first of TSEG1 and of TSEG2 (the BTR fields).
+    /// The quanta of TSEG1 after its first (the BTR1 field).
     tseg1: u64,
-    tseg2: u64,
     segment: u64,
     clocks: u64,
     remaining: u64,
@@ -162,16 +156,14 @@ struct Timing {
 
 impl Timing {
     fn of<M: Counters>(model: &M) -> Timing {
-        let (tseg1, tseg2) = if M::CONTROLLER {
-            let btr1 = model.state(BTR1);
-            (btr1 & TSEG1_MASK, btr1 >> TSEG2_SHIFT & TSEG2_MASK)
+        let tseg1 = if M::CONTROLLER {
+            model.state(BTR1) & TSEG1_MASK
         } else {
-            (model.state(CORE_TSEG1), model.state(CORE_TSEG2))
+            model.state(CORE_TSEG1)
         };
         Timing {
             last_clock: 2 * (model.state(BRP_SOURCE) & BRP_MASK) + 1,
             tseg1,
-            tseg2,
             segment: model.state(SEGMENT),
             clocks: model.state(CLOCKS),
             remaining: model.state(REMAINING),
@@ -210,13 +202,12 @@ impl Timing {
                 self.take_samples(quantum_ends);
                 return;
             }
-            // The segment's end: the next one starts with its first clock.
+            // The segment's end: the next one starts with its first clock. It is Sync's or
+            // TSEG2's: a skip ends before TSEG1's (the sample point).
             cycles -= within + 1;
             self.take_samples(self.remaining + 1);
             (self.segment, self.remaining) = if self.segment == Segment::Sync as u64 {
                 (Segment::Tseg1 as u64, self.tseg1)
-            } else if self.segment == Segment::Tseg1 as u64 {
-                (Segment::Tseg2 as u64, self.tseg2)
             } else {
                 (Segment::Sync as u64, 0)
             };
