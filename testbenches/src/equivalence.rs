@@ -783,8 +783,8 @@ pub fn verilated_skips_agree(stim: &Stimulus, traced: bool) -> Result<u64, Strin
         while cycle < inputs.len() {
             let ports = inputs[cycle];
             let holding = inputs[cycle..].iter().take_while(|&&p| p == ports).count() as u64;
-            // Every stretch of two or more cycles, also the ones the engine steps as cheaper
-            // (`MIN_SKIPPED_CYCLES`): the test is of the load, not of when to use it.
+            // Every stretch of two or more cycles, whatever the engine's minimum: the test is of
+            // the load, not of when to use it.
             let quiet = model.quiet_cycles(ports, traced, 2).min(holding);
             if quiet >= 2 {
                 model.skip(quiet, traced, false);

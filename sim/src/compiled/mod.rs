@@ -338,7 +338,8 @@ impl CompiledController {
 
     /// How many cycles from the next one on, all with `inputs`, change nothing outside the
     /// controller's counters: no output but those only a trace shows (CLKOUT, the sample point
-    /// and the segment, which may change unless `traced`), no register, no memory ([`quiet`]). 0 when `inputs` differ from the last cycle's.
+    /// and the segment, which may change unless `traced`), no register, no memory ([`quiet`]). 0
+    /// when `inputs` differ from the last cycle's.
     pub fn quiet_cycles(&self, inputs: PortInputs, traced: bool) -> u64 {
         if self.applied != Some(inputs) || inputs.reset {
             return 0;

@@ -3,9 +3,9 @@
 //! whose inputs hold, whose other blocks are settled and whose bus input has passed the
 //! synchroniser only counts: the prescaler, the quanta left in the segment, the quanta since Sync,
 //! the segment itself at the ends of Sync and TSEG2, the samples of the triple sampling taken at
-//! the quanta's ends and (the controller) the CLKOUT divider. Those
-//! stretches are jumped in one step by writing the counters' values after them
-//! (`rtl/src/bit_timing.rs` and `rtl/src/clock_divider.rs` say how they count).
+//! the quanta's ends and (the controller) the CLKOUT divider. Those stretches are jumped in one
+//! step by writing the counters' values after them (`rtl/src/bit_timing.rs` and
+//! `rtl/src/clock_divider.rs` say how they count).
 //!
 //! What makes a jump exact: the next edge changes no flip-flop but the counters (`settled`, from
 //! the model), the bit timing's outputs to the rest of the design (sample, process and transmit

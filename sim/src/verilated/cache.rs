@@ -8,9 +8,9 @@
 //!
 //! The build is profile-guided: an instrumented library runs a training (`training.rs`) and the
 //! compiler builds the kept library from that profile (branch layout and inlining where the
-//! stepped edges go: the reference workload with skipping on about 9 % faster, 2 and 8 nodes). Where
-//! that fails (another compiler, no profiling runtime) the library is built without a profile, as
-//! the message says.
+//! stepped edges go: the reference workload with skipping on about 9 % faster, 2 and 8 nodes).
+//! Where that fails (another compiler, no profiling runtime) the library is built without a
+//! profile, as the message says.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

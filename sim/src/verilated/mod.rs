@@ -31,12 +31,13 @@ use sources::{
     IN_WE, OUT_CLKOUT, OUT_IRQ_N, OUT_RDATA, OUT_TX, UNTRACED_OUTPUTS,
 };
 
-/// The shortest quiet stretch worth skipping on the Verilated controller: the `settled`
-/// evaluation and the counters' load cost more than stepping one or two edges (callgrind, the
-/// reference workload with 2 nodes and skipping on: the engine's instructions 179.6 M skipping
-/// every stretch, 174.5 M from 2 cycles on, 170.6 M from 3, the same from 4; at 500 kbit/s and at
-/// 1 Mbit/s alike).
-pub(crate) const MIN_SKIPPED_CYCLES: u64 = 3;
+/// The shortest quiet stretch worth skipping on the Verilated controller, and the shortest the
+/// engine parks: a single quiet edge costs less stepped than its `settled` evaluation and load.
+/// Callgrind, the reference workload with skipping on (`Engine::step_before` inclusive, the
+/// profile-guided library, parking): 2 nodes, 20 frames: 85.0 M instructions from 1 cycle on,
+/// 84.9 M from 2, 86.9 M from 3, 105.5 M from 4; 8 nodes, 10 frames: 175.4 M from 2, 177.8 M
+/// from 3. (Before parking, with every device's event ending everyone's stretch, 3 was best.)
+pub(crate) const MIN_SKIPPED_CYCLES: u64 = 2;
 
 /// Why the Verilator engine is not available.
 #[derive(Clone, Debug, PartialEq, Eq)]

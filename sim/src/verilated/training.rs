@@ -37,15 +37,7 @@ pub(super) fn train(path: &Path, layout: &[QuietField]) -> Result<(), EngineErro
     // SAFETY: the shim defines `cc_profile_dump` as `void()` in the instrumented build.
     let dump: DumpFn = unsafe { library.handle.function("cc_profile_dump") }
         .map_err(|e| EngineError::Load(format!("{}: {e}", path.display())))?;
-    let mut bus = TrainingBus {
-        nodes: [
-            VerilatedController::with_library(library)?,
-            VerilatedController::with_library(library)?,
-        ],
-        rx: true,
-        node: 0,
-    };
-    bus.run_traffic()?;
+    TrainingBus::of(library)?.run_traffic()?;
     // SAFETY: takes no arguments; writes the counters' files.
     unsafe { dump() };
     Ok(())
@@ -61,6 +53,18 @@ struct TrainingBus {
 }
 
 impl TrainingBus {
+    /// Two new controllers of `library` on an idle bus.
+    fn of(library: &'static ModelLibrary) -> Result<TrainingBus, EngineError> {
+        Ok(TrainingBus {
+            nodes: [
+                VerilatedController::with_library(library)?,
+                VerilatedController::with_library(library)?,
+            ],
+            rx: true,
+            node: 0,
+        })
+    }
+
     /// One edge of both, the host's access (if any) at node `self.node`.
     fn cycle(&mut self, access: PortInputs) {
         let idle = self.idle();
@@ -172,5 +176,19 @@ impl RegisterPort for TrainingBus {
             ..PortInputs::default()
         });
         self.nodes[self.node].outputs().rdata()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The training is the traffic it is meant to be only if its frames arrive: on the kept
+    /// library (the same design and shim), every one of them intact.
+    #[test]
+    fn the_training_traffic_arrives_intact() {
+        let library = super::super::model_library().unwrap_or_else(|e| panic!("{e}"));
+        let mut bus = TrainingBus::of(library).unwrap();
+        bus.run_traffic().unwrap_or_else(|e| panic!("{e}"));
     }
 }
