@@ -34,7 +34,7 @@
 //! mutation: btr-write-in-operating | if (host$we & reset_mode) begin => if (host$we) begin
 //! mutation: filter-write-in-operating | if (host$we & reset_mode & host_selected) begin => if (host$we & host_selected) begin
 //! mutation: btr1-readback | btr1$d = host$wdata; => btr1$d = host$wdata ^ 8'h01;
-//! mutation: amr3-read | host_data = amr3$q; => host_data = amr2$q;
+//! mutation: amr3-read | amr_at_index = amr3$q; => amr_at_index = amr2$q;
 //! mutation: rbs-or-tbs | ((rbs) << (32'h0)) => ((rbs | tbs) << (32'h0))
 module register_port (
 `include "controller_ports.vh"

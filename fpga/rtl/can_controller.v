@@ -951,22 +951,20 @@ module top$configuration(clock,reset,host$addr,host$we,host$wdata,pelican,reset_
                 ewlr_reg$d = host$wdata;
             end
         end
-        host_selected = 1'b0;
-        host_data = btr0$q;
-        if (host$addr == btr0_address) begin
-            host_selected = 1'b1;
+        host_selected = (host$addr == btr0_address) | (host$addr == btr1_address) | (host$addr == ocr_address) | (pelican & (host$addr == ewlr_address));
+        if (host$addr[32'h3]) begin
+            if (host$addr[32'h0]) begin
+                host_data = ewlr_reg$q;
+            end
+            else begin
+                host_data = ocr$q;
+            end
         end
-        if (host$addr == btr1_address) begin
-            host_selected = 1'b1;
+        else if (host$addr[32'h0]) begin
             host_data = btr1$q;
         end
-        if (host$addr == ocr_address) begin
-            host_selected = 1'b1;
-            host_data = ocr$q;
-        end
-        if (pelican & (host$addr == ewlr_address)) begin
-            host_selected = 1'b1;
-            host_data = ewlr_reg$q;
+        else begin
+            host_data = btr0$q;
         end
         if (reset) begin
             btr0$d = 32'h0;
@@ -5470,20 +5468,22 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
             if (header_step$q == header_last) begin
                 writing_header$d = 1'b0;
             end
-            if (header_step$q == 32'h1) begin
-                write_byte = rx_frame$id[(32'h15)+:(8)];
+            if (header_step$q[32'h2]) begin
+                write_byte = ((((((zero_byte & ~(1 << (32'h7)) | ((rx_frame$id[32'h4]) << (32'h7))) & ~(1 << (32'h6)) | ((rx_frame$id[32'h3]) << (32'h6))) & ~(1 << (32'h5)) | ((rx_frame$id[32'h2]) << (32'h5))) & ~(1 << (32'h4)) | ((rx_frame$id[32'h1]) << (32'h4))) & ~(1 << (32'h3)) | ((rx_frame$id[32'h0]) << (32'h3))) & ~(1 << (32'h2)) | ((rx_frame$rtr) << (32'h2)));
             end
-            if (header_step$q == 32'h2) begin
-                write_byte = rx_frame$id[(32'hd)+:(8)];
-                if (rx_frame$ide == 1'b0) begin
-                    write_byte = (rx_frame$id[(32'hd)+:(8)] & ~(1 << (32'h4)) | ((rx_frame$rtr) << (32'h4)));
+            else if (header_step$q[32'h1]) begin
+                if (header_step$q[32'h0]) begin
+                    write_byte = rx_frame$id[(32'h5)+:(8)];
+                end
+                else begin
+                    write_byte = rx_frame$id[(32'hd)+:(8)];
+                    if (rx_frame$ide == 1'b0) begin
+                        write_byte = (rx_frame$id[(32'hd)+:(8)] & ~(1 << (32'h4)) | ((rx_frame$rtr) << (32'h4)));
+                    end
                 end
             end
-            if (header_step$q == 32'h3) begin
-                write_byte = rx_frame$id[(32'h5)+:(8)];
-            end
-            if (header_step$q == 32'h4) begin
-                write_byte = ((((((zero_byte & ~(1 << (32'h7)) | ((rx_frame$id[32'h4]) << (32'h7))) & ~(1 << (32'h6)) | ((rx_frame$id[32'h3]) << (32'h6))) & ~(1 << (32'h5)) | ((rx_frame$id[32'h2]) << (32'h5))) & ~(1 << (32'h4)) | ((rx_frame$id[32'h1]) << (32'h4))) & ~(1 << (32'h3)) | ((rx_frame$id[32'h0]) << (32'h3))) & ~(1 << (32'h2)) | ((rx_frame$rtr) << (32'h2)));
+            else if (header_step$q[32'h0]) begin
+                write_byte = rx_frame$id[(32'h15)+:(8)];
             end
         end
         if (rx_frame$strobe) begin
@@ -5934,6 +5934,8 @@ module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we
     // Local signals
     reg  in_pelican_block;
     reg  [2:0] index;
+    reg  [7:0] acr_at_index;
+    reg  [7:0] amr_at_index;
     reg  [7:0] frame_byte0;
     reg  [7:0] frame_byte1;
     reg  [7:0] frame_byte2;
@@ -6069,27 +6071,23 @@ module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we
             end
             host_selected = (host$addr == basic_acr) | (host$addr == basic_amr);
         end
-        host_data = acr0$q;
-        if (index == 32'h1) begin
-            host_data = acr1$q;
+        acr_at_index = acr0$q;
+        amr_at_index = amr0$q;
+        if (index[(32'h0)+:(2)] == 32'h1) begin
+            acr_at_index = acr1$q;
+            amr_at_index = amr1$q;
         end
-        if (index == 32'h2) begin
-            host_data = acr2$q;
+        if (index[(32'h0)+:(2)] == 32'h2) begin
+            acr_at_index = acr2$q;
+            amr_at_index = amr2$q;
         end
-        if (index == 32'h3) begin
-            host_data = acr3$q;
+        if (index[(32'h0)+:(2)] == 32'h3) begin
+            acr_at_index = acr3$q;
+            amr_at_index = amr3$q;
         end
-        if (index == 32'h4) begin
-            host_data = amr0$q;
-        end
-        if (index == 32'h5) begin
-            host_data = amr1$q;
-        end
-        if (index == 32'h6) begin
-            host_data = amr2$q;
-        end
-        if (index == 32'h7) begin
-            host_data = amr3$q;
+        host_data = acr_at_index;
+        if (index[32'h2]) begin
+            host_data = amr_at_index;
         end
         if (host$we & reset_mode & host_selected) begin
             if (index == 32'h0) begin

@@ -202,27 +202,11 @@ impl Logic for RxFifo {
                 self.writing_header.d.next = false;
             }
             // The stream's `id` holds ID.28..18 in bits 28..18 in both formats and 0 below in a
-            // standard frame: ID.28..21, then ID.20..13 or (standard) ID.20..18, the RTR copy in
-            // bit 4 and 0000.
-            if self.header_step.q.val() == 1 {
-                self.write_byte.next = self.rx_frame.id.val().get_bits::<8>(21);
-            }
-            if self.header_step.q.val() == 2 {
-                self.write_byte.next = self.rx_frame.id.val().get_bits::<8>(13);
-                if self.rx_frame.ide.val() == false {
-                    self.write_byte.next = self
-                        .rx_frame
-                        .id
-                        .val()
-                        .get_bits::<8>(13)
-                        .replace_bit(4, self.rx_frame.rtr.val());
-                }
-            }
-            if self.header_step.q.val() == 3 {
-                self.write_byte.next = self.rx_frame.id.val().get_bits::<8>(5);
-            }
-            if self.header_step.q.val() == 4 {
-                // ID.4..0 in bits 7..3, the RTR copy in bit 2.
+            // standard frame: the frame information, ID.28..21, then ID.20..13 or (standard)
+            // ID.20..18, the RTR copy in bit 4 and 0000, ID.12..5, ID.4..0 with the RTR copy in
+            // bit 2. A mux tree on the step's bits (steps 0..4: the header ends at `header_last`),
+            // not a chain of step comparisons: fewer LUTs.
+            if self.header_step.q.val().get_bit(2) {
                 self.write_byte.next = self
                     .zero_byte
                     .val()
@@ -232,6 +216,22 @@ impl Logic for RxFifo {
                     .replace_bit(4, self.rx_frame.id.val().get_bit(1))
                     .replace_bit(3, self.rx_frame.id.val().get_bit(0))
                     .replace_bit(2, self.rx_frame.rtr.val());
+            } else if self.header_step.q.val().get_bit(1) {
+                if self.header_step.q.val().get_bit(0) {
+                    self.write_byte.next = self.rx_frame.id.val().get_bits::<8>(5);
+                } else {
+                    self.write_byte.next = self.rx_frame.id.val().get_bits::<8>(13);
+                    if self.rx_frame.ide.val() == false {
+                        self.write_byte.next = self
+                            .rx_frame
+                            .id
+                            .val()
+                            .get_bits::<8>(13)
+                            .replace_bit(4, self.rx_frame.rtr.val());
+                    }
+                }
+            } else if self.header_step.q.val().get_bit(0) {
+                self.write_byte.next = self.rx_frame.id.val().get_bits::<8>(21);
             }
         }
         if self.rx_frame.strobe.val() {

@@ -16,6 +16,15 @@ use crate::activity::{Activity, ActivityBlock, BlockDefault};
 use crate::register_map::HostWrite;
 use crate::registers::{pelican, DEFAULT_EWLR};
 
+// Address bits 3 and 0 tell BTR0, BTR1, OCR and EWLR apart (00, 01, 10, 11): the kernel's mux
+// tree on the host data reads them.
+const _: () = assert!(
+    pelican::BTR0 & 0b1001 == 0b0000
+        && pelican::BTR1 & 0b1001 == 0b0001
+        && pelican::OCR & 0b1001 == 0b1000
+        && pelican::EWLR & 0b1001 == 0b1001
+);
+
 /// BTR0, BTR1, OCR and EWLR.
 #[derive(ActivityBlock, BlockDefault)]
 pub struct Configuration {
@@ -96,22 +105,22 @@ impl Logic for Configuration {
             }
         }
 
-        self.host_selected.next = false;
-        self.host_data.next = self.btr0.q.val();
-        if self.host.addr.val() == self.btr0_address.val() {
-            self.host_selected.next = true;
-        }
-        if self.host.addr.val() == self.btr1_address.val() {
-            self.host_selected.next = true;
+        self.host_selected.next = (self.host.addr.val() == self.btr0_address.val())
+            | (self.host.addr.val() == self.btr1_address.val())
+            | (self.host.addr.val() == self.ocr_address.val())
+            | (self.pelican.val() & (self.host.addr.val() == self.ewlr_address.val()));
+        // The data is read only with `host_selected`, so two address bits choose it (a mux tree,
+        // not a chain of address comparisons: fewer LUTs and levels on the host read path).
+        if self.host.addr.val().get_bit(3) {
+            if self.host.addr.val().get_bit(0) {
+                self.host_data.next = self.ewlr_reg.q.val();
+            } else {
+                self.host_data.next = self.ocr.q.val();
+            }
+        } else if self.host.addr.val().get_bit(0) {
             self.host_data.next = self.btr1.q.val();
-        }
-        if self.host.addr.val() == self.ocr_address.val() {
-            self.host_selected.next = true;
-            self.host_data.next = self.ocr.q.val();
-        }
-        if self.pelican.val() & (self.host.addr.val() == self.ewlr_address.val()) {
-            self.host_selected.next = true;
-            self.host_data.next = self.ewlr_reg.q.val();
+        } else {
+            self.host_data.next = self.btr0.q.val();
         }
 
         if self.reset.val() {
