@@ -44,20 +44,20 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
     // Enums
     localparam ProtocolState$Integrating = 0;
     localparam ProtocolState$Idle = 1;
-    localparam ProtocolState$Arbitration = 2;
-    localparam ProtocolState$Control = 3;
-    localparam ProtocolState$Data = 4;
-    localparam ProtocolState$Crc = 5;
-    localparam ProtocolState$CrcDelimiter = 6;
-    localparam ProtocolState$AckSlot = 7;
-    localparam ProtocolState$AckDelimiter = 8;
-    localparam ProtocolState$EndOfFrame = 9;
-    localparam ProtocolState$Intermission = 10;
-    localparam ProtocolState$Suspend = 11;
-    localparam ProtocolState$ErrorFlag = 12;
-    localparam ProtocolState$OverloadFlag = 13;
-    localparam ProtocolState$Delimiter = 14;
-    localparam ProtocolState$BusOff = 15;
+    localparam ProtocolState$Suspend = 2;
+    localparam ProtocolState$BusOff = 3;
+    localparam ProtocolState$ErrorFlag = 4;
+    localparam ProtocolState$OverloadFlag = 5;
+    localparam ProtocolState$Delimiter = 6;
+    localparam ProtocolState$Intermission = 7;
+    localparam ProtocolState$Arbitration = 8;
+    localparam ProtocolState$Control = 9;
+    localparam ProtocolState$Data = 10;
+    localparam ProtocolState$Crc = 11;
+    localparam ProtocolState$CrcDelimiter = 12;
+    localparam ProtocolState$AckSlot = 13;
+    localparam ProtocolState$AckDelimiter = 14;
+    localparam ProtocolState$EndOfFrame = 15;
     localparam Segment$Sync = 0;
     localparam Segment$Tseg1 = 1;
     localparam Segment$Tseg2 = 2;
@@ -1145,20 +1145,20 @@ module top$core(clock,reset,rx,enable,brp,tseg1,tseg2,sjw,sam,listen_only,self_t
     // Enums
     localparam ProtocolState$Integrating = 0;
     localparam ProtocolState$Idle = 1;
-    localparam ProtocolState$Arbitration = 2;
-    localparam ProtocolState$Control = 3;
-    localparam ProtocolState$Data = 4;
-    localparam ProtocolState$Crc = 5;
-    localparam ProtocolState$CrcDelimiter = 6;
-    localparam ProtocolState$AckSlot = 7;
-    localparam ProtocolState$AckDelimiter = 8;
-    localparam ProtocolState$EndOfFrame = 9;
-    localparam ProtocolState$Intermission = 10;
-    localparam ProtocolState$Suspend = 11;
-    localparam ProtocolState$ErrorFlag = 12;
-    localparam ProtocolState$OverloadFlag = 13;
-    localparam ProtocolState$Delimiter = 14;
-    localparam ProtocolState$BusOff = 15;
+    localparam ProtocolState$Suspend = 2;
+    localparam ProtocolState$BusOff = 3;
+    localparam ProtocolState$ErrorFlag = 4;
+    localparam ProtocolState$OverloadFlag = 5;
+    localparam ProtocolState$Delimiter = 6;
+    localparam ProtocolState$Intermission = 7;
+    localparam ProtocolState$Arbitration = 8;
+    localparam ProtocolState$Control = 9;
+    localparam ProtocolState$Data = 10;
+    localparam ProtocolState$Crc = 11;
+    localparam ProtocolState$CrcDelimiter = 12;
+    localparam ProtocolState$AckSlot = 13;
+    localparam ProtocolState$AckDelimiter = 14;
+    localparam ProtocolState$EndOfFrame = 15;
     localparam Segment$Sync = 0;
     localparam Segment$Tseg1 = 1;
     localparam Segment$Tseg2 = 2;
@@ -1985,20 +1985,20 @@ module top$core$protocol(clock,reset,enable,process_point,transmit_point,rx_bit,
     localparam SyncMode$Resync = 1;
     localparam ProtocolState$Integrating = 0;
     localparam ProtocolState$Idle = 1;
-    localparam ProtocolState$Arbitration = 2;
-    localparam ProtocolState$Control = 3;
-    localparam ProtocolState$Data = 4;
-    localparam ProtocolState$Crc = 5;
-    localparam ProtocolState$CrcDelimiter = 6;
-    localparam ProtocolState$AckSlot = 7;
-    localparam ProtocolState$AckDelimiter = 8;
-    localparam ProtocolState$EndOfFrame = 9;
-    localparam ProtocolState$Intermission = 10;
-    localparam ProtocolState$Suspend = 11;
-    localparam ProtocolState$ErrorFlag = 12;
-    localparam ProtocolState$OverloadFlag = 13;
-    localparam ProtocolState$Delimiter = 14;
-    localparam ProtocolState$BusOff = 15;
+    localparam ProtocolState$Suspend = 2;
+    localparam ProtocolState$BusOff = 3;
+    localparam ProtocolState$ErrorFlag = 4;
+    localparam ProtocolState$OverloadFlag = 5;
+    localparam ProtocolState$Delimiter = 6;
+    localparam ProtocolState$Intermission = 7;
+    localparam ProtocolState$Arbitration = 8;
+    localparam ProtocolState$Control = 9;
+    localparam ProtocolState$Data = 10;
+    localparam ProtocolState$Crc = 11;
+    localparam ProtocolState$CrcDelimiter = 12;
+    localparam ProtocolState$AckSlot = 13;
+    localparam ProtocolState$AckDelimiter = 14;
+    localparam ProtocolState$EndOfFrame = 15;
     
     // Stub signals
     reg  stuffing$clock;
@@ -2728,20 +2728,20 @@ module top$core$protocol$assembler(clock,reset,field_bit,rx_bit,field,count,star
     // Enums
     localparam ProtocolState$Integrating = 0;
     localparam ProtocolState$Idle = 1;
-    localparam ProtocolState$Arbitration = 2;
-    localparam ProtocolState$Control = 3;
-    localparam ProtocolState$Data = 4;
-    localparam ProtocolState$Crc = 5;
-    localparam ProtocolState$CrcDelimiter = 6;
-    localparam ProtocolState$AckSlot = 7;
-    localparam ProtocolState$AckDelimiter = 8;
-    localparam ProtocolState$EndOfFrame = 9;
-    localparam ProtocolState$Intermission = 10;
-    localparam ProtocolState$Suspend = 11;
-    localparam ProtocolState$ErrorFlag = 12;
-    localparam ProtocolState$OverloadFlag = 13;
-    localparam ProtocolState$Delimiter = 14;
-    localparam ProtocolState$BusOff = 15;
+    localparam ProtocolState$Suspend = 2;
+    localparam ProtocolState$BusOff = 3;
+    localparam ProtocolState$ErrorFlag = 4;
+    localparam ProtocolState$OverloadFlag = 5;
+    localparam ProtocolState$Delimiter = 6;
+    localparam ProtocolState$Intermission = 7;
+    localparam ProtocolState$Arbitration = 8;
+    localparam ProtocolState$Control = 9;
+    localparam ProtocolState$Data = 10;
+    localparam ProtocolState$Crc = 11;
+    localparam ProtocolState$CrcDelimiter = 12;
+    localparam ProtocolState$AckSlot = 13;
+    localparam ProtocolState$AckDelimiter = 14;
+    localparam ProtocolState$EndOfFrame = 15;
     
     // Stub signals
     reg  [10:0] id_base$d;
@@ -3171,20 +3171,20 @@ module top$core$protocol$capture(clock,reset,field,count,ide,flag_passive,error,
     // Enums
     localparam ProtocolState$Integrating = 0;
     localparam ProtocolState$Idle = 1;
-    localparam ProtocolState$Arbitration = 2;
-    localparam ProtocolState$Control = 3;
-    localparam ProtocolState$Data = 4;
-    localparam ProtocolState$Crc = 5;
-    localparam ProtocolState$CrcDelimiter = 6;
-    localparam ProtocolState$AckSlot = 7;
-    localparam ProtocolState$AckDelimiter = 8;
-    localparam ProtocolState$EndOfFrame = 9;
-    localparam ProtocolState$Intermission = 10;
-    localparam ProtocolState$Suspend = 11;
-    localparam ProtocolState$ErrorFlag = 12;
-    localparam ProtocolState$OverloadFlag = 13;
-    localparam ProtocolState$Delimiter = 14;
-    localparam ProtocolState$BusOff = 15;
+    localparam ProtocolState$Suspend = 2;
+    localparam ProtocolState$BusOff = 3;
+    localparam ProtocolState$ErrorFlag = 4;
+    localparam ProtocolState$OverloadFlag = 5;
+    localparam ProtocolState$Delimiter = 6;
+    localparam ProtocolState$Intermission = 7;
+    localparam ProtocolState$Arbitration = 8;
+    localparam ProtocolState$Control = 9;
+    localparam ProtocolState$Data = 10;
+    localparam ProtocolState$Crc = 11;
+    localparam ProtocolState$CrcDelimiter = 12;
+    localparam ProtocolState$AckSlot = 13;
+    localparam ProtocolState$AckDelimiter = 14;
+    localparam ProtocolState$EndOfFrame = 15;
     
     // Stub signals
     reg  error_pulse$d;
@@ -3819,20 +3819,20 @@ module top$core$protocol$field(d,q,clock);
     // Enums
     localparam ProtocolState$Integrating = 0;
     localparam ProtocolState$Idle = 1;
-    localparam ProtocolState$Arbitration = 2;
-    localparam ProtocolState$Control = 3;
-    localparam ProtocolState$Data = 4;
-    localparam ProtocolState$Crc = 5;
-    localparam ProtocolState$CrcDelimiter = 6;
-    localparam ProtocolState$AckSlot = 7;
-    localparam ProtocolState$AckDelimiter = 8;
-    localparam ProtocolState$EndOfFrame = 9;
-    localparam ProtocolState$Intermission = 10;
-    localparam ProtocolState$Suspend = 11;
-    localparam ProtocolState$ErrorFlag = 12;
-    localparam ProtocolState$OverloadFlag = 13;
-    localparam ProtocolState$Delimiter = 14;
-    localparam ProtocolState$BusOff = 15;
+    localparam ProtocolState$Suspend = 2;
+    localparam ProtocolState$BusOff = 3;
+    localparam ProtocolState$ErrorFlag = 4;
+    localparam ProtocolState$OverloadFlag = 5;
+    localparam ProtocolState$Delimiter = 6;
+    localparam ProtocolState$Intermission = 7;
+    localparam ProtocolState$Arbitration = 8;
+    localparam ProtocolState$Control = 9;
+    localparam ProtocolState$Data = 10;
+    localparam ProtocolState$Crc = 11;
+    localparam ProtocolState$CrcDelimiter = 12;
+    localparam ProtocolState$AckSlot = 13;
+    localparam ProtocolState$AckDelimiter = 14;
+    localparam ProtocolState$EndOfFrame = 15;
     
     // Update code (custom)
     initial begin
@@ -3911,20 +3911,20 @@ module top$core$protocol$frame(process_point,field,count,transmitter,rx_bit,send
     // Enums
     localparam ProtocolState$Integrating = 0;
     localparam ProtocolState$Idle = 1;
-    localparam ProtocolState$Arbitration = 2;
-    localparam ProtocolState$Control = 3;
-    localparam ProtocolState$Data = 4;
-    localparam ProtocolState$Crc = 5;
-    localparam ProtocolState$CrcDelimiter = 6;
-    localparam ProtocolState$AckSlot = 7;
-    localparam ProtocolState$AckDelimiter = 8;
-    localparam ProtocolState$EndOfFrame = 9;
-    localparam ProtocolState$Intermission = 10;
-    localparam ProtocolState$Suspend = 11;
-    localparam ProtocolState$ErrorFlag = 12;
-    localparam ProtocolState$OverloadFlag = 13;
-    localparam ProtocolState$Delimiter = 14;
-    localparam ProtocolState$BusOff = 15;
+    localparam ProtocolState$Suspend = 2;
+    localparam ProtocolState$BusOff = 3;
+    localparam ProtocolState$ErrorFlag = 4;
+    localparam ProtocolState$OverloadFlag = 5;
+    localparam ProtocolState$Delimiter = 6;
+    localparam ProtocolState$Intermission = 7;
+    localparam ProtocolState$Arbitration = 8;
+    localparam ProtocolState$Control = 9;
+    localparam ProtocolState$Data = 10;
+    localparam ProtocolState$Crc = 11;
+    localparam ProtocolState$CrcDelimiter = 12;
+    localparam ProtocolState$AckSlot = 13;
+    localparam ProtocolState$AckDelimiter = 14;
+    localparam ProtocolState$EndOfFrame = 15;
     
     // Local signals
     reg  [6:0] count_plus_1;
@@ -4193,20 +4193,20 @@ module top$core$protocol$interframe(clock,reset,process_point,rx_bit,field,count
     // Enums
     localparam ProtocolState$Integrating = 0;
     localparam ProtocolState$Idle = 1;
-    localparam ProtocolState$Arbitration = 2;
-    localparam ProtocolState$Control = 3;
-    localparam ProtocolState$Data = 4;
-    localparam ProtocolState$Crc = 5;
-    localparam ProtocolState$CrcDelimiter = 6;
-    localparam ProtocolState$AckSlot = 7;
-    localparam ProtocolState$AckDelimiter = 8;
-    localparam ProtocolState$EndOfFrame = 9;
-    localparam ProtocolState$Intermission = 10;
-    localparam ProtocolState$Suspend = 11;
-    localparam ProtocolState$ErrorFlag = 12;
-    localparam ProtocolState$OverloadFlag = 13;
-    localparam ProtocolState$Delimiter = 14;
-    localparam ProtocolState$BusOff = 15;
+    localparam ProtocolState$Suspend = 2;
+    localparam ProtocolState$BusOff = 3;
+    localparam ProtocolState$ErrorFlag = 4;
+    localparam ProtocolState$OverloadFlag = 5;
+    localparam ProtocolState$Delimiter = 6;
+    localparam ProtocolState$Intermission = 7;
+    localparam ProtocolState$Arbitration = 8;
+    localparam ProtocolState$Control = 9;
+    localparam ProtocolState$Data = 10;
+    localparam ProtocolState$Crc = 11;
+    localparam ProtocolState$CrcDelimiter = 12;
+    localparam ProtocolState$AckSlot = 13;
+    localparam ProtocolState$AckDelimiter = 14;
+    localparam ProtocolState$EndOfFrame = 15;
     
     // Stub signals
     reg  flag_passive_reg$d;
@@ -4644,20 +4644,20 @@ module top$core$protocol$sender(clock,reset,process_point,transmit_point,rx_bit,
     // Enums
     localparam ProtocolState$Integrating = 0;
     localparam ProtocolState$Idle = 1;
-    localparam ProtocolState$Arbitration = 2;
-    localparam ProtocolState$Control = 3;
-    localparam ProtocolState$Data = 4;
-    localparam ProtocolState$Crc = 5;
-    localparam ProtocolState$CrcDelimiter = 6;
-    localparam ProtocolState$AckSlot = 7;
-    localparam ProtocolState$AckDelimiter = 8;
-    localparam ProtocolState$EndOfFrame = 9;
-    localparam ProtocolState$Intermission = 10;
-    localparam ProtocolState$Suspend = 11;
-    localparam ProtocolState$ErrorFlag = 12;
-    localparam ProtocolState$OverloadFlag = 13;
-    localparam ProtocolState$Delimiter = 14;
-    localparam ProtocolState$BusOff = 15;
+    localparam ProtocolState$Suspend = 2;
+    localparam ProtocolState$BusOff = 3;
+    localparam ProtocolState$ErrorFlag = 4;
+    localparam ProtocolState$OverloadFlag = 5;
+    localparam ProtocolState$Delimiter = 6;
+    localparam ProtocolState$Intermission = 7;
+    localparam ProtocolState$Arbitration = 8;
+    localparam ProtocolState$Control = 9;
+    localparam ProtocolState$Data = 10;
+    localparam ProtocolState$Crc = 11;
+    localparam ProtocolState$CrcDelimiter = 12;
+    localparam ProtocolState$AckSlot = 13;
+    localparam ProtocolState$AckDelimiter = 14;
+    localparam ProtocolState$EndOfFrame = 15;
     
     // Stub signals
     reg  tx_reg$d;
@@ -7029,20 +7029,20 @@ module top$modes(clock,reset,host$addr,host$we,host$wdata,command,cmd_sleep,irq_
     // Enums
     localparam ProtocolState$Integrating = 0;
     localparam ProtocolState$Idle = 1;
-    localparam ProtocolState$Arbitration = 2;
-    localparam ProtocolState$Control = 3;
-    localparam ProtocolState$Data = 4;
-    localparam ProtocolState$Crc = 5;
-    localparam ProtocolState$CrcDelimiter = 6;
-    localparam ProtocolState$AckSlot = 7;
-    localparam ProtocolState$AckDelimiter = 8;
-    localparam ProtocolState$EndOfFrame = 9;
-    localparam ProtocolState$Intermission = 10;
-    localparam ProtocolState$Suspend = 11;
-    localparam ProtocolState$ErrorFlag = 12;
-    localparam ProtocolState$OverloadFlag = 13;
-    localparam ProtocolState$Delimiter = 14;
-    localparam ProtocolState$BusOff = 15;
+    localparam ProtocolState$Suspend = 2;
+    localparam ProtocolState$BusOff = 3;
+    localparam ProtocolState$ErrorFlag = 4;
+    localparam ProtocolState$OverloadFlag = 5;
+    localparam ProtocolState$Delimiter = 6;
+    localparam ProtocolState$Intermission = 7;
+    localparam ProtocolState$Arbitration = 8;
+    localparam ProtocolState$Control = 9;
+    localparam ProtocolState$Data = 10;
+    localparam ProtocolState$Crc = 11;
+    localparam ProtocolState$CrcDelimiter = 12;
+    localparam ProtocolState$AckSlot = 13;
+    localparam ProtocolState$AckDelimiter = 14;
+    localparam ProtocolState$EndOfFrame = 15;
     
     // Stub signals
     reg  divider$clock;
@@ -7668,20 +7668,20 @@ module top$read(clock,reset,addr,re,in_frame_window,in_rx_ram,in_tx_ram,in_basic
     // Enums
     localparam ProtocolState$Integrating = 0;
     localparam ProtocolState$Idle = 1;
-    localparam ProtocolState$Arbitration = 2;
-    localparam ProtocolState$Control = 3;
-    localparam ProtocolState$Data = 4;
-    localparam ProtocolState$Crc = 5;
-    localparam ProtocolState$CrcDelimiter = 6;
-    localparam ProtocolState$AckSlot = 7;
-    localparam ProtocolState$AckDelimiter = 8;
-    localparam ProtocolState$EndOfFrame = 9;
-    localparam ProtocolState$Intermission = 10;
-    localparam ProtocolState$Suspend = 11;
-    localparam ProtocolState$ErrorFlag = 12;
-    localparam ProtocolState$OverloadFlag = 13;
-    localparam ProtocolState$Delimiter = 14;
-    localparam ProtocolState$BusOff = 15;
+    localparam ProtocolState$Suspend = 2;
+    localparam ProtocolState$BusOff = 3;
+    localparam ProtocolState$ErrorFlag = 4;
+    localparam ProtocolState$OverloadFlag = 5;
+    localparam ProtocolState$Delimiter = 6;
+    localparam ProtocolState$Intermission = 7;
+    localparam ProtocolState$Arbitration = 8;
+    localparam ProtocolState$Control = 9;
+    localparam ProtocolState$Data = 10;
+    localparam ProtocolState$Crc = 11;
+    localparam ProtocolState$CrcDelimiter = 12;
+    localparam ProtocolState$AckSlot = 13;
+    localparam ProtocolState$AckDelimiter = 14;
+    localparam ProtocolState$EndOfFrame = 15;
     
     // Stub signals
     reg  [7:0] rdata_reg$d;

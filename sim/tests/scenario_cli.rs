@@ -288,7 +288,7 @@ fn a_scenario_runs_and_writes_its_log_and_waves_without_a_progress_bar_when_pipe
     assert!(frames.contains("\n0001 1: 123#DEADBEEF\n"), "{frames}");
     assert!(std::fs::read_to_string(waves.join("state.filter"))
         .unwrap()
-        .contains("0C ErrorFlag"));
+        .contains("04 ErrorFlag"));
     // Without --log the log goes to stdout; --until cuts the run short.
     let o = cansim(&["run", &example("replay.toml"), "--until", "0.5ms"]);
     let out = text(&o.stdout);

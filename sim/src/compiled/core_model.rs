@@ -2,7 +2,7 @@
 //! from the Verilog of `rtl/` through Yosys; do not edit.
 
 /// Hash of the Verilog this model was made from.
-pub(super) const VERILOG_HASH: u64 = 0x12d0fae7fe844975;
+pub(super) const VERILOG_HASH: u64 = 0x5c34543edde9ef55;
 
 
 /// The design's state: inputs, flip-flops (`q` now, `n` after the next edge), memories, the
@@ -392,12 +392,12 @@ pub(super) struct Model {
     v535: u64,
     v537: u64,
     v539: u64,
-    v564: u64,
+    v541: u64,
     v565: u64,
     v566: u64,
-    v569: u64,
+    v567: u64,
     v570: u64,
-    v572: u64,
+    v571: u64,
     v573: u64,
     v574: u64,
     v575: u64,
@@ -406,8 +406,8 @@ pub(super) struct Model {
     v578: u64,
     v579: u64,
     v580: u64,
-    v582: u64,
-    v590: u64,
+    v581: u64,
+    v583: u64,
     v591: u64,
     v592: u64,
     v593: u64,
@@ -422,49 +422,50 @@ pub(super) struct Model {
     v602: u64,
     v603: u64,
     v604: u64,
-    v606: u64,
+    v605: u64,
     v607: u64,
-    v610: u64,
-    v613: u64,
+    v608: u64,
+    v611: u64,
     v614: u64,
-    v616: u64,
+    v615: u64,
     v617: u64,
     v618: u64,
-    v623: u64,
-    v625: u64,
-    v627: u64,
+    v619: u64,
+    v624: u64,
+    v626: u64,
     v628: u64,
     v629: u64,
-    v634: u64,
-    v636: u64,
+    v630: u64,
+    v635: u64,
     v637: u64,
-    v640: u64,
+    v638: u64,
     v641: u64,
-    v643: u64,
-    v647: u64,
-    v649: u64,
-    v651: u64,
-    v655: u64,
+    v642: u64,
+    v644: u64,
+    v648: u64,
+    v650: u64,
+    v652: u64,
     v656: u64,
     v657: u64,
     v658: u64,
     v659: u64,
     v660: u64,
     v661: u64,
-    v666: u64,
+    v662: u64,
     v667: u64,
     v668: u64,
     v669: u64,
     v670: u64,
-    v672: u64,
-    v674: u64,
-    v678: u64,
-    v680: u64,
+    v671: u64,
+    v673: u64,
+    v675: u64,
+    v679: u64,
     v681: u64,
-    v685: u64,
+    v682: u64,
     v686: u64,
     v687: u64,
-    v689: u64,
+    v688: u64,
+    v690: u64,
     dirty: u128,
     ran: u128,
     out: u128,
@@ -857,12 +858,12 @@ impl Model {
             v535: 0,
             v537: 0,
             v539: 0,
-            v564: 0,
+            v541: 0,
             v565: 0,
             v566: 0,
-            v569: 0,
+            v567: 0,
             v570: 0,
-            v572: 0,
+            v571: 0,
             v573: 0,
             v574: 0,
             v575: 0,
@@ -871,8 +872,8 @@ impl Model {
             v578: 0,
             v579: 0,
             v580: 0,
-            v582: 0,
-            v590: 0,
+            v581: 0,
+            v583: 0,
             v591: 0,
             v592: 0,
             v593: 0,
@@ -887,49 +888,50 @@ impl Model {
             v602: 0,
             v603: 0,
             v604: 0,
-            v606: 0,
+            v605: 0,
             v607: 0,
-            v610: 0,
-            v613: 0,
+            v608: 0,
+            v611: 0,
             v614: 0,
-            v616: 0,
+            v615: 0,
             v617: 0,
             v618: 0,
-            v623: 0,
-            v625: 0,
-            v627: 0,
+            v619: 0,
+            v624: 0,
+            v626: 0,
             v628: 0,
             v629: 0,
-            v634: 0,
-            v636: 0,
+            v630: 0,
+            v635: 0,
             v637: 0,
-            v640: 0,
+            v638: 0,
             v641: 0,
-            v643: 0,
-            v647: 0,
-            v649: 0,
-            v651: 0,
-            v655: 0,
+            v642: 0,
+            v644: 0,
+            v648: 0,
+            v650: 0,
+            v652: 0,
             v656: 0,
             v657: 0,
             v658: 0,
             v659: 0,
             v660: 0,
             v661: 0,
-            v666: 0,
+            v662: 0,
             v667: 0,
             v668: 0,
             v669: 0,
             v670: 0,
-            v672: 0,
-            v674: 0,
-            v678: 0,
-            v680: 0,
+            v671: 0,
+            v673: 0,
+            v675: 0,
+            v679: 0,
             v681: 0,
-            v685: 0,
+            v682: 0,
             v686: 0,
             v687: 0,
-            v689: 0,
+            v688: 0,
+            v690: 0,
             dirty: 0x3ffffffffffffffffffff,
             ran: 0x3ffffffffffffffffffff,
             out: 0,
@@ -1751,79 +1753,80 @@ impl Model {
         if self.v535 != other.v535 { names.push("v535 $flattenprotocol.interframe.$procmux$2496"); }
         if self.v537 != other.v537 { names.push("v537 $flattenprotocol.interframe.$procmux$2541"); }
         if self.v539 != other.v539 { names.push("v539 $flattenprotocol.interframe.$procmux$2571"); }
-        if self.v564 != other.v564 { names.push("v564 $flattenprotocol.interframe.$procmux$3076"); }
-        if self.v565 != other.v565 { names.push("v565 $flattenprotocol.interframe.$procmux$3088"); }
-        if self.v566 != other.v566 { names.push("v566 $flattenprotocol.interframe.$procmux$3101"); }
-        if self.v569 != other.v569 { names.push("v569 $flattenprotocol.interframe.$procmux$3147_CMP0"); }
-        if self.v570 != other.v570 { names.push("v570 $flattenprotocol.interframe.$procmux$3159"); }
-        if self.v572 != other.v572 { names.push("v572 $flattenprotocol.interframe.$procmux$3173_CMP0"); }
-        if self.v573 != other.v573 { names.push("v573 $flattenprotocol.interframe.$procmux$3174_CMP0"); }
-        if self.v574 != other.v574 { names.push("v574 $flattenprotocol.interframe.$procmux$3175_CMP0"); }
-        if self.v575 != other.v575 { names.push("v575 $flattenprotocol.interframe.$procmux$3183"); }
-        if self.v576 != other.v576 { names.push("v576 $flattenprotocol.interframe.$procmux$3184_CMP0"); }
-        if self.v577 != other.v577 { names.push("v577 $flattenprotocol.interframe.$procmux$3193"); }
-        if self.v578 != other.v578 { names.push("v578 $flattenprotocol.interframe.$procmux$3204"); }
-        if self.v579 != other.v579 { names.push("v579 $flattenprotocol.interframe.$procmux$3205_CMP0"); }
-        if self.v580 != other.v580 { names.push("v580 $flattenprotocol.interframe.$procmux$3206_CMP0"); }
-        if self.v582 != other.v582 { names.push("v582 $flattenprotocol.interframe.$procmux$3237"); }
-        if self.v590 != other.v590 { names.push("v590 $flattenprotocol.interframe.$procmux$3297"); }
-        if self.v591 != other.v591 { names.push("v591 $flattenprotocol.interframe.$procmux$3303"); }
-        if self.v592 != other.v592 { names.push("v592 $flattenprotocol.interframe.$procmux$3308"); }
-        if self.v593 != other.v593 { names.push("v593 $flattenprotocol.interframe.$procmux$3320"); }
-        if self.v594 != other.v594 { names.push("v594 $flattenprotocol.interframe.$procmux$3323"); }
-        if self.v595 != other.v595 { names.push("v595 $flattenprotocol.interframe.$procmux$3326"); }
-        if self.v596 != other.v596 { names.push("v596 $flattenprotocol.interframe.$procmux$3329"); }
-        if self.v597 != other.v597 { names.push("v597 $flattenprotocol.interframe.$procmux$3332"); }
-        if self.v598 != other.v598 { names.push("v598 $flattenprotocol.interframe.$procmux$3335"); }
-        if self.v599 != other.v599 { names.push("v599 $flattenprotocol.interframe.$procmux$3341"); }
-        if self.v600 != other.v600 { names.push("v600 $flattenprotocol.interframe.$procmux$3353"); }
-        if self.v601 != other.v601 { names.push("v601 $flattenprotocol.interframe.$procmux$3356"); }
-        if self.v602 != other.v602 { names.push("v602 $flattenprotocol.interframe.$procmux$3359"); }
-        if self.v603 != other.v603 { names.push("v603 $flattenprotocol.interframe.$procmux$3362"); }
-        if self.v604 != other.v604 { names.push("v604 $flattenprotocol.interframe.$procmux$3365"); }
-        if self.v606 != other.v606 { names.push("v606 $flattenprotocol.sender.$add$can_core.v:3651$939"); }
-        if self.v607 != other.v607 { names.push("v607 $flattenprotocol.sender.$add$can_core.v:3672$950"); }
-        if self.v610 != other.v610 { names.push("v610 $flattenprotocol.sender.$and$can_core.v:3772$971"); }
-        if self.v613 != other.v613 { names.push("v613 $flattenprotocol.sender.$and$can_core.v:3772$976"); }
-        if self.v614 != other.v614 { names.push("v614 $flattenprotocol.sender.$eq$can_core.v:3640$929"); }
-        if self.v616 != other.v616 { names.push("v616 $flattenprotocol.sender.$eq$can_core.v:3669$947"); }
-        if self.v617 != other.v617 { names.push("v617 $flattenprotocol.sender.$eq$can_core.v:3671$949"); }
-        if self.v618 != other.v618 { names.push("v618 $flattenprotocol.sender.$eq$can_core.v:3690$956"); }
-        if self.v623 != other.v623 { names.push("v623 $flattenprotocol.sender.$eq$can_core.v:3755$964"); }
-        if self.v625 != other.v625 { names.push("v625 $flattenprotocol.sender.$not$can_core.v:3772$973"); }
-        if self.v627 != other.v627 { names.push("v627 $flattenprotocol.sender.$or$can_core.v:3784$981"); }
-        if self.v628 != other.v628 { names.push("v628 $flattenprotocol.sender.$procmux$1094"); }
-        if self.v629 != other.v629 { names.push("v629 $flattenprotocol.sender.$procmux$1097"); }
-        if self.v634 != other.v634 { names.push("v634 $flattenprotocol.sender.$procmux$1114"); }
-        if self.v636 != other.v636 { names.push("v636 $flattenprotocol.sender.$procmux$1135"); }
-        if self.v637 != other.v637 { names.push("v637 $flattenprotocol.sender.$procmux$1138_CMP0"); }
-        if self.v640 != other.v640 { names.push("v640 $flattenprotocol.sender.$procmux$1161_CMP0"); }
-        if self.v641 != other.v641 { names.push("v641 $flattenprotocol.sender.$procmux$1170"); }
-        if self.v643 != other.v643 { names.push("v643 $flattenprotocol.sender.$procmux$1189_CMP0"); }
-        if self.v647 != other.v647 { names.push("v647 $flattenprotocol.sender.$procmux$1239"); }
-        if self.v649 != other.v649 { names.push("v649 $flattenprotocol.sender.$procmux$1268_CMP0"); }
-        if self.v651 != other.v651 { names.push("v651 $flattenprotocol.sender.$procmux$1294"); }
-        if self.v655 != other.v655 { names.push("v655 $flattenprotocol.sender.$procmux$1346_CMP0"); }
-        if self.v656 != other.v656 { names.push("v656 $flattenprotocol.sender.$procmux$1347_CMP0"); }
-        if self.v657 != other.v657 { names.push("v657 $flattenprotocol.sender.$procmux$1348_CMP0"); }
-        if self.v658 != other.v658 { names.push("v658 $flattenprotocol.sender.$procmux$1353_CMP0"); }
-        if self.v659 != other.v659 { names.push("v659 $flattenprotocol.sender.$procmux$1363"); }
-        if self.v660 != other.v660 { names.push("v660 $flattenprotocol.sender.$procmux$1366"); }
-        if self.v661 != other.v661 { names.push("v661 $flattenprotocol.sender.$procmux$1369"); }
-        if self.v666 != other.v666 { names.push("v666 $flattenprotocol.sender.$procmux$1391"); }
-        if self.v667 != other.v667 { names.push("v667 $flattenprotocol.sender.$procmux$1396"); }
-        if self.v668 != other.v668 { names.push("v668 $flattenprotocol.sender.$procmux$1403"); }
-        if self.v669 != other.v669 { names.push("v669 $flattenprotocol.sender.$procmux$1409"); }
-        if self.v670 != other.v670 { names.push("v670 $flattenprotocol.sender.$procmux$1415"); }
-        if self.v672 != other.v672 { names.push("v672 $flattenprotocol.sender.$procmux$1429"); }
-        if self.v674 != other.v674 { names.push("v674 $flattenprotocol.sender.$procmux$1435"); }
-        if self.v678 != other.v678 { names.push("v678 $flattenprotocol.sender.$xor$can_core.v:3749$963"); }
-        if self.v680 != other.v680 { names.push("v680 $flattenprotocol.stuffing.$and$can_core.v:3942$1005"); }
-        if self.v681 != other.v681 { names.push("v681 $flattenprotocol.stuffing.$and$can_core.v:3943$1007"); }
-        if self.v685 != other.v685 { names.push("v685 $flattenprotocol.stuffing.$or$can_core.v:3946$1013"); }
-        if self.v686 != other.v686 { names.push("v686 $flattenprotocol.stuffing.$procmux$1041"); }
-        if self.v687 != other.v687 { names.push("v687 $flattenprotocol.stuffing.$procmux$1047"); }
-        if self.v689 != other.v689 { names.push("v689 $flattenprotocol.stuffing.$procmux$1065"); }
+        if self.v541 != other.v541 { names.push("v541 $flattenprotocol.interframe.$procmux$2632"); }
+        if self.v565 != other.v565 { names.push("v565 $flattenprotocol.interframe.$procmux$3076"); }
+        if self.v566 != other.v566 { names.push("v566 $flattenprotocol.interframe.$procmux$3088"); }
+        if self.v567 != other.v567 { names.push("v567 $flattenprotocol.interframe.$procmux$3101"); }
+        if self.v570 != other.v570 { names.push("v570 $flattenprotocol.interframe.$procmux$3147_CMP0"); }
+        if self.v571 != other.v571 { names.push("v571 $flattenprotocol.interframe.$procmux$3159"); }
+        if self.v573 != other.v573 { names.push("v573 $flattenprotocol.interframe.$procmux$3173_CMP0"); }
+        if self.v574 != other.v574 { names.push("v574 $flattenprotocol.interframe.$procmux$3174_CMP0"); }
+        if self.v575 != other.v575 { names.push("v575 $flattenprotocol.interframe.$procmux$3175_CMP0"); }
+        if self.v576 != other.v576 { names.push("v576 $flattenprotocol.interframe.$procmux$3183"); }
+        if self.v577 != other.v577 { names.push("v577 $flattenprotocol.interframe.$procmux$3184_CMP0"); }
+        if self.v578 != other.v578 { names.push("v578 $flattenprotocol.interframe.$procmux$3193"); }
+        if self.v579 != other.v579 { names.push("v579 $flattenprotocol.interframe.$procmux$3204"); }
+        if self.v580 != other.v580 { names.push("v580 $flattenprotocol.interframe.$procmux$3205_CMP0"); }
+        if self.v581 != other.v581 { names.push("v581 $flattenprotocol.interframe.$procmux$3206_CMP0"); }
+        if self.v583 != other.v583 { names.push("v583 $flattenprotocol.interframe.$procmux$3237"); }
+        if self.v591 != other.v591 { names.push("v591 $flattenprotocol.interframe.$procmux$3297"); }
+        if self.v592 != other.v592 { names.push("v592 $flattenprotocol.interframe.$procmux$3303"); }
+        if self.v593 != other.v593 { names.push("v593 $flattenprotocol.interframe.$procmux$3308"); }
+        if self.v594 != other.v594 { names.push("v594 $flattenprotocol.interframe.$procmux$3320"); }
+        if self.v595 != other.v595 { names.push("v595 $flattenprotocol.interframe.$procmux$3323"); }
+        if self.v596 != other.v596 { names.push("v596 $flattenprotocol.interframe.$procmux$3326"); }
+        if self.v597 != other.v597 { names.push("v597 $flattenprotocol.interframe.$procmux$3329"); }
+        if self.v598 != other.v598 { names.push("v598 $flattenprotocol.interframe.$procmux$3332"); }
+        if self.v599 != other.v599 { names.push("v599 $flattenprotocol.interframe.$procmux$3335"); }
+        if self.v600 != other.v600 { names.push("v600 $flattenprotocol.interframe.$procmux$3341"); }
+        if self.v601 != other.v601 { names.push("v601 $flattenprotocol.interframe.$procmux$3353"); }
+        if self.v602 != other.v602 { names.push("v602 $flattenprotocol.interframe.$procmux$3356"); }
+        if self.v603 != other.v603 { names.push("v603 $flattenprotocol.interframe.$procmux$3359"); }
+        if self.v604 != other.v604 { names.push("v604 $flattenprotocol.interframe.$procmux$3362"); }
+        if self.v605 != other.v605 { names.push("v605 $flattenprotocol.interframe.$procmux$3365"); }
+        if self.v607 != other.v607 { names.push("v607 $flattenprotocol.sender.$add$can_core.v:3651$939"); }
+        if self.v608 != other.v608 { names.push("v608 $flattenprotocol.sender.$add$can_core.v:3672$950"); }
+        if self.v611 != other.v611 { names.push("v611 $flattenprotocol.sender.$and$can_core.v:3772$971"); }
+        if self.v614 != other.v614 { names.push("v614 $flattenprotocol.sender.$and$can_core.v:3772$976"); }
+        if self.v615 != other.v615 { names.push("v615 $flattenprotocol.sender.$eq$can_core.v:3640$929"); }
+        if self.v617 != other.v617 { names.push("v617 $flattenprotocol.sender.$eq$can_core.v:3669$947"); }
+        if self.v618 != other.v618 { names.push("v618 $flattenprotocol.sender.$eq$can_core.v:3671$949"); }
+        if self.v619 != other.v619 { names.push("v619 $flattenprotocol.sender.$eq$can_core.v:3690$956"); }
+        if self.v624 != other.v624 { names.push("v624 $flattenprotocol.sender.$eq$can_core.v:3755$964"); }
+        if self.v626 != other.v626 { names.push("v626 $flattenprotocol.sender.$not$can_core.v:3772$973"); }
+        if self.v628 != other.v628 { names.push("v628 $flattenprotocol.sender.$or$can_core.v:3784$981"); }
+        if self.v629 != other.v629 { names.push("v629 $flattenprotocol.sender.$procmux$1094"); }
+        if self.v630 != other.v630 { names.push("v630 $flattenprotocol.sender.$procmux$1097"); }
+        if self.v635 != other.v635 { names.push("v635 $flattenprotocol.sender.$procmux$1114"); }
+        if self.v637 != other.v637 { names.push("v637 $flattenprotocol.sender.$procmux$1135"); }
+        if self.v638 != other.v638 { names.push("v638 $flattenprotocol.sender.$procmux$1138_CMP0"); }
+        if self.v641 != other.v641 { names.push("v641 $flattenprotocol.sender.$procmux$1161_CMP0"); }
+        if self.v642 != other.v642 { names.push("v642 $flattenprotocol.sender.$procmux$1170"); }
+        if self.v644 != other.v644 { names.push("v644 $flattenprotocol.sender.$procmux$1189_CMP0"); }
+        if self.v648 != other.v648 { names.push("v648 $flattenprotocol.sender.$procmux$1239"); }
+        if self.v650 != other.v650 { names.push("v650 $flattenprotocol.sender.$procmux$1268_CMP0"); }
+        if self.v652 != other.v652 { names.push("v652 $flattenprotocol.sender.$procmux$1294"); }
+        if self.v656 != other.v656 { names.push("v656 $flattenprotocol.sender.$procmux$1346_CMP0"); }
+        if self.v657 != other.v657 { names.push("v657 $flattenprotocol.sender.$procmux$1347_CMP0"); }
+        if self.v658 != other.v658 { names.push("v658 $flattenprotocol.sender.$procmux$1348_CMP0"); }
+        if self.v659 != other.v659 { names.push("v659 $flattenprotocol.sender.$procmux$1353_CMP0"); }
+        if self.v660 != other.v660 { names.push("v660 $flattenprotocol.sender.$procmux$1363"); }
+        if self.v661 != other.v661 { names.push("v661 $flattenprotocol.sender.$procmux$1366"); }
+        if self.v662 != other.v662 { names.push("v662 $flattenprotocol.sender.$procmux$1369"); }
+        if self.v667 != other.v667 { names.push("v667 $flattenprotocol.sender.$procmux$1391"); }
+        if self.v668 != other.v668 { names.push("v668 $flattenprotocol.sender.$procmux$1396"); }
+        if self.v669 != other.v669 { names.push("v669 $flattenprotocol.sender.$procmux$1403"); }
+        if self.v670 != other.v670 { names.push("v670 $flattenprotocol.sender.$procmux$1409"); }
+        if self.v671 != other.v671 { names.push("v671 $flattenprotocol.sender.$procmux$1415"); }
+        if self.v673 != other.v673 { names.push("v673 $flattenprotocol.sender.$procmux$1429"); }
+        if self.v675 != other.v675 { names.push("v675 $flattenprotocol.sender.$procmux$1435"); }
+        if self.v679 != other.v679 { names.push("v679 $flattenprotocol.sender.$xor$can_core.v:3749$963"); }
+        if self.v681 != other.v681 { names.push("v681 $flattenprotocol.stuffing.$and$can_core.v:3942$1005"); }
+        if self.v682 != other.v682 { names.push("v682 $flattenprotocol.stuffing.$and$can_core.v:3943$1007"); }
+        if self.v686 != other.v686 { names.push("v686 $flattenprotocol.stuffing.$or$can_core.v:3946$1013"); }
+        if self.v687 != other.v687 { names.push("v687 $flattenprotocol.stuffing.$procmux$1041"); }
+        if self.v688 != other.v688 { names.push("v688 $flattenprotocol.stuffing.$procmux$1047"); }
+        if self.v690 != other.v690 { names.push("v690 $flattenprotocol.stuffing.$procmux$1065"); }
         if self.dirty != other.dirty { names.push("dirty "); }
         if self.out != other.out { names.push("out "); }
         names
@@ -1883,14 +1886,14 @@ impl Model {
         let c351: u64 = (self.q50) & (c322) & 0x1;
         let c352: u64 = (self.q50) & (c323) & 0x1;
         if self.v352 != c352 { self.v352 = c352; *dirty |= 0x80; }
-        let c354: u64 = if (c339) != 0 { (0xa) } else { (self.q56) };
-        let c347: u64 = if (c321) != 0 { (0xd) } else { (c354) };
+        let c354: u64 = if (c339) != 0 { (0x7) } else { (self.q56) };
+        let c347: u64 = if (c321) != 0 { (0x5) } else { (c354) };
         let c350: u64 = if (self.q50) != 0 { (c354) } else { (c347) };
         if self.v350 != c350 { self.v350 = c350; *dirty |= 0x80; }
         let c355: u64 = if (self.q50) != 0 { (self.q21 | (self.q21 << 1)) } else { (0x1) };
         let c356: u64 = if (self.q50) != 0 { (self.q21) } else { (0x1) };
         if self.v356 != c356 { self.v356 = c356; *dirty |= 0x80; }
-        let c357: u64 = u64::from((self.q56) == (0x8));
+        let c357: u64 = u64::from((self.q56) == (0xe));
         if self.v357 != c357 { self.v357 = c357; *dirty |= 0x88; }
         let c358: u64 = !(self.q50) & 0x1;
         if self.v358 != c358 { self.v358 = c358; *dirty |= 0x8004082; }
@@ -1910,7 +1913,7 @@ impl Model {
         let c367: u64 = if (self.q1) != 0 { (c320) } else { (c359) };
         if self.v367 != c367 { self.v367 = c367; *dirty |= 0x80; }
         let c368: u64 = if (self.q1) != 0 { (0x0) } else { (c360) };
-        let c369: u64 = u64::from((self.q56) == (0x7));
+        let c369: u64 = u64::from((self.q56) == (0xd));
         if self.v369 != c369 { self.v369 = c369; *dirty |= 0x88; }
         let c370: u64 = (c333) & (c319) & 0x1;
         let c371: u64 = !(c333) & 0x1;
@@ -1918,9 +1921,9 @@ impl Model {
         let c373: u64 = if (self.q1) != 0 { (0x0) } else { (c370) };
         let c374: u64 = (self.q50) & (c372) & 0x1;
         let c375: u64 = (self.q50) & (c373) & 0x1;
-        let c376: u64 = if (c332) != 0 { (0x6) } else { (self.q56) };
+        let c376: u64 = if (c332) != 0 { (0xc) } else { (self.q56) };
         if self.v376 != c376 { self.v376 = c376; *dirty |= 0x80; }
-        let c379: u64 = if (c344) != 0 { (c345 | 0x4) } else { (self.q56) };
+        let c379: u64 = if (c344) != 0 { (c345 | 0xa) } else { (self.q56) };
         if self.v379 != c379 { self.v379 = c379; *dirty |= 0x80; }
         let c381: u64 = (self.q59) & (c341) & 0x1;
         let c382: u64 = if (self.q59) != 0 { (0x0) } else { (c317) };
@@ -1932,17 +1935,17 @@ impl Model {
         if self.v385 != c385 { self.v385 = c385; *dirty |= 0x80; }
         let c386: u64 = if (c311) != 0 { (c382) } else { (c317) };
         if self.v386 != c386 { self.v386 = c386; *dirty |= 0x80; }
-        let c388: u64 = if (c346) != 0 { (0x3) } else { (self.q56) };
+        let c388: u64 = if (c346) != 0 { (0x9) } else { (self.q56) };
         if self.v388 != c388 { self.v388 = c388; *dirty |= 0x80; }
-        let c392: u64 = u64::from((self.q56) == (0x9));
+        let c392: u64 = u64::from((self.q56) == (0xf));
         if self.v392 != c392 { self.v392 = c392; *dirty |= 0x88; }
-        let c397: u64 = u64::from((self.q56) == (0x4));
+        let c397: u64 = u64::from((self.q56) == (0xa));
         if self.v397 != c397 { self.v397 = c397; *dirty |= 0x2010488; }
-        let c398: u64 = u64::from((self.q56) == (0x3));
+        let c398: u64 = u64::from((self.q56) == (0x9));
         if self.v398 != c398 { self.v398 = c398; *dirty |= 0x2004a8; }
         let c399: u64 = (c392) & (c351) & 0x1;
         let c400: u64 = (c369) & (c364) & 0x1;
-        let c402: u64 = u64::from((self.q56) == (0x6));
+        let c402: u64 = u64::from((self.q56) == (0xc));
         if self.v402 != c402 { self.v402 = c402; *dirty |= 0x88; }
         let c401: u64 = (c402) & (c374) & 0x1;
         let c403: u64 = if (c369) != 0 { (c365) } else { (0x1) };
@@ -2022,32 +2025,34 @@ impl Model {
         let c538: u64 = if (self.q8) != 0 { (0x0) } else { (self.q50) };
         let c539: u64 = if (self.q8) != 0 { (0x0) } else { (c527) };
         if self.v539 != c539 { self.v539 = c539; *dirty |= 0x1000; }
-        let c569: u64 = u64::from((self.q56) == (0xd));
-        if self.v569 != c569 { self.v569 = c569; *dirty |= 0x30088; }
-        let c5: u64 = u64::from((c458 | (c569 << 1)) != (0x3));
+        let c541: u64 = if (c455) != 0 { (0x2) } else { (0x1) };
+        if self.v541 != c541 { self.v541 = c541; *dirty |= 0x20000; }
+        let c570: u64 = u64::from((self.q56) == (0x5));
+        if self.v570 != c570 { self.v570 = c570; *dirty |= 0x30088; }
+        let c5: u64 = u64::from((c458 | (c570 << 1)) != (0x3));
         if self.v5 != c5 { self.v5 = c5; *dirty |= 0x4000; }
-        let c566: u64 = if (c569) != 0 { (c519) } else { (self.q12) };
-        if self.v566 != c566 { self.v566 = c566; *dirty |= 0x4000; }
-        let c572: u64 = u64::from((self.q56) == (0xa));
-        if self.v572 != c572 { self.v572 = c572; *dirty |= 0x20028; }
-        let c573: u64 = u64::from((self.q56) == (0xb));
-        if self.v573 != c573 { self.v573 = c573; *dirty |= 0x20020; }
-        let c574: u64 = u64::from((self.q56) == (0x1));
+        let c567: u64 = if (c570) != 0 { (c519) } else { (self.q12) };
+        if self.v567 != c567 { self.v567 = c567; *dirty |= 0x4000; }
+        let c573: u64 = u64::from((self.q56) == (0x7));
+        if self.v573 != c573 { self.v573 = c573; *dirty |= 0x20028; }
+        let c574: u64 = u64::from((self.q56) == (0x2));
         if self.v574 != c574 { self.v574 = c574; *dirty |= 0x20020; }
-        let c59: u64 = u64::from((c573 | (c574 << 1)) != 0);
+        let c575: u64 = u64::from((self.q56) == (0x1));
+        if self.v575 != c575 { self.v575 = c575; *dirty |= 0x20020; }
+        let c59: u64 = u64::from((c574 | (c575 << 1)) != 0);
         if self.v59 != c59 { self.v59 = c59; *dirty |= 0x8; }
-        let c576: u64 = u64::from((self.q56) == (0xf));
-        if self.v576 != c576 { self.v576 = c576; *dirty |= 0x21020; }
-        let c579: u64 = u64::from((self.q56) == (0xe));
-        if self.v579 != c579 { self.v579 = c579; *dirty |= 0x21008; }
-        let c564: u64 = if (c579) != 0 { (c444) } else { (0x0) };
-        if self.v564 != c564 { self.v564 = c564; *dirty |= 0x100000000000000000; }
-        let c580: u64 = u64::from((self.q56) == (0xc));
-        if self.v580 != c580 { self.v580 = c580; *dirty |= 0x2b008; }
-        let c7: u64 = u64::from((c579 | (c580 << 1) | (c569 << 2)) != 0);
+        let c577: u64 = u64::from((self.q56) == (0x3));
+        if self.v577 != c577 { self.v577 = c577; *dirty |= 0x21020; }
+        let c580: u64 = u64::from((self.q56) == (0x6));
+        if self.v580 != c580 { self.v580 = c580; *dirty |= 0x21008; }
+        let c565: u64 = if (c580) != 0 { (c444) } else { (0x0) };
+        if self.v565 != c565 { self.v565 = c565; *dirty |= 0x100000000000000000; }
+        let c581: u64 = u64::from((self.q56) == (0x4));
+        if self.v581 != c581 { self.v581 = c581; *dirty |= 0x2b008; }
+        let c7: u64 = u64::from((c580 | (c581 << 1) | (c570 << 2)) != 0);
         if self.v7 != c7 { self.v7 = c7; *dirty |= 0x4000; }
-        let c570: u64 = (c580) & (c538) & 0x1;
-        if self.v570 != c570 { self.v570 = c570; *dirty |= 0x4000; }
+        let c571: u64 = (c581) & (c538) & 0x1;
+        if self.v571 != c571 { self.v571 = c571; *dirty |= 0x4000; }
         let _ = &dirty;
     }
 
@@ -2130,9 +2135,9 @@ impl Model {
         if self.v231 != c231 { self.v231 = c231; *dirty |= 0x2000480; }
         let c232: u64 = u64::from((self.q23) == 0);
         if self.v232 != c232 { self.v232 = c232; *dirty |= 0x21000; }
-        let c6: u64 = u64::from((c232 | (self.v579 << 1)) != (0x2));
+        let c6: u64 = u64::from((c232 | (self.v580 << 1)) != (0x2));
         if self.v6 != c6 { self.v6 = c6; *dirty |= 0x4000; }
-        let c8: u64 = u64::from((self.q50 | (c232 << 1) | (self.v579 << 2)) != (0x7));
+        let c8: u64 = u64::from((self.q50 | (c232 << 1) | (self.v580 << 2)) != (0x7));
         if self.v8 != c8 { self.v8 = c8; *dirty |= 0x4000; }
         let c233: u64 = u64::from((self.q23) == (0x1));
         if self.v233 != c233 { self.v233 = c233; *dirty |= 0x400; }
@@ -2144,7 +2149,7 @@ impl Model {
         let c239: u64 = if (c232) != 0 { (0x2) } else { (0x1) };
         let c238: u64 = if (c233) != 0 { (0x0) } else { (c239) };
         let c240: u64 = if (self.q30) != 0 { (c238) } else { (c236) };
-        let c242: u64 = u64::from((self.q56) == (0x2));
+        let c242: u64 = u64::from((self.q56) == (0x8));
         if self.v242 != c242 { self.v242 = c242; *dirty |= 0x2010080; }
         let c243: u64 = if (c231) != 0 { (0x0) } else { (c229 | 0x2) };
         let c245: u64 = !(c229) & 0x1;
@@ -2155,13 +2160,13 @@ impl Model {
         let c246: u64 = if (c228) != 0 { ((c245 << 3) | 0x7) } else { (c250) };
         let c244: u64 = if (c230) != 0 { (c243 | 0xc) } else { (c246) };
         let c241: u64 = if (c235) != 0 { (0xc) } else { (c244) };
-        let c252: u64 = u64::from((self.q56) == (0x5));
+        let c252: u64 = u64::from((self.q56) == (0xb));
         if self.v252 != c252 { self.v252 = c252; *dirty |= 0x80; }
         let c60: u64 = u64::from((c252 | (self.v397 << 1) | (self.v398 << 2)) != 0);
         if self.v60 != c60 { self.v60 = c60; *dirty |= 0x80; }
         let c61: u64 = u64::from((c252 | (c242 << 1) | (self.v397 << 2) | (self.v398 << 3)) != 0);
         if self.v61 != c61 { self.v61 = c61; *dirty |= 0x80; }
-        let c251: u64 = { let s = (self.v579 | (self.v569 << 1) | (self.v580 << 2) | (self.v572 << 3) | (self.v392 << 4) | (self.v357 << 5) | (self.v369 << 6) | (self.v402 << 7) | (c252 << 8) | (self.v397 << 9) | (self.v398 << 10) | (c242 << 11) | (self.v59 << 12)); if s >> 0 & 1 != 0 { (c236 << 2) | 0x13 } else if s >> 1 & 1 != 0 { 0x1c } else if s >> 2 & 1 != 0 { c237 | ((c237 >> 1) << 2) | 0x10 } else if s >> 3 & 1 != 0 { 0x12 } else if s >> 4 & 1 != 0 { 0x1a } else if s >> 5 & 1 != 0 { 0x1b } else if s >> 6 & 1 != 0 { 0x19 } else if s >> 7 & 1 != 0 { 0x18 } else if s >> 8 & 1 != 0 { 0x8 } else if s >> 9 & 1 != 0 { 0xa } else if s >> 10 & 1 != 0 { (c240 << 1) | 0x9 } else if s >> 11 & 1 != 0 { c241 } else if s >> 12 & 1 != 0 { 0x3 } else { (0x0) } };
+        let c251: u64 = { let s = (self.v580 | (self.v570 << 1) | (self.v581 << 2) | (self.v573 << 3) | (self.v392 << 4) | (self.v357 << 5) | (self.v369 << 6) | (self.v402 << 7) | (c252 << 8) | (self.v397 << 9) | (self.v398 << 10) | (c242 << 11) | (self.v59 << 12)); if s >> 0 & 1 != 0 { (c236 << 2) | 0x13 } else if s >> 1 & 1 != 0 { 0x1c } else if s >> 2 & 1 != 0 { c237 | ((c237 >> 1) << 2) | 0x10 } else if s >> 3 & 1 != 0 { 0x12 } else if s >> 4 & 1 != 0 { 0x1a } else if s >> 5 & 1 != 0 { 0x1b } else if s >> 6 & 1 != 0 { 0x19 } else if s >> 7 & 1 != 0 { 0x18 } else if s >> 8 & 1 != 0 { 0x8 } else if s >> 9 & 1 != 0 { 0xa } else if s >> 10 & 1 != 0 { (c240 << 1) | 0x9 } else if s >> 11 & 1 != 0 { c241 } else if s >> 12 & 1 != 0 { 0x3 } else { (0x0) } };
         if self.v251 != c251 { self.v251 = c251; *dirty |= 0x40000000000000; }
         let c253: u64 = u64::from((self.q56) == 0);
         if self.v253 != c253 { self.v253 = c253; *dirty |= 0x20020; }
@@ -2228,15 +2233,15 @@ impl Model {
         if self.v40 != c40 { self.v40 = c40; *dirty |= 0x80000000000000000000; }
         let c46: u64 = u64::from((self.i_reset | (c157 << 1)) != 0);
         if self.v46 != c46 { self.v46 = c46; *dirty |= 0x180000000000000; }
-        let c162: u64 = (self.v576) & (c166) & 0x1;
+        let c162: u64 = (self.v577) & (c166) & 0x1;
         if self.v162 != c162 { self.v162 = c162; *dirty |= 0x80000; }
         let c45: u64 = u64::from((self.i_reset | (c162 << 1) | (c157 << 2)) != 0);
         if self.v45 != c45 { self.v45 = c45; *dirty |= 0x200000000000000; }
         let c167: u64 = u64::from((self.q23) == (0x2));
         if self.v167 != c167 { self.v167 = c167; *dirty |= 0x20000; }
-        let c163: u64 = (self.v572) & (c167) & 0x1;
+        let c163: u64 = (self.v573) & (c167) & 0x1;
         if self.v163 != c163 { self.v163 = c163; *dirty |= 0x1000; }
-        let c176: u64 = u64::from((self.q56) != (0xf));
+        let c176: u64 = u64::from((self.q56) != (0x3));
         if self.v176 != c176 { self.v176 = c176; *dirty |= 0x80000; }
         let c178: u64 = !(self.q57) & 0x1;
         if self.v178 != c178 { self.v178 = c178; *dirty |= 0x80000; }
@@ -2249,10 +2254,10 @@ impl Model {
         if self.v13 != c13 { self.v13 = c13; *dirty |= 0x800000; }
         let c183: u64 = ((self.q54) | (c165)) & 0x1;
         if self.v183 != c183 { self.v183 = c183; *dirty |= 0x40; }
-        let c185: u64 = ((self.v574) | (self.v573)) & 0x1;
+        let c185: u64 = ((self.v575) | (self.v574)) & 0x1;
         if self.v185 != c185 { self.v185 = c185; *dirty |= 0x1000; }
         let c186: u64 = ((c185) | (self.v253)) & 0x1;
-        let c187: u64 = ((c186) | (self.v576)) & 0x1;
+        let c187: u64 = ((c186) | (self.v577)) & 0x1;
         let c188: u64 = ((c187) | (c163)) & 0x1;
         if self.v188 != c188 { self.v188 = c188; *dirty |= 0x200; }
         let c197: u64 = !(c188) & 0x1;
@@ -2264,60 +2269,60 @@ impl Model {
 
     /// The cells of top$protocol$sender.
     fn group_6(&mut self, dirty: &mut u128) {
-        let c606: u64 = ((self.q5 & 0x1) | (self.q6 << 1) | ((self.q5 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
-        if self.v606 != c606 { self.v606 = c606; *dirty |= 0x10000000; }
-        let c607: u64 = (self.q23).wrapping_add((0x1)) & 0x7f;
-        if self.v607 != c607 { self.v607 = c607; *dirty |= 0x8080; }
-        let c614: u64 = u64::from((self.q7) == 0);
-        if self.v614 != c614 { self.v614 = c614; *dirty |= 0x80000; }
-        let c615: u64 = u64::from((self.q7) == (0x1));
-        let c616: u64 = u64::from((self.q23) == (0xa));
-        if self.v616 != c616 { self.v616 = c616; *dirty |= 0x29000; }
-        let c617: u64 = u64::from((self.q23) == (0x1e));
-        if self.v617 != c617 { self.v617 = c617; *dirty |= 0x8000; }
-        let c627: u64 = ((self.v183) | (self.i_reset)) & 0x1;
-        if self.v627 != c627 { self.v627 = c627; *dirty |= 0x8008000; }
-        let c651: u64 = ((((self.i_transmit_info >> 6) & 0x1)) | ((self.i_transmit_info >> 7))) & 0x1;
-        if self.v651 != c651 { self.v651 = c651; *dirty |= 0x8000000; }
-        let c666: u64 = if (self.v326) != 0 { (0x2) } else { (0x1) };
-        if self.v666 != c666 { self.v666 = c666; *dirty |= 0x8000000; }
-        let c668: u64 = if (c614) != 0 { ((c606 & 0x7)) } else { ((self.q5 & 0x1)) };
-        if self.v668 != c668 { self.v668 = c668; *dirty |= 0x8000000; }
-        let c670: u64 = if (c614) != 0 { ((self.i_transmit_data & 0x7f)) } else { (((self.q49 & 0x3f) << 1)) };
-        if self.v670 != c670 { self.v670 = c670; *dirty |= 0x8000000000000000000; }
-        let c673: u64 = if (c614) != 0 { (((self.i_transmit_data >> 6) & 0x1)) } else { (((self.q49 >> 5) & 0x1)) };
-        let c672: u64 = if (c615) != 0 { ((self.i_transmit_data >> 7)) } else { (c673) };
-        if self.v672 != c672 { self.v672 = c672; *dirty |= 0x8000000; }
-        let c674: u64 = if (c614) != 0 { ((self.i_transmit_data >> 7)) } else { ((self.q49 >> 6)) };
-        if self.v674 != c674 { self.v674 = c674; *dirty |= 0x8000000; }
-        let c675: u64 = (self.q7).wrapping_sub((0x1)) & 0xf;
-        let c669: u64 = if (c614) != 0 { (0x7) } else { (c675) };
-        if self.v669 != c669 { self.v669 = c669; *dirty |= 0x1000000000000000000; }
-        let c677: u64 = ((((self.q22 >> 13) & 0x1)) ^ ((self.q22 >> 14))) & 0x1;
-        let c678: u64 = ((c677) ^ (self.q50)) & 0x1;
-        if self.v678 != c678 { self.v678 = c678; *dirty |= 0x40000; }
+        let c607: u64 = ((self.q5 & 0x1) | (self.q6 << 1) | ((self.q5 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
+        if self.v607 != c607 { self.v607 = c607; *dirty |= 0x10000000; }
+        let c608: u64 = (self.q23).wrapping_add((0x1)) & 0x7f;
+        if self.v608 != c608 { self.v608 = c608; *dirty |= 0x8080; }
+        let c615: u64 = u64::from((self.q7) == 0);
+        if self.v615 != c615 { self.v615 = c615; *dirty |= 0x80000; }
+        let c616: u64 = u64::from((self.q7) == (0x1));
+        let c617: u64 = u64::from((self.q23) == (0xa));
+        if self.v617 != c617 { self.v617 = c617; *dirty |= 0x29000; }
+        let c618: u64 = u64::from((self.q23) == (0x1e));
+        if self.v618 != c618 { self.v618 = c618; *dirty |= 0x8000; }
+        let c628: u64 = ((self.v183) | (self.i_reset)) & 0x1;
+        if self.v628 != c628 { self.v628 = c628; *dirty |= 0x8008000; }
+        let c652: u64 = ((((self.i_transmit_info >> 6) & 0x1)) | ((self.i_transmit_info >> 7))) & 0x1;
+        if self.v652 != c652 { self.v652 = c652; *dirty |= 0x8000000; }
+        let c667: u64 = if (self.v326) != 0 { (0x2) } else { (0x1) };
+        if self.v667 != c667 { self.v667 = c667; *dirty |= 0x8000000; }
+        let c669: u64 = if (c615) != 0 { ((c607 & 0x7)) } else { ((self.q5 & 0x1)) };
+        if self.v669 != c669 { self.v669 = c669; *dirty |= 0x8000000; }
+        let c671: u64 = if (c615) != 0 { ((self.i_transmit_data & 0x7f)) } else { (((self.q49 & 0x3f) << 1)) };
+        if self.v671 != c671 { self.v671 = c671; *dirty |= 0x8000000000000000000; }
+        let c674: u64 = if (c615) != 0 { (((self.i_transmit_data >> 6) & 0x1)) } else { (((self.q49 >> 5) & 0x1)) };
+        let c673: u64 = if (c616) != 0 { ((self.i_transmit_data >> 7)) } else { (c674) };
+        if self.v673 != c673 { self.v673 = c673; *dirty |= 0x8000000; }
+        let c675: u64 = if (c615) != 0 { ((self.i_transmit_data >> 7)) } else { ((self.q49 >> 6)) };
+        if self.v675 != c675 { self.v675 = c675; *dirty |= 0x8000000; }
+        let c676: u64 = (self.q7).wrapping_sub((0x1)) & 0xf;
+        let c670: u64 = if (c615) != 0 { (0x7) } else { (c676) };
+        if self.v670 != c670 { self.v670 = c670; *dirty |= 0x1000000000000000000; }
+        let c678: u64 = ((((self.q22 >> 13) & 0x1)) ^ ((self.q22 >> 14))) & 0x1;
+        let c679: u64 = ((c678) ^ (self.q50)) & 0x1;
+        if self.v679 != c679 { self.v679 = c679; *dirty |= 0x40000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$frame.
     fn group_7(&mut self, dirty: &mut u128) {
-        let c10: u64 = u64::from((self.v458 | (self.v337 << 1) | (self.v569 << 2)) != (0x4));
+        let c10: u64 = u64::from((self.v458 | (self.v337 << 1) | (self.v570 << 2)) != (0x4));
         if self.v10 != c10 { self.v10 = c10; *dirty |= 0x4000; }
         let c314: u64 = (self.v231) & (self.v330) & 0x1;
         let c316: u64 = (self.v242) & (self.q59) & 0x1;
-        let c353: u64 = if (self.v339) != 0 { (0x0) } else { (self.v607) };
-        let c377: u64 = if (c314) != 0 { (0x0) } else { (self.v607) };
-        let c378: u64 = if (c314) != 0 { (0x5) } else { (self.q56) };
-        let c380: u64 = if (self.v344) != 0 { (0x0) } else { (self.v607) };
-        let c387: u64 = if (self.v346) != 0 { (0x0) } else { (self.v607) };
+        let c353: u64 = if (self.v339) != 0 { (0x0) } else { (self.v608) };
+        let c377: u64 = if (c314) != 0 { (0x0) } else { (self.v608) };
+        let c378: u64 = if (c314) != 0 { (0xb) } else { (self.q56) };
+        let c380: u64 = if (self.v344) != 0 { (0x0) } else { (self.v608) };
+        let c387: u64 = if (self.v346) != 0 { (0x0) } else { (self.v608) };
         let c389: u64 = { let s = (self.v392 | (self.v242 << 1)); if s >> 0 & 1 != 0 { self.v352 } else if s >> 1 & 1 != 0 { self.v383 } else { (0x0) } };
         let c390: u64 = (self.v242) & (self.v384) & 0x1;
         let c391: u64 = { let s = (self.v392 | (self.v357 << 1) | (self.v369 << 2) | (self.v402 << 3) | (self.v60 << 4) | (self.v242 << 5)); if s >> 0 & 1 != 0 { self.v349 } else if s >> 1 & 1 != 0 { self.v356 } else if s >> 2 & 1 != 0 { self.v367 } else if s >> 3 & 1 != 0 { self.v358 } else if s >> 4 & 1 != 0 { self.v311 } else if s >> 5 & 1 != 0 { self.v385 } else { (0x0) } };
         let c393: u64 = { let s = (self.v397 | (self.v242 << 1)); if s >> 0 & 1 != 0 { self.q1 } else if s >> 1 & 1 != 0 { self.v386 } else { (0x0) } };
         let c394: u64 = (self.v242) & (self.v346) & 0x1;
-        let c395: u64 = { let s = (self.v392 | (self.v357 << 1) | (self.v397 << 2) | (self.v398 << 3) | (self.v242 << 4)); if s >> 0 & 1 != 0 { c353 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c377 } else if s >> 3 & 1 != 0 { c380 } else if s >> 4 & 1 != 0 { c387 } else { (self.v607) } };
+        let c395: u64 = { let s = (self.v392 | (self.v357 << 1) | (self.v397 << 2) | (self.v398 << 3) | (self.v242 << 4)); if s >> 0 & 1 != 0 { c353 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c377 } else if s >> 3 & 1 != 0 { c380 } else if s >> 4 & 1 != 0 { c387 } else { (self.v608) } };
         if self.v395 != c395 { self.v395 = c395; *dirty |= 0x10000; }
-        let c396: u64 = { let s = (self.v392 | (self.v357 << 1) | (self.v369 << 2) | (self.v402 << 3) | (self.v252 << 4) | (self.v397 << 5) | (self.v398 << 6) | (self.v242 << 7)); if s >> 0 & 1 != 0 { self.v350 } else if s >> 1 & 1 != 0 { 0x9 } else if s >> 2 & 1 != 0 { 0x8 } else if s >> 3 & 1 != 0 { 0x7 } else if s >> 4 & 1 != 0 { self.v376 } else if s >> 5 & 1 != 0 { c378 } else if s >> 6 & 1 != 0 { self.v379 } else if s >> 7 & 1 != 0 { self.v388 } else { (self.q56) } };
+        let c396: u64 = { let s = (self.v392 | (self.v357 << 1) | (self.v369 << 2) | (self.v402 << 3) | (self.v252 << 4) | (self.v397 << 5) | (self.v398 << 6) | (self.v242 << 7)); if s >> 0 & 1 != 0 { self.v350 } else if s >> 1 & 1 != 0 { 0xf } else if s >> 2 & 1 != 0 { 0xe } else if s >> 3 & 1 != 0 { 0xd } else if s >> 4 & 1 != 0 { self.v376 } else if s >> 5 & 1 != 0 { c378 } else if s >> 6 & 1 != 0 { self.v379 } else if s >> 7 & 1 != 0 { self.v388 } else { (self.q56) } };
         let c408: u64 = (self.q45) & (c394) & 0x1;
         if self.v408 != c408 { self.v408 = c408; *dirty |= 0x10000; }
         let c410: u64 = (self.q45) & (c389) & 0x1;
@@ -2482,113 +2487,113 @@ impl Model {
         if self.v456 != c456 { self.v456 = c456; *dirty |= 0x20000; }
         let c475: u64 = ((self.v185) | (self.v163)) & 0x1;
         if self.v475 != c475 { self.v475 = c475; *dirty |= 0x4000; }
-        let c495: u64 = (self.v461) & (self.v616) & 0x1;
+        let c495: u64 = (self.v461) & (self.v617) & 0x1;
         let c509: u64 = (self.v232) & (self.v506) & 0x1;
         let c510: u64 = (self.v232) & (self.v507) & 0x1;
         let c531: u64 = if (c456) != 0 { (0x0) } else { (self.v337) };
         let c535: u64 = if (self.q8) != 0 { (c531) } else { (self.v525) };
         if self.v535 != c535 { self.v535 = c535; *dirty |= 0x30000; }
-        let c9: u64 = u64::from((c535 | (self.v580 << 1)) != (0x2));
+        let c9: u64 = u64::from((c535 | (self.v581 << 1)) != (0x2));
         if self.v9 != c9 { self.v9 = c9; *dirty |= 0x4000; }
-        let c575: u64 = (self.v576) & (c495) & 0x1;
-        if self.v575 != c575 { self.v575 = c575; *dirty |= 0x4000; }
-        let c577: u64 = { let s = (self.v579 | (self.v580 << 1)); if s >> 0 & 1 != 0 { c509 } else if s >> 1 & 1 != 0 { self.v534 } else { (0x0) } };
-        if self.v577 != c577 { self.v577 = c577; *dirty |= 0x4000; }
-        let c578: u64 = { let s = (self.v579 | (self.v580 << 1)); if s >> 0 & 1 != 0 { c510 } else if s >> 1 & 1 != 0 { self.v539 } else { (0x0) } };
+        let c576: u64 = (self.v577) & (c495) & 0x1;
+        if self.v576 != c576 { self.v576 = c576; *dirty |= 0x4000; }
+        let c578: u64 = { let s = (self.v580 | (self.v581 << 1)); if s >> 0 & 1 != 0 { c509 } else if s >> 1 & 1 != 0 { self.v534 } else { (0x0) } };
         if self.v578 != c578 { self.v578 = c578; *dirty |= 0x4000; }
+        let c579: u64 = { let s = (self.v580 | (self.v581 << 1)); if s >> 0 & 1 != 0 { c510 } else if s >> 1 & 1 != 0 { self.v539 } else { (0x0) } };
+        if self.v579 != c579 { self.v579 = c579; *dirty |= 0x4000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$stuffing.
     fn group_13(&mut self, dirty: &mut u128) {
-        let c679: u64 = (self.q3).wrapping_add((0x1)) & 0x7;
-        let c682: u64 = u64::from((self.q3) == (0x5));
-        let c680: u64 = (self.q4) & (c682) & 0x1;
-        if self.v680 != c680 { self.v680 = c680; *dirty |= 0x3c000; }
-        let c18: u64 = !(c680) & 0x1;
-        if self.v18 != c18 { self.v18 = c18; *dirty |= 0xc000; }
-        let c25: u64 = u64::from((self.q45 | (self.q8 << 1) | (self.v580 << 2) | (c18 << 3)) == 0xf);
-        if self.v25 != c25 { self.v25 = c25; *dirty |= 0x400000000000000000; }
-        let c683: u64 = u64::from((self.q3) == (0x4));
+        let c680: u64 = (self.q3).wrapping_add((0x1)) & 0x7;
+        let c683: u64 = u64::from((self.q3) == (0x5));
         let c681: u64 = (self.q4) & (c683) & 0x1;
-        if self.v681 != c681 { self.v681 = c681; *dirty |= 0x8000; }
-        let c684: u64 = u64::from((self.q50) != (self.q2));
-        let c685: u64 = ((c682) | (c684)) & 0x1;
-        if self.v685 != c685 { self.v685 = c685; *dirty |= 0x4000; }
-        let c689: u64 = if (c685) != 0 { (0x1) } else { (c679) };
-        if self.v689 != c689 { self.v689 = c689; *dirty |= 0x20000000; }
+        if self.v681 != c681 { self.v681 = c681; *dirty |= 0x3c000; }
+        let c18: u64 = !(c681) & 0x1;
+        if self.v18 != c18 { self.v18 = c18; *dirty |= 0xc000; }
+        let c25: u64 = u64::from((self.q45 | (self.q8 << 1) | (self.v581 << 2) | (c18 << 3)) == 0xf);
+        if self.v25 != c25 { self.v25 = c25; *dirty |= 0x400000000000000000; }
+        let c684: u64 = u64::from((self.q3) == (0x4));
+        let c682: u64 = (self.q4) & (c684) & 0x1;
+        if self.v682 != c682 { self.v682 = c682; *dirty |= 0x8000; }
+        let c685: u64 = u64::from((self.q50) != (self.q2));
+        let c686: u64 = ((c683) | (c685)) & 0x1;
+        if self.v686 != c686 { self.v686 = c686; *dirty |= 0x4000; }
+        let c690: u64 = if (c686) != 0 { (0x1) } else { (c680) };
+        if self.v690 != c690 { self.v690 = c690; *dirty |= 0x20000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe.
     fn group_14(&mut self, dirty: &mut u128) {
-        let c26: u64 = u64::from((self.q45 | (self.v18 << 1) | (self.v6 << 2) | (self.v5 << 3) | (self.v7 << 4)) == 0x1f);
+        let c26: u64 = u64::from((self.q45 | (self.v7 << 1) | (self.v18 << 2) | (self.v5 << 3) | (self.v6 << 4)) == 0x1f);
         if self.v26 != c26 { self.v26 = c26; *dirty |= 0x200000000000000000; }
-        let c27: u64 = u64::from((self.q45 | (self.v18 << 1) | (self.v10 << 2) | (self.v9 << 3) | (self.v8 << 4) | (self.v6 << 5) | (self.v5 << 6) | (self.v7 << 7)) == 0xff);
+        let c27: u64 = u64::from((self.q45 | (self.v7 << 1) | (self.v8 << 2) | (self.v9 << 3) | (self.v10 << 4) | (self.v18 << 5) | (self.v5 << 6) | (self.v6 << 7)) == 0xff);
         if self.v27 != c27 { self.v27 = c27; *dirty |= 0x100000000000000000; }
         let c450: u64 = (self.q45) & (self.v18) & 0x1;
         if self.v450 != c450 { self.v450 = c450; *dirty |= 0x2210000; }
         let c451: u64 = (c450) & (self.v358) & 0x1;
         let c452: u64 = (c451) & (self.v475) & 0x1;
         if self.v452 != c452 { self.v452 = c452; *dirty |= 0x4000000200a8000; }
-        let c0: u64 = u64::from((self.v685 | (c452 << 1)) != 0);
+        let c0: u64 = u64::from((self.v686 | (c452 << 1)) != 0);
         let c21: u64 = u64::from((self.q45 | (c0 << 1)) == 0x3);
         if self.v21 != c21 { self.v21 = c21; *dirty |= 0x40000000000000000000; }
         let c44: u64 = u64::from((self.i_reset | (c452 << 1)) != 0);
         if self.v44 != c44 { self.v44 = c44; *dirty |= 0x803400000000000; }
-        let c582: u64 = if (self.v680) != 0 { (self.q12) } else { (self.v566) };
-        if self.v582 != c582 { self.v582 = c582; *dirty |= 0x20000; }
-        let c586: u64 = if (self.v680) != 0 { (0x0) } else { (self.v570) };
-        let c589: u64 = if (self.v680) != 0 { (0x0) } else { (self.v575) };
-        let c590: u64 = if (self.v680) != 0 { (0x0) } else { (self.v577) };
-        if self.v590 != c590 { self.v590 = c590; *dirty |= 0x20000; }
-        let c591: u64 = if (self.v680) != 0 { (0x0) } else { (self.v578) };
+        let c583: u64 = if (self.v681) != 0 { (self.q12) } else { (self.v567) };
+        if self.v583 != c583 { self.v583 = c583; *dirty |= 0x20000; }
+        let c587: u64 = if (self.v681) != 0 { (0x0) } else { (self.v571) };
+        let c590: u64 = if (self.v681) != 0 { (0x0) } else { (self.v576) };
+        let c591: u64 = if (self.v681) != 0 { (0x0) } else { (self.v578) };
         if self.v591 != c591 { self.v591 = c591; *dirty |= 0x20000; }
-        let c602: u64 = (self.q45) & (c586) & 0x1;
-        if self.v602 != c602 { self.v602 = c602; *dirty |= 0x88000; }
-        let c604: u64 = (self.q45) & (c589) & 0x1;
-        if self.v604 != c604 { self.v604 = c604; *dirty |= 0x100000; }
-        let c15: u64 = u64::from((self.i_counters_load_tec | (self.q54 << 1) | (c604 << 2)) != (0x2));
+        let c592: u64 = if (self.v681) != 0 { (0x0) } else { (self.v579) };
+        if self.v592 != c592 { self.v592 = c592; *dirty |= 0x20000; }
+        let c603: u64 = (self.q45) & (c587) & 0x1;
+        if self.v603 != c603 { self.v603 = c603; *dirty |= 0x88000; }
+        let c605: u64 = (self.q45) & (c590) & 0x1;
+        if self.v605 != c605 { self.v605 = c605; *dirty |= 0x100000; }
+        let c15: u64 = u64::from((self.i_counters_load_tec | (self.q54 << 1) | (c605 << 2)) != (0x2));
         if self.v15 != c15 { self.v15 = c15; *dirty |= 0x800000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender.
     fn group_15(&mut self, dirty: &mut u128) {
-        let c609: u64 = (self.v681) & (self.v18) & 0x1;
-        let c610: u64 = (c609) & (self.v331) & 0x1;
-        if self.v610 != c610 { self.v610 = c610; *dirty |= 0x40000; }
-        let c618: u64 = !(self.v449) & 0x1;
-        if self.v618 != c618 { self.v618 = c618; *dirty |= 0x8000000; }
-        let c624: u64 = !(self.v602) & 0x1;
-        let c608: u64 = (self.v580) & (c624) & 0x1;
-        let c631: u64 = if (self.v103) != 0 { (self.q58) } else { (self.q59) };
-        let c630: u64 = ((c631) | (self.i_listen_only)) & 0x1;
-        let c629: u64 = ((c630) | (self.v627)) & 0x1;
-        if self.v629 != c629 { self.v629 = c629; *dirty |= 0x4000000000000000000; }
-        let c634: u64 = if (c608) != 0 { (self.q8) } else { (self.v474) };
-        if self.v634 != c634 { self.v634 = c634; *dirty |= 0x8000000; }
-        let c662: u64 = if (self.v680) != 0 { ((self.q23 & 0x7)) } else { ((self.v607 & 0x7)) };
-        let c663: u64 = if (self.v680) != 0 { (self.v326) } else { (self.v617) };
-        let c659: u64 = if (self.v452) != 0 { (0x0) } else { (c663) };
-        if self.v659 != c659 { self.v659 = c659; *dirty |= 0x8000000; }
-        let c664: u64 = if (self.v680) != 0 { (self.v325) } else { (self.v324) };
+        let c610: u64 = (self.v682) & (self.v18) & 0x1;
+        let c611: u64 = (c610) & (self.v331) & 0x1;
+        if self.v611 != c611 { self.v611 = c611; *dirty |= 0x40000; }
+        let c619: u64 = !(self.v449) & 0x1;
+        if self.v619 != c619 { self.v619 = c619; *dirty |= 0x8000000; }
+        let c625: u64 = !(self.v603) & 0x1;
+        let c609: u64 = (self.v581) & (c625) & 0x1;
+        let c632: u64 = if (self.v103) != 0 { (self.q58) } else { (self.q59) };
+        let c631: u64 = ((c632) | (self.i_listen_only)) & 0x1;
+        let c630: u64 = ((c631) | (self.v628)) & 0x1;
+        if self.v630 != c630 { self.v630 = c630; *dirty |= 0x4000000000000000000; }
+        let c635: u64 = if (c609) != 0 { (self.q8) } else { (self.v474) };
+        if self.v635 != c635 { self.v635 = c635; *dirty |= 0x8000000; }
+        let c663: u64 = if (self.v681) != 0 { ((self.q23 & 0x7)) } else { ((self.v608 & 0x7)) };
+        let c664: u64 = if (self.v681) != 0 { (self.v326) } else { (self.v618) };
         let c660: u64 = if (self.v452) != 0 { (0x0) } else { (c664) };
         if self.v660 != c660 { self.v660 = c660; *dirty |= 0x8000000; }
-        let c665: u64 = if (self.v680) != 0 { (self.v324) } else { (self.v616) };
+        let c665: u64 = if (self.v681) != 0 { (self.v325) } else { (self.v324) };
         let c661: u64 = if (self.v452) != 0 { (0x0) } else { (c665) };
         if self.v661 != c661 { self.v661 = c661; *dirty |= 0x8000000; }
-        let c676: u64 = (c662).wrapping_sub((0x1)) & 0x7;
-        let c646: u64 = if ((self.i_transmit_info >> 7)) != 0 { (c676) } else { (c662) };
-        let c619: u64 = u64::from((c646) == (0x1));
-        let c620: u64 = u64::from((c646) == (0x2));
-        let c621: u64 = u64::from((c646) == (0x3));
-        let c622: u64 = u64::from((c646) == (0x4));
-        let c645: u64 = (c619) & (((self.i_transmit_info >> 3) & 0x1)) & 0x1;
-        let c644: u64 = if (c620) != 0 { (((self.i_transmit_info >> 2) & 0x1)) } else { (c645) };
-        let c642: u64 = if (c621) != 0 { (((self.i_transmit_info >> 1) & 0x1)) } else { (c644) };
-        let c641: u64 = if (c622) != 0 { ((self.i_transmit_info & 0x1)) } else { (c642) };
-        if self.v641 != c641 { self.v641 = c641; *dirty |= 0x40000; }
+        let c666: u64 = if (self.v681) != 0 { (self.v324) } else { (self.v617) };
+        let c662: u64 = if (self.v452) != 0 { (0x0) } else { (c666) };
+        if self.v662 != c662 { self.v662 = c662; *dirty |= 0x8000000; }
+        let c677: u64 = (c663).wrapping_sub((0x1)) & 0x7;
+        let c647: u64 = if ((self.i_transmit_info >> 7)) != 0 { (c677) } else { (c663) };
+        let c620: u64 = u64::from((c647) == (0x1));
+        let c621: u64 = u64::from((c647) == (0x2));
+        let c622: u64 = u64::from((c647) == (0x3));
+        let c623: u64 = u64::from((c647) == (0x4));
+        let c646: u64 = (c620) & (((self.i_transmit_info >> 3) & 0x1)) & 0x1;
+        let c645: u64 = if (c621) != 0 { (((self.i_transmit_info >> 2) & 0x1)) } else { (c646) };
+        let c643: u64 = if (c622) != 0 { (((self.i_transmit_info >> 1) & 0x1)) } else { (c645) };
+        let c642: u64 = if (c623) != 0 { ((self.i_transmit_info & 0x1)) } else { (c643) };
+        if self.v642 != c642 { self.v642 = c642; *dirty |= 0x40000; }
         let _ = &dirty;
     }
 
@@ -2602,9 +2607,9 @@ impl Model {
         if self.v33 != c33 { self.v33 = c33; *dirty |= 0x1000000000000; }
         let c35: u64 = u64::from((self.v397 | (self.v450 << 1)) == 0x3);
         if self.v35 != c35 { self.v35 = c35; *dirty |= 0x200000000000; }
-        let c62: u64 = if (self.v569) != 0 { (self.v337) } else { (self.v535) };
+        let c62: u64 = if (self.v570) != 0 { (self.v337) } else { (self.v535) };
         if self.v62 != c62 { self.v62 = c62; *dirty |= 0x20000; }
-        let c315: u64 = (self.q45) & (self.v680) & 0x1;
+        let c315: u64 = (self.q45) & (self.v681) & 0x1;
         if self.v315 != c315 { self.v315 = c315; *dirty |= 0x80000; }
         let c428: u64 = if (c315) != 0 { (self.v425) } else { (self.v414) };
         if self.v428 != c428 { self.v428 = c428; *dirty |= 0x20000; }
@@ -2645,11 +2650,11 @@ impl Model {
     fn group_17(&mut self, dirty: &mut u128) {
         let c466: u64 = !(self.v436) & 0x1;
         let c453: u64 = (self.q1) & (c466) & 0x1;
-        let c493: u64 = if (self.v616) != 0 { (0x0) } else { (self.v431) };
+        let c493: u64 = if (self.v617) != 0 { (0x0) } else { (self.v431) };
         let c494: u64 = if (self.v461) != 0 { (c493) } else { (0x0) };
-        let c496: u64 = if (self.v468) != 0 { (0xa) } else { (self.v440) };
+        let c496: u64 = if (self.v468) != 0 { (0x7) } else { (self.v440) };
         let c497: u64 = if (self.v468) != 0 { (0x0) } else { (self.v431) };
-        let c498: u64 = if (self.v468) != 0 { (0xd) } else { (self.v440) };
+        let c498: u64 = if (self.v468) != 0 { (0x5) } else { (self.v440) };
         let c499: u64 = if (self.v468) != 0 { (self.v429) } else { (0x1) };
         let c500: u64 = if (self.v468) != 0 { (self.v430) } else { (0x1) };
         let c501: u64 = if (self.q50) != 0 { (self.v429) } else { (c499) };
@@ -2660,143 +2665,143 @@ impl Model {
         let c513: u64 = if (self.v232) != 0 { (self.v440) } else { (c503) };
         let c514: u64 = ((self.q10) | (self.v62)) & 0x1;
         let c516: u64 = if (self.v337) != 0 { (0x0) } else { (self.v431) };
-        let c517: u64 = if (self.v337) != 0 { (0xe) } else { (self.v440) };
+        let c517: u64 = if (self.v337) != 0 { (0x6) } else { (self.v440) };
         let c518: u64 = ((self.v430) | (self.v458)) & 0x1;
         let c520: u64 = if (self.v458) != 0 { (self.v431) } else { (c516) };
         let c521: u64 = if (self.v458) != 0 { (self.v440) } else { (c517) };
-        let c524: u64 = if (self.v535) != 0 { (0xe) } else { (self.v440) };
+        let c524: u64 = if (self.v535) != 0 { (0x6) } else { (self.v440) };
         let c526: u64 = if (self.q50) != 0 { (0x0) } else { (self.v431) };
         let c532: u64 = if (self.v456) != 0 { (0x1) } else { (self.v431) };
         let c536: u64 = if (self.q8) != 0 { (c532) } else { (c526) };
         let c523: u64 = if (self.v535) != 0 { (0x0) } else { (c536) };
         let c540: u64 = if (self.v455) != 0 { (0x0) } else { (self.v431) };
-        let c541: u64 = if (self.v167) != 0 { (c540) } else { (self.v431) };
-        let c542: u64 = if (self.v167) != 0 { (self.v455) } else { (c453) };
-        let c543: u64 = if (self.v167) != 0 { ((self.v455 << 1) | (self.v455 << 3) | 0x1) } else { (self.v440) };
-        let c544: u64 = if (self.v167) != 0 { (self.v454) } else { (c453) };
-        let c545: u64 = if (self.v167) != 0 { (self.v431) } else { (0x0) };
-        let c546: u64 = if (self.v167) != 0 { (self.v440) } else { (0xd) };
-        let c547: u64 = if (self.q50) != 0 { (c541) } else { (c545) };
-        let c548: u64 = if (self.q50) != 0 { (c542) } else { (c544) };
-        let c549: u64 = if (self.q50) != 0 { (c543) } else { (c546) };
-        let c550: u64 = if (self.v468) != 0 { (0x0) } else { (c453) };
-        let c551: u64 = if (self.v468) != 0 { (0x1) } else { (self.v440) };
-        let c552: u64 = (self.q50) & (c550) & 0x1;
-        let c553: u64 = if (self.q50) != 0 { (c551) } else { (self.v440) };
-        let c554: u64 = if (self.q59) != 0 { (c453) } else { (0x1) };
-        let c555: u64 = if (self.q59) != 0 { (self.v430) } else { (0x1) };
-        let c556: u64 = if (self.q50) != 0 { (c554) } else { (self.v336) };
-        let c557: u64 = if (self.q50) != 0 { (c555) } else { (self.v430) };
-        let c558: u64 = if (self.v616) != 0 { (0x1) } else { (self.v440) };
-        let c559: u64 = if (self.q50) != 0 { (self.v431) } else { (0x0) };
-        let c508: u64 = if (self.v232) != 0 { (c559) } else { (c497) };
-        let c560: u64 = if (self.q50) != 0 { (c558) } else { (self.v440) };
-        let c561: u64 = { let s = (self.v576 | (self.v579 << 1) | (self.v569 << 2) | (self.v580 << 3) | (self.v572 << 4) | (self.v253 << 5)); if s >> 0 & 1 != 0 { c494 } else if s >> 1 & 1 != 0 { c508 } else if s >> 2 & 1 != 0 { c520 } else if s >> 3 & 1 != 0 { c523 } else if s >> 4 & 1 != 0 { c547 } else if s >> 5 & 1 != 0 { c559 } else { (self.v431) } };
-        let c562: u64 = { let s = (self.v579 | (self.v569 << 1) | (self.v580 << 2) | (self.v572 << 3) | (self.v573 << 4) | (self.v253 << 5)); if s >> 0 & 1 != 0 { c513 } else if s >> 1 & 1 != 0 { c521 } else if s >> 2 & 1 != 0 { c524 } else if s >> 3 & 1 != 0 { c549 } else if s >> 4 & 1 != 0 { c553 } else if s >> 5 & 1 != 0 { c560 } else { (self.v440) } };
-        let c565: u64 = if (self.v579) != 0 { (0x0) } else { (c514) };
-        if self.v565 != c565 { self.v565 = c565; *dirty |= 0x200000000000000000; }
-        let c567: u64 = if (self.v579) != 0 { (c511) } else { (self.v429) };
-        let c568: u64 = { let s = (self.v579 | (self.v569 << 1) | (self.v574 << 2)); if s >> 0 & 1 != 0 { c512 } else if s >> 1 & 1 != 0 { c518 } else if s >> 2 & 1 != 0 { c557 } else { (self.v430) } };
-        let c571: u64 = { let s = (self.v572 | (self.v573 << 1) | (self.v574 << 2)); if s >> 0 & 1 != 0 { c548 } else if s >> 1 & 1 != 0 { c552 } else if s >> 2 & 1 != 0 { c556 } else { (c453) } };
-        let c583: u64 = if (self.v680) != 0 { (self.v431) } else { (c561) };
-        let c491: u64 = if (self.v452) != 0 { (0x0) } else { (c583) };
-        let c584: u64 = if (self.v680) != 0 { (self.v429) } else { (c567) };
-        let c585: u64 = if (self.v680) != 0 { (self.v430) } else { (c568) };
-        let c3: u64 = u64::from((c585 | (self.v680 << 1) | (self.v580 << 2)) != 0);
-        let c4: u64 = u64::from((c585 | (self.v680 << 1)) != (0x2));
+        let c542: u64 = if (self.v167) != 0 { (c540) } else { (self.v431) };
+        let c543: u64 = if (self.v167) != 0 { (self.v455) } else { (c453) };
+        let c544: u64 = if (self.v167) != 0 { (self.v541) } else { (self.v440) };
+        let c545: u64 = if (self.v167) != 0 { (self.v454) } else { (c453) };
+        let c546: u64 = if (self.v167) != 0 { (self.v431) } else { (0x0) };
+        let c547: u64 = if (self.v167) != 0 { (self.v440) } else { (0x5) };
+        let c548: u64 = if (self.q50) != 0 { (c542) } else { (c546) };
+        let c549: u64 = if (self.q50) != 0 { (c543) } else { (c545) };
+        let c550: u64 = if (self.q50) != 0 { (c544) } else { (c547) };
+        let c551: u64 = if (self.v468) != 0 { (0x0) } else { (c453) };
+        let c552: u64 = if (self.v468) != 0 { (0x1) } else { (self.v440) };
+        let c553: u64 = (self.q50) & (c551) & 0x1;
+        let c554: u64 = if (self.q50) != 0 { (c552) } else { (self.v440) };
+        let c555: u64 = if (self.q59) != 0 { (c453) } else { (0x1) };
+        let c556: u64 = if (self.q59) != 0 { (self.v430) } else { (0x1) };
+        let c557: u64 = if (self.q50) != 0 { (c555) } else { (self.v336) };
+        let c558: u64 = if (self.q50) != 0 { (c556) } else { (self.v430) };
+        let c559: u64 = if (self.v617) != 0 { (0x1) } else { (self.v440) };
+        let c560: u64 = if (self.q50) != 0 { (self.v431) } else { (0x0) };
+        let c508: u64 = if (self.v232) != 0 { (c560) } else { (c497) };
+        let c561: u64 = if (self.q50) != 0 { (c559) } else { (self.v440) };
+        let c562: u64 = { let s = (self.v577 | (self.v580 << 1) | (self.v570 << 2) | (self.v581 << 3) | (self.v573 << 4) | (self.v253 << 5)); if s >> 0 & 1 != 0 { c494 } else if s >> 1 & 1 != 0 { c508 } else if s >> 2 & 1 != 0 { c520 } else if s >> 3 & 1 != 0 { c523 } else if s >> 4 & 1 != 0 { c548 } else if s >> 5 & 1 != 0 { c560 } else { (self.v431) } };
+        let c563: u64 = { let s = (self.v580 | (self.v570 << 1) | (self.v581 << 2) | (self.v573 << 3) | (self.v574 << 4) | (self.v253 << 5)); if s >> 0 & 1 != 0 { c513 } else if s >> 1 & 1 != 0 { c521 } else if s >> 2 & 1 != 0 { c524 } else if s >> 3 & 1 != 0 { c550 } else if s >> 4 & 1 != 0 { c554 } else if s >> 5 & 1 != 0 { c561 } else { (self.v440) } };
+        let c566: u64 = if (self.v580) != 0 { (0x0) } else { (c514) };
+        if self.v566 != c566 { self.v566 = c566; *dirty |= 0x200000000000000000; }
+        let c568: u64 = if (self.v580) != 0 { (c511) } else { (self.v429) };
+        let c569: u64 = { let s = (self.v580 | (self.v570 << 1) | (self.v575 << 2)); if s >> 0 & 1 != 0 { c512 } else if s >> 1 & 1 != 0 { c518 } else if s >> 2 & 1 != 0 { c558 } else { (self.v430) } };
+        let c572: u64 = { let s = (self.v573 | (self.v574 << 1) | (self.v575 << 2)); if s >> 0 & 1 != 0 { c549 } else if s >> 1 & 1 != 0 { c553 } else if s >> 2 & 1 != 0 { c557 } else { (c453) } };
+        let c584: u64 = if (self.v681) != 0 { (self.v431) } else { (c562) };
+        let c491: u64 = if (self.v452) != 0 { (0x0) } else { (c584) };
+        let c585: u64 = if (self.v681) != 0 { (self.v429) } else { (c568) };
+        let c586: u64 = if (self.v681) != 0 { (self.v430) } else { (c569) };
+        let c3: u64 = u64::from((c586 | (self.v681 << 1) | (self.v581 << 2)) != 0);
+        let c4: u64 = u64::from((c586 | (self.v681 << 1)) != (0x2));
         let c24: u64 = u64::from((self.q45 | (c3 << 1) | (c4 << 2)) == 0x7);
         if self.v24 != c24 { self.v24 = c24; *dirty |= 0x800000000000000000; }
-        let c486: u64 = ((self.v582) | (c585)) & 0x1;
+        let c486: u64 = ((self.v583) | (c586)) & 0x1;
         if self.v486 != c486 { self.v486 = c486; *dirty |= 0x80000000000000000; }
-        let c487: u64 = if (c585) != 0 { (self.v474) } else { (self.v537) };
+        let c487: u64 = if (c586) != 0 { (self.v474) } else { (self.v537) };
         if self.v487 != c487 { self.v487 = c487; *dirty |= 0x800000000000000000; }
-        let c488: u64 = ((self.v437) | (c585)) & 0x1;
-        let c489: u64 = if (c585) != 0 { (0x0) } else { (c491) };
+        let c488: u64 = ((self.v437) | (c586)) & 0x1;
+        let c489: u64 = if (c586) != 0 { (0x0) } else { (c491) };
         if self.v489 != c489 { self.v489 = c489; *dirty |= 0x80000; }
-        let c587: u64 = if (self.v680) != 0 { (c453) } else { (c571) };
-        let c463: u64 = (c587) & (self.v341) & 0x1;
+        let c588: u64 = if (self.v681) != 0 { (c453) } else { (c572) };
+        let c463: u64 = (c588) & (self.v341) & 0x1;
         let c464: u64 = (c463) & (self.q57) & 0x1;
-        let c469: u64 = !(c587) & 0x1;
-        let c462: u64 = (self.v569) & (c469) & 0x1;
+        let c469: u64 = !(c588) & 0x1;
+        let c462: u64 = (self.v570) & (c469) & 0x1;
         let c465: u64 = (self.q38) & (c469) & 0x1;
-        let c477: u64 = ((self.v591) | (c462)) & 0x1;
+        let c477: u64 = ((self.v592) | (c462)) & 0x1;
         let c478: u64 = if (c462) != 0 { (0x0) } else { (c469) };
-        let c479: u64 = if (self.v428) != 0 { (c477) } else { (self.v591) };
+        let c479: u64 = if (self.v428) != 0 { (c477) } else { (self.v592) };
         let c480: u64 = (self.v428) & (c478) & 0x1;
-        let c481: u64 = if (self.v428) != 0 { (c587) } else { (self.v590) };
-        let c482: u64 = (c585) & (c464) & 0x1;
+        let c481: u64 = if (self.v428) != 0 { (c588) } else { (self.v591) };
+        let c482: u64 = (c586) & (c464) & 0x1;
         let c476: u64 = ((c482) | (c465)) & 0x1;
-        let c483: u64 = if (c585) != 0 { (c481) } else { (self.v590) };
-        let c484: u64 = if (c585) != 0 { (c479) } else { (self.v591) };
-        let c485: u64 = (c585) & (c480) & 0x1;
-        let c588: u64 = if (self.v680) != 0 { (self.v440) } else { (c562) };
-        let c492: u64 = if (self.v452) != 0 { (0x2) } else { (c588) };
-        let c490: u64 = if (c585) != 0 { (0xc) } else { (c492) };
-        let c592: u64 = (self.q45) & (c476) & 0x1;
-        if self.v592 != c592 { self.v592 = c592; *dirty |= 0x80000; }
-        let c43: u64 = u64::from((self.i_reset | (c592 << 1)) != 0);
+        let c483: u64 = if (c586) != 0 { (c481) } else { (self.v591) };
+        let c484: u64 = if (c586) != 0 { (c479) } else { (self.v592) };
+        let c485: u64 = (c586) & (c480) & 0x1;
+        let c589: u64 = if (self.v681) != 0 { (self.v440) } else { (c563) };
+        let c492: u64 = if (self.v452) != 0 { (0x8) } else { (c589) };
+        let c490: u64 = if (c586) != 0 { (0x4) } else { (c492) };
+        let c593: u64 = (self.q45) & (c476) & 0x1;
+        if self.v593 != c593 { self.v593 = c593; *dirty |= 0x80000; }
+        let c43: u64 = u64::from((self.i_reset | (c593 << 1)) != 0);
         if self.v43 != c43 { self.v43 = c43; *dirty |= 0x2000000000000000; }
-        let c593: u64 = if (self.q45) != 0 { (c488) } else { (self.v437) };
-        if self.v593 != c593 { self.v593 = c593; *dirty |= 0xc0000; }
-        let c594: u64 = if (self.q45) != 0 { (c490) } else { (self.v440) };
+        let c594: u64 = if (self.q45) != 0 { (c488) } else { (self.v437) };
         if self.v594 != c594 { self.v594 = c594; *dirty |= 0xc0000; }
-        let c595: u64 = (self.q45) & (c483) & 0x1;
-        if self.v595 != c595 { self.v595 = c595; *dirty |= 0x900000; }
-        let c596: u64 = (self.q45) & (c484) & 0x1;
-        if self.v596 != c596 { self.v596 = c596; *dirty |= 0x100000; }
-        let c597: u64 = (self.q45) & (c485) & 0x1;
+        let c595: u64 = if (self.q45) != 0 { (c490) } else { (self.v440) };
+        if self.v595 != c595 { self.v595 = c595; *dirty |= 0xc0000; }
+        let c596: u64 = (self.q45) & (c483) & 0x1;
+        if self.v596 != c596 { self.v596 = c596; *dirty |= 0x900000; }
+        let c597: u64 = (self.q45) & (c484) & 0x1;
         if self.v597 != c597 { self.v597 = c597; *dirty |= 0x100000; }
-        let c598: u64 = (self.q45) & (c469) & 0x1;
-        if self.v598 != c598 { self.v598 = c598; *dirty |= 0x40000000000000; }
-        let c600: u64 = if (self.q45) != 0 { (c584) } else { (self.v429) };
-        if self.v600 != c600 { self.v600 = c600; *dirty |= 0x40000000000000; }
-        let c601: u64 = if (self.q45) != 0 { (c585) } else { (self.v430) };
-        if self.v601 != c601 { self.v601 = c601; *dirty |= 0xc0000; }
-        let c603: u64 = if (self.q45) != 0 { (c587) } else { (c453) };
-        if self.v603 != c603 { self.v603 = c603; *dirty |= 0x80000000000008040000; }
-        let c605: u64 = ((self.q13) | (self.v434)) & 0x1;
-        let c530: u64 = if (self.v457) != 0 { (0x0) } else { (c605) };
-        let c533: u64 = if (self.q8) != 0 { (c530) } else { (c605) };
+        let c598: u64 = (self.q45) & (c485) & 0x1;
+        if self.v598 != c598 { self.v598 = c598; *dirty |= 0x100000; }
+        let c599: u64 = (self.q45) & (c469) & 0x1;
+        if self.v599 != c599 { self.v599 = c599; *dirty |= 0x40000000000000; }
+        let c601: u64 = if (self.q45) != 0 { (c585) } else { (self.v429) };
+        if self.v601 != c601 { self.v601 = c601; *dirty |= 0x40000000000000; }
+        let c602: u64 = if (self.q45) != 0 { (c586) } else { (self.v430) };
+        if self.v602 != c602 { self.v602 = c602; *dirty |= 0xc0000; }
+        let c604: u64 = if (self.q45) != 0 { (c588) } else { (c453) };
+        if self.v604 != c604 { self.v604 = c604; *dirty |= 0x80000000000008040000; }
+        let c606: u64 = ((self.q13) | (self.v434)) & 0x1;
+        let c530: u64 = if (self.v457) != 0 { (0x0) } else { (c606) };
+        let c533: u64 = if (self.q8) != 0 { (c530) } else { (c606) };
         let c522: u64 = if (self.v535) != 0 { (0x0) } else { (c533) };
-        let c563: u64 = if (self.v580) != 0 { (c522) } else { (c605) };
-        let c581: u64 = if (self.v680) != 0 { (c605) } else { (c563) };
-        let c599: u64 = if (self.q45) != 0 { (c581) } else { (c605) };
-        if self.v599 != c599 { self.v599 = c599; *dirty |= 0x40000000000000000; }
+        let c564: u64 = if (self.v581) != 0 { (c522) } else { (c606) };
+        let c582: u64 = if (self.v681) != 0 { (c606) } else { (c564) };
+        let c600: u64 = if (self.q45) != 0 { (c582) } else { (c606) };
+        if self.v600 != c600 { self.v600 = c600; *dirty |= 0x40000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender.
     fn group_18(&mut self, dirty: &mut u128) {
-        let c611: u64 = (self.v610) & (self.v603) & 0x1;
-        let c623: u64 = !(self.v438) & 0x1;
-        if self.v623 != c623 { self.v623 = c623; *dirty |= 0x8000000; }
-        let c625: u64 = !(self.v601) & 0x1;
-        if self.v625 != c625 { self.v625 = c625; *dirty |= 0x80000; }
-        let c612: u64 = (c611) & (c625) & 0x1;
-        let c626: u64 = !(self.v593) & 0x1;
+        let c612: u64 = (self.v611) & (self.v604) & 0x1;
+        let c624: u64 = !(self.v438) & 0x1;
+        if self.v624 != c624 { self.v624 = c624; *dirty |= 0x8000000; }
+        let c626: u64 = !(self.v602) & 0x1;
+        if self.v626 != c626 { self.v626 = c626; *dirty |= 0x80000; }
         let c613: u64 = (c612) & (c626) & 0x1;
-        if self.v613 != c613 { self.v613 = c613; *dirty |= 0x8000000; }
-        let c635: u64 = if (self.v439) != 0 { (self.v678) } else { ((self.q22 >> 14)) };
-        let c636: u64 = if (self.v603) != 0 { (c635) } else { (0x1) };
-        if self.v636 != c636 { self.v636 = c636; *dirty |= 0x8000000; }
-        let c637: u64 = u64::from((self.v594) == (0x5));
+        let c627: u64 = !(self.v594) & 0x1;
+        let c614: u64 = (c613) & (c627) & 0x1;
+        if self.v614 != c614 { self.v614 = c614; *dirty |= 0x8000000; }
+        let c636: u64 = if (self.v439) != 0 { (self.v679) } else { ((self.q22 >> 14)) };
+        let c637: u64 = if (self.v604) != 0 { (c636) } else { (0x1) };
         if self.v637 != c637 { self.v637 = c637; *dirty |= 0x8000000; }
-        let c640: u64 = u64::from((self.v594) == (0x4));
-        if self.v640 != c640 { self.v640 = c640; *dirty |= 0x8000000; }
-        let c643: u64 = u64::from((self.v594) == (0x3));
-        if self.v643 != c643 { self.v643 = c643; *dirty |= 0x8000000; }
-        let c647: u64 = if (self.v603) != 0 { (self.v641) } else { (0x1) };
-        if self.v647 != c647 { self.v647 = c647; *dirty |= 0x8000000; }
-        let c649: u64 = u64::from((self.v594) == (0x2));
-        if self.v649 != c649 { self.v649 = c649; *dirty |= 0x8000000; }
-        let c655: u64 = u64::from((self.v594) == (0xd));
-        if self.v655 != c655 { self.v655 = c655; *dirty |= 0x8000000; }
-        let c656: u64 = u64::from((self.v594) == (0xc));
+        let c638: u64 = u64::from((self.v595) == (0xb));
+        if self.v638 != c638 { self.v638 = c638; *dirty |= 0x8000000; }
+        let c641: u64 = u64::from((self.v595) == (0xa));
+        if self.v641 != c641 { self.v641 = c641; *dirty |= 0x8000000; }
+        let c644: u64 = u64::from((self.v595) == (0x9));
+        if self.v644 != c644 { self.v644 = c644; *dirty |= 0x8000000; }
+        let c648: u64 = if (self.v604) != 0 { (self.v642) } else { (0x1) };
+        if self.v648 != c648 { self.v648 = c648; *dirty |= 0x8000000; }
+        let c650: u64 = u64::from((self.v595) == (0x8));
+        if self.v650 != c650 { self.v650 = c650; *dirty |= 0x8000000; }
+        let c656: u64 = u64::from((self.v595) == (0x5));
         if self.v656 != c656 { self.v656 = c656; *dirty |= 0x8000000; }
-        let c657: u64 = u64::from((self.v594) == (0x7));
+        let c657: u64 = u64::from((self.v595) == (0x4));
         if self.v657 != c657 { self.v657 = c657; *dirty |= 0x8000000; }
-        let c658: u64 = u64::from((self.v594) == (0x1));
+        let c658: u64 = u64::from((self.v595) == (0xd));
         if self.v658 != c658 { self.v658 = c658; *dirty |= 0x8000000; }
+        let c659: u64 = u64::from((self.v595) == (0x1));
+        if self.v659 != c659 { self.v659 = c659; *dirty |= 0x8000000; }
         let _ = &dirty;
     }
 
@@ -2804,16 +2809,16 @@ impl Model {
     fn group_19(&mut self, dirty: &mut u128) {
         let c39: u64 = u64::from((self.i_reset | (self.v315 << 1) | (self.v157 << 2)) != 0);
         if self.v39 != c39 { self.v39 = c39; *dirty |= 0x100000000000000000000; }
-        let c159: u64 = (self.v443) & (self.v625) & 0x1;
+        let c159: u64 = (self.v443) & (self.v626) & 0x1;
         if self.v159 != c159 { self.v159 = c159; *dirty |= 0x9000000000008000000; }
-        let c22: u64 = u64::from((self.v614 | (c159 << 1)) == 0x3);
+        let c22: u64 = u64::from((self.v615 | (c159 << 1)) == 0x3);
         if self.v22 != c22 { self.v22 = c22; *dirty |= 0x10000000; }
         let c177: u64 = !(self.v430) & 0x1;
         let c160: u64 = (self.v432) & (c177) & 0x1;
         if self.v160 != c160 { self.v160 = c160; *dirty |= 0x8000000; }
-        let c1: u64 = u64::from((self.v614 | (c160 << 1) | (c159 << 2)) != (0x4));
+        let c1: u64 = u64::from((self.v615 | (c160 << 1) | (c159 << 2)) != (0x4));
         let c2: u64 = u64::from((c160 | (c159 << 1)) != 0);
-        let c23: u64 = u64::from((c1 | (c2 << 1)) == 0x3);
+        let c23: u64 = u64::from((c2 | (c1 << 1)) == 0x3);
         if self.v23 != c23 { self.v23 = c23; *dirty |= 0x10000000; }
         let c179: u64 = !(self.v452) & 0x1;
         let c161: u64 = (self.v178) & (c179) & 0x1;
@@ -2821,28 +2826,28 @@ impl Model {
         if self.v41 != c41 { self.v41 = c41; *dirty |= 0x10000000; }
         let c42: u64 = u64::from((self.i_reset | (c161 << 1) | (c160 << 2)) != 0);
         if self.v42 != c42 { self.v42 = c42; *dirty |= 0x1000000000010000000; }
-        let c181: u64 = ((self.v593) | (self.v157)) & 0x1;
+        let c181: u64 = ((self.v594) | (self.v157)) & 0x1;
         if self.v181 != c181 { self.v181 = c181; *dirty |= 0x20000000; }
-        let c184: u64 = ((self.v601) | (self.v602)) & 0x1;
+        let c184: u64 = ((self.v602) | (self.v603)) & 0x1;
         if self.v184 != c184 { self.v184 = c184; *dirty |= 0xc0000000000000; }
         let c203: u64 = if (self.q45) != 0 { (self.v489) } else { (self.q23) };
         let c200: u64 = if (self.v176) != 0 { (0x0) } else { (c203) };
         let c201: u64 = if (self.q54) != 0 { (c200) } else { (c203) };
         if self.v201 != c201 { self.v201 = c201; *dirty |= 0x200000000000000; }
-        let c204: u64 = if (self.q45) != 0 { (self.v594) } else { (self.q56) };
-        let c202: u64 = if (self.q54) != 0 { (0xf) } else { (c204) };
+        let c204: u64 = if (self.q45) != 0 { (self.v595) } else { (self.q56) };
+        let c202: u64 = if (self.q54) != 0 { (0x3) } else { (c204) };
         let c199: u64 = if (self.v162) != 0 { (0x1) } else { (c202) };
         let c198: u64 = if (self.v157) != 0 { (0x0) } else { (c199) };
         let c196: u64 = if (self.i_reset) != 0 { (0x0) } else { (c198) };
         if self.v196 != c196 { self.v196 = c196; *dirty |= 0x10000000000000000; }
-        let c168: u64 = u64::from((c196) == (0x2));
-        let c169: u64 = u64::from((c196) == (0x3));
-        let c170: u64 = u64::from((c196) == (0x4));
-        let c171: u64 = u64::from((c196) == (0x5));
-        let c172: u64 = u64::from((c196) == (0x6));
-        let c173: u64 = u64::from((c196) == (0x7));
-        let c174: u64 = u64::from((c196) == (0x8));
-        let c175: u64 = u64::from((c196) == (0x9));
+        let c168: u64 = u64::from((c196) == (0x8));
+        let c169: u64 = u64::from((c196) == (0x9));
+        let c170: u64 = u64::from((c196) == (0xa));
+        let c171: u64 = u64::from((c196) == (0xb));
+        let c172: u64 = u64::from((c196) == (0xc));
+        let c173: u64 = u64::from((c196) == (0xd));
+        let c174: u64 = u64::from((c196) == (0xe));
+        let c175: u64 = u64::from((c196) == (0xf));
         let c189: u64 = ((c168) | (c169)) & 0x1;
         let c190: u64 = ((c189) | (c170)) & 0x1;
         let c191: u64 = ((c190) | (c171)) & 0x1;
@@ -2853,34 +2858,34 @@ impl Model {
         if self.v195 != c195 { self.v195 = c195; *dirty |= 0x20000000000000000; }
         let c206: u64 = ((self.q21) | (self.v435)) & 0x1;
         if self.v206 != c206 { self.v206 = c206; *dirty |= 0x800000000000000; }
-        let c207: u64 = ((self.v433) | (self.v592)) & 0x1;
+        let c207: u64 = ((self.v433) | (self.v593)) & 0x1;
         if self.v207 != c207 { self.v207 = c207; *dirty |= 0x1000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$faults.
     fn group_20(&mut self, dirty: &mut u128) {
-        let c14: u64 = u64::from((self.i_counters_load_tec | (self.v263 << 1) | (self.q54 << 2) | (self.v604 << 3)) != (0xe));
+        let c14: u64 = u64::from((self.i_counters_load_tec | (self.v263 << 1) | (self.q54 << 2) | (self.v605 << 3)) != (0xe));
         if self.v14 != c14 { self.v14 = c14; *dirty |= 0x800000; }
         let c259: u64 = (self.v442) & (self.v267) & 0x1;
         if self.v259 != c259 { self.v259 = c259; *dirty |= 0x800000; }
-        let c260: u64 = (self.v597) & (self.v268) & 0x1;
+        let c260: u64 = (self.v598) & (self.v268) & 0x1;
         let c261: u64 = (self.i_counters_load_rec) & (self.v166) & 0x1;
-        let c294: u64 = (self.v595) & (self.v293) & 0x1;
-        let c295: u64 = if (self.v595) != 0 { (self.v291) } else { (self.q17 | (self.q18 << 7)) };
+        let c294: u64 = (self.v596) & (self.v293) & 0x1;
+        let c295: u64 = if (self.v596) != 0 { (self.v291) } else { (self.q17 | (self.q18 << 7)) };
         let c289: u64 = if (c260) != 0 { (self.v257) } else { (c295) };
-        let c288: u64 = if (self.v596) != 0 { (self.v287) } else { (c289) };
+        let c288: u64 = if (self.v597) != 0 { (self.v287) } else { (c289) };
         let c284: u64 = if (self.v269) != 0 { (self.v310) } else { (c288) };
         let c285: u64 = if (self.q18) != 0 { (0x7f) } else { (c284) };
         let c286: u64 = if (self.v441) != 0 { (c285) } else { (c288) };
-        let c296: u64 = if (self.v595) != 0 { (self.v292) } else { ((self.q14 << 5)) };
+        let c296: u64 = if (self.v596) != 0 { (self.v292) } else { ((self.q14 << 5)) };
         let c290: u64 = if (c259) != 0 { (self.v309) } else { ((c296 & 0x1) | ((c296 & 0x1) << 1) | (c296 << 2)) };
         let c297: u64 = if (self.v182) != 0 { (self.q17 | (self.q18 << 7)) } else { (c286) };
         let c298: u64 = if (self.v182) != 0 { ((self.q14 << 7)) } else { (c290) };
         let c299: u64 = if (self.v182) != 0 { (0x0) } else { (c294) };
-        let c303: u64 = if (self.v604) != 0 { (self.v301) } else { (0x1) };
-        let c304: u64 = if (self.v604) != 0 { (self.v300) } else { (self.q17 | (self.q18 << 7)) };
-        let c305: u64 = if (self.v604) != 0 { (self.v302) } else { ((self.q14 << 7)) };
+        let c303: u64 = if (self.v605) != 0 { (self.v301) } else { (0x1) };
+        let c304: u64 = if (self.v605) != 0 { (self.v300) } else { (self.q17 | (self.q18 << 7)) };
+        let c305: u64 = if (self.v605) != 0 { (self.v302) } else { ((self.q14 << 7)) };
         let c306: u64 = if (self.q54) != 0 { (c303) } else { (c299) };
         let c277: u64 = if (self.q54) != 0 { (0x0) } else { (c306) };
         let c280: u64 = ((c277) | (self.v266)) & 0x1;
@@ -2927,11 +2932,11 @@ impl Model {
 
     /// The cells of top$protocol.
     fn group_23(&mut self, dirty: &mut u128) {
-        let c11: u64 = u64::from((self.i_counters_load_tec | (self.v182 << 1) | (self.v264 << 2) | (self.v259 << 3) | (self.q54 << 4) | (self.v595 << 5)) != (0x20));
-        let c12: u64 = u64::from((self.i_counters_load_tec | (self.v182 << 1) | (self.v259 << 2) | (self.q54 << 3) | (self.v595 << 4)) != 0);
-        let c28: u64 = u64::from((c11 | (c12 << 1) | (self.v13 << 2) | (self.v14 << 3) | (self.v15 << 4)) == 0x1f);
+        let c11: u64 = u64::from((self.i_counters_load_tec | (self.v182 << 1) | (self.v264 << 2) | (self.v259 << 3) | (self.q54 << 4) | (self.v596 << 5)) != (0x20));
+        let c12: u64 = u64::from((self.i_counters_load_tec | (self.v182 << 1) | (self.v259 << 2) | (self.q54 << 3) | (self.v596 << 4)) != 0);
+        let c28: u64 = u64::from((self.v15 | (self.v14 << 1) | (self.v13 << 2) | (c12 << 3) | (c11 << 4)) == 0x1f);
         if self.v28 != c28 { self.v28 = c28; *dirty |= 0x1000000; }
-        let c29: u64 = u64::from((c12 | (self.v13 << 1) | (self.v14 << 2) | (self.v15 << 3)) == 0xf);
+        let c29: u64 = u64::from((self.v15 | (self.v14 << 1) | (self.v13 << 2) | (c12 << 3)) == 0xf);
         if self.v29 != c29 { self.v29 = c29; *dirty |= 0x1000000; }
         let _ = &dirty;
     }
@@ -2962,37 +2967,37 @@ impl Model {
 
     /// The cells of top$protocol$sender.
     fn group_27(&mut self, dirty: &mut u128) {
-        let c638: u64 = if (self.v159) != 0 { (self.v672) } else { (self.v674) };
-        let c639: u64 = if (self.v603) != 0 { (c638) } else { (0x1) };
-        let c652: u64 = if (self.v661) != 0 { (self.v651) } else { (c638) };
-        let c650: u64 = if (self.v660) != 0 { ((self.i_transmit_info >> 7)) } else { (c652) };
-        let c648: u64 = if (self.v659) != 0 { (((self.i_transmit_info >> 6) & 0x1)) } else { (c650) };
-        let c653: u64 = if (self.v603) != 0 { (c648) } else { (0x1) };
-        let c654: u64 = { let s = (self.v655 | (self.v656 << 1) | (self.v657 << 2) | (self.v637 << 3) | (self.v640 << 4) | (self.v643 << 5) | (self.v649 << 6) | (self.v658 << 7)); if s >> 0 & 1 != 0 { self.i_listen_only } else if s >> 1 & 1 != 0 { self.v634 } else if s >> 2 & 1 != 0 { self.v623 } else if s >> 3 & 1 != 0 { self.v636 } else if s >> 4 & 1 != 0 { c639 } else if s >> 5 & 1 != 0 { self.v647 } else if s >> 6 & 1 != 0 { c653 } else if s >> 7 & 1 != 0 { self.v618 } else { (0x1) } };
-        let c633: u64 = if (self.v613) != 0 { (self.v358) } else { (c654) };
-        let c632: u64 = if (self.q45) != 0 { (c633) } else { (self.q58) };
-        let c628: u64 = ((c632) | (self.v627)) & 0x1;
-        if self.v628 != c628 { self.v628 = c628; *dirty |= 0x2000000000000000000; }
-        let c671: u64 = if (self.v159) != 0 { (self.v668) } else { ((self.q5 & 0x1)) };
-        let c667: u64 = if (self.v160) != 0 { ((self.v666 << 1) | 0x1) } else { (c671) };
-        if self.v667 != c667 { self.v667 = c667; *dirty |= 0x10000000; }
+        let c639: u64 = if (self.v159) != 0 { (self.v673) } else { (self.v675) };
+        let c640: u64 = if (self.v604) != 0 { (c639) } else { (0x1) };
+        let c653: u64 = if (self.v662) != 0 { (self.v652) } else { (c639) };
+        let c651: u64 = if (self.v661) != 0 { ((self.i_transmit_info >> 7)) } else { (c653) };
+        let c649: u64 = if (self.v660) != 0 { (((self.i_transmit_info >> 6) & 0x1)) } else { (c651) };
+        let c654: u64 = if (self.v604) != 0 { (c649) } else { (0x1) };
+        let c655: u64 = { let s = (self.v656 | (self.v657 << 1) | (self.v658 << 2) | (self.v638 << 3) | (self.v641 << 4) | (self.v644 << 5) | (self.v650 << 6) | (self.v659 << 7)); if s >> 0 & 1 != 0 { self.i_listen_only } else if s >> 1 & 1 != 0 { self.v635 } else if s >> 2 & 1 != 0 { self.v624 } else if s >> 3 & 1 != 0 { self.v637 } else if s >> 4 & 1 != 0 { c640 } else if s >> 5 & 1 != 0 { self.v648 } else if s >> 6 & 1 != 0 { c654 } else if s >> 7 & 1 != 0 { self.v619 } else { (0x1) } };
+        let c634: u64 = if (self.v614) != 0 { (self.v358) } else { (c655) };
+        let c633: u64 = if (self.q45) != 0 { (c634) } else { (self.q58) };
+        let c629: u64 = ((c633) | (self.v628)) & 0x1;
+        if self.v629 != c629 { self.v629 = c629; *dirty |= 0x2000000000000000000; }
+        let c672: u64 = if (self.v159) != 0 { (self.v669) } else { ((self.q5 & 0x1)) };
+        let c668: u64 = if (self.v160) != 0 { ((self.v667 << 1) | 0x1) } else { (c672) };
+        if self.v668 != c668 { self.v668 = c668; *dirty |= 0x10000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender$tx_ptr.
     fn group_28(&mut self, dirty: &mut u128) {
-        self.n5 = if (self.v42) != 0 { 0x1 } else if (self.v22) != 0 { ((self.v606 & 0x1) | ((self.v606 >> 3) << 1)) } else { self.q5 };
-        self.n6 = if (self.v41) != 0 { 0x0 } else if (self.v23) != 0 { ((self.v667 >> 1)) } else { self.q6 };
+        self.n5 = if (self.v42) != 0 { 0x1 } else if (self.v22) != 0 { ((self.v607 & 0x1) | ((self.v607 >> 3) << 1)) } else { self.q5 };
+        self.n6 = if (self.v41) != 0 { 0x0 } else if (self.v23) != 0 { ((self.v668 >> 1)) } else { self.q6 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$stuffing.
     fn group_29(&mut self, dirty: &mut u128) {
-        let c687: u64 = if (self.v452) != 0 { (0x1) } else { (self.v689) };
-        if self.v687 != c687 { self.v687 = c687; *dirty |= 0x20000000000000000000; }
-        let c688: u64 = ((self.q4) | (self.v452)) & 0x1;
-        let c686: u64 = if (self.v181) != 0 { (0x0) } else { (c688) };
-        if self.v686 != c686 { self.v686 = c686; *dirty |= 0x10000000000000000000; }
+        let c688: u64 = if (self.v452) != 0 { (0x1) } else { (self.v690) };
+        if self.v688 != c688 { self.v688 = c688; *dirty |= 0x20000000000000000000; }
+        let c689: u64 = ((self.q4) | (self.v452)) & 0x1;
+        let c687: u64 = if (self.v181) != 0 { (0x0) } else { (c689) };
+        if self.v687 != c687 { self.v687 = c687; *dirty |= 0x10000000000000000000; }
         let _ = &dirty;
     }
 
@@ -3142,7 +3147,7 @@ impl Model {
 
     /// The cells of top$protocol$capture$ecc_reg.
     fn group_54(&mut self, dirty: &mut u128) {
-        self.n26 = if (self.i_reset) != 0 { 0x0 } else if (self.v184) != 0 { (self.v251 | (self.v598 << 5) | (self.v600 << 6)) } else { self.q26 };
+        self.n26 = if (self.i_reset) != 0 { 0x0 } else if (self.v184) != 0 { (self.v251 | (self.v599 << 5) | (self.v601 << 6)) } else { self.q26 };
         let _ = &dirty;
     }
 
@@ -3214,7 +3219,7 @@ impl Model {
 
     /// The cells of top$protocol$interframe$ack_penalty.
     fn group_66(&mut self, dirty: &mut u128) {
-        self.n13 = if (self.i_reset) != 0 { 0x0 } else { (self.v599) };
+        self.n13 = if (self.i_reset) != 0 { 0x0 } else { (self.v600) };
         let _ = &dirty;
     }
 
@@ -3226,13 +3231,13 @@ impl Model {
 
     /// The cells of top$protocol$interframe$dominant_after_flag.
     fn group_68(&mut self, dirty: &mut u128) {
-        self.n11 = if (self.i_reset) != 0 { 0x0 } else if (self.v27) != 0 { (self.v564) } else { self.q11 };
+        self.n11 = if (self.i_reset) != 0 { 0x0 } else if (self.v27) != 0 { (self.v565) } else { self.q11 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$interframe$first_after_flag.
     fn group_69(&mut self, dirty: &mut u128) {
-        self.n10 = if (self.i_reset) != 0 { 0x0 } else if (self.v26) != 0 { (self.v565) } else { self.q10 };
+        self.n10 = if (self.i_reset) != 0 { 0x0 } else if (self.v26) != 0 { (self.v566) } else { self.q10 };
         let _ = &dirty;
     }
 
@@ -3250,37 +3255,37 @@ impl Model {
 
     /// The cells of top$protocol$sender$tx_left.
     fn group_72(&mut self, dirty: &mut u128) {
-        self.n7 = if (self.v42) != 0 { 0x0 } else if (self.v159) != 0 { (self.v669) } else { self.q7 };
+        self.n7 = if (self.v42) != 0 { 0x0 } else if (self.v159) != 0 { (self.v670) } else { self.q7 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender$tx_next.
     fn group_73(&mut self, dirty: &mut u128) {
-        self.n58 = (self.v628);
+        self.n58 = (self.v629);
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender$tx_reg.
     fn group_74(&mut self, dirty: &mut u128) {
-        self.n59 = (self.v629);
+        self.n59 = (self.v630);
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$sender$tx_shift.
     fn group_75(&mut self, dirty: &mut u128) {
-        self.n49 = if (self.i_reset) != 0 { 0x0 } else if (self.v159) != 0 { (self.v670) } else { self.q49 };
+        self.n49 = if (self.i_reset) != 0 { 0x0 } else if (self.v159) != 0 { (self.v671) } else { self.q49 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$stuffing$active.
     fn group_76(&mut self, dirty: &mut u128) {
-        self.n4 = if (self.i_reset) != 0 { 0x0 } else if (self.q45) != 0 { (self.v686) } else { self.q4 };
+        self.n4 = if (self.i_reset) != 0 { 0x0 } else if (self.q45) != 0 { (self.v687) } else { self.q4 };
         let _ = &dirty;
     }
 
     /// The cells of top$protocol$stuffing$run_length.
     fn group_77(&mut self, dirty: &mut u128) {
-        self.n3 = if (self.i_reset) != 0 { 0x0 } else if (self.q45) != 0 { (self.v687) } else { self.q3 };
+        self.n3 = if (self.i_reset) != 0 { 0x0 } else if (self.q45) != 0 { (self.v688) } else { self.q3 };
         let _ = &dirty;
     }
 
@@ -3292,7 +3297,7 @@ impl Model {
 
     /// The cells of top$protocol$transmitter.
     fn group_79(&mut self, dirty: &mut u128) {
-        self.n1 = if (self.v40) != 0 { 0x0 } else if (self.q45) != 0 { (self.v603) } else { self.q1 };
+        self.n1 = if (self.v40) != 0 { 0x0 } else if (self.q45) != 0 { (self.v604) } else { self.q1 };
         let _ = &dirty;
     }
 

@@ -2,7 +2,7 @@
 //! from the Verilog of `rtl/` through Yosys; do not edit.
 
 /// Hash of the Verilog this model was made from.
-pub(super) const VERILOG_HASH: u64 = 0xd0cb2e71a015f0fb;
+pub(super) const VERILOG_HASH: u64 = 0xb7e34a98e844e5ab;
 
 const TABLE_0: [u64; 4] = [0x1fff0000, 0x0, 0x0, 0x0];
 const TABLE_1: [u64; 4] = [0xffffffff00000000, 0xffffffff, 0x0, 0x0];
@@ -585,15 +585,15 @@ pub(super) struct Model {
     v611: u64,
     v618: u64,
     v620: u64,
-    v642: u64,
-    v648: u64,
+    v624: u64,
+    v643: u64,
     v649: u64,
     v650: u64,
-    v653: u64,
-    v655: u64,
-    v657: u64,
-    v659: u64,
-    v667: u64,
+    v651: u64,
+    v654: u64,
+    v656: u64,
+    v658: u64,
+    v660: u64,
     v668: u64,
     v669: u64,
     v670: u64,
@@ -608,52 +608,52 @@ pub(super) struct Model {
     v679: u64,
     v680: u64,
     v681: u64,
-    v683: u64,
+    v682: u64,
     v684: u64,
-    v690: u64,
+    v685: u64,
     v691: u64,
     v692: u64,
     v693: u64,
     v694: u64,
-    v699: u64,
-    v701: u64,
-    v703: u64,
+    v695: u64,
+    v700: u64,
+    v702: u64,
     v704: u64,
     v705: u64,
-    v710: u64,
+    v706: u64,
     v711: u64,
-    v713: u64,
+    v712: u64,
     v714: u64,
-    v716: u64,
-    v719: u64,
-    v724: u64,
-    v726: u64,
-    v728: u64,
-    v732: u64,
+    v715: u64,
+    v717: u64,
+    v720: u64,
+    v725: u64,
+    v727: u64,
+    v729: u64,
     v733: u64,
     v734: u64,
     v735: u64,
     v736: u64,
     v737: u64,
-    v742: u64,
+    v738: u64,
     v743: u64,
     v744: u64,
     v745: u64,
     v746: u64,
-    v748: u64,
-    v750: u64,
-    v754: u64,
-    v756: u64,
+    v747: u64,
+    v749: u64,
+    v751: u64,
+    v755: u64,
     v757: u64,
-    v761: u64,
+    v758: u64,
     v762: u64,
     v763: u64,
-    v765: u64,
-    v767: u64,
+    v764: u64,
+    v766: u64,
     v768: u64,
     v769: u64,
     v770: u64,
-    v774: u64,
+    v771: u64,
     v775: u64,
     v776: u64,
     v777: u64,
@@ -670,35 +670,35 @@ pub(super) struct Model {
     v788: u64,
     v789: u64,
     v790: u64,
-    v796: u64,
+    v791: u64,
     v797: u64,
     v798: u64,
-    v800: u64,
-    v805: u64,
-    v813: u64,
+    v799: u64,
+    v801: u64,
+    v806: u64,
     v814: u64,
     v815: u64,
     v816: u64,
     v817: u64,
     v818: u64,
     v819: u64,
-    v822: u64,
+    v820: u64,
     v823: u64,
     v824: u64,
     v825: u64,
-    v830: u64,
+    v826: u64,
     v831: u64,
     v832: u64,
-    v836: u64,
-    v842: u64,
+    v833: u64,
+    v837: u64,
     v843: u64,
-    v852: u64,
-    v854: u64,
-    v867: u64,
+    v844: u64,
+    v853: u64,
+    v855: u64,
     v868: u64,
-    v870: u64,
-    v877: u64,
-    v881: u64,
+    v869: u64,
+    v871: u64,
+    v878: u64,
     v882: u64,
     v883: u64,
     v884: u64,
@@ -708,62 +708,62 @@ pub(super) struct Model {
     v888: u64,
     v889: u64,
     v890: u64,
-    v892: u64,
-    v903: u64,
+    v891: u64,
+    v893: u64,
     v904: u64,
     v905: u64,
     v906: u64,
-    v917: u64,
+    v907: u64,
     v918: u64,
-    v925: u64,
-    v930: u64,
-    v933: u64,
-    v941: u64,
-    v943: u64,
+    v919: u64,
+    v926: u64,
+    v931: u64,
+    v934: u64,
+    v942: u64,
     v944: u64,
-    v946: u64,
+    v945: u64,
     v947: u64,
     v948: u64,
-    v950: u64,
-    v958: u64,
+    v949: u64,
+    v951: u64,
     v959: u64,
-    v962: u64,
-    v964: u64,
+    v960: u64,
+    v963: u64,
     v965: u64,
-    v967: u64,
+    v966: u64,
     v968: u64,
     v969: u64,
-    v971: u64,
+    v970: u64,
     v972: u64,
-    v980: u64,
+    v973: u64,
     v981: u64,
     v982: u64,
-    v990: u64,
+    v983: u64,
     v991: u64,
     v992: u64,
     v993: u64,
     v994: u64,
-    v998: u64,
+    v995: u64,
     v999: u64,
-    v1001: u64,
+    v1000: u64,
     v1002: u64,
     v1003: u64,
-    v1005: u64,
-    v1007: u64,
+    v1004: u64,
+    v1006: u64,
     v1008: u64,
     v1009: u64,
     v1010: u64,
     v1011: u64,
-    v1013: u64,
-    v1017: u64,
-    v1019: u64,
-    v1035: u64,
+    v1012: u64,
+    v1014: u64,
+    v1018: u64,
+    v1020: u64,
     v1036: u64,
-    v1041: u64,
+    v1037: u64,
     v1042: u64,
-    v1044: u64,
+    v1043: u64,
     v1045: u64,
-    v1051: u64,
+    v1046: u64,
     v1052: u64,
     v1053: u64,
     v1054: u64,
@@ -775,32 +775,33 @@ pub(super) struct Model {
     v1060: u64,
     v1061: u64,
     v1062: u64,
-    v1064: u64,
+    v1063: u64,
     v1065: u64,
     v1066: u64,
     v1067: u64,
     v1068: u64,
-    v1084: u64,
+    v1069: u64,
     v1085: u64,
     v1086: u64,
-    v1092: u64,
+    v1087: u64,
     v1093: u64,
     v1094: u64,
     v1095: u64,
     v1096: u64,
-    v1102: u64,
+    v1097: u64,
     v1103: u64,
     v1104: u64,
     v1105: u64,
     v1106: u64,
-    v1112: u64,
+    v1107: u64,
     v1113: u64,
-    v1117: u64,
+    v1114: u64,
     v1118: u64,
     v1119: u64,
     v1120: u64,
     v1121: u64,
     v1122: u64,
+    v1123: u64,
     dirty: u128,
     ran: u128,
     out: u64,
@@ -1380,15 +1381,15 @@ impl Model {
             v611: 0,
             v618: 0,
             v620: 0,
-            v642: 0,
-            v648: 0,
+            v624: 0,
+            v643: 0,
             v649: 0,
             v650: 0,
-            v653: 0,
-            v655: 0,
-            v657: 0,
-            v659: 0,
-            v667: 0,
+            v651: 0,
+            v654: 0,
+            v656: 0,
+            v658: 0,
+            v660: 0,
             v668: 0,
             v669: 0,
             v670: 0,
@@ -1403,52 +1404,52 @@ impl Model {
             v679: 0,
             v680: 0,
             v681: 0,
-            v683: 0,
+            v682: 0,
             v684: 0,
-            v690: 0,
+            v685: 0,
             v691: 0,
             v692: 0,
             v693: 0,
             v694: 0,
-            v699: 0,
-            v701: 0,
-            v703: 0,
+            v695: 0,
+            v700: 0,
+            v702: 0,
             v704: 0,
             v705: 0,
-            v710: 0,
+            v706: 0,
             v711: 0,
-            v713: 0,
+            v712: 0,
             v714: 0,
-            v716: 0,
-            v719: 0,
-            v724: 0,
-            v726: 0,
-            v728: 0,
-            v732: 0,
+            v715: 0,
+            v717: 0,
+            v720: 0,
+            v725: 0,
+            v727: 0,
+            v729: 0,
             v733: 0,
             v734: 0,
             v735: 0,
             v736: 0,
             v737: 0,
-            v742: 0,
+            v738: 0,
             v743: 0,
             v744: 0,
             v745: 0,
             v746: 0,
-            v748: 0,
-            v750: 0,
-            v754: 0,
-            v756: 0,
+            v747: 0,
+            v749: 0,
+            v751: 0,
+            v755: 0,
             v757: 0,
-            v761: 0,
+            v758: 0,
             v762: 0,
             v763: 0,
-            v765: 0,
-            v767: 0,
+            v764: 0,
+            v766: 0,
             v768: 0,
             v769: 0,
             v770: 0,
-            v774: 0,
+            v771: 0,
             v775: 0,
             v776: 0,
             v777: 0,
@@ -1465,35 +1466,35 @@ impl Model {
             v788: 0,
             v789: 0,
             v790: 0,
-            v796: 0,
+            v791: 0,
             v797: 0,
             v798: 0,
-            v800: 0,
-            v805: 0,
-            v813: 0,
+            v799: 0,
+            v801: 0,
+            v806: 0,
             v814: 0,
             v815: 0,
             v816: 0,
             v817: 0,
             v818: 0,
             v819: 0,
-            v822: 0,
+            v820: 0,
             v823: 0,
             v824: 0,
             v825: 0,
-            v830: 0,
+            v826: 0,
             v831: 0,
             v832: 0,
-            v836: 0,
-            v842: 0,
+            v833: 0,
+            v837: 0,
             v843: 0,
-            v852: 0,
-            v854: 0,
-            v867: 0,
+            v844: 0,
+            v853: 0,
+            v855: 0,
             v868: 0,
-            v870: 0,
-            v877: 0,
-            v881: 0,
+            v869: 0,
+            v871: 0,
+            v878: 0,
             v882: 0,
             v883: 0,
             v884: 0,
@@ -1503,62 +1504,62 @@ impl Model {
             v888: 0,
             v889: 0,
             v890: 0,
-            v892: 0,
-            v903: 0,
+            v891: 0,
+            v893: 0,
             v904: 0,
             v905: 0,
             v906: 0,
-            v917: 0,
+            v907: 0,
             v918: 0,
-            v925: 0,
-            v930: 0,
-            v933: 0,
-            v941: 0,
-            v943: 0,
+            v919: 0,
+            v926: 0,
+            v931: 0,
+            v934: 0,
+            v942: 0,
             v944: 0,
-            v946: 0,
+            v945: 0,
             v947: 0,
             v948: 0,
-            v950: 0,
-            v958: 0,
+            v949: 0,
+            v951: 0,
             v959: 0,
-            v962: 0,
-            v964: 0,
+            v960: 0,
+            v963: 0,
             v965: 0,
-            v967: 0,
+            v966: 0,
             v968: 0,
             v969: 0,
-            v971: 0,
+            v970: 0,
             v972: 0,
-            v980: 0,
+            v973: 0,
             v981: 0,
             v982: 0,
-            v990: 0,
+            v983: 0,
             v991: 0,
             v992: 0,
             v993: 0,
             v994: 0,
-            v998: 0,
+            v995: 0,
             v999: 0,
-            v1001: 0,
+            v1000: 0,
             v1002: 0,
             v1003: 0,
-            v1005: 0,
-            v1007: 0,
+            v1004: 0,
+            v1006: 0,
             v1008: 0,
             v1009: 0,
             v1010: 0,
             v1011: 0,
-            v1013: 0,
-            v1017: 0,
-            v1019: 0,
-            v1035: 0,
+            v1012: 0,
+            v1014: 0,
+            v1018: 0,
+            v1020: 0,
             v1036: 0,
-            v1041: 0,
+            v1037: 0,
             v1042: 0,
-            v1044: 0,
+            v1043: 0,
             v1045: 0,
-            v1051: 0,
+            v1046: 0,
             v1052: 0,
             v1053: 0,
             v1054: 0,
@@ -1570,32 +1571,33 @@ impl Model {
             v1060: 0,
             v1061: 0,
             v1062: 0,
-            v1064: 0,
+            v1063: 0,
             v1065: 0,
             v1066: 0,
             v1067: 0,
             v1068: 0,
-            v1084: 0,
+            v1069: 0,
             v1085: 0,
             v1086: 0,
-            v1092: 0,
+            v1087: 0,
             v1093: 0,
             v1094: 0,
             v1095: 0,
             v1096: 0,
-            v1102: 0,
+            v1097: 0,
             v1103: 0,
             v1104: 0,
             v1105: 0,
             v1106: 0,
-            v1112: 0,
+            v1107: 0,
             v1113: 0,
-            v1117: 0,
+            v1114: 0,
             v1118: 0,
             v1119: 0,
             v1120: 0,
             v1121: 0,
             v1122: 0,
+            v1123: 0,
             dirty: 0xffffffffffffffffffffffffffffffff,
             ran: 0xffffffffffffffffffffffffffffffff,
             out: 0,
@@ -1789,7 +1791,7 @@ impl Model {
         self.dirty = 0;
         self.ran |= dirty;
         if dirty >> 127 & 1 != 0 {
-            self.out = 0 | ((self.v1066) as u64) << 0 | ((self.q118) as u64) << 8 | ((self.v998) as u64) << 9 | ((self.v1013) as u64) << 10 | ((self.v155) as u64) << 11 | ((self.v186) as u64) << 12 | ((self.q115) as u64) << 14 | ((self.q65 | (self.q66 << 3) | (self.q64 << 7)) as u64) << 19 | ((self.q67 | (self.q68 << 7)) as u64) << 27 | ((self.v232) as u64) << 35;
+            self.out = 0 | ((self.v1067) as u64) << 0 | ((self.q118) as u64) << 8 | ((self.v999) as u64) << 9 | ((self.v1014) as u64) << 10 | ((self.v155) as u64) << 11 | ((self.v186) as u64) << 12 | ((self.q115) as u64) << 14 | ((self.q65 | (self.q66 << 3) | (self.q64 << 7)) as u64) << 19 | ((self.q67 | (self.q68 << 7)) as u64) << 27 | ((self.v232) as u64) << 35;
         }
     }
 
@@ -1860,7 +1862,7 @@ impl Model {
             if self.q112 != self.n112 { self.q112 = self.n112; dirty |= 0x20000000010000; } // $flatten\core.\bit_timing.\sampling.\stable.$procdff$8926
         }
         if ran >> 54 & 1 != 0 {
-            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x40000000000008; } // $auto$ff.cc:266:slice$10081
+            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x40000000000008; } // $auto$ff.cc:266:slice$10077
             if self.q91 != self.n91 { self.q91 = self.n91; dirty |= 0x40000000020008; } // $auto$ff.cc:266:slice$9947
         }
         if ran >> 55 & 1 != 0 {
@@ -2260,8 +2262,8 @@ impl Model {
     /// groups ran since the last edge may differ), by name.
     pub(super) fn differences(&self, other: &Model) -> Vec<&'static str> {
         let mut names = Vec::new();
-        if self.q0 != other.q0 { names.push("q0 $auto$ff.cc:266:slice$10081"); }
-        if self.n0 != other.n0 { names.push("n0 $auto$ff.cc:266:slice$10081"); }
+        if self.q0 != other.q0 { names.push("q0 $auto$ff.cc:266:slice$10077"); }
+        if self.n0 != other.n0 { names.push("n0 $auto$ff.cc:266:slice$10077"); }
         if self.q1 != other.q1 { names.push("q1 $auto$ff.cc:266:slice$9609"); }
         if self.n1 != other.n1 { names.push("n1 $auto$ff.cc:266:slice$9609"); }
         if self.q2 != other.q2 { names.push("q2 $auto$ff.cc:266:slice$9610"); }
@@ -2824,222 +2826,223 @@ impl Model {
         if self.v611 != other.v611 { names.push("v611 $flattencore.protocol.interframe.$procmux$5010"); }
         if self.v618 != other.v618 { names.push("v618 $flattencore.protocol.interframe.$procmux$5166"); }
         if self.v620 != other.v620 { names.push("v620 $flattencore.protocol.interframe.$procmux$5211"); }
-        if self.v642 != other.v642 { names.push("v642 $flattencore.protocol.interframe.$procmux$5646_CMP0"); }
-        if self.v648 != other.v648 { names.push("v648 $flattencore.protocol.interframe.$procmux$5746"); }
-        if self.v649 != other.v649 { names.push("v649 $flattencore.protocol.interframe.$procmux$5758"); }
-        if self.v650 != other.v650 { names.push("v650 $flattencore.protocol.interframe.$procmux$5771"); }
-        if self.v653 != other.v653 { names.push("v653 $flattencore.protocol.interframe.$procmux$5829"); }
-        if self.v655 != other.v655 { names.push("v655 $flattencore.protocol.interframe.$procmux$5853"); }
-        if self.v657 != other.v657 { names.push("v657 $flattencore.protocol.interframe.$procmux$5874"); }
-        if self.v659 != other.v659 { names.push("v659 $flattencore.protocol.interframe.$procmux$5907"); }
-        if self.v667 != other.v667 { names.push("v667 $flattencore.protocol.interframe.$procmux$5967"); }
-        if self.v668 != other.v668 { names.push("v668 $flattencore.protocol.interframe.$procmux$5973"); }
-        if self.v669 != other.v669 { names.push("v669 $flattencore.protocol.interframe.$procmux$5978"); }
-        if self.v670 != other.v670 { names.push("v670 $flattencore.protocol.interframe.$procmux$5990"); }
-        if self.v671 != other.v671 { names.push("v671 $flattencore.protocol.interframe.$procmux$5993"); }
-        if self.v672 != other.v672 { names.push("v672 $flattencore.protocol.interframe.$procmux$5996"); }
-        if self.v673 != other.v673 { names.push("v673 $flattencore.protocol.interframe.$procmux$5999"); }
-        if self.v674 != other.v674 { names.push("v674 $flattencore.protocol.interframe.$procmux$6002"); }
-        if self.v675 != other.v675 { names.push("v675 $flattencore.protocol.interframe.$procmux$6005"); }
-        if self.v676 != other.v676 { names.push("v676 $flattencore.protocol.interframe.$procmux$6011"); }
-        if self.v677 != other.v677 { names.push("v677 $flattencore.protocol.interframe.$procmux$6023"); }
-        if self.v678 != other.v678 { names.push("v678 $flattencore.protocol.interframe.$procmux$6026"); }
-        if self.v679 != other.v679 { names.push("v679 $flattencore.protocol.interframe.$procmux$6029"); }
-        if self.v680 != other.v680 { names.push("v680 $flattencore.protocol.interframe.$procmux$6032"); }
-        if self.v681 != other.v681 { names.push("v681 $flattencore.protocol.interframe.$procmux$6035"); }
-        if self.v683 != other.v683 { names.push("v683 $flattencore.protocol.sender.$add$can_controller.v:4723$1239"); }
-        if self.v684 != other.v684 { names.push("v684 $flattencore.protocol.sender.$add$can_controller.v:4744$1250"); }
-        if self.v690 != other.v690 { names.push("v690 $flattencore.protocol.sender.$and$can_controller.v:4844$1276"); }
-        if self.v691 != other.v691 { names.push("v691 $flattencore.protocol.sender.$eq$can_controller.v:4712$1229"); }
-        if self.v692 != other.v692 { names.push("v692 $flattencore.protocol.sender.$eq$can_controller.v:4716$1230"); }
-        if self.v693 != other.v693 { names.push("v693 $flattencore.protocol.sender.$eq$can_controller.v:4743$1249"); }
-        if self.v694 != other.v694 { names.push("v694 $flattencore.protocol.sender.$eq$can_controller.v:4762$1256"); }
-        if self.v699 != other.v699 { names.push("v699 $flattencore.protocol.sender.$eq$can_controller.v:4827$1264"); }
-        if self.v701 != other.v701 { names.push("v701 $flattencore.protocol.sender.$not$can_controller.v:4844$1273"); }
-        if self.v703 != other.v703 { names.push("v703 $flattencore.protocol.sender.$or$can_controller.v:4856$1281"); }
-        if self.v704 != other.v704 { names.push("v704 $flattencore.protocol.sender.$procmux$3764"); }
-        if self.v705 != other.v705 { names.push("v705 $flattencore.protocol.sender.$procmux$3767"); }
-        if self.v710 != other.v710 { names.push("v710 $flattencore.protocol.sender.$procmux$3784"); }
-        if self.v711 != other.v711 { names.push("v711 $flattencore.protocol.sender.$procmux$3787_CMP0"); }
-        if self.v713 != other.v713 { names.push("v713 $flattencore.protocol.sender.$procmux$3799_CMP0"); }
-        if self.v714 != other.v714 { names.push("v714 $flattencore.protocol.sender.$procmux$3805"); }
-        if self.v716 != other.v716 { names.push("v716 $flattencore.protocol.sender.$procmux$3821_CMP0"); }
-        if self.v719 != other.v719 { names.push("v719 $flattencore.protocol.sender.$procmux$3845_CMP0"); }
-        if self.v724 != other.v724 { names.push("v724 $flattencore.protocol.sender.$procmux$3909"); }
-        if self.v726 != other.v726 { names.push("v726 $flattencore.protocol.sender.$procmux$3938_CMP0"); }
-        if self.v728 != other.v728 { names.push("v728 $flattencore.protocol.sender.$procmux$3964"); }
-        if self.v732 != other.v732 { names.push("v732 $flattencore.protocol.sender.$procmux$4016_CMP0"); }
-        if self.v733 != other.v733 { names.push("v733 $flattencore.protocol.sender.$procmux$4018_CMP0"); }
-        if self.v734 != other.v734 { names.push("v734 $flattencore.protocol.sender.$procmux$4023_CMP0"); }
-        if self.v735 != other.v735 { names.push("v735 $flattencore.protocol.sender.$procmux$4033"); }
-        if self.v736 != other.v736 { names.push("v736 $flattencore.protocol.sender.$procmux$4036"); }
-        if self.v737 != other.v737 { names.push("v737 $flattencore.protocol.sender.$procmux$4039"); }
-        if self.v742 != other.v742 { names.push("v742 $flattencore.protocol.sender.$procmux$4061"); }
-        if self.v743 != other.v743 { names.push("v743 $flattencore.protocol.sender.$procmux$4066"); }
-        if self.v744 != other.v744 { names.push("v744 $flattencore.protocol.sender.$procmux$4073"); }
-        if self.v745 != other.v745 { names.push("v745 $flattencore.protocol.sender.$procmux$4079"); }
-        if self.v746 != other.v746 { names.push("v746 $flattencore.protocol.sender.$procmux$4085"); }
-        if self.v748 != other.v748 { names.push("v748 $flattencore.protocol.sender.$procmux$4099"); }
-        if self.v750 != other.v750 { names.push("v750 $flattencore.protocol.sender.$procmux$4105"); }
-        if self.v754 != other.v754 { names.push("v754 $flattencore.protocol.sender.$xor$can_controller.v:4821$1263"); }
-        if self.v756 != other.v756 { names.push("v756 $flattencore.protocol.stuffing.$and$can_controller.v:5014$1305"); }
-        if self.v757 != other.v757 { names.push("v757 $flattencore.protocol.stuffing.$and$can_controller.v:5015$1307"); }
-        if self.v761 != other.v761 { names.push("v761 $flattencore.protocol.stuffing.$or$can_controller.v:5018$1313"); }
-        if self.v762 != other.v762 { names.push("v762 $flattencore.protocol.stuffing.$procmux$3711"); }
-        if self.v763 != other.v763 { names.push("v763 $flattencore.protocol.stuffing.$procmux$3717"); }
-        if self.v765 != other.v765 { names.push("v765 $flattencore.protocol.stuffing.$procmux$3735"); }
-        if self.v767 != other.v767 { names.push("v767 $flattendecode.$and$can_controller.v:5207$1351"); }
-        if self.v768 != other.v768 { names.push("v768 $flattendecode.$and$can_controller.v:5208$1352"); }
-        if self.v769 != other.v769 { names.push("v769 $flattendecode.$and$can_controller.v:5209$1353"); }
-        if self.v770 != other.v770 { names.push("v770 $flattendecode.$and$can_controller.v:5210$1354"); }
-        if self.v774 != other.v774 { names.push("v774 $flattendecode.$and$can_controller.v:5212$1359"); }
-        if self.v775 != other.v775 { names.push("v775 $flattendecode.$and$can_controller.v:5213$1361"); }
-        if self.v776 != other.v776 { names.push("v776 $flattendecode.$eq$can_controller.v:5212$1358"); }
-        if self.v777 != other.v777 { names.push("v777 $flattendecode.$procmux$3689"); }
-        if self.v778 != other.v778 { names.push("v778 $flattendecode.$procmux$3692"); }
-        if self.v779 != other.v779 { names.push("v779 $flattendecode.$procmux$3695"); }
-        if self.v780 != other.v780 { names.push("v780 $flattendecode.$procmux$3698"); }
-        if self.v781 != other.v781 { names.push("v781 $flattendecode.$procmux$3701"); }
-        if self.v782 != other.v782 { names.push("v782 $flattendecode.$shiftx$can_controller.v:0$1341"); }
-        if self.v783 != other.v783 { names.push("v783 $flattendecode.$shiftx$can_controller.v:0$1342"); }
-        if self.v784 != other.v784 { names.push("v784 $flattendecode.$shiftx$can_controller.v:0$1343"); }
-        if self.v785 != other.v785 { names.push("v785 $flattendecode.$shiftx$can_controller.v:0$1344"); }
-        if self.v786 != other.v786 { names.push("v786 $flattendecode.$shiftx$can_controller.v:0$1345"); }
-        if self.v787 != other.v787 { names.push("v787 $flattendecode.$shiftx$can_controller.v:0$1346"); }
-        if self.v788 != other.v788 { names.push("v788 $flattendecode.$sub$can_controller.v:5189$1338"); }
-        if self.v789 != other.v789 { names.push("v789 $flattendecode.$sub$can_controller.v:5190$1339"); }
-        if self.v790 != other.v790 { names.push("v790 $flattendecode.$sub$can_controller.v:5191$1340"); }
-        if self.v796 != other.v796 { names.push("v796 $flattenfifo.$add$can_controller.v:5475$1441"); }
-        if self.v797 != other.v797 { names.push("v797 $flattenfifo.$add$can_controller.v:5487$1451"); }
-        if self.v798 != other.v798 { names.push("v798 $flattenfifo.$add$can_controller.v:5496$1457"); }
-        if self.v800 != other.v800 { names.push("v800 $flattenfifo.$and$can_controller.v:5486$1449"); }
-        if self.v805 != other.v805 { names.push("v805 $flattenfifo.$eq$can_controller.v:5499$1463"); }
-        if self.v813 != other.v813 { names.push("v813 $flattenfifo.$procmux$3476"); }
-        if self.v814 != other.v814 { names.push("v814 $flattenfifo.$procmux$3479"); }
-        if self.v815 != other.v815 { names.push("v815 $flattenfifo.$procmux$3497"); }
-        if self.v816 != other.v816 { names.push("v816 $flattenfifo.$procmux$3500"); }
-        if self.v817 != other.v817 { names.push("v817 $flattenfifo.$procmux$3503"); }
-        if self.v818 != other.v818 { names.push("v818 $flattenfifo.$procmux$3506"); }
-        if self.v819 != other.v819 { names.push("v819 $flattenfifo.$procmux$3512"); }
-        if self.v822 != other.v822 { names.push("v822 $flattenfifo.$procmux$3527"); }
-        if self.v823 != other.v823 { names.push("v823 $flattenfifo.$procmux$3530"); }
-        if self.v824 != other.v824 { names.push("v824 $flattenfifo.$procmux$3533"); }
-        if self.v825 != other.v825 { names.push("v825 $flattenfifo.$procmux$3536"); }
-        if self.v830 != other.v830 { names.push("v830 $flattenfifo.$procmux$3566"); }
-        if self.v831 != other.v831 { names.push("v831 $flattenfifo.$procmux$3569"); }
-        if self.v832 != other.v832 { names.push("v832 $flattenfifo.$procmux$3572"); }
-        if self.v836 != other.v836 { names.push("v836 $flattenfifo.$procmux$3595"); }
-        if self.v842 != other.v842 { names.push("v842 $flattenfifo.$procmux$3644"); }
-        if self.v843 != other.v843 { names.push("v843 $flattenfifo.$procmux$3647"); }
-        if self.v852 != other.v852 { names.push("v852 $flattenfifo.$procmux$3683"); }
-        if self.v854 != other.v854 { names.push("v854 $flattenfifo.$sub$can_controller.v:5492$1455"); }
-        if self.v867 != other.v867 { names.push("v867 $flattenfilter.$and$can_controller.v:6138$1835"); }
-        if self.v868 != other.v868 { names.push("v868 $flattenfilter.$and$can_controller.v:6139$1838"); }
-        if self.v870 != other.v870 { names.push("v870 $flattenfilter.$and$can_controller.v:6140$1847"); }
-        if self.v877 != other.v877 { names.push("v877 $flattenfilter.$eq$can_controller.v:6051$1759"); }
-        if self.v881 != other.v881 { names.push("v881 $flattenfilter.$eq$can_controller.v:6072$1775"); }
-        if self.v882 != other.v882 { names.push("v882 $flattenfilter.$eq$can_controller.v:6075$1777"); }
-        if self.v883 != other.v883 { names.push("v883 $flattenfilter.$eq$can_controller.v:6078$1779"); }
-        if self.v884 != other.v884 { names.push("v884 $flattenfilter.$eq$can_controller.v:6081$1781"); }
-        if self.v885 != other.v885 { names.push("v885 $flattenfilter.$eq$can_controller.v:6084$1783"); }
-        if self.v886 != other.v886 { names.push("v886 $flattenfilter.$eq$can_controller.v:6087$1785"); }
-        if self.v887 != other.v887 { names.push("v887 $flattenfilter.$eq$can_controller.v:6090$1787"); }
-        if self.v888 != other.v888 { names.push("v888 $flattenfilter.$eq$can_controller.v:6093$1789"); }
-        if self.v889 != other.v889 { names.push("v889 $flattenfilter.$eq$can_controller.v:6125$1802"); }
-        if self.v890 != other.v890 { names.push("v890 $flattenfilter.$eq$can_controller.v:6137$1832"); }
-        if self.v892 != other.v892 { names.push("v892 $flattenfilter.$eq$can_controller.v:6139$1836"); }
-        if self.v903 != other.v903 { names.push("v903 $flattenfilter.$or$can_controller.v:6140$1846"); }
-        if self.v904 != other.v904 { names.push("v904 $flattenfilter.$procmux$3143"); }
-        if self.v905 != other.v905 { names.push("v905 $flattenfilter.$procmux$3149"); }
-        if self.v906 != other.v906 { names.push("v906 $flattenfilter.$procmux$3152"); }
-        if self.v917 != other.v917 { names.push("v917 $flattenfilter.$procmux$3299"); }
-        if self.v918 != other.v918 { names.push("v918 $flattenfilter.$procmux$3374"); }
-        if self.v925 != other.v925 { names.push("v925 $flattenfilter.$procmux$3401"); }
-        if self.v930 != other.v930 { names.push("v930 $flattenfilter.$xor$can_controller.v:6132$1815"); }
-        if self.v933 != other.v933 { names.push("v933 $flattenfilter.$xor$can_controller.v:6134$1822"); }
-        if self.v941 != other.v941 { names.push("v941 $flatteninterrupts.$and$can_controller.v:6660$1959"); }
-        if self.v943 != other.v943 { names.push("v943 $flatteninterrupts.$and$can_controller.v:6669$1978"); }
-        if self.v944 != other.v944 { names.push("v944 $flatteninterrupts.$and$can_controller.v:6674$1981"); }
-        if self.v946 != other.v946 { names.push("v946 $flatteninterrupts.$and$can_controller.v:6707$2005"); }
-        if self.v947 != other.v947 { names.push("v947 $flatteninterrupts.$and$can_controller.v:6709$2007"); }
-        if self.v948 != other.v948 { names.push("v948 $flatteninterrupts.$and$can_controller.v:6709$2009"); }
-        if self.v950 != other.v950 { names.push("v950 $flatteninterrupts.$eq$can_controller.v:6702$2001"); }
-        if self.v958 != other.v958 { names.push("v958 $flatteninterrupts.$ne$can_controller.v:6709$2008"); }
-        if self.v959 != other.v959 { names.push("v959 $flatteninterrupts.$ne$can_controller.v:6709$2010"); }
-        if self.v962 != other.v962 { names.push("v962 $flatteninterrupts.$or$can_controller.v:6697$1999"); }
-        if self.v964 != other.v964 { names.push("v964 $flatteninterrupts.$procmux$3008"); }
-        if self.v965 != other.v965 { names.push("v965 $flatteninterrupts.$procmux$3014"); }
-        if self.v967 != other.v967 { names.push("v967 $flatteninterrupts.$procmux$3029"); }
-        if self.v968 != other.v968 { names.push("v968 $flatteninterrupts.$procmux$3032"); }
-        if self.v969 != other.v969 { names.push("v969 $flatteninterrupts.$procmux$3035"); }
-        if self.v971 != other.v971 { names.push("v971 $flatteninterrupts.$procmux$3053"); }
-        if self.v972 != other.v972 { names.push("v972 $flatteninterrupts.$procmux$3056"); }
-        if self.v980 != other.v980 { names.push("v980 $flatteninterrupts.$procmux$3099"); }
-        if self.v981 != other.v981 { names.push("v981 $flattenmodes.$add$can_controller.v:7231$2165"); }
-        if self.v982 != other.v982 { names.push("v982 $flattenmodes.$and$can_controller.v:7171$2103"); }
-        if self.v990 != other.v990 { names.push("v990 $flattenmodes.$and$can_controller.v:7217$2141"); }
-        if self.v991 != other.v991 { names.push("v991 $flattenmodes.$and$can_controller.v:7230$2163"); }
-        if self.v992 != other.v992 { names.push("v992 $flattenmodes.$and$can_controller.v:7247$2177"); }
-        if self.v993 != other.v993 { names.push("v993 $flattenmodes.$and$can_controller.v:7248$2178"); }
-        if self.v994 != other.v994 { names.push("v994 $flattenmodes.$and$can_controller.v:7249$2179"); }
-        if self.v998 != other.v998 { names.push("v998 $flattenmodes.$eq$can_controller.v:7199$2128"); }
-        if self.v999 != other.v999 { names.push("v999 $flattenmodes.$eq$can_controller.v:7206$2131"); }
-        if self.v1001 != other.v1001 { names.push("v1001 $flattenmodes.$eq$can_controller.v:7217$2140"); }
-        if self.v1002 != other.v1002 { names.push("v1002 $flattenmodes.$eq$can_controller.v:7233$2166"); }
-        if self.v1003 != other.v1003 { names.push("v1003 $flattenmodes.$eq$can_controller.v:7247$2175"); }
-        if self.v1005 != other.v1005 { names.push("v1005 $flattenmodes.$ne$can_controller.v:7230$2162"); }
-        if self.v1007 != other.v1007 { names.push("v1007 $flattenmodes.$procmux$2798"); }
-        if self.v1008 != other.v1008 { names.push("v1008 $flattenmodes.$procmux$2804"); }
-        if self.v1009 != other.v1009 { names.push("v1009 $flattenmodes.$procmux$2810"); }
-        if self.v1010 != other.v1010 { names.push("v1010 $flattenmodes.$procmux$2813"); }
-        if self.v1011 != other.v1011 { names.push("v1011 $flattenmodes.$procmux$2816"); }
-        if self.v1013 != other.v1013 { names.push("v1013 $flattenmodes.$procmux$2831"); }
-        if self.v1017 != other.v1017 { names.push("v1017 $flattenmodes.$procmux$2849"); }
-        if self.v1019 != other.v1019 { names.push("v1019 $flattenmodes.$procmux$2855"); }
-        if self.v1035 != other.v1035 { names.push("v1035 $flattenmodes.$procmux$2966"); }
-        if self.v1036 != other.v1036 { names.push("v1036 $flattenmodes.$procmux$2969"); }
-        if self.v1041 != other.v1041 { names.push("v1041 $flattenmodes.divider.$add$can_controller.v:7354$2192"); }
-        if self.v1042 != other.v1042 { names.push("v1042 $flattenmodes.divider.$eq$can_controller.v:7357$2196"); }
-        if self.v1044 != other.v1044 { names.push("v1044 $flattenmodes.divider.$ge$can_controller.v:7355$2193"); }
-        if self.v1045 != other.v1045 { names.push("v1045 $flattenmodes.divider.$procmux$2783"); }
-        if self.v1051 != other.v1051 { names.push("v1051 $flattenread.$eq$can_controller.v:7736$2275"); }
-        if self.v1052 != other.v1052 { names.push("v1052 $flattenread.$eq$can_controller.v:7758$2294"); }
-        if self.v1053 != other.v1053 { names.push("v1053 $flattenread.$eq$can_controller.v:7761$2296"); }
-        if self.v1054 != other.v1054 { names.push("v1054 $flattenread.$eq$can_controller.v:7764$2297"); }
-        if self.v1055 != other.v1055 { names.push("v1055 $flattenread.$eq$can_controller.v:7767$2298"); }
-        if self.v1056 != other.v1056 { names.push("v1056 $flattenread.$eq$can_controller.v:7770$2299"); }
-        if self.v1057 != other.v1057 { names.push("v1057 $flattenread.$eq$can_controller.v:7773$2301"); }
-        if self.v1058 != other.v1058 { names.push("v1058 $flattenread.$eq$can_controller.v:7780$2306"); }
-        if self.v1059 != other.v1059 { names.push("v1059 $flattenread.$eq$can_controller.v:7783$2326"); }
-        if self.v1060 != other.v1060 { names.push("v1060 $flattenread.$eq$can_controller.v:7786$2327"); }
-        if self.v1061 != other.v1061 { names.push("v1061 $flattenread.$eq$can_controller.v:7794$2336"); }
-        if self.v1062 != other.v1062 { names.push("v1062 $flattenread.$or$can_controller.v:7723$2233"); }
-        if self.v1064 != other.v1064 { names.push("v1064 $flattenread.$procmux$2633"); }
-        if self.v1065 != other.v1065 { names.push("v1065 $flattenread.$procmux$2639"); }
-        if self.v1066 != other.v1066 { names.push("v1066 $flattenread.$procmux$2645"); }
-        if self.v1067 != other.v1067 { names.push("v1067 $flattenread.$procmux$2654"); }
-        if self.v1068 != other.v1068 { names.push("v1068 $flattenread.$procmux$2660"); }
-        if self.v1084 != other.v1084 { names.push("v1084 $flattenread.$procmux$2747"); }
-        if self.v1085 != other.v1085 { names.push("v1085 $flattenread.$procmux$2750"); }
-        if self.v1086 != other.v1086 { names.push("v1086 $flattenread.$procmux$2753"); }
-        if self.v1092 != other.v1092 { names.push("v1092 $flattenread.$procmux$2774"); }
-        if self.v1093 != other.v1093 { names.push("v1093 $flattenread.$reduce_or$can_controller.v:7731$2274"); }
-        if self.v1094 != other.v1094 { names.push("v1094 $flattentx_buffer.$and$can_controller.v:8086$2392"); }
-        if self.v1095 != other.v1095 { names.push("v1095 $flattentx_buffer.$and$can_controller.v:8095$2395"); }
-        if self.v1096 != other.v1096 { names.push("v1096 $flattentx_buffer.$and$can_controller.v:8096$2398"); }
-        if self.v1102 != other.v1102 { names.push("v1102 $flattentx_buffer.$procmux$2609"); }
-        if self.v1103 != other.v1103 { names.push("v1103 $flattentx_buffer.$procmux$2612"); }
-        if self.v1104 != other.v1104 { names.push("v1104 $flattentx_buffer.$procmux$2615"); }
-        if self.v1105 != other.v1105 { names.push("v1105 $flattentx_buffer.$shiftx$can_controller.v:0$2393"); }
-        if self.v1106 != other.v1106 { names.push("v1106 $flattentx_buffer.$shiftx$can_controller.v:0$2396"); }
-        if self.v1112 != other.v1112 { names.push("v1112 $procmux$8748"); }
-        if self.v1113 != other.v1113 { names.push("v1113 $procmux$8751"); }
-        if self.v1117 != other.v1117 { names.push("v1117 $procmux$8781"); }
-        if self.v1118 != other.v1118 { names.push("v1118 $procmux$8784"); }
-        if self.v1119 != other.v1119 { names.push("v1119 $procmux$8787"); }
-        if self.v1120 != other.v1120 { names.push("v1120 $procmux$8790"); }
-        if self.v1121 != other.v1121 { names.push("v1121 $procmux$8796"); }
-        if self.v1122 != other.v1122 { names.push("v1122 $procmux$8802"); }
+        if self.v624 != other.v624 { names.push("v624 $flattencore.protocol.interframe.$procmux$5302"); }
+        if self.v643 != other.v643 { names.push("v643 $flattencore.protocol.interframe.$procmux$5646_CMP0"); }
+        if self.v649 != other.v649 { names.push("v649 $flattencore.protocol.interframe.$procmux$5746"); }
+        if self.v650 != other.v650 { names.push("v650 $flattencore.protocol.interframe.$procmux$5758"); }
+        if self.v651 != other.v651 { names.push("v651 $flattencore.protocol.interframe.$procmux$5771"); }
+        if self.v654 != other.v654 { names.push("v654 $flattencore.protocol.interframe.$procmux$5829"); }
+        if self.v656 != other.v656 { names.push("v656 $flattencore.protocol.interframe.$procmux$5853"); }
+        if self.v658 != other.v658 { names.push("v658 $flattencore.protocol.interframe.$procmux$5874"); }
+        if self.v660 != other.v660 { names.push("v660 $flattencore.protocol.interframe.$procmux$5907"); }
+        if self.v668 != other.v668 { names.push("v668 $flattencore.protocol.interframe.$procmux$5967"); }
+        if self.v669 != other.v669 { names.push("v669 $flattencore.protocol.interframe.$procmux$5973"); }
+        if self.v670 != other.v670 { names.push("v670 $flattencore.protocol.interframe.$procmux$5978"); }
+        if self.v671 != other.v671 { names.push("v671 $flattencore.protocol.interframe.$procmux$5990"); }
+        if self.v672 != other.v672 { names.push("v672 $flattencore.protocol.interframe.$procmux$5993"); }
+        if self.v673 != other.v673 { names.push("v673 $flattencore.protocol.interframe.$procmux$5996"); }
+        if self.v674 != other.v674 { names.push("v674 $flattencore.protocol.interframe.$procmux$5999"); }
+        if self.v675 != other.v675 { names.push("v675 $flattencore.protocol.interframe.$procmux$6002"); }
+        if self.v676 != other.v676 { names.push("v676 $flattencore.protocol.interframe.$procmux$6005"); }
+        if self.v677 != other.v677 { names.push("v677 $flattencore.protocol.interframe.$procmux$6011"); }
+        if self.v678 != other.v678 { names.push("v678 $flattencore.protocol.interframe.$procmux$6023"); }
+        if self.v679 != other.v679 { names.push("v679 $flattencore.protocol.interframe.$procmux$6026"); }
+        if self.v680 != other.v680 { names.push("v680 $flattencore.protocol.interframe.$procmux$6029"); }
+        if self.v681 != other.v681 { names.push("v681 $flattencore.protocol.interframe.$procmux$6032"); }
+        if self.v682 != other.v682 { names.push("v682 $flattencore.protocol.interframe.$procmux$6035"); }
+        if self.v684 != other.v684 { names.push("v684 $flattencore.protocol.sender.$add$can_controller.v:4723$1239"); }
+        if self.v685 != other.v685 { names.push("v685 $flattencore.protocol.sender.$add$can_controller.v:4744$1250"); }
+        if self.v691 != other.v691 { names.push("v691 $flattencore.protocol.sender.$and$can_controller.v:4844$1276"); }
+        if self.v692 != other.v692 { names.push("v692 $flattencore.protocol.sender.$eq$can_controller.v:4712$1229"); }
+        if self.v693 != other.v693 { names.push("v693 $flattencore.protocol.sender.$eq$can_controller.v:4716$1230"); }
+        if self.v694 != other.v694 { names.push("v694 $flattencore.protocol.sender.$eq$can_controller.v:4743$1249"); }
+        if self.v695 != other.v695 { names.push("v695 $flattencore.protocol.sender.$eq$can_controller.v:4762$1256"); }
+        if self.v700 != other.v700 { names.push("v700 $flattencore.protocol.sender.$eq$can_controller.v:4827$1264"); }
+        if self.v702 != other.v702 { names.push("v702 $flattencore.protocol.sender.$not$can_controller.v:4844$1273"); }
+        if self.v704 != other.v704 { names.push("v704 $flattencore.protocol.sender.$or$can_controller.v:4856$1281"); }
+        if self.v705 != other.v705 { names.push("v705 $flattencore.protocol.sender.$procmux$3764"); }
+        if self.v706 != other.v706 { names.push("v706 $flattencore.protocol.sender.$procmux$3767"); }
+        if self.v711 != other.v711 { names.push("v711 $flattencore.protocol.sender.$procmux$3784"); }
+        if self.v712 != other.v712 { names.push("v712 $flattencore.protocol.sender.$procmux$3787_CMP0"); }
+        if self.v714 != other.v714 { names.push("v714 $flattencore.protocol.sender.$procmux$3799_CMP0"); }
+        if self.v715 != other.v715 { names.push("v715 $flattencore.protocol.sender.$procmux$3805"); }
+        if self.v717 != other.v717 { names.push("v717 $flattencore.protocol.sender.$procmux$3821_CMP0"); }
+        if self.v720 != other.v720 { names.push("v720 $flattencore.protocol.sender.$procmux$3845_CMP0"); }
+        if self.v725 != other.v725 { names.push("v725 $flattencore.protocol.sender.$procmux$3909"); }
+        if self.v727 != other.v727 { names.push("v727 $flattencore.protocol.sender.$procmux$3938_CMP0"); }
+        if self.v729 != other.v729 { names.push("v729 $flattencore.protocol.sender.$procmux$3964"); }
+        if self.v733 != other.v733 { names.push("v733 $flattencore.protocol.sender.$procmux$4016_CMP0"); }
+        if self.v734 != other.v734 { names.push("v734 $flattencore.protocol.sender.$procmux$4018_CMP0"); }
+        if self.v735 != other.v735 { names.push("v735 $flattencore.protocol.sender.$procmux$4023_CMP0"); }
+        if self.v736 != other.v736 { names.push("v736 $flattencore.protocol.sender.$procmux$4033"); }
+        if self.v737 != other.v737 { names.push("v737 $flattencore.protocol.sender.$procmux$4036"); }
+        if self.v738 != other.v738 { names.push("v738 $flattencore.protocol.sender.$procmux$4039"); }
+        if self.v743 != other.v743 { names.push("v743 $flattencore.protocol.sender.$procmux$4061"); }
+        if self.v744 != other.v744 { names.push("v744 $flattencore.protocol.sender.$procmux$4066"); }
+        if self.v745 != other.v745 { names.push("v745 $flattencore.protocol.sender.$procmux$4073"); }
+        if self.v746 != other.v746 { names.push("v746 $flattencore.protocol.sender.$procmux$4079"); }
+        if self.v747 != other.v747 { names.push("v747 $flattencore.protocol.sender.$procmux$4085"); }
+        if self.v749 != other.v749 { names.push("v749 $flattencore.protocol.sender.$procmux$4099"); }
+        if self.v751 != other.v751 { names.push("v751 $flattencore.protocol.sender.$procmux$4105"); }
+        if self.v755 != other.v755 { names.push("v755 $flattencore.protocol.sender.$xor$can_controller.v:4821$1263"); }
+        if self.v757 != other.v757 { names.push("v757 $flattencore.protocol.stuffing.$and$can_controller.v:5014$1305"); }
+        if self.v758 != other.v758 { names.push("v758 $flattencore.protocol.stuffing.$and$can_controller.v:5015$1307"); }
+        if self.v762 != other.v762 { names.push("v762 $flattencore.protocol.stuffing.$or$can_controller.v:5018$1313"); }
+        if self.v763 != other.v763 { names.push("v763 $flattencore.protocol.stuffing.$procmux$3711"); }
+        if self.v764 != other.v764 { names.push("v764 $flattencore.protocol.stuffing.$procmux$3717"); }
+        if self.v766 != other.v766 { names.push("v766 $flattencore.protocol.stuffing.$procmux$3735"); }
+        if self.v768 != other.v768 { names.push("v768 $flattendecode.$and$can_controller.v:5207$1351"); }
+        if self.v769 != other.v769 { names.push("v769 $flattendecode.$and$can_controller.v:5208$1352"); }
+        if self.v770 != other.v770 { names.push("v770 $flattendecode.$and$can_controller.v:5209$1353"); }
+        if self.v771 != other.v771 { names.push("v771 $flattendecode.$and$can_controller.v:5210$1354"); }
+        if self.v775 != other.v775 { names.push("v775 $flattendecode.$and$can_controller.v:5212$1359"); }
+        if self.v776 != other.v776 { names.push("v776 $flattendecode.$and$can_controller.v:5213$1361"); }
+        if self.v777 != other.v777 { names.push("v777 $flattendecode.$eq$can_controller.v:5212$1358"); }
+        if self.v778 != other.v778 { names.push("v778 $flattendecode.$procmux$3689"); }
+        if self.v779 != other.v779 { names.push("v779 $flattendecode.$procmux$3692"); }
+        if self.v780 != other.v780 { names.push("v780 $flattendecode.$procmux$3695"); }
+        if self.v781 != other.v781 { names.push("v781 $flattendecode.$procmux$3698"); }
+        if self.v782 != other.v782 { names.push("v782 $flattendecode.$procmux$3701"); }
+        if self.v783 != other.v783 { names.push("v783 $flattendecode.$shiftx$can_controller.v:0$1341"); }
+        if self.v784 != other.v784 { names.push("v784 $flattendecode.$shiftx$can_controller.v:0$1342"); }
+        if self.v785 != other.v785 { names.push("v785 $flattendecode.$shiftx$can_controller.v:0$1343"); }
+        if self.v786 != other.v786 { names.push("v786 $flattendecode.$shiftx$can_controller.v:0$1344"); }
+        if self.v787 != other.v787 { names.push("v787 $flattendecode.$shiftx$can_controller.v:0$1345"); }
+        if self.v788 != other.v788 { names.push("v788 $flattendecode.$shiftx$can_controller.v:0$1346"); }
+        if self.v789 != other.v789 { names.push("v789 $flattendecode.$sub$can_controller.v:5189$1338"); }
+        if self.v790 != other.v790 { names.push("v790 $flattendecode.$sub$can_controller.v:5190$1339"); }
+        if self.v791 != other.v791 { names.push("v791 $flattendecode.$sub$can_controller.v:5191$1340"); }
+        if self.v797 != other.v797 { names.push("v797 $flattenfifo.$add$can_controller.v:5475$1441"); }
+        if self.v798 != other.v798 { names.push("v798 $flattenfifo.$add$can_controller.v:5487$1451"); }
+        if self.v799 != other.v799 { names.push("v799 $flattenfifo.$add$can_controller.v:5496$1457"); }
+        if self.v801 != other.v801 { names.push("v801 $flattenfifo.$and$can_controller.v:5486$1449"); }
+        if self.v806 != other.v806 { names.push("v806 $flattenfifo.$eq$can_controller.v:5499$1463"); }
+        if self.v814 != other.v814 { names.push("v814 $flattenfifo.$procmux$3476"); }
+        if self.v815 != other.v815 { names.push("v815 $flattenfifo.$procmux$3479"); }
+        if self.v816 != other.v816 { names.push("v816 $flattenfifo.$procmux$3497"); }
+        if self.v817 != other.v817 { names.push("v817 $flattenfifo.$procmux$3500"); }
+        if self.v818 != other.v818 { names.push("v818 $flattenfifo.$procmux$3503"); }
+        if self.v819 != other.v819 { names.push("v819 $flattenfifo.$procmux$3506"); }
+        if self.v820 != other.v820 { names.push("v820 $flattenfifo.$procmux$3512"); }
+        if self.v823 != other.v823 { names.push("v823 $flattenfifo.$procmux$3527"); }
+        if self.v824 != other.v824 { names.push("v824 $flattenfifo.$procmux$3530"); }
+        if self.v825 != other.v825 { names.push("v825 $flattenfifo.$procmux$3533"); }
+        if self.v826 != other.v826 { names.push("v826 $flattenfifo.$procmux$3536"); }
+        if self.v831 != other.v831 { names.push("v831 $flattenfifo.$procmux$3566"); }
+        if self.v832 != other.v832 { names.push("v832 $flattenfifo.$procmux$3569"); }
+        if self.v833 != other.v833 { names.push("v833 $flattenfifo.$procmux$3572"); }
+        if self.v837 != other.v837 { names.push("v837 $flattenfifo.$procmux$3595"); }
+        if self.v843 != other.v843 { names.push("v843 $flattenfifo.$procmux$3644"); }
+        if self.v844 != other.v844 { names.push("v844 $flattenfifo.$procmux$3647"); }
+        if self.v853 != other.v853 { names.push("v853 $flattenfifo.$procmux$3683"); }
+        if self.v855 != other.v855 { names.push("v855 $flattenfifo.$sub$can_controller.v:5492$1455"); }
+        if self.v868 != other.v868 { names.push("v868 $flattenfilter.$and$can_controller.v:6138$1835"); }
+        if self.v869 != other.v869 { names.push("v869 $flattenfilter.$and$can_controller.v:6139$1838"); }
+        if self.v871 != other.v871 { names.push("v871 $flattenfilter.$and$can_controller.v:6140$1847"); }
+        if self.v878 != other.v878 { names.push("v878 $flattenfilter.$eq$can_controller.v:6051$1759"); }
+        if self.v882 != other.v882 { names.push("v882 $flattenfilter.$eq$can_controller.v:6072$1775"); }
+        if self.v883 != other.v883 { names.push("v883 $flattenfilter.$eq$can_controller.v:6075$1777"); }
+        if self.v884 != other.v884 { names.push("v884 $flattenfilter.$eq$can_controller.v:6078$1779"); }
+        if self.v885 != other.v885 { names.push("v885 $flattenfilter.$eq$can_controller.v:6081$1781"); }
+        if self.v886 != other.v886 { names.push("v886 $flattenfilter.$eq$can_controller.v:6084$1783"); }
+        if self.v887 != other.v887 { names.push("v887 $flattenfilter.$eq$can_controller.v:6087$1785"); }
+        if self.v888 != other.v888 { names.push("v888 $flattenfilter.$eq$can_controller.v:6090$1787"); }
+        if self.v889 != other.v889 { names.push("v889 $flattenfilter.$eq$can_controller.v:6093$1789"); }
+        if self.v890 != other.v890 { names.push("v890 $flattenfilter.$eq$can_controller.v:6125$1802"); }
+        if self.v891 != other.v891 { names.push("v891 $flattenfilter.$eq$can_controller.v:6137$1832"); }
+        if self.v893 != other.v893 { names.push("v893 $flattenfilter.$eq$can_controller.v:6139$1836"); }
+        if self.v904 != other.v904 { names.push("v904 $flattenfilter.$or$can_controller.v:6140$1846"); }
+        if self.v905 != other.v905 { names.push("v905 $flattenfilter.$procmux$3143"); }
+        if self.v906 != other.v906 { names.push("v906 $flattenfilter.$procmux$3149"); }
+        if self.v907 != other.v907 { names.push("v907 $flattenfilter.$procmux$3152"); }
+        if self.v918 != other.v918 { names.push("v918 $flattenfilter.$procmux$3299"); }
+        if self.v919 != other.v919 { names.push("v919 $flattenfilter.$procmux$3374"); }
+        if self.v926 != other.v926 { names.push("v926 $flattenfilter.$procmux$3401"); }
+        if self.v931 != other.v931 { names.push("v931 $flattenfilter.$xor$can_controller.v:6132$1815"); }
+        if self.v934 != other.v934 { names.push("v934 $flattenfilter.$xor$can_controller.v:6134$1822"); }
+        if self.v942 != other.v942 { names.push("v942 $flatteninterrupts.$and$can_controller.v:6660$1959"); }
+        if self.v944 != other.v944 { names.push("v944 $flatteninterrupts.$and$can_controller.v:6669$1978"); }
+        if self.v945 != other.v945 { names.push("v945 $flatteninterrupts.$and$can_controller.v:6674$1981"); }
+        if self.v947 != other.v947 { names.push("v947 $flatteninterrupts.$and$can_controller.v:6707$2005"); }
+        if self.v948 != other.v948 { names.push("v948 $flatteninterrupts.$and$can_controller.v:6709$2007"); }
+        if self.v949 != other.v949 { names.push("v949 $flatteninterrupts.$and$can_controller.v:6709$2009"); }
+        if self.v951 != other.v951 { names.push("v951 $flatteninterrupts.$eq$can_controller.v:6702$2001"); }
+        if self.v959 != other.v959 { names.push("v959 $flatteninterrupts.$ne$can_controller.v:6709$2008"); }
+        if self.v960 != other.v960 { names.push("v960 $flatteninterrupts.$ne$can_controller.v:6709$2010"); }
+        if self.v963 != other.v963 { names.push("v963 $flatteninterrupts.$or$can_controller.v:6697$1999"); }
+        if self.v965 != other.v965 { names.push("v965 $flatteninterrupts.$procmux$3008"); }
+        if self.v966 != other.v966 { names.push("v966 $flatteninterrupts.$procmux$3014"); }
+        if self.v968 != other.v968 { names.push("v968 $flatteninterrupts.$procmux$3029"); }
+        if self.v969 != other.v969 { names.push("v969 $flatteninterrupts.$procmux$3032"); }
+        if self.v970 != other.v970 { names.push("v970 $flatteninterrupts.$procmux$3035"); }
+        if self.v972 != other.v972 { names.push("v972 $flatteninterrupts.$procmux$3053"); }
+        if self.v973 != other.v973 { names.push("v973 $flatteninterrupts.$procmux$3056"); }
+        if self.v981 != other.v981 { names.push("v981 $flatteninterrupts.$procmux$3099"); }
+        if self.v982 != other.v982 { names.push("v982 $flattenmodes.$add$can_controller.v:7231$2165"); }
+        if self.v983 != other.v983 { names.push("v983 $flattenmodes.$and$can_controller.v:7171$2103"); }
+        if self.v991 != other.v991 { names.push("v991 $flattenmodes.$and$can_controller.v:7217$2141"); }
+        if self.v992 != other.v992 { names.push("v992 $flattenmodes.$and$can_controller.v:7230$2163"); }
+        if self.v993 != other.v993 { names.push("v993 $flattenmodes.$and$can_controller.v:7247$2177"); }
+        if self.v994 != other.v994 { names.push("v994 $flattenmodes.$and$can_controller.v:7248$2178"); }
+        if self.v995 != other.v995 { names.push("v995 $flattenmodes.$and$can_controller.v:7249$2179"); }
+        if self.v999 != other.v999 { names.push("v999 $flattenmodes.$eq$can_controller.v:7199$2128"); }
+        if self.v1000 != other.v1000 { names.push("v1000 $flattenmodes.$eq$can_controller.v:7206$2131"); }
+        if self.v1002 != other.v1002 { names.push("v1002 $flattenmodes.$eq$can_controller.v:7217$2140"); }
+        if self.v1003 != other.v1003 { names.push("v1003 $flattenmodes.$eq$can_controller.v:7233$2166"); }
+        if self.v1004 != other.v1004 { names.push("v1004 $flattenmodes.$eq$can_controller.v:7247$2175"); }
+        if self.v1006 != other.v1006 { names.push("v1006 $flattenmodes.$ne$can_controller.v:7230$2162"); }
+        if self.v1008 != other.v1008 { names.push("v1008 $flattenmodes.$procmux$2798"); }
+        if self.v1009 != other.v1009 { names.push("v1009 $flattenmodes.$procmux$2804"); }
+        if self.v1010 != other.v1010 { names.push("v1010 $flattenmodes.$procmux$2810"); }
+        if self.v1011 != other.v1011 { names.push("v1011 $flattenmodes.$procmux$2813"); }
+        if self.v1012 != other.v1012 { names.push("v1012 $flattenmodes.$procmux$2816"); }
+        if self.v1014 != other.v1014 { names.push("v1014 $flattenmodes.$procmux$2831"); }
+        if self.v1018 != other.v1018 { names.push("v1018 $flattenmodes.$procmux$2849"); }
+        if self.v1020 != other.v1020 { names.push("v1020 $flattenmodes.$procmux$2855"); }
+        if self.v1036 != other.v1036 { names.push("v1036 $flattenmodes.$procmux$2966"); }
+        if self.v1037 != other.v1037 { names.push("v1037 $flattenmodes.$procmux$2969"); }
+        if self.v1042 != other.v1042 { names.push("v1042 $flattenmodes.divider.$add$can_controller.v:7354$2192"); }
+        if self.v1043 != other.v1043 { names.push("v1043 $flattenmodes.divider.$eq$can_controller.v:7357$2196"); }
+        if self.v1045 != other.v1045 { names.push("v1045 $flattenmodes.divider.$ge$can_controller.v:7355$2193"); }
+        if self.v1046 != other.v1046 { names.push("v1046 $flattenmodes.divider.$procmux$2783"); }
+        if self.v1052 != other.v1052 { names.push("v1052 $flattenread.$eq$can_controller.v:7736$2275"); }
+        if self.v1053 != other.v1053 { names.push("v1053 $flattenread.$eq$can_controller.v:7758$2294"); }
+        if self.v1054 != other.v1054 { names.push("v1054 $flattenread.$eq$can_controller.v:7761$2296"); }
+        if self.v1055 != other.v1055 { names.push("v1055 $flattenread.$eq$can_controller.v:7764$2297"); }
+        if self.v1056 != other.v1056 { names.push("v1056 $flattenread.$eq$can_controller.v:7767$2298"); }
+        if self.v1057 != other.v1057 { names.push("v1057 $flattenread.$eq$can_controller.v:7770$2299"); }
+        if self.v1058 != other.v1058 { names.push("v1058 $flattenread.$eq$can_controller.v:7773$2301"); }
+        if self.v1059 != other.v1059 { names.push("v1059 $flattenread.$eq$can_controller.v:7780$2306"); }
+        if self.v1060 != other.v1060 { names.push("v1060 $flattenread.$eq$can_controller.v:7783$2326"); }
+        if self.v1061 != other.v1061 { names.push("v1061 $flattenread.$eq$can_controller.v:7786$2327"); }
+        if self.v1062 != other.v1062 { names.push("v1062 $flattenread.$eq$can_controller.v:7794$2336"); }
+        if self.v1063 != other.v1063 { names.push("v1063 $flattenread.$or$can_controller.v:7723$2233"); }
+        if self.v1065 != other.v1065 { names.push("v1065 $flattenread.$procmux$2633"); }
+        if self.v1066 != other.v1066 { names.push("v1066 $flattenread.$procmux$2639"); }
+        if self.v1067 != other.v1067 { names.push("v1067 $flattenread.$procmux$2645"); }
+        if self.v1068 != other.v1068 { names.push("v1068 $flattenread.$procmux$2654"); }
+        if self.v1069 != other.v1069 { names.push("v1069 $flattenread.$procmux$2660"); }
+        if self.v1085 != other.v1085 { names.push("v1085 $flattenread.$procmux$2747"); }
+        if self.v1086 != other.v1086 { names.push("v1086 $flattenread.$procmux$2750"); }
+        if self.v1087 != other.v1087 { names.push("v1087 $flattenread.$procmux$2753"); }
+        if self.v1093 != other.v1093 { names.push("v1093 $flattenread.$procmux$2774"); }
+        if self.v1094 != other.v1094 { names.push("v1094 $flattenread.$reduce_or$can_controller.v:7731$2274"); }
+        if self.v1095 != other.v1095 { names.push("v1095 $flattentx_buffer.$and$can_controller.v:8086$2392"); }
+        if self.v1096 != other.v1096 { names.push("v1096 $flattentx_buffer.$and$can_controller.v:8095$2395"); }
+        if self.v1097 != other.v1097 { names.push("v1097 $flattentx_buffer.$and$can_controller.v:8096$2398"); }
+        if self.v1103 != other.v1103 { names.push("v1103 $flattentx_buffer.$procmux$2609"); }
+        if self.v1104 != other.v1104 { names.push("v1104 $flattentx_buffer.$procmux$2612"); }
+        if self.v1105 != other.v1105 { names.push("v1105 $flattentx_buffer.$procmux$2615"); }
+        if self.v1106 != other.v1106 { names.push("v1106 $flattentx_buffer.$shiftx$can_controller.v:0$2393"); }
+        if self.v1107 != other.v1107 { names.push("v1107 $flattentx_buffer.$shiftx$can_controller.v:0$2396"); }
+        if self.v1113 != other.v1113 { names.push("v1113 $procmux$8748"); }
+        if self.v1114 != other.v1114 { names.push("v1114 $procmux$8751"); }
+        if self.v1118 != other.v1118 { names.push("v1118 $procmux$8781"); }
+        if self.v1119 != other.v1119 { names.push("v1119 $procmux$8784"); }
+        if self.v1120 != other.v1120 { names.push("v1120 $procmux$8787"); }
+        if self.v1121 != other.v1121 { names.push("v1121 $procmux$8790"); }
+        if self.v1122 != other.v1122 { names.push("v1122 $procmux$8796"); }
+        if self.v1123 != other.v1123 { names.push("v1123 $procmux$8802"); }
         if self.dirty != other.dirty { names.push("dirty "); }
         if self.out != other.out { names.push("out "); }
         names
@@ -3055,11 +3058,11 @@ impl Model {
         if self.v526 != c526 { self.v526 = c526; *dirty |= 0x8000000; }
         let c531: u64 = u64::from((self.q115) == (0x1));
         if self.v531 != c531 { self.v531 = c531; *dirty |= 0x408000000; }
-        let c532: u64 = u64::from((self.q115) == (0xb));
+        let c532: u64 = u64::from((self.q115) == (0x2));
         if self.v532 != c532 { self.v532 = c532; *dirty |= 0x8000000; }
         let c124: u64 = u64::from((c531 | (c532 << 1)) != 0);
         if self.v124 != c124 { self.v124 = c124; *dirty |= 0x20; }
-        let c533: u64 = u64::from((self.q115) == (0xa));
+        let c533: u64 = u64::from((self.q115) == (0x7));
         if self.v533 != c533 { self.v533 = c533; *dirty |= 0x8000020; }
         let c534: u64 = u64::from((self.q73) == (0x2));
         if self.v534 != c534 { self.v534 = c534; *dirty |= 0x8000000; }
@@ -3079,7 +3082,7 @@ impl Model {
         let c541: u64 = u64::from((self.q73) == 0);
         if self.v541 != c541 { self.v541 = c541; *dirty |= 0x8000020; }
         let c542: u64 = u64::from((self.q61) == (0x7));
-        let c544: u64 = u64::from((self.q115) == (0xd));
+        let c544: u64 = u64::from((self.q115) == (0x5));
         if self.v544 != c544 { self.v544 = c544; *dirty |= 0x8000020; }
         let c545: u64 = u64::from((self.q73) != 0);
         if self.v545 != c545 { self.v545 = c545; *dirty |= 0x400000; }
@@ -3115,10 +3118,10 @@ impl Model {
         if self.v554 != c554 { self.v554 = c554; *dirty |= 0x2000000; }
         let c555: u64 = ((self.q1) | (self.q88)) & 0x1;
         if self.v555 != c555 { self.v555 = c555; *dirty |= 0x8000002; }
-        let c574: u64 = u64::from((self.q115) == (0xf));
+        let c574: u64 = u64::from((self.q115) == (0x3));
         if self.v574 != c574 { self.v574 = c574; *dirty |= 0x8002010; }
         let c576: u64 = (c526) & (c536) & 0x1;
-        let c578: u64 = u64::from((self.q115) == (0xe));
+        let c578: u64 = u64::from((self.q115) == (0x6));
         if self.v578 != c578 { self.v578 = c578; *dirty |= 0xa000020; }
         let c30: u64 = u64::from((c578 | (c541 << 1)) != (0x1));
         if self.v30 != c30 { self.v30 = c30; *dirty |= 0x2000000; }
@@ -3133,7 +3136,7 @@ impl Model {
         let c592: u64 = (c541) & (c589) & 0x1;
         let c597: u64 = if (c539) != 0 { (0x0) } else { (self.q62) };
         let c601: u64 = if (c523) != 0 { (self.q62) } else { (c597) };
-        let c605: u64 = u64::from((self.q115) == (0xc));
+        let c605: u64 = u64::from((self.q115) == (0x4));
         if self.v605 != c605 { self.v605 = c605; *dirty |= 0x1b000020; }
         let c28: u64 = u64::from((c544 | (c605 << 1) | (c578 << 2)) != 0);
         if self.v28 != c28 { self.v28 = c28; *dirty |= 0x2000000; }
@@ -3153,20 +3156,22 @@ impl Model {
         if self.v620 != c620 { self.v620 = c620; *dirty |= 0x8000000; }
         let c621: u64 = if (self.q58) != 0 { (0x0) } else { (self.q109) };
         let c622: u64 = if (self.q58) != 0 { (0x0) } else { (c610) };
-        let c642: u64 = u64::from((self.q115) == 0);
-        if self.v642 != c642 { self.v642 = c642; *dirty |= 0x8002010; }
-        let c648: u64 = if (c578) != 0 { (c508) } else { (0x0) };
-        if self.v648 != c648 { self.v648 = c648; *dirty |= 0x200000000000000000; }
-        let c649: u64 = if (c578) != 0 { (0x0) } else { (c596) };
+        let c624: u64 = if (c519) != 0 { (0x2) } else { (0x1) };
+        if self.v624 != c624 { self.v624 = c624; *dirty |= 0x8000000; }
+        let c643: u64 = u64::from((self.q115) == 0);
+        if self.v643 != c643 { self.v643 = c643; *dirty |= 0x8002010; }
+        let c649: u64 = if (c578) != 0 { (c508) } else { (0x0) };
         if self.v649 != c649 { self.v649 = c649; *dirty |= 0x200000000000000000; }
-        let c650: u64 = if (c544) != 0 { (c601) } else { (self.q62) };
-        if self.v650 != c650 { self.v650 = c650; *dirty |= 0x2000000; }
-        let c653: u64 = (c605) & (c621) & 0x1;
-        if self.v653 != c653 { self.v653 = c653; *dirty |= 0x2000000; }
-        let c655: u64 = (c574) & (c576) & 0x1;
-        if self.v655 != c655 { self.v655 = c655; *dirty |= 0x2000000; }
-        let c657: u64 = { let s = (c578 | (c605 << 1)); if s >> 0 & 1 != 0 { c592 } else if s >> 1 & 1 != 0 { c622 } else { (0x0) } };
-        if self.v657 != c657 { self.v657 = c657; *dirty |= 0x2000000; }
+        let c650: u64 = if (c578) != 0 { (0x0) } else { (c596) };
+        if self.v650 != c650 { self.v650 = c650; *dirty |= 0x200000000000000000; }
+        let c651: u64 = if (c544) != 0 { (c601) } else { (self.q62) };
+        if self.v651 != c651 { self.v651 = c651; *dirty |= 0x2000000; }
+        let c654: u64 = (c605) & (c621) & 0x1;
+        if self.v654 != c654 { self.v654 = c654; *dirty |= 0x2000000; }
+        let c656: u64 = (c574) & (c576) & 0x1;
+        if self.v656 != c656 { self.v656 = c656; *dirty |= 0x2000000; }
+        let c658: u64 = { let s = (c578 | (c605 << 1)); if s >> 0 & 1 != 0 { c592 } else if s >> 1 & 1 != 0 { c622 } else { (0x0) } };
+        if self.v658 != c658 { self.v658 = c658; *dirty |= 0x2000000; }
         let _ = &dirty;
     }
 
@@ -3190,7 +3195,7 @@ impl Model {
         let c397: u64 = u64::from(((self.q73 >> 3)) == (self.q79));
         let c381: u64 = (c396) & (c397) & 0x1;
         if self.v381 != c381 { self.v381 = c381; *dirty |= 0x800000; }
-        let c398: u64 = u64::from((self.q115) == (0x2));
+        let c398: u64 = u64::from((self.q115) == (0x8));
         if self.v398 != c398 { self.v398 = c398; *dirty |= 0x204800020; }
         let c383: u64 = (c398) & (self.q118) & 0x1;
         let c399: u64 = u64::from((self.q109) == (self.q52));
@@ -3210,21 +3215,21 @@ impl Model {
         let c45: u64 = !(c406) & 0x1;
         if self.v45 != c45 { self.v45 = c45; *dirty |= 0x204000000; }
         let c384: u64 = (self.q51) & (c45) & 0x1;
-        let c410: u64 = u64::from((self.q115) == (0x9));
+        let c410: u64 = u64::from((self.q115) == (0xf));
         if self.v410 != c410 { self.v410 = c410; *dirty |= 0x800020; }
         let c412: u64 = !(c388) & 0x1;
         let c413: u64 = if (self.q109) != 0 { (0x0) } else { (c412) };
         let c415: u64 = (self.q109) & (c390) & 0x1;
         let c416: u64 = (self.q109) & (c389) & 0x1;
-        let c418: u64 = if (c403) != 0 { (0xa) } else { (self.q115) };
-        let c411: u64 = if (c388) != 0 { (0xd) } else { (c418) };
+        let c418: u64 = if (c403) != 0 { (0x7) } else { (self.q115) };
+        let c411: u64 = if (c388) != 0 { (0x5) } else { (c418) };
         let c414: u64 = if (self.q109) != 0 { (c418) } else { (c411) };
         if self.v414 != c414 { self.v414 = c414; *dirty |= 0x800000; }
-        let c419: u64 = u64::from((self.q115) == (0x8));
+        let c419: u64 = u64::from((self.q115) == (0xe));
         if self.v419 != c419 { self.v419 = c419; *dirty |= 0x800020; }
         let c420: u64 = if (self.q109) != 0 { (self.q71 | (self.q71 << 1)) } else { (0x1) };
         let c421: u64 = if (self.q109) != 0 { (self.q71) } else { (0x1) };
-        let c422: u64 = u64::from((self.q115) == (0x7));
+        let c422: u64 = u64::from((self.q115) == (0xd));
         if self.v422 != c422 { self.v422 = c422; *dirty |= 0x800020; }
         let c423: u64 = if (self.q118) != 0 { (0x0) } else { (self.q109) };
         let c425: u64 = !(self.q114) & 0x1;
@@ -3235,7 +3240,7 @@ impl Model {
         let c430: u64 = (self.q51) & (c387) & 0x1;
         let c431: u64 = if (self.q51) != 0 { (c387) } else { (c423) };
         let c433: u64 = (c401) & (c386) & 0x1;
-        let c434: u64 = u64::from((self.q115) == (0x6));
+        let c434: u64 = u64::from((self.q115) == (0xc));
         if self.v434 != c434 { self.v434 = c434; *dirty |= 0x800020; }
         let c435: u64 = !(c401) & 0x1;
         let c436: u64 = if (self.q51) != 0 { (0x0) } else { (c435) };
@@ -3252,15 +3257,15 @@ impl Model {
         let c432: u64 = if (self.q51) != 0 { (0x0) } else { (c424) };
         let c439: u64 = (self.q109) & (c436) & 0x1;
         let c440: u64 = (self.q109) & (c437) & 0x1;
-        let c441: u64 = if (c400) != 0 { (0x6) } else { (self.q115) };
+        let c441: u64 = if (c400) != 0 { (0xc) } else { (self.q115) };
         if self.v441 != c441 { self.v441 = c441; *dirty |= 0x800000; }
-        let c442: u64 = u64::from((self.q115) == (0x5));
+        let c442: u64 = u64::from((self.q115) == (0xb));
         if self.v442 != c442 { self.v442 = c442; *dirty |= 0x800020; }
-        let c444: u64 = u64::from((self.q115) == (0x4));
+        let c444: u64 = u64::from((self.q115) == (0xa));
         if self.v444 != c444 { self.v444 = c444; *dirty |= 0x4c00020; }
-        let c445: u64 = if (c381) != 0 { (0x5) } else { (self.q115) };
+        let c445: u64 = if (c381) != 0 { (0xb) } else { (self.q115) };
         if self.v445 != c445 { self.v445 = c445; *dirty |= 0x800000; }
-        let c446: u64 = u64::from((self.q115) == (0x3));
+        let c446: u64 = u64::from((self.q115) == (0x9));
         if self.v446 != c446 { self.v446 = c446; *dirty |= 0x220800020; }
         let c122: u64 = u64::from((c446 | (c444 << 1) | (c442 << 2)) != 0);
         let c123: u64 = u64::from((c446 | (c444 << 1) | (c398 << 2) | (c442 << 3)) != 0);
@@ -3270,7 +3275,7 @@ impl Model {
         let c452: u64 = (c378) & (self.q118) & 0x1;
         let c453: u64 = (c378) & (self.v537) & 0x1;
         let c454: u64 = if (c378) != 0 { (c450) } else { (c384) };
-        let c456: u64 = if (c409) != 0 { (0x3) } else { (self.q115) };
+        let c456: u64 = if (c409) != 0 { (0x9) } else { (self.q115) };
         if self.v456 != c456 { self.v456 = c456; *dirty |= 0x800000; }
         let c457: u64 = { let s = (c410 | (c398 << 1)); if s >> 0 & 1 != 0 { c415 } else if s >> 1 & 1 != 0 { c451 } else { (0x0) } };
         let c458: u64 = (c398) & (c452) & 0x1;
@@ -3328,102 +3333,102 @@ impl Model {
     /// The cells of top$filter.
     fn group_2(&mut self, dirty: &mut u128) {
         let c116: u64 = ((self.q78 | ((self.q81 & 0x1f) << 1)) ^ ((self.q36 >> 2))) & 0x3f;
-        let c855: u64 = (self.q14) & (self.q127) & 0x1;
-        let c858: u64 = (self.q28) & (self.q120) & 0x1;
-        let c859: u64 = (c858) & (self.q121) & 0x1;
-        let c860: u64 = (self.q30) & (self.q119) & 0x1;
-        let c875: u64 = u64::from(((self.i_addr >> 3)) == (0x2));
-        let c856: u64 = (c855) & (c875) & 0x1;
-        let c876: u64 = u64::from((self.i_addr) == (0x5));
-        let c877: u64 = u64::from((self.i_addr) == (0x4));
-        if self.v877 != c877 { self.v877 = c877; *dirty |= 0x80040; }
-        let c889: u64 = !(self.q80) & 0x1;
-        if self.v889 != c889 { self.v889 = c889; *dirty |= 0x800100; }
-        let c871: u64 = (self.q86) & (c889) & 0x1;
-        let c896: u64 = u64::from((self.q87) == 0);
-        let c899: u64 = u64::from((self.q87) == (0x1));
-        let c901: u64 = ((c877) | (c876)) & 0x1;
-        let c902: u64 = ((c860) | (self.q29)) & 0x1;
-        let c913: u64 = ((self.q119) | (self.q83)) & 0x1;
-        let c914: u64 = ((self.q121) | (self.q83)) & 0x1;
-        let c915: u64 = ((self.q120) | (self.q83)) & 0x1;
-        let c916: u64 = if (self.q16) != 0 { (c859) } else { (c902) };
-        let c917: u64 = if (self.q14) != 0 { (c916) } else { (self.q31) };
-        if self.v917 != c917 { self.v917 = c917; *dirty |= 0x100; }
-        let c925: u64 = if (self.q14) != 0 { (c856) } else { (c901) };
-        if self.v925 != c925 { self.v925 = c925; *dirty |= 0x8000080000; }
-        let c926: u64 = if (self.q14) != 0 { ((self.i_addr & 0x7)) } else { ((c876 << 2)) };
-        let c878: u64 = u64::from(((c926 & 0x3)) == (0x1));
-        let c879: u64 = u64::from(((c926 & 0x3)) == (0x2));
-        let c880: u64 = u64::from(((c926 & 0x3)) == (0x3));
-        let c881: u64 = u64::from((c926) == 0);
-        if self.v881 != c881 { self.v881 = c881; *dirty |= 0x8000000000; }
-        let c882: u64 = u64::from((c926) == (0x1));
+        let c856: u64 = (self.q14) & (self.q127) & 0x1;
+        let c859: u64 = (self.q28) & (self.q120) & 0x1;
+        let c860: u64 = (c859) & (self.q121) & 0x1;
+        let c861: u64 = (self.q30) & (self.q119) & 0x1;
+        let c876: u64 = u64::from(((self.i_addr >> 3)) == (0x2));
+        let c857: u64 = (c856) & (c876) & 0x1;
+        let c877: u64 = u64::from((self.i_addr) == (0x5));
+        let c878: u64 = u64::from((self.i_addr) == (0x4));
+        if self.v878 != c878 { self.v878 = c878; *dirty |= 0x80040; }
+        let c890: u64 = !(self.q80) & 0x1;
+        if self.v890 != c890 { self.v890 = c890; *dirty |= 0x800100; }
+        let c872: u64 = (self.q86) & (c890) & 0x1;
+        let c897: u64 = u64::from((self.q87) == 0);
+        let c900: u64 = u64::from((self.q87) == (0x1));
+        let c902: u64 = ((c878) | (c877)) & 0x1;
+        let c903: u64 = ((c861) | (self.q29)) & 0x1;
+        let c914: u64 = ((self.q119) | (self.q83)) & 0x1;
+        let c915: u64 = ((self.q121) | (self.q83)) & 0x1;
+        let c916: u64 = ((self.q120) | (self.q83)) & 0x1;
+        let c917: u64 = if (self.q16) != 0 { (c860) } else { (c903) };
+        let c918: u64 = if (self.q14) != 0 { (c917) } else { (self.q31) };
+        if self.v918 != c918 { self.v918 = c918; *dirty |= 0x100; }
+        let c926: u64 = if (self.q14) != 0 { (c857) } else { (c902) };
+        if self.v926 != c926 { self.v926 = c926; *dirty |= 0x8000080000; }
+        let c927: u64 = if (self.q14) != 0 { ((self.i_addr & 0x7)) } else { ((c877 << 2)) };
+        let c879: u64 = u64::from(((c927 & 0x3)) == (0x1));
+        let c880: u64 = u64::from(((c927 & 0x3)) == (0x2));
+        let c881: u64 = u64::from(((c927 & 0x3)) == (0x3));
+        let c882: u64 = u64::from((c927) == 0);
         if self.v882 != c882 { self.v882 = c882; *dirty |= 0x8000000000; }
-        let c883: u64 = u64::from((c926) == (0x2));
+        let c883: u64 = u64::from((c927) == (0x1));
         if self.v883 != c883 { self.v883 = c883; *dirty |= 0x8000000000; }
-        let c884: u64 = u64::from((c926) == (0x3));
+        let c884: u64 = u64::from((c927) == (0x2));
         if self.v884 != c884 { self.v884 = c884; *dirty |= 0x8000000000; }
-        let c885: u64 = u64::from((c926) == (0x4));
+        let c885: u64 = u64::from((c927) == (0x3));
         if self.v885 != c885 { self.v885 = c885; *dirty |= 0x8000000000; }
-        let c886: u64 = u64::from((c926) == (0x5));
+        let c886: u64 = u64::from((c927) == (0x4));
         if self.v886 != c886 { self.v886 = c886; *dirty |= 0x8000000000; }
-        let c887: u64 = u64::from((c926) == (0x6));
+        let c887: u64 = u64::from((c927) == (0x5));
         if self.v887 != c887 { self.v887 = c887; *dirty |= 0x8000000000; }
-        let c888: u64 = u64::from((c926) == (0x7));
+        let c888: u64 = u64::from((c927) == (0x6));
         if self.v888 != c888 { self.v888 = c888; *dirty |= 0x8000000000; }
-        let c923: u64 = if (c878) != 0 { (self.q34) } else { (self.q35) };
-        let c921: u64 = if (c879) != 0 { (self.q33) } else { (c923) };
-        let c919: u64 = if (c880) != 0 { (self.q32) } else { (c921) };
-        let c924: u64 = if (c878) != 0 { (self.q38) } else { (self.q39) };
-        let c922: u64 = if (c879) != 0 { (self.q37) } else { (c924) };
-        let c920: u64 = if (c880) != 0 { (self.q36) } else { (c922) };
-        let c918: u64 = if ((c926 >> 2)) != 0 { (c919) } else { (c920) };
-        if self.v918 != c918 { self.v918 = c918; *dirty |= 0x80000; }
-        let c927: u64 = (((self.q82 >> 3)) ^ (self.q39)) & 0xff;
-        let c928: u64 = ((self.q35) ^ (0xff)) & 0xff;
-        let c861: u64 = (c927) & (c928) & 0xff;
-        let c890: u64 = u64::from((c861) == 0);
-        if self.v890 != c890 { self.v890 = c890; *dirty |= 0x4000000000008000000000; }
-        let c930: u64 = ((self.q34) ^ (0xff)) & 0xff;
-        if self.v930 != c930 { self.v930 = c930; *dirty |= 0x8000000000; }
-        let c931: u64 = ((((self.q81 >> 5) & 0xff)) ^ (self.q37)) & 0xff;
-        let c932: u64 = ((self.q33) ^ (0xff)) & 0xff;
-        let c863: u64 = (c931) & (c932) & 0xff;
-        let c894: u64 = u64::from((c863) == 0);
-        let c933: u64 = ((self.q32) ^ (0xff)) & 0xff;
-        if self.v933 != c933 { self.v933 = c933; *dirty |= 0x8000000000; }
-        let c864: u64 = ((self.q36 & 0x3) | (c116 << 2)) & (c933) & 0xff;
-        let c895: u64 = u64::from(((c864 >> 2)) == 0);
-        let c869: u64 = (c894) & (c895) & 0x1;
-        let c903: u64 = ((c889) | (c869)) & 0x1;
-        if self.v903 != c903 { self.v903 = c903; *dirty |= 0x8000000000; }
-        let c934: u64 = (((self.q82 >> 3)) ^ (self.q37)) & 0xff;
-        let c865: u64 = (c934) & (c932) & 0xff;
-        let c892: u64 = u64::from((c865) == 0);
-        if self.v892 != c892 { self.v892 = c892; *dirty |= 0x8000000000; }
-        let c936: u64 = ((self.q85) ^ (self.q37)) & 0xff;
-        let c872: u64 = (c936) & (c932) & 0xff;
-        let c897: u64 = u64::from((c872) == 0);
-        let c909: u64 = if (c896) != 0 { (c897) } else { (c915) };
-        let c912: u64 = if (c871) != 0 { (c909) } else { (c915) };
-        let c906: u64 = ((c912) | (self.i_reset)) & 0x1;
-        if self.v906 != c906 { self.v906 = c906; *dirty |= 0x10000000000000000000000; }
-        let c937: u64 = ((self.q85) ^ ((self.q36 & 0xf) | ((self.q38 & 0xf) << 4))) & 0xff;
-        let c938: u64 = (((self.q32 & 0xf) | ((self.q34 & 0xf) << 4)) ^ (0xff)) & 0xff;
-        let c873: u64 = (c937) & (c938) & 0xff;
+        let c889: u64 = u64::from((c927) == (0x7));
+        if self.v889 != c889 { self.v889 = c889; *dirty |= 0x8000000000; }
+        let c924: u64 = if (c879) != 0 { (self.q34) } else { (self.q35) };
+        let c922: u64 = if (c880) != 0 { (self.q33) } else { (c924) };
+        let c920: u64 = if (c881) != 0 { (self.q32) } else { (c922) };
+        let c925: u64 = if (c879) != 0 { (self.q38) } else { (self.q39) };
+        let c923: u64 = if (c880) != 0 { (self.q37) } else { (c925) };
+        let c921: u64 = if (c881) != 0 { (self.q36) } else { (c923) };
+        let c919: u64 = if ((c927 >> 2)) != 0 { (c920) } else { (c921) };
+        if self.v919 != c919 { self.v919 = c919; *dirty |= 0x80000; }
+        let c928: u64 = (((self.q82 >> 3)) ^ (self.q39)) & 0xff;
+        let c929: u64 = ((self.q35) ^ (0xff)) & 0xff;
+        let c862: u64 = (c928) & (c929) & 0xff;
+        let c891: u64 = u64::from((c862) == 0);
+        if self.v891 != c891 { self.v891 = c891; *dirty |= 0x4000000000008000000000; }
+        let c931: u64 = ((self.q34) ^ (0xff)) & 0xff;
+        if self.v931 != c931 { self.v931 = c931; *dirty |= 0x8000000000; }
+        let c932: u64 = ((((self.q81 >> 5) & 0xff)) ^ (self.q37)) & 0xff;
+        let c933: u64 = ((self.q33) ^ (0xff)) & 0xff;
+        let c864: u64 = (c932) & (c933) & 0xff;
+        let c895: u64 = u64::from((c864) == 0);
+        let c934: u64 = ((self.q32) ^ (0xff)) & 0xff;
+        if self.v934 != c934 { self.v934 = c934; *dirty |= 0x8000000000; }
+        let c865: u64 = ((self.q36 & 0x3) | (c116 << 2)) & (c934) & 0xff;
+        let c896: u64 = u64::from(((c865 >> 2)) == 0);
+        let c870: u64 = (c895) & (c896) & 0x1;
+        let c904: u64 = ((c890) | (c870)) & 0x1;
+        if self.v904 != c904 { self.v904 = c904; *dirty |= 0x8000000000; }
+        let c935: u64 = (((self.q82 >> 3)) ^ (self.q37)) & 0xff;
+        let c866: u64 = (c935) & (c933) & 0xff;
+        let c893: u64 = u64::from((c866) == 0);
+        if self.v893 != c893 { self.v893 = c893; *dirty |= 0x8000000000; }
+        let c937: u64 = ((self.q85) ^ (self.q37)) & 0xff;
+        let c873: u64 = (c937) & (c933) & 0xff;
         let c898: u64 = u64::from((c873) == 0);
-        let c908: u64 = if (c896) != 0 { (c898) } else { (c913) };
-        let c911: u64 = if (c871) != 0 { (c908) } else { (c913) };
-        let c904: u64 = ((c911) | (self.i_reset)) & 0x1;
-        if self.v904 != c904 { self.v904 = c904; *dirty |= 0x8000000000000000000000; }
-        let c939: u64 = ((self.q85) ^ (self.q36)) & 0xff;
-        let c874: u64 = (c939) & (c933) & 0xff;
-        let c900: u64 = u64::from((c874) == 0);
-        let c907: u64 = if (c899) != 0 { (c900) } else { (c914) };
-        let c910: u64 = if (c871) != 0 { (c907) } else { (c914) };
-        let c905: u64 = ((c910) | (self.i_reset)) & 0x1;
-        if self.v905 != c905 { self.v905 = c905; *dirty |= 0x20000000000000000000000; }
+        let c910: u64 = if (c897) != 0 { (c898) } else { (c916) };
+        let c913: u64 = if (c872) != 0 { (c910) } else { (c916) };
+        let c907: u64 = ((c913) | (self.i_reset)) & 0x1;
+        if self.v907 != c907 { self.v907 = c907; *dirty |= 0x10000000000000000000000; }
+        let c938: u64 = ((self.q85) ^ ((self.q36 & 0xf) | ((self.q38 & 0xf) << 4))) & 0xff;
+        let c939: u64 = (((self.q32 & 0xf) | ((self.q34 & 0xf) << 4)) ^ (0xff)) & 0xff;
+        let c874: u64 = (c938) & (c939) & 0xff;
+        let c899: u64 = u64::from((c874) == 0);
+        let c909: u64 = if (c897) != 0 { (c899) } else { (c914) };
+        let c912: u64 = if (c872) != 0 { (c909) } else { (c914) };
+        let c905: u64 = ((c912) | (self.i_reset)) & 0x1;
+        if self.v905 != c905 { self.v905 = c905; *dirty |= 0x8000000000000000000000; }
+        let c940: u64 = ((self.q85) ^ (self.q36)) & 0xff;
+        let c875: u64 = (c940) & (c934) & 0xff;
+        let c901: u64 = u64::from((c875) == 0);
+        let c908: u64 = if (c900) != 0 { (c901) } else { (c915) };
+        let c911: u64 = if (c872) != 0 { (c908) } else { (c915) };
+        let c906: u64 = ((c911) | (self.i_reset)) & 0x1;
+        if self.v906 != c906 { self.v906 = c906; *dirty |= 0x20000000000000000000000; }
         let _ = &dirty;
     }
 
@@ -3496,34 +3501,34 @@ impl Model {
     /// The cells of top$read.
     fn group_4(&mut self, dirty: &mut u128) {
         let c108: u64 = (((self.m0_rd & 0xf)) | (self.q106)) & 0xf;
-        let c1051: u64 = u64::from((self.i_addr) == (0x2));
-        if self.v1051 != c1051 { self.v1051 = c1051; *dirty |= 0x80000; }
-        let c1052: u64 = u64::from((self.i_addr) == (0xb));
-        if self.v1052 != c1052 { self.v1052 = c1052; *dirty |= 0x80040; }
-        let c1053: u64 = u64::from((self.i_addr) == (0xc));
+        let c1052: u64 = u64::from((self.i_addr) == (0x2));
+        if self.v1052 != c1052 { self.v1052 = c1052; *dirty |= 0x80000; }
+        let c1053: u64 = u64::from((self.i_addr) == (0xb));
         if self.v1053 != c1053 { self.v1053 = c1053; *dirty |= 0x80040; }
-        let c1054: u64 = u64::from((self.i_addr) == (0xe));
-        if self.v1054 != c1054 { self.v1054 = c1054; *dirty |= 0x88000; }
-        let c1055: u64 = u64::from((self.i_addr) == (0xf));
+        let c1054: u64 = u64::from((self.i_addr) == (0xc));
+        if self.v1054 != c1054 { self.v1054 = c1054; *dirty |= 0x80040; }
+        let c1055: u64 = u64::from((self.i_addr) == (0xe));
         if self.v1055 != c1055 { self.v1055 = c1055; *dirty |= 0x88000; }
-        let c1056: u64 = u64::from((self.i_addr) == (0x1d));
-        if self.v1056 != c1056 { self.v1056 = c1056; *dirty |= 0x80000; }
-        let c1057: u64 = u64::from((self.i_addr) == (0x1e));
-        if self.v1057 != c1057 { self.v1057 = c1057; *dirty |= 0x88000; }
-        let c1058: u64 = u64::from((self.i_addr) == 0);
-        if self.v1058 != c1058 { self.v1058 = c1058; *dirty |= 0x800080080; }
-        let c1059: u64 = u64::from((self.i_addr) == (0x1));
-        if self.v1059 != c1059 { self.v1059 = c1059; *dirty |= 0x80800; }
-        let c1060: u64 = u64::from((self.i_addr) == (0x3));
-        if self.v1060 != c1060 { self.v1060 = c1060; *dirty |= 0x80040; }
-        let c1061: u64 = u64::from((self.i_addr) == (0x15));
-        if self.v1061 != c1061 { self.v1061 = c1061; *dirty |= 0x80000; }
-        let c1062: u64 = ((self.v642) | (self.v574)) & 0x1;
-        if self.v1062 != c1062 { self.v1062 = c1062; *dirty |= 0x2000; }
-        let c1067: u64 = if (self.q9) != 0 { (c108 | ((self.m0_rd >> 4) << 4)) } else { (self.q7) };
-        if self.v1067 != c1067 { self.v1067 = c1067; *dirty |= 0x4000000000000000000000000000; }
-        let c1092: u64 = if (self.q14) != 0 { (self.q21) } else { (0x1) };
-        if self.v1092 != c1092 { self.v1092 = c1092; *dirty |= 0x800080000; }
+        let c1056: u64 = u64::from((self.i_addr) == (0xf));
+        if self.v1056 != c1056 { self.v1056 = c1056; *dirty |= 0x88000; }
+        let c1057: u64 = u64::from((self.i_addr) == (0x1d));
+        if self.v1057 != c1057 { self.v1057 = c1057; *dirty |= 0x80000; }
+        let c1058: u64 = u64::from((self.i_addr) == (0x1e));
+        if self.v1058 != c1058 { self.v1058 = c1058; *dirty |= 0x88000; }
+        let c1059: u64 = u64::from((self.i_addr) == 0);
+        if self.v1059 != c1059 { self.v1059 = c1059; *dirty |= 0x800080080; }
+        let c1060: u64 = u64::from((self.i_addr) == (0x1));
+        if self.v1060 != c1060 { self.v1060 = c1060; *dirty |= 0x80800; }
+        let c1061: u64 = u64::from((self.i_addr) == (0x3));
+        if self.v1061 != c1061 { self.v1061 = c1061; *dirty |= 0x80040; }
+        let c1062: u64 = u64::from((self.i_addr) == (0x15));
+        if self.v1062 != c1062 { self.v1062 = c1062; *dirty |= 0x80000; }
+        let c1063: u64 = ((self.v643) | (self.v574)) & 0x1;
+        if self.v1063 != c1063 { self.v1063 = c1063; *dirty |= 0x2000; }
+        let c1068: u64 = if (self.q9) != 0 { (c108 | ((self.m0_rd >> 4) << 4)) } else { (self.q7) };
+        if self.v1068 != c1068 { self.v1068 = c1068; *dirty |= 0x4000000000000000000000000000; }
+        let c1093: u64 = if (self.q14) != 0 { (self.q21) } else { (0x1) };
+        if self.v1093 != c1093 { self.v1093 = c1093; *dirty |= 0x800080000; }
         let _ = &dirty;
     }
 
@@ -3562,58 +3567,58 @@ impl Model {
 
     /// The cells of top$interrupts.
     fn group_6(&mut self, dirty: &mut u128) {
-        let c940: u64 = (self.i_re) & (self.v1060) & 0x1;
-        let c941: u64 = (self.q14) & (self.v877) & 0x1;
-        if self.v941 != c941 { self.v941 = c941; *dirty |= 0x800000000; }
-        let c943: u64 = (self.q74) & (self.q122) & 0x1;
-        if self.v943 != c943 { self.v943 = c943; *dirty |= 0x40000000000000800000000; }
-        let c944: u64 = (self.q75) & (self.q123) & 0x1;
-        if self.v944 != c944 { self.v944 = c944; *dirty |= 0x100000000000000800000000; }
-        let c945: u64 = (self.i_re) & (self.q14) & 0x1;
-        let c950: u64 = !(self.q127) & 0x1;
-        if self.v950 != c950 { self.v950 = c950; *dirty |= 0x80980; }
-        let c951: u64 = !(self.q19) & 0x1;
-        let c946: u64 = (self.q42) & (c951) & 0x1;
-        if self.v946 != c946 { self.v946 = c946; *dirty |= 0x800000000; }
-        let c952: u64 = !(self.q17) & 0x1;
-        let c956: u64 = u64::from((self.q113) != (self.q25));
-        let c957: u64 = u64::from((self.q114) != (self.q18));
-        let c958: u64 = u64::from((self.q49) != 0);
-        if self.v958 != c958 { self.v958 = c958; *dirty |= 0x1000000000000000800080000; }
-        let c111: u64 = (self.q26) & (c958) & 0x1;
-        let c126: u64 = if (self.q14) != 0 { (c958) } else { (c111) };
-        if self.v126 != c126 { self.v126 = c126; *dirty |= 0x80000; }
-        let c947: u64 = (c958) & (c952) & 0x1;
+        let c941: u64 = (self.i_re) & (self.v1061) & 0x1;
+        let c942: u64 = (self.q14) & (self.v878) & 0x1;
+        if self.v942 != c942 { self.v942 = c942; *dirty |= 0x800000000; }
+        let c944: u64 = (self.q74) & (self.q122) & 0x1;
+        if self.v944 != c944 { self.v944 = c944; *dirty |= 0x40000000000000800000000; }
+        let c945: u64 = (self.q75) & (self.q123) & 0x1;
+        if self.v945 != c945 { self.v945 = c945; *dirty |= 0x100000000000000800000000; }
+        let c946: u64 = (self.i_re) & (self.q14) & 0x1;
+        let c951: u64 = !(self.q127) & 0x1;
+        if self.v951 != c951 { self.v951 = c951; *dirty |= 0x80980; }
+        let c952: u64 = !(self.q19) & 0x1;
+        let c947: u64 = (self.q42) & (c952) & 0x1;
         if self.v947 != c947 { self.v947 = c947; *dirty |= 0x800000000; }
-        let c959: u64 = u64::from((self.q49) != (0x1));
-        if self.v959 != c959 { self.v959 = c959; *dirty |= 0x800000000; }
-        let c967: u64 = if (c940) != 0 { (0x0) } else { (self.q20) };
-        if self.v967 != c967 { self.v967 = c967; *dirty |= 0x800000000; }
-        let c969: u64 = if (c940) != 0 { (0x0) } else { (self.q26) };
-        if self.v969 != c969 { self.v969 = c969; *dirty |= 0x800000000; }
-        let c970: u64 = if (self.q127) != 0 { (0x0) } else { (c957) };
-        let c971: u64 = if (self.q113) != 0 { (0x0) } else { (c970) };
-        if self.v971 != c971 { self.v971 = c971; *dirty |= 0x800000000; }
-        let c973: u64 = if (self.q14) != 0 { (self.q101) } else { (0x60) };
-        let c953: u64 = u64::from((self.q65 | (self.q66 << 3) | (self.q64 << 7)) >= (c973));
-        let c954: u64 = u64::from((self.q67 | (self.q68 << 7)) >= (c973));
-        let c960: u64 = ((c953) | (c954)) & 0x1;
-        let c961: u64 = ((c960) | (self.q113)) & 0x1;
-        let c972: u64 = if (self.q127) != 0 { (self.q23) } else { (c961) };
-        if self.v972 != c972 { self.v972 = c972; *dirty |= 0x200000000000000000000000; }
-        let c955: u64 = u64::from((c972) != (self.q23));
-        let c962: u64 = ((c955) | (c956)) & 0x1;
-        if self.v962 != c962 { self.v962 = c962; *dirty |= 0x800000000; }
-        let c978: u64 = if (c944) != 0 { (0x0) } else { (self.q123) };
-        let c974: u64 = ((c978) | (self.v1053)) & 0x1;
-        let c976: u64 = if (c945) != 0 { (c974) } else { (c978) };
-        let c964: u64 = ((c976) | (self.i_reset)) & 0x1;
-        if self.v964 != c964 { self.v964 = c964; *dirty |= 0x100000000000000000000000; }
-        let c979: u64 = if (c943) != 0 { (0x0) } else { (self.q122) };
-        let c975: u64 = ((c979) | (self.v1052)) & 0x1;
-        let c977: u64 = if (c945) != 0 { (c975) } else { (c979) };
+        let c953: u64 = !(self.q17) & 0x1;
+        let c957: u64 = u64::from((self.q113) != (self.q25));
+        let c958: u64 = u64::from((self.q114) != (self.q18));
+        let c959: u64 = u64::from((self.q49) != 0);
+        if self.v959 != c959 { self.v959 = c959; *dirty |= 0x1000000000000000800080000; }
+        let c111: u64 = (self.q26) & (c959) & 0x1;
+        let c126: u64 = if (self.q14) != 0 { (c959) } else { (c111) };
+        if self.v126 != c126 { self.v126 = c126; *dirty |= 0x80000; }
+        let c948: u64 = (c959) & (c953) & 0x1;
+        if self.v948 != c948 { self.v948 = c948; *dirty |= 0x800000000; }
+        let c960: u64 = u64::from((self.q49) != (0x1));
+        if self.v960 != c960 { self.v960 = c960; *dirty |= 0x800000000; }
+        let c968: u64 = if (c941) != 0 { (0x0) } else { (self.q20) };
+        if self.v968 != c968 { self.v968 = c968; *dirty |= 0x800000000; }
+        let c970: u64 = if (c941) != 0 { (0x0) } else { (self.q26) };
+        if self.v970 != c970 { self.v970 = c970; *dirty |= 0x800000000; }
+        let c971: u64 = if (self.q127) != 0 { (0x0) } else { (c958) };
+        let c972: u64 = if (self.q113) != 0 { (0x0) } else { (c971) };
+        if self.v972 != c972 { self.v972 = c972; *dirty |= 0x800000000; }
+        let c974: u64 = if (self.q14) != 0 { (self.q101) } else { (0x60) };
+        let c954: u64 = u64::from((self.q65 | (self.q66 << 3) | (self.q64 << 7)) >= (c974));
+        let c955: u64 = u64::from((self.q67 | (self.q68 << 7)) >= (c974));
+        let c961: u64 = ((c954) | (c955)) & 0x1;
+        let c962: u64 = ((c961) | (self.q113)) & 0x1;
+        let c973: u64 = if (self.q127) != 0 { (self.q23) } else { (c962) };
+        if self.v973 != c973 { self.v973 = c973; *dirty |= 0x200000000000000000000000; }
+        let c956: u64 = u64::from((c973) != (self.q23));
+        let c963: u64 = ((c956) | (c957)) & 0x1;
+        if self.v963 != c963 { self.v963 = c963; *dirty |= 0x800000000; }
+        let c979: u64 = if (c945) != 0 { (0x0) } else { (self.q123) };
+        let c975: u64 = ((c979) | (self.v1054)) & 0x1;
+        let c977: u64 = if (c946) != 0 { (c975) } else { (c979) };
         let c965: u64 = ((c977) | (self.i_reset)) & 0x1;
-        if self.v965 != c965 { self.v965 = c965; *dirty |= 0x40000000000000000000000; }
+        if self.v965 != c965 { self.v965 = c965; *dirty |= 0x100000000000000000000000; }
+        let c980: u64 = if (c944) != 0 { (0x0) } else { (self.q122) };
+        let c976: u64 = ((c980) | (self.v1053)) & 0x1;
+        let c978: u64 = if (c946) != 0 { (c976) } else { (c980) };
+        let c966: u64 = ((c978) | (self.i_reset)) & 0x1;
+        if self.v966 != c966 { self.v966 = c966; *dirty |= 0x40000000000000000000000; }
         let _ = &dirty;
     }
 
@@ -3623,102 +3628,102 @@ impl Model {
         if self.v83 != c83 { self.v83 = c83; *dirty |= 0x400000000; }
         let c85: u64 = u64::from((self.i_reset | (c83 << 1)) != 0);
         if self.v85 != c85 { self.v85 = c85; *dirty |= 0x800000000000000000000000000; }
-        let c981: u64 = (self.q10).wrapping_add((0x1)) & 0x1f;
-        if self.v981 != c981 { self.v981 = c981; *dirty |= 0x800000000000000000000000000; }
-        let c982: u64 = (self.i_we) & (self.v1058) & 0x1;
-        if self.v982 != c982 { self.v982 = c982; *dirty |= 0x800; }
-        let c50: u64 = u64::from((self.q14 | (self.q127 << 1) | (c982 << 2)) == 0x7);
+        let c982: u64 = (self.q10).wrapping_add((0x1)) & 0x1f;
+        if self.v982 != c982 { self.v982 = c982; *dirty |= 0x800000000000000000000000000; }
+        let c983: u64 = (self.i_we) & (self.v1059) & 0x1;
+        if self.v983 != c983 { self.v983 = c983; *dirty |= 0x800; }
+        let c50: u64 = u64::from((self.q14 | (self.q127 << 1) | (c983 << 2)) == 0x7);
         if self.v50 != c50 { self.v50 = c50; *dirty |= 0x4000000000000000000000000; }
-        let c983: u64 = ((self.i_wdata & 0x1)) & (self.v950) & 0x1;
-        let c995: u64 = !((self.i_wdata & 0x1)) & 0x1;
-        let c984: u64 = (((self.i_wdata >> 4) & 0x1)) & (c995) & 0x1;
-        let c996: u64 = !(((self.i_wdata >> 4) & 0x1)) & 0x1;
-        let c999: u64 = !(self.i_rx) & 0x1;
-        if self.v999 != c999 { self.v999 = c999; *dirty |= 0x400000000; }
-        let c1000: u64 = !(self.q25) & 0x1;
-        let c989: u64 = (self.q113) & (c1000) & 0x1;
-        let c1001: u64 = u64::from((self.i_addr) == (0x1f));
-        if self.v1001 != c1001 { self.v1001 = c1001; *dirty |= 0x80000; }
-        let c990: u64 = (self.i_we) & (c1001) & 0x1;
-        if self.v990 != c990 { self.v990 = c990; *dirty |= 0x10000000000; }
-        let c49: u64 = u64::from((self.q127 | (c990 << 1)) == 0x3);
+        let c984: u64 = ((self.i_wdata & 0x1)) & (self.v951) & 0x1;
+        let c996: u64 = !((self.i_wdata & 0x1)) & 0x1;
+        let c985: u64 = (((self.i_wdata >> 4) & 0x1)) & (c996) & 0x1;
+        let c997: u64 = !(((self.i_wdata >> 4) & 0x1)) & 0x1;
+        let c1000: u64 = !(self.i_rx) & 0x1;
+        if self.v1000 != c1000 { self.v1000 = c1000; *dirty |= 0x400000000; }
+        let c1001: u64 = !(self.q25) & 0x1;
+        let c990: u64 = (self.q113) & (c1001) & 0x1;
+        let c1002: u64 = u64::from((self.i_addr) == (0x1f));
+        if self.v1002 != c1002 { self.v1002 = c1002; *dirty |= 0x80000; }
+        let c991: u64 = (self.i_we) & (c1002) & 0x1;
+        if self.v991 != c991 { self.v991 = c991; *dirty |= 0x10000000000; }
+        let c49: u64 = u64::from((self.q127 | (c991 << 1)) == 0x3);
         if self.v49 != c49 { self.v49 = c49; *dirty |= 0x10000000000; }
-        let c1002: u64 = u64::from((self.q10) == (0x10));
-        if self.v1002 != c1002 { self.v1002 = c1002; *dirty |= 0x2000000000000000000000000; }
-        let c1005: u64 = u64::from((self.q10) != (0x10));
-        if self.v1005 != c1005 { self.v1005 = c1005; *dirty |= 0x400000000; }
-        let c1014: u64 = if (self.q127) != 0 { (((self.i_wdata >> 3) & 0x1) | ((self.i_wdata >> 5) << 1)) } else { (self.q15 | (self.q14 << 3)) };
-        let c1015: u64 = if (c990) != 0 { ((self.i_wdata & 0x7) | (c1014 << 3)) } else { (self.q105 | (self.q15 << 3) | (self.q14 << 6)) };
-        let c1007: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1015) };
-        if self.v1007 != c1007 { self.v1007 = c1007; *dirty |= 0x10000000000; }
-        let c1027: u64 = if (self.q127) != 0 { (((self.i_wdata >> 2) & 0x1)) } else { (self.q130) };
-        let c1028: u64 = if (self.q127) != 0 { (((self.i_wdata >> 1) & 0x1)) } else { (self.q126) };
-        let c1029: u64 = if (self.q127) != 0 { (0x0) } else { (c996) };
-        let c1030: u64 = if (self.q127) != 0 { (0x0) } else { (c984) };
-        let c1031: u64 = (self.q14) & (c1029) & 0x1;
+        let c1003: u64 = u64::from((self.q10) == (0x10));
+        if self.v1003 != c1003 { self.v1003 = c1003; *dirty |= 0x2000000000000000000000000; }
+        let c1006: u64 = u64::from((self.q10) != (0x10));
+        if self.v1006 != c1006 { self.v1006 = c1006; *dirty |= 0x400000000; }
+        let c1015: u64 = if (self.q127) != 0 { (((self.i_wdata >> 3) & 0x1) | ((self.i_wdata >> 5) << 1)) } else { (self.q15 | (self.q14 << 3)) };
+        let c1016: u64 = if (c991) != 0 { ((self.i_wdata & 0x7) | (c1015 << 3)) } else { (self.q105 | (self.q15 << 3) | (self.q14 << 6)) };
+        let c1008: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1016) };
+        if self.v1008 != c1008 { self.v1008 = c1008; *dirty |= 0x10000000000; }
+        let c1028: u64 = if (self.q127) != 0 { (((self.i_wdata >> 2) & 0x1)) } else { (self.q130) };
+        let c1029: u64 = if (self.q127) != 0 { (((self.i_wdata >> 1) & 0x1)) } else { (self.q126) };
+        let c1030: u64 = if (self.q127) != 0 { (0x0) } else { (c997) };
+        let c1031: u64 = if (self.q127) != 0 { (0x0) } else { (c985) };
         let c1032: u64 = (self.q14) & (c1030) & 0x1;
-        let c1033: u64 = if (self.q14) != 0 { (c1027) } else { (self.q130) };
-        let c1034: u64 = if (self.q14) != 0 { (c1028) } else { (self.q126) };
-        let c1035: u64 = (c982) & (c1031) & 0x1;
-        if self.v1035 != c1035 { self.v1035 = c1035; *dirty |= 0x400000000; }
-        let c1036: u64 = (c982) & (c1032) & 0x1;
+        let c1033: u64 = (self.q14) & (c1031) & 0x1;
+        let c1034: u64 = if (self.q14) != 0 { (c1028) } else { (self.q130) };
+        let c1035: u64 = if (self.q14) != 0 { (c1029) } else { (self.q126) };
+        let c1036: u64 = (c983) & (c1032) & 0x1;
         if self.v1036 != c1036 { self.v1036 = c1036; *dirty |= 0x400000000; }
-        let c1037: u64 = if (c982) != 0 { (c1033) } else { (self.q130) };
-        let c1009: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1037) };
-        if self.v1009 != c1009 { self.v1009 = c1009; *dirty |= 0x2000000000000000000000000000; }
-        let c994: u64 = (c1009) & ((c1007 >> 6)) & 0x1;
-        if self.v994 != c994 { self.v994 = c994; *dirty |= 0x400000000000000000000000000; }
-        let c1038: u64 = if (c982) != 0 { (c1034) } else { (self.q126) };
+        let c1037: u64 = (c983) & (c1033) & 0x1;
+        if self.v1037 != c1037 { self.v1037 = c1037; *dirty |= 0x400000000; }
+        let c1038: u64 = if (c983) != 0 { (c1034) } else { (self.q130) };
         let c1010: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1038) };
-        if self.v1010 != c1010 { self.v1010 = c1010; *dirty |= 0x100000000000000000000000000; }
-        let c993: u64 = (c1010) & ((c1007 >> 6)) & 0x1;
-        if self.v993 != c993 { self.v993 = c993; *dirty |= 0x80000000000000000000000000; }
-        let c1039: u64 = (c982) & (c983) & 0x1;
-        let c1017: u64 = if (c989) != 0 { (self.v950) } else { (c1039) };
-        if self.v1017 != c1017 { self.v1017 = c1017; *dirty |= 0xc00008000; }
-        let c84: u64 = u64::from((self.i_reset | (c1017 << 1)) != 0);
+        if self.v1010 != c1010 { self.v1010 = c1010; *dirty |= 0x2000000000000000000000000000; }
+        let c995: u64 = (c1010) & ((c1008 >> 6)) & 0x1;
+        if self.v995 != c995 { self.v995 = c995; *dirty |= 0x400000000000000000000000000; }
+        let c1039: u64 = if (c983) != 0 { (c1035) } else { (self.q126) };
+        let c1011: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1039) };
+        if self.v1011 != c1011 { self.v1011 = c1011; *dirty |= 0x100000000000000000000000000; }
+        let c994: u64 = (c1011) & ((c1008 >> 6)) & 0x1;
+        if self.v994 != c994 { self.v994 = c994; *dirty |= 0x80000000000000000000000000; }
+        let c1040: u64 = (c983) & (c984) & 0x1;
+        let c1018: u64 = if (c990) != 0 { (self.v951) } else { (c1040) };
+        if self.v1018 != c1018 { self.v1018 = c1018; *dirty |= 0xc00008000; }
+        let c84: u64 = u64::from((self.i_reset | (c1018 << 1)) != 0);
         if self.v84 != c84 { self.v84 = c84; *dirty |= 0x20000000000000000000000000000000; }
-        let c1040: u64 = if (c982) != 0 { ((self.i_wdata & 0x1)) } else { (self.q127) };
-        let c1018: u64 = ((c1040) | (c989)) & 0x1;
-        let c1011: u64 = ((c1018) | (self.i_reset)) & 0x1;
-        if self.v1011 != c1011 { self.v1011 = c1011; *dirty |= 0x200000000000000000000000000; }
-        let c1003: u64 = !(c1011) & 0x1;
-        if self.v1003 != c1003 { self.v1003 = c1003; *dirty |= 0x400000000; }
+        let c1041: u64 = if (c983) != 0 { ((self.i_wdata & 0x1)) } else { (self.q127) };
+        let c1019: u64 = ((c1041) | (c990)) & 0x1;
+        let c1012: u64 = ((c1019) | (self.i_reset)) & 0x1;
+        if self.v1012 != c1012 { self.v1012 = c1012; *dirty |= 0x200000000000000000000000000; }
+        let c1004: u64 = !(c1012) & 0x1;
+        if self.v1004 != c1004 { self.v1004 = c1004; *dirty |= 0x400000000; }
         let _ = &dirty;
     }
 
     /// The cells of can_controller.
     fn group_8(&mut self, dirty: &mut u128) {
-        let c4: u64 = (self.i_we) & (self.v950) & 0x1;
+        let c4: u64 = (self.i_we) & (self.v951) & 0x1;
         let c5: u64 = (c4) & (self.q131) & 0x1;
         if self.v5 != c5 { self.v5 = c5; *dirty |= 0x8000; }
         let c13: u64 = (self.q70) & (self.q69) & 0x1;
         let c14: u64 = (c13) & (self.q6) & 0x1;
-        let c782: u64 = { let s = (self.i_addr); if s < 256 { TABLE_0[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-        if self.v782 != c782 { self.v782 = c782; *dirty |= 0x800; }
-        let c783: u64 = { let s = (self.i_addr); if s < 256 { TABLE_1[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        let c783: u64 = { let s = (self.i_addr); if s < 256 { TABLE_0[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
         if self.v783 != c783 { self.v783 = c783; *dirty |= 0x800; }
-        let c784: u64 = { let s = (self.i_addr); if s < 256 { TABLE_2[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        let c784: u64 = { let s = (self.i_addr); if s < 256 { TABLE_1[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
         if self.v784 != c784 { self.v784 = c784; *dirty |= 0x800; }
-        let c785: u64 = { let s = (self.i_addr); if s < 256 { TABLE_3[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        let c785: u64 = { let s = (self.i_addr); if s < 256 { TABLE_2[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
         if self.v785 != c785 { self.v785 = c785; *dirty |= 0x800; }
-        let c786: u64 = { let s = (self.i_addr); if s < 256 { TABLE_4[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        let c786: u64 = { let s = (self.i_addr); if s < 256 { TABLE_3[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
         if self.v786 != c786 { self.v786 = c786; *dirty |= 0x800; }
-        let c787: u64 = { let s = (self.i_addr); if s < 256 { TABLE_5[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-        if self.v787 != c787 { self.v787 = c787; *dirty |= 0x80000; }
-        let c1106: u64 = if ((self.q56 & 0x1) | (self.q55 << 1) | ((self.q56 >> 1) << 3)) < 16 { (self.q108) >> ((self.q56 & 0x1) | (self.q55 << 1) | ((self.q56 >> 1) << 3)) & 0x1 } else { 0 };
-        if self.v1106 != c1106 { self.v1106 = c1106; *dirty |= 0x100000; }
-        let c1110: u64 = ((self.q50) | (c14)) & 0x1;
-        let c15: u64 = (c1110) & (self.v917) & 0x1;
-        let c1111: u64 = ((self.q14) | (self.v889)) & 0x1;
-        let c16: u64 = (c15) & (c1111) & 0x1;
+        let c787: u64 = { let s = (self.i_addr); if s < 256 { TABLE_4[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v787 != c787 { self.v787 = c787; *dirty |= 0x800; }
+        let c788: u64 = { let s = (self.i_addr); if s < 256 { TABLE_5[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v788 != c788 { self.v788 = c788; *dirty |= 0x80000; }
+        let c1107: u64 = if ((self.q56 & 0x1) | (self.q55 << 1) | ((self.q56 >> 1) << 3)) < 16 { (self.q108) >> ((self.q56 & 0x1) | (self.q55 << 1) | ((self.q56 >> 1) << 3)) & 0x1 } else { 0 };
+        if self.v1107 != c1107 { self.v1107 = c1107; *dirty |= 0x100000; }
+        let c1111: u64 = ((self.q50) | (c14)) & 0x1;
+        let c15: u64 = (c1111) & (self.v918) & 0x1;
+        let c1112: u64 = ((self.q14) | (self.v890)) & 0x1;
+        let c16: u64 = (c15) & (c1112) & 0x1;
         if self.v16 != c16 { self.v16 = c16; *dirty |= 0x400; }
-        let c1118: u64 = if (self.q70) != 0 { (self.q69) } else { (self.q132) };
-        if self.v1118 != c1118 { self.v1118 = c1118; *dirty |= 0x8000; }
-        let c1119: u64 = ((self.q131) | (self.q70)) & 0x1;
+        let c1119: u64 = if (self.q70) != 0 { (self.q69) } else { (self.q132) };
         if self.v1119 != c1119 { self.v1119 = c1119; *dirty |= 0x8000; }
-        let c1120: u64 = if (self.q70) != 0 { (0x0) } else { (self.q2) };
+        let c1120: u64 = ((self.q131) | (self.q70)) & 0x1;
         if self.v1120 != c1120 { self.v1120 = c1120; *dirty |= 0x8000; }
+        let c1121: u64 = if (self.q70) != 0 { (0x0) } else { (self.q2) };
+        if self.v1121 != c1121 { self.v1121 = c1121; *dirty |= 0x8000; }
         let _ = &dirty;
     }
 
@@ -3766,63 +3771,63 @@ impl Model {
 
     /// The cells of top$fifo.
     fn group_10(&mut self, dirty: &mut u128) {
-        let c793: u64 = (self.q44).wrapping_add((0x1)) & 0x7;
-        let c802: u64 = (self.v16) & (self.q43) & 0x1;
-        let c804: u64 = !(self.q43) & 0x1;
-        let c800: u64 = (self.v16) & (c804) & 0x1;
-        if self.v800 != c800 { self.v800 = c800; *dirty |= 0x1000000000; }
-        let c20: u64 = u64::from((c800 | (self.q127 << 1)) != 0);
+        let c794: u64 = (self.q44).wrapping_add((0x1)) & 0x7;
+        let c803: u64 = (self.v16) & (self.q43) & 0x1;
+        let c805: u64 = !(self.q43) & 0x1;
+        let c801: u64 = (self.v16) & (c805) & 0x1;
+        if self.v801 != c801 { self.v801 = c801; *dirty |= 0x1000000000; }
+        let c20: u64 = u64::from((c801 | (self.q127 << 1)) != 0);
         if self.v20 != c20 { self.v20 = c20; *dirty |= 0x80000000000000000000; }
-        let c819: u64 = ((self.q42) | (c802)) & 0x1;
-        if self.v819 != c819 { self.v819 = c819; *dirty |= 0x40000000000000000000; }
-        let c834: u64 = ((self.q40) | (self.q86)) & 0x1;
-        let c835: u64 = if ((self.q44 & 0x1)) != 0 { ((self.q82 >> 3)) } else { (self.q84 | (self.q78 << 6) | (self.q80 << 7)) };
-        let c836: u64 = if (self.q80) != 0 { ((self.q81 >> 17)) } else { (self.q78) };
-        if self.v836 != c836 { self.v836 = c836; *dirty |= 0x8000000000; }
-        let c837: u64 = if ((self.q44 & 0x1)) != 0 { (((self.q81 >> 5) & 0xff)) } else { (((self.q81 >> 13) & 0xf) | (c836 << 4) | ((self.q82 & 0x7) << 5)) };
-        let c838: u64 = if (((self.q44 >> 1) & 0x1)) != 0 { (c837) } else { (c835) };
-        let c839: u64 = if ((self.q44 >> 2)) != 0 { ((self.q78 << 2) | ((self.q81 & 0x1f) << 3)) } else { (c838) };
-        let c841: u64 = if (self.q40) != 0 { (c839) } else { (self.q84 | (self.q78 << 6) | (self.q80 << 7)) };
-        let c832: u64 = if (self.q86) != 0 { (self.q85) } else { (c841) };
+        let c820: u64 = ((self.q42) | (c803)) & 0x1;
+        if self.v820 != c820 { self.v820 = c820; *dirty |= 0x40000000000000000000; }
+        let c835: u64 = ((self.q40) | (self.q86)) & 0x1;
+        let c836: u64 = if ((self.q44 & 0x1)) != 0 { ((self.q82 >> 3)) } else { (self.q84 | (self.q78 << 6) | (self.q80 << 7)) };
+        let c837: u64 = if (self.q80) != 0 { ((self.q81 >> 17)) } else { (self.q78) };
+        if self.v837 != c837 { self.v837 = c837; *dirty |= 0x8000000000; }
+        let c838: u64 = if ((self.q44 & 0x1)) != 0 { (((self.q81 >> 5) & 0xff)) } else { (((self.q81 >> 13) & 0xf) | (c837 << 4) | ((self.q82 & 0x7) << 5)) };
+        let c839: u64 = if (((self.q44 >> 1) & 0x1)) != 0 { (c838) } else { (c836) };
+        let c840: u64 = if ((self.q44 >> 2)) != 0 { ((self.q78 << 2) | ((self.q81 & 0x1f) << 3)) } else { (c839) };
+        let c842: u64 = if (self.q40) != 0 { (c840) } else { (self.q84 | (self.q78 << 6) | (self.q80 << 7)) };
+        let c833: u64 = if (self.q86) != 0 { (self.q85) } else { (c842) };
+        if self.v833 != c833 { self.v833 = c833; *dirty |= 0x100000000; }
+        let c844: u64 = if (self.q40) != 0 { (c794) } else { (0x0) };
+        if self.v844 != c844 { self.v844 = c844; *dirty |= 0x20000000000000000000; }
+        let c845: u64 = if (self.q83) != 0 { (0x0) } else { (self.q43) };
+        let c846: u64 = ((self.q40) | (self.q83)) & 0x1;
+        let c847: u64 = if (self.q80) != 0 { (0x2) } else { (0x1) };
+        let c793: u64 = ((c847 << 1) | 0x1).wrapping_add((self.q84)) & 0xf;
+        let c795: u64 = ((c847 << 1) | 0x1).wrapping_add((self.q87)) & 0xf;
+        let c804: u64 = u64::from((self.q44) == ((c847 << 1)));
+        let c834: u64 = if (self.q86) != 0 { (c795) } else { (self.q44) };
+        let c797: u64 = (self.q41).wrapping_add((c834)) & 0x3f;
+        if self.v797 != c797 { self.v797 = c797; *dirty |= 0x100000000; }
+        let c841: u64 = if (c804) != 0 { (0x0) } else { (c846) };
+        let c843: u64 = if (self.q40) != 0 { (c841) } else { (c846) };
+        if self.v843 != c843 { self.v843 = c843; *dirty |= 0x100000000000000000000; }
+        let c849: u64 = if ((self.q84 >> 3)) != 0 { ((c847 << 1) | 0x9) } else { (c793) };
+        let c848: u64 = if (self.q78) != 0 { ((c847 << 1) | 0x1) } else { (c849) };
+        let c799: u64 = (self.q41).wrapping_add((c848)) & 0x3f;
+        if self.v799 != c799 { self.v799 = c799; *dirty |= 0x100000000; }
+        let c806: u64 = u64::from((c799) == (self.q46));
+        if self.v806 != c806 { self.v806 = c806; *dirty |= 0x1000000000; }
+        let c853: u64 = if (self.q48) != 0 { (self.m0_rd) } else { (self.q45) };
+        if self.v853 != c853 { self.v853 = c853; *dirty |= 0x1000080000; }
+        let c852: u64 = if ((c853 >> 7)) != 0 { (0x2) } else { (0x1) };
+        let c792: u64 = ((c852 << 1) | 0x1).wrapping_add(((c853 & 0xf))) & 0xf;
+        let c851: u64 = if (((c853 >> 3) & 0x1)) != 0 { ((c852 << 1) | 0x9) } else { (c792) };
+        let c850: u64 = if (((c853 >> 6) & 0x1)) != 0 { ((c852 << 1) | 0x1) } else { (c851) };
+        let c798: u64 = (self.q46).wrapping_add((c850)) & 0x3f;
+        if self.v798 != c798 { self.v798 = c798; *dirty |= 0x1100000000; }
+        let c854: u64 = (self.q41).wrapping_sub((self.q46)) & 0x3f;
+        let c796: u64 = (c854 | (self.q47 << 6)).wrapping_add((c834)) & 0x7f;
+        let c829: u64 = ((c845) | ((c796 >> 6))) & 0x1;
+        let c830: u64 = !((c796 >> 6)) & 0x1;
+        let c831: u64 = if (c835) != 0 { (c829) } else { (c845) };
+        if self.v831 != c831 { self.v831 = c831; *dirty |= 0x400000000000000000000; }
+        let c832: u64 = (c835) & (c830) & 0x1;
         if self.v832 != c832 { self.v832 = c832; *dirty |= 0x100000000; }
-        let c843: u64 = if (self.q40) != 0 { (c793) } else { (0x0) };
-        if self.v843 != c843 { self.v843 = c843; *dirty |= 0x20000000000000000000; }
-        let c844: u64 = if (self.q83) != 0 { (0x0) } else { (self.q43) };
-        let c845: u64 = ((self.q40) | (self.q83)) & 0x1;
-        let c846: u64 = if (self.q80) != 0 { (0x2) } else { (0x1) };
-        let c792: u64 = ((c846 << 1) | 0x1).wrapping_add((self.q84)) & 0xf;
-        let c794: u64 = ((c846 << 1) | 0x1).wrapping_add((self.q87)) & 0xf;
-        let c803: u64 = u64::from((self.q44) == ((c846 << 1)));
-        let c833: u64 = if (self.q86) != 0 { (c794) } else { (self.q44) };
-        let c796: u64 = (self.q41).wrapping_add((c833)) & 0x3f;
-        if self.v796 != c796 { self.v796 = c796; *dirty |= 0x100000000; }
-        let c840: u64 = if (c803) != 0 { (0x0) } else { (c845) };
-        let c842: u64 = if (self.q40) != 0 { (c840) } else { (c845) };
-        if self.v842 != c842 { self.v842 = c842; *dirty |= 0x100000000000000000000; }
-        let c848: u64 = if ((self.q84 >> 3)) != 0 { ((c846 << 1) | 0x9) } else { (c792) };
-        let c847: u64 = if (self.q78) != 0 { ((c846 << 1) | 0x1) } else { (c848) };
-        let c798: u64 = (self.q41).wrapping_add((c847)) & 0x3f;
-        if self.v798 != c798 { self.v798 = c798; *dirty |= 0x100000000; }
-        let c805: u64 = u64::from((c798) == (self.q46));
-        if self.v805 != c805 { self.v805 = c805; *dirty |= 0x1000000000; }
-        let c852: u64 = if (self.q48) != 0 { (self.m0_rd) } else { (self.q45) };
-        if self.v852 != c852 { self.v852 = c852; *dirty |= 0x1000080000; }
-        let c851: u64 = if ((c852 >> 7)) != 0 { (0x2) } else { (0x1) };
-        let c791: u64 = ((c851 << 1) | 0x1).wrapping_add(((c852 & 0xf))) & 0xf;
-        let c850: u64 = if (((c852 >> 3) & 0x1)) != 0 { ((c851 << 1) | 0x9) } else { (c791) };
-        let c849: u64 = if (((c852 >> 6) & 0x1)) != 0 { ((c851 << 1) | 0x1) } else { (c850) };
-        let c797: u64 = (self.q46).wrapping_add((c849)) & 0x3f;
-        if self.v797 != c797 { self.v797 = c797; *dirty |= 0x1100000000; }
-        let c853: u64 = (self.q41).wrapping_sub((self.q46)) & 0x3f;
-        let c795: u64 = (c853 | (self.q47 << 6)).wrapping_add((c833)) & 0x7f;
-        let c828: u64 = ((c844) | ((c795 >> 6))) & 0x1;
-        let c829: u64 = !((c795 >> 6)) & 0x1;
-        let c830: u64 = if (c834) != 0 { (c828) } else { (c844) };
-        if self.v830 != c830 { self.v830 = c830; *dirty |= 0x400000000000000000000; }
-        let c831: u64 = (c834) & (c829) & 0x1;
-        if self.v831 != c831 { self.v831 = c831; *dirty |= 0x100000000; }
-        let c854: u64 = (self.q49).wrapping_sub((0x1)) & 0x1f;
-        if self.v854 != c854 { self.v854 = c854; *dirty |= 0x1000000000; }
+        let c855: u64 = (self.q49).wrapping_sub((0x1)) & 0x1f;
+        if self.v855 != c855 { self.v855 = c855; *dirty |= 0x1000000000; }
         let _ = &dirty;
     }
 
@@ -3830,71 +3835,71 @@ impl Model {
     fn group_11(&mut self, dirty: &mut u128) {
         let c41: u64 = !(self.q14) & 0x1;
         if self.v41 != c41 { self.v41 = c41; *dirty |= 0xc00000000; }
-        let c48: u64 = u64::from((c41 | (self.v982 << 1)) == 0x3);
+        let c48: u64 = u64::from((c41 | (self.v983 << 1)) == 0x3);
         if self.v48 != c48 { self.v48 = c48; *dirty |= 0x8000000000000000000000000; }
-        let c766: u64 = (self.i_we) & (self.v1059) & 0x1;
-        let c767: u64 = (c766) & (self.v950) & 0x1;
-        if self.v767 != c767 { self.v767 = c767; *dirty |= 0x400000000; }
-        let c768: u64 = (c767) & ((self.i_wdata & 0x1)) & 0x1;
-        if self.v768 != c768 { self.v768 = c768; *dirty |= 0x8000; }
-        let c769: u64 = (c767) & (((self.i_wdata >> 1) & 0x1)) & 0x1;
-        if self.v769 != c769 { self.v769 = c769; *dirty |= 0x40000000000000000000000000008000; }
-        let c770: u64 = (c767) & (((self.i_wdata >> 2) & 0x1)) & 0x1;
-        if self.v770 != c770 { self.v770 = c770; *dirty |= 0x800000000; }
-        let c771: u64 = (c767) & (((self.i_wdata >> 3) & 0x1)) & 0x1;
-        let c89: u64 = u64::from((self.i_reset | (c771 << 1) | (self.q127 << 2)) != 0);
+        let c767: u64 = (self.i_we) & (self.v1060) & 0x1;
+        let c768: u64 = (c767) & (self.v951) & 0x1;
+        if self.v768 != c768 { self.v768 = c768; *dirty |= 0x400000000; }
+        let c769: u64 = (c768) & ((self.i_wdata & 0x1)) & 0x1;
+        if self.v769 != c769 { self.v769 = c769; *dirty |= 0x8000; }
+        let c770: u64 = (c768) & (((self.i_wdata >> 1) & 0x1)) & 0x1;
+        if self.v770 != c770 { self.v770 = c770; *dirty |= 0x40000000000000000000000000008000; }
+        let c771: u64 = (c768) & (((self.i_wdata >> 2) & 0x1)) & 0x1;
+        if self.v771 != c771 { self.v771 = c771; *dirty |= 0x800000000; }
+        let c772: u64 = (c768) & (((self.i_wdata >> 3) & 0x1)) & 0x1;
+        let c89: u64 = u64::from((self.i_reset | (c772 << 1) | (self.q127 << 2)) != 0);
         if self.v89 != c89 { self.v89 = c89; *dirty |= 0x40000000000000000000; }
-        let c772: u64 = (c767) & (((self.i_wdata >> 4) & 0x1)) & 0x1;
-        let c773: u64 = (c772) & (self.q14) & 0x1;
-        let c775: u64 = (((self.i_wdata >> 4) & 0x1)) & (c41) & 0x1;
-        if self.v775 != c775 { self.v775 = c775; *dirty |= 0x400000000; }
-        let c776: u64 = !(c768) & 0x1;
-        if self.v776 != c776 { self.v776 = c776; *dirty |= 0x8000; }
-        let c774: u64 = (c773) & (c776) & 0x1;
-        if self.v774 != c774 { self.v774 = c774; *dirty |= 0x80000000000000000000000008000; }
-        let c777: u64 = (self.q14) & (self.v784) & 0x1;
-        if self.v777 != c777 { self.v777 = c777; *dirty |= 0x88000; }
-        let c778: u64 = (self.q14) & (self.v783) & 0x1;
+        let c773: u64 = (c768) & (((self.i_wdata >> 4) & 0x1)) & 0x1;
+        let c774: u64 = (c773) & (self.q14) & 0x1;
+        let c776: u64 = (((self.i_wdata >> 4) & 0x1)) & (c41) & 0x1;
+        if self.v776 != c776 { self.v776 = c776; *dirty |= 0x400000000; }
+        let c777: u64 = !(c769) & 0x1;
+        if self.v777 != c777 { self.v777 = c777; *dirty |= 0x8000; }
+        let c775: u64 = (c774) & (c777) & 0x1;
+        if self.v775 != c775 { self.v775 = c775; *dirty |= 0x80000000000000000000000008000; }
+        let c778: u64 = (self.q14) & (self.v785) & 0x1;
         if self.v778 != c778 { self.v778 = c778; *dirty |= 0x88000; }
-        let c779: u64 = (self.q14) & (self.v782) & 0x1;
+        let c779: u64 = (self.q14) & (self.v784) & 0x1;
         if self.v779 != c779 { self.v779 = c779; *dirty |= 0x88000; }
-        let c780: u64 = if (self.q14) != 0 { (0x0) } else { (self.v786) };
-        if self.v780 != c780 { self.v780 = c780; *dirty |= 0x80000; }
-        let c781: u64 = if (self.q14) != 0 { (0x0) } else { (self.v785) };
-        if self.v781 != c781 { self.v781 = c781; *dirty |= 0x88000; }
-        let c788: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x9)) & 0xf;
-        if self.v788 != c788 { self.v788 = c788; *dirty |= 0x8000; }
-        let c789: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x3)) & 0xf;
-        if self.v789 != c789 { self.v789 = c789; *dirty |= 0x80000; }
-        let c790: u64 = (((self.i_addr >> 5) & 0x1)).wrapping_sub((0x1)) & 0x1;
+        let c780: u64 = (self.q14) & (self.v783) & 0x1;
+        if self.v780 != c780 { self.v780 = c780; *dirty |= 0x88000; }
+        let c781: u64 = if (self.q14) != 0 { (0x0) } else { (self.v787) };
+        if self.v781 != c781 { self.v781 = c781; *dirty |= 0x80000; }
+        let c782: u64 = if (self.q14) != 0 { (0x0) } else { (self.v786) };
+        if self.v782 != c782 { self.v782 = c782; *dirty |= 0x88000; }
+        let c789: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x9)) & 0xf;
+        if self.v789 != c789 { self.v789 = c789; *dirty |= 0x8000; }
+        let c790: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x3)) & 0xf;
         if self.v790 != c790 { self.v790 = c790; *dirty |= 0x80000; }
+        let c791: u64 = (((self.i_addr >> 5) & 0x1)).wrapping_sub((0x1)) & 0x1;
+        if self.v791 != c791 { self.v791 = c791; *dirty |= 0x80000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender.
     fn group_12(&mut self, dirty: &mut u128) {
-        let c683: u64 = ((self.q56 & 0x1) | (self.q55 << 1) | ((self.q56 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
-        if self.v683 != c683 { self.v683 = c683; *dirty |= 0x100000000000; }
-        let c684: u64 = (self.q73).wrapping_add((0x1)) & 0x7f;
-        if self.v684 != c684 { self.v684 = c684; *dirty |= 0x10800000; }
-        let c691: u64 = u64::from((self.q57) == 0);
-        if self.v691 != c691 { self.v691 = c691; *dirty |= 0x20200000; }
-        let c692: u64 = u64::from((self.q57) == (0x1));
-        if self.v692 != c692 { self.v692 = c692; *dirty |= 0x200000; }
-        let c693: u64 = u64::from((self.q73) == (0x1e));
-        if self.v693 != c693 { self.v693 = c693; *dirty |= 0x10000000; }
-        let c694: u64 = !(self.v513) & 0x1;
-        if self.v694 != c694 { self.v694 = c694; *dirty |= 0x80000000000; }
-        let c742: u64 = if (self.v393) != 0 { (0x2) } else { (0x1) };
-        if self.v742 != c742 { self.v742 = c742; *dirty |= 0x80000000000; }
-        let c744: u64 = if (c691) != 0 { ((c683 & 0x7)) } else { ((self.q56 & 0x1)) };
-        if self.v744 != c744 { self.v744 = c744; *dirty |= 0x80000000000; }
-        let c751: u64 = (self.q57).wrapping_sub((0x1)) & 0xf;
-        let c745: u64 = if (c691) != 0 { (0x7) } else { (c751) };
-        if self.v745 != c745 { self.v745 = c745; *dirty |= 0x800000000000000000; }
-        let c753: u64 = ((((self.q72 >> 13) & 0x1)) ^ ((self.q72 >> 14))) & 0x1;
-        let c754: u64 = ((c753) ^ (self.q109)) & 0x1;
-        if self.v754 != c754 { self.v754 = c754; *dirty |= 0x10000000; }
+        let c684: u64 = ((self.q56 & 0x1) | (self.q55 << 1) | ((self.q56 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
+        if self.v684 != c684 { self.v684 = c684; *dirty |= 0x100000000000; }
+        let c685: u64 = (self.q73).wrapping_add((0x1)) & 0x7f;
+        if self.v685 != c685 { self.v685 = c685; *dirty |= 0x10800000; }
+        let c692: u64 = u64::from((self.q57) == 0);
+        if self.v692 != c692 { self.v692 = c692; *dirty |= 0x20200000; }
+        let c693: u64 = u64::from((self.q57) == (0x1));
+        if self.v693 != c693 { self.v693 = c693; *dirty |= 0x200000; }
+        let c694: u64 = u64::from((self.q73) == (0x1e));
+        if self.v694 != c694 { self.v694 = c694; *dirty |= 0x10000000; }
+        let c695: u64 = !(self.v513) & 0x1;
+        if self.v695 != c695 { self.v695 = c695; *dirty |= 0x80000000000; }
+        let c743: u64 = if (self.v393) != 0 { (0x2) } else { (0x1) };
+        if self.v743 != c743 { self.v743 = c743; *dirty |= 0x80000000000; }
+        let c745: u64 = if (c692) != 0 { ((c684 & 0x7)) } else { ((self.q56 & 0x1)) };
+        if self.v745 != c745 { self.v745 = c745; *dirty |= 0x80000000000; }
+        let c752: u64 = (self.q57).wrapping_sub((0x1)) & 0xf;
+        let c746: u64 = if (c692) != 0 { (0x7) } else { (c752) };
+        if self.v746 != c746 { self.v746 = c746; *dirty |= 0x800000000000000000; }
+        let c754: u64 = ((((self.q72 >> 13) & 0x1)) ^ ((self.q72 >> 14))) & 0x1;
+        let c755: u64 = ((c754) ^ (self.q109)) & 0x1;
+        if self.v755 != c755 { self.v755 = c755; *dirty |= 0x10000000; }
         let _ = &dirty;
     }
 
@@ -3902,10 +3907,10 @@ impl Model {
     fn group_13(&mut self, dirty: &mut u128) {
         let c232: u64 = (self.q51) & (self.q116) & 0x1;
         if self.v232 != c232 { self.v232 = c232; *dirty |= 0x80000000000000000000000000000000; }
-        let c113: u64 = ((c232) | (self.v1062)) & 0x1;
+        let c113: u64 = ((c232) | (self.v1063)) & 0x1;
         if self.v113 != c113 { self.v113 = c113; *dirty |= 0x80000; }
         let c233: u64 = (self.v540) & (self.q116) & 0x1;
-        let c114: u64 = ((c233) | (self.v1062)) & 0x1;
+        let c114: u64 = ((c233) | (self.v1063)) & 0x1;
         if self.v114 != c114 { self.v114 = c114; *dirty |= 0x80000; }
         let c239: u64 = (self.v574) & (self.v549) & 0x1;
         if self.v239 != c239 { self.v239 = c239; *dirty |= 0x20000000; }
@@ -3920,7 +3925,7 @@ impl Model {
         if self.v96 != c96 { self.v96 = c96; *dirty |= 0x8000000000000000; }
         let c97: u64 = u64::from((self.i_reset | (c234 << 1)) != 0);
         if self.v97 != c97 { self.v97 = c97; *dirty |= 0xc000000000000000; }
-        let c250: u64 = u64::from((self.q115) != (0xf));
+        let c250: u64 = u64::from((self.q115) != (0x3));
         if self.v250 != c250 { self.v250 = c250; *dirty |= 0x20000000; }
         let c252: u64 = !(self.q116) & 0x1;
         if self.v252 != c252 { self.v252 = c252; *dirty |= 0x20000000; }
@@ -3931,7 +3936,7 @@ impl Model {
         if self.v256 != c256 { self.v256 = c256; *dirty |= 0xc0008000; }
         let c257: u64 = ((self.q113) | (c241)) & 0x1;
         if self.v257 != c257 { self.v257 = c257; *dirty |= 0x200000; }
-        let c259: u64 = ((self.v553) | (self.v642)) & 0x1;
+        let c259: u64 = ((self.v553) | (self.v643)) & 0x1;
         let c260: u64 = ((c259) | (self.v574)) & 0x1;
         let c261: u64 = ((c260) | (self.v516)) & 0x1;
         if self.v261 != c261 { self.v261 = c261; *dirty |= 0x20000; }
@@ -3971,43 +3976,43 @@ impl Model {
     /// The cells of can_controller.
     fn group_15(&mut self, dirty: &mut u128) {
         let c0: u64 = (self.v128) & (self.q14) & 0x1;
-        let c1: u64 = (c0) & (self.v1055) & 0x1;
+        let c1: u64 = (c0) & (self.v1056) & 0x1;
         if self.v1 != c1 { self.v1 = c1; *dirty |= 0xc0000000; }
-        let c2: u64 = (c0) & (self.v1054) & 0x1;
+        let c2: u64 = (c0) & (self.v1055) & 0x1;
         if self.v2 != c2 { self.v2 = c2; *dirty |= 0x40000000; }
-        let c3: u64 = (c0) & (self.v1057) & 0x1;
+        let c3: u64 = (c0) & (self.v1058) & 0x1;
         if self.v3 != c3 { self.v3 = c3; *dirty |= 0x1100000000; }
-        let c7: u64 = (self.v128) & (self.v777) & 0x1;
-        let c8: u64 = (self.v769) & (self.v776) & 0x1;
-        let c18: u64 = (self.v128) & (self.v778) & 0x1;
+        let c7: u64 = (self.v128) & (self.v778) & 0x1;
+        let c8: u64 = (self.v770) & (self.v777) & 0x1;
+        let c18: u64 = (self.v128) & (self.v779) & 0x1;
         if self.v18 != c18 { self.v18 = c18; *dirty |= 0x100000000; }
         let c38: u64 = u64::from((self.q113 | (self.v256 << 1) | (c1 << 2)) != (0x2));
         if self.v38 != c38 { self.v38 = c38; *dirty |= 0x80000000; }
-        let c127: u64 = !(self.v774) & 0x1;
+        let c127: u64 = !(self.v775) & 0x1;
         let c9: u64 = (c8) & (c127) & 0x1;
         let c10: u64 = (c9) & (self.q2) & 0x1;
         if self.v10 != c10 { self.v10 = c10; *dirty |= 0x20000000; }
-        let c1108: u64 = ((self.v779) | (self.v781)) & 0x1;
-        let c6: u64 = (self.v5) & (c1108) & 0x1;
-        let c1109: u64 = ((self.v768) | (self.v774)) & 0x1;
-        let c11: u64 = (c1109) & (self.q131) & 0x1;
+        let c1109: u64 = ((self.v780) | (self.v782)) & 0x1;
+        let c6: u64 = (self.v5) & (c1109) & 0x1;
+        let c1110: u64 = ((self.v769) | (self.v775)) & 0x1;
+        let c11: u64 = (c1110) & (self.q131) & 0x1;
         let c12: u64 = (c11) & (self.v240) & 0x1;
         if self.v12 != c12 { self.v12 = c12; *dirty |= 0x40080000000000000000000000000000; }
-        let c1115: u64 = if (c12) != 0 { (0x0) } else { (self.v1118) };
-        let c1113: u64 = ((c1115) | (self.i_reset)) & 0x1;
-        if self.v1113 != c1113 { self.v1113 = c1113; *dirty |= 0x200000000000000000000000000000; }
         let c1116: u64 = if (c12) != 0 { (0x0) } else { (self.v1119) };
-        let c1114: u64 = ((c1116) | (self.v1017)) & 0x1;
-        let c1112: u64 = ((c1114) | (self.i_reset)) & 0x1;
-        if self.v1112 != c1112 { self.v1112 = c1112; *dirty |= 0x100000000000000000000000000000; }
-        let c1117: u64 = ((self.v1120) | (c12)) & 0x1;
-        if self.v1117 != c1117 { self.v1117 = c1117; *dirty |= 0x20000000000000000000000000000000; }
-        let c1121: u64 = if (self.q14) != 0 { ((self.i_addr & 0xf)) } else { (self.v788) };
-        if self.v1121 != c1121 { self.v1121 = c1121; *dirty |= 0x4800000000000000000000000100000; }
-        let c1105: u64 = if (c1121) < 16 { (self.q108) >> (c1121) & 0x1 } else { 0 };
-        if self.v1105 != c1105 { self.v1105 = c1105; *dirty |= 0x100000; }
-        let c1122: u64 = ((c6) | (c7)) & 0x1;
-        if self.v1122 != c1122 { self.v1122 = c1122; *dirty |= 0x100000; }
+        let c1114: u64 = ((c1116) | (self.i_reset)) & 0x1;
+        if self.v1114 != c1114 { self.v1114 = c1114; *dirty |= 0x200000000000000000000000000000; }
+        let c1117: u64 = if (c12) != 0 { (0x0) } else { (self.v1120) };
+        let c1115: u64 = ((c1117) | (self.v1018)) & 0x1;
+        let c1113: u64 = ((c1115) | (self.i_reset)) & 0x1;
+        if self.v1113 != c1113 { self.v1113 = c1113; *dirty |= 0x100000000000000000000000000000; }
+        let c1118: u64 = ((self.v1121) | (c12)) & 0x1;
+        if self.v1118 != c1118 { self.v1118 = c1118; *dirty |= 0x20000000000000000000000000000000; }
+        let c1122: u64 = if (self.q14) != 0 { ((self.i_addr & 0xf)) } else { (self.v789) };
+        if self.v1122 != c1122 { self.v1122 = c1122; *dirty |= 0x4800000000000000000000000100000; }
+        let c1106: u64 = if (c1122) < 16 { (self.q108) >> (c1122) & 0x1 } else { 0 };
+        if self.v1106 != c1106 { self.v1106 = c1106; *dirty |= 0x100000; }
+        let c1123: u64 = ((c6) | (c7)) & 0x1;
+        if self.v1123 != c1123 { self.v1123 = c1123; *dirty |= 0x100000; }
         let _ = &dirty;
     }
 
@@ -4119,93 +4124,93 @@ impl Model {
     /// The cells of top$read.
     fn group_19(&mut self, dirty: &mut u128) {
         let c112: u64 = (self.v126) & ((self.q22 & 0x1)) & 0x1;
-        let c1048: u64 = (c112 | (self.q20 << 1)) & (self.q22 | (self.v1092 << 4)) & 0xff;
-        let c1049: u64 = (self.v779) & (self.v950) & 0x1;
-        let c1050: u64 = (self.v950) & (self.v787) & 0x1;
-        let c1063: u64 = ((c1049) | (self.v778)) & 0x1;
-        let c1069: u64 = if (self.v780) != 0 { (self.v789) } else { ((self.i_addr & 0xf)) };
-        let c1047: u64 = (self.q46).wrapping_add((c1069)) & 0x3f;
-        let c1068: u64 = if (self.v778) != 0 { ((self.i_addr & 0x1f) | (self.v790 << 5)) } else { (c1047) };
-        if self.v1068 != c1068 { self.v1068 = c1068; *dirty |= 0x100000000; }
-        let c1070: u64 = if (self.v1061) != 0 { ((self.v852 & 0xf)) } else { (0x0) };
-        let c1083: u64 = if (self.q14) != 0 { (self.v777) } else { (self.v781) };
-        let c1064: u64 = (self.i_re) & (c1083) & 0x1;
-        if self.v1064 != c1064 { self.v1064 = c1064; *dirty |= 0x10000000000000000000000000000; }
-        let c1084: u64 = if (self.q14) != 0 { (c1063) } else { (self.v780) };
-        if self.v1084 != c1084 { self.v1084 = c1084; *dirty |= 0x80000000; }
-        let c1086: u64 = if (self.q14) != 0 { (0x0) } else { (c1070) };
-        if self.v1086 != c1086 { self.v1086 = c1086; *dirty |= 0x20000000000000000000000000000; }
-        let c1091: u64 = if (self.v1051) != 0 { (self.v958 | (self.q42 << 1) | (self.q131 << 2) | (self.q132 << 3) | (self.v114 << 4) | (self.v113 << 5) | (self.q23 << 6) | (self.q113 << 7)) } else { (0x0) };
-        let c1090: u64 = if (self.v1060) != 0 { (c112 | (self.q20 << 1)) } else { (c1091) };
-        let c1089: u64 = if (self.v1001) != 0 { (self.q105 | ((self.q15 & 0x1) << 3) | ((self.q15 >> 1) << 5) | (self.q14 << 7)) } else { (c1090) };
-        let c1088: u64 = if (self.v136) != 0 { (self.v139) } else { (c1089) };
-        let c1087: u64 = if (self.v925) != 0 { (self.v918) } else { (c1088) };
-        let c1074: u64 = if (self.v1058) != 0 { (self.q127 | (self.q22 << 1) | (self.q13 << 6) | 0x20) } else { (c1087) };
-        let c1073: u64 = if (self.v1059) != 0 { (0xff) } else { (c1074) };
-        let c1072: u64 = if (self.v1060) != 0 { (c112 | ((self.q20 & 0xf) << 1) | 0xe0) } else { (c1073) };
-        let c1071: u64 = if (c1050) != 0 { (0xff) } else { (c1072) };
-        let c1082: u64 = if (self.v1058) != 0 { (self.q127 | (self.q126 << 1) | (self.q130 << 2) | (self.q16 << 3) | (self.q129 << 4)) } else { (c1087) };
-        let c1081: u64 = if (self.v877) != 0 { (self.q22 | (self.q21 << 4)) } else { (c1082) };
-        let c1080: u64 = if (self.v1052) != 0 { (self.q27) } else { (c1081) };
-        let c1079: u64 = if (self.v1053) != 0 { (self.q24) } else { (c1080) };
-        let c1078: u64 = if (self.v1054) != 0 { (self.q67 | (self.q68 << 7)) } else { (c1079) };
-        let c1077: u64 = if (self.v1055) != 0 { (self.q65 | (self.q66 << 3) | (self.q64 << 7)) } else { (c1078) };
-        let c1076: u64 = if (self.v1056) != 0 { (self.q49) } else { (c1077) };
-        let c1075: u64 = if (self.v1057) != 0 { (self.q46) } else { (c1076) };
-        let c1085: u64 = if (self.q14) != 0 { (c1075) } else { (c1071) };
-        if self.v1085 != c1085 { self.v1085 = c1085; *dirty |= 0x4000000000000000000000000000; }
-        let c1093: u64 = u64::from((c1048) != 0);
-        if self.v1093 != c1093 { self.v1093 = c1093; *dirty |= 0x400000000; }
+        let c1049: u64 = (c112 | (self.q20 << 1)) & (self.q22 | (self.v1093 << 4)) & 0xff;
+        let c1050: u64 = (self.v780) & (self.v951) & 0x1;
+        let c1051: u64 = (self.v951) & (self.v788) & 0x1;
+        let c1064: u64 = ((c1050) | (self.v779)) & 0x1;
+        let c1070: u64 = if (self.v781) != 0 { (self.v790) } else { ((self.i_addr & 0xf)) };
+        let c1048: u64 = (self.q46).wrapping_add((c1070)) & 0x3f;
+        let c1069: u64 = if (self.v779) != 0 { ((self.i_addr & 0x1f) | (self.v791 << 5)) } else { (c1048) };
+        if self.v1069 != c1069 { self.v1069 = c1069; *dirty |= 0x100000000; }
+        let c1071: u64 = if (self.v1062) != 0 { ((self.v853 & 0xf)) } else { (0x0) };
+        let c1084: u64 = if (self.q14) != 0 { (self.v778) } else { (self.v782) };
+        let c1065: u64 = (self.i_re) & (c1084) & 0x1;
+        if self.v1065 != c1065 { self.v1065 = c1065; *dirty |= 0x10000000000000000000000000000; }
+        let c1085: u64 = if (self.q14) != 0 { (c1064) } else { (self.v781) };
+        if self.v1085 != c1085 { self.v1085 = c1085; *dirty |= 0x80000000; }
+        let c1087: u64 = if (self.q14) != 0 { (0x0) } else { (c1071) };
+        if self.v1087 != c1087 { self.v1087 = c1087; *dirty |= 0x20000000000000000000000000000; }
+        let c1092: u64 = if (self.v1052) != 0 { (self.v959 | (self.q42 << 1) | (self.q131 << 2) | (self.q132 << 3) | (self.v114 << 4) | (self.v113 << 5) | (self.q23 << 6) | (self.q113 << 7)) } else { (0x0) };
+        let c1091: u64 = if (self.v1061) != 0 { (c112 | (self.q20 << 1)) } else { (c1092) };
+        let c1090: u64 = if (self.v1002) != 0 { (self.q105 | ((self.q15 & 0x1) << 3) | ((self.q15 >> 1) << 5) | (self.q14 << 7)) } else { (c1091) };
+        let c1089: u64 = if (self.v136) != 0 { (self.v139) } else { (c1090) };
+        let c1088: u64 = if (self.v926) != 0 { (self.v919) } else { (c1089) };
+        let c1075: u64 = if (self.v1059) != 0 { (self.q127 | (self.q22 << 1) | (self.q13 << 6) | 0x20) } else { (c1088) };
+        let c1074: u64 = if (self.v1060) != 0 { (0xff) } else { (c1075) };
+        let c1073: u64 = if (self.v1061) != 0 { (c112 | ((self.q20 & 0xf) << 1) | 0xe0) } else { (c1074) };
+        let c1072: u64 = if (c1051) != 0 { (0xff) } else { (c1073) };
+        let c1083: u64 = if (self.v1059) != 0 { (self.q127 | (self.q126 << 1) | (self.q130 << 2) | (self.q16 << 3) | (self.q129 << 4)) } else { (c1088) };
+        let c1082: u64 = if (self.v878) != 0 { (self.q22 | (self.q21 << 4)) } else { (c1083) };
+        let c1081: u64 = if (self.v1053) != 0 { (self.q27) } else { (c1082) };
+        let c1080: u64 = if (self.v1054) != 0 { (self.q24) } else { (c1081) };
+        let c1079: u64 = if (self.v1055) != 0 { (self.q67 | (self.q68 << 7)) } else { (c1080) };
+        let c1078: u64 = if (self.v1056) != 0 { (self.q65 | (self.q66 << 3) | (self.q64 << 7)) } else { (c1079) };
+        let c1077: u64 = if (self.v1057) != 0 { (self.q49) } else { (c1078) };
+        let c1076: u64 = if (self.v1058) != 0 { (self.q46) } else { (c1077) };
+        let c1086: u64 = if (self.q14) != 0 { (c1076) } else { (c1072) };
+        if self.v1086 != c1086 { self.v1086 = c1086; *dirty |= 0x4000000000000000000000000000; }
+        let c1094: u64 = u64::from((c1049) != 0);
+        if self.v1094 != c1094 { self.v1094 = c1094; *dirty |= 0x400000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer.
     fn group_20(&mut self, dirty: &mut u128) {
-        let c1098: u64 = u64::from((self.v1121) == 0);
-        let c1099: u64 = u64::from((self.v1121) == (0x2));
-        let c1100: u64 = u64::from((self.v1121) < (0xd));
-        let c1094: u64 = (self.v1122) & (c1100) & 0x1;
-        if self.v1094 != c1094 { self.v1094 = c1094; *dirty |= 0x14800000000000000000000000000000; }
-        let c46: u64 = u64::from((c1098 | (c1094 << 1)) == 0x3);
+        let c1099: u64 = u64::from((self.v1122) == 0);
+        let c1100: u64 = u64::from((self.v1122) == (0x2));
+        let c1101: u64 = u64::from((self.v1122) < (0xd));
+        let c1095: u64 = (self.v1123) & (c1101) & 0x1;
+        if self.v1095 != c1095 { self.v1095 = c1095; *dirty |= 0x14800000000000000000000000000000; }
+        let c46: u64 = u64::from((c1099 | (c1095 << 1)) == 0x3);
         if self.v46 != c46 { self.v46 = c46; *dirty |= 0x2000000000000000000000000000000; }
-        let c47: u64 = u64::from((c1099 | (c1094 << 1)) == 0x3);
+        let c47: u64 = u64::from((c1100 | (c1095 << 1)) == 0x3);
         if self.v47 != c47 { self.v47 = c47; *dirty |= 0x400000000000000000000000000000; }
-        let c1097: u64 = !(c1094) & 0x1;
-        let c1095: u64 = (self.v1105) & (c1097) & 0x1;
-        if self.v1095 != c1095 { self.v1095 = c1095; *dirty |= 0x8000000000000000000000000000000; }
-        let c1096: u64 = (self.v1106) & (c1097) & 0x1;
-        if self.v1096 != c1096 { self.v1096 = c1096; *dirty |= 0x1000000000000000000000000000000; }
-        let c1102: u64 = if (self.q14) != 0 { (self.q4) } else { ((self.q107 & 0xf) | ((self.q107 >> 4) << 6)) };
-        if self.v1102 != c1102 { self.v1102 = c1102; *dirty |= 0x80010200000; }
-        let c1103: u64 = if (self.q5) != 0 { (self.m1_rd) } else { (0x0) };
-        if self.v1103 != c1103 { self.v1103 = c1103; *dirty |= 0x200000; }
-        let c1104: u64 = if (self.q3) != 0 { (self.m2_rd) } else { (0x0) };
-        if self.v1104 != c1104 { self.v1104 = c1104; *dirty |= 0x4000000000000000000000000000; }
-        let c1107: u64 = (if (self.v1121) < 64 { (0x1) << (self.v1121) } else { 0 }) & 0x1fff;
-        let c1101: u64 = !(c1107) & 0x1fff;
-        let c121: u64 = (self.q108) & (c1101) & 0x1fff;
-        let c109: u64 = ((c121) | (c1107)) & 0x1fff;
+        let c1098: u64 = !(c1095) & 0x1;
+        let c1096: u64 = (self.v1106) & (c1098) & 0x1;
+        if self.v1096 != c1096 { self.v1096 = c1096; *dirty |= 0x8000000000000000000000000000000; }
+        let c1097: u64 = (self.v1107) & (c1098) & 0x1;
+        if self.v1097 != c1097 { self.v1097 = c1097; *dirty |= 0x1000000000000000000000000000000; }
+        let c1103: u64 = if (self.q14) != 0 { (self.q4) } else { ((self.q107 & 0xf) | ((self.q107 >> 4) << 6)) };
+        if self.v1103 != c1103 { self.v1103 = c1103; *dirty |= 0x80010200000; }
+        let c1104: u64 = if (self.q5) != 0 { (self.m1_rd) } else { (0x0) };
+        if self.v1104 != c1104 { self.v1104 = c1104; *dirty |= 0x200000; }
+        let c1105: u64 = if (self.q3) != 0 { (self.m2_rd) } else { (0x0) };
+        if self.v1105 != c1105 { self.v1105 = c1105; *dirty |= 0x4000000000000000000000000000; }
+        let c1108: u64 = (if (self.v1122) < 64 { (0x1) << (self.v1122) } else { 0 }) & 0x1fff;
+        let c1102: u64 = !(c1108) & 0x1fff;
+        let c121: u64 = (self.q108) & (c1102) & 0x1fff;
+        let c109: u64 = ((c121) | (c1108)) & 0x1fff;
         if self.v109 != c109 { self.v109 = c109; *dirty |= 0x10000000000000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender.
     fn group_21(&mut self, dirty: &mut u128) {
-        let c703: u64 = ((self.v257) | (self.i_reset)) & 0x1;
-        if self.v703 != c703 { self.v703 = c703; *dirty |= 0x80000000000; }
-        let c707: u64 = if (self.v179) != 0 { (self.q117) } else { (self.q118) };
-        let c706: u64 = ((c707) | (self.q125)) & 0x1;
-        let c705: u64 = ((c706) | (c703)) & 0x1;
-        if self.v705 != c705 { self.v705 = c705; *dirty |= 0x1000000000000000000; }
-        let c728: u64 = ((((self.v1102 >> 6) & 0x1)) | ((self.v1102 >> 7))) & 0x1;
-        if self.v728 != c728 { self.v728 = c728; *dirty |= 0x80000000000; }
-        let c746: u64 = if (self.v691) != 0 { ((self.v1103 & 0x7f)) } else { (((self.q104 & 0x3f) << 1)) };
-        if self.v746 != c746 { self.v746 = c746; *dirty |= 0x1000000000000000000; }
-        let c749: u64 = if (self.v691) != 0 { (((self.v1103 >> 6) & 0x1)) } else { (((self.q104 >> 5) & 0x1)) };
-        let c748: u64 = if (self.v692) != 0 { ((self.v1103 >> 7)) } else { (c749) };
-        if self.v748 != c748 { self.v748 = c748; *dirty |= 0x80000000000; }
-        let c750: u64 = if (self.v691) != 0 { ((self.v1103 >> 7)) } else { ((self.q104 >> 6)) };
-        if self.v750 != c750 { self.v750 = c750; *dirty |= 0x80000000000; }
+        let c704: u64 = ((self.v257) | (self.i_reset)) & 0x1;
+        if self.v704 != c704 { self.v704 = c704; *dirty |= 0x80000000000; }
+        let c708: u64 = if (self.v179) != 0 { (self.q117) } else { (self.q118) };
+        let c707: u64 = ((c708) | (self.q125)) & 0x1;
+        let c706: u64 = ((c707) | (c704)) & 0x1;
+        if self.v706 != c706 { self.v706 = c706; *dirty |= 0x1000000000000000000; }
+        let c729: u64 = ((((self.v1103 >> 6) & 0x1)) | ((self.v1103 >> 7))) & 0x1;
+        if self.v729 != c729 { self.v729 = c729; *dirty |= 0x80000000000; }
+        let c747: u64 = if (self.v692) != 0 { ((self.v1104 & 0x7f)) } else { (((self.q104 & 0x3f) << 1)) };
+        if self.v747 != c747 { self.v747 = c747; *dirty |= 0x1000000000000000000; }
+        let c750: u64 = if (self.v692) != 0 { (((self.v1104 >> 6) & 0x1)) } else { (((self.q104 >> 5) & 0x1)) };
+        let c749: u64 = if (self.v693) != 0 { ((self.v1104 >> 7)) } else { (c750) };
+        if self.v749 != c749 { self.v749 = c749; *dirty |= 0x80000000000; }
+        let c751: u64 = if (self.v692) != 0 { ((self.v1104 >> 7)) } else { ((self.q104 >> 6)) };
+        if self.v751 != c751 { self.v751 = c751; *dirty |= 0x80000000000; }
         let _ = &dirty;
     }
 
@@ -4233,17 +4238,17 @@ impl Model {
 
     /// The cells of top$core$protocol$frame.
     fn group_23(&mut self, dirty: &mut u128) {
-        let c379: u64 = (self.v394) & (self.v889) & 0x1;
+        let c379: u64 = (self.v394) & (self.v890) & 0x1;
         let c407: u64 = ((self.v539) | (c379)) & 0x1;
         if self.v407 != c407 { self.v407 = c407; *dirty |= 0x20000000; }
-        let c417: u64 = if (self.v403) != 0 { (0x0) } else { (self.v684) };
-        let c443: u64 = if (self.v381) != 0 { (0x0) } else { (self.v684) };
-        let c447: u64 = if (c407) != 0 { (self.v408 | 0x4) } else { (self.q115) };
-        let c448: u64 = if (c407) != 0 { (0x0) } else { (self.v684) };
-        let c455: u64 = if (self.v409) != 0 { (0x0) } else { (self.v684) };
-        let c462: u64 = { let s = (self.v410 | (self.v419 << 1) | (self.v444 << 2) | (self.v446 << 3) | (self.v398 << 4)); if s >> 0 & 1 != 0 { c417 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c443 } else if s >> 3 & 1 != 0 { c448 } else if s >> 4 & 1 != 0 { c455 } else { (self.v684) } };
+        let c417: u64 = if (self.v403) != 0 { (0x0) } else { (self.v685) };
+        let c443: u64 = if (self.v381) != 0 { (0x0) } else { (self.v685) };
+        let c447: u64 = if (c407) != 0 { (self.v408 | 0xa) } else { (self.q115) };
+        let c448: u64 = if (c407) != 0 { (0x0) } else { (self.v685) };
+        let c455: u64 = if (self.v409) != 0 { (0x0) } else { (self.v685) };
+        let c462: u64 = { let s = (self.v410 | (self.v419 << 1) | (self.v444 << 2) | (self.v446 << 3) | (self.v398 << 4)); if s >> 0 & 1 != 0 { c417 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c443 } else if s >> 3 & 1 != 0 { c448 } else if s >> 4 & 1 != 0 { c455 } else { (self.v685) } };
         if self.v462 != c462 { self.v462 = c462; *dirty |= 0x4000000; }
-        let c463: u64 = { let s = (self.v410 | (self.v419 << 1) | (self.v422 << 2) | (self.v434 << 3) | (self.v442 << 4) | (self.v444 << 5) | (self.v446 << 6) | (self.v398 << 7)); if s >> 0 & 1 != 0 { self.v414 } else if s >> 1 & 1 != 0 { 0x9 } else if s >> 2 & 1 != 0 { 0x8 } else if s >> 3 & 1 != 0 { 0x7 } else if s >> 4 & 1 != 0 { self.v441 } else if s >> 5 & 1 != 0 { self.v445 } else if s >> 6 & 1 != 0 { c447 } else if s >> 7 & 1 != 0 { self.v456 } else { (self.q115) } };
+        let c463: u64 = { let s = (self.v410 | (self.v419 << 1) | (self.v422 << 2) | (self.v434 << 3) | (self.v442 << 4) | (self.v444 << 5) | (self.v446 << 6) | (self.v398 << 7)); if s >> 0 & 1 != 0 { self.v414 } else if s >> 1 & 1 != 0 { 0xf } else if s >> 2 & 1 != 0 { 0xe } else if s >> 3 & 1 != 0 { 0xd } else if s >> 4 & 1 != 0 { self.v441 } else if s >> 5 & 1 != 0 { self.v445 } else if s >> 6 & 1 != 0 { c447 } else if s >> 7 & 1 != 0 { self.v456 } else { (self.q115) } };
         let c485: u64 = if (self.q94) != 0 { (c463) } else { (self.q115) };
         if self.v485 != c485 { self.v485 = c485; *dirty |= 0x4000000; }
         let _ = &dirty;
@@ -4251,37 +4256,37 @@ impl Model {
 
     /// The cells of top$core$protocol$stuffing.
     fn group_24(&mut self, dirty: &mut u128) {
-        let c755: u64 = (self.q53).wrapping_add((0x1)) & 0x7;
-        let c758: u64 = u64::from((self.q53) == (0x5));
-        let c756: u64 = (self.q54) & (c758) & 0x1;
-        if self.v756 != c756 { self.v756 = c756; *dirty |= 0x1e000000; }
-        let c43: u64 = !(c756) & 0x1;
+        let c756: u64 = (self.q53).wrapping_add((0x1)) & 0x7;
+        let c759: u64 = u64::from((self.q53) == (0x5));
+        let c757: u64 = (self.q54) & (c759) & 0x1;
+        if self.v757 != c757 { self.v757 = c757; *dirty |= 0x1e000000; }
+        let c43: u64 = !(c757) & 0x1;
         if self.v43 != c43 { self.v43 = c43; *dirty |= 0x12000000; }
         let c65: u64 = u64::from((self.v605 | (self.q58 << 1) | (self.q94 << 2) | (c43 << 3)) == 0xf);
         if self.v65 != c65 { self.v65 = c65; *dirty |= 0x400000000000000000; }
-        let c759: u64 = u64::from((self.q53) == (0x4));
-        let c757: u64 = (self.q54) & (c759) & 0x1;
-        if self.v757 != c757 { self.v757 = c757; *dirty |= 0x10000000; }
-        let c760: u64 = u64::from((self.q109) != (self.q52));
-        let c761: u64 = ((c758) | (c760)) & 0x1;
-        if self.v761 != c761 { self.v761 = c761; *dirty |= 0x2000000; }
-        let c765: u64 = if (c761) != 0 { (0x1) } else { (c755) };
-        if self.v765 != c765 { self.v765 = c765; *dirty |= 0x200000000000; }
+        let c760: u64 = u64::from((self.q53) == (0x4));
+        let c758: u64 = (self.q54) & (c760) & 0x1;
+        if self.v758 != c758 { self.v758 = c758; *dirty |= 0x10000000; }
+        let c761: u64 = u64::from((self.q109) != (self.q52));
+        let c762: u64 = ((c759) | (c761)) & 0x1;
+        if self.v762 != c762 { self.v762 = c762; *dirty |= 0x2000000; }
+        let c766: u64 = if (c762) != 0 { (0x1) } else { (c756) };
+        if self.v766 != c766 { self.v766 = c766; *dirty |= 0x200000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe.
     fn group_25(&mut self, dirty: &mut u128) {
-        let c66: u64 = u64::from((self.q94 | (self.v28 << 1) | (self.v30 << 2) | (self.v29 << 3) | (self.v43 << 4)) == 0x1f);
+        let c66: u64 = u64::from((self.q94 | (self.v43 << 1) | (self.v30 << 2) | (self.v29 << 3) | (self.v28 << 4)) == 0x1f);
         if self.v66 != c66 { self.v66 = c66; *dirty |= 0x200000000000000000; }
-        let c67: u64 = u64::from((self.q94 | (self.v28 << 1) | (self.v30 << 2) | (self.v29 << 3) | (self.v31 << 4) | (self.v33 << 5) | (self.v32 << 6) | (self.v43 << 7)) == 0xff);
+        let c67: u64 = u64::from((self.q94 | (self.v43 << 1) | (self.v31 << 2) | (self.v32 << 3) | (self.v33 << 4) | (self.v30 << 5) | (self.v29 << 6) | (self.v28 << 7)) == 0xff);
         if self.v67 != c67 { self.v67 = c67; *dirty |= 0x200000000000000000; }
         let c514: u64 = (self.q94) & (self.v43) & 0x1;
         if self.v514 != c514 { self.v514 = c514; *dirty |= 0x204000000; }
         let c515: u64 = (c514) & (self.v438) & 0x1;
         let c517: u64 = (c515) & (self.v554) & 0x1;
         if self.v517 != c517 { self.v517 = c517; *dirty |= 0x10000200038000000; }
-        let c23: u64 = u64::from((c517 | (self.v761 << 1)) != 0);
+        let c23: u64 = u64::from((c517 | (self.v762 << 1)) != 0);
         let c61: u64 = u64::from((self.q94 | (c23 << 1)) == 0x3);
         if self.v61 != c61 { self.v61 = c61; *dirty |= 0x4000000000000000000; }
         let c95: u64 = u64::from((self.i_reset | (c517 << 1)) != 0);
@@ -4289,19 +4294,19 @@ impl Model {
         let c522: u64 = (self.v438) & (self.q63) & 0x1;
         if self.v522 != c522 { self.v522 = c522; *dirty |= 0x8000000; }
         let c617: u64 = if (self.q58) != 0 { (c522) } else { (self.v611) };
-        let c656: u64 = { let s = (self.v578 | (self.v605 << 1)); if s >> 0 & 1 != 0 { self.v591 } else if s >> 1 & 1 != 0 { c617 } else { (0x0) } };
-        let c659: u64 = if (self.v756) != 0 { (self.q62) } else { (self.v650) };
-        if self.v659 != c659 { self.v659 = c659; *dirty |= 0x8000000; }
-        let c663: u64 = if (self.v756) != 0 { (0x0) } else { (self.v653) };
-        let c666: u64 = if (self.v756) != 0 { (0x0) } else { (self.v655) };
-        let c667: u64 = if (self.v756) != 0 { (0x0) } else { (c656) };
-        if self.v667 != c667 { self.v667 = c667; *dirty |= 0x8000000; }
-        let c668: u64 = if (self.v756) != 0 { (0x0) } else { (self.v657) };
+        let c657: u64 = { let s = (self.v578 | (self.v605 << 1)); if s >> 0 & 1 != 0 { self.v591 } else if s >> 1 & 1 != 0 { c617 } else { (0x0) } };
+        let c660: u64 = if (self.v757) != 0 { (self.q62) } else { (self.v651) };
+        if self.v660 != c660 { self.v660 = c660; *dirty |= 0x8000000; }
+        let c664: u64 = if (self.v757) != 0 { (0x0) } else { (self.v654) };
+        let c667: u64 = if (self.v757) != 0 { (0x0) } else { (self.v656) };
+        let c668: u64 = if (self.v757) != 0 { (0x0) } else { (c657) };
         if self.v668 != c668 { self.v668 = c668; *dirty |= 0x8000000; }
-        let c679: u64 = (self.q94) & (c663) & 0x1;
-        if self.v679 != c679 { self.v679 = c679; *dirty |= 0x30000000; }
-        let c681: u64 = (self.q94) & (c666) & 0x1;
-        if self.v681 != c681 { self.v681 = c681; *dirty |= 0xc0000000; }
+        let c669: u64 = if (self.v757) != 0 { (0x0) } else { (self.v658) };
+        if self.v669 != c669 { self.v669 = c669; *dirty |= 0x8000000; }
+        let c680: u64 = (self.q94) & (c664) & 0x1;
+        if self.v680 != c680 { self.v680 = c680; *dirty |= 0x30000000; }
+        let c682: u64 = (self.q94) & (c667) & 0x1;
+        if self.v682 != c682 { self.v682 = c682; *dirty |= 0xc0000000; }
         let _ = &dirty;
     }
 
@@ -4317,7 +4322,7 @@ impl Model {
         if self.v75 != c75 { self.v75 = c75; *dirty |= 0x200000000000000; }
         let c76: u64 = u64::from((self.v514 | (self.v396 << 1) | (self.v444 << 2)) == 0x7);
         if self.v76 != c76 { self.v76 = c76; *dirty |= 0x100000000000000; }
-        let c382: u64 = (self.q94) & (self.v756) & 0x1;
+        let c382: u64 = (self.q94) & (self.v757) & 0x1;
         if self.v382 != c382 { self.v382 = c382; *dirty |= 0x20000000; }
         let c492: u64 = if (c382) != 0 { (self.v489) } else { (self.v478) };
         if self.v492 != c492 { self.v492 = c492; *dirty |= 0x8000000; }
@@ -4361,8 +4366,8 @@ impl Model {
         let c573: u64 = if (self.v536) != 0 { (0x0) } else { (self.v495) };
         let c575: u64 = if (self.v526) != 0 { (c573) } else { (0x0) };
         let c577: u64 = if (self.v538) != 0 { (0x0) } else { (self.v495) };
-        let c579: u64 = if (self.v538) != 0 { (0xa) } else { (self.v505) };
-        let c580: u64 = if (self.v538) != 0 { (0xd) } else { (self.v505) };
+        let c579: u64 = if (self.v538) != 0 { (0x7) } else { (self.v505) };
+        let c580: u64 = if (self.v538) != 0 { (0x5) } else { (self.v505) };
         let c581: u64 = if (self.v538) != 0 { (self.v493) } else { (0x1) };
         let c582: u64 = if (self.v538) != 0 { (self.v494) } else { (0x1) };
         let c583: u64 = if (self.q109) != 0 { (self.v493) } else { (c581) };
@@ -4372,167 +4377,167 @@ impl Model {
         let c594: u64 = if (self.v541) != 0 { (self.v494) } else { (c584) };
         let c595: u64 = if (self.v541) != 0 { (self.v505) } else { (c585) };
         let c598: u64 = if (self.v539) != 0 { (0x0) } else { (self.v495) };
-        let c599: u64 = if (self.v539) != 0 { (0xe) } else { (self.v505) };
+        let c599: u64 = if (self.v539) != 0 { (0x6) } else { (self.v505) };
         let c600: u64 = ((self.v494) | (self.v523)) & 0x1;
         let c602: u64 = if (self.v523) != 0 { (self.v495) } else { (c598) };
         let c603: u64 = if (self.v523) != 0 { (self.v505) } else { (c599) };
-        let c607: u64 = if (self.v618) != 0 { (0xe) } else { (self.v505) };
+        let c607: u64 = if (self.v618) != 0 { (0x6) } else { (self.v505) };
         let c609: u64 = if (self.q109) != 0 { (0x0) } else { (self.v495) };
         let c615: u64 = if (self.v521) != 0 { (0x1) } else { (self.v495) };
         let c619: u64 = if (self.q58) != 0 { (c615) } else { (c609) };
         let c606: u64 = if (self.v618) != 0 { (0x0) } else { (c619) };
         let c623: u64 = if (self.v519) != 0 { (0x0) } else { (self.v495) };
-        let c624: u64 = if (self.v534) != 0 { (c623) } else { (self.v495) };
-        let c625: u64 = if (self.v534) != 0 { (self.v519) } else { (c518) };
-        let c626: u64 = if (self.v534) != 0 { ((self.v519 << 1) | (self.v519 << 3) | 0x1) } else { (self.v505) };
-        let c627: u64 = if (self.v534) != 0 { (self.v520) } else { (c518) };
-        let c628: u64 = if (self.v534) != 0 { (self.v495) } else { (0x0) };
-        let c629: u64 = if (self.v534) != 0 { (self.v505) } else { (0xd) };
-        let c630: u64 = if (self.q109) != 0 { (c624) } else { (c628) };
-        let c631: u64 = if (self.q109) != 0 { (c625) } else { (c627) };
-        let c632: u64 = if (self.q109) != 0 { (c626) } else { (c629) };
-        let c633: u64 = if (self.v538) != 0 { (0x0) } else { (c518) };
-        let c634: u64 = if (self.v538) != 0 { (0x1) } else { (self.v505) };
-        let c635: u64 = (self.q109) & (c633) & 0x1;
-        let c636: u64 = if (self.q109) != 0 { (c634) } else { (self.v505) };
-        let c637: u64 = if (self.q118) != 0 { (c518) } else { (0x1) };
-        let c638: u64 = if (self.q118) != 0 { (self.v494) } else { (0x1) };
-        let c639: u64 = if (self.q109) != 0 { (c637) } else { (self.v537) };
-        let c640: u64 = if (self.q109) != 0 { (c638) } else { (self.v494) };
-        let c641: u64 = if (self.v536) != 0 { (0x1) } else { (self.v505) };
-        let c643: u64 = if (self.q109) != 0 { (self.v495) } else { (0x0) };
-        let c590: u64 = if (self.v541) != 0 { (c643) } else { (c577) };
-        let c644: u64 = if (self.q109) != 0 { (c641) } else { (self.v505) };
-        let c645: u64 = { let s = (self.v574 | (self.v578 << 1) | (self.v544 << 2) | (self.v605 << 3) | (self.v533 << 4) | (self.v642 << 5)); if s >> 0 & 1 != 0 { c575 } else if s >> 1 & 1 != 0 { c590 } else if s >> 2 & 1 != 0 { c602 } else if s >> 3 & 1 != 0 { c606 } else if s >> 4 & 1 != 0 { c630 } else if s >> 5 & 1 != 0 { c643 } else { (self.v495) } };
-        let c646: u64 = { let s = (self.v578 | (self.v544 << 1) | (self.v605 << 2) | (self.v533 << 3) | (self.v532 << 4) | (self.v642 << 5)); if s >> 0 & 1 != 0 { c595 } else if s >> 1 & 1 != 0 { c603 } else if s >> 2 & 1 != 0 { c607 } else if s >> 3 & 1 != 0 { c632 } else if s >> 4 & 1 != 0 { c636 } else if s >> 5 & 1 != 0 { c644 } else { (self.v505) } };
-        let c651: u64 = if (self.v578) != 0 { (c593) } else { (self.v493) };
-        let c652: u64 = { let s = (self.v578 | (self.v544 << 1) | (self.v531 << 2)); if s >> 0 & 1 != 0 { c594 } else if s >> 1 & 1 != 0 { c600 } else if s >> 2 & 1 != 0 { c640 } else { (self.v494) } };
-        let c654: u64 = { let s = (self.v533 | (self.v532 << 1) | (self.v531 << 2)); if s >> 0 & 1 != 0 { c631 } else if s >> 1 & 1 != 0 { c635 } else if s >> 2 & 1 != 0 { c639 } else { (c518) } };
-        let c660: u64 = if (self.v756) != 0 { (self.v495) } else { (c645) };
-        let c571: u64 = if (self.v517) != 0 { (0x0) } else { (c660) };
-        let c661: u64 = if (self.v756) != 0 { (self.v493) } else { (c651) };
-        let c662: u64 = if (self.v756) != 0 { (self.v494) } else { (c652) };
-        let c26: u64 = u64::from((self.v605 | (self.v756 << 1) | (c662 << 2)) != 0);
-        let c27: u64 = u64::from((self.v756 | (c662 << 1)) != (0x1));
+        let c625: u64 = if (self.v534) != 0 { (c623) } else { (self.v495) };
+        let c626: u64 = if (self.v534) != 0 { (self.v519) } else { (c518) };
+        let c627: u64 = if (self.v534) != 0 { (self.v624) } else { (self.v505) };
+        let c628: u64 = if (self.v534) != 0 { (self.v520) } else { (c518) };
+        let c629: u64 = if (self.v534) != 0 { (self.v495) } else { (0x0) };
+        let c630: u64 = if (self.v534) != 0 { (self.v505) } else { (0x5) };
+        let c631: u64 = if (self.q109) != 0 { (c625) } else { (c629) };
+        let c632: u64 = if (self.q109) != 0 { (c626) } else { (c628) };
+        let c633: u64 = if (self.q109) != 0 { (c627) } else { (c630) };
+        let c634: u64 = if (self.v538) != 0 { (0x0) } else { (c518) };
+        let c635: u64 = if (self.v538) != 0 { (0x1) } else { (self.v505) };
+        let c636: u64 = (self.q109) & (c634) & 0x1;
+        let c637: u64 = if (self.q109) != 0 { (c635) } else { (self.v505) };
+        let c638: u64 = if (self.q118) != 0 { (c518) } else { (0x1) };
+        let c639: u64 = if (self.q118) != 0 { (self.v494) } else { (0x1) };
+        let c640: u64 = if (self.q109) != 0 { (c638) } else { (self.v537) };
+        let c641: u64 = if (self.q109) != 0 { (c639) } else { (self.v494) };
+        let c642: u64 = if (self.v536) != 0 { (0x1) } else { (self.v505) };
+        let c644: u64 = if (self.q109) != 0 { (self.v495) } else { (0x0) };
+        let c590: u64 = if (self.v541) != 0 { (c644) } else { (c577) };
+        let c645: u64 = if (self.q109) != 0 { (c642) } else { (self.v505) };
+        let c646: u64 = { let s = (self.v574 | (self.v578 << 1) | (self.v544 << 2) | (self.v605 << 3) | (self.v533 << 4) | (self.v643 << 5)); if s >> 0 & 1 != 0 { c575 } else if s >> 1 & 1 != 0 { c590 } else if s >> 2 & 1 != 0 { c602 } else if s >> 3 & 1 != 0 { c606 } else if s >> 4 & 1 != 0 { c631 } else if s >> 5 & 1 != 0 { c644 } else { (self.v495) } };
+        let c647: u64 = { let s = (self.v578 | (self.v544 << 1) | (self.v605 << 2) | (self.v533 << 3) | (self.v532 << 4) | (self.v643 << 5)); if s >> 0 & 1 != 0 { c595 } else if s >> 1 & 1 != 0 { c603 } else if s >> 2 & 1 != 0 { c607 } else if s >> 3 & 1 != 0 { c633 } else if s >> 4 & 1 != 0 { c637 } else if s >> 5 & 1 != 0 { c645 } else { (self.v505) } };
+        let c652: u64 = if (self.v578) != 0 { (c593) } else { (self.v493) };
+        let c653: u64 = { let s = (self.v578 | (self.v544 << 1) | (self.v531 << 2)); if s >> 0 & 1 != 0 { c594 } else if s >> 1 & 1 != 0 { c600 } else if s >> 2 & 1 != 0 { c641 } else { (self.v494) } };
+        let c655: u64 = { let s = (self.v533 | (self.v532 << 1) | (self.v531 << 2)); if s >> 0 & 1 != 0 { c632 } else if s >> 1 & 1 != 0 { c636 } else if s >> 2 & 1 != 0 { c640 } else { (c518) } };
+        let c661: u64 = if (self.v757) != 0 { (self.v495) } else { (c646) };
+        let c571: u64 = if (self.v517) != 0 { (0x0) } else { (c661) };
+        let c662: u64 = if (self.v757) != 0 { (self.v493) } else { (c652) };
+        let c663: u64 = if (self.v757) != 0 { (self.v494) } else { (c653) };
+        let c26: u64 = u64::from((self.v605 | (self.v757 << 1) | (c663 << 2)) != 0);
+        let c27: u64 = u64::from((self.v757 | (c663 << 1)) != (0x1));
         let c64: u64 = u64::from((self.q94 | (c26 << 1) | (c27 << 2)) == 0x7);
         if self.v64 != c64 { self.v64 = c64; *dirty |= 0x400000000000000000; }
-        let c566: u64 = ((self.v659) | (c662)) & 0x1;
+        let c566: u64 = ((self.v660) | (c663)) & 0x1;
         if self.v566 != c566 { self.v566 = c566; *dirty |= 0x100000000000000000; }
-        let c567: u64 = if (c662) != 0 { (self.v552) } else { (self.v620) };
+        let c567: u64 = if (c663) != 0 { (self.v552) } else { (self.v620) };
         if self.v567 != c567 { self.v567 = c567; *dirty |= 0x400000000000000000; }
-        let c568: u64 = ((self.v502) | (c662)) & 0x1;
-        let c569: u64 = if (c662) != 0 { (0x0) } else { (c571) };
+        let c568: u64 = ((self.v502) | (c663)) & 0x1;
+        let c569: u64 = if (c663) != 0 { (0x0) } else { (c571) };
         if self.v569 != c569 { self.v569 = c569; *dirty |= 0x20000000; }
-        let c664: u64 = if (self.v756) != 0 { (c518) } else { (c654) };
-        let c528: u64 = (c664) & (self.v555) & 0x1;
+        let c665: u64 = if (self.v757) != 0 { (c518) } else { (c655) };
+        let c528: u64 = (c665) & (self.v555) & 0x1;
         let c529: u64 = (c528) & (self.q116) & 0x1;
-        let c543: u64 = !(c664) & 0x1;
+        let c543: u64 = !(c665) & 0x1;
         let c527: u64 = (self.v544) & (c543) & 0x1;
         let c530: u64 = (self.q88) & (c543) & 0x1;
-        let c557: u64 = ((self.v668) | (c527)) & 0x1;
+        let c557: u64 = ((self.v669) | (c527)) & 0x1;
         let c558: u64 = if (c527) != 0 { (0x0) } else { (c543) };
-        let c559: u64 = if (self.v492) != 0 { (c557) } else { (self.v668) };
+        let c559: u64 = if (self.v492) != 0 { (c557) } else { (self.v669) };
         let c560: u64 = (self.v492) & (c558) & 0x1;
-        let c561: u64 = if (self.v492) != 0 { (c664) } else { (self.v667) };
-        let c562: u64 = (c662) & (c529) & 0x1;
+        let c561: u64 = if (self.v492) != 0 { (c665) } else { (self.v668) };
+        let c562: u64 = (c663) & (c529) & 0x1;
         let c556: u64 = ((c562) | (c530)) & 0x1;
-        let c563: u64 = if (c662) != 0 { (c561) } else { (self.v667) };
-        let c564: u64 = if (c662) != 0 { (c559) } else { (self.v668) };
-        let c565: u64 = (c662) & (c560) & 0x1;
-        let c665: u64 = if (self.v756) != 0 { (self.v505) } else { (c646) };
-        let c572: u64 = if (self.v517) != 0 { (0x2) } else { (c665) };
-        let c570: u64 = if (c662) != 0 { (0xc) } else { (c572) };
-        let c669: u64 = (self.q94) & (c556) & 0x1;
-        if self.v669 != c669 { self.v669 = c669; *dirty |= 0x20000000; }
-        let c94: u64 = u64::from((self.i_reset | (c669 << 1)) != 0);
+        let c563: u64 = if (c663) != 0 { (c561) } else { (self.v668) };
+        let c564: u64 = if (c663) != 0 { (c559) } else { (self.v669) };
+        let c565: u64 = (c663) & (c560) & 0x1;
+        let c666: u64 = if (self.v757) != 0 { (self.v505) } else { (c647) };
+        let c572: u64 = if (self.v517) != 0 { (0x8) } else { (c666) };
+        let c570: u64 = if (c663) != 0 { (0x4) } else { (c572) };
+        let c670: u64 = (self.q94) & (c556) & 0x1;
+        if self.v670 != c670 { self.v670 = c670; *dirty |= 0x20000000; }
+        let c94: u64 = u64::from((self.i_reset | (c670 << 1)) != 0);
         if self.v94 != c94 { self.v94 = c94; *dirty |= 0x20000000000000000; }
-        let c670: u64 = if (self.q94) != 0 { (c568) } else { (self.v502) };
-        if self.v670 != c670 { self.v670 = c670; *dirty |= 0x30000000; }
-        let c671: u64 = if (self.q94) != 0 { (c570) } else { (self.v505) };
+        let c671: u64 = if (self.q94) != 0 { (c568) } else { (self.v502) };
         if self.v671 != c671 { self.v671 = c671; *dirty |= 0x30000000; }
-        let c672: u64 = (self.q94) & (c563) & 0x1;
-        if self.v672 != c672 { self.v672 = c672; *dirty |= 0xc0000000; }
-        let c673: u64 = (self.q94) & (c564) & 0x1;
-        if self.v673 != c673 { self.v673 = c673; *dirty |= 0x40000000; }
-        let c674: u64 = (self.q94) & (c565) & 0x1;
+        let c672: u64 = if (self.q94) != 0 { (c570) } else { (self.v505) };
+        if self.v672 != c672 { self.v672 = c672; *dirty |= 0x30000000; }
+        let c673: u64 = (self.q94) & (c563) & 0x1;
+        if self.v673 != c673 { self.v673 = c673; *dirty |= 0xc0000000; }
+        let c674: u64 = (self.q94) & (c564) & 0x1;
         if self.v674 != c674 { self.v674 = c674; *dirty |= 0x40000000; }
-        let c675: u64 = (self.q94) & (c543) & 0x1;
-        if self.v675 != c675 { self.v675 = c675; *dirty |= 0x4000000000000000; }
-        let c677: u64 = if (self.q94) != 0 { (c661) } else { (self.v493) };
-        if self.v677 != c677 { self.v677 = c677; *dirty |= 0x4000000000000000; }
-        let c678: u64 = if (self.q94) != 0 { (c662) } else { (self.v494) };
-        if self.v678 != c678 { self.v678 = c678; *dirty |= 0x30000000; }
-        let c680: u64 = if (self.q94) != 0 { (c664) } else { (c518) };
-        if self.v680 != c680 { self.v680 = c680; *dirty |= 0x4000000080010000000; }
-        let c682: u64 = ((self.q63) | (self.v499)) & 0x1;
-        let c613: u64 = if (self.v522) != 0 { (0x0) } else { (c682) };
-        let c616: u64 = if (self.q58) != 0 { (c613) } else { (c682) };
+        let c675: u64 = (self.q94) & (c565) & 0x1;
+        if self.v675 != c675 { self.v675 = c675; *dirty |= 0x40000000; }
+        let c676: u64 = (self.q94) & (c543) & 0x1;
+        if self.v676 != c676 { self.v676 = c676; *dirty |= 0x4000000000000000; }
+        let c678: u64 = if (self.q94) != 0 { (c662) } else { (self.v493) };
+        if self.v678 != c678 { self.v678 = c678; *dirty |= 0x4000000000000000; }
+        let c679: u64 = if (self.q94) != 0 { (c663) } else { (self.v494) };
+        if self.v679 != c679 { self.v679 = c679; *dirty |= 0x30000000; }
+        let c681: u64 = if (self.q94) != 0 { (c665) } else { (c518) };
+        if self.v681 != c681 { self.v681 = c681; *dirty |= 0x4000000080010000000; }
+        let c683: u64 = ((self.q63) | (self.v499)) & 0x1;
+        let c613: u64 = if (self.v522) != 0 { (0x0) } else { (c683) };
+        let c616: u64 = if (self.q58) != 0 { (c613) } else { (c683) };
         let c604: u64 = if (self.v618) != 0 { (0x0) } else { (c616) };
-        let c647: u64 = if (self.v605) != 0 { (c604) } else { (c682) };
-        let c658: u64 = if (self.v756) != 0 { (c682) } else { (c647) };
-        let c676: u64 = if (self.q94) != 0 { (c658) } else { (c682) };
-        if self.v676 != c676 { self.v676 = c676; *dirty |= 0x100000000000000000; }
+        let c648: u64 = if (self.v605) != 0 { (c604) } else { (c683) };
+        let c659: u64 = if (self.v757) != 0 { (c683) } else { (c648) };
+        let c677: u64 = if (self.q94) != 0 { (c659) } else { (c683) };
+        if self.v677 != c677 { self.v677 = c677; *dirty |= 0x100000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender.
     fn group_28(&mut self, dirty: &mut u128) {
-        let c686: u64 = (self.v757) & (self.v43) & 0x1;
-        let c687: u64 = (c686) & (self.v399) & 0x1;
-        let c688: u64 = (c687) & (self.v680) & 0x1;
-        let c699: u64 = !(self.v503) & 0x1;
-        if self.v699 != c699 { self.v699 = c699; *dirty |= 0x80000000000; }
-        let c700: u64 = !(self.v679) & 0x1;
-        let c685: u64 = (self.v605) & (c700) & 0x1;
-        let c701: u64 = !(self.v678) & 0x1;
-        if self.v701 != c701 { self.v701 = c701; *dirty |= 0x20000000; }
-        let c689: u64 = (c688) & (c701) & 0x1;
-        let c702: u64 = !(self.v670) & 0x1;
+        let c687: u64 = (self.v758) & (self.v43) & 0x1;
+        let c688: u64 = (c687) & (self.v399) & 0x1;
+        let c689: u64 = (c688) & (self.v681) & 0x1;
+        let c700: u64 = !(self.v503) & 0x1;
+        if self.v700 != c700 { self.v700 = c700; *dirty |= 0x80000000000; }
+        let c701: u64 = !(self.v680) & 0x1;
+        let c686: u64 = (self.v605) & (c701) & 0x1;
+        let c702: u64 = !(self.v679) & 0x1;
+        if self.v702 != c702 { self.v702 = c702; *dirty |= 0x20000000; }
         let c690: u64 = (c689) & (c702) & 0x1;
-        if self.v690 != c690 { self.v690 = c690; *dirty |= 0x80000000000; }
-        let c710: u64 = if (c685) != 0 { (self.q58) } else { (self.v552) };
-        if self.v710 != c710 { self.v710 = c710; *dirty |= 0x80000000000; }
-        let c711: u64 = u64::from((self.v671) == (0xc));
+        let c703: u64 = !(self.v671) & 0x1;
+        let c691: u64 = (c690) & (c703) & 0x1;
+        if self.v691 != c691 { self.v691 = c691; *dirty |= 0x80000000000; }
+        let c711: u64 = if (c686) != 0 { (self.q58) } else { (self.v552) };
         if self.v711 != c711 { self.v711 = c711; *dirty |= 0x80000000000; }
-        let c712: u64 = if (self.v504) != 0 { (self.v754) } else { ((self.q72 >> 14)) };
-        let c713: u64 = u64::from((self.v671) == (0x5));
-        if self.v713 != c713 { self.v713 = c713; *dirty |= 0x80000000000; }
-        let c714: u64 = if (self.v680) != 0 { (c712) } else { (0x1) };
+        let c712: u64 = u64::from((self.v672) == (0x4));
+        if self.v712 != c712 { self.v712 = c712; *dirty |= 0x80000000000; }
+        let c713: u64 = if (self.v504) != 0 { (self.v755) } else { ((self.q72 >> 14)) };
+        let c714: u64 = u64::from((self.v672) == (0xb));
         if self.v714 != c714 { self.v714 = c714; *dirty |= 0x80000000000; }
-        let c716: u64 = u64::from((self.v671) == (0x4));
-        if self.v716 != c716 { self.v716 = c716; *dirty |= 0x80000000000; }
-        let c719: u64 = u64::from((self.v671) == (0x3));
-        if self.v719 != c719 { self.v719 = c719; *dirty |= 0x80000000000; }
-        let c726: u64 = u64::from((self.v671) == (0x2));
-        if self.v726 != c726 { self.v726 = c726; *dirty |= 0x80000000000; }
-        let c732: u64 = u64::from((self.v671) == (0xd));
-        if self.v732 != c732 { self.v732 = c732; *dirty |= 0x80000000000; }
-        let c733: u64 = u64::from((self.v671) == (0x7));
+        let c715: u64 = if (self.v681) != 0 { (c713) } else { (0x1) };
+        if self.v715 != c715 { self.v715 = c715; *dirty |= 0x80000000000; }
+        let c717: u64 = u64::from((self.v672) == (0xa));
+        if self.v717 != c717 { self.v717 = c717; *dirty |= 0x80000000000; }
+        let c720: u64 = u64::from((self.v672) == (0x9));
+        if self.v720 != c720 { self.v720 = c720; *dirty |= 0x80000000000; }
+        let c727: u64 = u64::from((self.v672) == (0x8));
+        if self.v727 != c727 { self.v727 = c727; *dirty |= 0x80000000000; }
+        let c733: u64 = u64::from((self.v672) == (0x5));
         if self.v733 != c733 { self.v733 = c733; *dirty |= 0x80000000000; }
-        let c734: u64 = u64::from((self.v671) == (0x1));
+        let c734: u64 = u64::from((self.v672) == (0xd));
         if self.v734 != c734 { self.v734 = c734; *dirty |= 0x80000000000; }
-        let c738: u64 = if (self.v756) != 0 { ((self.q73 & 0x7)) } else { ((self.v684 & 0x7)) };
-        let c739: u64 = if (self.v756) != 0 { (self.v393) } else { (self.v693) };
-        let c735: u64 = if (self.v517) != 0 { (0x0) } else { (c739) };
+        let c735: u64 = u64::from((self.v672) == (0x1));
         if self.v735 != c735 { self.v735 = c735; *dirty |= 0x80000000000; }
-        let c740: u64 = if (self.v756) != 0 { (self.v392) } else { (self.v391) };
+        let c739: u64 = if (self.v757) != 0 { ((self.q73 & 0x7)) } else { ((self.v685 & 0x7)) };
+        let c740: u64 = if (self.v757) != 0 { (self.v393) } else { (self.v694) };
         let c736: u64 = if (self.v517) != 0 { (0x0) } else { (c740) };
         if self.v736 != c736 { self.v736 = c736; *dirty |= 0x80000000000; }
-        let c741: u64 = if (self.v756) != 0 { (self.v391) } else { (self.v536) };
+        let c741: u64 = if (self.v757) != 0 { (self.v392) } else { (self.v391) };
         let c737: u64 = if (self.v517) != 0 { (0x0) } else { (c741) };
         if self.v737 != c737 { self.v737 = c737; *dirty |= 0x80000000000; }
-        let c752: u64 = (c738).wrapping_sub((0x1)) & 0x7;
-        let c723: u64 = if ((self.v1102 >> 7)) != 0 { (c752) } else { (c738) };
-        let c695: u64 = u64::from((c723) == (0x1));
-        let c696: u64 = u64::from((c723) == (0x2));
-        let c697: u64 = u64::from((c723) == (0x3));
-        let c698: u64 = u64::from((c723) == (0x4));
-        let c722: u64 = (c695) & (((self.v1102 >> 3) & 0x1)) & 0x1;
-        let c721: u64 = if (c696) != 0 { (((self.v1102 >> 2) & 0x1)) } else { (c722) };
-        let c720: u64 = if (c697) != 0 { (((self.v1102 >> 1) & 0x1)) } else { (c721) };
-        let c718: u64 = if (c698) != 0 { ((self.v1102 & 0x1)) } else { (c720) };
-        let c724: u64 = if (self.v680) != 0 { (c718) } else { (0x1) };
-        if self.v724 != c724 { self.v724 = c724; *dirty |= 0x80000000000; }
+        let c742: u64 = if (self.v757) != 0 { (self.v391) } else { (self.v536) };
+        let c738: u64 = if (self.v517) != 0 { (0x0) } else { (c742) };
+        if self.v738 != c738 { self.v738 = c738; *dirty |= 0x80000000000; }
+        let c753: u64 = (c739).wrapping_sub((0x1)) & 0x7;
+        let c724: u64 = if ((self.v1103 >> 7)) != 0 { (c753) } else { (c739) };
+        let c696: u64 = u64::from((c724) == (0x1));
+        let c697: u64 = u64::from((c724) == (0x2));
+        let c698: u64 = u64::from((c724) == (0x3));
+        let c699: u64 = u64::from((c724) == (0x4));
+        let c723: u64 = (c696) & (((self.v1103 >> 3) & 0x1)) & 0x1;
+        let c722: u64 = if (c697) != 0 { (((self.v1103 >> 2) & 0x1)) } else { (c723) };
+        let c721: u64 = if (c698) != 0 { (((self.v1103 >> 1) & 0x1)) } else { (c722) };
+        let c719: u64 = if (c699) != 0 { ((self.v1103 & 0x1)) } else { (c721) };
+        let c725: u64 = if (self.v681) != 0 { (c719) } else { (0x1) };
+        if self.v725 != c725 { self.v725 = c725; *dirty |= 0x80000000000; }
         let _ = &dirty;
     }
 
@@ -4542,16 +4547,16 @@ impl Model {
         if self.v90 != c90 { self.v90 = c90; *dirty |= 0x8000000000000000000; }
         let c235: u64 = (self.v446) & (self.v407) & 0x1;
         if self.v235 != c235 { self.v235 = c235; *dirty |= 0x200000000; }
-        let c236: u64 = (self.v507) & (self.v701) & 0x1;
+        let c236: u64 = (self.v507) & (self.v702) & 0x1;
         if self.v236 != c236 { self.v236 = c236; *dirty |= 0x1800000080000000000; }
-        let c63: u64 = u64::from((c236 | (self.v691 << 1)) == 0x3);
+        let c63: u64 = u64::from((c236 | (self.v692 << 1)) == 0x3);
         if self.v63 != c63 { self.v63 = c63; *dirty |= 0x100000000000; }
         let c251: u64 = !(self.v494) & 0x1;
         let c237: u64 = (self.v496) & (c251) & 0x1;
         if self.v237 != c237 { self.v237 = c237; *dirty |= 0x80000000000; }
         let c24: u64 = u64::from((c236 | (c237 << 1)) != 0);
-        let c25: u64 = u64::from((c236 | (c237 << 1) | (self.v691 << 2)) != (0x1));
-        let c62: u64 = u64::from((c25 | (c24 << 1)) == 0x3);
+        let c25: u64 = u64::from((c236 | (c237 << 1) | (self.v692 << 2)) != (0x1));
+        let c62: u64 = u64::from((c24 | (c25 << 1)) == 0x3);
         if self.v62 != c62 { self.v62 = c62; *dirty |= 0x100000000000; }
         let c253: u64 = !(self.v517) & 0x1;
         let c238: u64 = (self.v252) & (c253) & 0x1;
@@ -4559,28 +4564,28 @@ impl Model {
         if self.v92 != c92 { self.v92 = c92; *dirty |= 0x800000100000000000; }
         let c93: u64 = u64::from((self.i_reset | (c238 << 1)) != 0);
         if self.v93 != c93 { self.v93 = c93; *dirty |= 0x100000000000; }
-        let c255: u64 = ((self.v670) | (self.v234)) & 0x1;
+        let c255: u64 = ((self.v671) | (self.v234)) & 0x1;
         if self.v255 != c255 { self.v255 = c255; *dirty |= 0x200000000000; }
-        let c258: u64 = ((self.v678) | (self.v679)) & 0x1;
+        let c258: u64 = ((self.v679) | (self.v680)) & 0x1;
         if self.v258 != c258 { self.v258 = c258; *dirty |= 0x4000000000000000; }
         let c276: u64 = if (self.q94) != 0 { (self.v569) } else { (self.q73) };
         let c273: u64 = if (self.v250) != 0 { (0x0) } else { (c276) };
         let c274: u64 = if (self.q113) != 0 { (c273) } else { (c276) };
         if self.v274 != c274 { self.v274 = c274; *dirty |= 0x8000000000000000; }
-        let c277: u64 = if (self.q94) != 0 { (self.v671) } else { (self.q115) };
-        let c275: u64 = if (self.q113) != 0 { (0xf) } else { (c277) };
+        let c277: u64 = if (self.q94) != 0 { (self.v672) } else { (self.q115) };
+        let c275: u64 = if (self.q113) != 0 { (0x3) } else { (c277) };
         let c272: u64 = if (self.v239) != 0 { (0x1) } else { (c275) };
         let c271: u64 = if (self.v234) != 0 { (0x0) } else { (c272) };
         let c269: u64 = if (self.i_reset) != 0 { (0x0) } else { (c271) };
         if self.v269 != c269 { self.v269 = c269; *dirty |= 0x80000000000000000; }
-        let c242: u64 = u64::from((c269) == (0x2));
-        let c243: u64 = u64::from((c269) == (0x3));
-        let c244: u64 = u64::from((c269) == (0x4));
-        let c245: u64 = u64::from((c269) == (0x5));
-        let c246: u64 = u64::from((c269) == (0x6));
-        let c247: u64 = u64::from((c269) == (0x7));
-        let c248: u64 = u64::from((c269) == (0x8));
-        let c249: u64 = u64::from((c269) == (0x9));
+        let c242: u64 = u64::from((c269) == (0x8));
+        let c243: u64 = u64::from((c269) == (0x9));
+        let c244: u64 = u64::from((c269) == (0xa));
+        let c245: u64 = u64::from((c269) == (0xb));
+        let c246: u64 = u64::from((c269) == (0xc));
+        let c247: u64 = u64::from((c269) == (0xd));
+        let c248: u64 = u64::from((c269) == (0xe));
+        let c249: u64 = u64::from((c269) == (0xf));
         let c262: u64 = ((c242) | (c243)) & 0x1;
         let c263: u64 = ((c262) | (c244)) & 0x1;
         let c264: u64 = ((c263) | (c245)) & 0x1;
@@ -4593,7 +4598,7 @@ impl Model {
         if self.v278 != c278 { self.v278 = c278; *dirty |= 0x100000000000000; }
         let c279: u64 = ((self.q71) | (self.v500)) & 0x1;
         if self.v279 != c279 { self.v279 = c279; *dirty |= 0x10000000000000000; }
-        let c280: u64 = ((self.v498) | (self.v669)) & 0x1;
+        let c280: u64 = ((self.v498) | (self.v670)) & 0x1;
         if self.v280 != c280 { self.v280 = c280; *dirty |= 0x20000000000000000; }
         let _ = &dirty;
     }
@@ -4602,23 +4607,23 @@ impl Model {
     fn group_30(&mut self, dirty: &mut u128) {
         let c326: u64 = (self.v497) & (self.v334) & 0x1;
         if self.v326 != c326 { self.v326 = c326; *dirty |= 0x80000000; }
-        let c327: u64 = (self.v674) & (self.v335) & 0x1;
+        let c327: u64 = (self.v675) & (self.v335) & 0x1;
         let c328: u64 = (self.v2) & (self.v549) & 0x1;
-        let c361: u64 = (self.v672) & (self.v360) & 0x1;
-        let c362: u64 = if (self.v672) != 0 { (self.v358) } else { (self.q67 | (self.q68 << 7)) };
+        let c361: u64 = (self.v673) & (self.v360) & 0x1;
+        let c362: u64 = if (self.v673) != 0 { (self.v358) } else { (self.q67 | (self.q68 << 7)) };
         let c356: u64 = if (c327) != 0 { (self.v324) } else { (c362) };
-        let c355: u64 = if (self.v673) != 0 { (self.v354) } else { (c356) };
+        let c355: u64 = if (self.v674) != 0 { (self.v354) } else { (c356) };
         let c351: u64 = if (self.v336) != 0 { (self.v377) } else { (c355) };
         let c352: u64 = if (self.q68) != 0 { (0x7f) } else { (c351) };
         let c353: u64 = if (self.v506) != 0 { (c352) } else { (c355) };
-        let c363: u64 = if (self.v672) != 0 { (self.v359) } else { ((self.q64 << 5)) };
+        let c363: u64 = if (self.v673) != 0 { (self.v359) } else { ((self.q64 << 5)) };
         let c357: u64 = if (c326) != 0 { (self.v376) } else { ((c363 & 0x1) | ((c363 & 0x1) << 1) | (c363 << 2)) };
         let c364: u64 = if (self.v256) != 0 { (self.q67 | (self.q68 << 7)) } else { (c353) };
         let c365: u64 = if (self.v256) != 0 { ((self.q64 << 7)) } else { (c357) };
         let c366: u64 = if (self.v256) != 0 { (0x0) } else { (c361) };
-        let c370: u64 = if (self.v681) != 0 { (self.v368) } else { (0x1) };
-        let c371: u64 = if (self.v681) != 0 { (self.v367) } else { (self.q67 | (self.q68 << 7)) };
-        let c372: u64 = if (self.v681) != 0 { (self.v369) } else { ((self.q64 << 7)) };
+        let c370: u64 = if (self.v682) != 0 { (self.v368) } else { (0x1) };
+        let c371: u64 = if (self.v682) != 0 { (self.v367) } else { (self.q67 | (self.q68 << 7)) };
+        let c372: u64 = if (self.v682) != 0 { (self.v369) } else { ((self.q64 << 7)) };
         let c373: u64 = if (self.q113) != 0 { (c370) } else { (c366) };
         let c344: u64 = if (self.q113) != 0 { (0x0) } else { (c373) };
         let c347: u64 = ((c344) | (self.v333)) & 0x1;
@@ -4647,35 +4652,35 @@ impl Model {
 
     /// The cells of can_controller.
     fn group_31(&mut self, dirty: &mut u128) {
-        let c17: u64 = (self.i_re) & (self.v1084) & 0x1;
+        let c17: u64 = (self.i_re) & (self.v1085) & 0x1;
         if self.v17 != c17 { self.v17 = c17; *dirty |= 0x8000000000000000000100000000; }
-        let c34: u64 = u64::from((self.v672 | (self.q113 << 1) | (self.v326 << 2) | (self.v256 << 3) | (self.v1 << 4)) != 0);
-        let c35: u64 = u64::from((self.v672 | (self.q113 << 1) | (self.v326 << 2) | (self.v331 << 3) | (self.v256 << 4) | (self.v1 << 5)) != (0x1));
-        let c36: u64 = u64::from((self.v681 | (self.q113 << 1) | (self.v1 << 2)) != (0x2));
-        let c37: u64 = u64::from((self.v681 | (self.q113 << 1) | (self.v330 << 2) | (self.v1 << 3)) != (0x7));
-        let c68: u64 = u64::from((c34 | (c35 << 1) | (c36 << 2) | (self.v38 << 3) | (c37 << 4)) == 0x1f);
+        let c34: u64 = u64::from((self.v673 | (self.q113 << 1) | (self.v326 << 2) | (self.v256 << 3) | (self.v1 << 4)) != 0);
+        let c35: u64 = u64::from((self.v673 | (self.q113 << 1) | (self.v326 << 2) | (self.v331 << 3) | (self.v256 << 4) | (self.v1 << 5)) != (0x1));
+        let c36: u64 = u64::from((self.v682 | (self.q113 << 1) | (self.v1 << 2)) != (0x2));
+        let c37: u64 = u64::from((self.v682 | (self.q113 << 1) | (self.v330 << 2) | (self.v1 << 3)) != (0x7));
+        let c68: u64 = u64::from((c37 | (self.v38 << 1) | (c36 << 2) | (c35 << 3) | (c34 << 4)) == 0x1f);
         if self.v68 != c68 { self.v68 = c68; *dirty |= 0x4000000000; }
-        let c69: u64 = u64::from((c34 | (c36 << 1) | (self.v38 << 2) | (c37 << 3)) == 0xf);
+        let c69: u64 = u64::from((c37 | (self.v38 << 1) | (c36 << 2) | (c34 << 3)) == 0xf);
         if self.v69 != c69 { self.v69 = c69; *dirty |= 0x4000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$fifo.
     fn group_32(&mut self, dirty: &mut u128) {
-        let c808: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (self.q46) };
-        let c810: u64 = if (self.v18) != 0 { (self.i_wdata) } else { (self.v832) };
-        let c811: u64 = if (self.v18) != 0 { (self.v1068) } else { (self.v796) };
-        let c812: u64 = ((self.v831) | (self.v18)) & 0x1;
-        let c813: u64 = if (self.q127) != 0 { (c808) } else { (self.v798) };
-        if self.v813 != c813 { self.v813 = c813; *dirty |= 0x80000000000000000000; }
-        let c815: u64 = if (self.q127) != 0 { (c812) } else { (self.v831) };
-        if self.v815 != c815 { self.v815 = c815; *dirty |= 0x40000000000000000000; }
-        let c816: u64 = if (self.q127) != 0 { (c810) } else { (self.v832) };
+        let c809: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (self.q46) };
+        let c811: u64 = if (self.v18) != 0 { (self.i_wdata) } else { (self.v833) };
+        let c812: u64 = if (self.v18) != 0 { (self.v1069) } else { (self.v797) };
+        let c813: u64 = ((self.v832) | (self.v18)) & 0x1;
+        let c814: u64 = if (self.q127) != 0 { (c809) } else { (self.v799) };
+        if self.v814 != c814 { self.v814 = c814; *dirty |= 0x80000000000000000000; }
+        let c816: u64 = if (self.q127) != 0 { (c813) } else { (self.v832) };
         if self.v816 != c816 { self.v816 = c816; *dirty |= 0x40000000000000000000; }
-        let c817: u64 = if (self.q127) != 0 { (c811) } else { (self.v796) };
+        let c817: u64 = if (self.q127) != 0 { (c811) } else { (self.v833) };
         if self.v817 != c817 { self.v817 = c817; *dirty |= 0x40000000000000000000; }
-        let c818: u64 = if (self.v17) != 0 { (self.v1068) } else { (self.v797) };
+        let c818: u64 = if (self.q127) != 0 { (c812) } else { (self.v797) };
         if self.v818 != c818 { self.v818 = c818; *dirty |= 0x40000000000000000000; }
+        let c819: u64 = if (self.v17) != 0 { (self.v1069) } else { (self.v798) };
+        if self.v819 != c819 { self.v819 = c819; *dirty |= 0x40000000000000000000; }
         let _ = &dirty;
     }
 
@@ -4695,98 +4700,98 @@ impl Model {
 
     /// The cells of top$modes.
     fn group_34(&mut self, dirty: &mut u128) {
-        let c985: u64 = (self.v767) & (self.v41) & 0x1;
-        let c991: u64 = (self.v155) & (self.v1005) & 0x1;
-        if self.v991 != c991 { self.v991 = c991; *dirty |= 0x800000000000000000000000000; }
-        let c997: u64 = !(self.v775) & 0x1;
-        let c998: u64 = !(self.v1093) & 0x1;
-        if self.v998 != c998 { self.v998 = c998; *dirty |= 0x80000000000000000000000000000000; }
-        let c987: u64 = (self.v531) & (c998) & 0x1;
-        let c1021: u64 = ((self.q129) | (c987)) & 0x1;
-        let c1022: u64 = !(c987) & 0x1;
-        let c1025: u64 = if (c985) != 0 { (c997) } else { (self.v1035) };
-        let c1006: u64 = ((c1025) | (self.v999)) & 0x1;
-        let c988: u64 = (self.q129) & (c1006) & 0x1;
-        let c1026: u64 = if (c985) != 0 { (self.v775) } else { (self.v1036) };
-        let c986: u64 = (c1026) & (self.v83) & 0x1;
-        let c1023: u64 = if (c986) != 0 { (c1021) } else { (self.q129) };
-        let c1020: u64 = if (c988) != 0 { (0x0) } else { (c1023) };
-        let c1016: u64 = if (self.v1017) != 0 { (0x0) } else { (c1020) };
-        let c1008: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1016) };
-        if self.v1008 != c1008 { self.v1008 = c1008; *dirty |= 0x1000000000000000000000000000; }
-        let c1004: u64 = !(c1008) & 0x1;
-        let c992: u64 = (self.v1003) & (c1004) & 0x1;
-        if self.v992 != c992 { self.v992 = c992; *dirty |= 0x40000000000000000000000000; }
-        let c1024: u64 = (c986) & (c1022) & 0x1;
-        let c1019: u64 = ((c1024) | (c988)) & 0x1;
-        if self.v1019 != c1019 { self.v1019 = c1019; *dirty |= 0x800000000; }
+        let c986: u64 = (self.v768) & (self.v41) & 0x1;
+        let c992: u64 = (self.v155) & (self.v1006) & 0x1;
+        if self.v992 != c992 { self.v992 = c992; *dirty |= 0x800000000000000000000000000; }
+        let c998: u64 = !(self.v776) & 0x1;
+        let c999: u64 = !(self.v1094) & 0x1;
+        if self.v999 != c999 { self.v999 = c999; *dirty |= 0x80000000000000000000000000000000; }
+        let c988: u64 = (self.v531) & (c999) & 0x1;
+        let c1022: u64 = ((self.q129) | (c988)) & 0x1;
+        let c1023: u64 = !(c988) & 0x1;
+        let c1026: u64 = if (c986) != 0 { (c998) } else { (self.v1036) };
+        let c1007: u64 = ((c1026) | (self.v1000)) & 0x1;
+        let c989: u64 = (self.q129) & (c1007) & 0x1;
+        let c1027: u64 = if (c986) != 0 { (self.v776) } else { (self.v1037) };
+        let c987: u64 = (c1027) & (self.v83) & 0x1;
+        let c1024: u64 = if (c987) != 0 { (c1022) } else { (self.q129) };
+        let c1021: u64 = if (c989) != 0 { (0x0) } else { (c1024) };
+        let c1017: u64 = if (self.v1018) != 0 { (0x0) } else { (c1021) };
+        let c1009: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1017) };
+        if self.v1009 != c1009 { self.v1009 = c1009; *dirty |= 0x1000000000000000000000000000; }
+        let c1005: u64 = !(c1009) & 0x1;
+        let c993: u64 = (self.v1004) & (c1005) & 0x1;
+        if self.v993 != c993 { self.v993 = c993; *dirty |= 0x40000000000000000000000000; }
+        let c1025: u64 = (c987) & (c1023) & 0x1;
+        let c1020: u64 = ((c1025) | (c989)) & 0x1;
+        if self.v1020 != c1020 { self.v1020 = c1020; *dirty |= 0x800000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts.
     fn group_35(&mut self, dirty: &mut u128) {
-        let c117: u64 = (self.q70 | (self.v1019 << 1) | (self.v971 << 2) | (self.v946 << 3) | (self.v962 << 4) | (self.v944 << 5) | (self.v943 << 6)) & (((self.q22 >> 1) & 0x1) | ((self.v1092 & 0x3) << 1) | ((self.q22 >> 3) << 3) | (((self.q22 >> 2) & 0x1) << 4) | ((self.v1092 >> 3) << 5) | (((self.v1092 >> 2) & 0x1) << 6)) & 0x7f;
-        let c942: u64 = (self.v41) & (self.v1058) & 0x1;
-        let c19: u64 = u64::from((c942 | (self.v941 << 1)) != 0);
-        let c42: u64 = !(c942) & 0x1;
-        let c51: u64 = u64::from((self.i_we | (c42 << 1) | (self.v941 << 2)) == 0x7);
+        let c117: u64 = (self.q70 | (self.v1020 << 1) | (self.v972 << 2) | (self.v947 << 3) | (self.v963 << 4) | (self.v945 << 5) | (self.v944 << 6)) & (((self.q22 >> 1) & 0x1) | ((self.v1093 & 0x3) << 1) | ((self.q22 >> 3) << 3) | (((self.q22 >> 2) & 0x1) << 4) | ((self.v1093 >> 3) << 5) | (((self.v1093 >> 2) & 0x1) << 6)) & 0x7f;
+        let c943: u64 = (self.v41) & (self.v1059) & 0x1;
+        let c19: u64 = u64::from((c943 | (self.v942 << 1)) != 0);
+        let c42: u64 = !(c943) & 0x1;
+        let c51: u64 = u64::from((self.i_we | (c42 << 1) | (self.v942 << 2)) == 0x7);
         if self.v51 != c51 { self.v51 = c51; *dirty |= 0x400000000000; }
         let c52: u64 = u64::from((self.i_we | (c19 << 1)) == 0x3);
         if self.v52 != c52 { self.v52 = c52; *dirty |= 0x400000000000; }
-        let c948: u64 = (self.v770) & (self.v958) & 0x1;
-        if self.v948 != c948 { self.v948 = c948; *dirty |= 0x1000000000; }
-        let c949: u64 = (c948) & (self.v959) & 0x1;
-        let c963: u64 = ((self.v947) | (c949)) & 0x1;
-        let c966: u64 = if (self.v1017) != 0 { (0x0) } else { ((self.v967 & 0x1) | ((self.v967 >> 2) << 1)) };
-        let c118: u64 = (((c966 & 0x1) | (((self.v967 >> 1) & 0x1) << 1) | ((c966 >> 1) << 2)) | ((c117 & 0x1) | (((c117 >> 4) & 0x1) << 1) | (((c117 >> 3) & 0x1) << 2) | (((c117 >> 1) & 0x3) << 3) | ((c117 >> 6) << 5) | (((c117 >> 5) & 0x1) << 6))) & 0x7f;
+        let c949: u64 = (self.v771) & (self.v959) & 0x1;
+        if self.v949 != c949 { self.v949 = c949; *dirty |= 0x1000000000; }
+        let c950: u64 = (c949) & (self.v960) & 0x1;
+        let c964: u64 = ((self.v948) | (c950)) & 0x1;
+        let c967: u64 = if (self.v1018) != 0 { (0x0) } else { ((self.v968 & 0x1) | ((self.v968 >> 2) << 1)) };
+        let c118: u64 = (((c967 & 0x1) | (((self.v968 >> 1) & 0x1) << 1) | ((c967 >> 1) << 2)) | ((c117 & 0x1) | (((c117 >> 4) & 0x1) << 1) | (((c117 >> 3) & 0x1) << 2) | (((c117 >> 1) & 0x3) << 3) | ((c117 >> 6) << 5) | (((c117 >> 5) & 0x1) << 6))) & 0x7f;
         if self.v118 != c118 { self.v118 = c118; *dirty |= 0x200000000000000000000000; }
-        let c968: u64 = ((self.v969) | (c963)) & 0x1;
-        if self.v968 != c968 { self.v968 = c968; *dirty |= 0x80000000000000000000000; }
-        let c980: u64 = if (c942) != 0 { (((self.i_wdata >> 1) & 0xf)) } else { ((self.i_wdata & 0xf)) };
-        if self.v980 != c980 { self.v980 = c980; *dirty |= 0x400000000000; }
+        let c969: u64 = ((self.v970) | (c964)) & 0x1;
+        if self.v969 != c969 { self.v969 = c969; *dirty |= 0x80000000000000000000000; }
+        let c981: u64 = if (c943) != 0 { (((self.i_wdata >> 1) & 0xf)) } else { ((self.i_wdata & 0xf)) };
+        if self.v981 != c981 { self.v981 = c981; *dirty |= 0x400000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$fifo.
     fn group_36(&mut self, dirty: &mut u128) {
-        let c22: u64 = u64::from((self.v800 | (self.v948 << 1)) != 0);
+        let c22: u64 = u64::from((self.v801 | (self.v949 << 1)) != 0);
         if self.v22 != c22 { self.v22 = c22; *dirty |= 0x200000000000000000000; }
-        let c807: u64 = !(self.v948) & 0x1;
-        let c801: u64 = (self.v805) & (c807) & 0x1;
-        let c825: u64 = (self.v800) & (c801) & 0x1;
+        let c808: u64 = !(self.v949) & 0x1;
+        let c802: u64 = (self.v806) & (c808) & 0x1;
+        let c826: u64 = (self.v801) & (c802) & 0x1;
+        if self.v826 != c826 { self.v826 = c826; *dirty |= 0x200000000000000000000; }
+        let c827: u64 = if (self.v949) != 0 { (self.v855) } else { (self.q49) };
+        let c800: u64 = (c827).wrapping_add((0x1)) & 0x1f;
+        let c807: u64 = u64::from((c827) == 0);
+        let c821: u64 = if (c807) != 0 { (0x0) } else { (self.v949) };
+        let c822: u64 = if (c807) != 0 { (self.q84 | (self.q78 << 6) | (self.q80 << 7)) } else { (self.v853) };
+        let c823: u64 = if (self.v801) != 0 { (c821) } else { (self.v949) };
+        if self.v823 != c823 { self.v823 = c823; *dirty |= 0x8000000000000000000; }
+        let c824: u64 = if (self.v801) != 0 { (c822) } else { (self.v853) };
+        if self.v824 != c824 { self.v824 = c824; *dirty |= 0x10000000000000000000; }
+        let c825: u64 = if (self.v801) != 0 { (c800) } else { (c827) };
         if self.v825 != c825 { self.v825 = c825; *dirty |= 0x200000000000000000000; }
-        let c826: u64 = if (self.v948) != 0 { (self.v854) } else { (self.q49) };
-        let c799: u64 = (c826).wrapping_add((0x1)) & 0x1f;
-        let c806: u64 = u64::from((c826) == 0);
-        let c820: u64 = if (c806) != 0 { (0x0) } else { (self.v948) };
-        let c821: u64 = if (c806) != 0 { (self.q84 | (self.q78 << 6) | (self.q80 << 7)) } else { (self.v852) };
-        let c822: u64 = if (self.v800) != 0 { (c820) } else { (self.v948) };
-        if self.v822 != c822 { self.v822 = c822; *dirty |= 0x8000000000000000000; }
-        let c823: u64 = if (self.v800) != 0 { (c821) } else { (self.v852) };
-        if self.v823 != c823 { self.v823 = c823; *dirty |= 0x10000000000000000000; }
-        let c824: u64 = if (self.v800) != 0 { (c799) } else { (c826) };
-        if self.v824 != c824 { self.v824 = c824; *dirty |= 0x200000000000000000000; }
-        let c827: u64 = if (self.v948) != 0 { (self.v797) } else { (self.q46) };
-        let c809: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (c827) };
-        let c814: u64 = if (self.q127) != 0 { (c809) } else { (c827) };
-        if self.v814 != c814 { self.v814 = c814; *dirty |= 0x10000000000000000000; }
+        let c828: u64 = if (self.v949) != 0 { (self.v798) } else { (self.q46) };
+        let c810: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (c828) };
+        let c815: u64 = if (self.q127) != 0 { (c810) } else { (c828) };
+        if self.v815 != c815 { self.v815 = c815; *dirty |= 0x10000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$modes$divider.
     fn group_37(&mut self, dirty: &mut u128) {
-        let c1041: u64 = (self.q12).wrapping_add((0x1)) & 0x7;
-        if self.v1041 != c1041 { self.v1041 = c1041; *dirty |= 0x10000000000000000000000000; }
-        let c1042: u64 = !(self.q11) & 0x1;
-        if self.v1042 != c1042 { self.v1042 = c1042; *dirty |= 0x20000000000000000000000000; }
-        let c1043: u64 = u64::from((self.q105) == (0x7));
-        let c1044: u64 = u64::from((self.q12) >= (self.q105));
-        if self.v1044 != c1044 { self.v1044 = c1044; *dirty |= 0x20000000000000000000000000; }
-        let c86: u64 = u64::from((self.i_reset | (c1044 << 1)) != 0);
+        let c1042: u64 = (self.q12).wrapping_add((0x1)) & 0x7;
+        if self.v1042 != c1042 { self.v1042 = c1042; *dirty |= 0x10000000000000000000000000; }
+        let c1043: u64 = !(self.q11) & 0x1;
+        if self.v1043 != c1043 { self.v1043 = c1043; *dirty |= 0x20000000000000000000000000; }
+        let c1044: u64 = u64::from((self.q105) == (0x7));
+        let c1045: u64 = u64::from((self.q12) >= (self.q105));
+        if self.v1045 != c1045 { self.v1045 = c1045; *dirty |= 0x20000000000000000000000000; }
+        let c86: u64 = u64::from((self.i_reset | (c1045 << 1)) != 0);
         if self.v86 != c86 { self.v86 = c86; *dirty |= 0x10000000000000000000000000; }
-        let c1046: u64 = if (c1043) != 0 { (0x0) } else { (self.q11) };
-        let c1045: u64 = ((c1046) | ((self.q15 & 0x1))) & 0x1;
-        if self.v1045 != c1045 { self.v1045 = c1045; *dirty |= 0x2000000000000000000000000; }
+        let c1047: u64 = if (c1044) != 0 { (0x0) } else { (self.q11) };
+        let c1046: u64 = ((c1047) | ((self.q15 & 0x1))) & 0x1;
+        if self.v1046 != c1046 { self.v1046 = c1046; *dirty |= 0x2000000000000000000000000; }
         let _ = &dirty;
     }
 
@@ -4800,45 +4805,45 @@ impl Model {
 
     /// The cells of top$filter.
     fn group_39(&mut self, dirty: &mut u128) {
-        let c857: u64 = (self.v128) & (self.v925) & 0x1;
-        let c53: u64 = u64::from((self.v888 | (c857 << 1)) == 0x3);
+        let c858: u64 = (self.v128) & (self.v926) & 0x1;
+        let c53: u64 = u64::from((self.v889 | (c858 << 1)) == 0x3);
         if self.v53 != c53 { self.v53 = c53; *dirty |= 0x4000000000000000000000; }
-        let c54: u64 = u64::from((self.v887 | (c857 << 1)) == 0x3);
+        let c54: u64 = u64::from((self.v888 | (c858 << 1)) == 0x3);
         if self.v54 != c54 { self.v54 = c54; *dirty |= 0x2000000000000000000000; }
-        let c55: u64 = u64::from((self.v886 | (c857 << 1)) == 0x3);
+        let c55: u64 = u64::from((self.v887 | (c858 << 1)) == 0x3);
         if self.v55 != c55 { self.v55 = c55; *dirty |= 0x2000000000000000000000; }
-        let c56: u64 = u64::from((self.v885 | (c857 << 1)) == 0x3);
+        let c56: u64 = u64::from((self.v886 | (c858 << 1)) == 0x3);
         if self.v56 != c56 { self.v56 = c56; *dirty |= 0x1000000000000000000000; }
-        let c57: u64 = u64::from((self.v884 | (c857 << 1)) == 0x3);
+        let c57: u64 = u64::from((self.v885 | (c858 << 1)) == 0x3);
         if self.v57 != c57 { self.v57 = c57; *dirty |= 0x1000000000000000000000; }
-        let c58: u64 = u64::from((self.v883 | (c857 << 1)) == 0x3);
+        let c58: u64 = u64::from((self.v884 | (c858 << 1)) == 0x3);
         if self.v58 != c58 { self.v58 = c58; *dirty |= 0x800000000000000000000; }
-        let c59: u64 = u64::from((self.v882 | (c857 << 1)) == 0x3);
+        let c59: u64 = u64::from((self.v883 | (c858 << 1)) == 0x3);
         if self.v59 != c59 { self.v59 = c59; *dirty |= 0x800000000000000000000; }
-        let c60: u64 = u64::from((self.v881 | (c857 << 1)) == 0x3);
+        let c60: u64 = u64::from((self.v882 | (c858 << 1)) == 0x3);
         if self.v60 != c60 { self.v60 = c60; *dirty |= 0x400000000000000000000; }
-        let c929: u64 = ((((self.q81 >> 13) & 0xf) | (self.v836 << 4) | ((self.q82 & 0x7) << 5)) ^ (self.q38)) & 0xff;
-        let c862: u64 = (c929) & (self.v930) & 0xff;
-        let c119: u64 = ((c862 & 0xf)) & (self.q80 | (self.q80 << 1) | (self.q80 << 2) | (self.q80 << 3)) & 0xf;
-        let c891: u64 = u64::from((c119 | ((c862 >> 4) << 4)) == 0);
-        let c867: u64 = (self.v890) & (c891) & 0x1;
-        if self.v867 != c867 { self.v867 = c867; *dirty |= 0x8000000000000000000000; }
-        let c870: u64 = (c867) & (self.v903) & 0x1;
-        if self.v870 != c870 { self.v870 = c870; *dirty |= 0x20000000000000000000000; }
-        let c935: u64 = ((((self.q81 >> 13) & 0xf) | (self.v836 << 4) | ((self.q82 & 0x7) << 5)) ^ (self.q36)) & 0xff;
-        let c866: u64 = (c935) & (self.v933) & 0xff;
-        let c120: u64 = ((c866 & 0xf)) & (self.q80 | (self.q80 << 1) | (self.q80 << 2) | (self.q80 << 3)) & 0xf;
-        let c893: u64 = u64::from((c120 | ((c866 >> 4) << 4)) == 0);
-        let c868: u64 = (self.v892) & (c893) & 0x1;
-        if self.v868 != c868 { self.v868 = c868; *dirty |= 0x10000000000000000000000; }
+        let c930: u64 = ((((self.q81 >> 13) & 0xf) | (self.v837 << 4) | ((self.q82 & 0x7) << 5)) ^ (self.q38)) & 0xff;
+        let c863: u64 = (c930) & (self.v931) & 0xff;
+        let c119: u64 = ((c863 & 0xf)) & (self.q80 | (self.q80 << 1) | (self.q80 << 2) | (self.q80 << 3)) & 0xf;
+        let c892: u64 = u64::from((c119 | ((c863 >> 4) << 4)) == 0);
+        let c868: u64 = (self.v891) & (c892) & 0x1;
+        if self.v868 != c868 { self.v868 = c868; *dirty |= 0x8000000000000000000000; }
+        let c871: u64 = (c868) & (self.v904) & 0x1;
+        if self.v871 != c871 { self.v871 = c871; *dirty |= 0x20000000000000000000000; }
+        let c936: u64 = ((((self.q81 >> 13) & 0xf) | (self.v837 << 4) | ((self.q82 & 0x7) << 5)) ^ (self.q36)) & 0xff;
+        let c867: u64 = (c936) & (self.v934) & 0xff;
+        let c120: u64 = ((c867 & 0xf)) & (self.q80 | (self.q80 << 1) | (self.q80 << 2) | (self.q80 << 3)) & 0xf;
+        let c894: u64 = u64::from((c120 | ((c867 >> 4) << 4)) == 0);
+        let c869: u64 = (self.v893) & (c894) & 0x1;
+        if self.v869 != c869 { self.v869 = c869; *dirty |= 0x10000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$modes$cdr_reg.
     fn group_40(&mut self, dirty: &mut u128) {
-        self.n14 = ((self.v1007 >> 6));
+        self.n14 = ((self.v1008 >> 6));
         self.n15 = if (self.i_reset) != 0 { 0x0 } else if (self.v49) != 0 { (((self.i_wdata >> 3) & 0x1) | (((self.i_wdata >> 5) & 0x3) << 1)) } else { self.q15 };
-        self.n105 = if (self.i_reset) != 0 { 0x0 } else if (self.v990) != 0 { ((self.i_wdata & 0x7)) } else { self.q105 };
+        self.n105 = if (self.i_reset) != 0 { 0x0 } else if (self.v991) != 0 { ((self.i_wdata & 0x7)) } else { self.q105 };
         let _ = &dirty;
     }
 
@@ -4858,44 +4863,44 @@ impl Model {
 
     /// The cells of top$core$protocol$sender.
     fn group_43(&mut self, dirty: &mut u128) {
-        let c715: u64 = if (self.v236) != 0 { (self.v748) } else { (self.v750) };
-        let c717: u64 = if (self.v680) != 0 { (c715) } else { (0x1) };
-        let c729: u64 = if (self.v737) != 0 { (self.v728) } else { (c715) };
-        let c727: u64 = if (self.v736) != 0 { ((self.v1102 >> 7)) } else { (c729) };
-        let c725: u64 = if (self.v735) != 0 { (((self.v1102 >> 6) & 0x1)) } else { (c727) };
-        let c730: u64 = if (self.v680) != 0 { (c725) } else { (0x1) };
-        let c731: u64 = { let s = (self.v732 | (self.v711 << 1) | (self.v733 << 2) | (self.v713 << 3) | (self.v716 << 4) | (self.v719 << 5) | (self.v726 << 6) | (self.v734 << 7)); if s >> 0 & 1 != 0 { self.q125 } else if s >> 1 & 1 != 0 { self.v710 } else if s >> 2 & 1 != 0 { self.v699 } else if s >> 3 & 1 != 0 { self.v714 } else if s >> 4 & 1 != 0 { c717 } else if s >> 5 & 1 != 0 { self.v724 } else if s >> 6 & 1 != 0 { c730 } else if s >> 7 & 1 != 0 { self.v694 } else { (0x1) } };
-        let c709: u64 = if (self.v690) != 0 { (self.v438) } else { (c731) };
-        let c708: u64 = if (self.q94) != 0 { (c709) } else { (self.q117) };
-        let c704: u64 = ((c708) | (self.v703)) & 0x1;
-        if self.v704 != c704 { self.v704 = c704; *dirty |= 0x800000000000000000; }
-        let c747: u64 = if (self.v236) != 0 { (self.v744) } else { ((self.q56 & 0x1)) };
-        let c743: u64 = if (self.v237) != 0 { ((self.v742 << 1) | 0x1) } else { (c747) };
-        if self.v743 != c743 { self.v743 = c743; *dirty |= 0x100000000000; }
+        let c716: u64 = if (self.v236) != 0 { (self.v749) } else { (self.v751) };
+        let c718: u64 = if (self.v681) != 0 { (c716) } else { (0x1) };
+        let c730: u64 = if (self.v738) != 0 { (self.v729) } else { (c716) };
+        let c728: u64 = if (self.v737) != 0 { ((self.v1103 >> 7)) } else { (c730) };
+        let c726: u64 = if (self.v736) != 0 { (((self.v1103 >> 6) & 0x1)) } else { (c728) };
+        let c731: u64 = if (self.v681) != 0 { (c726) } else { (0x1) };
+        let c732: u64 = { let s = (self.v733 | (self.v712 << 1) | (self.v734 << 2) | (self.v714 << 3) | (self.v717 << 4) | (self.v720 << 5) | (self.v727 << 6) | (self.v735 << 7)); if s >> 0 & 1 != 0 { self.q125 } else if s >> 1 & 1 != 0 { self.v711 } else if s >> 2 & 1 != 0 { self.v700 } else if s >> 3 & 1 != 0 { self.v715 } else if s >> 4 & 1 != 0 { c718 } else if s >> 5 & 1 != 0 { self.v725 } else if s >> 6 & 1 != 0 { c731 } else if s >> 7 & 1 != 0 { self.v695 } else { (0x1) } };
+        let c710: u64 = if (self.v691) != 0 { (self.v438) } else { (c732) };
+        let c709: u64 = if (self.q94) != 0 { (c710) } else { (self.q117) };
+        let c705: u64 = ((c709) | (self.v704)) & 0x1;
+        if self.v705 != c705 { self.v705 = c705; *dirty |= 0x800000000000000000; }
+        let c748: u64 = if (self.v236) != 0 { (self.v745) } else { ((self.q56 & 0x1)) };
+        let c744: u64 = if (self.v237) != 0 { ((self.v743 << 1) | 0x1) } else { (c748) };
+        if self.v744 != c744 { self.v744 = c744; *dirty |= 0x100000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender$tx_ptr.
     fn group_44(&mut self, dirty: &mut u128) {
-        self.n55 = if (self.v93) != 0 { 0x0 } else if (self.v62) != 0 { ((self.v743 >> 1)) } else { self.q55 };
-        self.n56 = if (self.v92) != 0 { 0x1 } else if (self.v63) != 0 { ((self.v683 & 0x1) | ((self.v683 >> 3) << 1)) } else { self.q56 };
+        self.n55 = if (self.v93) != 0 { 0x0 } else if (self.v62) != 0 { ((self.v744 >> 1)) } else { self.q55 };
+        self.n56 = if (self.v92) != 0 { 0x1 } else if (self.v63) != 0 { ((self.v684 & 0x1) | ((self.v684 >> 3) << 1)) } else { self.q56 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing.
     fn group_45(&mut self, dirty: &mut u128) {
-        let c763: u64 = if (self.v517) != 0 { (0x1) } else { (self.v765) };
+        let c764: u64 = if (self.v517) != 0 { (0x1) } else { (self.v766) };
+        if self.v764 != c764 { self.v764 = c764; *dirty |= 0x2000000000000000000; }
+        let c765: u64 = ((self.q54) | (self.v517)) & 0x1;
+        let c763: u64 = if (self.v255) != 0 { (0x0) } else { (c765) };
         if self.v763 != c763 { self.v763 = c763; *dirty |= 0x2000000000000000000; }
-        let c764: u64 = ((self.q54) | (self.v517)) & 0x1;
-        let c762: u64 = if (self.v255) != 0 { (0x0) } else { (c764) };
-        if self.v762 != c762 { self.v762 = c762; *dirty |= 0x2000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$ier_reg.
     fn group_46(&mut self, dirty: &mut u128) {
         self.n21 = if (self.i_reset) != 0 { 0x0 } else if (self.v51) != 0 { ((self.i_wdata >> 4)) } else { self.q21 };
-        self.n22 = if (self.i_reset) != 0 { 0x0 } else if (self.v52) != 0 { (self.v980) } else { self.q22 };
+        self.n22 = if (self.i_reset) != 0 { 0x0 } else if (self.v52) != 0 { (self.v981) } else { self.q22 };
         let _ = &dirty;
     }
 
@@ -5006,7 +5011,7 @@ impl Model {
 
     /// The cells of top$core$protocol$capture$ecc_reg + top$core$protocol$capture$error_pulse.
     fn group_62(&mut self, dirty: &mut u128) {
-        self.n76 = if (self.i_reset) != 0 { 0x0 } else if (self.v258) != 0 { (self.v320 | (self.v675 << 5) | (self.v677 << 6)) } else { self.q76 };
+        self.n76 = if (self.i_reset) != 0 { 0x0 } else if (self.v258) != 0 { (self.v320 | (self.v676 << 5) | (self.v678 << 6)) } else { self.q76 };
         self.n75 = if (self.v97) != 0 { 0x0 } else { (self.v258) };
         let _ = &dirty;
     }
@@ -5048,15 +5053,15 @@ impl Model {
 
     /// The cells of top$core$protocol$interframe$ack_penalty + top$core$protocol$interframe$after_error_flag.
     fn group_68(&mut self, dirty: &mut u128) {
-        self.n63 = if (self.i_reset) != 0 { 0x0 } else { (self.v676) };
+        self.n63 = if (self.i_reset) != 0 { 0x0 } else { (self.v677) };
         self.n62 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v566) } else { self.q62 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$dominant_after_flag + top$core$protocol$interframe$first_after_flag.
     fn group_69(&mut self, dirty: &mut u128) {
-        self.n61 = if (self.i_reset) != 0 { 0x0 } else if (self.v67) != 0 { (self.v648) } else { self.q61 };
-        self.n60 = if (self.i_reset) != 0 { 0x0 } else if (self.v66) != 0 { (self.v649) } else { self.q60 };
+        self.n61 = if (self.i_reset) != 0 { 0x0 } else if (self.v67) != 0 { (self.v649) } else { self.q61 };
+        self.n60 = if (self.i_reset) != 0 { 0x0 } else if (self.v66) != 0 { (self.v650) } else { self.q60 };
         let _ = &dirty;
     }
 
@@ -5069,67 +5074,67 @@ impl Model {
 
     /// The cells of top$core$protocol$sender$tx_left + top$core$protocol$sender$tx_next.
     fn group_71(&mut self, dirty: &mut u128) {
-        self.n57 = if (self.v92) != 0 { 0x0 } else if (self.v236) != 0 { (self.v745) } else { self.q57 };
-        self.n117 = (self.v704);
+        self.n57 = if (self.v92) != 0 { 0x0 } else if (self.v236) != 0 { (self.v746) } else { self.q57 };
+        self.n117 = (self.v705);
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender$tx_reg + top$core$protocol$sender$tx_shift.
     fn group_72(&mut self, dirty: &mut u128) {
-        self.n118 = (self.v705);
-        self.n104 = if (self.i_reset) != 0 { 0x0 } else if (self.v236) != 0 { (self.v746) } else { self.q104 };
+        self.n118 = (self.v706);
+        self.n104 = if (self.i_reset) != 0 { 0x0 } else if (self.v236) != 0 { (self.v747) } else { self.q104 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing$active + top$core$protocol$stuffing$run_length.
     fn group_73(&mut self, dirty: &mut u128) {
-        self.n54 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v762) } else { self.q54 };
-        self.n53 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v763) } else { self.q53 };
+        self.n54 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v763) } else { self.q54 };
+        self.n53 = if (self.i_reset) != 0 { 0x0 } else if (self.q94) != 0 { (self.v764) } else { self.q53 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing$run_level_reg + top$core$protocol$transmitter.
     fn group_74(&mut self, dirty: &mut u128) {
         self.n52 = if (self.v61) != 0 { (self.q109) } else { self.q52 };
-        self.n51 = if (self.v91) != 0 { 0x0 } else if (self.q94) != 0 { (self.v680) } else { self.q51 };
+        self.n51 = if (self.v91) != 0 { 0x0 } else if (self.q94) != 0 { (self.v681) } else { self.q51 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$valid_pulse + top$fifo$fetching.
     fn group_75(&mut self, dirty: &mut u128) {
         self.n50 = if (self.v90) != 0 { 0x0 } else { (self.v475) };
-        self.n48 = if (self.i_reset) != 0 { 0x0 } else { (self.v822) };
+        self.n48 = if (self.i_reset) != 0 { 0x0 } else { (self.v823) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$head + top$fifo$head_info_reg.
     fn group_76(&mut self, dirty: &mut u128) {
-        self.n46 = if (self.i_reset) != 0 { 0x0 } else { (self.v814) };
-        self.n45 = if (self.i_reset) != 0 { 0x0 } else { (self.v823) };
+        self.n46 = if (self.i_reset) != 0 { 0x0 } else { (self.v815) };
+        self.n45 = if (self.i_reset) != 0 { 0x0 } else { (self.v824) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$header_step.
     fn group_77(&mut self, dirty: &mut u128) {
         let c21: u64 = u64::from((self.q83 | (self.q40 << 1)) != 0);
-        self.n44 = if (self.i_reset) != 0 { 0x0 } else if (c21) != 0 { (self.v843) } else { self.q44 };
+        self.n44 = if (self.i_reset) != 0 { 0x0 } else if (c21) != 0 { (self.v844) } else { self.q44 };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$overrun_state + top$fifo$ram.
     fn group_78(&mut self, dirty: &mut u128) {
-        self.n42 = if (self.v89) != 0 { 0x0 } else { (self.v819) };
+        self.n42 = if (self.v89) != 0 { 0x0 } else { (self.v820) };
         self.m0_re = (0x1) != 0;
-        self.m0_ra = (self.v818) as usize;
-        self.m0_wa = (self.v817) as usize;
-        self.m0_wd = (self.v816);
-        self.m0_we = (self.v815 | (self.v815 << 1) | (self.v815 << 2) | (self.v815 << 3) | (self.v815 << 4) | (self.v815 << 5) | (self.v815 << 6) | (self.v815 << 7));
+        self.m0_ra = (self.v819) as usize;
+        self.m0_wa = (self.v818) as usize;
+        self.m0_wd = (self.v817);
+        self.m0_we = (self.v816 | (self.v816 << 1) | (self.v816 << 2) | (self.v816 << 3) | (self.v816 << 4) | (self.v816 << 5) | (self.v816 << 6) | (self.v816 << 7));
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$tail.
     fn group_79(&mut self, dirty: &mut u128) {
-        self.n41 = if (self.i_reset) != 0 { 0x0 } else if (self.v20) != 0 { (self.v813) } else { self.q41 };
+        self.n41 = if (self.i_reset) != 0 { 0x0 } else if (self.v20) != 0 { (self.v814) } else { self.q41 };
         let _ = &dirty;
     }
 
@@ -5137,20 +5142,20 @@ impl Model {
     fn group_80(&mut self, dirty: &mut u128) {
         let c88: u64 = u64::from((self.i_reset | (self.q127 << 1)) != 0);
         if self.v88 != c88 { self.v88 = c88; *dirty |= 0x600000000000000000000; }
-        self.n40 = if (c88) != 0 { 0x0 } else { (self.v842) };
+        self.n40 = if (c88) != 0 { 0x0 } else { (self.v843) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$count + top$fifo$full.
     fn group_81(&mut self, dirty: &mut u128) {
-        self.n49 = if (self.v88) != 0 { 0x0 } else { (self.v824) };
-        self.n47 = if (self.v88) != 0 { 0x0 } else if (self.v22) != 0 { (self.v825) } else { self.q47 };
+        self.n49 = if (self.v88) != 0 { 0x0 } else { (self.v825) };
+        self.n47 = if (self.v88) != 0 { 0x0 } else if (self.v22) != 0 { (self.v826) } else { self.q47 };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$incomplete + top$filter$acr0.
     fn group_82(&mut self, dirty: &mut u128) {
-        self.n43 = if (self.v88) != 0 { 0x0 } else { (self.v830) };
+        self.n43 = if (self.v88) != 0 { 0x0 } else { (self.v831) };
         self.n39 = if (self.i_reset) != 0 { 0x0 } else if (self.v60) != 0 { (self.i_wdata) } else { self.q39 };
         let _ = &dirty;
     }
@@ -5179,55 +5184,55 @@ impl Model {
     /// The cells of top$filter$amr3 + top$filter$basic_id_match.
     fn group_86(&mut self, dirty: &mut u128) {
         self.n32 = if (self.i_reset) != 0 { 0x0 } else if (self.v53) != 0 { (self.i_wdata) } else { self.q32 };
-        self.n31 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v890) } else { self.q31 };
+        self.n31 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v891) } else { self.q31 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$dual1_data_match + top$filter$dual1_id_match.
     fn group_87(&mut self, dirty: &mut u128) {
-        self.n119 = (self.v904);
-        self.n30 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v867) } else { self.q30 };
+        self.n119 = (self.v905);
+        self.n30 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v868) } else { self.q30 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$dual2_id_match + top$filter$single_data1_match.
     fn group_88(&mut self, dirty: &mut u128) {
-        self.n29 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v868) } else { self.q29 };
-        self.n120 = (self.v906);
+        self.n29 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v869) } else { self.q29 };
+        self.n120 = (self.v907);
         let _ = &dirty;
     }
 
     /// The cells of top$filter$single_data2_match + top$filter$single_id_match.
     fn group_89(&mut self, dirty: &mut u128) {
-        self.n121 = (self.v905);
-        self.n28 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v870) } else { self.q28 };
+        self.n121 = (self.v906);
+        self.n28 = if (self.i_reset) != 0 { 0x0 } else if (self.q83) != 0 { (self.v871) } else { self.q28 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$alc_armed + top$interrupts$alc_reg.
     fn group_90(&mut self, dirty: &mut u128) {
-        self.n122 = (self.v965);
-        self.n27 = if (self.i_reset) != 0 { 0x0 } else if (self.v943) != 0 { (self.q77) } else { self.q27 };
+        self.n122 = (self.v966);
+        self.n27 = if (self.i_reset) != 0 { 0x0 } else if (self.v944) != 0 { (self.q77) } else { self.q27 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$basic_ri_reg + top$interrupts$bus_off_reg.
     fn group_91(&mut self, dirty: &mut u128) {
-        self.n26 = if (self.i_reset) != 0 { 0x0 } else { (self.v968) };
+        self.n26 = if (self.i_reset) != 0 { 0x0 } else { (self.v969) };
         self.n25 = if (self.i_reset) != 0 { 0x0 } else { (self.q113) };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$ecc_armed + top$interrupts$ecc_reg.
     fn group_92(&mut self, dirty: &mut u128) {
-        self.n123 = (self.v964);
-        self.n24 = if (self.i_reset) != 0 { 0x0 } else if (self.v944) != 0 { (self.q76) } else { self.q24 };
+        self.n123 = (self.v965);
+        self.n24 = if (self.i_reset) != 0 { 0x0 } else if (self.v945) != 0 { (self.q76) } else { self.q24 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$es_reg + top$interrupts$ir_reg.
     fn group_93(&mut self, dirty: &mut u128) {
-        self.n23 = if (self.i_reset) != 0 { 0x0 } else { (self.v972) };
+        self.n23 = if (self.i_reset) != 0 { 0x0 } else { (self.v973) };
         self.n20 = if (self.i_reset) != 0 { 0x0 } else { (self.v118) };
         let _ = &dirty;
     }
@@ -5247,15 +5252,15 @@ impl Model {
 
     /// The cells of top$interrupts$rbs_before.
     fn group_96(&mut self, dirty: &mut u128) {
-        self.n17 = if (self.i_reset) != 0 { 0x0 } else { (self.v958) };
+        self.n17 = if (self.i_reset) != 0 { 0x0 } else { (self.v959) };
         let _ = &dirty;
     }
 
     /// The cells of top$modes.
     fn group_97(&mut self, dirty: &mut u128) {
-        let c1012: u64 = if (self.v1002) != 0 { (0x0) } else { (self.v1045) };
-        let c1013: u64 = if (self.q129) != 0 { (c1012) } else { (self.v1045) };
-        if self.v1013 != c1013 { self.v1013 = c1013; *dirty |= 0x80000000000000000000000000000000; }
+        let c1013: u64 = if (self.v1003) != 0 { (0x0) } else { (self.v1046) };
+        let c1014: u64 = if (self.q129) != 0 { (c1013) } else { (self.v1046) };
+        if self.v1014 != c1014 { self.v1014 = c1014; *dirty |= 0x80000000000000000000000000000000; }
         let _ = &dirty;
     }
 
@@ -5273,70 +5278,70 @@ impl Model {
 
     /// The cells of top$modes$divider$count.
     fn group_100(&mut self, dirty: &mut u128) {
-        self.n12 = if (self.v86) != 0 { 0x0 } else { (self.v1041) };
+        self.n12 = if (self.v86) != 0 { 0x0 } else { (self.v1042) };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$divider$level.
     fn group_101(&mut self, dirty: &mut u128) {
-        self.n11 = if (self.i_reset) != 0 { 0x0 } else if (self.v1044) != 0 { (self.v1042) } else { self.q11 };
+        self.n11 = if (self.i_reset) != 0 { 0x0 } else if (self.v1045) != 0 { (self.v1043) } else { self.q11 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$enable_reg.
     fn group_102(&mut self, dirty: &mut u128) {
-        self.n124 = (self.v992);
+        self.n124 = (self.v993);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$listen_only_reg.
     fn group_103(&mut self, dirty: &mut u128) {
-        self.n125 = (self.v993);
+        self.n125 = (self.v994);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$lom.
     fn group_104(&mut self, dirty: &mut u128) {
-        self.n126 = (self.v1010);
+        self.n126 = (self.v1011);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$rm.
     fn group_105(&mut self, dirty: &mut u128) {
-        self.n127 = (self.v1011);
+        self.n127 = (self.v1012);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$self_test_reg.
     fn group_106(&mut self, dirty: &mut u128) {
-        self.n128 = (self.v994);
+        self.n128 = (self.v995);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$sleep_bits.
     fn group_107(&mut self, dirty: &mut u128) {
-        self.n10 = if (self.v85) != 0 { 0x0 } else if (self.v991) != 0 { (self.v981) } else { self.q10 };
+        self.n10 = if (self.v85) != 0 { 0x0 } else if (self.v992) != 0 { (self.v982) } else { self.q10 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$sm.
     fn group_108(&mut self, dirty: &mut u128) {
-        self.n129 = (self.v1008);
+        self.n129 = (self.v1009);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$stm.
     fn group_109(&mut self, dirty: &mut u128) {
-        self.n130 = (self.v1009);
+        self.n130 = (self.v1010);
         let _ = &dirty;
     }
 
     /// The cells of top$read.
     fn group_110(&mut self, dirty: &mut u128) {
-        let c1066: u64 = if (self.q8) != 0 { (self.v1104) } else { (self.v1067) };
-        if self.v1066 != c1066 { self.v1066 = c1066; *dirty |= 0x80000000000000000000000000000000; }
-        let c1065: u64 = if (self.i_re) != 0 { (self.v1085) } else { (c1066) };
-        if self.v1065 != c1065 { self.v1065 = c1065; *dirty |= 0x40000000000000000000000000000; }
+        let c1067: u64 = if (self.q8) != 0 { (self.v1105) } else { (self.v1068) };
+        if self.v1067 != c1067 { self.v1067 = c1067; *dirty |= 0x80000000000000000000000000000000; }
+        let c1066: u64 = if (self.i_re) != 0 { (self.v1086) } else { (c1067) };
+        if self.v1066 != c1066 { self.v1066 = c1066; *dirty |= 0x40000000000000000000000000000; }
         let _ = &dirty;
     }
 
@@ -5348,37 +5353,37 @@ impl Model {
 
     /// The cells of top$read$rdata_from_tx.
     fn group_112(&mut self, dirty: &mut u128) {
-        self.n8 = if (self.i_reset) != 0 { 0x0 } else { (self.v1064) };
+        self.n8 = if (self.i_reset) != 0 { 0x0 } else { (self.v1065) };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_ram_or.
     fn group_113(&mut self, dirty: &mut u128) {
-        self.n106 = if (self.i_reset) != 0 { 0x0 } else if (self.i_re) != 0 { (self.v1086) } else { self.q106 };
+        self.n106 = if (self.i_reset) != 0 { 0x0 } else if (self.i_re) != 0 { (self.v1087) } else { self.q106 };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_reg.
     fn group_114(&mut self, dirty: &mut u128) {
-        self.n7 = if (self.i_reset) != 0 { 0x0 } else { (self.v1065) };
+        self.n7 = if (self.i_reset) != 0 { 0x0 } else { (self.v1066) };
         let _ = &dirty;
     }
 
     /// The cells of top$self_reception.
     fn group_115(&mut self, dirty: &mut u128) {
-        self.n6 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v774) } else { self.q6 };
+        self.n6 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v775) } else { self.q6 };
         let _ = &dirty;
     }
 
     /// The cells of top$tbs.
     fn group_116(&mut self, dirty: &mut u128) {
-        self.n131 = (self.v1112);
+        self.n131 = (self.v1113);
         let _ = &dirty;
     }
 
     /// The cells of top$tcs.
     fn group_117(&mut self, dirty: &mut u128) {
-        self.n132 = (self.v1113);
+        self.n132 = (self.v1114);
         let _ = &dirty;
     }
 
@@ -5392,15 +5397,15 @@ impl Model {
     fn group_119(&mut self, dirty: &mut u128) {
         self.m1_re = (0x1) != 0;
         self.m1_ra = ((self.q56 & 0x1) | (self.q55 << 1) | ((self.q56 >> 1) << 3)) as usize;
-        self.m1_wa = (self.v1121) as usize;
+        self.m1_wa = (self.v1122) as usize;
         self.m1_wd = (self.i_wdata);
-        self.m1_we = (self.v1094 | (self.v1094 << 1) | (self.v1094 << 2) | (self.v1094 << 3) | (self.v1094 << 4) | (self.v1094 << 5) | (self.v1094 << 6) | (self.v1094 << 7));
+        self.m1_we = (self.v1095 | (self.v1095 << 1) | (self.v1095 << 2) | (self.v1095 << 3) | (self.v1095 << 4) | (self.v1095 << 5) | (self.v1095 << 6) | (self.v1095 << 7));
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$core_written.
     fn group_120(&mut self, dirty: &mut u128) {
-        self.n5 = if (self.i_reset) != 0 { 0x0 } else { (self.v1096) };
+        self.n5 = if (self.i_reset) != 0 { 0x0 } else { (self.v1097) };
         let _ = &dirty;
     }
 
@@ -5413,34 +5418,34 @@ impl Model {
     /// The cells of top$tx_buffer$host_ram.
     fn group_122(&mut self, dirty: &mut u128) {
         self.m2_re = (0x1) != 0;
-        self.m2_ra = (self.v1121) as usize;
-        self.m2_wa = (self.v1121) as usize;
+        self.m2_ra = (self.v1122) as usize;
+        self.m2_wa = (self.v1122) as usize;
         self.m2_wd = (self.i_wdata);
-        self.m2_we = (self.v1094 | (self.v1094 << 1) | (self.v1094 << 2) | (self.v1094 << 3) | (self.v1094 << 4) | (self.v1094 << 5) | (self.v1094 << 6) | (self.v1094 << 7));
+        self.m2_we = (self.v1095 | (self.v1095 << 1) | (self.v1095 << 2) | (self.v1095 << 3) | (self.v1095 << 4) | (self.v1095 << 5) | (self.v1095 << 6) | (self.v1095 << 7));
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$host_written.
     fn group_123(&mut self, dirty: &mut u128) {
-        self.n3 = if (self.i_reset) != 0 { 0x0 } else { (self.v1095) };
+        self.n3 = if (self.i_reset) != 0 { 0x0 } else { (self.v1096) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$written.
     fn group_124(&mut self, dirty: &mut u128) {
-        self.n108 = if (self.i_reset) != 0 { 0x0 } else if (self.v1094) != 0 { (self.v109) } else { self.q108 };
+        self.n108 = if (self.i_reset) != 0 { 0x0 } else if (self.v1095) != 0 { (self.v109) } else { self.q108 };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_pending.
     fn group_125(&mut self, dirty: &mut u128) {
-        self.n2 = if (self.v84) != 0 { 0x0 } else { (self.v1117) };
+        self.n2 = if (self.v84) != 0 { 0x0 } else { (self.v1118) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_single_shot.
     fn group_126(&mut self, dirty: &mut u128) {
-        self.n1 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v769) } else { self.q1 };
+        self.n1 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v770) } else { self.q1 };
         let _ = &dirty;
     }
 }

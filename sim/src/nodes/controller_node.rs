@@ -214,6 +214,12 @@ impl Model {
 const PROTOCOL_STATES: [ProtocolState; 16] = [
     ProtocolState::Integrating,
     ProtocolState::Idle,
+    ProtocolState::Suspend,
+    ProtocolState::BusOff,
+    ProtocolState::ErrorFlag,
+    ProtocolState::OverloadFlag,
+    ProtocolState::Delimiter,
+    ProtocolState::Intermission,
     ProtocolState::Arbitration,
     ProtocolState::Control,
     ProtocolState::Data,
@@ -222,12 +228,6 @@ const PROTOCOL_STATES: [ProtocolState; 16] = [
     ProtocolState::AckSlot,
     ProtocolState::AckDelimiter,
     ProtocolState::EndOfFrame,
-    ProtocolState::Intermission,
-    ProtocolState::Suspend,
-    ProtocolState::ErrorFlag,
-    ProtocolState::OverloadFlag,
-    ProtocolState::Delimiter,
-    ProtocolState::BusOff,
 ];
 
 /// One clock cycle of the rust-hdl controller with `inputs` on its ports. `applied` holds the

@@ -201,6 +201,20 @@ mod tests {
     }
 
     #[test]
+    fn the_state_filter_names_every_protocol_state_at_its_traced_value() {
+        let mut lines = 0;
+        for line in STATE_FILTER.lines() {
+            let (value, name) = line.split_once(' ').expect("`XX Name` lines");
+            let value = u64::from_str_radix(value, 16).expect("a hex value");
+            let state = crate::nodes::controller_node::protocol_state(value);
+            assert_eq!(state as u64, value, "the traced value of {state:?}");
+            assert_eq!(format!("{state:?}"), name, "state.filter line {line:?}");
+            lines += 1;
+        }
+        assert_eq!(lines, 16, "one line per protocol state");
+    }
+
+    #[test]
     fn a_vector_lists_its_bits_from_the_top() {
         let probe = Probe {
             name: "segment",
