@@ -8,7 +8,9 @@
 // it. 6.4.5 SR bit 0 (RBS): 1 when the RXFIFO holds a message (RMC, 6.4.16, above 0).
 // Split into (a) out of reset mode the register never changes, (b) a reset-mode write to its address
 // loads `wdata`, (c) a reset-mode read of its address returns the register in `rdata` the cycle after
-// the `re` cycle, (d) a read of SR returns RMC != 0 in bit 0.
+// the `re` cycle, (d) a read of SR returns RMC != 0 in bit 0. The controller reads these registers
+// from their read-back copies in the TX buffer's RAM (rtl/src/tx_buffer.rs), so (c) proves that each
+// copy always equals its register: written together, 0 after reset, none overwriting another.
 //
 // The whole controller, every input free (rx too) but for the port contract at the top of
 // fpga/rtl/can_controller.v: `reset` in the first cycle, `we` and `re` never together. Both register
@@ -34,7 +36,8 @@
 //! mutation: btr-write-in-operating | if (host$we & reset_mode) begin => if (host$we) begin
 //! mutation: filter-write-in-operating | if (host$we & reset_mode & host_selected) begin => if (host$we & host_selected) begin
 //! mutation: btr1-readback | btr1$d = host$wdata; => btr1$d = host$wdata ^ 8'h01;
-//! mutation: amr3-read | amr_at_index = amr3$q; => amr_at_index = amr2$q;
+//! mutation: amr3-copy-kept | localparam  kept_bytes = 32'h7ff1fff; => localparam  kept_bytes = 32'h7f71fff;
+//! mutation: filter-copy-index | readback_index = readback_filter | ((filter$host_index) & 5'h1f); => readback_index = readback_filter | ((filter$host_index) & 5'h1b);
 //! mutation: rbs-or-tbs | ((rbs) << (32'h0)) => ((rbs | tbs) << (32'h0))
 module register_port (
 `include "controller_ports.vh"

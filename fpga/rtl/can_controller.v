@@ -40,6 +40,8 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
     localparam  rxerr_address = 8'he;
     localparam  txerr_address = 8'hf;
     localparam  rbsa_address = 8'h1e;
+    localparam  readback_filter = 5'b10000;
+    localparam  readback_configuration = 5'b11000;
     
     // Enums
     localparam ProtocolState$Integrating = 0;
@@ -136,9 +138,9 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
     reg  tx_buffer$clock;
     reg  tx_buffer$reset;
     reg  tx_buffer$write;
-    reg  [3:0] tx_buffer$write_index;
+    reg  [4:0] tx_buffer$write_index;
     reg  [7:0] tx_buffer$write_data;
-    reg  [3:0] tx_buffer$host_index;
+    reg  [4:0] tx_buffer$host_index;
     wire  [7:0] tx_buffer$host_data;
     reg  [3:0] tx_buffer$core_index;
     wire  [7:0] tx_buffer$core_data;
@@ -162,7 +164,7 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
     reg  [2:0] filter$rx_frame$index;
     wire  filter$accept;
     wire  filter$host_selected;
-    wire  [7:0] filter$host_data;
+    wire  [2:0] filter$host_index;
     reg  [7:0] decode$host$addr;
     reg  decode$host$we;
     reg  [7:0] decode$host$wdata;
@@ -227,7 +229,7 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
     wire  configuration$sam;
     wire  [7:0] configuration$ewlr;
     wire  configuration$host_selected;
-    wire  [7:0] configuration$host_data;
+    wire  [1:0] configuration$host_index;
     reg  interrupts$clock;
     reg  interrupts$reset;
     reg  [7:0] interrupts$host$addr;
@@ -300,10 +302,8 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
     reg  [7:0] read$head_info;
     reg  [7:0] read$fifo_data;
     reg  [7:0] read$tx_data;
-    reg  read$config_selected;
-    reg  [7:0] read$config_data;
-    reg  read$filter_selected;
-    reg  [7:0] read$filter_data;
+    reg  [7:0] read$ewlr;
+    reg  read$readback_selected;
     wire  [7:0] read$rdata;
     wire  [7:0] read$enables;
     wire  read$irq_pending;
@@ -326,6 +326,11 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
     reg  tbs$clock;
     
     // Local signals
+    reg  readback_selected;
+    reg  [4:0] readback_index;
+    reg  tx_write;
+    reg  [4:0] tx_write_index;
+    reg  [4:0] tx_host_index;
     reg  pelican_mode;
     reg  reset_mode;
     reg  reset_mode_write;
@@ -439,7 +444,7 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
         .rx_frame$index(filter$rx_frame$index),
         .accept(filter$accept),
         .host_selected(filter$host_selected),
-        .host_data(filter$host_data)
+        .host_index(filter$host_index)
     );
     top$decode decode(
         .host$addr(decode$host$addr),
@@ -510,7 +515,7 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
         .sam(configuration$sam),
         .ewlr(configuration$ewlr),
         .host_selected(configuration$host_selected),
-        .host_data(configuration$host_data)
+        .host_index(configuration$host_index)
     );
     top$interrupts interrupts(
         .clock(interrupts$clock),
@@ -587,10 +592,8 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
         .head_info(read$head_info),
         .fifo_data(read$fifo_data),
         .tx_data(read$tx_data),
-        .config_selected(read$config_selected),
-        .config_data(read$config_data),
-        .filter_selected(read$filter_selected),
-        .filter_data(read$filter_data),
+        .ewlr(read$ewlr),
+        .readback_selected(read$readback_selected),
         .rdata(read$rdata),
         .enables(read$enables),
         .irq_pending(read$irq_pending),
@@ -732,10 +735,13 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
         read$head_info = fifo$head_info;
         read$fifo_data = fifo$read_data;
         read$tx_data = tx_buffer$host_data;
-        read$config_selected = configuration$host_selected;
-        read$config_data = configuration$host_data;
-        read$filter_selected = filter$host_selected;
-        read$filter_data = filter$host_data;
+        readback_selected = filter$host_selected | configuration$host_selected;
+        readback_index = readback_filter | ((filter$host_index) & 5'h1f);
+        if (configuration$host_selected) begin
+            readback_index = readback_configuration | ((configuration$host_index) & 5'h1f);
+        end
+        read$ewlr = configuration$ewlr;
+        read$readback_selected = readback_selected;
         rdata = read$rdata;
         irq_n = read$irq_pending == 1'b0;
         reset_mode_write = we & reset_mode & pelican_mode;
@@ -746,17 +752,27 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
         fifo$start_address = ((wdata) & 6'h3f);
         tx_buffer$reset = reset;
         tx_buffer$basic_layout = modes$pelican == 1'b0;
-        tx_buffer$write = we & (reset_mode == 1'b0) & tbs$q & (decode$in_frame_window | decode$in_basic_tx);
-        tx_buffer$write_index = decode$frame_index;
+        tx_write = we & (reset_mode == 1'b0) & tbs$q & (decode$in_frame_window | decode$in_basic_tx);
+        tx_write_index = ((decode$frame_index) & 5'h1f);
         if (we & reset_mode & decode$in_tx_ram) begin
-            tx_buffer$write = 1'b1;
-            tx_buffer$write_index = decode$tx_ram_index;
+            tx_write = 1'b1;
+            tx_write_index = ((decode$tx_ram_index) & 5'h1f);
         end
-        tx_buffer$host_index = decode$tx_ram_index;
+        tx_host_index = ((decode$tx_ram_index) & 5'h1f);
         if (pelican_mode == 1'b0) begin
-            tx_buffer$write_index = decode$basic_tx_index;
-            tx_buffer$host_index = decode$basic_tx_index;
+            tx_write_index = ((decode$basic_tx_index) & 5'h1f);
+            tx_host_index = ((decode$basic_tx_index) & 5'h1f);
         end
+        if (readback_selected) begin
+            tx_host_index = readback_index;
+            if (we & reset_mode) begin
+                tx_write = 1'b1;
+                tx_write_index = readback_index;
+            end
+        end
+        tx_buffer$write = tx_write;
+        tx_buffer$write_index = tx_write_index;
+        tx_buffer$host_index = tx_host_index;
         tx_buffer$write_data = wdata;
         tx_buffer$core_index = core$transmit$addr;
         core$transmit$abort = decode$cmd_abort & (decode$cmd_transmit == 1'b0) & (decode$cmd_self_reception == 1'b0) & tx_pending$q;
@@ -837,7 +853,7 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
 endmodule // can_controller
 
 
-module top$configuration(clock,reset,host$addr,host$we,host$wdata,pelican,reset_mode,brp,sjw,tseg1,tseg2,sam,ewlr,host_selected,host_data);
+module top$configuration(clock,reset,host$addr,host$we,host$wdata,pelican,reset_mode,brp,sjw,tseg1,tseg2,sam,ewlr,host_selected,host_index);
     
     // Module arguments
     input wire  clock;
@@ -854,7 +870,7 @@ module top$configuration(clock,reset,host$addr,host$we,host$wdata,pelican,reset_
     output reg  sam;
     output reg  [7:0] ewlr;
     output reg  host_selected;
-    output reg  [7:0] host_data;
+    output reg  [1:0] host_index;
     
     // Constant declarations
     localparam  btr0_address = 8'h6;
@@ -876,9 +892,6 @@ module top$configuration(clock,reset,host$addr,host$we,host$wdata,pelican,reset_
     reg  [2:0] tseg2_reg$d;
     wire  [2:0] tseg2_reg$q;
     reg  tseg2_reg$clock;
-    reg  [7:0] ocr$d;
-    wire  [7:0] ocr$q;
-    reg  ocr$clock;
     reg  [7:0] ewlr_reg$d;
     wire  [7:0] ewlr_reg$q;
     reg  ewlr_reg$clock;
@@ -904,11 +917,6 @@ module top$configuration(clock,reset,host$addr,host$we,host$wdata,pelican,reset_
         .q(tseg2_reg$q),
         .clock(tseg2_reg$clock)
     );
-    top$configuration$ocr ocr(
-        .d(ocr$d),
-        .q(ocr$q),
-        .clock(ocr$clock)
-    );
     top$configuration$ewlr_reg ewlr_reg(
         .d(ewlr_reg$d),
         .q(ewlr_reg$q),
@@ -921,13 +929,11 @@ module top$configuration(clock,reset,host$addr,host$we,host$wdata,pelican,reset_
         btr1$clock = clock;
         sjw_reg$clock = clock;
         tseg2_reg$clock = clock;
-        ocr$clock = clock;
         ewlr_reg$clock = clock;
         btr0$d = btr0$q;
         btr1$d = btr1$q;
         sjw_reg$d = sjw_reg$q;
         tseg2_reg$d = tseg2_reg$q;
-        ocr$d = ocr$q;
         ewlr_reg$d = ewlr_reg$q;
         brp = ((btr0$q) & 6'h3f);
         sjw = sjw_reg$q;
@@ -944,34 +950,18 @@ module top$configuration(clock,reset,host$addr,host$we,host$wdata,pelican,reset_
                 btr1$d = host$wdata;
                 tseg2_reg$d = host$wdata[(32'h4)+:(3)];
             end
-            if (host$addr == ocr_address) begin
-                ocr$d = host$wdata;
-            end
             if (pelican & (host$addr == ewlr_address)) begin
                 ewlr_reg$d = host$wdata;
             end
         end
-        host_selected = (host$addr == btr0_address) | (host$addr == btr1_address) | (host$addr == ocr_address) | (pelican & (host$addr == ewlr_address));
-        if (host$addr[32'h3]) begin
-            if (host$addr[32'h0]) begin
-                host_data = ewlr_reg$q;
-            end
-            else begin
-                host_data = ocr$q;
-            end
-        end
-        else if (host$addr[32'h0]) begin
-            host_data = btr1$q;
-        end
-        else begin
-            host_data = btr0$q;
-        end
+        host_selected = (host$addr == btr0_address) | (host$addr == btr1_address) | (host$addr == ocr_address);
+        host_index = 32'h0;
+        host_index = ((host_index & ~(1 << (32'h1)) | ((host$addr[32'h3]) << (32'h1))) & ~(1 << (32'h0)) | ((host$addr[32'h0]) << (32'h0)));
         if (reset) begin
             btr0$d = 32'h0;
             btr1$d = 32'h0;
             sjw_reg$d = 32'h0;
             tseg2_reg$d = 32'h0;
-            ocr$d = 32'h0;
             ewlr_reg$d = default_ewlr;
         end
     end
@@ -1034,25 +1024,6 @@ module top$configuration$ewlr_reg(d,q,clock);
     end
           
 endmodule // top$configuration$ewlr_reg
-
-
-module top$configuration$ocr(d,q,clock);
-    
-    // Module arguments
-    input wire  [7:0] d;
-    output reg  [7:0] q;
-    input wire  clock;
-    
-    // Update code (custom)
-    initial begin
-       q = 8'h0;
-    end
-    
-    always @(posedge clock) begin
-       q <= d;
-    end
-          
-endmodule // top$configuration$ocr
 
 
 module top$configuration$sjw_reg(d,q,clock);
@@ -5853,7 +5824,7 @@ module top$fifo$writing_header(d,q,clock);
 endmodule // top$fifo$writing_header
 
 
-module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we,host$wdata,rx_frame$header,rx_frame$id,rx_frame$ide,rx_frame$rtr,rx_frame$dlc,rx_frame$strobe,rx_frame$data,rx_frame$index,accept,host_selected,host_data);
+module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we,host$wdata,rx_frame$header,rx_frame$id,rx_frame$ide,rx_frame$rtr,rx_frame$dlc,rx_frame$strobe,rx_frame$data,rx_frame$index,accept,host_selected,host_index);
     
     // Module arguments
     input wire  clock;
@@ -5874,7 +5845,7 @@ module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we
     input wire  [2:0] rx_frame$index;
     output reg  accept;
     output reg  host_selected;
-    output reg  [7:0] host_data;
+    output reg  [2:0] host_index;
     
     // Constant declarations
     localparam  pelican_block = 5'b10;
@@ -5934,8 +5905,6 @@ module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we
     // Local signals
     reg  in_pelican_block;
     reg  [2:0] index;
-    reg  [7:0] acr_at_index;
-    reg  [7:0] amr_at_index;
     reg  [7:0] frame_byte0;
     reg  [7:0] frame_byte1;
     reg  [7:0] frame_byte2;
@@ -6071,24 +6040,7 @@ module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we
             end
             host_selected = (host$addr == basic_acr) | (host$addr == basic_amr);
         end
-        acr_at_index = acr0$q;
-        amr_at_index = amr0$q;
-        if (index[(32'h0)+:(2)] == 32'h1) begin
-            acr_at_index = acr1$q;
-            amr_at_index = amr1$q;
-        end
-        if (index[(32'h0)+:(2)] == 32'h2) begin
-            acr_at_index = acr2$q;
-            amr_at_index = amr2$q;
-        end
-        if (index[(32'h0)+:(2)] == 32'h3) begin
-            acr_at_index = acr3$q;
-            amr_at_index = amr3$q;
-        end
-        host_data = acr_at_index;
-        if (index[32'h2]) begin
-            host_data = amr_at_index;
-        end
+        host_index = index;
         if (host$we & reset_mode & host_selected) begin
             if (index == 32'h0) begin
                 acr0$d = host$wdata;
@@ -7594,7 +7546,7 @@ module top$modes$stm(d,q,clock);
 endmodule // top$modes$stm
 
 
-module top$read(clock,reset,addr,re,in_frame_window,in_rx_ram,in_tx_ram,in_basic_tx,in_basic_rx,in_basic_config,frame_index,basic_rx_index,rx_ram_index,pelican,reset_mode,listen_only,self_test,single_filter,sleep,cr6,cdr,interrupts$ier,interrupts$ir,interrupts$alc,interrupts$ecc,interrupts$es,interrupts$basic_ri,tbs,tcs,tec,rec,bus_off,receiving,transmitting,state,message_count,overrun,start,head_info,fifo_data,tx_data,config_selected,config_data,filter_selected,filter_data,rdata,enables,irq_pending,fifo_address,fifo_read);
+module top$read(clock,reset,addr,re,in_frame_window,in_rx_ram,in_tx_ram,in_basic_tx,in_basic_rx,in_basic_config,frame_index,basic_rx_index,rx_ram_index,pelican,reset_mode,listen_only,self_test,single_filter,sleep,cr6,cdr,interrupts$ier,interrupts$ir,interrupts$alc,interrupts$ecc,interrupts$es,interrupts$basic_ri,tbs,tcs,tec,rec,bus_off,receiving,transmitting,state,message_count,overrun,start,head_info,fifo_data,tx_data,ewlr,readback_selected,rdata,enables,irq_pending,fifo_address,fifo_read);
     
     // Module arguments
     input wire  clock;
@@ -7638,10 +7590,8 @@ module top$read(clock,reset,addr,re,in_frame_window,in_rx_ram,in_tx_ram,in_basic
     input wire  [7:0] head_info;
     input wire  [7:0] fifo_data;
     input wire  [7:0] tx_data;
-    input wire  config_selected;
-    input wire  [7:0] config_data;
-    input wire  filter_selected;
-    input wire  [7:0] filter_data;
+    input wire  [7:0] ewlr;
+    input wire  readback_selected;
     output reg  [7:0] rdata;
     output reg  [7:0] enables;
     output reg  irq_pending;
@@ -7656,6 +7606,7 @@ module top$read(clock,reset,addr,re,in_frame_window,in_rx_ram,in_tx_ram,in_basic
     localparam  ier_address = 8'h4;
     localparam  alc_address = 8'hb;
     localparam  ecc_address = 8'hc;
+    localparam  ewlr_address = 8'hd;
     localparam  rxerr_address = 8'he;
     localparam  txerr_address = 8'hf;
     localparam  rmc_address = 8'h1d;
@@ -7763,12 +7714,6 @@ module top$read(clock,reset,addr,re,in_frame_window,in_rx_ram,in_tx_ram,in_basic
         if (addr == cdr_address) begin
             read_value = cdr;
         end
-        if (config_selected) begin
-            read_value = config_data;
-        end
-        if (filter_selected) begin
-            read_value = filter_data;
-        end
         if (pelican) begin
             if (addr == mod_address) begin
                 read_value = (((((zero_byte & ~(1 << (32'h0)) | ((reset_mode) << (32'h0))) & ~(1 << (32'h1)) | ((listen_only) << (32'h1))) & ~(1 << (32'h2)) | ((self_test) << (32'h2))) & ~(1 << (32'h3)) | ((single_filter) << (32'h3))) & ~(1 << (32'h4)) | ((sleep) << (32'h4)));
@@ -7795,7 +7740,10 @@ module top$read(clock,reset,addr,re,in_frame_window,in_rx_ram,in_tx_ram,in_basic
                 read_value = ((start) & 8'hff);
             end
             fifo_read = (in_frame_window & (reset_mode == 1'b0)) | in_rx_ram;
-            tx_read = in_tx_ram;
+            if (addr == ewlr_address) begin
+                read_value = ewlr;
+            end
+            tx_read = in_tx_ram | readback_selected;
         end
         else begin
             if (addr == mod_address) begin
@@ -7810,7 +7758,7 @@ module top$read(clock,reset,addr,re,in_frame_window,in_rx_ram,in_tx_ram,in_basic
             if ((reset_mode == 1'b0) & in_basic_config) begin
                 read_value = all_ones;
             end
-            tx_read = in_basic_tx;
+            tx_read = in_basic_tx | (readback_selected & reset_mode);
             fifo_read = in_basic_rx;
             if (addr == rx_id_dlc_address) begin
                 ram_or = ((((head_info) & 4'hf)) & 8'hff);
@@ -7992,9 +7940,9 @@ module top$tx_buffer(clock,reset,write,write_index,write_data,host_index,host_da
     input wire  clock;
     input wire  reset;
     input wire  write;
-    input wire  [3:0] write_index;
+    input wire  [4:0] write_index;
     input wire  [7:0] write_data;
-    input wire  [3:0] host_index;
+    input wire  [4:0] host_index;
     output reg  [7:0] host_data;
     input wire  [3:0] core_index;
     output reg  [7:0] core_data;
@@ -8002,16 +7950,15 @@ module top$tx_buffer(clock,reset,write,write_index,write_data,host_index,host_da
     output reg  [7:0] info;
     
     // Constant declarations
-    localparam  byte_count = 4'hd;
-    localparam  byte_mask = 16'h1fff;
-    localparam  frame_info_index = 4'h0;
-    localparam  basic_info_index = 4'h2;
+    localparam  kept_bytes = 32'h7ff1fff;
+    localparam  frame_info_index = 5'b0;
+    localparam  basic_info_index = 5'b10;
     
     // Stub signals
-    reg  [3:0] host_ram$read_address;
+    reg  [4:0] host_ram$read_address;
     reg  host_ram$read_clock;
     wire  [7:0] host_ram$read_data;
-    reg  [3:0] host_ram$write_address;
+    reg  [4:0] host_ram$write_address;
     reg  host_ram$write_clock;
     reg  [7:0] host_ram$write_data;
     reg  host_ram$write_enable;
@@ -8022,8 +7969,8 @@ module top$tx_buffer(clock,reset,write,write_index,write_data,host_index,host_da
     reg  core_ram$write_clock;
     reg  [7:0] core_ram$write_data;
     reg  core_ram$write_enable;
-    reg  [15:0] written$d;
-    wire  [15:0] written$q;
+    reg  [31:0] written$d;
+    wire  [31:0] written$q;
     reg  written$clock;
     reg  host_written$d;
     wire  host_written$q;
@@ -8039,8 +7986,8 @@ module top$tx_buffer(clock,reset,write,write_index,write_data,host_index,host_da
     reg  basic_info$clock;
     
     // Local signals
-    reg  in_range;
     reg  writing;
+    reg  writing_frame;
     
     // Sub module instances
     top$tx_buffer$host_ram host_ram(
@@ -8103,18 +8050,18 @@ module top$tx_buffer(clock,reset,write,write_index,write_data,host_index,host_da
         host_ram$read_clock = clock;
         core_ram$write_clock = clock;
         core_ram$read_clock = clock;
-        in_range = write_index < byte_count;
-        writing = write & in_range;
+        writing = write & kept_bytes[write_index];
+        writing_frame = writing & (write_index[32'h4] == 1'b0);
         host_ram$write_enable = writing;
         host_ram$write_address = write_index;
         host_ram$write_data = write_data;
-        core_ram$write_enable = writing;
-        core_ram$write_address = write_index;
+        core_ram$write_enable = writing_frame;
+        core_ram$write_address = ((write_index) & 4'hf);
         core_ram$write_data = write_data;
         host_ram$read_address = host_index;
         core_ram$read_address = core_index;
         host_written$d = written$q[host_index] & (writing == 1'b0);
-        core_written$d = written$q[core_index] & (writing == 1'b0);
+        core_written$d = written$q[core_index] & (writing_frame == 1'b0);
         host_data = 32'h0;
         if (host_written$q) begin
             host_data = host_ram$read_data;
@@ -8128,7 +8075,7 @@ module top$tx_buffer(clock,reset,write,write_index,write_data,host_index,host_da
             info = basic_info$q;
         end
         if (writing) begin
-            written$d = (written$q & ~(1 << (write_index)) | ((1'b1) << (write_index))) & byte_mask;
+            written$d = (written$q & ~(1 << (write_index)) | ((1'b1) << (write_index))) & kept_bytes;
             if (write_index == frame_info_index) begin
                 frame_info$d = write_data;
             end
@@ -8255,34 +8202,50 @@ endmodule // top$tx_buffer$frame_info
 module top$tx_buffer$host_ram(read_address,read_clock,read_data,write_address,write_clock,write_data,write_enable);
     
     // Module arguments
-    input wire  [3:0] read_address;
+    input wire  [4:0] read_address;
     input wire  read_clock;
     output reg  [7:0] read_data;
-    input wire  [3:0] write_address;
+    input wire  [4:0] write_address;
     input wire  write_clock;
     input wire  [7:0] write_data;
     input wire  write_enable;
     
     // Update code (custom)
-    (* no_rw_check *) reg[7:0] mem[15:0];
+    (* no_rw_check *) reg[7:0] mem[31:0];
     
     initial begin
-    mem[4'h0] = 8'h0;
-    mem[4'h1] = 8'h0;
-    mem[4'h2] = 8'h0;
-    mem[4'h3] = 8'h0;
-    mem[4'h4] = 8'h0;
-    mem[4'h5] = 8'h0;
-    mem[4'h6] = 8'h0;
-    mem[4'h7] = 8'h0;
-    mem[4'h8] = 8'h0;
-    mem[4'h9] = 8'h0;
-    mem[4'ha] = 8'h0;
-    mem[4'hb] = 8'h0;
-    mem[4'hc] = 8'h0;
-    mem[4'hd] = 8'h0;
-    mem[4'he] = 8'h0;
-    mem[4'hf] = 8'h0;
+    mem[5'b0] = 8'h0;
+    mem[5'b1] = 8'h0;
+    mem[5'b10] = 8'h0;
+    mem[5'b11] = 8'h0;
+    mem[5'b100] = 8'h0;
+    mem[5'b101] = 8'h0;
+    mem[5'b110] = 8'h0;
+    mem[5'b111] = 8'h0;
+    mem[5'b1000] = 8'h0;
+    mem[5'b1001] = 8'h0;
+    mem[5'b1010] = 8'h0;
+    mem[5'b1011] = 8'h0;
+    mem[5'b1100] = 8'h0;
+    mem[5'b1101] = 8'h0;
+    mem[5'b1110] = 8'h0;
+    mem[5'b1111] = 8'h0;
+    mem[5'b10000] = 8'h0;
+    mem[5'b10001] = 8'h0;
+    mem[5'b10010] = 8'h0;
+    mem[5'b10011] = 8'h0;
+    mem[5'b10100] = 8'h0;
+    mem[5'b10101] = 8'h0;
+    mem[5'b10110] = 8'h0;
+    mem[5'b10111] = 8'h0;
+    mem[5'b11000] = 8'h0;
+    mem[5'b11001] = 8'h0;
+    mem[5'b11010] = 8'h0;
+    mem[5'b11011] = 8'h0;
+    mem[5'b11100] = 8'h0;
+    mem[5'b11101] = 8'h0;
+    mem[5'b11110] = 8'h0;
+    mem[5'b11111] = 8'h0;
     end
     
     
@@ -8321,13 +8284,13 @@ endmodule // top$tx_buffer$host_written
 module top$tx_buffer$written(d,q,clock);
     
     // Module arguments
-    input wire  [15:0] d;
-    output reg  [15:0] q;
+    input wire  [31:0] d;
+    output reg  [31:0] q;
     input wire  clock;
     
     // Update code (custom)
     initial begin
-       q = 16'h0;
+       q = 32'h0;
     end
     
     always @(posedge clock) begin

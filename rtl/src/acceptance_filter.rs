@@ -3,8 +3,10 @@
 //! The block owns the acceptance code and mask registers and their host access: PeliCAN ACR0..3 and
 //! AMR0..3 at addresses 16..23, written and read in reset mode (in operating mode those addresses are
 //! the frame buffers); BasicCAN ACR and AMR at 4 and 5 (ACR0 and AMR0 here), written in reset mode
-//! (the controller makes them read 0xFF in operating mode). `host_selected`/`host_data` are
-//! combinational from `addr` and the registers; the controller registers them into its read data.
+//! (the controller makes them read 0xFF in operating mode). `host_selected`/`host_index` are
+//! combinational from `addr` and the map: the controller writes the same value into the register's
+//! read-back copy in the TX buffer's RAM, which the host reads (`crate::tx_buffer`), so the block has
+//! no read multiplexer of its eight registers.
 //!
 //! Ports in: the host bus (`host`: `addr`, `we`, `wdata`; and `reset_mode`), the filter configuration
 //! (`pelican`: PeliCAN mode, 0 = BasicCAN; `single_filter`: MOD.AFM) and the received-frame stream
@@ -76,8 +78,8 @@ pub struct AcceptanceFilter {
     /// `addr` is one of this block's registers in the current mode (PeliCAN ACR0..AMR3 in reset
     /// mode, BasicCAN ACR and AMR).
     pub host_selected: Signal<Out, Bit>,
-    /// The register at `addr`, with `host_selected`.
-    pub host_data: Signal<Out, Bits<8>>,
+    /// The register at `addr`, with `host_selected`: 0..3 ACR0..3, 4..7 AMR0..3.
+    pub host_index: Signal<Out, Bits<3>>,
     /// Acceptance code registers (ACR0 is the BasicCAN ACR).
     acr0: DFF<Bits<8>>,
     acr1: DFF<Bits<8>>,
@@ -91,9 +93,6 @@ pub struct AcceptanceFilter {
     /// `addr` in the PeliCAN block ACR0..AMR3, and the register's index there (0..3 ACR, 4..7 AMR).
     in_pelican_block: Signal<Local, Bit>,
     index: Signal<Local, Bits<3>>,
-    /// The ACR and the AMR the index's low bits select (ACRn, AMRn).
-    acr_at_index: Signal<Local, Bits<8>>,
-    amr_at_index: Signal<Local, Bits<8>>,
     /// The eight addresses of the PeliCAN block, as `addr >> 3`.
     #[constant(u64::from(pelican::ACR0 >> 3))]
     pelican_block: Constant<Bits<5>>,
@@ -194,26 +193,7 @@ impl Logic for AcceptanceFilter {
             self.host_selected.next = (self.host.addr.val() == self.basic_acr.val())
                 | (self.host.addr.val() == self.basic_amr.val());
         }
-        // ACR and AMR by the index's low bits, then the one of them by bit 2 (not one chain of
-        // eight `index == k` tests: 22 SB_LUT4 fewer in the flattened design, Xilinx the same).
-        self.acr_at_index.next = self.acr0.q.val();
-        self.amr_at_index.next = self.amr0.q.val();
-        if self.index.val().get_bits::<2>(0) == 1 {
-            self.acr_at_index.next = self.acr1.q.val();
-            self.amr_at_index.next = self.amr1.q.val();
-        }
-        if self.index.val().get_bits::<2>(0) == 2 {
-            self.acr_at_index.next = self.acr2.q.val();
-            self.amr_at_index.next = self.amr2.q.val();
-        }
-        if self.index.val().get_bits::<2>(0) == 3 {
-            self.acr_at_index.next = self.acr3.q.val();
-            self.amr_at_index.next = self.amr3.q.val();
-        }
-        self.host_data.next = self.acr_at_index.val();
-        if self.index.val().get_bit(2) {
-            self.host_data.next = self.amr_at_index.val();
-        }
+        self.host_index.next = self.index.val();
         if self.host.we.val() & self.reset_mode.val() & self.host_selected.val() {
             if self.index.val() == 0 {
                 self.acr0.d.next = self.host.wdata.val();

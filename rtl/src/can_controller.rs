@@ -32,7 +32,7 @@ use crate::register_map::modes::Modes;
 use crate::register_map::register_read::RegisterRead;
 use crate::registers::pelican;
 use crate::rx_fifo::RxFifo;
-use crate::tx_buffer::TxBuffer;
+use crate::tx_buffer::{TxBuffer, READBACK_CONFIGURATION, READBACK_FILTER};
 
 /// The complete controller.
 #[derive(ActivityBlock, BlockDefault)]
@@ -84,6 +84,19 @@ pub struct CanController {
     txerr_address: Constant<Bits<8>>,
     #[constant(u64::from(pelican::RBSA))]
     rbsa_address: Constant<Bits<8>>,
+    /// Host index of ACR0's read-back copy in the TX buffer (ACR1..AMR3 by their low bits).
+    #[constant(READBACK_FILTER as u64)]
+    readback_filter: Constant<Bits<5>>,
+    /// Host index of BTR0's read-back copy in the TX buffer (BTR1, OCR by their low bits).
+    #[constant(READBACK_CONFIGURATION as u64)]
+    readback_configuration: Constant<Bits<5>>,
+    /// `addr` is a register read back from its copy in the TX buffer, at `readback_index`.
+    readback_selected: Signal<Local, Bit>,
+    readback_index: Signal<Local, Bits<5>>,
+    /// The TX buffer's write and host read port, before they go to the buffer.
+    tx_write: Signal<Local, Bit>,
+    tx_write_index: Signal<Local, Bits<5>>,
+    tx_host_index: Signal<Local, Bits<5>>,
     pelican_mode: Signal<Local, Bit>,
     reset_mode: Signal<Local, Bit>,
     /// A PeliCAN write in reset mode (counters, RBSA).
@@ -215,10 +228,19 @@ impl Logic for CanController {
         self.read.head_info.next = self.fifo.head_info.val();
         self.read.fifo_data.next = self.fifo.read_data.val();
         self.read.tx_data.next = self.tx_buffer.host_data.val();
-        self.read.config_selected.next = self.configuration.host_selected.val();
-        self.read.config_data.next = self.configuration.host_data.val();
-        self.read.filter_selected.next = self.filter.host_selected.val();
-        self.read.filter_data.next = self.filter.host_data.val();
+        // The read-back copies of ACR/AMR, BTR0, BTR1 and OCR: written with the register (the
+        // filter and the configuration accept writes in reset mode), read by the host from
+        // the TX buffer.
+        self.readback_selected.next =
+            self.filter.host_selected.val() | self.configuration.host_selected.val();
+        self.readback_index.next =
+            self.readback_filter.val() | bit_cast::<5, 3>(self.filter.host_index.val());
+        if self.configuration.host_selected.val() {
+            self.readback_index.next = self.readback_configuration.val()
+                | bit_cast::<5, 2>(self.configuration.host_index.val());
+        }
+        self.read.ewlr.next = self.configuration.ewlr.val();
+        self.read.readback_selected.next = self.readback_selected.val();
         self.rdata.next = self.read.rdata.val();
         self.irq_n.next = self.read.irq_pending.val() == false;
 
@@ -240,21 +262,35 @@ impl Logic for CanController {
         // from flip-flops (docs/VERILOG.md).
         self.tx_buffer.reset.next = self.reset.val();
         self.tx_buffer.basic_layout.next = self.modes.pelican.val() == false;
-        self.tx_buffer.write.next = self.we.val()
+        self.tx_write.next = self.we.val()
             & (self.reset_mode.val() == false)
             & self.tbs.q.val()
             & (self.decode.in_frame_window.val() | self.decode.in_basic_tx.val());
-        self.tx_buffer.write_index.next = self.decode.frame_index.val();
+        self.tx_write_index.next = bit_cast::<5, 4>(self.decode.frame_index.val());
         if self.we.val() & self.reset_mode.val() & self.decode.in_tx_ram.val() {
-            self.tx_buffer.write.next = true;
-            self.tx_buffer.write_index.next = self.decode.tx_ram_index.val();
+            self.tx_write.next = true;
+            self.tx_write_index.next = bit_cast::<5, 4>(self.decode.tx_ram_index.val());
         }
-        self.tx_buffer.host_index.next = self.decode.tx_ram_index.val();
+        self.tx_host_index.next = bit_cast::<5, 4>(self.decode.tx_ram_index.val());
         if self.pelican_mode.val() == false {
             // BasicCAN byte 10 is buffer byte 1 (identifier bits 10..3).
-            self.tx_buffer.write_index.next = self.decode.basic_tx_index.val();
-            self.tx_buffer.host_index.next = self.decode.basic_tx_index.val();
+            self.tx_write_index.next = bit_cast::<5, 4>(self.decode.basic_tx_index.val());
+            self.tx_host_index.next = bit_cast::<5, 4>(self.decode.basic_tx_index.val());
         }
+        if self.readback_selected.val() {
+            self.tx_host_index.next = self.readback_index.val();
+            if self.we.val() & self.reset_mode.val() {
+                self.tx_write.next = true;
+                self.tx_write_index.next = self.readback_index.val();
+            }
+        }
+        // Each input of the TX buffer written once, from its final value: the buffer's outputs come
+        // back into this kernel, and in Icarus an input written twice in one pass re-runs the
+        // buffer, whose outputs then change twice too and re-run this kernel, without end
+        // (docs/VERILOG.md).
+        self.tx_buffer.write.next = self.tx_write.val();
+        self.tx_buffer.write_index.next = self.tx_write_index.val();
+        self.tx_buffer.host_index.next = self.tx_host_index.val();
         self.tx_buffer.write_data.next = self.wdata.val();
         self.tx_buffer.core_index.next = self.core.transmit.addr.val();
 

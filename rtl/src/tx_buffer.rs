@@ -1,23 +1,31 @@
 //! The transmit buffer: the 13 bytes of the frame to send, in the SJA1000 PeliCAN frame-buffer
-//! layout (frame information, 2 or 4 identifier bytes, up to 8 data bytes).
+//! layout (frame information, 2 or 4 identifier bytes, up to 8 data bytes), and the host's read-back
+//! copies of the configuration registers it reads back unchanged.
 //!
 //! Ports: one write port (`write`, `write_index`, `write_data`) for the host; two registered read
-//! ports, `host_index` → `host_data` for the register window and `core_index` → `core_data` for the
-//! protocol engine (each the byte that was at its index before the last rising edge of `clock`, 0
-//! if that cycle wrote the buffer),
-//! and `info` (byte 0, the frame information the engine reads all the time).
-//! Writes act on the rising edge of `clock`; indices 13..15 are ignored and read 0. The synchronous
-//! `reset` clears every byte (undefined on the SJA1000; cleared here so nothing after a reset
-//! depends on power-up values). With `basic_layout` (BasicCAN) the frame information comes from
-//! byte 2 instead (RTR in bit 4, DLC in bits 3..0, standard frames only), where the BasicCAN map
-//! writes it.
+//! ports, `host_index` → `host_data` for the register windows and `core_index` → `core_data` for
+//! the protocol engine (each the byte that was at its index before the last rising edge of `clock`,
+//! 0 if that cycle wrote the buffer), and `info` (byte 0, the frame information the engine reads all
+//! the time). Writes act on the rising edge of `clock`; indices outside the bytes kept are ignored
+//! and read 0. The synchronous `reset` clears every byte (undefined on the SJA1000 for the frame;
+//! cleared here so nothing after a reset depends on power-up values). With `basic_layout`
+//! (BasicCAN) the frame information comes from byte 2 instead (RTR in bit 4, DLC in bits 3..0,
+//! standard frames only), where the BasicCAN map writes it.
 //!
-//! The bytes live in two 16-word RAMs written together, one per read port, so synthesis maps them
-//! to RAM (distributed RAM on Xilinx, block RAM on iCE40) instead of two 13-way multiplexers of
+//! The bytes live in two RAMs written together, one per read port, so synthesis maps them to RAM
+//! (distributed RAM on Xilinx, block RAM on iCE40) instead of two 13-way multiplexers of
 //! flip-flops. A RAM cannot be cleared at once: a flag per byte, cleared by `reset` and set by a
-//! write, makes a byte not written since the reset read 0, and flip-flop copies give the two
-//! bytes `info` is made of without a third read port. A read in a write cycle reads 0, so the RAMs
-//! need no read-during-write logic (`no_rw_check` in the emitted Verilog, docs/FPGA.md).
+//! write, makes a byte not written since the reset read 0, and flip-flop copies give the two bytes
+//! `info` is made of without a third read port. A read in a write cycle reads 0, so the RAMs need
+//! no read-during-write logic (`no_rw_check` in the emitted Verilog, docs/FPGA.md).
+//!
+//! Read-back copies: the host's RAM has room past the frame, so it also keeps what the host writes
+//! to ACR0..3/AMR0..3 (`READBACK_FILTER` + the filter's register index) and to BTR0, BTR1 and OCR
+//! (`READBACK_CONFIGURATION` + the configuration's index), written with the register itself (the
+//! controller writes both on the same accepted write). The host reads those registers from here:
+//! one more byte of the block RAM instead of their read multiplexers of flip-flops. Their reset
+//! value is 0, which a byte not written since the reset reads; the registers the hardware runs on
+//! stay in their blocks' flip-flops (OCR, which nothing runs on, is only here).
 
 use rust_hdl::prelude::*;
 
@@ -26,10 +34,35 @@ use crate::activity::{Activity, ActivityBlock, BlockDefault};
 /// Bytes of the transmit buffer.
 pub const TX_BUFFER_BYTES: usize = 13;
 
-/// Address bits of the RAMs.
+/// Address bits of the protocol engine's RAM (the frame only).
 const INDEX_BITS: usize = 4;
-/// Words of the RAMs (the last three are never written).
+/// Words of the protocol engine's RAM (the last three are never written).
 const WORDS: usize = 1 << INDEX_BITS;
+/// Address bits of the host's RAM: the frame and the read-back copies.
+pub const HOST_INDEX_BITS: usize = 5;
+/// Words of the host's RAM.
+const HOST_WORDS: usize = 1 << HOST_INDEX_BITS;
+/// Host index of the read-back copy of ACR0; ACR1..3 and AMR0..3 follow in the filter's order.
+pub const READBACK_FILTER: usize = 16;
+/// Host index of the read-back copy of BTR0; BTR1 and OCR follow in the configuration's order.
+pub const READBACK_CONFIGURATION: usize = 24;
+/// Read-back copies: ACR0..3, AMR0..3, then BTR0, BTR1, OCR.
+const READBACK_BYTES: usize = 11;
+/// Host indices kept: the frame's bytes and the read-back copies.
+const KEPT_BYTES: u64 =
+    ((1u64 << TX_BUFFER_BYTES) - 1) | (((1u64 << READBACK_BYTES) - 1) << READBACK_FILTER);
+// Index bit 4 tells the read-back copies from the frame's bytes (the kernel's literals 4 and 5);
+// the copies' first indices are aligned, so the controller ORs a register's index into them.
+const _: () = assert!(
+    TX_BUFFER_BYTES <= WORDS
+        && READBACK_FILTER == WORDS
+        && INDEX_BITS == 4
+        && HOST_INDEX_BITS == 5
+        && READBACK_FILTER + 8 == READBACK_CONFIGURATION
+        && READBACK_FILTER + READBACK_BYTES <= HOST_WORDS
+        && READBACK_FILTER.is_multiple_of(8)
+        && READBACK_CONFIGURATION.is_multiple_of(4)
+);
 
 /// The transmit buffer.
 #[derive(ActivityBlock, BlockDefault)]
@@ -42,12 +75,12 @@ pub struct TxBuffer {
     pub reset: Signal<In, Bit>,
     /// Write `write_data` at `write_index`.
     pub write: Signal<In, Bit>,
-    /// Byte written.
-    pub write_index: Signal<In, Bits<INDEX_BITS>>,
+    /// Byte written (a frame byte or a read-back copy).
+    pub write_index: Signal<In, Bits<HOST_INDEX_BITS>>,
     /// Value written.
     pub write_data: Signal<In, Bits<8>>,
-    /// Byte the host reads.
-    pub host_index: Signal<In, Bits<INDEX_BITS>>,
+    /// Byte the host reads (a frame byte or a read-back copy).
+    pub host_index: Signal<In, Bits<HOST_INDEX_BITS>>,
     /// The byte that was at `host_index` before the last rising edge of `clock` (0 if that cycle
     /// wrote the buffer).
     pub host_data: Signal<Out, Bits<8>>,
@@ -61,37 +94,36 @@ pub struct TxBuffer {
     /// Frame information: byte 0, or derived from byte 2 in the BasicCAN layout.
     pub info: Signal<Out, Bits<8>>,
     #[init(cleared_ram())]
-    host_ram: RAM<Bits<8>, INDEX_BITS>,
+    host_ram: RAM<Bits<8>, HOST_INDEX_BITS>,
     #[init(cleared_ram())]
     core_ram: RAM<Bits<8>, INDEX_BITS>,
-    /// Bit i: byte i was written since the reset.
-    written: DFF<Bits<WORDS>>,
+    /// Bit i: host byte i was written since the reset.
+    written: DFF<Bits<HOST_WORDS>>,
     host_written: DFF<Bit>,
     core_written: DFF<Bit>,
     /// Byte 0.
     frame_info: DFF<Bits<8>>,
     /// The frame information of the BasicCAN layout, from byte 2.
     basic_info: DFF<Bits<8>>,
-    #[constant(index(TX_BUFFER_BYTES))]
-    byte_count: Constant<Bits<INDEX_BITS>>,
-    /// Bits 0..12 set: the buffer's bytes among the RAM words.
-    #[constant((1u64 << TX_BUFFER_BYTES) - 1)]
-    byte_mask: Constant<Bits<WORDS>>,
+    /// The host indices kept: the frame's bytes 0..12 and the read-back copies.
+    #[constant(KEPT_BYTES)]
+    kept_bytes: Constant<Bits<HOST_WORDS>>,
     #[constant(index(0))]
-    frame_info_index: Constant<Bits<INDEX_BITS>>,
+    frame_info_index: Constant<Bits<HOST_INDEX_BITS>>,
     #[constant(index(2))]
-    basic_info_index: Constant<Bits<INDEX_BITS>>,
-    in_range: Signal<Local, Bit>,
+    basic_info_index: Constant<Bits<HOST_INDEX_BITS>>,
     /// A byte is written this cycle.
     writing: Signal<Local, Bit>,
+    /// A frame byte is written this cycle (the protocol engine's RAM holds only those).
+    writing_frame: Signal<Local, Bit>,
 }
 
 /// A RAM whose every word is initialised (unwritten RAM reads X in Verilog, RUST_HDL.md).
-fn cleared_ram() -> RAM<Bits<8>, INDEX_BITS> {
-    RAM::from((0..WORDS).map(|_| Bits::<8>::from(0u64)))
+fn cleared_ram<const N: usize>() -> RAM<Bits<8>, N> {
+    RAM::from((0..1usize << N).map(|_| Bits::<8>::from(0u64)))
 }
 
-fn index(value: usize) -> Bits<INDEX_BITS> {
+fn index(value: usize) -> Bits<HOST_INDEX_BITS> {
     (value as u64).into()
 }
 
@@ -111,13 +143,17 @@ impl Logic for TxBuffer {
         self.host_ram.read_clock.next = self.clock.val();
         self.core_ram.write_clock.next = self.clock.val();
         self.core_ram.read_clock.next = self.clock.val();
-        self.in_range.next = self.write_index.val() < self.byte_count.val();
-        self.writing.next = self.write.val() & self.in_range.val();
+        self.writing.next = self.write.val()
+            & self
+                .kept_bytes
+                .val()
+                .get_bit(self.write_index.val().index());
+        self.writing_frame.next = self.writing.val() & (self.write_index.val().get_bit(4) == false);
         self.host_ram.write_enable.next = self.writing.val();
         self.host_ram.write_address.next = self.write_index.val();
         self.host_ram.write_data.next = self.write_data.val();
-        self.core_ram.write_enable.next = self.writing.val();
-        self.core_ram.write_address.next = self.write_index.val();
+        self.core_ram.write_enable.next = self.writing_frame.val();
+        self.core_ram.write_address.next = bit_cast::<4, 5>(self.write_index.val());
         self.core_ram.write_data.next = self.write_data.val();
         self.host_ram.read_address.next = self.host_index.val();
         self.core_ram.read_address.next = self.core_index.val();
@@ -129,7 +165,7 @@ impl Logic for TxBuffer {
         self.host_written.d.next = self.written.q.val().get_bit(self.host_index.val().index())
             & (self.writing.val() == false);
         self.core_written.d.next = self.written.q.val().get_bit(self.core_index.val().index())
-            & (self.writing.val() == false);
+            & (self.writing_frame.val() == false);
 
         // Outputs from flip-flops and RAM read registers only (Verilator loops, RUST_HDL.md).
         self.host_data.next = 0.into();
@@ -146,14 +182,14 @@ impl Logic for TxBuffer {
         }
 
         if self.writing.val() {
-            // Only bytes 0..12 are ever written: the mask makes that visible to synthesis, which
-            // then keeps no flip-flops for 13..15.
+            // Only the kept bytes are ever written: the mask makes that visible to synthesis, which
+            // then keeps no flip-flops for the other words.
             self.written.d.next = self
                 .written
                 .q
                 .val()
                 .replace_bit(self.write_index.val().index(), true)
-                & self.byte_mask.val();
+                & self.kept_bytes.val();
             if self.write_index.val() == self.frame_info_index.val() {
                 self.frame_info.d.next = self.write_data.val();
             }

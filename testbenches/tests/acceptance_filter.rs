@@ -40,7 +40,7 @@ struct Inputs {
 }
 
 /// One filter, its inputs, and optionally the per-cycle trace (inputs, and after the edge `accept`,
-/// `host_selected` and `host_data` as the Verilog testbench prints them: `1 0 3f`).
+/// `host_selected` and `host_index` as the Verilog testbench prints them: `1 0 5`).
 struct Bench {
     filter: AcceptanceFilter,
     inputs: Inputs,
@@ -82,28 +82,32 @@ impl Bench {
     }
 
     /// Writes ACR and AMR in reset mode through the block's host port (data sheet: PeliCAN ACR0..3
-    /// at 16..19, AMR0..3 at 20..23; BasicCAN ACR at 4, AMR at 5), reads each back, and returns to
-    /// operating mode.
+    /// at 16..19, AMR0..3 at 20..23; BasicCAN ACR at 4, AMR at 5), checks that each address selects
+    /// its register (`host_index` 0..3 ACR0..3, 4..7 AMR0..3: the controller reads the register back
+    /// from the copy at that index, tested on the whole controller), and returns to operating mode.
     fn configure(&mut self, config: &FilterConfig) {
         self.inputs.pelican = config.pelican;
         self.inputs.single_filter = config.single_filter;
         self.inputs.reset_mode = true;
-        let registers: Vec<(u8, u8)> = if config.pelican {
+        let registers: Vec<(u8, u8, u64)> = if config.pelican {
             (0..4)
-                .map(|k| (pelican::ACR0 + k as u8, config.acr[k]))
-                .chain((0..4).map(|k| (pelican::AMR0 + k as u8, config.amr[k])))
+                .map(|k| (pelican::ACR0 + k as u8, config.acr[k], k as u64))
+                .chain((0..4).map(|k| (pelican::AMR0 + k as u8, config.amr[k], 4 + k as u64)))
                 .collect()
         } else {
-            vec![(basic::ACR, config.acr[0]), (basic::AMR, config.amr[0])]
+            vec![
+                (basic::ACR, config.acr[0], 0),
+                (basic::AMR, config.amr[0], 4),
+            ]
         };
-        for &(addr, value) in &registers {
+        for &(addr, value, _) in &registers {
             self.inputs.we = true;
             self.inputs.addr = addr;
             self.inputs.wdata = value;
             self.cycle();
         }
         self.inputs.we = false;
-        for &(addr, value) in &registers {
+        for &(addr, _, index) in &registers {
             self.inputs.addr = addr;
             self.cycle();
             assert!(
@@ -111,9 +115,9 @@ impl Bench {
                 "address {addr} not selected"
             );
             assert_eq!(
-                self.filter.host_data.val(),
-                Bits::<8>::from(u64::from(value)),
-                "read back of address {addr}"
+                self.filter.host_index.val(),
+                Bits::<3>::from(index),
+                "register index of address {addr}"
             );
         }
         self.inputs.reset_mode = false;
@@ -145,9 +149,9 @@ impl Bench {
         let accept = self.accept();
         if let Some(trace) = &mut self.trace {
             let f = &self.filter;
-            let data = f.host_data.val().index();
+            let index = f.host_index.val().index();
             let seen = format!(
-                "{} {} {data:02x}",
+                "{} {} {index:x}",
                 u8::from(accept),
                 u8::from(f.host_selected.val())
             );
@@ -876,7 +880,7 @@ fn generated_verilog_compiles() {
 }
 
 /// A Verilog testbench that applies `trace`'s inputs cycle by cycle to `top` and prints `accept`,
-/// `host_selected` and `host_data` after every rising edge.
+/// `host_selected` and `host_index` after every rising edge.
 fn verilog_testbench(trace: &[(Inputs, String)]) -> String {
     let mut tb = String::from(
         "module tb;\n\
@@ -888,12 +892,12 @@ fn verilog_testbench(trace: &[(Inputs, String)]) -> String {
          reg [7:0] rx_byte = 0;\n\
          reg [2:0] rx_byte_index = 0;\n\
          wire accept, host_selected;\n\
-         wire [7:0] host_data;\n\
+         wire [2:0] host_index;\n\
          top dut(.clock(clock), .reset(reset), .pelican(pelican), .single_filter(single_filter),\n\
          .reset_mode(reset_mode), .host$addr(addr), .host$we(we), .host$wdata(wdata), .rx_frame$header(rx_header),\n\
          .rx_frame$id(rx_id), .rx_frame$ide(rx_ide), .rx_frame$rtr(rx_rtr), .rx_frame$dlc(4'd0),\n\
          .rx_frame$strobe(rx_byte_strobe), .rx_frame$data(rx_byte), .rx_frame$index(rx_byte_index),\n\
-         .accept(accept), .host_selected(host_selected), .host_data(host_data));\n\
+         .accept(accept), .host_selected(host_selected), .host_index(host_index));\n\
          initial begin\n",
     );
     for (i, _) in trace {
@@ -904,7 +908,7 @@ fn verilog_testbench(trace: &[(Inputs, String)]) -> String {
              reset_mode = {}; addr = 8'h{:02x}; we = {}; wdata = 8'h{:02x}; \
              rx_header = {}; rx_id = 29'h{:x}; rx_ide = {}; rx_rtr = {}; \
              rx_byte_strobe = {}; rx_byte = 8'h{:02x}; rx_byte_index = 3'd{}; \
-             #5 clock = 1; #1 $display(\"%b %b %h\", accept, host_selected, host_data); #4 clock = 0;",
+             #5 clock = 1; #1 $display(\"%b %b %h\", accept, host_selected, host_index); #4 clock = 0;",
             b(i.reset),
             b(i.pelican),
             b(i.single_filter),

@@ -6,8 +6,13 @@
 //! SJA1000 port contract has `we` and `re` never high in the same cycle (docs/FPGA.md), and the
 //! engine only reads while TBS is 0, when host writes to the buffer are dropped (registers.rs,
 //! "writes while TBS = 0 are lost").
+//!
+//! The host's RAM also holds the read-back copies of ACR0..3/AMR0..3 (`READBACK_FILTER` + 0..7) and
+//! BTR0, BTR1, OCR (`READBACK_CONFIGURATION` + 0..2): the host reads those registers from there, so
+//! a copy must read what was last written, read 0 (the registers' reset value) after a reset, and
+//! never reach the engine's port, which holds the frame only.
 
-use rtl::tx_buffer::TxBuffer;
+use rtl::tx_buffer::{TxBuffer, READBACK_CONFIGURATION, READBACK_FILTER};
 use rust_hdl::prelude::*;
 use sim::engine::rtl_step::clock_cycle;
 
@@ -77,4 +82,53 @@ fn a_write_outside_the_13_bytes_is_no_write_cycle() {
     cycle(&mut uut, Some((2, 0x33)));
     cycle(&mut uut, Some((13, 0x44)));
     assert_eq!(read_ports(&uut), (0x33, 0x33), "index 13 is ignored");
+}
+
+#[test]
+fn a_read_back_copy_reads_what_was_written_and_0_after_a_reset() {
+    let ocr = READBACK_CONFIGURATION as u64 + 2;
+    let amr3 = READBACK_FILTER as u64 + 7;
+    let mut uut = buffer();
+    for (index, byte) in [(ocr, 0xDA), (amr3, 0x3C)] {
+        uut.host_index.next = index.into();
+        cycle(&mut uut, None);
+        assert_eq!(read_ports(&uut).0, 0, "copy {index} before any write");
+        cycle(&mut uut, Some((index, byte)));
+        cycle(&mut uut, None);
+        assert_eq!(read_ports(&uut).0, byte, "copy {index} written");
+    }
+    uut.reset.next = true;
+    cycle(&mut uut, None);
+    uut.reset.next = false;
+    cycle(&mut uut, None);
+    assert_eq!(read_ports(&uut).0, 0, "copy of AMR3 after a reset");
+}
+
+#[test]
+fn a_read_back_copy_is_not_a_frame_byte_for_the_engine() {
+    let mut uut = buffer();
+    uut.core_index.next = 0.into();
+    cycle(&mut uut, Some((0, 0x88)));
+    cycle(&mut uut, None);
+    // Index 16 and 0 share their low four bits: the engine's RAM must not take the copy.
+    uut.host_index.next = (READBACK_FILTER as u64).into();
+    cycle(&mut uut, Some((READBACK_FILTER as u64, 0x77)));
+    assert_eq!(
+        read_ports(&uut).1,
+        0x88,
+        "the engine reads frame byte 0 in the copy's write cycle"
+    );
+    cycle(&mut uut, None);
+    assert_eq!(read_ports(&uut), (0x77, 0x88), "copy 16 and frame byte 0");
+    assert_eq!(uut.info.val().index(), 0x88, "the frame information");
+}
+
+#[test]
+fn indices_past_the_read_back_copies_are_ignored() {
+    let mut uut = buffer();
+    let past = READBACK_CONFIGURATION as u64 + 3;
+    uut.host_index.next = past.into();
+    cycle(&mut uut, Some((past, 0x99)));
+    cycle(&mut uut, None);
+    assert_eq!(read_ports(&uut).0, 0, "index {past} is no register");
 }

@@ -3,8 +3,8 @@
 //!
 //! Ports in: the host bus `addr`, `re`; the host decoder's windows and indices; the registers and
 //! states it shows (mode bits, CDR and CR.6 from the mode block; IER, IR, ALC, ECC, ES and the
-//! BasicCAN RI latch from the interrupt block; the configuration and acceptance filter blocks'
-//! `host_selected`/`host_data`; TBS/TCS; the core's counters and states; the FIFO's count, start,
+//! BasicCAN RI latch from the interrupt block; EWLR; `readback_selected`, the configuration and
+//! acceptance filter registers read from their copies in the TX buffer's RAM; TBS/TCS; the core's counters and states; the FIFO's count, start,
 //! overrun, head message information and RAM read data; the TX buffer's read data). Every input
 //! comes straight from a port, a flip-flop or another block's output, so the controller may use the
 //! combinational outputs `enables`, `irq_pending`, `fifo_address` and `fifo_read` without a
@@ -103,14 +103,11 @@ pub struct RegisterRead {
     pub fifo_data: Signal<In, Bits<8>>,
     /// The TX buffer's read data.
     pub tx_data: Signal<In, Bits<8>>,
-    /// The configuration block has the register at `addr`.
-    pub config_selected: Signal<In, Bit>,
-    /// Its value.
-    pub config_data: Signal<In, Bits<8>>,
-    /// The acceptance filter has the register at `addr`.
-    pub filter_selected: Signal<In, Bit>,
-    /// Its value.
-    pub filter_data: Signal<In, Bits<8>>,
+    /// EWLR.
+    pub ewlr: Signal<In, Bits<8>>,
+    /// `addr` is a register read from its copy in the TX buffer's RAM (ACR/AMR, BTR0, BTR1, OCR;
+    /// the controller points the TX buffer's host index at it).
+    pub readback_selected: Signal<In, Bit>,
     /// Read data.
     pub rdata: Signal<Out, Bits<8>>,
     /// The interrupt enables in force: IER; CR.4..1 and WUI in BasicCAN.
@@ -148,6 +145,8 @@ pub struct RegisterRead {
     alc_address: Constant<Bits<8>>,
     #[constant(u64::from(pelican::ECC))]
     ecc_address: Constant<Bits<8>>,
+    #[constant(u64::from(pelican::EWLR))]
+    ewlr_address: Constant<Bits<8>>,
     #[constant(u64::from(pelican::RXERR))]
     rxerr_address: Constant<Bits<8>>,
     #[constant(u64::from(pelican::TXERR))]
@@ -227,12 +226,6 @@ impl Logic for RegisterRead {
         if self.addr.val() == self.cdr_address.val() {
             self.read_value.next = self.cdr.val();
         }
-        if self.config_selected.val() {
-            self.read_value.next = self.config_data.val();
-        }
-        if self.filter_selected.val() {
-            self.read_value.next = self.filter_data.val();
-        }
         if self.pelican.val() {
             if self.addr.val() == self.mod_address.val() {
                 self.read_value.next = self
@@ -268,7 +261,10 @@ impl Logic for RegisterRead {
             // The frame window reads the head message of the RX FIFO in operating mode.
             self.fifo_read.next = (self.in_frame_window.val() & (self.reset_mode.val() == false))
                 | self.in_rx_ram.val();
-            self.tx_read.next = self.in_tx_ram.val();
+            if self.addr.val() == self.ewlr_address.val() {
+                self.read_value.next = self.ewlr.val();
+            }
+            self.tx_read.next = self.in_tx_ram.val() | self.readback_selected.val();
         } else {
             if self.addr.val() == self.mod_address.val() {
                 self.read_value.next = self
@@ -296,7 +292,9 @@ impl Logic for RegisterRead {
             if (self.reset_mode.val() == false) & self.in_basic_config.val() {
                 self.read_value.next = self.all_ones.val();
             }
-            self.tx_read.next = self.in_basic_tx.val();
+            // ACR, AMR, BTR0, BTR1 and OCR read 0xFF in operating mode (above).
+            self.tx_read.next =
+                self.in_basic_tx.val() | (self.readback_selected.val() & self.reset_mode.val());
             self.fifo_read.next = self.in_basic_rx.val();
             if self.addr.val() == self.rx_id_dlc_address.val() {
                 self.ram_or.next = bit_cast::<8, 4>(bit_cast::<4, 8>(self.head_info.val()));
