@@ -878,6 +878,7 @@ module top$configuration(clock,reset,host$addr,host$we,host$wdata,pelican,reset_
     localparam  ocr_address = 8'h8;
     localparam  ewlr_address = 8'hd;
     localparam  default_ewlr = 8'h60;
+    localparam  zero_index = 2'b0;
     
     // Stub signals
     reg  [7:0] btr0$d;
@@ -955,8 +956,7 @@ module top$configuration(clock,reset,host$addr,host$we,host$wdata,pelican,reset_
             end
         end
         host_selected = (host$addr == btr0_address) | (host$addr == btr1_address) | (host$addr == ocr_address);
-        host_index = 32'h0;
-        host_index = ((host_index & ~(1 << (32'h1)) | ((host$addr[32'h3]) << (32'h1))) & ~(1 << (32'h0)) | ((host$addr[32'h0]) << (32'h0)));
+        host_index = ((zero_index & ~(1 << (32'h1)) | ((host$addr[32'h3]) << (32'h1))) & ~(1 << (32'h0)) | ((host$addr[32'h0]) << (32'h0)));
         if (reset) begin
             btr0$d = 32'h0;
             btr1$d = 32'h0;
@@ -7727,6 +7727,9 @@ module top$read(clock,reset,addr,re,in_frame_window,in_rx_ram,in_tx_ram,in_basic
             if (addr == ecc_address) begin
                 read_value = interrupts$ecc;
             end
+            if (addr == ewlr_address) begin
+                read_value = ewlr;
+            end
             if (addr == rxerr_address) begin
                 read_value = rec;
             end
@@ -7740,9 +7743,6 @@ module top$read(clock,reset,addr,re,in_frame_window,in_rx_ram,in_tx_ram,in_basic
                 read_value = ((start) & 8'hff);
             end
             fifo_read = (in_frame_window & (reset_mode == 1'b0)) | in_rx_ram;
-            if (addr == ewlr_address) begin
-                read_value = ewlr;
-            end
             tx_read = in_tx_ram | readback_selected;
         end
         else begin

@@ -78,6 +78,8 @@ pub struct Configuration {
     ewlr_address: Constant<Bits<8>>,
     #[constant(u64::from(DEFAULT_EWLR))]
     default_ewlr: Constant<Bits<8>>,
+    #[constant(0u64)]
+    zero_index: Constant<Bits<2>>,
 }
 
 impl Logic for Configuration {
@@ -108,9 +110,9 @@ impl Logic for Configuration {
         self.host_selected.next = (self.host.addr.val() == self.btr0_address.val())
             | (self.host.addr.val() == self.btr1_address.val())
             | (self.host.addr.val() == self.ocr_address.val());
-        self.host_index.next = 0.into();
+        // One assignment: the controller reads this output back (docs/VERILOG.md).
         self.host_index.next = self
-            .host_index
+            .zero_index
             .val()
             .replace_bit(1, self.host.addr.val().get_bit(3))
             .replace_bit(0, self.host.addr.val().get_bit(0));

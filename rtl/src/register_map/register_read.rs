@@ -4,8 +4,9 @@
 //! Ports in: the host bus `addr`, `re`; the host decoder's windows and indices; the registers and
 //! states it shows (mode bits, CDR and CR.6 from the mode block; IER, IR, ALC, ECC, ES and the
 //! BasicCAN RI latch from the interrupt block; EWLR; `readback_selected`, the configuration and
-//! acceptance filter registers read from their copies in the TX buffer's RAM; TBS/TCS; the core's counters and states; the FIFO's count, start,
-//! overrun, head message information and RAM read data; the TX buffer's read data). Every input
+//! acceptance filter registers read from their copies in the TX buffer's RAM; TBS/TCS; the core's
+//! counters and states; the FIFO's count, start, overrun, head message information and RAM read
+//! data; the TX buffer's read data). Every input
 //! comes straight from a port, a flip-flop or another block's output, so the controller may use the
 //! combinational outputs `enables`, `irq_pending`, `fifo_address` and `fifo_read` without a
 //! Verilator loop (docs/VERILOG.md). `rdata` is registered: valid from the edge after the `re`
@@ -246,6 +247,9 @@ impl Logic for RegisterRead {
             if self.addr.val() == self.ecc_address.val() {
                 self.read_value.next = self.interrupts.ecc.val();
             }
+            if self.addr.val() == self.ewlr_address.val() {
+                self.read_value.next = self.ewlr.val();
+            }
             if self.addr.val() == self.rxerr_address.val() {
                 self.read_value.next = self.rec.val();
             }
@@ -261,9 +265,6 @@ impl Logic for RegisterRead {
             // The frame window reads the head message of the RX FIFO in operating mode.
             self.fifo_read.next = (self.in_frame_window.val() & (self.reset_mode.val() == false))
                 | self.in_rx_ram.val();
-            if self.addr.val() == self.ewlr_address.val() {
-                self.read_value.next = self.ewlr.val();
-            }
             self.tx_read.next = self.in_tx_ram.val() | self.readback_selected.val();
         } else {
             if self.addr.val() == self.mod_address.val() {

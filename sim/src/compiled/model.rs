@@ -2,7 +2,7 @@
 //! from the Verilog of `rtl/` through Yosys; do not edit.
 
 /// Hash of the Verilog this model was made from.
-pub(super) const VERILOG_HASH: u64 = 0xc1fd7ddce6bf0b37;
+pub(super) const VERILOG_HASH: u64 = 0x9cd1ae0803ba9f22;
 
 const TABLE_0: [u64; 4] = [0x1fff0000, 0x0, 0x0, 0x0];
 const TABLE_1: [u64; 4] = [0xffffffff00000000, 0xffffffff, 0x0, 0x0];
@@ -393,124 +393,124 @@ pub(super) struct Model {
     v123: u64,
     v125: u64,
     v127: u64,
-    v129: u64,
+    v133: u64,
     v134: u64,
     v135: u64,
-    v136: u64,
-    v138: u64,
-    v141: u64,
+    v137: u64,
+    v140: u64,
+    v142: u64,
     v143: u64,
-    v144: u64,
-    v146: u64,
+    v145: u64,
+    v149: u64,
     v150: u64,
-    v151: u64,
-    v154: u64,
-    v158: u64,
-    v162: u64,
+    v153: u64,
+    v157: u64,
+    v161: u64,
+    v166: u64,
     v167: u64,
-    v168: u64,
-    v173: u64,
+    v172: u64,
+    v178: u64,
     v179: u64,
     v180: u64,
-    v181: u64,
-    v184: u64,
+    v183: u64,
+    v185: u64,
     v186: u64,
     v187: u64,
     v188: u64,
     v189: u64,
     v190: u64,
-    v191: u64,
-    v193: u64,
-    v199: u64,
+    v192: u64,
+    v198: u64,
+    v200: u64,
     v201: u64,
     v202: u64,
     v203: u64,
-    v204: u64,
-    v216: u64,
+    v215: u64,
+    v222: u64,
     v223: u64,
     v224: u64,
     v225: u64,
     v226: u64,
-    v227: u64,
+    v228: u64,
     v229: u64,
     v230: u64,
     v231: u64,
-    v232: u64,
+    v233: u64,
     v234: u64,
-    v235: u64,
-    v245: u64,
-    v247: u64,
+    v244: u64,
+    v246: u64,
+    v249: u64,
     v250: u64,
     v251: u64,
     v252: u64,
-    v253: u64,
-    v256: u64,
+    v255: u64,
+    v262: u64,
     v263: u64,
     v264: u64,
-    v265: u64,
-    v269: u64,
+    v268: u64,
+    v272: u64,
     v273: u64,
     v274: u64,
-    v275: u64,
-    v277: u64,
-    v279: u64,
-    v283: u64,
+    v276: u64,
+    v278: u64,
+    v282: u64,
+    v284: u64,
     v285: u64,
-    v286: u64,
-    v289: u64,
-    v298: u64,
+    v288: u64,
+    v297: u64,
+    v314: u64,
     v315: u64,
-    v316: u64,
-    v319: u64,
-    v321: u64,
+    v318: u64,
+    v320: u64,
+    v323: u64,
     v324: u64,
     v325: u64,
-    v326: u64,
+    v327: u64,
     v328: u64,
     v329: u64,
     v330: u64,
-    v331: u64,
+    v333: u64,
     v334: u64,
     v335: u64,
     v336: u64,
-    v337: u64,
-    v341: u64,
-    v345: u64,
-    v349: u64,
+    v340: u64,
+    v344: u64,
+    v348: u64,
+    v352: u64,
     v353: u64,
     v354: u64,
-    v355: u64,
+    v361: u64,
     v362: u64,
     v363: u64,
-    v364: u64,
+    v370: u64,
     v371: u64,
-    v372: u64,
+    v375: u64,
     v376: u64,
-    v377: u64,
+    v385: u64,
     v386: u64,
     v387: u64,
     v388: u64,
-    v389: u64,
-    v391: u64,
+    v390: u64,
+    v392: u64,
     v393: u64,
-    v394: u64,
-    v398: u64,
+    v397: u64,
+    v401: u64,
     v402: u64,
     v403: u64,
     v404: u64,
-    v405: u64,
-    v409: u64,
-    v414: u64,
-    v417: u64,
-    v429: u64,
-    v433: u64,
+    v408: u64,
+    v413: u64,
+    v416: u64,
+    v428: u64,
+    v432: u64,
+    v435: u64,
     v436: u64,
-    v437: u64,
+    v438: u64,
     v439: u64,
     v440: u64,
-    v441: u64,
-    v451: u64,
-    v457: u64,
+    v450: u64,
+    v456: u64,
+    v466: u64,
     v467: u64,
     v468: u64,
     v469: u64,
@@ -526,7 +526,7 @@ pub(super) struct Model {
     v479: u64,
     v480: u64,
     v481: u64,
-    v482: u64,
+    v483: u64,
     v484: u64,
     v485: u64,
     v486: u64,
@@ -545,54 +545,54 @@ pub(super) struct Model {
     v499: u64,
     v500: u64,
     v501: u64,
-    v502: u64,
+    v507: u64,
     v508: u64,
-    v509: u64,
+    v510: u64,
     v511: u64,
-    v512: u64,
+    v513: u64,
     v514: u64,
     v515: u64,
     v516: u64,
     v517: u64,
-    v518: u64,
-    v521: u64,
+    v520: u64,
+    v525: u64,
     v526: u64,
     v527: u64,
     v528: u64,
-    v529: u64,
+    v530: u64,
     v531: u64,
     v532: u64,
     v533: u64,
     v534: u64,
     v535: u64,
-    v536: u64,
+    v538: u64,
     v539: u64,
-    v540: u64,
-    v542: u64,
-    v544: u64,
+    v541: u64,
+    v543: u64,
+    v546: u64,
     v547: u64,
     v548: u64,
     v549: u64,
-    v550: u64,
+    v560: u64,
     v561: u64,
-    v562: u64,
-    v564: u64,
-    v569: u64,
-    v573: u64,
-    v586: u64,
-    v600: u64,
-    v606: u64,
-    v613: u64,
-    v615: u64,
-    v619: u64,
-    v638: u64,
+    v563: u64,
+    v568: u64,
+    v572: u64,
+    v585: u64,
+    v599: u64,
+    v605: u64,
+    v612: u64,
+    v614: u64,
+    v618: u64,
+    v637: u64,
+    v643: u64,
     v644: u64,
     v645: u64,
-    v646: u64,
-    v649: u64,
-    v651: u64,
-    v653: u64,
-    v655: u64,
+    v648: u64,
+    v650: u64,
+    v652: u64,
+    v654: u64,
+    v662: u64,
     v663: u64,
     v664: u64,
     v665: u64,
@@ -607,51 +607,51 @@ pub(super) struct Model {
     v674: u64,
     v675: u64,
     v676: u64,
-    v677: u64,
+    v678: u64,
     v679: u64,
-    v680: u64,
-    v683: u64,
+    v682: u64,
+    v685: u64,
     v686: u64,
     v687: u64,
     v688: u64,
     v689: u64,
-    v690: u64,
-    v695: u64,
-    v697: u64,
+    v694: u64,
+    v696: u64,
+    v698: u64,
     v699: u64,
     v700: u64,
-    v701: u64,
+    v705: u64,
     v706: u64,
-    v707: u64,
+    v708: u64,
     v709: u64,
-    v710: u64,
-    v712: u64,
-    v715: u64,
-    v722: u64,
+    v711: u64,
+    v714: u64,
+    v721: u64,
+    v727: u64,
     v728: u64,
     v729: u64,
     v730: u64,
     v731: u64,
     v732: u64,
     v733: u64,
-    v734: u64,
+    v737: u64,
     v738: u64,
     v739: u64,
     v740: u64,
     v741: u64,
-    v742: u64,
-    v748: u64,
-    v750: u64,
+    v747: u64,
+    v749: u64,
+    v751: u64,
     v752: u64,
-    v753: u64,
+    v756: u64,
     v757: u64,
     v758: u64,
-    v759: u64,
-    v761: u64,
+    v760: u64,
+    v762: u64,
     v763: u64,
     v764: u64,
     v765: u64,
-    v766: u64,
+    v769: u64,
     v770: u64,
     v771: u64,
     v772: u64,
@@ -668,38 +668,38 @@ pub(super) struct Model {
     v783: u64,
     v784: u64,
     v785: u64,
-    v786: u64,
+    v791: u64,
     v792: u64,
     v793: u64,
-    v794: u64,
-    v796: u64,
+    v795: u64,
+    v799: u64,
     v800: u64,
     v801: u64,
-    v802: u64,
+    v809: u64,
     v810: u64,
     v811: u64,
     v812: u64,
     v813: u64,
     v814: u64,
     v815: u64,
-    v816: u64,
+    v818: u64,
     v819: u64,
     v820: u64,
     v821: u64,
-    v822: u64,
+    v826: u64,
     v827: u64,
     v828: u64,
-    v829: u64,
-    v833: u64,
+    v832: u64,
+    v838: u64,
     v839: u64,
-    v840: u64,
-    v849: u64,
-    v851: u64,
-    v853: u64,
+    v848: u64,
+    v850: u64,
+    v852: u64,
+    v863: u64,
     v864: u64,
     v865: u64,
     v866: u64,
-    v867: u64,
+    v872: u64,
     v873: u64,
     v874: u64,
     v875: u64,
@@ -709,68 +709,68 @@ pub(super) struct Model {
     v879: u64,
     v880: u64,
     v881: u64,
-    v882: u64,
-    v884: u64,
+    v883: u64,
+    v895: u64,
     v896: u64,
     v897: u64,
     v898: u64,
     v899: u64,
     v900: u64,
-    v901: u64,
+    v904: u64,
     v905: u64,
     v906: u64,
-    v907: u64,
+    v908: u64,
     v909: u64,
     v910: u64,
-    v911: u64,
-    v915: u64,
-    v918: u64,
-    v926: u64,
+    v914: u64,
+    v917: u64,
+    v925: u64,
+    v927: u64,
     v928: u64,
-    v929: u64,
+    v930: u64,
     v931: u64,
     v932: u64,
-    v933: u64,
+    v934: u64,
     v935: u64,
-    v936: u64,
+    v943: u64,
     v944: u64,
-    v945: u64,
-    v948: u64,
+    v947: u64,
+    v949: u64,
     v950: u64,
-    v951: u64,
+    v952: u64,
     v953: u64,
     v954: u64,
-    v955: u64,
+    v956: u64,
     v957: u64,
-    v958: u64,
+    v965: u64,
     v966: u64,
     v967: u64,
-    v968: u64,
+    v975: u64,
     v976: u64,
     v977: u64,
     v978: u64,
     v979: u64,
-    v980: u64,
+    v983: u64,
     v984: u64,
-    v985: u64,
+    v986: u64,
     v987: u64,
     v988: u64,
-    v989: u64,
-    v991: u64,
+    v990: u64,
+    v992: u64,
     v993: u64,
     v994: u64,
     v995: u64,
     v996: u64,
-    v997: u64,
-    v999: u64,
-    v1003: u64,
-    v1005: u64,
+    v998: u64,
+    v1002: u64,
+    v1004: u64,
+    v1020: u64,
     v1021: u64,
-    v1022: u64,
+    v1026: u64,
     v1027: u64,
-    v1028: u64,
+    v1029: u64,
     v1030: u64,
-    v1031: u64,
+    v1037: u64,
     v1038: u64,
     v1039: u64,
     v1040: u64,
@@ -788,8 +788,7 @@ pub(super) struct Model {
     v1055: u64,
     v1056: u64,
     v1057: u64,
-    v1060: u64,
-    v1065: u64,
+    v1074: u64,
     v1075: u64,
     v1076: u64,
     v1080: u64,
@@ -1206,124 +1205,124 @@ impl Model {
             v123: 0,
             v125: 0,
             v127: 0,
-            v129: 0,
+            v133: 0,
             v134: 0,
             v135: 0,
-            v136: 0,
-            v138: 0,
-            v141: 0,
+            v137: 0,
+            v140: 0,
+            v142: 0,
             v143: 0,
-            v144: 0,
-            v146: 0,
+            v145: 0,
+            v149: 0,
             v150: 0,
-            v151: 0,
-            v154: 0,
-            v158: 0,
-            v162: 0,
+            v153: 0,
+            v157: 0,
+            v161: 0,
+            v166: 0,
             v167: 0,
-            v168: 0,
-            v173: 0,
+            v172: 0,
+            v178: 0,
             v179: 0,
             v180: 0,
-            v181: 0,
-            v184: 0,
+            v183: 0,
+            v185: 0,
             v186: 0,
             v187: 0,
             v188: 0,
             v189: 0,
             v190: 0,
-            v191: 0,
-            v193: 0,
-            v199: 0,
+            v192: 0,
+            v198: 0,
+            v200: 0,
             v201: 0,
             v202: 0,
             v203: 0,
-            v204: 0,
-            v216: 0,
+            v215: 0,
+            v222: 0,
             v223: 0,
             v224: 0,
             v225: 0,
             v226: 0,
-            v227: 0,
+            v228: 0,
             v229: 0,
             v230: 0,
             v231: 0,
-            v232: 0,
+            v233: 0,
             v234: 0,
-            v235: 0,
-            v245: 0,
-            v247: 0,
+            v244: 0,
+            v246: 0,
+            v249: 0,
             v250: 0,
             v251: 0,
             v252: 0,
-            v253: 0,
-            v256: 0,
+            v255: 0,
+            v262: 0,
             v263: 0,
             v264: 0,
-            v265: 0,
-            v269: 0,
+            v268: 0,
+            v272: 0,
             v273: 0,
             v274: 0,
-            v275: 0,
-            v277: 0,
-            v279: 0,
-            v283: 0,
+            v276: 0,
+            v278: 0,
+            v282: 0,
+            v284: 0,
             v285: 0,
-            v286: 0,
-            v289: 0,
-            v298: 0,
+            v288: 0,
+            v297: 0,
+            v314: 0,
             v315: 0,
-            v316: 0,
-            v319: 0,
-            v321: 0,
+            v318: 0,
+            v320: 0,
+            v323: 0,
             v324: 0,
             v325: 0,
-            v326: 0,
+            v327: 0,
             v328: 0,
             v329: 0,
             v330: 0,
-            v331: 0,
+            v333: 0,
             v334: 0,
             v335: 0,
             v336: 0,
-            v337: 0,
-            v341: 0,
-            v345: 0,
-            v349: 0,
+            v340: 0,
+            v344: 0,
+            v348: 0,
+            v352: 0,
             v353: 0,
             v354: 0,
-            v355: 0,
+            v361: 0,
             v362: 0,
             v363: 0,
-            v364: 0,
+            v370: 0,
             v371: 0,
-            v372: 0,
+            v375: 0,
             v376: 0,
-            v377: 0,
+            v385: 0,
             v386: 0,
             v387: 0,
             v388: 0,
-            v389: 0,
-            v391: 0,
+            v390: 0,
+            v392: 0,
             v393: 0,
-            v394: 0,
-            v398: 0,
+            v397: 0,
+            v401: 0,
             v402: 0,
             v403: 0,
             v404: 0,
-            v405: 0,
-            v409: 0,
-            v414: 0,
-            v417: 0,
-            v429: 0,
-            v433: 0,
+            v408: 0,
+            v413: 0,
+            v416: 0,
+            v428: 0,
+            v432: 0,
+            v435: 0,
             v436: 0,
-            v437: 0,
+            v438: 0,
             v439: 0,
             v440: 0,
-            v441: 0,
-            v451: 0,
-            v457: 0,
+            v450: 0,
+            v456: 0,
+            v466: 0,
             v467: 0,
             v468: 0,
             v469: 0,
@@ -1339,7 +1338,7 @@ impl Model {
             v479: 0,
             v480: 0,
             v481: 0,
-            v482: 0,
+            v483: 0,
             v484: 0,
             v485: 0,
             v486: 0,
@@ -1358,54 +1357,54 @@ impl Model {
             v499: 0,
             v500: 0,
             v501: 0,
-            v502: 0,
+            v507: 0,
             v508: 0,
-            v509: 0,
+            v510: 0,
             v511: 0,
-            v512: 0,
+            v513: 0,
             v514: 0,
             v515: 0,
             v516: 0,
             v517: 0,
-            v518: 0,
-            v521: 0,
+            v520: 0,
+            v525: 0,
             v526: 0,
             v527: 0,
             v528: 0,
-            v529: 0,
+            v530: 0,
             v531: 0,
             v532: 0,
             v533: 0,
             v534: 0,
             v535: 0,
-            v536: 0,
+            v538: 0,
             v539: 0,
-            v540: 0,
-            v542: 0,
-            v544: 0,
+            v541: 0,
+            v543: 0,
+            v546: 0,
             v547: 0,
             v548: 0,
             v549: 0,
-            v550: 0,
+            v560: 0,
             v561: 0,
-            v562: 0,
-            v564: 0,
-            v569: 0,
-            v573: 0,
-            v586: 0,
-            v600: 0,
-            v606: 0,
-            v613: 0,
-            v615: 0,
-            v619: 0,
-            v638: 0,
+            v563: 0,
+            v568: 0,
+            v572: 0,
+            v585: 0,
+            v599: 0,
+            v605: 0,
+            v612: 0,
+            v614: 0,
+            v618: 0,
+            v637: 0,
+            v643: 0,
             v644: 0,
             v645: 0,
-            v646: 0,
-            v649: 0,
-            v651: 0,
-            v653: 0,
-            v655: 0,
+            v648: 0,
+            v650: 0,
+            v652: 0,
+            v654: 0,
+            v662: 0,
             v663: 0,
             v664: 0,
             v665: 0,
@@ -1420,51 +1419,51 @@ impl Model {
             v674: 0,
             v675: 0,
             v676: 0,
-            v677: 0,
+            v678: 0,
             v679: 0,
-            v680: 0,
-            v683: 0,
+            v682: 0,
+            v685: 0,
             v686: 0,
             v687: 0,
             v688: 0,
             v689: 0,
-            v690: 0,
-            v695: 0,
-            v697: 0,
+            v694: 0,
+            v696: 0,
+            v698: 0,
             v699: 0,
             v700: 0,
-            v701: 0,
+            v705: 0,
             v706: 0,
-            v707: 0,
+            v708: 0,
             v709: 0,
-            v710: 0,
-            v712: 0,
-            v715: 0,
-            v722: 0,
+            v711: 0,
+            v714: 0,
+            v721: 0,
+            v727: 0,
             v728: 0,
             v729: 0,
             v730: 0,
             v731: 0,
             v732: 0,
             v733: 0,
-            v734: 0,
+            v737: 0,
             v738: 0,
             v739: 0,
             v740: 0,
             v741: 0,
-            v742: 0,
-            v748: 0,
-            v750: 0,
+            v747: 0,
+            v749: 0,
+            v751: 0,
             v752: 0,
-            v753: 0,
+            v756: 0,
             v757: 0,
             v758: 0,
-            v759: 0,
-            v761: 0,
+            v760: 0,
+            v762: 0,
             v763: 0,
             v764: 0,
             v765: 0,
-            v766: 0,
+            v769: 0,
             v770: 0,
             v771: 0,
             v772: 0,
@@ -1481,38 +1480,38 @@ impl Model {
             v783: 0,
             v784: 0,
             v785: 0,
-            v786: 0,
+            v791: 0,
             v792: 0,
             v793: 0,
-            v794: 0,
-            v796: 0,
+            v795: 0,
+            v799: 0,
             v800: 0,
             v801: 0,
-            v802: 0,
+            v809: 0,
             v810: 0,
             v811: 0,
             v812: 0,
             v813: 0,
             v814: 0,
             v815: 0,
-            v816: 0,
+            v818: 0,
             v819: 0,
             v820: 0,
             v821: 0,
-            v822: 0,
+            v826: 0,
             v827: 0,
             v828: 0,
-            v829: 0,
-            v833: 0,
+            v832: 0,
+            v838: 0,
             v839: 0,
-            v840: 0,
-            v849: 0,
-            v851: 0,
-            v853: 0,
+            v848: 0,
+            v850: 0,
+            v852: 0,
+            v863: 0,
             v864: 0,
             v865: 0,
             v866: 0,
-            v867: 0,
+            v872: 0,
             v873: 0,
             v874: 0,
             v875: 0,
@@ -1522,68 +1521,68 @@ impl Model {
             v879: 0,
             v880: 0,
             v881: 0,
-            v882: 0,
-            v884: 0,
+            v883: 0,
+            v895: 0,
             v896: 0,
             v897: 0,
             v898: 0,
             v899: 0,
             v900: 0,
-            v901: 0,
+            v904: 0,
             v905: 0,
             v906: 0,
-            v907: 0,
+            v908: 0,
             v909: 0,
             v910: 0,
-            v911: 0,
-            v915: 0,
-            v918: 0,
-            v926: 0,
+            v914: 0,
+            v917: 0,
+            v925: 0,
+            v927: 0,
             v928: 0,
-            v929: 0,
+            v930: 0,
             v931: 0,
             v932: 0,
-            v933: 0,
+            v934: 0,
             v935: 0,
-            v936: 0,
+            v943: 0,
             v944: 0,
-            v945: 0,
-            v948: 0,
+            v947: 0,
+            v949: 0,
             v950: 0,
-            v951: 0,
+            v952: 0,
             v953: 0,
             v954: 0,
-            v955: 0,
+            v956: 0,
             v957: 0,
-            v958: 0,
+            v965: 0,
             v966: 0,
             v967: 0,
-            v968: 0,
+            v975: 0,
             v976: 0,
             v977: 0,
             v978: 0,
             v979: 0,
-            v980: 0,
+            v983: 0,
             v984: 0,
-            v985: 0,
+            v986: 0,
             v987: 0,
             v988: 0,
-            v989: 0,
-            v991: 0,
+            v990: 0,
+            v992: 0,
             v993: 0,
             v994: 0,
             v995: 0,
             v996: 0,
-            v997: 0,
-            v999: 0,
-            v1003: 0,
-            v1005: 0,
+            v998: 0,
+            v1002: 0,
+            v1004: 0,
+            v1020: 0,
             v1021: 0,
-            v1022: 0,
+            v1026: 0,
             v1027: 0,
-            v1028: 0,
+            v1029: 0,
             v1030: 0,
-            v1031: 0,
+            v1037: 0,
             v1038: 0,
             v1039: 0,
             v1040: 0,
@@ -1601,8 +1600,7 @@ impl Model {
             v1055: 0,
             v1056: 0,
             v1057: 0,
-            v1060: 0,
-            v1065: 0,
+            v1074: 0,
             v1075: 0,
             v1076: 0,
             v1080: 0,
@@ -1641,17 +1639,17 @@ impl Model {
     /// Takes the input word.
     pub(super) fn set_inputs(&mut self, word: u32) {
         let v = (word >> 0) as u64 & 0xff;
-        if v != self.i_wdata { self.i_wdata = v; self.dirty |= 0x6c0001001f00000000f08c100200a40; }
+        if v != self.i_wdata { self.i_wdata = v; self.dirty |= 0x6c0001001f00000000f04c100200a40; }
         let v = (word >> 8) as u64 & 0xff;
         if v != self.i_addr { self.i_addr = v; self.dirty |= 0x1e0974; }
         let v = (word >> 16) as u64 & 0x1;
         if v != self.i_we { self.i_we = v; self.dirty |= 0x4000080940; }
         let v = (word >> 17) as u64 & 0x1;
-        if v != self.i_re { self.i_re = v; self.dirty |= 0x20000000000000000020000100020; }
+        if v != self.i_re { self.i_re = v; self.dirty |= 0x20000000000000000080000100020; }
         let v = (word >> 18) as u64 & 0x1;
         if v != self.i_rx { self.i_rx = v; self.dirty |= 0x4040; }
         let v = (word >> 19) as u64 & 0x1;
-        if v != self.i_reset { self.i_reset = v; self.dirty |= 0x5b4f8057fff6ede4ff5f3d21ac82e868; }
+        if v != self.i_reset { self.i_reset = v; self.dirty |= 0x5b4f8057fff6ede4ff5f3721ac82e868; }
     }
 
     /// The output word computed by the last `eval`.
@@ -1715,9 +1713,9 @@ impl Model {
         }
         if dirty >> 40 & 0xff != 0 {
             if dirty >> 40 & 1 != 0 { self.group_40(&mut dirty); } // top$modes$divider
-            if dirty >> 41 & 1 != 0 { self.group_41(&mut dirty); } // top$read
-            if dirty >> 42 & 1 != 0 { self.group_42(&mut dirty); } // top$core$protocol$faults$tec_count
-            if dirty >> 43 & 1 != 0 { self.group_43(&mut dirty); } // top$modes$cdr_reg
+            if dirty >> 41 & 1 != 0 { self.group_41(&mut dirty); } // top$core$protocol$faults$tec_count
+            if dirty >> 42 & 1 != 0 { self.group_42(&mut dirty); } // top$modes$cdr_reg
+            if dirty >> 43 & 1 != 0 { self.group_43(&mut dirty); } // top$read
             if dirty >> 44 & 1 != 0 { self.group_44(&mut dirty); } // top$core$bit_timing$clocks
             if dirty >> 45 & 1 != 0 { self.group_45(&mut dirty); } // top$core$protocol$faults$rec_count
             if dirty >> 46 & 1 != 0 { self.group_46(&mut dirty); } // top$core$protocol$sender$tx_ptr
@@ -1825,7 +1823,7 @@ impl Model {
         self.dirty = 0;
         self.ran |= dirty;
         if dirty >> 127 & 1 != 0 {
-            self.out = 0 | ((self.v1055) as u64) << 0 | ((self.q117) as u64) << 8 | ((self.v984) as u64) << 9 | ((self.v999) as u64) << 10 | ((self.v150) as u64) << 11 | ((self.v180) as u64) << 12 | ((self.q114) as u64) << 14 | ((self.q84 | (self.q85 << 3) | (self.q83 << 7)) as u64) << 19 | ((self.q86 | (self.q87 << 7)) as u64) << 27 | ((self.v227) as u64) << 35;
+            self.out = 0 | ((self.v1055) as u64) << 0 | ((self.q117) as u64) << 8 | ((self.v983) as u64) << 9 | ((self.v998) as u64) << 10 | ((self.v149) as u64) << 11 | ((self.v179) as u64) << 12 | ((self.q114) as u64) << 14 | ((self.q83 | (self.q84 << 3) | (self.q82 << 7)) as u64) << 19 | ((self.q85 | (self.q86 << 7)) as u64) << 27 | ((self.v226) as u64) << 35;
         }
     }
 
@@ -1841,299 +1839,299 @@ impl Model {
         if self.m2_we != 0 { if let Some(word) = self.m2.get_mut(self.m2_wa) { *word = *word & !self.m2_we | self.m2_wd & self.m2_we; } }
         let ran = self.ran;
         self.ran = 0;
-        if ran >> 42 & 1 != 0 {
-            if self.q83 != self.n83 { self.q83 = self.n83; dirty |= 0x80000000000000000000040100040220; } // $auto$ff.cc:266:slice$9902
-            if self.q84 != self.n84 { self.q84 = self.n84; dirty |= 0x80000000000000000000040000040220; } // $auto$ff.cc:266:slice$9903
-            if self.q85 != self.n85 { self.q85 = self.n85; dirty |= 0x80000000000000000000040000040220; } // $auto$ff.cc:266:slice$9916
+        if ran >> 41 & 1 != 0 {
+            if self.q82 != self.n82 { self.q82 = self.n82; dirty |= 0x80000000000000000000020100040220; } // $auto$ff.cc:266:slice$9901
+            if self.q83 != self.n83 { self.q83 = self.n83; dirty |= 0x80000000000000000000020000040220; } // $auto$ff.cc:266:slice$9902
+            if self.q84 != self.n84 { self.q84 = self.n84; dirty |= 0x80000000000000000000020000040220; } // $auto$ff.cc:266:slice$9915
         }
-        if ran >> 43 & 1 != 0 {
-            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x90000040040; } // $auto$ff.cc:266:slice$10048
-            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0xa04009e0874; } // $auto$ff.cc:266:slice$9709
-            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x90000040040; } // $auto$ff.cc:266:slice$9710
+        if ran >> 42 & 1 != 0 {
+            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x50000040040; } // $auto$ff.cc:266:slice$10047
+            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0xc04009e0874; } // $auto$ff.cc:266:slice$9708
+            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x50000040040; } // $auto$ff.cc:266:slice$9709
         }
         if ran >> 44 & 1 != 0 {
+            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x100000000008; } // $auto$ff.cc:266:slice$10022
             if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x100000000008; } // $auto$ff.cc:266:slice$10023
-            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x100000000008; } // $auto$ff.cc:266:slice$10024
         }
         if ran >> 45 & 1 != 0 {
+            if self.q85 != self.n85 { self.q85 = self.n85; dirty |= 0x80000000000000000000200100040220; } // $auto$ff.cc:266:slice$9926
             if self.q86 != self.n86 { self.q86 = self.n86; dirty |= 0x80000000000000000000200100040220; } // $auto$ff.cc:266:slice$9927
-            if self.q87 != self.n87 { self.q87 = self.n87; dirty |= 0x80000000000000000000200100040220; } // $auto$ff.cc:266:slice$9928
         }
         if ran >> 46 & 1 != 0 {
-            if self.q74 != self.n74 { self.q74 = self.n74; dirty |= 0x800000000000000000400000001100; } // $auto$ff.cc:266:slice$9840
-            if self.q75 != self.n75 { self.q75 = self.n75; dirty |= 0x800000000000000000400800001100; } // $auto$ff.cc:266:slice$9847
+            if self.q73 != self.n73 { self.q73 = self.n73; dirty |= 0x800000000000000000400000001100; } // $auto$ff.cc:266:slice$9839
+            if self.q74 != self.n74 { self.q74 = self.n74; dirty |= 0x800000000000000000400800001100; } // $auto$ff.cc:266:slice$9846
         }
         if ran >> 48 & 1 != 0 {
-            if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x1000000040010; } // $auto$ff.cc:266:slice$9730
-            if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x1004000040000; } // $auto$ff.cc:266:slice$9735
+            if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x1000000040010; } // $auto$ff.cc:266:slice$9729
+            if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x1004000040000; } // $auto$ff.cc:266:slice$9734
         }
         if ran >> 49 & 1 != 0 {
-            if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x200000000c000; } // $auto$ff.cc:266:slice$10040
-            if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x2000000000008; } // $auto$ff.cc:266:slice$10044
+            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x200000000c000; } // $auto$ff.cc:266:slice$10039
+            if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x2000000000008; } // $auto$ff.cc:266:slice$10043
         }
         if ran >> 50 & 1 != 0 {
-            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x4000000000008; } // $auto$ff.cc:266:slice$10032
-            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x4020000000020; } // $auto$ff.cc:266:slice$10036
+            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x4000000000008; } // $auto$ff.cc:266:slice$10031
+            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x4000000040020; } // $auto$ff.cc:266:slice$10035
         }
         if ran >> 51 & 1 != 0 {
-            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x8000000000008; } // $auto$ff.cc:266:slice$10020
-            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x8000000008000; } // $auto$ff.cc:266:slice$10028
+            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x8000000000008; } // $auto$ff.cc:266:slice$10019
+            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x8000000008000; } // $auto$ff.cc:266:slice$10027
         }
         if ran >> 52 & 1 != 0 {
-            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x10000000008008; } // $auto$ff.cc:266:slice$10013
-            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x1c4000100008b700800a; } // $auto$ff.cc:266:slice$10016
+            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x10000000008008; } // $auto$ff.cc:266:slice$10012
+            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x1c4000100008b700800a; } // $auto$ff.cc:266:slice$10015
         }
         if ran >> 53 & 1 != 0 {
-            if self.q108 != self.n108 { self.q108 = self.n108; dirty |= 0x8807820000022019003; } // $flatten\core.\bit_timing.\sampled.$procdff$8958
-            if self.q109 != self.n109 { self.q109 = self.n109; dirty |= 0x20000000004000; } // $flatten\core.\bit_timing.\sampling.\metastable.$procdff$8957
+            if self.q108 != self.n108 { self.q108 = self.n108; dirty |= 0x8807820000022019003; } // $flatten\core.\bit_timing.\sampled.$procdff$8957
+            if self.q109 != self.n109 { self.q109 = self.n109; dirty |= 0x20000000004000; } // $flatten\core.\bit_timing.\sampling.\metastable.$procdff$8956
         }
         if ran >> 54 & 1 != 0 {
-            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x40000000004000; } // $auto$ff.cc:266:slice$10012
-            if self.q110 != self.n110 { self.q110 = self.n110; dirty |= 0x40000000004000; } // $flatten\core.\bit_timing.\sampling.\previous.$procdff$8956
+            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x40000000004000; } // $auto$ff.cc:266:slice$10011
+            if self.q110 != self.n110 { self.q110 = self.n110; dirty |= 0x40000000004000; } // $flatten\core.\bit_timing.\sampling.\previous.$procdff$8955
         }
         if ran >> 55 & 1 != 0 {
-            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x80000000008008; } // $auto$ff.cc:266:slice$10006
-            if self.q111 != self.n111 { self.q111 = self.n111; dirty |= 0xc0000000004000; } // $flatten\core.\bit_timing.\sampling.\stable.$procdff$8954
+            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x80000000008008; } // $auto$ff.cc:266:slice$10005
+            if self.q111 != self.n111 { self.q111 = self.n111; dirty |= 0xc0000000004000; } // $flatten\core.\bit_timing.\sampling.\stable.$procdff$8953
         }
         if ran >> 56 & 1 != 0 {
-            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x100000000008008; } // $auto$ff.cc:266:slice$10001
-            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x100000000000008; } // $auto$ff.cc:266:slice$10135
+            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x100000000008008; } // $auto$ff.cc:266:slice$10000
+            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x100000000000008; } // $auto$ff.cc:266:slice$10134
         }
         if ran >> 57 & 1 != 0 {
-            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x200000000008000; } // $auto$ff.cc:266:slice$10000
-            if self.q107 != self.n107 { self.q107 = self.n107; dirty |= 0x2000000a0000001; } // $auto$ff.cc:266:slice$9997
+            if self.q106 != self.n106 { self.q106 = self.n106; dirty |= 0x2000000a0000001; } // $auto$ff.cc:266:slice$9996
+            if self.q107 != self.n107 { self.q107 = self.n107; dirty |= 0x200000000008000; } // $auto$ff.cc:266:slice$9999
         }
         if ran >> 58 & 1 != 0 {
-            if self.q105 != self.n105 { self.q105 = self.n105; dirty |= 0x400000000800400; } // $auto$ff.cc:266:slice$9992
-            if self.q106 != self.n106 { self.q106 = self.n106; dirty |= 0x400000000000404; } // $auto$ff.cc:266:slice$9994
+            if self.q104 != self.n104 { self.q104 = self.n104; dirty |= 0x400000000800400; } // $auto$ff.cc:266:slice$9991
+            if self.q105 != self.n105 { self.q105 = self.n105; dirty |= 0x400000000000404; } // $auto$ff.cc:266:slice$9993
         }
         if ran >> 59 & 1 != 0 {
-            if self.q103 != self.n103 { self.q103 = self.n103; dirty |= 0x800008000400402; } // $auto$ff.cc:266:slice$9985
-            if self.q104 != self.n104 { self.q104 = self.n104; dirty |= 0x800000000000404; } // $auto$ff.cc:266:slice$9989
+            if self.q102 != self.n102 { self.q102 = self.n102; dirty |= 0x800008000400402; } // $auto$ff.cc:266:slice$9984
+            if self.q103 != self.n103 { self.q103 = self.n103; dirty |= 0x800000000000404; } // $auto$ff.cc:266:slice$9988
         }
         if ran >> 60 & 1 != 0 {
-            if self.q101 != self.n101 { self.q101 = self.n101; dirty |= 0x1000000000800404; } // $auto$ff.cc:266:slice$9976
-            if self.q102 != self.n102 { self.q102 = self.n102; dirty |= 0xf0080001000000000000404; } // $auto$ff.cc:266:slice$9981
+            if self.q100 != self.n100 { self.q100 = self.n100; dirty |= 0x1000000000800404; } // $auto$ff.cc:266:slice$9975
+            if self.q101 != self.n101 { self.q101 = self.n101; dirty |= 0xf0080001000000000000404; } // $auto$ff.cc:266:slice$9980
         }
         if ran >> 61 & 1 != 0 {
-            if self.q99 != self.n99 { self.q99 = self.n99; dirty |= 0x2000008000c00480; } // $auto$ff.cc:266:slice$9960
-            if self.q100 != self.n100 { self.q100 = self.n100; dirty |= 0x2000000000800404; } // $auto$ff.cc:266:slice$9966
+            if self.q98 != self.n98 { self.q98 = self.n98; dirty |= 0x2000008000c00480; } // $auto$ff.cc:266:slice$9959
+            if self.q99 != self.n99 { self.q99 = self.n99; dirty |= 0x2000000000800404; } // $auto$ff.cc:266:slice$9965
         }
         if ran >> 62 & 1 != 0 {
-            if self.q97 != self.n97 { self.q97 = self.n97; dirty |= 0x4000008000400406; } // $auto$ff.cc:266:slice$9953
-            if self.q98 != self.n98 { self.q98 = self.n98; dirty |= 0x4000000000000002; } // $auto$ff.cc:266:slice$9958
+            if self.q96 != self.n96 { self.q96 = self.n96; dirty |= 0x4000008000400406; } // $auto$ff.cc:266:slice$9952
+            if self.q97 != self.n97 { self.q97 = self.n97; dirty |= 0x4000000000000002; } // $auto$ff.cc:266:slice$9957
         }
         if ran >> 63 & 1 != 0 {
-            if self.q95 != self.n95 { self.q95 = self.n95; dirty |= 0x400000008000000000000000; } // $auto$ff.cc:266:slice$9949
-            if self.q96 != self.n96 { self.q96 = self.n96; dirty |= 0x100000008000000000000000; } // $auto$ff.cc:266:slice$9951
+            if self.q94 != self.n94 { self.q94 = self.n94; dirty |= 0x400000008000000000000000; } // $auto$ff.cc:266:slice$9948
+            if self.q95 != self.n95 { self.q95 = self.n95; dirty |= 0x100000008000000000000000; } // $auto$ff.cc:266:slice$9950
         }
         if ran >> 64 & 1 != 0 {
-            if self.q93 != self.n93 { self.q93 = self.n93; dirty |= 0x10000000000000020; } // $auto$ff.cc:266:slice$9942
-            if self.q94 != self.n94 { self.q94 = self.n94; dirty |= 0x10000000000000020; } // $auto$ff.cc:266:slice$9945
+            if self.q92 != self.n92 { self.q92 = self.n92; dirty |= 0x10000000000000020; } // $auto$ff.cc:266:slice$9941
+            if self.q93 != self.n93 { self.q93 = self.n93; dirty |= 0x10000000000000020; } // $auto$ff.cc:266:slice$9944
         }
         if ran >> 65 & 1 != 0 {
-            if self.q91 != self.n91 { self.q91 = self.n91; dirty |= 0x20000000040011002; } // $auto$ff.cc:266:slice$9938
-            if self.q92 != self.n92 { self.q92 = self.n92; dirty |= 0x28400000098401083; } // $auto$ff.cc:266:slice$9939
+            if self.q90 != self.n90 { self.q90 = self.n90; dirty |= 0x20000000040011002; } // $auto$ff.cc:266:slice$9937
+            if self.q91 != self.n91 { self.q91 = self.n91; dirty |= 0x28400000098401083; } // $auto$ff.cc:266:slice$9938
         }
         if ran >> 66 & 1 != 0 {
-            if self.q89 != self.n89 { self.q89 = self.n89; dirty |= 0x40000004000002101; } // $auto$ff.cc:266:slice$9933
-            if self.q90 != self.n90 { self.q90 = self.n90; dirty |= 0x40000000080000002; } // $auto$ff.cc:266:slice$9934
+            if self.q88 != self.n88 { self.q88 = self.n88; dirty |= 0x40000004000002101; } // $auto$ff.cc:266:slice$9932
+            if self.q89 != self.n89 { self.q89 = self.n89; dirty |= 0x40000000080000002; } // $auto$ff.cc:266:slice$9933
         }
         if ran >> 67 & 1 != 0 {
-            if self.q88 != self.n88 { self.q88 = self.n88; dirty |= 0x80000000000000100; } // $auto$ff.cc:266:slice$9932
-            if self.q112 != self.n112 { self.q112 = self.n112; dirty |= 0x2200000080000000380142261; } // $flatten\core.\protocol.\faults.\bus_off_state.$procdff$8929
+            if self.q87 != self.n87 { self.q87 = self.n87; dirty |= 0x80000000000000100; } // $auto$ff.cc:266:slice$9931
+            if self.q112 != self.n112 { self.q112 = self.n112; dirty |= 0x2200000080000000380142261; } // $flatten\core.\protocol.\faults.\bus_off_state.$procdff$8928
         }
         if ran >> 68 & 1 != 0 {
-            if self.q113 != self.n113 { self.q113 = self.n113; dirty |= 0x2000000100000000000000023; } // $flatten\core.\protocol.\faults.\passive_state.$procdff$8928
-            if self.q114 != self.n114 { self.q114 = self.n114; dirty |= 0x80000000000000100000000091002003; } // $flatten\core.\protocol.\field.$procdff$8925
+            if self.q113 != self.n113 { self.q113 = self.n113; dirty |= 0x2000000100000000000000023; } // $flatten\core.\protocol.\faults.\passive_state.$procdff$8927
+            if self.q114 != self.n114 { self.q114 = self.n114; dirty |= 0x80000000000000100000000091002003; } // $flatten\core.\protocol.\field.$procdff$8924
         }
         if ran >> 69 & 1 != 0 {
-            if self.q82 != self.n82 { self.q82 = self.n82; dirty |= 0x200000000024000000; } // $auto$ff.cc:266:slice$9900
-            if self.q115 != self.n115 { self.q115 = self.n115; dirty |= 0x200000000020002000; } // $flatten\core.\protocol.\in_frame.$procdff$8924
+            if self.q81 != self.n81 { self.q81 = self.n81; dirty |= 0x200000000024000000; } // $auto$ff.cc:266:slice$9899
+            if self.q115 != self.n115 { self.q115 = self.n115; dirty |= 0x200000000020002000; } // $flatten\core.\protocol.\in_frame.$procdff$8923
         }
         if ran >> 70 & 1 != 0 {
-            if self.q80 != self.n80 { self.q80 = self.n80; dirty |= 0x400000000000000001; } // $auto$ff.cc:266:slice$9881
-            if self.q81 != self.n81 { self.q81 = self.n81; dirty |= 0x400000000004000001; } // $auto$ff.cc:266:slice$9899
+            if self.q79 != self.n79 { self.q79 = self.n79; dirty |= 0x400000000000000001; } // $auto$ff.cc:266:slice$9880
+            if self.q80 != self.n80 { self.q80 = self.n80; dirty |= 0x400000000004000001; } // $auto$ff.cc:266:slice$9898
         }
         if ran >> 71 & 1 != 0 {
-            if self.q78 != self.n78 { self.q78 = self.n78; dirty |= 0x800000000000000001; } // $auto$ff.cc:266:slice$9863
-            if self.q79 != self.n79 { self.q79 = self.n79; dirty |= 0x800000000000000001; } // $auto$ff.cc:266:slice$9869
+            if self.q77 != self.n77 { self.q77 = self.n77; dirty |= 0x800000000000000001; } // $auto$ff.cc:266:slice$9862
+            if self.q78 != self.n78 { self.q78 = self.n78; dirty |= 0x800000000000000001; } // $auto$ff.cc:266:slice$9868
         }
         if ran >> 72 & 1 != 0 {
-            if self.q76 != self.n76 { self.q76 = self.n76; dirty |= 0x1000000000000001000; } // $auto$ff.cc:266:slice$9853
-            if self.q77 != self.n77 { self.q77 = self.n77; dirty |= 0x100000000002e000081; } // $auto$ff.cc:266:slice$9855
+            if self.q75 != self.n75 { self.q75 = self.n75; dirty |= 0x1000000000000001000; } // $auto$ff.cc:266:slice$9852
+            if self.q76 != self.n76 { self.q76 = self.n76; dirty |= 0x100000000002e000081; } // $auto$ff.cc:266:slice$9854
         }
         if ran >> 73 & 1 != 0 {
-            if self.q116 != self.n116 { self.q116 = self.n116; dirty |= 0x2000000000808000000; } // $flatten\core.\protocol.\sender.\tx_next.$procdff$8916
-            if self.q117 != self.n117 { self.q117 = self.n117; dirty |= 0x8000000000000200000000002800000b; } // $flatten\core.\protocol.\sender.\tx_reg.$procdff$8914
+            if self.q116 != self.n116 { self.q116 = self.n116; dirty |= 0x2000000000808000000; } // $flatten\core.\protocol.\sender.\tx_next.$procdff$8915
+            if self.q117 != self.n117 { self.q117 = self.n117; dirty |= 0x8000000000000200000000002800000b; } // $flatten\core.\protocol.\sender.\tx_reg.$procdff$8913
         }
         if ran >> 74 & 1 != 0 {
-            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x4000000000800000000; } // $auto$ff.cc:266:slice$10047
-            if self.q73 != self.n73 { self.q73 = self.n73; dirty |= 0x4000000800002000000; } // $auto$ff.cc:266:slice$9831
+            if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x4000000000800000000; } // $auto$ff.cc:266:slice$10046
+            if self.q72 != self.n72 { self.q72 = self.n72; dirty |= 0x4000000800002000000; } // $auto$ff.cc:266:slice$9830
         }
         if ran >> 75 & 1 != 0 {
-            if self.q71 != self.n71 { self.q71 = self.n71; dirty |= 0x8000000000002000002; } // $auto$ff.cc:266:slice$9823
-            if self.q72 != self.n72 { self.q72 = self.n72; dirty |= 0x8000000000002000000; } // $auto$ff.cc:266:slice$9829
+            if self.q70 != self.n70 { self.q70 = self.n70; dirty |= 0x8000000000002000002; } // $auto$ff.cc:266:slice$9822
+            if self.q71 != self.n71 { self.q71 = self.n71; dirty |= 0x8000000000002000000; } // $auto$ff.cc:266:slice$9828
         }
         if ran >> 76 & 1 != 0 {
-            if self.q69 != self.n69 { self.q69 = self.n69; dirty |= 0x10000000000000000100; } // $auto$ff.cc:266:slice$9816
-            if self.q70 != self.n70 { self.q70 = self.n70; dirty |= 0x10000000000020002003; } // $auto$ff.cc:266:slice$9822
+            if self.q68 != self.n68 { self.q68 = self.n68; dirty |= 0x10000000000000000100; } // $auto$ff.cc:266:slice$9815
+            if self.q69 != self.n69 { self.q69 = self.n69; dirty |= 0x10000000000020002003; } // $auto$ff.cc:266:slice$9821
         }
         if ran >> 77 & 1 != 0 {
-            if self.q65 != self.n65 { self.q65 = self.n65; dirty |= 0x20000000008000240400; } // $auto$ff.cc:266:slice$9805
-            if self.q67 != self.n67 { self.q67 = self.n67; dirty |= 0x20000000000000000400; } // $auto$ff.cc:266:slice$9812
+            if self.q64 != self.n64 { self.q64 = self.n64; dirty |= 0x20000000008000240400; } // $auto$ff.cc:266:slice$9804
+            if self.q66 != self.n66 { self.q66 = self.n66; dirty |= 0x20000000000000000400; } // $auto$ff.cc:266:slice$9811
         }
         if ran >> 78 & 1 != 0 {
-            if self.q64 != self.n64 { self.q64 = self.n64; dirty |= 0x40000000000000000400; } // $auto$ff.cc:266:slice$9804
+            if self.q63 != self.n63 { self.q63 = self.n63; dirty |= 0x40000000000000000400; } // $auto$ff.cc:266:slice$9803
         }
         if ran >> 79 & 1 != 0 {
-            if self.q63 != self.n63 { self.q63 = self.n63; dirty |= 0x80000000000000000400; } // $auto$ff.cc:266:slice$9801
+            if self.q62 != self.n62 { self.q62 = self.n62; dirty |= 0x80000000000000000400; } // $auto$ff.cc:266:slice$9800
         }
         if ran >> 80 & 1 != 0 {
-            if self.q61 != self.n61 { self.q61 = self.n61; dirty |= 0x1000100000000000000240020; } // $auto$ff.cc:266:slice$9794
+            if self.q60 != self.n60 { self.q60 = self.n60; dirty |= 0x1000100000000000000240020; } // $auto$ff.cc:266:slice$9793
         }
         if ran >> 81 & 1 != 0 {
-            if self.q60 != self.n60 { self.q60 = self.n60; dirty |= 0x200000000000000000400; } // $auto$ff.cc:266:slice$9791
+            if self.q59 != self.n59 { self.q59 = self.n59; dirty |= 0x200000000000000000400; } // $auto$ff.cc:266:slice$9790
         }
         if ran >> 82 & 1 != 0 {
-            if self.q59 != self.n59 { self.q59 = self.n59; dirty |= 0x480000000000000000400; } // $auto$ff.cc:266:slice$9787
+            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x480000000000000000400; } // $auto$ff.cc:266:slice$9786
         }
         if ran >> 83 & 1 != 0 {
-            if self.q66 != self.n66 { self.q66 = self.n66; dirty |= 0x800000000000000000400; } // $auto$ff.cc:266:slice$9809
-            if self.q68 != self.n68 { self.q68 = self.n68; dirty |= 0x800000000008000040420; } // $auto$ff.cc:266:slice$9813
+            if self.q65 != self.n65 { self.q65 = self.n65; dirty |= 0x800000000000000000400; } // $auto$ff.cc:266:slice$9808
+            if self.q67 != self.n67 { self.q67 = self.n67; dirty |= 0x800000000008000040420; } // $auto$ff.cc:266:slice$9812
         }
         if ran >> 84 & 1 != 0 {
-            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x1000000000000000000004; } // $auto$ff.cc:266:slice$9784
-            if self.q62 != self.n62 { self.q62 = self.n62; dirty |= 0x1000000000000000200400; } // $auto$ff.cc:266:slice$9797
+            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x1000000000000000000004; } // $auto$ff.cc:266:slice$9783
+            if self.q61 != self.n61 { self.q61 = self.n61; dirty |= 0x1000000000000000200400; } // $auto$ff.cc:266:slice$9796
         }
         if ran >> 85 & 1 != 0 {
-            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9776
-            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x2000000000000000800004; } // $auto$ff.cc:266:slice$9780
+            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x2000000000000000000004; } // $auto$ff.cc:266:slice$9775
+            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x2000000000000000800004; } // $auto$ff.cc:266:slice$9779
         }
         if ran >> 86 & 1 != 0 {
-            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9768
-            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x4000000000000000800004; } // $auto$ff.cc:266:slice$9772
+            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x4000000000000000000004; } // $auto$ff.cc:266:slice$9767
+            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x4000000000000000800004; } // $auto$ff.cc:266:slice$9771
         }
         if ran >> 87 & 1 != 0 {
-            if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9760
-            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9764
+            if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9759
+            if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x8000000000000000000004; } // $auto$ff.cc:266:slice$9763
         }
         if ran >> 88 & 1 != 0 {
-            if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9754
-            if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9756
+            if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9753
+            if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9755
         }
         if ran >> 89 & 1 != 0 {
-            if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x20000000000000000000004; } // $auto$ff.cc:266:slice$9752
-            if self.q118 != self.n118 { self.q118 = self.n118; dirty |= 0x20000000000000000000004; } // $flatten\filter.\dual1_data_match.$procdff$8884
+            if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x20000000000000000000004; } // $auto$ff.cc:266:slice$9751
+            if self.q118 != self.n118 { self.q118 = self.n118; dirty |= 0x20000000000000000000004; } // $flatten\filter.\dual1_data_match.$procdff$8883
         }
         if ran >> 90 & 1 != 0 {
-            if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x40000000000000000000004; } // $auto$ff.cc:266:slice$9750
-            if self.q119 != self.n119 { self.q119 = self.n119; dirty |= 0x40000000000000000000004; } // $flatten\filter.\single_data1_match.$procdff$8881
+            if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x40000000000000000000004; } // $auto$ff.cc:266:slice$9749
+            if self.q119 != self.n119 { self.q119 = self.n119; dirty |= 0x40000000000000000000004; } // $flatten\filter.\single_data1_match.$procdff$8880
         }
         if ran >> 91 & 1 != 0 {
-            if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x80000000000000000000004; } // $auto$ff.cc:266:slice$9748
-            if self.q120 != self.n120 { self.q120 = self.n120; dirty |= 0x80000000000000000000004; } // $flatten\filter.\single_data2_match.$procdff$8880
+            if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x80000000000000000000004; } // $auto$ff.cc:266:slice$9747
+            if self.q120 != self.n120 { self.q120 = self.n120; dirty |= 0x80000000000000000000004; } // $flatten\filter.\single_data2_match.$procdff$8879
         }
         if ran >> 92 & 1 != 0 {
-            if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x100000000000000000040000; } // $auto$ff.cc:266:slice$9746
-            if self.q121 != self.n121 { self.q121 = self.n121; dirty |= 0x100000000000000000000020; } // $flatten\interrupts.\alc_armed.$procdff$8878
+            if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x100000000000000000040000; } // $auto$ff.cc:266:slice$9745
+            if self.q121 != self.n121 { self.q121 = self.n121; dirty |= 0x100000000000000000000020; } // $flatten\interrupts.\alc_armed.$procdff$8877
         }
         if ran >> 93 & 1 != 0 {
-            if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x200000000000000000000060; } // $auto$ff.cc:266:slice$9743
-            if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x200000000000000000000020; } // $auto$ff.cc:266:slice$9744
+            if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x200000000000000000000060; } // $auto$ff.cc:266:slice$9742
+            if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x200000000000000000000020; } // $auto$ff.cc:266:slice$9743
         }
         if ran >> 94 & 1 != 0 {
-            if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x400000000000000000040000; } // $auto$ff.cc:266:slice$9742
-            if self.q122 != self.n122 { self.q122 = self.n122; dirty |= 0x400000000000000000000020; } // $flatten\interrupts.\ecc_armed.$procdff$8874
+            if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x400000000000000000040000; } // $auto$ff.cc:266:slice$9741
+            if self.q122 != self.n122 { self.q122 = self.n122; dirty |= 0x400000000000000000000020; } // $flatten\interrupts.\ecc_armed.$procdff$8873
         }
         if ran >> 95 & 1 != 0 {
-            if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x800000000000000000040020; } // $auto$ff.cc:266:slice$9724
-            if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x800000000000000000040020; } // $auto$ff.cc:266:slice$9740
+            if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x800000000000000000040020; } // $auto$ff.cc:266:slice$9723
+            if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x800000000000000000040020; } // $auto$ff.cc:266:slice$9739
         }
         if ran >> 96 & 1 != 0 {
-            if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x1000000000000000000000020; } // $auto$ff.cc:266:slice$9723
+            if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x1000000000000000000000020; } // $auto$ff.cc:266:slice$9722
         }
         if ran >> 97 & 1 != 0 {
-            if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x2000000000000000000000020; } // $auto$ff.cc:266:slice$9722
+            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x2000000000000000000000020; } // $auto$ff.cc:266:slice$9721
         }
         if ran >> 98 & 1 != 0 {
-            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x4000000000000000000000020; } // $auto$ff.cc:266:slice$9718
+            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x4000000000000000000000020; } // $auto$ff.cc:266:slice$9717
         }
         if ran >> 100 & 1 != 0 {
-            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x10000000000000000000040000; } // $auto$ff.cc:266:slice$9703
-            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x10000000000000000000040004; } // $auto$ff.cc:266:slice$9715
+            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x10000000000000000000040000; } // $auto$ff.cc:266:slice$9702
+            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x10000000000000000000040004; } // $auto$ff.cc:266:slice$9714
         }
         if ran >> 101 & 1 != 0 {
-            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x20000000000000010000000000; } // $auto$ff.cc:266:slice$9699
+            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x20000000000000010000000000; } // $auto$ff.cc:266:slice$9698
         }
         if ran >> 102 & 1 != 0 {
-            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x40000000000000010000000000; } // $auto$ff.cc:266:slice$9698
+            if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x40000000000000010000000000; } // $auto$ff.cc:266:slice$9697
         }
         if ran >> 103 & 1 != 0 {
-            if self.q123 != self.n123 { self.q123 = self.n123; dirty |= 0x80000000000000000000002003; } // $flatten\modes.\enable_reg.$procdff$8861
+            if self.q123 != self.n123 { self.q123 = self.n123; dirty |= 0x80000000000000000000002003; } // $flatten\modes.\enable_reg.$procdff$8860
         }
         if ran >> 104 & 1 != 0 {
-            if self.q124 != self.n124 { self.q124 = self.n124; dirty |= 0x100000000000000000808002001; } // $flatten\modes.\listen_only_reg.$procdff$8860
+            if self.q124 != self.n124 { self.q124 = self.n124; dirty |= 0x100000000000000000808002001; } // $flatten\modes.\listen_only_reg.$procdff$8859
         }
         if ran >> 105 & 1 != 0 {
-            if self.q125 != self.n125 { self.q125 = self.n125; dirty |= 0x200000000000000000000040040; } // $flatten\modes.\lom.$procdff$8859
+            if self.q125 != self.n125 { self.q125 = self.n125; dirty |= 0x200000000000000000000040040; } // $flatten\modes.\lom.$procdff$8858
         }
         if ran >> 106 & 1 != 0 {
-            if self.q126 != self.n126 { self.q126 = self.n126; dirty |= 0x4020004000000000280002c0864; } // $flatten\modes.\rm.$procdff$8858
+            if self.q126 != self.n126 { self.q126 = self.n126; dirty |= 0x4020004000000000880002c0864; } // $flatten\modes.\rm.$procdff$8857
         }
         if ran >> 107 & 1 != 0 {
-            if self.q127 != self.n127 { self.q127 = self.n127; dirty |= 0x800000000000000000000000002; } // $flatten\modes.\self_test_reg.$procdff$8857
+            if self.q127 != self.n127 { self.q127 = self.n127; dirty |= 0x800000000000000000000000002; } // $flatten\modes.\self_test_reg.$procdff$8856
         }
         if ran >> 108 & 1 != 0 {
-            if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x1000000000000000000000000040; } // $auto$ff.cc:266:slice$9696
+            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x1000000000000000000000000040; } // $auto$ff.cc:266:slice$9695
         }
         if ran >> 109 & 1 != 0 {
-            if self.q128 != self.n128 { self.q128 = self.n128; dirty |= 0x2008000000000000002000040040; } // $flatten\modes.\sm.$procdff$8855
+            if self.q128 != self.n128 { self.q128 = self.n128; dirty |= 0x2008000000000000002000040040; } // $flatten\modes.\sm.$procdff$8854
         }
         if ran >> 110 & 1 != 0 {
-            if self.q129 != self.n129 { self.q129 = self.n129; dirty |= 0x4000000000000000000000040040; } // $flatten\modes.\stm.$procdff$8854
+            if self.q129 != self.n129 { self.q129 = self.n129; dirty |= 0x4000000000000000000000040040; } // $flatten\modes.\stm.$procdff$8853
         }
         if ran >> 111 & 1 != 0 {
-            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x8000000000000000000000000010; } // $auto$ff.cc:266:slice$9690
+            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x8000000000000000000000000010; } // $auto$ff.cc:266:slice$9689
         }
         if ran >> 112 & 1 != 0 {
-            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x10000000000000000020000000000; } // $auto$ff.cc:266:slice$9689
+            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x10000000000000000080000000000; } // $auto$ff.cc:266:slice$9688
         }
         if ran >> 113 & 1 != 0 {
-            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x20000000000000000000000000010; } // $auto$ff.cc:266:slice$10049
+            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x20000000000000000000000000010; } // $auto$ff.cc:266:slice$10048
         }
         if ran >> 114 & 1 != 0 {
-            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x40000000000000000000000000010; } // $auto$ff.cc:266:slice$9686
+            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x40000000000000000000000000010; } // $auto$ff.cc:266:slice$9685
         }
         if ran >> 115 & 1 != 0 {
-            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x80000000000000000000000000100; } // $auto$ff.cc:266:slice$9685
+            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x80000000000000000000000000100; } // $auto$ff.cc:266:slice$9684
         }
         if ran >> 116 & 1 != 0 {
-            if self.q130 != self.n130 { self.q130 = self.n130; dirty |= 0x100000000000000000000000060100; } // $flatten\tbs.$procdff$8848
+            if self.q130 != self.n130 { self.q130 = self.n130; dirty |= 0x100000000000000000000000060100; } // $flatten\tbs.$procdff$8847
         }
         if ran >> 117 & 1 != 0 {
-            if self.q131 != self.n131 { self.q131 = self.n131; dirty |= 0x200000000000000000000000040100; } // $flatten\tcs.$procdff$8847
+            if self.q131 != self.n131 { self.q131 = self.n131; dirty |= 0x200000000000000000000000040100; } // $flatten\tcs.$procdff$8846
         }
         if ran >> 118 & 1 != 0 {
-            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x400000000000000000000400000000; } // $auto$ff.cc:266:slice$10050
+            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x400000000000000000000400000000; } // $auto$ff.cc:266:slice$10049
         }
         if ran >> 120 & 1 != 0 {
-            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x1000000000000000000000400000000; } // $auto$ff.cc:266:slice$9679
+            if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x1000000000000000000000400000000; } // $auto$ff.cc:266:slice$9678
         }
         if ran >> 121 & 1 != 0 {
-            if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x2000000000000000000000400000000; } // $auto$ff.cc:266:slice$9676
+            if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0x2000000000000000000000400000000; } // $auto$ff.cc:266:slice$9675
         }
         if ran >> 123 & 1 != 0 {
-            if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0x8000000000000000000000400000000; } // $auto$ff.cc:266:slice$9674
+            if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x8000000000000000000000400000000; } // $auto$ff.cc:266:slice$9673
         }
         if ran >> 124 & 1 != 0 {
-            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x10000000000000000000000600000100; } // $auto$ff.cc:266:slice$10051
+            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x10000000000000000000000600000100; } // $auto$ff.cc:266:slice$10050
         }
         if ran >> 125 & 1 != 0 {
-            if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x20000000000000000000000000022101; } // $auto$ff.cc:266:slice$9669
+            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x20000000000000000000000000022101; } // $auto$ff.cc:266:slice$9668
         }
         if ran >> 126 & 1 != 0 {
-            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x40000000000000000000000000000001; } // $auto$ff.cc:266:slice$9668
+            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x40000000000000000000000000000001; } // $auto$ff.cc:266:slice$9667
         }
         self.dirty |= dirty;
     }
@@ -2142,21 +2140,21 @@ impl Model {
     /// inputs).
     pub(super) fn state(&self, i: usize) -> u64 {
         match i {
-            0 => self.q7 | (self.q8 << 1), // core.bit_timing.clocks.q
-            1 => self.q4, // core.bit_timing.remaining.q
-            2 => self.q6, // core.bit_timing.elapsed.q
-            3 => self.q2, // core.bit_timing.segment_state.q
-            4 => self.q5, // core.bit_timing.process_pending.q
-            5 => self.q0, // core.bit_timing.transmit_deferred.q
+            0 => self.q6 | (self.q7 << 1), // core.bit_timing.clocks.q
+            1 => self.q3, // core.bit_timing.remaining.q
+            2 => self.q5, // core.bit_timing.elapsed.q
+            3 => self.q1, // core.bit_timing.segment_state.q
+            4 => self.q4, // core.bit_timing.process_pending.q
+            5 => self.q107, // core.bit_timing.transmit_deferred.q
             6 => self.q109, // core.bit_timing.sampling.metastable.q
             7 => self.q111, // core.bit_timing.sampling.stable.q
             8 => self.q110, // core.bit_timing.sampling.previous.q
-            9 => self.q3, // core.bit_timing.sampling.quantum_samples.q
-            10 => self.q13, // configuration.btr0.q
-            11 => self.q31, // modes.divider.count.q
-            12 => self.q30, // modes.divider.level.q
-            13 => self.q15 | ((self.q34 & 0x1) << 3) | ((self.q34 >> 1) << 5) | (self.q33 << 7), // modes.cdr_reg.q
-            14 => self.q12, // configuration.btr1.q
+            9 => self.q2, // core.bit_timing.sampling.quantum_samples.q
+            10 => self.q12, // configuration.btr0.q
+            11 => self.q30, // modes.divider.count.q
+            12 => self.q29, // modes.divider.level.q
+            13 => self.q14 | ((self.q33 & 0x1) << 3) | ((self.q33 >> 1) << 5) | (self.q32 << 7), // modes.cdr_reg.q
+            14 => self.q11, // configuration.btr1.q
             _ => panic!("no state net {i}"),
         }
     }
@@ -2166,34 +2164,34 @@ impl Model {
     pub(super) fn set_state(&mut self, i: usize, value: u64) {
         match i {
             0 => { // core.bit_timing.clocks.q
-                let q = self.q7 & !0x1 | (value >> 0 & 1) << 0;
+                let q = self.q6 & !0x1 | (value >> 0 & 1) << 0;
+                if q != self.q6 { self.q6 = q; self.dirty |= 0x100000000008; }
+                let q = self.q7 & !0x3f | (value >> 1 & 1) << 0 | (value >> 2 & 1) << 1 | (value >> 3 & 1) << 2 | (value >> 4 & 1) << 3 | (value >> 5 & 1) << 4 | (value >> 6 & 1) << 5;
                 if q != self.q7 { self.q7 = q; self.dirty |= 0x100000000008; }
-                let q = self.q8 & !0x3f | (value >> 1 & 1) << 0 | (value >> 2 & 1) << 1 | (value >> 3 & 1) << 2 | (value >> 4 & 1) << 3 | (value >> 5 & 1) << 4 | (value >> 6 & 1) << 5;
-                if q != self.q8 { self.q8 = q; self.dirty |= 0x100000000008; }
             }
             1 => { // core.bit_timing.remaining.q
-                let q = self.q4 & !0x1f | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2 | (value >> 3 & 1) << 3 | (value >> 4 & 1) << 4;
-                if q != self.q4 { self.q4 = q; self.dirty |= 0x10000000008008; }
+                let q = self.q3 & !0x1f | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2 | (value >> 3 & 1) << 3 | (value >> 4 & 1) << 4;
+                if q != self.q3 { self.q3 = q; self.dirty |= 0x10000000008008; }
             }
             2 => { // core.bit_timing.elapsed.q
-                let q = self.q6 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
-                if q != self.q6 { self.q6 = q; self.dirty |= 0x8000000000008; }
+                let q = self.q5 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
+                if q != self.q5 { self.q5 = q; self.dirty |= 0x8000000000008; }
             }
             3 => { // core.bit_timing.segment_state.q
-                let q = self.q2 & !0x3 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1;
-                if q != self.q2 { self.q2 = q; self.dirty |= 0x80000000008008; }
+                let q = self.q1 & !0x3 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1;
+                if q != self.q1 { self.q1 = q; self.dirty |= 0x80000000008008; }
             }
             9 => { // core.bit_timing.sampling.quantum_samples.q
-                let q = self.q3 & !0x3 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1;
-                if q != self.q3 { self.q3 = q; self.dirty |= 0x40000000004000; }
+                let q = self.q2 & !0x3 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1;
+                if q != self.q2 { self.q2 = q; self.dirty |= 0x40000000004000; }
             }
             11 => { // modes.divider.count.q
-                let q = self.q31 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
-                if q != self.q31 { self.q31 = q; self.dirty |= 0x20000000000000010000000000; }
+                let q = self.q30 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
+                if q != self.q30 { self.q30 = q; self.dirty |= 0x20000000000000010000000000; }
             }
             12 => { // modes.divider.level.q
-                let q = self.q30 & !0x1 | (value >> 0 & 1) << 0;
-                if q != self.q30 { self.q30 = q; self.dirty |= 0x40000000000000010000000000; }
+                let q = self.q29 & !0x1 | (value >> 0 & 1) << 0;
+                if q != self.q29 { self.q29 = q; self.dirty |= 0x40000000000000010000000000; }
             }
             _ => panic!("no free-running state net {i}"),
         }
@@ -2207,84 +2205,84 @@ impl Model {
         if self.m0_we != 0 || self.m0_re && self.m0.get(self.m0_ra).copied().unwrap_or(0) != self.m0_rd { return false; }
         if self.m1_we != 0 || self.m1_re && self.m1.get(self.m1_ra).copied().unwrap_or(0) != self.m1_rd { return false; }
         if self.m2_we != 0 || self.m2_re && self.m2.get(self.m2_ra).copied().unwrap_or(0) != self.m2_rd { return false; }
-        if ran >> 42 & 1 != 0 && (self.q83 != self.n83 || self.q84 != self.n84 || self.q85 != self.n85) { return false; }
-        if ran >> 43 & 1 != 0 && (self.q15 != self.n15 || self.q33 != self.n33 || self.q34 != self.n34) { return false; }
-        if ran >> 45 & 1 != 0 && (self.q86 != self.n86 || self.q87 != self.n87) { return false; }
-        if ran >> 46 & 1 != 0 && (self.q74 != self.n74 || self.q75 != self.n75) { return false; }
-        if ran >> 48 & 1 != 0 && (self.q40 != self.n40 || self.q41 != self.n41) { return false; }
-        if ran >> 49 & 1 != 0 && (self.q12 != self.n12 || self.q13 != self.n13) { return false; }
-        if ran >> 50 & 1 != 0 && (self.q10 != self.n10 || self.q11 != self.n11) { return false; }
-        if ran >> 51 & 1 != 0 && (self.q9 != self.n9) { return false; }
-        if ran >> 52 & 1 != 0 && (self.q5 != self.n5) { return false; }
+        if ran >> 41 & 1 != 0 && (self.q82 != self.n82 || self.q83 != self.n83 || self.q84 != self.n84) { return false; }
+        if ran >> 42 & 1 != 0 && (self.q14 != self.n14 || self.q32 != self.n32 || self.q33 != self.n33) { return false; }
+        if ran >> 45 & 1 != 0 && (self.q85 != self.n85 || self.q86 != self.n86) { return false; }
+        if ran >> 46 & 1 != 0 && (self.q73 != self.n73 || self.q74 != self.n74) { return false; }
+        if ran >> 48 & 1 != 0 && (self.q39 != self.n39 || self.q40 != self.n40) { return false; }
+        if ran >> 49 & 1 != 0 && (self.q11 != self.n11 || self.q12 != self.n12) { return false; }
+        if ran >> 50 & 1 != 0 && (self.q9 != self.n9 || self.q10 != self.n10) { return false; }
+        if ran >> 51 & 1 != 0 && (self.q8 != self.n8) { return false; }
+        if ran >> 52 & 1 != 0 && (self.q4 != self.n4) { return false; }
         if ran >> 53 & 1 != 0 && (self.q108 != self.n108 || self.q109 != self.n109) { return false; }
         if ran >> 54 & 1 != 0 && (self.q110 != self.n110) { return false; }
         if ran >> 55 & 1 != 0 && (self.q111 != self.n111) { return false; }
-        if ran >> 56 & 1 != 0 && (self.q1 != self.n1 || self.q19 != self.n19) { return false; }
-        if ran >> 57 & 1 != 0 && (self.q0 != self.n0 || self.q107 != self.n107) { return false; }
-        if ran >> 58 & 1 != 0 && (self.q105 != self.n105 || self.q106 != self.n106) { return false; }
-        if ran >> 59 & 1 != 0 && (self.q103 != self.n103 || self.q104 != self.n104) { return false; }
-        if ran >> 60 & 1 != 0 && (self.q101 != self.n101 || self.q102 != self.n102) { return false; }
-        if ran >> 61 & 1 != 0 && (self.q99 != self.n99 || self.q100 != self.n100) { return false; }
-        if ran >> 62 & 1 != 0 && (self.q97 != self.n97 || self.q98 != self.n98) { return false; }
-        if ran >> 63 & 1 != 0 && (self.q95 != self.n95 || self.q96 != self.n96) { return false; }
-        if ran >> 64 & 1 != 0 && (self.q93 != self.n93 || self.q94 != self.n94) { return false; }
-        if ran >> 65 & 1 != 0 && (self.q91 != self.n91 || self.q92 != self.n92) { return false; }
-        if ran >> 66 & 1 != 0 && (self.q89 != self.n89 || self.q90 != self.n90) { return false; }
-        if ran >> 67 & 1 != 0 && (self.q88 != self.n88 || self.q112 != self.n112) { return false; }
+        if ran >> 56 & 1 != 0 && (self.q0 != self.n0 || self.q18 != self.n18) { return false; }
+        if ran >> 57 & 1 != 0 && (self.q106 != self.n106 || self.q107 != self.n107) { return false; }
+        if ran >> 58 & 1 != 0 && (self.q104 != self.n104 || self.q105 != self.n105) { return false; }
+        if ran >> 59 & 1 != 0 && (self.q102 != self.n102 || self.q103 != self.n103) { return false; }
+        if ran >> 60 & 1 != 0 && (self.q100 != self.n100 || self.q101 != self.n101) { return false; }
+        if ran >> 61 & 1 != 0 && (self.q98 != self.n98 || self.q99 != self.n99) { return false; }
+        if ran >> 62 & 1 != 0 && (self.q96 != self.n96 || self.q97 != self.n97) { return false; }
+        if ran >> 63 & 1 != 0 && (self.q94 != self.n94 || self.q95 != self.n95) { return false; }
+        if ran >> 64 & 1 != 0 && (self.q92 != self.n92 || self.q93 != self.n93) { return false; }
+        if ran >> 65 & 1 != 0 && (self.q90 != self.n90 || self.q91 != self.n91) { return false; }
+        if ran >> 66 & 1 != 0 && (self.q88 != self.n88 || self.q89 != self.n89) { return false; }
+        if ran >> 67 & 1 != 0 && (self.q87 != self.n87 || self.q112 != self.n112) { return false; }
         if ran >> 68 & 1 != 0 && (self.q113 != self.n113 || self.q114 != self.n114) { return false; }
-        if ran >> 69 & 1 != 0 && (self.q82 != self.n82 || self.q115 != self.n115) { return false; }
-        if ran >> 70 & 1 != 0 && (self.q80 != self.n80 || self.q81 != self.n81) { return false; }
-        if ran >> 71 & 1 != 0 && (self.q78 != self.n78 || self.q79 != self.n79) { return false; }
-        if ran >> 72 & 1 != 0 && (self.q76 != self.n76 || self.q77 != self.n77) { return false; }
+        if ran >> 69 & 1 != 0 && (self.q81 != self.n81 || self.q115 != self.n115) { return false; }
+        if ran >> 70 & 1 != 0 && (self.q79 != self.n79 || self.q80 != self.n80) { return false; }
+        if ran >> 71 & 1 != 0 && (self.q77 != self.n77 || self.q78 != self.n78) { return false; }
+        if ran >> 72 & 1 != 0 && (self.q75 != self.n75 || self.q76 != self.n76) { return false; }
         if ran >> 73 & 1 != 0 && (self.q116 != self.n116 || self.q117 != self.n117) { return false; }
-        if ran >> 74 & 1 != 0 && (self.q14 != self.n14 || self.q73 != self.n73) { return false; }
-        if ran >> 75 & 1 != 0 && (self.q71 != self.n71 || self.q72 != self.n72) { return false; }
-        if ran >> 76 & 1 != 0 && (self.q69 != self.n69 || self.q70 != self.n70) { return false; }
-        if ran >> 77 & 1 != 0 && (self.q65 != self.n65 || self.q67 != self.n67) { return false; }
-        if ran >> 78 & 1 != 0 && (self.q64 != self.n64) { return false; }
-        if ran >> 79 & 1 != 0 && (self.q63 != self.n63) { return false; }
-        if ran >> 80 & 1 != 0 && (self.q61 != self.n61) { return false; }
-        if ran >> 81 & 1 != 0 && (self.q60 != self.n60) { return false; }
-        if ran >> 82 & 1 != 0 && (self.q59 != self.n59) { return false; }
-        if ran >> 83 & 1 != 0 && (self.q66 != self.n66 || self.q68 != self.n68) { return false; }
-        if ran >> 84 & 1 != 0 && (self.q58 != self.n58 || self.q62 != self.n62) { return false; }
-        if ran >> 85 & 1 != 0 && (self.q56 != self.n56 || self.q57 != self.n57) { return false; }
-        if ran >> 86 & 1 != 0 && (self.q54 != self.n54 || self.q55 != self.n55) { return false; }
-        if ran >> 87 & 1 != 0 && (self.q52 != self.n52 || self.q53 != self.n53) { return false; }
-        if ran >> 88 & 1 != 0 && (self.q50 != self.n50 || self.q51 != self.n51) { return false; }
-        if ran >> 89 & 1 != 0 && (self.q49 != self.n49 || self.q118 != self.n118) { return false; }
-        if ran >> 90 & 1 != 0 && (self.q48 != self.n48 || self.q119 != self.n119) { return false; }
-        if ran >> 91 & 1 != 0 && (self.q47 != self.n47 || self.q120 != self.n120) { return false; }
-        if ran >> 92 & 1 != 0 && (self.q46 != self.n46 || self.q121 != self.n121) { return false; }
-        if ran >> 93 & 1 != 0 && (self.q44 != self.n44 || self.q45 != self.n45) { return false; }
-        if ran >> 94 & 1 != 0 && (self.q43 != self.n43 || self.q122 != self.n122) { return false; }
-        if ran >> 95 & 1 != 0 && (self.q39 != self.n39 || self.q42 != self.n42) { return false; }
-        if ran >> 96 & 1 != 0 && (self.q38 != self.n38) { return false; }
-        if ran >> 97 & 1 != 0 && (self.q37 != self.n37) { return false; }
-        if ran >> 98 & 1 != 0 && (self.q36 != self.n36) { return false; }
-        if ran >> 100 & 1 != 0 && (self.q32 != self.n32 || self.q35 != self.n35) { return false; }
+        if ran >> 74 & 1 != 0 && (self.q13 != self.n13 || self.q72 != self.n72) { return false; }
+        if ran >> 75 & 1 != 0 && (self.q70 != self.n70 || self.q71 != self.n71) { return false; }
+        if ran >> 76 & 1 != 0 && (self.q68 != self.n68 || self.q69 != self.n69) { return false; }
+        if ran >> 77 & 1 != 0 && (self.q64 != self.n64 || self.q66 != self.n66) { return false; }
+        if ran >> 78 & 1 != 0 && (self.q63 != self.n63) { return false; }
+        if ran >> 79 & 1 != 0 && (self.q62 != self.n62) { return false; }
+        if ran >> 80 & 1 != 0 && (self.q60 != self.n60) { return false; }
+        if ran >> 81 & 1 != 0 && (self.q59 != self.n59) { return false; }
+        if ran >> 82 & 1 != 0 && (self.q58 != self.n58) { return false; }
+        if ran >> 83 & 1 != 0 && (self.q65 != self.n65 || self.q67 != self.n67) { return false; }
+        if ran >> 84 & 1 != 0 && (self.q57 != self.n57 || self.q61 != self.n61) { return false; }
+        if ran >> 85 & 1 != 0 && (self.q55 != self.n55 || self.q56 != self.n56) { return false; }
+        if ran >> 86 & 1 != 0 && (self.q53 != self.n53 || self.q54 != self.n54) { return false; }
+        if ran >> 87 & 1 != 0 && (self.q51 != self.n51 || self.q52 != self.n52) { return false; }
+        if ran >> 88 & 1 != 0 && (self.q49 != self.n49 || self.q50 != self.n50) { return false; }
+        if ran >> 89 & 1 != 0 && (self.q48 != self.n48 || self.q118 != self.n118) { return false; }
+        if ran >> 90 & 1 != 0 && (self.q47 != self.n47 || self.q119 != self.n119) { return false; }
+        if ran >> 91 & 1 != 0 && (self.q46 != self.n46 || self.q120 != self.n120) { return false; }
+        if ran >> 92 & 1 != 0 && (self.q45 != self.n45 || self.q121 != self.n121) { return false; }
+        if ran >> 93 & 1 != 0 && (self.q43 != self.n43 || self.q44 != self.n44) { return false; }
+        if ran >> 94 & 1 != 0 && (self.q42 != self.n42 || self.q122 != self.n122) { return false; }
+        if ran >> 95 & 1 != 0 && (self.q38 != self.n38 || self.q41 != self.n41) { return false; }
+        if ran >> 96 & 1 != 0 && (self.q37 != self.n37) { return false; }
+        if ran >> 97 & 1 != 0 && (self.q36 != self.n36) { return false; }
+        if ran >> 98 & 1 != 0 && (self.q35 != self.n35) { return false; }
+        if ran >> 100 & 1 != 0 && (self.q31 != self.n31 || self.q34 != self.n34) { return false; }
         if ran >> 103 & 1 != 0 && (self.q123 != self.n123) { return false; }
         if ran >> 104 & 1 != 0 && (self.q124 != self.n124) { return false; }
         if ran >> 105 & 1 != 0 && (self.q125 != self.n125) { return false; }
         if ran >> 106 & 1 != 0 && (self.q126 != self.n126) { return false; }
         if ran >> 107 & 1 != 0 && (self.q127 != self.n127) { return false; }
-        if ran >> 108 & 1 != 0 && (self.q29 != self.n29) { return false; }
+        if ran >> 108 & 1 != 0 && (self.q28 != self.n28) { return false; }
         if ran >> 109 & 1 != 0 && (self.q128 != self.n128) { return false; }
         if ran >> 110 & 1 != 0 && (self.q129 != self.n129) { return false; }
-        if ran >> 111 & 1 != 0 && (self.q28 != self.n28) { return false; }
-        if ran >> 112 & 1 != 0 && (self.q27 != self.n27) { return false; }
-        if ran >> 113 & 1 != 0 && (self.q16 != self.n16) { return false; }
-        if ran >> 114 & 1 != 0 && (self.q26 != self.n26) { return false; }
-        if ran >> 115 & 1 != 0 && (self.q25 != self.n25) { return false; }
+        if ran >> 111 & 1 != 0 && (self.q27 != self.n27) { return false; }
+        if ran >> 112 & 1 != 0 && (self.q26 != self.n26) { return false; }
+        if ran >> 113 & 1 != 0 && (self.q15 != self.n15) { return false; }
+        if ran >> 114 & 1 != 0 && (self.q25 != self.n25) { return false; }
+        if ran >> 115 & 1 != 0 && (self.q24 != self.n24) { return false; }
         if ran >> 116 & 1 != 0 && (self.q130 != self.n130) { return false; }
         if ran >> 117 & 1 != 0 && (self.q131 != self.n131) { return false; }
-        if ran >> 118 & 1 != 0 && (self.q17 != self.n17) { return false; }
-        if ran >> 120 & 1 != 0 && (self.q24 != self.n24) { return false; }
-        if ran >> 121 & 1 != 0 && (self.q23 != self.n23) { return false; }
-        if ran >> 123 & 1 != 0 && (self.q22 != self.n22) { return false; }
-        if ran >> 124 & 1 != 0 && (self.q18 != self.n18) { return false; }
-        if ran >> 125 & 1 != 0 && (self.q21 != self.n21) { return false; }
-        if ran >> 126 & 1 != 0 && (self.q20 != self.n20) { return false; }
+        if ran >> 118 & 1 != 0 && (self.q16 != self.n16) { return false; }
+        if ran >> 120 & 1 != 0 && (self.q23 != self.n23) { return false; }
+        if ran >> 121 & 1 != 0 && (self.q22 != self.n22) { return false; }
+        if ran >> 123 & 1 != 0 && (self.q21 != self.n21) { return false; }
+        if ran >> 124 & 1 != 0 && (self.q17 != self.n17) { return false; }
+        if ran >> 125 & 1 != 0 && (self.q20 != self.n20) { return false; }
+        if ran >> 126 & 1 != 0 && (self.q19 != self.n19) { return false; }
         true
     }
 
@@ -2294,32 +2292,32 @@ impl Model {
         let mut names = Vec::new();
         if self.q0 != other.q0 { names.push("q0 $auto$ff.cc:266:slice$10000"); }
         if self.n0 != other.n0 { names.push("n0 $auto$ff.cc:266:slice$10000"); }
-        if self.q1 != other.q1 { names.push("q1 $auto$ff.cc:266:slice$10001"); }
-        if self.n1 != other.n1 { names.push("n1 $auto$ff.cc:266:slice$10001"); }
-        if self.q2 != other.q2 { names.push("q2 $auto$ff.cc:266:slice$10006"); }
-        if self.n2 != other.n2 { names.push("n2 $auto$ff.cc:266:slice$10006"); }
+        if self.q1 != other.q1 { names.push("q1 $auto$ff.cc:266:slice$10005"); }
+        if self.n1 != other.n1 { names.push("n1 $auto$ff.cc:266:slice$10005"); }
+        if self.q2 != other.q2 { names.push("q2 $auto$ff.cc:266:slice$10011"); }
+        if self.n2 != other.n2 { names.push("n2 $auto$ff.cc:266:slice$10011"); }
         if self.q3 != other.q3 { names.push("q3 $auto$ff.cc:266:slice$10012"); }
         if self.n3 != other.n3 { names.push("n3 $auto$ff.cc:266:slice$10012"); }
-        if self.q4 != other.q4 { names.push("q4 $auto$ff.cc:266:slice$10013"); }
-        if self.n4 != other.n4 { names.push("n4 $auto$ff.cc:266:slice$10013"); }
-        if self.q5 != other.q5 { names.push("q5 $auto$ff.cc:266:slice$10016"); }
-        if self.n5 != other.n5 { names.push("n5 $auto$ff.cc:266:slice$10016"); }
-        if self.q6 != other.q6 { names.push("q6 $auto$ff.cc:266:slice$10020"); }
-        if self.n6 != other.n6 { names.push("n6 $auto$ff.cc:266:slice$10020"); }
+        if self.q4 != other.q4 { names.push("q4 $auto$ff.cc:266:slice$10015"); }
+        if self.n4 != other.n4 { names.push("n4 $auto$ff.cc:266:slice$10015"); }
+        if self.q5 != other.q5 { names.push("q5 $auto$ff.cc:266:slice$10019"); }
+        if self.n5 != other.n5 { names.push("n5 $auto$ff.cc:266:slice$10019"); }
+        if self.q6 != other.q6 { names.push("q6 $auto$ff.cc:266:slice$10022"); }
+        if self.n6 != other.n6 { names.push("n6 $auto$ff.cc:266:slice$10022"); }
         if self.q7 != other.q7 { names.push("q7 $auto$ff.cc:266:slice$10023"); }
         if self.n7 != other.n7 { names.push("n7 $auto$ff.cc:266:slice$10023"); }
-        if self.q8 != other.q8 { names.push("q8 $auto$ff.cc:266:slice$10024"); }
-        if self.n8 != other.n8 { names.push("n8 $auto$ff.cc:266:slice$10024"); }
-        if self.q9 != other.q9 { names.push("q9 $auto$ff.cc:266:slice$10028"); }
-        if self.n9 != other.n9 { names.push("n9 $auto$ff.cc:266:slice$10028"); }
-        if self.q10 != other.q10 { names.push("q10 $auto$ff.cc:266:slice$10032"); }
-        if self.n10 != other.n10 { names.push("n10 $auto$ff.cc:266:slice$10032"); }
-        if self.q11 != other.q11 { names.push("q11 $auto$ff.cc:266:slice$10036"); }
-        if self.n11 != other.n11 { names.push("n11 $auto$ff.cc:266:slice$10036"); }
-        if self.q12 != other.q12 { names.push("q12 $auto$ff.cc:266:slice$10040"); }
-        if self.n12 != other.n12 { names.push("n12 $auto$ff.cc:266:slice$10040"); }
-        if self.q13 != other.q13 { names.push("q13 $auto$ff.cc:266:slice$10044"); }
-        if self.n13 != other.n13 { names.push("n13 $auto$ff.cc:266:slice$10044"); }
+        if self.q8 != other.q8 { names.push("q8 $auto$ff.cc:266:slice$10027"); }
+        if self.n8 != other.n8 { names.push("n8 $auto$ff.cc:266:slice$10027"); }
+        if self.q9 != other.q9 { names.push("q9 $auto$ff.cc:266:slice$10031"); }
+        if self.n9 != other.n9 { names.push("n9 $auto$ff.cc:266:slice$10031"); }
+        if self.q10 != other.q10 { names.push("q10 $auto$ff.cc:266:slice$10035"); }
+        if self.n10 != other.n10 { names.push("n10 $auto$ff.cc:266:slice$10035"); }
+        if self.q11 != other.q11 { names.push("q11 $auto$ff.cc:266:slice$10039"); }
+        if self.n11 != other.n11 { names.push("n11 $auto$ff.cc:266:slice$10039"); }
+        if self.q12 != other.q12 { names.push("q12 $auto$ff.cc:266:slice$10043"); }
+        if self.n12 != other.n12 { names.push("n12 $auto$ff.cc:266:slice$10043"); }
+        if self.q13 != other.q13 { names.push("q13 $auto$ff.cc:266:slice$10046"); }
+        if self.n13 != other.n13 { names.push("n13 $auto$ff.cc:266:slice$10046"); }
         if self.q14 != other.q14 { names.push("q14 $auto$ff.cc:266:slice$10047"); }
         if self.n14 != other.n14 { names.push("n14 $auto$ff.cc:266:slice$10047"); }
         if self.q15 != other.q15 { names.push("q15 $auto$ff.cc:266:slice$10048"); }
@@ -2328,234 +2326,234 @@ impl Model {
         if self.n16 != other.n16 { names.push("n16 $auto$ff.cc:266:slice$10049"); }
         if self.q17 != other.q17 { names.push("q17 $auto$ff.cc:266:slice$10050"); }
         if self.n17 != other.n17 { names.push("n17 $auto$ff.cc:266:slice$10050"); }
-        if self.q18 != other.q18 { names.push("q18 $auto$ff.cc:266:slice$10051"); }
-        if self.n18 != other.n18 { names.push("n18 $auto$ff.cc:266:slice$10051"); }
-        if self.q19 != other.q19 { names.push("q19 $auto$ff.cc:266:slice$10135"); }
-        if self.n19 != other.n19 { names.push("n19 $auto$ff.cc:266:slice$10135"); }
+        if self.q18 != other.q18 { names.push("q18 $auto$ff.cc:266:slice$10134"); }
+        if self.n18 != other.n18 { names.push("n18 $auto$ff.cc:266:slice$10134"); }
+        if self.q19 != other.q19 { names.push("q19 $auto$ff.cc:266:slice$9667"); }
+        if self.n19 != other.n19 { names.push("n19 $auto$ff.cc:266:slice$9667"); }
         if self.q20 != other.q20 { names.push("q20 $auto$ff.cc:266:slice$9668"); }
         if self.n20 != other.n20 { names.push("n20 $auto$ff.cc:266:slice$9668"); }
-        if self.q21 != other.q21 { names.push("q21 $auto$ff.cc:266:slice$9669"); }
-        if self.n21 != other.n21 { names.push("n21 $auto$ff.cc:266:slice$9669"); }
-        if self.q22 != other.q22 { names.push("q22 $auto$ff.cc:266:slice$9674"); }
-        if self.n22 != other.n22 { names.push("n22 $auto$ff.cc:266:slice$9674"); }
-        if self.q23 != other.q23 { names.push("q23 $auto$ff.cc:266:slice$9676"); }
-        if self.n23 != other.n23 { names.push("n23 $auto$ff.cc:266:slice$9676"); }
-        if self.q24 != other.q24 { names.push("q24 $auto$ff.cc:266:slice$9679"); }
-        if self.n24 != other.n24 { names.push("n24 $auto$ff.cc:266:slice$9679"); }
+        if self.q21 != other.q21 { names.push("q21 $auto$ff.cc:266:slice$9673"); }
+        if self.n21 != other.n21 { names.push("n21 $auto$ff.cc:266:slice$9673"); }
+        if self.q22 != other.q22 { names.push("q22 $auto$ff.cc:266:slice$9675"); }
+        if self.n22 != other.n22 { names.push("n22 $auto$ff.cc:266:slice$9675"); }
+        if self.q23 != other.q23 { names.push("q23 $auto$ff.cc:266:slice$9678"); }
+        if self.n23 != other.n23 { names.push("n23 $auto$ff.cc:266:slice$9678"); }
+        if self.q24 != other.q24 { names.push("q24 $auto$ff.cc:266:slice$9684"); }
+        if self.n24 != other.n24 { names.push("n24 $auto$ff.cc:266:slice$9684"); }
         if self.q25 != other.q25 { names.push("q25 $auto$ff.cc:266:slice$9685"); }
         if self.n25 != other.n25 { names.push("n25 $auto$ff.cc:266:slice$9685"); }
-        if self.q26 != other.q26 { names.push("q26 $auto$ff.cc:266:slice$9686"); }
-        if self.n26 != other.n26 { names.push("n26 $auto$ff.cc:266:slice$9686"); }
+        if self.q26 != other.q26 { names.push("q26 $auto$ff.cc:266:slice$9688"); }
+        if self.n26 != other.n26 { names.push("n26 $auto$ff.cc:266:slice$9688"); }
         if self.q27 != other.q27 { names.push("q27 $auto$ff.cc:266:slice$9689"); }
         if self.n27 != other.n27 { names.push("n27 $auto$ff.cc:266:slice$9689"); }
-        if self.q28 != other.q28 { names.push("q28 $auto$ff.cc:266:slice$9690"); }
-        if self.n28 != other.n28 { names.push("n28 $auto$ff.cc:266:slice$9690"); }
-        if self.q29 != other.q29 { names.push("q29 $auto$ff.cc:266:slice$9696"); }
-        if self.n29 != other.n29 { names.push("n29 $auto$ff.cc:266:slice$9696"); }
+        if self.q28 != other.q28 { names.push("q28 $auto$ff.cc:266:slice$9695"); }
+        if self.n28 != other.n28 { names.push("n28 $auto$ff.cc:266:slice$9695"); }
+        if self.q29 != other.q29 { names.push("q29 $auto$ff.cc:266:slice$9697"); }
+        if self.n29 != other.n29 { names.push("n29 $auto$ff.cc:266:slice$9697"); }
         if self.q30 != other.q30 { names.push("q30 $auto$ff.cc:266:slice$9698"); }
         if self.n30 != other.n30 { names.push("n30 $auto$ff.cc:266:slice$9698"); }
-        if self.q31 != other.q31 { names.push("q31 $auto$ff.cc:266:slice$9699"); }
-        if self.n31 != other.n31 { names.push("n31 $auto$ff.cc:266:slice$9699"); }
-        if self.q32 != other.q32 { names.push("q32 $auto$ff.cc:266:slice$9703"); }
-        if self.n32 != other.n32 { names.push("n32 $auto$ff.cc:266:slice$9703"); }
+        if self.q31 != other.q31 { names.push("q31 $auto$ff.cc:266:slice$9702"); }
+        if self.n31 != other.n31 { names.push("n31 $auto$ff.cc:266:slice$9702"); }
+        if self.q32 != other.q32 { names.push("q32 $auto$ff.cc:266:slice$9708"); }
+        if self.n32 != other.n32 { names.push("n32 $auto$ff.cc:266:slice$9708"); }
         if self.q33 != other.q33 { names.push("q33 $auto$ff.cc:266:slice$9709"); }
         if self.n33 != other.n33 { names.push("n33 $auto$ff.cc:266:slice$9709"); }
-        if self.q34 != other.q34 { names.push("q34 $auto$ff.cc:266:slice$9710"); }
-        if self.n34 != other.n34 { names.push("n34 $auto$ff.cc:266:slice$9710"); }
-        if self.q35 != other.q35 { names.push("q35 $auto$ff.cc:266:slice$9715"); }
-        if self.n35 != other.n35 { names.push("n35 $auto$ff.cc:266:slice$9715"); }
-        if self.q36 != other.q36 { names.push("q36 $auto$ff.cc:266:slice$9718"); }
-        if self.n36 != other.n36 { names.push("n36 $auto$ff.cc:266:slice$9718"); }
+        if self.q34 != other.q34 { names.push("q34 $auto$ff.cc:266:slice$9714"); }
+        if self.n34 != other.n34 { names.push("n34 $auto$ff.cc:266:slice$9714"); }
+        if self.q35 != other.q35 { names.push("q35 $auto$ff.cc:266:slice$9717"); }
+        if self.n35 != other.n35 { names.push("n35 $auto$ff.cc:266:slice$9717"); }
+        if self.q36 != other.q36 { names.push("q36 $auto$ff.cc:266:slice$9721"); }
+        if self.n36 != other.n36 { names.push("n36 $auto$ff.cc:266:slice$9721"); }
         if self.q37 != other.q37 { names.push("q37 $auto$ff.cc:266:slice$9722"); }
         if self.n37 != other.n37 { names.push("n37 $auto$ff.cc:266:slice$9722"); }
         if self.q38 != other.q38 { names.push("q38 $auto$ff.cc:266:slice$9723"); }
         if self.n38 != other.n38 { names.push("n38 $auto$ff.cc:266:slice$9723"); }
-        if self.q39 != other.q39 { names.push("q39 $auto$ff.cc:266:slice$9724"); }
-        if self.n39 != other.n39 { names.push("n39 $auto$ff.cc:266:slice$9724"); }
-        if self.q40 != other.q40 { names.push("q40 $auto$ff.cc:266:slice$9730"); }
-        if self.n40 != other.n40 { names.push("n40 $auto$ff.cc:266:slice$9730"); }
-        if self.q41 != other.q41 { names.push("q41 $auto$ff.cc:266:slice$9735"); }
-        if self.n41 != other.n41 { names.push("n41 $auto$ff.cc:266:slice$9735"); }
-        if self.q42 != other.q42 { names.push("q42 $auto$ff.cc:266:slice$9740"); }
-        if self.n42 != other.n42 { names.push("n42 $auto$ff.cc:266:slice$9740"); }
+        if self.q39 != other.q39 { names.push("q39 $auto$ff.cc:266:slice$9729"); }
+        if self.n39 != other.n39 { names.push("n39 $auto$ff.cc:266:slice$9729"); }
+        if self.q40 != other.q40 { names.push("q40 $auto$ff.cc:266:slice$9734"); }
+        if self.n40 != other.n40 { names.push("n40 $auto$ff.cc:266:slice$9734"); }
+        if self.q41 != other.q41 { names.push("q41 $auto$ff.cc:266:slice$9739"); }
+        if self.n41 != other.n41 { names.push("n41 $auto$ff.cc:266:slice$9739"); }
+        if self.q42 != other.q42 { names.push("q42 $auto$ff.cc:266:slice$9741"); }
+        if self.n42 != other.n42 { names.push("n42 $auto$ff.cc:266:slice$9741"); }
         if self.q43 != other.q43 { names.push("q43 $auto$ff.cc:266:slice$9742"); }
         if self.n43 != other.n43 { names.push("n43 $auto$ff.cc:266:slice$9742"); }
         if self.q44 != other.q44 { names.push("q44 $auto$ff.cc:266:slice$9743"); }
         if self.n44 != other.n44 { names.push("n44 $auto$ff.cc:266:slice$9743"); }
-        if self.q45 != other.q45 { names.push("q45 $auto$ff.cc:266:slice$9744"); }
-        if self.n45 != other.n45 { names.push("n45 $auto$ff.cc:266:slice$9744"); }
-        if self.q46 != other.q46 { names.push("q46 $auto$ff.cc:266:slice$9746"); }
-        if self.n46 != other.n46 { names.push("n46 $auto$ff.cc:266:slice$9746"); }
-        if self.q47 != other.q47 { names.push("q47 $auto$ff.cc:266:slice$9748"); }
-        if self.n47 != other.n47 { names.push("n47 $auto$ff.cc:266:slice$9748"); }
-        if self.q48 != other.q48 { names.push("q48 $auto$ff.cc:266:slice$9750"); }
-        if self.n48 != other.n48 { names.push("n48 $auto$ff.cc:266:slice$9750"); }
-        if self.q49 != other.q49 { names.push("q49 $auto$ff.cc:266:slice$9752"); }
-        if self.n49 != other.n49 { names.push("n49 $auto$ff.cc:266:slice$9752"); }
-        if self.q50 != other.q50 { names.push("q50 $auto$ff.cc:266:slice$9754"); }
-        if self.n50 != other.n50 { names.push("n50 $auto$ff.cc:266:slice$9754"); }
-        if self.q51 != other.q51 { names.push("q51 $auto$ff.cc:266:slice$9756"); }
-        if self.n51 != other.n51 { names.push("n51 $auto$ff.cc:266:slice$9756"); }
-        if self.q52 != other.q52 { names.push("q52 $auto$ff.cc:266:slice$9760"); }
-        if self.n52 != other.n52 { names.push("n52 $auto$ff.cc:266:slice$9760"); }
-        if self.q53 != other.q53 { names.push("q53 $auto$ff.cc:266:slice$9764"); }
-        if self.n53 != other.n53 { names.push("n53 $auto$ff.cc:266:slice$9764"); }
-        if self.q54 != other.q54 { names.push("q54 $auto$ff.cc:266:slice$9768"); }
-        if self.n54 != other.n54 { names.push("n54 $auto$ff.cc:266:slice$9768"); }
-        if self.q55 != other.q55 { names.push("q55 $auto$ff.cc:266:slice$9772"); }
-        if self.n55 != other.n55 { names.push("n55 $auto$ff.cc:266:slice$9772"); }
-        if self.q56 != other.q56 { names.push("q56 $auto$ff.cc:266:slice$9776"); }
-        if self.n56 != other.n56 { names.push("n56 $auto$ff.cc:266:slice$9776"); }
-        if self.q57 != other.q57 { names.push("q57 $auto$ff.cc:266:slice$9780"); }
-        if self.n57 != other.n57 { names.push("n57 $auto$ff.cc:266:slice$9780"); }
-        if self.q58 != other.q58 { names.push("q58 $auto$ff.cc:266:slice$9784"); }
-        if self.n58 != other.n58 { names.push("n58 $auto$ff.cc:266:slice$9784"); }
-        if self.q59 != other.q59 { names.push("q59 $auto$ff.cc:266:slice$9787"); }
-        if self.n59 != other.n59 { names.push("n59 $auto$ff.cc:266:slice$9787"); }
-        if self.q60 != other.q60 { names.push("q60 $auto$ff.cc:266:slice$9791"); }
-        if self.n60 != other.n60 { names.push("n60 $auto$ff.cc:266:slice$9791"); }
-        if self.q61 != other.q61 { names.push("q61 $auto$ff.cc:266:slice$9794"); }
-        if self.n61 != other.n61 { names.push("n61 $auto$ff.cc:266:slice$9794"); }
-        if self.q62 != other.q62 { names.push("q62 $auto$ff.cc:266:slice$9797"); }
-        if self.n62 != other.n62 { names.push("n62 $auto$ff.cc:266:slice$9797"); }
-        if self.q63 != other.q63 { names.push("q63 $auto$ff.cc:266:slice$9801"); }
-        if self.n63 != other.n63 { names.push("n63 $auto$ff.cc:266:slice$9801"); }
+        if self.q45 != other.q45 { names.push("q45 $auto$ff.cc:266:slice$9745"); }
+        if self.n45 != other.n45 { names.push("n45 $auto$ff.cc:266:slice$9745"); }
+        if self.q46 != other.q46 { names.push("q46 $auto$ff.cc:266:slice$9747"); }
+        if self.n46 != other.n46 { names.push("n46 $auto$ff.cc:266:slice$9747"); }
+        if self.q47 != other.q47 { names.push("q47 $auto$ff.cc:266:slice$9749"); }
+        if self.n47 != other.n47 { names.push("n47 $auto$ff.cc:266:slice$9749"); }
+        if self.q48 != other.q48 { names.push("q48 $auto$ff.cc:266:slice$9751"); }
+        if self.n48 != other.n48 { names.push("n48 $auto$ff.cc:266:slice$9751"); }
+        if self.q49 != other.q49 { names.push("q49 $auto$ff.cc:266:slice$9753"); }
+        if self.n49 != other.n49 { names.push("n49 $auto$ff.cc:266:slice$9753"); }
+        if self.q50 != other.q50 { names.push("q50 $auto$ff.cc:266:slice$9755"); }
+        if self.n50 != other.n50 { names.push("n50 $auto$ff.cc:266:slice$9755"); }
+        if self.q51 != other.q51 { names.push("q51 $auto$ff.cc:266:slice$9759"); }
+        if self.n51 != other.n51 { names.push("n51 $auto$ff.cc:266:slice$9759"); }
+        if self.q52 != other.q52 { names.push("q52 $auto$ff.cc:266:slice$9763"); }
+        if self.n52 != other.n52 { names.push("n52 $auto$ff.cc:266:slice$9763"); }
+        if self.q53 != other.q53 { names.push("q53 $auto$ff.cc:266:slice$9767"); }
+        if self.n53 != other.n53 { names.push("n53 $auto$ff.cc:266:slice$9767"); }
+        if self.q54 != other.q54 { names.push("q54 $auto$ff.cc:266:slice$9771"); }
+        if self.n54 != other.n54 { names.push("n54 $auto$ff.cc:266:slice$9771"); }
+        if self.q55 != other.q55 { names.push("q55 $auto$ff.cc:266:slice$9775"); }
+        if self.n55 != other.n55 { names.push("n55 $auto$ff.cc:266:slice$9775"); }
+        if self.q56 != other.q56 { names.push("q56 $auto$ff.cc:266:slice$9779"); }
+        if self.n56 != other.n56 { names.push("n56 $auto$ff.cc:266:slice$9779"); }
+        if self.q57 != other.q57 { names.push("q57 $auto$ff.cc:266:slice$9783"); }
+        if self.n57 != other.n57 { names.push("n57 $auto$ff.cc:266:slice$9783"); }
+        if self.q58 != other.q58 { names.push("q58 $auto$ff.cc:266:slice$9786"); }
+        if self.n58 != other.n58 { names.push("n58 $auto$ff.cc:266:slice$9786"); }
+        if self.q59 != other.q59 { names.push("q59 $auto$ff.cc:266:slice$9790"); }
+        if self.n59 != other.n59 { names.push("n59 $auto$ff.cc:266:slice$9790"); }
+        if self.q60 != other.q60 { names.push("q60 $auto$ff.cc:266:slice$9793"); }
+        if self.n60 != other.n60 { names.push("n60 $auto$ff.cc:266:slice$9793"); }
+        if self.q61 != other.q61 { names.push("q61 $auto$ff.cc:266:slice$9796"); }
+        if self.n61 != other.n61 { names.push("n61 $auto$ff.cc:266:slice$9796"); }
+        if self.q62 != other.q62 { names.push("q62 $auto$ff.cc:266:slice$9800"); }
+        if self.n62 != other.n62 { names.push("n62 $auto$ff.cc:266:slice$9800"); }
+        if self.q63 != other.q63 { names.push("q63 $auto$ff.cc:266:slice$9803"); }
+        if self.n63 != other.n63 { names.push("n63 $auto$ff.cc:266:slice$9803"); }
         if self.q64 != other.q64 { names.push("q64 $auto$ff.cc:266:slice$9804"); }
         if self.n64 != other.n64 { names.push("n64 $auto$ff.cc:266:slice$9804"); }
-        if self.q65 != other.q65 { names.push("q65 $auto$ff.cc:266:slice$9805"); }
-        if self.n65 != other.n65 { names.push("n65 $auto$ff.cc:266:slice$9805"); }
-        if self.q66 != other.q66 { names.push("q66 $auto$ff.cc:266:slice$9809"); }
-        if self.n66 != other.n66 { names.push("n66 $auto$ff.cc:266:slice$9809"); }
+        if self.q65 != other.q65 { names.push("q65 $auto$ff.cc:266:slice$9808"); }
+        if self.n65 != other.n65 { names.push("n65 $auto$ff.cc:266:slice$9808"); }
+        if self.q66 != other.q66 { names.push("q66 $auto$ff.cc:266:slice$9811"); }
+        if self.n66 != other.n66 { names.push("n66 $auto$ff.cc:266:slice$9811"); }
         if self.q67 != other.q67 { names.push("q67 $auto$ff.cc:266:slice$9812"); }
         if self.n67 != other.n67 { names.push("n67 $auto$ff.cc:266:slice$9812"); }
-        if self.q68 != other.q68 { names.push("q68 $auto$ff.cc:266:slice$9813"); }
-        if self.n68 != other.n68 { names.push("n68 $auto$ff.cc:266:slice$9813"); }
-        if self.q69 != other.q69 { names.push("q69 $auto$ff.cc:266:slice$9816"); }
-        if self.n69 != other.n69 { names.push("n69 $auto$ff.cc:266:slice$9816"); }
+        if self.q68 != other.q68 { names.push("q68 $auto$ff.cc:266:slice$9815"); }
+        if self.n68 != other.n68 { names.push("n68 $auto$ff.cc:266:slice$9815"); }
+        if self.q69 != other.q69 { names.push("q69 $auto$ff.cc:266:slice$9821"); }
+        if self.n69 != other.n69 { names.push("n69 $auto$ff.cc:266:slice$9821"); }
         if self.q70 != other.q70 { names.push("q70 $auto$ff.cc:266:slice$9822"); }
         if self.n70 != other.n70 { names.push("n70 $auto$ff.cc:266:slice$9822"); }
-        if self.q71 != other.q71 { names.push("q71 $auto$ff.cc:266:slice$9823"); }
-        if self.n71 != other.n71 { names.push("n71 $auto$ff.cc:266:slice$9823"); }
-        if self.q72 != other.q72 { names.push("q72 $auto$ff.cc:266:slice$9829"); }
-        if self.n72 != other.n72 { names.push("n72 $auto$ff.cc:266:slice$9829"); }
-        if self.q73 != other.q73 { names.push("q73 $auto$ff.cc:266:slice$9831"); }
-        if self.n73 != other.n73 { names.push("n73 $auto$ff.cc:266:slice$9831"); }
-        if self.q74 != other.q74 { names.push("q74 $auto$ff.cc:266:slice$9840"); }
-        if self.n74 != other.n74 { names.push("n74 $auto$ff.cc:266:slice$9840"); }
-        if self.q75 != other.q75 { names.push("q75 $auto$ff.cc:266:slice$9847"); }
-        if self.n75 != other.n75 { names.push("n75 $auto$ff.cc:266:slice$9847"); }
-        if self.q76 != other.q76 { names.push("q76 $auto$ff.cc:266:slice$9853"); }
-        if self.n76 != other.n76 { names.push("n76 $auto$ff.cc:266:slice$9853"); }
-        if self.q77 != other.q77 { names.push("q77 $auto$ff.cc:266:slice$9855"); }
-        if self.n77 != other.n77 { names.push("n77 $auto$ff.cc:266:slice$9855"); }
-        if self.q78 != other.q78 { names.push("q78 $auto$ff.cc:266:slice$9863"); }
-        if self.n78 != other.n78 { names.push("n78 $auto$ff.cc:266:slice$9863"); }
-        if self.q79 != other.q79 { names.push("q79 $auto$ff.cc:266:slice$9869"); }
-        if self.n79 != other.n79 { names.push("n79 $auto$ff.cc:266:slice$9869"); }
-        if self.q80 != other.q80 { names.push("q80 $auto$ff.cc:266:slice$9881"); }
-        if self.n80 != other.n80 { names.push("n80 $auto$ff.cc:266:slice$9881"); }
+        if self.q71 != other.q71 { names.push("q71 $auto$ff.cc:266:slice$9828"); }
+        if self.n71 != other.n71 { names.push("n71 $auto$ff.cc:266:slice$9828"); }
+        if self.q72 != other.q72 { names.push("q72 $auto$ff.cc:266:slice$9830"); }
+        if self.n72 != other.n72 { names.push("n72 $auto$ff.cc:266:slice$9830"); }
+        if self.q73 != other.q73 { names.push("q73 $auto$ff.cc:266:slice$9839"); }
+        if self.n73 != other.n73 { names.push("n73 $auto$ff.cc:266:slice$9839"); }
+        if self.q74 != other.q74 { names.push("q74 $auto$ff.cc:266:slice$9846"); }
+        if self.n74 != other.n74 { names.push("n74 $auto$ff.cc:266:slice$9846"); }
+        if self.q75 != other.q75 { names.push("q75 $auto$ff.cc:266:slice$9852"); }
+        if self.n75 != other.n75 { names.push("n75 $auto$ff.cc:266:slice$9852"); }
+        if self.q76 != other.q76 { names.push("q76 $auto$ff.cc:266:slice$9854"); }
+        if self.n76 != other.n76 { names.push("n76 $auto$ff.cc:266:slice$9854"); }
+        if self.q77 != other.q77 { names.push("q77 $auto$ff.cc:266:slice$9862"); }
+        if self.n77 != other.n77 { names.push("n77 $auto$ff.cc:266:slice$9862"); }
+        if self.q78 != other.q78 { names.push("q78 $auto$ff.cc:266:slice$9868"); }
+        if self.n78 != other.n78 { names.push("n78 $auto$ff.cc:266:slice$9868"); }
+        if self.q79 != other.q79 { names.push("q79 $auto$ff.cc:266:slice$9880"); }
+        if self.n79 != other.n79 { names.push("n79 $auto$ff.cc:266:slice$9880"); }
+        if self.q80 != other.q80 { names.push("q80 $auto$ff.cc:266:slice$9898"); }
+        if self.n80 != other.n80 { names.push("n80 $auto$ff.cc:266:slice$9898"); }
         if self.q81 != other.q81 { names.push("q81 $auto$ff.cc:266:slice$9899"); }
         if self.n81 != other.n81 { names.push("n81 $auto$ff.cc:266:slice$9899"); }
-        if self.q82 != other.q82 { names.push("q82 $auto$ff.cc:266:slice$9900"); }
-        if self.n82 != other.n82 { names.push("n82 $auto$ff.cc:266:slice$9900"); }
+        if self.q82 != other.q82 { names.push("q82 $auto$ff.cc:266:slice$9901"); }
+        if self.n82 != other.n82 { names.push("n82 $auto$ff.cc:266:slice$9901"); }
         if self.q83 != other.q83 { names.push("q83 $auto$ff.cc:266:slice$9902"); }
         if self.n83 != other.n83 { names.push("n83 $auto$ff.cc:266:slice$9902"); }
-        if self.q84 != other.q84 { names.push("q84 $auto$ff.cc:266:slice$9903"); }
-        if self.n84 != other.n84 { names.push("n84 $auto$ff.cc:266:slice$9903"); }
-        if self.q85 != other.q85 { names.push("q85 $auto$ff.cc:266:slice$9916"); }
-        if self.n85 != other.n85 { names.push("n85 $auto$ff.cc:266:slice$9916"); }
+        if self.q84 != other.q84 { names.push("q84 $auto$ff.cc:266:slice$9915"); }
+        if self.n84 != other.n84 { names.push("n84 $auto$ff.cc:266:slice$9915"); }
+        if self.q85 != other.q85 { names.push("q85 $auto$ff.cc:266:slice$9926"); }
+        if self.n85 != other.n85 { names.push("n85 $auto$ff.cc:266:slice$9926"); }
         if self.q86 != other.q86 { names.push("q86 $auto$ff.cc:266:slice$9927"); }
         if self.n86 != other.n86 { names.push("n86 $auto$ff.cc:266:slice$9927"); }
-        if self.q87 != other.q87 { names.push("q87 $auto$ff.cc:266:slice$9928"); }
-        if self.n87 != other.n87 { names.push("n87 $auto$ff.cc:266:slice$9928"); }
+        if self.q87 != other.q87 { names.push("q87 $auto$ff.cc:266:slice$9931"); }
+        if self.n87 != other.n87 { names.push("n87 $auto$ff.cc:266:slice$9931"); }
         if self.q88 != other.q88 { names.push("q88 $auto$ff.cc:266:slice$9932"); }
         if self.n88 != other.n88 { names.push("n88 $auto$ff.cc:266:slice$9932"); }
         if self.q89 != other.q89 { names.push("q89 $auto$ff.cc:266:slice$9933"); }
         if self.n89 != other.n89 { names.push("n89 $auto$ff.cc:266:slice$9933"); }
-        if self.q90 != other.q90 { names.push("q90 $auto$ff.cc:266:slice$9934"); }
-        if self.n90 != other.n90 { names.push("n90 $auto$ff.cc:266:slice$9934"); }
+        if self.q90 != other.q90 { names.push("q90 $auto$ff.cc:266:slice$9937"); }
+        if self.n90 != other.n90 { names.push("n90 $auto$ff.cc:266:slice$9937"); }
         if self.q91 != other.q91 { names.push("q91 $auto$ff.cc:266:slice$9938"); }
         if self.n91 != other.n91 { names.push("n91 $auto$ff.cc:266:slice$9938"); }
-        if self.q92 != other.q92 { names.push("q92 $auto$ff.cc:266:slice$9939"); }
-        if self.n92 != other.n92 { names.push("n92 $auto$ff.cc:266:slice$9939"); }
-        if self.q93 != other.q93 { names.push("q93 $auto$ff.cc:266:slice$9942"); }
-        if self.n93 != other.n93 { names.push("n93 $auto$ff.cc:266:slice$9942"); }
-        if self.q94 != other.q94 { names.push("q94 $auto$ff.cc:266:slice$9945"); }
-        if self.n94 != other.n94 { names.push("n94 $auto$ff.cc:266:slice$9945"); }
-        if self.q95 != other.q95 { names.push("q95 $auto$ff.cc:266:slice$9949"); }
-        if self.n95 != other.n95 { names.push("n95 $auto$ff.cc:266:slice$9949"); }
-        if self.q96 != other.q96 { names.push("q96 $auto$ff.cc:266:slice$9951"); }
-        if self.n96 != other.n96 { names.push("n96 $auto$ff.cc:266:slice$9951"); }
-        if self.q97 != other.q97 { names.push("q97 $auto$ff.cc:266:slice$9953"); }
-        if self.n97 != other.n97 { names.push("n97 $auto$ff.cc:266:slice$9953"); }
-        if self.q98 != other.q98 { names.push("q98 $auto$ff.cc:266:slice$9958"); }
-        if self.n98 != other.n98 { names.push("n98 $auto$ff.cc:266:slice$9958"); }
-        if self.q99 != other.q99 { names.push("q99 $auto$ff.cc:266:slice$9960"); }
-        if self.n99 != other.n99 { names.push("n99 $auto$ff.cc:266:slice$9960"); }
-        if self.q100 != other.q100 { names.push("q100 $auto$ff.cc:266:slice$9966"); }
-        if self.n100 != other.n100 { names.push("n100 $auto$ff.cc:266:slice$9966"); }
-        if self.q101 != other.q101 { names.push("q101 $auto$ff.cc:266:slice$9976"); }
-        if self.n101 != other.n101 { names.push("n101 $auto$ff.cc:266:slice$9976"); }
-        if self.q102 != other.q102 { names.push("q102 $auto$ff.cc:266:slice$9981"); }
-        if self.n102 != other.n102 { names.push("n102 $auto$ff.cc:266:slice$9981"); }
-        if self.q103 != other.q103 { names.push("q103 $auto$ff.cc:266:slice$9985"); }
-        if self.n103 != other.n103 { names.push("n103 $auto$ff.cc:266:slice$9985"); }
-        if self.q104 != other.q104 { names.push("q104 $auto$ff.cc:266:slice$9989"); }
-        if self.n104 != other.n104 { names.push("n104 $auto$ff.cc:266:slice$9989"); }
-        if self.q105 != other.q105 { names.push("q105 $auto$ff.cc:266:slice$9992"); }
-        if self.n105 != other.n105 { names.push("n105 $auto$ff.cc:266:slice$9992"); }
-        if self.q106 != other.q106 { names.push("q106 $auto$ff.cc:266:slice$9994"); }
-        if self.n106 != other.n106 { names.push("n106 $auto$ff.cc:266:slice$9994"); }
-        if self.q107 != other.q107 { names.push("q107 $auto$ff.cc:266:slice$9997"); }
-        if self.n107 != other.n107 { names.push("n107 $auto$ff.cc:266:slice$9997"); }
-        if self.q108 != other.q108 { names.push("q108 $flattencore.bit_timing.sampled.$procdff$8958"); }
-        if self.n108 != other.n108 { names.push("n108 $flattencore.bit_timing.sampled.$procdff$8958"); }
-        if self.q109 != other.q109 { names.push("q109 $flattencore.bit_timing.sampling.metastable.$procdff$8957"); }
-        if self.n109 != other.n109 { names.push("n109 $flattencore.bit_timing.sampling.metastable.$procdff$8957"); }
-        if self.q110 != other.q110 { names.push("q110 $flattencore.bit_timing.sampling.previous.$procdff$8956"); }
-        if self.n110 != other.n110 { names.push("n110 $flattencore.bit_timing.sampling.previous.$procdff$8956"); }
-        if self.q111 != other.q111 { names.push("q111 $flattencore.bit_timing.sampling.stable.$procdff$8954"); }
-        if self.n111 != other.n111 { names.push("n111 $flattencore.bit_timing.sampling.stable.$procdff$8954"); }
-        if self.q112 != other.q112 { names.push("q112 $flattencore.protocol.faults.bus_off_state.$procdff$8929"); }
-        if self.n112 != other.n112 { names.push("n112 $flattencore.protocol.faults.bus_off_state.$procdff$8929"); }
-        if self.q113 != other.q113 { names.push("q113 $flattencore.protocol.faults.passive_state.$procdff$8928"); }
-        if self.n113 != other.n113 { names.push("n113 $flattencore.protocol.faults.passive_state.$procdff$8928"); }
-        if self.q114 != other.q114 { names.push("q114 $flattencore.protocol.field.$procdff$8925"); }
-        if self.n114 != other.n114 { names.push("n114 $flattencore.protocol.field.$procdff$8925"); }
-        if self.q115 != other.q115 { names.push("q115 $flattencore.protocol.in_frame.$procdff$8924"); }
-        if self.n115 != other.n115 { names.push("n115 $flattencore.protocol.in_frame.$procdff$8924"); }
-        if self.q116 != other.q116 { names.push("q116 $flattencore.protocol.sender.tx_next.$procdff$8916"); }
-        if self.n116 != other.n116 { names.push("n116 $flattencore.protocol.sender.tx_next.$procdff$8916"); }
-        if self.q117 != other.q117 { names.push("q117 $flattencore.protocol.sender.tx_reg.$procdff$8914"); }
-        if self.n117 != other.n117 { names.push("n117 $flattencore.protocol.sender.tx_reg.$procdff$8914"); }
-        if self.q118 != other.q118 { names.push("q118 $flattenfilter.dual1_data_match.$procdff$8884"); }
-        if self.n118 != other.n118 { names.push("n118 $flattenfilter.dual1_data_match.$procdff$8884"); }
-        if self.q119 != other.q119 { names.push("q119 $flattenfilter.single_data1_match.$procdff$8881"); }
-        if self.n119 != other.n119 { names.push("n119 $flattenfilter.single_data1_match.$procdff$8881"); }
-        if self.q120 != other.q120 { names.push("q120 $flattenfilter.single_data2_match.$procdff$8880"); }
-        if self.n120 != other.n120 { names.push("n120 $flattenfilter.single_data2_match.$procdff$8880"); }
-        if self.q121 != other.q121 { names.push("q121 $flatteninterrupts.alc_armed.$procdff$8878"); }
-        if self.n121 != other.n121 { names.push("n121 $flatteninterrupts.alc_armed.$procdff$8878"); }
-        if self.q122 != other.q122 { names.push("q122 $flatteninterrupts.ecc_armed.$procdff$8874"); }
-        if self.n122 != other.n122 { names.push("n122 $flatteninterrupts.ecc_armed.$procdff$8874"); }
-        if self.q123 != other.q123 { names.push("q123 $flattenmodes.enable_reg.$procdff$8861"); }
-        if self.n123 != other.n123 { names.push("n123 $flattenmodes.enable_reg.$procdff$8861"); }
-        if self.q124 != other.q124 { names.push("q124 $flattenmodes.listen_only_reg.$procdff$8860"); }
-        if self.n124 != other.n124 { names.push("n124 $flattenmodes.listen_only_reg.$procdff$8860"); }
-        if self.q125 != other.q125 { names.push("q125 $flattenmodes.lom.$procdff$8859"); }
-        if self.n125 != other.n125 { names.push("n125 $flattenmodes.lom.$procdff$8859"); }
-        if self.q126 != other.q126 { names.push("q126 $flattenmodes.rm.$procdff$8858"); }
-        if self.n126 != other.n126 { names.push("n126 $flattenmodes.rm.$procdff$8858"); }
-        if self.q127 != other.q127 { names.push("q127 $flattenmodes.self_test_reg.$procdff$8857"); }
-        if self.n127 != other.n127 { names.push("n127 $flattenmodes.self_test_reg.$procdff$8857"); }
-        if self.q128 != other.q128 { names.push("q128 $flattenmodes.sm.$procdff$8855"); }
-        if self.n128 != other.n128 { names.push("n128 $flattenmodes.sm.$procdff$8855"); }
-        if self.q129 != other.q129 { names.push("q129 $flattenmodes.stm.$procdff$8854"); }
-        if self.n129 != other.n129 { names.push("n129 $flattenmodes.stm.$procdff$8854"); }
-        if self.q130 != other.q130 { names.push("q130 $flattentbs.$procdff$8848"); }
-        if self.n130 != other.n130 { names.push("n130 $flattentbs.$procdff$8848"); }
-        if self.q131 != other.q131 { names.push("q131 $flattentcs.$procdff$8847"); }
-        if self.n131 != other.n131 { names.push("n131 $flattentcs.$procdff$8847"); }
+        if self.q92 != other.q92 { names.push("q92 $auto$ff.cc:266:slice$9941"); }
+        if self.n92 != other.n92 { names.push("n92 $auto$ff.cc:266:slice$9941"); }
+        if self.q93 != other.q93 { names.push("q93 $auto$ff.cc:266:slice$9944"); }
+        if self.n93 != other.n93 { names.push("n93 $auto$ff.cc:266:slice$9944"); }
+        if self.q94 != other.q94 { names.push("q94 $auto$ff.cc:266:slice$9948"); }
+        if self.n94 != other.n94 { names.push("n94 $auto$ff.cc:266:slice$9948"); }
+        if self.q95 != other.q95 { names.push("q95 $auto$ff.cc:266:slice$9950"); }
+        if self.n95 != other.n95 { names.push("n95 $auto$ff.cc:266:slice$9950"); }
+        if self.q96 != other.q96 { names.push("q96 $auto$ff.cc:266:slice$9952"); }
+        if self.n96 != other.n96 { names.push("n96 $auto$ff.cc:266:slice$9952"); }
+        if self.q97 != other.q97 { names.push("q97 $auto$ff.cc:266:slice$9957"); }
+        if self.n97 != other.n97 { names.push("n97 $auto$ff.cc:266:slice$9957"); }
+        if self.q98 != other.q98 { names.push("q98 $auto$ff.cc:266:slice$9959"); }
+        if self.n98 != other.n98 { names.push("n98 $auto$ff.cc:266:slice$9959"); }
+        if self.q99 != other.q99 { names.push("q99 $auto$ff.cc:266:slice$9965"); }
+        if self.n99 != other.n99 { names.push("n99 $auto$ff.cc:266:slice$9965"); }
+        if self.q100 != other.q100 { names.push("q100 $auto$ff.cc:266:slice$9975"); }
+        if self.n100 != other.n100 { names.push("n100 $auto$ff.cc:266:slice$9975"); }
+        if self.q101 != other.q101 { names.push("q101 $auto$ff.cc:266:slice$9980"); }
+        if self.n101 != other.n101 { names.push("n101 $auto$ff.cc:266:slice$9980"); }
+        if self.q102 != other.q102 { names.push("q102 $auto$ff.cc:266:slice$9984"); }
+        if self.n102 != other.n102 { names.push("n102 $auto$ff.cc:266:slice$9984"); }
+        if self.q103 != other.q103 { names.push("q103 $auto$ff.cc:266:slice$9988"); }
+        if self.n103 != other.n103 { names.push("n103 $auto$ff.cc:266:slice$9988"); }
+        if self.q104 != other.q104 { names.push("q104 $auto$ff.cc:266:slice$9991"); }
+        if self.n104 != other.n104 { names.push("n104 $auto$ff.cc:266:slice$9991"); }
+        if self.q105 != other.q105 { names.push("q105 $auto$ff.cc:266:slice$9993"); }
+        if self.n105 != other.n105 { names.push("n105 $auto$ff.cc:266:slice$9993"); }
+        if self.q106 != other.q106 { names.push("q106 $auto$ff.cc:266:slice$9996"); }
+        if self.n106 != other.n106 { names.push("n106 $auto$ff.cc:266:slice$9996"); }
+        if self.q107 != other.q107 { names.push("q107 $auto$ff.cc:266:slice$9999"); }
+        if self.n107 != other.n107 { names.push("n107 $auto$ff.cc:266:slice$9999"); }
+        if self.q108 != other.q108 { names.push("q108 $flattencore.bit_timing.sampled.$procdff$8957"); }
+        if self.n108 != other.n108 { names.push("n108 $flattencore.bit_timing.sampled.$procdff$8957"); }
+        if self.q109 != other.q109 { names.push("q109 $flattencore.bit_timing.sampling.metastable.$procdff$8956"); }
+        if self.n109 != other.n109 { names.push("n109 $flattencore.bit_timing.sampling.metastable.$procdff$8956"); }
+        if self.q110 != other.q110 { names.push("q110 $flattencore.bit_timing.sampling.previous.$procdff$8955"); }
+        if self.n110 != other.n110 { names.push("n110 $flattencore.bit_timing.sampling.previous.$procdff$8955"); }
+        if self.q111 != other.q111 { names.push("q111 $flattencore.bit_timing.sampling.stable.$procdff$8953"); }
+        if self.n111 != other.n111 { names.push("n111 $flattencore.bit_timing.sampling.stable.$procdff$8953"); }
+        if self.q112 != other.q112 { names.push("q112 $flattencore.protocol.faults.bus_off_state.$procdff$8928"); }
+        if self.n112 != other.n112 { names.push("n112 $flattencore.protocol.faults.bus_off_state.$procdff$8928"); }
+        if self.q113 != other.q113 { names.push("q113 $flattencore.protocol.faults.passive_state.$procdff$8927"); }
+        if self.n113 != other.n113 { names.push("n113 $flattencore.protocol.faults.passive_state.$procdff$8927"); }
+        if self.q114 != other.q114 { names.push("q114 $flattencore.protocol.field.$procdff$8924"); }
+        if self.n114 != other.n114 { names.push("n114 $flattencore.protocol.field.$procdff$8924"); }
+        if self.q115 != other.q115 { names.push("q115 $flattencore.protocol.in_frame.$procdff$8923"); }
+        if self.n115 != other.n115 { names.push("n115 $flattencore.protocol.in_frame.$procdff$8923"); }
+        if self.q116 != other.q116 { names.push("q116 $flattencore.protocol.sender.tx_next.$procdff$8915"); }
+        if self.n116 != other.n116 { names.push("n116 $flattencore.protocol.sender.tx_next.$procdff$8915"); }
+        if self.q117 != other.q117 { names.push("q117 $flattencore.protocol.sender.tx_reg.$procdff$8913"); }
+        if self.n117 != other.n117 { names.push("n117 $flattencore.protocol.sender.tx_reg.$procdff$8913"); }
+        if self.q118 != other.q118 { names.push("q118 $flattenfilter.dual1_data_match.$procdff$8883"); }
+        if self.n118 != other.n118 { names.push("n118 $flattenfilter.dual1_data_match.$procdff$8883"); }
+        if self.q119 != other.q119 { names.push("q119 $flattenfilter.single_data1_match.$procdff$8880"); }
+        if self.n119 != other.n119 { names.push("n119 $flattenfilter.single_data1_match.$procdff$8880"); }
+        if self.q120 != other.q120 { names.push("q120 $flattenfilter.single_data2_match.$procdff$8879"); }
+        if self.n120 != other.n120 { names.push("n120 $flattenfilter.single_data2_match.$procdff$8879"); }
+        if self.q121 != other.q121 { names.push("q121 $flatteninterrupts.alc_armed.$procdff$8877"); }
+        if self.n121 != other.n121 { names.push("n121 $flatteninterrupts.alc_armed.$procdff$8877"); }
+        if self.q122 != other.q122 { names.push("q122 $flatteninterrupts.ecc_armed.$procdff$8873"); }
+        if self.n122 != other.n122 { names.push("n122 $flatteninterrupts.ecc_armed.$procdff$8873"); }
+        if self.q123 != other.q123 { names.push("q123 $flattenmodes.enable_reg.$procdff$8860"); }
+        if self.n123 != other.n123 { names.push("n123 $flattenmodes.enable_reg.$procdff$8860"); }
+        if self.q124 != other.q124 { names.push("q124 $flattenmodes.listen_only_reg.$procdff$8859"); }
+        if self.n124 != other.n124 { names.push("n124 $flattenmodes.listen_only_reg.$procdff$8859"); }
+        if self.q125 != other.q125 { names.push("q125 $flattenmodes.lom.$procdff$8858"); }
+        if self.n125 != other.n125 { names.push("n125 $flattenmodes.lom.$procdff$8858"); }
+        if self.q126 != other.q126 { names.push("q126 $flattenmodes.rm.$procdff$8857"); }
+        if self.n126 != other.n126 { names.push("n126 $flattenmodes.rm.$procdff$8857"); }
+        if self.q127 != other.q127 { names.push("q127 $flattenmodes.self_test_reg.$procdff$8856"); }
+        if self.n127 != other.n127 { names.push("n127 $flattenmodes.self_test_reg.$procdff$8856"); }
+        if self.q128 != other.q128 { names.push("q128 $flattenmodes.sm.$procdff$8854"); }
+        if self.n128 != other.n128 { names.push("n128 $flattenmodes.sm.$procdff$8854"); }
+        if self.q129 != other.q129 { names.push("q129 $flattenmodes.stm.$procdff$8853"); }
+        if self.n129 != other.n129 { names.push("n129 $flattenmodes.stm.$procdff$8853"); }
+        if self.q130 != other.q130 { names.push("q130 $flattentbs.$procdff$8847"); }
+        if self.n130 != other.n130 { names.push("n130 $flattentbs.$procdff$8847"); }
+        if self.q131 != other.q131 { names.push("q131 $flattentcs.$procdff$8846"); }
+        if self.n131 != other.n131 { names.push("n131 $flattentcs.$procdff$8846"); }
         if self.m0 != other.m0 { names.push("m0 fifo.ram.mem"); }
         if self.m0_rd != other.m0_rd { names.push("m0_rd fifo.ram.mem"); }
         if self.m0_re != other.m0_re { names.push("m0_re fifo.ram.mem"); }
@@ -2588,508 +2586,507 @@ impl Model {
         if self.v16 != other.v16 { names.push("v16 $and$can_controller.v:777$206"); }
         if self.v17 != other.v17 { names.push("v17 $and$can_controller.v:781$207"); }
         if self.v18 != other.v18 { names.push("v18 $and$can_controller.v:782$209"); }
-        if self.v19 != other.v19 { names.push("v19 $auto$opt_dff.cc:195:make_patterns_logic$10008"); }
-        if self.v21 != other.v21 { names.push("v21 $auto$opt_dff.cc:195:make_patterns_logic$9793"); }
-        if self.v23 != other.v23 { names.push("v23 $auto$opt_dff.cc:195:make_patterns_logic$9811"); }
-        if self.v29 != other.v29 { names.push("v29 $auto$opt_dff.cc:195:make_patterns_logic$9871"); }
-        if self.v30 != other.v30 { names.push("v30 $auto$opt_dff.cc:195:make_patterns_logic$9873"); }
-        if self.v31 != other.v31 { names.push("v31 $auto$opt_dff.cc:195:make_patterns_logic$9875"); }
-        if self.v32 != other.v32 { names.push("v32 $auto$opt_dff.cc:195:make_patterns_logic$9885"); }
-        if self.v33 != other.v33 { names.push("v33 $auto$opt_dff.cc:195:make_patterns_logic$9889"); }
-        if self.v34 != other.v34 { names.push("v34 $auto$opt_dff.cc:195:make_patterns_logic$9893"); }
-        if self.v39 != other.v39 { names.push("v39 $auto$opt_dff.cc:195:make_patterns_logic$9913"); }
-        if self.v40 != other.v40 { names.push("v40 $auto$opt_dff.cc:195:make_patterns_logic$9955"); }
-        if self.v41 != other.v41 { names.push("v41 $auto$opt_dff.cc:210:make_patterns_logic$9704"); }
-        if self.v43 != other.v43 { names.push("v43 $auto$opt_dff.cc:210:make_patterns_logic$9864"); }
-        if self.v44 != other.v44 { names.push("v44 $auto$opt_dff.cc:210:make_patterns_logic$9967"); }
-        if self.v45 != other.v45 { names.push("v45 $auto$opt_dff.cc:210:make_patterns_logic$9969"); }
-        if self.v46 != other.v46 { names.push("v46 $auto$opt_dff.cc:220:make_patterns_logic$10010"); }
-        if self.v47 != other.v47 { names.push("v47 $auto$opt_dff.cc:220:make_patterns_logic$10022"); }
-        if self.v48 != other.v48 { names.push("v48 $auto$opt_dff.cc:220:make_patterns_logic$10030"); }
-        if self.v49 != other.v49 { names.push("v49 $auto$opt_dff.cc:220:make_patterns_logic$10034"); }
-        if self.v50 != other.v50 { names.push("v50 $auto$opt_dff.cc:220:make_patterns_logic$10038"); }
-        if self.v51 != other.v51 { names.push("v51 $auto$opt_dff.cc:220:make_patterns_logic$9678"); }
-        if self.v52 != other.v52 { names.push("v52 $auto$opt_dff.cc:220:make_patterns_logic$9683"); }
-        if self.v53 != other.v53 { names.push("v53 $auto$opt_dff.cc:220:make_patterns_logic$9707"); }
-        if self.v54 != other.v54 { names.push("v54 $auto$opt_dff.cc:220:make_patterns_logic$9712"); }
-        if self.v55 != other.v55 { names.push("v55 $auto$opt_dff.cc:220:make_patterns_logic$9717"); }
-        if self.v56 != other.v56 { names.push("v56 $auto$opt_dff.cc:220:make_patterns_logic$9734"); }
-        if self.v57 != other.v57 { names.push("v57 $auto$opt_dff.cc:220:make_patterns_logic$9739"); }
-        if self.v58 != other.v58 { names.push("v58 $auto$opt_dff.cc:220:make_patterns_logic$9758"); }
-        if self.v59 != other.v59 { names.push("v59 $auto$opt_dff.cc:220:make_patterns_logic$9762"); }
-        if self.v60 != other.v60 { names.push("v60 $auto$opt_dff.cc:220:make_patterns_logic$9766"); }
-        if self.v61 != other.v61 { names.push("v61 $auto$opt_dff.cc:220:make_patterns_logic$9770"); }
-        if self.v62 != other.v62 { names.push("v62 $auto$opt_dff.cc:220:make_patterns_logic$9774"); }
-        if self.v63 != other.v63 { names.push("v63 $auto$opt_dff.cc:220:make_patterns_logic$9778"); }
-        if self.v64 != other.v64 { names.push("v64 $auto$opt_dff.cc:220:make_patterns_logic$9782"); }
-        if self.v65 != other.v65 { names.push("v65 $auto$opt_dff.cc:220:make_patterns_logic$9786"); }
-        if self.v66 != other.v66 { names.push("v66 $auto$opt_dff.cc:220:make_patterns_logic$9827"); }
-        if self.v67 != other.v67 { names.push("v67 $auto$opt_dff.cc:220:make_patterns_logic$9846"); }
-        if self.v68 != other.v68 { names.push("v68 $auto$opt_dff.cc:220:make_patterns_logic$9849"); }
-        if self.v69 != other.v69 { names.push("v69 $auto$opt_dff.cc:220:make_patterns_logic$9861"); }
-        if self.v70 != other.v70 { names.push("v70 $auto$opt_dff.cc:220:make_patterns_logic$9867"); }
-        if self.v71 != other.v71 { names.push("v71 $auto$opt_dff.cc:220:make_patterns_logic$9879"); }
-        if self.v72 != other.v72 { names.push("v72 $auto$opt_dff.cc:220:make_patterns_logic$9897"); }
-        if self.v73 != other.v73 { names.push("v73 $auto$opt_dff.cc:220:make_patterns_logic$9915"); }
-        if self.v74 != other.v74 { names.push("v74 $auto$opt_dff.cc:220:make_patterns_logic$9926"); }
-        if self.v75 != other.v75 { names.push("v75 $auto$opt_dff.cc:220:make_patterns_logic$9957"); }
-        if self.v76 != other.v76 { names.push("v76 $auto$opt_dff.cc:220:make_patterns_logic$9962"); }
-        if self.v77 != other.v77 { names.push("v77 $auto$opt_dff.cc:220:make_patterns_logic$9972"); }
-        if self.v78 != other.v78 { names.push("v78 $auto$opt_dff.cc:220:make_patterns_logic$9980"); }
-        if self.v79 != other.v79 { names.push("v79 $auto$opt_dff.cc:220:make_patterns_logic$9987"); }
-        if self.v80 != other.v80 { names.push("v80 $auto$opt_dff.cc:220:make_patterns_logic$9991"); }
-        if self.v81 != other.v81 { names.push("v81 $auto$opt_dff.cc:220:make_patterns_logic$9996"); }
-        if self.v82 != other.v82 { names.push("v82 $auto$opt_dff.cc:250:combine_resets$9692"); }
-        if self.v83 != other.v83 { names.push("v83 $auto$opt_dff.cc:254:combine_resets$10005"); }
-        if self.v84 != other.v84 { names.push("v84 $auto$opt_dff.cc:254:combine_resets$10019"); }
-        if self.v85 != other.v85 { names.push("v85 $auto$opt_dff.cc:254:combine_resets$10026"); }
-        if self.v86 != other.v86 { names.push("v86 $auto$opt_dff.cc:254:combine_resets$9671"); }
-        if self.v87 != other.v87 { names.push("v87 $auto$opt_dff.cc:254:combine_resets$9695"); }
-        if self.v88 != other.v88 { names.push("v88 $auto$opt_dff.cc:254:combine_resets$9701"); }
-        if self.v90 != other.v90 { names.push("v90 $auto$opt_dff.cc:254:combine_resets$9789"); }
-        if self.v91 != other.v91 { names.push("v91 $auto$opt_dff.cc:254:combine_resets$9796"); }
-        if self.v92 != other.v92 { names.push("v92 $auto$opt_dff.cc:254:combine_resets$9818"); }
-        if self.v93 != other.v93 { names.push("v93 $auto$opt_dff.cc:254:combine_resets$9821"); }
-        if self.v94 != other.v94 { names.push("v94 $auto$opt_dff.cc:254:combine_resets$9836"); }
-        if self.v95 != other.v95 { names.push("v95 $auto$opt_dff.cc:254:combine_resets$9839"); }
-        if self.v96 != other.v96 { names.push("v96 $auto$opt_dff.cc:254:combine_resets$9931"); }
-        if self.v97 != other.v97 { names.push("v97 $auto$opt_dff.cc:254:combine_resets$9936"); }
-        if self.v98 != other.v98 { names.push("v98 $auto$opt_dff.cc:254:combine_resets$9941"); }
-        if self.v99 != other.v99 { names.push("v99 $auto$opt_dff.cc:254:combine_resets$9944"); }
-        if self.v100 != other.v100 { names.push("v100 $auto$opt_dff.cc:254:combine_resets$9999"); }
-        if self.v109 != other.v109 { names.push("v109 $auto$opt_expr.cc:276:group_cell_inputs$10060"); }
-        if self.v113 != other.v113 { names.push("v113 $auto$opt_expr.cc:276:group_cell_inputs$9502"); }
-        if self.v114 != other.v114 { names.push("v114 $auto$opt_expr.cc:276:group_cell_inputs$9506"); }
-        if self.v118 != other.v118 { names.push("v118 $auto$opt_expr.cc:276:group_cell_inputs$9650"); }
-        if self.v123 != other.v123 { names.push("v123 $auto$opt_reduce.cc:128:opt_pmux$9656"); }
-        if self.v125 != other.v125 { names.push("v125 $auto$opt_share.cc:241:merge_operators$9659"); }
-        if self.v127 != other.v127 { names.push("v127 $flattenconfiguration.$and$can_controller.v:923$260"); }
-        if self.v129 != other.v129 { names.push("v129 $flattenconfiguration.$eq$can_controller.v:932$272"); }
-        if self.v134 != other.v134 { names.push("v134 $flattenconfiguration.$or$can_controller.v:936$279"); }
-        if self.v135 != other.v135 { names.push("v135 $flattencore.bit_timing.$add$can_controller.v:1413$368"); }
-        if self.v136 != other.v136 { names.push("v136 $flattencore.bit_timing.$add$can_controller.v:1480$386"); }
-        if self.v138 != other.v138 { names.push("v138 $flattencore.bit_timing.$add$can_controller.v:1485$392"); }
-        if self.v141 != other.v141 { names.push("v141 $flattencore.bit_timing.$and$can_controller.v:1460$379"); }
-        if self.v143 != other.v143 { names.push("v143 $flattencore.bit_timing.$and$can_controller.v:1462$383"); }
-        if self.v144 != other.v144 { names.push("v144 $flattencore.bit_timing.$and$can_controller.v:1514$405"); }
-        if self.v146 != other.v146 { names.push("v146 $flattencore.bit_timing.$and$can_controller.v:1515$409"); }
-        if self.v150 != other.v150 { names.push("v150 $flattencore.bit_timing.$and$can_controller.v:1515$417"); }
-        if self.v151 != other.v151 { names.push("v151 $flattencore.bit_timing.$and$can_controller.v:1518$420"); }
-        if self.v154 != other.v154 { names.push("v154 $flattencore.bit_timing.$and$can_controller.v:1520$428"); }
-        if self.v158 != other.v158 { names.push("v158 $flattencore.bit_timing.$ge$can_controller.v:1414$369"); }
-        if self.v162 != other.v162 { names.push("v162 $flattencore.bit_timing.$not$can_controller.v:1421$371"); }
-        if self.v167 != other.v167 { names.push("v167 $flattencore.bit_timing.$not$can_controller.v:1515$416"); }
-        if self.v168 != other.v168 { names.push("v168 $flattencore.bit_timing.$not$can_controller.v:1519$423"); }
-        if self.v173 != other.v173 { names.push("v173 $flattencore.bit_timing.$or$can_controller.v:1519$427"); }
-        if self.v179 != other.v179 { names.push("v179 $flattencore.bit_timing.$procmux$8415"); }
-        if self.v180 != other.v180 { names.push("v180 $flattencore.bit_timing.$procmux$8433"); }
-        if self.v181 != other.v181 { names.push("v181 $flattencore.bit_timing.$procmux$8436"); }
-        if self.v184 != other.v184 { names.push("v184 $flattencore.bit_timing.$procmux$8448"); }
-        if self.v186 != other.v186 { names.push("v186 $flattencore.bit_timing.$procmux$8461_CMP0"); }
-        if self.v187 != other.v187 { names.push("v187 $flattencore.bit_timing.$procmux$8466"); }
-        if self.v188 != other.v188 { names.push("v188 $flattencore.bit_timing.$procmux$8467_CMP0"); }
-        if self.v189 != other.v189 { names.push("v189 $flattencore.bit_timing.$procmux$8473"); }
-        if self.v190 != other.v190 { names.push("v190 $flattencore.bit_timing.$procmux$8491"); }
-        if self.v191 != other.v191 { names.push("v191 $flattencore.bit_timing.$procmux$8495"); }
-        if self.v193 != other.v193 { names.push("v193 $flattencore.bit_timing.$procmux$8504"); }
-        if self.v199 != other.v199 { names.push("v199 $flattencore.bit_timing.$procmux$8576_CMP0"); }
-        if self.v201 != other.v201 { names.push("v201 $flattencore.bit_timing.$procmux$8605"); }
-        if self.v202 != other.v202 { names.push("v202 $flattencore.bit_timing.$procmux$8614"); }
-        if self.v203 != other.v203 { names.push("v203 $flattencore.bit_timing.$procmux$8622"); }
-        if self.v204 != other.v204 { names.push("v204 $flattencore.bit_timing.$procmux$8631"); }
-        if self.v216 != other.v216 { names.push("v216 $flattencore.bit_timing.sampling.$and$can_controller.v:1708$466"); }
-        if self.v223 != other.v223 { names.push("v223 $flattencore.bit_timing.sampling.$procmux$8391"); }
-        if self.v224 != other.v224 { names.push("v224 $flattencore.bit_timing.sampling.$procmux$8394"); }
-        if self.v225 != other.v225 { names.push("v225 $flattencore.bit_timing.sampling.$procmux$8397"); }
-        if self.v226 != other.v226 { names.push("v226 $flattencore.bit_timing.sampling.$procmux$8403"); }
-        if self.v227 != other.v227 { names.push("v227 $flattencore.protocol.$and$can_controller.v:2452$655"); }
-        if self.v229 != other.v229 { names.push("v229 $flattencore.protocol.$and$can_controller.v:2454$660"); }
-        if self.v230 != other.v230 { names.push("v230 $flattencore.protocol.$and$can_controller.v:2551$676"); }
-        if self.v231 != other.v231 { names.push("v231 $flattencore.protocol.$and$can_controller.v:2554$678"); }
-        if self.v232 != other.v232 { names.push("v232 $flattencore.protocol.$and$can_controller.v:2555$680"); }
-        if self.v234 != other.v234 { names.push("v234 $flattencore.protocol.$and$can_controller.v:2604$697"); }
-        if self.v235 != other.v235 { names.push("v235 $flattencore.protocol.$eq$can_controller.v:2519$668"); }
-        if self.v245 != other.v245 { names.push("v245 $flattencore.protocol.$ne$can_controller.v:2600$693"); }
-        if self.v247 != other.v247 { names.push("v247 $flattencore.protocol.$not$can_controller.v:2557$681"); }
-        if self.v250 != other.v250 { names.push("v250 $flattencore.protocol.$or$can_controller.v:2525$671"); }
-        if self.v251 != other.v251 { names.push("v251 $flattencore.protocol.$or$can_controller.v:2535$672"); }
-        if self.v252 != other.v252 { names.push("v252 $flattencore.protocol.$or$can_controller.v:2581$685"); }
-        if self.v253 != other.v253 { names.push("v253 $flattencore.protocol.$or$can_controller.v:2587$686"); }
-        if self.v256 != other.v256 { names.push("v256 $flattencore.protocol.$or$can_controller.v:2615$714"); }
-        if self.v263 != other.v263 { names.push("v263 $flattencore.protocol.$or$can_controller.v:2628$737"); }
-        if self.v264 != other.v264 { names.push("v264 $flattencore.protocol.$procmux$8316"); }
-        if self.v265 != other.v265 { names.push("v265 $flattencore.protocol.$procmux$8319"); }
-        if self.v269 != other.v269 { names.push("v269 $flattencore.protocol.$procmux$8346"); }
-        if self.v273 != other.v273 { names.push("v273 $flattencore.protocol.$procmux$8367"); }
-        if self.v274 != other.v274 { names.push("v274 $flattencore.protocol.$procmux$8373"); }
-        if self.v275 != other.v275 { names.push("v275 $flattencore.protocol.$procmux$8379"); }
-        if self.v277 != other.v277 { names.push("v277 $flattencore.protocol.assembler.$and$can_controller.v:2828$790"); }
-        if self.v279 != other.v279 { names.push("v279 $flattencore.protocol.assembler.$and$can_controller.v:2829$794"); }
-        if self.v283 != other.v283 { names.push("v283 $flattencore.protocol.assembler.$procmux$8137"); }
-        if self.v285 != other.v285 { names.push("v285 $flattencore.protocol.assembler.$procmux$8265"); }
-        if self.v286 != other.v286 { names.push("v286 $flattencore.protocol.assembler.$procmux$8271"); }
-        if self.v289 != other.v289 { names.push("v289 $flattencore.protocol.assembler.$sub$can_controller.v:2826$773"); }
-        if self.v298 != other.v298 { names.push("v298 $flattencore.protocol.capture.$eq$can_controller.v:3255$894"); }
-        if self.v315 != other.v315 { names.push("v315 $flattencore.protocol.capture.$procmux$8055"); }
-        if self.v316 != other.v316 { names.push("v316 $flattencore.protocol.crc.$procmux$7759"); }
-        if self.v319 != other.v319 { names.push("v319 $flattencore.protocol.faults.$add$can_controller.v:3643$984"); }
-        if self.v321 != other.v321 { names.push("v321 $flattencore.protocol.faults.$and$can_controller.v:3639$978"); }
-        if self.v324 != other.v324 { names.push("v324 $flattencore.protocol.faults.$and$can_controller.v:3680$1011"); }
-        if self.v325 != other.v325 { names.push("v325 $flattencore.protocol.faults.$eq$can_controller.v:3619$960"); }
-        if self.v326 != other.v326 { names.push("v326 $flattencore.protocol.faults.$eq$can_controller.v:3630$972"); }
-        if self.v328 != other.v328 { names.push("v328 $flattencore.protocol.faults.$eq$can_controller.v:3662$997"); }
-        if self.v329 != other.v329 { names.push("v329 $flattencore.protocol.faults.$ne$can_controller.v:3639$977"); }
-        if self.v330 != other.v330 { names.push("v330 $flattencore.protocol.faults.$ne$can_controller.v:3642$981"); }
-        if self.v331 != other.v331 { names.push("v331 $flattencore.protocol.faults.$ne$can_controller.v:3655$991"); }
-        if self.v334 != other.v334 { names.push("v334 $flattencore.protocol.faults.$procmux$7488"); }
-        if self.v335 != other.v335 { names.push("v335 $flattencore.protocol.faults.$procmux$7491"); }
-        if self.v336 != other.v336 { names.push("v336 $flattencore.protocol.faults.$procmux$7494"); }
-        if self.v337 != other.v337 { names.push("v337 $flattencore.protocol.faults.$procmux$7497"); }
-        if self.v341 != other.v341 { names.push("v341 $flattencore.protocol.faults.$procmux$7525"); }
-        if self.v345 != other.v345 { names.push("v345 $flattencore.protocol.faults.$procmux$7542"); }
-        if self.v349 != other.v349 { names.push("v349 $flattencore.protocol.faults.$procmux$7583"); }
-        if self.v353 != other.v353 { names.push("v353 $flattencore.protocol.faults.$procmux$7622"); }
-        if self.v354 != other.v354 { names.push("v354 $flattencore.protocol.faults.$procmux$7634"); }
-        if self.v355 != other.v355 { names.push("v355 $flattencore.protocol.faults.$procmux$7646"); }
-        if self.v362 != other.v362 { names.push("v362 $flattencore.protocol.faults.$procmux$7703"); }
-        if self.v363 != other.v363 { names.push("v363 $flattencore.protocol.faults.$procmux$7712"); }
-        if self.v364 != other.v364 { names.push("v364 $flattencore.protocol.faults.$procmux$7721"); }
-        if self.v371 != other.v371 { names.push("v371 $flattencore.protocol.faults.$sub$can_controller.v:3624$964"); }
-        if self.v372 != other.v372 { names.push("v372 $flattencore.protocol.faults.$sub$can_controller.v:3656$993"); }
-        if self.v376 != other.v376 { names.push("v376 $flattencore.protocol.frame.$and$can_controller.v:3897$1045"); }
-        if self.v377 != other.v377 { names.push("v377 $flattencore.protocol.frame.$and$can_controller.v:3916$1046"); }
-        if self.v386 != other.v386 { names.push("v386 $flattencore.protocol.frame.$eq$can_controller.v:3891$1027"); }
-        if self.v387 != other.v387 { names.push("v387 $flattencore.protocol.frame.$eq$can_controller.v:3892$1028"); }
-        if self.v388 != other.v388 { names.push("v388 $flattencore.protocol.frame.$eq$can_controller.v:3893$1029"); }
-        if self.v389 != other.v389 { names.push("v389 $flattencore.protocol.frame.$eq$can_controller.v:3895$1034"); }
-        if self.v391 != other.v391 { names.push("v391 $flattencore.protocol.frame.$eq$can_controller.v:3897$1043"); }
-        if self.v393 != other.v393 { names.push("v393 $flattencore.protocol.frame.$eq$can_controller.v:3920$1047"); }
-        if self.v394 != other.v394 { names.push("v394 $flattencore.protocol.frame.$eq$can_controller.v:3925$1049"); }
-        if self.v398 != other.v398 { names.push("v398 $flattencore.protocol.frame.$eq$can_controller.v:4036$1064"); }
-        if self.v402 != other.v402 { names.push("v402 $flattencore.protocol.frame.$or$can_controller.v:3895$1037"); }
-        if self.v403 != other.v403 { names.push("v403 $flattencore.protocol.frame.$or$can_controller.v:3896$1042"); }
-        if self.v404 != other.v404 { names.push("v404 $flattencore.protocol.frame.$or$can_controller.v:3936$1053"); }
-        if self.v405 != other.v405 { names.push("v405 $flattencore.protocol.frame.$procmux$6080_CMP0"); }
-        if self.v409 != other.v409 { names.push("v409 $flattencore.protocol.frame.$procmux$6188"); }
-        if self.v414 != other.v414 { names.push("v414 $flattencore.protocol.frame.$procmux$6279_CMP0"); }
-        if self.v417 != other.v417 { names.push("v417 $flattencore.protocol.frame.$procmux$6341_CMP0"); }
-        if self.v429 != other.v429 { names.push("v429 $flattencore.protocol.frame.$procmux$6594_CMP0"); }
-        if self.v433 != other.v433 { names.push("v433 $flattencore.protocol.frame.$procmux$6663"); }
-        if self.v436 != other.v436 { names.push("v436 $flattencore.protocol.frame.$procmux$6724"); }
-        if self.v437 != other.v437 { names.push("v437 $flattencore.protocol.frame.$procmux$6727_CMP0"); }
-        if self.v439 != other.v439 { names.push("v439 $flattencore.protocol.frame.$procmux$6744_CMP0"); }
-        if self.v440 != other.v440 { names.push("v440 $flattencore.protocol.frame.$procmux$6758"); }
-        if self.v441 != other.v441 { names.push("v441 $flattencore.protocol.frame.$procmux$6782_CMP0"); }
-        if self.v451 != other.v451 { names.push("v451 $flattencore.protocol.frame.$procmux$7036"); }
-        if self.v457 != other.v457 { names.push("v457 $flattencore.protocol.frame.$procmux$7120"); }
-        if self.v467 != other.v467 { names.push("v467 $flattencore.protocol.frame.$procmux$7272"); }
-        if self.v468 != other.v468 { names.push("v468 $flattencore.protocol.frame.$procmux$7278"); }
-        if self.v469 != other.v469 { names.push("v469 $flattencore.protocol.frame.$procmux$7284"); }
-        if self.v470 != other.v470 { names.push("v470 $flattencore.protocol.frame.$procmux$7290"); }
-        if self.v471 != other.v471 { names.push("v471 $flattencore.protocol.frame.$procmux$7296"); }
-        if self.v472 != other.v472 { names.push("v472 $flattencore.protocol.frame.$procmux$7302"); }
-        if self.v473 != other.v473 { names.push("v473 $flattencore.protocol.frame.$procmux$7308"); }
-        if self.v474 != other.v474 { names.push("v474 $flattencore.protocol.frame.$procmux$7320"); }
-        if self.v475 != other.v475 { names.push("v475 $flattencore.protocol.frame.$procmux$7326"); }
-        if self.v476 != other.v476 { names.push("v476 $flattencore.protocol.frame.$procmux$7332"); }
-        if self.v477 != other.v477 { names.push("v477 $flattencore.protocol.frame.$procmux$7338"); }
-        if self.v478 != other.v478 { names.push("v478 $flattencore.protocol.frame.$procmux$7344"); }
-        if self.v479 != other.v479 { names.push("v479 $flattencore.protocol.frame.$procmux$7350"); }
-        if self.v480 != other.v480 { names.push("v480 $flattencore.protocol.frame.$procmux$7356"); }
-        if self.v481 != other.v481 { names.push("v481 $flattencore.protocol.frame.$procmux$7362"); }
-        if self.v482 != other.v482 { names.push("v482 $flattencore.protocol.frame.$procmux$7374"); }
-        if self.v484 != other.v484 { names.push("v484 $flattencore.protocol.frame.$procmux$7417"); }
-        if self.v485 != other.v485 { names.push("v485 $flattencore.protocol.frame.$procmux$7423"); }
-        if self.v486 != other.v486 { names.push("v486 $flattencore.protocol.frame.$procmux$7429"); }
-        if self.v487 != other.v487 { names.push("v487 $flattencore.protocol.frame.$procmux$7434"); }
-        if self.v488 != other.v488 { names.push("v488 $flattencore.protocol.frame.$procmux$7437"); }
-        if self.v489 != other.v489 { names.push("v489 $flattencore.protocol.frame.$procmux$7440"); }
-        if self.v490 != other.v490 { names.push("v490 $flattencore.protocol.frame.$procmux$7443"); }
-        if self.v491 != other.v491 { names.push("v491 $flattencore.protocol.frame.$procmux$7446"); }
-        if self.v492 != other.v492 { names.push("v492 $flattencore.protocol.frame.$procmux$7449"); }
-        if self.v493 != other.v493 { names.push("v493 $flattencore.protocol.frame.$procmux$7452"); }
-        if self.v494 != other.v494 { names.push("v494 $flattencore.protocol.frame.$procmux$7458"); }
-        if self.v495 != other.v495 { names.push("v495 $flattencore.protocol.frame.$procmux$7461"); }
-        if self.v496 != other.v496 { names.push("v496 $flattencore.protocol.frame.$procmux$7464"); }
-        if self.v497 != other.v497 { names.push("v497 $flattencore.protocol.frame.$procmux$7467"); }
-        if self.v498 != other.v498 { names.push("v498 $flattencore.protocol.frame.$procmux$7470"); }
-        if self.v499 != other.v499 { names.push("v499 $flattencore.protocol.frame.$procmux$7473"); }
-        if self.v500 != other.v500 { names.push("v500 $flattencore.protocol.frame.$procmux$7476"); }
-        if self.v501 != other.v501 { names.push("v501 $flattencore.protocol.frame.$procmux$7479"); }
-        if self.v502 != other.v502 { names.push("v502 $flattencore.protocol.frame.$procmux$7485"); }
-        if self.v508 != other.v508 { names.push("v508 $flattencore.protocol.interframe.$and$can_controller.v:4233$1098"); }
-        if self.v509 != other.v509 { names.push("v509 $flattencore.protocol.interframe.$and$can_controller.v:4234$1100"); }
-        if self.v511 != other.v511 { names.push("v511 $flattencore.protocol.interframe.$and$can_controller.v:4234$1108"); }
-        if self.v512 != other.v512 { names.push("v512 $flattencore.protocol.interframe.$and$can_controller.v:4234$1110"); }
-        if self.v514 != other.v514 { names.push("v514 $flattencore.protocol.interframe.$and$can_controller.v:4289$1142"); }
-        if self.v515 != other.v515 { names.push("v515 $flattencore.protocol.interframe.$and$can_controller.v:4289$1144"); }
-        if self.v516 != other.v516 { names.push("v516 $flattencore.protocol.interframe.$and$can_controller.v:4311$1153"); }
-        if self.v517 != other.v517 { names.push("v517 $flattencore.protocol.interframe.$and$can_controller.v:4315$1155"); }
-        if self.v518 != other.v518 { names.push("v518 $flattencore.protocol.interframe.$and$can_controller.v:4338$1163"); }
-        if self.v521 != other.v521 { names.push("v521 $flattencore.protocol.interframe.$and$can_controller.v:4382$1185"); }
+        if self.v19 != other.v19 { names.push("v19 $auto$opt_dff.cc:195:make_patterns_logic$10007"); }
+        if self.v21 != other.v21 { names.push("v21 $auto$opt_dff.cc:195:make_patterns_logic$9792"); }
+        if self.v23 != other.v23 { names.push("v23 $auto$opt_dff.cc:195:make_patterns_logic$9810"); }
+        if self.v29 != other.v29 { names.push("v29 $auto$opt_dff.cc:195:make_patterns_logic$9870"); }
+        if self.v30 != other.v30 { names.push("v30 $auto$opt_dff.cc:195:make_patterns_logic$9872"); }
+        if self.v31 != other.v31 { names.push("v31 $auto$opt_dff.cc:195:make_patterns_logic$9874"); }
+        if self.v32 != other.v32 { names.push("v32 $auto$opt_dff.cc:195:make_patterns_logic$9884"); }
+        if self.v33 != other.v33 { names.push("v33 $auto$opt_dff.cc:195:make_patterns_logic$9888"); }
+        if self.v34 != other.v34 { names.push("v34 $auto$opt_dff.cc:195:make_patterns_logic$9892"); }
+        if self.v39 != other.v39 { names.push("v39 $auto$opt_dff.cc:195:make_patterns_logic$9912"); }
+        if self.v40 != other.v40 { names.push("v40 $auto$opt_dff.cc:195:make_patterns_logic$9954"); }
+        if self.v41 != other.v41 { names.push("v41 $auto$opt_dff.cc:210:make_patterns_logic$9703"); }
+        if self.v43 != other.v43 { names.push("v43 $auto$opt_dff.cc:210:make_patterns_logic$9863"); }
+        if self.v44 != other.v44 { names.push("v44 $auto$opt_dff.cc:210:make_patterns_logic$9966"); }
+        if self.v45 != other.v45 { names.push("v45 $auto$opt_dff.cc:210:make_patterns_logic$9968"); }
+        if self.v46 != other.v46 { names.push("v46 $auto$opt_dff.cc:220:make_patterns_logic$10009"); }
+        if self.v47 != other.v47 { names.push("v47 $auto$opt_dff.cc:220:make_patterns_logic$10021"); }
+        if self.v48 != other.v48 { names.push("v48 $auto$opt_dff.cc:220:make_patterns_logic$10029"); }
+        if self.v49 != other.v49 { names.push("v49 $auto$opt_dff.cc:220:make_patterns_logic$10033"); }
+        if self.v50 != other.v50 { names.push("v50 $auto$opt_dff.cc:220:make_patterns_logic$10037"); }
+        if self.v51 != other.v51 { names.push("v51 $auto$opt_dff.cc:220:make_patterns_logic$9677"); }
+        if self.v52 != other.v52 { names.push("v52 $auto$opt_dff.cc:220:make_patterns_logic$9682"); }
+        if self.v53 != other.v53 { names.push("v53 $auto$opt_dff.cc:220:make_patterns_logic$9706"); }
+        if self.v54 != other.v54 { names.push("v54 $auto$opt_dff.cc:220:make_patterns_logic$9711"); }
+        if self.v55 != other.v55 { names.push("v55 $auto$opt_dff.cc:220:make_patterns_logic$9716"); }
+        if self.v56 != other.v56 { names.push("v56 $auto$opt_dff.cc:220:make_patterns_logic$9733"); }
+        if self.v57 != other.v57 { names.push("v57 $auto$opt_dff.cc:220:make_patterns_logic$9738"); }
+        if self.v58 != other.v58 { names.push("v58 $auto$opt_dff.cc:220:make_patterns_logic$9757"); }
+        if self.v59 != other.v59 { names.push("v59 $auto$opt_dff.cc:220:make_patterns_logic$9761"); }
+        if self.v60 != other.v60 { names.push("v60 $auto$opt_dff.cc:220:make_patterns_logic$9765"); }
+        if self.v61 != other.v61 { names.push("v61 $auto$opt_dff.cc:220:make_patterns_logic$9769"); }
+        if self.v62 != other.v62 { names.push("v62 $auto$opt_dff.cc:220:make_patterns_logic$9773"); }
+        if self.v63 != other.v63 { names.push("v63 $auto$opt_dff.cc:220:make_patterns_logic$9777"); }
+        if self.v64 != other.v64 { names.push("v64 $auto$opt_dff.cc:220:make_patterns_logic$9781"); }
+        if self.v65 != other.v65 { names.push("v65 $auto$opt_dff.cc:220:make_patterns_logic$9785"); }
+        if self.v66 != other.v66 { names.push("v66 $auto$opt_dff.cc:220:make_patterns_logic$9826"); }
+        if self.v67 != other.v67 { names.push("v67 $auto$opt_dff.cc:220:make_patterns_logic$9845"); }
+        if self.v68 != other.v68 { names.push("v68 $auto$opt_dff.cc:220:make_patterns_logic$9848"); }
+        if self.v69 != other.v69 { names.push("v69 $auto$opt_dff.cc:220:make_patterns_logic$9860"); }
+        if self.v70 != other.v70 { names.push("v70 $auto$opt_dff.cc:220:make_patterns_logic$9866"); }
+        if self.v71 != other.v71 { names.push("v71 $auto$opt_dff.cc:220:make_patterns_logic$9878"); }
+        if self.v72 != other.v72 { names.push("v72 $auto$opt_dff.cc:220:make_patterns_logic$9896"); }
+        if self.v73 != other.v73 { names.push("v73 $auto$opt_dff.cc:220:make_patterns_logic$9914"); }
+        if self.v74 != other.v74 { names.push("v74 $auto$opt_dff.cc:220:make_patterns_logic$9925"); }
+        if self.v75 != other.v75 { names.push("v75 $auto$opt_dff.cc:220:make_patterns_logic$9956"); }
+        if self.v76 != other.v76 { names.push("v76 $auto$opt_dff.cc:220:make_patterns_logic$9961"); }
+        if self.v77 != other.v77 { names.push("v77 $auto$opt_dff.cc:220:make_patterns_logic$9971"); }
+        if self.v78 != other.v78 { names.push("v78 $auto$opt_dff.cc:220:make_patterns_logic$9979"); }
+        if self.v79 != other.v79 { names.push("v79 $auto$opt_dff.cc:220:make_patterns_logic$9986"); }
+        if self.v80 != other.v80 { names.push("v80 $auto$opt_dff.cc:220:make_patterns_logic$9990"); }
+        if self.v81 != other.v81 { names.push("v81 $auto$opt_dff.cc:220:make_patterns_logic$9995"); }
+        if self.v82 != other.v82 { names.push("v82 $auto$opt_dff.cc:250:combine_resets$9691"); }
+        if self.v83 != other.v83 { names.push("v83 $auto$opt_dff.cc:254:combine_resets$10004"); }
+        if self.v84 != other.v84 { names.push("v84 $auto$opt_dff.cc:254:combine_resets$10018"); }
+        if self.v85 != other.v85 { names.push("v85 $auto$opt_dff.cc:254:combine_resets$10025"); }
+        if self.v86 != other.v86 { names.push("v86 $auto$opt_dff.cc:254:combine_resets$9670"); }
+        if self.v87 != other.v87 { names.push("v87 $auto$opt_dff.cc:254:combine_resets$9694"); }
+        if self.v88 != other.v88 { names.push("v88 $auto$opt_dff.cc:254:combine_resets$9700"); }
+        if self.v90 != other.v90 { names.push("v90 $auto$opt_dff.cc:254:combine_resets$9788"); }
+        if self.v91 != other.v91 { names.push("v91 $auto$opt_dff.cc:254:combine_resets$9795"); }
+        if self.v92 != other.v92 { names.push("v92 $auto$opt_dff.cc:254:combine_resets$9817"); }
+        if self.v93 != other.v93 { names.push("v93 $auto$opt_dff.cc:254:combine_resets$9820"); }
+        if self.v94 != other.v94 { names.push("v94 $auto$opt_dff.cc:254:combine_resets$9835"); }
+        if self.v95 != other.v95 { names.push("v95 $auto$opt_dff.cc:254:combine_resets$9838"); }
+        if self.v96 != other.v96 { names.push("v96 $auto$opt_dff.cc:254:combine_resets$9930"); }
+        if self.v97 != other.v97 { names.push("v97 $auto$opt_dff.cc:254:combine_resets$9935"); }
+        if self.v98 != other.v98 { names.push("v98 $auto$opt_dff.cc:254:combine_resets$9940"); }
+        if self.v99 != other.v99 { names.push("v99 $auto$opt_dff.cc:254:combine_resets$9943"); }
+        if self.v100 != other.v100 { names.push("v100 $auto$opt_dff.cc:254:combine_resets$9998"); }
+        if self.v109 != other.v109 { names.push("v109 $auto$opt_expr.cc:276:group_cell_inputs$10059"); }
+        if self.v113 != other.v113 { names.push("v113 $auto$opt_expr.cc:276:group_cell_inputs$9501"); }
+        if self.v114 != other.v114 { names.push("v114 $auto$opt_expr.cc:276:group_cell_inputs$9505"); }
+        if self.v118 != other.v118 { names.push("v118 $auto$opt_expr.cc:276:group_cell_inputs$9649"); }
+        if self.v123 != other.v123 { names.push("v123 $auto$opt_reduce.cc:128:opt_pmux$9655"); }
+        if self.v125 != other.v125 { names.push("v125 $auto$opt_share.cc:241:merge_operators$9658"); }
+        if self.v127 != other.v127 { names.push("v127 $flattenconfiguration.$and$can_controller.v:924$260"); }
+        if self.v133 != other.v133 { names.push("v133 $flattenconfiguration.$or$can_controller.v:937$279"); }
+        if self.v134 != other.v134 { names.push("v134 $flattencore.bit_timing.$add$can_controller.v:1413$367"); }
+        if self.v135 != other.v135 { names.push("v135 $flattencore.bit_timing.$add$can_controller.v:1480$385"); }
+        if self.v137 != other.v137 { names.push("v137 $flattencore.bit_timing.$add$can_controller.v:1485$391"); }
+        if self.v140 != other.v140 { names.push("v140 $flattencore.bit_timing.$and$can_controller.v:1460$378"); }
+        if self.v142 != other.v142 { names.push("v142 $flattencore.bit_timing.$and$can_controller.v:1462$382"); }
+        if self.v143 != other.v143 { names.push("v143 $flattencore.bit_timing.$and$can_controller.v:1514$404"); }
+        if self.v145 != other.v145 { names.push("v145 $flattencore.bit_timing.$and$can_controller.v:1515$408"); }
+        if self.v149 != other.v149 { names.push("v149 $flattencore.bit_timing.$and$can_controller.v:1515$416"); }
+        if self.v150 != other.v150 { names.push("v150 $flattencore.bit_timing.$and$can_controller.v:1518$419"); }
+        if self.v153 != other.v153 { names.push("v153 $flattencore.bit_timing.$and$can_controller.v:1520$427"); }
+        if self.v157 != other.v157 { names.push("v157 $flattencore.bit_timing.$ge$can_controller.v:1414$368"); }
+        if self.v161 != other.v161 { names.push("v161 $flattencore.bit_timing.$not$can_controller.v:1421$370"); }
+        if self.v166 != other.v166 { names.push("v166 $flattencore.bit_timing.$not$can_controller.v:1515$415"); }
+        if self.v167 != other.v167 { names.push("v167 $flattencore.bit_timing.$not$can_controller.v:1519$422"); }
+        if self.v172 != other.v172 { names.push("v172 $flattencore.bit_timing.$or$can_controller.v:1519$426"); }
+        if self.v178 != other.v178 { names.push("v178 $flattencore.bit_timing.$procmux$8414"); }
+        if self.v179 != other.v179 { names.push("v179 $flattencore.bit_timing.$procmux$8432"); }
+        if self.v180 != other.v180 { names.push("v180 $flattencore.bit_timing.$procmux$8435"); }
+        if self.v183 != other.v183 { names.push("v183 $flattencore.bit_timing.$procmux$8447"); }
+        if self.v185 != other.v185 { names.push("v185 $flattencore.bit_timing.$procmux$8460_CMP0"); }
+        if self.v186 != other.v186 { names.push("v186 $flattencore.bit_timing.$procmux$8465"); }
+        if self.v187 != other.v187 { names.push("v187 $flattencore.bit_timing.$procmux$8466_CMP0"); }
+        if self.v188 != other.v188 { names.push("v188 $flattencore.bit_timing.$procmux$8472"); }
+        if self.v189 != other.v189 { names.push("v189 $flattencore.bit_timing.$procmux$8490"); }
+        if self.v190 != other.v190 { names.push("v190 $flattencore.bit_timing.$procmux$8494"); }
+        if self.v192 != other.v192 { names.push("v192 $flattencore.bit_timing.$procmux$8503"); }
+        if self.v198 != other.v198 { names.push("v198 $flattencore.bit_timing.$procmux$8575_CMP0"); }
+        if self.v200 != other.v200 { names.push("v200 $flattencore.bit_timing.$procmux$8604"); }
+        if self.v201 != other.v201 { names.push("v201 $flattencore.bit_timing.$procmux$8613"); }
+        if self.v202 != other.v202 { names.push("v202 $flattencore.bit_timing.$procmux$8621"); }
+        if self.v203 != other.v203 { names.push("v203 $flattencore.bit_timing.$procmux$8630"); }
+        if self.v215 != other.v215 { names.push("v215 $flattencore.bit_timing.sampling.$and$can_controller.v:1708$465"); }
+        if self.v222 != other.v222 { names.push("v222 $flattencore.bit_timing.sampling.$procmux$8390"); }
+        if self.v223 != other.v223 { names.push("v223 $flattencore.bit_timing.sampling.$procmux$8393"); }
+        if self.v224 != other.v224 { names.push("v224 $flattencore.bit_timing.sampling.$procmux$8396"); }
+        if self.v225 != other.v225 { names.push("v225 $flattencore.bit_timing.sampling.$procmux$8402"); }
+        if self.v226 != other.v226 { names.push("v226 $flattencore.protocol.$and$can_controller.v:2452$654"); }
+        if self.v228 != other.v228 { names.push("v228 $flattencore.protocol.$and$can_controller.v:2454$659"); }
+        if self.v229 != other.v229 { names.push("v229 $flattencore.protocol.$and$can_controller.v:2551$675"); }
+        if self.v230 != other.v230 { names.push("v230 $flattencore.protocol.$and$can_controller.v:2554$677"); }
+        if self.v231 != other.v231 { names.push("v231 $flattencore.protocol.$and$can_controller.v:2555$679"); }
+        if self.v233 != other.v233 { names.push("v233 $flattencore.protocol.$and$can_controller.v:2604$696"); }
+        if self.v234 != other.v234 { names.push("v234 $flattencore.protocol.$eq$can_controller.v:2519$667"); }
+        if self.v244 != other.v244 { names.push("v244 $flattencore.protocol.$ne$can_controller.v:2600$692"); }
+        if self.v246 != other.v246 { names.push("v246 $flattencore.protocol.$not$can_controller.v:2557$680"); }
+        if self.v249 != other.v249 { names.push("v249 $flattencore.protocol.$or$can_controller.v:2525$670"); }
+        if self.v250 != other.v250 { names.push("v250 $flattencore.protocol.$or$can_controller.v:2535$671"); }
+        if self.v251 != other.v251 { names.push("v251 $flattencore.protocol.$or$can_controller.v:2581$684"); }
+        if self.v252 != other.v252 { names.push("v252 $flattencore.protocol.$or$can_controller.v:2587$685"); }
+        if self.v255 != other.v255 { names.push("v255 $flattencore.protocol.$or$can_controller.v:2615$713"); }
+        if self.v262 != other.v262 { names.push("v262 $flattencore.protocol.$or$can_controller.v:2628$736"); }
+        if self.v263 != other.v263 { names.push("v263 $flattencore.protocol.$procmux$8315"); }
+        if self.v264 != other.v264 { names.push("v264 $flattencore.protocol.$procmux$8318"); }
+        if self.v268 != other.v268 { names.push("v268 $flattencore.protocol.$procmux$8345"); }
+        if self.v272 != other.v272 { names.push("v272 $flattencore.protocol.$procmux$8366"); }
+        if self.v273 != other.v273 { names.push("v273 $flattencore.protocol.$procmux$8372"); }
+        if self.v274 != other.v274 { names.push("v274 $flattencore.protocol.$procmux$8378"); }
+        if self.v276 != other.v276 { names.push("v276 $flattencore.protocol.assembler.$and$can_controller.v:2828$789"); }
+        if self.v278 != other.v278 { names.push("v278 $flattencore.protocol.assembler.$and$can_controller.v:2829$793"); }
+        if self.v282 != other.v282 { names.push("v282 $flattencore.protocol.assembler.$procmux$8136"); }
+        if self.v284 != other.v284 { names.push("v284 $flattencore.protocol.assembler.$procmux$8264"); }
+        if self.v285 != other.v285 { names.push("v285 $flattencore.protocol.assembler.$procmux$8270"); }
+        if self.v288 != other.v288 { names.push("v288 $flattencore.protocol.assembler.$sub$can_controller.v:2826$772"); }
+        if self.v297 != other.v297 { names.push("v297 $flattencore.protocol.capture.$eq$can_controller.v:3255$893"); }
+        if self.v314 != other.v314 { names.push("v314 $flattencore.protocol.capture.$procmux$8054"); }
+        if self.v315 != other.v315 { names.push("v315 $flattencore.protocol.crc.$procmux$7758"); }
+        if self.v318 != other.v318 { names.push("v318 $flattencore.protocol.faults.$add$can_controller.v:3643$983"); }
+        if self.v320 != other.v320 { names.push("v320 $flattencore.protocol.faults.$and$can_controller.v:3639$977"); }
+        if self.v323 != other.v323 { names.push("v323 $flattencore.protocol.faults.$and$can_controller.v:3680$1010"); }
+        if self.v324 != other.v324 { names.push("v324 $flattencore.protocol.faults.$eq$can_controller.v:3619$959"); }
+        if self.v325 != other.v325 { names.push("v325 $flattencore.protocol.faults.$eq$can_controller.v:3630$971"); }
+        if self.v327 != other.v327 { names.push("v327 $flattencore.protocol.faults.$eq$can_controller.v:3662$996"); }
+        if self.v328 != other.v328 { names.push("v328 $flattencore.protocol.faults.$ne$can_controller.v:3639$976"); }
+        if self.v329 != other.v329 { names.push("v329 $flattencore.protocol.faults.$ne$can_controller.v:3642$980"); }
+        if self.v330 != other.v330 { names.push("v330 $flattencore.protocol.faults.$ne$can_controller.v:3655$990"); }
+        if self.v333 != other.v333 { names.push("v333 $flattencore.protocol.faults.$procmux$7487"); }
+        if self.v334 != other.v334 { names.push("v334 $flattencore.protocol.faults.$procmux$7490"); }
+        if self.v335 != other.v335 { names.push("v335 $flattencore.protocol.faults.$procmux$7493"); }
+        if self.v336 != other.v336 { names.push("v336 $flattencore.protocol.faults.$procmux$7496"); }
+        if self.v340 != other.v340 { names.push("v340 $flattencore.protocol.faults.$procmux$7524"); }
+        if self.v344 != other.v344 { names.push("v344 $flattencore.protocol.faults.$procmux$7541"); }
+        if self.v348 != other.v348 { names.push("v348 $flattencore.protocol.faults.$procmux$7582"); }
+        if self.v352 != other.v352 { names.push("v352 $flattencore.protocol.faults.$procmux$7621"); }
+        if self.v353 != other.v353 { names.push("v353 $flattencore.protocol.faults.$procmux$7633"); }
+        if self.v354 != other.v354 { names.push("v354 $flattencore.protocol.faults.$procmux$7645"); }
+        if self.v361 != other.v361 { names.push("v361 $flattencore.protocol.faults.$procmux$7702"); }
+        if self.v362 != other.v362 { names.push("v362 $flattencore.protocol.faults.$procmux$7711"); }
+        if self.v363 != other.v363 { names.push("v363 $flattencore.protocol.faults.$procmux$7720"); }
+        if self.v370 != other.v370 { names.push("v370 $flattencore.protocol.faults.$sub$can_controller.v:3624$963"); }
+        if self.v371 != other.v371 { names.push("v371 $flattencore.protocol.faults.$sub$can_controller.v:3656$992"); }
+        if self.v375 != other.v375 { names.push("v375 $flattencore.protocol.frame.$and$can_controller.v:3897$1044"); }
+        if self.v376 != other.v376 { names.push("v376 $flattencore.protocol.frame.$and$can_controller.v:3916$1045"); }
+        if self.v385 != other.v385 { names.push("v385 $flattencore.protocol.frame.$eq$can_controller.v:3891$1026"); }
+        if self.v386 != other.v386 { names.push("v386 $flattencore.protocol.frame.$eq$can_controller.v:3892$1027"); }
+        if self.v387 != other.v387 { names.push("v387 $flattencore.protocol.frame.$eq$can_controller.v:3893$1028"); }
+        if self.v388 != other.v388 { names.push("v388 $flattencore.protocol.frame.$eq$can_controller.v:3895$1033"); }
+        if self.v390 != other.v390 { names.push("v390 $flattencore.protocol.frame.$eq$can_controller.v:3897$1042"); }
+        if self.v392 != other.v392 { names.push("v392 $flattencore.protocol.frame.$eq$can_controller.v:3920$1046"); }
+        if self.v393 != other.v393 { names.push("v393 $flattencore.protocol.frame.$eq$can_controller.v:3925$1048"); }
+        if self.v397 != other.v397 { names.push("v397 $flattencore.protocol.frame.$eq$can_controller.v:4036$1063"); }
+        if self.v401 != other.v401 { names.push("v401 $flattencore.protocol.frame.$or$can_controller.v:3895$1036"); }
+        if self.v402 != other.v402 { names.push("v402 $flattencore.protocol.frame.$or$can_controller.v:3896$1041"); }
+        if self.v403 != other.v403 { names.push("v403 $flattencore.protocol.frame.$or$can_controller.v:3936$1052"); }
+        if self.v404 != other.v404 { names.push("v404 $flattencore.protocol.frame.$procmux$6079_CMP0"); }
+        if self.v408 != other.v408 { names.push("v408 $flattencore.protocol.frame.$procmux$6187"); }
+        if self.v413 != other.v413 { names.push("v413 $flattencore.protocol.frame.$procmux$6278_CMP0"); }
+        if self.v416 != other.v416 { names.push("v416 $flattencore.protocol.frame.$procmux$6340_CMP0"); }
+        if self.v428 != other.v428 { names.push("v428 $flattencore.protocol.frame.$procmux$6593_CMP0"); }
+        if self.v432 != other.v432 { names.push("v432 $flattencore.protocol.frame.$procmux$6662"); }
+        if self.v435 != other.v435 { names.push("v435 $flattencore.protocol.frame.$procmux$6723"); }
+        if self.v436 != other.v436 { names.push("v436 $flattencore.protocol.frame.$procmux$6726_CMP0"); }
+        if self.v438 != other.v438 { names.push("v438 $flattencore.protocol.frame.$procmux$6743_CMP0"); }
+        if self.v439 != other.v439 { names.push("v439 $flattencore.protocol.frame.$procmux$6757"); }
+        if self.v440 != other.v440 { names.push("v440 $flattencore.protocol.frame.$procmux$6781_CMP0"); }
+        if self.v450 != other.v450 { names.push("v450 $flattencore.protocol.frame.$procmux$7035"); }
+        if self.v456 != other.v456 { names.push("v456 $flattencore.protocol.frame.$procmux$7119"); }
+        if self.v466 != other.v466 { names.push("v466 $flattencore.protocol.frame.$procmux$7271"); }
+        if self.v467 != other.v467 { names.push("v467 $flattencore.protocol.frame.$procmux$7277"); }
+        if self.v468 != other.v468 { names.push("v468 $flattencore.protocol.frame.$procmux$7283"); }
+        if self.v469 != other.v469 { names.push("v469 $flattencore.protocol.frame.$procmux$7289"); }
+        if self.v470 != other.v470 { names.push("v470 $flattencore.protocol.frame.$procmux$7295"); }
+        if self.v471 != other.v471 { names.push("v471 $flattencore.protocol.frame.$procmux$7301"); }
+        if self.v472 != other.v472 { names.push("v472 $flattencore.protocol.frame.$procmux$7307"); }
+        if self.v473 != other.v473 { names.push("v473 $flattencore.protocol.frame.$procmux$7319"); }
+        if self.v474 != other.v474 { names.push("v474 $flattencore.protocol.frame.$procmux$7325"); }
+        if self.v475 != other.v475 { names.push("v475 $flattencore.protocol.frame.$procmux$7331"); }
+        if self.v476 != other.v476 { names.push("v476 $flattencore.protocol.frame.$procmux$7337"); }
+        if self.v477 != other.v477 { names.push("v477 $flattencore.protocol.frame.$procmux$7343"); }
+        if self.v478 != other.v478 { names.push("v478 $flattencore.protocol.frame.$procmux$7349"); }
+        if self.v479 != other.v479 { names.push("v479 $flattencore.protocol.frame.$procmux$7355"); }
+        if self.v480 != other.v480 { names.push("v480 $flattencore.protocol.frame.$procmux$7361"); }
+        if self.v481 != other.v481 { names.push("v481 $flattencore.protocol.frame.$procmux$7373"); }
+        if self.v483 != other.v483 { names.push("v483 $flattencore.protocol.frame.$procmux$7416"); }
+        if self.v484 != other.v484 { names.push("v484 $flattencore.protocol.frame.$procmux$7422"); }
+        if self.v485 != other.v485 { names.push("v485 $flattencore.protocol.frame.$procmux$7428"); }
+        if self.v486 != other.v486 { names.push("v486 $flattencore.protocol.frame.$procmux$7433"); }
+        if self.v487 != other.v487 { names.push("v487 $flattencore.protocol.frame.$procmux$7436"); }
+        if self.v488 != other.v488 { names.push("v488 $flattencore.protocol.frame.$procmux$7439"); }
+        if self.v489 != other.v489 { names.push("v489 $flattencore.protocol.frame.$procmux$7442"); }
+        if self.v490 != other.v490 { names.push("v490 $flattencore.protocol.frame.$procmux$7445"); }
+        if self.v491 != other.v491 { names.push("v491 $flattencore.protocol.frame.$procmux$7448"); }
+        if self.v492 != other.v492 { names.push("v492 $flattencore.protocol.frame.$procmux$7451"); }
+        if self.v493 != other.v493 { names.push("v493 $flattencore.protocol.frame.$procmux$7457"); }
+        if self.v494 != other.v494 { names.push("v494 $flattencore.protocol.frame.$procmux$7460"); }
+        if self.v495 != other.v495 { names.push("v495 $flattencore.protocol.frame.$procmux$7463"); }
+        if self.v496 != other.v496 { names.push("v496 $flattencore.protocol.frame.$procmux$7466"); }
+        if self.v497 != other.v497 { names.push("v497 $flattencore.protocol.frame.$procmux$7469"); }
+        if self.v498 != other.v498 { names.push("v498 $flattencore.protocol.frame.$procmux$7472"); }
+        if self.v499 != other.v499 { names.push("v499 $flattencore.protocol.frame.$procmux$7475"); }
+        if self.v500 != other.v500 { names.push("v500 $flattencore.protocol.frame.$procmux$7478"); }
+        if self.v501 != other.v501 { names.push("v501 $flattencore.protocol.frame.$procmux$7484"); }
+        if self.v507 != other.v507 { names.push("v507 $flattencore.protocol.interframe.$and$can_controller.v:4233$1097"); }
+        if self.v508 != other.v508 { names.push("v508 $flattencore.protocol.interframe.$and$can_controller.v:4234$1099"); }
+        if self.v510 != other.v510 { names.push("v510 $flattencore.protocol.interframe.$and$can_controller.v:4234$1107"); }
+        if self.v511 != other.v511 { names.push("v511 $flattencore.protocol.interframe.$and$can_controller.v:4234$1109"); }
+        if self.v513 != other.v513 { names.push("v513 $flattencore.protocol.interframe.$and$can_controller.v:4289$1141"); }
+        if self.v514 != other.v514 { names.push("v514 $flattencore.protocol.interframe.$and$can_controller.v:4289$1143"); }
+        if self.v515 != other.v515 { names.push("v515 $flattencore.protocol.interframe.$and$can_controller.v:4311$1152"); }
+        if self.v516 != other.v516 { names.push("v516 $flattencore.protocol.interframe.$and$can_controller.v:4315$1154"); }
+        if self.v517 != other.v517 { names.push("v517 $flattencore.protocol.interframe.$and$can_controller.v:4338$1162"); }
+        if self.v520 != other.v520 { names.push("v520 $flattencore.protocol.interframe.$and$can_controller.v:4382$1184"); }
+        if self.v525 != other.v525 { names.push("v525 $flattencore.protocol.interframe.$eq$can_controller.v:4234$1102"); }
         if self.v526 != other.v526 { names.push("v526 $flattencore.protocol.interframe.$eq$can_controller.v:4234$1103"); }
-        if self.v527 != other.v527 { names.push("v527 $flattencore.protocol.interframe.$eq$can_controller.v:4234$1104"); }
+        if self.v527 != other.v527 { names.push("v527 $flattencore.protocol.interframe.$eq$can_controller.v:4234$1105"); }
         if self.v528 != other.v528 { names.push("v528 $flattencore.protocol.interframe.$eq$can_controller.v:4234$1106"); }
-        if self.v529 != other.v529 { names.push("v529 $flattencore.protocol.interframe.$eq$can_controller.v:4234$1107"); }
-        if self.v531 != other.v531 { names.push("v531 $flattencore.protocol.interframe.$eq$can_controller.v:4261$1134"); }
-        if self.v532 != other.v532 { names.push("v532 $flattencore.protocol.interframe.$eq$can_controller.v:4268$1136"); }
-        if self.v533 != other.v533 { names.push("v533 $flattencore.protocol.interframe.$eq$can_controller.v:4280$1139"); }
-        if self.v534 != other.v534 { names.push("v534 $flattencore.protocol.interframe.$eq$can_controller.v:4308$1147"); }
-        if self.v535 != other.v535 { names.push("v535 $flattencore.protocol.interframe.$eq$can_controller.v:4324$1158"); }
-        if self.v536 != other.v536 { names.push("v536 $flattencore.protocol.interframe.$eq$can_controller.v:4351$1171"); }
-        if self.v539 != other.v539 { names.push("v539 $flattencore.protocol.interframe.$eq$can_controller.v:4409$1192"); }
-        if self.v540 != other.v540 { names.push("v540 $flattencore.protocol.interframe.$ne$can_controller.v:4311$1151"); }
-        if self.v542 != other.v542 { names.push("v542 $flattencore.protocol.interframe.$not$can_controller.v:4233$1090"); }
-        if self.v544 != other.v544 { names.push("v544 $flattencore.protocol.interframe.$not$can_controller.v:4233$1095"); }
-        if self.v547 != other.v547 { names.push("v547 $flattencore.protocol.interframe.$or$can_controller.v:4232$1089"); }
-        if self.v548 != other.v548 { names.push("v548 $flattencore.protocol.interframe.$or$can_controller.v:4234$1105"); }
-        if self.v549 != other.v549 { names.push("v549 $flattencore.protocol.interframe.$or$can_controller.v:4234$1109"); }
-        if self.v550 != other.v550 { names.push("v550 $flattencore.protocol.interframe.$or$can_controller.v:4414$1195"); }
-        if self.v561 != other.v561 { names.push("v561 $flattencore.protocol.interframe.$procmux$4239"); }
-        if self.v562 != other.v562 { names.push("v562 $flattencore.protocol.interframe.$procmux$4245"); }
-        if self.v564 != other.v564 { names.push("v564 $flattencore.protocol.interframe.$procmux$4257"); }
-        if self.v569 != other.v569 { names.push("v569 $flattencore.protocol.interframe.$procmux$4289_CMP0"); }
-        if self.v573 != other.v573 { names.push("v573 $flattencore.protocol.interframe.$procmux$4347_CMP0"); }
-        if self.v586 != other.v586 { names.push("v586 $flattencore.protocol.interframe.$procmux$4663"); }
-        if self.v600 != other.v600 { names.push("v600 $flattencore.protocol.interframe.$procmux$4915_CMP0"); }
-        if self.v606 != other.v606 { names.push("v606 $flattencore.protocol.interframe.$procmux$5041"); }
-        if self.v613 != other.v613 { names.push("v613 $flattencore.protocol.interframe.$procmux$5197"); }
-        if self.v615 != other.v615 { names.push("v615 $flattencore.protocol.interframe.$procmux$5242"); }
-        if self.v619 != other.v619 { names.push("v619 $flattencore.protocol.interframe.$procmux$5333"); }
-        if self.v638 != other.v638 { names.push("v638 $flattencore.protocol.interframe.$procmux$5677_CMP0"); }
-        if self.v644 != other.v644 { names.push("v644 $flattencore.protocol.interframe.$procmux$5777"); }
-        if self.v645 != other.v645 { names.push("v645 $flattencore.protocol.interframe.$procmux$5789"); }
-        if self.v646 != other.v646 { names.push("v646 $flattencore.protocol.interframe.$procmux$5802"); }
-        if self.v649 != other.v649 { names.push("v649 $flattencore.protocol.interframe.$procmux$5860"); }
-        if self.v651 != other.v651 { names.push("v651 $flattencore.protocol.interframe.$procmux$5884"); }
-        if self.v653 != other.v653 { names.push("v653 $flattencore.protocol.interframe.$procmux$5905"); }
-        if self.v655 != other.v655 { names.push("v655 $flattencore.protocol.interframe.$procmux$5938"); }
-        if self.v663 != other.v663 { names.push("v663 $flattencore.protocol.interframe.$procmux$5998"); }
-        if self.v664 != other.v664 { names.push("v664 $flattencore.protocol.interframe.$procmux$6004"); }
-        if self.v665 != other.v665 { names.push("v665 $flattencore.protocol.interframe.$procmux$6009"); }
-        if self.v666 != other.v666 { names.push("v666 $flattencore.protocol.interframe.$procmux$6021"); }
-        if self.v667 != other.v667 { names.push("v667 $flattencore.protocol.interframe.$procmux$6024"); }
-        if self.v668 != other.v668 { names.push("v668 $flattencore.protocol.interframe.$procmux$6027"); }
-        if self.v669 != other.v669 { names.push("v669 $flattencore.protocol.interframe.$procmux$6030"); }
-        if self.v670 != other.v670 { names.push("v670 $flattencore.protocol.interframe.$procmux$6033"); }
-        if self.v671 != other.v671 { names.push("v671 $flattencore.protocol.interframe.$procmux$6036"); }
-        if self.v672 != other.v672 { names.push("v672 $flattencore.protocol.interframe.$procmux$6042"); }
-        if self.v673 != other.v673 { names.push("v673 $flattencore.protocol.interframe.$procmux$6054"); }
-        if self.v674 != other.v674 { names.push("v674 $flattencore.protocol.interframe.$procmux$6057"); }
-        if self.v675 != other.v675 { names.push("v675 $flattencore.protocol.interframe.$procmux$6060"); }
-        if self.v676 != other.v676 { names.push("v676 $flattencore.protocol.interframe.$procmux$6063"); }
-        if self.v677 != other.v677 { names.push("v677 $flattencore.protocol.interframe.$procmux$6066"); }
-        if self.v679 != other.v679 { names.push("v679 $flattencore.protocol.sender.$add$can_controller.v:4694$1239"); }
-        if self.v680 != other.v680 { names.push("v680 $flattencore.protocol.sender.$add$can_controller.v:4715$1250"); }
-        if self.v683 != other.v683 { names.push("v683 $flattencore.protocol.sender.$and$can_controller.v:4815$1271"); }
-        if self.v686 != other.v686 { names.push("v686 $flattencore.protocol.sender.$and$can_controller.v:4815$1276"); }
-        if self.v687 != other.v687 { names.push("v687 $flattencore.protocol.sender.$eq$can_controller.v:4683$1229"); }
-        if self.v688 != other.v688 { names.push("v688 $flattencore.protocol.sender.$eq$can_controller.v:4687$1230"); }
-        if self.v689 != other.v689 { names.push("v689 $flattencore.protocol.sender.$eq$can_controller.v:4714$1249"); }
-        if self.v690 != other.v690 { names.push("v690 $flattencore.protocol.sender.$eq$can_controller.v:4733$1256"); }
-        if self.v695 != other.v695 { names.push("v695 $flattencore.protocol.sender.$eq$can_controller.v:4798$1264"); }
-        if self.v697 != other.v697 { names.push("v697 $flattencore.protocol.sender.$not$can_controller.v:4815$1273"); }
-        if self.v699 != other.v699 { names.push("v699 $flattencore.protocol.sender.$or$can_controller.v:4827$1281"); }
-        if self.v700 != other.v700 { names.push("v700 $flattencore.protocol.sender.$procmux$3795"); }
-        if self.v701 != other.v701 { names.push("v701 $flattencore.protocol.sender.$procmux$3798"); }
-        if self.v706 != other.v706 { names.push("v706 $flattencore.protocol.sender.$procmux$3815"); }
-        if self.v707 != other.v707 { names.push("v707 $flattencore.protocol.sender.$procmux$3818_CMP0"); }
-        if self.v709 != other.v709 { names.push("v709 $flattencore.protocol.sender.$procmux$3830_CMP0"); }
-        if self.v710 != other.v710 { names.push("v710 $flattencore.protocol.sender.$procmux$3836"); }
-        if self.v712 != other.v712 { names.push("v712 $flattencore.protocol.sender.$procmux$3852_CMP0"); }
-        if self.v715 != other.v715 { names.push("v715 $flattencore.protocol.sender.$procmux$3876_CMP0"); }
-        if self.v722 != other.v722 { names.push("v722 $flattencore.protocol.sender.$procmux$3969_CMP0"); }
-        if self.v728 != other.v728 { names.push("v728 $flattencore.protocol.sender.$procmux$4047_CMP0"); }
-        if self.v729 != other.v729 { names.push("v729 $flattencore.protocol.sender.$procmux$4049_CMP0"); }
-        if self.v730 != other.v730 { names.push("v730 $flattencore.protocol.sender.$procmux$4054_CMP0"); }
-        if self.v731 != other.v731 { names.push("v731 $flattencore.protocol.sender.$procmux$4064"); }
-        if self.v732 != other.v732 { names.push("v732 $flattencore.protocol.sender.$procmux$4067"); }
-        if self.v733 != other.v733 { names.push("v733 $flattencore.protocol.sender.$procmux$4070"); }
-        if self.v734 != other.v734 { names.push("v734 $flattencore.protocol.sender.$procmux$4073"); }
-        if self.v738 != other.v738 { names.push("v738 $flattencore.protocol.sender.$procmux$4092"); }
-        if self.v739 != other.v739 { names.push("v739 $flattencore.protocol.sender.$procmux$4097"); }
-        if self.v740 != other.v740 { names.push("v740 $flattencore.protocol.sender.$procmux$4104"); }
-        if self.v741 != other.v741 { names.push("v741 $flattencore.protocol.sender.$procmux$4110"); }
-        if self.v742 != other.v742 { names.push("v742 $flattencore.protocol.sender.$procmux$4116"); }
-        if self.v748 != other.v748 { names.push("v748 $flattencore.protocol.sender.$sub$can_controller.v:4762$1257"); }
-        if self.v750 != other.v750 { names.push("v750 $flattencore.protocol.sender.$xor$can_controller.v:4792$1263"); }
-        if self.v752 != other.v752 { names.push("v752 $flattencore.protocol.stuffing.$and$can_controller.v:4985$1305"); }
-        if self.v753 != other.v753 { names.push("v753 $flattencore.protocol.stuffing.$and$can_controller.v:4986$1307"); }
-        if self.v757 != other.v757 { names.push("v757 $flattencore.protocol.stuffing.$or$can_controller.v:4989$1313"); }
-        if self.v758 != other.v758 { names.push("v758 $flattencore.protocol.stuffing.$procmux$3742"); }
-        if self.v759 != other.v759 { names.push("v759 $flattencore.protocol.stuffing.$procmux$3748"); }
-        if self.v761 != other.v761 { names.push("v761 $flattencore.protocol.stuffing.$procmux$3766"); }
-        if self.v763 != other.v763 { names.push("v763 $flattendecode.$and$can_controller.v:5178$1351"); }
-        if self.v764 != other.v764 { names.push("v764 $flattendecode.$and$can_controller.v:5179$1352"); }
-        if self.v765 != other.v765 { names.push("v765 $flattendecode.$and$can_controller.v:5180$1353"); }
-        if self.v766 != other.v766 { names.push("v766 $flattendecode.$and$can_controller.v:5181$1354"); }
-        if self.v770 != other.v770 { names.push("v770 $flattendecode.$and$can_controller.v:5183$1359"); }
-        if self.v771 != other.v771 { names.push("v771 $flattendecode.$and$can_controller.v:5184$1361"); }
-        if self.v772 != other.v772 { names.push("v772 $flattendecode.$eq$can_controller.v:5183$1358"); }
-        if self.v773 != other.v773 { names.push("v773 $flattendecode.$procmux$3720"); }
-        if self.v774 != other.v774 { names.push("v774 $flattendecode.$procmux$3723"); }
-        if self.v775 != other.v775 { names.push("v775 $flattendecode.$procmux$3726"); }
-        if self.v776 != other.v776 { names.push("v776 $flattendecode.$procmux$3729"); }
-        if self.v777 != other.v777 { names.push("v777 $flattendecode.$procmux$3732"); }
+        if self.v530 != other.v530 { names.push("v530 $flattencore.protocol.interframe.$eq$can_controller.v:4261$1133"); }
+        if self.v531 != other.v531 { names.push("v531 $flattencore.protocol.interframe.$eq$can_controller.v:4268$1135"); }
+        if self.v532 != other.v532 { names.push("v532 $flattencore.protocol.interframe.$eq$can_controller.v:4280$1138"); }
+        if self.v533 != other.v533 { names.push("v533 $flattencore.protocol.interframe.$eq$can_controller.v:4308$1146"); }
+        if self.v534 != other.v534 { names.push("v534 $flattencore.protocol.interframe.$eq$can_controller.v:4324$1157"); }
+        if self.v535 != other.v535 { names.push("v535 $flattencore.protocol.interframe.$eq$can_controller.v:4351$1170"); }
+        if self.v538 != other.v538 { names.push("v538 $flattencore.protocol.interframe.$eq$can_controller.v:4409$1191"); }
+        if self.v539 != other.v539 { names.push("v539 $flattencore.protocol.interframe.$ne$can_controller.v:4311$1150"); }
+        if self.v541 != other.v541 { names.push("v541 $flattencore.protocol.interframe.$not$can_controller.v:4233$1089"); }
+        if self.v543 != other.v543 { names.push("v543 $flattencore.protocol.interframe.$not$can_controller.v:4233$1094"); }
+        if self.v546 != other.v546 { names.push("v546 $flattencore.protocol.interframe.$or$can_controller.v:4232$1088"); }
+        if self.v547 != other.v547 { names.push("v547 $flattencore.protocol.interframe.$or$can_controller.v:4234$1104"); }
+        if self.v548 != other.v548 { names.push("v548 $flattencore.protocol.interframe.$or$can_controller.v:4234$1108"); }
+        if self.v549 != other.v549 { names.push("v549 $flattencore.protocol.interframe.$or$can_controller.v:4414$1194"); }
+        if self.v560 != other.v560 { names.push("v560 $flattencore.protocol.interframe.$procmux$4238"); }
+        if self.v561 != other.v561 { names.push("v561 $flattencore.protocol.interframe.$procmux$4244"); }
+        if self.v563 != other.v563 { names.push("v563 $flattencore.protocol.interframe.$procmux$4256"); }
+        if self.v568 != other.v568 { names.push("v568 $flattencore.protocol.interframe.$procmux$4288_CMP0"); }
+        if self.v572 != other.v572 { names.push("v572 $flattencore.protocol.interframe.$procmux$4346_CMP0"); }
+        if self.v585 != other.v585 { names.push("v585 $flattencore.protocol.interframe.$procmux$4662"); }
+        if self.v599 != other.v599 { names.push("v599 $flattencore.protocol.interframe.$procmux$4914_CMP0"); }
+        if self.v605 != other.v605 { names.push("v605 $flattencore.protocol.interframe.$procmux$5040"); }
+        if self.v612 != other.v612 { names.push("v612 $flattencore.protocol.interframe.$procmux$5196"); }
+        if self.v614 != other.v614 { names.push("v614 $flattencore.protocol.interframe.$procmux$5241"); }
+        if self.v618 != other.v618 { names.push("v618 $flattencore.protocol.interframe.$procmux$5332"); }
+        if self.v637 != other.v637 { names.push("v637 $flattencore.protocol.interframe.$procmux$5676_CMP0"); }
+        if self.v643 != other.v643 { names.push("v643 $flattencore.protocol.interframe.$procmux$5776"); }
+        if self.v644 != other.v644 { names.push("v644 $flattencore.protocol.interframe.$procmux$5788"); }
+        if self.v645 != other.v645 { names.push("v645 $flattencore.protocol.interframe.$procmux$5801"); }
+        if self.v648 != other.v648 { names.push("v648 $flattencore.protocol.interframe.$procmux$5859"); }
+        if self.v650 != other.v650 { names.push("v650 $flattencore.protocol.interframe.$procmux$5883"); }
+        if self.v652 != other.v652 { names.push("v652 $flattencore.protocol.interframe.$procmux$5904"); }
+        if self.v654 != other.v654 { names.push("v654 $flattencore.protocol.interframe.$procmux$5937"); }
+        if self.v662 != other.v662 { names.push("v662 $flattencore.protocol.interframe.$procmux$5997"); }
+        if self.v663 != other.v663 { names.push("v663 $flattencore.protocol.interframe.$procmux$6003"); }
+        if self.v664 != other.v664 { names.push("v664 $flattencore.protocol.interframe.$procmux$6008"); }
+        if self.v665 != other.v665 { names.push("v665 $flattencore.protocol.interframe.$procmux$6020"); }
+        if self.v666 != other.v666 { names.push("v666 $flattencore.protocol.interframe.$procmux$6023"); }
+        if self.v667 != other.v667 { names.push("v667 $flattencore.protocol.interframe.$procmux$6026"); }
+        if self.v668 != other.v668 { names.push("v668 $flattencore.protocol.interframe.$procmux$6029"); }
+        if self.v669 != other.v669 { names.push("v669 $flattencore.protocol.interframe.$procmux$6032"); }
+        if self.v670 != other.v670 { names.push("v670 $flattencore.protocol.interframe.$procmux$6035"); }
+        if self.v671 != other.v671 { names.push("v671 $flattencore.protocol.interframe.$procmux$6041"); }
+        if self.v672 != other.v672 { names.push("v672 $flattencore.protocol.interframe.$procmux$6053"); }
+        if self.v673 != other.v673 { names.push("v673 $flattencore.protocol.interframe.$procmux$6056"); }
+        if self.v674 != other.v674 { names.push("v674 $flattencore.protocol.interframe.$procmux$6059"); }
+        if self.v675 != other.v675 { names.push("v675 $flattencore.protocol.interframe.$procmux$6062"); }
+        if self.v676 != other.v676 { names.push("v676 $flattencore.protocol.interframe.$procmux$6065"); }
+        if self.v678 != other.v678 { names.push("v678 $flattencore.protocol.sender.$add$can_controller.v:4694$1238"); }
+        if self.v679 != other.v679 { names.push("v679 $flattencore.protocol.sender.$add$can_controller.v:4715$1249"); }
+        if self.v682 != other.v682 { names.push("v682 $flattencore.protocol.sender.$and$can_controller.v:4815$1270"); }
+        if self.v685 != other.v685 { names.push("v685 $flattencore.protocol.sender.$and$can_controller.v:4815$1275"); }
+        if self.v686 != other.v686 { names.push("v686 $flattencore.protocol.sender.$eq$can_controller.v:4683$1228"); }
+        if self.v687 != other.v687 { names.push("v687 $flattencore.protocol.sender.$eq$can_controller.v:4687$1229"); }
+        if self.v688 != other.v688 { names.push("v688 $flattencore.protocol.sender.$eq$can_controller.v:4714$1248"); }
+        if self.v689 != other.v689 { names.push("v689 $flattencore.protocol.sender.$eq$can_controller.v:4733$1255"); }
+        if self.v694 != other.v694 { names.push("v694 $flattencore.protocol.sender.$eq$can_controller.v:4798$1263"); }
+        if self.v696 != other.v696 { names.push("v696 $flattencore.protocol.sender.$not$can_controller.v:4815$1272"); }
+        if self.v698 != other.v698 { names.push("v698 $flattencore.protocol.sender.$or$can_controller.v:4827$1280"); }
+        if self.v699 != other.v699 { names.push("v699 $flattencore.protocol.sender.$procmux$3794"); }
+        if self.v700 != other.v700 { names.push("v700 $flattencore.protocol.sender.$procmux$3797"); }
+        if self.v705 != other.v705 { names.push("v705 $flattencore.protocol.sender.$procmux$3814"); }
+        if self.v706 != other.v706 { names.push("v706 $flattencore.protocol.sender.$procmux$3817_CMP0"); }
+        if self.v708 != other.v708 { names.push("v708 $flattencore.protocol.sender.$procmux$3829_CMP0"); }
+        if self.v709 != other.v709 { names.push("v709 $flattencore.protocol.sender.$procmux$3835"); }
+        if self.v711 != other.v711 { names.push("v711 $flattencore.protocol.sender.$procmux$3851_CMP0"); }
+        if self.v714 != other.v714 { names.push("v714 $flattencore.protocol.sender.$procmux$3875_CMP0"); }
+        if self.v721 != other.v721 { names.push("v721 $flattencore.protocol.sender.$procmux$3968_CMP0"); }
+        if self.v727 != other.v727 { names.push("v727 $flattencore.protocol.sender.$procmux$4046_CMP0"); }
+        if self.v728 != other.v728 { names.push("v728 $flattencore.protocol.sender.$procmux$4048_CMP0"); }
+        if self.v729 != other.v729 { names.push("v729 $flattencore.protocol.sender.$procmux$4053_CMP0"); }
+        if self.v730 != other.v730 { names.push("v730 $flattencore.protocol.sender.$procmux$4063"); }
+        if self.v731 != other.v731 { names.push("v731 $flattencore.protocol.sender.$procmux$4066"); }
+        if self.v732 != other.v732 { names.push("v732 $flattencore.protocol.sender.$procmux$4069"); }
+        if self.v733 != other.v733 { names.push("v733 $flattencore.protocol.sender.$procmux$4072"); }
+        if self.v737 != other.v737 { names.push("v737 $flattencore.protocol.sender.$procmux$4091"); }
+        if self.v738 != other.v738 { names.push("v738 $flattencore.protocol.sender.$procmux$4096"); }
+        if self.v739 != other.v739 { names.push("v739 $flattencore.protocol.sender.$procmux$4103"); }
+        if self.v740 != other.v740 { names.push("v740 $flattencore.protocol.sender.$procmux$4109"); }
+        if self.v741 != other.v741 { names.push("v741 $flattencore.protocol.sender.$procmux$4115"); }
+        if self.v747 != other.v747 { names.push("v747 $flattencore.protocol.sender.$sub$can_controller.v:4762$1256"); }
+        if self.v749 != other.v749 { names.push("v749 $flattencore.protocol.sender.$xor$can_controller.v:4792$1262"); }
+        if self.v751 != other.v751 { names.push("v751 $flattencore.protocol.stuffing.$and$can_controller.v:4985$1304"); }
+        if self.v752 != other.v752 { names.push("v752 $flattencore.protocol.stuffing.$and$can_controller.v:4986$1306"); }
+        if self.v756 != other.v756 { names.push("v756 $flattencore.protocol.stuffing.$or$can_controller.v:4989$1312"); }
+        if self.v757 != other.v757 { names.push("v757 $flattencore.protocol.stuffing.$procmux$3741"); }
+        if self.v758 != other.v758 { names.push("v758 $flattencore.protocol.stuffing.$procmux$3747"); }
+        if self.v760 != other.v760 { names.push("v760 $flattencore.protocol.stuffing.$procmux$3765"); }
+        if self.v762 != other.v762 { names.push("v762 $flattendecode.$and$can_controller.v:5178$1350"); }
+        if self.v763 != other.v763 { names.push("v763 $flattendecode.$and$can_controller.v:5179$1351"); }
+        if self.v764 != other.v764 { names.push("v764 $flattendecode.$and$can_controller.v:5180$1352"); }
+        if self.v765 != other.v765 { names.push("v765 $flattendecode.$and$can_controller.v:5181$1353"); }
+        if self.v769 != other.v769 { names.push("v769 $flattendecode.$and$can_controller.v:5183$1358"); }
+        if self.v770 != other.v770 { names.push("v770 $flattendecode.$and$can_controller.v:5184$1360"); }
+        if self.v771 != other.v771 { names.push("v771 $flattendecode.$eq$can_controller.v:5183$1357"); }
+        if self.v772 != other.v772 { names.push("v772 $flattendecode.$procmux$3719"); }
+        if self.v773 != other.v773 { names.push("v773 $flattendecode.$procmux$3722"); }
+        if self.v774 != other.v774 { names.push("v774 $flattendecode.$procmux$3725"); }
+        if self.v775 != other.v775 { names.push("v775 $flattendecode.$procmux$3728"); }
+        if self.v776 != other.v776 { names.push("v776 $flattendecode.$procmux$3731"); }
+        if self.v777 != other.v777 { names.push("v777 $flattendecode.$shiftx$can_controller.v:0$1340"); }
         if self.v778 != other.v778 { names.push("v778 $flattendecode.$shiftx$can_controller.v:0$1341"); }
         if self.v779 != other.v779 { names.push("v779 $flattendecode.$shiftx$can_controller.v:0$1342"); }
         if self.v780 != other.v780 { names.push("v780 $flattendecode.$shiftx$can_controller.v:0$1343"); }
         if self.v781 != other.v781 { names.push("v781 $flattendecode.$shiftx$can_controller.v:0$1344"); }
         if self.v782 != other.v782 { names.push("v782 $flattendecode.$shiftx$can_controller.v:0$1345"); }
-        if self.v783 != other.v783 { names.push("v783 $flattendecode.$shiftx$can_controller.v:0$1346"); }
-        if self.v784 != other.v784 { names.push("v784 $flattendecode.$sub$can_controller.v:5160$1338"); }
-        if self.v785 != other.v785 { names.push("v785 $flattendecode.$sub$can_controller.v:5161$1339"); }
-        if self.v786 != other.v786 { names.push("v786 $flattendecode.$sub$can_controller.v:5162$1340"); }
-        if self.v792 != other.v792 { names.push("v792 $flattenfifo.$add$can_controller.v:5446$1441"); }
-        if self.v793 != other.v793 { names.push("v793 $flattenfifo.$add$can_controller.v:5458$1451"); }
-        if self.v794 != other.v794 { names.push("v794 $flattenfifo.$add$can_controller.v:5467$1457"); }
-        if self.v796 != other.v796 { names.push("v796 $flattenfifo.$and$can_controller.v:5457$1449"); }
-        if self.v800 != other.v800 { names.push("v800 $flattenfifo.$eq$can_controller.v:5430$1428"); }
-        if self.v801 != other.v801 { names.push("v801 $flattenfifo.$eq$can_controller.v:5457$1448"); }
-        if self.v802 != other.v802 { names.push("v802 $flattenfifo.$eq$can_controller.v:5470$1463"); }
-        if self.v810 != other.v810 { names.push("v810 $flattenfifo.$procmux$3507"); }
-        if self.v811 != other.v811 { names.push("v811 $flattenfifo.$procmux$3510"); }
-        if self.v812 != other.v812 { names.push("v812 $flattenfifo.$procmux$3528"); }
-        if self.v813 != other.v813 { names.push("v813 $flattenfifo.$procmux$3531"); }
-        if self.v814 != other.v814 { names.push("v814 $flattenfifo.$procmux$3534"); }
-        if self.v815 != other.v815 { names.push("v815 $flattenfifo.$procmux$3537"); }
-        if self.v816 != other.v816 { names.push("v816 $flattenfifo.$procmux$3543"); }
-        if self.v819 != other.v819 { names.push("v819 $flattenfifo.$procmux$3558"); }
-        if self.v820 != other.v820 { names.push("v820 $flattenfifo.$procmux$3561"); }
-        if self.v821 != other.v821 { names.push("v821 $flattenfifo.$procmux$3564"); }
-        if self.v822 != other.v822 { names.push("v822 $flattenfifo.$procmux$3567"); }
-        if self.v827 != other.v827 { names.push("v827 $flattenfifo.$procmux$3597"); }
-        if self.v828 != other.v828 { names.push("v828 $flattenfifo.$procmux$3600"); }
-        if self.v829 != other.v829 { names.push("v829 $flattenfifo.$procmux$3603"); }
-        if self.v833 != other.v833 { names.push("v833 $flattenfifo.$procmux$3626"); }
-        if self.v839 != other.v839 { names.push("v839 $flattenfifo.$procmux$3675"); }
-        if self.v840 != other.v840 { names.push("v840 $flattenfifo.$procmux$3678"); }
-        if self.v849 != other.v849 { names.push("v849 $flattenfifo.$procmux$3717"); }
-        if self.v851 != other.v851 { names.push("v851 $flattenfifo.$sub$can_controller.v:5463$1455"); }
-        if self.v853 != other.v853 { names.push("v853 $flattenfilter.$and$can_controller.v:6014$1756"); }
-        if self.v864 != other.v864 { names.push("v864 $flattenfilter.$and$can_controller.v:6090$1832"); }
-        if self.v865 != other.v865 { names.push("v865 $flattenfilter.$and$can_controller.v:6091$1835"); }
-        if self.v866 != other.v866 { names.push("v866 $flattenfilter.$and$can_controller.v:6092$1842"); }
-        if self.v867 != other.v867 { names.push("v867 $flattenfilter.$and$can_controller.v:6092$1844"); }
-        if self.v873 != other.v873 { names.push("v873 $flattenfilter.$eq$can_controller.v:6017$1758"); }
-        if self.v874 != other.v874 { names.push("v874 $flattenfilter.$eq$can_controller.v:6024$1772"); }
-        if self.v875 != other.v875 { names.push("v875 $flattenfilter.$eq$can_controller.v:6027$1774"); }
-        if self.v876 != other.v876 { names.push("v876 $flattenfilter.$eq$can_controller.v:6030$1776"); }
-        if self.v877 != other.v877 { names.push("v877 $flattenfilter.$eq$can_controller.v:6033$1778"); }
-        if self.v878 != other.v878 { names.push("v878 $flattenfilter.$eq$can_controller.v:6036$1780"); }
-        if self.v879 != other.v879 { names.push("v879 $flattenfilter.$eq$can_controller.v:6039$1782"); }
-        if self.v880 != other.v880 { names.push("v880 $flattenfilter.$eq$can_controller.v:6042$1784"); }
-        if self.v881 != other.v881 { names.push("v881 $flattenfilter.$eq$can_controller.v:6045$1786"); }
-        if self.v882 != other.v882 { names.push("v882 $flattenfilter.$eq$can_controller.v:6089$1829"); }
-        if self.v884 != other.v884 { names.push("v884 $flattenfilter.$eq$can_controller.v:6091$1833"); }
-        if self.v896 != other.v896 { names.push("v896 $flattenfilter.$procmux$3195"); }
-        if self.v897 != other.v897 { names.push("v897 $flattenfilter.$procmux$3201"); }
-        if self.v898 != other.v898 { names.push("v898 $flattenfilter.$procmux$3204"); }
-        if self.v899 != other.v899 { names.push("v899 $flattenfilter.$procmux$3211"); }
-        if self.v900 != other.v900 { names.push("v900 $flattenfilter.$procmux$3223"); }
-        if self.v901 != other.v901 { names.push("v901 $flattenfilter.$procmux$3229"); }
-        if self.v905 != other.v905 { names.push("v905 $flattenfilter.$procmux$3291"); }
-        if self.v906 != other.v906 { names.push("v906 $flattenfilter.$procmux$3294"); }
-        if self.v907 != other.v907 { names.push("v907 $flattenfilter.$procmux$3297"); }
-        if self.v909 != other.v909 { names.push("v909 $flattenfilter.$procmux$3351"); }
-        if self.v910 != other.v910 { names.push("v910 $flattenfilter.$procmux$3432"); }
-        if self.v911 != other.v911 { names.push("v911 $flattenfilter.$procmux$3435"); }
-        if self.v915 != other.v915 { names.push("v915 $flattenfilter.$xor$can_controller.v:6084$1812"); }
-        if self.v918 != other.v918 { names.push("v918 $flattenfilter.$xor$can_controller.v:6086$1819"); }
-        if self.v926 != other.v926 { names.push("v926 $flatteninterrupts.$and$can_controller.v:6612$1956"); }
-        if self.v928 != other.v928 { names.push("v928 $flatteninterrupts.$and$can_controller.v:6621$1975"); }
-        if self.v929 != other.v929 { names.push("v929 $flatteninterrupts.$and$can_controller.v:6626$1978"); }
-        if self.v931 != other.v931 { names.push("v931 $flatteninterrupts.$and$can_controller.v:6659$2002"); }
-        if self.v932 != other.v932 { names.push("v932 $flatteninterrupts.$and$can_controller.v:6661$2004"); }
-        if self.v933 != other.v933 { names.push("v933 $flatteninterrupts.$and$can_controller.v:6661$2006"); }
-        if self.v935 != other.v935 { names.push("v935 $flatteninterrupts.$eq$can_controller.v:6615$1959"); }
-        if self.v936 != other.v936 { names.push("v936 $flatteninterrupts.$eq$can_controller.v:6654$1998"); }
-        if self.v944 != other.v944 { names.push("v944 $flatteninterrupts.$ne$can_controller.v:6661$2005"); }
-        if self.v945 != other.v945 { names.push("v945 $flatteninterrupts.$ne$can_controller.v:6661$2007"); }
-        if self.v948 != other.v948 { names.push("v948 $flatteninterrupts.$or$can_controller.v:6649$1996"); }
-        if self.v950 != other.v950 { names.push("v950 $flatteninterrupts.$procmux$3060"); }
-        if self.v951 != other.v951 { names.push("v951 $flatteninterrupts.$procmux$3066"); }
-        if self.v953 != other.v953 { names.push("v953 $flatteninterrupts.$procmux$3081"); }
-        if self.v954 != other.v954 { names.push("v954 $flatteninterrupts.$procmux$3084"); }
-        if self.v955 != other.v955 { names.push("v955 $flatteninterrupts.$procmux$3087"); }
-        if self.v957 != other.v957 { names.push("v957 $flatteninterrupts.$procmux$3105"); }
-        if self.v958 != other.v958 { names.push("v958 $flatteninterrupts.$procmux$3108"); }
-        if self.v966 != other.v966 { names.push("v966 $flatteninterrupts.$procmux$3151"); }
-        if self.v967 != other.v967 { names.push("v967 $flattenmodes.$add$can_controller.v:7183$2162"); }
-        if self.v968 != other.v968 { names.push("v968 $flattenmodes.$and$can_controller.v:7123$2100"); }
-        if self.v976 != other.v976 { names.push("v976 $flattenmodes.$and$can_controller.v:7169$2138"); }
-        if self.v977 != other.v977 { names.push("v977 $flattenmodes.$and$can_controller.v:7182$2160"); }
-        if self.v978 != other.v978 { names.push("v978 $flattenmodes.$and$can_controller.v:7199$2174"); }
-        if self.v979 != other.v979 { names.push("v979 $flattenmodes.$and$can_controller.v:7200$2175"); }
-        if self.v980 != other.v980 { names.push("v980 $flattenmodes.$and$can_controller.v:7201$2176"); }
-        if self.v984 != other.v984 { names.push("v984 $flattenmodes.$eq$can_controller.v:7151$2125"); }
-        if self.v985 != other.v985 { names.push("v985 $flattenmodes.$eq$can_controller.v:7158$2128"); }
-        if self.v987 != other.v987 { names.push("v987 $flattenmodes.$eq$can_controller.v:7169$2137"); }
-        if self.v988 != other.v988 { names.push("v988 $flattenmodes.$eq$can_controller.v:7185$2163"); }
-        if self.v989 != other.v989 { names.push("v989 $flattenmodes.$eq$can_controller.v:7199$2172"); }
-        if self.v991 != other.v991 { names.push("v991 $flattenmodes.$ne$can_controller.v:7182$2159"); }
-        if self.v993 != other.v993 { names.push("v993 $flattenmodes.$procmux$2850"); }
-        if self.v994 != other.v994 { names.push("v994 $flattenmodes.$procmux$2856"); }
-        if self.v995 != other.v995 { names.push("v995 $flattenmodes.$procmux$2862"); }
-        if self.v996 != other.v996 { names.push("v996 $flattenmodes.$procmux$2865"); }
-        if self.v997 != other.v997 { names.push("v997 $flattenmodes.$procmux$2868"); }
-        if self.v999 != other.v999 { names.push("v999 $flattenmodes.$procmux$2883"); }
-        if self.v1003 != other.v1003 { names.push("v1003 $flattenmodes.$procmux$2901"); }
-        if self.v1005 != other.v1005 { names.push("v1005 $flattenmodes.$procmux$2907"); }
-        if self.v1021 != other.v1021 { names.push("v1021 $flattenmodes.$procmux$3018"); }
-        if self.v1022 != other.v1022 { names.push("v1022 $flattenmodes.$procmux$3021"); }
-        if self.v1027 != other.v1027 { names.push("v1027 $flattenmodes.divider.$add$can_controller.v:7306$2189"); }
-        if self.v1028 != other.v1028 { names.push("v1028 $flattenmodes.divider.$eq$can_controller.v:7309$2193"); }
-        if self.v1030 != other.v1030 { names.push("v1030 $flattenmodes.divider.$ge$can_controller.v:7307$2190"); }
-        if self.v1031 != other.v1031 { names.push("v1031 $flattenmodes.divider.$procmux$2835"); }
-        if self.v1038 != other.v1038 { names.push("v1038 $flattenread.$eq$can_controller.v:7687$2272"); }
-        if self.v1039 != other.v1039 { names.push("v1039 $flattenread.$eq$can_controller.v:7700$2290"); }
-        if self.v1040 != other.v1040 { names.push("v1040 $flattenread.$eq$can_controller.v:7703$2291"); }
-        if self.v1041 != other.v1041 { names.push("v1041 $flattenread.$eq$can_controller.v:7706$2293"); }
-        if self.v1042 != other.v1042 { names.push("v1042 $flattenread.$eq$can_controller.v:7709$2294"); }
-        if self.v1043 != other.v1043 { names.push("v1043 $flattenread.$eq$can_controller.v:7712$2295"); }
-        if self.v1044 != other.v1044 { names.push("v1044 $flattenread.$eq$can_controller.v:7715$2296"); }
-        if self.v1045 != other.v1045 { names.push("v1045 $flattenread.$eq$can_controller.v:7718$2298"); }
-        if self.v1046 != other.v1046 { names.push("v1046 $flattenread.$eq$can_controller.v:7731$2325"); }
-        if self.v1047 != other.v1047 { names.push("v1047 $flattenread.$eq$can_controller.v:7734$2326"); }
-        if self.v1048 != other.v1048 { names.push("v1048 $flattenread.$eq$can_controller.v:7742$2337"); }
-        if self.v1049 != other.v1049 { names.push("v1049 $flattenread.$or$can_controller.v:7674$2230"); }
-        if self.v1053 != other.v1053 { names.push("v1053 $flattenread.$procmux$2685"); }
-        if self.v1054 != other.v1054 { names.push("v1054 $flattenread.$procmux$2691"); }
-        if self.v1055 != other.v1055 { names.push("v1055 $flattenread.$procmux$2697"); }
-        if self.v1056 != other.v1056 { names.push("v1056 $flattenread.$procmux$2706"); }
-        if self.v1057 != other.v1057 { names.push("v1057 $flattenread.$procmux$2712"); }
-        if self.v1060 != other.v1060 { names.push("v1060 $flattenread.$procmux$2724"); }
-        if self.v1065 != other.v1065 { names.push("v1065 $flattenread.$procmux$2755"); }
-        if self.v1075 != other.v1075 { names.push("v1075 $flattenread.$procmux$2808"); }
-        if self.v1076 != other.v1076 { names.push("v1076 $flattenread.$procmux$2811"); }
-        if self.v1080 != other.v1080 { names.push("v1080 $flattenread.$procmux$2826"); }
-        if self.v1081 != other.v1081 { names.push("v1081 $flattenread.$reduce_or$can_controller.v:7682$2271"); }
-        if self.v1082 != other.v1082 { names.push("v1082 $flattentx_buffer.$and$can_controller.v:8032$2393"); }
-        if self.v1083 != other.v1083 { names.push("v1083 $flattentx_buffer.$and$can_controller.v:8033$2395"); }
-        if self.v1084 != other.v1084 { names.push("v1084 $flattentx_buffer.$and$can_controller.v:8042$2399"); }
-        if self.v1085 != other.v1085 { names.push("v1085 $flattentx_buffer.$and$can_controller.v:8043$2402"); }
-        if self.v1092 != other.v1092 { names.push("v1092 $flattentx_buffer.$procmux$2661"); }
-        if self.v1093 != other.v1093 { names.push("v1093 $flattentx_buffer.$procmux$2664"); }
-        if self.v1094 != other.v1094 { names.push("v1094 $flattentx_buffer.$procmux$2667"); }
-        if self.v1095 != other.v1095 { names.push("v1095 $flattentx_buffer.$shiftx$can_controller.v:0$2392"); }
-        if self.v1096 != other.v1096 { names.push("v1096 $flattentx_buffer.$shiftx$can_controller.v:0$2397"); }
-        if self.v1097 != other.v1097 { names.push("v1097 $flattentx_buffer.$shiftx$can_controller.v:0$2400"); }
+        if self.v783 != other.v783 { names.push("v783 $flattendecode.$sub$can_controller.v:5160$1337"); }
+        if self.v784 != other.v784 { names.push("v784 $flattendecode.$sub$can_controller.v:5161$1338"); }
+        if self.v785 != other.v785 { names.push("v785 $flattendecode.$sub$can_controller.v:5162$1339"); }
+        if self.v791 != other.v791 { names.push("v791 $flattenfifo.$add$can_controller.v:5446$1440"); }
+        if self.v792 != other.v792 { names.push("v792 $flattenfifo.$add$can_controller.v:5458$1450"); }
+        if self.v793 != other.v793 { names.push("v793 $flattenfifo.$add$can_controller.v:5467$1456"); }
+        if self.v795 != other.v795 { names.push("v795 $flattenfifo.$and$can_controller.v:5457$1448"); }
+        if self.v799 != other.v799 { names.push("v799 $flattenfifo.$eq$can_controller.v:5430$1427"); }
+        if self.v800 != other.v800 { names.push("v800 $flattenfifo.$eq$can_controller.v:5457$1447"); }
+        if self.v801 != other.v801 { names.push("v801 $flattenfifo.$eq$can_controller.v:5470$1462"); }
+        if self.v809 != other.v809 { names.push("v809 $flattenfifo.$procmux$3506"); }
+        if self.v810 != other.v810 { names.push("v810 $flattenfifo.$procmux$3509"); }
+        if self.v811 != other.v811 { names.push("v811 $flattenfifo.$procmux$3527"); }
+        if self.v812 != other.v812 { names.push("v812 $flattenfifo.$procmux$3530"); }
+        if self.v813 != other.v813 { names.push("v813 $flattenfifo.$procmux$3533"); }
+        if self.v814 != other.v814 { names.push("v814 $flattenfifo.$procmux$3536"); }
+        if self.v815 != other.v815 { names.push("v815 $flattenfifo.$procmux$3542"); }
+        if self.v818 != other.v818 { names.push("v818 $flattenfifo.$procmux$3557"); }
+        if self.v819 != other.v819 { names.push("v819 $flattenfifo.$procmux$3560"); }
+        if self.v820 != other.v820 { names.push("v820 $flattenfifo.$procmux$3563"); }
+        if self.v821 != other.v821 { names.push("v821 $flattenfifo.$procmux$3566"); }
+        if self.v826 != other.v826 { names.push("v826 $flattenfifo.$procmux$3596"); }
+        if self.v827 != other.v827 { names.push("v827 $flattenfifo.$procmux$3599"); }
+        if self.v828 != other.v828 { names.push("v828 $flattenfifo.$procmux$3602"); }
+        if self.v832 != other.v832 { names.push("v832 $flattenfifo.$procmux$3625"); }
+        if self.v838 != other.v838 { names.push("v838 $flattenfifo.$procmux$3674"); }
+        if self.v839 != other.v839 { names.push("v839 $flattenfifo.$procmux$3677"); }
+        if self.v848 != other.v848 { names.push("v848 $flattenfifo.$procmux$3716"); }
+        if self.v850 != other.v850 { names.push("v850 $flattenfifo.$sub$can_controller.v:5463$1454"); }
+        if self.v852 != other.v852 { names.push("v852 $flattenfilter.$and$can_controller.v:6014$1755"); }
+        if self.v863 != other.v863 { names.push("v863 $flattenfilter.$and$can_controller.v:6090$1831"); }
+        if self.v864 != other.v864 { names.push("v864 $flattenfilter.$and$can_controller.v:6091$1834"); }
+        if self.v865 != other.v865 { names.push("v865 $flattenfilter.$and$can_controller.v:6092$1841"); }
+        if self.v866 != other.v866 { names.push("v866 $flattenfilter.$and$can_controller.v:6092$1843"); }
+        if self.v872 != other.v872 { names.push("v872 $flattenfilter.$eq$can_controller.v:6017$1757"); }
+        if self.v873 != other.v873 { names.push("v873 $flattenfilter.$eq$can_controller.v:6024$1771"); }
+        if self.v874 != other.v874 { names.push("v874 $flattenfilter.$eq$can_controller.v:6027$1773"); }
+        if self.v875 != other.v875 { names.push("v875 $flattenfilter.$eq$can_controller.v:6030$1775"); }
+        if self.v876 != other.v876 { names.push("v876 $flattenfilter.$eq$can_controller.v:6033$1777"); }
+        if self.v877 != other.v877 { names.push("v877 $flattenfilter.$eq$can_controller.v:6036$1779"); }
+        if self.v878 != other.v878 { names.push("v878 $flattenfilter.$eq$can_controller.v:6039$1781"); }
+        if self.v879 != other.v879 { names.push("v879 $flattenfilter.$eq$can_controller.v:6042$1783"); }
+        if self.v880 != other.v880 { names.push("v880 $flattenfilter.$eq$can_controller.v:6045$1785"); }
+        if self.v881 != other.v881 { names.push("v881 $flattenfilter.$eq$can_controller.v:6089$1828"); }
+        if self.v883 != other.v883 { names.push("v883 $flattenfilter.$eq$can_controller.v:6091$1832"); }
+        if self.v895 != other.v895 { names.push("v895 $flattenfilter.$procmux$3194"); }
+        if self.v896 != other.v896 { names.push("v896 $flattenfilter.$procmux$3200"); }
+        if self.v897 != other.v897 { names.push("v897 $flattenfilter.$procmux$3203"); }
+        if self.v898 != other.v898 { names.push("v898 $flattenfilter.$procmux$3210"); }
+        if self.v899 != other.v899 { names.push("v899 $flattenfilter.$procmux$3222"); }
+        if self.v900 != other.v900 { names.push("v900 $flattenfilter.$procmux$3228"); }
+        if self.v904 != other.v904 { names.push("v904 $flattenfilter.$procmux$3290"); }
+        if self.v905 != other.v905 { names.push("v905 $flattenfilter.$procmux$3293"); }
+        if self.v906 != other.v906 { names.push("v906 $flattenfilter.$procmux$3296"); }
+        if self.v908 != other.v908 { names.push("v908 $flattenfilter.$procmux$3350"); }
+        if self.v909 != other.v909 { names.push("v909 $flattenfilter.$procmux$3431"); }
+        if self.v910 != other.v910 { names.push("v910 $flattenfilter.$procmux$3434"); }
+        if self.v914 != other.v914 { names.push("v914 $flattenfilter.$xor$can_controller.v:6084$1811"); }
+        if self.v917 != other.v917 { names.push("v917 $flattenfilter.$xor$can_controller.v:6086$1818"); }
+        if self.v925 != other.v925 { names.push("v925 $flatteninterrupts.$and$can_controller.v:6612$1955"); }
+        if self.v927 != other.v927 { names.push("v927 $flatteninterrupts.$and$can_controller.v:6621$1974"); }
+        if self.v928 != other.v928 { names.push("v928 $flatteninterrupts.$and$can_controller.v:6626$1977"); }
+        if self.v930 != other.v930 { names.push("v930 $flatteninterrupts.$and$can_controller.v:6659$2001"); }
+        if self.v931 != other.v931 { names.push("v931 $flatteninterrupts.$and$can_controller.v:6661$2003"); }
+        if self.v932 != other.v932 { names.push("v932 $flatteninterrupts.$and$can_controller.v:6661$2005"); }
+        if self.v934 != other.v934 { names.push("v934 $flatteninterrupts.$eq$can_controller.v:6615$1958"); }
+        if self.v935 != other.v935 { names.push("v935 $flatteninterrupts.$eq$can_controller.v:6654$1997"); }
+        if self.v943 != other.v943 { names.push("v943 $flatteninterrupts.$ne$can_controller.v:6661$2004"); }
+        if self.v944 != other.v944 { names.push("v944 $flatteninterrupts.$ne$can_controller.v:6661$2006"); }
+        if self.v947 != other.v947 { names.push("v947 $flatteninterrupts.$or$can_controller.v:6649$1995"); }
+        if self.v949 != other.v949 { names.push("v949 $flatteninterrupts.$procmux$3059"); }
+        if self.v950 != other.v950 { names.push("v950 $flatteninterrupts.$procmux$3065"); }
+        if self.v952 != other.v952 { names.push("v952 $flatteninterrupts.$procmux$3080"); }
+        if self.v953 != other.v953 { names.push("v953 $flatteninterrupts.$procmux$3083"); }
+        if self.v954 != other.v954 { names.push("v954 $flatteninterrupts.$procmux$3086"); }
+        if self.v956 != other.v956 { names.push("v956 $flatteninterrupts.$procmux$3104"); }
+        if self.v957 != other.v957 { names.push("v957 $flatteninterrupts.$procmux$3107"); }
+        if self.v965 != other.v965 { names.push("v965 $flatteninterrupts.$procmux$3150"); }
+        if self.v966 != other.v966 { names.push("v966 $flattenmodes.$add$can_controller.v:7183$2161"); }
+        if self.v967 != other.v967 { names.push("v967 $flattenmodes.$and$can_controller.v:7123$2099"); }
+        if self.v975 != other.v975 { names.push("v975 $flattenmodes.$and$can_controller.v:7169$2137"); }
+        if self.v976 != other.v976 { names.push("v976 $flattenmodes.$and$can_controller.v:7182$2159"); }
+        if self.v977 != other.v977 { names.push("v977 $flattenmodes.$and$can_controller.v:7199$2173"); }
+        if self.v978 != other.v978 { names.push("v978 $flattenmodes.$and$can_controller.v:7200$2174"); }
+        if self.v979 != other.v979 { names.push("v979 $flattenmodes.$and$can_controller.v:7201$2175"); }
+        if self.v983 != other.v983 { names.push("v983 $flattenmodes.$eq$can_controller.v:7151$2124"); }
+        if self.v984 != other.v984 { names.push("v984 $flattenmodes.$eq$can_controller.v:7158$2127"); }
+        if self.v986 != other.v986 { names.push("v986 $flattenmodes.$eq$can_controller.v:7169$2136"); }
+        if self.v987 != other.v987 { names.push("v987 $flattenmodes.$eq$can_controller.v:7185$2162"); }
+        if self.v988 != other.v988 { names.push("v988 $flattenmodes.$eq$can_controller.v:7199$2171"); }
+        if self.v990 != other.v990 { names.push("v990 $flattenmodes.$ne$can_controller.v:7182$2158"); }
+        if self.v992 != other.v992 { names.push("v992 $flattenmodes.$procmux$2849"); }
+        if self.v993 != other.v993 { names.push("v993 $flattenmodes.$procmux$2855"); }
+        if self.v994 != other.v994 { names.push("v994 $flattenmodes.$procmux$2861"); }
+        if self.v995 != other.v995 { names.push("v995 $flattenmodes.$procmux$2864"); }
+        if self.v996 != other.v996 { names.push("v996 $flattenmodes.$procmux$2867"); }
+        if self.v998 != other.v998 { names.push("v998 $flattenmodes.$procmux$2882"); }
+        if self.v1002 != other.v1002 { names.push("v1002 $flattenmodes.$procmux$2900"); }
+        if self.v1004 != other.v1004 { names.push("v1004 $flattenmodes.$procmux$2906"); }
+        if self.v1020 != other.v1020 { names.push("v1020 $flattenmodes.$procmux$3017"); }
+        if self.v1021 != other.v1021 { names.push("v1021 $flattenmodes.$procmux$3020"); }
+        if self.v1026 != other.v1026 { names.push("v1026 $flattenmodes.divider.$add$can_controller.v:7306$2188"); }
+        if self.v1027 != other.v1027 { names.push("v1027 $flattenmodes.divider.$eq$can_controller.v:7309$2192"); }
+        if self.v1029 != other.v1029 { names.push("v1029 $flattenmodes.divider.$ge$can_controller.v:7307$2189"); }
+        if self.v1030 != other.v1030 { names.push("v1030 $flattenmodes.divider.$procmux$2834"); }
+        if self.v1037 != other.v1037 { names.push("v1037 $flattenread.$eq$can_controller.v:7687$2271"); }
+        if self.v1038 != other.v1038 { names.push("v1038 $flattenread.$eq$can_controller.v:7700$2289"); }
+        if self.v1039 != other.v1039 { names.push("v1039 $flattenread.$eq$can_controller.v:7703$2290"); }
+        if self.v1040 != other.v1040 { names.push("v1040 $flattenread.$eq$can_controller.v:7706$2292"); }
+        if self.v1041 != other.v1041 { names.push("v1041 $flattenread.$eq$can_controller.v:7709$2293"); }
+        if self.v1042 != other.v1042 { names.push("v1042 $flattenread.$eq$can_controller.v:7712$2294"); }
+        if self.v1043 != other.v1043 { names.push("v1043 $flattenread.$eq$can_controller.v:7715$2295"); }
+        if self.v1044 != other.v1044 { names.push("v1044 $flattenread.$eq$can_controller.v:7718$2296"); }
+        if self.v1045 != other.v1045 { names.push("v1045 $flattenread.$eq$can_controller.v:7721$2298"); }
+        if self.v1046 != other.v1046 { names.push("v1046 $flattenread.$eq$can_controller.v:7731$2324"); }
+        if self.v1047 != other.v1047 { names.push("v1047 $flattenread.$eq$can_controller.v:7734$2325"); }
+        if self.v1048 != other.v1048 { names.push("v1048 $flattenread.$eq$can_controller.v:7742$2336"); }
+        if self.v1049 != other.v1049 { names.push("v1049 $flattenread.$or$can_controller.v:7674$2229"); }
+        if self.v1053 != other.v1053 { names.push("v1053 $flattenread.$procmux$2684"); }
+        if self.v1054 != other.v1054 { names.push("v1054 $flattenread.$procmux$2690"); }
+        if self.v1055 != other.v1055 { names.push("v1055 $flattenread.$procmux$2696"); }
+        if self.v1056 != other.v1056 { names.push("v1056 $flattenread.$procmux$2705"); }
+        if self.v1057 != other.v1057 { names.push("v1057 $flattenread.$procmux$2711"); }
+        if self.v1074 != other.v1074 { names.push("v1074 $flattenread.$procmux$2804"); }
+        if self.v1075 != other.v1075 { names.push("v1075 $flattenread.$procmux$2807"); }
+        if self.v1076 != other.v1076 { names.push("v1076 $flattenread.$procmux$2810"); }
+        if self.v1080 != other.v1080 { names.push("v1080 $flattenread.$procmux$2825"); }
+        if self.v1081 != other.v1081 { names.push("v1081 $flattenread.$reduce_or$can_controller.v:7682$2270"); }
+        if self.v1082 != other.v1082 { names.push("v1082 $flattentx_buffer.$and$can_controller.v:8032$2392"); }
+        if self.v1083 != other.v1083 { names.push("v1083 $flattentx_buffer.$and$can_controller.v:8033$2394"); }
+        if self.v1084 != other.v1084 { names.push("v1084 $flattentx_buffer.$and$can_controller.v:8042$2398"); }
+        if self.v1085 != other.v1085 { names.push("v1085 $flattentx_buffer.$and$can_controller.v:8043$2401"); }
+        if self.v1092 != other.v1092 { names.push("v1092 $flattentx_buffer.$procmux$2660"); }
+        if self.v1093 != other.v1093 { names.push("v1093 $flattentx_buffer.$procmux$2663"); }
+        if self.v1094 != other.v1094 { names.push("v1094 $flattentx_buffer.$procmux$2666"); }
+        if self.v1095 != other.v1095 { names.push("v1095 $flattentx_buffer.$shiftx$can_controller.v:0$2391"); }
+        if self.v1096 != other.v1096 { names.push("v1096 $flattentx_buffer.$shiftx$can_controller.v:0$2396"); }
+        if self.v1097 != other.v1097 { names.push("v1097 $flattentx_buffer.$shiftx$can_controller.v:0$2399"); }
         if self.v1099 != other.v1099 { names.push("v1099 $or$can_controller.v:717$151"); }
-        if self.v1104 != other.v1104 { names.push("v1104 $procmux$8752"); }
-        if self.v1105 != other.v1105 { names.push("v1105 $procmux$8755"); }
-        if self.v1109 != other.v1109 { names.push("v1109 $procmux$8785"); }
-        if self.v1110 != other.v1110 { names.push("v1110 $procmux$8788"); }
-        if self.v1111 != other.v1111 { names.push("v1111 $procmux$8791"); }
-        if self.v1112 != other.v1112 { names.push("v1112 $procmux$8794"); }
-        if self.v1113 != other.v1113 { names.push("v1113 $procmux$8798"); }
-        if self.v1114 != other.v1114 { names.push("v1114 $procmux$8804"); }
-        if self.v1115 != other.v1115 { names.push("v1115 $procmux$8809"); }
-        if self.v1116 != other.v1116 { names.push("v1116 $procmux$8812"); }
-        if self.v1117 != other.v1117 { names.push("v1117 $procmux$8815"); }
-        if self.v1118 != other.v1118 { names.push("v1118 $procmux$8821"); }
-        if self.v1119 != other.v1119 { names.push("v1119 $procmux$8827"); }
-        if self.v1120 != other.v1120 { names.push("v1120 $procmux$8830"); }
+        if self.v1104 != other.v1104 { names.push("v1104 $procmux$8751"); }
+        if self.v1105 != other.v1105 { names.push("v1105 $procmux$8754"); }
+        if self.v1109 != other.v1109 { names.push("v1109 $procmux$8784"); }
+        if self.v1110 != other.v1110 { names.push("v1110 $procmux$8787"); }
+        if self.v1111 != other.v1111 { names.push("v1111 $procmux$8790"); }
+        if self.v1112 != other.v1112 { names.push("v1112 $procmux$8793"); }
+        if self.v1113 != other.v1113 { names.push("v1113 $procmux$8797"); }
+        if self.v1114 != other.v1114 { names.push("v1114 $procmux$8803"); }
+        if self.v1115 != other.v1115 { names.push("v1115 $procmux$8808"); }
+        if self.v1116 != other.v1116 { names.push("v1116 $procmux$8811"); }
+        if self.v1117 != other.v1117 { names.push("v1117 $procmux$8814"); }
+        if self.v1118 != other.v1118 { names.push("v1118 $procmux$8820"); }
+        if self.v1119 != other.v1119 { names.push("v1119 $procmux$8826"); }
+        if self.v1120 != other.v1120 { names.push("v1120 $procmux$8829"); }
         if self.dirty != other.dirty { names.push("dirty "); }
         if self.out != other.out { names.push("out "); }
         names
@@ -3097,445 +3094,447 @@ impl Model {
 
     /// The cells of top$core$protocol$interframe.
     fn group_0(&mut self, dirty: &mut u128) {
-        let c503: u64 = (self.q80).wrapping_add((0x1)) & 0x7;
-        let c514: u64 = (self.q70) & (self.q113) & 0x1;
-        if self.v514 != c514 { self.v514 = c514; *dirty |= 0x20000000; }
-        let c519: u64 = (self.q79) & (self.q81) & 0x1;
-        let c521: u64 = (self.q108) & (self.q123) & 0x1;
-        if self.v521 != c521 { self.v521 = c521; *dirty |= 0x20000000; }
-        let c526: u64 = u64::from((self.q114) == (0x1));
-        if self.v526 != c526 { self.v526 = c526; *dirty |= 0x2020000000; }
-        let c527: u64 = u64::from((self.q114) == (0x2));
-        if self.v527 != c527 { self.v527 = c527; *dirty |= 0x20000000; }
-        let c123: u64 = u64::from((c526 | (c527 << 1)) != 0);
+        let c502: u64 = (self.q79).wrapping_add((0x1)) & 0x7;
+        let c513: u64 = (self.q69) & (self.q113) & 0x1;
+        if self.v513 != c513 { self.v513 = c513; *dirty |= 0x20000000; }
+        let c518: u64 = (self.q78) & (self.q80) & 0x1;
+        let c520: u64 = (self.q108) & (self.q123) & 0x1;
+        if self.v520 != c520 { self.v520 = c520; *dirty |= 0x20000000; }
+        let c525: u64 = u64::from((self.q114) == (0x1));
+        if self.v525 != c525 { self.v525 = c525; *dirty |= 0x2020000000; }
+        let c526: u64 = u64::from((self.q114) == (0x2));
+        if self.v526 != c526 { self.v526 = c526; *dirty |= 0x20000000; }
+        let c123: u64 = u64::from((c525 | (c526 << 1)) != 0);
         if self.v123 != c123 { self.v123 = c123; *dirty |= 0x80; }
-        let c528: u64 = u64::from((self.q114) == (0x7));
-        if self.v528 != c528 { self.v528 = c528; *dirty |= 0x20000080; }
-        let c529: u64 = u64::from((self.q92) == (0x2));
-        if self.v529 != c529 { self.v529 = c529; *dirty |= 0x20000000; }
-        let c511: u64 = (c528) & (c529) & 0x1;
-        if self.v511 != c511 { self.v511 = c511; *dirty |= 0x2000; }
-        let c531: u64 = u64::from((self.q92) == (0xa));
-        if self.v531 != c531 { self.v531 = c531; *dirty |= 0x28000000; }
-        let c532: u64 = !(self.q117) & 0x1;
-        if self.v532 != c532 { self.v532 = c532; *dirty |= 0x20008002; }
-        let c533: u64 = u64::from((self.q92) == (0x7));
-        if self.v533 != c533 { self.v533 = c533; *dirty |= 0x20000000; }
-        let c534: u64 = u64::from((self.q92) == (0x5));
-        if self.v534 != c534 { self.v534 = c534; *dirty |= 0x21000002; }
-        let c535: u64 = !(self.q70) & 0x1;
-        if self.v535 != c535 { self.v535 = c535; *dirty |= 0x2002; }
-        let c520: u64 = (c519) & (c535) & 0x1;
-        let c536: u64 = u64::from((self.q92) == 0);
-        if self.v536 != c536 { self.v536 = c536; *dirty |= 0x20000080; }
-        let c537: u64 = u64::from((self.q80) == (0x7));
-        let c539: u64 = u64::from((self.q114) == (0x5));
-        if self.v539 != c539 { self.v539 = c539; *dirty |= 0x20000080; }
-        let c540: u64 = u64::from((self.q92) != 0);
-        if self.v540 != c540 { self.v540 = c540; *dirty |= 0x400000; }
-        let c541: u64 = u64::from((self.q108) != (self.q78));
-        let c516: u64 = (c540) & (c541) & 0x1;
-        if self.v516 != c516 { self.v516 = c516; *dirty |= 0x20000000; }
-        let c542: u64 = !(self.q124) & 0x1;
-        if self.v542 != c542 { self.v542 = c542; *dirty |= 0x2; }
-        let c504: u64 = (self.q21) & (c542) & 0x1;
-        let c518: u64 = (self.q108) & (c542) & 0x1;
-        if self.v518 != c518 { self.v518 = c518; *dirty |= 0x20000000; }
-        let c30: u64 = u64::from((c539 | (c518 << 1)) != (0x3));
-        if self.v30 != c30 { self.v30 = c30; *dirty |= 0x4000000; }
-        let c32: u64 = u64::from((c539 | (c534 << 1) | (c518 << 2)) != (0x1));
-        if self.v32 != c32 { self.v32 = c32; *dirty |= 0x4000000; }
-        let c543: u64 = !(self.q107) & 0x1;
-        let c505: u64 = (c504) & (c543) & 0x1;
-        let c506: u64 = (c505) & (self.q123) & 0x1;
-        let c544: u64 = !(self.q112) & 0x1;
-        if self.v544 != c544 { self.v544 = c544; *dirty |= 0x100002000; }
-        let c507: u64 = (c506) & (c544) & 0x1;
-        let c545: u64 = !(self.q89) & 0x1;
-        let c508: u64 = (c507) & (c545) & 0x1;
-        if self.v508 != c508 { self.v508 = c508; *dirty |= 0x1000; }
-        let c546: u64 = !(c514) & 0x1;
-        let c515: u64 = (c508) & (c546) & 0x1;
+        let c527: u64 = u64::from((self.q114) == (0x7));
+        if self.v527 != c527 { self.v527 = c527; *dirty |= 0x20000080; }
+        let c528: u64 = u64::from((self.q91) == (0x2));
+        if self.v528 != c528 { self.v528 = c528; *dirty |= 0x20000000; }
+        let c510: u64 = (c527) & (c528) & 0x1;
+        if self.v510 != c510 { self.v510 = c510; *dirty |= 0x2000; }
+        let c530: u64 = u64::from((self.q91) == (0xa));
+        if self.v530 != c530 { self.v530 = c530; *dirty |= 0x28000000; }
+        let c531: u64 = !(self.q117) & 0x1;
+        if self.v531 != c531 { self.v531 = c531; *dirty |= 0x20008002; }
+        let c532: u64 = u64::from((self.q91) == (0x7));
+        if self.v532 != c532 { self.v532 = c532; *dirty |= 0x20000000; }
+        let c533: u64 = u64::from((self.q91) == (0x5));
+        if self.v533 != c533 { self.v533 = c533; *dirty |= 0x21000002; }
+        let c534: u64 = !(self.q69) & 0x1;
+        if self.v534 != c534 { self.v534 = c534; *dirty |= 0x2002; }
+        let c519: u64 = (c518) & (c534) & 0x1;
+        let c535: u64 = u64::from((self.q91) == 0);
+        if self.v535 != c535 { self.v535 = c535; *dirty |= 0x20000080; }
+        let c536: u64 = u64::from((self.q79) == (0x7));
+        let c538: u64 = u64::from((self.q114) == (0x5));
+        if self.v538 != c538 { self.v538 = c538; *dirty |= 0x20000080; }
+        let c539: u64 = u64::from((self.q91) != 0);
+        if self.v539 != c539 { self.v539 = c539; *dirty |= 0x400000; }
+        let c540: u64 = u64::from((self.q108) != (self.q77));
+        let c515: u64 = (c539) & (c540) & 0x1;
         if self.v515 != c515 { self.v515 = c515; *dirty |= 0x20000000; }
-        let c547: u64 = ((self.q113) | (self.q124)) & 0x1;
-        if self.v547 != c547 { self.v547 = c547; *dirty |= 0x28000000; }
-        let c548: u64 = ((c526) | (c527)) & 0x1;
-        if self.v548 != c548 { self.v548 = c548; *dirty |= 0x2000; }
-        let c549: u64 = ((c548) | (c511)) & 0x1;
-        if self.v549 != c549 { self.v549 = c549; *dirty |= 0x4000000; }
-        let c550: u64 = ((self.q20) | (self.q107)) & 0x1;
-        if self.v550 != c550 { self.v550 = c550; *dirty |= 0x20000002; }
-        let c569: u64 = u64::from((self.q114) == (0x3));
-        if self.v569 != c569 { self.v569 = c569; *dirty |= 0x20002010; }
-        let c571: u64 = (c521) & (c531) & 0x1;
-        let c573: u64 = u64::from((self.q114) == (0x6));
-        if self.v573 != c573 { self.v573 = c573; *dirty |= 0x24000080; }
-        let c31: u64 = u64::from((c573 | (c536 << 1)) != (0x1));
+        let c541: u64 = !(self.q124) & 0x1;
+        if self.v541 != c541 { self.v541 = c541; *dirty |= 0x2; }
+        let c503: u64 = (self.q20) & (c541) & 0x1;
+        let c517: u64 = (self.q108) & (c541) & 0x1;
+        if self.v517 != c517 { self.v517 = c517; *dirty |= 0x20000000; }
+        let c30: u64 = u64::from((c538 | (c517 << 1)) != (0x3));
+        if self.v30 != c30 { self.v30 = c30; *dirty |= 0x4000000; }
+        let c32: u64 = u64::from((c538 | (c533 << 1) | (c517 << 2)) != (0x1));
+        if self.v32 != c32 { self.v32 = c32; *dirty |= 0x4000000; }
+        let c542: u64 = !(self.q106) & 0x1;
+        let c504: u64 = (c503) & (c542) & 0x1;
+        let c505: u64 = (c504) & (self.q123) & 0x1;
+        let c543: u64 = !(self.q112) & 0x1;
+        if self.v543 != c543 { self.v543 = c543; *dirty |= 0x100002000; }
+        let c506: u64 = (c505) & (c543) & 0x1;
+        let c544: u64 = !(self.q88) & 0x1;
+        let c507: u64 = (c506) & (c544) & 0x1;
+        if self.v507 != c507 { self.v507 = c507; *dirty |= 0x1000; }
+        let c545: u64 = !(c513) & 0x1;
+        let c514: u64 = (c507) & (c545) & 0x1;
+        if self.v514 != c514 { self.v514 = c514; *dirty |= 0x20000000; }
+        let c546: u64 = ((self.q113) | (self.q124)) & 0x1;
+        if self.v546 != c546 { self.v546 = c546; *dirty |= 0x28000000; }
+        let c547: u64 = ((c525) | (c526)) & 0x1;
+        if self.v547 != c547 { self.v547 = c547; *dirty |= 0x2000; }
+        let c548: u64 = ((c547) | (c510)) & 0x1;
+        if self.v548 != c548 { self.v548 = c548; *dirty |= 0x4000000; }
+        let c549: u64 = ((self.q19) | (self.q106)) & 0x1;
+        if self.v549 != c549 { self.v549 = c549; *dirty |= 0x20000002; }
+        let c568: u64 = u64::from((self.q114) == (0x3));
+        if self.v568 != c568 { self.v568 = c568; *dirty |= 0x20002010; }
+        let c570: u64 = (c520) & (c530) & 0x1;
+        let c572: u64 = u64::from((self.q114) == (0x6));
+        if self.v572 != c572 { self.v572 = c572; *dirty |= 0x24000080; }
+        let c31: u64 = u64::from((c572 | (c535 << 1)) != (0x1));
         if self.v31 != c31 { self.v31 = c31; *dirty |= 0x4000000; }
-        let c34: u64 = u64::from((c573 | (c536 << 1) | (self.q108 << 2)) != (0x7));
+        let c34: u64 = u64::from((c572 | (c535 << 1) | (self.q108 << 2)) != (0x7));
         if self.v34 != c34 { self.v34 = c34; *dirty |= 0x4000000; }
-        let c581: u64 = if (c537) != 0 { (c535) } else { (c520) };
-        let c582: u64 = (c537) & (self.q70) & 0x1;
-        let c583: u64 = if (self.q108) != 0 { (0x0) } else { (c582) };
-        let c584: u64 = if (self.q108) != 0 { (0x0) } else { (c581) };
-        let c586: u64 = (c536) & (c583) & 0x1;
-        if self.v586 != c586 { self.v586 = c586; *dirty |= 0x4000000; }
-        let c587: u64 = (c536) & (c584) & 0x1;
-        let c592: u64 = if (c534) != 0 { (0x0) } else { (self.q81) };
-        let c596: u64 = if (c518) != 0 { (self.q81) } else { (c592) };
-        let c600: u64 = u64::from((self.q114) == (0x4));
-        if self.v600 != c600 { self.v600 = c600; *dirty |= 0x2e000080; }
-        let c29: u64 = u64::from((c539 | (c600 << 1) | (c573 << 2)) != 0);
+        let c580: u64 = if (c536) != 0 { (c534) } else { (c519) };
+        let c581: u64 = (c536) & (self.q69) & 0x1;
+        let c582: u64 = if (self.q108) != 0 { (0x0) } else { (c581) };
+        let c583: u64 = if (self.q108) != 0 { (0x0) } else { (c580) };
+        let c585: u64 = (c535) & (c582) & 0x1;
+        if self.v585 != c585 { self.v585 = c585; *dirty |= 0x4000000; }
+        let c586: u64 = (c535) & (c583) & 0x1;
+        let c591: u64 = if (c533) != 0 { (0x0) } else { (self.q80) };
+        let c595: u64 = if (c517) != 0 { (self.q80) } else { (c591) };
+        let c599: u64 = u64::from((self.q114) == (0x4));
+        if self.v599 != c599 { self.v599 = c599; *dirty |= 0x2e000080; }
+        let c29: u64 = u64::from((c538 | (c599 << 1) | (c572 << 2)) != 0);
         if self.v29 != c29 { self.v29 = c29; *dirty |= 0x4000000; }
-        let c603: u64 = if (self.q108) != 0 { (0x0) } else { (c534) };
-        let c605: u64 = (self.q108) & (c535) & 0x1;
-        let c606: u64 = (self.q108) & (self.q70) & 0x1;
-        if self.v606 != c606 { self.v606 = c606; *dirty |= 0x4000000; }
-        let c607: u64 = (self.q108) & (c547) & 0x1;
-        let c609: u64 = if (c516) != 0 { (0x0) } else { (c534) };
-        let c613: u64 = if (self.q77) != 0 { (c609) } else { (c603) };
-        if self.v613 != c613 { self.v613 = c613; *dirty |= 0x20000000; }
-        let c33: u64 = u64::from((c600 | (c613 << 1)) != (0x1));
+        let c602: u64 = if (self.q108) != 0 { (0x0) } else { (c533) };
+        let c604: u64 = (self.q108) & (c534) & 0x1;
+        let c605: u64 = (self.q108) & (self.q69) & 0x1;
+        if self.v605 != c605 { self.v605 = c605; *dirty |= 0x4000000; }
+        let c606: u64 = (self.q108) & (c546) & 0x1;
+        let c608: u64 = if (c515) != 0 { (0x0) } else { (c533) };
+        let c612: u64 = if (self.q76) != 0 { (c608) } else { (c602) };
+        if self.v612 != c612 { self.v612 = c612; *dirty |= 0x20000000; }
+        let c33: u64 = u64::from((c599 | (c612 << 1)) != (0x1));
         if self.v33 != c33 { self.v33 = c33; *dirty |= 0x4000000; }
-        let c124: u64 = if (c539) != 0 { (c534) } else { (c613) };
-        let c591: u64 = ((self.q79) | (c124)) & 0x1;
-        let c615: u64 = ((c607) | (self.q77)) & 0x1;
-        if self.v615 != c615 { self.v615 = c615; *dirty |= 0x20000000; }
-        let c616: u64 = if (self.q77) != 0 { (0x0) } else { (self.q108) };
-        let c617: u64 = if (self.q77) != 0 { (0x0) } else { (c605) };
-        let c619: u64 = if (c514) != 0 { (0x2) } else { (0x1) };
-        if self.v619 != c619 { self.v619 = c619; *dirty |= 0x20000000; }
-        let c638: u64 = u64::from((self.q114) == 0);
-        if self.v638 != c638 { self.v638 = c638; *dirty |= 0x20002010; }
-        let c644: u64 = if (c573) != 0 { (c503) } else { (0x0) };
-        if self.v644 != c644 { self.v644 = c644; *dirty |= 0x400000000000000000; }
-        let c645: u64 = if (c573) != 0 { (0x0) } else { (c591) };
-        if self.v645 != c645 { self.v645 = c645; *dirty |= 0x800000000000000000; }
-        let c646: u64 = if (c539) != 0 { (c596) } else { (self.q81) };
-        if self.v646 != c646 { self.v646 = c646; *dirty |= 0x4000000; }
-        let c649: u64 = (c600) & (c616) & 0x1;
-        if self.v649 != c649 { self.v649 = c649; *dirty |= 0x4000000; }
-        let c651: u64 = (c569) & (c571) & 0x1;
-        if self.v651 != c651 { self.v651 = c651; *dirty |= 0x4000000; }
-        let c653: u64 = { let s = (c573 | (c600 << 1)); if s >> 0 & 1 != 0 { c587 } else if s >> 1 & 1 != 0 { c617 } else { (0x0) } };
-        if self.v653 != c653 { self.v653 = c653; *dirty |= 0x4000000; }
+        let c124: u64 = if (c538) != 0 { (c533) } else { (c612) };
+        let c590: u64 = ((self.q78) | (c124)) & 0x1;
+        let c614: u64 = ((c606) | (self.q76)) & 0x1;
+        if self.v614 != c614 { self.v614 = c614; *dirty |= 0x20000000; }
+        let c615: u64 = if (self.q76) != 0 { (0x0) } else { (self.q108) };
+        let c616: u64 = if (self.q76) != 0 { (0x0) } else { (c604) };
+        let c618: u64 = if (c513) != 0 { (0x2) } else { (0x1) };
+        if self.v618 != c618 { self.v618 = c618; *dirty |= 0x20000000; }
+        let c637: u64 = u64::from((self.q114) == 0);
+        if self.v637 != c637 { self.v637 = c637; *dirty |= 0x20002010; }
+        let c643: u64 = if (c572) != 0 { (c502) } else { (0x0) };
+        if self.v643 != c643 { self.v643 = c643; *dirty |= 0x400000000000000000; }
+        let c644: u64 = if (c572) != 0 { (0x0) } else { (c590) };
+        if self.v644 != c644 { self.v644 = c644; *dirty |= 0x800000000000000000; }
+        let c645: u64 = if (c538) != 0 { (c595) } else { (self.q80) };
+        if self.v645 != c645 { self.v645 = c645; *dirty |= 0x4000000; }
+        let c648: u64 = (c599) & (c615) & 0x1;
+        if self.v648 != c648 { self.v648 = c648; *dirty |= 0x4000000; }
+        let c650: u64 = (c568) & (c570) & 0x1;
+        if self.v650 != c650 { self.v650 = c650; *dirty |= 0x4000000; }
+        let c652: u64 = { let s = (c572 | (c599 << 1)); if s >> 0 & 1 != 0 { c586 } else if s >> 1 & 1 != 0 { c616 } else { (0x0) } };
+        if self.v652 != c652 { self.v652 = c652; *dirty |= 0x4000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$frame.
     fn group_1(&mut self, dirty: &mut u128) {
-        let c381: u64 = (self.q123) & (self.v542) & 0x1;
-        let c384: u64 = (self.v534) & (self.v535) & 0x1;
-        let c386: u64 = u64::from((self.q92) == (0xb));
-        if self.v386 != c386 { self.v386 = c386; *dirty |= 0x8000000; }
-        let c387: u64 = u64::from((self.q92) == (0xc));
-        if self.v387 != c387 { self.v387 = c387; *dirty |= 0x18000000; }
-        let c388: u64 = u64::from((self.q92) == (0x1f));
-        if self.v388 != c388 { self.v388 = c388; *dirty |= 0x8001000; }
-        let c40: u64 = u64::from((c386 | (c388 << 1)) != 0);
+        let c380: u64 = (self.q123) & (self.v541) & 0x1;
+        let c383: u64 = (self.v533) & (self.v534) & 0x1;
+        let c385: u64 = u64::from((self.q91) == (0xb));
+        if self.v385 != c385 { self.v385 = c385; *dirty |= 0x8000000; }
+        let c386: u64 = u64::from((self.q91) == (0xc));
+        if self.v386 != c386 { self.v386 = c386; *dirty |= 0x18000000; }
+        let c387: u64 = u64::from((self.q91) == (0x1f));
+        if self.v387 != c387 { self.v387 = c387; *dirty |= 0x8001000; }
+        let c40: u64 = u64::from((c385 | (c387 << 1)) != 0);
         if self.v40 != c40 { self.v40 = c40; *dirty |= 0x10000000; }
-        let c389: u64 = u64::from((self.q92) == (0x4));
-        if self.v389 != c389 { self.v389 = c389; *dirty |= 0x1000000; }
-        let c390: u64 = u64::from(((self.q103 & 0x7)) == 0);
-        let c391: u64 = u64::from(((self.q92 & 0x7)) == (0x7));
-        if self.v391 != c391 { self.v391 = c391; *dirty |= 0x10400080; }
-        let c392: u64 = u64::from(((self.q92 >> 3)) == (self.q98));
-        let c376: u64 = (c391) & (c392) & 0x1;
-        if self.v376 != c376 { self.v376 = c376; *dirty |= 0x1000000; }
-        let c393: u64 = u64::from((self.q114) == (0x8));
-        if self.v393 != c393 { self.v393 = c393; *dirty |= 0x1011000080; }
-        let c378: u64 = (c393) & (self.q117) & 0x1;
-        let c394: u64 = u64::from((self.q108) == (self.q71));
-        if self.v394 != c394 { self.v394 = c394; *dirty |= 0x8000000; }
-        let c395: u64 = u64::from((self.q92) == (0xe));
-        let c396: u64 = u64::from((self.q91) == 0);
-        let c397: u64 = !(self.q127) & 0x1;
-        let c382: u64 = (self.q108) & (c397) & 0x1;
-        let c398: u64 = u64::from((self.q92) == (0x6));
-        if self.v398 != c398 { self.v398 = c398; *dirty |= 0x1000000; }
-        let c383: u64 = (c398) & (self.v535) & 0x1;
-        let c385: u64 = (c398) & (self.q70) & 0x1;
-        let c399: u64 = u64::from((self.q117) != (self.q108));
-        let c373: u64 = (self.q70) & (c399) & 0x1;
-        let c400: u64 = ((c386) | (c387)) & 0x1;
-        let c401: u64 = ((c400) | (c388)) & 0x1;
-        let c45: u64 = !(c401) & 0x1;
+        let c388: u64 = u64::from((self.q91) == (0x4));
+        if self.v388 != c388 { self.v388 = c388; *dirty |= 0x1000000; }
+        let c389: u64 = u64::from(((self.q102 & 0x7)) == 0);
+        let c390: u64 = u64::from(((self.q91 & 0x7)) == (0x7));
+        if self.v390 != c390 { self.v390 = c390; *dirty |= 0x10400080; }
+        let c391: u64 = u64::from(((self.q91 >> 3)) == (self.q97));
+        let c375: u64 = (c390) & (c391) & 0x1;
+        if self.v375 != c375 { self.v375 = c375; *dirty |= 0x1000000; }
+        let c392: u64 = u64::from((self.q114) == (0x8));
+        if self.v392 != c392 { self.v392 = c392; *dirty |= 0x1011000080; }
+        let c377: u64 = (c392) & (self.q117) & 0x1;
+        let c393: u64 = u64::from((self.q108) == (self.q70));
+        if self.v393 != c393 { self.v393 = c393; *dirty |= 0x8000000; }
+        let c394: u64 = u64::from((self.q91) == (0xe));
+        let c395: u64 = u64::from((self.q90) == 0);
+        let c396: u64 = !(self.q127) & 0x1;
+        let c381: u64 = (self.q108) & (c396) & 0x1;
+        let c397: u64 = u64::from((self.q91) == (0x6));
+        if self.v397 != c397 { self.v397 = c397; *dirty |= 0x1000000; }
+        let c382: u64 = (c397) & (self.v534) & 0x1;
+        let c384: u64 = (c397) & (self.q69) & 0x1;
+        let c398: u64 = u64::from((self.q117) != (self.q108));
+        let c372: u64 = (self.q69) & (c398) & 0x1;
+        let c399: u64 = ((c385) | (c386)) & 0x1;
+        let c400: u64 = ((c399) | (c387)) & 0x1;
+        let c45: u64 = !(c400) & 0x1;
         if self.v45 != c45 { self.v45 = c45; *dirty |= 0x1010000000; }
-        let c379: u64 = (self.q70) & (c45) & 0x1;
-        let c405: u64 = u64::from((self.q114) == (0xf));
-        if self.v405 != c405 { self.v405 = c405; *dirty |= 0x1000080; }
-        let c407: u64 = !(c383) & 0x1;
-        let c408: u64 = if (self.q108) != 0 { (0x0) } else { (c407) };
-        let c410: u64 = (self.q108) & (c385) & 0x1;
-        let c411: u64 = (self.q108) & (c384) & 0x1;
-        let c413: u64 = if (c398) != 0 { (0x7) } else { (self.q114) };
-        let c406: u64 = if (c383) != 0 { (0x5) } else { (c413) };
-        let c409: u64 = if (self.q108) != 0 { (c413) } else { (c406) };
-        if self.v409 != c409 { self.v409 = c409; *dirty |= 0x1000000; }
-        let c414: u64 = u64::from((self.q114) == (0xe));
-        if self.v414 != c414 { self.v414 = c414; *dirty |= 0x1000080; }
-        let c415: u64 = if (self.q108) != 0 { (self.q90 | (self.q90 << 1)) } else { (0x1) };
-        let c416: u64 = if (self.q108) != 0 { (self.q90) } else { (0x1) };
-        let c417: u64 = u64::from((self.q114) == (0xd));
-        if self.v417 != c417 { self.v417 = c417; *dirty |= 0x1000080; }
-        let c418: u64 = if (self.q117) != 0 { (0x0) } else { (self.q108) };
-        let c420: u64 = !(self.q113) & 0x1;
-        let c421: u64 = (c382) & (self.q113) & 0x1;
-        let c422: u64 = if (c382) != 0 { (c420) } else { (0x1) };
-        let c423: u64 = (self.q70) & (c421) & 0x1;
-        let c424: u64 = if (self.q70) != 0 { (c422) } else { (0x1) };
-        let c425: u64 = (self.q70) & (c382) & 0x1;
-        let c426: u64 = if (self.q70) != 0 { (c382) } else { (c418) };
-        let c428: u64 = (c396) & (c381) & 0x1;
-        let c429: u64 = u64::from((self.q114) == (0xc));
-        if self.v429 != c429 { self.v429 = c429; *dirty |= 0x1000080; }
-        let c430: u64 = !(c396) & 0x1;
-        let c431: u64 = if (self.q70) != 0 { (0x0) } else { (c430) };
-        let c432: u64 = if (self.q70) != 0 { (0x0) } else { (c428) };
-        let c433: u64 = !(self.q108) & 0x1;
-        if self.v433 != c433 { self.v433 = c433; *dirty |= 0x804000000; }
-        let c375: u64 = (c390) & (c433) & 0x1;
-        let c380: u64 = (c387) & (c433) & 0x1;
-        let c403: u64 = ((self.q97) | (c375)) & 0x1;
+        let c378: u64 = (self.q69) & (c45) & 0x1;
+        let c404: u64 = u64::from((self.q114) == (0xf));
+        if self.v404 != c404 { self.v404 = c404; *dirty |= 0x1000080; }
+        let c406: u64 = !(c382) & 0x1;
+        let c407: u64 = if (self.q108) != 0 { (0x0) } else { (c406) };
+        let c409: u64 = (self.q108) & (c384) & 0x1;
+        let c410: u64 = (self.q108) & (c383) & 0x1;
+        let c412: u64 = if (c397) != 0 { (0x7) } else { (self.q114) };
+        let c405: u64 = if (c382) != 0 { (0x5) } else { (c412) };
+        let c408: u64 = if (self.q108) != 0 { (c412) } else { (c405) };
+        if self.v408 != c408 { self.v408 = c408; *dirty |= 0x1000000; }
+        let c413: u64 = u64::from((self.q114) == (0xe));
+        if self.v413 != c413 { self.v413 = c413; *dirty |= 0x1000080; }
+        let c414: u64 = if (self.q108) != 0 { (self.q89 | (self.q89 << 1)) } else { (0x1) };
+        let c415: u64 = if (self.q108) != 0 { (self.q89) } else { (0x1) };
+        let c416: u64 = u64::from((self.q114) == (0xd));
+        if self.v416 != c416 { self.v416 = c416; *dirty |= 0x1000080; }
+        let c417: u64 = if (self.q117) != 0 { (0x0) } else { (self.q108) };
+        let c419: u64 = !(self.q113) & 0x1;
+        let c420: u64 = (c381) & (self.q113) & 0x1;
+        let c421: u64 = if (c381) != 0 { (c419) } else { (0x1) };
+        let c422: u64 = (self.q69) & (c420) & 0x1;
+        let c423: u64 = if (self.q69) != 0 { (c421) } else { (0x1) };
+        let c424: u64 = (self.q69) & (c381) & 0x1;
+        let c425: u64 = if (self.q69) != 0 { (c381) } else { (c417) };
+        let c427: u64 = (c395) & (c380) & 0x1;
+        let c428: u64 = u64::from((self.q114) == (0xc));
+        if self.v428 != c428 { self.v428 = c428; *dirty |= 0x1000080; }
+        let c429: u64 = !(c395) & 0x1;
+        let c430: u64 = if (self.q69) != 0 { (0x0) } else { (c429) };
+        let c431: u64 = if (self.q69) != 0 { (0x0) } else { (c427) };
+        let c432: u64 = !(self.q108) & 0x1;
+        if self.v432 != c432 { self.v432 = c432; *dirty |= 0x804000000; }
+        let c374: u64 = (c389) & (c432) & 0x1;
+        let c379: u64 = (c386) & (c432) & 0x1;
+        let c402: u64 = ((self.q96) | (c374)) & 0x1;
+        if self.v402 != c402 { self.v402 = c402; *dirty |= 0x1000000; }
+        let c403: u64 = ((c379) | (c387)) & 0x1;
         if self.v403 != c403 { self.v403 = c403; *dirty |= 0x1000000; }
-        let c404: u64 = ((c380) | (c388)) & 0x1;
-        if self.v404 != c404 { self.v404 = c404; *dirty |= 0x1000000; }
-        let c419: u64 = if (self.q117) != 0 { (0x0) } else { (c433) };
-        let c427: u64 = if (self.q70) != 0 { (0x0) } else { (c419) };
+        let c418: u64 = if (self.q117) != 0 { (0x0) } else { (c432) };
+        let c426: u64 = if (self.q69) != 0 { (0x0) } else { (c418) };
+        let c433: u64 = (self.q108) & (c430) & 0x1;
         let c434: u64 = (self.q108) & (c431) & 0x1;
-        let c435: u64 = (self.q108) & (c432) & 0x1;
-        let c436: u64 = if (c395) != 0 { (0xc) } else { (self.q114) };
-        if self.v436 != c436 { self.v436 = c436; *dirty |= 0x1000000; }
-        let c437: u64 = u64::from((self.q114) == (0xb));
-        if self.v437 != c437 { self.v437 = c437; *dirty |= 0x1000080; }
-        let c439: u64 = u64::from((self.q114) == (0xa));
-        if self.v439 != c439 { self.v439 = c439; *dirty |= 0x11400080; }
-        let c440: u64 = if (c376) != 0 { (0xb) } else { (self.q114) };
-        if self.v440 != c440 { self.v440 = c440; *dirty |= 0x1000000; }
-        let c441: u64 = u64::from((self.q114) == (0x9));
-        if self.v441 != c441 { self.v441 = c441; *dirty |= 0x1081000080; }
-        let c121: u64 = u64::from((c441 | (c439 << 1) | (c437 << 2)) != 0);
-        let c122: u64 = u64::from((c441 | (c439 << 1) | (c393 << 2) | (c437 << 3)) != 0);
-        let c444: u64 = (self.q117) & (self.v550) & 0x1;
-        let c445: u64 = if (self.q117) != 0 { (0x0) } else { (c379) };
-        let c446: u64 = (c373) & (c444) & 0x1;
-        let c447: u64 = (c373) & (self.q117) & 0x1;
-        let c448: u64 = (c373) & (self.v532) & 0x1;
-        let c449: u64 = if (c373) != 0 { (c445) } else { (c379) };
-        let c451: u64 = if (c404) != 0 { (0x9) } else { (self.q114) };
-        if self.v451 != c451 { self.v451 = c451; *dirty |= 0x1000000; }
-        let c452: u64 = { let s = (c405 | (c393 << 1)); if s >> 0 & 1 != 0 { c410 } else if s >> 1 & 1 != 0 { c446 } else { (0x0) } };
-        let c453: u64 = (c393) & (c447) & 0x1;
-        let c454: u64 = { let s = (c405 | (c414 << 1) | (c417 << 2) | (c429 << 3) | (c121 << 4) | (c393 << 5)); if s >> 0 & 1 != 0 { c408 } else if s >> 1 & 1 != 0 { c416 } else if s >> 2 & 1 != 0 { c426 } else if s >> 3 & 1 != 0 { c433 } else if s >> 4 & 1 != 0 { c373 } else if s >> 5 & 1 != 0 { c448 } else { (0x0) } };
-        let c455: u64 = { let s = (c439 | (c393 << 1)); if s >> 0 & 1 != 0 { self.q70 } else if s >> 1 & 1 != 0 { c449 } else { (0x0) } };
-        let c456: u64 = (c393) & (c404) & 0x1;
-        let c459: u64 = (c405) & (c410) & 0x1;
-        let c460: u64 = (c405) & (c411) & 0x1;
-        let c461: u64 = (c417) & (c423) & 0x1;
-        let c462: u64 = (c429) & (c434) & 0x1;
-        let c463: u64 = if (c417) != 0 { (c424) } else { (0x1) };
-        let c464: u64 = { let s = (c405 | (c414 << 1) | (c417 << 2) | (c429 << 3)); if s >> 0 & 1 != 0 { c408 } else if s >> 1 & 1 != 0 { c415 } else if s >> 2 & 1 != 0 { c425 | (c425 << 1) } else if s >> 3 & 1 != 0 { c433 } else { (0x0) } };
-        let c465: u64 = (c429) & (c435) & 0x1;
-        let c466: u64 = (c417) & (c427) & 0x1;
-        let c467: u64 = (self.q5) & (c456) & 0x1;
+        let c435: u64 = if (c394) != 0 { (0xc) } else { (self.q114) };
+        if self.v435 != c435 { self.v435 = c435; *dirty |= 0x1000000; }
+        let c436: u64 = u64::from((self.q114) == (0xb));
+        if self.v436 != c436 { self.v436 = c436; *dirty |= 0x1000080; }
+        let c438: u64 = u64::from((self.q114) == (0xa));
+        if self.v438 != c438 { self.v438 = c438; *dirty |= 0x11400080; }
+        let c439: u64 = if (c375) != 0 { (0xb) } else { (self.q114) };
+        if self.v439 != c439 { self.v439 = c439; *dirty |= 0x1000000; }
+        let c440: u64 = u64::from((self.q114) == (0x9));
+        if self.v440 != c440 { self.v440 = c440; *dirty |= 0x1081000080; }
+        let c121: u64 = u64::from((c440 | (c438 << 1) | (c436 << 2)) != 0);
+        let c122: u64 = u64::from((c440 | (c438 << 1) | (c392 << 2) | (c436 << 3)) != 0);
+        let c443: u64 = (self.q117) & (self.v549) & 0x1;
+        let c444: u64 = if (self.q117) != 0 { (0x0) } else { (c378) };
+        let c445: u64 = (c372) & (c443) & 0x1;
+        let c446: u64 = (c372) & (self.q117) & 0x1;
+        let c447: u64 = (c372) & (self.v531) & 0x1;
+        let c448: u64 = if (c372) != 0 { (c444) } else { (c378) };
+        let c450: u64 = if (c403) != 0 { (0x9) } else { (self.q114) };
+        if self.v450 != c450 { self.v450 = c450; *dirty |= 0x1000000; }
+        let c451: u64 = { let s = (c404 | (c392 << 1)); if s >> 0 & 1 != 0 { c409 } else if s >> 1 & 1 != 0 { c445 } else { (0x0) } };
+        let c452: u64 = (c392) & (c446) & 0x1;
+        let c453: u64 = { let s = (c404 | (c413 << 1) | (c416 << 2) | (c428 << 3) | (c121 << 4) | (c392 << 5)); if s >> 0 & 1 != 0 { c407 } else if s >> 1 & 1 != 0 { c415 } else if s >> 2 & 1 != 0 { c425 } else if s >> 3 & 1 != 0 { c432 } else if s >> 4 & 1 != 0 { c372 } else if s >> 5 & 1 != 0 { c447 } else { (0x0) } };
+        let c454: u64 = { let s = (c438 | (c392 << 1)); if s >> 0 & 1 != 0 { self.q69 } else if s >> 1 & 1 != 0 { c448 } else { (0x0) } };
+        let c455: u64 = (c392) & (c403) & 0x1;
+        let c458: u64 = (c404) & (c409) & 0x1;
+        let c459: u64 = (c404) & (c410) & 0x1;
+        let c460: u64 = (c416) & (c422) & 0x1;
+        let c461: u64 = (c428) & (c433) & 0x1;
+        let c462: u64 = if (c416) != 0 { (c423) } else { (0x1) };
+        let c463: u64 = { let s = (c404 | (c413 << 1) | (c416 << 2) | (c428 << 3)); if s >> 0 & 1 != 0 { c407 } else if s >> 1 & 1 != 0 { c414 } else if s >> 2 & 1 != 0 { c424 | (c424 << 1) } else if s >> 3 & 1 != 0 { c432 } else { (0x0) } };
+        let c464: u64 = (c428) & (c434) & 0x1;
+        let c465: u64 = (c416) & (c426) & 0x1;
+        let c466: u64 = (self.q4) & (c455) & 0x1;
+        if self.v466 != c466 { self.v466 = c466; *dirty |= 0x10000000; }
+        let c467: u64 = (self.q4) & (c458) & 0x1;
         if self.v467 != c467 { self.v467 = c467; *dirty |= 0x10000000; }
-        let c468: u64 = (self.q5) & (c459) & 0x1;
+        let c468: u64 = (self.q4) & (c451) & 0x1;
         if self.v468 != c468 { self.v468 = c468; *dirty |= 0x10000000; }
-        let c469: u64 = (self.q5) & (c452) & 0x1;
-        if self.v469 != c469 { self.v469 = c469; *dirty |= 0x10000000; }
-        let c470: u64 = (self.q5) & (c460) & 0x1;
-        if self.v470 != c470 { self.v470 = c470; *dirty |= 0x10000000000000000000; }
-        let c471: u64 = (self.q5) & (c461) & 0x1;
+        let c469: u64 = (self.q4) & (c459) & 0x1;
+        if self.v469 != c469 { self.v469 = c469; *dirty |= 0x10000000000000000000; }
+        let c470: u64 = (self.q4) & (c460) & 0x1;
+        if self.v470 != c470 { self.v470 = c470; *dirty |= 0x10000000; }
+        let c471: u64 = (self.q4) & (c461) & 0x1;
         if self.v471 != c471 { self.v471 = c471; *dirty |= 0x10000000; }
-        let c472: u64 = (self.q5) & (c462) & 0x1;
+        let c472: u64 = if (self.q4) != 0 { (c462) } else { (0x1) };
         if self.v472 != c472 { self.v472 = c472; *dirty |= 0x10000000; }
-        let c473: u64 = if (self.q5) != 0 { (c463) } else { (0x1) };
+        let c473: u64 = (self.q4) & (c452) & 0x1;
         if self.v473 != c473 { self.v473 = c473; *dirty |= 0x10000000; }
-        let c474: u64 = (self.q5) & (c453) & 0x1;
+        let c474: u64 = if (self.q4) != 0 { (c463) } else { (0x0) };
         if self.v474 != c474 { self.v474 = c474; *dirty |= 0x10000000; }
-        let c475: u64 = if (self.q5) != 0 { (c464) } else { (0x0) };
+        let c475: u64 = (self.q4) & (c453) & 0x1;
         if self.v475 != c475 { self.v475 = c475; *dirty |= 0x10000000; }
-        let c476: u64 = (self.q5) & (c454) & 0x1;
+        let c476: u64 = (self.q4) & (c428) & 0x1;
         if self.v476 != c476 { self.v476 = c476; *dirty |= 0x10000000; }
-        let c477: u64 = (self.q5) & (c429) & 0x1;
+        let c477: u64 = (self.q4) & (c464) & 0x1;
         if self.v477 != c477 { self.v477 = c477; *dirty |= 0x10000000; }
-        let c478: u64 = (self.q5) & (c465) & 0x1;
+        let c478: u64 = (self.q4) & (c122) & 0x1;
         if self.v478 != c478 { self.v478 = c478; *dirty |= 0x10000000; }
-        let c479: u64 = (self.q5) & (c122) & 0x1;
-        if self.v479 != c479 { self.v479 = c479; *dirty |= 0x10000000; }
-        let c481: u64 = (self.q5) & (c466) & 0x1;
+        let c480: u64 = (self.q4) & (c465) & 0x1;
+        if self.v480 != c480 { self.v480 = c480; *dirty |= 0x10000000; }
+        let c481: u64 = (self.q4) & (c454) & 0x1;
         if self.v481 != c481 { self.v481 = c481; *dirty |= 0x10000000; }
-        let c482: u64 = (self.q5) & (c455) & 0x1;
-        if self.v482 != c482 { self.v482 = c482; *dirty |= 0x10000000; }
-        let c483: u64 = !(c378) & 0x1;
-        let c484: u64 = if (c373) != 0 { (c483) } else { (0x1) };
+        let c482: u64 = !(c377) & 0x1;
+        let c483: u64 = if (c372) != 0 { (c482) } else { (0x1) };
+        if self.v483 != c483 { self.v483 = c483; *dirty |= 0x10000000; }
+        let c484: u64 = if (c372) != 0 { (c377) } else { (c393) };
         if self.v484 != c484 { self.v484 = c484; *dirty |= 0x10000000; }
-        let c485: u64 = if (c373) != 0 { (c378) } else { (c394) };
+        let c485: u64 = ((c393) | (c372)) & 0x1;
         if self.v485 != c485 { self.v485 = c485; *dirty |= 0x10000000; }
-        let c486: u64 = ((c394) | (c373)) & 0x1;
-        if self.v486 != c486 { self.v486 = c486; *dirty |= 0x10000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$filter.
     fn group_2(&mut self, dirty: &mut u128) {
-        let c116: u64 = ((self.q97 | ((self.q100 & 0x1f) << 1)) ^ ((self.q55 >> 2))) & 0x3f;
-        let c852: u64 = (self.q33) & (self.q126) & 0x1;
-        let c855: u64 = (self.q47) & (self.q119) & 0x1;
-        let c856: u64 = (c855) & (self.q120) & 0x1;
-        let c857: u64 = (self.q49) & (self.q118) & 0x1;
-        let c872: u64 = u64::from(((self.i_addr >> 3)) == (0x2));
-        let c853: u64 = (c852) & (c872) & 0x1;
-        if self.v853 != c853 { self.v853 = c853; *dirty |= 0x800000; }
-        let c873: u64 = u64::from((self.i_addr) == (0x5));
-        if self.v873 != c873 { self.v873 = c873; *dirty |= 0x800000; }
-        let c888: u64 = u64::from((self.q106) == 0);
-        let c891: u64 = u64::from((self.q106) == (0x1));
-        let c894: u64 = ((c857) | (self.q48)) & 0x1;
-        let c905: u64 = ((self.q118) | (self.q102)) & 0x1;
+        let c116: u64 = ((self.q96 | ((self.q99 & 0x1f) << 1)) ^ ((self.q54 >> 2))) & 0x3f;
+        let c851: u64 = (self.q32) & (self.q126) & 0x1;
+        let c854: u64 = (self.q46) & (self.q119) & 0x1;
+        let c855: u64 = (c854) & (self.q120) & 0x1;
+        let c856: u64 = (self.q48) & (self.q118) & 0x1;
+        let c871: u64 = u64::from(((self.i_addr >> 3)) == (0x2));
+        let c852: u64 = (c851) & (c871) & 0x1;
+        if self.v852 != c852 { self.v852 = c852; *dirty |= 0x800000; }
+        let c872: u64 = u64::from((self.i_addr) == (0x5));
+        if self.v872 != c872 { self.v872 = c872; *dirty |= 0x800000; }
+        let c887: u64 = u64::from((self.q105) == 0);
+        let c890: u64 = u64::from((self.q105) == (0x1));
+        let c893: u64 = ((c856) | (self.q47)) & 0x1;
+        let c904: u64 = ((self.q118) | (self.q101)) & 0x1;
+        if self.v904 != c904 { self.v904 = c904; *dirty |= 0x800000; }
+        let c905: u64 = ((self.q120) | (self.q101)) & 0x1;
         if self.v905 != c905 { self.v905 = c905; *dirty |= 0x800000; }
-        let c906: u64 = ((self.q120) | (self.q102)) & 0x1;
+        let c906: u64 = ((self.q119) | (self.q101)) & 0x1;
         if self.v906 != c906 { self.v906 = c906; *dirty |= 0x800000; }
-        let c907: u64 = ((self.q119) | (self.q102)) & 0x1;
-        if self.v907 != c907 { self.v907 = c907; *dirty |= 0x800000; }
-        let c908: u64 = if (self.q35) != 0 { (c856) } else { (c894) };
-        let c909: u64 = if (self.q33) != 0 { (c908) } else { (self.q50) };
-        if self.v909 != c909 { self.v909 = c909; *dirty |= 0x100; }
-        let c911: u64 = if (self.q33) != 0 { ((self.i_addr & 0x7)) } else { ((c873 << 2)) };
-        if self.v911 != c911 { self.v911 = c911; *dirty |= 0x100000; }
-        let c874: u64 = u64::from((c911) == 0);
+        let c907: u64 = if (self.q34) != 0 { (c855) } else { (c893) };
+        let c908: u64 = if (self.q32) != 0 { (c907) } else { (self.q49) };
+        if self.v908 != c908 { self.v908 = c908; *dirty |= 0x100; }
+        let c910: u64 = if (self.q32) != 0 { ((self.i_addr & 0x7)) } else { ((c872 << 2)) };
+        if self.v910 != c910 { self.v910 = c910; *dirty |= 0x100000; }
+        let c873: u64 = u64::from((c910) == 0);
+        if self.v873 != c873 { self.v873 = c873; *dirty |= 0x800000; }
+        let c874: u64 = u64::from((c910) == (0x1));
         if self.v874 != c874 { self.v874 = c874; *dirty |= 0x800000; }
-        let c875: u64 = u64::from((c911) == (0x1));
+        let c875: u64 = u64::from((c910) == (0x2));
         if self.v875 != c875 { self.v875 = c875; *dirty |= 0x800000; }
-        let c876: u64 = u64::from((c911) == (0x2));
+        let c876: u64 = u64::from((c910) == (0x3));
         if self.v876 != c876 { self.v876 = c876; *dirty |= 0x800000; }
-        let c877: u64 = u64::from((c911) == (0x3));
+        let c877: u64 = u64::from((c910) == (0x4));
         if self.v877 != c877 { self.v877 = c877; *dirty |= 0x800000; }
-        let c878: u64 = u64::from((c911) == (0x4));
+        let c878: u64 = u64::from((c910) == (0x5));
         if self.v878 != c878 { self.v878 = c878; *dirty |= 0x800000; }
-        let c879: u64 = u64::from((c911) == (0x5));
+        let c879: u64 = u64::from((c910) == (0x6));
         if self.v879 != c879 { self.v879 = c879; *dirty |= 0x800000; }
-        let c880: u64 = u64::from((c911) == (0x6));
+        let c880: u64 = u64::from((c910) == (0x7));
         if self.v880 != c880 { self.v880 = c880; *dirty |= 0x800000; }
-        let c881: u64 = u64::from((c911) == (0x7));
-        if self.v881 != c881 { self.v881 = c881; *dirty |= 0x800000; }
-        let c912: u64 = (((self.q101 >> 3)) ^ (self.q58)) & 0xff;
-        let c913: u64 = ((self.q54) ^ (0xff)) & 0xff;
-        let c858: u64 = (c912) & (c913) & 0xff;
-        let c882: u64 = u64::from((c858) == 0);
-        if self.v882 != c882 { self.v882 = c882; *dirty |= 0x10000000000000000800000; }
-        let c915: u64 = ((self.q53) ^ (0xff)) & 0xff;
-        if self.v915 != c915 { self.v915 = c915; *dirty |= 0x800000; }
-        let c916: u64 = ((((self.q100 >> 5) & 0xff)) ^ (self.q56)) & 0xff;
-        let c917: u64 = ((self.q52) ^ (0xff)) & 0xff;
-        let c860: u64 = (c916) & (c917) & 0xff;
-        let c886: u64 = u64::from((c860) == 0);
-        let c918: u64 = ((self.q51) ^ (0xff)) & 0xff;
-        if self.v918 != c918 { self.v918 = c918; *dirty |= 0x800000; }
-        let c861: u64 = ((self.q55 & 0x3) | (c116 << 2)) & (c918) & 0xff;
-        let c887: u64 = u64::from(((c861 >> 2)) == 0);
-        let c866: u64 = (c886) & (c887) & 0x1;
-        if self.v866 != c866 { self.v866 = c866; *dirty |= 0x800000; }
-        let c919: u64 = (((self.q101 >> 3)) ^ (self.q56)) & 0xff;
-        let c862: u64 = (c919) & (c917) & 0xff;
-        let c884: u64 = u64::from((c862) == 0);
-        if self.v884 != c884 { self.v884 = c884; *dirty |= 0x800000; }
-        let c921: u64 = ((self.q104) ^ (self.q56)) & 0xff;
-        let c869: u64 = (c921) & (c917) & 0xff;
-        let c889: u64 = u64::from((c869) == 0);
-        let c901: u64 = if (c888) != 0 { (c889) } else { (c907) };
-        if self.v901 != c901 { self.v901 = c901; *dirty |= 0x800000; }
-        let c922: u64 = ((self.q104) ^ ((self.q55 & 0xf) | ((self.q57 & 0xf) << 4))) & 0xff;
-        let c923: u64 = (((self.q51 & 0xf) | ((self.q53 & 0xf) << 4)) ^ (0xff)) & 0xff;
-        let c870: u64 = (c922) & (c923) & 0xff;
-        let c890: u64 = u64::from((c870) == 0);
-        let c900: u64 = if (c888) != 0 { (c890) } else { (c905) };
+        let c911: u64 = (((self.q100 >> 3)) ^ (self.q57)) & 0xff;
+        let c912: u64 = ((self.q53) ^ (0xff)) & 0xff;
+        let c857: u64 = (c911) & (c912) & 0xff;
+        let c881: u64 = u64::from((c857) == 0);
+        if self.v881 != c881 { self.v881 = c881; *dirty |= 0x10000000000000000800000; }
+        let c914: u64 = ((self.q52) ^ (0xff)) & 0xff;
+        if self.v914 != c914 { self.v914 = c914; *dirty |= 0x800000; }
+        let c915: u64 = ((((self.q99 >> 5) & 0xff)) ^ (self.q55)) & 0xff;
+        let c916: u64 = ((self.q51) ^ (0xff)) & 0xff;
+        let c859: u64 = (c915) & (c916) & 0xff;
+        let c885: u64 = u64::from((c859) == 0);
+        let c917: u64 = ((self.q50) ^ (0xff)) & 0xff;
+        if self.v917 != c917 { self.v917 = c917; *dirty |= 0x800000; }
+        let c860: u64 = ((self.q54 & 0x3) | (c116 << 2)) & (c917) & 0xff;
+        let c886: u64 = u64::from(((c860 >> 2)) == 0);
+        let c865: u64 = (c885) & (c886) & 0x1;
+        if self.v865 != c865 { self.v865 = c865; *dirty |= 0x800000; }
+        let c918: u64 = (((self.q100 >> 3)) ^ (self.q55)) & 0xff;
+        let c861: u64 = (c918) & (c916) & 0xff;
+        let c883: u64 = u64::from((c861) == 0);
+        if self.v883 != c883 { self.v883 = c883; *dirty |= 0x800000; }
+        let c920: u64 = ((self.q103) ^ (self.q55)) & 0xff;
+        let c868: u64 = (c920) & (c916) & 0xff;
+        let c888: u64 = u64::from((c868) == 0);
+        let c900: u64 = if (c887) != 0 { (c888) } else { (c906) };
         if self.v900 != c900 { self.v900 = c900; *dirty |= 0x800000; }
-        let c924: u64 = ((self.q104) ^ (self.q55)) & 0xff;
-        let c871: u64 = (c924) & (c918) & 0xff;
-        let c892: u64 = u64::from((c871) == 0);
-        let c899: u64 = if (c891) != 0 { (c892) } else { (c906) };
+        let c921: u64 = ((self.q103) ^ ((self.q54 & 0xf) | ((self.q56 & 0xf) << 4))) & 0xff;
+        let c922: u64 = (((self.q50 & 0xf) | ((self.q52 & 0xf) << 4)) ^ (0xff)) & 0xff;
+        let c869: u64 = (c921) & (c922) & 0xff;
+        let c889: u64 = u64::from((c869) == 0);
+        let c899: u64 = if (c887) != 0 { (c889) } else { (c904) };
         if self.v899 != c899 { self.v899 = c899; *dirty |= 0x800000; }
+        let c923: u64 = ((self.q103) ^ (self.q54)) & 0xff;
+        let c870: u64 = (c923) & (c917) & 0xff;
+        let c891: u64 = u64::from((c870) == 0);
+        let c898: u64 = if (c890) != 0 { (c891) } else { (c905) };
+        if self.v898 != c898 { self.v898 = c898; *dirty |= 0x800000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing.
     fn group_3(&mut self, dirty: &mut u128) {
-        let c110: u64 = !(self.q19) & 0x7;
-        let c115: u64 = !(self.q10) & 0x3;
-        let c135: u64 = (self.q10).wrapping_add((0x1)) & 0x7;
-        if self.v135 != c135 { self.v135 = c135; *dirty |= 0x100000000000000; }
-        let c136: u64 = (self.q7 | (self.q8 << 1)).wrapping_add((0x1)) & 0x7f;
-        if self.v136 != c136 { self.v136 = c136; *dirty |= 0x100000000000; }
-        let c138: u64 = (self.q6).wrapping_add((0x1)) & 0x7;
-        if self.v138 != c138 { self.v138 = c138; *dirty |= 0x8000000000000; }
-        let c155: u64 = u64::from((self.q4) == (self.q19));
-        let c156: u64 = u64::from((self.q4) == 0);
-        let c157: u64 = u64::from((self.q7 | (self.q8 << 1)) == 0);
-        let c158: u64 = u64::from((self.q7 | (self.q8 << 1)) >= ((self.q13 << 1) | 0x1));
-        if self.v158 != c158 { self.v158 = c158; *dirty |= 0x8000; }
-        let c141: u64 = (c158) & (c156) & 0x1;
-        if self.v141 != c141 { self.v141 = c141; *dirty |= 0x8000; }
-        let c143: u64 = (c158) & (c155) & 0x1;
-        if self.v143 != c143 { self.v143 = c143; *dirty |= 0x8000; }
-        let c159: u64 = u64::from((self.q6) <= (self.q10));
-        let c160: u64 = u64::from((self.q4) <= (self.q10));
-        let c161: u64 = u64::from((self.q6) != (0x4));
-        let c47: u64 = u64::from((c158 | (c161 << 1)) == 0x3);
+        let c110: u64 = !(self.q18) & 0x7;
+        let c115: u64 = !(self.q9) & 0x3;
+        let c134: u64 = (self.q9).wrapping_add((0x1)) & 0x7;
+        if self.v134 != c134 { self.v134 = c134; *dirty |= 0x100000000000000; }
+        let c135: u64 = (self.q6 | (self.q7 << 1)).wrapping_add((0x1)) & 0x7f;
+        if self.v135 != c135 { self.v135 = c135; *dirty |= 0x100000000000; }
+        let c137: u64 = (self.q5).wrapping_add((0x1)) & 0x7;
+        if self.v137 != c137 { self.v137 = c137; *dirty |= 0x8000000000000; }
+        let c154: u64 = u64::from((self.q3) == (self.q18));
+        let c155: u64 = u64::from((self.q3) == 0);
+        let c156: u64 = u64::from((self.q6 | (self.q7 << 1)) == 0);
+        let c157: u64 = u64::from((self.q6 | (self.q7 << 1)) >= ((self.q12 << 1) | 0x1));
+        if self.v157 != c157 { self.v157 = c157; *dirty |= 0x8000; }
+        let c140: u64 = (c157) & (c155) & 0x1;
+        if self.v140 != c140 { self.v140 = c140; *dirty |= 0x8000; }
+        let c142: u64 = (c157) & (c154) & 0x1;
+        if self.v142 != c142 { self.v142 = c142; *dirty |= 0x8000; }
+        let c158: u64 = u64::from((self.q5) <= (self.q9));
+        let c159: u64 = u64::from((self.q3) <= (self.q9));
+        let c160: u64 = u64::from((self.q5) != (0x4));
+        let c47: u64 = u64::from((c157 | (c160 << 1)) == 0x3);
         if self.v47 != c47 { self.v47 = c47; *dirty |= 0x8000000000000; }
-        let c162: u64 = !(self.q1) & 0x1;
-        if self.v162 != c162 { self.v162 = c162; *dirty |= 0x8000; }
-        let c167: u64 = !(self.i_reset) & 0x1;
+        let c161: u64 = !(self.q0) & 0x1;
+        if self.v161 != c161 { self.v161 = c161; *dirty |= 0x8000; }
+        let c166: u64 = !(self.i_reset) & 0x1;
+        if self.v166 != c166 { self.v166 = c166; *dirty |= 0x8000; }
+        let c167: u64 = !(self.q4) & 0x1;
         if self.v167 != c167 { self.v167 = c167; *dirty |= 0x8000; }
-        let c168: u64 = !(self.q5) & 0x1;
-        if self.v168 != c168 { self.v168 = c168; *dirty |= 0x8000; }
-        let c186: u64 = u64::from((self.q2) == 0);
-        if self.v186 != c186 { self.v186 = c186; *dirty |= 0x8000; }
-        let c151: u64 = (c186) & (c157) & 0x1;
-        if self.v151 != c151 { self.v151 = c151; *dirty |= 0x8000; }
-        let c188: u64 = u64::from((self.q2) == (0x2));
-        if self.v188 != c188 { self.v188 = c188; *dirty |= 0x8000; }
-        let c190: u64 = if (c158) != 0 { (0x0) } else { ((c136 & 0x1)) };
+        let c185: u64 = u64::from((self.q1) == 0);
+        if self.v185 != c185 { self.v185 = c185; *dirty |= 0x8000; }
+        let c150: u64 = (c185) & (c156) & 0x1;
+        if self.v150 != c150 { self.v150 = c150; *dirty |= 0x8000; }
+        let c187: u64 = u64::from((self.q1) == (0x2));
+        if self.v187 != c187 { self.v187 = c187; *dirty |= 0x8000; }
+        let c189: u64 = if (c157) != 0 { (0x0) } else { ((c135 & 0x1)) };
+        if self.v189 != c189 { self.v189 = c189; *dirty |= 0x8000; }
+        let c190: u64 = if (c157) != 0 { (c110) } else { (c115 | 0x4) };
         if self.v190 != c190 { self.v190 = c190; *dirty |= 0x8000; }
-        let c191: u64 = if (c158) != 0 { (c110) } else { (c115 | 0x4) };
-        if self.v191 != c191 { self.v191 = c191; *dirty |= 0x8000; }
-        let c193: u64 = if (c158) != 0 { (self.q10) } else { (self.q19) };
-        if self.v193 != c193 { self.v193 = c193; *dirty |= 0x8000; }
-        let c196: u64 = !(c160) & 0x1;
-        let c197: u64 = !(c159) & 0x1;
-        let c198: u64 = (self.q117) & (c197) & 0x1;
-        let c199: u64 = u64::from((self.q2) == (0x1));
-        if self.v199 != c199 { self.v199 = c199; *dirty |= 0x8000; }
-        let c19: u64 = u64::from((c186 | (c199 << 1) | (c188 << 2)) != 0);
+        let c192: u64 = if (c157) != 0 { (self.q9) } else { (self.q18) };
+        if self.v192 != c192 { self.v192 = c192; *dirty |= 0x8000; }
+        let c195: u64 = !(c159) & 0x1;
+        let c196: u64 = !(c158) & 0x1;
+        let c197: u64 = (self.q117) & (c196) & 0x1;
+        let c198: u64 = u64::from((self.q1) == (0x1));
+        if self.v198 != c198 { self.v198 = c198; *dirty |= 0x8000; }
+        let c19: u64 = u64::from((c185 | (c198 << 1) | (c187 << 2)) != 0);
         if self.v19 != c19 { self.v19 = c19; *dirty |= 0x8000; }
-        let c145: u64 = (c199) & (c158) & 0x1;
-        let c146: u64 = (c145) & (c156) & 0x1;
-        if self.v146 != c146 { self.v146 = c146; *dirty |= 0x8000; }
-        let c187: u64 = { let s = (c188 | (c199 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
-        if self.v187 != c187 { self.v187 = c187; *dirty |= 0x80000000000000; }
-        let c200: u64 = (self.q117) & (c159) & 0x1;
-        let c201: u64 = (c188) & (c196) & 0x1;
+        let c144: u64 = (c198) & (c157) & 0x1;
+        let c145: u64 = (c144) & (c155) & 0x1;
+        if self.v145 != c145 { self.v145 = c145; *dirty |= 0x8000; }
+        let c186: u64 = { let s = (c187 | (c198 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
+        if self.v186 != c186 { self.v186 = c186; *dirty |= 0x80000000000000; }
+        let c199: u64 = (self.q117) & (c158) & 0x1;
+        let c200: u64 = (c187) & (c195) & 0x1;
+        if self.v200 != c200 { self.v200 = c200; *dirty |= 0x8000; }
+        let c201: u64 = (c198) & (c197) & 0x1;
         if self.v201 != c201 { self.v201 = c201; *dirty |= 0x8000; }
-        let c202: u64 = (c199) & (c198) & 0x1;
+        let c202: u64 = (c187) & (c159) & 0x1;
         if self.v202 != c202 { self.v202 = c202; *dirty |= 0x8000; }
-        let c203: u64 = (c188) & (c160) & 0x1;
+        let c203: u64 = (c198) & (c199) & 0x1;
         if self.v203 != c203 { self.v203 = c203; *dirty |= 0x8000; }
-        let c204: u64 = (c199) & (c200) & 0x1;
-        if self.v204 != c204 { self.v204 = c204; *dirty |= 0x8000; }
         let _ = &dirty;
     }
 
     /// The cells of top$read.
     fn group_4(&mut self, dirty: &mut u128) {
-        let c108: u64 = (((self.m0_rd & 0xf)) | (self.q16)) & 0xf;
-        let c1038: u64 = u64::from((self.i_addr) == (0x2));
-        if self.v1038 != c1038 { self.v1038 = c1038; *dirty |= 0x40000; }
-        let c1039: u64 = u64::from((self.i_addr) == (0x4));
-        if self.v1039 != c1039 { self.v1039 = c1039; *dirty |= 0x840020; }
-        let c1040: u64 = u64::from((self.i_addr) == (0xb));
+        let c108: u64 = (((self.m0_rd & 0xf)) | (self.q15)) & 0xf;
+        let c1037: u64 = u64::from((self.i_addr) == (0x2));
+        if self.v1037 != c1037 { self.v1037 = c1037; *dirty |= 0x40000; }
+        let c1038: u64 = u64::from((self.i_addr) == (0x4));
+        if self.v1038 != c1038 { self.v1038 = c1038; *dirty |= 0x840020; }
+        let c1039: u64 = u64::from((self.i_addr) == (0xb));
+        if self.v1039 != c1039 { self.v1039 = c1039; *dirty |= 0x40020; }
+        let c1040: u64 = u64::from((self.i_addr) == (0xc));
         if self.v1040 != c1040 { self.v1040 = c1040; *dirty |= 0x40020; }
-        let c1041: u64 = u64::from((self.i_addr) == (0xc));
-        if self.v1041 != c1041 { self.v1041 = c1041; *dirty |= 0x40020; }
+        let c1041: u64 = u64::from((self.i_addr) == (0xd));
+        if self.v1041 != c1041 { self.v1041 = c1041; *dirty |= 0xc0000; }
         let c1042: u64 = u64::from((self.i_addr) == (0xe));
         if self.v1042 != c1042 { self.v1042 = c1042; *dirty |= 0x140000; }
         let c1043: u64 = u64::from((self.i_addr) == (0xf));
@@ -3550,71 +3549,71 @@ impl Model {
         if self.v1047 != c1047 { self.v1047 = c1047; *dirty |= 0x40020; }
         let c1048: u64 = u64::from((self.i_addr) == (0x15));
         if self.v1048 != c1048 { self.v1048 = c1048; *dirty |= 0x40000; }
-        let c1049: u64 = ((self.v638) | (self.v569)) & 0x1;
+        let c1049: u64 = ((self.v637) | (self.v568)) & 0x1;
         if self.v1049 != c1049 { self.v1049 = c1049; *dirty |= 0x2000; }
-        let c1056: u64 = if (self.q28) != 0 { (c108 | ((self.m0_rd >> 4) << 4)) } else { (self.q26) };
-        if self.v1056 != c1056 { self.v1056 = c1056; *dirty |= 0x20000000000; }
-        let c1080: u64 = if (self.q33) != 0 { (self.q40) } else { (0x1) };
+        let c1056: u64 = if (self.q27) != 0 { (c108 | ((self.m0_rd >> 4) << 4)) } else { (self.q25) };
+        if self.v1056 != c1056 { self.v1056 = c1056; *dirty |= 0x80000000000; }
+        let c1080: u64 = if (self.q32) != 0 { (self.q39) } else { (0x1) };
         if self.v1080 != c1080 { self.v1080 = c1080; *dirty |= 0x4000040000; }
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts.
     fn group_5(&mut self, dirty: &mut u128) {
-        let c925: u64 = (self.i_re) & (self.v1047) & 0x1;
-        let c926: u64 = (self.q33) & (self.v1039) & 0x1;
-        if self.v926 != c926 { self.v926 = c926; *dirty |= 0x4000000000; }
-        let c928: u64 = (self.q93) & (self.q121) & 0x1;
-        if self.v928 != c928 { self.v928 = c928; *dirty |= 0x100000000000004000000000; }
-        let c929: u64 = (self.q94) & (self.q122) & 0x1;
-        if self.v929 != c929 { self.v929 = c929; *dirty |= 0x400000000000004000000000; }
-        let c930: u64 = (self.i_re) & (self.q33) & 0x1;
-        let c935: u64 = u64::from((self.i_addr) == 0);
-        if self.v935 != c935 { self.v935 = c935; *dirty |= 0x4000040040; }
-        let c936: u64 = !(self.q126) & 0x1;
-        if self.v936 != c936 { self.v936 = c936; *dirty |= 0x40940; }
-        let c937: u64 = !(self.q38) & 0x1;
-        let c931: u64 = (self.q61) & (c937) & 0x1;
-        if self.v931 != c931 { self.v931 = c931; *dirty |= 0x4000000000; }
-        let c938: u64 = !(self.q36) & 0x1;
-        let c942: u64 = u64::from((self.q112) != (self.q44));
-        let c943: u64 = u64::from((self.q113) != (self.q37));
-        let c944: u64 = u64::from((self.q68) != 0);
-        if self.v944 != c944 { self.v944 = c944; *dirty |= 0x4000000000000004000040000; }
-        let c111: u64 = (self.q45) & (c944) & 0x1;
-        let c125: u64 = if (self.q33) != 0 { (c944) } else { (c111) };
+        let c924: u64 = (self.i_re) & (self.v1047) & 0x1;
+        let c925: u64 = (self.q32) & (self.v1038) & 0x1;
+        if self.v925 != c925 { self.v925 = c925; *dirty |= 0x4000000000; }
+        let c927: u64 = (self.q92) & (self.q121) & 0x1;
+        if self.v927 != c927 { self.v927 = c927; *dirty |= 0x100000000000004000000000; }
+        let c928: u64 = (self.q93) & (self.q122) & 0x1;
+        if self.v928 != c928 { self.v928 = c928; *dirty |= 0x400000000000004000000000; }
+        let c929: u64 = (self.i_re) & (self.q32) & 0x1;
+        let c934: u64 = u64::from((self.i_addr) == 0);
+        if self.v934 != c934 { self.v934 = c934; *dirty |= 0x4000040040; }
+        let c935: u64 = !(self.q126) & 0x1;
+        if self.v935 != c935 { self.v935 = c935; *dirty |= 0x40940; }
+        let c936: u64 = !(self.q37) & 0x1;
+        let c930: u64 = (self.q60) & (c936) & 0x1;
+        if self.v930 != c930 { self.v930 = c930; *dirty |= 0x4000000000; }
+        let c937: u64 = !(self.q35) & 0x1;
+        let c941: u64 = u64::from((self.q112) != (self.q43));
+        let c942: u64 = u64::from((self.q113) != (self.q36));
+        let c943: u64 = u64::from((self.q67) != 0);
+        if self.v943 != c943 { self.v943 = c943; *dirty |= 0x4000000000000004000040000; }
+        let c111: u64 = (self.q44) & (c943) & 0x1;
+        let c125: u64 = if (self.q32) != 0 { (c943) } else { (c111) };
         if self.v125 != c125 { self.v125 = c125; *dirty |= 0x40000; }
-        let c932: u64 = (c944) & (c938) & 0x1;
-        if self.v932 != c932 { self.v932 = c932; *dirty |= 0x4000000000; }
-        let c945: u64 = u64::from((self.q68) != (0x1));
-        if self.v945 != c945 { self.v945 = c945; *dirty |= 0x4000000000; }
-        let c953: u64 = if (c925) != 0 { (0x0) } else { (self.q39) };
-        if self.v953 != c953 { self.v953 = c953; *dirty |= 0x4000000000; }
-        let c955: u64 = if (c925) != 0 { (0x0) } else { (self.q45) };
-        if self.v955 != c955 { self.v955 = c955; *dirty |= 0x4000000000; }
-        let c956: u64 = if (self.q126) != 0 { (0x0) } else { (c943) };
-        let c957: u64 = if (self.q112) != 0 { (0x0) } else { (c956) };
-        if self.v957 != c957 { self.v957 = c957; *dirty |= 0x4000000000; }
-        let c959: u64 = if (self.q33) != 0 { (self.q11) } else { (0x60) };
-        let c939: u64 = u64::from((self.q84 | (self.q85 << 3) | (self.q83 << 7)) >= (c959));
-        let c940: u64 = u64::from((self.q86 | (self.q87 << 7)) >= (c959));
-        let c946: u64 = ((c939) | (c940)) & 0x1;
-        let c947: u64 = ((c946) | (self.q112)) & 0x1;
-        let c958: u64 = if (self.q126) != 0 { (self.q42) } else { (c947) };
-        if self.v958 != c958 { self.v958 = c958; *dirty |= 0x800000000000000000000000; }
-        let c941: u64 = u64::from((c958) != (self.q42));
-        let c948: u64 = ((c941) | (c942)) & 0x1;
-        if self.v948 != c948 { self.v948 = c948; *dirty |= 0x4000000000; }
-        let c964: u64 = if (c929) != 0 { (0x0) } else { (self.q122) };
-        let c960: u64 = ((c964) | (self.v1041)) & 0x1;
-        let c962: u64 = if (c930) != 0 { (c960) } else { (c964) };
+        let c931: u64 = (c943) & (c937) & 0x1;
+        if self.v931 != c931 { self.v931 = c931; *dirty |= 0x4000000000; }
+        let c944: u64 = u64::from((self.q67) != (0x1));
+        if self.v944 != c944 { self.v944 = c944; *dirty |= 0x4000000000; }
+        let c952: u64 = if (c924) != 0 { (0x0) } else { (self.q38) };
+        if self.v952 != c952 { self.v952 = c952; *dirty |= 0x4000000000; }
+        let c954: u64 = if (c924) != 0 { (0x0) } else { (self.q44) };
+        if self.v954 != c954 { self.v954 = c954; *dirty |= 0x4000000000; }
+        let c955: u64 = if (self.q126) != 0 { (0x0) } else { (c942) };
+        let c956: u64 = if (self.q112) != 0 { (0x0) } else { (c955) };
+        if self.v956 != c956 { self.v956 = c956; *dirty |= 0x4000000000; }
+        let c958: u64 = if (self.q32) != 0 { (self.q10) } else { (0x60) };
+        let c938: u64 = u64::from((self.q83 | (self.q84 << 3) | (self.q82 << 7)) >= (c958));
+        let c939: u64 = u64::from((self.q85 | (self.q86 << 7)) >= (c958));
+        let c945: u64 = ((c938) | (c939)) & 0x1;
+        let c946: u64 = ((c945) | (self.q112)) & 0x1;
+        let c957: u64 = if (self.q126) != 0 { (self.q41) } else { (c946) };
+        if self.v957 != c957 { self.v957 = c957; *dirty |= 0x800000000000000000000000; }
+        let c940: u64 = u64::from((c957) != (self.q41));
+        let c947: u64 = ((c940) | (c941)) & 0x1;
+        if self.v947 != c947 { self.v947 = c947; *dirty |= 0x4000000000; }
+        let c963: u64 = if (c928) != 0 { (0x0) } else { (self.q122) };
+        let c959: u64 = ((c963) | (self.v1040)) & 0x1;
+        let c961: u64 = if (c929) != 0 { (c959) } else { (c963) };
+        let c949: u64 = ((c961) | (self.i_reset)) & 0x1;
+        if self.v949 != c949 { self.v949 = c949; *dirty |= 0x400000000000000000000000; }
+        let c964: u64 = if (c927) != 0 { (0x0) } else { (self.q121) };
+        let c960: u64 = ((c964) | (self.v1039)) & 0x1;
+        let c962: u64 = if (c929) != 0 { (c960) } else { (c964) };
         let c950: u64 = ((c962) | (self.i_reset)) & 0x1;
-        if self.v950 != c950 { self.v950 = c950; *dirty |= 0x400000000000000000000000; }
-        let c965: u64 = if (c928) != 0 { (0x0) } else { (self.q121) };
-        let c961: u64 = ((c965) | (self.v1040)) & 0x1;
-        let c963: u64 = if (c930) != 0 { (c961) } else { (c965) };
-        let c951: u64 = ((c963) | (self.i_reset)) & 0x1;
-        if self.v951 != c951 { self.v951 = c951; *dirty |= 0x100000000000000000000000; }
+        if self.v950 != c950 { self.v950 = c950; *dirty |= 0x100000000000000000000000; }
         let _ = &dirty;
     }
 
@@ -3624,520 +3623,521 @@ impl Model {
         if self.v82 != c82 { self.v82 = c82; *dirty |= 0x2000000000; }
         let c87: u64 = u64::from((self.i_reset | (c82 << 1)) != 0);
         if self.v87 != c87 { self.v87 = c87; *dirty |= 0x1000000000000000000000000000; }
-        let c967: u64 = (self.q29).wrapping_add((0x1)) & 0x1f;
-        if self.v967 != c967 { self.v967 = c967; *dirty |= 0x1000000000000000000000000000; }
-        let c968: u64 = (self.i_we) & (self.v935) & 0x1;
-        if self.v968 != c968 { self.v968 = c968; *dirty |= 0x800; }
-        let c55: u64 = u64::from((self.q33 | (self.q126 << 1) | (c968 << 2)) == 0x7);
+        let c966: u64 = (self.q28).wrapping_add((0x1)) & 0x1f;
+        if self.v966 != c966 { self.v966 = c966; *dirty |= 0x1000000000000000000000000000; }
+        let c967: u64 = (self.i_we) & (self.v934) & 0x1;
+        if self.v967 != c967 { self.v967 = c967; *dirty |= 0x800; }
+        let c55: u64 = u64::from((self.q32 | (self.q126 << 1) | (c967 << 2)) == 0x7);
         if self.v55 != c55 { self.v55 = c55; *dirty |= 0x10000000000000000000000000; }
-        let c969: u64 = ((self.i_wdata & 0x1)) & (self.v936) & 0x1;
-        let c981: u64 = !((self.i_wdata & 0x1)) & 0x1;
-        let c970: u64 = (((self.i_wdata >> 4) & 0x1)) & (c981) & 0x1;
-        let c982: u64 = !(((self.i_wdata >> 4) & 0x1)) & 0x1;
-        let c985: u64 = !(self.i_rx) & 0x1;
-        if self.v985 != c985 { self.v985 = c985; *dirty |= 0x2000000000; }
-        let c986: u64 = !(self.q44) & 0x1;
-        let c975: u64 = (self.q112) & (c986) & 0x1;
-        let c987: u64 = u64::from((self.i_addr) == (0x1f));
-        if self.v987 != c987 { self.v987 = c987; *dirty |= 0x40000; }
-        let c976: u64 = (self.i_we) & (c987) & 0x1;
-        if self.v976 != c976 { self.v976 = c976; *dirty |= 0x80000000000; }
-        let c54: u64 = u64::from((self.q126 | (c976 << 1)) == 0x3);
-        if self.v54 != c54 { self.v54 = c54; *dirty |= 0x80000000000; }
-        let c988: u64 = u64::from((self.q29) == (0x10));
-        if self.v988 != c988 { self.v988 = c988; *dirty |= 0x8000000000000000000000000; }
-        let c991: u64 = u64::from((self.q29) != (0x10));
-        if self.v991 != c991 { self.v991 = c991; *dirty |= 0x2000000000; }
-        let c1000: u64 = if (self.q126) != 0 { (((self.i_wdata >> 3) & 0x1) | ((self.i_wdata >> 5) << 1)) } else { (self.q34 | (self.q33 << 3)) };
-        let c1001: u64 = if (c976) != 0 { ((self.i_wdata & 0x7) | (c1000 << 3)) } else { (self.q15 | (self.q34 << 3) | (self.q33 << 6)) };
-        let c993: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1001) };
-        if self.v993 != c993 { self.v993 = c993; *dirty |= 0x80000000000; }
-        let c1013: u64 = if (self.q126) != 0 { (((self.i_wdata >> 2) & 0x1)) } else { (self.q129) };
-        let c1014: u64 = if (self.q126) != 0 { (((self.i_wdata >> 1) & 0x1)) } else { (self.q125) };
-        let c1015: u64 = if (self.q126) != 0 { (0x0) } else { (c982) };
-        let c1016: u64 = if (self.q126) != 0 { (0x0) } else { (c970) };
-        let c1017: u64 = (self.q33) & (c1015) & 0x1;
-        let c1018: u64 = (self.q33) & (c1016) & 0x1;
-        let c1019: u64 = if (self.q33) != 0 { (c1013) } else { (self.q129) };
-        let c1020: u64 = if (self.q33) != 0 { (c1014) } else { (self.q125) };
-        let c1021: u64 = (c968) & (c1017) & 0x1;
+        let c968: u64 = ((self.i_wdata & 0x1)) & (self.v935) & 0x1;
+        let c980: u64 = !((self.i_wdata & 0x1)) & 0x1;
+        let c969: u64 = (((self.i_wdata >> 4) & 0x1)) & (c980) & 0x1;
+        let c981: u64 = !(((self.i_wdata >> 4) & 0x1)) & 0x1;
+        let c984: u64 = !(self.i_rx) & 0x1;
+        if self.v984 != c984 { self.v984 = c984; *dirty |= 0x2000000000; }
+        let c985: u64 = !(self.q43) & 0x1;
+        let c974: u64 = (self.q112) & (c985) & 0x1;
+        let c986: u64 = u64::from((self.i_addr) == (0x1f));
+        if self.v986 != c986 { self.v986 = c986; *dirty |= 0x40000; }
+        let c975: u64 = (self.i_we) & (c986) & 0x1;
+        if self.v975 != c975 { self.v975 = c975; *dirty |= 0x40000000000; }
+        let c54: u64 = u64::from((self.q126 | (c975 << 1)) == 0x3);
+        if self.v54 != c54 { self.v54 = c54; *dirty |= 0x40000000000; }
+        let c987: u64 = u64::from((self.q28) == (0x10));
+        if self.v987 != c987 { self.v987 = c987; *dirty |= 0x8000000000000000000000000; }
+        let c990: u64 = u64::from((self.q28) != (0x10));
+        if self.v990 != c990 { self.v990 = c990; *dirty |= 0x2000000000; }
+        let c999: u64 = if (self.q126) != 0 { (((self.i_wdata >> 3) & 0x1) | ((self.i_wdata >> 5) << 1)) } else { (self.q33 | (self.q32 << 3)) };
+        let c1000: u64 = if (c975) != 0 { ((self.i_wdata & 0x7) | (c999 << 3)) } else { (self.q14 | (self.q33 << 3) | (self.q32 << 6)) };
+        let c992: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1000) };
+        if self.v992 != c992 { self.v992 = c992; *dirty |= 0x40000000000; }
+        let c1012: u64 = if (self.q126) != 0 { (((self.i_wdata >> 2) & 0x1)) } else { (self.q129) };
+        let c1013: u64 = if (self.q126) != 0 { (((self.i_wdata >> 1) & 0x1)) } else { (self.q125) };
+        let c1014: u64 = if (self.q126) != 0 { (0x0) } else { (c981) };
+        let c1015: u64 = if (self.q126) != 0 { (0x0) } else { (c969) };
+        let c1016: u64 = (self.q32) & (c1014) & 0x1;
+        let c1017: u64 = (self.q32) & (c1015) & 0x1;
+        let c1018: u64 = if (self.q32) != 0 { (c1012) } else { (self.q129) };
+        let c1019: u64 = if (self.q32) != 0 { (c1013) } else { (self.q125) };
+        let c1020: u64 = (c967) & (c1016) & 0x1;
+        if self.v1020 != c1020 { self.v1020 = c1020; *dirty |= 0x2000000000; }
+        let c1021: u64 = (c967) & (c1017) & 0x1;
         if self.v1021 != c1021 { self.v1021 = c1021; *dirty |= 0x2000000000; }
-        let c1022: u64 = (c968) & (c1018) & 0x1;
-        if self.v1022 != c1022 { self.v1022 = c1022; *dirty |= 0x2000000000; }
-        let c1023: u64 = if (c968) != 0 { (c1019) } else { (self.q129) };
+        let c1022: u64 = if (c967) != 0 { (c1018) } else { (self.q129) };
+        let c994: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1022) };
+        if self.v994 != c994 { self.v994 = c994; *dirty |= 0x4000000000000000000000000000; }
+        let c979: u64 = (c994) & ((c992 >> 6)) & 0x1;
+        if self.v979 != c979 { self.v979 = c979; *dirty |= 0x800000000000000000000000000; }
+        let c1023: u64 = if (c967) != 0 { (c1019) } else { (self.q125) };
         let c995: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1023) };
-        if self.v995 != c995 { self.v995 = c995; *dirty |= 0x4000000000000000000000000000; }
-        let c980: u64 = (c995) & ((c993 >> 6)) & 0x1;
-        if self.v980 != c980 { self.v980 = c980; *dirty |= 0x800000000000000000000000000; }
-        let c1024: u64 = if (c968) != 0 { (c1020) } else { (self.q125) };
-        let c996: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1024) };
-        if self.v996 != c996 { self.v996 = c996; *dirty |= 0x200000000000000000000000000; }
-        let c979: u64 = (c996) & ((c993 >> 6)) & 0x1;
-        if self.v979 != c979 { self.v979 = c979; *dirty |= 0x100000000000000000000000000; }
-        let c1025: u64 = (c968) & (c969) & 0x1;
-        let c1003: u64 = if (c975) != 0 { (self.v936) } else { (c1025) };
-        if self.v1003 != c1003 { self.v1003 = c1003; *dirty |= 0x6000020000; }
-        let c86: u64 = u64::from((self.i_reset | (c1003 << 1)) != 0);
+        if self.v995 != c995 { self.v995 = c995; *dirty |= 0x200000000000000000000000000; }
+        let c978: u64 = (c995) & ((c992 >> 6)) & 0x1;
+        if self.v978 != c978 { self.v978 = c978; *dirty |= 0x100000000000000000000000000; }
+        let c1024: u64 = (c967) & (c968) & 0x1;
+        let c1002: u64 = if (c974) != 0 { (self.v935) } else { (c1024) };
+        if self.v1002 != c1002 { self.v1002 = c1002; *dirty |= 0x6000020000; }
+        let c86: u64 = u64::from((self.i_reset | (c1002 << 1)) != 0);
         if self.v86 != c86 { self.v86 = c86; *dirty |= 0x20000000000000000000000000000000; }
-        let c1026: u64 = if (c968) != 0 { ((self.i_wdata & 0x1)) } else { (self.q126) };
-        let c1004: u64 = ((c1026) | (c975)) & 0x1;
-        let c997: u64 = ((c1004) | (self.i_reset)) & 0x1;
-        if self.v997 != c997 { self.v997 = c997; *dirty |= 0x400000000000000000000000000; }
-        let c989: u64 = !(c997) & 0x1;
-        if self.v989 != c989 { self.v989 = c989; *dirty |= 0x2000000000; }
+        let c1025: u64 = if (c967) != 0 { ((self.i_wdata & 0x1)) } else { (self.q126) };
+        let c1003: u64 = ((c1025) | (c974)) & 0x1;
+        let c996: u64 = ((c1003) | (self.i_reset)) & 0x1;
+        if self.v996 != c996 { self.v996 = c996; *dirty |= 0x400000000000000000000000000; }
+        let c988: u64 = !(c996) & 0x1;
+        if self.v988 != c988 { self.v988 = c988; *dirty |= 0x2000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$capture.
     fn group_7(&mut self, dirty: &mut u128) {
-        let c291: u64 = u64::from((((self.q92 >> 3) & 0x3)) == (0x1));
-        let c292: u64 = u64::from(((self.q92 & 0x7)) == (0x4));
-        let c293: u64 = u64::from(((self.q92 & 0x7)) == (0x3));
-        let c294: u64 = !(((self.q92 >> 2) & 0x1)) & 0x1;
-        let c295: u64 = u64::from((((self.q92 >> 3) & 0x3)) == (0x2));
-        let c296: u64 = u64::from((((self.q92 >> 1) & 0x3)) == 0);
-        let c297: u64 = u64::from((((self.q92 >> 3) & 0x3)) == (0x3));
-        let c298: u64 = u64::from((self.q92) == (0x1));
-        if self.v298 != c298 { self.v298 = c298; *dirty |= 0x400000; }
-        let c299: u64 = u64::from(((self.q92 & 0x7)) != (0x3));
-        let c290: u64 = (c294) & (c299) & 0x1;
-        let c300: u64 = u64::from(((self.q92 >> 5)) != 0);
-        let c301: u64 = !(self.v536) & 0x1;
-        let c302: u64 = if (self.q77) != 0 { (0x2) } else { (0x1) };
-        let c304: u64 = if (self.v536) != 0 { (0x2) } else { (0x1) };
-        let c303: u64 = if (c298) != 0 { (0x0) } else { (c304) };
-        let c305: u64 = if (self.q99) != 0 { (c303) } else { (c301) };
-        let c307: u64 = if (self.v391) != 0 { (0x0) } else { (c296 | 0x2) };
-        let c309: u64 = !(c296) & 0x1;
-        let c313: u64 = !(c292) & 0x1;
-        let c312: u64 = if (c293) != 0 { (0x0) } else { ((c313 << 1) | 0x1) };
-        let c311: u64 = if (c290) != 0 { (0x2) } else { (c312) };
-        let c314: u64 = if (c291) != 0 { (c311 | 0x4) } else { (0x2) };
-        let c310: u64 = if (c295) != 0 { ((c309 << 3) | 0x7) } else { (c314) };
-        let c308: u64 = if (c297) != 0 { (c307 | 0xc) } else { (c310) };
-        let c306: u64 = if (c300) != 0 { (0xc) } else { (c308) };
-        let c315: u64 = { let s = (self.v573 | (self.v539 << 1) | (self.v600 << 2) | (self.v528 << 3) | (self.v405 << 4) | (self.v414 << 5) | (self.v417 << 6) | (self.v429 << 7) | (self.v437 << 8) | (self.v439 << 9) | (self.v441 << 10) | (self.v393 << 11) | (self.v123 << 12)); if s >> 0 & 1 != 0 { (c301 << 2) | 0x13 } else if s >> 1 & 1 != 0 { 0x1c } else if s >> 2 & 1 != 0 { c302 | ((c302 >> 1) << 2) | 0x10 } else if s >> 3 & 1 != 0 { 0x12 } else if s >> 4 & 1 != 0 { 0x1a } else if s >> 5 & 1 != 0 { 0x1b } else if s >> 6 & 1 != 0 { 0x19 } else if s >> 7 & 1 != 0 { 0x18 } else if s >> 8 & 1 != 0 { 0x8 } else if s >> 9 & 1 != 0 { 0xa } else if s >> 10 & 1 != 0 { (c305 << 1) | 0x9 } else if s >> 11 & 1 != 0 { c306 } else if s >> 12 & 1 != 0 { 0x3 } else { (0x0) } };
-        if self.v315 != c315 { self.v315 = c315; *dirty |= 0x8000000000000000; }
+        let c290: u64 = u64::from((((self.q91 >> 3) & 0x3)) == (0x1));
+        let c291: u64 = u64::from(((self.q91 & 0x7)) == (0x4));
+        let c292: u64 = u64::from(((self.q91 & 0x7)) == (0x3));
+        let c293: u64 = !(((self.q91 >> 2) & 0x1)) & 0x1;
+        let c294: u64 = u64::from((((self.q91 >> 3) & 0x3)) == (0x2));
+        let c295: u64 = u64::from((((self.q91 >> 1) & 0x3)) == 0);
+        let c296: u64 = u64::from((((self.q91 >> 3) & 0x3)) == (0x3));
+        let c297: u64 = u64::from((self.q91) == (0x1));
+        if self.v297 != c297 { self.v297 = c297; *dirty |= 0x400000; }
+        let c298: u64 = u64::from(((self.q91 & 0x7)) != (0x3));
+        let c289: u64 = (c293) & (c298) & 0x1;
+        let c299: u64 = u64::from(((self.q91 >> 5)) != 0);
+        let c300: u64 = !(self.v535) & 0x1;
+        let c301: u64 = if (self.q76) != 0 { (0x2) } else { (0x1) };
+        let c303: u64 = if (self.v535) != 0 { (0x2) } else { (0x1) };
+        let c302: u64 = if (c297) != 0 { (0x0) } else { (c303) };
+        let c304: u64 = if (self.q98) != 0 { (c302) } else { (c300) };
+        let c306: u64 = if (self.v390) != 0 { (0x0) } else { (c295 | 0x2) };
+        let c308: u64 = !(c295) & 0x1;
+        let c312: u64 = !(c291) & 0x1;
+        let c311: u64 = if (c292) != 0 { (0x0) } else { ((c312 << 1) | 0x1) };
+        let c310: u64 = if (c289) != 0 { (0x2) } else { (c311) };
+        let c313: u64 = if (c290) != 0 { (c310 | 0x4) } else { (0x2) };
+        let c309: u64 = if (c294) != 0 { ((c308 << 3) | 0x7) } else { (c313) };
+        let c307: u64 = if (c296) != 0 { (c306 | 0xc) } else { (c309) };
+        let c305: u64 = if (c299) != 0 { (0xc) } else { (c307) };
+        let c314: u64 = { let s = (self.v572 | (self.v538 << 1) | (self.v599 << 2) | (self.v527 << 3) | (self.v404 << 4) | (self.v413 << 5) | (self.v416 << 6) | (self.v428 << 7) | (self.v436 << 8) | (self.v438 << 9) | (self.v440 << 10) | (self.v392 << 11) | (self.v123 << 12)); if s >> 0 & 1 != 0 { (c300 << 2) | 0x13 } else if s >> 1 & 1 != 0 { 0x1c } else if s >> 2 & 1 != 0 { c301 | ((c301 >> 1) << 2) | 0x10 } else if s >> 3 & 1 != 0 { 0x12 } else if s >> 4 & 1 != 0 { 0x1a } else if s >> 5 & 1 != 0 { 0x1b } else if s >> 6 & 1 != 0 { 0x19 } else if s >> 7 & 1 != 0 { 0x18 } else if s >> 8 & 1 != 0 { 0x8 } else if s >> 9 & 1 != 0 { 0xa } else if s >> 10 & 1 != 0 { (c304 << 1) | 0x9 } else if s >> 11 & 1 != 0 { c305 } else if s >> 12 & 1 != 0 { 0x3 } else { (0x0) } };
+        if self.v314 != c314 { self.v314 = c314; *dirty |= 0x8000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of can_controller.
     fn group_8(&mut self, dirty: &mut u128) {
-        let c4: u64 = (self.i_we) & (self.v936) & 0x1;
+        let c4: u64 = (self.i_we) & (self.v935) & 0x1;
         let c5: u64 = (c4) & (self.q130) & 0x1;
         if self.v5 != c5 { self.v5 = c5; *dirty |= 0x20000; }
-        let c13: u64 = (self.q89) & (self.q88) & 0x1;
-        let c14: u64 = (c13) & (self.q25) & 0x1;
-        let c778: u64 = { let s = (self.i_addr); if s < 256 { TABLE_0[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        let c13: u64 = (self.q88) & (self.q87) & 0x1;
+        let c14: u64 = (c13) & (self.q24) & 0x1;
+        let c777: u64 = { let s = (self.i_addr); if s < 256 { TABLE_0[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v777 != c777 { self.v777 = c777; *dirty |= 0x800; }
+        let c778: u64 = { let s = (self.i_addr); if s < 256 { TABLE_1[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
         if self.v778 != c778 { self.v778 = c778; *dirty |= 0x800; }
-        let c779: u64 = { let s = (self.i_addr); if s < 256 { TABLE_1[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        let c779: u64 = { let s = (self.i_addr); if s < 256 { TABLE_2[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
         if self.v779 != c779 { self.v779 = c779; *dirty |= 0x800; }
-        let c780: u64 = { let s = (self.i_addr); if s < 256 { TABLE_2[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        let c780: u64 = { let s = (self.i_addr); if s < 256 { TABLE_3[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
         if self.v780 != c780 { self.v780 = c780; *dirty |= 0x800; }
-        let c781: u64 = { let s = (self.i_addr); if s < 256 { TABLE_3[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        let c781: u64 = { let s = (self.i_addr); if s < 256 { TABLE_4[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
         if self.v781 != c781 { self.v781 = c781; *dirty |= 0x800; }
-        let c782: u64 = { let s = (self.i_addr); if s < 256 { TABLE_4[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-        if self.v782 != c782 { self.v782 = c782; *dirty |= 0x800; }
-        let c783: u64 = { let s = (self.i_addr); if s < 256 { TABLE_5[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
-        if self.v783 != c783 { self.v783 = c783; *dirty |= 0x40000; }
-        let c1097: u64 = if ((self.q75 & 0x1) | (self.q74 << 1) | ((self.q75 >> 1) << 3)) < 32 { ((self.q18 & 0x1fff) | ((self.q18 >> 13) << 16)) >> ((self.q75 & 0x1) | (self.q74 << 1) | ((self.q75 >> 1) << 3)) & 0x1 } else { 0 };
+        let c782: u64 = { let s = (self.i_addr); if s < 256 { TABLE_5[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
+        if self.v782 != c782 { self.v782 = c782; *dirty |= 0x40000; }
+        let c1097: u64 = if ((self.q74 & 0x1) | (self.q73 << 1) | ((self.q74 >> 1) << 3)) < 32 { ((self.q17 & 0x1fff) | ((self.q17 >> 13) << 16)) >> ((self.q74 & 0x1) | (self.q73 << 1) | ((self.q74 >> 1) << 3)) & 0x1 } else { 0 };
         if self.v1097 != c1097 { self.v1097 = c1097; *dirty |= 0x400000000; }
-        let c1102: u64 = ((self.q69) | (c14)) & 0x1;
-        let c15: u64 = (c1102) & (self.v909) & 0x1;
+        let c1102: u64 = ((self.q68) | (c14)) & 0x1;
+        let c15: u64 = (c1102) & (self.v908) & 0x1;
         if self.v15 != c15 { self.v15 = c15; *dirty |= 0x20000; }
-        let c1110: u64 = if (self.q89) != 0 { (self.q88) } else { (self.q131) };
+        let c1110: u64 = if (self.q88) != 0 { (self.q87) } else { (self.q131) };
         if self.v1110 != c1110 { self.v1110 = c1110; *dirty |= 0x20000; }
-        let c1111: u64 = ((self.q130) | (self.q89)) & 0x1;
+        let c1111: u64 = ((self.q130) | (self.q88)) & 0x1;
         if self.v1111 != c1111 { self.v1111 = c1111; *dirty |= 0x20000; }
-        let c1112: u64 = if (self.q89) != 0 { (0x0) } else { (self.q21) };
+        let c1112: u64 = if (self.q88) != 0 { (0x0) } else { (self.q20) };
         if self.v1112 != c1112 { self.v1112 = c1112; *dirty |= 0x20000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults.
     fn group_9(&mut self, dirty: &mut u128) {
-        let c318: u64 = (self.q85 | (self.q83 << 4)).wrapping_add((0x1)) & 0x1f;
-        let c319: u64 = (self.q86 | (self.q87 << 7)).wrapping_add((0x1)) & 0xff;
-        if self.v319 != c319 { self.v319 = c319; *dirty |= 0x100000000; }
-        let c320: u64 = ((self.q86 >> 3) | (self.q87 << 4)).wrapping_add((0x1)) & 0x1f;
-        let c325: u64 = u64::from((self.q84 | (self.q85 << 3) | (self.q83 << 7)) == 0);
+        let c317: u64 = (self.q84 | (self.q82 << 4)).wrapping_add((0x1)) & 0x1f;
+        let c318: u64 = (self.q85 | (self.q86 << 7)).wrapping_add((0x1)) & 0xff;
+        if self.v318 != c318 { self.v318 = c318; *dirty |= 0x100000000; }
+        let c319: u64 = ((self.q85 >> 3) | (self.q86 << 4)).wrapping_add((0x1)) & 0x1f;
+        let c324: u64 = u64::from((self.q83 | (self.q84 << 3) | (self.q82 << 7)) == 0);
+        if self.v324 != c324 { self.v324 = c324; *dirty |= 0x200000000; }
+        let c325: u64 = u64::from((self.q84 | (self.q82 << 4)) == (0x1f));
         if self.v325 != c325 { self.v325 = c325; *dirty |= 0x200000000; }
-        let c326: u64 = u64::from((self.q85 | (self.q83 << 4)) == (0x1f));
-        if self.v326 != c326 { self.v326 = c326; *dirty |= 0x200000000; }
-        let c327: u64 = u64::from(((self.q86 >> 3) | (self.q87 << 4)) == (0x1f));
-        let c328: u64 = u64::from((self.i_wdata) == (0xff));
+        let c326: u64 = u64::from(((self.q85 >> 3) | (self.q86 << 4)) == (0x1f));
+        let c327: u64 = u64::from((self.i_wdata) == (0xff));
+        if self.v327 != c327 { self.v327 = c327; *dirty |= 0x100000000; }
+        let c328: u64 = u64::from((self.q83 | (self.q84 << 3) | (self.q82 << 7)) != 0);
         if self.v328 != c328 { self.v328 = c328; *dirty |= 0x100000000; }
-        let c329: u64 = u64::from((self.q84 | (self.q85 << 3) | (self.q83 << 7)) != 0);
+        let c329: u64 = u64::from((self.q85 | (self.q86 << 7)) != (0xff));
         if self.v329 != c329 { self.v329 = c329; *dirty |= 0x100000000; }
-        let c330: u64 = u64::from((self.q86 | (self.q87 << 7)) != (0xff));
+        let c330: u64 = u64::from((self.q85 | (self.q86 << 7)) != 0);
         if self.v330 != c330 { self.v330 = c330; *dirty |= 0x100000000; }
-        let c331: u64 = u64::from((self.q86 | (self.q87 << 7)) != 0);
-        if self.v331 != c331 { self.v331 = c331; *dirty |= 0x100000000; }
-        let c341: u64 = if (c328) != 0 { (0x7f) } else { (self.i_wdata) };
-        if self.v341 != c341 { self.v341 = c341; *dirty |= 0x100000000; }
-        let c349: u64 = if (c327) != 0 { (0xff) } else { ((self.q86 & 0x7) | (c320 << 3)) };
-        if self.v349 != c349 { self.v349 = c349; *dirty |= 0x100000000; }
-        let c353: u64 = if (c326) != 0 { (0x0) } else { (self.q86 | (self.q87 << 7)) };
+        let c340: u64 = if (c327) != 0 { (0x7f) } else { (self.i_wdata) };
+        if self.v340 != c340 { self.v340 = c340; *dirty |= 0x100000000; }
+        let c348: u64 = if (c326) != 0 { (0xff) } else { ((self.q85 & 0x7) | (c319 << 3)) };
+        if self.v348 != c348 { self.v348 = c348; *dirty |= 0x100000000; }
+        let c352: u64 = if (c325) != 0 { (0x0) } else { (self.q85 | (self.q86 << 7)) };
+        if self.v352 != c352 { self.v352 = c352; *dirty |= 0x100000000; }
+        let c353: u64 = if (c325) != 0 { (0x1f) } else { ((c317 << 1)) };
         if self.v353 != c353 { self.v353 = c353; *dirty |= 0x100000000; }
-        let c354: u64 = if (c326) != 0 { (0x1f) } else { ((c318 << 1)) };
+        let c354: u64 = ((self.q112) | (c325)) & 0x1;
         if self.v354 != c354 { self.v354 = c354; *dirty |= 0x100000000; }
-        let c355: u64 = ((self.q112) | (c326)) & 0x1;
-        if self.v355 != c355 { self.v355 = c355; *dirty |= 0x100000000; }
-        let c362: u64 = if (c325) != 0 { (0x0) } else { (self.q86 | (self.q87 << 7)) };
+        let c361: u64 = if (c324) != 0 { (0x0) } else { (self.q85 | (self.q86 << 7)) };
+        if self.v361 != c361 { self.v361 = c361; *dirty |= 0x100000000; }
+        let c362: u64 = !(c324) & 0x1;
         if self.v362 != c362 { self.v362 = c362; *dirty |= 0x100000000; }
-        let c363: u64 = !(c325) & 0x1;
+        let c370: u64 = (self.q83 | (self.q84 << 3) | (self.q82 << 7)).wrapping_sub((0x1)) & 0xff;
+        if self.v370 != c370 { self.v370 = c370; *dirty |= 0x100000000; }
+        let c363: u64 = if (c324) != 0 { ((self.q82 << 7)) } else { (c370) };
         if self.v363 != c363 { self.v363 = c363; *dirty |= 0x100000000; }
-        let c371: u64 = (self.q84 | (self.q85 << 3) | (self.q83 << 7)).wrapping_sub((0x1)) & 0xff;
+        let c371: u64 = (self.q85 | (self.q86 << 7)).wrapping_sub((0x1)) & 0xff;
         if self.v371 != c371 { self.v371 = c371; *dirty |= 0x100000000; }
-        let c364: u64 = if (c325) != 0 { ((self.q83 << 7)) } else { (c371) };
-        if self.v364 != c364 { self.v364 = c364; *dirty |= 0x100000000; }
-        let c372: u64 = (self.q86 | (self.q87 << 7)).wrapping_sub((0x1)) & 0xff;
-        if self.v372 != c372 { self.v372 = c372; *dirty |= 0x100000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$fifo.
     fn group_10(&mut self, dirty: &mut u128) {
-        let c789: u64 = (self.q63).wrapping_add((0x1)) & 0x7;
-        let c800: u64 = !(self.q99) & 0x1;
-        if self.v800 != c800 { self.v800 = c800; *dirty |= 0x1820000; }
-        let c801: u64 = !(self.q62) & 0x1;
-        if self.v801 != c801 { self.v801 = c801; *dirty |= 0x200000; }
-        let c831: u64 = ((self.q59) | (self.q105)) & 0x1;
-        let c832: u64 = if ((self.q63 & 0x1)) != 0 { ((self.q101 >> 3)) } else { (self.q103 | (self.q97 << 6) | (self.q99 << 7)) };
-        let c833: u64 = if (self.q99) != 0 { ((self.q100 >> 17)) } else { (self.q97) };
-        if self.v833 != c833 { self.v833 = c833; *dirty |= 0x800000; }
-        let c834: u64 = if ((self.q63 & 0x1)) != 0 { (((self.q100 >> 5) & 0xff)) } else { (((self.q100 >> 13) & 0xf) | (c833 << 4) | ((self.q101 & 0x7) << 5)) };
-        let c835: u64 = if (((self.q63 >> 1) & 0x1)) != 0 { (c834) } else { (c832) };
-        let c836: u64 = if ((self.q63 >> 2)) != 0 { ((self.q97 << 2) | ((self.q100 & 0x1f) << 3)) } else { (c835) };
-        let c838: u64 = if (self.q59) != 0 { (c836) } else { (self.q103 | (self.q97 << 6) | (self.q99 << 7)) };
-        let c829: u64 = if (self.q105) != 0 { (self.q104) } else { (c838) };
-        if self.v829 != c829 { self.v829 = c829; *dirty |= 0x200000; }
-        let c840: u64 = if (self.q59) != 0 { (c789) } else { (0x0) };
-        if self.v840 != c840 { self.v840 = c840; *dirty |= 0x80000000000000000000; }
-        let c841: u64 = if (self.q102) != 0 { (0x0) } else { (self.q62) };
-        let c842: u64 = ((self.q59) | (self.q102)) & 0x1;
-        let c845: u64 = if (self.q99) != 0 { (0x2) } else { (0x1) };
-        let c788: u64 = ((c845 << 1) | 0x1).wrapping_add((self.q103)) & 0xf;
-        let c790: u64 = ((c845 << 1) | 0x1).wrapping_add((self.q106)) & 0xf;
-        let c799: u64 = u64::from((self.q63) == ((c845 << 1)));
-        let c830: u64 = if (self.q105) != 0 { (c790) } else { (self.q63) };
-        let c792: u64 = (self.q60).wrapping_add((c830)) & 0x3f;
-        if self.v792 != c792 { self.v792 = c792; *dirty |= 0x200000; }
-        let c837: u64 = if (c799) != 0 { (0x0) } else { (c842) };
-        let c839: u64 = if (self.q59) != 0 { (c837) } else { (c842) };
-        if self.v839 != c839 { self.v839 = c839; *dirty |= 0x400000000000000000000; }
-        let c844: u64 = if ((self.q103 >> 3)) != 0 { ((c845 << 1) | 0x9) } else { (c788) };
-        let c843: u64 = if (self.q97) != 0 { ((c845 << 1) | 0x1) } else { (c844) };
-        let c794: u64 = (self.q60).wrapping_add((c843)) & 0x3f;
-        if self.v794 != c794 { self.v794 = c794; *dirty |= 0x200000; }
-        let c802: u64 = u64::from((c794) == (self.q65));
-        if self.v802 != c802 { self.v802 = c802; *dirty |= 0x8000000000; }
-        let c849: u64 = if (self.q67) != 0 { (self.m0_rd) } else { (self.q64) };
-        if self.v849 != c849 { self.v849 = c849; *dirty |= 0x8000040000; }
-        let c848: u64 = if ((c849 >> 7)) != 0 { (0x2) } else { (0x1) };
-        let c787: u64 = ((c848 << 1) | 0x1).wrapping_add(((c849 & 0xf))) & 0xf;
-        let c847: u64 = if (((c849 >> 3) & 0x1)) != 0 { ((c848 << 1) | 0x9) } else { (c787) };
-        let c846: u64 = if (((c849 >> 6) & 0x1)) != 0 { ((c848 << 1) | 0x1) } else { (c847) };
-        let c793: u64 = (self.q65).wrapping_add((c846)) & 0x3f;
-        if self.v793 != c793 { self.v793 = c793; *dirty |= 0x8000200000; }
-        let c850: u64 = (self.q60).wrapping_sub((self.q65)) & 0x3f;
-        let c791: u64 = (c850 | (self.q66 << 6)).wrapping_add((c830)) & 0x7f;
-        let c825: u64 = ((c841) | ((c791 >> 6))) & 0x1;
-        let c826: u64 = !((c791 >> 6)) & 0x1;
-        let c827: u64 = if (c831) != 0 { (c825) } else { (c841) };
-        if self.v827 != c827 { self.v827 = c827; *dirty |= 0x1000000000000000000000; }
-        let c828: u64 = (c831) & (c826) & 0x1;
+        let c788: u64 = (self.q62).wrapping_add((0x1)) & 0x7;
+        let c799: u64 = !(self.q98) & 0x1;
+        if self.v799 != c799 { self.v799 = c799; *dirty |= 0x1820000; }
+        let c800: u64 = !(self.q61) & 0x1;
+        if self.v800 != c800 { self.v800 = c800; *dirty |= 0x200000; }
+        let c830: u64 = ((self.q58) | (self.q104)) & 0x1;
+        let c831: u64 = if ((self.q62 & 0x1)) != 0 { ((self.q100 >> 3)) } else { (self.q102 | (self.q96 << 6) | (self.q98 << 7)) };
+        let c832: u64 = if (self.q98) != 0 { ((self.q99 >> 17)) } else { (self.q96) };
+        if self.v832 != c832 { self.v832 = c832; *dirty |= 0x800000; }
+        let c833: u64 = if ((self.q62 & 0x1)) != 0 { (((self.q99 >> 5) & 0xff)) } else { (((self.q99 >> 13) & 0xf) | (c832 << 4) | ((self.q100 & 0x7) << 5)) };
+        let c834: u64 = if (((self.q62 >> 1) & 0x1)) != 0 { (c833) } else { (c831) };
+        let c835: u64 = if ((self.q62 >> 2)) != 0 { ((self.q96 << 2) | ((self.q99 & 0x1f) << 3)) } else { (c834) };
+        let c837: u64 = if (self.q58) != 0 { (c835) } else { (self.q102 | (self.q96 << 6) | (self.q98 << 7)) };
+        let c828: u64 = if (self.q104) != 0 { (self.q103) } else { (c837) };
         if self.v828 != c828 { self.v828 = c828; *dirty |= 0x200000; }
-        let c851: u64 = (self.q68).wrapping_sub((0x1)) & 0x1f;
-        if self.v851 != c851 { self.v851 = c851; *dirty |= 0x8000000000; }
+        let c839: u64 = if (self.q58) != 0 { (c788) } else { (0x0) };
+        if self.v839 != c839 { self.v839 = c839; *dirty |= 0x80000000000000000000; }
+        let c840: u64 = if (self.q101) != 0 { (0x0) } else { (self.q61) };
+        let c841: u64 = ((self.q58) | (self.q101)) & 0x1;
+        let c844: u64 = if (self.q98) != 0 { (0x2) } else { (0x1) };
+        let c787: u64 = ((c844 << 1) | 0x1).wrapping_add((self.q102)) & 0xf;
+        let c789: u64 = ((c844 << 1) | 0x1).wrapping_add((self.q105)) & 0xf;
+        let c798: u64 = u64::from((self.q62) == ((c844 << 1)));
+        let c829: u64 = if (self.q104) != 0 { (c789) } else { (self.q62) };
+        let c791: u64 = (self.q59).wrapping_add((c829)) & 0x3f;
+        if self.v791 != c791 { self.v791 = c791; *dirty |= 0x200000; }
+        let c836: u64 = if (c798) != 0 { (0x0) } else { (c841) };
+        let c838: u64 = if (self.q58) != 0 { (c836) } else { (c841) };
+        if self.v838 != c838 { self.v838 = c838; *dirty |= 0x400000000000000000000; }
+        let c843: u64 = if ((self.q102 >> 3)) != 0 { ((c844 << 1) | 0x9) } else { (c787) };
+        let c842: u64 = if (self.q96) != 0 { ((c844 << 1) | 0x1) } else { (c843) };
+        let c793: u64 = (self.q59).wrapping_add((c842)) & 0x3f;
+        if self.v793 != c793 { self.v793 = c793; *dirty |= 0x200000; }
+        let c801: u64 = u64::from((c793) == (self.q64));
+        if self.v801 != c801 { self.v801 = c801; *dirty |= 0x8000000000; }
+        let c848: u64 = if (self.q66) != 0 { (self.m0_rd) } else { (self.q63) };
+        if self.v848 != c848 { self.v848 = c848; *dirty |= 0x8000040000; }
+        let c847: u64 = if ((c848 >> 7)) != 0 { (0x2) } else { (0x1) };
+        let c786: u64 = ((c847 << 1) | 0x1).wrapping_add(((c848 & 0xf))) & 0xf;
+        let c846: u64 = if (((c848 >> 3) & 0x1)) != 0 { ((c847 << 1) | 0x9) } else { (c786) };
+        let c845: u64 = if (((c848 >> 6) & 0x1)) != 0 { ((c847 << 1) | 0x1) } else { (c846) };
+        let c792: u64 = (self.q64).wrapping_add((c845)) & 0x3f;
+        if self.v792 != c792 { self.v792 = c792; *dirty |= 0x8000200000; }
+        let c849: u64 = (self.q59).wrapping_sub((self.q64)) & 0x3f;
+        let c790: u64 = (c849 | (self.q65 << 6)).wrapping_add((c829)) & 0x7f;
+        let c824: u64 = ((c840) | ((c790 >> 6))) & 0x1;
+        let c825: u64 = !((c790 >> 6)) & 0x1;
+        let c826: u64 = if (c830) != 0 { (c824) } else { (c840) };
+        if self.v826 != c826 { self.v826 = c826; *dirty |= 0x1000000000000000000000; }
+        let c827: u64 = (c830) & (c825) & 0x1;
+        if self.v827 != c827 { self.v827 = c827; *dirty |= 0x200000; }
+        let c850: u64 = (self.q67).wrapping_sub((0x1)) & 0x1f;
+        if self.v850 != c850 { self.v850 = c850; *dirty |= 0x8000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$decode.
     fn group_11(&mut self, dirty: &mut u128) {
-        let c41: u64 = !(self.q33) & 0x1;
+        let c41: u64 = !(self.q32) & 0x1;
         if self.v41 != c41 { self.v41 = c41; *dirty |= 0x6000000000; }
-        let c53: u64 = u64::from((c41 | (self.v968 << 1)) == 0x3);
+        let c53: u64 = u64::from((c41 | (self.v967 << 1)) == 0x3);
         if self.v53 != c53 { self.v53 = c53; *dirty |= 0x10000000000000000000000000; }
-        let c762: u64 = (self.i_we) & (self.v1046) & 0x1;
-        let c763: u64 = (c762) & (self.v936) & 0x1;
-        if self.v763 != c763 { self.v763 = c763; *dirty |= 0x2000000000; }
-        let c764: u64 = (c763) & ((self.i_wdata & 0x1)) & 0x1;
-        if self.v764 != c764 { self.v764 = c764; *dirty |= 0x20000; }
-        let c765: u64 = (c763) & (((self.i_wdata >> 1) & 0x1)) & 0x1;
-        if self.v765 != c765 { self.v765 = c765; *dirty |= 0x40000000000000000000000000020000; }
-        let c766: u64 = (c763) & (((self.i_wdata >> 2) & 0x1)) & 0x1;
-        if self.v766 != c766 { self.v766 = c766; *dirty |= 0x4000000000; }
-        let c767: u64 = (c763) & (((self.i_wdata >> 3) & 0x1)) & 0x1;
-        let c91: u64 = u64::from((self.i_reset | (c767 << 1) | (self.q126 << 2)) != 0);
+        let c761: u64 = (self.i_we) & (self.v1046) & 0x1;
+        let c762: u64 = (c761) & (self.v935) & 0x1;
+        if self.v762 != c762 { self.v762 = c762; *dirty |= 0x2000000000; }
+        let c763: u64 = (c762) & ((self.i_wdata & 0x1)) & 0x1;
+        if self.v763 != c763 { self.v763 = c763; *dirty |= 0x20000; }
+        let c764: u64 = (c762) & (((self.i_wdata >> 1) & 0x1)) & 0x1;
+        if self.v764 != c764 { self.v764 = c764; *dirty |= 0x40000000000000000000000000020000; }
+        let c765: u64 = (c762) & (((self.i_wdata >> 2) & 0x1)) & 0x1;
+        if self.v765 != c765 { self.v765 = c765; *dirty |= 0x4000000000; }
+        let c766: u64 = (c762) & (((self.i_wdata >> 3) & 0x1)) & 0x1;
+        let c91: u64 = u64::from((self.i_reset | (c766 << 1) | (self.q126 << 2)) != 0);
         if self.v91 != c91 { self.v91 = c91; *dirty |= 0x100000000000000000000; }
-        let c768: u64 = (c763) & (((self.i_wdata >> 4) & 0x1)) & 0x1;
-        let c769: u64 = (c768) & (self.q33) & 0x1;
-        let c771: u64 = (((self.i_wdata >> 4) & 0x1)) & (c41) & 0x1;
-        if self.v771 != c771 { self.v771 = c771; *dirty |= 0x2000000000; }
-        let c772: u64 = !(c764) & 0x1;
-        if self.v772 != c772 { self.v772 = c772; *dirty |= 0x20000; }
-        let c770: u64 = (c769) & (c772) & 0x1;
-        if self.v770 != c770 { self.v770 = c770; *dirty |= 0x80000000000000000000000020000; }
-        let c773: u64 = (self.q33) & (self.v780) & 0x1;
-        if self.v773 != c773 { self.v773 = c773; *dirty |= 0x20000100000; }
-        let c774: u64 = (self.q33) & (self.v779) & 0x1;
-        if self.v774 != c774 { self.v774 = c774; *dirty |= 0x140000; }
-        let c775: u64 = (self.q33) & (self.v778) & 0x1;
-        if self.v775 != c775 { self.v775 = c775; *dirty |= 0x60000; }
-        let c776: u64 = if (self.q33) != 0 { (0x0) } else { (self.v782) };
-        if self.v776 != c776 { self.v776 = c776; *dirty |= 0x40000; }
-        let c777: u64 = if (self.q33) != 0 { (0x0) } else { (self.v781) };
-        if self.v777 != c777 { self.v777 = c777; *dirty |= 0x20000020000; }
-        let c784: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x9)) & 0xf;
-        if self.v784 != c784 { self.v784 = c784; *dirty |= 0x20000; }
-        let c785: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x3)) & 0xf;
+        let c767: u64 = (c762) & (((self.i_wdata >> 4) & 0x1)) & 0x1;
+        let c768: u64 = (c767) & (self.q32) & 0x1;
+        let c770: u64 = (((self.i_wdata >> 4) & 0x1)) & (c41) & 0x1;
+        if self.v770 != c770 { self.v770 = c770; *dirty |= 0x2000000000; }
+        let c771: u64 = !(c763) & 0x1;
+        if self.v771 != c771 { self.v771 = c771; *dirty |= 0x20000; }
+        let c769: u64 = (c768) & (c771) & 0x1;
+        if self.v769 != c769 { self.v769 = c769; *dirty |= 0x80000000000000000000000020000; }
+        let c772: u64 = (self.q32) & (self.v779) & 0x1;
+        if self.v772 != c772 { self.v772 = c772; *dirty |= 0x80000100000; }
+        let c773: u64 = (self.q32) & (self.v778) & 0x1;
+        if self.v773 != c773 { self.v773 = c773; *dirty |= 0x140000; }
+        let c774: u64 = (self.q32) & (self.v777) & 0x1;
+        if self.v774 != c774 { self.v774 = c774; *dirty |= 0x60000; }
+        let c775: u64 = if (self.q32) != 0 { (0x0) } else { (self.v781) };
+        if self.v775 != c775 { self.v775 = c775; *dirty |= 0x40000; }
+        let c776: u64 = if (self.q32) != 0 { (0x0) } else { (self.v780) };
+        if self.v776 != c776 { self.v776 = c776; *dirty |= 0x80000020000; }
+        let c783: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x9)) & 0xf;
+        if self.v783 != c783 { self.v783 = c783; *dirty |= 0x20000; }
+        let c784: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x3)) & 0xf;
+        if self.v784 != c784 { self.v784 = c784; *dirty |= 0x40000; }
+        let c785: u64 = (((self.i_addr >> 5) & 0x1)).wrapping_sub((0x1)) & 0x1;
         if self.v785 != c785 { self.v785 = c785; *dirty |= 0x40000; }
-        let c786: u64 = (((self.i_addr >> 5) & 0x1)).wrapping_sub((0x1)) & 0x1;
-        if self.v786 != c786 { self.v786 = c786; *dirty |= 0x40000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender.
     fn group_12(&mut self, dirty: &mut u128) {
-        let c679: u64 = ((self.q75 & 0x1) | (self.q74 << 1) | ((self.q75 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
-        if self.v679 != c679 { self.v679 = c679; *dirty |= 0x400000000000; }
-        let c680: u64 = (self.q92).wrapping_add((0x1)) & 0x7f;
-        if self.v680 != c680 { self.v680 = c680; *dirty |= 0x9000000; }
-        let c687: u64 = u64::from((self.q76) == 0);
-        if self.v687 != c687 { self.v687 = c687; *dirty |= 0x880000000; }
-        let c688: u64 = u64::from((self.q76) == (0x1));
-        if self.v688 != c688 { self.v688 = c688; *dirty |= 0x800000000; }
-        let c689: u64 = u64::from((self.q92) == (0x1e));
-        if self.v689 != c689 { self.v689 = c689; *dirty |= 0x8000000; }
-        let c690: u64 = !(self.v508) & 0x1;
-        if self.v690 != c690 { self.v690 = c690; *dirty |= 0x800000000; }
-        let c738: u64 = if (self.v388) != 0 { (0x2) } else { (0x1) };
-        if self.v738 != c738 { self.v738 = c738; *dirty |= 0x800000000; }
-        let c740: u64 = if (c687) != 0 { ((c679 & 0x7)) } else { ((self.q75 & 0x1)) };
-        if self.v740 != c740 { self.v740 = c740; *dirty |= 0x800000000; }
-        let c747: u64 = (self.q76).wrapping_sub((0x1)) & 0xf;
-        let c741: u64 = if (c687) != 0 { (0x7) } else { (c747) };
-        if self.v741 != c741 { self.v741 = c741; *dirty |= 0x1000000000000000000; }
-        let c749: u64 = ((((self.q91 >> 13) & 0x1)) ^ ((self.q91 >> 14))) & 0x1;
-        let c750: u64 = ((c749) ^ (self.q108)) & 0x1;
-        if self.v750 != c750 { self.v750 = c750; *dirty |= 0x40000000; }
+        let c678: u64 = ((self.q74 & 0x1) | (self.q73 << 1) | ((self.q74 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
+        if self.v678 != c678 { self.v678 = c678; *dirty |= 0x400000000000; }
+        let c679: u64 = (self.q91).wrapping_add((0x1)) & 0x7f;
+        if self.v679 != c679 { self.v679 = c679; *dirty |= 0x9000000; }
+        let c686: u64 = u64::from((self.q75) == 0);
+        if self.v686 != c686 { self.v686 = c686; *dirty |= 0x880000000; }
+        let c687: u64 = u64::from((self.q75) == (0x1));
+        if self.v687 != c687 { self.v687 = c687; *dirty |= 0x800000000; }
+        let c688: u64 = u64::from((self.q91) == (0x1e));
+        if self.v688 != c688 { self.v688 = c688; *dirty |= 0x8000000; }
+        let c689: u64 = !(self.v507) & 0x1;
+        if self.v689 != c689 { self.v689 = c689; *dirty |= 0x800000000; }
+        let c737: u64 = if (self.v387) != 0 { (0x2) } else { (0x1) };
+        if self.v737 != c737 { self.v737 = c737; *dirty |= 0x800000000; }
+        let c739: u64 = if (c686) != 0 { ((c678 & 0x7)) } else { ((self.q74 & 0x1)) };
+        if self.v739 != c739 { self.v739 = c739; *dirty |= 0x800000000; }
+        let c746: u64 = (self.q75).wrapping_sub((0x1)) & 0xf;
+        let c740: u64 = if (c686) != 0 { (0x7) } else { (c746) };
+        if self.v740 != c740 { self.v740 = c740; *dirty |= 0x1000000000000000000; }
+        let c748: u64 = ((((self.q90 >> 13) & 0x1)) ^ ((self.q90 >> 14))) & 0x1;
+        let c749: u64 = ((c748) ^ (self.q108)) & 0x1;
+        if self.v749 != c749 { self.v749 = c749; *dirty |= 0x40000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol.
     fn group_13(&mut self, dirty: &mut u128) {
-        let c227: u64 = (self.q70) & (self.q115) & 0x1;
-        if self.v227 != c227 { self.v227 = c227; *dirty |= 0x80000000000000000000000000000000; }
-        let c113: u64 = ((c227) | (self.v1049)) & 0x1;
+        let c226: u64 = (self.q69) & (self.q115) & 0x1;
+        if self.v226 != c226 { self.v226 = c226; *dirty |= 0x80000000000000000000000000000000; }
+        let c113: u64 = ((c226) | (self.v1049)) & 0x1;
         if self.v113 != c113 { self.v113 = c113; *dirty |= 0x40000; }
-        let c228: u64 = (self.v535) & (self.q115) & 0x1;
-        let c114: u64 = ((c228) | (self.v1049)) & 0x1;
+        let c227: u64 = (self.v534) & (self.q115) & 0x1;
+        let c114: u64 = ((c227) | (self.v1049)) & 0x1;
         if self.v114 != c114 { self.v114 = c114; *dirty |= 0x40000; }
-        let c234: u64 = (self.v569) & (self.v544) & 0x1;
-        if self.v234 != c234 { self.v234 = c234; *dirty |= 0x80000000; }
-        let c235: u64 = !(self.q21) & 0x1;
-        if self.v235 != c235 { self.v235 = c235; *dirty |= 0x20000; }
-        let c236: u64 = !(self.q123) & 0x1;
-        let c229: u64 = (c236) & (self.v544) & 0x1;
-        if self.v229 != c229 { self.v229 = c229; *dirty |= 0x80000000; }
-        let c93: u64 = u64::from((self.i_reset | (c229 << 1) | (self.q112 << 2)) != 0);
+        let c233: u64 = (self.v568) & (self.v543) & 0x1;
+        if self.v233 != c233 { self.v233 = c233; *dirty |= 0x80000000; }
+        let c234: u64 = !(self.q20) & 0x1;
+        if self.v234 != c234 { self.v234 = c234; *dirty |= 0x20000; }
+        let c235: u64 = !(self.q123) & 0x1;
+        let c228: u64 = (c235) & (self.v543) & 0x1;
+        if self.v228 != c228 { self.v228 = c228; *dirty |= 0x80000000; }
+        let c93: u64 = u64::from((self.i_reset | (c228 << 1) | (self.q112 << 2)) != 0);
         if self.v93 != c93 { self.v93 = c93; *dirty |= 0x10000000000000000000; }
-        let c98: u64 = u64::from((self.i_reset | (c229 << 1) | (c234 << 2)) != 0);
+        let c98: u64 = u64::from((self.i_reset | (c228 << 1) | (c233 << 2)) != 0);
         if self.v98 != c98 { self.v98 = c98; *dirty |= 0x20000000000000000; }
-        let c99: u64 = u64::from((self.i_reset | (c229 << 1)) != 0);
+        let c99: u64 = u64::from((self.i_reset | (c228 << 1)) != 0);
         if self.v99 != c99 { self.v99 = c99; *dirty |= 0x10000000000000000; }
-        let c245: u64 = u64::from((self.q114) != (0x3));
-        if self.v245 != c245 { self.v245 = c245; *dirty |= 0x80000000; }
-        let c247: u64 = !(self.q115) & 0x1;
-        if self.v247 != c247 { self.v247 = c247; *dirty |= 0x80000000; }
-        let c249: u64 = ((self.q89) | (c235)) & 0x1;
-        let c100: u64 = u64::from((self.i_reset | (c249 << 1)) != 0);
+        let c244: u64 = u64::from((self.q114) != (0x3));
+        if self.v244 != c244 { self.v244 = c244; *dirty |= 0x80000000; }
+        let c246: u64 = !(self.q115) & 0x1;
+        if self.v246 != c246 { self.v246 = c246; *dirty |= 0x80000000; }
+        let c248: u64 = ((self.q88) | (c234)) & 0x1;
+        let c100: u64 = u64::from((self.i_reset | (c248 << 1)) != 0);
         if self.v100 != c100 { self.v100 = c100; *dirty |= 0x200000000000000; }
-        let c251: u64 = ((self.q124) | (c229)) & 0x1;
-        if self.v251 != c251 { self.v251 = c251; *dirty |= 0x300100000; }
-        let c252: u64 = ((self.q112) | (c236)) & 0x1;
-        if self.v252 != c252 { self.v252 = c252; *dirty |= 0x8000000; }
-        let c254: u64 = ((self.v548) | (self.v638)) & 0x1;
-        let c255: u64 = ((c254) | (self.v569)) & 0x1;
-        let c256: u64 = ((c255) | (self.v511)) & 0x1;
-        if self.v256 != c256 { self.v256 = c256; *dirty |= 0x8000; }
-        let c265: u64 = !(c256) & 0x1;
-        if self.v265 != c265 { self.v265 = c265; *dirty |= 0x8000; }
+        let c250: u64 = ((self.q124) | (c228)) & 0x1;
+        if self.v250 != c250 { self.v250 = c250; *dirty |= 0x300100000; }
+        let c251: u64 = ((self.q112) | (c235)) & 0x1;
+        if self.v251 != c251 { self.v251 = c251; *dirty |= 0x8000000; }
+        let c253: u64 = ((self.v547) | (self.v637)) & 0x1;
+        let c254: u64 = ((c253) | (self.v568)) & 0x1;
+        let c255: u64 = ((c254) | (self.v510)) & 0x1;
+        if self.v255 != c255 { self.v255 = c255; *dirty |= 0x8000; }
+        let c264: u64 = !(c255) & 0x1;
+        if self.v264 != c264 { self.v264 = c264; *dirty |= 0x8000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sampling.
     fn group_14(&mut self, dirty: &mut u128) {
-        let c217: u64 = ((self.q3 >> 1)) & ((self.q3 & 0x1)) & 0x1;
-        let c218: u64 = ((self.q3 >> 1)) & (self.q111) & 0x1;
-        let c219: u64 = ((self.q3 & 0x1)) & (self.q111) & 0x1;
-        let c220: u64 = !(self.q111) & 0x1;
-        let c216: u64 = (self.q110) & (c220) & 0x1;
-        if self.v216 != c216 { self.v216 = c216; *dirty |= 0x8000; }
-        let c221: u64 = ((c217) | (c218)) & 0x1;
-        let c222: u64 = ((c221) | (c219)) & 0x1;
-        let c223: u64 = ((self.q111) | (self.i_reset)) & 0x1;
-        if self.v223 != c223 { self.v223 = c223; *dirty |= 0x40000000000000; }
-        let c224: u64 = ((self.q109) | (self.i_reset)) & 0x1;
-        if self.v224 != c224 { self.v224 = c224; *dirty |= 0x80000000000000; }
-        let c225: u64 = ((self.i_rx) | (self.i_reset)) & 0x1;
-        if self.v225 != c225 { self.v225 = c225; *dirty |= 0x20000000000000; }
-        let c226: u64 = if ((self.q12 >> 7)) != 0 { (c222) } else { (self.q111) };
-        if self.v226 != c226 { self.v226 = c226; *dirty |= 0x8000; }
+        let c216: u64 = ((self.q2 >> 1)) & ((self.q2 & 0x1)) & 0x1;
+        let c217: u64 = ((self.q2 >> 1)) & (self.q111) & 0x1;
+        let c218: u64 = ((self.q2 & 0x1)) & (self.q111) & 0x1;
+        let c219: u64 = !(self.q111) & 0x1;
+        let c215: u64 = (self.q110) & (c219) & 0x1;
+        if self.v215 != c215 { self.v215 = c215; *dirty |= 0x8000; }
+        let c220: u64 = ((c216) | (c217)) & 0x1;
+        let c221: u64 = ((c220) | (c218)) & 0x1;
+        let c222: u64 = ((self.q111) | (self.i_reset)) & 0x1;
+        if self.v222 != c222 { self.v222 = c222; *dirty |= 0x40000000000000; }
+        let c223: u64 = ((self.q109) | (self.i_reset)) & 0x1;
+        if self.v223 != c223 { self.v223 = c223; *dirty |= 0x80000000000000; }
+        let c224: u64 = ((self.i_rx) | (self.i_reset)) & 0x1;
+        if self.v224 != c224 { self.v224 = c224; *dirty |= 0x20000000000000; }
+        let c225: u64 = if ((self.q11 >> 7)) != 0 { (c221) } else { (self.q111) };
+        if self.v225 != c225 { self.v225 = c225; *dirty |= 0x8000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing.
     fn group_15(&mut self, dirty: &mut u128) {
-        let c139: u64 = (self.v216) & (self.q108) & 0x1;
-        let c140: u64 = (c139) & (self.v162) & 0x1;
-        let c147: u64 = (self.v265) & (self.v532) & 0x1;
+        let c138: u64 = (self.v215) & (self.q108) & 0x1;
+        let c139: u64 = (c138) & (self.v161) & 0x1;
+        let c146: u64 = (self.v264) & (self.v531) & 0x1;
+        let c164: u64 = !(c146) & 0x1;
+        let c147: u64 = (c139) & (c164) & 0x1;
         let c165: u64 = !(c147) & 0x1;
-        let c148: u64 = (c140) & (c165) & 0x1;
-        let c166: u64 = !(c148) & 0x1;
-        let c149: u64 = (self.v146) & (c166) & 0x1;
-        let c150: u64 = (c149) & (self.v167) & 0x1;
-        if self.v150 != c150 { self.v150 = c150; *dirty |= 0x80000000000000000010002000000000; }
-        let c182: u64 = if (c150) != 0 { (0x0) } else { (self.q1) };
-        let c183: u64 = if (c150) != 0 { (self.v226) } else { (self.q108) };
-        let c179: u64 = ((c183) | (self.i_reset)) & 0x1;
-        if self.v179 != c179 { self.v179 = c179; *dirty |= 0x20000000000000; }
-        let c205: u64 = if (self.v256) != 0 { (0x0) } else { (self.v186) };
-        let c206: u64 = if (self.v256) != 0 { (0x0) } else { (self.v201) };
-        let c207: u64 = if (self.v256) != 0 { (0x0) } else { (self.v202) };
-        let c208: u64 = if (self.v256) != 0 { (0x0) } else { (self.v203) };
-        let c209: u64 = if (self.v256) != 0 { (0x0) } else { (self.v204) };
-        let c210: u64 = (c140) & (c205) & 0x1;
-        let c211: u64 = (c140) & (c206) & 0x1;
-        let c212: u64 = (c140) & (c207) & 0x1;
-        let c163: u64 = !(c212) & 0x1;
-        let c142: u64 = (self.v141) & (c163) & 0x1;
-        let c194: u64 = if (c212) != 0 { (self.v193) } else { (self.v158 | (self.v158 << 1) | (self.v158 << 2) | (self.v158 << 3)) };
-        let c192: u64 = if (c211) != 0 { (self.v191 | 0x8) } else { (c194) };
-        let c137: u64 = (self.q4).wrapping_add((c192 | ((c192 >> 3) << 4))) & 0x1f;
-        let c185: u64 = { let s = (self.v188 | (self.v199 << 1) | (self.v186 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.q9 } else if s >> 2 & 1 != 0 { (self.q12 & 0xf) } else { (c137) } };
-        let c195: u64 = if (c211) != 0 { (self.v143) } else { (c142) };
-        let c46: u64 = u64::from((c195 | (self.v19 << 1)) == 0x3);
+        let c148: u64 = (self.v145) & (c165) & 0x1;
+        let c149: u64 = (c148) & (self.v166) & 0x1;
+        if self.v149 != c149 { self.v149 = c149; *dirty |= 0x80000000000000000010002000000000; }
+        let c181: u64 = if (c149) != 0 { (0x0) } else { (self.q0) };
+        let c182: u64 = if (c149) != 0 { (self.v225) } else { (self.q108) };
+        let c178: u64 = ((c182) | (self.i_reset)) & 0x1;
+        if self.v178 != c178 { self.v178 = c178; *dirty |= 0x20000000000000; }
+        let c204: u64 = if (self.v255) != 0 { (0x0) } else { (self.v185) };
+        let c205: u64 = if (self.v255) != 0 { (0x0) } else { (self.v200) };
+        let c206: u64 = if (self.v255) != 0 { (0x0) } else { (self.v201) };
+        let c207: u64 = if (self.v255) != 0 { (0x0) } else { (self.v202) };
+        let c208: u64 = if (self.v255) != 0 { (0x0) } else { (self.v203) };
+        let c209: u64 = (c139) & (c204) & 0x1;
+        let c210: u64 = (c139) & (c205) & 0x1;
+        let c211: u64 = (c139) & (c206) & 0x1;
+        let c162: u64 = !(c211) & 0x1;
+        let c141: u64 = (self.v140) & (c162) & 0x1;
+        let c193: u64 = if (c211) != 0 { (self.v192) } else { (self.v157 | (self.v157 << 1) | (self.v157 << 2) | (self.v157 << 3)) };
+        let c191: u64 = if (c210) != 0 { (self.v190 | 0x8) } else { (c193) };
+        let c136: u64 = (self.q3).wrapping_add((c191 | ((c191 >> 3) << 4))) & 0x1f;
+        let c184: u64 = { let s = (self.v187 | (self.v198 << 1) | (self.v185 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.q8 } else if s >> 2 & 1 != 0 { (self.q11 & 0xf) } else { (c136) } };
+        let c194: u64 = if (c210) != 0 { (self.v142) } else { (c141) };
+        let c46: u64 = u64::from((c194 | (self.v19 << 1)) == 0x3);
         if self.v46 != c46 { self.v46 = c46; *dirty |= 0x80000000000000; }
-        let c189: u64 = if (c195) != 0 { (c185) } else { (c137) };
-        if self.v189 != c189 { self.v189 = c189; *dirty |= 0x10000000000000; }
-        let c213: u64 = (c140) & (c208) & 0x1;
-        let c214: u64 = (c140) & (c209) & 0x1;
-        let c174: u64 = ((c214) | (c213)) & 0x1;
-        let c175: u64 = ((c174) | (c212)) & 0x1;
-        let c176: u64 = ((c175) | (c211)) & 0x1;
-        let c177: u64 = ((c176) | (c210)) & 0x1;
-        let c215: u64 = (c140) & (self.v256) & 0x1;
-        let c169: u64 = ((c215) | (c214)) & 0x1;
-        let c170: u64 = ((c169) | (c213)) & 0x1;
-        let c83: u64 = u64::from((self.i_reset | (c170 << 1)) != 0);
+        let c188: u64 = if (c194) != 0 { (c184) } else { (c136) };
+        if self.v188 != c188 { self.v188 = c188; *dirty |= 0x10000000000000; }
+        let c212: u64 = (c139) & (c207) & 0x1;
+        let c213: u64 = (c139) & (c208) & 0x1;
+        let c173: u64 = ((c213) | (c212)) & 0x1;
+        let c174: u64 = ((c173) | (c211)) & 0x1;
+        let c175: u64 = ((c174) | (c210)) & 0x1;
+        let c176: u64 = ((c175) | (c209)) & 0x1;
+        let c214: u64 = (c139) & (self.v255) & 0x1;
+        let c168: u64 = ((c214) | (c213)) & 0x1;
+        let c169: u64 = ((c168) | (c212)) & 0x1;
+        let c83: u64 = u64::from((self.i_reset | (c169 << 1)) != 0);
         if self.v83 != c83 { self.v83 = c83; *dirty |= 0x90000000000000; }
-        let c84: u64 = u64::from((self.i_reset | (c195 << 1) | (c170 << 2)) != 0);
+        let c84: u64 = u64::from((self.i_reset | (c194 << 1) | (c169 << 2)) != 0);
         if self.v84 != c84 { self.v84 = c84; *dirty |= 0x8000000000000; }
-        let c85: u64 = u64::from((self.i_reset | (self.v158 << 1) | (c170 << 2)) != 0);
+        let c85: u64 = u64::from((self.i_reset | (self.v157 << 1) | (c169 << 2)) != 0);
         if self.v85 != c85 { self.v85 = c85; *dirty |= 0x100000000000; }
-        let c164: u64 = !(c170) & 0x1;
-        let c144: u64 = (self.v158) & (c164) & 0x1;
-        if self.v144 != c144 { self.v144 = c144; *dirty |= 0x40000000000000; }
-        let c171: u64 = ((self.v151) | (c215)) & 0x1;
-        let c172: u64 = ((c171) | (c213)) & 0x1;
-        let c152: u64 = (c172) & (self.v168) & 0x1;
-        let c153: u64 = (c152) & (self.v167) & 0x1;
-        let c154: u64 = (c172) & (self.q5) & 0x1;
-        if self.v154 != c154 { self.v154 = c154; *dirty |= 0x200000000000000; }
-        let c173: u64 = ((c153) | (self.q0)) & 0x1;
-        if self.v173 != c173 { self.v173 = c173; *dirty |= 0x8000000; }
-        let c178: u64 = ((c215) | (c177)) & 0x1;
-        let c180: u64 = if (c170) != 0 { (0x0) } else { (self.q2) };
-        if self.v180 != c180 { self.v180 = c180; *dirty |= 0x80000000000000000000000000000000; }
-        let c181: u64 = ((c182) | (c178)) & 0x1;
-        if self.v181 != c181 { self.v181 = c181; *dirty |= 0x100000000000000; }
-        let c184: u64 = ((self.v190) | (c170)) & 0x1;
-        if self.v184 != c184 { self.v184 = c184; *dirty |= 0x100000000000; }
+        let c163: u64 = !(c169) & 0x1;
+        let c143: u64 = (self.v157) & (c163) & 0x1;
+        if self.v143 != c143 { self.v143 = c143; *dirty |= 0x40000000000000; }
+        let c170: u64 = ((self.v150) | (c214)) & 0x1;
+        let c171: u64 = ((c170) | (c212)) & 0x1;
+        let c151: u64 = (c171) & (self.v167) & 0x1;
+        let c152: u64 = (c151) & (self.v166) & 0x1;
+        let c153: u64 = (c171) & (self.q4) & 0x1;
+        if self.v153 != c153 { self.v153 = c153; *dirty |= 0x200000000000000; }
+        let c172: u64 = ((c152) | (self.q107)) & 0x1;
+        if self.v172 != c172 { self.v172 = c172; *dirty |= 0x8000000; }
+        let c177: u64 = ((c214) | (c176)) & 0x1;
+        let c179: u64 = if (c169) != 0 { (0x0) } else { (self.q1) };
+        if self.v179 != c179 { self.v179 = c179; *dirty |= 0x80000000000000000000000000000000; }
+        let c180: u64 = ((c181) | (c177)) & 0x1;
+        if self.v180 != c180 { self.v180 = c180; *dirty |= 0x100000000000000; }
+        let c183: u64 = ((self.v189) | (c169)) & 0x1;
+        if self.v183 != c183 { self.v183 = c183; *dirty |= 0x100000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$crc.
     fn group_16(&mut self, dirty: &mut u128) {
-        let c101: u64 = !(((self.q91 >> 2) & 0x1)) & 0x1;
-        let c102: u64 = !(((self.q91 >> 3) & 0x1)) & 0x1;
-        let c103: u64 = !(((self.q91 >> 6) & 0x1)) & 0x1;
-        let c104: u64 = !(((self.q91 >> 7) & 0x1)) & 0x1;
-        let c105: u64 = !(((self.q91 >> 9) & 0x1)) & 0x1;
-        let c106: u64 = !(((self.q91 >> 13) & 0x1)) & 0x1;
-        let c317: u64 = ((self.q108) ^ ((self.q91 >> 14))) & 0x1;
-        let c316: u64 = if (c317) != 0 { ((c101 << 1) | (c102 << 2) | (c103 << 3) | (c104 << 4) | (c105 << 5) | (c106 << 6) | 0x1) } else { ((((self.q91 >> 2) & 0x3) << 1) | (((self.q91 >> 6) & 0x3) << 3) | (((self.q91 >> 9) & 0x1) << 5) | (((self.q91 >> 13) & 0x1) << 6)) };
-        if self.v316 != c316 { self.v316 = c316; *dirty |= 0x20000000000000000; }
+        let c101: u64 = !(((self.q90 >> 2) & 0x1)) & 0x1;
+        let c102: u64 = !(((self.q90 >> 3) & 0x1)) & 0x1;
+        let c103: u64 = !(((self.q90 >> 6) & 0x1)) & 0x1;
+        let c104: u64 = !(((self.q90 >> 7) & 0x1)) & 0x1;
+        let c105: u64 = !(((self.q90 >> 9) & 0x1)) & 0x1;
+        let c106: u64 = !(((self.q90 >> 13) & 0x1)) & 0x1;
+        let c316: u64 = ((self.q108) ^ ((self.q90 >> 14))) & 0x1;
+        let c315: u64 = if (c316) != 0 { ((c101 << 1) | (c102 << 2) | (c103 << 3) | (c104 << 4) | (c105 << 5) | (c106 << 6) | 0x1) } else { ((((self.q90 >> 2) & 0x3) << 1) | (((self.q90 >> 6) & 0x3) << 3) | (((self.q90 >> 9) & 0x1) << 5) | (((self.q90 >> 13) & 0x1) << 6)) };
+        if self.v315 != c315 { self.v315 = c315; *dirty |= 0x20000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of can_controller.
     fn group_17(&mut self, dirty: &mut u128) {
-        let c8: u64 = (self.v765) & (self.v772) & 0x1;
-        let c126: u64 = !(self.v770) & 0x1;
+        let c8: u64 = (self.v764) & (self.v771) & 0x1;
+        let c126: u64 = !(self.v769) & 0x1;
         let c9: u64 = (c8) & (c126) & 0x1;
-        let c10: u64 = (c9) & (self.q21) & 0x1;
+        let c10: u64 = (c9) & (self.q20) & 0x1;
         if self.v10 != c10 { self.v10 = c10; *dirty |= 0x80000000; }
-        let c1100: u64 = ((self.v775) | (self.v777)) & 0x1;
+        let c1100: u64 = ((self.v774) | (self.v776)) & 0x1;
         let c6: u64 = (self.v5) & (c1100) & 0x1;
         if self.v6 != c6 { self.v6 = c6; *dirty |= 0x100000; }
-        let c1101: u64 = ((self.v764) | (self.v770)) & 0x1;
+        let c1101: u64 = ((self.v763) | (self.v769)) & 0x1;
         let c11: u64 = (c1101) & (self.q130) & 0x1;
-        let c12: u64 = (c11) & (self.v235) & 0x1;
+        let c12: u64 = (c11) & (self.v234) & 0x1;
         if self.v12 != c12 { self.v12 = c12; *dirty |= 0x40080000000000000000000000000000; }
-        let c1103: u64 = ((self.q33) | (self.v800)) & 0x1;
+        let c1103: u64 = ((self.q32) | (self.v799)) & 0x1;
         let c16: u64 = (self.v15) & (c1103) & 0x1;
         if self.v16 != c16 { self.v16 = c16; *dirty |= 0x200000; }
         let c1107: u64 = if (c12) != 0 { (0x0) } else { (self.v1110) };
         let c1105: u64 = ((c1107) | (self.i_reset)) & 0x1;
         if self.v1105 != c1105 { self.v1105 = c1105; *dirty |= 0x200000000000000000000000000000; }
         let c1108: u64 = if (c12) != 0 { (0x0) } else { (self.v1111) };
-        let c1106: u64 = ((c1108) | (self.v1003)) & 0x1;
+        let c1106: u64 = ((c1108) | (self.v1002)) & 0x1;
         let c1104: u64 = ((c1106) | (self.i_reset)) & 0x1;
         if self.v1104 != c1104 { self.v1104 = c1104; *dirty |= 0x100000000000000000000000000000; }
         let c1109: u64 = ((self.v1112) | (c12)) & 0x1;
         if self.v1109 != c1109 { self.v1109 = c1109; *dirty |= 0x20000000000000000000000000000000; }
-        let c1118: u64 = if (self.q33) != 0 { ((self.i_addr & 0xf)) } else { (self.v784) };
+        let c1118: u64 = if (self.q32) != 0 { ((self.i_addr & 0xf)) } else { (self.v783) };
         if self.v1118 != c1118 { self.v1118 = c1118; *dirty |= 0x200100000; }
         let _ = &dirty;
     }
 
     /// The cells of top$read.
     fn group_18(&mut self, dirty: &mut u128) {
-        let c112: u64 = (self.v125) & ((self.q41 & 0x1)) & 0x1;
-        let c1034: u64 = (c112 | (self.q39 << 1)) & (self.q41 | (self.v1080 << 4)) & 0xff;
-        let c1035: u64 = (self.v775) & (self.v936) & 0x1;
-        let c1036: u64 = (self.v936) & (self.v783) & 0x1;
-        let c1050: u64 = ((c1035) | (self.v774)) & 0x1;
-        let c1058: u64 = if (self.v776) != 0 { (self.v785) } else { ((self.i_addr & 0xf)) };
-        let c1033: u64 = (self.q65).wrapping_add((c1058)) & 0x3f;
-        let c1057: u64 = if (self.v774) != 0 { ((self.i_addr & 0x1f) | (self.v786 << 5)) } else { (c1033) };
+        let c112: u64 = (self.v125) & ((self.q40 & 0x1)) & 0x1;
+        let c1033: u64 = (c112 | (self.q38 << 1)) & (self.q40 | (self.v1080 << 4)) & 0xff;
+        let c1034: u64 = (self.v774) & (self.v935) & 0x1;
+        let c1035: u64 = (self.v935) & (self.v782) & 0x1;
+        let c1050: u64 = ((c1034) | (self.v773)) & 0x1;
+        let c1058: u64 = if (self.v775) != 0 { (self.v784) } else { ((self.i_addr & 0xf)) };
+        let c1032: u64 = (self.q64).wrapping_add((c1058)) & 0x3f;
+        let c1057: u64 = if (self.v773) != 0 { ((self.i_addr & 0x1f) | (self.v785 << 5)) } else { (c1032) };
         if self.v1057 != c1057 { self.v1057 = c1057; *dirty |= 0x200000; }
-        let c1059: u64 = if (self.v1048) != 0 { ((self.v849 & 0xf)) } else { (0x0) };
-        let c1075: u64 = if (self.q33) != 0 { (c1050) } else { (self.v776) };
-        if self.v1075 != c1075 { self.v1075 = c1075; *dirty |= 0x100000; }
-        let c1076: u64 = if (self.q33) != 0 { (0x0) } else { (c1059) };
+        let c1059: u64 = if (self.v1048) != 0 { ((self.v848 & 0xf)) } else { (0x0) };
+        let c1074: u64 = if (self.q32) != 0 { (c1050) } else { (self.v775) };
+        if self.v1074 != c1074 { self.v1074 = c1074; *dirty |= 0x100000; }
+        let c1076: u64 = if (self.q32) != 0 { (0x0) } else { (c1059) };
         if self.v1076 != c1076 { self.v1076 = c1076; *dirty |= 0x20000000000000000000000000000; }
-        let c1079: u64 = if (self.v1038) != 0 { (self.v944 | (self.q61 << 1) | (self.q130 << 2) | (self.q131 << 3) | (self.v114 << 4) | (self.v113 << 5) | (self.q42 << 6) | (self.q112 << 7)) } else { (0x0) };
-        let c1078: u64 = if (self.v1047) != 0 { (c112 | (self.q39 << 1)) } else { (c1079) };
-        let c1077: u64 = if (self.v987) != 0 { (self.q15 | ((self.q34 & 0x1) << 3) | ((self.q34 >> 1) << 5) | (self.q33 << 7)) } else { (c1078) };
-        let c1063: u64 = if (self.v935) != 0 { (self.q126 | (self.q41 << 1) | (self.q32 << 6) | 0x20) } else { (c1077) };
+        let c1079: u64 = if (self.v1037) != 0 { (self.v943 | (self.q60 << 1) | (self.q130 << 2) | (self.q131 << 3) | (self.v114 << 4) | (self.v113 << 5) | (self.q41 << 6) | (self.q112 << 7)) } else { (0x0) };
+        let c1078: u64 = if (self.v1047) != 0 { (c112 | (self.q38 << 1)) } else { (c1079) };
+        let c1077: u64 = if (self.v986) != 0 { (self.q14 | ((self.q33 & 0x1) << 3) | ((self.q33 >> 1) << 5) | (self.q32 << 7)) } else { (c1078) };
+        let c1063: u64 = if (self.v934) != 0 { (self.q126 | (self.q40 << 1) | (self.q31 << 6) | 0x20) } else { (c1077) };
         let c1062: u64 = if (self.v1046) != 0 { (0xff) } else { (c1063) };
-        let c1061: u64 = if (self.v1047) != 0 { (c112 | ((self.q39 & 0xf) << 1) | 0xe0) } else { (c1062) };
-        let c1060: u64 = if (c1036) != 0 { (0xff) } else { (c1061) };
-        if self.v1060 != c1060 { self.v1060 = c1060; *dirty |= 0x20000000000; }
-        let c1072: u64 = if (self.v935) != 0 { (self.q126 | (self.q125 << 1) | (self.q129 << 2) | (self.q35 << 3) | (self.q128 << 4)) } else { (c1077) };
-        let c1071: u64 = if (self.v1039) != 0 { (self.q41 | (self.q40 << 4)) } else { (c1072) };
-        let c1070: u64 = if (self.v1040) != 0 { (self.q46) } else { (c1071) };
-        let c1069: u64 = if (self.v1041) != 0 { (self.q43) } else { (c1070) };
-        let c1068: u64 = if (self.v1042) != 0 { (self.q86 | (self.q87 << 7)) } else { (c1069) };
-        let c1067: u64 = if (self.v1043) != 0 { (self.q84 | (self.q85 << 3) | (self.q83 << 7)) } else { (c1068) };
-        let c1066: u64 = if (self.v1044) != 0 { (self.q68) } else { (c1067) };
-        let c1065: u64 = if (self.v1045) != 0 { (self.q65) } else { (c1066) };
-        if self.v1065 != c1065 { self.v1065 = c1065; *dirty |= 0x20000000000; }
-        let c1081: u64 = u64::from((c1034) != 0);
+        let c1061: u64 = if (self.v1047) != 0 { (c112 | ((self.q38 & 0xf) << 1) | 0xe0) } else { (c1062) };
+        let c1060: u64 = if (c1035) != 0 { (0xff) } else { (c1061) };
+        let c1072: u64 = if (self.v934) != 0 { (self.q126 | (self.q125 << 1) | (self.q129 << 2) | (self.q34 << 3) | (self.q128 << 4)) } else { (c1077) };
+        let c1071: u64 = if (self.v1038) != 0 { (self.q40 | (self.q39 << 4)) } else { (c1072) };
+        let c1070: u64 = if (self.v1039) != 0 { (self.q45) } else { (c1071) };
+        let c1069: u64 = if (self.v1040) != 0 { (self.q42) } else { (c1070) };
+        let c1068: u64 = if (self.v1041) != 0 { (self.q10) } else { (c1069) };
+        let c1067: u64 = if (self.v1042) != 0 { (self.q85 | (self.q86 << 7)) } else { (c1068) };
+        let c1066: u64 = if (self.v1043) != 0 { (self.q83 | (self.q84 << 3) | (self.q82 << 7)) } else { (c1067) };
+        let c1065: u64 = if (self.v1044) != 0 { (self.q67) } else { (c1066) };
+        let c1064: u64 = if (self.v1045) != 0 { (self.q64) } else { (c1065) };
+        let c1075: u64 = if (self.q32) != 0 { (c1064) } else { (c1060) };
+        if self.v1075 != c1075 { self.v1075 = c1075; *dirty |= 0x80000000000; }
+        let c1081: u64 = u64::from((c1033) != 0);
         if self.v1081 != c1081 { self.v1081 = c1081; *dirty |= 0x2000000000; }
         let _ = &dirty;
     }
@@ -4146,45 +4146,43 @@ impl Model {
     fn group_19(&mut self, dirty: &mut u128) {
         let c127: u64 = (self.i_we) & (self.q126) & 0x1;
         if self.v127 != c127 { self.v127 = c127; *dirty |= 0x900000; }
-        let c129: u64 = u64::from((self.i_addr) == (0xd));
-        if self.v129 != c129 { self.v129 = c129; *dirty |= 0x20000000000; }
-        let c128: u64 = (self.q33) & (c129) & 0x1;
+        let c128: u64 = (self.q32) & (self.v1041) & 0x1;
         let c50: u64 = u64::from((c127 | (c128 << 1)) == 0x3);
         if self.v50 != c50 { self.v50 = c50; *dirty |= 0x4000000000000; }
-        let c130: u64 = u64::from((self.i_addr) == (0x6));
-        let c49: u64 = u64::from((c127 | (c130 << 1)) == 0x3);
+        let c129: u64 = u64::from((self.i_addr) == (0x6));
+        let c49: u64 = u64::from((c127 | (c129 << 1)) == 0x3);
         if self.v49 != c49 { self.v49 = c49; *dirty |= 0x6000000000000; }
-        let c131: u64 = u64::from((self.i_addr) == (0x7));
-        let c48: u64 = u64::from((c127 | (c131 << 1)) == 0x3);
+        let c130: u64 = u64::from((self.i_addr) == (0x7));
+        let c48: u64 = u64::from((c127 | (c130 << 1)) == 0x3);
         if self.v48 != c48 { self.v48 = c48; *dirty |= 0xa000000000000; }
-        let c132: u64 = u64::from((self.i_addr) == (0x8));
-        let c133: u64 = ((c130) | (c131)) & 0x1;
-        let c134: u64 = ((c133) | (c132)) & 0x1;
-        if self.v134 != c134 { self.v134 = c134; *dirty |= 0x200100000; }
+        let c131: u64 = u64::from((self.i_addr) == (0x8));
+        let c132: u64 = ((c129) | (c130)) & 0x1;
+        let c133: u64 = ((c132) | (c131)) & 0x1;
+        if self.v133 != c133 { self.v133 = c133; *dirty |= 0x200100000; }
         let _ = &dirty;
     }
 
     /// The cells of can_controller.
     fn group_20(&mut self, dirty: &mut u128) {
-        let c0: u64 = (self.v127) & (self.q33) & 0x1;
+        let c0: u64 = (self.v127) & (self.q32) & 0x1;
         let c1: u64 = (c0) & (self.v1043) & 0x1;
         if self.v1 != c1 { self.v1 = c1; *dirty |= 0x300000000; }
         let c2: u64 = (c0) & (self.v1042) & 0x1;
         if self.v2 != c2 { self.v2 = c2; *dirty |= 0x100000000; }
         let c3: u64 = (c0) & (self.v1045) & 0x1;
         if self.v3 != c3 { self.v3 = c3; *dirty |= 0x8000200000; }
-        let c7: u64 = (self.v127) & (self.v773) & 0x1;
-        let c17: u64 = (self.i_re) & (self.v1075) & 0x1;
+        let c7: u64 = (self.v127) & (self.v772) & 0x1;
+        let c17: u64 = (self.i_re) & (self.v1074) & 0x1;
         if self.v17 != c17 { self.v17 = c17; *dirty |= 0x8000000000000000000000200000; }
-        let c18: u64 = (self.v127) & (self.v774) & 0x1;
+        let c18: u64 = (self.v127) & (self.v773) & 0x1;
         if self.v18 != c18 { self.v18 = c18; *dirty |= 0x200000; }
-        let c39: u64 = u64::from((self.q112 | (self.v251 << 1) | (c1 << 2)) != (0x2));
+        let c39: u64 = u64::from((self.q112 | (self.v250 << 1) | (c1 << 2)) != (0x2));
         if self.v39 != c39 { self.v39 = c39; *dirty |= 0x200000000; }
         let c1119: u64 = ((self.v6) | (c7)) & 0x1;
         if self.v1119 != c1119 { self.v1119 = c1119; *dirty |= 0x200000000; }
         let c1114: u64 = ((c1119) | (self.v127)) & 0x1;
         if self.v1114 != c1114 { self.v1114 = c1114; *dirty |= 0x200000000; }
-        let c1120: u64 = if (self.v134) != 0 { ((self.i_addr & 0x1) | (((self.i_addr >> 3) & 0x1) << 1) | 0x8) } else { (self.v911) };
+        let c1120: u64 = if (self.v133) != 0 { ((self.i_addr & 0x1) | (((self.i_addr >> 3) & 0x1) << 1) | 0x8) } else { (self.v910) };
         if self.v1120 != c1120 { self.v1120 = c1120; *dirty |= 0x200000000; }
         let c1113: u64 = if (self.v127) != 0 { (c1120 | 0x10) } else { (self.v1118) };
         if self.v1113 != c1113 { self.v1113 = c1113; *dirty |= 0x200000000; }
@@ -4193,531 +4191,531 @@ impl Model {
 
     /// The cells of top$fifo.
     fn group_21(&mut self, dirty: &mut u128) {
-        let c796: u64 = (self.v16) & (self.v801) & 0x1;
-        if self.v796 != c796 { self.v796 = c796; *dirty |= 0x8000000000; }
-        let c21: u64 = u64::from((c796 | (self.q126 << 1)) != 0);
+        let c795: u64 = (self.v16) & (self.v800) & 0x1;
+        if self.v795 != c795 { self.v795 = c795; *dirty |= 0x8000000000; }
+        let c21: u64 = u64::from((c795 | (self.q126 << 1)) != 0);
         if self.v21 != c21 { self.v21 = c21; *dirty |= 0x200000000000000000000; }
-        let c798: u64 = (self.v16) & (self.q62) & 0x1;
-        let c805: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (self.q65) };
-        let c807: u64 = if (self.v18) != 0 { (self.i_wdata) } else { (self.v829) };
-        let c808: u64 = if (self.v18) != 0 { (self.v1057) } else { (self.v792) };
-        let c809: u64 = ((self.v828) | (self.v18)) & 0x1;
-        let c810: u64 = if (self.q126) != 0 { (c805) } else { (self.v794) };
-        if self.v810 != c810 { self.v810 = c810; *dirty |= 0x200000000000000000000; }
-        let c812: u64 = if (self.q126) != 0 { (c809) } else { (self.v828) };
+        let c797: u64 = (self.v16) & (self.q61) & 0x1;
+        let c804: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (self.q64) };
+        let c806: u64 = if (self.v18) != 0 { (self.i_wdata) } else { (self.v828) };
+        let c807: u64 = if (self.v18) != 0 { (self.v1057) } else { (self.v791) };
+        let c808: u64 = ((self.v827) | (self.v18)) & 0x1;
+        let c809: u64 = if (self.q126) != 0 { (c804) } else { (self.v793) };
+        if self.v809 != c809 { self.v809 = c809; *dirty |= 0x200000000000000000000; }
+        let c811: u64 = if (self.q126) != 0 { (c808) } else { (self.v827) };
+        if self.v811 != c811 { self.v811 = c811; *dirty |= 0x100000000000000000000; }
+        let c812: u64 = if (self.q126) != 0 { (c806) } else { (self.v828) };
         if self.v812 != c812 { self.v812 = c812; *dirty |= 0x100000000000000000000; }
-        let c813: u64 = if (self.q126) != 0 { (c807) } else { (self.v829) };
+        let c813: u64 = if (self.q126) != 0 { (c807) } else { (self.v791) };
         if self.v813 != c813 { self.v813 = c813; *dirty |= 0x100000000000000000000; }
-        let c814: u64 = if (self.q126) != 0 { (c808) } else { (self.v792) };
+        let c814: u64 = if (self.v17) != 0 { (self.v1057) } else { (self.v792) };
         if self.v814 != c814 { self.v814 = c814; *dirty |= 0x100000000000000000000; }
-        let c815: u64 = if (self.v17) != 0 { (self.v1057) } else { (self.v793) };
+        let c815: u64 = ((self.q60) | (c797)) & 0x1;
         if self.v815 != c815 { self.v815 = c815; *dirty |= 0x100000000000000000000; }
-        let c816: u64 = ((self.q61) | (c798)) & 0x1;
-        if self.v816 != c816 { self.v816 = c816; *dirty |= 0x100000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler.
     fn group_22(&mut self, dirty: &mut u128) {
-        let c276: u64 = (self.v298) & (self.q99) & 0x1;
-        let c278: u64 = (((self.q92 >> 3) & 0x1)) & (((self.q92 >> 2) & 0x1)) & 0x1;
-        let c280: u64 = !(((self.q92 >> 4) & 0x1)) & 0x1;
-        let c281: u64 = !(c276) & 0x1;
-        let c277: u64 = (self.v540) & (c281) & 0x1;
-        if self.v277 != c277 { self.v277 = c277; *dirty |= 0x1000000000; }
-        let c282: u64 = !(c278) & 0x1;
-        let c279: u64 = (c280) & (c282) & 0x1;
-        if self.v279 != c279 { self.v279 = c279; *dirty |= 0x10000000; }
-        let c44: u64 = !(c279) & 0x1;
+        let c275: u64 = (self.v297) & (self.q98) & 0x1;
+        let c277: u64 = (((self.q91 >> 3) & 0x1)) & (((self.q91 >> 2) & 0x1)) & 0x1;
+        let c279: u64 = !(((self.q91 >> 4) & 0x1)) & 0x1;
+        let c280: u64 = !(c275) & 0x1;
+        let c276: u64 = (self.v539) & (c280) & 0x1;
+        if self.v276 != c276 { self.v276 = c276; *dirty |= 0x1000000000; }
+        let c281: u64 = !(c277) & 0x1;
+        let c278: u64 = (c279) & (c281) & 0x1;
+        if self.v278 != c278 { self.v278 = c278; *dirty |= 0x10000000; }
+        let c44: u64 = !(c278) & 0x1;
         if self.v44 != c44 { self.v44 = c44; *dirty |= 0x1000000000; }
-        let c283: u64 = (self.v439) & (self.v391) & 0x1;
-        if self.v283 != c283 { self.v283 = c283; *dirty |= 0x1000000000; }
-        let c288: u64 = if ((self.q103 >> 3)) != 0 { (0x8) } else { ((self.q103 & 0x7)) };
-        let c287: u64 = if (self.q97) != 0 { (0x0) } else { (c288) };
-        let c289: u64 = (c287).wrapping_sub((0x1)) & 0xf;
-        if self.v289 != c289 { self.v289 = c289; *dirty |= 0x4000000000000000; }
+        let c282: u64 = (self.v438) & (self.v390) & 0x1;
+        if self.v282 != c282 { self.v282 = c282; *dirty |= 0x1000000000; }
+        let c287: u64 = if ((self.q102 >> 3)) != 0 { (0x8) } else { ((self.q102 & 0x7)) };
+        let c286: u64 = if (self.q96) != 0 { (0x0) } else { (c287) };
+        let c288: u64 = (c286).wrapping_sub((0x1)) & 0xf;
+        if self.v288 != c288 { self.v288 = c288; *dirty |= 0x4000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$filter.
     fn group_23(&mut self, dirty: &mut u128) {
-        let c868: u64 = (self.q105) & (self.v800) & 0x1;
-        let c893: u64 = ((self.v1039) | (self.v873)) & 0x1;
-        let c895: u64 = ((self.v800) | (self.v866)) & 0x1;
-        let c902: u64 = if (c868) != 0 { (self.v899) } else { (self.v906) };
-        let c897: u64 = ((c902) | (self.i_reset)) & 0x1;
-        if self.v897 != c897 { self.v897 = c897; *dirty |= 0x80000000000000000000000; }
-        let c903: u64 = if (c868) != 0 { (self.v900) } else { (self.v905) };
-        let c896: u64 = ((c903) | (self.i_reset)) & 0x1;
-        if self.v896 != c896 { self.v896 = c896; *dirty |= 0x20000000000000000000000; }
-        let c904: u64 = if (c868) != 0 { (self.v901) } else { (self.v907) };
-        let c898: u64 = ((c904) | (self.i_reset)) & 0x1;
-        if self.v898 != c898 { self.v898 = c898; *dirty |= 0x40000000000000000000000; }
-        let c910: u64 = if (self.q33) != 0 { (self.v853) } else { (c893) };
-        if self.v910 != c910 { self.v910 = c910; *dirty |= 0x200000000; }
-        let c854: u64 = (self.v127) & (c910) & 0x1;
-        let c58: u64 = u64::from((self.v881 | (c854 << 1)) == 0x3);
+        let c867: u64 = (self.q104) & (self.v799) & 0x1;
+        let c892: u64 = ((self.v1038) | (self.v872)) & 0x1;
+        let c894: u64 = ((self.v799) | (self.v865)) & 0x1;
+        let c901: u64 = if (c867) != 0 { (self.v898) } else { (self.v905) };
+        let c896: u64 = ((c901) | (self.i_reset)) & 0x1;
+        if self.v896 != c896 { self.v896 = c896; *dirty |= 0x80000000000000000000000; }
+        let c902: u64 = if (c867) != 0 { (self.v899) } else { (self.v904) };
+        let c895: u64 = ((c902) | (self.i_reset)) & 0x1;
+        if self.v895 != c895 { self.v895 = c895; *dirty |= 0x20000000000000000000000; }
+        let c903: u64 = if (c867) != 0 { (self.v900) } else { (self.v906) };
+        let c897: u64 = ((c903) | (self.i_reset)) & 0x1;
+        if self.v897 != c897 { self.v897 = c897; *dirty |= 0x40000000000000000000000; }
+        let c909: u64 = if (self.q32) != 0 { (self.v852) } else { (c892) };
+        if self.v909 != c909 { self.v909 = c909; *dirty |= 0x200000000; }
+        let c853: u64 = (self.v127) & (c909) & 0x1;
+        let c58: u64 = u64::from((self.v880 | (c853 << 1)) == 0x3);
         if self.v58 != c58 { self.v58 = c58; *dirty |= 0x10000000000000000000000; }
-        let c59: u64 = u64::from((self.v880 | (c854 << 1)) == 0x3);
+        let c59: u64 = u64::from((self.v879 | (c853 << 1)) == 0x3);
         if self.v59 != c59 { self.v59 = c59; *dirty |= 0x8000000000000000000000; }
-        let c60: u64 = u64::from((self.v879 | (c854 << 1)) == 0x3);
+        let c60: u64 = u64::from((self.v878 | (c853 << 1)) == 0x3);
         if self.v60 != c60 { self.v60 = c60; *dirty |= 0x8000000000000000000000; }
-        let c61: u64 = u64::from((self.v878 | (c854 << 1)) == 0x3);
+        let c61: u64 = u64::from((self.v877 | (c853 << 1)) == 0x3);
         if self.v61 != c61 { self.v61 = c61; *dirty |= 0x4000000000000000000000; }
-        let c62: u64 = u64::from((self.v877 | (c854 << 1)) == 0x3);
+        let c62: u64 = u64::from((self.v876 | (c853 << 1)) == 0x3);
         if self.v62 != c62 { self.v62 = c62; *dirty |= 0x4000000000000000000000; }
-        let c63: u64 = u64::from((self.v876 | (c854 << 1)) == 0x3);
+        let c63: u64 = u64::from((self.v875 | (c853 << 1)) == 0x3);
         if self.v63 != c63 { self.v63 = c63; *dirty |= 0x2000000000000000000000; }
-        let c64: u64 = u64::from((self.v875 | (c854 << 1)) == 0x3);
+        let c64: u64 = u64::from((self.v874 | (c853 << 1)) == 0x3);
         if self.v64 != c64 { self.v64 = c64; *dirty |= 0x2000000000000000000000; }
-        let c65: u64 = u64::from((self.v874 | (c854 << 1)) == 0x3);
+        let c65: u64 = u64::from((self.v873 | (c853 << 1)) == 0x3);
         if self.v65 != c65 { self.v65 = c65; *dirty |= 0x1000000000000000000000; }
-        let c914: u64 = ((((self.q100 >> 13) & 0xf) | (self.v833 << 4) | ((self.q101 & 0x7) << 5)) ^ (self.q57)) & 0xff;
-        let c859: u64 = (c914) & (self.v915) & 0xff;
-        let c119: u64 = ((c859 & 0xf)) & (self.q99 | (self.q99 << 1) | (self.q99 << 2) | (self.q99 << 3)) & 0xf;
-        let c883: u64 = u64::from((c119 | ((c859 >> 4) << 4)) == 0);
-        let c864: u64 = (self.v882) & (c883) & 0x1;
-        if self.v864 != c864 { self.v864 = c864; *dirty |= 0x20000000000000000000000; }
-        let c867: u64 = (c864) & (c895) & 0x1;
-        if self.v867 != c867 { self.v867 = c867; *dirty |= 0x80000000000000000000000; }
-        let c920: u64 = ((((self.q100 >> 13) & 0xf) | (self.v833 << 4) | ((self.q101 & 0x7) << 5)) ^ (self.q55)) & 0xff;
-        let c863: u64 = (c920) & (self.v918) & 0xff;
-        let c120: u64 = ((c863 & 0xf)) & (self.q99 | (self.q99 << 1) | (self.q99 << 2) | (self.q99 << 3)) & 0xf;
-        let c885: u64 = u64::from((c120 | ((c863 >> 4) << 4)) == 0);
-        let c865: u64 = (self.v884) & (c885) & 0x1;
-        if self.v865 != c865 { self.v865 = c865; *dirty |= 0x40000000000000000000000; }
+        let c913: u64 = ((((self.q99 >> 13) & 0xf) | (self.v832 << 4) | ((self.q100 & 0x7) << 5)) ^ (self.q56)) & 0xff;
+        let c858: u64 = (c913) & (self.v914) & 0xff;
+        let c119: u64 = ((c858 & 0xf)) & (self.q98 | (self.q98 << 1) | (self.q98 << 2) | (self.q98 << 3)) & 0xf;
+        let c882: u64 = u64::from((c119 | ((c858 >> 4) << 4)) == 0);
+        let c863: u64 = (self.v881) & (c882) & 0x1;
+        if self.v863 != c863 { self.v863 = c863; *dirty |= 0x20000000000000000000000; }
+        let c866: u64 = (c863) & (c894) & 0x1;
+        if self.v866 != c866 { self.v866 = c866; *dirty |= 0x80000000000000000000000; }
+        let c919: u64 = ((((self.q99 >> 13) & 0xf) | (self.v832 << 4) | ((self.q100 & 0x7) << 5)) ^ (self.q54)) & 0xff;
+        let c862: u64 = (c919) & (self.v917) & 0xff;
+        let c120: u64 = ((c862 & 0xf)) & (self.q98 | (self.q98 << 1) | (self.q98 << 2) | (self.q98 << 3)) & 0xf;
+        let c884: u64 = u64::from((c120 | ((c862 >> 4) << 4)) == 0);
+        let c864: u64 = (self.v883) & (c884) & 0x1;
+        if self.v864 != c864 { self.v864 = c864; *dirty |= 0x40000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$frame.
     fn group_24(&mut self, dirty: &mut u128) {
-        let c374: u64 = (self.v389) & (self.v800) & 0x1;
-        let c402: u64 = ((self.v534) | (c374)) & 0x1;
-        if self.v402 != c402 { self.v402 = c402; *dirty |= 0x80000000; }
-        let c412: u64 = if (self.v398) != 0 { (0x0) } else { (self.v680) };
-        let c438: u64 = if (self.v376) != 0 { (0x0) } else { (self.v680) };
-        let c442: u64 = if (c402) != 0 { (self.v403 | 0xa) } else { (self.q114) };
-        let c443: u64 = if (c402) != 0 { (0x0) } else { (self.v680) };
-        let c450: u64 = if (self.v404) != 0 { (0x0) } else { (self.v680) };
-        let c457: u64 = { let s = (self.v405 | (self.v414 << 1) | (self.v439 << 2) | (self.v441 << 3) | (self.v393 << 4)); if s >> 0 & 1 != 0 { c412 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c438 } else if s >> 3 & 1 != 0 { c443 } else if s >> 4 & 1 != 0 { c450 } else { (self.v680) } };
-        if self.v457 != c457 { self.v457 = c457; *dirty |= 0x10000000; }
-        let c458: u64 = { let s = (self.v405 | (self.v414 << 1) | (self.v417 << 2) | (self.v429 << 3) | (self.v437 << 4) | (self.v439 << 5) | (self.v441 << 6) | (self.v393 << 7)); if s >> 0 & 1 != 0 { self.v409 } else if s >> 1 & 1 != 0 { 0xf } else if s >> 2 & 1 != 0 { 0xe } else if s >> 3 & 1 != 0 { 0xd } else if s >> 4 & 1 != 0 { self.v436 } else if s >> 5 & 1 != 0 { self.v440 } else if s >> 6 & 1 != 0 { c442 } else if s >> 7 & 1 != 0 { self.v451 } else { (self.q114) } };
-        let c480: u64 = if (self.q5) != 0 { (c458) } else { (self.q114) };
-        if self.v480 != c480 { self.v480 = c480; *dirty |= 0x10000000; }
+        let c373: u64 = (self.v388) & (self.v799) & 0x1;
+        let c401: u64 = ((self.v533) | (c373)) & 0x1;
+        if self.v401 != c401 { self.v401 = c401; *dirty |= 0x80000000; }
+        let c411: u64 = if (self.v397) != 0 { (0x0) } else { (self.v679) };
+        let c437: u64 = if (self.v375) != 0 { (0x0) } else { (self.v679) };
+        let c441: u64 = if (c401) != 0 { (self.v402 | 0xa) } else { (self.q114) };
+        let c442: u64 = if (c401) != 0 { (0x0) } else { (self.v679) };
+        let c449: u64 = if (self.v403) != 0 { (0x0) } else { (self.v679) };
+        let c456: u64 = { let s = (self.v404 | (self.v413 << 1) | (self.v438 << 2) | (self.v440 << 3) | (self.v392 << 4)); if s >> 0 & 1 != 0 { c411 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c437 } else if s >> 3 & 1 != 0 { c442 } else if s >> 4 & 1 != 0 { c449 } else { (self.v679) } };
+        if self.v456 != c456 { self.v456 = c456; *dirty |= 0x10000000; }
+        let c457: u64 = { let s = (self.v404 | (self.v413 << 1) | (self.v416 << 2) | (self.v428 << 3) | (self.v436 << 4) | (self.v438 << 5) | (self.v440 << 6) | (self.v392 << 7)); if s >> 0 & 1 != 0 { self.v408 } else if s >> 1 & 1 != 0 { 0xf } else if s >> 2 & 1 != 0 { 0xe } else if s >> 3 & 1 != 0 { 0xd } else if s >> 4 & 1 != 0 { self.v435 } else if s >> 5 & 1 != 0 { self.v439 } else if s >> 6 & 1 != 0 { c441 } else if s >> 7 & 1 != 0 { self.v450 } else { (self.q114) } };
+        let c479: u64 = if (self.q4) != 0 { (c457) } else { (self.q114) };
+        if self.v479 != c479 { self.v479 = c479; *dirty |= 0x10000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing.
     fn group_25(&mut self, dirty: &mut u128) {
-        let c751: u64 = (self.q72).wrapping_add((0x1)) & 0x7;
-        let c754: u64 = u64::from((self.q72) == (0x5));
-        let c752: u64 = (self.q73) & (c754) & 0x1;
-        if self.v752 != c752 { self.v752 = c752; *dirty |= 0x3c000000; }
-        let c43: u64 = !(c752) & 0x1;
+        let c750: u64 = (self.q71).wrapping_add((0x1)) & 0x7;
+        let c753: u64 = u64::from((self.q71) == (0x5));
+        let c751: u64 = (self.q72) & (c753) & 0x1;
+        if self.v751 != c751 { self.v751 = c751; *dirty |= 0x3c000000; }
+        let c43: u64 = !(c751) & 0x1;
         if self.v43 != c43 { self.v43 = c43; *dirty |= 0xc000000; }
-        let c70: u64 = u64::from((self.v600 | (self.q77 << 1) | (self.q5 << 2) | (c43 << 3)) == 0xf);
+        let c70: u64 = u64::from((self.v599 | (self.q76 << 1) | (self.q4 << 2) | (c43 << 3)) == 0xf);
         if self.v70 != c70 { self.v70 = c70; *dirty |= 0x800000000000000000; }
-        let c755: u64 = u64::from((self.q72) == (0x4));
-        let c753: u64 = (self.q73) & (c755) & 0x1;
-        if self.v753 != c753 { self.v753 = c753; *dirty |= 0x8000000; }
-        let c756: u64 = u64::from((self.q108) != (self.q71));
-        let c757: u64 = ((c754) | (c756)) & 0x1;
-        if self.v757 != c757 { self.v757 = c757; *dirty |= 0x4000000; }
-        let c761: u64 = if (c757) != 0 { (0x1) } else { (c751) };
-        if self.v761 != c761 { self.v761 = c761; *dirty |= 0x800000000000; }
+        let c754: u64 = u64::from((self.q71) == (0x4));
+        let c752: u64 = (self.q72) & (c754) & 0x1;
+        if self.v752 != c752 { self.v752 = c752; *dirty |= 0x8000000; }
+        let c755: u64 = u64::from((self.q108) != (self.q70));
+        let c756: u64 = ((c753) | (c755)) & 0x1;
+        if self.v756 != c756 { self.v756 = c756; *dirty |= 0x4000000; }
+        let c760: u64 = if (c756) != 0 { (0x1) } else { (c750) };
+        if self.v760 != c760 { self.v760 = c760; *dirty |= 0x800000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe.
     fn group_26(&mut self, dirty: &mut u128) {
-        let c71: u64 = u64::from((self.q5 | (self.v30 << 1) | (self.v29 << 2) | (self.v31 << 3) | (self.v43 << 4)) == 0x1f);
+        let c71: u64 = u64::from((self.q4 | (self.v30 << 1) | (self.v29 << 2) | (self.v31 << 3) | (self.v43 << 4)) == 0x1f);
         if self.v71 != c71 { self.v71 = c71; *dirty |= 0x800000000000000000; }
-        let c72: u64 = u64::from((self.q5 | (self.v30 << 1) | (self.v29 << 2) | (self.v31 << 3) | (self.v32 << 4) | (self.v34 << 5) | (self.v33 << 6) | (self.v43 << 7)) == 0xff);
+        let c72: u64 = u64::from((self.q4 | (self.v30 << 1) | (self.v29 << 2) | (self.v31 << 3) | (self.v32 << 4) | (self.v34 << 5) | (self.v33 << 6) | (self.v43 << 7)) == 0xff);
         if self.v72 != c72 { self.v72 = c72; *dirty |= 0x400000000000000000; }
-        let c509: u64 = (self.q5) & (self.v43) & 0x1;
-        if self.v509 != c509 { self.v509 = c509; *dirty |= 0x1010000000; }
-        let c510: u64 = (c509) & (self.v433) & 0x1;
-        let c512: u64 = (c510) & (self.v549) & 0x1;
-        if self.v512 != c512 { self.v512 = c512; *dirty |= 0x200008000a8000000; }
-        let c24: u64 = u64::from((c512 | (self.v757 << 1)) != 0);
-        let c66: u64 = u64::from((self.q5 | (c24 << 1)) == 0x3);
+        let c508: u64 = (self.q4) & (self.v43) & 0x1;
+        if self.v508 != c508 { self.v508 = c508; *dirty |= 0x1010000000; }
+        let c509: u64 = (c508) & (self.v432) & 0x1;
+        let c511: u64 = (c509) & (self.v548) & 0x1;
+        if self.v511 != c511 { self.v511 = c511; *dirty |= 0x200008000a8000000; }
+        let c24: u64 = u64::from((c511 | (self.v756 << 1)) != 0);
+        let c66: u64 = u64::from((self.q4 | (c24 << 1)) == 0x3);
         if self.v66 != c66 { self.v66 = c66; *dirty |= 0x8000000000000000000; }
-        let c97: u64 = u64::from((self.i_reset | (c512 << 1)) != 0);
+        let c97: u64 = u64::from((self.i_reset | (c511 << 1)) != 0);
         if self.v97 != c97 { self.v97 = c97; *dirty |= 0x43800000000000000; }
-        let c517: u64 = (self.v433) & (self.q82) & 0x1;
-        if self.v517 != c517 { self.v517 = c517; *dirty |= 0x20000000; }
-        let c612: u64 = if (self.q77) != 0 { (c517) } else { (self.v606) };
-        let c652: u64 = { let s = (self.v573 | (self.v600 << 1)); if s >> 0 & 1 != 0 { self.v586 } else if s >> 1 & 1 != 0 { c612 } else { (0x0) } };
-        let c655: u64 = if (self.v752) != 0 { (self.q81) } else { (self.v646) };
-        if self.v655 != c655 { self.v655 = c655; *dirty |= 0x20000000; }
-        let c659: u64 = if (self.v752) != 0 { (0x0) } else { (self.v649) };
-        let c662: u64 = if (self.v752) != 0 { (0x0) } else { (self.v651) };
-        let c663: u64 = if (self.v752) != 0 { (0x0) } else { (c652) };
+        let c516: u64 = (self.v432) & (self.q81) & 0x1;
+        if self.v516 != c516 { self.v516 = c516; *dirty |= 0x20000000; }
+        let c611: u64 = if (self.q76) != 0 { (c516) } else { (self.v605) };
+        let c651: u64 = { let s = (self.v572 | (self.v599 << 1)); if s >> 0 & 1 != 0 { self.v585 } else if s >> 1 & 1 != 0 { c611 } else { (0x0) } };
+        let c654: u64 = if (self.v751) != 0 { (self.q80) } else { (self.v645) };
+        if self.v654 != c654 { self.v654 = c654; *dirty |= 0x20000000; }
+        let c658: u64 = if (self.v751) != 0 { (0x0) } else { (self.v648) };
+        let c661: u64 = if (self.v751) != 0 { (0x0) } else { (self.v650) };
+        let c662: u64 = if (self.v751) != 0 { (0x0) } else { (c651) };
+        if self.v662 != c662 { self.v662 = c662; *dirty |= 0x20000000; }
+        let c663: u64 = if (self.v751) != 0 { (0x0) } else { (self.v652) };
         if self.v663 != c663 { self.v663 = c663; *dirty |= 0x20000000; }
-        let c664: u64 = if (self.v752) != 0 { (0x0) } else { (self.v653) };
-        if self.v664 != c664 { self.v664 = c664; *dirty |= 0x20000000; }
-        let c675: u64 = (self.q5) & (c659) & 0x1;
-        if self.v675 != c675 { self.v675 = c675; *dirty |= 0x88000000; }
-        let c677: u64 = (self.q5) & (c662) & 0x1;
-        if self.v677 != c677 { self.v677 = c677; *dirty |= 0x300000000; }
+        let c674: u64 = (self.q4) & (c658) & 0x1;
+        if self.v674 != c674 { self.v674 = c674; *dirty |= 0x88000000; }
+        let c676: u64 = (self.q4) & (c661) & 0x1;
+        if self.v676 != c676 { self.v676 = c676; *dirty |= 0x300000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender.
     fn group_27(&mut self, dirty: &mut u128) {
-        let c682: u64 = (self.v753) & (self.v43) & 0x1;
-        let c683: u64 = (c682) & (self.v394) & 0x1;
-        if self.v683 != c683 { self.v683 = c683; *dirty |= 0x40000000; }
-        let c696: u64 = !(self.v675) & 0x1;
-        let c681: u64 = (self.v600) & (c696) & 0x1;
-        let c699: u64 = ((self.v252) | (self.i_reset)) & 0x1;
-        if self.v699 != c699 { self.v699 = c699; *dirty |= 0x800000000; }
-        let c703: u64 = if (self.v173) != 0 { (self.q116) } else { (self.q117) };
-        let c702: u64 = ((c703) | (self.q124)) & 0x1;
-        let c701: u64 = ((c702) | (c699)) & 0x1;
-        if self.v701 != c701 { self.v701 = c701; *dirty |= 0x2000000000000000000; }
-        let c706: u64 = if (c681) != 0 { (self.q77) } else { (self.v547) };
-        if self.v706 != c706 { self.v706 = c706; *dirty |= 0x800000000; }
-        let c734: u64 = if (self.v752) != 0 { ((self.q92 & 0x7)) } else { ((self.v680 & 0x7)) };
-        if self.v734 != c734 { self.v734 = c734; *dirty |= 0x800000000; }
-        let c735: u64 = if (self.v752) != 0 { (self.v388) } else { (self.v689) };
-        let c731: u64 = if (self.v512) != 0 { (0x0) } else { (c735) };
-        if self.v731 != c731 { self.v731 = c731; *dirty |= 0x800000000; }
-        let c736: u64 = if (self.v752) != 0 { (self.v387) } else { (self.v386) };
-        let c732: u64 = if (self.v512) != 0 { (0x0) } else { (c736) };
-        if self.v732 != c732 { self.v732 = c732; *dirty |= 0x800000000; }
-        let c737: u64 = if (self.v752) != 0 { (self.v386) } else { (self.v531) };
-        let c733: u64 = if (self.v512) != 0 { (0x0) } else { (c737) };
+        let c681: u64 = (self.v752) & (self.v43) & 0x1;
+        let c682: u64 = (c681) & (self.v393) & 0x1;
+        if self.v682 != c682 { self.v682 = c682; *dirty |= 0x40000000; }
+        let c695: u64 = !(self.v674) & 0x1;
+        let c680: u64 = (self.v599) & (c695) & 0x1;
+        let c698: u64 = ((self.v251) | (self.i_reset)) & 0x1;
+        if self.v698 != c698 { self.v698 = c698; *dirty |= 0x800000000; }
+        let c702: u64 = if (self.v172) != 0 { (self.q116) } else { (self.q117) };
+        let c701: u64 = ((c702) | (self.q124)) & 0x1;
+        let c700: u64 = ((c701) | (c698)) & 0x1;
+        if self.v700 != c700 { self.v700 = c700; *dirty |= 0x2000000000000000000; }
+        let c705: u64 = if (c680) != 0 { (self.q76) } else { (self.v546) };
+        if self.v705 != c705 { self.v705 = c705; *dirty |= 0x800000000; }
+        let c733: u64 = if (self.v751) != 0 { ((self.q91 & 0x7)) } else { ((self.v679 & 0x7)) };
         if self.v733 != c733 { self.v733 = c733; *dirty |= 0x800000000; }
-        let c748: u64 = (c734).wrapping_sub((0x1)) & 0x7;
-        if self.v748 != c748 { self.v748 = c748; *dirty |= 0x800000000; }
+        let c734: u64 = if (self.v751) != 0 { (self.v387) } else { (self.v688) };
+        let c730: u64 = if (self.v511) != 0 { (0x0) } else { (c734) };
+        if self.v730 != c730 { self.v730 = c730; *dirty |= 0x800000000; }
+        let c735: u64 = if (self.v751) != 0 { (self.v386) } else { (self.v385) };
+        let c731: u64 = if (self.v511) != 0 { (0x0) } else { (c735) };
+        if self.v731 != c731 { self.v731 = c731; *dirty |= 0x800000000; }
+        let c736: u64 = if (self.v751) != 0 { (self.v385) } else { (self.v530) };
+        let c732: u64 = if (self.v511) != 0 { (0x0) } else { (c736) };
+        if self.v732 != c732 { self.v732 = c732; *dirty |= 0x800000000; }
+        let c747: u64 = (c733).wrapping_sub((0x1)) & 0x7;
+        if self.v747 != c747 { self.v747 = c747; *dirty |= 0x800000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$frame.
     fn group_28(&mut self, dirty: &mut u128) {
-        let c75: u64 = u64::from((self.v509 | (self.v393 << 1) | (self.v40 << 2)) == 0x7);
+        let c75: u64 = u64::from((self.v508 | (self.v392 << 1) | (self.v40 << 2)) == 0x7);
         if self.v75 != c75 { self.v75 = c75; *dirty |= 0x4000000000000000; }
-        let c76: u64 = u64::from((self.v509 | (self.v387 << 1) | (self.v393 << 2)) == 0x7);
+        let c76: u64 = u64::from((self.v508 | (self.v386 << 1) | (self.v392 << 2)) == 0x7);
         if self.v76 != c76 { self.v76 = c76; *dirty |= 0x2000000000000000; }
-        let c78: u64 = u64::from((self.v509 | (self.v45 << 1) | (self.v393 << 2) | (self.v279 << 3)) == 0xf);
+        let c78: u64 = u64::from((self.v508 | (self.v45 << 1) | (self.v392 << 2) | (self.v278 << 3)) == 0xf);
         if self.v78 != c78 { self.v78 = c78; *dirty |= 0x1000000000000000; }
-        let c80: u64 = u64::from((self.v509 | (self.v439 << 1)) == 0x3);
+        let c80: u64 = u64::from((self.v508 | (self.v438 << 1)) == 0x3);
         if self.v80 != c80 { self.v80 = c80; *dirty |= 0x800000000000000; }
-        let c81: u64 = u64::from((self.v509 | (self.v391 << 1) | (self.v439 << 2)) == 0x7);
+        let c81: u64 = u64::from((self.v508 | (self.v390 << 1) | (self.v438 << 2)) == 0x7);
         if self.v81 != c81 { self.v81 = c81; *dirty |= 0x400000000000000; }
-        let c377: u64 = (self.q5) & (self.v752) & 0x1;
-        if self.v377 != c377 { self.v377 = c377; *dirty |= 0x80000000; }
-        let c487: u64 = if (c377) != 0 { (self.v484) } else { (self.v473) };
+        let c376: u64 = (self.q4) & (self.v751) & 0x1;
+        if self.v376 != c376 { self.v376 = c376; *dirty |= 0x80000000; }
+        let c486: u64 = if (c376) != 0 { (self.v483) } else { (self.v472) };
+        if self.v486 != c486 { self.v486 = c486; *dirty |= 0x20000000; }
+        let c487: u64 = if (c376) != 0 { ((self.v484 << 1)) } else { (self.v474) };
         if self.v487 != c487 { self.v487 = c487; *dirty |= 0x20000000; }
-        let c488: u64 = if (c377) != 0 { ((self.v485 << 1)) } else { (self.v475) };
-        if self.v488 != c488 { self.v488 = c488; *dirty |= 0x20000000; }
-        let c489: u64 = if (c377) != 0 { (self.v486) } else { (self.v476) };
-        if self.v489 != c489 { self.v489 = c489; *dirty |= 0xa0000000; }
-        let c490: u64 = if (c377) != 0 { (self.q92) } else { (self.v457) };
-        if self.v490 != c490 { self.v490 = c490; *dirty |= 0x20000000; }
-        let c491: u64 = if (c377) != 0 { (0x0) } else { (self.v467) };
-        if self.v491 != c491 { self.v491 = c491; *dirty |= 0x80000000; }
-        let c492: u64 = if (c377) != 0 { (0x0) } else { (self.v468) };
-        if self.v492 != c492 { self.v492 = c492; *dirty |= 0x80000000100000000; }
-        let c493: u64 = if (c377) != 0 { (0x0) } else { (self.v469) };
-        if self.v493 != c493 { self.v493 = c493; *dirty |= 0x80000000080000000; }
-        let c494: u64 = if (c377) != 0 { (0x0) } else { (self.v471) };
-        if self.v494 != c494 { self.v494 = c494; *dirty |= 0x20000000; }
-        let c495: u64 = if (c377) != 0 { (0x0) } else { (self.v472) };
-        if self.v495 != c495 { self.v495 = c495; *dirty |= 0x80000000; }
-        let c496: u64 = if (c377) != 0 { (0x0) } else { (self.v474) };
-        if self.v496 != c496 { self.v496 = c496; *dirty |= 0x18000000020000000; }
-        let c497: u64 = if (c377) != 0 { (0x0) } else { (self.v477) };
-        if self.v497 != c497 { self.v497 = c497; *dirty |= 0x20000000; }
-        let c498: u64 = if (c377) != 0 { (0x0) } else { (self.v478) };
-        if self.v498 != c498 { self.v498 = c498; *dirty |= 0x40000000; }
-        let c499: u64 = if (c377) != 0 { (0x0) } else { (self.v479) };
-        if self.v499 != c499 { self.v499 = c499; *dirty |= 0x20000000040000000; }
-        let c500: u64 = if (c377) != 0 { (self.q114) } else { (self.v480) };
-        if self.v500 != c500 { self.v500 = c500; *dirty |= 0x20000000; }
-        let c501: u64 = if (c377) != 0 { (0x0) } else { (self.v481) };
-        if self.v501 != c501 { self.v501 = c501; *dirty |= 0x100000000; }
-        let c502: u64 = if (c377) != 0 { (0x0) } else { (self.v482) };
-        if self.v502 != c502 { self.v502 = c502; *dirty |= 0x80000000; }
+        let c488: u64 = if (c376) != 0 { (self.v485) } else { (self.v475) };
+        if self.v488 != c488 { self.v488 = c488; *dirty |= 0xa0000000; }
+        let c489: u64 = if (c376) != 0 { (self.q91) } else { (self.v456) };
+        if self.v489 != c489 { self.v489 = c489; *dirty |= 0x20000000; }
+        let c490: u64 = if (c376) != 0 { (0x0) } else { (self.v466) };
+        if self.v490 != c490 { self.v490 = c490; *dirty |= 0x80000000; }
+        let c491: u64 = if (c376) != 0 { (0x0) } else { (self.v467) };
+        if self.v491 != c491 { self.v491 = c491; *dirty |= 0x80000000100000000; }
+        let c492: u64 = if (c376) != 0 { (0x0) } else { (self.v468) };
+        if self.v492 != c492 { self.v492 = c492; *dirty |= 0x80000000080000000; }
+        let c493: u64 = if (c376) != 0 { (0x0) } else { (self.v470) };
+        if self.v493 != c493 { self.v493 = c493; *dirty |= 0x20000000; }
+        let c494: u64 = if (c376) != 0 { (0x0) } else { (self.v471) };
+        if self.v494 != c494 { self.v494 = c494; *dirty |= 0x80000000; }
+        let c495: u64 = if (c376) != 0 { (0x0) } else { (self.v473) };
+        if self.v495 != c495 { self.v495 = c495; *dirty |= 0x18000000020000000; }
+        let c496: u64 = if (c376) != 0 { (0x0) } else { (self.v476) };
+        if self.v496 != c496 { self.v496 = c496; *dirty |= 0x20000000; }
+        let c497: u64 = if (c376) != 0 { (0x0) } else { (self.v477) };
+        if self.v497 != c497 { self.v497 = c497; *dirty |= 0x40000000; }
+        let c498: u64 = if (c376) != 0 { (0x0) } else { (self.v478) };
+        if self.v498 != c498 { self.v498 = c498; *dirty |= 0x20000000040000000; }
+        let c499: u64 = if (c376) != 0 { (self.q114) } else { (self.v479) };
+        if self.v499 != c499 { self.v499 = c499; *dirty |= 0x20000000; }
+        let c500: u64 = if (c376) != 0 { (0x0) } else { (self.v480) };
+        if self.v500 != c500 { self.v500 = c500; *dirty |= 0x100000000; }
+        let c501: u64 = if (c376) != 0 { (0x0) } else { (self.v481) };
+        if self.v501 != c501 { self.v501 = c501; *dirty |= 0x80000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe.
     fn group_29(&mut self, dirty: &mut u128) {
-        let c530: u64 = !(self.v496) & 0x1;
-        let c513: u64 = (self.q70) & (c530) & 0x1;
-        let c568: u64 = if (self.v531) != 0 { (0x0) } else { (self.v490) };
-        let c570: u64 = if (self.v521) != 0 { (c568) } else { (0x0) };
-        let c572: u64 = if (self.v533) != 0 { (0x0) } else { (self.v490) };
-        let c574: u64 = if (self.v533) != 0 { (0x7) } else { (self.v500) };
-        let c575: u64 = if (self.v533) != 0 { (0x5) } else { (self.v500) };
-        let c576: u64 = if (self.v533) != 0 { (self.v488) } else { (0x1) };
-        let c577: u64 = if (self.v533) != 0 { (self.v489) } else { (0x1) };
+        let c529: u64 = !(self.v495) & 0x1;
+        let c512: u64 = (self.q69) & (c529) & 0x1;
+        let c567: u64 = if (self.v530) != 0 { (0x0) } else { (self.v489) };
+        let c569: u64 = if (self.v520) != 0 { (c567) } else { (0x0) };
+        let c571: u64 = if (self.v532) != 0 { (0x0) } else { (self.v489) };
+        let c573: u64 = if (self.v532) != 0 { (0x7) } else { (self.v499) };
+        let c574: u64 = if (self.v532) != 0 { (0x5) } else { (self.v499) };
+        let c575: u64 = if (self.v532) != 0 { (self.v487) } else { (0x1) };
+        let c576: u64 = if (self.v532) != 0 { (self.v488) } else { (0x1) };
+        let c577: u64 = if (self.q108) != 0 { (self.v487) } else { (c575) };
         let c578: u64 = if (self.q108) != 0 { (self.v488) } else { (c576) };
-        let c579: u64 = if (self.q108) != 0 { (self.v489) } else { (c577) };
-        let c580: u64 = if (self.q108) != 0 { (c574) } else { (c575) };
-        let c588: u64 = if (self.v536) != 0 { (self.v488) } else { (c578) };
-        let c589: u64 = if (self.v536) != 0 { (self.v489) } else { (c579) };
-        let c590: u64 = if (self.v536) != 0 { (self.v500) } else { (c580) };
-        let c593: u64 = if (self.v534) != 0 { (0x0) } else { (self.v490) };
-        let c594: u64 = if (self.v534) != 0 { (0x6) } else { (self.v500) };
-        let c595: u64 = ((self.v489) | (self.v518)) & 0x1;
-        let c597: u64 = if (self.v518) != 0 { (self.v490) } else { (c593) };
-        let c598: u64 = if (self.v518) != 0 { (self.v500) } else { (c594) };
-        let c602: u64 = if (self.v613) != 0 { (0x6) } else { (self.v500) };
-        let c604: u64 = if (self.q108) != 0 { (0x0) } else { (self.v490) };
-        let c610: u64 = if (self.v516) != 0 { (0x1) } else { (self.v490) };
-        let c614: u64 = if (self.q77) != 0 { (c610) } else { (c604) };
-        let c601: u64 = if (self.v613) != 0 { (0x0) } else { (c614) };
-        let c618: u64 = if (self.v514) != 0 { (0x0) } else { (self.v490) };
-        let c620: u64 = if (self.v529) != 0 { (c618) } else { (self.v490) };
-        let c621: u64 = if (self.v529) != 0 { (self.v514) } else { (c513) };
-        let c622: u64 = if (self.v529) != 0 { (self.v619) } else { (self.v500) };
-        let c623: u64 = if (self.v529) != 0 { (self.v515) } else { (c513) };
-        let c624: u64 = if (self.v529) != 0 { (self.v490) } else { (0x0) };
-        let c625: u64 = if (self.v529) != 0 { (self.v500) } else { (0x5) };
-        let c626: u64 = if (self.q108) != 0 { (c620) } else { (c624) };
-        let c627: u64 = if (self.q108) != 0 { (c621) } else { (c623) };
-        let c628: u64 = if (self.q108) != 0 { (c622) } else { (c625) };
-        let c629: u64 = if (self.v533) != 0 { (0x0) } else { (c513) };
-        let c630: u64 = if (self.v533) != 0 { (0x1) } else { (self.v500) };
-        let c631: u64 = (self.q108) & (c629) & 0x1;
-        let c632: u64 = if (self.q108) != 0 { (c630) } else { (self.v500) };
-        let c633: u64 = if (self.q117) != 0 { (c513) } else { (0x1) };
-        let c634: u64 = if (self.q117) != 0 { (self.v489) } else { (0x1) };
-        let c635: u64 = if (self.q108) != 0 { (c633) } else { (self.v532) };
-        let c636: u64 = if (self.q108) != 0 { (c634) } else { (self.v489) };
-        let c637: u64 = if (self.v531) != 0 { (0x1) } else { (self.v500) };
-        let c639: u64 = if (self.q108) != 0 { (self.v490) } else { (0x0) };
-        let c585: u64 = if (self.v536) != 0 { (c639) } else { (c572) };
-        let c640: u64 = if (self.q108) != 0 { (c637) } else { (self.v500) };
-        let c641: u64 = { let s = (self.v569 | (self.v573 << 1) | (self.v539 << 2) | (self.v600 << 3) | (self.v528 << 4) | (self.v638 << 5)); if s >> 0 & 1 != 0 { c570 } else if s >> 1 & 1 != 0 { c585 } else if s >> 2 & 1 != 0 { c597 } else if s >> 3 & 1 != 0 { c601 } else if s >> 4 & 1 != 0 { c626 } else if s >> 5 & 1 != 0 { c639 } else { (self.v490) } };
-        let c642: u64 = { let s = (self.v573 | (self.v539 << 1) | (self.v600 << 2) | (self.v528 << 3) | (self.v527 << 4) | (self.v638 << 5)); if s >> 0 & 1 != 0 { c590 } else if s >> 1 & 1 != 0 { c598 } else if s >> 2 & 1 != 0 { c602 } else if s >> 3 & 1 != 0 { c628 } else if s >> 4 & 1 != 0 { c632 } else if s >> 5 & 1 != 0 { c640 } else { (self.v500) } };
-        let c647: u64 = if (self.v573) != 0 { (c588) } else { (self.v488) };
-        let c648: u64 = { let s = (self.v573 | (self.v539 << 1) | (self.v526 << 2)); if s >> 0 & 1 != 0 { c589 } else if s >> 1 & 1 != 0 { c595 } else if s >> 2 & 1 != 0 { c636 } else { (self.v489) } };
-        let c650: u64 = { let s = (self.v528 | (self.v527 << 1) | (self.v526 << 2)); if s >> 0 & 1 != 0 { c627 } else if s >> 1 & 1 != 0 { c631 } else if s >> 2 & 1 != 0 { c635 } else { (c513) } };
-        let c656: u64 = if (self.v752) != 0 { (self.v490) } else { (c641) };
-        let c566: u64 = if (self.v512) != 0 { (0x0) } else { (c656) };
-        let c657: u64 = if (self.v752) != 0 { (self.v488) } else { (c647) };
-        let c658: u64 = if (self.v752) != 0 { (self.v489) } else { (c648) };
-        let c27: u64 = u64::from((self.v600 | (self.v752 << 1) | (c658 << 2)) != 0);
-        let c28: u64 = u64::from((self.v752 | (c658 << 1)) != (0x1));
-        let c69: u64 = u64::from((self.q5 | (c27 << 1) | (c28 << 2)) == 0x7);
+        let c579: u64 = if (self.q108) != 0 { (c573) } else { (c574) };
+        let c587: u64 = if (self.v535) != 0 { (self.v487) } else { (c577) };
+        let c588: u64 = if (self.v535) != 0 { (self.v488) } else { (c578) };
+        let c589: u64 = if (self.v535) != 0 { (self.v499) } else { (c579) };
+        let c592: u64 = if (self.v533) != 0 { (0x0) } else { (self.v489) };
+        let c593: u64 = if (self.v533) != 0 { (0x6) } else { (self.v499) };
+        let c594: u64 = ((self.v488) | (self.v517)) & 0x1;
+        let c596: u64 = if (self.v517) != 0 { (self.v489) } else { (c592) };
+        let c597: u64 = if (self.v517) != 0 { (self.v499) } else { (c593) };
+        let c601: u64 = if (self.v612) != 0 { (0x6) } else { (self.v499) };
+        let c603: u64 = if (self.q108) != 0 { (0x0) } else { (self.v489) };
+        let c609: u64 = if (self.v515) != 0 { (0x1) } else { (self.v489) };
+        let c613: u64 = if (self.q76) != 0 { (c609) } else { (c603) };
+        let c600: u64 = if (self.v612) != 0 { (0x0) } else { (c613) };
+        let c617: u64 = if (self.v513) != 0 { (0x0) } else { (self.v489) };
+        let c619: u64 = if (self.v528) != 0 { (c617) } else { (self.v489) };
+        let c620: u64 = if (self.v528) != 0 { (self.v513) } else { (c512) };
+        let c621: u64 = if (self.v528) != 0 { (self.v618) } else { (self.v499) };
+        let c622: u64 = if (self.v528) != 0 { (self.v514) } else { (c512) };
+        let c623: u64 = if (self.v528) != 0 { (self.v489) } else { (0x0) };
+        let c624: u64 = if (self.v528) != 0 { (self.v499) } else { (0x5) };
+        let c625: u64 = if (self.q108) != 0 { (c619) } else { (c623) };
+        let c626: u64 = if (self.q108) != 0 { (c620) } else { (c622) };
+        let c627: u64 = if (self.q108) != 0 { (c621) } else { (c624) };
+        let c628: u64 = if (self.v532) != 0 { (0x0) } else { (c512) };
+        let c629: u64 = if (self.v532) != 0 { (0x1) } else { (self.v499) };
+        let c630: u64 = (self.q108) & (c628) & 0x1;
+        let c631: u64 = if (self.q108) != 0 { (c629) } else { (self.v499) };
+        let c632: u64 = if (self.q117) != 0 { (c512) } else { (0x1) };
+        let c633: u64 = if (self.q117) != 0 { (self.v488) } else { (0x1) };
+        let c634: u64 = if (self.q108) != 0 { (c632) } else { (self.v531) };
+        let c635: u64 = if (self.q108) != 0 { (c633) } else { (self.v488) };
+        let c636: u64 = if (self.v530) != 0 { (0x1) } else { (self.v499) };
+        let c638: u64 = if (self.q108) != 0 { (self.v489) } else { (0x0) };
+        let c584: u64 = if (self.v535) != 0 { (c638) } else { (c571) };
+        let c639: u64 = if (self.q108) != 0 { (c636) } else { (self.v499) };
+        let c640: u64 = { let s = (self.v568 | (self.v572 << 1) | (self.v538 << 2) | (self.v599 << 3) | (self.v527 << 4) | (self.v637 << 5)); if s >> 0 & 1 != 0 { c569 } else if s >> 1 & 1 != 0 { c584 } else if s >> 2 & 1 != 0 { c596 } else if s >> 3 & 1 != 0 { c600 } else if s >> 4 & 1 != 0 { c625 } else if s >> 5 & 1 != 0 { c638 } else { (self.v489) } };
+        let c641: u64 = { let s = (self.v572 | (self.v538 << 1) | (self.v599 << 2) | (self.v527 << 3) | (self.v526 << 4) | (self.v637 << 5)); if s >> 0 & 1 != 0 { c589 } else if s >> 1 & 1 != 0 { c597 } else if s >> 2 & 1 != 0 { c601 } else if s >> 3 & 1 != 0 { c627 } else if s >> 4 & 1 != 0 { c631 } else if s >> 5 & 1 != 0 { c639 } else { (self.v499) } };
+        let c646: u64 = if (self.v572) != 0 { (c587) } else { (self.v487) };
+        let c647: u64 = { let s = (self.v572 | (self.v538 << 1) | (self.v525 << 2)); if s >> 0 & 1 != 0 { c588 } else if s >> 1 & 1 != 0 { c594 } else if s >> 2 & 1 != 0 { c635 } else { (self.v488) } };
+        let c649: u64 = { let s = (self.v527 | (self.v526 << 1) | (self.v525 << 2)); if s >> 0 & 1 != 0 { c626 } else if s >> 1 & 1 != 0 { c630 } else if s >> 2 & 1 != 0 { c634 } else { (c512) } };
+        let c655: u64 = if (self.v751) != 0 { (self.v489) } else { (c640) };
+        let c565: u64 = if (self.v511) != 0 { (0x0) } else { (c655) };
+        let c656: u64 = if (self.v751) != 0 { (self.v487) } else { (c646) };
+        let c657: u64 = if (self.v751) != 0 { (self.v488) } else { (c647) };
+        let c27: u64 = u64::from((self.v599 | (self.v751 << 1) | (c657 << 2)) != 0);
+        let c28: u64 = u64::from((self.v751 | (c657 << 1)) != (0x1));
+        let c69: u64 = u64::from((self.q4 | (c27 << 1) | (c28 << 2)) == 0x7);
         if self.v69 != c69 { self.v69 = c69; *dirty |= 0x1000000000000000000; }
-        let c561: u64 = ((self.v655) | (c658)) & 0x1;
-        if self.v561 != c561 { self.v561 = c561; *dirty |= 0x400000000000000000; }
-        let c562: u64 = if (c658) != 0 { (self.v547) } else { (self.v615) };
-        if self.v562 != c562 { self.v562 = c562; *dirty |= 0x1000000000000000000; }
-        let c563: u64 = ((self.v497) | (c658)) & 0x1;
-        let c564: u64 = if (c658) != 0 { (0x0) } else { (c566) };
-        if self.v564 != c564 { self.v564 = c564; *dirty |= 0x80000000; }
-        let c660: u64 = if (self.v752) != 0 { (c513) } else { (c650) };
-        let c523: u64 = (c660) & (self.v550) & 0x1;
-        let c524: u64 = (c523) & (self.q115) & 0x1;
-        let c538: u64 = !(c660) & 0x1;
-        let c522: u64 = (self.v539) & (c538) & 0x1;
-        let c525: u64 = (self.q107) & (c538) & 0x1;
-        let c552: u64 = ((self.v664) | (c522)) & 0x1;
-        let c553: u64 = if (c522) != 0 { (0x0) } else { (c538) };
-        let c554: u64 = if (self.v487) != 0 { (c552) } else { (self.v664) };
-        let c555: u64 = (self.v487) & (c553) & 0x1;
-        let c556: u64 = if (self.v487) != 0 { (c660) } else { (self.v663) };
-        let c557: u64 = (c658) & (c524) & 0x1;
-        let c551: u64 = ((c557) | (c525)) & 0x1;
-        let c558: u64 = if (c658) != 0 { (c556) } else { (self.v663) };
-        let c559: u64 = if (c658) != 0 { (c554) } else { (self.v664) };
-        let c560: u64 = (c658) & (c555) & 0x1;
-        let c661: u64 = if (self.v752) != 0 { (self.v500) } else { (c642) };
-        let c567: u64 = if (self.v512) != 0 { (0x8) } else { (c661) };
-        let c565: u64 = if (c658) != 0 { (0x4) } else { (c567) };
-        let c665: u64 = (self.q5) & (c551) & 0x1;
-        if self.v665 != c665 { self.v665 = c665; *dirty |= 0x80000000; }
-        let c96: u64 = u64::from((self.i_reset | (c665 << 1)) != 0);
+        let c560: u64 = ((self.v654) | (c657)) & 0x1;
+        if self.v560 != c560 { self.v560 = c560; *dirty |= 0x400000000000000000; }
+        let c561: u64 = if (c657) != 0 { (self.v546) } else { (self.v614) };
+        if self.v561 != c561 { self.v561 = c561; *dirty |= 0x1000000000000000000; }
+        let c562: u64 = ((self.v496) | (c657)) & 0x1;
+        let c563: u64 = if (c657) != 0 { (0x0) } else { (c565) };
+        if self.v563 != c563 { self.v563 = c563; *dirty |= 0x80000000; }
+        let c659: u64 = if (self.v751) != 0 { (c512) } else { (c649) };
+        let c522: u64 = (c659) & (self.v549) & 0x1;
+        let c523: u64 = (c522) & (self.q115) & 0x1;
+        let c537: u64 = !(c659) & 0x1;
+        let c521: u64 = (self.v538) & (c537) & 0x1;
+        let c524: u64 = (self.q106) & (c537) & 0x1;
+        let c551: u64 = ((self.v663) | (c521)) & 0x1;
+        let c552: u64 = if (c521) != 0 { (0x0) } else { (c537) };
+        let c553: u64 = if (self.v486) != 0 { (c551) } else { (self.v663) };
+        let c554: u64 = (self.v486) & (c552) & 0x1;
+        let c555: u64 = if (self.v486) != 0 { (c659) } else { (self.v662) };
+        let c556: u64 = (c657) & (c523) & 0x1;
+        let c550: u64 = ((c556) | (c524)) & 0x1;
+        let c557: u64 = if (c657) != 0 { (c555) } else { (self.v662) };
+        let c558: u64 = if (c657) != 0 { (c553) } else { (self.v663) };
+        let c559: u64 = (c657) & (c554) & 0x1;
+        let c660: u64 = if (self.v751) != 0 { (self.v499) } else { (c641) };
+        let c566: u64 = if (self.v511) != 0 { (0x8) } else { (c660) };
+        let c564: u64 = if (c657) != 0 { (0x4) } else { (c566) };
+        let c664: u64 = (self.q4) & (c550) & 0x1;
+        if self.v664 != c664 { self.v664 = c664; *dirty |= 0x80000000; }
+        let c96: u64 = u64::from((self.i_reset | (c664 << 1)) != 0);
         if self.v96 != c96 { self.v96 = c96; *dirty |= 0x80000000000000000; }
-        let c666: u64 = if (self.q5) != 0 { (c563) } else { (self.v497) };
+        let c665: u64 = if (self.q4) != 0 { (c562) } else { (self.v496) };
+        if self.v665 != c665 { self.v665 = c665; *dirty |= 0xc0000000; }
+        let c666: u64 = if (self.q4) != 0 { (c564) } else { (self.v499) };
         if self.v666 != c666 { self.v666 = c666; *dirty |= 0xc0000000; }
-        let c667: u64 = if (self.q5) != 0 { (c565) } else { (self.v500) };
-        if self.v667 != c667 { self.v667 = c667; *dirty |= 0xc0000000; }
-        let c668: u64 = (self.q5) & (c558) & 0x1;
-        if self.v668 != c668 { self.v668 = c668; *dirty |= 0x300000000; }
-        let c669: u64 = (self.q5) & (c559) & 0x1;
+        let c667: u64 = (self.q4) & (c557) & 0x1;
+        if self.v667 != c667 { self.v667 = c667; *dirty |= 0x300000000; }
+        let c668: u64 = (self.q4) & (c558) & 0x1;
+        if self.v668 != c668 { self.v668 = c668; *dirty |= 0x100000000; }
+        let c669: u64 = (self.q4) & (c559) & 0x1;
         if self.v669 != c669 { self.v669 = c669; *dirty |= 0x100000000; }
-        let c670: u64 = (self.q5) & (c560) & 0x1;
-        if self.v670 != c670 { self.v670 = c670; *dirty |= 0x100000000; }
-        let c671: u64 = (self.q5) & (c538) & 0x1;
-        if self.v671 != c671 { self.v671 = c671; *dirty |= 0x8000000000000000; }
-        let c673: u64 = if (self.q5) != 0 { (c657) } else { (self.v488) };
-        if self.v673 != c673 { self.v673 = c673; *dirty |= 0x8000000000000000; }
-        let c674: u64 = if (self.q5) != 0 { (c658) } else { (self.v489) };
-        if self.v674 != c674 { self.v674 = c674; *dirty |= 0xc0000000; }
-        let c676: u64 = if (self.q5) != 0 { (c660) } else { (c513) };
-        if self.v676 != c676 { self.v676 = c676; *dirty |= 0x10000000000840000000; }
-        let c678: u64 = ((self.q82) | (self.v494)) & 0x1;
-        let c608: u64 = if (self.v517) != 0 { (0x0) } else { (c678) };
-        let c611: u64 = if (self.q77) != 0 { (c608) } else { (c678) };
-        let c599: u64 = if (self.v613) != 0 { (0x0) } else { (c611) };
-        let c643: u64 = if (self.v600) != 0 { (c599) } else { (c678) };
-        let c654: u64 = if (self.v752) != 0 { (c678) } else { (c643) };
-        let c672: u64 = if (self.q5) != 0 { (c654) } else { (c678) };
-        if self.v672 != c672 { self.v672 = c672; *dirty |= 0x200000000000000000; }
+        let c670: u64 = (self.q4) & (c537) & 0x1;
+        if self.v670 != c670 { self.v670 = c670; *dirty |= 0x8000000000000000; }
+        let c672: u64 = if (self.q4) != 0 { (c656) } else { (self.v487) };
+        if self.v672 != c672 { self.v672 = c672; *dirty |= 0x8000000000000000; }
+        let c673: u64 = if (self.q4) != 0 { (c657) } else { (self.v488) };
+        if self.v673 != c673 { self.v673 = c673; *dirty |= 0xc0000000; }
+        let c675: u64 = if (self.q4) != 0 { (c659) } else { (c512) };
+        if self.v675 != c675 { self.v675 = c675; *dirty |= 0x10000000000840000000; }
+        let c677: u64 = ((self.q81) | (self.v493)) & 0x1;
+        let c607: u64 = if (self.v516) != 0 { (0x0) } else { (c677) };
+        let c610: u64 = if (self.q76) != 0 { (c607) } else { (c677) };
+        let c598: u64 = if (self.v612) != 0 { (0x0) } else { (c610) };
+        let c642: u64 = if (self.v599) != 0 { (c598) } else { (c677) };
+        let c653: u64 = if (self.v751) != 0 { (c677) } else { (c642) };
+        let c671: u64 = if (self.q4) != 0 { (c653) } else { (c677) };
+        if self.v671 != c671 { self.v671 = c671; *dirty |= 0x200000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender.
     fn group_30(&mut self, dirty: &mut u128) {
-        let c684: u64 = (self.v683) & (self.v676) & 0x1;
-        let c695: u64 = !(self.v498) & 0x1;
-        if self.v695 != c695 { self.v695 = c695; *dirty |= 0x800000000; }
-        let c697: u64 = !(self.v674) & 0x1;
-        if self.v697 != c697 { self.v697 = c697; *dirty |= 0x80000000; }
+        let c683: u64 = (self.v682) & (self.v675) & 0x1;
+        let c694: u64 = !(self.v497) & 0x1;
+        if self.v694 != c694 { self.v694 = c694; *dirty |= 0x800000000; }
+        let c696: u64 = !(self.v673) & 0x1;
+        if self.v696 != c696 { self.v696 = c696; *dirty |= 0x80000000; }
+        let c684: u64 = (c683) & (c696) & 0x1;
+        let c697: u64 = !(self.v665) & 0x1;
         let c685: u64 = (c684) & (c697) & 0x1;
-        let c698: u64 = !(self.v666) & 0x1;
-        let c686: u64 = (c685) & (c698) & 0x1;
-        if self.v686 != c686 { self.v686 = c686; *dirty |= 0x800000000; }
-        let c707: u64 = u64::from((self.v667) == (0x4));
-        if self.v707 != c707 { self.v707 = c707; *dirty |= 0x800000000; }
-        let c708: u64 = if (self.v499) != 0 { (self.v750) } else { ((self.q91 >> 14)) };
-        let c709: u64 = u64::from((self.v667) == (0xb));
+        if self.v685 != c685 { self.v685 = c685; *dirty |= 0x800000000; }
+        let c706: u64 = u64::from((self.v666) == (0x4));
+        if self.v706 != c706 { self.v706 = c706; *dirty |= 0x800000000; }
+        let c707: u64 = if (self.v498) != 0 { (self.v749) } else { ((self.q90 >> 14)) };
+        let c708: u64 = u64::from((self.v666) == (0xb));
+        if self.v708 != c708 { self.v708 = c708; *dirty |= 0x800000000; }
+        let c709: u64 = if (self.v675) != 0 { (c707) } else { (0x1) };
         if self.v709 != c709 { self.v709 = c709; *dirty |= 0x800000000; }
-        let c710: u64 = if (self.v676) != 0 { (c708) } else { (0x1) };
-        if self.v710 != c710 { self.v710 = c710; *dirty |= 0x800000000; }
-        let c712: u64 = u64::from((self.v667) == (0xa));
-        if self.v712 != c712 { self.v712 = c712; *dirty |= 0x800000000; }
-        let c715: u64 = u64::from((self.v667) == (0x9));
-        if self.v715 != c715 { self.v715 = c715; *dirty |= 0x800000000; }
-        let c722: u64 = u64::from((self.v667) == (0x8));
-        if self.v722 != c722 { self.v722 = c722; *dirty |= 0x800000000; }
-        let c728: u64 = u64::from((self.v667) == (0x5));
+        let c711: u64 = u64::from((self.v666) == (0xa));
+        if self.v711 != c711 { self.v711 = c711; *dirty |= 0x800000000; }
+        let c714: u64 = u64::from((self.v666) == (0x9));
+        if self.v714 != c714 { self.v714 = c714; *dirty |= 0x800000000; }
+        let c721: u64 = u64::from((self.v666) == (0x8));
+        if self.v721 != c721 { self.v721 = c721; *dirty |= 0x800000000; }
+        let c727: u64 = u64::from((self.v666) == (0x5));
+        if self.v727 != c727 { self.v727 = c727; *dirty |= 0x800000000; }
+        let c728: u64 = u64::from((self.v666) == (0xd));
         if self.v728 != c728 { self.v728 = c728; *dirty |= 0x800000000; }
-        let c729: u64 = u64::from((self.v667) == (0xd));
+        let c729: u64 = u64::from((self.v666) == (0x1));
         if self.v729 != c729 { self.v729 = c729; *dirty |= 0x800000000; }
-        let c730: u64 = u64::from((self.v667) == (0x1));
-        if self.v730 != c730 { self.v730 = c730; *dirty |= 0x800000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol.
     fn group_31(&mut self, dirty: &mut u128) {
-        let c92: u64 = u64::from((self.i_reset | (self.v229 << 1) | (self.v377 << 2)) != 0);
+        let c92: u64 = u64::from((self.i_reset | (self.v228 << 1) | (self.v376 << 2)) != 0);
         if self.v92 != c92 { self.v92 = c92; *dirty |= 0x10000000000000000000; }
-        let c230: u64 = (self.v441) & (self.v402) & 0x1;
-        if self.v230 != c230 { self.v230 = c230; *dirty |= 0x1000000000; }
-        let c231: u64 = (self.v502) & (self.v697) & 0x1;
-        if self.v231 != c231 { self.v231 = c231; *dirty |= 0x5000000000800000000; }
-        let c68: u64 = u64::from((c231 | (self.v687 << 1)) == 0x3);
+        let c229: u64 = (self.v440) & (self.v401) & 0x1;
+        if self.v229 != c229 { self.v229 = c229; *dirty |= 0x1000000000; }
+        let c230: u64 = (self.v501) & (self.v696) & 0x1;
+        if self.v230 != c230 { self.v230 = c230; *dirty |= 0x5000000000800000000; }
+        let c68: u64 = u64::from((c230 | (self.v686 << 1)) == 0x3);
         if self.v68 != c68 { self.v68 = c68; *dirty |= 0x400000000000; }
-        let c246: u64 = !(self.v489) & 0x1;
-        let c232: u64 = (self.v491) & (c246) & 0x1;
-        if self.v232 != c232 { self.v232 = c232; *dirty |= 0x800000000; }
-        let c25: u64 = u64::from((c231 | (c232 << 1)) != 0);
-        let c26: u64 = u64::from((c231 | (c232 << 1) | (self.v687 << 2)) != (0x1));
+        let c245: u64 = !(self.v488) & 0x1;
+        let c231: u64 = (self.v490) & (c245) & 0x1;
+        if self.v231 != c231 { self.v231 = c231; *dirty |= 0x800000000; }
+        let c25: u64 = u64::from((c230 | (c231 << 1)) != 0);
+        let c26: u64 = u64::from((c230 | (c231 << 1) | (self.v686 << 2)) != (0x1));
         let c67: u64 = u64::from((c25 | (c26 << 1)) == 0x3);
         if self.v67 != c67 { self.v67 = c67; *dirty |= 0x400000000000; }
-        let c248: u64 = !(self.v512) & 0x1;
-        let c233: u64 = (self.v247) & (c248) & 0x1;
-        let c94: u64 = u64::from((self.i_reset | (c232 << 1) | (c233 << 2)) != 0);
+        let c247: u64 = !(self.v511) & 0x1;
+        let c232: u64 = (self.v246) & (c247) & 0x1;
+        let c94: u64 = u64::from((self.i_reset | (c231 << 1) | (c232 << 2)) != 0);
         if self.v94 != c94 { self.v94 = c94; *dirty |= 0x1000000400000000000; }
-        let c95: u64 = u64::from((self.i_reset | (c233 << 1)) != 0);
+        let c95: u64 = u64::from((self.i_reset | (c232 << 1)) != 0);
         if self.v95 != c95 { self.v95 = c95; *dirty |= 0x400000000000; }
-        let c250: u64 = ((self.v666) | (self.v229)) & 0x1;
-        if self.v250 != c250 { self.v250 = c250; *dirty |= 0x800000000000; }
-        let c253: u64 = ((self.v674) | (self.v675)) & 0x1;
-        if self.v253 != c253 { self.v253 = c253; *dirty |= 0x18000000000000000; }
-        let c271: u64 = if (self.q5) != 0 { (self.v564) } else { (self.q92) };
-        let c268: u64 = if (self.v245) != 0 { (0x0) } else { (c271) };
-        let c269: u64 = if (self.q112) != 0 { (c268) } else { (c271) };
-        if self.v269 != c269 { self.v269 = c269; *dirty |= 0x20000000000000000; }
-        let c272: u64 = if (self.q5) != 0 { (self.v667) } else { (self.q114) };
-        let c270: u64 = if (self.q112) != 0 { (0x3) } else { (c272) };
-        let c267: u64 = if (self.v234) != 0 { (0x1) } else { (c270) };
-        let c266: u64 = if (self.v229) != 0 { (0x0) } else { (c267) };
-        let c264: u64 = if (self.i_reset) != 0 { (0x0) } else { (c266) };
-        if self.v264 != c264 { self.v264 = c264; *dirty |= 0x100000000000000000; }
-        let c237: u64 = u64::from((c264) == (0x8));
-        let c238: u64 = u64::from((c264) == (0x9));
-        let c239: u64 = u64::from((c264) == (0xa));
-        let c240: u64 = u64::from((c264) == (0xb));
-        let c241: u64 = u64::from((c264) == (0xc));
-        let c242: u64 = u64::from((c264) == (0xd));
-        let c243: u64 = u64::from((c264) == (0xe));
-        let c244: u64 = u64::from((c264) == (0xf));
-        let c257: u64 = ((c237) | (c238)) & 0x1;
+        let c249: u64 = ((self.v665) | (self.v228)) & 0x1;
+        if self.v249 != c249 { self.v249 = c249; *dirty |= 0x800000000000; }
+        let c252: u64 = ((self.v673) | (self.v674)) & 0x1;
+        if self.v252 != c252 { self.v252 = c252; *dirty |= 0x18000000000000000; }
+        let c270: u64 = if (self.q4) != 0 { (self.v563) } else { (self.q91) };
+        let c267: u64 = if (self.v244) != 0 { (0x0) } else { (c270) };
+        let c268: u64 = if (self.q112) != 0 { (c267) } else { (c270) };
+        if self.v268 != c268 { self.v268 = c268; *dirty |= 0x20000000000000000; }
+        let c271: u64 = if (self.q4) != 0 { (self.v666) } else { (self.q114) };
+        let c269: u64 = if (self.q112) != 0 { (0x3) } else { (c271) };
+        let c266: u64 = if (self.v233) != 0 { (0x1) } else { (c269) };
+        let c265: u64 = if (self.v228) != 0 { (0x0) } else { (c266) };
+        let c263: u64 = if (self.i_reset) != 0 { (0x0) } else { (c265) };
+        if self.v263 != c263 { self.v263 = c263; *dirty |= 0x100000000000000000; }
+        let c236: u64 = u64::from((c263) == (0x8));
+        let c237: u64 = u64::from((c263) == (0x9));
+        let c238: u64 = u64::from((c263) == (0xa));
+        let c239: u64 = u64::from((c263) == (0xb));
+        let c240: u64 = u64::from((c263) == (0xc));
+        let c241: u64 = u64::from((c263) == (0xd));
+        let c242: u64 = u64::from((c263) == (0xe));
+        let c243: u64 = u64::from((c263) == (0xf));
+        let c256: u64 = ((c236) | (c237)) & 0x1;
+        let c257: u64 = ((c256) | (c238)) & 0x1;
         let c258: u64 = ((c257) | (c239)) & 0x1;
         let c259: u64 = ((c258) | (c240)) & 0x1;
         let c260: u64 = ((c259) | (c241)) & 0x1;
         let c261: u64 = ((c260) | (c242)) & 0x1;
         let c262: u64 = ((c261) | (c243)) & 0x1;
-        let c263: u64 = ((c262) | (c244)) & 0x1;
-        if self.v263 != c263 { self.v263 = c263; *dirty |= 0x200000000000000000; }
-        let c273: u64 = ((self.q107) | (self.v10)) & 0x1;
-        if self.v273 != c273 { self.v273 = c273; *dirty |= 0x200000000000000; }
-        let c274: u64 = ((self.q90) | (self.v495)) & 0x1;
+        if self.v262 != c262 { self.v262 = c262; *dirty |= 0x200000000000000000; }
+        let c272: u64 = ((self.q106) | (self.v10)) & 0x1;
+        if self.v272 != c272 { self.v272 = c272; *dirty |= 0x200000000000000; }
+        let c273: u64 = ((self.q89) | (self.v494)) & 0x1;
+        if self.v273 != c273 { self.v273 = c273; *dirty |= 0x40000000000000000; }
+        let c274: u64 = ((self.v492) | (self.v664)) & 0x1;
         if self.v274 != c274 { self.v274 = c274; *dirty |= 0x40000000000000000; }
-        let c275: u64 = ((self.v493) | (self.v665)) & 0x1;
-        if self.v275 != c275 { self.v275 = c275; *dirty |= 0x40000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults.
     fn group_32(&mut self, dirty: &mut u128) {
-        let c321: u64 = (self.v492) & (self.v329) & 0x1;
-        if self.v321 != c321 { self.v321 = c321; *dirty |= 0x200000000; }
-        let c322: u64 = (self.v670) & (self.v330) & 0x1;
-        let c323: u64 = (self.v2) & (self.v544) & 0x1;
-        let c356: u64 = (self.v668) & (self.v355) & 0x1;
-        let c357: u64 = if (self.v668) != 0 { (self.v353) } else { (self.q86 | (self.q87 << 7)) };
-        let c351: u64 = if (c322) != 0 { (self.v319) } else { (c357) };
-        let c350: u64 = if (self.v669) != 0 { (self.v349) } else { (c351) };
-        let c346: u64 = if (self.v331) != 0 { (self.v372) } else { (c350) };
-        let c347: u64 = if (self.q87) != 0 { (0x7f) } else { (c346) };
-        let c348: u64 = if (self.v501) != 0 { (c347) } else { (c350) };
-        let c358: u64 = if (self.v668) != 0 { (self.v354) } else { ((self.q83 << 5)) };
-        let c352: u64 = if (c321) != 0 { (self.v371) } else { ((c358 & 0x1) | ((c358 & 0x1) << 1) | (c358 << 2)) };
-        let c359: u64 = if (self.v251) != 0 { (self.q86 | (self.q87 << 7)) } else { (c348) };
-        let c360: u64 = if (self.v251) != 0 { ((self.q83 << 7)) } else { (c352) };
-        let c361: u64 = if (self.v251) != 0 { (0x0) } else { (c356) };
-        let c365: u64 = if (self.v677) != 0 { (self.v363) } else { (0x1) };
-        let c366: u64 = if (self.v677) != 0 { (self.v362) } else { (self.q86 | (self.q87 << 7)) };
-        let c367: u64 = if (self.v677) != 0 { (self.v364) } else { ((self.q83 << 7)) };
-        let c368: u64 = if (self.q112) != 0 { (c365) } else { (c361) };
-        let c339: u64 = if (self.q112) != 0 { (0x0) } else { (c368) };
-        let c342: u64 = ((c339) | (self.v328)) & 0x1;
-        let c343: u64 = if (self.v1) != 0 { (c342) } else { (c368) };
-        let c334: u64 = if (self.i_reset) != 0 { (0x0) } else { (c343) };
-        if self.v334 != c334 { self.v334 = c334; *dirty |= 0x80000000000000000; }
-        let c332: u64 = !(c334) & 0x1;
+        let c320: u64 = (self.v491) & (self.v328) & 0x1;
+        if self.v320 != c320 { self.v320 = c320; *dirty |= 0x200000000; }
+        let c321: u64 = (self.v669) & (self.v329) & 0x1;
+        let c322: u64 = (self.v2) & (self.v543) & 0x1;
+        let c355: u64 = (self.v667) & (self.v354) & 0x1;
+        let c356: u64 = if (self.v667) != 0 { (self.v352) } else { (self.q85 | (self.q86 << 7)) };
+        let c350: u64 = if (c321) != 0 { (self.v318) } else { (c356) };
+        let c349: u64 = if (self.v668) != 0 { (self.v348) } else { (c350) };
+        let c345: u64 = if (self.v330) != 0 { (self.v371) } else { (c349) };
+        let c346: u64 = if (self.q86) != 0 { (0x7f) } else { (c345) };
+        let c347: u64 = if (self.v500) != 0 { (c346) } else { (c349) };
+        let c357: u64 = if (self.v667) != 0 { (self.v353) } else { ((self.q82 << 5)) };
+        let c351: u64 = if (c320) != 0 { (self.v370) } else { ((c357 & 0x1) | ((c357 & 0x1) << 1) | (c357 << 2)) };
+        let c358: u64 = if (self.v250) != 0 { (self.q85 | (self.q86 << 7)) } else { (c347) };
+        let c359: u64 = if (self.v250) != 0 { ((self.q82 << 7)) } else { (c351) };
+        let c360: u64 = if (self.v250) != 0 { (0x0) } else { (c355) };
+        let c364: u64 = if (self.v676) != 0 { (self.v362) } else { (0x1) };
+        let c365: u64 = if (self.v676) != 0 { (self.v361) } else { (self.q85 | (self.q86 << 7)) };
+        let c366: u64 = if (self.v676) != 0 { (self.v363) } else { ((self.q82 << 7)) };
+        let c367: u64 = if (self.q112) != 0 { (c364) } else { (c360) };
+        let c338: u64 = if (self.q112) != 0 { (0x0) } else { (c367) };
+        let c341: u64 = ((c338) | (self.v327)) & 0x1;
+        let c342: u64 = if (self.v1) != 0 { (c341) } else { (c367) };
+        let c333: u64 = if (self.i_reset) != 0 { (0x0) } else { (c342) };
+        if self.v333 != c333 { self.v333 = c333; *dirty |= 0x80000000000000000; }
+        let c331: u64 = !(c333) & 0x1;
+        let c368: u64 = if (self.q112) != 0 { (c365) } else { (c358) };
+        let c337: u64 = if (self.q112) != 0 { (0x0) } else { (c368) };
+        let c339: u64 = if (self.v327) != 0 { (0x0) } else { (c337) };
+        let c343: u64 = if (self.v1) != 0 { (c339) } else { (c368) };
+        let c336: u64 = if (c322) != 0 { (self.i_wdata) } else { (c343) };
+        if self.v336 != c336 { self.v336 = c336; *dirty |= 0x200000000000; }
+        let c334: u64 = if (self.i_reset) != 0 { (0x0) } else { (c336) };
+        if self.v334 != c334 { self.v334 = c334; *dirty |= 0x200000000000; }
         let c369: u64 = if (self.q112) != 0 { (c366) } else { (c359) };
-        let c338: u64 = if (self.q112) != 0 { (0x0) } else { (c369) };
-        let c340: u64 = if (self.v328) != 0 { (0x0) } else { (c338) };
-        let c344: u64 = if (self.v1) != 0 { (c340) } else { (c369) };
-        let c337: u64 = if (c323) != 0 { (self.i_wdata) } else { (c344) };
-        if self.v337 != c337 { self.v337 = c337; *dirty |= 0x200000000000; }
-        let c335: u64 = if (self.i_reset) != 0 { (0x0) } else { (c337) };
-        if self.v335 != c335 { self.v335 = c335; *dirty |= 0x200000000000; }
-        let c370: u64 = if (self.q112) != 0 { (c367) } else { (c360) };
-        let c345: u64 = if (self.v1) != 0 { (self.v341) } else { (c370) };
-        if self.v345 != c345 { self.v345 = c345; *dirty |= 0x40000000000; }
-        let c336: u64 = if (self.i_reset) != 0 { (0x0) } else { (c345) };
-        if self.v336 != c336 { self.v336 = c336; *dirty |= 0x40000000000; }
-        let c333: u64 = (((c336 >> 7)) | ((c335 >> 7))) & 0x1;
-        let c324: u64 = (c332) & (c333) & 0x1;
-        if self.v324 != c324 { self.v324 = c324; *dirty |= 0x100000000000000000; }
+        let c344: u64 = if (self.v1) != 0 { (self.v340) } else { (c369) };
+        if self.v344 != c344 { self.v344 = c344; *dirty |= 0x20000000000; }
+        let c335: u64 = if (self.i_reset) != 0 { (0x0) } else { (c344) };
+        if self.v335 != c335 { self.v335 = c335; *dirty |= 0x20000000000; }
+        let c332: u64 = (((c335 >> 7)) | ((c334 >> 7))) & 0x1;
+        let c323: u64 = (c331) & (c332) & 0x1;
+        if self.v323 != c323 { self.v323 = c323; *dirty |= 0x100000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of can_controller.
     fn group_33(&mut self, dirty: &mut u128) {
-        let c35: u64 = u64::from((self.v668 | (self.q112 << 1) | (self.v321 << 2) | (self.v251 << 3) | (self.v1 << 4)) != 0);
-        let c36: u64 = u64::from((self.v668 | (self.q112 << 1) | (self.v321 << 2) | (self.v326 << 3) | (self.v251 << 4) | (self.v1 << 5)) != (0x1));
-        let c37: u64 = u64::from((self.v677 | (self.q112 << 1) | (self.v1 << 2)) != (0x2));
-        let c38: u64 = u64::from((self.v677 | (self.q112 << 1) | (self.v325 << 2) | (self.v1 << 3)) != (0x7));
+        let c35: u64 = u64::from((self.v667 | (self.q112 << 1) | (self.v320 << 2) | (self.v250 << 3) | (self.v1 << 4)) != 0);
+        let c36: u64 = u64::from((self.v667 | (self.q112 << 1) | (self.v320 << 2) | (self.v325 << 3) | (self.v250 << 4) | (self.v1 << 5)) != (0x1));
+        let c37: u64 = u64::from((self.v676 | (self.q112 << 1) | (self.v1 << 2)) != (0x2));
+        let c38: u64 = u64::from((self.v676 | (self.q112 << 1) | (self.v324 << 2) | (self.v1 << 3)) != (0x7));
         let c73: u64 = u64::from((c35 | (c36 << 1) | (c37 << 2) | (self.v39 << 3) | (c38 << 4)) == 0x1f);
-        if self.v73 != c73 { self.v73 = c73; *dirty |= 0x40000000000; }
+        if self.v73 != c73 { self.v73 = c73; *dirty |= 0x20000000000; }
         let c74: u64 = u64::from((c35 | (c37 << 1) | (self.v39 << 2) | (c38 << 3)) == 0xf);
-        if self.v74 != c74 { self.v74 = c74; *dirty |= 0x40000000000; }
-        let c1099: u64 = ((self.v910) | (self.v134)) & 0x1;
-        if self.v1099 != c1099 { self.v1099 = c1099; *dirty |= 0x20000000000; }
+        if self.v74 != c74 { self.v74 = c74; *dirty |= 0x20000000000; }
+        let c1099: u64 = ((self.v909) | (self.v133)) & 0x1;
+        if self.v1099 != c1099 { self.v1099 = c1099; *dirty |= 0x80000000000; }
         let c1115: u64 = if (c1099) != 0 { (self.v1113) } else { (self.v1118) };
         if self.v1115 != c1115 { self.v1115 = c1115; *dirty |= 0x4800000000000000000000400000000; }
         let c1095: u64 = if (c1115) < 32 { (0x7ff1fff) >> (c1115) & 0x1 } else { 0 };
@@ -4726,7 +4724,7 @@ impl Model {
         if self.v1116 != c1116 { self.v1116 = c1116; *dirty |= 0x400000000; }
         let c1117: u64 = if (c1099) != 0 { (self.v1120 | 0x10) } else { (self.v1118) };
         if self.v1117 != c1117 { self.v1117 = c1117; *dirty |= 0x4000000000000000000000000000000; }
-        let c1096: u64 = if (c1117) < 32 { ((self.q18 & 0x1fff) | ((self.q18 >> 13) << 16)) >> (c1117) & 0x1 } else { 0 };
+        let c1096: u64 = if (c1117) < 32 { ((self.q17 & 0x1fff) | ((self.q17 >> 13) << 16)) >> (c1117) & 0x1 } else { 0 };
         if self.v1096 != c1096 { self.v1096 = c1096; *dirty |= 0x400000000; }
         let _ = &dirty;
     }
@@ -4750,15 +4748,15 @@ impl Model {
         let c1090: u64 = u64::from((self.v1115) == (0x2));
         let c52: u64 = u64::from((c1090 | (c1082 << 1)) == 0x3);
         if self.v52 != c52 { self.v52 = c52; *dirty |= 0x400000000000000000000000000000; }
-        let c1092: u64 = if (self.q33) != 0 { (self.q23) } else { ((self.q17 & 0xf) | ((self.q17 >> 4) << 6)) };
+        let c1092: u64 = if (self.q32) != 0 { (self.q22) } else { ((self.q16 & 0xf) | ((self.q16 >> 4) << 6)) };
         if self.v1092 != c1092 { self.v1092 = c1092; *dirty |= 0x800000000; }
-        let c1093: u64 = if (self.q24) != 0 { (self.m1_rd) } else { (0x0) };
+        let c1093: u64 = if (self.q23) != 0 { (self.m1_rd) } else { (0x0) };
         if self.v1093 != c1093 { self.v1093 = c1093; *dirty |= 0x800000000; }
-        let c1094: u64 = if (self.q22) != 0 { (self.m2_rd) } else { (0x0) };
-        if self.v1094 != c1094 { self.v1094 = c1094; *dirty |= 0x20000000000; }
+        let c1094: u64 = if (self.q21) != 0 { (self.m2_rd) } else { (0x0) };
+        if self.v1094 != c1094 { self.v1094 = c1094; *dirty |= 0x80000000000; }
         let c1098: u64 = (if (self.v1115) < 64 { (0x1) << (self.v1115) } else { 0 }) & 0x7ffffff;
         let c1091: u64 = !(c1098) & 0x7ffffff;
-        let c107: u64 = (self.q18) & ((c1091 & 0x1fff) | ((c1091 >> 16) << 13)) & 0xffffff;
+        let c107: u64 = (self.q17) & ((c1091 & 0x1fff) | ((c1091 >> 16) << 13)) & 0xffffff;
         let c109: u64 = ((c107) | ((c1098 & 0x1fff) | ((c1098 >> 16) << 13))) & 0xffffff;
         if self.v109 != c109 { self.v109 = c109; *dirty |= 0x10000000000000000000000000000000; }
         let _ = &dirty;
@@ -4766,451 +4764,449 @@ impl Model {
 
     /// The cells of top$core$protocol$sender.
     fn group_35(&mut self, dirty: &mut u128) {
-        let c719: u64 = if ((self.v1092 >> 7)) != 0 { (self.v748) } else { (self.v734) };
-        let c691: u64 = u64::from((c719) == (0x1));
-        let c692: u64 = u64::from((c719) == (0x2));
-        let c693: u64 = u64::from((c719) == (0x3));
-        let c694: u64 = u64::from((c719) == (0x4));
-        let c718: u64 = (c691) & (((self.v1092 >> 3) & 0x1)) & 0x1;
-        let c717: u64 = if (c692) != 0 { (((self.v1092 >> 2) & 0x1)) } else { (c718) };
-        let c716: u64 = if (c693) != 0 { (((self.v1092 >> 1) & 0x1)) } else { (c717) };
-        let c714: u64 = if (c694) != 0 { ((self.v1092 & 0x1)) } else { (c716) };
-        let c720: u64 = if (self.v676) != 0 { (c714) } else { (0x1) };
-        let c724: u64 = ((((self.v1092 >> 6) & 0x1)) | ((self.v1092 >> 7))) & 0x1;
-        let c742: u64 = if (self.v687) != 0 { ((self.v1093 & 0x7f)) } else { (((self.q14 & 0x3f) << 1)) };
-        if self.v742 != c742 { self.v742 = c742; *dirty |= 0x4000000000000000000; }
-        let c743: u64 = if (self.v231) != 0 { (self.v740) } else { ((self.q75 & 0x1)) };
-        let c739: u64 = if (self.v232) != 0 { ((self.v738 << 1) | 0x1) } else { (c743) };
-        if self.v739 != c739 { self.v739 = c739; *dirty |= 0x400000000000; }
-        let c745: u64 = if (self.v687) != 0 { (((self.v1093 >> 6) & 0x1)) } else { (((self.q14 >> 5) & 0x1)) };
-        let c744: u64 = if (self.v688) != 0 { ((self.v1093 >> 7)) } else { (c745) };
-        let c746: u64 = if (self.v687) != 0 { ((self.v1093 >> 7)) } else { ((self.q14 >> 6)) };
-        let c711: u64 = if (self.v231) != 0 { (c744) } else { (c746) };
-        let c713: u64 = if (self.v676) != 0 { (c711) } else { (0x1) };
-        let c725: u64 = if (self.v733) != 0 { (c724) } else { (c711) };
-        let c723: u64 = if (self.v732) != 0 { ((self.v1092 >> 7)) } else { (c725) };
-        let c721: u64 = if (self.v731) != 0 { (((self.v1092 >> 6) & 0x1)) } else { (c723) };
-        let c726: u64 = if (self.v676) != 0 { (c721) } else { (0x1) };
-        let c727: u64 = { let s = (self.v728 | (self.v707 << 1) | (self.v729 << 2) | (self.v709 << 3) | (self.v712 << 4) | (self.v715 << 5) | (self.v722 << 6) | (self.v730 << 7)); if s >> 0 & 1 != 0 { self.q124 } else if s >> 1 & 1 != 0 { self.v706 } else if s >> 2 & 1 != 0 { self.v695 } else if s >> 3 & 1 != 0 { self.v710 } else if s >> 4 & 1 != 0 { c713 } else if s >> 5 & 1 != 0 { c720 } else if s >> 6 & 1 != 0 { c726 } else if s >> 7 & 1 != 0 { self.v690 } else { (0x1) } };
-        let c705: u64 = if (self.v686) != 0 { (self.v433) } else { (c727) };
-        let c704: u64 = if (self.q5) != 0 { (c705) } else { (self.q116) };
-        let c700: u64 = ((c704) | (self.v699)) & 0x1;
-        if self.v700 != c700 { self.v700 = c700; *dirty |= 0x2000000000000000000; }
+        let c718: u64 = if ((self.v1092 >> 7)) != 0 { (self.v747) } else { (self.v733) };
+        let c690: u64 = u64::from((c718) == (0x1));
+        let c691: u64 = u64::from((c718) == (0x2));
+        let c692: u64 = u64::from((c718) == (0x3));
+        let c693: u64 = u64::from((c718) == (0x4));
+        let c717: u64 = (c690) & (((self.v1092 >> 3) & 0x1)) & 0x1;
+        let c716: u64 = if (c691) != 0 { (((self.v1092 >> 2) & 0x1)) } else { (c717) };
+        let c715: u64 = if (c692) != 0 { (((self.v1092 >> 1) & 0x1)) } else { (c716) };
+        let c713: u64 = if (c693) != 0 { ((self.v1092 & 0x1)) } else { (c715) };
+        let c719: u64 = if (self.v675) != 0 { (c713) } else { (0x1) };
+        let c723: u64 = ((((self.v1092 >> 6) & 0x1)) | ((self.v1092 >> 7))) & 0x1;
+        let c741: u64 = if (self.v686) != 0 { ((self.v1093 & 0x7f)) } else { (((self.q13 & 0x3f) << 1)) };
+        if self.v741 != c741 { self.v741 = c741; *dirty |= 0x4000000000000000000; }
+        let c742: u64 = if (self.v230) != 0 { (self.v739) } else { ((self.q74 & 0x1)) };
+        let c738: u64 = if (self.v231) != 0 { ((self.v737 << 1) | 0x1) } else { (c742) };
+        if self.v738 != c738 { self.v738 = c738; *dirty |= 0x400000000000; }
+        let c744: u64 = if (self.v686) != 0 { (((self.v1093 >> 6) & 0x1)) } else { (((self.q13 >> 5) & 0x1)) };
+        let c743: u64 = if (self.v687) != 0 { ((self.v1093 >> 7)) } else { (c744) };
+        let c745: u64 = if (self.v686) != 0 { ((self.v1093 >> 7)) } else { ((self.q13 >> 6)) };
+        let c710: u64 = if (self.v230) != 0 { (c743) } else { (c745) };
+        let c712: u64 = if (self.v675) != 0 { (c710) } else { (0x1) };
+        let c724: u64 = if (self.v732) != 0 { (c723) } else { (c710) };
+        let c722: u64 = if (self.v731) != 0 { ((self.v1092 >> 7)) } else { (c724) };
+        let c720: u64 = if (self.v730) != 0 { (((self.v1092 >> 6) & 0x1)) } else { (c722) };
+        let c725: u64 = if (self.v675) != 0 { (c720) } else { (0x1) };
+        let c726: u64 = { let s = (self.v727 | (self.v706 << 1) | (self.v728 << 2) | (self.v708 << 3) | (self.v711 << 4) | (self.v714 << 5) | (self.v721 << 6) | (self.v729 << 7)); if s >> 0 & 1 != 0 { self.q124 } else if s >> 1 & 1 != 0 { self.v705 } else if s >> 2 & 1 != 0 { self.v694 } else if s >> 3 & 1 != 0 { self.v709 } else if s >> 4 & 1 != 0 { c712 } else if s >> 5 & 1 != 0 { c719 } else if s >> 6 & 1 != 0 { c725 } else if s >> 7 & 1 != 0 { self.v689 } else { (0x1) } };
+        let c704: u64 = if (self.v685) != 0 { (self.v432) } else { (c726) };
+        let c703: u64 = if (self.q4) != 0 { (c704) } else { (self.q116) };
+        let c699: u64 = ((c703) | (self.v698)) & 0x1;
+        if self.v699 != c699 { self.v699 = c699; *dirty |= 0x2000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler.
     fn group_36(&mut self, dirty: &mut u128) {
-        let c77: u64 = u64::from((self.v509 | (self.v45 << 1) | (self.v393 << 2) | (self.v44 << 3)) == 0xf);
+        let c77: u64 = u64::from((self.v508 | (self.v45 << 1) | (self.v392 << 2) | (self.v44 << 3)) == 0xf);
         if self.v77 != c77 { self.v77 = c77; *dirty |= 0x2000000000000000; }
-        let c79: u64 = u64::from((self.v509 | (self.v441 << 1) | (self.v277 << 2)) == 0x7);
+        let c79: u64 = u64::from((self.v508 | (self.v440 << 1) | (self.v276 << 2)) == 0x7);
         if self.v79 != c79 { self.v79 = c79; *dirty |= 0x800000000000000; }
-        let c284: u64 = (self.v441) & (self.v230) & 0x1;
-        let c285: u64 = (self.v509) & (self.v283) & 0x1;
-        if self.v285 != c285 { self.v285 = c285; *dirty |= 0x400000000000000; }
-        let c286: u64 = (self.v509) & (c284) & 0x1;
-        if self.v286 != c286 { self.v286 = c286; *dirty |= 0x1000000000000000; }
+        let c283: u64 = (self.v440) & (self.v229) & 0x1;
+        let c284: u64 = (self.v508) & (self.v282) & 0x1;
+        if self.v284 != c284 { self.v284 = c284; *dirty |= 0x400000000000000; }
+        let c285: u64 = (self.v508) & (c283) & 0x1;
+        if self.v285 != c285 { self.v285 = c285; *dirty |= 0x1000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$modes.
     fn group_37(&mut self, dirty: &mut u128) {
-        let c971: u64 = (self.v763) & (self.v41) & 0x1;
-        let c977: u64 = (self.v150) & (self.v991) & 0x1;
-        if self.v977 != c977 { self.v977 = c977; *dirty |= 0x1000000000000000000000000000; }
-        let c983: u64 = !(self.v771) & 0x1;
-        let c984: u64 = !(self.v1081) & 0x1;
-        if self.v984 != c984 { self.v984 = c984; *dirty |= 0x80000000000000000000000000000000; }
-        let c973: u64 = (self.v526) & (c984) & 0x1;
-        let c1007: u64 = ((self.q128) | (c973)) & 0x1;
-        let c1008: u64 = !(c973) & 0x1;
-        let c1011: u64 = if (c971) != 0 { (c983) } else { (self.v1021) };
-        let c992: u64 = ((c1011) | (self.v985)) & 0x1;
-        let c974: u64 = (self.q128) & (c992) & 0x1;
-        let c1012: u64 = if (c971) != 0 { (self.v771) } else { (self.v1022) };
-        let c972: u64 = (c1012) & (self.v82) & 0x1;
-        let c1009: u64 = if (c972) != 0 { (c1007) } else { (self.q128) };
-        let c1006: u64 = if (c974) != 0 { (0x0) } else { (c1009) };
-        let c1002: u64 = if (self.v1003) != 0 { (0x0) } else { (c1006) };
-        let c994: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1002) };
-        if self.v994 != c994 { self.v994 = c994; *dirty |= 0x2000000000000000000000000000; }
-        let c990: u64 = !(c994) & 0x1;
-        let c978: u64 = (self.v989) & (c990) & 0x1;
-        if self.v978 != c978 { self.v978 = c978; *dirty |= 0x80000000000000000000000000; }
-        let c1010: u64 = (c972) & (c1008) & 0x1;
-        let c1005: u64 = ((c1010) | (c974)) & 0x1;
-        if self.v1005 != c1005 { self.v1005 = c1005; *dirty |= 0x4000000000; }
+        let c970: u64 = (self.v762) & (self.v41) & 0x1;
+        let c976: u64 = (self.v149) & (self.v990) & 0x1;
+        if self.v976 != c976 { self.v976 = c976; *dirty |= 0x1000000000000000000000000000; }
+        let c982: u64 = !(self.v770) & 0x1;
+        let c983: u64 = !(self.v1081) & 0x1;
+        if self.v983 != c983 { self.v983 = c983; *dirty |= 0x80000000000000000000000000000000; }
+        let c972: u64 = (self.v525) & (c983) & 0x1;
+        let c1006: u64 = ((self.q128) | (c972)) & 0x1;
+        let c1007: u64 = !(c972) & 0x1;
+        let c1010: u64 = if (c970) != 0 { (c982) } else { (self.v1020) };
+        let c991: u64 = ((c1010) | (self.v984)) & 0x1;
+        let c973: u64 = (self.q128) & (c991) & 0x1;
+        let c1011: u64 = if (c970) != 0 { (self.v770) } else { (self.v1021) };
+        let c971: u64 = (c1011) & (self.v82) & 0x1;
+        let c1008: u64 = if (c971) != 0 { (c1006) } else { (self.q128) };
+        let c1005: u64 = if (c973) != 0 { (0x0) } else { (c1008) };
+        let c1001: u64 = if (self.v1002) != 0 { (0x0) } else { (c1005) };
+        let c993: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1001) };
+        if self.v993 != c993 { self.v993 = c993; *dirty |= 0x2000000000000000000000000000; }
+        let c989: u64 = !(c993) & 0x1;
+        let c977: u64 = (self.v988) & (c989) & 0x1;
+        if self.v977 != c977 { self.v977 = c977; *dirty |= 0x80000000000000000000000000; }
+        let c1009: u64 = (c971) & (c1007) & 0x1;
+        let c1004: u64 = ((c1009) | (c973)) & 0x1;
+        if self.v1004 != c1004 { self.v1004 = c1004; *dirty |= 0x4000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts.
     fn group_38(&mut self, dirty: &mut u128) {
-        let c117: u64 = (self.q89 | (self.v1005 << 1) | (self.v957 << 2) | (self.v931 << 3) | (self.v948 << 4) | (self.v929 << 5) | (self.v928 << 6)) & (((self.q41 >> 1) & 0x1) | ((self.v1080 & 0x3) << 1) | ((self.q41 >> 3) << 3) | (((self.q41 >> 2) & 0x1) << 4) | ((self.v1080 >> 3) << 5) | (((self.v1080 >> 2) & 0x1) << 6)) & 0x7f;
-        let c927: u64 = (self.v41) & (self.v935) & 0x1;
-        let c20: u64 = u64::from((c927 | (self.v926 << 1)) != 0);
-        let c42: u64 = !(c927) & 0x1;
-        let c56: u64 = u64::from((self.i_we | (c42 << 1) | (self.v926 << 2)) == 0x7);
+        let c117: u64 = (self.q88 | (self.v1004 << 1) | (self.v956 << 2) | (self.v930 << 3) | (self.v947 << 4) | (self.v928 << 5) | (self.v927 << 6)) & (((self.q40 >> 1) & 0x1) | ((self.v1080 & 0x3) << 1) | ((self.q40 >> 3) << 3) | (((self.q40 >> 2) & 0x1) << 4) | ((self.v1080 >> 3) << 5) | (((self.v1080 >> 2) & 0x1) << 6)) & 0x7f;
+        let c926: u64 = (self.v41) & (self.v934) & 0x1;
+        let c20: u64 = u64::from((c926 | (self.v925 << 1)) != 0);
+        let c42: u64 = !(c926) & 0x1;
+        let c56: u64 = u64::from((self.i_we | (c42 << 1) | (self.v925 << 2)) == 0x7);
         if self.v56 != c56 { self.v56 = c56; *dirty |= 0x1000000000000; }
         let c57: u64 = u64::from((self.i_we | (c20 << 1)) == 0x3);
         if self.v57 != c57 { self.v57 = c57; *dirty |= 0x1000000000000; }
-        let c933: u64 = (self.v766) & (self.v944) & 0x1;
-        if self.v933 != c933 { self.v933 = c933; *dirty |= 0x8000000000; }
-        let c934: u64 = (c933) & (self.v945) & 0x1;
-        let c949: u64 = ((self.v932) | (c934)) & 0x1;
-        let c952: u64 = if (self.v1003) != 0 { (0x0) } else { ((self.v953 & 0x1) | ((self.v953 >> 2) << 1)) };
-        let c118: u64 = (((c952 & 0x1) | (((self.v953 >> 1) & 0x1) << 1) | ((c952 >> 1) << 2)) | ((c117 & 0x1) | (((c117 >> 4) & 0x1) << 1) | (((c117 >> 3) & 0x1) << 2) | (((c117 >> 1) & 0x3) << 3) | ((c117 >> 6) << 5) | (((c117 >> 5) & 0x1) << 6))) & 0x7f;
+        let c932: u64 = (self.v765) & (self.v943) & 0x1;
+        if self.v932 != c932 { self.v932 = c932; *dirty |= 0x8000000000; }
+        let c933: u64 = (c932) & (self.v944) & 0x1;
+        let c948: u64 = ((self.v931) | (c933)) & 0x1;
+        let c951: u64 = if (self.v1002) != 0 { (0x0) } else { ((self.v952 & 0x1) | ((self.v952 >> 2) << 1)) };
+        let c118: u64 = (((c951 & 0x1) | (((self.v952 >> 1) & 0x1) << 1) | ((c951 >> 1) << 2)) | ((c117 & 0x1) | (((c117 >> 4) & 0x1) << 1) | (((c117 >> 3) & 0x1) << 2) | (((c117 >> 1) & 0x3) << 3) | ((c117 >> 6) << 5) | (((c117 >> 5) & 0x1) << 6))) & 0x7f;
         if self.v118 != c118 { self.v118 = c118; *dirty |= 0x800000000000000000000000; }
-        let c954: u64 = ((self.v955) | (c949)) & 0x1;
-        if self.v954 != c954 { self.v954 = c954; *dirty |= 0x200000000000000000000000; }
-        let c966: u64 = if (c927) != 0 { (((self.i_wdata >> 1) & 0xf)) } else { ((self.i_wdata & 0xf)) };
-        if self.v966 != c966 { self.v966 = c966; *dirty |= 0x1000000000000; }
+        let c953: u64 = ((self.v954) | (c948)) & 0x1;
+        if self.v953 != c953 { self.v953 = c953; *dirty |= 0x200000000000000000000000; }
+        let c965: u64 = if (c926) != 0 { (((self.i_wdata >> 1) & 0xf)) } else { ((self.i_wdata & 0xf)) };
+        if self.v965 != c965 { self.v965 = c965; *dirty |= 0x1000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$fifo.
     fn group_39(&mut self, dirty: &mut u128) {
-        let c23: u64 = u64::from((self.v796 | (self.v933 << 1)) != 0);
+        let c23: u64 = u64::from((self.v795 | (self.v932 << 1)) != 0);
         if self.v23 != c23 { self.v23 = c23; *dirty |= 0x800000000000000000000; }
-        let c804: u64 = !(self.v933) & 0x1;
-        let c797: u64 = (self.v802) & (c804) & 0x1;
-        let c822: u64 = (self.v796) & (c797) & 0x1;
-        if self.v822 != c822 { self.v822 = c822; *dirty |= 0x800000000000000000000; }
-        let c823: u64 = if (self.v933) != 0 { (self.v851) } else { (self.q68) };
-        let c795: u64 = (c823).wrapping_add((0x1)) & 0x1f;
-        let c803: u64 = u64::from((c823) == 0);
-        let c817: u64 = if (c803) != 0 { (0x0) } else { (self.v933) };
-        let c818: u64 = if (c803) != 0 { (self.q103 | (self.q97 << 6) | (self.q99 << 7)) } else { (self.v849) };
-        let c819: u64 = if (self.v796) != 0 { (c817) } else { (self.v933) };
-        if self.v819 != c819 { self.v819 = c819; *dirty |= 0x20000000000000000000; }
-        let c820: u64 = if (self.v796) != 0 { (c818) } else { (self.v849) };
-        if self.v820 != c820 { self.v820 = c820; *dirty |= 0x40000000000000000000; }
-        let c821: u64 = if (self.v796) != 0 { (c795) } else { (c823) };
+        let c803: u64 = !(self.v932) & 0x1;
+        let c796: u64 = (self.v801) & (c803) & 0x1;
+        let c821: u64 = (self.v795) & (c796) & 0x1;
         if self.v821 != c821 { self.v821 = c821; *dirty |= 0x800000000000000000000; }
-        let c824: u64 = if (self.v933) != 0 { (self.v793) } else { (self.q65) };
-        let c806: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (c824) };
-        let c811: u64 = if (self.q126) != 0 { (c806) } else { (c824) };
-        if self.v811 != c811 { self.v811 = c811; *dirty |= 0x20000000000000000000; }
+        let c822: u64 = if (self.v932) != 0 { (self.v850) } else { (self.q67) };
+        let c794: u64 = (c822).wrapping_add((0x1)) & 0x1f;
+        let c802: u64 = u64::from((c822) == 0);
+        let c816: u64 = if (c802) != 0 { (0x0) } else { (self.v932) };
+        let c817: u64 = if (c802) != 0 { (self.q102 | (self.q96 << 6) | (self.q98 << 7)) } else { (self.v848) };
+        let c818: u64 = if (self.v795) != 0 { (c816) } else { (self.v932) };
+        if self.v818 != c818 { self.v818 = c818; *dirty |= 0x20000000000000000000; }
+        let c819: u64 = if (self.v795) != 0 { (c817) } else { (self.v848) };
+        if self.v819 != c819 { self.v819 = c819; *dirty |= 0x40000000000000000000; }
+        let c820: u64 = if (self.v795) != 0 { (c794) } else { (c822) };
+        if self.v820 != c820 { self.v820 = c820; *dirty |= 0x800000000000000000000; }
+        let c823: u64 = if (self.v932) != 0 { (self.v792) } else { (self.q64) };
+        let c805: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (c823) };
+        let c810: u64 = if (self.q126) != 0 { (c805) } else { (c823) };
+        if self.v810 != c810 { self.v810 = c810; *dirty |= 0x20000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$modes$divider.
     fn group_40(&mut self, dirty: &mut u128) {
-        let c1027: u64 = (self.q31).wrapping_add((0x1)) & 0x7;
-        if self.v1027 != c1027 { self.v1027 = c1027; *dirty |= 0x20000000000000000000000000; }
-        let c1028: u64 = !(self.q30) & 0x1;
-        if self.v1028 != c1028 { self.v1028 = c1028; *dirty |= 0x40000000000000000000000000; }
-        let c1029: u64 = u64::from((self.q15) == (0x7));
-        let c1030: u64 = u64::from((self.q31) >= (self.q15));
-        if self.v1030 != c1030 { self.v1030 = c1030; *dirty |= 0x40000000000000000000000000; }
-        let c88: u64 = u64::from((self.i_reset | (c1030 << 1)) != 0);
+        let c1026: u64 = (self.q30).wrapping_add((0x1)) & 0x7;
+        if self.v1026 != c1026 { self.v1026 = c1026; *dirty |= 0x20000000000000000000000000; }
+        let c1027: u64 = !(self.q29) & 0x1;
+        if self.v1027 != c1027 { self.v1027 = c1027; *dirty |= 0x40000000000000000000000000; }
+        let c1028: u64 = u64::from((self.q14) == (0x7));
+        let c1029: u64 = u64::from((self.q30) >= (self.q14));
+        if self.v1029 != c1029 { self.v1029 = c1029; *dirty |= 0x40000000000000000000000000; }
+        let c88: u64 = u64::from((self.i_reset | (c1029 << 1)) != 0);
         if self.v88 != c88 { self.v88 = c88; *dirty |= 0x20000000000000000000000000; }
-        let c1032: u64 = if (c1029) != 0 { (0x0) } else { (self.q30) };
-        let c1031: u64 = ((c1032) | ((self.q34 & 0x1))) & 0x1;
-        if self.v1031 != c1031 { self.v1031 = c1031; *dirty |= 0x8000000000000000000000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$read.
-    fn group_41(&mut self, dirty: &mut u128) {
-        let c1037: u64 = (self.v1099) & (self.q126) & 0x1;
-        let c1051: u64 = ((self.v773) | (self.v1099)) & 0x1;
-        let c1052: u64 = ((self.v777) | (c1037)) & 0x1;
-        let c1055: u64 = if (self.q27) != 0 { (self.v1094) } else { (self.v1056) };
-        if self.v1055 != c1055 { self.v1055 = c1055; *dirty |= 0x80000000000000000000000000000000; }
-        let c1064: u64 = if (self.v129) != 0 { (self.q11) } else { (self.v1065) };
-        let c1073: u64 = if (self.q33) != 0 { (c1051) } else { (c1052) };
-        let c1053: u64 = (self.i_re) & (c1073) & 0x1;
-        if self.v1053 != c1053 { self.v1053 = c1053; *dirty |= 0x10000000000000000000000000000; }
-        let c1074: u64 = if (self.q33) != 0 { (c1064) } else { (self.v1060) };
-        let c1054: u64 = if (self.i_re) != 0 { (c1074) } else { (c1055) };
-        if self.v1054 != c1054 { self.v1054 = c1054; *dirty |= 0x40000000000000000000000000000; }
+        let c1031: u64 = if (c1028) != 0 { (0x0) } else { (self.q29) };
+        let c1030: u64 = ((c1031) | ((self.q33 & 0x1))) & 0x1;
+        if self.v1030 != c1030 { self.v1030 = c1030; *dirty |= 0x8000000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults$tec_count.
-    fn group_42(&mut self, dirty: &mut u128) {
-        self.n83 = ((self.v336 >> 7));
-        self.n84 = if (self.i_reset) != 0 { 0x0 } else if (self.v73) != 0 { ((self.v345 & 0x7)) } else { self.q84 };
-        self.n85 = if (self.i_reset) != 0 { 0x0 } else if (self.v74) != 0 { (((self.v345 >> 3) & 0xf)) } else { self.q85 };
+    fn group_41(&mut self, dirty: &mut u128) {
+        self.n82 = ((self.v335 >> 7));
+        self.n83 = if (self.i_reset) != 0 { 0x0 } else if (self.v73) != 0 { ((self.v344 & 0x7)) } else { self.q83 };
+        self.n84 = if (self.i_reset) != 0 { 0x0 } else if (self.v74) != 0 { (((self.v344 >> 3) & 0xf)) } else { self.q84 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$cdr_reg.
+    fn group_42(&mut self, dirty: &mut u128) {
+        self.n14 = if (self.i_reset) != 0 { 0x0 } else if (self.v975) != 0 { ((self.i_wdata & 0x7)) } else { self.q14 };
+        self.n32 = ((self.v992 >> 6));
+        self.n33 = if (self.i_reset) != 0 { 0x0 } else if (self.v54) != 0 { (((self.i_wdata >> 3) & 0x1) | (((self.i_wdata >> 5) & 0x3) << 1)) } else { self.q33 };
+        let _ = &dirty;
+    }
+
+    /// The cells of top$read.
     fn group_43(&mut self, dirty: &mut u128) {
-        self.n15 = if (self.i_reset) != 0 { 0x0 } else if (self.v976) != 0 { ((self.i_wdata & 0x7)) } else { self.q15 };
-        self.n33 = ((self.v993 >> 6));
-        self.n34 = if (self.i_reset) != 0 { 0x0 } else if (self.v54) != 0 { (((self.i_wdata >> 3) & 0x1) | (((self.i_wdata >> 5) & 0x3) << 1)) } else { self.q34 };
+        let c1036: u64 = (self.v1099) & (self.q126) & 0x1;
+        let c1051: u64 = ((self.v772) | (self.v1099)) & 0x1;
+        let c1052: u64 = ((self.v776) | (c1036)) & 0x1;
+        let c1055: u64 = if (self.q26) != 0 { (self.v1094) } else { (self.v1056) };
+        if self.v1055 != c1055 { self.v1055 = c1055; *dirty |= 0x80000000000000000000000000000000; }
+        let c1054: u64 = if (self.i_re) != 0 { (self.v1075) } else { (c1055) };
+        if self.v1054 != c1054 { self.v1054 = c1054; *dirty |= 0x40000000000000000000000000000; }
+        let c1073: u64 = if (self.q32) != 0 { (c1051) } else { (c1052) };
+        let c1053: u64 = (self.i_re) & (c1073) & 0x1;
+        if self.v1053 != c1053 { self.v1053 = c1053; *dirty |= 0x10000000000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$clocks.
     fn group_44(&mut self, dirty: &mut u128) {
-        self.n7 = if (self.i_reset) != 0 { 0x0 } else { (self.v184) };
-        self.n8 = if (self.v85) != 0 { 0x0 } else { ((self.v136 >> 1)) };
+        self.n6 = if (self.i_reset) != 0 { 0x0 } else { (self.v183) };
+        self.n7 = if (self.v85) != 0 { 0x0 } else { ((self.v135 >> 1)) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults$rec_count.
     fn group_45(&mut self, dirty: &mut u128) {
-        self.n86 = if (self.i_reset) != 0 { 0x0 } else { ((self.v337 & 0x7f)) };
-        self.n87 = ((self.v335 >> 7));
+        self.n85 = if (self.i_reset) != 0 { 0x0 } else { ((self.v336 & 0x7f)) };
+        self.n86 = ((self.v334 >> 7));
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender$tx_ptr.
     fn group_46(&mut self, dirty: &mut u128) {
-        self.n74 = if (self.v95) != 0 { 0x0 } else if (self.v67) != 0 { ((self.v739 >> 1)) } else { self.q74 };
-        self.n75 = if (self.v94) != 0 { 0x1 } else if (self.v68) != 0 { ((self.v679 & 0x1) | ((self.v679 >> 3) << 1)) } else { self.q75 };
+        self.n73 = if (self.v95) != 0 { 0x0 } else if (self.v67) != 0 { ((self.v738 >> 1)) } else { self.q73 };
+        self.n74 = if (self.v94) != 0 { 0x1 } else if (self.v68) != 0 { ((self.v678 & 0x1) | ((self.v678 >> 3) << 1)) } else { self.q74 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing.
     fn group_47(&mut self, dirty: &mut u128) {
-        let c759: u64 = if (self.v512) != 0 { (0x1) } else { (self.v761) };
-        if self.v759 != c759 { self.v759 = c759; *dirty |= 0x8000000000000000000; }
-        let c760: u64 = ((self.q73) | (self.v512)) & 0x1;
-        let c758: u64 = if (self.v250) != 0 { (0x0) } else { (c760) };
-        if self.v758 != c758 { self.v758 = c758; *dirty |= 0x4000000000000000000; }
+        let c758: u64 = if (self.v511) != 0 { (0x1) } else { (self.v760) };
+        if self.v758 != c758 { self.v758 = c758; *dirty |= 0x8000000000000000000; }
+        let c759: u64 = ((self.q72) | (self.v511)) & 0x1;
+        let c757: u64 = if (self.v249) != 0 { (0x0) } else { (c759) };
+        if self.v757 != c757 { self.v757 = c757; *dirty |= 0x4000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$ier_reg.
     fn group_48(&mut self, dirty: &mut u128) {
-        self.n40 = if (self.i_reset) != 0 { 0x0 } else if (self.v56) != 0 { ((self.i_wdata >> 4)) } else { self.q40 };
-        self.n41 = if (self.i_reset) != 0 { 0x0 } else if (self.v57) != 0 { (self.v966) } else { self.q41 };
+        self.n39 = if (self.i_reset) != 0 { 0x0 } else if (self.v56) != 0 { ((self.i_wdata >> 4)) } else { self.q39 };
+        self.n40 = if (self.i_reset) != 0 { 0x0 } else if (self.v57) != 0 { (self.v965) } else { self.q40 };
         let _ = &dirty;
     }
 
     /// The cells of top$configuration$btr0 + top$configuration$btr1.
     fn group_49(&mut self, dirty: &mut u128) {
-        self.n13 = if (self.i_reset) != 0 { 0x0 } else if (self.v49) != 0 { ((self.i_wdata & 0x3f)) } else { self.q13 };
-        self.n12 = if (self.i_reset) != 0 { 0x0 } else if (self.v48) != 0 { (self.i_wdata) } else { self.q12 };
+        self.n12 = if (self.i_reset) != 0 { 0x0 } else if (self.v49) != 0 { ((self.i_wdata & 0x3f)) } else { self.q12 };
+        self.n11 = if (self.i_reset) != 0 { 0x0 } else if (self.v48) != 0 { (self.i_wdata) } else { self.q11 };
         let _ = &dirty;
     }
 
     /// The cells of top$configuration$ewlr_reg + top$configuration$sjw_reg.
     fn group_50(&mut self, dirty: &mut u128) {
-        self.n11 = if (self.i_reset) != 0 { 0x60 } else if (self.v50) != 0 { (self.i_wdata) } else { self.q11 };
-        self.n10 = if (self.i_reset) != 0 { 0x0 } else if (self.v49) != 0 { ((self.i_wdata >> 6)) } else { self.q10 };
+        self.n10 = if (self.i_reset) != 0 { 0x60 } else if (self.v50) != 0 { (self.i_wdata) } else { self.q10 };
+        self.n9 = if (self.i_reset) != 0 { 0x0 } else if (self.v49) != 0 { ((self.i_wdata >> 6)) } else { self.q9 };
         let _ = &dirty;
     }
 
     /// The cells of top$configuration$tseg2_reg + top$core$bit_timing$elapsed.
     fn group_51(&mut self, dirty: &mut u128) {
-        self.n9 = if (self.i_reset) != 0 { 0x0 } else if (self.v48) != 0 { (((self.i_wdata >> 4) & 0x7)) } else { self.q9 };
-        self.n6 = if (self.v84) != 0 { 0x0 } else if (self.v47) != 0 { (self.v138) } else { self.q6 };
+        self.n8 = if (self.i_reset) != 0 { 0x0 } else if (self.v48) != 0 { (((self.i_wdata >> 4) & 0x7)) } else { self.q8 };
+        self.n5 = if (self.v84) != 0 { 0x0 } else if (self.v47) != 0 { (self.v137) } else { self.q5 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$process_pending + top$core$bit_timing$remaining.
     fn group_52(&mut self, dirty: &mut u128) {
-        self.n5 = if (self.i_reset) != 0 { 0x0 } else { (self.v150) };
-        self.n4 = if (self.v83) != 0 { 0x0 } else { (self.v189) };
+        self.n4 = if (self.i_reset) != 0 { 0x0 } else { (self.v149) };
+        self.n3 = if (self.v83) != 0 { 0x0 } else { (self.v188) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sampled + top$core$bit_timing$sampling$metastable.
     fn group_53(&mut self, dirty: &mut u128) {
-        self.n108 = (self.v179);
-        self.n109 = (self.v225);
+        self.n108 = (self.v178);
+        self.n109 = (self.v224);
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sampling$previous + top$core$bit_timing$sampling$quantum_samples.
     fn group_54(&mut self, dirty: &mut u128) {
-        self.n110 = (self.v223);
-        self.n3 = if (self.i_reset) != 0 { 0x3 } else if (self.v144) != 0 { (self.q111 | ((self.q3 & 0x1) << 1)) } else { self.q3 };
+        self.n110 = (self.v222);
+        self.n2 = if (self.i_reset) != 0 { 0x3 } else if (self.v143) != 0 { (self.q111 | ((self.q2 & 0x1) << 1)) } else { self.q2 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sampling$stable + top$core$bit_timing$segment_state.
     fn group_55(&mut self, dirty: &mut u128) {
-        self.n111 = (self.v224);
-        self.n2 = if (self.v83) != 0 { 0x0 } else if (self.v46) != 0 { (self.v187) } else { self.q2 };
+        self.n111 = (self.v223);
+        self.n1 = if (self.v83) != 0 { 0x0 } else if (self.v46) != 0 { (self.v186) } else { self.q1 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sjw_quanta + top$core$bit_timing$synced.
     fn group_56(&mut self, dirty: &mut u128) {
-        self.n19 = if (self.i_reset) != 0 { 0x1 } else { (self.v135) };
-        self.n1 = if (self.i_reset) != 0 { 0x0 } else { (self.v181) };
+        self.n18 = if (self.i_reset) != 0 { 0x1 } else { (self.v134) };
+        self.n0 = if (self.i_reset) != 0 { 0x0 } else { (self.v180) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$transmit_deferred + top$core$protocol$abort_pending.
     fn group_57(&mut self, dirty: &mut u128) {
-        self.n0 = if (self.i_reset) != 0 { 0x0 } else { (self.v154) };
-        self.n107 = if (self.v100) != 0 { 0x0 } else { (self.v273) };
+        self.n107 = if (self.i_reset) != 0 { 0x0 } else { (self.v153) };
+        self.n106 = if (self.v100) != 0 { 0x0 } else { (self.v272) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$byte_index + top$core$protocol$assembler$byte_pulse.
     fn group_58(&mut self, dirty: &mut u128) {
-        self.n106 = if (self.i_reset) != 0 { 0x0 } else if (self.v81) != 0 { (((self.q92 >> 3) & 0x7)) } else { self.q106 };
-        self.n105 = if (self.i_reset) != 0 { 0x0 } else { (self.v285) };
+        self.n105 = if (self.i_reset) != 0 { 0x0 } else if (self.v81) != 0 { (((self.q91 >> 3) & 0x7)) } else { self.q105 };
+        self.n104 = if (self.i_reset) != 0 { 0x0 } else { (self.v284) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$byte_reg + top$core$protocol$assembler$dlc_reg.
     fn group_59(&mut self, dirty: &mut u128) {
-        self.n104 = if (self.i_reset) != 0 { 0x0 } else if (self.v80) != 0 { (self.q108 | ((self.q104 & 0x7f) << 1)) } else { self.q104 };
-        self.n103 = if (self.v97) != 0 { 0x0 } else if (self.v79) != 0 { (self.q108 | ((self.q103 & 0x7) << 1)) } else { self.q103 };
+        self.n103 = if (self.i_reset) != 0 { 0x0 } else if (self.v80) != 0 { (self.q108 | ((self.q103 & 0x7f) << 1)) } else { self.q103 };
+        self.n102 = if (self.v97) != 0 { 0x0 } else if (self.v79) != 0 { (self.q108 | ((self.q102 & 0x7) << 1)) } else { self.q102 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$header_pulse + top$core$protocol$assembler$id_base.
     fn group_60(&mut self, dirty: &mut u128) {
-        self.n102 = if (self.i_reset) != 0 { 0x0 } else { (self.v286) };
-        self.n101 = if (self.v97) != 0 { 0x0 } else if (self.v78) != 0 { (self.q108 | ((self.q101 & 0x3ff) << 1)) } else { self.q101 };
+        self.n101 = if (self.i_reset) != 0 { 0x0 } else { (self.v285) };
+        self.n100 = if (self.v97) != 0 { 0x0 } else if (self.v78) != 0 { (self.q108 | ((self.q100 & 0x3ff) << 1)) } else { self.q100 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$id_extension + top$core$protocol$assembler$ide_reg.
     fn group_61(&mut self, dirty: &mut u128) {
-        self.n100 = if (self.v97) != 0 { 0x0 } else if (self.v77) != 0 { (self.q108 | ((self.q100 & 0x1ffff) << 1)) } else { self.q100 };
-        self.n99 = if (self.i_reset) != 0 { 0x0 } else if (self.v76) != 0 { (self.q108) } else { self.q99 };
+        self.n99 = if (self.v97) != 0 { 0x0 } else if (self.v77) != 0 { (self.q108 | ((self.q99 & 0x1ffff) << 1)) } else { self.q99 };
+        self.n98 = if (self.i_reset) != 0 { 0x0 } else if (self.v76) != 0 { (self.q108) } else { self.q98 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$last_data_byte_reg + top$core$protocol$assembler$rtr_reg.
     fn group_62(&mut self, dirty: &mut u128) {
-        self.n98 = if (self.i_reset) != 0 { 0x0 } else { (self.v289) };
-        self.n97 = if (self.i_reset) != 0 { 0x0 } else if (self.v75) != 0 { (self.q108) } else { self.q97 };
+        self.n97 = if (self.i_reset) != 0 { 0x0 } else { (self.v288) };
+        self.n96 = if (self.i_reset) != 0 { 0x0 } else if (self.v75) != 0 { (self.q108) } else { self.q96 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$capture$alc_reg + top$core$protocol$capture$ecc_reg.
     fn group_63(&mut self, dirty: &mut u128) {
-        self.n96 = if (self.i_reset) != 0 { 0x0 } else if (self.v496) != 0 { ((self.q92 & 0x1f)) } else { self.q96 };
-        self.n95 = if (self.i_reset) != 0 { 0x0 } else if (self.v253) != 0 { (self.v315 | (self.v671 << 5) | (self.v673 << 6)) } else { self.q95 };
+        self.n95 = if (self.i_reset) != 0 { 0x0 } else if (self.v495) != 0 { ((self.q91 & 0x1f)) } else { self.q95 };
+        self.n94 = if (self.i_reset) != 0 { 0x0 } else if (self.v252) != 0 { (self.v314 | (self.v670 << 5) | (self.v672 << 6)) } else { self.q94 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$capture$error_pulse + top$core$protocol$capture$lost_pulse.
     fn group_64(&mut self, dirty: &mut u128) {
-        self.n94 = if (self.v99) != 0 { 0x0 } else { (self.v253) };
-        self.n93 = if (self.v99) != 0 { 0x0 } else { (self.v496) };
+        self.n93 = if (self.v99) != 0 { 0x0 } else { (self.v252) };
+        self.n92 = if (self.v99) != 0 { 0x0 } else { (self.v495) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$count + top$core$protocol$crc$register.
     fn group_65(&mut self, dirty: &mut u128) {
-        self.n92 = if (self.v98) != 0 { 0x0 } else { (self.v269) };
-        self.n91 = if (self.v512) != 0 { 0x0 } else if (self.v499) != 0 { ((self.v316 & 0x1) | ((self.q91 & 0x3) << 1) | (((self.v316 >> 1) & 0x3) << 3) | (((self.q91 >> 4) & 0x3) << 5) | (((self.v316 >> 3) & 0x3) << 7) | (((self.q91 >> 8) & 0x1) << 9) | (((self.v316 >> 5) & 0x1) << 10) | (((self.q91 >> 10) & 0x7) << 11) | ((self.v316 >> 6) << 14)) } else { self.q91 };
+        self.n91 = if (self.v98) != 0 { 0x0 } else { (self.v268) };
+        self.n90 = if (self.v511) != 0 { 0x0 } else if (self.v498) != 0 { ((self.v315 & 0x1) | ((self.q90 & 0x3) << 1) | (((self.v315 >> 1) & 0x3) << 3) | (((self.q90 >> 4) & 0x3) << 5) | (((self.v315 >> 3) & 0x3) << 7) | (((self.q90 >> 8) & 0x1) << 9) | (((self.v315 >> 5) & 0x1) << 10) | (((self.q90 >> 10) & 0x7) << 11) | ((self.v315 >> 6) << 14)) } else { self.q90 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$crc_error + top$core$protocol$done_pulse.
     fn group_66(&mut self, dirty: &mut u128) {
-        self.n90 = if (self.v97) != 0 { 0x0 } else { (self.v274) };
-        self.n89 = if (self.i_reset) != 0 { 0x0 } else { (self.v275) };
+        self.n89 = if (self.v97) != 0 { 0x0 } else { (self.v273) };
+        self.n88 = if (self.i_reset) != 0 { 0x0 } else { (self.v274) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$done_success + top$core$protocol$faults$bus_off_state.
     fn group_67(&mut self, dirty: &mut u128) {
-        self.n88 = if (self.v96) != 0 { 0x0 } else if (self.v493) != 0 { (self.v492) } else { self.q88 };
-        self.n112 = (self.v334);
+        self.n87 = if (self.v96) != 0 { 0x0 } else if (self.v492) != 0 { (self.v491) } else { self.q87 };
+        self.n112 = (self.v333);
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults$passive_state + top$core$protocol$field.
     fn group_68(&mut self, dirty: &mut u128) {
-        self.n113 = (self.v324);
-        self.n114 = (self.v264);
+        self.n113 = (self.v323);
+        self.n114 = (self.v263);
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$in_frame + top$core$protocol$interframe$ack_penalty.
     fn group_69(&mut self, dirty: &mut u128) {
-        self.n115 = (self.v263);
-        self.n82 = if (self.i_reset) != 0 { 0x0 } else { (self.v672) };
+        self.n115 = (self.v262);
+        self.n81 = if (self.i_reset) != 0 { 0x0 } else { (self.v671) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$after_error_flag + top$core$protocol$interframe$dominant_after_flag.
     fn group_70(&mut self, dirty: &mut u128) {
-        self.n81 = if (self.i_reset) != 0 { 0x0 } else if (self.q5) != 0 { (self.v561) } else { self.q81 };
-        self.n80 = if (self.i_reset) != 0 { 0x0 } else if (self.v72) != 0 { (self.v644) } else { self.q80 };
+        self.n80 = if (self.i_reset) != 0 { 0x0 } else if (self.q4) != 0 { (self.v560) } else { self.q80 };
+        self.n79 = if (self.i_reset) != 0 { 0x0 } else if (self.v72) != 0 { (self.v643) } else { self.q79 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$first_after_flag + top$core$protocol$interframe$flag_level.
     fn group_71(&mut self, dirty: &mut u128) {
-        self.n79 = if (self.i_reset) != 0 { 0x0 } else if (self.v71) != 0 { (self.v645) } else { self.q79 };
-        self.n78 = if (self.i_reset) != 0 { 0x0 } else if (self.v70) != 0 { (self.q108) } else { self.q78 };
+        self.n78 = if (self.i_reset) != 0 { 0x0 } else if (self.v71) != 0 { (self.v644) } else { self.q78 };
+        self.n77 = if (self.i_reset) != 0 { 0x0 } else if (self.v70) != 0 { (self.q108) } else { self.q77 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$flag_passive_reg + top$core$protocol$sender$tx_left.
     fn group_72(&mut self, dirty: &mut u128) {
-        self.n77 = if (self.i_reset) != 0 { 0x0 } else if (self.v69) != 0 { (self.v562) } else { self.q77 };
-        self.n76 = if (self.v94) != 0 { 0x0 } else if (self.v231) != 0 { (self.v741) } else { self.q76 };
+        self.n76 = if (self.i_reset) != 0 { 0x0 } else if (self.v69) != 0 { (self.v561) } else { self.q76 };
+        self.n75 = if (self.v94) != 0 { 0x0 } else if (self.v230) != 0 { (self.v740) } else { self.q75 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender$tx_next + top$core$protocol$sender$tx_reg.
     fn group_73(&mut self, dirty: &mut u128) {
-        self.n116 = (self.v700);
-        self.n117 = (self.v701);
+        self.n116 = (self.v699);
+        self.n117 = (self.v700);
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender$tx_shift + top$core$protocol$stuffing$active.
     fn group_74(&mut self, dirty: &mut u128) {
-        self.n14 = if (self.i_reset) != 0 { 0x0 } else if (self.v231) != 0 { (self.v742) } else { self.q14 };
-        self.n73 = if (self.i_reset) != 0 { 0x0 } else if (self.q5) != 0 { (self.v758) } else { self.q73 };
+        self.n13 = if (self.i_reset) != 0 { 0x0 } else if (self.v230) != 0 { (self.v741) } else { self.q13 };
+        self.n72 = if (self.i_reset) != 0 { 0x0 } else if (self.q4) != 0 { (self.v757) } else { self.q72 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing$run_length + top$core$protocol$stuffing$run_level_reg.
     fn group_75(&mut self, dirty: &mut u128) {
-        self.n72 = if (self.i_reset) != 0 { 0x0 } else if (self.q5) != 0 { (self.v759) } else { self.q72 };
-        self.n71 = if (self.v66) != 0 { (self.q108) } else { self.q71 };
+        self.n71 = if (self.i_reset) != 0 { 0x0 } else if (self.q4) != 0 { (self.v758) } else { self.q71 };
+        self.n70 = if (self.v66) != 0 { (self.q108) } else { self.q70 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$transmitter + top$core$protocol$valid_pulse.
     fn group_76(&mut self, dirty: &mut u128) {
-        self.n70 = if (self.v93) != 0 { 0x0 } else if (self.q5) != 0 { (self.v676) } else { self.q70 };
-        self.n69 = if (self.v92) != 0 { 0x0 } else { (self.v470) };
+        self.n69 = if (self.v93) != 0 { 0x0 } else if (self.q4) != 0 { (self.v675) } else { self.q69 };
+        self.n68 = if (self.v92) != 0 { 0x0 } else { (self.v469) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$fetching + top$fifo$head.
     fn group_77(&mut self, dirty: &mut u128) {
-        self.n67 = if (self.i_reset) != 0 { 0x0 } else { (self.v819) };
-        self.n65 = if (self.i_reset) != 0 { 0x0 } else { (self.v811) };
+        self.n66 = if (self.i_reset) != 0 { 0x0 } else { (self.v818) };
+        self.n64 = if (self.i_reset) != 0 { 0x0 } else { (self.v810) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$head_info_reg.
     fn group_78(&mut self, dirty: &mut u128) {
-        self.n64 = if (self.i_reset) != 0 { 0x0 } else { (self.v820) };
+        self.n63 = if (self.i_reset) != 0 { 0x0 } else { (self.v819) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$header_step.
     fn group_79(&mut self, dirty: &mut u128) {
-        let c22: u64 = u64::from((self.q102 | (self.q59 << 1)) != 0);
-        self.n63 = if (self.i_reset) != 0 { 0x0 } else if (c22) != 0 { (self.v840) } else { self.q63 };
+        let c22: u64 = u64::from((self.q101 | (self.q58 << 1)) != 0);
+        self.n62 = if (self.i_reset) != 0 { 0x0 } else if (c22) != 0 { (self.v839) } else { self.q62 };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$overrun_state + top$fifo$ram.
     fn group_80(&mut self, dirty: &mut u128) {
-        self.n61 = if (self.v91) != 0 { 0x0 } else { (self.v816) };
+        self.n60 = if (self.v91) != 0 { 0x0 } else { (self.v815) };
         self.m0_re = (0x1) != 0;
-        self.m0_ra = (self.v815) as usize;
-        self.m0_wa = (self.v814) as usize;
-        self.m0_wd = (self.v813);
-        self.m0_we = (self.v812 | (self.v812 << 1) | (self.v812 << 2) | (self.v812 << 3) | (self.v812 << 4) | (self.v812 << 5) | (self.v812 << 6) | (self.v812 << 7));
+        self.m0_ra = (self.v814) as usize;
+        self.m0_wa = (self.v813) as usize;
+        self.m0_wd = (self.v812);
+        self.m0_we = (self.v811 | (self.v811 << 1) | (self.v811 << 2) | (self.v811 << 3) | (self.v811 << 4) | (self.v811 << 5) | (self.v811 << 6) | (self.v811 << 7));
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$tail.
     fn group_81(&mut self, dirty: &mut u128) {
-        self.n60 = if (self.i_reset) != 0 { 0x0 } else if (self.v21) != 0 { (self.v810) } else { self.q60 };
+        self.n59 = if (self.i_reset) != 0 { 0x0 } else if (self.v21) != 0 { (self.v809) } else { self.q59 };
         let _ = &dirty;
     }
 
@@ -5218,222 +5214,222 @@ impl Model {
     fn group_82(&mut self, dirty: &mut u128) {
         let c90: u64 = u64::from((self.i_reset | (self.q126 << 1)) != 0);
         if self.v90 != c90 { self.v90 = c90; *dirty |= 0x1800000000000000000000; }
-        self.n59 = if (c90) != 0 { 0x0 } else { (self.v839) };
+        self.n58 = if (c90) != 0 { 0x0 } else { (self.v838) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$count + top$fifo$full.
     fn group_83(&mut self, dirty: &mut u128) {
-        self.n68 = if (self.v90) != 0 { 0x0 } else { (self.v821) };
-        self.n66 = if (self.v90) != 0 { 0x0 } else if (self.v23) != 0 { (self.v822) } else { self.q66 };
+        self.n67 = if (self.v90) != 0 { 0x0 } else { (self.v820) };
+        self.n65 = if (self.v90) != 0 { 0x0 } else if (self.v23) != 0 { (self.v821) } else { self.q65 };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$incomplete + top$filter$acr0.
     fn group_84(&mut self, dirty: &mut u128) {
-        self.n62 = if (self.v90) != 0 { 0x0 } else { (self.v827) };
-        self.n58 = if (self.i_reset) != 0 { 0x0 } else if (self.v65) != 0 { (self.i_wdata) } else { self.q58 };
+        self.n61 = if (self.v90) != 0 { 0x0 } else { (self.v826) };
+        self.n57 = if (self.i_reset) != 0 { 0x0 } else if (self.v65) != 0 { (self.i_wdata) } else { self.q57 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$acr1 + top$filter$acr2.
     fn group_85(&mut self, dirty: &mut u128) {
-        self.n57 = if (self.i_reset) != 0 { 0x0 } else if (self.v64) != 0 { (self.i_wdata) } else { self.q57 };
-        self.n56 = if (self.i_reset) != 0 { 0x0 } else if (self.v63) != 0 { (self.i_wdata) } else { self.q56 };
+        self.n56 = if (self.i_reset) != 0 { 0x0 } else if (self.v64) != 0 { (self.i_wdata) } else { self.q56 };
+        self.n55 = if (self.i_reset) != 0 { 0x0 } else if (self.v63) != 0 { (self.i_wdata) } else { self.q55 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$acr3 + top$filter$amr0.
     fn group_86(&mut self, dirty: &mut u128) {
-        self.n55 = if (self.i_reset) != 0 { 0x0 } else if (self.v62) != 0 { (self.i_wdata) } else { self.q55 };
-        self.n54 = if (self.i_reset) != 0 { 0x0 } else if (self.v61) != 0 { (self.i_wdata) } else { self.q54 };
+        self.n54 = if (self.i_reset) != 0 { 0x0 } else if (self.v62) != 0 { (self.i_wdata) } else { self.q54 };
+        self.n53 = if (self.i_reset) != 0 { 0x0 } else if (self.v61) != 0 { (self.i_wdata) } else { self.q53 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$amr1 + top$filter$amr2.
     fn group_87(&mut self, dirty: &mut u128) {
-        self.n53 = if (self.i_reset) != 0 { 0x0 } else if (self.v60) != 0 { (self.i_wdata) } else { self.q53 };
-        self.n52 = if (self.i_reset) != 0 { 0x0 } else if (self.v59) != 0 { (self.i_wdata) } else { self.q52 };
+        self.n52 = if (self.i_reset) != 0 { 0x0 } else if (self.v60) != 0 { (self.i_wdata) } else { self.q52 };
+        self.n51 = if (self.i_reset) != 0 { 0x0 } else if (self.v59) != 0 { (self.i_wdata) } else { self.q51 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$amr3 + top$filter$basic_id_match.
     fn group_88(&mut self, dirty: &mut u128) {
-        self.n51 = if (self.i_reset) != 0 { 0x0 } else if (self.v58) != 0 { (self.i_wdata) } else { self.q51 };
-        self.n50 = if (self.i_reset) != 0 { 0x0 } else if (self.q102) != 0 { (self.v882) } else { self.q50 };
+        self.n50 = if (self.i_reset) != 0 { 0x0 } else if (self.v58) != 0 { (self.i_wdata) } else { self.q50 };
+        self.n49 = if (self.i_reset) != 0 { 0x0 } else if (self.q101) != 0 { (self.v881) } else { self.q49 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$dual1_data_match + top$filter$dual1_id_match.
     fn group_89(&mut self, dirty: &mut u128) {
-        self.n118 = (self.v896);
-        self.n49 = if (self.i_reset) != 0 { 0x0 } else if (self.q102) != 0 { (self.v864) } else { self.q49 };
+        self.n118 = (self.v895);
+        self.n48 = if (self.i_reset) != 0 { 0x0 } else if (self.q101) != 0 { (self.v863) } else { self.q48 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$dual2_id_match + top$filter$single_data1_match.
     fn group_90(&mut self, dirty: &mut u128) {
-        self.n48 = if (self.i_reset) != 0 { 0x0 } else if (self.q102) != 0 { (self.v865) } else { self.q48 };
-        self.n119 = (self.v898);
+        self.n47 = if (self.i_reset) != 0 { 0x0 } else if (self.q101) != 0 { (self.v864) } else { self.q47 };
+        self.n119 = (self.v897);
         let _ = &dirty;
     }
 
     /// The cells of top$filter$single_data2_match + top$filter$single_id_match.
     fn group_91(&mut self, dirty: &mut u128) {
-        self.n120 = (self.v897);
-        self.n47 = if (self.i_reset) != 0 { 0x0 } else if (self.q102) != 0 { (self.v867) } else { self.q47 };
+        self.n120 = (self.v896);
+        self.n46 = if (self.i_reset) != 0 { 0x0 } else if (self.q101) != 0 { (self.v866) } else { self.q46 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$alc_armed + top$interrupts$alc_reg.
     fn group_92(&mut self, dirty: &mut u128) {
-        self.n121 = (self.v951);
-        self.n46 = if (self.i_reset) != 0 { 0x0 } else if (self.v928) != 0 { (self.q96) } else { self.q46 };
+        self.n121 = (self.v950);
+        self.n45 = if (self.i_reset) != 0 { 0x0 } else if (self.v927) != 0 { (self.q95) } else { self.q45 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$basic_ri_reg + top$interrupts$bus_off_reg.
     fn group_93(&mut self, dirty: &mut u128) {
-        self.n45 = if (self.i_reset) != 0 { 0x0 } else { (self.v954) };
-        self.n44 = if (self.i_reset) != 0 { 0x0 } else { (self.q112) };
+        self.n44 = if (self.i_reset) != 0 { 0x0 } else { (self.v953) };
+        self.n43 = if (self.i_reset) != 0 { 0x0 } else { (self.q112) };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$ecc_armed + top$interrupts$ecc_reg.
     fn group_94(&mut self, dirty: &mut u128) {
-        self.n122 = (self.v950);
-        self.n43 = if (self.i_reset) != 0 { 0x0 } else if (self.v929) != 0 { (self.q95) } else { self.q43 };
+        self.n122 = (self.v949);
+        self.n42 = if (self.i_reset) != 0 { 0x0 } else if (self.v928) != 0 { (self.q94) } else { self.q42 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$es_reg + top$interrupts$ir_reg.
     fn group_95(&mut self, dirty: &mut u128) {
-        self.n42 = if (self.i_reset) != 0 { 0x0 } else { (self.v958) };
-        self.n39 = if (self.i_reset) != 0 { 0x0 } else { (self.v118) };
+        self.n41 = if (self.i_reset) != 0 { 0x0 } else { (self.v957) };
+        self.n38 = if (self.i_reset) != 0 { 0x0 } else { (self.v118) };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$overrun_before.
     fn group_96(&mut self, dirty: &mut u128) {
-        self.n38 = if (self.i_reset) != 0 { 0x0 } else { (self.q61) };
+        self.n37 = if (self.i_reset) != 0 { 0x0 } else { (self.q60) };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$passive_before.
     fn group_97(&mut self, dirty: &mut u128) {
         let c89: u64 = u64::from((self.i_reset | (self.q112 << 1)) != 0);
-        self.n37 = if (c89) != 0 { 0x0 } else if (self.q126) == 0 { (self.q113) } else { self.q37 };
+        self.n36 = if (c89) != 0 { 0x0 } else if (self.q126) == 0 { (self.q113) } else { self.q36 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$rbs_before.
     fn group_98(&mut self, dirty: &mut u128) {
-        self.n36 = if (self.i_reset) != 0 { 0x0 } else { (self.v944) };
+        self.n35 = if (self.i_reset) != 0 { 0x0 } else { (self.v943) };
         let _ = &dirty;
     }
 
     /// The cells of top$modes.
     fn group_99(&mut self, dirty: &mut u128) {
-        let c998: u64 = if (self.v988) != 0 { (0x0) } else { (self.v1031) };
-        let c999: u64 = if (self.q128) != 0 { (c998) } else { (self.v1031) };
-        if self.v999 != c999 { self.v999 = c999; *dirty |= 0x80000000000000000000000000000000; }
+        let c997: u64 = if (self.v987) != 0 { (0x0) } else { (self.v1030) };
+        let c998: u64 = if (self.q128) != 0 { (c997) } else { (self.v1030) };
+        if self.v998 != c998 { self.v998 = c998; *dirty |= 0x80000000000000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$modes$afm + top$modes$cr6_reg.
     fn group_100(&mut self, dirty: &mut u128) {
-        self.n35 = if (self.i_reset) != 0 { 0x0 } else if (self.v55) != 0 { (((self.i_wdata >> 3) & 0x1)) } else { self.q35 };
-        self.n32 = if (self.i_reset) != 0 { 0x0 } else if (self.v53) != 0 { (((self.i_wdata >> 6) & 0x1)) } else { self.q32 };
+        self.n34 = if (self.i_reset) != 0 { 0x0 } else if (self.v55) != 0 { (((self.i_wdata >> 3) & 0x1)) } else { self.q34 };
+        self.n31 = if (self.i_reset) != 0 { 0x0 } else if (self.v53) != 0 { (((self.i_wdata >> 6) & 0x1)) } else { self.q31 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$divider$count.
     fn group_101(&mut self, dirty: &mut u128) {
-        self.n31 = if (self.v88) != 0 { 0x0 } else { (self.v1027) };
+        self.n30 = if (self.v88) != 0 { 0x0 } else { (self.v1026) };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$divider$level.
     fn group_102(&mut self, dirty: &mut u128) {
-        self.n30 = if (self.i_reset) != 0 { 0x0 } else if (self.v1030) != 0 { (self.v1028) } else { self.q30 };
+        self.n29 = if (self.i_reset) != 0 { 0x0 } else if (self.v1029) != 0 { (self.v1027) } else { self.q29 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$enable_reg.
     fn group_103(&mut self, dirty: &mut u128) {
-        self.n123 = (self.v978);
+        self.n123 = (self.v977);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$listen_only_reg.
     fn group_104(&mut self, dirty: &mut u128) {
-        self.n124 = (self.v979);
+        self.n124 = (self.v978);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$lom.
     fn group_105(&mut self, dirty: &mut u128) {
-        self.n125 = (self.v996);
+        self.n125 = (self.v995);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$rm.
     fn group_106(&mut self, dirty: &mut u128) {
-        self.n126 = (self.v997);
+        self.n126 = (self.v996);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$self_test_reg.
     fn group_107(&mut self, dirty: &mut u128) {
-        self.n127 = (self.v980);
+        self.n127 = (self.v979);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$sleep_bits.
     fn group_108(&mut self, dirty: &mut u128) {
-        self.n29 = if (self.v87) != 0 { 0x0 } else if (self.v977) != 0 { (self.v967) } else { self.q29 };
+        self.n28 = if (self.v87) != 0 { 0x0 } else if (self.v976) != 0 { (self.v966) } else { self.q28 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$sm.
     fn group_109(&mut self, dirty: &mut u128) {
-        self.n128 = (self.v994);
+        self.n128 = (self.v993);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$stm.
     fn group_110(&mut self, dirty: &mut u128) {
-        self.n129 = (self.v995);
+        self.n129 = (self.v994);
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_from_ram.
     fn group_111(&mut self, dirty: &mut u128) {
-        self.n28 = if (self.i_reset) != 0 { 0x0 } else { (self.v17) };
+        self.n27 = if (self.i_reset) != 0 { 0x0 } else { (self.v17) };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_from_tx.
     fn group_112(&mut self, dirty: &mut u128) {
-        self.n27 = if (self.i_reset) != 0 { 0x0 } else { (self.v1053) };
+        self.n26 = if (self.i_reset) != 0 { 0x0 } else { (self.v1053) };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_ram_or.
     fn group_113(&mut self, dirty: &mut u128) {
-        self.n16 = if (self.i_reset) != 0 { 0x0 } else if (self.i_re) != 0 { (self.v1076) } else { self.q16 };
+        self.n15 = if (self.i_reset) != 0 { 0x0 } else if (self.i_re) != 0 { (self.v1076) } else { self.q15 };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_reg.
     fn group_114(&mut self, dirty: &mut u128) {
-        self.n26 = if (self.i_reset) != 0 { 0x0 } else { (self.v1054) };
+        self.n25 = if (self.i_reset) != 0 { 0x0 } else { (self.v1054) };
         let _ = &dirty;
     }
 
     /// The cells of top$self_reception.
     fn group_115(&mut self, dirty: &mut u128) {
-        self.n25 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v770) } else { self.q25 };
+        self.n24 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v769) } else { self.q24 };
         let _ = &dirty;
     }
 
@@ -5451,14 +5447,14 @@ impl Model {
 
     /// The cells of top$tx_buffer$basic_info.
     fn group_118(&mut self, dirty: &mut u128) {
-        self.n17 = if (self.i_reset) != 0 { 0x0 } else if (self.v52) != 0 { ((self.i_wdata & 0x1f)) } else { self.q17 };
+        self.n16 = if (self.i_reset) != 0 { 0x0 } else if (self.v52) != 0 { ((self.i_wdata & 0x1f)) } else { self.q16 };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$core_ram.
     fn group_119(&mut self, dirty: &mut u128) {
         self.m1_re = (0x1) != 0;
-        self.m1_ra = ((self.q75 & 0x1) | (self.q74 << 1) | ((self.q75 >> 1) << 3)) as usize;
+        self.m1_ra = ((self.q74 & 0x1) | (self.q73 << 1) | ((self.q74 >> 1) << 3)) as usize;
         self.m1_wa = ((self.v1115 & 0xf)) as usize;
         self.m1_wd = (self.i_wdata);
         self.m1_we = (self.v1083 | (self.v1083 << 1) | (self.v1083 << 2) | (self.v1083 << 3) | (self.v1083 << 4) | (self.v1083 << 5) | (self.v1083 << 6) | (self.v1083 << 7));
@@ -5467,13 +5463,13 @@ impl Model {
 
     /// The cells of top$tx_buffer$core_written.
     fn group_120(&mut self, dirty: &mut u128) {
-        self.n24 = if (self.i_reset) != 0 { 0x0 } else { (self.v1085) };
+        self.n23 = if (self.i_reset) != 0 { 0x0 } else { (self.v1085) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$frame_info.
     fn group_121(&mut self, dirty: &mut u128) {
-        self.n23 = if (self.i_reset) != 0 { 0x0 } else if (self.v51) != 0 { (self.i_wdata) } else { self.q23 };
+        self.n22 = if (self.i_reset) != 0 { 0x0 } else if (self.v51) != 0 { (self.i_wdata) } else { self.q22 };
         let _ = &dirty;
     }
 
@@ -5489,25 +5485,25 @@ impl Model {
 
     /// The cells of top$tx_buffer$host_written.
     fn group_123(&mut self, dirty: &mut u128) {
-        self.n22 = if (self.i_reset) != 0 { 0x0 } else { (self.v1084) };
+        self.n21 = if (self.i_reset) != 0 { 0x0 } else { (self.v1084) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$written.
     fn group_124(&mut self, dirty: &mut u128) {
-        self.n18 = if (self.i_reset) != 0 { 0x0 } else if (self.v1082) != 0 { (self.v109) } else { self.q18 };
+        self.n17 = if (self.i_reset) != 0 { 0x0 } else if (self.v1082) != 0 { (self.v109) } else { self.q17 };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_pending.
     fn group_125(&mut self, dirty: &mut u128) {
-        self.n21 = if (self.v86) != 0 { 0x0 } else { (self.v1109) };
+        self.n20 = if (self.v86) != 0 { 0x0 } else { (self.v1109) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_single_shot.
     fn group_126(&mut self, dirty: &mut u128) {
-        self.n20 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v765) } else { self.q20 };
+        self.n19 = if (self.i_reset) != 0 { 0x0 } else if (self.v12) != 0 { (self.v764) } else { self.q19 };
         let _ = &dirty;
     }
 }
