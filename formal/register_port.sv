@@ -8,9 +8,14 @@
 // it. 6.4.5 SR bit 0 (RBS): 1 when the RXFIFO holds a message (RMC, 6.4.16, above 0).
 // Split into (a) out of reset mode the register never changes, (b) a reset-mode write to its address
 // loads `wdata`, (c) a reset-mode read of its address returns the register in `rdata` the cycle after
-// the `re` cycle, (d) a read of SR returns RMC != 0 in bit 0. The controller reads these registers
-// from their read-back copies in the TX buffer's RAM (rtl/src/tx_buffer.rs), so (c) proves that each
-// copy always equals its register: written together, 0 after reset, none overwriting another.
+// the `re` cycle, (d) a read of SR returns RMC != 0 in bit 0, (e) each ACR/AMR read of the
+// acceptance filter gives the register. The controller reads these registers from their copies in
+// the TX buffer's RAMs (rtl/src/tx_buffer.rs), so (c) proves that each copy always equals its
+// register: written together, 0 after reset, none overwriting another. ACR0..3 and AMR0..3 exist only
+// as these copies: the harness holds them as the data sheet's rules define them (0 after reset, loaded
+// by a reset-mode write to their address in the map in force), so (a) and (b) hold by construction
+// for them and (c) and (e) check the copies against the rules; the filter reads them through the
+// core port, at any clock the controller grants, while the host may write the frame (e).
 //
 // The whole controller, every input free (rx too) but for the port contract at the top of
 // fpga/rtl/can_controller.v: `reset` in the first cycle, `we` and `re` never together. Both register
@@ -22,22 +27,19 @@
 //! connect: cdr = ctl.modes.cdr_reg$q
 //! connect: btr0 = ctl.configuration.btr0$q
 //! connect: btr1 = ctl.configuration.btr1$q
-//! connect: acr0 = ctl.filter.acr0$q
-//! connect: acr1 = ctl.filter.acr1$q
-//! connect: acr2 = ctl.filter.acr2$q
-//! connect: acr3 = ctl.filter.acr3$q
-//! connect: amr0 = ctl.filter.amr0$q
-//! connect: amr1 = ctl.filter.amr1$q
-//! connect: amr2 = ctl.filter.amr2$q
-//! connect: amr3 = ctl.filter.amr3$q
+//! connect: filter_granted = ctl.filter$copy_granted
+//! connect: filter_index = ctl.filter$copy_index
+//! connect: filter_data = ctl.filter$copy_data
 //! connect: message_count = ctl.fifo$message_count
 //! bmc: 12
 //! prove: pdr
 //! mutation: btr-write-in-operating | if (host$we & reset_mode) begin => if (host$we) begin
-//! mutation: filter-write-in-operating | if (host$we & reset_mode & host_selected) begin => if (host$we & host_selected) begin
+//! mutation: filter-write-in-operating | if (we & reset_mode) begin => if (we) begin
 //! mutation: btr1-readback | btr1$d = host$wdata; => btr1$d = host$wdata ^ 8'h01;
 //! mutation: amr3-copy-kept | localparam  kept_bytes = 32'h7ff1fff; => localparam  kept_bytes = 32'h7f71fff;
 //! mutation: filter-copy-index | readback_index = readback_filter | ((filter$host_index) & 5'h1f); => readback_index = readback_filter | ((filter$host_index) & 5'h1b);
+//! mutation: filter-read-index | tx_core_index = readback_filter | ((filter$copy_index) & 5'h1f); => tx_core_index = readback_filter | ((filter$copy_index) & 5'h1e);
+//! mutation: filter-read-in-frame-write | & ~(writing & (write_index[32'h4] == core_index[32'h4])); => & ~writing;
 //! mutation: rbs-or-tbs | ((rbs) << (32'h0)) => ((rbs | tbs) << (32'h0))
 module register_port (
 `include "controller_ports.vh"
@@ -46,8 +48,11 @@ module register_port (
 
   // Inside the controller (see the `connect` lines).
   wire reset_mode;
-  wire [7:0] cdr, btr0, btr1, acr0, acr1, acr2, acr3, amr0, amr1, amr2, amr3;
+  wire [7:0] cdr, btr0, btr1;
   wire [4:0] message_count;
+  wire filter_granted;
+  wire [2:0] filter_index;
+  wire [7:0] filter_data;
 
   // The port contract.
   reg started = 1'b0;
@@ -71,14 +76,35 @@ module register_port (
     else address = 8'hff;
   endfunction
 
+  // ACR0..3 (registers 2..5) and AMR0..3 (6..9) by the data sheet's rules.
+  wire [7:0] at_acr0 = address(2, cdr[7]), at_acr1 = address(3, cdr[7]), at_acr2 = address(4, cdr[7]),
+             at_acr3 = address(5, cdr[7]), at_amr0 = address(6, cdr[7]), at_amr1 = address(7, cdr[7]),
+             at_amr2 = address(8, cdr[7]), at_amr3 = address(9, cdr[7]);
+`define WRITTEN(at) (reset_mode && we && at != 8'hff && addr == at)
+  reg [7:0] acr0, acr1, acr2, acr3, amr0, amr1, amr2, amr3;
+  always @(posedge clock)
+    if (reset) {acr0, acr1, acr2, acr3, amr0, amr1, amr2, amr3} <= 64'd0;
+    else begin
+      if (`WRITTEN(at_acr0)) acr0 <= wdata;
+      if (`WRITTEN(at_acr1)) acr1 <= wdata;
+      if (`WRITTEN(at_acr2)) acr2 <= wdata;
+      if (`WRITTEN(at_acr3)) acr3 <= wdata;
+      if (`WRITTEN(at_amr0)) amr0 <= wdata;
+      if (`WRITTEN(at_amr1)) amr1 <= wdata;
+      if (`WRITTEN(at_amr2)) amr2 <= wdata;
+      if (`WRITTEN(at_amr3)) amr3 <= wdata;
+    end
+
   reg past_valid = 1'b0;
-  reg past_reset, past_reset_mode, past_pelican, past_we, past_re;
+  reg past_reset, past_reset_mode, past_pelican, past_we, past_re, past_granted;
+  reg [2:0] past_index;
   reg [7:0] past_addr, past_wdata;
   reg [8*10-1:0] past_value;
   reg [4:0] past_count;
   always @(posedge clock) begin
     past_valid <= started;
     {past_reset, past_reset_mode, past_pelican, past_we, past_re} <= {reset, reset_mode, cdr[7], we, re};
+    {past_granted, past_index} <= {filter_granted, filter_index};
     {past_addr, past_wdata, past_value, past_count} <= {addr, wdata, `REGISTERS, message_count};
   end
 
@@ -99,8 +125,15 @@ module register_port (
     end
   endgenerate
 
+  // (e) A granted read of the filter's register k (0..3 ACR0..3, 4..7 AMR0..3) gives the register
+  // the cycle after, but when that cycle wrote a register (reset mode, no frame is filtered then).
+  always @(*)
+    if (past_valid && !past_reset && past_granted && !(past_we && past_reset_mode))
+      assert (filter_data == past_value[8*(2 + past_index)+:8]);
+
   // (d) SR.0 = RBS = RMC != 0, in both maps and modes.
   always @(*) if (past_valid && !past_reset && past_re && past_addr == 8'd2) assert (rdata[0] == (past_count != 5'd0));
 endmodule
 `undef REGISTERS
+`undef WRITTEN
 `undef REGISTER

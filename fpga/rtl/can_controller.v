@@ -142,7 +142,7 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
     reg  [7:0] tx_buffer$write_data;
     reg  [4:0] tx_buffer$host_index;
     wire  [7:0] tx_buffer$host_data;
-    reg  [3:0] tx_buffer$core_index;
+    reg  [4:0] tx_buffer$core_index;
     wire  [7:0] tx_buffer$core_data;
     reg  tx_buffer$basic_layout;
     wire  [7:0] tx_buffer$info;
@@ -151,9 +151,7 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
     reg  filter$pelican;
     reg  filter$single_filter;
     reg  filter$reset_mode;
-    reg  [7:0] filter$host$addr;
-    reg  filter$host$we;
-    reg  [7:0] filter$host$wdata;
+    reg  [7:0] filter$addr;
     reg  filter$rx_frame$header;
     reg  [28:0] filter$rx_frame$id;
     reg  filter$rx_frame$ide;
@@ -162,9 +160,13 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
     reg  filter$rx_frame$strobe;
     reg  [7:0] filter$rx_frame$data;
     reg  [2:0] filter$rx_frame$index;
+    reg  filter$copy_granted;
+    reg  [7:0] filter$copy_data;
     wire  filter$accept;
     wire  filter$host_selected;
     wire  [2:0] filter$host_index;
+    wire  filter$copy_wanted;
+    wire  [2:0] filter$copy_index;
     reg  [7:0] decode$host$addr;
     reg  decode$host$we;
     reg  [7:0] decode$host$wdata;
@@ -331,6 +333,8 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
     reg  tx_write;
     reg  [4:0] tx_write_index;
     reg  [4:0] tx_host_index;
+    reg  filter_read;
+    reg  [4:0] tx_core_index;
     reg  pelican_mode;
     reg  reset_mode;
     reg  reset_mode_write;
@@ -431,9 +435,7 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
         .pelican(filter$pelican),
         .single_filter(filter$single_filter),
         .reset_mode(filter$reset_mode),
-        .host$addr(filter$host$addr),
-        .host$we(filter$host$we),
-        .host$wdata(filter$host$wdata),
+        .addr(filter$addr),
         .rx_frame$header(filter$rx_frame$header),
         .rx_frame$id(filter$rx_frame$id),
         .rx_frame$ide(filter$rx_frame$ide),
@@ -442,9 +444,13 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
         .rx_frame$strobe(filter$rx_frame$strobe),
         .rx_frame$data(filter$rx_frame$data),
         .rx_frame$index(filter$rx_frame$index),
+        .copy_granted(filter$copy_granted),
+        .copy_data(filter$copy_data),
         .accept(filter$accept),
         .host_selected(filter$host_selected),
-        .host_index(filter$host_index)
+        .host_index(filter$host_index),
+        .copy_wanted(filter$copy_wanted),
+        .copy_index(filter$copy_index)
     );
     top$decode decode(
         .host$addr(decode$host$addr),
@@ -774,7 +780,14 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
         tx_buffer$write_index = tx_write_index;
         tx_buffer$host_index = tx_host_index;
         tx_buffer$write_data = wdata;
-        tx_buffer$core_index = core$transmit$addr;
+        filter_read = filter$copy_wanted & ~core$sample_point;
+        tx_core_index = ((core$transmit$addr) & 5'h1f);
+        if (filter_read) begin
+            tx_core_index = readback_filter | ((filter$copy_index) & 5'h1f);
+        end
+        tx_buffer$core_index = tx_core_index;
+        filter$copy_granted = filter_read;
+        filter$copy_data = tx_buffer$core_data;
         core$transmit$abort = decode$cmd_abort & (decode$cmd_transmit == 1'b0) & (decode$cmd_self_reception == 1'b0) & tx_pending$q;
         if (core$transmit$done) begin
             tx_pending$d = 1'b0;
@@ -807,9 +820,7 @@ module can_controller(clock,reset,addr,wdata,we,re,rdata,rx,tx,irq_n,clkout);
         filter$pelican = modes$pelican;
         filter$single_filter = modes$single_filter;
         filter$reset_mode = modes$reset_mode;
-        filter$host$addr = addr;
-        filter$host$we = we;
-        filter$host$wdata = wdata;
+        filter$addr = addr;
         core$reset = reset;
         core$rx = rx;
         core$enable = modes$core_enable;
@@ -5824,7 +5835,7 @@ module top$fifo$writing_header(d,q,clock);
 endmodule // top$fifo$writing_header
 
 
-module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we,host$wdata,rx_frame$header,rx_frame$id,rx_frame$ide,rx_frame$rtr,rx_frame$dlc,rx_frame$strobe,rx_frame$data,rx_frame$index,accept,host_selected,host_index);
+module top$filter(clock,reset,pelican,single_filter,reset_mode,addr,rx_frame$header,rx_frame$id,rx_frame$ide,rx_frame$rtr,rx_frame$dlc,rx_frame$strobe,rx_frame$data,rx_frame$index,copy_granted,copy_data,accept,host_selected,host_index,copy_wanted,copy_index);
     
     // Module arguments
     input wire  clock;
@@ -5832,9 +5843,7 @@ module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we
     input wire  pelican;
     input wire  single_filter;
     input wire  reset_mode;
-    input wire  [7:0] host$addr;
-    input wire  host$we;
-    input wire  [7:0] host$wdata;
+    input wire  [7:0] addr;
     input wire  rx_frame$header;
     input wire  [28:0] rx_frame$id;
     input wire  rx_frame$ide;
@@ -5843,9 +5852,13 @@ module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we
     input wire  rx_frame$strobe;
     input wire  [7:0] rx_frame$data;
     input wire  [2:0] rx_frame$index;
+    input wire  copy_granted;
+    input wire  [7:0] copy_data;
     output reg  accept;
     output reg  host_selected;
     output reg  [2:0] host_index;
+    output reg  copy_wanted;
+    output reg  [2:0] copy_index;
     
     // Constant declarations
     localparam  pelican_block = 5'b10;
@@ -5854,456 +5867,281 @@ module top$filter(clock,reset,pelican,single_filter,reset_mode,host$addr,host$we
     localparam  ones = 8'hff;
     localparam  standard_id_care = 8'hf0;
     localparam  extended_rtr_care = 8'hfc;
+    localparam  nibble_care = 8'hf;
     
     // Stub signals
-    reg  [7:0] acr0$d;
-    wire  [7:0] acr0$q;
-    reg  acr0$clock;
-    reg  [7:0] acr1$d;
-    wire  [7:0] acr1$q;
-    reg  acr1$clock;
-    reg  [7:0] acr2$d;
-    wire  [7:0] acr2$q;
-    reg  acr2$clock;
-    reg  [7:0] acr3$d;
-    wire  [7:0] acr3$q;
-    reg  acr3$clock;
-    reg  [7:0] amr0$d;
-    wire  [7:0] amr0$q;
-    reg  amr0$clock;
-    reg  [7:0] amr1$d;
-    wire  [7:0] amr1$q;
-    reg  amr1$clock;
-    reg  [7:0] amr2$d;
-    wire  [7:0] amr2$q;
-    reg  amr2$clock;
-    reg  [7:0] amr3$d;
-    wire  [7:0] amr3$q;
-    reg  amr3$clock;
-    reg  single_id_match$d;
-    wire  single_id_match$q;
-    reg  single_id_match$clock;
-    reg  single_data1_match$d;
-    wire  single_data1_match$q;
-    reg  single_data1_match$clock;
-    reg  single_data2_match$d;
-    wire  single_data2_match$q;
-    reg  single_data2_match$clock;
-    reg  dual1_id_match$d;
-    wire  dual1_id_match$q;
-    reg  dual1_id_match$clock;
-    reg  dual1_data_match$d;
-    wire  dual1_data_match$q;
-    reg  dual1_data_match$clock;
-    reg  dual2_id_match$d;
-    wire  dual2_id_match$q;
-    reg  dual2_id_match$clock;
-    reg  basic_id_match$d;
-    wire  basic_id_match$q;
-    reg  basic_id_match$clock;
+    reg  running$d;
+    wire  running$q;
+    reg  running$clock;
+    reg  [2:0] read_number$d;
+    wire  [2:0] read_number$q;
+    reg  read_number$clock;
+    reg  arrived$d;
+    wire  arrived$q;
+    reg  arrived$clock;
+    reg  [2:0] arrived_number$d;
+    wire  [2:0] arrived_number$q;
+    reg  arrived_number$clock;
+    reg  [7:0] code$d;
+    wire  [7:0] code$q;
+    reg  code$clock;
+    reg  data_run$d;
+    wire  data_run$q;
+    reg  data_run$clock;
+    reg  second_byte$d;
+    wire  second_byte$q;
+    reg  second_byte$clock;
+    reg  [7:0] data_byte$d;
+    wire  [7:0] data_byte$q;
+    reg  data_byte$clock;
+    reg  filter1_id_match$d;
+    wire  filter1_id_match$q;
+    reg  filter1_id_match$clock;
+    reg  filter2_id_match$d;
+    wire  filter2_id_match$q;
+    reg  filter2_id_match$clock;
+    reg  data1_match$d;
+    wire  data1_match$q;
+    reg  data1_match$clock;
+    reg  data2_match$d;
+    wire  data2_match$q;
+    reg  data2_match$clock;
     
     // Local signals
     reg  in_pelican_block;
     reg  [2:0] index;
-    reg  [7:0] frame_byte0;
-    reg  [7:0] frame_byte1;
-    reg  [7:0] frame_byte2;
-    reg  [7:0] frame_byte3;
+    reg  single;
+    reg  dual;
+    reg  [1:0] pair;
+    reg  [7:0] id_byte1;
+    reg  [7:0] id_byte3;
     reg  [7:0] byte1_care;
-    reg  [7:0] mismatch0;
-    reg  [7:0] mismatch1;
-    reg  [7:0] mismatch2;
-    reg  [7:0] mismatch3;
-    reg  [7:0] mismatch0_filter2;
-    reg  [7:0] mismatch1_filter2;
-    reg  [7:0] dual_data_code;
-    reg  [7:0] dual_data_mask;
-    reg  [7:0] data_mismatch_single;
-    reg  [7:0] data_mismatch_dual;
+    reg  [7:0] operand;
+    reg  [7:0] care;
+    reg  [7:0] mismatch;
+    reg  matched;
     
     // Sub module instances
-    top$filter$acr0 acr0(
-        .d(acr0$d),
-        .q(acr0$q),
-        .clock(acr0$clock)
+    top$filter$running running(
+        .d(running$d),
+        .q(running$q),
+        .clock(running$clock)
     );
-    top$filter$acr1 acr1(
-        .d(acr1$d),
-        .q(acr1$q),
-        .clock(acr1$clock)
+    top$filter$read_number read_number(
+        .d(read_number$d),
+        .q(read_number$q),
+        .clock(read_number$clock)
     );
-    top$filter$acr2 acr2(
-        .d(acr2$d),
-        .q(acr2$q),
-        .clock(acr2$clock)
+    top$filter$arrived arrived(
+        .d(arrived$d),
+        .q(arrived$q),
+        .clock(arrived$clock)
     );
-    top$filter$acr3 acr3(
-        .d(acr3$d),
-        .q(acr3$q),
-        .clock(acr3$clock)
+    top$filter$arrived_number arrived_number(
+        .d(arrived_number$d),
+        .q(arrived_number$q),
+        .clock(arrived_number$clock)
     );
-    top$filter$amr0 amr0(
-        .d(amr0$d),
-        .q(amr0$q),
-        .clock(amr0$clock)
+    top$filter$code code(
+        .d(code$d),
+        .q(code$q),
+        .clock(code$clock)
     );
-    top$filter$amr1 amr1(
-        .d(amr1$d),
-        .q(amr1$q),
-        .clock(amr1$clock)
+    top$filter$data_run data_run(
+        .d(data_run$d),
+        .q(data_run$q),
+        .clock(data_run$clock)
     );
-    top$filter$amr2 amr2(
-        .d(amr2$d),
-        .q(amr2$q),
-        .clock(amr2$clock)
+    top$filter$second_byte second_byte(
+        .d(second_byte$d),
+        .q(second_byte$q),
+        .clock(second_byte$clock)
     );
-    top$filter$amr3 amr3(
-        .d(amr3$d),
-        .q(amr3$q),
-        .clock(amr3$clock)
+    top$filter$data_byte data_byte(
+        .d(data_byte$d),
+        .q(data_byte$q),
+        .clock(data_byte$clock)
     );
-    top$filter$single_id_match single_id_match(
-        .d(single_id_match$d),
-        .q(single_id_match$q),
-        .clock(single_id_match$clock)
+    top$filter$filter1_id_match filter1_id_match(
+        .d(filter1_id_match$d),
+        .q(filter1_id_match$q),
+        .clock(filter1_id_match$clock)
     );
-    top$filter$single_data1_match single_data1_match(
-        .d(single_data1_match$d),
-        .q(single_data1_match$q),
-        .clock(single_data1_match$clock)
+    top$filter$filter2_id_match filter2_id_match(
+        .d(filter2_id_match$d),
+        .q(filter2_id_match$q),
+        .clock(filter2_id_match$clock)
     );
-    top$filter$single_data2_match single_data2_match(
-        .d(single_data2_match$d),
-        .q(single_data2_match$q),
-        .clock(single_data2_match$clock)
+    top$filter$data1_match data1_match(
+        .d(data1_match$d),
+        .q(data1_match$q),
+        .clock(data1_match$clock)
     );
-    top$filter$dual1_id_match dual1_id_match(
-        .d(dual1_id_match$d),
-        .q(dual1_id_match$q),
-        .clock(dual1_id_match$clock)
-    );
-    top$filter$dual1_data_match dual1_data_match(
-        .d(dual1_data_match$d),
-        .q(dual1_data_match$q),
-        .clock(dual1_data_match$clock)
-    );
-    top$filter$dual2_id_match dual2_id_match(
-        .d(dual2_id_match$d),
-        .q(dual2_id_match$q),
-        .clock(dual2_id_match$clock)
-    );
-    top$filter$basic_id_match basic_id_match(
-        .d(basic_id_match$d),
-        .q(basic_id_match$q),
-        .clock(basic_id_match$clock)
+    top$filter$data2_match data2_match(
+        .d(data2_match$d),
+        .q(data2_match$q),
+        .clock(data2_match$clock)
     );
     
     // Update code
     always @(*) begin
-        single_id_match$clock = clock;
-        single_data1_match$clock = clock;
-        single_data2_match$clock = clock;
-        dual1_id_match$clock = clock;
-        dual1_data_match$clock = clock;
-        dual2_id_match$clock = clock;
-        basic_id_match$clock = clock;
-        acr0$clock = clock;
-        acr1$clock = clock;
-        acr2$clock = clock;
-        acr3$clock = clock;
-        amr0$clock = clock;
-        amr1$clock = clock;
-        amr2$clock = clock;
-        amr3$clock = clock;
-        single_id_match$d = single_id_match$q;
-        single_data1_match$d = single_data1_match$q;
-        single_data2_match$d = single_data2_match$q;
-        dual1_id_match$d = dual1_id_match$q;
-        dual1_data_match$d = dual1_data_match$q;
-        dual2_id_match$d = dual2_id_match$q;
-        basic_id_match$d = basic_id_match$q;
-        acr0$d = acr0$q;
-        acr1$d = acr1$q;
-        acr2$d = acr2$q;
-        acr3$d = acr3$q;
-        amr0$d = amr0$q;
-        amr1$d = amr1$q;
-        amr2$d = amr2$q;
-        amr3$d = amr3$q;
-        index = ((host$addr) & 3'h7);
-        in_pelican_block = host$addr[(32'h3)+:(5)] == pelican_block;
+        running$clock = clock;
+        read_number$clock = clock;
+        arrived$clock = clock;
+        arrived_number$clock = clock;
+        code$clock = clock;
+        data_run$clock = clock;
+        second_byte$clock = clock;
+        data_byte$clock = clock;
+        filter1_id_match$clock = clock;
+        filter2_id_match$clock = clock;
+        data1_match$clock = clock;
+        data2_match$clock = clock;
+        running$d = running$q;
+        read_number$d = read_number$q;
+        arrived$d = arrived$q;
+        arrived_number$d = arrived_number$q;
+        code$d = code$q;
+        data_run$d = data_run$q;
+        second_byte$d = second_byte$q;
+        data_byte$d = data_byte$q;
+        filter1_id_match$d = filter1_id_match$q;
+        filter2_id_match$d = filter2_id_match$q;
+        data1_match$d = data1_match$q;
+        data2_match$d = data2_match$q;
+        index = ((addr) & 3'h7);
+        in_pelican_block = addr[(32'h3)+:(5)] == pelican_block;
         host_selected = pelican & reset_mode & in_pelican_block;
         if (pelican == 1'b0) begin
             index = 32'h0;
-            if (host$addr == basic_amr) begin
+            if (addr == basic_amr) begin
                 index = 32'h4;
             end
-            host_selected = (host$addr == basic_acr) | (host$addr == basic_amr);
+            host_selected = (addr == basic_acr) | (addr == basic_amr);
         end
         host_index = index;
-        if (host$we & reset_mode & host_selected) begin
-            if (index == 32'h0) begin
-                acr0$d = host$wdata;
-            end
-            if (index == 32'h1) begin
-                acr1$d = host$wdata;
-            end
-            if (index == 32'h2) begin
-                acr2$d = host$wdata;
-            end
-            if (index == 32'h3) begin
-                acr3$d = host$wdata;
-            end
-            if (index == 32'h4) begin
-                amr0$d = host$wdata;
-            end
-            if (index == 32'h5) begin
-                amr1$d = host$wdata;
-            end
-            if (index == 32'h6) begin
-                amr2$d = host$wdata;
-            end
-            if (index == 32'h7) begin
-                amr3$d = host$wdata;
+        single = pelican & single_filter;
+        dual = pelican & (single_filter == 1'b0);
+        accept = filter1_id_match$q;
+        if (single) begin
+            accept = filter1_id_match$q & data1_match$q & data2_match$q;
+        end
+        if (dual) begin
+            accept = (filter1_id_match$q & data1_match$q) | filter2_id_match$q;
+        end
+        copy_wanted = running$q;
+        copy_index = ((read_number$q >> 32'h1) & ~(1 << (32'h2)) | ((read_number$q[32'h0]) << (32'h2)));
+        arrived$d = 1'b0;
+        if (running$q & copy_granted) begin
+            read_number$d = read_number$q + 32'h1;
+            arrived$d = 1'b1;
+            arrived_number$d = read_number$q;
+            if (read_number$q == 32'h7) begin
+                running$d = 1'b0;
             end
         end
-        frame_byte0 = 32'h0;
-        frame_byte1 = 32'h0;
-        frame_byte2 = 32'h0;
-        frame_byte3 = 32'h0;
-        byte1_care = 32'h0;
-        mismatch0 = 32'h0;
-        mismatch1 = 32'h0;
-        mismatch2 = 32'h0;
-        mismatch3 = 32'h0;
-        mismatch0_filter2 = 32'h0;
-        mismatch1_filter2 = 32'h0;
-        dual_data_code = 32'h0;
-        dual_data_mask = 32'h0;
-        data_mismatch_single = 32'h0;
-        data_mismatch_dual = 32'h0;
-        accept = basic_id_match$q;
-        if (pelican) begin
-            if (single_filter) begin
-                accept = single_id_match$q & single_data1_match$q & single_data2_match$q;
+        pair = arrived_number$q[(32'h1)+:(2)];
+        id_byte1 = rx_frame$id[(32'hd)+:(8)];
+        byte1_care = ones;
+        if (rx_frame$ide == 1'b0) begin
+            id_byte1 = (rx_frame$id[(32'hd)+:(8)] & ~(1 << (32'h4)) | ((rx_frame$rtr) << (32'h4)));
+            byte1_care = standard_id_care;
+        end
+        id_byte3 = (((rx_frame$id[(32'h0)+:(5)]) & 8'hff) << 32'h3) | (((rx_frame$rtr) & 8'hff) << 32'h2);
+        operand = rx_frame$id[(32'h15)+:(8)];
+        care = ones;
+        if (pair[32'h0]) begin
+            operand = id_byte1;
+            care = byte1_care;
+            if (pair[32'h1] & single) begin
+                operand = id_byte3;
+                care = extended_rtr_care;
+            end
+        end
+        else if (pair[32'h1] & single) begin
+            operand = rx_frame$id[(32'h5)+:(8)];
+        end
+        if (data_run$q) begin
+            operand = data_byte$q;
+            care = ones;
+            if (dual) begin
+                care = nibble_care;
+                if (pair == 32'h1) begin
+                    operand = data_byte$q >> 32'h4;
+                end
+            end
+        end
+        mismatch = (operand ^ code$q) & (copy_data ^ ones) & care;
+        matched = mismatch == 32'h0;
+        if (arrived$q & (arrived_number$q[32'h0] == 1'b0)) begin
+            code$d = copy_data;
+        end
+        if (arrived$q & arrived_number$q[32'h0]) begin
+            if (data_run$q) begin
+                if (single) begin
+                    if ((pair == 32'h2) & (second_byte$q == 1'b0)) begin
+                        data1_match$d = matched;
+                    end
+                    if ((pair == 32'h3) & second_byte$q) begin
+                        data2_match$d = matched;
+                    end
+                end
+                else if (second_byte$q == 1'b0) begin
+                    if (pair == 32'h1) begin
+                        data1_match$d = matched;
+                    end
+                    if (pair == 32'h3) begin
+                        data1_match$d = data1_match$q & matched;
+                    end
+                end
+            end
+            else if (pair == 32'h0) begin
+                filter1_id_match$d = matched;
+            end
+            else if (pair == 32'h1) begin
+                if (pelican) begin
+                    filter1_id_match$d = filter1_id_match$q & matched;
+                end
+            end
+            else if (single) begin
+                if (rx_frame$ide) begin
+                    filter1_id_match$d = filter1_id_match$q & matched;
+                end
+            end
+            else if (pair == 32'h2) begin
+                filter2_id_match$d = matched;
             end
             else begin
-                accept = (dual1_id_match$q & dual1_data_match$q) | dual2_id_match$q;
+                filter2_id_match$d = filter2_id_match$q & matched;
             end
+        end
+        if (rx_frame$header | (rx_frame$strobe & (rx_frame$ide == 1'b0) & (rx_frame$index[(32'h1)+:(2)] == 32'h0))) begin
+            running$d = 1'b1;
+            read_number$d = 32'h0;
+            arrived$d = 1'b0;
+            data_run$d = rx_frame$header == 1'b0;
+            second_byte$d = rx_frame$index[32'h0];
+            data_byte$d = rx_frame$data;
         end
         if (rx_frame$header) begin
-            frame_byte0 = rx_frame$id[(32'h15)+:(8)];
-            frame_byte1 = rx_frame$id[(32'hd)+:(8)];
-            byte1_care = ones;
-            if (rx_frame$ide == 1'b0) begin
-                frame_byte1 = (rx_frame$id[(32'hd)+:(8)] & ~(1 << (32'h4)) | ((rx_frame$rtr) << (32'h4)));
-                byte1_care = standard_id_care;
-            end
-            frame_byte2 = rx_frame$id[(32'h5)+:(8)];
-            frame_byte3 = (((rx_frame$id[(32'h0)+:(5)]) & 8'hff) << 32'h3) | (((rx_frame$rtr) & 8'hff) << 32'h2);
-            mismatch0 = (frame_byte0 ^ acr0$q) & (amr0$q ^ ones);
-            mismatch1 = (frame_byte1 ^ acr1$q) & (amr1$q ^ ones) & byte1_care;
-            mismatch2 = (frame_byte2 ^ acr2$q) & (amr2$q ^ ones);
-            mismatch3 = (frame_byte3 ^ acr3$q) & (amr3$q ^ ones) & extended_rtr_care;
-            mismatch0_filter2 = (frame_byte0 ^ acr2$q) & (amr2$q ^ ones);
-            mismatch1_filter2 = (frame_byte1 ^ acr3$q) & (amr3$q ^ ones) & byte1_care;
-            basic_id_match$d = mismatch0 == 32'h0;
-            dual1_id_match$d = (mismatch0 == 32'h0) & (mismatch1 == 32'h0);
-            dual2_id_match$d = (mismatch0_filter2 == 32'h0) & (mismatch1_filter2 == 32'h0);
-            single_id_match$d = (mismatch0 == 32'h0) & (mismatch1 == 32'h0) & ((rx_frame$ide == 1'b0) | ((mismatch2 == 32'h0) & (mismatch3 == 32'h0)));
-            single_data1_match$d = 1'b1;
-            single_data2_match$d = 1'b1;
-            dual1_data_match$d = 1'b1;
-        end
-        if (rx_frame$strobe & (rx_frame$ide == 1'b0)) begin
-            if (rx_frame$index == 32'h0) begin
-                data_mismatch_single = (rx_frame$data ^ acr2$q) & (amr2$q ^ ones);
-                dual_data_code = (((acr1$q[(32'h0)+:(4)]) & 8'hff) << 32'h4) | ((acr3$q[(32'h0)+:(4)]) & 8'hff);
-                dual_data_mask = (((amr1$q[(32'h0)+:(4)]) & 8'hff) << 32'h4) | ((amr3$q[(32'h0)+:(4)]) & 8'hff);
-                data_mismatch_dual = (rx_frame$data ^ dual_data_code) & (dual_data_mask ^ ones);
-                single_data1_match$d = data_mismatch_single == 32'h0;
-                dual1_data_match$d = data_mismatch_dual == 32'h0;
-            end
-            if (rx_frame$index == 32'h1) begin
-                data_mismatch_single = (rx_frame$data ^ acr3$q) & (amr3$q ^ ones);
-                single_data2_match$d = data_mismatch_single == 32'h0;
-            end
+            data1_match$d = 1'b1;
+            data2_match$d = 1'b1;
         end
         if (reset) begin
-            single_id_match$d = 1'b0;
-            single_data1_match$d = 1'b1;
-            single_data2_match$d = 1'b1;
-            dual1_id_match$d = 1'b0;
-            dual1_data_match$d = 1'b1;
-            dual2_id_match$d = 1'b0;
-            basic_id_match$d = 1'b0;
-            acr0$d = 32'h0;
-            acr1$d = 32'h0;
-            acr2$d = 32'h0;
-            acr3$d = 32'h0;
-            amr0$d = 32'h0;
-            amr1$d = 32'h0;
-            amr2$d = 32'h0;
-            amr3$d = 32'h0;
+            running$d = 1'b0;
+            read_number$d = 32'h0;
+            arrived$d = 1'b0;
+            filter1_id_match$d = 1'b0;
+            filter2_id_match$d = 1'b0;
+            data1_match$d = 1'b1;
+            data2_match$d = 1'b1;
         end
     end
     
 endmodule // top$filter
 
 
-module top$filter$acr0(d,q,clock);
-    
-    // Module arguments
-    input wire  [7:0] d;
-    output reg  [7:0] q;
-    input wire  clock;
-    
-    // Update code (custom)
-    initial begin
-       q = 8'h0;
-    end
-    
-    always @(posedge clock) begin
-       q <= d;
-    end
-          
-endmodule // top$filter$acr0
-
-
-module top$filter$acr1(d,q,clock);
-    
-    // Module arguments
-    input wire  [7:0] d;
-    output reg  [7:0] q;
-    input wire  clock;
-    
-    // Update code (custom)
-    initial begin
-       q = 8'h0;
-    end
-    
-    always @(posedge clock) begin
-       q <= d;
-    end
-          
-endmodule // top$filter$acr1
-
-
-module top$filter$acr2(d,q,clock);
-    
-    // Module arguments
-    input wire  [7:0] d;
-    output reg  [7:0] q;
-    input wire  clock;
-    
-    // Update code (custom)
-    initial begin
-       q = 8'h0;
-    end
-    
-    always @(posedge clock) begin
-       q <= d;
-    end
-          
-endmodule // top$filter$acr2
-
-
-module top$filter$acr3(d,q,clock);
-    
-    // Module arguments
-    input wire  [7:0] d;
-    output reg  [7:0] q;
-    input wire  clock;
-    
-    // Update code (custom)
-    initial begin
-       q = 8'h0;
-    end
-    
-    always @(posedge clock) begin
-       q <= d;
-    end
-          
-endmodule // top$filter$acr3
-
-
-module top$filter$amr0(d,q,clock);
-    
-    // Module arguments
-    input wire  [7:0] d;
-    output reg  [7:0] q;
-    input wire  clock;
-    
-    // Update code (custom)
-    initial begin
-       q = 8'h0;
-    end
-    
-    always @(posedge clock) begin
-       q <= d;
-    end
-          
-endmodule // top$filter$amr0
-
-
-module top$filter$amr1(d,q,clock);
-    
-    // Module arguments
-    input wire  [7:0] d;
-    output reg  [7:0] q;
-    input wire  clock;
-    
-    // Update code (custom)
-    initial begin
-       q = 8'h0;
-    end
-    
-    always @(posedge clock) begin
-       q <= d;
-    end
-          
-endmodule // top$filter$amr1
-
-
-module top$filter$amr2(d,q,clock);
-    
-    // Module arguments
-    input wire  [7:0] d;
-    output reg  [7:0] q;
-    input wire  clock;
-    
-    // Update code (custom)
-    initial begin
-       q = 8'h0;
-    end
-    
-    always @(posedge clock) begin
-       q <= d;
-    end
-          
-endmodule // top$filter$amr2
-
-
-module top$filter$amr3(d,q,clock);
-    
-    // Module arguments
-    input wire  [7:0] d;
-    output reg  [7:0] q;
-    input wire  clock;
-    
-    // Update code (custom)
-    initial begin
-       q = 8'h0;
-    end
-    
-    always @(posedge clock) begin
-       q <= d;
-    end
-          
-endmodule // top$filter$amr3
-
-
-module top$filter$basic_id_match(d,q,clock);
+module top$filter$arrived(d,q,clock);
     
     // Module arguments
     input wire  d;
@@ -6319,10 +6157,48 @@ module top$filter$basic_id_match(d,q,clock);
        q <= d;
     end
           
-endmodule // top$filter$basic_id_match
+endmodule // top$filter$arrived
 
 
-module top$filter$dual1_data_match(d,q,clock);
+module top$filter$arrived_number(d,q,clock);
+    
+    // Module arguments
+    input wire  [2:0] d;
+    output reg  [2:0] q;
+    input wire  clock;
+    
+    // Update code (custom)
+    initial begin
+       q = 3'h0;
+    end
+    
+    always @(posedge clock) begin
+       q <= d;
+    end
+          
+endmodule // top$filter$arrived_number
+
+
+module top$filter$code(d,q,clock);
+    
+    // Module arguments
+    input wire  [7:0] d;
+    output reg  [7:0] q;
+    input wire  clock;
+    
+    // Update code (custom)
+    initial begin
+       q = 8'h0;
+    end
+    
+    always @(posedge clock) begin
+       q <= d;
+    end
+          
+endmodule // top$filter$code
+
+
+module top$filter$data1_match(d,q,clock);
     
     // Module arguments
     input wire  d;
@@ -6338,10 +6214,10 @@ module top$filter$dual1_data_match(d,q,clock);
        q <= d;
     end
           
-endmodule // top$filter$dual1_data_match
+endmodule // top$filter$data1_match
 
 
-module top$filter$dual1_id_match(d,q,clock);
+module top$filter$data2_match(d,q,clock);
     
     // Module arguments
     input wire  d;
@@ -6357,10 +6233,29 @@ module top$filter$dual1_id_match(d,q,clock);
        q <= d;
     end
           
-endmodule // top$filter$dual1_id_match
+endmodule // top$filter$data2_match
 
 
-module top$filter$dual2_id_match(d,q,clock);
+module top$filter$data_byte(d,q,clock);
+    
+    // Module arguments
+    input wire  [7:0] d;
+    output reg  [7:0] q;
+    input wire  clock;
+    
+    // Update code (custom)
+    initial begin
+       q = 8'h0;
+    end
+    
+    always @(posedge clock) begin
+       q <= d;
+    end
+          
+endmodule // top$filter$data_byte
+
+
+module top$filter$data_run(d,q,clock);
     
     // Module arguments
     input wire  d;
@@ -6376,10 +6271,10 @@ module top$filter$dual2_id_match(d,q,clock);
        q <= d;
     end
           
-endmodule // top$filter$dual2_id_match
+endmodule // top$filter$data_run
 
 
-module top$filter$single_data1_match(d,q,clock);
+module top$filter$filter1_id_match(d,q,clock);
     
     // Module arguments
     input wire  d;
@@ -6395,10 +6290,10 @@ module top$filter$single_data1_match(d,q,clock);
        q <= d;
     end
           
-endmodule // top$filter$single_data1_match
+endmodule // top$filter$filter1_id_match
 
 
-module top$filter$single_data2_match(d,q,clock);
+module top$filter$filter2_id_match(d,q,clock);
     
     // Module arguments
     input wire  d;
@@ -6414,10 +6309,29 @@ module top$filter$single_data2_match(d,q,clock);
        q <= d;
     end
           
-endmodule // top$filter$single_data2_match
+endmodule // top$filter$filter2_id_match
 
 
-module top$filter$single_id_match(d,q,clock);
+module top$filter$read_number(d,q,clock);
+    
+    // Module arguments
+    input wire  [2:0] d;
+    output reg  [2:0] q;
+    input wire  clock;
+    
+    // Update code (custom)
+    initial begin
+       q = 3'h0;
+    end
+    
+    always @(posedge clock) begin
+       q <= d;
+    end
+          
+endmodule // top$filter$read_number
+
+
+module top$filter$running(d,q,clock);
     
     // Module arguments
     input wire  d;
@@ -6433,7 +6347,26 @@ module top$filter$single_id_match(d,q,clock);
        q <= d;
     end
           
-endmodule // top$filter$single_id_match
+endmodule // top$filter$running
+
+
+module top$filter$second_byte(d,q,clock);
+    
+    // Module arguments
+    input wire  d;
+    output reg  q;
+    input wire  clock;
+    
+    // Update code (custom)
+    initial begin
+       q = 1'h0;
+    end
+    
+    always @(posedge clock) begin
+       q <= d;
+    end
+          
+endmodule // top$filter$second_byte
 
 
 module top$interrupts(clock,reset,host$addr,host$we,host$wdata,re,pelican,reset_mode,enables,entering_reset,wake_up,cmd_release,tx_done,arbitration_lost,alc_in,bus_error,ecc_in,tec,rec,error_passive,bus_off,message_count,overrun,ewlr,registers$ier,registers$ir,registers$alc,registers$ecc,registers$es,registers$basic_ri,bus_off_before);
@@ -7944,7 +7877,7 @@ module top$tx_buffer(clock,reset,write,write_index,write_data,host_index,host_da
     input wire  [7:0] write_data;
     input wire  [4:0] host_index;
     output reg  [7:0] host_data;
-    input wire  [3:0] core_index;
+    input wire  [4:0] core_index;
     output reg  [7:0] core_data;
     input wire  basic_layout;
     output reg  [7:0] info;
@@ -7962,10 +7895,10 @@ module top$tx_buffer(clock,reset,write,write_index,write_data,host_index,host_da
     reg  host_ram$write_clock;
     reg  [7:0] host_ram$write_data;
     reg  host_ram$write_enable;
-    reg  [3:0] core_ram$read_address;
+    reg  [4:0] core_ram$read_address;
     reg  core_ram$read_clock;
     wire  [7:0] core_ram$read_data;
-    reg  [3:0] core_ram$write_address;
+    reg  [4:0] core_ram$write_address;
     reg  core_ram$write_clock;
     reg  [7:0] core_ram$write_data;
     reg  core_ram$write_enable;
@@ -7987,7 +7920,6 @@ module top$tx_buffer(clock,reset,write,write_index,write_data,host_index,host_da
     
     // Local signals
     reg  writing;
-    reg  writing_frame;
     
     // Sub module instances
     top$tx_buffer$host_ram host_ram(
@@ -8051,17 +7983,16 @@ module top$tx_buffer(clock,reset,write,write_index,write_data,host_index,host_da
         core_ram$write_clock = clock;
         core_ram$read_clock = clock;
         writing = write & kept_bytes[write_index];
-        writing_frame = writing & (write_index[32'h4] == 1'b0);
         host_ram$write_enable = writing;
         host_ram$write_address = write_index;
         host_ram$write_data = write_data;
-        core_ram$write_enable = writing_frame;
-        core_ram$write_address = ((write_index) & 4'hf);
+        core_ram$write_enable = writing;
+        core_ram$write_address = write_index;
         core_ram$write_data = write_data;
         host_ram$read_address = host_index;
         core_ram$read_address = core_index;
         host_written$d = written$q[host_index] & (writing == 1'b0);
-        core_written$d = written$q[core_index] & (writing_frame == 1'b0);
+        core_written$d = written$q[core_index] & ~(writing & (write_index[32'h4] == core_index[32'h4]));
         host_data = 32'h0;
         if (host_written$q) begin
             host_data = host_ram$read_data;
@@ -8117,34 +8048,50 @@ endmodule // top$tx_buffer$basic_info
 module top$tx_buffer$core_ram(read_address,read_clock,read_data,write_address,write_clock,write_data,write_enable);
     
     // Module arguments
-    input wire  [3:0] read_address;
+    input wire  [4:0] read_address;
     input wire  read_clock;
     output reg  [7:0] read_data;
-    input wire  [3:0] write_address;
+    input wire  [4:0] write_address;
     input wire  write_clock;
     input wire  [7:0] write_data;
     input wire  write_enable;
     
     // Update code (custom)
-    (* no_rw_check *) reg[7:0] mem[15:0];
+    (* no_rw_check *) reg[7:0] mem[31:0];
     
     initial begin
-    mem[4'h0] = 8'h0;
-    mem[4'h1] = 8'h0;
-    mem[4'h2] = 8'h0;
-    mem[4'h3] = 8'h0;
-    mem[4'h4] = 8'h0;
-    mem[4'h5] = 8'h0;
-    mem[4'h6] = 8'h0;
-    mem[4'h7] = 8'h0;
-    mem[4'h8] = 8'h0;
-    mem[4'h9] = 8'h0;
-    mem[4'ha] = 8'h0;
-    mem[4'hb] = 8'h0;
-    mem[4'hc] = 8'h0;
-    mem[4'hd] = 8'h0;
-    mem[4'he] = 8'h0;
-    mem[4'hf] = 8'h0;
+    mem[5'b0] = 8'h0;
+    mem[5'b1] = 8'h0;
+    mem[5'b10] = 8'h0;
+    mem[5'b11] = 8'h0;
+    mem[5'b100] = 8'h0;
+    mem[5'b101] = 8'h0;
+    mem[5'b110] = 8'h0;
+    mem[5'b111] = 8'h0;
+    mem[5'b1000] = 8'h0;
+    mem[5'b1001] = 8'h0;
+    mem[5'b1010] = 8'h0;
+    mem[5'b1011] = 8'h0;
+    mem[5'b1100] = 8'h0;
+    mem[5'b1101] = 8'h0;
+    mem[5'b1110] = 8'h0;
+    mem[5'b1111] = 8'h0;
+    mem[5'b10000] = 8'h0;
+    mem[5'b10001] = 8'h0;
+    mem[5'b10010] = 8'h0;
+    mem[5'b10011] = 8'h0;
+    mem[5'b10100] = 8'h0;
+    mem[5'b10101] = 8'h0;
+    mem[5'b10110] = 8'h0;
+    mem[5'b10111] = 8'h0;
+    mem[5'b11000] = 8'h0;
+    mem[5'b11001] = 8'h0;
+    mem[5'b11010] = 8'h0;
+    mem[5'b11011] = 8'h0;
+    mem[5'b11100] = 8'h0;
+    mem[5'b11101] = 8'h0;
+    mem[5'b11110] = 8'h0;
+    mem[5'b11111] = 8'h0;
     end
     
     

@@ -84,7 +84,7 @@ pub struct CanController {
     txerr_address: Constant<Bits<8>>,
     #[constant(u64::from(pelican::RBSA))]
     rbsa_address: Constant<Bits<8>>,
-    /// Host index of ACR0's read-back copy in the TX buffer (ACR1..AMR3 by their low bits).
+    /// Index of ACR0's copy in the TX buffer (ACR1..AMR3 by their low bits).
     #[constant(READBACK_FILTER as u64)]
     readback_filter: Constant<Bits<5>>,
     /// Host index of BTR0's read-back copy in the TX buffer (BTR1, OCR by their low bits).
@@ -97,6 +97,10 @@ pub struct CanController {
     tx_write: Signal<Local, Bit>,
     tx_write_index: Signal<Local, Bits<5>>,
     tx_host_index: Signal<Local, Bits<5>>,
+    /// The acceptance filter reads an ACR/AMR copy through the TX buffer's core port, which is at
+    /// `tx_core_index`.
+    filter_read: Signal<Local, Bit>,
+    tx_core_index: Signal<Local, Bits<5>>,
     pelican_mode: Signal<Local, Bit>,
     reset_mode: Signal<Local, Bit>,
     /// A PeliCAN write in reset mode (counters, RBSA).
@@ -292,7 +296,18 @@ impl Logic for CanController {
         self.tx_buffer.write_index.next = self.tx_write_index.val();
         self.tx_buffer.host_index.next = self.tx_host_index.val();
         self.tx_buffer.write_data.next = self.wdata.val();
-        self.tx_buffer.core_index.next = self.core.transmit.addr.val();
+        // The core port: the protocol engine's frame byte, read in the sample-point clock for the
+        // process point after it (the only clocks the engine uses it, docs/ARCHITECTURE.md), and
+        // the filter's ACR/AMR in any other clock it asks for.
+        self.filter_read.next = self.filter.copy_wanted.val() & !self.core.sample_point.val();
+        self.tx_core_index.next = bit_cast::<5, 4>(self.core.transmit.addr.val());
+        if self.filter_read.val() {
+            self.tx_core_index.next =
+                self.readback_filter.val() | bit_cast::<5, 3>(self.filter.copy_index.val());
+        }
+        self.tx_buffer.core_index.next = self.tx_core_index.val();
+        self.filter.copy_granted.next = self.filter_read.val();
+        self.filter.copy_data.next = self.tx_buffer.core_data.val();
 
         // ---- Transmission requests and their end. TR together with SRR is a plain TR, AT with
         // either a single shot (data sheet).
@@ -343,9 +358,7 @@ impl Logic for CanController {
         self.filter.pelican.next = self.modes.pelican.val();
         self.filter.single_filter.next = self.modes.single_filter.val();
         self.filter.reset_mode.next = self.modes.reset_mode.val();
-        self.filter.host.addr.next = self.addr.val();
-        self.filter.host.we.next = self.we.val();
-        self.filter.host.wdata.next = self.wdata.val();
+        self.filter.addr.next = self.addr.val();
         ReceivedFrame::join(&mut self.core.rx_frame, &mut self.filter.rx_frame);
 
         // ---- The core.

@@ -4,8 +4,9 @@
 //!
 //! Ports: one write port (`write`, `write_index`, `write_data`) for the host; two registered read
 //! ports, `host_index` → `host_data` for the register windows and `core_index` → `core_data` for
-//! the protocol engine (each the byte that was at its index before the last rising edge of `clock`,
-//! 0 if that cycle wrote the buffer), and `info` (byte 0, the frame information the engine reads all
+//! the protocol engine and the acceptance filter (each the byte that was at its index before the
+//! last rising edge of `clock`; 0 if that cycle wrote the buffer, for the core port only if it wrote
+//! a byte of the same part: the frame, or the register copies), and `info` (byte 0, the frame information the engine reads all
 //! the time). Writes act on the rising edge of `clock`; indices outside the bytes kept are ignored
 //! and read 0. The synchronous `reset` clears every byte (undefined on the SJA1000 for the frame;
 //! cleared here so nothing after a reset depends on power-up values). With `basic_layout`
@@ -16,16 +17,18 @@
 //! (distributed RAM on Xilinx, block RAM on iCE40) instead of two 13-way multiplexers of
 //! flip-flops. A RAM cannot be cleared at once: a flag per byte, cleared by `reset` and set by a
 //! write, makes a byte not written since the reset read 0, and flip-flop copies give the two bytes
-//! `info` is made of without a third read port. A read in a write cycle reads 0, so the RAMs need
-//! no read-during-write logic (`no_rw_check` in the emitted Verilog, docs/FPGA.md).
+//! `info` is made of without a third read port. A read that may meet the byte being written reads
+//! 0, so the RAMs need no read-during-write logic (`no_rw_check` in the emitted Verilog,
+//! docs/FPGA.md).
 //!
-//! Read-back copies: the host's RAM has room past the frame, so it also keeps what the host writes
-//! to ACR0..3/AMR0..3 (`READBACK_FILTER` + the filter's register index) and to BTR0, BTR1 and OCR
-//! (`READBACK_CONFIGURATION` + the configuration's index), written with the register itself (the
-//! controller writes both on the same accepted write). The host reads those registers from here:
-//! one more byte of the block RAM instead of their read multiplexers of flip-flops. Their reset
-//! value is 0, which a byte not written since the reset reads; the registers the hardware runs on
-//! stay in their blocks' flip-flops (OCR, which nothing runs on, is only here).
+//! Register copies: the RAMs have room past the frame, so they also keep what the host writes to
+//! ACR0..3/AMR0..3 (`READBACK_FILTER` + the filter's register index) and to BTR0, BTR1 and OCR
+//! (`READBACK_CONFIGURATION` + the configuration's index). The host reads those registers from
+//! here: one more byte of the block RAM instead of their read multiplexers of flip-flops. Their
+//! reset value is 0, which a byte not written since the reset reads. ACR/AMR are only here: the
+//! acceptance filter reads them through the core port in the clocks the protocol engine leaves it
+//! (`crate::acceptance_filter`). BTR0 and BTR1 stay in the configuration's flip-flops too (the bit
+//! timing runs on them every clock); OCR, which nothing runs on, is only here.
 
 use rust_hdl::prelude::*;
 
@@ -34,25 +37,25 @@ use crate::activity::{Activity, ActivityBlock, BlockDefault};
 /// Bytes of the transmit buffer.
 pub const TX_BUFFER_BYTES: usize = 13;
 
-/// Address bits of the protocol engine's RAM (the frame only).
+/// Address bits of the frame's bytes (the protocol engine's transmit stream).
 const INDEX_BITS: usize = 4;
-/// Words of the protocol engine's RAM (the last three are never written).
+/// Words the frame's index reaches (the last three are never written).
 const WORDS: usize = 1 << INDEX_BITS;
-/// Address bits of the host's RAM: the frame and the read-back copies.
+/// Address bits of the RAMs: the frame and the register copies.
 pub const HOST_INDEX_BITS: usize = 5;
-/// Words of the host's RAM.
+/// Words of each RAM.
 const HOST_WORDS: usize = 1 << HOST_INDEX_BITS;
-/// Host index of the read-back copy of ACR0; ACR1..3 and AMR0..3 follow in the filter's order.
+/// Index of the copy of ACR0; ACR1..3 and AMR0..3 follow in the filter's order.
 pub const READBACK_FILTER: usize = 16;
-/// Host index of the read-back copy of BTR0; BTR1 and OCR follow in the configuration's order.
+/// Index of the read-back copy of BTR0; BTR1 and OCR follow in the configuration's order.
 pub const READBACK_CONFIGURATION: usize = 24;
-/// Read-back copies: ACR0..3, AMR0..3, then BTR0, BTR1, OCR.
+/// Register copies: ACR0..3, AMR0..3, then BTR0, BTR1, OCR.
 const READBACK_BYTES: usize = 11;
-/// Host indices kept: the frame's bytes and the read-back copies.
+/// Indices kept: the frame's bytes and the register copies.
 const KEPT_BYTES: u64 =
     ((1u64 << TX_BUFFER_BYTES) - 1) | (((1u64 << READBACK_BYTES) - 1) << READBACK_FILTER);
-// Index bit 4 tells the read-back copies from the frame's bytes (the kernel's literals 4 and 5);
-// the copies' first indices are aligned, so the controller ORs a register's index into them.
+// The copies follow the frame's bytes (the kernel's literals 4 and 5 are the two index widths); their
+// first indices are aligned, so the controller ORs a register's index into them.
 const _: () = assert!(
     TX_BUFFER_BYTES <= WORDS
         && READBACK_FILTER == WORDS
@@ -84,10 +87,10 @@ pub struct TxBuffer {
     /// The byte that was at `host_index` before the last rising edge of `clock` (0 if that cycle
     /// wrote the buffer).
     pub host_data: Signal<Out, Bits<8>>,
-    /// Byte the protocol engine reads.
-    pub core_index: Signal<In, Bits<INDEX_BITS>>,
+    /// Byte the protocol engine (a frame byte) or the acceptance filter (an ACR/AMR copy) reads.
+    pub core_index: Signal<In, Bits<HOST_INDEX_BITS>>,
     /// The byte that was at `core_index` before the last rising edge of `clock` (0 if that cycle
-    /// wrote the buffer).
+    /// wrote a byte of the same part: the frame, or the register copies).
     pub core_data: Signal<Out, Bits<8>>,
     /// BasicCAN buffer layout.
     pub basic_layout: Signal<In, Bit>,
@@ -96,7 +99,7 @@ pub struct TxBuffer {
     #[init(cleared_ram())]
     host_ram: RAM<Bits<8>, HOST_INDEX_BITS>,
     #[init(cleared_ram())]
-    core_ram: RAM<Bits<8>, INDEX_BITS>,
+    core_ram: RAM<Bits<8>, HOST_INDEX_BITS>,
     /// Bit i: host byte i was written since the reset.
     written: DFF<Bits<HOST_WORDS>>,
     host_written: DFF<Bit>,
@@ -114,8 +117,6 @@ pub struct TxBuffer {
     basic_info_index: Constant<Bits<HOST_INDEX_BITS>>,
     /// A byte is written this cycle.
     writing: Signal<Local, Bit>,
-    /// A frame byte is written this cycle (the protocol engine's RAM holds only those).
-    writing_frame: Signal<Local, Bit>,
 }
 
 /// A RAM whose every word is initialised (unwritten RAM reads X in Verilog, RUST_HDL.md).
@@ -148,12 +149,11 @@ impl Logic for TxBuffer {
                 .kept_bytes
                 .val()
                 .get_bit(self.write_index.val().index());
-        self.writing_frame.next = self.writing.val() & (self.write_index.val().get_bit(4) == false);
         self.host_ram.write_enable.next = self.writing.val();
         self.host_ram.write_address.next = self.write_index.val();
         self.host_ram.write_data.next = self.write_data.val();
-        self.core_ram.write_enable.next = self.writing_frame.val();
-        self.core_ram.write_address.next = bit_cast::<4, 5>(self.write_index.val());
+        self.core_ram.write_enable.next = self.writing.val();
+        self.core_ram.write_address.next = self.write_index.val();
         self.core_ram.write_data.next = self.write_data.val();
         self.host_ram.read_address.next = self.host_index.val();
         self.core_ram.read_address.next = self.core_index.val();
@@ -161,11 +161,14 @@ impl Logic for TxBuffer {
         // `no_rw_check` (synthesis adds no read-during-write logic, so block RAM may return the old
         // or the new byte then), and this keeps the outputs defined and equal to the model's. The
         // host never reads in a write cycle (port contract); the engine never reads the buffer
-        // while the host may write it (TBS is 0 from the request to the end).
+        // while the host may write it (TBS is 0 from the request to the end), but the filter reads
+        // ACR/AMR (written in reset mode only) while the host may write the frame, so the core port
+        // gives 0 only when the write is in the same part (index bit 4: frame or copies).
         self.host_written.d.next = self.written.q.val().get_bit(self.host_index.val().index())
             & (self.writing.val() == false);
         self.core_written.d.next = self.written.q.val().get_bit(self.core_index.val().index())
-            & (self.writing_frame.val() == false);
+            & !(self.writing.val()
+                & (self.write_index.val().get_bit(4) == self.core_index.val().get_bit(4)));
 
         // Outputs from flip-flops and RAM read registers only (Verilator loops, RUST_HDL.md).
         self.host_data.next = 0.into();

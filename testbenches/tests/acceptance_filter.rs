@@ -1,5 +1,7 @@
 //! The RTL acceptance filter (`rtl::acceptance_filter::AcceptanceFilter`) driven directly with the
-//! received-frame stream of the protocol engine: one table test per mapping of the data sheet, a
+//! received-frame stream of the protocol engine and the ACR/AMR copies it reads through the TX
+//! buffer's core port (served here as the buffer does, a read taking effect the cycle after it is
+//! granted, none granted at the engine's sample points): one table test per mapping of the data sheet, a
 //! property test against the software model `sim::host::acceptance::accepts`, and its generated Verilog,
 //! compiled by Icarus and run against the rust-hdl trace of the same stimulus.
 
@@ -28,8 +30,6 @@ struct Inputs {
     single_filter: bool,
     reset_mode: bool,
     addr: u8,
-    we: bool,
-    wdata: u8,
     rx_header: bool,
     rx_id: u32,
     rx_ide: bool,
@@ -37,14 +37,30 @@ struct Inputs {
     rx_byte_strobe: bool,
     rx_byte: u8,
     rx_byte_index: u8,
+    copy_granted: bool,
+    copy_data: u8,
 }
 
-/// One filter, its inputs, and optionally the per-cycle trace (inputs, and after the edge `accept`,
-/// `host_selected` and `host_index` as the Verilog testbench prints them: `1 0 5`).
+/// The engine's sample points on the TX buffer's core port, every this many cycles: the filter's
+/// read is not granted then (a bit is at least 6 clocks in the controller).
+const SAMPLE_PERIOD: u64 = 5;
+/// Cycles from a strobe that starts a comparison run to its result, with the reads the sample
+/// points delay (8 reads, one in 5 cycles taken): a byte of the stream is at least 8 bit times
+/// (48 clocks) after the one before, and the frame is stored more than 20 bit times after its last.
+const RUN_CYCLES: usize = 12;
+
+/// One filter, its inputs, the register copies it reads, and optionally the per-cycle trace
+/// (inputs, and after the edge `accept`, `host_selected`, `host_index`, `copy_wanted` and
+/// `copy_index` as the Verilog testbench prints them: `1 0 5 1 2`).
 struct Bench {
     filter: AcceptanceFilter,
     inputs: Inputs,
     trace: Option<Vec<(Inputs, String)>>,
+    /// ACR0..3, AMR0..3 as the TX buffer's copies hold them (0 after a reset).
+    copies: [u8; 8],
+    /// The copy whose read was granted in the cycle before: `copy_data` gives it in this one.
+    granted_read: Option<usize>,
+    cycles: u64,
 }
 
 impl Bench {
@@ -57,6 +73,9 @@ impl Bench {
             filter,
             inputs: Inputs::default(),
             trace: None,
+            copies: [0; 8],
+            granted_read: None,
+            cycles: 0,
         };
         bench.reset();
         bench
@@ -70,21 +89,27 @@ impl Bench {
             filter,
             inputs: Inputs::default(),
             trace: Some(Vec::new()),
+            copies: [0; 8],
+            granted_read: None,
+            cycles: 0,
         };
         bench.reset();
         bench
     }
 
+    /// A reset cycle; the copies read 0 after it, as the TX buffer's do.
     fn reset(&mut self) {
         self.inputs.reset = true;
+        self.copies = [0; 8];
         self.cycle();
         self.inputs.reset = false;
     }
 
-    /// Writes ACR and AMR in reset mode through the block's host port (data sheet: PeliCAN ACR0..3
+    /// Selects ACR and AMR in reset mode at the block's host address (data sheet: PeliCAN ACR0..3
     /// at 16..19, AMR0..3 at 20..23; BasicCAN ACR at 4, AMR at 5), checks that each address selects
-    /// its register (`host_index` 0..3 ACR0..3, 4..7 AMR0..3: the controller reads the register back
-    /// from the copy at that index, tested on the whole controller), and returns to operating mode.
+    /// its register (`host_index` 0..3 ACR0..3, 4..7 AMR0..3), writes the value into the copy at
+    /// that index as the controller does (tested on the whole controller), and returns to operating
+    /// mode.
     fn configure(&mut self, config: &FilterConfig) {
         self.inputs.pelican = config.pelican;
         self.inputs.single_filter = config.single_filter;
@@ -100,16 +125,10 @@ impl Bench {
                 (basic::AMR, config.amr[0], 4),
             ]
         };
-        for &(addr, value, _) in &registers {
-            self.inputs.we = true;
-            self.inputs.addr = addr;
-            self.inputs.wdata = value;
-            self.cycle();
-        }
-        self.inputs.we = false;
-        for &(addr, _, index) in &registers {
+        for &(addr, value, index) in &registers {
             self.inputs.addr = addr;
             self.cycle();
+            self.copies[index as usize] = value;
             assert!(
                 self.filter.host_selected.val(),
                 "address {addr} not selected"
@@ -127,17 +146,30 @@ impl Bench {
         self.filter.accept.val()
     }
 
-    /// Applies the inputs, clocks once and returns `accept` after the edge.
+    /// Applies the inputs and the core port's (the filter's read granted but at a sample point, the
+    /// copy it read the cycle before, a frame byte otherwise), clocks once and returns `accept`
+    /// after the edge.
     fn cycle(&mut self) -> bool {
+        let sample_point = self.cycles % SAMPLE_PERIOD == SAMPLE_PERIOD - 1;
+        self.inputs.copy_granted = self.filter.copy_wanted.val() & !sample_point;
+        self.inputs.copy_data = match self.granted_read {
+            Some(index) => self.copies[index],
+            None => 0xA5 ^ self.cycles as u8,
+        };
+        self.granted_read = self
+            .inputs
+            .copy_granted
+            .then(|| self.filter.copy_index.val().index());
+        self.cycles += 1;
         let i = self.inputs;
         let f = &mut self.filter;
         f.reset.next = i.reset;
         f.pelican.next = i.pelican;
         f.single_filter.next = i.single_filter;
         f.reset_mode.next = i.reset_mode;
-        f.host.addr.next = u64::from(i.addr).into();
-        f.host.we.next = i.we;
-        f.host.wdata.next = u64::from(i.wdata).into();
+        f.addr.next = u64::from(i.addr).into();
+        f.copy_granted.next = i.copy_granted;
+        f.copy_data.next = u64::from(i.copy_data).into();
         f.rx_frame.header.next = i.rx_header;
         f.rx_frame.id.next = u64::from(i.rx_id).into();
         f.rx_frame.ide.next = i.rx_ide;
@@ -151,9 +183,11 @@ impl Bench {
             let f = &self.filter;
             let index = f.host_index.val().index();
             let seen = format!(
-                "{} {} {index:x}",
+                "{} {} {index:x} {} {:x}",
                 u8::from(accept),
-                u8::from(f.host_selected.val())
+                u8::from(f.host_selected.val()),
+                u8::from(f.copy_wanted.val()),
+                f.copy_index.val().index()
             );
             trace.push((i, seen));
         }
@@ -161,9 +195,9 @@ impl Bench {
     }
 
     /// Feeds `frame` as the protocol engine does (header strobe, then one strobe per data byte with
-    /// `gap` idle cycles before each, other inputs scrambled while not valid) and returns `accept`
-    /// from the clock after the last strobe; checks it holds for a few more cycles while the frame
-    /// inputs change.
+    /// [`RUN_CYCLES`] + `gap` idle cycles before each, other inputs scrambled while not valid) and
+    /// returns `accept` [`RUN_CYCLES`] after the last strobe; checks it holds for a few more cycles
+    /// while the frame inputs change.
     fn receive(&mut self, frame: &Frame, gap: usize) -> bool {
         self.inputs.rx_header = true;
         self.inputs.rx_id = stream_id(frame);
@@ -172,7 +206,7 @@ impl Bench {
         self.cycle();
         self.inputs.rx_header = false;
         for (index, &byte) in frame.data_bytes().iter().enumerate() {
-            for junk in 0..gap {
+            for junk in 0..RUN_CYCLES + gap {
                 self.inputs.rx_byte = !byte ^ junk as u8;
                 self.inputs.rx_byte_index = (index as u8 + 1 + junk as u8) & 7;
                 self.cycle();
@@ -182,6 +216,9 @@ impl Bench {
             self.inputs.rx_byte_index = index as u8;
             self.cycle();
             self.inputs.rx_byte_strobe = false;
+        }
+        for _ in 0..RUN_CYCLES {
+            self.cycle();
         }
         let accept = self.accept();
         // The frame inputs are only held until the end of the frame.
@@ -880,24 +917,26 @@ fn generated_verilog_compiles() {
 }
 
 /// A Verilog testbench that applies `trace`'s inputs cycle by cycle to `top` and prints `accept`,
-/// `host_selected` and `host_index` after every rising edge.
+/// `host_selected`, `host_index`, `copy_wanted` and `copy_index` after every rising edge.
 fn verilog_testbench(trace: &[(Inputs, String)]) -> String {
     let mut tb = String::from(
         "module tb;\n\
          reg clock = 0, reset = 0, pelican = 0, single_filter = 0;\n\
-         reg reset_mode = 0, we = 0;\n\
-         reg [7:0] addr = 0, wdata = 0;\n\
+         reg reset_mode = 0, copy_granted = 0;\n\
+         reg [7:0] addr = 0, copy_data = 0;\n\
          reg rx_header = 0, rx_ide = 0, rx_rtr = 0, rx_byte_strobe = 0;\n\
          reg [28:0] rx_id = 0;\n\
          reg [7:0] rx_byte = 0;\n\
          reg [2:0] rx_byte_index = 0;\n\
-         wire accept, host_selected;\n\
-         wire [2:0] host_index;\n\
+         wire accept, host_selected, copy_wanted;\n\
+         wire [2:0] host_index, copy_index;\n\
          top dut(.clock(clock), .reset(reset), .pelican(pelican), .single_filter(single_filter),\n\
-         .reset_mode(reset_mode), .host$addr(addr), .host$we(we), .host$wdata(wdata), .rx_frame$header(rx_header),\n\
+         .reset_mode(reset_mode), .addr(addr), .copy_granted(copy_granted), .copy_data(copy_data),\n\
+         .rx_frame$header(rx_header),\n\
          .rx_frame$id(rx_id), .rx_frame$ide(rx_ide), .rx_frame$rtr(rx_rtr), .rx_frame$dlc(4'd0),\n\
          .rx_frame$strobe(rx_byte_strobe), .rx_frame$data(rx_byte), .rx_frame$index(rx_byte_index),\n\
-         .accept(accept), .host_selected(host_selected), .host_index(host_index));\n\
+         .accept(accept), .host_selected(host_selected), .host_index(host_index),\n\
+         .copy_wanted(copy_wanted), .copy_index(copy_index));\n\
          initial begin\n",
     );
     for (i, _) in trace {
@@ -905,17 +944,18 @@ fn verilog_testbench(trace: &[(Inputs, String)]) -> String {
         writeln!(
             tb,
             "reset = {}; pelican = {}; single_filter = {}; \
-             reset_mode = {}; addr = 8'h{:02x}; we = {}; wdata = 8'h{:02x}; \
+             reset_mode = {}; addr = 8'h{:02x}; copy_granted = {}; copy_data = 8'h{:02x}; \
              rx_header = {}; rx_id = 29'h{:x}; rx_ide = {}; rx_rtr = {}; \
              rx_byte_strobe = {}; rx_byte = 8'h{:02x}; rx_byte_index = 3'd{}; \
-             #5 clock = 1; #1 $display(\"%b %b %h\", accept, host_selected, host_index); #4 clock = 0;",
+             #5 clock = 1; #1 $display(\"%b %b %h %b %h\", accept, host_selected, host_index, \
+             copy_wanted, copy_index); #4 clock = 0;",
             b(i.reset),
             b(i.pelican),
             b(i.single_filter),
             b(i.reset_mode),
             i.addr,
-            b(i.we),
-            i.wdata,
+            b(i.copy_granted),
+            i.copy_data,
             b(i.rx_header),
             i.rx_id,
             b(i.rx_ide),

@@ -1,16 +1,18 @@
 //! The TX buffer block alone (`rtl::tx_buffer`): what its two read ports give around a write.
 //!
 //! The block's contract (its doc comment): each read port gives the byte that was at its index
-//! before the clock edge, and 0 when that cycle wrote the buffer, so that the emitted RAMs need no
-//! read-during-write logic (`no_rw_check`, docs/VERILOG.md). The host side never sees the 0: the
-//! SJA1000 port contract has `we` and `re` never high in the same cycle (docs/FPGA.md), and the
-//! engine only reads while TBS is 0, when host writes to the buffer are dropped (registers.rs,
-//! "writes while TBS = 0 are lost").
+//! before the clock edge; the host port gives 0 when that cycle wrote the buffer, the core port when
+//! that cycle wrote a byte of the same part (the frame, or the register copies), so that the emitted
+//! RAMs need no read-during-write logic (`no_rw_check`, docs/VERILOG.md). The host side never sees
+//! the 0: the SJA1000 port contract has `we` and `re` never high in the same cycle (docs/FPGA.md);
+//! the engine only reads while TBS is 0, when host writes to the buffer are dropped (registers.rs,
+//! "writes while TBS = 0 are lost"), and the acceptance filter reads ACR/AMR, written only in reset
+//! mode, while the host may be writing the frame.
 //!
-//! The host's RAM also holds the read-back copies of ACR0..3/AMR0..3 (`READBACK_FILTER` + 0..7) and
-//! BTR0, BTR1, OCR (`READBACK_CONFIGURATION` + 0..2): the host reads those registers from there, so
-//! a copy must read what was last written, read 0 (the registers' reset value) after a reset, and
-//! never reach the engine's port, which holds the frame only.
+//! Both RAMs also hold the copies of ACR0..3/AMR0..3 (`READBACK_FILTER` + 0..7) and BTR0, BTR1, OCR
+//! (`READBACK_CONFIGURATION` + 0..2): the host reads those registers from there and the filter reads
+//! ACR/AMR through the core port, so a copy must read what was last written, read 0 (the registers'
+//! reset value) after a reset, and stay apart from the frame byte with the same low bits.
 
 use rtl::tx_buffer::{TxBuffer, READBACK_CONFIGURATION, READBACK_FILTER};
 use rust_hdl::prelude::*;
@@ -105,12 +107,12 @@ fn a_read_back_copy_reads_what_was_written_and_0_after_a_reset() {
 }
 
 #[test]
-fn a_read_back_copy_is_not_a_frame_byte_for_the_engine() {
+fn a_register_copy_and_the_frame_byte_with_its_low_bits_stay_apart() {
     let mut uut = buffer();
     uut.core_index.next = 0.into();
     cycle(&mut uut, Some((0, 0x88)));
     cycle(&mut uut, None);
-    // Index 16 and 0 share their low four bits: the engine's RAM must not take the copy.
+    // Index 16 and 0 share their low four bits.
     uut.host_index.next = (READBACK_FILTER as u64).into();
     cycle(&mut uut, Some((READBACK_FILTER as u64, 0x77)));
     assert_eq!(
@@ -121,6 +123,32 @@ fn a_read_back_copy_is_not_a_frame_byte_for_the_engine() {
     cycle(&mut uut, None);
     assert_eq!(read_ports(&uut), (0x77, 0x88), "copy 16 and frame byte 0");
     assert_eq!(uut.info.val().index(), 0x88, "the frame information");
+    uut.core_index.next = (READBACK_FILTER as u64).into();
+    cycle(&mut uut, None);
+    assert_eq!(read_ports(&uut).1, 0x77, "the core port reads copy 16");
+}
+
+#[test]
+fn the_core_port_reads_a_copy_while_the_frame_is_written() {
+    let acr2 = READBACK_FILTER as u64 + 2;
+    let mut uut = buffer();
+    cycle(&mut uut, Some((acr2, 0xC3)));
+    uut.core_index.next = acr2.into();
+    cycle(&mut uut, Some((5, 0x12)));
+    assert_eq!(
+        read_ports(&uut).1,
+        0xC3,
+        "ACR2 in a frame byte's write cycle"
+    );
+    cycle(&mut uut, Some((READBACK_FILTER as u64 + 5, 0x34)));
+    assert_eq!(read_ports(&uut).1, 0, "ACR2 in a copy's write cycle");
+    cycle(&mut uut, None);
+    assert_eq!(read_ports(&uut).1, 0xC3, "ACR2 the cycle after");
+    uut.reset.next = true;
+    cycle(&mut uut, None);
+    uut.reset.next = false;
+    cycle(&mut uut, None);
+    assert_eq!(read_ports(&uut).1, 0, "ACR2 after a reset");
 }
 
 #[test]

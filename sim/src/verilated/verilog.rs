@@ -334,14 +334,10 @@ mod tests {
     #[test]
     fn the_tx_buffer_rams_are_marked_and_the_rx_fifo_is_not() {
         let v = controller_verilog();
-        // The host's RAM holds the frame and the read-back copies, the engine's the frame only.
+        // Both RAMs hold the frame and the register copies (the host and the core read port).
         assert_eq!(
             v.matches("(* no_rw_check *) reg[7:0] mem[31:0];").count(),
-            1
-        );
-        assert_eq!(
-            v.matches("(* no_rw_check *) reg[7:0] mem[15:0];").count(),
-            1
+            2
         );
         assert_eq!(v.matches("no_rw_check").count(), 2);
     }
