@@ -9,7 +9,7 @@ use golden::frame::{Frame, Id};
 use proptest::prelude::*;
 use proptest::strategy::ValueTree;
 use proptest::test_runner::TestRunner;
-use rtl::acceptance_filter::AcceptanceFilter;
+use rtl::acceptance_filter::{AcceptanceFilter, COMPARE_READS};
 use rtl::bsp::received_frame::STANDARD_ID_SHIFT;
 use rtl::registers::{basic, pelican};
 use rust_hdl::prelude::*;
@@ -44,10 +44,12 @@ struct Inputs {
 /// The engine's sample points on the TX buffer's core port, every this many cycles: the filter's
 /// read is not granted then (a bit is at least 6 clocks in the controller).
 const SAMPLE_PERIOD: u64 = 5;
-/// Cycles from a strobe that starts a comparison run to its result, with the reads the sample
-/// points delay (8 reads, one in 5 cycles taken): a byte of the stream is at least 8 bit times
-/// (48 clocks) after the one before, and the frame is stored more than 20 bit times after its last.
-const RUN_CYCLES: usize = 12;
+/// Cycles from a strobe that starts a comparison run to its result: the run's reads start the cycle
+/// after the strobe, take [`COMPARE_READS`] cycles and the sample points among them (2 in 10), and
+/// the last register arrives one cycle later; one cycle to spare. A byte of the stream is at least 8
+/// bit times (48 clocks) after the one before, and the frame is stored more than 20 bit times after
+/// its last.
+const RUN_CYCLES: usize = COMPARE_READS + 4;
 
 /// One filter, its inputs, the register copies it reads, and optionally the per-cycle trace
 /// (inputs, and after the edge `accept`, `host_selected`, `host_index`, `copy_wanted` and
