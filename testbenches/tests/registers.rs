@@ -17,7 +17,7 @@ use sim::host::sja1000::{
 use sim::host::Host;
 use sim::nodes::controller_node::ControllerNode;
 use testbenches::controller_bench::{
-    bench_bit_fs, configure_pelican, ControllerBench, INTEGRATION_BITS,
+    bench_bit_fs, configure_pelican, configure_pelican_for, ControllerBench, INTEGRATION_BITS,
 };
 use testbenches::ecc::{self, ecc};
 
@@ -1102,6 +1102,50 @@ fn srr_stores_the_own_frame_only_if_the_acceptance_filter_passes_it() {
     send(&mut bench, 0, &accepted, command::SRR);
     assert_eq!(drain_rx(&mut bench.host(0)), vec![accepted]);
     assert_eq!(drain_rx(&mut bench.host(1)), vec![rejected, accepted]);
+}
+
+/// The acceptance filter compares the data bytes after they arrive, reading ACR/AMR from the TX
+/// buffer in the clocks the protocol engine leaves it; at the fastest bit timing that carries frames
+/// between two controllers on this bench (BTR0 = 0x00, BTR1 = 0x02: 5 quanta of 2 clocks, 10 clocks
+/// a bit, data sheet 6.5.1/6.5.2; a TSEG1 of 1 or 2 quanta carries none) its reads still end before
+/// the next byte and the frame's end. Data sheet 6.4.15, single filter, standard frame: ACR2 is
+/// data byte 1, ACR3 data byte 2 (identifier and RTR don't care here).
+#[test]
+fn the_filter_compares_data_bytes_at_the_fastest_bit_timing() {
+    let fastest = golden::btr::Btr::from_registers(0x00, 0x02);
+    let mut bench = ControllerBench::new(2);
+    for n in 0..2 {
+        configure_pelican_for(&mut bench.host(n), fastest);
+    }
+    let receiver = 1;
+    // ACR0..3 at ACR0 + k, AMR0..3 at AMR0 + k.
+    for (register, value) in [
+        (pelican::ACR0 + 2, 0xA5),
+        (pelican::ACR0 + 3, 0x3C),
+        (pelican::AMR0, 0xFF),
+        (pelican::AMR0 + 1, 0xFF),
+        (pelican::AMR0 + 2, 0x00),
+        (pelican::AMR3, 0x00),
+    ] {
+        bench.host(receiver).write(register, value);
+    }
+    leave_reset_mode(&mut bench, 0, 0);
+    leave_reset_mode(&mut bench, receiver, mode::AFM);
+    let frames = [
+        std_frame(0x101, &[0xA5, 0x3C, 1, 2, 3, 4, 5, 6]),
+        std_frame(0x102, &[0xA5, 0x3D]),
+        std_frame(0x103, &[0xA4, 0x3C]),
+        std_frame(0x104, &[0xA5]),
+        std_frame(0x105, &[0xA5, 0x3C]),
+    ];
+    for frame in &frames {
+        send(&mut bench, 0, frame, command::TR);
+    }
+    assert_eq!(
+        drain_rx(&mut bench.host(receiver)),
+        vec![frames[0], frames[3], frames[4]],
+        "frames whose data bytes 1 and 2 (those present) equal ACR2 and ACR3"
+    );
 }
 
 #[test]
