@@ -12,7 +12,7 @@
 //! mode, 0 = BasicCAN; `single_filter`: MOD.AFM), the register reads (`copy_granted`, `copy_data`)
 //! and the received-frame stream of the protocol engine `rx_frame`: `header` (one-clock strobe when
 //! the header is complete) with `id` (ID.28..18 in bits 28..18 in both formats,
-//! `crate::bsp::received_frame`), `ide` and `rtr`, held until the next frame's arbitration field,
+//! `crate::bsp::received_frame`), `ide` and `rtr`, valid from then until the next frame's header,
 //! then one `strobe` per data byte with `data` and `index` (0 = data byte 1). Out: `accept`, final
 //! [`COMPARE_READS`] granted clocks after the last strobe of a frame that starts a comparison (its
 //! header or data byte 1 or 2 of a standard frame) until the next `header`, combinational from
