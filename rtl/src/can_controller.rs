@@ -15,8 +15,10 @@
 //! and clear conditions, capture-until-read of ALC and ECC, counter writes, reset mode, listen-only,
 //! self-test, sleep and wake-up. Here: the commands TR, AT, SRR (a request, its abort and its end,
 //! TBS/TCS), RRB and CDO (to the FIFO), the TX buffer's write window (operating mode while TBS, its
-//! RAM window in reset mode), the TXERR/RXERR and RBSA writes (reset mode, PeliCAN) and which
-//! received frames are stored.
+//! RAM window in reset mode) and the register copies it keeps (ACR/AMR, BTR0, BTR1, OCR), its core
+//! read port (the protocol engine's byte at a sample point, the acceptance filter's ACR/AMR in any
+//! other clock), the TXERR/RXERR and RBSA writes (reset mode, PeliCAN) and which received frames
+//! are stored.
 
 use rust_hdl::prelude::*;
 
@@ -87,7 +89,7 @@ pub struct CanController {
     /// Index of ACR0's copy in the TX buffer (ACR1..AMR3 by their low bits).
     #[constant(READBACK_FILTER as u64)]
     readback_filter: Constant<Bits<5>>,
-    /// Host index of BTR0's read-back copy in the TX buffer (BTR1, OCR by their low bits).
+    /// Index of BTR0's read-back copy in the TX buffer (BTR1, OCR by their low bits).
     #[constant(READBACK_CONFIGURATION as u64)]
     readback_configuration: Constant<Bits<5>>,
     /// `addr` is a register read back from its copy in the TX buffer, at `readback_index`.

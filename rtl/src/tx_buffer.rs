@@ -1,15 +1,16 @@
 //! The transmit buffer: the 13 bytes of the frame to send, in the SJA1000 PeliCAN frame-buffer
-//! layout (frame information, 2 or 4 identifier bytes, up to 8 data bytes), and the host's read-back
-//! copies of the configuration registers it reads back unchanged.
+//! layout (frame information, 2 or 4 identifier bytes, up to 8 data bytes), and copies of the
+//! registers the host writes and reads back unchanged (ACR/AMR, BTR0, BTR1, OCR).
 //!
 //! Ports: one write port (`write`, `write_index`, `write_data`) for the host; two registered read
 //! ports, `host_index` → `host_data` for the register windows and `core_index` → `core_data` for
 //! the protocol engine and the acceptance filter (each the byte that was at its index before the
-//! last rising edge of `clock`; 0 if that cycle wrote the buffer, for the core port only if it wrote
-//! a byte of the same part: the frame, or the register copies), and `info` (byte 0, the frame information the engine reads all
-//! the time). Writes act on the rising edge of `clock`; indices outside the bytes kept are ignored
-//! and read 0. The synchronous `reset` clears every byte (undefined on the SJA1000 for the frame;
-//! cleared here so nothing after a reset depends on power-up values). With `basic_layout`
+//! last rising edge of `clock`; 0 if that cycle wrote the buffer, for the core port only if it
+//! wrote a byte of the same part: the frame, or the register copies), and `info` (byte 0, the
+//! frame information the engine reads all the time). Writes act on the rising edge of `clock`;
+//! indices outside the bytes kept are ignored and read 0. The synchronous `reset` clears every byte
+//! (undefined on the SJA1000 for the frame; cleared here so nothing after a reset depends on
+//! power-up values). With `basic_layout`
 //! (BasicCAN) the frame information comes from byte 2 instead (RTR in bit 4, DLC in bits 3..0,
 //! standard frames only), where the BasicCAN map writes it.
 //!
