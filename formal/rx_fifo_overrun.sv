@@ -15,11 +15,11 @@
 // general harness's premise holds for these frames at every depth.
 //
 //! read: can_controller.v
-//! connect: harness.distance = harness.dut.distance
+//! connect: harness.tail = harness.dut.tail$q
+//! connect: harness.write_at = harness.dut.write_at$q
 //! connect: harness.full = harness.dut.full$q
 //! connect: harness.incomplete = harness.dut.incomplete$q
 //! connect: harness.info = harness.dut.new_info
-//! connect: harness.length = harness.dut.new_length
 //! connect: harness.writing_header = harness.dut.writing_header$q
 //! connect: harness.header_step = harness.dut.header_step$q
 //! connect: harness.ram_write_enable = harness.dut.ram$write_enable
@@ -28,7 +28,7 @@
 //! bmc: 90
 //! prove: pdr
 //! start: first
-//! mutation: room-check | if (room_needed[32'h6]) begin => if (room_needed[32'h6] & 1'b0) begin
+//! mutation: room-check | if (no_room) begin => if (no_room & 1'b0) begin
 //! mutation: no-dos | overrun_state$d = 1'b1; => overrun_state$d = overrun_state$q;
 //! mutation: release-length | head$d = next_head; => head$d = head$q + 6'h3;
 //! mutation: release-not-counted | count_after_release = count$q - 32'h1; => count_after_release = count$q;

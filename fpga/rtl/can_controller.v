@@ -5265,6 +5265,9 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
     reg  [5:0] tail$d;
     wire  [5:0] tail$q;
     reg  tail$clock;
+    reg  [5:0] write_at$d;
+    wire  [5:0] write_at$q;
+    reg  write_at$clock;
     reg  [4:0] count$d;
     wire  [4:0] count$q;
     reg  count$clock;
@@ -5291,18 +5294,17 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
     reg  incomplete$clock;
     
     // Local signals
-    reg  [5:0] distance;
-    reg  [5:0] next_tail;
     reg  [7:0] new_info;
-    reg  [3:0] new_length;
-    reg  [3:0] header_bytes;
     reg  [7:0] head_info_now;
     reg  [3:0] head_length;
     reg  [3:0] head_header_bytes;
-    reg  [3:0] offset;
     reg  write_now;
+    reg  ram_write;
+    reg  [5:0] ram_write_address;
+    reg  [7:0] ram_write_data;
     reg  [7:0] write_byte;
-    reg  [6:0] room_needed;
+    reg  no_room;
+    reg  at_head;
     reg  releasing;
     reg  storing;
     reg  [5:0] next_head;
@@ -5328,6 +5330,11 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
         .d(tail$d),
         .q(tail$q),
         .clock(tail$clock)
+    );
+    top$fifo$write_at write_at(
+        .d(write_at$d),
+        .q(write_at$q),
+        .clock(write_at$clock)
     );
     top$fifo$count count(
         .d(count$d),
@@ -5374,6 +5381,7 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
     always @(*) begin
         head$clock = clock;
         tail$clock = clock;
+        write_at$clock = clock;
         count$clock = clock;
         full$clock = clock;
         overrun_state$clock = clock;
@@ -5384,6 +5392,7 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
         incomplete$clock = clock;
         head$d = head$q;
         tail$d = tail$q;
+        write_at$d = write_at$q;
         count$d = count$q;
         full$d = full$q;
         overrun_state$d = overrun_state$q;
@@ -5420,20 +5429,7 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
             head_length = head_header_bytes;
         end
         new_info = ((((rx_frame$dlc) & 8'hff) & ~(1 << (32'h6)) | ((rx_frame$rtr) << (32'h6))) & ~(1 << (32'h7)) | ((rx_frame$ide) << (32'h7)));
-        header_bytes = 32'h3;
-        if (rx_frame$ide) begin
-            header_bytes = 32'h5;
-        end
-        new_length = header_bytes + rx_frame$dlc;
-        if (rx_frame$dlc[32'h3]) begin
-            new_length = header_bytes + 32'h8;
-        end
-        if (rx_frame$rtr) begin
-            new_length = header_bytes;
-        end
-        distance = tail$q - head$q;
         write_now = 1'b0;
-        offset = ((header_step$q) & 4'hf);
         write_byte = new_info;
         header_last = 32'h2;
         if (rx_frame$ide) begin
@@ -5441,6 +5437,7 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
         end
         if (rx_frame$header) begin
             header_step$d = 32'h0;
+            write_at$d = tail$q;
             writing_header$d = 1'b1;
             incomplete$d = 1'b0;
         end
@@ -5470,19 +5467,20 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
         end
         if (rx_frame$strobe) begin
             write_now = 1'b1;
-            offset = header_bytes + ((rx_frame$index) & 4'hf);
             write_byte = rx_frame$data;
         end
-        room_needed = (((distance) & 7'h7f) & ~(1 << (32'h6)) | ((full$q) << (32'h6))) + ((offset) & 7'h7f);
-        ram$write_enable = 1'b0;
-        ram$write_address = tail$q + ((offset) & 6'h3f);
-        ram$write_data = write_byte;
+        at_head = write_at$q == head$q;
+        no_room = (at_head & ((write_at$q != tail$q) | full$q)) | incomplete$q;
+        ram_write = 1'b0;
+        ram_write_address = write_at$q;
+        ram_write_data = write_byte;
         if (write_now) begin
-            if (room_needed[32'h6]) begin
+            if (no_room) begin
                 incomplete$d = 1'b1;
             end
             else begin
-                ram$write_enable = 1'b1;
+                ram_write = 1'b1;
+                write_at$d = write_at$q + 32'h1;
             end
         end
         releasing = release_head & (count$q != 32'h0);
@@ -5496,10 +5494,9 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
             fetching$d = 1'b1;
         end
         count$d = count_after_release;
-        next_tail = tail$q + ((new_length) & 6'h3f);
         if (storing) begin
-            tail$d = next_tail;
-            full$d = (next_tail == head$q) & ~releasing;
+            tail$d = write_at$q;
+            full$d = at_head & ~releasing;
             count$d = count_after_release + 32'h1;
             if (count_after_release == 32'h0) begin
                 head_info_reg$d = new_info;
@@ -5518,9 +5515,9 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
         end
         if (clear) begin
             if (host_write) begin
-                ram$write_enable = 1'b1;
-                ram$write_address = host_address;
-                ram$write_data = host_data;
+                ram_write = 1'b1;
+                ram_write_address = host_address;
+                ram_write_data = host_data;
             end
             tail$d = head$q;
             count$d = 32'h0;
@@ -5533,9 +5530,13 @@ module top$fifo(clock,reset,clear,load_start,start_address,rx_frame$header,rx_fr
                 tail$d = start_address;
             end
         end
+        ram$write_enable = ram_write;
+        ram$write_address = ram_write_address;
+        ram$write_data = ram_write_data;
         if (reset) begin
             head$d = 32'h0;
             tail$d = 32'h0;
+            write_at$d = 32'h0;
             count$d = 32'h0;
             full$d = 1'b0;
             overrun_state$d = 1'b0;
@@ -5814,6 +5815,25 @@ module top$fifo$tail(d,q,clock);
     end
           
 endmodule // top$fifo$tail
+
+
+module top$fifo$write_at(d,q,clock);
+    
+    // Module arguments
+    input wire  [5:0] d;
+    output reg  [5:0] q;
+    input wire  clock;
+    
+    // Update code (custom)
+    initial begin
+       q = 6'h0;
+    end
+    
+    always @(posedge clock) begin
+       q <= d;
+    end
+          
+endmodule // top$fifo$write_at
 
 
 module top$fifo$writing_header(d,q,clock);

@@ -2,8 +2,9 @@
 //! SJA1000 frame-buffer layout (frame information, 2 or 4 identifier bytes, the data bytes).
 //!
 //! Ports in: the received-frame stream of the protocol engine (`rx_frame`: the `header` strobe with
-//! `id`, `ide`, `rtr`, `dlc` held from then on, so the frame information and length of the message
-//! being written are computed from them, not copied; `strobe` with `data` and `index`), `store`
+//! `id`, `ide`, `rtr`, `dlc` held from then on, so the frame information of the message being
+//! written is computed from them, not copied; `strobe` with `data`, the data bytes in order; `index`
+//! is not used: the bytes go to consecutive addresses), `store`
 //! (the frame is valid and accepted: keep it), the host commands `release_head` (RRB) and
 //! `clear_overrun` (CDO), `clear` (reset mode: empty), `load_start` + `start_address` (RBSA write),
 //! and the host port `host_read` / `host_write` at `host_address` (writes only in reset mode, when
@@ -11,12 +12,12 @@
 //! `host_read`), `message_count` (RMC), `start` (RBSA), `overrun` (DOS), `head_info` (frame
 //! information of the head message). Acts on the rising edge of `clock`.
 //!
-//! A message is written while it arrives, into the free space after the stored messages; bytes that
-//! find no room are dropped and mark the message incomplete. The bytes in use are the distance from
-//! the head message to the write position, with a `full` flag telling 64 from 0. At `store` a complete message is counted
-//! (RMC + 1), an incomplete one is dropped entirely and sets `overrun`. `release_head` frees the head
-//! message; the frame information of the next one is fetched through the RAM read port in that same
-//! cycle (a host write cycle, so the port is free) and is valid from the cycle after.
+//! A message is written while it arrives, into the free space after the stored messages (from the
+//! tail); its first byte that would land on the head message finds no room, and that byte and every
+//! later one of the message are dropped and mark it incomplete. At `store` a complete message is
+//! counted (RMC + 1), an incomplete one is dropped entirely and sets `overrun`. `release_head` frees
+//! the head message; the frame information of the next one is fetched through the RAM read port in
+//! that same cycle (a host write cycle, so the port is free) and is valid from the cycle after.
 
 use rust_hdl::prelude::*;
 
@@ -74,8 +75,10 @@ pub struct RxFifo {
     ram: RAM<Bits<8>, 6>,
     head: DFF<Bits<6>>,
     tail: DFF<Bits<6>>,
+    /// Where the next byte of the message being received goes (from the tail on).
+    write_at: DFF<Bits<6>>,
     count: DFF<Bits<5>>,
-    /// The pointers meet with messages stored: all 64 bytes are used (`distance` is 0 then).
+    /// The pointers meet with messages stored: all 64 bytes are used.
     full: DFF<Bit>,
     overrun_state: DFF<Bit>,
     head_info_reg: DFF<Bits<8>>,
@@ -84,20 +87,17 @@ pub struct RxFifo {
     writing_header: DFF<Bit>,
     incomplete: DFF<Bit>,
     // Combinational helpers.
-    /// Bytes from the head message to the write position, modulo the FIFO size: a signal of its own,
-    /// so the subtraction is made in 6 bits (docs/RUST_HDL.md).
-    distance: Signal<Local, Bits<6>>,
-    next_tail: Signal<Local, Bits<6>>,
     new_info: Signal<Local, Bits<8>>,
-    new_length: Signal<Local, Bits<4>>,
-    header_bytes: Signal<Local, Bits<4>>,
     head_info_now: Signal<Local, Bits<8>>,
     head_length: Signal<Local, Bits<4>>,
     head_header_bytes: Signal<Local, Bits<4>>,
-    offset: Signal<Local, Bits<4>>,
     write_now: Signal<Local, Bit>,
+    ram_write: Signal<Local, Bit>,
+    ram_write_address: Signal<Local, Bits<6>>,
+    ram_write_data: Signal<Local, Bits<8>>,
     write_byte: Signal<Local, Bits<8>>,
-    room_needed: Signal<Local, Bits<7>>,
+    no_room: Signal<Local, Bit>,
+    at_head: Signal<Local, Bit>,
     releasing: Signal<Local, Bit>,
     storing: Signal<Local, Bit>,
     next_head: Signal<Local, Bits<6>>,
@@ -120,6 +120,7 @@ impl Logic for RxFifo {
             clock,
             head,
             tail,
+            write_at,
             count,
             full,
             overrun_state,
@@ -166,25 +167,9 @@ impl Logic for RxFifo {
         self.new_info.next = bit_cast::<8, 4>(self.rx_frame.dlc.val())
             .replace_bit(6, self.rx_frame.rtr.val())
             .replace_bit(7, self.rx_frame.ide.val());
-        self.header_bytes.next = 3.into();
-        if self.rx_frame.ide.val() {
-            self.header_bytes.next = 5.into();
-        }
-        self.new_length.next = self.header_bytes.val() + self.rx_frame.dlc.val();
-        if self.rx_frame.dlc.val().get_bit(3) {
-            self.new_length.next = self.header_bytes.val() + 8;
-        }
-        if self.rx_frame.rtr.val() {
-            self.new_length.next = self.header_bytes.val();
-        }
-
-        // ---- The bytes stored, from the pointers: the write position runs ahead of the head by
-        // `distance`, which is 0 both when the FIFO is empty and when it is `full`.
-        self.distance.next = self.tail.q.val() - self.head.q.val();
 
         // ---- Writing the message being received.
         self.write_now.next = false;
-        self.offset.next = bit_cast::<4, 3>(self.header_step.q.val());
         self.write_byte.next = self.new_info.val();
         self.header_last.next = 2.into();
         if self.rx_frame.ide.val() {
@@ -192,6 +177,7 @@ impl Logic for RxFifo {
         }
         if self.rx_frame.header.val() {
             self.header_step.d.next = 0.into();
+            self.write_at.d.next = self.tail.q.val();
             self.writing_header.d.next = true;
             self.incomplete.d.next = false;
         }
@@ -236,23 +222,26 @@ impl Logic for RxFifo {
         }
         if self.rx_frame.strobe.val() {
             self.write_now.next = true;
-            self.offset.next =
-                self.header_bytes.val() + bit_cast::<4, 3>(self.rx_frame.index.val());
             self.write_byte.next = self.rx_frame.data.val();
         }
-        // A byte fits if it lands before the stored messages: used + offset < 64, where the bytes
-        // used are `distance` with 64 for a full FIFO (whose `distance` is 0).
-        self.room_needed.next = bit_cast::<7, 6>(self.distance.val())
-            .replace_bit(6, self.full.q.val())
-            + bit_cast::<7, 4>(self.offset.val());
-        self.ram.write_enable.next = false;
-        self.ram.write_address.next = self.tail.q.val() + bit_cast::<6, 4>(self.offset.val());
-        self.ram.write_data.next = self.write_byte.val();
+        // A message's bytes go to consecutive addresses from the tail (the header, then the data
+        // bytes in order), so the first that finds no room is the one that would land on the head
+        // message: after a byte of the message was written (the write position left the tail), or
+        // at its first byte if the FIFO is `full` (the pointers meet both when it is empty and when
+        // it is full). Every later byte of the message is dropped with it.
+        self.at_head.next = self.write_at.q.val() == self.head.q.val();
+        self.no_room.next = (self.at_head.val()
+            & ((self.write_at.q.val() != self.tail.q.val()) | self.full.q.val()))
+            | self.incomplete.q.val();
+        self.ram_write.next = false;
+        self.ram_write_address.next = self.write_at.q.val();
+        self.ram_write_data.next = self.write_byte.val();
         if self.write_now.val() {
-            if self.room_needed.val().get_bit(6) {
+            if self.no_room.val() {
                 self.incomplete.d.next = true;
             } else {
-                self.ram.write_enable.next = true;
+                self.ram_write.next = true;
+                self.write_at.d.next = self.write_at.q.val() + 1;
             }
         }
 
@@ -268,12 +257,12 @@ impl Logic for RxFifo {
             self.fetching.d.next = true;
         }
         self.count.d.next = self.count_after_release.val();
-        self.next_tail.next = self.tail.q.val() + bit_cast::<6, 4>(self.new_length.val());
         if self.storing.val() {
-            self.tail.d.next = self.next_tail.val();
-            // The message takes the last free bytes (with a release in the same clock it cannot: it
+            // A complete message: every byte was written, the last just before `write_at`.
+            self.tail.d.next = self.write_at.q.val();
+            // The message took the last free bytes (with a release in the same clock it cannot: it
             // fitted before the release freed at least 3 more).
-            self.full.d.next = (self.next_tail.val() == self.head.q.val()) & !self.releasing.val();
+            self.full.d.next = self.at_head.val() & !self.releasing.val();
             self.count.d.next = self.count_after_release.val() + 1;
             if self.count_after_release.val() == 0 {
                 self.head_info_reg.d.next = self.new_info.val();
@@ -296,9 +285,9 @@ impl Logic for RxFifo {
         // ---- Reset mode empties the FIFO; the start address stays (RBSA); the host may write the RAM.
         if self.clear.val() {
             if self.host_write.val() {
-                self.ram.write_enable.next = true;
-                self.ram.write_address.next = self.host_address.val();
-                self.ram.write_data.next = self.host_data.val();
+                self.ram_write.next = true;
+                self.ram_write_address.next = self.host_address.val();
+                self.ram_write_data.next = self.host_data.val();
             }
             self.tail.d.next = self.head.q.val();
             self.count.d.next = 0.into();
@@ -311,9 +300,13 @@ impl Logic for RxFifo {
                 self.tail.d.next = self.start_address.val();
             }
         }
+        self.ram.write_enable.next = self.ram_write.val();
+        self.ram.write_address.next = self.ram_write_address.val();
+        self.ram.write_data.next = self.ram_write_data.val();
         if self.reset.val() {
             self.head.d.next = 0.into();
             self.tail.d.next = 0.into();
+            self.write_at.d.next = 0.into();
             self.count.d.next = 0.into();
             self.full.d.next = false;
             self.overrun_state.d.next = false;

@@ -2,7 +2,7 @@
 //! from the Verilog of `rtl/` through Yosys; do not edit.
 
 /// Hash of the Verilog this model was made from.
-pub(super) const VERILOG_HASH: u64 = 0x8e22ee11899c7ecf;
+pub(super) const VERILOG_HASH: u64 = 0xafbfdfcbe36137e5;
 
 const TABLE_0: [u64; 4] = [0x1fff0000, 0x0, 0x0, 0x0];
 const TABLE_1: [u64; 4] = [0xffffffff00000000, 0xffffffff, 0x0, 0x0];
@@ -300,6 +300,8 @@ pub(super) struct Model {
     n127: u64,
     q128: u64,
     n128: u64,
+    q129: u64,
+    n129: u64,
     v1: u64,
     v2: u64,
     v3: u64,
@@ -311,16 +313,16 @@ pub(super) struct Model {
     v17: u64,
     v18: u64,
     v19: u64,
-    v24: u64,
-    v25: u64,
+    v20: u64,
+    v21: u64,
     v26: u64,
-    v31: u64,
-    v33: u64,
+    v28: u64,
+    v34: u64,
+    v35: u64,
+    v36: u64,
+    v37: u64,
+    v38: u64,
     v39: u64,
-    v40: u64,
-    v41: u64,
-    v42: u64,
-    v43: u64,
     v44: u64,
     v45: u64,
     v46: u64,
@@ -393,23 +395,23 @@ pub(super) struct Model {
     v149: u64,
     v150: u64,
     v153: u64,
-    v156: u64,
-    v158: u64,
-    v162: u64,
+    v157: u64,
+    v161: u64,
+    v166: u64,
     v167: u64,
-    v168: u64,
-    v173: u64,
+    v172: u64,
+    v178: u64,
     v179: u64,
     v180: u64,
-    v181: u64,
-    v184: u64,
+    v183: u64,
+    v185: u64,
     v186: u64,
     v187: u64,
     v188: u64,
     v189: u64,
-    v190: u64,
     v191: u64,
-    v193: u64,
+    v198: u64,
+    v199: u64,
     v200: u64,
     v201: u64,
     v202: u64,
@@ -657,13 +659,11 @@ pub(super) struct Model {
     v783: u64,
     v784: u64,
     v785: u64,
-    v791: u64,
+    v789: u64,
     v792: u64,
-    v793: u64,
-    v795: u64,
-    v799: u64,
-    v800: u64,
-    v801: u64,
+    v796: u64,
+    v797: u64,
+    v798: u64,
     v809: u64,
     v810: u64,
     v811: u64,
@@ -675,86 +675,88 @@ pub(super) struct Model {
     v819: u64,
     v820: u64,
     v821: u64,
-    v826: u64,
     v827: u64,
     v828: u64,
-    v837: u64,
+    v829: u64,
+    v830: u64,
     v838: u64,
+    v839: u64,
     v847: u64,
+    v848: u64,
     v849: u64,
-    v850: u64,
+    v851: u64,
     v852: u64,
-    v853: u64,
-    v857: u64,
+    v856: u64,
+    v860: u64,
     v861: u64,
     v862: u64,
     v863: u64,
-    v864: u64,
-    v871: u64,
+    v870: u64,
+    v876: u64,
     v877: u64,
     v878: u64,
     v879: u64,
     v880: u64,
     v881: u64,
-    v882: u64,
+    v884: u64,
     v885: u64,
     v886: u64,
-    v887: u64,
+    v889: u64,
     v890: u64,
     v891: u64,
-    v892: u64,
-    v907: u64,
+    v906: u64,
+    v913: u64,
     v914: u64,
-    v915: u64,
-    v917: u64,
+    v916: u64,
+    v918: u64,
     v919: u64,
     v920: u64,
-    v921: u64,
-    v924: u64,
+    v923: u64,
+    v925: u64,
     v926: u64,
-    v927: u64,
+    v928: u64,
     v929: u64,
     v930: u64,
-    v931: u64,
-    v933: u64,
+    v932: u64,
+    v940: u64,
     v941: u64,
-    v942: u64,
-    v945: u64,
+    v944: u64,
+    v946: u64,
     v947: u64,
-    v948: u64,
+    v949: u64,
     v950: u64,
     v951: u64,
-    v952: u64,
+    v953: u64,
     v954: u64,
-    v955: u64,
+    v962: u64,
     v963: u64,
     v964: u64,
-    v965: u64,
+    v972: u64,
     v973: u64,
     v974: u64,
     v975: u64,
     v976: u64,
-    v977: u64,
+    v980: u64,
     v981: u64,
-    v982: u64,
+    v983: u64,
     v984: u64,
     v985: u64,
-    v986: u64,
-    v988: u64,
+    v987: u64,
+    v989: u64,
     v990: u64,
     v991: u64,
     v992: u64,
     v993: u64,
-    v994: u64,
-    v996: u64,
-    v1000: u64,
-    v1002: u64,
+    v995: u64,
+    v999: u64,
+    v1001: u64,
+    v1017: u64,
     v1018: u64,
-    v1019: u64,
+    v1023: u64,
     v1024: u64,
-    v1025: u64,
+    v1026: u64,
     v1027: u64,
-    v1028: u64,
+    v1034: u64,
     v1035: u64,
     v1036: u64,
     v1037: u64,
@@ -768,29 +770,29 @@ pub(super) struct Model {
     v1045: u64,
     v1046: u64,
     v1047: u64,
-    v1048: u64,
+    v1051: u64,
     v1052: u64,
     v1053: u64,
     v1054: u64,
     v1055: u64,
-    v1056: u64,
+    v1072: u64,
     v1073: u64,
     v1074: u64,
-    v1075: u64,
+    v1078: u64,
     v1079: u64,
     v1080: u64,
     v1081: u64,
-    v1082: u64,
-    v1084: u64,
+    v1083: u64,
+    v1090: u64,
     v1091: u64,
     v1092: u64,
     v1093: u64,
     v1094: u64,
     v1095: u64,
-    v1096: u64,
-    v1099: u64,
+    v1098: u64,
+    v1103: u64,
     v1104: u64,
-    v1105: u64,
+    v1108: u64,
     v1109: u64,
     v1110: u64,
     v1111: u64,
@@ -803,7 +805,6 @@ pub(super) struct Model {
     v1118: u64,
     v1119: u64,
     v1120: u64,
-    v1121: u64,
     dirty: u128,
     ran: u128,
     out: u64,
@@ -1098,6 +1099,8 @@ impl Model {
             n127: 0x0,
             q128: 0x0,
             n128: 0x0,
+            q129: 0x0,
+            n129: 0x0,
             v1: 0,
             v2: 0,
             v3: 0,
@@ -1109,16 +1112,16 @@ impl Model {
             v17: 0,
             v18: 0,
             v19: 0,
-            v24: 0,
-            v25: 0,
+            v20: 0,
+            v21: 0,
             v26: 0,
-            v31: 0,
-            v33: 0,
+            v28: 0,
+            v34: 0,
+            v35: 0,
+            v36: 0,
+            v37: 0,
+            v38: 0,
             v39: 0,
-            v40: 0,
-            v41: 0,
-            v42: 0,
-            v43: 0,
             v44: 0,
             v45: 0,
             v46: 0,
@@ -1191,23 +1194,23 @@ impl Model {
             v149: 0,
             v150: 0,
             v153: 0,
-            v156: 0,
-            v158: 0,
-            v162: 0,
+            v157: 0,
+            v161: 0,
+            v166: 0,
             v167: 0,
-            v168: 0,
-            v173: 0,
+            v172: 0,
+            v178: 0,
             v179: 0,
             v180: 0,
-            v181: 0,
-            v184: 0,
+            v183: 0,
+            v185: 0,
             v186: 0,
             v187: 0,
             v188: 0,
             v189: 0,
-            v190: 0,
             v191: 0,
-            v193: 0,
+            v198: 0,
+            v199: 0,
             v200: 0,
             v201: 0,
             v202: 0,
@@ -1455,13 +1458,11 @@ impl Model {
             v783: 0,
             v784: 0,
             v785: 0,
-            v791: 0,
+            v789: 0,
             v792: 0,
-            v793: 0,
-            v795: 0,
-            v799: 0,
-            v800: 0,
-            v801: 0,
+            v796: 0,
+            v797: 0,
+            v798: 0,
             v809: 0,
             v810: 0,
             v811: 0,
@@ -1473,86 +1474,88 @@ impl Model {
             v819: 0,
             v820: 0,
             v821: 0,
-            v826: 0,
             v827: 0,
             v828: 0,
-            v837: 0,
+            v829: 0,
+            v830: 0,
             v838: 0,
+            v839: 0,
             v847: 0,
+            v848: 0,
             v849: 0,
-            v850: 0,
+            v851: 0,
             v852: 0,
-            v853: 0,
-            v857: 0,
+            v856: 0,
+            v860: 0,
             v861: 0,
             v862: 0,
             v863: 0,
-            v864: 0,
-            v871: 0,
+            v870: 0,
+            v876: 0,
             v877: 0,
             v878: 0,
             v879: 0,
             v880: 0,
             v881: 0,
-            v882: 0,
+            v884: 0,
             v885: 0,
             v886: 0,
-            v887: 0,
+            v889: 0,
             v890: 0,
             v891: 0,
-            v892: 0,
-            v907: 0,
+            v906: 0,
+            v913: 0,
             v914: 0,
-            v915: 0,
-            v917: 0,
+            v916: 0,
+            v918: 0,
             v919: 0,
             v920: 0,
-            v921: 0,
-            v924: 0,
+            v923: 0,
+            v925: 0,
             v926: 0,
-            v927: 0,
+            v928: 0,
             v929: 0,
             v930: 0,
-            v931: 0,
-            v933: 0,
+            v932: 0,
+            v940: 0,
             v941: 0,
-            v942: 0,
-            v945: 0,
+            v944: 0,
+            v946: 0,
             v947: 0,
-            v948: 0,
+            v949: 0,
             v950: 0,
             v951: 0,
-            v952: 0,
+            v953: 0,
             v954: 0,
-            v955: 0,
+            v962: 0,
             v963: 0,
             v964: 0,
-            v965: 0,
+            v972: 0,
             v973: 0,
             v974: 0,
             v975: 0,
             v976: 0,
-            v977: 0,
+            v980: 0,
             v981: 0,
-            v982: 0,
+            v983: 0,
             v984: 0,
             v985: 0,
-            v986: 0,
-            v988: 0,
+            v987: 0,
+            v989: 0,
             v990: 0,
             v991: 0,
             v992: 0,
             v993: 0,
-            v994: 0,
-            v996: 0,
-            v1000: 0,
-            v1002: 0,
+            v995: 0,
+            v999: 0,
+            v1001: 0,
+            v1017: 0,
             v1018: 0,
-            v1019: 0,
+            v1023: 0,
             v1024: 0,
-            v1025: 0,
+            v1026: 0,
             v1027: 0,
-            v1028: 0,
+            v1034: 0,
             v1035: 0,
             v1036: 0,
             v1037: 0,
@@ -1566,29 +1569,29 @@ impl Model {
             v1045: 0,
             v1046: 0,
             v1047: 0,
-            v1048: 0,
+            v1051: 0,
             v1052: 0,
             v1053: 0,
             v1054: 0,
             v1055: 0,
-            v1056: 0,
+            v1072: 0,
             v1073: 0,
             v1074: 0,
-            v1075: 0,
+            v1078: 0,
             v1079: 0,
             v1080: 0,
             v1081: 0,
-            v1082: 0,
-            v1084: 0,
+            v1083: 0,
+            v1090: 0,
             v1091: 0,
             v1092: 0,
             v1093: 0,
             v1094: 0,
             v1095: 0,
-            v1096: 0,
-            v1099: 0,
+            v1098: 0,
+            v1103: 0,
             v1104: 0,
-            v1105: 0,
+            v1108: 0,
             v1109: 0,
             v1110: 0,
             v1111: 0,
@@ -1601,7 +1604,6 @@ impl Model {
             v1118: 0,
             v1119: 0,
             v1120: 0,
-            v1121: 0,
             dirty: 0xffffffffffffffffffffffffffffffff,
             ran: 0xffffffffffffffffffffffffffffffff,
             out: 0,
@@ -1611,17 +1613,17 @@ impl Model {
     /// Takes the input word.
     pub(super) fn set_inputs(&mut self, word: u32) {
         let v = (word >> 0) as u64 & 0xff;
-        if v != self.i_wdata { self.i_wdata = v; self.dirty |= 0x6c00040000000000038811880200980; }
+        if v != self.i_wdata { self.i_wdata = v; self.dirty |= 0x6c00040000000000038811880200d00; }
         let v = (word >> 8) as u64 & 0xff;
-        if v != self.i_addr { self.i_addr = v; self.dirty |= 0x1e0c94; }
+        if v != self.i_addr { self.i_addr = v; self.dirty |= 0x1e0b14; }
         let v = (word >> 16) as u64 & 0x1;
-        if v != self.i_we { self.i_we = v; self.dirty |= 0x800080c80; }
+        if v != self.i_we { self.i_we = v; self.dirty |= 0x800080b00; }
         let v = (word >> 17) as u64 & 0x1;
-        if v != self.i_re { self.i_re = v; self.dirty |= 0x20000000000000004000000100040; }
+        if v != self.i_re { self.i_re = v; self.dirty |= 0x20000000000000004000000100080; }
         let v = (word >> 18) as u64 & 0x1;
-        if v != self.i_rx { self.i_rx = v; self.dirty |= 0x4080; }
+        if v != self.i_rx { self.i_rx = v; self.dirty |= 0x4100; }
         let v = (word >> 19) as u64 & 0x1;
-        if v != self.i_reset { self.i_reset = v; self.dirty |= 0x5b4f80dff89bb793fd7899e4d602e8c8; }
+        if v != self.i_reset { self.i_reset = v; self.dirty |= 0x5b4f80dff89bb793fd7899e4d602e988; }
     }
 
     /// The output word computed by the last `eval`.
@@ -1639,14 +1641,14 @@ impl Model {
             if dirty >> 2 & 1 != 0 { self.group_2(&mut dirty); } // top$filter
             if dirty >> 3 & 1 != 0 { self.group_3(&mut dirty); } // top$core$bit_timing
             if dirty >> 4 & 1 != 0 { self.group_4(&mut dirty); } // top$read
-            if dirty >> 5 & 1 != 0 { self.group_5(&mut dirty); } // top$core$protocol$capture
-            if dirty >> 6 & 1 != 0 { self.group_6(&mut dirty); } // top$interrupts
-            if dirty >> 7 & 1 != 0 { self.group_7(&mut dirty); } // top$modes
+            if dirty >> 5 & 1 != 0 { self.group_5(&mut dirty); } // top$fifo
+            if dirty >> 6 & 1 != 0 { self.group_6(&mut dirty); } // top$core$protocol$capture
+            if dirty >> 7 & 1 != 0 { self.group_7(&mut dirty); } // top$interrupts
         }
         if dirty >> 8 & 0xff != 0 {
-            if dirty >> 8 & 1 != 0 { self.group_8(&mut dirty); } // top$core$protocol$faults
-            if dirty >> 9 & 1 != 0 { self.group_9(&mut dirty); } // top$fifo
-            if dirty >> 10 & 1 != 0 { self.group_10(&mut dirty); } // can_controller
+            if dirty >> 8 & 1 != 0 { self.group_8(&mut dirty); } // top$modes
+            if dirty >> 9 & 1 != 0 { self.group_9(&mut dirty); } // can_controller
+            if dirty >> 10 & 1 != 0 { self.group_10(&mut dirty); } // top$core$protocol$faults
             if dirty >> 11 & 1 != 0 { self.group_11(&mut dirty); } // top$decode
             if dirty >> 12 & 1 != 0 { self.group_12(&mut dirty); } // top$core$protocol$sender
             if dirty >> 13 & 1 != 0 { self.group_13(&mut dirty); } // top$core$protocol
@@ -1737,7 +1739,7 @@ impl Model {
             if dirty >> 80 & 1 != 0 { self.group_80(&mut dirty); } // top$fifo$head_info_reg
             if dirty >> 81 & 1 != 0 { self.group_81(&mut dirty); } // top$fifo$header_step
             if dirty >> 82 & 1 != 0 { self.group_82(&mut dirty); } // top$fifo$overrun_state + top$fifo$ram
-            if dirty >> 83 & 1 != 0 { self.group_83(&mut dirty); } // top$fifo$tail
+            if dirty >> 83 & 1 != 0 { self.group_83(&mut dirty); } // top$fifo$tail + top$fifo$write_at
             if dirty >> 84 & 1 != 0 { self.group_84(&mut dirty); } // top$fifo$writing_header
             if dirty >> 85 & 1 != 0 { self.group_85(&mut dirty); } // top$fifo$count + top$fifo$full
             if dirty >> 86 & 1 != 0 { self.group_86(&mut dirty); } // top$fifo$incomplete
@@ -1795,7 +1797,7 @@ impl Model {
         self.dirty = 0;
         self.ran |= dirty;
         if dirty >> 127 & 1 != 0 {
-            self.out = 0 | ((self.v1054) as u64) << 0 | ((self.q115) as u64) << 8 | ((self.v981) as u64) << 9 | ((self.v996) as u64) << 10 | ((self.v149) as u64) << 11 | ((self.v180) as u64) << 12 | ((self.q112) as u64) << 14 | ((self.q3 | (self.q4 << 3) | (self.q2 << 7)) as u64) << 19 | ((self.q5 | (self.q6 << 7)) as u64) << 27 | ((self.v226) as u64) << 35;
+            self.out = 0 | ((self.v1053) as u64) << 0 | ((self.q116) as u64) << 8 | ((self.v980) as u64) << 9 | ((self.v995) as u64) << 10 | ((self.v149) as u64) << 11 | ((self.v179) as u64) << 12 | ((self.q113) as u64) << 14 | ((self.q104 | (self.q105 << 3) | (self.q103 << 7)) as u64) << 19 | ((self.q106 | (self.q0 << 7)) as u64) << 27 | ((self.v226) as u64) << 35;
         }
     }
 
@@ -1803,7 +1805,7 @@ impl Model {
     /// the last edge loaded (the others' `n` still equals `q`).
     pub(super) fn edge(&mut self) {
         let mut dirty = 0u128;
-        if self.m0_re { let v = self.m0.get(self.m0_ra).copied().unwrap_or(0); if v != self.m0_rd { self.m0_rd = v; dirty |= 0x210; } } // fifo.ram.mem
+        if self.m0_re { let v = self.m0.get(self.m0_ra).copied().unwrap_or(0); if v != self.m0_rd { self.m0_rd = v; dirty |= 0x30; } } // fifo.ram.mem
         if self.m1_re { let v = self.m1.get(self.m1_ra).copied().unwrap_or(0); if v != self.m1_rd { self.m1_rd = v; dirty |= 0x20000000000; } } // tx_buffer.core_ram.mem
         if self.m2_re { let v = self.m2.get(self.m2_ra).copied().unwrap_or(0); if v != self.m2_rd { self.m2_rd = v; dirty |= 0x20000000000; } } // tx_buffer.host_ram.mem
         if self.m0_we != 0 { if let Some(word) = self.m0.get_mut(self.m0_wa) { *word = *word & !self.m0_we | self.m0_wd & self.m0_we; } }
@@ -1812,289 +1814,290 @@ impl Model {
         let ran = self.ran;
         self.ran = 0;
         if ran >> 38 & 1 != 0 {
-            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x80000000000000000000004080040140; } // $auto$ff.cc:266:slice$10004
-            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x80000000000000000000004000040140; } // $auto$ff.cc:266:slice$10005
-            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x80000000000000000000004000040140; } // $auto$ff.cc:266:slice$10018
+            if self.q103 != self.n103 { self.q103 = self.n103; dirty |= 0x80000000000000000000004080040480; } // $auto$ff.cc:266:slice$9974
+            if self.q104 != self.n104 { self.q104 = self.n104; dirty |= 0x80000000000000000000004000040480; } // $auto$ff.cc:266:slice$9975
+            if self.q105 != self.n105 { self.q105 = self.n105; dirty |= 0x80000000000000000000004000040480; } // $auto$ff.cc:266:slice$9988
         }
         if ran >> 40 & 1 != 0 {
-            if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x12000040080; } // $auto$ff.cc:266:slice$10150
-            if self.q60 != self.n60 { self.q60 = self.n60; dirty |= 0x40380001e0cd4; } // $auto$ff.cc:266:slice$9814
-            if self.q61 != self.n61 { self.q61 = self.n61; dirty |= 0x12000040080; } // $auto$ff.cc:266:slice$9815
+            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x12000040100; } // $auto$ff.cc:266:slice$10120
+            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x40380001e0b94; } // $auto$ff.cc:266:slice$9783
+            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x12000040100; } // $auto$ff.cc:266:slice$9784
         }
         if ran >> 43 & 1 != 0 {
-            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x80000000008; } // $auto$ff.cc:266:slice$10125
-            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x80000000008; } // $auto$ff.cc:266:slice$10126
+            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x80000000008; } // $auto$ff.cc:266:slice$10095
+            if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x80000000008; } // $auto$ff.cc:266:slice$10096
         }
         if ran >> 44 & 1 != 0 {
-            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0x80000000000000000000100080040140; } // $auto$ff.cc:266:slice$10029
-            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x80000000000000000000100080040140; } // $auto$ff.cc:266:slice$10030
+            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x80000000000000000000100080040480; } // $auto$ff.cc:266:slice$10000
+            if self.q106 != self.n106 { self.q106 = self.n106; dirty |= 0x80000000000000000000100080040480; } // $auto$ff.cc:266:slice$9999
         }
         if ran >> 45 & 1 != 0 {
-            if self.q99 != self.n99 { self.q99 = self.n99; dirty |= 0x200000021000; } // $auto$ff.cc:266:slice$9942
-            if self.q100 != self.n100 { self.q100 = self.n100; dirty |= 0x240000021000; } // $auto$ff.cc:266:slice$9949
+            if self.q94 != self.n94 { self.q94 = self.n94; dirty |= 0x200000021000; } // $auto$ff.cc:266:slice$9912
+            if self.q95 != self.n95 { self.q95 = self.n95; dirty |= 0x240000021000; } // $auto$ff.cc:266:slice$9919
         }
         if ran >> 47 & 1 != 0 {
-            if self.q67 != self.n67 { self.q67 = self.n67; dirty |= 0x800000040010; } // $auto$ff.cc:266:slice$9835
-            if self.q68 != self.n68 { self.q68 = self.n68; dirty |= 0x800800040000; } // $auto$ff.cc:266:slice$9840
+            if self.q61 != self.n61 { self.q61 = self.n61; dirty |= 0x800000040010; } // $auto$ff.cc:266:slice$9804
+            if self.q62 != self.n62 { self.q62 = self.n62; dirty |= 0x800800040000; } // $auto$ff.cc:266:slice$9809
         }
         if ran >> 51 & 1 != 0 {
-            if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x800000000c000; } // $auto$ff.cc:266:slice$10142
-            if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x8000000000008; } // $auto$ff.cc:266:slice$10146
+            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x800000000c000; } // $auto$ff.cc:266:slice$10112
+            if self.q34 != self.n34 { self.q34 = self.n34; dirty |= 0x8000000000008; } // $auto$ff.cc:266:slice$10116
         }
         if ran >> 52 & 1 != 0 {
-            if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x10000000000008; } // $auto$ff.cc:266:slice$10134
-            if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x10000000040040; } // $auto$ff.cc:266:slice$10138
+            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x10000000000008; } // $auto$ff.cc:266:slice$10104
+            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x10000000040080; } // $auto$ff.cc:266:slice$10108
         }
         if ran >> 53 & 1 != 0 {
-            if self.q33 != self.n33 { self.q33 = self.n33; dirty |= 0x20000000000008; } // $auto$ff.cc:266:slice$10122
-            if self.q36 != self.n36 { self.q36 = self.n36; dirty |= 0x20000000008000; } // $auto$ff.cc:266:slice$10130
+            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x20000000000008; } // $auto$ff.cc:266:slice$10092
+            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x20000000008000; } // $auto$ff.cc:266:slice$10100
         }
         if ran >> 54 & 1 != 0 {
-            if self.q31 != self.n31 { self.q31 = self.n31; dirty |= 0x40000000008008; } // $auto$ff.cc:266:slice$10115
-            if self.q32 != self.n32 { self.q32 = self.n32; dirty |= 0x7100004004005b80800a; } // $auto$ff.cc:266:slice$10118
+            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x40000000008008; } // $auto$ff.cc:266:slice$10085
+            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x7100004004005b80800a; } // $auto$ff.cc:266:slice$10088
         }
         if ran >> 55 & 1 != 0 {
-            if self.q106 != self.n106 { self.q106 = self.n106; dirty |= 0x2201e080000011019003; } // $flatten\core.\bit_timing.\sampled.$procdff$9081
-            if self.q107 != self.n107 { self.q107 = self.n107; dirty |= 0x80000000004000; } // $flatten\core.\bit_timing.\sampling.\metastable.$procdff$9080
+            if self.q107 != self.n107 { self.q107 = self.n107; dirty |= 0x2201e080000011019003; } // $flatten\core.\bit_timing.\sampled.$procdff$9074
+            if self.q108 != self.n108 { self.q108 = self.n108; dirty |= 0x80000000004000; } // $flatten\core.\bit_timing.\sampling.\metastable.$procdff$9073
         }
         if ran >> 56 & 1 != 0 {
-            if self.q30 != self.n30 { self.q30 = self.n30; dirty |= 0x100000000004000; } // $auto$ff.cc:266:slice$10114
-            if self.q108 != self.n108 { self.q108 = self.n108; dirty |= 0x100000000004000; } // $flatten\core.\bit_timing.\sampling.\previous.$procdff$9079
+            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x100000000004000; } // $auto$ff.cc:266:slice$10084
+            if self.q109 != self.n109 { self.q109 = self.n109; dirty |= 0x100000000004000; } // $flatten\core.\bit_timing.\sampling.\previous.$procdff$9072
         }
         if ran >> 57 & 1 != 0 {
-            if self.q29 != self.n29 { self.q29 = self.n29; dirty |= 0x200000000008008; } // $auto$ff.cc:266:slice$10108
-            if self.q109 != self.n109 { self.q109 = self.n109; dirty |= 0x300000000004000; } // $flatten\core.\bit_timing.\sampling.\stable.$procdff$9077
+            if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x200000000008008; } // $auto$ff.cc:266:slice$10078
+            if self.q110 != self.n110 { self.q110 = self.n110; dirty |= 0x300000000004000; } // $flatten\core.\bit_timing.\sampling.\stable.$procdff$9070
         }
         if ran >> 58 & 1 != 0 {
-            if self.q28 != self.n28 { self.q28 = self.n28; dirty |= 0x400000000008008; } // $auto$ff.cc:266:slice$10103
-            if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x400000000000008; } // $auto$ff.cc:266:slice$10231
+            if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0x400000000008008; } // $auto$ff.cc:266:slice$10073
+            if self.q40 != self.n40 { self.q40 = self.n40; dirty |= 0x400000000000008; } // $auto$ff.cc:266:slice$10205
         }
         if ran >> 59 & 1 != 0 {
-            if self.q26 != self.n26 { self.q26 = self.n26; dirty |= 0x800000050000001; } // $auto$ff.cc:266:slice$10099
-            if self.q27 != self.n27 { self.q27 = self.n27; dirty |= 0x800000000008000; } // $auto$ff.cc:266:slice$10102
+            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x800000050000001; } // $auto$ff.cc:266:slice$10069
+            if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x800000000008000; } // $auto$ff.cc:266:slice$10072
         }
         if ran >> 60 & 1 != 0 {
-            if self.q24 != self.n24 { self.q24 = self.n24; dirty |= 0x1000008000000200; } // $auto$ff.cc:266:slice$10094
-            if self.q25 != self.n25 { self.q25 = self.n25; dirty |= 0x200000001000000000000204; } // $auto$ff.cc:266:slice$10096
+            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x1000008000000020; } // $auto$ff.cc:266:slice$10064
+            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x200000001000000000000004; } // $auto$ff.cc:266:slice$10066
         }
         if ran >> 61 & 1 != 0 {
-            if self.q22 != self.n22 { self.q22 = self.n22; dirty |= 0x2000001000400202; } // $auto$ff.cc:266:slice$10087
-            if self.q23 != self.n23 { self.q23 = self.n23; dirty |= 0x40000002000000000000200; } // $auto$ff.cc:266:slice$10091
+            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x2000001000400022; } // $auto$ff.cc:266:slice$10057
+            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x40000002000000000000020; } // $auto$ff.cc:266:slice$10061
         }
         if ran >> 62 & 1 != 0 {
-            if self.q20 != self.n20 { self.q20 = self.n20; dirty |= 0x4000000000000204; } // $auto$ff.cc:266:slice$10078
-            if self.q21 != self.n21 { self.q21 = self.n21; dirty |= 0x8200004000008000000204; } // $auto$ff.cc:266:slice$10083
+            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x4000000000000024; } // $auto$ff.cc:266:slice$10048
+            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x8200004000008000000024; } // $auto$ff.cc:266:slice$10053
         }
         if ran >> 63 & 1 != 0 {
-            if self.q18 != self.n18 { self.q18 = self.n18; dirty |= 0x8000001000400224; } // $auto$ff.cc:266:slice$10062
-            if self.q19 != self.n19 { self.q19 = self.n19; dirty |= 0x8000000000000204; } // $auto$ff.cc:266:slice$10068
+            if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x8000001000400064; } // $auto$ff.cc:266:slice$10032
+            if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x8000000000000024; } // $auto$ff.cc:266:slice$10038
         }
         if ran >> 64 & 1 != 0 {
-            if self.q16 != self.n16 { self.q16 = self.n16; dirty |= 0x10000001000400206; } // $auto$ff.cc:266:slice$10055
-            if self.q17 != self.n17 { self.q17 = self.n17; dirty |= 0x10000000000000002; } // $auto$ff.cc:266:slice$10060
+            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x10000001000400026; } // $auto$ff.cc:266:slice$10025
+            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0x10000000000000002; } // $auto$ff.cc:266:slice$10030
         }
         if ran >> 65 & 1 != 0 {
-            if self.q14 != self.n14 { self.q14 = self.n14; dirty |= 0x1000000020000000000000000; } // $auto$ff.cc:266:slice$10051
-            if self.q15 != self.n15 { self.q15 = self.n15; dirty |= 0x400000020000000000000000; } // $auto$ff.cc:266:slice$10053
+            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x1000000020000000000000000; } // $auto$ff.cc:266:slice$10021
+            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x400000020000000000000000; } // $auto$ff.cc:266:slice$10023
         }
         if ran >> 66 & 1 != 0 {
-            if self.q12 != self.n12 { self.q12 = self.n12; dirty |= 0x40000000000000040; } // $auto$ff.cc:266:slice$10044
-            if self.q13 != self.n13 { self.q13 = self.n13; dirty |= 0x40000000000000040; } // $auto$ff.cc:266:slice$10047
+            if self.q6 != self.n6 { self.q6 = self.n6; dirty |= 0x40000000000000080; } // $auto$ff.cc:266:slice$10014
+            if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x40000000000000080; } // $auto$ff.cc:266:slice$10017
         }
         if ran >> 67 & 1 != 0 {
-            if self.q10 != self.n10 { self.q10 = self.n10; dirty |= 0x80000000020011002; } // $auto$ff.cc:266:slice$10040
-            if self.q11 != self.n11 { self.q11 = self.n11; dirty |= 0xa100000004c401023; } // $auto$ff.cc:266:slice$10041
+            if self.q4 != self.n4 { self.q4 = self.n4; dirty |= 0x80000000020011002; } // $auto$ff.cc:266:slice$10010
+            if self.q5 != self.n5 { self.q5 = self.n5; dirty |= 0xa100000004c401043; } // $auto$ff.cc:266:slice$10011
         }
         if ran >> 68 & 1 != 0 {
-            if self.q8 != self.n8 { self.q8 = self.n8; dirty |= 0x100000000800002401; } // $auto$ff.cc:266:slice$10035
-            if self.q9 != self.n9 { self.q9 = self.n9; dirty |= 0x100000000040000002; } // $auto$ff.cc:266:slice$10036
+            if self.q2 != self.n2 { self.q2 = self.n2; dirty |= 0x100000000800002201; } // $auto$ff.cc:266:slice$10005
+            if self.q3 != self.n3 { self.q3 = self.n3; dirty |= 0x100000000040000002; } // $auto$ff.cc:266:slice$10006
         }
         if ran >> 69 & 1 != 0 {
-            if self.q7 != self.n7 { self.q7 = self.n7; dirty |= 0x200000000000000400; } // $auto$ff.cc:266:slice$10034
-            if self.q110 != self.n110 { self.q110 = self.n110; dirty |= 0x88000002000000001c01421c1; } // $flatten\core.\protocol.\faults.\bus_off_state.$procdff$9052
+            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x200000000000000200; } // $auto$ff.cc:266:slice$10004
+            if self.q111 != self.n111 { self.q111 = self.n111; dirty |= 0x88000002000000001c0142581; } // $flatten\core.\protocol.\faults.\bus_off_state.$procdff$9045
         }
         if ran >> 70 & 1 != 0 {
-            if self.q111 != self.n111 { self.q111 = self.n111; dirty |= 0x8000000400000000000000043; } // $flatten\core.\protocol.\faults.\passive_state.$procdff$9051
-            if self.q112 != self.n112 { self.q112 = self.n112; dirty |= 0x80000000000000400000000048802003; } // $flatten\core.\protocol.\field.$procdff$9048
+            if self.q112 != self.n112 { self.q112 = self.n112; dirty |= 0x8000000400000000000000083; } // $flatten\core.\protocol.\faults.\passive_state.$procdff$9044
+            if self.q113 != self.n113 { self.q113 = self.n113; dirty |= 0x80000000000000400000000048802003; } // $flatten\core.\protocol.\field.$procdff$9041
         }
         if ran >> 71 & 1 != 0 {
-            if self.q1 != self.n1 { self.q1 = self.n1; dirty |= 0x800000000012000000; } // $auto$ff.cc:266:slice$10002
-            if self.q113 != self.n113 { self.q113 = self.n113; dirty |= 0x800000000010002000; } // $flatten\core.\protocol.\in_frame.$procdff$9047
+            if self.q102 != self.n102 { self.q102 = self.n102; dirty |= 0x800000000012000000; } // $auto$ff.cc:266:slice$9972
+            if self.q114 != self.n114 { self.q114 = self.n114; dirty |= 0x800000000010002000; } // $flatten\core.\protocol.\in_frame.$procdff$9040
         }
         if ran >> 72 & 1 != 0 {
-            if self.q0 != self.n0 { self.q0 = self.n0; dirty |= 0x1000000000002000001; } // $auto$ff.cc:266:slice$10001
-            if self.q105 != self.n105 { self.q105 = self.n105; dirty |= 0x1000000000000000001; } // $auto$ff.cc:266:slice$9983
+            if self.q100 != self.n100 { self.q100 = self.n100; dirty |= 0x1000000000000000001; } // $auto$ff.cc:266:slice$9953
+            if self.q101 != self.n101 { self.q101 = self.n101; dirty |= 0x1000000000002000001; } // $auto$ff.cc:266:slice$9971
         }
         if ran >> 73 & 1 != 0 {
-            if self.q103 != self.n103 { self.q103 = self.n103; dirty |= 0x2000000000000000001; } // $auto$ff.cc:266:slice$9965
-            if self.q104 != self.n104 { self.q104 = self.n104; dirty |= 0x2000000000000000001; } // $auto$ff.cc:266:slice$9971
+            if self.q98 != self.n98 { self.q98 = self.n98; dirty |= 0x2000000000000000001; } // $auto$ff.cc:266:slice$9935
+            if self.q99 != self.n99 { self.q99 = self.n99; dirty |= 0x2000000000000000001; } // $auto$ff.cc:266:slice$9941
         }
         if ran >> 74 & 1 != 0 {
-            if self.q101 != self.n101 { self.q101 = self.n101; dirty |= 0x4000000000000001000; } // $auto$ff.cc:266:slice$9955
-            if self.q102 != self.n102 { self.q102 = self.n102; dirty |= 0x4000000000017000021; } // $auto$ff.cc:266:slice$9957
+            if self.q96 != self.n96 { self.q96 = self.n96; dirty |= 0x4000000000000001000; } // $auto$ff.cc:266:slice$9925
+            if self.q97 != self.n97 { self.q97 = self.n97; dirty |= 0x4000000000017000041; } // $auto$ff.cc:266:slice$9927
         }
         if ran >> 75 & 1 != 0 {
-            if self.q114 != self.n114 { self.q114 = self.n114; dirty |= 0x8000000040004000000; } // $flatten\core.\protocol.\sender.\tx_next.$procdff$9039
-            if self.q115 != self.n115 { self.q115 = self.n115; dirty |= 0x8000000000000800000000001400000b; } // $flatten\core.\protocol.\sender.\tx_reg.$procdff$9037
+            if self.q115 != self.n115 { self.q115 = self.n115; dirty |= 0x8000000040004000000; } // $flatten\core.\protocol.\sender.\tx_next.$procdff$9032
+            if self.q116 != self.n116 { self.q116 = self.n116; dirty |= 0x8000000000000800000000001400000b; } // $flatten\core.\protocol.\sender.\tx_reg.$procdff$9030
         }
         if ran >> 76 & 1 != 0 {
-            if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x10000000040000000000; } // $auto$ff.cc:266:slice$10149
-            if self.q98 != self.n98 { self.q98 = self.n98; dirty |= 0x10000000400001000000; } // $auto$ff.cc:266:slice$9933
+            if self.q35 != self.n35 { self.q35 = self.n35; dirty |= 0x10000000040000000000; } // $auto$ff.cc:266:slice$10119
+            if self.q93 != self.n93 { self.q93 = self.n93; dirty |= 0x10000000400001000000; } // $auto$ff.cc:266:slice$9903
         }
         if ran >> 77 & 1 != 0 {
-            if self.q96 != self.n96 { self.q96 = self.n96; dirty |= 0x20000000000001000002; } // $auto$ff.cc:266:slice$9925
-            if self.q97 != self.n97 { self.q97 = self.n97; dirty |= 0x20000000000001000000; } // $auto$ff.cc:266:slice$9931
+            if self.q91 != self.n91 { self.q91 = self.n91; dirty |= 0x20000000000001000002; } // $auto$ff.cc:266:slice$9895
+            if self.q92 != self.n92 { self.q92 = self.n92; dirty |= 0x20000000000001000000; } // $auto$ff.cc:266:slice$9901
         }
         if ran >> 78 & 1 != 0 {
-            if self.q94 != self.n94 { self.q94 = self.n94; dirty |= 0x40000000000000000400; } // $auto$ff.cc:266:slice$9918
-            if self.q95 != self.n95 { self.q95 = self.n95; dirty |= 0x40000000000010002003; } // $auto$ff.cc:266:slice$9924
+            if self.q89 != self.n89 { self.q89 = self.n89; dirty |= 0x40000000000000000200; } // $auto$ff.cc:266:slice$9888
+            if self.q90 != self.n90 { self.q90 = self.n90; dirty |= 0x40000000000010002003; } // $auto$ff.cc:266:slice$9894
         }
         if ran >> 79 & 1 != 0 {
-            if self.q90 != self.n90 { self.q90 = self.n90; dirty |= 0x80000000001000240200; } // $auto$ff.cc:266:slice$9907
-            if self.q92 != self.n92 { self.q92 = self.n92; dirty |= 0x80000000000000000200; } // $auto$ff.cc:266:slice$9914
+            if self.q85 != self.n85 { self.q85 = self.n85; dirty |= 0x80000000001000240020; } // $auto$ff.cc:266:slice$9877
+            if self.q87 != self.n87 { self.q87 = self.n87; dirty |= 0x80000000000000000020; } // $auto$ff.cc:266:slice$9884
         }
         if ran >> 80 & 1 != 0 {
-            if self.q89 != self.n89 { self.q89 = self.n89; dirty |= 0x100000000000000000200; } // $auto$ff.cc:266:slice$9906
+            if self.q84 != self.n84 { self.q84 = self.n84; dirty |= 0x100000000000000000020; } // $auto$ff.cc:266:slice$9876
         }
         if ran >> 81 & 1 != 0 {
-            if self.q88 != self.n88 { self.q88 = self.n88; dirty |= 0x200000000000000000200; } // $auto$ff.cc:266:slice$9903
+            if self.q83 != self.n83 { self.q83 = self.n83; dirty |= 0x200000000000000000020; } // $auto$ff.cc:266:slice$9873
         }
         if ran >> 82 & 1 != 0 {
-            if self.q86 != self.n86 { self.q86 = self.n86; dirty |= 0x4000400000000000000240040; } // $auto$ff.cc:266:slice$9896
+            if self.q81 != self.n81 { self.q81 = self.n81; dirty |= 0x4000400000000000000240080; } // $auto$ff.cc:266:slice$9866
         }
         if ran >> 83 & 1 != 0 {
-            if self.q85 != self.n85 { self.q85 = self.n85; dirty |= 0x800000000000000000200; } // $auto$ff.cc:266:slice$9893
+            if self.q79 != self.n79 { self.q79 = self.n79; dirty |= 0x800000000000000200020; } // $auto$ff.cc:266:slice$9861
+            if self.q80 != self.n80 { self.q80 = self.n80; dirty |= 0x800000000000000000020; } // $auto$ff.cc:266:slice$9863
         }
         if ran >> 84 & 1 != 0 {
-            if self.q84 != self.n84 { self.q84 = self.n84; dirty |= 0x1200000000000000000200; } // $auto$ff.cc:266:slice$9889
+            if self.q78 != self.n78 { self.q78 = self.n78; dirty |= 0x1200000000000000000020; } // $auto$ff.cc:266:slice$9858
         }
         if ran >> 85 & 1 != 0 {
-            if self.q91 != self.n91 { self.q91 = self.n91; dirty |= 0x2000000000000000000200; } // $auto$ff.cc:266:slice$9911
-            if self.q93 != self.n93 { self.q93 = self.n93; dirty |= 0x2000000000001000040240; } // $auto$ff.cc:266:slice$9915
+            if self.q86 != self.n86 { self.q86 = self.n86; dirty |= 0x2000000000000000000020; } // $auto$ff.cc:266:slice$9881
+            if self.q88 != self.n88 { self.q88 = self.n88; dirty |= 0x20000000000010000400a0; } // $auto$ff.cc:266:slice$9885
         }
         if ran >> 86 & 1 != 0 {
-            if self.q87 != self.n87 { self.q87 = self.n87; dirty |= 0x4000000000000000200200; } // $auto$ff.cc:266:slice$9899
+            if self.q82 != self.n82 { self.q82 = self.n82; dirty |= 0x4000000000000000200020; } // $auto$ff.cc:266:slice$9869
         }
         if ran >> 88 & 1 != 0 {
-            if self.q82 != self.n82 { self.q82 = self.n82; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9885
-            if self.q83 != self.n83 { self.q83 = self.n83; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9886
+            if self.q76 != self.n76 { self.q76 = self.n76; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9854
+            if self.q77 != self.n77 { self.q77 = self.n77; dirty |= 0x10000000000000000000004; } // $auto$ff.cc:266:slice$9855
         }
         if ran >> 89 & 1 != 0 {
-            if self.q81 != self.n81 { self.q81 = self.n81; dirty |= 0x20000000000000000000004; } // $auto$ff.cc:266:slice$9884
-            if self.q116 != self.n116 { self.q116 = self.n116; dirty |= 0x28000000000000000000004; } // $flatten\filter.\data1_match.$procdff$9013
+            if self.q75 != self.n75 { self.q75 = self.n75; dirty |= 0x20000000000000000000004; } // $auto$ff.cc:266:slice$9853
+            if self.q117 != self.n117 { self.q117 = self.n117; dirty |= 0x28000000000000000000004; } // $flatten\filter.\data1_match.$procdff$9005
         }
         if ran >> 90 & 1 != 0 {
-            if self.q80 != self.n80 { self.q80 = self.n80; dirty |= 0x40000000000000000000004; } // $auto$ff.cc:266:slice$9883
-            if self.q117 != self.n117 { self.q117 = self.n117; dirty |= 0x48000000000000000000004; } // $flatten\filter.\data2_match.$procdff$9012
+            if self.q74 != self.n74 { self.q74 = self.n74; dirty |= 0x40000000000000000000004; } // $auto$ff.cc:266:slice$9852
+            if self.q118 != self.n118 { self.q118 = self.n118; dirty |= 0x48000000000000000000004; } // $flatten\filter.\data2_match.$procdff$9004
         }
         if ran >> 91 & 1 != 0 {
-            if self.q78 != self.n78 { self.q78 = self.n78; dirty |= 0x88000000000000000000004; } // $auto$ff.cc:266:slice$9871
-            if self.q79 != self.n79 { self.q79 = self.n79; dirty |= 0x88000000000000000000004; } // $auto$ff.cc:266:slice$9882
+            if self.q72 != self.n72 { self.q72 = self.n72; dirty |= 0x88000000000000000000004; } // $auto$ff.cc:266:slice$9840
+            if self.q73 != self.n73 { self.q73 = self.n73; dirty |= 0x88000000000000000000004; } // $auto$ff.cc:266:slice$9851
         }
         if ran >> 92 & 1 != 0 {
-            if self.q76 != self.n76 { self.q76 = self.n76; dirty |= 0x110000000000000000020004; } // $auto$ff.cc:266:slice$9857
-            if self.q77 != self.n77 { self.q77 = self.n77; dirty |= 0x108000000000000000000004; } // $auto$ff.cc:266:slice$9859
+            if self.q70 != self.n70 { self.q70 = self.n70; dirty |= 0x110000000000000000020004; } // $auto$ff.cc:266:slice$9826
+            if self.q71 != self.n71 { self.q71 = self.n71; dirty |= 0x108000000000000000000004; } // $auto$ff.cc:266:slice$9828
         }
         if ran >> 93 & 1 != 0 {
-            if self.q74 != self.n74 { self.q74 = self.n74; dirty |= 0x208000000000000000000004; } // $auto$ff.cc:266:slice$9852
-            if self.q75 != self.n75 { self.q75 = self.n75; dirty |= 0x200000000000008000020004; } // $auto$ff.cc:266:slice$9853
+            if self.q68 != self.n68 { self.q68 = self.n68; dirty |= 0x208000000000000000000004; } // $auto$ff.cc:266:slice$9821
+            if self.q69 != self.n69 { self.q69 = self.n69; dirty |= 0x200000000000008000020004; } // $auto$ff.cc:266:slice$9822
         }
         if ran >> 94 & 1 != 0 {
-            if self.q73 != self.n73 { self.q73 = self.n73; dirty |= 0x400000000000000000040000; } // $auto$ff.cc:266:slice$9851
-            if self.q118 != self.n118 { self.q118 = self.n118; dirty |= 0x400000000000000000000040; } // $flatten\interrupts.\alc_armed.$procdff$9004
+            if self.q67 != self.n67 { self.q67 = self.n67; dirty |= 0x400000000000000000040000; } // $auto$ff.cc:266:slice$9820
+            if self.q119 != self.n119 { self.q119 = self.n119; dirty |= 0x400000000000000000000080; } // $flatten\interrupts.\alc_armed.$procdff$8996
         }
         if ran >> 95 & 1 != 0 {
-            if self.q71 != self.n71 { self.q71 = self.n71; dirty |= 0x8000000000000000000000c0; } // $auto$ff.cc:266:slice$9848
-            if self.q72 != self.n72 { self.q72 = self.n72; dirty |= 0x800000000000000000000040; } // $auto$ff.cc:266:slice$9849
+            if self.q65 != self.n65 { self.q65 = self.n65; dirty |= 0x800000000000000000000180; } // $auto$ff.cc:266:slice$9817
+            if self.q66 != self.n66 { self.q66 = self.n66; dirty |= 0x800000000000000000000080; } // $auto$ff.cc:266:slice$9818
         }
         if ran >> 96 & 1 != 0 {
-            if self.q70 != self.n70 { self.q70 = self.n70; dirty |= 0x1000000000000000000040000; } // $auto$ff.cc:266:slice$9847
-            if self.q119 != self.n119 { self.q119 = self.n119; dirty |= 0x1000000000000000000000040; } // $flatten\interrupts.\ecc_armed.$procdff$9000
+            if self.q64 != self.n64 { self.q64 = self.n64; dirty |= 0x1000000000000000000040000; } // $auto$ff.cc:266:slice$9816
+            if self.q120 != self.n120 { self.q120 = self.n120; dirty |= 0x1000000000000000000000080; } // $flatten\interrupts.\ecc_armed.$procdff$8992
         }
         if ran >> 97 & 1 != 0 {
-            if self.q66 != self.n66 { self.q66 = self.n66; dirty |= 0x2000000000000000000040040; } // $auto$ff.cc:266:slice$9829
-            if self.q69 != self.n69 { self.q69 = self.n69; dirty |= 0x2000000000000000000040040; } // $auto$ff.cc:266:slice$9845
+            if self.q60 != self.n60 { self.q60 = self.n60; dirty |= 0x2000000000000000000040080; } // $auto$ff.cc:266:slice$9798
+            if self.q63 != self.n63 { self.q63 = self.n63; dirty |= 0x2000000000000000000040080; } // $auto$ff.cc:266:slice$9814
         }
         if ran >> 98 & 1 != 0 {
-            if self.q65 != self.n65 { self.q65 = self.n65; dirty |= 0x4000000000000000000000040; } // $auto$ff.cc:266:slice$9828
+            if self.q59 != self.n59 { self.q59 = self.n59; dirty |= 0x4000000000000000000000080; } // $auto$ff.cc:266:slice$9797
         }
         if ran >> 99 & 1 != 0 {
-            if self.q64 != self.n64 { self.q64 = self.n64; dirty |= 0x8000000000000000000000040; } // $auto$ff.cc:266:slice$9827
+            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x8000000000000000000000080; } // $auto$ff.cc:266:slice$9796
         }
         if ran >> 100 & 1 != 0 {
-            if self.q63 != self.n63 { self.q63 = self.n63; dirty |= 0x10000000000000000000000040; } // $auto$ff.cc:266:slice$9823
+            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x10000000000000000000000080; } // $auto$ff.cc:266:slice$9792
         }
         if ran >> 102 & 1 != 0 {
-            if self.q59 != self.n59 { self.q59 = self.n59; dirty |= 0x40000000000000000000040000; } // $auto$ff.cc:266:slice$9808
-            if self.q62 != self.n62 { self.q62 = self.n62; dirty |= 0x40000000000000000000040004; } // $auto$ff.cc:266:slice$9820
+            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x40000000000000000000040000; } // $auto$ff.cc:266:slice$9777
+            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x40000000000000000000040004; } // $auto$ff.cc:266:slice$9789
         }
         if ran >> 103 & 1 != 0 {
-            if self.q57 != self.n57 { self.q57 = self.n57; dirty |= 0x80000000000000002000000000; } // $auto$ff.cc:266:slice$9803
-            if self.q58 != self.n58 { self.q58 = self.n58; dirty |= 0x80000000000000002000000000; } // $auto$ff.cc:266:slice$9804
+            if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x80000000000000002000000000; } // $auto$ff.cc:266:slice$9772
+            if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x80000000000000002000000000; } // $auto$ff.cc:266:slice$9773
         }
         if ran >> 104 & 1 != 0 {
-            if self.q120 != self.n120 { self.q120 = self.n120; dirty |= 0x100000000000000000000002003; } // $flatten\modes.\enable_reg.$procdff$8987
-            if self.q121 != self.n121 { self.q121 = self.n121; dirty |= 0x100000000000000040004002001; } // $flatten\modes.\listen_only_reg.$procdff$8986
+            if self.q121 != self.n121 { self.q121 = self.n121; dirty |= 0x100000000000000000000002003; } // $flatten\modes.\enable_reg.$procdff$8979
+            if self.q122 != self.n122 { self.q122 = self.n122; dirty |= 0x100000000000000040004002001; } // $flatten\modes.\listen_only_reg.$procdff$8978
         }
         if ran >> 105 & 1 != 0 {
-            if self.q122 != self.n122 { self.q122 = self.n122; dirty |= 0x200000000000000000000040080; } // $flatten\modes.\lom.$procdff$8985
+            if self.q123 != self.n123 { self.q123 = self.n123; dirty |= 0x200000000000000000000040100; } // $flatten\modes.\lom.$procdff$8977
         }
         if ran >> 106 & 1 != 0 {
-            if self.q123 != self.n123 { self.q123 = self.n123; dirty |= 0x4080010000000040010002c08c4; } // $flatten\modes.\rm.$procdff$8984
+            if self.q124 != self.n124 { self.q124 = self.n124; dirty |= 0x4080010000000040010002c0984; } // $flatten\modes.\rm.$procdff$8976
         }
         if ran >> 107 & 1 != 0 {
-            if self.q124 != self.n124 { self.q124 = self.n124; dirty |= 0x800000000000000000000000002; } // $flatten\modes.\self_test_reg.$procdff$8983
+            if self.q125 != self.n125 { self.q125 = self.n125; dirty |= 0x800000000000000000000000002; } // $flatten\modes.\self_test_reg.$procdff$8975
         }
         if ran >> 108 & 1 != 0 {
-            if self.q56 != self.n56 { self.q56 = self.n56; dirty |= 0x1000000000000000000000000080; } // $auto$ff.cc:266:slice$9801
+            if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x1000000000000000000000000100; } // $auto$ff.cc:266:slice$9770
         }
         if ran >> 109 & 1 != 0 {
-            if self.q125 != self.n125 { self.q125 = self.n125; dirty |= 0x2020000000000000000400040080; } // $flatten\modes.\sm.$procdff$8981
+            if self.q126 != self.n126 { self.q126 = self.n126; dirty |= 0x2020000000000000000400040100; } // $flatten\modes.\sm.$procdff$8973
         }
         if ran >> 110 & 1 != 0 {
-            if self.q126 != self.n126 { self.q126 = self.n126; dirty |= 0x4000000000000000000000040080; } // $flatten\modes.\stm.$procdff$8980
+            if self.q127 != self.n127 { self.q127 = self.n127; dirty |= 0x4000000000000000000000040100; } // $flatten\modes.\stm.$procdff$8972
         }
         if ran >> 111 & 1 != 0 {
-            if self.q55 != self.n55 { self.q55 = self.n55; dirty |= 0x8000000000000000000000000010; } // $auto$ff.cc:266:slice$9795
+            if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x8000000000000000000000000010; } // $auto$ff.cc:266:slice$9764
         }
         if ran >> 112 & 1 != 0 {
-            if self.q54 != self.n54 { self.q54 = self.n54; dirty |= 0x10000000000000004000000000000; } // $auto$ff.cc:266:slice$9794
+            if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x10000000000000004000000000000; } // $auto$ff.cc:266:slice$9763
         }
         if ran >> 113 & 1 != 0 {
-            if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x20000000000000000000000000010; } // $auto$ff.cc:266:slice$10151
+            if self.q37 != self.n37 { self.q37 = self.n37; dirty |= 0x20000000000000000000000000010; } // $auto$ff.cc:266:slice$10121
         }
         if ran >> 114 & 1 != 0 {
-            if self.q53 != self.n53 { self.q53 = self.n53; dirty |= 0x40000000000000000000000000010; } // $auto$ff.cc:266:slice$9791
+            if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x40000000000000000000000000010; } // $auto$ff.cc:266:slice$9760
         }
         if ran >> 115 & 1 != 0 {
-            if self.q52 != self.n52 { self.q52 = self.n52; dirty |= 0x80000000000000000000000000400; } // $auto$ff.cc:266:slice$9790
+            if self.q46 != self.n46 { self.q46 = self.n46; dirty |= 0x80000000000000000000000000200; } // $auto$ff.cc:266:slice$9759
         }
         if ran >> 116 & 1 != 0 {
-            if self.q127 != self.n127 { self.q127 = self.n127; dirty |= 0x100000000000000000000000060400; } // $flatten\tbs.$procdff$8974
+            if self.q128 != self.n128 { self.q128 = self.n128; dirty |= 0x100000000000000000000000060200; } // $flatten\tbs.$procdff$8966
         }
         if ran >> 117 & 1 != 0 {
-            if self.q128 != self.n128 { self.q128 = self.n128; dirty |= 0x200000000000000000000000040400; } // $flatten\tcs.$procdff$8973
+            if self.q129 != self.n129 { self.q129 = self.n129; dirty |= 0x200000000000000000000000040200; } // $flatten\tcs.$procdff$8965
         }
         if ran >> 118 & 1 != 0 {
-            if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x400000000000000000020000000000; } // $auto$ff.cc:266:slice$10152
+            if self.q38 != self.n38 { self.q38 = self.n38; dirty |= 0x400000000000000000020000000000; } // $auto$ff.cc:266:slice$10122
         }
         if ran >> 120 & 1 != 0 {
-            if self.q51 != self.n51 { self.q51 = self.n51; dirty |= 0x1000000000000000000020000000000; } // $auto$ff.cc:266:slice$9784
+            if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x1000000000000000000020000000000; } // $auto$ff.cc:266:slice$9753
         }
         if ran >> 121 & 1 != 0 {
-            if self.q50 != self.n50 { self.q50 = self.n50; dirty |= 0x2000000000000000000020000000000; } // $auto$ff.cc:266:slice$9781
+            if self.q44 != self.n44 { self.q44 = self.n44; dirty |= 0x2000000000000000000020000000000; } // $auto$ff.cc:266:slice$9750
         }
         if ran >> 123 & 1 != 0 {
-            if self.q49 != self.n49 { self.q49 = self.n49; dirty |= 0x8000000000000000000020000000000; } // $auto$ff.cc:266:slice$9779
+            if self.q43 != self.n43 { self.q43 = self.n43; dirty |= 0x8000000000000000000020000000000; } // $auto$ff.cc:266:slice$9748
         }
         if ran >> 124 & 1 != 0 {
-            if self.q45 != self.n45 { self.q45 = self.n45; dirty |= 0x10000000000000000003000000020000; } // $auto$ff.cc:266:slice$10153
+            if self.q39 != self.n39 { self.q39 = self.n39; dirty |= 0x10000000000000000003000000020000; } // $auto$ff.cc:266:slice$10123
         }
         if ran >> 125 & 1 != 0 {
-            if self.q48 != self.n48 { self.q48 = self.n48; dirty |= 0x20000000000000000000000000022401; } // $auto$ff.cc:266:slice$9774
+            if self.q42 != self.n42 { self.q42 = self.n42; dirty |= 0x20000000000000000000000000022201; } // $auto$ff.cc:266:slice$9743
         }
         if ran >> 126 & 1 != 0 {
-            if self.q47 != self.n47 { self.q47 = self.n47; dirty |= 0x40000000000000000000000000000001; } // $auto$ff.cc:266:slice$9773
+            if self.q41 != self.n41 { self.q41 = self.n41; dirty |= 0x40000000000000000000000000000001; } // $auto$ff.cc:266:slice$9742
         }
         self.dirty |= dirty;
     }
@@ -2103,21 +2106,21 @@ impl Model {
     /// inputs).
     pub(super) fn state(&self, i: usize) -> u64 {
         match i {
-            0 => self.q34 | (self.q35 << 1), // core.bit_timing.clocks.q
-            1 => self.q31, // core.bit_timing.remaining.q
-            2 => self.q33, // core.bit_timing.elapsed.q
-            3 => self.q29, // core.bit_timing.segment_state.q
-            4 => self.q32, // core.bit_timing.process_pending.q
-            5 => self.q27, // core.bit_timing.transmit_deferred.q
-            6 => self.q107, // core.bit_timing.sampling.metastable.q
-            7 => self.q109, // core.bit_timing.sampling.stable.q
-            8 => self.q108, // core.bit_timing.sampling.previous.q
-            9 => self.q30, // core.bit_timing.sampling.quantum_samples.q
-            10 => self.q40, // configuration.btr0.q
-            11 => self.q58, // modes.divider.count.q
-            12 => self.q57, // modes.divider.level.q
-            13 => self.q42 | ((self.q61 & 0x1) << 3) | ((self.q61 >> 1) << 5) | (self.q60 << 7), // modes.cdr_reg.q
-            14 => self.q39, // configuration.btr1.q
+            0 => self.q28 | (self.q29 << 1), // core.bit_timing.clocks.q
+            1 => self.q25, // core.bit_timing.remaining.q
+            2 => self.q27, // core.bit_timing.elapsed.q
+            3 => self.q23, // core.bit_timing.segment_state.q
+            4 => self.q26, // core.bit_timing.process_pending.q
+            5 => self.q21, // core.bit_timing.transmit_deferred.q
+            6 => self.q108, // core.bit_timing.sampling.metastable.q
+            7 => self.q110, // core.bit_timing.sampling.stable.q
+            8 => self.q109, // core.bit_timing.sampling.previous.q
+            9 => self.q24, // core.bit_timing.sampling.quantum_samples.q
+            10 => self.q34, // configuration.btr0.q
+            11 => self.q52, // modes.divider.count.q
+            12 => self.q51, // modes.divider.level.q
+            13 => self.q36 | ((self.q55 & 0x1) << 3) | ((self.q55 >> 1) << 5) | (self.q54 << 7), // modes.cdr_reg.q
+            14 => self.q33, // configuration.btr1.q
             _ => panic!("no state net {i}"),
         }
     }
@@ -2127,34 +2130,34 @@ impl Model {
     pub(super) fn set_state(&mut self, i: usize, value: u64) {
         match i {
             0 => { // core.bit_timing.clocks.q
-                let q = self.q34 & !0x1 | (value >> 0 & 1) << 0;
-                if q != self.q34 { self.q34 = q; self.dirty |= 0x80000000008; }
-                let q = self.q35 & !0x3f | (value >> 1 & 1) << 0 | (value >> 2 & 1) << 1 | (value >> 3 & 1) << 2 | (value >> 4 & 1) << 3 | (value >> 5 & 1) << 4 | (value >> 6 & 1) << 5;
-                if q != self.q35 { self.q35 = q; self.dirty |= 0x80000000008; }
+                let q = self.q28 & !0x1 | (value >> 0 & 1) << 0;
+                if q != self.q28 { self.q28 = q; self.dirty |= 0x80000000008; }
+                let q = self.q29 & !0x3f | (value >> 1 & 1) << 0 | (value >> 2 & 1) << 1 | (value >> 3 & 1) << 2 | (value >> 4 & 1) << 3 | (value >> 5 & 1) << 4 | (value >> 6 & 1) << 5;
+                if q != self.q29 { self.q29 = q; self.dirty |= 0x80000000008; }
             }
             1 => { // core.bit_timing.remaining.q
-                let q = self.q31 & !0x1f | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2 | (value >> 3 & 1) << 3 | (value >> 4 & 1) << 4;
-                if q != self.q31 { self.q31 = q; self.dirty |= 0x40000000008008; }
+                let q = self.q25 & !0x1f | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2 | (value >> 3 & 1) << 3 | (value >> 4 & 1) << 4;
+                if q != self.q25 { self.q25 = q; self.dirty |= 0x40000000008008; }
             }
             2 => { // core.bit_timing.elapsed.q
-                let q = self.q33 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
-                if q != self.q33 { self.q33 = q; self.dirty |= 0x20000000000008; }
+                let q = self.q27 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
+                if q != self.q27 { self.q27 = q; self.dirty |= 0x20000000000008; }
             }
             3 => { // core.bit_timing.segment_state.q
-                let q = self.q29 & !0x3 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1;
-                if q != self.q29 { self.q29 = q; self.dirty |= 0x200000000008008; }
+                let q = self.q23 & !0x3 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1;
+                if q != self.q23 { self.q23 = q; self.dirty |= 0x200000000008008; }
             }
             9 => { // core.bit_timing.sampling.quantum_samples.q
-                let q = self.q30 & !0x3 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1;
-                if q != self.q30 { self.q30 = q; self.dirty |= 0x100000000004000; }
+                let q = self.q24 & !0x3 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1;
+                if q != self.q24 { self.q24 = q; self.dirty |= 0x100000000004000; }
             }
             11 => { // modes.divider.count.q
-                let q = self.q58 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
-                if q != self.q58 { self.q58 = q; self.dirty |= 0x80000000000000002000000000; }
+                let q = self.q52 & !0x7 | (value >> 0 & 1) << 0 | (value >> 1 & 1) << 1 | (value >> 2 & 1) << 2;
+                if q != self.q52 { self.q52 = q; self.dirty |= 0x80000000000000002000000000; }
             }
             12 => { // modes.divider.level.q
-                let q = self.q57 & !0x1 | (value >> 0 & 1) << 0;
-                if q != self.q57 { self.q57 = q; self.dirty |= 0x80000000000000002000000000; }
+                let q = self.q51 & !0x1 | (value >> 0 & 1) << 0;
+                if q != self.q51 { self.q51 = q; self.dirty |= 0x80000000000000002000000000; }
             }
             _ => panic!("no free-running state net {i}"),
         }
@@ -2168,82 +2171,82 @@ impl Model {
         if self.m0_we != 0 || self.m0_re && self.m0.get(self.m0_ra).copied().unwrap_or(0) != self.m0_rd { return false; }
         if self.m1_we != 0 || self.m1_re && self.m1.get(self.m1_ra).copied().unwrap_or(0) != self.m1_rd { return false; }
         if self.m2_we != 0 || self.m2_re && self.m2.get(self.m2_ra).copied().unwrap_or(0) != self.m2_rd { return false; }
-        if ran >> 38 & 1 != 0 && (self.q2 != self.n2 || self.q3 != self.n3 || self.q4 != self.n4) { return false; }
-        if ran >> 40 & 1 != 0 && (self.q42 != self.n42 || self.q60 != self.n60 || self.q61 != self.n61) { return false; }
-        if ran >> 44 & 1 != 0 && (self.q5 != self.n5 || self.q6 != self.n6) { return false; }
-        if ran >> 45 & 1 != 0 && (self.q99 != self.n99 || self.q100 != self.n100) { return false; }
-        if ran >> 47 & 1 != 0 && (self.q67 != self.n67 || self.q68 != self.n68) { return false; }
-        if ran >> 51 & 1 != 0 && (self.q39 != self.n39 || self.q40 != self.n40) { return false; }
-        if ran >> 52 & 1 != 0 && (self.q37 != self.n37 || self.q38 != self.n38) { return false; }
-        if ran >> 53 & 1 != 0 && (self.q36 != self.n36) { return false; }
-        if ran >> 54 & 1 != 0 && (self.q32 != self.n32) { return false; }
-        if ran >> 55 & 1 != 0 && (self.q106 != self.n106 || self.q107 != self.n107) { return false; }
-        if ran >> 56 & 1 != 0 && (self.q108 != self.n108) { return false; }
-        if ran >> 57 & 1 != 0 && (self.q109 != self.n109) { return false; }
-        if ran >> 58 & 1 != 0 && (self.q28 != self.n28 || self.q46 != self.n46) { return false; }
-        if ran >> 59 & 1 != 0 && (self.q26 != self.n26 || self.q27 != self.n27) { return false; }
-        if ran >> 60 & 1 != 0 && (self.q24 != self.n24 || self.q25 != self.n25) { return false; }
-        if ran >> 61 & 1 != 0 && (self.q22 != self.n22 || self.q23 != self.n23) { return false; }
-        if ran >> 62 & 1 != 0 && (self.q20 != self.n20 || self.q21 != self.n21) { return false; }
-        if ran >> 63 & 1 != 0 && (self.q18 != self.n18 || self.q19 != self.n19) { return false; }
-        if ran >> 64 & 1 != 0 && (self.q16 != self.n16 || self.q17 != self.n17) { return false; }
-        if ran >> 65 & 1 != 0 && (self.q14 != self.n14 || self.q15 != self.n15) { return false; }
-        if ran >> 66 & 1 != 0 && (self.q12 != self.n12 || self.q13 != self.n13) { return false; }
-        if ran >> 67 & 1 != 0 && (self.q10 != self.n10 || self.q11 != self.n11) { return false; }
-        if ran >> 68 & 1 != 0 && (self.q8 != self.n8 || self.q9 != self.n9) { return false; }
-        if ran >> 69 & 1 != 0 && (self.q7 != self.n7 || self.q110 != self.n110) { return false; }
-        if ran >> 70 & 1 != 0 && (self.q111 != self.n111 || self.q112 != self.n112) { return false; }
-        if ran >> 71 & 1 != 0 && (self.q1 != self.n1 || self.q113 != self.n113) { return false; }
-        if ran >> 72 & 1 != 0 && (self.q0 != self.n0 || self.q105 != self.n105) { return false; }
-        if ran >> 73 & 1 != 0 && (self.q103 != self.n103 || self.q104 != self.n104) { return false; }
-        if ran >> 74 & 1 != 0 && (self.q101 != self.n101 || self.q102 != self.n102) { return false; }
-        if ran >> 75 & 1 != 0 && (self.q114 != self.n114 || self.q115 != self.n115) { return false; }
-        if ran >> 76 & 1 != 0 && (self.q41 != self.n41 || self.q98 != self.n98) { return false; }
-        if ran >> 77 & 1 != 0 && (self.q96 != self.n96 || self.q97 != self.n97) { return false; }
-        if ran >> 78 & 1 != 0 && (self.q94 != self.n94 || self.q95 != self.n95) { return false; }
-        if ran >> 79 & 1 != 0 && (self.q90 != self.n90 || self.q92 != self.n92) { return false; }
-        if ran >> 80 & 1 != 0 && (self.q89 != self.n89) { return false; }
-        if ran >> 81 & 1 != 0 && (self.q88 != self.n88) { return false; }
-        if ran >> 82 & 1 != 0 && (self.q86 != self.n86) { return false; }
-        if ran >> 83 & 1 != 0 && (self.q85 != self.n85) { return false; }
-        if ran >> 84 & 1 != 0 && (self.q84 != self.n84) { return false; }
-        if ran >> 85 & 1 != 0 && (self.q91 != self.n91 || self.q93 != self.n93) { return false; }
-        if ran >> 86 & 1 != 0 && (self.q87 != self.n87) { return false; }
-        if ran >> 88 & 1 != 0 && (self.q82 != self.n82 || self.q83 != self.n83) { return false; }
-        if ran >> 89 & 1 != 0 && (self.q81 != self.n81 || self.q116 != self.n116) { return false; }
-        if ran >> 90 & 1 != 0 && (self.q80 != self.n80 || self.q117 != self.n117) { return false; }
-        if ran >> 91 & 1 != 0 && (self.q78 != self.n78 || self.q79 != self.n79) { return false; }
-        if ran >> 92 & 1 != 0 && (self.q76 != self.n76 || self.q77 != self.n77) { return false; }
-        if ran >> 93 & 1 != 0 && (self.q74 != self.n74 || self.q75 != self.n75) { return false; }
-        if ran >> 94 & 1 != 0 && (self.q73 != self.n73 || self.q118 != self.n118) { return false; }
-        if ran >> 95 & 1 != 0 && (self.q71 != self.n71 || self.q72 != self.n72) { return false; }
-        if ran >> 96 & 1 != 0 && (self.q70 != self.n70 || self.q119 != self.n119) { return false; }
-        if ran >> 97 & 1 != 0 && (self.q66 != self.n66 || self.q69 != self.n69) { return false; }
-        if ran >> 98 & 1 != 0 && (self.q65 != self.n65) { return false; }
-        if ran >> 99 & 1 != 0 && (self.q64 != self.n64) { return false; }
-        if ran >> 100 & 1 != 0 && (self.q63 != self.n63) { return false; }
-        if ran >> 102 & 1 != 0 && (self.q59 != self.n59 || self.q62 != self.n62) { return false; }
-        if ran >> 104 & 1 != 0 && (self.q120 != self.n120 || self.q121 != self.n121) { return false; }
-        if ran >> 105 & 1 != 0 && (self.q122 != self.n122) { return false; }
-        if ran >> 106 & 1 != 0 && (self.q123 != self.n123) { return false; }
-        if ran >> 107 & 1 != 0 && (self.q124 != self.n124) { return false; }
-        if ran >> 108 & 1 != 0 && (self.q56 != self.n56) { return false; }
-        if ran >> 109 & 1 != 0 && (self.q125 != self.n125) { return false; }
-        if ran >> 110 & 1 != 0 && (self.q126 != self.n126) { return false; }
-        if ran >> 111 & 1 != 0 && (self.q55 != self.n55) { return false; }
-        if ran >> 112 & 1 != 0 && (self.q54 != self.n54) { return false; }
-        if ran >> 113 & 1 != 0 && (self.q43 != self.n43) { return false; }
-        if ran >> 114 & 1 != 0 && (self.q53 != self.n53) { return false; }
-        if ran >> 115 & 1 != 0 && (self.q52 != self.n52) { return false; }
-        if ran >> 116 & 1 != 0 && (self.q127 != self.n127) { return false; }
-        if ran >> 117 & 1 != 0 && (self.q128 != self.n128) { return false; }
-        if ran >> 118 & 1 != 0 && (self.q44 != self.n44) { return false; }
-        if ran >> 120 & 1 != 0 && (self.q51 != self.n51) { return false; }
-        if ran >> 121 & 1 != 0 && (self.q50 != self.n50) { return false; }
-        if ran >> 123 & 1 != 0 && (self.q49 != self.n49) { return false; }
-        if ran >> 124 & 1 != 0 && (self.q45 != self.n45) { return false; }
-        if ran >> 125 & 1 != 0 && (self.q48 != self.n48) { return false; }
-        if ran >> 126 & 1 != 0 && (self.q47 != self.n47) { return false; }
+        if ran >> 38 & 1 != 0 && (self.q103 != self.n103 || self.q104 != self.n104 || self.q105 != self.n105) { return false; }
+        if ran >> 40 & 1 != 0 && (self.q36 != self.n36 || self.q54 != self.n54 || self.q55 != self.n55) { return false; }
+        if ran >> 44 & 1 != 0 && (self.q0 != self.n0 || self.q106 != self.n106) { return false; }
+        if ran >> 45 & 1 != 0 && (self.q94 != self.n94 || self.q95 != self.n95) { return false; }
+        if ran >> 47 & 1 != 0 && (self.q61 != self.n61 || self.q62 != self.n62) { return false; }
+        if ran >> 51 & 1 != 0 && (self.q33 != self.n33 || self.q34 != self.n34) { return false; }
+        if ran >> 52 & 1 != 0 && (self.q31 != self.n31 || self.q32 != self.n32) { return false; }
+        if ran >> 53 & 1 != 0 && (self.q30 != self.n30) { return false; }
+        if ran >> 54 & 1 != 0 && (self.q26 != self.n26) { return false; }
+        if ran >> 55 & 1 != 0 && (self.q107 != self.n107 || self.q108 != self.n108) { return false; }
+        if ran >> 56 & 1 != 0 && (self.q109 != self.n109) { return false; }
+        if ran >> 57 & 1 != 0 && (self.q110 != self.n110) { return false; }
+        if ran >> 58 & 1 != 0 && (self.q22 != self.n22 || self.q40 != self.n40) { return false; }
+        if ran >> 59 & 1 != 0 && (self.q20 != self.n20 || self.q21 != self.n21) { return false; }
+        if ran >> 60 & 1 != 0 && (self.q18 != self.n18 || self.q19 != self.n19) { return false; }
+        if ran >> 61 & 1 != 0 && (self.q16 != self.n16 || self.q17 != self.n17) { return false; }
+        if ran >> 62 & 1 != 0 && (self.q14 != self.n14 || self.q15 != self.n15) { return false; }
+        if ran >> 63 & 1 != 0 && (self.q12 != self.n12 || self.q13 != self.n13) { return false; }
+        if ran >> 64 & 1 != 0 && (self.q10 != self.n10 || self.q11 != self.n11) { return false; }
+        if ran >> 65 & 1 != 0 && (self.q8 != self.n8 || self.q9 != self.n9) { return false; }
+        if ran >> 66 & 1 != 0 && (self.q6 != self.n6 || self.q7 != self.n7) { return false; }
+        if ran >> 67 & 1 != 0 && (self.q4 != self.n4 || self.q5 != self.n5) { return false; }
+        if ran >> 68 & 1 != 0 && (self.q2 != self.n2 || self.q3 != self.n3) { return false; }
+        if ran >> 69 & 1 != 0 && (self.q1 != self.n1 || self.q111 != self.n111) { return false; }
+        if ran >> 70 & 1 != 0 && (self.q112 != self.n112 || self.q113 != self.n113) { return false; }
+        if ran >> 71 & 1 != 0 && (self.q102 != self.n102 || self.q114 != self.n114) { return false; }
+        if ran >> 72 & 1 != 0 && (self.q100 != self.n100 || self.q101 != self.n101) { return false; }
+        if ran >> 73 & 1 != 0 && (self.q98 != self.n98 || self.q99 != self.n99) { return false; }
+        if ran >> 74 & 1 != 0 && (self.q96 != self.n96 || self.q97 != self.n97) { return false; }
+        if ran >> 75 & 1 != 0 && (self.q115 != self.n115 || self.q116 != self.n116) { return false; }
+        if ran >> 76 & 1 != 0 && (self.q35 != self.n35 || self.q93 != self.n93) { return false; }
+        if ran >> 77 & 1 != 0 && (self.q91 != self.n91 || self.q92 != self.n92) { return false; }
+        if ran >> 78 & 1 != 0 && (self.q89 != self.n89 || self.q90 != self.n90) { return false; }
+        if ran >> 79 & 1 != 0 && (self.q85 != self.n85 || self.q87 != self.n87) { return false; }
+        if ran >> 80 & 1 != 0 && (self.q84 != self.n84) { return false; }
+        if ran >> 81 & 1 != 0 && (self.q83 != self.n83) { return false; }
+        if ran >> 82 & 1 != 0 && (self.q81 != self.n81) { return false; }
+        if ran >> 83 & 1 != 0 && (self.q79 != self.n79 || self.q80 != self.n80) { return false; }
+        if ran >> 84 & 1 != 0 && (self.q78 != self.n78) { return false; }
+        if ran >> 85 & 1 != 0 && (self.q86 != self.n86 || self.q88 != self.n88) { return false; }
+        if ran >> 86 & 1 != 0 && (self.q82 != self.n82) { return false; }
+        if ran >> 88 & 1 != 0 && (self.q76 != self.n76 || self.q77 != self.n77) { return false; }
+        if ran >> 89 & 1 != 0 && (self.q75 != self.n75 || self.q117 != self.n117) { return false; }
+        if ran >> 90 & 1 != 0 && (self.q74 != self.n74 || self.q118 != self.n118) { return false; }
+        if ran >> 91 & 1 != 0 && (self.q72 != self.n72 || self.q73 != self.n73) { return false; }
+        if ran >> 92 & 1 != 0 && (self.q70 != self.n70 || self.q71 != self.n71) { return false; }
+        if ran >> 93 & 1 != 0 && (self.q68 != self.n68 || self.q69 != self.n69) { return false; }
+        if ran >> 94 & 1 != 0 && (self.q67 != self.n67 || self.q119 != self.n119) { return false; }
+        if ran >> 95 & 1 != 0 && (self.q65 != self.n65 || self.q66 != self.n66) { return false; }
+        if ran >> 96 & 1 != 0 && (self.q64 != self.n64 || self.q120 != self.n120) { return false; }
+        if ran >> 97 & 1 != 0 && (self.q60 != self.n60 || self.q63 != self.n63) { return false; }
+        if ran >> 98 & 1 != 0 && (self.q59 != self.n59) { return false; }
+        if ran >> 99 & 1 != 0 && (self.q58 != self.n58) { return false; }
+        if ran >> 100 & 1 != 0 && (self.q57 != self.n57) { return false; }
+        if ran >> 102 & 1 != 0 && (self.q53 != self.n53 || self.q56 != self.n56) { return false; }
+        if ran >> 104 & 1 != 0 && (self.q121 != self.n121 || self.q122 != self.n122) { return false; }
+        if ran >> 105 & 1 != 0 && (self.q123 != self.n123) { return false; }
+        if ran >> 106 & 1 != 0 && (self.q124 != self.n124) { return false; }
+        if ran >> 107 & 1 != 0 && (self.q125 != self.n125) { return false; }
+        if ran >> 108 & 1 != 0 && (self.q50 != self.n50) { return false; }
+        if ran >> 109 & 1 != 0 && (self.q126 != self.n126) { return false; }
+        if ran >> 110 & 1 != 0 && (self.q127 != self.n127) { return false; }
+        if ran >> 111 & 1 != 0 && (self.q49 != self.n49) { return false; }
+        if ran >> 112 & 1 != 0 && (self.q48 != self.n48) { return false; }
+        if ran >> 113 & 1 != 0 && (self.q37 != self.n37) { return false; }
+        if ran >> 114 & 1 != 0 && (self.q47 != self.n47) { return false; }
+        if ran >> 115 & 1 != 0 && (self.q46 != self.n46) { return false; }
+        if ran >> 116 & 1 != 0 && (self.q128 != self.n128) { return false; }
+        if ran >> 117 & 1 != 0 && (self.q129 != self.n129) { return false; }
+        if ran >> 118 & 1 != 0 && (self.q38 != self.n38) { return false; }
+        if ran >> 120 & 1 != 0 && (self.q45 != self.n45) { return false; }
+        if ran >> 121 & 1 != 0 && (self.q44 != self.n44) { return false; }
+        if ran >> 123 & 1 != 0 && (self.q43 != self.n43) { return false; }
+        if ran >> 124 & 1 != 0 && (self.q39 != self.n39) { return false; }
+        if ran >> 125 & 1 != 0 && (self.q42 != self.n42) { return false; }
+        if ran >> 126 & 1 != 0 && (self.q41 != self.n41) { return false; }
         true
     }
 
@@ -2251,264 +2254,266 @@ impl Model {
     /// groups ran since the last edge may differ), by name.
     pub(super) fn differences(&self, other: &Model) -> Vec<&'static str> {
         let mut names = Vec::new();
-        if self.q0 != other.q0 { names.push("q0 $auto$ff.cc:266:slice$10001"); }
-        if self.n0 != other.n0 { names.push("n0 $auto$ff.cc:266:slice$10001"); }
-        if self.q1 != other.q1 { names.push("q1 $auto$ff.cc:266:slice$10002"); }
-        if self.n1 != other.n1 { names.push("n1 $auto$ff.cc:266:slice$10002"); }
-        if self.q2 != other.q2 { names.push("q2 $auto$ff.cc:266:slice$10004"); }
-        if self.n2 != other.n2 { names.push("n2 $auto$ff.cc:266:slice$10004"); }
-        if self.q3 != other.q3 { names.push("q3 $auto$ff.cc:266:slice$10005"); }
-        if self.n3 != other.n3 { names.push("n3 $auto$ff.cc:266:slice$10005"); }
-        if self.q4 != other.q4 { names.push("q4 $auto$ff.cc:266:slice$10018"); }
-        if self.n4 != other.n4 { names.push("n4 $auto$ff.cc:266:slice$10018"); }
-        if self.q5 != other.q5 { names.push("q5 $auto$ff.cc:266:slice$10029"); }
-        if self.n5 != other.n5 { names.push("n5 $auto$ff.cc:266:slice$10029"); }
-        if self.q6 != other.q6 { names.push("q6 $auto$ff.cc:266:slice$10030"); }
-        if self.n6 != other.n6 { names.push("n6 $auto$ff.cc:266:slice$10030"); }
-        if self.q7 != other.q7 { names.push("q7 $auto$ff.cc:266:slice$10034"); }
-        if self.n7 != other.n7 { names.push("n7 $auto$ff.cc:266:slice$10034"); }
-        if self.q8 != other.q8 { names.push("q8 $auto$ff.cc:266:slice$10035"); }
-        if self.n8 != other.n8 { names.push("n8 $auto$ff.cc:266:slice$10035"); }
-        if self.q9 != other.q9 { names.push("q9 $auto$ff.cc:266:slice$10036"); }
-        if self.n9 != other.n9 { names.push("n9 $auto$ff.cc:266:slice$10036"); }
-        if self.q10 != other.q10 { names.push("q10 $auto$ff.cc:266:slice$10040"); }
-        if self.n10 != other.n10 { names.push("n10 $auto$ff.cc:266:slice$10040"); }
-        if self.q11 != other.q11 { names.push("q11 $auto$ff.cc:266:slice$10041"); }
-        if self.n11 != other.n11 { names.push("n11 $auto$ff.cc:266:slice$10041"); }
-        if self.q12 != other.q12 { names.push("q12 $auto$ff.cc:266:slice$10044"); }
-        if self.n12 != other.n12 { names.push("n12 $auto$ff.cc:266:slice$10044"); }
-        if self.q13 != other.q13 { names.push("q13 $auto$ff.cc:266:slice$10047"); }
-        if self.n13 != other.n13 { names.push("n13 $auto$ff.cc:266:slice$10047"); }
-        if self.q14 != other.q14 { names.push("q14 $auto$ff.cc:266:slice$10051"); }
-        if self.n14 != other.n14 { names.push("n14 $auto$ff.cc:266:slice$10051"); }
+        if self.q0 != other.q0 { names.push("q0 $auto$ff.cc:266:slice$10000"); }
+        if self.n0 != other.n0 { names.push("n0 $auto$ff.cc:266:slice$10000"); }
+        if self.q1 != other.q1 { names.push("q1 $auto$ff.cc:266:slice$10004"); }
+        if self.n1 != other.n1 { names.push("n1 $auto$ff.cc:266:slice$10004"); }
+        if self.q2 != other.q2 { names.push("q2 $auto$ff.cc:266:slice$10005"); }
+        if self.n2 != other.n2 { names.push("n2 $auto$ff.cc:266:slice$10005"); }
+        if self.q3 != other.q3 { names.push("q3 $auto$ff.cc:266:slice$10006"); }
+        if self.n3 != other.n3 { names.push("n3 $auto$ff.cc:266:slice$10006"); }
+        if self.q4 != other.q4 { names.push("q4 $auto$ff.cc:266:slice$10010"); }
+        if self.n4 != other.n4 { names.push("n4 $auto$ff.cc:266:slice$10010"); }
+        if self.q5 != other.q5 { names.push("q5 $auto$ff.cc:266:slice$10011"); }
+        if self.n5 != other.n5 { names.push("n5 $auto$ff.cc:266:slice$10011"); }
+        if self.q6 != other.q6 { names.push("q6 $auto$ff.cc:266:slice$10014"); }
+        if self.n6 != other.n6 { names.push("n6 $auto$ff.cc:266:slice$10014"); }
+        if self.q7 != other.q7 { names.push("q7 $auto$ff.cc:266:slice$10017"); }
+        if self.n7 != other.n7 { names.push("n7 $auto$ff.cc:266:slice$10017"); }
+        if self.q8 != other.q8 { names.push("q8 $auto$ff.cc:266:slice$10021"); }
+        if self.n8 != other.n8 { names.push("n8 $auto$ff.cc:266:slice$10021"); }
+        if self.q9 != other.q9 { names.push("q9 $auto$ff.cc:266:slice$10023"); }
+        if self.n9 != other.n9 { names.push("n9 $auto$ff.cc:266:slice$10023"); }
+        if self.q10 != other.q10 { names.push("q10 $auto$ff.cc:266:slice$10025"); }
+        if self.n10 != other.n10 { names.push("n10 $auto$ff.cc:266:slice$10025"); }
+        if self.q11 != other.q11 { names.push("q11 $auto$ff.cc:266:slice$10030"); }
+        if self.n11 != other.n11 { names.push("n11 $auto$ff.cc:266:slice$10030"); }
+        if self.q12 != other.q12 { names.push("q12 $auto$ff.cc:266:slice$10032"); }
+        if self.n12 != other.n12 { names.push("n12 $auto$ff.cc:266:slice$10032"); }
+        if self.q13 != other.q13 { names.push("q13 $auto$ff.cc:266:slice$10038"); }
+        if self.n13 != other.n13 { names.push("n13 $auto$ff.cc:266:slice$10038"); }
+        if self.q14 != other.q14 { names.push("q14 $auto$ff.cc:266:slice$10048"); }
+        if self.n14 != other.n14 { names.push("n14 $auto$ff.cc:266:slice$10048"); }
         if self.q15 != other.q15 { names.push("q15 $auto$ff.cc:266:slice$10053"); }
         if self.n15 != other.n15 { names.push("n15 $auto$ff.cc:266:slice$10053"); }
-        if self.q16 != other.q16 { names.push("q16 $auto$ff.cc:266:slice$10055"); }
-        if self.n16 != other.n16 { names.push("n16 $auto$ff.cc:266:slice$10055"); }
-        if self.q17 != other.q17 { names.push("q17 $auto$ff.cc:266:slice$10060"); }
-        if self.n17 != other.n17 { names.push("n17 $auto$ff.cc:266:slice$10060"); }
-        if self.q18 != other.q18 { names.push("q18 $auto$ff.cc:266:slice$10062"); }
-        if self.n18 != other.n18 { names.push("n18 $auto$ff.cc:266:slice$10062"); }
-        if self.q19 != other.q19 { names.push("q19 $auto$ff.cc:266:slice$10068"); }
-        if self.n19 != other.n19 { names.push("n19 $auto$ff.cc:266:slice$10068"); }
-        if self.q20 != other.q20 { names.push("q20 $auto$ff.cc:266:slice$10078"); }
-        if self.n20 != other.n20 { names.push("n20 $auto$ff.cc:266:slice$10078"); }
-        if self.q21 != other.q21 { names.push("q21 $auto$ff.cc:266:slice$10083"); }
-        if self.n21 != other.n21 { names.push("n21 $auto$ff.cc:266:slice$10083"); }
-        if self.q22 != other.q22 { names.push("q22 $auto$ff.cc:266:slice$10087"); }
-        if self.n22 != other.n22 { names.push("n22 $auto$ff.cc:266:slice$10087"); }
-        if self.q23 != other.q23 { names.push("q23 $auto$ff.cc:266:slice$10091"); }
-        if self.n23 != other.n23 { names.push("n23 $auto$ff.cc:266:slice$10091"); }
-        if self.q24 != other.q24 { names.push("q24 $auto$ff.cc:266:slice$10094"); }
-        if self.n24 != other.n24 { names.push("n24 $auto$ff.cc:266:slice$10094"); }
-        if self.q25 != other.q25 { names.push("q25 $auto$ff.cc:266:slice$10096"); }
-        if self.n25 != other.n25 { names.push("n25 $auto$ff.cc:266:slice$10096"); }
-        if self.q26 != other.q26 { names.push("q26 $auto$ff.cc:266:slice$10099"); }
-        if self.n26 != other.n26 { names.push("n26 $auto$ff.cc:266:slice$10099"); }
-        if self.q27 != other.q27 { names.push("q27 $auto$ff.cc:266:slice$10102"); }
-        if self.n27 != other.n27 { names.push("n27 $auto$ff.cc:266:slice$10102"); }
-        if self.q28 != other.q28 { names.push("q28 $auto$ff.cc:266:slice$10103"); }
-        if self.n28 != other.n28 { names.push("n28 $auto$ff.cc:266:slice$10103"); }
-        if self.q29 != other.q29 { names.push("q29 $auto$ff.cc:266:slice$10108"); }
-        if self.n29 != other.n29 { names.push("n29 $auto$ff.cc:266:slice$10108"); }
-        if self.q30 != other.q30 { names.push("q30 $auto$ff.cc:266:slice$10114"); }
-        if self.n30 != other.n30 { names.push("n30 $auto$ff.cc:266:slice$10114"); }
-        if self.q31 != other.q31 { names.push("q31 $auto$ff.cc:266:slice$10115"); }
-        if self.n31 != other.n31 { names.push("n31 $auto$ff.cc:266:slice$10115"); }
-        if self.q32 != other.q32 { names.push("q32 $auto$ff.cc:266:slice$10118"); }
-        if self.n32 != other.n32 { names.push("n32 $auto$ff.cc:266:slice$10118"); }
-        if self.q33 != other.q33 { names.push("q33 $auto$ff.cc:266:slice$10122"); }
-        if self.n33 != other.n33 { names.push("n33 $auto$ff.cc:266:slice$10122"); }
-        if self.q34 != other.q34 { names.push("q34 $auto$ff.cc:266:slice$10125"); }
-        if self.n34 != other.n34 { names.push("n34 $auto$ff.cc:266:slice$10125"); }
-        if self.q35 != other.q35 { names.push("q35 $auto$ff.cc:266:slice$10126"); }
-        if self.n35 != other.n35 { names.push("n35 $auto$ff.cc:266:slice$10126"); }
-        if self.q36 != other.q36 { names.push("q36 $auto$ff.cc:266:slice$10130"); }
-        if self.n36 != other.n36 { names.push("n36 $auto$ff.cc:266:slice$10130"); }
-        if self.q37 != other.q37 { names.push("q37 $auto$ff.cc:266:slice$10134"); }
-        if self.n37 != other.n37 { names.push("n37 $auto$ff.cc:266:slice$10134"); }
-        if self.q38 != other.q38 { names.push("q38 $auto$ff.cc:266:slice$10138"); }
-        if self.n38 != other.n38 { names.push("n38 $auto$ff.cc:266:slice$10138"); }
-        if self.q39 != other.q39 { names.push("q39 $auto$ff.cc:266:slice$10142"); }
-        if self.n39 != other.n39 { names.push("n39 $auto$ff.cc:266:slice$10142"); }
-        if self.q40 != other.q40 { names.push("q40 $auto$ff.cc:266:slice$10146"); }
-        if self.n40 != other.n40 { names.push("n40 $auto$ff.cc:266:slice$10146"); }
-        if self.q41 != other.q41 { names.push("q41 $auto$ff.cc:266:slice$10149"); }
-        if self.n41 != other.n41 { names.push("n41 $auto$ff.cc:266:slice$10149"); }
-        if self.q42 != other.q42 { names.push("q42 $auto$ff.cc:266:slice$10150"); }
-        if self.n42 != other.n42 { names.push("n42 $auto$ff.cc:266:slice$10150"); }
-        if self.q43 != other.q43 { names.push("q43 $auto$ff.cc:266:slice$10151"); }
-        if self.n43 != other.n43 { names.push("n43 $auto$ff.cc:266:slice$10151"); }
-        if self.q44 != other.q44 { names.push("q44 $auto$ff.cc:266:slice$10152"); }
-        if self.n44 != other.n44 { names.push("n44 $auto$ff.cc:266:slice$10152"); }
-        if self.q45 != other.q45 { names.push("q45 $auto$ff.cc:266:slice$10153"); }
-        if self.n45 != other.n45 { names.push("n45 $auto$ff.cc:266:slice$10153"); }
-        if self.q46 != other.q46 { names.push("q46 $auto$ff.cc:266:slice$10231"); }
-        if self.n46 != other.n46 { names.push("n46 $auto$ff.cc:266:slice$10231"); }
-        if self.q47 != other.q47 { names.push("q47 $auto$ff.cc:266:slice$9773"); }
-        if self.n47 != other.n47 { names.push("n47 $auto$ff.cc:266:slice$9773"); }
-        if self.q48 != other.q48 { names.push("q48 $auto$ff.cc:266:slice$9774"); }
-        if self.n48 != other.n48 { names.push("n48 $auto$ff.cc:266:slice$9774"); }
-        if self.q49 != other.q49 { names.push("q49 $auto$ff.cc:266:slice$9779"); }
-        if self.n49 != other.n49 { names.push("n49 $auto$ff.cc:266:slice$9779"); }
-        if self.q50 != other.q50 { names.push("q50 $auto$ff.cc:266:slice$9781"); }
-        if self.n50 != other.n50 { names.push("n50 $auto$ff.cc:266:slice$9781"); }
-        if self.q51 != other.q51 { names.push("q51 $auto$ff.cc:266:slice$9784"); }
-        if self.n51 != other.n51 { names.push("n51 $auto$ff.cc:266:slice$9784"); }
-        if self.q52 != other.q52 { names.push("q52 $auto$ff.cc:266:slice$9790"); }
-        if self.n52 != other.n52 { names.push("n52 $auto$ff.cc:266:slice$9790"); }
-        if self.q53 != other.q53 { names.push("q53 $auto$ff.cc:266:slice$9791"); }
-        if self.n53 != other.n53 { names.push("n53 $auto$ff.cc:266:slice$9791"); }
-        if self.q54 != other.q54 { names.push("q54 $auto$ff.cc:266:slice$9794"); }
-        if self.n54 != other.n54 { names.push("n54 $auto$ff.cc:266:slice$9794"); }
-        if self.q55 != other.q55 { names.push("q55 $auto$ff.cc:266:slice$9795"); }
-        if self.n55 != other.n55 { names.push("n55 $auto$ff.cc:266:slice$9795"); }
-        if self.q56 != other.q56 { names.push("q56 $auto$ff.cc:266:slice$9801"); }
-        if self.n56 != other.n56 { names.push("n56 $auto$ff.cc:266:slice$9801"); }
-        if self.q57 != other.q57 { names.push("q57 $auto$ff.cc:266:slice$9803"); }
-        if self.n57 != other.n57 { names.push("n57 $auto$ff.cc:266:slice$9803"); }
-        if self.q58 != other.q58 { names.push("q58 $auto$ff.cc:266:slice$9804"); }
-        if self.n58 != other.n58 { names.push("n58 $auto$ff.cc:266:slice$9804"); }
-        if self.q59 != other.q59 { names.push("q59 $auto$ff.cc:266:slice$9808"); }
-        if self.n59 != other.n59 { names.push("n59 $auto$ff.cc:266:slice$9808"); }
-        if self.q60 != other.q60 { names.push("q60 $auto$ff.cc:266:slice$9814"); }
-        if self.n60 != other.n60 { names.push("n60 $auto$ff.cc:266:slice$9814"); }
-        if self.q61 != other.q61 { names.push("q61 $auto$ff.cc:266:slice$9815"); }
-        if self.n61 != other.n61 { names.push("n61 $auto$ff.cc:266:slice$9815"); }
-        if self.q62 != other.q62 { names.push("q62 $auto$ff.cc:266:slice$9820"); }
-        if self.n62 != other.n62 { names.push("n62 $auto$ff.cc:266:slice$9820"); }
-        if self.q63 != other.q63 { names.push("q63 $auto$ff.cc:266:slice$9823"); }
-        if self.n63 != other.n63 { names.push("n63 $auto$ff.cc:266:slice$9823"); }
-        if self.q64 != other.q64 { names.push("q64 $auto$ff.cc:266:slice$9827"); }
-        if self.n64 != other.n64 { names.push("n64 $auto$ff.cc:266:slice$9827"); }
-        if self.q65 != other.q65 { names.push("q65 $auto$ff.cc:266:slice$9828"); }
-        if self.n65 != other.n65 { names.push("n65 $auto$ff.cc:266:slice$9828"); }
-        if self.q66 != other.q66 { names.push("q66 $auto$ff.cc:266:slice$9829"); }
-        if self.n66 != other.n66 { names.push("n66 $auto$ff.cc:266:slice$9829"); }
-        if self.q67 != other.q67 { names.push("q67 $auto$ff.cc:266:slice$9835"); }
-        if self.n67 != other.n67 { names.push("n67 $auto$ff.cc:266:slice$9835"); }
-        if self.q68 != other.q68 { names.push("q68 $auto$ff.cc:266:slice$9840"); }
-        if self.n68 != other.n68 { names.push("n68 $auto$ff.cc:266:slice$9840"); }
-        if self.q69 != other.q69 { names.push("q69 $auto$ff.cc:266:slice$9845"); }
-        if self.n69 != other.n69 { names.push("n69 $auto$ff.cc:266:slice$9845"); }
-        if self.q70 != other.q70 { names.push("q70 $auto$ff.cc:266:slice$9847"); }
-        if self.n70 != other.n70 { names.push("n70 $auto$ff.cc:266:slice$9847"); }
-        if self.q71 != other.q71 { names.push("q71 $auto$ff.cc:266:slice$9848"); }
-        if self.n71 != other.n71 { names.push("n71 $auto$ff.cc:266:slice$9848"); }
-        if self.q72 != other.q72 { names.push("q72 $auto$ff.cc:266:slice$9849"); }
-        if self.n72 != other.n72 { names.push("n72 $auto$ff.cc:266:slice$9849"); }
+        if self.q16 != other.q16 { names.push("q16 $auto$ff.cc:266:slice$10057"); }
+        if self.n16 != other.n16 { names.push("n16 $auto$ff.cc:266:slice$10057"); }
+        if self.q17 != other.q17 { names.push("q17 $auto$ff.cc:266:slice$10061"); }
+        if self.n17 != other.n17 { names.push("n17 $auto$ff.cc:266:slice$10061"); }
+        if self.q18 != other.q18 { names.push("q18 $auto$ff.cc:266:slice$10064"); }
+        if self.n18 != other.n18 { names.push("n18 $auto$ff.cc:266:slice$10064"); }
+        if self.q19 != other.q19 { names.push("q19 $auto$ff.cc:266:slice$10066"); }
+        if self.n19 != other.n19 { names.push("n19 $auto$ff.cc:266:slice$10066"); }
+        if self.q20 != other.q20 { names.push("q20 $auto$ff.cc:266:slice$10069"); }
+        if self.n20 != other.n20 { names.push("n20 $auto$ff.cc:266:slice$10069"); }
+        if self.q21 != other.q21 { names.push("q21 $auto$ff.cc:266:slice$10072"); }
+        if self.n21 != other.n21 { names.push("n21 $auto$ff.cc:266:slice$10072"); }
+        if self.q22 != other.q22 { names.push("q22 $auto$ff.cc:266:slice$10073"); }
+        if self.n22 != other.n22 { names.push("n22 $auto$ff.cc:266:slice$10073"); }
+        if self.q23 != other.q23 { names.push("q23 $auto$ff.cc:266:slice$10078"); }
+        if self.n23 != other.n23 { names.push("n23 $auto$ff.cc:266:slice$10078"); }
+        if self.q24 != other.q24 { names.push("q24 $auto$ff.cc:266:slice$10084"); }
+        if self.n24 != other.n24 { names.push("n24 $auto$ff.cc:266:slice$10084"); }
+        if self.q25 != other.q25 { names.push("q25 $auto$ff.cc:266:slice$10085"); }
+        if self.n25 != other.n25 { names.push("n25 $auto$ff.cc:266:slice$10085"); }
+        if self.q26 != other.q26 { names.push("q26 $auto$ff.cc:266:slice$10088"); }
+        if self.n26 != other.n26 { names.push("n26 $auto$ff.cc:266:slice$10088"); }
+        if self.q27 != other.q27 { names.push("q27 $auto$ff.cc:266:slice$10092"); }
+        if self.n27 != other.n27 { names.push("n27 $auto$ff.cc:266:slice$10092"); }
+        if self.q28 != other.q28 { names.push("q28 $auto$ff.cc:266:slice$10095"); }
+        if self.n28 != other.n28 { names.push("n28 $auto$ff.cc:266:slice$10095"); }
+        if self.q29 != other.q29 { names.push("q29 $auto$ff.cc:266:slice$10096"); }
+        if self.n29 != other.n29 { names.push("n29 $auto$ff.cc:266:slice$10096"); }
+        if self.q30 != other.q30 { names.push("q30 $auto$ff.cc:266:slice$10100"); }
+        if self.n30 != other.n30 { names.push("n30 $auto$ff.cc:266:slice$10100"); }
+        if self.q31 != other.q31 { names.push("q31 $auto$ff.cc:266:slice$10104"); }
+        if self.n31 != other.n31 { names.push("n31 $auto$ff.cc:266:slice$10104"); }
+        if self.q32 != other.q32 { names.push("q32 $auto$ff.cc:266:slice$10108"); }
+        if self.n32 != other.n32 { names.push("n32 $auto$ff.cc:266:slice$10108"); }
+        if self.q33 != other.q33 { names.push("q33 $auto$ff.cc:266:slice$10112"); }
+        if self.n33 != other.n33 { names.push("n33 $auto$ff.cc:266:slice$10112"); }
+        if self.q34 != other.q34 { names.push("q34 $auto$ff.cc:266:slice$10116"); }
+        if self.n34 != other.n34 { names.push("n34 $auto$ff.cc:266:slice$10116"); }
+        if self.q35 != other.q35 { names.push("q35 $auto$ff.cc:266:slice$10119"); }
+        if self.n35 != other.n35 { names.push("n35 $auto$ff.cc:266:slice$10119"); }
+        if self.q36 != other.q36 { names.push("q36 $auto$ff.cc:266:slice$10120"); }
+        if self.n36 != other.n36 { names.push("n36 $auto$ff.cc:266:slice$10120"); }
+        if self.q37 != other.q37 { names.push("q37 $auto$ff.cc:266:slice$10121"); }
+        if self.n37 != other.n37 { names.push("n37 $auto$ff.cc:266:slice$10121"); }
+        if self.q38 != other.q38 { names.push("q38 $auto$ff.cc:266:slice$10122"); }
+        if self.n38 != other.n38 { names.push("n38 $auto$ff.cc:266:slice$10122"); }
+        if self.q39 != other.q39 { names.push("q39 $auto$ff.cc:266:slice$10123"); }
+        if self.n39 != other.n39 { names.push("n39 $auto$ff.cc:266:slice$10123"); }
+        if self.q40 != other.q40 { names.push("q40 $auto$ff.cc:266:slice$10205"); }
+        if self.n40 != other.n40 { names.push("n40 $auto$ff.cc:266:slice$10205"); }
+        if self.q41 != other.q41 { names.push("q41 $auto$ff.cc:266:slice$9742"); }
+        if self.n41 != other.n41 { names.push("n41 $auto$ff.cc:266:slice$9742"); }
+        if self.q42 != other.q42 { names.push("q42 $auto$ff.cc:266:slice$9743"); }
+        if self.n42 != other.n42 { names.push("n42 $auto$ff.cc:266:slice$9743"); }
+        if self.q43 != other.q43 { names.push("q43 $auto$ff.cc:266:slice$9748"); }
+        if self.n43 != other.n43 { names.push("n43 $auto$ff.cc:266:slice$9748"); }
+        if self.q44 != other.q44 { names.push("q44 $auto$ff.cc:266:slice$9750"); }
+        if self.n44 != other.n44 { names.push("n44 $auto$ff.cc:266:slice$9750"); }
+        if self.q45 != other.q45 { names.push("q45 $auto$ff.cc:266:slice$9753"); }
+        if self.n45 != other.n45 { names.push("n45 $auto$ff.cc:266:slice$9753"); }
+        if self.q46 != other.q46 { names.push("q46 $auto$ff.cc:266:slice$9759"); }
+        if self.n46 != other.n46 { names.push("n46 $auto$ff.cc:266:slice$9759"); }
+        if self.q47 != other.q47 { names.push("q47 $auto$ff.cc:266:slice$9760"); }
+        if self.n47 != other.n47 { names.push("n47 $auto$ff.cc:266:slice$9760"); }
+        if self.q48 != other.q48 { names.push("q48 $auto$ff.cc:266:slice$9763"); }
+        if self.n48 != other.n48 { names.push("n48 $auto$ff.cc:266:slice$9763"); }
+        if self.q49 != other.q49 { names.push("q49 $auto$ff.cc:266:slice$9764"); }
+        if self.n49 != other.n49 { names.push("n49 $auto$ff.cc:266:slice$9764"); }
+        if self.q50 != other.q50 { names.push("q50 $auto$ff.cc:266:slice$9770"); }
+        if self.n50 != other.n50 { names.push("n50 $auto$ff.cc:266:slice$9770"); }
+        if self.q51 != other.q51 { names.push("q51 $auto$ff.cc:266:slice$9772"); }
+        if self.n51 != other.n51 { names.push("n51 $auto$ff.cc:266:slice$9772"); }
+        if self.q52 != other.q52 { names.push("q52 $auto$ff.cc:266:slice$9773"); }
+        if self.n52 != other.n52 { names.push("n52 $auto$ff.cc:266:slice$9773"); }
+        if self.q53 != other.q53 { names.push("q53 $auto$ff.cc:266:slice$9777"); }
+        if self.n53 != other.n53 { names.push("n53 $auto$ff.cc:266:slice$9777"); }
+        if self.q54 != other.q54 { names.push("q54 $auto$ff.cc:266:slice$9783"); }
+        if self.n54 != other.n54 { names.push("n54 $auto$ff.cc:266:slice$9783"); }
+        if self.q55 != other.q55 { names.push("q55 $auto$ff.cc:266:slice$9784"); }
+        if self.n55 != other.n55 { names.push("n55 $auto$ff.cc:266:slice$9784"); }
+        if self.q56 != other.q56 { names.push("q56 $auto$ff.cc:266:slice$9789"); }
+        if self.n56 != other.n56 { names.push("n56 $auto$ff.cc:266:slice$9789"); }
+        if self.q57 != other.q57 { names.push("q57 $auto$ff.cc:266:slice$9792"); }
+        if self.n57 != other.n57 { names.push("n57 $auto$ff.cc:266:slice$9792"); }
+        if self.q58 != other.q58 { names.push("q58 $auto$ff.cc:266:slice$9796"); }
+        if self.n58 != other.n58 { names.push("n58 $auto$ff.cc:266:slice$9796"); }
+        if self.q59 != other.q59 { names.push("q59 $auto$ff.cc:266:slice$9797"); }
+        if self.n59 != other.n59 { names.push("n59 $auto$ff.cc:266:slice$9797"); }
+        if self.q60 != other.q60 { names.push("q60 $auto$ff.cc:266:slice$9798"); }
+        if self.n60 != other.n60 { names.push("n60 $auto$ff.cc:266:slice$9798"); }
+        if self.q61 != other.q61 { names.push("q61 $auto$ff.cc:266:slice$9804"); }
+        if self.n61 != other.n61 { names.push("n61 $auto$ff.cc:266:slice$9804"); }
+        if self.q62 != other.q62 { names.push("q62 $auto$ff.cc:266:slice$9809"); }
+        if self.n62 != other.n62 { names.push("n62 $auto$ff.cc:266:slice$9809"); }
+        if self.q63 != other.q63 { names.push("q63 $auto$ff.cc:266:slice$9814"); }
+        if self.n63 != other.n63 { names.push("n63 $auto$ff.cc:266:slice$9814"); }
+        if self.q64 != other.q64 { names.push("q64 $auto$ff.cc:266:slice$9816"); }
+        if self.n64 != other.n64 { names.push("n64 $auto$ff.cc:266:slice$9816"); }
+        if self.q65 != other.q65 { names.push("q65 $auto$ff.cc:266:slice$9817"); }
+        if self.n65 != other.n65 { names.push("n65 $auto$ff.cc:266:slice$9817"); }
+        if self.q66 != other.q66 { names.push("q66 $auto$ff.cc:266:slice$9818"); }
+        if self.n66 != other.n66 { names.push("n66 $auto$ff.cc:266:slice$9818"); }
+        if self.q67 != other.q67 { names.push("q67 $auto$ff.cc:266:slice$9820"); }
+        if self.n67 != other.n67 { names.push("n67 $auto$ff.cc:266:slice$9820"); }
+        if self.q68 != other.q68 { names.push("q68 $auto$ff.cc:266:slice$9821"); }
+        if self.n68 != other.n68 { names.push("n68 $auto$ff.cc:266:slice$9821"); }
+        if self.q69 != other.q69 { names.push("q69 $auto$ff.cc:266:slice$9822"); }
+        if self.n69 != other.n69 { names.push("n69 $auto$ff.cc:266:slice$9822"); }
+        if self.q70 != other.q70 { names.push("q70 $auto$ff.cc:266:slice$9826"); }
+        if self.n70 != other.n70 { names.push("n70 $auto$ff.cc:266:slice$9826"); }
+        if self.q71 != other.q71 { names.push("q71 $auto$ff.cc:266:slice$9828"); }
+        if self.n71 != other.n71 { names.push("n71 $auto$ff.cc:266:slice$9828"); }
+        if self.q72 != other.q72 { names.push("q72 $auto$ff.cc:266:slice$9840"); }
+        if self.n72 != other.n72 { names.push("n72 $auto$ff.cc:266:slice$9840"); }
         if self.q73 != other.q73 { names.push("q73 $auto$ff.cc:266:slice$9851"); }
         if self.n73 != other.n73 { names.push("n73 $auto$ff.cc:266:slice$9851"); }
         if self.q74 != other.q74 { names.push("q74 $auto$ff.cc:266:slice$9852"); }
         if self.n74 != other.n74 { names.push("n74 $auto$ff.cc:266:slice$9852"); }
         if self.q75 != other.q75 { names.push("q75 $auto$ff.cc:266:slice$9853"); }
         if self.n75 != other.n75 { names.push("n75 $auto$ff.cc:266:slice$9853"); }
-        if self.q76 != other.q76 { names.push("q76 $auto$ff.cc:266:slice$9857"); }
-        if self.n76 != other.n76 { names.push("n76 $auto$ff.cc:266:slice$9857"); }
-        if self.q77 != other.q77 { names.push("q77 $auto$ff.cc:266:slice$9859"); }
-        if self.n77 != other.n77 { names.push("n77 $auto$ff.cc:266:slice$9859"); }
-        if self.q78 != other.q78 { names.push("q78 $auto$ff.cc:266:slice$9871"); }
-        if self.n78 != other.n78 { names.push("n78 $auto$ff.cc:266:slice$9871"); }
-        if self.q79 != other.q79 { names.push("q79 $auto$ff.cc:266:slice$9882"); }
-        if self.n79 != other.n79 { names.push("n79 $auto$ff.cc:266:slice$9882"); }
-        if self.q80 != other.q80 { names.push("q80 $auto$ff.cc:266:slice$9883"); }
-        if self.n80 != other.n80 { names.push("n80 $auto$ff.cc:266:slice$9883"); }
-        if self.q81 != other.q81 { names.push("q81 $auto$ff.cc:266:slice$9884"); }
-        if self.n81 != other.n81 { names.push("n81 $auto$ff.cc:266:slice$9884"); }
-        if self.q82 != other.q82 { names.push("q82 $auto$ff.cc:266:slice$9885"); }
-        if self.n82 != other.n82 { names.push("n82 $auto$ff.cc:266:slice$9885"); }
-        if self.q83 != other.q83 { names.push("q83 $auto$ff.cc:266:slice$9886"); }
-        if self.n83 != other.n83 { names.push("n83 $auto$ff.cc:266:slice$9886"); }
-        if self.q84 != other.q84 { names.push("q84 $auto$ff.cc:266:slice$9889"); }
-        if self.n84 != other.n84 { names.push("n84 $auto$ff.cc:266:slice$9889"); }
-        if self.q85 != other.q85 { names.push("q85 $auto$ff.cc:266:slice$9893"); }
-        if self.n85 != other.n85 { names.push("n85 $auto$ff.cc:266:slice$9893"); }
-        if self.q86 != other.q86 { names.push("q86 $auto$ff.cc:266:slice$9896"); }
-        if self.n86 != other.n86 { names.push("n86 $auto$ff.cc:266:slice$9896"); }
-        if self.q87 != other.q87 { names.push("q87 $auto$ff.cc:266:slice$9899"); }
-        if self.n87 != other.n87 { names.push("n87 $auto$ff.cc:266:slice$9899"); }
-        if self.q88 != other.q88 { names.push("q88 $auto$ff.cc:266:slice$9903"); }
-        if self.n88 != other.n88 { names.push("n88 $auto$ff.cc:266:slice$9903"); }
-        if self.q89 != other.q89 { names.push("q89 $auto$ff.cc:266:slice$9906"); }
-        if self.n89 != other.n89 { names.push("n89 $auto$ff.cc:266:slice$9906"); }
-        if self.q90 != other.q90 { names.push("q90 $auto$ff.cc:266:slice$9907"); }
-        if self.n90 != other.n90 { names.push("n90 $auto$ff.cc:266:slice$9907"); }
-        if self.q91 != other.q91 { names.push("q91 $auto$ff.cc:266:slice$9911"); }
-        if self.n91 != other.n91 { names.push("n91 $auto$ff.cc:266:slice$9911"); }
-        if self.q92 != other.q92 { names.push("q92 $auto$ff.cc:266:slice$9914"); }
-        if self.n92 != other.n92 { names.push("n92 $auto$ff.cc:266:slice$9914"); }
-        if self.q93 != other.q93 { names.push("q93 $auto$ff.cc:266:slice$9915"); }
-        if self.n93 != other.n93 { names.push("n93 $auto$ff.cc:266:slice$9915"); }
-        if self.q94 != other.q94 { names.push("q94 $auto$ff.cc:266:slice$9918"); }
-        if self.n94 != other.n94 { names.push("n94 $auto$ff.cc:266:slice$9918"); }
-        if self.q95 != other.q95 { names.push("q95 $auto$ff.cc:266:slice$9924"); }
-        if self.n95 != other.n95 { names.push("n95 $auto$ff.cc:266:slice$9924"); }
+        if self.q76 != other.q76 { names.push("q76 $auto$ff.cc:266:slice$9854"); }
+        if self.n76 != other.n76 { names.push("n76 $auto$ff.cc:266:slice$9854"); }
+        if self.q77 != other.q77 { names.push("q77 $auto$ff.cc:266:slice$9855"); }
+        if self.n77 != other.n77 { names.push("n77 $auto$ff.cc:266:slice$9855"); }
+        if self.q78 != other.q78 { names.push("q78 $auto$ff.cc:266:slice$9858"); }
+        if self.n78 != other.n78 { names.push("n78 $auto$ff.cc:266:slice$9858"); }
+        if self.q79 != other.q79 { names.push("q79 $auto$ff.cc:266:slice$9861"); }
+        if self.n79 != other.n79 { names.push("n79 $auto$ff.cc:266:slice$9861"); }
+        if self.q80 != other.q80 { names.push("q80 $auto$ff.cc:266:slice$9863"); }
+        if self.n80 != other.n80 { names.push("n80 $auto$ff.cc:266:slice$9863"); }
+        if self.q81 != other.q81 { names.push("q81 $auto$ff.cc:266:slice$9866"); }
+        if self.n81 != other.n81 { names.push("n81 $auto$ff.cc:266:slice$9866"); }
+        if self.q82 != other.q82 { names.push("q82 $auto$ff.cc:266:slice$9869"); }
+        if self.n82 != other.n82 { names.push("n82 $auto$ff.cc:266:slice$9869"); }
+        if self.q83 != other.q83 { names.push("q83 $auto$ff.cc:266:slice$9873"); }
+        if self.n83 != other.n83 { names.push("n83 $auto$ff.cc:266:slice$9873"); }
+        if self.q84 != other.q84 { names.push("q84 $auto$ff.cc:266:slice$9876"); }
+        if self.n84 != other.n84 { names.push("n84 $auto$ff.cc:266:slice$9876"); }
+        if self.q85 != other.q85 { names.push("q85 $auto$ff.cc:266:slice$9877"); }
+        if self.n85 != other.n85 { names.push("n85 $auto$ff.cc:266:slice$9877"); }
+        if self.q86 != other.q86 { names.push("q86 $auto$ff.cc:266:slice$9881"); }
+        if self.n86 != other.n86 { names.push("n86 $auto$ff.cc:266:slice$9881"); }
+        if self.q87 != other.q87 { names.push("q87 $auto$ff.cc:266:slice$9884"); }
+        if self.n87 != other.n87 { names.push("n87 $auto$ff.cc:266:slice$9884"); }
+        if self.q88 != other.q88 { names.push("q88 $auto$ff.cc:266:slice$9885"); }
+        if self.n88 != other.n88 { names.push("n88 $auto$ff.cc:266:slice$9885"); }
+        if self.q89 != other.q89 { names.push("q89 $auto$ff.cc:266:slice$9888"); }
+        if self.n89 != other.n89 { names.push("n89 $auto$ff.cc:266:slice$9888"); }
+        if self.q90 != other.q90 { names.push("q90 $auto$ff.cc:266:slice$9894"); }
+        if self.n90 != other.n90 { names.push("n90 $auto$ff.cc:266:slice$9894"); }
+        if self.q91 != other.q91 { names.push("q91 $auto$ff.cc:266:slice$9895"); }
+        if self.n91 != other.n91 { names.push("n91 $auto$ff.cc:266:slice$9895"); }
+        if self.q92 != other.q92 { names.push("q92 $auto$ff.cc:266:slice$9901"); }
+        if self.n92 != other.n92 { names.push("n92 $auto$ff.cc:266:slice$9901"); }
+        if self.q93 != other.q93 { names.push("q93 $auto$ff.cc:266:slice$9903"); }
+        if self.n93 != other.n93 { names.push("n93 $auto$ff.cc:266:slice$9903"); }
+        if self.q94 != other.q94 { names.push("q94 $auto$ff.cc:266:slice$9912"); }
+        if self.n94 != other.n94 { names.push("n94 $auto$ff.cc:266:slice$9912"); }
+        if self.q95 != other.q95 { names.push("q95 $auto$ff.cc:266:slice$9919"); }
+        if self.n95 != other.n95 { names.push("n95 $auto$ff.cc:266:slice$9919"); }
         if self.q96 != other.q96 { names.push("q96 $auto$ff.cc:266:slice$9925"); }
         if self.n96 != other.n96 { names.push("n96 $auto$ff.cc:266:slice$9925"); }
-        if self.q97 != other.q97 { names.push("q97 $auto$ff.cc:266:slice$9931"); }
-        if self.n97 != other.n97 { names.push("n97 $auto$ff.cc:266:slice$9931"); }
-        if self.q98 != other.q98 { names.push("q98 $auto$ff.cc:266:slice$9933"); }
-        if self.n98 != other.n98 { names.push("n98 $auto$ff.cc:266:slice$9933"); }
-        if self.q99 != other.q99 { names.push("q99 $auto$ff.cc:266:slice$9942"); }
-        if self.n99 != other.n99 { names.push("n99 $auto$ff.cc:266:slice$9942"); }
-        if self.q100 != other.q100 { names.push("q100 $auto$ff.cc:266:slice$9949"); }
-        if self.n100 != other.n100 { names.push("n100 $auto$ff.cc:266:slice$9949"); }
-        if self.q101 != other.q101 { names.push("q101 $auto$ff.cc:266:slice$9955"); }
-        if self.n101 != other.n101 { names.push("n101 $auto$ff.cc:266:slice$9955"); }
-        if self.q102 != other.q102 { names.push("q102 $auto$ff.cc:266:slice$9957"); }
-        if self.n102 != other.n102 { names.push("n102 $auto$ff.cc:266:slice$9957"); }
-        if self.q103 != other.q103 { names.push("q103 $auto$ff.cc:266:slice$9965"); }
-        if self.n103 != other.n103 { names.push("n103 $auto$ff.cc:266:slice$9965"); }
-        if self.q104 != other.q104 { names.push("q104 $auto$ff.cc:266:slice$9971"); }
-        if self.n104 != other.n104 { names.push("n104 $auto$ff.cc:266:slice$9971"); }
-        if self.q105 != other.q105 { names.push("q105 $auto$ff.cc:266:slice$9983"); }
-        if self.n105 != other.n105 { names.push("n105 $auto$ff.cc:266:slice$9983"); }
-        if self.q106 != other.q106 { names.push("q106 $flattencore.bit_timing.sampled.$procdff$9081"); }
-        if self.n106 != other.n106 { names.push("n106 $flattencore.bit_timing.sampled.$procdff$9081"); }
-        if self.q107 != other.q107 { names.push("q107 $flattencore.bit_timing.sampling.metastable.$procdff$9080"); }
-        if self.n107 != other.n107 { names.push("n107 $flattencore.bit_timing.sampling.metastable.$procdff$9080"); }
-        if self.q108 != other.q108 { names.push("q108 $flattencore.bit_timing.sampling.previous.$procdff$9079"); }
-        if self.n108 != other.n108 { names.push("n108 $flattencore.bit_timing.sampling.previous.$procdff$9079"); }
-        if self.q109 != other.q109 { names.push("q109 $flattencore.bit_timing.sampling.stable.$procdff$9077"); }
-        if self.n109 != other.n109 { names.push("n109 $flattencore.bit_timing.sampling.stable.$procdff$9077"); }
-        if self.q110 != other.q110 { names.push("q110 $flattencore.protocol.faults.bus_off_state.$procdff$9052"); }
-        if self.n110 != other.n110 { names.push("n110 $flattencore.protocol.faults.bus_off_state.$procdff$9052"); }
-        if self.q111 != other.q111 { names.push("q111 $flattencore.protocol.faults.passive_state.$procdff$9051"); }
-        if self.n111 != other.n111 { names.push("n111 $flattencore.protocol.faults.passive_state.$procdff$9051"); }
-        if self.q112 != other.q112 { names.push("q112 $flattencore.protocol.field.$procdff$9048"); }
-        if self.n112 != other.n112 { names.push("n112 $flattencore.protocol.field.$procdff$9048"); }
-        if self.q113 != other.q113 { names.push("q113 $flattencore.protocol.in_frame.$procdff$9047"); }
-        if self.n113 != other.n113 { names.push("n113 $flattencore.protocol.in_frame.$procdff$9047"); }
-        if self.q114 != other.q114 { names.push("q114 $flattencore.protocol.sender.tx_next.$procdff$9039"); }
-        if self.n114 != other.n114 { names.push("n114 $flattencore.protocol.sender.tx_next.$procdff$9039"); }
-        if self.q115 != other.q115 { names.push("q115 $flattencore.protocol.sender.tx_reg.$procdff$9037"); }
-        if self.n115 != other.n115 { names.push("n115 $flattencore.protocol.sender.tx_reg.$procdff$9037"); }
-        if self.q116 != other.q116 { names.push("q116 $flattenfilter.data1_match.$procdff$9013"); }
-        if self.n116 != other.n116 { names.push("n116 $flattenfilter.data1_match.$procdff$9013"); }
-        if self.q117 != other.q117 { names.push("q117 $flattenfilter.data2_match.$procdff$9012"); }
-        if self.n117 != other.n117 { names.push("n117 $flattenfilter.data2_match.$procdff$9012"); }
-        if self.q118 != other.q118 { names.push("q118 $flatteninterrupts.alc_armed.$procdff$9004"); }
-        if self.n118 != other.n118 { names.push("n118 $flatteninterrupts.alc_armed.$procdff$9004"); }
-        if self.q119 != other.q119 { names.push("q119 $flatteninterrupts.ecc_armed.$procdff$9000"); }
-        if self.n119 != other.n119 { names.push("n119 $flatteninterrupts.ecc_armed.$procdff$9000"); }
-        if self.q120 != other.q120 { names.push("q120 $flattenmodes.enable_reg.$procdff$8987"); }
-        if self.n120 != other.n120 { names.push("n120 $flattenmodes.enable_reg.$procdff$8987"); }
-        if self.q121 != other.q121 { names.push("q121 $flattenmodes.listen_only_reg.$procdff$8986"); }
-        if self.n121 != other.n121 { names.push("n121 $flattenmodes.listen_only_reg.$procdff$8986"); }
-        if self.q122 != other.q122 { names.push("q122 $flattenmodes.lom.$procdff$8985"); }
-        if self.n122 != other.n122 { names.push("n122 $flattenmodes.lom.$procdff$8985"); }
-        if self.q123 != other.q123 { names.push("q123 $flattenmodes.rm.$procdff$8984"); }
-        if self.n123 != other.n123 { names.push("n123 $flattenmodes.rm.$procdff$8984"); }
-        if self.q124 != other.q124 { names.push("q124 $flattenmodes.self_test_reg.$procdff$8983"); }
-        if self.n124 != other.n124 { names.push("n124 $flattenmodes.self_test_reg.$procdff$8983"); }
-        if self.q125 != other.q125 { names.push("q125 $flattenmodes.sm.$procdff$8981"); }
-        if self.n125 != other.n125 { names.push("n125 $flattenmodes.sm.$procdff$8981"); }
-        if self.q126 != other.q126 { names.push("q126 $flattenmodes.stm.$procdff$8980"); }
-        if self.n126 != other.n126 { names.push("n126 $flattenmodes.stm.$procdff$8980"); }
-        if self.q127 != other.q127 { names.push("q127 $flattentbs.$procdff$8974"); }
-        if self.n127 != other.n127 { names.push("n127 $flattentbs.$procdff$8974"); }
-        if self.q128 != other.q128 { names.push("q128 $flattentcs.$procdff$8973"); }
-        if self.n128 != other.n128 { names.push("n128 $flattentcs.$procdff$8973"); }
+        if self.q97 != other.q97 { names.push("q97 $auto$ff.cc:266:slice$9927"); }
+        if self.n97 != other.n97 { names.push("n97 $auto$ff.cc:266:slice$9927"); }
+        if self.q98 != other.q98 { names.push("q98 $auto$ff.cc:266:slice$9935"); }
+        if self.n98 != other.n98 { names.push("n98 $auto$ff.cc:266:slice$9935"); }
+        if self.q99 != other.q99 { names.push("q99 $auto$ff.cc:266:slice$9941"); }
+        if self.n99 != other.n99 { names.push("n99 $auto$ff.cc:266:slice$9941"); }
+        if self.q100 != other.q100 { names.push("q100 $auto$ff.cc:266:slice$9953"); }
+        if self.n100 != other.n100 { names.push("n100 $auto$ff.cc:266:slice$9953"); }
+        if self.q101 != other.q101 { names.push("q101 $auto$ff.cc:266:slice$9971"); }
+        if self.n101 != other.n101 { names.push("n101 $auto$ff.cc:266:slice$9971"); }
+        if self.q102 != other.q102 { names.push("q102 $auto$ff.cc:266:slice$9972"); }
+        if self.n102 != other.n102 { names.push("n102 $auto$ff.cc:266:slice$9972"); }
+        if self.q103 != other.q103 { names.push("q103 $auto$ff.cc:266:slice$9974"); }
+        if self.n103 != other.n103 { names.push("n103 $auto$ff.cc:266:slice$9974"); }
+        if self.q104 != other.q104 { names.push("q104 $auto$ff.cc:266:slice$9975"); }
+        if self.n104 != other.n104 { names.push("n104 $auto$ff.cc:266:slice$9975"); }
+        if self.q105 != other.q105 { names.push("q105 $auto$ff.cc:266:slice$9988"); }
+        if self.n105 != other.n105 { names.push("n105 $auto$ff.cc:266:slice$9988"); }
+        if self.q106 != other.q106 { names.push("q106 $auto$ff.cc:266:slice$9999"); }
+        if self.n106 != other.n106 { names.push("n106 $auto$ff.cc:266:slice$9999"); }
+        if self.q107 != other.q107 { names.push("q107 $flattencore.bit_timing.sampled.$procdff$9074"); }
+        if self.n107 != other.n107 { names.push("n107 $flattencore.bit_timing.sampled.$procdff$9074"); }
+        if self.q108 != other.q108 { names.push("q108 $flattencore.bit_timing.sampling.metastable.$procdff$9073"); }
+        if self.n108 != other.n108 { names.push("n108 $flattencore.bit_timing.sampling.metastable.$procdff$9073"); }
+        if self.q109 != other.q109 { names.push("q109 $flattencore.bit_timing.sampling.previous.$procdff$9072"); }
+        if self.n109 != other.n109 { names.push("n109 $flattencore.bit_timing.sampling.previous.$procdff$9072"); }
+        if self.q110 != other.q110 { names.push("q110 $flattencore.bit_timing.sampling.stable.$procdff$9070"); }
+        if self.n110 != other.n110 { names.push("n110 $flattencore.bit_timing.sampling.stable.$procdff$9070"); }
+        if self.q111 != other.q111 { names.push("q111 $flattencore.protocol.faults.bus_off_state.$procdff$9045"); }
+        if self.n111 != other.n111 { names.push("n111 $flattencore.protocol.faults.bus_off_state.$procdff$9045"); }
+        if self.q112 != other.q112 { names.push("q112 $flattencore.protocol.faults.passive_state.$procdff$9044"); }
+        if self.n112 != other.n112 { names.push("n112 $flattencore.protocol.faults.passive_state.$procdff$9044"); }
+        if self.q113 != other.q113 { names.push("q113 $flattencore.protocol.field.$procdff$9041"); }
+        if self.n113 != other.n113 { names.push("n113 $flattencore.protocol.field.$procdff$9041"); }
+        if self.q114 != other.q114 { names.push("q114 $flattencore.protocol.in_frame.$procdff$9040"); }
+        if self.n114 != other.n114 { names.push("n114 $flattencore.protocol.in_frame.$procdff$9040"); }
+        if self.q115 != other.q115 { names.push("q115 $flattencore.protocol.sender.tx_next.$procdff$9032"); }
+        if self.n115 != other.n115 { names.push("n115 $flattencore.protocol.sender.tx_next.$procdff$9032"); }
+        if self.q116 != other.q116 { names.push("q116 $flattencore.protocol.sender.tx_reg.$procdff$9030"); }
+        if self.n116 != other.n116 { names.push("n116 $flattencore.protocol.sender.tx_reg.$procdff$9030"); }
+        if self.q117 != other.q117 { names.push("q117 $flattenfilter.data1_match.$procdff$9005"); }
+        if self.n117 != other.n117 { names.push("n117 $flattenfilter.data1_match.$procdff$9005"); }
+        if self.q118 != other.q118 { names.push("q118 $flattenfilter.data2_match.$procdff$9004"); }
+        if self.n118 != other.n118 { names.push("n118 $flattenfilter.data2_match.$procdff$9004"); }
+        if self.q119 != other.q119 { names.push("q119 $flatteninterrupts.alc_armed.$procdff$8996"); }
+        if self.n119 != other.n119 { names.push("n119 $flatteninterrupts.alc_armed.$procdff$8996"); }
+        if self.q120 != other.q120 { names.push("q120 $flatteninterrupts.ecc_armed.$procdff$8992"); }
+        if self.n120 != other.n120 { names.push("n120 $flatteninterrupts.ecc_armed.$procdff$8992"); }
+        if self.q121 != other.q121 { names.push("q121 $flattenmodes.enable_reg.$procdff$8979"); }
+        if self.n121 != other.n121 { names.push("n121 $flattenmodes.enable_reg.$procdff$8979"); }
+        if self.q122 != other.q122 { names.push("q122 $flattenmodes.listen_only_reg.$procdff$8978"); }
+        if self.n122 != other.n122 { names.push("n122 $flattenmodes.listen_only_reg.$procdff$8978"); }
+        if self.q123 != other.q123 { names.push("q123 $flattenmodes.lom.$procdff$8977"); }
+        if self.n123 != other.n123 { names.push("n123 $flattenmodes.lom.$procdff$8977"); }
+        if self.q124 != other.q124 { names.push("q124 $flattenmodes.rm.$procdff$8976"); }
+        if self.n124 != other.n124 { names.push("n124 $flattenmodes.rm.$procdff$8976"); }
+        if self.q125 != other.q125 { names.push("q125 $flattenmodes.self_test_reg.$procdff$8975"); }
+        if self.n125 != other.n125 { names.push("n125 $flattenmodes.self_test_reg.$procdff$8975"); }
+        if self.q126 != other.q126 { names.push("q126 $flattenmodes.sm.$procdff$8973"); }
+        if self.n126 != other.n126 { names.push("n126 $flattenmodes.sm.$procdff$8973"); }
+        if self.q127 != other.q127 { names.push("q127 $flattenmodes.stm.$procdff$8972"); }
+        if self.n127 != other.n127 { names.push("n127 $flattenmodes.stm.$procdff$8972"); }
+        if self.q128 != other.q128 { names.push("q128 $flattentbs.$procdff$8966"); }
+        if self.n128 != other.n128 { names.push("n128 $flattentbs.$procdff$8966"); }
+        if self.q129 != other.q129 { names.push("q129 $flattentcs.$procdff$8965"); }
+        if self.n129 != other.n129 { names.push("n129 $flattentcs.$procdff$8965"); }
         if self.m0 != other.m0 { names.push("m0 fifo.ram.mem"); }
         if self.m0_rd != other.m0_rd { names.push("m0_rd fifo.ram.mem"); }
         if self.m0_re != other.m0_re { names.push("m0_re fifo.ram.mem"); }
@@ -2541,76 +2546,76 @@ impl Model {
         if self.v17 != other.v17 { names.push("v17 $and$can_controller.v:790$211"); }
         if self.v18 != other.v18 { names.push("v18 $and$can_controller.v:794$212"); }
         if self.v19 != other.v19 { names.push("v19 $and$can_controller.v:795$214"); }
-        if self.v24 != other.v24 { names.push("v24 $auto$opt_dff.cc:195:make_patterns_logic$10015"); }
-        if self.v25 != other.v25 { names.push("v25 $auto$opt_dff.cc:195:make_patterns_logic$10057"); }
-        if self.v26 != other.v26 { names.push("v26 $auto$opt_dff.cc:195:make_patterns_logic$10110"); }
-        if self.v31 != other.v31 { names.push("v31 $auto$opt_dff.cc:195:make_patterns_logic$9895"); }
-        if self.v33 != other.v33 { names.push("v33 $auto$opt_dff.cc:195:make_patterns_logic$9913"); }
-        if self.v39 != other.v39 { names.push("v39 $auto$opt_dff.cc:195:make_patterns_logic$9973"); }
-        if self.v40 != other.v40 { names.push("v40 $auto$opt_dff.cc:195:make_patterns_logic$9975"); }
-        if self.v41 != other.v41 { names.push("v41 $auto$opt_dff.cc:195:make_patterns_logic$9977"); }
-        if self.v42 != other.v42 { names.push("v42 $auto$opt_dff.cc:195:make_patterns_logic$9987"); }
-        if self.v43 != other.v43 { names.push("v43 $auto$opt_dff.cc:195:make_patterns_logic$9991"); }
-        if self.v44 != other.v44 { names.push("v44 $auto$opt_dff.cc:195:make_patterns_logic$9995"); }
-        if self.v45 != other.v45 { names.push("v45 $auto$opt_dff.cc:210:make_patterns_logic$10069"); }
-        if self.v46 != other.v46 { names.push("v46 $auto$opt_dff.cc:210:make_patterns_logic$10071"); }
-        if self.v47 != other.v47 { names.push("v47 $auto$opt_dff.cc:210:make_patterns_logic$9809"); }
-        if self.v53 != other.v53 { names.push("v53 $auto$opt_dff.cc:210:make_patterns_logic$9966"); }
-        if self.v54 != other.v54 { names.push("v54 $auto$opt_dff.cc:220:make_patterns_logic$10017"); }
-        if self.v55 != other.v55 { names.push("v55 $auto$opt_dff.cc:220:make_patterns_logic$10028"); }
-        if self.v56 != other.v56 { names.push("v56 $auto$opt_dff.cc:220:make_patterns_logic$10059"); }
-        if self.v57 != other.v57 { names.push("v57 $auto$opt_dff.cc:220:make_patterns_logic$10064"); }
-        if self.v58 != other.v58 { names.push("v58 $auto$opt_dff.cc:220:make_patterns_logic$10074"); }
-        if self.v59 != other.v59 { names.push("v59 $auto$opt_dff.cc:220:make_patterns_logic$10082"); }
-        if self.v60 != other.v60 { names.push("v60 $auto$opt_dff.cc:220:make_patterns_logic$10089"); }
-        if self.v61 != other.v61 { names.push("v61 $auto$opt_dff.cc:220:make_patterns_logic$10093"); }
-        if self.v62 != other.v62 { names.push("v62 $auto$opt_dff.cc:220:make_patterns_logic$10098"); }
-        if self.v63 != other.v63 { names.push("v63 $auto$opt_dff.cc:220:make_patterns_logic$10112"); }
-        if self.v64 != other.v64 { names.push("v64 $auto$opt_dff.cc:220:make_patterns_logic$10124"); }
-        if self.v65 != other.v65 { names.push("v65 $auto$opt_dff.cc:220:make_patterns_logic$10132"); }
-        if self.v66 != other.v66 { names.push("v66 $auto$opt_dff.cc:220:make_patterns_logic$10136"); }
-        if self.v67 != other.v67 { names.push("v67 $auto$opt_dff.cc:220:make_patterns_logic$10140"); }
-        if self.v68 != other.v68 { names.push("v68 $auto$opt_dff.cc:220:make_patterns_logic$9783"); }
-        if self.v69 != other.v69 { names.push("v69 $auto$opt_dff.cc:220:make_patterns_logic$9788"); }
-        if self.v70 != other.v70 { names.push("v70 $auto$opt_dff.cc:220:make_patterns_logic$9812"); }
-        if self.v71 != other.v71 { names.push("v71 $auto$opt_dff.cc:220:make_patterns_logic$9817"); }
-        if self.v72 != other.v72 { names.push("v72 $auto$opt_dff.cc:220:make_patterns_logic$9822"); }
-        if self.v73 != other.v73 { names.push("v73 $auto$opt_dff.cc:220:make_patterns_logic$9839"); }
-        if self.v74 != other.v74 { names.push("v74 $auto$opt_dff.cc:220:make_patterns_logic$9844"); }
-        if self.v75 != other.v75 { names.push("v75 $auto$opt_dff.cc:220:make_patterns_logic$9869"); }
-        if self.v76 != other.v76 { names.push("v76 $auto$opt_dff.cc:220:make_patterns_logic$9881"); }
-        if self.v77 != other.v77 { names.push("v77 $auto$opt_dff.cc:220:make_patterns_logic$9929"); }
-        if self.v78 != other.v78 { names.push("v78 $auto$opt_dff.cc:220:make_patterns_logic$9948"); }
-        if self.v79 != other.v79 { names.push("v79 $auto$opt_dff.cc:220:make_patterns_logic$9951"); }
-        if self.v80 != other.v80 { names.push("v80 $auto$opt_dff.cc:220:make_patterns_logic$9963"); }
+        if self.v20 != other.v20 { names.push("v20 $auto$opt_dff.cc:195:make_patterns_logic$10027"); }
+        if self.v21 != other.v21 { names.push("v21 $auto$opt_dff.cc:195:make_patterns_logic$10080"); }
+        if self.v26 != other.v26 { names.push("v26 $auto$opt_dff.cc:195:make_patterns_logic$9865"); }
+        if self.v28 != other.v28 { names.push("v28 $auto$opt_dff.cc:195:make_patterns_logic$9883"); }
+        if self.v34 != other.v34 { names.push("v34 $auto$opt_dff.cc:195:make_patterns_logic$9943"); }
+        if self.v35 != other.v35 { names.push("v35 $auto$opt_dff.cc:195:make_patterns_logic$9945"); }
+        if self.v36 != other.v36 { names.push("v36 $auto$opt_dff.cc:195:make_patterns_logic$9947"); }
+        if self.v37 != other.v37 { names.push("v37 $auto$opt_dff.cc:195:make_patterns_logic$9957"); }
+        if self.v38 != other.v38 { names.push("v38 $auto$opt_dff.cc:195:make_patterns_logic$9961"); }
+        if self.v39 != other.v39 { names.push("v39 $auto$opt_dff.cc:195:make_patterns_logic$9965"); }
+        if self.v44 != other.v44 { names.push("v44 $auto$opt_dff.cc:195:make_patterns_logic$9985"); }
+        if self.v45 != other.v45 { names.push("v45 $auto$opt_dff.cc:210:make_patterns_logic$10039"); }
+        if self.v46 != other.v46 { names.push("v46 $auto$opt_dff.cc:210:make_patterns_logic$10041"); }
+        if self.v47 != other.v47 { names.push("v47 $auto$opt_dff.cc:210:make_patterns_logic$9778"); }
+        if self.v53 != other.v53 { names.push("v53 $auto$opt_dff.cc:210:make_patterns_logic$9936"); }
+        if self.v54 != other.v54 { names.push("v54 $auto$opt_dff.cc:220:make_patterns_logic$10029"); }
+        if self.v55 != other.v55 { names.push("v55 $auto$opt_dff.cc:220:make_patterns_logic$10034"); }
+        if self.v56 != other.v56 { names.push("v56 $auto$opt_dff.cc:220:make_patterns_logic$10044"); }
+        if self.v57 != other.v57 { names.push("v57 $auto$opt_dff.cc:220:make_patterns_logic$10052"); }
+        if self.v58 != other.v58 { names.push("v58 $auto$opt_dff.cc:220:make_patterns_logic$10059"); }
+        if self.v59 != other.v59 { names.push("v59 $auto$opt_dff.cc:220:make_patterns_logic$10063"); }
+        if self.v60 != other.v60 { names.push("v60 $auto$opt_dff.cc:220:make_patterns_logic$10068"); }
+        if self.v61 != other.v61 { names.push("v61 $auto$opt_dff.cc:220:make_patterns_logic$10082"); }
+        if self.v62 != other.v62 { names.push("v62 $auto$opt_dff.cc:220:make_patterns_logic$10094"); }
+        if self.v63 != other.v63 { names.push("v63 $auto$opt_dff.cc:220:make_patterns_logic$10102"); }
+        if self.v64 != other.v64 { names.push("v64 $auto$opt_dff.cc:220:make_patterns_logic$10106"); }
+        if self.v65 != other.v65 { names.push("v65 $auto$opt_dff.cc:220:make_patterns_logic$10110"); }
+        if self.v66 != other.v66 { names.push("v66 $auto$opt_dff.cc:220:make_patterns_logic$9752"); }
+        if self.v67 != other.v67 { names.push("v67 $auto$opt_dff.cc:220:make_patterns_logic$9757"); }
+        if self.v68 != other.v68 { names.push("v68 $auto$opt_dff.cc:220:make_patterns_logic$9781"); }
+        if self.v69 != other.v69 { names.push("v69 $auto$opt_dff.cc:220:make_patterns_logic$9786"); }
+        if self.v70 != other.v70 { names.push("v70 $auto$opt_dff.cc:220:make_patterns_logic$9791"); }
+        if self.v71 != other.v71 { names.push("v71 $auto$opt_dff.cc:220:make_patterns_logic$9808"); }
+        if self.v72 != other.v72 { names.push("v72 $auto$opt_dff.cc:220:make_patterns_logic$9813"); }
+        if self.v73 != other.v73 { names.push("v73 $auto$opt_dff.cc:220:make_patterns_logic$9838"); }
+        if self.v74 != other.v74 { names.push("v74 $auto$opt_dff.cc:220:make_patterns_logic$9850"); }
+        if self.v75 != other.v75 { names.push("v75 $auto$opt_dff.cc:220:make_patterns_logic$9899"); }
+        if self.v76 != other.v76 { names.push("v76 $auto$opt_dff.cc:220:make_patterns_logic$9918"); }
+        if self.v77 != other.v77 { names.push("v77 $auto$opt_dff.cc:220:make_patterns_logic$9921"); }
+        if self.v78 != other.v78 { names.push("v78 $auto$opt_dff.cc:220:make_patterns_logic$9933"); }
+        if self.v79 != other.v79 { names.push("v79 $auto$opt_dff.cc:220:make_patterns_logic$9939"); }
+        if self.v80 != other.v80 { names.push("v80 $auto$opt_dff.cc:220:make_patterns_logic$9951"); }
         if self.v81 != other.v81 { names.push("v81 $auto$opt_dff.cc:220:make_patterns_logic$9969"); }
-        if self.v82 != other.v82 { names.push("v82 $auto$opt_dff.cc:220:make_patterns_logic$9981"); }
-        if self.v83 != other.v83 { names.push("v83 $auto$opt_dff.cc:220:make_patterns_logic$9999"); }
-        if self.v84 != other.v84 { names.push("v84 $auto$opt_dff.cc:250:combine_resets$9797"); }
-        if self.v85 != other.v85 { names.push("v85 $auto$opt_dff.cc:254:combine_resets$10033"); }
-        if self.v86 != other.v86 { names.push("v86 $auto$opt_dff.cc:254:combine_resets$10038"); }
-        if self.v87 != other.v87 { names.push("v87 $auto$opt_dff.cc:254:combine_resets$10043"); }
-        if self.v88 != other.v88 { names.push("v88 $auto$opt_dff.cc:254:combine_resets$10046"); }
-        if self.v89 != other.v89 { names.push("v89 $auto$opt_dff.cc:254:combine_resets$10101"); }
-        if self.v90 != other.v90 { names.push("v90 $auto$opt_dff.cc:254:combine_resets$10107"); }
-        if self.v91 != other.v91 { names.push("v91 $auto$opt_dff.cc:254:combine_resets$10121"); }
-        if self.v92 != other.v92 { names.push("v92 $auto$opt_dff.cc:254:combine_resets$10128"); }
-        if self.v93 != other.v93 { names.push("v93 $auto$opt_dff.cc:254:combine_resets$9776"); }
-        if self.v94 != other.v94 { names.push("v94 $auto$opt_dff.cc:254:combine_resets$9800"); }
-        if self.v95 != other.v95 { names.push("v95 $auto$opt_dff.cc:254:combine_resets$9806"); }
-        if self.v97 != other.v97 { names.push("v97 $auto$opt_dff.cc:254:combine_resets$9856"); }
-        if self.v98 != other.v98 { names.push("v98 $auto$opt_dff.cc:254:combine_resets$9891"); }
-        if self.v99 != other.v99 { names.push("v99 $auto$opt_dff.cc:254:combine_resets$9898"); }
-        if self.v100 != other.v100 { names.push("v100 $auto$opt_dff.cc:254:combine_resets$9920"); }
-        if self.v101 != other.v101 { names.push("v101 $auto$opt_dff.cc:254:combine_resets$9923"); }
-        if self.v102 != other.v102 { names.push("v102 $auto$opt_dff.cc:254:combine_resets$9938"); }
-        if self.v103 != other.v103 { names.push("v103 $auto$opt_dff.cc:254:combine_resets$9941"); }
-        if self.v112 != other.v112 { names.push("v112 $auto$opt_expr.cc:276:group_cell_inputs$10162"); }
-        if self.v116 != other.v116 { names.push("v116 $auto$opt_expr.cc:276:group_cell_inputs$9616"); }
-        if self.v117 != other.v117 { names.push("v117 $auto$opt_expr.cc:276:group_cell_inputs$9620"); }
-        if self.v120 != other.v120 { names.push("v120 $auto$opt_expr.cc:276:group_cell_inputs$9761"); }
-        if self.v123 != other.v123 { names.push("v123 $auto$opt_reduce.cc:128:opt_pmux$9767"); }
-        if self.v125 != other.v125 { names.push("v125 $auto$opt_share.cc:241:merge_operators$9770"); }
+        if self.v82 != other.v82 { names.push("v82 $auto$opt_dff.cc:220:make_patterns_logic$9987"); }
+        if self.v83 != other.v83 { names.push("v83 $auto$opt_dff.cc:220:make_patterns_logic$9998"); }
+        if self.v84 != other.v84 { names.push("v84 $auto$opt_dff.cc:250:combine_resets$9766"); }
+        if self.v85 != other.v85 { names.push("v85 $auto$opt_dff.cc:254:combine_resets$10003"); }
+        if self.v86 != other.v86 { names.push("v86 $auto$opt_dff.cc:254:combine_resets$10008"); }
+        if self.v87 != other.v87 { names.push("v87 $auto$opt_dff.cc:254:combine_resets$10013"); }
+        if self.v88 != other.v88 { names.push("v88 $auto$opt_dff.cc:254:combine_resets$10016"); }
+        if self.v89 != other.v89 { names.push("v89 $auto$opt_dff.cc:254:combine_resets$10071"); }
+        if self.v90 != other.v90 { names.push("v90 $auto$opt_dff.cc:254:combine_resets$10077"); }
+        if self.v91 != other.v91 { names.push("v91 $auto$opt_dff.cc:254:combine_resets$10091"); }
+        if self.v92 != other.v92 { names.push("v92 $auto$opt_dff.cc:254:combine_resets$10098"); }
+        if self.v93 != other.v93 { names.push("v93 $auto$opt_dff.cc:254:combine_resets$9745"); }
+        if self.v94 != other.v94 { names.push("v94 $auto$opt_dff.cc:254:combine_resets$9769"); }
+        if self.v95 != other.v95 { names.push("v95 $auto$opt_dff.cc:254:combine_resets$9775"); }
+        if self.v97 != other.v97 { names.push("v97 $auto$opt_dff.cc:254:combine_resets$9825"); }
+        if self.v98 != other.v98 { names.push("v98 $auto$opt_dff.cc:254:combine_resets$9860"); }
+        if self.v99 != other.v99 { names.push("v99 $auto$opt_dff.cc:254:combine_resets$9868"); }
+        if self.v100 != other.v100 { names.push("v100 $auto$opt_dff.cc:254:combine_resets$9890"); }
+        if self.v101 != other.v101 { names.push("v101 $auto$opt_dff.cc:254:combine_resets$9893"); }
+        if self.v102 != other.v102 { names.push("v102 $auto$opt_dff.cc:254:combine_resets$9908"); }
+        if self.v103 != other.v103 { names.push("v103 $auto$opt_dff.cc:254:combine_resets$9911"); }
+        if self.v112 != other.v112 { names.push("v112 $auto$opt_expr.cc:276:group_cell_inputs$10132"); }
+        if self.v116 != other.v116 { names.push("v116 $auto$opt_expr.cc:276:group_cell_inputs$9585"); }
+        if self.v117 != other.v117 { names.push("v117 $auto$opt_expr.cc:276:group_cell_inputs$9589"); }
+        if self.v120 != other.v120 { names.push("v120 $auto$opt_expr.cc:276:group_cell_inputs$9730"); }
+        if self.v123 != other.v123 { names.push("v123 $auto$opt_reduce.cc:128:opt_pmux$9736"); }
+        if self.v125 != other.v125 { names.push("v125 $auto$opt_share.cc:241:merge_operators$9739"); }
         if self.v127 != other.v127 { names.push("v127 $flattenconfiguration.$and$can_controller.v:935$265"); }
         if self.v133 != other.v133 { names.push("v133 $flattenconfiguration.$or$can_controller.v:948$284"); }
         if self.v134 != other.v134 { names.push("v134 $flattencore.bit_timing.$add$can_controller.v:1424$372"); }
@@ -2623,32 +2628,32 @@ impl Model {
         if self.v149 != other.v149 { names.push("v149 $flattencore.bit_timing.$and$can_controller.v:1526$421"); }
         if self.v150 != other.v150 { names.push("v150 $flattencore.bit_timing.$and$can_controller.v:1529$424"); }
         if self.v153 != other.v153 { names.push("v153 $flattencore.bit_timing.$and$can_controller.v:1531$432"); }
-        if self.v156 != other.v156 { names.push("v156 $flattencore.bit_timing.$eq$can_controller.v:1529$422"); }
-        if self.v158 != other.v158 { names.push("v158 $flattencore.bit_timing.$ge$can_controller.v:1425$373"); }
-        if self.v162 != other.v162 { names.push("v162 $flattencore.bit_timing.$not$can_controller.v:1432$375"); }
-        if self.v167 != other.v167 { names.push("v167 $flattencore.bit_timing.$not$can_controller.v:1526$420"); }
-        if self.v168 != other.v168 { names.push("v168 $flattencore.bit_timing.$not$can_controller.v:1530$427"); }
-        if self.v173 != other.v173 { names.push("v173 $flattencore.bit_timing.$or$can_controller.v:1530$431"); }
-        if self.v179 != other.v179 { names.push("v179 $flattencore.bit_timing.$procmux$8538"); }
-        if self.v180 != other.v180 { names.push("v180 $flattencore.bit_timing.$procmux$8556"); }
-        if self.v181 != other.v181 { names.push("v181 $flattencore.bit_timing.$procmux$8559"); }
-        if self.v184 != other.v184 { names.push("v184 $flattencore.bit_timing.$procmux$8571"); }
-        if self.v186 != other.v186 { names.push("v186 $flattencore.bit_timing.$procmux$8589"); }
-        if self.v187 != other.v187 { names.push("v187 $flattencore.bit_timing.$procmux$8590_CMP0"); }
-        if self.v188 != other.v188 { names.push("v188 $flattencore.bit_timing.$procmux$8591_CMP0"); }
-        if self.v189 != other.v189 { names.push("v189 $flattencore.bit_timing.$procmux$8596"); }
-        if self.v190 != other.v190 { names.push("v190 $flattencore.bit_timing.$procmux$8614"); }
-        if self.v191 != other.v191 { names.push("v191 $flattencore.bit_timing.$procmux$8618"); }
-        if self.v193 != other.v193 { names.push("v193 $flattencore.bit_timing.$procmux$8627"); }
-        if self.v200 != other.v200 { names.push("v200 $flattencore.bit_timing.$procmux$8728"); }
+        if self.v157 != other.v157 { names.push("v157 $flattencore.bit_timing.$ge$can_controller.v:1425$373"); }
+        if self.v161 != other.v161 { names.push("v161 $flattencore.bit_timing.$not$can_controller.v:1432$375"); }
+        if self.v166 != other.v166 { names.push("v166 $flattencore.bit_timing.$not$can_controller.v:1526$420"); }
+        if self.v167 != other.v167 { names.push("v167 $flattencore.bit_timing.$not$can_controller.v:1530$427"); }
+        if self.v172 != other.v172 { names.push("v172 $flattencore.bit_timing.$or$can_controller.v:1530$431"); }
+        if self.v178 != other.v178 { names.push("v178 $flattencore.bit_timing.$procmux$8530"); }
+        if self.v179 != other.v179 { names.push("v179 $flattencore.bit_timing.$procmux$8548"); }
+        if self.v180 != other.v180 { names.push("v180 $flattencore.bit_timing.$procmux$8551"); }
+        if self.v183 != other.v183 { names.push("v183 $flattencore.bit_timing.$procmux$8563"); }
+        if self.v185 != other.v185 { names.push("v185 $flattencore.bit_timing.$procmux$8575_CMP0"); }
+        if self.v186 != other.v186 { names.push("v186 $flattencore.bit_timing.$procmux$8581"); }
+        if self.v187 != other.v187 { names.push("v187 $flattencore.bit_timing.$procmux$8588"); }
+        if self.v188 != other.v188 { names.push("v188 $flattencore.bit_timing.$procmux$8606"); }
+        if self.v189 != other.v189 { names.push("v189 $flattencore.bit_timing.$procmux$8610"); }
+        if self.v191 != other.v191 { names.push("v191 $flattencore.bit_timing.$procmux$8619"); }
+        if self.v198 != other.v198 { names.push("v198 $flattencore.bit_timing.$procmux$8713_CMP0"); }
+        if self.v199 != other.v199 { names.push("v199 $flattencore.bit_timing.$procmux$8720"); }
+        if self.v200 != other.v200 { names.push("v200 $flattencore.bit_timing.$procmux$8729"); }
         if self.v201 != other.v201 { names.push("v201 $flattencore.bit_timing.$procmux$8737"); }
-        if self.v202 != other.v202 { names.push("v202 $flattencore.bit_timing.$procmux$8745"); }
-        if self.v203 != other.v203 { names.push("v203 $flattencore.bit_timing.$procmux$8754"); }
+        if self.v202 != other.v202 { names.push("v202 $flattencore.bit_timing.$procmux$8738_CMP0"); }
+        if self.v203 != other.v203 { names.push("v203 $flattencore.bit_timing.$procmux$8746"); }
         if self.v215 != other.v215 { names.push("v215 $flattencore.bit_timing.sampling.$and$can_controller.v:1719$470"); }
-        if self.v222 != other.v222 { names.push("v222 $flattencore.bit_timing.sampling.$procmux$8514"); }
-        if self.v223 != other.v223 { names.push("v223 $flattencore.bit_timing.sampling.$procmux$8517"); }
-        if self.v224 != other.v224 { names.push("v224 $flattencore.bit_timing.sampling.$procmux$8520"); }
-        if self.v225 != other.v225 { names.push("v225 $flattencore.bit_timing.sampling.$procmux$8526"); }
+        if self.v222 != other.v222 { names.push("v222 $flattencore.bit_timing.sampling.$procmux$8506"); }
+        if self.v223 != other.v223 { names.push("v223 $flattencore.bit_timing.sampling.$procmux$8509"); }
+        if self.v224 != other.v224 { names.push("v224 $flattencore.bit_timing.sampling.$procmux$8512"); }
+        if self.v225 != other.v225 { names.push("v225 $flattencore.bit_timing.sampling.$procmux$8518"); }
         if self.v226 != other.v226 { names.push("v226 $flattencore.protocol.$and$can_controller.v:2463$659"); }
         if self.v228 != other.v228 { names.push("v228 $flattencore.protocol.$and$can_controller.v:2465$664"); }
         if self.v229 != other.v229 { names.push("v229 $flattencore.protocol.$and$can_controller.v:2562$680"); }
@@ -2664,21 +2669,21 @@ impl Model {
         if self.v252 != other.v252 { names.push("v252 $flattencore.protocol.$or$can_controller.v:2598$690"); }
         if self.v255 != other.v255 { names.push("v255 $flattencore.protocol.$or$can_controller.v:2626$718"); }
         if self.v262 != other.v262 { names.push("v262 $flattencore.protocol.$or$can_controller.v:2639$741"); }
-        if self.v263 != other.v263 { names.push("v263 $flattencore.protocol.$procmux$8439"); }
-        if self.v264 != other.v264 { names.push("v264 $flattencore.protocol.$procmux$8442"); }
-        if self.v268 != other.v268 { names.push("v268 $flattencore.protocol.$procmux$8469"); }
-        if self.v272 != other.v272 { names.push("v272 $flattencore.protocol.$procmux$8490"); }
-        if self.v273 != other.v273 { names.push("v273 $flattencore.protocol.$procmux$8496"); }
-        if self.v274 != other.v274 { names.push("v274 $flattencore.protocol.$procmux$8502"); }
+        if self.v263 != other.v263 { names.push("v263 $flattencore.protocol.$procmux$8431"); }
+        if self.v264 != other.v264 { names.push("v264 $flattencore.protocol.$procmux$8434"); }
+        if self.v268 != other.v268 { names.push("v268 $flattencore.protocol.$procmux$8461"); }
+        if self.v272 != other.v272 { names.push("v272 $flattencore.protocol.$procmux$8482"); }
+        if self.v273 != other.v273 { names.push("v273 $flattencore.protocol.$procmux$8488"); }
+        if self.v274 != other.v274 { names.push("v274 $flattencore.protocol.$procmux$8494"); }
         if self.v276 != other.v276 { names.push("v276 $flattencore.protocol.assembler.$and$can_controller.v:2839$794"); }
         if self.v278 != other.v278 { names.push("v278 $flattencore.protocol.assembler.$and$can_controller.v:2840$798"); }
-        if self.v282 != other.v282 { names.push("v282 $flattencore.protocol.assembler.$procmux$8260"); }
-        if self.v284 != other.v284 { names.push("v284 $flattencore.protocol.assembler.$procmux$8388"); }
-        if self.v285 != other.v285 { names.push("v285 $flattencore.protocol.assembler.$procmux$8394"); }
+        if self.v282 != other.v282 { names.push("v282 $flattencore.protocol.assembler.$procmux$8252"); }
+        if self.v284 != other.v284 { names.push("v284 $flattencore.protocol.assembler.$procmux$8380"); }
+        if self.v285 != other.v285 { names.push("v285 $flattencore.protocol.assembler.$procmux$8386"); }
         if self.v288 != other.v288 { names.push("v288 $flattencore.protocol.assembler.$sub$can_controller.v:2837$777"); }
         if self.v297 != other.v297 { names.push("v297 $flattencore.protocol.capture.$eq$can_controller.v:3266$898"); }
-        if self.v314 != other.v314 { names.push("v314 $flattencore.protocol.capture.$procmux$8178"); }
-        if self.v315 != other.v315 { names.push("v315 $flattencore.protocol.crc.$procmux$7882"); }
+        if self.v314 != other.v314 { names.push("v314 $flattencore.protocol.capture.$procmux$8170"); }
+        if self.v315 != other.v315 { names.push("v315 $flattencore.protocol.crc.$procmux$7874"); }
         if self.v318 != other.v318 { names.push("v318 $flattencore.protocol.faults.$add$can_controller.v:3654$988"); }
         if self.v320 != other.v320 { names.push("v320 $flattencore.protocol.faults.$and$can_controller.v:3650$982"); }
         if self.v323 != other.v323 { names.push("v323 $flattencore.protocol.faults.$and$can_controller.v:3691$1015"); }
@@ -2688,19 +2693,19 @@ impl Model {
         if self.v328 != other.v328 { names.push("v328 $flattencore.protocol.faults.$ne$can_controller.v:3650$981"); }
         if self.v329 != other.v329 { names.push("v329 $flattencore.protocol.faults.$ne$can_controller.v:3653$985"); }
         if self.v330 != other.v330 { names.push("v330 $flattencore.protocol.faults.$ne$can_controller.v:3666$995"); }
-        if self.v333 != other.v333 { names.push("v333 $flattencore.protocol.faults.$procmux$7611"); }
-        if self.v334 != other.v334 { names.push("v334 $flattencore.protocol.faults.$procmux$7614"); }
-        if self.v335 != other.v335 { names.push("v335 $flattencore.protocol.faults.$procmux$7617"); }
-        if self.v336 != other.v336 { names.push("v336 $flattencore.protocol.faults.$procmux$7620"); }
-        if self.v340 != other.v340 { names.push("v340 $flattencore.protocol.faults.$procmux$7648"); }
-        if self.v344 != other.v344 { names.push("v344 $flattencore.protocol.faults.$procmux$7665"); }
-        if self.v348 != other.v348 { names.push("v348 $flattencore.protocol.faults.$procmux$7706"); }
-        if self.v352 != other.v352 { names.push("v352 $flattencore.protocol.faults.$procmux$7745"); }
-        if self.v353 != other.v353 { names.push("v353 $flattencore.protocol.faults.$procmux$7757"); }
-        if self.v354 != other.v354 { names.push("v354 $flattencore.protocol.faults.$procmux$7769"); }
-        if self.v361 != other.v361 { names.push("v361 $flattencore.protocol.faults.$procmux$7826"); }
-        if self.v362 != other.v362 { names.push("v362 $flattencore.protocol.faults.$procmux$7835"); }
-        if self.v363 != other.v363 { names.push("v363 $flattencore.protocol.faults.$procmux$7844"); }
+        if self.v333 != other.v333 { names.push("v333 $flattencore.protocol.faults.$procmux$7603"); }
+        if self.v334 != other.v334 { names.push("v334 $flattencore.protocol.faults.$procmux$7606"); }
+        if self.v335 != other.v335 { names.push("v335 $flattencore.protocol.faults.$procmux$7609"); }
+        if self.v336 != other.v336 { names.push("v336 $flattencore.protocol.faults.$procmux$7612"); }
+        if self.v340 != other.v340 { names.push("v340 $flattencore.protocol.faults.$procmux$7640"); }
+        if self.v344 != other.v344 { names.push("v344 $flattencore.protocol.faults.$procmux$7657"); }
+        if self.v348 != other.v348 { names.push("v348 $flattencore.protocol.faults.$procmux$7698"); }
+        if self.v352 != other.v352 { names.push("v352 $flattencore.protocol.faults.$procmux$7737"); }
+        if self.v353 != other.v353 { names.push("v353 $flattencore.protocol.faults.$procmux$7749"); }
+        if self.v354 != other.v354 { names.push("v354 $flattencore.protocol.faults.$procmux$7761"); }
+        if self.v361 != other.v361 { names.push("v361 $flattencore.protocol.faults.$procmux$7818"); }
+        if self.v362 != other.v362 { names.push("v362 $flattencore.protocol.faults.$procmux$7827"); }
+        if self.v363 != other.v363 { names.push("v363 $flattencore.protocol.faults.$procmux$7836"); }
         if self.v370 != other.v370 { names.push("v370 $flattencore.protocol.faults.$sub$can_controller.v:3635$968"); }
         if self.v371 != other.v371 { names.push("v371 $flattencore.protocol.faults.$sub$can_controller.v:3667$997"); }
         if self.v375 != other.v375 { names.push("v375 $flattencore.protocol.frame.$and$can_controller.v:3908$1049"); }
@@ -2716,54 +2721,54 @@ impl Model {
         if self.v401 != other.v401 { names.push("v401 $flattencore.protocol.frame.$or$can_controller.v:3906$1041"); }
         if self.v402 != other.v402 { names.push("v402 $flattencore.protocol.frame.$or$can_controller.v:3907$1046"); }
         if self.v403 != other.v403 { names.push("v403 $flattencore.protocol.frame.$or$can_controller.v:3947$1057"); }
-        if self.v404 != other.v404 { names.push("v404 $flattencore.protocol.frame.$procmux$6203_CMP0"); }
-        if self.v408 != other.v408 { names.push("v408 $flattencore.protocol.frame.$procmux$6311"); }
-        if self.v413 != other.v413 { names.push("v413 $flattencore.protocol.frame.$procmux$6402_CMP0"); }
-        if self.v416 != other.v416 { names.push("v416 $flattencore.protocol.frame.$procmux$6464_CMP0"); }
-        if self.v428 != other.v428 { names.push("v428 $flattencore.protocol.frame.$procmux$6717_CMP0"); }
-        if self.v432 != other.v432 { names.push("v432 $flattencore.protocol.frame.$procmux$6786"); }
-        if self.v435 != other.v435 { names.push("v435 $flattencore.protocol.frame.$procmux$6847"); }
-        if self.v436 != other.v436 { names.push("v436 $flattencore.protocol.frame.$procmux$6850_CMP0"); }
-        if self.v438 != other.v438 { names.push("v438 $flattencore.protocol.frame.$procmux$6867_CMP0"); }
-        if self.v439 != other.v439 { names.push("v439 $flattencore.protocol.frame.$procmux$6881"); }
-        if self.v440 != other.v440 { names.push("v440 $flattencore.protocol.frame.$procmux$6905_CMP0"); }
-        if self.v450 != other.v450 { names.push("v450 $flattencore.protocol.frame.$procmux$7159"); }
-        if self.v456 != other.v456 { names.push("v456 $flattencore.protocol.frame.$procmux$7243"); }
-        if self.v466 != other.v466 { names.push("v466 $flattencore.protocol.frame.$procmux$7395"); }
-        if self.v467 != other.v467 { names.push("v467 $flattencore.protocol.frame.$procmux$7401"); }
-        if self.v468 != other.v468 { names.push("v468 $flattencore.protocol.frame.$procmux$7407"); }
-        if self.v469 != other.v469 { names.push("v469 $flattencore.protocol.frame.$procmux$7413"); }
-        if self.v470 != other.v470 { names.push("v470 $flattencore.protocol.frame.$procmux$7419"); }
-        if self.v471 != other.v471 { names.push("v471 $flattencore.protocol.frame.$procmux$7425"); }
-        if self.v472 != other.v472 { names.push("v472 $flattencore.protocol.frame.$procmux$7431"); }
-        if self.v473 != other.v473 { names.push("v473 $flattencore.protocol.frame.$procmux$7443"); }
-        if self.v474 != other.v474 { names.push("v474 $flattencore.protocol.frame.$procmux$7449"); }
-        if self.v475 != other.v475 { names.push("v475 $flattencore.protocol.frame.$procmux$7455"); }
-        if self.v476 != other.v476 { names.push("v476 $flattencore.protocol.frame.$procmux$7461"); }
-        if self.v477 != other.v477 { names.push("v477 $flattencore.protocol.frame.$procmux$7467"); }
-        if self.v478 != other.v478 { names.push("v478 $flattencore.protocol.frame.$procmux$7473"); }
-        if self.v479 != other.v479 { names.push("v479 $flattencore.protocol.frame.$procmux$7479"); }
-        if self.v480 != other.v480 { names.push("v480 $flattencore.protocol.frame.$procmux$7485"); }
-        if self.v481 != other.v481 { names.push("v481 $flattencore.protocol.frame.$procmux$7497"); }
-        if self.v483 != other.v483 { names.push("v483 $flattencore.protocol.frame.$procmux$7540"); }
-        if self.v484 != other.v484 { names.push("v484 $flattencore.protocol.frame.$procmux$7546"); }
-        if self.v485 != other.v485 { names.push("v485 $flattencore.protocol.frame.$procmux$7552"); }
-        if self.v486 != other.v486 { names.push("v486 $flattencore.protocol.frame.$procmux$7557"); }
-        if self.v487 != other.v487 { names.push("v487 $flattencore.protocol.frame.$procmux$7560"); }
-        if self.v488 != other.v488 { names.push("v488 $flattencore.protocol.frame.$procmux$7563"); }
-        if self.v489 != other.v489 { names.push("v489 $flattencore.protocol.frame.$procmux$7566"); }
-        if self.v490 != other.v490 { names.push("v490 $flattencore.protocol.frame.$procmux$7569"); }
-        if self.v491 != other.v491 { names.push("v491 $flattencore.protocol.frame.$procmux$7572"); }
-        if self.v492 != other.v492 { names.push("v492 $flattencore.protocol.frame.$procmux$7575"); }
-        if self.v493 != other.v493 { names.push("v493 $flattencore.protocol.frame.$procmux$7581"); }
-        if self.v494 != other.v494 { names.push("v494 $flattencore.protocol.frame.$procmux$7584"); }
-        if self.v495 != other.v495 { names.push("v495 $flattencore.protocol.frame.$procmux$7587"); }
-        if self.v496 != other.v496 { names.push("v496 $flattencore.protocol.frame.$procmux$7590"); }
-        if self.v497 != other.v497 { names.push("v497 $flattencore.protocol.frame.$procmux$7593"); }
-        if self.v498 != other.v498 { names.push("v498 $flattencore.protocol.frame.$procmux$7596"); }
-        if self.v499 != other.v499 { names.push("v499 $flattencore.protocol.frame.$procmux$7599"); }
-        if self.v500 != other.v500 { names.push("v500 $flattencore.protocol.frame.$procmux$7602"); }
-        if self.v501 != other.v501 { names.push("v501 $flattencore.protocol.frame.$procmux$7608"); }
+        if self.v404 != other.v404 { names.push("v404 $flattencore.protocol.frame.$procmux$6195_CMP0"); }
+        if self.v408 != other.v408 { names.push("v408 $flattencore.protocol.frame.$procmux$6303"); }
+        if self.v413 != other.v413 { names.push("v413 $flattencore.protocol.frame.$procmux$6394_CMP0"); }
+        if self.v416 != other.v416 { names.push("v416 $flattencore.protocol.frame.$procmux$6456_CMP0"); }
+        if self.v428 != other.v428 { names.push("v428 $flattencore.protocol.frame.$procmux$6709_CMP0"); }
+        if self.v432 != other.v432 { names.push("v432 $flattencore.protocol.frame.$procmux$6778"); }
+        if self.v435 != other.v435 { names.push("v435 $flattencore.protocol.frame.$procmux$6839"); }
+        if self.v436 != other.v436 { names.push("v436 $flattencore.protocol.frame.$procmux$6842_CMP0"); }
+        if self.v438 != other.v438 { names.push("v438 $flattencore.protocol.frame.$procmux$6859_CMP0"); }
+        if self.v439 != other.v439 { names.push("v439 $flattencore.protocol.frame.$procmux$6873"); }
+        if self.v440 != other.v440 { names.push("v440 $flattencore.protocol.frame.$procmux$6897_CMP0"); }
+        if self.v450 != other.v450 { names.push("v450 $flattencore.protocol.frame.$procmux$7151"); }
+        if self.v456 != other.v456 { names.push("v456 $flattencore.protocol.frame.$procmux$7235"); }
+        if self.v466 != other.v466 { names.push("v466 $flattencore.protocol.frame.$procmux$7387"); }
+        if self.v467 != other.v467 { names.push("v467 $flattencore.protocol.frame.$procmux$7393"); }
+        if self.v468 != other.v468 { names.push("v468 $flattencore.protocol.frame.$procmux$7399"); }
+        if self.v469 != other.v469 { names.push("v469 $flattencore.protocol.frame.$procmux$7405"); }
+        if self.v470 != other.v470 { names.push("v470 $flattencore.protocol.frame.$procmux$7411"); }
+        if self.v471 != other.v471 { names.push("v471 $flattencore.protocol.frame.$procmux$7417"); }
+        if self.v472 != other.v472 { names.push("v472 $flattencore.protocol.frame.$procmux$7423"); }
+        if self.v473 != other.v473 { names.push("v473 $flattencore.protocol.frame.$procmux$7435"); }
+        if self.v474 != other.v474 { names.push("v474 $flattencore.protocol.frame.$procmux$7441"); }
+        if self.v475 != other.v475 { names.push("v475 $flattencore.protocol.frame.$procmux$7447"); }
+        if self.v476 != other.v476 { names.push("v476 $flattencore.protocol.frame.$procmux$7453"); }
+        if self.v477 != other.v477 { names.push("v477 $flattencore.protocol.frame.$procmux$7459"); }
+        if self.v478 != other.v478 { names.push("v478 $flattencore.protocol.frame.$procmux$7465"); }
+        if self.v479 != other.v479 { names.push("v479 $flattencore.protocol.frame.$procmux$7471"); }
+        if self.v480 != other.v480 { names.push("v480 $flattencore.protocol.frame.$procmux$7477"); }
+        if self.v481 != other.v481 { names.push("v481 $flattencore.protocol.frame.$procmux$7489"); }
+        if self.v483 != other.v483 { names.push("v483 $flattencore.protocol.frame.$procmux$7532"); }
+        if self.v484 != other.v484 { names.push("v484 $flattencore.protocol.frame.$procmux$7538"); }
+        if self.v485 != other.v485 { names.push("v485 $flattencore.protocol.frame.$procmux$7544"); }
+        if self.v486 != other.v486 { names.push("v486 $flattencore.protocol.frame.$procmux$7549"); }
+        if self.v487 != other.v487 { names.push("v487 $flattencore.protocol.frame.$procmux$7552"); }
+        if self.v488 != other.v488 { names.push("v488 $flattencore.protocol.frame.$procmux$7555"); }
+        if self.v489 != other.v489 { names.push("v489 $flattencore.protocol.frame.$procmux$7558"); }
+        if self.v490 != other.v490 { names.push("v490 $flattencore.protocol.frame.$procmux$7561"); }
+        if self.v491 != other.v491 { names.push("v491 $flattencore.protocol.frame.$procmux$7564"); }
+        if self.v492 != other.v492 { names.push("v492 $flattencore.protocol.frame.$procmux$7567"); }
+        if self.v493 != other.v493 { names.push("v493 $flattencore.protocol.frame.$procmux$7573"); }
+        if self.v494 != other.v494 { names.push("v494 $flattencore.protocol.frame.$procmux$7576"); }
+        if self.v495 != other.v495 { names.push("v495 $flattencore.protocol.frame.$procmux$7579"); }
+        if self.v496 != other.v496 { names.push("v496 $flattencore.protocol.frame.$procmux$7582"); }
+        if self.v497 != other.v497 { names.push("v497 $flattencore.protocol.frame.$procmux$7585"); }
+        if self.v498 != other.v498 { names.push("v498 $flattencore.protocol.frame.$procmux$7588"); }
+        if self.v499 != other.v499 { names.push("v499 $flattencore.protocol.frame.$procmux$7591"); }
+        if self.v500 != other.v500 { names.push("v500 $flattencore.protocol.frame.$procmux$7594"); }
+        if self.v501 != other.v501 { names.push("v501 $flattencore.protocol.frame.$procmux$7600"); }
         if self.v507 != other.v507 { names.push("v507 $flattencore.protocol.interframe.$and$can_controller.v:4244$1102"); }
         if self.v508 != other.v508 { names.push("v508 $flattencore.protocol.interframe.$and$can_controller.v:4245$1104"); }
         if self.v510 != other.v510 { names.push("v510 $flattencore.protocol.interframe.$and$can_controller.v:4245$1112"); }
@@ -2792,40 +2797,40 @@ impl Model {
         if self.v547 != other.v547 { names.push("v547 $flattencore.protocol.interframe.$or$can_controller.v:4245$1109"); }
         if self.v548 != other.v548 { names.push("v548 $flattencore.protocol.interframe.$or$can_controller.v:4245$1113"); }
         if self.v549 != other.v549 { names.push("v549 $flattencore.protocol.interframe.$or$can_controller.v:4425$1199"); }
-        if self.v560 != other.v560 { names.push("v560 $flattencore.protocol.interframe.$procmux$4362"); }
-        if self.v561 != other.v561 { names.push("v561 $flattencore.protocol.interframe.$procmux$4368"); }
-        if self.v563 != other.v563 { names.push("v563 $flattencore.protocol.interframe.$procmux$4380"); }
-        if self.v568 != other.v568 { names.push("v568 $flattencore.protocol.interframe.$procmux$4412_CMP0"); }
-        if self.v572 != other.v572 { names.push("v572 $flattencore.protocol.interframe.$procmux$4470_CMP0"); }
-        if self.v585 != other.v585 { names.push("v585 $flattencore.protocol.interframe.$procmux$4786"); }
-        if self.v599 != other.v599 { names.push("v599 $flattencore.protocol.interframe.$procmux$5038_CMP0"); }
-        if self.v605 != other.v605 { names.push("v605 $flattencore.protocol.interframe.$procmux$5164"); }
-        if self.v612 != other.v612 { names.push("v612 $flattencore.protocol.interframe.$procmux$5320"); }
-        if self.v614 != other.v614 { names.push("v614 $flattencore.protocol.interframe.$procmux$5365"); }
-        if self.v618 != other.v618 { names.push("v618 $flattencore.protocol.interframe.$procmux$5456"); }
-        if self.v637 != other.v637 { names.push("v637 $flattencore.protocol.interframe.$procmux$5800_CMP0"); }
-        if self.v643 != other.v643 { names.push("v643 $flattencore.protocol.interframe.$procmux$5900"); }
-        if self.v644 != other.v644 { names.push("v644 $flattencore.protocol.interframe.$procmux$5912"); }
-        if self.v645 != other.v645 { names.push("v645 $flattencore.protocol.interframe.$procmux$5925"); }
-        if self.v648 != other.v648 { names.push("v648 $flattencore.protocol.interframe.$procmux$5983"); }
-        if self.v650 != other.v650 { names.push("v650 $flattencore.protocol.interframe.$procmux$6007"); }
-        if self.v652 != other.v652 { names.push("v652 $flattencore.protocol.interframe.$procmux$6028"); }
-        if self.v654 != other.v654 { names.push("v654 $flattencore.protocol.interframe.$procmux$6061"); }
-        if self.v662 != other.v662 { names.push("v662 $flattencore.protocol.interframe.$procmux$6121"); }
-        if self.v663 != other.v663 { names.push("v663 $flattencore.protocol.interframe.$procmux$6127"); }
-        if self.v664 != other.v664 { names.push("v664 $flattencore.protocol.interframe.$procmux$6132"); }
-        if self.v665 != other.v665 { names.push("v665 $flattencore.protocol.interframe.$procmux$6144"); }
-        if self.v666 != other.v666 { names.push("v666 $flattencore.protocol.interframe.$procmux$6147"); }
-        if self.v667 != other.v667 { names.push("v667 $flattencore.protocol.interframe.$procmux$6150"); }
-        if self.v668 != other.v668 { names.push("v668 $flattencore.protocol.interframe.$procmux$6153"); }
-        if self.v669 != other.v669 { names.push("v669 $flattencore.protocol.interframe.$procmux$6156"); }
-        if self.v670 != other.v670 { names.push("v670 $flattencore.protocol.interframe.$procmux$6159"); }
-        if self.v671 != other.v671 { names.push("v671 $flattencore.protocol.interframe.$procmux$6165"); }
-        if self.v672 != other.v672 { names.push("v672 $flattencore.protocol.interframe.$procmux$6177"); }
-        if self.v673 != other.v673 { names.push("v673 $flattencore.protocol.interframe.$procmux$6180"); }
-        if self.v674 != other.v674 { names.push("v674 $flattencore.protocol.interframe.$procmux$6183"); }
-        if self.v675 != other.v675 { names.push("v675 $flattencore.protocol.interframe.$procmux$6186"); }
-        if self.v676 != other.v676 { names.push("v676 $flattencore.protocol.interframe.$procmux$6189"); }
+        if self.v560 != other.v560 { names.push("v560 $flattencore.protocol.interframe.$procmux$4354"); }
+        if self.v561 != other.v561 { names.push("v561 $flattencore.protocol.interframe.$procmux$4360"); }
+        if self.v563 != other.v563 { names.push("v563 $flattencore.protocol.interframe.$procmux$4372"); }
+        if self.v568 != other.v568 { names.push("v568 $flattencore.protocol.interframe.$procmux$4404_CMP0"); }
+        if self.v572 != other.v572 { names.push("v572 $flattencore.protocol.interframe.$procmux$4462_CMP0"); }
+        if self.v585 != other.v585 { names.push("v585 $flattencore.protocol.interframe.$procmux$4778"); }
+        if self.v599 != other.v599 { names.push("v599 $flattencore.protocol.interframe.$procmux$5030_CMP0"); }
+        if self.v605 != other.v605 { names.push("v605 $flattencore.protocol.interframe.$procmux$5156"); }
+        if self.v612 != other.v612 { names.push("v612 $flattencore.protocol.interframe.$procmux$5312"); }
+        if self.v614 != other.v614 { names.push("v614 $flattencore.protocol.interframe.$procmux$5357"); }
+        if self.v618 != other.v618 { names.push("v618 $flattencore.protocol.interframe.$procmux$5448"); }
+        if self.v637 != other.v637 { names.push("v637 $flattencore.protocol.interframe.$procmux$5792_CMP0"); }
+        if self.v643 != other.v643 { names.push("v643 $flattencore.protocol.interframe.$procmux$5892"); }
+        if self.v644 != other.v644 { names.push("v644 $flattencore.protocol.interframe.$procmux$5904"); }
+        if self.v645 != other.v645 { names.push("v645 $flattencore.protocol.interframe.$procmux$5917"); }
+        if self.v648 != other.v648 { names.push("v648 $flattencore.protocol.interframe.$procmux$5975"); }
+        if self.v650 != other.v650 { names.push("v650 $flattencore.protocol.interframe.$procmux$5999"); }
+        if self.v652 != other.v652 { names.push("v652 $flattencore.protocol.interframe.$procmux$6020"); }
+        if self.v654 != other.v654 { names.push("v654 $flattencore.protocol.interframe.$procmux$6053"); }
+        if self.v662 != other.v662 { names.push("v662 $flattencore.protocol.interframe.$procmux$6113"); }
+        if self.v663 != other.v663 { names.push("v663 $flattencore.protocol.interframe.$procmux$6119"); }
+        if self.v664 != other.v664 { names.push("v664 $flattencore.protocol.interframe.$procmux$6124"); }
+        if self.v665 != other.v665 { names.push("v665 $flattencore.protocol.interframe.$procmux$6136"); }
+        if self.v666 != other.v666 { names.push("v666 $flattencore.protocol.interframe.$procmux$6139"); }
+        if self.v667 != other.v667 { names.push("v667 $flattencore.protocol.interframe.$procmux$6142"); }
+        if self.v668 != other.v668 { names.push("v668 $flattencore.protocol.interframe.$procmux$6145"); }
+        if self.v669 != other.v669 { names.push("v669 $flattencore.protocol.interframe.$procmux$6148"); }
+        if self.v670 != other.v670 { names.push("v670 $flattencore.protocol.interframe.$procmux$6151"); }
+        if self.v671 != other.v671 { names.push("v671 $flattencore.protocol.interframe.$procmux$6157"); }
+        if self.v672 != other.v672 { names.push("v672 $flattencore.protocol.interframe.$procmux$6169"); }
+        if self.v673 != other.v673 { names.push("v673 $flattencore.protocol.interframe.$procmux$6172"); }
+        if self.v674 != other.v674 { names.push("v674 $flattencore.protocol.interframe.$procmux$6175"); }
+        if self.v675 != other.v675 { names.push("v675 $flattencore.protocol.interframe.$procmux$6178"); }
+        if self.v676 != other.v676 { names.push("v676 $flattencore.protocol.interframe.$procmux$6181"); }
         if self.v678 != other.v678 { names.push("v678 $flattencore.protocol.sender.$add$can_controller.v:4705$1243"); }
         if self.v679 != other.v679 { names.push("v679 $flattencore.protocol.sender.$add$can_controller.v:4726$1254"); }
         if self.v682 != other.v682 { names.push("v682 $flattencore.protocol.sender.$and$can_controller.v:4826$1275"); }
@@ -2837,35 +2842,35 @@ impl Model {
         if self.v694 != other.v694 { names.push("v694 $flattencore.protocol.sender.$eq$can_controller.v:4809$1268"); }
         if self.v696 != other.v696 { names.push("v696 $flattencore.protocol.sender.$not$can_controller.v:4826$1277"); }
         if self.v698 != other.v698 { names.push("v698 $flattencore.protocol.sender.$or$can_controller.v:4838$1285"); }
-        if self.v699 != other.v699 { names.push("v699 $flattencore.protocol.sender.$procmux$3918"); }
-        if self.v700 != other.v700 { names.push("v700 $flattencore.protocol.sender.$procmux$3921"); }
-        if self.v705 != other.v705 { names.push("v705 $flattencore.protocol.sender.$procmux$3938"); }
-        if self.v706 != other.v706 { names.push("v706 $flattencore.protocol.sender.$procmux$3941_CMP0"); }
-        if self.v708 != other.v708 { names.push("v708 $flattencore.protocol.sender.$procmux$3953_CMP0"); }
-        if self.v709 != other.v709 { names.push("v709 $flattencore.protocol.sender.$procmux$3959"); }
-        if self.v711 != other.v711 { names.push("v711 $flattencore.protocol.sender.$procmux$3975_CMP0"); }
-        if self.v714 != other.v714 { names.push("v714 $flattencore.protocol.sender.$procmux$3999_CMP0"); }
-        if self.v721 != other.v721 { names.push("v721 $flattencore.protocol.sender.$procmux$4092_CMP0"); }
-        if self.v727 != other.v727 { names.push("v727 $flattencore.protocol.sender.$procmux$4170_CMP0"); }
-        if self.v728 != other.v728 { names.push("v728 $flattencore.protocol.sender.$procmux$4172_CMP0"); }
-        if self.v729 != other.v729 { names.push("v729 $flattencore.protocol.sender.$procmux$4177_CMP0"); }
-        if self.v730 != other.v730 { names.push("v730 $flattencore.protocol.sender.$procmux$4187"); }
-        if self.v731 != other.v731 { names.push("v731 $flattencore.protocol.sender.$procmux$4190"); }
-        if self.v732 != other.v732 { names.push("v732 $flattencore.protocol.sender.$procmux$4193"); }
-        if self.v733 != other.v733 { names.push("v733 $flattencore.protocol.sender.$procmux$4196"); }
-        if self.v737 != other.v737 { names.push("v737 $flattencore.protocol.sender.$procmux$4215"); }
-        if self.v738 != other.v738 { names.push("v738 $flattencore.protocol.sender.$procmux$4220"); }
-        if self.v739 != other.v739 { names.push("v739 $flattencore.protocol.sender.$procmux$4227"); }
-        if self.v740 != other.v740 { names.push("v740 $flattencore.protocol.sender.$procmux$4233"); }
-        if self.v741 != other.v741 { names.push("v741 $flattencore.protocol.sender.$procmux$4239"); }
+        if self.v699 != other.v699 { names.push("v699 $flattencore.protocol.sender.$procmux$3910"); }
+        if self.v700 != other.v700 { names.push("v700 $flattencore.protocol.sender.$procmux$3913"); }
+        if self.v705 != other.v705 { names.push("v705 $flattencore.protocol.sender.$procmux$3930"); }
+        if self.v706 != other.v706 { names.push("v706 $flattencore.protocol.sender.$procmux$3933_CMP0"); }
+        if self.v708 != other.v708 { names.push("v708 $flattencore.protocol.sender.$procmux$3945_CMP0"); }
+        if self.v709 != other.v709 { names.push("v709 $flattencore.protocol.sender.$procmux$3951"); }
+        if self.v711 != other.v711 { names.push("v711 $flattencore.protocol.sender.$procmux$3967_CMP0"); }
+        if self.v714 != other.v714 { names.push("v714 $flattencore.protocol.sender.$procmux$3991_CMP0"); }
+        if self.v721 != other.v721 { names.push("v721 $flattencore.protocol.sender.$procmux$4084_CMP0"); }
+        if self.v727 != other.v727 { names.push("v727 $flattencore.protocol.sender.$procmux$4162_CMP0"); }
+        if self.v728 != other.v728 { names.push("v728 $flattencore.protocol.sender.$procmux$4164_CMP0"); }
+        if self.v729 != other.v729 { names.push("v729 $flattencore.protocol.sender.$procmux$4169_CMP0"); }
+        if self.v730 != other.v730 { names.push("v730 $flattencore.protocol.sender.$procmux$4179"); }
+        if self.v731 != other.v731 { names.push("v731 $flattencore.protocol.sender.$procmux$4182"); }
+        if self.v732 != other.v732 { names.push("v732 $flattencore.protocol.sender.$procmux$4185"); }
+        if self.v733 != other.v733 { names.push("v733 $flattencore.protocol.sender.$procmux$4188"); }
+        if self.v737 != other.v737 { names.push("v737 $flattencore.protocol.sender.$procmux$4207"); }
+        if self.v738 != other.v738 { names.push("v738 $flattencore.protocol.sender.$procmux$4212"); }
+        if self.v739 != other.v739 { names.push("v739 $flattencore.protocol.sender.$procmux$4219"); }
+        if self.v740 != other.v740 { names.push("v740 $flattencore.protocol.sender.$procmux$4225"); }
+        if self.v741 != other.v741 { names.push("v741 $flattencore.protocol.sender.$procmux$4231"); }
         if self.v747 != other.v747 { names.push("v747 $flattencore.protocol.sender.$sub$can_controller.v:4773$1261"); }
         if self.v749 != other.v749 { names.push("v749 $flattencore.protocol.sender.$xor$can_controller.v:4803$1267"); }
         if self.v751 != other.v751 { names.push("v751 $flattencore.protocol.stuffing.$and$can_controller.v:4996$1309"); }
         if self.v752 != other.v752 { names.push("v752 $flattencore.protocol.stuffing.$and$can_controller.v:4997$1311"); }
         if self.v756 != other.v756 { names.push("v756 $flattencore.protocol.stuffing.$or$can_controller.v:5000$1317"); }
-        if self.v757 != other.v757 { names.push("v757 $flattencore.protocol.stuffing.$procmux$3865"); }
-        if self.v758 != other.v758 { names.push("v758 $flattencore.protocol.stuffing.$procmux$3871"); }
-        if self.v760 != other.v760 { names.push("v760 $flattencore.protocol.stuffing.$procmux$3889"); }
+        if self.v757 != other.v757 { names.push("v757 $flattencore.protocol.stuffing.$procmux$3857"); }
+        if self.v758 != other.v758 { names.push("v758 $flattencore.protocol.stuffing.$procmux$3863"); }
+        if self.v760 != other.v760 { names.push("v760 $flattencore.protocol.stuffing.$procmux$3881"); }
         if self.v762 != other.v762 { names.push("v762 $flattendecode.$and$can_controller.v:5189$1355"); }
         if self.v763 != other.v763 { names.push("v763 $flattendecode.$and$can_controller.v:5190$1356"); }
         if self.v764 != other.v764 { names.push("v764 $flattendecode.$and$can_controller.v:5191$1357"); }
@@ -2873,11 +2878,11 @@ impl Model {
         if self.v769 != other.v769 { names.push("v769 $flattendecode.$and$can_controller.v:5194$1363"); }
         if self.v770 != other.v770 { names.push("v770 $flattendecode.$and$can_controller.v:5195$1365"); }
         if self.v771 != other.v771 { names.push("v771 $flattendecode.$eq$can_controller.v:5194$1362"); }
-        if self.v772 != other.v772 { names.push("v772 $flattendecode.$procmux$3843"); }
-        if self.v773 != other.v773 { names.push("v773 $flattendecode.$procmux$3846"); }
-        if self.v774 != other.v774 { names.push("v774 $flattendecode.$procmux$3849"); }
-        if self.v775 != other.v775 { names.push("v775 $flattendecode.$procmux$3852"); }
-        if self.v776 != other.v776 { names.push("v776 $flattendecode.$procmux$3855"); }
+        if self.v772 != other.v772 { names.push("v772 $flattendecode.$procmux$3835"); }
+        if self.v773 != other.v773 { names.push("v773 $flattendecode.$procmux$3838"); }
+        if self.v774 != other.v774 { names.push("v774 $flattendecode.$procmux$3841"); }
+        if self.v775 != other.v775 { names.push("v775 $flattendecode.$procmux$3844"); }
+        if self.v776 != other.v776 { names.push("v776 $flattendecode.$procmux$3847"); }
         if self.v777 != other.v777 { names.push("v777 $flattendecode.$shiftx$can_controller.v:0$1345"); }
         if self.v778 != other.v778 { names.push("v778 $flattendecode.$shiftx$can_controller.v:0$1346"); }
         if self.v779 != other.v779 { names.push("v779 $flattendecode.$shiftx$can_controller.v:0$1347"); }
@@ -2887,153 +2892,152 @@ impl Model {
         if self.v783 != other.v783 { names.push("v783 $flattendecode.$sub$can_controller.v:5171$1342"); }
         if self.v784 != other.v784 { names.push("v784 $flattendecode.$sub$can_controller.v:5172$1343"); }
         if self.v785 != other.v785 { names.push("v785 $flattendecode.$sub$can_controller.v:5173$1344"); }
-        if self.v791 != other.v791 { names.push("v791 $flattenfifo.$add$can_controller.v:5457$1445"); }
-        if self.v792 != other.v792 { names.push("v792 $flattenfifo.$add$can_controller.v:5469$1455"); }
-        if self.v793 != other.v793 { names.push("v793 $flattenfifo.$add$can_controller.v:5478$1461"); }
-        if self.v795 != other.v795 { names.push("v795 $flattenfifo.$and$can_controller.v:5468$1453"); }
-        if self.v799 != other.v799 { names.push("v799 $flattenfifo.$eq$can_controller.v:5441$1432"); }
-        if self.v800 != other.v800 { names.push("v800 $flattenfifo.$eq$can_controller.v:5468$1452"); }
-        if self.v801 != other.v801 { names.push("v801 $flattenfifo.$eq$can_controller.v:5481$1467"); }
-        if self.v809 != other.v809 { names.push("v809 $flattenfifo.$procmux$3630"); }
-        if self.v810 != other.v810 { names.push("v810 $flattenfifo.$procmux$3633"); }
-        if self.v811 != other.v811 { names.push("v811 $flattenfifo.$procmux$3651"); }
-        if self.v812 != other.v812 { names.push("v812 $flattenfifo.$procmux$3654"); }
-        if self.v813 != other.v813 { names.push("v813 $flattenfifo.$procmux$3657"); }
-        if self.v814 != other.v814 { names.push("v814 $flattenfifo.$procmux$3660"); }
-        if self.v815 != other.v815 { names.push("v815 $flattenfifo.$procmux$3666"); }
-        if self.v818 != other.v818 { names.push("v818 $flattenfifo.$procmux$3681"); }
-        if self.v819 != other.v819 { names.push("v819 $flattenfifo.$procmux$3684"); }
-        if self.v820 != other.v820 { names.push("v820 $flattenfifo.$procmux$3687"); }
-        if self.v821 != other.v821 { names.push("v821 $flattenfifo.$procmux$3690"); }
-        if self.v826 != other.v826 { names.push("v826 $flattenfifo.$procmux$3720"); }
-        if self.v827 != other.v827 { names.push("v827 $flattenfifo.$procmux$3723"); }
-        if self.v828 != other.v828 { names.push("v828 $flattenfifo.$procmux$3726"); }
-        if self.v837 != other.v837 { names.push("v837 $flattenfifo.$procmux$3798"); }
-        if self.v838 != other.v838 { names.push("v838 $flattenfifo.$procmux$3801"); }
-        if self.v847 != other.v847 { names.push("v847 $flattenfifo.$procmux$3840"); }
-        if self.v849 != other.v849 { names.push("v849 $flattenfifo.$sub$can_controller.v:5474$1459"); }
-        if self.v850 != other.v850 { names.push("v850 $flattenfilter.$add$can_controller.v:6015$1776"); }
-        if self.v852 != other.v852 { names.push("v852 $flattenfilter.$and$can_controller.v:5993$1754"); }
-        if self.v853 != other.v853 { names.push("v853 $flattenfilter.$and$can_controller.v:6002$1760"); }
-        if self.v857 != other.v857 { names.push("v857 $flattenfilter.$and$can_controller.v:6014$1771"); }
-        if self.v861 != other.v861 { names.push("v861 $flattenfilter.$and$can_controller.v:6055$1798"); }
-        if self.v862 != other.v862 { names.push("v862 $flattenfilter.$and$can_controller.v:6058$1800"); }
-        if self.v863 != other.v863 { names.push("v863 $flattenfilter.$and$can_controller.v:6061$1813"); }
-        if self.v864 != other.v864 { names.push("v864 $flattenfilter.$and$can_controller.v:6064$1816"); }
-        if self.v871 != other.v871 { names.push("v871 $flattenfilter.$eq$can_controller.v:5996$1756"); }
-        if self.v877 != other.v877 { names.push("v877 $flattenfilter.$eq$can_controller.v:6064$1815"); }
-        if self.v878 != other.v878 { names.push("v878 $flattenfilter.$eq$can_controller.v:6077$1825"); }
-        if self.v879 != other.v879 { names.push("v879 $flattenfilter.$eq$can_controller.v:6080$1828"); }
-        if self.v880 != other.v880 { names.push("v880 $flattenfilter.$eq$can_controller.v:6090$1837"); }
-        if self.v881 != other.v881 { names.push("v881 $flattenfilter.$eq$can_controller.v:6097$1842"); }
-        if self.v882 != other.v882 { names.push("v882 $flattenfilter.$eq$can_controller.v:6101$1851"); }
-        if self.v885 != other.v885 { names.push("v885 $flattenfilter.$or$can_controller.v:6097$1844"); }
-        if self.v886 != other.v886 { names.push("v886 $flattenfilter.$procmux$3177"); }
-        if self.v887 != other.v887 { names.push("v887 $flattenfilter.$procmux$3180"); }
-        if self.v890 != other.v890 { names.push("v890 $flattenfilter.$procmux$3219"); }
-        if self.v891 != other.v891 { names.push("v891 $flattenfilter.$procmux$3223"); }
-        if self.v892 != other.v892 { names.push("v892 $flattenfilter.$procmux$3328"); }
-        if self.v907 != other.v907 { names.push("v907 $flattenfilter.$procmux$3489"); }
-        if self.v914 != other.v914 { names.push("v914 $flattenfilter.$procmux$3522"); }
-        if self.v915 != other.v915 { names.push("v915 $flattenfilter.$procmux$3526"); }
-        if self.v917 != other.v917 { names.push("v917 $flattenfilter.$procmux$3543"); }
-        if self.v919 != other.v919 { names.push("v919 $flattenfilter.$procmux$3555"); }
-        if self.v920 != other.v920 { names.push("v920 $flattenfilter.$procmux$3558"); }
-        if self.v921 != other.v921 { names.push("v921 $flattenfilter.$xor$can_controller.v:6053$1792"); }
-        if self.v924 != other.v924 { names.push("v924 $flatteninterrupts.$and$can_controller.v:6545$1921"); }
-        if self.v926 != other.v926 { names.push("v926 $flatteninterrupts.$and$can_controller.v:6554$1940"); }
-        if self.v927 != other.v927 { names.push("v927 $flatteninterrupts.$and$can_controller.v:6559$1943"); }
-        if self.v929 != other.v929 { names.push("v929 $flatteninterrupts.$and$can_controller.v:6592$1967"); }
-        if self.v930 != other.v930 { names.push("v930 $flatteninterrupts.$and$can_controller.v:6594$1969"); }
-        if self.v931 != other.v931 { names.push("v931 $flatteninterrupts.$and$can_controller.v:6594$1971"); }
-        if self.v933 != other.v933 { names.push("v933 $flatteninterrupts.$eq$can_controller.v:6587$1963"); }
-        if self.v941 != other.v941 { names.push("v941 $flatteninterrupts.$ne$can_controller.v:6594$1970"); }
-        if self.v942 != other.v942 { names.push("v942 $flatteninterrupts.$ne$can_controller.v:6594$1972"); }
-        if self.v945 != other.v945 { names.push("v945 $flatteninterrupts.$or$can_controller.v:6582$1961"); }
-        if self.v947 != other.v947 { names.push("v947 $flatteninterrupts.$procmux$3072"); }
-        if self.v948 != other.v948 { names.push("v948 $flatteninterrupts.$procmux$3078"); }
-        if self.v950 != other.v950 { names.push("v950 $flatteninterrupts.$procmux$3093"); }
-        if self.v951 != other.v951 { names.push("v951 $flatteninterrupts.$procmux$3096"); }
-        if self.v952 != other.v952 { names.push("v952 $flatteninterrupts.$procmux$3099"); }
-        if self.v954 != other.v954 { names.push("v954 $flatteninterrupts.$procmux$3117"); }
-        if self.v955 != other.v955 { names.push("v955 $flatteninterrupts.$procmux$3120"); }
-        if self.v963 != other.v963 { names.push("v963 $flatteninterrupts.$procmux$3163"); }
-        if self.v964 != other.v964 { names.push("v964 $flattenmodes.$add$can_controller.v:7116$2127"); }
-        if self.v965 != other.v965 { names.push("v965 $flattenmodes.$and$can_controller.v:7056$2065"); }
-        if self.v973 != other.v973 { names.push("v973 $flattenmodes.$and$can_controller.v:7102$2103"); }
-        if self.v974 != other.v974 { names.push("v974 $flattenmodes.$and$can_controller.v:7115$2125"); }
-        if self.v975 != other.v975 { names.push("v975 $flattenmodes.$and$can_controller.v:7132$2139"); }
-        if self.v976 != other.v976 { names.push("v976 $flattenmodes.$and$can_controller.v:7133$2140"); }
-        if self.v977 != other.v977 { names.push("v977 $flattenmodes.$and$can_controller.v:7134$2141"); }
-        if self.v981 != other.v981 { names.push("v981 $flattenmodes.$eq$can_controller.v:7084$2090"); }
-        if self.v982 != other.v982 { names.push("v982 $flattenmodes.$eq$can_controller.v:7091$2093"); }
-        if self.v984 != other.v984 { names.push("v984 $flattenmodes.$eq$can_controller.v:7102$2102"); }
-        if self.v985 != other.v985 { names.push("v985 $flattenmodes.$eq$can_controller.v:7118$2128"); }
-        if self.v986 != other.v986 { names.push("v986 $flattenmodes.$eq$can_controller.v:7132$2137"); }
-        if self.v988 != other.v988 { names.push("v988 $flattenmodes.$ne$can_controller.v:7115$2124"); }
-        if self.v990 != other.v990 { names.push("v990 $flattenmodes.$procmux$2862"); }
-        if self.v991 != other.v991 { names.push("v991 $flattenmodes.$procmux$2868"); }
-        if self.v992 != other.v992 { names.push("v992 $flattenmodes.$procmux$2874"); }
-        if self.v993 != other.v993 { names.push("v993 $flattenmodes.$procmux$2877"); }
-        if self.v994 != other.v994 { names.push("v994 $flattenmodes.$procmux$2880"); }
-        if self.v996 != other.v996 { names.push("v996 $flattenmodes.$procmux$2895"); }
-        if self.v1000 != other.v1000 { names.push("v1000 $flattenmodes.$procmux$2913"); }
-        if self.v1002 != other.v1002 { names.push("v1002 $flattenmodes.$procmux$2919"); }
-        if self.v1018 != other.v1018 { names.push("v1018 $flattenmodes.$procmux$3030"); }
-        if self.v1019 != other.v1019 { names.push("v1019 $flattenmodes.$procmux$3033"); }
-        if self.v1024 != other.v1024 { names.push("v1024 $flattenmodes.divider.$add$can_controller.v:7239$2154"); }
-        if self.v1025 != other.v1025 { names.push("v1025 $flattenmodes.divider.$eq$can_controller.v:7242$2158"); }
-        if self.v1027 != other.v1027 { names.push("v1027 $flattenmodes.divider.$ge$can_controller.v:7240$2155"); }
-        if self.v1028 != other.v1028 { names.push("v1028 $flattenmodes.divider.$procmux$2847"); }
-        if self.v1035 != other.v1035 { names.push("v1035 $flattenread.$eq$can_controller.v:7620$2237"); }
-        if self.v1036 != other.v1036 { names.push("v1036 $flattenread.$eq$can_controller.v:7633$2255"); }
-        if self.v1037 != other.v1037 { names.push("v1037 $flattenread.$eq$can_controller.v:7636$2256"); }
-        if self.v1038 != other.v1038 { names.push("v1038 $flattenread.$eq$can_controller.v:7639$2258"); }
-        if self.v1039 != other.v1039 { names.push("v1039 $flattenread.$eq$can_controller.v:7642$2259"); }
-        if self.v1040 != other.v1040 { names.push("v1040 $flattenread.$eq$can_controller.v:7645$2260"); }
-        if self.v1041 != other.v1041 { names.push("v1041 $flattenread.$eq$can_controller.v:7648$2261"); }
-        if self.v1042 != other.v1042 { names.push("v1042 $flattenread.$eq$can_controller.v:7651$2262"); }
-        if self.v1043 != other.v1043 { names.push("v1043 $flattenread.$eq$can_controller.v:7654$2264"); }
-        if self.v1044 != other.v1044 { names.push("v1044 $flattenread.$eq$can_controller.v:7661$2270"); }
-        if self.v1045 != other.v1045 { names.push("v1045 $flattenread.$eq$can_controller.v:7664$2290"); }
-        if self.v1046 != other.v1046 { names.push("v1046 $flattenread.$eq$can_controller.v:7667$2291"); }
-        if self.v1047 != other.v1047 { names.push("v1047 $flattenread.$eq$can_controller.v:7675$2302"); }
-        if self.v1048 != other.v1048 { names.push("v1048 $flattenread.$or$can_controller.v:7607$2195"); }
-        if self.v1052 != other.v1052 { names.push("v1052 $flattenread.$procmux$2697"); }
-        if self.v1053 != other.v1053 { names.push("v1053 $flattenread.$procmux$2703"); }
-        if self.v1054 != other.v1054 { names.push("v1054 $flattenread.$procmux$2712"); }
-        if self.v1055 != other.v1055 { names.push("v1055 $flattenread.$procmux$2718"); }
-        if self.v1056 != other.v1056 { names.push("v1056 $flattenread.$procmux$2724"); }
-        if self.v1073 != other.v1073 { names.push("v1073 $flattenread.$procmux$2817"); }
-        if self.v1074 != other.v1074 { names.push("v1074 $flattenread.$procmux$2820"); }
-        if self.v1075 != other.v1075 { names.push("v1075 $flattenread.$procmux$2823"); }
-        if self.v1079 != other.v1079 { names.push("v1079 $flattenread.$procmux$2838"); }
-        if self.v1080 != other.v1080 { names.push("v1080 $flattenread.$reduce_or$can_controller.v:7615$2236"); }
-        if self.v1081 != other.v1081 { names.push("v1081 $flattentx_buffer.$and$can_controller.v:7964$2358"); }
-        if self.v1082 != other.v1082 { names.push("v1082 $flattentx_buffer.$and$can_controller.v:7973$2361"); }
-        if self.v1084 != other.v1084 { names.push("v1084 $flattentx_buffer.$and$can_controller.v:7974$2366"); }
-        if self.v1091 != other.v1091 { names.push("v1091 $flattentx_buffer.$procmux$2673"); }
-        if self.v1092 != other.v1092 { names.push("v1092 $flattentx_buffer.$procmux$2676"); }
-        if self.v1093 != other.v1093 { names.push("v1093 $flattentx_buffer.$procmux$2679"); }
-        if self.v1094 != other.v1094 { names.push("v1094 $flattentx_buffer.$shiftx$can_controller.v:0$2357"); }
-        if self.v1095 != other.v1095 { names.push("v1095 $flattentx_buffer.$shiftx$can_controller.v:0$2359"); }
-        if self.v1096 != other.v1096 { names.push("v1096 $flattentx_buffer.$shiftx$can_controller.v:0$2362"); }
-        if self.v1099 != other.v1099 { names.push("v1099 $or$can_controller.v:723$151"); }
-        if self.v1104 != other.v1104 { names.push("v1104 $procmux$8875"); }
-        if self.v1105 != other.v1105 { names.push("v1105 $procmux$8878"); }
-        if self.v1109 != other.v1109 { names.push("v1109 $procmux$8908"); }
-        if self.v1110 != other.v1110 { names.push("v1110 $procmux$8911"); }
-        if self.v1111 != other.v1111 { names.push("v1111 $procmux$8914"); }
-        if self.v1112 != other.v1112 { names.push("v1112 $procmux$8917"); }
-        if self.v1113 != other.v1113 { names.push("v1113 $procmux$8920"); }
-        if self.v1114 != other.v1114 { names.push("v1114 $procmux$8924"); }
-        if self.v1115 != other.v1115 { names.push("v1115 $procmux$8930"); }
-        if self.v1116 != other.v1116 { names.push("v1116 $procmux$8935"); }
-        if self.v1117 != other.v1117 { names.push("v1117 $procmux$8938"); }
-        if self.v1118 != other.v1118 { names.push("v1118 $procmux$8941"); }
-        if self.v1119 != other.v1119 { names.push("v1119 $procmux$8947"); }
-        if self.v1120 != other.v1120 { names.push("v1120 $procmux$8953"); }
-        if self.v1121 != other.v1121 { names.push("v1121 $procmux$8956"); }
+        if self.v789 != other.v789 { names.push("v789 $flattenfifo.$add$can_controller.v:5467$1450"); }
+        if self.v792 != other.v792 { names.push("v792 $flattenfifo.$and$can_controller.v:5466$1448"); }
+        if self.v796 != other.v796 { names.push("v796 $flattenfifo.$eq$can_controller.v:5438$1431"); }
+        if self.v797 != other.v797 { names.push("v797 $flattenfifo.$eq$can_controller.v:5451$1435"); }
+        if self.v798 != other.v798 { names.push("v798 $flattenfifo.$eq$can_controller.v:5466$1447"); }
+        if self.v809 != other.v809 { names.push("v809 $flattenfifo.$procmux$3622"); }
+        if self.v810 != other.v810 { names.push("v810 $flattenfifo.$procmux$3625"); }
+        if self.v811 != other.v811 { names.push("v811 $flattenfifo.$procmux$3643"); }
+        if self.v812 != other.v812 { names.push("v812 $flattenfifo.$procmux$3646"); }
+        if self.v813 != other.v813 { names.push("v813 $flattenfifo.$procmux$3649"); }
+        if self.v814 != other.v814 { names.push("v814 $flattenfifo.$procmux$3652"); }
+        if self.v815 != other.v815 { names.push("v815 $flattenfifo.$procmux$3658"); }
+        if self.v818 != other.v818 { names.push("v818 $flattenfifo.$procmux$3673"); }
+        if self.v819 != other.v819 { names.push("v819 $flattenfifo.$procmux$3676"); }
+        if self.v820 != other.v820 { names.push("v820 $flattenfifo.$procmux$3679"); }
+        if self.v821 != other.v821 { names.push("v821 $flattenfifo.$procmux$3682"); }
+        if self.v827 != other.v827 { names.push("v827 $flattenfifo.$procmux$3718"); }
+        if self.v828 != other.v828 { names.push("v828 $flattenfifo.$procmux$3721"); }
+        if self.v829 != other.v829 { names.push("v829 $flattenfifo.$procmux$3724"); }
+        if self.v830 != other.v830 { names.push("v830 $flattenfifo.$procmux$3727"); }
+        if self.v838 != other.v838 { names.push("v838 $flattenfifo.$procmux$3796"); }
+        if self.v839 != other.v839 { names.push("v839 $flattenfifo.$procmux$3799"); }
+        if self.v847 != other.v847 { names.push("v847 $flattenfifo.$procmux$3829"); }
+        if self.v848 != other.v848 { names.push("v848 $flattenfifo.$sub$can_controller.v:5472$1454"); }
+        if self.v849 != other.v849 { names.push("v849 $flattenfilter.$add$can_controller.v:6035$1765"); }
+        if self.v851 != other.v851 { names.push("v851 $flattenfilter.$and$can_controller.v:6013$1743"); }
+        if self.v852 != other.v852 { names.push("v852 $flattenfilter.$and$can_controller.v:6022$1749"); }
+        if self.v856 != other.v856 { names.push("v856 $flattenfilter.$and$can_controller.v:6034$1760"); }
+        if self.v860 != other.v860 { names.push("v860 $flattenfilter.$and$can_controller.v:6075$1787"); }
+        if self.v861 != other.v861 { names.push("v861 $flattenfilter.$and$can_controller.v:6078$1789"); }
+        if self.v862 != other.v862 { names.push("v862 $flattenfilter.$and$can_controller.v:6081$1802"); }
+        if self.v863 != other.v863 { names.push("v863 $flattenfilter.$and$can_controller.v:6084$1805"); }
+        if self.v870 != other.v870 { names.push("v870 $flattenfilter.$eq$can_controller.v:6016$1745"); }
+        if self.v876 != other.v876 { names.push("v876 $flattenfilter.$eq$can_controller.v:6084$1804"); }
+        if self.v877 != other.v877 { names.push("v877 $flattenfilter.$eq$can_controller.v:6097$1814"); }
+        if self.v878 != other.v878 { names.push("v878 $flattenfilter.$eq$can_controller.v:6100$1817"); }
+        if self.v879 != other.v879 { names.push("v879 $flattenfilter.$eq$can_controller.v:6110$1826"); }
+        if self.v880 != other.v880 { names.push("v880 $flattenfilter.$eq$can_controller.v:6117$1831"); }
+        if self.v881 != other.v881 { names.push("v881 $flattenfilter.$eq$can_controller.v:6121$1840"); }
+        if self.v884 != other.v884 { names.push("v884 $flattenfilter.$or$can_controller.v:6117$1833"); }
+        if self.v885 != other.v885 { names.push("v885 $flattenfilter.$procmux$3166"); }
+        if self.v886 != other.v886 { names.push("v886 $flattenfilter.$procmux$3169"); }
+        if self.v889 != other.v889 { names.push("v889 $flattenfilter.$procmux$3208"); }
+        if self.v890 != other.v890 { names.push("v890 $flattenfilter.$procmux$3212"); }
+        if self.v891 != other.v891 { names.push("v891 $flattenfilter.$procmux$3317"); }
+        if self.v906 != other.v906 { names.push("v906 $flattenfilter.$procmux$3478"); }
+        if self.v913 != other.v913 { names.push("v913 $flattenfilter.$procmux$3511"); }
+        if self.v914 != other.v914 { names.push("v914 $flattenfilter.$procmux$3515"); }
+        if self.v916 != other.v916 { names.push("v916 $flattenfilter.$procmux$3532"); }
+        if self.v918 != other.v918 { names.push("v918 $flattenfilter.$procmux$3544"); }
+        if self.v919 != other.v919 { names.push("v919 $flattenfilter.$procmux$3547"); }
+        if self.v920 != other.v920 { names.push("v920 $flattenfilter.$xor$can_controller.v:6073$1781"); }
+        if self.v923 != other.v923 { names.push("v923 $flatteninterrupts.$and$can_controller.v:6565$1910"); }
+        if self.v925 != other.v925 { names.push("v925 $flatteninterrupts.$and$can_controller.v:6574$1929"); }
+        if self.v926 != other.v926 { names.push("v926 $flatteninterrupts.$and$can_controller.v:6579$1932"); }
+        if self.v928 != other.v928 { names.push("v928 $flatteninterrupts.$and$can_controller.v:6612$1956"); }
+        if self.v929 != other.v929 { names.push("v929 $flatteninterrupts.$and$can_controller.v:6614$1958"); }
+        if self.v930 != other.v930 { names.push("v930 $flatteninterrupts.$and$can_controller.v:6614$1960"); }
+        if self.v932 != other.v932 { names.push("v932 $flatteninterrupts.$eq$can_controller.v:6607$1952"); }
+        if self.v940 != other.v940 { names.push("v940 $flatteninterrupts.$ne$can_controller.v:6614$1959"); }
+        if self.v941 != other.v941 { names.push("v941 $flatteninterrupts.$ne$can_controller.v:6614$1961"); }
+        if self.v944 != other.v944 { names.push("v944 $flatteninterrupts.$or$can_controller.v:6602$1950"); }
+        if self.v946 != other.v946 { names.push("v946 $flatteninterrupts.$procmux$3061"); }
+        if self.v947 != other.v947 { names.push("v947 $flatteninterrupts.$procmux$3067"); }
+        if self.v949 != other.v949 { names.push("v949 $flatteninterrupts.$procmux$3082"); }
+        if self.v950 != other.v950 { names.push("v950 $flatteninterrupts.$procmux$3085"); }
+        if self.v951 != other.v951 { names.push("v951 $flatteninterrupts.$procmux$3088"); }
+        if self.v953 != other.v953 { names.push("v953 $flatteninterrupts.$procmux$3106"); }
+        if self.v954 != other.v954 { names.push("v954 $flatteninterrupts.$procmux$3109"); }
+        if self.v962 != other.v962 { names.push("v962 $flatteninterrupts.$procmux$3152"); }
+        if self.v963 != other.v963 { names.push("v963 $flattenmodes.$add$can_controller.v:7136$2116"); }
+        if self.v964 != other.v964 { names.push("v964 $flattenmodes.$and$can_controller.v:7076$2054"); }
+        if self.v972 != other.v972 { names.push("v972 $flattenmodes.$and$can_controller.v:7122$2092"); }
+        if self.v973 != other.v973 { names.push("v973 $flattenmodes.$and$can_controller.v:7135$2114"); }
+        if self.v974 != other.v974 { names.push("v974 $flattenmodes.$and$can_controller.v:7152$2128"); }
+        if self.v975 != other.v975 { names.push("v975 $flattenmodes.$and$can_controller.v:7153$2129"); }
+        if self.v976 != other.v976 { names.push("v976 $flattenmodes.$and$can_controller.v:7154$2130"); }
+        if self.v980 != other.v980 { names.push("v980 $flattenmodes.$eq$can_controller.v:7104$2079"); }
+        if self.v981 != other.v981 { names.push("v981 $flattenmodes.$eq$can_controller.v:7111$2082"); }
+        if self.v983 != other.v983 { names.push("v983 $flattenmodes.$eq$can_controller.v:7122$2091"); }
+        if self.v984 != other.v984 { names.push("v984 $flattenmodes.$eq$can_controller.v:7138$2117"); }
+        if self.v985 != other.v985 { names.push("v985 $flattenmodes.$eq$can_controller.v:7152$2126"); }
+        if self.v987 != other.v987 { names.push("v987 $flattenmodes.$ne$can_controller.v:7135$2113"); }
+        if self.v989 != other.v989 { names.push("v989 $flattenmodes.$procmux$2851"); }
+        if self.v990 != other.v990 { names.push("v990 $flattenmodes.$procmux$2857"); }
+        if self.v991 != other.v991 { names.push("v991 $flattenmodes.$procmux$2863"); }
+        if self.v992 != other.v992 { names.push("v992 $flattenmodes.$procmux$2866"); }
+        if self.v993 != other.v993 { names.push("v993 $flattenmodes.$procmux$2869"); }
+        if self.v995 != other.v995 { names.push("v995 $flattenmodes.$procmux$2884"); }
+        if self.v999 != other.v999 { names.push("v999 $flattenmodes.$procmux$2902"); }
+        if self.v1001 != other.v1001 { names.push("v1001 $flattenmodes.$procmux$2908"); }
+        if self.v1017 != other.v1017 { names.push("v1017 $flattenmodes.$procmux$3019"); }
+        if self.v1018 != other.v1018 { names.push("v1018 $flattenmodes.$procmux$3022"); }
+        if self.v1023 != other.v1023 { names.push("v1023 $flattenmodes.divider.$add$can_controller.v:7259$2143"); }
+        if self.v1024 != other.v1024 { names.push("v1024 $flattenmodes.divider.$eq$can_controller.v:7262$2147"); }
+        if self.v1026 != other.v1026 { names.push("v1026 $flattenmodes.divider.$ge$can_controller.v:7260$2144"); }
+        if self.v1027 != other.v1027 { names.push("v1027 $flattenmodes.divider.$procmux$2836"); }
+        if self.v1034 != other.v1034 { names.push("v1034 $flattenread.$eq$can_controller.v:7640$2226"); }
+        if self.v1035 != other.v1035 { names.push("v1035 $flattenread.$eq$can_controller.v:7653$2244"); }
+        if self.v1036 != other.v1036 { names.push("v1036 $flattenread.$eq$can_controller.v:7656$2245"); }
+        if self.v1037 != other.v1037 { names.push("v1037 $flattenread.$eq$can_controller.v:7659$2247"); }
+        if self.v1038 != other.v1038 { names.push("v1038 $flattenread.$eq$can_controller.v:7662$2248"); }
+        if self.v1039 != other.v1039 { names.push("v1039 $flattenread.$eq$can_controller.v:7665$2249"); }
+        if self.v1040 != other.v1040 { names.push("v1040 $flattenread.$eq$can_controller.v:7668$2250"); }
+        if self.v1041 != other.v1041 { names.push("v1041 $flattenread.$eq$can_controller.v:7671$2251"); }
+        if self.v1042 != other.v1042 { names.push("v1042 $flattenread.$eq$can_controller.v:7674$2253"); }
+        if self.v1043 != other.v1043 { names.push("v1043 $flattenread.$eq$can_controller.v:7681$2259"); }
+        if self.v1044 != other.v1044 { names.push("v1044 $flattenread.$eq$can_controller.v:7684$2279"); }
+        if self.v1045 != other.v1045 { names.push("v1045 $flattenread.$eq$can_controller.v:7687$2280"); }
+        if self.v1046 != other.v1046 { names.push("v1046 $flattenread.$eq$can_controller.v:7695$2291"); }
+        if self.v1047 != other.v1047 { names.push("v1047 $flattenread.$or$can_controller.v:7627$2184"); }
+        if self.v1051 != other.v1051 { names.push("v1051 $flattenread.$procmux$2686"); }
+        if self.v1052 != other.v1052 { names.push("v1052 $flattenread.$procmux$2692"); }
+        if self.v1053 != other.v1053 { names.push("v1053 $flattenread.$procmux$2701"); }
+        if self.v1054 != other.v1054 { names.push("v1054 $flattenread.$procmux$2707"); }
+        if self.v1055 != other.v1055 { names.push("v1055 $flattenread.$procmux$2713"); }
+        if self.v1072 != other.v1072 { names.push("v1072 $flattenread.$procmux$2806"); }
+        if self.v1073 != other.v1073 { names.push("v1073 $flattenread.$procmux$2809"); }
+        if self.v1074 != other.v1074 { names.push("v1074 $flattenread.$procmux$2812"); }
+        if self.v1078 != other.v1078 { names.push("v1078 $flattenread.$procmux$2827"); }
+        if self.v1079 != other.v1079 { names.push("v1079 $flattenread.$reduce_or$can_controller.v:7635$2225"); }
+        if self.v1080 != other.v1080 { names.push("v1080 $flattentx_buffer.$and$can_controller.v:7984$2347"); }
+        if self.v1081 != other.v1081 { names.push("v1081 $flattentx_buffer.$and$can_controller.v:7993$2350"); }
+        if self.v1083 != other.v1083 { names.push("v1083 $flattentx_buffer.$and$can_controller.v:7994$2355"); }
+        if self.v1090 != other.v1090 { names.push("v1090 $flattentx_buffer.$procmux$2662"); }
+        if self.v1091 != other.v1091 { names.push("v1091 $flattentx_buffer.$procmux$2665"); }
+        if self.v1092 != other.v1092 { names.push("v1092 $flattentx_buffer.$procmux$2668"); }
+        if self.v1093 != other.v1093 { names.push("v1093 $flattentx_buffer.$shiftx$can_controller.v:0$2346"); }
+        if self.v1094 != other.v1094 { names.push("v1094 $flattentx_buffer.$shiftx$can_controller.v:0$2348"); }
+        if self.v1095 != other.v1095 { names.push("v1095 $flattentx_buffer.$shiftx$can_controller.v:0$2351"); }
+        if self.v1098 != other.v1098 { names.push("v1098 $or$can_controller.v:723$151"); }
+        if self.v1103 != other.v1103 { names.push("v1103 $procmux$8867"); }
+        if self.v1104 != other.v1104 { names.push("v1104 $procmux$8870"); }
+        if self.v1108 != other.v1108 { names.push("v1108 $procmux$8900"); }
+        if self.v1109 != other.v1109 { names.push("v1109 $procmux$8903"); }
+        if self.v1110 != other.v1110 { names.push("v1110 $procmux$8906"); }
+        if self.v1111 != other.v1111 { names.push("v1111 $procmux$8909"); }
+        if self.v1112 != other.v1112 { names.push("v1112 $procmux$8912"); }
+        if self.v1113 != other.v1113 { names.push("v1113 $procmux$8916"); }
+        if self.v1114 != other.v1114 { names.push("v1114 $procmux$8922"); }
+        if self.v1115 != other.v1115 { names.push("v1115 $procmux$8927"); }
+        if self.v1116 != other.v1116 { names.push("v1116 $procmux$8930"); }
+        if self.v1117 != other.v1117 { names.push("v1117 $procmux$8933"); }
+        if self.v1118 != other.v1118 { names.push("v1118 $procmux$8939"); }
+        if self.v1119 != other.v1119 { names.push("v1119 $procmux$8945"); }
+        if self.v1120 != other.v1120 { names.push("v1120 $procmux$8948"); }
         if self.dirty != other.dirty { names.push("dirty "); }
         if self.out != other.out { names.push("out "); }
         names
@@ -3041,121 +3045,121 @@ impl Model {
 
     /// The cells of top$core$protocol$interframe.
     fn group_0(&mut self, dirty: &mut u128) {
-        let c502: u64 = (self.q105).wrapping_add((0x1)) & 0x7;
-        let c513: u64 = (self.q95) & (self.q111) & 0x1;
+        let c502: u64 = (self.q100).wrapping_add((0x1)) & 0x7;
+        let c513: u64 = (self.q90) & (self.q112) & 0x1;
         if self.v513 != c513 { self.v513 = c513; *dirty |= 0x10000000; }
-        let c518: u64 = (self.q104) & (self.q0) & 0x1;
-        let c520: u64 = (self.q106) & (self.q120) & 0x1;
+        let c518: u64 = (self.q99) & (self.q101) & 0x1;
+        let c520: u64 = (self.q107) & (self.q121) & 0x1;
         if self.v520 != c520 { self.v520 = c520; *dirty |= 0x10000000; }
-        let c525: u64 = u64::from((self.q112) == (0x1));
+        let c525: u64 = u64::from((self.q113) == (0x1));
         if self.v525 != c525 { self.v525 = c525; *dirty |= 0x410000000; }
-        let c526: u64 = u64::from((self.q112) == (0x2));
+        let c526: u64 = u64::from((self.q113) == (0x2));
         if self.v526 != c526 { self.v526 = c526; *dirty |= 0x10000000; }
         let c123: u64 = u64::from((c525 | (c526 << 1)) != 0);
-        if self.v123 != c123 { self.v123 = c123; *dirty |= 0x20; }
-        let c527: u64 = u64::from((self.q112) == (0x7));
-        if self.v527 != c527 { self.v527 = c527; *dirty |= 0x10000020; }
-        let c528: u64 = u64::from((self.q11) == (0x2));
+        if self.v123 != c123 { self.v123 = c123; *dirty |= 0x40; }
+        let c527: u64 = u64::from((self.q113) == (0x7));
+        if self.v527 != c527 { self.v527 = c527; *dirty |= 0x10000040; }
+        let c528: u64 = u64::from((self.q5) == (0x2));
         if self.v528 != c528 { self.v528 = c528; *dirty |= 0x10000000; }
         let c510: u64 = (c527) & (c528) & 0x1;
         if self.v510 != c510 { self.v510 = c510; *dirty |= 0x2000; }
-        let c530: u64 = u64::from((self.q11) == (0xa));
+        let c530: u64 = u64::from((self.q5) == (0xa));
         if self.v530 != c530 { self.v530 = c530; *dirty |= 0x14000000; }
-        let c531: u64 = !(self.q115) & 0x1;
+        let c531: u64 = !(self.q116) & 0x1;
         if self.v531 != c531 { self.v531 = c531; *dirty |= 0x10008002; }
-        let c532: u64 = u64::from((self.q11) == (0x7));
+        let c532: u64 = u64::from((self.q5) == (0x7));
         if self.v532 != c532 { self.v532 = c532; *dirty |= 0x10000000; }
-        let c533: u64 = u64::from((self.q11) == (0x5));
+        let c533: u64 = u64::from((self.q5) == (0x5));
         if self.v533 != c533 { self.v533 = c533; *dirty |= 0x10800002; }
-        let c534: u64 = !(self.q95) & 0x1;
+        let c534: u64 = !(self.q90) & 0x1;
         if self.v534 != c534 { self.v534 = c534; *dirty |= 0x2002; }
         let c519: u64 = (c518) & (c534) & 0x1;
-        let c535: u64 = !(self.q121) & 0x1;
+        let c535: u64 = !(self.q122) & 0x1;
         if self.v535 != c535 { self.v535 = c535; *dirty |= 0x2; }
-        let c503: u64 = (self.q48) & (c535) & 0x1;
-        let c517: u64 = (self.q106) & (c535) & 0x1;
+        let c503: u64 = (self.q42) & (c535) & 0x1;
+        let c517: u64 = (self.q107) & (c535) & 0x1;
         if self.v517 != c517 { self.v517 = c517; *dirty |= 0x10000000; }
-        let c536: u64 = u64::from((self.q11) == 0);
-        if self.v536 != c536 { self.v536 = c536; *dirty |= 0x10000020; }
-        let c537: u64 = u64::from((self.q105) == (0x7));
-        let c539: u64 = u64::from((self.q112) == (0x5));
-        if self.v539 != c539 { self.v539 = c539; *dirty |= 0x10000020; }
-        let c40: u64 = u64::from((c539 | (c517 << 1)) != (0x3));
-        if self.v40 != c40 { self.v40 = c40; *dirty |= 0x2000000; }
-        let c42: u64 = u64::from((c539 | (c533 << 1) | (c517 << 2)) != (0x1));
-        if self.v42 != c42 { self.v42 = c42; *dirty |= 0x2000000; }
-        let c540: u64 = u64::from((self.q11) != 0);
+        let c536: u64 = u64::from((self.q5) == 0);
+        if self.v536 != c536 { self.v536 = c536; *dirty |= 0x10000040; }
+        let c537: u64 = u64::from((self.q100) == (0x7));
+        let c539: u64 = u64::from((self.q113) == (0x5));
+        if self.v539 != c539 { self.v539 = c539; *dirty |= 0x10000040; }
+        let c35: u64 = u64::from((c539 | (c517 << 1)) != (0x3));
+        if self.v35 != c35 { self.v35 = c35; *dirty |= 0x2000000; }
+        let c37: u64 = u64::from((c539 | (c533 << 1) | (c517 << 2)) != (0x1));
+        if self.v37 != c37 { self.v37 = c37; *dirty |= 0x2000000; }
+        let c540: u64 = u64::from((self.q5) != 0);
         if self.v540 != c540 { self.v540 = c540; *dirty |= 0x400000; }
-        let c541: u64 = u64::from((self.q106) != (self.q103));
+        let c541: u64 = u64::from((self.q107) != (self.q98));
         let c515: u64 = (c540) & (c541) & 0x1;
         if self.v515 != c515 { self.v515 = c515; *dirty |= 0x10000000; }
-        let c542: u64 = !(self.q26) & 0x1;
+        let c542: u64 = !(self.q20) & 0x1;
         let c504: u64 = (c503) & (c542) & 0x1;
-        let c505: u64 = (c504) & (self.q120) & 0x1;
-        let c543: u64 = !(self.q110) & 0x1;
+        let c505: u64 = (c504) & (self.q121) & 0x1;
+        let c543: u64 = !(self.q111) & 0x1;
         if self.v543 != c543 { self.v543 = c543; *dirty |= 0x80002000; }
         let c506: u64 = (c505) & (c543) & 0x1;
-        let c544: u64 = !(self.q8) & 0x1;
+        let c544: u64 = !(self.q2) & 0x1;
         let c507: u64 = (c506) & (c544) & 0x1;
         if self.v507 != c507 { self.v507 = c507; *dirty |= 0x1000; }
         let c545: u64 = !(c513) & 0x1;
         let c514: u64 = (c507) & (c545) & 0x1;
         if self.v514 != c514 { self.v514 = c514; *dirty |= 0x10000000; }
-        let c546: u64 = ((self.q111) | (self.q121)) & 0x1;
+        let c546: u64 = ((self.q112) | (self.q122)) & 0x1;
         if self.v546 != c546 { self.v546 = c546; *dirty |= 0x14000000; }
         let c547: u64 = ((c525) | (c526)) & 0x1;
         if self.v547 != c547 { self.v547 = c547; *dirty |= 0x2000; }
         let c548: u64 = ((c547) | (c510)) & 0x1;
         if self.v548 != c548 { self.v548 = c548; *dirty |= 0x2000000; }
-        let c549: u64 = ((self.q47) | (self.q26)) & 0x1;
+        let c549: u64 = ((self.q41) | (self.q20)) & 0x1;
         if self.v549 != c549 { self.v549 = c549; *dirty |= 0x10000002; }
-        let c568: u64 = u64::from((self.q112) == (0x3));
+        let c568: u64 = u64::from((self.q113) == (0x3));
         if self.v568 != c568 { self.v568 = c568; *dirty |= 0x10002010; }
         let c570: u64 = (c520) & (c530) & 0x1;
-        let c572: u64 = u64::from((self.q112) == (0x6));
-        if self.v572 != c572 { self.v572 = c572; *dirty |= 0x12000020; }
-        let c41: u64 = u64::from((c572 | (c536 << 1)) != (0x1));
-        if self.v41 != c41 { self.v41 = c41; *dirty |= 0x2000000; }
-        let c44: u64 = u64::from((c572 | (c536 << 1) | (self.q106 << 2)) != (0x7));
-        if self.v44 != c44 { self.v44 = c44; *dirty |= 0x2000000; }
+        let c572: u64 = u64::from((self.q113) == (0x6));
+        if self.v572 != c572 { self.v572 = c572; *dirty |= 0x12000040; }
+        let c36: u64 = u64::from((c572 | (c536 << 1)) != (0x1));
+        if self.v36 != c36 { self.v36 = c36; *dirty |= 0x2000000; }
+        let c39: u64 = u64::from((c572 | (c536 << 1) | (self.q107 << 2)) != (0x7));
+        if self.v39 != c39 { self.v39 = c39; *dirty |= 0x2000000; }
         let c580: u64 = if (c537) != 0 { (c534) } else { (c519) };
-        let c581: u64 = (c537) & (self.q95) & 0x1;
-        let c582: u64 = if (self.q106) != 0 { (0x0) } else { (c581) };
-        let c583: u64 = if (self.q106) != 0 { (0x0) } else { (c580) };
+        let c581: u64 = (c537) & (self.q90) & 0x1;
+        let c582: u64 = if (self.q107) != 0 { (0x0) } else { (c581) };
+        let c583: u64 = if (self.q107) != 0 { (0x0) } else { (c580) };
         let c585: u64 = (c536) & (c582) & 0x1;
         if self.v585 != c585 { self.v585 = c585; *dirty |= 0x2000000; }
         let c586: u64 = (c536) & (c583) & 0x1;
-        let c591: u64 = if (c533) != 0 { (0x0) } else { (self.q0) };
-        let c595: u64 = if (c517) != 0 { (self.q0) } else { (c591) };
-        let c599: u64 = u64::from((self.q112) == (0x4));
-        if self.v599 != c599 { self.v599 = c599; *dirty |= 0x17000020; }
-        let c39: u64 = u64::from((c539 | (c599 << 1) | (c572 << 2)) != 0);
-        if self.v39 != c39 { self.v39 = c39; *dirty |= 0x2000000; }
-        let c602: u64 = if (self.q106) != 0 { (0x0) } else { (c533) };
-        let c604: u64 = (self.q106) & (c534) & 0x1;
-        let c605: u64 = (self.q106) & (self.q95) & 0x1;
+        let c591: u64 = if (c533) != 0 { (0x0) } else { (self.q101) };
+        let c595: u64 = if (c517) != 0 { (self.q101) } else { (c591) };
+        let c599: u64 = u64::from((self.q113) == (0x4));
+        if self.v599 != c599 { self.v599 = c599; *dirty |= 0x17000040; }
+        let c34: u64 = u64::from((c539 | (c599 << 1) | (c572 << 2)) != 0);
+        if self.v34 != c34 { self.v34 = c34; *dirty |= 0x2000000; }
+        let c602: u64 = if (self.q107) != 0 { (0x0) } else { (c533) };
+        let c604: u64 = (self.q107) & (c534) & 0x1;
+        let c605: u64 = (self.q107) & (self.q90) & 0x1;
         if self.v605 != c605 { self.v605 = c605; *dirty |= 0x2000000; }
-        let c606: u64 = (self.q106) & (c546) & 0x1;
+        let c606: u64 = (self.q107) & (c546) & 0x1;
         let c608: u64 = if (c515) != 0 { (0x0) } else { (c533) };
-        let c612: u64 = if (self.q102) != 0 { (c608) } else { (c602) };
+        let c612: u64 = if (self.q97) != 0 { (c608) } else { (c602) };
         if self.v612 != c612 { self.v612 = c612; *dirty |= 0x10000000; }
-        let c43: u64 = u64::from((c599 | (c612 << 1)) != (0x1));
-        if self.v43 != c43 { self.v43 = c43; *dirty |= 0x2000000; }
+        let c38: u64 = u64::from((c599 | (c612 << 1)) != (0x1));
+        if self.v38 != c38 { self.v38 = c38; *dirty |= 0x2000000; }
         let c124: u64 = if (c539) != 0 { (c533) } else { (c612) };
-        let c590: u64 = ((self.q104) | (c124)) & 0x1;
-        let c614: u64 = ((c606) | (self.q102)) & 0x1;
+        let c590: u64 = ((self.q99) | (c124)) & 0x1;
+        let c614: u64 = ((c606) | (self.q97)) & 0x1;
         if self.v614 != c614 { self.v614 = c614; *dirty |= 0x10000000; }
-        let c615: u64 = if (self.q102) != 0 { (0x0) } else { (self.q106) };
-        let c616: u64 = if (self.q102) != 0 { (0x0) } else { (c604) };
+        let c615: u64 = if (self.q97) != 0 { (0x0) } else { (self.q107) };
+        let c616: u64 = if (self.q97) != 0 { (0x0) } else { (c604) };
         let c618: u64 = if (c513) != 0 { (0x2) } else { (0x1) };
         if self.v618 != c618 { self.v618 = c618; *dirty |= 0x10000000; }
-        let c637: u64 = u64::from((self.q112) == 0);
+        let c637: u64 = u64::from((self.q113) == 0);
         if self.v637 != c637 { self.v637 = c637; *dirty |= 0x10002010; }
         let c643: u64 = if (c572) != 0 { (c502) } else { (0x0) };
         if self.v643 != c643 { self.v643 = c643; *dirty |= 0x1000000000000000000; }
         let c644: u64 = if (c572) != 0 { (0x0) } else { (c590) };
         if self.v644 != c644 { self.v644 = c644; *dirty |= 0x2000000000000000000; }
-        let c645: u64 = if (c539) != 0 { (c595) } else { (self.q0) };
+        let c645: u64 = if (c539) != 0 { (c595) } else { (self.q101) };
         if self.v645 != c645 { self.v645 = c645; *dirty |= 0x2000000; }
         let c648: u64 = (c599) & (c615) & 0x1;
         if self.v648 != c648 { self.v648 = c648; *dirty |= 0x2000000; }
@@ -3168,110 +3172,110 @@ impl Model {
 
     /// The cells of top$core$protocol$frame.
     fn group_1(&mut self, dirty: &mut u128) {
-        let c380: u64 = (self.q120) & (self.v535) & 0x1;
+        let c380: u64 = (self.q121) & (self.v535) & 0x1;
         let c383: u64 = (self.v533) & (self.v534) & 0x1;
-        let c385: u64 = u64::from((self.q11) == (0xb));
+        let c385: u64 = u64::from((self.q5) == (0xb));
         if self.v385 != c385 { self.v385 = c385; *dirty |= 0x4000000; }
-        let c386: u64 = u64::from((self.q11) == (0xc));
+        let c386: u64 = u64::from((self.q5) == (0xc));
         if self.v386 != c386 { self.v386 = c386; *dirty |= 0xc000000; }
-        let c387: u64 = u64::from((self.q11) == (0x1f));
+        let c387: u64 = u64::from((self.q5) == (0x1f));
         if self.v387 != c387 { self.v387 = c387; *dirty |= 0x4001000; }
-        let c25: u64 = u64::from((c385 | (c387 << 1)) != 0);
-        if self.v25 != c25 { self.v25 = c25; *dirty |= 0x8000000; }
-        let c388: u64 = u64::from((self.q11) == (0x4));
+        let c20: u64 = u64::from((c385 | (c387 << 1)) != 0);
+        if self.v20 != c20 { self.v20 = c20; *dirty |= 0x8000000; }
+        let c388: u64 = u64::from((self.q5) == (0x4));
         if self.v388 != c388 { self.v388 = c388; *dirty |= 0x800000; }
-        let c389: u64 = u64::from(((self.q22 & 0x7)) == 0);
-        let c390: u64 = u64::from(((self.q11 & 0x7)) == (0x7));
-        if self.v390 != c390 { self.v390 = c390; *dirty |= 0x8400020; }
-        let c391: u64 = u64::from(((self.q11 >> 3)) == (self.q17));
+        let c389: u64 = u64::from(((self.q16 & 0x7)) == 0);
+        let c390: u64 = u64::from(((self.q5 & 0x7)) == (0x7));
+        if self.v390 != c390 { self.v390 = c390; *dirty |= 0x8400040; }
+        let c391: u64 = u64::from(((self.q5 >> 3)) == (self.q11));
         let c375: u64 = (c390) & (c391) & 0x1;
         if self.v375 != c375 { self.v375 = c375; *dirty |= 0x800000; }
-        let c392: u64 = u64::from((self.q112) == (0x8));
-        if self.v392 != c392 { self.v392 = c392; *dirty |= 0x208800020; }
-        let c377: u64 = (c392) & (self.q115) & 0x1;
-        let c393: u64 = u64::from((self.q106) == (self.q96));
+        let c392: u64 = u64::from((self.q113) == (0x8));
+        if self.v392 != c392 { self.v392 = c392; *dirty |= 0x208800040; }
+        let c377: u64 = (c392) & (self.q116) & 0x1;
+        let c393: u64 = u64::from((self.q107) == (self.q91));
         if self.v393 != c393 { self.v393 = c393; *dirty |= 0x4000000; }
-        let c394: u64 = u64::from((self.q11) == (0xe));
-        let c395: u64 = u64::from((self.q10) == 0);
-        let c396: u64 = !(self.q124) & 0x1;
-        let c381: u64 = (self.q106) & (c396) & 0x1;
-        let c397: u64 = u64::from((self.q11) == (0x6));
+        let c394: u64 = u64::from((self.q5) == (0xe));
+        let c395: u64 = u64::from((self.q4) == 0);
+        let c396: u64 = !(self.q125) & 0x1;
+        let c381: u64 = (self.q107) & (c396) & 0x1;
+        let c397: u64 = u64::from((self.q5) == (0x6));
         if self.v397 != c397 { self.v397 = c397; *dirty |= 0x800000; }
         let c382: u64 = (c397) & (self.v534) & 0x1;
-        let c384: u64 = (c397) & (self.q95) & 0x1;
-        let c398: u64 = u64::from((self.q115) != (self.q106));
-        let c372: u64 = (self.q95) & (c398) & 0x1;
+        let c384: u64 = (c397) & (self.q90) & 0x1;
+        let c398: u64 = u64::from((self.q116) != (self.q107));
+        let c372: u64 = (self.q90) & (c398) & 0x1;
         let c399: u64 = ((c385) | (c386)) & 0x1;
         let c400: u64 = ((c399) | (c387)) & 0x1;
         let c46: u64 = !(c400) & 0x1;
         if self.v46 != c46 { self.v46 = c46; *dirty |= 0x208000000; }
-        let c378: u64 = (self.q95) & (c46) & 0x1;
-        let c404: u64 = u64::from((self.q112) == (0xf));
-        if self.v404 != c404 { self.v404 = c404; *dirty |= 0x800020; }
+        let c378: u64 = (self.q90) & (c46) & 0x1;
+        let c404: u64 = u64::from((self.q113) == (0xf));
+        if self.v404 != c404 { self.v404 = c404; *dirty |= 0x800040; }
         let c406: u64 = !(c382) & 0x1;
-        let c407: u64 = if (self.q106) != 0 { (0x0) } else { (c406) };
-        let c409: u64 = (self.q106) & (c384) & 0x1;
-        let c410: u64 = (self.q106) & (c383) & 0x1;
-        let c412: u64 = if (c397) != 0 { (0x7) } else { (self.q112) };
+        let c407: u64 = if (self.q107) != 0 { (0x0) } else { (c406) };
+        let c409: u64 = (self.q107) & (c384) & 0x1;
+        let c410: u64 = (self.q107) & (c383) & 0x1;
+        let c412: u64 = if (c397) != 0 { (0x7) } else { (self.q113) };
         let c405: u64 = if (c382) != 0 { (0x5) } else { (c412) };
-        let c408: u64 = if (self.q106) != 0 { (c412) } else { (c405) };
+        let c408: u64 = if (self.q107) != 0 { (c412) } else { (c405) };
         if self.v408 != c408 { self.v408 = c408; *dirty |= 0x800000; }
-        let c413: u64 = u64::from((self.q112) == (0xe));
-        if self.v413 != c413 { self.v413 = c413; *dirty |= 0x800020; }
-        let c414: u64 = if (self.q106) != 0 { (self.q9 | (self.q9 << 1)) } else { (0x1) };
-        let c415: u64 = if (self.q106) != 0 { (self.q9) } else { (0x1) };
-        let c416: u64 = u64::from((self.q112) == (0xd));
-        if self.v416 != c416 { self.v416 = c416; *dirty |= 0x800020; }
-        let c417: u64 = if (self.q115) != 0 { (0x0) } else { (self.q106) };
-        let c419: u64 = !(self.q111) & 0x1;
-        let c420: u64 = (c381) & (self.q111) & 0x1;
+        let c413: u64 = u64::from((self.q113) == (0xe));
+        if self.v413 != c413 { self.v413 = c413; *dirty |= 0x800040; }
+        let c414: u64 = if (self.q107) != 0 { (self.q3 | (self.q3 << 1)) } else { (0x1) };
+        let c415: u64 = if (self.q107) != 0 { (self.q3) } else { (0x1) };
+        let c416: u64 = u64::from((self.q113) == (0xd));
+        if self.v416 != c416 { self.v416 = c416; *dirty |= 0x800040; }
+        let c417: u64 = if (self.q116) != 0 { (0x0) } else { (self.q107) };
+        let c419: u64 = !(self.q112) & 0x1;
+        let c420: u64 = (c381) & (self.q112) & 0x1;
         let c421: u64 = if (c381) != 0 { (c419) } else { (0x1) };
-        let c422: u64 = (self.q95) & (c420) & 0x1;
-        let c423: u64 = if (self.q95) != 0 { (c421) } else { (0x1) };
-        let c424: u64 = (self.q95) & (c381) & 0x1;
-        let c425: u64 = if (self.q95) != 0 { (c381) } else { (c417) };
+        let c422: u64 = (self.q90) & (c420) & 0x1;
+        let c423: u64 = if (self.q90) != 0 { (c421) } else { (0x1) };
+        let c424: u64 = (self.q90) & (c381) & 0x1;
+        let c425: u64 = if (self.q90) != 0 { (c381) } else { (c417) };
         let c427: u64 = (c395) & (c380) & 0x1;
-        let c428: u64 = u64::from((self.q112) == (0xc));
-        if self.v428 != c428 { self.v428 = c428; *dirty |= 0x800020; }
+        let c428: u64 = u64::from((self.q113) == (0xc));
+        if self.v428 != c428 { self.v428 = c428; *dirty |= 0x800040; }
         let c429: u64 = !(c395) & 0x1;
-        let c430: u64 = if (self.q95) != 0 { (0x0) } else { (c429) };
-        let c431: u64 = if (self.q95) != 0 { (0x0) } else { (c427) };
-        let c432: u64 = !(self.q106) & 0x1;
+        let c430: u64 = if (self.q90) != 0 { (0x0) } else { (c429) };
+        let c431: u64 = if (self.q90) != 0 { (0x0) } else { (c427) };
+        let c432: u64 = !(self.q107) & 0x1;
         if self.v432 != c432 { self.v432 = c432; *dirty |= 0x40002000000; }
         let c374: u64 = (c389) & (c432) & 0x1;
         let c379: u64 = (c386) & (c432) & 0x1;
-        let c402: u64 = ((self.q16) | (c374)) & 0x1;
+        let c402: u64 = ((self.q10) | (c374)) & 0x1;
         if self.v402 != c402 { self.v402 = c402; *dirty |= 0x800000; }
         let c403: u64 = ((c379) | (c387)) & 0x1;
         if self.v403 != c403 { self.v403 = c403; *dirty |= 0x800000; }
-        let c418: u64 = if (self.q115) != 0 { (0x0) } else { (c432) };
-        let c426: u64 = if (self.q95) != 0 { (0x0) } else { (c418) };
-        let c433: u64 = (self.q106) & (c430) & 0x1;
-        let c434: u64 = (self.q106) & (c431) & 0x1;
-        let c435: u64 = if (c394) != 0 { (0xc) } else { (self.q112) };
+        let c418: u64 = if (self.q116) != 0 { (0x0) } else { (c432) };
+        let c426: u64 = if (self.q90) != 0 { (0x0) } else { (c418) };
+        let c433: u64 = (self.q107) & (c430) & 0x1;
+        let c434: u64 = (self.q107) & (c431) & 0x1;
+        let c435: u64 = if (c394) != 0 { (0xc) } else { (self.q113) };
         if self.v435 != c435 { self.v435 = c435; *dirty |= 0x800000; }
-        let c436: u64 = u64::from((self.q112) == (0xb));
-        if self.v436 != c436 { self.v436 = c436; *dirty |= 0x800020; }
-        let c438: u64 = u64::from((self.q112) == (0xa));
-        if self.v438 != c438 { self.v438 = c438; *dirty |= 0x8c00020; }
-        let c439: u64 = if (c375) != 0 { (0xb) } else { (self.q112) };
+        let c436: u64 = u64::from((self.q113) == (0xb));
+        if self.v436 != c436 { self.v436 = c436; *dirty |= 0x800040; }
+        let c438: u64 = u64::from((self.q113) == (0xa));
+        if self.v438 != c438 { self.v438 = c438; *dirty |= 0x8c00040; }
+        let c439: u64 = if (c375) != 0 { (0xb) } else { (self.q113) };
         if self.v439 != c439 { self.v439 = c439; *dirty |= 0x800000; }
-        let c440: u64 = u64::from((self.q112) == (0x9));
-        if self.v440 != c440 { self.v440 = c440; *dirty |= 0x240800020; }
+        let c440: u64 = u64::from((self.q113) == (0x9));
+        if self.v440 != c440 { self.v440 = c440; *dirty |= 0x240800040; }
         let c121: u64 = u64::from((c440 | (c438 << 1) | (c436 << 2)) != 0);
         let c122: u64 = u64::from((c440 | (c438 << 1) | (c392 << 2) | (c436 << 3)) != 0);
-        let c443: u64 = (self.q115) & (self.v549) & 0x1;
-        let c444: u64 = if (self.q115) != 0 { (0x0) } else { (c378) };
+        let c443: u64 = (self.q116) & (self.v549) & 0x1;
+        let c444: u64 = if (self.q116) != 0 { (0x0) } else { (c378) };
         let c445: u64 = (c372) & (c443) & 0x1;
-        let c446: u64 = (c372) & (self.q115) & 0x1;
+        let c446: u64 = (c372) & (self.q116) & 0x1;
         let c447: u64 = (c372) & (self.v531) & 0x1;
         let c448: u64 = if (c372) != 0 { (c444) } else { (c378) };
-        let c450: u64 = if (c403) != 0 { (0x9) } else { (self.q112) };
+        let c450: u64 = if (c403) != 0 { (0x9) } else { (self.q113) };
         if self.v450 != c450 { self.v450 = c450; *dirty |= 0x800000; }
         let c451: u64 = { let s = (c404 | (c392 << 1)); if s >> 0 & 1 != 0 { c409 } else if s >> 1 & 1 != 0 { c445 } else { (0x0) } };
         let c452: u64 = (c392) & (c446) & 0x1;
         let c453: u64 = { let s = (c404 | (c413 << 1) | (c416 << 2) | (c428 << 3) | (c121 << 4) | (c392 << 5)); if s >> 0 & 1 != 0 { c407 } else if s >> 1 & 1 != 0 { c415 } else if s >> 2 & 1 != 0 { c425 } else if s >> 3 & 1 != 0 { c432 } else if s >> 4 & 1 != 0 { c372 } else if s >> 5 & 1 != 0 { c447 } else { (0x0) } };
-        let c454: u64 = { let s = (c438 | (c392 << 1)); if s >> 0 & 1 != 0 { self.q95 } else if s >> 1 & 1 != 0 { c448 } else { (0x0) } };
+        let c454: u64 = { let s = (c438 | (c392 << 1)); if s >> 0 & 1 != 0 { self.q90 } else if s >> 1 & 1 != 0 { c448 } else { (0x0) } };
         let c455: u64 = (c392) & (c403) & 0x1;
         let c458: u64 = (c404) & (c409) & 0x1;
         let c459: u64 = (c404) & (c410) & 0x1;
@@ -3281,35 +3285,35 @@ impl Model {
         let c463: u64 = { let s = (c404 | (c413 << 1) | (c416 << 2) | (c428 << 3)); if s >> 0 & 1 != 0 { c407 } else if s >> 1 & 1 != 0 { c414 } else if s >> 2 & 1 != 0 { c424 | (c424 << 1) } else if s >> 3 & 1 != 0 { c432 } else { (0x0) } };
         let c464: u64 = (c428) & (c434) & 0x1;
         let c465: u64 = (c416) & (c426) & 0x1;
-        let c466: u64 = (self.q32) & (c455) & 0x1;
+        let c466: u64 = (self.q26) & (c455) & 0x1;
         if self.v466 != c466 { self.v466 = c466; *dirty |= 0x8000000; }
-        let c467: u64 = (self.q32) & (c458) & 0x1;
+        let c467: u64 = (self.q26) & (c458) & 0x1;
         if self.v467 != c467 { self.v467 = c467; *dirty |= 0x8000000; }
-        let c468: u64 = (self.q32) & (c451) & 0x1;
+        let c468: u64 = (self.q26) & (c451) & 0x1;
         if self.v468 != c468 { self.v468 = c468; *dirty |= 0x8000000; }
-        let c469: u64 = (self.q32) & (c459) & 0x1;
+        let c469: u64 = (self.q26) & (c459) & 0x1;
         if self.v469 != c469 { self.v469 = c469; *dirty |= 0x40000000000000000000; }
-        let c470: u64 = (self.q32) & (c460) & 0x1;
+        let c470: u64 = (self.q26) & (c460) & 0x1;
         if self.v470 != c470 { self.v470 = c470; *dirty |= 0x8000000; }
-        let c471: u64 = (self.q32) & (c461) & 0x1;
+        let c471: u64 = (self.q26) & (c461) & 0x1;
         if self.v471 != c471 { self.v471 = c471; *dirty |= 0x8000000; }
-        let c472: u64 = if (self.q32) != 0 { (c462) } else { (0x1) };
+        let c472: u64 = if (self.q26) != 0 { (c462) } else { (0x1) };
         if self.v472 != c472 { self.v472 = c472; *dirty |= 0x8000000; }
-        let c473: u64 = (self.q32) & (c452) & 0x1;
+        let c473: u64 = (self.q26) & (c452) & 0x1;
         if self.v473 != c473 { self.v473 = c473; *dirty |= 0x8000000; }
-        let c474: u64 = if (self.q32) != 0 { (c463) } else { (0x0) };
+        let c474: u64 = if (self.q26) != 0 { (c463) } else { (0x0) };
         if self.v474 != c474 { self.v474 = c474; *dirty |= 0x8000000; }
-        let c475: u64 = (self.q32) & (c453) & 0x1;
+        let c475: u64 = (self.q26) & (c453) & 0x1;
         if self.v475 != c475 { self.v475 = c475; *dirty |= 0x8000000; }
-        let c476: u64 = (self.q32) & (c428) & 0x1;
+        let c476: u64 = (self.q26) & (c428) & 0x1;
         if self.v476 != c476 { self.v476 = c476; *dirty |= 0x8000000; }
-        let c477: u64 = (self.q32) & (c464) & 0x1;
+        let c477: u64 = (self.q26) & (c464) & 0x1;
         if self.v477 != c477 { self.v477 = c477; *dirty |= 0x8000000; }
-        let c478: u64 = (self.q32) & (c122) & 0x1;
+        let c478: u64 = (self.q26) & (c122) & 0x1;
         if self.v478 != c478 { self.v478 = c478; *dirty |= 0x8000000; }
-        let c480: u64 = (self.q32) & (c465) & 0x1;
+        let c480: u64 = (self.q26) & (c465) & 0x1;
         if self.v480 != c480 { self.v480 = c480; *dirty |= 0x8000000; }
-        let c481: u64 = (self.q32) & (c454) & 0x1;
+        let c481: u64 = (self.q26) & (c454) & 0x1;
         if self.v481 != c481 { self.v481 = c481; *dirty |= 0x8000000; }
         let c482: u64 = !(c377) & 0x1;
         let c483: u64 = if (c372) != 0 { (c482) } else { (0x1) };
@@ -3323,204 +3327,258 @@ impl Model {
 
     /// The cells of top$filter.
     fn group_2(&mut self, dirty: &mut u128) {
-        let c49: u64 = !(self.q79) & 0x1;
-        let c850: u64 = (self.q76).wrapping_add((0x1)) & 0x7;
-        if self.v850 != c850 { self.v850 = c850; *dirty |= 0x100000000000000000000000; }
-        let c851: u64 = (self.q60) & (self.q123) & 0x1;
-        let c853: u64 = (self.q60) & (self.q62) & 0x1;
-        if self.v853 != c853 { self.v853 = c853; *dirty |= 0x8000000000000000000000; }
-        let c52: u64 = !(c853) & 0x1;
-        let c855: u64 = (self.q78) & (self.q116) & 0x1;
-        let c856: u64 = (c855) & (self.q117) & 0x1;
-        let c858: u64 = ((self.q82 >> 2)) & (c853) & 0x1;
-        let c862: u64 = (self.q83) & ((self.q82 & 0x1)) & 0x1;
-        if self.v862 != c862 { self.v862 = c862; *dirty |= 0x8000000000000000000000; }
-        let c870: u64 = u64::from(((self.i_addr >> 3)) == (0x2));
-        let c852: u64 = (c851) & (c870) & 0x1;
-        if self.v852 != c852 { self.v852 = c852; *dirty |= 0x8000000000; }
-        let c871: u64 = u64::from((self.i_addr) == (0x5));
-        if self.v871 != c871 { self.v871 = c871; *dirty |= 0x8000000000; }
-        let c872: u64 = !(self.q62) & 0x1;
-        let c854: u64 = (self.q60) & (c872) & 0x1;
-        let c873: u64 = u64::from((self.q76) == (0x7));
-        let c875: u64 = !((self.q82 & 0x1)) & 0x1;
-        let c861: u64 = (self.q83) & (c875) & 0x1;
-        if self.v861 != c861 { self.v861 = c861; *dirty |= 0x20000000000000000000000; }
-        let c876: u64 = !(self.q74) & 0x1;
-        let c877: u64 = u64::from(((self.q82 >> 1)) == (0x3));
-        if self.v877 != c877 { self.v877 = c877; *dirty |= 0x8000000000000000000000; }
-        let c864: u64 = (c877) & (self.q74) & 0x1;
-        if self.v864 != c864 { self.v864 = c864; *dirty |= 0x8000000000000000000000; }
-        let c878: u64 = u64::from(((self.q82 >> 1)) == 0);
-        if self.v878 != c878 { self.v878 = c878; *dirty |= 0x8000000000000000000000; }
-        let c50: u64 = !(c878) & 0x1;
-        let c879: u64 = u64::from(((self.q82 >> 1)) == (0x1));
-        if self.v879 != c879 { self.v879 = c879; *dirty |= 0x8000000000000000000000; }
-        let c28: u64 = u64::from((self.q18 | (c878 << 1) | (c879 << 2) | (c853 << 3)) != (0x8));
-        let c29: u64 = u64::from((c878 | (c879 << 1) | (c853 << 2)) != 0);
-        let c30: u64 = u64::from((c878 | (c879 << 1) | (self.q60 << 2)) != (0x2));
-        let c51: u64 = !(c879) & 0x1;
-        let c75: u64 = u64::from((c51 | (c50 << 1) | (c49 << 2) | (c862 << 3) | (c52 << 4)) == 0x1f);
-        if self.v75 != c75 { self.v75 = c75; *dirty |= 0x100000000000000000000000; }
-        let c76: u64 = u64::from((c49 | (c862 << 1) | (c28 << 2) | (c29 << 3) | (c30 << 4)) == 0x1f);
-        if self.v76 != c76 { self.v76 = c76; *dirty |= 0x80000000000000000000000; }
-        let c880: u64 = u64::from(((self.q82 >> 1)) == (0x2));
-        if self.v880 != c880 { self.v880 = c880; *dirty |= 0x8000000000000000000000; }
-        let c863: u64 = (c880) & (c876) & 0x1;
+        let c49: u64 = !(self.q73) & 0x1;
+        let c849: u64 = (self.q70).wrapping_add((0x1)) & 0x7;
+        if self.v849 != c849 { self.v849 = c849; *dirty |= 0x100000000000000000000000; }
+        let c850: u64 = (self.q54) & (self.q124) & 0x1;
+        let c852: u64 = (self.q54) & (self.q56) & 0x1;
+        if self.v852 != c852 { self.v852 = c852; *dirty |= 0x8000000000000000000000; }
+        let c52: u64 = !(c852) & 0x1;
+        let c854: u64 = (self.q72) & (self.q117) & 0x1;
+        let c855: u64 = (c854) & (self.q118) & 0x1;
+        let c857: u64 = ((self.q76 >> 2)) & (c852) & 0x1;
+        let c861: u64 = (self.q77) & ((self.q76 & 0x1)) & 0x1;
+        if self.v861 != c861 { self.v861 = c861; *dirty |= 0x8000000000000000000000; }
+        let c869: u64 = u64::from(((self.i_addr >> 3)) == (0x2));
+        let c851: u64 = (c850) & (c869) & 0x1;
+        if self.v851 != c851 { self.v851 = c851; *dirty |= 0x8000000000; }
+        let c870: u64 = u64::from((self.i_addr) == (0x5));
+        if self.v870 != c870 { self.v870 = c870; *dirty |= 0x8000000000; }
+        let c871: u64 = !(self.q56) & 0x1;
+        let c853: u64 = (self.q54) & (c871) & 0x1;
+        let c872: u64 = u64::from((self.q70) == (0x7));
+        let c874: u64 = !((self.q76 & 0x1)) & 0x1;
+        let c860: u64 = (self.q77) & (c874) & 0x1;
+        if self.v860 != c860 { self.v860 = c860; *dirty |= 0x20000000000000000000000; }
+        let c875: u64 = !(self.q68) & 0x1;
+        let c876: u64 = u64::from(((self.q76 >> 1)) == (0x3));
+        if self.v876 != c876 { self.v876 = c876; *dirty |= 0x8000000000000000000000; }
+        let c863: u64 = (c876) & (self.q68) & 0x1;
         if self.v863 != c863 { self.v863 = c863; *dirty |= 0x8000000000000000000000; }
-        let c881: u64 = u64::from(((self.q25 >> 1)) == 0);
-        if self.v881 != c881 { self.v881 = c881; *dirty |= 0x8000000000; }
-        let c882: u64 = !(self.q21) & 0x1;
-        if self.v882 != c882 { self.v882 = c882; *dirty |= 0x80000000000000000000000; }
-        let c884: u64 = ((c855) | (self.q77)) & 0x1;
-        let c904: u64 = if (c879) != 0 { ((self.q80 >> 4)) } else { (self.q80) };
-        let c905: u64 = if (c854) != 0 { (c904) } else { (self.q80) };
-        let c906: u64 = !(c854) & 0x1;
-        let c909: u64 = if (c858) != 0 { (((self.q19 >> 5) & 0xff)) } else { ((self.q20 >> 3)) };
-        let c910: u64 = if (c858) != 0 { (0x2) } else { (self.q18 | (self.q18 << 1)) };
-        let c912: u64 = if (((self.q82 >> 1) & 0x1)) != 0 { (c910) } else { (0x3) };
-        let c907: u64 = if (self.q79) != 0 { ((c906 << 2) | 0x3) } else { (c912 | 0x4) };
-        if self.v907 != c907 { self.v907 = c907; *dirty |= 0x8000000000000000000000; }
-        let c914: u64 = if (self.q18) != 0 { ((self.q19 >> 17)) } else { (self.q16) };
-        if self.v914 != c914 { self.v914 = c914; *dirty |= 0x200; }
-        let c911: u64 = if (c858) != 0 { ((self.q16 << 2) | ((self.q19 & 0x1f) << 3)) } else { (((self.q19 >> 13) & 0xf) | (c914 << 4) | ((self.q20 & 0x7) << 5)) };
-        let c913: u64 = if (((self.q82 >> 1) & 0x1)) != 0 { (c911) } else { (c909) };
-        let c908: u64 = if (self.q79) != 0 { (c905) } else { (c913) };
-        let c915: u64 = if (c873) != 0 { (0x0) } else { (self.q75) };
-        if self.v915 != c915 { self.v915 = c915; *dirty |= 0x8000000000; }
-        let c918: u64 = if (c853) != 0 { (c856) } else { (self.q78) };
-        let c917: u64 = if (c854) != 0 { (c884) } else { (c918) };
-        if self.v917 != c917 { self.v917 = c917; *dirty |= 0x400; }
-        let c920: u64 = if (self.q60) != 0 { ((self.i_addr & 0x7)) } else { ((c871 << 2)) };
-        if self.v920 != c920 { self.v920 = c920; *dirty |= 0x100000; }
-        let c921: u64 = ((c908) ^ (self.q81)) & 0xff;
-        if self.v921 != c921 { self.v921 = c921; *dirty |= 0x8000000000000000000000; }
+        let c877: u64 = u64::from(((self.q76 >> 1)) == 0);
+        if self.v877 != c877 { self.v877 = c877; *dirty |= 0x8000000000000000000000; }
+        let c50: u64 = !(c877) & 0x1;
+        let c878: u64 = u64::from(((self.q76 >> 1)) == (0x1));
+        if self.v878 != c878 { self.v878 = c878; *dirty |= 0x8000000000000000000000; }
+        let c23: u64 = u64::from((self.q12 | (c877 << 1) | (c878 << 2) | (c852 << 3)) != (0x8));
+        let c24: u64 = u64::from((c877 | (c878 << 1) | (c852 << 2)) != 0);
+        let c25: u64 = u64::from((c877 | (c878 << 1) | (self.q54 << 2)) != (0x2));
+        let c51: u64 = !(c878) & 0x1;
+        let c73: u64 = u64::from((c49 | (c51 << 1) | (c50 << 2) | (c861 << 3) | (c52 << 4)) == 0x1f);
+        if self.v73 != c73 { self.v73 = c73; *dirty |= 0x100000000000000000000000; }
+        let c74: u64 = u64::from((c49 | (c861 << 1) | (c23 << 2) | (c24 << 3) | (c25 << 4)) == 0x1f);
+        if self.v74 != c74 { self.v74 = c74; *dirty |= 0x80000000000000000000000; }
+        let c879: u64 = u64::from(((self.q76 >> 1)) == (0x2));
+        if self.v879 != c879 { self.v879 = c879; *dirty |= 0x8000000000000000000000; }
+        let c862: u64 = (c879) & (c875) & 0x1;
+        if self.v862 != c862 { self.v862 = c862; *dirty |= 0x8000000000000000000000; }
+        let c880: u64 = u64::from(((self.q19 >> 1)) == 0);
+        if self.v880 != c880 { self.v880 = c880; *dirty |= 0x8000000000; }
+        let c881: u64 = !(self.q15) & 0x1;
+        if self.v881 != c881 { self.v881 = c881; *dirty |= 0x80000000000000000000000; }
+        let c883: u64 = ((c854) | (self.q71)) & 0x1;
+        let c903: u64 = if (c878) != 0 { ((self.q74 >> 4)) } else { (self.q74) };
+        let c904: u64 = if (c853) != 0 { (c903) } else { (self.q74) };
+        let c905: u64 = !(c853) & 0x1;
+        let c908: u64 = if (c857) != 0 { (((self.q13 >> 5) & 0xff)) } else { ((self.q14 >> 3)) };
+        let c909: u64 = if (c857) != 0 { (0x2) } else { (self.q12 | (self.q12 << 1)) };
+        let c911: u64 = if (((self.q76 >> 1) & 0x1)) != 0 { (c909) } else { (0x3) };
+        let c906: u64 = if (self.q73) != 0 { ((c905 << 2) | 0x3) } else { (c911 | 0x4) };
+        if self.v906 != c906 { self.v906 = c906; *dirty |= 0x8000000000000000000000; }
+        let c913: u64 = if (self.q12) != 0 { ((self.q13 >> 17)) } else { (self.q10) };
+        if self.v913 != c913 { self.v913 = c913; *dirty |= 0x20; }
+        let c910: u64 = if (c857) != 0 { ((self.q10 << 2) | ((self.q13 & 0x1f) << 3)) } else { (((self.q13 >> 13) & 0xf) | (c913 << 4) | ((self.q14 & 0x7) << 5)) };
+        let c912: u64 = if (((self.q76 >> 1) & 0x1)) != 0 { (c910) } else { (c908) };
+        let c907: u64 = if (self.q73) != 0 { (c904) } else { (c912) };
+        let c914: u64 = if (c872) != 0 { (0x0) } else { (self.q69) };
+        if self.v914 != c914 { self.v914 = c914; *dirty |= 0x8000000000; }
+        let c917: u64 = if (c852) != 0 { (c855) } else { (self.q72) };
+        let c916: u64 = if (c853) != 0 { (c883) } else { (c917) };
+        if self.v916 != c916 { self.v916 = c916; *dirty |= 0x200; }
+        let c919: u64 = if (self.q54) != 0 { ((self.i_addr & 0x7)) } else { ((c870 << 2)) };
+        if self.v919 != c919 { self.v919 = c919; *dirty |= 0x100000; }
+        let c920: u64 = ((c907) ^ (self.q75)) & 0xff;
+        if self.v920 != c920 { self.v920 = c920; *dirty |= 0x8000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing.
     fn group_3(&mut self, dirty: &mut u128) {
-        let c113: u64 = !(self.q46) & 0x7;
-        let c118: u64 = !(self.q37) & 0x3;
-        let c134: u64 = (self.q37).wrapping_add((0x1)) & 0x7;
+        let c113: u64 = !(self.q40) & 0x7;
+        let c118: u64 = !(self.q31) & 0x3;
+        let c134: u64 = (self.q31).wrapping_add((0x1)) & 0x7;
         if self.v134 != c134 { self.v134 = c134; *dirty |= 0x400000000000000; }
-        let c135: u64 = (self.q34 | (self.q35 << 1)).wrapping_add((0x1)) & 0x7f;
+        let c135: u64 = (self.q28 | (self.q29 << 1)).wrapping_add((0x1)) & 0x7f;
         if self.v135 != c135 { self.v135 = c135; *dirty |= 0x80000000000; }
-        let c137: u64 = (self.q33).wrapping_add((0x1)) & 0x7;
+        let c137: u64 = (self.q27).wrapping_add((0x1)) & 0x7;
         if self.v137 != c137 { self.v137 = c137; *dirty |= 0x20000000000000; }
-        let c154: u64 = u64::from((self.q31) == 0);
-        let c155: u64 = u64::from((self.q31) == (self.q46));
-        let c156: u64 = u64::from((self.q29) == 0);
-        if self.v156 != c156 { self.v156 = c156; *dirty |= 0x8000; }
-        let c157: u64 = u64::from((self.q34 | (self.q35 << 1)) == 0);
-        let c150: u64 = (c156) & (c157) & 0x1;
-        if self.v150 != c150 { self.v150 = c150; *dirty |= 0x8000; }
-        let c158: u64 = u64::from((self.q34 | (self.q35 << 1)) >= ((self.q40 << 1) | 0x1));
-        if self.v158 != c158 { self.v158 = c158; *dirty |= 0x8000; }
-        let c140: u64 = (c158) & (c154) & 0x1;
+        let c154: u64 = u64::from((self.q25) == (self.q40));
+        let c155: u64 = u64::from((self.q25) == 0);
+        let c156: u64 = u64::from((self.q28 | (self.q29 << 1)) == 0);
+        let c157: u64 = u64::from((self.q28 | (self.q29 << 1)) >= ((self.q34 << 1) | 0x1));
+        if self.v157 != c157 { self.v157 = c157; *dirty |= 0x8000; }
+        let c140: u64 = (c157) & (c155) & 0x1;
         if self.v140 != c140 { self.v140 = c140; *dirty |= 0x8000; }
-        let c142: u64 = (c158) & (c155) & 0x1;
+        let c142: u64 = (c157) & (c154) & 0x1;
         if self.v142 != c142 { self.v142 = c142; *dirty |= 0x8000; }
-        let c159: u64 = u64::from((self.q33) <= (self.q37));
-        let c160: u64 = u64::from((self.q31) <= (self.q37));
-        let c161: u64 = u64::from((self.q33) != (0x4));
-        let c64: u64 = u64::from((c158 | (c161 << 1)) == 0x3);
-        if self.v64 != c64 { self.v64 = c64; *dirty |= 0x20000000000000; }
-        let c162: u64 = !(self.q28) & 0x1;
-        if self.v162 != c162 { self.v162 = c162; *dirty |= 0x8000; }
-        let c167: u64 = !(self.i_reset) & 0x1;
+        let c158: u64 = u64::from((self.q27) <= (self.q31));
+        let c159: u64 = u64::from((self.q25) <= (self.q31));
+        let c160: u64 = u64::from((self.q27) != (0x4));
+        let c62: u64 = u64::from((c157 | (c160 << 1)) == 0x3);
+        if self.v62 != c62 { self.v62 = c62; *dirty |= 0x20000000000000; }
+        let c161: u64 = !(self.q22) & 0x1;
+        if self.v161 != c161 { self.v161 = c161; *dirty |= 0x8000; }
+        let c166: u64 = !(self.i_reset) & 0x1;
+        if self.v166 != c166 { self.v166 = c166; *dirty |= 0x8000; }
+        let c167: u64 = !(self.q26) & 0x1;
         if self.v167 != c167 { self.v167 = c167; *dirty |= 0x8000; }
-        let c168: u64 = !(self.q32) & 0x1;
-        if self.v168 != c168 { self.v168 = c168; *dirty |= 0x8000; }
-        let c187: u64 = u64::from((self.q29) == (0x2));
-        if self.v187 != c187 { self.v187 = c187; *dirty |= 0x8000; }
-        let c188: u64 = u64::from((self.q29) == (0x1));
-        if self.v188 != c188 { self.v188 = c188; *dirty |= 0x8000; }
-        let c26: u64 = u64::from((c156 | (c188 << 1) | (c187 << 2)) != 0);
-        if self.v26 != c26 { self.v26 = c26; *dirty |= 0x8000; }
-        let c144: u64 = (c188) & (c158) & 0x1;
-        let c145: u64 = (c144) & (c154) & 0x1;
+        let c185: u64 = u64::from((self.q23) == (0x1));
+        if self.v185 != c185 { self.v185 = c185; *dirty |= 0x8000; }
+        let c144: u64 = (c185) & (c157) & 0x1;
+        let c145: u64 = (c144) & (c155) & 0x1;
         if self.v145 != c145 { self.v145 = c145; *dirty |= 0x8000; }
-        let c186: u64 = { let s = (c187 | (c188 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
-        if self.v186 != c186 { self.v186 = c186; *dirty |= 0x200000000000000; }
-        let c190: u64 = if (c158) != 0 { (0x0) } else { ((c135 & 0x1)) };
-        if self.v190 != c190 { self.v190 = c190; *dirty |= 0x8000; }
-        let c191: u64 = if (c158) != 0 { (c113) } else { (c118 | 0x4) };
+        let c188: u64 = if (c157) != 0 { (0x0) } else { ((c135 & 0x1)) };
+        if self.v188 != c188 { self.v188 = c188; *dirty |= 0x8000; }
+        let c189: u64 = if (c157) != 0 { (c113) } else { (c118 | 0x4) };
+        if self.v189 != c189 { self.v189 = c189; *dirty |= 0x8000; }
+        let c191: u64 = if (c157) != 0 { (self.q31) } else { (self.q40) };
         if self.v191 != c191 { self.v191 = c191; *dirty |= 0x8000; }
-        let c193: u64 = if (c158) != 0 { (self.q37) } else { (self.q46) };
-        if self.v193 != c193 { self.v193 = c193; *dirty |= 0x8000; }
-        let c196: u64 = !(c160) & 0x1;
-        let c197: u64 = !(c159) & 0x1;
-        let c198: u64 = (self.q115) & (c197) & 0x1;
-        let c199: u64 = (self.q115) & (c159) & 0x1;
-        let c200: u64 = (c187) & (c196) & 0x1;
+        let c194: u64 = !(c159) & 0x1;
+        let c195: u64 = !(c158) & 0x1;
+        let c196: u64 = (self.q116) & (c195) & 0x1;
+        let c197: u64 = (self.q116) & (c158) & 0x1;
+        let c198: u64 = u64::from((self.q23) == 0);
+        if self.v198 != c198 { self.v198 = c198; *dirty |= 0x8000; }
+        let c150: u64 = (c198) & (c156) & 0x1;
+        if self.v150 != c150 { self.v150 = c150; *dirty |= 0x8000; }
+        let c200: u64 = (c185) & (c196) & 0x1;
         if self.v200 != c200 { self.v200 = c200; *dirty |= 0x8000; }
-        let c201: u64 = (c188) & (c198) & 0x1;
-        if self.v201 != c201 { self.v201 = c201; *dirty |= 0x8000; }
-        let c202: u64 = (c187) & (c160) & 0x1;
+        let c202: u64 = u64::from((self.q23) == (0x2));
         if self.v202 != c202 { self.v202 = c202; *dirty |= 0x8000; }
-        let c203: u64 = (c188) & (c199) & 0x1;
+        let c21: u64 = u64::from((c198 | (c185 << 1) | (c202 << 2)) != 0);
+        if self.v21 != c21 { self.v21 = c21; *dirty |= 0x8000; }
+        let c186: u64 = { let s = (c202 | (c185 << 1)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { 0x2 } else { (0x1) } };
+        if self.v186 != c186 { self.v186 = c186; *dirty |= 0x200000000000000; }
+        let c199: u64 = (c202) & (c194) & 0x1;
+        if self.v199 != c199 { self.v199 = c199; *dirty |= 0x8000; }
+        let c201: u64 = (c202) & (c159) & 0x1;
+        if self.v201 != c201 { self.v201 = c201; *dirty |= 0x8000; }
+        let c203: u64 = (c185) & (c197) & 0x1;
         if self.v203 != c203 { self.v203 = c203; *dirty |= 0x8000; }
         let _ = &dirty;
     }
 
     /// The cells of top$read.
     fn group_4(&mut self, dirty: &mut u128) {
-        let c111: u64 = (((self.m0_rd & 0xf)) | (self.q43)) & 0xf;
-        let c1035: u64 = u64::from((self.i_addr) == (0x2));
-        if self.v1035 != c1035 { self.v1035 = c1035; *dirty |= 0x40000; }
-        let c1036: u64 = u64::from((self.i_addr) == (0x4));
-        if self.v1036 != c1036 { self.v1036 = c1036; *dirty |= 0x8000040040; }
-        let c1037: u64 = u64::from((self.i_addr) == (0xb));
-        if self.v1037 != c1037 { self.v1037 = c1037; *dirty |= 0x40040; }
-        let c1038: u64 = u64::from((self.i_addr) == (0xc));
-        if self.v1038 != c1038 { self.v1038 = c1038; *dirty |= 0x40040; }
-        let c1039: u64 = u64::from((self.i_addr) == (0xd));
-        if self.v1039 != c1039 { self.v1039 = c1039; *dirty |= 0xc0000; }
-        let c1040: u64 = u64::from((self.i_addr) == (0xe));
+        let c111: u64 = (((self.m0_rd & 0xf)) | (self.q37)) & 0xf;
+        let c1034: u64 = u64::from((self.i_addr) == (0x2));
+        if self.v1034 != c1034 { self.v1034 = c1034; *dirty |= 0x40000; }
+        let c1035: u64 = u64::from((self.i_addr) == (0x4));
+        if self.v1035 != c1035 { self.v1035 = c1035; *dirty |= 0x8000040080; }
+        let c1036: u64 = u64::from((self.i_addr) == (0xb));
+        if self.v1036 != c1036 { self.v1036 = c1036; *dirty |= 0x40080; }
+        let c1037: u64 = u64::from((self.i_addr) == (0xc));
+        if self.v1037 != c1037 { self.v1037 = c1037; *dirty |= 0x40080; }
+        let c1038: u64 = u64::from((self.i_addr) == (0xd));
+        if self.v1038 != c1038 { self.v1038 = c1038; *dirty |= 0xc0000; }
+        let c1039: u64 = u64::from((self.i_addr) == (0xe));
+        if self.v1039 != c1039 { self.v1039 = c1039; *dirty |= 0x140000; }
+        let c1040: u64 = u64::from((self.i_addr) == (0xf));
         if self.v1040 != c1040 { self.v1040 = c1040; *dirty |= 0x140000; }
-        let c1041: u64 = u64::from((self.i_addr) == (0xf));
-        if self.v1041 != c1041 { self.v1041 = c1041; *dirty |= 0x140000; }
-        let c1042: u64 = u64::from((self.i_addr) == (0x1d));
-        if self.v1042 != c1042 { self.v1042 = c1042; *dirty |= 0x40000; }
-        let c1043: u64 = u64::from((self.i_addr) == (0x1e));
-        if self.v1043 != c1043 { self.v1043 = c1043; *dirty |= 0x140000; }
-        let c1044: u64 = u64::from((self.i_addr) == 0);
-        if self.v1044 != c1044 { self.v1044 = c1044; *dirty |= 0x800040080; }
-        let c1045: u64 = u64::from((self.i_addr) == (0x1));
-        if self.v1045 != c1045 { self.v1045 = c1045; *dirty |= 0x40800; }
-        let c1046: u64 = u64::from((self.i_addr) == (0x3));
-        if self.v1046 != c1046 { self.v1046 = c1046; *dirty |= 0x40040; }
-        let c1047: u64 = u64::from((self.i_addr) == (0x15));
-        if self.v1047 != c1047 { self.v1047 = c1047; *dirty |= 0x40000; }
-        let c1048: u64 = ((self.v637) | (self.v568)) & 0x1;
-        if self.v1048 != c1048 { self.v1048 = c1048; *dirty |= 0x2000; }
-        let c1055: u64 = if (self.q55) != 0 { (c111 | ((self.m0_rd >> 4) << 4)) } else { (self.q53) };
-        if self.v1055 != c1055 { self.v1055 = c1055; *dirty |= 0x4000000000000; }
-        let c1079: u64 = if (self.q60) != 0 { (self.q67) } else { (0x1) };
-        if self.v1079 != c1079 { self.v1079 = c1079; *dirty |= 0x800040000; }
+        let c1041: u64 = u64::from((self.i_addr) == (0x1d));
+        if self.v1041 != c1041 { self.v1041 = c1041; *dirty |= 0x40000; }
+        let c1042: u64 = u64::from((self.i_addr) == (0x1e));
+        if self.v1042 != c1042 { self.v1042 = c1042; *dirty |= 0x140000; }
+        let c1043: u64 = u64::from((self.i_addr) == 0);
+        if self.v1043 != c1043 { self.v1043 = c1043; *dirty |= 0x800040100; }
+        let c1044: u64 = u64::from((self.i_addr) == (0x1));
+        if self.v1044 != c1044 { self.v1044 = c1044; *dirty |= 0x40800; }
+        let c1045: u64 = u64::from((self.i_addr) == (0x3));
+        if self.v1045 != c1045 { self.v1045 = c1045; *dirty |= 0x40080; }
+        let c1046: u64 = u64::from((self.i_addr) == (0x15));
+        if self.v1046 != c1046 { self.v1046 = c1046; *dirty |= 0x40000; }
+        let c1047: u64 = ((self.v637) | (self.v568)) & 0x1;
+        if self.v1047 != c1047 { self.v1047 = c1047; *dirty |= 0x2000; }
+        let c1054: u64 = if (self.q49) != 0 { (c111 | ((self.m0_rd >> 4) << 4)) } else { (self.q47) };
+        if self.v1054 != c1054 { self.v1054 = c1054; *dirty |= 0x4000000000000; }
+        let c1078: u64 = if (self.q54) != 0 { (self.q61) } else { (0x1) };
+        if self.v1078 != c1078 { self.v1078 = c1078; *dirty |= 0x800040000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$fifo.
+    fn group_5(&mut self, dirty: &mut u128) {
+        let c787: u64 = (self.q83).wrapping_add((0x1)) & 0x7;
+        let c788: u64 = (self.q79).wrapping_add((0x1)) & 0x3f;
+        let c796: u64 = !(self.q12) & 0x1;
+        if self.v796 != c796 { self.v796 = c796; *dirty |= 0x8000800200; }
+        let c797: u64 = u64::from((self.q79) == (self.q85));
+        if self.v797 != c797 { self.v797 = c797; *dirty |= 0x1000000000; }
+        let c798: u64 = !(self.q82) & 0x1;
+        if self.v798 != c798 { self.v798 = c798; *dirty |= 0x200000; }
+        let c800: u64 = u64::from((self.q79) != (self.q80));
+        let c802: u64 = ((c800) | (self.q86)) & 0x1;
+        let c791: u64 = (c797) & (c802) & 0x1;
+        let c803: u64 = ((c791) | (self.q82)) & 0x1;
+        let c825: u64 = !(c803) & 0x1;
+        let c831: u64 = ((self.q78) | (self.q18)) & 0x1;
+        let c827: u64 = (c831) & (c825) & 0x1;
+        if self.v827 != c827 { self.v827 = c827; *dirty |= 0x200000; }
+        let c832: u64 = if ((self.q83 & 0x1)) != 0 { ((self.q14 >> 3)) } else { (self.q16 | (self.q10 << 6) | (self.q12 << 7)) };
+        let c833: u64 = if ((self.q83 & 0x1)) != 0 { (((self.q13 >> 5) & 0xff)) } else { (((self.q13 >> 13) & 0xf) | (self.v913 << 4) | ((self.q14 & 0x7) << 5)) };
+        let c834: u64 = if (((self.q83 >> 1) & 0x1)) != 0 { (c833) } else { (c832) };
+        let c835: u64 = if ((self.q83 >> 2)) != 0 { ((self.q10 << 2) | ((self.q13 & 0x1f) << 3)) } else { (c834) };
+        let c837: u64 = if (self.q78) != 0 { (c835) } else { (self.q16 | (self.q10 << 6) | (self.q12 << 7)) };
+        let c830: u64 = if (self.q18) != 0 { (self.q17) } else { (c837) };
+        if self.v830 != c830 { self.v830 = c830; *dirty |= 0x200000; }
+        let c839: u64 = if (self.q78) != 0 { (c787) } else { (0x0) };
+        if self.v839 != c839 { self.v839 = c839; *dirty |= 0x200000000000000000000; }
+        let c840: u64 = if (self.q15) != 0 { (0x0) } else { (self.q82) };
+        let c824: u64 = ((c840) | (c803)) & 0x1;
+        let c828: u64 = if (c831) != 0 { (c824) } else { (c840) };
+        if self.v828 != c828 { self.v828 = c828; *dirty |= 0x4000000000000000000000; }
+        let c841: u64 = ((self.q78) | (self.q15)) & 0x1;
+        let c842: u64 = if (self.q15) != 0 { (self.q80) } else { (self.q79) };
+        let c826: u64 = if (c803) != 0 { (c842) } else { (c788) };
+        let c829: u64 = if (c831) != 0 { (c826) } else { (c842) };
+        if self.v829 != c829 { self.v829 = c829; *dirty |= 0x800000000000000000000; }
+        let c843: u64 = if (self.q12) != 0 { (0x2) } else { (0x1) };
+        let c795: u64 = u64::from((self.q83) == ((c843 << 1)));
+        let c836: u64 = if (c795) != 0 { (0x0) } else { (c841) };
+        let c838: u64 = if (self.q78) != 0 { (c836) } else { (c841) };
+        if self.v838 != c838 { self.v838 = c838; *dirty |= 0x1000000000000000000000; }
+        let c847: u64 = if (self.q87) != 0 { (self.m0_rd) } else { (self.q84) };
+        if self.v847 != c847 { self.v847 = c847; *dirty |= 0x1000040000; }
+        let c846: u64 = if ((c847 >> 7)) != 0 { (0x2) } else { (0x1) };
+        let c786: u64 = ((c846 << 1) | 0x1).wrapping_add(((c847 & 0xf))) & 0xf;
+        let c845: u64 = if (((c847 >> 3) & 0x1)) != 0 { ((c846 << 1) | 0x9) } else { (c786) };
+        let c844: u64 = if (((c847 >> 6) & 0x1)) != 0 { ((c846 << 1) | 0x1) } else { (c845) };
+        let c789: u64 = (self.q85).wrapping_add((c844)) & 0x3f;
+        if self.v789 != c789 { self.v789 = c789; *dirty |= 0x1000200000; }
+        let c848: u64 = (self.q88).wrapping_sub((0x1)) & 0x1f;
+        if self.v848 != c848 { self.v848 = c848; *dirty |= 0x1000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$capture.
-    fn group_5(&mut self, dirty: &mut u128) {
-        let c290: u64 = u64::from((((self.q11 >> 3) & 0x3)) == (0x1));
-        let c291: u64 = u64::from(((self.q11 & 0x7)) == (0x4));
-        let c292: u64 = u64::from(((self.q11 & 0x7)) == (0x3));
-        let c293: u64 = !(((self.q11 >> 2) & 0x1)) & 0x1;
-        let c294: u64 = u64::from((((self.q11 >> 3) & 0x3)) == (0x2));
-        let c295: u64 = u64::from((((self.q11 >> 1) & 0x3)) == 0);
-        let c296: u64 = u64::from((((self.q11 >> 3) & 0x3)) == (0x3));
-        let c297: u64 = u64::from((self.q11) == (0x1));
+    fn group_6(&mut self, dirty: &mut u128) {
+        let c290: u64 = u64::from((((self.q5 >> 3) & 0x3)) == (0x1));
+        let c291: u64 = u64::from(((self.q5 & 0x7)) == (0x4));
+        let c292: u64 = u64::from(((self.q5 & 0x7)) == (0x3));
+        let c293: u64 = !(((self.q5 >> 2) & 0x1)) & 0x1;
+        let c294: u64 = u64::from((((self.q5 >> 3) & 0x3)) == (0x2));
+        let c295: u64 = u64::from((((self.q5 >> 1) & 0x3)) == 0);
+        let c296: u64 = u64::from((((self.q5 >> 3) & 0x3)) == (0x3));
+        let c297: u64 = u64::from((self.q5) == (0x1));
         if self.v297 != c297 { self.v297 = c297; *dirty |= 0x400000; }
-        let c298: u64 = u64::from(((self.q11 & 0x7)) != (0x3));
+        let c298: u64 = u64::from(((self.q5 & 0x7)) != (0x3));
         let c289: u64 = (c293) & (c298) & 0x1;
-        let c299: u64 = u64::from(((self.q11 >> 5)) != 0);
+        let c299: u64 = u64::from(((self.q5 >> 5)) != 0);
         let c300: u64 = !(self.v536) & 0x1;
-        let c301: u64 = if (self.q102) != 0 { (0x2) } else { (0x1) };
+        let c301: u64 = if (self.q97) != 0 { (0x2) } else { (0x1) };
         let c303: u64 = if (self.v536) != 0 { (0x2) } else { (0x1) };
         let c302: u64 = if (c297) != 0 { (0x0) } else { (c303) };
-        let c304: u64 = if (self.q18) != 0 { (c302) } else { (c300) };
+        let c304: u64 = if (self.q12) != 0 { (c302) } else { (c300) };
         let c306: u64 = if (self.v390) != 0 { (0x0) } else { (c295 | 0x2) };
         let c308: u64 = !(c295) & 0x1;
         let c312: u64 = !(c291) & 0x1;
@@ -3536,237 +3594,139 @@ impl Model {
     }
 
     /// The cells of top$interrupts.
-    fn group_6(&mut self, dirty: &mut u128) {
-        let c923: u64 = (self.i_re) & (self.v1046) & 0x1;
-        let c924: u64 = (self.q60) & (self.v1036) & 0x1;
-        if self.v924 != c924 { self.v924 = c924; *dirty |= 0x800000000; }
-        let c926: u64 = (self.q12) & (self.q118) & 0x1;
-        if self.v926 != c926 { self.v926 = c926; *dirty |= 0x400000000000000800000000; }
-        let c927: u64 = (self.q13) & (self.q119) & 0x1;
-        if self.v927 != c927 { self.v927 = c927; *dirty |= 0x1000000000000000800000000; }
-        let c928: u64 = (self.i_re) & (self.q60) & 0x1;
-        let c933: u64 = !(self.q123) & 0x1;
-        if self.v933 != c933 { self.v933 = c933; *dirty |= 0x40c80; }
-        let c934: u64 = !(self.q65) & 0x1;
-        let c929: u64 = (self.q86) & (c934) & 0x1;
-        if self.v929 != c929 { self.v929 = c929; *dirty |= 0x800000000; }
-        let c935: u64 = !(self.q63) & 0x1;
-        let c939: u64 = u64::from((self.q110) != (self.q71));
-        let c940: u64 = u64::from((self.q111) != (self.q64));
-        let c941: u64 = u64::from((self.q93) != 0);
-        if self.v941 != c941 { self.v941 = c941; *dirty |= 0x10000000000000000800040000; }
-        let c114: u64 = (self.q72) & (c941) & 0x1;
-        let c125: u64 = if (self.q60) != 0 { (c941) } else { (c114) };
+    fn group_7(&mut self, dirty: &mut u128) {
+        let c922: u64 = (self.i_re) & (self.v1045) & 0x1;
+        let c923: u64 = (self.q54) & (self.v1035) & 0x1;
+        if self.v923 != c923 { self.v923 = c923; *dirty |= 0x800000000; }
+        let c925: u64 = (self.q6) & (self.q119) & 0x1;
+        if self.v925 != c925 { self.v925 = c925; *dirty |= 0x400000000000000800000000; }
+        let c926: u64 = (self.q7) & (self.q120) & 0x1;
+        if self.v926 != c926 { self.v926 = c926; *dirty |= 0x1000000000000000800000000; }
+        let c927: u64 = (self.i_re) & (self.q54) & 0x1;
+        let c932: u64 = !(self.q124) & 0x1;
+        if self.v932 != c932 { self.v932 = c932; *dirty |= 0x40b00; }
+        let c933: u64 = !(self.q59) & 0x1;
+        let c928: u64 = (self.q81) & (c933) & 0x1;
+        if self.v928 != c928 { self.v928 = c928; *dirty |= 0x800000000; }
+        let c934: u64 = !(self.q57) & 0x1;
+        let c938: u64 = u64::from((self.q111) != (self.q65));
+        let c939: u64 = u64::from((self.q112) != (self.q58));
+        let c940: u64 = u64::from((self.q88) != 0);
+        if self.v940 != c940 { self.v940 = c940; *dirty |= 0x10000000000000000800040000; }
+        let c114: u64 = (self.q66) & (c940) & 0x1;
+        let c125: u64 = if (self.q54) != 0 { (c940) } else { (c114) };
         if self.v125 != c125 { self.v125 = c125; *dirty |= 0x40000; }
-        let c930: u64 = (c941) & (c935) & 0x1;
-        if self.v930 != c930 { self.v930 = c930; *dirty |= 0x800000000; }
-        let c942: u64 = u64::from((self.q93) != (0x1));
-        if self.v942 != c942 { self.v942 = c942; *dirty |= 0x800000000; }
-        let c950: u64 = if (c923) != 0 { (0x0) } else { (self.q66) };
-        if self.v950 != c950 { self.v950 = c950; *dirty |= 0x800000000; }
-        let c952: u64 = if (c923) != 0 { (0x0) } else { (self.q72) };
-        if self.v952 != c952 { self.v952 = c952; *dirty |= 0x800000000; }
-        let c953: u64 = if (self.q123) != 0 { (0x0) } else { (c940) };
-        let c954: u64 = if (self.q110) != 0 { (0x0) } else { (c953) };
-        if self.v954 != c954 { self.v954 = c954; *dirty |= 0x800000000; }
-        let c956: u64 = if (self.q60) != 0 { (self.q38) } else { (0x60) };
-        let c936: u64 = u64::from((self.q3 | (self.q4 << 3) | (self.q2 << 7)) >= (c956));
-        let c937: u64 = u64::from((self.q5 | (self.q6 << 7)) >= (c956));
-        let c943: u64 = ((c936) | (c937)) & 0x1;
-        let c944: u64 = ((c943) | (self.q110)) & 0x1;
-        let c955: u64 = if (self.q123) != 0 { (self.q69) } else { (c944) };
-        if self.v955 != c955 { self.v955 = c955; *dirty |= 0x2000000000000000000000000; }
-        let c938: u64 = u64::from((c955) != (self.q69));
-        let c945: u64 = ((c938) | (c939)) & 0x1;
-        if self.v945 != c945 { self.v945 = c945; *dirty |= 0x800000000; }
-        let c961: u64 = if (c927) != 0 { (0x0) } else { (self.q119) };
-        let c957: u64 = ((c961) | (self.v1038)) & 0x1;
-        let c959: u64 = if (c928) != 0 { (c957) } else { (c961) };
+        let c929: u64 = (c940) & (c934) & 0x1;
+        if self.v929 != c929 { self.v929 = c929; *dirty |= 0x800000000; }
+        let c941: u64 = u64::from((self.q88) != (0x1));
+        if self.v941 != c941 { self.v941 = c941; *dirty |= 0x800000000; }
+        let c949: u64 = if (c922) != 0 { (0x0) } else { (self.q60) };
+        if self.v949 != c949 { self.v949 = c949; *dirty |= 0x800000000; }
+        let c951: u64 = if (c922) != 0 { (0x0) } else { (self.q66) };
+        if self.v951 != c951 { self.v951 = c951; *dirty |= 0x800000000; }
+        let c952: u64 = if (self.q124) != 0 { (0x0) } else { (c939) };
+        let c953: u64 = if (self.q111) != 0 { (0x0) } else { (c952) };
+        if self.v953 != c953 { self.v953 = c953; *dirty |= 0x800000000; }
+        let c955: u64 = if (self.q54) != 0 { (self.q32) } else { (0x60) };
+        let c935: u64 = u64::from((self.q104 | (self.q105 << 3) | (self.q103 << 7)) >= (c955));
+        let c936: u64 = u64::from((self.q106 | (self.q0 << 7)) >= (c955));
+        let c942: u64 = ((c935) | (c936)) & 0x1;
+        let c943: u64 = ((c942) | (self.q111)) & 0x1;
+        let c954: u64 = if (self.q124) != 0 { (self.q63) } else { (c943) };
+        if self.v954 != c954 { self.v954 = c954; *dirty |= 0x2000000000000000000000000; }
+        let c937: u64 = u64::from((c954) != (self.q63));
+        let c944: u64 = ((c937) | (c938)) & 0x1;
+        if self.v944 != c944 { self.v944 = c944; *dirty |= 0x800000000; }
+        let c960: u64 = if (c926) != 0 { (0x0) } else { (self.q120) };
+        let c956: u64 = ((c960) | (self.v1037)) & 0x1;
+        let c958: u64 = if (c927) != 0 { (c956) } else { (c960) };
+        let c946: u64 = ((c958) | (self.i_reset)) & 0x1;
+        if self.v946 != c946 { self.v946 = c946; *dirty |= 0x1000000000000000000000000; }
+        let c961: u64 = if (c925) != 0 { (0x0) } else { (self.q119) };
+        let c957: u64 = ((c961) | (self.v1036)) & 0x1;
+        let c959: u64 = if (c927) != 0 { (c957) } else { (c961) };
         let c947: u64 = ((c959) | (self.i_reset)) & 0x1;
-        if self.v947 != c947 { self.v947 = c947; *dirty |= 0x1000000000000000000000000; }
-        let c962: u64 = if (c926) != 0 { (0x0) } else { (self.q118) };
-        let c958: u64 = ((c962) | (self.v1037)) & 0x1;
-        let c960: u64 = if (c928) != 0 { (c958) } else { (c962) };
-        let c948: u64 = ((c960) | (self.i_reset)) & 0x1;
-        if self.v948 != c948 { self.v948 = c948; *dirty |= 0x400000000000000000000000; }
+        if self.v947 != c947 { self.v947 = c947; *dirty |= 0x400000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$modes.
-    fn group_7(&mut self, dirty: &mut u128) {
-        let c84: u64 = !(self.q125) & 0x1;
+    fn group_8(&mut self, dirty: &mut u128) {
+        let c84: u64 = !(self.q126) & 0x1;
         if self.v84 != c84 { self.v84 = c84; *dirty |= 0x400000000; }
         let c94: u64 = u64::from((self.i_reset | (c84 << 1)) != 0);
         if self.v94 != c94 { self.v94 = c94; *dirty |= 0x1000000000000000000000000000; }
-        let c964: u64 = (self.q56).wrapping_add((0x1)) & 0x1f;
-        if self.v964 != c964 { self.v964 = c964; *dirty |= 0x1000000000000000000000000000; }
-        let c965: u64 = (self.i_we) & (self.v1044) & 0x1;
-        if self.v965 != c965 { self.v965 = c965; *dirty |= 0x800; }
-        let c72: u64 = u64::from((self.q60 | (self.q123 << 1) | (c965 << 2)) == 0x7);
-        if self.v72 != c72 { self.v72 = c72; *dirty |= 0x40000000000000000000000000; }
-        let c966: u64 = ((self.i_wdata & 0x1)) & (self.v933) & 0x1;
-        let c978: u64 = !((self.i_wdata & 0x1)) & 0x1;
-        let c967: u64 = (((self.i_wdata >> 4) & 0x1)) & (c978) & 0x1;
-        let c979: u64 = !(((self.i_wdata >> 4) & 0x1)) & 0x1;
-        let c982: u64 = !(self.i_rx) & 0x1;
-        if self.v982 != c982 { self.v982 = c982; *dirty |= 0x400000000; }
-        let c983: u64 = !(self.q71) & 0x1;
-        let c972: u64 = (self.q110) & (c983) & 0x1;
-        let c984: u64 = u64::from((self.i_addr) == (0x1f));
-        if self.v984 != c984 { self.v984 = c984; *dirty |= 0x40000; }
-        let c973: u64 = (self.i_we) & (c984) & 0x1;
-        if self.v973 != c973 { self.v973 = c973; *dirty |= 0x10000000000; }
-        let c71: u64 = u64::from((self.q123 | (c973 << 1)) == 0x3);
-        if self.v71 != c71 { self.v71 = c71; *dirty |= 0x10000000000; }
-        let c985: u64 = u64::from((self.q56) == (0x10));
-        if self.v985 != c985 { self.v985 = c985; *dirty |= 0x20000000000000000000000000; }
-        let c988: u64 = u64::from((self.q56) != (0x10));
-        if self.v988 != c988 { self.v988 = c988; *dirty |= 0x400000000; }
-        let c997: u64 = if (self.q123) != 0 { (((self.i_wdata >> 3) & 0x1) | ((self.i_wdata >> 5) << 1)) } else { (self.q61 | (self.q60 << 3)) };
-        let c998: u64 = if (c973) != 0 { ((self.i_wdata & 0x7) | (c997 << 3)) } else { (self.q42 | (self.q61 << 3) | (self.q60 << 6)) };
-        let c990: u64 = if (self.i_reset) != 0 { (0x0) } else { (c998) };
-        if self.v990 != c990 { self.v990 = c990; *dirty |= 0x10000000000; }
-        let c1010: u64 = if (self.q123) != 0 { (((self.i_wdata >> 2) & 0x1)) } else { (self.q126) };
-        let c1011: u64 = if (self.q123) != 0 { (((self.i_wdata >> 1) & 0x1)) } else { (self.q122) };
-        let c1012: u64 = if (self.q123) != 0 { (0x0) } else { (c979) };
-        let c1013: u64 = if (self.q123) != 0 { (0x0) } else { (c967) };
-        let c1014: u64 = (self.q60) & (c1012) & 0x1;
-        let c1015: u64 = (self.q60) & (c1013) & 0x1;
-        let c1016: u64 = if (self.q60) != 0 { (c1010) } else { (self.q126) };
-        let c1017: u64 = if (self.q60) != 0 { (c1011) } else { (self.q122) };
-        let c1018: u64 = (c965) & (c1014) & 0x1;
+        let c963: u64 = (self.q50).wrapping_add((0x1)) & 0x1f;
+        if self.v963 != c963 { self.v963 = c963; *dirty |= 0x1000000000000000000000000000; }
+        let c964: u64 = (self.i_we) & (self.v1043) & 0x1;
+        if self.v964 != c964 { self.v964 = c964; *dirty |= 0x800; }
+        let c70: u64 = u64::from((self.q54 | (self.q124 << 1) | (c964 << 2)) == 0x7);
+        if self.v70 != c70 { self.v70 = c70; *dirty |= 0x40000000000000000000000000; }
+        let c965: u64 = ((self.i_wdata & 0x1)) & (self.v932) & 0x1;
+        let c977: u64 = !((self.i_wdata & 0x1)) & 0x1;
+        let c966: u64 = (((self.i_wdata >> 4) & 0x1)) & (c977) & 0x1;
+        let c978: u64 = !(((self.i_wdata >> 4) & 0x1)) & 0x1;
+        let c981: u64 = !(self.i_rx) & 0x1;
+        if self.v981 != c981 { self.v981 = c981; *dirty |= 0x400000000; }
+        let c982: u64 = !(self.q65) & 0x1;
+        let c971: u64 = (self.q111) & (c982) & 0x1;
+        let c983: u64 = u64::from((self.i_addr) == (0x1f));
+        if self.v983 != c983 { self.v983 = c983; *dirty |= 0x40000; }
+        let c972: u64 = (self.i_we) & (c983) & 0x1;
+        if self.v972 != c972 { self.v972 = c972; *dirty |= 0x10000000000; }
+        let c69: u64 = u64::from((self.q124 | (c972 << 1)) == 0x3);
+        if self.v69 != c69 { self.v69 = c69; *dirty |= 0x10000000000; }
+        let c984: u64 = u64::from((self.q50) == (0x10));
+        if self.v984 != c984 { self.v984 = c984; *dirty |= 0x20000000000000000000000000; }
+        let c987: u64 = u64::from((self.q50) != (0x10));
+        if self.v987 != c987 { self.v987 = c987; *dirty |= 0x400000000; }
+        let c996: u64 = if (self.q124) != 0 { (((self.i_wdata >> 3) & 0x1) | ((self.i_wdata >> 5) << 1)) } else { (self.q55 | (self.q54 << 3)) };
+        let c997: u64 = if (c972) != 0 { ((self.i_wdata & 0x7) | (c996 << 3)) } else { (self.q36 | (self.q55 << 3) | (self.q54 << 6)) };
+        let c989: u64 = if (self.i_reset) != 0 { (0x0) } else { (c997) };
+        if self.v989 != c989 { self.v989 = c989; *dirty |= 0x10000000000; }
+        let c1009: u64 = if (self.q124) != 0 { (((self.i_wdata >> 2) & 0x1)) } else { (self.q127) };
+        let c1010: u64 = if (self.q124) != 0 { (((self.i_wdata >> 1) & 0x1)) } else { (self.q123) };
+        let c1011: u64 = if (self.q124) != 0 { (0x0) } else { (c978) };
+        let c1012: u64 = if (self.q124) != 0 { (0x0) } else { (c966) };
+        let c1013: u64 = (self.q54) & (c1011) & 0x1;
+        let c1014: u64 = (self.q54) & (c1012) & 0x1;
+        let c1015: u64 = if (self.q54) != 0 { (c1009) } else { (self.q127) };
+        let c1016: u64 = if (self.q54) != 0 { (c1010) } else { (self.q123) };
+        let c1017: u64 = (c964) & (c1013) & 0x1;
+        if self.v1017 != c1017 { self.v1017 = c1017; *dirty |= 0x400000000; }
+        let c1018: u64 = (c964) & (c1014) & 0x1;
         if self.v1018 != c1018 { self.v1018 = c1018; *dirty |= 0x400000000; }
-        let c1019: u64 = (c965) & (c1015) & 0x1;
-        if self.v1019 != c1019 { self.v1019 = c1019; *dirty |= 0x400000000; }
-        let c1020: u64 = if (c965) != 0 { (c1016) } else { (self.q126) };
+        let c1019: u64 = if (c964) != 0 { (c1015) } else { (self.q127) };
+        let c991: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1019) };
+        if self.v991 != c991 { self.v991 = c991; *dirty |= 0x4000000000000000000000000000; }
+        let c976: u64 = (c991) & ((c989 >> 6)) & 0x1;
+        if self.v976 != c976 { self.v976 = c976; *dirty |= 0x800000000000000000000000000; }
+        let c1020: u64 = if (c964) != 0 { (c1016) } else { (self.q123) };
         let c992: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1020) };
-        if self.v992 != c992 { self.v992 = c992; *dirty |= 0x4000000000000000000000000000; }
-        let c977: u64 = (c992) & ((c990 >> 6)) & 0x1;
-        if self.v977 != c977 { self.v977 = c977; *dirty |= 0x800000000000000000000000000; }
-        let c1021: u64 = if (c965) != 0 { (c1017) } else { (self.q122) };
-        let c993: u64 = if (self.i_reset) != 0 { (0x0) } else { (c1021) };
-        if self.v993 != c993 { self.v993 = c993; *dirty |= 0x200000000000000000000000000; }
-        let c976: u64 = (c993) & ((c990 >> 6)) & 0x1;
-        if self.v976 != c976 { self.v976 = c976; *dirty |= 0x100000000000000000000000000; }
-        let c1022: u64 = (c965) & (c966) & 0x1;
-        let c1000: u64 = if (c972) != 0 { (self.v933) } else { (c1022) };
-        if self.v1000 != c1000 { self.v1000 = c1000; *dirty |= 0xc00020000; }
-        let c93: u64 = u64::from((self.i_reset | (c1000 << 1)) != 0);
+        if self.v992 != c992 { self.v992 = c992; *dirty |= 0x200000000000000000000000000; }
+        let c975: u64 = (c992) & ((c989 >> 6)) & 0x1;
+        if self.v975 != c975 { self.v975 = c975; *dirty |= 0x100000000000000000000000000; }
+        let c1021: u64 = (c964) & (c965) & 0x1;
+        let c999: u64 = if (c971) != 0 { (self.v932) } else { (c1021) };
+        if self.v999 != c999 { self.v999 = c999; *dirty |= 0xc00020000; }
+        let c93: u64 = u64::from((self.i_reset | (c999 << 1)) != 0);
         if self.v93 != c93 { self.v93 = c93; *dirty |= 0x20000000000000000000000000000000; }
-        let c1023: u64 = if (c965) != 0 { ((self.i_wdata & 0x1)) } else { (self.q123) };
-        let c1001: u64 = ((c1023) | (c972)) & 0x1;
-        let c994: u64 = ((c1001) | (self.i_reset)) & 0x1;
-        if self.v994 != c994 { self.v994 = c994; *dirty |= 0x400000000000000000000000000; }
-        let c986: u64 = !(c994) & 0x1;
-        if self.v986 != c986 { self.v986 = c986; *dirty |= 0x400000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$core$protocol$faults.
-    fn group_8(&mut self, dirty: &mut u128) {
-        let c317: u64 = (self.q4 | (self.q2 << 4)).wrapping_add((0x1)) & 0x1f;
-        let c318: u64 = (self.q5 | (self.q6 << 7)).wrapping_add((0x1)) & 0xff;
-        if self.v318 != c318 { self.v318 = c318; *dirty |= 0x80000000; }
-        let c319: u64 = ((self.q5 >> 3) | (self.q6 << 4)).wrapping_add((0x1)) & 0x1f;
-        let c324: u64 = u64::from((self.q3 | (self.q4 << 3) | (self.q2 << 7)) == 0);
-        if self.v324 != c324 { self.v324 = c324; *dirty |= 0x100000000; }
-        let c325: u64 = u64::from((self.q4 | (self.q2 << 4)) == (0x1f));
-        if self.v325 != c325 { self.v325 = c325; *dirty |= 0x100000000; }
-        let c326: u64 = u64::from(((self.q5 >> 3) | (self.q6 << 4)) == (0x1f));
-        let c327: u64 = u64::from((self.i_wdata) == (0xff));
-        if self.v327 != c327 { self.v327 = c327; *dirty |= 0x80000000; }
-        let c328: u64 = u64::from((self.q3 | (self.q4 << 3) | (self.q2 << 7)) != 0);
-        if self.v328 != c328 { self.v328 = c328; *dirty |= 0x80000000; }
-        let c329: u64 = u64::from((self.q5 | (self.q6 << 7)) != (0xff));
-        if self.v329 != c329 { self.v329 = c329; *dirty |= 0x80000000; }
-        let c330: u64 = u64::from((self.q5 | (self.q6 << 7)) != 0);
-        if self.v330 != c330 { self.v330 = c330; *dirty |= 0x80000000; }
-        let c340: u64 = if (c327) != 0 { (0x7f) } else { (self.i_wdata) };
-        if self.v340 != c340 { self.v340 = c340; *dirty |= 0x80000000; }
-        let c348: u64 = if (c326) != 0 { (0xff) } else { ((self.q5 & 0x7) | (c319 << 3)) };
-        if self.v348 != c348 { self.v348 = c348; *dirty |= 0x80000000; }
-        let c352: u64 = if (c325) != 0 { (0x0) } else { (self.q5 | (self.q6 << 7)) };
-        if self.v352 != c352 { self.v352 = c352; *dirty |= 0x80000000; }
-        let c353: u64 = if (c325) != 0 { (0x1f) } else { ((c317 << 1)) };
-        if self.v353 != c353 { self.v353 = c353; *dirty |= 0x80000000; }
-        let c354: u64 = ((self.q110) | (c325)) & 0x1;
-        if self.v354 != c354 { self.v354 = c354; *dirty |= 0x80000000; }
-        let c361: u64 = if (c324) != 0 { (0x0) } else { (self.q5 | (self.q6 << 7)) };
-        if self.v361 != c361 { self.v361 = c361; *dirty |= 0x80000000; }
-        let c362: u64 = !(c324) & 0x1;
-        if self.v362 != c362 { self.v362 = c362; *dirty |= 0x80000000; }
-        let c370: u64 = (self.q3 | (self.q4 << 3) | (self.q2 << 7)).wrapping_sub((0x1)) & 0xff;
-        if self.v370 != c370 { self.v370 = c370; *dirty |= 0x80000000; }
-        let c363: u64 = if (c324) != 0 { ((self.q2 << 7)) } else { (c370) };
-        if self.v363 != c363 { self.v363 = c363; *dirty |= 0x80000000; }
-        let c371: u64 = (self.q5 | (self.q6 << 7)).wrapping_sub((0x1)) & 0xff;
-        if self.v371 != c371 { self.v371 = c371; *dirty |= 0x80000000; }
-        let _ = &dirty;
-    }
-
-    /// The cells of top$fifo.
-    fn group_9(&mut self, dirty: &mut u128) {
-        let c788: u64 = (self.q88).wrapping_add((0x1)) & 0x7;
-        let c799: u64 = !(self.q18) & 0x1;
-        if self.v799 != c799 { self.v799 = c799; *dirty |= 0x8000800400; }
-        let c800: u64 = !(self.q87) & 0x1;
-        if self.v800 != c800 { self.v800 = c800; *dirty |= 0x200000; }
-        let c830: u64 = ((self.q84) | (self.q24)) & 0x1;
-        let c831: u64 = if ((self.q88 & 0x1)) != 0 { ((self.q20 >> 3)) } else { (self.q22 | (self.q16 << 6) | (self.q18 << 7)) };
-        let c832: u64 = if ((self.q88 & 0x1)) != 0 { (((self.q19 >> 5) & 0xff)) } else { (((self.q19 >> 13) & 0xf) | (self.v914 << 4) | ((self.q20 & 0x7) << 5)) };
-        let c833: u64 = if (((self.q88 >> 1) & 0x1)) != 0 { (c832) } else { (c831) };
-        let c834: u64 = if ((self.q88 >> 2)) != 0 { ((self.q16 << 2) | ((self.q19 & 0x1f) << 3)) } else { (c833) };
-        let c836: u64 = if (self.q84) != 0 { (c834) } else { (self.q22 | (self.q16 << 6) | (self.q18 << 7)) };
-        let c828: u64 = if (self.q24) != 0 { (self.q23) } else { (c836) };
-        if self.v828 != c828 { self.v828 = c828; *dirty |= 0x200000; }
-        let c838: u64 = if (self.q84) != 0 { (c788) } else { (0x0) };
-        if self.v838 != c838 { self.v838 = c838; *dirty |= 0x200000000000000000000; }
-        let c839: u64 = if (self.q21) != 0 { (0x0) } else { (self.q87) };
-        let c840: u64 = ((self.q84) | (self.q21)) & 0x1;
-        let c843: u64 = if (self.q18) != 0 { (0x2) } else { (0x1) };
-        let c787: u64 = ((c843 << 1) | 0x1).wrapping_add((self.q22)) & 0xf;
-        let c789: u64 = ((c843 << 1) | 0x1).wrapping_add((self.q25)) & 0xf;
-        let c798: u64 = u64::from((self.q88) == ((c843 << 1)));
-        let c829: u64 = if (self.q24) != 0 { (c789) } else { (self.q88) };
-        let c791: u64 = (self.q85).wrapping_add((c829)) & 0x3f;
-        if self.v791 != c791 { self.v791 = c791; *dirty |= 0x200000; }
-        let c835: u64 = if (c798) != 0 { (0x0) } else { (c840) };
-        let c837: u64 = if (self.q84) != 0 { (c835) } else { (c840) };
-        if self.v837 != c837 { self.v837 = c837; *dirty |= 0x1000000000000000000000; }
-        let c842: u64 = if ((self.q22 >> 3)) != 0 { ((c843 << 1) | 0x9) } else { (c787) };
-        let c841: u64 = if (self.q16) != 0 { ((c843 << 1) | 0x1) } else { (c842) };
-        let c793: u64 = (self.q85).wrapping_add((c841)) & 0x3f;
-        if self.v793 != c793 { self.v793 = c793; *dirty |= 0x200000; }
-        let c801: u64 = u64::from((c793) == (self.q90));
-        if self.v801 != c801 { self.v801 = c801; *dirty |= 0x1000000000; }
-        let c847: u64 = if (self.q92) != 0 { (self.m0_rd) } else { (self.q89) };
-        if self.v847 != c847 { self.v847 = c847; *dirty |= 0x1000040000; }
-        let c846: u64 = if ((c847 >> 7)) != 0 { (0x2) } else { (0x1) };
-        let c786: u64 = ((c846 << 1) | 0x1).wrapping_add(((c847 & 0xf))) & 0xf;
-        let c845: u64 = if (((c847 >> 3) & 0x1)) != 0 { ((c846 << 1) | 0x9) } else { (c786) };
-        let c844: u64 = if (((c847 >> 6) & 0x1)) != 0 { ((c846 << 1) | 0x1) } else { (c845) };
-        let c792: u64 = (self.q90).wrapping_add((c844)) & 0x3f;
-        if self.v792 != c792 { self.v792 = c792; *dirty |= 0x1000200000; }
-        let c848: u64 = (self.q85).wrapping_sub((self.q90)) & 0x3f;
-        let c790: u64 = (c848 | (self.q91 << 6)).wrapping_add((c829)) & 0x7f;
-        let c824: u64 = ((c839) | ((c790 >> 6))) & 0x1;
-        let c825: u64 = !((c790 >> 6)) & 0x1;
-        let c826: u64 = if (c830) != 0 { (c824) } else { (c839) };
-        if self.v826 != c826 { self.v826 = c826; *dirty |= 0x4000000000000000000000; }
-        let c827: u64 = (c830) & (c825) & 0x1;
-        if self.v827 != c827 { self.v827 = c827; *dirty |= 0x200000; }
-        let c849: u64 = (self.q93).wrapping_sub((0x1)) & 0x1f;
-        if self.v849 != c849 { self.v849 = c849; *dirty |= 0x1000000000; }
+        let c1022: u64 = if (c964) != 0 { ((self.i_wdata & 0x1)) } else { (self.q124) };
+        let c1000: u64 = ((c1022) | (c971)) & 0x1;
+        let c993: u64 = ((c1000) | (self.i_reset)) & 0x1;
+        if self.v993 != c993 { self.v993 = c993; *dirty |= 0x400000000000000000000000000; }
+        let c985: u64 = !(c993) & 0x1;
+        if self.v985 != c985 { self.v985 = c985; *dirty |= 0x400000000; }
         let _ = &dirty;
     }
 
     /// The cells of can_controller.
-    fn group_10(&mut self, dirty: &mut u128) {
-        let c4: u64 = (self.i_we) & (self.v933) & 0x1;
-        let c5: u64 = (c4) & (self.q127) & 0x1;
+    fn group_9(&mut self, dirty: &mut u128) {
+        let c4: u64 = (self.i_we) & (self.v932) & 0x1;
+        let c5: u64 = (c4) & (self.q128) & 0x1;
         if self.v5 != c5 { self.v5 = c5; *dirty |= 0x20000; }
-        let c14: u64 = (self.q8) & (self.q7) & 0x1;
-        let c15: u64 = (c14) & (self.q52) & 0x1;
+        let c14: u64 = (self.q2) & (self.q1) & 0x1;
+        let c15: u64 = (c14) & (self.q46) & 0x1;
         let c777: u64 = { let s = (self.i_addr); if s < 256 { TABLE_0[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
         if self.v777 != c777 { self.v777 = c777; *dirty |= 0x800; }
         let c778: u64 = { let s = (self.i_addr); if s < 256 { TABLE_1[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
@@ -3779,28 +3739,70 @@ impl Model {
         if self.v781 != c781 { self.v781 = c781; *dirty |= 0x800; }
         let c782: u64 = { let s = (self.i_addr); if s < 256 { TABLE_5[(s >> 6) as usize] >> (s & 63) & 1 } else { 0 } };
         if self.v782 != c782 { self.v782 = c782; *dirty |= 0x40000; }
-        let c1102: u64 = ((self.q94) | (c15)) & 0x1;
-        let c16: u64 = (c1102) & (self.v917) & 0x1;
-        let c1103: u64 = ((self.q60) | (self.v799)) & 0x1;
-        let c17: u64 = (c16) & (c1103) & 0x1;
+        let c1101: u64 = ((self.q89) | (c15)) & 0x1;
+        let c16: u64 = (c1101) & (self.v916) & 0x1;
+        let c1102: u64 = ((self.q54) | (self.v796)) & 0x1;
+        let c17: u64 = (c16) & (c1102) & 0x1;
         if self.v17 != c17 { self.v17 = c17; *dirty |= 0x200000; }
-        let c1110: u64 = if (self.q8) != 0 { (self.q7) } else { (self.q128) };
+        let c1109: u64 = if (self.q2) != 0 { (self.q1) } else { (self.q129) };
+        if self.v1109 != c1109 { self.v1109 = c1109; *dirty |= 0x20000; }
+        let c1110: u64 = ((self.q128) | (self.q2)) & 0x1;
         if self.v1110 != c1110 { self.v1110 = c1110; *dirty |= 0x20000; }
-        let c1111: u64 = ((self.q127) | (self.q8)) & 0x1;
+        let c1111: u64 = if (self.q2) != 0 { (0x0) } else { (self.q42) };
         if self.v1111 != c1111 { self.v1111 = c1111; *dirty |= 0x20000; }
-        let c1112: u64 = if (self.q8) != 0 { (0x0) } else { (self.q48) };
-        if self.v1112 != c1112 { self.v1112 = c1112; *dirty |= 0x20000; }
+        let _ = &dirty;
+    }
+
+    /// The cells of top$core$protocol$faults.
+    fn group_10(&mut self, dirty: &mut u128) {
+        let c317: u64 = (self.q105 | (self.q103 << 4)).wrapping_add((0x1)) & 0x1f;
+        let c318: u64 = (self.q106 | (self.q0 << 7)).wrapping_add((0x1)) & 0xff;
+        if self.v318 != c318 { self.v318 = c318; *dirty |= 0x80000000; }
+        let c319: u64 = ((self.q106 >> 3) | (self.q0 << 4)).wrapping_add((0x1)) & 0x1f;
+        let c324: u64 = u64::from((self.q104 | (self.q105 << 3) | (self.q103 << 7)) == 0);
+        if self.v324 != c324 { self.v324 = c324; *dirty |= 0x100000000; }
+        let c325: u64 = u64::from((self.q105 | (self.q103 << 4)) == (0x1f));
+        if self.v325 != c325 { self.v325 = c325; *dirty |= 0x100000000; }
+        let c326: u64 = u64::from(((self.q106 >> 3) | (self.q0 << 4)) == (0x1f));
+        let c327: u64 = u64::from((self.i_wdata) == (0xff));
+        if self.v327 != c327 { self.v327 = c327; *dirty |= 0x80000000; }
+        let c328: u64 = u64::from((self.q104 | (self.q105 << 3) | (self.q103 << 7)) != 0);
+        if self.v328 != c328 { self.v328 = c328; *dirty |= 0x80000000; }
+        let c329: u64 = u64::from((self.q106 | (self.q0 << 7)) != (0xff));
+        if self.v329 != c329 { self.v329 = c329; *dirty |= 0x80000000; }
+        let c330: u64 = u64::from((self.q106 | (self.q0 << 7)) != 0);
+        if self.v330 != c330 { self.v330 = c330; *dirty |= 0x80000000; }
+        let c340: u64 = if (c327) != 0 { (0x7f) } else { (self.i_wdata) };
+        if self.v340 != c340 { self.v340 = c340; *dirty |= 0x80000000; }
+        let c348: u64 = if (c326) != 0 { (0xff) } else { ((self.q106 & 0x7) | (c319 << 3)) };
+        if self.v348 != c348 { self.v348 = c348; *dirty |= 0x80000000; }
+        let c352: u64 = if (c325) != 0 { (0x0) } else { (self.q106 | (self.q0 << 7)) };
+        if self.v352 != c352 { self.v352 = c352; *dirty |= 0x80000000; }
+        let c353: u64 = if (c325) != 0 { (0x1f) } else { ((c317 << 1)) };
+        if self.v353 != c353 { self.v353 = c353; *dirty |= 0x80000000; }
+        let c354: u64 = ((self.q111) | (c325)) & 0x1;
+        if self.v354 != c354 { self.v354 = c354; *dirty |= 0x80000000; }
+        let c361: u64 = if (c324) != 0 { (0x0) } else { (self.q106 | (self.q0 << 7)) };
+        if self.v361 != c361 { self.v361 = c361; *dirty |= 0x80000000; }
+        let c362: u64 = !(c324) & 0x1;
+        if self.v362 != c362 { self.v362 = c362; *dirty |= 0x80000000; }
+        let c370: u64 = (self.q104 | (self.q105 << 3) | (self.q103 << 7)).wrapping_sub((0x1)) & 0xff;
+        if self.v370 != c370 { self.v370 = c370; *dirty |= 0x80000000; }
+        let c363: u64 = if (c324) != 0 { ((self.q103 << 7)) } else { (c370) };
+        if self.v363 != c363 { self.v363 = c363; *dirty |= 0x80000000; }
+        let c371: u64 = (self.q106 | (self.q0 << 7)).wrapping_sub((0x1)) & 0xff;
+        if self.v371 != c371 { self.v371 = c371; *dirty |= 0x80000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$decode.
     fn group_11(&mut self, dirty: &mut u128) {
-        let c47: u64 = !(self.q60) & 0x1;
+        let c47: u64 = !(self.q54) & 0x1;
         if self.v47 != c47 { self.v47 = c47; *dirty |= 0xc00000000; }
-        let c70: u64 = u64::from((c47 | (self.v965 << 1)) == 0x3);
-        if self.v70 != c70 { self.v70 = c70; *dirty |= 0x40000000000000000000000000; }
-        let c761: u64 = (self.i_we) & (self.v1045) & 0x1;
-        let c762: u64 = (c761) & (self.v933) & 0x1;
+        let c68: u64 = u64::from((c47 | (self.v964 << 1)) == 0x3);
+        if self.v68 != c68 { self.v68 = c68; *dirty |= 0x40000000000000000000000000; }
+        let c761: u64 = (self.i_we) & (self.v1044) & 0x1;
+        let c762: u64 = (c761) & (self.v932) & 0x1;
         if self.v762 != c762 { self.v762 = c762; *dirty |= 0x400000000; }
         let c763: u64 = (c762) & ((self.i_wdata & 0x1)) & 0x1;
         if self.v763 != c763 { self.v763 = c763; *dirty |= 0x20000; }
@@ -3809,25 +3811,25 @@ impl Model {
         let c765: u64 = (c762) & (((self.i_wdata >> 2) & 0x1)) & 0x1;
         if self.v765 != c765 { self.v765 = c765; *dirty |= 0x800000000; }
         let c766: u64 = (c762) & (((self.i_wdata >> 3) & 0x1)) & 0x1;
-        let c99: u64 = u64::from((self.i_reset | (c766 << 1) | (self.q123 << 2)) != 0);
+        let c99: u64 = u64::from((self.i_reset | (c766 << 1) | (self.q124 << 2)) != 0);
         if self.v99 != c99 { self.v99 = c99; *dirty |= 0x400000000000000000000; }
         let c767: u64 = (c762) & (((self.i_wdata >> 4) & 0x1)) & 0x1;
-        let c768: u64 = (c767) & (self.q60) & 0x1;
+        let c768: u64 = (c767) & (self.q54) & 0x1;
         let c770: u64 = (((self.i_wdata >> 4) & 0x1)) & (c47) & 0x1;
         if self.v770 != c770 { self.v770 = c770; *dirty |= 0x400000000; }
         let c771: u64 = !(c763) & 0x1;
         if self.v771 != c771 { self.v771 = c771; *dirty |= 0x20000; }
         let c769: u64 = (c768) & (c771) & 0x1;
         if self.v769 != c769 { self.v769 = c769; *dirty |= 0x80000000000000000000000020000; }
-        let c772: u64 = (self.q60) & (self.v779) & 0x1;
+        let c772: u64 = (self.q54) & (self.v779) & 0x1;
         if self.v772 != c772 { self.v772 = c772; *dirty |= 0x4000000100000; }
-        let c773: u64 = (self.q60) & (self.v778) & 0x1;
+        let c773: u64 = (self.q54) & (self.v778) & 0x1;
         if self.v773 != c773 { self.v773 = c773; *dirty |= 0x140000; }
-        let c774: u64 = (self.q60) & (self.v777) & 0x1;
+        let c774: u64 = (self.q54) & (self.v777) & 0x1;
         if self.v774 != c774 { self.v774 = c774; *dirty |= 0x60000; }
-        let c775: u64 = if (self.q60) != 0 { (0x0) } else { (self.v781) };
+        let c775: u64 = if (self.q54) != 0 { (0x0) } else { (self.v781) };
         if self.v775 != c775 { self.v775 = c775; *dirty |= 0x40000; }
-        let c776: u64 = if (self.q60) != 0 { (0x0) } else { (self.v780) };
+        let c776: u64 = if (self.q54) != 0 { (0x0) } else { (self.v780) };
         if self.v776 != c776 { self.v776 = c776; *dirty |= 0x4000000020000; }
         let c783: u64 = ((self.i_addr & 0xf)).wrapping_sub((0x9)) & 0xf;
         if self.v783 != c783 { self.v783 = c783; *dirty |= 0x20000; }
@@ -3840,63 +3842,63 @@ impl Model {
 
     /// The cells of top$core$protocol$sender.
     fn group_12(&mut self, dirty: &mut u128) {
-        let c678: u64 = ((self.q100 & 0x1) | (self.q99 << 1) | ((self.q100 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
+        let c678: u64 = ((self.q95 & 0x1) | (self.q94 << 1) | ((self.q95 >> 1) << 3)).wrapping_add((0x1)) & 0xf;
         if self.v678 != c678 { self.v678 = c678; *dirty |= 0x200000000000; }
-        let c679: u64 = (self.q11).wrapping_add((0x1)) & 0x7f;
+        let c679: u64 = (self.q5).wrapping_add((0x1)) & 0x7f;
         if self.v679 != c679 { self.v679 = c679; *dirty |= 0x4800000; }
-        let c686: u64 = u64::from((self.q101) == 0);
+        let c686: u64 = u64::from((self.q96) == 0);
         if self.v686 != c686 { self.v686 = c686; *dirty |= 0x40040000000; }
-        let c687: u64 = u64::from((self.q101) == (0x1));
+        let c687: u64 = u64::from((self.q96) == (0x1));
         if self.v687 != c687 { self.v687 = c687; *dirty |= 0x40000000000; }
-        let c688: u64 = u64::from((self.q11) == (0x1e));
+        let c688: u64 = u64::from((self.q5) == (0x1e));
         if self.v688 != c688 { self.v688 = c688; *dirty |= 0x4000000; }
         let c689: u64 = !(self.v507) & 0x1;
         if self.v689 != c689 { self.v689 = c689; *dirty |= 0x40000000000; }
         let c737: u64 = if (self.v387) != 0 { (0x2) } else { (0x1) };
         if self.v737 != c737 { self.v737 = c737; *dirty |= 0x40000000000; }
-        let c739: u64 = if (c686) != 0 { ((c678 & 0x7)) } else { ((self.q100 & 0x1)) };
+        let c739: u64 = if (c686) != 0 { ((c678 & 0x7)) } else { ((self.q95 & 0x1)) };
         if self.v739 != c739 { self.v739 = c739; *dirty |= 0x40000000000; }
-        let c746: u64 = (self.q101).wrapping_sub((0x1)) & 0xf;
+        let c746: u64 = (self.q96).wrapping_sub((0x1)) & 0xf;
         let c740: u64 = if (c686) != 0 { (0x7) } else { (c746) };
         if self.v740 != c740 { self.v740 = c740; *dirty |= 0x4000000000000000000; }
-        let c748: u64 = ((((self.q10 >> 13) & 0x1)) ^ ((self.q10 >> 14))) & 0x1;
-        let c749: u64 = ((c748) ^ (self.q106)) & 0x1;
+        let c748: u64 = ((((self.q4 >> 13) & 0x1)) ^ ((self.q4 >> 14))) & 0x1;
+        let c749: u64 = ((c748) ^ (self.q107)) & 0x1;
         if self.v749 != c749 { self.v749 = c749; *dirty |= 0x20000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol.
     fn group_13(&mut self, dirty: &mut u128) {
-        let c226: u64 = (self.q95) & (self.q113) & 0x1;
+        let c226: u64 = (self.q90) & (self.q114) & 0x1;
         if self.v226 != c226 { self.v226 = c226; *dirty |= 0x80000000000000000000000000000000; }
-        let c116: u64 = ((c226) | (self.v1048)) & 0x1;
+        let c116: u64 = ((c226) | (self.v1047)) & 0x1;
         if self.v116 != c116 { self.v116 = c116; *dirty |= 0x40000; }
-        let c227: u64 = (self.v534) & (self.q113) & 0x1;
-        let c117: u64 = ((c227) | (self.v1048)) & 0x1;
+        let c227: u64 = (self.v534) & (self.q114) & 0x1;
+        let c117: u64 = ((c227) | (self.v1047)) & 0x1;
         if self.v117 != c117 { self.v117 = c117; *dirty |= 0x40000; }
         let c233: u64 = (self.v568) & (self.v543) & 0x1;
         if self.v233 != c233 { self.v233 = c233; *dirty |= 0x40000000; }
-        let c234: u64 = !(self.q48) & 0x1;
+        let c234: u64 = !(self.q42) & 0x1;
         if self.v234 != c234 { self.v234 = c234; *dirty |= 0x20000; }
-        let c235: u64 = !(self.q120) & 0x1;
+        let c235: u64 = !(self.q121) & 0x1;
         let c228: u64 = (c235) & (self.v543) & 0x1;
         if self.v228 != c228 { self.v228 = c228; *dirty |= 0x40000000; }
         let c87: u64 = u64::from((self.i_reset | (c228 << 1) | (c233 << 2)) != 0);
         if self.v87 != c87 { self.v87 = c87; *dirty |= 0x80000000000000000; }
         let c88: u64 = u64::from((self.i_reset | (c228 << 1)) != 0);
         if self.v88 != c88 { self.v88 = c88; *dirty |= 0x40000000000000000; }
-        let c101: u64 = u64::from((self.i_reset | (c228 << 1) | (self.q110 << 2)) != 0);
+        let c101: u64 = u64::from((self.i_reset | (c228 << 1) | (self.q111 << 2)) != 0);
         if self.v101 != c101 { self.v101 = c101; *dirty |= 0x40000000000000000000; }
-        let c244: u64 = u64::from((self.q112) != (0x3));
+        let c244: u64 = u64::from((self.q113) != (0x3));
         if self.v244 != c244 { self.v244 = c244; *dirty |= 0x40000000; }
-        let c246: u64 = !(self.q113) & 0x1;
+        let c246: u64 = !(self.q114) & 0x1;
         if self.v246 != c246 { self.v246 = c246; *dirty |= 0x40000000; }
-        let c248: u64 = ((self.q8) | (c234)) & 0x1;
+        let c248: u64 = ((self.q2) | (c234)) & 0x1;
         let c89: u64 = u64::from((self.i_reset | (c248 << 1)) != 0);
         if self.v89 != c89 { self.v89 = c89; *dirty |= 0x800000000000000; }
-        let c250: u64 = ((self.q121) | (c228)) & 0x1;
+        let c250: u64 = ((self.q122) | (c228)) & 0x1;
         if self.v250 != c250 { self.v250 = c250; *dirty |= 0x180100000; }
-        let c251: u64 = ((self.q110) | (c235)) & 0x1;
+        let c251: u64 = ((self.q111) | (c235)) & 0x1;
         if self.v251 != c251 { self.v251 = c251; *dirty |= 0x4000000; }
         let c253: u64 = ((self.v547) | (self.v637)) & 0x1;
         let c254: u64 = ((c253) | (self.v568)) & 0x1;
@@ -3909,105 +3911,105 @@ impl Model {
 
     /// The cells of top$core$bit_timing$sampling.
     fn group_14(&mut self, dirty: &mut u128) {
-        let c216: u64 = ((self.q30 >> 1)) & ((self.q30 & 0x1)) & 0x1;
-        let c217: u64 = ((self.q30 >> 1)) & (self.q109) & 0x1;
-        let c218: u64 = ((self.q30 & 0x1)) & (self.q109) & 0x1;
-        let c219: u64 = !(self.q109) & 0x1;
-        let c215: u64 = (self.q108) & (c219) & 0x1;
+        let c216: u64 = ((self.q24 >> 1)) & ((self.q24 & 0x1)) & 0x1;
+        let c217: u64 = ((self.q24 >> 1)) & (self.q110) & 0x1;
+        let c218: u64 = ((self.q24 & 0x1)) & (self.q110) & 0x1;
+        let c219: u64 = !(self.q110) & 0x1;
+        let c215: u64 = (self.q109) & (c219) & 0x1;
         if self.v215 != c215 { self.v215 = c215; *dirty |= 0x8000; }
         let c220: u64 = ((c216) | (c217)) & 0x1;
         let c221: u64 = ((c220) | (c218)) & 0x1;
-        let c222: u64 = ((self.q109) | (self.i_reset)) & 0x1;
+        let c222: u64 = ((self.q110) | (self.i_reset)) & 0x1;
         if self.v222 != c222 { self.v222 = c222; *dirty |= 0x100000000000000; }
-        let c223: u64 = ((self.q107) | (self.i_reset)) & 0x1;
+        let c223: u64 = ((self.q108) | (self.i_reset)) & 0x1;
         if self.v223 != c223 { self.v223 = c223; *dirty |= 0x200000000000000; }
         let c224: u64 = ((self.i_rx) | (self.i_reset)) & 0x1;
         if self.v224 != c224 { self.v224 = c224; *dirty |= 0x80000000000000; }
-        let c225: u64 = if ((self.q39 >> 7)) != 0 { (c221) } else { (self.q109) };
+        let c225: u64 = if ((self.q33 >> 7)) != 0 { (c221) } else { (self.q110) };
         if self.v225 != c225 { self.v225 = c225; *dirty |= 0x8000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing.
     fn group_15(&mut self, dirty: &mut u128) {
-        let c138: u64 = (self.v215) & (self.q106) & 0x1;
-        let c139: u64 = (c138) & (self.v162) & 0x1;
+        let c138: u64 = (self.v215) & (self.q107) & 0x1;
+        let c139: u64 = (c138) & (self.v161) & 0x1;
         let c146: u64 = (self.v264) & (self.v531) & 0x1;
-        let c165: u64 = !(c146) & 0x1;
-        let c147: u64 = (c139) & (c165) & 0x1;
-        let c166: u64 = !(c147) & 0x1;
-        let c148: u64 = (self.v145) & (c166) & 0x1;
-        let c149: u64 = (c148) & (self.v167) & 0x1;
+        let c164: u64 = !(c146) & 0x1;
+        let c147: u64 = (c139) & (c164) & 0x1;
+        let c165: u64 = !(c147) & 0x1;
+        let c148: u64 = (self.v145) & (c165) & 0x1;
+        let c149: u64 = (c148) & (self.v166) & 0x1;
         if self.v149 != c149 { self.v149 = c149; *dirty |= 0x80000000000000000040000400020000; }
-        let c182: u64 = if (c149) != 0 { (0x0) } else { (self.q28) };
-        let c183: u64 = if (c149) != 0 { (self.v225) } else { (self.q106) };
-        let c179: u64 = ((c183) | (self.i_reset)) & 0x1;
-        if self.v179 != c179 { self.v179 = c179; *dirty |= 0x80000000000000; }
-        let c204: u64 = if (self.v255) != 0 { (0x0) } else { (self.v156) };
-        let c205: u64 = if (self.v255) != 0 { (0x0) } else { (self.v200) };
-        let c206: u64 = if (self.v255) != 0 { (0x0) } else { (self.v201) };
-        let c207: u64 = if (self.v255) != 0 { (0x0) } else { (self.v202) };
+        let c181: u64 = if (c149) != 0 { (0x0) } else { (self.q22) };
+        let c182: u64 = if (c149) != 0 { (self.v225) } else { (self.q107) };
+        let c178: u64 = ((c182) | (self.i_reset)) & 0x1;
+        if self.v178 != c178 { self.v178 = c178; *dirty |= 0x80000000000000; }
+        let c204: u64 = if (self.v255) != 0 { (0x0) } else { (self.v198) };
+        let c205: u64 = if (self.v255) != 0 { (0x0) } else { (self.v199) };
+        let c206: u64 = if (self.v255) != 0 { (0x0) } else { (self.v200) };
+        let c207: u64 = if (self.v255) != 0 { (0x0) } else { (self.v201) };
         let c208: u64 = if (self.v255) != 0 { (0x0) } else { (self.v203) };
         let c209: u64 = (c139) & (c204) & 0x1;
         let c210: u64 = (c139) & (c205) & 0x1;
         let c211: u64 = (c139) & (c206) & 0x1;
-        let c163: u64 = !(c211) & 0x1;
-        let c141: u64 = (self.v140) & (c163) & 0x1;
-        let c194: u64 = if (c211) != 0 { (self.v193) } else { (self.v158 | (self.v158 << 1) | (self.v158 << 2) | (self.v158 << 3)) };
-        let c192: u64 = if (c210) != 0 { (self.v191 | 0x8) } else { (c194) };
-        let c136: u64 = (self.q31).wrapping_add((c192 | ((c192 >> 3) << 4))) & 0x1f;
-        let c185: u64 = { let s = (self.v187 | (self.v188 << 1) | (self.v156 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.q36 } else if s >> 2 & 1 != 0 { (self.q39 & 0xf) } else { (c136) } };
-        let c195: u64 = if (c210) != 0 { (self.v142) } else { (c141) };
-        let c63: u64 = u64::from((c195 | (self.v26 << 1)) == 0x3);
-        if self.v63 != c63 { self.v63 = c63; *dirty |= 0x200000000000000; }
-        let c189: u64 = if (c195) != 0 { (c185) } else { (c136) };
-        if self.v189 != c189 { self.v189 = c189; *dirty |= 0x40000000000000; }
+        let c162: u64 = !(c211) & 0x1;
+        let c141: u64 = (self.v140) & (c162) & 0x1;
+        let c192: u64 = if (c211) != 0 { (self.v191) } else { (self.v157 | (self.v157 << 1) | (self.v157 << 2) | (self.v157 << 3)) };
+        let c190: u64 = if (c210) != 0 { (self.v189 | 0x8) } else { (c192) };
+        let c136: u64 = (self.q25).wrapping_add((c190 | ((c190 >> 3) << 4))) & 0x1f;
+        let c184: u64 = { let s = (self.v202 | (self.v185 << 1) | (self.v198 << 2)); if s >> 0 & 1 != 0 { 0x0 } else if s >> 1 & 1 != 0 { self.q30 } else if s >> 2 & 1 != 0 { (self.q33 & 0xf) } else { (c136) } };
+        let c193: u64 = if (c210) != 0 { (self.v142) } else { (c141) };
+        let c61: u64 = u64::from((c193 | (self.v21 << 1)) == 0x3);
+        if self.v61 != c61 { self.v61 = c61; *dirty |= 0x200000000000000; }
+        let c187: u64 = if (c193) != 0 { (c184) } else { (c136) };
+        if self.v187 != c187 { self.v187 = c187; *dirty |= 0x40000000000000; }
         let c212: u64 = (c139) & (c207) & 0x1;
         let c213: u64 = (c139) & (c208) & 0x1;
-        let c174: u64 = ((c213) | (c212)) & 0x1;
-        let c175: u64 = ((c174) | (c211)) & 0x1;
-        let c176: u64 = ((c175) | (c210)) & 0x1;
-        let c177: u64 = ((c176) | (c209)) & 0x1;
+        let c173: u64 = ((c213) | (c212)) & 0x1;
+        let c174: u64 = ((c173) | (c211)) & 0x1;
+        let c175: u64 = ((c174) | (c210)) & 0x1;
+        let c176: u64 = ((c175) | (c209)) & 0x1;
         let c214: u64 = (c139) & (self.v255) & 0x1;
-        let c169: u64 = ((c214) | (c213)) & 0x1;
-        let c170: u64 = ((c169) | (c212)) & 0x1;
-        let c90: u64 = u64::from((self.i_reset | (c170 << 1)) != 0);
+        let c168: u64 = ((c214) | (c213)) & 0x1;
+        let c169: u64 = ((c168) | (c212)) & 0x1;
+        let c90: u64 = u64::from((self.i_reset | (c169 << 1)) != 0);
         if self.v90 != c90 { self.v90 = c90; *dirty |= 0x240000000000000; }
-        let c91: u64 = u64::from((self.i_reset | (c195 << 1) | (c170 << 2)) != 0);
+        let c91: u64 = u64::from((self.i_reset | (c193 << 1) | (c169 << 2)) != 0);
         if self.v91 != c91 { self.v91 = c91; *dirty |= 0x20000000000000; }
-        let c92: u64 = u64::from((self.i_reset | (self.v158 << 1) | (c170 << 2)) != 0);
+        let c92: u64 = u64::from((self.i_reset | (self.v157 << 1) | (c169 << 2)) != 0);
         if self.v92 != c92 { self.v92 = c92; *dirty |= 0x80000000000; }
-        let c164: u64 = !(c170) & 0x1;
-        let c143: u64 = (self.v158) & (c164) & 0x1;
+        let c163: u64 = !(c169) & 0x1;
+        let c143: u64 = (self.v157) & (c163) & 0x1;
         if self.v143 != c143 { self.v143 = c143; *dirty |= 0x100000000000000; }
-        let c171: u64 = ((self.v150) | (c214)) & 0x1;
-        let c172: u64 = ((c171) | (c212)) & 0x1;
-        let c151: u64 = (c172) & (self.v168) & 0x1;
-        let c152: u64 = (c151) & (self.v167) & 0x1;
-        let c153: u64 = (c172) & (self.q32) & 0x1;
+        let c170: u64 = ((self.v150) | (c214)) & 0x1;
+        let c171: u64 = ((c170) | (c212)) & 0x1;
+        let c151: u64 = (c171) & (self.v167) & 0x1;
+        let c152: u64 = (c151) & (self.v166) & 0x1;
+        let c153: u64 = (c171) & (self.q26) & 0x1;
         if self.v153 != c153 { self.v153 = c153; *dirty |= 0x800000000000000; }
-        let c173: u64 = ((c152) | (self.q27)) & 0x1;
-        if self.v173 != c173 { self.v173 = c173; *dirty |= 0x4000000; }
-        let c178: u64 = ((c214) | (c177)) & 0x1;
-        let c180: u64 = if (c170) != 0 { (0x0) } else { (self.q29) };
-        if self.v180 != c180 { self.v180 = c180; *dirty |= 0x80000000000000000000000000000000; }
-        let c181: u64 = ((c182) | (c178)) & 0x1;
-        if self.v181 != c181 { self.v181 = c181; *dirty |= 0x400000000000000; }
-        let c184: u64 = ((self.v190) | (c170)) & 0x1;
-        if self.v184 != c184 { self.v184 = c184; *dirty |= 0x80000000000; }
+        let c172: u64 = ((c152) | (self.q21)) & 0x1;
+        if self.v172 != c172 { self.v172 = c172; *dirty |= 0x4000000; }
+        let c177: u64 = ((c214) | (c176)) & 0x1;
+        let c179: u64 = if (c169) != 0 { (0x0) } else { (self.q23) };
+        if self.v179 != c179 { self.v179 = c179; *dirty |= 0x80000000000000000000000000000000; }
+        let c180: u64 = ((c181) | (c177)) & 0x1;
+        if self.v180 != c180 { self.v180 = c180; *dirty |= 0x400000000000000; }
+        let c183: u64 = ((self.v188) | (c169)) & 0x1;
+        if self.v183 != c183 { self.v183 = c183; *dirty |= 0x80000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$crc.
     fn group_16(&mut self, dirty: &mut u128) {
-        let c104: u64 = !(((self.q10 >> 2) & 0x1)) & 0x1;
-        let c105: u64 = !(((self.q10 >> 3) & 0x1)) & 0x1;
-        let c106: u64 = !(((self.q10 >> 6) & 0x1)) & 0x1;
-        let c107: u64 = !(((self.q10 >> 7) & 0x1)) & 0x1;
-        let c108: u64 = !(((self.q10 >> 9) & 0x1)) & 0x1;
-        let c109: u64 = !(((self.q10 >> 13) & 0x1)) & 0x1;
-        let c316: u64 = ((self.q106) ^ ((self.q10 >> 14))) & 0x1;
-        let c315: u64 = if (c316) != 0 { ((c104 << 1) | (c105 << 2) | (c106 << 3) | (c107 << 4) | (c108 << 5) | (c109 << 6) | 0x1) } else { ((((self.q10 >> 2) & 0x3) << 1) | (((self.q10 >> 6) & 0x3) << 3) | (((self.q10 >> 9) & 0x1) << 5) | (((self.q10 >> 13) & 0x1) << 6)) };
+        let c104: u64 = !(((self.q4 >> 2) & 0x1)) & 0x1;
+        let c105: u64 = !(((self.q4 >> 3) & 0x1)) & 0x1;
+        let c106: u64 = !(((self.q4 >> 6) & 0x1)) & 0x1;
+        let c107: u64 = !(((self.q4 >> 7) & 0x1)) & 0x1;
+        let c108: u64 = !(((self.q4 >> 9) & 0x1)) & 0x1;
+        let c109: u64 = !(((self.q4 >> 13) & 0x1)) & 0x1;
+        let c316: u64 = ((self.q107) ^ ((self.q4 >> 14))) & 0x1;
+        let c315: u64 = if (c316) != 0 { ((c104 << 1) | (c105 << 2) | (c106 << 3) | (c107 << 4) | (c108 << 5) | (c109 << 6) | 0x1) } else { ((((self.q4 >> 2) & 0x3) << 1) | (((self.q4 >> 6) & 0x3) << 3) | (((self.q4 >> 9) & 0x1) << 5) | (((self.q4 >> 13) & 0x1) << 6)) };
         if self.v315 != c315 { self.v315 = c315; *dirty |= 0x80000000000000000; }
         let _ = &dirty;
     }
@@ -4017,88 +4019,88 @@ impl Model {
         let c9: u64 = (self.v764) & (self.v771) & 0x1;
         let c126: u64 = !(self.v769) & 0x1;
         let c10: u64 = (c9) & (c126) & 0x1;
-        let c11: u64 = (c10) & (self.q48) & 0x1;
+        let c11: u64 = (c10) & (self.q42) & 0x1;
         if self.v11 != c11 { self.v11 = c11; *dirty |= 0x40000000; }
-        let c1098: u64 = !(self.v149) & 0x1;
-        let c8: u64 = (self.q75) & (c1098) & 0x1;
+        let c1097: u64 = !(self.v149) & 0x1;
+        let c8: u64 = (self.q69) & (c1097) & 0x1;
         if self.v8 != c8 { self.v8 = c8; *dirty |= 0x8000000000; }
-        let c1100: u64 = ((self.v774) | (self.v776)) & 0x1;
-        let c6: u64 = (self.v5) & (c1100) & 0x1;
+        let c1099: u64 = ((self.v774) | (self.v776)) & 0x1;
+        let c6: u64 = (self.v5) & (c1099) & 0x1;
         if self.v6 != c6 { self.v6 = c6; *dirty |= 0x100000; }
-        let c1101: u64 = ((self.v763) | (self.v769)) & 0x1;
-        let c12: u64 = (c1101) & (self.q127) & 0x1;
+        let c1100: u64 = ((self.v763) | (self.v769)) & 0x1;
+        let c12: u64 = (c1100) & (self.q128) & 0x1;
         let c13: u64 = (c12) & (self.v234) & 0x1;
         if self.v13 != c13 { self.v13 = c13; *dirty |= 0x40080000000000000000000000000000; }
-        let c1107: u64 = if (c13) != 0 { (0x0) } else { (self.v1110) };
-        let c1105: u64 = ((c1107) | (self.i_reset)) & 0x1;
-        if self.v1105 != c1105 { self.v1105 = c1105; *dirty |= 0x200000000000000000000000000000; }
-        let c1108: u64 = if (c13) != 0 { (0x0) } else { (self.v1111) };
-        let c1106: u64 = ((c1108) | (self.v1000)) & 0x1;
+        let c1106: u64 = if (c13) != 0 { (0x0) } else { (self.v1109) };
         let c1104: u64 = ((c1106) | (self.i_reset)) & 0x1;
-        if self.v1104 != c1104 { self.v1104 = c1104; *dirty |= 0x100000000000000000000000000000; }
-        let c1109: u64 = ((self.v1112) | (c13)) & 0x1;
-        if self.v1109 != c1109 { self.v1109 = c1109; *dirty |= 0x20000000000000000000000000000000; }
-        let c1113: u64 = if (c8) != 0 { ((self.q76 >> 1) | ((self.q76 & 0x1) << 2) | 0x10) } else { ((self.q100 & 0x1) | (self.q99 << 1) | ((self.q100 >> 1) << 3)) };
-        if self.v1113 != c1113 { self.v1113 = c1113; *dirty |= 0x800000000000000002000000000000; }
-        let c1096: u64 = if (c1113) < 32 { ((self.q45 & 0x1fff) | ((self.q45 >> 13) << 16)) >> (c1113) & 0x1 } else { 0 };
-        if self.v1096 != c1096 { self.v1096 = c1096; *dirty |= 0x2000000000000; }
-        let c1119: u64 = if (self.q60) != 0 { ((self.i_addr & 0xf)) } else { (self.v783) };
-        if self.v1119 != c1119 { self.v1119 = c1119; *dirty |= 0x1000000100000; }
+        if self.v1104 != c1104 { self.v1104 = c1104; *dirty |= 0x200000000000000000000000000000; }
+        let c1107: u64 = if (c13) != 0 { (0x0) } else { (self.v1110) };
+        let c1105: u64 = ((c1107) | (self.v999)) & 0x1;
+        let c1103: u64 = ((c1105) | (self.i_reset)) & 0x1;
+        if self.v1103 != c1103 { self.v1103 = c1103; *dirty |= 0x100000000000000000000000000000; }
+        let c1108: u64 = ((self.v1111) | (c13)) & 0x1;
+        if self.v1108 != c1108 { self.v1108 = c1108; *dirty |= 0x20000000000000000000000000000000; }
+        let c1112: u64 = if (c8) != 0 { ((self.q70 >> 1) | ((self.q70 & 0x1) << 2) | 0x10) } else { ((self.q95 & 0x1) | (self.q94 << 1) | ((self.q95 >> 1) << 3)) };
+        if self.v1112 != c1112 { self.v1112 = c1112; *dirty |= 0x800000000000000002000000000000; }
+        let c1095: u64 = if (c1112) < 32 { ((self.q39 & 0x1fff) | ((self.q39 >> 13) << 16)) >> (c1112) & 0x1 } else { 0 };
+        if self.v1095 != c1095 { self.v1095 = c1095; *dirty |= 0x2000000000000; }
+        let c1118: u64 = if (self.q54) != 0 { ((self.i_addr & 0xf)) } else { (self.v783) };
+        if self.v1118 != c1118 { self.v1118 = c1118; *dirty |= 0x1000000100000; }
         let _ = &dirty;
     }
 
     /// The cells of top$read.
     fn group_18(&mut self, dirty: &mut u128) {
-        let c115: u64 = (self.v125) & ((self.q68 & 0x1)) & 0x1;
-        let c1031: u64 = (c115 | (self.q66 << 1)) & (self.q68 | (self.v1079 << 4)) & 0xff;
-        let c1032: u64 = (self.v774) & (self.v933) & 0x1;
-        let c1033: u64 = (self.v933) & (self.v782) & 0x1;
-        let c1049: u64 = ((c1032) | (self.v773)) & 0x1;
-        let c1057: u64 = if (self.v775) != 0 { (self.v784) } else { ((self.i_addr & 0xf)) };
-        let c1030: u64 = (self.q90).wrapping_add((c1057)) & 0x3f;
-        let c1056: u64 = if (self.v773) != 0 { ((self.i_addr & 0x1f) | (self.v785 << 5)) } else { (c1030) };
-        if self.v1056 != c1056 { self.v1056 = c1056; *dirty |= 0x200000; }
-        let c1058: u64 = if (self.v1047) != 0 { ((self.v847 & 0xf)) } else { (0x0) };
-        let c1073: u64 = if (self.q60) != 0 { (c1049) } else { (self.v775) };
-        if self.v1073 != c1073 { self.v1073 = c1073; *dirty |= 0x100000; }
-        let c1075: u64 = if (self.q60) != 0 { (0x0) } else { (c1058) };
-        if self.v1075 != c1075 { self.v1075 = c1075; *dirty |= 0x20000000000000000000000000000; }
-        let c1078: u64 = if (self.v1035) != 0 { (self.v941 | (self.q86 << 1) | (self.q127 << 2) | (self.q128 << 3) | (self.v117 << 4) | (self.v116 << 5) | (self.q69 << 6) | (self.q110 << 7)) } else { (0x0) };
-        let c1077: u64 = if (self.v1046) != 0 { (c115 | (self.q66 << 1)) } else { (c1078) };
-        let c1076: u64 = if (self.v984) != 0 { (self.q42 | ((self.q61 & 0x1) << 3) | ((self.q61 >> 1) << 5) | (self.q60 << 7)) } else { (c1077) };
-        let c1062: u64 = if (self.v1044) != 0 { (self.q123 | (self.q68 << 1) | (self.q59 << 6) | 0x20) } else { (c1076) };
-        let c1061: u64 = if (self.v1045) != 0 { (0xff) } else { (c1062) };
-        let c1060: u64 = if (self.v1046) != 0 { (c115 | ((self.q66 & 0xf) << 1) | 0xe0) } else { (c1061) };
-        let c1059: u64 = if (c1033) != 0 { (0xff) } else { (c1060) };
-        let c1071: u64 = if (self.v1044) != 0 { (self.q123 | (self.q122 << 1) | (self.q126 << 2) | (self.q62 << 3) | (self.q125 << 4)) } else { (c1076) };
-        let c1070: u64 = if (self.v1036) != 0 { (self.q68 | (self.q67 << 4)) } else { (c1071) };
-        let c1069: u64 = if (self.v1037) != 0 { (self.q73) } else { (c1070) };
-        let c1068: u64 = if (self.v1038) != 0 { (self.q70) } else { (c1069) };
-        let c1067: u64 = if (self.v1039) != 0 { (self.q38) } else { (c1068) };
-        let c1066: u64 = if (self.v1040) != 0 { (self.q5 | (self.q6 << 7)) } else { (c1067) };
-        let c1065: u64 = if (self.v1041) != 0 { (self.q3 | (self.q4 << 3) | (self.q2 << 7)) } else { (c1066) };
-        let c1064: u64 = if (self.v1042) != 0 { (self.q93) } else { (c1065) };
-        let c1063: u64 = if (self.v1043) != 0 { (self.q90) } else { (c1064) };
-        let c1074: u64 = if (self.q60) != 0 { (c1063) } else { (c1059) };
-        if self.v1074 != c1074 { self.v1074 = c1074; *dirty |= 0x4000000000000; }
-        let c1080: u64 = u64::from((c1031) != 0);
-        if self.v1080 != c1080 { self.v1080 = c1080; *dirty |= 0x400000000; }
+        let c115: u64 = (self.v125) & ((self.q62 & 0x1)) & 0x1;
+        let c1030: u64 = (c115 | (self.q60 << 1)) & (self.q62 | (self.v1078 << 4)) & 0xff;
+        let c1031: u64 = (self.v774) & (self.v932) & 0x1;
+        let c1032: u64 = (self.v932) & (self.v782) & 0x1;
+        let c1048: u64 = ((c1031) | (self.v773)) & 0x1;
+        let c1056: u64 = if (self.v775) != 0 { (self.v784) } else { ((self.i_addr & 0xf)) };
+        let c1029: u64 = (self.q85).wrapping_add((c1056)) & 0x3f;
+        let c1055: u64 = if (self.v773) != 0 { ((self.i_addr & 0x1f) | (self.v785 << 5)) } else { (c1029) };
+        if self.v1055 != c1055 { self.v1055 = c1055; *dirty |= 0x200000; }
+        let c1057: u64 = if (self.v1046) != 0 { ((self.v847 & 0xf)) } else { (0x0) };
+        let c1072: u64 = if (self.q54) != 0 { (c1048) } else { (self.v775) };
+        if self.v1072 != c1072 { self.v1072 = c1072; *dirty |= 0x100000; }
+        let c1074: u64 = if (self.q54) != 0 { (0x0) } else { (c1057) };
+        if self.v1074 != c1074 { self.v1074 = c1074; *dirty |= 0x20000000000000000000000000000; }
+        let c1077: u64 = if (self.v1034) != 0 { (self.v940 | (self.q81 << 1) | (self.q128 << 2) | (self.q129 << 3) | (self.v117 << 4) | (self.v116 << 5) | (self.q63 << 6) | (self.q111 << 7)) } else { (0x0) };
+        let c1076: u64 = if (self.v1045) != 0 { (c115 | (self.q60 << 1)) } else { (c1077) };
+        let c1075: u64 = if (self.v983) != 0 { (self.q36 | ((self.q55 & 0x1) << 3) | ((self.q55 >> 1) << 5) | (self.q54 << 7)) } else { (c1076) };
+        let c1061: u64 = if (self.v1043) != 0 { (self.q124 | (self.q62 << 1) | (self.q53 << 6) | 0x20) } else { (c1075) };
+        let c1060: u64 = if (self.v1044) != 0 { (0xff) } else { (c1061) };
+        let c1059: u64 = if (self.v1045) != 0 { (c115 | ((self.q60 & 0xf) << 1) | 0xe0) } else { (c1060) };
+        let c1058: u64 = if (c1032) != 0 { (0xff) } else { (c1059) };
+        let c1070: u64 = if (self.v1043) != 0 { (self.q124 | (self.q123 << 1) | (self.q127 << 2) | (self.q56 << 3) | (self.q126 << 4)) } else { (c1075) };
+        let c1069: u64 = if (self.v1035) != 0 { (self.q62 | (self.q61 << 4)) } else { (c1070) };
+        let c1068: u64 = if (self.v1036) != 0 { (self.q67) } else { (c1069) };
+        let c1067: u64 = if (self.v1037) != 0 { (self.q64) } else { (c1068) };
+        let c1066: u64 = if (self.v1038) != 0 { (self.q32) } else { (c1067) };
+        let c1065: u64 = if (self.v1039) != 0 { (self.q106 | (self.q0 << 7)) } else { (c1066) };
+        let c1064: u64 = if (self.v1040) != 0 { (self.q104 | (self.q105 << 3) | (self.q103 << 7)) } else { (c1065) };
+        let c1063: u64 = if (self.v1041) != 0 { (self.q88) } else { (c1064) };
+        let c1062: u64 = if (self.v1042) != 0 { (self.q85) } else { (c1063) };
+        let c1073: u64 = if (self.q54) != 0 { (c1062) } else { (c1058) };
+        if self.v1073 != c1073 { self.v1073 = c1073; *dirty |= 0x4000000000000; }
+        let c1079: u64 = u64::from((c1030) != 0);
+        if self.v1079 != c1079 { self.v1079 = c1079; *dirty |= 0x400000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$configuration.
     fn group_19(&mut self, dirty: &mut u128) {
-        let c127: u64 = (self.i_we) & (self.q123) & 0x1;
+        let c127: u64 = (self.i_we) & (self.q124) & 0x1;
         if self.v127 != c127 { self.v127 = c127; *dirty |= 0x100000; }
-        let c128: u64 = (self.q60) & (self.v1039) & 0x1;
-        let c67: u64 = u64::from((c127 | (c128 << 1)) == 0x3);
-        if self.v67 != c67 { self.v67 = c67; *dirty |= 0x10000000000000; }
+        let c128: u64 = (self.q54) & (self.v1038) & 0x1;
+        let c65: u64 = u64::from((c127 | (c128 << 1)) == 0x3);
+        if self.v65 != c65 { self.v65 = c65; *dirty |= 0x10000000000000; }
         let c129: u64 = u64::from((self.i_addr) == (0x6));
-        let c66: u64 = u64::from((c127 | (c129 << 1)) == 0x3);
-        if self.v66 != c66 { self.v66 = c66; *dirty |= 0x18000000000000; }
+        let c64: u64 = u64::from((c127 | (c129 << 1)) == 0x3);
+        if self.v64 != c64 { self.v64 = c64; *dirty |= 0x18000000000000; }
         let c130: u64 = u64::from((self.i_addr) == (0x7));
-        let c65: u64 = u64::from((c127 | (c130 << 1)) == 0x3);
-        if self.v65 != c65 { self.v65 = c65; *dirty |= 0x28000000000000; }
+        let c63: u64 = u64::from((c127 | (c130 << 1)) == 0x3);
+        if self.v63 != c63 { self.v63 = c63; *dirty |= 0x28000000000000; }
         let c131: u64 = u64::from((self.i_addr) == (0x8));
         let c132: u64 = ((c129) | (c130)) & 0x1;
         let c133: u64 = ((c132) | (c131)) & 0x1;
@@ -4108,62 +4110,62 @@ impl Model {
 
     /// The cells of can_controller.
     fn group_20(&mut self, dirty: &mut u128) {
-        let c0: u64 = (self.v127) & (self.q60) & 0x1;
-        let c1: u64 = (c0) & (self.v1041) & 0x1;
+        let c0: u64 = (self.v127) & (self.q54) & 0x1;
+        let c1: u64 = (c0) & (self.v1040) & 0x1;
         if self.v1 != c1 { self.v1 = c1; *dirty |= 0x180000000; }
-        let c2: u64 = (c0) & (self.v1040) & 0x1;
+        let c2: u64 = (c0) & (self.v1039) & 0x1;
         if self.v2 != c2 { self.v2 = c2; *dirty |= 0x80000000; }
-        let c3: u64 = (c0) & (self.v1043) & 0x1;
+        let c3: u64 = (c0) & (self.v1042) & 0x1;
         if self.v3 != c3 { self.v3 = c3; *dirty |= 0x1000200000; }
         let c7: u64 = (self.v127) & (self.v772) & 0x1;
-        let c18: u64 = (self.i_re) & (self.v1073) & 0x1;
+        let c18: u64 = (self.i_re) & (self.v1072) & 0x1;
         if self.v18 != c18 { self.v18 = c18; *dirty |= 0x8000000000000000000000200000; }
         let c19: u64 = (self.v127) & (self.v773) & 0x1;
         if self.v19 != c19 { self.v19 = c19; *dirty |= 0x200000; }
-        let c24: u64 = u64::from((self.q110 | (self.v250 << 1) | (c1 << 2)) != (0x2));
-        if self.v24 != c24 { self.v24 = c24; *dirty |= 0x100000000; }
-        let c1120: u64 = ((self.v6) | (c7)) & 0x1;
-        if self.v1120 != c1120 { self.v1120 = c1120; *dirty |= 0x1000000000000; }
-        let c1115: u64 = ((c1120) | (self.v127)) & 0x1;
-        if self.v1115 != c1115 { self.v1115 = c1115; *dirty |= 0x1000000000000; }
-        let c1121: u64 = if (self.v133) != 0 { ((self.i_addr & 0x1) | (((self.i_addr >> 3) & 0x1) << 1) | 0x8) } else { (self.v920) };
-        if self.v1121 != c1121 { self.v1121 = c1121; *dirty |= 0x1000000000000; }
-        let c1114: u64 = if (self.v127) != 0 { (c1121 | 0x10) } else { (self.v1119) };
+        let c44: u64 = u64::from((self.q111 | (self.v250 << 1) | (c1 << 2)) != (0x2));
+        if self.v44 != c44 { self.v44 = c44; *dirty |= 0x100000000; }
+        let c1119: u64 = ((self.v6) | (c7)) & 0x1;
+        if self.v1119 != c1119 { self.v1119 = c1119; *dirty |= 0x1000000000000; }
+        let c1114: u64 = ((c1119) | (self.v127)) & 0x1;
         if self.v1114 != c1114 { self.v1114 = c1114; *dirty |= 0x1000000000000; }
+        let c1120: u64 = if (self.v133) != 0 { ((self.i_addr & 0x1) | (((self.i_addr >> 3) & 0x1) << 1) | 0x8) } else { (self.v919) };
+        if self.v1120 != c1120 { self.v1120 = c1120; *dirty |= 0x1000000000000; }
+        let c1113: u64 = if (self.v127) != 0 { (c1120 | 0x10) } else { (self.v1118) };
+        if self.v1113 != c1113 { self.v1113 = c1113; *dirty |= 0x1000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$fifo.
     fn group_21(&mut self, dirty: &mut u128) {
-        let c795: u64 = (self.v17) & (self.v800) & 0x1;
-        if self.v795 != c795 { self.v795 = c795; *dirty |= 0x1000000000; }
-        let c31: u64 = u64::from((c795 | (self.q123 << 1)) != 0);
-        if self.v31 != c31 { self.v31 = c31; *dirty |= 0x800000000000000000000; }
-        let c797: u64 = (self.v17) & (self.q87) & 0x1;
-        let c804: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (self.q90) };
-        let c806: u64 = if (self.v19) != 0 { (self.i_wdata) } else { (self.v828) };
-        let c807: u64 = if (self.v19) != 0 { (self.v1056) } else { (self.v791) };
+        let c792: u64 = (self.v17) & (self.v798) & 0x1;
+        if self.v792 != c792 { self.v792 = c792; *dirty |= 0x1000000000; }
+        let c26: u64 = u64::from((c792 | (self.q124 << 1)) != 0);
+        if self.v26 != c26 { self.v26 = c26; *dirty |= 0x800000000000000000000; }
+        let c794: u64 = (self.v17) & (self.q82) & 0x1;
+        let c804: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (self.q85) };
+        let c806: u64 = if (self.v19) != 0 { (self.i_wdata) } else { (self.v830) };
+        let c807: u64 = if (self.v19) != 0 { (self.v1055) } else { (self.q79) };
         let c808: u64 = ((self.v827) | (self.v19)) & 0x1;
-        let c809: u64 = if (self.q123) != 0 { (c804) } else { (self.v793) };
+        let c809: u64 = if (self.q124) != 0 { (c804) } else { (self.q79) };
         if self.v809 != c809 { self.v809 = c809; *dirty |= 0x800000000000000000000; }
-        let c811: u64 = if (self.q123) != 0 { (c808) } else { (self.v827) };
+        let c811: u64 = if (self.q124) != 0 { (c806) } else { (self.v830) };
         if self.v811 != c811 { self.v811 = c811; *dirty |= 0x400000000000000000000; }
-        let c812: u64 = if (self.q123) != 0 { (c806) } else { (self.v828) };
+        let c812: u64 = if (self.q124) != 0 { (c807) } else { (self.q79) };
         if self.v812 != c812 { self.v812 = c812; *dirty |= 0x400000000000000000000; }
-        let c813: u64 = if (self.q123) != 0 { (c807) } else { (self.v791) };
+        let c813: u64 = if (self.q124) != 0 { (c808) } else { (self.v827) };
         if self.v813 != c813 { self.v813 = c813; *dirty |= 0x400000000000000000000; }
-        let c814: u64 = if (self.v18) != 0 { (self.v1056) } else { (self.v792) };
+        let c814: u64 = if (self.v18) != 0 { (self.v1055) } else { (self.v789) };
         if self.v814 != c814 { self.v814 = c814; *dirty |= 0x400000000000000000000; }
-        let c815: u64 = ((self.q86) | (c797)) & 0x1;
+        let c815: u64 = ((self.q81) | (c794)) & 0x1;
         if self.v815 != c815 { self.v815 = c815; *dirty |= 0x400000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler.
     fn group_22(&mut self, dirty: &mut u128) {
-        let c275: u64 = (self.v297) & (self.q18) & 0x1;
-        let c277: u64 = (((self.q11 >> 3) & 0x1)) & (((self.q11 >> 2) & 0x1)) & 0x1;
-        let c279: u64 = !(((self.q11 >> 4) & 0x1)) & 0x1;
+        let c275: u64 = (self.v297) & (self.q12) & 0x1;
+        let c277: u64 = (((self.q5 >> 3) & 0x1)) & (((self.q5 >> 2) & 0x1)) & 0x1;
+        let c279: u64 = !(((self.q5 >> 4) & 0x1)) & 0x1;
         let c280: u64 = !(c275) & 0x1;
         let c276: u64 = (self.v540) & (c280) & 0x1;
         if self.v276 != c276 { self.v276 = c276; *dirty |= 0x200000000; }
@@ -4174,8 +4176,8 @@ impl Model {
         if self.v45 != c45 { self.v45 = c45; *dirty |= 0x200000000; }
         let c282: u64 = (self.v438) & (self.v390) & 0x1;
         if self.v282 != c282 { self.v282 = c282; *dirty |= 0x200000000; }
-        let c287: u64 = if ((self.q22 >> 3)) != 0 { (0x8) } else { ((self.q22 & 0x7)) };
-        let c286: u64 = if (self.q16) != 0 { (0x0) } else { (c287) };
+        let c287: u64 = if ((self.q16 >> 3)) != 0 { (0x8) } else { ((self.q16 & 0x7)) };
+        let c286: u64 = if (self.q10) != 0 { (0x0) } else { (c287) };
         let c288: u64 = (c286).wrapping_sub((0x1)) & 0xf;
         if self.v288 != c288 { self.v288 = c288; *dirty |= 0x10000000000000000; }
         let _ = &dirty;
@@ -4183,36 +4185,36 @@ impl Model {
 
     /// The cells of top$core$protocol$frame.
     fn group_23(&mut self, dirty: &mut u128) {
-        let c373: u64 = (self.v388) & (self.v799) & 0x1;
+        let c373: u64 = (self.v388) & (self.v796) & 0x1;
         let c401: u64 = ((self.v533) | (c373)) & 0x1;
         if self.v401 != c401 { self.v401 = c401; *dirty |= 0x40000000; }
         let c411: u64 = if (self.v397) != 0 { (0x0) } else { (self.v679) };
         let c437: u64 = if (self.v375) != 0 { (0x0) } else { (self.v679) };
-        let c441: u64 = if (c401) != 0 { (self.v402 | 0xa) } else { (self.q112) };
+        let c441: u64 = if (c401) != 0 { (self.v402 | 0xa) } else { (self.q113) };
         let c442: u64 = if (c401) != 0 { (0x0) } else { (self.v679) };
         let c449: u64 = if (self.v403) != 0 { (0x0) } else { (self.v679) };
         let c456: u64 = { let s = (self.v404 | (self.v413 << 1) | (self.v438 << 2) | (self.v440 << 3) | (self.v392 << 4)); if s >> 0 & 1 != 0 { c411 } else if s >> 1 & 1 != 0 { 0x0 } else if s >> 2 & 1 != 0 { c437 } else if s >> 3 & 1 != 0 { c442 } else if s >> 4 & 1 != 0 { c449 } else { (self.v679) } };
         if self.v456 != c456 { self.v456 = c456; *dirty |= 0x8000000; }
-        let c457: u64 = { let s = (self.v404 | (self.v413 << 1) | (self.v416 << 2) | (self.v428 << 3) | (self.v436 << 4) | (self.v438 << 5) | (self.v440 << 6) | (self.v392 << 7)); if s >> 0 & 1 != 0 { self.v408 } else if s >> 1 & 1 != 0 { 0xf } else if s >> 2 & 1 != 0 { 0xe } else if s >> 3 & 1 != 0 { 0xd } else if s >> 4 & 1 != 0 { self.v435 } else if s >> 5 & 1 != 0 { self.v439 } else if s >> 6 & 1 != 0 { c441 } else if s >> 7 & 1 != 0 { self.v450 } else { (self.q112) } };
-        let c479: u64 = if (self.q32) != 0 { (c457) } else { (self.q112) };
+        let c457: u64 = { let s = (self.v404 | (self.v413 << 1) | (self.v416 << 2) | (self.v428 << 3) | (self.v436 << 4) | (self.v438 << 5) | (self.v440 << 6) | (self.v392 << 7)); if s >> 0 & 1 != 0 { self.v408 } else if s >> 1 & 1 != 0 { 0xf } else if s >> 2 & 1 != 0 { 0xe } else if s >> 3 & 1 != 0 { 0xd } else if s >> 4 & 1 != 0 { self.v435 } else if s >> 5 & 1 != 0 { self.v439 } else if s >> 6 & 1 != 0 { c441 } else if s >> 7 & 1 != 0 { self.v450 } else { (self.q113) } };
+        let c479: u64 = if (self.q26) != 0 { (c457) } else { (self.q113) };
         if self.v479 != c479 { self.v479 = c479; *dirty |= 0x8000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing.
     fn group_24(&mut self, dirty: &mut u128) {
-        let c750: u64 = (self.q97).wrapping_add((0x1)) & 0x7;
-        let c753: u64 = u64::from((self.q97) == (0x5));
-        let c751: u64 = (self.q98) & (c753) & 0x1;
+        let c750: u64 = (self.q92).wrapping_add((0x1)) & 0x7;
+        let c753: u64 = u64::from((self.q92) == (0x5));
+        let c751: u64 = (self.q93) & (c753) & 0x1;
         if self.v751 != c751 { self.v751 = c751; *dirty |= 0x1e000000; }
         let c53: u64 = !(c751) & 0x1;
         if self.v53 != c53 { self.v53 = c53; *dirty |= 0x6000000; }
-        let c81: u64 = u64::from((self.v599 | (self.q102 << 1) | (self.q32 << 2) | (c53 << 3)) == 0xf);
-        if self.v81 != c81 { self.v81 = c81; *dirty |= 0x2000000000000000000; }
-        let c754: u64 = u64::from((self.q97) == (0x4));
-        let c752: u64 = (self.q98) & (c754) & 0x1;
+        let c79: u64 = u64::from((self.v599 | (self.q97 << 1) | (self.q26 << 2) | (c53 << 3)) == 0xf);
+        if self.v79 != c79 { self.v79 = c79; *dirty |= 0x2000000000000000000; }
+        let c754: u64 = u64::from((self.q92) == (0x4));
+        let c752: u64 = (self.q93) & (c754) & 0x1;
         if self.v752 != c752 { self.v752 = c752; *dirty |= 0x4000000; }
-        let c755: u64 = u64::from((self.q106) != (self.q96));
+        let c755: u64 = u64::from((self.q107) != (self.q91));
         let c756: u64 = ((c753) | (c755)) & 0x1;
         if self.v756 != c756 { self.v756 = c756; *dirty |= 0x2000000; }
         let c760: u64 = if (c756) != 0 { (0x1) } else { (c750) };
@@ -4222,25 +4224,25 @@ impl Model {
 
     /// The cells of top$core$protocol$interframe.
     fn group_25(&mut self, dirty: &mut u128) {
-        let c82: u64 = u64::from((self.q32 | (self.v39 << 1) | (self.v41 << 2) | (self.v40 << 3) | (self.v53 << 4)) == 0x1f);
-        if self.v82 != c82 { self.v82 = c82; *dirty |= 0x2000000000000000000; }
-        let c83: u64 = u64::from((self.q32 | (self.v39 << 1) | (self.v43 << 2) | (self.v41 << 3) | (self.v40 << 4) | (self.v42 << 5) | (self.v44 << 6) | (self.v53 << 7)) == 0xff);
-        if self.v83 != c83 { self.v83 = c83; *dirty |= 0x1000000000000000000; }
-        let c508: u64 = (self.q32) & (self.v53) & 0x1;
+        let c80: u64 = u64::from((self.q26 | (self.v34 << 1) | (self.v36 << 2) | (self.v35 << 3) | (self.v53 << 4)) == 0x1f);
+        if self.v80 != c80 { self.v80 = c80; *dirty |= 0x2000000000000000000; }
+        let c81: u64 = u64::from((self.q26 | (self.v34 << 1) | (self.v38 << 2) | (self.v36 << 3) | (self.v35 << 4) | (self.v37 << 5) | (self.v39 << 6) | (self.v53 << 7)) == 0xff);
+        if self.v81 != c81 { self.v81 = c81; *dirty |= 0x1000000000000000000; }
+        let c508: u64 = (self.q26) & (self.v53) & 0x1;
         if self.v508 != c508 { self.v508 = c508; *dirty |= 0x208000000; }
         let c509: u64 = (c508) & (self.v432) & 0x1;
         let c511: u64 = (c509) & (self.v548) & 0x1;
         if self.v511 != c511 { self.v511 = c511; *dirty |= 0x80000400054000000; }
-        let c34: u64 = u64::from((c511 | (self.v756 << 1)) != 0);
-        let c77: u64 = u64::from((self.q32 | (c34 << 1)) == 0x3);
-        if self.v77 != c77 { self.v77 = c77; *dirty |= 0x20000000000000000000; }
+        let c29: u64 = u64::from((c511 | (self.v756 << 1)) != 0);
+        let c75: u64 = u64::from((self.q26 | (c29 << 1)) == 0x3);
+        if self.v75 != c75 { self.v75 = c75; *dirty |= 0x20000000000000000000; }
         let c86: u64 = u64::from((self.i_reset | (c511 << 1)) != 0);
         if self.v86 != c86 { self.v86 = c86; *dirty |= 0x10e000000000000000; }
-        let c516: u64 = (self.v432) & (self.q1) & 0x1;
+        let c516: u64 = (self.v432) & (self.q102) & 0x1;
         if self.v516 != c516 { self.v516 = c516; *dirty |= 0x10000000; }
-        let c611: u64 = if (self.q102) != 0 { (c516) } else { (self.v605) };
+        let c611: u64 = if (self.q97) != 0 { (c516) } else { (self.v605) };
         let c651: u64 = { let s = (self.v572 | (self.v599 << 1)); if s >> 0 & 1 != 0 { self.v585 } else if s >> 1 & 1 != 0 { c611 } else { (0x0) } };
-        let c654: u64 = if (self.v751) != 0 { (self.q0) } else { (self.v645) };
+        let c654: u64 = if (self.v751) != 0 { (self.q101) } else { (self.v645) };
         if self.v654 != c654 { self.v654 = c654; *dirty |= 0x10000000; }
         let c658: u64 = if (self.v751) != 0 { (0x0) } else { (self.v648) };
         let c661: u64 = if (self.v751) != 0 { (0x0) } else { (self.v650) };
@@ -4248,9 +4250,9 @@ impl Model {
         if self.v662 != c662 { self.v662 = c662; *dirty |= 0x10000000; }
         let c663: u64 = if (self.v751) != 0 { (0x0) } else { (self.v652) };
         if self.v663 != c663 { self.v663 = c663; *dirty |= 0x10000000; }
-        let c674: u64 = (self.q32) & (c658) & 0x1;
+        let c674: u64 = (self.q26) & (c658) & 0x1;
         if self.v674 != c674 { self.v674 = c674; *dirty |= 0x44000000; }
-        let c676: u64 = (self.q32) & (c661) & 0x1;
+        let c676: u64 = (self.q26) & (c661) & 0x1;
         if self.v676 != c676 { self.v676 = c676; *dirty |= 0x180000000; }
         let _ = &dirty;
     }
@@ -4264,13 +4266,13 @@ impl Model {
         let c680: u64 = (self.v599) & (c695) & 0x1;
         let c698: u64 = ((self.v251) | (self.i_reset)) & 0x1;
         if self.v698 != c698 { self.v698 = c698; *dirty |= 0x40000000000; }
-        let c702: u64 = if (self.v173) != 0 { (self.q114) } else { (self.q115) };
-        let c701: u64 = ((c702) | (self.q121)) & 0x1;
+        let c702: u64 = if (self.v172) != 0 { (self.q115) } else { (self.q116) };
+        let c701: u64 = ((c702) | (self.q122)) & 0x1;
         let c700: u64 = ((c701) | (c698)) & 0x1;
         if self.v700 != c700 { self.v700 = c700; *dirty |= 0x8000000000000000000; }
-        let c705: u64 = if (c680) != 0 { (self.q102) } else { (self.v546) };
+        let c705: u64 = if (c680) != 0 { (self.q97) } else { (self.v546) };
         if self.v705 != c705 { self.v705 = c705; *dirty |= 0x40000000000; }
-        let c733: u64 = if (self.v751) != 0 { ((self.q11 & 0x7)) } else { ((self.v679 & 0x7)) };
+        let c733: u64 = if (self.v751) != 0 { ((self.q5 & 0x7)) } else { ((self.v679 & 0x7)) };
         if self.v733 != c733 { self.v733 = c733; *dirty |= 0x40000000000; }
         let c734: u64 = if (self.v751) != 0 { (self.v387) } else { (self.v688) };
         let c730: u64 = if (self.v511) != 0 { (0x0) } else { (c734) };
@@ -4288,17 +4290,17 @@ impl Model {
 
     /// The cells of top$core$protocol$frame.
     fn group_27(&mut self, dirty: &mut u128) {
-        let c56: u64 = u64::from((self.v508 | (self.v392 << 1) | (self.v25 << 2)) == 0x7);
-        if self.v56 != c56 { self.v56 = c56; *dirty |= 0x10000000000000000; }
-        let c57: u64 = u64::from((self.v508 | (self.v386 << 1) | (self.v392 << 2)) == 0x7);
-        if self.v57 != c57 { self.v57 = c57; *dirty |= 0x8000000000000000; }
-        let c59: u64 = u64::from((self.v508 | (self.v46 << 1) | (self.v392 << 2) | (self.v278 << 3)) == 0xf);
-        if self.v59 != c59 { self.v59 = c59; *dirty |= 0x4000000000000000; }
-        let c61: u64 = u64::from((self.v508 | (self.v438 << 1)) == 0x3);
-        if self.v61 != c61 { self.v61 = c61; *dirty |= 0x2000000000000000; }
-        let c62: u64 = u64::from((self.v508 | (self.v390 << 1) | (self.v438 << 2)) == 0x7);
-        if self.v62 != c62 { self.v62 = c62; *dirty |= 0x1000000000000000; }
-        let c376: u64 = (self.q32) & (self.v751) & 0x1;
+        let c54: u64 = u64::from((self.v508 | (self.v392 << 1) | (self.v20 << 2)) == 0x7);
+        if self.v54 != c54 { self.v54 = c54; *dirty |= 0x10000000000000000; }
+        let c55: u64 = u64::from((self.v508 | (self.v386 << 1) | (self.v392 << 2)) == 0x7);
+        if self.v55 != c55 { self.v55 = c55; *dirty |= 0x8000000000000000; }
+        let c57: u64 = u64::from((self.v508 | (self.v46 << 1) | (self.v392 << 2) | (self.v278 << 3)) == 0xf);
+        if self.v57 != c57 { self.v57 = c57; *dirty |= 0x4000000000000000; }
+        let c59: u64 = u64::from((self.v508 | (self.v438 << 1)) == 0x3);
+        if self.v59 != c59 { self.v59 = c59; *dirty |= 0x2000000000000000; }
+        let c60: u64 = u64::from((self.v508 | (self.v390 << 1) | (self.v438 << 2)) == 0x7);
+        if self.v60 != c60 { self.v60 = c60; *dirty |= 0x1000000000000000; }
+        let c376: u64 = (self.q26) & (self.v751) & 0x1;
         if self.v376 != c376 { self.v376 = c376; *dirty |= 0x40000000; }
         let c486: u64 = if (c376) != 0 { (self.v483) } else { (self.v472) };
         if self.v486 != c486 { self.v486 = c486; *dirty |= 0x10000000; }
@@ -4306,7 +4308,7 @@ impl Model {
         if self.v487 != c487 { self.v487 = c487; *dirty |= 0x10000000; }
         let c488: u64 = if (c376) != 0 { (self.v485) } else { (self.v475) };
         if self.v488 != c488 { self.v488 = c488; *dirty |= 0x50000000; }
-        let c489: u64 = if (c376) != 0 { (self.q11) } else { (self.v456) };
+        let c489: u64 = if (c376) != 0 { (self.q5) } else { (self.v456) };
         if self.v489 != c489 { self.v489 = c489; *dirty |= 0x10000000; }
         let c490: u64 = if (c376) != 0 { (0x0) } else { (self.v466) };
         if self.v490 != c490 { self.v490 = c490; *dirty |= 0x40000000; }
@@ -4326,7 +4328,7 @@ impl Model {
         if self.v497 != c497 { self.v497 = c497; *dirty |= 0x20000000; }
         let c498: u64 = if (c376) != 0 { (0x0) } else { (self.v478) };
         if self.v498 != c498 { self.v498 = c498; *dirty |= 0x80000000020000000; }
-        let c499: u64 = if (c376) != 0 { (self.q112) } else { (self.v479) };
+        let c499: u64 = if (c376) != 0 { (self.q113) } else { (self.v479) };
         if self.v499 != c499 { self.v499 = c499; *dirty |= 0x10000000; }
         let c500: u64 = if (c376) != 0 { (0x0) } else { (self.v480) };
         if self.v500 != c500 { self.v500 = c500; *dirty |= 0x80000000; }
@@ -4338,7 +4340,7 @@ impl Model {
     /// The cells of top$core$protocol$interframe.
     fn group_28(&mut self, dirty: &mut u128) {
         let c529: u64 = !(self.v495) & 0x1;
-        let c512: u64 = (self.q95) & (c529) & 0x1;
+        let c512: u64 = (self.q90) & (c529) & 0x1;
         let c567: u64 = if (self.v530) != 0 { (0x0) } else { (self.v489) };
         let c569: u64 = if (self.v520) != 0 { (c567) } else { (0x0) };
         let c571: u64 = if (self.v532) != 0 { (0x0) } else { (self.v489) };
@@ -4346,9 +4348,9 @@ impl Model {
         let c574: u64 = if (self.v532) != 0 { (0x5) } else { (self.v499) };
         let c575: u64 = if (self.v532) != 0 { (self.v487) } else { (0x1) };
         let c576: u64 = if (self.v532) != 0 { (self.v488) } else { (0x1) };
-        let c577: u64 = if (self.q106) != 0 { (self.v487) } else { (c575) };
-        let c578: u64 = if (self.q106) != 0 { (self.v488) } else { (c576) };
-        let c579: u64 = if (self.q106) != 0 { (c573) } else { (c574) };
+        let c577: u64 = if (self.q107) != 0 { (self.v487) } else { (c575) };
+        let c578: u64 = if (self.q107) != 0 { (self.v488) } else { (c576) };
+        let c579: u64 = if (self.q107) != 0 { (c573) } else { (c574) };
         let c587: u64 = if (self.v536) != 0 { (self.v487) } else { (c577) };
         let c588: u64 = if (self.v536) != 0 { (self.v488) } else { (c578) };
         let c589: u64 = if (self.v536) != 0 { (self.v499) } else { (c579) };
@@ -4358,9 +4360,9 @@ impl Model {
         let c596: u64 = if (self.v517) != 0 { (self.v489) } else { (c592) };
         let c597: u64 = if (self.v517) != 0 { (self.v499) } else { (c593) };
         let c601: u64 = if (self.v612) != 0 { (0x6) } else { (self.v499) };
-        let c603: u64 = if (self.q106) != 0 { (0x0) } else { (self.v489) };
+        let c603: u64 = if (self.q107) != 0 { (0x0) } else { (self.v489) };
         let c609: u64 = if (self.v515) != 0 { (0x1) } else { (self.v489) };
-        let c613: u64 = if (self.q102) != 0 { (c609) } else { (c603) };
+        let c613: u64 = if (self.q97) != 0 { (c609) } else { (c603) };
         let c600: u64 = if (self.v612) != 0 { (0x0) } else { (c613) };
         let c617: u64 = if (self.v513) != 0 { (0x0) } else { (self.v489) };
         let c619: u64 = if (self.v528) != 0 { (c617) } else { (self.v489) };
@@ -4369,21 +4371,21 @@ impl Model {
         let c622: u64 = if (self.v528) != 0 { (self.v514) } else { (c512) };
         let c623: u64 = if (self.v528) != 0 { (self.v489) } else { (0x0) };
         let c624: u64 = if (self.v528) != 0 { (self.v499) } else { (0x5) };
-        let c625: u64 = if (self.q106) != 0 { (c619) } else { (c623) };
-        let c626: u64 = if (self.q106) != 0 { (c620) } else { (c622) };
-        let c627: u64 = if (self.q106) != 0 { (c621) } else { (c624) };
+        let c625: u64 = if (self.q107) != 0 { (c619) } else { (c623) };
+        let c626: u64 = if (self.q107) != 0 { (c620) } else { (c622) };
+        let c627: u64 = if (self.q107) != 0 { (c621) } else { (c624) };
         let c628: u64 = if (self.v532) != 0 { (0x0) } else { (c512) };
         let c629: u64 = if (self.v532) != 0 { (0x1) } else { (self.v499) };
-        let c630: u64 = (self.q106) & (c628) & 0x1;
-        let c631: u64 = if (self.q106) != 0 { (c629) } else { (self.v499) };
-        let c632: u64 = if (self.q115) != 0 { (c512) } else { (0x1) };
-        let c633: u64 = if (self.q115) != 0 { (self.v488) } else { (0x1) };
-        let c634: u64 = if (self.q106) != 0 { (c632) } else { (self.v531) };
-        let c635: u64 = if (self.q106) != 0 { (c633) } else { (self.v488) };
+        let c630: u64 = (self.q107) & (c628) & 0x1;
+        let c631: u64 = if (self.q107) != 0 { (c629) } else { (self.v499) };
+        let c632: u64 = if (self.q116) != 0 { (c512) } else { (0x1) };
+        let c633: u64 = if (self.q116) != 0 { (self.v488) } else { (0x1) };
+        let c634: u64 = if (self.q107) != 0 { (c632) } else { (self.v531) };
+        let c635: u64 = if (self.q107) != 0 { (c633) } else { (self.v488) };
         let c636: u64 = if (self.v530) != 0 { (0x1) } else { (self.v499) };
-        let c638: u64 = if (self.q106) != 0 { (self.v489) } else { (0x0) };
+        let c638: u64 = if (self.q107) != 0 { (self.v489) } else { (0x0) };
         let c584: u64 = if (self.v536) != 0 { (c638) } else { (c571) };
-        let c639: u64 = if (self.q106) != 0 { (c636) } else { (self.v499) };
+        let c639: u64 = if (self.q107) != 0 { (c636) } else { (self.v499) };
         let c640: u64 = { let s = (self.v568 | (self.v572 << 1) | (self.v539 << 2) | (self.v599 << 3) | (self.v527 << 4) | (self.v637 << 5)); if s >> 0 & 1 != 0 { c569 } else if s >> 1 & 1 != 0 { c584 } else if s >> 2 & 1 != 0 { c596 } else if s >> 3 & 1 != 0 { c600 } else if s >> 4 & 1 != 0 { c625 } else if s >> 5 & 1 != 0 { c638 } else { (self.v489) } };
         let c641: u64 = { let s = (self.v572 | (self.v539 << 1) | (self.v599 << 2) | (self.v527 << 3) | (self.v526 << 4) | (self.v637 << 5)); if s >> 0 & 1 != 0 { c589 } else if s >> 1 & 1 != 0 { c597 } else if s >> 2 & 1 != 0 { c601 } else if s >> 3 & 1 != 0 { c627 } else if s >> 4 & 1 != 0 { c631 } else if s >> 5 & 1 != 0 { c639 } else { (self.v499) } };
         let c646: u64 = if (self.v572) != 0 { (c587) } else { (self.v487) };
@@ -4393,10 +4395,10 @@ impl Model {
         let c565: u64 = if (self.v511) != 0 { (0x0) } else { (c655) };
         let c656: u64 = if (self.v751) != 0 { (self.v487) } else { (c646) };
         let c657: u64 = if (self.v751) != 0 { (self.v488) } else { (c647) };
-        let c37: u64 = u64::from((self.v599 | (self.v751 << 1) | (c657 << 2)) != 0);
-        let c38: u64 = u64::from((self.v751 | (c657 << 1)) != (0x1));
-        let c80: u64 = u64::from((self.q32 | (c38 << 1) | (c37 << 2)) == 0x7);
-        if self.v80 != c80 { self.v80 = c80; *dirty |= 0x4000000000000000000; }
+        let c32: u64 = u64::from((self.v599 | (self.v751 << 1) | (c657 << 2)) != 0);
+        let c33: u64 = u64::from((self.v751 | (c657 << 1)) != (0x1));
+        let c78: u64 = u64::from((self.q26 | (c33 << 1) | (c32 << 2)) == 0x7);
+        if self.v78 != c78 { self.v78 = c78; *dirty |= 0x4000000000000000000; }
         let c560: u64 = ((self.v654) | (c657)) & 0x1;
         if self.v560 != c560 { self.v560 = c560; *dirty |= 0x1000000000000000000; }
         let c561: u64 = if (c657) != 0 { (self.v546) } else { (self.v614) };
@@ -4406,10 +4408,10 @@ impl Model {
         if self.v563 != c563 { self.v563 = c563; *dirty |= 0x40000000; }
         let c659: u64 = if (self.v751) != 0 { (c512) } else { (c649) };
         let c522: u64 = (c659) & (self.v549) & 0x1;
-        let c523: u64 = (c522) & (self.q113) & 0x1;
+        let c523: u64 = (c522) & (self.q114) & 0x1;
         let c538: u64 = !(c659) & 0x1;
         let c521: u64 = (self.v539) & (c538) & 0x1;
-        let c524: u64 = (self.q26) & (c538) & 0x1;
+        let c524: u64 = (self.q20) & (c538) & 0x1;
         let c551: u64 = ((self.v663) | (c521)) & 0x1;
         let c552: u64 = if (c521) != 0 { (0x0) } else { (c538) };
         let c553: u64 = if (self.v486) != 0 { (c551) } else { (self.v663) };
@@ -4423,35 +4425,35 @@ impl Model {
         let c660: u64 = if (self.v751) != 0 { (self.v499) } else { (c641) };
         let c566: u64 = if (self.v511) != 0 { (0x8) } else { (c660) };
         let c564: u64 = if (c657) != 0 { (0x4) } else { (c566) };
-        let c664: u64 = (self.q32) & (c550) & 0x1;
+        let c664: u64 = (self.q26) & (c550) & 0x1;
         if self.v664 != c664 { self.v664 = c664; *dirty |= 0x40000000; }
         let c85: u64 = u64::from((self.i_reset | (c664 << 1)) != 0);
         if self.v85 != c85 { self.v85 = c85; *dirty |= 0x200000000000000000; }
-        let c665: u64 = if (self.q32) != 0 { (c562) } else { (self.v496) };
+        let c665: u64 = if (self.q26) != 0 { (c562) } else { (self.v496) };
         if self.v665 != c665 { self.v665 = c665; *dirty |= 0x60000000; }
-        let c666: u64 = if (self.q32) != 0 { (c564) } else { (self.v499) };
+        let c666: u64 = if (self.q26) != 0 { (c564) } else { (self.v499) };
         if self.v666 != c666 { self.v666 = c666; *dirty |= 0x60000000; }
-        let c667: u64 = (self.q32) & (c557) & 0x1;
+        let c667: u64 = (self.q26) & (c557) & 0x1;
         if self.v667 != c667 { self.v667 = c667; *dirty |= 0x180000000; }
-        let c668: u64 = (self.q32) & (c558) & 0x1;
+        let c668: u64 = (self.q26) & (c558) & 0x1;
         if self.v668 != c668 { self.v668 = c668; *dirty |= 0x80000000; }
-        let c669: u64 = (self.q32) & (c559) & 0x1;
+        let c669: u64 = (self.q26) & (c559) & 0x1;
         if self.v669 != c669 { self.v669 = c669; *dirty |= 0x80000000; }
-        let c670: u64 = (self.q32) & (c538) & 0x1;
+        let c670: u64 = (self.q26) & (c538) & 0x1;
         if self.v670 != c670 { self.v670 = c670; *dirty |= 0x20000000000000000; }
-        let c672: u64 = if (self.q32) != 0 { (c656) } else { (self.v487) };
+        let c672: u64 = if (self.q26) != 0 { (c656) } else { (self.v487) };
         if self.v672 != c672 { self.v672 = c672; *dirty |= 0x20000000000000000; }
-        let c673: u64 = if (self.q32) != 0 { (c657) } else { (self.v488) };
+        let c673: u64 = if (self.q26) != 0 { (c657) } else { (self.v488) };
         if self.v673 != c673 { self.v673 = c673; *dirty |= 0x60000000; }
-        let c675: u64 = if (self.q32) != 0 { (c659) } else { (c512) };
+        let c675: u64 = if (self.q26) != 0 { (c659) } else { (c512) };
         if self.v675 != c675 { self.v675 = c675; *dirty |= 0x40000000040020000000; }
-        let c677: u64 = ((self.q1) | (self.v493)) & 0x1;
+        let c677: u64 = ((self.q102) | (self.v493)) & 0x1;
         let c607: u64 = if (self.v516) != 0 { (0x0) } else { (c677) };
-        let c610: u64 = if (self.q102) != 0 { (c607) } else { (c677) };
+        let c610: u64 = if (self.q97) != 0 { (c607) } else { (c677) };
         let c598: u64 = if (self.v612) != 0 { (0x0) } else { (c610) };
         let c642: u64 = if (self.v599) != 0 { (c598) } else { (c677) };
         let c653: u64 = if (self.v751) != 0 { (c677) } else { (c642) };
-        let c671: u64 = if (self.q32) != 0 { (c653) } else { (c677) };
+        let c671: u64 = if (self.q26) != 0 { (c653) } else { (c677) };
         if self.v671 != c671 { self.v671 = c671; *dirty |= 0x800000000000000000; }
         let _ = &dirty;
     }
@@ -4469,7 +4471,7 @@ impl Model {
         if self.v685 != c685 { self.v685 = c685; *dirty |= 0x40000000000; }
         let c706: u64 = u64::from((self.v666) == (0x4));
         if self.v706 != c706 { self.v706 = c706; *dirty |= 0x40000000000; }
-        let c707: u64 = if (self.v498) != 0 { (self.v749) } else { ((self.q10 >> 14)) };
+        let c707: u64 = if (self.v498) != 0 { (self.v749) } else { ((self.q4 >> 14)) };
         let c708: u64 = u64::from((self.v666) == (0xb));
         if self.v708 != c708 { self.v708 = c708; *dirty |= 0x40000000000; }
         let c709: u64 = if (self.v675) != 0 { (c707) } else { (0x1) };
@@ -4497,15 +4499,15 @@ impl Model {
         if self.v229 != c229 { self.v229 = c229; *dirty |= 0x200000000; }
         let c230: u64 = (self.v501) & (self.v696) & 0x1;
         if self.v230 != c230 { self.v230 = c230; *dirty |= 0x14000000040000000000; }
-        let c79: u64 = u64::from((c230 | (self.v686 << 1)) == 0x3);
-        if self.v79 != c79 { self.v79 = c79; *dirty |= 0x200000000000; }
+        let c77: u64 = u64::from((c230 | (self.v686 << 1)) == 0x3);
+        if self.v77 != c77 { self.v77 = c77; *dirty |= 0x200000000000; }
         let c245: u64 = !(self.v488) & 0x1;
         let c231: u64 = (self.v490) & (c245) & 0x1;
         if self.v231 != c231 { self.v231 = c231; *dirty |= 0x40000000000; }
-        let c35: u64 = u64::from((c230 | (c231 << 1)) != 0);
-        let c36: u64 = u64::from((c230 | (c231 << 1) | (self.v686 << 2)) != (0x1));
-        let c78: u64 = u64::from((c36 | (c35 << 1)) == 0x3);
-        if self.v78 != c78 { self.v78 = c78; *dirty |= 0x200000000000; }
+        let c30: u64 = u64::from((c230 | (c231 << 1)) != 0);
+        let c31: u64 = u64::from((c230 | (c231 << 1) | (self.v686 << 2)) != (0x1));
+        let c76: u64 = u64::from((c31 | (c30 << 1)) == 0x3);
+        if self.v76 != c76 { self.v76 = c76; *dirty |= 0x200000000000; }
         let c247: u64 = !(self.v511) & 0x1;
         let c232: u64 = (self.v246) & (c247) & 0x1;
         let c102: u64 = u64::from((self.i_reset | (c231 << 1) | (c232 << 2)) != 0);
@@ -4516,12 +4518,12 @@ impl Model {
         if self.v249 != c249 { self.v249 = c249; *dirty |= 0x400000000000; }
         let c252: u64 = ((self.v673) | (self.v674)) & 0x1;
         if self.v252 != c252 { self.v252 = c252; *dirty |= 0x60000000000000000; }
-        let c270: u64 = if (self.q32) != 0 { (self.v563) } else { (self.q11) };
+        let c270: u64 = if (self.q26) != 0 { (self.v563) } else { (self.q5) };
         let c267: u64 = if (self.v244) != 0 { (0x0) } else { (c270) };
-        let c268: u64 = if (self.q110) != 0 { (c267) } else { (c270) };
+        let c268: u64 = if (self.q111) != 0 { (c267) } else { (c270) };
         if self.v268 != c268 { self.v268 = c268; *dirty |= 0x80000000000000000; }
-        let c271: u64 = if (self.q32) != 0 { (self.v666) } else { (self.q112) };
-        let c269: u64 = if (self.q110) != 0 { (0x3) } else { (c271) };
+        let c271: u64 = if (self.q26) != 0 { (self.v666) } else { (self.q113) };
+        let c269: u64 = if (self.q111) != 0 { (0x3) } else { (c271) };
         let c266: u64 = if (self.v233) != 0 { (0x1) } else { (c269) };
         let c265: u64 = if (self.v228) != 0 { (0x0) } else { (c266) };
         let c263: u64 = if (self.i_reset) != 0 { (0x0) } else { (c265) };
@@ -4542,9 +4544,9 @@ impl Model {
         let c261: u64 = ((c260) | (c242)) & 0x1;
         let c262: u64 = ((c261) | (c243)) & 0x1;
         if self.v262 != c262 { self.v262 = c262; *dirty |= 0x800000000000000000; }
-        let c272: u64 = ((self.q26) | (self.v11)) & 0x1;
+        let c272: u64 = ((self.q20) | (self.v11)) & 0x1;
         if self.v272 != c272 { self.v272 = c272; *dirty |= 0x800000000000000; }
-        let c273: u64 = ((self.q9) | (self.v494)) & 0x1;
+        let c273: u64 = ((self.q3) | (self.v494)) & 0x1;
         if self.v273 != c273 { self.v273 = c273; *dirty |= 0x100000000000000000; }
         let c274: u64 = ((self.v492) | (self.v664)) & 0x1;
         if self.v274 != c274 { self.v274 = c274; *dirty |= 0x100000000000000000; }
@@ -4558,36 +4560,36 @@ impl Model {
         let c321: u64 = (self.v669) & (self.v329) & 0x1;
         let c322: u64 = (self.v2) & (self.v543) & 0x1;
         let c355: u64 = (self.v667) & (self.v354) & 0x1;
-        let c356: u64 = if (self.v667) != 0 { (self.v352) } else { (self.q5 | (self.q6 << 7)) };
+        let c356: u64 = if (self.v667) != 0 { (self.v352) } else { (self.q106 | (self.q0 << 7)) };
         let c350: u64 = if (c321) != 0 { (self.v318) } else { (c356) };
         let c349: u64 = if (self.v668) != 0 { (self.v348) } else { (c350) };
         let c345: u64 = if (self.v330) != 0 { (self.v371) } else { (c349) };
-        let c346: u64 = if (self.q6) != 0 { (0x7f) } else { (c345) };
+        let c346: u64 = if (self.q0) != 0 { (0x7f) } else { (c345) };
         let c347: u64 = if (self.v500) != 0 { (c346) } else { (c349) };
-        let c357: u64 = if (self.v667) != 0 { (self.v353) } else { ((self.q2 << 5)) };
+        let c357: u64 = if (self.v667) != 0 { (self.v353) } else { ((self.q103 << 5)) };
         let c351: u64 = if (c320) != 0 { (self.v370) } else { ((c357 & 0x1) | ((c357 & 0x1) << 1) | (c357 << 2)) };
-        let c358: u64 = if (self.v250) != 0 { (self.q5 | (self.q6 << 7)) } else { (c347) };
-        let c359: u64 = if (self.v250) != 0 { ((self.q2 << 7)) } else { (c351) };
+        let c358: u64 = if (self.v250) != 0 { (self.q106 | (self.q0 << 7)) } else { (c347) };
+        let c359: u64 = if (self.v250) != 0 { ((self.q103 << 7)) } else { (c351) };
         let c360: u64 = if (self.v250) != 0 { (0x0) } else { (c355) };
         let c364: u64 = if (self.v676) != 0 { (self.v362) } else { (0x1) };
-        let c365: u64 = if (self.v676) != 0 { (self.v361) } else { (self.q5 | (self.q6 << 7)) };
-        let c366: u64 = if (self.v676) != 0 { (self.v363) } else { ((self.q2 << 7)) };
-        let c367: u64 = if (self.q110) != 0 { (c364) } else { (c360) };
-        let c338: u64 = if (self.q110) != 0 { (0x0) } else { (c367) };
+        let c365: u64 = if (self.v676) != 0 { (self.v361) } else { (self.q106 | (self.q0 << 7)) };
+        let c366: u64 = if (self.v676) != 0 { (self.v363) } else { ((self.q103 << 7)) };
+        let c367: u64 = if (self.q111) != 0 { (c364) } else { (c360) };
+        let c338: u64 = if (self.q111) != 0 { (0x0) } else { (c367) };
         let c341: u64 = ((c338) | (self.v327)) & 0x1;
         let c342: u64 = if (self.v1) != 0 { (c341) } else { (c367) };
         let c333: u64 = if (self.i_reset) != 0 { (0x0) } else { (c342) };
         if self.v333 != c333 { self.v333 = c333; *dirty |= 0x200000000000000000; }
         let c331: u64 = !(c333) & 0x1;
-        let c368: u64 = if (self.q110) != 0 { (c365) } else { (c358) };
-        let c337: u64 = if (self.q110) != 0 { (0x0) } else { (c368) };
+        let c368: u64 = if (self.q111) != 0 { (c365) } else { (c358) };
+        let c337: u64 = if (self.q111) != 0 { (0x0) } else { (c368) };
         let c339: u64 = if (self.v327) != 0 { (0x0) } else { (c337) };
         let c343: u64 = if (self.v1) != 0 { (c339) } else { (c368) };
         let c336: u64 = if (c322) != 0 { (self.i_wdata) } else { (c343) };
         if self.v336 != c336 { self.v336 = c336; *dirty |= 0x100000000000; }
         let c334: u64 = if (self.i_reset) != 0 { (0x0) } else { (c336) };
         if self.v334 != c334 { self.v334 = c334; *dirty |= 0x100000000000; }
-        let c369: u64 = if (self.q110) != 0 { (c366) } else { (c359) };
+        let c369: u64 = if (self.q111) != 0 { (c366) } else { (c359) };
         let c344: u64 = if (self.v1) != 0 { (self.v340) } else { (c369) };
         if self.v344 != c344 { self.v344 = c344; *dirty |= 0x4000000000; }
         let c335: u64 = if (self.i_reset) != 0 { (0x0) } else { (c344) };
@@ -4600,23 +4602,23 @@ impl Model {
 
     /// The cells of can_controller.
     fn group_32(&mut self, dirty: &mut u128) {
-        let c20: u64 = u64::from((self.v667 | (self.q110 << 1) | (self.v320 << 2) | (self.v250 << 3) | (self.v1 << 4)) != 0);
-        let c21: u64 = u64::from((self.v667 | (self.q110 << 1) | (self.v320 << 2) | (self.v325 << 3) | (self.v250 << 4) | (self.v1 << 5)) != (0x1));
-        let c22: u64 = u64::from((self.v676 | (self.q110 << 1) | (self.v1 << 2)) != (0x2));
-        let c23: u64 = u64::from((self.v676 | (self.q110 << 1) | (self.v324 << 2) | (self.v1 << 3)) != (0x7));
-        let c54: u64 = u64::from((c21 | (c22 << 1) | (c23 << 2) | (c20 << 3) | (self.v24 << 4)) == 0x1f);
-        if self.v54 != c54 { self.v54 = c54; *dirty |= 0x4000000000; }
-        let c55: u64 = u64::from((c22 | (c23 << 1) | (c20 << 2) | (self.v24 << 3)) == 0xf);
-        if self.v55 != c55 { self.v55 = c55; *dirty |= 0x4000000000; }
+        let c40: u64 = u64::from((self.v667 | (self.q111 << 1) | (self.v320 << 2) | (self.v250 << 3) | (self.v1 << 4)) != 0);
+        let c41: u64 = u64::from((self.v667 | (self.q111 << 1) | (self.v320 << 2) | (self.v325 << 3) | (self.v250 << 4) | (self.v1 << 5)) != (0x1));
+        let c42: u64 = u64::from((self.v676 | (self.q111 << 1) | (self.v1 << 2)) != (0x2));
+        let c43: u64 = u64::from((self.v676 | (self.q111 << 1) | (self.v324 << 2) | (self.v1 << 3)) != (0x7));
+        let c82: u64 = u64::from((c41 | (c42 << 1) | (c43 << 2) | (c40 << 3) | (self.v44 << 4)) == 0x1f);
+        if self.v82 != c82 { self.v82 = c82; *dirty |= 0x4000000000; }
+        let c83: u64 = u64::from((c42 | (c43 << 1) | (c40 << 2) | (self.v44 << 3)) == 0xf);
+        if self.v83 != c83 { self.v83 = c83; *dirty |= 0x4000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler.
     fn group_33(&mut self, dirty: &mut u128) {
-        let c58: u64 = u64::from((self.v508 | (self.v46 << 1) | (self.v392 << 2) | (self.v45 << 3)) == 0xf);
-        if self.v58 != c58 { self.v58 = c58; *dirty |= 0x8000000000000000; }
-        let c60: u64 = u64::from((self.v508 | (self.v440 << 1) | (self.v276 << 2)) == 0x7);
-        if self.v60 != c60 { self.v60 = c60; *dirty |= 0x2000000000000000; }
+        let c56: u64 = u64::from((self.v508 | (self.v46 << 1) | (self.v392 << 2) | (self.v45 << 3)) == 0xf);
+        if self.v56 != c56 { self.v56 = c56; *dirty |= 0x8000000000000000; }
+        let c58: u64 = u64::from((self.v508 | (self.v440 << 1) | (self.v276 << 2)) == 0x7);
+        if self.v58 != c58 { self.v58 = c58; *dirty |= 0x2000000000000000; }
         let c283: u64 = (self.v440) & (self.v229) & 0x1;
         let c284: u64 = (self.v508) & (self.v282) & 0x1;
         if self.v284 != c284 { self.v284 = c284; *dirty |= 0x1000000000000000; }
@@ -4627,177 +4629,177 @@ impl Model {
 
     /// The cells of top$modes.
     fn group_34(&mut self, dirty: &mut u128) {
-        let c968: u64 = (self.v762) & (self.v47) & 0x1;
-        let c974: u64 = (self.v149) & (self.v988) & 0x1;
-        if self.v974 != c974 { self.v974 = c974; *dirty |= 0x1000000000000000000000000000; }
-        let c980: u64 = !(self.v770) & 0x1;
-        let c981: u64 = !(self.v1080) & 0x1;
-        if self.v981 != c981 { self.v981 = c981; *dirty |= 0x80000000000000000000000000000000; }
-        let c970: u64 = (self.v525) & (c981) & 0x1;
-        let c1004: u64 = ((self.q125) | (c970)) & 0x1;
-        let c1005: u64 = !(c970) & 0x1;
-        let c1008: u64 = if (c968) != 0 { (c980) } else { (self.v1018) };
-        let c989: u64 = ((c1008) | (self.v982)) & 0x1;
-        let c971: u64 = (self.q125) & (c989) & 0x1;
-        let c1009: u64 = if (c968) != 0 { (self.v770) } else { (self.v1019) };
-        let c969: u64 = (c1009) & (self.v84) & 0x1;
-        let c1006: u64 = if (c969) != 0 { (c1004) } else { (self.q125) };
-        let c1003: u64 = if (c971) != 0 { (0x0) } else { (c1006) };
-        let c999: u64 = if (self.v1000) != 0 { (0x0) } else { (c1003) };
-        let c991: u64 = if (self.i_reset) != 0 { (0x0) } else { (c999) };
-        if self.v991 != c991 { self.v991 = c991; *dirty |= 0x2000000000000000000000000000; }
-        let c987: u64 = !(c991) & 0x1;
-        let c975: u64 = (self.v986) & (c987) & 0x1;
-        if self.v975 != c975 { self.v975 = c975; *dirty |= 0x100000000000000000000000000; }
-        let c1007: u64 = (c969) & (c1005) & 0x1;
-        let c1002: u64 = ((c1007) | (c971)) & 0x1;
-        if self.v1002 != c1002 { self.v1002 = c1002; *dirty |= 0x800000000; }
+        let c967: u64 = (self.v762) & (self.v47) & 0x1;
+        let c973: u64 = (self.v149) & (self.v987) & 0x1;
+        if self.v973 != c973 { self.v973 = c973; *dirty |= 0x1000000000000000000000000000; }
+        let c979: u64 = !(self.v770) & 0x1;
+        let c980: u64 = !(self.v1079) & 0x1;
+        if self.v980 != c980 { self.v980 = c980; *dirty |= 0x80000000000000000000000000000000; }
+        let c969: u64 = (self.v525) & (c980) & 0x1;
+        let c1003: u64 = ((self.q126) | (c969)) & 0x1;
+        let c1004: u64 = !(c969) & 0x1;
+        let c1007: u64 = if (c967) != 0 { (c979) } else { (self.v1017) };
+        let c988: u64 = ((c1007) | (self.v981)) & 0x1;
+        let c970: u64 = (self.q126) & (c988) & 0x1;
+        let c1008: u64 = if (c967) != 0 { (self.v770) } else { (self.v1018) };
+        let c968: u64 = (c1008) & (self.v84) & 0x1;
+        let c1005: u64 = if (c968) != 0 { (c1003) } else { (self.q126) };
+        let c1002: u64 = if (c970) != 0 { (0x0) } else { (c1005) };
+        let c998: u64 = if (self.v999) != 0 { (0x0) } else { (c1002) };
+        let c990: u64 = if (self.i_reset) != 0 { (0x0) } else { (c998) };
+        if self.v990 != c990 { self.v990 = c990; *dirty |= 0x2000000000000000000000000000; }
+        let c986: u64 = !(c990) & 0x1;
+        let c974: u64 = (self.v985) & (c986) & 0x1;
+        if self.v974 != c974 { self.v974 = c974; *dirty |= 0x100000000000000000000000000; }
+        let c1006: u64 = (c968) & (c1004) & 0x1;
+        let c1001: u64 = ((c1006) | (c970)) & 0x1;
+        if self.v1001 != c1001 { self.v1001 = c1001; *dirty |= 0x800000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts.
     fn group_35(&mut self, dirty: &mut u128) {
-        let c119: u64 = (self.q8 | (self.v1002 << 1) | (self.v954 << 2) | (self.v929 << 3) | (self.v945 << 4) | (self.v927 << 5) | (self.v926 << 6)) & (((self.q68 >> 1) & 0x1) | ((self.v1079 & 0x3) << 1) | ((self.q68 >> 3) << 3) | (((self.q68 >> 2) & 0x1) << 4) | ((self.v1079 >> 3) << 5) | (((self.v1079 >> 2) & 0x1) << 6)) & 0x7f;
-        let c925: u64 = (self.v47) & (self.v1044) & 0x1;
-        let c27: u64 = u64::from((c925 | (self.v924 << 1)) != 0);
-        let c48: u64 = !(c925) & 0x1;
-        let c73: u64 = u64::from((self.i_we | (c48 << 1) | (self.v924 << 2)) == 0x7);
-        if self.v73 != c73 { self.v73 = c73; *dirty |= 0x800000000000; }
-        let c74: u64 = u64::from((self.i_we | (c27 << 1)) == 0x3);
-        if self.v74 != c74 { self.v74 = c74; *dirty |= 0x800000000000; }
-        let c931: u64 = (self.v765) & (self.v941) & 0x1;
-        if self.v931 != c931 { self.v931 = c931; *dirty |= 0x1000000000; }
-        let c932: u64 = (c931) & (self.v942) & 0x1;
-        let c946: u64 = ((self.v930) | (c932)) & 0x1;
-        let c949: u64 = if (self.v1000) != 0 { (0x0) } else { ((self.v950 & 0x1) | ((self.v950 >> 2) << 1)) };
-        let c120: u64 = (((c949 & 0x1) | (((self.v950 >> 1) & 0x1) << 1) | ((c949 >> 1) << 2)) | ((c119 & 0x1) | (((c119 >> 4) & 0x1) << 1) | (((c119 >> 3) & 0x1) << 2) | (((c119 >> 1) & 0x3) << 3) | ((c119 >> 6) << 5) | (((c119 >> 5) & 0x1) << 6))) & 0x7f;
+        let c119: u64 = (self.q2 | (self.v1001 << 1) | (self.v953 << 2) | (self.v928 << 3) | (self.v944 << 4) | (self.v926 << 5) | (self.v925 << 6)) & (((self.q62 >> 1) & 0x1) | ((self.v1078 & 0x3) << 1) | ((self.q62 >> 3) << 3) | (((self.q62 >> 2) & 0x1) << 4) | ((self.v1078 >> 3) << 5) | (((self.v1078 >> 2) & 0x1) << 6)) & 0x7f;
+        let c924: u64 = (self.v47) & (self.v1043) & 0x1;
+        let c22: u64 = u64::from((c924 | (self.v923 << 1)) != 0);
+        let c48: u64 = !(c924) & 0x1;
+        let c71: u64 = u64::from((self.i_we | (c48 << 1) | (self.v923 << 2)) == 0x7);
+        if self.v71 != c71 { self.v71 = c71; *dirty |= 0x800000000000; }
+        let c72: u64 = u64::from((self.i_we | (c22 << 1)) == 0x3);
+        if self.v72 != c72 { self.v72 = c72; *dirty |= 0x800000000000; }
+        let c930: u64 = (self.v765) & (self.v940) & 0x1;
+        if self.v930 != c930 { self.v930 = c930; *dirty |= 0x1000000000; }
+        let c931: u64 = (c930) & (self.v941) & 0x1;
+        let c945: u64 = ((self.v929) | (c931)) & 0x1;
+        let c948: u64 = if (self.v999) != 0 { (0x0) } else { ((self.v949 & 0x1) | ((self.v949 >> 2) << 1)) };
+        let c120: u64 = (((c948 & 0x1) | (((self.v949 >> 1) & 0x1) << 1) | ((c948 >> 1) << 2)) | ((c119 & 0x1) | (((c119 >> 4) & 0x1) << 1) | (((c119 >> 3) & 0x1) << 2) | (((c119 >> 1) & 0x3) << 3) | ((c119 >> 6) << 5) | (((c119 >> 5) & 0x1) << 6))) & 0x7f;
         if self.v120 != c120 { self.v120 = c120; *dirty |= 0x2000000000000000000000000; }
-        let c951: u64 = ((self.v952) | (c946)) & 0x1;
-        if self.v951 != c951 { self.v951 = c951; *dirty |= 0x800000000000000000000000; }
-        let c963: u64 = if (c925) != 0 { (((self.i_wdata >> 1) & 0xf)) } else { ((self.i_wdata & 0xf)) };
-        if self.v963 != c963 { self.v963 = c963; *dirty |= 0x800000000000; }
+        let c950: u64 = ((self.v951) | (c945)) & 0x1;
+        if self.v950 != c950 { self.v950 = c950; *dirty |= 0x800000000000000000000000; }
+        let c962: u64 = if (c924) != 0 { (((self.i_wdata >> 1) & 0xf)) } else { ((self.i_wdata & 0xf)) };
+        if self.v962 != c962 { self.v962 = c962; *dirty |= 0x800000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$fifo.
     fn group_36(&mut self, dirty: &mut u128) {
-        let c33: u64 = u64::from((self.v795 | (self.v931 << 1)) != 0);
-        if self.v33 != c33 { self.v33 = c33; *dirty |= 0x2000000000000000000000; }
-        let c803: u64 = !(self.v931) & 0x1;
-        let c796: u64 = (self.v801) & (c803) & 0x1;
-        let c821: u64 = (self.v795) & (c796) & 0x1;
+        let c28: u64 = u64::from((self.v792 | (self.v930 << 1)) != 0);
+        if self.v28 != c28 { self.v28 = c28; *dirty |= 0x2000000000000000000000; }
+        let c801: u64 = !(self.v930) & 0x1;
+        let c793: u64 = (self.v797) & (c801) & 0x1;
+        let c821: u64 = (self.v792) & (c793) & 0x1;
         if self.v821 != c821 { self.v821 = c821; *dirty |= 0x2000000000000000000000; }
-        let c822: u64 = if (self.v931) != 0 { (self.v849) } else { (self.q93) };
-        let c794: u64 = (c822).wrapping_add((0x1)) & 0x1f;
-        let c802: u64 = u64::from((c822) == 0);
-        let c816: u64 = if (c802) != 0 { (0x0) } else { (self.v931) };
-        let c817: u64 = if (c802) != 0 { (self.q22 | (self.q16 << 6) | (self.q18 << 7)) } else { (self.v847) };
-        let c818: u64 = if (self.v795) != 0 { (c816) } else { (self.v931) };
+        let c822: u64 = if (self.v930) != 0 { (self.v848) } else { (self.q88) };
+        let c790: u64 = (c822).wrapping_add((0x1)) & 0x1f;
+        let c799: u64 = u64::from((c822) == 0);
+        let c816: u64 = if (c799) != 0 { (0x0) } else { (self.v930) };
+        let c817: u64 = if (c799) != 0 { (self.q16 | (self.q10 << 6) | (self.q12 << 7)) } else { (self.v847) };
+        let c818: u64 = if (self.v792) != 0 { (c816) } else { (self.v930) };
         if self.v818 != c818 { self.v818 = c818; *dirty |= 0x80000000000000000000; }
-        let c819: u64 = if (self.v795) != 0 { (c817) } else { (self.v847) };
+        let c819: u64 = if (self.v792) != 0 { (c817) } else { (self.v847) };
         if self.v819 != c819 { self.v819 = c819; *dirty |= 0x100000000000000000000; }
-        let c820: u64 = if (self.v795) != 0 { (c794) } else { (c822) };
+        let c820: u64 = if (self.v792) != 0 { (c790) } else { (c822) };
         if self.v820 != c820 { self.v820 = c820; *dirty |= 0x2000000000000000000000; }
-        let c823: u64 = if (self.v931) != 0 { (self.v792) } else { (self.q90) };
+        let c823: u64 = if (self.v930) != 0 { (self.v789) } else { (self.q85) };
         let c805: u64 = if (self.v3) != 0 { ((self.i_wdata & 0x3f)) } else { (c823) };
-        let c810: u64 = if (self.q123) != 0 { (c805) } else { (c823) };
+        let c810: u64 = if (self.q124) != 0 { (c805) } else { (c823) };
         if self.v810 != c810 { self.v810 = c810; *dirty |= 0x80000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$modes$divider.
     fn group_37(&mut self, dirty: &mut u128) {
-        let c1024: u64 = (self.q58).wrapping_add((0x1)) & 0x7;
+        let c1023: u64 = (self.q52).wrapping_add((0x1)) & 0x7;
+        if self.v1023 != c1023 { self.v1023 = c1023; *dirty |= 0x80000000000000000000000000; }
+        let c1024: u64 = !(self.q51) & 0x1;
         if self.v1024 != c1024 { self.v1024 = c1024; *dirty |= 0x80000000000000000000000000; }
-        let c1025: u64 = !(self.q57) & 0x1;
-        if self.v1025 != c1025 { self.v1025 = c1025; *dirty |= 0x80000000000000000000000000; }
-        let c1026: u64 = u64::from((self.q42) == (0x7));
-        let c1027: u64 = u64::from((self.q58) >= (self.q42));
-        if self.v1027 != c1027 { self.v1027 = c1027; *dirty |= 0x80000000000000000000000000; }
-        let c95: u64 = u64::from((self.i_reset | (c1027 << 1)) != 0);
+        let c1025: u64 = u64::from((self.q36) == (0x7));
+        let c1026: u64 = u64::from((self.q52) >= (self.q36));
+        if self.v1026 != c1026 { self.v1026 = c1026; *dirty |= 0x80000000000000000000000000; }
+        let c95: u64 = u64::from((self.i_reset | (c1026 << 1)) != 0);
         if self.v95 != c95 { self.v95 = c95; *dirty |= 0x80000000000000000000000000; }
-        let c1029: u64 = if (c1026) != 0 { (0x0) } else { (self.q57) };
-        let c1028: u64 = ((c1029) | ((self.q61 & 0x1))) & 0x1;
-        if self.v1028 != c1028 { self.v1028 = c1028; *dirty |= 0x20000000000000000000000000; }
+        let c1028: u64 = if (c1025) != 0 { (0x0) } else { (self.q51) };
+        let c1027: u64 = ((c1028) | ((self.q55 & 0x1))) & 0x1;
+        if self.v1027 != c1027 { self.v1027 = c1027; *dirty |= 0x20000000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults$tec_count.
     fn group_38(&mut self, dirty: &mut u128) {
-        self.n2 = ((self.v335 >> 7));
-        self.n3 = if (self.i_reset) != 0 { 0x0 } else if (self.v54) != 0 { ((self.v344 & 0x7)) } else { self.q3 };
-        self.n4 = if (self.i_reset) != 0 { 0x0 } else if (self.v55) != 0 { (((self.v344 >> 3) & 0xf)) } else { self.q4 };
+        self.n103 = ((self.v335 >> 7));
+        self.n104 = if (self.i_reset) != 0 { 0x0 } else if (self.v82) != 0 { ((self.v344 & 0x7)) } else { self.q104 };
+        self.n105 = if (self.i_reset) != 0 { 0x0 } else if (self.v83) != 0 { (((self.v344 >> 3) & 0xf)) } else { self.q105 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter.
     fn group_39(&mut self, dirty: &mut u128) {
-        let c857: u64 = (self.q75) & (self.v8) & 0x1;
-        if self.v857 != c857 { self.v857 = c857; *dirty |= 0x110000000000000000000000; }
-        let c868: u64 = (self.q24) & (self.v799) & 0x1;
-        let c869: u64 = (c868) & (self.v881) & 0x1;
-        let c883: u64 = ((self.v1036) | (self.v871)) & 0x1;
-        let c885: u64 = ((self.q21) | (c869)) & 0x1;
-        if self.v885 != c885 { self.v885 = c885; *dirty |= 0x2c0000000000000000000000; }
-        let c97: u64 = u64::from((self.i_reset | (c885 << 1)) != 0);
+        let c856: u64 = (self.q69) & (self.v8) & 0x1;
+        if self.v856 != c856 { self.v856 = c856; *dirty |= 0x110000000000000000000000; }
+        let c867: u64 = (self.q18) & (self.v796) & 0x1;
+        let c868: u64 = (c867) & (self.v880) & 0x1;
+        let c882: u64 = ((self.v1035) | (self.v870)) & 0x1;
+        let c884: u64 = ((self.q15) | (c868)) & 0x1;
+        if self.v884 != c884 { self.v884 = c884; *dirty |= 0x2c0000000000000000000000; }
+        let c97: u64 = u64::from((self.i_reset | (c884 << 1)) != 0);
         if self.v97 != c97 { self.v97 = c97; *dirty |= 0x110000000000000000000000; }
-        let c916: u64 = if (c857) != 0 { (self.v915) } else { (self.q75) };
-        let c890: u64 = ((c916) | (c885)) & 0x1;
-        if self.v890 != c890 { self.v890 = c890; *dirty |= 0x200000000000000000000000; }
-        let c919: u64 = if (self.q60) != 0 { (self.v852) } else { (c883) };
-        if self.v919 != c919 { self.v919 = c919; *dirty |= 0x1000000000000; }
+        let c915: u64 = if (c856) != 0 { (self.v914) } else { (self.q69) };
+        let c889: u64 = ((c915) | (c884)) & 0x1;
+        if self.v889 != c889 { self.v889 = c889; *dirty |= 0x200000000000000000000000; }
+        let c918: u64 = if (self.q54) != 0 { (self.v851) } else { (c882) };
+        if self.v918 != c918 { self.v918 = c918; *dirty |= 0x1000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$modes$cdr_reg.
     fn group_40(&mut self, dirty: &mut u128) {
-        self.n42 = if (self.i_reset) != 0 { 0x0 } else if (self.v973) != 0 { ((self.i_wdata & 0x7)) } else { self.q42 };
-        self.n60 = ((self.v990 >> 6));
-        self.n61 = if (self.i_reset) != 0 { 0x0 } else if (self.v71) != 0 { (((self.i_wdata >> 3) & 0x1) | (((self.i_wdata >> 5) & 0x3) << 1)) } else { self.q61 };
+        self.n36 = if (self.i_reset) != 0 { 0x0 } else if (self.v972) != 0 { ((self.i_wdata & 0x7)) } else { self.q36 };
+        self.n54 = ((self.v989 >> 6));
+        self.n55 = if (self.i_reset) != 0 { 0x0 } else if (self.v69) != 0 { (((self.i_wdata >> 3) & 0x1) | (((self.i_wdata >> 5) & 0x3) << 1)) } else { self.q55 };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer.
     fn group_41(&mut self, dirty: &mut u128) {
-        let c1091: u64 = if (self.q60) != 0 { (self.q50) } else { ((self.q44 & 0xf) | ((self.q44 >> 4) << 6)) };
-        if self.v1091 != c1091 { self.v1091 = c1091; *dirty |= 0x40000000000; }
-        let c1092: u64 = if (self.q51) != 0 { (self.m1_rd) } else { (0x0) };
-        if self.v1092 != c1092 { self.v1092 = c1092; *dirty |= 0x28000000000040000000000; }
-        let c1093: u64 = if (self.q49) != 0 { (self.m2_rd) } else { (0x0) };
-        if self.v1093 != c1093 { self.v1093 = c1093; *dirty |= 0x4000000000000; }
+        let c1090: u64 = if (self.q54) != 0 { (self.q44) } else { ((self.q38 & 0xf) | ((self.q38 >> 4) << 6)) };
+        if self.v1090 != c1090 { self.v1090 = c1090; *dirty |= 0x40000000000; }
+        let c1091: u64 = if (self.q45) != 0 { (self.m1_rd) } else { (0x0) };
+        if self.v1091 != c1091 { self.v1091 = c1091; *dirty |= 0x28000000000040000000000; }
+        let c1092: u64 = if (self.q43) != 0 { (self.m2_rd) } else { (0x0) };
+        if self.v1092 != c1092 { self.v1092 = c1092; *dirty |= 0x4000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender.
     fn group_42(&mut self, dirty: &mut u128) {
-        let c718: u64 = if ((self.v1091 >> 7)) != 0 { (self.v747) } else { (self.v733) };
+        let c718: u64 = if ((self.v1090 >> 7)) != 0 { (self.v747) } else { (self.v733) };
         let c690: u64 = u64::from((c718) == (0x1));
         let c691: u64 = u64::from((c718) == (0x2));
         let c692: u64 = u64::from((c718) == (0x3));
         let c693: u64 = u64::from((c718) == (0x4));
-        let c717: u64 = (c690) & (((self.v1091 >> 3) & 0x1)) & 0x1;
-        let c716: u64 = if (c691) != 0 { (((self.v1091 >> 2) & 0x1)) } else { (c717) };
-        let c715: u64 = if (c692) != 0 { (((self.v1091 >> 1) & 0x1)) } else { (c716) };
-        let c713: u64 = if (c693) != 0 { ((self.v1091 & 0x1)) } else { (c715) };
+        let c717: u64 = (c690) & (((self.v1090 >> 3) & 0x1)) & 0x1;
+        let c716: u64 = if (c691) != 0 { (((self.v1090 >> 2) & 0x1)) } else { (c717) };
+        let c715: u64 = if (c692) != 0 { (((self.v1090 >> 1) & 0x1)) } else { (c716) };
+        let c713: u64 = if (c693) != 0 { ((self.v1090 & 0x1)) } else { (c715) };
         let c719: u64 = if (self.v675) != 0 { (c713) } else { (0x1) };
-        let c723: u64 = ((((self.v1091 >> 6) & 0x1)) | ((self.v1091 >> 7))) & 0x1;
-        let c741: u64 = if (self.v686) != 0 { ((self.v1092 & 0x7f)) } else { (((self.q41 & 0x3f) << 1)) };
+        let c723: u64 = ((((self.v1090 >> 6) & 0x1)) | ((self.v1090 >> 7))) & 0x1;
+        let c741: u64 = if (self.v686) != 0 { ((self.v1091 & 0x7f)) } else { (((self.q35 & 0x3f) << 1)) };
         if self.v741 != c741 { self.v741 = c741; *dirty |= 0x10000000000000000000; }
-        let c742: u64 = if (self.v230) != 0 { (self.v739) } else { ((self.q100 & 0x1)) };
+        let c742: u64 = if (self.v230) != 0 { (self.v739) } else { ((self.q95 & 0x1)) };
         let c738: u64 = if (self.v231) != 0 { ((self.v737 << 1) | 0x1) } else { (c742) };
         if self.v738 != c738 { self.v738 = c738; *dirty |= 0x200000000000; }
-        let c744: u64 = if (self.v686) != 0 { (((self.v1092 >> 6) & 0x1)) } else { (((self.q41 >> 5) & 0x1)) };
-        let c743: u64 = if (self.v687) != 0 { ((self.v1092 >> 7)) } else { (c744) };
-        let c745: u64 = if (self.v686) != 0 { ((self.v1092 >> 7)) } else { ((self.q41 >> 6)) };
+        let c744: u64 = if (self.v686) != 0 { (((self.v1091 >> 6) & 0x1)) } else { (((self.q35 >> 5) & 0x1)) };
+        let c743: u64 = if (self.v687) != 0 { ((self.v1091 >> 7)) } else { (c744) };
+        let c745: u64 = if (self.v686) != 0 { ((self.v1091 >> 7)) } else { ((self.q35 >> 6)) };
         let c710: u64 = if (self.v230) != 0 { (c743) } else { (c745) };
         let c712: u64 = if (self.v675) != 0 { (c710) } else { (0x1) };
         let c724: u64 = if (self.v732) != 0 { (c723) } else { (c710) };
-        let c722: u64 = if (self.v731) != 0 { ((self.v1091 >> 7)) } else { (c724) };
-        let c720: u64 = if (self.v730) != 0 { (((self.v1091 >> 6) & 0x1)) } else { (c722) };
+        let c722: u64 = if (self.v731) != 0 { ((self.v1090 >> 7)) } else { (c724) };
+        let c720: u64 = if (self.v730) != 0 { (((self.v1090 >> 6) & 0x1)) } else { (c722) };
         let c725: u64 = if (self.v675) != 0 { (c720) } else { (0x1) };
-        let c726: u64 = { let s = (self.v727 | (self.v706 << 1) | (self.v728 << 2) | (self.v708 << 3) | (self.v711 << 4) | (self.v714 << 5) | (self.v721 << 6) | (self.v729 << 7)); if s >> 0 & 1 != 0 { self.q121 } else if s >> 1 & 1 != 0 { self.v705 } else if s >> 2 & 1 != 0 { self.v694 } else if s >> 3 & 1 != 0 { self.v709 } else if s >> 4 & 1 != 0 { c712 } else if s >> 5 & 1 != 0 { c719 } else if s >> 6 & 1 != 0 { c725 } else if s >> 7 & 1 != 0 { self.v689 } else { (0x1) } };
+        let c726: u64 = { let s = (self.v727 | (self.v706 << 1) | (self.v728 << 2) | (self.v708 << 3) | (self.v711 << 4) | (self.v714 << 5) | (self.v721 << 6) | (self.v729 << 7)); if s >> 0 & 1 != 0 { self.q122 } else if s >> 1 & 1 != 0 { self.v705 } else if s >> 2 & 1 != 0 { self.v694 } else if s >> 3 & 1 != 0 { self.v709 } else if s >> 4 & 1 != 0 { c712 } else if s >> 5 & 1 != 0 { c719 } else if s >> 6 & 1 != 0 { c725 } else if s >> 7 & 1 != 0 { self.v689 } else { (0x1) } };
         let c704: u64 = if (self.v685) != 0 { (self.v432) } else { (c726) };
-        let c703: u64 = if (self.q32) != 0 { (c704) } else { (self.q114) };
+        let c703: u64 = if (self.q26) != 0 { (c704) } else { (self.q115) };
         let c699: u64 = ((c703) | (self.v698)) & 0x1;
         if self.v699 != c699 { self.v699 = c699; *dirty |= 0x8000000000000000000; }
         let _ = &dirty;
@@ -4805,22 +4807,22 @@ impl Model {
 
     /// The cells of top$core$bit_timing$clocks.
     fn group_43(&mut self, dirty: &mut u128) {
-        self.n34 = if (self.i_reset) != 0 { 0x0 } else { (self.v184) };
-        self.n35 = if (self.v92) != 0 { 0x0 } else { ((self.v135 >> 1)) };
+        self.n28 = if (self.i_reset) != 0 { 0x0 } else { (self.v183) };
+        self.n29 = if (self.v92) != 0 { 0x0 } else { ((self.v135 >> 1)) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults$rec_count.
     fn group_44(&mut self, dirty: &mut u128) {
-        self.n5 = if (self.i_reset) != 0 { 0x0 } else { ((self.v336 & 0x7f)) };
-        self.n6 = ((self.v334 >> 7));
+        self.n0 = ((self.v334 >> 7));
+        self.n106 = if (self.i_reset) != 0 { 0x0 } else { ((self.v336 & 0x7f)) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender$tx_ptr.
     fn group_45(&mut self, dirty: &mut u128) {
-        self.n99 = if (self.v103) != 0 { 0x0 } else if (self.v78) != 0 { ((self.v738 >> 1)) } else { self.q99 };
-        self.n100 = if (self.v102) != 0 { 0x1 } else if (self.v79) != 0 { ((self.v678 & 0x1) | ((self.v678 >> 3) << 1)) } else { self.q100 };
+        self.n94 = if (self.v103) != 0 { 0x0 } else if (self.v76) != 0 { ((self.v738 >> 1)) } else { self.q94 };
+        self.n95 = if (self.v102) != 0 { 0x1 } else if (self.v77) != 0 { ((self.v678 & 0x1) | ((self.v678 >> 3) << 1)) } else { self.q95 };
         let _ = &dirty;
     }
 
@@ -4828,7 +4830,7 @@ impl Model {
     fn group_46(&mut self, dirty: &mut u128) {
         let c758: u64 = if (self.v511) != 0 { (0x1) } else { (self.v760) };
         if self.v758 != c758 { self.v758 = c758; *dirty |= 0x20000000000000000000; }
-        let c759: u64 = ((self.q98) | (self.v511)) & 0x1;
+        let c759: u64 = ((self.q93) | (self.v511)) & 0x1;
         let c757: u64 = if (self.v249) != 0 { (0x0) } else { (c759) };
         if self.v757 != c757 { self.v757 = c757; *dirty |= 0x10000000000000000000; }
         let _ = &dirty;
@@ -4836,611 +4838,612 @@ impl Model {
 
     /// The cells of top$interrupts$ier_reg.
     fn group_47(&mut self, dirty: &mut u128) {
-        self.n67 = if (self.i_reset) != 0 { 0x0 } else if (self.v73) != 0 { ((self.i_wdata >> 4)) } else { self.q67 };
-        self.n68 = if (self.i_reset) != 0 { 0x0 } else if (self.v74) != 0 { (self.v963) } else { self.q68 };
+        self.n61 = if (self.i_reset) != 0 { 0x0 } else if (self.v71) != 0 { ((self.i_wdata >> 4)) } else { self.q61 };
+        self.n62 = if (self.i_reset) != 0 { 0x0 } else if (self.v72) != 0 { (self.v962) } else { self.q62 };
         let _ = &dirty;
     }
 
     /// The cells of can_controller.
     fn group_48(&mut self, dirty: &mut u128) {
-        let c1099: u64 = ((self.v919) | (self.v133)) & 0x1;
-        if self.v1099 != c1099 { self.v1099 = c1099; *dirty |= 0x4000000000000; }
-        let c1116: u64 = if (c1099) != 0 { (self.v1114) } else { (self.v1119) };
-        if self.v1116 != c1116 { self.v1116 = c1116; *dirty |= 0x4800000000000000002000000000000; }
-        let c1094: u64 = if (c1116) < 32 { (0x7ff1fff) >> (c1116) & 0x1 } else { 0 };
+        let c1098: u64 = ((self.v918) | (self.v133)) & 0x1;
+        if self.v1098 != c1098 { self.v1098 = c1098; *dirty |= 0x4000000000000; }
+        let c1115: u64 = if (c1098) != 0 { (self.v1113) } else { (self.v1118) };
+        if self.v1115 != c1115 { self.v1115 = c1115; *dirty |= 0x4800000000000000002000000000000; }
+        let c1093: u64 = if (c1115) < 32 { (0x7ff1fff) >> (c1115) & 0x1 } else { 0 };
+        if self.v1093 != c1093 { self.v1093 = c1093; *dirty |= 0x2000000000000; }
+        let c1116: u64 = if (c1098) != 0 { (self.v1114) } else { (self.v1119) };
+        if self.v1116 != c1116 { self.v1116 = c1116; *dirty |= 0x2000000000000; }
+        let c1117: u64 = if (c1098) != 0 { (self.v1120 | 0x10) } else { (self.v1118) };
+        if self.v1117 != c1117 { self.v1117 = c1117; *dirty |= 0x4000000000000000000000000000000; }
+        let c1094: u64 = if (c1117) < 32 { ((self.q39 & 0x1fff) | ((self.q39 >> 13) << 16)) >> (c1117) & 0x1 } else { 0 };
         if self.v1094 != c1094 { self.v1094 = c1094; *dirty |= 0x2000000000000; }
-        let c1117: u64 = if (c1099) != 0 { (self.v1115) } else { (self.v1120) };
-        if self.v1117 != c1117 { self.v1117 = c1117; *dirty |= 0x2000000000000; }
-        let c1118: u64 = if (c1099) != 0 { (self.v1121 | 0x10) } else { (self.v1119) };
-        if self.v1118 != c1118 { self.v1118 = c1118; *dirty |= 0x4000000000000000000000000000000; }
-        let c1095: u64 = if (c1118) < 32 { ((self.q45 & 0x1fff) | ((self.q45 >> 13) << 16)) >> (c1118) & 0x1 } else { 0 };
-        if self.v1095 != c1095 { self.v1095 = c1095; *dirty |= 0x2000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer.
     fn group_49(&mut self, dirty: &mut u128) {
-        let c1081: u64 = (self.v1117) & (self.v1094) & 0x1;
-        if self.v1081 != c1081 { self.v1081 = c1081; *dirty |= 0x14800000000000000000000000000000; }
-        let c1085: u64 = !(c1081) & 0x1;
-        let c1082: u64 = (self.v1095) & (c1085) & 0x1;
-        if self.v1082 != c1082 { self.v1082 = c1082; *dirty |= 0x8000000000000000000000000000000; }
-        let c1086: u64 = u64::from(((self.v1116 >> 4)) == ((self.v1113 >> 4)));
-        let c1083: u64 = (c1081) & (c1086) & 0x1;
-        let c1087: u64 = u64::from((self.v1116) == 0);
-        let c68: u64 = u64::from((c1087 | (c1081 << 1)) == 0x3);
-        if self.v68 != c68 { self.v68 = c68; *dirty |= 0x2000000000000000000000000000000; }
-        let c1088: u64 = u64::from((self.v1116) == (0x2));
-        let c69: u64 = u64::from((c1088 | (c1081 << 1)) == 0x3);
-        if self.v69 != c69 { self.v69 = c69; *dirty |= 0x400000000000000000000000000000; }
-        let c1089: u64 = !(c1083) & 0x1;
-        let c1084: u64 = (self.v1096) & (c1089) & 0x1;
-        if self.v1084 != c1084 { self.v1084 = c1084; *dirty |= 0x1000000000000000000000000000000; }
-        let c1097: u64 = (if (self.v1116) < 64 { (0x1) << (self.v1116) } else { 0 }) & 0x7ffffff;
-        let c1090: u64 = !(c1097) & 0x7ffffff;
-        let c110: u64 = (self.q45) & ((c1090 & 0x1fff) | ((c1090 >> 16) << 13)) & 0xffffff;
-        let c112: u64 = ((c110) | ((c1097 & 0x1fff) | ((c1097 >> 16) << 13))) & 0xffffff;
+        let c1080: u64 = (self.v1116) & (self.v1093) & 0x1;
+        if self.v1080 != c1080 { self.v1080 = c1080; *dirty |= 0x14800000000000000000000000000000; }
+        let c1084: u64 = !(c1080) & 0x1;
+        let c1081: u64 = (self.v1094) & (c1084) & 0x1;
+        if self.v1081 != c1081 { self.v1081 = c1081; *dirty |= 0x8000000000000000000000000000000; }
+        let c1085: u64 = u64::from(((self.v1115 >> 4)) == ((self.v1112 >> 4)));
+        let c1082: u64 = (c1080) & (c1085) & 0x1;
+        let c1086: u64 = u64::from((self.v1115) == 0);
+        let c66: u64 = u64::from((c1086 | (c1080 << 1)) == 0x3);
+        if self.v66 != c66 { self.v66 = c66; *dirty |= 0x2000000000000000000000000000000; }
+        let c1087: u64 = u64::from((self.v1115) == (0x2));
+        let c67: u64 = u64::from((c1087 | (c1080 << 1)) == 0x3);
+        if self.v67 != c67 { self.v67 = c67; *dirty |= 0x400000000000000000000000000000; }
+        let c1088: u64 = !(c1082) & 0x1;
+        let c1083: u64 = (self.v1095) & (c1088) & 0x1;
+        if self.v1083 != c1083 { self.v1083 = c1083; *dirty |= 0x1000000000000000000000000000000; }
+        let c1096: u64 = (if (self.v1115) < 64 { (0x1) << (self.v1115) } else { 0 }) & 0x7ffffff;
+        let c1089: u64 = !(c1096) & 0x7ffffff;
+        let c110: u64 = (self.q39) & ((c1089 & 0x1fff) | ((c1089 >> 16) << 13)) & 0xffffff;
+        let c112: u64 = ((c110) | ((c1096 & 0x1fff) | ((c1096 >> 16) << 13))) & 0xffffff;
         if self.v112 != c112 { self.v112 = c112; *dirty |= 0x10000000000000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$read.
     fn group_50(&mut self, dirty: &mut u128) {
-        let c1034: u64 = (self.v1099) & (self.q123) & 0x1;
-        let c1050: u64 = ((self.v772) | (self.v1099)) & 0x1;
-        let c1051: u64 = ((self.v776) | (c1034)) & 0x1;
-        let c1054: u64 = if (self.q54) != 0 { (self.v1093) } else { (self.v1055) };
-        if self.v1054 != c1054 { self.v1054 = c1054; *dirty |= 0x80000000000000000000000000000000; }
-        let c1053: u64 = if (self.i_re) != 0 { (self.v1074) } else { (c1054) };
-        if self.v1053 != c1053 { self.v1053 = c1053; *dirty |= 0x40000000000000000000000000000; }
-        let c1072: u64 = if (self.q60) != 0 { (c1050) } else { (c1051) };
-        let c1052: u64 = (self.i_re) & (c1072) & 0x1;
-        if self.v1052 != c1052 { self.v1052 = c1052; *dirty |= 0x10000000000000000000000000000; }
+        let c1033: u64 = (self.v1098) & (self.q124) & 0x1;
+        let c1049: u64 = ((self.v772) | (self.v1098)) & 0x1;
+        let c1050: u64 = ((self.v776) | (c1033)) & 0x1;
+        let c1053: u64 = if (self.q48) != 0 { (self.v1092) } else { (self.v1054) };
+        if self.v1053 != c1053 { self.v1053 = c1053; *dirty |= 0x80000000000000000000000000000000; }
+        let c1052: u64 = if (self.i_re) != 0 { (self.v1073) } else { (c1053) };
+        if self.v1052 != c1052 { self.v1052 = c1052; *dirty |= 0x40000000000000000000000000000; }
+        let c1071: u64 = if (self.q54) != 0 { (c1049) } else { (c1050) };
+        let c1051: u64 = (self.i_re) & (c1071) & 0x1;
+        if self.v1051 != c1051 { self.v1051 = c1051; *dirty |= 0x10000000000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$configuration$btr0 + top$configuration$btr1.
     fn group_51(&mut self, dirty: &mut u128) {
-        self.n40 = if (self.i_reset) != 0 { 0x0 } else if (self.v66) != 0 { ((self.i_wdata & 0x3f)) } else { self.q40 };
-        self.n39 = if (self.i_reset) != 0 { 0x0 } else if (self.v65) != 0 { (self.i_wdata) } else { self.q39 };
+        self.n34 = if (self.i_reset) != 0 { 0x0 } else if (self.v64) != 0 { ((self.i_wdata & 0x3f)) } else { self.q34 };
+        self.n33 = if (self.i_reset) != 0 { 0x0 } else if (self.v63) != 0 { (self.i_wdata) } else { self.q33 };
         let _ = &dirty;
     }
 
     /// The cells of top$configuration$ewlr_reg + top$configuration$sjw_reg.
     fn group_52(&mut self, dirty: &mut u128) {
-        self.n38 = if (self.i_reset) != 0 { 0x60 } else if (self.v67) != 0 { (self.i_wdata) } else { self.q38 };
-        self.n37 = if (self.i_reset) != 0 { 0x0 } else if (self.v66) != 0 { ((self.i_wdata >> 6)) } else { self.q37 };
+        self.n32 = if (self.i_reset) != 0 { 0x60 } else if (self.v65) != 0 { (self.i_wdata) } else { self.q32 };
+        self.n31 = if (self.i_reset) != 0 { 0x0 } else if (self.v64) != 0 { ((self.i_wdata >> 6)) } else { self.q31 };
         let _ = &dirty;
     }
 
     /// The cells of top$configuration$tseg2_reg + top$core$bit_timing$elapsed.
     fn group_53(&mut self, dirty: &mut u128) {
-        self.n36 = if (self.i_reset) != 0 { 0x0 } else if (self.v65) != 0 { (((self.i_wdata >> 4) & 0x7)) } else { self.q36 };
-        self.n33 = if (self.v91) != 0 { 0x0 } else if (self.v64) != 0 { (self.v137) } else { self.q33 };
+        self.n30 = if (self.i_reset) != 0 { 0x0 } else if (self.v63) != 0 { (((self.i_wdata >> 4) & 0x7)) } else { self.q30 };
+        self.n27 = if (self.v91) != 0 { 0x0 } else if (self.v62) != 0 { (self.v137) } else { self.q27 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$process_pending + top$core$bit_timing$remaining.
     fn group_54(&mut self, dirty: &mut u128) {
-        self.n32 = if (self.i_reset) != 0 { 0x0 } else { (self.v149) };
-        self.n31 = if (self.v90) != 0 { 0x0 } else { (self.v189) };
+        self.n26 = if (self.i_reset) != 0 { 0x0 } else { (self.v149) };
+        self.n25 = if (self.v90) != 0 { 0x0 } else { (self.v187) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sampled + top$core$bit_timing$sampling$metastable.
     fn group_55(&mut self, dirty: &mut u128) {
-        self.n106 = (self.v179);
-        self.n107 = (self.v224);
+        self.n107 = (self.v178);
+        self.n108 = (self.v224);
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sampling$previous + top$core$bit_timing$sampling$quantum_samples.
     fn group_56(&mut self, dirty: &mut u128) {
-        self.n108 = (self.v222);
-        self.n30 = if (self.i_reset) != 0 { 0x3 } else if (self.v143) != 0 { (self.q109 | ((self.q30 & 0x1) << 1)) } else { self.q30 };
+        self.n109 = (self.v222);
+        self.n24 = if (self.i_reset) != 0 { 0x3 } else if (self.v143) != 0 { (self.q110 | ((self.q24 & 0x1) << 1)) } else { self.q24 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sampling$stable + top$core$bit_timing$segment_state.
     fn group_57(&mut self, dirty: &mut u128) {
-        self.n109 = (self.v223);
-        self.n29 = if (self.v90) != 0 { 0x0 } else if (self.v63) != 0 { (self.v186) } else { self.q29 };
+        self.n110 = (self.v223);
+        self.n23 = if (self.v90) != 0 { 0x0 } else if (self.v61) != 0 { (self.v186) } else { self.q23 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$sjw_quanta + top$core$bit_timing$synced.
     fn group_58(&mut self, dirty: &mut u128) {
-        self.n46 = if (self.i_reset) != 0 { 0x1 } else { (self.v134) };
-        self.n28 = if (self.i_reset) != 0 { 0x0 } else { (self.v181) };
+        self.n40 = if (self.i_reset) != 0 { 0x1 } else { (self.v134) };
+        self.n22 = if (self.i_reset) != 0 { 0x0 } else { (self.v180) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$bit_timing$transmit_deferred + top$core$protocol$abort_pending.
     fn group_59(&mut self, dirty: &mut u128) {
-        self.n27 = if (self.i_reset) != 0 { 0x0 } else { (self.v153) };
-        self.n26 = if (self.v89) != 0 { 0x0 } else { (self.v272) };
+        self.n21 = if (self.i_reset) != 0 { 0x0 } else { (self.v153) };
+        self.n20 = if (self.v89) != 0 { 0x0 } else { (self.v272) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$byte_index + top$core$protocol$assembler$byte_pulse.
     fn group_60(&mut self, dirty: &mut u128) {
-        self.n25 = if (self.i_reset) != 0 { 0x0 } else if (self.v62) != 0 { (((self.q11 >> 3) & 0x7)) } else { self.q25 };
-        self.n24 = if (self.i_reset) != 0 { 0x0 } else { (self.v284) };
+        self.n19 = if (self.i_reset) != 0 { 0x0 } else if (self.v60) != 0 { (((self.q5 >> 3) & 0x7)) } else { self.q19 };
+        self.n18 = if (self.i_reset) != 0 { 0x0 } else { (self.v284) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$byte_reg + top$core$protocol$assembler$dlc_reg.
     fn group_61(&mut self, dirty: &mut u128) {
-        self.n23 = if (self.i_reset) != 0 { 0x0 } else if (self.v61) != 0 { (self.q106 | ((self.q23 & 0x7f) << 1)) } else { self.q23 };
-        self.n22 = if (self.v86) != 0 { 0x0 } else if (self.v60) != 0 { (self.q106 | ((self.q22 & 0x7) << 1)) } else { self.q22 };
+        self.n17 = if (self.i_reset) != 0 { 0x0 } else if (self.v59) != 0 { (self.q107 | ((self.q17 & 0x7f) << 1)) } else { self.q17 };
+        self.n16 = if (self.v86) != 0 { 0x0 } else if (self.v58) != 0 { (self.q107 | ((self.q16 & 0x7) << 1)) } else { self.q16 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$header_pulse + top$core$protocol$assembler$id_base.
     fn group_62(&mut self, dirty: &mut u128) {
-        self.n21 = if (self.i_reset) != 0 { 0x0 } else { (self.v285) };
-        self.n20 = if (self.v86) != 0 { 0x0 } else if (self.v59) != 0 { (self.q106 | ((self.q20 & 0x3ff) << 1)) } else { self.q20 };
+        self.n15 = if (self.i_reset) != 0 { 0x0 } else { (self.v285) };
+        self.n14 = if (self.v86) != 0 { 0x0 } else if (self.v57) != 0 { (self.q107 | ((self.q14 & 0x3ff) << 1)) } else { self.q14 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$id_extension + top$core$protocol$assembler$ide_reg.
     fn group_63(&mut self, dirty: &mut u128) {
-        self.n19 = if (self.v86) != 0 { 0x0 } else if (self.v58) != 0 { (self.q106 | ((self.q19 & 0x1ffff) << 1)) } else { self.q19 };
-        self.n18 = if (self.i_reset) != 0 { 0x0 } else if (self.v57) != 0 { (self.q106) } else { self.q18 };
+        self.n13 = if (self.v86) != 0 { 0x0 } else if (self.v56) != 0 { (self.q107 | ((self.q13 & 0x1ffff) << 1)) } else { self.q13 };
+        self.n12 = if (self.i_reset) != 0 { 0x0 } else if (self.v55) != 0 { (self.q107) } else { self.q12 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$assembler$last_data_byte_reg + top$core$protocol$assembler$rtr_reg.
     fn group_64(&mut self, dirty: &mut u128) {
-        self.n17 = if (self.i_reset) != 0 { 0x0 } else { (self.v288) };
-        self.n16 = if (self.i_reset) != 0 { 0x0 } else if (self.v56) != 0 { (self.q106) } else { self.q16 };
+        self.n11 = if (self.i_reset) != 0 { 0x0 } else { (self.v288) };
+        self.n10 = if (self.i_reset) != 0 { 0x0 } else if (self.v54) != 0 { (self.q107) } else { self.q10 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$capture$alc_reg + top$core$protocol$capture$ecc_reg.
     fn group_65(&mut self, dirty: &mut u128) {
-        self.n15 = if (self.i_reset) != 0 { 0x0 } else if (self.v495) != 0 { ((self.q11 & 0x1f)) } else { self.q15 };
-        self.n14 = if (self.i_reset) != 0 { 0x0 } else if (self.v252) != 0 { (self.v314 | (self.v670 << 5) | (self.v672 << 6)) } else { self.q14 };
+        self.n9 = if (self.i_reset) != 0 { 0x0 } else if (self.v495) != 0 { ((self.q5 & 0x1f)) } else { self.q9 };
+        self.n8 = if (self.i_reset) != 0 { 0x0 } else if (self.v252) != 0 { (self.v314 | (self.v670 << 5) | (self.v672 << 6)) } else { self.q8 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$capture$error_pulse + top$core$protocol$capture$lost_pulse.
     fn group_66(&mut self, dirty: &mut u128) {
-        self.n13 = if (self.v88) != 0 { 0x0 } else { (self.v252) };
-        self.n12 = if (self.v88) != 0 { 0x0 } else { (self.v495) };
+        self.n7 = if (self.v88) != 0 { 0x0 } else { (self.v252) };
+        self.n6 = if (self.v88) != 0 { 0x0 } else { (self.v495) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$count + top$core$protocol$crc$register.
     fn group_67(&mut self, dirty: &mut u128) {
-        self.n11 = if (self.v87) != 0 { 0x0 } else { (self.v268) };
-        self.n10 = if (self.v511) != 0 { 0x0 } else if (self.v498) != 0 { ((self.v315 & 0x1) | ((self.q10 & 0x3) << 1) | (((self.v315 >> 1) & 0x3) << 3) | (((self.q10 >> 4) & 0x3) << 5) | (((self.v315 >> 3) & 0x3) << 7) | (((self.q10 >> 8) & 0x1) << 9) | (((self.v315 >> 5) & 0x1) << 10) | (((self.q10 >> 10) & 0x7) << 11) | ((self.v315 >> 6) << 14)) } else { self.q10 };
+        self.n5 = if (self.v87) != 0 { 0x0 } else { (self.v268) };
+        self.n4 = if (self.v511) != 0 { 0x0 } else if (self.v498) != 0 { ((self.v315 & 0x1) | ((self.q4 & 0x3) << 1) | (((self.v315 >> 1) & 0x3) << 3) | (((self.q4 >> 4) & 0x3) << 5) | (((self.v315 >> 3) & 0x3) << 7) | (((self.q4 >> 8) & 0x1) << 9) | (((self.v315 >> 5) & 0x1) << 10) | (((self.q4 >> 10) & 0x7) << 11) | ((self.v315 >> 6) << 14)) } else { self.q4 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$crc_error + top$core$protocol$done_pulse.
     fn group_68(&mut self, dirty: &mut u128) {
-        self.n9 = if (self.v86) != 0 { 0x0 } else { (self.v273) };
-        self.n8 = if (self.i_reset) != 0 { 0x0 } else { (self.v274) };
+        self.n3 = if (self.v86) != 0 { 0x0 } else { (self.v273) };
+        self.n2 = if (self.i_reset) != 0 { 0x0 } else { (self.v274) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$done_success + top$core$protocol$faults$bus_off_state.
     fn group_69(&mut self, dirty: &mut u128) {
-        self.n7 = if (self.v85) != 0 { 0x0 } else if (self.v492) != 0 { (self.v491) } else { self.q7 };
-        self.n110 = (self.v333);
+        self.n1 = if (self.v85) != 0 { 0x0 } else if (self.v492) != 0 { (self.v491) } else { self.q1 };
+        self.n111 = (self.v333);
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$faults$passive_state + top$core$protocol$field.
     fn group_70(&mut self, dirty: &mut u128) {
-        self.n111 = (self.v323);
-        self.n112 = (self.v263);
+        self.n112 = (self.v323);
+        self.n113 = (self.v263);
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$in_frame + top$core$protocol$interframe$ack_penalty.
     fn group_71(&mut self, dirty: &mut u128) {
-        self.n113 = (self.v262);
-        self.n1 = if (self.i_reset) != 0 { 0x0 } else { (self.v671) };
+        self.n114 = (self.v262);
+        self.n102 = if (self.i_reset) != 0 { 0x0 } else { (self.v671) };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$after_error_flag + top$core$protocol$interframe$dominant_after_flag.
     fn group_72(&mut self, dirty: &mut u128) {
-        self.n0 = if (self.i_reset) != 0 { 0x0 } else if (self.q32) != 0 { (self.v560) } else { self.q0 };
-        self.n105 = if (self.i_reset) != 0 { 0x0 } else if (self.v83) != 0 { (self.v643) } else { self.q105 };
+        self.n101 = if (self.i_reset) != 0 { 0x0 } else if (self.q26) != 0 { (self.v560) } else { self.q101 };
+        self.n100 = if (self.i_reset) != 0 { 0x0 } else if (self.v81) != 0 { (self.v643) } else { self.q100 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$first_after_flag + top$core$protocol$interframe$flag_level.
     fn group_73(&mut self, dirty: &mut u128) {
-        self.n104 = if (self.i_reset) != 0 { 0x0 } else if (self.v82) != 0 { (self.v644) } else { self.q104 };
-        self.n103 = if (self.i_reset) != 0 { 0x0 } else if (self.v81) != 0 { (self.q106) } else { self.q103 };
+        self.n99 = if (self.i_reset) != 0 { 0x0 } else if (self.v80) != 0 { (self.v644) } else { self.q99 };
+        self.n98 = if (self.i_reset) != 0 { 0x0 } else if (self.v79) != 0 { (self.q107) } else { self.q98 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$interframe$flag_passive_reg + top$core$protocol$sender$tx_left.
     fn group_74(&mut self, dirty: &mut u128) {
-        self.n102 = if (self.i_reset) != 0 { 0x0 } else if (self.v80) != 0 { (self.v561) } else { self.q102 };
-        self.n101 = if (self.v102) != 0 { 0x0 } else if (self.v230) != 0 { (self.v740) } else { self.q101 };
+        self.n97 = if (self.i_reset) != 0 { 0x0 } else if (self.v78) != 0 { (self.v561) } else { self.q97 };
+        self.n96 = if (self.v102) != 0 { 0x0 } else if (self.v230) != 0 { (self.v740) } else { self.q96 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender$tx_next + top$core$protocol$sender$tx_reg.
     fn group_75(&mut self, dirty: &mut u128) {
-        self.n114 = (self.v699);
-        self.n115 = (self.v700);
+        self.n115 = (self.v699);
+        self.n116 = (self.v700);
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$sender$tx_shift + top$core$protocol$stuffing$active.
     fn group_76(&mut self, dirty: &mut u128) {
-        self.n41 = if (self.i_reset) != 0 { 0x0 } else if (self.v230) != 0 { (self.v741) } else { self.q41 };
-        self.n98 = if (self.i_reset) != 0 { 0x0 } else if (self.q32) != 0 { (self.v757) } else { self.q98 };
+        self.n35 = if (self.i_reset) != 0 { 0x0 } else if (self.v230) != 0 { (self.v741) } else { self.q35 };
+        self.n93 = if (self.i_reset) != 0 { 0x0 } else if (self.q26) != 0 { (self.v757) } else { self.q93 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$stuffing$run_length + top$core$protocol$stuffing$run_level_reg.
     fn group_77(&mut self, dirty: &mut u128) {
-        self.n97 = if (self.i_reset) != 0 { 0x0 } else if (self.q32) != 0 { (self.v758) } else { self.q97 };
-        self.n96 = if (self.v77) != 0 { (self.q106) } else { self.q96 };
+        self.n92 = if (self.i_reset) != 0 { 0x0 } else if (self.q26) != 0 { (self.v758) } else { self.q92 };
+        self.n91 = if (self.v75) != 0 { (self.q107) } else { self.q91 };
         let _ = &dirty;
     }
 
     /// The cells of top$core$protocol$transmitter + top$core$protocol$valid_pulse.
     fn group_78(&mut self, dirty: &mut u128) {
-        self.n95 = if (self.v101) != 0 { 0x0 } else if (self.q32) != 0 { (self.v675) } else { self.q95 };
-        self.n94 = if (self.v100) != 0 { 0x0 } else { (self.v469) };
+        self.n90 = if (self.v101) != 0 { 0x0 } else if (self.q26) != 0 { (self.v675) } else { self.q90 };
+        self.n89 = if (self.v100) != 0 { 0x0 } else { (self.v469) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$fetching + top$fifo$head.
     fn group_79(&mut self, dirty: &mut u128) {
-        self.n92 = if (self.i_reset) != 0 { 0x0 } else { (self.v818) };
-        self.n90 = if (self.i_reset) != 0 { 0x0 } else { (self.v810) };
+        self.n87 = if (self.i_reset) != 0 { 0x0 } else { (self.v818) };
+        self.n85 = if (self.i_reset) != 0 { 0x0 } else { (self.v810) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$head_info_reg.
     fn group_80(&mut self, dirty: &mut u128) {
-        self.n89 = if (self.i_reset) != 0 { 0x0 } else { (self.v819) };
+        self.n84 = if (self.i_reset) != 0 { 0x0 } else { (self.v819) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$header_step.
     fn group_81(&mut self, dirty: &mut u128) {
-        let c32: u64 = u64::from((self.q21 | (self.q84 << 1)) != 0);
-        self.n88 = if (self.i_reset) != 0 { 0x0 } else if (c32) != 0 { (self.v838) } else { self.q88 };
+        let c27: u64 = u64::from((self.q15 | (self.q78 << 1)) != 0);
+        self.n83 = if (self.i_reset) != 0 { 0x0 } else if (c27) != 0 { (self.v839) } else { self.q83 };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$overrun_state + top$fifo$ram.
     fn group_82(&mut self, dirty: &mut u128) {
-        self.n86 = if (self.v99) != 0 { 0x0 } else { (self.v815) };
+        self.n81 = if (self.v99) != 0 { 0x0 } else { (self.v815) };
         self.m0_re = (0x1) != 0;
         self.m0_ra = (self.v814) as usize;
-        self.m0_wa = (self.v813) as usize;
-        self.m0_wd = (self.v812);
-        self.m0_we = (self.v811 | (self.v811 << 1) | (self.v811 << 2) | (self.v811 << 3) | (self.v811 << 4) | (self.v811 << 5) | (self.v811 << 6) | (self.v811 << 7));
+        self.m0_wa = (self.v812) as usize;
+        self.m0_wd = (self.v811);
+        self.m0_we = (self.v813 | (self.v813 << 1) | (self.v813 << 2) | (self.v813 << 3) | (self.v813 << 4) | (self.v813 << 5) | (self.v813 << 6) | (self.v813 << 7));
         let _ = &dirty;
     }
 
-    /// The cells of top$fifo$tail.
+    /// The cells of top$fifo$tail + top$fifo$write_at.
     fn group_83(&mut self, dirty: &mut u128) {
-        self.n85 = if (self.i_reset) != 0 { 0x0 } else if (self.v31) != 0 { (self.v809) } else { self.q85 };
+        self.n80 = if (self.i_reset) != 0 { 0x0 } else if (self.v26) != 0 { (self.v809) } else { self.q80 };
+        self.n79 = if (self.i_reset) != 0 { 0x0 } else { (self.v829) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$writing_header.
     fn group_84(&mut self, dirty: &mut u128) {
-        let c98: u64 = u64::from((self.i_reset | (self.q123 << 1)) != 0);
+        let c98: u64 = u64::from((self.i_reset | (self.q124 << 1)) != 0);
         if self.v98 != c98 { self.v98 = c98; *dirty |= 0x6000000000000000000000; }
-        self.n84 = if (c98) != 0 { 0x0 } else { (self.v837) };
+        self.n78 = if (c98) != 0 { 0x0 } else { (self.v838) };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$count + top$fifo$full.
     fn group_85(&mut self, dirty: &mut u128) {
-        self.n93 = if (self.v98) != 0 { 0x0 } else { (self.v820) };
-        self.n91 = if (self.v98) != 0 { 0x0 } else if (self.v33) != 0 { (self.v821) } else { self.q91 };
+        self.n88 = if (self.v98) != 0 { 0x0 } else { (self.v820) };
+        self.n86 = if (self.v98) != 0 { 0x0 } else if (self.v28) != 0 { (self.v821) } else { self.q86 };
         let _ = &dirty;
     }
 
     /// The cells of top$fifo$incomplete.
     fn group_86(&mut self, dirty: &mut u128) {
-        self.n87 = if (self.v98) != 0 { 0x0 } else { (self.v826) };
+        self.n82 = if (self.v98) != 0 { 0x0 } else { (self.v828) };
         let _ = &dirty;
     }
 
     /// The cells of top$filter.
     fn group_87(&mut self, dirty: &mut u128) {
-        let c922: u64 = ((self.v1092) ^ (0xff)) & 0xff;
-        let c859: u64 = (self.v921) & (c922) & 0xff;
-        let c860: u64 = (c859) & ((self.v907 & 0x1) | ((self.v907 & 0x3) << 1) | ((self.v907 >> 1) << 3) | ((self.v907 >> 2) << 5) | ((self.v907 >> 2) << 6) | ((self.v907 >> 2) << 7)) & 0xff;
-        let c874: u64 = u64::from((c860) == 0);
-        let c865: u64 = (self.q116) & (c874) & 0x1;
-        let c866: u64 = (self.q78) & (c874) & 0x1;
-        let c867: u64 = (self.q77) & (c874) & 0x1;
-        let c891: u64 = if (self.v880) != 0 { (c874) } else { (c867) };
-        if self.v891 != c891 { self.v891 = c891; *dirty |= 0x100000000000000000000000; }
-        let c892: u64 = if (self.v878) != 0 { (c874) } else { (c866) };
-        if self.v892 != c892 { self.v892 = c892; *dirty |= 0x80000000000000000000000; }
-        let c894: u64 = if (self.v879) != 0 { (c874) } else { (self.q116) };
-        let c893: u64 = if (self.v877) != 0 { (c865) } else { (c894) };
-        let c895: u64 = if (self.q74) != 0 { (self.q116) } else { (c893) };
-        let c896: u64 = if (self.v864) != 0 { (c874) } else { (self.q117) };
-        let c897: u64 = if (self.v863) != 0 { (c874) } else { (self.q116) };
-        let c898: u64 = if (self.v853) != 0 { (c896) } else { (self.q117) };
-        let c899: u64 = if (self.v853) != 0 { (c897) } else { (c895) };
-        let c900: u64 = if (self.q79) != 0 { (c898) } else { (self.q117) };
-        let c901: u64 = if (self.q79) != 0 { (c899) } else { (self.q116) };
-        let c902: u64 = if (self.v862) != 0 { (c900) } else { (self.q117) };
-        let c888: u64 = ((c902) | (self.q21)) & 0x1;
+        let c921: u64 = ((self.v1091) ^ (0xff)) & 0xff;
+        let c858: u64 = (self.v920) & (c921) & 0xff;
+        let c859: u64 = (c858) & ((self.v906 & 0x1) | ((self.v906 & 0x3) << 1) | ((self.v906 >> 1) << 3) | ((self.v906 >> 2) << 5) | ((self.v906 >> 2) << 6) | ((self.v906 >> 2) << 7)) & 0xff;
+        let c873: u64 = u64::from((c859) == 0);
+        let c864: u64 = (self.q117) & (c873) & 0x1;
+        let c865: u64 = (self.q72) & (c873) & 0x1;
+        let c866: u64 = (self.q71) & (c873) & 0x1;
+        let c890: u64 = if (self.v879) != 0 { (c873) } else { (c866) };
+        if self.v890 != c890 { self.v890 = c890; *dirty |= 0x100000000000000000000000; }
+        let c891: u64 = if (self.v877) != 0 { (c873) } else { (c865) };
+        if self.v891 != c891 { self.v891 = c891; *dirty |= 0x80000000000000000000000; }
+        let c893: u64 = if (self.v878) != 0 { (c873) } else { (self.q117) };
+        let c892: u64 = if (self.v876) != 0 { (c864) } else { (c893) };
+        let c894: u64 = if (self.q68) != 0 { (self.q117) } else { (c892) };
+        let c895: u64 = if (self.v863) != 0 { (c873) } else { (self.q118) };
+        let c896: u64 = if (self.v862) != 0 { (c873) } else { (self.q117) };
+        let c897: u64 = if (self.v852) != 0 { (c895) } else { (self.q118) };
+        let c898: u64 = if (self.v852) != 0 { (c896) } else { (c894) };
+        let c899: u64 = if (self.q73) != 0 { (c897) } else { (self.q118) };
+        let c900: u64 = if (self.q73) != 0 { (c898) } else { (self.q117) };
+        let c901: u64 = if (self.v861) != 0 { (c899) } else { (self.q118) };
+        let c887: u64 = ((c901) | (self.q15)) & 0x1;
+        let c885: u64 = ((c887) | (self.i_reset)) & 0x1;
+        if self.v885 != c885 { self.v885 = c885; *dirty |= 0x40000000000000000000000; }
+        let c902: u64 = if (self.v861) != 0 { (c900) } else { (self.q117) };
+        let c888: u64 = ((c902) | (self.q15)) & 0x1;
         let c886: u64 = ((c888) | (self.i_reset)) & 0x1;
-        if self.v886 != c886 { self.v886 = c886; *dirty |= 0x40000000000000000000000; }
-        let c903: u64 = if (self.v862) != 0 { (c901) } else { (self.q116) };
-        let c889: u64 = ((c903) | (self.q21)) & 0x1;
-        let c887: u64 = ((c889) | (self.i_reset)) & 0x1;
-        if self.v887 != c887 { self.v887 = c887; *dirty |= 0x20000000000000000000000; }
+        if self.v886 != c886 { self.v886 = c886; *dirty |= 0x20000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$filter$arrived + top$filter$arrived_number.
     fn group_88(&mut self, dirty: &mut u128) {
-        self.n83 = if (self.v97) != 0 { 0x0 } else { (self.v857) };
-        self.n82 = if (self.v857) != 0 { (self.q76) } else { self.q82 };
+        self.n77 = if (self.v97) != 0 { 0x0 } else { (self.v856) };
+        self.n76 = if (self.v856) != 0 { (self.q70) } else { self.q76 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$code + top$filter$data1_match.
     fn group_89(&mut self, dirty: &mut u128) {
-        self.n81 = if (self.v861) != 0 { (self.v1092) } else { self.q81 };
-        self.n116 = (self.v887);
+        self.n75 = if (self.v860) != 0 { (self.v1091) } else { self.q75 };
+        self.n117 = (self.v886);
         let _ = &dirty;
     }
 
     /// The cells of top$filter$data2_match + top$filter$data_byte.
     fn group_90(&mut self, dirty: &mut u128) {
-        self.n117 = (self.v886);
-        self.n80 = if (self.v885) != 0 { (self.q23) } else { self.q80 };
+        self.n118 = (self.v885);
+        self.n74 = if (self.v884) != 0 { (self.q17) } else { self.q74 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$data_run + top$filter$filter1_id_match.
     fn group_91(&mut self, dirty: &mut u128) {
-        self.n79 = if (self.v885) != 0 { (self.v882) } else { self.q79 };
-        self.n78 = if (self.i_reset) != 0 { 0x0 } else if (self.v76) != 0 { (self.v892) } else { self.q78 };
+        self.n73 = if (self.v884) != 0 { (self.v881) } else { self.q73 };
+        self.n72 = if (self.i_reset) != 0 { 0x0 } else if (self.v74) != 0 { (self.v891) } else { self.q72 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$filter2_id_match + top$filter$read_number.
     fn group_92(&mut self, dirty: &mut u128) {
-        self.n77 = if (self.i_reset) != 0 { 0x0 } else if (self.v75) != 0 { (self.v891) } else { self.q77 };
-        self.n76 = if (self.v97) != 0 { 0x0 } else if (self.v857) != 0 { (self.v850) } else { self.q76 };
+        self.n71 = if (self.i_reset) != 0 { 0x0 } else if (self.v73) != 0 { (self.v890) } else { self.q71 };
+        self.n70 = if (self.v97) != 0 { 0x0 } else if (self.v856) != 0 { (self.v849) } else { self.q70 };
         let _ = &dirty;
     }
 
     /// The cells of top$filter$running + top$filter$second_byte.
     fn group_93(&mut self, dirty: &mut u128) {
-        self.n75 = if (self.i_reset) != 0 { 0x0 } else { (self.v890) };
-        self.n74 = if (self.v885) != 0 { ((self.q25 & 0x1)) } else { self.q74 };
+        self.n69 = if (self.i_reset) != 0 { 0x0 } else { (self.v889) };
+        self.n68 = if (self.v884) != 0 { ((self.q19 & 0x1)) } else { self.q68 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$alc_armed + top$interrupts$alc_reg.
     fn group_94(&mut self, dirty: &mut u128) {
-        self.n118 = (self.v948);
-        self.n73 = if (self.i_reset) != 0 { 0x0 } else if (self.v926) != 0 { (self.q15) } else { self.q73 };
+        self.n119 = (self.v947);
+        self.n67 = if (self.i_reset) != 0 { 0x0 } else if (self.v925) != 0 { (self.q9) } else { self.q67 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$basic_ri_reg + top$interrupts$bus_off_reg.
     fn group_95(&mut self, dirty: &mut u128) {
-        self.n72 = if (self.i_reset) != 0 { 0x0 } else { (self.v951) };
-        self.n71 = if (self.i_reset) != 0 { 0x0 } else { (self.q110) };
+        self.n66 = if (self.i_reset) != 0 { 0x0 } else { (self.v950) };
+        self.n65 = if (self.i_reset) != 0 { 0x0 } else { (self.q111) };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$ecc_armed + top$interrupts$ecc_reg.
     fn group_96(&mut self, dirty: &mut u128) {
-        self.n119 = (self.v947);
-        self.n70 = if (self.i_reset) != 0 { 0x0 } else if (self.v927) != 0 { (self.q14) } else { self.q70 };
+        self.n120 = (self.v946);
+        self.n64 = if (self.i_reset) != 0 { 0x0 } else if (self.v926) != 0 { (self.q8) } else { self.q64 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$es_reg + top$interrupts$ir_reg.
     fn group_97(&mut self, dirty: &mut u128) {
-        self.n69 = if (self.i_reset) != 0 { 0x0 } else { (self.v955) };
-        self.n66 = if (self.i_reset) != 0 { 0x0 } else { (self.v120) };
+        self.n63 = if (self.i_reset) != 0 { 0x0 } else { (self.v954) };
+        self.n60 = if (self.i_reset) != 0 { 0x0 } else { (self.v120) };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$overrun_before.
     fn group_98(&mut self, dirty: &mut u128) {
-        self.n65 = if (self.i_reset) != 0 { 0x0 } else { (self.q86) };
+        self.n59 = if (self.i_reset) != 0 { 0x0 } else { (self.q81) };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$passive_before.
     fn group_99(&mut self, dirty: &mut u128) {
-        let c96: u64 = u64::from((self.i_reset | (self.q110 << 1)) != 0);
-        self.n64 = if (c96) != 0 { 0x0 } else if (self.q123) == 0 { (self.q111) } else { self.q64 };
+        let c96: u64 = u64::from((self.i_reset | (self.q111 << 1)) != 0);
+        self.n58 = if (c96) != 0 { 0x0 } else if (self.q124) == 0 { (self.q112) } else { self.q58 };
         let _ = &dirty;
     }
 
     /// The cells of top$interrupts$rbs_before.
     fn group_100(&mut self, dirty: &mut u128) {
-        self.n63 = if (self.i_reset) != 0 { 0x0 } else { (self.v941) };
+        self.n57 = if (self.i_reset) != 0 { 0x0 } else { (self.v940) };
         let _ = &dirty;
     }
 
     /// The cells of top$modes.
     fn group_101(&mut self, dirty: &mut u128) {
-        let c995: u64 = if (self.v985) != 0 { (0x0) } else { (self.v1028) };
-        let c996: u64 = if (self.q125) != 0 { (c995) } else { (self.v1028) };
-        if self.v996 != c996 { self.v996 = c996; *dirty |= 0x80000000000000000000000000000000; }
+        let c994: u64 = if (self.v984) != 0 { (0x0) } else { (self.v1027) };
+        let c995: u64 = if (self.q126) != 0 { (c994) } else { (self.v1027) };
+        if self.v995 != c995 { self.v995 = c995; *dirty |= 0x80000000000000000000000000000000; }
         let _ = &dirty;
     }
 
     /// The cells of top$modes$afm + top$modes$cr6_reg.
     fn group_102(&mut self, dirty: &mut u128) {
-        self.n62 = if (self.i_reset) != 0 { 0x0 } else if (self.v72) != 0 { (((self.i_wdata >> 3) & 0x1)) } else { self.q62 };
-        self.n59 = if (self.i_reset) != 0 { 0x0 } else if (self.v70) != 0 { (((self.i_wdata >> 6) & 0x1)) } else { self.q59 };
+        self.n56 = if (self.i_reset) != 0 { 0x0 } else if (self.v70) != 0 { (((self.i_wdata >> 3) & 0x1)) } else { self.q56 };
+        self.n53 = if (self.i_reset) != 0 { 0x0 } else if (self.v68) != 0 { (((self.i_wdata >> 6) & 0x1)) } else { self.q53 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$divider$count + top$modes$divider$level.
     fn group_103(&mut self, dirty: &mut u128) {
-        self.n58 = if (self.v95) != 0 { 0x0 } else { (self.v1024) };
-        self.n57 = if (self.i_reset) != 0 { 0x0 } else if (self.v1027) != 0 { (self.v1025) } else { self.q57 };
+        self.n52 = if (self.v95) != 0 { 0x0 } else { (self.v1023) };
+        self.n51 = if (self.i_reset) != 0 { 0x0 } else if (self.v1026) != 0 { (self.v1024) } else { self.q51 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$enable_reg + top$modes$listen_only_reg.
     fn group_104(&mut self, dirty: &mut u128) {
-        self.n120 = (self.v975);
-        self.n121 = (self.v976);
+        self.n121 = (self.v974);
+        self.n122 = (self.v975);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$lom.
     fn group_105(&mut self, dirty: &mut u128) {
-        self.n122 = (self.v993);
+        self.n123 = (self.v992);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$rm.
     fn group_106(&mut self, dirty: &mut u128) {
-        self.n123 = (self.v994);
+        self.n124 = (self.v993);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$self_test_reg.
     fn group_107(&mut self, dirty: &mut u128) {
-        self.n124 = (self.v977);
+        self.n125 = (self.v976);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$sleep_bits.
     fn group_108(&mut self, dirty: &mut u128) {
-        self.n56 = if (self.v94) != 0 { 0x0 } else if (self.v974) != 0 { (self.v964) } else { self.q56 };
+        self.n50 = if (self.v94) != 0 { 0x0 } else if (self.v973) != 0 { (self.v963) } else { self.q50 };
         let _ = &dirty;
     }
 
     /// The cells of top$modes$sm.
     fn group_109(&mut self, dirty: &mut u128) {
-        self.n125 = (self.v991);
+        self.n126 = (self.v990);
         let _ = &dirty;
     }
 
     /// The cells of top$modes$stm.
     fn group_110(&mut self, dirty: &mut u128) {
-        self.n126 = (self.v992);
+        self.n127 = (self.v991);
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_from_ram.
     fn group_111(&mut self, dirty: &mut u128) {
-        self.n55 = if (self.i_reset) != 0 { 0x0 } else { (self.v18) };
+        self.n49 = if (self.i_reset) != 0 { 0x0 } else { (self.v18) };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_from_tx.
     fn group_112(&mut self, dirty: &mut u128) {
-        self.n54 = if (self.i_reset) != 0 { 0x0 } else { (self.v1052) };
+        self.n48 = if (self.i_reset) != 0 { 0x0 } else { (self.v1051) };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_ram_or.
     fn group_113(&mut self, dirty: &mut u128) {
-        self.n43 = if (self.i_reset) != 0 { 0x0 } else if (self.i_re) != 0 { (self.v1075) } else { self.q43 };
+        self.n37 = if (self.i_reset) != 0 { 0x0 } else if (self.i_re) != 0 { (self.v1074) } else { self.q37 };
         let _ = &dirty;
     }
 
     /// The cells of top$read$rdata_reg.
     fn group_114(&mut self, dirty: &mut u128) {
-        self.n53 = if (self.i_reset) != 0 { 0x0 } else { (self.v1053) };
+        self.n47 = if (self.i_reset) != 0 { 0x0 } else { (self.v1052) };
         let _ = &dirty;
     }
 
     /// The cells of top$self_reception.
     fn group_115(&mut self, dirty: &mut u128) {
-        self.n52 = if (self.i_reset) != 0 { 0x0 } else if (self.v13) != 0 { (self.v769) } else { self.q52 };
+        self.n46 = if (self.i_reset) != 0 { 0x0 } else if (self.v13) != 0 { (self.v769) } else { self.q46 };
         let _ = &dirty;
     }
 
     /// The cells of top$tbs.
     fn group_116(&mut self, dirty: &mut u128) {
-        self.n127 = (self.v1104);
+        self.n128 = (self.v1103);
         let _ = &dirty;
     }
 
     /// The cells of top$tcs.
     fn group_117(&mut self, dirty: &mut u128) {
-        self.n128 = (self.v1105);
+        self.n129 = (self.v1104);
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$basic_info.
     fn group_118(&mut self, dirty: &mut u128) {
-        self.n44 = if (self.i_reset) != 0 { 0x0 } else if (self.v69) != 0 { ((self.i_wdata & 0x1f)) } else { self.q44 };
+        self.n38 = if (self.i_reset) != 0 { 0x0 } else if (self.v67) != 0 { ((self.i_wdata & 0x1f)) } else { self.q38 };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$core_ram.
     fn group_119(&mut self, dirty: &mut u128) {
         self.m1_re = (0x1) != 0;
-        self.m1_ra = (self.v1113) as usize;
-        self.m1_wa = (self.v1116) as usize;
+        self.m1_ra = (self.v1112) as usize;
+        self.m1_wa = (self.v1115) as usize;
         self.m1_wd = (self.i_wdata);
-        self.m1_we = (self.v1081 | (self.v1081 << 1) | (self.v1081 << 2) | (self.v1081 << 3) | (self.v1081 << 4) | (self.v1081 << 5) | (self.v1081 << 6) | (self.v1081 << 7));
+        self.m1_we = (self.v1080 | (self.v1080 << 1) | (self.v1080 << 2) | (self.v1080 << 3) | (self.v1080 << 4) | (self.v1080 << 5) | (self.v1080 << 6) | (self.v1080 << 7));
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$core_written.
     fn group_120(&mut self, dirty: &mut u128) {
-        self.n51 = if (self.i_reset) != 0 { 0x0 } else { (self.v1084) };
+        self.n45 = if (self.i_reset) != 0 { 0x0 } else { (self.v1083) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$frame_info.
     fn group_121(&mut self, dirty: &mut u128) {
-        self.n50 = if (self.i_reset) != 0 { 0x0 } else if (self.v68) != 0 { (self.i_wdata) } else { self.q50 };
+        self.n44 = if (self.i_reset) != 0 { 0x0 } else if (self.v66) != 0 { (self.i_wdata) } else { self.q44 };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$host_ram.
     fn group_122(&mut self, dirty: &mut u128) {
         self.m2_re = (0x1) != 0;
-        self.m2_ra = (self.v1118) as usize;
-        self.m2_wa = (self.v1116) as usize;
+        self.m2_ra = (self.v1117) as usize;
+        self.m2_wa = (self.v1115) as usize;
         self.m2_wd = (self.i_wdata);
-        self.m2_we = (self.v1081 | (self.v1081 << 1) | (self.v1081 << 2) | (self.v1081 << 3) | (self.v1081 << 4) | (self.v1081 << 5) | (self.v1081 << 6) | (self.v1081 << 7));
+        self.m2_we = (self.v1080 | (self.v1080 << 1) | (self.v1080 << 2) | (self.v1080 << 3) | (self.v1080 << 4) | (self.v1080 << 5) | (self.v1080 << 6) | (self.v1080 << 7));
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$host_written.
     fn group_123(&mut self, dirty: &mut u128) {
-        self.n49 = if (self.i_reset) != 0 { 0x0 } else { (self.v1082) };
+        self.n43 = if (self.i_reset) != 0 { 0x0 } else { (self.v1081) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_buffer$written.
     fn group_124(&mut self, dirty: &mut u128) {
-        self.n45 = if (self.i_reset) != 0 { 0x0 } else if (self.v1081) != 0 { (self.v112) } else { self.q45 };
+        self.n39 = if (self.i_reset) != 0 { 0x0 } else if (self.v1080) != 0 { (self.v112) } else { self.q39 };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_pending.
     fn group_125(&mut self, dirty: &mut u128) {
-        self.n48 = if (self.v93) != 0 { 0x0 } else { (self.v1109) };
+        self.n42 = if (self.v93) != 0 { 0x0 } else { (self.v1108) };
         let _ = &dirty;
     }
 
     /// The cells of top$tx_single_shot.
     fn group_126(&mut self, dirty: &mut u128) {
-        self.n47 = if (self.i_reset) != 0 { 0x0 } else if (self.v13) != 0 { (self.v764) } else { self.q47 };
+        self.n41 = if (self.i_reset) != 0 { 0x0 } else if (self.v13) != 0 { (self.v764) } else { self.q41 };
         let _ = &dirty;
     }
 }
