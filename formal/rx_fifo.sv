@@ -29,9 +29,11 @@
 // offset, the harness's own arithmetic: the solver now relates the two at every step, and 22 clocks
 // take 120 s, 23 take 400 s; pdr does not close in 600 s). That is too short to fill the 64 bytes
 // (about 70 clocks of back-to-back frames), so the overrun rules are not reached: they are asserted
-// at every step, but no trace within the bound makes a store find no room. formal/rx_fifo_overrun.sv runs this harness with the largest frames back to back,
-// where the fifth overruns, and proves the overrun rules there; simulation covers other mixes
-// (testbenches/tests/rx_fifo.rs: the 22nd smallest message overruns). The assertions
+// at every step, but no trace within the bound makes a store find no room.
+// formal/rx_fifo_overrun.sv runs this harness with the largest frames back to back, where the fifth
+// overruns, and proves the overrun rules there; simulation covers other mixes
+// (testbenches/tests/rx_fifo.rs: the 22nd smallest message overruns; rx_fifo_ram.rs: exactly 64
+// bytes, and a lost message's bytes after a release). The assertions
 // are written as induction lemmas (the harness's view of the frame being received against the
 // block's registers and the bytes it stores, `used`: the pointers' distance, 64 when `full`; the
 // write position is the tail plus the bytes of the frame written so far).

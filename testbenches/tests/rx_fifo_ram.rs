@@ -34,20 +34,29 @@ fn cycle(uut: &mut RxFifo) {
     clock_cycle(uut, |b| &mut b.clock, "rx fifo");
 }
 
-/// A message as the protocol engine sends it: the header strobe (fields held from then on), the
-/// clocks the block takes to write the header bytes, the data bytes in order a few clocks apart,
-/// then the store strobe. Returns the message's length in the FIFO.
-fn receive(uut: &mut RxFifo, ide: bool, rtr: bool, data: &[u8]) -> usize {
+/// The header strobe of a message as the protocol engine sends it (identifier 0x12345678, so
+/// ID.28..21 = 0x91; the fields are held from then on). The block writes the header bytes in the
+/// clocks after it.
+fn header(uut: &mut RxFifo, ide: bool, rtr: bool, dlc: usize) {
     uut.rx_frame.id.next = 0x1234_5678.into();
     uut.rx_frame.ide.next = ide;
     uut.rx_frame.rtr.next = rtr;
-    uut.rx_frame.dlc.next = (data.len() as u64).into();
+    uut.rx_frame.dlc.next = (dlc as u64).into();
     uut.rx_frame.header.next = true;
     cycle(uut);
     uut.rx_frame.header.next = false;
+}
+
+/// The header strobe and the clocks that write the header bytes.
+fn header_written(uut: &mut RxFifo, ide: bool, rtr: bool, dlc: usize) {
+    header(uut, ide, rtr, dlc);
     for _ in 0..EXTENDED_HEADER + 1 {
         cycle(uut);
     }
+}
+
+/// Data bytes in order, a few clocks apart (a data bit takes many clocks).
+fn data_bytes(uut: &mut RxFifo, data: &[u8]) {
     for (index, byte) in data.iter().enumerate() {
         uut.rx_frame.data.next = (*byte as u64).into();
         uut.rx_frame.index.next = (index as u64).into();
@@ -56,10 +65,21 @@ fn receive(uut: &mut RxFifo, ide: bool, rtr: bool, data: &[u8]) -> usize {
         uut.rx_frame.strobe.next = false;
         cycle(uut);
     }
+}
+
+/// The validity point: keep the frame received.
+fn store(uut: &mut RxFifo) {
     uut.store.next = true;
     cycle(uut);
     uut.store.next = false;
     cycle(uut);
+}
+
+/// A whole message: header, data bytes, store. Returns the message's length in the FIFO.
+fn receive(uut: &mut RxFifo, ide: bool, rtr: bool, data: &[u8]) -> usize {
+    header_written(uut, ide, rtr, data.len());
+    data_bytes(uut, data);
+    store(uut);
     let header = if ide {
         EXTENDED_HEADER
     } else {
@@ -167,13 +187,7 @@ fn a_host_read_of_the_byte_written_in_that_clock_gives_the_byte_it_held() {
 
     // A standard frame: its header strobe, then the block writes the frame information at byte 0
     // in the first clock after it, identifier bytes at 1 and 2 in the next two.
-    uut.rx_frame.id.next = 0x1234_5678.into();
-    uut.rx_frame.ide.next = false;
-    uut.rx_frame.rtr.next = false;
-    uut.rx_frame.dlc.next = 1.into();
-    uut.rx_frame.header.next = true;
-    cycle(&mut uut);
-    uut.rx_frame.header.next = false;
+    header(&mut uut, false, false, 1);
     assert_eq!(
         read(&mut uut, 0),
         0x77,
@@ -188,6 +202,36 @@ fn a_host_read_of_the_byte_written_in_that_clock_gives_the_byte_it_held() {
     assert_eq!(
         read(&mut uut, 1),
         0x91,
-        "byte 1, written the clock before, is read whole"
+        "byte 1, written the clock before: ID.28..21"
+    );
+}
+
+#[test]
+fn a_lost_message_writes_no_byte_after_its_first_without_room_even_when_a_release_makes_room() {
+    let mut uut = fifo();
+    // 60 bytes: four extended frames with 8 data bytes (13 each), one with 3 (8).
+    for k in 0..4u8 {
+        receive(&mut uut, true, false, &[k; 8]);
+    }
+    receive(&mut uut, true, false, &[0x44; 3]);
+    let head_bytes: Vec<u64> = (1..9).map(|a| read(&mut uut, a)).collect();
+
+    // A 13-byte message: 4 header bytes fit at 60..63, the fifth would land on the head message.
+    header_written(&mut uut, true, false, 8);
+    // The head message is released before the data bytes arrive: bytes 0..12 are free again,
+    // where the lost message's data bytes would go (1..8).
+    release(&mut uut);
+    data_bytes(&mut uut, &[0xAB; 8]);
+    store(&mut uut);
+    assert_eq!(
+        rmc(&uut),
+        4,
+        "five stored, one released, the lost one not counted"
+    );
+    assert!(uut.overrun.val(), "DOS");
+    let after: Vec<u64> = (1..9).map(|a| read(&mut uut, a)).collect();
+    assert_eq!(
+        after, head_bytes,
+        "bytes 1..8 keep the released message's bytes: no byte of the lost message is written"
     );
 }
